@@ -1,0 +1,1 @@
+"""Buildings: description (TOML), RC network, linear model, nonlinear plant, HVAC power."""

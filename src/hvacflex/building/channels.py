@@ -1,0 +1,74 @@
+"""The disturbance vector ``d`` and the meaning of each of its channels.
+
+The building model (``rc.py``) decides which channels a building has and in which order;
+the data layer (``data/forecast.py``) fills them from weather, solar geometry and schedules.
+This module is the contract between the two.
+
+Order (fixed): ``[outdoor temperature, solar per surface orientation (in the order the
+building lists them), internal gains per zone (zone order), ground temperature (only if a
+construction touches ground)]``.
+
+Units per kind:
+
+* ``outdoor_temp``  — dry-bulb outdoor air temperature [°C]
+* ``solar``         — total irradiance incident on a plane of the given azimuth and tilt [W/m²]
+  (beam + sky diffuse + ground-reflected; azimuth clockwise from north, 180° = south-facing;
+  tilt from horizontal, 90° = vertical wall, 0° = roof)
+* ``internal_gain`` — sensible internal heat gain of one zone (people + lighting + plugs) [W]
+* ``ground_temp``   — ground temperature below the slab [°C]
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+ChannelKind = Literal["outdoor_temp", "solar", "internal_gain", "ground_temp"]
+
+CHANNEL_UNITS: dict[str, str] = {
+    "outdoor_temp": "degC",
+    "solar": "W/m2",
+    "internal_gain": "W",
+    "ground_temp": "degC",
+}
+
+
+@dataclass(frozen=True)
+class DisturbanceChannel:
+    """One entry of the disturbance vector ``d``.
+
+    Attributes
+    ----------
+    name : unique, e.g. ``"outdoor_temp_degc"``, ``"solar_az180_tilt90_w_per_m2"``,
+        ``"internal_gain_core_w"``, ``"ground_temp_degc"``.
+    kind : what it is (see the module docstring for units).
+    azimuth_deg, tilt_deg : orientation of the irradiated plane (``solar`` only).
+    zone : zone name (``internal_gain`` only).
+    """
+
+    name: str
+    kind: ChannelKind
+    azimuth_deg: float | None = None
+    tilt_deg: float | None = None
+    zone: str | None = None
+
+    @property
+    def unit(self) -> str:
+        return CHANNEL_UNITS[self.kind]
+
+
+def outdoor_temp_channel() -> DisturbanceChannel:
+    return DisturbanceChannel("outdoor_temp_degc", "outdoor_temp")
+
+
+def solar_channel(azimuth_deg: float, tilt_deg: float) -> DisturbanceChannel:
+    name = f"solar_az{azimuth_deg:g}_tilt{tilt_deg:g}_w_per_m2"
+    return DisturbanceChannel(name, "solar", azimuth_deg=azimuth_deg, tilt_deg=tilt_deg)
+
+
+def internal_gain_channel(zone: str) -> DisturbanceChannel:
+    return DisturbanceChannel(f"internal_gain_{zone}_w", "internal_gain", zone=zone)
+
+
+def ground_temp_channel() -> DisturbanceChannel:
+    return DisturbanceChannel("ground_temp_degc", "ground_temp")

@@ -1,0 +1,1 @@
+"""Controllers: building + forecast → problem each step, and rule-based baselines."""

@@ -1,0 +1,1 @@
+"""Data from the outside world: prices, weather and solar, gains, forecasts, uncertainty."""

@@ -1,0 +1,74 @@
+"""Exceptions with messages a user can act on.
+
+Every error raised on bad input names *where* (file, line, field), *what* (the offending
+value) and *how to fix it*. Catch :class:`HvacflexError` to handle all of them.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+
+class HvacflexError(Exception):
+    """Base class of every error hvacflex raises on purpose."""
+
+
+class InputError(HvacflexError, ValueError):
+    """Bad input data: a file, a field or an argument with an invalid value.
+
+    Parameters
+    ----------
+    message : what is wrong, in a sentence.
+    source : the file (or other origin, e.g. ``"RMPCProblem"``) the value came from.
+    field : the field, column or argument name.
+    value : the offending value (shown with ``repr``).
+    hint : how to fix it.
+    line : 1-based line number in ``source`` where applicable.
+    """
+
+    def __init__(
+        self,
+        message: str,
+        *,
+        source: str | Path | None = None,
+        field: str | None = None,
+        value: object = None,
+        hint: str | None = None,
+        line: int | None = None,
+    ) -> None:
+        self.source = str(source) if source is not None else None
+        self.field = field
+        self.value = value
+        self.hint = hint
+        self.line = line
+        parts = []
+        where = self.source or ""
+        if line is not None:
+            where = f"{where}:{line}" if where else f"line {line}"
+        if where:
+            parts.append(f"{where}:")
+        if field is not None:
+            parts.append(f"field '{field}':")
+        parts.append(message)
+        if value is not None:
+            parts.append(f"(got {value!r})")
+        text = " ".join(parts)
+        if hint:
+            text += f". {hint}"
+        super().__init__(text)
+
+
+class ConfigError(InputError):
+    """A configuration file (building or scenario TOML) is invalid."""
+
+
+class BuildingConfigError(ConfigError):
+    """A building description is invalid."""
+
+
+class DataError(InputError):
+    """A data file (prices, weather, activations) is malformed or incomplete."""
+
+
+class ProblemError(InputError):
+    """An optimisation problem's arrays are inconsistent or violate a model assumption."""

@@ -1,0 +1,1 @@
+"""The robust MPC optimisation problem on plain arrays, and its HiGHS solver."""

@@ -1,0 +1,1 @@
+"""Closed-loop simulation (receding horizon against the nonlinear plant) and sweeps."""
