@@ -1,0 +1,91 @@
+from pathlib import Path
+
+import pytest
+
+from hvacflex.config import (
+    PAPER_SCENARIOS,
+    PRESET_NAMES,
+    load_config,
+    preset,
+    scaled_uncertainty,
+    with_overrides,
+)
+from hvacflex.errors import ConfigError
+
+
+def test_paper_presets_match_the_paper_scenarios() -> None:
+    a, b, c = (preset(PAPER_SCENARIOS[letter]) for letter in "abc")
+    assert a.controller.robust == "none" and a.controller.reserve
+    assert b.controller.robust == "tightening" and b.controller.peak_price_sgd_per_kw == 0.0
+    assert c.controller.peak_price_sgd_per_kw == 1.5
+    assert not preset("thermostat").controller.reserve
+    assert set(PAPER_SCENARIOS.values()) <= set(PRESET_NAMES)
+
+
+def test_scenarios_share_the_uncertainty_box_of_the_world() -> None:
+    # nominal and robust controllers face the same realised errors
+    assert preset("nmpc").uncertainty == preset("rmpc").uncertainty
+
+
+def test_overrides_by_leaf_or_dotted_name_agree() -> None:
+    cfg = preset("rmpc")
+    one = with_overrides(cfg, {"peak_price_sgd_per_kw": 2})
+    two = with_overrides(cfg, {"controller.peak_price_sgd_per_kw": 2.0})
+    assert one == two
+    assert one.config_hash() != cfg.config_hash()
+
+
+def test_config_hash_ignores_the_name() -> None:
+    assert (
+        with_overrides(preset("rmpc"), {"name": "x"}).config_hash() == preset("rmpc").config_hash()
+    )
+
+
+def test_steps_from_days() -> None:
+    assert preset("rmpc", days=365).steps == 17_520
+
+
+def test_load_config_from_toml_with_preset(tmp_path: Path) -> None:
+    path = tmp_path / "week.toml"
+    path.write_text(
+        'preset = "rmpc-ppp"\nstart = "2014-03-01"\ndays = 7\n'
+        "[controller]\npeak_price_sgd_per_kw = 2.5\n"
+        "[uncertainty]\nrelative = { solar = 0.3, internal_gain = 0.1 }\n"
+    )
+    cfg = load_config(path)
+    assert cfg.name == "rmpc-ppp"
+    assert cfg.controller.robust == "tightening"
+    assert cfg.controller.peak_price_sgd_per_kw == 2.5
+    assert cfg.uncertainty.relative == {"solar": 0.3, "internal_gain": 0.1}
+    assert cfg.steps == 336
+
+
+@pytest.mark.parametrize(
+    ("text", "field"),
+    [
+        ("colour = 1\n", "colour"),
+        ("[controller]\nrobust = 'maybe'\n", "controller.robust"),
+        ("[controller]\nhorizon_steps = 0\n", "controller.horizon_steps"),
+        ("[comfort]\noccupied_degc = [26, 23]\n", "comfort.occupied_degc"),
+        ("[uncertainty]\nrelative = { wind = 0.1 }\n", "uncertainty.relative.wind"),
+        ("[uncertainty]\nrelative = { solar = -0.1 }\n", "uncertainty.relative.solar"),
+        ("[activation]\nrate = 2.0\n", "activation.rate"),
+        ("start = 'yesterday-ish'\n", "start"),
+        ("[controller]\nkind = 'thermostat'\n", "controller.reserve"),
+    ],
+)
+def test_bad_scenario_files_name_file_field_and_value(
+    tmp_path: Path, text: str, field: str
+) -> None:
+    path = tmp_path / "bad.toml"
+    path.write_text(text)
+    with pytest.raises(ConfigError) as err:
+        load_config(path)
+    assert str(path) in str(err.value)
+    assert field in str(err.value)
+
+
+def test_scaled_uncertainty_sets_heat_gain_fractions() -> None:
+    cfg = scaled_uncertainty(preset("rmpc"), 0.5)
+    assert cfg.uncertainty.relative == {"solar": 0.5, "internal_gain": 0.5}
+    assert cfg.uncertainty.absolute == preset("rmpc").uncertainty.absolute
