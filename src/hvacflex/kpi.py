@@ -1,0 +1,518 @@
+"""Key performance indicators of a closed-loop run.
+
+Every function takes the results DataFrame of one run (one row per control step; the column
+schema is the *Results* table of ``docs/architecture.md``) and returns a number, a Series or a
+small DataFrame whose unit is in its name. The functions are pure: they never modify their
+input and never read files (except :func:`load_results`).
+
+Conventions
+-----------
+* Row ``k`` describes the period ``[t_k, t_k + Δt)``; the index holds the period starts
+  (tz-aware, Asia/Singapore). ``Δt`` is the median spacing of the index in hours,
+  :data:`DEFAULT_STEP_H` (30 min) when the index is not a ``DatetimeIndex`` or has fewer
+  than two rows.
+* Zones are discovered from the ``temp_<zone>_degc`` columns (``temp_end_``, ``temp_served_``
+  and ``temp_curtailed_`` columns of the same zones are not zones themselves).
+* Energy is ``Σ_k P_k Δt``; energy cost ``Σ_k c_k P_k Δt / 1000`` with ``c`` in SGD/MWh;
+  reserve revenue ``Σ_k b_k R_k Δt / 1000`` for the capacity ``R`` offered (paid whether or
+  not the interruptible load is activated).
+* Net cost is energy cost − reserve revenue: the paper's Table 1 "Total". The peak-power
+  charge (PPP) is reported separately, as the paper does.
+* Peaks are taken on 30-min average power (the billing interval): steps shorter than
+  30 min are averaged into 30-min intervals; longer steps are used as they are.
+* Months are calendar months in the index's local time.
+* Discomfort follows BOPTEST's ``tdis``: the time integral of the deviation of the zone
+  temperature outside ``[lower, upper]``. Sampled here at period end
+  (``temp_end_<zone>_degc`` against the band in force at period end) times ``Δt`` —
+  a right-endpoint rectangle rule [K·h].
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from hvacflex.errors import DataError
+from hvacflex.units import KWH_PER_MWH
+
+DEFAULT_STEP_H = 0.5
+"""Step length assumed when the index does not tell it [h]."""
+
+BILLING_INTERVAL_H = 0.5
+"""Averaging interval of power for peak and PPP [h] (the NEMS settlement period)."""
+
+VIOLATION_TOLERANCE_K = 0.01
+"""A step counts as a comfort violation when some zone is more than this outside its band [K]."""
+
+PLANNED_SLACK_TOLERANCE_K = 1e-6
+"""A plan counts as needing slack when its largest slack exceeds this [K] (LP tolerance)."""
+
+RESULTS_FILENAME = "results.parquet"
+"""Name of the results file in a run directory."""
+
+_TEMP_COLUMN = re.compile(r"^temp_(?P<zone>.+)_degc$")
+_DERIVED_TEMP_PREFIXES = ("end_", "served_", "curtailed_")
+_HOURS_PER_DAY = 24.0
+
+
+# ----------------------------------------------------------------------------- helpers
+
+
+def _column(results: pd.DataFrame, name: str) -> pd.Series:
+    if name not in results.columns:
+        raise DataError(
+            "results frame lacks a required column",
+            source="results",
+            field=name,
+            hint="see the Results table of docs/architecture.md for the column schema",
+        )
+    return results[name]
+
+
+def _values(results: pd.DataFrame, name: str) -> np.ndarray:
+    return np.asarray(_column(results, name), dtype=float)
+
+
+def _require_datetime_index(results: pd.DataFrame) -> pd.DatetimeIndex:
+    index = results.index
+    if not isinstance(index, pd.DatetimeIndex):
+        raise DataError(
+            "monthly KPIs need a DatetimeIndex of period starts",
+            source="results",
+            field="time (index)",
+            value=type(index).__name__,
+            hint="set the 'time' column as the index",
+        )
+    return index
+
+
+def _month_index(index: pd.DatetimeIndex) -> pd.PeriodIndex:
+    """Calendar month of each period start, in the index's local time."""
+    local = index.tz_localize(None) if index.tz is not None else index
+    return local.to_period("M").rename("month")
+
+
+def zone_names(results: pd.DataFrame) -> list[str]:
+    """Zone names, in column order, from the ``temp_<zone>_degc`` columns.
+
+    Raises
+    ------
+    DataError
+        When the frame has no zone temperature column.
+    """
+    candidates = [
+        match["zone"] for col in results.columns if (match := _TEMP_COLUMN.match(str(col)))
+    ]
+    candidate_set = set(candidates)
+    zones = [
+        name
+        for name in candidates
+        if not any(
+            name.startswith(prefix) and name[len(prefix) :] in candidate_set
+            for prefix in _DERIVED_TEMP_PREFIXES
+        )
+    ]
+    if not zones:
+        raise DataError(
+            "results frame has no zone temperature column 'temp_<zone>_degc'",
+            source="results",
+            field="temp_<zone>_degc",
+        )
+    return zones
+
+
+def step_hours(results: pd.DataFrame) -> float:
+    """Control step Δt [h]: median spacing of a ``DatetimeIndex``, else :data:`DEFAULT_STEP_H`."""
+    index = results.index
+    if not isinstance(index, pd.DatetimeIndex) or len(index) < 2:
+        return DEFAULT_STEP_H
+    spacing_h = np.diff(index.to_numpy()) / np.timedelta64(1, "h")
+    return float(np.median(spacing_h))
+
+
+# ----------------------------------------------------------------------------- money and energy
+
+
+def energy_kwh(results: pd.DataFrame) -> float:
+    """Electric energy drawn by the plant, ``Σ_k P_k Δt`` [kWh] (column ``power_kw``)."""
+    return float(np.sum(_values(results, "power_kw")) * step_hours(results))
+
+
+def energy_cost_sgd(results: pd.DataFrame) -> float:
+    """Energy cost ``Σ_k c_k P_k Δt / 1000`` [SGD].
+
+    Uses ``power_kw`` [kW] and ``energy_price_sgd_per_mwh`` [SGD/MWh].
+    """
+    power_kw = _values(results, "power_kw")
+    price_sgd_per_mwh = _values(results, "energy_price_sgd_per_mwh")
+    return float(np.sum(power_kw * price_sgd_per_mwh) * step_hours(results) / KWH_PER_MWH)
+
+
+def reserve_revenue_sgd(results: pd.DataFrame) -> float:
+    """Reserve revenue ``Σ_k b_k R_k Δt / 1000`` for the capacity offered [SGD].
+
+    Uses ``reserve_kw`` [kW] and ``reserve_price_sgd_per_mwh`` [SGD/MWh].
+    """
+    reserve_kw = _values(results, "reserve_kw")
+    price_sgd_per_mwh = _values(results, "reserve_price_sgd_per_mwh")
+    return float(np.sum(reserve_kw * price_sgd_per_mwh) * step_hours(results) / KWH_PER_MWH)
+
+
+def net_cost_sgd(results: pd.DataFrame) -> float:
+    """Energy cost − reserve revenue [SGD]: the paper's Table 1 "Total" (PPP excluded)."""
+    return energy_cost_sgd(results) - reserve_revenue_sgd(results)
+
+
+# ----------------------------------------------------------------------------- peaks and PPP
+
+
+def power_30min_kw(results: pd.DataFrame) -> pd.Series:
+    """Plant power averaged over the 30-min billing intervals [kW].
+
+    Returns ``power_kw`` itself when the step is 30 min or longer (or the index is not a
+    ``DatetimeIndex``); otherwise the mean over each 30-min interval aligned to local midnight.
+    """
+    power = _column(results, "power_kw").astype(float)
+    if not isinstance(results.index, pd.DatetimeIndex):
+        return power
+    if step_hours(results) >= BILLING_INTERVAL_H - 1e-9:
+        return power
+    return power.resample(pd.Timedelta(hours=BILLING_INTERVAL_H)).mean().dropna()
+
+
+def _peak_price_30min_sgd_per_kw(
+    results: pd.DataFrame, power_30min: pd.Series, peak_price_sgd_per_kw: float | None
+) -> pd.Series:
+    if peak_price_sgd_per_kw is not None:
+        return pd.Series(float(peak_price_sgd_per_kw), index=power_30min.index)
+    price = _column(results, "peak_price_sgd_per_kw").astype(float)
+    if len(price) == len(power_30min):
+        return pd.Series(price.to_numpy(), index=power_30min.index)
+    return price.resample(pd.Timedelta(hours=BILLING_INTERVAL_H)).mean().reindex(power_30min.index)
+
+
+def peak_power_kw(results: pd.DataFrame) -> float:
+    """Largest 30-min average plant power over the whole run [kW]."""
+    return float(np.max(power_30min_kw(results).to_numpy()))
+
+
+def monthly_peak_power_kw(results: pd.DataFrame) -> pd.Series:
+    """Largest 30-min average plant power in each calendar month [kW].
+
+    Returns
+    -------
+    Series indexed by a monthly ``PeriodIndex`` named ``month``.
+    """
+    _require_datetime_index(results)
+    power = power_30min_kw(results)
+    months = _month_index(pd.DatetimeIndex(power.index))
+    return power.groupby(months).max().rename("peak_power_kw")
+
+
+def monthly_ppp_charge_sgd(
+    results: pd.DataFrame, peak_price_sgd_per_kw: float | None = None
+) -> pd.Series:
+    """Peak-power charge of each calendar month [SGD].
+
+    With a constant price φ [SGD/kW]: φ × the month's largest 30-min average power. With
+    ``peak_price_sgd_per_kw=None`` the column of that name is used; when it varies in time the
+    charge is ``max_k φ_k P_k`` over the month (DESIGN §2), which equals φ × peak when constant.
+
+    Returns
+    -------
+    Series indexed by a monthly ``PeriodIndex`` named ``month``.
+    """
+    _require_datetime_index(results)
+    power = power_30min_kw(results)
+    price = _peak_price_30min_sgd_per_kw(results, power, peak_price_sgd_per_kw)
+    months = _month_index(pd.DatetimeIndex(power.index))
+    return (power * price).groupby(months).max().rename("ppp_charge_sgd")
+
+
+def ppp_charge_sgd(results: pd.DataFrame, peak_price_sgd_per_kw: float | None = None) -> float:
+    """Peak-power charge summed over the calendar months of the run [SGD].
+
+    See :func:`monthly_ppp_charge_sgd` for the price φ (argument, else the
+    ``peak_price_sgd_per_kw`` column).
+    """
+    return float(monthly_ppp_charge_sgd(results, peak_price_sgd_per_kw).sum())
+
+
+# ----------------------------------------------------------------------------- Table 1
+
+
+def monthly_table(
+    results: pd.DataFrame, peak_price_sgd_per_kw: float | None = None
+) -> pd.DataFrame:
+    """Per-month sums, the rows behind the paper's Table 1.
+
+    Returns
+    -------
+    DataFrame indexed by a monthly ``PeriodIndex`` named ``month`` with columns
+
+    * ``days``: days of the month covered by the run (steps × Δt / 24),
+    * ``month_fraction``: ``days`` / days in that calendar month (1.0 for a complete month),
+    * ``energy_cost_sgd``, ``reserve_revenue_sgd``, ``net_cost_sgd``, ``energy_kwh``:
+      sums over the covered part of the month,
+    * ``peak_power_kw``, ``ppp_charge_sgd``: the month's peak and its PPP charge.
+
+    Use :func:`monthly_average` for the "average per month" of Table 1.
+    """
+    index = _require_datetime_index(results)
+    dt_h = step_hours(results)
+    months = _month_index(index)
+    power_kw = _values(results, "power_kw")
+    frame = pd.DataFrame(
+        {
+            "days": np.full(len(results), dt_h / _HOURS_PER_DAY),
+            "energy_cost_sgd": power_kw
+            * _values(results, "energy_price_sgd_per_mwh")
+            * dt_h
+            / KWH_PER_MWH,
+            "reserve_revenue_sgd": _values(results, "reserve_kw")
+            * _values(results, "reserve_price_sgd_per_mwh")
+            * dt_h
+            / KWH_PER_MWH,
+            "energy_kwh": power_kw * dt_h,
+        },
+        index=months,
+    )
+    table = frame.groupby(level="month").sum()
+    table["net_cost_sgd"] = table["energy_cost_sgd"] - table["reserve_revenue_sgd"]
+    days_in_month = np.asarray(pd.PeriodIndex(table.index).days_in_month, dtype=float)
+    table.insert(1, "month_fraction", table["days"].to_numpy() / days_in_month)
+    table["peak_power_kw"] = monthly_peak_power_kw(results)
+    table["ppp_charge_sgd"] = monthly_ppp_charge_sgd(results, peak_price_sgd_per_kw)
+    columns = [
+        "days",
+        "month_fraction",
+        "energy_cost_sgd",
+        "reserve_revenue_sgd",
+        "net_cost_sgd",
+        "energy_kwh",
+        "peak_power_kw",
+        "ppp_charge_sgd",
+    ]
+    return table[columns]
+
+
+MONTHLY_SUM_COLUMNS = ("energy_cost_sgd", "reserve_revenue_sgd", "net_cost_sgd", "energy_kwh")
+"""Columns of :func:`monthly_table` that are sums over the covered days (averaged per month)."""
+
+
+def monthly_average(table: pd.DataFrame) -> pd.Series:
+    """Average per month of a :func:`monthly_table`: the numbers of the paper's Table 1.
+
+    Each sum column is divided by the number of *month-equivalents* covered,
+    ``Σ month_fraction``. For complete months this is the plain mean over months of the
+    per-month sums (a whole year: annual sum / 12). A partial month counts as the fraction of
+    its calendar month that the run covers, so a one-week run is extrapolated to a month of
+    the same calendar length. Peaks are averaged over months plainly (a partial month's peak
+    is the peak so far); ``ppp_charge_sgd`` likewise.
+
+    Returns
+    -------
+    Series with the sum columns, ``peak_power_kw``, ``ppp_charge_sgd``, ``days`` (total days
+    covered) and ``months`` (month-equivalents).
+    """
+    months = float(table["month_fraction"].sum())
+    averages = {col: float(table[col].sum()) / months for col in MONTHLY_SUM_COLUMNS}
+    averages["peak_power_kw"] = float(table["peak_power_kw"].mean())
+    averages["ppp_charge_sgd"] = float(table["ppp_charge_sgd"].mean())
+    averages["days"] = float(table["days"].sum())
+    averages["months"] = months
+    return pd.Series(averages, name="monthly_average")
+
+
+# ----------------------------------------------------------------------------- comfort
+
+
+def _comfort_deviation_k(results: pd.DataFrame) -> pd.DataFrame:
+    """(T, m) deviation outside the band at period end [K], ≥ 0, one column per zone."""
+    deviations = {}
+    for zone in zone_names(results):
+        temp = _values(results, f"temp_end_{zone}_degc")
+        lower = _values(results, f"comfort_lower_{zone}_degc")
+        upper = _values(results, f"comfort_upper_{zone}_degc")
+        deviations[zone] = np.maximum(lower - temp, 0.0) + np.maximum(temp - upper, 0.0)
+    return pd.DataFrame(deviations, index=results.index)
+
+
+def discomfort_kelvin_hours(results: pd.DataFrame) -> pd.Series:
+    """Thermal discomfort per zone [K·h] (BOPTEST ``tdis``, sampled at period end).
+
+    ``Σ_k Δt (max(lower_k − T_end,k, 0) + max(T_end,k − upper_k, 0))`` from the columns
+    ``temp_end_<zone>_degc``, ``comfort_lower_<zone>_degc``, ``comfort_upper_<zone>_degc``.
+
+    Returns
+    -------
+    Series indexed by zone name.
+    """
+    return (_comfort_deviation_k(results).sum() * step_hours(results)).rename(
+        "discomfort_kelvin_hours"
+    )
+
+
+def total_discomfort_kelvin_hours(results: pd.DataFrame) -> float:
+    """Discomfort summed over zones [K·h] (BOPTEST ``tdis_tot``)."""
+    return float(discomfort_kelvin_hours(results).sum())
+
+
+def max_violation_k(results: pd.DataFrame) -> pd.Series:
+    """Largest deviation outside the comfort band per zone [K] (0 when never outside).
+
+    Returns
+    -------
+    Series indexed by zone name.
+    """
+    return _comfort_deviation_k(results).max().rename("max_violation_k")
+
+
+def violation_share(results: pd.DataFrame, tolerance_k: float = VIOLATION_TOLERANCE_K) -> float:
+    """Share of steps (0–1) in which some zone is more than ``tolerance_k`` outside its band."""
+    deviation = _comfort_deviation_k(results).to_numpy()
+    if deviation.shape[0] == 0:
+        return 0.0
+    return float(np.mean(np.any(deviation > tolerance_k, axis=1)))
+
+
+# ----------------------------------------------------------------------------- controller health
+
+
+def fallback_count(results: pd.DataFrame) -> int:
+    """Number of steps in which the controller used its fallback (column ``fallback``)."""
+    return int(np.sum(_column(results, "fallback").fillna(False).astype(bool).to_numpy()))
+
+
+def planned_slack_share(
+    results: pd.DataFrame, tolerance_k: float = PLANNED_SLACK_TOLERANCE_K
+) -> float:
+    """Share of steps (0–1) whose plan needed comfort slack > ``tolerance_k`` [K].
+
+    Column ``planned_slack_max_k``; steps without a plan (NaN, e.g. a fallback or a
+    rule-based controller) count as not needing slack but stay in the denominator.
+    """
+    slack_k = _values(results, "planned_slack_max_k")
+    if slack_k.size == 0:
+        return 0.0
+    return float(np.mean(np.nan_to_num(slack_k, nan=0.0) > tolerance_k))
+
+
+def max_delta_vs_half_band(results: pd.DataFrame) -> float:
+    """Largest robust margin δ over the narrowest comfort half-band (dimensionless).
+
+    ``max_k delta_max_k / min_{k, zone} (upper − lower) / 2``. Above 1 the margin cannot fit
+    inside the tightest band (typically the occupied one) and the plan must use slack there.
+    NaN when no step has a δ.
+    """
+    delta_k = _values(results, "delta_max_k")
+    if delta_k.size == 0 or bool(np.all(np.isnan(delta_k))):
+        return float("nan")
+    half_band_k = min(
+        float(
+            np.nanmin(
+                _values(results, f"comfort_upper_{zone}_degc")
+                - _values(results, f"comfort_lower_{zone}_degc")
+            )
+        )
+        / 2.0
+        for zone in zone_names(results)
+    )
+    return float(np.nanmax(delta_k)) / half_band_k
+
+
+def solve_time_stats_s(results: pd.DataFrame) -> dict[str, float]:
+    """Mean, 95th percentile and maximum of ``solve_time_s`` [s], ignoring NaN.
+
+    Returns
+    -------
+    ``{"mean": ..., "p95": ..., "max": ...}``; NaN values when no step has a solve time.
+    """
+    times_s = _values(results, "solve_time_s")
+    times_s = times_s[~np.isnan(times_s)]
+    if times_s.size == 0:
+        nan = float("nan")
+        return {"mean": nan, "p95": nan, "max": nan}
+    return {
+        "mean": float(np.mean(times_s)),
+        "p95": float(np.percentile(times_s, 95.0)),
+        "max": float(np.max(times_s)),
+    }
+
+
+# ----------------------------------------------------------------------------- summary
+
+
+def summary(results: pd.DataFrame, peak_price_sgd_per_kw: float | None = None) -> dict[str, float]:
+    """All KPIs of one run as a flat ``{name: value}`` mapping, units in the names.
+
+    Keys: ``steps``, ``days``, ``energy_kwh``, ``energy_cost_sgd``, ``reserve_revenue_sgd``,
+    ``net_cost_sgd``, ``ppp_charge_sgd``, ``net_cost_with_ppp_sgd``, ``peak_power_kw``,
+    ``monthly_avg_energy_cost_sgd``, ``monthly_avg_reserve_revenue_sgd``,
+    ``monthly_avg_net_cost_sgd``, ``discomfort_kelvin_hours`` (total),
+    ``discomfort_<zone>_kelvin_hours``, ``max_violation_k`` (all zones),
+    ``max_violation_<zone>_k``, ``violation_share``, ``fallback_count``,
+    ``planned_slack_share``, ``max_delta_vs_half_band``, ``solve_time_mean_s``,
+    ``solve_time_p95_s``, ``solve_time_max_s``. Monthly averages are omitted when the index
+    is not a ``DatetimeIndex``, as are ``ppp_charge_sgd`` and ``net_cost_with_ppp_sgd``.
+    """
+    dt_h = step_hours(results)
+    out: dict[str, float] = {
+        "steps": float(len(results)),
+        "days": len(results) * dt_h / _HOURS_PER_DAY,
+        "energy_kwh": energy_kwh(results),
+        "energy_cost_sgd": energy_cost_sgd(results),
+        "reserve_revenue_sgd": reserve_revenue_sgd(results),
+        "net_cost_sgd": net_cost_sgd(results),
+    }
+    if isinstance(results.index, pd.DatetimeIndex):
+        out["ppp_charge_sgd"] = ppp_charge_sgd(results, peak_price_sgd_per_kw)
+        out["net_cost_with_ppp_sgd"] = out["net_cost_sgd"] + out["ppp_charge_sgd"]
+    out["peak_power_kw"] = peak_power_kw(results)
+    if isinstance(results.index, pd.DatetimeIndex):
+        average = monthly_average(monthly_table(results, peak_price_sgd_per_kw))
+        for col in ("energy_cost_sgd", "reserve_revenue_sgd", "net_cost_sgd"):
+            out[f"monthly_avg_{col}"] = float(average[col])
+    discomfort = discomfort_kelvin_hours(results)
+    out["discomfort_kelvin_hours"] = float(discomfort.sum())
+    for zone, value in discomfort.items():
+        out[f"discomfort_{zone}_kelvin_hours"] = float(value)
+    violation = max_violation_k(results)
+    out["max_violation_k"] = float(violation.max())
+    for zone, value in violation.items():
+        out[f"max_violation_{zone}_k"] = float(value)
+    out["violation_share"] = violation_share(results)
+    out["fallback_count"] = float(fallback_count(results))
+    out["planned_slack_share"] = planned_slack_share(results)
+    out["max_delta_vs_half_band"] = max_delta_vs_half_band(results)
+    for stat, value in solve_time_stats_s(results).items():
+        out[f"solve_time_{stat}_s"] = value
+    return out
+
+
+def load_results(path: str | Path) -> pd.DataFrame:
+    """Read a run's results: a Parquet file, or a run directory holding ``results.parquet``.
+
+    A ``time`` column (if the index was not stored) becomes the index.
+
+    Raises
+    ------
+    DataError
+        When the file does not exist.
+    """
+    file = Path(path)
+    if file.is_dir():
+        file = file / RESULTS_FILENAME
+    if not file.is_file():
+        raise DataError(
+            "results file not found",
+            source=file,
+            hint=f"pass a run directory holding {RESULTS_FILENAME} or a Parquet file",
+        )
+    results = pd.read_parquet(file)
+    if not isinstance(results.index, pd.DatetimeIndex) and "time" in results.columns:
+        results = results.set_index("time")
+    return results

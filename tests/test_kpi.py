@@ -1,0 +1,300 @@
+"""KPIs on small hand-made series whose answers are computed by hand in each test."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from typer.testing import CliRunner
+
+from hvacflex import kpi
+from hvacflex.errors import DataError
+
+TZ = "Asia/Singapore"
+
+
+def results_frame(
+    n: int,
+    *,
+    start: str = "2014-03-03 00:00",
+    freq: str = "30min",
+    power_kw: float | list[float] = 10.0,
+    energy_price: float | list[float] = 100.0,
+    reserve_kw: float | list[float] = 0.0,
+    reserve_price: float | list[float] = 0.0,
+    peak_price: float | list[float] = 0.0,
+    temp_end: dict[str, list[float]] | None = None,
+    lower: float | list[float] = 23.0,
+    upper: float | list[float] = 26.0,
+) -> pd.DataFrame:
+    """A results frame following docs/architecture.md (Results) with the given columns."""
+    index = pd.date_range(start, periods=n, freq=freq, tz=TZ, name="time")
+    temp_end = temp_end or {"north": [24.0] * n, "core": [24.5] * n}
+    columns: dict[str, object] = {
+        "energy_price_sgd_per_mwh": energy_price,
+        "reserve_price_sgd_per_mwh": reserve_price,
+        "peak_price_sgd_per_kw": peak_price,
+        "power_kw": power_kw,
+        "power_served_kw": power_kw,
+        "power_curtailed_kw": power_kw,
+        "reserve_kw": reserve_kw,
+        "il_activated": False,
+    }
+    for zone, temps in temp_end.items():
+        columns[f"flow_{zone}_kg_s"] = 0.5
+        columns[f"reserve_flow_{zone}_kg_s"] = 0.0
+        columns[f"temp_{zone}_degc"] = temps
+        columns[f"temp_end_{zone}_degc"] = temps
+        columns[f"comfort_lower_{zone}_degc"] = lower
+        columns[f"comfort_upper_{zone}_degc"] = upper
+    columns |= {
+        "d_outdoor_temp": 30.0,
+        "w_outdoor_temp": 0.0,
+        "solve_status": "optimal",
+        "solve_time_s": 0.01,
+        "fallback": False,
+        "planned_slack_max_k": 0.0,
+        "delta_max_k": 0.0,
+    }
+    return pd.DataFrame(
+        {k: (v if isinstance(v, list) else [v] * n) for k, v in columns.items()}, index=index
+    )
+
+
+# ------------------------------------------------------------------------ structure
+
+
+def test_zone_names_skip_end_served_curtailed_columns() -> None:
+    df = results_frame(2, temp_end={"north": [24.0, 24.0], "core": [24.0, 24.0]})
+    df["temp_served_north_degc"] = 24.0
+    df["temp_curtailed_north_degc"] = 25.0
+    assert kpi.zone_names(df) == ["north", "core"]
+
+
+def test_step_hours_from_index_spacing_and_default() -> None:
+    assert kpi.step_hours(results_frame(3)) == 0.5
+    assert kpi.step_hours(results_frame(3, freq="15min")) == 0.25
+    assert kpi.step_hours(results_frame(3).reset_index(drop=True)) == kpi.DEFAULT_STEP_H
+
+
+def test_missing_column_names_the_column() -> None:
+    df = results_frame(2).drop(columns="reserve_kw")
+    with pytest.raises(DataError, match="reserve_kw"):
+        kpi.reserve_revenue_sgd(df)
+
+
+# ------------------------------------------------------------------------ money and energy
+
+
+def test_energy_and_cost_four_steps_of_10_kw_at_100_sgd_per_mwh() -> None:
+    df = results_frame(4, power_kw=10.0, energy_price=100.0)
+    # 4 steps × 0.5 h × 10 kW = 20 kWh = 0.02 MWh; × 100 SGD/MWh = 2 SGD
+    assert kpi.energy_kwh(df) == pytest.approx(20.0)
+    assert kpi.energy_cost_sgd(df) == pytest.approx(2.0)
+
+
+def test_cost_weights_each_step_with_its_price() -> None:
+    df = results_frame(2, power_kw=[10.0, 20.0], energy_price=[100.0, 300.0])
+    # 10·0.5·100/1000 + 20·0.5·300/1000 = 0.5 + 3.0
+    assert kpi.energy_cost_sgd(df) == pytest.approx(3.5)
+
+
+def test_reserve_revenue_and_net_cost() -> None:
+    df = results_frame(4, power_kw=10.0, energy_price=100.0, reserve_kw=2.0, reserve_price=5.0)
+    # 4 × 0.5 h × 2 kW = 4 kWh = 0.004 MWh; × 5 SGD/MWh = 0.02 SGD
+    assert kpi.reserve_revenue_sgd(df) == pytest.approx(0.02)
+    assert kpi.net_cost_sgd(df) == pytest.approx(2.0 - 0.02)
+
+
+def test_quarter_hour_steps_use_their_own_dt() -> None:
+    df = results_frame(4, freq="15min", power_kw=10.0, energy_price=100.0)
+    # 4 × 0.25 h × 10 kW = 10 kWh → 1 SGD
+    assert kpi.energy_kwh(df) == pytest.approx(10.0)
+    assert kpi.energy_cost_sgd(df) == pytest.approx(1.0)
+
+
+# ------------------------------------------------------------------------ peaks and PPP
+
+
+def test_peak_is_taken_on_30min_averages() -> None:
+    df = results_frame(4, freq="15min", power_kw=[10.0, 20.0, 0.0, 2.0])
+    # 30-min averages: (10+20)/2 = 15, (0+2)/2 = 1 → peak 15, not the 15-min 20
+    assert kpi.peak_power_kw(df) == pytest.approx(15.0)
+    assert kpi.peak_power_kw(results_frame(3, power_kw=[5.0, 12.0, 7.0])) == pytest.approx(12.0)
+
+
+def test_monthly_peak_and_ppp_charge_over_a_month_boundary() -> None:
+    # periods 23:00, 23:30 on 31 Jan and 00:00, 00:30 on 1 Feb (local time)
+    df = results_frame(4, start="2014-01-31 23:00", power_kw=[8.0, 12.0, 20.0, 4.0])
+    peaks = kpi.monthly_peak_power_kw(df)
+    assert list(peaks.index.astype(str)) == ["2014-01", "2014-02"]
+    assert peaks.to_list() == [12.0, 20.0]
+    # φ = 1.5 SGD/kW: 1.5 × 12 + 1.5 × 20 = 48 SGD
+    assert kpi.ppp_charge_sgd(df, peak_price_sgd_per_kw=1.5) == pytest.approx(48.0)
+
+
+def test_ppp_charge_reads_the_price_column_and_handles_a_time_varying_price() -> None:
+    df = results_frame(3, power_kw=[10.0, 20.0, 15.0], peak_price=1.5)
+    assert kpi.ppp_charge_sgd(df) == pytest.approx(30.0)  # 1.5 × 20
+    df = results_frame(3, power_kw=[10.0, 20.0, 15.0], peak_price=[4.0, 1.0, 2.0])
+    # max(4·10, 1·20, 2·15) = 40
+    assert kpi.ppp_charge_sgd(df) == pytest.approx(40.0)
+    assert kpi.ppp_charge_sgd(results_frame(3, peak_price=0.0)) == 0.0
+
+
+# ------------------------------------------------------------------------ Table 1
+
+
+def test_monthly_table_partial_months_count_days_and_fractions() -> None:
+    # one whole day (48 steps) in January and one in February at 10 kW, 100 SGD/MWh
+    df = pd.concat(
+        [
+            results_frame(48, start="2014-01-10", power_kw=10.0, energy_price=100.0),
+            results_frame(48, start="2014-02-10", power_kw=20.0, energy_price=100.0),
+        ]
+    )
+    # the index spacing has a month-long gap but the median step is still 30 min
+    table = kpi.monthly_table(df)
+    assert list(table.index.astype(str)) == ["2014-01", "2014-02"]
+    assert table["days"].to_list() == pytest.approx([1.0, 1.0])
+    assert table["month_fraction"].to_list() == pytest.approx([1 / 31, 1 / 28])
+    # a day at 10 kW = 240 kWh = 24 SGD; at 20 kW, 48 SGD
+    assert table["energy_cost_sgd"].to_list() == pytest.approx([24.0, 48.0])
+    assert table["energy_kwh"].to_list() == pytest.approx([240.0, 480.0])
+    assert table["peak_power_kw"].to_list() == [10.0, 20.0]
+    average = kpi.monthly_average(table)
+    # month-equivalents: 1/31 + 1/28; average = (24 + 48) / (1/31 + 1/28)
+    assert average["months"] == pytest.approx(1 / 31 + 1 / 28)
+    assert average["energy_cost_sgd"] == pytest.approx(72.0 / (1 / 31 + 1 / 28))
+    assert average["days"] == pytest.approx(2.0)
+
+
+def test_monthly_average_of_complete_months_is_mean_of_month_sums() -> None:
+    # February 2014 (28 days) and March 2014 (31 days), complete
+    feb = results_frame(28 * 48, start="2014-02-01", power_kw=10.0, energy_price=100.0)
+    mar = results_frame(31 * 48, start="2014-03-01", power_kw=10.0, energy_price=200.0)
+    feb["reserve_kw"], feb["reserve_price_sgd_per_mwh"] = 1.0, 10.0
+    table = kpi.monthly_table(pd.concat([feb, mar]))
+    # Feb: 28 d × 24 h × 10 kW = 6720 kWh → 672 SGD; Mar: 7440 kWh × 0.2 → 1488 SGD
+    assert table["energy_cost_sgd"].to_list() == pytest.approx([672.0, 1488.0])
+    # Feb reserve: 672 kWh × 10 SGD/MWh = 6.72 SGD
+    assert table["reserve_revenue_sgd"].to_list() == pytest.approx([6.72, 0.0])
+    assert table["month_fraction"].to_list() == pytest.approx([1.0, 1.0])
+    average = kpi.monthly_average(table)
+    assert average["energy_cost_sgd"] == pytest.approx((672.0 + 1488.0) / 2)
+    assert average["reserve_revenue_sgd"] == pytest.approx(6.72 / 2)
+    assert average["net_cost_sgd"] == pytest.approx((672.0 - 6.72 + 1488.0) / 2)
+    assert average["months"] == pytest.approx(2.0)
+
+
+# ------------------------------------------------------------------------ comfort
+
+
+def test_discomfort_max_violation_and_violation_share() -> None:
+    df = results_frame(
+        4,
+        temp_end={"north": [23.0, 26.5, 22.0, 24.0], "core": [24.0, 24.0, 24.0, 26.005]},
+    )
+    # north deviations from [23, 26]: 0, 0.5, 1.0, 0 → 1.5 K × 0.5 h = 0.75 K·h
+    # core: only 0.005 K above in the last step → 0.0025 K·h, below the 0.01 K tolerance
+    discomfort = kpi.discomfort_kelvin_hours(df)
+    assert discomfort["north"] == pytest.approx(0.75)
+    assert discomfort["core"] == pytest.approx(0.0025)
+    assert kpi.total_discomfort_kelvin_hours(df) == pytest.approx(0.7525)
+    assert kpi.max_violation_k(df).to_dict() == pytest.approx({"north": 1.0, "core": 0.005})
+    # steps 2 and 3 violate by more than 0.01 K → 2 of 4
+    assert kpi.violation_share(df) == pytest.approx(0.5)
+    assert kpi.violation_share(df, tolerance_k=0.001) == pytest.approx(0.75)
+
+
+def test_discomfort_uses_the_band_in_force_at_period_end() -> None:
+    df = results_frame(2, temp_end={"north": [21.0, 21.0]}, lower=[20.0, 23.0], upper=[30.0, 26.0])
+    # unoccupied band 20–30 then occupied 23–26: deviation 0 then 2 K → 1 K·h
+    assert kpi.total_discomfort_kelvin_hours(df) == pytest.approx(1.0)
+
+
+# ------------------------------------------------------------------------ controller health
+
+
+def test_fallback_count_and_planned_slack_share() -> None:
+    df = results_frame(5)
+    df["fallback"] = [False, True, False, True, True]
+    df["planned_slack_max_k"] = [0.0, np.nan, 1e-9, 0.2, 0.0]
+    assert kpi.fallback_count(df) == 3
+    # only 0.2 exceeds the 1e-6 K tolerance; NaN (no plan) stays in the denominator
+    assert kpi.planned_slack_share(df) == pytest.approx(1 / 5)
+
+
+def test_max_delta_against_the_narrowest_half_band() -> None:
+    df = results_frame(3, lower=[20.0, 23.0, 23.0], upper=[30.0, 26.0, 26.0])
+    df["delta_max_k"] = [0.3, 0.75, np.nan]
+    # narrowest band 23–26 → half-band 1.5 K; 0.75 / 1.5 = 0.5
+    assert kpi.max_delta_vs_half_band(df) == pytest.approx(0.5)
+    df["delta_max_k"] = np.nan
+    assert np.isnan(kpi.max_delta_vs_half_band(df))
+
+
+def test_solve_time_stats() -> None:
+    df = results_frame(21)
+    df["solve_time_s"] = [float(t) for t in range(1, 21)] + [np.nan]
+    stats = kpi.solve_time_stats_s(df)
+    # 1..20: mean 10.5; p95 at rank 0.95·19 = 18.05 → 19 + 0.05·(20 − 19) = 19.05
+    assert stats == pytest.approx({"mean": 10.5, "p95": 19.05, "max": 20.0})
+
+
+# ------------------------------------------------------------------------ summary and I/O
+
+
+def test_summary_gathers_the_kpis() -> None:
+    df = results_frame(
+        4,
+        power_kw=10.0,
+        energy_price=100.0,
+        reserve_kw=2.0,
+        reserve_price=5.0,
+        peak_price=1.5,
+        temp_end={"north": [23.0, 26.5, 22.0, 24.0]},
+    )
+    out = kpi.summary(df)
+    assert out["energy_cost_sgd"] == pytest.approx(2.0)
+    assert out["reserve_revenue_sgd"] == pytest.approx(0.02)
+    assert out["net_cost_sgd"] == pytest.approx(1.98)
+    assert out["ppp_charge_sgd"] == pytest.approx(15.0)
+    assert out["net_cost_with_ppp_sgd"] == pytest.approx(16.98)
+    assert out["peak_power_kw"] == 10.0
+    assert out["discomfort_kelvin_hours"] == pytest.approx(0.75)
+    assert out["discomfort_north_kelvin_hours"] == pytest.approx(0.75)
+    assert out["max_violation_north_k"] == pytest.approx(1.0)
+    assert out["violation_share"] == pytest.approx(0.5)
+    assert out["steps"] == 4.0
+    assert out["days"] == pytest.approx(2.0 / 24.0)
+    assert out["solve_time_max_s"] == pytest.approx(0.01)
+    assert all(isinstance(v, float) for v in out.values())
+
+
+def test_load_results_from_dir_or_file_keeps_the_tz_index(tmp_path: Path) -> None:
+    df = results_frame(4)
+    df.to_parquet(tmp_path / "results.parquet")
+    for path in (tmp_path, tmp_path / "results.parquet"):
+        loaded = kpi.load_results(path)
+        assert loaded.index.equals(df.index)
+        assert kpi.energy_cost_sgd(loaded) == pytest.approx(2.0)
+    with pytest.raises(DataError, match="results file not found"):
+        kpi.load_results(tmp_path / "nothing")
+
+
+def test_kpi_command_compares_runs(tmp_path: Path) -> None:
+    from hvacflex.cli import app
+
+    (tmp_path / "nmpc").mkdir()
+    results_frame(4, power_kw=10.0).to_parquet(tmp_path / "nmpc" / "results.parquet")
+    results_frame(4, power_kw=20.0).to_parquet(tmp_path / "rmpc.parquet")
+    result = CliRunner().invoke(
+        app, ["kpi", str(tmp_path / "nmpc"), str(tmp_path / "rmpc.parquet")], env={"COLUMNS": "200"}
+    )
+    assert result.exit_code == 0, result.output
+    assert "nmpc" in result.output and "rmpc" in result.output
+    assert "energy_cost_sgd" in result.output
+    assert "2.00" in result.output and "4.00" in result.output
