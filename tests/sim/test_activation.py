@@ -1,0 +1,51 @@
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from hvacflex.config import ActivationConfig
+from hvacflex.errors import DataError
+from hvacflex.sim.activation import activation_schedule
+
+INDEX = pd.date_range("2014-03-03", periods=96, freq="30min", tz="Asia/Singapore")
+
+
+def test_never_and_always() -> None:
+    assert not activation_schedule(ActivationConfig(mode="never"), INDEX, seed=1).any()
+    assert activation_schedule(ActivationConfig(mode="always"), INDEX, seed=1).all()
+
+
+def test_random_is_seeded_and_lasts_the_duration() -> None:
+    cfg = ActivationConfig(mode="random", rate=0.05, duration_steps=3)
+    one = activation_schedule(cfg, INDEX, seed=7)
+    assert np.array_equal(one, activation_schedule(cfg, INDEX, seed=7))
+    assert not np.array_equal(one, activation_schedule(cfg, INDEX, seed=8))
+    # every activation block is at least `duration_steps` long (blocks may merge)
+    padded = np.concatenate([[False], one, [False]])
+    starts = np.flatnonzero(~padded[:-1] & padded[1:])
+    ends = np.flatnonzero(padded[:-1] & ~padded[1:])
+    lengths = ends - starts
+    assert (lengths[ends < len(one)] >= 3).all()
+
+
+def test_file_schedule_aligns_on_period_starts(tmp_path: Path) -> None:
+    path = tmp_path / "il.csv"
+    path.write_text("time,activated\n2014-03-03T10:00:00+08:00,1\n2014-03-03T10:30:00+08:00,1\n")
+    flags = activation_schedule(ActivationConfig(mode="file", file=str(path)), INDEX, seed=0)
+    assert flags.sum() == 2
+    assert flags[20] and flags[21]
+
+
+def test_file_with_bad_flag_names_line_and_value(tmp_path: Path) -> None:
+    path = tmp_path / "il.csv"
+    path.write_text("time,activated\n2014-03-03T10:00:00+08:00,yes\n")
+    with pytest.raises(DataError, match=r"il.csv:2.*activated.*'yes'"):
+        activation_schedule(ActivationConfig(mode="file", file=str(path)), INDEX, seed=0)
+
+
+def test_file_missing_column(tmp_path: Path) -> None:
+    path = tmp_path / "il.csv"
+    path.write_text("when,activated\n")
+    with pytest.raises(DataError, match="time"):
+        activation_schedule(ActivationConfig(mode="file", file=str(path)), INDEX, seed=0)
