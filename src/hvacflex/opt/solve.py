@@ -1,0 +1,514 @@
+"""Solve :class:`~hvacflex.opt.problem.RMPCProblem` with HiGHS; the only importer of highspy.
+
+:class:`RMPCSolver` builds the sparse LP of :mod:`hvacflex.opt.problem` once per structure
+(A, B, E, C, N, reserve mask, robust mode). Each :meth:`RMPCSolver.solve` pushes only what
+changed since the previous solve — costs, column bounds, row bounds (x0, d̂, g, δ, bounds,
+p0) and the step-varying coefficients (``p_k`` on the power rows, ``φ_k`` on the peak rows,
+σ in the dual form, via ``changeCoeff``) — and re-solves with the dual simplex from the basis
+HiGHS kept (warm start). HiGHS runs single-threaded with its output silenced, so results are
+reproducible. :func:`solve_rmpc` is the one-shot wrapper.
+
+Failures are never silent: :class:`SolveStatus` says what happened, ``RMPCSolution.message``
+says it in words, and every plan array (u, r, P, R, ε, trajectories, costs) is NaN unless the
+status is :attr:`SolveStatus.OPTIMAL`. If a warm-started solve ends in a solver error, the
+solve is retried once from scratch (cold) before the error is reported.
+"""
+
+from __future__ import annotations
+
+import enum
+import time
+from dataclasses import dataclass
+from typing import Any, cast
+
+import highspy
+import numpy as np
+from numpy.typing import NDArray
+
+from hvacflex.errors import ProblemError
+from hvacflex.opt import robust as robust_mod
+from hvacflex.opt.problem import (
+    KW_PER_MW,
+    RESERVE_TIE_BREAK_SGD_PER_KG_S_HOUR,
+    FloatArray,
+    LPLayout,
+    RMPCProblem,
+    assemble_matrix,
+    build_layout,
+    dual_equality_rhs,
+    lp_vectors,
+)
+
+__all__ = ["RMPCSolution", "RMPCSolver", "SolveStatus", "SolverBasis", "solve_rmpc"]
+
+
+class SolveStatus(enum.Enum):
+    """Outcome of one solve."""
+
+    OPTIMAL = "optimal"
+    INFEASIBLE = "infeasible"
+    UNBOUNDED = "unbounded"
+    TIME_LIMIT = "time_limit"
+    ERROR = "error"  # numerical trouble, iteration limit or any other solver failure
+
+    @property
+    def ok(self) -> bool:
+        """True only for :attr:`OPTIMAL`."""
+        return self is SolveStatus.OPTIMAL
+
+
+_STATUS_MAP = {
+    highspy.HighsModelStatus.kOptimal: SolveStatus.OPTIMAL,
+    highspy.HighsModelStatus.kInfeasible: SolveStatus.INFEASIBLE,
+    # The LP is bounded by construction (bounded u, r; ε, β with non-negative costs), so
+    # "unbounded or infeasible" can only mean infeasible.
+    highspy.HighsModelStatus.kUnboundedOrInfeasible: SolveStatus.INFEASIBLE,
+    highspy.HighsModelStatus.kUnbounded: SolveStatus.UNBOUNDED,
+    highspy.HighsModelStatus.kTimeLimit: SolveStatus.TIME_LIMIT,
+}
+
+
+@dataclass(frozen=True, eq=False)
+class RMPCSolution:
+    """The plan and its cost split. Arrays are NaN unless ``status`` is OPTIMAL.
+
+    Attributes
+    ----------
+    status, message : outcome and a human-readable explanation
+    objective_sgd : energy_cost − reserve_revenue + comfort_penalty + peak_charge [SGD]
+        (the reserve tie-break ``tie_break_sgd`` is excluded)
+    u, r : (N, m) planned flows and reserve flows [kg/s] (r = 0 on masked inputs)
+    power_kw : (N,) P_k = p0_k + p_k·u_k [kW];  reserve_kw : (N,) R_k = p_k·r_k [kW]
+    peak_kw : max_k P_k [kW];  peak_charge_sgd : β [SGD]
+    slack : (N, ny) ε_k for outputs at steps 1..N [K];  delta : (N, ny) robust margins δ_k [K]
+        (zero for robust="none"; for robust="dual" the equivalent tightening, for reference)
+    x_served, x_curtailed : (N+1, n) nominal (w = 0) trajectories from x0 [°C]
+    energy_cost_sgd, reserve_revenue_sgd, comfort_penalty_sgd : objective terms [SGD]
+    tie_break_sgd : the reserve tie-break cost included in the LP but not in objective_sgd
+    solve_time_s : wall time of the whole solve call (updates + HiGHS + extraction) [s]
+    highs_time_s : wall time of HiGHS ``run()`` alone [s]
+    simplex_iterations : simplex iterations of this solve
+    warm_start : whether HiGHS started from a previous basis
+    """
+
+    status: SolveStatus
+    message: str
+    objective_sgd: float
+    u: FloatArray
+    r: FloatArray
+    power_kw: FloatArray
+    reserve_kw: FloatArray
+    peak_kw: float
+    peak_charge_sgd: float
+    slack: FloatArray
+    delta: FloatArray
+    x_served: FloatArray
+    x_curtailed: FloatArray
+    energy_cost_sgd: float
+    reserve_revenue_sgd: float
+    comfort_penalty_sgd: float
+    tie_break_sgd: float
+    solve_time_s: float
+    highs_time_s: float
+    simplex_iterations: int
+    warm_start: bool
+
+    @property
+    def ok(self) -> bool:
+        """True when the plan is optimal (and its arrays are finite)."""
+        return self.status.ok
+
+
+@dataclass(frozen=True, eq=False)
+class SolverBasis:
+    """A picklable simplex basis of an :class:`RMPCSolver` (to resume a checkpoint warm).
+
+    ``col_status`` and ``row_status`` hold HiGHS basis status codes (0 lower, 1 basic,
+    2 upper, 3 zero, 4 nonbasic); ``fingerprint`` identifies the problem structure.
+    """
+
+    fingerprint: str
+    col_status: NDArray[np.int8]
+    row_status: NDArray[np.int8]
+
+
+def _nan(shape: tuple[int, ...]) -> FloatArray:
+    return np.full(shape, np.nan)
+
+
+class RMPCSolver:
+    """Warm-started HiGHS solver for a sequence of problems of one structure.
+
+    Parameters
+    ----------
+    problem : the first problem; fixes the structure (A, B, E, C, N, reserve mask, robust)
+    time_limit_s : wall-clock limit per solve [s]; None = no limit
+
+    Examples
+    --------
+    >>> solver = RMPCSolver(problem)                     # doctest: +SKIP
+    >>> for step in range(steps):                        # doctest: +SKIP
+    ...     sol = solver.solve(problem_at(step))
+    """
+
+    def __init__(self, problem: RMPCProblem, *, time_limit_s: float | None = None) -> None:
+        if time_limit_s is not None and not time_limit_s > 0:
+            raise ProblemError(
+                "time limit must be > 0 s or None",
+                source="RMPCSolver",
+                field="time_limit_s",
+                value=time_limit_s,
+            )
+        self._structure = problem.structure
+        self._fingerprint = self._structure.fingerprint()
+        self._layout: LPLayout = build_layout(self._structure)
+        responses = robust_mod.impulse_responses(
+            problem.a_matrix, problem.e_matrix, problem.c_matrix, problem.horizon
+        )
+        self._margin_operator = robust_mod.margin_operator(responses)
+        # highspy's Python wrapper is only partly typed; treat the handle as Any.
+        self._highs: Any = cast(Any, highspy.Highs)()
+        for option, value in (
+            ("output_flag", False),
+            ("log_to_console", False),
+            ("threads", 1),
+            ("time_limit", float(time_limit_s) if time_limit_s is not None else np.inf),
+        ):
+            self._highs.setOptionValue(option, value)
+        self._build(problem)
+        self._last_problem: RMPCProblem | None = problem
+        self._has_basis = False
+
+    # ------------------------------------------------------------------ properties
+    @property
+    def layout(self) -> LPLayout:
+        """Column/row indices of the LP."""
+        return self._layout
+
+    @property
+    def num_cols(self) -> int:
+        """Number of LP variables."""
+        return self._layout.num_cols
+
+    @property
+    def num_rows(self) -> int:
+        """Number of LP constraints."""
+        return self._layout.num_rows
+
+    @property
+    def num_nonzeros(self) -> int:
+        """Nonzeros of the constraint matrix as HiGHS holds it."""
+        return int(self._highs.getNumNz())
+
+    # ------------------------------------------------------------------ model
+    def _build(self, problem: RMPCProblem) -> None:
+        layout = self._layout
+        delta = self._delta(problem)
+        vectors = lp_vectors(problem, layout, self._tightening(problem, delta))
+        matrix = assemble_matrix(
+            self._structure,
+            layout,
+            problem.power_coeff_kw_per_kg_s,
+            problem.phi,
+            problem.d_sigma,
+        )
+        extra_cols = layout.num_cols - layout.num_core_cols
+        extra_rhs = dual_equality_rhs(self._structure, layout)
+        lp = highspy.HighsLp()
+        lp.num_col_ = layout.num_cols
+        lp.num_row_ = layout.num_rows
+        lp.col_cost_ = np.concatenate([vectors.cost, np.zeros(extra_cols)])
+        lp.col_lower_ = np.concatenate([vectors.col_lower, np.zeros(extra_cols)])
+        lp.col_upper_ = np.concatenate([vectors.col_upper, np.full(extra_cols, np.inf)])
+        lp.row_lower_ = np.concatenate([vectors.row_lower, extra_rhs])
+        lp.row_upper_ = np.concatenate([vectors.row_upper, extra_rhs])
+        lp.a_matrix_.format_ = highspy.MatrixFormat.kColwise
+        lp.a_matrix_.num_col_ = layout.num_cols
+        lp.a_matrix_.num_row_ = layout.num_rows
+        lp.a_matrix_.start_ = matrix.indptr.astype(np.int32)
+        lp.a_matrix_.index_ = matrix.indices.astype(np.int32)
+        lp.a_matrix_.value_ = matrix.data.astype(np.float64)
+        status = self._highs.passModel(lp)
+        if status == highspy.HighsStatus.kError:
+            raise ProblemError(
+                "HiGHS refused the assembled LP",
+                source="RMPCSolver",
+                hint="check the problem arrays for extreme magnitudes",
+            )
+        self._vectors = vectors
+        self._power_coeff = problem.power_coeff_kw_per_kg_s.copy()
+        self._phi = problem.phi.copy()
+        self._sigma = problem.d_sigma.copy()
+        self._core_col_index = np.arange(layout.num_core_cols, dtype=np.int32)
+        self._core_row_index = np.arange(layout.num_core_rows, dtype=np.int32)
+
+    def _delta(self, problem: RMPCProblem) -> FloatArray:
+        if problem.robust == "none":
+            return np.zeros((problem.horizon, problem.ny))
+        return robust_mod.robust_margins(self._margin_operator, problem.d_sigma)
+
+    @staticmethod
+    def _tightening(problem: RMPCProblem, delta: FloatArray) -> FloatArray:
+        return np.zeros_like(delta) if problem.robust == "dual" else delta
+
+    def _update(self, problem: RMPCProblem, delta: FloatArray) -> None:
+        layout = self._layout
+        highs = self._highs
+        vectors = lp_vectors(problem, layout, self._tightening(problem, delta))
+        old = self._vectors
+        changed = np.flatnonzero(vectors.cost != old.cost).astype(np.int32)
+        if changed.size:
+            highs.changeColsCost(changed.size, changed, vectors.cost[changed])
+        changed = np.flatnonzero(
+            (vectors.col_lower != old.col_lower) | (vectors.col_upper != old.col_upper)
+        ).astype(np.int32)
+        if changed.size:
+            highs.changeColsBounds(
+                changed.size, changed, vectors.col_lower[changed], vectors.col_upper[changed]
+            )
+        changed = np.flatnonzero(
+            (vectors.row_lower != old.row_lower) | (vectors.row_upper != old.row_upper)
+        ).astype(np.int32)
+        if changed.size:
+            highs.changeRowsBounds(
+                changed.size, changed, vectors.row_lower[changed], vectors.row_upper[changed]
+            )
+        self._vectors = vectors
+
+        p = problem.power_coeff_kw_per_kg_s
+        steps, inputs = np.nonzero(p != self._power_coeff)
+        if steps.size:
+            rows = layout.row_power[steps].tolist()
+            cols = layout.col_u[steps, inputs].tolist()
+            for row, col, value in zip(rows, cols, (-p[steps, inputs]).tolist(), strict=True):
+                highs.changeCoeff(row, col, value)
+            self._power_coeff = p.copy()
+        phi = problem.phi
+        (steps_phi,) = np.nonzero(phi != self._phi)
+        for step in steps_phi.tolist():
+            highs.changeCoeff(
+                int(layout.row_peak[step]), int(layout.col_power[step]), float(phi[step])
+            )
+        self._phi = phi.copy()
+        if layout.robust == "dual" and not np.array_equal(problem.d_sigma, self._sigma):
+            sigma = problem.d_sigma.ravel()[layout.dual_sigma_index] * layout.dual_sign
+            for row, col_1, col_2, value in zip(
+                layout.dual_rows.tolist(),
+                layout.dual_cols_1.tolist(),
+                layout.dual_cols_2.tolist(),
+                sigma.tolist(),
+                strict=True,
+            ):
+                highs.changeCoeff(row, col_1, value)
+                highs.changeCoeff(row, col_2, value)
+            self._sigma = problem.d_sigma.copy()
+
+    # ------------------------------------------------------------------ solve
+    def solve(self, problem: RMPCProblem) -> RMPCSolution:
+        """Solve ``problem`` (same structure as the solver's), warm-started when possible.
+
+        Raises
+        ------
+        ProblemError
+            if ``problem`` has a different structure (A, B, E, C, N, reserve mask, robust
+            mode); build a new :class:`RMPCSolver` for it.
+        """
+        start = time.perf_counter()
+        if problem.structure is not self._structure:
+            differences = self._structure.differences(problem.structure)
+            if differences:
+                raise ProblemError(
+                    f"the problem's structure differs from the solver's in {differences}",
+                    source="RMPCSolver",
+                    field=differences[0],
+                    hint="build a new RMPCSolver for a problem with another structure",
+                )
+        delta = self._delta(problem)
+        if problem is not self._last_problem:
+            self._update(problem, delta)
+            self._last_problem = problem
+        warm = self._has_basis
+        highs_time, status = self._run()
+        iterations = int(self._highs.getInfo().simplex_iteration_count)
+        if status is SolveStatus.ERROR and warm:
+            self._highs.clearSolver()
+            retry_time, status = self._run()
+            highs_time += retry_time
+            iterations += int(self._highs.getInfo().simplex_iteration_count)
+            warm = False
+        self._has_basis = bool(self._highs.getBasis().valid) if not status.ok else True
+        return self._solution(problem, delta, status, start, highs_time, iterations, warm)
+
+    def _run(self) -> tuple[float, SolveStatus]:
+        tick = time.perf_counter()
+        run_status = self._highs.run()
+        elapsed = time.perf_counter() - tick
+        if run_status == highspy.HighsStatus.kError:
+            return elapsed, SolveStatus.ERROR
+        return elapsed, _STATUS_MAP.get(self._highs.getModelStatus(), SolveStatus.ERROR)
+
+    def _message(
+        self, problem: RMPCProblem, delta: FloatArray, status: SolveStatus, iterations: int
+    ) -> str:
+        model_status = self._highs.modelStatusToString(self._highs.getModelStatus())
+        if status is SolveStatus.OPTIMAL:
+            return f"optimal ({iterations} simplex iterations)"
+        if status is SolveStatus.INFEASIBLE:
+            cap = problem.slack_max_kelvin
+            return (
+                f"infeasible (HiGHS: {model_status}): no plan keeps both the served and the "
+                f"curtailed trajectory within the comfort band (tightened by up to "
+                f"{float(delta.max(initial=0.0)):.3g} K for robustness) with "
+                f"slack ≤ {cap} K; allow more slack (slack_max_kelvin=None makes comfort "
+                f"soft), reduce the uncertainty σ, or widen the band"
+            )
+        if status is SolveStatus.UNBOUNDED:
+            return f"unbounded (HiGHS: {model_status}): check for negative penalties or prices"
+        if status is SolveStatus.TIME_LIMIT:
+            return (
+                f"time limit reached after {iterations} simplex iterations before optimality "
+                f"(HiGHS: {model_status}); no plan returned, raise time_limit_s"
+            )
+        return (
+            f"solver failure (HiGHS: {model_status}) after {iterations} simplex iterations; "
+            f"no plan returned, fall back to a safe rule"
+        )
+
+    def _solution(
+        self,
+        problem: RMPCProblem,
+        delta: FloatArray,
+        status: SolveStatus,
+        start: float,
+        highs_time: float,
+        iterations: int,
+        warm: bool,
+    ) -> RMPCSolution:
+        layout = self._layout
+        horizon, m, n, ny = layout.horizon, layout.m, layout.n, layout.ny
+        message = self._message(problem, delta, status, iterations)
+        if not status.ok:
+            return RMPCSolution(
+                status=status,
+                message=message,
+                objective_sgd=np.nan,
+                u=_nan((horizon, m)),
+                r=_nan((horizon, m)),
+                power_kw=_nan((horizon,)),
+                reserve_kw=_nan((horizon,)),
+                peak_kw=np.nan,
+                peak_charge_sgd=np.nan,
+                slack=_nan((horizon, ny)),
+                delta=delta,
+                x_served=_nan((horizon + 1, n)),
+                x_curtailed=_nan((horizon + 1, n)),
+                energy_cost_sgd=np.nan,
+                reserve_revenue_sgd=np.nan,
+                comfort_penalty_sgd=np.nan,
+                tie_break_sgd=np.nan,
+                solve_time_s=time.perf_counter() - start,
+                highs_time_s=highs_time,
+                simplex_iterations=iterations,
+                warm_start=warm,
+            )
+        values = np.asarray(self._highs.getSolution().col_value)
+        dt = problem.dt_h
+        u = values[layout.col_u]
+        r = np.zeros((horizon, m))
+        r[:, layout.reserve_inputs] = np.maximum(values[layout.col_r], 0.0)
+        p = problem.power_coeff_kw_per_kg_s
+        power = problem.power_offset_kw + np.einsum("km,km->k", p, u)
+        reserve = np.einsum("km,km->k", p, r)
+        slack = np.maximum(values[layout.col_eps], 0.0)
+        beta = float(values[layout.col_beta])
+        x_served = np.vstack([problem.x0, values[layout.col_x]])
+        x_curtailed = (
+            np.vstack([problem.x0, values[layout.col_z]]) if layout.has_curtailed else x_served
+        )
+        energy = float(dt * problem.energy_price_sgd_per_mwh @ power / KW_PER_MW)
+        revenue = float(dt * problem.reserve_price_sgd_per_mwh @ reserve / KW_PER_MW)
+        comfort = float(problem.comfort_penalty_sgd_per_kelvin_hour * dt * slack.sum())
+        return RMPCSolution(
+            status=status,
+            message=message,
+            objective_sgd=energy - revenue + comfort + beta,
+            u=u,
+            r=r,
+            power_kw=power,
+            reserve_kw=reserve,
+            peak_kw=float(power.max()),
+            peak_charge_sgd=beta,
+            slack=slack,
+            delta=delta,
+            x_served=x_served,
+            x_curtailed=x_curtailed,
+            energy_cost_sgd=energy,
+            reserve_revenue_sgd=revenue,
+            comfort_penalty_sgd=comfort,
+            tie_break_sgd=float(RESERVE_TIE_BREAK_SGD_PER_KG_S_HOUR * dt * r.sum()),
+            solve_time_s=time.perf_counter() - start,
+            highs_time_s=highs_time,
+            simplex_iterations=iterations,
+            warm_start=warm,
+        )
+
+    def highs_objective_sgd(self) -> float:
+        """HiGHS's objective value of the last solve (includes the reserve tie-break) [SGD]."""
+        return float(self._highs.getInfo().objective_function_value)
+
+    # ------------------------------------------------------------------ basis
+    def get_basis(self) -> SolverBasis | None:
+        """The current simplex basis (picklable), or None if there is none yet."""
+        basis = self._highs.getBasis()
+        if not basis.valid:
+            return None
+        return SolverBasis(
+            fingerprint=self._fingerprint,
+            col_status=np.array([int(s) for s in basis.col_status], dtype=np.int8),
+            row_status=np.array([int(s) for s in basis.row_status], dtype=np.int8),
+        )
+
+    def set_basis(self, basis: SolverBasis) -> None:
+        """Start the next solve from ``basis`` (from :meth:`get_basis` of a same-structure solver).
+
+        Raises
+        ------
+        ProblemError
+            if the basis belongs to another structure or HiGHS rejects it.
+        """
+        if (
+            basis.fingerprint != self._fingerprint
+            or basis.col_status.size != self.num_cols
+            or basis.row_status.size != self.num_rows
+        ):
+            raise ProblemError(
+                "the basis was saved from a solver with another problem structure",
+                source="RMPCSolver",
+                field="basis",
+                hint="restore a basis only into a solver built for the same A, B, E, C, N, "
+                "reserve mask and robust mode",
+            )
+        highs_basis = highspy.HighsBasis()
+        highs_basis.col_status = [highspy.HighsBasisStatus(int(s)) for s in basis.col_status]
+        highs_basis.row_status = [highspy.HighsBasisStatus(int(s)) for s in basis.row_status]
+        highs_basis.valid = True
+        if self._highs.setBasis(highs_basis) == highspy.HighsStatus.kError:
+            raise ProblemError(
+                "HiGHS rejected the basis", source="RMPCSolver", field="basis", hint="solve cold"
+            )
+        self._has_basis = True
+
+
+def solve_rmpc(problem: RMPCProblem, *, time_limit_s: float | None = None) -> RMPCSolution:
+    """Solve one problem from scratch (see :class:`RMPCSolver` for sequences).
+
+    Parameters
+    ----------
+    problem : the validated problem
+    time_limit_s : wall-clock limit [s]; None = no limit
+
+    Returns
+    -------
+    :class:`RMPCSolution`; check ``sol.status`` (arrays are NaN unless OPTIMAL).
+    """
+    return RMPCSolver(problem, time_limit_s=time_limit_s).solve(problem)
