@@ -1,1 +1,10 @@
-"""Data from the outside world: prices, weather and solar, gains, forecasts, uncertainty."""
+"""Data from the outside world: prices, weather and solar, gains, forecasts, uncertainty.
+
+Submodules (imported on demand, so ``import hvacflex.data`` stays light):
+
+* :mod:`hvacflex.data.market` — NEMS USEP loader, synthetic / user reserve prices;
+* :mod:`hvacflex.data.weather` — EPW reader, 30-min weather, façade irradiance (pvlib);
+* :mod:`hvacflex.data.gains` — office schedules, internal gains, comfort band;
+* :mod:`hvacflex.data.forecast` — ``Exogenous``, ``load_exogenous``, ``Forecaster``;
+* :mod:`hvacflex.data.uncertainty` — ``UncertaintyBox``, ``DisturbanceSampler``, δ_k.
+"""

@@ -1,0 +1,571 @@
+"""Exogenous inputs aligned on one time grid, and the forecasts a controller sees.
+
+:func:`load_exogenous` builds an :class:`Exogenous`: prices, disturbances (in the building's
+channel order, see ``hvacflex.building.channels``), outdoor humidity, comfort band and
+occupancy on a 30-min, tz-aware (``Asia/Singapore``) index of period starts. It covers
+``steps + horizon_steps`` periods so that a forecast at the last simulated step still has a
+full horizon.
+
+* Energy prices: NEMS USEP (2014 shipped). Periods outside the price data take the same
+  period of the nearest available day (the last day after the end, the first day before the
+  start) and are flagged in ``energy_price_extrapolated``.
+* Reserve prices: a user CSV (``reserve_source``) or, by default, the seeded synthetic series
+  (``reserve_price_synthetic = True``).
+* Weather: an EPW typical year (IWEC Singapore by default) mapped onto each calendar year the
+  index touches, so it wraps around the year end.
+* Internal gains and comfort: office schedule with Singapore public holidays.
+
+:class:`Forecaster` serves ``forecast(k, horizon)`` from precomputed arrays: perfect
+foresight, or price persistence (yesterday's same period) and/or an AR(1) disturbance
+forecast error that grows with lead time (as BOPTEST's forecast-uncertainty emulator).
+"""
+
+from __future__ import annotations
+
+import functools
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Literal, Protocol, get_args
+
+import numpy as np
+import pandas as pd
+from scipy.signal import lfilter
+
+from hvacflex.building.channels import DisturbanceChannel
+from hvacflex.data.gains import (
+    DEFAULT_OFFICE_SCHEDULE,
+    ComfortBand,
+    OfficeSchedule,
+    comfort_bounds_degc,
+    occupied_mask,
+    zone_internal_gains_w,
+)
+from hvacflex.data.market import (
+    PERIOD,
+    PERIODS_PER_DAY,
+    RESERVE_PRICE_SCALE,
+    TIMEZONE,
+    load_reserve_prices,
+    load_usep,
+    synthetic_reserve_prices,
+)
+from hvacflex.data.uncertainty import AR1_COEFFICIENT, DEFAULT_UNCERTAINTY, UncertaintyBox
+from hvacflex.data.weather import (
+    EpwLocation,
+    read_epw,
+    surface_irradiance_w_per_m2,
+    weather_30min,
+)
+from hvacflex.errors import ConfigError, DataError
+from hvacflex.paths import data_dir
+
+DEFAULT_WEATHER_FILE = "SGP_Singapore.486980_IWEC.epw"
+"""Default EPW in ``<data_dir>/weather`` (ASHRAE IWEC typical year, Singapore Changi)."""
+
+DEFAULT_USEP_FOLDER = "nems_usep_2014"
+"""Default USEP folder in ``<data_dir>`` (real NEMS prices, 2014)."""
+
+DEFAULT_HORIZON_STEPS = 48
+
+PriceMode = Literal["perfect", "persistence"]
+DisturbanceErrorMode = Literal["none", "ar1"]
+
+
+class InternalGainDensities(Protocol):
+    """What :func:`load_exogenous` reads from a building's ``gains`` (``InternalGains``)."""
+
+    @property
+    def occupancy_m2_per_person(self) -> float: ...
+    @property
+    def sensible_w_per_person(self) -> float: ...
+    @property
+    def latent_w_per_person(self) -> float: ...
+    @property
+    def lighting_w_per_m2(self) -> float: ...
+    @property
+    def equipment_w_per_m2(self) -> float: ...
+
+
+def _readonly(array: np.ndarray) -> np.ndarray:
+    array = np.ascontiguousarray(array)
+    array.flags.writeable = False
+    return array
+
+
+@dataclass(frozen=True)
+class Exogenous:
+    """Everything from outside the building, on one 30-min grid of T period starts.
+
+    Attributes
+    ----------
+    index : (T,) tz-aware (``Asia/Singapore``) period starts, 30 min apart.
+    energy_price_sgd_per_mwh : (T,) USEP [SGD/MWh].
+    reserve_price_sgd_per_mwh : (T,) reserve (IL) price [SGD/MWh].
+    reserve_price_synthetic : True if the reserve price is the synthetic series.
+    disturbances : (T, nd) disturbance vector d per period, in ``channels`` order and units.
+    channels : (nd,) the building's disturbance channels.
+    outdoor_humidity_ratio_kg_per_kg : (T,) [kg/kg].
+    comfort_lower_degc, comfort_upper_degc : (T, m) band in force from the start of period k.
+    occupied : (T,) bool, occupied comfort band in force.
+    energy_price_extrapolated : (T,) bool, the price was copied from the nearest day with data
+        (all False if not given).
+    """
+
+    index: pd.DatetimeIndex
+    energy_price_sgd_per_mwh: np.ndarray
+    reserve_price_sgd_per_mwh: np.ndarray
+    reserve_price_synthetic: bool
+    disturbances: np.ndarray
+    channels: tuple[DisturbanceChannel, ...]
+    outdoor_humidity_ratio_kg_per_kg: np.ndarray
+    comfort_lower_degc: np.ndarray
+    comfort_upper_degc: np.ndarray
+    occupied: np.ndarray
+    energy_price_extrapolated: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
+
+    def __post_init__(self) -> None:
+        t = len(self.index)
+        if self.energy_price_extrapolated.size == 0 and t:
+            object.__setattr__(self, "energy_price_extrapolated", np.zeros(t, dtype=bool))
+        object.__setattr__(self, "channels", tuple(self.channels))
+        shapes = {
+            "energy_price_sgd_per_mwh": (t,),
+            "reserve_price_sgd_per_mwh": (t,),
+            "disturbances": (t, len(self.channels)),
+            "outdoor_humidity_ratio_kg_per_kg": (t,),
+            "occupied": (t,),
+            "energy_price_extrapolated": (t,),
+        }
+        for name, shape in shapes.items():
+            value = np.asarray(getattr(self, name))
+            if value.shape != shape:
+                raise DataError(
+                    "array has the wrong shape", source="Exogenous", field=name, value=value.shape,
+                    hint=f"expected {shape}",
+                )  # fmt: skip
+        lower = np.asarray(self.comfort_lower_degc)
+        upper = np.asarray(self.comfort_upper_degc)
+        if lower.ndim != 2 or lower.shape[0] != t or lower.shape != upper.shape:
+            raise DataError(
+                "comfort bounds must both be (T, m)",
+                source="Exogenous",
+                field="comfort_lower_degc",
+                value=(lower.shape, upper.shape),
+                hint=f"T = {t}",
+            )
+        for name in (*shapes, "comfort_lower_degc", "comfort_upper_degc"):
+            object.__setattr__(self, name, _readonly(np.asarray(getattr(self, name))))
+
+    @property
+    def steps(self) -> int:
+        """Number of periods T."""
+        return len(self.index)
+
+    def channel_index(self, kind: str) -> list[int]:
+        """Positions of the channels of one kind in ``disturbances``."""
+        return [i for i, ch in enumerate(self.channels) if ch.kind == kind]
+
+    @property
+    def outdoor_temp_degc(self) -> np.ndarray:
+        """(T,) outdoor dry-bulb temperature [°C] (the first ``outdoor_temp`` channel)."""
+        return _outdoor_temp(self.disturbances, self.channels)
+
+    def frame(self) -> pd.DataFrame:
+        """All series as one DataFrame (disturbances named by channel), for inspection."""
+        data: dict[str, np.ndarray] = {
+            "energy_price_sgd_per_mwh": self.energy_price_sgd_per_mwh,
+            "reserve_price_sgd_per_mwh": self.reserve_price_sgd_per_mwh,
+            "energy_price_extrapolated": self.energy_price_extrapolated,
+            "outdoor_humidity_ratio_kg_per_kg": self.outdoor_humidity_ratio_kg_per_kg,
+            "occupied": self.occupied,
+        }
+        for i, ch in enumerate(self.channels):
+            data[ch.name] = self.disturbances[:, i]
+        for j in range(self.comfort_lower_degc.shape[1]):
+            data[f"comfort_lower_{j}_degc"] = self.comfort_lower_degc[:, j]
+            data[f"comfort_upper_{j}_degc"] = self.comfort_upper_degc[:, j]
+        out = pd.DataFrame(data, index=self.index)
+        out.attrs["reserve_price_synthetic"] = self.reserve_price_synthetic
+        return out
+
+
+def _outdoor_temp(disturbances: np.ndarray, channels: Sequence[DisturbanceChannel]) -> np.ndarray:
+    for i, ch in enumerate(channels):
+        if ch.kind == "outdoor_temp":
+            column: np.ndarray = disturbances[:, i]
+            return column
+    raise DataError("no outdoor_temp channel", field="channels", value=[c.name for c in channels])
+
+
+@dataclass(frozen=True)
+class Forecast:
+    """What the controller knows at step k about periods k … k+N−1 (same fields as
+    :class:`Exogenous`, arrays of length N = horizon).
+
+    ``disturbances`` is the forecast d̂ (the data itself under perfect foresight); prices are
+    the data or their persistence forecast.
+    """
+
+    step: int
+    index: pd.DatetimeIndex
+    energy_price_sgd_per_mwh: np.ndarray
+    reserve_price_sgd_per_mwh: np.ndarray
+    reserve_price_synthetic: bool
+    disturbances: np.ndarray
+    channels: tuple[DisturbanceChannel, ...]
+    outdoor_humidity_ratio_kg_per_kg: np.ndarray
+    comfort_lower_degc: np.ndarray
+    comfort_upper_degc: np.ndarray
+    occupied: np.ndarray
+    energy_price_extrapolated: np.ndarray
+
+    @property
+    def horizon(self) -> int:
+        """N."""
+        return len(self.energy_price_sgd_per_mwh)
+
+    @property
+    def outdoor_temp_degc(self) -> np.ndarray:
+        """(N,) forecast outdoor dry-bulb temperature [°C]."""
+        return _outdoor_temp(self.disturbances, self.channels)
+
+
+class Forecaster:
+    """Forecasts from an :class:`Exogenous`, sliced from precomputed arrays.
+
+    Parameters
+    ----------
+    exogenous : the data (truth).
+    mode : ``"perfect"`` (prices known) or ``"persistence"`` (energy and reserve price of
+        period j forecast as those of period j − 48 · ⌈(j − k + 1)/48⌉, i.e. yesterday's same
+        period for a one-day horizon; on the first day of the data, where there is no
+        yesterday, the data itself is used).
+    disturbance_error : ``"none"`` (d̂ = d) or ``"ar1"``: d̂_{k+i|k} = d_{k+i} + e_i with
+        e_0 = 0 (the current period is known) and e_i = φ e_{i−1} + √(1−φ²) σ_{k+i} ε_i,
+        σ from ``error_box`` applied to the data — a BOPTEST-style error that grows with lead
+        time towards standard deviation σ. Solar and internal gains stay ≥ 0. The draw is
+        seeded by (seed, k), so a forecast does not depend on the call order (resumable).
+    seed : random seed of the AR(1) error.
+    error_box : standard deviations of the AR(1) error (default ``DEFAULT_UNCERTAINTY``).
+    ar1_coefficient : φ per 30-min step.
+
+    ``forecast(k, horizon)`` costs a few microseconds in the default mode (array views,
+    read-only).
+    """
+
+    def __init__(
+        self,
+        exogenous: Exogenous,
+        mode: PriceMode = "perfect",
+        disturbance_error: DisturbanceErrorMode = "none",
+        seed: int = 2014,
+        *,
+        error_box: UncertaintyBox = DEFAULT_UNCERTAINTY,
+        ar1_coefficient: float = AR1_COEFFICIENT,
+    ) -> None:
+        if mode not in get_args(PriceMode):
+            raise ConfigError(
+                "unknown price forecast mode", field="mode", value=mode,
+                hint=f"use one of {list(get_args(PriceMode))}",
+            )  # fmt: skip
+        if disturbance_error not in get_args(DisturbanceErrorMode):
+            raise ConfigError(
+                "unknown disturbance forecast error",
+                field="disturbance_error",
+                value=disturbance_error,
+                hint=f"use one of {list(get_args(DisturbanceErrorMode))}",
+            )
+        if not 0.0 <= ar1_coefficient < 1.0:
+            raise ConfigError(
+                "AR(1) coefficient must be in [0, 1)", field="ar1_coefficient",
+                value=ar1_coefficient,
+            )  # fmt: skip
+        self.exogenous = exogenous
+        self.mode: PriceMode = mode
+        self.disturbance_error: DisturbanceErrorMode = disturbance_error
+        self.seed = seed
+        self.ar1_coefficient = ar1_coefficient
+        x = exogenous
+        self._t = x.steps
+        self._index = x.index
+        self._energy = x.energy_price_sgd_per_mwh
+        self._reserve = x.reserve_price_sgd_per_mwh
+        self._lagged: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+        self._channels = x.channels
+        self._rel, self._abs = error_box.coefficients(x.channels)
+        self._nonnegative = np.array(
+            [ch.kind in ("solar", "internal_gain") for ch in x.channels], dtype=bool
+        )
+
+    def _lag(self, days: int) -> tuple[np.ndarray, np.ndarray]:
+        if days not in self._lagged:
+            lag = days * PERIODS_PER_DAY
+            pos = np.arange(self._t) - lag
+            pos = np.where(pos < 0, np.arange(self._t) % PERIODS_PER_DAY, pos)
+            self._lagged[days] = (_readonly(self._energy[pos]), _readonly(self._reserve[pos]))
+        return self._lagged[days]
+
+    def _prices(self, k: int, horizon: int) -> tuple[np.ndarray, np.ndarray]:
+        if self.mode == "perfect":
+            return self._energy[k : k + horizon], self._reserve[k : k + horizon]
+        if horizon <= PERIODS_PER_DAY:
+            energy, reserve = self._lag(1)
+            return energy[k : k + horizon], reserve[k : k + horizon]
+        energy_parts, reserve_parts = [], []
+        for start in range(0, horizon, PERIODS_PER_DAY):
+            stop = min(start + PERIODS_PER_DAY, horizon)
+            energy, reserve = self._lag(start // PERIODS_PER_DAY + 1)
+            energy_parts.append(energy[k + start : k + stop])
+            reserve_parts.append(reserve[k + start : k + stop])
+        return _readonly(np.concatenate(energy_parts)), _readonly(np.concatenate(reserve_parts))
+
+    def _disturbances(self, k: int, horizon: int) -> np.ndarray:
+        truth = self.exogenous.disturbances[k : k + horizon]
+        if self.disturbance_error == "none" or horizon == 0:
+            return truth
+        rng = np.random.default_rng([self.seed, k])
+        sigma = self._rel * np.abs(truth) + self._abs
+        phi = self.ar1_coefficient
+        innovation = rng.standard_normal(truth.shape) * sigma * np.sqrt(1.0 - phi * phi)
+        innovation[0] = 0.0  # the current period is known
+        error = lfilter([1.0], [1.0, -phi], innovation, axis=0)
+        forecast = truth + error
+        forecast[:, self._nonnegative] = np.maximum(forecast[:, self._nonnegative], 0.0)
+        return _readonly(forecast)
+
+    def forecast(self, k: int, horizon: int = DEFAULT_HORIZON_STEPS) -> Forecast:
+        """The forecast made at step k for periods k … k+horizon−1.
+
+        Raises
+        ------
+        DataError
+            if ``k + horizon`` exceeds the data (load ``steps + horizon_steps`` periods).
+        """
+        if k < 0 or horizon < 0 or k + horizon > self._t:
+            raise DataError(
+                "forecast window outside the loaded data",
+                source="Forecaster",
+                field="k",
+                value=(k, horizon),
+                hint=f"the data has {self._t} periods; load_exogenous(steps=..., "
+                "horizon_steps=...) covers steps + horizon_steps",
+            )
+        x = self.exogenous
+        end = k + horizon
+        energy, reserve = self._prices(k, horizon)
+        return Forecast(
+            k,
+            self._index[k:end],
+            energy,
+            reserve,
+            x.reserve_price_synthetic,
+            self._disturbances(k, horizon),
+            self._channels,
+            x.outdoor_humidity_ratio_kg_per_kg[k:end],
+            x.comfort_lower_degc[k:end],
+            x.comfort_upper_degc[k:end],
+            x.occupied[k:end],
+            x.energy_price_extrapolated[k:end],
+        )
+
+
+@functools.lru_cache(maxsize=8)
+def _weather_year(path: str, year: int) -> tuple[pd.DataFrame, EpwLocation]:
+    epw, location = read_epw(path)
+    return weather_30min(epw, location, year), location
+
+
+def _weather_on(index: pd.DatetimeIndex, path: Path) -> tuple[pd.DataFrame, EpwLocation]:
+    resolved = str(path.resolve())
+    local = index.tz_convert(TIMEZONE)
+    years = sorted(set(local.year))
+    parts = [_weather_year(resolved, y)[0] for y in years]
+    location = _weather_year(resolved, years[0])[1]
+    full = pd.concat(parts) if len(parts) > 1 else parts[0]
+    return full.loc[local], location
+
+
+def _align_prices(
+    series: pd.Series, index: pd.DatetimeIndex, what: str
+) -> tuple[np.ndarray, np.ndarray]:
+    """Values of ``series`` at ``index``; outside its days, the same period of the nearest day."""
+    data_index = series.index
+    if not isinstance(data_index, pd.DatetimeIndex) or len(series) == 0:
+        raise DataError(f"{what} series is empty", field=what)
+    first_day = data_index[0].normalize()
+    last_day = data_index[-1].normalize()
+    local = index.tz_convert(data_index.tz)
+    day = local.normalize()
+    time_of_day = local - day
+    source_day = day.where(day <= last_day, last_day).where(day >= first_day, first_day)
+    lookup = source_day + time_of_day
+    outside = np.asarray(source_day != day)
+    values = series.reindex(lookup).to_numpy(dtype=float)
+    if np.isnan(values).any():
+        bad = lookup[np.isnan(values)]
+        raise DataError(
+            f"{what} has no value for {len(bad)} period(s)",
+            field=what,
+            value=[str(t) for t in bad[:5]],
+            hint="the price series must be complete (see load_usep fill=...)",
+        )
+    return values, outside
+
+
+def load_exogenous(
+    channels: Sequence[DisturbanceChannel],
+    zone_floor_areas_m2: Sequence[float] | Mapping[str, float],
+    gains: InternalGainDensities,
+    *,
+    start: str | pd.Timestamp,
+    steps: int,
+    horizon_steps: int = DEFAULT_HORIZON_STEPS,
+    weather_file: str | Path | None = None,
+    usep_source: str | Path | Sequence[str | Path] | None = None,
+    reserve_source: str | Path | Sequence[str | Path] | None = None,
+    comfort: ComfortBand | None = None,
+    seed: int = 2014,
+    reserve_scale_sgd_per_mwh: float = RESERVE_PRICE_SCALE,
+    schedule: OfficeSchedule = DEFAULT_OFFICE_SCHEDULE,
+) -> Exogenous:
+    """Load and align all exogenous inputs for a simulation.
+
+    Parameters
+    ----------
+    channels : (nd,) the building's disturbance channels, in its order.
+    zone_floor_areas_m2 : (m,) floor area per zone [m²], in zone order (the i-th
+        ``internal_gain`` channel belongs to the i-th zone), or a mapping zone name → area
+        (matched to ``channel.zone``; its order is the zone order of the comfort arrays).
+    gains : the building's internal-gain densities (``occupancy_m2_per_person``,
+        ``sensible_w_per_person``, ``lighting_w_per_m2``, ``equipment_w_per_m2``).
+    start : first period start (local Singapore time if naive), on a 30-min boundary.
+    steps : number of simulated steps; ``horizon_steps`` more periods are loaded.
+    weather_file : EPW (default: IWEC Singapore in ``<data_dir>/weather``).
+    usep_source : USEP CSV file(s) or folder (default: ``<data_dir>/nems_usep_2014``).
+    reserve_source : reserve-price CSV(s); default: synthetic prices (flagged).
+    comfort : occupied/unoccupied bands (default 23–26 / 20–30 °C).
+    seed : seed of the synthetic reserve prices.
+    reserve_scale_sgd_per_mwh : scale of the synthetic reserve prices.
+    schedule : office schedule for gains and occupancy.
+
+    Returns
+    -------
+    :class:`Exogenous` over ``steps + horizon_steps`` periods.
+    """
+    if steps < 1 or horizon_steps < 0:
+        raise ConfigError(
+            "need steps ≥ 1 and horizon_steps ≥ 0",
+            field="steps",
+            value=(steps, horizon_steps),
+        )
+    channels = tuple(channels)
+    names = [ch.name for ch in channels]
+    if len(set(names)) != len(names):
+        raise ConfigError("disturbance channel names must be unique", field="channels", value=names)
+    try:
+        first = pd.Timestamp(start)
+    except ValueError:
+        raise ConfigError(
+            "unparseable start time", field="start", value=start, hint="e.g. '2014-01-01'"
+        ) from None
+    first = first.tz_localize(TIMEZONE) if first.tz is None else first.tz_convert(TIMEZONE)
+    if first != first.floor(PERIOD):
+        raise ConfigError(
+            "start must be on a 30-min boundary", field="start", value=str(first),
+            hint="NEMS periods start at :00 and :30",
+        )  # fmt: skip
+    index = pd.date_range(first, periods=steps + horizon_steps, freq=PERIOD, name="time")
+
+    gain_channels = [ch for ch in channels if ch.kind == "internal_gain"]
+    if isinstance(zone_floor_areas_m2, Mapping):
+        areas = dict(zone_floor_areas_m2)
+        missing = [ch.zone for ch in gain_channels if ch.zone not in areas]
+        if missing:
+            raise ConfigError(
+                "internal-gain channel for a zone without floor area",
+                field="zone_floor_areas_m2",
+                value=missing,
+                hint=f"zones given: {sorted(areas)}",
+            )
+        gain_areas = [areas[str(ch.zone)] for ch in gain_channels]
+        n_zones = len(areas)
+    else:
+        area_list = [float(a) for a in zone_floor_areas_m2]
+        if len(gain_channels) not in (0, len(area_list)):
+            raise ConfigError(
+                "one internal_gain channel per zone expected",
+                field="zone_floor_areas_m2",
+                value=(len(area_list), len(gain_channels)),
+                hint="give the floor areas in the zone order of the internal_gain channels",
+            )
+        gain_areas = area_list if gain_channels else []
+        n_zones = len(area_list)
+    if n_zones < 1:
+        raise ConfigError("need at least one zone", field="zone_floor_areas_m2", value=n_zones)
+
+    weather_path = (
+        Path(weather_file)
+        if weather_file is not None
+        else data_dir() / "weather" / DEFAULT_WEATHER_FILE
+    )
+    usep = load_usep(usep_source if usep_source is not None else data_dir() / DEFAULT_USEP_FOLDER)
+    energy, extrapolated = _align_prices(usep["energy_price_sgd_per_mwh"], index, "USEP")
+    if reserve_source is None:
+        reserve_series = synthetic_reserve_prices(
+            pd.Series(energy, index=index), seed=seed, scale_sgd_per_mwh=reserve_scale_sgd_per_mwh
+        )
+        reserve = reserve_series.to_numpy()
+        synthetic = True
+    else:
+        reserve, _ = _align_prices(load_reserve_prices(reserve_source), index, "reserve price")
+        synthetic = False
+
+    weather, location = _weather_on(index, weather_path)
+    surfaces = [
+        (float(ch.azimuth_deg or 0.0), float(ch.tilt_deg if ch.tilt_deg is not None else 90.0))
+        for ch in channels
+        if ch.kind == "solar"
+    ]
+    solar = surface_irradiance_w_per_m2(weather, location, surfaces).to_numpy()
+    per_m2 = zone_internal_gains_w(
+        index,
+        1.0,
+        gains.occupancy_m2_per_person,
+        gains.sensible_w_per_person,
+        gains.lighting_w_per_m2,
+        gains.equipment_w_per_m2,
+        schedule,
+    )
+    d = np.empty((len(index), len(channels)))
+    solar_i = gain_i = 0
+    for i, ch in enumerate(channels):
+        if ch.kind == "outdoor_temp":
+            d[:, i] = weather["outdoor_temp_degc"].to_numpy()
+        elif ch.kind == "ground_temp":
+            d[:, i] = weather["ground_temp_degc"].to_numpy()
+        elif ch.kind == "solar":
+            d[:, i] = solar[:, solar_i]
+            solar_i += 1
+        elif ch.kind == "internal_gain":
+            d[:, i] = per_m2 * gain_areas[gain_i]
+            gain_i += 1
+        else:
+            raise ConfigError("unknown channel kind", field=ch.name, value=ch.kind)
+    band = comfort or ComfortBand()
+    lower, upper = comfort_bounds_degc(
+        index, n_zones, band.occupied_degc, band.unoccupied_degc, schedule
+    )
+    return Exogenous(
+        index=index,
+        energy_price_sgd_per_mwh=energy,
+        reserve_price_sgd_per_mwh=reserve,
+        reserve_price_synthetic=synthetic,
+        disturbances=d,
+        channels=channels,
+        outdoor_humidity_ratio_kg_per_kg=weather["humidity_ratio_kg_per_kg"].to_numpy(),
+        comfort_lower_degc=lower,
+        comfort_upper_degc=upper,
+        occupied=occupied_mask(index, schedule),
+        energy_price_extrapolated=extrapolated,
+    )

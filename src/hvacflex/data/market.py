@@ -1,0 +1,469 @@
+"""Market prices: NEMS USEP energy prices and interruptible-load (reserve) prices.
+
+Half-hourly periods
+-------------------
+NEMS trades in 48 half-hourly periods a day. Period ``p`` (1…48) of date ``D`` covers
+``[(p−1)·30, p·30)`` minutes after local midnight, Singapore time (SGT, UTC+8, no DST). Every
+series returned here is indexed by the **period start**, tz-aware ``Asia/Singapore``, at a
+30-minute frequency, and named with its unit (``energy_price_sgd_per_mwh`` …).
+
+Energy prices (USEP)
+--------------------
+:func:`load_usep` reads EMC's monthly CSV downloads, in the older format shipped with
+hvacflex (``PRICE ($/MWh)``, ``DEMAND (MW)``) and the newer one (``USEP ($/MWh)``,
+``LCP ($/MWh)``, ``DEMAND (MW)``, ``TCL (MW)`` and later extras such as ``SOLAR(MW)``,
+``RUSEP ($/MWh)``, ``MAP ($/MWh)``, ``MAPT ($/MWh)``, ``TPC Applied``; extras are ignored).
+Every row is checked; a gap is an error unless ``fill="previous-day"`` is asked for
+explicitly. Zero and negative prices are valid market outcomes and are kept.
+
+Reserve prices
+--------------
+No public history of NEMS reserve / interruptible-load prices exists (see the data
+provenance). :func:`synthetic_reserve_prices` generates a seeded, deterministic series
+correlated with USEP and **marked synthetic** (``.attrs["synthetic"] is True``);
+:func:`load_reserve_prices` reads real prices from a user CSV with the USEP period layout.
+"""
+
+from __future__ import annotations
+
+import functools
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Literal
+
+import numpy as np
+import pandas as pd
+
+from hvacflex.errors import DataError
+
+TIMEZONE = "Asia/Singapore"
+"""Time zone of every NEMS series (SGT, UTC+8, no daylight saving)."""
+
+PERIODS_PER_DAY = 48
+PERIOD = pd.Timedelta(minutes=30)
+
+ENERGY_PRICE_COLUMN = "energy_price_sgd_per_mwh"
+SYSTEM_DEMAND_COLUMN = "system_demand_mw"
+RESERVE_PRICE_COLUMN = "reserve_price_sgd_per_mwh"
+
+FillMode = Literal["none", "previous-day"]
+"""How gaps in a price file are treated: ``"none"`` raises, ``"previous-day"`` copies the same
+period of the nearest earlier complete day (and records what it filled)."""
+
+_DATE_COLUMN = "DATE"
+_PERIOD_COLUMN = "PERIOD"
+_USEP_PRICE_COLUMNS = ("PRICE ($/MWh)", "USEP ($/MWh)")
+_DEMAND_COLUMN = "DEMAND (MW)"
+_RESERVE_PRICE_COLUMNS = (
+    "RESERVE PRICE ($/MWh)",
+    "IL PRICE ($/MWh)",
+    "PRICE ($/MWh)",
+    RESERVE_PRICE_COLUMN,
+)
+_DATE_FORMATS = ("%d %b %Y", "%d-%b-%Y", "%d-%b-%y", "%Y-%m-%d", "%d/%m/%Y")
+_MAX_LISTED = 10
+
+RESERVE_PRICE_SCALE = 2.5
+"""Scale of the synthetic reserve price [SGD/MWh]: the reserve price when USEP equals
+:data:`RESERVE_PRICE_REFERENCE_SGD_PER_MWH`, before noise (median ≈ 0.9 × scale, mean ≈ scale).
+
+Provisional. DESIGN §2 asks for reserve revenue ≈ 1 % of energy cost in scenario (a) (the
+paper's Table 1). Revenue depends on the controller, so this value is calibrated once on the
+closed-loop simulator (scenario (a), whole year 2014), then frozen; the calibration run is
+recorded in ``docs/data.md``. Until then 2.5 SGD/MWh gives the "≈2–3 SGD/MWh" of DESIGN §2.
+"""
+
+RESERVE_PRICE_REFERENCE_SGD_PER_MWH = 136.7
+"""USEP at which the synthetic reserve price equals its scale: the 2014 mean USEP [SGD/MWh].
+A fixed constant (not the mean of the series passed in) so that a period's reserve price does
+not depend on the date range requested."""
+
+RESERVE_PRICE_NOISE_SIGMA = 0.35
+"""Standard deviation of the log of the multiplicative lognormal noise (mean-one noise)."""
+
+RESERVE_PRICE_SPIKE_THRESHOLD_SGD_PER_MWH = 300.0
+"""USEP above which reserve prices are amplified (≈ the 2014 99th percentile) [SGD/MWh]."""
+
+RESERVE_PRICE_SPIKE_GAIN = 1.0
+"""Extra amplification per multiple of the spike threshold: the factor is
+``1 + gain · max(0, USEP/threshold − 1)``, so scarcity lifts reserve prices more than
+proportionally, as in a co-optimised energy–reserve market."""
+
+
+def _as_files(source: str | Path | Sequence[str | Path]) -> list[Path]:
+    """One file, a list of files or a folder (its ``*.csv`` files, sorted) → list of files."""
+    items = [source] if isinstance(source, str | Path) else list(source)
+    if not items:
+        raise DataError(
+            "no price files given", field="source", value=[], hint="give a file or a folder"
+        )
+    files: list[Path] = []
+    for item in items:
+        path = Path(item)
+        if path.is_dir():
+            found = sorted(path.glob("*.csv")) + sorted(path.glob("*.CSV"))
+            if not found:
+                raise DataError(
+                    "folder holds no .csv files",
+                    source=path,
+                    hint="point to a folder of EMC CSV downloads or list the files",
+                )
+            files.extend(found)
+        elif path.is_file():
+            files.append(path)
+        else:
+            raise DataError(
+                "price file or folder not found",
+                source=path,
+                hint="check the path (the shipped data is in <data_dir>/nems_usep_2014)",
+            )
+    return files
+
+
+def _normalise_header(name: str) -> str:
+    return " ".join(str(name).strip().split()).upper().replace("/MWH", "/MWh")
+
+
+def _parse_dates(values: pd.Series, path: Path, line: pd.Series) -> pd.Series:
+    """Parse a DATE column with the first known format that reads its first row."""
+    first = str(values.iloc[0])
+    for fmt in _DATE_FORMATS:
+        try:
+            pd.to_datetime(first, format=fmt)
+        except ValueError:
+            continue
+        parsed = pd.to_datetime(values, format=fmt, errors="coerce")
+        bad = parsed.isna().to_numpy()
+        if bad.any():
+            i = int(np.flatnonzero(bad)[0])
+            raise DataError(
+                f"unparseable date ({int(bad.sum())} row(s) in this file)",
+                source=path,
+                line=int(line.iloc[i]),
+                field=_DATE_COLUMN,
+                value=str(values.iloc[i]),
+                hint=f"dates in this file are written like {first!r} (format {fmt!r})",
+            )
+        return parsed
+    raise DataError(
+        "unparseable date",
+        source=path,
+        line=int(line.iloc[0]),
+        field=_DATE_COLUMN,
+        value=first,
+        hint="write dates like '01 Jan 2014' (EMC) or '2014-01-01'",
+    )
+
+
+def _read_period_csv(
+    path: Path,
+    price_columns: Sequence[str],
+    explicit_price_column: str | None = None,
+) -> pd.DataFrame:
+    """Read one half-hourly CSV (DATE, PERIOD, price[, demand]) and check every row.
+
+    Returns a frame with columns ``time`` (tz-aware period start), ``price``, ``demand``
+    (NaN where absent), ``line`` (1-based line in ``path``) and ``file``.
+    """
+    try:
+        raw = pd.read_csv(
+            path, dtype=str, keep_default_na=False, skip_blank_lines=False, skipinitialspace=True
+        )
+    except pd.errors.EmptyDataError:
+        raise DataError("file is empty", source=path, hint="expected a header line") from None
+    except (pd.errors.ParserError, UnicodeDecodeError) as exc:
+        raise DataError(
+            f"not a readable CSV file ({exc})", source=path, hint="expected an EMC CSV download"
+        ) from None
+    header = {_normalise_header(c): c for c in raw.columns}
+    if explicit_price_column is not None:
+        candidates = [c for c in raw.columns if c.strip() == explicit_price_column]
+        price_column = candidates[0] if candidates else None
+    else:
+        matches = [
+            header[_normalise_header(c)] for c in price_columns if _normalise_header(c) in header
+        ]
+        price_column = matches[0] if matches else None
+    missing = [c for c in (_DATE_COLUMN, _PERIOD_COLUMN) if c not in header]
+    if missing or price_column is None:
+        wanted = explicit_price_column or " or ".join(repr(c) for c in price_columns)
+        raise DataError(
+            "unknown header: expected columns DATE, PERIOD and a price column",
+            source=path,
+            line=1,
+            value=list(raw.columns),
+            hint=f"the price column must be {wanted}; is this an EMC USEP download?",
+        )
+    raw["line"] = np.arange(2, len(raw) + 2)
+    blank = (raw.drop(columns="line") == "").all(axis=1)
+    raw = raw.loc[~blank]
+    if raw.empty:
+        raise DataError("file holds no data rows", source=path, hint="expected 48 rows per day")
+    line = raw["line"]
+
+    def numeric(column: str, what: str, hint: str) -> pd.Series:
+        values = pd.to_numeric(raw[column].str.strip(), errors="coerce")
+        bad = values.isna().to_numpy()
+        if bad.any():
+            i = int(np.flatnonzero(bad)[0])
+            raise DataError(
+                f"non-numeric {what} ({int(bad.sum())} row(s) in this file)",
+                source=path,
+                line=int(line.iloc[i]),
+                field=column,
+                value=str(raw[column].iloc[i]),
+                hint=hint,
+            )
+        return values
+
+    dates = _parse_dates(raw[header[_DATE_COLUMN]].str.strip(), path, line)
+    period = numeric(header[_PERIOD_COLUMN], "period", "periods are integers 1…48")
+    bad_period = ((period < 1) | (period > PERIODS_PER_DAY) | (period != period.round())).to_numpy()
+    if bad_period.any():
+        i = int(np.flatnonzero(bad_period)[0])
+        raise DataError(
+            f"period outside 1–48 ({int(bad_period.sum())} row(s) in this file)",
+            source=path,
+            line=int(line.iloc[i]),
+            field=header[_PERIOD_COLUMN],
+            value=str(raw[header[_PERIOD_COLUMN]].iloc[i]),
+            hint="period p covers [(p−1)·30, p·30) min after local midnight, p = 1…48",
+        )
+    price = numeric(price_column, "price", "prices are numbers in SGD/MWh (zero and negative ok)")
+    if _normalise_header(_DEMAND_COLUMN) in header and explicit_price_column is None:
+        demand = numeric(header[_DEMAND_COLUMN], "demand", "demand is a number in MW")
+    else:
+        demand = pd.Series(np.nan, index=raw.index)
+    start = dates + pd.to_timedelta((period.astype(int) - 1) * 30, unit="min")
+    return pd.DataFrame(
+        {
+            "time": start.dt.tz_localize(TIMEZONE).to_numpy(),
+            "price": price.to_numpy(dtype=float),
+            "demand": demand.to_numpy(dtype=float),
+            "line": line.to_numpy(),
+            "file": str(path),
+        }
+    )
+
+
+def _describe(times: pd.DatetimeIndex | pd.Series) -> list[str]:
+    out = []
+    for t in list(times)[:_MAX_LISTED]:
+        ts = pd.Timestamp(t)
+        period = (ts.hour * 60 + ts.minute) // 30 + 1
+        out.append(f"{ts:%d %b %Y} P{period}")
+    if len(times) > _MAX_LISTED:
+        out.append(f"… {len(times) - _MAX_LISTED} more")
+    return out
+
+
+def _check_and_assemble(rows: pd.DataFrame, fill: FillMode, what: str) -> pd.DataFrame:
+    """Reject duplicates, reject (or explicitly fill) missing periods; index by period start."""
+    if fill not in ("none", "previous-day"):
+        raise DataError(
+            "unknown fill mode", field="fill", value=fill, hint="use 'none' or 'previous-day'"
+        )
+    duplicated = rows.duplicated("time", keep=False)
+    if duplicated.any():
+        dup = rows.loc[duplicated].sort_values(["time", "file", "line"])
+        where = [f"{f}:{ln}" for f, ln in zip(dup["file"], dup["line"], strict=True)]
+        first = dup.iloc[0]
+        raise DataError(
+            f"duplicate periods in {what} data: {_describe(dup['time'].drop_duplicates())} "
+            f"at {where[:_MAX_LISTED]}",
+            source=first["file"],
+            line=int(first["line"]),
+            field=_PERIOD_COLUMN,
+            value=_describe(pd.Series([first["time"]]))[0],
+            hint="each (DATE, PERIOD) may appear once; remove the repeated rows or files",
+        )
+    rows = rows.sort_values("time").set_index("time")
+    first_day = rows.index.min().normalize()
+    last_day = rows.index.max().normalize()
+    full = pd.date_range(first_day, last_day + pd.Timedelta(days=1), freq=PERIOD, inclusive="left")
+    full.name = "time"
+    missing = full.difference(pd.DatetimeIndex(rows.index))
+    frame = rows[["price", "demand"]].reindex(full)
+    filled: list[pd.Timestamp] = []
+    if len(missing):
+        if fill == "none":
+            raise DataError(
+                f"{len(missing)} missing period(s) in {what} data between "
+                f"{first_day:%d %b %Y} and {last_day:%d %b %Y}: {_describe(missing)}",
+                source=", ".join(sorted(set(rows["file"])))[:300],
+                field=_PERIOD_COLUMN,
+                hint="add the missing rows, or pass fill='previous-day' to copy the same period "
+                "of the day before (recorded in .attrs['filled_periods'])",
+            )
+        values = frame.to_numpy(copy=True)
+        gaps = np.isnan(values[:, 0])
+        pos = np.flatnonzero(gaps)
+        for p in pos:
+            src = p - PERIODS_PER_DAY
+            while src >= 0 and np.isnan(values[src, 0]):
+                src -= PERIODS_PER_DAY
+            if src < 0:
+                src = p + PERIODS_PER_DAY
+                while src < len(values) and np.isnan(values[src, 0]):
+                    src += PERIODS_PER_DAY
+            if src >= len(values):
+                raise DataError(
+                    f"cannot fill {what} period {_describe(full[[int(p)]])[0]}: that period is "
+                    "missing on every day",
+                    field=_PERIOD_COLUMN,
+                    hint="supply the missing rows",
+                )
+            values[p] = values[src]
+        frame = pd.DataFrame(values, index=full, columns=["price", "demand"])
+        filled = list(full[pos])
+    frame.attrs["filled_periods"] = filled
+    frame.attrs["source_files"] = sorted(set(rows["file"]))
+    return frame
+
+
+@functools.lru_cache(maxsize=8)
+def _load_usep_cached(files: tuple[str, ...], fill: FillMode) -> pd.DataFrame:
+    rows = pd.concat(
+        [_read_period_csv(Path(f), _USEP_PRICE_COLUMNS) for f in files],
+        ignore_index=True,
+    )
+    frame = _check_and_assemble(rows, fill, "USEP")
+    out = pd.DataFrame({ENERGY_PRICE_COLUMN: frame["price"]}, index=frame.index)
+    if frame["demand"].notna().any():
+        out[SYSTEM_DEMAND_COLUMN] = frame["demand"]
+    out.attrs = dict(frame.attrs)
+    return out
+
+
+def load_usep(
+    source: str | Path | Sequence[str | Path], *, fill: FillMode = "none"
+) -> pd.DataFrame:
+    """Read NEMS USEP half-hourly prices from EMC CSV downloads.
+
+    Parameters
+    ----------
+    source : a CSV file, a list of files, or a folder (all its ``*.csv`` files).
+    fill : ``"none"`` (default) raises on missing periods; ``"previous-day"`` copies the same
+        period of the nearest earlier day that has it (later day at the very start) and lists
+        the filled period starts in ``.attrs["filled_periods"]``.
+
+    Returns
+    -------
+    DataFrame indexed by period start (tz ``Asia/Singapore``, 30 min, contiguous from the first
+    day's 00:00 to the last day's 23:30) with ``energy_price_sgd_per_mwh`` [SGD/MWh] and, when
+    the files have ``DEMAND (MW)``, ``system_demand_mw`` [MW]. ``.attrs["source_files"]``
+    lists the files read. Columns other than date, period, price and demand (``LCP``,
+    ``TCL``, ``SOLAR(MW)``, ``RUSEP``, ``MAP``, ``MAPT``, ``TPC Applied``, …) are ignored.
+
+    Raises
+    ------
+    DataError
+        naming file, line and value for an unknown header, a period outside 1–48, an
+        unparseable date, a non-numeric price, duplicate periods, or missing periods.
+    """
+    files = tuple(str(p.resolve()) for p in _as_files(source))
+    cached = _load_usep_cached(files, fill)
+    out = cached.copy()
+    out.attrs = dict(cached.attrs)
+    return out
+
+
+def load_reserve_prices(
+    source: str | Path | Sequence[str | Path],
+    *,
+    column: str | None = None,
+    fill: FillMode = "none",
+) -> pd.Series:
+    """Read real reserve (interruptible-load) prices from CSV files with the USEP layout.
+
+    Each file has a header line with ``DATE`` (e.g. ``01 Jan 2014``), ``PERIOD`` (1…48) and a
+    price column in SGD/MWh: ``column`` if given, otherwise the first of
+    ``RESERVE PRICE ($/MWh)``, ``IL PRICE ($/MWh)``, ``PRICE ($/MWh)``,
+    ``reserve_price_sgd_per_mwh``. Other columns are ignored. Same checks as :func:`load_usep`.
+
+    Returns
+    -------
+    Series ``reserve_price_sgd_per_mwh`` [SGD/MWh] on tz-aware (``Asia/Singapore``) period
+    starts, ``.attrs["synthetic"] = False``.
+    """
+    files = [p.resolve() for p in _as_files(source)]
+    rows = pd.concat(
+        [_read_period_csv(f, _RESERVE_PRICE_COLUMNS, column) for f in files],
+        ignore_index=True,
+    )
+    frame = _check_and_assemble(rows, fill, "reserve price")
+    series = frame["price"].rename(RESERVE_PRICE_COLUMN)
+    series.attrs = {**frame.attrs, "synthetic": False}
+    return series
+
+
+def synthetic_reserve_prices(
+    energy_price: pd.Series,
+    *,
+    seed: int = 2014,
+    scale_sgd_per_mwh: float = RESERVE_PRICE_SCALE,
+) -> pd.Series:
+    """Seeded **synthetic** reserve (IL) prices correlated with the energy price.
+
+    No public NEMS reserve-price history exists, so hvacflex generates one (DESIGN §2)::
+
+        b_k = scale · (max(c_k, 0) / c_ref) · n_k · (1 + g · max(0, c_k / c_spike − 1))
+
+    with ``c_k`` the USEP, ``c_ref`` = :data:`RESERVE_PRICE_REFERENCE_SGD_PER_MWH`,
+    ``n_k`` mean-one lognormal noise (log-σ :data:`RESERVE_PRICE_NOISE_SIGMA`), spike
+    threshold ``c_spike`` and gain ``g`` (:data:`RESERVE_PRICE_SPIKE_THRESHOLD_SGD_PER_MWH`,
+    :data:`RESERVE_PRICE_SPIKE_GAIN`). With the default scale the typical price is 2–3 SGD/MWh
+    and USEP spikes lift it to a few tens. Zero or negative USEP gives zero.
+
+    The noise of each period is drawn from a generator seeded with ``(seed, date)``, so a
+    period's price does not depend on which date range is requested.
+
+    Parameters
+    ----------
+    energy_price : (T,) USEP [SGD/MWh] on a tz-aware 30-min index of period starts.
+    seed : random seed.
+    scale_sgd_per_mwh : price at ``c_k = c_ref`` before noise [SGD/MWh]
+        (default :data:`RESERVE_PRICE_SCALE`, calibrated on the simulator).
+
+    Returns
+    -------
+    (T,) Series ``reserve_price_sgd_per_mwh`` [SGD/MWh] on the same index, with
+    ``.attrs["synthetic"] = True`` and the seed and scale in ``.attrs``.
+    """
+    if not np.isfinite(scale_sgd_per_mwh) or scale_sgd_per_mwh < 0:
+        raise DataError(
+            "reserve price scale must be a finite number ≥ 0",
+            field="scale_sgd_per_mwh",
+            value=scale_sgd_per_mwh,
+            hint=f"the default is {RESERVE_PRICE_SCALE} SGD/MWh",
+        )
+    index = energy_price.index
+    if not isinstance(index, pd.DatetimeIndex):
+        raise DataError(
+            "energy price must be indexed by period start times",
+            field="energy_price",
+            value=type(index).__name__,
+            hint="use the series returned by load_usep",
+        )
+    price = energy_price.to_numpy(dtype=float)
+    local = index.tz_convert(TIMEZONE) if index.tz is not None else index
+    days = local.normalize()
+    slot = ((local - days) // PERIOD).to_numpy().astype(int) % PERIODS_PER_DAY
+    noise_z = np.empty(len(price))
+    day_codes, day_of_row = np.unique(days.to_numpy(), return_inverse=True)
+    for i, day in enumerate(day_codes):
+        ordinal = pd.Timestamp(day).toordinal()
+        z = np.random.default_rng([seed, ordinal]).standard_normal(PERIODS_PER_DAY)
+        rows = day_of_row == i
+        noise_z[rows] = z[slot[rows]]
+    sigma = RESERVE_PRICE_NOISE_SIGMA
+    noise = np.exp(sigma * noise_z - 0.5 * sigma**2)
+    base = np.maximum(price, 0.0) / RESERVE_PRICE_REFERENCE_SGD_PER_MWH
+    spike = 1.0 + RESERVE_PRICE_SPIKE_GAIN * np.maximum(
+        0.0, price / RESERVE_PRICE_SPIKE_THRESHOLD_SGD_PER_MWH - 1.0
+    )
+    out = pd.Series(
+        scale_sgd_per_mwh * base * noise * spike, index=index, name=RESERVE_PRICE_COLUMN
+    )
+    out.attrs = {"synthetic": True, "seed": seed, "scale_sgd_per_mwh": scale_sgd_per_mwh}
+    return out

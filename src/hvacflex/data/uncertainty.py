@@ -1,0 +1,300 @@
+"""The disturbance uncertainty box, its worst-case effect, and realisation samplers.
+
+Box
+---
+The realised disturbance is ``d_k = d̂_k + w_k`` with ``|w_k| ≤ σ_k`` elementwise
+(paper eq. 4, DESIGN §3). :class:`UncertaintyBox` sets ``σ`` per channel *kind*
+(``outdoor_temp``, ``solar``, ``internal_gain``, ``ground_temp``) as a fraction of the
+forecast and/or an absolute value in the channel's unit::
+
+    σ_k,i = relative[kind_i] · |d̂_k,i| + absolute[kind_i]
+
+Worst-case margin
+-----------------
+For ``x_{k+1} = A x_k + … + E (d̂_k + w_k)`` and outputs ``y = C x``, the largest effect of the
+box on ``y_k`` (k = 1…N steps ahead) is (DESIGN §3)::
+
+    δ_k = Σ_{j<k} |C A^{k−1−j} E| σ_j        (elementwise absolute value)
+
+:func:`worst_case_margin_k` evaluates it; compare ``max_k δ_k`` with the comfort half-band
+(1.5 K for 23–26 °C) to see whether a σ is satisfiable at all.
+
+Default level
+-------------
+:data:`DEFAULT_UNCERTAINTY` (±20 % of solar and internal gains, ±0.5 K outdoor temperature)
+is provisional: the lead fixes it once the default building exists, such that its
+``max_k δ_k`` stays well inside the occupied half-band. :func:`paper_uncertainty` gives the
+paper's ±50 % of heat gains, which can make the open-loop robust problem infeasible for a
+perimeter zone (DESIGN §3 "Uncertainty level").
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from types import MappingProxyType
+from typing import Any, Literal, get_args
+
+import numpy as np
+
+from hvacflex.building.channels import CHANNEL_UNITS, DisturbanceChannel
+from hvacflex.errors import ConfigError
+
+SamplerMode = Literal["zero", "uniform", "worst-upper", "worst-lower", "ar1"]
+
+AR1_COEFFICIENT = 0.9
+"""Default lag-one autocorrelation of AR(1) disturbance errors per 30-min step [-]
+(a correlation time of about 5 h)."""
+
+
+def _frozen_mapping(values: Mapping[str, float], name: str) -> Mapping[str, float]:
+    checked: dict[str, float] = {}
+    for kind, value in dict(values).items():
+        if kind not in CHANNEL_UNITS:
+            raise ConfigError(
+                "unknown disturbance channel kind",
+                source="UncertaintyBox",
+                field=f"{name}.{kind}",
+                value=kind,
+                hint=f"kinds are {sorted(CHANNEL_UNITS)}",
+            )
+        number = float(value)
+        if not math.isfinite(number) or number < 0:
+            raise ConfigError(
+                "uncertainty must be a finite number ≥ 0",
+                source="UncertaintyBox",
+                field=f"{name}.{kind}",
+                value=value,
+                hint="relative values are fractions (0.2 = ±20 %), absolute ones in the "
+                "channel's unit",
+            )
+        checked[kind] = number
+    return MappingProxyType(checked)
+
+
+@dataclass(frozen=True)
+class UncertaintyBox:
+    """Half-widths σ of the disturbance box, per channel kind.
+
+    Attributes
+    ----------
+    relative : kind → fraction of the forecast's magnitude (0.2 = ±20 %).
+    absolute : kind → half-width in the channel's unit (K for temperatures, W/m² for solar,
+        W for internal gains).
+    """
+
+    relative: Mapping[str, float] = field(default_factory=dict)
+    absolute: Mapping[str, float] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "relative", _frozen_mapping(self.relative, "relative"))
+        object.__setattr__(self, "absolute", _frozen_mapping(self.absolute, "absolute"))
+
+    def coefficients(self, channels: Sequence[DisturbanceChannel]) -> tuple[np.ndarray, np.ndarray]:
+        """Per-channel (relative (nd,), absolute (nd,)) coefficients, for precomputation."""
+        relative = np.array([self.relative.get(ch.kind, 0.0) for ch in channels], dtype=float)
+        absolute = np.array([self.absolute.get(ch.kind, 0.0) for ch in channels], dtype=float)
+        return relative, absolute
+
+    def sigma(self, d_forecast: np.ndarray, channels: Sequence[DisturbanceChannel]) -> np.ndarray:
+        """Box half-widths for a forecast.
+
+        Parameters
+        ----------
+        d_forecast : (N, nd) or (nd,) forecast disturbances, channel units.
+        channels : (nd,) their channels.
+
+        Returns
+        -------
+        σ, same shape as ``d_forecast``, ≥ 0, channel units.
+        """
+        relative, absolute = self.coefficients(channels)
+        d = np.asarray(d_forecast, dtype=float)
+        if d.shape[-1] != len(channels):
+            raise ConfigError(
+                "forecast and channels disagree",
+                field="d_forecast",
+                value=d.shape,
+                hint=f"expected last dimension {len(channels)}",
+            )
+        result: np.ndarray = relative * np.abs(d) + absolute
+        return result
+
+    def scaled(self, factor: float) -> UncertaintyBox:
+        """The box with every half-width multiplied by ``factor`` ≥ 0 (for sweeps)."""
+        return UncertaintyBox(
+            {k: v * factor for k, v in self.relative.items()},
+            {k: v * factor for k, v in self.absolute.items()},
+        )
+
+    @property
+    def is_zero(self) -> bool:
+        """True if the box is a point (nominal MPC)."""
+        return not any(self.relative.values()) and not any(self.absolute.values())
+
+
+NO_UNCERTAINTY = UncertaintyBox()
+"""σ = 0: the nominal MPC of scenario (a)."""
+
+DEFAULT_UNCERTAINTY = UncertaintyBox(
+    relative={"solar": 0.2, "internal_gain": 0.2}, absolute={"outdoor_temp": 0.5}
+)
+"""Default box: ±20 % of solar and internal gains, ±0.5 K outdoor temperature. Provisional:
+fixed by the lead once the default building's ``max_k δ_k`` is known (DESIGN §3)."""
+
+
+def paper_uncertainty(level: float = 0.5) -> UncertaintyBox:
+    """The paper's box: ±``level`` (default 50 %) of the heat gains (solar and internal)."""
+    return UncertaintyBox(relative={"solar": level, "internal_gain": level})
+
+
+def impulse_response_abs(a: np.ndarray, e: np.ndarray, c: np.ndarray, n: int) -> np.ndarray:
+    """``|C A^m E|`` for m = 0…n−1.
+
+    Parameters
+    ----------
+    a : (nx, nx) state matrix; e : (nx, nd) disturbance matrix; c : (ny, nx) output matrix.
+    n : number of terms (the horizon N).
+
+    Returns
+    -------
+    (n, ny, nd) elementwise absolute impulse responses.
+    """
+    a = np.asarray(a, dtype=float)
+    power_e = np.asarray(e, dtype=float)
+    c = np.asarray(c, dtype=float)
+    out = np.empty((n, c.shape[0], power_e.shape[1]))
+    for m in range(n):
+        out[m] = np.abs(c @ power_e)
+        power_e = a @ power_e
+    return out
+
+
+def worst_case_margin_k(
+    a: np.ndarray, e: np.ndarray, c: np.ndarray, sigma: np.ndarray
+) -> np.ndarray:
+    """Worst-case output deviation δ_k caused by the box (DESIGN §3).
+
+    ``δ_k = Σ_{j=0}^{k−1} |C A^{k−1−j} E| σ_j`` for k = 1…N.
+
+    Parameters
+    ----------
+    a : (nx, nx); e : (nx, nd); c : (ny, nx) — the discrete model ``x+ = A x + E d``, ``y = C x``.
+    sigma : (N, nd) box half-widths σ_j for steps j = 0…N−1 [channel units].
+
+    Returns
+    -------
+    (N, ny) δ; row k−1 bounds ``|y_k − ŷ_k|`` k steps ahead [output units, K for temperatures].
+    """
+    sigma = np.atleast_2d(np.asarray(sigma, dtype=float))
+    n = sigma.shape[0]
+    h = impulse_response_abs(a, e, c, n)
+    delta = np.zeros((n, h.shape[1]))
+    for m in range(n):
+        # δ_k gets |C A^m E| σ_j for j = k−1−m, i.e. rows k−1 = m … N−1 use σ_0 … σ_{N−1−m}.
+        delta[m:] += sigma[: n - m] @ h[m].T
+    return delta
+
+
+class DisturbanceSampler:
+    """Draws realised disturbance errors ``w_k`` inside the box, one step at a time.
+
+    Modes
+    -----
+    ``zero``        w = 0 (the forecast is exact).
+    ``uniform``     w ~ U[−σ, σ], independent across steps and channels (seeded; default).
+    ``worst-upper`` w = +σ (every disturbance at its upper corner: hottest).
+    ``worst-lower`` w = −σ.
+    ``ar1``         w = σ · erf(a / √2) with a standard-normal AR(1) state
+                    ``a_k = φ a_{k−1} + √(1−φ²) ε_k``: uniform marginals like ``uniform``
+                    but correlated in time (φ = ``ar1_coefficient``).
+
+    ``get_state()`` / ``set_state()`` capture the generator and AR(1) state (JSON-compatible),
+    so an interrupted simulation resumes with the same draws.
+    """
+
+    def __init__(
+        self,
+        mode: SamplerMode = "uniform",
+        seed: int = 2014,
+        *,
+        ar1_coefficient: float = AR1_COEFFICIENT,
+    ) -> None:
+        if mode not in get_args(SamplerMode):
+            raise ConfigError(
+                "unknown disturbance sampler mode",
+                field="mode",
+                value=mode,
+                hint=f"use one of {list(get_args(SamplerMode))}",
+            )
+        if not 0.0 <= ar1_coefficient < 1.0:
+            raise ConfigError(
+                "AR(1) coefficient must be in [0, 1)",
+                field="ar1_coefficient",
+                value=ar1_coefficient,
+            )
+        self.mode: SamplerMode = mode
+        self.seed = seed
+        self.ar1_coefficient = ar1_coefficient
+        self._rng = np.random.default_rng(seed)
+        self._ar1_state: np.ndarray | None = None
+
+    def sample(self, sigma: np.ndarray) -> np.ndarray:
+        """One realisation.
+
+        Parameters
+        ----------
+        sigma : (nd,) box half-widths for this step, ≥ 0.
+
+        Returns
+        -------
+        (nd,) w with ``|w| ≤ σ``.
+        """
+        sigma = np.asarray(sigma, dtype=float)
+        if self.mode == "zero":
+            return np.zeros_like(sigma)
+        if self.mode == "worst-upper":
+            return sigma.copy()
+        if self.mode == "worst-lower":
+            return -sigma
+        if self.mode == "uniform":
+            unit = self._rng.uniform(-1.0, 1.0, size=sigma.shape)
+        else:
+            phi = self.ar1_coefficient
+            innovation = self._rng.standard_normal(sigma.shape)
+            if self._ar1_state is None or self._ar1_state.shape != sigma.shape:
+                state = innovation
+            else:
+                state = phi * self._ar1_state + math.sqrt(1.0 - phi * phi) * innovation
+            self._ar1_state = state
+            unit = np.array([math.erf(v / math.sqrt(2.0)) for v in state.ravel()]).reshape(
+                sigma.shape
+            )
+        result: np.ndarray = sigma * unit
+        return result
+
+    def get_state(self) -> dict[str, Any]:
+        """Everything needed to continue the sequence (JSON-serialisable)."""
+        return {
+            "mode": self.mode,
+            "seed": self.seed,
+            "ar1_coefficient": self.ar1_coefficient,
+            "bit_generator": self._rng.bit_generator.state,
+            "ar1_state": None if self._ar1_state is None else self._ar1_state.tolist(),
+        }
+
+    def set_state(self, state: Mapping[str, Any]) -> None:
+        """Restore a state from :meth:`get_state`."""
+        if state.get("mode") != self.mode:
+            raise ConfigError(
+                "sampler state is for another mode",
+                field="mode",
+                value=state.get("mode"),
+                hint=f"this sampler's mode is {self.mode!r}",
+            )
+        self.seed = int(state["seed"])
+        self.ar1_coefficient = float(state["ar1_coefficient"])
+        self._rng.bit_generator.state = dict(state["bit_generator"])
+        ar1 = state.get("ar1_state")
+        self._ar1_state = None if ar1 is None else np.asarray(ar1, dtype=float)
