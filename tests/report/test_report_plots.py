@@ -1,0 +1,140 @@
+"""Figures: each writes a PNG and the CSV behind it, and the CSV holds what the figure claims."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from hvacflex import kpi
+from hvacflex.errors import DataError
+from hvacflex.report import plots
+
+PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
+Factory = Callable[..., pd.DataFrame]
+
+
+def _assert_png_and_csv(path: Path, expected: Path) -> pd.DataFrame:
+    assert path == expected
+    assert path.read_bytes().startswith(PNG_MAGIC)
+    assert path.stat().st_size > 5_000
+    return pd.read_csv(plots.csv_path(path))
+
+
+@pytest.fixture
+def scenarios(make_results: Factory) -> dict[str, pd.DataFrame]:
+    return {
+        "(a) NMPC": make_results(seed=1, temp_offset_k=0.8),
+        "(b) RMPC": make_results(seed=2),
+        "(c) RMPC + PPP": make_results(seed=3, power_scale=0.8),
+    }
+
+
+def test_plot_prices_marks_the_reserve_price_synthetic(
+    tmp_path: Path, make_results: Factory
+) -> None:
+    results = make_results()
+    path = plots.plot_prices(results, tmp_path / "fig2_prices.png")
+    data = _assert_png_and_csv(path, tmp_path / "fig2_prices.png")
+    assert len(data) == len(results)
+    assert data["energy_price_sgd_per_mwh"].to_numpy() == pytest.approx(
+        results["energy_price_sgd_per_mwh"].to_numpy()
+    )
+    assert data["reserve_price_synthetic"].all()
+
+
+def test_plot_temperatures_writes_served_and_curtailed(
+    tmp_path: Path, scenarios: dict[str, pd.DataFrame]
+) -> None:
+    path = plots.plot_temperatures(scenarios, tmp_path / "fig5.png")
+    data = _assert_png_and_csv(path, tmp_path / "fig5.png")
+    assert set(data["scenario"]) == set(scenarios)
+    assert set(data["zone"]) == {"north", "core"}
+    assert len(data) == 3 * 2 * 96
+    # cooling: curtailing the flow can only warm the zone
+    assert (data["temp_curtailed_degc"] >= data["temp_served_degc"]).all()
+    # realised end temperature is the curtailed one where IL was activated
+    active = data[data["il_activated"]]
+    assert not active.empty
+    assert active["temp_end_degc"].to_numpy() == pytest.approx(
+        active["temp_curtailed_degc"].to_numpy()
+    )
+    # period ends: first row is 30 min after the first period start (local time)
+    first = pd.Timestamp(data["time_end"].iloc[0])
+    assert first == pd.Timestamp("2014-03-03 00:30")
+
+
+def test_plot_temperatures_without_predictions_and_a_zone_subset(
+    tmp_path: Path, make_results: Factory
+) -> None:
+    results = make_results(predictions=False)
+    path = plots.plot_temperatures({"rmpc": results}, tmp_path / "t.png", zones=["core"])
+    data = _assert_png_and_csv(path, tmp_path / "t.png")
+    assert set(data["zone"]) == {"core"}
+    assert data["temp_served_degc"].isna().all()
+    assert data["temp_end_degc"].notna().all()
+
+
+def test_plot_power_reserve(tmp_path: Path, scenarios: dict[str, pd.DataFrame]) -> None:
+    path = plots.plot_power_reserve(scenarios, tmp_path / "fig6.png")
+    data = _assert_png_and_csv(path, tmp_path / "fig6.png")
+    for label, results in scenarios.items():
+        rows = data[data["scenario"] == label]
+        assert rows["power_kw"].max() == pytest.approx(kpi.peak_power_kw(results))
+        assert rows["reserve_kw"].to_numpy() == pytest.approx(results["reserve_kw"].to_numpy())
+
+
+def test_plot_ppp_sweep_normalises_by_the_maximum(tmp_path: Path) -> None:
+    sweep = pd.DataFrame(
+        {
+            "peak_price_sgd_per_kw": [30.0, 0.5, 5.0, 1.5],
+            "total_cost_sgd": [200.0, 160.0, 190.0, 180.0],
+            "peak_power_kw": [12.0, 20.0, 12.5, 16.0],
+        }
+    )
+    path = plots.plot_ppp_sweep(sweep, tmp_path / "fig7.png")
+    data = _assert_png_and_csv(path, tmp_path / "fig7.png")
+    assert data["peak_price_sgd_per_kw"].to_list() == [0.5, 1.5, 5.0, 30.0]
+    # 160/200, 180/200, 190/200, 200/200 and 20/20, 16/20, 12.5/20, 12/20
+    assert data["normalised_total_cost_pct"].to_list() == pytest.approx([80, 90, 95, 100])
+    assert data["normalised_peak_power_pct"].to_list() == pytest.approx([100, 80, 62.5, 60])
+
+
+def test_plot_ppp_sweep_names_missing_columns(tmp_path: Path) -> None:
+    with pytest.raises(DataError, match="total_cost_sgd"):
+        plots.plot_ppp_sweep(pd.DataFrame({"peak_price_sgd_per_kw": [1.0]}), tmp_path / "x.png")
+
+
+def test_plot_discomfort_totals_per_scenario(
+    tmp_path: Path, scenarios: dict[str, pd.DataFrame]
+) -> None:
+    path = plots.plot_discomfort(scenarios, tmp_path / "discomfort.png")
+    data = _assert_png_and_csv(path, tmp_path / "discomfort.png").set_index("scenario")
+    for label, results in scenarios.items():
+        assert data.loc[label, "total"] == pytest.approx(kpi.total_discomfort_kelvin_hours(results))
+    # the warmer (a) run violates the occupied upper bound; (b) does not
+    assert data.loc["(a) NMPC", "total"] > data.loc["(b) RMPC", "total"] == 0.0
+
+
+def test_plot_robustness_price_with_and_without_controller(tmp_path: Path) -> None:
+    levels = np.array([0.0, 0.1, 0.3, 0.5])
+    sweep = pd.DataFrame(
+        {
+            "uncertainty_level": np.tile(levels, 2),
+            "controller": ["open-loop"] * 4 + ["closed-loop"] * 4,
+            "energy_cost_sgd": np.tile(100 + 50 * levels, 2),
+            "reserve_revenue_sgd": np.tile(1 - levels, 2),
+            "discomfort_kelvin_hours": np.tile(5 * levels, 2),
+            "planned_slack_share": np.tile(levels, 2),
+        }
+    )
+    path = plots.plot_robustness_price(sweep, tmp_path / "robust.png")
+    data = _assert_png_and_csv(path, tmp_path / "robust.png")
+    assert len(data) == 8
+    single = sweep.drop(columns="controller").iloc[:4].sample(frac=1.0, random_state=0)
+    path = plots.plot_robustness_price(single, tmp_path / "robust1.png")
+    data = _assert_png_and_csv(path, tmp_path / "robust1.png")
+    assert data["uncertainty_level"].to_list() == list(levels)
