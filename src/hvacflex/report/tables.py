@@ -1,0 +1,191 @@
+"""The paper's Table 1 from our runs, the published values beside it, and table rendering.
+
+Table 1 of Hanif et al. (2016) gives, for scenarios (a) NMPC, (b) RMPC and (c) RMPC with a
+PPP of 1.5 SGD/kW over 2014, the monthly average energy cost, reserve revenue and "Total"
+(= cost − revenue; the PPP charge is not in it), with the % change against (a).
+:func:`table1` builds the same layout from :func:`hvacflex.kpi.monthly_table` outputs; the
+averaging over months (partial months included) is :func:`hvacflex.kpi.monthly_average`'s.
+"""
+
+from __future__ import annotations
+
+import html
+import math
+import numbers
+from collections.abc import Mapping
+
+import pandas as pd
+
+from hvacflex import kpi
+from hvacflex.errors import InputError
+
+TABLE1_QUANTITIES = ("energy_cost_sgd", "reserve_revenue_sgd", "net_cost_sgd")
+"""Monthly-average quantities of Table 1 [SGD per month]."""
+
+TABLE1_COLUMNS = (
+    "energy_cost_sgd",
+    "energy_cost_change_pct",
+    "reserve_revenue_sgd",
+    "reserve_revenue_change_pct",
+    "net_cost_sgd",
+    "net_cost_change_pct",
+)
+"""Columns of :func:`table1` and :data:`PAPER_TABLE1`, in display order."""
+
+PAPER_TABLE1 = pd.DataFrame(
+    {
+        "energy_cost_sgd": [1471.0, 1530.0, 1565.0],
+        "energy_cost_change_pct": [0.0, 4.0, 6.4],
+        "reserve_revenue_sgd": [15.25, 15.52, 17.10],
+        "reserve_revenue_change_pct": [0.0, 1.7, 12.0],
+        "net_cost_sgd": [1455.8, 1514.5, 1547.9],
+        "net_cost_change_pct": [0.0, 4.0, 6.3],
+    },
+    index=pd.Index(["(a) NMPC", "(b) RMPC", "(c) RMPC + PPP 1.5 SGD/kW"], name="scenario"),
+)
+"""Table 1 as published (monthly averages over 2014, SGD; % vs (a) as printed, rounded).
+
+Treat as read-only; :func:`paper_table1` returns a copy.
+"""
+
+
+def paper_table1() -> pd.DataFrame:
+    """A copy of :data:`PAPER_TABLE1`."""
+    return PAPER_TABLE1.copy()
+
+
+def _change_pct(value: float, reference: float) -> float:
+    if reference == 0.0 or math.isnan(reference):
+        return math.nan
+    return 100.0 * (value / reference - 1.0)
+
+
+def table1(monthly: Mapping[str, pd.DataFrame]) -> pd.DataFrame:
+    """Table 1 from our runs: monthly averages and % change against the first scenario.
+
+    Parameters
+    ----------
+    monthly : scenario label → :func:`hvacflex.kpi.monthly_table` of that run, in display
+        order; the first is the reference (the paper's (a)).
+
+    Returns
+    -------
+    DataFrame indexed by scenario (``scenario``) with :data:`TABLE1_COLUMNS` [SGD per month,
+    %] and ``months`` (month-equivalents averaged over) and ``days`` (days covered).
+    """
+    if not monthly:
+        raise InputError("table1 needs at least one scenario", field="monthly", value={})
+    averages = {label: kpi.monthly_average(table) for label, table in monthly.items()}
+    reference = next(iter(averages.values()))
+    rows = {}
+    for label, average in averages.items():
+        row: dict[str, float] = {}
+        for quantity in TABLE1_QUANTITIES:
+            value = float(average[quantity])
+            row[quantity] = value
+            row[quantity.replace("_sgd", "_change_pct")] = _change_pct(
+                value, float(reference[quantity])
+            )
+        row["months"] = float(average["months"])
+        row["days"] = float(average["days"])
+        rows[label] = row
+    frame = pd.DataFrame.from_dict(rows, orient="index")
+    return frame[[*TABLE1_COLUMNS, "months", "days"]].rename_axis("scenario")
+
+
+def table1_vs_paper(ours: pd.DataFrame, paper: pd.DataFrame | None = None) -> pd.DataFrame:
+    """Our Table 1 beside the published one, row by row in scenario order (a), (b), (c).
+
+    Parameters
+    ----------
+    ours : :func:`table1` output (its row labels are kept).
+    paper : the published table; default :data:`PAPER_TABLE1`.
+
+    Returns
+    -------
+    DataFrame with, for each of :data:`TABLE1_COLUMNS`, a column ``"<name> (ours)"`` and
+    ``"<name> (paper)"``, plus ``paper_scenario``; rows beyond the paper's three have NaN
+    paper values.
+    """
+    paper = PAPER_TABLE1 if paper is None else paper
+    n = len(ours)
+    paper_rows = paper.reindex(paper.index[: min(n, len(paper))]).reset_index()
+    paper_rows = paper_rows.reindex(range(n))
+    result = pd.DataFrame(index=ours.index)
+    result["paper_scenario"] = paper_rows[paper.index.name or "index"].to_numpy()
+    for column in TABLE1_COLUMNS:
+        result[f"{column} (ours)"] = ours[column].to_numpy(float)
+        result[f"{column} (paper)"] = paper_rows[column].to_numpy(float)
+    return result
+
+
+# ----------------------------------------------------------------------------- rendering
+
+
+def format_value(column: str, value: object) -> str:
+    """Display text of one cell: ``%`` columns signed with one decimal, NaN as "–"."""
+    if isinstance(value, bool):
+        return str(value)
+    if isinstance(value, numbers.Real):
+        number = float(value)
+        if math.isnan(number):
+            return "–"
+        if "_pct" in column:
+            return f"{number:+.1f} %"
+        if "_share" in column:
+            return f"{100.0 * number:.2f} %"
+        return f"{number:,.2f}"
+    return str(value)
+
+
+def _header_and_rows(frame: pd.DataFrame) -> tuple[list[str], list[list[str]]]:
+    index_name = str(frame.index.name) if frame.index.name is not None else ""
+    header = [index_name, *(str(col) for col in frame.columns)]
+    rows = [
+        [
+            str(label),
+            *(format_value(str(col), value) for col, value in zip(frame.columns, row, strict=True)),
+        ]
+        for label, row in zip(frame.index, frame.itertuples(index=False), strict=True)
+    ]
+    return header, rows
+
+
+def _escape_markdown(text: str) -> str:
+    return text.replace("|", r"\|")
+
+
+def to_markdown(frame: pd.DataFrame) -> str:
+    """A GitHub-flavoured Markdown table of ``frame`` (index as first column), cells by
+    :func:`format_value`, numbers right-aligned."""
+    header, rows = _header_and_rows(frame)
+    align = ["---", *("---:" for _ in frame.columns)]
+    lines = [
+        "| " + " | ".join(_escape_markdown(h) for h in header) + " |",
+        "| " + " | ".join(align) + " |",
+        *("| " + " | ".join(_escape_markdown(cell) for cell in row) + " |" for row in rows),
+    ]
+    return "\n".join(lines) + "\n"
+
+
+def to_html(frame: pd.DataFrame, *, caption: str | None = None) -> str:
+    """An HTML ``<table class="hvacflex">`` of ``frame`` (index as first column), cells by
+    :func:`format_value`, all text escaped; numeric cells carry ``class="num"``."""
+    header, rows = _header_and_rows(frame)
+    parts = ['<table class="hvacflex">']
+    if caption:
+        parts.append(f"<caption>{html.escape(caption)}</caption>")
+    parts.append("<thead><tr>" + "".join(f"<th>{html.escape(h)}</th>" for h in header))
+    parts.append("</tr></thead><tbody>")
+    numeric = [pd.api.types.is_numeric_dtype(frame[col]) for col in frame.columns]
+    for row in rows:
+        cells = [f"<th>{html.escape(row[0])}</th>"]
+        cells += [
+            f'<td class="num">{html.escape(cell)}</td>'
+            if is_num
+            else f"<td>{html.escape(cell)}</td>"
+            for cell, is_num in zip(row[1:], numeric, strict=True)
+        ]
+        parts.append("<tr>" + "".join(cells) + "</tr>")
+    parts.append("</tbody></table>")
+    return "\n".join(parts)

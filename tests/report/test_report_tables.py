@@ -1,0 +1,110 @@
+"""Table 1 layout, the published values, and Markdown/HTML rendering."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import pandas as pd
+import pytest
+
+from hvacflex import kpi
+from hvacflex.report import tables
+
+Factory = Callable[..., pd.DataFrame]
+
+
+def _monthly(energy_cost: list[float], reserve: list[float]) -> pd.DataFrame:
+    """A hand-made monthly table of complete months."""
+    n = len(energy_cost)
+    return pd.DataFrame(
+        {
+            "days": [31.0] * n,
+            "month_fraction": [1.0] * n,
+            "energy_cost_sgd": energy_cost,
+            "reserve_revenue_sgd": reserve,
+            "net_cost_sgd": [c - r for c, r in zip(energy_cost, reserve, strict=True)],
+            "energy_kwh": [1000.0] * n,
+            "peak_power_kw": [20.0] * n,
+            "ppp_charge_sgd": [0.0] * n,
+        },
+        index=pd.period_range("2014-01", periods=n, freq="M", name="month"),
+    )
+
+
+def test_table1_monthly_averages_and_change_vs_first_scenario() -> None:
+    table = tables.table1(
+        {
+            "(a)": _monthly([1000.0, 1200.0], [10.0, 12.0]),  # averages 1100, 11, 1089
+            "(b)": _monthly([1100.0, 1320.0], [11.0, 11.0]),  # 1210 (+10 %), 11 (0 %), 1199
+        }
+    )
+    assert list(table.index) == ["(a)", "(b)"]
+    assert table.loc["(a)", "energy_cost_sgd"] == pytest.approx(1100.0)
+    assert table.loc["(a)", "net_cost_sgd"] == pytest.approx(1089.0)
+    assert table.loc["(a)", "energy_cost_change_pct"] == 0.0
+    assert table.loc["(b)", "energy_cost_sgd"] == pytest.approx(1210.0)
+    assert table.loc["(b)", "energy_cost_change_pct"] == pytest.approx(10.0)
+    assert table.loc["(b)", "reserve_revenue_change_pct"] == pytest.approx(0.0)
+    assert table.loc["(b)", "net_cost_change_pct"] == pytest.approx(100 * (1199 / 1089 - 1))
+    assert table.loc["(b)", "months"] == 2.0
+
+
+def test_table1_from_fabricated_runs(make_results: Factory) -> None:
+    monthly = {
+        "a": kpi.monthly_table(make_results(seed=1)),
+        "c": kpi.monthly_table(make_results(seed=1, power_scale=1.1)),
+    }
+    table = tables.table1(monthly)
+    assert table.loc["c", "energy_cost_change_pct"] > 0.0
+    assert table.loc["a", "days"] == pytest.approx(2.0)
+
+
+def test_paper_table1_is_consistent() -> None:
+    paper = tables.paper_table1()
+    # "Total" = cost − revenue, to the published rounding
+    assert (paper["energy_cost_sgd"] - paper["reserve_revenue_sgd"]).to_list() == pytest.approx(
+        paper["net_cost_sgd"].to_list(), abs=0.06
+    )
+    # printed % changes vs (a), to the printed precision (+1.77 % printed 1.7, +12.1 % as 12)
+    for quantity in tables.TABLE1_QUANTITIES:
+        change = 100 * (paper[quantity] / paper[quantity].iloc[0] - 1)
+        printed = paper[quantity.replace("_sgd", "_change_pct")]
+        assert change.to_list() == pytest.approx(printed.to_list(), abs=0.15)
+    paper.iloc[0, 0] = -1.0
+    assert tables.PAPER_TABLE1.iloc[0, 0] == 1471.0
+
+
+def test_table1_vs_paper_aligns_rows_in_order() -> None:
+    ours = tables.table1(
+        {
+            "nmpc": _monthly([1000.0], [10.0]),
+            "rmpc": _monthly([1050.0], [10.5]),
+            "rmpc-ppp": _monthly([1080.0], [11.0]),
+            "thermostat": _monthly([1200.0], [0.0]),
+        }
+    )
+    side = tables.table1_vs_paper(ours)
+    assert list(side.index) == ["nmpc", "rmpc", "rmpc-ppp", "thermostat"]
+    assert side.loc["rmpc", "energy_cost_sgd (ours)"] == 1050.0
+    assert side.loc["rmpc", "energy_cost_sgd (paper)"] == 1530.0
+    assert side.loc["rmpc-ppp", "reserve_revenue_change_pct (paper)"] == 12.0
+    assert side.loc["rmpc-ppp", "paper_scenario"].startswith("(c)")
+    assert pd.isna(side.loc["thermostat", "net_cost_sgd (paper)"])
+
+
+def test_to_markdown_and_to_html_render_every_cell() -> None:
+    frame = pd.DataFrame(
+        {"energy_cost_sgd": [1471.0, 1530.0], "energy_cost_change_pct": [0.0, 4.0]},
+        index=pd.Index(["(a) <NMPC>", "(b) RMPC|x"], name="scenario"),
+    )
+    markdown = tables.to_markdown(frame)
+    lines = markdown.splitlines()
+    assert lines[0] == "| scenario | energy_cost_sgd | energy_cost_change_pct |"
+    assert lines[1] == "| --- | ---: | ---: |"
+    assert lines[3] == r"| (b) RMPC\|x | 1,530.00 | +4.0 % |"
+    html = tables.to_html(frame, caption="Table 1")
+    assert "<caption>Table 1</caption>" in html
+    assert "(a) &lt;NMPC&gt;" in html
+    assert '<td class="num">+4.0 %</td>' in html
+    assert tables.format_value("x_sgd", float("nan")) == "–"
+    assert tables.format_value("violation_share", 0.25) == "25.00 %"
