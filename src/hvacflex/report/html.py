@@ -1,0 +1,169 @@
+"""One self-contained HTML report: figures embedded, tables inline, no external resources.
+
+:func:`write_report` writes ``report.html`` into a directory from a list of
+:class:`Section`. PNG figures are embedded as base64 ``data:`` URIs, tables are rendered by
+:func:`hvacflex.report.tables.to_html`, configuration goes in ``<pre>`` blocks and text is
+escaped. The page loads nothing from elsewhere and needs no JavaScript, so it can be mailed or
+archived as one file. The CSV behind a figure (``<figure>.csv``, see
+:mod:`hvacflex.report.plots`) is named in its caption when it exists beside the PNG.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import re
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import pandas as pd
+
+from hvacflex.errors import InputError
+from hvacflex.report.tables import to_html
+
+REPORT_FILENAME = "report.html"
+"""Name of the report written by :func:`write_report`."""
+
+_STYLE = """
+body { font-family: system-ui, -apple-system, "Segoe UI", Roboto, sans-serif; max-width: 70rem;
+       margin: 2rem auto; padding: 0 1rem; color: #222; line-height: 1.45; }
+h1 { border-bottom: 2px solid #444; padding-bottom: .3rem; }
+h2 { margin-top: 2.5rem; border-bottom: 1px solid #bbb; }
+nav ol { columns: 2; }
+figure { margin: 1.5rem 0; }
+figure img { max-width: 100%; height: auto; border: 1px solid #ddd; }
+figcaption { font-size: .9rem; color: #555; }
+table.hvacflex { border-collapse: collapse; margin: 1rem 0; font-size: .9rem; }
+table.hvacflex caption { text-align: left; font-weight: 600; padding-bottom: .3rem; }
+table.hvacflex th, table.hvacflex td { border: 1px solid #ccc; padding: .25rem .6rem; }
+table.hvacflex thead th { background: #f0f0f0; }
+table.hvacflex tbody th { text-align: left; font-weight: normal; background: #fafafa; }
+table.hvacflex td.num { text-align: right; font-variant-numeric: tabular-nums; }
+pre { background: #f6f6f6; padding: .8rem; overflow-x: auto; font-size: .85rem; }
+footer { margin-top: 3rem; font-size: .8rem; color: #777; }
+"""
+
+
+@dataclass(frozen=True)
+class Section:
+    """One section of the report, rendered in the order: paragraphs, figures, tables, code.
+
+    Attributes
+    ----------
+    title : section heading.
+    paragraphs : plain-text paragraphs (escaped). A paragraph whose every line starts with
+        ``"- "`` becomes a bulleted list.
+    figures : PNG files to embed.
+    tables : DataFrames to render (index as first column).
+    code : preformatted text (e.g. the run configuration as TOML), or None.
+    figure_captions : captions for ``figures``, by position; default the file name.
+    table_captions : captions for ``tables``, by position; default none.
+    """
+
+    title: str
+    paragraphs: list[str] = field(default_factory=list)
+    figures: list[Path] = field(default_factory=list)
+    tables: list[pd.DataFrame] = field(default_factory=list)
+    code: str | None = None
+    figure_captions: list[str] = field(default_factory=list)
+    table_captions: list[str] = field(default_factory=list)
+
+
+def png_data_uri(path: str | Path) -> str:
+    """The PNG file at ``path`` as a ``data:image/png;base64,...`` URI.
+
+    Raises
+    ------
+    InputError
+        When the file is missing or not a PNG.
+    """
+    file = Path(path)
+    if not file.is_file():
+        raise InputError("figure file not found", source=file, hint="write the figure first")
+    data = file.read_bytes()
+    if not data.startswith(b"\x89PNG\r\n\x1a\n"):
+        raise InputError("figure is not a PNG file", source=file, hint="save figures as PNG")
+    return "data:image/png;base64," + base64.b64encode(data).decode("ascii")
+
+
+def _anchor(title: str, index: int) -> str:
+    slug = re.sub(r"[^a-z0-9]+", "-", title.lower()).strip("-")
+    return f"s{index}-{slug}" if slug else f"s{index}"
+
+
+def _paragraph_html(text: str) -> str:
+    lines = [line.strip() for line in text.strip().splitlines() if line.strip()]
+    if lines and all(line.startswith("- ") for line in lines):
+        items = "".join(f"<li>{html.escape(line[2:])}</li>" for line in lines)
+        return f"<ul>{items}</ul>"
+    return f"<p>{html.escape(text.strip())}</p>"
+
+
+def _figure_html(path: Path, caption: str | None) -> str:
+    text = caption if caption is not None else path.stem.replace("_", " ")
+    csv = path.with_suffix(".csv")
+    data_note = f" Data: {csv.name}." if csv.is_file() else ""
+    return (
+        f'<figure><img src="{png_data_uri(path)}" alt="{html.escape(text, quote=True)}">'
+        f"<figcaption>{html.escape(text)}{html.escape(data_note)}</figcaption></figure>"
+    )
+
+
+def _section_html(section: Section, anchor: str) -> str:
+    parts = [f'<section id="{anchor}">', f"<h2>{html.escape(section.title)}</h2>"]
+    parts += [_paragraph_html(text) for text in section.paragraphs]
+    for i, figure in enumerate(section.figures):
+        caption = section.figure_captions[i] if i < len(section.figure_captions) else None
+        parts.append(_figure_html(Path(figure), caption))
+    for i, table in enumerate(section.tables):
+        caption = section.table_captions[i] if i < len(section.table_captions) else None
+        parts.append(to_html(table, caption=caption))
+    if section.code is not None:
+        parts.append(f"<pre><code>{html.escape(section.code)}</code></pre>")
+    parts.append("</section>")
+    return "\n".join(parts)
+
+
+def render_report(*, title: str, sections: Sequence[Section]) -> str:
+    """The report as one HTML5 document (see :func:`write_report`)."""
+    from hvacflex import __version__
+
+    anchors = [_anchor(section.title, i + 1) for i, section in enumerate(sections)]
+    toc = "".join(
+        f'<li><a href="#{anchor}">{html.escape(section.title)}</a></li>'
+        for anchor, section in zip(anchors, sections, strict=True)
+    )
+    body = "\n".join(
+        _section_html(section, anchor) for anchor, section in zip(anchors, sections, strict=True)
+    )
+    return (
+        "<!DOCTYPE html>\n"
+        '<html lang="en">\n<head>\n<meta charset="utf-8">\n'
+        '<meta name="viewport" content="width=device-width, initial-scale=1">\n'
+        f"<title>{html.escape(title)}</title>\n<style>{_STYLE}</style>\n</head>\n<body>\n"
+        f"<h1>{html.escape(title)}</h1>\n"
+        f"<nav><h2>Contents</h2><ol>{toc}</ol></nav>\n"
+        f"{body}\n"
+        f"<footer>Generated by hvacflex {html.escape(__version__)}.</footer>\n"
+        "</body>\n</html>\n"
+    )
+
+
+def write_report(out_dir: str | Path, *, title: str, sections: Sequence[Section]) -> Path:
+    """Write ``report.html`` into ``out_dir`` (created if needed) and return its path.
+
+    The file is self-contained: figures are embedded as base64 PNG data URIs, tables and
+    text are inline, styles are in a ``<style>`` element, and there is no script.
+
+    Raises
+    ------
+    InputError
+        When a figure file is missing or not a PNG.
+    """
+    directory = Path(out_dir)
+    directory.mkdir(parents=True, exist_ok=True)
+    document = render_report(title=title, sections=sections)
+    path = directory / REPORT_FILENAME
+    path.write_text(document, encoding="utf-8")
+    return path
