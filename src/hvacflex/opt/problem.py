@@ -377,10 +377,10 @@ class RMPCProblem:
                 field="robust",
                 value=self.robust,
             )
-        self._check_order("d_sigma", self.d_sigma, 0.0, "box half-widths must be ≥ 0")
-        self._check_order("peak_price_sgd_per_kw", self.phi, 0.0, "peak price must be ≥ 0")
-        self._check_order("u_max", self.u_max, self.u_min, "u_min must not exceed u_max")
-        self._check_order("y_max", self.y_max, self.y_min, "y_min must not exceed y_max")
+        self._check_nonnegative("d_sigma", self.d_sigma, "box half-widths σ")
+        self._check_nonnegative("peak_price_sgd_per_kw", self.phi, "peak price φ")
+        self._check_bounds("u_min", self.u_min, "u_max", self.u_max)
+        self._check_bounds("y_min", self.y_min, "y_max", self.y_max)
         phi = self.peak_price_sgd_per_kw
         if self.peak_floor_kw > 0 and np.ptp(phi) > 0:
             raise ProblemError(
@@ -393,16 +393,28 @@ class RMPCProblem:
         self._check_sign_conditions()
 
     @staticmethod
-    def _check_order(name: str, upper: FloatArray, lower: FloatArray | float, what: str) -> None:
-        bad = np.asarray(upper < lower)
-        if bad.any():
-            index = tuple(int(i) for i in np.argwhere(bad)[0])
-            low = lower if isinstance(lower, float) else float(lower[index])
+    def _check_nonnegative(name: str, values: FloatArray, what: str) -> None:
+        if (values < 0).any():
+            index = tuple(int(i) for i in np.argwhere(values < 0)[0])
             raise ProblemError(
-                f"{what}: at index {index} the value is {float(upper[index])!r}, the lower "
-                f"limit is {low!r}",
+                f"{what} must be ≥ 0, but at index {index} it is {float(values[index])!r}",
                 source=_SOURCE,
                 field=name,
+            )
+
+    @staticmethod
+    def _check_bounds(
+        lower_name: str, lower: FloatArray, upper_name: str, upper: FloatArray
+    ) -> None:
+        if (lower > upper).any():
+            index = tuple(int(i) for i in np.argwhere(lower > upper)[0])
+            raise ProblemError(
+                f"{lower_name} must not exceed {upper_name}, but at index {index} "
+                f"{lower_name} = {float(lower[index])!r} > {upper_name} = "
+                f"{float(upper[index])!r}",
+                source=_SOURCE,
+                field=lower_name,
+                hint="index is (step, input) or (step, output)",
             )
 
     def _check_sign_conditions(self) -> None:

@@ -1,0 +1,76 @@
+"""Robust margins δ against brute force: explicit matrix powers and box-corner enumeration."""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+from rmpc_problems import random_model
+
+from hvacflex.opt.robust import (
+    comfort_margins,
+    dual_row_entries,
+    impulse_responses,
+    margin_operator,
+    robust_margins,
+)
+
+
+def _delta_by_loops(a: np.ndarray, e: np.ndarray, c: np.ndarray, sigma: np.ndarray) -> np.ndarray:
+    horizon = sigma.shape[0]
+    delta = np.zeros((horizon, c.shape[0]))
+    for k in range(1, horizon + 1):
+        for j in range(k):
+            delta[k - 1] += np.abs(c @ np.linalg.matrix_power(a, k - 1 - j) @ e) @ sigma[j]
+    return delta
+
+
+def test_margins_equal_explicit_sum_of_matrix_powers() -> None:
+    rng = np.random.default_rng(11)
+    a, _, e, _ = random_model(rng, n=5, m=2, nd=3, dt_h=0.5)
+    e[:, 1] *= -1.0  # a disturbance entering with negative sign
+    c = rng.uniform(0.0, 1.0, (2, 5))
+    sigma = rng.uniform(0.0, 1.0, (7, 3))
+    np.testing.assert_allclose(comfort_margins(a, e, c, sigma), _delta_by_loops(a, e, c, sigma))
+
+
+def test_margin_is_the_worst_box_corner() -> None:
+    rng = np.random.default_rng(12)
+    a, _, e, _ = random_model(rng, n=3, m=1, nd=2, dt_h=0.5)
+    e[:, 0] *= -1.0
+    c = np.eye(3)[:2]
+    horizon = 3
+    sigma = rng.uniform(0.1, 1.0, (horizon, 2))
+    delta = comfort_margins(a, e, c, sigma)
+    worst_hi = np.full((horizon, 2), -np.inf)
+    worst_lo = np.full((horizon, 2), np.inf)
+    for signs in itertools.product((-1.0, 1.0), repeat=horizon * 2):
+        w = np.array(signs).reshape(horizon, 2) * sigma
+        x = np.zeros(3)
+        for k in range(horizon):
+            x = a @ x + e @ w[k]
+            worst_hi[k] = np.maximum(worst_hi[k], c @ x)
+            worst_lo[k] = np.minimum(worst_lo[k], c @ x)
+    np.testing.assert_allclose(delta, worst_hi, atol=1e-12)
+    np.testing.assert_allclose(delta, -worst_lo, atol=1e-12)
+
+
+def test_operator_layout_and_dual_entries() -> None:
+    rng = np.random.default_rng(13)
+    a, _, e, _ = random_model(rng, n=4, m=2, nd=2, dt_h=0.5)
+    c = np.eye(4)[:2]
+    horizon = 5
+    responses = impulse_responses(a, e, c, horizon)
+    operator = margin_operator(responses)
+    assert operator.shape == (horizon * 2, horizon * 2)
+    sigma = rng.uniform(0.0, 1.0, (horizon, 2))
+    np.testing.assert_allclose(
+        robust_margins(operator, sigma), _delta_by_loops(a, e, c, sigma), atol=1e-12
+    )
+    step, output, dist_step, channel, values = dual_row_entries(responses)
+    assert step.size == 2 * 2 * horizon * (horizon + 1) // 2
+    assert (dist_step <= step).all()
+    # Σ |h| σ over a row's entries is that row's δ
+    delta = np.zeros((horizon, 2))
+    np.add.at(delta, (step, output), np.abs(values) * sigma[dist_step, channel])
+    np.testing.assert_allclose(delta, robust_margins(operator, sigma), atol=1e-12)
