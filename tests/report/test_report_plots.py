@@ -93,6 +93,7 @@ def test_plot_ppp_sweep_normalises_by_the_maximum(tmp_path: Path) -> None:
             "peak_price_sgd_per_kw": [30.0, 0.5, 5.0, 1.5],
             "total_cost_sgd": [200.0, 160.0, 190.0, 180.0],
             "peak_power_kw": [12.0, 20.0, 12.5, 16.0],
+            "net_cost_with_ppp_sgd": [560.0, 170.0, 252.5, 204.0],
         }
     )
     path = plots.plot_ppp_sweep(sweep, tmp_path / "fig7.png")
@@ -101,6 +102,7 @@ def test_plot_ppp_sweep_normalises_by_the_maximum(tmp_path: Path) -> None:
     # 160/200, 180/200, 190/200, 200/200 and 20/20, 16/20, 12.5/20, 12/20
     assert data["normalised_total_cost_pct"].to_list() == pytest.approx([80, 90, 95, 100])
     assert data["normalised_peak_power_pct"].to_list() == pytest.approx([100, 80, 62.5, 60])
+    assert data["net_cost_with_ppp_sgd"].to_list() == [170.0, 204.0, 252.5, 560.0]
 
 
 def test_plot_ppp_sweep_names_missing_columns(tmp_path: Path) -> None:
@@ -138,3 +140,29 @@ def test_plot_robustness_price_with_and_without_controller(tmp_path: Path) -> No
     path = plots.plot_robustness_price(single, tmp_path / "robust1.png")
     data = _assert_png_and_csv(path, tmp_path / "robust1.png")
     assert data["uncertainty_level"].to_list() == list(levels)
+
+
+def test_plot_discomfort_from_a_precomputed_table(tmp_path: Path) -> None:
+    totals = pd.DataFrame({"scenario": ["nmpc", "rmpc"], "discomfort_kelvin_hours": [12.5, 0.25]})
+    path = plots.plot_discomfort(totals, tmp_path / "d.png")
+    data = _assert_png_and_csv(path, tmp_path / "d.png").set_index("scenario")
+    assert data["total"].to_dict() == pytest.approx({"nmpc": 12.5, "rmpc": 0.25})
+
+
+def test_plot_robustness_price_prefers_net_cost_and_keeps_extra_columns(tmp_path: Path) -> None:
+    sweep = pd.DataFrame(
+        {
+            "uncertainty_level": [0.5, 0.0, 0.2],
+            "net_cost_sgd": [130.0, 100.0, 110.0],
+            "reserve_revenue_sgd": [0.0, 1.0, 0.6],
+            "discomfort_kelvin_hours": [0.0, 3.0, 0.5],
+            "planned_slack_share": [0.4, 0.0, 0.0],
+            "max_delta_vs_half_band": [1.2, 0.0, 0.5],
+        }
+    )
+    path = plots.plot_robustness_price(sweep, tmp_path / "r.png")
+    data = _assert_png_and_csv(path, tmp_path / "r.png")
+    assert data["net_cost_sgd"].to_list() == [100.0, 110.0, 130.0]
+    assert "max_delta_vs_half_band" in data
+    with pytest.raises(DataError, match="energy_cost_sgd"):
+        plots.plot_robustness_price(sweep.drop(columns="net_cost_sgd"), tmp_path / "x.png")

@@ -74,7 +74,7 @@ def test_paper_table1_is_consistent() -> None:
     assert tables.PAPER_TABLE1.iloc[0, 0] == 1471.0
 
 
-def test_table1_vs_paper_aligns_rows_in_order() -> None:
+def test_side_by_side_aligns_rows_in_order() -> None:
     ours = tables.table1(
         {
             "nmpc": _monthly([1000.0], [10.0]),
@@ -83,7 +83,7 @@ def test_table1_vs_paper_aligns_rows_in_order() -> None:
             "thermostat": _monthly([1200.0], [0.0]),
         }
     )
-    side = tables.table1_vs_paper(ours)
+    side = tables.side_by_side(ours, tables.PAPER_TABLE1)
     assert list(side.index) == ["nmpc", "rmpc", "rmpc-ppp", "thermostat"]
     assert side.loc["rmpc", "energy_cost_sgd (ours)"] == 1050.0
     assert side.loc["rmpc", "energy_cost_sgd (paper)"] == 1530.0

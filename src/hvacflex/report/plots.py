@@ -407,11 +407,11 @@ def normalise_ppp_sweep(sweep: pd.DataFrame) -> pd.DataFrame:
 
     Returns
     -------
-    The input columns plus the two normalised ones [%].
+    The input columns (extra ones kept) plus the two normalised ones [%].
     """
     columns = ["peak_price_sgd_per_kw", "total_cost_sgd", "peak_power_kw"]
     _require(sweep, columns, "PPP sweep")
-    data = sweep[columns].sort_values("peak_price_sgd_per_kw").reset_index(drop=True)
+    data = sweep.sort_values("peak_price_sgd_per_kw").reset_index(drop=True)
     data["normalised_total_cost_pct"] = (
         100.0 * data["total_cost_sgd"] / data["total_cost_sgd"].max()
     )
@@ -452,17 +452,33 @@ def plot_ppp_sweep(
 # ----------------------------------------------------------------------------- beyond the paper
 
 
-def discomfort_data(scenarios: Mapping[str, pd.DataFrame]) -> pd.DataFrame:
-    """Discomfort [K·h] per scenario (rows) and zone (columns), plus a ``total`` column."""
-    table = pd.DataFrame(
-        {label: kpi.discomfort_kelvin_hours(results) for label, results in scenarios.items()}
-    ).T
+def discomfort_data(scenarios: Mapping[str, pd.DataFrame] | pd.DataFrame) -> pd.DataFrame:
+    """Discomfort [K·h] per scenario (rows) and zone (columns), plus a ``total`` column.
+
+    Parameters
+    ----------
+    scenarios : either scenario label → results frame (discomfort computed per zone with
+        :func:`hvacflex.kpi.discomfort_kelvin_hours`), or a precomputed DataFrame with one
+        row per scenario (labels in a ``scenario`` column or the index) and either a
+        ``discomfort_kelvin_hours`` column (totals) or one column per zone [K·h].
+    """
+    if isinstance(scenarios, pd.DataFrame):
+        table = scenarios.set_index("scenario") if "scenario" in scenarios else scenarios.copy()
+        if "discomfort_kelvin_hours" in table.columns:
+            table = table[["discomfort_kelvin_hours"]].rename(
+                columns={"discomfort_kelvin_hours": "all zones"}
+            )
+        table = table.drop(columns="total", errors="ignore").astype(float)
+    else:
+        table = pd.DataFrame(
+            {label: kpi.discomfort_kelvin_hours(results) for label, results in scenarios.items()}
+        ).T
     table["total"] = table.sum(axis=1)
     return table.rename_axis("scenario")
 
 
 def plot_discomfort(
-    scenarios: Mapping[str, pd.DataFrame],
+    scenarios: Mapping[str, pd.DataFrame] | pd.DataFrame,
     path: str | Path,
     *,
     title: str = "Thermal discomfort under the same realised disturbances",
@@ -472,7 +488,7 @@ def plot_discomfort(
     Parameters
     ----------
     scenarios : scenario label → results frame (same period and disturbances for a fair
-        comparison).
+        comparison), or a precomputed table; see :func:`discomfort_data`.
     path : PNG file to write; the CSV (:func:`discomfort_data`) goes next to it.
 
     Returns
@@ -498,12 +514,18 @@ def plot_discomfort(
 
 
 ROBUSTNESS_COLUMNS = {
-    "energy_cost_sgd": "energy cost [SGD]",
     "reserve_revenue_sgd": "reserve revenue [SGD]",
     "discomfort_kelvin_hours": "discomfort [K·h]",
     "planned_slack_share": "steps with planned slack [%]",
 }
-"""Columns drawn by :func:`plot_robustness_price` (names as in :func:`hvacflex.kpi.summary`)."""
+"""Columns drawn by :func:`plot_robustness_price` besides the cost (names as in
+:func:`hvacflex.kpi.summary`)."""
+
+ROBUSTNESS_COST_COLUMNS = {
+    "net_cost_sgd": "net cost (energy − reserve) [SGD]",
+    "energy_cost_sgd": "energy cost [SGD]",
+}
+"""Cost column of :func:`plot_robustness_price`: the first of these present is drawn."""
 
 
 def plot_robustness_price(
@@ -517,21 +539,26 @@ def plot_robustness_price(
     Parameters
     ----------
     sweep : one row per run with ``uncertainty_level`` (a fraction of the nominal
-        disturbance: 0.5 = ±50 %, drawn in %), the :data:`ROBUSTNESS_COLUMNS`
-        (``energy_cost_sgd``, ``reserve_revenue_sgd``, ``discomfort_kelvin_hours``,
-        ``planned_slack_share`` as a 0–1 share, drawn in %), and optionally ``controller``
-        (e.g. "open-loop", "closed-loop"): one line per controller.
+        disturbance: 0.5 = ±50 %, drawn in %), a cost column (``net_cost_sgd``, else
+        ``energy_cost_sgd``), the :data:`ROBUSTNESS_COLUMNS` (``reserve_revenue_sgd``,
+        ``discomfort_kelvin_hours``, ``planned_slack_share`` as a 0–1 share, drawn in %),
+        and optionally ``controller`` (e.g. "open-loop", "closed-loop"): one line per
+        controller. Other columns are kept in the CSV.
     path : PNG file to write; the CSV (the input sorted by level, stable) goes next to it.
 
     Returns
     -------
     The PNG path.
     """
-    _require(sweep, ["uncertainty_level", *ROBUSTNESS_COLUMNS], "robustness sweep")
+    cost = [col for col in ROBUSTNESS_COST_COLUMNS if col in sweep.columns]
+    _require(sweep, ["uncertainty_level", *cost[:1], *ROBUSTNESS_COLUMNS], "robustness sweep")
+    if not cost:
+        _require(sweep, list(ROBUSTNESS_COST_COLUMNS), "robustness sweep")
+    panels = {cost[0]: ROBUSTNESS_COST_COLUMNS[cost[0]], **ROBUSTNESS_COLUMNS}
     data = sweep.sort_values("uncertainty_level", kind="stable").reset_index(drop=True)
     groups = list(data.groupby("controller", sort=False)) if "controller" in data else [("", data)]
     figure, axes = _new_figure(2, 2)
-    for ax, (col, label) in zip(axes, ROBUSTNESS_COLUMNS.items(), strict=True):
+    for ax, (col, label) in zip(axes, panels.items(), strict=True):
         scale = 100.0 if col == "planned_slack_share" else 1.0
         for i, (controller, rows) in enumerate(groups):
             ax.plot(

@@ -93,7 +93,7 @@ def table1(monthly: Mapping[str, pd.DataFrame]) -> pd.DataFrame:
     return frame[[*TABLE1_COLUMNS, "months", "days"]].rename_axis("scenario")
 
 
-def table1_vs_paper(ours: pd.DataFrame, paper: pd.DataFrame | None = None) -> pd.DataFrame:
+def side_by_side(ours: pd.DataFrame, paper: pd.DataFrame | None = None) -> pd.DataFrame:
     """Our Table 1 beside the published one, row by row in scenario order (a), (b), (c).
 
     Parameters
