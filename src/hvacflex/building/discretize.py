@@ -1,0 +1,289 @@
+"""Linearisation of the VAV term and zero-order-hold discretisation (paper eq. 3).
+
+The zone air balance carries the bilinear supply-air term ṁ c_p (T_s − T_r). About a
+reference flow ṁ₀ and zone temperature T₀ (DESIGN §1; by default ṁ₀ = ṁ_min and T₀ = the
+occupied lower comfort bound)::
+
+    ṁ c_p (T_s − T_r) ≈ ṁ₀ c_p (T_s − T_r) + (ṁ − ṁ₀) c_p (T_s − T₀)
+
+which is exact at ṁ = ṁ₀, and for ṁ ≥ ṁ₀ and T_r ≥ T₀ predicts no more cooling than the
+true term. Per zone node r (capacitance C_r) the continuous model gets::
+
+    A_c[r, r] −= ṁ₀ c_p / C_r        B_c[r, zone] = c_p (T_s − T₀) / C_r   (≤ 0 when T_s ≤ T₀)
+    g_c[r]     = ṁ₀ c_p T₀ / C_r      (the constant: ṁ₀ c_p T_s − ṁ₀ c_p (T_s − T₀))
+
+and the discrete model ``x+ = a x + b u + e d + g`` follows from one matrix exponential of
+the augmented matrix [[A_c, B_c, E_c, g_c], [0, 0, 0, 0]]·Δt (inputs held over the step).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg
+from numpy.typing import ArrayLike, NDArray
+
+from hvacflex.building.channels import DisturbanceChannel
+from hvacflex.building.config import Building
+from hvacflex.building.rc import ThermalNetwork, build_network
+from hvacflex.errors import BuildingConfigError
+from hvacflex.units import CP_AIR_J_PER_KG_K, STEP_30MIN_S
+
+FloatArray = NDArray[np.float64]
+
+DEFAULT_LINEARISATION_TEMP_DEGC = 23.0
+"""T₀: the occupied lower comfort bound [°C]."""
+
+
+def _frozen(array: ArrayLike) -> FloatArray:
+    out = np.array(array, dtype=np.float64)
+    out.setflags(write=False)
+    return out
+
+
+@dataclass(frozen=True)
+class LinearModel:
+    """Affine discrete-time model ``x+ = a x + b u + e d + g`` over one step of ``dt_s``.
+
+    Attributes
+    ----------
+    a : (n,n) state matrix [-].
+    b : (n,m) input matrix [K per kg/s]; u = zone supply-air flow [kg/s].
+    e : (n,nd) disturbance matrix [K per channel unit].
+    g : (n,) constant term [K].
+    c : (m,n) zone-node selection (rows of the identity) [-].
+    dt_s : step [s].
+    node_names : (n,), zone_names : (m,), channels : (nd,) as in the network.
+    flow_ref_kg_s : (m,) reference flow ṁ₀ of the linearisation [kg/s].
+    linearisation_temp_degc : (m,) reference zone temperature T₀ [°C].
+    """
+
+    a: FloatArray
+    b: FloatArray
+    e: FloatArray
+    g: FloatArray
+    c: FloatArray
+    dt_s: float
+    node_names: tuple[str, ...]
+    zone_names: tuple[str, ...]
+    channels: tuple[DisturbanceChannel, ...]
+    flow_ref_kg_s: FloatArray
+    linearisation_temp_degc: FloatArray
+
+    def step(self, x: ArrayLike, u: ArrayLike, d: ArrayLike) -> FloatArray:
+        """One step: (n,), (m,), (nd,) → (n,) [°C]."""
+        out: FloatArray = (
+            self.a @ np.asarray(x, dtype=np.float64)
+            + self.b @ np.asarray(u, dtype=np.float64)
+            + self.e @ np.asarray(d, dtype=np.float64)
+            + self.g
+        )
+        return out
+
+    def steady_state(self, u: ArrayLike, d: ArrayLike) -> FloatArray:
+        """Fixed point x = (I − a)⁻¹ (b u + e d + g) for constant (m,) u and (nd,) d → (n,)."""
+        rhs = self.b @ np.asarray(u, dtype=np.float64) + self.e @ np.asarray(d, dtype=np.float64)
+        solution = np.linalg.solve(np.eye(self.a.shape[0]) - self.a, rhs + self.g)
+        return np.asarray(solution, dtype=np.float64)
+
+
+@dataclass(frozen=True)
+class TimeVaryingLinearModel:
+    """``x_{k+1} = a[k] x_k + b[k] u_k + e[k] d_k + g[k]`` for k = 0..K−1 (re-linearised about a
+    trajectory). Shapes: a (K,n,n), b (K,n,m), e (K,n,nd), g (K,n); other fields as
+    :class:`LinearModel`."""
+
+    a: FloatArray
+    b: FloatArray
+    e: FloatArray
+    g: FloatArray
+    c: FloatArray
+    dt_s: float
+    node_names: tuple[str, ...]
+    zone_names: tuple[str, ...]
+    channels: tuple[DisturbanceChannel, ...]
+
+    def __len__(self) -> int:
+        return int(self.a.shape[0])
+
+
+def zoh(a_cont: ArrayLike, inputs_cont: ArrayLike, dt_s: float) -> tuple[FloatArray, FloatArray]:
+    """Zero-order-hold discretisation through one matrix exponential.
+
+    Parameters
+    ----------
+    a_cont : (n,n) continuous state matrix [1/s].
+    inputs_cont : (n,p) continuous input matrix (all held inputs side by side).
+    dt_s : step [s].
+
+    Returns
+    -------
+    (a (n,n), inputs (n,p)) with a = e^{A Δt}, inputs = ∫₀^Δt e^{A τ} dτ · B.
+    """
+    a_c = np.asarray(a_cont, dtype=np.float64)
+    b_c = np.asarray(inputs_cont, dtype=np.float64)
+    n, p = b_c.shape
+    augmented = np.zeros((n + p, n + p))
+    augmented[:n, :n] = a_c
+    augmented[:n, n:] = b_c
+    phi = scipy.linalg.expm(augmented * dt_s)
+    return phi[:n, :n].copy(), phi[:n, n:].copy()
+
+
+def continuous_affine_model(
+    b: Building,
+    network: ThermalNetwork,
+    flow_ref_kg_s: ArrayLike,
+    zone_temp_ref_degc: ArrayLike,
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """Continuous model ẋ = A x + B u + E d + g linearised about (ṁ₀, T₀).
+
+    Parameters
+    ----------
+    b, network : the building and its network.
+    flow_ref_kg_s : (m,) reference flows ṁ₀ [kg/s].
+    zone_temp_ref_degc : (m,) or scalar reference zone temperatures T₀ [°C].
+
+    Returns
+    -------
+    a (n,n) [1/s], b (n,m) [K/s per kg/s], e (n,nd), g (n,) [K/s].
+    """
+    m = len(b.zones)
+    flow_ref = np.broadcast_to(np.asarray(flow_ref_kg_s, dtype=np.float64), (m,))
+    temp_ref = np.broadcast_to(np.asarray(zone_temp_ref_degc, dtype=np.float64), (m,))
+    zones = network.zone_node_index
+    cap = network.capacitance_j_per_k[zones]
+    n = network.n_nodes
+    a = network.a_cont.copy()
+    a[zones, zones] -= flow_ref * CP_AIR_J_PER_KG_K / cap
+    b_c = np.zeros((n, m))
+    b_c[zones, np.arange(m)] = CP_AIR_J_PER_KG_K * (b.hvac.supply_temp_degc - temp_ref) / cap
+    g = np.zeros(n)
+    g[zones] = flow_ref * CP_AIR_J_PER_KG_K * temp_ref / cap
+    return a, b_c, network.e_cont.copy(), g
+
+
+def _discretise(
+    a_c: FloatArray, b_c: FloatArray, e_c: FloatArray, g_c: FloatArray, dt_s: float
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    m, nd = b_c.shape[1], e_c.shape[1]
+    a_d, held = zoh(a_c, np.hstack([b_c, e_c, g_c[:, None]]), dt_s)
+    return a_d, held[:, :m], held[:, m : m + nd], held[:, m + nd]
+
+
+def _check_dt(b: Building, dt_s: float) -> None:
+    if not dt_s > 0:
+        raise BuildingConfigError(
+            "time step must be > 0 s", source=b.source_path, field="dt_s", value=dt_s
+        )
+
+
+def linearize(
+    b: Building,
+    dt_s: float = STEP_30MIN_S,
+    linearisation_temp_degc: float = DEFAULT_LINEARISATION_TEMP_DEGC,
+    *,
+    network: ThermalNetwork | None = None,
+) -> LinearModel:
+    """Affine discrete model about ṁ₀ = ṁ_min and T₀ (DESIGN §1).
+
+    Parameters
+    ----------
+    b : the building.
+    dt_s : step [s] (default 1800).
+    linearisation_temp_degc : T₀ [°C], the occupied lower comfort bound; must exceed the
+        supply temperature so that b ≤ 0 (supply air cools).
+    network : the building's network, if already built.
+
+    Returns
+    -------
+    :class:`LinearModel`.
+    """
+    _check_dt(b, dt_s)
+    if linearisation_temp_degc <= b.hvac.supply_temp_degc:
+        raise BuildingConfigError(
+            "the linearisation temperature must be above the supply-air temperature "
+            f"{b.hvac.supply_temp_degc:g} °C",
+            source=b.source_path,
+            field="linearisation_temp_degc",
+            value=linearisation_temp_degc,
+            hint="use the occupied lower comfort bound, e.g. 23 °C",
+        )
+    net = network if network is not None else build_network(b)
+    m = len(b.zones)
+    flow_ref = np.asarray(b.hvac.flow_min_kg_s, dtype=np.float64)
+    temp_ref = np.full(m, float(linearisation_temp_degc))
+    a_d, b_d, e_d, g_d = _discretise(*continuous_affine_model(b, net, flow_ref, temp_ref), dt_s)
+    return LinearModel(
+        a=_frozen(a_d),
+        b=_frozen(b_d),
+        e=_frozen(e_d),
+        g=_frozen(g_d),
+        c=_frozen(zone_selection(net)),
+        dt_s=float(dt_s),
+        node_names=net.node_names,
+        zone_names=b.zone_names,
+        channels=net.channels,
+        flow_ref_kg_s=_frozen(flow_ref),
+        linearisation_temp_degc=_frozen(temp_ref),
+    )
+
+
+def linearize_about_trajectory(
+    b: Building,
+    flow_ref_kg_s: ArrayLike,
+    zone_temp_ref_degc: ArrayLike,
+    dt_s: float = STEP_30MIN_S,
+    *,
+    network: ThermalNetwork | None = None,
+) -> TimeVaryingLinearModel:
+    """Time-varying affine model about a planned trajectory (sequential re-linearisation).
+
+    Parameters
+    ----------
+    b : the building.
+    flow_ref_kg_s : (K,m) reference flows per step [kg/s].
+    zone_temp_ref_degc : (K,m) reference zone temperatures per step [°C] (e.g. the previous
+        plan's predicted temperatures at the start of each step).
+    dt_s : step [s].
+
+    Returns
+    -------
+    :class:`TimeVaryingLinearModel` with K steps; step k is exact at (flow_ref[k], T_ref[k]).
+    """
+    _check_dt(b, dt_s)
+    net = network if network is not None else build_network(b)
+    flows = np.atleast_2d(np.asarray(flow_ref_kg_s, dtype=np.float64))
+    temps = np.atleast_2d(np.asarray(zone_temp_ref_degc, dtype=np.float64))
+    m = len(b.zones)
+    if flows.shape != temps.shape or flows.shape[1] != m:
+        raise BuildingConfigError(
+            f"reference flows and temperatures must both have shape (K, {m})",
+            source=b.source_path,
+            field="flow_ref_kg_s",
+            value=(flows.shape, temps.shape),
+        )
+    parts = [
+        _discretise(*continuous_affine_model(b, net, flows[k], temps[k]), dt_s)
+        for k in range(flows.shape[0])
+    ]
+    a_s, b_s, e_s, g_s = (np.stack([p[i] for p in parts]) for i in range(4))
+    return TimeVaryingLinearModel(
+        a=_frozen(a_s),
+        b=_frozen(b_s),
+        e=_frozen(e_s),
+        g=_frozen(g_s),
+        c=_frozen(zone_selection(net)),
+        dt_s=float(dt_s),
+        node_names=net.node_names,
+        zone_names=b.zone_names,
+        channels=net.channels,
+    )
+
+
+def zone_selection(network: ThermalNetwork) -> FloatArray:
+    """(m,n) matrix selecting the zone air nodes from the state."""
+    c = np.zeros((len(network.zone_node_index), network.n_nodes))
+    c[np.arange(len(network.zone_node_index)), network.zone_node_index] = 1.0
+    return c

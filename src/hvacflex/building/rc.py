@@ -1,0 +1,264 @@
+"""RC network of a building: nodes, capacitances, conductances → continuous-time matrices.
+
+Paper eq. (1) without the VAV term. Nodes are the zone air nodes (first, in zone order) and
+the capacitance nodes of every wall (each wall's slices, outside → inside). With ``x`` the node
+temperatures [°C] and ``d`` the disturbance vector (order in ``channels.py``)::
+
+    C dx/dt = K x + F d          a_cont = C⁻¹ K  [1/s],   e_cont = C⁻¹ F
+
+``K`` [W/K] is symmetric: off-diagonal entries are the conductances between nodes, the
+diagonal is minus the sum of a node's conductances including those to the outdoor air and
+the ground (which appear again as the columns of ``F`` for the outdoor- and ground-temperature
+channels). Hence ``a_cont`` is Metzler (off-diagonal ≥ 0) and its ZOH discretisation is ≥ 0.
+
+Heat paths:
+
+* wall slices form a chain: far side —[R_far + r₁/2]— node₁ —[(r₁+r₂)/2]— … —[r_k/2 + R_si]—
+  zone. The far side is the outdoor air (film 1/h_se), the ground (no film), another zone's
+  node (film) or nothing (adiabatic plane of symmetry, e.g. an intermediate floor slab).
+  The steady-state U-value is therefore exactly 1/(R_si + Σr + R_se).
+* solar absorbed by an exterior opaque surface, α·A·q, lands on the (massless) outer surface
+  between the outdoor film and the outermost node; the share R_se/(R_se + r₁/2) flows to the
+  node, the rest straight back to the outdoor air (exact elimination of the surface node).
+* windows are pure conductances U·A zone–outdoor air; their solar gain SHGC·A·q and the
+  zone's internal sensible gain go to the zone air node (as in the paper).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from hvacflex.building.channels import (
+    DisturbanceChannel,
+    ground_temp_channel,
+    internal_gain_channel,
+    outdoor_temp_channel,
+    solar_channel,
+)
+from hvacflex.building.config import ADIABATIC, GROUND, OUTSIDE, Building, Wall
+
+FloatArray = NDArray[np.float64]
+
+
+def _frozen(array: ArrayLike) -> FloatArray:
+    out = np.array(array, dtype=np.float64)
+    out.setflags(write=False)
+    return out
+
+
+@dataclass(frozen=True)
+class ThermalNetwork:
+    """Continuous-time RC network of a building (VAV term excluded).
+
+    Attributes
+    ----------
+    node_names : (n,) zone names first (zone order), then wall nodes ``<wall>`` or
+        ``<wall>_<k>`` (k = 0 outermost) when a wall has several nodes.
+    zone_node_index : (m,) index of each zone's air node in the state vector.
+    channels : (nd,) disturbance channels in the order of ``channels.py``.
+    capacitance_j_per_k : (n,) node capacitances [J/K].
+    conductance_w_per_k : (n,n) symmetric matrix K [W/K] (see module docstring).
+    input_w : (n,nd) F: heat into each node per unit of each channel [W per channel unit].
+    outdoor_conductance_w_per_k, ground_conductance_w_per_k : (n,) each node's conductance to
+        the outdoor air / the ground [W/K].
+    solar_direct_loss_m2 : (nd,) for each solar channel, the absorbed solar that flows
+        straight back to the outdoor air (never reaching a node) per W/m² of irradiance [m²].
+    a_cont : (n,n) C⁻¹K [1/s].
+    e_cont : (n,nd) C⁻¹F [1/s per channel unit, e.g. K/s per °C or per W].
+    """
+
+    node_names: tuple[str, ...]
+    zone_node_index: NDArray[np.intp]
+    channels: tuple[DisturbanceChannel, ...]
+    capacitance_j_per_k: FloatArray
+    conductance_w_per_k: FloatArray
+    input_w: FloatArray
+    outdoor_conductance_w_per_k: FloatArray
+    ground_conductance_w_per_k: FloatArray
+    solar_direct_loss_m2: FloatArray
+    a_cont: FloatArray
+    e_cont: FloatArray
+
+    @property
+    def n_nodes(self) -> int:
+        return len(self.node_names)
+
+    @property
+    def channel_names(self) -> tuple[str, ...]:
+        return tuple(channel.name for channel in self.channels)
+
+    def steady_state_degc(self, d: ArrayLike, zone_heat_w: ArrayLike | None = None) -> FloatArray:
+        """Node temperatures at steady state for constant inputs.
+
+        Parameters
+        ----------
+        d : (nd,) disturbances in channel units.
+        zone_heat_w : (m,) extra heat into each zone air node [W] (negative = cooling), e.g.
+            the VAV supply air; default none.
+
+        Returns
+        -------
+        (n,) temperatures [°C] solving K x + F d + P q = 0.
+        """
+        rhs = self.input_w @ np.asarray(d, dtype=np.float64)
+        if zone_heat_w is not None:
+            rhs[self.zone_node_index] += np.asarray(zone_heat_w, dtype=np.float64)
+        return np.asarray(np.linalg.solve(self.conductance_w_per_k, -rhs), dtype=np.float64)
+
+    def zone_heat_extraction_w(self, d: ArrayLike, zone_temp_degc: ArrayLike) -> FloatArray:
+        """Heat to remove from each zone to hold it at a fixed temperature, at steady state.
+
+        Parameters
+        ----------
+        d : (nd,) constant disturbances.
+        zone_temp_degc : (m,) or scalar zone temperatures held [°C].
+
+        Returns
+        -------
+        (m,) sensible cooling load of each zone [W] (negative: heating needed).
+        """
+        zones = self.zone_node_index
+        walls = np.setdiff1d(np.arange(self.n_nodes), zones)
+        k = self.conductance_w_per_k
+        forcing = self.input_w @ np.asarray(d, dtype=np.float64)
+        t_zone = np.broadcast_to(np.asarray(zone_temp_degc, dtype=np.float64), zones.shape)
+        t_wall = np.linalg.solve(
+            k[np.ix_(walls, walls)], -(k[np.ix_(walls, zones)] @ t_zone + forcing[walls])
+        )
+        load: FloatArray = k[np.ix_(zones, walls)] @ t_wall + k[np.ix_(zones, zones)] @ t_zone
+        return load + forcing[zones]
+
+
+def solar_channels_of(b: Building) -> tuple[DisturbanceChannel, ...]:
+    """One solar channel per distinct (azimuth, tilt) of exterior walls, then windows, in the
+    order of first appearance in the file (walls before windows)."""
+    seen: dict[tuple[float, float], DisturbanceChannel] = {}
+    surfaces = [(w.azimuth_deg, w.tilt_deg) for w in b.walls if w.is_exterior]
+    surfaces += [(w.azimuth_deg, w.tilt_deg) for w in b.windows]
+    for azimuth, tilt in surfaces:
+        if (azimuth, tilt) not in seen:
+            seen[(azimuth, tilt)] = solar_channel(azimuth, tilt)
+    return tuple(seen.values())
+
+
+def disturbance_channels(b: Building) -> tuple[DisturbanceChannel, ...]:
+    """The building's disturbance vector: [T_out, solar per orientation, gains per zone,
+    ground temperature if a wall touches the ground] (see ``channels.py``)."""
+    channels = [outdoor_temp_channel(), *solar_channels_of(b)]
+    channels += [internal_gain_channel(name) for name in b.zone_names]
+    if any(w.adjacent == GROUND for w in b.walls):
+        channels.append(ground_temp_channel())
+    return tuple(channels)
+
+
+def _wall_node_names(wall: Wall) -> list[str]:
+    count = len(wall.construction.slices())
+    return [wall.name] if count == 1 else [f"{wall.name}_{k}" for k in range(count)]
+
+
+def build_network(b: Building) -> ThermalNetwork:
+    """Assemble the RC network of a building.
+
+    Parameters
+    ----------
+    b : the building.
+
+    Returns
+    -------
+    The :class:`ThermalNetwork` (matrices in SI units, see its attributes).
+    """
+    channels = disturbance_channels(b)
+    channel_index = {(c.kind, c.azimuth_deg, c.tilt_deg, c.zone): i for i, c in enumerate(channels)}
+    outdoor_col = channel_index[("outdoor_temp", None, None, None)]
+    ground_col = channel_index.get(("ground_temp", None, None, None))
+
+    zone_names = b.zone_names
+    names: list[str] = list(zone_names)
+    capacitance: list[float] = [zone.capacitance_j_per_k for zone in b.zones]
+    for wall in b.walls:
+        names += _wall_node_names(wall)
+        capacitance += [c * wall.area_m2 for _, c in wall.construction.slices()]
+    n, nd = len(names), len(channels)
+    index = {name: i for i, name in enumerate(names)}
+
+    k = np.zeros((n, n))
+    f = np.zeros((n, nd))
+    outdoor = np.zeros(n)
+    ground = np.zeros(n)
+    direct_loss = np.zeros(nd)
+
+    def couple(i: int, j: int, conductance_w_per_k: float) -> None:
+        k[i, j] += conductance_w_per_k
+        k[j, i] += conductance_w_per_k
+        k[i, i] -= conductance_w_per_k
+        k[j, j] -= conductance_w_per_k
+
+    def to_boundary(i: int, col: int, conductance_w_per_k: float, store: FloatArray) -> None:
+        k[i, i] -= conductance_w_per_k
+        f[i, col] += conductance_w_per_k
+        store[i] += conductance_w_per_k
+
+    for wall in b.walls:
+        slices = wall.construction.slices()
+        nodes = [index[name] for name in _wall_node_names(wall)]
+        area = wall.area_m2
+        zone_node = index[wall.zone]
+        # inside: innermost node → zone air
+        r_inside = slices[-1][0] / 2 + 1.0 / wall.construction.inside_film_w_per_m2k
+        couple(nodes[-1], zone_node, area / r_inside)
+        # between slices
+        for s in range(len(slices) - 1):
+            couple(nodes[s], nodes[s + 1], area / (slices[s][0] / 2 + slices[s + 1][0] / 2))
+        # far side
+        film = wall.construction.outside_film_for(wall.adjacent)
+        r_far = 0.0 if film is None else 1.0 / film
+        r_outer_half = slices[0][0] / 2
+        conductance = area / (r_far + r_outer_half)
+        if wall.adjacent == OUTSIDE:
+            to_boundary(nodes[0], outdoor_col, conductance, outdoor)
+            col = channel_index[("solar", wall.azimuth_deg, wall.tilt_deg, None)]
+            absorbed_m2 = wall.solar_absorptance * area
+            share_to_node = r_far / (r_far + r_outer_half)
+            f[nodes[0], col] += absorbed_m2 * share_to_node
+            direct_loss[col] += absorbed_m2 * (1.0 - share_to_node)
+        elif wall.adjacent == GROUND:
+            assert ground_col is not None
+            to_boundary(nodes[0], ground_col, conductance, ground)
+        elif wall.adjacent != ADIABATIC:
+            couple(nodes[0], index[wall.adjacent], conductance)
+
+    for window in b.windows:
+        zone_node = index[window.zone]
+        to_boundary(zone_node, outdoor_col, window.ua_w_per_k, outdoor)
+        col = channel_index[("solar", window.azimuth_deg, window.tilt_deg, None)]
+        f[zone_node, col] += window.shgc * window.area_m2
+
+    for name in zone_names:
+        f[index[name], channel_index[("internal_gain", None, None, name)]] += 1.0
+
+    cap = np.asarray(capacitance)
+    return ThermalNetwork(
+        node_names=tuple(names),
+        zone_node_index=np.arange(len(zone_names), dtype=np.intp),
+        channels=channels,
+        capacitance_j_per_k=_frozen(cap),
+        conductance_w_per_k=_frozen(k),
+        input_w=_frozen(f),
+        outdoor_conductance_w_per_k=_frozen(outdoor),
+        ground_conductance_w_per_k=_frozen(ground),
+        solar_direct_loss_m2=_frozen(direct_loss),
+        a_cont=_frozen(k / cap[:, None]),
+        e_cont=_frozen(f / cap[:, None]),
+    )
+
+
+def envelope_ua_w_per_k(b: Building) -> dict[str, float]:
+    """Steady-state envelope conductance [W/K]: ``walls`` (exterior opaque), ``ground``,
+    ``windows`` and ``total`` (film to film, U·A summed; zone–zone walls excluded)."""
+    walls = sum(w.ua_w_per_k for w in b.walls if w.adjacent == OUTSIDE)
+    ground = sum(w.ua_w_per_k for w in b.walls if w.adjacent == GROUND)
+    windows = sum(w.ua_w_per_k for w in b.windows)
+    return {"walls": walls, "ground": ground, "windows": windows, "total": walls + ground + windows}
