@@ -160,7 +160,7 @@ def working_day_mask(
     days = local.normalize().tz_localize(None).to_numpy().astype("datetime64[D]")
     years = tuple(sorted(set(local.year)))
     holiday_days = np.array(sorted(_holiday_dates(schedule.country, years)), dtype="datetime64[D]")
-    weekday = np.asarray(local.dayofweek) < 5
+    weekday = np.asarray(local.day_of_week) < 5
     result: np.ndarray = weekday & ~np.isin(days, holiday_days)
     return result
 

@@ -246,12 +246,36 @@ def read_epw(path: str | Path) -> tuple[pd.DataFrame, EpwLocation]:
     return frame.copy(), location
 
 
+def saturation_pressure_pa(temp_degc: np.ndarray) -> np.ndarray:
+    """Saturation pressure of water vapour over liquid water (ASHRAE Fundamentals 2017, ch. 1,
+    eq. 6, Hyland–Wexler; valid 0–200 °C).
+
+    Parameters
+    ----------
+    temp_degc : (T,) temperature [°C].
+
+    Returns
+    -------
+    (T,) saturation pressure [Pa].
+    """
+    t = np.asarray(temp_degc, dtype=float) + 273.15
+    ln_p = (
+        -5.8002206e3 / t
+        + 1.3914993
+        - 4.8640239e-2 * t
+        + 4.1764768e-5 * t**2
+        - 1.4452093e-8 * t**3
+        + 6.5459673 * np.log(t)
+    )
+    result: np.ndarray = np.exp(ln_p)
+    return result
+
+
 def humidity_ratio_kg_per_kg(dewpoint_degc: np.ndarray, pressure_pa: np.ndarray) -> np.ndarray:
     """Humidity ratio of moist air from dew point and total pressure.
 
-    ``W = 0.621945 · p_w / (p − p_w)`` with ``p_w`` the saturation pressure over water at the
-    dew point (Magnus form, Alduchov & Eskridge 1996: ``610.94 · exp(17.625 T / (T + 243.04))``
-    Pa, within 0.4 % for −40…50 °C).
+    ``W = 0.621945 · p_w / (p − p_w)`` with ``p_w`` the saturation pressure at the dew point
+    (:func:`saturation_pressure_pa`; ASHRAE Fundamentals ch. 1, eqs. 22 and 38).
 
     Parameters
     ----------
@@ -262,8 +286,7 @@ def humidity_ratio_kg_per_kg(dewpoint_degc: np.ndarray, pressure_pa: np.ndarray)
     -------
     (T,) humidity ratio [kg water / kg dry air].
     """
-    dewpoint = np.asarray(dewpoint_degc, dtype=float)
-    vapour_pa = 610.94 * np.exp(17.625 * dewpoint / (dewpoint + 243.04))
+    vapour_pa = saturation_pressure_pa(dewpoint_degc)
     pressure = np.asarray(pressure_pa, dtype=float)
     result: np.ndarray = MOLAR_MASS_RATIO_WATER_AIR * vapour_pa / (pressure - vapour_pa)
     return result
@@ -322,7 +345,7 @@ def weather_30min(
     minutes = (start_lst - ref) / np.timedelta64(1, "m") + 15.0
     local = pd.DatetimeIndex(start_lst)
     # Leap year: 29 Feb repeats 28 Feb and every later day moves back one day.
-    minutes = minutes - np.where(local.is_leap_year & (local.dayofyear > 59), 24 * 60, 0)
+    minutes = minutes - np.where(local.is_leap_year & (local.day_of_year > 59), 24 * 60, 0)
     hours_mid = minutes / 60.0
     n = EPW_HOURS_PER_YEAR
     # State variables: EPW row i is the instant (i + 1) h; wrap around the typical year.

@@ -1,0 +1,200 @@
+"""EPW reader, 30-min resampling and façade irradiance, on the shipped files and broken ones."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from hvacflex.data.weather import (
+    EpwLocation,
+    humidity_ratio_kg_per_kg,
+    read_epw,
+    saturation_pressure_pa,
+    surface_irradiance_w_per_m2,
+    weather_30min,
+)
+from hvacflex.errors import DataError
+
+IWEC = "SGP_Singapore.486980_IWEC.epw"
+TMYX = "SGP_SG_Singapore-Changi.Intl.AP.486980_TMYx.2009-2023.epw"
+
+
+@pytest.fixture(scope="module")
+def iwec(shared_data_dir: Path) -> tuple[pd.DataFrame, EpwLocation]:
+    return read_epw(shared_data_dir / "weather" / IWEC)
+
+
+@pytest.fixture(scope="module")
+def iwec_2014(iwec: tuple[pd.DataFrame, EpwLocation]) -> pd.DataFrame:
+    return weather_30min(*iwec, year=2014)
+
+
+@pytest.mark.parametrize(
+    ("name", "t_min", "t_mean", "t_max", "ghi_kwh"),
+    [(IWEC, 21.0, 27.5, 33.8, 1671), (TMYX, 22.4, 28.0, 34.0, 1787)],
+)
+def test_shipped_files_match_provenance(
+    shared_data_dir: Path, name: str, t_min: float, t_mean: float, t_max: float, ghi_kwh: float
+) -> None:
+    hourly, location = read_epw(shared_data_dir / "weather" / name)
+    assert len(hourly) == 8760
+    assert location.latitude_deg == pytest.approx(1.37, abs=0.01)
+    assert location.longitude_deg == pytest.approx(103.98, abs=0.01)
+    assert location.tz_offset_h == 8.0
+    assert len(location.ground_temp_monthly_degc) == 12
+    temp = hourly["outdoor_temp_degc"]
+    assert (temp.min(), round(temp.mean(), 1), temp.max()) == (t_min, t_mean, t_max)
+    assert hourly["ghi_w_per_m2"].sum() / 1000 == pytest.approx(ghi_kwh, abs=1)
+
+
+def test_30min_grid_preserves_means_and_energy(
+    iwec: tuple[pd.DataFrame, EpwLocation], iwec_2014: pd.DataFrame
+) -> None:
+    hourly, _ = iwec
+    assert len(iwec_2014) == 17_520 and str(iwec_2014.index.tz) == "Asia/Singapore"
+    for column in ("ghi_w_per_m2", "dni_w_per_m2", "dhi_w_per_m2"):
+        # every hour's energy is kept: the two halves average to the EPW hour value
+        halves = iwec_2014[column].to_numpy().reshape(-1, 2).mean(axis=1)
+        np.testing.assert_allclose(halves, hourly[column].to_numpy(), atol=1e-9)
+    assert iwec_2014["outdoor_temp_degc"].mean() == pytest.approx(
+        hourly["outdoor_temp_degc"].mean()
+    )
+    # EPW hour 1 of 1 Jan (a reading at 01:00): period [00:30, 01:00) is 3/4 of the way from
+    # the previous instant (hour 24 of 31 Dec, wrapped) to it.
+    first, last = hourly["outdoor_temp_degc"].iloc[0], hourly["outdoor_temp_degc"].iloc[-1]
+    assert iwec_2014["outdoor_temp_degc"].iloc[1] == pytest.approx(last + 0.75 * (first - last))
+    assert {"humidity_ratio_kg_per_kg", "ground_temp_degc", "wind_speed_m_s"} <= set(iwec_2014)
+
+
+def test_leap_year_repeats_28_february(iwec: tuple[pd.DataFrame, EpwLocation]) -> None:
+    weather = weather_30min(*iwec, year=2016)
+    assert len(weather) == 17_568
+    feb28 = weather.loc["2016-02-28", "ghi_w_per_m2"].to_numpy()
+    feb29 = weather.loc["2016-02-29", "ghi_w_per_m2"].to_numpy()
+    np.testing.assert_allclose(feb29, feb28, rtol=0.05, atol=5.0)  # same EPW day, sun ±1 day
+    mar1_2016 = weather.loc["2016-03-01", "outdoor_temp_degc"].to_numpy()
+    mar1_2014 = weather_30min(*iwec, year=2014).loc["2014-03-01", "outdoor_temp_degc"].to_numpy()
+    np.testing.assert_allclose(mar1_2016, mar1_2014)
+
+
+def test_psychrometrics_against_ashrae_table() -> None:
+    # ASHRAE Fundamentals 2017 ch. 1 table 3: p_ws(25 °C) = 3.1699 kPa, p_ws(10 °C) = 1.2282 kPa
+    np.testing.assert_allclose(
+        saturation_pressure_pa(np.array([25.0, 10.0])), [3169.9, 1228.2], rtol=1e-3
+    )
+    # W = 0.621945 p_w / (p − p_w) by hand at dew point 25 °C and sea-level pressure
+    expected = 0.621945 * 3169.9 / (101325.0 - 3169.9)
+    assert humidity_ratio_kg_per_kg(np.array([25.0]), np.array([101325.0]))[0] == pytest.approx(
+        expected, rel=1e-3
+    )
+
+
+def test_sunrise_sunset_and_facade_peaks(
+    iwec: tuple[pd.DataFrame, EpwLocation], iwec_2014: pd.DataFrame
+) -> None:
+    """21 March 2014, Singapore: sunrise ≈ 07:05, sunset ≈ 19:12 local (solar noon ≈ 13:08)."""
+    _, location = iwec
+    day = iwec_2014.loc["2014-03-21"]
+    sun_up = day.index[day["ghi_w_per_m2"] > 5.0]
+    assert sun_up[0] == pd.Timestamp("2014-03-21 07:00", tz="Asia/Singapore")
+    assert sun_up[-1] + pd.Timedelta(minutes=30) == pd.Timestamp(
+        "2014-03-21 19:00", tz="Asia/Singapore"
+    )
+    assert (day.loc[:"2014-03-21 06:30", "ghi_w_per_m2"] == 0).all()
+    assert (day.loc["2014-03-21 19:30":, "ghi_w_per_m2"] < 5.0).all()  # twilight at most
+    facades = surface_irradiance_w_per_m2(day, location, [(90, 90), (270, 90), (180, 90), (0, 0)])
+    east, west = facades["solar_az90_tilt90_w_per_m2"], facades["solar_az270_tilt90_w_per_m2"]
+    assert east.idxmax().hour < 12 and west.idxmax().hour >= 14
+    assert east.loc[:"2014-03-21 11:30"].sum() > 1.2 * east.loc["2014-03-21 13:30":].sum()
+    assert west.loc["2014-03-21 13:30":].sum() > 1.2 * west.loc[:"2014-03-21 11:30"].sum()
+    # horizontal plane: DNI·cos θz + DHI; equals GHI over the day up to the file's closure error
+    roof = facades["solar_az0_tilt0_w_per_m2"]
+    assert roof.sum() == pytest.approx(day["ghi_w_per_m2"].sum(), rel=0.02)
+    assert (facades.to_numpy() >= 0).all()
+    assert (facades.loc[:"2014-03-21 06:30"].to_numpy() == 0).all()
+
+
+def test_sun_geometry_sunrise_sunset(iwec: tuple[pd.DataFrame, EpwLocation]) -> None:
+    import pvlib
+
+    _, location = iwec
+    minutes = pd.date_range("2014-03-21", periods=24 * 60, freq="1min", tz="Asia/Singapore")
+    elevation = pvlib.solarposition.get_solarposition(
+        minutes, location.latitude_deg, location.longitude_deg
+    )["apparent_elevation"]
+    up = elevation.index[elevation > 0]
+    assert (
+        pd.Timestamp("2014-03-21 06:55", tz="Asia/Singapore")
+        <= up[0]
+        <= pd.Timestamp("2014-03-21 07:15", tz="Asia/Singapore")
+    )
+    assert (
+        pd.Timestamp("2014-03-21 19:00", tz="Asia/Singapore")
+        <= up[-1]
+        <= pd.Timestamp("2014-03-21 19:25", tz="Asia/Singapore")
+    )
+
+
+# ------------------------------------------------------------------ malformed files
+
+
+def _epw_lines(shared_data_dir: Path) -> list[str]:
+    return (shared_data_dir / "weather" / IWEC).read_text(encoding="latin-1").splitlines()
+
+
+def _write(tmp_path: Path, lines: list[str]) -> Path:
+    path = tmp_path / "bad.epw"
+    path.write_text("\n".join(lines) + "\n", encoding="latin-1")
+    return path
+
+
+def test_bad_header(tmp_path: Path, shared_data_dir: Path) -> None:
+    lines = _epw_lines(shared_data_dir)
+    lines[0] = "PLACE,SINGAPORE"
+    with pytest.raises(DataError, match="bad EPW header") as info:
+        read_epw(_write(tmp_path, lines))
+    assert info.value.line == 1
+
+
+def test_bad_location_line(tmp_path: Path, shared_data_dir: Path) -> None:
+    lines = _epw_lines(shared_data_dir)
+    lines[0] = "LOCATION,SINGAPORE,-,SGP,IWEC Data,486980,north,103.98,8.0,16.0"
+    with pytest.raises(DataError, match="LOCATION"):
+        read_epw(_write(tmp_path, lines))
+
+
+def test_truncated_file(tmp_path: Path, shared_data_dir: Path) -> None:
+    lines = _epw_lines(shared_data_dir)[:-100]
+    with pytest.raises(DataError, match="8660 hourly rows, expected 8760"):
+        read_epw(_write(tmp_path, lines))
+
+
+def test_truncated_last_line(tmp_path: Path, shared_data_dir: Path) -> None:
+    lines = _epw_lines(shared_data_dir)
+    lines[-1] = lines[-1][:30]
+    with pytest.raises(DataError, match="fields") as info:
+        read_epw(_write(tmp_path, lines))
+    assert info.value.line == 8 + 8760
+
+
+def test_missing_field(tmp_path: Path, shared_data_dir: Path) -> None:
+    lines = _epw_lines(shared_data_dir)
+    fields = lines[8 + 99].split(",")
+    fields[13] = ""  # GHI of hour 100
+    lines[8 + 99] = ",".join(fields)
+    with pytest.raises(DataError, match="missing or non-numeric") as info:
+        read_epw(_write(tmp_path, lines))
+    assert info.value.line == 108 and "ghi_w_per_m2" in str(info.value)
+
+
+def test_missing_value_code(tmp_path: Path, shared_data_dir: Path) -> None:
+    lines = _epw_lines(shared_data_dir)
+    fields = lines[8 + 5].split(",")
+    fields[6] = "99.9"  # EPW code for a missing dry bulb
+    lines[8 + 5] = ",".join(fields)
+    with pytest.raises(DataError, match="outdoor_temp_degc") as info:
+        read_epw(_write(tmp_path, lines))
+    assert info.value.line == 14
