@@ -22,6 +22,15 @@ def main() -> None:
     """Robust predictive control of building HVAC in electricity markets."""
 
 
+def _data_group() -> typer.Typer:
+    from hvacflex.data.show import data_app
+
+    return data_app
+
+
+app.add_typer(_data_group(), name="data")
+
+
 @app.command()
 def version() -> None:
     """Print the hvacflex version."""

@@ -128,6 +128,12 @@ class UncertaintyBox:
             {k: v * factor for k, v in self.absolute.items()},
         )
 
+    def describe(self) -> str:
+        """Human-readable summary, e.g. ``"solar ±20 %, outdoor_temp ±0.5 degC"``."""
+        parts = [f"{k} ±{v * 100:g} %" for k, v in self.relative.items() if v]
+        parts += [f"{k} ±{v:g} {CHANNEL_UNITS[k]}" for k, v in self.absolute.items() if v]
+        return ", ".join(parts) or "none"
+
     @property
     def is_zero(self) -> bool:
         """True if the box is a point (nominal MPC)."""
@@ -188,12 +194,33 @@ def worst_case_margin_k(
     (N, ny) δ; row k−1 bounds ``|y_k − ŷ_k|`` k steps ahead [output units, K for temperatures].
     """
     sigma = np.atleast_2d(np.asarray(sigma, dtype=float))
+    return worst_case_margin_from_impulse(impulse_response_abs(a, e, c, sigma.shape[0]), sigma)
+
+
+def worst_case_margin_from_impulse(h_abs: np.ndarray, sigma: np.ndarray) -> np.ndarray:
+    """δ_k from precomputed ``|C A^m E|`` (:func:`impulse_response_abs`), for repeated use.
+
+    Parameters
+    ----------
+    h_abs : (M, ny, nd) with M ≥ N; sigma : (N, nd).
+
+    Returns
+    -------
+    (N, ny) δ, as :func:`worst_case_margin_k`.
+    """
+    sigma = np.atleast_2d(np.asarray(sigma, dtype=float))
     n = sigma.shape[0]
-    h = impulse_response_abs(a, e, c, n)
-    delta = np.zeros((n, h.shape[1]))
+    if h_abs.shape[0] < n or h_abs.shape[2] != sigma.shape[1]:
+        raise ConfigError(
+            "impulse responses and σ disagree",
+            field="sigma",
+            value=(h_abs.shape, sigma.shape),
+            hint="need h_abs (M, ny, nd) with M ≥ N and sigma (N, nd)",
+        )
+    delta = np.zeros((n, h_abs.shape[1]))
     for m in range(n):
         # δ_k gets |C A^m E| σ_j for j = k−1−m, i.e. rows k−1 = m … N−1 use σ_0 … σ_{N−1−m}.
-        delta[m:] += sigma[: n - m] @ h[m].T
+        delta[m:] += sigma[: n - m] @ h_abs[m].T
     return delta
 
 
