@@ -1,0 +1,122 @@
+"""HVAC power: hand calculation, psychrometrics, monotonicity, affine model error."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from hvacflex.building.config import Building, HvacSystem
+from hvacflex.building.hvac import (
+    affine_power_error,
+    affine_power_model,
+    fan_secant,
+    hvac_power,
+    hvac_power_kw,
+    saturation_humidity_ratio_kg_per_kg,
+)
+
+
+def _hvac(**changes: object) -> HvacSystem:
+    base = HvacSystem(
+        supply_temp_degc=13.0,
+        flow_min_kg_s=(0.2, 0.3),
+        flow_max_kg_s=(1.0, 1.5),
+        outdoor_air_fraction=0.3,
+        cop=4.0,
+        fan_coeff_kw=0.5,
+        fan_exponent=2.0,
+        reserve_zones=("a", "b"),
+        supply_humidity_ratio_kg_per_kg=0.009,
+    )
+    return dataclasses.replace(base, **changes)  # type: ignore[arg-type]
+
+
+def test_saturation_humidity_ratio_matches_ashrae_table() -> None:
+    # ASHRAE Handbook Fundamentals, psychrometric table at 101.325 kPa
+    assert saturation_humidity_ratio_kg_per_kg(13.0) == pytest.approx(0.009370, rel=0.01)
+    assert saturation_humidity_ratio_kg_per_kg(25.0) == pytest.approx(0.020170, rel=0.01)
+
+
+def test_power_by_hand() -> None:
+    hvac = _hvac()
+    flow, t_zone, t_out, w_out = [0.6, 0.4], [24.0, 25.0], 30.0, 0.019
+    # T_mix,a = 0.7·24 + 0.3·30 = 25.8, T_mix,b = 0.7·25 + 9 = 26.5
+    sensible = 1006.0 * (0.6 * (25.8 - 13.0) + 0.4 * (26.5 - 13.0))
+    latent = 1.0 * 0.3 * 2.501e6 * (0.019 - 0.009)
+    fan = 0.5 * 1.0**2
+    p = hvac_power(hvac, flow, t_zone, t_out, w_out)
+    assert p.coil_sensible_w == pytest.approx(sensible)
+    assert p.coil_latent_w == pytest.approx(latent)
+    assert p.fan_kw == pytest.approx(fan)
+    assert p.heating_kw == 0.0
+    assert p.total_kw == pytest.approx(fan + (sensible + latent) / 4.0 / 1000.0)
+
+
+def test_heating_kept_in_formula() -> None:
+    hvac = _hvac(supply_temp_degc=18.0)
+    p = hvac_power(hvac, [0.5, 0.5], [15.0, 15.0], 10.0, 0.005)
+    assert p.heating_kw > 0 and p.coil_latent_w == 0.0
+    assert p.cooling_kw == 0.0
+
+
+def test_broadcasts_over_time() -> None:
+    hvac = _hvac()
+    n = 7
+    flows = np.tile([0.5, 0.7], (n, 1))
+    p = hvac_power_kw(hvac, flows, np.full((n, 2), 24.0), np.linspace(25, 33, n), np.full(n, 0.018))
+    assert p.shape == (n,)
+    assert np.all(np.diff(p) > 0)  # warmer outdoor air costs more
+
+
+def test_exact_power_monotone_in_flow(office5: Building) -> None:
+    hvac = office5.hvac
+    low = np.asarray(hvac.flow_min_kg_s)
+    high = np.asarray(hvac.flow_max_kg_s)
+    fractions = np.linspace(0.0, 1.0, 51)
+    for zone in range(len(low)):
+        flows = np.tile(low, (fractions.size, 1))
+        flows[:, zone] = low[zone] + fractions * (high[zone] - low[zone])
+        power = hvac_power_kw(hvac, flows, np.full(flows.shape, 23.0), 27.0, 0.018)
+        assert np.all(np.diff(power) > 0)
+
+
+def test_fan_secant_exact_at_the_ends_and_above_the_curve() -> None:
+    hvac = _hvac(fan_exponent=2.7)
+    intercept, slope = fan_secant(hvac)
+    s = np.linspace(0.5, 2.5, 201)
+    curve = hvac.fan_coeff_kw * s**2.7
+    secant = intercept + slope * s
+    assert secant[0] == pytest.approx(curve[0]) and secant[-1] == pytest.approx(curve[-1])
+    assert np.all(secant >= curve - 1e-12) and np.all(secant >= 0)
+
+
+def test_affine_error_bounded_by_fan_secant_and_upper_bound() -> None:
+    hvac = _hvac()  # n = 2: the secant's largest error is κ (ΔS)² / 4 at the midpoint
+    t_out = np.array([26.0, 30.0, 33.0])
+    w_out = np.array([0.017, 0.019, 0.021])
+    error = affine_power_error(hvac, t_out, w_out, 23.0)
+    bound = 0.5 * (2.5 - 0.5) ** 2 / 4.0
+    assert error.max_fan_abs_kw == pytest.approx(bound)
+    assert error.max_abs_kw == pytest.approx(bound, rel=1e-9)
+    assert error.max_underestimate_kw <= 1e-12  # affine ≥ exact at T_r = T_ref
+    p0, p = affine_power_model(hvac, t_out, w_out, 23.0)
+    assert p0.shape == (3,) and p.shape == (3, 2)
+    exact_min = hvac_power_kw(
+        hvac, np.tile([0.2, 0.3], (3, 1)), np.full((3, 2), 23.0), t_out, w_out
+    )
+    np.testing.assert_allclose(p0 + p @ np.array([0.2, 0.3]), exact_min, atol=1e-12)
+
+
+def test_affine_coil_error_when_zone_differs_from_reference() -> None:
+    hvac = _hvac(fan_coeff_kw=0.0)
+    error = affine_power_error(hvac, [30.0], [0.019], 23.0, zone_temp_degc=25.0)
+    # (1 − f_oa) c_p Σṁ_max (T_r − T_ref) / COP
+    assert error.max_abs_kw == pytest.approx(0.7 * 1006.0 * 2.5 * 2.0 / 4.0 / 1000.0)
+
+
+def test_office5_affine_error_small(office5: Building) -> None:
+    error = affine_power_error(office5.hvac, np.linspace(25, 33, 5), np.full(5, 0.019), 23.0)
+    assert error.max_underestimate_kw <= 1e-9
+    assert error.max_rel < 0.10
