@@ -31,6 +31,28 @@ def _data_group() -> typer.Typer:
 app.add_typer(_data_group(), name="data")
 
 
+building_app = typer.Typer(help="Inspect building descriptions.", no_args_is_help=True)
+app.add_typer(building_app, name="building")
+
+
+@building_app.command("show")
+def building_show(
+    building: str = typer.Argument(..., help="A building TOML file or a shipped name (office5)."),
+) -> None:
+    """Print zones, nodes, time constants, UA, design load and model checks of a building."""
+    from hvacflex.building.config import load_building
+    from hvacflex.building.summary import building_summary_text
+    from hvacflex.errors import HvacflexError
+    from hvacflex.paths import resolve_building
+
+    try:
+        text = building_summary_text(load_building(resolve_building(building)))
+    except HvacflexError as exc:
+        typer.echo(f"error: {exc}", err=True)
+        raise typer.Exit(2) from None
+    typer.echo(text)
+
+
 @app.command()
 def version() -> None:
     """Print the hvacflex version."""
