@@ -84,7 +84,13 @@ def test_contract_fields(office5: Building) -> None:
     assert lm.dt_s == 900.0
     assert lm.zone_names == office5.zone_names
     assert lm.g.shape == (len(lm.node_names),)
-    assert lm.g.max() > 0  # the constant term ṁ_min c_p T₀ / C is not optional
+    # office5 is linearised at zero flow, so its constant term vanishes
+    np.testing.assert_allclose(lm.g, 0.0, atol=1e-12)
+
+
+def test_constant_term_at_nonzero_minimum_flow(room1: Building) -> None:
+    lm = linearize(room1, linearisation_temp_degc=23.0)
+    assert lm.g.max() > 0  # the constant term −ṁ_min c_p (T_s − T₀) / C is not optional
 
 
 def test_linear_model_exact_at_minimum_flow(shipped: Building) -> None:
@@ -121,9 +127,10 @@ def test_linear_model_conservative_above_minimum_flow(shipped: Building) -> None
         error = lm.step(x0, flow, d)[zones] - plant.step(x0, flow, d)[zones]
         assert error.min() >= -1e-9
         errors.append(error.max())
-    assert errors == sorted(errors)
-    # size of the full-flow error over one 30-min step from 28 °C (see docs/buildings.md)
-    expected_full_flow_error_k = {"office5": 1.12, "room1": 1.38}[shipped.name]
+    assert min(errors) > 0.05  # the model–plant mismatch above the reference flow is real
+    # size of the full-flow error over one 30-min step from 28 °C (see docs/buildings.md);
+    # office5 is linearised at zero flow (its air handler may stop when unoccupied)
+    expected_full_flow_error_k = {"office5": 1.90, "room1": 1.38}[shipped.name]
     assert errors[-1] == pytest.approx(expected_full_flow_error_k, abs=0.05)
 
 

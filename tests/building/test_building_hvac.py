@@ -117,6 +117,13 @@ def test_affine_coil_error_when_zone_differs_from_reference() -> None:
 
 
 def test_office5_affine_error_small(office5: Building) -> None:
-    error = affine_power_error(office5.hvac, np.linspace(25, 33, 5), np.full(5, 0.019), 23.0)
+    # occupied steps: flows between the ventilation minimum and the maximum
+    error = affine_power_error(
+        office5.hvac,
+        np.linspace(25, 33, 5),
+        np.full(5, 0.019),
+        23.0,
+        flow_min_kg_s=office5.hvac.ventilation_flow_kg_s,
+    )
     assert error.max_underestimate_kw <= 1e-9
     assert error.max_rel < 0.10

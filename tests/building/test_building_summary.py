@@ -14,7 +14,7 @@ def test_office5_summary_numbers(office5: Building) -> None:
     assert s.a_nonnegative and s.b_reserve_nonpositive and s.spectral_radius < 1
     assert 100 <= s.design_coil_load_kw * 1000 / s.floor_area_m2 <= 150  # DESIGN §1 range
     assert all(z.design_flow_kg_s <= z.flow_max_kg_s for z in s.zones)
-    assert s.outdoor_air_at_min_flow_l_s >= s.ventilation_need_l_s
+    assert s.outdoor_air_at_ventilation_flow_l_s >= s.ventilation_need_l_s
     # time constants: fastest is the zone air (minutes), slowest the core slab (days)
     assert 0.1 < s.time_constants_h[0] < 1.0 and s.time_constants_h[-1] > 24.0
 

@@ -36,6 +36,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+import numpy.typing as npt
+
 from hvacflex.errors import BuildingConfigError
 from hvacflex.units import CP_AIR_J_PER_KG_K, RHO_AIR_KG_PER_M3
 
@@ -289,7 +292,11 @@ class HvacSystem:
     ----------
     supply_temp_degc : supply-air temperature T_s [°C].
     flow_min_kg_s, flow_max_kg_s : (m,) supply-air mass-flow bounds per zone, zone order
-        [kg/s].
+        [kg/s]. ``flow_min_kg_s`` is the lowest flow ever allowed (0 = the air handler may
+        stop when the building is unoccupied); the linear model is exact there.
+    ventilation_flow_kg_s : (m,) minimum flow while the building is occupied, so that the
+        outdoor-air share covers the ventilation requirement [kg/s]
+        (flow_min ≤ ventilation ≤ flow_max; default: ``flow_min_kg_s``).
     outdoor_air_fraction : f_oa, share of outdoor air in the supply air [-].
     cop : cooling plant coefficient of performance (coil heat / electric power) [-].
     fan_coeff_kw : κ_f in P_fan = κ_f (Σṁ)^n [kW/(kg/s)^n].
@@ -310,6 +317,26 @@ class HvacSystem:
     reserve_zones: tuple[str, ...]
     heating_efficiency: float = 1.0
     supply_humidity_ratio_kg_per_kg: float | None = None
+    ventilation_flow_kg_s: tuple[float, ...] = ()
+
+    def __post_init__(self) -> None:
+        if not self.ventilation_flow_kg_s:
+            object.__setattr__(self, "ventilation_flow_kg_s", self.flow_min_kg_s)
+
+    def flow_min_at(self, occupied: npt.ArrayLike) -> npt.NDArray[np.float64]:
+        """(N, m) lower flow bound per step: ventilation when occupied, else the minimum.
+
+        Parameters
+        ----------
+        occupied : (N,) bool, building occupied in each step.
+        """
+        occ = np.asarray(occupied, dtype=bool)[:, None]
+        low: npt.NDArray[np.float64] = np.where(
+            occ,
+            np.asarray(self.ventilation_flow_kg_s, dtype=np.float64)[None, :],
+            np.asarray(self.flow_min_kg_s, dtype=np.float64)[None, :],
+        )
+        return low
 
 
 @dataclass(frozen=True)
@@ -417,6 +444,7 @@ _HVAC_KEYS = {
     "reserve_zones",
     "heating_efficiency",
     "supply_humidity_ratio_kg_per_kg",
+    "ventilation_flow_kg_s",
 }
 
 
@@ -893,6 +921,17 @@ def _read_hvac(rd: _Reader, data: Mapping[str, Any], zone_names: tuple[str, ...]
                 low,
                 hint="flow_min_kg_s must be ≤ flow_max_kg_s",
             )
+    ventilation = flow_min
+    if "ventilation_flow_kg_s" in item:
+        ventilation = _per_zone(rd, item, "ventilation_flow_kg_s", zone_names)
+        for name, low, vent, high in zip(zone_names, flow_min, ventilation, flow_max, strict=True):
+            if not low <= vent <= high:
+                raise rd.error(
+                    f"must lie between the minimum {low:g} and maximum {high:g} kg/s",
+                    f"hvac.ventilation_flow_kg_s.{name}",
+                    vent,
+                    hint="flow_min_kg_s ≤ ventilation_flow_kg_s ≤ flow_max_kg_s",
+                )
     reserve_raw = item.get("reserve_zones", list(zone_names))
     if not isinstance(reserve_raw, list) or not all(isinstance(z, str) for z in reserve_raw):
         raise rd.error("expected an array of zone names", "hvac.reserve_zones", reserve_raw)
@@ -929,4 +968,5 @@ def _read_hvac(rd: _Reader, data: Mapping[str, Any], zone_names: tuple[str, ...]
             item, "heating_efficiency", "hvac", default=1.0, positive=True
         ),
         supply_humidity_ratio_kg_per_kg=supply_w,
+        ventilation_flow_kg_s=ventilation,
     )

@@ -161,14 +161,32 @@ def fan_secant(hvac: HvacSystem) -> tuple[float, float]:
 
     P_fan ≈ intercept + slope · S is exact at both ends and above the curve in between.
     """
-    s_min = float(sum(hvac.flow_min_kg_s))
+    intercept, slope = fan_secant_from(hvac, float(sum(hvac.flow_min_kg_s)))
+    return float(intercept), float(slope)
+
+
+def fan_secant_from(
+    hvac: HvacSystem, total_flow_min_kg_s: ArrayLike
+) -> tuple[FloatArray, FloatArray]:
+    """Secant of κ_f S^n over [S_min, Σṁ_max] for each given S_min (vectorised).
+
+    Parameters
+    ----------
+    total_flow_min_kg_s : (N,) or scalar lower end S_min of the flow range [kg/s].
+
+    Returns
+    -------
+    intercept [kW], slope [kW per kg/s], each shaped like ``total_flow_min_kg_s``.
+    """
+    s_min = np.asarray(total_flow_min_kg_s, dtype=np.float64)
     s_max = float(sum(hvac.flow_max_kg_s))
     kappa, n = hvac.fan_coeff_kw, hvac.fan_exponent
-    if s_max - s_min <= 0.0:
-        slope = n * kappa * s_max ** (n - 1.0)
-    else:
-        slope = kappa * (s_max**n - s_min**n) / (s_max - s_min)
-    return kappa * s_min**n - slope * s_min, slope
+    width = s_max - s_min
+    tangent = n * kappa * s_max ** (n - 1.0)
+    safe = np.where(width > 0.0, width, 1.0)
+    slope = np.where(width > 0.0, kappa * (s_max**n - s_min**n) / safe, tangent)
+    intercept: FloatArray = kappa * s_min**n - slope * s_min
+    return intercept, np.asarray(slope, dtype=np.float64)
 
 
 def affine_power_model(
@@ -178,6 +196,7 @@ def affine_power_model(
     zone_temp_ref_degc: float | ArrayLike,
     *,
     latent_gain_w: ArrayLike = 0.0,
+    flow_min_kg_s: ArrayLike | None = None,
 ) -> tuple[FloatArray, FloatArray]:
     """Per-step affine power model P_k ≈ p0_k + p_k · u_k.
 
@@ -189,6 +208,9 @@ def affine_power_model(
     zone_temp_ref_degc : scalar or (m,) zone temperature the coil term is evaluated at [°C]
         (the linearisation temperature T₀).
     latent_gain_w : scalar or (N,) occupants' latent gain [W], enters p0 only.
+    flow_min_kg_s : (N, m) lower flow bound of each step [kg/s] (e.g. ventilation while
+        occupied, the minimum otherwise); the fan secant of step k spans [Σ flow_min_k,
+        Σṁ_max], the flows the step can take. ``None``: ``hvac.flow_min_kg_s`` every step.
 
     Returns
     -------
@@ -209,10 +231,14 @@ def affine_power_model(
         (np.maximum(sensible, 0.0) + latent[:, None]) / hvac.cop
         + np.maximum(-sensible, 0.0) / hvac.heating_efficiency
     ) / W_PER_KW
-    intercept, slope = fan_secant(hvac)
-    p = coil + slope
+    if flow_min_kg_s is None:
+        low_total: FloatArray = np.full(t_out.shape, float(sum(hvac.flow_min_kg_s)))
+    else:
+        low_total = np.asarray(flow_min_kg_s, dtype=np.float64).reshape(-1, m).sum(axis=1)
+    intercept, slope = fan_secant_from(hvac, np.broadcast_to(low_total, t_out.shape))
+    p = coil + slope[:, None]
     p0 = (
-        np.full(t_out.shape, intercept)
+        intercept
         + (1.0 - f_oa)
         * np.broadcast_to(np.asarray(latent_gain_w, dtype=np.float64), t_out.shape)
         / hvac.cop
@@ -249,6 +275,7 @@ def affine_power_error(
     zone_temp_degc: float | None = None,
     samples: int = 400,
     seed: int = 0,
+    flow_min_kg_s: ArrayLike | None = None,
 ) -> AffinePowerError:
     """Approximation error of :func:`affine_power_model` over the flow range.
 
@@ -261,6 +288,8 @@ def affine_power_error(
         value adds the coil's linearisation error (1 − f_oa) c_p Σṁ (T_r − T_ref)/COP).
     samples : flow vectors drawn uniformly in [ṁ_min, ṁ_max] (seeded), plus the corners
         ṁ_min, ṁ_max and the midpoint.
+    flow_min_kg_s : (m,) lower end of the flow range the affine model serves (e.g. the
+        ventilation flow of occupied steps); default ``hvac.flow_min_kg_s``.
 
     Returns
     -------
@@ -268,13 +297,14 @@ def affine_power_error(
     """
     t_out = np.atleast_1d(np.asarray(outdoor_temp_degc, dtype=np.float64))
     w_out = np.atleast_1d(np.asarray(outdoor_humidity_ratio_kg_per_kg, dtype=np.float64))
-    low = np.asarray(hvac.flow_min_kg_s)
+    low = np.asarray(hvac.flow_min_kg_s if flow_min_kg_s is None else flow_min_kg_s, dtype=float)
     high = np.asarray(hvac.flow_max_kg_s)
     rng = np.random.default_rng(seed)
     fractions = np.vstack([np.zeros_like(low), np.ones_like(low), np.full_like(low, 0.5)])
     fractions = np.vstack([fractions, rng.uniform(size=(samples, low.size))])
     flows = low + fractions * (high - low)  # (S, m)
-    p0, p = affine_power_model(hvac, t_out, w_out, zone_temp_ref_degc)
+    step_low = np.broadcast_to(low, (t_out.size, low.size))
+    p0, p = affine_power_model(hvac, t_out, w_out, zone_temp_ref_degc, flow_min_kg_s=step_low)
     affine = p0[:, None] + p @ flows.T  # (N, S)
     t_zone = zone_temp_ref_degc if zone_temp_degc is None else zone_temp_degc
     exact = hvac_power_kw(
@@ -285,7 +315,7 @@ def affine_power_error(
         w_out[:, None],
     )
     error = affine - exact
-    intercept, slope = fan_secant(hvac)
+    intercept, slope = fan_secant_from(hvac, float(low.sum()))
     total = flows.sum(axis=1)
     fan_error = intercept + slope * total - hvac.fan_coeff_kw * total**hvac.fan_exponent
     return AffinePowerError(

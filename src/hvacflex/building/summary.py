@@ -53,6 +53,7 @@ class ZoneSummary:
     volume_m3: float
     capacitance_mj_per_k: float
     flow_min_kg_s: float
+    ventilation_flow_kg_s: float
     flow_max_kg_s: float
     design_load_kw: float
     design_flow_kg_s: float
@@ -81,7 +82,7 @@ class BuildingSummary:
     design_power_kw: float
     flow_min_total_kg_s: float
     flow_max_total_kg_s: float
-    outdoor_air_at_min_flow_l_s: float
+    outdoor_air_at_ventilation_flow_l_s: float
     ventilation_need_l_s: float
     dt_s: float
     linearisation_temp_degc: float
@@ -148,6 +149,7 @@ def summarize(
         [DESIGN_OUTDOOR_TEMP_DEGC],
         [DESIGN_OUTDOOR_HUMIDITY_RATIO_KG_PER_KG],
         linearisation_temp_degc,
+        flow_min_kg_s=hvac.ventilation_flow_kg_s,
     )
     people = b.floor_area_m2 / b.gains.occupancy_m2_per_person
     zones = tuple(
@@ -157,6 +159,7 @@ def summarize(
             volume_m3=z.volume_m3,
             capacitance_mj_per_k=z.capacitance_j_per_k / 1e6,
             flow_min_kg_s=float(flow_min[i]),
+            ventilation_flow_kg_s=float(hvac.ventilation_flow_kg_s[i]),
             flow_max_kg_s=float(flow_max[i]),
             design_load_kw=float(zone_load_w[i] / W_PER_KW),
             design_flow_kg_s=float(design_flow[i]),
@@ -185,8 +188,8 @@ def summarize(
         design_power_kw=float(power.total_kw),
         flow_min_total_kg_s=float(flow_min.sum()),
         flow_max_total_kg_s=float(flow_max.sum()),
-        outdoor_air_at_min_flow_l_s=float(
-            hvac.outdoor_air_fraction * flow_min.sum() / RHO_AIR_KG_PER_M3 * 1000.0
+        outdoor_air_at_ventilation_flow_l_s=float(
+            hvac.outdoor_air_fraction * sum(hvac.ventilation_flow_kg_s) / RHO_AIR_KG_PER_M3 * 1000.0
         ),
         ventilation_need_l_s=people * VENTILATION_L_S_PER_PERSON
         + b.floor_area_m2 * VENTILATION_L_S_PER_M2,
@@ -219,14 +222,15 @@ def format_summary(s: BuildingSummary) -> str:
         f"Floor area {s.floor_area_m2:,.1f} m², {len(s.zones)} zones, {len(s.node_names)} nodes, "
         f"{len(s.channel_names)} disturbance channels",
         "",
-        "Zones                area m²  volume m³  C MJ/K  flow min–max kg/s  design load kW  "
+        "Zones                area m²  volume m³  C MJ/K  flow min/vent/max kg/s  design load kW  "
         "needs kg/s  reserve",
     ]
     for z in s.zones:
         lines.append(
             f"  {z.name:<18} {z.floor_area_m2:8.1f} {z.volume_m3:10.1f}"
             f" {z.capacitance_mj_per_k:7.2f}"
-            f"  {z.flow_min_kg_s:6.2f} – {z.flow_max_kg_s:<6.2f}   {z.design_load_kw:14.1f}"
+            f"  {z.flow_min_kg_s:4.2f}/{z.ventilation_flow_kg_s:4.2f}/{z.flow_max_kg_s:<4.2f}"
+            f"         {z.design_load_kw:14.1f}"
             f"  {z.design_flow_kg_s:10.2f}  {'yes' if z.reserve else 'no'}"
         )
     lines += [
@@ -249,7 +253,7 @@ def format_summary(s: BuildingSummary) -> str:
         f"({s.design_coil_load_kw * 1000 / s.floor_area_m2:.0f} W/m²); "
         f"electric {s.design_power_kw:.1f} kW",
         f"Flow range: Σ {s.flow_min_total_kg_s:.2f} – {s.flow_max_total_kg_s:.2f} kg/s; outdoor "
-        f"air at minimum flow {s.outdoor_air_at_min_flow_l_s:.0f} L/s (need "
+        f"air at ventilation flow {s.outdoor_air_at_ventilation_flow_l_s:.0f} L/s (need "
         f"{s.ventilation_need_l_s:.0f} L/s)",
         "",
         f"Discrete model (Δt {s.dt_s:g} s, T₀ {s.linearisation_temp_degc:g} °C):",
@@ -259,7 +263,7 @@ def format_summary(s: BuildingSummary) -> str:
         f"  spectral radius of A: {s.spectral_radius:.6f} "
         f"({'stable' if s.spectral_radius < 1 else 'NOT stable'})",
         f"Affine power model at design conditions: max error {s.affine_power_max_abs_kw:.2f} kW "
-        f"({100 * s.affine_power_max_rel:.1f} %) over the flow range (fan secant)",
+        f"({100 * s.affine_power_max_rel:.1f} %) over the occupied flow range (fan secant)",
     ]
     return "\n".join(lines)
 

@@ -1,0 +1,69 @@
+"""What every controller returns each step, and the interface the simulator drives."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Protocol
+
+import numpy as np
+import numpy.typing as npt
+
+from hvacflex.data.forecast import Forecast
+
+FloatArray = npt.NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class Action:
+    """The decision applied in the current 30-min period.
+
+    Attributes
+    ----------
+    flow_kg_s : (m,) supply air flow per zone when IL is not activated, u₀ [kg/s].
+    reserve_flow_kg_s : (m,) flow reduction offered as IL reserve, r₀ [kg/s]; the plant runs
+        u₀ − r₀ when activated.
+    reserve_kw : reserve capacity offered, p₀ᵀ r₀ [kW] (what the reserve price pays for).
+    planned_power_kw : the plan's first-step power p0₀ + p₀ᵀ u₀ [kW] (NaN without a plan).
+    status : solver outcome (``"optimal"``, ``"infeasible"``, …, or ``"rule"`` for baselines).
+    fallback : True when the plan could not be used and a safe rule decided instead.
+    solve_time_s : wall time of the optimisation [s] (0 for rules).
+    planned_slack_max_k : largest comfort slack in the plan [K].
+    delta_max_k : largest robust margin δ in the plan [K].
+    predicted_served_degc, predicted_curtailed_degc : (m,) one-step predicted zone
+        temperatures without and with IL activation [°C] (NaN without a plan).
+    """
+
+    flow_kg_s: FloatArray
+    reserve_flow_kg_s: FloatArray
+    reserve_kw: float
+    planned_power_kw: float
+    status: str
+    fallback: bool
+    solve_time_s: float
+    planned_slack_max_k: float
+    delta_max_k: float
+    predicted_served_degc: FloatArray
+    predicted_curtailed_degc: FloatArray
+
+
+class Controller(Protocol):
+    """A controller the closed-loop simulator can drive and checkpoint."""
+
+    def act(self, x_degc: FloatArray, forecast: Forecast, *, peak_floor_kw: float) -> Action:
+        """Decide the action for the period starting now.
+
+        Parameters
+        ----------
+        x_degc : (n,) measured node temperatures [°C].
+        forecast : prices, disturbances and comfort bounds over the horizon from now.
+        peak_floor_kw : peak already incurred in this billing period [kW] (billing-period PPP).
+        """
+        ...
+
+    def get_state(self) -> dict[str, Any]:
+        """Picklable state needed to resume identically after a checkpoint."""
+        ...
+
+    def set_state(self, state: dict[str, Any]) -> None:
+        """Restore the state returned by :meth:`get_state`."""
+        ...

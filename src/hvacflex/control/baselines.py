@@ -1,0 +1,91 @@
+"""Rule-based baseline: a thermostat that drives each zone to its set-point.
+
+The thermostat has no horizon, no prices and offers no reserve. Each period it picks the
+zone flows whose one-step prediction on the linear model lands the zone temperatures on the
+set-point (occupied) or just inside the upper unoccupied bound, clipped to the flow limits:
+
+    C (A x + B u + E d̂₀ + g) = T_set   →   u = clip((C B)⁻¹ (T_set − C (A x + E d̂₀ + g)))
+
+This is an ideal discrete-time thermostat (a dead-beat P rule), used as the paper-independent
+reference and as the MPC's fallback when an optimisation fails.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from hvacflex.building.config import HvacSystem
+from hvacflex.building.discretize import LinearModel
+from hvacflex.control.base import Action, FloatArray
+from hvacflex.data.forecast import Forecast
+
+UNOCCUPIED_MARGIN_K = 1.0
+"""Unoccupied set-point sits this far inside the upper unoccupied comfort bound [K]."""
+
+
+class ThermostatController:
+    """Dead-beat thermostat on the linear model (see the module docstring).
+
+    Parameters
+    ----------
+    model : the building's discrete linear model.
+    hvac : flow limits (minimum, ventilation flow while occupied, maximum).
+    setpoint_degc : occupied set-point [°C].
+    """
+
+    def __init__(self, model: LinearModel, hvac: HvacSystem, setpoint_degc: float = 24.0) -> None:
+        self._model = model
+        self._hvac = hvac
+        self._flow_max = np.asarray(hvac.flow_max_kg_s, dtype=float)
+        self._setpoint_degc = setpoint_degc
+        self._cb_inv = np.linalg.pinv(model.c @ model.b)
+
+    def flows_for(
+        self, x_degc: FloatArray, d_now: FloatArray, target_degc: FloatArray, occupied: bool
+    ) -> FloatArray:
+        """Zone flows (m,) [kg/s] that bring the zones to ``target_degc`` (m,) in one step."""
+        m = self._model
+        free = m.c @ (m.a @ x_degc + m.e @ d_now + m.g)
+        low = self._hvac.flow_min_at([occupied])[0]
+        flow: FloatArray = np.clip(self._cb_inv @ (target_degc - free), low, self._flow_max)
+        return flow
+
+    def target_degc(self, forecast: Forecast) -> FloatArray:
+        """Set-point per zone for the current period [°C]."""
+        upper = forecast.comfort_upper_degc[0]
+        lower = forecast.comfort_lower_degc[0]
+        target: FloatArray
+        if bool(forecast.occupied[0]):
+            target = np.clip(np.full_like(upper, self._setpoint_degc), lower, upper)
+        else:
+            target = np.maximum(upper - UNOCCUPIED_MARGIN_K, lower)
+        return target
+
+    def act(self, x_degc: FloatArray, forecast: Forecast, *, peak_floor_kw: float) -> Action:
+        occupied = bool(forecast.occupied[0])
+        flow = self.flows_for(
+            x_degc, forecast.disturbances[0], self.target_degc(forecast), occupied
+        )
+        m = self._model
+        predicted = m.c @ (m.a @ x_degc + m.b @ flow + m.e @ forecast.disturbances[0] + m.g)
+        return Action(
+            flow_kg_s=flow,
+            reserve_flow_kg_s=np.zeros_like(flow),
+            reserve_kw=0.0,
+            planned_power_kw=float("nan"),
+            status="rule",
+            fallback=False,
+            solve_time_s=0.0,
+            planned_slack_max_k=0.0,
+            delta_max_k=0.0,
+            predicted_served_degc=predicted,
+            predicted_curtailed_degc=predicted,
+        )
+
+    def get_state(self) -> dict[str, Any]:
+        return {}
+
+    def set_state(self, state: dict[str, Any]) -> None:
+        return None

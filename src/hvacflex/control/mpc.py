@@ -1,0 +1,221 @@
+"""The building-level MPC: building + forecast + measured state → RMPC problem → action.
+
+This is the only place that turns a building and its forecast into an
+:class:`~hvacflex.opt.RMPCProblem` (DESIGN §3):
+
+* dynamics ``x+ = A x + B u + E d + g`` from :func:`hvacflex.building.discretize.linearize`,
+* power ``P_k = p0_k + p_kᵀ u_k`` from :func:`hvacflex.building.hvac.affine_power_model` at the
+  forecast outdoor temperature and humidity and the zone temperature T₀,
+* comfort bounds for ``C x_{k+1}``, the temperature at the end of period k: the tighter of
+  the bands of periods k and k + 1, so that the instant occupancy starts (and ends) is
+  inside the occupied band,
+* σ from the scenario's uncertainty box (zero for the nominal MPC),
+* prices, the peak-power price φ and, in billing-period mode, the month's peak so far.
+
+One warm-started solver is kept across steps. When a solve does not return an optimal plan,
+the controller falls back to the previous plan shifted by one step, else to the thermostat,
+offers no reserve, and says so in the :class:`~hvacflex.control.base.Action`.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from hvacflex.building.config import Building
+from hvacflex.building.discretize import LinearModel
+from hvacflex.building.hvac import affine_power_model
+from hvacflex.config import ControllerConfig
+from hvacflex.control.base import Action, FloatArray
+from hvacflex.control.baselines import ThermostatController
+from hvacflex.data.forecast import Forecast
+from hvacflex.data.uncertainty import UncertaintyBox
+from hvacflex.opt import RMPCProblem, RMPCSolution, RMPCSolver, SolveStatus
+from hvacflex.opt.solve import SolverBasis
+from hvacflex.units import SECONDS_PER_HOUR
+
+
+def comfort_bounds_at_period_ends(
+    forecast: Forecast, horizon: int
+) -> tuple[FloatArray, FloatArray]:
+    """(N, m) comfort bounds on the temperatures x_1 … x_N at the ends of periods 0 … N−1.
+
+    The end of period k is the start of period k + 1: the bound is the tighter of the two
+    periods' bands. The forecast must cover ``horizon + 1`` periods; with exactly
+    ``horizon`` the last period's band is used alone.
+    """
+    lower, upper = forecast.comfort_lower_degc, forecast.comfort_upper_degc
+    nxt = slice(1, horizon + 1)
+    lower_next = np.vstack([lower[nxt], lower[horizon - 1 : horizon]])[:horizon]
+    upper_next = np.vstack([upper[nxt], upper[horizon - 1 : horizon]])[:horizon]
+    return (
+        np.maximum(lower[:horizon], lower_next),
+        np.minimum(upper[:horizon], upper_next),
+    )
+
+
+class MPCController:
+    """Nominal or robust MPC for one building (see the module docstring).
+
+    Parameters
+    ----------
+    building : the building (HVAC limits, reserve zones).
+    model : its discrete linear model at the control step.
+    config : controller settings (robust mode, reserve, φ, billing mode, ρ, horizon).
+    box : the forecast-error box; ignored when ``config.robust == "none"``.
+    linearisation_temp_degc : T₀ used for the power coefficients [°C].
+    """
+
+    def __init__(
+        self,
+        building: Building,
+        model: LinearModel,
+        config: ControllerConfig,
+        box: UncertaintyBox,
+        linearisation_temp_degc: float,
+    ) -> None:
+        self._building = building
+        self._model = model
+        self._config = config
+        self._box = box
+        self._temp_ref_degc = linearisation_temp_degc
+        hvac = building.hvac
+        self._flow_max = np.asarray(hvac.flow_max_kg_s, dtype=float)
+        self._mask = np.array(
+            [config.reserve and zone in hvac.reserve_zones for zone in building.zone_names]
+        )
+        self._outdoor_index = next(
+            i for i, ch in enumerate(model.channels) if ch.kind == "outdoor_temp"
+        )
+        self._thermostat = ThermostatController(model, hvac, config.thermostat_setpoint_degc)
+        self._solver: RMPCSolver | None = None
+        self._pending_basis: SolverBasis | None = None
+        self._previous_plan: RMPCSolution | None = None
+        self._plan_age = 0
+
+    @property
+    def reserve_mask(self) -> np.ndarray:
+        """(m,) bool: zones allowed to offer reserve."""
+        return self._mask
+
+    def problem(self, x_degc: FloatArray, forecast: Forecast, peak_floor_kw: float) -> RMPCProblem:
+        """The RMPC problem for the period starting now."""
+        cfg, m = self._config, self._model
+        horizon = cfg.horizon_steps
+        d_hat = forecast.disturbances[:horizon]
+        if d_hat.shape[0] < horizon:
+            raise ValueError(f"forecast covers {d_hat.shape[0]} steps, horizon is {horizon}")
+        if cfg.robust == "none":
+            sigma = np.zeros_like(d_hat)
+        else:
+            sigma = self._box.sigma(d_hat, m.channels)
+        u_min = self._building.hvac.flow_min_at(forecast.occupied[:horizon])
+        y_min, y_max = comfort_bounds_at_period_ends(forecast, horizon)
+        p0, p = affine_power_model(
+            self._building.hvac,
+            d_hat[:, self._outdoor_index],
+            forecast.outdoor_humidity_ratio_kg_per_kg[:horizon],
+            self._temp_ref_degc,
+            flow_min_kg_s=u_min,
+        )
+        reserve_price = forecast.reserve_price_sgd_per_mwh[:horizon]
+        if not cfg.reserve:
+            reserve_price = np.zeros_like(reserve_price)
+        floor = peak_floor_kw if cfg.billing_mode == "billing-period" else 0.0
+        return RMPCProblem(
+            a_matrix=m.a,
+            b_matrix=m.b,
+            e_matrix=m.e,
+            c_matrix=m.c,
+            affine_term=m.g,
+            x0=np.asarray(x_degc, dtype=float),
+            d_forecast=d_hat,
+            d_sigma=sigma,
+            energy_price_sgd_per_mwh=forecast.energy_price_sgd_per_mwh[:horizon],
+            reserve_price_sgd_per_mwh=reserve_price,
+            peak_price_sgd_per_kw=cfg.peak_price_sgd_per_kw,
+            peak_floor_kw=floor,
+            power_offset_kw=p0,
+            power_coeff_kw_per_kg_s=p,
+            u_min=u_min,
+            u_max=self._flow_max,
+            y_min=y_min,
+            y_max=y_max,
+            reserve_mask=self._mask,
+            comfort_penalty_sgd_per_kelvin_hour=cfg.comfort_penalty_sgd_per_kelvin_hour,
+            dt_h=m.dt_s / SECONDS_PER_HOUR,
+            robust=cfg.robust,
+        )
+
+    def act(self, x_degc: FloatArray, forecast: Forecast, *, peak_floor_kw: float) -> Action:
+        problem = self.problem(x_degc, forecast, peak_floor_kw)
+        if self._solver is None:
+            self._solver = RMPCSolver(problem, time_limit_s=self._config.time_limit_s)
+            if self._pending_basis is not None:
+                self._solver.set_basis(self._pending_basis)
+        solution = self._solver.solve(problem)
+        if solution.status is SolveStatus.OPTIMAL:
+            self._previous_plan, self._plan_age = solution, 0
+            c = self._model.c
+            # the LP's solution satisfies its bounds to the solver tolerance (~1e-9): snap
+            # the applied flows onto the physical limits
+            problem_u_min = np.asarray(problem.u_min, dtype=float)
+            low = problem_u_min[0] if problem_u_min.ndim == 2 else problem_u_min
+            flow = np.clip(solution.u[0], low, self._flow_max)
+            reserve = np.clip(solution.r[0], 0.0, flow - low)
+            return Action(
+                flow_kg_s=flow,
+                reserve_flow_kg_s=reserve,
+                reserve_kw=float(solution.reserve_kw[0]),
+                planned_power_kw=float(solution.power_kw[0]),
+                status=solution.status.value,
+                fallback=False,
+                solve_time_s=solution.solve_time_s,
+                planned_slack_max_k=float(np.max(solution.slack, initial=0.0)),
+                delta_max_k=float(np.max(solution.delta, initial=0.0)),
+                predicted_served_degc=c @ solution.x_served[1],
+                predicted_curtailed_degc=c @ solution.x_curtailed[1],
+            )
+        return self._fallback(x_degc, forecast, solution)
+
+    def _fallback(self, x_degc: FloatArray, forecast: Forecast, failed: RMPCSolution) -> Action:
+        """Previous plan shifted by one step if it reaches this far, else the thermostat."""
+        self._plan_age += 1
+        plan = self._previous_plan
+        if plan is not None and self._plan_age < plan.u.shape[0]:
+            low = self._building.hvac.flow_min_at(forecast.occupied[:1])[0]
+            flow = np.clip(plan.u[self._plan_age], low, self._flow_max)
+        else:
+            flow = self._thermostat.act(x_degc, forecast, peak_floor_kw=0.0).flow_kg_s
+        m = self._model
+        predicted = m.c @ (m.a @ x_degc + m.b @ flow + m.e @ forecast.disturbances[0] + m.g)
+        return Action(
+            flow_kg_s=flow,
+            reserve_flow_kg_s=np.zeros_like(flow),
+            reserve_kw=0.0,
+            planned_power_kw=float("nan"),
+            status=failed.status.value,
+            fallback=True,
+            solve_time_s=failed.solve_time_s,
+            planned_slack_max_k=float("nan"),
+            delta_max_k=float("nan"),
+            predicted_served_degc=predicted,
+            predicted_curtailed_degc=predicted,
+        )
+
+    def get_state(self) -> dict[str, Any]:
+        return {
+            "basis": self._solver.get_basis() if self._solver is not None else None,
+            "previous_plan": self._previous_plan,
+            "plan_age": self._plan_age,
+        }
+
+    def set_state(self, state: dict[str, Any]) -> None:
+        basis = state["basis"]
+        if self._solver is not None and basis is not None:
+            self._solver.set_basis(basis)
+        else:
+            self._pending_basis = basis
+        self._previous_plan = state["previous_plan"]
+        self._plan_age = state["plan_age"]

@@ -1,0 +1,564 @@
+"""Receding-horizon closed-loop simulation against the nonlinear building plant.
+
+Every 30 minutes (DESIGN §4): forecast → controller (MPC solve or rule) → the first step
+is applied to the exact nonlinear plant under the realised disturbance d̂ + w (w drawn in
+the uncertainty box) → measure → repeat. When interruptible load is activated the plant runs
+u − r for the period; the reserve capacity p₀ᵀr₀ is paid whether activated or not.
+
+Each row of the output (``results.parquet``, schema in ``docs/architecture.md``) describes one
+period. Both counterfactual plant steps are computed each period (served: u, curtailed: u − r)
+so the power with and without activation is known; the applied one is chosen by the
+activation schedule.
+
+A run checkpoints every ``checkpoint_every`` steps and on interruption (Ctrl-C): the plant
+state, the step index, the sampler's RNG state, the controller's state (LP basis, previous
+plan) and the rows so far. Started again with the same configuration, it resumes from the
+checkpoint and ends with results identical to an uninterrupted run.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import pickle
+import subprocess
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Protocol
+
+import numpy as np
+import pandas as pd
+import pyarrow as pa
+import pyarrow.parquet as pq
+
+from hvacflex import __version__
+from hvacflex.building.config import Building, load_building
+from hvacflex.building.discretize import LinearModel, linearize
+from hvacflex.building.hvac import hvac_power_kw
+from hvacflex.building.plant import NonlinearPlant
+from hvacflex.config import ScenarioConfig
+from hvacflex.control.base import Action, Controller, FloatArray
+from hvacflex.control.baselines import ThermostatController
+from hvacflex.control.mpc import MPCController
+from hvacflex.data.forecast import Exogenous, Forecaster, load_exogenous
+from hvacflex.data.gains import ComfortBand
+from hvacflex.data.market import RESERVE_PRICE_SCALE
+from hvacflex.data.uncertainty import DisturbanceSampler, UncertaintyBox
+from hvacflex.errors import HvacflexError
+from hvacflex.paths import repo_root, resolve_building
+from hvacflex.sim.activation import activation_schedule
+
+RESULTS_FILE = "results.parquet"
+CHECKPOINT_FILE = "checkpoint.pkl"
+SUMMARY_FILE = "summary.json"
+CONFIG_FILE = "config.json"
+DEFAULT_CHECKPOINT_EVERY = 336
+"""Steps between checkpoints (one week of 30-min periods)."""
+
+ProgressCallback = Callable[[int, int], None]
+PowerFunction = Callable[[int, FloatArray, FloatArray, float, float], float]
+"""(step, flow_kg_s (m,), mean zone temperature (m,) [°C], outdoor temp [°C], humidity
+ratio [kg/kg]) → electric power [kW]."""
+
+
+class Plant(Protocol):
+    """Anything that advances the node temperatures over one period."""
+
+    def step(
+        self, x_degc: FloatArray, flow_kg_s: FloatArray, d: FloatArray, dt_s: float = ...
+    ) -> FloatArray: ...
+
+
+@dataclass(frozen=True)
+class RunResult:
+    """A finished closed-loop run.
+
+    Attributes
+    ----------
+    out_dir : the run's folder (results, summary, config).
+    frame : one row per period (schema in ``docs/architecture.md``).
+    summary : KPIs (see :mod:`hvacflex.kpi`).
+    resumed_from_step : the checkpoint step the run resumed from, or None.
+    cached : True when the results were already there and nothing was simulated.
+    """
+
+    out_dir: Path
+    frame: pd.DataFrame
+    summary: dict[str, float]
+    resumed_from_step: int | None = None
+    cached: bool = False
+
+    @property
+    def results_path(self) -> Path:
+        return self.out_dir / RESULTS_FILE
+
+
+@dataclass(frozen=True)
+class Setup:
+    """Everything a run needs, built from its configuration."""
+
+    config: ScenarioConfig
+    building: Building
+    model: LinearModel
+    plant: NonlinearPlant
+    exogenous: Exogenous
+    forecaster: Forecaster
+    box: UncertaintyBox
+    activation: np.ndarray
+    linearisation_temp_degc: float
+
+    @property
+    def zone_names(self) -> tuple[str, ...]:
+        return tuple(self.building.zone_names)
+
+
+def prepare(config: ScenarioConfig) -> Setup:
+    """Load the building and data and build the linear model for ``config``."""
+    building = load_building(resolve_building(config.building))
+    temp_ref = config.controller.linearisation_temp_degc
+    if temp_ref is None:
+        temp_ref = config.comfort.occupied_degc[0]
+    model = linearize(building, dt_s=config.dt_s, linearisation_temp_degc=temp_ref)
+    data = config.data
+    scale = RESERVE_PRICE_SCALE if data.reserve_price_scale is None else data.reserve_price_scale
+    exogenous = load_exogenous(
+        model.channels,
+        [zone.floor_area_m2 for zone in building.zones],
+        building.gains,
+        start=config.start_timestamp,
+        steps=config.steps,
+        horizon_steps=config.controller.horizon_steps,
+        weather_file=data.weather_file,
+        usep_source=data.usep_source,
+        reserve_source=data.reserve_source,
+        comfort=ComfortBand(config.comfort.occupied_degc, config.comfort.unoccupied_degc),
+        seed=config.seed,
+        reserve_scale_sgd_per_mwh=scale,
+    )
+    box = UncertaintyBox(
+        relative=dict(config.uncertainty.relative), absolute=dict(config.uncertainty.absolute)
+    )
+    index = exogenous.index[: config.steps]
+    return Setup(
+        config=config,
+        building=building,
+        model=model,
+        plant=NonlinearPlant(building),
+        exogenous=exogenous,
+        forecaster=Forecaster(exogenous),
+        box=box,
+        activation=activation_schedule(config.activation, index, seed=config.seed),
+        linearisation_temp_degc=temp_ref,
+    )
+
+
+def make_controller(setup: Setup) -> Controller:
+    """The controller the configuration asks for."""
+    cfg = setup.config.controller
+    hvac = setup.building.hvac
+    if cfg.kind == "thermostat":
+        return ThermostatController(setup.model, hvac, cfg.thermostat_setpoint_degc)
+    return MPCController(setup.building, setup.model, cfg, setup.box, setup.linearisation_temp_degc)
+
+
+class _Recorder:
+    """Preallocated per-step columns (cheap to fill, to checkpoint and to turn into a frame)."""
+
+    def __init__(self, steps: int, zones: tuple[str, ...], channels: tuple[str, ...]) -> None:
+        self.float_columns = [
+            "energy_price_sgd_per_mwh",
+            "reserve_price_sgd_per_mwh",
+            "peak_price_sgd_per_kw",
+            "power_kw",
+            "power_served_kw",
+            "power_curtailed_kw",
+            "planned_power_kw",
+            "reserve_kw",
+            "solve_time_s",
+            "planned_slack_max_k",
+            "delta_max_k",
+        ]
+        for zone in zones:
+            self.float_columns += [
+                f"flow_{zone}_kg_s",
+                f"reserve_flow_{zone}_kg_s",
+                f"temp_{zone}_degc",
+                f"temp_end_{zone}_degc",
+                f"temp_served_{zone}_degc",
+                f"temp_curtailed_{zone}_degc",
+                f"comfort_lower_{zone}_degc",
+                f"comfort_upper_{zone}_degc",
+            ]
+        self.float_columns += [f"d_{c}" for c in channels] + [f"w_{c}" for c in channels]
+        self.column_index = {name: i for i, name in enumerate(self.float_columns)}
+        self.values = np.full((steps, len(self.float_columns)), np.nan)
+        self.il_activated = np.zeros(steps, dtype=bool)
+        self.fallback = np.zeros(steps, dtype=bool)
+        self.status = np.empty(steps, dtype=object)
+
+    def frame(self, index: pd.DatetimeIndex, steps_done: int) -> pd.DataFrame:
+        frame = pd.DataFrame(
+            self.values[:steps_done], index=index[:steps_done], columns=self.float_columns
+        )
+        frame["il_activated"] = self.il_activated[:steps_done]
+        frame["fallback"] = self.fallback[:steps_done]
+        frame["solve_status"] = pd.Series(
+            self.status[:steps_done], index=frame.index, dtype="string"
+        )
+        frame.index.name = "time"
+        return frame
+
+
+class ClosedLoop:
+    """A closed-loop run that can be advanced, checkpointed and resumed.
+
+    Most users call :func:`run_simulation`; this class is the stepping engine behind it.
+    """
+
+    def __init__(
+        self,
+        setup: Setup,
+        controller: Controller | None = None,
+        *,
+        plant: Plant | None = None,
+        power_fn: PowerFunction | None = None,
+    ) -> None:
+        """``plant`` and ``power_fn`` replace the nonlinear plant and the exact HVAC power
+        (e.g. by the controller's own linear model, to test the loop in isolation)."""
+        self.setup = setup
+        self.controller = controller if controller is not None else make_controller(setup)
+        self.plant: Plant = plant if plant is not None else setup.plant
+        self.power_fn: PowerFunction = power_fn if power_fn is not None else self._exact_power
+        cfg = setup.config
+        self.steps = cfg.steps
+        self.k = 0
+        self.x = np.full(len(setup.model.node_names), cfg.initial_temp_degc)
+        self.sampler = DisturbanceSampler(
+            cfg.realisation.mode, seed=cfg.seed, ar1_coefficient=cfg.realisation.ar1_coefficient
+        )
+        self.month_peak_kw = 0.0
+        self.month = -1
+        channel_names = tuple(ch.name for ch in setup.model.channels)
+        self.recorder = _Recorder(self.steps, setup.zone_names, channel_names)
+        self._zone_rows = setup.model.c.argmax(axis=1)
+        self._outdoor = next(
+            i for i, ch in enumerate(setup.model.channels) if ch.kind == "outdoor_temp"
+        )
+        self.timing_s = {"controller": 0.0, "plant": 0.0, "record": 0.0}
+
+    # -- one period -------------------------------------------------------------------
+    def step(self) -> None:
+        """Simulate period ``k`` and advance."""
+        setup, k = self.setup, self.k
+        exo = setup.exogenous
+        month = exo.index[k].month
+        if month != self.month:
+            self.month, self.month_peak_kw = month, 0.0
+        t0 = time.perf_counter()
+        # one period beyond the horizon: the band at the end of the last planned period
+        forecast = setup.forecaster.forecast(k, setup.config.controller.horizon_steps + 1)
+        action = self.controller.act(self.x, forecast, peak_floor_kw=self.month_peak_kw)
+        t1 = time.perf_counter()
+
+        d_hat = exo.disturbances[k]
+        sigma = setup.box.sigma(d_hat[None, :], setup.model.channels)[0]
+        w = self.sampler.sample(sigma)
+        d_real = d_hat + w
+        t_out = d_real[self._outdoor]
+        humidity = float(exo.outdoor_humidity_ratio_kg_per_kg[k])
+
+        served_flow = action.flow_kg_s
+        curtailed_flow = action.flow_kg_s - action.reserve_flow_kg_s
+        x_served = self.plant.step(self.x, served_flow, d_real, setup.config.dt_s)
+        x_curtailed = (
+            self.plant.step(self.x, curtailed_flow, d_real, setup.config.dt_s)
+            if np.any(action.reserve_flow_kg_s > 0)
+            else x_served
+        )
+        zone_start = self.x[self._zone_rows]
+        mean_served = 0.5 * (zone_start + x_served[self._zone_rows])
+        mean_curtailed = 0.5 * (zone_start + x_curtailed[self._zone_rows])
+        power_served = self.power_fn(k, served_flow, mean_served, t_out, humidity)
+        power_curtailed = self.power_fn(k, curtailed_flow, mean_curtailed, t_out, humidity)
+        activated = bool(setup.activation[k])
+        x_next = x_curtailed if activated else x_served
+        power = power_curtailed if activated else power_served
+        t2 = time.perf_counter()
+
+        self._record(k, action, forecast, d_hat, w, x_next, power, power_served, power_curtailed)
+        self.recorder.il_activated[k] = activated
+        self.month_peak_kw = max(self.month_peak_kw, power)
+        self.x = x_next
+        self.k += 1
+        t3 = time.perf_counter()
+        self.timing_s["controller"] += t1 - t0
+        self.timing_s["plant"] += t2 - t1
+        self.timing_s["record"] += t3 - t2
+
+    def _exact_power(
+        self,
+        k: int,
+        flow: FloatArray,
+        zone_mean_degc: FloatArray,
+        outdoor_temp_degc: float,
+        humidity: float,
+    ) -> float:
+        """Plant electric power [kW] at the period's mean zone temperature (exact model)."""
+        return float(
+            hvac_power_kw(
+                self.setup.building.hvac, flow, zone_mean_degc, outdoor_temp_degc, humidity
+            )
+        )
+
+    def _record(
+        self,
+        k: int,
+        action: Action,
+        forecast: Any,
+        d_hat: FloatArray,
+        w: FloatArray,
+        x_next: FloatArray,
+        power: float,
+        power_served: float,
+        power_curtailed: float,
+    ) -> None:
+        rec, col = self.recorder, self.recorder.column_index
+        row = rec.values[k]
+        exo = self.setup.exogenous
+        row[col["energy_price_sgd_per_mwh"]] = exo.energy_price_sgd_per_mwh[k]
+        row[col["reserve_price_sgd_per_mwh"]] = exo.reserve_price_sgd_per_mwh[k]
+        row[col["peak_price_sgd_per_kw"]] = self.setup.config.controller.peak_price_sgd_per_kw
+        row[col["power_kw"]] = power
+        row[col["power_served_kw"]] = power_served
+        row[col["power_curtailed_kw"]] = power_curtailed
+        row[col["planned_power_kw"]] = action.planned_power_kw
+        row[col["reserve_kw"]] = action.reserve_kw
+        row[col["solve_time_s"]] = action.solve_time_s
+        row[col["planned_slack_max_k"]] = action.planned_slack_max_k
+        row[col["delta_max_k"]] = action.delta_max_k
+        start = self.x[self._zone_rows]
+        end = x_next[self._zone_rows]
+        for z, zone in enumerate(self.setup.zone_names):
+            row[col[f"flow_{zone}_kg_s"]] = action.flow_kg_s[z]
+            row[col[f"reserve_flow_{zone}_kg_s"]] = action.reserve_flow_kg_s[z]
+            row[col[f"temp_{zone}_degc"]] = start[z]
+            row[col[f"temp_end_{zone}_degc"]] = end[z]
+            row[col[f"temp_served_{zone}_degc"]] = action.predicted_served_degc[z]
+            row[col[f"temp_curtailed_{zone}_degc"]] = action.predicted_curtailed_degc[z]
+            row[col[f"comfort_lower_{zone}_degc"]] = exo.comfort_lower_degc[k, z]
+            row[col[f"comfort_upper_{zone}_degc"]] = exo.comfort_upper_degc[k, z]
+        first_d = col[f"d_{self.setup.model.channels[0].name}"]
+        nd = len(d_hat)
+        row[first_d : first_d + nd] = d_hat
+        row[first_d + nd : first_d + 2 * nd] = w
+        rec.fallback[k] = action.fallback
+        rec.status[k] = action.status
+
+    # -- checkpoints ------------------------------------------------------------------
+    def get_state(self) -> dict[str, Any]:
+        rec = self.recorder
+        return {
+            "config_hash": self.setup.config.config_hash(),
+            "k": self.k,
+            "x": self.x.copy(),
+            "month": self.month,
+            "month_peak_kw": self.month_peak_kw,
+            "sampler": self.sampler.get_state(),
+            "controller": self.controller.get_state(),
+            "values": rec.values[: self.k].copy(),
+            "il_activated": rec.il_activated[: self.k].copy(),
+            "fallback": rec.fallback[: self.k].copy(),
+            "status": rec.status[: self.k].copy(),
+        }
+
+    def set_state(self, state: dict[str, Any]) -> None:
+        if state["config_hash"] != self.setup.config.config_hash():
+            raise HvacflexError("checkpoint belongs to a different configuration")
+        k = state["k"]
+        self.k, self.x = k, state["x"].copy()
+        self.month, self.month_peak_kw = state["month"], state["month_peak_kw"]
+        self.sampler.set_state(state["sampler"])
+        self.controller.set_state(state["controller"])
+        rec = self.recorder
+        rec.values[:k] = state["values"]
+        rec.il_activated[:k] = state["il_activated"]
+        rec.fallback[:k] = state["fallback"]
+        rec.status[:k] = state["status"]
+
+    def save_checkpoint(self, path: Path) -> None:
+        """Write the state atomically (a crash mid-write leaves the previous checkpoint)."""
+        tmp = path.with_suffix(".tmp")
+        with tmp.open("wb") as fh:
+            pickle.dump(self.get_state(), fh, protocol=pickle.HIGHEST_PROTOCOL)
+        os.replace(tmp, path)
+
+    def frame(self) -> pd.DataFrame:
+        return self.recorder.frame(self.setup.exogenous.index, self.k)
+
+
+def code_version() -> str:
+    """hvacflex's version, with the git commit when running from a checkout."""
+    try:
+        commit = subprocess.run(
+            ["git", "rev-parse", "--short", "HEAD"],
+            cwd=repo_root(),
+            capture_output=True,
+            text=True,
+            timeout=5,
+            check=True,
+        ).stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        return __version__
+    return f"{__version__}+g{commit}"
+
+
+def write_results(frame: pd.DataFrame, path: Path, config: ScenarioConfig) -> None:
+    """Parquet with the run's configuration and code version in the file metadata."""
+    table = pa.Table.from_pandas(frame)
+    metadata = dict(table.schema.metadata or {})
+    metadata[b"hvacflex.config"] = json.dumps(config.to_dict()).encode()
+    metadata[b"hvacflex.config_hash"] = config.config_hash().encode()
+    metadata[b"hvacflex.version"] = code_version().encode()
+    pq.write_table(table.replace_schema_metadata(metadata), path)
+
+
+def read_results(path: Path) -> tuple[pd.DataFrame, dict[str, Any]]:
+    """A results file and the metadata stored with it (``config``, ``config_hash``, ``version``)."""
+    table = pq.read_table(path)
+    meta = table.schema.metadata or {}
+    stored = {
+        "config": json.loads(meta.get(b"hvacflex.config", b"{}")),
+        "config_hash": meta.get(b"hvacflex.config_hash", b"").decode(),
+        "version": meta.get(b"hvacflex.version", b"").decode(),
+    }
+    return table.to_pandas(), stored
+
+
+def run_simulation(
+    config: ScenarioConfig,
+    out_dir: str | Path,
+    *,
+    progress: bool = True,
+    checkpoint_every: int = DEFAULT_CHECKPOINT_EVERY,
+    resume: bool = True,
+    stop_after_steps: int | None = None,
+    on_step: ProgressCallback | None = None,
+) -> RunResult:
+    """Run (or resume, or re-use) a closed-loop simulation and write its results.
+
+    Parameters
+    ----------
+    config : the scenario.
+    out_dir : folder for ``results.parquet``, ``summary.json``, ``config.json`` and the
+        checkpoint.
+    progress : show a progress bar (steps/s, ETA).
+    checkpoint_every : steps between checkpoints.
+    resume : resume from a checkpoint of the same configuration, and re-use finished results.
+    stop_after_steps : stop (after checkpointing) once this many steps are done, as an
+        interruption would; the run is then resumable. For tests and batch schedulers.
+    on_step : called with (steps done, total steps) after each step.
+    """
+    from hvacflex.kpi import summary as kpi_summary
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    results_path = out / RESULTS_FILE
+    checkpoint_path = out / CHECKPOINT_FILE
+    config_hash = config.config_hash()
+    if resume and results_path.is_file():
+        frame, stored = read_results(results_path)
+        if stored["config_hash"] == config_hash and (out / SUMMARY_FILE).is_file():
+            summary = json.loads((out / SUMMARY_FILE).read_text())
+            return RunResult(out, frame, summary, cached=True)
+
+    loop = ClosedLoop(prepare(config))
+    resumed_from: int | None = None
+    if resume and checkpoint_path.is_file():
+        with checkpoint_path.open("rb") as fh:
+            state = pickle.load(fh)
+        if state.get("config_hash") == config_hash:
+            loop.set_state(state)
+            resumed_from = loop.k
+    (out / CONFIG_FILE).write_text(json.dumps(config.to_dict(), indent=2))
+
+    last = loop.steps if stop_after_steps is None else min(loop.steps, stop_after_steps)
+    try:
+        with _progress_bar(progress, config.name, loop.steps, loop.k) as advance:
+            while loop.k < last:
+                loop.step()
+                advance()
+                if on_step is not None:
+                    on_step(loop.k, loop.steps)
+                if loop.k % checkpoint_every == 0 and loop.k < loop.steps:
+                    loop.save_checkpoint(checkpoint_path)
+    except BaseException:
+        loop.save_checkpoint(checkpoint_path)
+        raise
+    if loop.k < loop.steps:
+        loop.save_checkpoint(checkpoint_path)
+        frame = loop.frame()
+        return RunResult(out, frame, kpi_summary(frame), resumed_from_step=resumed_from)
+
+    frame = loop.frame()
+    write_results(frame, results_path, config)
+    summary = kpi_summary(frame)
+    summary["steps_per_s"] = _steps_per_second(loop)
+    for part, seconds in loop.timing_s.items():
+        summary[f"time_{part}_ms_per_step"] = 1e3 * seconds / max(loop.k - (resumed_from or 0), 1)
+    (out / SUMMARY_FILE).write_text(json.dumps(summary, indent=2))
+    checkpoint_path.unlink(missing_ok=True)
+    return RunResult(out, frame, summary, resumed_from_step=resumed_from)
+
+
+def _steps_per_second(loop: ClosedLoop) -> float:
+    total = sum(loop.timing_s.values())
+    return loop.k / total if total > 0 else float("nan")
+
+
+class _progress_bar:
+    """A rich progress bar with steps/s and ETA, or nothing when quiet."""
+
+    def __init__(self, enabled: bool, name: str, total: int, done: int) -> None:
+        self.enabled = enabled and total > 1
+        self.name, self.total, self.done = name, total, done
+
+    def __enter__(self) -> Callable[[], None]:
+        if not self.enabled:
+            return lambda: None
+        from rich.progress import (
+            BarColumn,
+            MofNCompleteColumn,
+            Progress,
+            TextColumn,
+            TimeRemainingColumn,
+        )
+
+        self._progress = Progress(
+            TextColumn("[bold]{task.description}"),
+            BarColumn(),
+            MofNCompleteColumn(),
+            TextColumn("{task.fields[rate]}"),
+            TimeRemainingColumn(),
+            transient=False,
+        )
+        self._progress.start()
+        self._task = self._progress.add_task(
+            self.name, total=self.total, completed=self.done, rate=""
+        )
+        self._t0 = time.perf_counter()
+        self._n = 0
+
+        def advance() -> None:
+            self._n += 1
+            if self._n % 10 == 0:
+                rate = self._n / (time.perf_counter() - self._t0)
+                self._progress.update(self._task, advance=10, rate=f"{rate:6.1f} steps/s")
+
+        return advance
+
+    def __exit__(self, *exc: object) -> None:
+        if self.enabled:
+            self._progress.update(self._task, completed=self.done + self._n)
+            self._progress.stop()

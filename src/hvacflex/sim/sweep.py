@@ -1,0 +1,176 @@
+"""Sweeps: many independent closed-loop runs as Dask tasks.
+
+Each job is one :func:`~hvacflex.sim.closed_loop.run_simulation` in its own folder named after
+the scenario and its configuration hash, so finished runs are re-used and an interrupted
+sweep picks up where it stopped. Jobs run on a ``dask.distributed`` cluster: a
+``LocalCluster`` of single-threaded worker processes on this machine by default, or any
+scheduler given by address (``tcp://host:8786``). A job that fails is reported with its
+error; the others still finish and are gathered into one table.
+"""
+
+from __future__ import annotations
+
+import itertools
+import traceback
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+
+from hvacflex.config import ScenarioConfig, with_overrides
+from hvacflex.errors import ConfigError
+
+JobCallback = Callable[["JobOutcome"], None]
+
+
+@dataclass(frozen=True)
+class JobOutcome:
+    """What one sweep job returned: its KPIs, or its error."""
+
+    label: str
+    config_hash: str
+    params: dict[str, Any]
+    out_dir: str
+    summary: dict[str, float] | None
+    error: str | None
+
+    @property
+    def ok(self) -> bool:
+        return self.error is None
+
+
+def parse_param(text: str) -> tuple[str, list[Any]]:
+    """``"peak_price_sgd_per_kw=0.5,1,2"`` → ``("peak_price_sgd_per_kw", [0.5, 1.0, 2.0])``."""
+    if "=" not in text:
+        raise ConfigError(
+            "a sweep parameter needs the form NAME=V1,V2,...",
+            field="--param",
+            value=text,
+            hint="e.g. --param peak_price_sgd_per_kw=0.5,1,2,5",
+        )
+    name, _, values = text.partition("=")
+    parsed = [_parse_value(v.strip()) for v in values.split(",") if v.strip()]
+    if not parsed:
+        raise ConfigError("no values given", field=name, value=text)
+    return name.strip(), parsed
+
+
+def _parse_value(text: str) -> Any:
+    lowered = text.lower()
+    if lowered in ("true", "false"):
+        return lowered == "true"
+    try:
+        return int(text)
+    except ValueError:
+        pass
+    try:
+        return float(text)
+    except ValueError:
+        return text
+
+
+def expand_grid(
+    base: ScenarioConfig, params: Mapping[str, Sequence[Any]]
+) -> list[tuple[dict[str, Any], ScenarioConfig]]:
+    """Every combination of the parameter values applied to ``base`` (validated)."""
+    names = list(params)
+    jobs = []
+    for values in itertools.product(*(params[n] for n in names)):
+        overrides = dict(zip(names, values, strict=True))
+        jobs.append((overrides, with_overrides(base, overrides)))
+    return jobs
+
+
+def run_dir(out_root: Path, config: ScenarioConfig) -> Path:
+    """Folder of one run: ``<out_root>/runs/<name>-<config hash>``."""
+    return out_root / "runs" / f"{config.name}-{config.config_hash()}"
+
+
+def _run_job(config: ScenarioConfig, out_dir: str) -> dict[str, float]:
+    """Worker side of a job (module-level so it pickles)."""
+    from hvacflex.sim.closed_loop import run_simulation
+
+    return run_simulation(config, out_dir, progress=False).summary
+
+
+def run_sweep(
+    jobs: Sequence[tuple[dict[str, Any], ScenarioConfig]],
+    out_root: str | Path,
+    *,
+    scheduler: str | None = None,
+    n_workers: int = 2,
+    on_done: JobCallback | None = None,
+) -> list[JobOutcome]:
+    """Run ``jobs`` (from :func:`expand_grid`) on Dask and return their outcomes in order.
+
+    Parameters
+    ----------
+    jobs : (overrides, config) pairs.
+    out_root : every run goes to ``run_dir(out_root, config)``.
+    scheduler : address of a running ``dask.distributed`` scheduler; None starts a
+        ``LocalCluster`` of ``n_workers`` single-threaded processes.
+    on_done : called with each outcome as it finishes (progress per job).
+    """
+    from dask.distributed import Client, LocalCluster, as_completed
+
+    root = Path(out_root)
+    dirs = [str(run_dir(root, cfg)) for _, cfg in jobs]
+    cluster = None
+    if scheduler is None:
+        cluster = LocalCluster(  # type: ignore[no-untyped-call]
+            n_workers=n_workers,
+            threads_per_worker=1,
+            processes=True,
+            dashboard_address=None,
+        )
+        client = Client(cluster)  # type: ignore[no-untyped-call]
+    else:
+        client = Client(scheduler)  # type: ignore[no-untyped-call]
+    outcomes: dict[int, JobOutcome] = {}
+    try:
+        futures = [
+            client.submit(_run_job, cfg, out, pure=False, key=f"hvacflex-{i}-{cfg.config_hash()}")
+            for i, ((_, cfg), out) in enumerate(zip(jobs, dirs, strict=True))
+        ]
+        position = {future.key: i for i, future in enumerate(futures)}
+        for future in as_completed(futures):  # type: ignore[no-untyped-call]
+            i = position[future.key]
+            overrides, cfg = jobs[i]
+            try:
+                summary, error = future.result(), None
+            except Exception as exc:  # a failing job must not lose the others
+                summary = None
+                error = f"{type(exc).__name__}: {exc}"
+                tb = "".join(traceback.format_exception_only(type(exc), exc)).strip()
+                error = tb or error
+            outcome = JobOutcome(
+                label=cfg.name,
+                config_hash=cfg.config_hash(),
+                params=overrides,
+                out_dir=dirs[i],
+                summary=summary,
+                error=error,
+            )
+            outcomes[i] = outcome
+            if on_done is not None:
+                on_done(outcome)
+    finally:
+        client.close()  # type: ignore[no-untyped-call]
+        if cluster is not None:
+            cluster.close()
+    return [outcomes[i] for i in range(len(jobs))]
+
+
+def outcomes_table(outcomes: Sequence[JobOutcome]) -> pd.DataFrame:
+    """One row per job: its parameters, its KPIs (or its error)."""
+    rows = []
+    for outcome in outcomes:
+        row: dict[str, Any] = {"label": outcome.label, **outcome.params}
+        row["status"] = "ok" if outcome.ok else "failed"
+        row["error"] = outcome.error or ""
+        row.update(outcome.summary or {})
+        row["out_dir"] = outcome.out_dir
+        rows.append(row)
+    return pd.DataFrame(rows)

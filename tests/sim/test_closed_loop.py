@@ -1,0 +1,181 @@
+"""Closed-loop simulation: wiring, robustness against NMPC, checkpoints, determinism."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from hvacflex import kpi
+from hvacflex.building.hvac import affine_power_model
+from hvacflex.config import preset, with_overrides
+from hvacflex.sim.closed_loop import (
+    CHECKPOINT_FILE,
+    ClosedLoop,
+    prepare,
+    read_results,
+    run_simulation,
+)
+
+START = "2014-03-03"  # a Monday
+
+
+class LinearPlant:
+    """The controller's own model as the plant (perfect model)."""
+
+    def __init__(self, model: object) -> None:
+        self.m = model
+
+    def step(
+        self, x: np.ndarray, flow: np.ndarray, d: np.ndarray, dt_s: float = 1800.0
+    ) -> np.ndarray:
+        m = self.m
+        return m.a @ x + m.b @ flow + m.e @ d + m.g  # type: ignore[attr-defined]
+
+
+def test_perfect_model_closed_loop_cost_is_the_sum_of_first_step_costs() -> None:
+    cfg = with_overrides(
+        preset("nmpc", start=START, days=1.0),
+        {"realisation.mode": "zero", "activation.mode": "never"},
+    )
+    setup = prepare(cfg)
+    model = setup.model
+    t_ref = setup.linearisation_temp_degc
+    outdoor = next(i for i, ch in enumerate(model.channels) if ch.kind == "outdoor_temp")
+    exo = setup.exogenous
+
+    def affine_power(k: int, flow: np.ndarray, zone: np.ndarray, t_out: float, w: float) -> float:
+        p0, p = affine_power_model(
+            setup.building.hvac,
+            exo.disturbances[k : k + 1, outdoor],
+            exo.outdoor_humidity_ratio_kg_per_kg[k : k + 1],
+            t_ref,
+            flow_min_kg_s=setup.building.hvac.flow_min_at(exo.occupied[k : k + 1]),
+        )
+        return float(p0[0] + p[0] @ flow)
+
+    loop = ClosedLoop(setup, plant=LinearPlant(model), power_fn=affine_power)
+    while loop.k < loop.steps:
+        loop.step()
+    frame = loop.frame()
+    first_step_cost = float(
+        (frame["planned_power_kw"] * frame["energy_price_sgd_per_mwh"]).sum() * 0.5 / 1000
+    )
+    assert not frame["fallback"].any()
+    assert kpi.energy_cost_sgd(frame) == pytest.approx(first_step_cost, rel=1e-9)
+    # the plan's first step is what the (perfect) plant does: comfort holds
+    assert kpi.total_discomfort_kelvin_hours(frame) < 1e-6
+    served = frame.filter(like="temp_served_").to_numpy()
+    realised = frame[[c.replace("served", "end") for c in frame.filter(like="temp_served_")]]
+    assert np.allclose(served, realised.to_numpy(), atol=1e-8)
+
+
+@pytest.fixture(scope="module")
+def week_runs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, pd.DataFrame]:
+    out = tmp_path_factory.mktemp("week")
+    frames = {}
+    for name in ("nmpc", "rmpc"):
+        cfg = preset(name, start=START, days=7.0)
+        frames[name] = run_simulation(cfg, out / name, progress=False).frame
+    return frames
+
+
+def test_rmpc_keeps_comfort_where_nmpc_does_not_and_costs_more(
+    week_runs: dict[str, pd.DataFrame],
+) -> None:
+    nmpc, rmpc = week_runs["nmpc"], week_runs["rmpc"]
+    d_n = kpi.total_discomfort_kelvin_hours(nmpc)
+    d_r = kpi.total_discomfort_kelvin_hours(rmpc)
+    assert d_n > 1.0
+    assert d_r < 0.1 * d_n
+    assert kpi.energy_cost_sgd(rmpc) > kpi.energy_cost_sgd(nmpc)
+
+
+def test_same_realised_disturbances_for_every_controller(
+    week_runs: dict[str, pd.DataFrame],
+) -> None:
+    w_cols = [c for c in week_runs["nmpc"].columns if c.startswith("w_")]
+    assert w_cols
+    np.testing.assert_array_equal(
+        week_runs["nmpc"][w_cols].to_numpy(), week_runs["rmpc"][w_cols].to_numpy()
+    )
+
+
+def test_rmpc_keeps_comfort_when_reserve_is_always_activated(tmp_path: Path) -> None:
+    cfg = with_overrides(preset("rmpc", start=START, days=3.0), {"activation.mode": "always"})
+    frame = run_simulation(cfg, tmp_path, progress=False).frame
+    assert frame["il_activated"].all()
+    assert frame["reserve_kw"].sum() > 0
+    assert kpi.total_discomfort_kelvin_hours(frame) < 0.5
+
+
+def test_resume_from_checkpoint_gives_identical_results(tmp_path: Path) -> None:
+    cfg = with_overrides(
+        preset("rmpc-ppp", start=START, days=2.0),
+        {"activation.mode": "random", "activation.rate": 0.1},
+    )
+    whole = run_simulation(cfg, tmp_path / "whole", progress=False).frame
+    first = run_simulation(
+        cfg, tmp_path / "split", progress=False, checkpoint_every=24, stop_after_steps=50
+    )
+    assert (tmp_path / "split" / CHECKPOINT_FILE).is_file()
+    assert len(first.frame) == 50
+    second = run_simulation(cfg, tmp_path / "split", progress=False, checkpoint_every=24)
+    assert second.resumed_from_step == 50
+    pd.testing.assert_frame_equal(
+        whole.drop(columns="solve_time_s"), second.frame.drop(columns="solve_time_s")
+    )
+    assert not (tmp_path / "split" / CHECKPOINT_FILE).exists()
+
+
+def test_killed_run_resumes_from_its_last_checkpoint(tmp_path: Path) -> None:
+    out = tmp_path / "killed"
+    args = [
+        sys.executable, "-m", "hvacflex.cli", "simulate", "--scenario", "rmpc",
+        "--start", START, "--days", "2", "--out", str(out), "--quiet",
+        "--checkpoint-every", "10",
+    ]  # fmt: skip
+    proc = subprocess.Popen(args, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.monotonic() + 120
+    while not (out / CHECKPOINT_FILE).exists() and time.monotonic() < deadline:
+        time.sleep(0.1)
+    os.kill(proc.pid, signal.SIGKILL)
+    proc.wait()
+    assert (out / CHECKPOINT_FILE).exists(), "no checkpoint was written before the kill"
+    resumed = run_simulation(preset("rmpc", start=START, days=2.0), out, progress=False)
+    assert resumed.resumed_from_step is not None and resumed.resumed_from_step > 0
+    whole = run_simulation(preset("rmpc", start=START, days=2.0), tmp_path / "w", progress=False)
+    pd.testing.assert_frame_equal(
+        whole.frame.drop(columns="solve_time_s"), resumed.frame.drop(columns="solve_time_s")
+    )
+
+
+def test_same_seed_same_results_other_seed_other_disturbances(tmp_path: Path) -> None:
+    cfg = preset("nmpc", start=START, days=0.5)
+    one = run_simulation(cfg, tmp_path / "1", progress=False).frame
+    two = run_simulation(cfg, tmp_path / "2", progress=False).frame
+    pd.testing.assert_frame_equal(
+        one.drop(columns="solve_time_s"), two.drop(columns="solve_time_s")
+    )
+    other = run_simulation(replace(cfg, seed=7), tmp_path / "3", progress=False).frame
+    assert not np.allclose(one.filter(like="w_").to_numpy(), other.filter(like="w_").to_numpy())
+
+
+def test_results_file_carries_config_and_is_reused(tmp_path: Path) -> None:
+    cfg = preset("thermostat", start=START, days=0.5)
+    first = run_simulation(cfg, tmp_path, progress=False)
+    frame, meta = read_results(first.results_path)
+    assert meta["config"]["controller"]["kind"] == "thermostat"
+    assert meta["config_hash"] == cfg.config_hash()
+    assert meta["version"]
+    assert len(frame) == cfg.steps
+    again = run_simulation(cfg, tmp_path, progress=False)
+    assert again.cached

@@ -1,0 +1,39 @@
+from pathlib import Path
+
+import pytest
+
+from hvacflex.config import preset
+from hvacflex.errors import ConfigError
+from hvacflex.sim.sweep import expand_grid, outcomes_table, parse_param, run_sweep
+
+
+def test_parse_param_values() -> None:
+    assert parse_param("peak_price_sgd_per_kw=0.5,1,2") == ("peak_price_sgd_per_kw", [0.5, 1, 2])
+    assert parse_param("controller.reserve=true,false")[1] == [True, False]
+    with pytest.raises(ConfigError, match="NAME=V1"):
+        parse_param("peak_price_sgd_per_kw")
+
+
+def test_grid_is_the_product_and_validated() -> None:
+    base = preset("rmpc-ppp", days=1.0)
+    jobs = expand_grid(base, {"peak_price_sgd_per_kw": [1.0, 2.0], "seed": [1, 2, 3]})
+    assert len(jobs) == 6
+    assert {cfg.controller.peak_price_sgd_per_kw for _, cfg in jobs} == {1.0, 2.0}
+    with pytest.raises(ConfigError):
+        expand_grid(base, {"peak_price_sgd_per_kw": [-1.0]})
+
+
+def test_a_failing_job_does_not_lose_the_others(tmp_path: Path) -> None:
+    base = preset("thermostat", start="2014-03-03", days=0.25)
+    jobs = expand_grid(base, {"building": ["office5", "no-such-building"]})
+    done = []
+    outcomes = run_sweep(jobs, tmp_path, n_workers=2, on_done=done.append)
+    assert len(done) == 2
+    ok, failed = outcomes
+    assert ok.ok and ok.summary is not None and ok.summary["energy_kwh"] > 0
+    assert not failed.ok and "no-such-building" in (failed.error or "")
+    table = outcomes_table(outcomes)
+    assert list(table["status"]) == ["ok", "failed"]
+    # finished runs are cached: a second sweep re-uses the results
+    again = run_sweep(jobs[:1], tmp_path, n_workers=1)
+    assert again[0].summary == ok.summary
