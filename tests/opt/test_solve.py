@@ -280,6 +280,28 @@ def test_time_limit_is_reported() -> None:
         RMPCSolver(big, time_limit_s=0.0)
 
 
+def test_time_limit_is_per_solve_not_cumulative() -> None:
+    """Regression: HiGHS measures ``time_limit`` on the Highs object's cumulative run clock;
+    once the solves added up to the limit, every later solve hit TIME_LIMIT in a few ms."""
+    limit_s = 0.1
+    base = random_problem(0, n=8, m=3, nd=3, horizon=24)
+    solver = RMPCSolver(base, time_limit_s=limit_s)
+    rng = np.random.default_rng(0)
+    total_s, solves = 0.0, 0
+    while total_s < 3 * limit_s and solves < 2000:
+        prob = dataclasses.replace(
+            base,
+            x0=base.x0 + rng.normal(0.0, 0.5, base.n),
+            energy_price_sgd_per_mwh=rng.uniform(50.0, 300.0, base.horizon),
+            reserve_price_sgd_per_mwh=rng.uniform(0.0, 500.0, base.horizon),
+        )
+        sol = solver.solve(prob)
+        assert sol.status is SolveStatus.OPTIMAL, f"solve {solves}: {sol.message}"
+        total_s += sol.highs_time_s
+        solves += 1
+    assert total_s >= 3 * limit_s  # the solves together ran well past the per-solve limit
+
+
 def _shifted_problems(seed: int, steps: int, horizon: int = 8) -> list[RMPCProblem]:
     """Consecutive receding-horizon problems cut from one long random series."""
     long = random_problem(seed, horizon=horizon + steps)

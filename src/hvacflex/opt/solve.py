@@ -142,7 +142,8 @@ class RMPCSolver:
     Parameters
     ----------
     problem : the first problem; fixes the structure (A, B, E, C, N, reserve mask, robust)
-    time_limit_s : wall-clock limit per solve [s]; None = no limit
+    time_limit_s : wall-clock limit per solve [s] (each :meth:`solve`, not cumulative);
+        None = no limit
 
     Examples
     --------
@@ -172,9 +173,9 @@ class RMPCSolver:
             ("output_flag", False),
             ("log_to_console", False),
             ("threads", 1),
-            ("time_limit", float(time_limit_s) if time_limit_s is not None else np.inf),
         ):
             self._highs.setOptionValue(option, value)
+        self._time_limit_s = float(time_limit_s) if time_limit_s is not None else None
         self._build(problem)
         self._last_problem: RMPCProblem | None = problem
         self._has_basis = False
@@ -340,6 +341,12 @@ class RMPCSolver:
         return self._solution(problem, delta, status, start, highs_time, iterations, warm)
 
     def _run(self) -> tuple[float, SolveStatus]:
+        if self._time_limit_s is not None:
+            # HiGHS checks ``time_limit`` against the Highs object's run clock, which
+            # accumulates over every run() of this object: re-arm it so the limit is per solve.
+            self._highs.setOptionValue(
+                "time_limit", float(self._highs.getRunTime()) + self._time_limit_s
+            )
         tick = time.perf_counter()
         run_status = self._highs.run()
         elapsed = time.perf_counter() - tick
