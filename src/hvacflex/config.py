@@ -94,10 +94,12 @@ class UncertaintyConfig:
 
     ``relative`` is a fraction of the forecast value (solar, internal gains); ``absolute`` is
     in the channel's unit (K for temperatures, W/m² for solar, W for gains). Both add up.
+    The default (±5 % of heat gains, ±0.5 K outdoor) is the largest level the default
+    building satisfies with margin; see ``docs/data.md`` and DESIGN §3.
     """
 
     relative: Mapping[str, float] = field(
-        default_factory=lambda: {"solar": 0.2, "internal_gain": 0.2}
+        default_factory=lambda: {"solar": 0.05, "internal_gain": 0.05}
     )
     absolute: Mapping[str, float] = field(default_factory=lambda: {"outdoor_temp": 0.5})
 

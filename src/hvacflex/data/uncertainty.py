@@ -21,9 +21,9 @@ box on ``y_k`` (k = 1…N steps ahead) is (DESIGN §3)::
 
 Default level
 -------------
-:data:`DEFAULT_UNCERTAINTY` (±20 % of solar and internal gains, ±0.5 K outdoor temperature)
-is provisional: the lead fixes it once the default building exists, such that its
-``max_k δ_k`` stays well inside the occupied half-band. :func:`paper_uncertainty` gives the
+:data:`DEFAULT_UNCERTAINTY` (±5 % of solar and internal gains, ±0.5 K outdoor temperature) is
+the largest level whose worst-case margin ``max_k δ_k`` stays well inside the occupied
+half-band of the default building (0.87 K of 1.5 K; basis and table in ``docs/data.md``). :func:`paper_uncertainty` gives the
 paper's ±50 % of heat gains, which can make the open-loop robust problem infeasible for a
 perimeter zone (DESIGN §3 "Uncertainty level").
 """
@@ -144,10 +144,10 @@ NO_UNCERTAINTY = UncertaintyBox()
 """σ = 0: the nominal MPC of scenario (a)."""
 
 DEFAULT_UNCERTAINTY = UncertaintyBox(
-    relative={"solar": 0.2, "internal_gain": 0.2}, absolute={"outdoor_temp": 0.5}
+    relative={"solar": 0.05, "internal_gain": 0.05}, absolute={"outdoor_temp": 0.5}
 )
-"""Default box: ±20 % of solar and internal gains, ±0.5 K outdoor temperature. Provisional:
-fixed by the lead once the default building's ``max_k δ_k`` is known (DESIGN §3)."""
+"""Default box: ±5 % of solar and internal gains, ±0.5 K outdoor temperature — on office5
+its open-loop ``max_k δ_k`` is 0.87 K, 58 % of the occupied half-band (docs/data.md)."""
 
 
 def paper_uncertainty(level: float = 0.5) -> UncertaintyBox:
