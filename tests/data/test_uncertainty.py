@@ -24,7 +24,7 @@ CHANNELS = (outdoor_temp_channel(), solar_channel(180, 90), internal_gain_channe
 def test_sigma_relative_and_absolute() -> None:
     d = np.array([[30.0, 400.0, 1000.0], [25.0, -0.0, 500.0]])
     sigma = DEFAULT_UNCERTAINTY.sigma(d, CHANNELS)
-    np.testing.assert_allclose(sigma, [[0.5, 80.0, 200.0], [0.5, 0.0, 100.0]])
+    np.testing.assert_allclose(sigma, [[0.5, 20.0, 50.0], [0.5, 0.0, 25.0]])
     paper = paper_uncertainty().sigma(d, CHANNELS)
     np.testing.assert_allclose(paper, [[0.0, 200.0, 500.0], [0.0, 0.0, 250.0]])
     both = UncertaintyBox(relative={"solar": 0.1}, absolute={"solar": 5.0}).sigma(d, CHANNELS)
