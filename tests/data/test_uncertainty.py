@@ -29,7 +29,7 @@ def test_sigma_relative_and_absolute() -> None:
     np.testing.assert_allclose(paper, [[0.0, 200.0, 500.0], [0.0, 0.0, 250.0]])
     both = UncertaintyBox(relative={"solar": 0.1}, absolute={"solar": 5.0}).sigma(d, CHANNELS)
     np.testing.assert_allclose(both[:, 1], [45.0, 5.0])
-    assert DEFAULT_UNCERTAINTY.scaled(2.0).sigma(d, CHANNELS)[0, 2] == 400.0
+    assert DEFAULT_UNCERTAINTY.scaled(2.0).sigma(d, CHANNELS)[0, 2] == 100.0
     assert UncertaintyBox().is_zero and not DEFAULT_UNCERTAINTY.is_zero
 
 
