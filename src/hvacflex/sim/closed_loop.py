@@ -38,7 +38,7 @@ from hvacflex.building.config import Building, load_building
 from hvacflex.building.discretize import LinearModel, linearize
 from hvacflex.building.hvac import hvac_power_kw
 from hvacflex.building.plant import NonlinearPlant
-from hvacflex.config import ScenarioConfig
+from hvacflex.config import LINEARISATION_MARGIN_K, ScenarioConfig
 from hvacflex.control.base import Action, Controller, FloatArray
 from hvacflex.control.baselines import ThermostatController
 from hvacflex.control.mpc import MPCController
@@ -119,7 +119,7 @@ def prepare(config: ScenarioConfig) -> Setup:
     building = load_building(resolve_building(config.building))
     temp_ref = config.controller.linearisation_temp_degc
     if temp_ref is None:
-        temp_ref = config.comfort.occupied_degc[0]
+        temp_ref = config.comfort.occupied_degc[1] - LINEARISATION_MARGIN_K
     model = linearize(building, dt_s=config.dt_s, linearisation_temp_degc=temp_ref)
     data = config.data
     scale = RESERVE_PRICE_SCALE if data.reserve_price_scale is None else data.reserve_price_scale

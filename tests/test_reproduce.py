@@ -1,0 +1,107 @@
+"""The quick reproduction produces every artefact, and the figures show what they claim."""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+from html.parser import HTMLParser
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from hvacflex.reproduce import reproduce
+
+
+@pytest.fixture(scope="module")
+def quick_report(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    out = tmp_path_factory.mktemp("reproduce")
+    reproduce(out, quick=True, workers=2, log=lambda _: None)
+    return out
+
+
+EXPECTED = [
+    "report.html",
+    "table1.csv",
+    "table1_vs_paper.csv",
+    "kpi_scenarios.csv",
+    "figures/fig2_prices.png",
+    "figures/fig2_prices.csv",
+    "figures/fig5_temperatures.png",
+    "figures/fig5_temperatures.csv",
+    "figures/fig6_power_reserve.png",
+    "figures/fig6_power_reserve.csv",
+    "figures/fig7_ppp_sweep.png",
+    "figures/fig7_ppp_sweep.csv",
+    "figures/comfort.png",
+    "figures/robustness_price.png",
+    "figures/robustness_price.csv",
+]
+
+
+@pytest.mark.parametrize("name", EXPECTED)
+def test_every_artefact_is_written(quick_report: Path, name: str) -> None:
+    path = quick_report / name
+    assert path.is_file() and path.stat().st_size > 0
+
+
+def test_report_is_valid_self_contained_html(quick_report: Path) -> None:
+    text = (quick_report / "report.html").read_text()
+
+    class Strict(HTMLParser):
+        def error(self, message: str) -> None:  # pragma: no cover - py<3.10 API
+            raise AssertionError(message)
+
+    Strict().feed(text)
+    assert text.count("data:image/png;base64,") >= 7
+    assert "Differences from the paper" in text
+    assert "synthetic" in text.lower()
+
+
+def test_peak_price_lowers_the_peak(quick_report: Path) -> None:
+    kpis = pd.read_csv(quick_report / "kpi_scenarios.csv", index_col=0)
+    assert kpis.loc["peak_power_kw", "(c) RMPC + PPP"] <= kpis.loc["peak_power_kw", "(b) RMPC"]
+    sweep = pd.read_csv(quick_report / "figures" / "fig7_ppp_sweep.csv")
+    sweep = sweep.sort_values("peak_price_sgd_per_kw")
+    assert sweep["peak_power_kw"].iloc[-1] <= sweep["peak_power_kw"].iloc[0]
+
+
+def test_robust_costs_more_than_nominal(quick_report: Path) -> None:
+    table = pd.read_csv(quick_report / "table1.csv", index_col=0)
+    cost = table["energy_cost_sgd"]
+    assert cost.loc["(b) RMPC"] > cost.loc["(a) NMPC"]
+
+
+def test_curtailed_prediction_is_never_cooler_than_served(quick_report: Path) -> None:
+    temps = pd.read_csv(quick_report / "figures" / "fig5_temperatures.csv")
+    both = temps.dropna(subset=["temp_served_degc", "temp_curtailed_degc"])
+    assert len(both) > 0
+    # cooling: offering reserve means less supply air when activated, so never cooler
+    assert (both["temp_curtailed_degc"] >= both["temp_served_degc"] - 1e-6).all()
+
+
+def test_second_run_reuses_cached_simulations(quick_report: Path) -> None:
+    logs: list[str] = []
+    reproduce(quick_report, quick=True, workers=1, log=logs.append)
+    runs = list((quick_report / "runs").iterdir())
+    assert runs and all((r / "results.parquet").is_file() for r in runs)
+
+
+@pytest.mark.slow
+def test_report_opens_in_a_headless_browser(quick_report: Path, tmp_path: Path) -> None:
+    browser = shutil.which("chromium") or shutil.which("chromium-browser")
+    if browser is None:
+        pytest.skip("no chromium on this machine (apt-get install chromium)")
+    shot = tmp_path / "report.png"
+    result = subprocess.run(
+        [
+            browser, "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic",
+            "--no-first-run", "--disable-background-networking", "--disable-component-update",
+            "--disable-sync", f"--user-data-dir={tmp_path / 'profile'}",
+            f"--screenshot={shot}", "--window-size=1200,3000",
+            (quick_report / "report.html").as_uri(),
+        ],
+        capture_output=True, text=True, timeout=120,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    assert shot.is_file() and shot.stat().st_size > 10_000
