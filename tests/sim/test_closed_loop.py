@@ -125,7 +125,11 @@ def test_same_realised_disturbances_for_every_controller(
 
 
 def test_rmpc_keeps_comfort_when_reserve_is_always_activated(tmp_path: Path) -> None:
-    cfg = with_overrides(preset("rmpc", start=START, days=3.0), {"activation.mode": "always"})
+    # a reserve price near the energy price, so that reserve is worth offering
+    cfg = with_overrides(
+        preset("rmpc", start=START, days=2.0),
+        {"activation.mode": "always", "data.reserve_price_scale": 150.0},
+    )
     frame = run_simulation(cfg, tmp_path, progress=False).frame
     assert frame["il_activated"].all()
     assert frame["reserve_kw"].sum() > 0
