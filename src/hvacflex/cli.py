@@ -57,6 +57,34 @@ def building_show(
     typer.echo(text)
 
 
+validate_app = typer.Typer(help="Validate the building model.", no_args_is_help=True)
+app.add_typer(validate_app, name="validate")
+
+
+@validate_app.command("bestest")
+def validate_bestest(
+    out: Path = typer.Option(  # noqa: B008
+        Path("bestest_results"), "--out", help="Folder for the table, CSV and PNG figures."
+    ),
+) -> None:
+    """ASHRAE Standard 140 Cases 600, 900, 600FF, 900FF against the six example programs."""
+    from hvacflex.building.validation.bestest import run_bestest, table_markdown, write_outputs
+    from hvacflex.errors import HvacflexError
+    from hvacflex.paths import buildings_dir, data_dir
+
+    try:
+        result = run_bestest(
+            data_dir() / "bestest", buildings_dir(), progress=lambda m: typer.echo(f"… {m}")
+        )
+        paths = write_outputs(result, out)
+    except HvacflexError as exc:
+        typer.echo(f"error: {exc}", err=True)
+        raise typer.Exit(2) from None
+    typer.echo(table_markdown(result.table))
+    for path in paths:
+        typer.echo(f"wrote {path}")
+
+
 @app.command()
 def version() -> None:
     """Print the hvacflex version."""

@@ -6,7 +6,10 @@ This module is the contract between the two.
 
 Order (fixed): ``[outdoor temperature, solar per surface orientation (in the order the
 building lists them), internal gains per zone (zone order), ground temperature (only if a
-construction touches ground)]``.
+construction touches ground), sky long-wave (only if an exterior surface sets a
+thermal emissivity), solar gain per angle-dependent window (window order)]``. The last two
+were added for the BESTEST validation; buildings without them (office5, room1) keep exactly
+the original vector.
 
 Units per kind:
 
@@ -16,6 +19,15 @@ Units per kind:
   tilt from horizontal, 90° = vertical wall, 0° = roof)
 * ``internal_gain`` — sensible internal heat gain of one zone (people + lighting + plugs) [W]
 * ``ground_temp``   — ground temperature below the slab [°C]
+* ``sky_longwave``  — net long-wave loss of a horizontal black surface at outdoor air
+  temperature to the sky, ``σ (T_out + 273.15)⁴ − L↓`` with ``L↓`` the downwelling
+  (horizontal infrared) sky radiation, e.g. EPW field 12 [W/m², ≥ 0 in practice]. A surface
+  of emissivity ε and tilt β loses ``ε (1 + cos β)/2`` times it (the part of its view that
+  is ground is taken at air temperature).
+* ``window_solar_gain`` — solar heat gain per m² of one window whose SHGC depends on the
+  incidence angle (``Window.shgc_normal`` set), ``Window.solar_gain_w_per_m2`` of the beam
+  and diffuse irradiance on its plane [W/m²]. Such a window uses this channel instead of
+  the plane's ``solar`` channel.
 """
 
 from __future__ import annotations
@@ -23,13 +35,17 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Literal
 
-ChannelKind = Literal["outdoor_temp", "solar", "internal_gain", "ground_temp"]
+ChannelKind = Literal[
+    "outdoor_temp", "solar", "internal_gain", "ground_temp", "sky_longwave", "window_solar_gain"
+]
 
 CHANNEL_UNITS: dict[str, str] = {
     "outdoor_temp": "degC",
     "solar": "W/m2",
     "internal_gain": "W",
     "ground_temp": "degC",
+    "sky_longwave": "W/m2",
+    "window_solar_gain": "W/m2",
 }
 
 
@@ -43,7 +59,7 @@ class DisturbanceChannel:
         ``"internal_gain_core_w"``, ``"ground_temp_degc"``.
     kind : what it is (see the module docstring for units).
     azimuth_deg, tilt_deg : orientation of the irradiated plane (``solar`` only).
-    zone : zone name (``internal_gain`` only).
+    zone : zone name (``internal_gain``) or window name (``window_solar_gain``).
     """
 
     name: str
@@ -72,3 +88,13 @@ def internal_gain_channel(zone: str) -> DisturbanceChannel:
 
 def ground_temp_channel() -> DisturbanceChannel:
     return DisturbanceChannel("ground_temp_degc", "ground_temp")
+
+
+def sky_longwave_channel() -> DisturbanceChannel:
+    return DisturbanceChannel("sky_longwave_w_per_m2", "sky_longwave")
+
+
+def window_solar_gain_channel(window: str) -> DisturbanceChannel:
+    return DisturbanceChannel(
+        f"window_solar_gain_{window}_w_per_m2", "window_solar_gain", zone=window
+    )

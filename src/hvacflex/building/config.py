@@ -10,15 +10,23 @@ valid) and returns a :class:`Building`; the rest of the package trusts it.
 File layout (see ``buildings/office5.toml`` for a commented example)::
 
     name, description, latitude_deg?, longitude_deg?
-    [[zones]]            name, floor_area_m2, height_m, capacitance_multiplier?
+    [[zones]]            name, floor_area_m2, height_m, capacitance_multiplier?,
+                         infiltration_ach?, internal_gain_radiative_fraction?,
+                         solar_lost_fraction?, interior_radiation_w_per_m2k?
     [constructions.X]    r_value_m2k_per_w + capacitance_j_per_m2k   (homogeneous)
                          or layers = [{thickness_m, conductivity_w_per_mk,
                                        density_kg_per_m3, specific_heat_j_per_kgk}, ...]
                          (outside → inside), inside_film_w_per_m2k?, outside_film_w_per_m2k?,
                          nodes_per_layer?
     [[walls]]            name, zone, adjacent ("outside" | "ground" | "adiabatic" | zone),
-                         construction, area_m2, azimuth_deg?, tilt_deg?, solar_absorptance?
-    [[windows]]          name, zone, area_m2, u_value_w_per_m2k, shgc, azimuth_deg, tilt_deg?
+                         construction, area_m2, azimuth_deg?, tilt_deg?, solar_absorptance?,
+                         thermal_emissivity?, interior_solar_fraction?
+    [[windows]]          name, zone, area_m2, u_value_w_per_m2k, shgc, azimuth_deg, tilt_deg?,
+                         thermal_emissivity?, outside_film_w_per_m2k?, shgc_normal?,
+                         incidence_angle_modifier?
+
+The optional keys added for the BESTEST validation (infiltration, radiative split of gains,
+interior solar distribution, sky long-wave exchange) all default to the original model.
     [gains]              occupancy_m2_per_person, sensible_w_per_person, latent_w_per_person,
                          lighting_w_per_m2, equipment_w_per_m2
     [hvac]               supply_temp_degc, flow_min_kg_s = {zone = …}, flow_max_kg_s = {…},
@@ -60,6 +68,22 @@ DEFAULT_SOLAR_ABSORPTANCE = 0.6
 MAX_SUPPLY_TEMP_DEGC = 20.0
 """Upper limit of the supply-air temperature: below the lowest comfort bound (the
 unoccupied band starts at 20 °C), so that supply air always cools (B ≤ 0)."""
+
+DOUBLE_CLEAR_ANGLE_MODIFIER: tuple[tuple[float, float], ...] = (
+    (0.0, 1.0),
+    (40.0, 0.74 / 0.76),
+    (50.0, 0.71 / 0.76),
+    (60.0, 0.64 / 0.76),
+    (70.0, 0.50 / 0.76),
+    (80.0, 0.26 / 0.76),
+    (90.0, 0.0),
+)
+"""SHGC(θ)/SHGC(0) of uncoated double clear glazing (3 mm panes, air gap): ASHRAE Handbook
+of Fundamentals, ch. 15, fenestration table of glazing ID 5a (SHGC 0.76 at normal
+incidence, 0.74 / 0.71 / 0.64 / 0.50 / 0.26 at 40–80°, hemispherical 0.66)."""
+
+SOLAR_FRACTION_TOLERANCE = 1e-6
+"""Rounding allowance when checking that a zone's transmitted-solar shares sum to ≤ 1."""
 
 _NAME_PATTERN = re.compile(r"^[a-z][a-z0-9_]*$")
 
@@ -163,6 +187,35 @@ class Construction:
             for _ in range(k)
         )
 
+    def chain(self) -> tuple[tuple[float, ...], tuple[float, ...]]:
+        """The capacitance nodes and the resistances between them, per unit area.
+
+        Massless slices (a layer with zero density or specific heat, e.g. a no-mass
+        insulation board) carry no node: their resistance joins the link they sit in.
+
+        Returns
+        -------
+        capacitance_j_per_m2k : (k,) node capacitances, outside → inside.
+        resistance_m2k_per_w : (k + 1,) outer surface → node 0, node 0 → node 1, …,
+            node k−1 → inner surface (films excluded); Σ equals ``r_material_m2k_per_w``.
+        """
+        capacitance: list[float] = []
+        resistance: list[float] = [0.0]
+        pending = 0.0  # massless resistance since the last node
+        for r, c in self.slices():
+            if c <= 0.0:
+                pending += r
+                continue
+            if capacitance:
+                resistance.append(resistance.pop() + pending + r / 2)
+            else:
+                resistance[0] = r / 2 + pending
+            capacitance.append(c)
+            resistance.append(r / 2)
+            pending = 0.0
+        resistance[-1] += pending
+        return tuple(capacitance), tuple(resistance)
+
 
 @dataclass(frozen=True)
 class Wall:
@@ -176,8 +229,15 @@ class Wall:
     construction : the construction (resolved).
     area_m2 : [m²]
     azimuth_deg : clockwise from north, 180 = south-facing (exterior surfaces only).
-    tilt_deg : from horizontal, 90 = vertical, 0 = roof.
-    solar_absorptance : α of the outside surface (exterior surfaces only) [-].
+    tilt_deg : from horizontal, 90 = vertical, 0 = roof, 180 = facing down (raised floor).
+    solar_absorptance : α of the outside surface (exterior surfaces only) [-]; an exterior
+        wall with α = 0 (e.g. the shaded underside of a raised floor) gets no solar channel.
+    thermal_emissivity : long-wave emissivity ε of the outside surface [-]; ``None`` (default):
+        no explicit sky exchange (the outside film is taken to exchange with air-temperature
+        surroundings). When set on an exterior wall, the outer surface loses
+        ``ε · (1 + cos tilt)/2 · L_sky`` [W/m²] (``sky_longwave`` channel, ``channels.py``).
+    interior_solar_fraction : share of the zone's transmitted solar absorbed on this wall's
+        inside surface [-]; ``None``: the wall receives none (see :class:`Zone`).
     """
 
     name: str
@@ -188,6 +248,13 @@ class Wall:
     azimuth_deg: float = 0.0
     tilt_deg: float = 90.0
     solar_absorptance: float = DEFAULT_SOLAR_ABSORPTANCE
+    thermal_emissivity: float | None = None
+    interior_solar_fraction: float | None = None
+
+    @property
+    def sky_view_factor(self) -> float:
+        """View factor of the outside surface to the sky, (1 + cos tilt)/2 [-]."""
+        return (1.0 + math.cos(math.radians(self.tilt_deg))) / 2.0
 
     @property
     def is_exterior(self) -> bool:
@@ -211,8 +278,20 @@ class Window:
     area_m2 : glazed area incl. frame [m²].
     u_value_w_per_m2k : whole-window U incl. films [W/(m²K)].
     shgc : solar heat gain coefficient (the τ of the paper, incl. the inward-flowing part of
-        the absorbed solar) [-].
+        the absorbed solar) [-]: a constant, so for validation use the hemispherical
+        (diffuse-averaged) value rather than the normal-incidence one.
     azimuth_deg, tilt_deg : orientation as for :class:`Wall`.
+    thermal_emissivity : long-wave emissivity of the outer pane [-]; ``None``: no explicit
+        sky exchange (as for :class:`Wall`).
+    outside_film_w_per_m2k : combined outside surface coefficient included in the U-value
+        [W/(m²K)]; only used to split the sky long-wave loss of the outer pane between the
+        outdoor air and the zone (share ``U / h_out`` reaches the zone).
+    shgc_normal : SHGC at normal incidence [-]; ``None`` (default): the constant ``shgc``
+        applies to all irradiance. When set, the window's gain is angle dependent: beam
+        × ``shgc_normal`` × modifier(incidence angle) + diffuse × ``shgc`` (then the
+        hemispherical value), through its own ``window_solar_gain`` channel.
+    incidence_angle_modifier : ((angle_deg, SHGC(θ)/SHGC(0)), …) interpolated linearly;
+        default :data:`DOUBLE_CLEAR_ANGLE_MODIFIER`.
     """
 
     name: str
@@ -222,10 +301,52 @@ class Window:
     shgc: float
     azimuth_deg: float
     tilt_deg: float = 90.0
+    thermal_emissivity: float | None = None
+    outside_film_w_per_m2k: float = DEFAULT_OUTSIDE_FILM_W_PER_M2K
+    shgc_normal: float | None = None
+    incidence_angle_modifier: tuple[tuple[float, float], ...] = ()
+
+    def __post_init__(self) -> None:
+        if not self.incidence_angle_modifier:
+            object.__setattr__(self, "incidence_angle_modifier", DOUBLE_CLEAR_ANGLE_MODIFIER)
+
+    def solar_gain_w_per_m2(
+        self,
+        beam_w_per_m2: npt.ArrayLike,
+        diffuse_w_per_m2: npt.ArrayLike,
+        incidence_deg: npt.ArrayLike,
+    ) -> npt.NDArray[np.float64]:
+        """Solar heat gain per m² of window (the ``window_solar_gain`` channel) [W/m²].
+
+        Parameters
+        ----------
+        beam_w_per_m2 : (T,) beam irradiance on the window plane [W/m²].
+        diffuse_w_per_m2 : (T,) sky + ground diffuse irradiance on the plane [W/m²].
+        incidence_deg : (T,) angle of incidence of the beam [°] (≥ 90: behind the plane).
+
+        Returns
+        -------
+        (T,) ``shgc_normal · IAM(θ) · beam + shgc · diffuse`` (``shgc`` × total when
+        ``shgc_normal`` is None).
+        """
+        beam = np.asarray(beam_w_per_m2, dtype=np.float64)
+        diffuse = np.asarray(diffuse_w_per_m2, dtype=np.float64)
+        if self.shgc_normal is None:
+            constant: npt.NDArray[np.float64] = self.shgc * (beam + diffuse)
+            return constant
+        angles, factors = zip(*self.incidence_angle_modifier, strict=True)
+        modifier = np.interp(np.asarray(incidence_deg, dtype=np.float64), angles, factors)
+        gain: npt.NDArray[np.float64] = self.shgc_normal * modifier * beam + self.shgc * diffuse
+        return gain
 
     @property
     def ua_w_per_k(self) -> float:
         return self.u_value_w_per_m2k * self.area_m2
+
+    @property
+    def sky_view_factor(self) -> float:
+        """View factor of the outer pane to the sky, (1 + cos tilt)/2 [-]."""
+        return (1.0 + math.cos(math.radians(self.tilt_deg))) / 2.0
 
 
 @dataclass(frozen=True)
@@ -239,16 +360,42 @@ class Zone:
     height_m : floor-to-ceiling height (air volume = area × height) [m].
     capacitance_multiplier : zone-node capacitance over the air's ρ c_p V (furniture and
         light internal mass) [-], ≥ 1.
+    infiltration_ach : outdoor-air infiltration [air changes per hour]; a conductance
+        ρ c_p V · ACH / 3600 between the zone air and the outdoor air (with the package's
+        sea-level ρ: scale the ACH by ρ_site/ρ_sea-level for a high-altitude site).
+    internal_gain_radiative_fraction : share of the internal sensible gain emitted as
+        long-wave radiation, spread over the inside surfaces of the zone's walls in proportion
+        to their areas [-]; the rest (default: all) is convective, to the air node.
+    solar_lost_fraction : share of the zone's transmitted solar reflected back out through
+        its windows [-]. Transmitted solar goes to the walls' inside surfaces with their
+        ``interior_solar_fraction``; whatever is neither assigned to a wall nor lost goes to
+        the air node (the default: all of it, as in the paper).
+    interior_radiation_w_per_m2k : linearised long-wave coefficient h_r between the zone's
+        opaque inside surfaces [W/(m²K)]; ``None`` (default): no explicit exchange, the inside
+        films are combined (convective + radiative) coefficients to the air node. When set,
+        every wall of the zone gets a (massless) inside-surface node joined to the air by its
+        inside film, then read as convective only, and to a radiant star node by h_r·A
+        (the mean-radiant-temperature star of Walton / ISO 13790); radiative gains land on
+        the surface nodes. Massless nodes are eliminated exactly (Kron reduction).
     """
 
     name: str
     floor_area_m2: float
     height_m: float
     capacitance_multiplier: float = 1.0
+    infiltration_ach: float = 0.0
+    internal_gain_radiative_fraction: float = 0.0
+    solar_lost_fraction: float = 0.0
+    interior_radiation_w_per_m2k: float | None = None
 
     @property
     def volume_m3(self) -> float:
         return self.floor_area_m2 * self.height_m
+
+    @property
+    def infiltration_w_per_k(self) -> float:
+        """Infiltration conductance ρ c_p V · ACH / 3600 [W/K]."""
+        return RHO_AIR_KG_PER_M3 * CP_AIR_J_PER_KG_K * self.volume_m3 * self.infiltration_ach / 3600
 
     @property
     def capacitance_j_per_k(self) -> float:
@@ -400,7 +547,16 @@ _TOP_KEYS = {
     "gains",
     "hvac",
 }
-_ZONE_KEYS = {"name", "floor_area_m2", "height_m", "capacitance_multiplier"}
+_ZONE_KEYS = {
+    "name",
+    "floor_area_m2",
+    "height_m",
+    "capacitance_multiplier",
+    "infiltration_ach",
+    "internal_gain_radiative_fraction",
+    "solar_lost_fraction",
+    "interior_radiation_w_per_m2k",
+}
 _CONSTRUCTION_KEYS = {
     "r_value_m2k_per_w",
     "capacitance_j_per_m2k",
@@ -424,8 +580,22 @@ _WALL_KEYS = {
     "azimuth_deg",
     "tilt_deg",
     "solar_absorptance",
+    "thermal_emissivity",
+    "interior_solar_fraction",
 }
-_WINDOW_KEYS = {"name", "zone", "area_m2", "u_value_w_per_m2k", "shgc", "azimuth_deg", "tilt_deg"}
+_WINDOW_KEYS = {
+    "name",
+    "zone",
+    "area_m2",
+    "u_value_w_per_m2k",
+    "shgc",
+    "azimuth_deg",
+    "tilt_deg",
+    "thermal_emissivity",
+    "outside_film_w_per_m2k",
+    "shgc_normal",
+    "incidence_angle_modifier",
+}
 _GAINS_KEYS = {
     "occupancy_m2_per_person",
     "sensible_w_per_person",
@@ -574,6 +744,7 @@ def building_from_dict(data: Mapping[str, Any], *, source: Path | str = "<dict>"
     windows = _read_windows(rd, data, zone_names)
     _check_unique_names(rd, zones, walls, windows)
     _check_connected(rd, zone_names, walls, windows)
+    _check_solar_distribution(rd, zones, walls)
     gains = _read_gains(rd, data)
     hvac = _read_hvac(rd, data, zone_names)
     return Building(
@@ -626,9 +797,31 @@ def _read_zones(rd: _Reader, data: Mapping[str, Any]) -> tuple[Zone, ...]:
                 floor_area_m2=rd.number(item, "floor_area_m2", path, positive=True),
                 height_m=rd.number(item, "height_m", path, positive=True),
                 capacitance_multiplier=_at_least_one(rd, item, "capacitance_multiplier", path),
+                infiltration_ach=rd.number(
+                    item, "infiltration_ach", path, default=0.0, nonnegative=True
+                ),
+                internal_gain_radiative_fraction=_fraction(
+                    rd, item, "internal_gain_radiative_fraction", path
+                ),
+                solar_lost_fraction=_fraction(rd, item, "solar_lost_fraction", path),
+                interior_radiation_w_per_m2k=rd.number(
+                    item, "interior_radiation_w_per_m2k", path, positive=True
+                )
+                if "interior_radiation_w_per_m2k" in item
+                else None,
             )
         )
     return tuple(zones)
+
+
+def _fraction(rd: _Reader, item: Mapping[str, Any], key: str, path: str) -> float:
+    return rd.number(item, key, path, default=0.0, nonnegative=True, upper=1.0)
+
+
+def _optional_fraction(rd: _Reader, item: Mapping[str, Any], key: str, path: str) -> float | None:
+    if key not in item:
+        return None
+    return rd.number(item, key, path, nonnegative=True, upper=1.0)
 
 
 def _at_least_one(rd: _Reader, item: Mapping[str, Any], key: str, path: str) -> float:
@@ -666,7 +859,25 @@ def _read_constructions(rd: _Reader, data: Mapping[str, Any]) -> dict[str, Const
                 layer = rd.table(raw_layer, lpath)
                 rd.check_keys(layer, _LAYER_KEYS, lpath)
                 parsed.append(
-                    Layer(*(rd.number(layer, key, lpath, positive=True) for key in _LAYER_FIELDS))
+                    Layer(
+                        *(
+                            rd.number(
+                                layer,
+                                key,
+                                lpath,
+                                positive=key in _POSITIVE_LAYER_FIELDS,
+                                nonnegative=True,
+                            )
+                            for key in _LAYER_FIELDS
+                        )
+                    )
+                )
+            if all(layer.capacitance_j_per_m2k <= 0.0 for layer in parsed):
+                raise rd.error(
+                    "every layer is massless",
+                    f"{path}.layers",
+                    hint="at least one layer needs density and specific heat > 0 (a "
+                    "massless construction is a window-like conductance)",
                 )
             layers = tuple(parsed)
         else:
@@ -706,6 +917,9 @@ _LAYER_FIELDS = (
     "density_kg_per_m3",
     "specific_heat_j_per_kgk",
 )
+_POSITIVE_LAYER_FIELDS = {"thickness_m", "conductivity_w_per_mk"}
+"""Density and specific heat may be 0: a massless (no-node) layer such as BESTEST's floor
+insulation."""
 
 
 def _read_orientation(
@@ -714,15 +928,16 @@ def _read_orientation(
     tilt = rd.number(item, "tilt_deg", path, default=90.0)
     if not 0.0 <= tilt <= 180.0:
         raise rd.error("must be in [0, 180]", f"{path}.tilt_deg", item["tilt_deg"])
-    if required and "azimuth_deg" not in item and tilt != 0.0:
+    horizontal = tilt in (0.0, 180.0)
+    if required and "azimuth_deg" not in item and not horizontal:
         raise rd.error(
             "missing required field",
             f"{path}.azimuth_deg",
             hint="exterior surfaces need an azimuth",
         )
     azimuth = rd.number(item, "azimuth_deg", path, default=0.0) % 360.0
-    if tilt == 0.0:
-        azimuth = 0.0  # a horizontal surface has no azimuth
+    if horizontal:
+        azimuth = 0.0  # a horizontal surface (roof, underside of a floor) has no azimuth
     return azimuth, tilt
 
 
@@ -777,6 +992,12 @@ def _read_walls(
                 azimuth_deg=azimuth,
                 tilt_deg=tilt,
                 solar_absorptance=absorptance if exterior else 0.0,
+                thermal_emissivity=_optional_fraction(rd, item, "thermal_emissivity", path)
+                if exterior
+                else None,
+                interior_solar_fraction=_optional_fraction(
+                    rd, item, "interior_solar_fraction", path
+                ),
             )
         )
     return tuple(walls)
@@ -808,9 +1029,46 @@ def _read_windows(
                 shgc=rd.number(item, "shgc", path, nonnegative=True, upper=1.0),
                 azimuth_deg=azimuth,
                 tilt_deg=tilt,
+                thermal_emissivity=_optional_fraction(rd, item, "thermal_emissivity", path),
+                outside_film_w_per_m2k=rd.number(
+                    item,
+                    "outside_film_w_per_m2k",
+                    path,
+                    default=DEFAULT_OUTSIDE_FILM_W_PER_M2K,
+                    positive=True,
+                ),
+                shgc_normal=_optional_fraction(rd, item, "shgc_normal", path),
+                incidence_angle_modifier=_read_angle_modifier(rd, item, path),
             )
         )
     return tuple(windows)
+
+
+def _read_angle_modifier(
+    rd: _Reader, item: Mapping[str, Any], path: str
+) -> tuple[tuple[float, float], ...]:
+    if "incidence_angle_modifier" not in item:
+        return ()
+    raw = item["incidence_angle_modifier"]
+    where = f"{path}.incidence_angle_modifier"
+    hint = "an array of [angle_deg, factor] pairs, angles increasing from 0 to 90"
+    if not isinstance(raw, list) or len(raw) < 2:
+        raise rd.error("expected at least two [angle_deg, factor] pairs", where, raw, hint=hint)
+    pairs = []
+    for pair in raw:
+        if (
+            not isinstance(pair, list)
+            or len(pair) != 2
+            or not all(isinstance(v, int | float) and not isinstance(v, bool) for v in pair)
+        ):
+            raise rd.error("expected a [angle_deg, factor] pair", where, pair, hint=hint)
+        pairs.append((float(pair[0]), float(pair[1])))
+    angles = [a for a, _ in pairs]
+    if angles != sorted(angles) or angles[0] < 0 or angles[-1] > 90:
+        raise rd.error("angles must increase within [0, 90]", where, raw, hint=hint)
+    if any(not 0.0 <= factor <= 1.5 for _, factor in pairs):
+        raise rd.error("factors must lie in [0, 1.5]", where, raw, hint=hint)
+    return tuple(pairs)
 
 
 def _check_unique_names(
@@ -860,6 +1118,24 @@ def _check_connected(
                 name,
                 hint="add a wall with adjacent = 'outside' or 'ground', a window, or a wall to a "
                 "connected zone (adiabatic walls do not count)",
+            )
+
+
+def _check_solar_distribution(
+    rd: _Reader, zones: tuple[Zone, ...], walls: tuple[Wall, ...]
+) -> None:
+    """The transmitted-solar shares of a zone (walls + lost) may not exceed 1."""
+    for i, zone in enumerate(zones):
+        assigned = sum(w.interior_solar_fraction or 0.0 for w in walls if w.zone == zone.name)
+        total = assigned + zone.solar_lost_fraction
+        if total > 1.0 + SOLAR_FRACTION_TOLERANCE:
+            raise rd.error(
+                f"transmitted-solar shares add up to {total:.4f} > 1 (walls' "
+                f"interior_solar_fraction {assigned:.4f} + solar_lost_fraction)",
+                f"zones[{i}]",
+                zone.name,
+                hint="the shares of the zone's transmitted solar must sum to at most 1 (the "
+                "rest goes to the air node)",
             )
 
 

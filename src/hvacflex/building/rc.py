@@ -16,12 +16,32 @@ Heat paths:
 * wall slices form a chain: far side —[R_far + r₁/2]— node₁ —[(r₁+r₂)/2]— … —[r_k/2 + R_si]—
   zone. The far side is the outdoor air (film 1/h_se), the ground (no film), another zone's
   node (film) or nothing (adiabatic plane of symmetry, e.g. an intermediate floor slab).
-  The steady-state U-value is therefore exactly 1/(R_si + Σr + R_se).
+  The steady-state U-value is therefore exactly 1/(R_si + Σr + R_se). A massless layer
+  (zero density or specific heat) has no node; its resistance joins the link it sits in
+  (``Construction.chain``).
 * solar absorbed by an exterior opaque surface, α·A·q, lands on the (massless) outer surface
   between the outdoor film and the outermost node; the share R_se/(R_se + r₁/2) flows to the
   node, the rest straight back to the outdoor air (exact elimination of the surface node).
 * windows are pure conductances U·A zone–outdoor air; their solar gain SHGC·A·q and the
-  zone's internal sensible gain go to the zone air node (as in the paper).
+  zone's internal sensible gain go to the zone air node (as in the paper). A window with
+  ``shgc_normal`` has an angle-dependent gain on its own ``window_solar_gain`` channel.
+
+Optional physics for the BESTEST validation (every one off by default, so buildings that do
+not ask for it get exactly the network above):
+
+* infiltration: a conductance ρ c_p V·ACH/3600 zone air–outdoor air (``Zone.infiltration_ach``).
+* heat released on a massless inside surface (radiative internal gains, transmitted solar)
+  splits like the absorbed solar outside: the share R_film/(R_film + r_n/2) reaches the
+  innermost node, the rest the zone air (exact elimination of the surface node).
+  Radiative internal gains (``Zone.internal_gain_radiative_fraction``) are spread over all
+  opaque surfaces facing the zone (both faces of a partition count for their zones) by area;
+  transmitted solar goes to the walls with an ``interior_solar_fraction``, a share
+  ``Zone.solar_lost_fraction`` leaves through the windows, the rest goes to the air node.
+* sky long-wave exchange: an exterior surface of emissivity ε and tilt β loses
+  ε (1 + cos β)/2 · L at its outer surface, L the ``sky_longwave`` channel; it splits like
+  absorbed solar (walls) or by U/h_out (windows: the share that reaches the zone air).
+* an exterior wall with solar absorptance 0 (the underside of a raised floor) gets no solar
+  channel of its own.
 """
 
 from __future__ import annotations
@@ -36,9 +56,11 @@ from hvacflex.building.channels import (
     ground_temp_channel,
     internal_gain_channel,
     outdoor_temp_channel,
+    sky_longwave_channel,
     solar_channel,
+    window_solar_gain_channel,
 )
-from hvacflex.building.config import ADIABATIC, GROUND, OUTSIDE, Building, Wall
+from hvacflex.building.config import ADIABATIC, GROUND, OUTSIDE, Building, Wall, Zone
 
 FloatArray = NDArray[np.float64]
 
@@ -65,7 +87,9 @@ class ThermalNetwork:
     outdoor_conductance_w_per_k, ground_conductance_w_per_k : (n,) each node's conductance to
         the outdoor air / the ground [W/K].
     solar_direct_loss_m2 : (nd,) for each solar channel, the absorbed solar that flows
-        straight back to the outdoor air (never reaching a node) per W/m² of irradiance [m²].
+        straight back to the outdoor air (never reaching a node) per W/m² of irradiance [m²];
+        for the sky long-wave channel, minus the part of the sky loss that the outdoor air
+        supplies directly [m²].
     a_cont : (n,n) C⁻¹K [1/s].
     e_cont : (n,nd) C⁻¹F [1/s per channel unit, e.g. K/s per °C or per W].
     """
@@ -134,10 +158,13 @@ class ThermalNetwork:
 
 def solar_channels_of(b: Building) -> tuple[DisturbanceChannel, ...]:
     """One solar channel per distinct (azimuth, tilt) of exterior walls, then windows, in the
-    order of first appearance in the file (walls before windows)."""
+    order of first appearance in the file (walls before windows); exterior walls with solar
+    absorptance 0 absorb nothing and add no channel."""
     seen: dict[tuple[float, float], DisturbanceChannel] = {}
-    surfaces = [(w.azimuth_deg, w.tilt_deg) for w in b.walls if w.is_exterior]
-    surfaces += [(w.azimuth_deg, w.tilt_deg) for w in b.windows]
+    surfaces = [
+        (w.azimuth_deg, w.tilt_deg) for w in b.walls if w.is_exterior and w.solar_absorptance > 0
+    ]
+    surfaces += [(w.azimuth_deg, w.tilt_deg) for w in b.windows if w.shgc_normal is None]
     for azimuth, tilt in surfaces:
         if (azimuth, tilt) not in seen:
             seen[(azimuth, tilt)] = solar_channel(azimuth, tilt)
@@ -151,11 +178,48 @@ def disturbance_channels(b: Building) -> tuple[DisturbanceChannel, ...]:
     channels += [internal_gain_channel(name) for name in b.zone_names]
     if any(w.adjacent == GROUND for w in b.walls):
         channels.append(ground_temp_channel())
+    if has_sky_exchange(b):
+        channels.append(sky_longwave_channel())
+    channels += [window_solar_gain_channel(w.name) for w in b.windows if w.shgc_normal is not None]
     return tuple(channels)
 
 
+def has_sky_exchange(b: Building) -> bool:
+    """True if an exterior wall or a window sets a thermal emissivity (adds ``sky_longwave``)."""
+    walls = any(w.is_exterior and w.thermal_emissivity is not None for w in b.walls)
+    return walls or any(w.thermal_emissivity is not None for w in b.windows)
+
+
+def _surface_share_to_node(film_w_per_m2k: float, link_r_m2k_per_w: float) -> float:
+    """Share of heat released on a massless surface that flows into the node behind it (the
+    rest flows through the film): R_film / (R_film + r), r the surface-to-node resistance."""
+    r_film = 1.0 / film_w_per_m2k
+    return r_film / (r_film + link_r_m2k_per_w)
+
+
+def _zone_surfaces(
+    b: Building, zone: Zone, index: dict[str, int], surface_node: dict[str, int]
+) -> list[tuple[int, float, float]]:
+    """Opaque surfaces facing a zone as (node index, area [m²], share to the node); a wall
+    with an explicit (massless) inside-surface node takes all of it there."""
+    surfaces = []
+    for wall in b.walls:
+        _, links = wall.construction.chain()
+        nodes = [index[name] for name in _wall_node_names(wall)]
+        if wall.zone == zone.name and wall.name in surface_node:
+            surfaces.append((surface_node[wall.name], wall.area_m2, 1.0))
+        elif wall.zone == zone.name:
+            film = wall.construction.inside_film_w_per_m2k
+            surfaces.append((nodes[-1], wall.area_m2, _surface_share_to_node(film, links[-1])))
+        elif wall.adjacent == zone.name:
+            far = wall.construction.outside_film_for(wall.adjacent)
+            assert far is not None  # a zone-to-zone face always has a film
+            surfaces.append((nodes[0], wall.area_m2, _surface_share_to_node(far, links[0])))
+    return surfaces
+
+
 def _wall_node_names(wall: Wall) -> list[str]:
-    count = len(wall.construction.slices())
+    count = len(wall.construction.chain()[0])
     return [wall.name] if count == 1 else [f"{wall.name}_{k}" for k in range(count)]
 
 
@@ -174,20 +238,35 @@ def build_network(b: Building) -> ThermalNetwork:
     channel_index = {(c.kind, c.azimuth_deg, c.tilt_deg, c.zone): i for i, c in enumerate(channels)}
     outdoor_col = channel_index[("outdoor_temp", None, None, None)]
     ground_col = channel_index.get(("ground_temp", None, None, None))
+    sky_col = channel_index.get(("sky_longwave", None, None, None))
 
     zone_names = b.zone_names
     names: list[str] = list(zone_names)
     capacitance: list[float] = [zone.capacitance_j_per_k for zone in b.zones]
     for wall in b.walls:
         names += _wall_node_names(wall)
-        capacitance += [c * wall.area_m2 for _, c in wall.construction.slices()]
+        capacitance += [c * wall.area_m2 for c in wall.construction.chain()[0]]
     n, nd = len(names), len(channels)
     index = {name: i for i, name in enumerate(names)}
+    # massless nodes, eliminated at the end: inside surfaces and radiant star of the zones
+    # with explicit interior long-wave exchange
+    radiant = {z.name: z for z in b.zones if z.interior_radiation_w_per_m2k is not None}
+    surface_node: dict[str, int] = {}
+    star_node: dict[str, int] = {}
+    extra = n
+    for wall in b.walls:
+        if wall.zone in radiant:
+            surface_node[wall.name] = extra
+            extra += 1
+    for name in radiant:
+        star_node[name] = extra
+        extra += 1
+    size = extra
 
-    k = np.zeros((n, n))
-    f = np.zeros((n, nd))
-    outdoor = np.zeros(n)
-    ground = np.zeros(n)
+    k = np.zeros((size, size))
+    f = np.zeros((size, nd))
+    outdoor = np.zeros(size)
+    ground = np.zeros(size)
     direct_loss = np.zeros(nd)
 
     def couple(i: int, j: int, conductance_w_per_k: float) -> None:
@@ -202,43 +281,104 @@ def build_network(b: Building) -> ThermalNetwork:
         store[i] += conductance_w_per_k
 
     for wall in b.walls:
-        slices = wall.construction.slices()
+        _, links = wall.construction.chain()
         nodes = [index[name] for name in _wall_node_names(wall)]
         area = wall.area_m2
         zone_node = index[wall.zone]
-        # inside: innermost node → zone air
-        r_inside = slices[-1][0] / 2 + 1.0 / wall.construction.inside_film_w_per_m2k
-        couple(nodes[-1], zone_node, area / r_inside)
-        # between slices
-        for s in range(len(slices) - 1):
-            couple(nodes[s], nodes[s + 1], area / (slices[s][0] / 2 + slices[s + 1][0] / 2))
+        # inside: innermost node → zone air (through the surface node and the radiant star
+        # when the zone has explicit long-wave exchange)
+        if wall.name in surface_node:
+            surface = surface_node[wall.name]
+            h_radiant = radiant[wall.zone].interior_radiation_w_per_m2k
+            assert h_radiant is not None
+            couple(nodes[-1], surface, area / links[-1])
+            couple(surface, zone_node, area * wall.construction.inside_film_w_per_m2k)
+            couple(surface, star_node[wall.zone], area * h_radiant)
+        else:
+            r_inside = links[-1] + 1.0 / wall.construction.inside_film_w_per_m2k
+            couple(nodes[-1], zone_node, area / r_inside)
+        # between nodes
+        for s in range(len(nodes) - 1):
+            couple(nodes[s], nodes[s + 1], area / links[s + 1])
         # far side
         film = wall.construction.outside_film_for(wall.adjacent)
         r_far = 0.0 if film is None else 1.0 / film
-        r_outer_half = slices[0][0] / 2
+        r_outer_half = links[0]
         conductance = area / (r_far + r_outer_half)
         if wall.adjacent == OUTSIDE:
             to_boundary(nodes[0], outdoor_col, conductance, outdoor)
-            col = channel_index[("solar", wall.azimuth_deg, wall.tilt_deg, None)]
-            absorbed_m2 = wall.solar_absorptance * area
             share_to_node = r_far / (r_far + r_outer_half)
-            f[nodes[0], col] += absorbed_m2 * share_to_node
-            direct_loss[col] += absorbed_m2 * (1.0 - share_to_node)
+            if wall.solar_absorptance > 0:
+                col = channel_index[("solar", wall.azimuth_deg, wall.tilt_deg, None)]
+                absorbed_m2 = wall.solar_absorptance * area
+                f[nodes[0], col] += absorbed_m2 * share_to_node
+                direct_loss[col] += absorbed_m2 * (1.0 - share_to_node)
+            if wall.thermal_emissivity is not None:
+                assert sky_col is not None
+                emitting_m2 = wall.thermal_emissivity * wall.sky_view_factor * area
+                f[nodes[0], sky_col] -= emitting_m2 * share_to_node
+                direct_loss[sky_col] -= emitting_m2 * (1.0 - share_to_node)
         elif wall.adjacent == GROUND:
             assert ground_col is not None
             to_boundary(nodes[0], ground_col, conductance, ground)
         elif wall.adjacent != ADIABATIC:
             couple(nodes[0], index[wall.adjacent], conductance)
 
+    zone_of = {zone.name: zone for zone in b.zones}
     for window in b.windows:
+        zone = zone_of[window.zone]
         zone_node = index[window.zone]
         to_boundary(zone_node, outdoor_col, window.ua_w_per_k, outdoor)
-        col = channel_index[("solar", window.azimuth_deg, window.tilt_deg, None)]
-        f[zone_node, col] += window.shgc * window.area_m2
+        if window.shgc_normal is None:
+            col = channel_index[("solar", window.azimuth_deg, window.tilt_deg, None)]
+            transmitted_m2 = window.shgc * window.area_m2
+        else:  # the channel already is the gain per m² of window
+            col = channel_index[("window_solar_gain", None, None, window.name)]
+            transmitted_m2 = window.area_m2
+        to_air = 1.0 - zone.solar_lost_fraction
+        for wall in b.walls:
+            if wall.zone != window.zone or wall.interior_solar_fraction is None:
+                continue
+            if wall.name in surface_node:
+                inner, share = surface_node[wall.name], 1.0
+            else:
+                inner = index[_wall_node_names(wall)[-1]]
+                share = _surface_share_to_node(
+                    wall.construction.inside_film_w_per_m2k, wall.construction.chain()[1][-1]
+                )
+            f[inner, col] += transmitted_m2 * wall.interior_solar_fraction * share
+            f[zone_node, col] += transmitted_m2 * wall.interior_solar_fraction * (1.0 - share)
+            to_air -= wall.interior_solar_fraction
+        f[zone_node, col] += transmitted_m2 * max(to_air, 0.0)
+        if window.thermal_emissivity is not None:
+            assert sky_col is not None
+            emitting_m2 = window.thermal_emissivity * window.sky_view_factor * window.area_m2
+            to_zone = window.u_value_w_per_m2k / window.outside_film_w_per_m2k
+            f[zone_node, sky_col] -= emitting_m2 * to_zone
+            direct_loss[sky_col] -= emitting_m2 * (1.0 - to_zone)
 
-    for name in zone_names:
-        f[index[name], channel_index[("internal_gain", None, None, name)]] += 1.0
+    for zone in b.zones:
+        zone_node = index[zone.name]
+        col = channel_index[("internal_gain", None, None, zone.name)]
+        if zone.infiltration_ach > 0:
+            to_boundary(zone_node, outdoor_col, zone.infiltration_w_per_k, outdoor)
+        radiative = zone.internal_gain_radiative_fraction
+        surfaces = _zone_surfaces(b, zone, index, surface_node) if radiative > 0 else []
+        if not surfaces:
+            f[zone_node, col] += 1.0
+            continue
+        f[zone_node, col] += 1.0 - radiative
+        total_area = sum(area for _, area, _ in surfaces)
+        for node, area, share in surfaces:
+            f[node, col] += radiative * area / total_area * share
+            f[zone_node, col] += radiative * area / total_area * (1.0 - share)
 
+    if size > n:  # Kron reduction: eliminate the massless nodes exactly
+        elim = np.linalg.solve(k[n:, n:], np.hstack([k[n:, :n], f[n:]]))
+        f = f[:n] - k[:n, n:] @ elim[:, n:]
+        k = k[:n, :n] - k[:n, n:] @ elim[:, :n]
+        k = 0.5 * (k + k.T)
+        outdoor, ground = outdoor[:n], ground[:n]
     cap = np.asarray(capacitance)
     return ThermalNetwork(
         node_names=tuple(names),
@@ -257,8 +397,16 @@ def build_network(b: Building) -> ThermalNetwork:
 
 def envelope_ua_w_per_k(b: Building) -> dict[str, float]:
     """Steady-state envelope conductance [W/K]: ``walls`` (exterior opaque), ``ground``,
-    ``windows`` and ``total`` (film to film, U·A summed; zone–zone walls excluded)."""
+    ``windows``, ``infiltration`` and ``total`` (film to film, U·A summed; zone–zone walls
+    excluded)."""
     walls = sum(w.ua_w_per_k for w in b.walls if w.adjacent == OUTSIDE)
     ground = sum(w.ua_w_per_k for w in b.walls if w.adjacent == GROUND)
     windows = sum(w.ua_w_per_k for w in b.windows)
-    return {"walls": walls, "ground": ground, "windows": windows, "total": walls + ground + windows}
+    infiltration = sum(z.infiltration_w_per_k for z in b.zones)
+    return {
+        "walls": walls,
+        "ground": ground,
+        "windows": windows,
+        "infiltration": infiltration,
+        "total": walls + ground + windows + infiltration,
+    }
