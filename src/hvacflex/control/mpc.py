@@ -31,7 +31,8 @@ from hvacflex.control.base import Action, FloatArray
 from hvacflex.control.baselines import ThermostatController
 from hvacflex.data.forecast import Forecast
 from hvacflex.data.uncertainty import UncertaintyBox
-from hvacflex.opt import RMPCProblem, RMPCSolution, RMPCSolver, SolveStatus
+from hvacflex.opt import FeedbackOptions, RMPCProblem, RMPCSolution, RMPCSolver, SolveStatus
+from hvacflex.opt.feedback import FeedbackSolver
 from hvacflex.opt.solve import SolverBasis
 from hvacflex.units import SECONDS_PER_HOUR
 
@@ -89,7 +90,7 @@ class MPCController:
             i for i, ch in enumerate(model.channels) if ch.kind == "outdoor_temp"
         )
         self._thermostat = ThermostatController(model, hvac, config.thermostat_setpoint_degc)
-        self._solver: RMPCSolver | None = None
+        self._solver: RMPCSolver | FeedbackSolver | None = None
         self._pending_basis: SolverBasis | None = None
         self._previous_plan: RMPCSolution | None = None
         self._plan_age = 0
@@ -146,12 +147,20 @@ class MPCController:
             comfort_penalty_sgd_per_kelvin_hour=cfg.comfort_penalty_sgd_per_kelvin_hour,
             dt_h=m.dt_s / SECONDS_PER_HOUR,
             robust=cfg.robust,
+            feedback=(
+                FeedbackOptions(
+                    structure=cfg.feedback.structure, memory_steps=cfg.feedback.memory_steps
+                )
+                if cfg.robust == "feedback"
+                else None
+            ),
         )
 
     def act(self, x_degc: FloatArray, forecast: Forecast, *, peak_floor_kw: float) -> Action:
         problem = self.problem(x_degc, forecast, peak_floor_kw)
         if self._solver is None:
-            self._solver = RMPCSolver(problem, time_limit_s=self._config.time_limit_s)
+            solver_class = FeedbackSolver if problem.robust == "feedback" else RMPCSolver
+            self._solver = solver_class(problem, time_limit_s=self._config.time_limit_s)
             if self._pending_basis is not None:
                 self._solver.set_basis(self._pending_basis)
         solution = self._solver.solve(problem)

@@ -58,7 +58,7 @@ from __future__ import annotations
 
 import hashlib
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 from numpy.typing import NDArray
@@ -67,12 +67,15 @@ from scipy import sparse
 from hvacflex.errors import ProblemError
 from hvacflex.opt import robust as robust_mod
 
+if TYPE_CHECKING:
+    from hvacflex.opt.feedback import FeedbackOptions
+
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 BoolArray = NDArray[np.bool_]
 
-RobustMode = Literal["tightening", "dual", "none"]
-ROBUST_MODES: tuple[str, ...] = ("tightening", "dual", "none")
+RobustMode = Literal["tightening", "dual", "none", "feedback"]
+ROBUST_MODES: tuple[str, ...] = ("tightening", "dual", "none", "feedback")
 
 #: Elementwise tolerance for A ≥ 0 (the discretised RC network is Metzler up to round-off).
 SIGN_TOLERANCE = 1e-12
@@ -168,8 +171,11 @@ class RMPCProblem:
     reserve_mask : (m,) bool, inputs that may offer reserve; default all
     comfort_penalty_sgd_per_kelvin_hour : ρ ≥ 0 [SGD per K·h]
     dt_h : Δt > 0 [h]
-    robust : "tightening" (δ in the bounds), "dual" (explicit λ, verification), "none" (δ = 0)
+    robust : "tightening" (δ in the bounds), "dual" (explicit λ, verification), "none" (δ = 0),
+        "feedback" (affine disturbance-feedback policies, :mod:`hvacflex.opt.feedback`)
     slack_max_kelvin : cap on ε [K]; None = unbounded (soft comfort), 0 = hard comfort
+    feedback : policy structure for ``robust="feedback"`` (default ``FeedbackOptions()``);
+        must be None for the other modes
 
     After construction every array field is a read-only float array of its full shape
     (``d_sigma`` (N,nd), ``u_min``/``u_max`` (N,m), ``y_min``/``y_max`` (N,ny),
@@ -199,6 +205,7 @@ class RMPCProblem:
     dt_h: float = 0.5
     robust: RobustMode = "tightening"
     slack_max_kelvin: float | None = None
+    feedback: FeedbackOptions | None = None
     _structure: RMPCStructure = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -391,6 +398,31 @@ class RMPCProblem:
                 hint="pass a scalar peak_price_sgd_per_kw in billing-period mode",
             )
         self._check_sign_conditions()
+        self._check_feedback()
+
+    def _check_feedback(self) -> None:
+        from hvacflex.opt.feedback import FeedbackOptions, check_feedback_problem
+
+        if self.robust != "feedback":
+            if self.feedback is not None:
+                raise ProblemError(
+                    "feedback options apply only to robust='feedback'",
+                    source=_SOURCE,
+                    field="feedback",
+                    value=self.feedback,
+                    hint=f"set robust='feedback' or feedback=None (robust is {self.robust!r})",
+                )
+            return
+        if self.feedback is None:
+            object.__setattr__(self, "feedback", FeedbackOptions())
+        elif not isinstance(self.feedback, FeedbackOptions):
+            raise ProblemError(
+                "expected a FeedbackOptions",
+                source=_SOURCE,
+                field="feedback",
+                value=type(self.feedback).__name__,
+            )
+        check_feedback_problem(self)
 
     @staticmethod
     def _check_nonnegative(name: str, values: FloatArray, what: str) -> None:

@@ -19,7 +19,7 @@ from __future__ import annotations
 import enum
 import time
 from dataclasses import dataclass
-from typing import Any, cast
+from typing import Any, NamedTuple, cast
 
 import highspy
 import numpy as np
@@ -39,7 +39,15 @@ from hvacflex.opt.problem import (
     lp_vectors,
 )
 
-__all__ = ["RMPCSolution", "RMPCSolver", "SolveStatus", "SolverBasis", "solve_rmpc"]
+__all__ = [
+    "LPResult",
+    "RMPCSolution",
+    "RMPCSolver",
+    "SolveStatus",
+    "SolverBasis",
+    "solve_lp",
+    "solve_rmpc",
+]
 
 
 class SolveStatus(enum.Enum):
@@ -89,6 +97,9 @@ class RMPCSolution:
     highs_time_s : wall time of HiGHS ``run()`` alone [s]
     simplex_iterations : simplex iterations of this solve
     warm_start : whether HiGHS started from a previous basis
+    feedback_gains : (N, N, m, nd) for ``robust="feedback"``: ``[k, j]`` is the gain of input
+        k on the disturbance error w_j (zero for j ≥ k; see :mod:`hvacflex.opt.feedback`);
+        None otherwise
     """
 
     status: SolveStatus
@@ -112,6 +123,7 @@ class RMPCSolution:
     highs_time_s: float
     simplex_iterations: int
     warm_start: bool
+    feedback_gains: FloatArray | None = None
 
     @property
     def ok(self) -> bool:
@@ -517,5 +529,96 @@ def solve_rmpc(problem: RMPCProblem, *, time_limit_s: float | None = None) -> RM
     Returns
     -------
     :class:`RMPCSolution`; check ``sol.status`` (arrays are NaN unless OPTIMAL).
+    ``robust="feedback"`` problems go to :class:`hvacflex.opt.feedback.FeedbackSolver`.
     """
+    if problem.robust == "feedback":
+        from hvacflex.opt.feedback import FeedbackSolver  # imports this module
+
+        return FeedbackSolver(problem, time_limit_s=time_limit_s).solve(problem)
     return RMPCSolver(problem, time_limit_s=time_limit_s).solve(problem)
+
+
+# ---------------------------------------------------------------------- generic LP
+
+
+class LPResult(NamedTuple):
+    """Outcome of :func:`solve_lp`: status, primal values (NaN unless optimal), message, time."""
+
+    status: SolveStatus
+    x: FloatArray
+    message: str
+    time_s: float
+
+
+def solve_lp(
+    cost: FloatArray,
+    a_csr: Any,
+    row_lower: FloatArray,
+    row_upper: FloatArray,
+    col_lower: FloatArray,
+    col_upper: FloatArray,
+    *,
+    time_limit_s: float | None = None,
+    method: str = "choose",
+) -> LPResult:
+    """Solve ``min costᵀx s.t. row_lower ≤ A x ≤ row_upper, col_lower ≤ x ≤ col_upper`` cold.
+
+    A generic one-shot HiGHS call for LPs assembled elsewhere (the affine-feedback problem of
+    :mod:`hvacflex.opt.feedback`); single-threaded and silent like :class:`RMPCSolver`.
+
+    Parameters
+    ----------
+    cost, col_lower, col_upper : (num_cols,) objective and column bounds (±inf allowed)
+    a_csr : (num_rows, num_cols) ``scipy.sparse.csr_matrix`` constraint matrix
+    row_lower, row_upper : (num_rows,) row bounds (±inf allowed)
+    time_limit_s : wall-clock limit [s]; None = no limit
+    method : HiGHS ``solver`` option: "choose", "simplex" or "ipm"
+
+    Returns
+    -------
+    :class:`LPResult`; ``x`` is NaN unless the status is OPTIMAL; ``time_s`` is the wall time
+    of HiGHS ``run()``.
+    """
+    highs: Any = cast(Any, highspy.Highs)()
+    for option, value in (
+        ("output_flag", False),
+        ("log_to_console", False),
+        ("threads", 1),
+        ("solver", method),
+        ("time_limit", float(time_limit_s) if time_limit_s is not None else np.inf),
+    ):
+        highs.setOptionValue(option, value)
+    num_rows, num_cols = a_csr.shape
+    lp = highspy.HighsLp()
+    lp.num_col_ = num_cols
+    lp.num_row_ = num_rows
+    lp.col_cost_ = np.asarray(cost, dtype=np.float64)
+    lp.col_lower_ = np.asarray(col_lower, dtype=np.float64)
+    lp.col_upper_ = np.asarray(col_upper, dtype=np.float64)
+    lp.row_lower_ = np.asarray(row_lower, dtype=np.float64)
+    lp.row_upper_ = np.asarray(row_upper, dtype=np.float64)
+    lp.a_matrix_.format_ = highspy.MatrixFormat.kRowwise
+    lp.a_matrix_.num_col_ = num_cols
+    lp.a_matrix_.num_row_ = num_rows
+    lp.a_matrix_.start_ = a_csr.indptr.astype(np.int32)
+    lp.a_matrix_.index_ = a_csr.indices.astype(np.int32)
+    lp.a_matrix_.value_ = a_csr.data.astype(np.float64)
+    if highs.passModel(lp) == highspy.HighsStatus.kError:
+        return LPResult(SolveStatus.ERROR, _nan((num_cols,)), "HiGHS refused the LP", 0.0)
+    tick = time.perf_counter()
+    run_status = highs.run()
+    elapsed = time.perf_counter() - tick
+    model_status = highs.getModelStatus()
+    if run_status == highspy.HighsStatus.kError:
+        status = SolveStatus.ERROR
+    else:
+        status = _STATUS_MAP.get(model_status, SolveStatus.ERROR)
+    info = highs.getInfo()
+    message = (
+        f"HiGHS: {highs.modelStatusToString(model_status)} "
+        f"({int(info.simplex_iteration_count)} simplex, {int(info.ipm_iteration_count)} IPM "
+        f"iterations)"
+    )
+    if not status.ok:
+        return LPResult(status, _nan((num_cols,)), message, elapsed)
+    return LPResult(status, np.asarray(highs.getSolution().col_value), message, elapsed)
