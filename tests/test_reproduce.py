@@ -34,6 +34,7 @@ EXPECTED = [
     "figures/fig7_ppp_sweep.png",
     "figures/fig7_ppp_sweep.csv",
     "figures/comfort.png",
+    "figures/comfort_hot_corner.png",
     "figures/robustness_price.png",
     "figures/robustness_price.csv",
 ]
@@ -105,3 +106,9 @@ def test_report_opens_in_a_headless_browser(quick_report: Path, tmp_path: Path) 
     )  # fmt: skip
     assert result.returncode == 0, result.stderr
     assert shot.is_file() and shot.stat().st_size > 10_000
+
+
+def test_hot_corner_nominal_mpc_runs_over_the_band_robust_does_not(quick_report: Path) -> None:
+    table = pd.read_csv(quick_report / "figures" / "comfort_hot_corner.csv", index_col=0)
+    assert table.loc["NMPC, hot corner", "total"] > 0.5
+    assert table.loc["RMPC, hot corner", "total"] < 0.01

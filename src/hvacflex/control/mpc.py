@@ -56,6 +56,10 @@ def comfort_bounds_at_period_ends(
     )
 
 
+RESERVE_FLOW_TOLERANCE_KG_S = 1e-6
+"""Reserve flows below this are zero up to the solver's tolerance and are not offered."""
+
+
 class MPCController:
     """Nominal or robust MPC for one building (see the module docstring).
 
@@ -173,10 +177,11 @@ class MPCController:
             low = problem_u_min[0] if problem_u_min.ndim == 2 else problem_u_min
             flow = np.clip(solution.u[0], low, self._flow_max)
             reserve = np.clip(solution.r[0], 0.0, flow - low)
+            reserve[reserve < RESERVE_FLOW_TOLERANCE_KG_S] = 0.0
             return Action(
                 flow_kg_s=flow,
                 reserve_flow_kg_s=reserve,
-                reserve_kw=float(solution.reserve_kw[0]),
+                reserve_kw=float(problem.power_coeff_kw_per_kg_s[0] @ reserve),
                 planned_power_kw=float(solution.power_kw[0]),
                 status=solution.status.value,
                 fallback=False,

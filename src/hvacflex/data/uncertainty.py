@@ -23,9 +23,9 @@ Default level
 -------------
 :data:`DEFAULT_UNCERTAINTY` (±5 % of solar and internal gains, ±0.5 K outdoor temperature) is
 the largest level whose worst-case margin ``max_k δ_k`` stays well inside the occupied
-half-band of the default building (0.87 K of 1.5 K; basis and table in ``docs/data.md``). :func:`paper_uncertainty` gives the
-paper's ±50 % of heat gains, which can make the open-loop robust problem infeasible for a
-perimeter zone (DESIGN §3 "Uncertainty level").
+half-band of the default building (0.87 K of 1.5 K; basis and table in ``docs/data.md``).
+:func:`paper_uncertainty` gives the paper's ±50 % of heat gains, which can make the
+open-loop robust problem infeasible for a perimeter zone (DESIGN §3 "Uncertainty level").
 """
 
 from __future__ import annotations

@@ -54,8 +54,12 @@ def paper_table1() -> pd.DataFrame:
     return PAPER_TABLE1.copy()
 
 
+NEGLIGIBLE_SGD = 1e-6
+"""Amounts below this are zero up to solver tolerance; a change relative to them is undefined."""
+
+
 def _change_pct(value: float, reference: float) -> float:
-    if reference == 0.0 or math.isnan(reference):
+    if math.isnan(reference) or abs(reference) < NEGLIGIBLE_SGD:
         return math.nan
     return 100.0 * (value / reference - 1.0)
 
