@@ -43,7 +43,7 @@ PPP_VALUES_SGD_PER_KW: tuple[float, ...] = (
     30.0,
 )
 QUICK_PPP_VALUES_SGD_PER_KW: tuple[float, ...] = (0.5, 1.5, 5.0, 30.0)
-UNCERTAINTY_LEVELS: tuple[float, ...] = (0.0, 0.1, 0.2, 0.3, 0.4, 0.5)
+UNCERTAINTY_LEVELS: tuple[float, ...] = (0.0, 0.05, 0.1, 0.2, 0.3, 0.5)
 QUICK_UNCERTAINTY_LEVELS: tuple[float, ...] = (0.0, 0.25, 0.5)
 
 SCENARIO_LABELS: dict[str, str] = {
@@ -72,9 +72,9 @@ class Plan:
         return cls(
             start="2014-01-01",
             days=365.0,
-            sweep_start="2014-03-01",
-            sweep_days=61.0,
-            uncertainty_days=28.0,
+            sweep_start="2014-03-03",
+            sweep_days=28.0,
+            uncertainty_days=3.0,
             ppp_values=PPP_VALUES_SGD_PER_KW,
             uncertainty_levels=UNCERTAINTY_LEVELS,
             with_feedback=True,
