@@ -8,7 +8,10 @@ Run::
 It prints one table of per-step times over consecutive, time-shifted receding-horizon
 problems (N = 48, Δt = 30 min):
 
-1. ``RMPCSolver.solve`` warm-started from the previous basis (``--steps`` steps, default 200);
+1. ``RMPCSolver.solve`` warm-started from the previous optimal basis rotated by one step
+   (``--steps`` consecutive receding-horizon steps, default 200: x0, d̂, σ, prices, bands and
+   the power coefficients p_k all move by one step each time, as in the closed loop);
+   (1b) the same steps warm-started from the previous basis as is (``time_shift=False``);
 2. a cold solve (``solve_rmpc``: build the LP, pass it to HiGHS, solve from scratch);
 3. the same LP written in CVXPY (vectorised) and rebuilt every step, HiGHS backend;
 4. the bare HiGHS ``run()`` inside (1), so ``(1) − (4)`` is our per-step overhead (updates of
@@ -317,6 +320,12 @@ def main() -> None:
     parser.add_argument("--cold-steps", type=int, default=30, help="steps solved cold")
     parser.add_argument("--cvxpy-steps", type=int, default=10, help="steps rebuilt in CVXPY")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument(
+        "--no-unshifted",
+        dest="unshifted",
+        action="store_false",
+        help="skip (1b), the warm start from the unrotated basis",
+    )
     args = parser.parse_args()
 
     model = building_model(args.building) if args.building else synthetic_office(args.seed)
@@ -326,7 +335,9 @@ def main() -> None:
     problems: list[RMPCProblem] = []
     build_times: list[float] = []
     solver: RMPCSolver | None = None
+    unshifted: RMPCSolver | None = None
     warm, bare, overhead, iterations, statuses, slack_steps = [], [], [], [], [], 0
+    warm_unshifted, iterations_unshifted = [], []
     solutions = []
     for step in range(args.steps):
         tick = time.perf_counter()
@@ -334,7 +345,13 @@ def main() -> None:
         build_times.append(time.perf_counter() - tick)
         if solver is None:
             solver = RMPCSolver(prob)
+            unshifted = RMPCSolver(prob, time_shift=False) if args.unshifted else None
         sol = solver.solve(prob)
+        if unshifted is not None:
+            other = unshifted.solve(prob)
+            if step > 0:
+                warm_unshifted.append(other.solve_time_s)
+                iterations_unshifted.append(other.simplex_iterations)
         problems.append(prob)
         solutions.append(sol)
         statuses.append(sol.status.value)
@@ -380,7 +397,9 @@ def main() -> None:
     )
     print()
     print(f"{'per step [ms]':52s} {'median':>9s} {'mean':>9s} {'p95':>9s}")
-    print(f"{'(1) RMPCSolver.solve, warm start':52s} {stats_ms(warm)}")
+    print(f"{'(1) RMPCSolver.solve, warm start (rotated basis)':52s} {stats_ms(warm)}")
+    if warm_unshifted:
+        print(f"{'(1b) warm start from the unrotated basis':52s} {stats_ms(warm_unshifted)}")
     print(f"{'(2) solve_rmpc, cold (build LP + solve)':52s} {stats_ms(cold)}")
     print(f"{'(3) CVXPY rebuild + HiGHS':52s} {stats_ms(cvx)}")
     print(f"{'(4) bare HiGHS run() inside (1)':52s} {stats_ms(bare)}")
@@ -388,8 +407,15 @@ def main() -> None:
     print(f"{'overhead (1) − (4)':52s} {stats_ms(overhead)}")
     print(f"{'RMPCProblem construction + validation':52s} {stats_ms(build_times)}")
     print(
-        f"simplex iterations: warm median {statistics.median(iterations):.0f}, "
-        f"cold median {statistics.median(cold_iter):.0f}"
+        f"simplex iterations: warm median {statistics.median(iterations):.0f} "
+        f"(mean {statistics.fmean(iterations):.0f}), cold median "
+        f"{statistics.median(cold_iter):.0f}"
+        + (
+            f", unrotated warm median {statistics.median(iterations_unshifted):.0f} "
+            f"(mean {statistics.fmean(iterations_unshifted):.0f})"
+            if iterations_unshifted
+            else ""
+        )
     )
     speedup_cvx = statistics.median(cvx) / statistics.median(warm)
     speedup_cold = statistics.median(cold) / statistics.median(warm)

@@ -327,10 +327,12 @@ def _shifted_problems(seed: int, steps: int, horizon: int = 8) -> list[RMPCProbl
     return problems
 
 
-@pytest.mark.parametrize("robust", ["tightening", "dual"])
-def test_warm_started_solver_equals_cold_solves(robust: str) -> None:
+@pytest.mark.parametrize(
+    ("robust", "time_shift"), [("tightening", True), ("dual", True), ("tightening", False)]
+)
+def test_warm_started_solver_equals_cold_solves(robust: str, time_shift: bool) -> None:
     problems = [dataclasses.replace(p, robust=robust) for p in _shifted_problems(7, 12)]
-    solver = RMPCSolver(problems[0])
+    solver = RMPCSolver(problems[0], time_shift=time_shift)
     for index, prob in enumerate(problems):
         warm = solver.solve(prob)
         cold = solve_rmpc(prob)
@@ -359,6 +361,51 @@ def test_basis_survives_pickling() -> None:
     other = RMPCSolver(random_problem(8, horizon=6))
     with pytest.raises(ProblemError, match="another problem structure"):
         other.set_basis(restored)
+
+
+def test_saved_basis_is_the_optimal_basis() -> None:
+    """The basis read back after a solve (basic list + values) is HiGHS's optimal basis:
+    restored into a fresh solver without rotation, the same problem needs no iteration."""
+    prob = random_problem(5, reserve_price_sgd_per_mwh=np.full(8, 3000.0))
+    solver = RMPCSolver(prob)
+    first = solver.solve(prob)
+    basis = solver.get_basis()
+    assert basis is not None
+    assert (
+        np.count_nonzero(basis.col_status == 1) + np.count_nonzero(basis.row_status == 1)
+        == solver.num_rows
+    )
+    fresh = RMPCSolver(prob, time_shift=False)
+    fresh.set_basis(basis)
+    again = fresh.solve(prob)
+    assert again.warm_start and again.simplex_iterations == 0
+    assert again.objective_sgd == pytest.approx(first.objective_sgd, abs=1e-9)
+
+
+def test_rotated_basis_restarts_a_shifted_sequence_cheaply() -> None:
+    """Over consecutive receding-horizon problems the rotated basis needs fewer iterations
+    than the basis of the previous step taken position by position."""
+    problems = _shifted_problems(9, 16, horizon=24)
+    totals = {}
+    for time_shift in (True, False):
+        solver = RMPCSolver(problems[0], time_shift=time_shift)
+        solutions = [solver.solve(prob) for prob in problems]
+        assert all(sol.ok for sol in solutions)
+        totals[time_shift] = sum(sol.simplex_iterations for sol in solutions[1:])
+    assert totals[True] < totals[False]
+
+
+def test_set_basis_refuses_a_non_basis() -> None:
+    problems = _shifted_problems(8, 2)
+    solver = RMPCSolver(problems[0])
+    solver.solve(problems[0])
+    basis = solver.get_basis()
+    assert basis is not None
+    col_status = basis.col_status.copy()
+    col_status[col_status == 1] = 0  # no basic column left
+    broken = dataclasses.replace(basis, col_status=col_status)
+    with pytest.raises(ProblemError, match="not a simplex basis"):
+        RMPCSolver(problems[1]).set_basis(broken)
 
 
 def test_solver_refuses_another_structure() -> None:

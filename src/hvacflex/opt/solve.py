@@ -4,9 +4,23 @@
 (A, B, E, C, N, reserve mask, robust mode). Each :meth:`RMPCSolver.solve` pushes only what
 changed since the previous solve — costs, column bounds, row bounds (x0, d̂, g, δ, bounds,
 p0) and the step-varying coefficients (``p_k`` on the power rows, ``φ_k`` on the peak rows,
-σ in the dual form, via ``changeCoeff``) — and re-solves with the dual simplex from the basis
-HiGHS kept (warm start). HiGHS runs single-threaded with its output silenced, so results are
-reproducible. :func:`solve_rmpc` is the one-shot wrapper.
+σ in the dual form, via ``changeCoeff``) — and re-solves with the dual simplex (warm start).
+HiGHS runs single-threaded with its output silenced, so results are reproducible.
+:func:`solve_rmpc` is the one-shot wrapper.
+
+Warm start (see ``docs/performance.md``). Successive problems of a receding horizon are
+shifted by one step, so the previous optimal basis is a poor start *position by position*,
+but a good one once rotated: by default (``time_shift=True``) the statuses of step k + 1 of
+every time-indexed block (x, z, u, r, ε, P and their rows) start step k, and those of step 0
+start step N − 1 (a rotation keeps the number of basic variables, so HiGHS takes the basis
+as is). The basis is read after each optimal solve from HiGHS's basic-variable list and the
+primal values (every row of the LP is an equality or one-sided, so a nonbasic row's status
+follows from its bounds), which costs ~0.1 ms where ``getBasis`` costs ~3 ms. HiGHS uses
+Devex dual pricing: every step re-initialises the simplex (new basis; the power-row
+coefficients p_k change), and dual steepest-edge weights would then be recomputed from
+scratch, one BTRAN per row, which cost more than all the iterations. Warm solves run without
+scaling (re-scaling cost more than it saved); cold solves keep HiGHS's default scaling and
+presolve.
 
 Failures are never silent: :class:`SolveStatus` says what happened, ``RMPCSolution.message``
 says it in words, and every plan array (u, r, P, R, ε, trajectories, costs) is NaN unless the
@@ -31,6 +45,7 @@ from hvacflex.opt.problem import (
     KW_PER_MW,
     RESERVE_TIE_BREAK_SGD_PER_KG_S_HOUR,
     FloatArray,
+    IntArray,
     LPLayout,
     RMPCProblem,
     assemble_matrix,
@@ -148,6 +163,62 @@ def _nan(shape: tuple[int, ...]) -> FloatArray:
     return np.full(shape, np.nan)
 
 
+#: HiGHS basis status codes (``HighsBasisStatus``) as stored in :class:`SolverBasis`.
+_LOWER, _BASIC, _UPPER, _ZERO = 0, 1, 2, 3
+_HIGHS_BASIS_STATUS = np.array([highspy.HighsBasisStatus(code) for code in range(5)], dtype=object)
+#: Options of every solve: quiet, single-threaded (reproducible), Devex dual pricing (1).
+_BASE_OPTIONS: dict[str, Any] = {
+    "output_flag": False,
+    "log_to_console": False,
+    "threads": 1,
+    "simplex_dual_edge_weight_strategy": 1,
+}
+#: ``simplex_scale_strategy`` of a warm solve (0: no scaling); cold solves use HiGHS's default.
+_WARM_SCALE_STRATEGY = 0
+
+
+def _rotation(layout: LPLayout) -> tuple[IntArray, IntArray]:
+    """Index maps that rotate a basis by one time step: ``new = old[map]``.
+
+    Step k of every time-indexed column and row block takes the status of step k + 1, step
+    N − 1 that of step 0; β and the dual form's λ columns and rows keep theirs.
+    """
+    col_map = np.arange(layout.num_cols)
+    row_map = np.arange(layout.num_rows)
+    col_blocks = (
+        layout.col_x,
+        layout.col_z,
+        layout.col_u,
+        layout.col_r,
+        layout.col_eps,
+        layout.col_power,
+    )
+    row_blocks = (
+        layout.row_dyn_x,
+        layout.row_dyn_z,
+        layout.row_hi_x,
+        layout.row_lo_x,
+        layout.row_hi_z,
+        layout.row_lo_z,
+        layout.row_flow,
+        layout.row_power,
+        layout.row_peak,
+    )
+    for index_map, blocks in ((col_map, col_blocks), (row_map, row_blocks)):
+        for block in blocks:
+            if block.size:
+                index_map[block.ravel()] = np.roll(block, -1, axis=0).ravel()
+    return col_map, row_map
+
+
+def _nonbasic_status(lower: FloatArray, upper: FloatArray) -> NDArray[np.int8]:
+    """Status of a nonbasic variable from its bounds alone: at the lower bound if finite,
+    else at the upper bound if finite, else zero (free)."""
+    status = np.where(np.isfinite(upper), _UPPER, _ZERO)
+    status[np.isfinite(lower)] = _LOWER
+    return status.astype(np.int8)
+
+
 class RMPCSolver:
     """Warm-started HiGHS solver for a sequence of problems of one structure.
 
@@ -156,6 +227,10 @@ class RMPCSolver:
     problem : the first problem; fixes the structure (A, B, E, C, N, reserve mask, robust)
     time_limit_s : wall-clock limit per solve [s] (each :meth:`solve`, not cumulative);
         None = no limit
+    time_shift : each problem is the previous one a step later (receding horizon): start
+        from the previous optimal basis rotated by one step (see the module docstring).
+        False: start from the previous basis as is (e.g. re-solving one step's problem with
+        other prices).
 
     Examples
     --------
@@ -164,7 +239,9 @@ class RMPCSolver:
     ...     sol = solver.solve(problem_at(step))
     """
 
-    def __init__(self, problem: RMPCProblem, *, time_limit_s: float | None = None) -> None:
+    def __init__(
+        self, problem: RMPCProblem, *, time_limit_s: float | None = None, time_shift: bool = True
+    ) -> None:
         if time_limit_s is not None and not time_limit_s > 0:
             raise ProblemError(
                 "time limit must be > 0 s or None",
@@ -181,16 +258,19 @@ class RMPCSolver:
         self._margin_operator = robust_mod.margin_operator(responses)
         # highspy's Python wrapper is only partly typed; treat the handle as Any.
         self._highs: Any = cast(Any, highspy.Highs)()
-        for option, value in (
-            ("output_flag", False),
-            ("log_to_console", False),
-            ("threads", 1),
-        ):
+        for option, value in _BASE_OPTIONS.items():
             self._highs.setOptionValue(option, value)
+        _, self._cold_scale_strategy = self._highs.getOptionValue("simplex_scale_strategy")
+        self._scale_strategy = self._cold_scale_strategy
         self._time_limit_s = float(time_limit_s) if time_limit_s is not None else None
+        self._time_shift = time_shift
         self._build(problem)
+        self._col_rotation, self._row_rotation = _rotation(self._layout)
         self._last_problem: RMPCProblem | None = problem
         self._has_basis = False
+        # statuses of the last optimal basis (or of set_basis), to start the next solve from
+        self._basis: tuple[NDArray[np.int8], NDArray[np.int8]] | None = None
+        self._basis_given = False
 
     # ------------------------------------------------------------------ properties
     @property
@@ -249,11 +329,24 @@ class RMPCSolver:
                 hint="check the problem arrays for extreme magnitudes",
             )
         self._vectors = vectors
+        self._bounds_changed()
         self._power_coeff = problem.power_coeff_kw_per_kg_s.copy()
         self._phi = problem.phi.copy()
         self._sigma = problem.d_sigma.copy()
         self._core_col_index = np.arange(layout.num_core_cols, dtype=np.int32)
         self._core_row_index = np.arange(layout.num_core_rows, dtype=np.int32)
+
+    def _bounds_changed(self) -> None:
+        """Refresh the bound data that basis statuses are derived from (after any update)."""
+        layout, vectors = self._layout, self._vectors
+        extra_cols = layout.num_cols - layout.num_core_cols
+        extra_rows = layout.num_rows - layout.num_core_rows
+        self._col_lower = np.concatenate([vectors.col_lower, np.zeros(extra_cols)])
+        self._col_upper = np.concatenate([vectors.col_upper, np.full(extra_cols, np.inf)])
+        self._col_nonbasic = _nonbasic_status(self._col_lower, self._col_upper)
+        row_lower = np.concatenate([vectors.row_lower, np.zeros(extra_rows)])
+        row_upper = np.concatenate([vectors.row_upper, np.zeros(extra_rows)])
+        self._row_nonbasic = _nonbasic_status(row_lower, row_upper)
 
     def _delta(self, problem: RMPCProblem) -> FloatArray:
         if problem.robust == "none":
@@ -287,6 +380,7 @@ class RMPCSolver:
                 changed.size, changed, vectors.row_lower[changed], vectors.row_upper[changed]
             )
         self._vectors = vectors
+        self._bounds_changed()
 
         p = problem.power_coeff_kw_per_kg_s
         steps, inputs = np.nonzero(p != self._power_coeff)
@@ -340,19 +434,85 @@ class RMPCSolver:
         if problem is not self._last_problem:
             self._update(problem, delta)
             self._last_problem = problem
+        if self._basis is not None and (self._time_shift or self._basis_given):
+            self._start_from(*self._basis)
         warm = self._has_basis
-        highs_time, status = self._run()
+        highs_time, status = self._run(warm)
         iterations = int(self._highs.getInfo().simplex_iteration_count)
         if status is SolveStatus.ERROR and warm:
             self._highs.clearSolver()
-            retry_time, status = self._run()
+            retry_time, status = self._run(False)
             highs_time += retry_time
             iterations += int(self._highs.getInfo().simplex_iteration_count)
             warm = False
-        self._has_basis = bool(self._highs.getBasis().valid) if not status.ok else True
-        return self._solution(problem, delta, status, start, highs_time, iterations, warm)
+        values = np.asarray(self._highs.getSolution().col_value) if status.ok else None
+        self._basis_given = False
+        if values is not None:
+            self._basis = self._optimal_basis(values)
+            self._has_basis = True
+        else:
+            self._basis = None
+            self._has_basis = bool(self._highs.getBasis().valid)
+        return self._solution(problem, delta, status, start, highs_time, iterations, warm, values)
 
-    def _run(self) -> tuple[float, SolveStatus]:
+    def _start_from(self, col_status: NDArray[np.int8], row_status: NDArray[np.int8]) -> None:
+        """Pass a basis (rotated by one step if ``time_shift``) to HiGHS for the next run.
+
+        Nonbasic statuses that the current bounds do not allow (a bound that became
+        infinite) are replaced by the one the bounds imply.
+        """
+        if self._time_shift:
+            col_status = col_status[self._col_rotation]
+            row_status = row_status[self._row_rotation]
+        col_status = self._consistent(col_status, self._col_lower, self._col_upper)
+        row_status = np.where(row_status == _BASIC, _BASIC, self._row_nonbasic)
+        basis = highspy.HighsBasis()
+        basis.col_status = _HIGHS_BASIS_STATUS.take(col_status).tolist()
+        basis.row_status = _HIGHS_BASIS_STATUS.take(row_status).tolist()
+        basis.valid = True
+        basis.alien = False  # a rotation of a basis keeps the count of basic variables
+        if self._highs.setBasis(basis) == highspy.HighsStatus.kError:
+            self._highs.clearSolver()  # start cold rather than fail
+            self._has_basis = False
+        else:
+            self._has_basis = True
+
+    def _consistent(
+        self, status: NDArray[np.int8], lower: FloatArray, upper: FloatArray
+    ) -> NDArray[np.int8]:
+        bad = ((status == _LOWER) & ~np.isfinite(lower)) | (
+            (status == _UPPER) & ~np.isfinite(upper)
+        )
+        bad |= (status == _ZERO) & (np.isfinite(lower) | np.isfinite(upper))
+        bad |= status > _ZERO
+        if bad.any():
+            status = np.where(bad, self._col_nonbasic, status).astype(np.int8)
+        return status
+
+    def _optimal_basis(self, values: FloatArray) -> tuple[NDArray[np.int8], NDArray[np.int8]]:
+        """Statuses of HiGHS's current (optimal) basis from its basic variables and ``values``.
+
+        A nonbasic column sits at the bound nearer to its value; a nonbasic row at its only
+        finite bound (every row is an equality or one-sided).
+        """
+        lower, upper = self._col_lower, self._col_upper
+        with np.errstate(invalid="ignore"):
+            at_upper = np.isfinite(upper) & (
+                ~np.isfinite(lower) | (values - lower > upper - values)
+            )
+        col_status = np.where(at_upper, _UPPER, self._col_nonbasic).astype(np.int8)
+        row_status = self._row_nonbasic.copy()
+        _, basic = self._highs.getBasicVariables()
+        basic = np.asarray(basic)
+        col_status[basic[basic >= 0]] = _BASIC
+        row_status[-1 - basic[basic < 0]] = _BASIC
+        return col_status, row_status
+
+    def _run(self, warm: bool) -> tuple[float, SolveStatus]:
+        scale = _WARM_SCALE_STRATEGY if warm else self._cold_scale_strategy
+        if scale != self._scale_strategy:
+            self._highs.setOptionValue("simplex_scale_strategy", scale)
+            self._scale_strategy = scale
         if self._time_limit_s is not None:
             # HiGHS checks ``time_limit`` against the Highs object's run clock, which
             # accumulates over every run() of this object: re-arm it so the limit is per solve.
@@ -402,11 +562,12 @@ class RMPCSolver:
         highs_time: float,
         iterations: int,
         warm: bool,
+        values: FloatArray | None,
     ) -> RMPCSolution:
         layout = self._layout
         horizon, m, n, ny = layout.horizon, layout.m, layout.n, layout.ny
         message = self._message(problem, delta, status, iterations)
-        if not status.ok:
+        if values is None:
             return RMPCSolution(
                 status=status,
                 message=message,
@@ -430,7 +591,6 @@ class RMPCSolver:
                 simplex_iterations=iterations,
                 warm_start=warm,
             )
-        values = np.asarray(self._highs.getSolution().col_value)
         dt = problem.dt_h
         u = values[layout.col_u]
         r = np.zeros((horizon, m))
@@ -477,7 +637,13 @@ class RMPCSolver:
 
     # ------------------------------------------------------------------ basis
     def get_basis(self) -> SolverBasis | None:
-        """The current simplex basis (picklable), or None if there is none yet."""
+        """The basis of the last solve (picklable; as solved, not rotated), or None if none yet."""
+        if self._basis is not None:
+            return SolverBasis(
+                fingerprint=self._fingerprint,
+                col_status=self._basis[0].copy(),
+                row_status=self._basis[1].copy(),
+            )
         basis = self._highs.getBasis()
         if not basis.valid:
             return None
@@ -489,6 +655,9 @@ class RMPCSolver:
 
     def set_basis(self, basis: SolverBasis) -> None:
         """Start the next solve from ``basis`` (from :meth:`get_basis` of a same-structure solver).
+
+        With ``time_shift`` the basis is taken as the previous step's and rotated by one step,
+        exactly as after a solve of this solver: a checkpoint resumes as if never stopped.
 
         Raises
         ------
@@ -507,14 +676,25 @@ class RMPCSolver:
                 hint="restore a basis only into a solver built for the same A, B, E, C, N, "
                 "reserve mask and robust mode",
             )
-        highs_basis = highspy.HighsBasis()
-        highs_basis.col_status = [highspy.HighsBasisStatus(int(s)) for s in basis.col_status]
-        highs_basis.row_status = [highspy.HighsBasisStatus(int(s)) for s in basis.row_status]
-        highs_basis.valid = True
-        if self._highs.setBasis(highs_basis) == highspy.HighsStatus.kError:
+        col_status = np.asarray(basis.col_status, dtype=np.int8)
+        row_status = np.asarray(basis.row_status, dtype=np.int8)
+        num_basic = int(
+            np.count_nonzero(col_status == _BASIC) + np.count_nonzero(row_status == _BASIC)
+        )
+        if (
+            num_basic != self.num_rows
+            or min(col_status.min(), row_status.min()) < 0
+            or max(col_status.max(), row_status.max()) > _ZERO + 1
+        ):
             raise ProblemError(
-                "HiGHS rejected the basis", source="RMPCSolver", field="basis", hint="solve cold"
+                f"not a simplex basis: {num_basic} basic variables for {self.num_rows} rows, "
+                "or status codes outside 0..4",
+                source="RMPCSolver",
+                field="basis",
+                hint="pass a basis from get_basis(), or solve cold",
             )
+        self._basis = (col_status.copy(), row_status.copy())
+        self._basis_given = True
         self._has_basis = True
 
 
