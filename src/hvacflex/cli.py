@@ -150,10 +150,6 @@ def _format_kpi(name: str, value: float) -> str:
     return f"{value:,.2f}"
 
 
-if __name__ == "__main__":
-    app()
-
-
 def _scenario_config(
     scenario: str | None, config: Path | None, start: str | None, days: float | None
 ) -> ScenarioConfig:
@@ -277,3 +273,7 @@ def reproduce(
     from hvacflex.reproduce import reproduce as run_reproduction
 
     run_reproduction(out, quick=quick, scheduler=scheduler, workers=workers, log=typer.echo)
+
+
+if __name__ == "__main__":
+    app()
