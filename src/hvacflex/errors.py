@@ -54,7 +54,7 @@ class InputError(HvacflexError, ValueError):
             parts.append(f"(got {value!r})")
         text = " ".join(parts)
         if hint:
-            text += f". {hint}"
+            text += f". {hint[:1].upper()}{hint[1:]}"
         super().__init__(text)
 
 
