@@ -85,8 +85,15 @@ from scipy import linalg, sparse
 
 from hvacflex.errors import ProblemError
 from hvacflex.opt import robust as robust_mod
-from hvacflex.opt.problem import KW_PER_MW, RESERVE_TIE_BREAK_SGD_PER_KG_S_HOUR, RMPCProblem
-from hvacflex.opt.solve import RMPCSolution, SolverBasis, SolveStatus, solve_lp
+from hvacflex.opt.problem import KW_PER_MW, RMPCProblem, dynamics_rhs, fill_plan_columns
+from hvacflex.opt.solve import (
+    RMPCSolution,
+    SolverBasis,
+    SolveStatus,
+    failed_solution,
+    plan_solution,
+    solve_lp,
+)
 
 if TYPE_CHECKING:
     from collections.abc import Sequence
@@ -611,26 +618,22 @@ class FeedbackSolver:
         triplets.extend(step)
         matrix = triplets.csr((num_rows, num_cols))
 
-        dt = problem.dt_h
         inf = np.inf
         cost = np.zeros(num_cols)
         lower = np.full(num_cols, -inf)
         upper = np.full(num_cols, inf)
-        cost[self._col_v] = dt * problem.energy_price_sgd_per_mwh[:, None] * p / KW_PER_MW
-        cost[self._col_r] = (
-            -dt * problem.reserve_price_sgd_per_mwh[:, None] * p[:, ridx] / KW_PER_MW
-            + dt * RESERVE_TIE_BREAK_SGD_PER_KG_S_HOUR
+        fill_plan_columns(
+            problem,
+            cost,
+            lower,
+            upper,
+            col_u=self._col_v,
+            col_r=self._col_r,
+            col_eps=self._col_eps,
+            col_beta=self._col_beta,
+            reserve_inputs=ridx,
         )
-        cost[self._col_eps] = problem.comfort_penalty_sgd_per_kelvin_hour * dt
-        cost[self._col_beta] = 1.0
-        lower[self._col_v] = problem.u_min
-        upper[self._col_v] = problem.u_max
-        lower[self._col_r] = 0.0
-        upper[self._col_r] = (problem.u_max - problem.u_min)[:, ridx]
-        lower[self._col_eps] = 0.0
-        if problem.slack_max_kelvin is not None:
-            upper[self._col_eps] = problem.slack_max_kelvin
-        lower[self._col_beta] = float(phi[0]) * problem.peak_floor_kw
+        cost[self._col_v] = problem.dt_h * problem.energy_price_sgd_per_mwh[:, None] * p / KW_PER_MW
         nonnegative = [self._col_delta, self._col_mu, self._col_upos, self._col_uneg]
         nonnegative += [self._col_ypos, self._col_yneg]
         for index in nonnegative:
@@ -639,8 +642,7 @@ class FeedbackSolver:
 
         row_lower = np.full(num_rows, -inf)
         row_upper = np.full(num_rows, inf)
-        rhs = problem.d_forecast @ problem.e_matrix.T + problem.g
-        rhs[0] += problem.a_matrix @ problem.x0
+        rhs = dynamics_rhs(problem)
         for row_dyn, row_hi, row_lo in (
             (self._row_dyn_x, self._row_hi_x, self._row_lo_x),
             (self._row_dyn_z, self._row_hi_z, self._row_lo_z),
@@ -742,7 +744,7 @@ class FeedbackSolver:
         start: float,
         highs_time: float,
     ) -> RMPCSolution:
-        horizon, m, n, ny, nd = problem.horizon, problem.m, problem.n, problem.ny, problem.nd
+        horizon, m, ny, nd = problem.horizon, problem.m, problem.ny, problem.nd
         size = self.last_size
         where = (
             f"feedback LP '{self._options.structure}' ({size.num_rows} rows, {size.num_cols} "
@@ -751,67 +753,33 @@ class FeedbackSolver:
             else "feedback LP"
         )
         if not status.ok:
-            nan = np.nan
-            return RMPCSolution(
+            return failed_solution(
+                problem,
                 status=status,
                 message=f"{status.value}: {where}; {message}; no plan returned",
-                objective_sgd=nan,
-                u=np.full((horizon, m), nan),
-                r=np.full((horizon, m), nan),
-                power_kw=np.full(horizon, nan),
-                reserve_kw=np.full(horizon, nan),
-                peak_kw=nan,
-                peak_charge_sgd=nan,
-                slack=np.full((horizon, ny), nan),
-                delta=np.full((horizon, ny), nan),
-                x_served=np.full((horizon + 1, n), nan),
-                x_curtailed=np.full((horizon + 1, n), nan),
-                energy_cost_sgd=nan,
-                reserve_revenue_sgd=nan,
-                comfort_penalty_sgd=nan,
-                tie_break_sgd=nan,
-                solve_time_s=time.perf_counter() - start,
+                delta=np.full((horizon, ny), np.nan),
+                start=start,
                 highs_time_s=highs_time,
                 simplex_iterations=0,
                 warm_start=False,
-                feedback_gains=None,
             )
-        dt = problem.dt_h
-        u = values[self._col_v]
         r = np.zeros((horizon, m))
         r[:, self._ridx] = np.maximum(values[self._col_r], 0.0)
-        p = problem.power_coeff_kw_per_kg_s
-        power = problem.power_offset_kw + np.einsum("km,km->k", p, u)
-        reserve = np.einsum("km,km->k", p, r)
-        slack = np.maximum(values[self._col_eps], 0.0)
-        beta = float(values[self._col_beta])
-        x_served = np.vstack([problem.x0, values[self._col_x]])
-        x_curtailed = np.vstack([problem.x0, values[self._col_z]])
         tensor = self.gains_tensor(values[self._col_theta], horizon, m, nd)
         # the margins the gains actually give: Σ_j |Y_{k,j}| σ_j
         delta = np.einsum("kjal,jl->ka", np.abs(self.output_response(tensor)), problem.d_sigma)
-        energy = float(dt * problem.energy_price_sgd_per_mwh @ power / KW_PER_MW)
-        revenue = float(dt * problem.reserve_price_sgd_per_mwh @ reserve / KW_PER_MW)
-        comfort = float(problem.comfort_penalty_sgd_per_kelvin_hour * dt * slack.sum())
-        return RMPCSolution(
+        return plan_solution(
+            problem,
             status=status,
             message=f"optimal: {where}; {message}",
-            objective_sgd=energy - revenue + comfort + beta,
-            u=u,
+            u=values[self._col_v],
             r=r,
-            power_kw=power,
-            reserve_kw=reserve,
-            peak_kw=float(power.max()),
-            peak_charge_sgd=beta,
-            slack=slack,
+            slack=np.maximum(values[self._col_eps], 0.0),
+            peak_charge_sgd=float(values[self._col_beta]),
+            x_served=np.vstack([problem.x0, values[self._col_x]]),
+            x_curtailed=np.vstack([problem.x0, values[self._col_z]]),
             delta=delta,
-            x_served=x_served,
-            x_curtailed=x_curtailed,
-            energy_cost_sgd=energy,
-            reserve_revenue_sgd=revenue,
-            comfort_penalty_sgd=comfort,
-            tie_break_sgd=float(RESERVE_TIE_BREAK_SGD_PER_KG_S_HOUR * dt * r.sum()),
-            solve_time_s=time.perf_counter() - start,
+            start=start,
             highs_time_s=highs_time,
             simplex_iterations=0,
             warm_start=False,

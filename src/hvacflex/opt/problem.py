@@ -805,38 +805,77 @@ class LPVectors:
     row_upper: FloatArray
 
 
+def fill_plan_columns(
+    problem: RMPCProblem,
+    cost: FloatArray,
+    lower: FloatArray,
+    upper: FloatArray,
+    *,
+    col_u: IntArray,
+    col_r: IntArray,
+    col_eps: IntArray,
+    col_beta: int,
+    reserve_inputs: IntArray,
+) -> None:
+    """Write the costs and bounds of the flow, reserve, slack and peak columns in place.
+
+    Shared by the open-loop LP and the feedback LP (:mod:`hvacflex.opt.feedback`):
+    ``col_u`` (N, m) flows, ``col_r`` (N, m_r) reserve flows of ``reserve_inputs``,
+    ``col_eps`` (N, ny) comfort slack, ``col_beta`` the peak epigraph β. The energy cost
+    sits elsewhere in each LP (on P_k here, on u_k there).
+    """
+    dt = problem.dt_h
+    p = problem.power_coeff_kw_per_kg_s
+    cost[col_r] = (
+        -dt * problem.reserve_price_sgd_per_mwh[:, None] * p[:, reserve_inputs] / KW_PER_MW
+        + dt * RESERVE_TIE_BREAK_SGD_PER_KG_S_HOUR
+    )
+    cost[col_eps] = problem.comfort_penalty_sgd_per_kelvin_hour * dt
+    cost[col_beta] = 1.0
+    lower[col_u] = problem.u_min
+    upper[col_u] = problem.u_max
+    lower[col_r] = 0.0
+    upper[col_r] = (problem.u_max - problem.u_min)[:, reserve_inputs]
+    lower[col_eps] = 0.0
+    if problem.slack_max_kelvin is not None:
+        upper[col_eps] = problem.slack_max_kelvin
+    lower[col_beta] = float(problem.phi[0]) * problem.peak_floor_kw
+
+
+def dynamics_rhs(problem: RMPCProblem) -> FloatArray:
+    """(N, n) right-hand sides of the dynamics rows ``x_{k+1} − A x_k − B u_k = E d̂_k + g``
+    (for k = 0 also ``+ A x_0``) [K]."""
+    rhs: FloatArray = problem.d_forecast @ problem.e_matrix.T + problem.g
+    rhs[0] += problem.a_matrix @ problem.x0
+    return rhs
+
+
 def lp_vectors(problem: RMPCProblem, layout: LPLayout, delta: FloatArray) -> LPVectors:
     """Costs and bounds for ``problem`` given the robust margins ``delta`` (N, ny) [K].
 
     In the dual form pass ``delta = 0``: the λ's carry the robustness.
     """
-    dt = problem.dt_h
     ridx = layout.reserve_inputs
     inf = np.inf
     cost = np.zeros(layout.num_core_cols)
     lower = np.full(layout.num_core_cols, -inf)
     upper = np.full(layout.num_core_cols, inf)
-    p = problem.power_coeff_kw_per_kg_s
-    cost[layout.col_r] = (
-        -dt * problem.reserve_price_sgd_per_mwh[:, None] * p[:, ridx] / KW_PER_MW
-        + dt * RESERVE_TIE_BREAK_SGD_PER_KG_S_HOUR
+    fill_plan_columns(
+        problem,
+        cost,
+        lower,
+        upper,
+        col_u=layout.col_u,
+        col_r=layout.col_r,
+        col_eps=layout.col_eps,
+        col_beta=layout.col_beta,
+        reserve_inputs=ridx,
     )
-    cost[layout.col_eps] = problem.comfort_penalty_sgd_per_kelvin_hour * dt
-    cost[layout.col_power] = dt * problem.energy_price_sgd_per_mwh / KW_PER_MW
-    cost[layout.col_beta] = 1.0
-    lower[layout.col_u] = problem.u_min
-    upper[layout.col_u] = problem.u_max
-    lower[layout.col_r] = 0.0
-    upper[layout.col_r] = (problem.u_max - problem.u_min)[:, ridx]
-    lower[layout.col_eps] = 0.0
-    if problem.slack_max_kelvin is not None:
-        upper[layout.col_eps] = problem.slack_max_kelvin
-    lower[layout.col_beta] = float(problem.phi[0]) * problem.peak_floor_kw
+    cost[layout.col_power] = problem.dt_h * problem.energy_price_sgd_per_mwh / KW_PER_MW
 
     row_lower = np.empty(layout.num_core_rows)
     row_upper = np.empty(layout.num_core_rows)
-    rhs = problem.d_forecast @ problem.e_matrix.T + problem.g  # (N, n)
-    rhs[0] += problem.a_matrix @ problem.x0
+    rhs = dynamics_rhs(problem)
     hi = problem.y_max - delta
     lo = problem.y_min + delta
     for row_dyn, row_hi, row_lo in (

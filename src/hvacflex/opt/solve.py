@@ -60,6 +60,8 @@ __all__ = [
     "RMPCSolver",
     "SolveStatus",
     "SolverBasis",
+    "failed_solution",
+    "plan_solution",
     "solve_lp",
     "solve_rmpc",
 ]
@@ -161,6 +163,103 @@ class SolverBasis:
 
 def _nan(shape: tuple[int, ...]) -> FloatArray:
     return np.full(shape, np.nan)
+
+
+def failed_solution(
+    problem: RMPCProblem,
+    *,
+    status: SolveStatus,
+    message: str,
+    delta: FloatArray,
+    start: float,
+    highs_time_s: float,
+    simplex_iterations: int,
+    warm_start: bool,
+) -> RMPCSolution:
+    """An :class:`RMPCSolution` without a plan: every plan array and cost is NaN.
+
+    ``start`` is the ``time.perf_counter()`` reading when the solve call began.
+    """
+    horizon, m, n, ny = problem.horizon, problem.m, problem.n, problem.ny
+    return RMPCSolution(
+        status=status,
+        message=message,
+        objective_sgd=np.nan,
+        u=_nan((horizon, m)),
+        r=_nan((horizon, m)),
+        power_kw=_nan((horizon,)),
+        reserve_kw=_nan((horizon,)),
+        peak_kw=np.nan,
+        peak_charge_sgd=np.nan,
+        slack=_nan((horizon, ny)),
+        delta=delta,
+        x_served=_nan((horizon + 1, n)),
+        x_curtailed=_nan((horizon + 1, n)),
+        energy_cost_sgd=np.nan,
+        reserve_revenue_sgd=np.nan,
+        comfort_penalty_sgd=np.nan,
+        tie_break_sgd=np.nan,
+        solve_time_s=time.perf_counter() - start,
+        highs_time_s=highs_time_s,
+        simplex_iterations=simplex_iterations,
+        warm_start=warm_start,
+    )
+
+
+def plan_solution(
+    problem: RMPCProblem,
+    *,
+    status: SolveStatus,
+    message: str,
+    u: FloatArray,
+    r: FloatArray,
+    slack: FloatArray,
+    peak_charge_sgd: float,
+    x_served: FloatArray,
+    x_curtailed: FloatArray,
+    delta: FloatArray,
+    start: float,
+    highs_time_s: float,
+    simplex_iterations: int,
+    warm_start: bool,
+    feedback_gains: FloatArray | None = None,
+) -> RMPCSolution:
+    """An :class:`RMPCSolution` from a plan: power, reserve and the cost split follow from
+    ``u`` (N, m), ``r`` (N, m) [kg/s], ``slack`` (N, ny) [K] and β [SGD] as in the LP.
+
+    ``start`` is the ``time.perf_counter()`` reading when the solve call began.
+    """
+    dt = problem.dt_h
+    p = problem.power_coeff_kw_per_kg_s
+    power = problem.power_offset_kw + np.einsum("km,km->k", p, u)
+    reserve = np.einsum("km,km->k", p, r)
+    energy = float(dt * problem.energy_price_sgd_per_mwh @ power / KW_PER_MW)
+    revenue = float(dt * problem.reserve_price_sgd_per_mwh @ reserve / KW_PER_MW)
+    comfort = float(problem.comfort_penalty_sgd_per_kelvin_hour * dt * slack.sum())
+    return RMPCSolution(
+        status=status,
+        message=message,
+        objective_sgd=energy - revenue + comfort + peak_charge_sgd,
+        u=u,
+        r=r,
+        power_kw=power,
+        reserve_kw=reserve,
+        peak_kw=float(power.max()),
+        peak_charge_sgd=peak_charge_sgd,
+        slack=slack,
+        delta=delta,
+        x_served=x_served,
+        x_curtailed=x_curtailed,
+        energy_cost_sgd=energy,
+        reserve_revenue_sgd=revenue,
+        comfort_penalty_sgd=comfort,
+        tie_break_sgd=float(RESERVE_TIE_BREAK_SGD_PER_KG_S_HOUR * dt * r.sum()),
+        solve_time_s=time.perf_counter() - start,
+        highs_time_s=highs_time_s,
+        simplex_iterations=simplex_iterations,
+        warm_start=warm_start,
+        feedback_gains=feedback_gains,
+    )
 
 
 #: HiGHS basis status codes (``HighsBasisStatus``) as stored in :class:`SolverBasis`.
@@ -565,67 +664,36 @@ class RMPCSolver:
         values: FloatArray | None,
     ) -> RMPCSolution:
         layout = self._layout
-        horizon, m, n, ny = layout.horizon, layout.m, layout.n, layout.ny
         message = self._message(problem, delta, status, iterations)
         if values is None:
-            return RMPCSolution(
+            return failed_solution(
+                problem,
                 status=status,
                 message=message,
-                objective_sgd=np.nan,
-                u=_nan((horizon, m)),
-                r=_nan((horizon, m)),
-                power_kw=_nan((horizon,)),
-                reserve_kw=_nan((horizon,)),
-                peak_kw=np.nan,
-                peak_charge_sgd=np.nan,
-                slack=_nan((horizon, ny)),
                 delta=delta,
-                x_served=_nan((horizon + 1, n)),
-                x_curtailed=_nan((horizon + 1, n)),
-                energy_cost_sgd=np.nan,
-                reserve_revenue_sgd=np.nan,
-                comfort_penalty_sgd=np.nan,
-                tie_break_sgd=np.nan,
-                solve_time_s=time.perf_counter() - start,
+                start=start,
                 highs_time_s=highs_time,
                 simplex_iterations=iterations,
                 warm_start=warm,
             )
-        dt = problem.dt_h
-        u = values[layout.col_u]
-        r = np.zeros((horizon, m))
+        r = np.zeros((layout.horizon, layout.m))
         r[:, layout.reserve_inputs] = np.maximum(values[layout.col_r], 0.0)
-        p = problem.power_coeff_kw_per_kg_s
-        power = problem.power_offset_kw + np.einsum("km,km->k", p, u)
-        reserve = np.einsum("km,km->k", p, r)
-        slack = np.maximum(values[layout.col_eps], 0.0)
-        beta = float(values[layout.col_beta])
         x_served = np.vstack([problem.x0, values[layout.col_x]])
         x_curtailed = (
             np.vstack([problem.x0, values[layout.col_z]]) if layout.has_curtailed else x_served
         )
-        energy = float(dt * problem.energy_price_sgd_per_mwh @ power / KW_PER_MW)
-        revenue = float(dt * problem.reserve_price_sgd_per_mwh @ reserve / KW_PER_MW)
-        comfort = float(problem.comfort_penalty_sgd_per_kelvin_hour * dt * slack.sum())
-        return RMPCSolution(
+        return plan_solution(
+            problem,
             status=status,
             message=message,
-            objective_sgd=energy - revenue + comfort + beta,
-            u=u,
+            u=values[layout.col_u],
             r=r,
-            power_kw=power,
-            reserve_kw=reserve,
-            peak_kw=float(power.max()),
-            peak_charge_sgd=beta,
-            slack=slack,
-            delta=delta,
+            slack=np.maximum(values[layout.col_eps], 0.0),
+            peak_charge_sgd=float(values[layout.col_beta]),
             x_served=x_served,
             x_curtailed=x_curtailed,
-            energy_cost_sgd=energy,
-            reserve_revenue_sgd=revenue,
-            comfort_penalty_sgd=comfort,
-            tie_break_sgd=float(RESERVE_TIE_BREAK_SGD_PER_KG_S_HOUR * dt * r.sum()),
-            solve_time_s=time.perf_counter() - start,
+            delta=delta,
+            start=start,
             highs_time_s=highs_time,
             simplex_iterations=iterations,
             warm_start=warm,
