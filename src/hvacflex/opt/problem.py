@@ -57,6 +57,7 @@ It is *excluded* from the reported objective (reported separately as ``tie_break
 from __future__ import annotations
 
 import hashlib
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Literal
 
@@ -147,6 +148,18 @@ def _float_array(
     return array
 
 
+def _matrix_shape(
+    name: str, value: object, expected: str, fits: Callable[[int, int], bool]
+) -> tuple[int, int]:
+    """The (rows, columns) of ``value`` if it is 2-D and ``fits(rows, columns)``; else raise."""
+    shape = np.asarray(value).shape
+    if len(shape) != 2 or not fits(shape[0], shape[1]):
+        raise ProblemError(
+            f"wrong shape: expected {expected}, got {shape}", source=_SOURCE, field=name
+        )
+    return int(shape[0]), int(shape[1])
+
+
 @dataclass(frozen=True, eq=False, kw_only=True)
 class RMPCProblem:
     """One robust MPC problem on plain arrays (DESIGN §3); validated on construction.
@@ -212,50 +225,23 @@ class RMPCProblem:
         def put(name: str, value: object) -> None:
             object.__setattr__(self, name, value)
 
-        a_raw = np.asarray(self.a_matrix)
-        if a_raw.ndim != 2 or a_raw.shape[0] != a_raw.shape[1] or a_raw.shape[0] == 0:
-            raise ProblemError(
-                f"wrong shape: expected (n, n) with n ≥ 1, got {a_raw.shape}",
-                source=_SOURCE,
-                field="a_matrix",
-            )
-        n = a_raw.shape[0]
+        n, _ = _matrix_shape(
+            "a_matrix", self.a_matrix, "(n, n) with n ≥ 1", lambda r, c: r == c > 0
+        )
         put("a_matrix", _float_array("a_matrix", self.a_matrix, ((n, n),)))
-        b_raw = np.asarray(self.b_matrix)
-        if b_raw.ndim != 2 or b_raw.shape[0] != n or b_raw.shape[1] == 0:
-            raise ProblemError(
-                f"wrong shape: expected ({n}, m) with m ≥ 1, got {b_raw.shape}",
-                source=_SOURCE,
-                field="b_matrix",
-            )
-        m = b_raw.shape[1]
+        _, m = _matrix_shape(
+            "b_matrix", self.b_matrix, f"({n}, m) with m ≥ 1", lambda r, c: r == n and c > 0
+        )
         put("b_matrix", _float_array("b_matrix", self.b_matrix, ((n, m),)))
-        e_raw = np.asarray(self.e_matrix)
-        if e_raw.ndim != 2 or e_raw.shape[0] != n:
-            raise ProblemError(
-                f"wrong shape: expected ({n}, nd), got {e_raw.shape}",
-                source=_SOURCE,
-                field="e_matrix",
-            )
-        nd = e_raw.shape[1]
+        _, nd = _matrix_shape("e_matrix", self.e_matrix, f"({n}, nd)", lambda r, c: r == n)
         put("e_matrix", _float_array("e_matrix", self.e_matrix, ((n, nd),)))
-        c_raw = np.asarray(self.c_matrix)
-        if c_raw.ndim != 2 or c_raw.shape[1] != n or c_raw.shape[0] == 0:
-            raise ProblemError(
-                f"wrong shape: expected (ny, {n}) with ny ≥ 1, got {c_raw.shape}",
-                source=_SOURCE,
-                field="c_matrix",
-            )
-        ny = c_raw.shape[0]
+        ny, _ = _matrix_shape(
+            "c_matrix", self.c_matrix, f"(ny, {n}) with ny ≥ 1", lambda r, c: c == n and r > 0
+        )
         put("c_matrix", _float_array("c_matrix", self.c_matrix, ((ny, n),)))
-        d_raw = np.asarray(self.d_forecast)
-        if d_raw.ndim != 2 or d_raw.shape[1] != nd or d_raw.shape[0] == 0:
-            raise ProblemError(
-                f"wrong shape: expected (N, {nd}) with N ≥ 1, got {d_raw.shape}",
-                source=_SOURCE,
-                field="d_forecast",
-            )
-        horizon = d_raw.shape[0]
+        horizon, _ = _matrix_shape(
+            "d_forecast", self.d_forecast, f"(N, {nd}) with N ≥ 1", lambda r, c: c == nd and r > 0
+        )
         put("d_forecast", _float_array("d_forecast", self.d_forecast, ((horizon, nd),)))
         put("x0", _float_array("x0", self.x0, ((n,),)))
         put(

@@ -464,20 +464,15 @@ class RMPCSolver:
         changed = np.flatnonzero(vectors.cost != old.cost).astype(np.int32)
         if changed.size:
             highs.changeColsCost(changed.size, changed, vectors.cost[changed])
-        changed = np.flatnonzero(
-            (vectors.col_lower != old.col_lower) | (vectors.col_upper != old.col_upper)
-        ).astype(np.int32)
-        if changed.size:
-            highs.changeColsBounds(
-                changed.size, changed, vectors.col_lower[changed], vectors.col_upper[changed]
-            )
-        changed = np.flatnonzero(
-            (vectors.row_lower != old.row_lower) | (vectors.row_upper != old.row_upper)
-        ).astype(np.int32)
-        if changed.size:
-            highs.changeRowsBounds(
-                changed.size, changed, vectors.row_lower[changed], vectors.row_upper[changed]
-            )
+        for change_bounds, lower, upper, old_lower, old_upper in (
+            (highs.changeColsBounds, vectors.col_lower, vectors.col_upper,
+             old.col_lower, old.col_upper),
+            (highs.changeRowsBounds, vectors.row_lower, vectors.row_upper,
+             old.row_lower, old.row_upper),
+        ):  # fmt: skip
+            changed = np.flatnonzero((lower != old_lower) | (upper != old_upper)).astype(np.int32)
+            if changed.size:
+                change_bounds(changed.size, changed, lower[changed], upper[changed])
         self._vectors = vectors
         self._bounds_changed()
 
