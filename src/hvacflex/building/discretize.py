@@ -19,6 +19,7 @@ the augmented matrix [[A_c, B_c, E_c, g_c], [0, 0, 0, 0]]·Δt (inputs held over
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import scipy.linalg
@@ -26,7 +27,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from hvacflex.building.channels import DisturbanceChannel
 from hvacflex.building.config import Building
-from hvacflex.building.rc import ThermalNetwork, build_network
+from hvacflex.building.rc import ThermalNetwork, build_network, frozen_array
 from hvacflex.errors import BuildingConfigError
 from hvacflex.units import CP_AIR_J_PER_KG_K, STEP_30MIN_S
 
@@ -34,12 +35,6 @@ FloatArray = NDArray[np.float64]
 
 DEFAULT_LINEARISATION_TEMP_DEGC = 23.0
 """T₀: the occupied lower comfort bound [°C]."""
-
-
-def _frozen(array: ArrayLike) -> FloatArray:
-    out = np.array(array, dtype=np.float64)
-    out.setflags(write=False)
-    return out
 
 
 @dataclass(frozen=True)
@@ -216,17 +211,9 @@ def linearize(
     temp_ref = np.full(m, float(linearisation_temp_degc))
     a_d, b_d, e_d, g_d = _discretise(*continuous_affine_model(b, net, flow_ref, temp_ref), dt_s)
     return LinearModel(
-        a=_frozen(a_d),
-        b=_frozen(b_d),
-        e=_frozen(e_d),
-        g=_frozen(g_d),
-        c=_frozen(zone_selection(net)),
-        dt_s=float(dt_s),
-        node_names=net.node_names,
-        zone_names=b.zone_names,
-        channels=net.channels,
-        flow_ref_kg_s=_frozen(flow_ref),
-        linearisation_temp_degc=_frozen(temp_ref),
+        **_model_fields(b, net, dt_s, (a_d, b_d, e_d, g_d)),
+        flow_ref_kg_s=frozen_array(flow_ref),
+        linearisation_temp_degc=frozen_array(temp_ref),
     )
 
 
@@ -269,17 +256,29 @@ def linearize_about_trajectory(
         for k in range(flows.shape[0])
     ]
     a_s, b_s, e_s, g_s = (np.stack([p[i] for p in parts]) for i in range(4))
-    return TimeVaryingLinearModel(
-        a=_frozen(a_s),
-        b=_frozen(b_s),
-        e=_frozen(e_s),
-        g=_frozen(g_s),
-        c=_frozen(zone_selection(net)),
-        dt_s=float(dt_s),
-        node_names=net.node_names,
-        zone_names=b.zone_names,
-        channels=net.channels,
-    )
+    return TimeVaryingLinearModel(**_model_fields(b, net, dt_s, (a_s, b_s, e_s, g_s)))
+
+
+def _model_fields(
+    b: Building,
+    net: ThermalNetwork,
+    dt_s: float,
+    matrices: tuple[FloatArray, FloatArray, FloatArray, FloatArray],
+) -> dict[str, Any]:
+    """The fields :class:`LinearModel` and :class:`TimeVaryingLinearModel` share, from the
+    discrete (a, b, e, g), read-only."""
+    a_d, b_d, e_d, g_d = (frozen_array(matrix) for matrix in matrices)
+    return {
+        "a": a_d,
+        "b": b_d,
+        "e": e_d,
+        "g": g_d,
+        "c": frozen_array(zone_selection(net)),
+        "dt_s": float(dt_s),
+        "node_names": net.node_names,
+        "zone_names": b.zone_names,
+        "channels": net.channels,
+    }
 
 
 def zone_selection(network: ThermalNetwork) -> FloatArray:

@@ -65,7 +65,8 @@ from hvacflex.building.config import ADIABATIC, GROUND, OUTSIDE, Building, Wall,
 FloatArray = NDArray[np.float64]
 
 
-def _frozen(array: ArrayLike) -> FloatArray:
+def frozen_array(array: ArrayLike) -> FloatArray:
+    """A read-only float64 copy of ``array``."""
     out = np.array(array, dtype=np.float64)
     out.setflags(write=False)
     return out
@@ -384,14 +385,14 @@ def build_network(b: Building) -> ThermalNetwork:
         node_names=tuple(names),
         zone_node_index=np.arange(len(zone_names), dtype=np.intp),
         channels=channels,
-        capacitance_j_per_k=_frozen(cap),
-        conductance_w_per_k=_frozen(k),
-        input_w=_frozen(f),
-        outdoor_conductance_w_per_k=_frozen(outdoor),
-        ground_conductance_w_per_k=_frozen(ground),
-        solar_direct_loss_m2=_frozen(direct_loss),
-        a_cont=_frozen(k / cap[:, None]),
-        e_cont=_frozen(f / cap[:, None]),
+        capacitance_j_per_k=frozen_array(cap),
+        conductance_w_per_k=frozen_array(k),
+        input_w=frozen_array(f),
+        outdoor_conductance_w_per_k=frozen_array(outdoor),
+        ground_conductance_w_per_k=frozen_array(ground),
+        solar_direct_loss_m2=frozen_array(direct_loss),
+        a_cont=frozen_array(k / cap[:, None]),
+        e_cont=frozen_array(f / cap[:, None]),
     )
 
 
