@@ -25,6 +25,40 @@ UNOCCUPIED_MARGIN_K = 1.0
 """Unoccupied set-point sits this far inside the upper unoccupied comfort bound [K]."""
 
 
+def unplanned_action(
+    model: LinearModel,
+    x_degc: FloatArray,
+    flow_kg_s: FloatArray,
+    d_now: FloatArray,
+    *,
+    status: str,
+    fallback: bool,
+    solve_time_s: float,
+    plan_margin_k: float,
+) -> Action:
+    """An action without an optimal plan (a rule, or an MPC fallback): no reserve, no planned
+    power, and the one-step prediction ``C (A x + B u + E d̂₀ + g)`` of the zone temperatures
+    [°C] on ``model`` for both the served and the curtailed case.
+
+    ``plan_margin_k`` fills ``planned_slack_max_k`` and ``delta_max_k`` (0 for a rule, which
+    plans no slack and no margin; NaN for a fallback, whose plan failed).
+    """
+    predicted = model.c @ model.step(x_degc, flow_kg_s, d_now)
+    return Action(
+        flow_kg_s=flow_kg_s,
+        reserve_flow_kg_s=np.zeros_like(flow_kg_s),
+        reserve_kw=0.0,
+        planned_power_kw=float("nan"),
+        status=status,
+        fallback=fallback,
+        solve_time_s=solve_time_s,
+        planned_slack_max_k=plan_margin_k,
+        delta_max_k=plan_margin_k,
+        predicted_served_degc=predicted,
+        predicted_curtailed_degc=predicted,
+    )
+
+
 class ThermostatController:
     """Dead-beat thermostat on the linear model (see the module docstring).
 
@@ -63,25 +97,23 @@ class ThermostatController:
             target = np.maximum(upper - UNOCCUPIED_MARGIN_K, lower)
         return target
 
-    def act(self, x_degc: FloatArray, forecast: Forecast, *, peak_floor_kw: float) -> Action:
+    def flows_now(self, x_degc: FloatArray, forecast: Forecast) -> FloatArray:
+        """Zone flows (m,) [kg/s] for the period starting now (forecast period 0)."""
         occupied = bool(forecast.occupied[0])
-        flow = self.flows_for(
+        return self.flows_for(
             x_degc, forecast.disturbances[0], self.target_degc(forecast), occupied
         )
-        m = self._model
-        predicted = m.c @ (m.a @ x_degc + m.b @ flow + m.e @ forecast.disturbances[0] + m.g)
-        return Action(
-            flow_kg_s=flow,
-            reserve_flow_kg_s=np.zeros_like(flow),
-            reserve_kw=0.0,
-            planned_power_kw=float("nan"),
+
+    def act(self, x_degc: FloatArray, forecast: Forecast, *, peak_floor_kw: float) -> Action:
+        return unplanned_action(
+            self._model,
+            x_degc,
+            self.flows_now(x_degc, forecast),
+            forecast.disturbances[0],
             status="rule",
             fallback=False,
             solve_time_s=0.0,
-            planned_slack_max_k=0.0,
-            delta_max_k=0.0,
-            predicted_served_degc=predicted,
-            predicted_curtailed_degc=predicted,
+            plan_margin_k=0.0,
         )
 
     def get_state(self) -> dict[str, Any]:

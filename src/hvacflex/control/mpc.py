@@ -28,7 +28,7 @@ from hvacflex.building.discretize import LinearModel
 from hvacflex.building.hvac import affine_power_model
 from hvacflex.config import ControllerConfig
 from hvacflex.control.base import Action, FloatArray
-from hvacflex.control.baselines import ThermostatController
+from hvacflex.control.baselines import ThermostatController, unplanned_action
 from hvacflex.data.forecast import Forecast
 from hvacflex.data.uncertainty import UncertaintyBox
 from hvacflex.opt import FeedbackOptions, RMPCProblem, RMPCSolution, RMPCSolver, SolveStatus
@@ -201,21 +201,16 @@ class MPCController:
             low = self._building.hvac.flow_min_at(forecast.occupied[:1])[0]
             flow = np.clip(plan.u[self._plan_age], low, self._flow_max)
         else:
-            flow = self._thermostat.act(x_degc, forecast, peak_floor_kw=0.0).flow_kg_s
-        m = self._model
-        predicted = m.c @ (m.a @ x_degc + m.b @ flow + m.e @ forecast.disturbances[0] + m.g)
-        return Action(
-            flow_kg_s=flow,
-            reserve_flow_kg_s=np.zeros_like(flow),
-            reserve_kw=0.0,
-            planned_power_kw=float("nan"),
+            flow = self._thermostat.flows_now(x_degc, forecast)
+        return unplanned_action(
+            self._model,
+            x_degc,
+            flow,
+            forecast.disturbances[0],
             status=failed.status.value,
             fallback=True,
             solve_time_s=failed.solve_time_s,
-            planned_slack_max_k=float("nan"),
-            delta_max_k=float("nan"),
-            predicted_served_degc=predicted,
-            predicted_curtailed_degc=predicted,
+            plan_margin_k=float("nan"),
         )
 
     def get_state(self) -> dict[str, Any]:

@@ -1,0 +1,78 @@
+"""MPC and thermostat actions without a plan: the rule, and the fallback after a failed solve."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import pytest
+
+from hvacflex.config import preset
+from hvacflex.control.baselines import ThermostatController, unplanned_action
+from hvacflex.control.mpc import MPCController
+from hvacflex.opt import RMPCProblem, RMPCSolution, SolveStatus
+from hvacflex.opt.solve import failed_solution
+from hvacflex.sim.closed_loop import Setup, make_controller, prepare
+
+START = "2014-03-03"  # a Monday
+
+
+@pytest.fixture(scope="module")
+def setup() -> Setup:
+    return prepare(preset("rmpc-ppp", start=START, days=1.0))
+
+
+def test_unplanned_action_predicts_one_step_on_the_model_by_hand(setup: Setup) -> None:
+    model = setup.model
+    rng = np.random.default_rng(7)
+    x = 24.0 + rng.uniform(-1.0, 1.0, size=model.a.shape[0])
+    flow = rng.uniform(0.1, 1.0, size=model.b.shape[1])
+    d = setup.exogenous.disturbances[20]
+    action = unplanned_action(
+        model, x, flow, d, status="rule", fallback=False, solve_time_s=0.0, plan_margin_k=0.0
+    )
+    zone_nodes = np.argmax(model.c, axis=1)  # C selects the zone air nodes
+    expected = (model.a @ x + model.b @ flow + model.e @ d + model.g)[zone_nodes]
+    np.testing.assert_allclose(action.predicted_served_degc, expected, rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(action.predicted_curtailed_degc, action.predicted_served_degc)
+    assert not action.reserve_flow_kg_s.any()
+    assert action.reserve_kw == 0.0
+    assert np.isnan(action.planned_power_kw)
+
+
+class _FailingSolver:
+    """Stands in for the LP solver: every solve reports a time-out without a plan."""
+
+    def solve(self, problem: RMPCProblem) -> RMPCSolution:
+        return failed_solution(
+            problem,
+            status=SolveStatus.TIME_LIMIT,
+            message="time limit",
+            delta=np.zeros((problem.horizon, problem.ny)),
+            start=time.perf_counter(),
+            highs_time_s=0.0,
+            simplex_iterations=0,
+            warm_start=False,
+        )
+
+
+def test_failed_solve_without_previous_plan_falls_back_to_the_thermostat(setup: Setup) -> None:
+    controller = make_controller(setup)
+    assert isinstance(controller, MPCController)
+    controller._solver = _FailingSolver()  # type: ignore[assignment]
+    k = 20  # an occupied period
+    forecast = setup.forecaster.forecast(k, setup.config.controller.horizon_steps + 1)
+    x = np.full(setup.model.a.shape[0], 25.5)
+    action = controller.act(x, forecast, peak_floor_kw=0.0)
+
+    thermostat = ThermostatController(
+        setup.model, setup.building.hvac, setup.config.controller.thermostat_setpoint_degc
+    )
+    rule = thermostat.act(x, forecast, peak_floor_kw=0.0)
+    assert action.fallback and not rule.fallback
+    assert action.status == "time_limit" and rule.status == "rule"
+    np.testing.assert_array_equal(action.flow_kg_s, rule.flow_kg_s)
+    np.testing.assert_array_equal(action.predicted_served_degc, rule.predicted_served_degc)
+    assert not action.reserve_flow_kg_s.any()
+    assert np.isnan(action.planned_slack_max_k) and np.isnan(action.delta_max_k)
+    assert rule.planned_slack_max_k == 0.0 and rule.delta_max_k == 0.0
