@@ -50,7 +50,12 @@ from hvacflex.data.market import (
     load_usep,
     synthetic_reserve_prices,
 )
-from hvacflex.data.uncertainty import AR1_COEFFICIENT, DEFAULT_UNCERTAINTY, UncertaintyBox
+from hvacflex.data.uncertainty import (
+    AR1_COEFFICIENT,
+    DEFAULT_UNCERTAINTY,
+    UncertaintyBox,
+    check_ar1_coefficient,
+)
 from hvacflex.data.weather import (
     EpwLocation,
     read_epw,
@@ -276,11 +281,7 @@ class Forecaster:
                 value=disturbance_error,
                 hint=f"use one of {list(get_args(DisturbanceErrorMode))}",
             )
-        if not 0.0 <= ar1_coefficient < 1.0:
-            raise ConfigError(
-                "AR(1) coefficient must be in [0, 1)", field="ar1_coefficient",
-                value=ar1_coefficient,
-            )  # fmt: skip
+        check_ar1_coefficient(ar1_coefficient)
         self.exogenous = exogenous
         self.mode: PriceMode = mode
         self.disturbance_error: DisturbanceErrorMode = disturbance_error

@@ -48,6 +48,16 @@ AR1_COEFFICIENT = 0.9
 (a correlation time of about 5 h)."""
 
 
+def check_ar1_coefficient(ar1_coefficient: float) -> None:
+    """Raise :class:`ConfigError` unless the AR(1) coefficient φ per step is in [0, 1)."""
+    if not 0.0 <= ar1_coefficient < 1.0:
+        raise ConfigError(
+            "AR(1) coefficient must be in [0, 1)",
+            field="ar1_coefficient",
+            value=ar1_coefficient,
+        )
+
+
 def _frozen_mapping(values: Mapping[str, float], name: str) -> Mapping[str, float]:
     checked: dict[str, float] = {}
     for kind, value in dict(values).items():
@@ -255,12 +265,7 @@ class DisturbanceSampler:
                 value=mode,
                 hint=f"use one of {list(get_args(SamplerMode))}",
             )
-        if not 0.0 <= ar1_coefficient < 1.0:
-            raise ConfigError(
-                "AR(1) coefficient must be in [0, 1)",
-                field="ar1_coefficient",
-                value=ar1_coefficient,
-            )
+        check_ar1_coefficient(ar1_coefficient)
         self.mode: SamplerMode = mode
         self.seed = seed
         self.ar1_coefficient = ar1_coefficient
