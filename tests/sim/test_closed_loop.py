@@ -149,6 +149,9 @@ def test_resume_from_checkpoint_gives_identical_results(tmp_path: Path) -> None:
     assert len(first.frame) == 50
     second = run_simulation(cfg, tmp_path / "split", progress=False, checkpoint_every=24)
     assert second.resumed_from_step == 50
+    # the speed is over the steps this call simulated, like the per-part times
+    ms_per_step = sum(v for k, v in second.summary.items() if k.startswith("time_"))
+    assert second.summary["steps_per_s"] == pytest.approx(1e3 / ms_per_step)
     pd.testing.assert_frame_equal(
         whole.drop(columns="solve_time_s"), second.frame.drop(columns="solve_time_s")
     )

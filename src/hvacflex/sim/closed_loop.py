@@ -272,16 +272,15 @@ class ClosedLoop:
         served_flow = action.flow_kg_s
         curtailed_flow = action.flow_kg_s - action.reserve_flow_kg_s
         x_served = self.plant.step(self.x, served_flow, d_real, setup.config.dt_s)
-        x_curtailed = (
-            self.plant.step(self.x, curtailed_flow, d_real, setup.config.dt_s)
-            if np.any(action.reserve_flow_kg_s > 0)
-            else x_served
-        )
         zone_start = self.x[self._zone_rows]
         mean_served = 0.5 * (zone_start + x_served[self._zone_rows])
-        mean_curtailed = 0.5 * (zone_start + x_curtailed[self._zone_rows])
         power_served = self.power_fn(k, served_flow, mean_served, t_out, humidity)
-        power_curtailed = self.power_fn(k, curtailed_flow, mean_curtailed, t_out, humidity)
+        if np.any(action.reserve_flow_kg_s > 0):
+            x_curtailed = self.plant.step(self.x, curtailed_flow, d_real, setup.config.dt_s)
+            mean_curtailed = 0.5 * (zone_start + x_curtailed[self._zone_rows])
+            power_curtailed = self.power_fn(k, curtailed_flow, mean_curtailed, t_out, humidity)
+        else:  # no reserve offered: activation changes nothing
+            x_curtailed, power_curtailed = x_served, power_served
         activated = bool(setup.activation[k])
         x_next = x_curtailed if activated else x_served
         power = power_curtailed if activated else power_served
@@ -504,17 +503,20 @@ def run_simulation(
     frame = loop.frame()
     write_results(frame, results_path, config)
     summary = kpi_summary(frame)
-    summary["steps_per_s"] = _steps_per_second(loop)
+    # timing_s covers only the steps simulated by this call (it is not checkpointed)
+    steps_timed = loop.k - (resumed_from or 0)
+    summary["steps_per_s"] = _steps_per_second(loop, steps_timed)
     for part, seconds in loop.timing_s.items():
-        summary[f"time_{part}_ms_per_step"] = 1e3 * seconds / max(loop.k - (resumed_from or 0), 1)
+        summary[f"time_{part}_ms_per_step"] = 1e3 * seconds / max(steps_timed, 1)
     (out / SUMMARY_FILE).write_text(json.dumps(summary, indent=2))
     checkpoint_path.unlink(missing_ok=True)
     return RunResult(out, frame, summary, resumed_from_step=resumed_from)
 
 
-def _steps_per_second(loop: ClosedLoop) -> float:
+def _steps_per_second(loop: ClosedLoop, steps_timed: int) -> float:
+    """Steps per second of wall time over the ``steps_timed`` steps ``loop.timing_s`` covers."""
     total = sum(loop.timing_s.values())
-    return loop.k / total if total > 0 else float("nan")
+    return steps_timed / total if total > 0 else float("nan")
 
 
 class _progress_bar:
