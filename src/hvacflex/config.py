@@ -76,7 +76,8 @@ class FeedbackConfig:
 
     structure: FeedbackStructure = "zone-local"
     memory_steps: int = 4
-    """Innovations older than this many steps get no gain (``structure = "memory"``)."""
+    """Innovations older than this many steps get no gain (every structure but ``"full"``:
+    the memory, and the lags of the time-invariant and zone-local gains)."""
 
 
 @dataclass(frozen=True)

@@ -157,3 +157,11 @@ def test_validation() -> None:
     assert solver.get_basis() is None
     with pytest.raises(ProblemError, match="structure differs"):
         solver.solve(random_problem(0, robust="feedback", feedback=FeedbackOptions("full")))
+
+
+def test_open_loop_solver_refuses_a_feedback_problem() -> None:
+    from hvacflex.opt import RMPCSolver
+
+    problem = random_problem(0, robust="feedback", feedback=FeedbackOptions())
+    with pytest.raises(ProblemError, match="FeedbackSolver"):
+        RMPCSolver(problem)

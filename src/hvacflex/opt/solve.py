@@ -348,6 +348,14 @@ class RMPCSolver:
                 field="time_limit_s",
                 value=time_limit_s,
             )
+        if problem.robust == "feedback":
+            raise ProblemError(
+                "RMPCSolver solves the open-loop problem only",
+                source="RMPCSolver",
+                field="robust",
+                value=problem.robust,
+                hint="use hvacflex.opt.feedback.FeedbackSolver (or solve_rmpc) for feedback",
+            )
         self._structure = problem.structure
         self._fingerprint = self._structure.fingerprint()
         self._layout: LPLayout = build_layout(self._structure)
