@@ -72,6 +72,8 @@ def test_load_config_from_toml_with_preset(tmp_path: Path) -> None:
         ("[activation]\nrate = 2.0\n", "activation.rate"),
         ("start = 'yesterday-ish'\n", "start"),
         ("[controller]\nkind = 'thermostat'\n", "controller.reserve"),
+        ("dt_s = 900\n", "dt_s"),  # the data are half-hourly
+        ("[realisation]\nar1_coefficient = -0.5\n", "realisation.ar1_coefficient"),
     ],
 )
 def test_bad_scenario_files_name_file_field_and_value(

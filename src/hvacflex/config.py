@@ -41,6 +41,7 @@ from typing import Any, Literal, get_args
 import pandas as pd
 
 from hvacflex.errors import ConfigError
+from hvacflex.units import STEP_30MIN_S
 
 ControllerKind = Literal["mpc", "thermostat"]
 RobustMode = Literal["none", "tightening", "dual", "feedback"]
@@ -429,6 +430,15 @@ def _check_object(obj: Any, *, source: str | Path, prefix: str) -> None:
     if isinstance(obj, ScenarioConfig):
         for name in ("days", "dt_s"):
             _positive(obj, name, source=source, prefix=prefix)
+        if obj.dt_s != STEP_30MIN_S:
+            raise ConfigError(
+                "the control step must be the 30-min period of the data",
+                source=source,
+                field=f"{prefix}dt_s",
+                value=obj.dt_s,
+                hint=f"use dt_s = {STEP_30MIN_S:g} (prices, weather, forecasts and KPIs are "
+                "half-hourly)",
+            )
         try:
             pd.Timestamp(obj.start)
         except ValueError:
@@ -478,9 +488,9 @@ def _check_object(obj: Any, *, source: str | Path, prefix: str) -> None:
                 hint="give a CSV with columns time, activated",
             )
     elif isinstance(obj, RealisationConfig):
-        if not -1.0 < obj.ar1_coefficient < 1.0:
+        if not 0.0 <= obj.ar1_coefficient < 1.0:
             raise ConfigError(
-                "must be in (-1, 1)",
+                "must be in [0, 1)",
                 source=source,
                 field=f"{prefix}ar1_coefficient",
                 value=obj.ar1_coefficient,
