@@ -10,6 +10,7 @@ import pytest
 from hvacflex.config import preset
 from hvacflex.control.baselines import ThermostatController, unplanned_action
 from hvacflex.control.mpc import MPCController
+from hvacflex.errors import ConfigError
 from hvacflex.opt import RMPCProblem, RMPCSolution, SolveStatus
 from hvacflex.opt.solve import failed_solution
 from hvacflex.sim.closed_loop import Setup, make_controller, prepare
@@ -76,3 +77,13 @@ def test_failed_solve_without_previous_plan_falls_back_to_the_thermostat(setup: 
     assert not action.reserve_flow_kg_s.any()
     assert np.isnan(action.planned_slack_max_k) and np.isnan(action.delta_max_k)
     assert rule.planned_slack_max_k == 0.0 and rule.delta_max_k == 0.0
+
+
+def test_short_forecast_names_the_horizon_setting(setup: Setup) -> None:
+    controller = make_controller(setup)
+    assert isinstance(controller, MPCController)
+    horizon = setup.config.controller.horizon_steps
+    forecast = setup.forecaster.forecast(0, horizon - 1)
+    x = np.full(setup.model.a.shape[0], 25.0)
+    with pytest.raises(ConfigError, match=r"controller\.horizon_steps"):
+        controller.problem(x, forecast, peak_floor_kw=0.0)

@@ -31,6 +31,7 @@ from hvacflex.control.base import Action, FloatArray
 from hvacflex.control.baselines import ThermostatController, unplanned_action
 from hvacflex.data.forecast import Forecast
 from hvacflex.data.uncertainty import UncertaintyBox
+from hvacflex.errors import ConfigError
 from hvacflex.opt import FeedbackOptions, RMPCProblem, RMPCSolution, RMPCSolver, SolveStatus
 from hvacflex.opt.feedback import FeedbackSolver
 from hvacflex.opt.solve import SolverBasis
@@ -110,7 +111,12 @@ class MPCController:
         horizon = cfg.horizon_steps
         d_hat = forecast.disturbances[:horizon]
         if d_hat.shape[0] < horizon:
-            raise ValueError(f"forecast covers {d_hat.shape[0]} steps, horizon is {horizon}")
+            raise ConfigError(
+                f"the forecast covers {d_hat.shape[0]} periods, fewer than the horizon",
+                field="controller.horizon_steps",
+                value=horizon,
+                hint="load the data for steps + horizon_steps periods (load_exogenous)",
+            )
         if cfg.robust == "none":
             sigma = np.zeros_like(d_hat)
         else:
