@@ -201,3 +201,16 @@ def test_results_file_carries_config_and_is_reused(tmp_path: Path) -> None:
     assert len(frame) == cfg.steps
     again = run_simulation(cfg, tmp_path, progress=False)
     assert again.cached
+
+
+def test_billing_period_mode_only_pays_to_raise_the_months_peak(tmp_path: Path) -> None:
+    """With the month's peak so far as a floor, shaving below it is worth nothing."""
+    cost = {}
+    for mode in ("horizon", "billing-period"):
+        cfg = with_overrides(
+            preset("rmpc-ppp", start=START, days=2.0), {"controller.billing_mode": mode}
+        )
+        frame = run_simulation(cfg, tmp_path / mode, progress=False).frame
+        assert not frame["fallback"].any()
+        cost[mode] = kpi.energy_cost_sgd(frame)
+    assert cost["billing-period"] <= cost["horizon"] + 1e-6
