@@ -71,6 +71,8 @@ def test_load_config_from_toml_with_preset(tmp_path: Path) -> None:
         ("[uncertainty]\nrelative = { solar = -0.1 }\n", "uncertainty.relative.solar"),
         ("[activation]\nrate = 2.0\n", "activation.rate"),
         ("start = 'yesterday-ish'\n", "start"),
+        ("start = '2014-03-01T08:10'\n", "start"),
+        ("start = '2014-03-01T08:00+08:00'\n", "start"),
         ("[controller]\nkind = 'thermostat'\n", "controller.reserve"),
         ("dt_s = 900\n", "dt_s"),  # the data are half-hourly
         ("[realisation]\nar1_coefficient = -0.5\n", "realisation.ar1_coefficient"),

@@ -181,7 +181,9 @@ def simulate(
     out: Path = typer.Option(Path("results/run"), help="Output folder."),  # noqa: B008
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
     fresh: bool = typer.Option(False, help="Ignore existing results and checkpoints."),
-    checkpoint_every: int = typer.Option(336, help="Steps between checkpoints."),
+    checkpoint_every: int = typer.Option(
+        336, min=1, help="Steps between checkpoints (336 = one week)."
+    ),
 ) -> None:
     """Run a closed-loop simulation (resumes from a checkpoint in OUT if there is one)."""
     from rich.console import Console
@@ -270,9 +272,14 @@ def reproduce(
     workers: int = typer.Option(2, help="Local worker processes (without --scheduler)."),
 ) -> None:
     """Regenerate the paper's Fig. 2, 5, 6, 7 and Table 1 (+ comfort and robustness) as HTML."""
+    from hvacflex.errors import HvacflexError
     from hvacflex.reproduce import reproduce as run_reproduction
 
-    run_reproduction(out, quick=quick, scheduler=scheduler, workers=workers, log=typer.echo)
+    try:
+        run_reproduction(out, quick=quick, scheduler=scheduler, workers=workers, log=typer.echo)
+    except HvacflexError as exc:
+        typer.echo(f"error: {exc}", err=True)
+        raise typer.Exit(2) from None
 
 
 if __name__ == "__main__":

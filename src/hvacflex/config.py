@@ -40,6 +40,7 @@ from typing import Any, Literal, get_args
 
 import pandas as pd
 
+from hvacflex.data.uncertainty import AR1_COEFFICIENT
 from hvacflex.errors import ConfigError
 from hvacflex.units import STEP_30MIN_S
 
@@ -126,7 +127,7 @@ class RealisationConfig:
     """How the simulator draws the realised forecast error w inside the box."""
 
     mode: RealisationMode = "uniform"
-    ar1_coefficient: float = 0.8
+    ar1_coefficient: float = AR1_COEFFICIENT
 
 
 @dataclass(frozen=True)
@@ -440,11 +441,27 @@ def _check_object(obj: Any, *, source: str | Path, prefix: str) -> None:
                 "half-hourly)",
             )
         try:
-            pd.Timestamp(obj.start)
+            start = pd.Timestamp(obj.start)
         except ValueError:
             raise ConfigError(
                 "not a date", source=source, field="start", value=obj.start, hint="e.g. 2014-03-01"
             ) from None
+        if start.tzinfo is not None:
+            raise ConfigError(
+                "give local Singapore time without a time-zone offset",
+                source=source,
+                field="start",
+                value=obj.start,
+                hint="e.g. 2014-03-01 or 2014-03-01T08:00",
+            )
+        if start != start.floor("30min"):
+            raise ConfigError(
+                "must start a 30-min period",
+                source=source,
+                field="start",
+                value=obj.start,
+                hint="e.g. 2014-03-01T08:00 or 2014-03-01T08:30",
+            )
     elif isinstance(obj, ControllerConfig):
         _positive(obj, "horizon_steps", source=source, prefix=prefix)
         _positive(obj, "time_limit_s", source=source, prefix=prefix)

@@ -250,7 +250,9 @@ def build_sections(plan: Plan, by_group: dict[str, list[JobOutcome]], out: Path)
     if paper:
         any_frame = next(iter(paper.values()))
         start, end = display_days(any_frame)
-        window = {SCENARIO_LABELS[k]: f.loc[start:end] for k, f in paper.items()}
+        window = {
+            SCENARIO_LABELS[k]: f[(f.index >= start) & (f.index < end)] for k, f in paper.items()
+        }
         reference = next(iter(window.values()))
         fig2 = plots.plot_prices(reference, figures / "fig2_prices.png")
         fig5 = plots.plot_temperatures(window, figures / "fig5_temperatures.png")

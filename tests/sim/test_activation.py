@@ -49,3 +49,10 @@ def test_file_missing_column(tmp_path: Path) -> None:
     path.write_text("when,activated\n")
     with pytest.raises(DataError, match="time"):
         activation_schedule(ActivationConfig(mode="file", file=str(path)), INDEX, seed=0)
+
+
+def test_file_with_a_period_twice_names_line(tmp_path: Path) -> None:
+    path = tmp_path / "il.csv"
+    path.write_text("time,activated\n2014-03-03T10:00:00+08:00,1\n2014-03-03T10:00:00+08:00,0\n")
+    with pytest.raises(DataError, match=r"il.csv:3.*twice"):
+        activation_schedule(ActivationConfig(mode="file", file=str(path)), INDEX, seed=0)

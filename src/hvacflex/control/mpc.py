@@ -179,8 +179,7 @@ class MPCController:
             c = self._model.c
             # the LP's solution satisfies its bounds to the solver tolerance (~1e-9): snap
             # the applied flows onto the physical limits
-            problem_u_min = np.asarray(problem.u_min, dtype=float)
-            low = problem_u_min[0] if problem_u_min.ndim == 2 else problem_u_min
+            low = np.asarray(problem.u_min, dtype=float)[0]  # (N, m) after validation
             flow = np.clip(solution.u[0], low, self._flow_max)
             reserve = np.clip(solution.r[0], 0.0, flow - low)
             reserve[reserve < RESERVE_FLOW_TOLERANCE_KG_S] = 0.0

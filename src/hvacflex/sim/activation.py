@@ -65,6 +65,16 @@ def read_activation_file(path: Path, index: pd.DatetimeIndex) -> BoolArray:
         raise DataError(f"unparseable time: {exc}", source=path, field="time") from None
     if times.tz is None:
         times = times.tz_localize(index.tz)
+    if times.has_duplicates:
+        row = int(np.flatnonzero(times.duplicated())[0])
+        raise DataError(
+            "period listed twice",
+            source=path,
+            line=row + 2,
+            field="time",
+            value=frame["time"].iloc[row],
+            hint="list each period start once",
+        )
     flags = pd.to_numeric(frame["activated"], errors="coerce")
     bad = flags.isna() | ~flags.isin([0, 1])
     if bad.any():

@@ -46,7 +46,7 @@ from hvacflex.data.forecast import Exogenous, Forecaster, load_exogenous
 from hvacflex.data.gains import ComfortBand
 from hvacflex.data.market import RESERVE_PRICE_SCALE
 from hvacflex.data.uncertainty import DisturbanceSampler, UncertaintyBox
-from hvacflex.errors import HvacflexError
+from hvacflex.errors import ConfigError, HvacflexError
 from hvacflex.paths import repo_root, resolve_building
 from hvacflex.sim.activation import activation_schedule
 
@@ -373,8 +373,12 @@ class ClosedLoop:
         }
 
     def set_state(self, state: dict[str, Any]) -> None:
-        if state["config_hash"] != self.setup.config.config_hash():
-            raise HvacflexError("checkpoint belongs to a different configuration")
+        expected = self.setup.config.config_hash()
+        if state["config_hash"] != expected:
+            raise HvacflexError(
+                f"checkpoint of configuration {state['config_hash']} cannot resume a run of "
+                f"configuration {expected}; start afresh or use the matching configuration"
+            )
         k = state["k"]
         self.k, self.x = k, state["x"].copy()
         self.month, self.month_peak_kw = state["month"], state["month_peak_kw"]
@@ -460,6 +464,9 @@ def run_simulation(
     on_step : called with (steps done, total steps) after each step.
     """
     from hvacflex.kpi import summary as kpi_summary
+
+    if checkpoint_every < 1:
+        raise ConfigError("must be ≥ 1 step", field="checkpoint_every", value=checkpoint_every)
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)

@@ -142,9 +142,7 @@ def run_sweep(
                 summary, error = future.result(), None
             except Exception as exc:  # a failing job must not lose the others
                 summary = None
-                error = f"{type(exc).__name__}: {exc}"
-                tb = "".join(traceback.format_exception_only(type(exc), exc)).strip()
-                error = tb or error
+                error = "".join(traceback.format_exception_only(type(exc), exc)).strip()
             outcome = JobOutcome(
                 label=cfg.name,
                 config_hash=cfg.config_hash(),
