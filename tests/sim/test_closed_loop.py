@@ -17,6 +17,7 @@ import pytest
 from hvacflex import kpi
 from hvacflex.building.hvac import affine_power_model
 from hvacflex.config import preset, scaled_uncertainty, with_overrides
+from hvacflex.paths import buildings_dir
 from hvacflex.sim.closed_loop import (
     CHECKPOINT_FILE,
     ClosedLoop,
@@ -214,3 +215,13 @@ def test_billing_period_mode_only_pays_to_raise_the_months_peak(tmp_path: Path) 
         assert not frame["fallback"].any()
         cost[mode] = kpi.energy_cost_sgd(frame)
     assert cost["billing-period"] <= cost["horizon"] + 1e-6
+
+
+def test_editing_the_building_file_invalidates_cached_results(tmp_path: Path) -> None:
+    building = tmp_path / "mine.toml"
+    building.write_text((buildings_dir() / "office5.toml").read_text())
+    cfg = with_overrides(preset("thermostat", start=START, days=0.25), {"building": str(building)})
+    assert run_simulation(cfg, tmp_path / "run", progress=False).cached is False
+    assert run_simulation(cfg, tmp_path / "run", progress=False).cached is True
+    building.write_text(building.read_text().replace("cop = 4.2", "cop = 4.0"))
+    assert run_simulation(cfg, tmp_path / "run", progress=False).cached is False

@@ -18,6 +18,7 @@ checkpoint and ends with results identical to an uninterrupted run.
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import pickle
@@ -359,7 +360,7 @@ class ClosedLoop:
     def get_state(self) -> dict[str, Any]:
         rec = self.recorder
         return {
-            "config_hash": self.setup.config.config_hash(),
+            "config_hash": run_key(self.setup.config),
             "k": self.k,
             "x": self.x.copy(),
             "month": self.month,
@@ -373,7 +374,7 @@ class ClosedLoop:
         }
 
     def set_state(self, state: dict[str, Any]) -> None:
-        expected = self.setup.config.config_hash()
+        expected = run_key(self.setup.config)
         if state["config_hash"] != expected:
             raise HvacflexError(
                 f"checkpoint of configuration {state['config_hash']} cannot resume a run of "
@@ -401,6 +402,29 @@ class ClosedLoop:
         return self.recorder.frame(self.setup.exogenous.index, self.k)
 
 
+def run_key(config: ScenarioConfig) -> str:
+    """Identity of a run's inputs: the configuration and the bytes of its input files.
+
+    The configuration names the building and data files; editing one of them (a building
+    TOML, a price CSV) must not let a cached result or a checkpoint be re-used, so their
+    contents enter the key. The shipped default data is fixed and stays out of it.
+    """
+    digest = hashlib.sha256(config.config_hash().encode())
+    files = [resolve_building(config.building)]
+    for name in ("weather_file", "usep_source", "reserve_source"):
+        value = getattr(config.data, name)
+        if value is not None:
+            path = Path(value)
+            files += sorted(path.glob("*")) if path.is_dir() else [path]
+    if config.activation.mode == "file" and config.activation.file is not None:
+        files.append(Path(config.activation.file))
+    for path in files:
+        digest.update(str(path.name).encode())
+        if path.is_file():
+            digest.update(path.read_bytes())
+    return digest.hexdigest()[:16]
+
+
 def code_version() -> str:
     """hvacflex's version, with the git commit when running from a checkout."""
     try:
@@ -423,6 +447,7 @@ def write_results(frame: pd.DataFrame, path: Path, config: ScenarioConfig) -> No
     metadata = dict(table.schema.metadata or {})
     metadata[b"hvacflex.config"] = json.dumps(config.to_dict()).encode()
     metadata[b"hvacflex.config_hash"] = config.config_hash().encode()
+    metadata[b"hvacflex.run_key"] = run_key(config).encode()
     metadata[b"hvacflex.version"] = code_version().encode()
     pq.write_table(table.replace_schema_metadata(metadata), path)
 
@@ -434,6 +459,7 @@ def read_results(path: Path) -> tuple[pd.DataFrame, dict[str, Any]]:
     stored = {
         "config": json.loads(meta.get(b"hvacflex.config", b"{}")),
         "config_hash": meta.get(b"hvacflex.config_hash", b"").decode(),
+        "run_key": meta.get(b"hvacflex.run_key", b"").decode(),
         "version": meta.get(b"hvacflex.version", b"").decode(),
     }
     return table.to_pandas(), stored
@@ -472,10 +498,10 @@ def run_simulation(
     out.mkdir(parents=True, exist_ok=True)
     results_path = out / RESULTS_FILE
     checkpoint_path = out / CHECKPOINT_FILE
-    config_hash = config.config_hash()
+    config_hash = run_key(config)
     if resume and results_path.is_file():
         frame, stored = read_results(results_path)
-        if stored["config_hash"] == config_hash and (out / SUMMARY_FILE).is_file():
+        if stored["run_key"] == config_hash and (out / SUMMARY_FILE).is_file():
             summary = json.loads((out / SUMMARY_FILE).read_text())
             return RunResult(out, frame, summary, cached=True)
 
