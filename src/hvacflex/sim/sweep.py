@@ -123,7 +123,7 @@ def run_sweep(
             n_workers=n_workers,
             threads_per_worker=1,
             processes=True,
-            dashboard_address=None,
+            dashboard_address=":0",  # a free port: never clashes with a running cluster
         )
         client = Client(cluster)  # type: ignore[no-untyped-call]
     else:
