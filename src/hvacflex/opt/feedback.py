@@ -90,6 +90,7 @@ from hvacflex.opt.solve import (
     RMPCSolution,
     SolverBasis,
     SolveStatus,
+    check_time_limit,
     failed_solution,
     plan_solution,
     solve_lp,
@@ -392,13 +393,7 @@ class FeedbackSolver:
                 value=problem.robust,
                 hint="use RMPCSolver for the open-loop modes",
             )
-        if time_limit_s is not None and not time_limit_s > 0:
-            raise ProblemError(
-                "time limit must be > 0 s or None",
-                source="FeedbackSolver",
-                field="time_limit_s",
-                value=time_limit_s,
-            )
+        check_time_limit(time_limit_s, source="FeedbackSolver")
         self._time_limit_s = time_limit_s
         self._method = method
         self._structure = problem.structure

@@ -318,6 +318,17 @@ def _nonbasic_status(lower: FloatArray, upper: FloatArray) -> NDArray[np.int8]:
     return status.astype(np.int8)
 
 
+def check_time_limit(time_limit_s: float | None, *, source: str) -> None:
+    """Refuse a per-solve time limit that is not a positive number of seconds (None = none)."""
+    if time_limit_s is not None and not time_limit_s > 0:
+        raise ProblemError(
+            "time limit must be > 0 s or None",
+            source=source,
+            field="time_limit_s",
+            value=time_limit_s,
+        )
+
+
 class RMPCSolver:
     """Warm-started HiGHS solver for a sequence of problems of one structure.
 
@@ -341,13 +352,7 @@ class RMPCSolver:
     def __init__(
         self, problem: RMPCProblem, *, time_limit_s: float | None = None, time_shift: bool = True
     ) -> None:
-        if time_limit_s is not None and not time_limit_s > 0:
-            raise ProblemError(
-                "time limit must be > 0 s or None",
-                source="RMPCSolver",
-                field="time_limit_s",
-                value=time_limit_s,
-            )
+        check_time_limit(time_limit_s, source="RMPCSolver")
         if problem.robust == "feedback":
             raise ProblemError(
                 "RMPCSolver solves the open-loop problem only",
