@@ -1,51 +1,55 @@
 """Where the shipped data and building descriptions are found.
 
-The real data (NEMS USEP prices, weather files, BESTEST references) ships in the ``shared/data``
-folder beside the repository checkout. Set ``HVACFLEX_DATA_DIR`` to point elsewhere.
-Building descriptions ship in ``buildings/`` at the repository root (``HVACFLEX_BUILDINGS_DIR``
-overrides).
+Both ship inside the package (:mod:`hvacflex.resources`, read through
+:mod:`importlib.resources`), so an installed hvacflex needs nothing beside it.
+``HVACFLEX_DATA_DIR`` points at another data folder (the same layout: ``nems_usep_2014/``,
+``weather/``, ``bestest/``) and ``HVACFLEX_BUILDINGS_DIR`` at another folder of building
+TOMLs.
 """
 
 from __future__ import annotations
 
 import os
+from importlib.resources import files
 from pathlib import Path
 
 from hvacflex.errors import DataError
-
-_REPO_ROOT = Path(__file__).resolve().parents[2]
 
 DATA_DIR_ENV = "HVACFLEX_DATA_DIR"
 BUILDINGS_DIR_ENV = "HVACFLEX_BUILDINGS_DIR"
 
 
-def repo_root() -> Path:
-    """The repository root of a source checkout (``src/hvacflex/..``)."""
-    return _REPO_ROOT
+def resources_dir() -> Path:
+    """The installed package-data folder ``hvacflex/resources``."""
+    return Path(str(files("hvacflex.resources")))
 
 
 def data_dir() -> Path:
-    """Folder holding ``nems_usep_2014/``, ``weather/``, ``bestest/`` and ``building/``."""
-    candidates = []
+    """Folder holding ``nems_usep_2014/``, ``weather/`` and ``bestest/``.
+
+    The shipped package data, or the folder named by ``HVACFLEX_DATA_DIR``.
+    """
     env = os.environ.get(DATA_DIR_ENV)
-    if env:
-        candidates.append(Path(env))
-    candidates += [_REPO_ROOT.parent / "shared" / "data", Path.cwd().parent / "shared" / "data"]
-    for candidate in candidates:
-        if (candidate / "nems_usep_2014").is_dir():
-            return candidate
-    raise DataError(
-        "shipped data folder not found",
-        field=DATA_DIR_ENV,
-        value=[str(c) for c in candidates],
-        hint=f"set {DATA_DIR_ENV} to the folder that holds nems_usep_2014/ and weather/",
-    )
+    if not env:
+        return resources_dir()
+    candidate = Path(env)
+    if not (candidate / "nems_usep_2014").is_dir():
+        raise DataError(
+            "data folder has no nems_usep_2014/ folder",
+            field=DATA_DIR_ENV,
+            value=str(candidate),
+            hint=(
+                f"point {DATA_DIR_ENV} at a folder laid out like the shipped one "
+                "(nems_usep_2014/, weather/, bestest/), or unset it to use the shipped data"
+            ),
+        )
+    return candidate
 
 
 def buildings_dir() -> Path:
-    """Folder holding the shipped building descriptions (``office5.toml``, ``room1.toml``…)."""
+    """Folder holding the building descriptions (``office5.toml``, ``room1.toml``…)."""
     env = os.environ.get(BUILDINGS_DIR_ENV)
-    return Path(env) if env else _REPO_ROOT / "buildings"
+    return Path(env) if env else resources_dir() / "buildings"
 
 
 def resolve_building(name_or_path: str | Path) -> Path:
@@ -63,3 +67,8 @@ def resolve_building(name_or_path: str | Path) -> Path:
         value=str(name_or_path),
         hint=f"give a path to a TOML file or one of the shipped names {available}",
     )
+
+
+def repo_root() -> Path:
+    """The repository root of a source checkout (``src/hvacflex/..``); may not exist."""
+    return Path(__file__).resolve().parents[2]

@@ -388,9 +388,9 @@ def differences_section() -> Any:
             "exists. They are generated from USEP with a seeded, spike-correlated model whose "
             "scale was calibrated once so that scenario (a)'s reserve revenue is about 1 % of "
             "its energy cost, as in the paper's Table 1.",
-            "Weather is a typical year (IWEC, Singapore Changi) mapped onto 2014; measured "
+            "Weather is a typical year (TMYx 2009–2023, Singapore Changi) mapped onto 2014; measured "
             "2014 weather was not available in redistributable form.",
-            "The building is our own 5-zone Singapore office floor (buildings/office5.toml) "
+            "The building is our own 5-zone Singapore office floor (the shipped office5.toml) "
             "sized to the paper's load scale (≈15 kW average HVAC power), not the paper's "
             "(unpublished) building.",
             "Served = u (bought at USEP) and curtailed = u − r (paid the reserve price); the "
@@ -403,7 +403,7 @@ def differences_section() -> Any:
             "Curtailment is assumed possible over the whole horizon (conservative); gate "
             "closure and the aggregator needed for loads below the IL threshold are out of "
             "scope. The plant is the exact nonlinear (bilinear) model; the controller uses "
-            "the linearisation of DESIGN §1, so there is model–plant mismatch.",
+            "the linearisation of docs/model.md §1, so there is model–plant mismatch.",
         ],
     )
 
@@ -422,8 +422,8 @@ def configuration_section(by_group: dict[str, list[JobOutcome]]) -> Any:
         title="Run configuration and data provenance",
         paragraphs=[
             "Energy prices: NEMS USEP 2014, half-hourly, Energy Market Company Singapore "
-            "(see shared/data/PROVENANCE.md). Weather: EnergyPlus IWEC file for Singapore "
-            "Changi (ASHRAE). Every run's full configuration is stored in its results file "
+            "(sources and licences: hvacflex/resources/PROVENANCE.md). Weather: the TMYx "
+            "typical year of Singapore Changi (NOAA ISD + Copernicus ERA5). Every run's full configuration is stored in its results file "
             "and in config.json in its folder; the first one is shown here, the others "
             "differ only in the swept setting.",
             f"Runs: {', '.join(sorted(configs))}.",

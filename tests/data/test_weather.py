@@ -18,23 +18,22 @@ from hvacflex.data.weather import (
 )
 from hvacflex.errors import DataError
 
-IWEC = "SGP_Singapore.486980_IWEC.epw"
 TMYX = "SGP_SG_Singapore-Changi.Intl.AP.486980_TMYx.2009-2023.epw"
 
 
 @pytest.fixture(scope="module")
-def iwec(shared_data_dir: Path) -> tuple[pd.DataFrame, EpwLocation]:
-    return read_epw(shared_data_dir / "weather" / IWEC)
+def tmyx(shared_data_dir: Path) -> tuple[pd.DataFrame, EpwLocation]:
+    return read_epw(shared_data_dir / "weather" / TMYX)
 
 
 @pytest.fixture(scope="module")
-def iwec_2014(iwec: tuple[pd.DataFrame, EpwLocation]) -> pd.DataFrame:
-    return weather_30min(*iwec, year=2014)
+def tmyx_2014(tmyx: tuple[pd.DataFrame, EpwLocation]) -> pd.DataFrame:
+    return weather_30min(*tmyx, year=2014)
 
 
 @pytest.mark.parametrize(
     ("name", "t_min", "t_mean", "t_max", "ghi_kwh"),
-    [(IWEC, 21.0, 27.5, 33.8, 1671), (TMYX, 22.4, 28.0, 34.0, 1787)],
+    [(TMYX, 22.4, 28.0, 34.0, 1787)],
 )
 def test_shipped_files_match_provenance(
     shared_data_dir: Path, name: str, t_min: float, t_mean: float, t_max: float, ghi_kwh: float
@@ -51,32 +50,32 @@ def test_shipped_files_match_provenance(
 
 
 def test_30min_grid_preserves_means_and_energy(
-    iwec: tuple[pd.DataFrame, EpwLocation], iwec_2014: pd.DataFrame
+    tmyx: tuple[pd.DataFrame, EpwLocation], tmyx_2014: pd.DataFrame
 ) -> None:
-    hourly, _ = iwec
-    assert len(iwec_2014) == 17_520 and str(iwec_2014.index.tz) == "Asia/Singapore"
+    hourly, _ = tmyx
+    assert len(tmyx_2014) == 17_520 and str(tmyx_2014.index.tz) == "Asia/Singapore"
     for column in ("ghi_w_per_m2", "dni_w_per_m2", "dhi_w_per_m2"):
         # every hour's energy is kept: the two halves average to the EPW hour value
-        halves = iwec_2014[column].to_numpy().reshape(-1, 2).mean(axis=1)
+        halves = tmyx_2014[column].to_numpy().reshape(-1, 2).mean(axis=1)
         np.testing.assert_allclose(halves, hourly[column].to_numpy(), atol=1e-9)
-    assert iwec_2014["outdoor_temp_degc"].mean() == pytest.approx(
+    assert tmyx_2014["outdoor_temp_degc"].mean() == pytest.approx(
         hourly["outdoor_temp_degc"].mean()
     )
     # EPW hour 1 of 1 Jan (a reading at 01:00): period [00:30, 01:00) is 3/4 of the way from
     # the previous instant (hour 24 of 31 Dec, wrapped) to it.
     first, last = hourly["outdoor_temp_degc"].iloc[0], hourly["outdoor_temp_degc"].iloc[-1]
-    assert iwec_2014["outdoor_temp_degc"].iloc[1] == pytest.approx(last + 0.75 * (first - last))
-    assert {"humidity_ratio_kg_per_kg", "ground_temp_degc", "wind_speed_m_s"} <= set(iwec_2014)
+    assert tmyx_2014["outdoor_temp_degc"].iloc[1] == pytest.approx(last + 0.75 * (first - last))
+    assert {"humidity_ratio_kg_per_kg", "ground_temp_degc", "wind_speed_m_s"} <= set(tmyx_2014)
 
 
-def test_leap_year_repeats_28_february(iwec: tuple[pd.DataFrame, EpwLocation]) -> None:
-    weather = weather_30min(*iwec, year=2016)
+def test_leap_year_repeats_28_february(tmyx: tuple[pd.DataFrame, EpwLocation]) -> None:
+    weather = weather_30min(*tmyx, year=2016)
     assert len(weather) == 17_568
     feb28 = weather.loc["2016-02-28", "ghi_w_per_m2"].to_numpy()
     feb29 = weather.loc["2016-02-29", "ghi_w_per_m2"].to_numpy()
     np.testing.assert_allclose(feb29, feb28, rtol=0.05, atol=5.0)  # same EPW day, sun ±1 day
     mar1_2016 = weather.loc["2016-03-01", "outdoor_temp_degc"].to_numpy()
-    mar1_2014 = weather_30min(*iwec, year=2014).loc["2014-03-01", "outdoor_temp_degc"].to_numpy()
+    mar1_2014 = weather_30min(*tmyx, year=2014).loc["2014-03-01", "outdoor_temp_degc"].to_numpy()
     np.testing.assert_allclose(mar1_2016, mar1_2014)
 
 
@@ -93,11 +92,11 @@ def test_psychrometrics_against_ashrae_table() -> None:
 
 
 def test_sunrise_sunset_and_facade_peaks(
-    iwec: tuple[pd.DataFrame, EpwLocation], iwec_2014: pd.DataFrame
+    tmyx: tuple[pd.DataFrame, EpwLocation], tmyx_2014: pd.DataFrame
 ) -> None:
     """21 March 2014, Singapore: sunrise 07:10, sunset 19:13 local (solar noon 13:11, pvlib)."""
-    _, location = iwec
-    day = iwec_2014.loc["2014-03-21"]
+    _, location = tmyx
+    day = tmyx_2014.loc["2014-03-21"]
     sun_up = day.index[day["ghi_w_per_m2"] > 5.0]
     assert sun_up[0] == pd.Timestamp("2014-03-21 07:00", tz="Asia/Singapore")
     assert sun_up[-1] + pd.Timedelta(minutes=30) == pd.Timestamp(
@@ -117,10 +116,10 @@ def test_sunrise_sunset_and_facade_peaks(
     assert (facades.loc[:"2014-03-21 06:30"].to_numpy() == 0).all()
 
 
-def test_sun_geometry_sunrise_sunset(iwec: tuple[pd.DataFrame, EpwLocation]) -> None:
+def test_sun_geometry_sunrise_sunset(tmyx: tuple[pd.DataFrame, EpwLocation]) -> None:
     import pvlib
 
-    _, location = iwec
+    _, location = tmyx
     minutes = pd.date_range("2014-03-21", periods=24 * 60, freq="1min", tz="Asia/Singapore")
     elevation = pvlib.solarposition.get_solarposition(
         minutes, location.latitude_deg, location.longitude_deg
@@ -142,7 +141,7 @@ def test_sun_geometry_sunrise_sunset(iwec: tuple[pd.DataFrame, EpwLocation]) -> 
 
 
 def _epw_lines(shared_data_dir: Path) -> list[str]:
-    return (shared_data_dir / "weather" / IWEC).read_text(encoding="latin-1").splitlines()
+    return (shared_data_dir / "weather" / TMYX).read_text(encoding="latin-1").splitlines()
 
 
 def _write(tmp_path: Path, lines: list[str]) -> Path:

@@ -11,7 +11,7 @@ full horizon.
   start) and are flagged in ``energy_price_extrapolated``.
 * Reserve prices: a user CSV (``reserve_source``) or, by default, the seeded synthetic series
   (``reserve_price_synthetic = True``).
-* Weather: an EPW typical year (IWEC Singapore by default) mapped onto each calendar year the
+* Weather: an EPW typical year (the Singapore Changi TMYx file by default) mapped onto each calendar year the
   index touches, so it wraps around the year end.
 * Internal gains and comfort: office schedule with Singapore public holidays.
 
@@ -65,8 +65,10 @@ from hvacflex.data.weather import (
 from hvacflex.errors import ConfigError, DataError
 from hvacflex.paths import data_dir
 
-DEFAULT_WEATHER_FILE = "SGP_Singapore.486980_IWEC.epw"
-"""Default EPW in ``<data_dir>/weather`` (ASHRAE IWEC typical year, Singapore Changi)."""
+DEFAULT_WEATHER_FILE = "SGP_SG_Singapore-Changi.Intl.AP.486980_TMYx.2009-2023.epw"
+"""Default EPW in ``<data_dir>/weather``: the TMYx typical year of Singapore Changi (2009–2023,
+NOAA ISD + ERA5). The ASHRAE IWEC file is not redistributed; point ``[data] weather_file`` at a
+copy to use it."""
 
 DEFAULT_USEP_FOLDER = "nems_usep_2014"
 """Default USEP folder in ``<data_dir>`` (real NEMS prices, 2014)."""
@@ -442,7 +444,7 @@ def load_exogenous(
         ``sensible_w_per_person``, ``lighting_w_per_m2``, ``equipment_w_per_m2``).
     start : first period start (local Singapore time if naive), on a 30-min boundary.
     steps : number of simulated steps; ``horizon_steps`` more periods are loaded.
-    weather_file : EPW (default: IWEC Singapore in ``<data_dir>/weather``).
+    weather_file : EPW (default: TMYx Singapore Changi in ``<data_dir>/weather``).
     usep_source : USEP CSV file(s) or folder (default: ``<data_dir>/nems_usep_2014``).
     reserve_source : reserve-price CSV(s); default: synthetic prices (flagged).
     comfort : occupied/unoccupied bands (default 23–26 / 20–30 °C).

@@ -94,7 +94,7 @@ def show(
     start: str = typer.Option("2014-01-01", help="First day (Singapore time)."),
     days: int = typer.Option(7, min=1, help="Number of days."),
     building: str = typer.Option("office5", help="Building (shipped name or TOML path)."),
-    weather: Path | None = typer.Option(None, help="EPW file (default: IWEC Singapore)."),  # noqa: B008
+    weather: Path | None = typer.Option(None, help="EPW file (default: TMYx Singapore Changi)."),  # noqa: B008
     fig2: Path | None = typer.Option(None, help="Write Fig. 2 (energy & reserve price) PNG."),  # noqa: B008
 ) -> None:
     """Summarise prices, reserve prices (synthetic), weather, gains and the uncertainty box."""

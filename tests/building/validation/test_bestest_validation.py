@@ -1,4 +1,4 @@
-"""BESTEST runs: ideal loads exact on the bound, two weeks plausible, the full year (slow)."""
+"""BESTEST runs: ideal loads exact on the bound, two weeks plausible, the full year (≈ 12 s)."""
 
 from __future__ import annotations
 
@@ -84,7 +84,6 @@ def test_reference_table_has_the_fourteen_quantities(bestest_dir: Path) -> None:
     assert (ref["ref_min"] <= ref["ref_max"]).all()
 
 
-@pytest.mark.slow
 def test_full_year_bestest(shipped_buildings_dir: Path, bestest_dir: Path, tmp_path: Path) -> None:
     result = bt.run_bestest(bestest_dir, shipped_buildings_dir)
     assert result.n_in_range >= N_IN_RANGE_ACHIEVED, bt.table_markdown(result.table)

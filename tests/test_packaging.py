@@ -1,0 +1,80 @@
+"""The built wheel carries every shipped resource, stays small, and nothing looks outside."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import zipfile
+from pathlib import Path
+
+import pytest
+
+import hvacflex
+from hvacflex.paths import buildings_dir, data_dir, resources_dir
+
+REPO = Path(__file__).resolve().parents[1]
+SOURCE_RESOURCES = REPO / "src" / "hvacflex" / "resources"
+MAX_WHEEL_BYTES = 10 * 1024 * 1024
+
+
+def _shipped_files() -> set[str]:
+    return {
+        "hvacflex/resources/" + path.relative_to(SOURCE_RESOURCES).as_posix()
+        for path in SOURCE_RESOURCES.rglob("*")
+        if path.is_file() and "__pycache__" not in path.parts
+    }
+
+
+@pytest.fixture(scope="module")
+def wheel(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    out = tmp_path_factory.mktemp("wheel")
+    subprocess.run(
+        [sys.executable, "-m", "pip", "wheel", "--quiet", "--no-deps", "-w", str(out), str(REPO)],
+        check=True,
+        capture_output=True,
+        timeout=600,
+    )
+    (built,) = out.glob("hvacflex-*.whl")
+    return built
+
+
+def test_wheel_holds_every_shipped_resource(wheel: Path) -> None:
+    names = set(zipfile.ZipFile(wheel).namelist())
+    missing = sorted(_shipped_files() - names)
+    assert not missing, f"missing from the wheel: {missing}"
+    for required in (
+        "hvacflex/resources/PROVENANCE.md",
+        "hvacflex/resources/buildings/office5.toml",
+        "hvacflex/resources/nems_usep_2014/USEP_Dec-2014.csv",
+        "hvacflex/resources/bestest/std140_2020_example_results_600_900.csv",
+        "hvacflex/py.typed",
+    ):
+        assert required in names
+
+
+def test_wheel_is_small_and_has_no_iwec(wheel: Path) -> None:
+    assert wheel.stat().st_size < MAX_WHEEL_BYTES
+    assert not [n for n in zipfile.ZipFile(wheel).namelist() if "IWEC" in n]
+
+
+def test_default_paths_are_package_data(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.delenv("HVACFLEX_DATA_DIR", raising=False)
+    monkeypatch.delenv("HVACFLEX_BUILDINGS_DIR", raising=False)
+    package = Path(hvacflex.__file__).parent
+    assert resources_dir() == package / "resources"
+    assert data_dir() == package / "resources"
+    assert (buildings_dir() / "office5.toml").is_file()
+    assert len(list((data_dir() / "nems_usep_2014").glob("USEP_*-2014.csv"))) == 12
+
+
+def test_no_code_or_test_reaches_outside_the_repository() -> None:
+    needles = ("../shared", "shared/data", "/work/shared")
+    offenders = [
+        f"{path.relative_to(REPO)}: {needle}"
+        for folder in ("src", "tests", "benchmarks", "scripts")
+        for path in (REPO / folder).rglob("*.py")
+        if path != Path(__file__).resolve()
+        for needle in needles
+        if needle in path.read_text(encoding="utf-8")
+    ]
+    assert not offenders
