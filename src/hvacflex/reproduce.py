@@ -388,8 +388,8 @@ def differences_section() -> Any:
             "exists. They are generated from USEP with a seeded, spike-correlated model whose "
             "scale was calibrated once so that scenario (a)'s reserve revenue is about 1 % of "
             "its energy cost, as in the paper's Table 1.",
-            "Weather is a typical year (TMYx 2009–2023, Singapore Changi) mapped onto 2014; measured "
-            "2014 weather was not available in redistributable form.",
+            "Weather is a typical year (TMYx 2009–2023, Singapore Changi) mapped onto 2014; "
+            "measured 2014 weather was not available in redistributable form.",
             "The building is our own 5-zone Singapore office floor (the shipped office5.toml) "
             "sized to the paper's load scale (≈15 kW average HVAC power), not the paper's "
             "(unpublished) building.",
@@ -423,9 +423,9 @@ def configuration_section(by_group: dict[str, list[JobOutcome]]) -> Any:
         paragraphs=[
             "Energy prices: NEMS USEP 2014, half-hourly, Energy Market Company Singapore "
             "(sources and licences: hvacflex/resources/PROVENANCE.md). Weather: the TMYx "
-            "typical year of Singapore Changi (NOAA ISD + Copernicus ERA5). Every run's full configuration is stored in its results file "
-            "and in config.json in its folder; the first one is shown here, the others "
-            "differ only in the swept setting.",
+            "typical year of Singapore Changi (NOAA ISD + Copernicus ERA5). Every run's full "
+            "configuration is stored in its results file and in config.json in its folder; "
+            "the first one is shown here, the others differ only in the swept setting.",
             f"Runs: {', '.join(sorted(configs))}.",
         ],
         code=json.dumps(first, indent=2),

@@ -11,8 +11,8 @@ full horizon.
   start) and are flagged in ``energy_price_extrapolated``.
 * Reserve prices: a user CSV (``reserve_source``) or, by default, the seeded synthetic series
   (``reserve_price_synthetic = True``).
-* Weather: an EPW typical year (the Singapore Changi TMYx file by default) mapped onto each calendar year the
-  index touches, so it wraps around the year end.
+* Weather: an EPW typical year (the Singapore Changi TMYx file by default) mapped onto each
+  calendar year the index touches, so it wraps around the year end.
 * Internal gains and comfort: office schedule with Singapore public holidays.
 
 :class:`Forecaster` serves ``forecast(k, horizon)`` from precomputed arrays: perfect
