@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import hashlib
+import re
 import subprocess
 import sys
 import zipfile
@@ -78,3 +80,13 @@ def test_no_code_or_test_reaches_outside_the_repository() -> None:
         if needle in path.read_text(encoding="utf-8")
     ]
     assert not offenders
+
+
+def test_provenance_checksums_match_the_shipped_files() -> None:
+    text = (SOURCE_RESOURCES / "PROVENANCE.md").read_text(encoding="utf-8")
+    rows = re.findall(r"^\| `([^`]+)` \| ([\d,]+) \| `([0-9a-f]{64})` \|$", text, flags=re.M)
+    assert len(rows) >= 18  # 12 price files, weather, 3 BESTEST files, 3 room-model files
+    for name, size, sha in rows:
+        data = (SOURCE_RESOURCES / name).read_bytes()
+        assert len(data) == int(size.replace(",", "")), name
+        assert hashlib.sha256(data).hexdigest() == sha, name

@@ -1,8 +1,9 @@
 """ASHRAE Standard 140-2020 (BESTEST) Cases 600, 900, 600FF and 900FF on the Denver TMY3 year.
 
-Inputs (``shared/data/bestest/``, PROVENANCE §4): ``725650TYCST.epw`` and the six example
-programs' results ``std140_2020_example_results_600_900.csv``; buildings
-``buildings/bestest600.toml`` and ``bestest900.toml`` (FF = the same file in free float).
+Inputs (package data ``hvacflex/resources/bestest/``, ``resources/PROVENANCE.md`` §4):
+``725650TYCST.epw`` and the six example programs' results
+``std140_2020_example_results_600_900.csv``; buildings ``resources/buildings/bestest600.toml``
+and ``bestest900.toml`` (FF = the same file in free float).
 
 Procedure
 ---------
@@ -60,7 +61,7 @@ EPW_HORIZONTAL_IR_FIELD = 12
 WINTER_DAY = (1, 4)
 SUMMER_DAY = (7, 27)
 """(month, day) of the hourly free-float plots: Standard 140's Jan 4 and Jul 27 (neither
-SPEC.md nor the results CSV names days; these are the days the standard's reports plot)."""
+``resources/bestest/SPEC.md`` nor the results CSV names days; these are the days the standard's reports plot)."""
 PROGRAMS = ("BSIMAC", "CSE", "DeST", "EnergyPlus", "ESP-r", "TRNSYS")
 
 
