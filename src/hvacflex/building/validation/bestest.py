@@ -61,7 +61,8 @@ EPW_HORIZONTAL_IR_FIELD = 12
 WINTER_DAY = (1, 4)
 SUMMER_DAY = (7, 27)
 """(month, day) of the hourly free-float plots: Standard 140's Jan 4 and Jul 27 (neither
-``resources/bestest/SPEC.md`` nor the results CSV names days; these are the days the standard's reports plot)."""
+``resources/bestest/SPEC.md`` nor the results CSV names days; these are the days the
+standard's reports plot)."""
 PROGRAMS = ("BSIMAC", "CSE", "DeST", "EnergyPlus", "ESP-r", "TRNSYS")
 
 
