@@ -22,7 +22,7 @@ from collections import OrderedDict
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from hvacflex.building.config import Building
+from hvacflex.building.model import Building
 from hvacflex.building.rc import ThermalNetwork, build_network
 from hvacflex.errors import InputError
 from hvacflex.units import CP_AIR_J_PER_KG_K, STEP_30MIN_S

@@ -60,7 +60,7 @@ from hvacflex.building.channels import (
     solar_channel,
     window_solar_gain_channel,
 )
-from hvacflex.building.config import ADIABATIC, GROUND, OUTSIDE, Building, Wall, Zone
+from hvacflex.building.model import ADIABATIC, GROUND, OUTSIDE, Building, Wall, Zone
 
 FloatArray = NDArray[np.float64]
 
