@@ -152,9 +152,9 @@ def synthetic_office(seed: int = 0) -> Model:
 
 def building_model(path: str) -> Model:
     """The linear model of a building description (needs ``hvacflex.building``)."""
-    from hvacflex.building.config import load_building
     from hvacflex.building.discretize import linearize
     from hvacflex.building.hvac import affine_power_model
+    from hvacflex.building.io import load_building
 
     building = load_building(path)
     lm = linearize(building, dt_s=DT_S, linearisation_temp_degc=LINEARISATION_TEMP_DEGC)

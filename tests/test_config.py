@@ -93,3 +93,27 @@ def test_scaled_uncertainty_sets_heat_gain_fractions() -> None:
     cfg = scaled_uncertainty(preset("rmpc"), 0.5)
     assert cfg.uncertainty.relative == {"solar": 0.5, "internal_gain": 0.5}
     assert cfg.uncertainty.absolute == preset("rmpc").uncertainty.absolute
+
+
+@pytest.mark.parametrize(
+    ("content", "problem"),
+    [
+        (b"", "the scenario file is empty"),
+        (b"# nothing yet\n", "the scenario file is empty"),
+        (b"name = 'r\xe9sum\xe9'\n", "not UTF-8 text"),
+        (b"[controller\n", "not valid TOML"),
+    ],
+)
+def test_unreadable_scenario_file_names_the_file_and_the_problem(
+    tmp_path: Path, content: bytes, problem: str
+) -> None:
+    path = tmp_path / "odd.toml"
+    path.write_bytes(content)
+    with pytest.raises(ConfigError, match=problem) as err:
+        load_config(path)
+    assert err.value.source == str(path)
+
+
+def test_missing_scenario_file(tmp_path: Path) -> None:
+    with pytest.raises(ConfigError, match="scenario file not found"):
+        load_config(tmp_path / "nowhere.toml")

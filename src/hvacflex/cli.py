@@ -44,7 +44,7 @@ def building_show(
     building: str = typer.Argument(..., help="A building TOML file or a shipped name (office5)."),
 ) -> None:
     """Print zones, nodes, time constants, UA, design load and model checks of a building."""
-    from hvacflex.building.config import load_building
+    from hvacflex.building.io import load_building
     from hvacflex.building.summary import building_summary_text
     from hvacflex.errors import HvacflexError
     from hvacflex.paths import resolve_building

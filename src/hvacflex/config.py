@@ -32,7 +32,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import tomllib
 from collections.abc import Mapping
 from dataclasses import asdict, dataclass, field, fields, is_dataclass, replace
 from pathlib import Path
@@ -42,6 +41,7 @@ import pandas as pd
 
 from hvacflex.data.uncertainty import AR1_COEFFICIENT
 from hvacflex.errors import ConfigError
+from hvacflex.tomlio import read_toml
 from hvacflex.units import STEP_30MIN_S
 
 ControllerKind = Literal["mpc", "thermostat"]
@@ -247,12 +247,7 @@ def preset(name: str, **overrides: Any) -> ScenarioConfig:
 def load_config(path: str | Path) -> ScenarioConfig:
     """Load a scenario TOML file (optionally starting from ``preset = "..."``)."""
     path = Path(path)
-    try:
-        raw = tomllib.loads(path.read_text())
-    except FileNotFoundError:
-        raise ConfigError("scenario file not found", source=path) from None
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"not valid TOML: {exc}", source=path) from None
+    raw = read_toml(path, what="scenario")
     base_name = raw.pop("preset", None)
     base: dict[str, Any] = {}
     if base_name is not None:

@@ -7,7 +7,8 @@ from pathlib import Path
 import pytest
 from building_fixtures import MINIMAL_TOML, write_building
 
-from hvacflex.building.config import Building, load_building
+from hvacflex.building.io import load_building
+from hvacflex.building.model import Building
 
 
 @pytest.fixture(scope="session")

@@ -10,14 +10,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hvacflex.building.config import (
-    DOUBLE_CLEAR_ANGLE_MODIFIER,
-    Building,
-    BuildingConfigError,
-    building_from_dict,
-    load_building,
-)
+from hvacflex.building.io import building_from_dict, load_building
+from hvacflex.building.model import DOUBLE_CLEAR_ANGLE_MODIFIER, Building
 from hvacflex.building.rc import build_network, envelope_ua_w_per_k
+from hvacflex.errors import BuildingConfigError
 
 # SPEC.md: surface-to-surface U [W/m²K] and Σ ρ c d [J/(m²K)] from its layer table
 # (inside → outside: thickness, k, ρ, c).

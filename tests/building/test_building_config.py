@@ -7,7 +7,8 @@ from pathlib import Path
 import pytest
 from building_fixtures import MINIMAL_TOML, write_building
 
-from hvacflex.building.config import Building, load_building
+from hvacflex.building.io import load_building
+from hvacflex.building.model import Building
 from hvacflex.errors import BuildingConfigError
 
 
@@ -149,3 +150,95 @@ def test_roof_azimuth_is_normalised(tmp_path: Path) -> None:
     b = load_building(write_building(tmp_path, text))
     roof = b.walls[-1]
     assert (roof.azimuth_deg, roof.tilt_deg) == (0.0, 0.0)
+
+
+UNREADABLE_FILES = {
+    "not UTF-8": (b'name = "caf\xe9"\n', r"not UTF-8 text \(byte 0xe9 at offset 11\)"),
+    "empty": (b"", "the building file is empty"),
+    "blank lines only": (b"\n  \n", "the building file is empty"),
+    "comments only": (b"# a building\n", r"the building file is empty \(only comments\)"),
+    "not TOML": (b"\x00\x01 binary", "not valid TOML"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(UNREADABLE_FILES))
+def test_unreadable_file_names_the_file_and_the_problem(tmp_path: Path, case: str) -> None:
+    content, problem = UNREADABLE_FILES[case]
+    path = tmp_path / "odd.toml"
+    path.write_bytes(content)
+    with pytest.raises(BuildingConfigError, match=problem) as info:
+        load_building(path)
+    assert info.value.source == str(path)
+
+
+def test_not_utf8_error_gives_the_line(tmp_path: Path) -> None:
+    path = tmp_path / "latin1.toml"
+    path.write_bytes(MINIMAL_TOML.replace('"two_zone"', '"zwei_räume"').encode("latin-1"))
+    with pytest.raises(BuildingConfigError) as info:
+        load_building(path)
+    assert info.value.line == 2  # MINIMAL_TOML starts with a newline
+    assert f"{path}:2:" in str(info.value)
+
+
+def test_missing_file_is_a_building_config_error(tmp_path: Path) -> None:
+    with pytest.raises(BuildingConfigError, match="building file not found"):
+        load_building(tmp_path / "nowhere.toml")
+
+
+@pytest.mark.parametrize(
+    ("content", "problem"),
+    [(b"name = '\xff'\n", "not UTF-8 text"), (b"", "empty"), (b"[zones\n", "not valid TOML")],
+)
+def test_cli_building_show_exits_2_on_unreadable_file(
+    tmp_path: Path, content: bytes, problem: str
+) -> None:
+    from typer.testing import CliRunner
+
+    from hvacflex.cli import app
+
+    path = tmp_path / "odd.toml"
+    path.write_bytes(content)
+    result = CliRunner().invoke(app, ["building", "show", str(path)])
+    assert result.exit_code == 2
+    assert "odd.toml" in result.output
+    assert problem in result.output
+    assert "Traceback" not in result.output
+
+
+def test_misspelt_key_is_reported_before_the_missing_one(tmp_path: Path) -> None:
+    # renaming height_m makes it both unknown (heigth_m) and missing (height_m)
+    text = _replace("height_m = 3.0\n", "heigth_m = 3.0\n")
+    with pytest.raises(BuildingConfigError) as info:
+        load_building(write_building(tmp_path, text))
+    assert info.value.field == "zones[0].heigth_m"
+    assert info.value.hint is not None and "height_m" in info.value.hint
+
+
+def test_flows_as_arrays_in_zone_order(tmp_path: Path) -> None:
+    text = _replace("flow_max_kg_s = { a = 0.3, b = 0.3 }", "flow_max_kg_s = [0.3, 0.4]")
+    b = load_building(write_building(tmp_path, text))
+    assert b.hvac.flow_max_kg_s == (0.3, 0.4)
+    short = _replace("flow_max_kg_s = { a = 0.3, b = 0.3 }", "flow_max_kg_s = [0.3]")
+    with pytest.raises(BuildingConfigError, match="expected 2 values") as info:
+        load_building(write_building(tmp_path, short))
+    assert info.value.field == "hvac.flow_max_kg_s"
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "field", "message"),
+    [
+        ("area_m2 = 15.0", "area_m2 = true", "walls[0].area_m2", "expected a finite number"),
+        ("area_m2 = 15.0", 'area_m2 = "15"', "walls[0].area_m2", "expected a finite number"),
+        ("area_m2 = 15.0", "area_m2 = nan", "walls[0].area_m2", "expected a finite number"),
+        ('name = "a"', 'name = "outside"', "zones[0].name", "invalid zone name"),
+        ('name = "a"', 'name = "A"', "zones[0].name", "invalid zone name"),
+        ("shgc = 0.4", "shgc = 1.4", "windows[0].shgc", "must be ≤ 1"),
+        ("azimuth_deg = 180.0\n\n[gains]", "\n[gains]", "windows[0].azimuth_deg", "missing"),
+    ],
+)
+def test_schema_errors_name_field_and_say_what_is_wrong(
+    tmp_path: Path, old: str, new: str, field: str, message: str
+) -> None:
+    with pytest.raises(BuildingConfigError, match=message) as info:
+        load_building(write_building(tmp_path, _replace(old, new)))
+    assert info.value.field == field

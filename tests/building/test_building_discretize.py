@@ -10,8 +10,9 @@ import pytest
 from building_fixtures import write_building
 from scipy.integrate import solve_ivp
 
-from hvacflex.building.config import Building, load_building
 from hvacflex.building.discretize import linearize, linearize_about_trajectory
+from hvacflex.building.io import load_building
+from hvacflex.building.model import Building
 from hvacflex.building.plant import NonlinearPlant
 from hvacflex.building.summary import design_disturbance
 from hvacflex.units import CP_AIR_J_PER_KG_K

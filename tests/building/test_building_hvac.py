@@ -7,7 +7,6 @@ import dataclasses
 import numpy as np
 import pytest
 
-from hvacflex.building.config import Building, HvacSystem
 from hvacflex.building.hvac import (
     affine_power_error,
     affine_power_model,
@@ -16,6 +15,7 @@ from hvacflex.building.hvac import (
     hvac_power_kw,
     saturation_humidity_ratio_kg_per_kg,
 )
+from hvacflex.building.model import Building, HvacSystem
 
 
 def _hvac(**changes: object) -> HvacSystem:

@@ -12,7 +12,8 @@ from building_fixtures import write_building
 from scipy.integrate import solve_ivp
 from test_building_discretize import SINGLE_NODE
 
-from hvacflex.building.config import Building, load_building
+from hvacflex.building.io import load_building
+from hvacflex.building.model import Building
 from hvacflex.building.plant import NonlinearPlant
 from hvacflex.building.summary import design_disturbance
 from hvacflex.errors import InputError

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 from building_fixtures import MINIMAL_TOML, write_building
 
-from hvacflex.building.config import Building, load_building
+from hvacflex.building.io import load_building
+from hvacflex.building.model import Building
 from hvacflex.building.rc import build_network, envelope_ua_w_per_k
 
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from hvacflex.building.config import Building
+from hvacflex.building.model import Building
 from hvacflex.building.summary import format_summary, summarize
 
 

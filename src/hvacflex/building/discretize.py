@@ -26,7 +26,7 @@ import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
 from hvacflex.building.channels import DisturbanceChannel
-from hvacflex.building.config import Building
+from hvacflex.building.model import Building
 from hvacflex.building.rc import ThermalNetwork, build_network, frozen_array
 from hvacflex.errors import BuildingConfigError
 from hvacflex.units import CP_AIR_J_PER_KG_K, STEP_30MIN_S

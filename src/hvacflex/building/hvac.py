@@ -29,7 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from hvacflex.building.config import HvacSystem
+from hvacflex.building.model import HvacSystem
 from hvacflex.units import CP_AIR_J_PER_KG_K, H_FG_J_PER_KG, W_PER_KW
 
 FloatArray = NDArray[np.float64]

@@ -22,7 +22,7 @@ from collections import OrderedDict
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from hvacflex.building.config import Building
+from hvacflex.building.model import Building
 from hvacflex.building.rc import ThermalNetwork, build_network
 from hvacflex.errors import InputError
 from hvacflex.units import CP_AIR_J_PER_KG_K, STEP_30MIN_S
@@ -153,12 +153,4 @@ class NonlinearPlant:
         forcing = self._f @ d_a
         forcing[self._zones] += flow * CP_AIR_J_PER_KG_K * self._supply_temp_degc
         out: FloatArray = phi @ x + gamma @ forcing
-        return out
-
-    def zone_cooling_w(self, x_degc: ArrayLike, flow_kg_s: ArrayLike) -> FloatArray:
-        """Heat removed from each zone by its supply air at this state, ṁ c_p (T_r − T_s)
-        [W], (m,); positive = cooling."""
-        x = np.asarray(x_degc, dtype=np.float64)
-        flow = np.asarray(flow_kg_s, dtype=np.float64)
-        out: FloatArray = flow * CP_AIR_J_PER_KG_K * (x[self._zones] - self._supply_temp_degc)
         return out

@@ -60,7 +60,7 @@ from hvacflex.building.channels import (
     solar_channel,
     window_solar_gain_channel,
 )
-from hvacflex.building.config import ADIABATIC, GROUND, OUTSIDE, Building, Wall, Zone
+from hvacflex.building.model import ADIABATIC, GROUND, OUTSIDE, Building, Wall, Window, Zone
 
 FloatArray = NDArray[np.float64]
 
@@ -224,31 +224,64 @@ def _wall_node_names(wall: Wall) -> list[str]:
     return [wall.name] if count == 1 else [f"{wall.name}_{k}" for k in range(count)]
 
 
-def build_network(b: Building) -> ThermalNetwork:
-    """Assemble the RC network of a building.
+@dataclass
+class _Assembly:
+    """The network while it is being assembled: node indices and the growing K, F.
 
-    Parameters
-    ----------
-    b : the building.
-
-    Returns
-    -------
-    The :class:`ThermalNetwork` (matrices in SI units, see its attributes).
+    Nodes ``0..n−1`` carry capacitance (zone air, then wall slices); the massless
+    inside-surface and radiant-star nodes of zones with explicit interior long-wave exchange
+    follow and are eliminated by :func:`_kron_reduce`.
     """
-    channels = disturbance_channels(b)
-    channel_index = {(c.kind, c.azimuth_deg, c.tilt_deg, c.zone): i for i, c in enumerate(channels)}
-    outdoor_col = channel_index[("outdoor_temp", None, None, None)]
-    ground_col = channel_index.get(("ground_temp", None, None, None))
-    sky_col = channel_index.get(("sky_longwave", None, None, None))
 
-    zone_names = b.zone_names
-    names: list[str] = list(zone_names)
+    channels: tuple[DisturbanceChannel, ...]
+    channel_index: dict[tuple[str, float | None, float | None, str | None], int]
+    names: list[str]
+    capacitance: list[float]
+    index: dict[str, int]
+    radiant: dict[str, Zone]
+    surface_node: dict[str, int]
+    star_node: dict[str, int]
+    k: FloatArray
+    f: FloatArray
+    outdoor: FloatArray
+    ground: FloatArray
+    direct_loss: FloatArray
+
+    @property
+    def outdoor_col(self) -> int:
+        return self.channel_index[("outdoor_temp", None, None, None)]
+
+    @property
+    def ground_col(self) -> int | None:
+        return self.channel_index.get(("ground_temp", None, None, None))
+
+    @property
+    def sky_col(self) -> int | None:
+        return self.channel_index.get(("sky_longwave", None, None, None))
+
+    def couple(self, i: int, j: int, conductance_w_per_k: float) -> None:
+        """A conductance between nodes ``i`` and ``j`` [W/K]."""
+        self.k[i, j] += conductance_w_per_k
+        self.k[j, i] += conductance_w_per_k
+        self.k[i, i] -= conductance_w_per_k
+        self.k[j, j] -= conductance_w_per_k
+
+    def to_boundary(self, i: int, col: int, conductance_w_per_k: float, store: FloatArray) -> None:
+        """A conductance from node ``i`` to the boundary temperature of channel ``col``."""
+        self.k[i, i] -= conductance_w_per_k
+        self.f[i, col] += conductance_w_per_k
+        store[i] += conductance_w_per_k
+
+
+def _allocate_nodes(b: Building) -> _Assembly:
+    """Name the nodes (zone air, wall slices, then the massless ones) and zero K and F."""
+    channels = disturbance_channels(b)
+    names: list[str] = list(b.zone_names)
     capacitance: list[float] = [zone.capacitance_j_per_k for zone in b.zones]
     for wall in b.walls:
         names += _wall_node_names(wall)
         capacitance += [c * wall.area_m2 for c in wall.construction.chain()[0]]
     n, nd = len(names), len(channels)
-    index = {name: i for i, name in enumerate(names)}
     # massless nodes, eliminated at the end: inside surfaces and radiant star of the zones
     # with explicit interior long-wave exchange
     radiant = {z.name: z for z in b.zones if z.interior_radiation_w_per_m2k is not None}
@@ -262,135 +295,190 @@ def build_network(b: Building) -> ThermalNetwork:
     for name in radiant:
         star_node[name] = extra
         extra += 1
-    size = extra
+    return _Assembly(
+        channels=channels,
+        channel_index={
+            (c.kind, c.azimuth_deg, c.tilt_deg, c.zone): i for i, c in enumerate(channels)
+        },
+        names=names,
+        capacitance=capacitance,
+        index={name: i for i, name in enumerate(names)},
+        radiant=radiant,
+        surface_node=surface_node,
+        star_node=star_node,
+        k=np.zeros((extra, extra)),
+        f=np.zeros((extra, nd)),
+        outdoor=np.zeros(extra),
+        ground=np.zeros(extra),
+        direct_loss=np.zeros(nd),
+    )
 
-    k = np.zeros((size, size))
-    f = np.zeros((size, nd))
-    outdoor = np.zeros(size)
-    ground = np.zeros(size)
-    direct_loss = np.zeros(nd)
 
-    def couple(i: int, j: int, conductance_w_per_k: float) -> None:
-        k[i, j] += conductance_w_per_k
-        k[j, i] += conductance_w_per_k
-        k[i, i] -= conductance_w_per_k
-        k[j, j] -= conductance_w_per_k
+def _add_wall_inside(
+    net: _Assembly, wall: Wall, nodes: list[int], links: tuple[float, ...]
+) -> None:
+    """Innermost node → zone air (through the surface node and the radiant star when the
+    zone has explicit long-wave exchange), then the links between the wall's nodes."""
+    area = wall.area_m2
+    zone_node = net.index[wall.zone]
+    if wall.name in net.surface_node:
+        surface = net.surface_node[wall.name]
+        h_radiant = net.radiant[wall.zone].interior_radiation_w_per_m2k
+        assert h_radiant is not None
+        net.couple(nodes[-1], surface, area / links[-1])
+        net.couple(surface, zone_node, area * wall.construction.inside_film_w_per_m2k)
+        net.couple(surface, net.star_node[wall.zone], area * h_radiant)
+    else:
+        r_inside = links[-1] + 1.0 / wall.construction.inside_film_w_per_m2k
+        net.couple(nodes[-1], zone_node, area / r_inside)
+    for s in range(len(nodes) - 1):
+        net.couple(nodes[s], nodes[s + 1], area / links[s + 1])
 
-    def to_boundary(i: int, col: int, conductance_w_per_k: float, store: FloatArray) -> None:
-        k[i, i] -= conductance_w_per_k
-        f[i, col] += conductance_w_per_k
-        store[i] += conductance_w_per_k
 
+def _add_wall_far_side(
+    net: _Assembly, wall: Wall, nodes: list[int], links: tuple[float, ...]
+) -> None:
+    """Outermost node → outdoor air (with absorbed solar and sky long-wave on the outer
+    surface), the ground, or the neighbouring zone; nothing for an adiabatic face."""
+    area = wall.area_m2
+    film = wall.construction.outside_film_for(wall.adjacent)
+    r_far = 0.0 if film is None else 1.0 / film
+    r_outer_half = links[0]
+    conductance = area / (r_far + r_outer_half)
+    if wall.adjacent == OUTSIDE:
+        net.to_boundary(nodes[0], net.outdoor_col, conductance, net.outdoor)
+        share_to_node = r_far / (r_far + r_outer_half)
+        if wall.solar_absorptance > 0:
+            col = net.channel_index[("solar", wall.azimuth_deg, wall.tilt_deg, None)]
+            absorbed_m2 = wall.solar_absorptance * area
+            net.f[nodes[0], col] += absorbed_m2 * share_to_node
+            net.direct_loss[col] += absorbed_m2 * (1.0 - share_to_node)
+        if wall.thermal_emissivity is not None:
+            sky_col = net.sky_col
+            assert sky_col is not None
+            emitting_m2 = wall.thermal_emissivity * wall.sky_view_factor * area
+            net.f[nodes[0], sky_col] -= emitting_m2 * share_to_node
+            net.direct_loss[sky_col] -= emitting_m2 * (1.0 - share_to_node)
+    elif wall.adjacent == GROUND:
+        ground_col = net.ground_col
+        assert ground_col is not None
+        net.to_boundary(nodes[0], ground_col, conductance, net.ground)
+    elif wall.adjacent != ADIABATIC:
+        net.couple(nodes[0], net.index[wall.adjacent], conductance)
+
+
+def _add_walls(net: _Assembly, b: Building) -> None:
     for wall in b.walls:
         _, links = wall.construction.chain()
-        nodes = [index[name] for name in _wall_node_names(wall)]
-        area = wall.area_m2
-        zone_node = index[wall.zone]
-        # inside: innermost node → zone air (through the surface node and the radiant star
-        # when the zone has explicit long-wave exchange)
-        if wall.name in surface_node:
-            surface = surface_node[wall.name]
-            h_radiant = radiant[wall.zone].interior_radiation_w_per_m2k
-            assert h_radiant is not None
-            couple(nodes[-1], surface, area / links[-1])
-            couple(surface, zone_node, area * wall.construction.inside_film_w_per_m2k)
-            couple(surface, star_node[wall.zone], area * h_radiant)
-        else:
-            r_inside = links[-1] + 1.0 / wall.construction.inside_film_w_per_m2k
-            couple(nodes[-1], zone_node, area / r_inside)
-        # between nodes
-        for s in range(len(nodes) - 1):
-            couple(nodes[s], nodes[s + 1], area / links[s + 1])
-        # far side
-        film = wall.construction.outside_film_for(wall.adjacent)
-        r_far = 0.0 if film is None else 1.0 / film
-        r_outer_half = links[0]
-        conductance = area / (r_far + r_outer_half)
-        if wall.adjacent == OUTSIDE:
-            to_boundary(nodes[0], outdoor_col, conductance, outdoor)
-            share_to_node = r_far / (r_far + r_outer_half)
-            if wall.solar_absorptance > 0:
-                col = channel_index[("solar", wall.azimuth_deg, wall.tilt_deg, None)]
-                absorbed_m2 = wall.solar_absorptance * area
-                f[nodes[0], col] += absorbed_m2 * share_to_node
-                direct_loss[col] += absorbed_m2 * (1.0 - share_to_node)
-            if wall.thermal_emissivity is not None:
-                assert sky_col is not None
-                emitting_m2 = wall.thermal_emissivity * wall.sky_view_factor * area
-                f[nodes[0], sky_col] -= emitting_m2 * share_to_node
-                direct_loss[sky_col] -= emitting_m2 * (1.0 - share_to_node)
-        elif wall.adjacent == GROUND:
-            assert ground_col is not None
-            to_boundary(nodes[0], ground_col, conductance, ground)
-        elif wall.adjacent != ADIABATIC:
-            couple(nodes[0], index[wall.adjacent], conductance)
+        nodes = [net.index[name] for name in _wall_node_names(wall)]
+        _add_wall_inside(net, wall, nodes, links)
+        _add_wall_far_side(net, wall, nodes, links)
 
-    zone_of = {zone.name: zone for zone in b.zones}
+
+def _add_transmitted_solar(
+    net: _Assembly, b: Building, window: Window, col: int, transmitted_m2: float
+) -> None:
+    """A window's transmitted solar: shares to the walls' inside surfaces, the share lost
+    back out, the rest to the zone air."""
+    zone_node = net.index[window.zone]
+    to_air = 1.0 - b.zones[b.zone_index(window.zone)].solar_lost_fraction
+    for wall in b.walls:
+        if wall.zone != window.zone or wall.interior_solar_fraction is None:
+            continue
+        if wall.name in net.surface_node:
+            inner, share = net.surface_node[wall.name], 1.0
+        else:
+            inner = net.index[_wall_node_names(wall)[-1]]
+            share = _surface_share_to_node(
+                wall.construction.inside_film_w_per_m2k, wall.construction.chain()[1][-1]
+            )
+        net.f[inner, col] += transmitted_m2 * wall.interior_solar_fraction * share
+        net.f[zone_node, col] += transmitted_m2 * wall.interior_solar_fraction * (1.0 - share)
+        to_air -= wall.interior_solar_fraction
+    net.f[zone_node, col] += transmitted_m2 * max(to_air, 0.0)
+
+
+def _add_windows(net: _Assembly, b: Building) -> None:
+    """U·A to the outdoor air, solar gain, and the outer pane's sky long-wave loss."""
     for window in b.windows:
-        zone = zone_of[window.zone]
-        zone_node = index[window.zone]
-        to_boundary(zone_node, outdoor_col, window.ua_w_per_k, outdoor)
+        zone_node = net.index[window.zone]
+        net.to_boundary(zone_node, net.outdoor_col, window.ua_w_per_k, net.outdoor)
         if window.shgc_normal is None:
-            col = channel_index[("solar", window.azimuth_deg, window.tilt_deg, None)]
+            col = net.channel_index[("solar", window.azimuth_deg, window.tilt_deg, None)]
             transmitted_m2 = window.shgc * window.area_m2
         else:  # the channel already is the gain per m² of window
-            col = channel_index[("window_solar_gain", None, None, window.name)]
+            col = net.channel_index[("window_solar_gain", None, None, window.name)]
             transmitted_m2 = window.area_m2
-        to_air = 1.0 - zone.solar_lost_fraction
-        for wall in b.walls:
-            if wall.zone != window.zone or wall.interior_solar_fraction is None:
-                continue
-            if wall.name in surface_node:
-                inner, share = surface_node[wall.name], 1.0
-            else:
-                inner = index[_wall_node_names(wall)[-1]]
-                share = _surface_share_to_node(
-                    wall.construction.inside_film_w_per_m2k, wall.construction.chain()[1][-1]
-                )
-            f[inner, col] += transmitted_m2 * wall.interior_solar_fraction * share
-            f[zone_node, col] += transmitted_m2 * wall.interior_solar_fraction * (1.0 - share)
-            to_air -= wall.interior_solar_fraction
-        f[zone_node, col] += transmitted_m2 * max(to_air, 0.0)
+        _add_transmitted_solar(net, b, window, col, transmitted_m2)
         if window.thermal_emissivity is not None:
+            sky_col = net.sky_col
             assert sky_col is not None
             emitting_m2 = window.thermal_emissivity * window.sky_view_factor * window.area_m2
             to_zone = window.u_value_w_per_m2k / window.outside_film_w_per_m2k
-            f[zone_node, sky_col] -= emitting_m2 * to_zone
-            direct_loss[sky_col] -= emitting_m2 * (1.0 - to_zone)
+            net.f[zone_node, sky_col] -= emitting_m2 * to_zone
+            net.direct_loss[sky_col] -= emitting_m2 * (1.0 - to_zone)
 
+
+def _add_zone_air(net: _Assembly, b: Building) -> None:
+    """Infiltration, and the internal gain split into convective (air) and radiative
+    (spread over the zone's surfaces by area)."""
     for zone in b.zones:
-        zone_node = index[zone.name]
-        col = channel_index[("internal_gain", None, None, zone.name)]
+        zone_node = net.index[zone.name]
+        col = net.channel_index[("internal_gain", None, None, zone.name)]
         if zone.infiltration_ach > 0:
-            to_boundary(zone_node, outdoor_col, zone.infiltration_w_per_k, outdoor)
+            net.to_boundary(zone_node, net.outdoor_col, zone.infiltration_w_per_k, net.outdoor)
         radiative = zone.internal_gain_radiative_fraction
-        surfaces = _zone_surfaces(b, zone, index, surface_node) if radiative > 0 else []
+        surfaces = _zone_surfaces(b, zone, net.index, net.surface_node) if radiative > 0 else []
         if not surfaces:
-            f[zone_node, col] += 1.0
+            net.f[zone_node, col] += 1.0
             continue
-        f[zone_node, col] += 1.0 - radiative
+        net.f[zone_node, col] += 1.0 - radiative
         total_area = sum(area for _, area, _ in surfaces)
         for node, area, share in surfaces:
-            f[node, col] += radiative * area / total_area * share
-            f[zone_node, col] += radiative * area / total_area * (1.0 - share)
+            net.f[node, col] += radiative * area / total_area * share
+            net.f[zone_node, col] += radiative * area / total_area * (1.0 - share)
 
-    if size > n:  # Kron reduction: eliminate the massless nodes exactly
+
+def _kron_reduce(net: _Assembly) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """(K, F, outdoor, ground) with the massless nodes eliminated exactly (Kron reduction)."""
+    n = len(net.names)
+    k, f, outdoor, ground = net.k, net.f, net.outdoor, net.ground
+    if k.shape[0] > n:
         elim = np.linalg.solve(k[n:, n:], np.hstack([k[n:, :n], f[n:]]))
         f = f[:n] - k[:n, n:] @ elim[:, n:]
         k = k[:n, :n] - k[:n, n:] @ elim[:, :n]
         k = 0.5 * (k + k.T)
         outdoor, ground = outdoor[:n], ground[:n]
-    cap = np.asarray(capacitance)
+    return k, f, outdoor, ground
+
+
+def build_network(b: Building) -> ThermalNetwork:
+    """Assemble the RC network of a building.
+
+    Parameters
+    ----------
+    b : the building.
+
+    Returns
+    -------
+    The :class:`ThermalNetwork` (matrices in SI units, see its attributes).
+    """
+    net = _allocate_nodes(b)
+    _add_walls(net, b)
+    _add_windows(net, b)
+    _add_zone_air(net, b)
+    k, f, outdoor, ground = _kron_reduce(net)
+    cap = np.asarray(net.capacitance)
     return ThermalNetwork(
-        node_names=tuple(names),
-        zone_node_index=np.arange(len(zone_names), dtype=np.intp),
-        channels=channels,
+        node_names=tuple(net.names),
+        zone_node_index=np.arange(len(b.zones), dtype=np.intp),
+        channels=net.channels,
         capacitance_j_per_k=frozen_array(cap),
         conductance_w_per_k=frozen_array(k),
         input_w=frozen_array(f),
         outdoor_conductance_w_per_k=frozen_array(outdoor),
         ground_conductance_w_per_k=frozen_array(ground),
-        solar_direct_loss_m2=frozen_array(direct_loss),
+        solar_direct_loss_m2=frozen_array(net.direct_loss),
         a_cont=frozen_array(k / cap[:, None]),
         e_cont=frozen_array(f / cap[:, None]),
     )

@@ -13,13 +13,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hvacflex.building.config import Building
 from hvacflex.building.discretize import (
     DEFAULT_LINEARISATION_TEMP_DEGC,
     continuous_affine_model,
     linearize,
 )
 from hvacflex.building.hvac import affine_power_error, hvac_power
+from hvacflex.building.model import Building
 from hvacflex.building.rc import build_network, envelope_ua_w_per_k
 from hvacflex.units import (
     CP_AIR_J_PER_KG_K,

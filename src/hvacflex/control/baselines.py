@@ -16,8 +16,8 @@ from typing import Any
 
 import numpy as np
 
-from hvacflex.building.config import HvacSystem
 from hvacflex.building.discretize import LinearModel
+from hvacflex.building.model import HvacSystem
 from hvacflex.control.base import Action, FloatArray
 from hvacflex.data.forecast import Forecast
 

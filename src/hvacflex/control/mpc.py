@@ -23,9 +23,9 @@ from typing import Any
 
 import numpy as np
 
-from hvacflex.building.config import Building
 from hvacflex.building.discretize import LinearModel
 from hvacflex.building.hvac import affine_power_model
+from hvacflex.building.model import Building
 from hvacflex.config import ControllerConfig
 from hvacflex.control.base import Action, FloatArray
 from hvacflex.control.baselines import ThermostatController, unplanned_action

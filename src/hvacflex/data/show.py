@@ -100,8 +100,8 @@ def show(
     """Summarise prices, reserve prices (synthetic), weather, gains and the uncertainty box."""
     import numpy as np
 
-    from hvacflex.building.config import load_building
     from hvacflex.building.discretize import linearize
+    from hvacflex.building.io import load_building
     from hvacflex.data.forecast import load_exogenous
     from hvacflex.data.uncertainty import DEFAULT_UNCERTAINTY, paper_uncertainty
     from hvacflex.errors import HvacflexError

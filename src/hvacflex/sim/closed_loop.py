@@ -35,9 +35,10 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from hvacflex import __version__
-from hvacflex.building.config import Building, load_building
 from hvacflex.building.discretize import LinearModel, linearize
 from hvacflex.building.hvac import hvac_power_kw
+from hvacflex.building.io import load_building
+from hvacflex.building.model import Building
 from hvacflex.building.plant import NonlinearPlant
 from hvacflex.config import LINEARISATION_MARGIN_K, ScenarioConfig
 from hvacflex.control.base import Action, Controller, FloatArray

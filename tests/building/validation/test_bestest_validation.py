@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hvacflex.building.config import load_building
+from hvacflex.building.io import load_building
 from hvacflex.building.rc import build_network
 from hvacflex.building.validation import bestest as bt
 from hvacflex.building.validation.ideal_loads import simulate_zone_loads

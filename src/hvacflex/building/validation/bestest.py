@@ -33,7 +33,8 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from hvacflex.building.config import Building, load_building
+from hvacflex.building.io import load_building
+from hvacflex.building.model import Building
 from hvacflex.building.rc import ThermalNetwork, build_network
 from hvacflex.building.validation.ideal_loads import simulate_zone_loads
 

@@ -1,0 +1,448 @@
+"""The building TOML file format: one declarative pydantic schema.
+
+Each ``*Spec`` model mirrors one table of the file; fields carry their unit in the name and
+their range in ``Field``; unknown keys are refused (``extra="forbid"``). Checks that need
+more than one field (references to zones and constructions, connectivity, per-zone flows)
+are model validators that raise :func:`rule_error`, whose context names the field path.
+:mod:`hvacflex.building.io` turns a validated :class:`BuildingSpec` into the domain objects
+of :mod:`hvacflex.building.model` and a ``ValidationError`` into a ``BuildingConfigError``.
+
+File layout (see ``buildings/office5.toml`` for a commented example)::
+
+    name, description, latitude_deg?, longitude_deg?
+    [[zones]]            name, floor_area_m2, height_m, capacitance_multiplier?,
+                         infiltration_ach?, internal_gain_radiative_fraction?,
+                         solar_lost_fraction?, interior_radiation_w_per_m2k?
+    [constructions.X]    r_value_m2k_per_w + capacitance_j_per_m2k   (homogeneous)
+                         or layers = [{thickness_m, conductivity_w_per_mk,
+                                       density_kg_per_m3, specific_heat_j_per_kgk}, ...]
+                         (outside → inside), inside_film_w_per_m2k?, outside_film_w_per_m2k?,
+                         nodes_per_layer?
+    [[walls]]            name, zone, adjacent ("outside" | "ground" | "adiabatic" | zone),
+                         construction, area_m2, azimuth_deg?, tilt_deg?, solar_absorptance?,
+                         thermal_emissivity?, interior_solar_fraction?
+    [[windows]]          name, zone, area_m2, u_value_w_per_m2k, shgc, azimuth_deg, tilt_deg?,
+                         thermal_emissivity?, outside_film_w_per_m2k?, shgc_normal?,
+                         incidence_angle_modifier?
+    [gains]              occupancy_m2_per_person, sensible_w_per_person, latent_w_per_person,
+                         lighting_w_per_m2, equipment_w_per_m2
+    [hvac]               supply_temp_degc, flow_min_kg_s = {zone = …} or [one per zone],
+                         flow_max_kg_s, ventilation_flow_kg_s?, outdoor_air_fraction, cop,
+                         fan_coeff_kw, fan_exponent, reserve_zones?, heating_efficiency?,
+                         supply_humidity_ratio_kg_per_kg?
+
+The optional keys added for the BESTEST validation (infiltration, radiative split of gains,
+interior solar distribution, sky long-wave exchange) all default to the original model.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Any, Self
+
+from pydantic import (
+    AfterValidator,
+    AllowInfNan,
+    BaseModel,
+    ConfigDict,
+    Field,
+    Strict,
+    model_validator,
+)
+from pydantic_core import PydanticCustomError
+
+from hvacflex.building.model import (
+    ADIABATIC,
+    BOUNDARIES,
+    DEFAULT_INSIDE_FILM_W_PER_M2K,
+    DEFAULT_OUTSIDE_FILM_W_PER_M2K,
+    DEFAULT_SOLAR_ABSORPTANCE,
+    GROUND,
+    MAX_SUPPLY_TEMP_DEGC,
+    OUTSIDE,
+)
+
+Number = Annotated[float, Strict(), AllowInfNan(False)]
+"""A finite TOML number (integer or float; booleans and strings refused)."""
+Fraction = Annotated[Number, Field(ge=0.0, le=1.0)]
+NonNegative = Annotated[Number, Field(ge=0.0)]
+Positive = Annotated[Number, Field(gt=0.0)]
+Text = Annotated[str, Strict(), Field(min_length=1)]
+"""A non-empty string."""
+
+ZONE_NAME_PATTERN = r"^[a-z][a-z0-9_]*$"
+"""Zone names: lower-case identifiers (used in channel and column names), not a boundary."""
+
+SOLAR_FRACTION_TOLERANCE = 1e-6
+"""Rounding allowance when checking that a zone's transmitted-solar shares sum to ≤ 1."""
+
+PER_ZONE_HVAC_KEYS = ("flow_min_kg_s", "flow_max_kg_s", "ventilation_flow_kg_s")
+"""``[hvac]`` keys given per zone: a table keyed by zone name or an array in zone order."""
+
+RULE_ERROR = "building_rule"
+"""Error type of :func:`rule_error` (a cross-field check of the building file)."""
+
+
+def rule_error(
+    message: str, field: str, value: object = None, hint: str | None = None
+) -> PydanticCustomError:
+    """A validation error for a check that spans fields.
+
+    ``field`` is the path from the model that raises it (``walls[1].adjacent``); the
+    converter in :mod:`hvacflex.building.io` reads ``field``, ``value`` and ``hint`` back.
+    """
+    return PydanticCustomError(
+        RULE_ERROR, "{message}", {"message": message, "field": field, "value": value, "hint": hint}
+    )
+
+
+def _not_a_boundary(name: str) -> str:
+    if name in BOUNDARIES:
+        raise rule_error(
+            "invalid zone name", "", name, hint=f"{list(BOUNDARIES)} name the far side of a wall"
+        )
+    return name
+
+
+class Spec(BaseModel):
+    """Base of every table: frozen, unknown keys refused."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class ZoneSpec(Spec):
+    name: Annotated[Text, Field(pattern=ZONE_NAME_PATTERN), AfterValidator(_not_a_boundary)]
+    floor_area_m2: Positive
+    height_m: Positive
+    capacitance_multiplier: Annotated[Number, Field(ge=1.0)] = 1.0
+    infiltration_ach: NonNegative = 0.0
+    internal_gain_radiative_fraction: Fraction = 0.0
+    solar_lost_fraction: Fraction = 0.0
+    interior_radiation_w_per_m2k: Positive | None = None
+
+
+class LayerSpec(Spec):
+    """Density and specific heat may be 0: a massless (no-node) layer such as BESTEST's
+    floor insulation."""
+
+    thickness_m: Positive
+    conductivity_w_per_mk: Positive
+    density_kg_per_m3: NonNegative
+    specific_heat_j_per_kgk: NonNegative
+
+
+class ConstructionSpec(Spec):
+    """Either ``layers`` or both ``r_value_m2k_per_w`` and ``capacitance_j_per_m2k``."""
+
+    r_value_m2k_per_w: Positive | None = None
+    capacitance_j_per_m2k: Positive | None = None
+    layers: Annotated[list[LayerSpec], Field(min_length=1)] | None = None
+    inside_film_w_per_m2k: Positive = DEFAULT_INSIDE_FILM_W_PER_M2K
+    outside_film_w_per_m2k: Positive | None = None
+    nodes_per_layer: Annotated[int, Strict(), Field(ge=1)] | None = None
+
+    @model_validator(mode="after")
+    def _one_form(self) -> Self:
+        homogeneous = self.r_value_m2k_per_w is not None or self.capacitance_j_per_m2k is not None
+        if (self.layers is not None) == homogeneous:
+            raise rule_error(
+                "give either 'layers' or both 'r_value_m2k_per_w' and 'capacitance_j_per_m2k'",
+                "",
+                sorted(self.model_fields_set),
+            )
+        for key in ("r_value_m2k_per_w", "capacitance_j_per_m2k"):
+            if homogeneous and getattr(self, key) is None:
+                raise rule_error("missing required field", key, hint="add it to the file")
+        if self.layers is not None and all(
+            layer.density_kg_per_m3 * layer.specific_heat_j_per_kgk <= 0.0 for layer in self.layers
+        ):
+            raise rule_error(
+                "every layer is massless",
+                "layers",
+                hint="at least one layer needs density and specific heat > 0 (a massless "
+                "construction is a window-like conductance)",
+            )
+        return self
+
+
+class SurfaceSpec(Spec):
+    """Orientation shared by walls and windows; the azimuth of a tilted exterior surface is
+    required (checked by :class:`BuildingSpec`), a horizontal one has none."""
+
+    name: Text
+    zone: Text
+    area_m2: Positive
+    azimuth_deg: Number | None = None
+    tilt_deg: Annotated[Number, Field(ge=0.0, le=180.0)] = 90.0
+    thermal_emissivity: Fraction | None = None
+
+    @property
+    def is_horizontal(self) -> bool:
+        return self.tilt_deg in (0.0, 180.0)
+
+
+class WallSpec(SurfaceSpec):
+    adjacent: Text
+    construction: Text
+    solar_absorptance: Fraction = DEFAULT_SOLAR_ABSORPTANCE
+    interior_solar_fraction: Fraction | None = None
+
+
+class WindowSpec(SurfaceSpec):
+    u_value_w_per_m2k: Positive
+    shgc: Fraction
+    outside_film_w_per_m2k: Positive = DEFAULT_OUTSIDE_FILM_W_PER_M2K
+    shgc_normal: Fraction | None = None
+    incidence_angle_modifier: (
+        Annotated[
+            list[tuple[Number, Annotated[Number, Field(ge=0.0, le=1.5)]]], Field(min_length=2)
+        ]
+        | None
+    ) = None
+
+    @model_validator(mode="after")
+    def _angles_increase(self) -> Self:
+        pairs = self.incidence_angle_modifier
+        if pairs is not None:
+            angles = [angle for angle, _ in pairs]
+            if angles != sorted(angles) or angles[0] < 0.0 or angles[-1] > 90.0:
+                raise rule_error(
+                    "angles must increase within [0, 90]", "incidence_angle_modifier", pairs
+                )
+        return self
+
+
+class GainsSpec(Spec):
+    occupancy_m2_per_person: Positive
+    sensible_w_per_person: NonNegative
+    latent_w_per_person: NonNegative
+    lighting_w_per_m2: NonNegative
+    equipment_w_per_m2: NonNegative
+
+
+class HvacSpec(Spec):
+    """Per-zone flows arrive here as tables keyed by zone name (arrays are keyed by
+    :class:`BuildingSpec` before validation)."""
+
+    supply_temp_degc: Annotated[Number, Field(lt=MAX_SUPPLY_TEMP_DEGC)]
+    flow_min_kg_s: dict[str, NonNegative]
+    flow_max_kg_s: dict[str, Positive]
+    ventilation_flow_kg_s: dict[str, NonNegative] | None = None
+    outdoor_air_fraction: Fraction
+    cop: Positive
+    fan_coeff_kw: NonNegative
+    fan_exponent: Annotated[Number, Field(ge=1.0)]
+    reserve_zones: list[Annotated[str, Strict()]] | None = None
+    heating_efficiency: Positive = 1.0
+    supply_humidity_ratio_kg_per_kg: Annotated[Number, Field(gt=0.0, le=0.05)] | None = None
+
+
+class BuildingSpec(Spec):
+    """The whole file."""
+
+    name: Text
+    description: Annotated[str, Strict()] = ""
+    latitude_deg: Annotated[Number, Field(ge=-90.0, le=90.0)] | None = None
+    longitude_deg: Annotated[Number, Field(ge=-180.0, le=180.0)] | None = None
+    zones: Annotated[list[ZoneSpec], Field(min_length=1)]
+    constructions: dict[str, ConstructionSpec] = {}
+    walls: list[WallSpec] = []
+    windows: list[WindowSpec] = []
+    gains: GainsSpec
+    hvac: HvacSpec
+
+    @model_validator(mode="before")
+    @classmethod
+    def _key_per_zone_arrays(cls, data: Any) -> Any:
+        """``flow_max_kg_s = [0.3, 0.3]`` → ``{a = 0.3, b = 0.3}`` in zone order."""
+        names = _raw_zone_names(data)
+        hvac = data.get("hvac") if isinstance(data, dict) else None
+        if names is None or not isinstance(hvac, dict):
+            return data
+        keyed = dict(hvac)
+        for key in PER_ZONE_HVAC_KEYS:
+            raw = hvac.get(key)
+            if isinstance(raw, list):
+                if len(raw) != len(names):
+                    raise rule_error(
+                        f"expected {len(names)} values (one per zone)",
+                        f"hvac.{key}",
+                        raw,
+                        hint=f"or a table keyed by zone name {names}",
+                    )
+                keyed[key] = dict(zip(names, raw, strict=True))
+        return {**data, "hvac": keyed}
+
+    @property
+    def zone_names(self) -> tuple[str, ...]:
+        return tuple(zone.name for zone in self.zones)
+
+    @model_validator(mode="after")
+    def _cross_checks(self) -> Self:
+        _check_walls(self)
+        _check_windows(self)
+        _check_unique_names(self)
+        _check_connected(self)
+        _check_solar_distribution(self)
+        _check_hvac(self)
+        return self
+
+
+def _raw_zone_names(data: Any) -> list[str] | None:
+    """The zone names of an unvalidated document, if they are all strings."""
+    zones = data.get("zones") if isinstance(data, dict) else None
+    if not isinstance(zones, list):
+        return None
+    names = [zone.get("name") if isinstance(zone, dict) else None for zone in zones]
+    return (
+        [name for name in names if isinstance(name, str)]
+        if all(isinstance(name, str) for name in names)
+        else None
+    )
+
+
+def _check_zone_ref(spec: BuildingSpec, zone: str, where: str) -> None:
+    if zone not in spec.zone_names:
+        raise rule_error("unknown zone", where, zone, hint=f"zones are {list(spec.zone_names)}")
+
+
+def _check_azimuth(surface: SurfaceSpec, where: str) -> None:
+    if surface.azimuth_deg is None and not surface.is_horizontal:
+        raise rule_error(
+            "missing required field",
+            f"{where}.azimuth_deg",
+            hint="exterior surfaces need an azimuth",
+        )
+
+
+def _check_walls(spec: BuildingSpec) -> None:
+    for i, wall in enumerate(spec.walls):
+        where = f"walls[{i}]"
+        _check_zone_ref(spec, wall.zone, f"{where}.zone")
+        if wall.adjacent not in BOUNDARIES and wall.adjacent not in spec.zone_names:
+            raise rule_error(
+                "unknown zone or boundary",
+                f"{where}.adjacent",
+                wall.adjacent,
+                hint=f"use one of {list(BOUNDARIES)} or a zone name {list(spec.zone_names)}",
+            )
+        if wall.adjacent == wall.zone:
+            raise rule_error(
+                "a wall cannot connect a zone to itself", f"{where}.adjacent", wall.adjacent
+            )
+        if wall.construction not in spec.constructions:
+            raise rule_error(
+                "unknown construction",
+                f"{where}.construction",
+                wall.construction,
+                hint=f"define [constructions.{wall.construction}] or use one of "
+                f"{sorted(spec.constructions)}",
+            )
+        if wall.adjacent == OUTSIDE:
+            _check_azimuth(wall, where)
+
+
+def _check_windows(spec: BuildingSpec) -> None:
+    for i, window in enumerate(spec.windows):
+        _check_azimuth(window, f"windows[{i}]")
+        _check_zone_ref(spec, window.zone, f"windows[{i}].zone")
+
+
+def _check_unique_names(spec: BuildingSpec) -> None:
+    seen: dict[str, str] = {}
+    entries = [(f"zones[{i}].name", z.name) for i, z in enumerate(spec.zones)]
+    entries += [(f"walls[{i}].name", w.name) for i, w in enumerate(spec.walls)]
+    entries += [(f"windows[{i}].name", w.name) for i, w in enumerate(spec.windows)]
+    for where, name in entries:
+        if name in seen:
+            raise rule_error(
+                f"duplicate name (already used by {seen[name]})",
+                where,
+                name,
+                hint="zone, wall and window names must be unique",
+            )
+        seen[name] = where
+
+
+def _check_connected(spec: BuildingSpec) -> None:
+    """Every zone must reach the outside air or the ground through walls and windows."""
+    neighbours: dict[str, set[str]] = {name: set() for name in spec.zone_names}
+    for wall in spec.walls:
+        if wall.adjacent == ADIABATIC:
+            continue
+        neighbours[wall.zone].add(wall.adjacent)
+        if wall.adjacent in neighbours:
+            neighbours[wall.adjacent].add(wall.zone)
+    for window in spec.windows:
+        neighbours[window.zone].add(OUTSIDE)
+    reached: set[str] = set()
+    frontier = [name for name in spec.zone_names if neighbours[name] & {OUTSIDE, GROUND}]
+    while frontier:
+        name = frontier.pop()
+        if name in reached:
+            continue
+        reached.add(name)
+        frontier.extend(n for n in neighbours[name] if n in neighbours and n not in reached)
+    for i, name in enumerate(spec.zone_names):
+        if name not in reached:
+            raise rule_error(
+                "zone is not connected to the outside or the ground through any wall or window",
+                f"zones[{i}]",
+                name,
+                hint="add a wall with adjacent = 'outside' or 'ground', a window, or a wall to a "
+                "connected zone (adiabatic walls do not count)",
+            )
+
+
+def _check_solar_distribution(spec: BuildingSpec) -> None:
+    """The transmitted-solar shares of a zone (walls + lost) may not exceed 1."""
+    for i, zone in enumerate(spec.zones):
+        assigned = sum(w.interior_solar_fraction or 0.0 for w in spec.walls if w.zone == zone.name)
+        total = assigned + zone.solar_lost_fraction
+        if total > 1.0 + SOLAR_FRACTION_TOLERANCE:
+            raise rule_error(
+                f"transmitted-solar shares add up to {total:.4f} > 1 (walls' "
+                f"interior_solar_fraction {assigned:.4f} + solar_lost_fraction)",
+                f"zones[{i}]",
+                zone.name,
+                hint="the shares of the zone's transmitted solar must sum to at most 1 (the "
+                "rest goes to the air node)",
+            )
+
+
+def _check_per_zone_keys(spec: BuildingSpec, key: str, table: dict[str, float]) -> None:
+    for name in table:
+        _check_zone_ref(spec, name, f"hvac.{key}.{name}")
+    for name in spec.zone_names:
+        if name not in table:
+            raise rule_error(
+                "missing required field", f"hvac.{key}.{name}", hint="add it to the file"
+            )
+
+
+def _check_hvac(spec: BuildingSpec) -> None:
+    hvac = spec.hvac
+    _check_per_zone_keys(spec, "flow_min_kg_s", hvac.flow_min_kg_s)
+    _check_per_zone_keys(spec, "flow_max_kg_s", hvac.flow_max_kg_s)
+    for name in spec.zone_names:
+        low, high = hvac.flow_min_kg_s[name], hvac.flow_max_kg_s[name]
+        if low > high:
+            raise rule_error(
+                f"minimum flow exceeds the maximum flow {high:g} kg/s",
+                f"hvac.flow_min_kg_s.{name}",
+                low,
+                hint="flow_min_kg_s must be ≤ flow_max_kg_s",
+            )
+    if hvac.ventilation_flow_kg_s is not None:
+        _check_per_zone_keys(spec, "ventilation_flow_kg_s", hvac.ventilation_flow_kg_s)
+        for name in spec.zone_names:
+            low, high = hvac.flow_min_kg_s[name], hvac.flow_max_kg_s[name]
+            vent = hvac.ventilation_flow_kg_s[name]
+            if not low <= vent <= high:
+                raise rule_error(
+                    f"must lie between the minimum {low:g} and maximum {high:g} kg/s",
+                    f"hvac.ventilation_flow_kg_s.{name}",
+                    vent,
+                    hint="flow_min_kg_s ≤ ventilation_flow_kg_s ≤ flow_max_kg_s",
+                )
+    for zone in hvac.reserve_zones or []:
+        _check_zone_ref(spec, zone, "hvac.reserve_zones")
