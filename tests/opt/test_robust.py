@@ -5,7 +5,6 @@ from __future__ import annotations
 import itertools
 
 import numpy as np
-from rmpc_problems import random_model
 
 from hvacflex.opt.robust import (
     comfort_margins,
@@ -14,6 +13,7 @@ from hvacflex.opt.robust import (
     margin_operator,
     robust_margins,
 )
+from hvacflex.opt.testing import random_model
 
 
 def _delta_by_loops(a: np.ndarray, e: np.ndarray, c: np.ndarray, sigma: np.ndarray) -> np.ndarray:
