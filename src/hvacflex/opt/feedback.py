@@ -268,7 +268,6 @@ class FeedbackMaps:
 
     gains: GainParameterisation
     scale: FloatArray  # (nd,) channel norms: w̃ = ‖E_l‖ w_l
-    reserve_inputs: IntArray  # (m_r,)
     g_resp: FloatArray  # (N, ny, nd) G_l = C A^l E, per unit of w̃
     h_resp: FloatArray  # (N, ny, m) H_l = C A^l B
     key_of: IntArray  # (N+1, N) key of (k, j) or −1
@@ -355,9 +354,6 @@ def feedback_maps(problem: RMPCProblem, options: FeedbackOptions) -> FeedbackMap
     return FeedbackMaps(
         gains=gains,
         scale=scale,
-        reserve_inputs=np.flatnonzero(np.asarray(problem.reserve_mask, dtype=bool)).astype(
-            np.int64
-        ),
         g_resp=g_resp,
         h_resp=h_resp,
         key_of=key_of,

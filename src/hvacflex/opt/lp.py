@@ -29,6 +29,7 @@ zero, so that their positions in the matrix are known and can be updated in plac
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -156,7 +157,7 @@ class LPBuilder:
 
     @staticmethod
     def _take(start: int, shape: tuple[int, ...]) -> IntArray:
-        size = int(np.prod(shape)) if shape else 1
+        size = math.prod(shape)
         return np.arange(start, start + size, dtype=np.int64).reshape(shape)
 
     def add_columns(
