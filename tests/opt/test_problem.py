@@ -9,7 +9,6 @@ import pytest
 
 from hvacflex.errors import ProblemError
 from hvacflex.opt import RMPCProblem
-from hvacflex.opt.lp import build_lp
 from hvacflex.opt.testing import random_problem
 
 
@@ -104,20 +103,6 @@ def test_negative_output_matrix_is_refused() -> None:
     c[0, 2] = -0.5
     with pytest.raises(ProblemError, match="C has a negative entry"):
         dataclasses.replace(prob, c_matrix=c)
-
-
-def test_layout_sizes() -> None:
-    prob = random_problem(0, reserve_mask=np.array([True, False]))
-    _, layout = build_lp(prob, np.zeros((prob.horizon, prob.ny)))
-    horizon, n, m, ny = 8, 4, 2, 2
-    assert (
-        layout.num_cols == 2 * horizon * n + horizon * m + horizon * 1 + horizon * ny + horizon + 1
-    )
-    assert layout.num_rows == 2 * horizon * n + 4 * horizon * ny + horizon * 1 + 2 * horizon
-    nominal_problem = random_problem(0, reserve_mask=np.zeros(2, dtype=bool))
-    _, nominal = build_lp(nominal_problem, np.zeros((horizon, 2)))
-    assert not nominal.has_curtailed
-    assert nominal.num_rows == horizon * n + 2 * horizon * ny + 2 * horizon
 
 
 def test_problem_is_frozen() -> None:
