@@ -38,10 +38,10 @@ from collections.abc import Callable
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.linalg import expm
 
 from hvacflex.opt import RMPCProblem, RMPCSolver, solve_rmpc
-from hvacflex.opt.problem import RESERVE_TIE_BREAK_SGD_PER_KG_S_HOUR
+from hvacflex.opt.options import RESERVE_TIE_BREAK_SGD_PER_KG_S_HOUR
+from hvacflex.opt.testing import zoh_discretise
 
 FloatArray = NDArray[np.float64]
 
@@ -117,13 +117,7 @@ def synthetic_office(seed: int = 0) -> Model:
     e_cont /= cap[:, None]
     g_cont /= cap
     m = zones
-    size = n + m + nd + 1
-    aug = np.zeros((size, size))
-    aug[:n, :n] = a_cont
-    aug[:n, n : n + m] = b_cont
-    aug[:n, n + m : n + m + nd] = e_cont
-    aug[:n, -1] = g_cont
-    phi = expm(aug * DT_S)
+    a, b, e, g = zoh_discretise(a_cont, b_cont, e_cont, g_cont, DT_S)
     c = np.zeros((zones, n))
     c[np.arange(zones), np.arange(zones)] = 1.0
 
@@ -138,10 +132,10 @@ def synthetic_office(seed: int = 0) -> Model:
         return np.full(t_out.shape, 0.5), p
 
     return Model(
-        a=phi[:n, :n],
-        b=phi[:n, n : n + m],
-        e=phi[:n, n + m : n + m + nd],
-        g=phi[:n, -1],
+        a=a,
+        b=b,
+        e=e,
+        g=g,
         c=c,
         kinds=["outdoor_temp"] + ["solar"] * 5 + ["internal_gain"] * zones,
         flow_min_kg_s=flow_min,

@@ -12,7 +12,7 @@ from hvacflex.control.baselines import ThermostatController, unplanned_action
 from hvacflex.control.mpc import MPCController
 from hvacflex.errors import ConfigError
 from hvacflex.opt import RMPCProblem, RMPCSolution, SolveStatus
-from hvacflex.opt.solve import failed_solution
+from hvacflex.opt.solution import failed_solution
 from hvacflex.sim.closed_loop import Setup, make_controller, prepare
 
 START = "2014-03-03"  # a Monday

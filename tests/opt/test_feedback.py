@@ -7,11 +7,12 @@ from typing import Any
 
 import numpy as np
 import pytest
-from rmpc_problems import random_problem
 
 from hvacflex.errors import ProblemError
-from hvacflex.opt import FeedbackOptions, RMPCSolution, SolveStatus, solve_rmpc
-from hvacflex.opt.feedback import FEEDBACK_STRUCTURES, FeedbackSolver, innovation_basis
+from hvacflex.opt import FeedbackOptions, FeedbackSolver, RMPCSolution, SolveStatus, solve_rmpc
+from hvacflex.opt.feedback import innovation_basis
+from hvacflex.opt.options import FEEDBACK_STRUCTURES
+from hvacflex.opt.testing import random_problem
 
 SEEDS = range(6)
 OBJECTIVE_TOL_SGD = 1e-6

@@ -6,11 +6,10 @@ import dataclasses
 
 import numpy as np
 import pytest
-from rmpc_problems import random_problem
 
 from hvacflex.errors import ProblemError
 from hvacflex.opt import RMPCProblem
-from hvacflex.opt.problem import build_layout
+from hvacflex.opt.testing import random_problem
 
 
 def test_defaults_and_broadcasting() -> None:
@@ -104,19 +103,6 @@ def test_negative_output_matrix_is_refused() -> None:
     c[0, 2] = -0.5
     with pytest.raises(ProblemError, match="C has a negative entry"):
         dataclasses.replace(prob, c_matrix=c)
-
-
-def test_layout_sizes() -> None:
-    prob = random_problem(0, reserve_mask=np.array([True, False]))
-    layout = build_layout(prob.structure)
-    horizon, n, m, ny = 8, 4, 2, 2
-    assert (
-        layout.num_cols == 2 * horizon * n + horizon * m + horizon * 1 + horizon * ny + horizon + 1
-    )
-    assert layout.num_rows == 2 * horizon * n + 4 * horizon * ny + horizon * 1 + 2 * horizon
-    nominal = build_layout(random_problem(0, reserve_mask=np.zeros(2, dtype=bool)).structure)
-    assert not nominal.has_curtailed
-    assert nominal.num_rows == horizon * n + 2 * horizon * ny + 2 * horizon
 
 
 def test_problem_is_frozen() -> None:

@@ -5,7 +5,6 @@ from __future__ import annotations
 import itertools
 
 import numpy as np
-from rmpc_problems import random_model
 
 from hvacflex.opt.robust import (
     comfort_margins,
@@ -14,6 +13,7 @@ from hvacflex.opt.robust import (
     margin_operator,
     robust_margins,
 )
+from hvacflex.opt.testing import random_model
 
 
 def _delta_by_loops(a: np.ndarray, e: np.ndarray, c: np.ndarray, sigma: np.ndarray) -> np.ndarray:
@@ -74,3 +74,43 @@ def test_operator_layout_and_dual_entries() -> None:
     delta = np.zeros((horizon, 2))
     np.add.at(delta, (step, output), np.abs(values) * sigma[dist_step, channel])
     np.testing.assert_allclose(delta, robust_margins(operator, sigma), atol=1e-12)
+
+
+# moved from tests/data/test_uncertainty.py with δ (one home: hvacflex.opt.robust)
+def test_worst_case_margin_equals_brute_force_corner_search() -> None:
+    rng = np.random.default_rng(0)
+    nx, nd, ny, n = 3, 2, 2, 3
+    a = rng.normal(scale=0.4, size=(nx, nx))  # mixed signs: the absolute value matters
+    e = rng.normal(size=(nx, nd))
+    c = rng.normal(size=(ny, nx))
+    sigma = rng.uniform(0.1, 1.0, size=(n, nd))
+    delta = comfort_margins(a, e, c, sigma)
+    assert delta.shape == (n, ny)
+    # Brute force: simulate x_{k+1} = A x_k + E w_k from x_0 = 0 for every corner of the box.
+    best = np.zeros((n, ny))
+    for signs in itertools.product((-1.0, 1.0), repeat=n * nd):
+        w = np.array(signs).reshape(n, nd) * sigma
+        x = np.zeros(nx)
+        for k in range(n):
+            x = a @ x + e @ w[k]
+            best[k] = np.maximum(best[k], np.abs(c @ x))
+    np.testing.assert_allclose(delta, best, rtol=1e-12)
+
+
+def test_worst_case_margin_scalar_by_hand() -> None:
+    # x+ = 0.5 x + 2 w, |w| ≤ 1: δ_1 = 2, δ_2 = 2 + 1, δ_3 = 2 + 1 + 0.5
+    delta = comfort_margins(
+        np.array([[0.5]]), np.array([[2.0]]), np.array([[1.0]]), np.ones((3, 1))
+    )
+    np.testing.assert_allclose(delta[:, 0], [2.0, 3.0, 3.5])
+
+
+def test_shorter_sigma_uses_the_leading_block() -> None:
+    rng = np.random.default_rng(3)
+    a, _, e, _ = random_model(rng, n=4, m=2, nd=3, dt_h=0.5)
+    c = np.eye(4)[:2]
+    sigma = rng.uniform(0.0, 1.0, (6, 3))
+    operator = margin_operator(impulse_responses(a, e, c, 10))
+    np.testing.assert_allclose(
+        robust_margins(operator, sigma), _delta_by_loops(a, e, c, sigma), rtol=1e-12
+    )

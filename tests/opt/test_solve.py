@@ -10,11 +10,11 @@ import pickle
 import cvxpy as cp
 import numpy as np
 import pytest
-from rmpc_problems import random_problem
 
 from hvacflex.errors import ProblemError
 from hvacflex.opt import RMPCProblem, RMPCSolver, SolveStatus, solve_rmpc
-from hvacflex.opt.problem import RESERVE_TIE_BREAK_SGD_PER_KG_S_HOUR
+from hvacflex.opt.options import RESERVE_TIE_BREAK_SGD_PER_KG_S_HOUR
+from hvacflex.opt.testing import random_problem
 
 OBJECTIVE_TOL_SGD = 1e-5
 CONSTRAINT_TOL_K = 1e-6

@@ -32,9 +32,15 @@ from hvacflex.control.baselines import ThermostatController, unplanned_action
 from hvacflex.data.forecast import Forecast
 from hvacflex.data.uncertainty import UncertaintyBox
 from hvacflex.errors import ConfigError
-from hvacflex.opt import FeedbackOptions, RMPCProblem, RMPCSolution, RMPCSolver, SolveStatus
-from hvacflex.opt.feedback import FeedbackSolver
-from hvacflex.opt.solve import SolverBasis
+from hvacflex.opt import (
+    FeedbackOptions,
+    FeedbackSolver,
+    RMPCProblem,
+    RMPCSolution,
+    RMPCSolver,
+    SolverBasis,
+    SolveStatus,
+)
 from hvacflex.units import SECONDS_PER_HOUR
 
 

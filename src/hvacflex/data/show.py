@@ -42,16 +42,16 @@ def _margin_lines(
     """max over steps and horizon of δ_k per zone, for each box, against the half-band."""
     import numpy as np
 
-    from hvacflex.data.uncertainty import impulse_response_abs, worst_case_margin_from_impulse
+    from hvacflex.opt.robust import impulse_responses, margin_operator, robust_margins
 
-    h_abs = impulse_response_abs(a, e, c, HORIZON_STEPS)
+    operator = margin_operator(impulse_responses(a, e, c, HORIZON_STEPS))
     half_band = float(np.min(exo.comfort_upper_degc - exo.comfort_lower_degc)) / 2.0
     lines = [f"  occupied comfort half-band: {half_band:.2f} K"]
     for label, box in boxes.items():
         worst = np.zeros(len(zone_names))
         for k in range(steps):
             d = exo.disturbances[k : k + HORIZON_STEPS]
-            delta = worst_case_margin_from_impulse(h_abs, box.sigma(d, exo.channels))
+            delta = robust_margins(operator, box.sigma(d, exo.channels))
             worst = np.maximum(worst, delta.max(axis=0))
         per_zone = "  ".join(f"{z} {v:.2f}" for z, v in zip(zone_names, worst, strict=True))
         verdict = "OK" if worst.max() < half_band else "EXCEEDS half-band"

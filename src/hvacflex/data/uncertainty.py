@@ -1,4 +1,4 @@
-"""The disturbance uncertainty box, its worst-case effect, and realisation samplers.
+"""The disturbance uncertainty box and realisation samplers.
 
 Box
 ---
@@ -16,8 +16,9 @@ box on ``y_k`` (k = 1…N steps ahead) is (DESIGN §3)::
 
     δ_k = Σ_{j<k} |C A^{k−1−j} E| σ_j        (elementwise absolute value)
 
-:func:`worst_case_margin_k` evaluates it; compare ``max_k δ_k`` with the comfort half-band
-(1.5 K for 23–26 °C) to see whether a σ is satisfiable at all.
+:func:`hvacflex.opt.robust.comfort_margins` evaluates it (the one home of δ; ``hvacflex data
+show`` prints it); compare ``max_k δ_k`` with the comfort half-band (1.5 K for 23–26 °C) to
+see whether a σ is satisfiable at all.
 
 Default level
 -------------
@@ -163,75 +164,6 @@ its open-loop ``max_k δ_k`` is 0.87 K, 58 % of the occupied half-band (docs/dat
 def paper_uncertainty(level: float = 0.5) -> UncertaintyBox:
     """The paper's box: ±``level`` (default 50 %) of the heat gains (solar and internal)."""
     return UncertaintyBox(relative={"solar": level, "internal_gain": level})
-
-
-def impulse_response_abs(a: np.ndarray, e: np.ndarray, c: np.ndarray, n: int) -> np.ndarray:
-    """``|C A^m E|`` for m = 0…n−1.
-
-    Parameters
-    ----------
-    a : (nx, nx) state matrix; e : (nx, nd) disturbance matrix; c : (ny, nx) output matrix.
-    n : number of terms (the horizon N).
-
-    Returns
-    -------
-    (n, ny, nd) elementwise absolute impulse responses.
-    """
-    a = np.asarray(a, dtype=float)
-    power_e = np.asarray(e, dtype=float)
-    c = np.asarray(c, dtype=float)
-    out = np.empty((n, c.shape[0], power_e.shape[1]))
-    for m in range(n):
-        out[m] = np.abs(c @ power_e)
-        power_e = a @ power_e
-    return out
-
-
-def worst_case_margin_k(
-    a: np.ndarray, e: np.ndarray, c: np.ndarray, sigma: np.ndarray
-) -> np.ndarray:
-    """Worst-case output deviation δ_k caused by the box (DESIGN §3).
-
-    ``δ_k = Σ_{j=0}^{k−1} |C A^{k−1−j} E| σ_j`` for k = 1…N.
-
-    Parameters
-    ----------
-    a : (nx, nx); e : (nx, nd); c : (ny, nx) — the discrete model ``x+ = A x + E d``, ``y = C x``.
-    sigma : (N, nd) box half-widths σ_j for steps j = 0…N−1 [channel units].
-
-    Returns
-    -------
-    (N, ny) δ; row k−1 bounds ``|y_k − ŷ_k|`` k steps ahead [output units, K for temperatures].
-    """
-    sigma = np.atleast_2d(np.asarray(sigma, dtype=float))
-    return worst_case_margin_from_impulse(impulse_response_abs(a, e, c, sigma.shape[0]), sigma)
-
-
-def worst_case_margin_from_impulse(h_abs: np.ndarray, sigma: np.ndarray) -> np.ndarray:
-    """δ_k from precomputed ``|C A^m E|`` (:func:`impulse_response_abs`), for repeated use.
-
-    Parameters
-    ----------
-    h_abs : (M, ny, nd) with M ≥ N; sigma : (N, nd).
-
-    Returns
-    -------
-    (N, ny) δ, as :func:`worst_case_margin_k`.
-    """
-    sigma = np.atleast_2d(np.asarray(sigma, dtype=float))
-    n = sigma.shape[0]
-    if h_abs.shape[0] < n or h_abs.shape[2] != sigma.shape[1]:
-        raise ConfigError(
-            "impulse responses and σ disagree",
-            field="sigma",
-            value=(h_abs.shape, sigma.shape),
-            hint="need h_abs (M, ny, nd) with M ≥ N and sigma (N, nd)",
-        )
-    delta = np.zeros((n, h_abs.shape[1]))
-    for m in range(n):
-        # δ_k gets |C A^m E| σ_j for j = k−1−m, i.e. rows k−1 = m … N−1 use σ_0 … σ_{N−1−m}.
-        delta[m:] += sigma[: n - m] @ h_abs[m].T
-    return delta
 
 
 class DisturbanceSampler:

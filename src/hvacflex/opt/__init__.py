@@ -3,14 +3,25 @@
 >>> from hvacflex.opt import RMPCProblem, RMPCSolution, RMPCSolver, SolveStatus, solve_rmpc
 >>> from hvacflex.opt import FeedbackOptions  # robust="feedback": affine disturbance feedback
 
-See :mod:`hvacflex.opt.problem` for the problem and its LP, :mod:`hvacflex.opt.robust` for
-the robust margins, :mod:`hvacflex.opt.solve` for the (warm-started) HiGHS solver,
-:mod:`hvacflex.opt.feedback` for the closed-loop (affine disturbance-feedback) RMPC.
+Modules, each importing only those above it:
+
+- :mod:`~hvacflex.opt.options`: robust modes, feedback options, ρ default, tie-break;
+- :mod:`~hvacflex.opt.robust`: the robust margins δ (pure numpy; the one home of δ);
+- :mod:`~hvacflex.opt.problem`: :class:`RMPCProblem` and its validation;
+- :mod:`~hvacflex.opt.lp`: the index allocator and the open-loop LP, one ``add_…`` function
+  per constraint family;
+- :mod:`~hvacflex.opt.solution`: :class:`RMPCSolution` and how it is built from a plan;
+- :mod:`~hvacflex.opt.feedback`: the affine disturbance-feedback parameterisation and its LP;
+- :mod:`~hvacflex.opt.basis`: simplex bases as arrays (time shift, checks);
+- :mod:`~hvacflex.opt.solve`: the HiGHS solvers (the only highspy importer);
+- :mod:`~hvacflex.opt.testing`: seeded random problems for tests and benchmarks.
 """
 
-from hvacflex.opt.feedback import FeedbackOptions, FeedbackSolver
+from hvacflex.opt.basis import SolverBasis
+from hvacflex.opt.options import FeedbackOptions
 from hvacflex.opt.problem import RMPCProblem
-from hvacflex.opt.solve import RMPCSolution, RMPCSolver, SolverBasis, SolveStatus, solve_rmpc
+from hvacflex.opt.solution import RMPCSolution, SolveStatus
+from hvacflex.opt.solve import FeedbackSolver, RMPCSolver, solve_rmpc
 
 __all__ = [
     "FeedbackOptions",

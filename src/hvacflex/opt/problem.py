@@ -1,4 +1,4 @@
-r"""The robust MPC problem on plain arrays (DESIGN §3, paper eq. 11–13) and its sparse LP.
+r"""The robust MPC problem on plain arrays (DESIGN §3, paper eq. 11–13) and its validation.
 
 Problem
 -------
@@ -37,21 +37,13 @@ activated output lies between the served ``C x_k`` and the curtailed ``C z_k``; 
 (tightened by the same δ) then holds for all patterns. :class:`RMPCProblem` refuses problems
 that violate these conditions.
 
-Sparse LP (state-space form)
-----------------------------
-States stay variables, so the constraint matrix is banded and ``x_0``, ``d̂``, ``g``, bounds
-and prices enter only right-hand sides, bounds and costs. Columns, in order:
-``x_1..x_N`` (N·n), ``z_1..z_N`` (N·n, only if some input carries reserve), ``u`` (N·m),
-``r`` (N·m_r, reserve-carrying inputs only), ``ε`` (N·ny), ``P`` (N), ``β`` (1), then the
-dual λ's. Rows: served and curtailed dynamics (N·n each, equalities), comfort upper/lower
-rows per trajectory (N·ny each), ``u − r ≥ u_min`` (N·m_r), power definition (N,
-coefficients ``−p_k`` change every step), peak rows ``φ_k P_k − β ≤ 0`` (N), and in the dual
-form one equality ``λ₁ − λ₂ = ±h`` per (robust row, disturbance entry).
-
 Reserve tie-break: when ``b = 0`` the optimum is degenerate in r. Every reserve flow carries
-a cost of :data:`RESERVE_TIE_BREAK_SGD_PER_KG_S_HOUR` × Δt (1e-5 SGD per kg/s·h, orders of
-magnitude below any reserve price that matters), which breaks the tie towards zero reserve.
+a cost of :data:`~hvacflex.opt.options.RESERVE_TIE_BREAK_SGD_PER_KG_S_HOUR` × Δt (1e-5 SGD
+per kg/s·h, orders of magnitude below any reserve price that matters), which breaks the tie
+towards zero reserve.
 It is *excluded* from the reported objective (reported separately as ``tie_break_sgd``).
+
+The LP itself is built by :mod:`hvacflex.opt.lp` (open loop) and :mod:`hvacflex.opt.feedback`.
 """
 
 from __future__ import annotations
@@ -59,33 +51,24 @@ from __future__ import annotations
 import hashlib
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy import sparse
 
 from hvacflex.errors import ProblemError
-from hvacflex.opt import robust as robust_mod
-
-if TYPE_CHECKING:
-    from hvacflex.opt.feedback import FeedbackOptions
+from hvacflex.opt.options import (
+    DEFAULT_COMFORT_PENALTY_SGD_PER_KELVIN_HOUR,
+    ROBUST_MODES,
+    FeedbackOptions,
+    RobustMode,
+)
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 BoolArray = NDArray[np.bool_]
 
-RobustMode = Literal["tightening", "dual", "none", "feedback"]
-ROBUST_MODES: tuple[str, ...] = ("tightening", "dual", "none", "feedback")
-
 #: Elementwise tolerance for A ≥ 0 (the discretised RC network is Metzler up to round-off).
 SIGN_TOLERANCE = 1e-12
-#: Default comfort penalty ρ [SGD per K·h] (an exact penalty at the paper's scale).
-DEFAULT_COMFORT_PENALTY_SGD_PER_KELVIN_HOUR = 100.0
-#: Cost per kg/s of reserve flow per hour that breaks the b = 0 tie towards r = 0 [SGD/(kg/s·h)].
-RESERVE_TIE_BREAK_SGD_PER_KG_S_HOUR = 1e-5
-#: Price conversion: Δt[h] · price[SGD/MWh] · power[kW] / KW_PER_MW = SGD.
-KW_PER_MW = 1000.0
 
 _SOURCE = "RMPCProblem"
 
@@ -222,9 +205,30 @@ class RMPCProblem:
     _structure: RMPCStructure = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
-        def put(name: str, value: object) -> None:
-            object.__setattr__(self, name, value)
+        horizon, m, ny = self._normalise_matrices()
+        self._normalise_series(horizon, m, ny)
+        self._normalise_options(m)
+        self._check_values()
+        object.__setattr__(
+            self,
+            "_structure",
+            RMPCStructure(
+                a_matrix=self.a_matrix,
+                b_matrix=self.b_matrix,
+                e_matrix=self.e_matrix,
+                c_matrix=self.c_matrix,
+                horizon=horizon,
+                reserve_mask=np.asarray(self.reserve_mask, dtype=bool),
+                robust=self.robust,
+            ),
+        )
 
+    def _put(self, name: str, value: object) -> None:
+        object.__setattr__(self, name, value)
+
+    def _normalise_matrices(self) -> tuple[int, int, int]:
+        """Check and copy A, B, E, C, d̂ and x0; return (N, m, ny)."""
+        put = self._put
         n, _ = _matrix_shape(
             "a_matrix", self.a_matrix, "(n, n) with n ≥ 1", lambda r, c: r == c > 0
         )
@@ -244,6 +248,12 @@ class RMPCProblem:
         )
         put("d_forecast", _float_array("d_forecast", self.d_forecast, ((horizon, nd),)))
         put("x0", _float_array("x0", self.x0, ((n,),)))
+        return horizon, m, ny
+
+    def _normalise_series(self, horizon: int, m: int, ny: int) -> None:
+        """Check, copy and broadcast σ, prices, power model and bounds to their full shapes."""
+        put = self._put
+        nd = self.nd
         put(
             "d_sigma",
             _float_array("d_sigma", self.d_sigma, ((horizon, nd), (nd,)), target=(horizon, nd)),
@@ -263,32 +273,15 @@ class RMPCProblem:
                 name,
                 _float_array(name, getattr(self, name), ((m,), (horizon, m)), target=(horizon, m)),
             )
+        bands = ((ny,), (horizon, ny))
         put(
             "y_min",
-            _float_array(
-                "y_min",
-                self.y_min,
-                ((ny,), (horizon, ny)),
-                target=(horizon, ny),
-                allow_neg_inf=True,
-            ),
+            _float_array("y_min", self.y_min, bands, target=(horizon, ny), allow_neg_inf=True),
         )
         put(
             "y_max",
-            _float_array(
-                "y_max",
-                self.y_max,
-                ((ny,), (horizon, ny)),
-                target=(horizon, ny),
-                allow_pos_inf=True,
-            ),
+            _float_array("y_max", self.y_max, bands, target=(horizon, ny), allow_pos_inf=True),
         )
-        if self.affine_term is None:
-            affine = np.zeros(n)
-            affine.setflags(write=False)
-        else:
-            affine = _float_array("affine_term", self.affine_term, ((n,),))
-        put("affine_term", affine)
         put(
             "peak_price_sgd_per_kw",
             _float_array(
@@ -298,6 +291,15 @@ class RMPCProblem:
                 target=(horizon,),
             ),
         )
+
+    def _normalise_options(self, m: int) -> None:
+        """Default and check the affine term g and the reserve mask."""
+        if self.affine_term is None:
+            affine = np.zeros(self.n)
+            affine.setflags(write=False)
+        else:
+            affine = _float_array("affine_term", self.affine_term, ((self.n,),))
+        self._put("affine_term", affine)
         if self.reserve_mask is None:
             mask = np.ones(m, dtype=bool)
         else:
@@ -311,20 +313,7 @@ class RMPCProblem:
                 )
             mask = mask_raw.copy()
         mask.setflags(write=False)
-        put("reserve_mask", mask)
-        self._check_values()
-        put(
-            "_structure",
-            RMPCStructure(
-                a_matrix=self.a_matrix,
-                b_matrix=self.b_matrix,
-                e_matrix=self.e_matrix,
-                c_matrix=self.c_matrix,
-                horizon=horizon,
-                reserve_mask=mask,
-                robust=self.robust,
-            ),
-        )
+        self._put("reserve_mask", mask)
 
     def _check_values(self) -> None:
         for name in ("peak_floor_kw", "comfort_penalty_sgd_per_kelvin_hour", "dt_h"):
@@ -387,8 +376,6 @@ class RMPCProblem:
         self._check_feedback()
 
     def _check_feedback(self) -> None:
-        from hvacflex.opt.feedback import FeedbackOptions, check_feedback_problem
-
         if self.robust != "feedback":
             if self.feedback is not None:
                 raise ProblemError(
@@ -408,7 +395,16 @@ class RMPCProblem:
                 field="feedback",
                 value=type(self.feedback).__name__,
             )
-        check_feedback_problem(self)
+        options = self.feedback
+        if options is not None and options.structure == "zone-local" and self.ny != self.m:
+            raise ProblemError(
+                f"zone-local feedback pairs input i with comfort output i, but ny = {self.ny} "
+                f"≠ m = {self.m}",
+                source="RMPCProblem.feedback",
+                field="structure",
+                value=options.structure,
+                hint="use structure 'time-invariant', 'memory' or 'full'",
+            )
 
     @staticmethod
     def _check_nonnegative(name: str, values: FloatArray, what: str) -> None:
@@ -550,336 +546,3 @@ class RMPCStructure:
         digest.update(np.ascontiguousarray(self.reserve_mask).tobytes())
         digest.update(f"{self.horizon}|{self.robust}".encode())
         return digest.hexdigest()
-
-
-# ---------------------------------------------------------------------- LP layout
-
-
-@dataclass(frozen=True, eq=False)
-class LPLayout:
-    """Column and row indices of every variable and constraint block of the sparse LP.
-
-    Index arrays are shaped like the quantity they hold (e.g. ``col_u`` is (N, m)). The
-    curtailed blocks (``col_z``, ``row_dyn_z``, ``row_hi_z``, ``row_lo_z``) are empty when no
-    input carries reserve; then the curtailed trajectory equals the served one.
-    """
-
-    horizon: int
-    n: int
-    m: int
-    nd: int
-    ny: int
-    reserve_inputs: IntArray  # (m_r,) indices of reserve-carrying inputs
-    robust: str
-    col_x: IntArray  # (N, n)
-    col_z: IntArray  # (N, n) or (0, n)
-    col_u: IntArray  # (N, m)
-    col_r: IntArray  # (N, m_r)
-    col_eps: IntArray  # (N, ny)
-    col_power: IntArray  # (N,)
-    col_beta: int
-    num_core_cols: int  # columns before the dual λ's
-    num_cols: int
-    row_dyn_x: IntArray  # (N, n)
-    row_dyn_z: IntArray
-    row_hi_x: IntArray  # (N, ny)
-    row_lo_x: IntArray
-    row_hi_z: IntArray
-    row_lo_z: IntArray
-    row_flow: IntArray  # (N, m_r)
-    row_power: IntArray  # (N,)
-    row_peak: IntArray  # (N,)
-    num_core_rows: int  # rows before the dual λ rows
-    num_rows: int
-    # dual form: coefficient σ_{j,l} (or −σ) on (row, λ col) pairs
-    dual_rows: IntArray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
-    dual_cols_1: IntArray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
-    dual_cols_2: IntArray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
-    dual_sigma_index: IntArray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
-    dual_sign: FloatArray = field(default_factory=lambda: np.zeros(0))
-
-    @property
-    def has_curtailed(self) -> bool:
-        """Whether a separate curtailed trajectory exists (some input carries reserve)."""
-        return self.reserve_inputs.size > 0
-
-
-def _take(counter: list[int], shape: tuple[int, ...]) -> IntArray:
-    size = int(np.prod(shape)) if shape else 1
-    indices = np.arange(counter[0], counter[0] + size, dtype=np.int64).reshape(shape)
-    counter[0] += size
-    return indices
-
-
-def build_layout(structure: RMPCStructure) -> LPLayout:
-    """Assign column and row indices for a problem structure (see the module docstring)."""
-    horizon = structure.horizon
-    n, m = structure.b_matrix.shape
-    nd = structure.e_matrix.shape[1]
-    ny = structure.c_matrix.shape[0]
-    reserve_inputs = np.flatnonzero(structure.reserve_mask).astype(np.int64)
-    m_r = reserve_inputs.size
-    n_z = horizon if m_r else 0
-    cols = [0]
-    col_x = _take(cols, (horizon, n))
-    col_z = _take(cols, (n_z, n))
-    col_u = _take(cols, (horizon, m))
-    col_r = _take(cols, (horizon, m_r))
-    col_eps = _take(cols, (horizon, ny))
-    col_power = _take(cols, (horizon,))
-    col_beta = int(_take(cols, (1,))[0])
-    num_core_cols = cols[0]
-    rows = [0]
-    row_dyn_x = _take(rows, (horizon, n))
-    row_dyn_z = _take(rows, (n_z, n))
-    row_hi_x = _take(rows, (horizon, ny))
-    row_lo_x = _take(rows, (horizon, ny))
-    row_hi_z = _take(rows, (n_z, ny))
-    row_lo_z = _take(rows, (n_z, ny))
-    row_flow = _take(rows, (horizon, m_r))
-    row_power = _take(rows, (horizon,))
-    row_peak = _take(rows, (horizon,))
-    num_core_rows = rows[0]
-    extra: dict[str, IntArray | FloatArray] = {}
-    if structure.robust == "dual":
-        responses = robust_mod.impulse_responses(
-            structure.a_matrix, structure.e_matrix, structure.c_matrix, horizon
-        )
-        step, output, dist_step, channel, _ = robust_mod.dual_row_entries(responses)
-        entries = step.size
-        robust_sets = [(row_hi_x, 1.0), (row_lo_x, -1.0)]
-        if m_r:
-            robust_sets += [(row_hi_z, 1.0), (row_lo_z, -1.0)]
-        parts_rows, parts_c1, parts_c2, parts_sigma, parts_sign = [], [], [], [], []
-        for row_block, sign in robust_sets:
-            parts_rows.append(row_block[step, output])
-            parts_c1.append(_take(cols, (entries,)))
-            parts_c2.append(_take(cols, (entries,)))
-            parts_sigma.append(dist_step * nd + channel)
-            parts_sign.append(np.full(entries, sign))
-        extra = {
-            "dual_rows": np.concatenate(parts_rows),
-            "dual_cols_1": np.concatenate(parts_c1),
-            "dual_cols_2": np.concatenate(parts_c2),
-            "dual_sigma_index": np.concatenate(parts_sigma),
-            "dual_sign": np.concatenate(parts_sign),
-        }
-        rows[0] += int(extra["dual_rows"].size)
-    return LPLayout(
-        horizon=horizon,
-        n=n,
-        m=m,
-        nd=nd,
-        ny=ny,
-        reserve_inputs=reserve_inputs,
-        robust=structure.robust,
-        col_x=col_x,
-        col_z=col_z,
-        col_u=col_u,
-        col_r=col_r,
-        col_eps=col_eps,
-        col_power=col_power,
-        col_beta=col_beta,
-        num_core_cols=num_core_cols,
-        num_cols=cols[0],
-        row_dyn_x=row_dyn_x,
-        row_dyn_z=row_dyn_z,
-        row_hi_x=row_hi_x,
-        row_lo_x=row_lo_x,
-        row_hi_z=row_hi_z,
-        row_lo_z=row_lo_z,
-        row_flow=row_flow,
-        row_power=row_power,
-        row_peak=row_peak,
-        num_core_rows=num_core_rows,
-        num_rows=rows[0],
-        **extra,  # type: ignore[arg-type]
-    )
-
-
-def _block(
-    rows: IntArray, cols: IntArray, values: FloatArray, *, keep_zeros: bool = False
-) -> tuple[IntArray, IntArray, FloatArray]:
-    rows_b, cols_b, values_b = np.broadcast_arrays(rows, cols, values)
-    r, c, v = rows_b.ravel(), cols_b.ravel(), values_b.ravel().astype(np.float64)
-    if not keep_zeros:
-        keep = v != 0.0
-        r, c, v = r[keep], c[keep], v[keep]
-    return r, c, v
-
-
-def assemble_matrix(
-    structure: RMPCStructure,
-    layout: LPLayout,
-    power_coeff_kw_per_kg_s: FloatArray,
-    peak_price_sgd_per_kw: FloatArray,
-    d_sigma: FloatArray,
-) -> sparse.csc_matrix:
-    """The LP's constraint matrix (num_rows × num_cols, CSC) for the current coefficients.
-
-    The step-varying coefficients are ``−p_k`` on (power row k, u_k), ``φ_k`` on (peak row k,
-    P_k) and, in the dual form, ``±σ_{j,l}`` on (robust row, λ). They are stored even when
-    zero so that their positions are known; the solver updates them in place.
-    """
-    a, b, c = structure.a_matrix, structure.b_matrix, structure.c_matrix
-    horizon = layout.horizon
-    ridx = layout.reserve_inputs
-    eye = np.eye(layout.n)
-    blocks: list[tuple[IntArray, IntArray, FloatArray]] = []
-    trajectories = [(layout.col_x, layout.row_dyn_x, layout.row_hi_x, layout.row_lo_x)]
-    if layout.has_curtailed:
-        trajectories.append((layout.col_z, layout.row_dyn_z, layout.row_hi_z, layout.row_lo_z))
-    for col_state, row_dyn, row_hi, row_lo in trajectories:
-        blocks.append(_block(row_dyn[:, :, None], col_state[:, None, :], eye[None]))
-        if horizon > 1:
-            blocks.append(_block(row_dyn[1:, :, None], col_state[:-1, None, :], -a[None]))
-        blocks.append(_block(row_dyn[:, :, None], layout.col_u[:, None, :], -b[None]))
-        blocks.append(_block(row_hi[:, :, None], col_state[:, None, :], c[None]))
-        blocks.append(_block(row_lo[:, :, None], col_state[:, None, :], c[None]))
-        blocks.append(_block(row_hi, layout.col_eps, np.array(-1.0)))
-        blocks.append(_block(row_lo, layout.col_eps, np.array(1.0)))
-    if layout.has_curtailed:
-        blocks.append(
-            _block(layout.row_dyn_z[:, :, None], layout.col_r[:, None, :], b[:, ridx][None])
-        )
-        blocks.append(_block(layout.row_flow, layout.col_u[:, ridx], np.array(1.0)))
-        blocks.append(_block(layout.row_flow, layout.col_r, np.array(-1.0)))
-    blocks.append(_block(layout.row_power, layout.col_power, np.array(1.0)))
-    blocks.append(
-        _block(layout.row_power[:, None], layout.col_u, -power_coeff_kw_per_kg_s, keep_zeros=True)
-    )
-    blocks.append(_block(layout.row_peak, layout.col_power, peak_price_sgd_per_kw, keep_zeros=True))
-    blocks.append(_block(layout.row_peak, np.array(layout.col_beta), np.array(-1.0)))
-    if layout.robust == "dual":
-        sigma = d_sigma.ravel()[layout.dual_sigma_index] * layout.dual_sign
-        blocks.append(_block(layout.dual_rows, layout.dual_cols_1, sigma, keep_zeros=True))
-        blocks.append(_block(layout.dual_rows, layout.dual_cols_2, sigma, keep_zeros=True))
-        eq_rows = np.arange(layout.num_core_rows, layout.num_rows, dtype=np.int64)
-        blocks.append(_block(eq_rows, layout.dual_cols_1, np.array(1.0)))
-        blocks.append(_block(eq_rows, layout.dual_cols_2, np.array(-1.0)))
-    rows = np.concatenate([blk[0] for blk in blocks])
-    cols = np.concatenate([blk[1] for blk in blocks])
-    values = np.concatenate([blk[2] for blk in blocks])
-    matrix = sparse.csc_matrix(
-        (values, (rows, cols)), shape=(layout.num_rows, layout.num_cols), dtype=np.float64
-    )
-    matrix.sort_indices()
-    return matrix
-
-
-def dual_equality_rhs(structure: RMPCStructure, layout: LPLayout) -> FloatArray:
-    """Right-hand sides ``±h`` of the dual form's ``λ₁ − λ₂ = ±h`` rows (constant per structure)."""
-    if layout.robust != "dual":
-        return np.zeros(0)
-    responses = robust_mod.impulse_responses(
-        structure.a_matrix, structure.e_matrix, structure.c_matrix, layout.horizon
-    )
-    *_, values = robust_mod.dual_row_entries(responses)
-    sets = layout.dual_rows.size // values.size
-    rhs: FloatArray = np.tile(values, sets) * layout.dual_sign
-    return rhs
-
-
-@dataclass(frozen=True, eq=False)
-class LPVectors:
-    """Costs, column bounds and row bounds of the core (non-λ) part of the LP for one step."""
-
-    cost: FloatArray  # (num_core_cols,)
-    col_lower: FloatArray
-    col_upper: FloatArray
-    row_lower: FloatArray  # (num_core_rows,)
-    row_upper: FloatArray
-
-
-def fill_plan_columns(
-    problem: RMPCProblem,
-    cost: FloatArray,
-    lower: FloatArray,
-    upper: FloatArray,
-    *,
-    col_u: IntArray,
-    col_r: IntArray,
-    col_eps: IntArray,
-    col_beta: int,
-    reserve_inputs: IntArray,
-) -> None:
-    """Write the costs and bounds of the flow, reserve, slack and peak columns in place.
-
-    Shared by the open-loop LP and the feedback LP (:mod:`hvacflex.opt.feedback`):
-    ``col_u`` (N, m) flows, ``col_r`` (N, m_r) reserve flows of ``reserve_inputs``,
-    ``col_eps`` (N, ny) comfort slack, ``col_beta`` the peak epigraph β. The energy cost
-    sits elsewhere in each LP (on P_k here, on u_k there).
-    """
-    dt = problem.dt_h
-    p = problem.power_coeff_kw_per_kg_s
-    cost[col_r] = (
-        -dt * problem.reserve_price_sgd_per_mwh[:, None] * p[:, reserve_inputs] / KW_PER_MW
-        + dt * RESERVE_TIE_BREAK_SGD_PER_KG_S_HOUR
-    )
-    cost[col_eps] = problem.comfort_penalty_sgd_per_kelvin_hour * dt
-    cost[col_beta] = 1.0
-    lower[col_u] = problem.u_min
-    upper[col_u] = problem.u_max
-    lower[col_r] = 0.0
-    upper[col_r] = (problem.u_max - problem.u_min)[:, reserve_inputs]
-    lower[col_eps] = 0.0
-    if problem.slack_max_kelvin is not None:
-        upper[col_eps] = problem.slack_max_kelvin
-    lower[col_beta] = float(problem.phi[0]) * problem.peak_floor_kw
-
-
-def dynamics_rhs(problem: RMPCProblem) -> FloatArray:
-    """(N, n) right-hand sides of the dynamics rows ``x_{k+1} − A x_k − B u_k = E d̂_k + g``
-    (for k = 0 also ``+ A x_0``) [K]."""
-    rhs: FloatArray = problem.d_forecast @ problem.e_matrix.T + problem.g
-    rhs[0] += problem.a_matrix @ problem.x0
-    return rhs
-
-
-def lp_vectors(problem: RMPCProblem, layout: LPLayout, delta: FloatArray) -> LPVectors:
-    """Costs and bounds for ``problem`` given the robust margins ``delta`` (N, ny) [K].
-
-    In the dual form pass ``delta = 0``: the λ's carry the robustness.
-    """
-    ridx = layout.reserve_inputs
-    inf = np.inf
-    cost = np.zeros(layout.num_core_cols)
-    lower = np.full(layout.num_core_cols, -inf)
-    upper = np.full(layout.num_core_cols, inf)
-    fill_plan_columns(
-        problem,
-        cost,
-        lower,
-        upper,
-        col_u=layout.col_u,
-        col_r=layout.col_r,
-        col_eps=layout.col_eps,
-        col_beta=layout.col_beta,
-        reserve_inputs=ridx,
-    )
-    cost[layout.col_power] = problem.dt_h * problem.energy_price_sgd_per_mwh / KW_PER_MW
-
-    row_lower = np.empty(layout.num_core_rows)
-    row_upper = np.empty(layout.num_core_rows)
-    rhs = dynamics_rhs(problem)
-    hi = problem.y_max - delta
-    lo = problem.y_min + delta
-    for row_dyn, row_hi, row_lo in (
-        (layout.row_dyn_x, layout.row_hi_x, layout.row_lo_x),
-        (layout.row_dyn_z, layout.row_hi_z, layout.row_lo_z),
-    ):
-        if row_dyn.size == 0:
-            continue
-        row_lower[row_dyn] = rhs
-        row_upper[row_dyn] = rhs
-        row_lower[row_hi] = -inf
-        row_upper[row_hi] = hi
-        row_lower[row_lo] = lo
-        row_upper[row_lo] = inf
-    row_lower[layout.row_flow] = problem.u_min[:, ridx]
-    row_upper[layout.row_flow] = inf
-    row_lower[layout.row_power] = problem.power_offset_kw
-    row_upper[layout.row_power] = problem.power_offset_kw
-    row_lower[layout.row_peak] = -inf
-    row_upper[layout.row_peak] = 0.0
-    return LPVectors(cost, lower, upper, row_lower, row_upper)

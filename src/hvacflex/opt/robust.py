@@ -89,14 +89,18 @@ def robust_margins(operator: FloatArray, d_sigma: FloatArray) -> FloatArray:
     Parameters
     ----------
     operator : (N·ny, N·nd) from :func:`margin_operator`
-    d_sigma : (N, nd) box half-widths ``σ_j ≥ 0`` [disturbance units]
+    d_sigma : (N', nd) box half-widths ``σ_j ≥ 0`` [disturbance units] for N' ≤ N steps
+        (a shorter σ uses the operator's leading block, which is the operator for N')
 
     Returns
     -------
-    (N, ny) margins ``δ_k`` for outputs at steps k = 1..N [K]:
+    (N', ny) margins ``δ_k`` for outputs at steps k = 1..N' [K]:
     ``δ_k = Σ_{j<k} |C A^{k-1-j} E| σ_j``.
     """
-    horizon = d_sigma.shape[0]
+    horizon, nd = d_sigma.shape
+    rows = horizon * (operator.shape[0] * nd // operator.shape[1])
+    if rows != operator.shape[0]:
+        operator = operator[:rows, : horizon * nd]
     margins: FloatArray = (operator @ d_sigma.ravel()).reshape(horizon, -1)
     return margins
 

@@ -1,26 +1,27 @@
 """Solve :class:`~hvacflex.opt.problem.RMPCProblem` with HiGHS; the only importer of highspy.
 
-:class:`RMPCSolver` builds the sparse LP of :mod:`hvacflex.opt.problem` once per structure
-(A, B, E, C, N, reserve mask, robust mode). Each :meth:`RMPCSolver.solve` pushes only what
-changed since the previous solve — costs, column bounds, row bounds (x0, d̂, g, δ, bounds,
-p0) and the step-varying coefficients (``p_k`` on the power rows, ``φ_k`` on the peak rows,
-σ in the dual form, via ``changeCoeff``) — and re-solves with the dual simplex (warm start).
-HiGHS runs single-threaded with its output silenced, so results are reproducible.
-:func:`solve_rmpc` is the one-shot wrapper.
+:class:`RMPCSolver` builds the sparse LP of :mod:`hvacflex.opt.lp` once per structure
+(A, B, E, C, N, reserve mask, robust mode). Each :meth:`RMPCSolver.solve` rebuilds the LP's
+costs and bounds without its constant coefficients, pushes only what changed since the
+previous solve — costs, column bounds, row bounds (x0, d̂, g, δ, bounds, p0) and the
+step-varying coefficients (``p_k`` on the power rows, ``φ_k`` on the peak rows, σ in the dual
+form, via ``changeCoeff``) — and re-solves with the dual simplex (warm start).
+:class:`FeedbackSolver` solves the affine-feedback LP of :mod:`hvacflex.opt.feedback` cold
+each step. HiGHS runs single-threaded with its output silenced, so results are reproducible.
+:func:`solve_rmpc` is the one-shot wrapper for both.
 
-Warm start (see ``docs/performance.md``). Successive problems of a receding horizon are
-shifted by one step, so the previous optimal basis is a poor start *position by position*,
-but a good one once rotated: by default (``time_shift=True``) the statuses of step k + 1 of
-every time-indexed block (x, z, u, r, ε, P and their rows) start step k, and those of step 0
-start step N − 1 (a rotation keeps the number of basic variables, so HiGHS takes the basis
-as is). The basis is read after each optimal solve from HiGHS's basic-variable list and the
-primal values (every row of the LP is an equality or one-sided, so a nonbasic row's status
-follows from its bounds), which costs ~0.1 ms where ``getBasis`` costs ~3 ms. HiGHS uses
-Devex dual pricing: every step re-initialises the simplex (new basis; the power-row
-coefficients p_k change), and dual steepest-edge weights would then be recomputed from
-scratch, one BTRAN per row, which cost more than all the iterations. Warm solves run without
-scaling (re-scaling cost more than it saved); cold solves keep HiGHS's default scaling and
-presolve.
+Warm start (measurements in ``docs/performance.md``). Successive problems of a receding
+horizon are shifted by one step, so the previous optimal basis is a poor start *position by
+position*, but a good one once rotated: by default (``time_shift=True``) the statuses of step
+k + 1 of every time-indexed block (x, z, u, r, ε, P and their rows: the blocks the builder
+marks ``time_indexed``) start step k, and those of step 0 start step N − 1 (a rotation keeps
+the number of basic variables, so HiGHS takes the basis as is). The basis is read after each
+optimal solve from HiGHS's basic-variable list and the primal values (every row of the LP is
+an equality or one-sided, so a nonbasic row's status follows from its bounds), which is much
+cheaper than ``getBasis``. HiGHS uses Devex dual pricing: every step re-initialises the
+simplex (new basis; the power-row coefficients p_k change), and dual steepest-edge weights
+would then be recomputed from scratch, one BTRAN per row. Warm solves run without scaling;
+cold solves keep HiGHS's default scaling and presolve.
 
 Failures are never silent: :class:`SolveStatus` says what happened, ``RMPCSolution.message``
 says it in words, and every plan array (u, r, P, R, ε, trajectories, costs) is NaN unless the
@@ -30,57 +31,58 @@ solve is retried once from scratch (cold) before the error is reported.
 
 from __future__ import annotations
 
-import enum
 import time
-from dataclasses import dataclass
 from typing import Any, NamedTuple, cast
 
 import highspy
 import numpy as np
-from numpy.typing import NDArray
+from scipy import sparse
 
 from hvacflex.errors import ProblemError
 from hvacflex.opt import robust as robust_mod
-from hvacflex.opt.problem import (
-    KW_PER_MW,
-    RESERVE_TIE_BREAK_SGD_PER_KG_S_HOUR,
-    FloatArray,
-    IntArray,
-    LPLayout,
-    RMPCProblem,
-    assemble_matrix,
-    build_layout,
-    dual_equality_rhs,
-    lp_vectors,
+from hvacflex.opt.basis import (
+    BASIC,
+    SolverBasis,
+    StatusArray,
+    checked_basis,
+    consistent_status,
+    nonbasic_status,
+    optimal_statuses,
+    rotation,
+)
+from hvacflex.opt.feedback import (
+    FeedbackLPSize,
+    build_feedback_lp,
+    feedback_maps,
+    feedback_solution,
+    gains_tensor,
+    output_response,
+)
+from hvacflex.opt.lp import LPLayout, build_lp, sparse_matrix
+from hvacflex.opt.options import FeedbackOptions
+from hvacflex.opt.problem import FloatArray, RMPCProblem
+from hvacflex.opt.solution import (
+    RMPCSolution,
+    SolveStatus,
+    failed_solution,
+    plan_from_values,
+    plan_solution,
 )
 
 __all__ = [
+    "DEFAULT_LP_METHOD",
+    "FeedbackSolver",
     "LPResult",
     "RMPCSolution",
     "RMPCSolver",
     "SolveStatus",
     "SolverBasis",
-    "failed_solution",
-    "plan_solution",
     "solve_lp",
     "solve_rmpc",
 ]
 
-
-class SolveStatus(enum.Enum):
-    """Outcome of one solve."""
-
-    OPTIMAL = "optimal"
-    INFEASIBLE = "infeasible"
-    UNBOUNDED = "unbounded"
-    TIME_LIMIT = "time_limit"
-    ERROR = "error"  # numerical trouble, iteration limit or any other solver failure
-
-    @property
-    def ok(self) -> bool:
-        """True only for :attr:`OPTIMAL`."""
-        return self is SolveStatus.OPTIMAL
-
+#: HiGHS algorithm for the feedback LP ("simplex", "ipm" or "choose").
+DEFAULT_LP_METHOD = "simplex"
 
 _STATUS_MAP = {
     highspy.HighsModelStatus.kOptimal: SolveStatus.OPTIMAL,
@@ -93,177 +95,7 @@ _STATUS_MAP = {
 }
 
 
-@dataclass(frozen=True, eq=False)
-class RMPCSolution:
-    """The plan and its cost split. Arrays are NaN unless ``status`` is OPTIMAL.
-
-    Attributes
-    ----------
-    status, message : outcome and a human-readable explanation
-    objective_sgd : energy_cost − reserve_revenue + comfort_penalty + peak_charge [SGD]
-        (the reserve tie-break ``tie_break_sgd`` is excluded)
-    u, r : (N, m) planned flows and reserve flows [kg/s] (r = 0 on masked inputs)
-    power_kw : (N,) P_k = p0_k + p_k·u_k [kW];  reserve_kw : (N,) R_k = p_k·r_k [kW]
-    peak_kw : max_k P_k [kW];  peak_charge_sgd : β [SGD]
-    slack : (N, ny) ε_k for outputs at steps 1..N [K];  delta : (N, ny) robust margins δ_k [K]
-        (zero for robust="none"; for robust="dual" the equivalent tightening, for reference)
-    x_served, x_curtailed : (N+1, n) nominal (w = 0) trajectories from x0 [°C]
-    energy_cost_sgd, reserve_revenue_sgd, comfort_penalty_sgd : objective terms [SGD]
-    tie_break_sgd : the reserve tie-break cost included in the LP but not in objective_sgd
-    solve_time_s : wall time of the whole solve call (updates + HiGHS + extraction) [s]
-    highs_time_s : wall time of HiGHS ``run()`` alone [s]
-    simplex_iterations : simplex iterations of this solve
-    warm_start : whether HiGHS started from a previous basis
-    feedback_gains : (N, N, m, nd) for ``robust="feedback"``: ``[k, j]`` is the gain of input
-        k on the disturbance error w_j (zero for j ≥ k; see :mod:`hvacflex.opt.feedback`);
-        None otherwise
-    """
-
-    status: SolveStatus
-    message: str
-    objective_sgd: float
-    u: FloatArray
-    r: FloatArray
-    power_kw: FloatArray
-    reserve_kw: FloatArray
-    peak_kw: float
-    peak_charge_sgd: float
-    slack: FloatArray
-    delta: FloatArray
-    x_served: FloatArray
-    x_curtailed: FloatArray
-    energy_cost_sgd: float
-    reserve_revenue_sgd: float
-    comfort_penalty_sgd: float
-    tie_break_sgd: float
-    solve_time_s: float
-    highs_time_s: float
-    simplex_iterations: int
-    warm_start: bool
-    feedback_gains: FloatArray | None = None
-
-    @property
-    def ok(self) -> bool:
-        """True when the plan is optimal (and its arrays are finite)."""
-        return self.status.ok
-
-
-@dataclass(frozen=True, eq=False)
-class SolverBasis:
-    """A picklable simplex basis of an :class:`RMPCSolver` (to resume a checkpoint warm).
-
-    ``col_status`` and ``row_status`` hold HiGHS basis status codes (0 lower, 1 basic,
-    2 upper, 3 zero, 4 nonbasic); ``fingerprint`` identifies the problem structure.
-    """
-
-    fingerprint: str
-    col_status: NDArray[np.int8]
-    row_status: NDArray[np.int8]
-
-
-def _nan(shape: tuple[int, ...]) -> FloatArray:
-    return np.full(shape, np.nan)
-
-
-def failed_solution(
-    problem: RMPCProblem,
-    *,
-    status: SolveStatus,
-    message: str,
-    delta: FloatArray,
-    start: float,
-    highs_time_s: float,
-    simplex_iterations: int,
-    warm_start: bool,
-) -> RMPCSolution:
-    """An :class:`RMPCSolution` without a plan: every plan array and cost is NaN.
-
-    ``start`` is the ``time.perf_counter()`` reading when the solve call began.
-    """
-    horizon, m, n, ny = problem.horizon, problem.m, problem.n, problem.ny
-    return RMPCSolution(
-        status=status,
-        message=message,
-        objective_sgd=np.nan,
-        u=_nan((horizon, m)),
-        r=_nan((horizon, m)),
-        power_kw=_nan((horizon,)),
-        reserve_kw=_nan((horizon,)),
-        peak_kw=np.nan,
-        peak_charge_sgd=np.nan,
-        slack=_nan((horizon, ny)),
-        delta=delta,
-        x_served=_nan((horizon + 1, n)),
-        x_curtailed=_nan((horizon + 1, n)),
-        energy_cost_sgd=np.nan,
-        reserve_revenue_sgd=np.nan,
-        comfort_penalty_sgd=np.nan,
-        tie_break_sgd=np.nan,
-        solve_time_s=time.perf_counter() - start,
-        highs_time_s=highs_time_s,
-        simplex_iterations=simplex_iterations,
-        warm_start=warm_start,
-    )
-
-
-def plan_solution(
-    problem: RMPCProblem,
-    *,
-    status: SolveStatus,
-    message: str,
-    u: FloatArray,
-    r: FloatArray,
-    slack: FloatArray,
-    peak_charge_sgd: float,
-    x_served: FloatArray,
-    x_curtailed: FloatArray,
-    delta: FloatArray,
-    start: float,
-    highs_time_s: float,
-    simplex_iterations: int,
-    warm_start: bool,
-    feedback_gains: FloatArray | None = None,
-) -> RMPCSolution:
-    """An :class:`RMPCSolution` from a plan: power, reserve and the cost split follow from
-    ``u`` (N, m), ``r`` (N, m) [kg/s], ``slack`` (N, ny) [K] and β [SGD] as in the LP.
-
-    ``start`` is the ``time.perf_counter()`` reading when the solve call began.
-    """
-    dt = problem.dt_h
-    p = problem.power_coeff_kw_per_kg_s
-    power = problem.power_offset_kw + np.einsum("km,km->k", p, u)
-    reserve = np.einsum("km,km->k", p, r)
-    energy = float(dt * problem.energy_price_sgd_per_mwh @ power / KW_PER_MW)
-    revenue = float(dt * problem.reserve_price_sgd_per_mwh @ reserve / KW_PER_MW)
-    comfort = float(problem.comfort_penalty_sgd_per_kelvin_hour * dt * slack.sum())
-    return RMPCSolution(
-        status=status,
-        message=message,
-        objective_sgd=energy - revenue + comfort + peak_charge_sgd,
-        u=u,
-        r=r,
-        power_kw=power,
-        reserve_kw=reserve,
-        peak_kw=float(power.max()),
-        peak_charge_sgd=peak_charge_sgd,
-        slack=slack,
-        delta=delta,
-        x_served=x_served,
-        x_curtailed=x_curtailed,
-        energy_cost_sgd=energy,
-        reserve_revenue_sgd=revenue,
-        comfort_penalty_sgd=comfort,
-        tie_break_sgd=float(RESERVE_TIE_BREAK_SGD_PER_KG_S_HOUR * dt * r.sum()),
-        solve_time_s=time.perf_counter() - start,
-        highs_time_s=highs_time_s,
-        simplex_iterations=simplex_iterations,
-        warm_start=warm_start,
-        feedback_gains=feedback_gains,
-    )
-
-
 #: HiGHS basis status codes (``HighsBasisStatus``) as stored in :class:`SolverBasis`.
-_LOWER, _BASIC, _UPPER, _ZERO = 0, 1, 2, 3
 _HIGHS_BASIS_STATUS = np.array([highspy.HighsBasisStatus(code) for code in range(5)], dtype=object)
 #: Options of every solve: quiet, single-threaded (reproducible), Devex dual pricing (1).
 _BASE_OPTIONS: dict[str, Any] = {
@@ -276,46 +108,34 @@ _BASE_OPTIONS: dict[str, Any] = {
 _WARM_SCALE_STRATEGY = 0
 
 
-def _rotation(layout: LPLayout) -> tuple[IntArray, IntArray]:
-    """Index maps that rotate a basis by one time step: ``new = old[map]``.
-
-    Step k of every time-indexed column and row block takes the status of step k + 1, step
-    N − 1 that of step 0; β and the dual form's λ columns and rows keep theirs.
-    """
-    col_map = np.arange(layout.num_cols)
-    row_map = np.arange(layout.num_rows)
-    col_blocks = (
-        layout.col_x,
-        layout.col_z,
-        layout.col_u,
-        layout.col_r,
-        layout.col_eps,
-        layout.col_power,
+def _highs_lp(
+    cost: FloatArray,
+    matrix: sparse.csc_matrix | sparse.csr_matrix,
+    row_lower: FloatArray,
+    row_upper: FloatArray,
+    col_lower: FloatArray,
+    col_upper: FloatArray,
+) -> Any:
+    """A ``highspy.HighsLp`` of ``min costᵀx s.t. row bounds, column bounds`` (CSC or CSR)."""
+    num_rows, num_cols = matrix.shape
+    lp = highspy.HighsLp()
+    lp.num_col_ = num_cols
+    lp.num_row_ = num_rows
+    lp.col_cost_ = np.asarray(cost, dtype=np.float64)
+    lp.col_lower_ = np.asarray(col_lower, dtype=np.float64)
+    lp.col_upper_ = np.asarray(col_upper, dtype=np.float64)
+    lp.row_lower_ = np.asarray(row_lower, dtype=np.float64)
+    lp.row_upper_ = np.asarray(row_upper, dtype=np.float64)
+    colwise = isinstance(matrix, sparse.csc_matrix)
+    lp.a_matrix_.format_ = (
+        highspy.MatrixFormat.kColwise if colwise else highspy.MatrixFormat.kRowwise
     )
-    row_blocks = (
-        layout.row_dyn_x,
-        layout.row_dyn_z,
-        layout.row_hi_x,
-        layout.row_lo_x,
-        layout.row_hi_z,
-        layout.row_lo_z,
-        layout.row_flow,
-        layout.row_power,
-        layout.row_peak,
-    )
-    for index_map, blocks in ((col_map, col_blocks), (row_map, row_blocks)):
-        for block in blocks:
-            if block.size:
-                index_map[block.ravel()] = np.roll(block, -1, axis=0).ravel()
-    return col_map, row_map
-
-
-def _nonbasic_status(lower: FloatArray, upper: FloatArray) -> NDArray[np.int8]:
-    """Status of a nonbasic variable from its bounds alone: at the lower bound if finite,
-    else at the upper bound if finite, else zero (free)."""
-    status = np.where(np.isfinite(upper), _UPPER, _ZERO)
-    status[np.isfinite(lower)] = _LOWER
-    return status.astype(np.int8)
+    lp.a_matrix_.num_col_ = num_cols
+    lp.a_matrix_.num_row_ = num_rows
+    lp.a_matrix_.start_ = matrix.indptr.astype(np.int32)
+    lp.a_matrix_.index_ = matrix.indices.astype(np.int32)
+    lp.a_matrix_.value_ = matrix.data.astype(np.float64)
+    return lp
 
 
 def check_time_limit(time_limit_s: float | None, *, source: str) -> None:
@@ -363,11 +183,10 @@ class RMPCSolver:
             )
         self._structure = problem.structure
         self._fingerprint = self._structure.fingerprint()
-        self._layout: LPLayout = build_layout(self._structure)
-        responses = robust_mod.impulse_responses(
+        self._responses = robust_mod.impulse_responses(
             problem.a_matrix, problem.e_matrix, problem.c_matrix, problem.horizon
         )
-        self._margin_operator = robust_mod.margin_operator(responses)
+        self._margin_operator = robust_mod.margin_operator(self._responses)
         # highspy's Python wrapper is only partly typed; treat the handle as Any.
         self._highs: Any = cast(Any, highspy.Highs)()
         for option, value in _BASE_OPTIONS.items():
@@ -377,11 +196,11 @@ class RMPCSolver:
         self._time_limit_s = float(time_limit_s) if time_limit_s is not None else None
         self._time_shift = time_shift
         self._build(problem)
-        self._col_rotation, self._row_rotation = _rotation(self._layout)
+        self._col_rotation, self._row_rotation = rotation(self._lp)
         self._last_problem: RMPCProblem | None = problem
         self._has_basis = False
         # statuses of the last optimal basis (or of set_basis), to start the next solve from
-        self._basis: tuple[NDArray[np.int8], NDArray[np.int8]] | None = None
+        self._basis: tuple[StatusArray, StatusArray] | None = None
         self._basis_given = False
 
     # ------------------------------------------------------------------ properties
@@ -393,12 +212,12 @@ class RMPCSolver:
     @property
     def num_cols(self) -> int:
         """Number of LP variables."""
-        return self._layout.num_cols
+        return self._lp.num_cols
 
     @property
     def num_rows(self) -> int:
         """Number of LP constraints."""
-        return self._layout.num_rows
+        return self._lp.num_rows
 
     @property
     def num_nonzeros(self) -> int:
@@ -407,58 +226,30 @@ class RMPCSolver:
 
     # ------------------------------------------------------------------ model
     def _build(self, problem: RMPCProblem) -> None:
-        layout = self._layout
         delta = self._delta(problem)
-        vectors = lp_vectors(problem, layout, self._tightening(problem, delta))
-        matrix = assemble_matrix(
-            self._structure,
-            layout,
-            problem.power_coeff_kw_per_kg_s,
-            problem.phi,
-            problem.d_sigma,
+        lp, self._layout = build_lp(
+            problem, self._tightening(problem, delta), responses=self._responses
         )
-        extra_cols = layout.num_cols - layout.num_core_cols
-        extra_rhs = dual_equality_rhs(self._structure, layout)
-        lp = highspy.HighsLp()
-        lp.num_col_ = layout.num_cols
-        lp.num_row_ = layout.num_rows
-        lp.col_cost_ = np.concatenate([vectors.cost, np.zeros(extra_cols)])
-        lp.col_lower_ = np.concatenate([vectors.col_lower, np.zeros(extra_cols)])
-        lp.col_upper_ = np.concatenate([vectors.col_upper, np.full(extra_cols, np.inf)])
-        lp.row_lower_ = np.concatenate([vectors.row_lower, extra_rhs])
-        lp.row_upper_ = np.concatenate([vectors.row_upper, extra_rhs])
-        lp.a_matrix_.format_ = highspy.MatrixFormat.kColwise
-        lp.a_matrix_.num_col_ = layout.num_cols
-        lp.a_matrix_.num_row_ = layout.num_rows
-        lp.a_matrix_.start_ = matrix.indptr.astype(np.int32)
-        lp.a_matrix_.index_ = matrix.indices.astype(np.int32)
-        lp.a_matrix_.value_ = matrix.data.astype(np.float64)
-        status = self._highs.passModel(lp)
-        if status == highspy.HighsStatus.kError:
+        assert lp.constant is not None
+        matrix = sparse_matrix(lp, lp.constant, keep_varying_zeros=True, csc=True)
+        highs_lp = _highs_lp(
+            lp.cost, matrix, lp.row_lower, lp.row_upper, lp.col_lower, lp.col_upper
+        )
+        if self._highs.passModel(highs_lp) == highspy.HighsStatus.kError:
             raise ProblemError(
                 "HiGHS refused the assembled LP",
                 source="RMPCSolver",
                 hint="check the problem arrays for extreme magnitudes",
             )
-        self._vectors = vectors
+        self._lp = lp
         self._bounds_changed()
-        self._power_coeff = problem.power_coeff_kw_per_kg_s.copy()
-        self._phi = problem.phi.copy()
-        self._sigma = problem.d_sigma.copy()
-        self._core_col_index = np.arange(layout.num_core_cols, dtype=np.int32)
-        self._core_row_index = np.arange(layout.num_core_rows, dtype=np.int32)
 
     def _bounds_changed(self) -> None:
         """Refresh the bound data that basis statuses are derived from (after any update)."""
-        layout, vectors = self._layout, self._vectors
-        extra_cols = layout.num_cols - layout.num_core_cols
-        extra_rows = layout.num_rows - layout.num_core_rows
-        self._col_lower = np.concatenate([vectors.col_lower, np.zeros(extra_cols)])
-        self._col_upper = np.concatenate([vectors.col_upper, np.full(extra_cols, np.inf)])
-        self._col_nonbasic = _nonbasic_status(self._col_lower, self._col_upper)
-        row_lower = np.concatenate([vectors.row_lower, np.zeros(extra_rows)])
-        row_upper = np.concatenate([vectors.row_upper, np.zeros(extra_rows)])
-        self._row_nonbasic = _nonbasic_status(row_lower, row_upper)
+        lp = self._lp
+        self._col_lower, self._col_upper = lp.col_lower, lp.col_upper
+        self._col_nonbasic = nonbasic_status(lp.col_lower, lp.col_upper)
+        self._row_nonbasic = nonbasic_status(lp.row_lower, lp.row_upper)
 
     def _delta(self, problem: RMPCProblem) -> FloatArray:
         if problem.robust == "none":
@@ -470,52 +261,32 @@ class RMPCSolver:
         return np.zeros_like(delta) if problem.robust == "dual" else delta
 
     def _update(self, problem: RMPCProblem, delta: FloatArray) -> None:
-        layout = self._layout
+        """Push the costs, bounds and varying coefficients that differ from the last LP."""
         highs = self._highs
-        vectors = lp_vectors(problem, layout, self._tightening(problem, delta))
-        old = self._vectors
-        changed = np.flatnonzero(vectors.cost != old.cost).astype(np.int32)
+        tightening = self._tightening(problem, delta)
+        lp, _ = build_lp(problem, tightening, responses=self._responses, constants=False)
+        old = self._lp
+        changed = np.flatnonzero(lp.cost != old.cost).astype(np.int32)
         if changed.size:
-            highs.changeColsCost(changed.size, changed, vectors.cost[changed])
+            highs.changeColsCost(changed.size, changed, lp.cost[changed])
         for change_bounds, lower, upper, old_lower, old_upper in (
-            (highs.changeColsBounds, vectors.col_lower, vectors.col_upper,
-             old.col_lower, old.col_upper),
-            (highs.changeRowsBounds, vectors.row_lower, vectors.row_upper,
-             old.row_lower, old.row_upper),
-        ):  # fmt: skip
+            (highs.changeColsBounds, lp.col_lower, lp.col_upper, old.col_lower, old.col_upper),
+            (highs.changeRowsBounds, lp.row_lower, lp.row_upper, old.row_lower, old.row_upper),
+        ):
             changed = np.flatnonzero((lower != old_lower) | (upper != old_upper)).astype(np.int32)
             if changed.size:
                 change_bounds(changed.size, changed, lower[changed], upper[changed])
-        self._vectors = vectors
+        varying = lp.varying
+        moved = np.flatnonzero(varying.values != old.varying.values)
+        for row, col, value in zip(
+            varying.rows[moved].tolist(),
+            varying.cols[moved].tolist(),
+            varying.values[moved].tolist(),
+            strict=True,
+        ):
+            highs.changeCoeff(row, col, value)
+        self._lp = lp
         self._bounds_changed()
-
-        p = problem.power_coeff_kw_per_kg_s
-        steps, inputs = np.nonzero(p != self._power_coeff)
-        if steps.size:
-            rows = layout.row_power[steps].tolist()
-            cols = layout.col_u[steps, inputs].tolist()
-            for row, col, value in zip(rows, cols, (-p[steps, inputs]).tolist(), strict=True):
-                highs.changeCoeff(row, col, value)
-            self._power_coeff = p.copy()
-        phi = problem.phi
-        (steps_phi,) = np.nonzero(phi != self._phi)
-        for step in steps_phi.tolist():
-            highs.changeCoeff(
-                int(layout.row_peak[step]), int(layout.col_power[step]), float(phi[step])
-            )
-        self._phi = phi.copy()
-        if layout.robust == "dual" and not np.array_equal(problem.d_sigma, self._sigma):
-            sigma = problem.d_sigma.ravel()[layout.dual_sigma_index] * layout.dual_sign
-            for row, col_1, col_2, value in zip(
-                layout.dual_rows.tolist(),
-                layout.dual_cols_1.tolist(),
-                layout.dual_cols_2.tolist(),
-                sigma.tolist(),
-                strict=True,
-            ):
-                highs.changeCoeff(row, col_1, value)
-                highs.changeCoeff(row, col_2, value)
-            self._sigma = problem.d_sigma.copy()
 
     # ------------------------------------------------------------------ solve
     def solve(self, problem: RMPCProblem) -> RMPCSolution:
@@ -562,7 +333,7 @@ class RMPCSolver:
             self._has_basis = bool(self._highs.getBasis().valid)
         return self._solution(problem, delta, status, start, highs_time, iterations, warm, values)
 
-    def _start_from(self, col_status: NDArray[np.int8], row_status: NDArray[np.int8]) -> None:
+    def _start_from(self, col_status: StatusArray, row_status: StatusArray) -> None:
         """Pass a basis (rotated by one step if ``time_shift``) to HiGHS for the next run.
 
         Nonbasic statuses that the current bounds do not allow (a bound that became
@@ -571,8 +342,10 @@ class RMPCSolver:
         if self._time_shift:
             col_status = col_status[self._col_rotation]
             row_status = row_status[self._row_rotation]
-        col_status = self._consistent(col_status, self._col_lower, self._col_upper)
-        row_status = np.where(row_status == _BASIC, _BASIC, self._row_nonbasic)
+        col_status = consistent_status(
+            col_status, self._col_lower, self._col_upper, self._col_nonbasic
+        )
+        row_status = np.where(row_status == BASIC, BASIC, self._row_nonbasic)
         basis = highspy.HighsBasis()
         basis.col_status = _HIGHS_BASIS_STATUS.take(col_status).tolist()
         basis.row_status = _HIGHS_BASIS_STATUS.take(row_status).tolist()
@@ -584,36 +357,17 @@ class RMPCSolver:
         else:
             self._has_basis = True
 
-    def _consistent(
-        self, status: NDArray[np.int8], lower: FloatArray, upper: FloatArray
-    ) -> NDArray[np.int8]:
-        bad = ((status == _LOWER) & ~np.isfinite(lower)) | (
-            (status == _UPPER) & ~np.isfinite(upper)
-        )
-        bad |= (status == _ZERO) & (np.isfinite(lower) | np.isfinite(upper))
-        bad |= status > _ZERO
-        if bad.any():
-            status = np.where(bad, self._col_nonbasic, status).astype(np.int8)
-        return status
-
-    def _optimal_basis(self, values: FloatArray) -> tuple[NDArray[np.int8], NDArray[np.int8]]:
-        """Statuses of HiGHS's current (optimal) basis from its basic variables and ``values``.
-
-        A nonbasic column sits at the bound nearer to its value; a nonbasic row at its only
-        finite bound (every row is an equality or one-sided).
-        """
-        lower, upper = self._col_lower, self._col_upper
-        with np.errstate(invalid="ignore"):
-            at_upper = np.isfinite(upper) & (
-                ~np.isfinite(lower) | (values - lower > upper - values)
-            )
-        col_status = np.where(at_upper, _UPPER, self._col_nonbasic).astype(np.int8)
-        row_status = self._row_nonbasic.copy()
+    def _optimal_basis(self, values: FloatArray) -> tuple[StatusArray, StatusArray]:
+        """Statuses of HiGHS's current (optimal) basis (see :func:`optimal_statuses`)."""
         _, basic = self._highs.getBasicVariables()
-        basic = np.asarray(basic)
-        col_status[basic[basic >= 0]] = _BASIC
-        row_status[-1 - basic[basic < 0]] = _BASIC
-        return col_status, row_status
+        return optimal_statuses(
+            values,
+            self._col_lower,
+            self._col_upper,
+            self._col_nonbasic,
+            self._row_nonbasic,
+            np.asarray(basic),
+        )
 
     def _run(self, warm: bool) -> tuple[float, SolveStatus]:
         scale = _WARM_SCALE_STRATEGY if warm else self._cold_scale_strategy
@@ -671,7 +425,6 @@ class RMPCSolver:
         warm: bool,
         values: FloatArray | None,
     ) -> RMPCSolution:
-        layout = self._layout
         message = self._message(problem, delta, status, iterations)
         if values is None:
             return failed_solution(
@@ -684,22 +437,11 @@ class RMPCSolver:
                 simplex_iterations=iterations,
                 warm_start=warm,
             )
-        r = np.zeros((layout.horizon, layout.m))
-        r[:, layout.reserve_inputs] = np.maximum(values[layout.col_r], 0.0)
-        x_served = np.vstack([problem.x0, values[layout.col_x]])
-        x_curtailed = (
-            np.vstack([problem.x0, values[layout.col_z]]) if layout.has_curtailed else x_served
-        )
         return plan_solution(
             problem,
             status=status,
             message=message,
-            u=values[layout.col_u],
-            r=r,
-            slack=np.maximum(values[layout.col_eps], 0.0),
-            peak_charge_sgd=float(values[layout.col_beta]),
-            x_served=x_served,
-            x_curtailed=x_curtailed,
+            plan=plan_from_values(problem, self._layout.plan, values),
             delta=delta,
             start=start,
             highs_time_s=highs_time,
@@ -740,38 +482,128 @@ class RMPCSolver:
         ProblemError
             if the basis belongs to another structure or HiGHS rejects it.
         """
-        if (
-            basis.fingerprint != self._fingerprint
-            or basis.col_status.size != self.num_cols
-            or basis.row_status.size != self.num_rows
-        ):
-            raise ProblemError(
-                "the basis was saved from a solver with another problem structure",
-                source="RMPCSolver",
-                field="basis",
-                hint="restore a basis only into a solver built for the same A, B, E, C, N, "
-                "reserve mask and robust mode",
-            )
-        col_status = np.asarray(basis.col_status, dtype=np.int8)
-        row_status = np.asarray(basis.row_status, dtype=np.int8)
-        num_basic = int(
-            np.count_nonzero(col_status == _BASIC) + np.count_nonzero(row_status == _BASIC)
-        )
-        if (
-            num_basic != self.num_rows
-            or min(col_status.min(), row_status.min()) < 0
-            or max(col_status.max(), row_status.max()) > _ZERO + 1
-        ):
-            raise ProblemError(
-                f"not a simplex basis: {num_basic} basic variables for {self.num_rows} rows, "
-                "or status codes outside 0..4",
-                source="RMPCSolver",
-                field="basis",
-                hint="pass a basis from get_basis(), or solve cold",
-            )
-        self._basis = (col_status.copy(), row_status.copy())
+        self._basis = checked_basis(basis, self._fingerprint, self.num_cols, self.num_rows)
         self._basis_given = True
         self._has_basis = True
+
+
+class FeedbackSolver:
+    """Solver for ``robust="feedback"`` problems of one structure; mirrors :class:`RMPCSolver`.
+
+    The structural coefficients of the LP (gains, Ψ and Y rows, dynamics) are assembled once;
+    each :meth:`solve` rebuilds the rest (σ-, p- and φ-dependent rows, costs, bounds) and
+    solves the LP cold with HiGHS (:func:`solve_lp`). No simplex basis is kept:
+    :meth:`get_basis` returns None.
+
+    Parameters
+    ----------
+    problem : the first problem (``robust="feedback"``); fixes A, B, E, C, N, mask, options
+    time_limit_s : wall-clock limit per solve [s]; None = no limit
+    method : HiGHS algorithm, "simplex" (default), "ipm" or "choose"
+    """
+
+    def __init__(
+        self,
+        problem: RMPCProblem,
+        *,
+        time_limit_s: float | None = None,
+        method: str = DEFAULT_LP_METHOD,
+    ) -> None:
+        if problem.robust != "feedback" or problem.feedback is None:
+            raise ProblemError(
+                "FeedbackSolver needs a problem with robust='feedback'",
+                source="FeedbackSolver",
+                field="robust",
+                value=problem.robust,
+                hint="use RMPCSolver for the open-loop modes",
+            )
+        check_time_limit(time_limit_s, source="FeedbackSolver")
+        self._time_limit_s = time_limit_s
+        self._method = method
+        self._structure = problem.structure
+        self._options: FeedbackOptions = problem.feedback
+        self._maps = feedback_maps(problem, self._options)
+        first, _, _ = build_feedback_lp(problem, self._maps)
+        assert first.constant is not None
+        self._constant = first.constant
+        self.last_size: FeedbackLPSize | None = None
+
+    def solve(self, problem: RMPCProblem) -> RMPCSolution:
+        """Solve ``problem`` (same structure and feedback options as the solver's).
+
+        Raises
+        ------
+        ProblemError
+            if ``problem`` has another structure or other feedback options.
+        """
+        start = time.perf_counter()
+        differences = self._structure.differences(problem.structure)
+        if problem.feedback != self._options:
+            differences.append("feedback")
+        if differences:
+            raise ProblemError(
+                f"the problem's structure differs from the solver's in {differences}",
+                source="FeedbackSolver",
+                field=differences[0],
+                hint="build a new FeedbackSolver for a problem with another structure",
+            )
+        lp, plan_cols, feedback_cols = build_feedback_lp(problem, self._maps, constants=False)
+        matrix = sparse_matrix(lp, self._constant, keep_varying_zeros=False, csc=False)
+        size = FeedbackLPSize(
+            num_cols=lp.num_cols,
+            num_rows=lp.num_rows,
+            num_nonzeros=int(matrix.nnz),
+            num_gains=self._maps.gains.num_gains,
+        )
+        self.last_size = size
+        result = solve_lp(
+            lp.cost,
+            matrix,
+            lp.row_lower,
+            lp.row_upper,
+            lp.col_lower,
+            lp.col_upper,
+            time_limit_s=self._time_limit_s,
+            method=self._method,
+        )
+        where = (
+            f"feedback LP '{self._options.structure}' ({size.num_rows} rows, {size.num_cols} "
+            f"columns, {size.num_nonzeros} nonzeros)"
+        )
+        return feedback_solution(
+            problem,
+            self._maps,
+            (plan_cols, feedback_cols),
+            status=result.status,
+            values=result.x,
+            message=f"{where}; {result.message}",
+            start=start,
+            highs_time_s=result.time_s,
+        )
+
+    def gains_tensor(self, theta: FloatArray, horizon: int, m: int, nd: int) -> FloatArray:
+        """(N, N, m, nd) gains ``U_{k,j}`` from the gain values Θ (see
+        :func:`hvacflex.opt.feedback.gains_tensor`)."""
+        return gains_tensor(self._maps, theta, horizon, m, nd)
+
+    def output_response(self, tensor: FloatArray) -> FloatArray:
+        """(N, N, ny, nd) output response ``Y[k-1, j]`` under the gains ``tensor`` (see
+        :func:`hvacflex.opt.feedback.output_response`)."""
+        return output_response(self._maps, tensor)
+
+    def get_basis(self) -> SolverBasis | None:
+        """None: the feedback LP is solved cold every step (its size changes with σ, φ)."""
+        return None
+
+    def set_basis(self, basis: SolverBasis) -> None:
+        """Refuse: a feedback solver keeps no basis (:meth:`get_basis` returns None)."""
+        raise ProblemError(
+            "a FeedbackSolver keeps no simplex basis",
+            source="FeedbackSolver",
+            field="basis",
+            value=basis.fingerprint[:12],
+            hint="the basis was saved by an open-loop RMPCSolver; resume with the same robust mode",
+        )
 
 
 def solve_rmpc(problem: RMPCProblem, *, time_limit_s: float | None = None) -> RMPCSolution:
@@ -785,11 +617,9 @@ def solve_rmpc(problem: RMPCProblem, *, time_limit_s: float | None = None) -> RM
     Returns
     -------
     :class:`RMPCSolution`; check ``sol.status`` (arrays are NaN unless OPTIMAL).
-    ``robust="feedback"`` problems go to :class:`hvacflex.opt.feedback.FeedbackSolver`.
+    ``robust="feedback"`` problems go to :class:`FeedbackSolver`.
     """
     if problem.robust == "feedback":
-        from hvacflex.opt.feedback import FeedbackSolver  # imports this module
-
         return FeedbackSolver(problem, time_limit_s=time_limit_s).solve(problem)
     return RMPCSolver(problem, time_limit_s=time_limit_s).solve(problem)
 
@@ -819,8 +649,8 @@ def solve_lp(
 ) -> LPResult:
     """Solve ``min costᵀx s.t. row_lower ≤ A x ≤ row_upper, col_lower ≤ x ≤ col_upper`` cold.
 
-    A generic one-shot HiGHS call for LPs assembled elsewhere (the affine-feedback problem of
-    :mod:`hvacflex.opt.feedback`); single-threaded and silent like :class:`RMPCSolver`.
+    A generic one-shot HiGHS call (used by :class:`FeedbackSolver`); single-threaded and
+    silent like :class:`RMPCSolver`.
 
     Parameters
     ----------
@@ -844,23 +674,10 @@ def solve_lp(
         ("time_limit", float(time_limit_s) if time_limit_s is not None else np.inf),
     ):
         highs.setOptionValue(option, value)
-    num_rows, num_cols = a_csr.shape
-    lp = highspy.HighsLp()
-    lp.num_col_ = num_cols
-    lp.num_row_ = num_rows
-    lp.col_cost_ = np.asarray(cost, dtype=np.float64)
-    lp.col_lower_ = np.asarray(col_lower, dtype=np.float64)
-    lp.col_upper_ = np.asarray(col_upper, dtype=np.float64)
-    lp.row_lower_ = np.asarray(row_lower, dtype=np.float64)
-    lp.row_upper_ = np.asarray(row_upper, dtype=np.float64)
-    lp.a_matrix_.format_ = highspy.MatrixFormat.kRowwise
-    lp.a_matrix_.num_col_ = num_cols
-    lp.a_matrix_.num_row_ = num_rows
-    lp.a_matrix_.start_ = a_csr.indptr.astype(np.int32)
-    lp.a_matrix_.index_ = a_csr.indices.astype(np.int32)
-    lp.a_matrix_.value_ = a_csr.data.astype(np.float64)
+    num_cols = a_csr.shape[1]
+    lp = _highs_lp(cost, a_csr, row_lower, row_upper, col_lower, col_upper)
     if highs.passModel(lp) == highspy.HighsStatus.kError:
-        return LPResult(SolveStatus.ERROR, _nan((num_cols,)), "HiGHS refused the LP", 0.0)
+        return LPResult(SolveStatus.ERROR, np.full(num_cols, np.nan), "HiGHS refused the LP", 0.0)
     tick = time.perf_counter()
     run_status = highs.run()
     elapsed = time.perf_counter() - tick
@@ -876,5 +693,5 @@ def solve_lp(
         f"iterations)"
     )
     if not status.ok:
-        return LPResult(status, _nan((num_cols,)), message, elapsed)
+        return LPResult(status, np.full(num_cols, np.nan), message, elapsed)
     return LPResult(status, np.asarray(highs.getSolution().col_value), message, elapsed)

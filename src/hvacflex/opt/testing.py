@@ -1,4 +1,10 @@
-"""Seeded random RMPC problems for the tests: small, stable, Metzler (A ≥ 0, B ≤ 0)."""
+"""Seeded random RMPC problems for tests and benchmarks: small, stable, Metzler (A ≥ 0, B ≤ 0).
+
+Public so that ``tests/`` and ``benchmarks/`` share one generator:
+
+>>> from hvacflex.opt.testing import random_problem
+>>> problem = random_problem(0, horizon=8)
+"""
 
 from __future__ import annotations
 
@@ -7,7 +13,7 @@ from typing import Any
 import numpy as np
 from scipy.linalg import expm
 
-from hvacflex.opt import RMPCProblem
+from hvacflex.opt.problem import RMPCProblem
 
 
 def random_model(
@@ -31,18 +37,33 @@ def random_model(
     if nd > 1:
         e_cont[:, 1:] = rng.uniform(0.0, 1.0, (n, nd - 1)) / cap[:, None]
     g_cont = rng.uniform(-1.0, 0.5, n) / cap  # K/h (linearisation constant)
+    return zoh_discretise(a_cont, b_cont, e_cont, g_cont, dt_h)
+
+
+def zoh_discretise(
+    a_cont: np.ndarray, b_cont: np.ndarray, e_cont: np.ndarray, g_cont: np.ndarray, dt: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Exact (zero-order hold) discretisation of ``ẋ = A x + B u + E d + g`` over ``dt``.
+
+    Parameters
+    ----------
+    a_cont, b_cont, e_cont : (n,n), (n,m), (n,nd) continuous-time matrices [per time unit]
+    g_cont : (n,) constant term [K per time unit]
+    dt : step, in the time unit of the matrices
+
+    Returns
+    -------
+    (A, B, E, g) of ``x+ = A x + B u + E d + g``.
+    """
+    n, m, nd = a_cont.shape[0], b_cont.shape[1], e_cont.shape[1]
     size = n + m + nd + 1
     aug = np.zeros((size, size))
     aug[:n, :n] = a_cont
     aug[:n, n : n + m] = b_cont
     aug[:n, n + m : n + m + nd] = e_cont
     aug[:n, -1] = g_cont
-    phi = expm(aug * dt_h)
-    a = phi[:n, :n]
-    b = phi[:n, n : n + m]
-    e = phi[:n, n + m : n + m + nd]
-    g = phi[:n, -1]
-    return a, b, e, g
+    phi = expm(aug * dt)
+    return phi[:n, :n], phi[:n, n : n + m], phi[:n, n + m : n + m + nd], phi[:n, -1]
 
 
 def random_problem(

@@ -1,0 +1,470 @@
+"""The open-loop RMPC as a sparse LP: one function per constraint family, one index allocator.
+
+:class:`LPBuilder` hands out column and row index ranges and collects bounds, costs and
+coefficients; every ``add_…`` function below adds one family of variables or constraints
+(PyPSA/linopy manner) and says in its docstring which rows it adds. :func:`build_lp` calls
+them in order; the affine-feedback LP (:mod:`hvacflex.opt.feedback`) reuses the shared ones
+(plan variables, dynamics, comfort, plan costs) over the same builder. A new constraint family
+is one more ``add_…`` function, called from :func:`build_lp`, plus a test.
+
+Sparse LP (state-space form)
+----------------------------
+States stay variables, so the constraint matrix is banded and ``x_0``, ``d̂``, ``g``, bounds
+and prices enter only right-hand sides, bounds and costs. Columns, in order:
+``x_1..x_N`` (N·n), ``z_1..z_N`` (N·n, only if some input carries reserve), ``u`` (N·m),
+``r`` (N·m_r, reserve-carrying inputs only), ``ε`` (N·ny), ``P`` (N), ``β`` (1), then the
+dual λ's. Rows: served and curtailed dynamics (N·n each, equalities), comfort upper/lower
+rows per trajectory (N·ny each), ``u − r ≥ u_min`` (N·m_r), power definition (N,
+coefficients ``−p_k`` change every step), peak rows ``φ_k P_k − β ≤ 0`` (N), and in the dual
+form one equality ``λ₁ − λ₂ = ±h`` per (robust row, disturbance entry).
+
+Constant and varying coefficients
+---------------------------------
+Coefficients that depend only on the problem's structure (A, B, E, C, N, mask) are
+*constant*: a builder made with ``constants=False`` skips them, so a receding-horizon solver
+rebuilds costs, bounds and the few step-varying coefficients (``p_k``, ``φ_k``, σ in the dual
+form) every step without re-assembling the matrix. Varying coefficients are kept even when
+zero, so that their positions in the matrix are known and can be updated in place.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import sparse
+
+from hvacflex.opt import robust as robust_mod
+from hvacflex.opt.options import RESERVE_TIE_BREAK_SGD_PER_KG_S_HOUR
+from hvacflex.opt.problem import FloatArray, IntArray, RMPCProblem
+from hvacflex.units import KWH_PER_MWH
+
+__all__ = [
+    "LPBuilder",
+    "LPLayout",
+    "LinearProgram",
+    "PlanColumns",
+    "Triplets",
+    "add_comfort_with_margins",
+    "add_curtailed_dynamics",
+    "add_dual_robust_rows",
+    "add_flow_and_reserve_bounds",
+    "add_peak_epigraph",
+    "add_plan_variables",
+    "add_power_definition",
+    "add_served_dynamics",
+    "build_lp",
+    "dynamics_rhs",
+    "set_objective",
+    "set_plan_costs",
+    "sparse_matrix",
+]
+
+
+@dataclass(frozen=True, eq=False)
+class Triplets:
+    """Coefficients ``A[rows[i], cols[i]] = values[i]`` (flat arrays of equal length)."""
+
+    rows: IntArray
+    cols: IntArray
+    values: FloatArray
+
+    @staticmethod
+    def join(parts: list[tuple[IntArray, IntArray, FloatArray]]) -> Triplets:
+        """Concatenate (rows, cols, values) blocks."""
+        if not parts:
+            empty = np.zeros(0, dtype=np.int64)
+            return Triplets(empty, empty, np.zeros(0))
+        return Triplets(
+            np.concatenate([p[0] for p in parts]),
+            np.concatenate([p[1] for p in parts]),
+            np.concatenate([p[2] for p in parts]),
+        )
+
+
+@dataclass(frozen=True, eq=False)
+class LinearProgram:
+    """``min costᵀx  s.t.  row_lower ≤ A x ≤ row_upper,  col_lower ≤ x ≤ col_upper``.
+
+    ``constant`` holds the structural coefficients (None if the builder skipped them),
+    ``varying`` the step-varying ones in a fixed order (zeros kept). ``time_cols`` and
+    ``time_rows`` are the blocks whose first axis is the step k (for the warm start's
+    time shift).
+    """
+
+    num_cols: int
+    num_rows: int
+    cost: FloatArray
+    col_lower: FloatArray
+    col_upper: FloatArray
+    row_lower: FloatArray
+    row_upper: FloatArray
+    constant: Triplets | None
+    varying: Triplets
+    time_cols: tuple[IntArray, ...]
+    time_rows: tuple[IntArray, ...]
+
+
+def sparse_matrix(
+    lp: LinearProgram, constant: Triplets, *, keep_varying_zeros: bool, csc: bool
+) -> sparse.csc_matrix | sparse.csr_matrix:
+    """The constraint matrix (num_rows × num_cols) from ``constant`` and ``lp.varying``.
+
+    Explicit zeros are dropped, except varying ones if ``keep_varying_zeros`` (so that an
+    in-place update finds them). CSC with sorted indices if ``csc``, else CSR.
+    """
+    keep = constant.values != 0.0
+    rows, cols, values = constant.rows[keep], constant.cols[keep], constant.values[keep]
+    varying = lp.varying
+    keep_v = np.ones(varying.values.size, dtype=bool)
+    if not keep_varying_zeros:
+        keep_v = varying.values != 0.0
+    rows = np.concatenate([rows, varying.rows[keep_v]])
+    cols = np.concatenate([cols, varying.cols[keep_v]])
+    values = np.concatenate([values, varying.values[keep_v]])
+    shape = (lp.num_rows, lp.num_cols)
+    if csc:
+        matrix = sparse.csc_matrix((values, (rows, cols)), shape=shape, dtype=np.float64)
+        matrix.sort_indices()
+        return matrix
+    return sparse.csr_matrix((values, (rows, cols)), shape=shape)
+
+
+_Assignment = tuple[IntArray, FloatArray | float, FloatArray | float]
+
+
+class LPBuilder:
+    """Hands out column and row index ranges; collects bounds, costs and coefficients.
+
+    Parameters
+    ----------
+    constants : record the constant (structural) coefficients; False for a rebuild that
+        only needs costs, bounds and the varying coefficients
+    """
+
+    def __init__(self, *, constants: bool = True) -> None:
+        self.records_constants = constants
+        self.num_cols = 0
+        self.num_rows = 0
+        self._cols: list[_Assignment] = []
+        self._rows: list[_Assignment] = []
+        self._costs: list[tuple[IntArray, FloatArray | float]] = []
+        self._constant: list[tuple[IntArray, IntArray, FloatArray]] = []
+        self._varying: list[tuple[IntArray, IntArray, FloatArray]] = []
+        self._time_cols: list[IntArray] = []
+        self._time_rows: list[IntArray] = []
+
+    @staticmethod
+    def _take(start: int, shape: tuple[int, ...]) -> IntArray:
+        size = math.prod(shape)
+        return np.arange(start, start + size, dtype=np.int64).reshape(shape)
+
+    def add_columns(
+        self,
+        shape: tuple[int, ...],
+        *,
+        lower: FloatArray | float = -np.inf,
+        upper: FloatArray | float = np.inf,
+        time_indexed: bool = False,
+    ) -> IntArray:
+        """A new block of variables shaped ``shape`` with bounds (broadcast); its indices."""
+        index = self._take(self.num_cols, shape)
+        self.num_cols += index.size
+        self._cols.append((index, lower, upper))
+        if time_indexed:
+            self._time_cols.append(index)
+        return index
+
+    def add_rows(
+        self,
+        shape: tuple[int, ...],
+        *,
+        lower: FloatArray | float = -np.inf,
+        upper: FloatArray | float = np.inf,
+        time_indexed: bool = False,
+    ) -> IntArray:
+        """A new block of constraints ``lower ≤ row ≤ upper`` shaped ``shape``; its indices."""
+        index = self._take(self.num_rows, shape)
+        self.num_rows += index.size
+        self._rows.append((index, lower, upper))
+        if time_indexed:
+            self._time_rows.append(index)
+        return index
+
+    def set_cost(self, cols: IntArray, cost: FloatArray | float) -> None:
+        """Objective coefficients of ``cols`` (broadcast; later calls win)."""
+        self._costs.append((cols, cost))
+
+    def add_coefficients(self, rows: object, cols: object, values: object) -> None:
+        """Constant coefficients (broadcast together); skipped if not ``records_constants``."""
+        if self.records_constants:
+            self._constant.append(_broadcast(rows, cols, values))
+
+    def add_varying_coefficients(self, rows: object, cols: object, values: object) -> None:
+        """Coefficients that change from step to step (broadcast together; zeros kept)."""
+        self._varying.append(_broadcast(rows, cols, values))
+
+    def finish(self) -> LinearProgram:
+        """The LP collected so far."""
+        cost = np.zeros(self.num_cols)
+        col_lower = np.full(self.num_cols, -np.inf)
+        col_upper = np.full(self.num_cols, np.inf)
+        row_lower = np.full(self.num_rows, -np.inf)
+        row_upper = np.full(self.num_rows, np.inf)
+        for index, lower, upper in self._cols:
+            col_lower[index] = lower
+            col_upper[index] = upper
+        for index, lower, upper in self._rows:
+            row_lower[index] = lower
+            row_upper[index] = upper
+        for index, value in self._costs:
+            cost[index] = value
+        return LinearProgram(
+            num_cols=self.num_cols,
+            num_rows=self.num_rows,
+            cost=cost,
+            col_lower=col_lower,
+            col_upper=col_upper,
+            row_lower=row_lower,
+            row_upper=row_upper,
+            constant=Triplets.join(self._constant) if self.records_constants else None,
+            varying=Triplets.join(self._varying),
+            time_cols=tuple(self._time_cols),
+            time_rows=tuple(self._time_rows),
+        )
+
+
+def _broadcast(rows: object, cols: object, values: object) -> tuple[IntArray, IntArray, FloatArray]:
+    r, c, v = np.broadcast_arrays(np.asarray(rows), np.asarray(cols), np.asarray(values))
+    return (
+        r.ravel().astype(np.int64),
+        c.ravel().astype(np.int64),
+        v.ravel().astype(np.float64),
+    )
+
+
+# ---------------------------------------------------------------------- shared families
+
+
+@dataclass(frozen=True, eq=False)
+class PlanColumns:
+    """Columns of the plan that both LPs share (index arrays shaped like the quantity).
+
+    ``z`` is the curtailed trajectory; it is ``x`` itself when no input carries reserve.
+    ``power`` is (N,) in the open-loop LP and empty in the feedback LP.
+    """
+
+    x: IntArray  # (N, n)
+    z: IntArray  # (N, n)
+    u: IntArray  # (N, m)
+    r: IntArray  # (N, m_r)
+    eps: IntArray  # (N, ny)
+    power: IntArray  # (N,) or (0,)
+    beta: int
+    reserve_inputs: IntArray  # (m_r,)
+
+    @property
+    def has_curtailed(self) -> bool:
+        """Whether a separate curtailed trajectory exists (some input carries reserve)."""
+        return self.reserve_inputs.size > 0
+
+
+def add_plan_variables(lp: LPBuilder, p: RMPCProblem, *, power_column: bool) -> PlanColumns:
+    """States x, z [°C], flows u ∈ [u_min, u_max], reserve r ∈ [0, u_max − u_min] [kg/s],
+    slack 0 ≤ ε ≤ ε_max [K], power P [kW] (if ``power_column``), peak charge β ≥ φ·floor."""
+    horizon = p.horizon
+    reserve_inputs = np.flatnonzero(np.asarray(p.reserve_mask, dtype=bool)).astype(np.int64)
+    x = lp.add_columns((horizon, p.n), time_indexed=True)
+    z = lp.add_columns((horizon, p.n), time_indexed=True) if reserve_inputs.size else x
+    u = lp.add_columns((horizon, p.m), lower=p.u_min, upper=p.u_max, time_indexed=True)
+    r = lp.add_columns(
+        (horizon, reserve_inputs.size),
+        lower=0.0,
+        upper=(p.u_max - p.u_min)[:, reserve_inputs],
+        time_indexed=True,
+    )
+    slack_max = np.inf if p.slack_max_kelvin is None else p.slack_max_kelvin
+    eps = lp.add_columns((horizon, p.ny), lower=0.0, upper=slack_max, time_indexed=True)
+    power = lp.add_columns((horizon if power_column else 0,), time_indexed=True)
+    beta = int(lp.add_columns((1,), lower=float(p.phi[0]) * p.peak_floor_kw)[0])
+    return PlanColumns(x, z, u, r, eps, power, beta, reserve_inputs)
+
+
+def dynamics_rhs(p: RMPCProblem) -> FloatArray:
+    """(N, n) right-hand sides of the dynamics rows ``x_{k+1} − A x_k − B u_k = E d̂_k + g``
+    (for k = 0 also ``+ A x_0``) [K]."""
+    rhs: FloatArray = p.d_forecast @ p.e_matrix.T + p.g
+    rhs[0] += p.a_matrix @ p.x0
+    return rhs
+
+
+def _add_dynamics(lp: LPBuilder, p: RMPCProblem, state: IntArray, v: PlanColumns) -> IntArray:
+    rhs = dynamics_rhs(p)
+    rows = lp.add_rows((p.horizon, p.n), lower=rhs, upper=rhs, time_indexed=True)
+    lp.add_coefficients(rows[:, :, None], state[:, None, :], np.eye(p.n)[None])
+    lp.add_coefficients(rows[1:, :, None], state[:-1, None, :], -p.a_matrix[None])
+    lp.add_coefficients(rows[:, :, None], v.u[:, None, :], -p.b_matrix[None])
+    return rows
+
+
+def add_served_dynamics(lp: LPBuilder, p: RMPCProblem, v: PlanColumns) -> None:
+    """x_{k+1} = A x_k + B u_k + E d̂_k + g, k = 0..N-1 (N·n equality rows)."""
+    _add_dynamics(lp, p, v.x, v)
+
+
+def add_curtailed_dynamics(lp: LPBuilder, p: RMPCProblem, v: PlanColumns) -> None:
+    """z_{k+1} = A z_k + B (u_k − r_k) + E d̂_k + g, z_0 = x_0 (N·n equality rows; none
+    when no input carries reserve)."""
+    if not v.has_curtailed:
+        return
+    rows = _add_dynamics(lp, p, v.z, v)
+    b_reserve = p.b_matrix[:, v.reserve_inputs]
+    lp.add_coefficients(rows[:, :, None], v.r[:, None, :], b_reserve[None])
+
+
+def add_comfort_with_margins(
+    lp: LPBuilder,
+    p: RMPCProblem,
+    v: PlanColumns,
+    margin_k: FloatArray,
+    margin_cols: IntArray | None = None,
+) -> list[tuple[IntArray, float]]:
+    """C x_k − ε_k ≤ y_max − δ_k and C x_k + ε_k ≥ y_min + δ_k for each trajectory, k = 1..N
+    (2·N·ny rows per trajectory, upper rows first).
+
+    ``margin_k`` (N, ny) are constant margins δ [K]; ``margin_cols`` (N, ny), if given, are
+    margin *variables* added as ``+δ`` on the upper and ``−δ`` on the lower rows. Returns the
+    row blocks (N, ny) with their sign (+1 upper, −1 lower).
+    """
+    trajectories = [v.x, v.z] if v.has_curtailed else [v.x]
+    shape = (p.horizon, p.ny)
+    blocks: list[tuple[IntArray, float]] = []
+    for state in trajectories:
+        upper = lp.add_rows(shape, upper=p.y_max - margin_k, time_indexed=True)
+        lower = lp.add_rows(shape, lower=p.y_min + margin_k, time_indexed=True)
+        for rows, sign in ((upper, 1.0), (lower, -1.0)):
+            lp.add_coefficients(rows[:, :, None], state[:, None, :], p.c_matrix[None])
+            lp.add_coefficients(rows, v.eps, -sign)
+            if margin_cols is not None:
+                lp.add_coefficients(rows, margin_cols, sign)
+            blocks.append((rows, sign))
+    return blocks
+
+
+def set_plan_costs(lp: LPBuilder, p: RMPCProblem, v: PlanColumns) -> None:
+    """Objective terms both LPs share: −reserve revenue (plus the tie-break) on r, ρ·Δt on ε,
+    1 on β [SGD]; the energy cost sits on P (open loop) or on u (feedback)."""
+    dt = p.dt_h
+    reserve_kw_per_kg_s = p.power_coeff_kw_per_kg_s[:, v.reserve_inputs]
+    lp.set_cost(
+        v.r,
+        -dt * p.reserve_price_sgd_per_mwh[:, None] * reserve_kw_per_kg_s / KWH_PER_MWH
+        + dt * RESERVE_TIE_BREAK_SGD_PER_KG_S_HOUR,
+    )
+    lp.set_cost(v.eps, p.comfort_penalty_sgd_per_kelvin_hour * dt)
+    lp.set_cost(np.array(v.beta), 1.0)
+
+
+# ---------------------------------------------------------------------- open-loop families
+
+
+def add_flow_and_reserve_bounds(lp: LPBuilder, p: RMPCProblem, v: PlanColumns) -> None:
+    """u_k − r_k ≥ u_min on reserve-carrying inputs (N·m_r rows; u ≤ u_max and r ≥ 0 are
+    column bounds)."""
+    rows = lp.add_rows(
+        (p.horizon, v.reserve_inputs.size),
+        lower=p.u_min[:, v.reserve_inputs],
+        time_indexed=True,
+    )
+    lp.add_coefficients(rows, v.u[:, v.reserve_inputs], 1.0)
+    lp.add_coefficients(rows, v.r, -1.0)
+
+
+def add_power_definition(lp: LPBuilder, p: RMPCProblem, v: PlanColumns) -> None:
+    """P_k − p_k·u_k = p0_k [kW] (N rows; −p_k varies from step to step)."""
+    rows = lp.add_rows(
+        (p.horizon,), lower=p.power_offset_kw, upper=p.power_offset_kw, time_indexed=True
+    )
+    lp.add_coefficients(rows, v.power, 1.0)
+    lp.add_varying_coefficients(rows[:, None], v.u, -p.power_coeff_kw_per_kg_s)
+
+
+def add_peak_epigraph(lp: LPBuilder, p: RMPCProblem, v: PlanColumns) -> None:
+    """φ_k P_k − β ≤ 0 (N rows; φ_k varies from step to step)."""
+    rows = lp.add_rows((p.horizon,), upper=0.0, time_indexed=True)
+    lp.add_varying_coefficients(rows, v.power, p.phi)
+    lp.add_coefficients(rows, np.array(v.beta), -1.0)
+
+
+def add_dual_robust_rows(
+    lp: LPBuilder, p: RMPCProblem, comfort_rows: list[tuple[IntArray, float]], responses: FloatArray
+) -> None:
+    """The paper's explicit dual (eq. 12–13): for every robust comfort row and disturbance
+    entry a pair λ₁, λ₂ ≥ 0 with ``λ₁ − λ₂ = ±h`` and ``σ (λ₁ + λ₂)`` added to the row.
+
+    ``comfort_rows`` are (row block (N, ny), sign) pairs, +1 for upper and −1 for lower rows;
+    ``responses`` (N, ny, nd) the impulse responses ``C A^l E``. The σ coefficients vary.
+    """
+    step, output, dist_step, channel, h = robust_mod.dual_row_entries(responses)
+    entries = step.size
+    for row_block, sign in comfort_rows:
+        rows = row_block[step, output]
+        sigma = p.d_sigma[dist_step, channel] * sign
+        lambda_1 = lp.add_columns((entries,), lower=0.0)
+        lambda_2 = lp.add_columns((entries,), lower=0.0)
+        lp.add_varying_coefficients(rows, lambda_1, sigma)
+        lp.add_varying_coefficients(rows, lambda_2, sigma)
+        equalities = lp.add_rows((entries,), lower=h * sign, upper=h * sign)
+        lp.add_coefficients(equalities, lambda_1, 1.0)
+        lp.add_coefficients(equalities, lambda_2, -1.0)
+
+
+def set_objective(lp: LPBuilder, p: RMPCProblem, v: PlanColumns) -> None:
+    """Energy cost Δt·c_k·P_k on P plus the shared plan costs (:func:`set_plan_costs`) [SGD]."""
+    set_plan_costs(lp, p, v)
+    lp.set_cost(v.power, p.dt_h * p.energy_price_sgd_per_mwh / KWH_PER_MWH)
+
+
+@dataclass(frozen=True, eq=False)
+class LPLayout:
+    """The open-loop LP's plan columns and sizes (for extracting a solution)."""
+
+    plan: PlanColumns
+    num_cols: int
+    num_rows: int
+
+    @property
+    def has_curtailed(self) -> bool:
+        """Whether a separate curtailed trajectory exists (some input carries reserve)."""
+        return self.plan.has_curtailed
+
+
+def build_lp(
+    p: RMPCProblem,
+    margin_k: FloatArray,
+    *,
+    responses: FloatArray | None = None,
+    constants: bool = True,
+) -> tuple[LinearProgram, LPLayout]:
+    """The open-loop LP of ``p`` with comfort margins ``margin_k`` (N, ny) [K].
+
+    In the dual form (``p.robust == "dual"``) pass ``margin_k = 0`` and the impulse
+    ``responses`` (N, ny, nd): the λ's carry the robustness. ``constants=False`` skips the
+    constant coefficients (see the module docstring).
+    """
+    lp = LPBuilder(constants=constants)
+    v = add_plan_variables(lp, p, power_column=True)
+    add_served_dynamics(lp, p, v)
+    add_curtailed_dynamics(lp, p, v)
+    comfort_rows = add_comfort_with_margins(lp, p, v, margin_k)
+    add_flow_and_reserve_bounds(lp, p, v)
+    add_power_definition(lp, p, v)
+    add_peak_epigraph(lp, p, v)
+    if p.robust == "dual":
+        if responses is None:
+            responses = robust_mod.impulse_responses(p.a_matrix, p.e_matrix, p.c_matrix, p.horizon)
+        add_dual_robust_rows(lp, p, comfort_rows, responses)
+    set_objective(lp, p, v)
+    program = lp.finish()
+    return program, LPLayout(v, program.num_cols, program.num_rows)

@@ -1,0 +1,58 @@
+"""The LP builder: index allocation, constant vs varying coefficients, layout sizes."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from hvacflex.opt.lp import LPBuilder, build_lp, sparse_matrix
+from hvacflex.opt.testing import random_problem
+
+
+def test_builder_hands_out_consecutive_ranges_and_bounds() -> None:
+    lp = LPBuilder()
+    x = lp.add_columns((3, 2), lower=0.0, upper=np.array([1.0, 2.0]), time_indexed=True)
+    y = lp.add_columns((1,))
+    rows = lp.add_rows((2,), lower=np.array([-1.0, 0.0]), upper=5.0)
+    lp.add_coefficients(rows[:, None], x[:2], 1.0)
+    lp.add_varying_coefficients(rows, y, np.array([0.0, 3.0]))
+    lp.set_cost(x, 2.0)
+    program = lp.finish()
+    assert x.tolist() == [[0, 1], [2, 3], [4, 5]] and y.tolist() == [6]
+    assert (program.num_cols, program.num_rows) == (7, 2)
+    np.testing.assert_array_equal(program.col_upper, [1, 2, 1, 2, 1, 2, np.inf])
+    np.testing.assert_array_equal(program.row_lower, [-1.0, 0.0])
+    np.testing.assert_array_equal(program.cost, [2, 2, 2, 2, 2, 2, 0])
+    assert [block.tolist() for block in program.time_cols] == [x.tolist()]
+    assert program.constant is not None
+    kept = sparse_matrix(program, program.constant, keep_varying_zeros=True, csc=True)
+    dropped = sparse_matrix(program, program.constant, keep_varying_zeros=False, csc=False)
+    assert kept.nnz == 4 + 2 and dropped.nnz == 4 + 1
+    np.testing.assert_array_equal(kept.toarray(), dropped.toarray())
+
+
+def test_rebuild_without_constants_gives_the_same_vectors() -> None:
+    for robust in ("tightening", "dual"):
+        prob = random_problem(2, robust=robust, peak_price_sgd_per_kw=np.linspace(0, 2, 8))
+        margin = np.full((prob.horizon, prob.ny), 0.1)
+        full, layout = build_lp(prob, margin)
+        rebuilt, _ = build_lp(prob, margin, constants=False)
+        assert full.constant is not None and full.constant.values.size > 0
+        assert rebuilt.constant is None
+        for name in ("cost", "col_lower", "col_upper", "row_lower", "row_upper"):
+            np.testing.assert_array_equal(getattr(full, name), getattr(rebuilt, name))
+        np.testing.assert_array_equal(full.varying.values, rebuilt.varying.values)
+        assert full.num_cols == layout.num_cols
+
+
+def test_layout_sizes() -> None:
+    prob = random_problem(0, reserve_mask=np.array([True, False]))
+    _, layout = build_lp(prob, np.zeros((prob.horizon, prob.ny)))
+    horizon, n, m, ny = 8, 4, 2, 2
+    assert (
+        layout.num_cols == 2 * horizon * n + horizon * m + horizon * 1 + horizon * ny + horizon + 1
+    )
+    assert layout.num_rows == 2 * horizon * n + 4 * horizon * ny + horizon * 1 + 2 * horizon
+    nominal_problem = random_problem(0, reserve_mask=np.zeros(2, dtype=bool))
+    _, nominal = build_lp(nominal_problem, np.zeros((horizon, 2)))
+    assert not nominal.has_curtailed
+    assert nominal.num_rows == horizon * n + 2 * horizon * ny + 2 * horizon
