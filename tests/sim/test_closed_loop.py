@@ -298,12 +298,12 @@ def test_a_truncated_checkpoint_or_results_file_gives_a_clear_error(tmp_path: Pa
     cfg = preset("thermostat", start=START, days=0.5)
     run_simulation(cfg, tmp_path / "ckpt", progress=False, stop_after_steps=10)
     _truncate(tmp_path / "ckpt" / CHECKPOINT_FILE)
-    with pytest.raises(StoredStateError, match="not a readable checkpoint.*--fresh"):
+    with pytest.raises(StoredStateError, match=r"not a readable checkpoint.*--fresh"):
         run_simulation(cfg, tmp_path / "ckpt", progress=False)
 
     done = run_simulation(cfg, tmp_path / "done", progress=False)
     _truncate(done.results_path)
-    with pytest.raises(StoredStateError, match="not a readable results file.*--fresh"):
+    with pytest.raises(StoredStateError, match=r"not a readable results file.*--fresh"):
         run_simulation(cfg, tmp_path / "done", progress=False)
     # --fresh (resume=False) does not read the damaged file and writes a whole one
     again = run_simulation(cfg, tmp_path / "done", progress=False, resume=False)
