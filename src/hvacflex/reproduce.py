@@ -442,19 +442,27 @@ def scenario_sentences(summaries: Mapping[str, Mapping[str, float]]) -> list[str
                 SCENARIO_LABELS["c"], c["peak_power_kw"], SCENARIO_LABELS["b"], b["peak_power_kw"]
             )
         )
+    not_offered: list[str] = []
+    unused: list[str] = []
+    unused_robust = False
     for letter, kpis in summaries.items():
         if letter not in PAPER_SCENARIOS:
             continue
+        label = SCENARIO_LABELS[letter]
         controller = preset(PAPER_SCENARIOS[letter]).controller
-        sentences.append(
-            text.reserve(
-                SCENARIO_LABELS[letter],
-                kpis["reserve_revenue_sgd"],
-                kpis["energy_cost_sgd"],
-                offers_reserve=controller.reserve,
-                robust=controller.robust != "none",
+        if kpis["reserve_revenue_sgd"] > 0:
+            sentences.append(
+                text.reserve_revenue(label, kpis["reserve_revenue_sgd"], kpis["energy_cost_sgd"])
             )
-        )
+        elif not controller.reserve:
+            not_offered.append(label)
+        else:
+            unused.append(label)
+            unused_robust = unused_robust or controller.robust != "none"
+    if unused:
+        sentences.append(text.no_reserve(unused, offered=True, robust=unused_robust))
+    if not_offered:
+        sentences.append(text.no_reserve(not_offered, offered=False, robust=False))
     return sentences
 
 

@@ -49,13 +49,21 @@ def test_scenario_sentences_flip_with_the_results() -> None:
 
 
 def test_zero_reserve_revenue_is_stated_with_its_reason() -> None:
-    sentences = scenario_sentences({"a": _kpis(100, 40, revenue=1.2), "b": _kpis(110, 41)})
-    assert any("(a) NMPC earns 1.20 SGD of reserve revenue" in s for s in sentences)
-    (zero,) = [s for s in sentences if s.startswith("(b) RMPC earns no reserve revenue")]
-    assert "offered no reserve" in zero and "curtailed for the whole horizon" in zero
-    assert "every forecast error" in zero  # (b) is robust
-    disabled = text.reserve("x", 0.0, 10.0, offers_reserve=False, robust=False)
-    assert "offers no reserve" in disabled and "horizon" not in disabled
+    sentences = scenario_sentences(
+        {"a": _kpis(100, 40, revenue=1.2), "b": _kpis(110, 41), "c": _kpis(111, 38)}
+    )
+    assert any("(a) NMPC earns 1.20 SGD of reserve revenue, 1.19 %" in s for s in sentences)
+    (zero,) = [s for s in sentences if "no reserve revenue" in s]
+    assert zero.startswith("(b) RMPC and (c) RMPC + PPP earn no reserve revenue: none of them")
+    assert "curtailed for the whole horizon" in zero
+    assert "every forecast error" in zero  # (b) and (c) are robust
+    paid = scenario_sentences({"b": _kpis(110, 41, revenue=0.5)})
+    assert not any("no reserve revenue" in s for s in paid)
+    nominal = text.no_reserve(["(a) NMPC"], offered=True, robust=False)
+    assert nominal.startswith("(a) NMPC earns no reserve revenue: it offered")
+    assert "forecast error" not in nominal
+    disabled = text.no_reserve(["x"], offered=False, robust=False)
+    assert "its configuration offers no reserve" in disabled and "horizon" not in disabled
 
 
 @pytest.mark.parametrize(

@@ -9,6 +9,7 @@ found. Each function takes plain numbers (SGD, kW, K·h) and returns one sentenc
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 COMFORT_TOLERANCE_KELVIN_HOURS = 0.01
 """Discomfort [K·h] up to which a run counts as keeping the comfort band (numerical noise)."""
@@ -116,33 +117,40 @@ def nominal_vs_robust_comfort(
     )
 
 
-def reserve(
-    label: str,
-    revenue_sgd: float,
-    energy_cost_sgd: float,
-    *,
-    offers_reserve: bool,
-    robust: bool,
-) -> str:
-    """The reserve revenue of one scenario, and why it is zero when it is.
+def _join(labels: Sequence[str]) -> str:
+    """``["x"]`` → ``"x"``, ``["x", "y", "z"]`` → ``"x, y and z"``."""
+    return labels[0] if len(labels) == 1 else f"{', '.join(labels[:-1])} and {labels[-1]}"
+
+
+def reserve_revenue(label: str, revenue_sgd: float, energy_cost_sgd: float) -> str:
+    """``"(a) NMPC earns 2.31 SGD of reserve revenue, 1.00 % of its energy cost."``"""
+    share = 100 * revenue_sgd / energy_cost_sgd if energy_cost_sgd > 0 else math.nan
+    tail = f", {share:.2f} % of its energy cost" if math.isfinite(share) else ""
+    return f"{label} earns {revenue_sgd:,.2f} SGD of reserve revenue{tail}."
+
+
+def no_reserve(labels: Sequence[str], *, offered: bool, robust: bool) -> str:
+    """Why the scenarios ``labels`` earn no reserve revenue.
 
     Parameters
     ----------
-    label : the scenario's name in the report.
-    revenue_sgd, energy_cost_sgd : over the run [SGD].
-    offers_reserve : whether the configuration lets the controller offer reserve.
-    robust : whether the controller plans against the uncertainty box.
+    labels : the scenarios with zero reserve revenue.
+    offered : whether their configuration lets the controller offer reserve (False: the
+        configuration offers none).
+    robust : whether any of them plans against the uncertainty box.
     """
-    if revenue_sgd > 0:
-        share = 100 * revenue_sgd / energy_cost_sgd if energy_cost_sgd > 0 else math.nan
-        tail = f", {share:.2f} % of its energy cost" if math.isfinite(share) else ""
-        return f"{label} earns {revenue_sgd:,.2f} SGD of reserve revenue{tail}."
-    if not offers_reserve:
-        return f"{label} earns no reserve revenue: its configuration offers no reserve."
-    margin = " and for every forecast error in the uncertainty box" if robust else ""
+    names = _join(labels)
+    plural = len(labels) > 1
+    if not offered:
+        which = "their configurations offer" if plural else "its configuration offers"
+        return f"{names} earn{'' if plural else 's'} no reserve revenue: {which} no reserve."
+    margin = (
+        " (and, for a robust controller, for every forecast error in the box)" if robust else ""
+    )
+    who = "none of them" if plural else "it"
     return (
-        f"{label} earns no reserve revenue: it offered no reserve in any period. An offer "
-        "must keep every zone in the comfort band if the reserve is curtailed for the whole "
-        f"horizon{margin}, and at these (synthetic) reserve prices the optimiser found no "
-        "offer whose revenue pays for the extra cooling that needs."
+        f"{names} earn{'' if plural else 's'} no reserve revenue: {who} offered reserve in any "
+        "period. An offer must keep every zone in the comfort band if the reserve is "
+        f"curtailed for the whole horizon{margin}, and at these (synthetic) reserve prices the "
+        "optimiser found no offer whose revenue pays for the extra cooling this needs."
     )
