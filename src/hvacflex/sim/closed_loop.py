@@ -47,7 +47,7 @@ from hvacflex.data.uncertainty import DisturbanceSampler, UncertaintyBox
 from hvacflex.errors import ConfigError, HvacflexError, StoredStateError
 from hvacflex.paths import resolve_building
 from hvacflex.sim.activation import activation_schedule
-from hvacflex.version import atomic_write, atomic_write_text, code_version
+from hvacflex.version import atomic_write, atomic_write_bytes, atomic_write_text, code_version
 
 RESULTS_FILE = "results.parquet"
 CHECKPOINT_FILE = "checkpoint.pkl"
@@ -392,8 +392,7 @@ class ClosedLoop:
 
     def save_checkpoint(self, path: Path) -> None:
         """Write the state atomically (a crash mid-write leaves the previous checkpoint)."""
-        state = pickle.dumps(self.get_state(), protocol=pickle.HIGHEST_PROTOCOL)
-        atomic_write(path, lambda tmp: tmp.write_bytes(state))
+        atomic_write_bytes(path, pickle.dumps(self.get_state(), protocol=pickle.HIGHEST_PROTOCOL))
 
     def frame(self) -> pd.DataFrame:
         return self.recorder.frame(self.setup.exogenous.index, self.k)
@@ -550,7 +549,9 @@ def run_simulation(
         checkpoint.
     progress : show a progress bar (steps/s, ETA).
     checkpoint_every : steps between checkpoints.
-    resume : resume from a checkpoint of the same configuration, and re-use finished results.
+    resume : resume from a checkpoint of the same configuration, and re-use finished results
+        of the same inputs (:func:`run_key`) and code (:func:`hvacflex.version.code_version`).
+        A checkpoint of the same configuration written by other code is refused.
     stop_after_steps : stop (after checkpointing) once this many steps are done, as an
         interruption would; the run is then resumable. For tests and batch schedulers.
     on_step : called with (steps done, total steps) after each step.
