@@ -46,14 +46,60 @@ def test_every_artefact_is_written(quick_report: Path, name: str) -> None:
     assert path.is_file() and path.stat().st_size > 0
 
 
+VOID_ELEMENTS = frozenset("area base br col embed hr img input link meta source track wbr".split())
+
+
+class StrictHTML(HTMLParser):
+    """Fails on what the standard parser forgives: a closing tag that does not match the
+    open element, an unclosed element at the end, a closed void element."""
+
+    def __init__(self) -> None:
+        super().__init__(convert_charrefs=True)
+        self.open: list[tuple[str, tuple[int, int]]] = []
+
+    def handle_starttag(self, tag: str, attrs: list[tuple[str, str | None]]) -> None:
+        if tag not in VOID_ELEMENTS:
+            self.open.append((tag, self.getpos()))
+
+    def handle_startendtag(self, tag: str, attrs: list[tuple[str, str | None]]) -> None:
+        if tag not in VOID_ELEMENTS:
+            raise AssertionError(f"self-closed non-void <{tag}/> at {self.getpos()}")
+
+    def handle_endtag(self, tag: str) -> None:
+        if tag in VOID_ELEMENTS:
+            raise AssertionError(f"end tag of void element </{tag}> at {self.getpos()}")
+        if not self.open:
+            raise AssertionError(f"</{tag}> at {self.getpos()} closes nothing")
+        expected, where = self.open.pop()
+        if expected != tag:
+            raise AssertionError(f"</{tag}> at {self.getpos()} closes <{expected}> of {where}")
+
+    def check(self, document: str) -> None:
+        self.feed(document)
+        self.close()
+        if self.open:
+            raise AssertionError(f"unclosed elements: {self.open}")
+
+
+@pytest.mark.parametrize(
+    "broken",
+    [
+        "<html><body><p>text</b></p></body></html>",
+        "<html><body><section><p>text</p></body></html>",
+        "<html><body><div/></body></html>",
+        "<html><body><table><tr><td>1</tr></table></body></html>",
+    ],
+)
+def test_the_strict_parser_rejects_broken_html(broken: str) -> None:
+    with pytest.raises(AssertionError):
+        StrictHTML().check(broken)
+
+
 def test_report_is_valid_self_contained_html(quick_report: Path) -> None:
     text = (quick_report / "report.html").read_text()
-
-    class Strict(HTMLParser):
-        def error(self, message: str) -> None:  # pragma: no cover - py<3.10 API
-            raise AssertionError(message)
-
-    Strict().feed(text)
+    StrictHTML().check(text)
+    assert text.startswith("<!DOCTYPE html>")
+    assert "INCOMPLETE" not in text
     assert text.count("data:image/png;base64,") >= 7
     assert "Differences from the paper" in text
     assert "synthetic" in text.lower()
@@ -61,10 +107,10 @@ def test_report_is_valid_self_contained_html(quick_report: Path) -> None:
 
 def test_peak_price_lowers_the_peak(quick_report: Path) -> None:
     kpis = pd.read_csv(quick_report / "kpi_scenarios.csv", index_col=0)
-    assert kpis.loc["peak_power_kw", "(c) RMPC + PPP"] <= kpis.loc["peak_power_kw", "(b) RMPC"]
+    assert kpis.loc["peak_power_kw", "(c) RMPC + PPP"] < kpis.loc["peak_power_kw", "(b) RMPC"]
     sweep = pd.read_csv(quick_report / "figures" / "fig7_ppp_sweep.csv")
     sweep = sweep.sort_values("peak_price_sgd_per_kw")
-    assert sweep["peak_power_kw"].iloc[-1] <= sweep["peak_power_kw"].iloc[0]
+    assert sweep["peak_power_kw"].iloc[-1] < sweep["peak_power_kw"].iloc[0]
 
 
 def test_robust_costs_more_than_nominal(quick_report: Path) -> None:
@@ -81,11 +127,35 @@ def test_curtailed_prediction_is_never_cooler_than_served(quick_report: Path) ->
     assert (both["temp_curtailed_degc"] >= both["temp_served_degc"] - 1e-6).all()
 
 
+def test_report_sentences_state_what_the_numbers_show(quick_report: Path) -> None:
+    text = " ".join((quick_report / "report.html").read_text().split())
+    kpis = pd.read_csv(quick_report / "kpi_scenarios.csv", index_col=0)
+    nominal, robust = kpis.loc["net_cost_sgd", "(a) NMPC"], kpis.loc["net_cost_sgd", "(b) RMPC"]
+    direction = "more" if robust > nominal else "less"
+    pct = 100 * abs(robust - nominal) / nominal
+    assert f"(b) RMPC costs {pct:.1f} % {direction} than (a) NMPC" in text
+    labels = ["(a) NMPC", "(b) RMPC", "(c) RMPC + PPP"]
+    zero = [label for label in labels if kpis.loc["reserve_revenue_sgd", label] == 0]
+    for label in labels:
+        if label not in zero:
+            assert f"{label} earns {kpis.loc['reserve_revenue_sgd', label]:,.2f} SGD" in text
+    if zero:
+        names = zero[0] if len(zero) == 1 else f"{', '.join(zero[:-1])} and {zero[-1]}"
+        assert f"{names} earn{'s' if len(zero) == 1 else ''} no reserve revenue" in text
+
+
 def test_second_run_reuses_cached_simulations(quick_report: Path) -> None:
+    outputs = ["table1.csv", "kpi_scenarios.csv", "figures/fig7_ppp_sweep.csv"]
+    before = {name: (quick_report / name).read_bytes() for name in outputs}
+    results = sorted((quick_report / "runs").glob("*/results.parquet"))
+    mtimes = {path: path.stat().st_mtime_ns for path in results}
     logs: list[str] = []
-    reproduce(quick_report, quick=True, workers=1, log=logs.append)
-    runs = list((quick_report / "runs").iterdir())
-    assert runs and all((r / "results.parquet").is_file() for r in runs)
+    again = reproduce(quick_report, quick=True, workers=1, log=logs.append)
+    assert again.complete and len(again.outcomes) == 16
+    assert all(o.cached for o in again.outcomes)
+    assert sum("ok (cached)" in line for line in logs) == 16
+    assert len(results) == 16 and {p: p.stat().st_mtime_ns for p in results} == mtimes
+    assert {name: (quick_report / name).read_bytes() for name in outputs} == before
 
 
 @pytest.mark.slow

@@ -204,13 +204,25 @@ def simulate(
         console.print(f"re-used finished results in {result.out_dir}")
     elif result.resumed_from_step is not None:
         console.print(f"resumed from step {result.resumed_from_step}")
-    s = result.summary
-    console.print(
-        f"{cfg.name}: {s['days']:.1f} days, energy {s['energy_kwh']:.0f} kWh, "
+    console.print(_run_summary_line(cfg.name, result.summary, result.results_path))
+
+
+def _run_summary_line(name: str, s: dict[str, float], results_path: Path) -> str:
+    """The one line printed after ``simulate``; names the fallback steps when there were any."""
+    line = (
+        f"{name}: {s['days']:.1f} days, energy {s['energy_kwh']:.0f} kWh, "
         f"cost {s['energy_cost_sgd']:.2f} SGD, reserve revenue {s['reserve_revenue_sgd']:.2f} "
         f"SGD, peak {s['peak_power_kw']:.1f} kW, discomfort "
-        f"{s['discomfort_kelvin_hours']:.2f} K·h → {result.results_path}"
+        f"{s['discomfort_kelvin_hours']:.2f} K·h"
     )
+    fallbacks = int(s.get("fallback_count", 0.0))
+    if fallbacks > 0:
+        steps = int(s.get("steps", 0.0))
+        line += (
+            f", {fallbacks} fallback step{'s' if fallbacks != 1 else ''} of {steps} "
+            "(the solver gave no plan; see the fallback column)"
+        )
+    return f"{line} → {results_path}"
 
 
 @app.command()
@@ -227,12 +239,17 @@ def sweep(
         None, help="dask.distributed scheduler address; default: a LocalCluster here."
     ),
     workers: int = typer.Option(2, help="Local worker processes (without --scheduler)."),
+    fresh: bool = typer.Option(False, help="Ignore existing results and checkpoints."),
 ) -> None:
-    """Run independent closed-loop simulations over a parameter grid on Dask."""
+    """Run independent closed-loop simulations over a parameter grid on Dask.
+
+    Exits 1 when any run fails (the table still lists every run, with its error).
+    """
     from rich.console import Console
 
     from hvacflex.errors import HvacflexError
     from hvacflex.sim.sweep import JobOutcome, expand_grid, outcomes_table, parse_param, run_sweep
+    from hvacflex.version import atomic_write_text
 
     console = Console()
     try:
@@ -250,13 +267,16 @@ def sweep(
         state = "[green]ok[/green]" if outcome.ok else f"[red]failed[/red]: {outcome.error}"
         console.print(f"[{done}/{len(jobs)}] {outcome.params} {state}")
 
-    outcomes = run_sweep(jobs, out, scheduler=scheduler, n_workers=workers, on_done=report)
+    outcomes = run_sweep(
+        jobs, out, scheduler=scheduler, n_workers=workers, on_done=report, fresh=fresh
+    )
     table = outcomes_table(outcomes)
     out.mkdir(parents=True, exist_ok=True)
-    table.to_csv(out / "sweep.csv", index=False)
+    atomic_write_text(out / "sweep.csv", table.to_csv(index=False))
     failed = sum(not o.ok for o in outcomes)
     console.print(f"{len(outcomes) - failed} ok, {failed} failed → {out / 'sweep.csv'}")
     if failed:
+        console.print(f"[red]error:[/red] {failed} of {len(outcomes)} runs failed")
         raise typer.Exit(1)
 
 
@@ -270,16 +290,29 @@ def reproduce(
         None, help="dask.distributed scheduler address; default: a LocalCluster here."
     ),
     workers: int = typer.Option(2, help="Local worker processes (without --scheduler)."),
+    fresh: bool = typer.Option(False, help="Ignore existing results and checkpoints."),
 ) -> None:
-    """Regenerate the paper's Fig. 2, 5, 6, 7 and Table 1 (+ comfort and robustness) as HTML."""
+    """Regenerate the paper's Fig. 2, 5, 6, 7 and Table 1 (+ comfort and robustness) as HTML.
+
+    Exits 1 when any run fails; the report is still written, marked incomplete at its top.
+    """
     from hvacflex.errors import HvacflexError
     from hvacflex.reproduce import reproduce as run_reproduction
 
     try:
-        run_reproduction(out, quick=quick, scheduler=scheduler, workers=workers, log=typer.echo)
+        result = run_reproduction(
+            out, quick=quick, scheduler=scheduler, workers=workers, log=typer.echo, fresh=fresh
+        )
     except HvacflexError as exc:
         typer.echo(f"error: {exc}", err=True)
         raise typer.Exit(2) from None
+    if not result.complete:
+        typer.echo(
+            f"error: {len(result.failed)} of {len(result.outcomes)} runs failed; the report "
+            f"{result.report} is INCOMPLETE",
+            err=True,
+        )
+        raise typer.Exit(1)
 
 
 if __name__ == "__main__":

@@ -72,3 +72,8 @@ class DataError(InputError):
 
 class ProblemError(InputError):
     """An optimisation problem's arrays are inconsistent or violate a model assumption."""
+
+
+class StoredStateError(InputError):
+    """A file hvacflex wrote earlier (results, summary, checkpoint) is unreadable, or comes
+    from other code and cannot be re-used."""

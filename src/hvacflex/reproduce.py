@@ -9,14 +9,15 @@ One call runs, as Dask jobs (see :mod:`hvacflex.sim.sweep`):
   RMPC) next to NMPC — the price of robustness;
 
 then writes PNGs, the CSV behind every figure and table, and one self-contained
-``report.html``. Finished runs are cached by configuration hash, so a second call only
-re-draws.
+``report.html``. Finished runs are cached by their inputs and the code version, so a second
+call with the same code only re-draws. When a run fails the report is still written, marked
+incomplete at its top, and :attr:`Reproduction.complete` is False (the CLI exits 1).
 """
 
 from __future__ import annotations
 
 import json
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
@@ -154,6 +155,43 @@ def corner_jobs(plan: Plan) -> list[tuple[dict[str, Any], ScenarioConfig]]:
     return jobs
 
 
+@dataclass(frozen=True)
+class Reproduction:
+    """What :func:`reproduce` did.
+
+    Attributes
+    ----------
+    report : path of ``report.html``.
+    outcomes : every run's outcome, in the order of the plan.
+    """
+
+    report: Path
+    outcomes: list[JobOutcome]
+
+    @property
+    def failed(self) -> list[JobOutcome]:
+        return [o for o in self.outcomes if not o.ok]
+
+    @property
+    def complete(self) -> bool:
+        """True when every run finished."""
+        return not self.failed
+
+
+def incomplete_section(failed: Sequence[JobOutcome], total: int) -> Any:
+    """The section at the top of an incomplete report: which runs failed and why."""
+    from hvacflex.report.html import Section
+
+    return Section(
+        title=f"INCOMPLETE — {len(failed)} of {total} runs failed",
+        paragraphs=[
+            "This report is incomplete: the runs below failed, so the figures, tables and "
+            "sentences that need them are missing or rest on the other runs only.",
+            "\n".join(f"- {o.label} ({o.params}): {o.error}" for o in failed),
+        ],
+    )
+
+
 def reproduce(
     out_dir: str | Path,
     *,
@@ -161,8 +199,12 @@ def reproduce(
     scheduler: str | None = None,
     workers: int = 2,
     log: Callable[[str], None] = print,
-) -> Path:
-    """Run everything and write the report; returns the path of ``report.html``."""
+    fresh: bool = False,
+) -> Reproduction:
+    """Run everything and write the report (also when runs fail: marked incomplete).
+
+    ``fresh`` ignores finished results and checkpoints and simulates every run again.
+    """
     from hvacflex.report.html import write_report
 
     out = Path(out_dir)
@@ -181,10 +223,15 @@ def reproduce(
     def progress(outcome: JobOutcome) -> None:
         nonlocal done
         done += 1
-        state = "ok" if outcome.ok else f"FAILED: {outcome.error}"
+        if outcome.ok:
+            state = "ok (cached)" if outcome.cached else "ok"
+        else:
+            state = f"FAILED: {outcome.error}"
         log(f"  [{done}/{len(all_jobs)}] {outcome.label} {state}")
 
-    outcomes = run_sweep(all_jobs, out, scheduler=scheduler, n_workers=workers, on_done=progress)
+    outcomes = run_sweep(
+        all_jobs, out, scheduler=scheduler, n_workers=workers, on_done=progress, fresh=fresh
+    )
     failed = [o for o in outcomes if not o.ok]
     by_group: dict[str, list[JobOutcome]] = {}
     position = 0
@@ -192,21 +239,16 @@ def reproduce(
         by_group[group] = outcomes[position : position + len(jobs)]
         position += len(jobs)
     sections = build_sections(plan, by_group, out)
+    title = "hvacflex — reproduction of Hanif et al. (2016)"
     if failed:
-        from hvacflex.report.html import Section
-
-        sections.insert(
-            0,
-            Section(
-                title="Failed runs",
-                paragraphs=[f"{o.label} ({o.params}): {o.error}" for o in failed],
-            ),
-        )
-    path = write_report(
-        out, title="hvacflex — reproduction of Hanif et al. (2016)", sections=sections
-    )
-    log(f"report: {path}")
-    return path
+        sections.insert(0, incomplete_section(failed, len(all_jobs)))
+        title += " (INCOMPLETE)"
+    path = write_report(out, title=title, sections=sections)
+    if failed:
+        log(f"report (INCOMPLETE, {len(failed)} of {len(all_jobs)} runs failed): {path}")
+    else:
+        log(f"report: {path}")
+    return Reproduction(report=path, outcomes=list(outcomes))
 
 
 def _frames(outcomes: Sequence[JobOutcome]) -> dict[str, pd.DataFrame]:
@@ -239,7 +281,7 @@ def display_days(frame: pd.DataFrame, days: int = 2) -> tuple[pd.Timestamp, pd.T
 def build_sections(plan: Plan, by_group: dict[str, list[JobOutcome]], out: Path) -> list[Any]:
     """Figures, tables and text of the report."""
     from hvacflex import kpi
-    from hvacflex.report import plots, tables
+    from hvacflex.report import plots, tables, text
     from hvacflex.report.html import Section
 
     figures = out / "figures"
@@ -274,6 +316,7 @@ def build_sections(plan: Plan, by_group: dict[str, list[JobOutcome]], out: Path)
         table1.to_csv(out / "table1.csv")
         comparison = tables.side_by_side(table1, tables.PAPER_TABLE1)
         comparison.to_csv(out / "table1_vs_paper.csv")
+        paper_summaries = {k: kpi.summary(f) for k, f in paper.items()}
         sections.append(
             Section(
                 title="Table 1 — average cost per month",
@@ -282,6 +325,7 @@ def build_sections(plan: Plan, by_group: dict[str, list[JobOutcome]], out: Path)
                     "USEP; revenue = synthetic reserve price × reserve capacity offered; "
                     "total = cost − revenue (the paper's definition; the PPP charge is "
                     "reported separately below).",
+                    " ".join(scenario_sentences(paper_summaries)),
                 ],
                 tables=[table1, comparison],
             )
@@ -303,21 +347,20 @@ def build_sections(plan: Plan, by_group: dict[str, list[JobOutcome]], out: Path)
                     f"±{100 * HOT_CORNER_LEVEL:.0f} % box",
                 )
             )
+        corner_discomfort = {k: kpi.total_discomfort_kelvin_hours(f) for k, f in corner.items()}
+        scenario_discomfort = {
+            k: kpi.total_discomfort_kelvin_hours(f) for k, f in scenario_frames.items()
+        }
         sections.append(
             Section(
                 title="Comfort under the same realised disturbances",
                 paragraphs=[
                     "All scenarios face the same forecast errors (drawn uniformly in the "
                     "uncertainty box with the same seed). Discomfort is the BOPTEST "
-                    "definition: the time integral of the deviation outside the band [K·h].",
-                    "Under the default box (±5 % of heat gains, uniform) the nominal MPC "
-                    "stays almost comfortable: its linear model is linearised at 25 °C and "
-                    "under-predicts the cooling of the supply air near 26 °C, which is a "
-                    "small hidden margin, and independent errors average out over a zone's "
-                    "time constant. The second figure puts every error at its hot corner of "
-                    f"a ±{100 * HOT_CORNER_LEVEL:.0f} % box from {plan.sweep_start} for "
-                    f"{plan.uncertainty_days:g} days: there the nominal MPC runs over the "
-                    "band and the robust one does not — the paper's finding.",
+                    "definition: the time integral of the deviation outside the band [K·h]; "
+                    f"up to {text.COMFORT_TOLERANCE_KELVIN_HOURS:g} K·h counts as keeping "
+                    "the band.",
+                    " ".join(comfort_sentences(scenario_discomfort, corner_discomfort, plan)),
                 ],
                 figures=figures_comfort,
                 tables=[summary],
@@ -340,6 +383,7 @@ def build_sections(plan: Plan, by_group: dict[str, list[JobOutcome]], out: Path)
                     "cost_j / max(cost) with cost = energy − reserve revenue (operational "
                     "cost, without the PPP charge itself); normalised peak = peak_j / "
                     "max(peak), the peak of the 30-min plant power over the period.",
+                    ppp_sentence(ppp_csv),
                 ],
                 figures=[fig7],
                 tables=[ppp_csv.reset_index(drop=True)],
@@ -376,6 +420,110 @@ def build_sections(plan: Plan, by_group: dict[str, list[JobOutcome]], out: Path)
     sections.append(differences_section())
     sections.append(configuration_section(by_group))
     return sections
+
+
+def scenario_sentences(summaries: Mapping[str, Mapping[str, float]]) -> list[str]:
+    """What Table 1's runs show, computed from their KPIs.
+
+    Parameters
+    ----------
+    summaries : scenario letter (``"a"``, ``"b"``, ``"c"``, as in :data:`PAPER_SCENARIOS`)
+        → :func:`hvacflex.kpi.summary` of its run; missing scenarios are skipped.
+    """
+    from hvacflex.report import text
+
+    sentences: list[str] = []
+    a, b, c = (summaries.get(k) for k in ("a", "b", "c"))
+    if a is not None and b is not None:
+        sentences.append(text.robustness_cost(a["net_cost_sgd"], b["net_cost_sgd"]))
+    if b is not None and c is not None:
+        sentences.append(
+            text.peak_comparison(
+                SCENARIO_LABELS["c"], c["peak_power_kw"], SCENARIO_LABELS["b"], b["peak_power_kw"]
+            )
+        )
+    not_offered: list[str] = []
+    unused: list[str] = []
+    unused_robust = False
+    for letter, kpis in summaries.items():
+        if letter not in PAPER_SCENARIOS:
+            continue
+        label = SCENARIO_LABELS[letter]
+        controller = preset(PAPER_SCENARIOS[letter]).controller
+        if kpis["reserve_revenue_sgd"] > 0:
+            sentences.append(
+                text.reserve_revenue(label, kpis["reserve_revenue_sgd"], kpis["energy_cost_sgd"])
+            )
+        elif not controller.reserve:
+            not_offered.append(label)
+        else:
+            unused.append(label)
+            unused_robust = unused_robust or controller.robust != "none"
+    if unused:
+        sentences.append(text.no_reserve(unused, offered=True, robust=unused_robust))
+    if not_offered:
+        sentences.append(text.no_reserve(not_offered, offered=False, robust=False))
+    return sentences
+
+
+def comfort_sentences(
+    scenario_discomfort: Mapping[str, float], corner_discomfort: Mapping[str, float], plan: Plan
+) -> list[str]:
+    """What the comfort figures show, computed from the discomfort [K·h] of each run.
+
+    Parameters
+    ----------
+    scenario_discomfort : scenario key (``"a"``, ``"b"``, ``"c"``, ``"thermostat"``) → K·h.
+    corner_discomfort : ``"nmpc"`` / ``"rmpc"`` at the hot corner → K·h.
+    """
+    from hvacflex.report import text
+
+    sentences = [
+        text.comfort(SCENARIO_LABELS.get(key, key), value)
+        for key, value in scenario_discomfort.items()
+    ]
+    a, b = scenario_discomfort.get("a"), scenario_discomfort.get("b")
+    if a is not None and b is not None:
+        sentences.append(
+            text.nominal_vs_robust_comfort(
+                a, b, "Under the default box (errors drawn uniformly, same seed)"
+            )
+        )
+    if a is not None and text.keeps_comfort(a):
+        sentences.append(
+            "A likely reason the nominal MPC keeps the band here: its linear model is "
+            "linearised below the upper comfort bound and under-predicts the cooling of the "
+            "supply air near that bound (a small hidden margin), and independent errors "
+            "average out over a zone's time constant."
+        )
+    nominal, robust = corner_discomfort.get("nmpc"), corner_discomfort.get("rmpc")
+    if nominal is not None and robust is not None:
+        sentences.append(
+            text.nominal_vs_robust_comfort(
+                nominal,
+                robust,
+                f"With every error at its hot corner of a ±{100 * HOT_CORNER_LEVEL:.0f} % box "
+                f"from {plan.sweep_start} for {plan.uncertainty_days:g} days (second figure)",
+            )
+        )
+    return sentences
+
+
+def ppp_sentence(ppp: pd.DataFrame) -> str:
+    """The peak and cost response over the PPP sweep (``fig7_ppp_sweep.csv`` columns)."""
+    from hvacflex.report import text
+
+    ordered = ppp.sort_values("peak_price_sgd_per_kw")
+    low, high = ordered.iloc[0], ordered.iloc[-1]
+    low_cost = float(low["total_cost_sgd"])
+    ratio = float(high["total_cost_sgd"]) / low_cost if low_cost != 0 else float("nan")
+    return text.ppp_sweep(
+        float(low["peak_price_sgd_per_kw"]),
+        float(low["peak_power_kw"]),
+        float(high["peak_price_sgd_per_kw"]),
+        float(high["peak_power_kw"]),
+        ratio,
+    )
 
 
 def differences_section() -> Any:

@@ -217,6 +217,31 @@ def test_billing_period_mode_only_pays_to_raise_the_months_peak(tmp_path: Path) 
     assert cost["billing-period"] <= cost["horizon"] + 1e-6
 
 
+def test_billing_period_mode_stops_shaving_below_a_sunk_peak() -> None:
+    """A month's peak already above anything the plan reaches makes the PPP charge sunk in
+    billing-period mode: the controller stops shaving and buys cheaper energy; horizon mode
+    ignores the month's peak and keeps shaving. Identical runs would mean the mode is ignored.
+    """
+    frames = {}
+    for mode in ("horizon", "billing-period"):
+        cfg = with_overrides(
+            preset("rmpc-ppp", start=START, days=1.0),
+            {"controller.billing_mode": mode, "activation.mode": "never"},
+        )
+        loop = ClosedLoop(prepare(cfg))
+        loop.month = loop.setup.exogenous.index[0].month
+        loop.month_peak_kw = 100.0  # far above the plant's peak (≈ 30–40 kW)
+        while loop.k < loop.steps:
+            loop.step()
+        frames[mode] = loop.frame()
+        assert not frames[mode]["fallback"].any()
+    horizon, billing = frames["horizon"], frames["billing-period"]
+    planned_gap_kw = (horizon["planned_power_kw"] - billing["planned_power_kw"]).abs()
+    assert planned_gap_kw.max() > 1.0
+    assert kpi.energy_cost_sgd(billing) < kpi.energy_cost_sgd(horizon) - 0.1
+    assert kpi.peak_power_kw(billing) > kpi.peak_power_kw(horizon) + 0.1
+
+
 def test_editing_the_building_file_invalidates_cached_results(tmp_path: Path) -> None:
     building = tmp_path / "mine.toml"
     building.write_text((buildings_dir() / "office5.toml").read_text())
@@ -225,3 +250,65 @@ def test_editing_the_building_file_invalidates_cached_results(tmp_path: Path) ->
     assert run_simulation(cfg, tmp_path / "run", progress=False).cached is True
     building.write_text(building.read_text().replace("cop = 4.2", "cop = 4.0"))
     assert run_simulation(cfg, tmp_path / "run", progress=False).cached is False
+
+
+def test_results_of_other_code_are_not_reused(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import hvacflex.sim.closed_loop as closed_loop
+
+    cfg = preset("thermostat", start=START, days=0.25)
+    first = run_simulation(cfg, tmp_path, progress=False)
+    assert read_results(first.results_path)[1]["version"] == closed_loop.code_version()
+    assert run_simulation(cfg, tmp_path, progress=False).cached
+    monkeypatch.setattr(closed_loop, "code_version", lambda: "9.9.9+src.otherotherot")
+    again = run_simulation(cfg, tmp_path, progress=False)
+    assert not again.cached
+    assert read_results(again.results_path)[1]["version"] == "9.9.9+src.otherotherot"
+
+
+def test_a_checkpoint_of_other_code_is_refused_naming_both_versions(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import hvacflex.sim.closed_loop as closed_loop
+    from hvacflex.errors import StoredStateError
+
+    cfg = preset("thermostat", start=START, days=0.5)
+    ours = closed_loop.code_version()
+    run_simulation(cfg, tmp_path, progress=False, stop_after_steps=10)
+    assert (tmp_path / CHECKPOINT_FILE).is_file()
+    monkeypatch.setattr(closed_loop, "code_version", lambda: "9.9.9+src.otherotherot")
+    with pytest.raises(StoredStateError) as caught:
+        run_simulation(cfg, tmp_path, progress=False)
+    message = str(caught.value)
+    assert ours in message and "9.9.9+src.otherotherot" in message
+    assert "--fresh" in message and CHECKPOINT_FILE in message
+    fresh = run_simulation(cfg, tmp_path, progress=False, resume=False)
+    assert fresh.resumed_from_step is None and len(fresh.frame) == cfg.steps
+
+
+def _truncate(path: Path) -> None:
+    data = path.read_bytes()
+    path.write_bytes(data[: len(data) // 2])
+
+
+def test_a_truncated_checkpoint_or_results_file_gives_a_clear_error(tmp_path: Path) -> None:
+    from hvacflex.errors import StoredStateError
+
+    cfg = preset("thermostat", start=START, days=0.5)
+    run_simulation(cfg, tmp_path / "ckpt", progress=False, stop_after_steps=10)
+    _truncate(tmp_path / "ckpt" / CHECKPOINT_FILE)
+    with pytest.raises(StoredStateError, match=r"not a readable checkpoint.*--fresh"):
+        run_simulation(cfg, tmp_path / "ckpt", progress=False)
+
+    done = run_simulation(cfg, tmp_path / "done", progress=False)
+    _truncate(done.results_path)
+    with pytest.raises(StoredStateError, match=r"not a readable results file.*--fresh"):
+        run_simulation(cfg, tmp_path / "done", progress=False)
+    # --fresh (resume=False) does not read the damaged file and writes a whole one
+    again = run_simulation(cfg, tmp_path / "done", progress=False, resume=False)
+    assert len(read_results(again.results_path)[0]) == cfg.steps
+
+    (tmp_path / "done" / "summary.json").write_text('{"steps": 2')
+    with pytest.raises(StoredStateError, match="not a readable summary file"):
+        run_simulation(cfg, tmp_path / "done", progress=False)

@@ -37,3 +37,8 @@ def test_a_failing_job_does_not_lose_the_others(tmp_path: Path) -> None:
     # finished runs are cached: a second sweep re-uses the results
     again = run_sweep(jobs[:1], tmp_path, n_workers=1)
     assert again[0].summary == ok.summary
+    assert again[0].cached and not ok.cached
+    assert list(outcomes_table(again)["cached"]) == [True]
+    # --fresh simulates again
+    fresh = run_sweep(jobs[:1], tmp_path, n_workers=1, fresh=True)
+    assert fresh[0].ok and not fresh[0].cached

@@ -32,7 +32,7 @@ solve is retried once from scratch (cold) before the error is reported.
 from __future__ import annotations
 
 import time
-from typing import Any, NamedTuple, cast
+from typing import Any, NamedTuple
 
 import highspy
 import numpy as np
@@ -104,6 +104,20 @@ _BASE_OPTIONS: dict[str, Any] = {
     "threads": 1,
     "simplex_dual_edge_weight_strategy": 1,
 }
+
+
+def _quiet_highs() -> Any:
+    """A HiGHS handle with ``output_flag`` off before anything can print.
+
+    highspy's ``Highs()`` enables its Python callbacks in its constructor, and that first
+    call prints the HiGHS version banner while ``output_flag`` is still on; the core class
+    ``_Highs`` (which has every method used here) does not. Falls back to ``Highs``.
+    """
+    highs: Any = getattr(highspy, "_Highs", highspy.Highs)()
+    highs.setOptionValue("output_flag", False)
+    return highs
+
+
 #: ``simplex_scale_strategy`` of a warm solve (0: no scaling); cold solves use HiGHS's default.
 _WARM_SCALE_STRATEGY = 0
 
@@ -188,7 +202,7 @@ class RMPCSolver:
         )
         self._margin_operator = robust_mod.margin_operator(self._responses)
         # highspy's Python wrapper is only partly typed; treat the handle as Any.
-        self._highs: Any = cast(Any, highspy.Highs)()
+        self._highs: Any = _quiet_highs()
         for option, value in _BASE_OPTIONS.items():
             self._highs.setOptionValue(option, value)
         _, self._cold_scale_strategy = self._highs.getOptionValue("simplex_scale_strategy")
@@ -665,7 +679,7 @@ def solve_lp(
     :class:`LPResult`; ``x`` is NaN unless the status is OPTIMAL; ``time_s`` is the wall time
     of HiGHS ``run()``.
     """
-    highs: Any = cast(Any, highspy.Highs)()
+    highs: Any = _quiet_highs()
     for option, value in (
         ("output_flag", False),
         ("log_to_console", False),

@@ -21,6 +21,7 @@ import pandas as pd
 
 from hvacflex.errors import InputError
 from hvacflex.report.tables import to_html
+from hvacflex.version import atomic_write_text
 
 REPORT_FILENAME = "report.html"
 """Name of the report written by :func:`write_report`."""
@@ -164,6 +165,4 @@ def write_report(out_dir: str | Path, *, title: str, sections: Sequence[Section]
     directory = Path(out_dir)
     directory.mkdir(parents=True, exist_ok=True)
     document = render_report(title=title, sections=sections)
-    path = directory / REPORT_FILENAME
-    path.write_text(document, encoding="utf-8")
-    return path
+    return atomic_write_text(directory / REPORT_FILENAME, document)

@@ -20,9 +20,7 @@ from __future__ import annotations
 
 import hashlib
 import json
-import os
 import pickle
-import subprocess
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -34,7 +32,6 @@ import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from hvacflex import __version__
 from hvacflex.building.discretize import LinearModel, linearize
 from hvacflex.building.hvac import hvac_power_kw
 from hvacflex.building.io import load_building
@@ -48,9 +45,10 @@ from hvacflex.data.forecast import Exogenous, Forecaster, load_exogenous
 from hvacflex.data.gains import ComfortBand
 from hvacflex.data.market import RESERVE_PRICE_SCALE
 from hvacflex.data.uncertainty import DisturbanceSampler, UncertaintyBox
-from hvacflex.errors import ConfigError, HvacflexError
-from hvacflex.paths import repo_root, resolve_building
+from hvacflex.errors import ConfigError, HvacflexError, StoredStateError
+from hvacflex.paths import resolve_building
 from hvacflex.sim.activation import activation_schedule
+from hvacflex.version import atomic_write, atomic_write_bytes, atomic_write_text, code_version
 
 RESULTS_FILE = "results.parquet"
 CHECKPOINT_FILE = "checkpoint.pkl"
@@ -362,6 +360,7 @@ class ClosedLoop:
         rec = self.recorder
         return {
             "config_hash": run_key(self.setup.config),
+            "code_version": code_version(),
             "k": self.k,
             "x": self.x.copy(),
             "month": self.month,
@@ -394,10 +393,7 @@ class ClosedLoop:
 
     def save_checkpoint(self, path: Path) -> None:
         """Write the state atomically (a crash mid-write leaves the previous checkpoint)."""
-        tmp = path.with_suffix(".tmp")
-        with tmp.open("wb") as fh:
-            pickle.dump(self.get_state(), fh, protocol=pickle.HIGHEST_PROTOCOL)
-        os.replace(tmp, path)
+        atomic_write_bytes(path, pickle.dumps(self.get_state(), protocol=pickle.HIGHEST_PROTOCOL))
 
     def frame(self) -> pd.DataFrame:
         return self.recorder.frame(self.setup.exogenous.index, self.k)
@@ -426,22 +422,6 @@ def run_key(config: ScenarioConfig) -> str:
     return digest.hexdigest()[:16]
 
 
-def code_version() -> str:
-    """hvacflex's version, with the git commit when running from a checkout."""
-    try:
-        commit = subprocess.run(
-            ["git", "rev-parse", "--short", "HEAD"],
-            cwd=repo_root(),
-            capture_output=True,
-            text=True,
-            timeout=5,
-            check=True,
-        ).stdout.strip()
-    except (OSError, subprocess.SubprocessError):
-        return __version__
-    return f"{__version__}+g{commit}"
-
-
 def write_results(frame: pd.DataFrame, path: Path, config: ScenarioConfig) -> None:
     """Parquet with the run's configuration and code version in the file metadata."""
     table = pa.Table.from_pandas(frame)
@@ -450,20 +430,105 @@ def write_results(frame: pd.DataFrame, path: Path, config: ScenarioConfig) -> No
     metadata[b"hvacflex.config_hash"] = config.config_hash().encode()
     metadata[b"hvacflex.run_key"] = run_key(config).encode()
     metadata[b"hvacflex.version"] = code_version().encode()
-    pq.write_table(table.replace_schema_metadata(metadata), path)
+    table = table.replace_schema_metadata(metadata)
+    atomic_write(path, lambda tmp: pq.write_table(table, tmp))
+
+
+_FRESH_HINT = "delete the file or run again with --fresh (hvacflex simulate --fresh)"
 
 
 def read_results(path: Path) -> tuple[pd.DataFrame, dict[str, Any]]:
-    """A results file and the metadata stored with it (``config``, ``config_hash``, ``version``)."""
-    table = pq.read_table(path)
-    meta = table.schema.metadata or {}
-    stored = {
-        "config": json.loads(meta.get(b"hvacflex.config", b"{}")),
-        "config_hash": meta.get(b"hvacflex.config_hash", b"").decode(),
-        "run_key": meta.get(b"hvacflex.run_key", b"").decode(),
-        "version": meta.get(b"hvacflex.version", b"").decode(),
-    }
-    return table.to_pandas(), stored
+    """A results file and the metadata stored with it (``config``, ``config_hash``,
+    ``run_key``, ``version``).
+
+    Raises
+    ------
+    StoredStateError
+        When the file is not a readable Parquet file (e.g. truncated) or its hvacflex
+        metadata is damaged.
+    """
+    try:
+        table = pq.read_table(path)
+        meta = table.schema.metadata or {}
+        stored = {
+            "config": json.loads(meta.get(b"hvacflex.config", b"{}")),
+            "config_hash": meta.get(b"hvacflex.config_hash", b"").decode(),
+            "run_key": meta.get(b"hvacflex.run_key", b"").decode(),
+            "version": meta.get(b"hvacflex.version", b"").decode(),
+        }
+        frame = table.to_pandas()
+    except (OSError, pa.ArrowException, ValueError) as exc:
+        raise StoredStateError(
+            f"not a readable results file (truncated or damaged: {type(exc).__name__})",
+            source=path,
+            hint=_FRESH_HINT,
+        ) from None
+    return frame, stored
+
+
+def read_summary(path: Path) -> dict[str, float]:
+    """A run's ``summary.json``.
+
+    Raises
+    ------
+    StoredStateError
+        When the file is not a JSON object (e.g. truncated).
+    """
+    try:
+        summary = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise StoredStateError(
+            f"not a readable summary file (truncated or damaged: {type(exc).__name__})",
+            source=path,
+            hint=_FRESH_HINT,
+        ) from None
+    if not isinstance(summary, dict):
+        raise StoredStateError(
+            "not a summary file (expected a JSON object)", source=path, hint=_FRESH_HINT
+        )
+    return summary
+
+
+def load_checkpoint(path: Path) -> dict[str, Any]:
+    """The state stored by :meth:`ClosedLoop.save_checkpoint`.
+
+    Raises
+    ------
+    StoredStateError
+        When the file cannot be unpickled (e.g. truncated) or holds no checkpoint.
+    """
+    try:
+        with path.open("rb") as fh:
+            state = pickle.load(fh)
+    except Exception as exc:  # a damaged pickle raises almost anything
+        raise StoredStateError(
+            f"not a readable checkpoint (truncated or damaged: {type(exc).__name__})",
+            source=path,
+            hint=_FRESH_HINT,
+        ) from None
+    if not isinstance(state, dict) or "config_hash" not in state or "k" not in state:
+        raise StoredStateError("not a checkpoint of hvacflex", source=path, hint=_FRESH_HINT)
+    return state
+
+
+def check_checkpoint_code(state: dict[str, Any], path: Path) -> None:
+    """Refuse a checkpoint written by other code (its controller or plant may differ).
+
+    Raises
+    ------
+    StoredStateError
+        Naming the checkpoint's code version and this one, with the ``--fresh`` hint.
+    """
+    stored = str(state.get("code_version", "unknown (older hvacflex)"))
+    current = code_version()
+    if stored != current:
+        raise StoredStateError(
+            f"checkpoint was written by hvacflex {stored}, this is hvacflex {current}; "
+            "resuming would mix two versions of the code in one run",
+            source=path,
+            field="code_version",
+            hint="run again with --fresh to start this run afresh (or delete the checkpoint)",
+        )
 
 
 def run_simulation(
@@ -485,7 +550,9 @@ def run_simulation(
         checkpoint.
     progress : show a progress bar (steps/s, ETA).
     checkpoint_every : steps between checkpoints.
-    resume : resume from a checkpoint of the same configuration, and re-use finished results.
+    resume : resume from a checkpoint of the same configuration, and re-use finished results
+        of the same inputs (:func:`run_key`) and code (:func:`hvacflex.version.code_version`).
+        A checkpoint of the same configuration written by other code is refused.
     stop_after_steps : stop (after checkpointing) once this many steps are done, as an
         interruption would; the run is then resumable. For tests and batch schedulers.
     on_step : called with (steps done, total steps) after each step.
@@ -502,19 +569,24 @@ def run_simulation(
     config_hash = run_key(config)
     if resume and results_path.is_file():
         frame, stored = read_results(results_path)
-        if stored["run_key"] == config_hash and (out / SUMMARY_FILE).is_file():
-            summary = json.loads((out / SUMMARY_FILE).read_text())
+        same_code = stored["version"] == code_version()
+        if stored["run_key"] == config_hash and same_code and (out / SUMMARY_FILE).is_file():
+            summary = read_summary(out / SUMMARY_FILE)
             return RunResult(out, frame, summary, cached=True)
 
+    state: dict[str, Any] | None = None
+    if resume and checkpoint_path.is_file():
+        state = load_checkpoint(checkpoint_path)
+        if state["config_hash"] == config_hash:
+            check_checkpoint_code(state, checkpoint_path)
+        else:  # a checkpoint of another configuration: this run starts afresh over it
+            state = None
     loop = ClosedLoop(prepare(config))
     resumed_from: int | None = None
-    if resume and checkpoint_path.is_file():
-        with checkpoint_path.open("rb") as fh:
-            state = pickle.load(fh)
-        if state.get("config_hash") == config_hash:
-            loop.set_state(state)
-            resumed_from = loop.k
-    (out / CONFIG_FILE).write_text(json.dumps(config.to_dict(), indent=2))
+    if state is not None:
+        loop.set_state(state)
+        resumed_from = loop.k
+    atomic_write_text(out / CONFIG_FILE, json.dumps(config.to_dict(), indent=2))
 
     last = loop.steps if stop_after_steps is None else min(loop.steps, stop_after_steps)
     try:
@@ -542,7 +614,7 @@ def run_simulation(
     summary["steps_per_s"] = _steps_per_second(loop, steps_timed)
     for part, seconds in loop.timing_s.items():
         summary[f"time_{part}_ms_per_step"] = 1e3 * seconds / max(steps_timed, 1)
-    (out / SUMMARY_FILE).write_text(json.dumps(summary, indent=2))
+    atomic_write_text(out / SUMMARY_FILE, json.dumps(summary, indent=2))
     checkpoint_path.unlink(missing_ok=True)
     return RunResult(out, frame, summary, resumed_from_step=resumed_from)
 

@@ -35,6 +35,8 @@ class JobOutcome:
     out_dir: str
     summary: dict[str, float] | None
     error: str | None
+    cached: bool = False
+    """True when the job re-used finished results of the same inputs and code."""
 
     @property
     def ok(self) -> bool:
@@ -88,11 +90,14 @@ def run_dir(out_root: Path, config: ScenarioConfig) -> Path:
     return out_root / "runs" / f"{config.name}-{config.config_hash()}"
 
 
-def _run_job(config: ScenarioConfig, out_dir: str) -> dict[str, float]:
-    """Worker side of a job (module-level so it pickles)."""
+def _run_job(
+    config: ScenarioConfig, out_dir: str, fresh: bool = False
+) -> tuple[dict[str, float], bool]:
+    """Worker side of a job (module-level so it pickles): its KPIs and whether it was cached."""
     from hvacflex.sim.closed_loop import run_simulation
 
-    return run_simulation(config, out_dir, progress=False).summary
+    result = run_simulation(config, out_dir, progress=False, resume=not fresh)
+    return result.summary, result.cached
 
 
 def run_sweep(
@@ -102,6 +107,7 @@ def run_sweep(
     scheduler: str | None = None,
     n_workers: int = 2,
     on_done: JobCallback | None = None,
+    fresh: bool = False,
 ) -> list[JobOutcome]:
     """Run ``jobs`` (from :func:`expand_grid`) on Dask and return their outcomes in order.
 
@@ -112,6 +118,7 @@ def run_sweep(
     scheduler : address of a running ``dask.distributed`` scheduler; None starts a
         ``LocalCluster`` of ``n_workers`` single-threaded processes.
     on_done : called with each outcome as it finishes (progress per job).
+    fresh : ignore finished results and checkpoints in the run folders (simulate again).
     """
     from dask.distributed import Client, LocalCluster, as_completed
 
@@ -131,17 +138,21 @@ def run_sweep(
     outcomes: dict[int, JobOutcome] = {}
     try:
         futures = [
-            client.submit(_run_job, cfg, out, pure=False, key=f"hvacflex-{i}-{cfg.config_hash()}")
+            client.submit(
+                _run_job, cfg, out, fresh, pure=False, key=f"hvacflex-{i}-{cfg.config_hash()}"
+            )
             for i, ((_, cfg), out) in enumerate(zip(jobs, dirs, strict=True))
         ]
         position = {future.key: i for i, future in enumerate(futures)}
         for future in as_completed(futures):  # type: ignore[no-untyped-call]
             i = position[future.key]
             overrides, cfg = jobs[i]
+            summary: dict[str, float] | None = None
+            cached = False
             try:
-                summary, error = future.result(), None
+                summary, cached = future.result()
+                error = None
             except Exception as exc:  # a failing job must not lose the others
-                summary = None
                 error = "".join(traceback.format_exception_only(type(exc), exc)).strip()
             outcome = JobOutcome(
                 label=cfg.name,
@@ -150,6 +161,7 @@ def run_sweep(
                 out_dir=dirs[i],
                 summary=summary,
                 error=error,
+                cached=cached,
             )
             outcomes[i] = outcome
             if on_done is not None:
@@ -168,6 +180,7 @@ def outcomes_table(outcomes: Sequence[JobOutcome]) -> pd.DataFrame:
         row: dict[str, Any] = {"label": outcome.label, **outcome.params}
         row["status"] = "ok" if outcome.ok else "failed"
         row["error"] = outcome.error or ""
+        row["cached"] = outcome.cached
         row.update(outcome.summary or {})
         row["out_dir"] = outcome.out_dir
         rows.append(row)

@@ -1,0 +1,95 @@
+"""The version of the code that produced a result, and atomic writes of result files.
+
+:func:`code_version` identifies the running code: the package version plus a hash of the bytes
+of every ``.py`` file of the installed ``hvacflex`` package. It enters the key of cached
+results and is stored in checkpoints, so a result computed by other code is never re-used
+silently. :func:`atomic_write` writes a file so that a reader (or a crash) never sees it half
+written.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import tempfile
+from collections.abc import Callable
+from functools import lru_cache
+from pathlib import Path
+
+from hvacflex import __version__
+
+_SOURCE_HASH_CHARS = 12
+"""Hex characters of the source hash kept in the version string."""
+
+
+@lru_cache(maxsize=1)
+def source_hash() -> str | None:
+    """SHA-256 (first 12 hex characters) of the ``.py`` files of the installed package.
+
+    Files are taken in the order of their path relative to the package folder, and each
+    path enters the hash with its bytes, so adding, removing, renaming or editing a module
+    changes it. Computed once per process. None when the sources cannot be read (e.g. a
+    zip-imported package).
+    """
+    package_dir = Path(__file__).resolve().parent
+    digest = hashlib.sha256()
+    try:
+        files = sorted(package_dir.rglob("*.py"))
+        if not files:
+            return None
+        for path in files:
+            digest.update(path.relative_to(package_dir).as_posix().encode())
+            digest.update(b"\0")
+            digest.update(path.read_bytes())
+            digest.update(b"\0")
+    except OSError:
+        return None
+    return digest.hexdigest()[:_SOURCE_HASH_CHARS]
+
+
+def code_version() -> str:
+    """The running code: ``"<package version>+src.<source hash>"`` (or the package version).
+
+    >>> code_version().startswith(__version__)
+    True
+    """
+    digest = source_hash()
+    return __version__ if digest is None else f"{__version__}+src.{digest}"
+
+
+def atomic_write(path: str | Path, write: Callable[[Path], object]) -> Path:
+    """Write ``path`` atomically: ``write(tmp)`` fills a temporary file beside it, then rename.
+
+    The temporary file is in the same folder (so the rename is atomic on POSIX and Windows)
+    and is removed if ``write`` fails; an existing ``path`` is then left as it was.
+
+    Parameters
+    ----------
+    path : the file to write.
+    write : called with the temporary file's path; must write the whole content there.
+
+    Returns
+    -------
+    ``path`` as a :class:`~pathlib.Path`.
+    """
+    target = Path(path)
+    fd, tmp_name = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name}.", suffix=".tmp")
+    os.close(fd)
+    tmp = Path(tmp_name)
+    try:
+        write(tmp)
+        os.replace(tmp, target)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    return target
+
+
+def atomic_write_bytes(path: str | Path, data: bytes) -> Path:
+    """Write ``data`` to ``path`` atomically (see :func:`atomic_write`)."""
+    return atomic_write(path, lambda tmp: tmp.write_bytes(data))
+
+
+def atomic_write_text(path: str | Path, text: str) -> Path:
+    """Write ``text`` (UTF-8) to ``path`` atomically (see :func:`atomic_write`)."""
+    return atomic_write_bytes(path, text.encode("utf-8"))

@@ -1,0 +1,165 @@
+"""Commands that fail say so: exit codes, incomplete reports, clear errors, no solver banner."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import pytest
+from typer.testing import CliRunner
+
+from hvacflex.cli import _run_summary_line, app
+from hvacflex.config import ScenarioConfig
+from hvacflex.sim.closed_loop import CHECKPOINT_FILE, RESULTS_FILE, run_simulation
+from hvacflex.sim.sweep import JobOutcome, run_dir
+
+START = "2014-03-03"
+
+
+def _failing_sweep(
+    jobs: Sequence[tuple[dict[str, Any], ScenarioConfig]],
+    out_root: str | Path,
+    **_: Any,
+) -> list[JobOutcome]:
+    """Stands in for run_sweep: every job fails with a recognisable error."""
+    return [
+        JobOutcome(
+            label=cfg.name,
+            config_hash=cfg.config_hash(),
+            params=params,
+            out_dir=str(run_dir(Path(out_root), cfg)),
+            summary=None,
+            error=f"DataError: injected failure of {cfg.name}",
+        )
+        for params, cfg in jobs
+    ]
+
+
+def test_reproduce_exits_1_and_marks_the_report_incomplete(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import hvacflex.reproduce as reproduce_mod
+
+    monkeypatch.setattr(reproduce_mod, "run_sweep", _failing_sweep)
+    result = CliRunner().invoke(app, ["reproduce", "--quick", "--out", str(tmp_path)])
+    assert result.exit_code == 1, result.output
+    assert "16 of 16 runs failed" in result.output and "INCOMPLETE" in result.output
+    report = (tmp_path / "report.html").read_text()
+    body = report[report.index("<body>") :]
+    first_section = body[body.index("<section") :]
+    assert first_section.index("INCOMPLETE") < first_section.index("</section>")
+    assert "injected failure of rmpc-ppp" in first_section
+    assert "<title>hvacflex — reproduction of Hanif et al. (2016) (INCOMPLETE)</title>" in report
+
+
+def test_sweep_exits_1_when_a_run_fails(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    import hvacflex.sim.sweep as sweep_mod
+
+    monkeypatch.setattr(sweep_mod, "run_sweep", _failing_sweep)
+    args = ["sweep", "--param", "seed=1,2", "--days", "0.25", "--out", str(tmp_path)]
+    result = CliRunner().invoke(app, args)
+    assert result.exit_code == 1, result.output
+    assert "0 ok, 2 failed" in result.output and "2 of 2 runs failed" in result.output
+    assert (tmp_path / "sweep.csv").read_text().count("injected failure") == 2
+
+
+def test_sweep_with_a_missing_building_exits_1(tmp_path: Path) -> None:
+    args = [
+        "sweep", "--scenario", "thermostat", "--start", START, "--days", "0.25",
+        "--param", "building=office5,no-such-building", "--workers", "1",
+        "--out", str(tmp_path),
+    ]  # fmt: skip
+    result = CliRunner().invoke(app, args)
+    assert result.exit_code == 1, result.output
+    assert "1 ok, 1 failed" in result.output and "no-such-building" in result.output
+
+
+def test_simulate_with_a_missing_building_exits_2(tmp_path: Path) -> None:
+    config = tmp_path / "scenario.toml"
+    config.write_text('name = "mine"\nbuilding = "no-such-building"\n')
+    args = ["simulate", "--config", str(config), "--days", "0.25", "--out", str(tmp_path / "o")]
+    result = CliRunner().invoke(app, args)
+    assert result.exit_code == 2, result.output
+    assert "no-such-building" in result.output
+    assert "Traceback" not in result.output
+
+
+SIMULATE = ["simulate", "--scenario", "thermostat", "--start", START, "--days", "0.5", "-q"]
+
+
+def _truncate(path: Path) -> None:
+    data = path.read_bytes()
+    path.write_bytes(data[: len(data) // 2])
+
+
+def test_simulate_on_a_truncated_checkpoint_exits_2_with_the_fix(tmp_path: Path) -> None:
+    from hvacflex.config import preset
+
+    run_simulation(
+        preset("thermostat", start=START, days=0.5), tmp_path, progress=False, stop_after_steps=5
+    )
+    _truncate(tmp_path / CHECKPOINT_FILE)
+    result = CliRunner().invoke(app, [*SIMULATE, "--out", str(tmp_path)])
+    assert result.exit_code == 2, result.output
+    assert "not a readable checkpoint" in result.output and "--fresh" in result.output
+    assert "Traceback" not in result.output
+    fresh = CliRunner().invoke(app, [*SIMULATE, "--out", str(tmp_path), "--fresh"])
+    assert fresh.exit_code == 0, fresh.output
+
+
+def test_simulate_on_a_truncated_results_file_exits_2_with_the_fix(tmp_path: Path) -> None:
+    first = CliRunner().invoke(app, [*SIMULATE, "--out", str(tmp_path)])
+    assert first.exit_code == 0, first.output
+    _truncate(tmp_path / RESULTS_FILE)
+    result = CliRunner().invoke(app, [*SIMULATE, "--out", str(tmp_path)])
+    assert result.exit_code == 2, result.output
+    assert "not a readable results file" in result.output and "--fresh" in result.output
+
+
+def test_simulate_refuses_a_checkpoint_of_other_code(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import hvacflex.sim.closed_loop as closed_loop
+    from hvacflex.config import preset
+
+    monkeypatch.setattr(closed_loop, "code_version", lambda: "0.0.1+src.oldoldoldold")
+    run_simulation(
+        preset("thermostat", start=START, days=0.5), tmp_path, progress=False, stop_after_steps=5
+    )
+    monkeypatch.undo()
+    result = CliRunner().invoke(app, [*SIMULATE, "--out", str(tmp_path)])
+    assert result.exit_code == 2, result.output
+    output = " ".join(result.output.split())  # rich wraps long lines
+    assert "0.0.1+src.oldoldoldold" in output and closed_loop.code_version() in output
+    assert "--fresh" in output
+
+
+def test_summary_line_mentions_fallbacks_only_when_there_were_any() -> None:
+    summary = {
+        "days": 1.0,
+        "steps": 48.0,
+        "energy_kwh": 300.0,
+        "energy_cost_sgd": 40.0,
+        "reserve_revenue_sgd": 0.0,
+        "peak_power_kw": 35.0,
+        "discomfort_kelvin_hours": 0.0,
+        "fallback_count": 0.0,
+    }
+    assert "fallback" not in _run_summary_line("rmpc", summary, Path("r.parquet"))
+    line = _run_summary_line("rmpc", {**summary, "fallback_count": 3.0}, Path("r.parquet"))
+    assert "3 fallback steps of 48" in line
+
+
+def test_no_highs_banner_on_the_command_output(tmp_path: Path) -> None:
+    args = [
+        sys.executable, "-m", "hvacflex.cli", "simulate", "--scenario", "rmpc-ppp",
+        "--start", START, "--days", "0.25", "--quiet", "--out", str(tmp_path),
+    ]  # fmt: skip
+    done = subprocess.run(args, capture_output=True, text=True, timeout=300, env=os.environ.copy())
+    assert done.returncode == 0, done.stderr
+    assert "rmpc-ppp:" in done.stdout  # the command ran and solved LPs
+    assert "HiGHS" not in done.stdout + done.stderr
