@@ -338,7 +338,7 @@ def _check_and_assemble(rows: pd.DataFrame, fill: FillMode, what: str) -> pd.Dat
                 field=_PERIOD_COLUMN,
                 hint="add the missing rows, or fill each gap with the same period of the day "
                 "before: the command-line option --price-gap-fill previous-day, the scenario "
-                "setting [data] price_gap_fill = 'previous-day', or load_usep(..., "
+                "setting data.price_gap_fill = 'previous-day', or load_usep(..., "
                 "fill='previous-day') (the filled periods are recorded in "
                 ".attrs['filled_periods'])",
             )

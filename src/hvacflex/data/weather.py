@@ -108,7 +108,7 @@ EPW_FIELDS: tuple[EpwField, ...] = (
         0.0,
         IRRADIANCE_MAX_WH_PER_M2,
         9999.0,
-    ),  # fmt: skip
+    ),
     EpwField(
         14,
         "dni_w_per_m2",
@@ -117,7 +117,7 @@ EPW_FIELDS: tuple[EpwField, ...] = (
         0.0,
         IRRADIANCE_MAX_WH_PER_M2,
         9999.0,
-    ),  # fmt: skip
+    ),
     EpwField(
         15,
         "dhi_w_per_m2",
@@ -126,7 +126,7 @@ EPW_FIELDS: tuple[EpwField, ...] = (
         0.0,
         IRRADIANCE_MAX_WH_PER_M2,
         9999.0,
-    ),  # fmt: skip
+    ),
     EpwField(21, "wind_speed_m_s", "Wind Speed", "m/s", 0.0, 40.0, 999.0),
 )
 """The fields hvacflex reads, with the physical range every value must lie in."""
@@ -241,9 +241,9 @@ def _parse_header(path: str | Path, lines: list[str]) -> EpwLocation:
     elevation = _header_number(path, 1, loc, 9, "LOCATION elevation [m]", ELEVATION_RANGE_M)
     ground: tuple[float, ...] = ()
     g = lines[3].split(",")
-    depths = _header_number(
-        path, 4, g, 1, "GROUND TEMPERATURES number of depths", (0.0, 1000.0)
-    ) if len(g) > 1 and g[1].strip() else 0.0  # fmt: skip
+    depths = 0.0
+    if len(g) > 1 and g[1].strip():
+        depths = _header_number(path, 4, g, 1, "GROUND TEMPERATURES depths", (0.0, 1000.0))
     if depths >= 1:
         if len(g) < 18:
             raise _bad_header(
