@@ -1,10 +1,64 @@
+from pathlib import Path
+
+import pytest
 from typer.testing import CliRunner
 
 from hvacflex import __version__
-from hvacflex.cli import app
+from hvacflex.cli import _check_days, _scenario_config, app
 
 
 def test_version_command_prints_version() -> None:
     result = CliRunner().invoke(app, ["version"])
     assert result.exit_code == 0
     assert __version__ in result.output
+
+
+@pytest.mark.parametrize(
+    ("days", "problem"),
+    [
+        ("inf", "finite"),
+        ("nan", "finite"),
+        ("1e9", "at most 3660"),
+        ("0.01", "at least one 30-min period"),
+        ("0", "> 0"),
+        ("1.01", "whole number of 30-min periods"),
+    ],
+)
+@pytest.mark.parametrize("command", ["simulate", "sweep"])
+def test_bad_days_exit_2_naming_the_option(command: str, days: str, problem: str) -> None:
+    args = [command, "--days", days, "--out", "unused"]
+    if command == "sweep":
+        args += ["--param", "peak_price_sgd_per_kw=1"]
+    result = CliRunner().invoke(app, args, env={"COLUMNS": "300"})
+    assert result.exit_code == 2, result.output
+    assert "'--days'" in result.output and problem in result.output
+
+
+def test_days_callback_accepts_whole_periods() -> None:
+    assert _check_days(None) is None
+    assert _check_days(0.5) == 0.5 and _check_days(1 / 48) == 1 / 48 and _check_days(365) == 365
+
+
+def test_start_outside_the_price_data_exits_2_with_the_covered_dates(tmp_path: Path) -> None:
+    result = CliRunner().invoke(
+        app,
+        ["simulate", "--start", "2016-03-03", "--days", "1", "--out", str(tmp_path / "r"), "-q"],
+        env={"COLUMNS": "300"},
+    )
+    assert result.exit_code == 2, result.output
+    assert "outside the USEP price data" in result.output
+    assert "2014-01-01 … 2014-12-31" in result.output
+    assert not (tmp_path / "r" / "results.parquet").exists()
+
+
+def test_price_gap_fill_option_overrides_the_scenario_setting(tmp_path: Path) -> None:
+    cfg = _scenario_config("rmpc", None, None, None, "previous-day")
+    assert cfg.data.price_gap_fill == "previous-day"
+    assert _scenario_config("rmpc", None, None, None).data.price_gap_fill == "none"
+    result = CliRunner().invoke(
+        app,
+        ["simulate", "--price-gap-fill", "zero", "--out", str(tmp_path / "r"), "-q"],
+        env={"COLUMNS": "300"},
+    )
+    assert result.exit_code == 2, result.output
+    assert "price_gap_fill" in result.output and "previous-day" in result.output

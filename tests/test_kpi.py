@@ -298,3 +298,31 @@ def test_kpi_command_compares_runs(tmp_path: Path) -> None:
     assert "nmpc" in result.output and "rmpc" in result.output
     assert "energy_cost_sgd" in result.output
     assert "2.00" in result.output and "4.00" in result.output
+
+
+def test_load_results_refuses_what_is_not_a_results_file(tmp_path: Path) -> None:
+    with pytest.raises(DataError, match="no such file or directory"):
+        kpi.load_results(tmp_path / "missing_dir")
+    with pytest.raises(DataError, match=r"holds no results\.parquet"):
+        kpi.load_results(tmp_path)
+    text = tmp_path / "notes.parquet"
+    text.write_text("not parquet at all")
+    with pytest.raises(DataError, match="cannot be read as Parquet"):
+        kpi.load_results(text)
+    other = tmp_path / "other.parquet"
+    pd.DataFrame({"x": [1.0, 2.0]}).to_parquet(other)
+    with pytest.raises(DataError, match="required columns are missing") as info:
+        kpi.load_results(other)
+    assert info.value.field == "power_kw, energy_price_sgd_per_mwh"
+
+
+@pytest.mark.parametrize("target", ["missing_dir", "README.md", "empty_dir"])
+def test_kpi_command_exits_2_on_bad_input(tmp_path: Path, target: str) -> None:
+    from hvacflex.cli import app
+
+    (tmp_path / "README.md").write_text("# not a results file\n")
+    (tmp_path / "empty_dir").mkdir()
+    result = CliRunner().invoke(app, ["kpi", str(tmp_path / target)])
+    assert result.exit_code == 2, result.output
+    assert "error:" in result.output and target in result.output
+    assert "Traceback" not in result.output

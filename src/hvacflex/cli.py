@@ -5,6 +5,7 @@ Each command imports what it needs inside its body, so ``hvacflex --help`` stays
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -112,6 +113,7 @@ def kpi(
     from rich.table import Table
 
     from hvacflex import kpi as kpis
+    from hvacflex.errors import HvacflexError
 
     columns: dict[str, dict[str, float]] = {}
     for path in paths:
@@ -124,7 +126,13 @@ def kpi(
         while unique in columns:
             unique = f"{name}#{suffix}"
             suffix += 1
-        columns[unique] = kpis.summary(kpis.load_results(path), peak_price_sgd_per_kw)
+        try:
+            results = kpis.load_results(path)
+            columns[unique] = kpis.summary(results, peak_price_sgd_per_kw)
+        except HvacflexError as exc:
+            where = "" if str(path) in str(exc) else f"{path}: "
+            typer.echo(f"error: {where}{exc}", err=True)
+            raise typer.Exit(2) from None
     frame = pd.DataFrame(columns)
     if csv is not None:
         frame.to_csv(csv, index_label="kpi")
@@ -150,10 +158,45 @@ def _format_kpi(name: str, value: float) -> str:
     return f"{value:,.2f}"
 
 
+MAX_DAYS = 3660.0
+"""Longest run the command line accepts [days] (ten years)."""
+
+PERIODS_PER_DAY = 48
+"""30-min control periods per day."""
+
+
+def _check_days(value: float | None) -> float | None:
+    """Callback of ``--days``: a finite, positive whole number of 30-min periods, ≤ MAX_DAYS.
+
+    Raises ``typer.BadParameter`` (exit code 2, the message names ``--days``).
+    """
+    if value is None:
+        return None
+    periods = value * PERIODS_PER_DAY
+    if not math.isfinite(value):
+        problem = "must be a finite number of days"
+    elif value <= 0:
+        problem = "must be > 0"
+    elif value > MAX_DAYS:
+        problem = f"must be at most {MAX_DAYS:g} days (ten years)"
+    elif periods < 1:
+        problem = "must be at least one 30-min period (1/48 day ≈ 0.0208)"
+    elif abs(periods - round(periods)) > 1e-6:
+        problem = "must be a whole number of 30-min periods (a multiple of 1/48 day)"
+    else:
+        return value
+    raise typer.BadParameter(f"{problem} (got {value!r}); e.g. --days 0.5, --days 7 or --days 365")
+
+
 def _scenario_config(
-    scenario: str | None, config: Path | None, start: str | None, days: float | None
+    scenario: str | None,
+    config: Path | None,
+    start: str | None,
+    days: float | None,
+    price_gap_fill: str | None = None,
 ) -> ScenarioConfig:
-    """A ScenarioConfig from a preset name or a TOML file, with --start/--days applied."""
+    """A ScenarioConfig from a preset name or a TOML file, with --start/--days and
+    --price-gap-fill applied (as overrides of ``start``, ``days``, ``data.price_gap_fill``)."""
     from hvacflex.config import load_config, preset, with_overrides
 
     if config is not None:
@@ -165,6 +208,8 @@ def _scenario_config(
         overrides["start"] = start
     if days is not None:
         overrides["days"] = days
+    if price_gap_fill is not None:
+        overrides["data.price_gap_fill"] = price_gap_fill
     return with_overrides(cfg, overrides) if overrides else cfg
 
 
@@ -177,7 +222,15 @@ def simulate(
     ),
     config: Path | None = typer.Option(None, help="Scenario TOML file (overrides --scenario)."),  # noqa: B008
     start: str | None = typer.Option(None, help="First day, e.g. 2014-01-01."),
-    days: float | None = typer.Option(None, help="Number of days to simulate."),
+    days: float | None = typer.Option(
+        None, help="Number of days to simulate.", callback=_check_days
+    ),
+    price_gap_fill: str | None = typer.Option(
+        None,
+        "--price-gap-fill",
+        help="Missing periods in the price files: 'none' (an error) or 'previous-day' (copy "
+        "the same period of the day before). Default: the scenario's data.price_gap_fill.",
+    ),
     out: Path = typer.Option(Path("results/run"), help="Output folder."),  # noqa: B008
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
     fresh: bool = typer.Option(False, help="Ignore existing results and checkpoints."),
@@ -193,7 +246,7 @@ def simulate(
 
     console = Console()
     try:
-        cfg = _scenario_config(scenario, config, start, days)
+        cfg = _scenario_config(scenario, config, start, days, price_gap_fill)
         result = run_simulation(
             cfg, out, progress=not quiet, resume=not fresh, checkpoint_every=checkpoint_every
         )
@@ -233,7 +286,13 @@ def sweep(
     scenario: str = typer.Option("rmpc-ppp", help="Preset the sweep starts from."),
     config: Path | None = typer.Option(None, help="Scenario TOML file (overrides --scenario)."),  # noqa: B008
     start: str | None = typer.Option(None, help="First day, e.g. 2014-01-01."),
-    days: float | None = typer.Option(None, help="Number of days per run."),
+    days: float | None = typer.Option(None, help="Number of days per run.", callback=_check_days),
+    price_gap_fill: str | None = typer.Option(
+        None,
+        "--price-gap-fill",
+        help="Missing periods in the price files: 'none' (an error) or 'previous-day' (copy "
+        "the same period of the day before). Default: the scenario's data.price_gap_fill.",
+    ),
     out: Path = typer.Option(Path("results/sweep"), help="Output folder."),  # noqa: B008
     scheduler: str | None = typer.Option(
         None, help="dask.distributed scheduler address; default: a LocalCluster here."
@@ -253,7 +312,7 @@ def sweep(
 
     console = Console()
     try:
-        cfg = _scenario_config(scenario, config, start, days)
+        cfg = _scenario_config(scenario, config, start, days, price_gap_fill)
         grid = dict(parse_param(p) for p in param)
         jobs = expand_grid(cfg, grid)
     except HvacflexError as exc:

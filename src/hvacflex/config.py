@@ -50,6 +50,7 @@ BillingMode = Literal["horizon", "billing-period"]
 RealisationMode = Literal["zero", "uniform", "worst-upper", "worst-lower", "ar1"]
 ActivationMode = Literal["never", "always", "random", "file"]
 FeedbackStructure = Literal["full", "memory", "zone-local", "time-invariant"]
+PriceGapFill = Literal["none", "previous-day"]
 
 DEFAULT_PEAK_PRICE_PAPER_SGD_PER_KW = 1.5
 """The paper's scenario (c) peak-power price [SGD/kW]."""
@@ -151,6 +152,8 @@ class DataConfig:
     reserve_source: str | None = None
     reserve_price_scale: float | None = None
     """Scale of the synthetic reserve price; ``None`` = the calibrated default."""
+    price_gap_fill: PriceGapFill = "none"
+    """Gaps in the price files: ``"none"`` (an error) or ``"previous-day"`` (copy the period)."""
 
 
 @dataclass(frozen=True)
@@ -327,6 +330,7 @@ _LITERALS: dict[tuple[str, str], tuple[str, ...]] = {
     ("RealisationConfig", "mode"): get_args(RealisationMode),
     ("ActivationConfig", "mode"): get_args(ActivationMode),
     ("FeedbackConfig", "structure"): get_args(FeedbackStructure),
+    ("DataConfig", "price_gap_fill"): get_args(PriceGapFill),
 }
 
 _DISTURBANCE_KINDS = ("outdoor_temp", "solar", "internal_gain", "ground_temp")

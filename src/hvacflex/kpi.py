@@ -493,6 +493,10 @@ def summary(results: pd.DataFrame, peak_price_sgd_per_kw: float | None = None) -
     return out
 
 
+RESULTS_REQUIRED_COLUMNS = ("power_kw", "energy_price_sgd_per_mwh")
+"""Columns every results file has; a Parquet file without them is not a results file."""
+
+
 def load_results(path: str | Path) -> pd.DataFrame:
     """Read a run's results: a Parquet file, or a run directory holding ``results.parquet``.
 
@@ -501,18 +505,39 @@ def load_results(path: str | Path) -> pd.DataFrame:
     Raises
     ------
     DataError
-        When the file does not exist.
+        When the path does not exist, the directory holds no results file, or the file is
+        not a Parquet file with the results columns (:data:`RESULTS_REQUIRED_COLUMNS`).
     """
-    file = Path(path)
-    if file.is_dir():
-        file = file / RESULTS_FILENAME
+    hint = f"pass a run directory holding {RESULTS_FILENAME} (written by hvacflex simulate) or "
+    hint += "such a Parquet file"
+    given = Path(path)
+    if not given.exists():
+        raise DataError(
+            "results file not found: no such file or directory", source=given, hint=hint
+        )
+    file = given / RESULTS_FILENAME if given.is_dir() else given
     if not file.is_file():
         raise DataError(
-            "results file not found",
-            source=file,
-            hint=f"pass a run directory holding {RESULTS_FILENAME} or a Parquet file",
+            f"results file not found: the directory holds no {RESULTS_FILENAME}",
+            source=given,
+            hint=hint,
         )
-    results = pd.read_parquet(file)
+    try:
+        results = pd.read_parquet(file)
+    except (OSError, ValueError, TypeError, RuntimeError) as exc:  # pyarrow: ArrowInvalid, …
+        raise DataError(
+            f"not a results file: cannot be read as Parquet ({type(exc).__name__})",
+            source=file,
+            hint=hint,
+        ) from None
+    missing = [c for c in RESULTS_REQUIRED_COLUMNS if c not in results.columns]
+    if missing:
+        raise DataError(
+            "not a results file: required columns are missing",
+            source=file,
+            field=", ".join(missing),
+            hint=hint + "; see the Results table of docs/architecture.md",
+        )
     if not isinstance(results.index, pd.DatetimeIndex) and "time" in results.columns:
         results = results.set_index("time")
     return results

@@ -141,3 +141,41 @@ def test_ar1_disturbance_error(week: Exogenous) -> None:
     spread = np.abs(errors).mean(axis=0)
     assert spread[1] < spread[10] < spread[40] + 0.05
     assert 0.2 < spread[40] < 0.6  # → σ = 0.5 K, mean |N(0, σ)| ≈ 0.4 K
+
+
+@pytest.mark.parametrize(
+    ("start", "steps", "field", "partly"),
+    [("2016-03-03", 48, "start", False), ("2013-12-31", 48, "start", False),
+     ("2014-12-30", 3 * 48, "days", True)],
+)  # fmt: skip
+def test_a_run_outside_the_price_data_is_refused(
+    start: str, steps: int, field: str, partly: bool
+) -> None:
+    with pytest.raises(DataError, match="outside the USEP price data") as info:
+        load_exogenous(CHANNELS, [100.0, 100.0], Gains(), start=start, steps=steps)
+    text = str(info.value)
+    assert info.value.field == field and ("partly outside" in text) == partly
+    assert "covers 2014-01-01 … 2014-12-31 (2014)" in text
+    assert "data.usep_source" in text and "HVACFLEX_DATA_DIR" in text
+
+
+def test_the_last_simulated_period_may_be_the_last_period_of_the_data() -> None:
+    x = load_exogenous(CHANNELS, [100.0, 100.0], Gains(), start="2014-12-31 23:30", steps=1)
+    assert not x.energy_price_extrapolated[0] and x.energy_price_extrapolated[1:].all()
+    with pytest.raises(DataError, match="partly outside"):
+        load_exogenous(CHANNELS, [100.0, 100.0], Gains(), start="2014-12-31 23:30", steps=2)
+
+
+def test_price_gap_fill_reaches_the_loader(tmp_path: Path, shared_data_dir: Path) -> None:
+    source = shared_data_dir / "nems_usep_2014" / "USEP_Mar-2014.csv"
+    lines = source.read_text().splitlines()
+    del lines[1 + 48 * 16 + 20]  # 17 March, period 21
+    gappy = tmp_path / "USEP_Mar-2014.csv"
+    gappy.write_text("\n".join(lines) + "\n")
+    kwargs = {"start": "2014-03-17", "steps": 48, "usep_source": gappy}
+    with pytest.raises(DataError, match="1 missing period"):
+        load_exogenous(CHANNELS, [100.0, 100.0], Gains(), **kwargs)  # type: ignore[arg-type]
+    x = load_exogenous(CHANNELS, [100.0, 100.0], Gains(), price_gap_fill="previous-day", **kwargs)  # type: ignore[arg-type]
+    full = load_usep(source)["energy_price_sgd_per_mwh"]
+    assert x.energy_price_sgd_per_mwh[20] == full.loc["2014-03-16 10:00+08:00"]
+    assert x.energy_price_sgd_per_mwh[21] == full.loc["2014-03-17 10:30+08:00"]

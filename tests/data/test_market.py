@@ -183,3 +183,66 @@ def test_synthetic_reserve_prices(usep_2014: pd.DataFrame) -> None:
     again = synthetic_reserve_prices(price.iloc[5000:5100], seed=7)
     assert np.array_equal(again.to_numpy(), reserve.iloc[5000:5100].to_numpy())
     assert not np.array_equal(synthetic_reserve_prices(price, seed=8), reserve)
+
+
+@pytest.mark.parametrize(
+    ("value", "message"),
+    [
+        ("inf", "price beyond the NEMS price floor/cap"),
+        ("1e308", "price beyond the NEMS price floor/cap"),
+        ("4500.01", r"outside \[-4500, 4500\]"),
+        ("-4600", r"outside \[-4500, 4500\]"),
+        ("nan", "non-numeric price"),
+    ],
+)
+def test_price_beyond_the_nems_cap_or_not_finite(tmp_path: Path, value: str, message: str) -> None:
+    rows = _old_rows()
+    rows[9] = f'"USEP","01 Jan 2014","10","{value}","5010.5"'
+    with pytest.raises(DataError, match=message) as info:
+        load_usep(_write(tmp_path, [OLD_HEADER, *rows]))
+    assert info.value.line == 11 and info.value.field == "PRICE ($/MWh)"
+    assert info.value.value == value
+
+
+def test_prices_at_the_cap_and_floor_are_kept(tmp_path: Path) -> None:
+    rows = _old_rows()
+    rows[0] = '"USEP","01 Jan 2014","1","4500","5001.5"'
+    rows[1] = '"USEP","01 Jan 2014","2","-4500","5002.5"'
+    price = load_usep(_write(tmp_path, [OLD_HEADER, *rows]))[ENERGY_PRICE_COLUMN]
+    assert price.iloc[0] == 4500.0 and price.iloc[1] == -4500.0
+
+
+@pytest.mark.parametrize("value", ["-1", "inf", "1e9"])
+def test_demand_outside_its_range(tmp_path: Path, value: str) -> None:
+    rows = _old_rows()
+    rows[4] = f'"USEP","01 Jan 2014","5","104.00","{value}"'
+    with pytest.raises(DataError, match="demand") as info:
+        load_usep(_write(tmp_path, [OLD_HEADER, *rows]))
+    assert info.value.line == 6 and info.value.field == "DEMAND (MW)"
+
+
+def test_reserve_price_beyond_the_cap(tmp_path: Path) -> None:
+    rows = [f'"01 Jan 2014","{p}","{9e9 if p == 3 else 2.0}"' for p in range(1, 49)]
+    path = _write(tmp_path, ['"DATE","PERIOD","RESERVE PRICE ($/MWh)"', *rows], "il.csv")
+    with pytest.raises(DataError, match="floor/cap") as info:
+        load_reserve_prices(path)
+    assert info.value.line == 4
+
+
+def test_gap_error_names_the_command_line_option_and_the_scenario_key(tmp_path: Path) -> None:
+    rows = [r for r in _old_rows() if '","7","' not in r]
+    with pytest.raises(DataError, match="missing period") as info:
+        load_usep(_write(tmp_path, [OLD_HEADER, *rows]))
+    assert "--price-gap-fill previous-day" in str(info.value)
+    assert "data.price_gap_fill" in str(info.value)
+    with pytest.raises(DataError, match="unknown fill mode"):
+        load_usep(_write(tmp_path, [OLD_HEADER, *rows]), fill="zero")  # type: ignore[arg-type]
+
+
+def test_an_edited_file_is_read_again(tmp_path: Path) -> None:
+    path = _write(tmp_path, [OLD_HEADER, *_old_rows()])
+    assert load_usep(path)[ENERGY_PRICE_COLUMN].iloc[0] == 101.0
+    rows = _old_rows()
+    rows[0] = '"USEP","01 Jan 2014","1","55.5","5001.5"'
+    _write(tmp_path, [OLD_HEADER, *rows])
+    assert load_usep(path)[ENERGY_PRICE_COLUMN].iloc[0] == 55.5

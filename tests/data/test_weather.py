@@ -197,3 +197,124 @@ def test_missing_value_code(tmp_path: Path, shared_data_dir: Path) -> None:
     with pytest.raises(DataError, match="outdoor_temp_degc") as info:
         read_epw(_write(tmp_path, lines))
     assert info.value.line == 14
+
+
+def _set_field(lines: list[str], row: int, index: int, value: str) -> None:
+    """Set field ``index`` (0-based) of data row ``row`` (0-based) to ``value``."""
+    fields = lines[8 + row].split(",")
+    fields[index] = value
+    lines[8 + row] = ",".join(fields)
+
+
+@pytest.mark.parametrize(
+    ("index", "value", "column", "message"),
+    [
+        (6, "-273", "outdoor_temp_degc", "outside the physical range -70…70 °C"),
+        (6, "inf", "outdoor_temp_degc", "missing or non-numeric"),
+        (7, "nan", "dewpoint_degc", "missing or non-numeric"),
+        (8, "999", "relative_humidity_percent", "missing-value code"),
+        (9, "-5", "pressure_pa", "outside the physical range 31000…120000 Pa"),
+        (9, "5000000", "pressure_pa", "missing-value code"),
+        (9, "200000", "pressure_pa", "outside the physical range"),
+        (13, "-10", "ghi_w_per_m2", "outside the physical range 0…1500 Wh/m²"),
+        (14, "9999", "dni_w_per_m2", r"missing-value code \(≥ 9999\)"),
+        (15, "5000", "dhi_w_per_m2", "outside the physical range"),
+        (21, "1e308", "wind_speed_m_s", "missing-value code"),
+        (21, "60", "wind_speed_m_s", "outside the physical range 0…40 m/s"),
+        (3, "25", "hour", "outside the physical range 1…24"),
+        (1, "1.5", "month", "whole number"),
+    ],
+)
+def test_values_outside_their_physical_range_name_line_and_field(
+    tmp_path: Path, shared_data_dir: Path, index: int, value: str, column: str, message: str
+) -> None:
+    lines = _epw_lines(shared_data_dir)
+    _set_field(lines, 41, index, value)
+    with pytest.raises(DataError, match=message) as info:
+        read_epw(_write(tmp_path, lines))
+    assert info.value.line == 8 + 42
+    assert info.value.field is not None and column in info.value.field
+    assert info.value.value == value
+
+
+@pytest.mark.parametrize(
+    ("index", "value", "field"),
+    [
+        (8, "100", "time zone"),
+        (8, "nan", "time zone"),
+        (8, "inf", "time zone"),
+        (8, "-13", "time zone"),
+        (9, "1e6", "elevation"),
+        (6, "91", "latitude"),
+        (7, "x", "longitude"),
+    ],
+)
+def test_bad_location_values_name_the_field(
+    tmp_path: Path, shared_data_dir: Path, index: int, value: str, field: str
+) -> None:
+    lines = _epw_lines(shared_data_dir)
+    location = lines[0].split(",")
+    location[index] = value
+    lines[0] = ",".join(location)
+    with pytest.raises(DataError, match="must be a number in") as info:
+        read_epw(_write(tmp_path, lines))
+    assert info.value.line == 1 and info.value.field is not None and field in info.value.field
+
+
+def test_bad_ground_temperature_names_line_4(tmp_path: Path, shared_data_dir: Path) -> None:
+    lines = _epw_lines(shared_data_dir)
+    ground = lines[3].split(",")
+    ground[8] = "1e300"
+    lines[3] = ",".join(ground)
+    with pytest.raises(DataError, match="GROUND TEMPERATURES month 3") as info:
+        read_epw(_write(tmp_path, lines))
+    assert info.value.line == 4
+
+
+def test_a_deleted_field_says_the_row_has_too_few_fields(
+    tmp_path: Path, shared_data_dir: Path
+) -> None:
+    lines = _epw_lines(shared_data_dir)
+    fields = lines[8 + 200].split(",")
+    del fields[6]  # the dry bulb: every later field would shift left by one
+    lines[8 + 200] = ",".join(fields)
+    with pytest.raises(DataError, match="too few fields: 34, an EPW row has 35") as info:
+        read_epw(_write(tmp_path, lines))
+    assert info.value.line == 8 + 201
+
+
+def test_an_added_field_says_the_row_has_too_many_fields(
+    tmp_path: Path, shared_data_dir: Path
+) -> None:
+    lines = _epw_lines(shared_data_dir)
+    lines[8 + 7] = lines[8 + 7].replace(",", ",,", 1)
+    with pytest.raises(DataError, match="too many fields: 36") as info:
+        read_epw(_write(tmp_path, lines))
+    assert info.value.line == 8 + 8
+
+
+def test_rows_out_of_calendar_order_name_the_first_wrong_line(
+    tmp_path: Path, shared_data_dir: Path
+) -> None:
+    lines = _epw_lines(shared_data_dir)
+    lines[8 + 30], lines[8 + 31] = lines[8 + 31], lines[8 + 30]
+    with pytest.raises(DataError, match="hour by hour") as info:
+        read_epw(_write(tmp_path, lines))
+    assert info.value.line == 8 + 31
+    assert info.value.value == (1, 2, 8)  # hour 8 of 2 January where hour 7 belongs
+
+
+def test_a_duplicated_row_is_refused(tmp_path: Path, shared_data_dir: Path) -> None:
+    lines = _epw_lines(shared_data_dir)
+    lines.insert(8 + 500, lines[8 + 500])
+    with pytest.raises(DataError, match="8761 hourly rows, expected 8760"):
+        read_epw(_write(tmp_path, lines))
+
+
+def test_an_edited_file_is_read_again(tmp_path: Path, shared_data_dir: Path) -> None:
+    lines = _epw_lines(shared_data_dir)
+    path = _write(tmp_path, lines)
+    assert read_epw(path)[0]["outdoor_temp_degc"].iloc[0] != -5.0
+    _set_field(lines, 0, 6, "-5.0")
+    path.write_text("\n".join(lines) + "\n", encoding="latin-1")
+    assert read_epw(path)[0]["outdoor_temp_degc"].iloc[0] == -5.0

@@ -6,7 +6,7 @@ import pytest
 
 from hvacflex.config import ActivationConfig
 from hvacflex.errors import DataError
-from hvacflex.sim.activation import activation_schedule
+from hvacflex.sim.activation import ActivationFileWarning, activation_schedule
 
 INDEX = pd.date_range("2014-03-03", periods=96, freq="30min", tz="Asia/Singapore")
 
@@ -56,3 +56,54 @@ def test_file_with_a_period_twice_names_line(tmp_path: Path) -> None:
     path.write_text("time,activated\n2014-03-03T10:00:00+08:00,1\n2014-03-03T10:00:00+08:00,0\n")
     with pytest.raises(DataError, match=r"il.csv:3.*twice"):
         activation_schedule(ActivationConfig(mode="file", file=str(path)), INDEX, seed=0)
+
+
+def _schedule(path: Path) -> np.ndarray:
+    return activation_schedule(ActivationConfig(mode="file", file=str(path)), INDEX, seed=0)
+
+
+def test_empty_file_says_so(tmp_path: Path) -> None:
+    path = tmp_path / "il.csv"
+    path.write_text("")
+    with pytest.raises(DataError, match="activation file is empty"):
+        _schedule(path)
+    path.write_text("time,activated\n")
+    with pytest.raises(DataError, match="no data rows"):
+        _schedule(path)
+
+
+def test_binary_garbage_is_not_a_csv(tmp_path: Path) -> None:
+    path = tmp_path / "il.csv"
+    path.write_bytes(bytes(range(256)) * 4)
+    with pytest.raises(DataError, match=r"il\.csv.*not a readable CSV text file"):
+        _schedule(path)
+
+
+def test_a_row_not_on_a_period_start_names_the_line(tmp_path: Path) -> None:
+    path = tmp_path / "il.csv"
+    path.write_text("time,activated\n2014-03-03T10:00,1\n2014-03-03T10:15,1\n")
+    with pytest.raises(DataError, match=r"il.csv:3.*start of a 30-min period") as info:
+        _schedule(path)
+    assert info.value.value == "2014-03-03T10:15"
+
+
+def test_an_unparseable_time_names_the_line(tmp_path: Path) -> None:
+    path = tmp_path / "il.csv"
+    path.write_text("time,activated\n2014-03-03T10:00,1\nmonday,1\n")
+    with pytest.raises(DataError, match=r"il.csv:3.*unparseable time"):
+        _schedule(path)
+
+
+def test_rows_outside_the_run_warn_and_are_ignored(tmp_path: Path) -> None:
+    path = tmp_path / "il.csv"
+    path.write_text("time,activated\n2014-03-03T10:00,1\n2014-05-01T10:00,1\n2013-01-01,1\n")
+    with pytest.warns(ActivationFileWarning, match=r"2 of 3 row\(s\) lie outside the run"):
+        flags = _schedule(path)
+    assert flags.sum() == 1 and flags[20]
+
+
+def test_naive_times_are_local_and_aware_ones_are_converted(tmp_path: Path) -> None:
+    path = tmp_path / "il.csv"
+    path.write_text("time,activated\n2014-03-03T10:00,1\n2014-03-03T03:00:00+00:00,1\n")
+    flags = _schedule(path)
+    assert flags.sum() == 2 and flags[20] and flags[22]

@@ -6,9 +6,10 @@ occupancy on a 30-min, tz-aware (``Asia/Singapore``) index of period starts. It 
 ``steps + horizon_steps`` periods so that a forecast at the last simulated step still has a
 full horizon.
 
-* Energy prices: NEMS USEP (2014 shipped). Periods outside the price data take the same
-  period of the nearest available day (the last day after the end, the first day before the
-  start) and are flagged in ``energy_price_extrapolated``.
+* Energy prices: NEMS USEP (2014 shipped). Every simulated period must lie inside the price
+  data (a run outside it is refused, naming the dates the data covers); only the look-ahead
+  periods of the last steps' forecasts may fall after its end: they take the same period of
+  the nearest available day and are flagged in ``energy_price_extrapolated``.
 * Reserve prices: a user CSV (``reserve_source``) or, by default, the seeded synthetic series
   (``reserve_price_synthetic = True``).
 * Weather: an EPW typical year (the Singapore Changi TMYx file by default) mapped onto each
@@ -46,6 +47,7 @@ from hvacflex.data.market import (
     PERIODS_PER_DAY,
     RESERVE_PRICE_SCALE,
     TIMEZONE,
+    FillMode,
     load_reserve_prices,
     load_usep,
     synthetic_reserve_prices,
@@ -63,7 +65,7 @@ from hvacflex.data.weather import (
     weather_30min,
 )
 from hvacflex.errors import ConfigError, DataError
-from hvacflex.paths import data_dir
+from hvacflex.paths import DATA_DIR_ENV, data_dir
 
 DEFAULT_WEATHER_FILE = "SGP_SG_Singapore-Changi.Intl.AP.486980_TMYx.2009-2023.epw"
 """Default EPW in ``<data_dir>/weather``: the TMYx typical year of Singapore Changi (2009–2023,
@@ -389,6 +391,39 @@ def _weather_on(index: pd.DatetimeIndex, path: Path) -> tuple[pd.DataFrame, EpwL
     return full.loc[local], location
 
 
+def _check_coverage(
+    data_index: pd.Index, run: pd.DatetimeIndex, what: str, source: object, setting: str
+) -> None:
+    """Refuse a run whose simulated periods ``run`` are not all inside the data's days."""
+    if not isinstance(data_index, pd.DatetimeIndex) or len(data_index) == 0 or len(run) == 0:
+        return
+    first_day = data_index.min().normalize()
+    end = data_index.max().normalize() + pd.Timedelta(days=1)
+    local = run.tz_convert(data_index.tz)
+    if local[0] >= first_day and local[-1] < end:
+        return
+    years = sorted(set(data_index.year))
+    span = f"{years[0]}" if len(years) == 1 else f"{years[0]}–{years[-1]}"
+    last = local[-1] + PERIOD
+    starts_inside = first_day <= local[0] < end
+    or_data_dir = (
+        f" (or point {DATA_DIR_ENV} at a data folder whose {DEFAULT_USEP_FOLDER}/ holds them)"
+        if setting == "usep_source"
+        else ""
+    )
+    raise DataError(
+        f"the run {local[0]:%Y-%m-%d %H:%M} … {last:%Y-%m-%d %H:%M} is "
+        f"{'partly ' if starts_inside else ''}outside the {what} data, which covers "
+        f"{first_day:%Y-%m-%d} … {end - pd.Timedelta(days=1):%Y-%m-%d} ({span})",
+        source=str(source)[:300],
+        field="days" if starts_inside else "start",
+        value=f"{local[0]:%Y-%m-%d}" if not starts_inside else f"{last:%Y-%m-%d %H:%M}",
+        hint=f"choose --start/--days (scenario keys start, days) inside those dates, or supply "
+        f"{what} CSV files covering the run: set data.{setting} in the scenario TOML to a "
+        f"CSV file or folder{or_data_dir}",
+    )
+
+
 def _align_prices(
     series: pd.Series, index: pd.DatetimeIndex, what: str
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -431,6 +466,7 @@ def load_exogenous(
     seed: int = 2014,
     reserve_scale_sgd_per_mwh: float = RESERVE_PRICE_SCALE,
     schedule: OfficeSchedule = DEFAULT_OFFICE_SCHEDULE,
+    price_gap_fill: FillMode = "none",
 ) -> Exogenous:
     """Load and align all exogenous inputs for a simulation.
 
@@ -451,10 +487,18 @@ def load_exogenous(
     seed : seed of the synthetic reserve prices.
     reserve_scale_sgd_per_mwh : scale of the synthetic reserve prices.
     schedule : office schedule for gains and occupancy.
+    price_gap_fill : ``fill`` of :func:`~hvacflex.data.market.load_usep` for gaps in the
+        price files: ``"none"`` (a gap is an error) or ``"previous-day"``.
 
     Returns
     -------
     :class:`Exogenous` over ``steps + horizon_steps`` periods.
+
+    Raises
+    ------
+    DataError
+        if a simulated period (the first ``steps``) lies outside the price data, naming the
+        dates it covers; and for any error of the loaders.
     """
     if steps < 1 or horizon_steps < 0:
         raise ConfigError(
@@ -512,7 +556,9 @@ def load_exogenous(
         if weather_file is not None
         else data_dir() / "weather" / DEFAULT_WEATHER_FILE
     )
-    usep = load_usep(usep_source if usep_source is not None else data_dir() / DEFAULT_USEP_FOLDER)
+    usep_from = usep_source if usep_source is not None else data_dir() / DEFAULT_USEP_FOLDER
+    usep = load_usep(usep_from, fill=price_gap_fill)
+    _check_coverage(usep.index, index[:steps], "USEP price", usep_from, "usep_source")
     energy, extrapolated = _align_prices(usep["energy_price_sgd_per_mwh"], index, "USEP")
     if reserve_source is None:
         reserve_series = synthetic_reserve_prices(
@@ -521,7 +567,11 @@ def load_exogenous(
         reserve = reserve_series.to_numpy()
         synthetic = True
     else:
-        reserve, _ = _align_prices(load_reserve_prices(reserve_source), index, "reserve price")
+        reserve_series = load_reserve_prices(reserve_source, fill=price_gap_fill)
+        _check_coverage(
+            reserve_series.index, index[:steps], "reserve price", reserve_source, "reserve_source"
+        )
+        reserve, _ = _align_prices(reserve_series, index, "reserve price")
         synthetic = False
 
     weather, location = _weather_on(index, weather_path)

@@ -47,6 +47,7 @@ SYSTEM_DEMAND_COLUMN = "system_demand_mw"
 RESERVE_PRICE_COLUMN = "reserve_price_sgd_per_mwh"
 
 FillMode = Literal["none", "previous-day"]
+FILL_MODES: tuple[str, ...] = ("none", "previous-day")
 """How gaps in a price file are treated: ``"none"`` raises, ``"previous-day"`` copies the same
 period of the nearest earlier complete day (and records what it filled)."""
 
@@ -60,6 +61,20 @@ _RESERVE_PRICE_COLUMNS = (
     "PRICE ($/MWh)",
     RESERVE_PRICE_COLUMN,
 )
+PRICE_CAP_SGD_PER_MWH = 4500.0
+"""Highest price a NEMS period can clear at [SGD/MWh]: the energy offer price cap of the
+Singapore Electricity Market Rules (Chapter 6, offer price limits; EMC, "Guide to Prices",
+https://www.nems.emcsg.com/Guide-To-Prices). A price above it is a damaged file, not a
+market outcome."""
+
+PRICE_FLOOR_SGD_PER_MWH = -4500.0
+"""Lowest price a NEMS period can clear at [SGD/MWh]: the offer price floor of the same
+rules (−4,500 SGD/MWh)."""
+
+MAX_SYSTEM_DEMAND_MW = 100_000.0
+"""Upper bound on a plausible NEMS system demand [MW] (the 2014 peak is ≈ 6,800 MW); a larger
+value is a damaged file."""
+
 _DATE_FORMATS = ("%d %b %Y", "%d-%b-%Y", "%d-%b-%y", "%Y-%m-%d", "%d/%m/%Y")
 _MAX_LISTED = 10
 
@@ -232,9 +247,32 @@ def _read_period_csv(
             value=str(raw[header[_PERIOD_COLUMN]].iloc[i]),
             hint="period p covers [(p−1)·30, p·30) min after local midnight, p = 1…48",
         )
+
+    def within(column: str, values: pd.Series, low: float, high: float, what: str) -> None:
+        array = values.to_numpy(dtype=float)
+        bad = ~(np.isfinite(array) & (array >= low) & (array <= high))
+        if bad.any():
+            i = int(np.flatnonzero(bad)[0])
+            raise DataError(
+                f"{what} outside [{low:g}, {high:g}] ({int(bad.sum())} row(s) in this file)",
+                source=path,
+                line=int(line.iloc[i]),
+                field=column,
+                value=str(raw[column].iloc[i]),
+                hint="the file looks damaged; compare it with the EMC download",
+            )
+
     price = numeric(price_column, "price", "prices are numbers in SGD/MWh (zero and negative ok)")
+    within(
+        price_column,
+        price,
+        PRICE_FLOOR_SGD_PER_MWH,
+        PRICE_CAP_SGD_PER_MWH,
+        "price beyond the NEMS price floor/cap [SGD/MWh]",
+    )
     if _normalise_header(_DEMAND_COLUMN) in header and explicit_price_column is None:
         demand = numeric(header[_DEMAND_COLUMN], "demand", "demand is a number in MW")
+        within(header[_DEMAND_COLUMN], demand, 0.0, MAX_SYSTEM_DEMAND_MW, "demand [MW]")
     else:
         demand = pd.Series(np.nan, index=raw.index)
     start = dates + pd.to_timedelta((period.astype(int) - 1) * 30, unit="min")
@@ -262,9 +300,12 @@ def _describe(times: pd.DatetimeIndex | pd.Series) -> list[str]:
 
 def _check_and_assemble(rows: pd.DataFrame, fill: FillMode, what: str) -> pd.DataFrame:
     """Reject duplicates, reject (or explicitly fill) missing periods; index by period start."""
-    if fill not in ("none", "previous-day"):
+    if fill not in FILL_MODES:
         raise DataError(
-            "unknown fill mode", field="fill", value=fill, hint="use 'none' or 'previous-day'"
+            "unknown fill mode",
+            field="price_gap_fill",
+            value=fill,
+            hint=f"use one of {list(FILL_MODES)}",
         )
     duplicated = rows.duplicated("time", keep=False)
     if duplicated.any():
@@ -295,8 +336,11 @@ def _check_and_assemble(rows: pd.DataFrame, fill: FillMode, what: str) -> pd.Dat
                 f"{first_day:%d %b %Y} and {last_day:%d %b %Y}: {_describe(missing)}",
                 source=", ".join(sorted(set(rows["file"])))[:300],
                 field=_PERIOD_COLUMN,
-                hint="add the missing rows, or pass fill='previous-day' to copy the same period "
-                "of the day before (recorded in .attrs['filled_periods'])",
+                hint="add the missing rows, or fill each gap with the same period of the day "
+                "before: the command-line option --price-gap-fill previous-day, the scenario "
+                "setting data.price_gap_fill = 'previous-day', or load_usep(..., "
+                "fill='previous-day') (the filled periods are recorded in "
+                ".attrs['filled_periods'])",
             )
         values = frame.to_numpy(copy=True)
         gaps = np.isnan(values[:, 0])
@@ -324,8 +368,20 @@ def _check_and_assemble(rows: pd.DataFrame, fill: FillMode, what: str) -> pd.Dat
     return frame
 
 
+def _stamps(files: Sequence[str]) -> tuple[tuple[int, int], ...]:
+    """(modification time [ns], size [bytes]) per file: part of the cache key, so an edited
+    file is read again."""
+    out = []
+    for f in files:
+        stat = Path(f).stat()
+        out.append((stat.st_mtime_ns, stat.st_size))
+    return tuple(out)
+
+
 @functools.lru_cache(maxsize=8)
-def _load_usep_cached(files: tuple[str, ...], fill: FillMode) -> pd.DataFrame:
+def _load_usep_cached(
+    files: tuple[str, ...], fill: FillMode, stamps: tuple[tuple[int, int], ...]
+) -> pd.DataFrame:
     rows = pd.concat(
         [_read_period_csv(Path(f), _USEP_PRICE_COLUMNS) for f in files],
         ignore_index=True,
@@ -362,10 +418,13 @@ def load_usep(
     ------
     DataError
         naming file, line and value for an unknown header, a period outside 1–48, an
-        unparseable date, a non-numeric price, duplicate periods, or missing periods.
+        unparseable date, a non-numeric or non-finite price, a price beyond the NEMS price
+        floor/cap (:data:`PRICE_FLOOR_SGD_PER_MWH`, :data:`PRICE_CAP_SGD_PER_MWH`), a demand
+        outside [0, :data:`MAX_SYSTEM_DEMAND_MW`], duplicate periods, or missing periods
+        (unless ``fill="previous-day"``), or an unknown ``fill``.
     """
     files = tuple(str(p.resolve()) for p in _as_files(source))
-    cached = _load_usep_cached(files, fill)
+    cached = _load_usep_cached(files, fill, _stamps(files))
     out = cached.copy()
     out.attrs = dict(cached.attrs)
     return out

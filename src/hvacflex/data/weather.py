@@ -54,17 +54,93 @@ EPW_HEADER_KEYWORDS = (
 )
 EPW_HOURS_PER_YEAR = 8760
 
-# (0-based EPW field index, column name, EPW "missing" code or None)
-_EPW_FIELDS: tuple[tuple[int, str, float | None], ...] = (
-    (6, "outdoor_temp_degc", 99.9),
-    (7, "dewpoint_degc", 99.9),
-    (8, "relative_humidity_percent", 999.0),
-    (9, "pressure_pa", 999999.0),
-    (13, "ghi_w_per_m2", 9999.0),
-    (14, "dni_w_per_m2", 9999.0),
-    (15, "dhi_w_per_m2", 9999.0),
-    (21, "wind_speed_m_s", 999.0),
+EPW_FIELDS_PER_ROW = 35
+"""Fields in an EPW data row (EnergyPlus Auxiliary Programs, "EnergyPlus Weather File (EPW)
+Data Dictionary")."""
+
+
+@dataclass(frozen=True)
+class EpwField:
+    """One numeric field of an EPW data row that hvacflex reads, with its valid range.
+
+    Attributes
+    ----------
+    index : 0-based position in the row.
+    column : column name in the frame :func:`read_epw` returns.
+    name : field name in the EPW data dictionary.
+    unit : unit of the field.
+    minimum, maximum : physical range (inclusive) [unit].
+    missing : the EPW "missing" code: a value ≥ it means "no data" (None: the field has
+        none).
+    """
+
+    index: int
+    column: str
+    name: str
+    unit: str
+    minimum: float
+    maximum: float
+    missing: float | None
+
+
+IRRADIANCE_MAX_WH_PER_M2 = 1500.0
+"""Upper bound of an hourly irradiance [Wh/m²]: above the solar constant (≈ 1,361 W/m²) with
+margin for cloud enhancement; the EPW dictionary gives only the minimum 0."""
+
+EPW_FIELDS: tuple[EpwField, ...] = (
+    # Ranges and missing codes from the EPW data dictionary (EnergyPlus Auxiliary Programs,
+    # ch. 2): dry bulb and dew point -70 < T < 70 °C (missing 99.9), RH 0…110 % (999),
+    # station pressure 31,000 < p < 120,000 Pa (999999), irradiances ≥ 0 Wh/m² (9999),
+    # wind speed 0…40 m/s (999). Date fields have no missing code.
+    EpwField(0, "source_year", "Year", "-", 1.0, 9999.0, None),
+    EpwField(1, "month", "Month", "-", 1.0, 12.0, None),
+    EpwField(2, "day", "Day", "-", 1.0, 31.0, None),
+    EpwField(3, "hour", "Hour", "h", 1.0, 24.0, None),
+    EpwField(6, "outdoor_temp_degc", "Dry Bulb Temperature", "°C", -70.0, 70.0, 99.9),
+    EpwField(7, "dewpoint_degc", "Dew Point Temperature", "°C", -70.0, 70.0, 99.9),
+    EpwField(8, "relative_humidity_percent", "Relative Humidity", "%", 0.0, 110.0, 999.0),
+    EpwField(9, "pressure_pa", "Atmospheric Station Pressure", "Pa", 31000.0, 120000.0, 999999.0),
+    EpwField(
+        13,
+        "ghi_w_per_m2",
+        "Global Horizontal Radiation",
+        "Wh/m²",
+        0.0,
+        IRRADIANCE_MAX_WH_PER_M2,
+        9999.0,
+    ),
+    EpwField(
+        14,
+        "dni_w_per_m2",
+        "Direct Normal Radiation",
+        "Wh/m²",
+        0.0,
+        IRRADIANCE_MAX_WH_PER_M2,
+        9999.0,
+    ),
+    EpwField(
+        15,
+        "dhi_w_per_m2",
+        "Diffuse Horizontal Radiation",
+        "Wh/m²",
+        0.0,
+        IRRADIANCE_MAX_WH_PER_M2,
+        9999.0,
+    ),
+    EpwField(21, "wind_speed_m_s", "Wind Speed", "m/s", 0.0, 40.0, 999.0),
 )
+"""The fields hvacflex reads, with the physical range every value must lie in."""
+
+TIMEZONE_RANGE_H = (-12.0, 14.0)
+"""Valid offsets of local standard time from UTC [h] (the EPW dictionary says −12…+12; real
+zones reach +14)."""
+
+ELEVATION_RANGE_M = (-1000.0, 9999.9)
+"""Valid site elevations [m] (EPW data dictionary)."""
+
+GROUND_TEMP_RANGE_DEGC = (-70.0, 70.0)
+"""Valid monthly ground temperatures [°C] (same range as the dry bulb)."""
+
 _STATE_COLUMNS = (
     "outdoor_temp_degc",
     "dewpoint_degc",
@@ -107,7 +183,7 @@ class EpwLocation:
     ground_temp_monthly_degc: tuple[float, ...] = ()
 
 
-def _bad_header(path: Path, line: int, message: str, value: object) -> DataError:
+def _bad_header(path: str | Path, line: int, message: str, value: object) -> DataError:
     return DataError(
         message,
         source=path,
@@ -117,34 +193,80 @@ def _bad_header(path: Path, line: int, message: str, value: object) -> DataError
     )
 
 
-def _parse_header(path: Path, lines: list[str]) -> EpwLocation:
+def _header_number(
+    path: str | Path,
+    line: int,
+    fields: list[str],
+    index: int,
+    what: str,
+    valid: tuple[float, float],
+) -> float:
+    """Field ``index`` of header line ``line`` as a finite number inside ``valid``."""
+    text = fields[index] if index < len(fields) else ""
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    low, high = valid
+    if not (math.isfinite(value) and low <= value <= high):
+        raise DataError(
+            f"must be a number in [{low:g}, {high:g}]",
+            source=path,
+            line=line,
+            field=what,
+            value=text.strip()[:40],
+            hint="the EPW header looks damaged; re-download the file",
+        )
+    return value
+
+
+def _parse_header(path: str | Path, lines: list[str]) -> EpwLocation:
     if len(lines) < len(EPW_HEADER_KEYWORDS):
         raise _bad_header(path, len(lines) + 1, "truncated EPW header", len(lines))
     for i, keyword in enumerate(EPW_HEADER_KEYWORDS):
         if not lines[i].upper().startswith(keyword):
             raise _bad_header(path, i + 1, f"bad EPW header: expected '{keyword}'", lines[i][:40])
     loc = lines[0].split(",")
-    try:
-        latitude, longitude, tz_offset, elevation = (float(v) for v in loc[6:10])
-    except ValueError:
+    if len(loc) < 10:
         raise _bad_header(
-            path, 1, "bad EPW LOCATION line: latitude, longitude, time zone, elevation", loc[6:10]
-        ) from None
-    if len(loc) < 10 or not (-90 <= latitude <= 90 and -180 <= longitude <= 180):
-        raise _bad_header(path, 1, "bad EPW LOCATION line", lines[0][:80])
+            path,
+            1,
+            f"bad EPW LOCATION line: {len(loc)} fields, 10 are needed (city, region, country, "
+            "source, WMO, latitude, longitude, time zone, elevation)",
+            lines[0][:80],
+        )
+    latitude = _header_number(path, 1, loc, 6, "LOCATION latitude [°]", (-90.0, 90.0))
+    longitude = _header_number(path, 1, loc, 7, "LOCATION longitude [°]", (-180.0, 180.0))
+    tz_offset = _header_number(path, 1, loc, 8, "LOCATION time zone [h]", TIMEZONE_RANGE_H)
+    elevation = _header_number(path, 1, loc, 9, "LOCATION elevation [m]", ELEVATION_RANGE_M)
     ground: tuple[float, ...] = ()
     g = lines[3].split(",")
-    if len(g) >= 18 and int(float(g[1] or 0)) >= 1:
-        try:
-            ground = tuple(float(v) for v in g[6:18])
-        except ValueError:
-            ground = ()
-    name = loc[1].strip() or path.stem
+    depths = 0.0
+    if len(g) > 1 and g[1].strip():
+        depths = _header_number(path, 4, g, 1, "GROUND TEMPERATURES depths", (0.0, 1000.0))
+    if depths >= 1:
+        if len(g) < 18:
+            raise _bad_header(
+                path,
+                4,
+                f"GROUND TEMPERATURES line has {len(g)} fields, at least 18 are needed for "
+                "one depth",
+                lines[3][:80],
+            )
+        ground = tuple(
+            _header_number(
+                path, 4, g, i, f"GROUND TEMPERATURES month {i - 5} [°C]", GROUND_TEMP_RANGE_DEGC
+            )
+            for i in range(6, 18)
+        )
+    name = loc[1].strip() or Path(path).stem
     return EpwLocation(latitude, longitude, tz_offset, elevation, name, ground)
 
 
 @functools.lru_cache(maxsize=4)
-def _read_epw_cached(path_str: str) -> tuple[pd.DataFrame, EpwLocation]:
+def _read_epw_cached(
+    path_str: str, stamp: tuple[int, int] | None = None
+) -> tuple[pd.DataFrame, EpwLocation]:
     path = Path(path_str)
     try:
         text = path.read_text(encoding="latin-1")
@@ -152,72 +274,141 @@ def _read_epw_cached(path_str: str) -> tuple[pd.DataFrame, EpwLocation]:
         raise DataError(
             "weather file not found", source=path, hint="give the path to an .epw file"
         ) from None
+    except IsADirectoryError:
+        raise DataError(
+            "weather file is a folder", source=path, hint="give the path to an .epw file"
+        ) from None
+    return parse_epw_text(text, path)
+
+
+def parse_epw_text(
+    text: str, source: str | Path, *, hours: int = EPW_HOURS_PER_YEAR
+) -> tuple[pd.DataFrame, EpwLocation]:
+    """Parse the text of an EPW file (see :func:`read_epw`).
+
+    Parameters
+    ----------
+    text : the whole file.
+    source : where the text came from (named in errors).
+    hours : number of hourly rows expected after a 29 February is dropped: 8,760 for a
+        file; fewer checks a file cut after its first ``hours`` rows (tests).
+
+    Returns
+    -------
+    The hourly frame and the location, as :func:`read_epw`.
+    """
     lines = text.splitlines()
     n_header = len(EPW_HEADER_KEYWORDS)
-    location = _parse_header(path, lines[:n_header])
+    location = _parse_header(source, lines[:n_header])
     data_lines = lines[n_header:]
     while data_lines and not data_lines[-1].strip():
         data_lines.pop()
     rows = [ln.split(",") for ln in data_lines]
-    needed = max(i for i, _, _ in _EPW_FIELDS) + 1
     for i, row in enumerate(rows):
-        if len(row) < needed:
+        if len(row) != EPW_FIELDS_PER_ROW:
+            few = len(row) < EPW_FIELDS_PER_ROW
             raise DataError(
-                f"EPW data row has {len(row)} fields, at least {needed} are needed",
-                source=path,
+                f"EPW data row has too {'few' if few else 'many'} fields: {len(row)}, an EPW "
+                f"row has {EPW_FIELDS_PER_ROW}",
+                source=source,
                 line=n_header + i + 1,
                 value=data_lines[i][:60],
-                hint="the file looks truncated or damaged; re-download it",
+                hint=f"a field (comma) was {'deleted' if few else 'added'} or the line was cut; "
+                "the file looks damaged, re-download it",
             )
-    if len(rows) not in (EPW_HOURS_PER_YEAR, EPW_HOURS_PER_YEAR + 24):
+    if len(rows) not in (hours, hours + 24) or (hours < EPW_HOURS_PER_YEAR and len(rows) != hours):
         raise DataError(
-            f"EPW file has {len(rows)} hourly rows, expected {EPW_HOURS_PER_YEAR}",
-            source=path,
+            f"EPW file has {len(rows)} hourly rows, expected {hours}",
+            source=source,
             line=n_header + len(rows),
             value=len(rows),
-            hint="the file looks truncated; hvacflex needs a whole year of hourly rows",
+            hint="the file looks truncated or has extra lines; hvacflex needs a whole year of "
+            "hourly rows",
         )
-    columns: dict[str, np.ndarray] = {}
-    for index, name in ((0, "source_year"), (1, "month"), (2, "day"), (3, "hour")):
-        columns[name] = _numeric_field(path, rows, index, name, n_header, None).astype(int)
-    for index, name, missing in _EPW_FIELDS:
-        columns[name] = _numeric_field(path, rows, index, name, n_header, missing)
+    columns: dict[str, np.ndarray] = {
+        spec.column: _numeric_field(source, rows, spec, n_header) for spec in EPW_FIELDS
+    }
+    for name in ("source_year", "month", "day", "hour"):
+        columns[name] = columns[name].astype(int)
     frame = pd.DataFrame(columns)
+    frame["line"] = np.arange(n_header + 1, n_header + 1 + len(frame))
     leap = (frame["month"] == 2) & (frame["day"] == 29)
     frame = frame.loc[~leap].reset_index(drop=True)
-    bad_hour = ~frame["hour"].between(1, 24)
-    if bad_hour.any() or len(frame) != EPW_HOURS_PER_YEAR:
-        i = int(np.flatnonzero(bad_hour.to_numpy())[0]) if bad_hour.any() else 0
+    if len(frame) != hours:
         raise DataError(
-            "EPW hours must run 1…24 over 365 days",
-            source=path,
-            line=n_header + i + 1,
-            field="hour",
-            value=int(frame["hour"].iloc[i]),
-            hint="the file is not a standard hourly EPW",
+            f"EPW file has {len(frame)} hourly rows besides 29 February, expected {hours}",
+            source=source,
+            value=len(frame),
+            hint="a leap-year file has 8,784 rows with all of 29 February",
         )
-    return frame, location
+    _check_calendar(source, frame, hours)
+    return frame.drop(columns="line"), location
+
+
+def _check_calendar(source: str | Path, frame: pd.DataFrame, hours: int) -> None:
+    """Row i must be hour i of the year: (month, day, hour) run 1 Jan 1 … 31 Dec 24."""
+    starts = pd.date_range("2001-01-01", periods=hours, freq="h")  # a non-leap year
+    expected = np.stack([starts.month, starts.day, starts.hour + 1], axis=1)
+    actual = frame[["month", "day", "hour"]].to_numpy()
+    wrong = np.flatnonzero((actual != expected).any(axis=1))
+    if len(wrong):
+        i = int(wrong[0])
+        month, day, hour = (int(v) for v in actual[i])
+        raise DataError(
+            f"EPW rows must run hour by hour from 1 January hour 1 to 31 December hour 24; "
+            f"expected month {expected[i, 0]}, day {expected[i, 1]}, hour {expected[i, 2]}",
+            source=source,
+            line=int(frame["line"].iloc[i]),
+            field="month, day, hour",
+            value=(month, day, hour),
+            hint="a line is missing, repeated or out of order; the file is not a standard "
+            "hourly EPW",
+        )
 
 
 def _numeric_field(
-    path: Path, rows: list[list[str]], index: int, name: str, n_header: int, missing: float | None
+    source: str | Path, rows: list[list[str]], spec: EpwField, n_header: int
 ) -> np.ndarray:
-    values = pd.to_numeric(pd.Series([r[index] for r in rows]).str.strip(), errors="coerce")
-    array = values.to_numpy(dtype=float)
-    bad = np.isnan(array)
-    if missing is not None:
-        bad |= array >= missing
-    if bad.any():
-        i = int(np.flatnonzero(bad)[0])
-        raise DataError(
-            f"missing or non-numeric EPW field ({int(bad.sum())} row(s))",
-            source=path,
-            line=n_header + i + 1,
-            field=f"{name} (field {index})",
-            value=rows[i][index],
-            hint="hvacflex needs dry bulb, dew point, RH, pressure, GHI, DNI, DHI and wind in "
-            "every row; fill the gaps (e.g. with the Elements or a weather converter)",
+    """Field ``spec`` of every row as floats, checked against its range and missing code."""
+    texts = pd.Series([r[spec.index] for r in rows], dtype=object).str.strip()
+    array = pd.to_numeric(texts, errors="coerce").to_numpy(dtype=float)
+    where = f"{spec.column} ({spec.name}, field {spec.index + 1})"
+    checks: list[tuple[np.ndarray, str, str]] = [
+        (
+            ~np.isfinite(array),
+            "missing or non-numeric EPW field",
+            "hvacflex needs dry bulb, dew point, RH, pressure, GHI, DNI, DHI and wind in every "
+            "row; fill the gaps (e.g. with the Elements or a weather converter)",
         )
+    ]
+    if spec.missing is not None:
+        checks.append(
+            (
+                array >= spec.missing,
+                f"EPW missing-value code (≥ {spec.missing:g}) where a value is needed",
+                "fill the gaps in the file (e.g. with the Elements or a weather converter)",
+            )
+        )
+    checks.append(
+        (
+            (array < spec.minimum) | (array > spec.maximum),
+            f"outside the physical range {spec.minimum:g}…{spec.maximum:g} {spec.unit}",
+            "the file looks damaged; re-download it",
+        )
+    )
+    if spec.missing is None:  # date fields
+        checks.append((array != np.round(array), "must be a whole number", "the file is damaged"))
+    for bad, message, hint in checks:
+        if bad.any():
+            i = int(np.flatnonzero(bad)[0])
+            raise DataError(
+                f"{message} ({int(bad.sum())} row(s))",
+                source=source,
+                line=n_header + i + 1,
+                field=where,
+                value=rows[i][spec.index],
+                hint=hint,
+            )
     return array
 
 
@@ -240,9 +431,18 @@ def read_epw(path: str | Path) -> tuple[pd.DataFrame, EpwLocation]:
     Raises
     ------
     DataError
-        for a bad header, a truncated file, or a missing / non-numeric field (with line).
+        naming line and field for a bad header (location, time zone, elevation, ground
+        temperatures), a row with too few or too many fields, a truncated file, rows out of
+        calendar order, or a missing, non-numeric, missing-coded or out-of-range value
+        (ranges in :data:`EPW_FIELDS`).
     """
-    frame, location = _read_epw_cached(str(Path(path).resolve()))
+    resolved = Path(path).resolve()
+    try:
+        stat = resolved.stat()
+        stamp: tuple[int, int] | None = (stat.st_mtime_ns, stat.st_size)
+    except OSError:
+        stamp = None
+    frame, location = _read_epw_cached(str(resolved), stamp)
     return frame.copy(), location
 
 
