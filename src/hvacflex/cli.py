@@ -240,6 +240,7 @@ def simulate(
 ) -> None:
     """Run a closed-loop simulation (resumes from a checkpoint in OUT if there is one)."""
     from rich.console import Console
+    from rich.markup import escape
 
     from hvacflex.errors import HvacflexError
     from hvacflex.sim.closed_loop import run_simulation
@@ -251,7 +252,7 @@ def simulate(
             cfg, out, progress=not quiet, resume=not fresh, checkpoint_every=checkpoint_every
         )
     except HvacflexError as exc:
-        console.print(f"[red]error:[/red] {exc}")
+        console.print(f"[red]error:[/red] {escape(str(exc))}")
         raise typer.Exit(2) from None
     if result.cached:
         console.print(f"re-used finished results in {result.out_dir}")
@@ -305,6 +306,7 @@ def sweep(
     Exits 1 when any run fails (the table still lists every run, with its error).
     """
     from rich.console import Console
+    from rich.markup import escape
 
     from hvacflex.errors import HvacflexError
     from hvacflex.sim.sweep import JobOutcome, expand_grid, outcomes_table, parse_param, run_sweep
@@ -316,7 +318,7 @@ def sweep(
         grid = dict(parse_param(p) for p in param)
         jobs = expand_grid(cfg, grid)
     except HvacflexError as exc:
-        console.print(f"[red]error:[/red] {exc}")
+        console.print(f"[red]error:[/red] {escape(str(exc))}")
         raise typer.Exit(2) from None
     done = 0
 
@@ -324,7 +326,7 @@ def sweep(
         nonlocal done
         done += 1
         state = "[green]ok[/green]" if outcome.ok else f"[red]failed[/red]: {outcome.error}"
-        console.print(f"[{done}/{len(jobs)}] {outcome.params} {state}")
+        console.print(escape(f"[{done}/{len(jobs)}] {outcome.params} {state}"))
 
     outcomes = run_sweep(
         jobs, out, scheduler=scheduler, n_workers=workers, on_done=report, fresh=fresh

@@ -133,6 +133,7 @@ def prepare(config: ScenarioConfig) -> Setup:
         weather_file=data.weather_file,
         usep_source=data.usep_source,
         reserve_source=data.reserve_source,
+        price_gap_fill=data.price_gap_fill,
         comfort=ComfortBand(config.comfort.occupied_degc, config.comfort.unoccupied_degc),
         seed=config.seed,
         reserve_scale_sgd_per_mwh=scale,
