@@ -37,6 +37,11 @@ activated output lies between the served ``C x_k`` and the curtailed ``C z_k``; 
 (tightened by the same δ) then holds for all patterns. :class:`RMPCProblem` refuses problems
 that violate these conditions.
 
+IL event model (``il_event_max_steps`` = D set): instead of z, the event set holds at most one
+event of ≤ D curtailed steps, with an allowance α on the upper bound during the event and R
+steps after it; its exact robust counterpart is a block of ≈ N²·ny/2 rows over (x, r, ε)
+appended after the peak rows (:mod:`hvacflex.opt.events`; z is dropped).
+
 Sparse LP (state-space form)
 ----------------------------
 States stay variables, so the constraint matrix is banded and ``x_0``, ``d̂``, ``g``, bounds
@@ -66,6 +71,7 @@ from numpy.typing import NDArray
 from scipy import sparse
 
 from hvacflex.errors import ProblemError
+from hvacflex.opt import events as events_mod
 from hvacflex.opt import robust as robust_mod
 
 if TYPE_CHECKING:
@@ -189,6 +195,14 @@ class RMPCProblem:
     slack_max_kelvin : cap on ε [K]; None = unbounded (soft comfort), 0 = hard comfort
     feedback : policy structure for ``robust="feedback"`` (default ``FeedbackOptions()``);
         must be None for the other modes
+    il_event_max_steps : D, the longest IL event [steps], 1 ≤ D ≤ N; None = the paper's
+        whole-horizon model (curtailed trajectory for all N steps, strict band). See
+        :mod:`hvacflex.opt.events`; not with robust="dual" or "feedback"
+    il_event_allowance_kelvin : α ≥ 0 [K] added to the upper comfort bound during an event and
+        R steps after it (event model only)
+    il_event_recovery_steps : R ≥ 0 [steps] (event model only)
+    il_allowance_carry_steps : c, 0 ≤ c ≤ N: outputs 1..c get α under every pattern, the
+        served plan included (event model only)
 
     After construction every array field is a read-only float array of its full shape
     (``d_sigma`` (N,nd), ``u_min``/``u_max`` (N,m), ``y_min``/``y_max`` (N,ny),
@@ -219,6 +233,10 @@ class RMPCProblem:
     robust: RobustMode = "tightening"
     slack_max_kelvin: float | None = None
     feedback: FeedbackOptions | None = None
+    il_event_max_steps: int | None = None
+    il_event_allowance_kelvin: float = 0.0
+    il_event_recovery_steps: int = 0
+    il_allowance_carry_steps: int = 0
     _structure: RMPCStructure = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -323,6 +341,8 @@ class RMPCProblem:
                 horizon=horizon,
                 reserve_mask=mask,
                 robust=self.robust,
+                il_event_max_steps=self.il_event_max_steps,
+                il_event_recovery_steps=self.il_event_recovery_steps,
             ),
         )
 
@@ -384,6 +404,7 @@ class RMPCProblem:
                 hint="pass a scalar peak_price_sgd_per_kw in billing-period mode",
             )
         self._check_sign_conditions()
+        events_mod.check_event_problem(self)
         self._check_feedback()
 
     def _check_feedback(self) -> None:
@@ -528,6 +549,8 @@ class RMPCStructure:
     horizon: int
     reserve_mask: BoolArray
     robust: str
+    il_event_max_steps: int | None = None  # D; None = whole-horizon model
+    il_event_recovery_steps: int = 0  # R (α and c enter row bounds only)
 
     def differences(self, other: RMPCStructure) -> list[str]:
         """Names of the fields in which ``other`` differs from this structure."""
@@ -537,8 +560,9 @@ class RMPCStructure:
                 names.append(name)
         if self.horizon != other.horizon:
             names.append("horizon")
-        if self.robust != other.robust:
-            names.append("robust")
+        for name in ("robust", "il_event_max_steps", "il_event_recovery_steps"):
+            if getattr(self, name) != getattr(other, name):
+                names.append(name)
         return names
 
     def fingerprint(self) -> str:
@@ -549,6 +573,8 @@ class RMPCStructure:
             digest.update(np.ascontiguousarray(array).tobytes())
         digest.update(np.ascontiguousarray(self.reserve_mask).tobytes())
         digest.update(f"{self.horizon}|{self.robust}".encode())
+        if self.il_event_max_steps is not None:
+            digest.update(f"|D={self.il_event_max_steps}|R={self.il_event_recovery_steps}".encode())
         return digest.hexdigest()
 
 
@@ -561,7 +587,9 @@ class LPLayout:
 
     Index arrays are shaped like the quantity they hold (e.g. ``col_u`` is (N, m)). The
     curtailed blocks (``col_z``, ``row_dyn_z``, ``row_hi_z``, ``row_lo_z``) are empty when no
-    input carries reserve; then the curtailed trajectory equals the served one.
+    input carries reserve (then the curtailed trajectory equals the served one) and in the
+    event model (``il_event_max_steps`` set), which has the event rows ``row_event``
+    (described by ``events``, :mod:`hvacflex.opt.events`) instead.
     """
 
     horizon: int
@@ -589,6 +617,8 @@ class LPLayout:
     row_flow: IntArray  # (N, m_r)
     row_power: IntArray  # (N,)
     row_peak: IntArray  # (N,)
+    row_event: IntArray  # (num_event_rows,) IL event rows (event model), else empty
+    events: events_mod.EventRows  # what each event row is (empty for the whole-horizon model)
     num_core_rows: int  # rows before the dual λ rows
     num_rows: int
     # dual form: coefficient σ_{j,l} (or −σ) on (row, λ col) pairs
@@ -600,7 +630,12 @@ class LPLayout:
 
     @property
     def has_curtailed(self) -> bool:
-        """Whether a separate curtailed trajectory exists (some input carries reserve)."""
+        """Whether a separate curtailed trajectory z exists (reserve, whole-horizon model)."""
+        return self.col_z.size > 0
+
+    @property
+    def has_reserve(self) -> bool:
+        """Whether some input carries reserve (r columns and ``u − r ≥ u_min`` rows exist)."""
         return self.reserve_inputs.size > 0
 
 
@@ -619,7 +654,7 @@ def build_layout(structure: RMPCStructure) -> LPLayout:
     ny = structure.c_matrix.shape[0]
     reserve_inputs = np.flatnonzero(structure.reserve_mask).astype(np.int64)
     m_r = reserve_inputs.size
-    n_z = horizon if m_r else 0
+    n_z = horizon if m_r and structure.il_event_max_steps is None else 0
     cols = [0]
     col_x = _take(cols, (horizon, n))
     col_z = _take(cols, (n_z, n))
@@ -639,6 +674,10 @@ def build_layout(structure: RMPCStructure) -> LPLayout:
     row_flow = _take(rows, (horizon, m_r))
     row_power = _take(rows, (horizon,))
     row_peak = _take(rows, (horizon,))
+    events = events_mod.event_rows(
+        horizon, ny, structure.il_event_max_steps, structure.il_event_recovery_steps
+    )
+    row_event = _take(rows, (events.num_rows,))
     num_core_rows = rows[0]
     extra: dict[str, IntArray | FloatArray] = {}
     if structure.robust == "dual":
@@ -691,6 +730,8 @@ def build_layout(structure: RMPCStructure) -> LPLayout:
         row_flow=row_flow,
         row_power=row_power,
         row_peak=row_peak,
+        row_event=row_event,
+        events=events,
         num_core_rows=num_core_rows,
         num_rows=rows[0],
         **extra,  # type: ignore[arg-type]
@@ -742,6 +783,7 @@ def assemble_matrix(
         blocks.append(
             _block(layout.row_dyn_z[:, :, None], layout.col_r[:, None, :], b[:, ridx][None])
         )
+    if layout.has_reserve:
         blocks.append(_block(layout.row_flow, layout.col_u[:, ridx], np.array(1.0)))
         blocks.append(_block(layout.row_flow, layout.col_r, np.array(-1.0)))
     blocks.append(_block(layout.row_power, layout.col_power, np.array(1.0)))
@@ -757,6 +799,17 @@ def assemble_matrix(
         eq_rows = np.arange(layout.num_core_rows, layout.num_rows, dtype=np.int64)
         blocks.append(_block(eq_rows, layout.dual_cols_1, np.array(1.0)))
         blocks.append(_block(eq_rows, layout.dual_cols_2, np.array(-1.0)))
+    if layout.events.num_rows:
+        event_block = events_mod.event_matrix(
+            layout.events,
+            events_mod.reserve_responses(a, b[:, ridx], c, horizon),
+            c,
+            col_x=layout.col_x,
+            col_r=layout.col_r,
+            col_eps=layout.col_eps,
+            num_cols=layout.num_cols,
+        ).tocoo()
+        blocks.append((layout.row_event[event_block.row], event_block.col, event_block.data))
     rows = np.concatenate([blk[0] for blk in blocks])
     cols = np.concatenate([blk[1] for blk in blocks])
     values = np.concatenate([blk[2] for blk in blocks])
@@ -864,6 +917,22 @@ def lp_vectors(problem: RMPCProblem, layout: LPLayout, delta: FloatArray) -> LPV
     rhs = dynamics_rhs(problem)
     hi = problem.y_max - delta
     lo = problem.y_min + delta
+    if layout.events.num_rows:
+        hi = hi + events_mod.carry_allowance(
+            layout.horizon,
+            layout.ny,
+            problem.il_event_allowance_kelvin,
+            problem.il_allowance_carry_steps,
+        )
+        event_lower, event_upper = events_mod.event_row_bounds(
+            layout.events,
+            problem.y_max,
+            delta,
+            problem.il_event_allowance_kelvin,
+            problem.il_allowance_carry_steps,
+        )
+        row_lower[layout.row_event] = event_lower
+        row_upper[layout.row_event] = event_upper
     for row_dyn, row_hi, row_lo in (
         (layout.row_dyn_x, layout.row_hi_x, layout.row_lo_x),
         (layout.row_dyn_z, layout.row_hi_z, layout.row_lo_z),

@@ -40,6 +40,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from hvacflex.errors import ProblemError
+from hvacflex.opt import events as events_mod
 from hvacflex.opt import robust as robust_mod
 from hvacflex.opt.problem import (
     KW_PER_MW,
@@ -107,7 +108,9 @@ class RMPCSolution:
     peak_kw : max_k P_k [kW];  peak_charge_sgd : β [SGD]
     slack : (N, ny) ε_k for outputs at steps 1..N [K];  delta : (N, ny) robust margins δ_k [K]
         (zero for robust="none"; for robust="dual" the equivalent tightening, for reference)
-    x_served, x_curtailed : (N+1, n) nominal (w = 0) trajectories from x0 [°C]
+    x_served, x_curtailed : (N+1, n) nominal (w = 0) trajectories from x0 [°C]; in the IL
+        event model (``il_event_max_steps`` = D) ``x_curtailed`` is the trajectory under the
+        event (s = 0, L = D), otherwise under curtailment for the whole horizon
     energy_cost_sgd, reserve_revenue_sgd, comfort_penalty_sgd : objective terms [SGD]
     tie_break_sgd : the reserve tie-break cost included in the LP but not in objective_sgd
     solve_time_s : wall time of the whole solve call (updates + HiGHS + extraction) [s]
@@ -117,6 +120,10 @@ class RMPCSolution:
     feedback_gains : (N, N, m, nd) for ``robust="feedback"``: ``[k, j]`` is the gain of input
         k on the disturbance error w_j (zero for j ≥ k; see :mod:`hvacflex.opt.feedback`);
         None otherwise
+    y_event_worst : (N, ny) worst upper-side output over the event set × the box [°C]:
+        ``max(C x_t, max over events of the event output) + δ_t`` (events (s, L ≤ D), or the
+        whole-horizon curtailment when D is None; see
+        :func:`hvacflex.opt.events.worst_event_output`)
     """
 
     status: SolveStatus
@@ -140,6 +147,7 @@ class RMPCSolution:
     highs_time_s: float
     simplex_iterations: int
     warm_start: bool
+    y_event_worst: FloatArray
     feedback_gains: FloatArray | None = None
 
     @property
@@ -203,6 +211,7 @@ def failed_solution(
         highs_time_s=highs_time_s,
         simplex_iterations=simplex_iterations,
         warm_start=warm_start,
+        y_event_worst=_nan((horizon, ny)),
     )
 
 
@@ -259,6 +268,7 @@ def plan_solution(
         simplex_iterations=simplex_iterations,
         warm_start=warm_start,
         feedback_gains=feedback_gains,
+        y_event_worst=events_mod.worst_event_output(problem, x_served, r, delta),
     )
 
 
@@ -307,6 +317,8 @@ def _rotation(layout: LPLayout) -> tuple[IntArray, IntArray]:
         for block in blocks:
             if block.size:
                 index_map[block.ravel()] = np.roll(block, -1, axis=0).ravel()
+    if layout.row_event.size:
+        row_map[layout.row_event] = layout.row_event[events_mod.event_rotation(layout.events)]
     return col_map, row_map
 
 
@@ -687,9 +699,12 @@ class RMPCSolver:
         r = np.zeros((layout.horizon, layout.m))
         r[:, layout.reserve_inputs] = np.maximum(values[layout.col_r], 0.0)
         x_served = np.vstack([problem.x0, values[layout.col_x]])
-        x_curtailed = (
-            np.vstack([problem.x0, values[layout.col_z]]) if layout.has_curtailed else x_served
-        )
+        if layout.has_curtailed:
+            x_curtailed = np.vstack([problem.x0, values[layout.col_z]])
+        elif layout.has_reserve:  # event model: the event (s = 0, L = D)
+            x_curtailed = events_mod.event_trajectory(problem, x_served, r)
+        else:
+            x_curtailed = x_served
         return plan_solution(
             problem,
             status=status,

@@ -1,0 +1,396 @@
+r"""Interruptible-load (IL) events: the exact robust counterpart as LP rows (issue 14).
+
+Model
+-----
+An **event** ``(s, L)`` curtails the reserve-carrying inputs ``s … s+L−1`` (``1 ≤ L ≤ D``):
+they run at ``u_j − r_j`` instead of ``u_j``; every other input is served. The event set
+holds the served plan and every single event. With the reserve response
+``H_l = −C A^l B_r`` (ny × m_r, ``l ≥ 0``), the nominal output at ``t = 1 … N`` (state after
+input ``t−1``) under event ``(s, L)`` is
+
+.. math::
+
+    y_t^{(s,L)} = C x_t + \sum_{j=s}^{\min(s+L-1,\,t-1)} H_{t-1-j}\, r_j ,
+
+and the disturbance box moves every pattern by the same amount (open loop), so the robust
+margin δ_t of :mod:`hvacflex.opt.robust` applies unchanged. For cooling reserve (``B_r ≤ 0``,
+``A ≥ 0``, ``C ≥ 0``, ``r ≥ 0``) every ``H_l ≥ 0``: curtailment only warms. Hence
+
+* the **lower** comfort bound is worst on the served plan (no event rows);
+* the **upper** bound, at output ``t`` and start ``s < t``, is worst for the longest event that
+  the bound at ``t`` still has to hold for. Event ``(s, L)`` lets output ``t`` use the
+  allowance α while ``t ≤ s + L + R`` (during the event and R recovery steps):
+
+  - *allowance row* (needed if ``t − s ≤ D + R``; some L ≤ D reaches t):
+    worst ``L = D``: ``C x_t + Σ_{j=s}^{min(s+D−1, t−1)} H_{t−1−j} r_j − ε_t ≤ y^hi_t − δ_t + α``;
+  - *strict row* (needed if ``t − s ≥ R + 2``; some L ≥ 1 ended more than R steps before t):
+    worst ``L = min(D, t − s − R − 1)``:
+    ``C x_t + Σ_{j=s}^{s+L−1} H_{t−1−j} r_j − ε_t ≤ y^hi_t − δ_t``.
+
+  A row with a smaller L is implied by the one with the largest L (the extra terms are ≥ 0),
+  so these at most two rows per (t, s, zone) are the exact robust counterpart.
+
+Outputs ``t ≤ c`` (``il_allowance_carry_steps``) get α under every pattern, the served plan
+included (the zone is still recovering from an event that ended before the horizon). The
+event rows share the slack ``ε_t`` of the served rows (as the whole-horizon model's curtailed
+rows do). With ``D = N``, ``α = 0`` and ``R = 0`` the row at ``(t, s = 0)`` is the
+whole-horizon curtailed row ``C z_t ≤ y^hi_t − δ_t + ε_t`` and implies every other one, so
+the optimum equals the whole-horizon model's.
+
+Row count: allowance rows ``Σ_t min(D+R, t)`` and strict rows ``Σ_t max(0, t − R − 1)`` per
+zone, i.e. at most ``N(D+R) + N(N−R−1)/2`` per zone, ≈ N²·ny/2. Rows of different starts s
+sum different windows of ``r``, so none is dominated independently of the data (rows are not
+dropped: the LP structure depends only on N, ny, D and R; α, c and δ enter row bounds).
+
+Warm start: the rows are indexed by (output t, lag t − s, kind, zone). One step later the
+row (t, lag) of the new problem is the row (t + 1, lag) of the old one; the old rows with
+s = 0 (no successor) take the places of the new rows at t = N, lag by lag and kind by kind —
+a permutation, so the rotated basis keeps its number of basic variables
+(:func:`event_rotation`).
+
+Everything here is plain numpy/scipy (no solver); :mod:`hvacflex.opt.problem` and
+:mod:`hvacflex.opt.solve` call it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy import sparse
+
+from hvacflex.errors import ProblemError
+
+if TYPE_CHECKING:
+    from hvacflex.opt.problem import RMPCProblem
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+BoolArray = NDArray[np.bool_]
+
+_SOURCE = "RMPCProblem"
+
+__all__ = [
+    "EventRows",
+    "carry_allowance",
+    "check_event_problem",
+    "event_matrix",
+    "event_rotation",
+    "event_row_bounds",
+    "event_rows",
+    "event_trajectory",
+    "reserve_responses",
+    "worst_event_output",
+]
+
+
+@dataclass(frozen=True, eq=False)
+class EventRows:
+    """The event rows of one structure, one entry per row (all arrays (num_rows,)).
+
+    ``step`` is the output index k = t − 1 (0-based, the row of ``col_x``/``col_eps``),
+    ``output`` the comfort output (zone), ``start`` the event's first input s, ``length`` the
+    number of curtailed inputs summed (the worst L, truncated at t − 1), ``allowance`` True
+    for allowance rows (bound widened by α), False for strict rows.
+    """
+
+    step: IntArray
+    output: IntArray
+    start: IntArray
+    length: IntArray
+    allowance: BoolArray
+
+    @property
+    def num_rows(self) -> int:
+        """Number of event rows."""
+        return int(self.step.size)
+
+
+def event_rows(horizon: int, ny: int, max_steps: int | None, recovery_steps: int) -> EventRows:
+    """The event rows for horizon N, ny outputs, D = ``max_steps`` and R = ``recovery_steps``.
+
+    Ordered by output t, then kind (allowance, strict), then lag t − s, then zone. Empty for
+    ``max_steps=None`` (the whole-horizon model has no event rows).
+    """
+    steps: list[int] = []
+    starts: list[int] = []
+    lengths: list[int] = []
+    kinds: list[bool] = []
+    if max_steps is not None:
+        d, r = max_steps, recovery_steps
+        for t in range(1, horizon + 1):
+            for lag in range(1, min(d + r, t) + 1):  # allowance rows
+                s = t - lag
+                steps.append(t - 1)
+                starts.append(s)
+                lengths.append(min(d, t - s))
+                kinds.append(True)
+            for lag in range(r + 2, t + 1):  # strict rows
+                s = t - lag
+                steps.append(t - 1)
+                starts.append(s)
+                lengths.append(min(d, t - s - r - 1))
+                kinds.append(False)
+    count = len(steps)
+    return EventRows(
+        step=np.repeat(np.array(steps, dtype=np.int64), ny),
+        output=np.tile(np.arange(ny, dtype=np.int64), count),
+        start=np.repeat(np.array(starts, dtype=np.int64), ny),
+        length=np.repeat(np.array(lengths, dtype=np.int64), ny),
+        allowance=np.repeat(np.array(kinds, dtype=bool), ny),
+    )
+
+
+def reserve_responses(
+    a_matrix: FloatArray, b_reserve: FloatArray, c_matrix: FloatArray, horizon: int
+) -> FloatArray:
+    """(N, ny, m_r) warming responses ``H_l = −C A^l B_r`` [K per kg/s] (≥ 0 for cooling).
+
+    ``H_l`` is the effect of one kg/s curtailed at input j on the output at step j + 1 + l.
+    """
+    ny, m_r = c_matrix.shape[0], b_reserve.shape[1]
+    responses = np.empty((horizon, ny, m_r))
+    propagated = -b_reserve.copy()
+    for lag in range(horizon):
+        responses[lag] = c_matrix @ propagated
+        propagated = a_matrix @ propagated
+    return responses
+
+
+def event_matrix(
+    rows: EventRows,
+    responses: FloatArray,
+    c_matrix: FloatArray,
+    *,
+    col_x: IntArray,
+    col_r: IntArray,
+    col_eps: IntArray,
+    num_cols: int,
+) -> sparse.csr_matrix:
+    """(num_event_rows, num_cols) CSR block of the event rows over the LP's columns.
+
+    Row e: ``C_i x_t + Σ_j H_{t−1−j,i} r_j − ε_{t,i}``; ``col_x`` (N, n), ``col_r`` (N, m_r),
+    ``col_eps`` (N, ny) are the LP's column indices. The coefficients depend only on the
+    structure (A, B, C, N, D, R).
+    """
+    parts_r: list[IntArray] = []
+    parts_c: list[IntArray] = []
+    parts_v: list[FloatArray] = []
+    index = np.arange(rows.num_rows, dtype=np.int64)
+    c_rows = c_matrix[rows.output]  # (E, n)
+    parts_r.append(np.repeat(index, c_matrix.shape[1]))
+    parts_c.append(col_x[rows.step].ravel())
+    parts_v.append(c_rows.ravel())
+    parts_r.append(index)
+    parts_c.append(col_eps[rows.step, rows.output])
+    parts_v.append(np.full(rows.num_rows, -1.0))
+    m_r = col_r.shape[1]
+    if m_r:
+        for offset in range(int(rows.length.max(initial=0))):
+            take = rows.length > offset
+            j = rows.start[take] + offset
+            lag = rows.step[take] - j
+            parts_r.append(np.repeat(index[take], m_r))
+            parts_c.append(col_r[j].ravel())
+            parts_v.append(responses[lag, rows.output[take]].ravel())
+    r_all, c_all, v_all = (np.concatenate(p) for p in (parts_r, parts_c, parts_v))
+    keep = v_all != 0.0
+    matrix = sparse.csr_matrix(
+        (v_all[keep], (r_all[keep], c_all[keep])), shape=(rows.num_rows, num_cols)
+    )
+    matrix.sum_duplicates()
+    matrix.sort_indices()
+    return matrix
+
+
+def carry_allowance(
+    horizon: int, ny: int, allowance_kelvin: float, carry_steps: int
+) -> FloatArray:
+    """(N, ny) widening of the served upper bound: α on outputs t = 1 … c, 0 elsewhere [K]."""
+    widening = np.zeros((horizon, ny))
+    widening[:carry_steps] = allowance_kelvin
+    return widening
+
+
+def event_row_bounds(
+    rows: EventRows,
+    y_max: FloatArray,
+    delta: FloatArray,
+    allowance_kelvin: float,
+    carry_steps: int,
+) -> tuple[FloatArray, FloatArray]:
+    """Lower (−inf) and upper bounds of the event rows [°C].
+
+    Upper: ``y^hi_t − δ_t + α`` on allowance rows and on every row with t ≤ c, else
+    ``y^hi_t − δ_t``. ``y_max`` and ``delta`` are (N, ny).
+    """
+    widened = rows.allowance | (rows.step < carry_steps)
+    upper = y_max[rows.step, rows.output] - delta[rows.step, rows.output]
+    upper = upper + np.where(widened, allowance_kelvin, 0.0)
+    return np.full(rows.num_rows, -np.inf), upper
+
+
+def event_rotation(rows: EventRows) -> IntArray:
+    """Permutation ``perm`` such that row e of the next step starts from old row ``perm[e]``.
+
+    Row (t, lag, kind, zone) takes the old row (t + 1, lag, kind, zone); the rows at t = N
+    take the old rows with s = 0 of the same (lag, kind, zone) (see the module docstring).
+    """
+    if rows.num_rows == 0:
+        return np.zeros(0, dtype=np.int64)
+    horizon = int(rows.step.max()) + 1
+    lag = rows.step + 1 - rows.start
+    keys = {
+        (int(k), int(g), bool(a), int(i)): e
+        for e, (k, g, a, i) in enumerate(
+            zip(rows.step, lag, rows.allowance, rows.output, strict=True)
+        )
+    }
+    perm = np.empty(rows.num_rows, dtype=np.int64)
+    for e, (k, g, a, i) in enumerate(zip(rows.step, lag, rows.allowance, rows.output, strict=True)):
+        source = (int(k) + 1, int(g), bool(a), int(i))
+        if int(k) + 1 >= horizon:
+            source = (int(g) - 1, int(g), bool(a), int(i))  # old row with s = 0
+        perm[e] = keys[source]
+    return perm
+
+
+def worst_event_output(
+    problem: RMPCProblem, x_served: FloatArray, r: FloatArray, delta: FloatArray
+) -> FloatArray:
+    """(N, ny) worst upper-side output over the event set × the box [°C].
+
+    ``max(C x_t, max over events of C x_t + event sum) + δ_t``. The event set is every
+    (s, L ≤ D) with D = ``il_event_max_steps``, or D = N for the whole-horizon model (whose
+    worst pattern, for cooling reserve, is the curtailed trajectory z). ``x_served`` (N+1, n)
+    from x0, ``r`` (N, m) [kg/s], ``delta`` (N, ny) [K].
+    """
+    horizon = problem.horizon
+    ridx = np.flatnonzero(problem.reserve_mask)
+    served = x_served[1:] @ problem.c_matrix.T  # (N, ny)
+    extra = np.zeros_like(served)
+    if ridx.size:
+        d = problem.il_event_max_steps or horizon
+        responses = reserve_responses(
+            problem.a_matrix, problem.b_matrix[:, ridx], problem.c_matrix, horizon
+        )
+        r_res = r[:, ridx]
+        for k in range(horizon):  # output t = k + 1 sees inputs j = 0..k
+            contrib = np.einsum("jim,jm->ji", responses[k::-1], r_res[: k + 1])  # (k+1, ny)
+            prefix = np.vstack([np.zeros((1, served.shape[1])), np.cumsum(contrib, axis=0)])
+            for length in range(1, min(d, k + 1) + 1):
+                window = prefix[length:] - prefix[:-length]
+                extra[k] = np.maximum(extra[k], window.max(axis=0))
+    worst: FloatArray = served + extra + delta
+    return worst
+
+
+def event_trajectory(problem: RMPCProblem, x_served: FloatArray, r: FloatArray) -> FloatArray:
+    """(N+1, n) nominal trajectory under the event (s = 0, L = D) [°C] (D = N if None).
+
+    ``x_served`` (N+1, n) from x0, ``r`` (N, m) [kg/s].
+    """
+    d = problem.il_event_max_steps or problem.horizon
+    curtailed = x_served.copy()
+    shift = np.zeros(problem.n)
+    for k in range(problem.horizon):
+        shift = problem.a_matrix @ shift
+        if k < d:
+            shift = shift - problem.b_matrix @ r[k]
+        curtailed[k + 1] = x_served[k + 1] - shift
+    return curtailed
+
+
+def _integer(name: str, value: object, low: int, high: int | None, hint: str) -> int:
+    ok = isinstance(value, int | np.integer) and not isinstance(value, bool)
+    if not ok or int(value) < low or (high is not None and int(value) > high):  # type: ignore[call-overload]
+        bound = f"{low} ≤ value ≤ {high}" if high is not None else f"value ≥ {low}"
+        raise ProblemError(
+            f"must be an integer with {bound}", source=_SOURCE, field=name, value=value, hint=hint
+        )
+    return int(value)  # type: ignore[call-overload]
+
+
+def check_event_problem(problem: RMPCProblem) -> None:
+    """Validate the IL event fields of ``problem`` (raises :class:`ProblemError`)."""
+    horizon = problem.horizon
+    d = problem.il_event_max_steps
+    alpha = problem.il_event_allowance_kelvin
+    if not isinstance(alpha, int | float) or isinstance(alpha, bool) or not np.isfinite(alpha):
+        raise ProblemError(
+            "must be a finite number of kelvin",
+            source=_SOURCE,
+            field="il_event_allowance_kelvin",
+            value=alpha,
+        )
+    if alpha < 0:
+        raise ProblemError(
+            "the event allowance α must be ≥ 0 K",
+            source=_SOURCE,
+            field="il_event_allowance_kelvin",
+            value=alpha,
+            hint="α widens the upper comfort bound during an event and its recovery",
+        )
+    recovery = _integer(
+        "il_event_recovery_steps",
+        problem.il_event_recovery_steps,
+        0,
+        None,
+        "R steps after an event keep the allowance α",
+    )
+    carry = _integer(
+        "il_allowance_carry_steps",
+        problem.il_allowance_carry_steps,
+        0,
+        horizon,
+        "outputs 1..c keep α under every pattern (recovery of an event that just ended)",
+    )
+    if d is None:
+        for name, value in (
+            ("il_event_allowance_kelvin", alpha),
+            ("il_event_recovery_steps", recovery),
+            ("il_allowance_carry_steps", carry),
+        ):
+            if value != 0:
+                raise ProblemError(
+                    "applies only to the event model; the whole-horizon model has no allowance",
+                    source=_SOURCE,
+                    field=name,
+                    value=value,
+                    hint="set il_event_max_steps (D) or leave this field 0",
+                )
+        return
+    _integer(
+        "il_event_max_steps",
+        d,
+        1,
+        horizon,
+        f"D is the longest event in steps, 1 ≤ D ≤ N = {horizon}; None = whole-horizon model",
+    )
+    if problem.robust == "dual":
+        raise ProblemError(
+            "the event model is not offered in the dual form (≈ N² event rows, each with "
+            "its own λ's: too large)",
+            source=_SOURCE,
+            field="robust",
+            value=problem.robust,
+            hint="use robust='tightening' (same optimum)",
+        )
+    if problem.robust == "feedback":
+        raise ProblemError(
+            "the event model is not supported with affine disturbance feedback yet",
+            source=_SOURCE,
+            field="robust",
+            value=problem.robust,
+            hint="use robust='tightening', or il_event_max_steps=None for feedback",
+        )
+    b_reserve = problem.b_matrix[:, np.asarray(problem.reserve_mask, dtype=bool)]
+    if (b_reserve > 0).any():
+        raise ProblemError(
+            "the event model covers cooling reserve only (reserve-carrying columns of B ≤ 0)",
+            source=_SOURCE,
+            field="b_matrix",
+            hint="offer reserve on cooling inputs, or use il_event_max_steps=None",
+        )
