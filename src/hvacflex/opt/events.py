@@ -205,9 +205,7 @@ def event_matrix(
     return matrix
 
 
-def carry_allowance(
-    horizon: int, ny: int, allowance_kelvin: float, carry_steps: int
-) -> FloatArray:
+def carry_allowance(horizon: int, ny: int, allowance_kelvin: float, carry_steps: int) -> FloatArray:
     """(N, ny) widening of the served upper bound: α on outputs t = 1 … c, 0 elsewhere [K]."""
     widening = np.zeros((horizon, ny))
     widening[:carry_steps] = allowance_kelvin
@@ -299,7 +297,7 @@ def event_trajectory(problem: RMPCProblem, x_served: FloatArray, r: FloatArray) 
         shift = problem.a_matrix @ shift
         if k < d:
             shift = shift - problem.b_matrix @ r[k]
-        curtailed[k + 1] = x_served[k + 1] - shift
+        curtailed[k + 1] = x_served[k + 1] + shift
     return curtailed
 
 
