@@ -266,7 +266,7 @@ def worst_event_output(
     from x0, ``r`` (N, m) [kg/s], ``delta`` (N, ny) [K].
     """
     horizon = problem.horizon
-    ridx = np.flatnonzero(problem.reserve_mask)
+    ridx = np.flatnonzero(np.asarray(problem.reserve_mask, dtype=bool))
     served = x_served[1:] @ problem.c_matrix.T  # (N, ny)
     extra = np.zeros_like(served)
     if ridx.size:
@@ -302,13 +302,15 @@ def event_trajectory(problem: RMPCProblem, x_served: FloatArray, r: FloatArray) 
 
 
 def _integer(name: str, value: object, low: int, high: int | None, hint: str) -> int:
-    ok = isinstance(value, int | np.integer) and not isinstance(value, bool)
-    if not ok or int(value) < low or (high is not None and int(value) > high):  # type: ignore[call-overload]
+    number = (
+        int(value) if isinstance(value, int | np.integer) and not isinstance(value, bool) else None
+    )
+    if number is None or number < low or (high is not None and number > high):
         bound = f"{low} ≤ value ≤ {high}" if high is not None else f"value ≥ {low}"
         raise ProblemError(
             f"must be an integer with {bound}", source=_SOURCE, field=name, value=value, hint=hint
         )
-    return int(value)  # type: ignore[call-overload]
+    return number
 
 
 def check_event_problem(problem: RMPCProblem) -> None:
