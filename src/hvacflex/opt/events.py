@@ -274,13 +274,27 @@ def worst_event_output(
         responses = reserve_responses(
             problem.a_matrix, problem.b_matrix[:, ridx], problem.c_matrix, horizon
         )
+        steps = np.arange(horizon)
         r_res = r[:, ridx]
-        for k in range(horizon):  # output t = k + 1 sees inputs j = 0..k
-            contrib = np.einsum("jim,jm->ji", responses[k::-1], r_res[: k + 1])  # (k+1, ny)
-            prefix = np.vstack([np.zeros((1, served.shape[1])), np.cumsum(contrib, axis=0)])
-            for length in range(1, min(d, k + 1) + 1):
-                window = prefix[length:] - prefix[:-length]
-                extra[k] = np.maximum(extra[k], window.max(axis=0))
+        # contrib[k, j] = H_{k-j} r_j (ny) for j ≤ k, else 0. Under the sign conditions it is
+        # ≥ 0 (cooling) or ≤ 0 (heating: then the served plan is the upper-side worst); the
+        # clip removes round-off and the heating case.
+        contrib = np.zeros((horizon, horizon, served.shape[1]))
+        for lag in range(horizon):
+            inputs = steps[: horizon - lag]
+            contrib[inputs + lag, inputs] = r_res[: horizon - lag] @ responses[lag].T
+        contrib = np.maximum(contrib, 0.0)
+        prefix = np.concatenate(
+            [np.zeros((horizon, 1, served.shape[1])), np.cumsum(contrib, axis=1)], axis=1
+        )  # [k, b] = Σ_{j<b} contrib[k, j]
+        # contributions ≥ 0: the worst window for output k+1 has length min(D, k+1)
+        short = steps + 1 <= d
+        extra[short] = prefix[short, steps[short] + 1]  # the window 0..k
+        if (~short).any():
+            sums = prefix[:, d:] - prefix[:, :-d]  # [k, a]: window a..a+d-1
+            inside = (steps[None, :] + d <= steps[:, None] + 1)[:horizon, : horizon + 1 - d]
+            masked = np.where(inside[..., None], sums, -np.inf)
+            extra[~short] = masked[~short].max(axis=1)
     worst: FloatArray = served + extra + delta
     return worst
 
