@@ -1,4 +1,5 @@
-"""Solve :class:`~hvacflex.opt.problem.RMPCProblem` with HiGHS; the only importer of highspy.
+"""Solve :class:`~hvacflex.opt.problem.RMPCProblem` with HiGHS (highspy; generic helpers in
+:mod:`hvacflex.opt.highs_lp`).
 
 :class:`RMPCSolver` builds the sparse LP of :mod:`hvacflex.opt.lp` once per structure
 (A, B, E, C, N, reserve mask, robust mode). Each :meth:`RMPCSolver.solve` rebuilds the LP's
@@ -32,14 +33,12 @@ solve is retried once from scratch (cold) before the error is reported.
 from __future__ import annotations
 
 import time
-from typing import Any, NamedTuple, cast
+from typing import Any, cast
 
 import highspy
 import numpy as np
-from scipy import sparse
 
 from hvacflex.errors import ProblemError
-from hvacflex.opt import robust as robust_mod
 from hvacflex.opt.basis import (
     BASIC,
     SolverBasis,
@@ -50,6 +49,7 @@ from hvacflex.opt.basis import (
     optimal_statuses,
     rotation,
 )
+from hvacflex.opt.events import reserve_responses
 from hvacflex.opt.feedback import (
     FeedbackLPSize,
     build_feedback_lp,
@@ -58,9 +58,17 @@ from hvacflex.opt.feedback import (
     gains_tensor,
     output_response,
 )
+from hvacflex.opt.highs_lp import (
+    STATUS_MAP,
+    LPResult,
+    check_time_limit,
+    highs_lp,
+    solve_lp,
+)
 from hvacflex.opt.lp import LPLayout, build_lp, sparse_matrix
 from hvacflex.opt.options import FeedbackOptions
 from hvacflex.opt.problem import FloatArray, RMPCProblem
+from hvacflex.opt.robust import impulse_responses, margin_operator, robust_margins
 from hvacflex.opt.solution import (
     RMPCSolution,
     SolveStatus,
@@ -84,17 +92,6 @@ __all__ = [
 #: HiGHS algorithm for the feedback LP ("simplex", "ipm" or "choose").
 DEFAULT_LP_METHOD = "simplex"
 
-_STATUS_MAP = {
-    highspy.HighsModelStatus.kOptimal: SolveStatus.OPTIMAL,
-    highspy.HighsModelStatus.kInfeasible: SolveStatus.INFEASIBLE,
-    # The LP is bounded by construction (bounded u, r; ε, β with non-negative costs), so
-    # "unbounded or infeasible" can only mean infeasible.
-    highspy.HighsModelStatus.kUnboundedOrInfeasible: SolveStatus.INFEASIBLE,
-    highspy.HighsModelStatus.kUnbounded: SolveStatus.UNBOUNDED,
-    highspy.HighsModelStatus.kTimeLimit: SolveStatus.TIME_LIMIT,
-}
-
-
 #: HiGHS basis status codes (``HighsBasisStatus``) as stored in :class:`SolverBasis`.
 _HIGHS_BASIS_STATUS = np.array([highspy.HighsBasisStatus(code) for code in range(5)], dtype=object)
 #: Options of every solve: quiet, single-threaded (reproducible), Devex dual pricing (1).
@@ -106,47 +103,6 @@ _BASE_OPTIONS: dict[str, Any] = {
 }
 #: ``simplex_scale_strategy`` of a warm solve (0: no scaling); cold solves use HiGHS's default.
 _WARM_SCALE_STRATEGY = 0
-
-
-def _highs_lp(
-    cost: FloatArray,
-    matrix: sparse.csc_matrix | sparse.csr_matrix,
-    row_lower: FloatArray,
-    row_upper: FloatArray,
-    col_lower: FloatArray,
-    col_upper: FloatArray,
-) -> Any:
-    """A ``highspy.HighsLp`` of ``min costᵀx s.t. row bounds, column bounds`` (CSC or CSR)."""
-    num_rows, num_cols = matrix.shape
-    lp = highspy.HighsLp()
-    lp.num_col_ = num_cols
-    lp.num_row_ = num_rows
-    lp.col_cost_ = np.asarray(cost, dtype=np.float64)
-    lp.col_lower_ = np.asarray(col_lower, dtype=np.float64)
-    lp.col_upper_ = np.asarray(col_upper, dtype=np.float64)
-    lp.row_lower_ = np.asarray(row_lower, dtype=np.float64)
-    lp.row_upper_ = np.asarray(row_upper, dtype=np.float64)
-    colwise = isinstance(matrix, sparse.csc_matrix)
-    lp.a_matrix_.format_ = (
-        highspy.MatrixFormat.kColwise if colwise else highspy.MatrixFormat.kRowwise
-    )
-    lp.a_matrix_.num_col_ = num_cols
-    lp.a_matrix_.num_row_ = num_rows
-    lp.a_matrix_.start_ = matrix.indptr.astype(np.int32)
-    lp.a_matrix_.index_ = matrix.indices.astype(np.int32)
-    lp.a_matrix_.value_ = matrix.data.astype(np.float64)
-    return lp
-
-
-def check_time_limit(time_limit_s: float | None, *, source: str) -> None:
-    """Refuse a per-solve time limit that is not a positive number of seconds (None = none)."""
-    if time_limit_s is not None and not time_limit_s > 0:
-        raise ProblemError(
-            "time limit must be > 0 s or None",
-            source=source,
-            field="time_limit_s",
-            value=time_limit_s,
-        )
 
 
 class RMPCSolver:
@@ -183,10 +139,16 @@ class RMPCSolver:
             )
         self._structure = problem.structure
         self._fingerprint = self._structure.fingerprint()
-        self._responses = robust_mod.impulse_responses(
+        self._responses = impulse_responses(
             problem.a_matrix, problem.e_matrix, problem.c_matrix, problem.horizon
         )
-        self._margin_operator = robust_mod.margin_operator(self._responses)
+        self._margin_operator = margin_operator(self._responses)
+        self._event_responses = reserve_responses(
+            problem.a_matrix,
+            problem.b_matrix[:, np.asarray(problem.reserve_mask, dtype=bool)],
+            problem.c_matrix,
+            problem.horizon,
+        )
         # highspy's Python wrapper is only partly typed; treat the handle as Any.
         self._highs: Any = cast(Any, highspy.Highs)()
         for option, value in _BASE_OPTIONS.items():
@@ -232,10 +194,8 @@ class RMPCSolver:
         )
         assert lp.constant is not None
         matrix = sparse_matrix(lp, lp.constant, keep_varying_zeros=True, csc=True)
-        highs_lp = _highs_lp(
-            lp.cost, matrix, lp.row_lower, lp.row_upper, lp.col_lower, lp.col_upper
-        )
-        if self._highs.passModel(highs_lp) == highspy.HighsStatus.kError:
+        model = highs_lp(lp.cost, matrix, lp.row_lower, lp.row_upper, lp.col_lower, lp.col_upper)
+        if self._highs.passModel(model) == highspy.HighsStatus.kError:
             raise ProblemError(
                 "HiGHS refused the assembled LP",
                 source="RMPCSolver",
@@ -254,7 +214,7 @@ class RMPCSolver:
     def _delta(self, problem: RMPCProblem) -> FloatArray:
         if problem.robust == "none":
             return np.zeros((problem.horizon, problem.ny))
-        return robust_mod.robust_margins(self._margin_operator, problem.d_sigma)
+        return robust_margins(self._margin_operator, problem.d_sigma)
 
     @staticmethod
     def _tightening(problem: RMPCProblem, delta: FloatArray) -> FloatArray:
@@ -385,7 +345,7 @@ class RMPCSolver:
         elapsed = time.perf_counter() - tick
         if run_status == highspy.HighsStatus.kError:
             return elapsed, SolveStatus.ERROR
-        return elapsed, _STATUS_MAP.get(self._highs.getModelStatus(), SolveStatus.ERROR)
+        return elapsed, STATUS_MAP.get(self._highs.getModelStatus(), SolveStatus.ERROR)
 
     def _message(
         self, problem: RMPCProblem, delta: FloatArray, status: SolveStatus, iterations: int
@@ -447,6 +407,7 @@ class RMPCSolver:
             highs_time_s=highs_time,
             simplex_iterations=iterations,
             warm_start=warm,
+            event_responses=self._event_responses,
         )
 
     def highs_objective_sgd(self) -> float:
@@ -622,76 +583,3 @@ def solve_rmpc(problem: RMPCProblem, *, time_limit_s: float | None = None) -> RM
     if problem.robust == "feedback":
         return FeedbackSolver(problem, time_limit_s=time_limit_s).solve(problem)
     return RMPCSolver(problem, time_limit_s=time_limit_s).solve(problem)
-
-
-# ---------------------------------------------------------------------- generic LP
-
-
-class LPResult(NamedTuple):
-    """Outcome of :func:`solve_lp`: status, primal values (NaN unless optimal), message, time."""
-
-    status: SolveStatus
-    x: FloatArray
-    message: str
-    time_s: float
-
-
-def solve_lp(
-    cost: FloatArray,
-    a_csr: Any,
-    row_lower: FloatArray,
-    row_upper: FloatArray,
-    col_lower: FloatArray,
-    col_upper: FloatArray,
-    *,
-    time_limit_s: float | None = None,
-    method: str = "choose",
-) -> LPResult:
-    """Solve ``min costᵀx s.t. row_lower ≤ A x ≤ row_upper, col_lower ≤ x ≤ col_upper`` cold.
-
-    A generic one-shot HiGHS call (used by :class:`FeedbackSolver`); single-threaded and
-    silent like :class:`RMPCSolver`.
-
-    Parameters
-    ----------
-    cost, col_lower, col_upper : (num_cols,) objective and column bounds (±inf allowed)
-    a_csr : (num_rows, num_cols) ``scipy.sparse.csr_matrix`` constraint matrix
-    row_lower, row_upper : (num_rows,) row bounds (±inf allowed)
-    time_limit_s : wall-clock limit [s]; None = no limit
-    method : HiGHS ``solver`` option: "choose", "simplex" or "ipm"
-
-    Returns
-    -------
-    :class:`LPResult`; ``x`` is NaN unless the status is OPTIMAL; ``time_s`` is the wall time
-    of HiGHS ``run()``.
-    """
-    highs: Any = cast(Any, highspy.Highs)()
-    for option, value in (
-        ("output_flag", False),
-        ("log_to_console", False),
-        ("threads", 1),
-        ("solver", method),
-        ("time_limit", float(time_limit_s) if time_limit_s is not None else np.inf),
-    ):
-        highs.setOptionValue(option, value)
-    num_cols = a_csr.shape[1]
-    lp = _highs_lp(cost, a_csr, row_lower, row_upper, col_lower, col_upper)
-    if highs.passModel(lp) == highspy.HighsStatus.kError:
-        return LPResult(SolveStatus.ERROR, np.full(num_cols, np.nan), "HiGHS refused the LP", 0.0)
-    tick = time.perf_counter()
-    run_status = highs.run()
-    elapsed = time.perf_counter() - tick
-    model_status = highs.getModelStatus()
-    if run_status == highspy.HighsStatus.kError:
-        status = SolveStatus.ERROR
-    else:
-        status = _STATUS_MAP.get(model_status, SolveStatus.ERROR)
-    info = highs.getInfo()
-    message = (
-        f"HiGHS: {highs.modelStatusToString(model_status)} "
-        f"({int(info.simplex_iteration_count)} simplex, {int(info.ipm_iteration_count)} IPM "
-        f"iterations)"
-    )
-    if not status.ok:
-        return LPResult(status, np.full(num_cols, np.nan), message, elapsed)
-    return LPResult(status, np.asarray(highs.getSolution().col_value), message, elapsed)
