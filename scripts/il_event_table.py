@@ -11,7 +11,7 @@ controller builds, then
 
 The markdown tables go to stdout (they are copied into ``docs/il_events.md``):
 
-    HVACFLEX_DATA_DIR=... python scripts/il_event_table.py
+    python scripts/il_event_table.py
 """
 
 from __future__ import annotations
@@ -87,7 +87,7 @@ def size_and_time_table(problems: list[RMPCProblem], price: float) -> str:
         tick = time.perf_counter()
         solve_rmpc(sequence[0])
         cold_ms = (time.perf_counter() - tick) * 1e3
-        event_rows = solver.layout.row_event.size
+        event_rows = solver.layout.event_rows.size
         lines.append(
             f"| {label} | {solver.num_rows} | {solver.num_cols} | {solver.num_nonzeros} | "
             f"{event_rows} | {statistics.median(times):.1f} / {max(times):.1f} | "

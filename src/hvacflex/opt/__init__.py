@@ -15,6 +15,7 @@ Modules, each importing only those above it:
 - :mod:`~hvacflex.opt.feedback`: the affine disturbance-feedback parameterisation and its LP;
 - :mod:`~hvacflex.opt.basis`: simplex bases as arrays (time shift, checks);
 - :mod:`~hvacflex.opt.highs_lp`: generic HiGHS helpers (model, status, one-shot solve);
+- :mod:`~hvacflex.opt.feedback_solve`: the feedback solver (cold, via highs_lp);
 - :mod:`~hvacflex.opt.solve`: the HiGHS solvers (with highs_lp the only highspy importers);
 - :mod:`~hvacflex.opt.testing`: seeded random problems for tests and benchmarks.
 """

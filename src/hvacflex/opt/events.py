@@ -79,6 +79,7 @@ __all__ = [
     "event_row_bounds",
     "event_rows",
     "event_trajectory",
+    "most_violated_rows",
     "reserve_responses",
     "worst_event_output",
 ]
@@ -251,6 +252,25 @@ def event_rotation(rows: EventRows) -> IntArray:
     source = np.where(rows.step + 1 < horizon, rows.step + 1, lag - 1)  # last: old s = 0
     perm: IntArray = table[source, lag, kind, rows.output]
     return perm
+
+
+def most_violated_rows(
+    rows: EventRows, violation: FloatArray, candidate: BoolArray, tolerance_k: float
+) -> IntArray:
+    """Event rows to add in lazy row generation: per (output t, zone, kind) the candidate row
+    with the largest ``violation`` (activity − upper bound [K], (num_rows,)) if it exceeds
+    ``tolerance_k``. ``candidate`` (num_rows,) marks the rows not in the LP yet. Sorted ids.
+    """
+    take = np.flatnonzero(candidate & (violation > tolerance_k))
+    if take.size == 0:
+        return take.astype(np.int64)
+    group = (rows.step[take] * 2 + rows.allowance[take]) * (int(rows.output.max()) + 1)
+    group = group + rows.output[take]
+    order = np.lexsort((-violation[take], group))
+    first = np.ones(order.size, dtype=bool)
+    first[1:] = group[order][1:] != group[order][:-1]
+    chosen: IntArray = np.sort(take[order[first]]).astype(np.int64)
+    return chosen
 
 
 def worst_event_output(
