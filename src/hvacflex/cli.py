@@ -69,15 +69,16 @@ def validate_bestest(
     ),
 ) -> None:
     """ASHRAE Standard 140 Cases 600, 900, 600FF, 900FF against the six example programs."""
-    from hvacflex.building.validation.bestest import run_bestest, table_markdown, write_outputs
     from hvacflex.errors import HvacflexError
     from hvacflex.paths import buildings_dir, data_dir
+    from hvacflex.report.validation_plots import write_bestest_outputs
+    from hvacflex.validation.bestest import run_bestest, table_markdown
 
     try:
         result = run_bestest(
             data_dir() / "bestest", buildings_dir(), progress=lambda m: typer.echo(f"… {m}")
         )
-        paths = write_outputs(result, out)
+        paths = write_bestest_outputs(result, out)
     except HvacflexError as exc:
         typer.echo(f"error: {exc}", err=True)
         raise typer.Exit(2) from None
