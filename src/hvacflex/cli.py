@@ -27,13 +27,49 @@ def main() -> None:
     """Robust predictive control of building HVAC in electricity markets."""
 
 
-def _data_group() -> typer.Typer:
-    from hvacflex.data.show import data_app
-
-    return data_app
+data_app = typer.Typer(help="Inspect prices, weather, gains and the uncertainty box.")
+app.add_typer(data_app, name="data")
 
 
-app.add_typer(_data_group(), name="data")
+@data_app.command("show")
+def data_show(
+    start: str = typer.Option("2014-01-01", help="First day (Singapore time)."),
+    days: int = typer.Option(7, min=1, help="Number of days."),
+    building: str = typer.Option("office5", help="Building (shipped name or TOML path)."),
+    weather: Path | None = typer.Option(None, help="EPW file (default: TMYx Singapore Changi)."),  # noqa: B008
+    fig2: Path | None = typer.Option(None, help="Write Fig. 2 (energy & reserve price) PNG."),  # noqa: B008
+) -> None:
+    """Summarise prices, reserve prices (synthetic), weather, gains and the uncertainty box."""
+    from hvacflex.building.discretize import linearize
+    from hvacflex.building.io import load_building
+    from hvacflex.constants import HORIZON_STEPS
+    from hvacflex.data.forecast import load_exogenous
+    from hvacflex.data.uncertainty import DEFAULT_UNCERTAINTY, paper_uncertainty
+    from hvacflex.errors import HvacflexError
+    from hvacflex.paths import resolve_building
+    from hvacflex.report.data_summary import exogenous_summary_text, write_fig2
+
+    steps = days * PERIODS_PER_DAY
+    try:
+        b = load_building(resolve_building(building))
+        model = linearize(b)
+        exo = load_exogenous(
+            model.channels,
+            [z.floor_area_m2 for z in b.zones],
+            b.gains,
+            start=start,
+            steps=steps,
+            horizon_steps=HORIZON_STEPS,
+            weather_file=weather,
+        )
+    except HvacflexError as exc:
+        typer.echo(f"error: {exc}", err=True)
+        raise typer.Exit(code=2) from None
+    boxes = {"default": DEFAULT_UNCERTAINTY, "paper": paper_uncertainty()}
+    typer.echo(exogenous_summary_text(exo, steps, days, b.name, model, boxes))
+    if fig2 is not None:
+        write_fig2(exo, fig2, steps)
+        typer.echo(f"\nwrote {fig2}")
 
 
 building_app = typer.Typer(help="Inspect building descriptions.", no_args_is_help=True)

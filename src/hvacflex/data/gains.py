@@ -33,6 +33,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from hvacflex.constants import TIMEZONE
 from hvacflex.errors import ConfigError, DataError
 
 HOURS_PER_DAY = 24
@@ -149,7 +150,7 @@ def _local_index(index: pd.DatetimeIndex) -> pd.DatetimeIndex:
             value=type(index).__name__,
             hint="use a tz-aware 30-min index (Asia/Singapore)",
         )
-    return index.tz_convert("Asia/Singapore") if index.tz is not None else index
+    return index.tz_convert(TIMEZONE) if index.tz is not None else index
 
 
 def working_day_mask(
