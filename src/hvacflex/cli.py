@@ -151,6 +151,7 @@ def kpi(
 
     from hvacflex import kpi as kpis
     from hvacflex.errors import HvacflexError
+    from hvacflex.report.tables import format_value
 
     columns: dict[str, dict[str, float]] = {}
     for path in paths:
@@ -178,21 +179,8 @@ def kpi(
     for name in frame.columns:
         table.add_column(str(name), justify="right")
     for row_name, row in frame.iterrows():
-        table.add_row(str(row_name), *(_format_kpi(str(row_name), v) for v in row))
+        table.add_row(str(row_name), *(format_value(str(row_name), v) for v in row))
     Console().print(table)
-
-
-def _format_kpi(name: str, value: float) -> str:
-    """Human formatting of one KPI value by the unit in its name."""
-    if value != value:  # NaN
-        return "–"
-    if name in ("steps", "fallback_count"):
-        return f"{value:,.0f}"
-    if name.endswith("_share"):
-        return f"{100.0 * value:.2f} %"
-    if name.endswith("_s") or name == "max_delta_vs_half_band":
-        return f"{value:.4g}"
-    return f"{value:,.2f}"
 
 
 MAX_DAYS = 3660.0

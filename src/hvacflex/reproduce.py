@@ -25,7 +25,7 @@ from typing import Any
 import pandas as pd
 
 from hvacflex.config import PAPER_SCENARIOS, ScenarioConfig, preset, scaled_uncertainty
-from hvacflex.sim.closed_loop import RESULTS_FILE, read_results
+from hvacflex.kpi import load_results
 from hvacflex.sim.sweep import JobOutcome, outcomes_table, run_sweep
 
 ScenarioLabel = str
@@ -255,7 +255,7 @@ def _frames(outcomes: Sequence[JobOutcome]) -> dict[str, pd.DataFrame]:
     frames = {}
     for outcome in outcomes:
         if outcome.ok:
-            frame, _ = read_results(Path(outcome.out_dir) / RESULTS_FILE)
+            frame = load_results(outcome.out_dir)
             frames[str(outcome.params.get("scenario", outcome.label))] = frame
     return frames
 
