@@ -247,8 +247,8 @@ class Forecaster:
     error_box : standard deviations of the AR(1) error (default ``DEFAULT_UNCERTAINTY``).
     ar1_coefficient : φ per 30-min step.
 
-    ``forecast(k, horizon)`` costs a few microseconds in the default mode (array views,
-    read-only).
+    ``forecast(k, horizon)`` returns read-only views of the data in the default mode (no
+    copies).
     """
 
     def __init__(

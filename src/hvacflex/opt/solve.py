@@ -10,18 +10,10 @@ form, via ``changeCoeff``) — and re-solves with the dual simplex (warm start).
 each step. HiGHS runs single-threaded with its output silenced, so results are reproducible.
 :func:`solve_rmpc` is the one-shot wrapper for both.
 
-Warm start (measurements in ``docs/performance.md``). Successive problems of a receding
-horizon are shifted by one step, so the previous optimal basis is a poor start *position by
-position*, but a good one once rotated: by default (``time_shift=True``) the statuses of step
-k + 1 of every time-indexed block (x, z, u, r, ε, P and their rows: the blocks the builder
-marks ``time_indexed``) start step k, and those of step 0 start step N − 1 (a rotation keeps
-the number of basic variables, so HiGHS takes the basis as is). The basis is read after each
-optimal solve from HiGHS's basic-variable list and the primal values (every row of the LP is
-an equality or one-sided, so a nonbasic row's status follows from its bounds), which is much
-cheaper than ``getBasis``. HiGHS uses Devex dual pricing: every step re-initialises the
-simplex (new basis; the power-row coefficients p_k change), and dual steepest-edge weights
-would then be recomputed from scratch, one BTRAN per row. Warm solves run without scaling;
-cold solves keep HiGHS's default scaling and presolve.
+Warm start: by default (``time_shift=True``) the previous optimal basis, rotated by one step
+of every time-indexed block, starts the next solve; warm solves use Devex dual pricing without
+scaling, cold ones HiGHS's default scaling and presolve (why, and the measurements:
+``docs/performance.md``, *How the warm start works*).
 
 Failures are never silent: :class:`SolveStatus` says what happened, ``RMPCSolution.message``
 says it in words, and every plan array (u, r, P, R, ε, trajectories, costs) is NaN unless the
@@ -150,6 +142,27 @@ def _highs_lp(
     lp.a_matrix_.index_ = matrix.indices.astype(np.int32)
     lp.a_matrix_.value_ = matrix.data.astype(np.float64)
     return lp
+
+
+def _timed_run(highs: Any) -> tuple[float, SolveStatus]:
+    """Run HiGHS on its current model: (wall time of ``run()`` [s], outcome)."""
+    tick = time.perf_counter()
+    run_status = highs.run()
+    elapsed = time.perf_counter() - tick
+    if run_status == highspy.HighsStatus.kError:
+        return elapsed, SolveStatus.ERROR
+    return elapsed, _STATUS_MAP.get(highs.getModelStatus(), SolveStatus.ERROR)
+
+
+def _refuse_other_structure(differences: list[str], solver: str) -> None:
+    """Refuse a problem whose structure differs from the one ``solver`` was built for."""
+    if differences:
+        raise ProblemError(
+            f"the problem's structure differs from the solver's in {differences}",
+            source=solver,
+            field=differences[0],
+            hint=f"build a new {solver} for a problem with another structure",
+        )
 
 
 def check_time_limit(time_limit_s: float | None, *, source: str) -> None:
@@ -314,14 +327,7 @@ class RMPCSolver:
         """
         start = time.perf_counter()
         if problem.structure is not self._structure:
-            differences = self._structure.differences(problem.structure)
-            if differences:
-                raise ProblemError(
-                    f"the problem's structure differs from the solver's in {differences}",
-                    source="RMPCSolver",
-                    field=differences[0],
-                    hint="build a new RMPCSolver for a problem with another structure",
-                )
+            _refuse_other_structure(self._structure.differences(problem.structure), "RMPCSolver")
         delta = self._delta(problem)
         if problem is not self._last_problem:
             self._update(problem, delta)
@@ -394,12 +400,7 @@ class RMPCSolver:
             self._highs.setOptionValue(
                 "time_limit", float(self._highs.getRunTime()) + self._time_limit_s
             )
-        tick = time.perf_counter()
-        run_status = self._highs.run()
-        elapsed = time.perf_counter() - tick
-        if run_status == highspy.HighsStatus.kError:
-            return elapsed, SolveStatus.ERROR
-        return elapsed, _STATUS_MAP.get(self._highs.getModelStatus(), SolveStatus.ERROR)
+        return _timed_run(self._highs)
 
     def _message(
         self, problem: RMPCProblem, delta: FloatArray, status: SolveStatus, iterations: int
@@ -554,13 +555,7 @@ class FeedbackSolver:
         differences = self._structure.differences(problem.structure)
         if problem.feedback != self._options:
             differences.append("feedback")
-        if differences:
-            raise ProblemError(
-                f"the problem's structure differs from the solver's in {differences}",
-                source="FeedbackSolver",
-                field=differences[0],
-                hint="build a new FeedbackSolver for a problem with another structure",
-            )
+        _refuse_other_structure(differences, "FeedbackSolver")
         lp, plan_cols, feedback_cols = build_feedback_lp(problem, self._maps, constants=False)
         matrix = sparse_matrix(lp, self._constant, keep_varying_zeros=False, csc=False)
         size = FeedbackLPSize(
@@ -692,17 +687,10 @@ def solve_lp(
     lp = _highs_lp(cost, a_csr, row_lower, row_upper, col_lower, col_upper)
     if highs.passModel(lp) == highspy.HighsStatus.kError:
         return LPResult(SolveStatus.ERROR, np.full(num_cols, np.nan), "HiGHS refused the LP", 0.0)
-    tick = time.perf_counter()
-    run_status = highs.run()
-    elapsed = time.perf_counter() - tick
-    model_status = highs.getModelStatus()
-    if run_status == highspy.HighsStatus.kError:
-        status = SolveStatus.ERROR
-    else:
-        status = _STATUS_MAP.get(model_status, SolveStatus.ERROR)
+    elapsed, status = _timed_run(highs)
     info = highs.getInfo()
     message = (
-        f"HiGHS: {highs.modelStatusToString(model_status)} "
+        f"HiGHS: {highs.modelStatusToString(highs.getModelStatus())} "
         f"({int(info.simplex_iteration_count)} simplex, {int(info.ipm_iteration_count)} IPM "
         f"iterations)"
     )
