@@ -183,6 +183,12 @@ def kpi(
     Console().print(table)
 
 
+PRICE_GAP_FILL_HELP = (
+    "Missing periods in the price files: 'none' (an error) or 'previous-day' (copy "
+    "the same period of the day before). Default: the scenario's data.price_gap_fill."
+)
+"""Help of ``--price-gap-fill`` (``simulate`` and ``sweep``)."""
+
 MAX_DAYS = 3660.0
 """Longest run the command line accepts [days] (ten years)."""
 
@@ -253,8 +259,7 @@ def simulate(
     price_gap_fill: str | None = typer.Option(
         None,
         "--price-gap-fill",
-        help="Missing periods in the price files: 'none' (an error) or 'previous-day' (copy "
-        "the same period of the day before). Default: the scenario's data.price_gap_fill.",
+        help=PRICE_GAP_FILL_HELP,
     ),
     out: Path = typer.Option(Path("results/run"), help="Output folder."),  # noqa: B008
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
@@ -316,8 +321,7 @@ def sweep(
     price_gap_fill: str | None = typer.Option(
         None,
         "--price-gap-fill",
-        help="Missing periods in the price files: 'none' (an error) or 'previous-day' (copy "
-        "the same period of the day before). Default: the scenario's data.price_gap_fill.",
+        help=PRICE_GAP_FILL_HELP,
     ),
     out: Path = typer.Option(Path("results/sweep"), help="Output folder."),  # noqa: B008
     scheduler: str | None = typer.Option(

@@ -171,10 +171,7 @@ class LPBuilder:
         """A new block of variables shaped ``shape`` with bounds (broadcast); its indices."""
         index = self._take(self.num_cols, shape)
         self.num_cols += index.size
-        self._cols.append((index, lower, upper))
-        if time_indexed:
-            self._time_cols.append(index)
-        return index
+        return _record(index, lower, upper, self._cols, self._time_cols if time_indexed else None)
 
     def add_rows(
         self,
@@ -187,10 +184,7 @@ class LPBuilder:
         """A new block of constraints ``lower ≤ row ≤ upper`` shaped ``shape``; its indices."""
         index = self._take(self.num_rows, shape)
         self.num_rows += index.size
-        self._rows.append((index, lower, upper))
-        if time_indexed:
-            self._time_rows.append(index)
-        return index
+        return _record(index, lower, upper, self._rows, self._time_rows if time_indexed else None)
 
     def set_cost(self, cols: IntArray, cost: FloatArray | float) -> None:
         """Objective coefficients of ``cols`` (broadcast; later calls win)."""
@@ -233,6 +227,21 @@ class LPBuilder:
             time_cols=tuple(self._time_cols),
             time_rows=tuple(self._time_rows),
         )
+
+
+def _record(
+    index: IntArray,
+    lower: FloatArray | float,
+    upper: FloatArray | float,
+    blocks: list[_Assignment],
+    time_blocks: list[IntArray] | None,
+) -> IntArray:
+    """Note a new block of columns or rows with its bounds (and, if ``time_blocks`` is given,
+    as time-indexed); return its indices."""
+    blocks.append((index, lower, upper))
+    if time_blocks is not None:
+        time_blocks.append(index)
+    return index
 
 
 def _broadcast(rows: object, cols: object, values: object) -> tuple[IntArray, IntArray, FloatArray]:
