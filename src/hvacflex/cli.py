@@ -27,13 +27,49 @@ def main() -> None:
     """Robust predictive control of building HVAC in electricity markets."""
 
 
-def _data_group() -> typer.Typer:
-    from hvacflex.data.show import data_app
-
-    return data_app
+data_app = typer.Typer(help="Inspect prices, weather, gains and the uncertainty box.")
+app.add_typer(data_app, name="data")
 
 
-app.add_typer(_data_group(), name="data")
+@data_app.command("show")
+def data_show(
+    start: str = typer.Option("2014-01-01", help="First day (Singapore time)."),
+    days: int = typer.Option(7, min=1, help="Number of days."),
+    building: str = typer.Option("office5", help="Building (shipped name or TOML path)."),
+    weather: Path | None = typer.Option(None, help="EPW file (default: TMYx Singapore Changi)."),  # noqa: B008
+    fig2: Path | None = typer.Option(None, help="Write Fig. 2 (energy & reserve price) PNG."),  # noqa: B008
+) -> None:
+    """Summarise prices, reserve prices (synthetic), weather, gains and the uncertainty box."""
+    from hvacflex.building.discretize import linearize
+    from hvacflex.building.io import load_building
+    from hvacflex.constants import HORIZON_STEPS
+    from hvacflex.data.forecast import load_exogenous
+    from hvacflex.data.uncertainty import DEFAULT_UNCERTAINTY, paper_uncertainty
+    from hvacflex.errors import HvacflexError
+    from hvacflex.paths import resolve_building
+    from hvacflex.report.data_summary import exogenous_summary_text, write_fig2
+
+    steps = days * PERIODS_PER_DAY
+    try:
+        b = load_building(resolve_building(building))
+        model = linearize(b)
+        exo = load_exogenous(
+            model.channels,
+            [z.floor_area_m2 for z in b.zones],
+            b.gains,
+            start=start,
+            steps=steps,
+            horizon_steps=HORIZON_STEPS,
+            weather_file=weather,
+        )
+    except HvacflexError as exc:
+        typer.echo(f"error: {exc}", err=True)
+        raise typer.Exit(code=2) from None
+    boxes = {"default": DEFAULT_UNCERTAINTY, "paper": paper_uncertainty()}
+    typer.echo(exogenous_summary_text(exo, steps, days, b.name, model, boxes))
+    if fig2 is not None:
+        write_fig2(exo, fig2, steps)
+        typer.echo(f"\nwrote {fig2}")
 
 
 building_app = typer.Typer(help="Inspect building descriptions.", no_args_is_help=True)
@@ -69,15 +105,16 @@ def validate_bestest(
     ),
 ) -> None:
     """ASHRAE Standard 140 Cases 600, 900, 600FF, 900FF against the six example programs."""
-    from hvacflex.building.validation.bestest import run_bestest, table_markdown, write_outputs
     from hvacflex.errors import HvacflexError
     from hvacflex.paths import buildings_dir, data_dir
+    from hvacflex.report.validation_plots import write_bestest_outputs
+    from hvacflex.validation.bestest import run_bestest, table_markdown
 
     try:
         result = run_bestest(
             data_dir() / "bestest", buildings_dir(), progress=lambda m: typer.echo(f"… {m}")
         )
-        paths = write_outputs(result, out)
+        paths = write_bestest_outputs(result, out)
     except HvacflexError as exc:
         typer.echo(f"error: {exc}", err=True)
         raise typer.Exit(2) from None
@@ -114,6 +151,7 @@ def kpi(
 
     from hvacflex import kpi as kpis
     from hvacflex.errors import HvacflexError
+    from hvacflex.report.tables import format_value
 
     columns: dict[str, dict[str, float]] = {}
     for path in paths:
@@ -141,22 +179,15 @@ def kpi(
     for name in frame.columns:
         table.add_column(str(name), justify="right")
     for row_name, row in frame.iterrows():
-        table.add_row(str(row_name), *(_format_kpi(str(row_name), v) for v in row))
+        table.add_row(str(row_name), *(format_value(str(row_name), v) for v in row))
     Console().print(table)
 
 
-def _format_kpi(name: str, value: float) -> str:
-    """Human formatting of one KPI value by the unit in its name."""
-    if value != value:  # NaN
-        return "–"
-    if name in ("steps", "fallback_count"):
-        return f"{value:,.0f}"
-    if name.endswith("_share"):
-        return f"{100.0 * value:.2f} %"
-    if name.endswith("_s") or name == "max_delta_vs_half_band":
-        return f"{value:.4g}"
-    return f"{value:,.2f}"
-
+PRICE_GAP_FILL_HELP = (
+    "Missing periods in the price files: 'none' (an error) or 'previous-day' (copy "
+    "the same period of the day before). Default: the scenario's data.price_gap_fill."
+)
+"""Help of ``--price-gap-fill`` (``simulate`` and ``sweep``)."""
 
 MAX_DAYS = 3660.0
 """Longest run the command line accepts [days] (ten years)."""
@@ -228,8 +259,7 @@ def simulate(
     price_gap_fill: str | None = typer.Option(
         None,
         "--price-gap-fill",
-        help="Missing periods in the price files: 'none' (an error) or 'previous-day' (copy "
-        "the same period of the day before). Default: the scenario's data.price_gap_fill.",
+        help=PRICE_GAP_FILL_HELP,
     ),
     out: Path = typer.Option(Path("results/run"), help="Output folder."),  # noqa: B008
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
@@ -291,8 +321,7 @@ def sweep(
     price_gap_fill: str | None = typer.Option(
         None,
         "--price-gap-fill",
-        help="Missing periods in the price files: 'none' (an error) or 'previous-day' (copy "
-        "the same period of the day before). Default: the scenario's data.price_gap_fill.",
+        help=PRICE_GAP_FILL_HELP,
     ),
     out: Path = typer.Option(Path("results/sweep"), help="Output folder."),  # noqa: B008
     scheduler: str | None = typer.Option(

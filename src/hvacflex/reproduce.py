@@ -25,7 +25,7 @@ from typing import Any
 import pandas as pd
 
 from hvacflex.config import PAPER_SCENARIOS, ScenarioConfig, preset, scaled_uncertainty
-from hvacflex.sim.closed_loop import RESULTS_FILE, read_results
+from hvacflex.kpi import load_results
 from hvacflex.sim.sweep import JobOutcome, outcomes_table, run_sweep
 
 ScenarioLabel = str
@@ -255,7 +255,7 @@ def _frames(outcomes: Sequence[JobOutcome]) -> dict[str, pd.DataFrame]:
     frames = {}
     for outcome in outcomes:
         if outcome.ok:
-            frame, _ = read_results(Path(outcome.out_dir) / RESULTS_FILE)
+            frame = load_results(outcome.out_dir)
             frames[str(outcome.params.get("scenario", outcome.label))] = frame
     return frames
 
@@ -280,146 +280,178 @@ def display_days(frame: pd.DataFrame, days: int = 2) -> tuple[pd.Timestamp, pd.T
 
 def build_sections(plan: Plan, by_group: dict[str, list[JobOutcome]], out: Path) -> list[Any]:
     """Figures, tables and text of the report."""
-    from hvacflex import kpi
-    from hvacflex.report import plots, tables, text
-    from hvacflex.report.html import Section
-
     figures = out / "figures"
     figures.mkdir(exist_ok=True)
     scenario_frames = _frames(by_group["scenarios"])
     paper = {k: v for k, v in scenario_frames.items() if k in PAPER_SCENARIOS}
     sections: list[Any] = []
     if paper:
-        any_frame = next(iter(paper.values()))
-        start, end = display_days(any_frame)
-        window = {
-            SCENARIO_LABELS[k]: f[(f.index >= start) & (f.index < end)] for k, f in paper.items()
-        }
-        reference = next(iter(window.values()))
-        fig2 = plots.plot_prices(reference, figures / "fig2_prices.png")
-        fig5 = plots.plot_temperatures(window, figures / "fig5_temperatures.png")
-        fig6 = plots.plot_power_reserve(window, figures / "fig6_power_reserve.png")
-        sections.append(
-            Section(
-                title="Fig. 2, 5, 6 — prices, temperatures, power and reserve",
-                paragraphs=[
-                    f"Displayed days: {start:%a %d %b %Y} and the day after — the working "
-                    "days with the highest energy price in the simulated period, where the "
-                    "controllers differ most. The reserve price is SYNTHETIC (no public "
-                    "history of NEMS IL prices exists; see the data notes).",
-                ],
-                figures=[fig2, fig5, fig6],
-            )
-        )
-        monthly = {SCENARIO_LABELS[k]: kpi.monthly_table(f) for k, f in sorted(paper.items())}
-        table1 = tables.table1(monthly)
-        table1.to_csv(out / "table1.csv")
-        comparison = tables.side_by_side(table1, tables.PAPER_TABLE1)
-        comparison.to_csv(out / "table1_vs_paper.csv")
-        paper_summaries = {k: kpi.summary(f) for k, f in paper.items()}
-        sections.append(
-            Section(
-                title="Table 1 — average cost per month",
-                paragraphs=[
-                    f"Simulated {plan.days:g} days from {plan.start}. Cost = energy bought at "
-                    "USEP; revenue = synthetic reserve price × reserve capacity offered; "
-                    "total = cost − revenue (the paper's definition; the PPP charge is "
-                    "reported separately below).",
-                    " ".join(scenario_sentences(paper_summaries)),
-                ],
-                tables=[table1, comparison],
-            )
-        )
-    all_frames = {SCENARIO_LABELS.get(k, k): f for k, f in scenario_frames.items()}
-    if all_frames:
-        summary = pd.DataFrame({name: kpi.summary(f) for name, f in all_frames.items()})
-        summary.to_csv(out / "kpi_scenarios.csv")
-        fig_comfort = plots.plot_discomfort(all_frames, figures / "comfort.png")
-        figures_comfort = [fig_comfort]
+        sections.append(paper_figures_section(paper, figures))
+        sections.append(table1_section(plan, paper, out))
+    if scenario_frames:
         corner = _frames(by_group["corner"])
-        if corner:
-            labels = {"nmpc": "NMPC, hot corner", "rmpc": "RMPC, hot corner"}
-            figures_comfort.append(
-                plots.plot_discomfort(
-                    {labels.get(k, k): f for k, f in corner.items()},
-                    figures / "comfort_hot_corner.png",
-                    title=f"Discomfort with every error at the hot corner of a "
-                    f"±{100 * HOT_CORNER_LEVEL:.0f} % box",
-                )
-            )
-        corner_discomfort = {k: kpi.total_discomfort_kelvin_hours(f) for k, f in corner.items()}
-        scenario_discomfort = {
-            k: kpi.total_discomfort_kelvin_hours(f) for k, f in scenario_frames.items()
-        }
-        sections.append(
-            Section(
-                title="Comfort under the same realised disturbances",
-                paragraphs=[
-                    "All scenarios face the same forecast errors (drawn uniformly in the "
-                    "uncertainty box with the same seed). Discomfort is the BOPTEST "
-                    "definition: the time integral of the deviation outside the band [K·h]; "
-                    f"up to {text.COMFORT_TOLERANCE_KELVIN_HOURS:g} K·h counts as keeping "
-                    "the band.",
-                    " ".join(comfort_sentences(scenario_discomfort, corner_discomfort, plan)),
-                ],
-                figures=figures_comfort,
-                tables=[summary],
-            )
-        )
+        sections.append(comfort_section(plan, scenario_frames, corner, out, figures))
     ppp = outcomes_table([o for o in by_group["ppp"] if o.ok])
     if not ppp.empty:
-        ppp = ppp.sort_values("peak_price_sgd_per_kw")
-        ppp["total_cost_sgd"] = ppp["net_cost_sgd"]
-        ppp_csv = ppp[
-            ["peak_price_sgd_per_kw", "total_cost_sgd", "peak_power_kw", "net_cost_with_ppp_sgd"]
-        ]
-        fig7 = plots.plot_ppp_sweep(ppp_csv, figures / "fig7_ppp_sweep.png")
-        sections.append(
-            Section(
-                title="Fig. 7 — peak-power price sweep",
-                paragraphs=[
-                    f"Scenario (c) from {plan.sweep_start} for {plan.sweep_days:g} days at "
-                    f"φ ∈ {list(plan.ppp_values)} SGD/kW. Normalised total cost = "
-                    "cost_j / max(cost) with cost = energy − reserve revenue (operational "
-                    "cost, without the PPP charge itself); normalised peak = peak_j / "
-                    "max(peak), the peak of the 30-min plant power over the period.",
-                    ppp_sentence(ppp_csv),
-                ],
-                figures=[fig7],
-                tables=[ppp_csv.reset_index(drop=True)],
-            )
-        )
+        sections.append(ppp_section(plan, ppp, figures))
     unc = outcomes_table([o for o in by_group["uncertainty"] if o.ok])
     if not unc.empty:
-        unc_csv = unc[
-            [
-                "controller",
-                "uncertainty_level",
-                "net_cost_sgd",
-                "reserve_revenue_sgd",
-                "discomfort_kelvin_hours",
-                "planned_slack_share",
-                "max_delta_vs_half_band",
-            ]
-        ].sort_values(["controller", "uncertainty_level"])
-        fig_unc = plots.plot_robustness_price(unc_csv, figures / "robustness_price.png")
-        sections.append(
-            Section(
-                title="The price of robustness",
-                paragraphs=[
-                    "Cost, reserve revenue, discomfort and the share of steps whose plan "
-                    "needed comfort slack against the uncertainty level (σ as a fraction of "
-                    "solar and internal gains; the realised errors are drawn in the same "
-                    "box), from "
-                    f"{plan.sweep_start} for {plan.uncertainty_days:g} days.",
-                ],
-                figures=[fig_unc],
-                tables=[unc_csv.reset_index(drop=True)],
-            )
-        )
+        sections.append(uncertainty_section(plan, unc, figures))
     sections.append(differences_section())
     sections.append(configuration_section(by_group))
     return sections
+
+
+def paper_figures_section(paper: Mapping[str, pd.DataFrame], figures: Path) -> Any:
+    """Fig. 2, 5 and 6 over the two displayed days of the paper's scenarios."""
+    from hvacflex.report import plots
+    from hvacflex.report.html import Section
+
+    any_frame = next(iter(paper.values()))
+    start, end = display_days(any_frame)
+    window = {SCENARIO_LABELS[k]: f[(f.index >= start) & (f.index < end)] for k, f in paper.items()}
+    reference = next(iter(window.values()))
+    fig2 = plots.plot_prices(reference, figures / "fig2_prices.png")
+    fig5 = plots.plot_temperatures(window, figures / "fig5_temperatures.png")
+    fig6 = plots.plot_power_reserve(window, figures / "fig6_power_reserve.png")
+    return Section(
+        title="Fig. 2, 5, 6 — prices, temperatures, power and reserve",
+        paragraphs=[
+            f"Displayed days: {start:%a %d %b %Y} and the day after — the working "
+            "days with the highest energy price in the simulated period, where the "
+            "controllers differ most. The reserve price is SYNTHETIC (no public "
+            "history of NEMS IL prices exists; see the data notes).",
+        ],
+        figures=[fig2, fig5, fig6],
+    )
+
+
+def table1_section(plan: Plan, paper: Mapping[str, pd.DataFrame], out: Path) -> Any:
+    """Table 1 (average cost per month) beside the paper's; writes both as CSV."""
+    from hvacflex import kpi
+    from hvacflex.report import tables
+    from hvacflex.report.html import Section
+
+    monthly = {SCENARIO_LABELS[k]: kpi.monthly_table(f) for k, f in sorted(paper.items())}
+    table1 = tables.table1(monthly)
+    table1.to_csv(out / "table1.csv")
+    comparison = tables.side_by_side(table1, tables.PAPER_TABLE1)
+    comparison.to_csv(out / "table1_vs_paper.csv")
+    paper_summaries = {k: kpi.summary(f) for k, f in paper.items()}
+    return Section(
+        title="Table 1 — average cost per month",
+        paragraphs=[
+            f"Simulated {plan.days:g} days from {plan.start}. Cost = energy bought at "
+            "USEP; revenue = synthetic reserve price × reserve capacity offered; "
+            "total = cost − revenue (the paper's definition; the PPP charge is "
+            "reported separately below).",
+            " ".join(scenario_sentences(paper_summaries)),
+        ],
+        tables=[table1, comparison],
+    )
+
+
+def comfort_section(
+    plan: Plan,
+    scenario_frames: Mapping[str, pd.DataFrame],
+    corner: Mapping[str, pd.DataFrame],
+    out: Path,
+    figures: Path,
+) -> Any:
+    """Discomfort of every scenario (and the hot-corner runs); writes kpi_scenarios.csv."""
+    from hvacflex import kpi
+    from hvacflex.report import plots, text
+    from hvacflex.report.html import Section
+
+    all_frames = {SCENARIO_LABELS.get(k, k): f for k, f in scenario_frames.items()}
+    summary = pd.DataFrame({name: kpi.summary(f) for name, f in all_frames.items()})
+    summary.to_csv(out / "kpi_scenarios.csv")
+    fig_comfort = plots.plot_discomfort(all_frames, figures / "comfort.png")
+    figures_comfort = [fig_comfort]
+    if corner:
+        labels = {"nmpc": "NMPC, hot corner", "rmpc": "RMPC, hot corner"}
+        figures_comfort.append(
+            plots.plot_discomfort(
+                {labels.get(k, k): f for k, f in corner.items()},
+                figures / "comfort_hot_corner.png",
+                title=f"Discomfort with every error at the hot corner of a "
+                f"±{100 * HOT_CORNER_LEVEL:.0f} % box",
+            )
+        )
+    corner_discomfort = {k: kpi.total_discomfort_kelvin_hours(f) for k, f in corner.items()}
+    scenario_discomfort = {
+        k: kpi.total_discomfort_kelvin_hours(f) for k, f in scenario_frames.items()
+    }
+    return Section(
+        title="Comfort under the same realised disturbances",
+        paragraphs=[
+            "All scenarios face the same forecast errors (drawn uniformly in the "
+            "uncertainty box with the same seed). Discomfort is the BOPTEST "
+            "definition: the time integral of the deviation outside the band [K·h]; "
+            f"up to {text.COMFORT_TOLERANCE_KELVIN_HOURS:g} K·h counts as keeping "
+            "the band.",
+            " ".join(comfort_sentences(scenario_discomfort, corner_discomfort, plan)),
+        ],
+        figures=figures_comfort,
+        tables=[summary],
+    )
+
+
+def ppp_section(plan: Plan, ppp: pd.DataFrame, figures: Path) -> Any:
+    """Fig. 7: cost and peak against the peak-power price, from the sweep's outcomes."""
+    from hvacflex.report import plots
+    from hvacflex.report.html import Section
+
+    ppp = ppp.sort_values("peak_price_sgd_per_kw")
+    ppp["total_cost_sgd"] = ppp["net_cost_sgd"]
+    ppp_csv = ppp[
+        ["peak_price_sgd_per_kw", "total_cost_sgd", "peak_power_kw", "net_cost_with_ppp_sgd"]
+    ]
+    fig7 = plots.plot_ppp_sweep(ppp_csv, figures / "fig7_ppp_sweep.png")
+    return Section(
+        title="Fig. 7 — peak-power price sweep",
+        paragraphs=[
+            f"Scenario (c) from {plan.sweep_start} for {plan.sweep_days:g} days at "
+            f"φ ∈ {list(plan.ppp_values)} SGD/kW. Normalised total cost = "
+            "cost_j / max(cost) with cost = energy − reserve revenue (operational "
+            "cost, without the PPP charge itself); normalised peak = peak_j / "
+            "max(peak), the peak of the 30-min plant power over the period.",
+            ppp_sentence(ppp_csv),
+        ],
+        figures=[fig7],
+        tables=[ppp_csv.reset_index(drop=True)],
+    )
+
+
+def uncertainty_section(plan: Plan, unc: pd.DataFrame, figures: Path) -> Any:
+    """The price of robustness: KPIs against the uncertainty level, per controller."""
+    from hvacflex.report import plots
+    from hvacflex.report.html import Section
+
+    unc_csv = unc[
+        [
+            "controller",
+            "uncertainty_level",
+            "net_cost_sgd",
+            "reserve_revenue_sgd",
+            "discomfort_kelvin_hours",
+            "planned_slack_share",
+            "max_delta_vs_half_band",
+        ]
+    ].sort_values(["controller", "uncertainty_level"])
+    fig_unc = plots.plot_robustness_price(unc_csv, figures / "robustness_price.png")
+    return Section(
+        title="The price of robustness",
+        paragraphs=[
+            "Cost, reserve revenue, discomfort and the share of steps whose plan "
+            "needed comfort slack against the uncertainty level (σ as a fraction of "
+            "solar and internal gains; the realised errors are drawn in the same "
+            "box), from "
+            f"{plan.sweep_start} for {plan.uncertainty_days:g} days.",
+        ],
+        figures=[fig_unc],
+        tables=[unc_csv.reset_index(drop=True)],
+    )
 
 
 def scenario_sentences(summaries: Mapping[str, Mapping[str, float]]) -> list[str]:

@@ -13,29 +13,13 @@ CP_AIR_J_PER_KG_K = 1006.0
 RHO_AIR_KG_PER_M3 = 1.2
 """Density of air at about 20 °C and sea level [kg/m³]."""
 
-CP_VAPOUR_J_PER_KG_K = 1860.0
-"""Specific heat of water vapour [J/(kg·K)]."""
-
 H_FG_J_PER_KG = 2.501e6
 """Latent heat of vaporisation of water at 0 °C [J/kg]."""
 
 SECONDS_PER_HOUR = 3600.0
-SECONDS_PER_MINUTE = 60.0
 W_PER_KW = 1000.0
 KWH_PER_MWH = 1000.0
 KELVIN_OFFSET = 273.15
-W_PER_REFRIGERATION_TON = 3516.85
-"""One refrigeration ton (RT) [W]."""
 
 STEP_30MIN_S = 1800.0
 """The NEMS dispatch period and hvacflex's default control step [s]."""
-
-
-def degc_to_kelvin(temp_degc: float) -> float:
-    """Celsius [°C] to kelvin [K]."""
-    return temp_degc + KELVIN_OFFSET
-
-
-def s_to_h(duration_s: float) -> float:
-    """Seconds to hours."""
-    return duration_s / SECONDS_PER_HOUR

@@ -4,16 +4,18 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
 from building_fixtures import write_building
 from scipy.integrate import solve_ivp
 
-from hvacflex.building.discretize import linearize, linearize_about_trajectory
+from hvacflex.building.discretize import continuous_affine_model, linearize, zoh
 from hvacflex.building.io import load_building
 from hvacflex.building.model import Building
 from hvacflex.building.plant import NonlinearPlant
+from hvacflex.building.rc import build_network
 from hvacflex.building.summary import design_disturbance
 from hvacflex.units import CP_AIR_J_PER_KG_K
 
@@ -135,20 +137,37 @@ def test_linear_model_conservative_above_minimum_flow(shipped: Building) -> None
     assert errors[-1] == pytest.approx(expected_full_flow_error_k, abs=0.05)
 
 
+def _linearize_about_trajectory(
+    b: Building, flows_kg_s: np.ndarray, temps_degc: np.ndarray, dt_s: float = 1800.0
+) -> SimpleNamespace:
+    """(K, …) stacked discrete a, b, e, g, step k linearised about (flows[k], temps[k])."""
+    net = build_network(b)
+    m = len(b.zones)
+    parts = []
+    for flow, temp in zip(np.atleast_2d(flows_kg_s), np.atleast_2d(temps_degc), strict=True):
+        a_c, b_c, e_c, g_c = continuous_affine_model(b, net, flow, temp)
+        a_d, held = zoh(a_c, np.hstack([b_c, e_c, g_c[:, None]]), dt_s)
+        parts.append((a_d, held[:, :m], held[:, m:-1], held[:, -1]))
+    a, b_d, e, g = (np.stack([p[i] for p in parts]) for i in range(4))
+    return SimpleNamespace(a=a, b=b_d, e=e, g=g)
+
+
 def test_trajectory_linearisation_exact_at_reference_flow(office5: Building) -> None:
     plant = NonlinearPlant(office5)
     d = design_disturbance(office5)
     flows = np.array([office5.hvac.flow_max_kg_s, office5.hvac.flow_min_kg_s]) * 0.8 + 0.1
     temps = np.array([[25.0] * 5, [24.0] * 5])
-    tv = linearize_about_trajectory(office5, flows, temps)
-    assert len(tv) == 2
+    tv = _linearize_about_trajectory(office5, flows, temps)
+    assert len(tv.a) == 2
     x = plant.initial_state(26.5)
     for k in range(2):
         predicted = tv.a[k] @ x + tv.b[k] @ flows[k] + tv.e[k] @ d + tv.g[k]
         np.testing.assert_allclose(predicted, plant.step(x, flows[k], d), atol=1e-9)
     # the default model is the trajectory model about (ṁ_min, T₀)
     lm = linearize(office5)
-    one = linearize_about_trajectory(office5, [office5.hvac.flow_min_kg_s], [[23.0] * 5])
+    one = _linearize_about_trajectory(
+        office5, np.array([office5.hvac.flow_min_kg_s]), np.array([[23.0] * 5])
+    )
     np.testing.assert_allclose(one.a[0], lm.a, atol=1e-14)
     np.testing.assert_allclose(one.g[0], lm.g, atol=1e-10)
 

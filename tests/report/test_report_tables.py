@@ -108,3 +108,12 @@ def test_to_markdown_and_to_html_render_every_cell() -> None:
     assert '<td class="num">+4.0 %</td>' in html
     assert tables.format_value("x_sgd", float("nan")) == "–"
     assert tables.format_value("violation_share", 0.25) == "25.00 %"
+
+
+def test_format_value_formats_kpi_names_by_their_unit() -> None:
+    assert tables.format_value("steps", 1234.0) == "1,234"
+    assert tables.format_value("fallback_count", 0.0) == "0"
+    assert tables.format_value("solve_time_max_s", 0.0123456) == "0.01235"
+    assert tables.format_value("max_delta_vs_half_band", 0.83125) == "0.8313"
+    assert tables.format_value("net_cost_sgd", 1234.5) == "1,234.50"
+    assert tables.format_value("controller", "rmpc") == "rmpc"

@@ -83,26 +83,6 @@ class LinearModel:
         return np.asarray(solution, dtype=np.float64)
 
 
-@dataclass(frozen=True)
-class TimeVaryingLinearModel:
-    """``x_{k+1} = a[k] x_k + b[k] u_k + e[k] d_k + g[k]`` for k = 0..K−1 (re-linearised about a
-    trajectory). Shapes: a (K,n,n), b (K,n,m), e (K,n,nd), g (K,n); other fields as
-    :class:`LinearModel`."""
-
-    a: FloatArray
-    b: FloatArray
-    e: FloatArray
-    g: FloatArray
-    c: FloatArray
-    dt_s: float
-    node_names: tuple[str, ...]
-    zone_names: tuple[str, ...]
-    channels: tuple[DisturbanceChannel, ...]
-
-    def __len__(self) -> int:
-        return int(self.a.shape[0])
-
-
 def zoh(a_cont: ArrayLike, inputs_cont: ArrayLike, dt_s: float) -> tuple[FloatArray, FloatArray]:
     """Zero-order-hold discretisation through one matrix exponential.
 
@@ -217,55 +197,13 @@ def linearize(
     )
 
 
-def linearize_about_trajectory(
-    b: Building,
-    flow_ref_kg_s: ArrayLike,
-    zone_temp_ref_degc: ArrayLike,
-    dt_s: float = STEP_30MIN_S,
-    *,
-    network: ThermalNetwork | None = None,
-) -> TimeVaryingLinearModel:
-    """Time-varying affine model about a planned trajectory (sequential re-linearisation).
-
-    Parameters
-    ----------
-    b : the building.
-    flow_ref_kg_s : (K,m) reference flows per step [kg/s].
-    zone_temp_ref_degc : (K,m) reference zone temperatures per step [°C] (e.g. the previous
-        plan's predicted temperatures at the start of each step).
-    dt_s : step [s].
-
-    Returns
-    -------
-    :class:`TimeVaryingLinearModel` with K steps; step k is exact at (flow_ref[k], T_ref[k]).
-    """
-    _check_dt(b, dt_s)
-    net = network if network is not None else build_network(b)
-    flows = np.atleast_2d(np.asarray(flow_ref_kg_s, dtype=np.float64))
-    temps = np.atleast_2d(np.asarray(zone_temp_ref_degc, dtype=np.float64))
-    m = len(b.zones)
-    if flows.shape != temps.shape or flows.shape[1] != m:
-        raise BuildingConfigError(
-            f"reference flows and temperatures must both have shape (K, {m})",
-            source=b.source_path,
-            field="flow_ref_kg_s",
-            value=(flows.shape, temps.shape),
-        )
-    parts = [
-        _discretise(*continuous_affine_model(b, net, flows[k], temps[k]), dt_s)
-        for k in range(flows.shape[0])
-    ]
-    a_s, b_s, e_s, g_s = (np.stack([p[i] for p in parts]) for i in range(4))
-    return TimeVaryingLinearModel(**_model_fields(b, net, dt_s, (a_s, b_s, e_s, g_s)))
-
-
 def _model_fields(
     b: Building,
     net: ThermalNetwork,
     dt_s: float,
     matrices: tuple[FloatArray, FloatArray, FloatArray, FloatArray],
 ) -> dict[str, Any]:
-    """The fields :class:`LinearModel` and :class:`TimeVaryingLinearModel` share, from the
+    """The fields of :class:`LinearModel` that do not name the reference point, from the
     discrete (a, b, e, g), read-only."""
     a_d, b_d, e_d, g_d = (frozen_array(matrix) for matrix in matrices)
     return {

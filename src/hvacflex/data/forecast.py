@@ -34,6 +34,7 @@ import pandas as pd
 from scipy.signal import lfilter
 
 from hvacflex.building.channels import DisturbanceChannel
+from hvacflex.constants import HORIZON_STEPS, TIMEZONE
 from hvacflex.data.gains import (
     DEFAULT_OFFICE_SCHEDULE,
     ComfortBand,
@@ -46,7 +47,6 @@ from hvacflex.data.market import (
     PERIOD,
     PERIODS_PER_DAY,
     RESERVE_PRICE_SCALE,
-    TIMEZONE,
     FillMode,
     load_reserve_prices,
     load_usep,
@@ -75,8 +75,6 @@ copy to use it."""
 DEFAULT_USEP_FOLDER = "nems_usep_2014"
 """Default USEP folder in ``<data_dir>`` (real NEMS prices, 2014)."""
 
-DEFAULT_HORIZON_STEPS = 48
-
 PriceMode = Literal["perfect", "persistence"]
 DisturbanceErrorMode = Literal["none", "ar1"]
 
@@ -103,8 +101,10 @@ def _readonly(array: np.ndarray) -> np.ndarray:
 
 
 @dataclass(frozen=True)
-class Exogenous:
-    """Everything from outside the building, on one 30-min grid of T period starts.
+class ExogenousSeries:
+    """The series from outside the building over consecutive 30-min periods: the fields that
+    :class:`Exogenous` (the data, T periods) and :class:`Forecast` (a controller's view of N
+    periods) share.
 
     Attributes
     ----------
@@ -132,6 +132,27 @@ class Exogenous:
     comfort_upper_degc: np.ndarray
     occupied: np.ndarray
     energy_price_extrapolated: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
+
+    def channel_index(self, kind: str) -> list[int]:
+        """Positions of the channels of one kind in ``disturbances``."""
+        return [i for i, ch in enumerate(self.channels) if ch.kind == kind]
+
+    @property
+    def outdoor_temp_degc(self) -> np.ndarray:
+        """(T,) outdoor dry-bulb temperature [°C] (the first ``outdoor_temp`` channel)."""
+        for i, ch in enumerate(self.channels):
+            if ch.kind == "outdoor_temp":
+                column: np.ndarray = self.disturbances[:, i]
+                return column
+        raise DataError(
+            "no outdoor_temp channel", field="channels", value=[c.name for c in self.channels]
+        )
+
+
+@dataclass(frozen=True)
+class Exogenous(ExogenousSeries):
+    """Everything from outside the building, on one 30-min grid of T period starts
+    (the fields of :class:`ExogenousSeries`, validated: shapes checked, arrays read-only)."""
 
     def __post_init__(self) -> None:
         t = len(self.index)
@@ -171,15 +192,6 @@ class Exogenous:
         """Number of periods T."""
         return len(self.index)
 
-    def channel_index(self, kind: str) -> list[int]:
-        """Positions of the channels of one kind in ``disturbances``."""
-        return [i for i, ch in enumerate(self.channels) if ch.kind == kind]
-
-    @property
-    def outdoor_temp_degc(self) -> np.ndarray:
-        """(T,) outdoor dry-bulb temperature [°C] (the first ``outdoor_temp`` channel)."""
-        return _outdoor_temp(self.disturbances, self.channels)
-
     def frame(self) -> pd.DataFrame:
         """All series as one DataFrame (disturbances named by channel), for inspection."""
         data: dict[str, np.ndarray] = {
@@ -199,45 +211,21 @@ class Exogenous:
         return out
 
 
-def _outdoor_temp(disturbances: np.ndarray, channels: Sequence[DisturbanceChannel]) -> np.ndarray:
-    for i, ch in enumerate(channels):
-        if ch.kind == "outdoor_temp":
-            column: np.ndarray = disturbances[:, i]
-            return column
-    raise DataError("no outdoor_temp channel", field="channels", value=[c.name for c in channels])
-
-
 @dataclass(frozen=True)
-class Forecast:
-    """What the controller knows at step k about periods k … k+N−1 (same fields as
-    :class:`Exogenous`, arrays of length N = horizon).
+class Forecast(ExogenousSeries):
+    """What the controller knows at step k about periods k … k+N−1: the fields of
+    :class:`ExogenousSeries` over N = horizon periods, and the step ``step`` = k.
 
     ``disturbances`` is the forecast d̂ (the data itself under perfect foresight); prices are
     the data or their persistence forecast.
     """
 
-    step: int
-    index: pd.DatetimeIndex
-    energy_price_sgd_per_mwh: np.ndarray
-    reserve_price_sgd_per_mwh: np.ndarray
-    reserve_price_synthetic: bool
-    disturbances: np.ndarray
-    channels: tuple[DisturbanceChannel, ...]
-    outdoor_humidity_ratio_kg_per_kg: np.ndarray
-    comfort_lower_degc: np.ndarray
-    comfort_upper_degc: np.ndarray
-    occupied: np.ndarray
-    energy_price_extrapolated: np.ndarray
+    step: int = field(kw_only=True)
 
     @property
     def horizon(self) -> int:
         """N."""
         return len(self.energy_price_sgd_per_mwh)
-
-    @property
-    def outdoor_temp_degc(self) -> np.ndarray:
-        """(N,) forecast outdoor dry-bulb temperature [°C]."""
-        return _outdoor_temp(self.disturbances, self.channels)
 
 
 class Forecaster:
@@ -259,8 +247,8 @@ class Forecaster:
     error_box : standard deviations of the AR(1) error (default ``DEFAULT_UNCERTAINTY``).
     ar1_coefficient : φ per 30-min step.
 
-    ``forecast(k, horizon)`` costs a few microseconds in the default mode (array views,
-    read-only).
+    ``forecast(k, horizon)`` returns read-only views of the data in the default mode (no
+    copies).
     """
 
     def __init__(
@@ -339,7 +327,7 @@ class Forecaster:
         forecast[:, self._nonnegative] = np.maximum(forecast[:, self._nonnegative], 0.0)
         return _readonly(forecast)
 
-    def forecast(self, k: int, horizon: int = DEFAULT_HORIZON_STEPS) -> Forecast:
+    def forecast(self, k: int, horizon: int = HORIZON_STEPS) -> Forecast:
         """The forecast made at step k for periods k … k+horizon−1.
 
         Raises
@@ -360,7 +348,6 @@ class Forecaster:
         end = k + horizon
         energy, reserve = self._prices(k, horizon)
         return Forecast(
-            k,
             self._index[k:end],
             energy,
             reserve,
@@ -372,6 +359,7 @@ class Forecaster:
             x.comfort_upper_degc[k:end],
             x.occupied[k:end],
             x.energy_price_extrapolated[k:end],
+            step=k,
         )
 
 
@@ -458,7 +446,7 @@ def load_exogenous(
     *,
     start: str | pd.Timestamp,
     steps: int,
-    horizon_steps: int = DEFAULT_HORIZON_STEPS,
+    horizon_steps: int = HORIZON_STEPS,
     weather_file: str | Path | None = None,
     usep_source: str | Path | Sequence[str | Path] | None = None,
     reserve_source: str | Path | Sequence[str | Path] | None = None,
@@ -500,13 +488,55 @@ def load_exogenous(
         if a simulated period (the first ``steps``) lies outside the price data, naming the
         dates it covers; and for any error of the loaders.
     """
+    channels = tuple(channels)
+    index = _run_index(channels, start, steps, horizon_steps)
+    gain_areas, n_zones = _internal_gain_areas_m2(channels, zone_floor_areas_m2)
+    usep_from = usep_source if usep_source is not None else data_dir() / DEFAULT_USEP_FOLDER
+    usep = load_usep(usep_from, fill=price_gap_fill)
+    _check_coverage(usep.index, index[:steps], "USEP price", usep_from, "usep_source")
+    energy, extrapolated = _align_prices(usep["energy_price_sgd_per_mwh"], index, "USEP")
+    reserve, synthetic = _reserve_prices(
+        index, steps, energy, reserve_source, seed, reserve_scale_sgd_per_mwh, price_gap_fill
+    )
+    weather_path = (
+        Path(weather_file)
+        if weather_file is not None
+        else data_dir() / "weather" / DEFAULT_WEATHER_FILE
+    )
+    weather, location = _weather_on(index, weather_path)
+    d = _disturbance_matrix(channels, index, weather, location, gains, gain_areas, schedule)
+    band = comfort or ComfortBand()
+    lower, upper = comfort_bounds_degc(
+        index, n_zones, band.occupied_degc, band.unoccupied_degc, schedule
+    )
+    return Exogenous(
+        index=index,
+        energy_price_sgd_per_mwh=energy,
+        reserve_price_sgd_per_mwh=reserve,
+        reserve_price_synthetic=synthetic,
+        disturbances=d,
+        channels=channels,
+        outdoor_humidity_ratio_kg_per_kg=weather["humidity_ratio_kg_per_kg"].to_numpy(),
+        comfort_lower_degc=lower,
+        comfort_upper_degc=upper,
+        occupied=occupied_mask(index, schedule),
+        energy_price_extrapolated=extrapolated,
+    )
+
+
+def _run_index(
+    channels: tuple[DisturbanceChannel, ...],
+    start: str | pd.Timestamp,
+    steps: int,
+    horizon_steps: int,
+) -> pd.DatetimeIndex:
+    """The ``steps + horizon_steps`` period starts of a run; checks the arguments."""
     if steps < 1 or horizon_steps < 0:
         raise ConfigError(
             "need steps ≥ 1 and horizon_steps ≥ 0",
             field="steps",
             value=(steps, horizon_steps),
         )
-    channels = tuple(channels)
     names = [ch.name for ch in channels]
     if len(set(names)) != len(names):
         raise ConfigError("disturbance channel names must be unique", field="channels", value=names)
@@ -522,8 +552,15 @@ def load_exogenous(
             "start must be on a 30-min boundary", field="start", value=str(first),
             hint="NEMS periods start at :00 and :30",
         )  # fmt: skip
-    index = pd.date_range(first, periods=steps + horizon_steps, freq=PERIOD, name="time")
+    return pd.date_range(first, periods=steps + horizon_steps, freq=PERIOD, name="time")
 
+
+def _internal_gain_areas_m2(
+    channels: tuple[DisturbanceChannel, ...],
+    zone_floor_areas_m2: Sequence[float] | Mapping[str, float],
+) -> tuple[list[float], int]:
+    """Floor area behind each ``internal_gain`` channel [m²], in channel order, and the
+    number of zones m."""
     gain_channels = [ch for ch in channels if ch.kind == "internal_gain"]
     if isinstance(zone_floor_areas_m2, Mapping):
         areas = dict(zone_floor_areas_m2)
@@ -550,31 +587,46 @@ def load_exogenous(
         n_zones = len(area_list)
     if n_zones < 1:
         raise ConfigError("need at least one zone", field="zone_floor_areas_m2", value=n_zones)
+    return gain_areas, n_zones
 
-    weather_path = (
-        Path(weather_file)
-        if weather_file is not None
-        else data_dir() / "weather" / DEFAULT_WEATHER_FILE
-    )
-    usep_from = usep_source if usep_source is not None else data_dir() / DEFAULT_USEP_FOLDER
-    usep = load_usep(usep_from, fill=price_gap_fill)
-    _check_coverage(usep.index, index[:steps], "USEP price", usep_from, "usep_source")
-    energy, extrapolated = _align_prices(usep["energy_price_sgd_per_mwh"], index, "USEP")
+
+def _reserve_prices(
+    index: pd.DatetimeIndex,
+    steps: int,
+    energy_sgd_per_mwh: np.ndarray,
+    reserve_source: str | Path | Sequence[str | Path] | None,
+    seed: int,
+    reserve_scale_sgd_per_mwh: float,
+    price_gap_fill: FillMode,
+) -> tuple[np.ndarray, bool]:
+    """(T,) reserve price on ``index`` [SGD/MWh] and whether it is the synthetic series
+    (``reserve_source`` None) rather than the user's CSV files."""
     if reserve_source is None:
         reserve_series = synthetic_reserve_prices(
-            pd.Series(energy, index=index), seed=seed, scale_sgd_per_mwh=reserve_scale_sgd_per_mwh
+            pd.Series(energy_sgd_per_mwh, index=index),
+            seed=seed,
+            scale_sgd_per_mwh=reserve_scale_sgd_per_mwh,
         )
-        reserve = reserve_series.to_numpy()
-        synthetic = True
-    else:
-        reserve_series = load_reserve_prices(reserve_source, fill=price_gap_fill)
-        _check_coverage(
-            reserve_series.index, index[:steps], "reserve price", reserve_source, "reserve_source"
-        )
-        reserve, _ = _align_prices(reserve_series, index, "reserve price")
-        synthetic = False
+        return reserve_series.to_numpy(), True
+    reserve_series = load_reserve_prices(reserve_source, fill=price_gap_fill)
+    _check_coverage(
+        reserve_series.index, index[:steps], "reserve price", reserve_source, "reserve_source"
+    )
+    reserve, _ = _align_prices(reserve_series, index, "reserve price")
+    return reserve, False
 
-    weather, location = _weather_on(index, weather_path)
+
+def _disturbance_matrix(
+    channels: tuple[DisturbanceChannel, ...],
+    index: pd.DatetimeIndex,
+    weather: pd.DataFrame,
+    location: EpwLocation,
+    gains: InternalGainDensities,
+    gain_areas_m2: Sequence[float],
+    schedule: OfficeSchedule,
+) -> np.ndarray:
+    """(T, nd) disturbances d in ``channels`` order and units, from the weather on ``index``
+    and the office schedule's internal gains."""
     surfaces = [
         (float(ch.azimuth_deg or 0.0), float(ch.tilt_deg if ch.tilt_deg is not None else 90.0))
         for ch in channels
@@ -601,24 +653,8 @@ def load_exogenous(
             d[:, i] = solar[:, solar_i]
             solar_i += 1
         elif ch.kind == "internal_gain":
-            d[:, i] = per_m2 * gain_areas[gain_i]
+            d[:, i] = per_m2 * gain_areas_m2[gain_i]
             gain_i += 1
         else:
             raise ConfigError("unknown channel kind", field=ch.name, value=ch.kind)
-    band = comfort or ComfortBand()
-    lower, upper = comfort_bounds_degc(
-        index, n_zones, band.occupied_degc, band.unoccupied_degc, schedule
-    )
-    return Exogenous(
-        index=index,
-        energy_price_sgd_per_mwh=energy,
-        reserve_price_sgd_per_mwh=reserve,
-        reserve_price_synthetic=synthetic,
-        disturbances=d,
-        channels=channels,
-        outdoor_humidity_ratio_kg_per_kg=weather["humidity_ratio_kg_per_kg"].to_numpy(),
-        comfort_lower_degc=lower,
-        comfort_upper_degc=upper,
-        occupied=occupied_mask(index, schedule),
-        energy_price_extrapolated=extrapolated,
-    )
+    return d

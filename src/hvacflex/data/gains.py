@@ -27,12 +27,12 @@ people is accounted for in the coil power through the humidity ratio, not here.
 from __future__ import annotations
 
 import functools
-from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
 
+from hvacflex.constants import TIMEZONE
 from hvacflex.errors import ConfigError, DataError
 
 HOURS_PER_DAY = 24
@@ -149,7 +149,7 @@ def _local_index(index: pd.DatetimeIndex) -> pd.DatetimeIndex:
             value=type(index).__name__,
             hint="use a tz-aware 30-min index (Asia/Singapore)",
         )
-    return index.tz_convert("Asia/Singapore") if index.tz is not None else index
+    return index.tz_convert(TIMEZONE) if index.tz is not None else index
 
 
 def working_day_mask(
@@ -278,25 +278,3 @@ def comfort_bounds_degc(
         np.repeat(lower[:, None], n_zones, axis=1),
         np.repeat(upper[:, None], n_zones, axis=1),
     )
-
-
-def zone_gains_matrix_w(
-    index: pd.DatetimeIndex,
-    floor_areas_m2: Sequence[float],
-    occupancy_m2_per_person: float,
-    sensible_w_per_person: float,
-    lighting_w_per_m2: float,
-    equipment_w_per_m2: float,
-    schedule: OfficeSchedule = DEFAULT_OFFICE_SCHEDULE,
-) -> np.ndarray:
-    """(T, m) sensible internal gain [W] of m zones with the same densities (one column each)."""
-    per_m2 = zone_internal_gains_w(
-        index,
-        1.0,
-        occupancy_m2_per_person,
-        sensible_w_per_person,
-        lighting_w_per_m2,
-        equipment_w_per_m2,
-        schedule,
-    )
-    return np.outer(per_m2, np.asarray(floor_areas_m2, dtype=float))

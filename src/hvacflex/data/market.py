@@ -27,17 +27,15 @@ correlated with USEP and **marked synthetic** (``.attrs["synthetic"] is True``);
 from __future__ import annotations
 
 import functools
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Literal
 
 import numpy as np
 import pandas as pd
 
+from hvacflex.constants import TIMEZONE
 from hvacflex.errors import DataError
-
-TIMEZONE = "Asia/Singapore"
-"""Time zone of every NEMS series (SGT, UTC+8, no daylight saving)."""
 
 PERIODS_PER_DAY = 48
 PERIOD = pd.Timedelta(minutes=30)
@@ -173,16 +171,8 @@ def _parse_dates(values: pd.Series, path: Path, line: pd.Series) -> pd.Series:
     )
 
 
-def _read_period_csv(
-    path: Path,
-    price_columns: Sequence[str],
-    explicit_price_column: str | None = None,
-) -> pd.DataFrame:
-    """Read one half-hourly CSV (DATE, PERIOD, price[, demand]) and check every row.
-
-    Returns a frame with columns ``time`` (tz-aware period start), ``price``, ``demand``
-    (NaN where absent), ``line`` (1-based line in ``path``) and ``file``.
-    """
+def _read_raw_csv(path: Path) -> pd.DataFrame:
+    """The CSV as strings, one row per non-blank line, with its 1-based ``line`` number."""
     try:
         raw = pd.read_csv(
             path, dtype=str, keep_default_na=False, skip_blank_lines=False, skipinitialspace=True
@@ -193,7 +183,17 @@ def _read_period_csv(
         raise DataError(
             f"not a readable CSV file ({exc})", source=path, hint="expected an EMC CSV download"
         ) from None
-    header = {_normalise_header(c): c for c in raw.columns}
+    return raw
+
+
+def _price_column(
+    raw: pd.DataFrame,
+    header: Mapping[str, str],
+    path: Path,
+    price_columns: Sequence[str],
+    explicit_price_column: str | None,
+) -> str:
+    """The price column's name in ``raw``; refuses a header without DATE, PERIOD and a price."""
     if explicit_price_column is not None:
         candidates = [c for c in raw.columns if c.strip() == explicit_price_column]
         price_column = candidates[0] if candidates else None
@@ -212,67 +212,99 @@ def _read_period_csv(
             value=list(raw.columns),
             hint=f"the price column must be {wanted}; is this an EMC USEP download?",
         )
+    return price_column
+
+
+def _numeric(raw: pd.DataFrame, column: str, path: Path, what: str, hint: str) -> pd.Series:
+    """``raw[column]`` as numbers; refuses the first non-numeric row, naming its line."""
+    values = pd.to_numeric(raw[column].str.strip(), errors="coerce")
+    _refuse_rows(raw, column, path, values.isna().to_numpy(), f"non-numeric {what}", hint)
+    return values
+
+
+def _refuse_rows(
+    raw: pd.DataFrame, column: str, path: Path, bad: np.ndarray, what: str, hint: str
+) -> None:
+    """Raise a :class:`DataError` naming the first row flagged in ``bad`` (if any)."""
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise DataError(
+            f"{what} ({int(bad.sum())} row(s) in this file)",
+            source=path,
+            line=int(raw["line"].iloc[i]),
+            field=column,
+            value=str(raw[column].iloc[i]),
+            hint=hint,
+        )
+
+
+def _check_within(
+    raw: pd.DataFrame,
+    column: str,
+    path: Path,
+    values: pd.Series,
+    bounds: tuple[float, float],
+    what: str,
+) -> None:
+    """Refuse the first row whose value is not finite or outside ``bounds`` = (low, high)."""
+    low, high = bounds
+    array = values.to_numpy(dtype=float)
+    bad = ~(np.isfinite(array) & (array >= low) & (array <= high))
+    _refuse_rows(
+        raw,
+        column,
+        path,
+        bad,
+        f"{what} outside [{low:g}, {high:g}]",
+        "the file looks damaged; compare it with the EMC download",
+    )
+
+
+def _read_period_csv(
+    path: Path,
+    price_columns: Sequence[str],
+    explicit_price_column: str | None = None,
+) -> pd.DataFrame:
+    """Read one half-hourly CSV (DATE, PERIOD, price[, demand]) and check every row.
+
+    Returns a frame with columns ``time`` (tz-aware period start), ``price``, ``demand``
+    (NaN where absent), ``line`` (1-based line in ``path``) and ``file``.
+    """
+    raw = _read_raw_csv(path)
+    header = {_normalise_header(c): c for c in raw.columns}
+    price_column = _price_column(raw, header, path, price_columns, explicit_price_column)
     raw["line"] = np.arange(2, len(raw) + 2)
     blank = (raw.drop(columns="line") == "").all(axis=1)
     raw = raw.loc[~blank]
     if raw.empty:
         raise DataError("file holds no data rows", source=path, hint="expected 48 rows per day")
     line = raw["line"]
-
-    def numeric(column: str, what: str, hint: str) -> pd.Series:
-        values = pd.to_numeric(raw[column].str.strip(), errors="coerce")
-        bad = values.isna().to_numpy()
-        if bad.any():
-            i = int(np.flatnonzero(bad)[0])
-            raise DataError(
-                f"non-numeric {what} ({int(bad.sum())} row(s) in this file)",
-                source=path,
-                line=int(line.iloc[i]),
-                field=column,
-                value=str(raw[column].iloc[i]),
-                hint=hint,
-            )
-        return values
-
     dates = _parse_dates(raw[header[_DATE_COLUMN]].str.strip(), path, line)
-    period = numeric(header[_PERIOD_COLUMN], "period", "periods are integers 1…48")
-    bad_period = ((period < 1) | (period > PERIODS_PER_DAY) | (period != period.round())).to_numpy()
-    if bad_period.any():
-        i = int(np.flatnonzero(bad_period)[0])
-        raise DataError(
-            f"period outside 1–48 ({int(bad_period.sum())} row(s) in this file)",
-            source=path,
-            line=int(line.iloc[i]),
-            field=header[_PERIOD_COLUMN],
-            value=str(raw[header[_PERIOD_COLUMN]].iloc[i]),
-            hint="period p covers [(p−1)·30, p·30) min after local midnight, p = 1…48",
-        )
-
-    def within(column: str, values: pd.Series, low: float, high: float, what: str) -> None:
-        array = values.to_numpy(dtype=float)
-        bad = ~(np.isfinite(array) & (array >= low) & (array <= high))
-        if bad.any():
-            i = int(np.flatnonzero(bad)[0])
-            raise DataError(
-                f"{what} outside [{low:g}, {high:g}] ({int(bad.sum())} row(s) in this file)",
-                source=path,
-                line=int(line.iloc[i]),
-                field=column,
-                value=str(raw[column].iloc[i]),
-                hint="the file looks damaged; compare it with the EMC download",
-            )
-
-    price = numeric(price_column, "price", "prices are numbers in SGD/MWh (zero and negative ok)")
-    within(
+    period_column = header[_PERIOD_COLUMN]
+    period = _numeric(raw, period_column, path, "period", "periods are integers 1…48")
+    _refuse_rows(
+        raw,
+        period_column,
+        path,
+        ((period < 1) | (period > PERIODS_PER_DAY) | (period != period.round())).to_numpy(),
+        "period outside 1–48",
+        "period p covers [(p−1)·30, p·30) min after local midnight, p = 1…48",
+    )
+    price = _numeric(
+        raw, price_column, path, "price", "prices are numbers in SGD/MWh (zero and negative ok)"
+    )
+    _check_within(
+        raw,
         price_column,
+        path,
         price,
-        PRICE_FLOOR_SGD_PER_MWH,
-        PRICE_CAP_SGD_PER_MWH,
+        (PRICE_FLOOR_SGD_PER_MWH, PRICE_CAP_SGD_PER_MWH),
         "price beyond the NEMS price floor/cap [SGD/MWh]",
     )
     if _normalise_header(_DEMAND_COLUMN) in header and explicit_price_column is None:
-        demand = numeric(header[_DEMAND_COLUMN], "demand", "demand is a number in MW")
-        within(header[_DEMAND_COLUMN], demand, 0.0, MAX_SYSTEM_DEMAND_MW, "demand [MW]")
+        demand_column = header[_DEMAND_COLUMN]
+        demand = _numeric(raw, demand_column, path, "demand", "demand is a number in MW")
+        _check_within(raw, demand_column, path, demand, (0.0, MAX_SYSTEM_DEMAND_MW), "demand [MW]")
     else:
         demand = pd.Series(np.nan, index=raw.index)
     start = dates + pd.to_timedelta((period.astype(int) - 1) * 30, unit="min")

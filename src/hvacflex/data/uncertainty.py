@@ -151,9 +151,6 @@ class UncertaintyBox:
         return not any(self.relative.values()) and not any(self.absolute.values())
 
 
-NO_UNCERTAINTY = UncertaintyBox()
-"""σ = 0: the nominal MPC of scenario (a)."""
-
 DEFAULT_UNCERTAINTY = UncertaintyBox(
     relative={"solar": 0.05, "internal_gain": 0.05}, absolute={"outdoor_temp": 0.5}
 )

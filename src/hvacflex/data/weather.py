@@ -38,9 +38,9 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from hvacflex.constants import TIMEZONE
 from hvacflex.errors import DataError
-
-TIMEZONE = "Asia/Singapore"
+from hvacflex.units import KELVIN_OFFSET
 
 EPW_HEADER_KEYWORDS = (
     "LOCATION",
@@ -458,7 +458,7 @@ def saturation_pressure_pa(temp_degc: np.ndarray) -> np.ndarray:
     -------
     (T,) saturation pressure [Pa].
     """
-    t = np.asarray(temp_degc, dtype=float) + 273.15
+    t = np.asarray(temp_degc, dtype=float) + KELVIN_OFFSET
     ln_p = (
         -5.8002206e3 / t
         + 1.3914993

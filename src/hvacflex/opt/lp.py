@@ -186,10 +186,7 @@ class LPBuilder:
         """A new block of variables shaped ``shape`` with bounds (broadcast); its indices."""
         index = self._take(self.num_cols, shape)
         self.num_cols += index.size
-        self._cols.append((index, lower, upper))
-        if time_indexed:
-            self._time_cols.append(index)
-        return index
+        return _record(index, lower, upper, self._cols, self._time_cols if time_indexed else None)
 
     def add_rows(
         self,
@@ -257,6 +254,21 @@ class LPBuilder:
             time_rows=tuple(self._time_rows),
             permuted_rows=tuple(self._permuted_rows),
         )
+
+
+def _record(
+    index: IntArray,
+    lower: FloatArray | float,
+    upper: FloatArray | float,
+    blocks: list[_Assignment],
+    time_blocks: list[IntArray] | None,
+) -> IntArray:
+    """Note a new block of columns or rows with its bounds (and, if ``time_blocks`` is given,
+    as time-indexed); return its indices."""
+    blocks.append((index, lower, upper))
+    if time_blocks is not None:
+        time_blocks.append(index)
+    return index
 
 
 def _broadcast(rows: object, cols: object, values: object) -> tuple[IntArray, IntArray, FloatArray]:

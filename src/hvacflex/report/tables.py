@@ -126,18 +126,31 @@ def side_by_side(ours: pd.DataFrame, paper: pd.DataFrame | None = None) -> pd.Da
 # ----------------------------------------------------------------------------- rendering
 
 
+COUNT_NAMES = ("steps", "fallback_count")
+"""KPI names whose values are counts (printed without decimals)."""
+
+
 def format_value(column: str, value: object) -> str:
-    """Display text of one cell: ``%`` columns signed with one decimal, NaN as "–"."""
+    """Display text of one value by the unit in its name (a column or a KPI name).
+
+    NaN as "–"; counts (:data:`COUNT_NAMES`) whole; ``_pct`` signed with one decimal and
+    ``%``; ``_share`` (a fraction) in %; durations ``…_s`` and ``max_delta_vs_half_band`` to
+    four significant digits; other numbers with two decimals; anything else as ``str``.
+    """
     if isinstance(value, bool):
         return str(value)
     if isinstance(value, numbers.Real):
         number = float(value)
         if math.isnan(number):
             return "–"
+        if column in COUNT_NAMES:
+            return f"{number:,.0f}"
         if "_pct" in column:
             return f"{number:+.1f} %"
         if "_share" in column:
             return f"{100.0 * number:.2f} %"
+        if column.endswith("_s") or column == "max_delta_vs_half_band":
+            return f"{number:.4g}"
         return f"{number:,.2f}"
     return str(value)
 

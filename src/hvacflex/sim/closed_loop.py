@@ -46,11 +46,11 @@ from hvacflex.data.gains import ComfortBand
 from hvacflex.data.market import RESERVE_PRICE_SCALE
 from hvacflex.data.uncertainty import DisturbanceSampler, UncertaintyBox
 from hvacflex.errors import ConfigError, HvacflexError, StoredStateError
+from hvacflex.kpi import RESULTS_FILENAME as RESULTS_FILE
 from hvacflex.paths import resolve_building
 from hvacflex.sim.activation import activation_schedule
 from hvacflex.version import atomic_write, atomic_write_bytes, atomic_write_text, code_version
 
-RESULTS_FILE = "results.parquet"
 CHECKPOINT_FILE = "checkpoint.pkl"
 SUMMARY_FILE = "summary.json"
 CONFIG_FILE = "config.json"

@@ -14,7 +14,7 @@ Procedure
   ``σ T_out⁴ − L↓`` with ``L↓`` the EPW horizontal infrared radiation (field 12, held over
   its hour). Internal gain 200 W constant.
 * Time stepping: exact ZOH of the linear network at ``DT_S`` = 10 min, the 30-min
-  disturbances held (:mod:`hvacflex.building.validation.ideal_loads`). One year of warm-up
+  disturbances held (:mod:`hvacflex.validation.ideal_loads`). One year of warm-up
   (the year is run twice, the second pass starting from the end of the first) so that the
   reported year is periodic.
 * Ideal loads: heating below 20 °C, cooling above 27 °C, ideal convective air system.
@@ -27,7 +27,6 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
@@ -36,10 +35,16 @@ from numpy.typing import NDArray
 from hvacflex.building.io import load_building
 from hvacflex.building.model import Building
 from hvacflex.building.rc import ThermalNetwork, build_network
-from hvacflex.building.validation.ideal_loads import simulate_zone_loads
-
-if TYPE_CHECKING:
-    from hvacflex.data.weather import EpwLocation
+from hvacflex.data.weather import (
+    ALBEDO,
+    SKY_DIFFUSE_MODEL,
+    EpwLocation,
+    read_epw,
+    surface_irradiance_w_per_m2,
+    weather_30min,
+)
+from hvacflex.units import KELVIN_OFFSET
+from hvacflex.validation.ideal_loads import simulate_zone_loads
 
 FloatArray = NDArray[np.float64]
 
@@ -56,7 +61,6 @@ COOLING_SETPOINT_DEGC = 27.0
 INTERNAL_GAIN_W = 200.0
 """Constant sensible internal gain (its radiative share is in the building file) [W]."""
 STEFAN_BOLTZMANN_W_PER_M2K4 = 5.670374419e-8
-KELVIN = 273.15
 EPW_HORIZONTAL_IR_FIELD = 12
 """0-based field of the EPW row holding the horizontal infrared sky radiation [Wh/m²]."""
 WINTER_DAY = (1, 4)
@@ -198,7 +202,7 @@ def sky_longwave_w_per_m2(outdoor_temp_degc: FloatArray, sky_ir_w_per_m2: FloatA
     outdoor_temp_degc : (T,) dry bulb [°C].
     sky_ir_w_per_m2 : (T,) downwelling sky long-wave radiation on a horizontal plane [W/m²].
     """
-    emitted = STEFAN_BOLTZMANN_W_PER_M2K4 * (np.asarray(outdoor_temp_degc) + KELVIN) ** 4
+    emitted = STEFAN_BOLTZMANN_W_PER_M2K4 * (np.asarray(outdoor_temp_degc) + KELVIN_OFFSET) ** 4
     result: FloatArray = emitted - np.asarray(sky_ir_w_per_m2, dtype=np.float64)
     return result
 
@@ -215,8 +219,6 @@ def plane_irradiance_components(
     beam_w_per_m2, diffuse_w_per_m2, incidence_deg : (T,) each.
     """
     import pvlib
-
-    from hvacflex.data.weather import ALBEDO, SKY_DIFFUSE_MODEL
 
     index = pd.DatetimeIndex(weather.index)
     mid = index + (index[1] - index[0]) / 2
@@ -259,8 +261,6 @@ def bestest_disturbances(building: Building, net: ThermalNetwork, epw_path: Path
     (17520, nd) DataFrame on 30-min period starts (``Etc/GMT+7``), one column per channel
     (channel names, ``channels.py`` units).
     """
-    from hvacflex.data.weather import read_epw, surface_irradiance_w_per_m2, weather_30min
-
     epw, location = read_epw(epw_path)
     weather = weather_30min(epw, location, YEAR, tz=TIMEZONE)
     surfaces = [
@@ -447,89 +447,3 @@ def table_markdown(table: pd.DataFrame) -> str:
     lines.append("")
     lines.append(f"{n_in} of {len(table)} quantities inside the example programs' min–max range.")
     return "\n".join(lines) + "\n"
-
-
-def write_outputs(result: BestestResult, out_dir: Path) -> list[Path]:
-    """Write ``bestest_results.csv``/``.md``, ``bestest_bars.png``,
-    ``bestest_free_float_days.png`` and ``bestest_free_float_days.csv`` to ``out_dir``."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    out_dir.mkdir(parents=True, exist_ok=True)
-    table = result.table
-    paths = [out_dir / "bestest_results.csv", out_dir / "bestest_results.md"]
-    table.to_csv(paths[0], index=False, float_format="%.4f")
-    paths[1].write_text(
-        "# hvacflex vs ASHRAE Standard 140-2020 example results (Cases 600/900/600FF/900FF)\n\n"
-        + table_markdown(table),
-        encoding="utf-8",
-    )
-
-    groups = [
-        ("Annual loads [MWh]", ["annual heating", "annual cooling"], ["600", "900"]),
-        ("Peak loads [kW]", ["peak heating", "peak cooling"], ["600", "900"]),
-        ("Free-float max [°C]", ["max temperature"], ["600FF", "900FF"]),
-        ("Free-float min / mean [°C]", ["min temperature", "mean temperature"], ["600FF", "900FF"]),
-    ]
-    fig, axes = plt.subplots(1, 4, figsize=(18, 5))
-    colours = [f"C{j}" for j in range(len(PROGRAMS))]
-    for ax, (title, kinds, case_names) in zip(axes, groups, strict=True):
-        keys = [f"{c} {k}" for k in kinds for c in case_names]
-        rows = table.set_index("quantity").loc[keys]
-        x = np.arange(len(keys))
-        width = 0.8 / (len(PROGRAMS) + 1)
-        for j, program in enumerate(PROGRAMS):
-            ax.bar(x + (j - 3) * width, rows[program], width, color=colours[j], label=program)
-        ax.bar(x + 3 * width, rows["hvacflex"], width, color="black", label="hvacflex")
-        for i, (low, high) in enumerate(zip(rows["ref_min"], rows["ref_max"], strict=True)):
-            ax.plot([i - 0.45, i + 0.45], [low, low], color="grey", lw=1, ls="--")
-            ax.plot([i - 0.45, i + 0.45], [high, high], color="grey", lw=1, ls="--")
-        ax.set_xticks(x, [k.replace(" temperature", "") for k in keys], rotation=20, fontsize=8)
-        ax.set_title(title)
-        ax.axhline(0.0, color="black", lw=0.5)
-    axes[0].legend(fontsize=7, loc="upper right")
-    fig.suptitle(
-        f"hvacflex vs Standard 140-2020 example programs (dashed: min–max); "
-        f"{result.n_in_range}/{len(table)} in range"
-    )
-    fig.tight_layout()
-    bars = out_dir / "bestest_bars.png"
-    fig.savefig(bars, dpi=110)
-    plt.close(fig)
-    paths.append(bars)
-
-    fig, axes = plt.subplots(1, 2, figsize=(13, 4.5), sharey=False)
-    day_frames = []
-    for ax, (month, day) in zip(axes, (WINTER_DAY, SUMMER_DAY), strict=True):
-        for case in ("600FF", "900FF"):
-            h = result.cases[case].hourly
-            when = pd.DatetimeIndex(h.index)
-            sel = h[(when.month == month) & (when.day == day)]
-            ax.plot(np.arange(1, 25), sel["zone_temp_degc"], marker="o", label=case)
-            day_frames.append(
-                pd.DataFrame(
-                    {
-                        "case": case,
-                        "hour": np.arange(1, 25),
-                        "zone_temp_degc": sel["zone_temp_degc"].to_numpy(),
-                        "outdoor_temp_degc": sel["outdoor_temp_degc"].to_numpy(),
-                    },
-                    index=sel.index,
-                )
-            )
-        ax.plot(np.arange(1, 25), sel["outdoor_temp_degc"], color="grey", ls="--", label="outdoor")
-        ax.set_title(f"Hourly free-float zone temperature, {month:02d}-{day:02d}")
-        ax.set_xlabel("hour (local standard time, hour ending)")
-        ax.set_ylabel("°C")
-        ax.grid(alpha=0.3)
-        ax.legend()
-    fig.tight_layout()
-    days = out_dir / "bestest_free_float_days.png"
-    fig.savefig(days, dpi=110)
-    plt.close(fig)
-    days_csv = out_dir / "bestest_free_float_days.csv"
-    pd.concat(day_frames).to_csv(days_csv, float_format="%.3f")
-    paths += [days, days_csv]
-    return paths

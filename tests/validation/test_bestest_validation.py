@@ -9,8 +9,9 @@ import pytest
 
 from hvacflex.building.io import load_building
 from hvacflex.building.rc import build_network
-from hvacflex.building.validation import bestest as bt
-from hvacflex.building.validation.ideal_loads import simulate_zone_loads
+from hvacflex.report.validation_plots import write_bestest_outputs
+from hvacflex.validation import bestest as bt
+from hvacflex.validation.ideal_loads import simulate_zone_loads
 
 N_IN_RANGE_ACHIEVED = 14
 """How many of the 14 quantities the full-year run puts inside the reference band."""
@@ -87,5 +88,5 @@ def test_reference_table_has_the_fourteen_quantities(bestest_dir: Path) -> None:
 def test_full_year_bestest(shipped_buildings_dir: Path, bestest_dir: Path, tmp_path: Path) -> None:
     result = bt.run_bestest(bestest_dir, shipped_buildings_dir)
     assert result.n_in_range >= N_IN_RANGE_ACHIEVED, bt.table_markdown(result.table)
-    paths = bt.write_outputs(result, tmp_path)
+    paths = write_bestest_outputs(result, tmp_path)
     assert all(p.is_file() and p.stat().st_size > 0 for p in paths)

@@ -1,0 +1,143 @@
+"""What ``hvacflex data show`` prints and draws: a text summary of the exogenous data and the
+paper's Fig. 2 (energy and reserve price) from an :class:`hvacflex.data.forecast.Exogenous`.
+
+Pure functions of loaded data; the command itself (options, loading, exit codes) lives in
+:mod:`hvacflex.cli`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from pathlib import Path
+
+import numpy as np
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+
+from hvacflex.building.discretize import LinearModel
+from hvacflex.constants import HORIZON_STEPS
+from hvacflex.data.forecast import Exogenous
+from hvacflex.data.uncertainty import UncertaintyBox
+from hvacflex.opt.robust import impulse_responses, margin_operator, robust_margins
+
+FIG2_DPI = 120
+"""Resolution of the Fig. 2 PNG [dots per inch]."""
+
+
+def _stats(values: np.ndarray) -> str:
+    return (
+        f"mean {np.mean(values):8.2f}  median {np.median(values):8.2f}  "
+        f"min {np.min(values):8.2f}  max {np.max(values):8.2f}"
+    )
+
+
+def margin_lines(
+    exo: Exogenous,
+    steps: int,
+    model: LinearModel,
+    boxes: Mapping[str, UncertaintyBox],
+    horizon_steps: int = HORIZON_STEPS,
+) -> list[str]:
+    """max over steps and horizon of δ_k per zone, for each box, against the half-band.
+
+    Parameters
+    ----------
+    exo : exogenous data over at least ``steps + horizon_steps`` periods.
+    steps : number of MPC steps (each with its own horizon window).
+    model : the building's linear model (its ``a``, ``e``, ``c`` and zone names).
+    boxes : label → uncertainty box.
+    horizon_steps : prediction horizon N.
+    """
+    a, e, c = np.asarray(model.a), np.asarray(model.e), np.asarray(model.c)
+    operator = margin_operator(impulse_responses(a, e, c, horizon_steps))
+    half_band = float(np.min(exo.comfort_upper_degc - exo.comfort_lower_degc)) / 2.0
+    lines = [f"  occupied comfort half-band: {half_band:.2f} K"]
+    for label, box in boxes.items():
+        worst = np.zeros(len(model.zone_names))
+        for k in range(steps):
+            d = exo.disturbances[k : k + horizon_steps]
+            delta = robust_margins(operator, box.sigma(d, exo.channels))
+            worst = np.maximum(worst, delta.max(axis=0))
+        per_zone = "  ".join(f"{z} {v:.2f}" for z, v in zip(model.zone_names, worst, strict=True))
+        verdict = "OK" if worst.max() < half_band else "EXCEEDS half-band"
+        lines.append(f"  {label} box ({box.describe()}):")
+        lines.append(f"    max δ [K]  {per_zone}   → {verdict}")
+    return lines
+
+
+def exogenous_summary_text(
+    exo: Exogenous,
+    steps: int,
+    days: int,
+    building_name: str,
+    model: LinearModel,
+    boxes: Mapping[str, UncertaintyBox],
+) -> str:
+    """Prices, disturbance channels, humidity, occupancy and the robust margins, as text.
+
+    Parameters
+    ----------
+    exo : exogenous data over at least ``steps + HORIZON_STEPS`` periods.
+    steps : summarised periods (``days`` × 48).
+    days : the number of days, for the heading.
+    building_name : for the heading.
+    model : the building's linear model (for δ).
+    boxes : label → uncertainty box whose δ is reported.
+    """
+    n = steps
+    energy = exo.energy_price_sgd_per_mwh[:n]
+    reserve = exo.reserve_price_sgd_per_mwh[:n]
+    out = [
+        f"Exogenous data {exo.index[0]:%Y-%m-%d %H:%M} … {exo.index[n - 1]:%Y-%m-%d %H:%M} SGT "
+        f"({days} days, {n} periods), building '{building_name}'",
+        "",
+        f"energy price USEP [SGD/MWh]      {_stats(energy)}",
+        f"  zero periods {int(np.sum(energy == 0))}, negative {int(np.sum(energy < 0))}, "
+        f"copied from nearest day with data {int(exo.energy_price_extrapolated[:n].sum())}",
+        f"reserve price [SGD/MWh] {'SYNTHETIC' if exo.reserve_price_synthetic else 'user data'}"
+        f" {_stats(reserve)}",
+    ]
+    for i, ch in enumerate(exo.channels):
+        column = exo.disturbances[:n, i]
+        out.append(f"{ch.name:<33} {_stats(column)}  [{ch.unit}]")
+    out.append(
+        "outdoor humidity ratio [g/kg]     "
+        + _stats(exo.outdoor_humidity_ratio_kg_per_kg[:n] * 1000.0)
+    )
+    out.append(
+        f"occupied periods {int(exo.occupied[:n].sum())} of {n}; comfort band occupied "
+        f"{exo.comfort_lower_degc[exo.occupied].min():.1f}–"
+        f"{exo.comfort_upper_degc[exo.occupied].max():.1f} °C"
+        if exo.occupied[:n].any()
+        else f"occupied periods 0 of {n}"
+    )
+    out.append("")
+    out.append(f"worst-case margin δ over a {HORIZON_STEPS}-step horizon (DESIGN §3):")
+    out += margin_lines(exo, n, model, boxes)
+    return "\n".join(out)
+
+
+def write_fig2(exo: Exogenous, path: Path, steps: int) -> None:
+    """Fig. 2 of the paper: energy (USEP) and reserve price over the first ``steps`` periods,
+    as a PNG at ``path``."""
+    index = exo.index[:steps]
+    fig = Figure(figsize=(9, 4))
+    FigureCanvasAgg(fig)
+    ax_energy = fig.subplots()
+    ax_energy.step(index, exo.energy_price_sgd_per_mwh[:steps], where="post", color="C0")
+    ax_energy.set_ylabel("energy price USEP [SGD/MWh]", color="C0")
+    ax_reserve = ax_energy.twinx()
+    reserve_label = "reserve price [SGD/MWh]" + (
+        " — SYNTHETIC" if exo.reserve_price_synthetic else ""
+    )
+    ax_reserve.step(index, exo.reserve_price_sgd_per_mwh[:steps], where="post", color="C3")
+    ax_reserve.set_ylabel(reserve_label, color="C3")
+    title = f"NEMS energy and reserve prices, {index[0]:%d %b %Y} – {index[-1]:%d %b %Y}"
+    if exo.reserve_price_synthetic:
+        title += "\n(reserve price synthetic: no public NEMS reserve-price history)"
+    ax_energy.set_title(title, fontsize=10)
+    ax_energy.set_xlabel("time (SGT)")
+    fig.autofmt_xdate()
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=FIG2_DPI)
