@@ -181,7 +181,7 @@ def test_schema_errors_name_the_field_and_say_what_to_do(
 def test_overrides_are_validated_and_can_clear_the_event_model() -> None:
     cfg = with_overrides(preset("rmpc"), {"event_max_steps": None})
     assert cfg.reserve.event_max_steps is None
-    with pytest.raises(ConfigError, match="reserve.event_max_steps"):
+    with pytest.raises(ConfigError, match=r"reserve\.event_max_steps"):
         with_overrides(preset("rmpc"), {"controller.robust": "dual"})
     with pytest.raises(ConfigError, match="unknown setting"):
         with_overrides(preset("rmpc"), {"nonsense": 1})
