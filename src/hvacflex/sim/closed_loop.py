@@ -204,6 +204,7 @@ class _Recorder:
             "delta_max_k",
             "il_allowance_k",
             "il_reference_power_kw",
+            "il_penalty_price_sgd_per_mwh",
         ]
         for zone in zones:
             self.float_columns += [
@@ -362,6 +363,8 @@ class ClosedLoop:
         rec.flags["il_event_window"][k] = outcome.event_window
         rec.values[k, col["il_allowance_k"]] = outcome.allowance_k
         rec.values[k, col["il_reference_power_kw"]] = outcome.reference_power_kw
+        penalty = self.setup.config.reserve.non_delivery_penalty_sgd_per_mwh
+        rec.values[k, col["il_penalty_price_sgd_per_mwh"]] = penalty
 
     def _record(
         self,
