@@ -1,6 +1,8 @@
 """IL events in the closed loop: the tracker's state machine and a stub-controller loop."""
 
+import json
 import pickle
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -9,7 +11,7 @@ import pandas as pd
 from hvacflex.config import preset, with_overrides
 from hvacflex.control.base import Action, EventPlan
 from hvacflex.data.forecast import Forecast
-from hvacflex.sim.closed_loop import ClosedLoop, prepare
+from hvacflex.sim.closed_loop import CONFIG_FILE, ClosedLoop, prepare, run_simulation
 from hvacflex.sim.events import EventTracker, Role
 
 START = "2014-03-03"
@@ -172,3 +174,18 @@ def test_checkpoint_mid_event_resumes_identically() -> None:
     while resumed.k < resumed.steps:
         resumed.step()
     pd.testing.assert_frame_equal(whole.frame(), resumed.frame())
+
+
+def test_event_model_closed_loop_with_the_lp_curtails_at_most_d_periods(tmp_path: Path) -> None:
+    cfg = with_overrides(
+        preset("nmpc", start=START, days=1.0),
+        {"activation.mode": "always", "data.reserve_price_scale": 40.0},
+    )
+    result = run_simulation(cfg, tmp_path, progress=False)
+    frame, summary = result.frame, result.summary
+    assert frame["il_curtailed"].sum() <= 4  # the 120-min rule
+    assert summary["il_beyond_model_steps"] == len(frame) - 4
+    assert summary["reserve_revenue_sgd"] > 0
+    assert not frame["fallback"].any()
+    config = json.loads((tmp_path / CONFIG_FILE).read_text())
+    assert config["reserve"]["event_max_steps"] == 4  # config.json records [reserve]
