@@ -388,5 +388,5 @@ def test_event_discomfort_is_measured_beyond_the_allowance() -> None:
 def test_results_without_il_columns_have_no_events() -> None:
     df = results_frame(4, power_kw=10.0, reserve_kw=2.0, reserve_price=50.0)
     assert kpi.il_penalty_sgd(df) == 0.0 and kpi.il_shortfall_kwh(df) == 0.0
-    assert np.isnan(kpi.il_delivered_ratio(df))
+    assert kpi.il_delivered_ratio(df) == 1.0  # nothing was due
     assert kpi.discomfort_event_kelvin_hours(df) == 0.0

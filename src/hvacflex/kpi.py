@@ -213,11 +213,15 @@ def il_penalty_sgd(results: pd.DataFrame) -> float:
 
 
 def il_delivered_ratio(results: pd.DataFrame) -> float:
-    """Delivered / offered reserve energy over the curtailed periods (NaN when none)."""
+    """Delivered / offered reserve energy over the curtailed periods.
+
+    1.0 when no reserve was due (no activation, or nothing offered in the activated
+    periods): nothing was owed, nothing fell short; and summaries stay NaN-free (comparable).
+    """
     curtailed = _flag(results, "il_curtailed")
     offered = float(np.sum(_values(results, "reserve_kw")[curtailed]))
     if offered <= 0.0:
-        return float("nan")
+        return 1.0
     return float(np.sum(il_delivered_kw(results)[curtailed])) / offered
 
 
@@ -422,7 +426,8 @@ def monthly_average(table: pd.DataFrame) -> pd.Series:
     covered) and ``months`` (month-equivalents).
     """
     months = float(table["month_fraction"].sum())
-    averages = {col: float(table[col].sum()) / months for col in MONTHLY_SUM_COLUMNS}
+    sums = [col for col in MONTHLY_SUM_COLUMNS if col in table.columns]  # older tables: no IL
+    averages = {col: float(table[col].sum()) / months for col in sums}
     averages["peak_power_kw"] = float(table["peak_power_kw"].mean())
     averages["ppp_charge_sgd"] = float(table["ppp_charge_sgd"].mean())
     averages["days"] = float(table["days"].sum())
