@@ -3,6 +3,7 @@ from pathlib import Path
 import pytest
 
 from hvacflex.config import (
+    PAPER_MODEL_SCENARIOS,
     PAPER_SCENARIOS,
     PRESET_NAMES,
     load_config,
@@ -117,3 +118,70 @@ def test_unreadable_scenario_file_names_the_file_and_the_problem(
 def test_missing_scenario_file(tmp_path: Path) -> None:
     with pytest.raises(ConfigError, match="scenario file not found"):
         load_config(tmp_path / "nowhere.toml")
+
+
+def test_product_presets_plan_for_events_paper_presets_for_the_whole_horizon() -> None:
+    for name in ("nmpc", "rmpc", "rmpc-ppp"):
+        reserve = preset(name).reserve
+        assert reserve.event_max_steps == 4  # the NEMS 120-min rule
+        assert reserve.event_allowance_k > 0 and reserve.event_recovery_steps >= 0
+    for letter, name in PAPER_MODEL_SCENARIOS.items():
+        paper, product = preset(name), preset(PAPER_SCENARIOS[letter])
+        assert paper.reserve.event_max_steps is None
+        assert paper.controller == product.controller
+    # the feedback LP has no event model: those presets keep the whole horizon
+    assert preset("rmpc-feedback").reserve.event_max_steps is None
+
+
+def test_reserve_section_is_read_and_recorded(tmp_path: Path) -> None:
+    path = tmp_path / "events.toml"
+    path.write_text(
+        'preset = "paper-rmpc"\n[reserve]\nevent_max_steps = 2\nevent_allowance_k = 0.5\n'
+        "event_recovery_steps = 1\nnon_delivery_penalty_sgd_per_mwh = 1000\n"
+    )
+    cfg = load_config(path)
+    assert cfg.reserve.event_max_steps == 2 and cfg.reserve.event_allowance_k == 0.5
+    assert cfg.to_dict()["reserve"] == {
+        "event_max_steps": 2,
+        "event_allowance_k": 0.5,
+        "event_recovery_steps": 1,
+        "non_delivery_penalty_sgd_per_mwh": 1000.0,
+    }
+    assert cfg.config_hash() != preset("paper-rmpc").config_hash()
+
+
+@pytest.mark.parametrize(
+    ("text", "field", "words"),
+    [
+        ("[reserve]\nevent_max_steps = 0\n", "reserve.event_max_steps", "≥ 1"),
+        ("[reserve]\nevent_allowance_k = -1\n", "reserve.event_allowance_k", "≥ 0"),
+        ("[reserve]\nevent_recovery_steps = 1.5\n", "reserve.event_recovery_steps", "integer"),
+        (
+            "[controller]\nrobust = 'feedback'\n[reserve]\nevent_max_steps = 4\n",
+            "reserve.event_max_steps",
+            "not available",
+        ),
+        ("[activation]\nrate = 0.1\n", "activation.rate", "events_per_year"),
+        ("[activation]\nmode = 'file'\n", "activation.file", "needs a file"),
+        ("[comfort]\noccupied_degc = [23]\n", "comfort.occupied_degc", "pair"),
+        ("[controller]\nreserve = 1\n", "controller.reserve", "true or false"),
+    ],
+)
+def test_schema_errors_name_the_field_and_say_what_to_do(
+    tmp_path: Path, text: str, field: str, words: str
+) -> None:
+    path = tmp_path / "bad.toml"
+    path.write_text(text)
+    with pytest.raises(ConfigError) as err:
+        load_config(path)
+    assert err.value.field == field
+    assert words in str(err.value)
+
+
+def test_overrides_are_validated_and_can_clear_the_event_model() -> None:
+    cfg = with_overrides(preset("rmpc"), {"event_max_steps": None})
+    assert cfg.reserve.event_max_steps is None
+    with pytest.raises(ConfigError, match=r"reserve\.event_max_steps"):
+        with_overrides(preset("rmpc"), {"controller.robust": "dual"})
+    with pytest.raises(ConfigError, match="unknown setting"):
+        with_overrides(preset("rmpc"), {"nonsense": 1})

@@ -326,3 +326,67 @@ def test_kpi_command_exits_2_on_bad_input(tmp_path: Path, target: str) -> None:
     assert result.exit_code == 2, result.output
     assert "error:" in result.output and target in result.output
     assert "Traceback" not in result.output
+
+
+# ------------------------------------------------------------------------ IL settlement
+
+
+def _event_frame() -> pd.DataFrame:
+    """Six 30-min periods: offers of 4 kW, one event curtailing periods 1–2 (D = 2) with one
+    recovery period (3), α = 1 K, penalty 1000 SGD/MWh."""
+    df = results_frame(
+        6,
+        power_kw=[10.0, 7.0, 9.0, 12.0, 10.0, 10.0],
+        reserve_kw=[4.0, 4.0, 4.0, 0.0, 4.0, 0.0],
+        reserve_price=[50.0] * 6,
+        energy_price=100.0,
+        temp_end={"north": [24.0, 26.5, 27.5, 26.2, 26.4, 24.0]},
+    )
+    df["il_activated"] = [False, True, True, True, False, False]
+    df["il_curtailed"] = [False, True, True, False, False, False]
+    df["il_beyond_model"] = [False, False, False, True, False, False]
+    df["il_event_window"] = [False, True, True, True, False, False]
+    df["il_allowance_k"] = [0.0, 1.0, 1.0, 1.0, 0.0, 0.0]
+    df["il_reference_power_kw"] = [np.nan, 11.0, 12.0, 11.0, np.nan, np.nan]
+    df["il_penalty_price_sgd_per_mwh"] = 1000.0
+    return df
+
+
+def test_il_settlement_on_a_hand_made_event() -> None:
+    df = _event_frame()
+    # delivered: 11 − 7 = 4 (all of the 4 kW), 12 − 9 = 3 (1 kW short)
+    np.testing.assert_allclose(kpi.il_delivered_kw(df), [0, 4, 3, 0, 0, 0])
+    assert kpi.il_shortfall_kwh(df) == pytest.approx(1.0 * 0.5)
+    assert kpi.il_penalty_sgd(df) == pytest.approx(0.5 * 1000 / 1000)
+    assert kpi.il_delivered_ratio(df) == pytest.approx(7.0 / 8.0)
+    # recovery period 3: 12 kW against the plan's 11 kW for half an hour
+    assert kpi.il_recovery_energy_kwh(df) == pytest.approx(0.5)
+    assert kpi.il_event_count(df) == 1 and kpi.il_beyond_model_steps(df) == 1
+    # revenue is gross (paid on every scheduled period); the penalty enters the net cost
+    revenue = 4.0 * 4 * 50.0 * 0.5 / 1000
+    assert kpi.reserve_revenue_sgd(df) == pytest.approx(revenue)
+    energy = sum([10.0, 7.0, 9.0, 12.0, 10.0, 10.0]) * 100.0 * 0.5 / 1000
+    assert kpi.net_cost_sgd(df) == pytest.approx(energy - revenue + 0.5)
+    assert kpi.monthly_table(df)["il_penalty_sgd"].sum() == pytest.approx(0.5)
+    assert kpi.reserve_offered_mean_kw(df) == pytest.approx(16.0 / 6)
+    assert kpi.reserve_period_share(df) == pytest.approx(4 / 6)
+
+
+def test_event_discomfort_is_measured_beyond_the_allowance() -> None:
+    df = _event_frame()
+    # in the window the upper bound is 27 °C: only 27.5 exceeds it (0.5 K); outside the
+    # window the strict 26 °C: period 4 at 26.4 (0.4 K)
+    assert kpi.discomfort_event_kelvin_hours(df) == pytest.approx(0.5 * 0.5)
+    assert kpi.discomfort_outside_events_kelvin_hours(df) == pytest.approx(0.4 * 0.5)
+    out = kpi.summary(df)
+    assert out["il_penalty_sgd"] == pytest.approx(0.5)
+    assert out["il_beyond_model_steps"] == 1.0
+    # the strict total still counts every deviation from the strict band
+    assert out["discomfort_kelvin_hours"] == pytest.approx((0.5 + 1.5 + 0.2 + 0.4) * 0.5)
+
+
+def test_results_without_il_columns_have_no_events() -> None:
+    df = results_frame(4, power_kw=10.0, reserve_kw=2.0, reserve_price=50.0)
+    assert kpi.il_penalty_sgd(df) == 0.0 and kpi.il_shortfall_kwh(df) == 0.0
+    assert kpi.il_delivered_ratio(df) == 1.0  # nothing was due
+    assert kpi.discomfort_event_kelvin_hours(df) == 0.0

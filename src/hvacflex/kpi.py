@@ -16,8 +16,14 @@ Conventions
 * Energy is ``Σ_k P_k Δt``; energy cost ``Σ_k c_k P_k Δt / 1000`` with ``c`` in SGD/MWh;
   reserve revenue ``Σ_k b_k R_k Δt / 1000`` for the capacity ``R`` offered (paid whether or
   not the interruptible load is activated).
-* Net cost is energy cost − reserve revenue: the paper's Table 1 "Total". The peak-power
-  charge (PPP) is reported separately, as the paper does.
+* Net cost is energy cost − reserve revenue + IL penalty: the paper's Table 1 "Total" (the
+  paper has no penalty). The peak-power charge (PPP) is reported separately, as the paper
+  does.
+* IL settlement (columns ``il_*`` of :mod:`hvacflex.sim.events`): in a curtailed period the
+  building **delivers** ``il_reference_power_kw − power_kw`` (the locked plan's served power
+  p0_j + p_jᵀu_j less the plant's actual power); the **shortfall** ``max(reserve_kw −
+  delivered, 0)`` is charged at ``il_penalty_price_sgd_per_mwh``. Results without these
+  columns (older runs) have no IL events.
 * Peaks are taken on 30-min average power (the billing interval): steps shorter than
   30 min are averaged into 30-min intervals; longer steps are used as they are.
 * Months are calendar months in the index's local time.
@@ -162,8 +168,95 @@ def reserve_revenue_sgd(results: pd.DataFrame) -> float:
 
 
 def net_cost_sgd(results: pd.DataFrame) -> float:
-    """Energy cost − reserve revenue [SGD]: the paper's Table 1 "Total" (PPP excluded)."""
-    return energy_cost_sgd(results) - reserve_revenue_sgd(results)
+    """Energy cost − reserve revenue + IL penalty [SGD]: Table 1 "Total" (PPP excluded)."""
+    return energy_cost_sgd(results) - reserve_revenue_sgd(results) + il_penalty_sgd(results)
+
+
+# ----------------------------------------------------------------------------- IL settlement
+
+
+def _optional(results: pd.DataFrame, name: str, fill: float) -> np.ndarray:
+    """A column as floats, or ``fill`` everywhere when the frame lacks it (older results)."""
+    if name not in results.columns:
+        return np.full(len(results), fill)
+    return np.asarray(results[name], dtype=float)
+
+
+def _flag(results: pd.DataFrame, name: str) -> np.ndarray:
+    return _optional(results, name, 0.0) > 0.5
+
+
+def il_delivered_kw(results: pd.DataFrame) -> np.ndarray:
+    """(T,) reserve delivered [kW]: ``il_reference_power_kw − power_kw`` in curtailed periods
+    (column ``il_curtailed``), 0 elsewhere."""
+    delivered = _optional(results, "il_reference_power_kw", np.nan) - _values(results, "power_kw")
+    return np.where(_flag(results, "il_curtailed"), np.nan_to_num(delivered), 0.0)
+
+
+def il_shortfall_kw(results: pd.DataFrame) -> np.ndarray:
+    """(T,) reserve offered but not delivered in curtailed periods, ``max(R − delivered, 0)``
+    [kW]."""
+    shortfall = np.maximum(_values(results, "reserve_kw") - il_delivered_kw(results), 0.0)
+    return np.where(_flag(results, "il_curtailed"), shortfall, 0.0)
+
+
+def il_shortfall_kwh(results: pd.DataFrame) -> float:
+    """Energy of reserve not delivered during activations [kWh]."""
+    return float(np.sum(il_shortfall_kw(results)) * step_hours(results))
+
+
+def il_penalty_sgd(results: pd.DataFrame) -> float:
+    """Non-delivery penalty ``Σ_k shortfall_k · price_k · Δt / 1000`` [SGD] (price column
+    ``il_penalty_price_sgd_per_mwh``; no penalty when absent)."""
+    price = _optional(results, "il_penalty_price_sgd_per_mwh", 0.0)
+    return float(np.sum(il_shortfall_kw(results) * price) * step_hours(results) / KWH_PER_MWH)
+
+
+def il_delivered_ratio(results: pd.DataFrame) -> float:
+    """Delivered / offered reserve energy over the curtailed periods.
+
+    1.0 when no reserve was due (no activation, or nothing offered in the activated
+    periods): nothing was owed, nothing fell short; and summaries stay NaN-free (comparable).
+    """
+    curtailed = _flag(results, "il_curtailed")
+    offered = float(np.sum(_values(results, "reserve_kw")[curtailed]))
+    if offered <= 0.0:
+        return 1.0
+    return float(np.sum(il_delivered_kw(results)[curtailed])) / offered
+
+
+def il_recovery_energy_kwh(results: pd.DataFrame) -> float:
+    """Extra energy in the recovery periods after events vs the locked plan [kWh].
+
+    ``Σ (power_kw − il_reference_power_kw) Δt`` over the event-window periods that are not
+    curtailed (``il_event_window`` and not ``il_curtailed``) and have a reference.
+    """
+    recovery = _flag(results, "il_event_window") & ~_flag(results, "il_curtailed")
+    extra = _values(results, "power_kw") - _optional(results, "il_reference_power_kw", np.nan)
+    return float(np.nansum(extra[recovery]) * step_hours(results))
+
+
+def il_event_count(results: pd.DataFrame) -> int:
+    """Number of curtailment blocks (a period curtailed after one that was not)."""
+    curtailed = _flag(results, "il_curtailed")
+    return int(np.sum(curtailed & ~np.concatenate([[False], curtailed[:-1]])))
+
+
+def il_beyond_model_steps(results: pd.DataFrame) -> int:
+    """Activated periods past the event length D, when consumption resumed (120-min rule)."""
+    return int(np.sum(_flag(results, "il_beyond_model")))
+
+
+def reserve_offered_mean_kw(results: pd.DataFrame) -> float:
+    """Mean reserve capacity offered per period [kW] (0 in periods without an offer)."""
+    reserve_kw = _values(results, "reserve_kw")
+    return float(np.mean(reserve_kw)) if reserve_kw.size else 0.0
+
+
+def reserve_period_share(results: pd.DataFrame, tolerance_kw: float = 1e-6) -> float:
+    """Share of periods (0–1) with a reserve offer above ``tolerance_kw``."""
+    reserve_kw = _values(results, "reserve_kw")
+    return float(np.mean(reserve_kw > tolerance_kw)) if reserve_kw.size else 0.0
 
 
 # ----------------------------------------------------------------------------- peaks and PPP
@@ -255,7 +348,8 @@ def monthly_table(
 
     * ``days``: days of the month covered by the run (steps × Δt / 24),
     * ``month_fraction``: ``days`` / days in that calendar month (1.0 for a complete month),
-    * ``energy_cost_sgd``, ``reserve_revenue_sgd``, ``net_cost_sgd``, ``energy_kwh``:
+    * ``energy_cost_sgd``, ``reserve_revenue_sgd``, ``il_penalty_sgd``, ``net_cost_sgd``,
+      ``energy_kwh``:
       sums over the covered part of the month,
     * ``peak_power_kw``, ``ppp_charge_sgd``: the month's peak and its PPP charge.
 
@@ -276,12 +370,18 @@ def monthly_table(
             * _values(results, "reserve_price_sgd_per_mwh")
             * dt_h
             / KWH_PER_MWH,
+            "il_penalty_sgd": il_shortfall_kw(results)
+            * _optional(results, "il_penalty_price_sgd_per_mwh", 0.0)
+            * dt_h
+            / KWH_PER_MWH,
             "energy_kwh": power_kw * dt_h,
         },
         index=months,
     )
     table = frame.groupby(level="month").sum()
-    table["net_cost_sgd"] = table["energy_cost_sgd"] - table["reserve_revenue_sgd"]
+    table["net_cost_sgd"] = (
+        table["energy_cost_sgd"] - table["reserve_revenue_sgd"] + table["il_penalty_sgd"]
+    )
     days_in_month = np.asarray(pd.PeriodIndex(table.index).days_in_month, dtype=float)
     table.insert(1, "month_fraction", table["days"].to_numpy() / days_in_month)
     table["peak_power_kw"] = monthly_peak_power_kw(results)
@@ -291,6 +391,7 @@ def monthly_table(
         "month_fraction",
         "energy_cost_sgd",
         "reserve_revenue_sgd",
+        "il_penalty_sgd",
         "net_cost_sgd",
         "energy_kwh",
         "peak_power_kw",
@@ -299,7 +400,13 @@ def monthly_table(
     return table[columns]
 
 
-MONTHLY_SUM_COLUMNS = ("energy_cost_sgd", "reserve_revenue_sgd", "net_cost_sgd", "energy_kwh")
+MONTHLY_SUM_COLUMNS = (
+    "energy_cost_sgd",
+    "reserve_revenue_sgd",
+    "il_penalty_sgd",
+    "net_cost_sgd",
+    "energy_kwh",
+)
 """Columns of :func:`monthly_table` that are sums over the covered days (averaged per month)."""
 
 
@@ -319,7 +426,8 @@ def monthly_average(table: pd.DataFrame) -> pd.Series:
     covered) and ``months`` (month-equivalents).
     """
     months = float(table["month_fraction"].sum())
-    averages = {col: float(table[col].sum()) / months for col in MONTHLY_SUM_COLUMNS}
+    sums = [col for col in MONTHLY_SUM_COLUMNS if col in table.columns]  # older tables: no IL
+    averages = {col: float(table[col].sum()) / months for col in sums}
     averages["peak_power_kw"] = float(table["peak_power_kw"].mean())
     averages["ppp_charge_sgd"] = float(table["ppp_charge_sgd"].mean())
     averages["days"] = float(table["days"].sum())
@@ -330,15 +438,39 @@ def monthly_average(table: pd.DataFrame) -> pd.Series:
 # ----------------------------------------------------------------------------- comfort
 
 
-def _comfort_deviation_k(results: pd.DataFrame) -> pd.DataFrame:
-    """(T, m) deviation outside the band at period end [K], ≥ 0, one column per zone."""
+def _comfort_deviation_k(results: pd.DataFrame, allowance_k: float = 0.0) -> pd.DataFrame:
+    """(T, m) deviation outside the band at period end [K], ≥ 0, one column per zone.
+
+    ``allowance_k`` > 0 widens the upper bound by the column ``il_allowance_k`` (the IL
+    allowance α in event and recovery periods) times that factor.
+    """
+    widen = allowance_k * np.nan_to_num(_optional(results, "il_allowance_k", 0.0))
     deviations = {}
     for zone in zone_names(results):
         temp = _values(results, f"temp_end_{zone}_degc")
         lower = _values(results, f"comfort_lower_{zone}_degc")
-        upper = _values(results, f"comfort_upper_{zone}_degc")
+        upper = _values(results, f"comfort_upper_{zone}_degc") + widen
         deviations[zone] = np.maximum(lower - temp, 0.0) + np.maximum(temp - upper, 0.0)
     return pd.DataFrame(deviations, index=results.index)
+
+
+def discomfort_event_kelvin_hours(results: pd.DataFrame) -> float:
+    """Discomfort in IL event windows beyond the allowance [K·h], all zones.
+
+    Over the periods of ``il_event_window`` (curtailment and recovery), the deviation at
+    period end from the band whose upper bound is widened by α (``il_allowance_k``): what the
+    contract does not allow. 0 without events.
+    """
+    window = _flag(results, "il_event_window")
+    deviation = _comfort_deviation_k(results, allowance_k=1.0).to_numpy()
+    return float(np.sum(deviation[window]) * step_hours(results))
+
+
+def discomfort_outside_events_kelvin_hours(results: pd.DataFrame) -> float:
+    """Discomfort outside IL event windows [K·h], all zones, against the strict band."""
+    window = _flag(results, "il_event_window")
+    deviation = _comfort_deviation_k(results).to_numpy()
+    return float(np.sum(deviation[~window]) * step_hours(results))
 
 
 def discomfort_kelvin_hours(results: pd.DataFrame) -> pd.Series:
@@ -450,14 +582,15 @@ def summary(results: pd.DataFrame, peak_price_sgd_per_kw: float | None = None) -
     """All KPIs of one run as a flat ``{name: value}`` mapping, units in the names.
 
     Keys: ``steps``, ``days``, ``energy_kwh``, ``energy_cost_sgd``, ``reserve_revenue_sgd``,
-    ``net_cost_sgd``, ``ppp_charge_sgd``, ``net_cost_with_ppp_sgd``, ``peak_power_kw``,
-    ``monthly_avg_energy_cost_sgd``, ``monthly_avg_reserve_revenue_sgd``,
+    ``il_penalty_sgd``, ``net_cost_sgd``, ``ppp_charge_sgd``, ``net_cost_with_ppp_sgd``,
+    ``peak_power_kw``, ``monthly_avg_energy_cost_sgd``, ``monthly_avg_reserve_revenue_sgd``,
     ``monthly_avg_net_cost_sgd``, ``discomfort_kelvin_hours`` (total),
     ``discomfort_<zone>_kelvin_hours``, ``max_violation_k`` (all zones),
-    ``max_violation_<zone>_k``, ``violation_share``, ``fallback_count``,
-    ``planned_slack_share``, ``max_delta_vs_half_band``, ``solve_time_mean_s``,
-    ``solve_time_p95_s``, ``solve_time_max_s``. Monthly averages are omitted when the index
-    is not a ``DatetimeIndex``, as are ``ppp_charge_sgd`` and ``net_cost_with_ppp_sgd``.
+    ``max_violation_<zone>_k``, ``violation_share``, the IL keys of :func:`il_summary`,
+    ``fallback_count``, ``planned_slack_share``, ``max_delta_vs_half_band``,
+    ``solve_time_mean_s``, ``solve_time_p95_s``, ``solve_time_max_s``. Monthly averages are
+    omitted when the index is not a ``DatetimeIndex``, as are ``ppp_charge_sgd`` and
+    ``net_cost_with_ppp_sgd``.
     """
     dt_h = step_hours(results)
     out: dict[str, float] = {
@@ -466,6 +599,7 @@ def summary(results: pd.DataFrame, peak_price_sgd_per_kw: float | None = None) -
         "energy_kwh": energy_kwh(results),
         "energy_cost_sgd": energy_cost_sgd(results),
         "reserve_revenue_sgd": reserve_revenue_sgd(results),
+        "il_penalty_sgd": il_penalty_sgd(results),
         "net_cost_sgd": net_cost_sgd(results),
     }
     if isinstance(results.index, pd.DatetimeIndex):
@@ -485,12 +619,29 @@ def summary(results: pd.DataFrame, peak_price_sgd_per_kw: float | None = None) -
     for zone, value in violation.items():
         out[f"max_violation_{zone}_k"] = float(value)
     out["violation_share"] = violation_share(results)
+    out |= il_summary(results)
     out["fallback_count"] = float(fallback_count(results))
     out["planned_slack_share"] = planned_slack_share(results)
     out["max_delta_vs_half_band"] = max_delta_vs_half_band(results)
     for stat, value in solve_time_stats_s(results).items():
         out[f"solve_time_{stat}_s"] = value
     return out
+
+
+def il_summary(results: pd.DataFrame) -> dict[str, float]:
+    """The reserve and IL-event KPIs of :func:`summary` (see the IL settlement section)."""
+    return {
+        "reserve_offered_mean_kw": reserve_offered_mean_kw(results),
+        "reserve_period_share": reserve_period_share(results),
+        "il_events": float(il_event_count(results)),
+        "il_curtailed_steps": float(np.sum(_flag(results, "il_curtailed"))),
+        "il_delivered_ratio": il_delivered_ratio(results),
+        "il_shortfall_kwh": il_shortfall_kwh(results),
+        "il_recovery_energy_kwh": il_recovery_energy_kwh(results),
+        "il_beyond_model_steps": float(il_beyond_model_steps(results)),
+        "discomfort_event_kelvin_hours": discomfort_event_kelvin_hours(results),
+        "discomfort_outside_events_kelvin_hours": discomfort_outside_events_kelvin_hours(results),
+    }
 
 
 RESULTS_REQUIRED_COLUMNS = ("power_kw", "energy_price_sgd_per_mwh")

@@ -87,3 +87,30 @@ def test_short_forecast_names_the_horizon_setting(setup: Setup) -> None:
     x = np.full(setup.model.a.shape[0], 25.0)
     with pytest.raises(ConfigError, match=r"controller\.horizon_steps"):
         controller.problem(x, forecast, peak_floor_kw=0.0)
+
+
+def test_the_reserve_contract_reaches_the_problem_and_the_event_plan(setup: Setup) -> None:
+    k = 20
+    forecast = setup.forecaster.forecast(k, setup.config.controller.horizon_steps + 1)
+    x = np.full(setup.model.a.shape[0], 25.0)
+    controller = make_controller(setup)
+    assert isinstance(controller, MPCController)
+    reserve = setup.config.reserve
+    problem = controller.problem(x, forecast, 0.0, allowance_carry_steps=2)
+    assert problem.il_event_max_steps == reserve.event_max_steps == 4
+    assert problem.il_event_allowance_kelvin == reserve.event_allowance_k
+    assert problem.il_event_recovery_steps == reserve.event_recovery_steps
+    assert problem.il_allowance_carry_steps == 2
+    action = controller.act(x, forecast, peak_floor_kw=0.0)
+    plan = action.event_plan
+    assert plan is not None and plan.steps == 4 + reserve.event_recovery_steps
+    np.testing.assert_allclose(plan.flow_kg_s[0], action.flow_kg_s)
+    np.testing.assert_allclose(plan.reserve_flow_kg_s[0], action.reserve_flow_kg_s)
+    assert plan.reserve_kw[0] == pytest.approx(action.reserve_kw)
+    # the paper's preset: whole-horizon model, no carry, no event plan
+    paper = prepare(preset("paper-rmpc-ppp", start=START, days=1.0))
+    whole = make_controller(paper)
+    assert isinstance(whole, MPCController)
+    problem = whole.problem(x, forecast, 0.0, allowance_carry_steps=2)
+    assert problem.il_event_max_steps is None and problem.il_allowance_carry_steps == 0
+    assert whole.act(x, forecast, peak_floor_kw=0.0).event_plan is None

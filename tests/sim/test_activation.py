@@ -16,17 +16,41 @@ def test_never_and_always() -> None:
     assert activation_schedule(ActivationConfig(mode="always"), INDEX, seed=1).all()
 
 
-def test_random_is_seeded_and_lasts_the_duration() -> None:
-    cfg = ActivationConfig(mode="random", rate=0.05, duration_steps=3)
-    one = activation_schedule(cfg, INDEX, seed=7)
-    assert np.array_equal(one, activation_schedule(cfg, INDEX, seed=7))
-    assert not np.array_equal(one, activation_schedule(cfg, INDEX, seed=8))
-    # every activation block is at least `duration_steps` long (blocks may merge)
-    padded = np.concatenate([[False], one, [False]])
+def _blocks(flags: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Start indices and lengths of the runs of True."""
+    padded = np.concatenate([[False], flags, [False]])
     starts = np.flatnonzero(~padded[:-1] & padded[1:])
     ends = np.flatnonzero(padded[:-1] & ~padded[1:])
-    lengths = ends - starts
-    assert (lengths[ends < len(one)] >= 3).all()
+    return starts, ends - starts
+
+
+def test_random_is_seeded_and_lasts_one_to_d_periods() -> None:
+    year = pd.date_range("2014-01-01", periods=17_520, freq="30min", tz="Asia/Singapore")
+    cfg = ActivationConfig(mode="random", events_per_year=50.0, duration_steps=3)
+    one = activation_schedule(cfg, year, seed=7)
+    assert np.array_equal(one, activation_schedule(cfg, year, seed=7))
+    assert not np.array_equal(one, activation_schedule(cfg, year, seed=8))
+    starts, lengths = _blocks(one)
+    # durations 1 … D, all of them drawn; events never overlap nor touch
+    assert set(lengths.tolist()) == {1, 2, 3}
+    assert (np.diff(starts) > lengths[:-1]).all()
+    # the rate is in events per year: 50 ± 4σ of a Poisson count
+    assert abs(len(starts) - 50) < 4 * np.sqrt(50)
+
+
+def test_random_duration_defaults_to_the_event_length_d() -> None:
+    year = pd.date_range("2014-01-01", periods=17_520, freq="30min", tz="Asia/Singapore")
+    cfg = ActivationConfig(mode="random", events_per_year=100.0)
+    _, lengths = _blocks(activation_schedule(cfg, year, seed=1, max_steps=2))
+    assert set(lengths.tolist()) == {1, 2}
+    _, lengths = _blocks(activation_schedule(cfg, year, seed=1))  # the 120-min rule
+    assert lengths.max() == 4
+
+
+def test_stress_is_about_one_event_a_day() -> None:
+    month = pd.date_range("2014-03-01", periods=30 * 48, freq="30min", tz="Asia/Singapore")
+    starts, _ = _blocks(activation_schedule(ActivationConfig(mode="stress"), month, seed=3))
+    assert 30 - 4 * np.sqrt(30) < len(starts) < 30 + 4 * np.sqrt(30)
 
 
 def test_file_schedule_aligns_on_period_starts(tmp_path: Path) -> None:

@@ -14,6 +14,36 @@ FloatArray = npt.NDArray[np.float64]
 
 
 @dataclass(frozen=True)
+class EventPlan:
+    """The steps of a plan an interruptible-load event locks (made when the event starts).
+
+    The closed loop applies ``flow_kg_s[j] − reserve_flow_kg_s[j]`` in the event's j-th
+    period without re-optimising, and settles the delivery against ``served_power_kw[j]``.
+    Covers D + R steps (the event and its recovery; fewer at the horizon's end).
+
+    Attributes
+    ----------
+    flow_kg_s : (L, m) served flows u_j [kg/s].
+    reserve_flow_kg_s : (L, m) reserve flows r_j [kg/s] (0 ≤ r_j ≤ u_j − u_min).
+    served_power_kw : (L,) the plan's served power p0_j + p_jᵀ u_j [kW].
+    reserve_kw : (L,) reserve capacity scheduled, p_jᵀ r_j [kW].
+    predicted_served_degc, predicted_curtailed_degc : (L, m) predicted zone temperatures at
+        the end of period j, without and with the event (from the start) [°C].
+    """
+
+    flow_kg_s: FloatArray
+    reserve_flow_kg_s: FloatArray
+    served_power_kw: FloatArray
+    reserve_kw: FloatArray
+    predicted_served_degc: FloatArray
+    predicted_curtailed_degc: FloatArray
+
+    @property
+    def steps(self) -> int:
+        return int(self.served_power_kw.shape[0])
+
+
+@dataclass(frozen=True)
 class Action:
     """The decision applied in the current 30-min period.
 
@@ -31,6 +61,8 @@ class Action:
     delta_max_k : largest robust margin δ in the plan [K].
     predicted_served_degc, predicted_curtailed_degc : (m,) one-step predicted zone
         temperatures without and with IL activation [°C] (NaN without a plan).
+    event_plan : the plan's first D + R steps, which an IL activation starting now locks
+        (``None`` without a plan, or under the whole-horizon reserve model).
     """
 
     flow_kg_s: FloatArray
@@ -44,12 +76,20 @@ class Action:
     delta_max_k: float
     predicted_served_degc: FloatArray
     predicted_curtailed_degc: FloatArray
+    event_plan: EventPlan | None = None
 
 
 class Controller(Protocol):
     """A controller the closed-loop simulator can drive and checkpoint."""
 
-    def act(self, x_degc: FloatArray, forecast: Forecast, *, peak_floor_kw: float) -> Action:
+    def act(
+        self,
+        x_degc: FloatArray,
+        forecast: Forecast,
+        *,
+        peak_floor_kw: float,
+        allowance_carry_steps: int = 0,
+    ) -> Action:
         """Decide the action for the period starting now.
 
         Parameters
@@ -57,6 +97,8 @@ class Controller(Protocol):
         x_degc : (n,) measured node temperatures [°C].
         forecast : prices, disturbances and comfort bounds over the horizon from now.
         peak_floor_kw : peak already incurred in this billing period [kW] (billing-period PPP).
+        allowance_carry_steps : periods from now that still belong to the recovery of an IL
+            event that just ended: their end temperatures may use the event allowance α.
         """
         ...
 

@@ -104,7 +104,14 @@ class ThermostatController:
             x_degc, forecast.disturbances[0], self.target_degc(forecast), occupied
         )
 
-    def act(self, x_degc: FloatArray, forecast: Forecast, *, peak_floor_kw: float) -> Action:
+    def act(
+        self,
+        x_degc: FloatArray,
+        forecast: Forecast,
+        *,
+        peak_floor_kw: float,
+        allowance_carry_steps: int = 0,
+    ) -> Action:
         return unplanned_action(
             self._model,
             x_degc,

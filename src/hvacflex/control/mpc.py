@@ -10,7 +10,10 @@ This is the only place that turns a building and its forecast into an
   the bands of periods k and k + 1, so that the instant occupancy starts (and ends) is
   inside the occupied band,
 * σ from the scenario's uncertainty box (zero for the nominal MPC),
-* prices, the peak-power price φ and, in billing-period mode, the month's peak so far.
+* prices, the peak-power price φ and, in billing-period mode, the month's peak so far,
+* the interruptible-load contract of the scenario's ``[reserve]`` table: the event length D,
+  the allowance α, the recovery R, and the recovery steps c still running from an event that
+  just ended (``RMPCProblem.il_*``); ``None`` for D keeps the whole-horizon model.
 
 One warm-started solver is kept across steps. When a solve does not return an optimal plan,
 the controller falls back to the previous plan shifted by one step, else to the thermostat,
@@ -26,8 +29,8 @@ import numpy as np
 from hvacflex.building.discretize import LinearModel
 from hvacflex.building.hvac import affine_power_model
 from hvacflex.building.model import Building
-from hvacflex.config import ControllerConfig
-from hvacflex.control.base import Action, FloatArray
+from hvacflex.config import ControllerConfig, ReserveConfig
+from hvacflex.control.base import Action, EventPlan, FloatArray
 from hvacflex.control.baselines import ThermostatController, unplanned_action
 from hvacflex.data.forecast import Forecast
 from hvacflex.data.uncertainty import UncertaintyBox
@@ -77,6 +80,7 @@ class MPCController:
     config : controller settings (robust mode, reserve, φ, billing mode, ρ, horizon).
     box : the forecast-error box; ignored when ``config.robust == "none"``.
     linearisation_temp_degc : T₀ used for the power coefficients [°C].
+    reserve : the IL contract (event length, allowance, recovery); default: whole horizon.
     """
 
     def __init__(
@@ -86,8 +90,10 @@ class MPCController:
         config: ControllerConfig,
         box: UncertaintyBox,
         linearisation_temp_degc: float,
+        reserve: ReserveConfig | None = None,
     ) -> None:
         self._building = building
+        self._reserve = reserve if reserve is not None else ReserveConfig()
         self._model = model
         self._config = config
         self._box = box
@@ -111,8 +117,15 @@ class MPCController:
         """(m,) bool: zones allowed to offer reserve."""
         return self._mask
 
-    def problem(self, x_degc: FloatArray, forecast: Forecast, peak_floor_kw: float) -> RMPCProblem:
-        """The RMPC problem for the period starting now."""
+    def problem(
+        self,
+        x_degc: FloatArray,
+        forecast: Forecast,
+        peak_floor_kw: float,
+        allowance_carry_steps: int = 0,
+    ) -> RMPCProblem:
+        """The RMPC problem for the period starting now (``allowance_carry_steps``: see
+        :meth:`hvacflex.control.base.Controller.act`; ignored under the whole-horizon model)."""
         cfg, m = self._config, self._model
         horizon = cfg.horizon_steps
         d_hat = forecast.disturbances[:horizon]
@@ -140,6 +153,7 @@ class MPCController:
         if not cfg.reserve:
             reserve_price = np.zeros_like(reserve_price)
         floor = peak_floor_kw if cfg.billing_mode == "billing-period" else 0.0
+        events = self._reserve.event_max_steps is not None
         return RMPCProblem(
             a_matrix=m.a,
             b_matrix=m.b,
@@ -170,10 +184,25 @@ class MPCController:
                 if cfg.robust == "feedback"
                 else None
             ),
+            il_event_max_steps=(
+                min(self._reserve.event_max_steps, horizon)
+                if self._reserve.event_max_steps is not None
+                else None
+            ),
+            il_event_allowance_kelvin=self._reserve.event_allowance_k if events else 0.0,
+            il_event_recovery_steps=self._reserve.event_recovery_steps if events else 0,
+            il_allowance_carry_steps=min(allowance_carry_steps, horizon) if events else 0,
         )
 
-    def act(self, x_degc: FloatArray, forecast: Forecast, *, peak_floor_kw: float) -> Action:
-        problem = self.problem(x_degc, forecast, peak_floor_kw)
+    def act(
+        self,
+        x_degc: FloatArray,
+        forecast: Forecast,
+        *,
+        peak_floor_kw: float,
+        allowance_carry_steps: int = 0,
+    ) -> Action:
+        problem = self.problem(x_degc, forecast, peak_floor_kw, allowance_carry_steps)
         if self._solver is None:
             solver_class = FeedbackSolver if problem.robust == "feedback" else RMPCSolver
             self._solver = solver_class(problem, time_limit_s=self._config.time_limit_s)
@@ -201,8 +230,35 @@ class MPCController:
                 delta_max_k=float(np.max(solution.delta, initial=0.0)),
                 predicted_served_degc=c @ solution.x_served[1],
                 predicted_curtailed_degc=c @ solution.x_curtailed[1],
+                event_plan=self._event_plan(problem, solution),
             )
         return self._fallback(x_degc, forecast, solution)
+
+    def _event_plan(self, problem: RMPCProblem, solution: RMPCSolution) -> EventPlan | None:
+        """The first D + R steps of an optimal plan, for an IL event starting now.
+
+        Flows are snapped onto the physical limits as the first step's are. ``None`` under the
+        whole-horizon model (an activation then curtails each period's fresh plan).
+        """
+        reserve = self._reserve
+        if reserve.event_max_steps is None:
+            return None
+        steps = min(reserve.event_max_steps + reserve.event_recovery_steps, solution.u.shape[0])
+        low = np.asarray(problem.u_min, dtype=float)[:steps]
+        flow = np.clip(solution.u[:steps], low, self._flow_max)
+        flow_reserve = np.clip(solution.r[:steps], 0.0, flow - low)
+        flow_reserve[flow_reserve < RESERVE_FLOW_TOLERANCE_KG_S] = 0.0
+        coeff = np.asarray(problem.power_coeff_kw_per_kg_s, dtype=float)[:steps]
+        offset = np.asarray(problem.power_offset_kw, dtype=float)[:steps]
+        c = self._model.c
+        return EventPlan(
+            flow_kg_s=flow,
+            reserve_flow_kg_s=flow_reserve,
+            served_power_kw=offset + np.einsum("km,km->k", coeff, flow),
+            reserve_kw=np.einsum("km,km->k", coeff, flow_reserve),
+            predicted_served_degc=solution.x_served[1 : steps + 1] @ c.T,
+            predicted_curtailed_degc=solution.x_curtailed[1 : steps + 1] @ c.T,
+        )
 
     def _fallback(self, x_degc: FloatArray, forecast: Forecast, failed: RMPCSolution) -> Action:
         """Previous plan shifted by one step if it reaches this far, else the thermostat."""

@@ -40,13 +40,10 @@ from typing import Any, Literal, get_args
 import numpy as np
 
 from hvacflex.building.channels import CHANNEL_UNITS, DisturbanceChannel
+from hvacflex.constants import AR1_COEFFICIENT as AR1_COEFFICIENT
 from hvacflex.errors import ConfigError
 
 SamplerMode = Literal["zero", "uniform", "worst-upper", "worst-lower", "ar1"]
-
-AR1_COEFFICIENT = 0.9
-"""Default lag-one autocorrelation of AR(1) disturbance errors per 30-min step [-]
-(a correlation time of about 5 h)."""
 
 
 def check_ar1_coefficient(ar1_coefficient: float) -> None:

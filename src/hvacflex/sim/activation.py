@@ -1,9 +1,16 @@
-"""When interruptible load (IL) is activated.
+"""When the grid operator activates the interruptible load (IL).
 
-The grid operator activates the reserve it bought; the building must then run its reduced
-flows u − r for the activation's duration. Policies: never, always, random (seeded, an
-activation starts in a period with probability ``rate`` and lasts ``duration_steps``), or
-read from a CSV file with columns ``time`` (period start, ISO 8601) and ``activated`` (0/1).
+The grid operator activates the reserve it bought after a contingency; the building then
+curtails its consumption (:mod:`hvacflex.sim.closed_loop` says how). Modes:
+
+* ``never``;
+* ``random``: activations start at ``events_per_year`` (a Poisson process of that rate,
+  seeded), each lasting 1 … D periods (uniform), never overlapping and separated by at least
+  one period so that each stays one event;
+* ``stress``: the same at about one event a day (:data:`STRESS_EVENTS_PER_YEAR`);
+* ``file``: a CSV with columns ``time`` (period start, ISO 8601) and ``activated`` (0/1);
+* ``always``: every period, the paper's literal case (under the event model the periods after
+  the first D are beyond the model and counted as such).
 """
 
 from __future__ import annotations
@@ -15,34 +22,78 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
-from hvacflex.config import ActivationConfig
+from hvacflex.config import NEMS_MAX_INTERRUPTION_STEPS, ActivationConfig
+from hvacflex.config.model import STRESS_EVENTS_PER_YEAR
 from hvacflex.errors import DataError
+from hvacflex.units import SECONDS_PER_HOUR
 
 BoolArray = npt.NDArray[np.bool_]
 
+HOURS_PER_YEAR = 8760.0
+"""Hours in a (non-leap) year: the unit of ``events_per_year``."""
+
+_SEED_STREAM = 0xA11
+"""Mixed into the scenario seed so the activation draws are independent of the others."""
+
 
 def activation_schedule(
-    config: ActivationConfig, index: pd.DatetimeIndex, *, seed: int
+    config: ActivationConfig,
+    index: pd.DatetimeIndex,
+    *,
+    seed: int,
+    max_steps: int | None = None,
 ) -> BoolArray:
-    """(T,) bool: True in the periods of ``index`` where IL is activated."""
+    """(T,) bool: True in the periods of ``index`` where IL is activated.
+
+    Parameters
+    ----------
+    config : the ``[activation]`` table.
+    index : (T,) the run's period starts (tz-aware, 30 min apart).
+    seed : the scenario seed (``random`` and ``stress``).
+    max_steps : longest random activation D [periods]; ``None`` = ``config.duration_steps``,
+        else the NEMS 120-min rule (4 periods).
+    """
     steps = len(index)
+    longest = max_steps or config.duration_steps or NEMS_MAX_INTERRUPTION_STEPS
     if config.mode == "never":
         return np.zeros(steps, dtype=bool)
     if config.mode == "always":
         return np.ones(steps, dtype=bool)
-    if config.mode == "random":
-        return _random_schedule(steps, config.rate, config.duration_steps, seed)
+    if config.mode in ("random", "stress"):
+        rate = STRESS_EVENTS_PER_YEAR if config.mode == "stress" else config.events_per_year
+        return random_events(steps, rate, longest, seed, step_h=_step_hours(index))
     if config.file is None:  # guarded by config validation; kept for the type checker
         raise DataError("activation mode 'file' needs a file", field="activation.file")
     return read_activation_file(Path(config.file), index)
 
 
-def _random_schedule(steps: int, rate: float, duration_steps: int, seed: int) -> BoolArray:
-    rng = np.random.default_rng([seed, 0xA11])
-    starts = rng.random(steps) < rate
+def _step_hours(index: pd.DatetimeIndex) -> float:
+    if len(index) < 2:
+        return 0.5
+    return float((index[1] - index[0]).total_seconds()) / SECONDS_PER_HOUR
+
+
+def random_events(
+    steps: int, events_per_year: float, max_steps: int, seed: int, *, step_h: float = 0.5
+) -> BoolArray:
+    """(T,) bool: seeded random activations, none overlapping.
+
+    An event may start in a free period with probability ``events_per_year · Δt / 8760``; it
+    lasts a uniform 1 … ``max_steps`` periods, and the next may start one period after its
+    end at the earliest (two events never merge into one longer block).
+    """
+    rng = np.random.default_rng([seed, _SEED_STREAM])
+    start_draws = rng.random(steps)
+    durations = rng.integers(1, max_steps + 1, size=steps)
+    probability = min(events_per_year * step_h / HOURS_PER_YEAR, 1.0)
     active = np.zeros(steps, dtype=bool)
-    for start in np.flatnonzero(starts):
-        active[start : start + duration_steps] = True
+    free_from = 0
+    for start in np.flatnonzero(start_draws < probability).tolist():
+        if start < free_from:
+            continue
+        length = int(durations[start])
+        active[start : start + length] = True
+        free_from = start + length + 1
     return active
 
 

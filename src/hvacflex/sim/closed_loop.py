@@ -3,7 +3,10 @@
 Every 30 minutes (DESIGN §4): forecast → controller (MPC solve or rule) → the first step
 is applied to the exact nonlinear plant under the realised disturbance d̂ + w (w drawn in
 the uncertainty box) → measure → repeat. When interruptible load is activated the plant runs
-u − r for the period; the reserve capacity p₀ᵀr₀ is paid whether activated or not.
+u − r: under the event model the locked plan of the event's first period for at most D
+periods, under the whole-horizon model each period's fresh plan (:mod:`hvacflex.sim.events`).
+The reserve capacity scheduled is paid whether activated or not; delivery is settled in
+:mod:`hvacflex.kpi`.
 
 Each row of the output (``results.parquet``, schema in ``docs/architecture.md``) describes one
 period. Both counterfactual plant steps are computed each period (served: u, curtailed: u − r)
@@ -49,6 +52,8 @@ from hvacflex.errors import ConfigError, HvacflexError, StoredStateError
 from hvacflex.kpi import RESULTS_FILENAME as RESULTS_FILE
 from hvacflex.paths import resolve_building
 from hvacflex.sim.activation import activation_schedule
+from hvacflex.sim.events import EventTracker, PeriodOutcome, Role
+from hvacflex.sim.progress import progress_bar
 from hvacflex.version import atomic_write, atomic_write_bytes, atomic_write_text, code_version
 
 CHECKPOINT_FILE = "checkpoint.pkl"
@@ -150,7 +155,9 @@ def prepare(config: ScenarioConfig) -> Setup:
         exogenous=exogenous,
         forecaster=Forecaster(exogenous),
         box=box,
-        activation=activation_schedule(config.activation, index, seed=config.seed),
+        activation=activation_schedule(
+            config.activation, index, seed=config.seed, max_steps=config.activation_max_steps
+        ),
         linearisation_temp_degc=temp_ref,
     )
 
@@ -161,11 +168,26 @@ def make_controller(setup: Setup) -> Controller:
     hvac = setup.building.hvac
     if cfg.kind == "thermostat":
         return ThermostatController(setup.model, hvac, cfg.thermostat_setpoint_degc)
-    return MPCController(setup.building, setup.model, cfg, setup.box, setup.linearisation_temp_degc)
+    return MPCController(
+        setup.building,
+        setup.model,
+        cfg,
+        setup.box,
+        setup.linearisation_temp_degc,
+        reserve=setup.config.reserve,
+    )
 
 
 class _Recorder:
     """Preallocated per-step columns (cheap to fill, to checkpoint and to turn into a frame)."""
+
+    FLAG_COLUMNS: tuple[str, ...] = (
+        "il_activated",
+        "il_curtailed",
+        "il_beyond_model",
+        "il_event_window",
+        "fallback",
+    )
 
     def __init__(self, steps: int, zones: tuple[str, ...], channels: tuple[str, ...]) -> None:
         self.float_columns = [
@@ -180,6 +202,9 @@ class _Recorder:
             "solve_time_s",
             "planned_slack_max_k",
             "delta_max_k",
+            "il_allowance_k",
+            "il_reference_power_kw",
+            "il_penalty_price_sgd_per_mwh",
         ]
         for zone in zones:
             self.float_columns += [
@@ -195,16 +220,15 @@ class _Recorder:
         self.float_columns += [f"d_{c}" for c in channels] + [f"w_{c}" for c in channels]
         self.column_index = {name: i for i, name in enumerate(self.float_columns)}
         self.values = np.full((steps, len(self.float_columns)), np.nan)
-        self.il_activated = np.zeros(steps, dtype=bool)
-        self.fallback = np.zeros(steps, dtype=bool)
+        self.flags = {name: np.zeros(steps, dtype=bool) for name in self.FLAG_COLUMNS}
         self.status = np.empty(steps, dtype=object)
 
     def frame(self, index: pd.DatetimeIndex, steps_done: int) -> pd.DataFrame:
         frame = pd.DataFrame(
             self.values[:steps_done], index=index[:steps_done], columns=self.float_columns
         )
-        frame["il_activated"] = self.il_activated[:steps_done]
-        frame["fallback"] = self.fallback[:steps_done]
+        for name, flags in self.flags.items():
+            frame[name] = flags[:steps_done]
         frame["solve_status"] = pd.Series(
             self.status[:steps_done], index=frame.index, dtype="string"
         )
@@ -248,6 +272,13 @@ class ClosedLoop:
             i for i, ch in enumerate(setup.model.channels) if ch.kind == "outdoor_temp"
         )
         self.timing_s = {"controller": 0.0, "plant": 0.0, "record": 0.0}
+        reserve = cfg.reserve
+        events = reserve.event_max_steps is not None
+        self.events = EventTracker(
+            reserve.event_max_steps,
+            reserve.event_recovery_steps if events else 0,
+            reserve.event_allowance_k if events else 0.0,
+        )
 
     # -- one period -------------------------------------------------------------------
     def step(self) -> None:
@@ -260,7 +291,20 @@ class ClosedLoop:
         t0 = time.perf_counter()
         # one period beyond the horizon: the band at the end of the last planned period
         forecast = setup.forecaster.forecast(k, setup.config.controller.horizon_steps + 1)
-        action = self.controller.act(self.x, forecast, peak_floor_kw=self.month_peak_kw)
+        activated = bool(setup.activation[k])
+        role = self.events.role(activated)
+        if role is Role.EVENT_LOCKED:
+            action = self.events.locked_action()
+        else:
+            action = self.controller.act(
+                self.x,
+                forecast,
+                peak_floor_kw=self.month_peak_kw,
+                allowance_carry_steps=self.events.carry_steps,
+            )
+        if role is Role.EVENT_START:
+            self.events.lock(action.event_plan)
+        outcome = self.events.finish(role, action)
         t1 = time.perf_counter()
 
         d_hat = exo.disturbances[k]
@@ -282,13 +326,12 @@ class ClosedLoop:
             power_curtailed = self.power_fn(k, curtailed_flow, mean_curtailed, t_out, humidity)
         else:  # no reserve offered: activation changes nothing
             x_curtailed, power_curtailed = x_served, power_served
-        activated = bool(setup.activation[k])
-        x_next = x_curtailed if activated else x_served
-        power = power_curtailed if activated else power_served
+        x_next = x_curtailed if outcome.curtailed else x_served
+        power = power_curtailed if outcome.curtailed else power_served
         t2 = time.perf_counter()
 
         self._record(k, action, forecast, d_hat, w, x_next, power, power_served, power_curtailed)
-        self.recorder.il_activated[k] = activated
+        self._record_event(k, activated, outcome)
         self.month_peak_kw = max(self.month_peak_kw, power)
         self.x = x_next
         self.k += 1
@@ -311,6 +354,17 @@ class ClosedLoop:
                 self.setup.building.hvac, flow, zone_mean_degc, outdoor_temp_degc, humidity
             )
         )
+
+    def _record_event(self, k: int, activated: bool, outcome: PeriodOutcome) -> None:
+        rec, col = self.recorder, self.recorder.column_index
+        rec.flags["il_activated"][k] = activated
+        rec.flags["il_curtailed"][k] = outcome.curtailed
+        rec.flags["il_beyond_model"][k] = outcome.beyond_model
+        rec.flags["il_event_window"][k] = outcome.event_window
+        rec.values[k, col["il_allowance_k"]] = outcome.allowance_k
+        rec.values[k, col["il_reference_power_kw"]] = outcome.reference_power_kw
+        penalty = self.setup.config.reserve.non_delivery_penalty_sgd_per_mwh
+        rec.values[k, col["il_penalty_price_sgd_per_mwh"]] = penalty
 
     def _record(
         self,
@@ -353,7 +407,7 @@ class ClosedLoop:
         nd = len(d_hat)
         row[first_d : first_d + nd] = d_hat
         row[first_d + nd : first_d + 2 * nd] = w
-        rec.fallback[k] = action.fallback
+        rec.flags["fallback"][k] = action.fallback
         rec.status[k] = action.status
 
     # -- checkpoints ------------------------------------------------------------------
@@ -368,9 +422,9 @@ class ClosedLoop:
             "month_peak_kw": self.month_peak_kw,
             "sampler": self.sampler.get_state(),
             "controller": self.controller.get_state(),
+            "events": self.events.get_state(),
             "values": rec.values[: self.k].copy(),
-            "il_activated": rec.il_activated[: self.k].copy(),
-            "fallback": rec.fallback[: self.k].copy(),
+            "flags": {name: flags[: self.k].copy() for name, flags in rec.flags.items()},
             "status": rec.status[: self.k].copy(),
         }
 
@@ -388,8 +442,9 @@ class ClosedLoop:
         self.controller.set_state(state["controller"])
         rec = self.recorder
         rec.values[:k] = state["values"]
-        rec.il_activated[:k] = state["il_activated"]
-        rec.fallback[:k] = state["fallback"]
+        self.events.set_state(state["events"])
+        for name, flags in state["flags"].items():
+            rec.flags[name][:k] = flags
         rec.status[:k] = state["status"]
 
     def save_checkpoint(self, path: Path) -> None:
@@ -591,7 +646,7 @@ def run_simulation(
 
     last = loop.steps if stop_after_steps is None else min(loop.steps, stop_after_steps)
     try:
-        with _progress_bar(progress, config.name, loop.steps, loop.k) as advance:
+        with progress_bar(progress, config.name, loop.steps, loop.k) as advance:
             while loop.k < last:
                 loop.step()
                 advance()
@@ -624,50 +679,3 @@ def _steps_per_second(loop: ClosedLoop, steps_timed: int) -> float:
     """Steps per second of wall time over the ``steps_timed`` steps ``loop.timing_s`` covers."""
     total = sum(loop.timing_s.values())
     return steps_timed / total if total > 0 else float("nan")
-
-
-class _progress_bar:
-    """A rich progress bar with steps/s and ETA, or nothing when quiet."""
-
-    def __init__(self, enabled: bool, name: str, total: int, done: int) -> None:
-        self.enabled = enabled and total > 1
-        self.name, self.total, self.done = name, total, done
-
-    def __enter__(self) -> Callable[[], None]:
-        if not self.enabled:
-            return lambda: None
-        from rich.progress import (
-            BarColumn,
-            MofNCompleteColumn,
-            Progress,
-            TextColumn,
-            TimeRemainingColumn,
-        )
-
-        self._progress = Progress(
-            TextColumn("[bold]{task.description}"),
-            BarColumn(),
-            MofNCompleteColumn(),
-            TextColumn("{task.fields[rate]}"),
-            TimeRemainingColumn(),
-            transient=False,
-        )
-        self._progress.start()
-        self._task = self._progress.add_task(
-            self.name, total=self.total, completed=self.done, rate=""
-        )
-        self._t0 = time.perf_counter()
-        self._n = 0
-
-        def advance() -> None:
-            self._n += 1
-            if self._n % 10 == 0:
-                rate = self._n / (time.perf_counter() - self._t0)
-                self._progress.update(self._task, advance=10, rate=f"{rate:6.1f} steps/s")
-
-        return advance
-
-    def __exit__(self, *exc: object) -> None:
-        if self.enabled:
-            self._progress.update(self._task, completed=self.done + self._n)
-            self._progress.stop()

@@ -1,0 +1,292 @@
+"""Scenario configuration: one TOML file ties a closed-loop run together.
+
+A scenario names the building, the period, the controller (nominal or robust MPC, or the
+thermostat baseline), the interruptible-load contract (``[reserve]``), the uncertainty box of
+the forecast errors, how the realised errors are drawn, when interruptible load (IL) is
+activated, the data files and the comfort band. Every field has a default, so a scenario
+file states only what differs; unknown keys are errors. The file format is the pydantic
+schema of :mod:`hvacflex.config.schema`; the domain objects are the frozen dataclasses of
+:mod:`hvacflex.config.model`; the named presets (:mod:`hvacflex.config.presets`) reproduce
+the paper's scenarios, with the product's event model or the paper's whole-horizon one.
+
+Example ``scenario.toml``::
+
+    preset = "rmpc-ppp"          # start from a preset, then override
+    building = "office5"
+    start = "2014-03-01"
+    days = 7
+
+    [controller]
+    peak_price_sgd_per_kw = 2.0
+
+    [reserve]                    # IL events of up to 2 h, +1 K during and 1 h after
+    event_max_steps = 4
+    event_allowance_k = 1.0
+    event_recovery_steps = 2
+
+    [uncertainty]
+    relative = { solar = 0.3, internal_gain = 0.3 }
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import fields, is_dataclass, replace
+from pathlib import Path
+from typing import Any
+
+from pydantic import BaseModel, ValidationError
+from pydantic_core import ErrorDetails
+
+from hvacflex.config.model import (
+    NEMS_MAX_INTERRUPTION_STEPS,
+    ActivationConfig,
+    ActivationMode,
+    BillingMode,
+    ComfortConfig,
+    ControllerConfig,
+    ControllerKind,
+    DataConfig,
+    FeedbackConfig,
+    PriceGapFill,
+    RealisationConfig,
+    RealisationMode,
+    ReserveConfig,
+    ScenarioConfig,
+    UncertaintyConfig,
+)
+from hvacflex.config.presets import (
+    DEFAULT_PEAK_PRICE_PAPER_SGD_PER_KW,
+    PAPER_MODEL_SCENARIOS,
+    PAPER_SCENARIOS,
+    PRESET_NAMES,
+    PRESETS,
+)
+from hvacflex.config.schema import RENAMED_KEYS, RULE_ERROR, ScenarioSpec, to_domain
+from hvacflex.errors import ConfigError
+from hvacflex.opt.options import (
+    DEFAULT_COMFORT_PENALTY_SGD_PER_KELVIN_HOUR,
+    FeedbackStructure,
+    RobustMode,
+)
+from hvacflex.tomlio import read_toml
+
+__all__ = [
+    "DEFAULT_COMFORT_PENALTY_SGD_PER_KELVIN_HOUR",
+    "DEFAULT_PEAK_PRICE_PAPER_SGD_PER_KW",
+    "LINEARISATION_MARGIN_K",
+    "NEMS_MAX_INTERRUPTION_STEPS",
+    "PAPER_MODEL_SCENARIOS",
+    "PAPER_SCENARIOS",
+    "PRESET_NAMES",
+    "ActivationConfig",
+    "ActivationMode",
+    "BillingMode",
+    "ComfortConfig",
+    "ControllerConfig",
+    "ControllerKind",
+    "DataConfig",
+    "FeedbackConfig",
+    "FeedbackStructure",
+    "PriceGapFill",
+    "RealisationConfig",
+    "RealisationMode",
+    "ReserveConfig",
+    "RobustMode",
+    "ScenarioConfig",
+    "UncertaintyConfig",
+    "load_config",
+    "preset",
+    "scaled_uncertainty",
+    "scenario_error",
+    "with_overrides",
+]
+
+LINEARISATION_MARGIN_K = 1.0
+"""Default T₀ sits this far below the occupied upper bound [K].
+
+DESIGN §1 recommends T₀ = the occupied lower bound (23 °C), which never over-predicts the
+cooling of the supply air while T_r ≥ T₀. But the MPC spends its occupied hours near the
+upper bound, where that choice under-predicts the cooling by (26 − 23)/(26 − 13) ≈ 23 %: the
+plant then runs colder than planned, the nominal MPC buys that margin on every step, and the
+margin hides the forecast errors the robust MPC is there to handle (measured: nominal MPC
+cost +5 % and no comfort violation at any box size up to 10 %). One kelvin below the upper
+bound keeps the linearisation conservative where it matters (T_r ≥ 25 °C, near the upper
+bound) and its non-conservative side self-limiting (below 25 °C the zone is at least 1 K
+from the upper bound and the error is ≤ about 0.4 K per kelvin at full flow). See the note
+in ``docs/reproduction.md``."""
+
+_MESSAGES: dict[str, str] = {
+    "extra_forbidden": "unknown key",
+    "float_type": "must be a number",
+    "float_parsing": "must be a number",
+    "finite_number": "must be a finite number",
+    "int_type": "must be an integer",
+    "string_type": "must be a string",
+    "bool_type": "must be true or false",
+    "literal_error": "invalid choice",
+    "tuple_type": "must be a pair [lower, upper]",
+    "too_short": "must be a pair [lower, upper]",
+    "too_long": "must be a pair [lower, upper]",
+    "dict_type": "must be a table",
+    "model_type": "must be a table",
+    "model_attributes_type": "must be a table",
+    "greater_than": "must be > {gt:g}",
+    "greater_than_equal": "must be ≥ {ge:g}",
+    "less_than": "must be < {lt:g}",
+    "less_than_equal": "must be ≤ {le:g}",
+}
+"""Our wording of pydantic's error types (``ctx`` fills the braces)."""
+
+
+def preset(name: str, **overrides: Any) -> ScenarioConfig:
+    """A named preset, with optional overrides (dotted keys, e.g. ``controller.robust``).
+
+    >>> preset("rmpc-ppp", days=2).controller.peak_price_sgd_per_kw
+    1.5
+    """
+    if name not in PRESETS:
+        raise ConfigError(
+            "unknown scenario preset",
+            field="scenario",
+            value=name,
+            hint=f"use one of {list(PRESET_NAMES)}",
+        )
+    cfg = _validate({"name": name, **PRESETS[name]}, source="preset")
+    return with_overrides(cfg, overrides) if overrides else cfg
+
+
+def load_config(path: str | Path) -> ScenarioConfig:
+    """Load a scenario TOML file (optionally starting from ``preset = "..."``).
+
+    Raises
+    ------
+    ConfigError : naming the file, the field path, the value and a hint.
+    """
+    path = Path(path)
+    raw = read_toml(path, what="scenario")
+    base_name = raw.pop("preset", None)
+    base: dict[str, Any] = {}
+    if base_name is not None:
+        if base_name not in PRESETS:
+            raise ConfigError(
+                "unknown preset",
+                source=path,
+                field="preset",
+                value=base_name,
+                hint=f"use one of {list(PRESET_NAMES)}",
+            )
+        base = {"name": base_name, **PRESETS[base_name]}
+    merged = _deep_merge(base, raw)
+    merged.setdefault("name", path.stem)
+    return _validate(merged, source=path)
+
+
+def with_overrides(cfg: ScenarioConfig, overrides: Mapping[str, Any]) -> ScenarioConfig:
+    """A copy with fields replaced; keys are dotted paths or unique leaf names.
+
+    ``{"peak_price_sgd_per_kw": 2.0}`` and ``{"controller.peak_price_sgd_per_kw": 2.0}`` are
+    the same override. Values are validated like file input.
+    """
+    data = cfg.to_dict()
+    for key, value in overrides.items():
+        path = _resolve_key(key)
+        node = data
+        for part in path[:-1]:
+            node = node[part]
+        node[path[-1]] = value
+    return _validate(data, source="override")
+
+
+def scaled_uncertainty(cfg: ScenarioConfig, level: float) -> ScenarioConfig:
+    """The scenario with σ = ``level`` × the heat gains (solar, internal), keeping T_out's σ."""
+    unc = replace(cfg.uncertainty, relative={"solar": level, "internal_gain": level})
+    return replace(cfg, uncertainty=unc)
+
+
+def _validate(document: Mapping[str, Any], *, source: str | Path) -> ScenarioConfig:
+    """A scenario document (parsed TOML, preset, overridden dict) → :class:`ScenarioConfig`."""
+    try:
+        spec = ScenarioSpec.model_validate(dict(document))
+    except ValidationError as exc:
+        raise scenario_error(exc, source) from None
+    config: ScenarioConfig = to_domain(spec)
+    return config
+
+
+def scenario_error(exc: ValidationError, source: str | Path) -> ConfigError:
+    """The first problem of a schema ``ValidationError`` as a ``ConfigError``.
+
+    The field path joins pydantic's location (``uncertainty.relative.wind``), extended by the
+    field a cross-field rule names; an unknown key is reported first (a misspelt key is the
+    likelier mistake), with the valid keys of its table or the key that replaced it.
+    """
+    errors = exc.errors(include_url=False)
+    error: ErrorDetails = next((e for e in errors if e["type"] == "extra_forbidden"), errors[0])
+    ctx: dict[str, Any] = dict(error.get("ctx") or {})
+    loc = tuple(str(part) for part in error["loc"] if part != "[key]")
+    value: object = error["input"]
+    hint: str | None = None
+    if error["type"] == RULE_ERROR:
+        loc += tuple(filter(None, str(ctx["field"]).split(".")))
+        message, value, hint = str(ctx["message"]), ctx["value"], ctx["hint"]
+    elif error["type"] == "extra_forbidden":
+        message, hint = "unknown key", _unknown_key_hint(loc)
+    elif error["type"] in ("missing", "too_short", "too_long") and loc[-1].isdigit():
+        loc, message = loc[:-1], "must be a pair [lower, upper]"  # a comfort band
+    else:
+        template = _MESSAGES.get(error["type"])
+        message = template.format(**ctx) if template else error["msg"]
+        if "expected" in ctx:
+            hint = f"use one of {ctx['expected']}"
+    return ConfigError(message, source=source, field=".".join(loc), value=value, hint=hint)
+
+
+def _unknown_key_hint(loc: tuple[str, ...]) -> str | None:
+    renamed = RENAMED_KEYS.get((loc[-2], loc[-1])) if len(loc) >= 2 else None
+    if renamed is not None:
+        return f"this key was replaced by {loc[-2]}.{renamed}"
+    model: type[BaseModel] = ScenarioSpec
+    for part in loc[:-1]:
+        annotation = model.model_fields[part].annotation if part in model.model_fields else None
+        if not (isinstance(annotation, type) and issubclass(annotation, BaseModel)):
+            return None  # inside a table of disturbance kinds
+        model = annotation
+    return f"valid keys here: {sorted(model.model_fields)}"
+
+
+def _leaf_paths(obj: Any, prefix: tuple[str, ...] = ()) -> list[tuple[str, ...]]:
+    out: list[tuple[str, ...]] = []
+    for f in fields(obj):
+        value = getattr(obj, f.name)
+        if is_dataclass(value):
+            out += _leaf_paths(value, (*prefix, f.name))
+        else:
+            out.append((*prefix, f.name))
+    return out
+
+
+def _resolve_key(key: str) -> tuple[str, ...]:
+    leaves = _leaf_paths(ScenarioConfig())
+    dotted = tuple(key.split("."))
+    if dotted in leaves:
+        return dotted
+    matches = [p for p in leaves if p[-len(dotted) :] == dotted]
+    if len(matches) == 1:
+        return matches[0]
+    valid = sorted(".".join(p) for p in leaves)
+    raise ConfigError(
+        "unknown or ambiguous setting" if matches else "unknown setting",
+        field=key,
+        hint=f"valid settings: {', '.join(valid)}",
+    )
+
+
+def _deep_merge(base: dict[str, Any], top: Mapping[str, Any]) -> dict[str, Any]:
+    out = dict(base)
+    for key, value in top.items():
+        if isinstance(value, Mapping) and isinstance(out.get(key), Mapping):
+            out[key] = _deep_merge(dict(out[key]), value)
+        else:
+            out[key] = value
+    return out

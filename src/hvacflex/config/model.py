@@ -1,0 +1,212 @@
+"""The scenario's domain objects: frozen dataclasses, one per table of the scenario TOML.
+
+These are what the rest of the package reads (``ScenarioConfig`` & co.); the file format and
+its validation live in :mod:`hvacflex.config.schema`, which takes its defaults from here.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from collections.abc import Mapping
+from dataclasses import asdict, dataclass, field
+from typing import Any, Literal
+
+import pandas as pd
+
+from hvacflex.constants import AR1_COEFFICIENT, HORIZON_STEPS, TIMEZONE
+from hvacflex.opt.options import (
+    DEFAULT_COMFORT_PENALTY_SGD_PER_KELVIN_HOUR,
+    FeedbackStructure,
+    RobustMode,
+)
+
+ControllerKind = Literal["mpc", "thermostat"]
+BillingMode = Literal["horizon", "billing-period"]
+RealisationMode = Literal["zero", "uniform", "worst-upper", "worst-lower", "ar1"]
+ActivationMode = Literal["never", "always", "random", "stress", "file"]
+PriceGapFill = Literal["none", "previous-day"]
+DisturbanceKind = Literal["outdoor_temp", "solar", "internal_gain", "ground_temp"]
+
+NEMS_MAX_INTERRUPTION_STEPS = 4
+"""The NEMS 120-minute rule (since 2019): after four 30-min periods of interruption the
+provider may resume consumption. The product presets plan for events of up to this length."""
+
+DEFAULT_EVENTS_PER_YEAR = 4.0
+"""Rate of random IL activations [events per year]: contingencies are rare."""
+
+STRESS_EVENTS_PER_YEAR = 365.0
+"""Rate of the ``stress`` activation mode [events per year]: about one a day."""
+
+DEFAULT_NON_DELIVERY_PENALTY_SGD_PER_MWH = 4500.0
+"""Penalty on reserve not delivered during an activation [SGD/MWh]: the NEMS energy price
+cap, i.e. the shortfall is charged as if bought at the cap."""
+
+
+@dataclass(frozen=True)
+class FeedbackConfig:
+    """Structure of the affine disturbance-feedback policy (``robust = "feedback"``)."""
+
+    structure: FeedbackStructure = "zone-local"
+    memory_steps: int = 4
+    """Innovations older than this many steps get no gain (every structure but ``"full"``:
+    the memory, and the lags of the time-invariant and zone-local gains)."""
+
+
+@dataclass(frozen=True)
+class ControllerConfig:
+    """How the building is controlled.
+
+    ``robust = "none"`` is the nominal MPC (σ = 0 in the controller); the realised errors are
+    drawn from the scenario's uncertainty box all the same, so nominal and robust runs face
+    the same disturbances.
+    """
+
+    kind: ControllerKind = "mpc"
+    robust: RobustMode = "tightening"
+    reserve: bool = True
+    peak_price_sgd_per_kw: float = 0.0
+    billing_mode: BillingMode = "horizon"
+    comfort_penalty_sgd_per_kelvin_hour: float = DEFAULT_COMFORT_PENALTY_SGD_PER_KELVIN_HOUR
+    horizon_steps: int = HORIZON_STEPS
+    linearisation_temp_degc: float | None = None
+    """T₀ of the VAV linearisation [°C]; ``None`` = the occupied upper comfort bound less
+    ``LINEARISATION_MARGIN_K`` (25 °C for the default band), where the controller operates."""
+    time_limit_s: float = 20.0
+    thermostat_setpoint_degc: float = 24.0
+    feedback: FeedbackConfig = field(default_factory=FeedbackConfig)
+
+
+@dataclass(frozen=True)
+class ReserveConfig:
+    """The interruptible-load (IL) contract the controller plans for (``[reserve]``).
+
+    ``event_max_steps = None`` is the paper's whole-horizon model: the curtailed trajectory
+    u − r must keep the strict comfort band for the whole horizon. An integer D is the event
+    model: at most one activation of up to D consecutive 30-min periods in the horizon, during
+    which and ``event_recovery_steps`` periods after which the upper comfort bound widens by
+    ``event_allowance_k``. See ``docs/il_events.md``.
+    """
+
+    event_max_steps: int | None = None
+    event_allowance_k: float = 0.0
+    event_recovery_steps: int = 0
+    non_delivery_penalty_sgd_per_mwh: float = DEFAULT_NON_DELIVERY_PENALTY_SGD_PER_MWH
+    """Price of reserve not delivered during an activation [SGD/MWh of shortfall]."""
+
+
+@dataclass(frozen=True)
+class UncertaintyConfig:
+    """Half-widths σ of the forecast-error box, per disturbance kind.
+
+    ``relative`` is a fraction of the forecast value (solar, internal gains); ``absolute`` is
+    in the channel's unit (K for temperatures, W/m² for solar, W for gains). Both add up.
+    The default (±5 % of heat gains, ±0.5 K outdoor) is the largest level the default
+    building satisfies with margin; see ``docs/data.md`` and DESIGN §3.
+    """
+
+    relative: Mapping[str, float] = field(
+        default_factory=lambda: {"solar": 0.05, "internal_gain": 0.05}
+    )
+    absolute: Mapping[str, float] = field(default_factory=lambda: {"outdoor_temp": 0.5})
+
+
+@dataclass(frozen=True)
+class RealisationConfig:
+    """How the simulator draws the realised forecast error w inside the box."""
+
+    mode: RealisationMode = "uniform"
+    ar1_coefficient: float = AR1_COEFFICIENT
+
+
+@dataclass(frozen=True)
+class ActivationConfig:
+    """When the grid operator activates the IL reserve (:mod:`hvacflex.sim.activation`).
+
+    ``never``; ``random``: events at ``events_per_year`` (seeded), each lasting 1 …
+    ``duration_steps`` periods (uniform), never overlapping; ``stress``: the same at about
+    one event a day; ``file``: periods read from a CSV; ``always``: every period (the paper's
+    literal case; under the event model the periods past the event length are counted as
+    beyond the model).
+    """
+
+    mode: ActivationMode = "never"
+    events_per_year: float = DEFAULT_EVENTS_PER_YEAR
+    """Mean number of activations per year (``mode = "random"``)."""
+    duration_steps: int | None = None
+    """Longest activation [30-min periods] of ``random`` and ``stress``; ``None`` = the
+    reserve's ``event_max_steps`` (:data:`NEMS_MAX_INTERRUPTION_STEPS` when that is unset)."""
+    file: str | None = None
+    """CSV with columns ``time`` (period start, ISO 8601) and ``activated`` (0/1)."""
+
+
+@dataclass(frozen=True)
+class DataConfig:
+    """Data files; ``None`` means the shipped default."""
+
+    weather_file: str | None = None
+    usep_source: str | None = None
+    reserve_source: str | None = None
+    reserve_price_scale: float | None = None
+    """Scale of the synthetic reserve price; ``None`` = the calibrated default."""
+    price_gap_fill: PriceGapFill = "none"
+    """Gaps in the price files: ``"none"`` (an error) or ``"previous-day"`` (copy the period)."""
+
+
+@dataclass(frozen=True)
+class ComfortConfig:
+    """Comfort band [°C] in occupied and unoccupied periods."""
+
+    occupied_degc: tuple[float, float] = (23.0, 26.0)
+    unoccupied_degc: tuple[float, float] = (20.0, 30.0)
+
+
+@dataclass(frozen=True)
+class ScenarioConfig:
+    """Everything one closed-loop run needs. Build with ``load_config`` or ``preset``."""
+
+    name: str = "rmpc"
+    building: str = "office5"
+    start: str = "2014-01-01"
+    days: float = 7.0
+    dt_s: float = 1800.0
+    seed: int = 2014
+    initial_temp_degc: float = 25.0
+    controller: ControllerConfig = field(default_factory=ControllerConfig)
+    reserve: ReserveConfig = field(default_factory=ReserveConfig)
+    uncertainty: UncertaintyConfig = field(default_factory=UncertaintyConfig)
+    realisation: RealisationConfig = field(default_factory=RealisationConfig)
+    activation: ActivationConfig = field(default_factory=ActivationConfig)
+    data: DataConfig = field(default_factory=DataConfig)
+    comfort: ComfortConfig = field(default_factory=ComfortConfig)
+
+    @property
+    def steps(self) -> int:
+        """Number of control steps in the run."""
+        return round(self.days * 86400.0 / self.dt_s)
+
+    @property
+    def start_timestamp(self) -> pd.Timestamp:
+        return pd.Timestamp(self.start, tz=TIMEZONE)
+
+    @property
+    def activation_max_steps(self) -> int:
+        """Longest random activation [periods]: ``activation.duration_steps``, else D, else
+        the NEMS 120-min rule."""
+        if self.activation.duration_steps is not None:
+            return self.activation.duration_steps
+        if self.reserve.event_max_steps is not None:
+            return self.reserve.event_max_steps
+        return NEMS_MAX_INTERRUPTION_STEPS
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain, JSON-serialisable dict (tuples become lists)."""
+        data: dict[str, Any] = json.loads(json.dumps(asdict(self)))
+        return data
+
+    def config_hash(self) -> str:
+        """Stable 12-hex-digit hash of every field except ``name`` (used to cache runs)."""
+        payload = self.to_dict()
+        payload.pop("name")
+        text = json.dumps(payload, sort_keys=True)
+        return hashlib.sha256(text.encode()).hexdigest()[:12]

@@ -1,0 +1,74 @@
+"""Named scenario presets: the paper's scenarios and the product's defaults.
+
+A preset is a partial scenario document (the same tables as a scenario TOML file) that
+:func:`hvacflex.config.preset` validates like a file. Product presets plan for interruptible
+load **events** (at most one activation of up to D = 4 periods in the horizon, the NEMS
+120-min rule, with a comfort allowance α during the event and R recovery periods after
+it); the ``paper-*`` presets keep the paper's whole-horizon model (the curtailed trajectory
+inside the strict band for the whole horizon). See ``docs/il_events.md``.
+
+    nmpc               (a) nominal MPC, reserve offered under the event model, φ = 0
+    rmpc               (b) robust MPC (σ from the box), event model, φ = 0
+    rmpc-ppp           (c) robust MPC with a peak-power price φ = 1.5 SGD/kW, event model
+    paper-nmpc         (a) with the paper's whole-horizon reserve model
+    paper-rmpc         (b) with the paper's whole-horizon reserve model
+    paper-rmpc-ppp     (c) with the paper's whole-horizon reserve model
+    nmpc-no-reserve    nominal MPC that offers no reserve
+    thermostat         rule-based flow control to a set-point, no reserve
+    rmpc-feedback      robust MPC with affine disturbance feedback; whole-horizon reserve
+                       model (the feedback LP does not support events)
+    rmpc-feedback-ppp  the same with φ = 1.5 SGD/kW
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from hvacflex.config.model import NEMS_MAX_INTERRUPTION_STEPS
+
+DEFAULT_PEAK_PRICE_PAPER_SGD_PER_KW = 1.5
+"""The paper's scenario (c) peak-power price [SGD/kW]."""
+
+PRODUCT_EVENT_ALLOWANCE_K = 1.0
+"""α of the product presets [K]: at D = 4 only α ≈ 1 K lets the office offer reserve at
+all (measured in ``docs/il_events.md``); 1 K above a 26 °C upper bound stays within the
+ASHRAE 55 80 %-acceptability band for a short excursion."""
+
+PRODUCT_EVENT_RECOVERY_STEPS = 2
+"""R of the product presets [30-min periods]: one hour after an event for the zones to come
+back inside the strict band (a zone cooled at full flow recovers ≈ 1 K in 1–2 periods)."""
+
+PRODUCT_RESERVE: dict[str, Any] = {
+    "event_max_steps": NEMS_MAX_INTERRUPTION_STEPS,
+    "event_allowance_k": PRODUCT_EVENT_ALLOWANCE_K,
+    "event_recovery_steps": PRODUCT_EVENT_RECOVERY_STEPS,
+}
+"""The ``[reserve]`` table of the product presets."""
+
+_PPP: dict[str, Any] = {"peak_price_sgd_per_kw": DEFAULT_PEAK_PRICE_PAPER_SGD_PER_KW}
+
+PRESETS: dict[str, dict[str, Any]] = {
+    "nmpc": {"controller": {"robust": "none"}, "reserve": PRODUCT_RESERVE},
+    "rmpc": {"controller": {"robust": "tightening"}, "reserve": PRODUCT_RESERVE},
+    "rmpc-ppp": {"controller": {"robust": "tightening", **_PPP}, "reserve": PRODUCT_RESERVE},
+    "paper-nmpc": {"controller": {"robust": "none"}},
+    "paper-rmpc": {"controller": {"robust": "tightening"}},
+    "paper-rmpc-ppp": {"controller": {"robust": "tightening", **_PPP}},
+    "nmpc-no-reserve": {"controller": {"robust": "none", "reserve": False}},
+    "thermostat": {"controller": {"kind": "thermostat", "robust": "none", "reserve": False}},
+    "rmpc-feedback": {"controller": {"robust": "feedback"}},
+    "rmpc-feedback-ppp": {"controller": {"robust": "feedback", **_PPP}},
+}
+"""Preset name → partial scenario document."""
+
+PRESET_NAMES: tuple[str, ...] = tuple(PRESETS)
+
+PAPER_SCENARIOS: dict[str, str] = {"a": "nmpc", "b": "rmpc", "c": "rmpc-ppp"}
+"""The paper's scenario letters and the (product) presets that implement them."""
+
+PAPER_MODEL_SCENARIOS: dict[str, str] = {
+    "a": "paper-nmpc",
+    "b": "paper-rmpc",
+    "c": "paper-rmpc-ppp",
+}
+"""The paper's scenario letters with the paper's whole-horizon reserve model."""

@@ -1,0 +1,290 @@
+"""The scenario TOML file format: one declarative pydantic schema.
+
+Each ``*Spec`` model mirrors one table of the file and one frozen dataclass of
+:mod:`hvacflex.config.model`, from which it takes its defaults; fields carry their unit in
+the name and their range in ``Field``; unknown keys are refused (``extra="forbid"``).
+Checks that span fields are model validators raising :func:`rule_error`, whose context
+names the field path; :func:`hvacflex.config.scenario_error` turns a ``ValidationError`` into
+a ``ConfigError`` naming the file, the field path, the value and a hint.
+
+File layout (every key optional)::
+
+    preset?, name, building, start, days, dt_s, seed, initial_temp_degc
+    [controller]   kind, robust, reserve, peak_price_sgd_per_kw, billing_mode,
+                   comfort_penalty_sgd_per_kelvin_hour, horizon_steps,
+                   linearisation_temp_degc, time_limit_s, thermostat_setpoint_degc
+    [controller.feedback]  structure, memory_steps
+    [reserve]      event_max_steps, event_allowance_k, event_recovery_steps,
+                   non_delivery_penalty_sgd_per_mwh
+    [uncertainty]  relative = {kind = fraction}, absolute = {kind = value}
+    [realisation]  mode, ar1_coefficient
+    [activation]   mode, events_per_year, duration_steps, file
+    [data]         weather_file, usep_source, reserve_source, reserve_price_scale,
+                   price_gap_fill
+    [comfort]      occupied_degc = [lower, upper], unoccupied_degc = [lower, upper]
+"""
+
+from __future__ import annotations
+
+from dataclasses import MISSING, fields
+from typing import Annotated, Any, Self
+
+import pandas as pd
+from pydantic import (
+    AfterValidator,
+    AllowInfNan,
+    BaseModel,
+    ConfigDict,
+    Field,
+    Strict,
+    model_validator,
+)
+from pydantic_core import PydanticCustomError
+
+from hvacflex.config.model import (
+    ActivationConfig,
+    ActivationMode,
+    BillingMode,
+    ComfortConfig,
+    ControllerConfig,
+    ControllerKind,
+    DataConfig,
+    DisturbanceKind,
+    FeedbackConfig,
+    PriceGapFill,
+    RealisationConfig,
+    RealisationMode,
+    ReserveConfig,
+    ScenarioConfig,
+    UncertaintyConfig,
+)
+from hvacflex.opt.options import FeedbackStructure, RobustMode
+from hvacflex.units import STEP_30MIN_S
+
+Number = Annotated[float, Strict(), AllowInfNan(False)]
+"""A finite TOML number (integer or float; booleans and strings refused)."""
+NonNegative = Annotated[Number, Field(ge=0.0)]
+Positive = Annotated[Number, Field(gt=0.0)]
+Integer = Annotated[int, Strict()]
+PositiveInt = Annotated[Integer, Field(ge=1)]
+NonNegativeInt = Annotated[Integer, Field(ge=0)]
+Text = Annotated[str, Strict()]
+Flag = Annotated[bool, Strict()]
+Band = tuple[Number, Number]
+"""A comfort band ``[lower, upper]`` [°C]."""
+
+RULE_ERROR = "scenario_rule"
+"""Error type of :func:`rule_error` (a check of the scenario file that spans fields)."""
+
+RENAMED_KEYS: dict[tuple[str, str], str] = {
+    ("activation", "rate"): "events_per_year (activations per year; the old per-period "
+    "probability 0.02 is about 350 per year)",
+}
+"""Keys of older scenario files and what replaced them (named in the 'unknown key' hint)."""
+
+
+def rule_error(
+    message: str, field: str, value: object = None, hint: str | None = None
+) -> PydanticCustomError:
+    """A validation error for a check that spans fields; ``field`` is the path from the model
+    that raises it (``""`` for a field validator: pydantic's location already names it)."""
+    return PydanticCustomError(
+        RULE_ERROR, "{message}", {"message": message, "field": field, "value": value, "hint": hint}
+    )
+
+
+def default(cls: type, name: str) -> Any:
+    """The default of dataclass ``cls``'s field ``name`` (the one home of the defaults)."""
+    spec = next(f for f in fields(cls) if f.name == name)
+    if spec.default is not MISSING:
+        return spec.default
+    assert spec.default_factory is not MISSING
+    return spec.default_factory()
+
+
+class Spec(BaseModel):
+    """Base of every table: frozen, unknown keys refused."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class FeedbackSpec(Spec):
+    structure: FeedbackStructure = default(FeedbackConfig, "structure")
+    memory_steps: PositiveInt = default(FeedbackConfig, "memory_steps")
+
+
+class ControllerSpec(Spec):
+    kind: ControllerKind = default(ControllerConfig, "kind")
+    robust: RobustMode = default(ControllerConfig, "robust")
+    reserve: Flag = default(ControllerConfig, "reserve")
+    peak_price_sgd_per_kw: NonNegative = default(ControllerConfig, "peak_price_sgd_per_kw")
+    billing_mode: BillingMode = default(ControllerConfig, "billing_mode")
+    comfort_penalty_sgd_per_kelvin_hour: Positive = default(
+        ControllerConfig, "comfort_penalty_sgd_per_kelvin_hour"
+    )
+    horizon_steps: PositiveInt = default(ControllerConfig, "horizon_steps")
+    linearisation_temp_degc: Number | None = default(ControllerConfig, "linearisation_temp_degc")
+    time_limit_s: Positive = default(ControllerConfig, "time_limit_s")
+    thermostat_setpoint_degc: Number = default(ControllerConfig, "thermostat_setpoint_degc")
+    feedback: FeedbackSpec = FeedbackSpec()
+
+    @model_validator(mode="after")
+    def _thermostat_offers_no_reserve(self) -> Self:
+        if self.kind == "thermostat" and self.reserve:
+            raise rule_error(
+                "the thermostat baseline cannot offer reserve",
+                "reserve",
+                True,
+                hint="set reserve = false or kind = 'mpc'",
+            )
+        return self
+
+
+class ReserveSpec(Spec):
+    event_max_steps: PositiveInt | None = default(ReserveConfig, "event_max_steps")
+    event_allowance_k: NonNegative = default(ReserveConfig, "event_allowance_k")
+    event_recovery_steps: NonNegativeInt = default(ReserveConfig, "event_recovery_steps")
+    non_delivery_penalty_sgd_per_mwh: NonNegative = default(
+        ReserveConfig, "non_delivery_penalty_sgd_per_mwh"
+    )
+
+
+class UncertaintySpec(Spec):
+    relative: dict[DisturbanceKind, NonNegative] = default(UncertaintyConfig, "relative")
+    absolute: dict[DisturbanceKind, NonNegative] = default(UncertaintyConfig, "absolute")
+
+
+class RealisationSpec(Spec):
+    mode: RealisationMode = default(RealisationConfig, "mode")
+    ar1_coefficient: Annotated[Number, Field(ge=0.0, lt=1.0)] = default(
+        RealisationConfig, "ar1_coefficient"
+    )
+
+
+class ActivationSpec(Spec):
+    mode: ActivationMode = default(ActivationConfig, "mode")
+    events_per_year: NonNegative = default(ActivationConfig, "events_per_year")
+    duration_steps: PositiveInt | None = default(ActivationConfig, "duration_steps")
+    file: Text | None = default(ActivationConfig, "file")
+
+    @model_validator(mode="after")
+    def _file_mode_needs_a_file(self) -> Self:
+        if self.mode == "file" and not self.file:
+            raise rule_error(
+                "mode 'file' needs a file", "file", hint="give a CSV with columns time, activated"
+            )
+        return self
+
+
+class DataSpec(Spec):
+    weather_file: Text | None = default(DataConfig, "weather_file")
+    usep_source: Text | None = default(DataConfig, "usep_source")
+    reserve_source: Text | None = default(DataConfig, "reserve_source")
+    reserve_price_scale: Positive | None = default(DataConfig, "reserve_price_scale")
+    price_gap_fill: PriceGapFill = default(DataConfig, "price_gap_fill")
+
+
+def _ordered(band: tuple[float, float]) -> tuple[float, float]:
+    if not band[0] < band[1]:
+        raise rule_error("lower bound must be below the upper bound", "", list(band))
+    return band
+
+
+class ComfortSpec(Spec):
+    occupied_degc: Annotated[Band, AfterValidator(_ordered)] = default(
+        ComfortConfig, "occupied_degc"
+    )
+    unoccupied_degc: Annotated[Band, AfterValidator(_ordered)] = default(
+        ComfortConfig, "unoccupied_degc"
+    )
+
+
+def _period_start(text: str) -> str:
+    """A local date-time on a 30-min period start, without a time-zone offset."""
+    try:
+        start = pd.Timestamp(text)
+    except ValueError:
+        raise rule_error("not a date", "", text, hint="e.g. 2014-03-01") from None
+    if start.tzinfo is not None:
+        raise rule_error(
+            "give local Singapore time without a time-zone offset",
+            "",
+            text,
+            hint="e.g. 2014-03-01 or 2014-03-01T08:00",
+        )
+    if start != start.floor("30min"):
+        raise rule_error(
+            "must start a 30-min period", "", text, hint="e.g. 2014-03-01T08:00 or 2014-03-01T08:30"
+        )
+    return text
+
+
+def _half_hourly(dt_s: float) -> float:
+    if dt_s != STEP_30MIN_S:
+        raise rule_error(
+            "the control step must be the 30-min period of the data",
+            "",
+            dt_s,
+            hint=f"use dt_s = {STEP_30MIN_S:g} (prices, weather, forecasts and KPIs are "
+            "half-hourly)",
+        )
+    return dt_s
+
+
+class ScenarioSpec(Spec):
+    name: Text = default(ScenarioConfig, "name")
+    building: Text = default(ScenarioConfig, "building")
+    start: Annotated[Text, AfterValidator(_period_start)] = default(ScenarioConfig, "start")
+    days: Positive = default(ScenarioConfig, "days")
+    dt_s: Annotated[Positive, AfterValidator(_half_hourly)] = default(ScenarioConfig, "dt_s")
+    seed: Integer = default(ScenarioConfig, "seed")
+    initial_temp_degc: Number = default(ScenarioConfig, "initial_temp_degc")
+    controller: ControllerSpec = ControllerSpec()
+    reserve: ReserveSpec = ReserveSpec()
+    uncertainty: UncertaintySpec = UncertaintySpec()
+    realisation: RealisationSpec = RealisationSpec()
+    activation: ActivationSpec = ActivationSpec()
+    data: DataSpec = DataSpec()
+    comfort: ComfortSpec = ComfortSpec()
+
+    @model_validator(mode="after")
+    def _events_need_an_open_loop_policy(self) -> Self:
+        robust = self.controller.robust
+        if self.reserve.event_max_steps is not None and robust in ("feedback", "dual"):
+            raise rule_error(
+                f"the IL event model is not available with robust = {robust!r}",
+                "reserve.event_max_steps",
+                self.reserve.event_max_steps,
+                hint="use robust = 'tightening' or 'none', or drop event_max_steps (the "
+                "whole-horizon model, e.g. preset 'rmpc-feedback')",
+            )
+        return self
+
+
+TABLES: dict[type[BaseModel], type] = {
+    ScenarioSpec: ScenarioConfig,
+    ControllerSpec: ControllerConfig,
+    FeedbackSpec: FeedbackConfig,
+    ReserveSpec: ReserveConfig,
+    UncertaintySpec: UncertaintyConfig,
+    RealisationSpec: RealisationConfig,
+    ActivationSpec: ActivationConfig,
+    DataSpec: DataConfig,
+    ComfortSpec: ComfortConfig,
+}
+"""Each table's schema and the domain dataclass it becomes."""
+
+
+def to_domain(spec: BaseModel) -> Any:
+    """The frozen dataclass of a validated table (nested tables converted recursively)."""
+    values: dict[str, Any] = {}
+    for name in type(spec).model_fields:
+        value = getattr(spec, name)
+        if isinstance(value, BaseModel):
+            value = to_domain(value)
+        elif isinstance(value, dict):
+            value = {str(k): float(v) for k, v in value.items()}
+        elif isinstance(value, tuple):
+            value = tuple(float(v) for v in value)
+        values[name] = value
+    return TABLES[type(spec)](**values)

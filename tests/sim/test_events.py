@@ -1,0 +1,191 @@
+"""IL events in the closed loop: the tracker's state machine and a stub-controller loop."""
+
+import json
+import pickle
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from hvacflex.config import preset, with_overrides
+from hvacflex.control.base import Action, EventPlan
+from hvacflex.data.forecast import Forecast
+from hvacflex.sim.closed_loop import CONFIG_FILE, ClosedLoop, prepare, run_simulation
+from hvacflex.sim.events import EventTracker, Role
+
+START = "2014-03-03"
+
+
+def _plan(powers: list[float], m: int = 1) -> EventPlan:
+    steps = len(powers)
+    return EventPlan(
+        flow_kg_s=np.full((steps, m), 1.0),
+        reserve_flow_kg_s=np.full((steps, m), 0.2),
+        served_power_kw=np.array(powers),
+        reserve_kw=np.full(steps, 2.0),
+        predicted_served_degc=np.full((steps, m), 25.0),
+        predicted_curtailed_degc=np.full((steps, m), 25.5),
+    )
+
+
+def _action(plan: EventPlan | None, planned_kw: float = 7.0) -> Action:
+    return Action(
+        flow_kg_s=np.ones(1),
+        reserve_flow_kg_s=np.full(1, 0.2),
+        reserve_kw=2.0,
+        planned_power_kw=planned_kw,
+        status="optimal",
+        fallback=False,
+        solve_time_s=0.0,
+        planned_slack_max_k=0.0,
+        delta_max_k=0.0,
+        predicted_served_degc=np.full(1, 25.0),
+        predicted_curtailed_degc=np.full(1, 25.5),
+        event_plan=plan,
+    )
+
+
+def test_event_locks_the_plan_for_d_periods_then_recovers_and_counts_beyond() -> None:
+    tracker = EventTracker(max_steps=2, recovery_steps=1, allowance_k=1.0)
+    schedule = [0, 1, 1, 1, 0, 0, 1, 0]
+    plans = {1: _plan([10.0, 11.0, 12.0]), 6: None}
+    roles, outcomes, carries = [], [], []
+    for k, activated in enumerate(schedule):
+        role = tracker.role(bool(activated))
+        carries.append(tracker.carry_steps)
+        action = tracker.locked_action() if role is Role.EVENT_LOCKED else _action(plans.get(k))
+        if role is Role.EVENT_START:
+            tracker.lock(action.event_plan)
+        roles.append(role)
+        outcomes.append(tracker.finish(role, action))
+    assert roles == [
+        Role.SERVED,
+        Role.EVENT_START,
+        Role.EVENT_LOCKED,
+        Role.BEYOND_MODEL,  # the 120-min rule: consumption resumes after D periods
+        Role.SERVED,
+        Role.SERVED,
+        Role.EVENT_START,  # no plan to lock: nothing curtailed
+        Role.SERVED,
+    ]
+    assert [o.curtailed for o in outcomes] == [0, 1, 1, 0, 0, 0, 0, 0]
+    assert [o.beyond_model for o in outcomes] == [0, 0, 0, 1, 0, 0, 0, 0]
+    assert [o.event_window for o in outcomes] == [0, 1, 1, 1, 0, 0, 0, 0]
+    assert [o.allowance_k for o in outcomes] == [0, 1, 1, 1, 0, 0, 0, 0]
+    refs = [o.reference_power_kw for o in outcomes]
+    assert refs[1:4] == [10.0, 11.0, 12.0]  # the locked plan's served power, recovery incl.
+    assert np.isnan([refs[0], *refs[4:]]).all()
+    # the plan after the curtailment carries the allowance for the R recovery periods
+    assert carries == [0, 0, 0, 1, 0, 0, 0, 0]
+
+
+def test_whole_horizon_model_curtails_every_activated_period_with_the_fresh_plan() -> None:
+    tracker = EventTracker(max_steps=None, recovery_steps=0, allowance_k=0.0)
+    outcomes = []
+    for activated in (1, 1, 1, 0):
+        role = tracker.role(bool(activated))
+        outcomes.append(tracker.finish(role, _action(None, planned_kw=9.0)))
+    assert [o.curtailed for o in outcomes] == [1, 1, 1, 0]
+    assert [o.beyond_model for o in outcomes] == [0, 0, 0, 0]
+    assert [o.reference_power_kw for o in outcomes[:3]] == [9.0, 9.0, 9.0]
+
+
+class StubPlanner:
+    """A state-dependent planner that offers reserve, for testing the loop without an LP."""
+
+    def __init__(self, flow_max: np.ndarray, steps: int) -> None:
+        self.flow_max, self.steps, self.calls, self.carries = flow_max, steps, 0, []
+
+    def act(
+        self, x: np.ndarray, forecast: Forecast, *, peak_floor_kw: float,
+        allowance_carry_steps: int = 0,
+    ) -> Action:  # fmt: skip
+        self.calls += 1
+        self.carries.append(allowance_carry_steps)
+        level = 0.4 + 0.02 * (float(np.mean(x)) - 25.0)
+        ramp = 1.0 + 0.05 * np.arange(self.steps)[:, None]
+        flow = np.clip(level * ramp * self.flow_max, 0.0, self.flow_max)
+        plan = EventPlan(
+            flow_kg_s=flow,
+            reserve_flow_kg_s=0.3 * flow,
+            served_power_kw=10.0 + np.arange(self.steps),
+            reserve_kw=np.full(self.steps, 3.0),
+            predicted_served_degc=np.full(flow.shape, 25.0),
+            predicted_curtailed_degc=np.full(flow.shape, 25.5),
+        )
+        return Action(
+            flow_kg_s=flow[0],
+            reserve_flow_kg_s=0.3 * flow[0],
+            reserve_kw=3.0,
+            planned_power_kw=10.0,
+            status="optimal",
+            fallback=False,
+            solve_time_s=0.0,
+            planned_slack_max_k=0.0,
+            delta_max_k=0.0,
+            predicted_served_degc=plan.predicted_served_degc[0],
+            predicted_curtailed_degc=plan.predicted_curtailed_degc[0],
+            event_plan=plan,
+        )
+
+    def get_state(self) -> dict[str, Any]:
+        return {}
+
+    def set_state(self, state: dict[str, Any]) -> None:
+        return None
+
+
+def _stub_loop(days: float = 0.25) -> tuple[ClosedLoop, StubPlanner]:
+    cfg = with_overrides(preset("nmpc", start=START, days=days), {"activation.mode": "always"})
+    setup = prepare(cfg)
+    flow_max = np.asarray(setup.building.hvac.flow_max_kg_s)
+    planner = StubPlanner(flow_max, 6)  # D + R = 4 + 2
+    return ClosedLoop(setup, planner), planner
+
+
+def test_closed_loop_applies_the_locked_plan_and_resumes_after_d() -> None:
+    loop, planner = _stub_loop()
+    while loop.k < loop.steps:
+        loop.step()
+    frame = loop.frame()
+    assert frame["il_curtailed"].tolist()[:5] == [True, True, True, True, False]
+    assert frame["il_beyond_model"].sum() == loop.steps - 4
+    assert planner.calls == loop.steps - 3  # no re-optimisation during the event
+    zone = loop.setup.zone_names[0]
+    flows = frame[f"flow_{zone}_kg_s"].to_numpy()
+    ramp = flows[1:4] / flows[0]
+    np.testing.assert_allclose(ramp, [1.05, 1.10, 1.15])  # u_j of the plan made at s = 0
+    # after the curtailment the controller re-plans with the recovery steps left
+    assert planner.carries[1:4] == [2, 1, 0]
+    assert frame["il_event_window"].tolist()[:7] == [True] * 6 + [False]
+
+
+def test_checkpoint_mid_event_resumes_identically() -> None:
+    whole, _ = _stub_loop()
+    while whole.k < whole.steps:
+        whole.step()
+    split, _ = _stub_loop()
+    while split.k < 2:  # inside the event (periods 0 … 3)
+        split.step()
+    state = pickle.loads(pickle.dumps(split.get_state()))
+    resumed, _ = _stub_loop()
+    resumed.set_state(state)
+    while resumed.k < resumed.steps:
+        resumed.step()
+    pd.testing.assert_frame_equal(whole.frame(), resumed.frame())
+
+
+def test_event_model_closed_loop_with_the_lp_curtails_at_most_d_periods(tmp_path: Path) -> None:
+    cfg = with_overrides(
+        preset("nmpc", start=START, days=1.0),
+        {"activation.mode": "always", "data.reserve_price_scale": 40.0},
+    )
+    result = run_simulation(cfg, tmp_path, progress=False)
+    frame, summary = result.frame, result.summary
+    assert frame["il_curtailed"].sum() <= 4  # the 120-min rule
+    assert summary["il_beyond_model_steps"] == len(frame) - 4
+    assert summary["reserve_revenue_sgd"] > 0
+    assert not frame["fallback"].any()
+    config = json.loads((tmp_path / CONFIG_FILE).read_text())
+    assert config["reserve"]["event_max_steps"] == 4  # config.json records [reserve]
