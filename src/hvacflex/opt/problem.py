@@ -172,6 +172,8 @@ class RMPCProblem:
     slack_max_kelvin : cap on ε [K]; None = unbounded (soft comfort), 0 = hard comfort
     feedback : policy structure for ``robust="feedback"`` (default ``FeedbackOptions()``);
         must be None for the other modes
+    power_max_kw : scalar or (N,) cap on the plan's power P_k [kW] (a column bound; +inf =
+        none, the default); e.g. a feeder's share (:mod:`hvacflex.fleet`). Open loop only.
 
     After construction every array field is a read-only float array of its full shape
     (``d_sigma`` (N,nd), ``u_min``/``u_max`` (N,m), ``y_min``/``y_max`` (N,ny),
@@ -202,6 +204,7 @@ class RMPCProblem:
     robust: RobustMode = "tightening"
     slack_max_kelvin: float | None = None
     feedback: FeedbackOptions | None = None
+    power_max_kw: float | FloatArray = np.inf
     _structure: RMPCStructure = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -291,6 +294,16 @@ class RMPCProblem:
                 target=(horizon,),
             ),
         )
+        put(
+            "power_max_kw",
+            _float_array(
+                "power_max_kw",
+                self.power_max_kw,
+                ((), (horizon,)),
+                target=(horizon,),
+                allow_pos_inf=True,
+            ),
+        )
 
     def _normalise_options(self, m: int) -> None:
         """Default and check the affine term g and the reserve mask."""
@@ -376,6 +389,13 @@ class RMPCProblem:
         self._check_feedback()
 
     def _check_feedback(self) -> None:
+        if self.robust == "feedback" and np.isfinite(self.power_max_kw).any():
+            raise ProblemError(
+                "a power cap applies only to the open-loop problem",
+                source=_SOURCE,
+                field="power_max_kw",
+                hint="leave power_max_kw at +inf with robust='feedback'",
+            )
         if self.robust != "feedback":
             if self.feedback is not None:
                 raise ProblemError(
