@@ -30,7 +30,7 @@ COMFORT_VARIANTS: tuple[tuple[float, float], ...] = ((23.0, 26.0), (22.5, 25.5),
 DESIGN_OUTDOOR_DEGC = 32.0
 DESIGN_HUMIDITY_KG_PER_KG = 0.020
 DESIGN_ZONE_DEGC = 24.0
-DEFAULT_LIMIT_FRACTION = 0.55
+DEFAULT_LIMIT_FRACTION = 0.33
 """Default feeder limit as a share of the fleet's design power (all AHUs at full flow)."""
 
 
@@ -144,7 +144,7 @@ def generate_fleet(
         "reserve": {"enabled": True},
         "ppp": {"peak_price_sgd_per_kw": 0.0, "billing_mode": "horizon"},
         "coordination": {
-            "max_iterations": 25,
+            "max_iterations": 10,
             "gap_tolerance": 0.002,
             "feasibility_tolerance": 0.005,
             "step_sgd_per_mwh": 0.0,

@@ -20,7 +20,7 @@ building file is (:func:`hvacflex.building.io.building_from_dict`)::
     peak_price_sgd_per_kw = 0.0
 
     [coordination]
-    max_iterations = 25
+    max_iterations = 10
     gap_tolerance = 0.002
     feasibility_tolerance = 0.005
     step_sgd_per_mwh = 0.0          # 0 = automatic (mean energy price)
@@ -78,7 +78,7 @@ class PPPSpec(_Spec):
 
 
 class CoordinationSpec(_Spec):
-    max_iterations: Annotated[int, Strict(), Field(ge=1, le=1000)] = 25
+    max_iterations: Annotated[int, Strict(), Field(ge=1, le=1000)] = 10
     gap_tolerance: Annotated[Finite, Field(gt=0.0)] = 0.002
     feasibility_tolerance: Annotated[Finite, Field(ge=0.0)] = 0.005
     step_sgd_per_mwh: Annotated[Finite, Field(ge=0.0)] = 0.0
