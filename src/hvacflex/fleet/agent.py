@@ -72,6 +72,11 @@ class _StagedSolver(RMPCSolver):
         staged, self.staged = self.staged, None
         return staged if staged is not None else super().solve(problem)
 
+    def solve_now(self, problem: RMPCProblem) -> RMPCSolution:
+        """Solve ``problem`` (never the staged plan)."""
+        self.staged = None
+        return super().solve(problem)
+
 
 class FleetController(MPCController):
     """The building's MPC, driven by the fleet coordinator.
@@ -268,7 +273,7 @@ class BuildingAgent:
             "power_max_kw": np.inf if cap_kw is None else cap_kw,
         }
         problem = dataclasses.replace(base, **changes)
-        solution = self.controller.solver(problem).solve(problem)
+        solution = self.controller.solver(problem).solve_now(problem)
         self._last, self._last_price = solution, price_kw.copy()
         if solution.status is not SolveStatus.OPTIMAL:
             nan = np.full(base.horizon, np.nan)
