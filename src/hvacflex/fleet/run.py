@@ -53,6 +53,12 @@ SUMMARY_FILE = "summary.json"
 DT_H = 0.5
 DEFAULT_CHECKPOINT_EVERY = 12
 MAX_RECOVERIES = 3
+ACTOR_TIMEOUT_S = 60.0
+"""A group call that takes longer than this is checked for a lost worker (then retried)."""
+
+
+class WorkerLostError(RuntimeError):
+    """A Dask worker holding building groups is gone."""
 
 FLOAT_COLUMNS = (
     "planned_fleet_power_kw",
@@ -91,6 +97,7 @@ class _Groups:
         self.doc, self.settings, self.client = doc, settings, client
         self.n = n
         self.groups: list[Any] = []
+        self.workers: list[str] = []
         self.indices: list[list[int]] = []
         self.build()
 
@@ -109,12 +116,31 @@ class _Groups:
             for idx, w in zip(self.indices, workers, strict=False)
         ]
         self.groups = [f.result() for f in futures]
+        self.workers = list(workers[:count])
+
+    def check_alive(self) -> None:
+        """Raise ``WorkerLostError`` when a worker holding a group has left the cluster."""
+        if self.client is None:
+            return
+        present = set(self.client.scheduler_info()["workers"])
+        lost = [w for w in self.workers if w not in present]
+        if lost:
+            raise WorkerLostError(f"worker(s) {lost} left the cluster")
 
     def call(self, method: str, *args_per_group: Sequence[Any]) -> list[Any]:
         calls = [
             getattr(g, method)(*(a[i] for a in args_per_group)) for i, g in enumerate(self.groups)
         ]
-        return calls if self.client is None else [c.result() for c in calls]
+        if self.client is None:
+            return calls
+        results = []
+        for c in calls:
+            try:
+                results.append(c.result(timeout=ACTOR_TIMEOUT_S))
+            except TimeoutError:
+                self.check_alive()
+                raise
+        return results
 
     def broadcast(self, method: str, *args: Any) -> list[Any]:
         return self.call(method, *([arg] * len(self.groups) for arg in args))
@@ -208,7 +234,7 @@ def run_fleet(
         json.dumps({"fleet": str(path), "start": start, "days": days, "key": key}, indent=2),
     )
 
-    cluster = client = None
+    cluster = client = own_client = None
     if workers != 0 or scheduler is not None:
         from dask.distributed import Client, LocalCluster
 
@@ -216,9 +242,11 @@ def run_fleet(
             cluster = LocalCluster(
                 n_workers=workers or 1, threads_per_worker=1, processes=True, dashboard_address=None
             )
-            client = Client(cluster)
+            client = own_client = Client(cluster)
         else:
-            client = Client(scheduler)
+            client = _existing_client(scheduler)
+            if client is None:
+                client = own_client = Client(scheduler)
     n = len(fleet.buildings)
     try:
         groups = _Groups(doc, settings, n, client)
@@ -262,6 +290,7 @@ def run_fleet(
         while k < steps:
             try:
                 tick = time.perf_counter()
+                groups.check_alive()
                 p_min, p_max, energy = groups.stacked("begin_step")
                 f = planning_limit[k : k + horizon]
 
@@ -333,8 +362,8 @@ def run_fleet(
             _discomfort_kelvin_hours(by_index[i]) for i in range(n)
         )
     finally:
-        if client is not None:
-            client.close()
+        if own_client is not None:
+            own_client.close()
         if cluster is not None:
             cluster.close()
 
@@ -354,6 +383,18 @@ def run_fleet(
     building_table(long).to_csv(out / "buildings_summary.csv", index_label="building")
     checkpoint_path.unlink(missing_ok=True)
     return FleetRunResult(out, frame, summary, recoveries, resumed_from)
+
+
+def _existing_client(address: str) -> Any | None:
+    """This process's client of the scheduler at ``address``, if there is one (actors are
+    bound to one client: a second client in the same process would not see their results)."""
+    from dask.distributed import default_client
+
+    try:
+        client = default_client()
+    except ValueError:
+        return None
+    return client if client.scheduler.address == address else None
 
 
 def _write(frame: pd.DataFrame, path: Path, fleet: Fleet, key: str) -> None:
