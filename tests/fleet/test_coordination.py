@@ -41,7 +41,13 @@ def test_coordinated_plan_feasible_and_near_centralised(group_at_morning: Buildi
     assert central.status.ok
     assert np.all(central.power_kw.sum(axis=0) <= limit + 1e-6)
     result = coordinate(
-        group.solve, group.finalize, limit, p_min, p_max, price, 0.5,
+        group.solve,
+        group.finalize,
+        limit,
+        p_min,
+        p_max,
+        price,
+        0.5,
         CoordinationOptions(max_iterations=15),
     )
     # the coordinated plan respects the feeder over the whole horizon
@@ -65,7 +71,13 @@ def test_minimum_powers_above_limit_flagged(group_at_morning: BuildingGroup) -> 
     limit = np.full(48, np.inf)
     limit[:4] = 0.5 * p_min[:, :4].sum(axis=0).max()
     result = coordinate(
-        group.solve, group.finalize, limit, p_min, p_max, price, 0.5,
+        group.solve,
+        group.finalize,
+        limit,
+        p_min,
+        p_max,
+        price,
+        0.5,
         CoordinationOptions(max_iterations=3),
     )
     first = p_min[:, 0].sum() > limit[0]

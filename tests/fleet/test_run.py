@@ -55,7 +55,12 @@ def test_in_process_run_and_resume(small_fleet: Path, tmp_path: Path) -> None:
 
     with pytest.raises(KeyboardInterrupt):
         run_fleet(
-            small_fleet, out, start=START, days=DAYS, workers=0, checkpoint_every=2,
+            small_fleet,
+            out,
+            start=START,
+            days=DAYS,
+            workers=0,
+            checkpoint_every=2,
             on_step=stop_at_five,
         )
     assert (out / CHECKPOINT_FILE).is_file()
@@ -65,17 +70,18 @@ def test_in_process_run_and_resume(small_fleet: Path, tmp_path: Path) -> None:
     summary = fleet_summary(frame)
     assert summary["max_planned_over_limit_kw"] <= 1e-6
     fresh = run_fleet(small_fleet, tmp_path / "fresh", start=START, days=DAYS, workers=0)
-    np.testing.assert_allclose(
-        fresh.frame["fleet_power_kw"], frame["fleet_power_kw"], rtol=1e-6
-    )
+    np.testing.assert_allclose(fresh.frame["fleet_power_kw"], frame["fleet_power_kw"], rtol=1e-6)
 
 
 def test_worker_killed_mid_run_recovers(small_fleet: Path, tmp_path: Path) -> None:
     from dask.distributed import Client, LocalCluster
 
-    with LocalCluster(
-        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
-    ) as cluster, Client(cluster) as client:
+    with (
+        LocalCluster(
+            n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+        ) as cluster,
+        Client(cluster) as client,
+    ):
         killed: list[int] = []
 
         def kill_one(k: int, groups: Any) -> None:
@@ -86,8 +92,13 @@ def test_worker_killed_mid_run_recovers(small_fleet: Path, tmp_path: Path) -> No
                 killed.append(pid)
 
         result = run_fleet(
-            small_fleet, tmp_path / "run", start=START, days=DAYS,
-            scheduler=cluster.scheduler_address, checkpoint_every=2, on_step=kill_one,
+            small_fleet,
+            tmp_path / "run",
+            start=START,
+            days=DAYS,
+            scheduler=cluster.scheduler_address,
+            checkpoint_every=2,
+            on_step=kill_one,
         )
     assert killed and result.recoveries >= 1
     _check(tmp_path / "run")

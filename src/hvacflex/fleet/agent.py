@@ -163,7 +163,13 @@ def _schedule(hours: tuple[int, int]) -> OfficeSchedule:
         name: tuple(np.roll(np.asarray(getattr(base, name)), shift).tolist())
         for name in ("people_workday", "lighting_workday", "equipment_workday")
     }
-    return dataclasses.replace(base, occupied_hours=hours, **rolled)
+    return dataclasses.replace(
+        base,
+        occupied_hours=hours,
+        people_workday=rolled["people_workday"],
+        lighting_workday=rolled["lighting_workday"],
+        equipment_workday=rolled["equipment_workday"],
+    )
 
 
 def building_setup(entry: FleetBuilding, index: int, settings: FleetSettings) -> Setup:
@@ -305,7 +311,9 @@ class BuildingAgent:
         if reuse:
             assert last is not None
             priced = base.dt_h * float(price @ last.power_kw) / KWH_PER_MWH
-            result = StepSolve(last.power_kw.copy(), last.objective_sgd - priced, last.objective_sgd, True)
+            result = StepSolve(
+                last.power_kw.copy(), last.objective_sgd - priced, last.objective_sgd, True
+            )
         else:
             # caps below the minimum power cannot bind the LP (flows at their minimum): the
             # coordinator flags those periods; the cap row then sits at the minimum
@@ -354,7 +362,9 @@ class BuildingGroup:
     settings : the run's shared settings.
     """
 
-    def __init__(self, fleet_doc: dict[str, Any], indices: list[int], settings: FleetSettings) -> None:
+    def __init__(
+        self, fleet_doc: dict[str, Any], indices: list[int], settings: FleetSettings
+    ) -> None:
         fleet = fleet_from_dict(fleet_doc, source="fleet")
         self.indices = list(indices)
         self.agents = [BuildingAgent(fleet.buildings[i], i, settings) for i in self.indices]
@@ -376,9 +386,7 @@ class BuildingGroup:
         self, price_sgd_per_mwh: FloatArray, cap_kw: FloatArray
     ) -> tuple[FloatArray, FloatArray, FloatArray]:
         """Fix every plan inside its caps (B, N) [kW]; like :meth:`solve`."""
-        return _stack(
-            [a.finalize(price_sgd_per_mwh, cap_kw[i]) for i, a in enumerate(self.agents)]
-        )
+        return _stack([a.finalize(price_sgd_per_mwh, cap_kw[i]) for i, a in enumerate(self.agents)])
 
     def advance(self) -> dict[str, FloatArray]:
         """Step every plant; (B,) arrays of the step's planned and realised power etc."""

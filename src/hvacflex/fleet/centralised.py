@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from scipy import sparse
@@ -30,9 +31,7 @@ class CentralisedResult:
     power_kw: FloatArray
 
 
-def centralised_lp(
-    problems: Sequence[RMPCProblem], limit_kw: FloatArray
-) -> tuple[FloatArray, sparse.csr_matrix, FloatArray, FloatArray, FloatArray, FloatArray, list[FloatArray]]:
+def centralised_lp(problems: Sequence[RMPCProblem], limit_kw: FloatArray) -> tuple[Any, ...]:
     """The stacked LP: cost, A (CSR), row bounds, column bounds, and each building's power
     columns (N,) in the stacked numbering."""
     costs, blocks, row_lo, row_hi, col_lo, col_hi, power_cols = [], [], [], [], [], [], []
@@ -55,7 +54,7 @@ def centralised_lp(
         row_hi.append(lp.row_upper)
         col_lo.append(lp.col_lower)
         col_hi.append(lp.col_upper)
-        power_cols.append(np.asarray(layout.plan.power) + offset)
+        power_cols.append(np.asarray(layout.plan.power, dtype=np.int64) + offset)
         offset += lp.num_cols
     horizon = problems[0].horizon
     coupling = sparse.lil_matrix((horizon, offset))

@@ -16,7 +16,9 @@ def generate(
     out: Path = typer.Option(..., "--out", help="Fleet TOML file to write."),  # noqa: B008
     template: str = typer.Option("office5", "--template", help="Template building."),
     feeder_limit_kw: float | None = typer.Option(
-        None, "--feeder-limit-kw", help="Feeder limit [kW] (inf = none; default: a share of design power)."
+        None,
+        "--feeder-limit-kw",
+        help="Feeder limit [kW] (inf = none; default: a share of design power).",
     ),
     min_bid_mw: float = typer.Option(0.1, "--min-bid-mw", help="Minimum reserve bid [MW]."),
 ) -> None:
@@ -26,7 +28,11 @@ def generate(
 
     try:
         doc = generate_fleet(
-            buildings, seed, template=template, feeder_limit_kw=feeder_limit_kw, min_bid_mw=min_bid_mw
+            buildings,
+            seed,
+            template=template,
+            feeder_limit_kw=feeder_limit_kw,
+            min_bid_mw=min_bid_mw,
         )
         path = write_fleet(doc, out)
     except HvacflexError as exc:
@@ -56,7 +62,13 @@ def simulate(
         raise typer.Exit(2)
     try:
         result = run_fleet(
-            fleet, out, start=start, days=days, scheduler=scheduler, workers=workers, resume=not fresh
+            fleet,
+            out,
+            start=start,
+            days=days,
+            scheduler=scheduler,
+            workers=workers,
+            resume=not fresh,
         )
         write_fleet_report(out, load_fleet(fleet).spec.min_bid_mw)
     except HvacflexError as exc:
@@ -66,6 +78,8 @@ def simulate(
     typer.echo(
         f"{out}/results.parquet: {int(s['steps'])} steps, peak {s['peak_fleet_power_kw']:.1f} kW, "
         f"planned over limit max {s['max_planned_over_limit_kw']:.3g} kW, realised over limit "
-        f"max {s['max_realised_over_limit_pct']:.2f} %, bid accepted {100 * s['bid_accepted_share']:.0f} %, "
-        f"{s['coordination_iterations_mean']:.1f} iterations/step, {s['step_time_s_mean']:.2f} s/step"
+        f"max {s['max_realised_over_limit_pct']:.2f} %, "
+        f"bid accepted {100 * s['bid_accepted_share']:.0f} %, "
+        f"{s['coordination_iterations_mean']:.1f} iterations/step, "
+        f"{s['step_time_s_mean']:.2f} s/step"
     )

@@ -12,7 +12,8 @@ price (in parallel, warm-started), and the Lagrangian
 Iteration (projected subgradient, sign-adaptive step per period): λ_k ← max(0, λ_k +
 α_k (ΣP − F)_k); α_k starts at α₀ = ``step_sgd_per_mwh`` (default: the mean energy price)
 per 5 % of the limit, grows ×1.5 while period k's excess keeps its sign and halves when it
-flips (prices that must reach the comfort penalty's scale get there in a few iterations). λ starts from the previous step's prices shifted by one period. Only periods where
+flips (prices that must reach the comfort penalty's scale get there in a few
+iterations). λ starts from the previous step's prices shifted by one period. Only periods where
 the buildings' maximum powers could exceed F carry a price. Stop when the plans are within
 ``feasibility_tolerance`` (relative) of F and the duality gap
 ``(Σ_b cost_b − max L) / |Σ_b cost_b|`` is below ``gap_tolerance``, or after
@@ -22,8 +23,8 @@ Then the applied plan is made feasible exactly. If the last plans already satisf
 feeder row they are kept. Otherwise every period that could exceed F gets per-building
 caps ``cap_b,k ≥ P_min_b,k`` with ``Σ_b cap_b,k = F_k``: the part of F above the minimum
 powers is shared in proportion to each building's requested power above its minimum
-(averaged over the second half of the iterations), and each building re-solves once, warm, with its caps as
-bounds on its plan's power (``RMPCProblem.power_max_kw``). The coordinated
+(averaged over the second half of the iterations), and each building re-solves once,
+warm, with its caps as bounds on its plan's power (``RMPCProblem.power_max_kw``). The
 plan therefore satisfies Σ P ≤ F over the whole horizon; its first step is applied. Where the
 minimum powers alone exceed F (``feeder_infeasible``), every building runs at its minimum
 and the excess is reported.
@@ -171,11 +172,15 @@ def coordinate(
             break
         # sign-adaptive step per period: grow while the excess keeps its sign, halve on a flip
         sign = np.sign(np.where(price > 0, over, np.maximum(over, 0.0)))
-        step = np.where(sign * last_sign > 0, 1.5 * step, np.where(sign * last_sign < 0, 0.5 * step, step))
+        step = np.where(
+            sign * last_sign > 0, 1.5 * step, np.where(sign * last_sign < 0, 0.5 * step, step)
+        )
         last_sign = np.where(sign != 0, sign, last_sign)
         price = np.where(active, np.clip(price + step * over, 0.0, price_max), 0.0)
     request = np.mean(history[len(history) // 2 :], axis=0)
-    feasible = not may_bind.any() or bool(np.all(power.sum(axis=0) <= limit_kw + VIOLATION_FLOOR_KW))
+    feasible = not may_bind.any() or bool(
+        np.all(power.sum(axis=0) <= limit_kw + VIOLATION_FLOOR_KW)
+    )
     if feasible:
         # keep the plans; the first period's caps still bound the applied step (and any
         # fallback): each building's planned power plus an equal share of the spare limit

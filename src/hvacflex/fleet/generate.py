@@ -40,9 +40,7 @@ def design_power_kw(raw: dict[str, Any]) -> float:
     flows = np.asarray(building.hvac.flow_max_kg_s, dtype=float)
     zone = np.full(flows.shape, DESIGN_ZONE_DEGC)
     return float(
-        hvac_power_kw(
-            building.hvac, flows, zone, DESIGN_OUTDOOR_DEGC, DESIGN_HUMIDITY_KG_PER_KG
-        )
+        hvac_power_kw(building.hvac, flows, zone, DESIGN_OUTDOOR_DEGC, DESIGN_HUMIDITY_KG_PER_KG)
     )
 
 
@@ -188,7 +186,7 @@ def _table(lines: list[str], prefix: str, table: dict[str, Any]) -> None:
             isinstance(v, dict) or _is_table_list(v) for v in value.values()
         ):
             nested.append((key, value))
-        elif isinstance(value, dict) and prefix == "" or _is_table_list(value):
+        elif (isinstance(value, dict) and prefix == "") or _is_table_list(value):
             nested.append((key, value))
         elif isinstance(value, dict) and len(value) > 4:
             nested.append((key, value))

@@ -38,6 +38,7 @@ import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
 
+from hvacflex.control.base import FloatArray
 from hvacflex.errors import HvacflexError
 from hvacflex.fleet.agent import BuildingGroup, FleetSettings
 from hvacflex.fleet.coordinate import CoordinationOptions, coordinate
@@ -59,6 +60,7 @@ ACTOR_TIMEOUT_S = 60.0
 
 class WorkerLostError(RuntimeError):
     """A Dask worker holding building groups is gone."""
+
 
 FLOAT_COLUMNS = (
     "planned_fleet_power_kw",
@@ -234,10 +236,14 @@ def run_fleet(
         json.dumps({"fleet": str(path), "start": start, "days": days, "key": key}, indent=2),
     )
 
-    cluster = client = own_client = None
+    cluster: Any = None
+    client: Any = None
+    own_client: Any = None
     if workers != 0 or scheduler is not None:
-        from dask.distributed import Client, LocalCluster
+        import dask.distributed
 
+        distributed: Any = dask.distributed  # untyped package
+        Client, LocalCluster = distributed.Client, distributed.LocalCluster
         if scheduler is None:
             cluster = LocalCluster(
                 n_workers=workers or 1, threads_per_worker=1, processes=True, dashboard_address=None
@@ -294,15 +300,19 @@ def run_fleet(
                 p_min, p_max, energy = groups.stacked("begin_step")
                 f = planning_limit[k : k + horizon]
 
-                def solve_all(lam: np.ndarray) -> tuple[np.ndarray, ...]:
-                    return groups.stacked("solve", lam)
+                def solve_all(lam: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
+                    power, cost, lagrangian = groups.stacked("solve", lam)
+                    return power, cost, lagrangian
 
-                def finalize_all(lam: np.ndarray, caps: np.ndarray) -> tuple[np.ndarray, ...]:
-                    parts = groups.call(
-                        "finalize", [lam] * len(groups.groups), groups.split(caps)
-                    )
+                def finalize_all(
+                    lam: FloatArray, caps: FloatArray
+                ) -> tuple[FloatArray, FloatArray, FloatArray]:
+                    parts = groups.call("finalize", [lam] * len(groups.groups), groups.split(caps))
                     order = np.argsort(np.concatenate(groups.indices))
-                    return tuple(np.concatenate([p[j] for p in parts])[order] for j in range(3))
+                    power, cost, lagrangian = (
+                        np.concatenate([p[j] for p in parts])[order] for j in range(3)
+                    )
+                    return power, cost, lagrangian
 
                 result = coordinate(
                     solve_all, finalize_all, f, p_min, p_max, energy, DT_H, options, price
@@ -316,7 +326,9 @@ def run_fleet(
                 recoveries += 1
                 if client is None or recoveries > MAX_RECOVERIES:
                     raise
-                log.warning("fleet step %d failed (%s); restoring from step %d", k, exc, checkpoint["k"])
+                log.warning(
+                    "fleet step %d failed (%s); restoring from step %d", k, exc, checkpoint["k"]
+                )
                 client.wait_for_workers(1, timeout=120)
                 groups.build()
                 groups.set_states(checkpoint["buildings"])
@@ -353,9 +365,7 @@ def run_fleet(
         order = np.concatenate(groups.indices)
         building_frames = [f for part in frames for f in part]
         by_index = dict(zip(order.tolist(), building_frames, strict=True))
-        long = pd.concat(
-            [by_index[i].assign(building=fleet.buildings[i].name) for i in range(n)]
-        )
+        long = pd.concat([by_index[i].assign(building=fleet.buildings[i].name) for i in range(n)])
         values[:, col["energy_price_sgd_per_mwh"]] = by_index[0]["energy_price_sgd_per_mwh"]
         values[:, col["reserve_price_sgd_per_mwh"]] = by_index[0]["reserve_price_sgd_per_mwh"]
         values[:, col["discomfort_kelvin_hours"]] = sum(
@@ -388,10 +398,11 @@ def run_fleet(
 def _existing_client(address: str) -> Any | None:
     """This process's client of the scheduler at ``address``, if there is one (actors are
     bound to one client: a second client in the same process would not see their results)."""
-    from dask.distributed import default_client
+    import dask.distributed
 
+    distributed: Any = dask.distributed
     try:
-        client = default_client()
+        client = distributed.default_client()
     except ValueError:
         return None
     return client if client.scheduler.address == address else None

@@ -42,12 +42,11 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any, Literal, Self
 
 import numpy as np
 import pandas as pd
 from pydantic import BaseModel, ConfigDict, Field, Strict, ValidationError, model_validator
-from typing_extensions import Self
 
 from hvacflex.building.io import building_from_dict
 from hvacflex.building.model import Building
@@ -218,7 +217,8 @@ class Fleet:
                 field="feeder_limit_csv",
                 hint="a CSV with columns time, feeder_limit_kw",
             ) from None
-        values = series.reindex(index.tz_convert(series.index.tz)).to_numpy(float)
+        tz = pd.DatetimeIndex(series.index).tz
+        values = series.reindex(index.tz_convert(tz)).to_numpy(float)
         if np.isnan(values).any() or (values <= 0).any():
             first = index[int(np.flatnonzero(np.isnan(values) | (values <= 0))[0])]
             raise DataError(
