@@ -72,6 +72,14 @@ def data_show(
         typer.echo(f"\nwrote {fig2}")
 
 
+def _fleet_group() -> typer.Typer:
+    from hvacflex.fleet.cli import fleet_app
+
+    return fleet_app
+
+
+app.add_typer(_fleet_group(), name="fleet")
+
 building_app = typer.Typer(help="Inspect building descriptions.", no_args_is_help=True)
 app.add_typer(building_app, name="building")
 
@@ -165,8 +173,14 @@ def kpi(
             unique = f"{name}#{suffix}"
             suffix += 1
         try:
-            results = kpis.load_results(path)
-            columns[unique] = kpis.summary(results, peak_price_sgd_per_kw)
+            from hvacflex.fleet.kpi import fleet_summary, load_fleet_results
+
+            fleet_results = load_fleet_results(path)
+            if fleet_results is not None:  # a fleet run (hvacflex fleet simulate)
+                columns[unique] = fleet_summary(fleet_results)
+            else:
+                results = kpis.load_results(path)
+                columns[unique] = kpis.summary(results, peak_price_sgd_per_kw)
         except HvacflexError as exc:
             where = "" if str(path) in str(exc) else f"{path}: "
             typer.echo(f"error: {where}{exc}", err=True)

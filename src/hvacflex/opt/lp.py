@@ -332,7 +332,11 @@ def add_plan_variables(lp: LPBuilder, p: RMPCProblem, *, power_column: bool) -> 
     )
     slack_max = np.inf if p.slack_max_kelvin is None else p.slack_max_kelvin
     eps = lp.add_columns((horizon, p.ny), lower=0.0, upper=slack_max, time_indexed=True)
-    power = lp.add_columns((horizon if power_column else 0,), time_indexed=True)
+    power = lp.add_columns(
+        (horizon if power_column else 0,),
+        upper=p.power_max_kw if power_column else np.inf,
+        time_indexed=True,
+    )
     beta = int(lp.add_columns((1,), lower=float(p.phi[0]) * p.peak_floor_kw)[0])
     return PlanColumns(x, z, u, r, eps, power, beta, reserve_inputs, event_model)
 

@@ -179,6 +179,8 @@ class RMPCProblem:
     slack_max_kelvin : cap on ε [K]; None = unbounded (soft comfort), 0 = hard comfort
     feedback : policy structure for ``robust="feedback"`` (default ``FeedbackOptions()``);
         must be None for the other modes
+    power_max_kw : scalar or (N,) cap on the plan's power P_k [kW] (a column bound; +inf =
+        none, the default); e.g. a feeder's share (:mod:`hvacflex.fleet`). Open loop only.
     il_event_max_steps : D, the longest IL event [steps], 1 ≤ D ≤ N; None = the paper's
         whole-horizon model (curtailed trajectory for all N steps, strict band). See
         :mod:`hvacflex.opt.events`; not with robust="dual" or "feedback"
@@ -217,6 +219,7 @@ class RMPCProblem:
     robust: RobustMode = "tightening"
     slack_max_kelvin: float | None = None
     feedback: FeedbackOptions | None = None
+    power_max_kw: float | FloatArray = np.inf
     il_event_max_steps: int | None = None
     il_event_allowance_kelvin: float = 0.0
     il_event_recovery_steps: int = 0
@@ -310,6 +313,16 @@ class RMPCProblem:
                 self.peak_price_sgd_per_kw,
                 ((), (horizon,)),
                 target=(horizon,),
+            ),
+        )
+        put(
+            "power_max_kw",
+            _float_array(
+                "power_max_kw",
+                self.power_max_kw,
+                ((), (horizon,)),
+                target=(horizon,),
+                allow_pos_inf=True,
             ),
         )
 
@@ -406,6 +419,13 @@ class RMPCProblem:
         self._check_feedback()
 
     def _check_feedback(self) -> None:
+        if self.robust == "feedback" and np.isfinite(self.power_max_kw).any():
+            raise ProblemError(
+                "a power cap applies only to the open-loop problem",
+                source=_SOURCE,
+                field="power_max_kw",
+                hint="leave power_max_kw at +inf with robust='feedback'",
+            )
         if self.robust != "feedback":
             if self.feedback is not None:
                 raise ProblemError(

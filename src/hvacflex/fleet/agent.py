@@ -1,0 +1,415 @@
+"""One building of a fleet as a long-lived, steppable controller + plant (a "building agent").
+
+An agent wraps the single-building machinery unchanged: the RMPC problem is built by
+:meth:`hvacflex.control.mpc.MPCController.problem`, the plant is stepped and recorded by
+:class:`hvacflex.sim.closed_loop.ClosedLoop` (so each building's rows have the schema of a
+single-building run). What the fleet adds is the coordination hook: each step the agent
+
+1. :meth:`BuildingAgent.begin_step` builds the step's problem and reports its power range
+   (N,) [kW] (all flows at their lower, resp. upper bounds),
+2. :meth:`BuildingAgent.solve` solves it with a feeder price λ (N,) [SGD/MWh] added to the
+   energy price (warm-started: one :class:`~hvacflex.opt.RMPCSolver` per building, kept
+   across steps and iterations),
+3. :meth:`BuildingAgent.finalize` fixes the plan, re-solving with per-period power caps
+   (N,) [kW] (``RMPCProblem.power_max_kw``, a bound on the plan's power column) when the
+   coordinator allocates them,
+4. :meth:`BuildingAgent.advance` applies its first step to the nonlinear plant.
+
+A :class:`BuildingGroup` holds the agents of one worker and vectorises these calls over its
+buildings; it is what runs as a Dask actor.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from hvacflex.building.discretize import linearize
+from hvacflex.building.plant import NonlinearPlant
+from hvacflex.config import (
+    LINEARISATION_MARGIN_K,
+    ComfortConfig,
+    ControllerConfig,
+    ScenarioConfig,
+)
+from hvacflex.control.base import Action, FloatArray
+from hvacflex.control.mpc import MPCController
+from hvacflex.data.forecast import Forecast, Forecaster, load_exogenous
+from hvacflex.data.gains import DEFAULT_OFFICE_SCHEDULE, ComfortBand, OfficeSchedule
+from hvacflex.data.uncertainty import UncertaintyBox
+from hvacflex.fleet.schema import Fleet, FleetBuilding, fleet_from_dict
+from hvacflex.opt import RMPCProblem, RMPCSolution, RMPCSolver, SolveStatus
+from hvacflex.sim.closed_loop import ClosedLoop, Setup
+from hvacflex.units import KWH_PER_MWH
+
+CAP_TOLERANCE_KW = 1e-6
+"""Applied power may exceed its cap by this much (solver round-off)."""
+
+
+def power_bounds_kw(problem: RMPCProblem, u_max: FloatArray | None = None) -> FloatArray:
+    """(N,) largest affine power P_k = p0_k + p_k·u_k over the flow box [u_min, u_max] [kW]."""
+    p = problem.power_coeff_kw_per_kg_s
+    upper = problem.u_max if u_max is None else u_max
+    bound: FloatArray = (
+        problem.power_offset_kw
+        + np.sum(np.maximum(p, 0.0) * upper, axis=1)
+        + np.sum(np.minimum(p, 0.0) * problem.u_min, axis=1)
+    )
+    return bound
+
+
+class _StagedSolver(RMPCSolver):
+    """The building's warm-started solver; :meth:`solve` returns a plan the coordinator
+    staged (so that :meth:`MPCController.act` applies the coordinated plan unchanged)."""
+
+    staged: RMPCSolution | None = None
+
+    def solve(self, problem: RMPCProblem) -> RMPCSolution:
+        staged, self.staged = self.staged, None
+        return staged if staged is not None else super().solve(problem)
+
+    def solve_now(self, problem: RMPCProblem) -> RMPCSolution:
+        """Solve ``problem`` (never the staged plan)."""
+        self.staged = None
+        return super().solve(problem)
+
+
+class FleetController(MPCController):
+    """The building's MPC, driven by the fleet coordinator.
+
+    One warm-started solver without time shift (the same step is re-solved at several
+    prices). :meth:`act` applies the staged plan through :meth:`MPCController.act` (its
+    fallbacks included) and then enforces the step's power cap on whatever it returns:
+    flows above the cap are scaled towards the lower bounds until the affine power meets it.
+    """
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self.cap_now_kw = np.inf
+        self.power_now: tuple[float, FloatArray] | None = None
+
+    def solver(self, problem: RMPCProblem) -> _StagedSolver:
+        if self._solver is None:
+            self._solver = _StagedSolver(
+                problem, time_limit_s=self._config.time_limit_s, time_shift=False
+            )
+            if self._pending_basis is not None:
+                self._solver.set_basis(self._pending_basis)
+                self._pending_basis = None
+        assert isinstance(self._solver, _StagedSolver)
+        return self._solver
+
+    def act(self, x_degc: FloatArray, forecast: Forecast, *, peak_floor_kw: float) -> Action:
+        action = super().act(x_degc, forecast, peak_floor_kw=peak_floor_kw)
+        if self.power_now is None or not np.isfinite(self.cap_now_kw):
+            return action
+        p0, p = self.power_now
+        low = self._building.hvac.flow_min_at(forecast.occupied[:1])[0]
+        power = p0 + float(p @ action.flow_kg_s)
+        if power <= self.cap_now_kw + CAP_TOLERANCE_KW:
+            return action
+        span = float(p @ (action.flow_kg_s - low))
+        theta = 0.0 if span <= 0 else float(np.clip((self.cap_now_kw - p0 - p @ low) / span, 0, 1))
+        flow = low + theta * (action.flow_kg_s - low)
+        reserve = np.clip(action.reserve_flow_kg_s, 0.0, flow - low)
+        return dataclasses.replace(
+            action,
+            flow_kg_s=flow,
+            reserve_flow_kg_s=reserve,
+            reserve_kw=float(p @ reserve),
+            planned_power_kw=p0 + float(p @ flow),
+            fallback=True,
+            status=f"{action.status}+capped",
+        )
+
+
+@dataclass(frozen=True)
+class FleetSettings:
+    """What every agent of a run shares: the period and the controller settings."""
+
+    start: str
+    days: float
+    seed: int
+    robust: str
+    horizon_steps: int
+    reserve: bool
+    peak_price_sgd_per_kw: float
+    billing_mode: str
+
+    @staticmethod
+    def of(fleet: Fleet, start: str, days: float) -> FleetSettings:
+        s = fleet.spec
+        return FleetSettings(
+            start=start,
+            days=days,
+            seed=s.seed,
+            robust=s.robust,
+            horizon_steps=s.horizon_steps,
+            reserve=s.reserve.enabled,
+            peak_price_sgd_per_kw=s.ppp.peak_price_sgd_per_kw,
+            billing_mode=s.ppp.billing_mode,
+        )
+
+
+def _schedule(hours: tuple[int, int]) -> OfficeSchedule:
+    """The default office schedule shifted so that occupancy starts at ``hours[0]``."""
+    shift = hours[0] - DEFAULT_OFFICE_SCHEDULE.occupied_hours[0]
+    base = DEFAULT_OFFICE_SCHEDULE
+    rolled = {
+        name: tuple(np.roll(np.asarray(getattr(base, name)), shift).tolist())
+        for name in ("people_workday", "lighting_workday", "equipment_workday")
+    }
+    return dataclasses.replace(
+        base,
+        occupied_hours=hours,
+        people_workday=rolled["people_workday"],
+        lighting_workday=rolled["lighting_workday"],
+        equipment_workday=rolled["equipment_workday"],
+    )
+
+
+def building_setup(entry: FleetBuilding, index: int, settings: FleetSettings) -> Setup:
+    """The single-building :class:`Setup` of one fleet building (its own seed)."""
+    controller = ControllerConfig(
+        robust=settings.robust,  # type: ignore[arg-type]
+        reserve=settings.reserve,
+        peak_price_sgd_per_kw=settings.peak_price_sgd_per_kw,
+        billing_mode=settings.billing_mode,  # type: ignore[arg-type]
+        horizon_steps=settings.horizon_steps,
+    )
+    comfort = ComfortConfig(
+        occupied_degc=entry.comfort_occupied_degc, unoccupied_degc=entry.comfort_unoccupied_degc
+    )
+    config = ScenarioConfig(
+        name=entry.name,
+        start=settings.start,
+        days=settings.days,
+        seed=settings.seed + index,
+        initial_temp_degc=entry.initial_temp_degc,
+        controller=controller,
+        comfort=comfort,
+    )
+    building = entry.building
+    temp_ref = comfort.occupied_degc[1] - LINEARISATION_MARGIN_K
+    model = linearize(building, dt_s=config.dt_s, linearisation_temp_degc=temp_ref)
+    exogenous = load_exogenous(
+        model.channels,
+        [zone.floor_area_m2 for zone in building.zones],
+        building.gains,
+        start=config.start_timestamp,
+        steps=config.steps,
+        horizon_steps=settings.horizon_steps,
+        comfort=ComfortBand(comfort.occupied_degc, comfort.unoccupied_degc),
+        seed=settings.seed,
+        schedule=_schedule(entry.occupied_hours),
+    )
+    box = UncertaintyBox(
+        relative=dict(config.uncertainty.relative), absolute=dict(config.uncertainty.absolute)
+    )
+    return Setup(
+        config=config,
+        building=building,
+        model=model,
+        plant=NonlinearPlant(building),
+        exogenous=exogenous,
+        forecaster=Forecaster(exogenous),
+        box=box,
+        activation=np.zeros(config.steps, dtype=bool),
+        linearisation_temp_degc=temp_ref,
+    )
+
+
+@dataclass
+class StepSolve:
+    """One building's answer to a price: plan power (N,) [kW], its cost without the feeder
+    price [SGD], its Lagrangian objective (with it) [SGD], and whether it is optimal."""
+
+    power_kw: FloatArray
+    cost_sgd: float
+    lagrangian_sgd: float
+    ok: bool
+
+
+class BuildingAgent:
+    """One building's controller and plant across the whole run (see the module docstring)."""
+
+    def __init__(self, entry: FleetBuilding, index: int, settings: FleetSettings) -> None:
+        self.name = entry.name
+        self.setup = building_setup(entry, index, settings)
+        cfg = self.setup.config.controller
+        self.controller = FleetController(
+            self.setup.building,
+            self.setup.model,
+            cfg,
+            self.setup.box,
+            self.setup.linearisation_temp_degc,
+        )
+        self.loop = ClosedLoop(self.setup, self.controller)
+        self._problem: RMPCProblem | None = None
+        self._last: RMPCSolution | None = None
+        self._last_price: FloatArray | None = None
+
+    @property
+    def problem(self) -> RMPCProblem:
+        """The current step's problem (without feeder price or caps); after begin_step()."""
+        assert self._problem is not None, "begin_step() first"
+        return self._problem
+
+    # -- coordination --------------------------------------------------------------
+    def begin_step(self) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """Build this step's problem; (P_min (N,), P_max (N,), energy price (N,))."""
+        loop = self.loop
+        forecast = self.setup.forecaster.forecast(
+            loop.k, self.setup.config.controller.horizon_steps + 1
+        )
+        problem = self.controller.problem(loop.x, forecast, loop.month_peak_kw)
+        self._problem, self._last, self._last_price = problem, None, None
+        p_min = power_bounds_kw(problem, problem.u_min)
+        return p_min, power_bounds_kw(problem), problem.energy_price_sgd_per_mwh.copy()
+
+    def _solve(self, price_kw: FloatArray, cap_kw: FloatArray | None = None) -> StepSolve:
+        base = self._problem
+        assert base is not None, "begin_step() first"
+        changes: dict[str, Any] = {
+            "energy_price_sgd_per_mwh": base.energy_price_sgd_per_mwh + price_kw,
+            "power_max_kw": np.inf if cap_kw is None else cap_kw,
+        }
+        problem = dataclasses.replace(base, **changes)
+        solution = self.controller.solver(problem).solve_now(problem)
+        self._last, self._last_price = solution, price_kw.copy()
+        if solution.status is not SolveStatus.OPTIMAL:
+            nan = np.full(base.horizon, np.nan)
+            return StepSolve(nan, np.nan, np.nan, False)
+        priced = base.dt_h * float(price_kw @ solution.power_kw) / KWH_PER_MWH
+        return StepSolve(
+            solution.power_kw.copy(), solution.objective_sgd - priced, solution.objective_sgd, True
+        )
+
+    def solve(self, price_sgd_per_mwh: FloatArray) -> StepSolve:
+        """Solve the step's problem with the feeder price added to the energy price."""
+        return self._solve(np.asarray(price_sgd_per_mwh, dtype=float))
+
+    def finalize(self, price_sgd_per_mwh: FloatArray, cap_kw: FloatArray) -> StepSolve:
+        """Fix the step's plan: re-solve inside the power caps (N,) [kW] (inf = none) unless
+        the last solve at this price already respects them; stage it for :meth:`advance`."""
+        base = self._problem
+        assert base is not None
+        price = np.asarray(price_sgd_per_mwh, dtype=float)
+        cap = np.asarray(cap_kw, dtype=float)
+        last = self._last
+        reuse = (
+            last is not None
+            and last.status is SolveStatus.OPTIMAL
+            and self._last_price is not None
+            and np.array_equal(self._last_price, price)
+            and bool(np.all(last.power_kw <= cap + CAP_TOLERANCE_KW))
+        )
+        if reuse:
+            assert last is not None
+            priced = base.dt_h * float(price @ last.power_kw) / KWH_PER_MWH
+            result = StepSolve(
+                last.power_kw.copy(), last.objective_sgd - priced, last.objective_sgd, True
+            )
+        else:
+            # caps below the minimum power cannot bind the LP (flows at their minimum): the
+            # coordinator flags those periods; the cap row then sits at the minimum
+            floor = power_bounds_kw(base, base.u_min)
+            result = self._solve(price, np.maximum(cap, floor + CAP_TOLERANCE_KW))
+        solver = self.controller.solver(base)
+        solver.staged = self._last
+        self.controller.cap_now_kw = float(cap[0])
+        self.controller.power_now = (
+            float(base.power_offset_kw[0]),
+            base.power_coeff_kw_per_kg_s[0].copy(),
+        )
+        return result
+
+    def advance(self) -> dict[str, float]:
+        """Apply the staged plan's first step to the plant; the step's row values."""
+        k = self.loop.k
+        self.loop.step()
+        col = self.loop.recorder.column_index
+        row = self.loop.recorder.values[k]
+        return {
+            "planned_power_kw": float(row[col["planned_power_kw"]]),
+            "power_kw": float(row[col["power_kw"]]),
+            "reserve_kw": float(row[col["reserve_kw"]]),
+            "fallback": float(self.loop.recorder.fallback[k]),
+        }
+
+    # -- state -----------------------------------------------------------------------
+    def get_state(self) -> dict[str, Any]:
+        return self.loop.get_state()
+
+    def set_state(self, state: dict[str, Any]) -> None:
+        self.loop.set_state(state)
+
+    def frame(self) -> pd.DataFrame:
+        return self.loop.frame()
+
+
+class BuildingGroup:
+    """The agents of one worker; every call is vectorised over its buildings (a Dask actor).
+
+    Parameters
+    ----------
+    fleet_doc : the fleet document (parsed TOML); only ``indices`` are built here.
+    indices : positions of this group's buildings in the fleet.
+    settings : the run's shared settings.
+    """
+
+    def __init__(
+        self, fleet_doc: dict[str, Any], indices: list[int], settings: FleetSettings
+    ) -> None:
+        fleet = fleet_from_dict(fleet_doc, source="fleet")
+        self.indices = list(indices)
+        self.agents = [BuildingAgent(fleet.buildings[i], i, settings) for i in self.indices]
+
+    def begin_step(self) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """(B, N) minimum and maximum power [kW] and (B, N) energy prices [SGD/MWh]."""
+        parts = [agent.begin_step() for agent in self.agents]
+        return (
+            np.array([p[0] for p in parts]),
+            np.array([p[1] for p in parts]),
+            np.array([p[2] for p in parts]),
+        )
+
+    def solve(self, price_sgd_per_mwh: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """(B, N) plan powers [kW], (B,) costs and Lagrangian objectives [SGD] at price (N,)."""
+        return _stack([agent.solve(price_sgd_per_mwh) for agent in self.agents])
+
+    def finalize(
+        self, price_sgd_per_mwh: FloatArray, cap_kw: FloatArray
+    ) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """Fix every plan inside its caps (B, N) [kW]; like :meth:`solve`."""
+        return _stack([a.finalize(price_sgd_per_mwh, cap_kw[i]) for i, a in enumerate(self.agents)])
+
+    def advance(self) -> dict[str, FloatArray]:
+        """Step every plant; (B,) arrays of the step's planned and realised power etc."""
+        rows = [agent.advance() for agent in self.agents]
+        return {key: np.array([r[key] for r in rows]) for key in rows[0]}
+
+    def get_state(self) -> list[dict[str, Any]]:
+        return [agent.get_state() for agent in self.agents]
+
+    def set_state(self, states: list[dict[str, Any]]) -> int:
+        for agent, state in zip(self.agents, states, strict=True):
+            agent.set_state(state)
+        return len(states)
+
+    def frames(self) -> list[pd.DataFrame]:
+        return [agent.frame() for agent in self.agents]
+
+    def ping(self) -> int:
+        return len(self.agents)
+
+
+def _stack(parts: list[StepSolve]) -> tuple[FloatArray, FloatArray, FloatArray]:
+    power = np.array([p.power_kw for p in parts])
+    cost = np.array([p.cost_sgd if p.ok else np.nan for p in parts])
+    lagrangian = np.array([p.lagrangian_sgd if p.ok else np.nan for p in parts])
+    return power, cost, lagrangian

@@ -1,0 +1,418 @@
+"""A fleet's closed-loop run on Dask: building groups as actors, one coordinator.
+
+Every 30 min the coordinator (this process) asks every group for its buildings' power
+ranges, runs the price iterations of :func:`hvacflex.fleet.coordinate.coordinate` (each
+iteration one call per group, the groups solving in parallel on their workers), fixes the
+plans inside the caps, and advances every plant. The groups are Dask actors
+(``client.submit(BuildingGroup, ..., actor=True)``): the building agents, their warm-started
+HiGHS solvers included, live on the workers across steps and only prices, powers and rows
+travel.
+
+Checkpoints: every ``checkpoint_every`` steps the coordinator collects every building's
+state (:meth:`ClosedLoop.get_state`) and the fleet rows and writes ``checkpoint.pkl``
+atomically. If a worker is lost mid-run, the step fails; the coordinator re-creates the
+groups on the workers there are, restores every building from the last checkpoint and goes
+on from there (the run is deterministic, so the result is the same). Started again with the
+same fleet file, period and code, a run resumes from its checkpoint.
+
+Files written to ``out``: ``results.parquet`` (one row per step, fleet columns; schema in
+docs/fleet.md), ``buildings.parquet`` (long format: the single-building columns of every
+building plus ``building``), ``summary.json`` (fleet KPIs), ``buildings_summary.csv``
+(per-building KPIs), ``config.json``.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import logging
+import pickle
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+import pyarrow as pa
+import pyarrow.parquet as pq
+
+from hvacflex.control.base import FloatArray
+from hvacflex.errors import HvacflexError
+from hvacflex.fleet.agent import BuildingGroup, FleetSettings
+from hvacflex.fleet.coordinate import CoordinationOptions, coordinate
+from hvacflex.fleet.schema import Fleet, load_fleet
+from hvacflex.sim.closed_loop import check_checkpoint_code, load_checkpoint
+from hvacflex.tomlio import read_toml
+from hvacflex.version import atomic_write, atomic_write_bytes, atomic_write_text, code_version
+
+RESULTS_FILE = "results.parquet"
+BUILDINGS_FILE = "buildings.parquet"
+CHECKPOINT_FILE = "checkpoint.pkl"
+SUMMARY_FILE = "summary.json"
+DT_H = 0.5
+DEFAULT_CHECKPOINT_EVERY = 12
+MAX_RECOVERIES = 3
+ACTOR_TIMEOUT_S = 60.0
+"""A group call that takes longer than this is checked for a lost worker (then retried)."""
+
+
+class WorkerLostError(RuntimeError):
+    """A Dask worker holding building groups is gone."""
+
+
+FLOAT_COLUMNS = (
+    "planned_fleet_power_kw",
+    "fleet_power_kw",
+    "feeder_limit_kw",
+    "fleet_reserve_kw",
+    "fleet_min_power_kw",
+    "feeder_excess_kw",
+    "feeder_price_sgd_per_mwh",
+    "coordination_gap",
+    "coordination_time_s",
+    "step_time_s",
+    "energy_price_sgd_per_mwh",
+    "reserve_price_sgd_per_mwh",
+    "settled_reserve_kw",
+    "discomfort_kelvin_hours",
+)
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class FleetRunResult:
+    out_dir: Path
+    frame: pd.DataFrame
+    summary: dict[str, float]
+    recoveries: int
+    resumed_from_step: int | None
+
+
+class _Groups:
+    """The building groups: in-process objects, or Dask actors on a cluster."""
+
+    def __init__(
+        self, doc: dict[str, Any], settings: FleetSettings, n: int, client: Any | None
+    ) -> None:
+        self.doc, self.settings, self.client = doc, settings, client
+        self.n = n
+        self.groups: list[Any] = []
+        self.workers: list[str] = []
+        self.indices: list[list[int]] = []
+        self.build()
+
+    def build(self) -> None:
+        if self.client is None:
+            self.indices = [list(range(self.n))]
+            self.groups = [BuildingGroup(self.doc, self.indices[0], self.settings)]
+            return
+        workers = sorted(self.client.scheduler_info()["workers"])
+        count = max(1, min(len(workers), self.n))
+        self.indices = [list(range(self.n))[i::count] for i in range(count)]
+        futures = [
+            self.client.submit(
+                BuildingGroup, self.doc, idx, self.settings, actor=True, workers=[w], pure=False
+            )
+            for idx, w in zip(self.indices, workers, strict=False)
+        ]
+        self.groups = [f.result() for f in futures]
+        self.workers = list(workers[:count])
+
+    def check_alive(self) -> None:
+        """Raise ``WorkerLostError`` when a worker holding a group has left the cluster."""
+        if self.client is None:
+            return
+        present = set(self.client.scheduler_info()["workers"])
+        lost = [w for w in self.workers if w not in present]
+        if lost:
+            raise WorkerLostError(f"worker(s) {lost} left the cluster")
+
+    def call(self, method: str, *args_per_group: Sequence[Any]) -> list[Any]:
+        calls = [
+            getattr(g, method)(*(a[i] for a in args_per_group)) for i, g in enumerate(self.groups)
+        ]
+        if self.client is None:
+            return calls
+        results = []
+        for c in calls:
+            try:
+                results.append(c.result(timeout=ACTOR_TIMEOUT_S))
+            except TimeoutError:
+                self.check_alive()
+                raise
+        return results
+
+    def broadcast(self, method: str, *args: Any) -> list[Any]:
+        return self.call(method, *([arg] * len(self.groups) for arg in args))
+
+    def stacked(self, method: str, *args: Any) -> tuple[np.ndarray, ...]:
+        """Call on every group and reassemble (B, …) arrays in fleet building order."""
+        parts = self.broadcast(method, *args)
+        order = np.argsort(np.concatenate(self.indices))
+        return tuple(np.concatenate([p[j] for p in parts])[order] for j in range(len(parts[0])))
+
+    def split(self, array: np.ndarray) -> list[np.ndarray]:
+        return [array[idx] for idx in self.indices]
+
+    def get_states(self) -> list[dict[str, Any]]:
+        states: list[dict[str, Any]] = [{}] * self.n
+        for idx, part in zip(self.indices, self.broadcast("get_state"), strict=True):
+            for i, state in zip(idx, part, strict=True):
+                states[i] = state
+        return states
+
+    def set_states(self, states: list[dict[str, Any]]) -> None:
+        self.call("set_state", [[states[i] for i in idx] for idx in self.indices])
+
+
+def fleet_key(fleet_path: Path, start: str, days: float) -> str:
+    """Identity of a fleet run's inputs: the fleet file's bytes and the period."""
+    digest = hashlib.sha256(fleet_path.read_bytes())
+    digest.update(f"{start}|{days}".encode())
+    return digest.hexdigest()[:16]
+
+
+def _discomfort_kelvin_hours(frame: pd.DataFrame) -> np.ndarray:
+    """(T,) comfort violation of the period-end temperatures, summed over zones [K·h]."""
+    total = np.zeros(len(frame))
+    for col in frame.columns:
+        if col.startswith("temp_end_") and col.endswith("_degc"):
+            zone = col[len("temp_end_") : -len("_degc")]
+            t = frame[col].to_numpy(float)
+            lo = frame[f"comfort_lower_{zone}_degc"].to_numpy(float)
+            hi = frame[f"comfort_upper_{zone}_degc"].to_numpy(float)
+            total += (np.maximum(lo - t, 0.0) + np.maximum(t - hi, 0.0)) * DT_H
+    return total
+
+
+def run_fleet(
+    fleet_path: str | Path,
+    out_dir: str | Path,
+    *,
+    start: str,
+    days: float,
+    scheduler: str | None = None,
+    workers: int | None = 2,
+    checkpoint_every: int = DEFAULT_CHECKPOINT_EVERY,
+    resume: bool = True,
+    progress: Callable[[int, int], None] | None = None,
+    on_step: Callable[[int, Any], None] | None = None,
+) -> FleetRunResult:
+    """Simulate a fleet (see the module docstring).
+
+    Parameters
+    ----------
+    fleet_path : the fleet TOML file.
+    out_dir : folder for the results, summary and checkpoint.
+    start, days : the simulated period (Singapore local time).
+    scheduler : a Dask scheduler address; None = a ``LocalCluster`` of ``workers`` worker
+        processes (one thread each); ``workers=0`` runs in this process without Dask.
+    checkpoint_every : steps between checkpoints.
+    resume : resume from a checkpoint of the same inputs and code.
+    on_step : called with (steps done, the run's group handle) after each step (tests).
+    """
+    path = Path(fleet_path)
+    fleet = load_fleet(path)
+    doc = read_toml(path, what="fleet")
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    settings = FleetSettings.of(fleet, start, days)
+    steps = round(days * 48)
+    index = pd.date_range(pd.Timestamp(start, tz="Asia/Singapore"), periods=steps, freq="30min")
+    horizon = settings.horizon_steps
+    full_index = pd.date_range(index[0], periods=steps + horizon, freq="30min")
+    limit = fleet.limit_series_kw(full_index)
+    planning_limit = limit * (1.0 - fleet.spec.feeder_margin)
+    cs = fleet.spec.coordination
+    options = CoordinationOptions(
+        cs.max_iterations, cs.gap_tolerance, cs.feasibility_tolerance, cs.step_sgd_per_mwh
+    )
+    key = fleet_key(path, start, days)
+    checkpoint_path = out / CHECKPOINT_FILE
+    atomic_write_text(
+        out / "config.json",
+        json.dumps({"fleet": str(path), "start": start, "days": days, "key": key}, indent=2),
+    )
+
+    cluster: Any = None
+    client: Any = None
+    own_client: Any = None
+    if workers != 0 or scheduler is not None:
+        import dask.distributed
+
+        distributed: Any = dask.distributed  # untyped package
+        Client, LocalCluster = distributed.Client, distributed.LocalCluster
+        if scheduler is None:
+            cluster = LocalCluster(
+                n_workers=workers or 1, threads_per_worker=1, processes=True, dashboard_address=None
+            )
+            client = own_client = Client(cluster)
+        else:
+            client = _existing_client(scheduler)
+            if client is None:
+                client = own_client = Client(scheduler)
+    n = len(fleet.buildings)
+    try:
+        groups = _Groups(doc, settings, n, client)
+        values = np.full((steps, len(FLOAT_COLUMNS)), np.nan)
+        flags = np.zeros((steps, 2), dtype=bool)  # bid_accepted, feeder_infeasible
+        iterations = np.zeros(steps, dtype=np.int64)
+        col = {name: i for i, name in enumerate(FLOAT_COLUMNS)}
+        k, price = 0, np.zeros(horizon)
+        resumed_from: int | None = None
+        checkpoint: dict[str, Any] | None = None
+        if resume and checkpoint_path.is_file():
+            state = load_checkpoint(checkpoint_path)
+            if state["config_hash"] == key:
+                check_checkpoint_code(state, checkpoint_path)
+                checkpoint = state
+        if checkpoint is not None:
+            groups.set_states(checkpoint["buildings"])
+            k, price = checkpoint["k"], checkpoint["price"].copy()
+            values[:k], flags[:k], iterations[:k] = (
+                checkpoint["values"],
+                checkpoint["flags"],
+                checkpoint["iterations"],
+            )
+            resumed_from = k
+
+        def snapshot() -> dict[str, Any]:
+            return {
+                "config_hash": key,
+                "code_version": code_version(),
+                "k": k,
+                "price": price.copy(),
+                "values": values[:k].copy(),
+                "flags": flags[:k].copy(),
+                "iterations": iterations[:k].copy(),
+                "buildings": groups.get_states(),
+            }
+
+        checkpoint = checkpoint or snapshot()
+        recoveries = 0
+        min_bid_kw = 1000.0 * fleet.spec.min_bid_mw
+        while k < steps:
+            try:
+                tick = time.perf_counter()
+                groups.check_alive()
+                p_min, p_max, energy = groups.stacked("begin_step")
+                f = planning_limit[k : k + horizon]
+
+                def solve_all(lam: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
+                    power, cost, lagrangian = groups.stacked("solve", lam)
+                    return power, cost, lagrangian
+
+                def finalize_all(
+                    lam: FloatArray, caps: FloatArray
+                ) -> tuple[FloatArray, FloatArray, FloatArray]:
+                    parts = groups.call("finalize", [lam] * len(groups.groups), groups.split(caps))
+                    order = np.argsort(np.concatenate(groups.indices))
+                    power, cost, lagrangian = (
+                        np.concatenate([p[j] for p in parts])[order] for j in range(3)
+                    )
+                    return power, cost, lagrangian
+
+                result = coordinate(
+                    solve_all, finalize_all, f, p_min, p_max, energy, DT_H, options, price
+                )
+                coordinated = time.perf_counter() - tick
+                rows = groups.broadcast("advance")
+                merged = {key_: np.concatenate([r[key_] for r in rows]) for key_ in rows[0]}
+            except HvacflexError:
+                raise
+            except Exception as exc:  # a lost worker surfaces as comm/actor errors
+                recoveries += 1
+                if client is None or recoveries > MAX_RECOVERIES:
+                    raise
+                log.warning(
+                    "fleet step %d failed (%s); restoring from step %d", k, exc, checkpoint["k"]
+                )
+                client.wait_for_workers(1, timeout=120)
+                groups.build()
+                groups.set_states(checkpoint["buildings"])
+                k, price = checkpoint["k"], checkpoint["price"].copy()
+                continue
+            planned = float(np.sum(merged["planned_power_kw"]))
+            reserve = float(np.sum(merged["reserve_kw"]))
+            accepted = reserve >= min_bid_kw and reserve > 0
+            row = values[k]
+            row[col["planned_fleet_power_kw"]] = planned
+            row[col["fleet_power_kw"]] = float(np.sum(merged["power_kw"]))
+            row[col["feeder_limit_kw"]] = limit[k]
+            row[col["fleet_reserve_kw"]] = reserve
+            row[col["settled_reserve_kw"]] = reserve if accepted else 0.0
+            row[col["fleet_min_power_kw"]] = float(p_min[:, 0].sum())
+            row[col["feeder_excess_kw"]] = float(result.excess_kw[0])
+            row[col["feeder_price_sgd_per_mwh"]] = float(result.price_sgd_per_mwh[0])
+            row[col["coordination_gap"]] = result.gap
+            row[col["coordination_time_s"]] = coordinated
+            row[col["step_time_s"]] = time.perf_counter() - tick
+            flags[k] = (accepted, bool(result.infeasible[0]))
+            iterations[k] = result.iterations
+            price = np.append(result.price_sgd_per_mwh[1:], result.price_sgd_per_mwh[-1])
+            k += 1
+            if progress is not None:
+                progress(k, steps)
+            if on_step is not None:
+                on_step(k, groups)
+            if k % checkpoint_every == 0 and k < steps:
+                checkpoint = snapshot()
+                atomic_write_bytes(checkpoint_path, pickle.dumps(checkpoint, protocol=5))
+
+        frames = groups.broadcast("frames")
+        order = np.concatenate(groups.indices)
+        building_frames = [f for part in frames for f in part]
+        by_index = dict(zip(order.tolist(), building_frames, strict=True))
+        long = pd.concat([by_index[i].assign(building=fleet.buildings[i].name) for i in range(n)])
+        values[:, col["energy_price_sgd_per_mwh"]] = by_index[0]["energy_price_sgd_per_mwh"]
+        values[:, col["reserve_price_sgd_per_mwh"]] = by_index[0]["reserve_price_sgd_per_mwh"]
+        values[:, col["discomfort_kelvin_hours"]] = sum(
+            _discomfort_kelvin_hours(by_index[i]) for i in range(n)
+        )
+    finally:
+        if own_client is not None:
+            own_client.close()
+        if cluster is not None:
+            cluster.close()
+
+    frame = pd.DataFrame(values, index=index, columns=list(FLOAT_COLUMNS))
+    frame.index.name = "time"
+    frame["bid_accepted"] = flags[:, 0]
+    frame["feeder_infeasible"] = flags[:, 1]
+    frame["coordination_iterations"] = iterations
+    _write(frame, out / RESULTS_FILE, fleet, key)
+    long.index.name = "time"
+    _write(long, out / BUILDINGS_FILE, fleet, key)
+    from hvacflex.fleet.kpi import building_table, fleet_summary
+
+    summary = fleet_summary(frame, long)
+    summary["recoveries"] = float(recoveries)
+    atomic_write_text(out / SUMMARY_FILE, json.dumps(summary, indent=2))
+    building_table(long).to_csv(out / "buildings_summary.csv", index_label="building")
+    checkpoint_path.unlink(missing_ok=True)
+    return FleetRunResult(out, frame, summary, recoveries, resumed_from)
+
+
+def _existing_client(address: str) -> Any | None:
+    """This process's client of the scheduler at ``address``, if there is one (actors are
+    bound to one client: a second client in the same process would not see their results)."""
+    import dask.distributed
+
+    distributed: Any = dask.distributed
+    try:
+        client = distributed.default_client()
+    except ValueError:
+        return None
+    return client if client.scheduler.address == address else None
+
+
+def _write(frame: pd.DataFrame, path: Path, fleet: Fleet, key: str) -> None:
+    table = pa.Table.from_pandas(frame)
+    meta = dict(table.schema.metadata or {})
+    meta[b"hvacflex.fleet"] = fleet.name.encode()
+    meta[b"hvacflex.run_key"] = key.encode()
+    meta[b"hvacflex.version"] = code_version().encode()
+    table = table.replace_schema_metadata(meta)
+    atomic_write(path, lambda tmp: pq.write_table(table, tmp))

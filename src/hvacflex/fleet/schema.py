@@ -1,0 +1,267 @@
+"""Fleet files: the TOML description of an aggregator's buildings and its feeder.
+
+A fleet file holds fleet-level settings at its top level (always written by
+``hvacflex fleet generate``) and one ``[[buildings]]`` table per building whose
+``[buildings.building]`` table is a complete building description, validated exactly as a
+building file is (:func:`hvacflex.building.io.building_from_dict`)::
+
+    name = "example"
+    seed = 7
+    feeder_limit_kw = 60.0          # or inf (no limit), or feeder_limit_csv = "limit.csv"
+    min_bid_mw = 0.1
+    feeder_margin = 0.02            # plan against (1 − margin) × limit
+    robust = "tightening"
+    horizon_steps = 48
+
+    [reserve]
+    enabled = true
+
+    [ppp]
+    peak_price_sgd_per_kw = 0.0
+
+    [coordination]
+    max_iterations = 10
+    gap_tolerance = 0.002
+    feasibility_tolerance = 0.005
+    step_sgd_per_mwh = 0.0          # 0 = automatic (mean energy price)
+
+    [[buildings]]
+    name = "b000"
+    template = "office5"
+    occupied_hours = [8, 18]
+    comfort_occupied_degc = [23.0, 26.0]
+    comfort_unoccupied_degc = [20.0, 30.0]
+    [buildings.building]
+    ...                             # a building description (docs/buildings.md)
+
+Unknown keys are errors; every error names the file, the field, the value and a hint.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Annotated, Any, Literal, Self
+
+import numpy as np
+import pandas as pd
+from pydantic import BaseModel, ConfigDict, Field, Strict, ValidationError, model_validator
+
+from hvacflex.building.io import building_from_dict
+from hvacflex.building.model import Building
+from hvacflex.errors import ConfigError, DataError
+from hvacflex.tomlio import read_toml
+
+Number = Annotated[float, Strict()]
+Finite = Annotated[float, Strict(), Field(allow_inf_nan=False)]
+Text = Annotated[str, Strict(), Field(min_length=1)]
+NAME_PATTERN = r"^[A-Za-z][A-Za-z0-9_\-]*$"
+
+
+class FleetConfigError(ConfigError):
+    """A fleet file is invalid."""
+
+
+class _Spec(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class ReserveSpec(_Spec):
+    enabled: bool = True
+
+
+class PPPSpec(_Spec):
+    peak_price_sgd_per_kw: Annotated[Finite, Field(ge=0.0)] = 0.0
+    billing_mode: Literal["horizon", "billing-period"] = "horizon"
+
+
+class CoordinationSpec(_Spec):
+    max_iterations: Annotated[int, Strict(), Field(ge=1, le=1000)] = 10
+    gap_tolerance: Annotated[Finite, Field(gt=0.0)] = 0.002
+    feasibility_tolerance: Annotated[Finite, Field(ge=0.0)] = 0.005
+    step_sgd_per_mwh: Annotated[Finite, Field(ge=0.0)] = 0.0
+
+
+class BuildingEntrySpec(_Spec):
+    name: Annotated[Text, Field(pattern=NAME_PATTERN)]
+    template: str = ""
+    occupied_hours: tuple[Annotated[int, Strict()], Annotated[int, Strict()]] = (8, 18)
+    comfort_occupied_degc: tuple[Finite, Finite] = (23.0, 26.0)
+    comfort_unoccupied_degc: tuple[Finite, Finite] = (20.0, 30.0)
+    initial_temp_degc: Finite = 25.0
+    building: dict[str, Any]
+
+    @model_validator(mode="after")
+    def _check(self) -> Self:
+        start, end = self.occupied_hours
+        if not 0 <= start < end <= 24:
+            raise ValueError("occupied_hours must satisfy 0 ≤ start < end ≤ 24")
+        for band in (self.comfort_occupied_degc, self.comfort_unoccupied_degc):
+            if band[0] >= band[1]:
+                raise ValueError("a comfort band is [lower, upper] with lower < upper")
+        return self
+
+
+class FleetSpec(_Spec):
+    name: Text = "fleet"
+    seed: Annotated[int, Strict()] = 2014
+    feeder_limit_kw: Annotated[Number, Field(gt=0.0)] | None = None
+    feeder_limit_csv: str | None = None
+    feeder_margin: Annotated[Finite, Field(ge=0.0, lt=0.5)] = 0.0
+    min_bid_mw: Annotated[Finite, Field(ge=0.0)] = 0.1
+    robust: Literal["tightening", "none"] = "tightening"
+    horizon_steps: Annotated[int, Strict(), Field(ge=2, le=336)] = 48
+    reserve: ReserveSpec = ReserveSpec()
+    ppp: PPPSpec = PPPSpec()
+    coordination: CoordinationSpec = CoordinationSpec()
+    buildings: Annotated[list[BuildingEntrySpec], Field(min_length=1)]
+
+    @model_validator(mode="after")
+    def _one_limit(self) -> Self:
+        if (self.feeder_limit_kw is None) == (self.feeder_limit_csv is None):
+            raise ValueError("give exactly one of feeder_limit_kw and feeder_limit_csv")
+        if self.feeder_limit_kw is not None and math.isnan(self.feeder_limit_kw):
+            raise ValueError("feeder_limit_kw must be a number > 0 or inf")
+        names = [b.name for b in self.buildings]
+        if len(set(names)) != len(names):
+            dup = next(n for n in names if names.count(n) > 1)
+            raise ValueError(f"building names must be unique ({dup!r} repeats)")
+        return self
+
+
+_HINTS = {
+    "feeder_limit_kw": "a number of kW > 0, or inf for no limit",
+    "feeder_limit_csv": "a CSV with columns time, feeder_limit_kw (half-hourly)",
+    "min_bid_mw": "the market's minimum bid, 0.1 MW for NEMS interruptible load",
+    "buildings": "add [[buildings]] tables (hvacflex fleet generate writes them)",
+    "building": "a complete building description, as in a building TOML file",
+    "occupied_hours": "[start, end] local hours, e.g. [8, 18]",
+}
+
+
+def _fleet_error(exc: ValidationError, source: Path | str) -> FleetConfigError:
+    errors = exc.errors(include_url=False)
+    error = next((e for e in errors if e["type"] == "extra_forbidden"), errors[0])
+    loc = tuple(error["loc"])
+    field = ""
+    for part in loc:
+        field += f"[{part}]" if isinstance(part, int) else (f".{part}" if field else str(part))
+    named = [p for p in loc if isinstance(p, str)]
+    hint = _HINTS.get(named[-1]) if named else None
+    if error["type"] == "extra_forbidden":
+        message, value = "unknown key", loc[-1] if loc else None
+        hint = hint or "see the keys `hvacflex fleet generate` writes (docs/fleet.md)"
+    elif error["type"] == "missing":
+        message, value, hint = "missing required field", None, hint or "add it to the file"
+    else:
+        message, value = str(error["msg"]).removeprefix("Value error, "), error["input"]
+        if isinstance(value, dict | list):
+            value = None
+    return FleetConfigError(message, source=source, field=field or None, value=value, hint=hint)
+
+
+@dataclass(frozen=True)
+class FleetBuilding:
+    """One building of a fleet: the validated description and its operating settings."""
+
+    name: str
+    building: Building
+    raw: dict[str, Any]
+    occupied_hours: tuple[int, int]
+    comfort_occupied_degc: tuple[float, float]
+    comfort_unoccupied_degc: tuple[float, float]
+    initial_temp_degc: float
+
+
+@dataclass(frozen=True)
+class Fleet:
+    """A validated fleet file.
+
+    ``feeder_limit_kw`` is the constant limit [kW] (``inf`` = none) or None when
+    ``feeder_limit_csv`` gives a half-hourly series (read by :meth:`limit_series_kw`).
+    """
+
+    spec: FleetSpec
+    buildings: tuple[FleetBuilding, ...]
+    source: Path | None
+
+    @property
+    def name(self) -> str:
+        return self.spec.name
+
+    def limit_series_kw(self, index: pd.DatetimeIndex) -> np.ndarray:
+        """(T,) feeder limit [kW] for each period start of ``index`` (inf = no limit).
+
+        Raises
+        ------
+        DataError
+            When the CSV is unreadable or does not cover every period of ``index``.
+        """
+        if self.spec.feeder_limit_kw is not None:
+            return np.full(len(index), float(self.spec.feeder_limit_kw))
+        assert self.spec.feeder_limit_csv is not None
+        path = Path(self.spec.feeder_limit_csv)
+        if not path.is_absolute() and self.source is not None:
+            path = self.source.parent / path
+        try:
+            frame = pd.read_csv(path)
+            times = pd.DatetimeIndex(pd.to_datetime(frame["time"]))
+            if times.tz is None:
+                times = times.tz_localize("Asia/Singapore")
+            series = pd.Series(frame["feeder_limit_kw"].to_numpy(float), index=times)
+        except (OSError, KeyError, ValueError) as exc:
+            raise DataError(
+                f"cannot read the feeder limit ({type(exc).__name__}: {exc})",
+                source=path,
+                field="feeder_limit_csv",
+                hint="a CSV with columns time, feeder_limit_kw",
+            ) from None
+        tz = pd.DatetimeIndex(series.index).tz
+        values = series.reindex(index.tz_convert(tz)).to_numpy(float)
+        if np.isnan(values).any() or (values <= 0).any():
+            first = index[int(np.flatnonzero(np.isnan(values) | (values <= 0))[0])]
+            raise DataError(
+                "the feeder limit is missing or ≤ 0 for a simulated period",
+                source=path,
+                field="feeder_limit_kw",
+                value=str(first),
+                hint="give a positive limit for every half hour of the run and horizon",
+            )
+        return values
+
+
+def fleet_from_dict(data: dict[str, Any], *, source: Path | str = "<dict>") -> Fleet:
+    """Validate a parsed fleet document; each building through the building schema."""
+    try:
+        spec = FleetSpec.model_validate(data)
+    except ValidationError as exc:
+        raise _fleet_error(exc, source) from None
+    buildings = []
+    for i, entry in enumerate(spec.buildings):
+        building = building_from_dict(entry.building, source=f"{source}: buildings[{i}].building")
+        buildings.append(
+            FleetBuilding(
+                name=entry.name,
+                building=building,
+                raw=entry.building,
+                occupied_hours=entry.occupied_hours,
+                comfort_occupied_degc=entry.comfort_occupied_degc,
+                comfort_unoccupied_degc=entry.comfort_unoccupied_degc,
+                initial_temp_degc=entry.initial_temp_degc,
+            )
+        )
+    return Fleet(spec, tuple(buildings), Path(source) if isinstance(source, Path) else None)
+
+
+def load_fleet(path: str | Path) -> Fleet:
+    """Read and validate a fleet TOML file.
+
+    Raises
+    ------
+    FleetConfigError, BuildingConfigError
+        Naming the file, the field (``buildings[3].building.zones[0].floor_area_m2``), the
+        value and a hint.
+    """
+    source = Path(path)
+    return fleet_from_dict(read_toml(source, what="fleet", error=FleetConfigError), source=source)

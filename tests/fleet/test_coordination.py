@@ -1,0 +1,104 @@
+"""Coordination of one fleet step against the centralised LP of the whole fleet."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from hvacflex.fleet.agent import BuildingGroup, FleetSettings
+from hvacflex.fleet.centralised import solve_centralised
+from hvacflex.fleet.coordinate import CoordinationOptions, allocate_caps, coordinate
+from hvacflex.fleet.generate import generate_fleet
+from hvacflex.fleet.schema import fleet_from_dict
+
+COORDINATION_GAP = 2.0
+"""Stated gap bound for this hard case (08:00, occupancy pull-down, limit 90 % of the
+uncoordinated peak): measured 84-155 % above the centralised optimum depending on the
+iteration count (docs/fleet.md); at midday steps it is ~4 %. The price iterations are the
+weak part; the cap machinery itself is exact (next assertion)."""
+
+
+@pytest.fixture(scope="module")
+def group_at_morning() -> BuildingGroup:
+    doc = generate_fleet(4, 3)
+    fleet = fleet_from_dict(doc)
+    group = BuildingGroup(doc, list(range(4)), FleetSettings.of(fleet, "2014-03-03", 1))
+    free = np.full((4, 48), np.inf)
+    for _ in range(16):  # to 08:00 with no limit
+        group.begin_step()
+        group.solve(np.zeros(48))
+        group.finalize(np.zeros(48), free)
+        group.advance()
+    return group
+
+
+def test_coordinated_plan_feasible_and_near_centralised(group_at_morning: BuildingGroup) -> None:
+    group = group_at_morning
+    p_min, p_max, price = group.begin_step()
+    free_power, _, _ = group.solve(np.zeros(48))
+    limit = np.full(48, 0.9 * free_power.sum(axis=0).max())
+    central = solve_centralised([a.problem for a in group.agents], limit)
+    assert central.status.ok
+    assert np.all(central.power_kw.sum(axis=0) <= limit + 1e-6)
+    result = coordinate(
+        group.solve,
+        group.finalize,
+        limit,
+        p_min,
+        p_max,
+        price,
+        0.5,
+        CoordinationOptions(max_iterations=15),
+    )
+    # the coordinated plan respects the feeder over the whole horizon
+    assert np.all(result.power_kw.sum(axis=0) <= limit + 1e-6)
+    assert not result.infeasible.any()
+    cost = float(np.sum(result.cost_sgd))
+    gap = (cost - central.objective_sgd) / abs(central.objective_sgd)
+    assert -1e-6 <= gap <= COORDINATION_GAP
+    # the dual bound is below the optimum (weak duality, up to solver tolerance)
+    assert result.lower_bound_sgd <= central.objective_sgd * (1 + 1e-4)
+    # caps allocated from the centralised plan reproduce the centralised optimum exactly
+    caps = allocate_caps(limit, p_min, p_max, central.power_kw)
+    power, costs, _ = group.finalize(result.price_sgd_per_mwh, caps)
+    assert np.all(power.sum(axis=0) <= limit + 1e-6)
+    assert float(np.sum(costs)) == pytest.approx(central.objective_sgd, rel=1e-6)
+
+
+def test_minimum_powers_above_limit_flagged(group_at_morning: BuildingGroup) -> None:
+    group = group_at_morning
+    p_min, p_max, price = group.begin_step()
+    limit = np.full(48, np.inf)
+    limit[:4] = 0.5 * p_min[:, :4].sum(axis=0).max()
+    result = coordinate(
+        group.solve,
+        group.finalize,
+        limit,
+        p_min,
+        p_max,
+        price,
+        0.5,
+        CoordinationOptions(max_iterations=3),
+    )
+    first = p_min[:, 0].sum() > limit[0]
+    assert result.infeasible[0] == first
+    if first:
+        assert result.excess_kw[0] == pytest.approx(p_min[:, 0].sum() - limit[0])
+        np.testing.assert_allclose(result.power_kw[:, 0], p_min[:, 0], atol=1e-4)
+
+
+def test_allocate_caps_sum_to_limit() -> None:
+    rng = np.random.default_rng(0)
+    p_min = rng.uniform(0, 10, (5, 6))
+    p_max = p_min + rng.uniform(5, 20, (5, 6))
+    request = rng.uniform(p_min, p_max)
+    limit = np.array([1e3, request.sum(0)[1] * 0.8, p_min.sum(0)[2] * 0.5, 40.0, 60.0, 80.0])
+    caps = allocate_caps(limit, p_min, p_max, request)
+    for k in range(6):
+        if p_max[:, k].sum() <= limit[k]:
+            assert np.all(np.isinf(caps[:, k]))
+        elif p_min[:, k].sum() >= limit[k]:
+            np.testing.assert_allclose(caps[:, k], p_min[:, k])
+        else:
+            assert caps[:, k].sum() == pytest.approx(limit[k])
+            assert np.all(caps[:, k] >= p_min[:, k] - 1e-9)
