@@ -103,8 +103,20 @@ class FleetController(MPCController):
         assert isinstance(self._solver, _StagedSolver)
         return self._solver
 
-    def act(self, x_degc: FloatArray, forecast: Forecast, *, peak_floor_kw: float) -> Action:
-        action = super().act(x_degc, forecast, peak_floor_kw=peak_floor_kw)
+    def act(
+        self,
+        x_degc: FloatArray,
+        forecast: Forecast,
+        *,
+        peak_floor_kw: float,
+        allowance_carry_steps: int = 0,
+    ) -> Action:
+        action = super().act(
+            x_degc,
+            forecast,
+            peak_floor_kw=peak_floor_kw,
+            allowance_carry_steps=allowance_carry_steps,
+        )
         if self.power_now is None or not np.isfinite(self.cap_now_kw):
             return action
         p0, p = self.power_now
@@ -338,7 +350,7 @@ class BuildingAgent:
             "planned_power_kw": float(row[col["planned_power_kw"]]),
             "power_kw": float(row[col["power_kw"]]),
             "reserve_kw": float(row[col["reserve_kw"]]),
-            "fallback": float(self.loop.recorder.fallback[k]),
+            "fallback": float(self.loop.recorder.flags["fallback"][k]),
         }
 
     # -- state -----------------------------------------------------------------------

@@ -219,76 +219,29 @@ def run_fleet(
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     settings = FleetSettings.of(fleet, start, days)
-    steps = round(days * 48)
-    index = pd.date_range(pd.Timestamp(start, tz="Asia/Singapore"), periods=steps, freq="30min")
     horizon = settings.horizon_steps
-    full_index = pd.date_range(index[0], periods=steps + horizon, freq="30min")
-    limit = fleet.limit_series_kw(full_index)
-    planning_limit = limit * (1.0 - fleet.spec.feeder_margin)
-    cs = fleet.spec.coordination
-    options = CoordinationOptions(
-        cs.max_iterations, cs.gap_tolerance, cs.feasibility_tolerance, cs.step_sgd_per_mwh
-    )
+    index, limit, planning_limit = _feeder_timeline(fleet, start, days, horizon)
+    steps = len(index)
+    options = _coordination_options(fleet)
     key = fleet_key(path, start, days)
     checkpoint_path = out / CHECKPOINT_FILE
-    atomic_write_text(
-        out / "config.json",
-        json.dumps({"fleet": str(path), "start": start, "days": days, "key": key}, indent=2),
-    )
+    _write_config(out, path, start, days, key)
 
-    cluster: Any = None
-    client: Any = None
-    own_client: Any = None
-    if workers != 0 or scheduler is not None:
-        import dask.distributed
-
-        distributed: Any = dask.distributed  # untyped package
-        Client, LocalCluster = distributed.Client, distributed.LocalCluster
-        if scheduler is None:
-            cluster = LocalCluster(
-                n_workers=workers or 1, threads_per_worker=1, processes=True, dashboard_address=None
-            )
-            client = own_client = Client(cluster)
-        else:
-            client = _existing_client(scheduler)
-            if client is None:
-                client = own_client = Client(scheduler)
+    cluster, client, own_client = _start_dask(scheduler, workers)
     n = len(fleet.buildings)
     try:
         groups = _Groups(doc, settings, n, client)
-        values = np.full((steps, len(FLOAT_COLUMNS)), np.nan)
-        flags = np.zeros((steps, 2), dtype=bool)  # bid_accepted, feeder_infeasible
-        iterations = np.zeros(steps, dtype=np.int64)
+        values, flags, iterations = _empty_tables(steps)
         col = {name: i for i, name in enumerate(FLOAT_COLUMNS)}
         k, price = 0, np.zeros(horizon)
         resumed_from: int | None = None
-        checkpoint: dict[str, Any] | None = None
-        if resume and checkpoint_path.is_file():
-            state = load_checkpoint(checkpoint_path)
-            if state["config_hash"] == key:
-                check_checkpoint_code(state, checkpoint_path)
-                checkpoint = state
+        checkpoint = _matching_checkpoint(checkpoint_path, key) if resume else None
         if checkpoint is not None:
-            groups.set_states(checkpoint["buildings"])
-            k, price = checkpoint["k"], checkpoint["price"].copy()
-            values[:k], flags[:k], iterations[:k] = (
-                checkpoint["values"],
-                checkpoint["flags"],
-                checkpoint["iterations"],
-            )
+            k, price = _restore(checkpoint, groups, values, flags, iterations)
             resumed_from = k
 
         def snapshot() -> dict[str, Any]:
-            return {
-                "config_hash": key,
-                "code_version": code_version(),
-                "k": k,
-                "price": price.copy(),
-                "values": values[:k].copy(),
-                "flags": flags[:k].copy(),
-                "iterations": iterations[:k].copy(),
-                "buildings": groups.get_states(),
-            }
+            return _snapshot(key, k, price, values, flags, iterations, groups)
 
         checkpoint = checkpoint or snapshot()
         recoveries = 0
@@ -296,26 +249,8 @@ def run_fleet(
         while k < steps:
             try:
                 tick = time.perf_counter()
-                groups.check_alive()
-                p_min, p_max, energy = groups.stacked("begin_step")
-                f = planning_limit[k : k + horizon]
-
-                def solve_all(lam: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
-                    power, cost, lagrangian = groups.stacked("solve", lam)
-                    return power, cost, lagrangian
-
-                def finalize_all(
-                    lam: FloatArray, caps: FloatArray
-                ) -> tuple[FloatArray, FloatArray, FloatArray]:
-                    parts = groups.call("finalize", [lam] * len(groups.groups), groups.split(caps))
-                    order = np.argsort(np.concatenate(groups.indices))
-                    power, cost, lagrangian = (
-                        np.concatenate([p[j] for p in parts])[order] for j in range(3)
-                    )
-                    return power, cost, lagrangian
-
-                result = coordinate(
-                    solve_all, finalize_all, f, p_min, p_max, energy, DT_H, options, price
+                result, p_min = _coordinate_step(
+                    groups, planning_limit[k : k + horizon], options, price
                 )
                 coordinated = time.perf_counter() - tick
                 rows = groups.broadcast("advance")
@@ -326,73 +261,259 @@ def run_fleet(
                 recoveries += 1
                 if client is None or recoveries > MAX_RECOVERIES:
                     raise
-                log.warning(
-                    "fleet step %d failed (%s); restoring from step %d", k, exc, checkpoint["k"]
-                )
-                client.wait_for_workers(1, timeout=120)
-                groups.build()
-                groups.set_states(checkpoint["buildings"])
-                k, price = checkpoint["k"], checkpoint["price"].copy()
+                k, price = _recover(exc, k, client, groups, checkpoint)
                 continue
-            planned = float(np.sum(merged["planned_power_kw"]))
-            reserve = float(np.sum(merged["reserve_kw"]))
-            accepted = reserve >= min_bid_kw and reserve > 0
-            row = values[k]
-            row[col["planned_fleet_power_kw"]] = planned
-            row[col["fleet_power_kw"]] = float(np.sum(merged["power_kw"]))
-            row[col["feeder_limit_kw"]] = limit[k]
-            row[col["fleet_reserve_kw"]] = reserve
-            row[col["settled_reserve_kw"]] = reserve if accepted else 0.0
-            row[col["fleet_min_power_kw"]] = float(p_min[:, 0].sum())
-            row[col["feeder_excess_kw"]] = float(result.excess_kw[0])
-            row[col["feeder_price_sgd_per_mwh"]] = float(result.price_sgd_per_mwh[0])
-            row[col["coordination_gap"]] = result.gap
-            row[col["coordination_time_s"]] = coordinated
-            row[col["step_time_s"]] = time.perf_counter() - tick
-            flags[k] = (accepted, bool(result.infeasible[0]))
+            flags[k] = _record_step(
+                values[k], col, merged, result, limit[k], p_min, min_bid_kw, coordinated
+            )
+            values[k, col["step_time_s"]] = time.perf_counter() - tick
             iterations[k] = result.iterations
             price = np.append(result.price_sgd_per_mwh[1:], result.price_sgd_per_mwh[-1])
             k += 1
-            if progress is not None:
-                progress(k, steps)
-            if on_step is not None:
-                on_step(k, groups)
+            _notify(progress, on_step, k, steps, groups)
             if k % checkpoint_every == 0 and k < steps:
                 checkpoint = snapshot()
                 atomic_write_bytes(checkpoint_path, pickle.dumps(checkpoint, protocol=5))
 
-        frames = groups.broadcast("frames")
-        order = np.concatenate(groups.indices)
-        building_frames = [f for part in frames for f in part]
-        by_index = dict(zip(order.tolist(), building_frames, strict=True))
-        long = pd.concat([by_index[i].assign(building=fleet.buildings[i].name) for i in range(n)])
-        values[:, col["energy_price_sgd_per_mwh"]] = by_index[0]["energy_price_sgd_per_mwh"]
-        values[:, col["reserve_price_sgd_per_mwh"]] = by_index[0]["reserve_price_sgd_per_mwh"]
-        values[:, col["discomfort_kelvin_hours"]] = sum(
-            _discomfort_kelvin_hours(by_index[i]) for i in range(n)
-        )
+        long = _collect_buildings(groups, fleet, values, col)
     finally:
         if own_client is not None:
             own_client.close()
         if cluster is not None:
             cluster.close()
 
+    frame = _results_frame(values, flags, iterations, index)
+    summary = _write_outputs(out, frame, long, fleet, key, recoveries)
+    checkpoint_path.unlink(missing_ok=True)
+    return FleetRunResult(out, frame, summary, recoveries, resumed_from)
+
+
+def _notify(
+    progress: Callable[[int, int], None] | None,
+    on_step: Callable[[int, Any], None] | None,
+    k: int,
+    steps: int,
+    groups: Any,
+) -> None:
+    """Tell the progress bar and the test hook that ``k`` of ``steps`` steps are done."""
+    if progress is not None:
+        progress(k, steps)
+    if on_step is not None:
+        on_step(k, groups)
+
+
+def _feeder_timeline(
+    fleet: Any, start: str, days: float, horizon: int
+) -> tuple[pd.DatetimeIndex, FloatArray, FloatArray]:
+    """(simulated period starts, feeder limit [kW] and planning limit [kW] over the run plus
+    one horizon)."""
+    steps = round(days * 48)
+    index = pd.date_range(pd.Timestamp(start, tz="Asia/Singapore"), periods=steps, freq="30min")
+    full_index = pd.date_range(index[0], periods=steps + horizon, freq="30min")
+    limit = fleet.limit_series_kw(full_index)
+    return index, limit, limit * (1.0 - fleet.spec.feeder_margin)
+
+
+def _empty_tables(steps: int) -> tuple[FloatArray, Any, Any]:
+    """(float columns (steps, FLOAT_COLUMNS), flags bid_accepted/feeder_infeasible, iterations)."""
+    return (
+        np.full((steps, len(FLOAT_COLUMNS)), np.nan),
+        np.zeros((steps, 2), dtype=bool),
+        np.zeros(steps, dtype=np.int64),
+    )
+
+
+def _coordination_options(fleet: Any) -> CoordinationOptions:
+    """The fleet file's ``[coordination]`` settings."""
+    cs = fleet.spec.coordination
+    return CoordinationOptions(
+        cs.max_iterations, cs.gap_tolerance, cs.feasibility_tolerance, cs.step_sgd_per_mwh
+    )
+
+
+def _write_config(out: Path, path: Path, start: str, days: float, key: str) -> None:
+    """``config.json``: the fleet file, the period and the run key."""
+    atomic_write_text(
+        out / "config.json",
+        json.dumps({"fleet": str(path), "start": start, "days": days, "key": key}, indent=2),
+    )
+
+
+def _snapshot(
+    key: str,
+    k: int,
+    price: FloatArray,
+    values: FloatArray,
+    flags: Any,
+    iterations: Any,
+    groups: Any,
+) -> dict[str, Any]:
+    """The checkpoint after ``k`` steps."""
+    return {
+        "config_hash": key,
+        "code_version": code_version(),
+        "k": k,
+        "price": price.copy(),
+        "values": values[:k].copy(),
+        "flags": flags[:k].copy(),
+        "iterations": iterations[:k].copy(),
+        "buildings": groups.get_states(),
+    }
+
+
+def _restore(
+    checkpoint: dict[str, Any], groups: Any, values: FloatArray, flags: Any, iterations: Any
+) -> tuple[int, FloatArray]:
+    """Restore the buildings and the tables from ``checkpoint``; (step, feeder price)."""
+    groups.set_states(checkpoint["buildings"])
+    k = int(checkpoint["k"])
+    values[:k], flags[:k], iterations[:k] = (
+        checkpoint["values"],
+        checkpoint["flags"],
+        checkpoint["iterations"],
+    )
+    return k, checkpoint["price"].copy()
+
+
+def _recover(
+    exc: Exception, k: int, client: Any, groups: Any, checkpoint: dict[str, Any]
+) -> tuple[int, FloatArray]:
+    """Rebuild the building groups after a lost worker; (step, price) of the checkpoint."""
+    log.warning("fleet step %d failed (%s); restoring from step %d", k, exc, checkpoint["k"])
+    client.wait_for_workers(1, timeout=120)
+    groups.build()
+    groups.set_states(checkpoint["buildings"])
+    return int(checkpoint["k"]), checkpoint["price"].copy()
+
+
+def _results_frame(
+    values: FloatArray, flags: Any, iterations: Any, index: pd.DatetimeIndex
+) -> pd.DataFrame:
+    """The fleet's per-step results table."""
     frame = pd.DataFrame(values, index=index, columns=list(FLOAT_COLUMNS))
     frame.index.name = "time"
     frame["bid_accepted"] = flags[:, 0]
     frame["feeder_infeasible"] = flags[:, 1]
     frame["coordination_iterations"] = iterations
+    return frame
+
+
+def _matching_checkpoint(path: Path, key: str) -> dict[str, Any] | None:
+    """The checkpoint at ``path`` if it is of the same inputs (refused if of other code)."""
+    if not path.is_file():
+        return None
+    state: dict[str, Any] = load_checkpoint(path)
+    if state["config_hash"] != key:
+        return None
+    check_checkpoint_code(state, path)
+    return state
+
+
+def _coordinate_step(
+    groups: Any, feeder_kw: FloatArray, options: CoordinationOptions, price: FloatArray
+) -> tuple[Any, FloatArray]:
+    """One step's coordination over all buildings: (its result, minimum powers (B, N))."""
+    groups.check_alive()
+    p_min, p_max, energy = groups.stacked("begin_step")
+
+    def solve_all(lam: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
+        power, cost, lagrangian = groups.stacked("solve", lam)
+        return power, cost, lagrangian
+
+    def finalize_all(
+        lam: FloatArray, caps: FloatArray
+    ) -> tuple[FloatArray, FloatArray, FloatArray]:
+        parts = groups.call("finalize", [lam] * len(groups.groups), groups.split(caps))
+        order = np.argsort(np.concatenate(groups.indices))
+        power, cost, lagrangian = (np.concatenate([p[j] for p in parts])[order] for j in range(3))
+        return power, cost, lagrangian
+
+    result = coordinate(
+        solve_all, finalize_all, feeder_kw, p_min, p_max, energy, DT_H, options, price
+    )
+    return result, p_min
+
+
+def _collect_buildings(
+    groups: Any, fleet: Any, values: FloatArray, col: dict[str, int]
+) -> pd.DataFrame:
+    """Every building's results in long format; fills the fleet's price and comfort columns."""
+    frames = groups.broadcast("frames")
+    order = np.concatenate(groups.indices)
+    building_frames = [f for part in frames for f in part]
+    by_index = dict(zip(order.tolist(), building_frames, strict=True))
+    n = len(fleet.buildings)
+    long: pd.DataFrame = pd.concat(
+        [by_index[i].assign(building=fleet.buildings[i].name) for i in range(n)]
+    )
+    values[:, col["energy_price_sgd_per_mwh"]] = by_index[0]["energy_price_sgd_per_mwh"]
+    values[:, col["reserve_price_sgd_per_mwh"]] = by_index[0]["reserve_price_sgd_per_mwh"]
+    values[:, col["discomfort_kelvin_hours"]] = sum(
+        _discomfort_kelvin_hours(by_index[i]) for i in range(n)
+    )
+    return long
+
+
+def _start_dask(scheduler: str | None, workers: int | None) -> tuple[Any, Any, Any]:
+    """(cluster we started, client to use, client we own) — all None for an in-process run."""
+    if workers == 0 and scheduler is None:
+        return None, None, None
+    import dask.distributed
+
+    distributed: Any = dask.distributed  # untyped package
+    if scheduler is None:
+        cluster = distributed.LocalCluster(
+            n_workers=workers or 1, threads_per_worker=1, processes=True, dashboard_address=None
+        )
+        client = distributed.Client(cluster)
+        return cluster, client, client
+    existing = _existing_client(scheduler)
+    if existing is not None:
+        return None, existing, None
+    client = distributed.Client(scheduler)
+    return None, client, client
+
+
+def _record_step(
+    row: FloatArray,
+    col: dict[str, int],
+    merged: dict[str, FloatArray],
+    result: Any,
+    limit_kw: float,
+    p_min: FloatArray,
+    min_bid_kw: float,
+    coordination_time_s: float,
+) -> tuple[bool, bool]:
+    """Fill one results row from the buildings' rows; (bid accepted, feeder infeasible)."""
+    reserve = float(np.sum(merged["reserve_kw"]))
+    accepted = reserve >= min_bid_kw and reserve > 0
+    row[col["planned_fleet_power_kw"]] = float(np.sum(merged["planned_power_kw"]))
+    row[col["fleet_power_kw"]] = float(np.sum(merged["power_kw"]))
+    row[col["feeder_limit_kw"]] = limit_kw
+    row[col["fleet_reserve_kw"]] = reserve
+    row[col["settled_reserve_kw"]] = reserve if accepted else 0.0
+    row[col["fleet_min_power_kw"]] = float(p_min[:, 0].sum())
+    row[col["feeder_excess_kw"]] = float(result.excess_kw[0])
+    row[col["feeder_price_sgd_per_mwh"]] = float(result.price_sgd_per_mwh[0])
+    row[col["coordination_gap"]] = result.gap
+    row[col["coordination_time_s"]] = coordination_time_s
+    return accepted, bool(result.infeasible[0])
+
+
+def _write_outputs(
+    out: Path, frame: pd.DataFrame, long: pd.DataFrame, fleet: Any, key: str, recoveries: int
+) -> dict[str, float]:
+    """Results, per-building results, summary and per-building table; the summary."""
+    from hvacflex.fleet.kpi import building_table, fleet_summary
+
     _write(frame, out / RESULTS_FILE, fleet, key)
     long.index.name = "time"
     _write(long, out / BUILDINGS_FILE, fleet, key)
-    from hvacflex.fleet.kpi import building_table, fleet_summary
-
     summary = fleet_summary(frame, long)
     summary["recoveries"] = float(recoveries)
     atomic_write_text(out / SUMMARY_FILE, json.dumps(summary, indent=2))
     building_table(long).to_csv(out / "buildings_summary.csv", index_label="building")
-    checkpoint_path.unlink(missing_ok=True)
-    return FleetRunResult(out, frame, summary, recoveries, resumed_from)
+    return summary
 
 
 def _existing_client(address: str) -> Any | None:
