@@ -102,7 +102,7 @@ class UncertaintyConfig:
     ``relative`` is a fraction of the forecast value (solar, internal gains); ``absolute`` is
     in the channel's unit (K for temperatures, W/m² for solar, W for gains). Both add up.
     The default (±5 % of heat gains, ±0.5 K outdoor) is the largest level the default
-    building satisfies with margin; see ``docs/data.md`` and DESIGN §3.
+    building satisfies with margin; see ``docs/data.md`` and docs/model.md §3.
     """
 
     relative: Mapping[str, float] = field(

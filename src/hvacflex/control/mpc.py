@@ -1,7 +1,7 @@
 """The building-level MPC: building + forecast + measured state → RMPC problem → action.
 
 This is the only place that turns a building and its forecast into an
-:class:`~hvacflex.opt.RMPCProblem` (DESIGN §3):
+:class:`~hvacflex.opt.RMPCProblem` (docs/model.md §3):
 
 * dynamics ``x+ = A x + B u + E d + g`` from :func:`hvacflex.building.discretize.linearize`,
 * power ``P_k = p0_k + p_kᵀ u_k`` from :func:`hvacflex.building.hvac.affine_power_model` at the

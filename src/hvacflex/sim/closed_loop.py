@@ -1,6 +1,6 @@
 """Receding-horizon closed-loop simulation against the nonlinear building plant.
 
-Every 30 minutes (DESIGN §4): forecast → controller (MPC solve or rule) → the first step
+Every 30 minutes (docs/model.md §4): forecast → controller (MPC solve or rule) → the first step
 is applied to the exact nonlinear plant under the realised disturbance d̂ + w (w drawn in
 the uncertainty box) → measure → repeat. When interruptible load is activated the plant runs
 u − r: under the event model the locked plan of the event's first period for at most D
