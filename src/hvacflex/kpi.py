@@ -312,7 +312,8 @@ def monthly_ppp_charge_sgd(
 
     With a constant price φ [SGD/kW]: φ × the month's largest 30-min average power. With
     ``peak_price_sgd_per_kw=None`` the column of that name is used; when it varies in time the
-    charge is ``max_k φ_k P_k`` over the month (docs/model.md §2), which equals φ × peak when constant.
+    charge is ``max_k φ_k P_k`` over the month (docs/model.md §2), which equals φ × peak when
+    constant.
 
     Returns
     -------

@@ -3,8 +3,8 @@
 :func:`summarize` computes the numbers (:class:`BuildingSummary`), :func:`format_summary`
 renders them as plain text. Design cooling load: steady state with every zone held at
 ``DESIGN_ZONE_TEMP_DEGC``, the ASHRAE 0.4 % cooling design outdoor condition of Singapore
-(Changi, ASHRAE climatic design data as given in the TMYx header), design irradiance on every exterior
-orientation at once (non-coincident, so an upper estimate) and full internal gains.
+(Changi, ASHRAE climatic design data as given in the TMYx header), design irradiance on every
+exterior orientation at once (non-coincident, so an upper estimate) and full internal gains.
 """
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ from hvacflex.units import (
 )
 
 DESIGN_OUTDOOR_TEMP_DEGC = 33.2
-"""Singapore Changi 0.4 % cooling design dry bulb (ASHRAE climatic design data, TMYx header) [°C]."""
+"""Singapore Changi 0.4 % cooling design dry bulb (ASHRAE climatic design data) [°C]."""
 DESIGN_OUTDOOR_HUMIDITY_RATIO_KG_PER_KG = 0.0194
 """Humidity ratio at 33.2 °C dry bulb / 26.4 °C mean coincident wet bulb [kg/kg]."""
 DESIGN_SOLAR_VERTICAL_W_PER_M2 = 400.0
