@@ -53,10 +53,10 @@ FloatArray = NDArray[np.float64]
 DEFAULT_MEASUREMENT_NOISE_K = 0.1
 """Half-width a of the uniform zone-air sensor error [K] (BEMS sensors: ~0.1–0.2 K)."""
 
-DEFAULT_PROCESS_NOISE_NODE_K = 0.02
+DEFAULT_PROCESS_NOISE_NODE_K = 0.2
 """Standard deviation of the per-step node process noise [K] (tuned: docs/estimation.md)."""
 
-DEFAULT_PROCESS_NOISE_OFFSET_K = 0.05
+DEFAULT_PROCESS_NOISE_OFFSET_K = 0.1
 """Standard deviation of the per-step random walk of the zone offset states [K]
 (tuned: docs/estimation.md)."""
 
