@@ -214,3 +214,52 @@ def test_prediction_error_kpis() -> None:
     assert prediction_error_rms_k(errors) == pytest.approx(np.sqrt(12.5))
     assert prediction_error_max_k(errors) == pytest.approx(4.0)
     assert np.isnan(prediction_error_rms_k(np.full((2, 2), np.nan)))
+
+
+def test_estimator_class_matches_functions(model: LinearModel) -> None:
+    rng = np.random.default_rng(5)
+    cfg = est.KalmanConfig()
+    m, nd = model.c.shape[0], len(model.channels)
+    estimator = est.KalmanEstimator(cfg)
+    x = np.full(model.a.shape[0], 25.0)
+    y0 = est.measure_zone_temps(rng, x, model.c, cfg.measurement_noise_k)
+    assert np.all(np.abs(y0 - 25.0) <= cfg.measurement_noise_k)
+    first = estimator.estimate(y0, model)
+    reference = est.kalman_update(est.initial_state(y0, model, cfg), y0, model, cfg)
+    assert np.allclose(first.x_degc, reference.x_degc)
+    u, d = np.full(m, 0.8), _typical_d(model)
+    estimator.applied(est.AppliedStep(model, u, d, np.zeros(nd)))
+    y1 = model.c @ model.step(x, u, d)
+    second = estimator.estimate(y1, model)
+    expected = est.kalman_step(reference, model, u, d, np.zeros(nd), y1, cfg)
+    assert np.allclose(second.x_degc, expected.x_degc)
+    assert np.allclose(second.offset_k, expected.offset_k)
+    restored = est.KalmanEstimator(cfg)
+    restored.set_state(estimator.get_state())
+    assert restored.state is estimator.state and restored.last is estimator.last
+
+
+def test_tightened_bounds_meet_at_midpoint() -> None:
+    lo, hi = est.tightened_bounds(
+        np.array([[23.0, 23.0]]), np.array([[26.0, 26.0]]), np.array([[0.5, 2.0]])
+    )
+    assert np.allclose(lo, [[23.5, 24.5]]) and np.allclose(hi, [[25.5, 24.5]])
+
+
+def test_relinearised_first_step_is_exact_at_the_planned_flow(
+    office: Building, model: LinearModel
+) -> None:
+    from hvacflex.control.trajectory import relinearised_first_step
+
+    plant = NonlinearPlant(office)
+    m, n = model.c.shape[0], model.a.shape[0]
+    d = _typical_d(model)
+    x = plant.initial_state(25.5)
+    flows = np.full((4, m), 1.2)
+    states = np.tile(x, (5, 1))
+    step = relinearised_first_step(
+        office, plant.network, model.c, flows, states, model.c @ x, 1800.0
+    )
+    error = one_step_prediction_error(step, x, flows[1], d, plant.step(x, flows[1], d))
+    assert step.a.shape == (n, n)
+    assert np.abs(error).max() < 1e-6  # exact at ṁ = ṁ₀ for any temperature

@@ -340,3 +340,87 @@ def estimation_margins(model: StepModel, error_bound_k: ArrayLike, horizon: int)
         row = row @ f
         out[k] = np.abs(row) @ bound
     return out
+
+
+def tightened_bounds(
+    y_min: ArrayLike, y_max: ArrayLike, extra_k: ArrayLike
+) -> tuple[FloatArray, FloatArray]:
+    """Comfort bounds (N, m) tightened by the estimation margin (N, m) [°C, K].
+
+    Where the two tightened bounds would cross (margin above half the band) both are set to
+    the band's midpoint: the plan aims at the middle and the comfort slack pays for the rest
+    (the worst-case guarantee is then lost on those steps, which the planned slack shows).
+    """
+    lo = np.asarray(y_min, dtype=np.float64) + np.asarray(extra_k, dtype=np.float64)
+    hi = np.asarray(y_max, dtype=np.float64) - np.asarray(extra_k, dtype=np.float64)
+    mid = 0.5 * (np.asarray(y_min, dtype=np.float64) + np.asarray(y_max, dtype=np.float64))
+    cross = lo > hi
+    return np.where(cross, mid, lo), np.where(cross, mid, hi)
+
+
+def measure_zone_temps(
+    rng: np.random.Generator, x_degc: ArrayLike, c_matrix: ArrayLike, measurement_noise_k: float
+) -> FloatArray:
+    """Zone-air sensor readings (m,) [°C]: ``C x`` plus uniform noise in ±a."""
+    y = np.asarray(c_matrix, dtype=np.float64) @ np.asarray(x_degc, dtype=np.float64)
+    noise = rng.uniform(-measurement_noise_k, measurement_noise_k, y.shape)
+    out: FloatArray = y + noise
+    return out
+
+
+@dataclass(frozen=True)
+class AppliedStep:
+    """What the filter's next prediction needs about the step just decided: the model the
+    plan used, the flow (m,) [kg/s], the forecast d̂ (nd,) and its box σ (nd,)."""
+
+    model: StepModel
+    flow_kg_s: FloatArray
+    d_forecast: FloatArray
+    d_sigma: FloatArray
+
+
+class KalmanEstimator:
+    """The filter as the MPC uses it: one call per step with the new measurement.
+
+    Parameters
+    ----------
+    config : tuning and bounds.
+    """
+
+    def __init__(self, config: KalmanConfig) -> None:
+        self.config = config
+        self.state: EstimatorState | None = None
+        self.last: AppliedStep | None = None
+
+    def estimate(self, y_degc: ArrayLike, model: StepModel) -> EstimatorState:
+        """Update with the zone-air measurement (m,) [°C] (predicting over the last applied
+        step first) and return the estimate."""
+        cfg = self.config
+        if self.state is None or self.last is None:
+            prior = self.state if self.state is not None else initial_state(y_degc, model, cfg)
+            self.state = kalman_update(prior, y_degc, model, cfg)
+        else:
+            last = self.last
+            self.state = kalman_step(
+                self.state, last.model, last.flow_kg_s, last.d_forecast, last.d_sigma, y_degc, cfg
+            )
+        return self.state
+
+    def applied(self, step: AppliedStep) -> None:
+        """Record the step just decided (used by the next :meth:`estimate`)."""
+        self.last = step
+
+    def margins(self, model: StepModel, d_sigma: ArrayLike, horizon: int) -> FloatArray:
+        """Extra comfort margin (N, m) [K]: ``|H F^k| ē`` for the steady-state gain of
+        ``model`` and the largest σ (nd,) of the horizon."""
+        gain = steady_state_gain(model, d_sigma, self.config)
+        bound = steady_state_error_bound(model, gain, d_sigma, self.config)
+        return estimation_margins(model, bound, horizon)
+
+    def get_state(self) -> dict[str, object]:
+        return {"state": self.state, "last": self.last}
+
+    def set_state(self, state: dict[str, object]) -> None:
+        saved, last = state["state"], state["last"]
+        self.state = saved if isinstance(saved, EstimatorState) else None
+        self.last = last if isinstance(last, AppliedStep) else None

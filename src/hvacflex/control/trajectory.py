@@ -191,3 +191,29 @@ def time_varying_margins(
             if k < horizon:
                 row = row @ a[k]
     return out
+
+
+def relinearised_first_step(
+    building: Building,
+    network: ThermalNetwork,
+    c_matrix: FloatArray,
+    planned_flow_kg_s: ArrayLike,
+    planned_states_degc: ArrayLike,
+    zone_temp_now_degc: ArrayLike,
+    dt_s: float,
+) -> StepMatrices:
+    """The model for the new plan: linearised about the previous plan's step 1 (shifted by
+    one step; see :func:`shifted_operating_points`), used for the whole horizon.
+
+    Parameters
+    ----------
+    planned_flow_kg_s : (N,m) the previous plan's flows [kg/s].
+    planned_states_degc : (N+1,n) its (served) node trajectory [°C].
+    zone_temp_now_degc : (m,) zone temperature now (measured or estimated) [°C].
+    """
+    c = np.asarray(c_matrix, dtype=np.float64)
+    zone_temps = np.asarray(planned_states_degc, dtype=np.float64) @ c.T
+    flow_ref, temp_ref = shifted_operating_points(
+        planned_flow_kg_s, zone_temps, zone_temp_now_degc, 1
+    )
+    return step_matrices(linearize_along(building, network, c, flow_ref, temp_ref, dt_s), 0)
