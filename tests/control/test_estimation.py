@@ -263,3 +263,9 @@ def test_relinearised_first_step_is_exact_at_the_planned_flow(
     error = one_step_prediction_error(step, x, flows[1], d, plant.step(x, flows[1], d))
     assert step.a.shape == (n, n)
     assert np.abs(error).max() < 1e-6  # exact at ṁ = ṁ₀ for any temperature
+
+
+def test_shifted_operating_points_clip_solver_round_off() -> None:
+    flows = np.array([[0.5, 0.5], [-1e-12, 0.3]])
+    flow_ref, _ = shifted_operating_points(flows, np.full((3, 2), 25.0), np.full(2, 25.0), 1)
+    assert np.all(flow_ref >= 0.0) and flow_ref[0, 1] == 0.3

@@ -149,8 +149,9 @@ def shifted_operating_points(
     Returns
     -------
     (flow_ref (N',m), temp_ref (N',m)): step k of the new plan is period k+1 of the old one
-    (flow u_{k+1}, the mean of C x_{k+1} and C x_{k+2}); the first temperature uses the
-    current one in place of C x_1, and beyond the old plan the last values are repeated.
+    (flow u_{k+1} clipped at 0, the mean of C x_{k+1} and C x_{k+2}); the first temperature
+    uses the current one in place of C x_1, and beyond the old plan the last values are
+    repeated.
     """
     flows = np.asarray(planned_flow_kg_s, dtype=np.float64)
     temps = np.asarray(planned_zone_temp_degc, dtype=np.float64).copy()
@@ -158,7 +159,8 @@ def shifted_operating_points(
     shift_u = np.clip(np.arange(horizon) + 1, 0, flows.shape[0] - 1)
     start = np.clip(np.arange(horizon) + 1, 0, temps.shape[0] - 1)
     end = np.clip(np.arange(horizon) + 2, 0, temps.shape[0] - 1)
-    return flows[shift_u].copy(), 0.5 * (temps[start] + temps[end])
+    # an LP's flows meet u ≥ 0 only to its tolerance: clip the round-off
+    return np.maximum(flows[shift_u], 0.0), 0.5 * (temps[start] + temps[end])
 
 
 def time_varying_margins(
