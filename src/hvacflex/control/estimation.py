@@ -41,6 +41,7 @@ off the true outputs by ``H F^k e``: the extra comfort margin is ``|H F^k| ē``
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 import scipy.linalg
@@ -109,19 +110,24 @@ class KalmanConfig:
         return max(self.measurement_noise_k**2 / 3.0, 1e-8)
 
 
-@dataclass(frozen=True)
-class StepModel:
+class StepModel(Protocol):
     """One step of the affine model ``x+ = a x + b u + e d + g`` with outputs ``y = c x``.
 
     Shapes: a (n,n), b (n,m), e (n,nd), g (n,), c (m,n) zone selection.
-    (:class:`hvacflex.building.discretize.LinearModel` has these fields.)
+    (:class:`hvacflex.building.discretize.LinearModel` and
+    :class:`hvacflex.control.trajectory.StepMatrices` have these fields.)
     """
 
-    a: FloatArray
-    b: FloatArray
-    e: FloatArray
-    g: FloatArray
-    c: FloatArray
+    @property
+    def a(self) -> FloatArray: ...
+    @property
+    def b(self) -> FloatArray: ...
+    @property
+    def e(self) -> FloatArray: ...
+    @property
+    def g(self) -> FloatArray: ...
+    @property
+    def c(self) -> FloatArray: ...
 
 
 @dataclass(frozen=True)
