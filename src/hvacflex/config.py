@@ -13,6 +13,8 @@ errors. Named presets reproduce the paper's scenarios::
     thermostat       rule-based flow control to a set-point, no reserve
     rmpc-feedback    robust MPC with affine disturbance feedback (closed-loop robustness)
     rmpc-feedback-ppp  the same with φ = 1.5 SGD/kW
+    rmpc-output-feedback  robust MPC from zone-air measurements (Kalman filter, estimation
+                     margin) with trajectory linearisation (docs/estimation.md)
 
 Example ``scenario.toml``::
 
@@ -51,6 +53,8 @@ RealisationMode = Literal["zero", "uniform", "worst-upper", "worst-lower", "ar1"
 ActivationMode = Literal["never", "always", "random", "file"]
 FeedbackStructure = Literal["full", "memory", "zone-local", "time-invariant"]
 PriceGapFill = Literal["none", "previous-day"]
+Linearisation = Literal["fixed", "trajectory"]
+EstimationMode = Literal["full-state", "kalman"]
 
 DEFAULT_PEAK_PRICE_PAPER_SGD_PER_KW = 1.5
 """The paper's scenario (c) peak-power price [SGD/kW]."""
@@ -105,6 +109,22 @@ class ControllerConfig:
     time_limit_s: float = 20.0
     thermostat_setpoint_degc: float = 24.0
     feedback: FeedbackConfig = field(default_factory=FeedbackConfig)
+    linearisation: Linearisation = "fixed"
+    """``"fixed"``: the model linearised once at (ṁ_min, T₀); ``"trajectory"``: re-linearised
+    each step about the previous plan shifted by one step (docs/estimation.md §3)."""
+
+
+@dataclass(frozen=True)
+class EstimationConfig:
+    """What the controller measures (docs/estimation.md).
+
+    ``"full-state"``: every node temperature of the plant; ``"kalman"``: only the zone air
+    temperatures, with uniform sensor error in ±``measurement_noise_k`` [K], and a Kalman
+    filter with per-zone offset states estimates the rest (tuned covariances).
+    """
+
+    mode: EstimationMode = "full-state"
+    measurement_noise_k: float = 0.1
 
 
 @dataclass(frozen=True)
@@ -176,6 +196,7 @@ class ScenarioConfig:
     seed: int = 2014
     initial_temp_degc: float = 25.0
     controller: ControllerConfig = field(default_factory=ControllerConfig)
+    estimation: EstimationConfig = field(default_factory=EstimationConfig)
     uncertainty: UncertaintyConfig = field(default_factory=UncertaintyConfig)
     realisation: RealisationConfig = field(default_factory=RealisationConfig)
     activation: ActivationConfig = field(default_factory=ActivationConfig)
@@ -216,6 +237,10 @@ _PRESETS: dict[str, dict[str, Any]] = {
     "nmpc-no-reserve": {"controller": {"robust": "none", "reserve": False}},
     "thermostat": {"controller": {"kind": "thermostat", "robust": "none", "reserve": False}},
     "rmpc-feedback": {"controller": {"robust": "feedback"}},
+    "rmpc-output-feedback": {
+        "controller": {"robust": "tightening", "linearisation": "trajectory"},
+        "estimation": {"mode": "kalman"},
+    },
     "rmpc-feedback-ppp": {
         "controller": {
             "robust": "feedback",
@@ -315,6 +340,7 @@ def _resolve_key(key: str) -> tuple[str, ...]:
 
 _DATACLASS_FIELDS: dict[tuple[str, str], type] = {
     ("ScenarioConfig", "controller"): ControllerConfig,
+    ("ScenarioConfig", "estimation"): EstimationConfig,
     ("ScenarioConfig", "uncertainty"): UncertaintyConfig,
     ("ScenarioConfig", "realisation"): RealisationConfig,
     ("ScenarioConfig", "activation"): ActivationConfig,
@@ -331,6 +357,8 @@ _LITERALS: dict[tuple[str, str], tuple[str, ...]] = {
     ("ActivationConfig", "mode"): get_args(ActivationMode),
     ("FeedbackConfig", "structure"): get_args(FeedbackStructure),
     ("DataConfig", "price_gap_fill"): get_args(PriceGapFill),
+    ("ControllerConfig", "linearisation"): get_args(Linearisation),
+    ("EstimationConfig", "mode"): get_args(EstimationMode),
 }
 
 _DISTURBANCE_KINDS = ("outdoor_temp", "solar", "internal_gain", "ground_temp")
@@ -460,6 +488,15 @@ def _check_object(obj: Any, *, source: str | Path, prefix: str) -> None:
                 field="start",
                 value=obj.start,
                 hint="e.g. 2014-03-01T08:00 or 2014-03-01T08:30",
+            )
+    elif isinstance(obj, EstimationConfig):
+        if not obj.measurement_noise_k >= 0:
+            raise ConfigError(
+                "must be ≥ 0",
+                source=source,
+                field=f"{prefix}measurement_noise_k",
+                value=obj.measurement_noise_k,
+                hint="half-width of the uniform zone-air sensor error, e.g. 0.1",
             )
     elif isinstance(obj, ControllerConfig):
         _positive(obj, "horizon_steps", source=source, prefix=prefix)

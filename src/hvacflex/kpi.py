@@ -35,6 +35,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from hvacflex.control.prediction_error import prediction_error_max_k, prediction_error_rms_k
 from hvacflex.errors import DataError
 from hvacflex.units import KWH_PER_MWH
 
@@ -490,7 +491,20 @@ def summary(results: pd.DataFrame, peak_price_sgd_per_kw: float | None = None) -
     out["max_delta_vs_half_band"] = max_delta_vs_half_band(results)
     for stat, value in solve_time_stats_s(results).items():
         out[f"solve_time_{stat}_s"] = value
+    errors = prediction_errors_k(results)
+    if errors is not None:
+        out["prediction_error_rms_k"] = prediction_error_rms_k(errors)
+        out["prediction_error_max_k"] = prediction_error_max_k(errors)
     return out
+
+
+def prediction_errors_k(results: pd.DataFrame) -> np.ndarray | None:
+    """(T, m) one-step prediction errors of the controller's model [K]
+    (:mod:`hvacflex.control.prediction_error`), or None for results without them."""
+    names = [f"prediction_error_{zone}_k" for zone in zone_names(results)]
+    if not all(name in results.columns for name in names):
+        return None
+    return results[names].to_numpy(dtype=float)
 
 
 RESULTS_REQUIRED_COLUMNS = ("power_kw", "energy_price_sgd_per_mwh")

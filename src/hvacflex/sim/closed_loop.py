@@ -40,7 +40,9 @@ from hvacflex.building.plant import NonlinearPlant
 from hvacflex.config import LINEARISATION_MARGIN_K, ScenarioConfig
 from hvacflex.control.base import Action, Controller, FloatArray
 from hvacflex.control.baselines import ThermostatController
+from hvacflex.control.estimation import KalmanConfig, measure_zone_temps
 from hvacflex.control.mpc import MPCController
+from hvacflex.control.prediction_error import one_step_prediction_error
 from hvacflex.data.forecast import Exogenous, Forecaster, load_exogenous
 from hvacflex.data.gains import ComfortBand
 from hvacflex.data.market import RESERVE_PRICE_SCALE
@@ -55,6 +57,8 @@ CHECKPOINT_FILE = "checkpoint.pkl"
 SUMMARY_FILE = "summary.json"
 CONFIG_FILE = "config.json"
 DEFAULT_CHECKPOINT_EVERY = 336
+MEASUREMENT_RNG_STREAM = 15
+"""Second entropy word of the zone-air sensor-noise generator (first: the scenario seed)."""
 """Steps between checkpoints (one week of 30-min periods)."""
 
 ProgressCallback = Callable[[int, int], None]
@@ -161,7 +165,20 @@ def make_controller(setup: Setup) -> Controller:
     hvac = setup.building.hvac
     if cfg.kind == "thermostat":
         return ThermostatController(setup.model, hvac, cfg.thermostat_setpoint_degc)
-    return MPCController(setup.building, setup.model, cfg, setup.box, setup.linearisation_temp_degc)
+    estimation = setup.config.estimation
+    return MPCController(
+        setup.building,
+        setup.model,
+        cfg,
+        setup.box,
+        setup.linearisation_temp_degc,
+        estimation=(
+            KalmanConfig(measurement_noise_k=estimation.measurement_noise_k)
+            if estimation.mode == "kalman"
+            else None
+        ),
+        linearisation=cfg.linearisation,
+    )
 
 
 class _Recorder:
@@ -191,6 +208,7 @@ class _Recorder:
                 f"temp_curtailed_{zone}_degc",
                 f"comfort_lower_{zone}_degc",
                 f"comfort_upper_{zone}_degc",
+                f"prediction_error_{zone}_k",
             ]
         self.float_columns += [f"d_{c}" for c in channels] + [f"w_{c}" for c in channels]
         self.column_index = {name: i for i, name in enumerate(self.float_columns)}
@@ -248,6 +266,11 @@ class ClosedLoop:
             i for i, ch in enumerate(setup.model.channels) if ch.kind == "outdoor_temp"
         )
         self.timing_s = {"controller": 0.0, "plant": 0.0, "record": 0.0}
+        # zone-air sensor noise (kalman mode): its own stream of the scenario's seed
+        self.measurement_rng = np.random.default_rng([cfg.seed, MEASUREMENT_RNG_STREAM])
+        self._measured = cfg.estimation.mode == "kalman" and isinstance(
+            self.controller, MPCController
+        )
 
     # -- one period -------------------------------------------------------------------
     def step(self) -> None:
@@ -260,7 +283,22 @@ class ClosedLoop:
         t0 = time.perf_counter()
         # one period beyond the horizon: the band at the end of the last planned period
         forecast = setup.forecaster.forecast(k, setup.config.controller.horizon_steps + 1)
-        action = self.controller.act(self.x, forecast, peak_floor_kw=self.month_peak_kw)
+        if self._measured:
+            assert isinstance(self.controller, MPCController)
+            measured = measure_zone_temps(
+                self.measurement_rng,
+                self.x,
+                setup.model.c,
+                setup.config.estimation.measurement_noise_k,
+            )
+            action = self.controller.act(
+                self.x,
+                forecast,
+                peak_floor_kw=self.month_peak_kw,
+                measured_zone_temp_degc=measured,
+            )
+        else:
+            action = self.controller.act(self.x, forecast, peak_floor_kw=self.month_peak_kw)
         t1 = time.perf_counter()
 
         d_hat = exo.disturbances[k]
@@ -285,9 +323,23 @@ class ClosedLoop:
         activated = bool(setup.activation[k])
         x_next = x_curtailed if activated else x_served
         power = power_curtailed if activated else power_served
+        applied_flow = curtailed_flow if activated else served_flow
+        model_used = (
+            self.controller.step_model
+            if isinstance(self.controller, MPCController)
+            else setup.model
+        )
+        if activated and isinstance(self.controller, MPCController):
+            self.controller.note_applied_flow(applied_flow)
+        prediction_error = one_step_prediction_error(
+            model_used, self.x, applied_flow, d_real, x_next
+        )
         t2 = time.perf_counter()
 
         self._record(k, action, forecast, d_hat, w, x_next, power, power_served, power_curtailed)
+        row, col = self.recorder.values[k], self.recorder.column_index
+        for z, zone in enumerate(setup.zone_names):
+            row[col[f"prediction_error_{zone}_k"]] = prediction_error[z]
         self.recorder.il_activated[k] = activated
         self.month_peak_kw = max(self.month_peak_kw, power)
         self.x = x_next
@@ -367,6 +419,7 @@ class ClosedLoop:
             "month": self.month,
             "month_peak_kw": self.month_peak_kw,
             "sampler": self.sampler.get_state(),
+            "measurement_rng": self.measurement_rng.bit_generator.state,
             "controller": self.controller.get_state(),
             "values": rec.values[: self.k].copy(),
             "il_activated": rec.il_activated[: self.k].copy(),
@@ -385,6 +438,7 @@ class ClosedLoop:
         self.k, self.x = k, state["x"].copy()
         self.month, self.month_peak_kw = state["month"], state["month_peak_kw"]
         self.sampler.set_state(state["sampler"])
+        self.measurement_rng.bit_generator.state = state["measurement_rng"]
         self.controller.set_state(state["controller"])
         rec = self.recorder
         rec.values[:k] = state["values"]
