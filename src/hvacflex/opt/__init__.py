@@ -7,13 +7,16 @@ Modules, each importing only those above it:
 
 - :mod:`~hvacflex.opt.options`: robust modes, feedback options, ρ default, tie-break;
 - :mod:`~hvacflex.opt.robust`: the robust margins δ (pure numpy; the one home of δ);
+- :mod:`~hvacflex.opt.events`: the IL event rows, their rotation and worst output (numpy);
 - :mod:`~hvacflex.opt.problem`: :class:`RMPCProblem` and its validation;
 - :mod:`~hvacflex.opt.lp`: the index allocator and the open-loop LP, one ``add_…`` function
   per constraint family;
 - :mod:`~hvacflex.opt.solution`: :class:`RMPCSolution` and how it is built from a plan;
 - :mod:`~hvacflex.opt.feedback`: the affine disturbance-feedback parameterisation and its LP;
 - :mod:`~hvacflex.opt.basis`: simplex bases as arrays (time shift, checks);
-- :mod:`~hvacflex.opt.solve`: the HiGHS solvers (the only highspy importer);
+- :mod:`~hvacflex.opt.highs_lp`: generic HiGHS helpers (model, status, one-shot solve);
+- :mod:`~hvacflex.opt.feedback_solve`: the feedback solver (cold, via highs_lp);
+- :mod:`~hvacflex.opt.solve`: the HiGHS solvers (through highs_lp, the only highspy importer);
 - :mod:`~hvacflex.opt.testing`: seeded random problems for tests and benchmarks.
 """
 

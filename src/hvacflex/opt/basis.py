@@ -38,7 +38,8 @@ def rotation(lp: LinearProgram) -> tuple[IntArray, IntArray]:
     """Index maps that rotate a basis by one time step: ``new = old[map]``.
 
     Step k of every time-indexed column and row block takes the status of step k + 1, step
-    N − 1 that of step 0; the other blocks (β, the dual form's λ's and rows) keep theirs.
+    N − 1 that of step 0; row blocks with a permutation (the IL event rows) follow it; the
+    other blocks (β, the dual form's λ's and rows) keep theirs.
     """
     col_map = np.arange(lp.num_cols)
     row_map = np.arange(lp.num_rows)
@@ -46,6 +47,8 @@ def rotation(lp: LinearProgram) -> tuple[IntArray, IntArray]:
         for block in blocks:
             if block.size:
                 index_map[block.ravel()] = np.roll(block, -1, axis=0).ravel()
+    for block, permutation in lp.permuted_rows:
+        row_map[block] = block[permutation]
     return col_map, row_map
 
 

@@ -83,7 +83,6 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import linalg
 
-from hvacflex.opt import robust as robust_mod
 from hvacflex.opt.lp import (
     LinearProgram,
     LPBuilder,
@@ -96,6 +95,7 @@ from hvacflex.opt.lp import (
 )
 from hvacflex.opt.options import FeedbackOptions
 from hvacflex.opt.problem import FloatArray, IntArray, RMPCProblem
+from hvacflex.opt.robust import impulse_responses, margin_operator, robust_margins
 from hvacflex.opt.solution import (
     RMPCSolution,
     SolveStatus,
@@ -331,8 +331,8 @@ def feedback_maps(problem: RMPCProblem, options: FeedbackOptions) -> FeedbackMap
     gains = gain_parameterisation(problem, options)
     scale = channel_scale(problem.e_matrix)
     a, c = problem.a_matrix, problem.c_matrix
-    g_resp = robust_mod.impulse_responses(a, problem.e_matrix / scale, c, horizon)
-    h_resp = robust_mod.impulse_responses(a, problem.b_matrix, c, horizon)
+    g_resp = impulse_responses(a, problem.e_matrix / scale, c, horizon)
+    h_resp = impulse_responses(a, problem.b_matrix, c, horizon)
     key_of, key_k, key_j = _keys(gains, horizon)
     y_rhs = g_resp[key_k - key_j - 1] if key_k.size else np.zeros((0, ny, nd))
     # pairs (k, j), k - j >= 2, for the δ rows and their key
@@ -348,7 +348,7 @@ def feedback_maps(problem: RMPCProblem, options: FeedbackOptions) -> FeedbackMap
     # every pair when there are no gains), as one (N·ny, N·nd) operator
     keyed = np.zeros((horizon, horizon), dtype=bool)  # [k-1, j]
     keyed[delta_k - 1, delta_j] = True
-    operator = robust_mod.margin_operator(g_resp).reshape(horizon, ny, horizon, nd)
+    operator = margin_operator(g_resp).reshape(horizon, ny, horizon, nd)
     operator = operator * ~keyed[:, None, :, None]
     entry_group, group_input, uapp_group, uapp_step, uapp_source = _groups(gains, horizon)
     return FeedbackMaps(
@@ -430,7 +430,7 @@ def add_comfort_margin_definition(
     lp: LPBuilder, f: FeedbackColumns, maps: FeedbackMaps, sigma: FloatArray
 ) -> None:
     """δ_k − Σ_j (Y⁺ + Y⁻)_{k,j} σ̃_j = Σ_{unkeyed j} |G_{k-1-j}| σ̃_j (N·ny rows; σ varies)."""
-    delta_const = robust_mod.robust_margins(maps.const_operator, sigma)
+    delta_const = robust_margins(maps.const_operator, sigma)
     rows = lp.add_rows(f.delta.shape, lower=delta_const, upper=delta_const)
     lp.add_coefficients(rows, f.delta, 1.0)
     if maps.delta_key.size:

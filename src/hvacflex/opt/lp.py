@@ -15,8 +15,10 @@ and prices enter only right-hand sides, bounds and costs. Columns, in order:
 ``r`` (N·m_r, reserve-carrying inputs only), ``ε`` (N·ny), ``P`` (N), ``β`` (1), then the
 dual λ's. Rows: served and curtailed dynamics (N·n each, equalities), comfort upper/lower
 rows per trajectory (N·ny each), ``u − r ≥ u_min`` (N·m_r), power definition (N,
-coefficients ``−p_k`` change every step), peak rows ``φ_k P_k − β ≤ 0`` (N), and in the dual
-form one equality ``λ₁ − λ₂ = ±h`` per (robust row, disturbance entry).
+coefficients ``−p_k`` change every step), peak rows ``φ_k P_k − β ≤ 0`` (N), in the IL event
+model (``il_event_max_steps`` set; no z columns or rows then) the event rows of
+:func:`add_il_event_comfort` (≈ N²·ny/2), and in the dual form one equality
+``λ₁ − λ₂ = ±h`` per (robust row, disturbance entry).
 
 Constant and varying coefficients
 ---------------------------------
@@ -35,9 +37,18 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import sparse
 
-from hvacflex.opt import robust as robust_mod
+from hvacflex.opt.events import (
+    EventRows,
+    carry_allowance,
+    event_matrix,
+    event_rotation,
+    event_row_bounds,
+    event_rows,
+    reserve_responses,
+)
 from hvacflex.opt.options import RESERVE_TIE_BREAK_SGD_PER_KG_S_HOUR
 from hvacflex.opt.problem import FloatArray, IntArray, RMPCProblem
+from hvacflex.opt.robust import dual_row_entries, impulse_responses
 from hvacflex.units import KWH_PER_MWH
 
 __all__ = [
@@ -50,6 +61,7 @@ __all__ = [
     "add_curtailed_dynamics",
     "add_dual_robust_rows",
     "add_flow_and_reserve_bounds",
+    "add_il_event_comfort",
     "add_peak_epigraph",
     "add_plan_variables",
     "add_power_definition",
@@ -90,7 +102,8 @@ class LinearProgram:
     ``constant`` holds the structural coefficients (None if the builder skipped them),
     ``varying`` the step-varying ones in a fixed order (zeros kept). ``time_cols`` and
     ``time_rows`` are the blocks whose first axis is the step k (for the warm start's
-    time shift).
+    time shift); ``permuted_rows`` are (block, permutation) pairs of row blocks that are not
+    rectangular in k: one step later row ``block[e]`` starts from ``block[permutation[e]]``.
     """
 
     num_cols: int
@@ -104,6 +117,7 @@ class LinearProgram:
     varying: Triplets
     time_cols: tuple[IntArray, ...]
     time_rows: tuple[IntArray, ...]
+    permuted_rows: tuple[tuple[IntArray, IntArray], ...] = ()
 
 
 def sparse_matrix(
@@ -154,6 +168,7 @@ class LPBuilder:
         self._varying: list[tuple[IntArray, IntArray, FloatArray]] = []
         self._time_cols: list[IntArray] = []
         self._time_rows: list[IntArray] = []
+        self._permuted_rows: list[tuple[IntArray, IntArray]] = []
 
     @staticmethod
     def _take(start: int, shape: tuple[int, ...]) -> IntArray:
@@ -183,13 +198,21 @@ class LPBuilder:
         lower: FloatArray | float = -np.inf,
         upper: FloatArray | float = np.inf,
         time_indexed: bool = False,
+        time_permutation: IntArray | None = None,
     ) -> IntArray:
-        """A new block of constraints ``lower ≤ row ≤ upper`` shaped ``shape``; its indices."""
+        """A new block of constraints ``lower ≤ row ≤ upper`` shaped ``shape``; its indices.
+
+        ``time_indexed``: the first axis is the step k (the warm start rolls it by one);
+        ``time_permutation`` (flat block size): instead, one step later row ``index[e]``
+        starts from row ``index[time_permutation[e]]`` (for blocks not rectangular in k).
+        """
         index = self._take(self.num_rows, shape)
         self.num_rows += index.size
         self._rows.append((index, lower, upper))
         if time_indexed:
             self._time_rows.append(index)
+        if time_permutation is not None:
+            self._permuted_rows.append((index.ravel(), time_permutation))
         return index
 
     def set_cost(self, cols: IntArray, cost: FloatArray | float) -> None:
@@ -232,6 +255,7 @@ class LPBuilder:
             varying=Triplets.join(self._varying),
             time_cols=tuple(self._time_cols),
             time_rows=tuple(self._time_rows),
+            permuted_rows=tuple(self._permuted_rows),
         )
 
 
@@ -251,7 +275,8 @@ def _broadcast(rows: object, cols: object, values: object) -> tuple[IntArray, In
 class PlanColumns:
     """Columns of the plan that both LPs share (index arrays shaped like the quantity).
 
-    ``z`` is the curtailed trajectory; it is ``x`` itself when no input carries reserve.
+    ``z`` is the curtailed trajectory; it is ``x`` itself when no input carries reserve and
+    in the IL event model (``event_model``: event rows over x and r instead of z).
     ``power`` is (N,) in the open-loop LP and empty in the feedback LP.
     """
 
@@ -263,11 +288,17 @@ class PlanColumns:
     power: IntArray  # (N,) or (0,)
     beta: int
     reserve_inputs: IntArray  # (m_r,)
+    event_model: bool = False
+
+    @property
+    def has_reserve(self) -> bool:
+        """Whether some input carries reserve (r columns and ``u − r ≥ u_min`` rows exist)."""
+        return self.reserve_inputs.size > 0
 
     @property
     def has_curtailed(self) -> bool:
-        """Whether a separate curtailed trajectory exists (some input carries reserve)."""
-        return self.reserve_inputs.size > 0
+        """Whether a separate curtailed trajectory z exists (reserve, whole-horizon model)."""
+        return self.has_reserve and not self.event_model
 
 
 def add_plan_variables(lp: LPBuilder, p: RMPCProblem, *, power_column: bool) -> PlanColumns:
@@ -275,8 +306,11 @@ def add_plan_variables(lp: LPBuilder, p: RMPCProblem, *, power_column: bool) -> 
     slack 0 ≤ ε ≤ ε_max [K], power P [kW] (if ``power_column``), peak charge β ≥ φ·floor."""
     horizon = p.horizon
     reserve_inputs = np.flatnonzero(np.asarray(p.reserve_mask, dtype=bool)).astype(np.int64)
+    event_model = p.il_event_max_steps is not None
     x = lp.add_columns((horizon, p.n), time_indexed=True)
-    z = lp.add_columns((horizon, p.n), time_indexed=True) if reserve_inputs.size else x
+    z = x
+    if reserve_inputs.size and not event_model:
+        z = lp.add_columns((horizon, p.n), time_indexed=True)
     u = lp.add_columns((horizon, p.m), lower=p.u_min, upper=p.u_max, time_indexed=True)
     r = lp.add_columns(
         (horizon, reserve_inputs.size),
@@ -288,7 +322,7 @@ def add_plan_variables(lp: LPBuilder, p: RMPCProblem, *, power_column: bool) -> 
     eps = lp.add_columns((horizon, p.ny), lower=0.0, upper=slack_max, time_indexed=True)
     power = lp.add_columns((horizon if power_column else 0,), time_indexed=True)
     beta = int(lp.add_columns((1,), lower=float(p.phi[0]) * p.peak_floor_kw)[0])
-    return PlanColumns(x, z, u, r, eps, power, beta, reserve_inputs)
+    return PlanColumns(x, z, u, r, eps, power, beta, reserve_inputs, event_model)
 
 
 def dynamics_rhs(p: RMPCProblem) -> FloatArray:
@@ -335,13 +369,17 @@ def add_comfort_with_margins(
 
     ``margin_k`` (N, ny) are constant margins δ [K]; ``margin_cols`` (N, ny), if given, are
     margin *variables* added as ``+δ`` on the upper and ``−δ`` on the lower rows. Returns the
-    row blocks (N, ny) with their sign (+1 upper, −1 lower).
+    row blocks (N, ny) with their sign (+1 upper, −1 lower). In the IL event model the upper
+    bound of outputs 1..c (``il_allowance_carry_steps``) is widened by α.
     """
     trajectories = [v.x, v.z] if v.has_curtailed else [v.x]
     shape = (p.horizon, p.ny)
+    carry = carry_allowance(
+        p.horizon, p.ny, p.il_event_allowance_kelvin, p.il_allowance_carry_steps
+    )
     blocks: list[tuple[IntArray, float]] = []
     for state in trajectories:
-        upper = lp.add_rows(shape, upper=p.y_max - margin_k, time_indexed=True)
+        upper = lp.add_rows(shape, upper=p.y_max - margin_k + carry, time_indexed=True)
         lower = lp.add_rows(shape, lower=p.y_min + margin_k, time_indexed=True)
         for rows, sign in ((upper, 1.0), (lower, -1.0)):
             lp.add_coefficients(rows[:, :, None], state[:, None, :], p.c_matrix[None])
@@ -406,7 +444,7 @@ def add_dual_robust_rows(
     ``comfort_rows`` are (row block (N, ny), sign) pairs, +1 for upper and −1 for lower rows;
     ``responses`` (N, ny, nd) the impulse responses ``C A^l E``. The σ coefficients vary.
     """
-    step, output, dist_step, channel, h = robust_mod.dual_row_entries(responses)
+    step, output, dist_step, channel, h = dual_row_entries(responses)
     entries = step.size
     for row_block, sign in comfort_rows:
         rows = row_block[step, output]
@@ -420,6 +458,45 @@ def add_dual_robust_rows(
         lp.add_coefficients(equalities, lambda_2, -1.0)
 
 
+def add_il_event_comfort(
+    lp: LPBuilder, p: RMPCProblem, v: PlanColumns, margin_k: FloatArray
+) -> tuple[IntArray, EventRows]:
+    """The IL event rows (:mod:`hvacflex.opt.events`): for each output t, start s and zone,
+    ``C_i x_t + Σ_j H_{t−1−j,i} r_j − ε_{t,i} ≤ y^hi_t − δ_t (+ α)`` (≈ N²·ny/2 rows; none in
+    the whole-horizon model, ``il_event_max_steps`` None).
+
+    The coefficients are constant (they depend on A, B, C, N, D, R only); α, the carry c and
+    the margins ``margin_k`` (N, ny) [K] enter the row bounds. The block is not rectangular
+    in the step, so its warm-start rotation is :func:`~hvacflex.opt.events.event_rotation`.
+    Returns the row indices (num_event_rows,) and what each row is.
+    """
+    rows = event_rows(p.horizon, p.ny, p.il_event_max_steps, p.il_event_recovery_steps)
+    if rows.num_rows == 0:
+        return np.zeros(0, dtype=np.int64), rows
+    lower, upper = event_row_bounds(
+        rows, p.y_max, margin_k, p.il_event_allowance_kelvin, p.il_allowance_carry_steps
+    )
+    index = lp.add_rows(
+        (rows.num_rows,),
+        lower=lower,
+        upper=upper,
+        time_permutation=event_rotation(rows) if lp.records_constants else None,
+    )
+    if lp.records_constants:
+        b_reserve = p.b_matrix[:, v.reserve_inputs]
+        block = event_matrix(
+            rows,
+            reserve_responses(p.a_matrix, b_reserve, p.c_matrix, p.horizon),
+            p.c_matrix,
+            col_x=v.x,
+            col_r=v.r,
+            col_eps=v.eps,
+            num_cols=lp.num_cols,
+        ).tocoo()
+        lp.add_coefficients(index[block.row], block.col, block.data)
+    return index, rows
+
+
 def set_objective(lp: LPBuilder, p: RMPCProblem, v: PlanColumns) -> None:
     """Energy cost Δt·c_k·P_k on P plus the shared plan costs (:func:`set_plan_costs`) [SGD]."""
     set_plan_costs(lp, p, v)
@@ -428,11 +505,17 @@ def set_objective(lp: LPBuilder, p: RMPCProblem, v: PlanColumns) -> None:
 
 @dataclass(frozen=True, eq=False)
 class LPLayout:
-    """The open-loop LP's plan columns and sizes (for extracting a solution)."""
+    """The open-loop LP's plan columns, sizes and IL event rows (for extracting a solution).
+
+    ``event_rows`` (num_event_rows,) are the LP rows of the event block (empty for the
+    whole-horizon model), ``events`` says what each one is.
+    """
 
     plan: PlanColumns
     num_cols: int
     num_rows: int
+    event_rows: IntArray
+    events: EventRows
 
     @property
     def has_curtailed(self) -> bool:
@@ -461,10 +544,11 @@ def build_lp(
     add_flow_and_reserve_bounds(lp, p, v)
     add_power_definition(lp, p, v)
     add_peak_epigraph(lp, p, v)
+    event_index, events = add_il_event_comfort(lp, p, v, margin_k)
     if p.robust == "dual":
         if responses is None:
-            responses = robust_mod.impulse_responses(p.a_matrix, p.e_matrix, p.c_matrix, p.horizon)
+            responses = impulse_responses(p.a_matrix, p.e_matrix, p.c_matrix, p.horizon)
         add_dual_robust_rows(lp, p, comfort_rows, responses)
     set_objective(lp, p, v)
     program = lp.finish()
-    return program, LPLayout(v, program.num_cols, program.num_rows)
+    return program, LPLayout(v, program.num_cols, program.num_rows, event_index, events)

@@ -37,6 +37,12 @@ activated output lies between the served ``C x_k`` and the curtailed ``C z_k``; 
 (tightened by the same δ) then holds for all patterns. :class:`RMPCProblem` refuses problems
 that violate these conditions.
 
+IL event model (``il_event_max_steps`` = D set): instead of z, the event set holds at most one
+event of ≤ D curtailed steps, with an allowance α on the upper bound during the event and R
+steps after it; its exact robust counterpart is a block of ≈ N²·ny/2 rows over (x, r, ε)
+(:mod:`hvacflex.opt.events`, added by :func:`hvacflex.opt.lp.add_il_event_comfort`; z is
+dropped).
+
 Reserve tie-break: when ``b = 0`` the optimum is degenerate in r. Every reserve flow carries
 a cost of :data:`~hvacflex.opt.options.RESERVE_TIE_BREAK_SGD_PER_KG_S_HOUR` × Δt (1e-5 SGD
 per kg/s·h, orders of magnitude below any reserve price that matters), which breaks the tie
@@ -56,6 +62,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from hvacflex.errors import ProblemError
+from hvacflex.opt.events import check_event_fields
 from hvacflex.opt.options import (
     DEFAULT_COMFORT_PENALTY_SGD_PER_KELVIN_HOUR,
     ROBUST_MODES,
@@ -172,6 +179,14 @@ class RMPCProblem:
     slack_max_kelvin : cap on ε [K]; None = unbounded (soft comfort), 0 = hard comfort
     feedback : policy structure for ``robust="feedback"`` (default ``FeedbackOptions()``);
         must be None for the other modes
+    il_event_max_steps : D, the longest IL event [steps], 1 ≤ D ≤ N; None = the paper's
+        whole-horizon model (curtailed trajectory for all N steps, strict band). See
+        :mod:`hvacflex.opt.events`; not with robust="dual" or "feedback"
+    il_event_allowance_kelvin : α ≥ 0 [K] added to the upper comfort bound during an event and
+        R steps after it (event model only)
+    il_event_recovery_steps : R ≥ 0 [steps] (event model only)
+    il_allowance_carry_steps : c, 0 ≤ c ≤ N: outputs 1..c get α under every pattern, the
+        served plan included (event model only)
 
     After construction every array field is a read-only float array of its full shape
     (``d_sigma`` (N,nd), ``u_min``/``u_max`` (N,m), ``y_min``/``y_max`` (N,ny),
@@ -202,6 +217,10 @@ class RMPCProblem:
     robust: RobustMode = "tightening"
     slack_max_kelvin: float | None = None
     feedback: FeedbackOptions | None = None
+    il_event_max_steps: int | None = None
+    il_event_allowance_kelvin: float = 0.0
+    il_event_recovery_steps: int = 0
+    il_allowance_carry_steps: int = 0
     _structure: RMPCStructure = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -220,6 +239,8 @@ class RMPCProblem:
                 horizon=horizon,
                 reserve_mask=np.asarray(self.reserve_mask, dtype=bool),
                 robust=self.robust,
+                il_event_max_steps=self.il_event_max_steps,
+                il_event_recovery_steps=self.il_event_recovery_steps,
             ),
         )
 
@@ -373,6 +394,15 @@ class RMPCProblem:
                 hint="pass a scalar peak_price_sgd_per_kw in billing-period mode",
             )
         self._check_sign_conditions()
+        check_event_fields(
+            horizon=self.horizon,
+            robust=self.robust,
+            b_reserve=self.b_matrix[:, np.asarray(self.reserve_mask, dtype=bool)],
+            max_steps=self.il_event_max_steps,
+            allowance_kelvin=self.il_event_allowance_kelvin,
+            recovery_steps=self.il_event_recovery_steps,
+            carry_steps=self.il_allowance_carry_steps,
+        )
         self._check_feedback()
 
     def _check_feedback(self) -> None:
@@ -524,6 +554,8 @@ class RMPCStructure:
     horizon: int
     reserve_mask: BoolArray
     robust: str
+    il_event_max_steps: int | None = None  # D; None = whole-horizon model
+    il_event_recovery_steps: int = 0  # R (α and c enter row bounds only)
 
     def differences(self, other: RMPCStructure) -> list[str]:
         """Names of the fields in which ``other`` differs from this structure."""
@@ -533,8 +565,9 @@ class RMPCStructure:
                 names.append(name)
         if self.horizon != other.horizon:
             names.append("horizon")
-        if self.robust != other.robust:
-            names.append("robust")
+        for name in ("robust", "il_event_max_steps", "il_event_recovery_steps"):
+            if getattr(self, name) != getattr(other, name):
+                names.append(name)
         return names
 
     def fingerprint(self) -> str:
@@ -545,4 +578,6 @@ class RMPCStructure:
             digest.update(np.ascontiguousarray(array).tobytes())
         digest.update(np.ascontiguousarray(self.reserve_mask).tobytes())
         digest.update(f"{self.horizon}|{self.robust}".encode())
+        if self.il_event_max_steps is not None:
+            digest.update(f"|D={self.il_event_max_steps}|R={self.il_event_recovery_steps}".encode())
         return digest.hexdigest()

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from hvacflex.opt.events import event_trajectory, reserve_responses, worst_event_output
 from hvacflex.opt.lp import PlanColumns
 from hvacflex.opt.options import RESERVE_TIE_BREAK_SGD_PER_KG_S_HOUR
 from hvacflex.opt.problem import FloatArray, RMPCProblem
@@ -57,7 +58,9 @@ class RMPCSolution:
     peak_kw : max_k P_k [kW];  peak_charge_sgd : β [SGD]
     slack : (N, ny) ε_k for outputs at steps 1..N [K];  delta : (N, ny) robust margins δ_k [K]
         (zero for robust="none"; for robust="dual" the equivalent tightening, for reference)
-    x_served, x_curtailed : (N+1, n) nominal (w = 0) trajectories from x0 [°C]
+    x_served, x_curtailed : (N+1, n) nominal (w = 0) trajectories from x0 [°C]; in the IL
+        event model (``il_event_max_steps`` = D) ``x_curtailed`` is the trajectory under the
+        event (s = 0, L = D), otherwise under curtailment for the whole horizon
     energy_cost_sgd, reserve_revenue_sgd, comfort_penalty_sgd : objective terms [SGD]
     tie_break_sgd : the reserve tie-break cost included in the LP but not in objective_sgd
     solve_time_s : wall time of the whole solve call (updates + HiGHS + extraction) [s]
@@ -67,6 +70,10 @@ class RMPCSolution:
     feedback_gains : (N, N, m, nd) for ``robust="feedback"``: ``[k, j]`` is the gain of input
         k on the disturbance error w_j (zero for j ≥ k; see :mod:`hvacflex.opt.feedback`);
         None otherwise
+    y_event_worst : (N, ny) worst upper-side output over the event set × the box [°C]:
+        ``max(C x_t, max over events of the event output) + δ_t`` (events (s, L ≤ D), or the
+        whole-horizon curtailment when D is None; see
+        :func:`hvacflex.opt.events.worst_event_output`)
     """
 
     status: SolveStatus
@@ -90,6 +97,7 @@ class RMPCSolution:
     highs_time_s: float
     simplex_iterations: int
     warm_start: bool
+    y_event_worst: FloatArray
     feedback_gains: FloatArray | None = None
 
     @property
@@ -140,6 +148,7 @@ def failed_solution(
         highs_time_s=highs_time_s,
         simplex_iterations=simplex_iterations,
         warm_start=warm_start,
+        y_event_worst=_nan((horizon, ny)),
     )
 
 
@@ -161,7 +170,18 @@ def plan_from_values(problem: RMPCProblem, plan: PlanColumns, values: FloatArray
     r = np.zeros((problem.horizon, problem.m))
     r[:, plan.reserve_inputs] = np.maximum(values[plan.r], 0.0)
     x_served = np.vstack([problem.x0, values[plan.x]])
-    x_curtailed = np.vstack([problem.x0, values[plan.z]]) if plan.has_curtailed else x_served
+    if plan.has_curtailed:
+        x_curtailed = np.vstack([problem.x0, values[plan.z]])
+    elif plan.has_reserve and plan.event_model:  # the event (s = 0, L = D)
+        x_curtailed = event_trajectory(
+            problem.a_matrix,
+            problem.b_matrix[:, plan.reserve_inputs],
+            x_served,
+            r[:, plan.reserve_inputs],
+            problem.il_event_max_steps,
+        )
+    else:
+        x_curtailed = x_served
     return Plan(
         u=values[plan.u],
         r=r,
@@ -184,12 +204,27 @@ def plan_solution(
     simplex_iterations: int,
     warm_start: bool,
     feedback_gains: FloatArray | None = None,
+    event_responses: FloatArray | None = None,
 ) -> RMPCSolution:
     """An :class:`RMPCSolution` from a plan: power, reserve and the cost split follow from
     its ``u`` (N, m), ``r`` (N, m) [kg/s], ``slack`` (N, ny) [K] and β [SGD] as in the LP.
 
-    ``start`` is the ``time.perf_counter()`` reading when the solve call began.
+    ``start`` is the ``time.perf_counter()`` reading when the solve call began;
+    ``event_responses`` (N, ny, m_r) the reserve responses of
+    :func:`~hvacflex.opt.events.reserve_responses` (computed if None; a solver caches them).
     """
+    ridx = np.flatnonzero(np.asarray(problem.reserve_mask, dtype=bool))
+    if event_responses is None:
+        event_responses = reserve_responses(
+            problem.a_matrix, problem.b_matrix[:, ridx], problem.c_matrix, problem.horizon
+        )
+    y_event_worst = worst_event_output(
+        event_responses,
+        plan.x_served[1:] @ problem.c_matrix.T,
+        plan.r[:, ridx],
+        delta,
+        problem.il_event_max_steps,
+    )
     dt = problem.dt_h
     p = problem.power_coeff_kw_per_kg_s
     u, r, slack, peak_charge_sgd = plan.u, plan.r, plan.slack, plan.peak_charge_sgd
@@ -220,5 +255,6 @@ def plan_solution(
         highs_time_s=highs_time_s,
         simplex_iterations=simplex_iterations,
         warm_start=warm_start,
+        y_event_worst=y_event_worst,
         feedback_gains=feedback_gains,
     )

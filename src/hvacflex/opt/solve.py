@@ -1,4 +1,5 @@
-"""Solve :class:`~hvacflex.opt.problem.RMPCProblem` with HiGHS; the only importer of highspy.
+"""Solve :class:`~hvacflex.opt.problem.RMPCProblem` with HiGHS (through
+:mod:`hvacflex.opt.highs_lp`, the only highspy importer).
 
 :class:`RMPCSolver` builds the sparse LP of :mod:`hvacflex.opt.lp` once per structure
 (A, B, E, C, N, reserve mask, robust mode). Each :meth:`RMPCSolver.solve` rebuilds the LP's
@@ -23,6 +24,15 @@ simplex (new basis; the power-row coefficients p_k change), and dual steepest-ed
 would then be recomputed from scratch, one BTRAN per row. Warm solves run without scaling;
 cold solves keep HiGHS's default scaling and presolve.
 
+IL event rows (``RMPCSolver(..., event_rows="lazy")``, the default): the event model's
+≈ N²·ny/2 rows are mostly slack at the optimum, so HiGHS holds only the core rows plus the
+event rows that were nonbasic or near-active at the previous optimum (rotated by the event
+permutation) and those of events starting at 0; after each run the activities of all event
+rows are one sparse product, the most violated absent row per (output, zone, kind) is added
+(HiGHS keeps its basis, new rows basic) and the LP re-solved warm until no absent row is
+violated by more than 1e-7 K. The optimum is the full model's; bases are kept over all rows
+(absent rows basic), so checkpoints are interchangeable with ``event_rows="full"``.
+
 Failures are never silent: :class:`SolveStatus` says what happened, ``RMPCSolution.message``
 says it in words, and every plan array (u, r, P, R, ε, trajectories, costs) is NaN unless the
 status is :attr:`SolveStatus.OPTIMAL`. If a warm-started solve ends in a solver error, the
@@ -32,14 +42,11 @@ solve is retried once from scratch (cold) before the error is reported.
 from __future__ import annotations
 
 import time
-from typing import Any, NamedTuple
+from typing import Any, Literal
 
-import highspy
 import numpy as np
-from scipy import sparse
 
 from hvacflex.errors import ProblemError
-from hvacflex.opt import robust as robust_mod
 from hvacflex.opt.basis import (
     BASIC,
     SolverBasis,
@@ -50,17 +57,21 @@ from hvacflex.opt.basis import (
     optimal_statuses,
     rotation,
 )
-from hvacflex.opt.feedback import (
-    FeedbackLPSize,
-    build_feedback_lp,
-    feedback_maps,
-    feedback_solution,
-    gains_tensor,
-    output_response,
+from hvacflex.opt.events import most_violated_rows, reserve_responses
+from hvacflex.opt.feedback_solve import DEFAULT_LP_METHOD, FeedbackSolver
+from hvacflex.opt.highs_lp import (
+    HIGHS_ERROR,
+    STATUS_MAP,
+    LPResult,
+    check_time_limit,
+    highs_basis,
+    highs_lp,
+    quiet_highs,
+    solve_lp,
 )
 from hvacflex.opt.lp import LPLayout, build_lp, sparse_matrix
-from hvacflex.opt.options import FeedbackOptions
-from hvacflex.opt.problem import FloatArray, RMPCProblem
+from hvacflex.opt.problem import BoolArray, FloatArray, IntArray, RMPCProblem
+from hvacflex.opt.robust import impulse_responses, margin_operator, robust_margins
 from hvacflex.opt.solution import (
     RMPCSolution,
     SolveStatus,
@@ -81,22 +92,7 @@ __all__ = [
     "solve_rmpc",
 ]
 
-#: HiGHS algorithm for the feedback LP ("simplex", "ipm" or "choose").
-DEFAULT_LP_METHOD = "simplex"
-
-_STATUS_MAP = {
-    highspy.HighsModelStatus.kOptimal: SolveStatus.OPTIMAL,
-    highspy.HighsModelStatus.kInfeasible: SolveStatus.INFEASIBLE,
-    # The LP is bounded by construction (bounded u, r; ε, β with non-negative costs), so
-    # "unbounded or infeasible" can only mean infeasible.
-    highspy.HighsModelStatus.kUnboundedOrInfeasible: SolveStatus.INFEASIBLE,
-    highspy.HighsModelStatus.kUnbounded: SolveStatus.UNBOUNDED,
-    highspy.HighsModelStatus.kTimeLimit: SolveStatus.TIME_LIMIT,
-}
-
-
 #: HiGHS basis status codes (``HighsBasisStatus``) as stored in :class:`SolverBasis`.
-_HIGHS_BASIS_STATUS = np.array([highspy.HighsBasisStatus(code) for code in range(5)], dtype=object)
 #: Options of every solve: quiet, single-threaded (reproducible), Devex dual pricing (1).
 _BASE_OPTIONS: dict[str, Any] = {
     "output_flag": False,
@@ -104,63 +100,15 @@ _BASE_OPTIONS: dict[str, Any] = {
     "threads": 1,
     "simplex_dual_edge_weight_strategy": 1,
 }
-
-
-def _quiet_highs() -> Any:
-    """A HiGHS handle with ``output_flag`` off before anything can print.
-
-    highspy's ``Highs()`` enables its Python callbacks in its constructor, and that first
-    call prints the HiGHS version banner while ``output_flag`` is still on; the core class
-    ``_Highs`` (which has every method used here) does not. Falls back to ``Highs``.
-    """
-    highs: Any = getattr(highspy, "_Highs", highspy.Highs)()
-    highs.setOptionValue("output_flag", False)
-    return highs
-
+#: Lazy event rows: an absent event row violated by more than this is added [K].
+LAZY_VIOLATION_TOLERANCE_K = 1e-7
+#: Lazy event rows: rows with a slack up to this at the optimum stay in the next step's LP [K].
+LAZY_NEAR_ACTIVE_K = 1e-3
+#: How the IL event rows enter the LP: all of them, or generated lazily.
+EventRowMode = Literal["full", "lazy"]
 
 #: ``simplex_scale_strategy`` of a warm solve (0: no scaling); cold solves use HiGHS's default.
 _WARM_SCALE_STRATEGY = 0
-
-
-def _highs_lp(
-    cost: FloatArray,
-    matrix: sparse.csc_matrix | sparse.csr_matrix,
-    row_lower: FloatArray,
-    row_upper: FloatArray,
-    col_lower: FloatArray,
-    col_upper: FloatArray,
-) -> Any:
-    """A ``highspy.HighsLp`` of ``min costᵀx s.t. row bounds, column bounds`` (CSC or CSR)."""
-    num_rows, num_cols = matrix.shape
-    lp = highspy.HighsLp()
-    lp.num_col_ = num_cols
-    lp.num_row_ = num_rows
-    lp.col_cost_ = np.asarray(cost, dtype=np.float64)
-    lp.col_lower_ = np.asarray(col_lower, dtype=np.float64)
-    lp.col_upper_ = np.asarray(col_upper, dtype=np.float64)
-    lp.row_lower_ = np.asarray(row_lower, dtype=np.float64)
-    lp.row_upper_ = np.asarray(row_upper, dtype=np.float64)
-    colwise = isinstance(matrix, sparse.csc_matrix)
-    lp.a_matrix_.format_ = (
-        highspy.MatrixFormat.kColwise if colwise else highspy.MatrixFormat.kRowwise
-    )
-    lp.a_matrix_.num_col_ = num_cols
-    lp.a_matrix_.num_row_ = num_rows
-    lp.a_matrix_.start_ = matrix.indptr.astype(np.int32)
-    lp.a_matrix_.index_ = matrix.indices.astype(np.int32)
-    lp.a_matrix_.value_ = matrix.data.astype(np.float64)
-    return lp
-
-
-def check_time_limit(time_limit_s: float | None, *, source: str) -> None:
-    """Refuse a per-solve time limit that is not a positive number of seconds (None = none)."""
-    if time_limit_s is not None and not time_limit_s > 0:
-        raise ProblemError(
-            "time limit must be > 0 s or None",
-            source=source,
-            field="time_limit_s",
-            value=time_limit_s,
-        )
 
 
 class RMPCSolver:
@@ -175,6 +123,12 @@ class RMPCSolver:
         from the previous optimal basis rotated by one step (see the module docstring).
         False: start from the previous basis as is (e.g. re-solving one step's problem with
         other prices).
+    event_rows : IL event model only: "full" passes every event row to HiGHS; "lazy" passes
+        the rows that were nonbasic or near-active (slack ≤ :data:`LAZY_NEAR_ACTIVE_K`) at
+        the previous optimum (rotated) plus the rows of events starting at 0, then adds the
+        most violated absent row per (output, zone, kind) and re-solves warm until no absent
+        row is violated by more than :data:`LAZY_VIOLATION_TOLERANCE_K` — the same optimum.
+        Bases (:meth:`get_basis`) always cover every row (absent rows basic).
 
     Examples
     --------
@@ -184,7 +138,12 @@ class RMPCSolver:
     """
 
     def __init__(
-        self, problem: RMPCProblem, *, time_limit_s: float | None = None, time_shift: bool = True
+        self,
+        problem: RMPCProblem,
+        *,
+        time_limit_s: float | None = None,
+        time_shift: bool = True,
+        event_rows: EventRowMode = "lazy",
     ) -> None:
         check_time_limit(time_limit_s, source="RMPCSolver")
         if problem.robust == "feedback":
@@ -197,18 +156,33 @@ class RMPCSolver:
             )
         self._structure = problem.structure
         self._fingerprint = self._structure.fingerprint()
-        self._responses = robust_mod.impulse_responses(
+        self._responses = impulse_responses(
             problem.a_matrix, problem.e_matrix, problem.c_matrix, problem.horizon
         )
-        self._margin_operator = robust_mod.margin_operator(self._responses)
+        self._margin_operator = margin_operator(self._responses)
+        self._event_responses = reserve_responses(
+            problem.a_matrix,
+            problem.b_matrix[:, np.asarray(problem.reserve_mask, dtype=bool)],
+            problem.c_matrix,
+            problem.horizon,
+        )
         # highspy's Python wrapper is only partly typed; treat the handle as Any.
-        self._highs: Any = _quiet_highs()
+        self._highs: Any = quiet_highs()
         for option, value in _BASE_OPTIONS.items():
             self._highs.setOptionValue(option, value)
         _, self._cold_scale_strategy = self._highs.getOptionValue("simplex_scale_strategy")
         self._scale_strategy = self._cold_scale_strategy
         self._time_limit_s = float(time_limit_s) if time_limit_s is not None else None
         self._time_shift = time_shift
+        if event_rows not in ("full", "lazy"):
+            raise ProblemError(
+                "unknown event row mode",
+                source="RMPCSolver",
+                field="event_rows",
+                value=event_rows,
+                hint="use 'full' or 'lazy'",
+            )
+        self._event_mode = event_rows
         self._build(problem)
         self._col_rotation, self._row_rotation = rotation(self._lp)
         self._last_problem: RMPCProblem | None = problem
@@ -234,8 +208,13 @@ class RMPCSolver:
         return self._lp.num_rows
 
     @property
+    def num_model_rows(self) -> int:
+        """Number of constraints HiGHS holds (lazy event rows: core rows + rows present)."""
+        return int(self._model_rows.size)
+
+    @property
     def num_nonzeros(self) -> int:
-        """Nonzeros of the constraint matrix as HiGHS holds it."""
+        """Nonzeros of the constraint matrix as HiGHS holds it (lazy: the rows present)."""
         return int(self._highs.getNumNz())
 
     # ------------------------------------------------------------------ model
@@ -246,10 +225,25 @@ class RMPCSolver:
         )
         assert lp.constant is not None
         matrix = sparse_matrix(lp, lp.constant, keep_varying_zeros=True, csc=True)
-        highs_lp = _highs_lp(
-            lp.cost, matrix, lp.row_lower, lp.row_upper, lp.col_lower, lp.col_upper
+        events = self._layout.event_rows
+        self._lazy = self._event_mode == "lazy" and events.size > 0
+        self._num_core = int(events[0]) if events.size else lp.num_rows
+        assert events.size == 0 or int(events[-1]) == lp.num_rows - 1  # event rows come last
+        self._event_matrix = matrix[self._num_core :].tocsr()
+        num_model = self._num_core if self._lazy else lp.num_rows
+        self._model_rows = np.arange(num_model, dtype=np.int64)  # HiGHS row -> LP row
+        self._present = np.zeros(events.size, dtype=bool)  # lazy: event rows in HiGHS
+        self._near = np.zeros(events.size, dtype=bool)  # near-active at the last optimum
+        self._seed = self._layout.events.start == 0
+        model = highs_lp(
+            lp.cost,
+            matrix[:num_model],
+            lp.row_lower[:num_model],
+            lp.row_upper[:num_model],
+            lp.col_lower,
+            lp.col_upper,
         )
-        if self._highs.passModel(highs_lp) == highspy.HighsStatus.kError:
+        if self._highs.passModel(model) == HIGHS_ERROR:
             raise ProblemError(
                 "HiGHS refused the assembled LP",
                 source="RMPCSolver",
@@ -257,6 +251,61 @@ class RMPCSolver:
             )
         self._lp = lp
         self._bounds_changed()
+        if self._lazy:
+            self._set_event_rows(self._seed)
+
+    def _set_event_rows(self, wanted: BoolArray) -> None:
+        """Lazy mode: make HiGHS hold exactly the event rows ``wanted`` (num_event_rows,)."""
+        if np.array_equal(wanted, self._present):
+            return
+        extra = np.arange(self._num_core, self._model_rows.size, dtype=np.int32)
+        if extra.size:
+            self._highs.deleteRows(extra.size, extra)
+        self._model_rows = self._model_rows[: self._num_core]
+        self._present = np.zeros_like(wanted)
+        self._add_event_rows(np.flatnonzero(wanted))
+
+    def _add_event_rows(self, ids: IntArray) -> None:
+        """Lazy mode: append the event rows ``ids`` to HiGHS's LP (HiGHS makes them basic)."""
+        if ids.size == 0:
+            return
+        block = self._event_matrix[ids]
+        rows = self._num_core + ids
+        self._highs.addRows(
+            ids.size,
+            self._lp.row_lower[rows],
+            self._lp.row_upper[rows],
+            block.nnz,
+            block.indptr[:-1].astype(np.int32),
+            block.indices.astype(np.int32),
+            block.data,
+        )
+        self._model_rows = np.concatenate([self._model_rows, rows])
+        self._present[ids] = True
+
+    def _generate_rows(self, values: FloatArray) -> tuple[float, int, SolveStatus]:
+        """Lazy mode: add violated event rows and re-solve warm until none is violated.
+
+        Returns the HiGHS time [s], the simplex iterations and the final status; records
+        which rows are near-active for the next step.
+        """
+        highs_time, iterations, status = 0.0, 0, SolveStatus.OPTIMAL
+        upper = self._lp.row_upper[self._num_core :]
+        while True:
+            violation = self._event_matrix @ values - upper
+            add = most_violated_rows(
+                self._layout.events, violation, ~self._present, LAZY_VIOLATION_TOLERANCE_K
+            )
+            if add.size == 0:
+                self._near = violation >= -LAZY_NEAR_ACTIVE_K
+                return highs_time, iterations, status
+            self._add_event_rows(add)
+            elapsed, status = self._run(True)
+            highs_time += elapsed
+            iterations += int(self._highs.getInfo().simplex_iteration_count)
+            if not status.ok:
+                return highs_time, iterations, status
+            values = np.asarray(self._highs.getSolution().col_value)
 
     def _bounds_changed(self) -> None:
         """Refresh the bound data that basis statuses are derived from (after any update)."""
@@ -268,7 +317,7 @@ class RMPCSolver:
     def _delta(self, problem: RMPCProblem) -> FloatArray:
         if problem.robust == "none":
             return np.zeros((problem.horizon, problem.ny))
-        return robust_mod.robust_margins(self._margin_operator, problem.d_sigma)
+        return robust_margins(self._margin_operator, problem.d_sigma)
 
     @staticmethod
     def _tightening(problem: RMPCProblem, delta: FloatArray) -> FloatArray:
@@ -283,9 +332,16 @@ class RMPCSolver:
         changed = np.flatnonzero(lp.cost != old.cost).astype(np.int32)
         if changed.size:
             highs.changeColsCost(changed.size, changed, lp.cost[changed])
+        rows = self._model_rows  # the rows HiGHS holds, in its order
         for change_bounds, lower, upper, old_lower, old_upper in (
             (highs.changeColsBounds, lp.col_lower, lp.col_upper, old.col_lower, old.col_upper),
-            (highs.changeRowsBounds, lp.row_lower, lp.row_upper, old.row_lower, old.row_upper),
+            (
+                highs.changeRowsBounds,
+                lp.row_lower[rows],
+                lp.row_upper[rows],
+                old.row_lower[rows],
+                old.row_upper[rows],
+            ),
         ):
             changed = np.flatnonzero((lower != old_lower) | (upper != old_upper)).astype(np.int32)
             if changed.size:
@@ -337,6 +393,12 @@ class RMPCSolver:
             highs_time += retry_time
             iterations += int(self._highs.getInfo().simplex_iteration_count)
             warm = False
+        if self._lazy and status.ok:
+            more_time, more_iterations, status = self._generate_rows(
+                np.asarray(self._highs.getSolution().col_value)
+            )
+            highs_time += more_time
+            iterations += more_iterations
         values = np.asarray(self._highs.getSolution().col_value) if status.ok else None
         self._basis_given = False
         if values is not None:
@@ -353,19 +415,22 @@ class RMPCSolver:
         Nonbasic statuses that the current bounds do not allow (a bound that became
         infinite) are replaced by the one the bounds imply.
         """
+        near = self._near
         if self._time_shift:
             col_status = col_status[self._col_rotation]
             row_status = row_status[self._row_rotation]
+            near = near[self._row_rotation[self._num_core :] - self._num_core]
         col_status = consistent_status(
             col_status, self._col_lower, self._col_upper, self._col_nonbasic
         )
-        row_status = np.where(row_status == BASIC, BASIC, self._row_nonbasic)
-        basis = highspy.HighsBasis()
-        basis.col_status = _HIGHS_BASIS_STATUS.take(col_status).tolist()
-        basis.row_status = _HIGHS_BASIS_STATUS.take(row_status).tolist()
+        if self._lazy:  # nonbasic and near-active rows (rotated) and the seed
+            self._set_event_rows((row_status[self._num_core :] != BASIC) | near | self._seed)
+            row_status = row_status[self._model_rows]
+        row_status = np.where(row_status == BASIC, BASIC, self._row_nonbasic[self._model_rows])
+        basis = highs_basis(col_status, row_status)
         basis.valid = True
         basis.alien = False  # a rotation of a basis keeps the count of basic variables
-        if self._highs.setBasis(basis) == highspy.HighsStatus.kError:
+        if self._highs.setBasis(basis) == HIGHS_ERROR:
             self._highs.clearSolver()  # start cold rather than fail
             self._has_basis = False
         else:
@@ -373,15 +438,22 @@ class RMPCSolver:
 
     def _optimal_basis(self, values: FloatArray) -> tuple[StatusArray, StatusArray]:
         """Statuses of HiGHS's current (optimal) basis (see :func:`optimal_statuses`)."""
-        _, basic = self._highs.getBasicVariables()
-        return optimal_statuses(
+        _, basic_list = self._highs.getBasicVariables()
+        basic = np.asarray(basic_list, dtype=np.int64)
+        if self._lazy:  # HiGHS row i is LP row model_rows[i]
+            rows = basic < 0
+            basic[rows] = -1 - self._model_rows[-1 - basic[rows]]
+        col_status, row_status = optimal_statuses(
             values,
             self._col_lower,
             self._col_upper,
             self._col_nonbasic,
             self._row_nonbasic,
-            np.asarray(basic),
+            basic,
         )
+        if self._lazy:  # absent event rows count as basic
+            row_status[self._num_core :][~self._present] = BASIC
+        return col_status, row_status
 
     def _run(self, warm: bool) -> tuple[float, SolveStatus]:
         scale = _WARM_SCALE_STRATEGY if warm else self._cold_scale_strategy
@@ -397,9 +469,9 @@ class RMPCSolver:
         tick = time.perf_counter()
         run_status = self._highs.run()
         elapsed = time.perf_counter() - tick
-        if run_status == highspy.HighsStatus.kError:
+        if run_status == HIGHS_ERROR:
             return elapsed, SolveStatus.ERROR
-        return elapsed, _STATUS_MAP.get(self._highs.getModelStatus(), SolveStatus.ERROR)
+        return elapsed, STATUS_MAP.get(self._highs.getModelStatus(), SolveStatus.ERROR)
 
     def _message(
         self, problem: RMPCProblem, delta: FloatArray, status: SolveStatus, iterations: int
@@ -461,6 +533,7 @@ class RMPCSolver:
             highs_time_s=highs_time,
             simplex_iterations=iterations,
             warm_start=warm,
+            event_responses=self._event_responses,
         )
 
     def highs_objective_sgd(self) -> float:
@@ -477,7 +550,7 @@ class RMPCSolver:
                 row_status=self._basis[1].copy(),
             )
         basis = self._highs.getBasis()
-        if not basis.valid:
+        if not basis.valid or self._lazy:  # lazy: HiGHS's basis covers some rows only
             return None
         return SolverBasis(
             fingerprint=self._fingerprint,
@@ -501,125 +574,6 @@ class RMPCSolver:
         self._has_basis = True
 
 
-class FeedbackSolver:
-    """Solver for ``robust="feedback"`` problems of one structure; mirrors :class:`RMPCSolver`.
-
-    The structural coefficients of the LP (gains, Ψ and Y rows, dynamics) are assembled once;
-    each :meth:`solve` rebuilds the rest (σ-, p- and φ-dependent rows, costs, bounds) and
-    solves the LP cold with HiGHS (:func:`solve_lp`). No simplex basis is kept:
-    :meth:`get_basis` returns None.
-
-    Parameters
-    ----------
-    problem : the first problem (``robust="feedback"``); fixes A, B, E, C, N, mask, options
-    time_limit_s : wall-clock limit per solve [s]; None = no limit
-    method : HiGHS algorithm, "simplex" (default), "ipm" or "choose"
-    """
-
-    def __init__(
-        self,
-        problem: RMPCProblem,
-        *,
-        time_limit_s: float | None = None,
-        method: str = DEFAULT_LP_METHOD,
-    ) -> None:
-        if problem.robust != "feedback" or problem.feedback is None:
-            raise ProblemError(
-                "FeedbackSolver needs a problem with robust='feedback'",
-                source="FeedbackSolver",
-                field="robust",
-                value=problem.robust,
-                hint="use RMPCSolver for the open-loop modes",
-            )
-        check_time_limit(time_limit_s, source="FeedbackSolver")
-        self._time_limit_s = time_limit_s
-        self._method = method
-        self._structure = problem.structure
-        self._options: FeedbackOptions = problem.feedback
-        self._maps = feedback_maps(problem, self._options)
-        first, _, _ = build_feedback_lp(problem, self._maps)
-        assert first.constant is not None
-        self._constant = first.constant
-        self.last_size: FeedbackLPSize | None = None
-
-    def solve(self, problem: RMPCProblem) -> RMPCSolution:
-        """Solve ``problem`` (same structure and feedback options as the solver's).
-
-        Raises
-        ------
-        ProblemError
-            if ``problem`` has another structure or other feedback options.
-        """
-        start = time.perf_counter()
-        differences = self._structure.differences(problem.structure)
-        if problem.feedback != self._options:
-            differences.append("feedback")
-        if differences:
-            raise ProblemError(
-                f"the problem's structure differs from the solver's in {differences}",
-                source="FeedbackSolver",
-                field=differences[0],
-                hint="build a new FeedbackSolver for a problem with another structure",
-            )
-        lp, plan_cols, feedback_cols = build_feedback_lp(problem, self._maps, constants=False)
-        matrix = sparse_matrix(lp, self._constant, keep_varying_zeros=False, csc=False)
-        size = FeedbackLPSize(
-            num_cols=lp.num_cols,
-            num_rows=lp.num_rows,
-            num_nonzeros=int(matrix.nnz),
-            num_gains=self._maps.gains.num_gains,
-        )
-        self.last_size = size
-        result = solve_lp(
-            lp.cost,
-            matrix,
-            lp.row_lower,
-            lp.row_upper,
-            lp.col_lower,
-            lp.col_upper,
-            time_limit_s=self._time_limit_s,
-            method=self._method,
-        )
-        where = (
-            f"feedback LP '{self._options.structure}' ({size.num_rows} rows, {size.num_cols} "
-            f"columns, {size.num_nonzeros} nonzeros)"
-        )
-        return feedback_solution(
-            problem,
-            self._maps,
-            (plan_cols, feedback_cols),
-            status=result.status,
-            values=result.x,
-            message=f"{where}; {result.message}",
-            start=start,
-            highs_time_s=result.time_s,
-        )
-
-    def gains_tensor(self, theta: FloatArray, horizon: int, m: int, nd: int) -> FloatArray:
-        """(N, N, m, nd) gains ``U_{k,j}`` from the gain values Θ (see
-        :func:`hvacflex.opt.feedback.gains_tensor`)."""
-        return gains_tensor(self._maps, theta, horizon, m, nd)
-
-    def output_response(self, tensor: FloatArray) -> FloatArray:
-        """(N, N, ny, nd) output response ``Y[k-1, j]`` under the gains ``tensor`` (see
-        :func:`hvacflex.opt.feedback.output_response`)."""
-        return output_response(self._maps, tensor)
-
-    def get_basis(self) -> SolverBasis | None:
-        """None: the feedback LP is solved cold every step (its size changes with σ, φ)."""
-        return None
-
-    def set_basis(self, basis: SolverBasis) -> None:
-        """Refuse: a feedback solver keeps no basis (:meth:`get_basis` returns None)."""
-        raise ProblemError(
-            "a FeedbackSolver keeps no simplex basis",
-            source="FeedbackSolver",
-            field="basis",
-            value=basis.fingerprint[:12],
-            hint="the basis was saved by an open-loop RMPCSolver; resume with the same robust mode",
-        )
-
-
 def solve_rmpc(problem: RMPCProblem, *, time_limit_s: float | None = None) -> RMPCSolution:
     """Solve one problem from scratch (see :class:`RMPCSolver` for sequences).
 
@@ -636,76 +590,3 @@ def solve_rmpc(problem: RMPCProblem, *, time_limit_s: float | None = None) -> RM
     if problem.robust == "feedback":
         return FeedbackSolver(problem, time_limit_s=time_limit_s).solve(problem)
     return RMPCSolver(problem, time_limit_s=time_limit_s).solve(problem)
-
-
-# ---------------------------------------------------------------------- generic LP
-
-
-class LPResult(NamedTuple):
-    """Outcome of :func:`solve_lp`: status, primal values (NaN unless optimal), message, time."""
-
-    status: SolveStatus
-    x: FloatArray
-    message: str
-    time_s: float
-
-
-def solve_lp(
-    cost: FloatArray,
-    a_csr: Any,
-    row_lower: FloatArray,
-    row_upper: FloatArray,
-    col_lower: FloatArray,
-    col_upper: FloatArray,
-    *,
-    time_limit_s: float | None = None,
-    method: str = "choose",
-) -> LPResult:
-    """Solve ``min costᵀx s.t. row_lower ≤ A x ≤ row_upper, col_lower ≤ x ≤ col_upper`` cold.
-
-    A generic one-shot HiGHS call (used by :class:`FeedbackSolver`); single-threaded and
-    silent like :class:`RMPCSolver`.
-
-    Parameters
-    ----------
-    cost, col_lower, col_upper : (num_cols,) objective and column bounds (±inf allowed)
-    a_csr : (num_rows, num_cols) ``scipy.sparse.csr_matrix`` constraint matrix
-    row_lower, row_upper : (num_rows,) row bounds (±inf allowed)
-    time_limit_s : wall-clock limit [s]; None = no limit
-    method : HiGHS ``solver`` option: "choose", "simplex" or "ipm"
-
-    Returns
-    -------
-    :class:`LPResult`; ``x`` is NaN unless the status is OPTIMAL; ``time_s`` is the wall time
-    of HiGHS ``run()``.
-    """
-    highs: Any = _quiet_highs()
-    for option, value in (
-        ("output_flag", False),
-        ("log_to_console", False),
-        ("threads", 1),
-        ("solver", method),
-        ("time_limit", float(time_limit_s) if time_limit_s is not None else np.inf),
-    ):
-        highs.setOptionValue(option, value)
-    num_cols = a_csr.shape[1]
-    lp = _highs_lp(cost, a_csr, row_lower, row_upper, col_lower, col_upper)
-    if highs.passModel(lp) == highspy.HighsStatus.kError:
-        return LPResult(SolveStatus.ERROR, np.full(num_cols, np.nan), "HiGHS refused the LP", 0.0)
-    tick = time.perf_counter()
-    run_status = highs.run()
-    elapsed = time.perf_counter() - tick
-    model_status = highs.getModelStatus()
-    if run_status == highspy.HighsStatus.kError:
-        status = SolveStatus.ERROR
-    else:
-        status = _STATUS_MAP.get(model_status, SolveStatus.ERROR)
-    info = highs.getInfo()
-    message = (
-        f"HiGHS: {highs.modelStatusToString(model_status)} "
-        f"({int(info.simplex_iteration_count)} simplex, {int(info.ipm_iteration_count)} IPM "
-        f"iterations)"
-    )
-    if not status.ok:
-        return LPResult(status, np.full(num_cols, np.nan), message, elapsed)
-    return LPResult(status, np.asarray(highs.getSolution().col_value), message, elapsed)

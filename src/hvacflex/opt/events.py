@@ -1,0 +1,444 @@
+r"""Interruptible-load (IL) events: the exact robust counterpart as LP rows (issue 14).
+
+Model
+-----
+An **event** ``(s, L)`` curtails the reserve-carrying inputs ``s … s+L−1`` (``1 ≤ L ≤ D``):
+they run at ``u_j − r_j`` instead of ``u_j``; every other input is served. The event set
+holds the served plan and every single event. With the reserve response
+``H_l = −C A^l B_r`` (ny × m_r, ``l ≥ 0``), the nominal output at ``t = 1 … N`` (state after
+input ``t−1``) under event ``(s, L)`` is
+
+.. math::
+
+    y_t^{(s,L)} = C x_t + \sum_{j=s}^{\min(s+L-1,\,t-1)} H_{t-1-j}\, r_j ,
+
+and the disturbance box moves every pattern by the same amount (open loop), so the robust
+margin δ_t of :mod:`hvacflex.opt.robust` applies unchanged. For cooling reserve (``B_r ≤ 0``,
+``A ≥ 0``, ``C ≥ 0``, ``r ≥ 0``) every ``H_l ≥ 0``: curtailment only warms. Hence
+
+* the **lower** comfort bound is worst on the served plan (no event rows);
+* the **upper** bound, at output ``t`` and start ``s < t``, is worst for the longest event that
+  the bound at ``t`` still has to hold for. Event ``(s, L)`` lets output ``t`` use the
+  allowance α while ``t ≤ s + L + R`` (during the event and R recovery steps):
+
+  - *allowance row* (needed if ``t − s ≤ D + R``; some L ≤ D reaches t):
+    worst ``L = D``: ``C x_t + Σ_{j=s}^{min(s+D−1, t−1)} H_{t−1−j} r_j − ε_t ≤ y^hi_t − δ_t + α``;
+  - *strict row* (needed if ``t − s ≥ R + 2``; some L ≥ 1 ended more than R steps before t):
+    worst ``L = min(D, t − s − R − 1)``:
+    ``C x_t + Σ_{j=s}^{s+L−1} H_{t−1−j} r_j − ε_t ≤ y^hi_t − δ_t``.
+
+  A row with a smaller L is implied by the one with the largest L (the extra terms are ≥ 0),
+  so these at most two rows per (t, s, zone) are the exact robust counterpart.
+
+Outputs ``t ≤ c`` (``il_allowance_carry_steps``) get α under every pattern, the served plan
+included (the zone is still recovering from an event that ended before the horizon). The
+event rows share the slack ``ε_t`` of the served rows (as the whole-horizon model's curtailed
+rows do). With ``D = N``, ``α = 0`` and ``R = 0`` the row at ``(t, s = 0)`` is the
+whole-horizon curtailed row ``C z_t ≤ y^hi_t − δ_t + ε_t`` and implies every other one, so
+the optimum equals the whole-horizon model's.
+
+Row count: allowance rows ``Σ_t min(D+R, t)`` and strict rows ``Σ_t max(0, t − R − 1)`` per
+zone, i.e. at most ``N(D+R) + N(N−R−1)/2`` per zone, ≈ N²·ny/2. Rows of different starts s
+sum different windows of ``r``, so none is dominated independently of the data (rows are not
+dropped: the LP structure depends only on N, ny, D and R; α, c and δ enter row bounds).
+
+Warm start: the rows are indexed by (output t, lag t − s, kind, zone). One step later the
+row (t, lag) of the new problem is the row (t + 1, lag) of the old one; the old rows with
+s = 0 (no successor) take the places of the new rows at t = N, lag by lag and kind by kind —
+a permutation, so the rotated basis keeps its number of basic variables
+(:func:`event_rotation`).
+
+Everything here is plain numpy/scipy (no solver, no other hvacflex.opt module):
+:mod:`hvacflex.opt.problem` validates with it, :func:`hvacflex.opt.lp.add_il_event_comfort`
+adds the rows, :mod:`hvacflex.opt.solution` reports the worst event output.
+"""
+
+from __future__ import annotations
+
+import functools
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy import sparse
+
+from hvacflex.errors import ProblemError
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+BoolArray = NDArray[np.bool_]
+
+_SOURCE = "RMPCProblem"
+
+__all__ = [
+    "EventRows",
+    "carry_allowance",
+    "check_event_fields",
+    "event_matrix",
+    "event_rotation",
+    "event_row_bounds",
+    "event_rows",
+    "event_trajectory",
+    "most_violated_rows",
+    "reserve_responses",
+    "worst_event_output",
+]
+
+
+@dataclass(frozen=True, eq=False)
+class EventRows:
+    """The event rows of one structure, one entry per row (all arrays (num_rows,)).
+
+    ``step`` is the output index k = t − 1 (0-based, the row of ``col_x``/``col_eps``),
+    ``output`` the comfort output (zone), ``start`` the event's first input s, ``length`` the
+    number of curtailed inputs summed (the worst L, truncated at t − 1), ``allowance`` True
+    for allowance rows (bound widened by α), False for strict rows.
+    """
+
+    step: IntArray
+    output: IntArray
+    start: IntArray
+    length: IntArray
+    allowance: BoolArray
+
+    @property
+    def num_rows(self) -> int:
+        """Number of event rows."""
+        return int(self.step.size)
+
+
+@functools.lru_cache(maxsize=16)
+def event_rows(horizon: int, ny: int, max_steps: int | None, recovery_steps: int) -> EventRows:
+    """The event rows for horizon N, ny outputs, D = ``max_steps`` and R = ``recovery_steps``.
+
+    Ordered by output t, then kind (allowance, strict), then lag t − s, then zone. Empty for
+    ``max_steps=None`` (the whole-horizon model has no event rows). Cached (the arrays are
+    read-only).
+    """
+    steps: list[int] = []
+    starts: list[int] = []
+    lengths: list[int] = []
+    kinds: list[bool] = []
+    if max_steps is not None:
+        d, r = max_steps, recovery_steps
+        for t in range(1, horizon + 1):
+            for lag in range(1, min(d + r, t) + 1):  # allowance rows
+                s = t - lag
+                steps.append(t - 1)
+                starts.append(s)
+                lengths.append(min(d, t - s))
+                kinds.append(True)
+            for lag in range(r + 2, t + 1):  # strict rows
+                s = t - lag
+                steps.append(t - 1)
+                starts.append(s)
+                lengths.append(min(d, t - s - r - 1))
+                kinds.append(False)
+    count = len(steps)
+    arrays = (
+        np.repeat(np.array(steps, dtype=np.int64), ny),
+        np.tile(np.arange(ny, dtype=np.int64), count),
+        np.repeat(np.array(starts, dtype=np.int64), ny),
+        np.repeat(np.array(lengths, dtype=np.int64), ny),
+        np.repeat(np.array(kinds, dtype=bool), ny),
+    )
+    for array in arrays:
+        array.setflags(write=False)
+    step, output, start, length, allowance = arrays
+    return EventRows(step=step, output=output, start=start, length=length, allowance=allowance)
+
+
+def reserve_responses(
+    a_matrix: FloatArray, b_reserve: FloatArray, c_matrix: FloatArray, horizon: int
+) -> FloatArray:
+    """(N, ny, m_r) warming responses ``H_l = −C A^l B_r`` [K per kg/s] (≥ 0 for cooling).
+
+    ``H_l`` is the effect of one kg/s curtailed at input j on the output at step j + 1 + l.
+    """
+    ny, m_r = c_matrix.shape[0], b_reserve.shape[1]
+    responses = np.empty((horizon, ny, m_r))
+    propagated = -b_reserve.copy()
+    for lag in range(horizon):
+        responses[lag] = c_matrix @ propagated
+        propagated = a_matrix @ propagated
+    return responses
+
+
+def event_matrix(
+    rows: EventRows,
+    responses: FloatArray,
+    c_matrix: FloatArray,
+    *,
+    col_x: IntArray,
+    col_r: IntArray,
+    col_eps: IntArray,
+    num_cols: int,
+) -> sparse.csr_matrix:
+    """(num_event_rows, num_cols) CSR block of the event rows over the LP's columns.
+
+    Row e: ``C_i x_t + Σ_j H_{t−1−j,i} r_j − ε_{t,i}``; ``col_x`` (N, n), ``col_r`` (N, m_r),
+    ``col_eps`` (N, ny) are the LP's column indices. The coefficients depend only on the
+    structure (A, B, C, N, D, R).
+    """
+    parts_r: list[IntArray] = []
+    parts_c: list[IntArray] = []
+    parts_v: list[FloatArray] = []
+    index = np.arange(rows.num_rows, dtype=np.int64)
+    c_rows = c_matrix[rows.output]  # (E, n)
+    parts_r.append(np.repeat(index, c_matrix.shape[1]))
+    parts_c.append(col_x[rows.step].ravel())
+    parts_v.append(c_rows.ravel())
+    parts_r.append(index)
+    parts_c.append(col_eps[rows.step, rows.output])
+    parts_v.append(np.full(rows.num_rows, -1.0))
+    m_r = col_r.shape[1]
+    if m_r:
+        for offset in range(int(rows.length.max(initial=0))):
+            take = rows.length > offset
+            j = rows.start[take] + offset
+            lag = rows.step[take] - j
+            parts_r.append(np.repeat(index[take], m_r))
+            parts_c.append(col_r[j].ravel())
+            parts_v.append(responses[lag, rows.output[take]].ravel())
+    r_all, c_all, v_all = (np.concatenate(p) for p in (parts_r, parts_c, parts_v))
+    keep = v_all != 0.0
+    matrix = sparse.csr_matrix(
+        (v_all[keep], (r_all[keep], c_all[keep])), shape=(rows.num_rows, num_cols)
+    )
+    matrix.sum_duplicates()
+    matrix.sort_indices()
+    return matrix
+
+
+def carry_allowance(horizon: int, ny: int, allowance_kelvin: float, carry_steps: int) -> FloatArray:
+    """(N, ny) widening of the served upper bound: α on outputs t = 1 … c, 0 elsewhere [K]."""
+    widening = np.zeros((horizon, ny))
+    widening[:carry_steps] = allowance_kelvin
+    return widening
+
+
+def event_row_bounds(
+    rows: EventRows,
+    y_max: FloatArray,
+    delta: FloatArray,
+    allowance_kelvin: float,
+    carry_steps: int,
+) -> tuple[FloatArray, FloatArray]:
+    """Lower (−inf) and upper bounds of the event rows [°C].
+
+    Upper: ``y^hi_t − δ_t + α`` on allowance rows and on every row with t ≤ c, else
+    ``y^hi_t − δ_t``. ``y_max`` and ``delta`` are (N, ny).
+    """
+    widened = rows.allowance | (rows.step < carry_steps)
+    upper = y_max[rows.step, rows.output] - delta[rows.step, rows.output]
+    upper = upper + np.where(widened, allowance_kelvin, 0.0)
+    return np.full(rows.num_rows, -np.inf), upper
+
+
+def event_rotation(rows: EventRows) -> IntArray:
+    """Permutation ``perm`` such that row e of the next step starts from old row ``perm[e]``.
+
+    Row (t, lag, kind, zone) takes the old row (t + 1, lag, kind, zone); the rows at t = N
+    take the old rows with s = 0 of the same (lag, kind, zone) (see the module docstring).
+    """
+    if rows.num_rows == 0:
+        return np.zeros(0, dtype=np.int64)
+    horizon = int(rows.step.max()) + 1
+    lag = rows.step + 1 - rows.start
+    kind = rows.allowance.astype(np.int64)
+    ny = int(rows.output.max()) + 1
+    table = np.full((horizon, horizon + 1, 2, ny), -1, dtype=np.int64)
+    table[rows.step, lag, kind, rows.output] = np.arange(rows.num_rows, dtype=np.int64)
+    source = np.where(rows.step + 1 < horizon, rows.step + 1, lag - 1)  # last: old s = 0
+    perm: IntArray = table[source, lag, kind, rows.output]
+    return perm
+
+
+def most_violated_rows(
+    rows: EventRows, violation: FloatArray, candidate: BoolArray, tolerance_k: float
+) -> IntArray:
+    """Event rows to add in lazy row generation: per (output t, zone, kind) the candidate row
+    with the largest ``violation`` (activity − upper bound [K], (num_rows,)) if it exceeds
+    ``tolerance_k``. ``candidate`` (num_rows,) marks the rows not in the LP yet. Sorted ids.
+    """
+    take = np.flatnonzero(candidate & (violation > tolerance_k))
+    if take.size == 0:
+        return take.astype(np.int64)
+    group = (rows.step[take] * 2 + rows.allowance[take]) * (int(rows.output.max()) + 1)
+    group = group + rows.output[take]
+    order = np.lexsort((-violation[take], group))
+    first = np.ones(order.size, dtype=bool)
+    first[1:] = group[order][1:] != group[order][:-1]
+    chosen: IntArray = np.sort(take[order[first]]).astype(np.int64)
+    return chosen
+
+
+def worst_event_output(
+    responses: FloatArray,
+    served_outputs: FloatArray,
+    r_reserve: FloatArray,
+    delta: FloatArray,
+    max_steps: int | None,
+) -> FloatArray:
+    """(N, ny) worst upper-side output over the event set × the box [°C].
+
+    ``max(C x_t, max over events of C x_t + event sum) + δ_t``. The event set is every
+    (s, L ≤ D) with D = ``max_steps``, or D = N for the whole-horizon model (None; its worst
+    pattern, for cooling reserve, is the curtailed trajectory z). ``responses`` (N, ny, m_r)
+    from :func:`reserve_responses`, ``served_outputs`` (N, ny) = C x_1..C x_N [°C],
+    ``r_reserve`` (N, m_r) reserve of the reserve-carrying inputs [kg/s], ``delta`` (N, ny) [K].
+    """
+    horizon, ny = served_outputs.shape
+    extra = np.zeros_like(served_outputs)
+    if r_reserve.shape[1]:
+        d = max_steps or horizon
+        steps = np.arange(horizon)
+        # contrib[k, j] = H_{k-j} r_j (ny) for j ≤ k, else 0. Under the sign conditions it is
+        # ≥ 0 (cooling) or ≤ 0 (heating: then the served plan is the upper-side worst); the
+        # clip removes round-off and the heating case.
+        contrib = np.zeros((horizon, horizon, ny))
+        for lag in range(horizon):
+            inputs = steps[: horizon - lag]
+            contrib[inputs + lag, inputs] = r_reserve[: horizon - lag] @ responses[lag].T
+        contrib = np.maximum(contrib, 0.0)
+        prefix = np.concatenate(
+            [np.zeros((horizon, 1, ny)), np.cumsum(contrib, axis=1)], axis=1
+        )  # [k, b] = Σ_{j<b} contrib[k, j]
+        # contributions ≥ 0: the worst window for output k+1 has length min(D, k+1)
+        short = steps + 1 <= d
+        extra[short] = prefix[short, steps[short] + 1]  # the window 0..k
+        if (~short).any():
+            sums = prefix[:, d:] - prefix[:, :-d]  # [k, a]: window a..a+d-1
+            inside = (steps[None, :] + d <= steps[:, None] + 1)[:horizon, : horizon + 1 - d]
+            masked = np.where(inside[..., None], sums, -np.inf)
+            extra[~short] = masked[~short].max(axis=1)
+    worst: FloatArray = served_outputs + extra + delta
+    return worst
+
+
+def event_trajectory(
+    a_matrix: FloatArray,
+    b_reserve: FloatArray,
+    x_served: FloatArray,
+    r_reserve: FloatArray,
+    max_steps: int | None,
+) -> FloatArray:
+    """(N+1, n) nominal trajectory under the event (s = 0, L = D) [°C] (D = N if None).
+
+    ``b_reserve`` (n, m_r) the reserve-carrying columns of B, ``x_served`` (N+1, n) from x0,
+    ``r_reserve`` (N, m_r) [kg/s].
+    """
+    horizon = r_reserve.shape[0]
+    d = max_steps or horizon
+    curtailed = x_served.copy()
+    shift = np.zeros(a_matrix.shape[0])
+    for k in range(horizon):
+        shift = a_matrix @ shift
+        if k < d:
+            shift = shift - b_reserve @ r_reserve[k]
+        curtailed[k + 1] = x_served[k + 1] + shift
+    return curtailed
+
+
+def _integer(name: str, value: object, low: int, high: int | None, hint: str) -> int:
+    number = (
+        int(value) if isinstance(value, int | np.integer) and not isinstance(value, bool) else None
+    )
+    if number is None or number < low or (high is not None and number > high):
+        bound = f"{low} ≤ value ≤ {high}" if high is not None else f"value ≥ {low}"
+        raise ProblemError(
+            f"must be an integer with {bound}", source=_SOURCE, field=name, value=value, hint=hint
+        )
+    return number
+
+
+def check_event_fields(
+    *,
+    horizon: int,
+    robust: str,
+    b_reserve: FloatArray,
+    max_steps: object,
+    allowance_kelvin: object,
+    recovery_steps: object,
+    carry_steps: object,
+) -> None:
+    """Validate the IL event fields of an :class:`~hvacflex.opt.problem.RMPCProblem` with
+    horizon N, robust mode ``robust`` and reserve-carrying columns ``b_reserve`` (n, m_r) of B
+    (raises :class:`ProblemError`)."""
+    d = max_steps
+    alpha = allowance_kelvin
+    if not isinstance(alpha, int | float) or isinstance(alpha, bool) or not np.isfinite(alpha):
+        raise ProblemError(
+            "must be a finite number of kelvin",
+            source=_SOURCE,
+            field="il_event_allowance_kelvin",
+            value=alpha,
+        )
+    if alpha < 0:
+        raise ProblemError(
+            "the event allowance α must be ≥ 0 K",
+            source=_SOURCE,
+            field="il_event_allowance_kelvin",
+            value=alpha,
+            hint="α widens the upper comfort bound during an event and its recovery",
+        )
+    recovery = _integer(
+        "il_event_recovery_steps",
+        recovery_steps,
+        0,
+        None,
+        "R steps after an event keep the allowance α",
+    )
+    carry = _integer(
+        "il_allowance_carry_steps",
+        carry_steps,
+        0,
+        horizon,
+        "outputs 1..c keep α under every pattern (recovery of an event that just ended)",
+    )
+    if d is None:
+        for name, value in (
+            ("il_event_allowance_kelvin", alpha),
+            ("il_event_recovery_steps", recovery),
+            ("il_allowance_carry_steps", carry),
+        ):
+            if value != 0:
+                raise ProblemError(
+                    "applies only to the event model; the whole-horizon model has no allowance",
+                    source=_SOURCE,
+                    field=name,
+                    value=value,
+                    hint="set il_event_max_steps (D) or leave this field 0",
+                )
+        return
+    _integer(
+        "il_event_max_steps",
+        d,
+        1,
+        horizon,
+        f"D is the longest event in steps, 1 ≤ D ≤ N = {horizon}; None = whole-horizon model",
+    )
+    if robust == "dual":
+        raise ProblemError(
+            "the event model is not offered in the dual form (≈ N² event rows, each with "
+            "its own λ's: too large)",
+            source=_SOURCE,
+            field="robust",
+            value=robust,
+            hint="use robust='tightening' (same optimum)",
+        )
+    if robust == "feedback":
+        raise ProblemError(
+            "the event model is not supported with affine disturbance feedback yet",
+            source=_SOURCE,
+            field="robust",
+            value=robust,
+            hint="use robust='tightening', or il_event_max_steps=None for feedback",
+        )
+    if (b_reserve > 0).any():
+        raise ProblemError(
+            "the event model covers cooling reserve only (reserve-carrying columns of B ≤ 0)",
+            source=_SOURCE,
+            field="b_matrix",
+            hint="offer reserve on cooling inputs, or use il_event_max_steps=None",
+        )

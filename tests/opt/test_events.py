@@ -1,0 +1,445 @@
+"""The IL event model (issue 14) against an independent brute-force model that enumerates every
+event, sampled disturbance corners × events, the whole-horizon model, warm starts and the
+validation of the event fields."""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any
+
+import cvxpy as cp
+import numpy as np
+import pytest
+
+from hvacflex.errors import ProblemError
+from hvacflex.opt import RMPCProblem, RMPCSolver, SolveStatus, solve_rmpc
+from hvacflex.opt.events import event_rotation, event_rows
+from hvacflex.opt.lp import build_lp
+from hvacflex.opt.options import RESERVE_TIE_BREAK_SGD_PER_KG_S_HOUR
+from hvacflex.opt.testing import random_problem
+
+REL_TOL = 1e-6
+CONSTRAINT_TOL_K = 1e-6
+
+
+def _events(horizon: int, max_steps: int) -> list[tuple[int, int]]:
+    """Every event (s, L): inputs s..s+L-1 curtailed, 1 ≤ L ≤ D, inside the horizon."""
+    return [
+        (s, length)
+        for s in range(horizon)
+        for length in range(1, max_steps + 1)
+        if s + length <= horizon
+    ]
+
+
+def _margins(prob: RMPCProblem) -> np.ndarray:
+    """δ_{t,i} = Σ_{j<t} |C A^{t-1-j} E|_i σ_j by explicit matrix powers (independent)."""
+    a, e, c = prob.a_matrix, prob.e_matrix, prob.c_matrix
+    delta = np.zeros((prob.horizon, prob.ny))
+    for t in range(1, prob.horizon + 1):
+        for j in range(t):
+            delta[t - 1] += np.abs(c @ np.linalg.matrix_power(a, t - 1 - j) @ e) @ prob.d_sigma[j]
+    return delta
+
+
+def _upper_widening(prob: RMPCProblem, event: tuple[int, int] | None) -> np.ndarray:
+    """(N,) α where output t = k+1 may use the allowance under ``event`` (None: served)."""
+    alpha = prob.il_event_allowance_kelvin
+    widen = np.zeros(prob.horizon)
+    widen[: prob.il_allowance_carry_steps] = alpha
+    if event is not None:
+        s, length = event
+        for k in range(prob.horizon):
+            if s + 1 <= k + 1 <= s + length + prob.il_event_recovery_steps:
+                widen[k] = alpha
+    return widen
+
+
+def _brute_force(prob: RMPCProblem) -> float:
+    """The event model written from the issue's definition: one explicit trajectory per event
+    (s, L ≤ D), every pattern inside the δ-tightened band (+α where allowed), same costs and
+    tie-break as hvacflex; solved by HiGHS through CVXPY. Returns the optimal objective."""
+    a, b, e, c, g = prob.a_matrix, prob.b_matrix, prob.e_matrix, prob.c_matrix, prob.g
+    horizon, m, ny = prob.horizon, prob.m, prob.ny
+    dt = prob.dt_h
+    delta = _margins(prob)
+    u = cp.Variable((horizon, m))
+    r = cp.Variable((horizon, m))
+    eps = cp.Variable((horizon, ny))
+    beta = cp.Variable()
+    mask = prob.reserve_mask
+    power = [
+        prob.power_offset_kw[k] + prob.power_coeff_kw_per_kg_s[k] @ u[k] for k in range(horizon)
+    ]
+    reserve = [prob.power_coeff_kw_per_kg_s[k] @ r[k] for k in range(horizon)]
+    cons: list[Any] = [r >= 0, eps >= 0, u <= prob.u_max, u - r >= prob.u_min]
+    cons += [r[:, i] == 0 for i in range(m) if not mask[i]]
+    cons += [beta >= prob.phi[k] * power[k] for k in range(horizon)]
+    cons.append(beta >= prob.phi[0] * prob.peak_floor_kw)
+    if prob.slack_max_kelvin is not None:
+        cons.append(eps <= prob.slack_max_kelvin)
+    patterns: list[tuple[int, int] | None] = [
+        None,
+        *_events(horizon, prob.il_event_max_steps or horizon),
+    ]
+    for event in patterns:
+        curtailed = np.zeros(horizon)
+        if event is not None:
+            curtailed[event[0] : event[0] + event[1]] = 1.0
+        widen = _upper_widening(prob, event)
+        x: Any = prob.x0
+        for k in range(horizon):
+            flow = u[k] - curtailed[k] * r[k]
+            x = a @ x + b @ flow + e @ prob.d_forecast[k] + g
+            y = c @ x
+            cons.append(y + delta[k] <= prob.y_max[k] + widen[k] + eps[k])
+            cons.append(y - delta[k] >= prob.y_min[k] - eps[k])
+    objective = (
+        sum(dt * prob.energy_price_sgd_per_mwh[k] * power[k] / 1000.0 for k in range(horizon))
+        - sum(dt * prob.reserve_price_sgd_per_mwh[k] * reserve[k] / 1000.0 for k in range(horizon))
+        + dt * RESERVE_TIE_BREAK_SGD_PER_KG_S_HOUR * cp.sum(r)
+        + prob.comfort_penalty_sgd_per_kelvin_hour * dt * cp.sum(eps)
+        + beta
+    )
+    model = cp.Problem(cp.Minimize(objective), cons)
+    model.solve(solver=cp.HIGHS)
+    assert model.status == cp.OPTIMAL, model.status
+    return float(model.value)
+
+
+def _outputs(
+    prob: RMPCProblem, u: np.ndarray, r: np.ndarray, event: tuple[int, int] | None, w: np.ndarray
+) -> np.ndarray:
+    """(N, ny) outputs of the linear model under ``event`` and disturbance errors ``w`` (N, nd)."""
+    x = prob.x0.copy()
+    out = np.empty((prob.horizon, prob.ny))
+    for k in range(prob.horizon):
+        flow = u[k].copy()
+        if event is not None and event[0] <= k < event[0] + event[1]:
+            flow = flow - r[k]
+        x = (
+            prob.a_matrix @ x
+            + prob.b_matrix @ flow
+            + prob.e_matrix @ (prob.d_forecast[k] + w[k])
+            + prob.g
+        )
+        out[k] = prob.c_matrix @ x
+    return out
+
+
+def _event_problem(seed: int, **overrides: Any) -> RMPCProblem:
+    """A random small problem with reserve prices high enough that reserve is offered."""
+    rng = np.random.default_rng(1000 + seed)
+    n = int(rng.integers(3, 7))
+    m = int(rng.integers(1, min(3, n) + 1))
+    horizon = int(rng.integers(4, 9))
+    fields: dict[str, Any] = dict(
+        n=n,
+        m=m,
+        horizon=horizon,
+        reserve_price_sgd_per_mwh=rng.uniform(20.0, 400.0, horizon),
+        y_max=np.full((horizon, m), float(rng.uniform(25.0, 26.0))),
+        il_event_max_steps=int(rng.integers(1, horizon + 1)),
+        il_event_recovery_steps=int(rng.integers(0, 3)),
+        il_event_allowance_kelvin=float(rng.choice([0.0, 0.5, 1.0])),
+        il_allowance_carry_steps=int(rng.integers(0, 3)),
+    )
+    fields.update(overrides)
+    return random_problem(seed, **fields)
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_event_model_equals_brute_force_enumeration(seed: int) -> None:
+    prob = _event_problem(seed)
+    sol = solve_rmpc(prob)
+    assert sol.status is SolveStatus.OPTIMAL, sol.message
+    expected = _brute_force(prob)
+    lp_objective = sol.objective_sgd + sol.tie_break_sgd
+    assert lp_objective == pytest.approx(expected, rel=REL_TOL, abs=1e-7)
+    # the plan itself is feasible in the brute-force model (checked by simulation)
+    delta = _margins(prob)
+    zero = np.zeros_like(prob.d_forecast)
+    for event in [None, *_events(prob.horizon, prob.il_event_max_steps or prob.horizon)]:
+        y = _outputs(prob, sol.u, sol.r, event, zero)
+        widen = _upper_widening(prob, event)[:, None]
+        assert (y + delta <= prob.y_max + widen + sol.slack + CONSTRAINT_TOL_K).all()
+        assert (y - delta >= prob.y_min - sol.slack - CONSTRAINT_TOL_K).all()
+
+
+def test_brute_force_cases_offer_reserve() -> None:
+    """The comparison above is not vacuous: most cases carry reserve and use the allowance."""
+    offered = [solve_rmpc(_event_problem(seed)).reserve_kw.sum() > 1e-6 for seed in range(12)]
+    assert sum(offered) >= 8
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_plan_keeps_comfort_for_every_event_and_box_corner(seed: int) -> None:
+    prob = _event_problem(seed, il_event_allowance_kelvin=1.0, il_event_recovery_steps=1)
+    sol = solve_rmpc(prob)
+    assert sol.ok and sol.reserve_kw.sum() > 0
+    rng = np.random.default_rng(seed)
+    sigma = prob.d_sigma
+    corners = [sigma * rng.choice([-1.0, 1.0], size=sigma.shape) for _ in range(40)]
+    # plus, per (output, zone), the corner that is worst for it: sign of C A^{t-1-j} E
+    for k in range(prob.horizon):
+        for i in range(prob.ny):
+            w = np.zeros_like(sigma)
+            for j in range(k + 1):
+                h = prob.c_matrix[i] @ np.linalg.matrix_power(prob.a_matrix, k - j) @ prob.e_matrix
+                w[j] = np.sign(h) * sigma[j]
+            corners.append(w)
+    worst_seen = np.full((prob.horizon, prob.ny), -np.inf)
+    for event in [None, *_events(prob.horizon, prob.il_event_max_steps or prob.horizon)]:
+        widen = _upper_widening(prob, event)[:, None]
+        for w in corners:
+            y = _outputs(prob, sol.u, sol.r, event, w)
+            assert (y <= prob.y_max + widen + sol.slack + CONSTRAINT_TOL_K).all()
+            assert (y >= prob.y_min - sol.slack - CONSTRAINT_TOL_K).all()
+            worst_seen = np.maximum(worst_seen, y)
+    # y_event_worst bounds every sampled output and is reached by a worst corner
+    assert (worst_seen <= sol.y_event_worst + CONSTRAINT_TOL_K).all()
+    np.testing.assert_allclose(worst_seen, sol.y_event_worst, atol=1e-6)
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_full_length_events_without_allowance_equal_the_whole_horizon_model(seed: int) -> None:
+    base = random_problem(seed, reserve_price_sgd_per_mwh=np.full(8, 3000.0))
+    whole = solve_rmpc(base)
+    event = solve_rmpc(dataclasses.replace(base, il_event_max_steps=8))
+    assert whole.ok and event.ok
+    assert whole.reserve_kw.sum() > 0
+    assert event.objective_sgd == pytest.approx(whole.objective_sgd, rel=1e-7)
+    np.testing.assert_allclose(event.y_event_worst, whole.y_event_worst, atol=1e-6)
+    np.testing.assert_allclose(event.x_curtailed, whole.x_curtailed, atol=1e-6)
+
+
+def test_shorter_events_and_allowance_relax_the_problem() -> None:
+    """Fewer or shorter events and a larger α give a larger feasible set: the objective falls
+    monotonically, and D = 1 with α = 1 K offers more reserve than the whole-horizon model."""
+    base = random_problem(3, reserve_price_sgd_per_mwh=np.full(8, 300.0))
+    sols = {
+        (d, alpha): solve_rmpc(
+            dataclasses.replace(
+                base,
+                il_event_max_steps=d,
+                il_event_allowance_kelvin=alpha,
+                il_event_recovery_steps=1,
+            )
+        )
+        for d in (1, 4, 8)
+        for alpha in (0.0, 1.0)
+    }
+    whole = solve_rmpc(base)
+    objective = {key: sol.objective_sgd + sol.tie_break_sgd for key, sol in sols.items()}
+    for alpha in (0.0, 1.0):
+        assert objective[1, alpha] <= objective[4, alpha] + 1e-9 <= objective[8, alpha] + 2e-9
+    for d in (1, 4, 8):
+        assert objective[d, 1.0] <= objective[d, 0.0] + 1e-9
+    assert objective[8, 0.0] <= whole.objective_sgd + whole.tie_break_sgd + 1e-9
+    assert objective[1, 1.0] < objective[8, 0.0] - 1e-4
+    assert sols[1, 1.0].reserve_kw.sum() > whole.reserve_kw.sum() + 1e-3
+
+
+def test_carry_widens_the_served_band() -> None:
+    """Outputs 1..c may use α even without reserve: the served plan saves energy there."""
+    base = random_problem(
+        4,
+        reserve_mask=np.zeros(2, dtype=bool),
+        x0=np.full(4, 25.8),
+        y_max=np.full((8, 2), 25.0),
+        il_event_max_steps=2,
+        il_event_allowance_kelvin=1.0,
+    )
+    strict = solve_rmpc(base)
+    carried = solve_rmpc(dataclasses.replace(base, il_allowance_carry_steps=3))
+    assert strict.ok and carried.ok
+    assert carried.objective_sgd < strict.objective_sgd - 1e-6
+    assert (strict.y_event_worst <= base.y_max + strict.slack + CONSTRAINT_TOL_K).all()
+    assert (carried.y_event_worst[:3] <= base.y_max[:3] + 1.0 + carried.slack[:3] + 1e-6).all()
+
+
+def test_event_rows_count_and_rotation_is_a_permutation() -> None:
+    for horizon, d, r in ((8, 1, 0), (8, 3, 2), (12, 12, 0), (6, 2, 9)):
+        rows = event_rows(horizon, 2, d, r)
+        allowance = sum(min(d + r, t) for t in range(1, horizon + 1))
+        strict = sum(max(0, t - r - 1) for t in range(1, horizon + 1))
+        assert rows.num_rows == 2 * (allowance + strict)
+        assert (rows.length >= 1).all() and (rows.length <= d).all()
+        assert (rows.start + rows.length <= rows.step + 1).all()  # only inputs before t
+        perm = event_rotation(rows)
+        assert np.array_equal(np.sort(perm), np.arange(rows.num_rows))
+        shifted = perm[rows.step < horizon - 1]
+        kept = rows.step < horizon - 1
+        assert np.array_equal(rows.step[shifted], rows.step[kept] + 1)
+        assert np.array_equal(rows.start[shifted], rows.start[kept] + 1)
+
+
+def _shifted_problems(steps: int, horizon: int = 8, **events: Any) -> list[RMPCProblem]:
+    long = random_problem(7, horizon=horizon + steps)
+    rng = np.random.default_rng(7)
+    problems = []
+    x0 = long.x0.copy()
+    for step in range(steps):
+        window = slice(step, step + horizon)
+        problems.append(
+            random_problem(
+                7,
+                horizon=horizon,
+                x0=x0,
+                d_forecast=long.d_forecast[window],
+                d_sigma=long.d_sigma[window] * (1.0 + 0.1 * step),
+                energy_price_sgd_per_mwh=long.energy_price_sgd_per_mwh[window],
+                reserve_price_sgd_per_mwh=30.0 * long.reserve_price_sgd_per_mwh[window],
+                power_offset_kw=long.power_offset_kw[window],
+                power_coeff_kw_per_kg_s=long.power_coeff_kw_per_kg_s[window],
+                il_allowance_carry_steps=step % 3,
+                **events,
+            )
+        )
+        x0 = x0 + rng.normal(0.0, 0.2, x0.shape)
+    return problems
+
+
+@pytest.mark.parametrize("mode", ["full", "lazy"])
+@pytest.mark.parametrize("time_shift", [True, False])
+def test_warm_started_event_solver_equals_cold_solves(time_shift: bool, mode: str) -> None:
+    problems = _shifted_problems(
+        10, il_event_max_steps=2, il_event_recovery_steps=1, il_event_allowance_kelvin=0.5
+    )
+    solver = RMPCSolver(problems[0], time_shift=time_shift, event_rows=mode)  # type: ignore[arg-type]
+    zero = np.zeros((problems[0].horizon, problems[0].ny))
+    assert solver.num_rows == build_lp(problems[0], zero)[1].num_rows
+    for index, prob in enumerate(problems):
+        warm = solver.solve(prob)
+        cold = solve_rmpc(prob)
+        assert warm.status is cold.status is SolveStatus.OPTIMAL
+        assert warm.warm_start is (index > 0)
+        assert warm.objective_sgd == pytest.approx(cold.objective_sgd, abs=1e-7)
+        np.testing.assert_allclose(warm.power_kw, cold.power_kw, atol=1e-6)
+
+
+def test_structure_holds_d_and_r_but_not_alpha_or_carry() -> None:
+    prob = random_problem(1, il_event_max_steps=2, il_event_recovery_steps=1)
+    solver = RMPCSolver(prob)
+    solver.solve(
+        dataclasses.replace(prob, il_event_allowance_kelvin=1.0, il_allowance_carry_steps=2)
+    )
+    for change in (
+        {"il_event_max_steps": 3},
+        {"il_event_recovery_steps": 0},
+        {"il_event_max_steps": None, "il_event_recovery_steps": 0},
+    ):
+        with pytest.raises(ProblemError, match="structure differs"):
+            solver.solve(dataclasses.replace(prob, **change))
+    other = dataclasses.replace(prob, il_event_max_steps=3)
+    assert other.structure.fingerprint() != prob.structure.fingerprint()
+
+
+def test_failed_solve_has_nan_worst_output() -> None:
+    prob = random_problem(
+        2,
+        slack_max_kelvin=0.0,
+        y_max=np.full((8, 2), 10.0),
+        y_min=np.full((8, 2), 9.0),
+        il_event_max_steps=1,
+    )
+    sol = solve_rmpc(prob)
+    assert not sol.ok
+    assert sol.y_event_worst.shape == (8, 2) and np.isnan(sol.y_event_worst).all()
+
+
+@pytest.mark.parametrize(
+    ("overrides", "field", "match"),
+    [
+        ({"il_event_max_steps": 0}, "il_event_max_steps", "1 ≤ value ≤ 8"),
+        ({"il_event_max_steps": 9}, "il_event_max_steps", "1 ≤ value ≤ 8"),
+        ({"il_event_max_steps": 2.0}, "il_event_max_steps", "integer"),
+        ({"il_event_max_steps": True}, "il_event_max_steps", "integer"),
+        (
+            {"il_event_max_steps": 2, "il_event_allowance_kelvin": -0.5},
+            "il_event_allowance_kelvin",
+            "≥ 0",
+        ),
+        (
+            {"il_event_max_steps": 2, "il_event_allowance_kelvin": float("nan")},
+            "il_event_allowance_kelvin",
+            "finite",
+        ),
+        (
+            {"il_event_max_steps": 2, "il_event_recovery_steps": -1},
+            "il_event_recovery_steps",
+            "value ≥ 0",
+        ),
+        (
+            {"il_event_max_steps": 2, "il_allowance_carry_steps": 9},
+            "il_allowance_carry_steps",
+            "≤ 8",
+        ),
+        ({"il_event_allowance_kelvin": 1.0}, "il_event_allowance_kelvin", "event model"),
+        ({"il_event_recovery_steps": 1}, "il_event_recovery_steps", "event model"),
+        ({"il_allowance_carry_steps": 1}, "il_allowance_carry_steps", "event model"),
+        ({"il_event_max_steps": 2, "robust": "dual"}, "robust", "too large"),
+        ({"il_event_max_steps": 2, "robust": "feedback"}, "robust", "not supported"),
+    ],
+)
+def test_event_fields_are_validated(overrides: dict[str, Any], field: str, match: str) -> None:
+    with pytest.raises(ProblemError, match=match) as info:
+        random_problem(0, **overrides)
+    assert info.value.field == field
+
+
+def test_heating_reserve_is_refused_in_the_event_model() -> None:
+    prob = random_problem(0)
+    with pytest.raises(ProblemError, match="cooling reserve only") as info:
+        dataclasses.replace(prob, b_matrix=-prob.b_matrix, il_event_max_steps=2)
+    assert info.value.field == "b_matrix"
+
+
+@pytest.mark.parametrize(
+    ("max_steps", "recovery", "alpha"), [(1, 0, 0.0), (2, 1, 0.5), (4, 2, 1.0)]
+)
+def test_lazy_event_rows_equal_the_full_model(max_steps: int, recovery: int, alpha: float) -> None:
+    """Lazy row generation over a recorded sequence of 24 shifted problems: the same optimum
+    as all event rows (1e-9 relative) with fewer rows in HiGHS, and the plan keeps every row."""
+    problems = _shifted_problems(
+        24,
+        horizon=12,
+        il_event_max_steps=max_steps,
+        il_event_recovery_steps=recovery,
+        il_event_allowance_kelvin=alpha,
+    )
+    full = RMPCSolver(problems[0], event_rows="full")
+    lazy = RMPCSolver(problems[0], event_rows="lazy")
+    assert lazy.num_rows == full.num_rows
+    fewer = 0
+    for prob in problems:
+        a, b = full.solve(prob), lazy.solve(prob)
+        assert a.ok and b.ok
+        assert b.objective_sgd + b.tie_break_sgd == pytest.approx(
+            a.objective_sgd + a.tie_break_sgd, rel=1e-9, abs=1e-9
+        )
+        np.testing.assert_allclose(b.y_event_worst, a.y_event_worst, atol=1e-6)
+        # the lazy plan keeps the worst event inside the widened band (all rows hold)
+        assert (b.y_event_worst - b.slack <= prob.y_max + alpha + 1e-6).all()
+        fewer += lazy.num_model_rows < full.num_model_rows
+    assert fewer == len(problems) >= 20
+
+
+def test_lazy_basis_covers_every_row_and_resumes_a_full_solver() -> None:
+    problems = _shifted_problems(6, il_event_max_steps=2, il_event_recovery_steps=1)
+    lazy = RMPCSolver(problems[0], event_rows="lazy")
+    for prob in problems[:3]:
+        lazy.solve(prob)
+    basis = lazy.get_basis()
+    assert basis is not None and basis.row_status.size == lazy.num_rows
+    full = RMPCSolver(problems[0], event_rows="full")
+    full.set_basis(basis)
+    resumed = full.solve(problems[3])
+    assert resumed.ok and resumed.warm_start
+    assert resumed.objective_sgd == pytest.approx(solve_rmpc(problems[3]).objective_sgd, abs=1e-7)
+
+
+def test_unknown_event_row_mode_is_refused() -> None:
+    with pytest.raises(ProblemError, match="event row mode") as info:
+        RMPCSolver(random_problem(0), event_rows="some")  # type: ignore[arg-type]
+    assert info.value.field == "event_rows"
