@@ -87,6 +87,8 @@ def test_output_feedback_preset_resumes_identically(tmp_path: Path) -> None:
     assert (tmp_path / "split" / CHECKPOINT_FILE).is_file()
     second = run_simulation(cfg, tmp_path / "split", progress=False, checkpoint_every=5)
     assert second.resumed_from_step == 11
+    assert np.isfinite(second.summary["prediction_error_rms_k"])  # summary.json and `kpi`
+    assert second.summary["prediction_error_max_k"] >= second.summary["prediction_error_rms_k"]
     pd.testing.assert_frame_equal(
         whole.drop(columns="solve_time_s"), second.frame.drop(columns="solve_time_s")
     )
