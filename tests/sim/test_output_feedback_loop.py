@@ -92,3 +92,28 @@ def test_output_feedback_preset_resumes_identically(tmp_path: Path) -> None:
     pd.testing.assert_frame_equal(
         whole.drop(columns="solve_time_s"), second.frame.drop(columns="solve_time_s")
     )
+
+
+def test_filter_steps_through_locked_il_events() -> None:
+    """Locked event periods do not ask the MPC, but the filter must still measure and
+    predict with the curtailed flow the plant ran (else its estimate drifts by a period)."""
+    cfg = preset(
+        "rmpc-output-feedback",
+        start=HOT_START,
+        days=1.0,
+        **{"activation.mode": "random", "activation.events_per_year": 3000.0},
+    )
+    loop = ClosedLoop(prepare(cfg))
+    errors, locked = [], 0
+    while loop.k < loop.steps:
+        x = loop.x.copy()
+        loop.step()
+        state = loop.controller.get_state()
+        locked += int(state["held"])
+        errors.append(x - state["estimator"]["state"].x_degc)
+    frame = loop.frame()
+    assert locked > 0  # some periods ran a locked event plan
+    assert frame["il_curtailed"].sum() > locked
+    late = np.array(errors[12:])
+    assert float(np.sqrt(np.mean(late**2))) < 0.2
+    assert np.isfinite(frame.filter(like="prediction_error_").to_numpy()).all()
