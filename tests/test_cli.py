@@ -62,3 +62,11 @@ def test_price_gap_fill_option_overrides_the_scenario_setting(tmp_path: Path) ->
     )
     assert result.exit_code == 2, result.output
     assert "price_gap_fill" in result.output and "previous-day" in result.output
+
+
+def test_simulate_help_names_every_preset() -> None:
+    from hvacflex.cli import PRESET_HELP
+    from hvacflex.config import PRESET_NAMES
+
+    listed = {name.strip(" .") for name in PRESET_HELP.removeprefix("Preset:").split(",")}
+    assert listed == set(PRESET_NAMES)

@@ -11,6 +11,13 @@ from typing import TYPE_CHECKING
 
 import typer
 
+PRESET_HELP = (
+    "Preset: nmpc, rmpc, rmpc-ppp, nmpc-no-reserve, thermostat, rmpc-feedback, "
+    "rmpc-feedback-ppp, rmpc-output-feedback, paper-nmpc, paper-rmpc, paper-rmpc-ppp."
+)
+"""The presets, spelled out so that ``--help`` need not import the configuration
+(``tests/test_cli.py`` checks it against ``hvacflex.config.PRESET_NAMES``)."""
+
 if TYPE_CHECKING:
     from hvacflex.config import ScenarioConfig
 
@@ -262,8 +269,7 @@ def _scenario_config(
 def simulate(
     scenario: str = typer.Option(
         "rmpc",
-        help="Preset: nmpc, rmpc, rmpc-ppp, nmpc-no-reserve, thermostat, rmpc-feedback, "
-        "rmpc-feedback-ppp.",
+        help=PRESET_HELP,
     ),
     config: Path | None = typer.Option(None, help="Scenario TOML file (overrides --scenario)."),  # noqa: B008
     start: str | None = typer.Option(None, help="First day, e.g. 2014-01-01."),
