@@ -11,31 +11,16 @@ Kalman filter is not part of it.
 
 from __future__ import annotations
 
-from typing import Protocol
-
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+
+from hvacflex.control.estimation import StepModel
 
 FloatArray = NDArray[np.float64]
 
 
-class OneStepModel(Protocol):
-    """a (n,n), b (n,m), e (n,nd), g (n,), c (m,n)."""
-
-    @property
-    def a(self) -> FloatArray: ...
-    @property
-    def b(self) -> FloatArray: ...
-    @property
-    def e(self) -> FloatArray: ...
-    @property
-    def g(self) -> FloatArray: ...
-    @property
-    def c(self) -> FloatArray: ...
-
-
 def one_step_prediction_error(
-    model: OneStepModel,
+    model: StepModel,
     x_degc: ArrayLike,
     flow_kg_s: ArrayLike,
     d_realised: ArrayLike,
