@@ -17,7 +17,7 @@ MAX_FUNCTION_LINES = 100
 MAX_MODULE_LINES = 700
 
 LAYERS: list[set[str]] = [
-    {"errors", "units", "constants", "paths", "tomlio", "version", "resources"},
+    {"errors", "units", "constants", "paths", "tomlio", "version", "resources", "results_file"},
     {"building"},
     {"data"},
     {"opt"},

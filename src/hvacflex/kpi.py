@@ -3,7 +3,8 @@
 Every function takes the results DataFrame of one run (one row per control step; the column
 schema is the *Results* table of ``docs/architecture.md``) and returns a number, a Series or a
 small DataFrame whose unit is in its name. The functions are pure: they never modify their
-input and never read files (except :func:`load_results`).
+input and never read files (:func:`load_results`, re-exported from
+:mod:`hvacflex.results_file`, reads one).
 
 Conventions
 -----------
@@ -36,12 +37,14 @@ Conventions
 from __future__ import annotations
 
 import re
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
 from hvacflex.errors import DataError
+from hvacflex.results_file import RESULTS_FILENAME as RESULTS_FILENAME
+from hvacflex.results_file import RESULTS_REQUIRED_COLUMNS as RESULTS_REQUIRED_COLUMNS
+from hvacflex.results_file import load_results as load_results
 from hvacflex.units import KWH_PER_MWH
 
 DEFAULT_STEP_H = 0.5
@@ -56,8 +59,6 @@ VIOLATION_TOLERANCE_K = 0.01
 PLANNED_SLACK_TOLERANCE_K = 1e-6
 """A plan counts as needing slack when its largest slack exceeds this [K] (LP tolerance)."""
 
-RESULTS_FILENAME = "results.parquet"
-"""Name of the results file in a run directory."""
 
 _TEMP_COLUMN = re.compile(r"^temp_(?P<zone>.+)_degc$")
 _DERIVED_TEMP_PREFIXES = ("end_", "served_", "curtailed_")
@@ -649,53 +650,3 @@ def prediction_error_summary(results: pd.DataFrame) -> dict[str, float]:
     values = values[np.isfinite(values)] if np.isfinite(values).any() else np.array([np.nan])
     rms = float(np.sqrt(np.mean(values**2)))
     return {"prediction_error_rms_k": rms, "prediction_error_max_k": float(np.max(values))}
-
-
-RESULTS_REQUIRED_COLUMNS = ("power_kw", "energy_price_sgd_per_mwh")
-"""Columns every results file has; a Parquet file without them is not a results file."""
-
-
-def load_results(path: str | Path) -> pd.DataFrame:
-    """Read a run's results: a Parquet file, or a run directory holding ``results.parquet``.
-
-    A ``time`` column (if the index was not stored) becomes the index.
-
-    Raises
-    ------
-    DataError
-        When the path does not exist, the directory holds no results file, or the file is
-        not a Parquet file with the results columns (:data:`RESULTS_REQUIRED_COLUMNS`).
-    """
-    hint = f"pass a run directory holding {RESULTS_FILENAME} (written by hvacflex simulate) or "
-    hint += "such a Parquet file"
-    given = Path(path)
-    if not given.exists():
-        raise DataError(
-            "results file not found: no such file or directory", source=given, hint=hint
-        )
-    file = given / RESULTS_FILENAME if given.is_dir() else given
-    if not file.is_file():
-        raise DataError(
-            f"results file not found: the directory holds no {RESULTS_FILENAME}",
-            source=given,
-            hint=hint,
-        )
-    try:
-        results = pd.read_parquet(file)
-    except (OSError, ValueError, TypeError, RuntimeError) as exc:  # pyarrow: ArrowInvalid, …
-        raise DataError(
-            f"not a results file: cannot be read as Parquet ({type(exc).__name__})",
-            source=file,
-            hint=hint,
-        ) from None
-    missing = [c for c in RESULTS_REQUIRED_COLUMNS if c not in results.columns]
-    if missing:
-        raise DataError(
-            "not a results file: required columns are missing",
-            source=file,
-            field=", ".join(missing),
-            hint=hint + "; see the Results table of docs/architecture.md",
-        )
-    if not isinstance(results.index, pd.DatetimeIndex) and "time" in results.columns:
-        results = results.set_index("time")
-    return results
