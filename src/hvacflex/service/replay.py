@@ -14,6 +14,7 @@ import json
 import math
 import urllib.error
 import urllib.request
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -102,9 +103,15 @@ def _none_nan(value: Any) -> float:
 class RemoteController:
     """A controller that asks the service: posts the measurement, returns its plan."""
 
-    def __init__(self, client: Client, building_id: str) -> None:
+    def __init__(
+        self,
+        client: Client,
+        building_id: str,
+        on_plan: Callable[[dict[str, Any]], None] | None = None,
+    ) -> None:
         self.client = client
         self.building_id = building_id
+        self.on_plan = on_plan
         self.previous_power_kw: float | None = None
         self.plans: list[dict[str, Any]] = []
 
@@ -116,6 +123,8 @@ class RemoteController:
         }
         plan = self.client.call("POST", f"/v1/buildings/{self.building_id}/measurements", body)
         self.plans.append(plan)
+        if self.on_plan is not None:
+            self.on_plan(plan)
         return action_from_plan(plan)
 
     def get_state(self) -> dict[str, Any]:
@@ -178,10 +187,17 @@ def replay(
     building_id: str = "replay",
     building_key: str | None = None,
     stop_after_steps: int | None = None,
+    on_plan: Callable[[dict[str, Any]], None] | None = None,
 ) -> ReplayResult:
     """Register ``config``'s building (unless ``building_key`` is given: it is registered
     already) and play the plant against the service; write the results files of
-    ``simulate`` into ``out_dir`` once every period is played."""
+    ``simulate`` into ``out_dir`` once every period is played. ``on_plan`` is called with
+    each plan as it is acknowledged.
+
+    A replay may be started again after an interruption (with ``building_key``): the
+    periods measured already are posted again unchanged, and the service answers them with
+    the plans it stored (measurements are idempotent).
+    """
     from hvacflex.kpi import summary as kpi_summary
 
     if building_key is None:
@@ -189,7 +205,7 @@ def replay(
             "POST", "/v1/buildings", registration(config, building_id)
         )
         building_key = str(registered["key"])
-    remote = RemoteController(Client(url, building_key), building_id)
+    remote = RemoteController(Client(url, building_key), building_id, on_plan)
     loop = ClosedLoop(prepare(config), controller=remote)
     column = loop.recorder.column_index["power_kw"]
     last = loop.steps if stop_after_steps is None else min(loop.steps, stop_after_steps)
