@@ -60,6 +60,8 @@ def test_migrations_are_packaged() -> None:
         ({"activation.mode": "file"}, "scenario.settings.activation.mode"),
         ({"building": "/tmp/b.toml"}, "scenario.settings.building"),
         ({"no_such_setting": 1}, "scenario.settings.no_such_setting"),
+        ({"horizon_steps": 100_000}, "scenario.settings.controller.horizon_steps"),
+        ({"controller.time_limit_s": 1e6}, "scenario.settings.controller.time_limit_s"),
     ],
 )
 def test_registration_refuses_server_files(

@@ -66,6 +66,11 @@ FORBIDDEN_SETTINGS = (
 )
 """Scenario settings that would name a file on the server (or replace the building)."""
 
+MAX_HORIZON_STEPS = 336
+"""Longest MPC horizon a registered building may ask for (one week of periods)."""
+MAX_TIME_LIMIT_S = 60.0
+"""Largest solver time limit per plan [s] (a plan answers an HTTP request)."""
+
 
 class ConflictError(InputError):
     """The request contradicts what is stored (e.g. a different measurement for a period)."""
@@ -131,7 +136,21 @@ def scenario_config(settings: ScenarioSettings, building_id: str) -> ScenarioCon
         overrides[path] = value
     overrides.update(start=settings.start, days=settings.days, building=building_id)
     overrides["name"] = building_id
-    return with_overrides(preset(settings.preset), overrides)
+    config = with_overrides(preset(settings.preset), overrides)
+    controller = config.controller
+    if controller.horizon_steps > MAX_HORIZON_STEPS:
+        raise InputError(
+            f"must be ≤ {MAX_HORIZON_STEPS} periods (one week) in the service",
+            field="scenario.settings.controller.horizon_steps",
+            value=controller.horizon_steps,
+        )
+    if controller.time_limit_s > MAX_TIME_LIMIT_S:
+        raise InputError(
+            f"must be ≤ {MAX_TIME_LIMIT_S:g} s in the service",
+            field="scenario.settings.controller.time_limit_s",
+            value=controller.time_limit_s,
+        )
+    return config
 
 
 def to_local(time: datetime) -> pd.Timestamp:
