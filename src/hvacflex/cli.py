@@ -393,6 +393,9 @@ def serve(
     db: str = typer.Option("sqlite:///hvacflex-service.db", "--db", help=_DB_HELP),
     host: str = typer.Option("127.0.0.1", help="Address to listen on."),
     port: int = typer.Option(8000, min=1, max=65535, help="Port to listen on."),
+    wall_clock: bool = typer.Option(
+        False, help="Also plan at each wall-clock 30-min boundary (else: POST /v1/clock)."
+    ),
 ) -> None:
     """Run the HTTP service (API under /v1, OpenAPI at /v1/openapi.json)."""
     if ctx.invoked_subcommand is not None:
@@ -403,7 +406,7 @@ def serve(
     from hvacflex.service.app import create_app
 
     try:
-        service = create_app(db)
+        service = create_app(db, wall_clock=wall_clock)
     except HvacflexError as exc:
         typer.echo(f"error: {exc}", err=True)
         raise typer.Exit(2) from None

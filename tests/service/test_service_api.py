@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import time
 from typing import Any
 
 import pytest
@@ -246,3 +247,24 @@ def test_every_mutating_request_is_audited(service: Service) -> None:
     assert methods == {"POST"}
     roles = {r["role"] for r in records}
     assert {"operator", "building"} <= roles
+
+
+def test_wall_clock_runs_the_boundary_trigger() -> None:
+    from hvacflex.service.app import start_wall_clock
+
+    class Probe:
+        def __init__(self) -> None:
+            self.times: list[Any] = []
+
+        def boundary(self, time: Any) -> list[Any]:
+            self.times.append(time)
+            return []
+
+    probe = Probe()
+    stop = start_wall_clock(probe, poll_s=0.01)  # type: ignore[arg-type]
+    deadline = time.monotonic() + 5
+    while not probe.times and time.monotonic() < deadline:
+        time.sleep(0.01)
+    stop.set()
+    assert len(probe.times) >= 1
+    assert probe.times[0].minute in (0, 30) and probe.times[0].second == 0

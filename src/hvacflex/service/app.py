@@ -10,9 +10,11 @@ gets 403 on any other building. Every mutating request is written to the ``audit
 
 import hashlib
 import json
+import threading
 from collections.abc import Awaitable, Callable, MutableMapping
 from typing import Annotated, Any
 
+import pandas as pd
 from fastapi import Depends, FastAPI, HTTPException, Query, Request
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
@@ -136,8 +138,29 @@ class BodyLimitAndAudit:
             )
 
 
-def create_app(db_url: str = DEFAULT_DB_URL) -> FastAPI:
-    """The service app on the database at ``db_url`` (migrated to the newest schema)."""
+def start_wall_clock(runtime: Runtime, poll_s: float = 10.0) -> threading.Event:
+    """A daemon thread that runs the 30-min boundary trigger at each wall-clock boundary
+    (Singapore time); set the returned event to stop it."""
+    stop = threading.Event()
+
+    def tick() -> None:
+        last: pd.Timestamp | None = None
+        while not stop.wait(poll_s):
+            now = pd.Timestamp.now(tz="Asia/Singapore").floor("30min")
+            if now != last:
+                last = now
+                runtime.boundary(now.to_pydatetime())
+
+    threading.Thread(target=tick, name="hvacflex-wall-clock", daemon=True).start()
+    return stop
+
+
+def create_app(db_url: str = DEFAULT_DB_URL, *, wall_clock: bool = False) -> FastAPI:
+    """The service app on the database at ``db_url`` (migrated to the newest schema).
+
+    ``wall_clock`` runs the 30-min boundary trigger on the wall clock as well (buildings
+    whose scenario covers today); otherwise the operator drives it with ``POST /v1/clock``.
+    """
     engine = make_engine(db_url)
     migrate(engine)
     sessions = session_factory(engine)
@@ -156,6 +179,8 @@ def create_app(db_url: str = DEFAULT_DB_URL) -> FastAPI:
     app.state.sessions = sessions
     app.state.runtime = runtime
     app.state.engine = engine
+    if wall_clock:
+        app.state.wall_clock_stop = start_wall_clock(runtime)
 
     # -- errors in the envelope ---------------------------------------------------------
     @app.exception_handler(HTTPException)
