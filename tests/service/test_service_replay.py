@@ -16,16 +16,21 @@ import pandas as pd
 import pytest
 from service_fixtures import SERVE, START, Server, free_port, operator_key_for
 
-from hvacflex.config import preset
+from hvacflex.config import preset, with_overrides
+from hvacflex.kpi import RESULTS_FILENAME as RESULTS_FILE
 from hvacflex.service.replay import ServiceError, replay
-from hvacflex.sim.closed_loop import RESULTS_FILE, read_results, run_simulation
+from hvacflex.sim.closed_loop import read_results, run_simulation
 
 DAYS = 1.0
-KILL_AFTER_PLANS = 12
+KILL_AFTER_PLANS = 15
+"""Plans acknowledged before the kill: the scenario's IL event starts at period 14, so the
+server is killed during the event or its recovery."""
 
 
 def _config() -> Any:
-    return preset("rmpc", start=START, days=DAYS)
+    """``rmpc`` (IL event model, D = 4, R = 2) with the ``stress`` activations of its seed:
+    one event on the day, so the event semantics are compared, not only plain periods."""
+    return with_overrides(preset("rmpc", start=START, days=DAYS), {"activation.mode": "stress"})
 
 
 @pytest.fixture(scope="module")
@@ -65,6 +70,12 @@ def test_replay_writes_the_files_of_simulate_and_equals_it(reference: dict[str, 
         _comparable(replayed), _comparable(simulated), check_exact=False, rtol=1e-9, atol=1e-9
     )
     assert not replayed["fallback"].any()
+    # the day has an IL event: its start, locked periods (no solve) and recovery
+    assert replayed["il_activated"].any() and replayed["il_curtailed"].any()
+    assert (replayed["solve_status"] == "event-plan").any()
+    assert (replayed["il_event_window"] & ~replayed["il_curtailed"]).any()  # recovery
+    roles = {plan["il_role"] for plan in reference["replay"].plans}
+    assert {"served", "event-start", "event-locked"} <= roles
     summary = reference["replay"].summary
     assert summary["energy_kwh"] == pytest.approx(float(simulated["power_kw"].sum()) * 0.5)
 

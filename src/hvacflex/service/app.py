@@ -165,9 +165,6 @@ def create_app(db_url: str = DEFAULT_DB_URL, *, wall_clock: bool = False) -> Fas
     migrate(engine)
     sessions = session_factory(engine)
     runtime = Runtime(sessions)
-    verifier = KeyVerifier()
-    api_key = APIKeyHeader(name=API_KEY_HEADER, auto_error=False)
-
     app = FastAPI(
         title="hvacflex service",
         version=__version__,
@@ -181,8 +178,18 @@ def create_app(db_url: str = DEFAULT_DB_URL, *, wall_clock: bool = False) -> Fas
     app.state.engine = engine
     if wall_clock:
         app.state.wall_clock_stop = start_wall_clock(runtime)
+    _error_handlers(app)
+    auth = _Auth(sessions)
+    _building_routes(app, runtime, auth)
+    _signal_routes(app, runtime, auth)
+    _operator_routes(app, runtime, auth)
+    app.add_middleware(BodyLimitAndAudit, sessions=sessions)
+    return app
 
-    # -- errors in the envelope ---------------------------------------------------------
+
+def _error_handlers(app: FastAPI) -> None:
+    """Every error in the envelope; the project's input errors as 4xx naming the field."""
+
     @app.exception_handler(HTTPException)
     async def _http_error(_request: Request, exc: HTTPException) -> JSONResponse:
         response = _envelope(exc.status_code, str(exc.detail))
@@ -218,31 +225,47 @@ def create_app(db_url: str = DEFAULT_DB_URL, *, wall_clock: bool = False) -> Fas
     async def _server_error(_request: Request, exc: Exception) -> JSONResponse:
         return _envelope(500, f"internal error ({type(exc).__name__})")
 
-    # -- keys ---------------------------------------------------------------------------
-    def principal(request: Request, key: Annotated[str | None, Depends(api_key)]) -> Principal:
+
+_API_KEY = APIKeyHeader(name=API_KEY_HEADER, auto_error=False)
+
+
+class _Auth:
+    """The key checks, as FastAPI dependencies."""
+
+    def __init__(self, sessions: sessionmaker[Session]) -> None:
+        self.sessions = sessions
+        self.verifier = KeyVerifier()
+
+    def principal(
+        self, request: Request, key: Annotated[str | None, Depends(_API_KEY)]
+    ) -> Principal:
         if not key:
             raise HTTPException(401, f"missing {API_KEY_HEADER} header")
-        with sessions() as session:
-            who = verifier.verify(session, key)
+        with self.sessions() as session:
+            who = self.verifier.verify(session, key)
         if who is None:
             raise HTTPException(401, "unknown or revoked key")
         request.state.principal = who
         return who
 
-    def operator(who: Annotated[Principal, Depends(principal)]) -> Principal:
+
+def _roles(auth: _Auth) -> tuple[Any, Any, Any]:
+    """The dependencies operator, building reader and building writer."""
+
+    def operator(who: Annotated[Principal, Depends(auth.principal)]) -> Principal:
         if who.role != "operator":
             raise HTTPException(403, "this route needs an operator key")
         return who
 
     def building_reader(
-        building_id: str, who: Annotated[Principal, Depends(principal)]
+        building_id: str, who: Annotated[Principal, Depends(auth.principal)]
     ) -> Principal:
         if who.role == "building" and who.building_id != building_id:
             raise HTTPException(403, "a building key reads only its own building")
         return who
 
     def building_writer(
-        building_id: str, who: Annotated[Principal, Depends(principal)]
+        building_id: str, who: Annotated[Principal, Depends(auth.principal)]
     ) -> Principal:
         if who.role != "building":
             raise HTTPException(403, "measurements are posted with the building's own key")
@@ -250,9 +273,15 @@ def create_app(db_url: str = DEFAULT_DB_URL, *, wall_clock: bool = False) -> Fas
             raise HTTPException(403, "a building key writes only its own building")
         return who
 
+    return operator, building_reader, building_writer
+
+
+def _building_routes(app: FastAPI, runtime: Runtime, auth: _Auth) -> None:
+    """Health, registration, buildings, measurements and plans."""
+    sessions, engine = runtime.sessions, app.state.engine
+    operator, building_reader, building_writer = _roles(auth)
     Operator = Annotated[Principal, Depends(operator)]
 
-    # -- routes -------------------------------------------------------------------------
     @app.get("/v1/health", tags=["service"])
     def health() -> Envelope[Health]:
         """Liveness and the database in use (no key needed)."""
@@ -347,6 +376,12 @@ def create_app(db_url: str = DEFAULT_DB_URL, *, wall_clock: bool = False) -> Fas
         out = [Plan(**p) for p in plans if p is not None]
         return Envelope(status=200, message=f"{len(out)} plans", payload=PlanList(plans=out))
 
+
+def _signal_routes(app: FastAPI, runtime: Runtime, auth: _Auth) -> None:
+    """Prices, the peak-power price, the feeder limit, activations and the clock."""
+    sessions = runtime.sessions
+    Operator = Annotated[Principal, Depends(_roles(auth)[0])]
+
     def _store_signal(kind: str, body: dict[str, Any]) -> Stored:
         with sessions() as session, session.begin():
             row = Signal(kind=kind, body_json=json.dumps(body))
@@ -405,8 +440,7 @@ def create_app(db_url: str = DEFAULT_DB_URL, *, wall_clock: bool = False) -> Fas
                         time_utc=time.tz_convert("UTC").isoformat(),
                     )
                 )
-            session.flush()
-            plans = runtime.activation(session, targets)
+        plans = runtime.activation(targets)
         payload = PlanList(plans=[Plan(**p) for p in plans])
         return Envelope(
             status=200, message=f"{body.event}: {len(plans)} plans changed", payload=payload
@@ -426,6 +460,12 @@ def create_app(db_url: str = DEFAULT_DB_URL, *, wall_clock: bool = False) -> Fas
         plans = runtime.boundary(body.time)
         payload = PlanList(plans=[Plan(**p) for p in plans])
         return Envelope(status=200, message=f"{len(plans)} plans made", payload=payload)
+
+
+def _operator_routes(app: FastAPI, runtime: Runtime, auth: _Auth) -> None:
+    """The aggregate bid and the audit trail."""
+    sessions = runtime.sessions
+    Operator = Annotated[Principal, Depends(_roles(auth)[0])]
 
     @app.get("/v1/bid", tags=["operator"], responses=_ERRORS)
     def aggregate_bid(_who: Operator) -> Envelope[Bid]:
@@ -490,9 +530,6 @@ def create_app(db_url: str = DEFAULT_DB_URL, *, wall_clock: bool = False) -> Fas
                 for r in rows
             ]
         return Envelope(status=200, message=f"{len(records)} records", payload=records)
-
-    app.add_middleware(BodyLimitAndAudit, sessions=sessions)
-    return app
 
 
 def to_local_iso(text: str) -> str:

@@ -2,10 +2,14 @@
 
 ``hvacflex serve replay`` registers the building (operator key), then runs the closed loop of
 :mod:`hvacflex.sim.closed_loop` with a :class:`RemoteController` in place of the controller:
-each period it posts the measured node temperatures (and the previous period's power) as the
-building, and applies the plan the service returns to the nonlinear plant. The clock is
-accelerated: a period lasts as long as the service takes to plan it. The results files are
-those of ``simulate`` (``results.parquet``, ``summary.json``, ``config.json``).
+each period it posts the scenario's IL activation starts and ends as the operator (the
+activation schedule of ``simulate``), then the measured node temperatures (and the previous
+period's power) as the building, and applies the plan the service returns to the nonlinear
+plant. The IL event model runs in the service (:mod:`hvacflex.service.periods`): the loop's
+own tracker is replaced by :class:`RemoteEvents`, which reports the period's role and outcome
+as the service decided them. The clock is accelerated: a period lasts as long as the service
+takes to plan it. The results files are those of ``simulate`` (``results.parquet``,
+``summary.json``, ``config.json``).
 """
 
 from __future__ import annotations
@@ -22,18 +26,19 @@ from typing import Any
 import numpy as np
 
 from hvacflex.config import ScenarioConfig, preset
-from hvacflex.control.base import Action, FloatArray
+from hvacflex.control.base import Action, EventPlan, FloatArray
 from hvacflex.data.forecast import Forecast
 from hvacflex.errors import HvacflexError
+from hvacflex.kpi import RESULTS_FILENAME
 from hvacflex.paths import resolve_building
 from hvacflex.sim.closed_loop import (
     CONFIG_FILE,
-    RESULTS_FILE,
     SUMMARY_FILE,
     ClosedLoop,
     prepare,
     write_results,
 )
+from hvacflex.sim.events import EventTracker, PeriodOutcome, Role
 from hvacflex.version import atomic_write_text
 
 TIMEOUT_S = 120.0
@@ -114,24 +119,96 @@ class RemoteController:
         self.on_plan = on_plan
         self.previous_power_kw: float | None = None
         self.plans: list[dict[str, Any]] = []
+        self.pending: dict[str, Any] | None = None
+        """The plan of the period being played, once posted and not yet applied."""
 
-    def act(self, x_degc: FloatArray, forecast: Forecast, *, peak_floor_kw: float) -> Action:
+    def exchange(self, x_degc: FloatArray, time: str) -> dict[str, Any]:
+        """Post the measurement of the period starting at ``time``; the service's plan."""
         body = {
-            "time": forecast.index[0].isoformat(),
+            "time": time,
             "node_temperatures_degc": [float(v) for v in x_degc],
             "previous_power_kw": self.previous_power_kw,
         }
-        plan = self.client.call("POST", f"/v1/buildings/{self.building_id}/measurements", body)
+        plan: dict[str, Any] = self.client.call(
+            "POST", f"/v1/buildings/{self.building_id}/measurements", body
+        )
         self.plans.append(plan)
         if self.on_plan is not None:
             self.on_plan(plan)
-        return action_from_plan(plan)
+        self.pending = plan
+        return plan
+
+    def take(self) -> dict[str, Any]:
+        """The pending plan (consumed)."""
+        plan, self.pending = self.pending, None
+        assert plan is not None, "no plan posted for this period"
+        return plan
+
+    def act(
+        self,
+        x_degc: FloatArray,
+        forecast: Forecast,
+        *,
+        peak_floor_kw: float,
+        allowance_carry_steps: int = 0,
+    ) -> Action:
+        """The service's plan of the period (posted now unless :class:`RemoteEvents` did);
+        the peak floor and the recovery allowance are the service's own."""
+        if self.pending is None:
+            self.exchange(x_degc, forecast.index[0].isoformat())
+        return action_from_plan(self.take())
 
     def get_state(self) -> dict[str, Any]:
         return {}
 
     def set_state(self, state: dict[str, Any]) -> None:
         return None
+
+
+class RemoteEvents(EventTracker):
+    """The closed loop's IL event tracker, answered by the service.
+
+    Each period it posts the activation start or end the schedule has there (operator key)
+    and the building's measurement, and reports the role, the locked plan's step and the
+    outcome of the service's plan (the rules run only in the service).
+    """
+
+    def __init__(self, loop: ClosedLoop, remote: RemoteController, operator: Client) -> None:
+        super().__init__(None, 0, 0.0)
+        self.loop = loop
+        self.remote = remote
+        self.operator = operator
+        self.active = False
+
+    def role(self, activated: bool) -> Role:
+        loop = self.loop
+        time = loop.setup.exogenous.index[loop.k].isoformat()
+        if activated != self.active:
+            body = {
+                "event": "start" if activated else "end",
+                "time": time,
+                "building_ids": [self.remote.building_id],
+            }
+            self.operator.call("POST", "/v1/activations", body)
+            self.active = activated
+        plan = self.remote.exchange(loop.x, time)
+        return Role(plan["il_role"])
+
+    def lock(self, plan: EventPlan | None) -> None:
+        return None
+
+    def locked_action(self) -> Action:
+        return action_from_plan(self.remote.take())
+
+    def finish(self, role: Role, action: Action) -> PeriodOutcome:
+        plan = self.remote.plans[-1]
+        return PeriodOutcome(
+            curtailed=bool(plan["il_curtailed"]),
+            beyond_model=bool(plan["il_beyond_model"]),
+            event_window=bool(plan["il_event_window"]),
+            allowance_k=float(plan["il_allowance_k"]),
+            reference_power_kw=_none_nan(plan["il_reference_power_kw"]),
+        )
 
 
 def registration(config: ScenarioConfig, building_id: str) -> dict[str, Any]:
@@ -207,6 +284,7 @@ def replay(
         building_key = str(registered["key"])
     remote = RemoteController(Client(url, building_key), building_id, on_plan)
     loop = ClosedLoop(prepare(config), controller=remote)
+    loop.events = RemoteEvents(loop, remote, Client(url, operator_key))
     column = loop.recorder.column_index["power_kw"]
     last = loop.steps if stop_after_steps is None else min(loop.steps, stop_after_steps)
     while loop.k < last:
@@ -218,7 +296,7 @@ def replay(
     frame = loop.frame()
     summary = kpi_summary(frame)
     if loop.k == loop.steps:
-        write_results(frame, out / RESULTS_FILE, config)
+        write_results(frame, out / RESULTS_FILENAME, config)
         atomic_write_text(out / SUMMARY_FILE, json.dumps(summary, indent=2))
         atomic_write_text(out / CONFIG_FILE, json.dumps(config.to_dict(), indent=2))
     return ReplayResult(out, summary, remote.plans)

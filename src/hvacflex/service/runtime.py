@@ -9,12 +9,14 @@ the last acknowledged plan left off.
 Signals enter the forecast the controller sees: operator prices replace the shipped prices
 for the periods they cover, the operator's peak-power price replaces the scenario's φ, and
 the month's peak so far is the largest ``previous_power_kw`` the building reported in the
-month. IL activation (closed-loop semantics): while active, the building runs its curtailed
-flows u₀ − r₀; an activation start or end re-issues the current plan at once.
+month. IL activation follows the event semantics of the closed loop
+(:mod:`hvacflex.service.periods`): an activation start or end re-plans the current period at
+once; a start locks the plan, whose curtailed flows the building runs while the event lasts.
 """
 
 from __future__ import annotations
 
+import bisect
 import dataclasses
 import hashlib
 import json
@@ -22,6 +24,7 @@ import math
 import pickle
 import threading
 import tomllib
+from collections.abc import Callable
 from dataclasses import dataclass
 from datetime import datetime
 from typing import Any
@@ -34,7 +37,7 @@ from sqlalchemy.orm import Session, sessionmaker
 from hvacflex.building.io import building_from_dict
 from hvacflex.building.model import Building
 from hvacflex.config import ScenarioConfig, preset, with_overrides
-from hvacflex.control.base import Action, Controller
+from hvacflex.control.base import Controller
 from hvacflex.errors import InputError
 from hvacflex.paths import resolve_building
 from hvacflex.service.db import (
@@ -45,6 +48,14 @@ from hvacflex.service.db import (
     PlanRow,
     Signal,
 )
+from hvacflex.service.periods import (
+    Decision,
+    PeriodStepper,
+    event_columns,
+    finite,
+    finite_list,
+    horizon_columns,
+)
 from hvacflex.service.schemas import (
     TEMP_MAX_DEGC,
     TEMP_MIN_DEGC,
@@ -53,6 +64,7 @@ from hvacflex.service.schemas import (
     ScenarioSettings,
 )
 from hvacflex.sim.closed_loop import Setup, make_controller, prepare
+from hvacflex.sim.events import Role
 
 TIMEZONE = "Asia/Singapore"
 PERIOD = pd.Timedelta(minutes=30)
@@ -110,12 +122,12 @@ def building_from_source(
 
 def scenario_config(settings: ScenarioSettings, building_id: str) -> ScenarioConfig:
     """The scenario of a registration; settings naming server files are refused."""
-    from hvacflex.config import _resolve_key
+    from hvacflex.config import resolve_key
 
     overrides: dict[str, Any] = {}
     for key, value in settings.settings.items():
         try:
-            path = ".".join(_resolve_key(key))
+            path = ".".join(resolve_key(key))
         except InputError as exc:
             raise InputError(
                 "unknown setting", field=f"scenario.settings.{key}", hint=exc.hint
@@ -159,14 +171,6 @@ def to_local(time: datetime) -> pd.Timestamp:
     return stamp.tz_localize(TIMEZONE) if stamp.tzinfo is None else stamp.tz_convert(TIMEZONE)
 
 
-def _finite(value: float) -> float | None:
-    return float(value) if math.isfinite(value) else None
-
-
-def _finite_list(values: Any) -> list[float | None]:
-    return [_finite(float(v)) for v in np.asarray(values, dtype=float).ravel()]
-
-
 @dataclass
 class BuildingRuntime:
     """A building's setup (model, shipped data) and its controller, in memory."""
@@ -176,6 +180,7 @@ class BuildingRuntime:
     controller: Controller
     peak_price_sgd_per_kw: float
     lock: threading.Lock
+    periods: PeriodStepper
 
     @property
     def steps(self) -> int:
@@ -252,10 +257,7 @@ class Runtime:
         building, document = building_from_source(source, building_id)
         config = scenario_config(settings, building_id)
         setup = prepare(config, building)
-        runtime = BuildingRuntime(
-            building_id, setup, make_controller(setup), config.controller.peak_price_sgd_per_kw,
-            threading.Lock(),
-        )  # fmt: skip
+        runtime = _building_runtime(building_id, setup)
         session.add(
             BuildingRow(
                 building_id=building_id,
@@ -286,13 +288,10 @@ class Runtime:
         settings = ScenarioSettings.model_validate_json(row.scenario_json)
         config = scenario_config(settings, building_id)
         setup = prepare(config, building)
-        runtime = BuildingRuntime(
-            building_id, setup, make_controller(setup), config.controller.peak_price_sgd_per_kw,
-            threading.Lock(),
-        )  # fmt: skip
+        runtime = _building_runtime(building_id, setup)
         stored = session.get(ControllerState, building_id)
         if stored is not None:
-            runtime.controller.set_state(pickle.loads(stored.state))
+            runtime.periods.set_state(runtime.controller, pickle.loads(stored.state))
         with self._lock:
             self._buildings.setdefault(building_id, runtime)
             return self._buildings[building_id]
@@ -329,9 +328,9 @@ class Runtime:
         ).first()
         return None if row is None else dict(json.loads(row.body_json))
 
-    def activated(self, session: Session, runtime: BuildingRuntime, k: int) -> bool:
-        """IL active in period k: the latest start/end event (for this building or all)
-        whose period is ≤ k is a start."""
+    def activity(self, session: Session, runtime: BuildingRuntime) -> Callable[[int], bool]:
+        """Whether IL is active in a period k: the latest start/end event (for this building
+        or all) whose period is ≤ k is a start (the later posted wins within a period)."""
         rows = session.scalars(
             select(Activation)
             .where(
@@ -339,12 +338,21 @@ class Runtime:
             )
             .order_by(Activation.id)
         )
-        state, best = False, -1
-        for row in rows:
-            j = runtime.period_containing(datetime.fromisoformat(row.time_utc))
-            if j <= k and j >= best:
-                state, best = row.event == "start", j
-        return state
+        events = sorted(
+            (runtime.period_containing(datetime.fromisoformat(row.time_utc)), i, row.event)
+            for i, row in enumerate(rows)
+        )
+        periods = [j for j, _, _ in events]
+
+        def activated(k: int) -> bool:
+            last = bisect.bisect_right(periods, k) - 1
+            return last >= 0 and events[last][2] == "start"
+
+        return activated
+
+    def activated(self, session: Session, runtime: BuildingRuntime, k: int) -> bool:
+        """IL active in period k (:meth:`activity`)."""
+        return self.activity(session, runtime)(k)
 
     def _month_peak_kw(self, session: Session, runtime: BuildingRuntime, k: int) -> float:
         index = runtime.setup.exogenous.index
@@ -386,12 +394,16 @@ class Runtime:
                 forecast, energy_price_sgd_per_mwh=e, reserve_price_sgd_per_mwh=r
             )
         floor = self._month_peak_kw(session, runtime, k)
-        action = runtime.controller.act(x_degc, forecast, peak_floor_kw=floor)
-        state = runtime.controller.get_state()
-        solution = None if action.fallback else state.get("previous_plan")
-        payload = self._payload(runtime, k, action, solution, forecast.index)
-        payload["il_activated"] = self.activated(session, runtime, k)
-        self._apply_activation(payload)
+        activated = self.activity(session, runtime)
+        decision = runtime.periods.decide(
+            runtime.controller, k, x_degc, forecast, peak_floor_kw=floor, activated=activated
+        )
+        state = runtime.periods.get_state(runtime.controller)
+        solution = state["controller"].get("previous_plan")
+        if decision.action.fallback or decision.role is Role.EVENT_LOCKED:
+            solution = None  # no optimisation this period (the locked plan is reported)
+        payload = self._payload(runtime, k, decision, solution, forecast.index)
+        payload.update(event_columns(decision, activated(k)))
         self._store_plan(session, runtime.building_id, k, trigger, payload)
         stored = session.get(ControllerState, runtime.building_id)
         blob = pickle.dumps(state, protocol=pickle.HIGHEST_PROTOCOL)
@@ -405,22 +417,13 @@ class Runtime:
         self,
         runtime: BuildingRuntime,
         k: int,
-        action: Action,
+        decision: Decision,
         solution: Any,
         index: pd.DatetimeIndex,
     ) -> dict[str, Any]:
-        model = runtime.setup.model
+        action = decision.action
         horizon = runtime.setup.config.controller.horizon_steps
-        if solution is not None:
-            power = _finite_list(solution.power_kw)
-            reserve = _finite_list(solution.reserve_kw)
-            temps = (np.asarray(solution.x_served)[1:] @ model.c.T).tolist()
-            objective = _finite(float(solution.objective_sgd))
-        else:
-            power = [_finite(action.planned_power_kw)]
-            reserve = [float(action.reserve_kw)]
-            temps = [list(np.asarray(action.predicted_served_degc, dtype=float))]
-            objective = None
+        columns = horizon_columns(decision, solution, runtime.setup.model.c, index, horizon)
         return {
             "building_id": runtime.building_id,
             "period": k,
@@ -428,28 +431,18 @@ class Runtime:
             "zones": list(runtime.setup.zone_names),
             "status": action.status,
             "fallback": bool(action.fallback),
-            "objective_sgd": objective,
+            "objective_sgd": columns.pop("objective_sgd"),
             "flow_kg_s": [float(v) for v in action.flow_kg_s],
             "reserve_flow_kg_s": [float(v) for v in action.reserve_flow_kg_s],
             "reserve_kw": float(action.reserve_kw),
-            "planned_power_kw": _finite(action.planned_power_kw),
+            "planned_power_kw": finite(action.planned_power_kw),
             "solve_time_s": float(action.solve_time_s),
-            "planned_slack_max_k": _finite(action.planned_slack_max_k),
-            "delta_max_k": _finite(action.delta_max_k),
-            "predicted_served_degc": _finite_list(action.predicted_served_degc),
-            "predicted_curtailed_degc": _finite_list(action.predicted_curtailed_degc),
-            "horizon_time": [t.isoformat() for t in index[: len(power)][:horizon]],
-            "horizon_power_kw": power,
-            "horizon_reserve_kw": reserve,
-            "horizon_temp_degc": [[_finite(float(v)) for v in row] for row in temps],
+            "planned_slack_max_k": finite(action.planned_slack_max_k),
+            "delta_max_k": finite(action.delta_max_k),
+            "predicted_served_degc": finite_list(action.predicted_served_degc),
+            "predicted_curtailed_degc": finite_list(action.predicted_curtailed_degc),
+            **columns,
         }
-
-    @staticmethod
-    def _apply_activation(payload: dict[str, Any]) -> None:
-        flow = np.asarray(payload["flow_kg_s"], dtype=float)
-        if payload["il_activated"]:
-            flow = flow - np.asarray(payload["reserve_flow_kg_s"], dtype=float)
-        payload["applied_flow_kg_s"] = [float(v) for v in flow]
 
     def _store_plan(
         self, session: Session, building_id: str, k: int, trigger: str, payload: dict[str, Any]
@@ -568,17 +561,11 @@ class Runtime:
             if not 0 <= k < runtime.steps:
                 continue
             with runtime.lock, self.sessions() as session, session.begin():
-                if self.latest_plan(session, building_id, k) is not None:
+                if runtime.periods.period >= k:  # planned already (or a later period)
                     continue
-                last = session.scalars(
-                    select(Measurement)
-                    .where(Measurement.building_id == building_id, Measurement.period <= k)
-                    .order_by(Measurement.period.desc())
-                    .limit(1)
-                ).first()
-                if last is None:
+                x = self._latest_state(session, building_id, k)
+                if x is None:
                     continue
-                x = np.asarray(json.loads(last.body_json)["x"], dtype=float)
                 try:
                     plans.append(self.plan(session, runtime, k, x, "boundary"))
                 except BaseException:
@@ -586,20 +573,50 @@ class Runtime:
                     raise
         return plans
 
-    def activation(self, session: Session, building_ids: list[str]) -> list[dict[str, Any]]:
-        """Re-issue each building's latest plan with the activation state now in force
-        (the caller stored the event and commits)."""
+    def activation(self, building_ids: list[str]) -> list[dict[str, Any]]:
+        """Re-plan each building's latest period whose activation state the stored events
+        (committed by the caller) change: an activation start or end takes effect at once,
+        by the IL event semantics of the closed loop."""
         plans: list[dict[str, Any]] = []
         for building_id in building_ids:
-            runtime = self.get(session, building_id)
-            plan = self.latest_plan(session, building_id)
-            if plan is None:
-                continue
-            active = self.activated(session, runtime, int(plan["period"]))
-            if active == plan["il_activated"]:
-                continue
-            plan["il_activated"] = active
-            self._apply_activation(plan)
-            self._store_plan(session, building_id, int(plan["period"]), "activation", plan)
-            plans.append(plan)
+            with self.sessions() as session:
+                runtime = self.get(session, building_id)
+            with runtime.lock, self.sessions() as session, session.begin():
+                plan = self.latest_plan(session, building_id)
+                if plan is None:
+                    continue
+                k = int(plan["period"])
+                if self.activated(session, runtime, k) == plan["il_activated"]:
+                    continue
+                x = self._latest_state(session, building_id, k)
+                if x is None:
+                    continue
+                try:
+                    plans.append(self.plan(session, runtime, k, x, "activation"))
+                except BaseException:
+                    self.evict(building_id)
+                    raise
         return plans
+
+    @staticmethod
+    def _latest_state(session: Session, building_id: str, k: int) -> np.ndarray | None:
+        """The node temperatures (n,) [°C] of the building's latest measurement ≤ period k."""
+        last = session.scalars(
+            select(Measurement)
+            .where(Measurement.building_id == building_id, Measurement.period <= k)
+            .order_by(Measurement.period.desc())
+            .limit(1)
+        ).first()
+        return None if last is None else np.asarray(json.loads(last.body_json)["x"], dtype=float)
+
+
+def _building_runtime(building_id: str, setup: Setup) -> BuildingRuntime:
+    controller = make_controller(setup)
+    return BuildingRuntime(
+        building_id,
+        setup,
+        controller,
+        setup.config.controller.peak_price_sgd_per_kw,
+        threading.Lock(),
+        PeriodStepper(setup.config, setup.model.c),
+    )

@@ -35,10 +35,14 @@ PresetName = Literal[
     "nmpc",
     "rmpc",
     "rmpc-ppp",
+    "paper-nmpc",
+    "paper-rmpc",
+    "paper-rmpc-ppp",
     "nmpc-no-reserve",
     "thermostat",
     "rmpc-feedback",
     "rmpc-feedback-ppp",
+    "rmpc-output-feedback",
 ]
 assert set(PresetName.__args__) == set(PRESET_NAMES)  # type: ignore[attr-defined]
 
@@ -177,7 +181,21 @@ class Plan(BaseModel):
     status: str
     fallback: bool
     il_activated: bool
-    objective_sgd: float | None
+    il_role: str = Field(
+        description="IL role of the period (hvacflex.sim.events.Role): served, curtail-fresh, "
+        "event-start, event-locked or beyond-model."
+    )
+    il_curtailed: bool = Field(description="The building runs u − r this period.")
+    il_beyond_model: bool = Field(description="Activated for more than D periods (counted).")
+    il_event_window: bool = Field(description="Part of an IL event or its recovery.")
+    il_allowance_k: float = Field(description="Allowance α on the upper comfort bound [K].")
+    il_reference_power_kw: float | None = Field(
+        description="The locked plan's served power, the settlement reference [kW]."
+    )
+    objective_sgd: float | None = Field(
+        description="Objective of this period's optimisation (None: fallback, rule, or a "
+        "period that runs a locked event plan)."
+    )
     flow_kg_s: list[float]
     reserve_flow_kg_s: list[float]
     applied_flow_kg_s: list[float]

@@ -122,11 +122,8 @@ class Setup:
 
 
 def prepare(config: ScenarioConfig, building: Building | None = None) -> Setup:
-    """Load the building and data and build the linear model for ``config``.
-
-    ``building`` replaces the one ``config.building`` names (a description received as
-    content, e.g. by the service, rather than read from a file).
-    """
+    """Load the building and data and build the linear model for ``config`` (``building``:
+    a description received as content, e.g. by the service, instead of ``config.building``)."""
     if building is None:
         building = load_building(resolve_building(config.building))
     temp_ref = config.controller.linearisation_temp_degc
