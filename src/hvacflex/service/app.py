@@ -35,7 +35,8 @@ from hvacflex.service.db import (
     session_factory,
 )
 from hvacflex.service.keys import KeyVerifier, Principal, create_key
-from hvacflex.service.runtime import ConflictError, NotFoundError, Runtime, to_local
+from hvacflex.service.periods import ConflictError
+from hvacflex.service.runtime import NotFoundError, Runtime, to_local
 from hvacflex.service.schemas import (
     ENERGY_PRICE_LIMIT_SGD_PER_MWH,
     ActivationIn,

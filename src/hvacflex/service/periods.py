@@ -33,8 +33,9 @@ from hvacflex.errors import InputError
 from hvacflex.sim.events import EventTracker, PeriodOutcome, Role
 
 
-class PeriodConflictError(InputError):
-    """A period before the building's latest planned period (plans only go forward)."""
+class ConflictError(InputError):
+    """The request contradicts what is stored (e.g. a different measurement for a period,
+    or a period before the building's latest planned one: plans only go forward)."""
 
 
 @dataclass(frozen=True)
@@ -122,10 +123,10 @@ class PeriodStepper:
 
         Raises
         ------
-        PeriodConflictError : ``k`` is before the latest planned period.
+        ConflictError : ``k`` is before the latest planned period.
         """
         if k < self.period:
-            raise PeriodConflictError(
+            raise ConflictError(
                 f"period {k} is before the building's latest planned period {self.period}",
                 field="time",
                 value=k,

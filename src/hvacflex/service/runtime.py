@@ -49,6 +49,7 @@ from hvacflex.service.db import (
     Signal,
 )
 from hvacflex.service.periods import (
+    ConflictError,
     Decision,
     PeriodStepper,
     event_columns,
@@ -82,10 +83,6 @@ MAX_HORIZON_STEPS = 336
 """Longest MPC horizon a registered building may ask for (one week of periods)."""
 MAX_TIME_LIMIT_S = 60.0
 """Largest solver time limit per plan [s] (a plan answers an HTTP request)."""
-
-
-class ConflictError(InputError):
-    """The request contradicts what is stored (e.g. a different measurement for a period)."""
 
 
 class NotFoundError(InputError):
