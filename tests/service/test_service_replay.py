@@ -22,15 +22,18 @@ from hvacflex.service.replay import ServiceError, replay
 from hvacflex.sim.closed_loop import read_results, run_simulation
 
 DAYS = 1.0
-KILL_AFTER_PLANS = 15
-"""Plans acknowledged before the kill: the scenario's IL event starts at period 14, so the
-server is killed during the event or its recovery."""
+KILL_AFTER_PLANS = 30
+"""Plans acknowledged before the kill: the scenario's IL event runs over periods 29–33, so
+the server is killed during the event."""
+SETTINGS = {"seed": 25, "activation.mode": "stress", "activation.duration_steps": 6}
+"""``stress`` activations up to 6 periods long: with seed 25 one event on the day, periods
+29–33 (14:30–17:00, reserve offered), longer than D = 4, so the event start, its locked
+periods, a period beyond the model and the recovery are all compared."""
 
 
 def _config() -> Any:
-    """``rmpc`` (IL event model, D = 4, R = 2) with the ``stress`` activations of its seed:
-    one event on the day, so the event semantics are compared, not only plain periods."""
-    return with_overrides(preset("rmpc", start=START, days=DAYS), {"activation.mode": "stress"})
+    """``rmpc`` (IL event model, D = 4, R = 2) with one IL event on the day."""
+    return with_overrides(preset("rmpc", start=START, days=DAYS), SETTINGS)
 
 
 @pytest.fixture(scope="module")
@@ -70,12 +73,13 @@ def test_replay_writes_the_files_of_simulate_and_equals_it(reference: dict[str, 
         _comparable(replayed), _comparable(simulated), check_exact=False, rtol=1e-9, atol=1e-9
     )
     assert not replayed["fallback"].any()
-    # the day has an IL event: its start, locked periods (no solve) and recovery
-    assert replayed["il_activated"].any() and replayed["il_curtailed"].any()
+    # the day has an IL event: its start, locked periods (no solve), beyond D, recovery
+    assert replayed["il_curtailed"].any() and replayed["il_beyond_model"].any()
+    assert replayed.loc[replayed["il_curtailed"], "reserve_kw"].sum() > 0
     assert (replayed["solve_status"] == "event-plan").any()
     assert (replayed["il_event_window"] & ~replayed["il_curtailed"]).any()  # recovery
     roles = {plan["il_role"] for plan in reference["replay"].plans}
-    assert {"served", "event-start", "event-locked"} <= roles
+    assert {"served", "event-start", "event-locked", "beyond-model"} <= roles
     summary = reference["replay"].summary
     assert summary["energy_kwh"] == pytest.approx(float(simulated["power_kw"].sum()) * 0.5)
 
