@@ -121,8 +121,9 @@ class PlanRow(Base):
 
 
 class ControllerState(Base):
-    """What a building's controller needs to continue warm-started (pickled, trusted:
-    written only by this service)."""
+    """What a building's controller needs to continue warm-started, and its IL event state
+    (:meth:`hvacflex.service.periods.PeriodStepper.get_state`; pickled, trusted: written only
+    by this service)."""
 
     __tablename__ = "controller_state"
     building_id: Mapped[str] = mapped_column(ForeignKey("buildings.building_id"), primary_key=True)

@@ -288,7 +288,15 @@ class Runtime:
         runtime = _building_runtime(building_id, setup)
         stored = session.get(ControllerState, building_id)
         if stored is not None:
-            runtime.periods.set_state(runtime.controller, pickle.loads(stored.state))
+            state = pickle.loads(stored.state)
+            if "events" not in state:  # stored before the event model: the controller's alone
+                state = {
+                    "period": stored.period,
+                    "before": None,
+                    "controller": state,
+                    "events": runtime.periods.tracker.get_state(),
+                }
+            runtime.periods.set_state(runtime.controller, state)
         with self._lock:
             self._buildings.setdefault(building_id, runtime)
             return self._buildings[building_id]
@@ -372,8 +380,14 @@ class Runtime:
     def plan(
         self, session: Session, runtime: BuildingRuntime, k: int, x_degc: np.ndarray, trigger: str
     ) -> dict[str, Any]:
-        """Run the controller for period k from state ``x_degc`` and store the plan (the
-        caller commits). The controller's state is stored with it."""
+        """Plan period k from the node temperatures ``x_degc`` (n,) [°C] under the IL event
+        model (:class:`~hvacflex.service.periods.PeriodStepper`) and store the plan (the
+        caller commits); the controller's and the event state are stored with it.
+
+        Raises
+        ------
+        ConflictError : k is before the building's latest planned period.
+        """
         setup = runtime.setup
         peak = self.latest_signal(session, "peak_price")
         if peak is not None:
