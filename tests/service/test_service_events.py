@@ -134,3 +134,46 @@ def test_plans_only_go_forward(app: tuple[TestClient, str, str]) -> None:
     body = {"time": f"{START}T09:00", "node_temperatures_degc": [24.5] * _nodes(client, key)}
     response = client.post("/v1/buildings/e1/measurements", json=body, headers={"X-API-Key": key})
     assert response.status_code == 409 and "latest planned period" in response.json()["message"]
+
+
+def test_output_feedback_building_holds_its_filter_through_the_event(
+    app: tuple[TestClient, str, str],
+) -> None:
+    """``rmpc-output-feedback``: the filter reads the zones of the posted state; in locked
+    periods the controller only holds (filter step, no solve), also across a restart."""
+    client, operator_key, _key = app
+    op = {"X-API-Key": operator_key}
+    body = registration("k1")
+    body["scenario"]["preset"] = "rmpc-output-feedback"
+    response = client.post("/v1/buildings", json=body, headers=op)
+    assert response.status_code == 201, response.text
+    key, nodes = response.json()["payload"]["key"], len(response.json()["payload"]["nodes"])
+
+    def measure(time: str) -> dict[str, Any]:
+        payload = {"time": f"{START}T{time}", "node_temperatures_degc": [24.5] * nodes}
+        answer = client.post(
+            "/v1/buildings/k1/measurements", json=payload, headers={"X-API-Key": key}
+        )
+        assert answer.status_code == 200, answer.text
+        plan: dict[str, Any] = answer.json()["payload"]
+        return plan
+
+    assert measure("16:00")["status"] == "optimal"
+    started = client.post(
+        "/v1/activations",
+        json={"event": "start", "time": f"{START}T16:00", "building_ids": ["k1"]},
+        headers=op,
+    )
+    assert [p["il_role"] for p in started.json()["payload"]["plans"]] == ["event-start"]
+    assert measure("16:30")["il_role"] == "event-locked"
+    client.app.state.runtime.evict("k1")  # type: ignore[attr-defined]
+    locked = measure("17:00")
+    assert locked["il_role"] == "event-locked" and locked["solve_time_s"] == 0.0
+    client.post(
+        "/v1/activations",
+        json={"event": "end", "time": f"{START}T17:30", "building_ids": ["k1"]},
+        headers=op,
+    )
+    recovery = measure("17:30")
+    assert recovery["il_role"] == "served" and recovery["status"] == "optimal"
+    assert recovery["il_event_window"]
