@@ -425,5 +425,88 @@ def reproduce(
         raise typer.Exit(1)
 
 
+serve_app = typer.Typer(
+    help="The live service: `hvacflex serve` runs it; `key create` and `replay` use it.",
+    invoke_without_command=True,
+)
+app.add_typer(serve_app, name="serve")
+serve_key_app = typer.Typer(help="API keys of the service.", no_args_is_help=True)
+serve_app.add_typer(serve_key_app, name="key")
+
+_DB_HELP = "Database URL: sqlite:///FILE (default) or postgresql+psycopg://USER@HOST/DB."
+
+
+@serve_app.callback()
+def serve(
+    ctx: typer.Context,
+    db: str = typer.Option("sqlite:///hvacflex-service.db", "--db", help=_DB_HELP),
+    host: str = typer.Option("127.0.0.1", help="Address to listen on."),
+    port: int = typer.Option(8000, min=1, max=65535, help="Port to listen on."),
+    wall_clock: bool = typer.Option(
+        False, help="Also plan at each wall-clock 30-min boundary (else: POST /v1/clock)."
+    ),
+) -> None:
+    """Run the HTTP service (API under /v1, OpenAPI at /v1/openapi.json)."""
+    if ctx.invoked_subcommand is not None:
+        return
+    import uvicorn
+
+    from hvacflex.errors import HvacflexError
+    from hvacflex.service.app import create_app
+
+    try:
+        service = create_app(db, wall_clock=wall_clock)
+    except HvacflexError as exc:
+        typer.echo(f"error: {exc}", err=True)
+        raise typer.Exit(2) from None
+    uvicorn.run(service, host=host, port=port, log_level="warning")
+
+
+@serve_key_app.command("create")
+def serve_key_create(
+    role: str = typer.Option(..., help="operator or building."),
+    building: str | None = typer.Option(None, help="The building of a building key."),
+    db: str = typer.Option("sqlite:///hvacflex-service.db", "--db", help=_DB_HELP),
+) -> None:
+    """Create an API key and print it (only its hash is stored)."""
+    from hvacflex.errors import HvacflexError
+    from hvacflex.service.db import make_engine, migrate, session_factory
+    from hvacflex.service.keys import create_key
+
+    try:
+        engine = make_engine(db)
+        migrate(engine)
+        with session_factory(engine)() as session, session.begin():
+            key = create_key(session, role, building)
+    except HvacflexError as exc:
+        typer.echo(f"error: {exc}", err=True)
+        raise typer.Exit(2) from None
+    typer.echo(key)
+
+
+@serve_app.command("replay")
+def serve_replay(
+    url: str = typer.Option(..., help="The service, e.g. http://127.0.0.1:8000."),
+    key: str = typer.Option(..., help="An operator key (registers the building)."),
+    scenario: str = typer.Option("rmpc", help="Preset of the scenario."),
+    config: Path | None = typer.Option(None, help="Scenario TOML file (overrides --scenario)."),  # noqa: B008
+    start: str | None = typer.Option(None, help="First day, e.g. 2014-03-03."),
+    days: float | None = typer.Option(None, help="Number of days.", callback=_check_days),
+    out: Path = typer.Option(Path("results/replay"), help="Output folder."),  # noqa: B008
+    building_id: str = typer.Option("replay", "--building", help="Id to register under."),
+) -> None:
+    """Play the nonlinear plant as a building over HTTP; writes the files of `simulate`."""
+    from hvacflex.errors import HvacflexError
+    from hvacflex.service.replay import replay
+
+    try:
+        cfg = _scenario_config(scenario, config, start, days)
+        result = replay(url, key, cfg, out, building_id=building_id)
+    except HvacflexError as exc:
+        typer.echo(f"error: {exc}", err=True)
+        raise typer.Exit(2) from None
+    typer.echo(_run_summary_line(cfg.name, result.summary, result.out_dir / "results.parquet"))
+
+
 if __name__ == "__main__":
     app()

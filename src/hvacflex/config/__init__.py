@@ -103,6 +103,7 @@ __all__ = [
     "UncertaintyConfig",
     "load_config",
     "preset",
+    "resolve_key",
     "scaled_uncertainty",
     "scenario_error",
     "with_overrides",
@@ -196,7 +197,7 @@ def with_overrides(cfg: ScenarioConfig, overrides: Mapping[str, Any]) -> Scenari
     """
     data = cfg.to_dict()
     for key, value in overrides.items():
-        path = _resolve_key(key)
+        path = resolve_key(key)
         node = data
         for part in path[:-1]:
             node = node[part]
@@ -272,7 +273,14 @@ def _leaf_paths(obj: Any, prefix: tuple[str, ...] = ()) -> list[tuple[str, ...]]
     return out
 
 
-def _resolve_key(key: str) -> tuple[str, ...]:
+def resolve_key(key: str) -> tuple[str, ...]:
+    """The dotted path of a setting given by its path or a unique leaf name
+    (``"peak_price_sgd_per_kw"`` → ``("controller", "peak_price_sgd_per_kw")``).
+
+    Raises
+    ------
+    ConfigError : no such setting, or a leaf name that several sections share.
+    """
     leaves = _leaf_paths(ScenarioConfig())
     dotted = tuple(key.split("."))
     if dotted in leaves:

@@ -121,9 +121,11 @@ class Setup:
         return tuple(self.building.zone_names)
 
 
-def prepare(config: ScenarioConfig) -> Setup:
-    """Load the building and data and build the linear model for ``config``."""
-    building = load_building(resolve_building(config.building))
+def prepare(config: ScenarioConfig, building: Building | None = None) -> Setup:
+    """Load the building and data and build the linear model for ``config`` (``building``:
+    a description received as content, e.g. by the service, instead of ``config.building``)."""
+    if building is None:
+        building = load_building(resolve_building(config.building))
     temp_ref = config.controller.linearisation_temp_degc
     if temp_ref is None:
         temp_ref = config.comfort.occupied_degc[1] - LINEARISATION_MARGIN_K

@@ -1,0 +1,566 @@
+"""The FastAPI app: a versioned JSON API under ``/v1`` in one envelope ``{status, message,
+payload}``; every route but ``/v1/health`` needs an ``X-API-Key``.
+
+Roles (see :mod:`.keys`): ``operator`` registers buildings, posts prices, the peak-power
+price, the feeder limit, IL activations and the clock, and reads every plan and the
+aggregate bid; ``building`` posts its own measurements and reads its own plan. A building key
+gets 403 on any other building. Every mutating request is written to the ``audit`` table
+(who, when, what) before its response is sent.
+"""
+
+import hashlib
+import json
+import threading
+from collections.abc import Awaitable, Callable, MutableMapping
+from typing import Annotated, Any
+
+import pandas as pd
+from fastapi import Depends, FastAPI, HTTPException, Query, Request
+from fastapi.exceptions import RequestValidationError
+from fastapi.responses import JSONResponse
+from fastapi.security import APIKeyHeader
+from sqlalchemy import select
+from sqlalchemy.orm import Session, sessionmaker
+
+from hvacflex import __version__
+from hvacflex.errors import HvacflexError, InputError
+from hvacflex.service.db import (
+    DEFAULT_DB_URL,
+    Activation,
+    AuditEntry,
+    ServiceClock,
+    Signal,
+    make_engine,
+    migrate,
+    session_factory,
+)
+from hvacflex.service.keys import KeyVerifier, Principal, create_key
+from hvacflex.service.periods import ConflictError
+from hvacflex.service.runtime import NotFoundError, Runtime, to_local
+from hvacflex.service.schemas import (
+    ENERGY_PRICE_LIMIT_SGD_PER_MWH,
+    ActivationIn,
+    AuditRecord,
+    Bid,
+    BidBuilding,
+    BuildingInfo,
+    ClockIn,
+    Envelope,
+    ErrorEnvelope,
+    FeederLimitIn,
+    Health,
+    MeasurementIn,
+    PeakPriceIn,
+    Plan,
+    PlanList,
+    PricesIn,
+    RegisterBuilding,
+    Registered,
+    Stored,
+)
+
+MAX_BODY_BYTES = 1 << 20
+"""Largest request body accepted (1 MiB); larger ones get 413."""
+AUDIT_BODY_HEAD = 2000
+"""Characters of a mutating request's body kept in the audit table."""
+API_KEY_HEADER = "X-API-Key"
+
+Scope = MutableMapping[str, Any]
+Message = MutableMapping[str, Any]
+Receive = Callable[[], Awaitable[Message]]
+Send = Callable[[Message], Awaitable[None]]
+ASGIApp = Callable[[Scope, Receive, Send], Awaitable[None]]
+
+_ERRORS: dict[int | str, dict[str, Any]] = {
+    code: {"model": ErrorEnvelope, "description": text}
+    for code, text in (
+        (401, "No key, or an unknown key"),
+        (403, "The key's role or building does not allow this"),
+        (404, "No such building or plan"),
+        (409, "Conflicts with what is stored"),
+        (413, "Body too large"),
+        (422, "Invalid input; the message names the field"),
+    )
+}
+
+
+def _envelope(status: int, message: str, payload: Any = None) -> JSONResponse:
+    return JSONResponse({"status": status, "message": message, "payload": payload}, status)
+
+
+class BodyLimitAndAudit:
+    """ASGI middleware: refuse bodies over ``MAX_BODY_BYTES`` (413) and write an audit row
+    for every mutating request before its response starts."""
+
+    def __init__(self, app: ASGIApp, sessions: sessionmaker[Session]) -> None:
+        self.app = app
+        self.sessions = sessions
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] != "http":
+            await self.app(scope, receive, send)
+            return
+        headers = dict(scope.get("headers") or [])
+        length = headers.get(b"content-length")
+        if length is not None and (not length.isdigit() or int(length) > MAX_BODY_BYTES):
+            await _envelope(413, f"body larger than {MAX_BODY_BYTES} bytes")(scope, receive, send)
+            return
+        mutating = scope["method"] in ("POST", "PUT", "PATCH", "DELETE")
+        body = bytearray()
+
+        async def limited_receive() -> Message:
+            message = await receive()
+            if message["type"] == "http.request":
+                body.extend(message.get("body", b""))
+                if len(body) > MAX_BODY_BYTES:
+                    raise HTTPException(413, f"body larger than {MAX_BODY_BYTES} bytes")
+            return message
+
+        async def audited_send(message: Message) -> None:
+            if mutating and message["type"] == "http.response.start":
+                self._audit(scope, bytes(body), int(message["status"]))
+            await send(message)
+
+        await self.app(scope, limited_receive, audited_send)
+
+    def _audit(self, scope: Scope, body: bytes, status: int) -> None:
+        principal = scope.get("state", {}).get("principal")
+        with self.sessions() as session, session.begin():
+            session.add(
+                AuditEntry(
+                    key_id=principal.key_id if principal else None,
+                    role=principal.role if principal else None,
+                    method=scope["method"],
+                    path=str(scope["path"])[:512],
+                    status_code=status,
+                    body_sha256=hashlib.sha256(body).hexdigest(),
+                    body_head=body[:AUDIT_BODY_HEAD].decode("utf-8", "replace"),
+                )
+            )
+
+
+def start_wall_clock(runtime: Runtime, poll_s: float = 10.0) -> threading.Event:
+    """A daemon thread that runs the 30-min boundary trigger at each wall-clock boundary
+    (Singapore time); set the returned event to stop it."""
+    stop = threading.Event()
+
+    def tick() -> None:
+        last: pd.Timestamp | None = None
+        while not stop.wait(poll_s):
+            now = pd.Timestamp.now(tz="Asia/Singapore").floor("30min")
+            if now != last:
+                last = now
+                runtime.boundary(now.to_pydatetime())
+
+    threading.Thread(target=tick, name="hvacflex-wall-clock", daemon=True).start()
+    return stop
+
+
+def create_app(db_url: str = DEFAULT_DB_URL, *, wall_clock: bool = False) -> FastAPI:
+    """The service app on the database at ``db_url`` (migrated to the newest schema).
+
+    ``wall_clock`` runs the 30-min boundary trigger on the wall clock as well (buildings
+    whose scenario covers today); otherwise the operator drives it with ``POST /v1/clock``.
+    """
+    engine = make_engine(db_url)
+    migrate(engine)
+    sessions = session_factory(engine)
+    runtime = Runtime(sessions)
+    app = FastAPI(
+        title="hvacflex service",
+        version=__version__,
+        description="Prices and activations in, plans and reserve bids out. See docs/service.md.",
+        openapi_url="/v1/openapi.json",
+        docs_url="/v1/docs",
+        redoc_url=None,
+    )
+    app.state.sessions = sessions
+    app.state.runtime = runtime
+    app.state.engine = engine
+    if wall_clock:
+        app.state.wall_clock_stop = start_wall_clock(runtime)
+    _error_handlers(app)
+    auth = _Auth(sessions)
+    _building_routes(app, runtime, auth)
+    _signal_routes(app, runtime, auth)
+    _operator_routes(app, runtime, auth)
+    app.add_middleware(BodyLimitAndAudit, sessions=sessions)
+    return app
+
+
+def _error_handlers(app: FastAPI) -> None:
+    """Every error in the envelope; the project's input errors as 4xx naming the field."""
+
+    @app.exception_handler(HTTPException)
+    async def _http_error(_request: Request, exc: HTTPException) -> JSONResponse:
+        response = _envelope(exc.status_code, str(exc.detail))
+        if exc.headers:
+            response.headers.update(exc.headers)
+        return response
+
+    @app.exception_handler(RequestValidationError)
+    async def _validation_error(_request: Request, exc: RequestValidationError) -> JSONResponse:
+        errors = [
+            {"field": ".".join(str(p) for p in e.get("loc", ())), "message": str(e.get("msg"))}
+            for e in exc.errors()
+        ]
+        first = errors[0] if errors else {"field": "body", "message": "invalid"}
+        more = f" (and {len(errors) - 1} more)" if len(errors) > 1 else ""
+        return _envelope(422, f"field '{first['field']}': {first['message']}{more}", errors)
+
+    @app.exception_handler(HvacflexError)
+    async def _input_error(_request: Request, exc: HvacflexError) -> JSONResponse:
+        status = (
+            409
+            if isinstance(exc, ConflictError)
+            else 404
+            if isinstance(exc, NotFoundError)
+            else 422
+        )
+        field = exc.field if isinstance(exc, InputError) else None
+        return _envelope(
+            status, str(exc), [{"field": field, "message": str(exc)}] if field else None
+        )
+
+    @app.exception_handler(Exception)
+    async def _server_error(_request: Request, exc: Exception) -> JSONResponse:
+        return _envelope(500, f"internal error ({type(exc).__name__})")
+
+
+_API_KEY = APIKeyHeader(name=API_KEY_HEADER, auto_error=False)
+
+
+class _Auth:
+    """The key checks, as FastAPI dependencies."""
+
+    def __init__(self, sessions: sessionmaker[Session]) -> None:
+        self.sessions = sessions
+        self.verifier = KeyVerifier()
+
+    def principal(
+        self, request: Request, key: Annotated[str | None, Depends(_API_KEY)]
+    ) -> Principal:
+        if not key:
+            raise HTTPException(401, f"missing {API_KEY_HEADER} header")
+        with self.sessions() as session:
+            who = self.verifier.verify(session, key)
+        if who is None:
+            raise HTTPException(401, "unknown or revoked key")
+        request.state.principal = who
+        return who
+
+
+def _roles(auth: _Auth) -> tuple[Any, Any, Any]:
+    """The dependencies operator, building reader and building writer."""
+
+    def operator(who: Annotated[Principal, Depends(auth.principal)]) -> Principal:
+        if who.role != "operator":
+            raise HTTPException(403, "this route needs an operator key")
+        return who
+
+    def building_reader(
+        building_id: str, who: Annotated[Principal, Depends(auth.principal)]
+    ) -> Principal:
+        if who.role == "building" and who.building_id != building_id:
+            raise HTTPException(403, "a building key reads only its own building")
+        return who
+
+    def building_writer(
+        building_id: str, who: Annotated[Principal, Depends(auth.principal)]
+    ) -> Principal:
+        if who.role != "building":
+            raise HTTPException(403, "measurements are posted with the building's own key")
+        if who.building_id != building_id:
+            raise HTTPException(403, "a building key writes only its own building")
+        return who
+
+    return operator, building_reader, building_writer
+
+
+def _building_routes(app: FastAPI, runtime: Runtime, auth: _Auth) -> None:
+    """Health, registration, buildings, measurements and plans."""
+    sessions, engine = runtime.sessions, app.state.engine
+    operator, building_reader, building_writer = _roles(auth)
+    Operator = Annotated[Principal, Depends(operator)]
+
+    @app.get("/v1/health", tags=["service"])
+    def health() -> Envelope[Health]:
+        """Liveness and the database in use (no key needed)."""
+        with sessions() as session:
+            session.execute(select(1))
+        payload = Health(service="hvacflex", version=__version__, database=engine.dialect.name)
+        return Envelope(status=200, message="ok", payload=payload)
+
+    @app.post("/v1/buildings", tags=["operator"], responses=_ERRORS, status_code=201)
+    def register(body: RegisterBuilding, who: Operator) -> Envelope[Registered]:
+        """Register a building from its description and scenario settings (content only);
+        the response carries the building's key, shown this once."""
+        with sessions() as session, session.begin():
+            built = runtime.register(
+                session, body.building_id, body.building, body.scenario, who.key_id
+            )
+            key = create_key(session, "building", body.building_id)
+        info = _info(built, body)
+        payload = Registered(key=key, **info.model_dump(exclude={"scenario"}))
+        return Envelope(status=201, message="registered", payload=payload)
+
+    def _info(built: Any, body: RegisterBuilding) -> BuildingInfo:
+        return BuildingInfo(
+            building_id=built.building_id,
+            start=built.time_of(0),
+            steps=built.steps,
+            zones=list(built.setup.zone_names),
+            nodes=list(built.setup.model.node_names),
+            scenario=body.scenario.model_dump(),
+        )
+
+    @app.get("/v1/buildings", tags=["operator"], responses=_ERRORS)
+    def list_buildings(_who: Operator) -> Envelope[list[str]]:
+        """Every registered building."""
+        with sessions() as session:
+            ids = runtime.building_ids(session)
+        return Envelope(status=200, message=f"{len(ids)} buildings", payload=ids)
+
+    @app.get("/v1/buildings/{building_id}", tags=["building"], responses=_ERRORS)
+    def get_building(
+        building_id: str, _who: Annotated[Principal, Depends(building_reader)]
+    ) -> Envelope[BuildingInfo]:
+        """The building's periods, zones and nodes (operator, or the building itself)."""
+        from hvacflex.service.db import BuildingRow
+
+        with sessions() as session:
+            built = runtime.get(session, building_id)
+            row = session.get(BuildingRow, building_id)
+        assert row is not None
+        scenario = json.loads(row.scenario_json)
+        info = BuildingInfo(
+            building_id=building_id,
+            start=built.time_of(0),
+            steps=built.steps,
+            zones=list(built.setup.zone_names),
+            nodes=list(built.setup.model.node_names),
+            scenario=scenario,
+        )
+        return Envelope(status=200, message="ok", payload=info)
+
+    @app.post("/v1/buildings/{building_id}/measurements", tags=["building"], responses=_ERRORS)
+    def post_measurement(
+        building_id: str,
+        body: MeasurementIn,
+        _who: Annotated[Principal, Depends(building_writer)],
+    ) -> Envelope[Plan]:
+        """The building's state at a period start; plans that period at once and returns the
+        plan. The same measurement twice is stored once (the stored plan is returned)."""
+        plan, new = runtime.measurement(building_id, body)
+        message = "planned" if new else "measurement already stored; stored plan"
+        return Envelope(status=200, message=message, payload=Plan(**plan))
+
+    @app.get("/v1/buildings/{building_id}/plan", tags=["building"], responses=_ERRORS)
+    def get_plan(
+        building_id: str,
+        _who: Annotated[Principal, Depends(building_reader)],
+        period: Annotated[int | None, Query(ge=0, le=1_000_000)] = None,
+    ) -> Envelope[Plan]:
+        """The latest plan (of ``period`` if given)."""
+        with sessions() as session:
+            runtime.get(session, building_id)
+            plan = runtime.latest_plan(session, building_id, period)
+        if plan is None:
+            raise HTTPException(404, "no plan yet")
+        return Envelope(status=200, message="ok", payload=Plan(**plan))
+
+    @app.get("/v1/plans", tags=["operator"], responses=_ERRORS)
+    def all_plans(_who: Operator) -> Envelope[PlanList]:
+        """Every building's latest plan."""
+        with sessions() as session:
+            plans = [runtime.latest_plan(session, b) for b in runtime.building_ids(session)]
+        out = [Plan(**p) for p in plans if p is not None]
+        return Envelope(status=200, message=f"{len(out)} plans", payload=PlanList(plans=out))
+
+
+def _signal_routes(app: FastAPI, runtime: Runtime, auth: _Auth) -> None:
+    """Prices, the peak-power price, the feeder limit, activations and the clock."""
+    sessions = runtime.sessions
+    Operator = Annotated[Principal, Depends(_roles(auth)[0])]
+
+    def _store_signal(kind: str, body: dict[str, Any]) -> Stored:
+        with sessions() as session, session.begin():
+            row = Signal(kind=kind, body_json=json.dumps(body))
+            session.add(row)
+            session.flush()
+            return Stored(id=row.id, kind=kind)
+
+    @app.post("/v1/signals/prices", tags=["operator"], responses=_ERRORS)
+    def post_prices(body: PricesIn, _who: Operator) -> Envelope[Stored]:
+        """Energy (and reserve) prices of consecutive periods from ``start``; they replace
+        the shipped prices in every building's forecast from the next plan on."""
+        start = to_local(body.start)
+        if start != start.floor("30min"):
+            raise InputError("must be a 30-min period start", field="start", value=str(start))
+        _check_prices(body)
+        stored = _store_signal(
+            "prices",
+            {
+                "start_utc": start.tz_convert("UTC").isoformat(),
+                "energy_price_sgd_per_mwh": body.energy_price_sgd_per_mwh,
+                "reserve_price_sgd_per_mwh": body.reserve_price_sgd_per_mwh,
+            },
+        )
+        return Envelope(status=200, message="stored", payload=stored)
+
+    @app.post("/v1/signals/peak-price", tags=["operator"], responses=_ERRORS)
+    def post_peak_price(body: PeakPriceIn, _who: Operator) -> Envelope[Stored]:
+        """The peak-power price φ [SGD/kW] every building plans with from now on."""
+        stored = _store_signal("peak_price", body.model_dump())
+        return Envelope(status=200, message="stored", payload=stored)
+
+    @app.post("/v1/signals/feeder-limit", tags=["operator"], responses=_ERRORS)
+    def post_feeder_limit(body: FeederLimitIn, _who: Operator) -> Envelope[Stored]:
+        """The feeder limit [kW] the aggregate bid is checked against."""
+        stored = _store_signal("feeder_limit", body.model_dump())
+        return Envelope(status=200, message="stored", payload=stored)
+
+    @app.post("/v1/activations", tags=["operator"], responses=_ERRORS)
+    def post_activation(body: ActivationIn, _who: Operator) -> Envelope[PlanList]:
+        """IL activation start or end; the affected buildings' current plans change at once
+        (the plans re-issued are returned)."""
+        time = to_local(body.time)
+        with sessions() as session, session.begin():
+            known = set(runtime.building_ids(session))
+            targets = sorted(known) if body.building_ids is None else body.building_ids
+            for i, building_id in enumerate(targets):
+                if building_id not in known:
+                    raise NotFoundError(
+                        "no such building", field=f"building_ids[{i}]", value=building_id
+                    )
+            for building_id in body.building_ids or [None]:  # type: ignore[list-item]
+                session.add(
+                    Activation(
+                        building_id=building_id,
+                        event=body.event,
+                        time_utc=time.tz_convert("UTC").isoformat(),
+                    )
+                )
+        plans = runtime.activation(targets)
+        payload = PlanList(plans=[Plan(**p) for p in plans])
+        return Envelope(
+            status=200, message=f"{body.event}: {len(plans)} plans changed", payload=payload
+        )
+
+    @app.post("/v1/clock", tags=["operator"], responses=_ERRORS)
+    def post_clock(body: ClockIn, _who: Operator) -> Envelope[PlanList]:
+        """Advance the service clock; each building without a plan for the period that now
+        starts is planned on its latest measurement (the 30-min boundary trigger)."""
+        time = to_local(body.time)
+        with sessions() as session, session.begin():
+            row = session.get(ServiceClock, 1)
+            if row is None:
+                session.add(ServiceClock(id=1, time_utc=time.tz_convert("UTC").isoformat()))
+            else:
+                row.time_utc = time.tz_convert("UTC").isoformat()
+        plans = runtime.boundary(body.time)
+        payload = PlanList(plans=[Plan(**p) for p in plans])
+        return Envelope(status=200, message=f"{len(plans)} plans made", payload=payload)
+
+
+def _operator_routes(app: FastAPI, runtime: Runtime, auth: _Auth) -> None:
+    """The aggregate bid and the audit trail."""
+    sessions = runtime.sessions
+    Operator = Annotated[Principal, Depends(_roles(auth)[0])]
+
+    @app.get("/v1/bid", tags=["operator"], responses=_ERRORS)
+    def aggregate_bid(_who: Operator) -> Envelope[Bid]:
+        """The sum over every building's latest plan: reserve offered and planned power per
+        period start, and whether the planned power exceeds the feeder limit."""
+        with sessions() as session:
+            plans = [runtime.latest_plan(session, b) for b in runtime.building_ids(session)]
+            feeder = runtime.latest_signal(session, "feeder_limit")
+        reserve: dict[str, float] = {}
+        power: dict[str, float] = {}
+        members: list[BidBuilding] = []
+        for plan in plans:
+            if plan is None:
+                continue
+            members.append(
+                BidBuilding(
+                    building_id=plan["building_id"],
+                    period=plan["period"],
+                    time=plan["time"],
+                    reserve_kw=plan["reserve_kw"],
+                    planned_power_kw=plan["planned_power_kw"],
+                )
+            )
+            for t, r, p in zip(
+                plan["horizon_time"],
+                plan["horizon_reserve_kw"],
+                plan["horizon_power_kw"],
+                strict=False,
+            ):
+                key = to_local_iso(t)
+                reserve[key] = reserve.get(key, 0.0) + (r or 0.0)
+                power[key] = power.get(key, 0.0) + (p or 0.0)
+        times = sorted(reserve)
+        limit = None if feeder is None else float(feeder["limit_kw"])
+        bid = Bid(
+            time=times,
+            reserve_kw=[reserve[t] for t in times],
+            planned_power_kw=[power[t] for t in times],
+            buildings=members,
+            feeder_limit_kw=limit,
+            feeder_limit_exceeded=limit is not None and any(power[t] > limit for t in times),
+        )
+        return Envelope(status=200, message=f"{len(members)} buildings", payload=bid)
+
+    @app.get("/v1/audit", tags=["operator"], responses=_ERRORS)
+    def audit(
+        _who: Operator, limit: Annotated[int, Query(ge=1, le=1000)] = 100
+    ) -> Envelope[list[AuditRecord]]:
+        """The latest mutating requests, newest first."""
+        with sessions() as session:
+            rows = session.scalars(select(AuditEntry).order_by(AuditEntry.id.desc()).limit(limit))
+            records = [
+                AuditRecord(
+                    at=r.at.isoformat(),
+                    key_id=r.key_id,
+                    role=r.role,
+                    method=r.method,
+                    path=r.path,
+                    status_code=r.status_code,
+                    body_sha256=r.body_sha256,
+                )
+                for r in rows
+            ]
+        return Envelope(status=200, message=f"{len(records)} records", payload=records)
+
+
+def to_local_iso(text: str) -> str:
+    """An ISO time as Singapore-time ISO (so plans of different buildings line up)."""
+    from datetime import datetime
+
+    return str(to_local(datetime.fromisoformat(text)).isoformat())
+
+
+def _check_prices(body: PricesIn) -> None:
+    limit = ENERGY_PRICE_LIMIT_SGD_PER_MWH
+    for i, value in enumerate(body.energy_price_sgd_per_mwh):
+        if not -limit <= value <= limit:
+            raise InputError(
+                f"must be in [-{limit:g}, {limit:g}] SGD/MWh",
+                field=f"energy_price_sgd_per_mwh[{i}]",
+                value=value,
+            )
+    reserve = body.reserve_price_sgd_per_mwh
+    if reserve is not None:
+        if len(reserve) != len(body.energy_price_sgd_per_mwh):
+            raise InputError(
+                "must have as many periods as energy_price_sgd_per_mwh",
+                field="reserve_price_sgd_per_mwh",
+                value=len(reserve),
+            )
+        for i, value in enumerate(reserve):
+            if not 0.0 <= value <= limit:
+                raise InputError(
+                    f"must be in [0, {limit:g}] SGD/MWh",
+                    field=f"reserve_price_sgd_per_mwh[{i}]",
+                    value=value,
+                )

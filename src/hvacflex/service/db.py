@@ -1,0 +1,193 @@
+"""The service's tables (SQLAlchemy 2) and its database: SQLite by default, PostgreSQL by URL.
+
+The schema is created and upgraded by the Alembic migrations shipped in
+``hvacflex/service/migrations`` (run by :func:`migrate` when the service starts); the ORM
+classes here mirror them.
+"""
+
+from __future__ import annotations
+
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Any
+
+from sqlalchemy import (
+    Boolean,
+    DateTime,
+    Float,
+    ForeignKey,
+    Integer,
+    LargeBinary,
+    String,
+    Text,
+    UniqueConstraint,
+    create_engine,
+    event,
+)
+from sqlalchemy.engine import Engine
+from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column, sessionmaker
+
+DEFAULT_DB_URL = "sqlite:///hvacflex-service.db"
+"""An SQLite file in the working folder (embedded, no set-up)."""
+
+MIGRATIONS_DIR = Path(__file__).resolve().parent / "migrations"
+
+
+def utcnow() -> datetime:
+    """Now, timezone-aware UTC."""
+    return datetime.now(UTC)
+
+
+class Base(DeclarativeBase):
+    """Declarative base of the service tables."""
+
+
+class ApiKey(Base):
+    """An API key: the secret is stored only as a salted scrypt hash."""
+
+    __tablename__ = "api_keys"
+    key_id: Mapped[str] = mapped_column(String(32), primary_key=True)
+    role: Mapped[str] = mapped_column(String(16))
+    building_id: Mapped[str | None] = mapped_column(String(64), nullable=True)
+    salt_hex: Mapped[str] = mapped_column(String(64))
+    hash_hex: Mapped[str] = mapped_column(String(128))
+    created_at: Mapped[datetime] = mapped_column(DateTime(timezone=True), default=utcnow)
+    revoked: Mapped[bool] = mapped_column(Boolean, default=False)
+
+
+class BuildingRow(Base):
+    """A registered building: its description and scenario settings as received."""
+
+    __tablename__ = "buildings"
+    building_id: Mapped[str] = mapped_column(String(64), primary_key=True)
+    description_json: Mapped[str] = mapped_column(Text)
+    scenario_json: Mapped[str] = mapped_column(Text)
+    created_at: Mapped[datetime] = mapped_column(DateTime(timezone=True), default=utcnow)
+    created_by: Mapped[str] = mapped_column(String(32))
+
+
+class Measurement(Base):
+    """A building's measurement at the start of one period (one per building + period)."""
+
+    __tablename__ = "measurements"
+    __table_args__ = (UniqueConstraint("building_id", "period", name="uq_measurement_period"),)
+    id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
+    building_id: Mapped[str] = mapped_column(ForeignKey("buildings.building_id"), index=True)
+    period: Mapped[int] = mapped_column(Integer)
+    body_json: Mapped[str] = mapped_column(Text)
+    body_sha256: Mapped[str] = mapped_column(String(64))
+    previous_power_kw: Mapped[float | None] = mapped_column(Float, nullable=True)
+    received_at: Mapped[datetime] = mapped_column(DateTime(timezone=True), default=utcnow)
+
+
+class Signal(Base):
+    """An operator signal: ``prices``, ``peak_price`` or ``feeder_limit`` (append-only)."""
+
+    __tablename__ = "signals"
+    id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
+    kind: Mapped[str] = mapped_column(String(32), index=True)
+    body_json: Mapped[str] = mapped_column(Text)
+    created_at: Mapped[datetime] = mapped_column(DateTime(timezone=True), default=utcnow)
+
+
+class Activation(Base):
+    """An IL activation start or end, for one building or (``building_id`` NULL) all."""
+
+    __tablename__ = "activations"
+    id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
+    building_id: Mapped[str | None] = mapped_column(String(64), nullable=True, index=True)
+    event: Mapped[str] = mapped_column(String(8))
+    time_utc: Mapped[str] = mapped_column(String(40))
+    created_at: Mapped[datetime] = mapped_column(DateTime(timezone=True), default=utcnow)
+
+
+class PlanRow(Base):
+    """A stored plan; a new revision supersedes the earlier ones of the same period."""
+
+    __tablename__ = "plans"
+    __table_args__ = (
+        UniqueConstraint("building_id", "period", "revision", name="uq_plan_revision"),
+    )
+    id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
+    building_id: Mapped[str] = mapped_column(ForeignKey("buildings.building_id"), index=True)
+    period: Mapped[int] = mapped_column(Integer)
+    revision: Mapped[int] = mapped_column(Integer)
+    trigger: Mapped[str] = mapped_column(String(16))
+    status: Mapped[str] = mapped_column(String(32))
+    fallback: Mapped[bool] = mapped_column(Boolean)
+    objective_sgd: Mapped[float | None] = mapped_column(Float, nullable=True)
+    payload_json: Mapped[str] = mapped_column(Text)
+    created_at: Mapped[datetime] = mapped_column(DateTime(timezone=True), default=utcnow)
+
+
+class ControllerState(Base):
+    """What a building's controller needs to continue warm-started, and its IL event state
+    (:meth:`hvacflex.service.periods.PeriodStepper.get_state`; pickled, trusted: written only
+    by this service)."""
+
+    __tablename__ = "controller_state"
+    building_id: Mapped[str] = mapped_column(ForeignKey("buildings.building_id"), primary_key=True)
+    period: Mapped[int] = mapped_column(Integer)
+    state: Mapped[bytes] = mapped_column(LargeBinary)
+    updated_at: Mapped[datetime] = mapped_column(DateTime(timezone=True), default=utcnow)
+
+
+class ServiceClock(Base):
+    """The service clock set by the operator (one row; an accelerated or replayed clock)."""
+
+    __tablename__ = "service_clock"
+    id: Mapped[int] = mapped_column(Integer, primary_key=True)
+    time_utc: Mapped[str] = mapped_column(String(40))
+
+
+class AuditEntry(Base):
+    """One mutating request: who, when, what (method, path, status, body digest + head)."""
+
+    __tablename__ = "audit"
+    id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
+    at: Mapped[datetime] = mapped_column(DateTime(timezone=True), default=utcnow)
+    key_id: Mapped[str | None] = mapped_column(String(32), nullable=True)
+    role: Mapped[str | None] = mapped_column(String(16), nullable=True)
+    method: Mapped[str] = mapped_column(String(8))
+    path: Mapped[str] = mapped_column(String(512))
+    status_code: Mapped[int] = mapped_column(Integer)
+    body_sha256: Mapped[str] = mapped_column(String(64))
+    body_head: Mapped[str] = mapped_column(Text)
+
+
+def make_engine(url: str = DEFAULT_DB_URL) -> Engine:
+    """An engine for ``url``; SQLite gets WAL, ``synchronous=FULL`` (a committed write
+    survives a crash) and a busy timeout, and may be used from the server's threads."""
+    kwargs: dict[str, Any] = {}
+    is_sqlite = url.startswith("sqlite")
+    if is_sqlite:
+        kwargs["connect_args"] = {"check_same_thread": False, "timeout": 30}
+    engine = create_engine(url, **kwargs)
+    if is_sqlite:
+
+        @event.listens_for(engine, "connect")
+        def _pragmas(dbapi_connection: Any, _record: Any) -> None:
+            cursor = dbapi_connection.cursor()
+            cursor.execute("PRAGMA journal_mode=WAL")
+            cursor.execute("PRAGMA synchronous=FULL")
+            cursor.execute("PRAGMA foreign_keys=ON")
+            cursor.close()
+
+    return engine
+
+
+def migrate(engine: Engine) -> None:
+    """Bring the database to the newest schema with the shipped Alembic migrations."""
+    from alembic import command
+    from alembic.config import Config
+
+    cfg = Config()
+    cfg.set_main_option("script_location", str(MIGRATIONS_DIR))
+    with engine.begin() as connection:
+        cfg.attributes["connection"] = connection
+        command.upgrade(cfg, "head")
+
+
+def session_factory(engine: Engine) -> sessionmaker[Any]:
+    """Sessions bound to ``engine`` that keep loaded attributes after commit."""
+    return sessionmaker(engine, expire_on_commit=False)

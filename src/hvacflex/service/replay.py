@@ -1,0 +1,302 @@
+"""The replay client: a building played over HTTP by the nonlinear plant of ``simulate``.
+
+``hvacflex serve replay`` registers the building (operator key), then runs the closed loop of
+:mod:`hvacflex.sim.closed_loop` with a :class:`RemoteController` in place of the controller:
+each period it posts the scenario's IL activation starts and ends as the operator (the
+activation schedule of ``simulate``), then the measured node temperatures (and the previous
+period's power) as the building, and applies the plan the service returns to the nonlinear
+plant. The IL event model runs in the service (:mod:`hvacflex.service.periods`): the loop's
+own tracker is replaced by :class:`RemoteEvents`, which reports the period's role and outcome
+as the service decided them. The clock is accelerated: a period lasts as long as the service
+takes to plan it. The results files are those of ``simulate`` (``results.parquet``,
+``summary.json``, ``config.json``).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import urllib.error
+import urllib.request
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from hvacflex.config import ScenarioConfig, preset
+from hvacflex.control.base import Action, EventPlan, FloatArray
+from hvacflex.data.forecast import Forecast
+from hvacflex.errors import HvacflexError
+from hvacflex.kpi import RESULTS_FILENAME
+from hvacflex.paths import resolve_building
+from hvacflex.sim.closed_loop import (
+    CONFIG_FILE,
+    SUMMARY_FILE,
+    ClosedLoop,
+    prepare,
+    write_results,
+)
+from hvacflex.sim.events import EventTracker, PeriodOutcome, Role
+from hvacflex.version import atomic_write_text
+
+TIMEOUT_S = 120.0
+
+
+class ServiceError(HvacflexError):
+    """The service answered with an error (its status and message)."""
+
+    def __init__(self, status: int, message: str) -> None:
+        self.status = status
+        super().__init__(f"service answered {status}: {message}")
+
+
+@dataclass
+class Client:
+    """A minimal JSON client of the service (stdlib only; 127.0.0.1 in the tests)."""
+
+    url: str
+    key: str
+
+    def call(self, method: str, path: str, body: Any = None) -> Any:
+        """The ``payload`` of the envelope; raises :class:`ServiceError` on 4xx/5xx."""
+        data = None if body is None else json.dumps(body).encode()
+        request = urllib.request.Request(
+            self.url.rstrip("/") + path,
+            data=data,
+            method=method,
+            headers={"X-API-Key": self.key, "Content-Type": "application/json"},
+        )
+        try:
+            with urllib.request.urlopen(request, timeout=TIMEOUT_S) as response:
+                envelope = json.loads(response.read())
+        except urllib.error.HTTPError as exc:
+            try:
+                message = json.loads(exc.read()).get("message", "")
+            except (ValueError, AttributeError):
+                message = exc.reason
+            raise ServiceError(exc.code, str(message)) from None
+        return envelope["payload"]
+
+
+def _nan(values: Any) -> FloatArray:
+    return np.array([math.nan if v is None else float(v) for v in values], dtype=float)
+
+
+def action_from_plan(plan: dict[str, Any]) -> Action:
+    """The :class:`Action` a plan of the service stands for (flows in zone order)."""
+    return Action(
+        flow_kg_s=_nan(plan["flow_kg_s"]),
+        reserve_flow_kg_s=_nan(plan["reserve_flow_kg_s"]),
+        reserve_kw=float(plan["reserve_kw"]),
+        planned_power_kw=math.nan if plan["planned_power_kw"] is None else plan["planned_power_kw"],
+        status=str(plan["status"]),
+        fallback=bool(plan["fallback"]),
+        solve_time_s=float(plan["solve_time_s"]),
+        planned_slack_max_k=_none_nan(plan["planned_slack_max_k"]),
+        delta_max_k=_none_nan(plan["delta_max_k"]),
+        predicted_served_degc=_nan(plan["predicted_served_degc"]),
+        predicted_curtailed_degc=_nan(plan["predicted_curtailed_degc"]),
+    )
+
+
+def _none_nan(value: Any) -> float:
+    return math.nan if value is None else float(value)
+
+
+class RemoteController:
+    """A controller that asks the service: posts the measurement, returns its plan."""
+
+    def __init__(
+        self,
+        client: Client,
+        building_id: str,
+        on_plan: Callable[[dict[str, Any]], None] | None = None,
+    ) -> None:
+        self.client = client
+        self.building_id = building_id
+        self.on_plan = on_plan
+        self.previous_power_kw: float | None = None
+        self.plans: list[dict[str, Any]] = []
+        self.pending: dict[str, Any] | None = None
+        """The plan of the period being played, once posted and not yet applied."""
+
+    def exchange(self, x_degc: FloatArray, time: str) -> dict[str, Any]:
+        """Post the measurement of the period starting at ``time``; the service's plan."""
+        body = {
+            "time": time,
+            "node_temperatures_degc": [float(v) for v in x_degc],
+            "previous_power_kw": self.previous_power_kw,
+        }
+        plan: dict[str, Any] = self.client.call(
+            "POST", f"/v1/buildings/{self.building_id}/measurements", body
+        )
+        self.plans.append(plan)
+        if self.on_plan is not None:
+            self.on_plan(plan)
+        self.pending = plan
+        return plan
+
+    def take(self) -> dict[str, Any]:
+        """The pending plan (consumed)."""
+        plan, self.pending = self.pending, None
+        assert plan is not None, "no plan posted for this period"
+        return plan
+
+    def act(
+        self,
+        x_degc: FloatArray,
+        forecast: Forecast,
+        *,
+        peak_floor_kw: float,
+        allowance_carry_steps: int = 0,
+    ) -> Action:
+        """The service's plan of the period (posted now unless :class:`RemoteEvents` did);
+        the peak floor and the recovery allowance are the service's own."""
+        if self.pending is None:
+            self.exchange(x_degc, forecast.index[0].isoformat())
+        return action_from_plan(self.take())
+
+    def get_state(self) -> dict[str, Any]:
+        return {}
+
+    def set_state(self, state: dict[str, Any]) -> None:
+        return None
+
+
+class RemoteEvents(EventTracker):
+    """The closed loop's IL event tracker, answered by the service.
+
+    Each period it posts the activation start or end the schedule has there (operator key)
+    and the building's measurement, and reports the role, the locked plan's step and the
+    outcome of the service's plan (the rules run only in the service).
+    """
+
+    def __init__(self, loop: ClosedLoop, remote: RemoteController, operator: Client) -> None:
+        super().__init__(None, 0, 0.0)
+        self.loop = loop
+        self.remote = remote
+        self.operator = operator
+        self.active = False
+
+    def role(self, activated: bool) -> Role:
+        loop = self.loop
+        time = loop.setup.exogenous.index[loop.k].isoformat()
+        if activated != self.active:
+            body = {
+                "event": "start" if activated else "end",
+                "time": time,
+                "building_ids": [self.remote.building_id],
+            }
+            self.operator.call("POST", "/v1/activations", body)
+            self.active = activated
+        plan = self.remote.exchange(loop.x, time)
+        return Role(plan["il_role"])
+
+    def lock(self, plan: EventPlan | None) -> None:
+        return None
+
+    def locked_action(self) -> Action:
+        return action_from_plan(self.remote.take())
+
+    def finish(self, role: Role, action: Action) -> PeriodOutcome:
+        plan = self.remote.plans[-1]
+        return PeriodOutcome(
+            curtailed=bool(plan["il_curtailed"]),
+            beyond_model=bool(plan["il_beyond_model"]),
+            event_window=bool(plan["il_event_window"]),
+            allowance_k=float(plan["il_allowance_k"]),
+            reference_power_kw=_none_nan(plan["il_reference_power_kw"]),
+        )
+
+
+def registration(config: ScenarioConfig, building_id: str) -> dict[str, Any]:
+    """The registration body of ``config``: its building as TOML content, its settings."""
+    base = preset(config.name) if config.name in _preset_names() else preset("rmpc")
+    settings: dict[str, Any] = {}
+    flat_new, flat_base = _flatten(config.to_dict()), _flatten(base.to_dict())
+    for key, value in flat_new.items():
+        if key in ("name", "building", "start", "days") or flat_base.get(key) == value:
+            continue
+        settings[key] = value
+    return {
+        "building_id": building_id,
+        "building": {"toml": resolve_building(config.building).read_text(encoding="utf-8")},
+        "scenario": {
+            "preset": base.name,
+            "start": config.start,
+            "days": config.days,
+            "settings": settings,
+        },
+    }
+
+
+def _preset_names() -> tuple[str, ...]:
+    from hvacflex.config import PRESET_NAMES
+
+    return PRESET_NAMES
+
+
+def _flatten(data: dict[str, Any], prefix: str = "") -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for key, value in data.items():
+        if isinstance(value, dict) and key not in ("relative", "absolute"):
+            out.update(_flatten(value, f"{prefix}{key}."))
+        else:
+            out[f"{prefix}{key}"] = value
+    return out
+
+
+@dataclass(frozen=True)
+class ReplayResult:
+    out_dir: Path
+    summary: dict[str, float]
+    plans: list[dict[str, Any]]
+
+
+def replay(
+    url: str,
+    operator_key: str,
+    config: ScenarioConfig,
+    out_dir: str | Path,
+    *,
+    building_id: str = "replay",
+    building_key: str | None = None,
+    stop_after_steps: int | None = None,
+    on_plan: Callable[[dict[str, Any]], None] | None = None,
+) -> ReplayResult:
+    """Register ``config``'s building (unless ``building_key`` is given: it is registered
+    already) and play the plant against the service; write the results files of
+    ``simulate`` into ``out_dir`` once every period is played. ``on_plan`` is called with
+    each plan as it is acknowledged.
+
+    A replay may be started again after an interruption (with ``building_key``): the
+    periods measured already are posted again unchanged, and the service answers them with
+    the plans it stored (measurements are idempotent).
+    """
+    from hvacflex.kpi import summary as kpi_summary
+
+    if building_key is None:
+        registered = Client(url, operator_key).call(
+            "POST", "/v1/buildings", registration(config, building_id)
+        )
+        building_key = str(registered["key"])
+    remote = RemoteController(Client(url, building_key), building_id, on_plan)
+    loop = ClosedLoop(prepare(config), controller=remote)
+    loop.events = RemoteEvents(loop, remote, Client(url, operator_key))
+    column = loop.recorder.column_index["power_kw"]
+    last = loop.steps if stop_after_steps is None else min(loop.steps, stop_after_steps)
+    while loop.k < last:
+        k = loop.k
+        remote.previous_power_kw = None if k == 0 else float(loop.recorder.values[k - 1, column])
+        loop.step()
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    frame = loop.frame()
+    summary = kpi_summary(frame)
+    if loop.k == loop.steps:
+        write_results(frame, out / RESULTS_FILENAME, config)
+        atomic_write_text(out / SUMMARY_FILE, json.dumps(summary, indent=2))
+        atomic_write_text(out / CONFIG_FILE, json.dumps(config.to_dict(), indent=2))
+    return ReplayResult(out, summary, remote.plans)

@@ -1,0 +1,633 @@
+"""One controller per registered building, driven by measurements and operator signals.
+
+The controller is the one ``hvacflex simulate`` uses (:func:`hvacflex.sim.closed_loop.prepare`
+and :func:`~hvacflex.sim.closed_loop.make_controller`), kept in memory per building and
+warm-started between periods. After every plan its state (LP basis, previous plan) is stored
+in the database in the same transaction as the plan, so a restarted service continues where
+the last acknowledged plan left off.
+
+Signals enter the forecast the controller sees: operator prices replace the shipped prices
+for the periods they cover, the operator's peak-power price replaces the scenario's φ, and
+the month's peak so far is the largest ``previous_power_kw`` the building reported in the
+month. IL activation follows the event semantics of the closed loop
+(:mod:`hvacflex.service.periods`): an activation start or end re-plans the current period at
+once; a start locks the plan, whose curtailed flows the building runs while the event lasts.
+"""
+
+from __future__ import annotations
+
+import bisect
+import dataclasses
+import hashlib
+import json
+import math
+import pickle
+import threading
+import tomllib
+from collections.abc import Callable
+from dataclasses import dataclass
+from datetime import datetime
+from typing import Any
+
+import numpy as np
+import pandas as pd
+from sqlalchemy import func, select
+from sqlalchemy.orm import Session, sessionmaker
+
+from hvacflex.building.io import building_from_dict
+from hvacflex.building.model import Building
+from hvacflex.config import ScenarioConfig, preset, with_overrides
+from hvacflex.control.base import Controller
+from hvacflex.errors import InputError
+from hvacflex.paths import resolve_building
+from hvacflex.service.db import (
+    Activation,
+    BuildingRow,
+    ControllerState,
+    Measurement,
+    PlanRow,
+    Signal,
+)
+from hvacflex.service.periods import (
+    ConflictError,
+    Decision,
+    PeriodStepper,
+    event_columns,
+    finite,
+    finite_list,
+    horizon_columns,
+)
+from hvacflex.service.schemas import (
+    TEMP_MAX_DEGC,
+    TEMP_MIN_DEGC,
+    BuildingSource,
+    MeasurementIn,
+    ScenarioSettings,
+)
+from hvacflex.sim.closed_loop import Setup, make_controller, prepare
+from hvacflex.sim.events import Role
+
+TIMEZONE = "Asia/Singapore"
+PERIOD = pd.Timedelta(minutes=30)
+
+FORBIDDEN_SETTINGS = (
+    "building",
+    "data.weather_file",
+    "data.usep_source",
+    "data.reserve_source",
+    "activation.file",
+)
+"""Scenario settings that would name a file on the server (or replace the building)."""
+
+MAX_HORIZON_STEPS = 336
+"""Longest MPC horizon a registered building may ask for (one week of periods)."""
+MAX_TIME_LIMIT_S = 60.0
+"""Largest solver time limit per plan [s] (a plan answers an HTTP request)."""
+
+
+class NotFoundError(InputError):
+    """The building or plan does not exist."""
+
+
+def building_from_source(
+    source: BuildingSource, building_id: str
+) -> tuple[Building, dict[str, Any]]:
+    """The building of a registration and the description to store (always the parsed
+    document, so a restart rebuilds it without files)."""
+    given = [n for n in ("name", "toml", "description") if getattr(source, n) is not None]
+    if len(given) != 1:
+        raise InputError(
+            "give exactly one of name, toml, description",
+            field="building",
+            value=given,
+            hint='e.g. {"name": "office5"} or {"toml": "<building TOML text>"}',
+        )
+    if source.name is not None:
+        from hvacflex.tomlio import read_toml
+
+        document = read_toml(resolve_building(source.name), what="building")
+    elif source.toml is not None:
+        try:
+            document = tomllib.loads(source.toml)
+        except tomllib.TOMLDecodeError as exc:
+            raise InputError(f"not valid TOML ({exc})", field="building.toml") from None
+    else:
+        document = dict(source.description or {})
+    building = building_from_dict(document, source=f"building {building_id}")
+    return building, document
+
+
+def scenario_config(settings: ScenarioSettings, building_id: str) -> ScenarioConfig:
+    """The scenario of a registration; settings naming server files are refused."""
+    from hvacflex.config import resolve_key
+
+    overrides: dict[str, Any] = {}
+    for key, value in settings.settings.items():
+        try:
+            path = ".".join(resolve_key(key))
+        except InputError as exc:
+            raise InputError(
+                "unknown setting", field=f"scenario.settings.{key}", hint=exc.hint
+            ) from None
+        if path in FORBIDDEN_SETTINGS:
+            raise InputError(
+                "settings may not name files on the server or replace the building",
+                field=f"scenario.settings.{key}",
+                value=value,
+                hint="send the building as content; shipped data is the default",
+            )
+        if path == "activation.mode" and value == "file":
+            raise InputError(
+                "activation files are not accepted; the operator posts activations",
+                field=f"scenario.settings.{key}",
+                value=value,
+            )
+        overrides[path] = value
+    overrides.update(start=settings.start, days=settings.days, building=building_id)
+    overrides["name"] = building_id
+    config = with_overrides(preset(settings.preset), overrides)
+    controller = config.controller
+    if controller.horizon_steps > MAX_HORIZON_STEPS:
+        raise InputError(
+            f"must be ≤ {MAX_HORIZON_STEPS} periods (one week) in the service",
+            field="scenario.settings.controller.horizon_steps",
+            value=controller.horizon_steps,
+        )
+    if controller.time_limit_s > MAX_TIME_LIMIT_S:
+        raise InputError(
+            f"must be ≤ {MAX_TIME_LIMIT_S:g} s in the service",
+            field="scenario.settings.controller.time_limit_s",
+            value=controller.time_limit_s,
+        )
+    return config
+
+
+def to_local(time: datetime) -> pd.Timestamp:
+    """A request time as a Singapore timestamp (naive times are Singapore time)."""
+    stamp = pd.Timestamp(time)
+    return stamp.tz_localize(TIMEZONE) if stamp.tzinfo is None else stamp.tz_convert(TIMEZONE)
+
+
+@dataclass
+class BuildingRuntime:
+    """A building's setup (model, shipped data) and its controller, in memory."""
+
+    building_id: str
+    setup: Setup
+    controller: Controller
+    peak_price_sgd_per_kw: float
+    lock: threading.Lock
+    periods: PeriodStepper
+
+    @property
+    def steps(self) -> int:
+        return self.setup.config.steps
+
+    def period_of(self, time: datetime, field: str) -> int:
+        """The period that starts at ``time``.
+
+        Raises
+        ------
+        InputError : not a 30-min boundary, or outside the building's scenario.
+        """
+        stamp = to_local(time)
+        start = self.setup.exogenous.index[0]
+        offset = (stamp - start) / PERIOD
+        if offset != math.floor(offset):
+            raise InputError("must be a 30-min period start", field=field, value=str(stamp))
+        k = int(offset)
+        if not 0 <= k < self.steps:
+            raise InputError(
+                "outside the building's scenario",
+                field=field,
+                value=str(stamp),
+                hint=f"periods run from {start.isoformat()} for {self.steps} periods",
+            )
+        return k
+
+    def period_containing(self, time: datetime) -> int:
+        """The period holding ``time``, clipped to the scenario."""
+        stamp = to_local(time)
+        k = math.floor((stamp - self.setup.exogenous.index[0]) / PERIOD)
+        return min(max(k, 0), self.steps - 1)
+
+    def time_of(self, k: int) -> str:
+        return str(self.setup.exogenous.index[k].isoformat())
+
+    def set_peak_price(self, value: float) -> None:
+        """Replace φ, keeping the controller's warm start."""
+        if value == self.peak_price_sgd_per_kw:
+            return
+        state = self.controller.get_state()
+        cfg = dataclasses.replace(
+            self.setup.config,
+            controller=dataclasses.replace(
+                self.setup.config.controller, peak_price_sgd_per_kw=value
+            ),
+        )
+        self.setup = dataclasses.replace(self.setup, config=cfg)
+        self.controller = make_controller(self.setup)
+        self.controller.set_state(state)
+        self.peak_price_sgd_per_kw = value
+
+
+class Runtime:
+    """The service's controllers and the loop logic, over the database."""
+
+    def __init__(self, sessions: sessionmaker[Session]) -> None:
+        self.sessions = sessions
+        self._buildings: dict[str, BuildingRuntime] = {}
+        self._lock = threading.Lock()
+
+    # -- buildings ----------------------------------------------------------------------
+    def register(
+        self,
+        session: Session,
+        building_id: str,
+        source: BuildingSource,
+        settings: ScenarioSettings,
+        by: str,
+    ) -> BuildingRuntime:
+        """Validate and store a building; its data are loaded once to check they exist."""
+        if session.get(BuildingRow, building_id) is not None:
+            raise ConflictError("already registered", field="building_id", value=building_id)
+        building, document = building_from_source(source, building_id)
+        config = scenario_config(settings, building_id)
+        setup = prepare(config, building)
+        runtime = _building_runtime(building_id, setup)
+        session.add(
+            BuildingRow(
+                building_id=building_id,
+                description_json=json.dumps(document),
+                scenario_json=settings.model_dump_json(),
+                created_by=by,
+            )
+        )
+        with self._lock:
+            self._buildings[building_id] = runtime
+        return runtime
+
+    def get(self, session: Session, building_id: str) -> BuildingRuntime:
+        """The building's runtime, rebuilt from the database after a restart.
+
+        Raises
+        ------
+        NotFoundError : no such building.
+        """
+        with self._lock:
+            runtime = self._buildings.get(building_id)
+        if runtime is not None:
+            return runtime
+        row = session.get(BuildingRow, building_id)
+        if row is None:
+            raise NotFoundError("no such building", field="building_id", value=building_id)
+        building = building_from_dict(json.loads(row.description_json), source=building_id)
+        settings = ScenarioSettings.model_validate_json(row.scenario_json)
+        config = scenario_config(settings, building_id)
+        setup = prepare(config, building)
+        runtime = _building_runtime(building_id, setup)
+        stored = session.get(ControllerState, building_id)
+        if stored is not None:
+            state = pickle.loads(stored.state)
+            if "events" not in state:  # stored before the event model: the controller's alone
+                state = {
+                    "period": stored.period,
+                    "before": None,
+                    "controller": state,
+                    "events": runtime.periods.tracker.get_state(),
+                }
+            runtime.periods.set_state(runtime.controller, state)
+        with self._lock:
+            self._buildings.setdefault(building_id, runtime)
+            return self._buildings[building_id]
+
+    def evict(self, building_id: str) -> None:
+        """Forget the in-memory controller (rebuilt from the database on next use)."""
+        with self._lock:
+            self._buildings.pop(building_id, None)
+
+    def building_ids(self, session: Session) -> list[str]:
+        return list(
+            session.scalars(select(BuildingRow.building_id).order_by(BuildingRow.building_id))
+        )
+
+    # -- signals ------------------------------------------------------------------------
+    def _price_overrides(
+        self, session: Session
+    ) -> tuple[dict[pd.Timestamp, float], dict[pd.Timestamp, float]]:
+        energy: dict[pd.Timestamp, float] = {}
+        reserve: dict[pd.Timestamp, float] = {}
+        rows = session.scalars(select(Signal).where(Signal.kind == "prices").order_by(Signal.id))
+        for row in rows:
+            body = json.loads(row.body_json)
+            start = pd.Timestamp(body["start_utc"])
+            for i, value in enumerate(body["energy_price_sgd_per_mwh"]):
+                energy[start + i * PERIOD] = float(value)
+            for i, value in enumerate(body.get("reserve_price_sgd_per_mwh") or []):
+                reserve[start + i * PERIOD] = float(value)
+        return energy, reserve
+
+    def latest_signal(self, session: Session, kind: str) -> dict[str, Any] | None:
+        row = session.scalars(
+            select(Signal).where(Signal.kind == kind).order_by(Signal.id.desc()).limit(1)
+        ).first()
+        return None if row is None else dict(json.loads(row.body_json))
+
+    def activity(self, session: Session, runtime: BuildingRuntime) -> Callable[[int], bool]:
+        """Whether IL is active in a period k: the latest start/end event (for this building
+        or all) whose period is ≤ k is a start (the later posted wins within a period)."""
+        rows = session.scalars(
+            select(Activation)
+            .where(
+                (Activation.building_id == runtime.building_id) | (Activation.building_id.is_(None))
+            )
+            .order_by(Activation.id)
+        )
+        events = sorted(
+            (runtime.period_containing(datetime.fromisoformat(row.time_utc)), i, row.event)
+            for i, row in enumerate(rows)
+        )
+        periods = [j for j, _, _ in events]
+
+        def activated(k: int) -> bool:
+            last = bisect.bisect_right(periods, k) - 1
+            return last >= 0 and events[last][2] == "start"
+
+        return activated
+
+    def activated(self, session: Session, runtime: BuildingRuntime, k: int) -> bool:
+        """IL active in period k (:meth:`activity`)."""
+        return self.activity(session, runtime)(k)
+
+    def _month_peak_kw(self, session: Session, runtime: BuildingRuntime, k: int) -> float:
+        index = runtime.setup.exogenous.index
+        month = index[k].month
+        peak = 0.0
+        rows = session.execute(
+            select(Measurement.period, Measurement.previous_power_kw).where(
+                Measurement.building_id == runtime.building_id,
+                Measurement.period <= k,
+                Measurement.previous_power_kw.is_not(None),
+                Measurement.period >= 1,
+            )
+        )
+        for period, power in rows:
+            if index[period - 1].month == month and power is not None:
+                peak = max(peak, float(power))
+        return peak
+
+    # -- plans --------------------------------------------------------------------------
+    def plan(
+        self, session: Session, runtime: BuildingRuntime, k: int, x_degc: np.ndarray, trigger: str
+    ) -> dict[str, Any]:
+        """Plan period k from the node temperatures ``x_degc`` (n,) [°C] under the IL event
+        model (:class:`~hvacflex.service.periods.PeriodStepper`) and store the plan (the
+        caller commits); the controller's and the event state are stored with it.
+
+        Raises
+        ------
+        ConflictError : k is before the building's latest planned period.
+        """
+        setup = runtime.setup
+        peak = self.latest_signal(session, "peak_price")
+        if peak is not None:
+            runtime.set_peak_price(float(peak["peak_price_sgd_per_kw"]))
+        forecast = setup.forecaster.forecast(k, setup.config.controller.horizon_steps + 1)
+        energy, reserve = self._price_overrides(session)
+        if energy or reserve:
+            e = np.array(forecast.energy_price_sgd_per_mwh, dtype=float)
+            r = np.array(forecast.reserve_price_sgd_per_mwh, dtype=float)
+            for i, stamp in enumerate(forecast.index):
+                utc = stamp.tz_convert("UTC")
+                e[i] = energy.get(utc, e[i])
+                r[i] = reserve.get(utc, r[i])
+            forecast = dataclasses.replace(
+                forecast, energy_price_sgd_per_mwh=e, reserve_price_sgd_per_mwh=r
+            )
+        floor = self._month_peak_kw(session, runtime, k)
+        activated = self.activity(session, runtime)
+        decision = runtime.periods.decide(
+            runtime.controller, k, x_degc, forecast, peak_floor_kw=floor, activated=activated
+        )
+        state = runtime.periods.get_state(runtime.controller)
+        solution = state["controller"].get("previous_plan")
+        if decision.action.fallback or decision.role is Role.EVENT_LOCKED:
+            solution = None  # no optimisation this period (the locked plan is reported)
+        payload = self._payload(runtime, k, decision, solution, forecast.index)
+        payload.update(event_columns(decision, activated(k)))
+        self._store_plan(session, runtime.building_id, k, trigger, payload)
+        stored = session.get(ControllerState, runtime.building_id)
+        blob = pickle.dumps(state, protocol=pickle.HIGHEST_PROTOCOL)
+        if stored is None:
+            session.add(ControllerState(building_id=runtime.building_id, period=k, state=blob))
+        else:
+            stored.period, stored.state = k, blob
+        return payload
+
+    def _payload(
+        self,
+        runtime: BuildingRuntime,
+        k: int,
+        decision: Decision,
+        solution: Any,
+        index: pd.DatetimeIndex,
+    ) -> dict[str, Any]:
+        action = decision.action
+        horizon = runtime.setup.config.controller.horizon_steps
+        columns = horizon_columns(decision, solution, runtime.setup.model.c, index, horizon)
+        return {
+            "building_id": runtime.building_id,
+            "period": k,
+            "time": runtime.time_of(k),
+            "zones": list(runtime.setup.zone_names),
+            "status": action.status,
+            "fallback": bool(action.fallback),
+            "objective_sgd": columns.pop("objective_sgd"),
+            "flow_kg_s": [float(v) for v in action.flow_kg_s],
+            "reserve_flow_kg_s": [float(v) for v in action.reserve_flow_kg_s],
+            "reserve_kw": float(action.reserve_kw),
+            "planned_power_kw": finite(action.planned_power_kw),
+            "solve_time_s": float(action.solve_time_s),
+            "planned_slack_max_k": finite(action.planned_slack_max_k),
+            "delta_max_k": finite(action.delta_max_k),
+            "predicted_served_degc": finite_list(action.predicted_served_degc),
+            "predicted_curtailed_degc": finite_list(action.predicted_curtailed_degc),
+            **columns,
+        }
+
+    def _store_plan(
+        self, session: Session, building_id: str, k: int, trigger: str, payload: dict[str, Any]
+    ) -> None:
+        latest = session.scalar(
+            select(func.max(PlanRow.revision)).where(
+                PlanRow.building_id == building_id, PlanRow.period == k
+            )
+        )
+        payload["revision"] = (latest or 0) + 1
+        payload["trigger"] = trigger
+        session.add(
+            PlanRow(
+                building_id=building_id,
+                period=k,
+                revision=payload["revision"],
+                trigger=trigger,
+                status=payload["status"],
+                fallback=payload["fallback"],
+                objective_sgd=payload["objective_sgd"],
+                payload_json=json.dumps(payload),
+            )
+        )
+        session.flush()
+
+    def latest_plan(
+        self, session: Session, building_id: str, period: int | None = None
+    ) -> dict[str, Any] | None:
+        query = select(PlanRow).where(PlanRow.building_id == building_id)
+        if period is not None:
+            query = query.where(PlanRow.period == period)
+        row = session.scalars(
+            query.order_by(PlanRow.period.desc(), PlanRow.revision.desc()).limit(1)
+        ).first()
+        return None if row is None else dict(json.loads(row.payload_json))
+
+    # -- the loop's triggers ------------------------------------------------------------
+    def measurement(self, building_id: str, body: MeasurementIn) -> tuple[dict[str, Any], bool]:
+        """Store a measurement and plan its period; the same body twice is one record.
+
+        Returns the plan and whether the measurement was new.
+
+        Raises
+        ------
+        InputError : the time is not a period of the scenario, or temperatures are out of
+            range or of the wrong count.
+        ConflictError : another measurement is stored for the period.
+        """
+        with self.sessions() as session:
+            runtime = self.get(session, building_id)
+        n = len(runtime.setup.model.node_names)
+        x = np.asarray(body.node_temperatures_degc, dtype=float)
+        if x.shape != (n,):
+            raise InputError(
+                f"expected {n} node temperatures (nodes {list(runtime.setup.model.node_names)})",
+                field="node_temperatures_degc",
+                value=len(x),
+            )
+        bad = np.flatnonzero(~((x >= TEMP_MIN_DEGC) & (x <= TEMP_MAX_DEGC)))
+        if bad.size:
+            raise InputError(
+                f"must be in [{TEMP_MIN_DEGC:g}, {TEMP_MAX_DEGC:g}] °C",
+                field=f"node_temperatures_degc[{bad[0]}]",
+                value=float(x[bad[0]]),
+            )
+        k = runtime.period_of(body.time, "time")
+        canonical = json.dumps(
+            {"period": k, "x": x.tolist(), "previous_power_kw": body.previous_power_kw}
+        )
+        digest = hashlib.sha256(canonical.encode()).hexdigest()
+        with runtime.lock, self.sessions() as session, session.begin():
+            existing = session.scalars(
+                select(Measurement).where(
+                    Measurement.building_id == building_id, Measurement.period == k
+                )
+            ).first()
+            if existing is not None:
+                if existing.body_sha256 != digest:
+                    raise ConflictError(
+                        "a different measurement is already stored for this period",
+                        field="time",
+                        value=runtime.time_of(k),
+                        hint="measurements are write-once per building and period",
+                    )
+                plan = self.latest_plan(session, building_id, k)
+                if plan is not None:
+                    return plan, False
+            else:
+                session.add(
+                    Measurement(
+                        building_id=building_id,
+                        period=k,
+                        body_json=canonical,
+                        body_sha256=digest,
+                        previous_power_kw=body.previous_power_kw,
+                    )
+                )
+                session.flush()
+            try:
+                return self.plan(session, runtime, k, x, "measurement"), existing is None
+            except BaseException:
+                self.evict(building_id)
+                raise
+
+    def boundary(self, time: datetime) -> list[dict[str, Any]]:
+        """At a 30-min boundary: plan the current period of every building that has no
+        plan for it yet, on its latest measurement."""
+        plans: list[dict[str, Any]] = []
+        with self.sessions() as session:
+            ids = self.building_ids(session)
+        for building_id in ids:
+            with self.sessions() as session:
+                runtime = self.get(session, building_id)
+            stamp = to_local(time)
+            k = math.floor((stamp - runtime.setup.exogenous.index[0]) / PERIOD)
+            if not 0 <= k < runtime.steps:
+                continue
+            with runtime.lock, self.sessions() as session, session.begin():
+                if runtime.periods.period >= k:  # planned already (or a later period)
+                    continue
+                x = self._latest_state(session, building_id, k)
+                if x is None:
+                    continue
+                try:
+                    plans.append(self.plan(session, runtime, k, x, "boundary"))
+                except BaseException:
+                    self.evict(building_id)
+                    raise
+        return plans
+
+    def activation(self, building_ids: list[str]) -> list[dict[str, Any]]:
+        """Re-plan each building's latest period whose activation state the stored events
+        (committed by the caller) change: an activation start or end takes effect at once,
+        by the IL event semantics of the closed loop."""
+        plans: list[dict[str, Any]] = []
+        for building_id in building_ids:
+            with self.sessions() as session:
+                runtime = self.get(session, building_id)
+            with runtime.lock, self.sessions() as session, session.begin():
+                plan = self.latest_plan(session, building_id)
+                if plan is None:
+                    continue
+                k = int(plan["period"])
+                if self.activated(session, runtime, k) == plan["il_activated"]:
+                    continue
+                x = self._latest_state(session, building_id, k)
+                if x is None:
+                    continue
+                try:
+                    plans.append(self.plan(session, runtime, k, x, "activation"))
+                except BaseException:
+                    self.evict(building_id)
+                    raise
+        return plans
+
+    @staticmethod
+    def _latest_state(session: Session, building_id: str, k: int) -> np.ndarray | None:
+        """The node temperatures (n,) [°C] of the building's latest measurement ≤ period k."""
+        last = session.scalars(
+            select(Measurement)
+            .where(Measurement.building_id == building_id, Measurement.period <= k)
+            .order_by(Measurement.period.desc())
+            .limit(1)
+        ).first()
+        return None if last is None else np.asarray(json.loads(last.body_json)["x"], dtype=float)
+
+
+def _building_runtime(building_id: str, setup: Setup) -> BuildingRuntime:
+    controller = make_controller(setup)
+    return BuildingRuntime(
+        building_id,
+        setup,
+        controller,
+        setup.config.controller.peak_price_sgd_per_kw,
+        threading.Lock(),
+        PeriodStepper(setup.config, setup.model.c),
+    )

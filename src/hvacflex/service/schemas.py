@@ -1,0 +1,250 @@
+"""Request and response bodies of the service API (pydantic), with units and physical ranges.
+
+Every response is an :class:`Envelope` ``{status, message, payload}`` (as BOPTEST's).
+Times are ISO 8601; a time without an offset is local Singapore time, like the scenario's
+``start``.
+"""
+
+from __future__ import annotations
+
+from datetime import datetime
+from typing import Any, Generic, Literal, TypeVar
+
+from pydantic import BaseModel, ConfigDict, Field
+
+from hvacflex.config import PRESET_NAMES
+
+T = TypeVar("T")
+
+BUILDING_ID_PATTERN = r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,63}$"
+MAX_PRICE_PERIODS = 17_568
+"""Longest price series one request may carry: a leap year of 30-min periods."""
+
+TEMP_MIN_DEGC, TEMP_MAX_DEGC = -50.0, 100.0
+"""Physical range of a measured node temperature [°C]."""
+POWER_MAX_KW = 100_000.0
+"""Largest building electric power accepted [kW] (100 MW)."""
+ENERGY_PRICE_LIMIT_SGD_PER_MWH = 4_500.0
+"""|energy price| ≤ the NEMS offer price cap [SGD/MWh]."""
+PEAK_PRICE_MAX_SGD_PER_KW = 1_000.0
+"""Largest peak-power price accepted [SGD/kW]."""
+MAX_DAYS = 366.0
+"""Longest scenario a building may register [days]."""
+
+PresetName = Literal[
+    "nmpc",
+    "rmpc",
+    "rmpc-ppp",
+    "paper-nmpc",
+    "paper-rmpc",
+    "paper-rmpc-ppp",
+    "nmpc-no-reserve",
+    "thermostat",
+    "rmpc-feedback",
+    "rmpc-feedback-ppp",
+    "rmpc-output-feedback",
+]
+assert set(PresetName.__args__) == set(PRESET_NAMES)  # type: ignore[attr-defined]
+
+_STRICT = ConfigDict(extra="forbid", allow_inf_nan=False)
+
+
+class Envelope(BaseModel, Generic[T]):
+    """Every response: the HTTP status, a human-readable message and the payload."""
+
+    status: int
+    message: str
+    payload: T | None = None
+
+
+class ErrorEnvelope(BaseModel):
+    """An error response: ``payload`` lists the offending fields where known."""
+
+    status: int
+    message: str
+    payload: list[dict[str, Any]] | None = None
+
+
+class Health(BaseModel):
+    service: str
+    version: str
+    database: str
+
+
+class BuildingSource(BaseModel):
+    """The building description, as content: exactly one of ``name`` (a shipped building),
+    ``toml`` (the text of a building TOML file) or ``description`` (the same as JSON)."""
+
+    model_config = _STRICT
+    name: Literal["office5", "room1", "bestest600", "bestest900"] | None = None
+    toml: str | None = Field(default=None, max_length=200_000)
+    description: dict[str, Any] | None = None
+
+
+class ScenarioSettings(BaseModel):
+    """The scenario: a preset, the period and settings (dotted keys as in ``with_overrides``,
+    e.g. ``controller.peak_price_sgd_per_kw``). Settings that name server files (weather,
+    price or activation paths) and ``building`` are refused; shipped data is the default."""
+
+    model_config = _STRICT
+    preset: PresetName = "rmpc"
+    start: str = Field(pattern=r"^\d{4}-\d{2}-\d{2}(T\d{2}:\d{2}(:\d{2})?)?$")
+    days: float = Field(gt=0, le=MAX_DAYS)
+    settings: dict[str, Any] = Field(default_factory=dict)
+
+
+class RegisterBuilding(BaseModel):
+    model_config = _STRICT
+    building_id: str = Field(pattern=BUILDING_ID_PATTERN)
+    building: BuildingSource
+    scenario: ScenarioSettings
+
+
+class Registered(BaseModel):
+    building_id: str
+    key: str = Field(description="The building's API key, shown this once.")
+    start: str
+    steps: int
+    zones: list[str]
+    nodes: list[str]
+
+
+class BuildingInfo(BaseModel):
+    building_id: str
+    start: str
+    steps: int
+    zones: list[str]
+    nodes: list[str]
+    scenario: dict[str, Any]
+
+
+class MeasurementIn(BaseModel):
+    """The building's state at the start of a period."""
+
+    model_config = _STRICT
+    time: datetime = Field(description="Start of the period measured (a 30-min boundary).")
+    node_temperatures_degc: list[float] = Field(
+        min_length=1, max_length=10_000, description="(n,) node temperatures [°C]."
+    )
+    previous_power_kw: float | None = Field(
+        default=None, ge=0.0, le=POWER_MAX_KW, description="Mean power of the previous period [kW]."
+    )
+
+
+class PricesIn(BaseModel):
+    """Energy (and optionally reserve) prices for consecutive periods from ``start``."""
+
+    model_config = _STRICT
+    start: datetime
+    energy_price_sgd_per_mwh: list[float] = Field(min_length=1, max_length=MAX_PRICE_PERIODS)
+    reserve_price_sgd_per_mwh: list[float] | None = Field(
+        default=None, min_length=1, max_length=MAX_PRICE_PERIODS
+    )
+
+
+class PeakPriceIn(BaseModel):
+    model_config = _STRICT
+    peak_price_sgd_per_kw: float = Field(ge=0.0, le=PEAK_PRICE_MAX_SGD_PER_KW)
+
+
+class FeederLimitIn(BaseModel):
+    model_config = _STRICT
+    limit_kw: float = Field(gt=0.0, le=1e7)
+
+
+class ActivationIn(BaseModel):
+    """An IL activation start or end; ``building_ids`` omitted = every building."""
+
+    model_config = _STRICT
+    event: Literal["start", "end"]
+    time: datetime
+    building_ids: list[str] | None = Field(default=None, max_length=10_000)
+
+
+class ClockIn(BaseModel):
+    """The service clock (an accelerated or replayed clock): periods that start at or before
+    it are planned on the latest measurement of buildings that sent none for them."""
+
+    model_config = _STRICT
+    time: datetime
+
+
+class Plan(BaseModel):
+    """A stored plan for one building and period (lists in zone order, horizon order)."""
+
+    building_id: str
+    period: int
+    time: str
+    revision: int
+    trigger: str
+    zones: list[str]
+    status: str
+    fallback: bool
+    il_activated: bool
+    il_role: str = Field(
+        description="IL role of the period (hvacflex.sim.events.Role): served, curtail-fresh, "
+        "event-start, event-locked or beyond-model."
+    )
+    il_curtailed: bool = Field(description="The building runs u − r this period.")
+    il_beyond_model: bool = Field(description="Activated for more than D periods (counted).")
+    il_event_window: bool = Field(description="Part of an IL event or its recovery.")
+    il_allowance_k: float = Field(description="Allowance α on the upper comfort bound [K].")
+    il_reference_power_kw: float | None = Field(
+        description="The locked plan's served power, the settlement reference [kW]."
+    )
+    objective_sgd: float | None = Field(
+        description="Objective of this period's optimisation (None: fallback, rule, or a "
+        "period that runs a locked event plan)."
+    )
+    flow_kg_s: list[float]
+    reserve_flow_kg_s: list[float]
+    applied_flow_kg_s: list[float]
+    reserve_kw: float
+    planned_power_kw: float | None
+    solve_time_s: float
+    planned_slack_max_k: float | None
+    delta_max_k: float | None
+    predicted_served_degc: list[float | None]
+    predicted_curtailed_degc: list[float | None]
+    horizon_time: list[str]
+    horizon_power_kw: list[float | None]
+    horizon_reserve_kw: list[float | None]
+    horizon_temp_degc: list[list[float | None]]
+
+
+class PlanList(BaseModel):
+    plans: list[Plan]
+
+
+class BidBuilding(BaseModel):
+    building_id: str
+    period: int
+    time: str
+    reserve_kw: float
+    planned_power_kw: float | None
+
+
+class Bid(BaseModel):
+    """The aggregate over every building's latest plan, per period start."""
+
+    time: list[str]
+    reserve_kw: list[float]
+    planned_power_kw: list[float]
+    buildings: list[BidBuilding]
+    feeder_limit_kw: float | None
+    feeder_limit_exceeded: bool
+
+
+class Stored(BaseModel):
+    id: int
+    kind: str
+
+
+class AuditRecord(BaseModel):
+    at: str
+    key_id: str | None
+    role: str | None
+    method: str
+    path: str
+    status_code: int
+    body_sha256: str

@@ -1,0 +1,101 @@
+"""Helpers of the service tests: registration bodies, the in-process service, a real
+server (``hvacflex serve`` subprocess on 127.0.0.1, a free port)."""
+
+from __future__ import annotations
+
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+import urllib.request
+from dataclasses import dataclass
+from typing import Any
+
+from fastapi.testclient import TestClient
+
+START = "2014-03-03"
+SERVE = [sys.executable, "-m", "hvacflex.cli", "serve"]
+
+
+def registration(building_id: str, days: float = 1.0, **settings: Any) -> dict[str, Any]:
+    return {
+        "building_id": building_id,
+        "building": {"name": "office5"},
+        "scenario": {"preset": "rmpc", "start": START, "days": days, "settings": settings},
+    }
+
+
+@dataclass
+class Service:
+    client: TestClient
+    operator_key: str
+    keys: dict[str, str]
+    nodes: list[str]
+
+    def headers(self, key: str | None) -> dict[str, str]:
+        return {} if key is None else {"X-API-Key": key}
+
+    def op(self) -> dict[str, str]:
+        return self.headers(self.operator_key)
+
+
+def free_port() -> int:
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        port: int = sock.getsockname()[1]
+        return port
+
+
+@dataclass
+class Server:
+    """``hvacflex serve`` in a subprocess."""
+
+    db_url: str
+    port: int
+    process: subprocess.Popen[bytes] | None = None
+
+    @property
+    def url(self) -> str:
+        return f"http://127.0.0.1:{self.port}"
+
+    def start(self, timeout_s: float = 60.0) -> None:
+        cmd = [*SERVE, "--db", self.db_url]
+        cmd += ["--host", "127.0.0.1", "--port", str(self.port)]
+        self.process = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+        deadline = time.monotonic() + timeout_s
+        while time.monotonic() < deadline:
+            if self.process.poll() is not None:
+                raise RuntimeError(f"server exited: {self.process.stderr.read()!r}")  # type: ignore[union-attr]
+            try:
+                with urllib.request.urlopen(f"{self.url}/v1/health", timeout=2) as response:
+                    if response.status == 200:
+                        return
+            except OSError:
+                time.sleep(0.2)
+        raise RuntimeError("server did not start")
+
+    def kill9(self) -> None:
+        assert self.process is not None
+        os.kill(self.process.pid, signal.SIGKILL)
+        self.process.wait(timeout=30)
+
+    def stop(self) -> None:
+        if self.process is not None and self.process.poll() is None:
+            self.process.terminate()
+            try:
+                self.process.wait(timeout=20)
+            except subprocess.TimeoutExpired:
+                self.kill9()
+
+
+def operator_key_for(db_url: str) -> str:
+    out = subprocess.run(
+        [*SERVE, "key", "create", "--role", "operator", "--db", db_url],
+        check=True,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    return out.stdout.strip()

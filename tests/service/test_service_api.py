@@ -1,0 +1,270 @@
+"""The service API in process: envelope, registration, the loop's triggers, validation."""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import pytest
+from service_fixtures import START, Service, registration
+from sqlalchemy import inspect
+
+from hvacflex.service.app import MAX_BODY_BYTES, create_app
+
+
+def _measure(service: Service, building_id: str, time: str, temp: float = 25.0) -> Any:
+    body = {"time": time, "node_temperatures_degc": [temp] * len(service.nodes)}
+    return service.client.post(
+        f"/v1/buildings/{building_id}/measurements",
+        json=body,
+        headers=service.headers(service.keys[building_id]),
+    )
+
+
+def test_health_needs_no_key_and_uses_the_envelope(service: Service) -> None:
+    response = service.client.get("/v1/health")
+    assert response.status_code == 200
+    body = response.json()
+    assert set(body) == {"status", "message", "payload"}
+    assert body["payload"]["database"] == "sqlite"
+
+
+def test_openapi_is_published_with_every_route_under_v1(service: Service) -> None:
+    schema = service.client.get("/v1/openapi.json").json()
+    assert schema["paths"]
+    assert all(path.startswith("/v1/") for path in schema["paths"])
+    assert "X-API-Key" in str(schema["components"]["securitySchemes"])
+
+
+def test_migrations_create_the_schema(tmp_path: Any) -> None:
+    app = create_app(f"sqlite:///{tmp_path / 'fresh.db'}")
+    tables = set(inspect(app.state.engine).get_table_names())
+    assert {"alembic_version", "api_keys", "plans", "measurements", "audit"} <= tables
+    create_app(f"sqlite:///{tmp_path / 'fresh.db'}")  # a second start is a no-op upgrade
+
+
+def test_migrations_are_packaged() -> None:
+    from setuptools import find_packages
+
+    packages = find_packages("src")
+    assert "hvacflex.service.migrations" in packages
+    assert "hvacflex.service.migrations.versions" in packages
+
+
+@pytest.mark.parametrize(
+    ("settings", "field"),
+    [
+        ({"data.weather_file": "/etc/passwd"}, "scenario.settings.data.weather_file"),
+        ({"usep_source": "/tmp/prices"}, "scenario.settings.usep_source"),
+        ({"reserve_source": "x.csv"}, "scenario.settings.reserve_source"),
+        ({"activation.file": "a.csv"}, "scenario.settings.activation.file"),
+        ({"activation.mode": "file"}, "scenario.settings.activation.mode"),
+        ({"building": "/tmp/b.toml"}, "scenario.settings.building"),
+        ({"no_such_setting": 1}, "scenario.settings.no_such_setting"),
+        ({"horizon_steps": 100_000}, "scenario.settings.controller.horizon_steps"),
+        ({"controller.time_limit_s": 1e6}, "scenario.settings.controller.time_limit_s"),
+    ],
+)
+def test_registration_refuses_server_files(
+    service: Service, settings: dict[str, Any], field: str
+) -> None:
+    response = service.client.post(
+        "/v1/buildings", json=registration("bad", **settings), headers=service.op()
+    )
+    assert response.status_code == 422
+    assert field in response.json()["message"]
+
+
+def test_registration_validates_content(service: Service) -> None:
+    body = registration("bad")
+    body["building"] = {"toml": "zones = ["}
+    response = service.client.post("/v1/buildings", json=body, headers=service.op())
+    assert response.status_code == 422 and "building.toml" in response.json()["message"]
+    body["building"] = {"description": {"zones": []}}
+    response = service.client.post("/v1/buildings", json=body, headers=service.op())
+    assert response.status_code == 422
+    body = registration("bad", days=0)
+    response = service.client.post("/v1/buildings", json=body, headers=service.op())
+    assert response.status_code == 422 and "scenario.days" in response.json()["message"]
+    response = service.client.post("/v1/buildings", json=registration("b1"), headers=service.op())
+    assert response.status_code == 409
+
+
+def test_measurement_plans_and_is_idempotent(service: Service) -> None:
+    first = _measure(service, "b1", f"{START}T00:00")
+    assert first.status_code == 200, first.text
+    plan = first.json()["payload"]
+    assert plan["period"] == 0 and plan["status"] == "optimal" and not plan["fallback"]
+    assert len(plan["horizon_reserve_kw"]) == 48 and len(plan["horizon_temp_degc"]) == 48
+    again = _measure(service, "b1", f"{START}T00:00")
+    assert again.status_code == 200
+    assert again.json()["payload"]["revision"] == plan["revision"]
+    other = _measure(service, "b1", f"{START}T00:00", temp=26.0)
+    assert other.status_code == 409 and "'time'" in other.json()["message"]
+
+
+@pytest.mark.parametrize(
+    ("body", "field"),
+    [
+        ({"time": f"{START}T00:10"}, "time"),
+        ({"time": "2015-06-01T00:00"}, "time"),
+        ({"node_temperatures_degc": [25.0]}, "node_temperatures_degc"),
+        ({"previous_power_kw": -1.0}, "previous_power_kw"),
+        ({"extra": 1}, "extra"),
+    ],
+)
+def test_measurement_errors_name_the_field(
+    service: Service, body: dict[str, Any], field: str
+) -> None:
+    full = {"time": f"{START}T01:00", "node_temperatures_degc": [25.0] * len(service.nodes)}
+    full.update(body)
+    response = service.client.post(
+        "/v1/buildings/b2/measurements", json=full, headers=service.headers(service.keys["b2"])
+    )
+    assert response.status_code == 422
+    assert field in response.json()["message"]
+
+
+def test_out_of_range_temperature_names_the_element(service: Service) -> None:
+    temps = [25.0] * len(service.nodes)
+    temps[2] = 150.0
+    response = service.client.post(
+        "/v1/buildings/b2/measurements",
+        json={"time": f"{START}T01:00", "node_temperatures_degc": temps},
+        headers=service.headers(service.keys["b2"]),
+    )
+    assert response.status_code == 422
+    assert "node_temperatures_degc[2]" in response.json()["message"]
+
+
+def test_bodies_are_size_limited(service: Service) -> None:
+    big = b'{"x": "' + b"a" * (MAX_BODY_BYTES + 10) + b'"}'
+    response = service.client.post(
+        "/v1/signals/prices",
+        content=big,
+        headers={**service.op(), "Content-Type": "application/json"},
+    )
+    assert response.status_code == 413
+    assert response.json()["status"] == 413
+
+
+def test_prices_change_the_plan(service: Service) -> None:
+    base = _measure(service, "b2", f"{START}T02:00").json()["payload"]
+    prices = {"start": f"{START}T02:30", "energy_price_sgd_per_mwh": [4000.0] * 47}
+    response = service.client.post("/v1/signals/prices", json=prices, headers=service.op())
+    assert response.status_code == 200
+    dear = _measure(service, "b2", f"{START}T02:30").json()["payload"]
+    assert dear["objective_sgd"] > 2 * base["objective_sgd"]
+    bad = {"start": f"{START}T02:30", "energy_price_sgd_per_mwh": [1e9]}
+    response = service.client.post("/v1/signals/prices", json=bad, headers=service.op())
+    assert response.status_code == 422 and "energy_price_sgd_per_mwh[0]" in response.text
+    # later plans use the shipped prices again where the override does not reach
+    reset = {"start": f"{START}T02:30", "energy_price_sgd_per_mwh": [0.0] * 47}
+    service.client.post("/v1/signals/prices", json=reset, headers=service.op())
+
+
+def test_activation_changes_the_plan_at_once(service: Service) -> None:
+    # a plan with reserve: price the reserve high over the horizon
+    prices = {
+        "start": f"{START}T08:00",
+        "energy_price_sgd_per_mwh": [100.0] * 48,
+        "reserve_price_sgd_per_mwh": [3000.0] * 48,
+    }
+    service.client.post("/v1/signals/prices", json=prices, headers=service.op())
+    plan = _measure(service, "b1", f"{START}T10:00", temp=24.5).json()["payload"]
+    assert plan["reserve_kw"] > 0, plan
+    start = service.client.post(
+        "/v1/activations",
+        json={"event": "start", "time": f"{START}T10:05", "building_ids": ["b1"]},
+        headers=service.op(),
+    )
+    assert start.status_code == 200, start.text
+    (changed,) = start.json()["payload"]["plans"]
+    assert changed["il_activated"] and changed["revision"] == plan["revision"] + 1
+    curtailed = [u - r for u, r in zip(plan["flow_kg_s"], plan["reserve_flow_kg_s"], strict=True)]
+    assert changed["applied_flow_kg_s"] == pytest.approx(curtailed)
+    read = service.client.get("/v1/buildings/b1/plan", headers=service.headers(service.keys["b1"]))
+    assert read.json()["payload"]["il_activated"]
+    end = service.client.post(
+        "/v1/activations",
+        json={"event": "end", "time": f"{START}T10:20", "building_ids": ["b1"]},
+        headers=service.op(),
+    )
+    (restored,) = end.json()["payload"]["plans"]
+    assert not restored["il_activated"]
+    assert restored["applied_flow_kg_s"] == pytest.approx(plan["flow_kg_s"])
+    unknown = service.client.post(
+        "/v1/activations",
+        json={"event": "start", "time": f"{START}T10:00", "building_ids": ["nope"]},
+        headers=service.op(),
+    )
+    assert unknown.status_code == 404 and "building_ids[0]" in unknown.json()["message"]
+
+
+def test_clock_boundary_plans_on_the_latest_measurement(service: Service) -> None:
+    response = service.client.post(
+        "/v1/clock", json={"time": f"{START}T12:00"}, headers=service.op()
+    )
+    assert response.status_code == 200
+    plans = {p["building_id"]: p for p in response.json()["payload"]["plans"]}
+    assert set(plans) == {"b1", "b2"}
+    assert all(p["trigger"] == "boundary" and p["period"] == 24 for p in plans.values())
+    again = service.client.post("/v1/clock", json={"time": f"{START}T12:10"}, headers=service.op())
+    assert again.json()["payload"]["plans"] == []  # period 24 is planned already
+
+
+def test_aggregate_bid_and_feeder_limit(service: Service) -> None:
+    service.client.post("/v1/signals/feeder-limit", json={"limit_kw": 1e-3}, headers=service.op())
+    bid = service.client.get("/v1/bid", headers=service.op()).json()["payload"]
+    plans = service.client.get("/v1/plans", headers=service.op()).json()["payload"]["plans"]
+    assert {b["building_id"] for b in bid["buildings"]} == {"b1", "b2"}
+    expected = sum(p["horizon_reserve_kw"][0] or 0.0 for p in plans)
+    assert bid["reserve_kw"][0] == pytest.approx(expected)
+    assert bid["feeder_limit_kw"] == 1e-3 and bid["feeder_limit_exceeded"]
+    service.client.post("/v1/signals/feeder-limit", json={"limit_kw": 1e6}, headers=service.op())
+    assert not service.client.get("/v1/bid", headers=service.op()).json()["payload"][
+        "feeder_limit_exceeded"
+    ]
+
+
+def test_peak_price_enters_the_plan(service: Service) -> None:
+    before = _measure(service, "b2", f"{START}T13:00").json()["payload"]
+    service.client.post(
+        "/v1/signals/peak-price", json={"peak_price_sgd_per_kw": 50.0}, headers=service.op()
+    )
+    after = _measure(service, "b2", f"{START}T13:30").json()["payload"]
+    service.client.post(
+        "/v1/signals/peak-price", json={"peak_price_sgd_per_kw": 0.0}, headers=service.op()
+    )
+    assert max(after["horizon_power_kw"]) < max(before["horizon_power_kw"])
+
+
+def test_every_mutating_request_is_audited(service: Service) -> None:
+    service.client.post("/v1/signals/peak-price", json={"peak_price_sgd_per_kw": 0.0})  # 401
+    records = service.client.get("/v1/audit?limit=1000", headers=service.op()).json()["payload"]
+    assert records[0]["status_code"] == 401 and records[0]["key_id"] is None
+    methods = {r["method"] for r in records}
+    assert methods == {"POST"}
+    roles = {r["role"] for r in records}
+    assert {"operator", "building"} <= roles
+
+
+def test_wall_clock_runs_the_boundary_trigger() -> None:
+    from hvacflex.service.app import start_wall_clock
+
+    class Probe:
+        def __init__(self) -> None:
+            self.times: list[Any] = []
+
+        def boundary(self, time: Any) -> list[Any]:
+            self.times.append(time)
+            return []
+
+    probe = Probe()
+    stop = start_wall_clock(probe, poll_s=0.01)  # type: ignore[arg-type]
+    deadline = time.monotonic() + 5
+    while not probe.times and time.monotonic() < deadline:
+        time.sleep(0.01)
+    stop.set()
+    assert len(probe.times) >= 1
+    assert probe.times[0].minute in (0, 30) and probe.times[0].second == 0

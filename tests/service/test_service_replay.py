@@ -1,0 +1,166 @@
+"""A real server (``hvacflex serve`` on 127.0.0.1): replay equals simulate; kill -9 and
+restart loses no acknowledged write and plans with the same objectives."""
+
+from __future__ import annotations
+
+import sqlite3
+import subprocess
+import threading
+import time
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+import pytest
+from service_fixtures import SERVE, START, Server, free_port, operator_key_for
+
+from hvacflex.config import preset, with_overrides
+from hvacflex.kpi import RESULTS_FILENAME as RESULTS_FILE
+from hvacflex.service.replay import ServiceError, replay
+from hvacflex.sim.closed_loop import read_results, run_simulation
+
+DAYS = 1.0
+KILL_AFTER_PLANS = 30
+"""Plans acknowledged before the kill: the scenario's IL event runs over periods 29–33, so
+the server is killed during the event."""
+SETTINGS = {"seed": 25, "activation.mode": "stress", "activation.duration_steps": 6}
+"""``stress`` activations up to 6 periods long: with seed 25 one event on the day, periods
+29–33 (14:30–17:00, reserve offered), longer than D = 4, so the event start, its locked
+periods, a period beyond the model and the recovery are all compared."""
+
+
+def _config() -> Any:
+    """``rmpc`` (IL event model, D = 4, R = 2) with one IL event on the day."""
+    return with_overrides(preset("rmpc", start=START, days=DAYS), SETTINGS)
+
+
+@pytest.fixture(scope="module")
+def reference(tmp_path_factory: pytest.TempPathFactory) -> Iterator[dict[str, Any]]:
+    """An uninterrupted replay of one day and ``simulate`` of the same scenario."""
+    root = tmp_path_factory.mktemp("replay")
+    server = Server(f"sqlite:///{root / 'ref.db'}", free_port())
+    server.start()
+    try:
+        key = operator_key_for(server.db_url)
+        started = time.perf_counter()
+        result = replay(server.url, key, _config(), root / "replay", building_id="ref")
+        replay_s = time.perf_counter() - started
+    finally:
+        server.stop()
+    simulated = run_simulation(_config(), root / "simulate", progress=False, resume=False)
+    yield {
+        "replay": result,
+        "replay_s": replay_s,
+        "simulate_dir": simulated.out_dir,
+        "replay_dir": root / "replay",
+    }
+
+
+def _comparable(frame: pd.DataFrame) -> pd.DataFrame:
+    return frame.drop(columns=["solve_time_s"])
+
+
+def test_replay_writes_the_files_of_simulate_and_equals_it(reference: dict[str, Any]) -> None:
+    for name in ("results.parquet", "summary.json", "config.json"):
+        assert (reference["replay_dir"] / name).is_file(), name
+    replayed, meta_r = read_results(reference["replay_dir"] / RESULTS_FILE)
+    simulated, meta_s = read_results(reference["simulate_dir"] / RESULTS_FILE)
+    assert meta_r["config_hash"] == meta_s["config_hash"]
+    assert len(replayed) == round(DAYS * 48)
+    pd.testing.assert_frame_equal(
+        _comparable(replayed), _comparable(simulated), check_exact=False, rtol=1e-9, atol=1e-9
+    )
+    assert not replayed["fallback"].any()
+    # the day has an IL event: its start, locked periods (no solve), beyond D, recovery
+    assert replayed["il_curtailed"].any() and replayed["il_beyond_model"].any()
+    assert replayed.loc[replayed["il_curtailed"], "reserve_kw"].sum() > 0
+    assert (replayed["solve_status"] == "event-plan").any()
+    assert (replayed["il_event_window"] & ~replayed["il_curtailed"]).any()  # recovery
+    roles = {plan["il_role"] for plan in reference["replay"].plans}
+    assert {"served", "event-start", "event-locked", "beyond-model"} <= roles
+    summary = reference["replay"].summary
+    assert summary["energy_kwh"] == pytest.approx(float(simulated["power_kw"].sum()) * 0.5)
+
+
+def test_kill9_and_restart_continue_from_the_database(
+    reference: dict[str, Any], tmp_path: Path
+) -> None:
+    server = Server(f"sqlite:///{tmp_path / 'killed.db'}", free_port())
+    server.start()
+    acknowledged: list[dict[str, Any]] = []
+    outcome: dict[str, Any] = {}
+    try:
+        key = operator_key_for(server.db_url)
+
+        def play() -> None:
+            try:
+                replay(server.url, key, _config(), tmp_path / "first", building_id="kill",
+                       on_plan=acknowledged.append)  # fmt: skip
+            except (ServiceError, OSError) as exc:
+                outcome["error"] = exc
+
+        thread = threading.Thread(target=play)
+        thread.start()
+        deadline = time.monotonic() + 120
+        while len(acknowledged) < KILL_AFTER_PLANS and time.monotonic() < deadline:
+            time.sleep(0.01)
+        server.kill9()  # mid-run: a request may be in flight
+        thread.join(timeout=120)
+        assert "error" in outcome, "the replay should have lost its server"
+        killed_at = len(acknowledged)
+        assert KILL_AFTER_PLANS <= killed_at < round(DAYS * 48)
+
+        # every acknowledged plan is in the database, unchanged
+        with sqlite3.connect(tmp_path / "killed.db") as db:
+            rows = db.execute("SELECT period, revision, objective_sgd FROM plans").fetchall()
+        stored = {(p, r): o for p, r, o in rows}
+        for plan in acknowledged:
+            assert stored[(plan["period"], plan["revision"])] == plan["objective_sgd"]
+
+        server.start()
+        building_key = _building_key(tmp_path / "killed.db", server)
+        result = replay(server.url, key, _config(), tmp_path / "second", building_id="kill",
+                        building_key=building_key)  # fmt: skip
+    finally:
+        server.stop()
+
+    ref_plans = reference["replay"].plans
+    assert len(result.plans) == len(ref_plans)
+    # periods already planned come back as stored; the rest are planned after the restart
+    for before, after in zip(acknowledged, result.plans, strict=False):
+        assert after["revision"] == before["revision"]
+        assert after["objective_sgd"] == before["objective_sgd"]
+    objectives = np.array([p["objective_sgd"] for p in result.plans], dtype=float)
+    expected = np.array([p["objective_sgd"] for p in ref_plans], dtype=float)
+    np.testing.assert_allclose(objectives, expected, rtol=1e-7, atol=1e-6)
+    restarted, _ = read_results(tmp_path / "second" / RESULTS_FILE)
+    uninterrupted, _ = read_results(reference["replay_dir"] / RESULTS_FILE)
+    pd.testing.assert_frame_equal(
+        _comparable(restarted), _comparable(uninterrupted), check_exact=False, rtol=1e-7,
+        atol=1e-6,
+    )  # fmt: skip
+
+
+def _building_key(db: Path, server: Server) -> str:
+    """A new key for building ``kill`` (the registration's key went with the client)."""
+    out = subprocess.run(
+        [
+            *SERVE,
+            "key",
+            "create",
+            "--role",
+            "building",
+            "--building",
+            "kill",
+            "--db",
+            server.db_url,
+        ],
+        check=True,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert db.is_file()
+    return out.stdout.strip()
