@@ -123,6 +123,32 @@ def side_by_side(ours: pd.DataFrame, paper: pd.DataFrame | None = None) -> pd.Da
     return result
 
 
+def models_side_by_side(tables: Mapping[str, pd.DataFrame]) -> pd.DataFrame:
+    """Table 1 of several reserve models side by side, rows aligned by position.
+
+    Parameters
+    ----------
+    tables : model name → :func:`table1` output of that model's scenarios (a), (b), (c), each
+        with % against its own (a); the first table's row labels are kept.
+
+    Returns
+    -------
+    DataFrame with, for each of :data:`TABLE1_COLUMNS` and each model, a column
+    ``"<name> (<model>)"`` (model by model within a quantity); rows missing from a shorter
+    table are NaN.
+    """
+    if not tables:
+        raise InputError("models_side_by_side needs at least one model", field="tables", value={})
+    index = next(iter(tables.values())).index
+    result = pd.DataFrame(index=index)
+    for column in TABLE1_COLUMNS:
+        for model, table in tables.items():
+            values = table[column].to_numpy(float)
+            padded = pd.Series(values).reindex(range(len(index))).to_numpy(float)
+            result[f"{column} ({model})"] = padded
+    return result
+
+
 # ----------------------------------------------------------------------------- rendering
 
 

@@ -154,3 +154,46 @@ def no_reserve(labels: Sequence[str], *, offered: bool, robust: bool) -> str:
         f"curtailed for the whole horizon{margin}, and at these (synthetic) reserve prices the "
         "optimiser found no offer whose revenue pays for the extra cooling this needs."
     )
+
+
+PAPER_REVENUE_CHANGE_PCT = {"(b)": 1.7, "(c)": 12.0}
+"""Reserve revenue of (b) and (c) against (a) in the paper's Table 1 [%]: it rises in both."""
+
+NEGLIGIBLE_REVENUE_SGD = 1e-6
+"""Revenue below this is zero up to solver tolerance [SGD]."""
+
+
+def _revenue_move(revenue_sgd: float, reference_sgd: float) -> tuple[int, str]:
+    """(+1 rises / 0 same / −1 falls, phrase) of a revenue against (a)'s."""
+    change = _relative_change(revenue_sgd, reference_sgd)
+    if math.isnan(change):
+        if revenue_sgd > NEGLIGIBLE_REVENUE_SGD:
+            return 1, "rises from nothing"
+        return 0, "stays at zero"
+    if abs(change) < SAME_RELATIVE:
+        return 0, "stays the same"
+    verb = "rises" if change > 0 else "falls"
+    return (1 if change > 0 else -1), f"{verb} by {100 * abs(change):.1f} %"
+
+
+def revenue_trend(
+    model: str, revenue_a_sgd: float, revenue_b_sgd: float, revenue_c_sgd: float
+) -> str:
+    """Whether reserve revenue rises in (b) and (c) against (a) under ``model``, set against the
+    paper's finding (it rises in both), from the three runs' reserve revenue [SGD]."""
+    numbers = f"(a) {revenue_a_sgd:,.2f}, (b) {revenue_b_sgd:,.2f}, (c) {revenue_c_sgd:,.2f} SGD"
+    if max(revenue_a_sgd, revenue_b_sgd, revenue_c_sgd) <= NEGLIGIBLE_REVENUE_SGD:
+        return (
+            f"Under {model} no scenario earns reserve revenue ({numbers}), so the paper's "
+            "rise in (b) and (c) cannot appear."
+        )
+    sign_b, move_b = _revenue_move(revenue_b_sgd, revenue_a_sgd)
+    sign_c, move_c = _revenue_move(revenue_c_sgd, revenue_a_sgd)
+    head = (
+        f"Under {model}, reserve revenue {move_b} in (b) and {move_c} in (c) "
+        f"against (a) ({numbers})"
+    )
+    if sign_b > 0 and sign_c > 0:
+        return f"{head} — as in the paper."
+    paper = ", ".join(f"{k} +{v:g} %" for k, v in PAPER_REVENUE_CHANGE_PCT.items())
+    return f"{head} — unlike the paper, where it rises in both ({paper})."
