@@ -2,7 +2,7 @@
 
 A building's air-conditioning buys energy at real-time prices (Singapore NEMS USEP), offers
 interruptible-load reserve, keeps a utility peak-power price in check, and keeps room comfort
-for every forecast error inside a box. See ``DESIGN.md`` for the model and the problem.
+for every forecast error inside a box. See ``docs/model.md`` for the model and the problem.
 """
 
 from importlib.metadata import PackageNotFoundError, version

@@ -312,7 +312,8 @@ def monthly_ppp_charge_sgd(
 
     With a constant price φ [SGD/kW]: φ × the month's largest 30-min average power. With
     ``peak_price_sgd_per_kw=None`` the column of that name is used; when it varies in time the
-    charge is ``max_k φ_k P_k`` over the month (DESIGN §2), which equals φ × peak when constant.
+    charge is ``max_k φ_k P_k`` over the month (docs/model.md §2), which equals φ × peak when
+    constant.
 
     Returns
     -------
@@ -566,8 +567,7 @@ def solve_time_stats_s(results: pd.DataFrame) -> dict[str, float]:
     times_s = _values(results, "solve_time_s")
     times_s = times_s[~np.isnan(times_s)]
     if times_s.size == 0:
-        nan = float("nan")
-        return {"mean": nan, "p95": nan, "max": nan}
+        return dict.fromkeys(("mean", "p95", "max"), float("nan"))
     return {
         "mean": float(np.mean(times_s)),
         "p95": float(np.percentile(times_s, 95.0)),
@@ -588,44 +588,39 @@ def summary(results: pd.DataFrame, peak_price_sgd_per_kw: float | None = None) -
     ``discomfort_<zone>_kelvin_hours``, ``max_violation_k`` (all zones),
     ``max_violation_<zone>_k``, ``violation_share``, the IL keys of :func:`il_summary`,
     ``fallback_count``, ``planned_slack_share``, ``max_delta_vs_half_band``,
-    ``solve_time_mean_s``, ``solve_time_p95_s``, ``solve_time_max_s``. Monthly averages are
-    omitted when the index is not a ``DatetimeIndex``, as are ``ppp_charge_sgd`` and
-    ``net_cost_with_ppp_sgd``.
+    ``solve_time_mean_s``, ``solve_time_p95_s``, ``solve_time_max_s``, ``prediction_error_*``
+    (:func:`prediction_error_summary`). Monthly averages are omitted when the index is not a
+    ``DatetimeIndex``, as are ``ppp_charge_sgd`` and ``net_cost_with_ppp_sgd``.
     """
-    dt_h = step_hours(results)
     out: dict[str, float] = {
         "steps": float(len(results)),
-        "days": len(results) * dt_h / _HOURS_PER_DAY,
+        "days": len(results) * step_hours(results) / _HOURS_PER_DAY,
         "energy_kwh": energy_kwh(results),
         "energy_cost_sgd": energy_cost_sgd(results),
         "reserve_revenue_sgd": reserve_revenue_sgd(results),
         "il_penalty_sgd": il_penalty_sgd(results),
         "net_cost_sgd": net_cost_sgd(results),
     }
+    out["peak_power_kw"] = peak_power_kw(results)
     if isinstance(results.index, pd.DatetimeIndex):
         out["ppp_charge_sgd"] = ppp_charge_sgd(results, peak_price_sgd_per_kw)
         out["net_cost_with_ppp_sgd"] = out["net_cost_sgd"] + out["ppp_charge_sgd"]
-    out["peak_power_kw"] = peak_power_kw(results)
-    if isinstance(results.index, pd.DatetimeIndex):
         average = monthly_average(monthly_table(results, peak_price_sgd_per_kw))
         for col in ("energy_cost_sgd", "reserve_revenue_sgd", "net_cost_sgd"):
             out[f"monthly_avg_{col}"] = float(average[col])
     discomfort = discomfort_kelvin_hours(results)
     out["discomfort_kelvin_hours"] = float(discomfort.sum())
-    for zone, value in discomfort.items():
-        out[f"discomfort_{zone}_kelvin_hours"] = float(value)
+    out |= {f"discomfort_{zone}_kelvin_hours": float(v) for zone, v in discomfort.items()}
     violation = max_violation_k(results)
     out["max_violation_k"] = float(violation.max())
-    for zone, value in violation.items():
-        out[f"max_violation_{zone}_k"] = float(value)
+    out |= {f"max_violation_{zone}_k": float(v) for zone, v in violation.items()}
     out["violation_share"] = violation_share(results)
     out |= il_summary(results)
     out["fallback_count"] = float(fallback_count(results))
     out["planned_slack_share"] = planned_slack_share(results)
     out["max_delta_vs_half_band"] = max_delta_vs_half_band(results)
-    for stat, value in solve_time_stats_s(results).items():
-        out[f"solve_time_{stat}_s"] = value
-    return out
+    out |= {f"solve_time_{stat}_s": v for stat, v in solve_time_stats_s(results).items()}
+    return out | prediction_error_summary(results)
 
 
 def il_summary(results: pd.DataFrame) -> dict[str, float]:
@@ -642,6 +637,18 @@ def il_summary(results: pd.DataFrame) -> dict[str, float]:
         "discomfort_event_kelvin_hours": discomfort_event_kelvin_hours(results),
         "discomfort_outside_events_kelvin_hours": discomfort_outside_events_kelvin_hours(results),
     }
+
+
+def prediction_error_summary(results: pd.DataFrame) -> dict[str, float]:
+    """``prediction_error_rms_k``, ``_max_k`` [K]: RMS and largest |e| over steps and zones of
+    the one-step prediction errors ``prediction_error_<zone>_k`` (NaN left out); or {}."""
+    names = [f"prediction_error_{zone}_k" for zone in zone_names(results)]
+    if not all(name in results.columns for name in names):
+        return {}
+    values = np.abs(results[names].to_numpy(dtype=float)).ravel()
+    values = values[np.isfinite(values)] if np.isfinite(values).any() else np.array([np.nan])
+    rms = float(np.sqrt(np.mean(values**2)))
+    return {"prediction_error_rms_k": rms, "prediction_error_max_k": float(np.max(values))}
 
 
 RESULTS_REQUIRED_COLUMNS = ("power_kw", "energy_price_sgd_per_mwh")

@@ -16,7 +16,7 @@ with the relief air. L is an optional argument (default 0: return air at the sup
 ratio, i.e. only the outdoor air's moisture is removed); it does not depend on the flows, so it
 enters p0 only.
 
-Affine model for the controller (DESIGN §1): coil terms are linear in ṁ at T_r = T_ref; the
+Affine model for the controller (docs/model.md §1): coil terms are linear in ṁ at T_r = T_ref; the
 fan is replaced by the secant of κ_f S^n over [S_min, S_max] = [Σṁ_min, Σṁ_max], which lies
 above the convex curve on that interval (an upper bound, never negative).
 """

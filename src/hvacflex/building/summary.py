@@ -3,8 +3,8 @@
 :func:`summarize` computes the numbers (:class:`BuildingSummary`), :func:`format_summary`
 renders them as plain text. Design cooling load: steady state with every zone held at
 ``DESIGN_ZONE_TEMP_DEGC``, the ASHRAE 0.4 % cooling design outdoor condition of Singapore
-(Changi, from the IWEC weather file's header), design irradiance on every exterior
-orientation at once (non-coincident, so an upper estimate) and full internal gains.
+(Changi, ASHRAE climatic design data as given in the TMYx header), design irradiance on every
+exterior orientation at once (non-coincident, so an upper estimate) and full internal gains.
 """
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ from hvacflex.units import (
 )
 
 DESIGN_OUTDOOR_TEMP_DEGC = 33.2
-"""Singapore Changi 0.4 % cooling design dry bulb (ASHRAE 2009, IWEC header) [°C]."""
+"""Singapore Changi 0.4 % cooling design dry bulb (ASHRAE climatic design data) [°C]."""
 DESIGN_OUTDOOR_HUMIDITY_RATIO_KG_PER_KG = 0.0194
 """Humidity ratio at 33.2 °C dry bulb / 26.4 °C mean coincident wet bulb [kg/kg]."""
 DESIGN_SOLAR_VERTICAL_W_PER_M2 = 400.0
@@ -40,10 +40,10 @@ DESIGN_SOLAR_HORIZONTAL_W_PER_M2 = 950.0
 DESIGN_ZONE_TEMP_DEGC = 24.0
 """Zone temperature held for the design load [°C]."""
 A_TOLERANCE = -1e-12
-"""Elementwise tolerance of the discrete A ≥ 0 check (DESIGN §1)."""
+"""Elementwise tolerance of the discrete A ≥ 0 check (docs/model.md §1)."""
 VENTILATION_L_S_PER_PERSON = 5.5
 VENTILATION_L_S_PER_M2 = 0.3
-"""Outdoor-air requirement (DESIGN §1) [L/s per person, L/s per m²]."""
+"""Outdoor-air requirement (docs/model.md §1) [L/s per person, L/s per m²]."""
 
 
 @dataclass(frozen=True)

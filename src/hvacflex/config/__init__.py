@@ -47,7 +47,10 @@ from hvacflex.config.model import (
     ControllerConfig,
     ControllerKind,
     DataConfig,
+    EstimationConfig,
+    EstimationMode,
     FeedbackConfig,
+    Linearisation,
     PriceGapFill,
     RealisationConfig,
     RealisationMode,
@@ -86,8 +89,11 @@ __all__ = [
     "ControllerConfig",
     "ControllerKind",
     "DataConfig",
+    "EstimationConfig",
+    "EstimationMode",
     "FeedbackConfig",
     "FeedbackStructure",
+    "Linearisation",
     "PriceGapFill",
     "RealisationConfig",
     "RealisationMode",
@@ -105,7 +111,7 @@ __all__ = [
 LINEARISATION_MARGIN_K = 1.0
 """Default T₀ sits this far below the occupied upper bound [K].
 
-DESIGN §1 recommends T₀ = the occupied lower bound (23 °C), which never over-predicts the
+docs/model.md §1 recommends T₀ = the occupied lower bound (23 °C), which never over-predicts the
 cooling of the supply air while T_r ≥ T₀. But the MPC spends its occupied hours near the
 upper bound, where that choice under-predicts the cooling by (26 − 23)/(26 − 13) ≈ 23 %: the
 plant then runs colder than planned, the nominal MPC buys that margin on every step, and the

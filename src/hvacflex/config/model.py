@@ -27,6 +27,8 @@ RealisationMode = Literal["zero", "uniform", "worst-upper", "worst-lower", "ar1"
 ActivationMode = Literal["never", "always", "random", "stress", "file"]
 PriceGapFill = Literal["none", "previous-day"]
 DisturbanceKind = Literal["outdoor_temp", "solar", "internal_gain", "ground_temp"]
+Linearisation = Literal["fixed", "trajectory"]
+EstimationMode = Literal["full-state", "kalman"]
 
 NEMS_MAX_INTERRUPTION_STEPS = 4
 """The NEMS 120-minute rule (since 2019): after four 30-min periods of interruption the
@@ -75,6 +77,23 @@ class ControllerConfig:
     time_limit_s: float = 20.0
     thermostat_setpoint_degc: float = 24.0
     feedback: FeedbackConfig = field(default_factory=FeedbackConfig)
+    linearisation: Linearisation = "fixed"
+    """``"fixed"``: the model linearised once at (ṁ_min, T₀); ``"trajectory"``: re-linearised
+    each step about the previous plan shifted by one step (docs/estimation.md §3)."""
+
+
+@dataclass(frozen=True)
+class EstimationConfig:
+    """What the controller measures (``[estimation]``, docs/estimation.md).
+
+    ``"full-state"``: every node temperature of the plant; ``"kalman"``: only the zone air
+    temperatures, with uniform sensor error in ±``measurement_noise_k`` [K], and a Kalman
+    filter with per-zone offset states estimates the rest (tuned covariances).
+    """
+
+    mode: EstimationMode = "full-state"
+    measurement_noise_k: float = 0.1
+    """Half-width of the uniform zone-air sensor error [K]."""
 
 
 @dataclass(frozen=True)
@@ -102,7 +121,7 @@ class UncertaintyConfig:
     ``relative`` is a fraction of the forecast value (solar, internal gains); ``absolute`` is
     in the channel's unit (K for temperatures, W/m² for solar, W for gains). Both add up.
     The default (±5 % of heat gains, ±0.5 K outdoor) is the largest level the default
-    building satisfies with margin; see ``docs/data.md`` and DESIGN §3.
+    building satisfies with margin; see ``docs/data.md`` and docs/model.md §3.
     """
 
     relative: Mapping[str, float] = field(
@@ -174,6 +193,7 @@ class ScenarioConfig:
     initial_temp_degc: float = 25.0
     controller: ControllerConfig = field(default_factory=ControllerConfig)
     reserve: ReserveConfig = field(default_factory=ReserveConfig)
+    estimation: EstimationConfig = field(default_factory=EstimationConfig)
     uncertainty: UncertaintyConfig = field(default_factory=UncertaintyConfig)
     realisation: RealisationConfig = field(default_factory=RealisationConfig)
     activation: ActivationConfig = field(default_factory=ActivationConfig)

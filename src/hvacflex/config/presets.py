@@ -18,6 +18,8 @@ inside the strict band for the whole horizon). See ``docs/il_events.md``.
     rmpc-feedback      robust MPC with affine disturbance feedback; whole-horizon reserve
                        model (the feedback LP does not support events)
     rmpc-feedback-ppp  the same with φ = 1.5 SGD/kW
+    rmpc-output-feedback  rmpc from zone-air measurements (Kalman filter, estimation margin)
+                       with trajectory linearisation, event model (docs/estimation.md)
 """
 
 from __future__ import annotations
@@ -58,6 +60,11 @@ PRESETS: dict[str, dict[str, Any]] = {
     "thermostat": {"controller": {"kind": "thermostat", "robust": "none", "reserve": False}},
     "rmpc-feedback": {"controller": {"robust": "feedback"}},
     "rmpc-feedback-ppp": {"controller": {"robust": "feedback", **_PPP}},
+    "rmpc-output-feedback": {
+        "controller": {"robust": "tightening", "linearisation": "trajectory"},
+        "estimation": {"mode": "kalman"},
+        "reserve": PRODUCT_RESERVE,
+    },
 }
 """Preset name → partial scenario document."""
 

@@ -12,10 +12,12 @@ File layout (every key optional)::
     preset?, name, building, start, days, dt_s, seed, initial_temp_degc
     [controller]   kind, robust, reserve, peak_price_sgd_per_kw, billing_mode,
                    comfort_penalty_sgd_per_kelvin_hour, horizon_steps,
-                   linearisation_temp_degc, time_limit_s, thermostat_setpoint_degc
+                   linearisation_temp_degc, time_limit_s, thermostat_setpoint_degc,
+                   linearisation
     [controller.feedback]  structure, memory_steps
     [reserve]      event_max_steps, event_allowance_k, event_recovery_steps,
                    non_delivery_penalty_sgd_per_mwh
+    [estimation]   mode, measurement_noise_k
     [uncertainty]  relative = {kind = fraction}, absolute = {kind = value}
     [realisation]  mode, ar1_coefficient
     [activation]   mode, events_per_year, duration_steps, file
@@ -50,7 +52,10 @@ from hvacflex.config.model import (
     ControllerKind,
     DataConfig,
     DisturbanceKind,
+    EstimationConfig,
+    EstimationMode,
     FeedbackConfig,
+    Linearisation,
     PriceGapFill,
     RealisationConfig,
     RealisationMode,
@@ -127,6 +132,7 @@ class ControllerSpec(Spec):
     time_limit_s: Positive = default(ControllerConfig, "time_limit_s")
     thermostat_setpoint_degc: Number = default(ControllerConfig, "thermostat_setpoint_degc")
     feedback: FeedbackSpec = FeedbackSpec()
+    linearisation: Linearisation = default(ControllerConfig, "linearisation")
 
     @model_validator(mode="after")
     def _thermostat_offers_no_reserve(self) -> Self:
@@ -147,6 +153,11 @@ class ReserveSpec(Spec):
     non_delivery_penalty_sgd_per_mwh: NonNegative = default(
         ReserveConfig, "non_delivery_penalty_sgd_per_mwh"
     )
+
+
+class EstimationSpec(Spec):
+    mode: EstimationMode = default(EstimationConfig, "mode")
+    measurement_noise_k: NonNegative = default(EstimationConfig, "measurement_noise_k")
 
 
 class UncertaintySpec(Spec):
@@ -241,6 +252,7 @@ class ScenarioSpec(Spec):
     initial_temp_degc: Number = default(ScenarioConfig, "initial_temp_degc")
     controller: ControllerSpec = ControllerSpec()
     reserve: ReserveSpec = ReserveSpec()
+    estimation: EstimationSpec = EstimationSpec()
     uncertainty: UncertaintySpec = UncertaintySpec()
     realisation: RealisationSpec = RealisationSpec()
     activation: ActivationSpec = ActivationSpec()
@@ -266,6 +278,7 @@ TABLES: dict[type[BaseModel], type] = {
     ControllerSpec: ControllerConfig,
     FeedbackSpec: FeedbackConfig,
     ReserveSpec: ReserveConfig,
+    EstimationSpec: EstimationConfig,
     UncertaintySpec: UncertaintyConfig,
     RealisationSpec: RealisationConfig,
     ActivationSpec: ActivationConfig,

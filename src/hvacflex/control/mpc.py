@@ -1,7 +1,7 @@
 """The building-level MPC: building + forecast + measured state → RMPC problem → action.
 
 This is the only place that turns a building and its forecast into an
-:class:`~hvacflex.opt.RMPCProblem` (DESIGN §3):
+:class:`~hvacflex.opt.RMPCProblem` (docs/model.md §3):
 
 * dynamics ``x+ = A x + B u + E d + g`` from :func:`hvacflex.building.discretize.linearize`,
 * power ``P_k = p0_k + p_kᵀ u_k`` from :func:`hvacflex.building.hvac.affine_power_model` at the
@@ -22,6 +22,7 @@ offers no reserve, and says so in the :class:`~hvacflex.control.base.Action`.
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -29,12 +30,21 @@ import numpy as np
 from hvacflex.building.discretize import LinearModel
 from hvacflex.building.hvac import affine_power_model
 from hvacflex.building.model import Building
-from hvacflex.config import ControllerConfig, ReserveConfig
+from hvacflex.building.rc import build_network
+from hvacflex.config import ControllerConfig, Linearisation, ReserveConfig
 from hvacflex.control.base import Action, EventPlan, FloatArray
 from hvacflex.control.baselines import ThermostatController, unplanned_action
+from hvacflex.control.estimation import (
+    AppliedStep,
+    KalmanConfig,
+    KalmanEstimator,
+    StepModel,
+    tightened_bounds,
+)
+from hvacflex.control.trajectory import relinearised_first_step
 from hvacflex.data.forecast import Forecast
 from hvacflex.data.uncertainty import UncertaintyBox
-from hvacflex.errors import ConfigError
+from hvacflex.errors import ConfigError, ProblemError
 from hvacflex.opt import (
     FeedbackOptions,
     FeedbackSolver,
@@ -81,6 +91,12 @@ class MPCController:
     box : the forecast-error box; ignored when ``config.robust == "none"``.
     linearisation_temp_degc : T₀ used for the power coefficients [°C].
     reserve : the IL contract (event length, allowance, recovery); default: whole horizon.
+    estimation : Kalman filter settings for output feedback (``[estimation] mode =
+        "kalman"``): :meth:`act` then needs the measured zone temperatures and plans from the
+        estimate, with the offset estimate in the affine term and the estimation margin
+        (docs/estimation.md) added to δ when the MPC is robust; None = full state.
+    linearisation : ``"fixed"`` (``model`` throughout) or ``"trajectory"`` (re-linearised
+        each step about the previous plan shifted by one step, docs/estimation.md §3).
     """
 
     def __init__(
@@ -91,6 +107,9 @@ class MPCController:
         box: UncertaintyBox,
         linearisation_temp_degc: float,
         reserve: ReserveConfig | None = None,
+        *,
+        estimation: KalmanConfig | None = None,
+        linearisation: Linearisation = "fixed",
     ) -> None:
         self._building = building
         self._reserve = reserve if reserve is not None else ReserveConfig()
@@ -111,6 +130,41 @@ class MPCController:
         self._pending_basis: SolverBasis | None = None
         self._previous_plan: RMPCSolution | None = None
         self._plan_age = 0
+        self._estimator = KalmanEstimator(estimation) if estimation is not None else None
+        self._network = build_network(building) if linearisation == "trajectory" else None
+        self._step_model: StepModel = model
+        self._solver_model: StepModel = model
+        self._held = False
+
+    @property
+    def step_model(self) -> StepModel:
+        """The model (a, b, e, g, c) the last decision was planned with (its first step)."""
+        return self._step_model
+
+    def note_applied_flow(self, flow_kg_s: FloatArray) -> None:
+        """The flow the plant actually ran this period (u − r under IL activation), for the
+        filter's next prediction; no-op without a filter."""
+        if self._estimator is not None and self._estimator.last is not None:
+            last = self._estimator.last
+            self._estimator.applied(replace(last, flow_kg_s=np.asarray(flow_kg_s, dtype=float)))
+
+    def hold(
+        self,
+        forecast: Forecast,
+        flow_kg_s: FloatArray,
+        measured_zone_temp_degc: FloatArray | None = None,
+    ) -> None:
+        """A period the plant runs a locked IL-event plan (flow (m,) [kg/s]) without asking
+        :meth:`act`: the filter still takes the measurement (m,) [°C] and predicts over the
+        period, with the fixed model (the last plan is stale: the next :meth:`act` does not
+        re-linearise about it)."""
+        self._step_model, self._held = self._model, True
+        if self._estimator is None or measured_zone_temp_degc is None:
+            return
+        self._estimator.estimate(measured_zone_temp_degc, self._model)
+        sigma = self._box.sigma(forecast.disturbances[:1], self._model.channels)[0]
+        flow = np.asarray(flow_kg_s, dtype=float)
+        self._estimator.applied(AppliedStep(self._model, flow, forecast.disturbances[0], sigma))
 
     @property
     def reserve_mask(self) -> np.ndarray:
@@ -123,10 +177,24 @@ class MPCController:
         forecast: Forecast,
         peak_floor_kw: float,
         allowance_carry_steps: int = 0,
+        *,
+        step_model: StepModel | None = None,
+        offset_k: FloatArray | None = None,
+        extra_margin_k: FloatArray | None = None,
     ) -> RMPCProblem:
-        """The RMPC problem for the period starting now (``allowance_carry_steps``: see
-        :meth:`hvacflex.control.base.Controller.act`; ignored under the whole-horizon model)."""
+        """The RMPC problem for the period starting now.
+
+        ``allowance_carry_steps``: see :meth:`hvacflex.control.base.Controller.act` (ignored
+        under the whole-horizon model). ``step_model`` replaces the dynamics (a, b, e, g) of
+        the fixed model (trajectory linearisation); ``offset_k`` (m,) [K per step] is added to
+        the zone nodes' affine term (the filter's offset estimate); ``extra_margin_k`` (N, m)
+        [K] tightens the comfort bounds on top of δ (the estimation margin).
+        """
         cfg, m = self._config, self._model
+        dyn = step_model if step_model is not None else m
+        affine = np.asarray(dyn.g, dtype=float)
+        if offset_k is not None:
+            affine = affine + m.c.T @ offset_k
         horizon = cfg.horizon_steps
         d_hat = forecast.disturbances[:horizon]
         if d_hat.shape[0] < horizon:
@@ -142,6 +210,8 @@ class MPCController:
             sigma = self._box.sigma(d_hat, m.channels)
         u_min = self._building.hvac.flow_min_at(forecast.occupied[:horizon])
         y_min, y_max = comfort_bounds_at_period_ends(forecast, horizon)
+        if extra_margin_k is not None:
+            y_min, y_max = tightened_bounds(y_min, y_max, extra_margin_k)
         p0, p = affine_power_model(
             self._building.hvac,
             d_hat[:, self._outdoor_index],
@@ -155,11 +225,11 @@ class MPCController:
         floor = peak_floor_kw if cfg.billing_mode == "billing-period" else 0.0
         events = self._reserve.event_max_steps is not None
         return RMPCProblem(
-            a_matrix=m.a,
-            b_matrix=m.b,
-            e_matrix=m.e,
+            a_matrix=dyn.a,
+            b_matrix=dyn.b,
+            e_matrix=dyn.e,
             c_matrix=m.c,
-            affine_term=m.g,
+            affine_term=affine,
             x0=np.asarray(x_degc, dtype=float),
             d_forecast=d_hat,
             d_sigma=sigma,
@@ -201,13 +271,82 @@ class MPCController:
         *,
         peak_floor_kw: float,
         allowance_carry_steps: int = 0,
+        measured_zone_temp_degc: FloatArray | None = None,
     ) -> Action:
-        problem = self.problem(x_degc, forecast, peak_floor_kw, allowance_carry_steps)
+        """Decide the period's action from the plant state ``x_degc`` (n,) (full state) or,
+        with a filter, from the measured zone temperatures (m,) [°C] alone."""
+        offset = extra = None
+        if self._estimator is not None:
+            if measured_zone_temp_degc is None:
+                raise ConfigError(
+                    "the Kalman filter needs the measured zone temperatures",
+                    field="estimation.mode",
+                    value="kalman",
+                    hint="pass measured_zone_temp_degc (the closed loop does so)",
+                )
+            estimate = self._estimator.estimate(measured_zone_temp_degc, self._model)
+            x_degc, offset = estimate.x_degc, estimate.offset_k
+        step_model: StepModel = self._model
+        plan = self._previous_plan
+        fresh = plan is not None and self._plan_age == 0 and not self._held
+        if self._network is not None and plan is not None and fresh:
+            step_model = relinearised_first_step(
+                self._building,
+                self._network,
+                self._model.c,
+                plan.u,
+                plan.x_served,
+                self._model.c @ x_degc,
+                self._model.dt_s,
+            )
+        horizon = self._config.horizon_steps
+        sigma = self._box.sigma(forecast.disturbances[:horizon], self._model.channels)
+        if self._estimator is not None and self._config.robust != "none":
+            extra = self._estimator.margins(step_model, sigma.max(axis=0), horizon)
+        problem = self.problem(
+            x_degc,
+            forecast,
+            peak_floor_kw,
+            allowance_carry_steps,
+            step_model=step_model,
+            offset_k=offset,
+            extra_margin_k=extra,
+        )
+        if self._solver is not None and step_model is not self._solver_model:
+            self._carry_basis_to(problem)
+        self._solver_model = step_model
+        action = self._decide(problem, x_degc, forecast)
+        self._step_model, self._held = step_model, False
+        if self._estimator is not None:
+            self._estimator.applied(
+                AppliedStep(step_model, action.flow_kg_s, forecast.disturbances[0], sigma[0])
+            )
+        return action
+
+    def _carry_basis_to(self, problem: RMPCProblem) -> None:
+        """A new model is a new LP structure: start a new solver from the old one's basis
+        (same columns and rows, so the basis stays valid and is rotated as usual)."""
+        assert self._solver is not None
+        basis = self._solver.get_basis()
+        self._solver = None
+        self._pending_basis = (
+            None if basis is None else replace(basis, fingerprint=problem.structure.fingerprint())
+        )
+
+    def _decide(self, problem: RMPCProblem, x_degc: FloatArray, forecast: Forecast) -> Action:
         if self._solver is None:
             solver_class = FeedbackSolver if problem.robust == "feedback" else RMPCSolver
             self._solver = solver_class(problem, time_limit_s=self._config.time_limit_s)
-            if self._pending_basis is not None:
-                self._solver.set_basis(self._pending_basis)
+            pending = self._pending_basis
+            if pending is not None and self._network is not None:
+                # trajectory linearisation: every step is a new structure of the same layout
+                pending = replace(pending, fingerprint=problem.structure.fingerprint())
+            if pending is not None:
+                try:
+                    self._solver.set_basis(pending)
+                except ProblemError:  # another row count (e.g. lazy event rows): cold start
+                    pass
+                self._pending_basis = None
         solution = self._solver.solve(problem)
         if solution.status is SolveStatus.OPTIMAL:
             self._previous_plan, self._plan_age = solution, 0
@@ -286,6 +425,9 @@ class MPCController:
             "basis": self._solver.get_basis() if self._solver is not None else None,
             "previous_plan": self._previous_plan,
             "plan_age": self._plan_age,
+            "estimator": self._estimator.get_state() if self._estimator is not None else None,
+            "step_model": self._step_model,
+            "held": self._held,
         }
 
     def set_state(self, state: dict[str, Any]) -> None:
@@ -296,3 +438,8 @@ class MPCController:
             self._pending_basis = basis
         self._previous_plan = state["previous_plan"]
         self._plan_age = state["plan_age"]
+        if self._estimator is not None and state.get("estimator") is not None:
+            self._estimator.set_state(state["estimator"])
+        self._step_model = state.get("step_model", self._model)
+        self._held = bool(state.get("held", False))
+        self._solver_model = self._step_model if self._network is not None else self._model

@@ -80,10 +80,10 @@ RESERVE_PRICE_SCALE = 15.0
 """Scale of the synthetic reserve price [SGD/MWh]: the reserve price when USEP equals
 :data:`RESERVE_PRICE_REFERENCE_SGD_PER_MWH`, before noise (median ≈ 0.9 × scale, mean ≈ scale).
 
-Calibrated once and frozen (DESIGN §2): at this scale the product's scenario (a) (nominal
+Calibrated once and frozen (docs/model.md §2): at this scale the product's scenario (a) (nominal
 MPC, IL event model D = 4, α = 1 K, R = 2) earns reserve revenue ≈ 1 % of its energy cost
 (the paper's Table 1) over four two-day periods, one per quarter of 2014 (run and numbers in
-``docs/data.md``). It is still about five times DESIGN §2's guess of 2–3 SGD/MWh: a kW of
+``docs/data.md``). It is still about five times docs/model.md §2's guess of 2–3 SGD/MWh: a kW of
 reserve held for a two-hour event needs some pre-cooling bought at USEP, so reserve pays
 only where its price is a sizeable fraction of the energy price. (Under the paper's
 whole-horizon model the same ratio needed 40 SGD/MWh.)
@@ -499,7 +499,7 @@ def synthetic_reserve_prices(
 ) -> pd.Series:
     """Seeded **synthetic** reserve (IL) prices correlated with the energy price.
 
-    No public NEMS reserve-price history exists, so hvacflex generates one (DESIGN §2)::
+    No public NEMS reserve-price history exists, so hvacflex generates one (docs/model.md §2)::
 
         b_k = scale · (max(c_k, 0) / c_ref) · n_k · (1 + g · max(0, c_k / c_spike − 1))
 

@@ -110,12 +110,14 @@ class FleetController(MPCController):
         *,
         peak_floor_kw: float,
         allowance_carry_steps: int = 0,
+        measured_zone_temp_degc: FloatArray | None = None,
     ) -> Action:
         action = super().act(
             x_degc,
             forecast,
             peak_floor_kw=peak_floor_kw,
             allowance_carry_steps=allowance_carry_steps,
+            measured_zone_temp_degc=measured_zone_temp_degc,
         )
         if self.power_now is None or not np.isfinite(self.cap_now_kw):
             return action

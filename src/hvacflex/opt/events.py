@@ -1,4 +1,4 @@
-r"""Interruptible-load (IL) events: the exact robust counterpart as LP rows (issue 14).
+r"""Interruptible-load (IL) events: the exact robust counterpart as LP rows (docs/il_events.md).
 
 Model
 -----

@@ -1,4 +1,4 @@
-r"""Affine disturbance-feedback (closed-loop) robust MPC: ``robust="feedback"`` (issue 9).
+r"""Affine disturbance-feedback (closed-loop) robust MPC: ``robust="feedback"``.
 
 The open-loop RMPC of :mod:`hvacflex.opt.lp` plans one input sequence for every
 disturbance in the box, so its comfort margin ``δ_k`` grows along the horizon. Here the plan
@@ -61,7 +61,7 @@ with ``G_l = C A^l E`` and ``H_l = C A^l B``. Each row is robust when its nomina
 
 Two trajectories still cover every partial IL activation pattern (same argument as the open
 loop: the activation terms have one sign and do not depend on w). The objective is the
-nominal (w = 0) cost, exactly DESIGN §3.
+nominal (w = 0) cost, exactly docs/model.md §3.
 
 LP layout
 ---------

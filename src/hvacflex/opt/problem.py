@@ -1,4 +1,4 @@
-r"""The robust MPC problem on plain arrays (DESIGN §3, paper eq. 11–13) and its validation.
+r"""The robust MPC problem on plain arrays (docs/model.md §3, paper eq. 11–13) and its validation.
 
 Problem
 -------
@@ -152,7 +152,7 @@ def _matrix_shape(
 
 @dataclass(frozen=True, eq=False, kw_only=True)
 class RMPCProblem:
-    """One robust MPC problem on plain arrays (DESIGN §3); validated on construction.
+    """One robust MPC problem on plain arrays (docs/model.md §3); validated on construction.
 
     Parameters
     ----------
@@ -366,7 +366,7 @@ class RMPCProblem:
                 source=_SOURCE,
                 field="comfort_penalty_sgd_per_kelvin_hour",
                 value=self.comfort_penalty_sgd_per_kelvin_hour,
-                hint="DESIGN §3 uses ρ ≈ 100 SGD per K·h",
+                hint="docs/model.md §3 uses ρ ≈ 100 SGD per K·h",
             )
         if self.peak_floor_kw < 0:
             raise ProblemError(

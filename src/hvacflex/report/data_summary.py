@@ -112,7 +112,7 @@ def exogenous_summary_text(
         else f"occupied periods 0 of {n}"
     )
     out.append("")
-    out.append(f"worst-case margin δ over a {HORIZON_STEPS}-step horizon (DESIGN §3):")
+    out.append(f"worst-case margin δ over a {HORIZON_STEPS}-step horizon (docs/model.md §3):")
     out += margin_lines(exo, n, model, boxes)
     return "\n".join(out)
 

@@ -125,7 +125,7 @@ def plot_prices(
     prices : (T, ≥2) frame on the period-start index with ``energy_price_sgd_per_mwh`` and
         ``reserve_price_sgd_per_mwh`` [SGD/MWh] (a results frame will do; select the days).
     path : PNG file to write; the CSV goes next to it.
-    reserve_synthetic : label the reserve series "synthetic" (DESIGN §2: no public history).
+    reserve_synthetic : label the reserve series "synthetic" (docs/model.md §2: no public history).
     title : figure title; a default names the two series.
 
     Returns

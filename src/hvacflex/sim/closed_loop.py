@@ -1,6 +1,6 @@
 """Receding-horizon closed-loop simulation against the nonlinear building plant.
 
-Every 30 minutes (DESIGN §4): forecast → controller (MPC solve or rule) → the first step
+Every 30 minutes (docs/model.md §4): forecast → controller (MPC solve or rule) → the first step
 is applied to the exact nonlinear plant under the realised disturbance d̂ + w (w drawn in
 the uncertainty box) → measure → repeat. When interruptible load is activated the plant runs
 u − r: under the event model the locked plan of the event's first period for at most D
@@ -14,9 +14,10 @@ so the power with and without activation is known; the applied one is chosen by 
 activation schedule.
 
 A run checkpoints every ``checkpoint_every`` steps and on interruption (Ctrl-C): the plant
-state, the step index, the sampler's RNG state, the controller's state (LP basis, previous
-plan) and the rows so far. Started again with the same configuration, it resumes from the
-checkpoint and ends with results identical to an uninterrupted run.
+state, the step index, the sampler's and sensors' RNG states, the controller's state (LP
+basis, previous plan, filter) and the rows so far. Started again with the same
+configuration, it resumes from the checkpoint and ends with results identical to an
+uninterrupted run.
 """
 
 from __future__ import annotations
@@ -53,6 +54,7 @@ from hvacflex.kpi import RESULTS_FILENAME as RESULTS_FILE
 from hvacflex.paths import resolve_building
 from hvacflex.sim.activation import activation_schedule
 from hvacflex.sim.events import EventTracker, PeriodOutcome, Role
+from hvacflex.sim.measurement import Sensors, kalman_config
 from hvacflex.sim.progress import progress_bar
 from hvacflex.version import atomic_write, atomic_write_bytes, atomic_write_text, code_version
 
@@ -175,6 +177,8 @@ def make_controller(setup: Setup) -> Controller:
         setup.box,
         setup.linearisation_temp_degc,
         reserve=setup.config.reserve,
+        estimation=kalman_config(setup.config),
+        linearisation=cfg.linearisation,
     )
 
 
@@ -217,6 +221,7 @@ class _Recorder:
                 f"event_worst_{zone}_degc",
                 f"comfort_lower_{zone}_degc",
                 f"comfort_upper_{zone}_degc",
+                f"prediction_error_{zone}_k",
             ]
         self.float_columns += [f"d_{c}" for c in channels] + [f"w_{c}" for c in channels]
         self.column_index = {name: i for i, name in enumerate(self.float_columns)}
@@ -273,6 +278,7 @@ class ClosedLoop:
             i for i, ch in enumerate(setup.model.channels) if ch.kind == "outdoor_temp"
         )
         self.timing_s = {"controller": 0.0, "plant": 0.0, "record": 0.0}
+        self.sensors = Sensors(cfg, setup.model.c, self.controller)
         reserve = cfg.reserve
         events = reserve.event_max_steps is not None
         self.events = EventTracker(
@@ -296,8 +302,10 @@ class ClosedLoop:
         role = self.events.role(activated)
         if role is Role.EVENT_LOCKED:
             action = self.events.locked_action()
+            self.sensors.hold(self.x, forecast, action.flow_kg_s - action.reserve_flow_kg_s)
         else:
-            action = self.controller.act(
+            action = self.sensors.act(
+                self.controller,
                 self.x,
                 forecast,
                 peak_floor_kw=self.month_peak_kw,
@@ -329,9 +337,15 @@ class ClosedLoop:
             x_curtailed, power_curtailed = x_served, power_served
         x_next = x_curtailed if outcome.curtailed else x_served
         power = power_curtailed if outcome.curtailed else power_served
+        applied_flow = curtailed_flow if outcome.curtailed else served_flow
+        self.sensors.applied(applied_flow)
+        error_k = self.sensors.prediction_error_k(setup.model, self.x, applied_flow, d_real, x_next)
         t2 = time.perf_counter()
 
         self._record(k, action, forecast, d_hat, w, x_next, power, power_served, power_curtailed)
+        row, col = self.recorder.values[k], self.recorder.column_index
+        for z, zone in enumerate(setup.zone_names):
+            row[col[f"prediction_error_{zone}_k"]] = error_k[z]
         self._record_event(k, activated, outcome)
         self.month_peak_kw = max(self.month_peak_kw, power)
         self.x = x_next
@@ -424,6 +438,7 @@ class ClosedLoop:
             "month": self.month,
             "month_peak_kw": self.month_peak_kw,
             "sampler": self.sampler.get_state(),
+            "sensors": self.sensors.get_state(),
             "controller": self.controller.get_state(),
             "events": self.events.get_state(),
             "values": rec.values[: self.k].copy(),
@@ -442,6 +457,7 @@ class ClosedLoop:
         self.k, self.x = k, state["x"].copy()
         self.month, self.month_peak_kw = state["month"], state["month_peak_kw"]
         self.sampler.set_state(state["sampler"])
+        self.sensors.set_state(state["sensors"])
         self.controller.set_state(state["controller"])
         rec = self.recorder
         rec.values[:k] = state["values"]

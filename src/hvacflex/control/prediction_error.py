@@ -1,0 +1,68 @@
+"""One-step prediction error of the controller's model against the plant.
+
+    e_{k+1} = C (A_k x_k + B_k u_k + E_k d_k + g_k) − C x_{k+1}          [K]
+
+with x the TRUE plant state, u the input the plant ran (u − r under IL activation) and d the
+REALISED disturbance, so that e measures the model (its linearisation), not the forecast or
+the state estimate. (A_k, B_k, E_k, g_k) is the model the controller planned step k with
+(re-linearised each step for ``linearisation = "trajectory"``); the offset estimate of the
+Kalman filter is not part of it.
+"""
+
+from __future__ import annotations
+
+from typing import Protocol
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+FloatArray = NDArray[np.float64]
+
+
+class OneStepModel(Protocol):
+    """a (n,n), b (n,m), e (n,nd), g (n,), c (m,n)."""
+
+    @property
+    def a(self) -> FloatArray: ...
+    @property
+    def b(self) -> FloatArray: ...
+    @property
+    def e(self) -> FloatArray: ...
+    @property
+    def g(self) -> FloatArray: ...
+    @property
+    def c(self) -> FloatArray: ...
+
+
+def one_step_prediction_error(
+    model: OneStepModel,
+    x_degc: ArrayLike,
+    flow_kg_s: ArrayLike,
+    d_realised: ArrayLike,
+    x_next_degc: ArrayLike,
+) -> FloatArray:
+    """e_{k+1} (m,) [K] from the true state x_k (n,), the applied flow (m,) [kg/s], the
+    realised disturbance (nd,) and the true next state x_{k+1} (n,)."""
+    predicted = (
+        model.a @ np.asarray(x_degc, dtype=np.float64)
+        + model.b @ np.asarray(flow_kg_s, dtype=np.float64)
+        + model.e @ np.asarray(d_realised, dtype=np.float64)
+        + model.g
+    )
+    out: FloatArray = model.c @ (predicted - np.asarray(x_next_degc, dtype=np.float64))
+    return out
+
+
+def prediction_error_rms_k(errors_k: ArrayLike) -> float:
+    """Root mean square over steps and zones of the errors (T, m) [K]; NaN rows (steps
+    without a model) are left out; NaN if none is left."""
+    values = np.asarray(errors_k, dtype=np.float64)
+    values = values[np.isfinite(values)]
+    return float(np.sqrt(np.mean(values**2))) if values.size else float("nan")
+
+
+def prediction_error_max_k(errors_k: ArrayLike) -> float:
+    """Largest |e| over steps and zones [K] (NaN entries left out; NaN if none is left)."""
+    values = np.asarray(errors_k, dtype=np.float64)
+    values = values[np.isfinite(values)]
+    return float(np.max(np.abs(values))) if values.size else float("nan")
