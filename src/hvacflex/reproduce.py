@@ -376,36 +376,42 @@ def table1_section(
     whole: Mapping[str, pd.DataFrame],
     out: Path,
 ) -> Any:
-    """Table 1 (average cost per month) for both reserve models and beside the paper's.
+    """Table 1 (average cost per month) for both reserve models, and beside the paper's.
 
     ``paper`` holds the product presets' runs (event model), ``whole`` the ``paper-*``
-    presets' (whole-horizon model), each keyed by scenario letter. Writes ``table1.csv`` (event
-    model), ``table1_whole_horizon.csv``, ``table1_models.csv`` (both side by side, each with
-    % against its own (a)) and ``table1_vs_paper.csv``.
+    presets' (whole-horizon model), each keyed by scenario letter. Writes ``table1.csv`` (one
+    block of rows per model, each with % against its own (a)) and ``table1_vs_paper.csv``
+    (each model's rows beside the published ones).
     """
     from hvacflex import kpi
     from hvacflex.report import tables
     from hvacflex.report.html import Section
 
     names = model_names()
-    table1 = tables.table1(
-        {SCENARIO_LABELS[k]: kpi.monthly_table(f) for k, f in sorted(paper.items())}
-    )
+    labelled = {
+        "event": {SCENARIO_LABELS[k]: f for k, f in sorted(paper.items())},
+        "whole-horizon": {
+            SCENARIO_LABELS[f"{WHOLE_HORIZON_PREFIX}{k}"]: f for k, f in sorted(whole.items())
+        },
+    }
+    per_model = {
+        model: tables.table1({label: kpi.monthly_table(f) for label, f in frames.items()})
+        for model, frames in labelled.items()
+        if frames
+    }
+    table1 = tables.table1_models(per_model)
     table1.to_csv(out / "table1.csv")
-    shown = [table1]
-    revenue = {"event": {k: kpi.summary(f)["reserve_revenue_sgd"] for k, f in paper.items()}}
-    if whole:
-        monthly = {SCENARIO_LABELS[k]: kpi.monthly_table(f) for k, f in sorted(whole.items())}
-        table_whole = tables.table1(monthly)
-        table_whole.to_csv(out / "table1_whole_horizon.csv")
-        both = tables.models_side_by_side({"event": table1, "whole-horizon": table_whole})
-        both.to_csv(out / "table1_models.csv")
-        shown += [table_whole, both]
-        revenue["whole-horizon"] = {
-            k: kpi.summary(f)["reserve_revenue_sgd"] for k, f in whole.items()
+    comparison = tables.table1_models(
+        {
+            model: tables.side_by_side(table, tables.PAPER_TABLE1)
+            for model, table in per_model.items()
         }
-    comparison = tables.side_by_side(table1, tables.PAPER_TABLE1)
+    )
     comparison.to_csv(out / "table1_vs_paper.csv")
+    revenue = {
+        model: {k: kpi.summary(f)["reserve_revenue_sgd"] for k, f in frames.items()}
+        for model, frames in (("event", paper), ("whole-horizon", whole))
+    }
     paper_summaries = {k: kpi.summary(f) for k, f in paper.items()}
     return Section(
         title="Table 1 — average cost per month, both reserve models",
@@ -414,15 +420,16 @@ def table1_section(
             "USEP; revenue = synthetic reserve price × reserve capacity offered; "
             "total = cost − revenue (the paper's definition; the PPP charge is "
             "reported separately below).",
-            f"First table: {names['event']} (the product presets nmpc, rmpc, rmpc-ppp). "
-            f"Second: {names['whole-horizon']} (presets paper-nmpc, paper-rmpc, "
-            "paper-rmpc-ppp: the curtailed trajectory inside the strict band for the whole "
-            "horizon). Third: both side by side, each with % against its own (a). Fourth: "
-            "the event model beside the published Table 1.",
+            f"Column reserve_model: event = {names['event']}, the product presets nmpc, "
+            f"rmpc, rmpc-ppp; whole-horizon = {names['whole-horizon']}, the presets "
+            "paper-nmpc, paper-rmpc, paper-rmpc-ppp, where the curtailed trajectory must stay "
+            "inside the strict band for the whole horizon. Each model's % changes are against "
+            "its own (a). The second table sets each model's rows beside the published "
+            "Table 1.",
             " ".join(scenario_sentences(paper_summaries)),
             " ".join(revenue_sentences(revenue)),
         ],
-        tables=[*shown, comparison],
+        tables=[table1, comparison],
     )
 
 

@@ -396,7 +396,7 @@ def plot_power_reserve(
         _step(
             ax,
             edges,
-            results["reserve_kw"].to_numpy(float),
+            band["reserve_kw"].to_numpy(float),
             color="C2",
             linewidth=0.8,
             label="reserve capacity",

@@ -123,30 +123,39 @@ def side_by_side(ours: pd.DataFrame, paper: pd.DataFrame | None = None) -> pd.Da
     return result
 
 
-def models_side_by_side(tables: Mapping[str, pd.DataFrame]) -> pd.DataFrame:
-    """Table 1 of several reserve models side by side, rows aligned by position.
+RESERVE_MODEL_COLUMN = "reserve_model"
+"""Column of :func:`table1_models` naming the reserve model of each row."""
+
+
+def table1_models(tables: Mapping[str, pd.DataFrame]) -> pd.DataFrame:
+    """Table 1 of several reserve models in one table: one block of rows per model.
 
     Parameters
     ----------
-    tables : model name → :func:`table1` output of that model's scenarios (a), (b), (c), each
-        with % against its own (a); the first table's row labels are kept.
+    tables : reserve model name → a :func:`table1` (or :func:`side_by_side`) output of that
+        model's scenarios (a), (b), (c), in display order; each keeps its % against its own
+        (a), so the blocks compare the scenarios within a model and the rows across models.
 
     Returns
     -------
-    DataFrame with, for each of :data:`TABLE1_COLUMNS` and each model, a column
-    ``"<name> (<model>)"`` (model by model within a quantity); rows missing from a shorter
-    table are NaN.
+    DataFrame with the rows of every table in order (index ``scenario``, the row labels of the
+    tables, which must be distinct) and a first column :data:`RESERVE_MODEL_COLUMN`.
     """
     if not tables:
-        raise InputError("models_side_by_side needs at least one model", field="tables", value={})
-    index = next(iter(tables.values())).index
-    result = pd.DataFrame(index=index)
-    for column in TABLE1_COLUMNS:
-        for model, table in tables.items():
-            values = table[column].to_numpy(float)
-            padded = pd.Series(values).reindex(range(len(index))).to_numpy(float)
-            result[f"{column} ({model})"] = padded
-    return result
+        raise InputError("table1_models needs at least one model", field="tables", value={})
+    labels = [label for table in tables.values() for label in table.index]
+    repeated = sorted({label for label in labels if labels.count(label) > 1})
+    if repeated:
+        raise InputError(
+            "scenario labels repeat across reserve models",
+            field="tables",
+            value=repeated,
+            hint="label each model's scenarios distinctly, e.g. '(a) NMPC, whole-horizon'",
+        )
+    blocks = [table.assign(**{RESERVE_MODEL_COLUMN: model}) for model, table in tables.items()]
+    frame = pd.concat(blocks)
+    columns = [RESERVE_MODEL_COLUMN, *(c for c in frame.columns if c != RESERVE_MODEL_COLUMN)]
+    return frame[columns].rename_axis("scenario")
 
 
 # ----------------------------------------------------------------------------- rendering
