@@ -577,6 +577,7 @@ def scenario_sentences(summaries: Mapping[str, Mapping[str, float]]) -> list[str
     not_offered: list[str] = []
     unused: list[str] = []
     unused_robust = False
+    event_steps = preset(PAPER_SCENARIOS["a"]).reserve.event_max_steps
     for letter, kpis in summaries.items():
         if letter not in PAPER_SCENARIOS:
             continue
@@ -592,7 +593,9 @@ def scenario_sentences(summaries: Mapping[str, Mapping[str, float]]) -> list[str
             unused.append(label)
             unused_robust = unused_robust or controller.robust != "none"
     if unused:
-        sentences.append(text.no_reserve(unused, offered=True, robust=unused_robust))
+        sentences.append(
+            text.no_reserve(unused, offered=True, robust=unused_robust, event_steps=event_steps)
+        )
     if not_offered:
         sentences.append(text.no_reserve(not_offered, offered=False, robust=False))
     return sentences

@@ -129,7 +129,9 @@ def reserve_revenue(label: str, revenue_sgd: float, energy_cost_sgd: float) -> s
     return f"{label} earns {revenue_sgd:,.2f} SGD of reserve revenue{tail}."
 
 
-def no_reserve(labels: Sequence[str], *, offered: bool, robust: bool) -> str:
+def no_reserve(
+    labels: Sequence[str], *, offered: bool, robust: bool, event_steps: int | None = None
+) -> str:
     """Why the scenarios ``labels`` earn no reserve revenue.
 
     Parameters
@@ -138,6 +140,8 @@ def no_reserve(labels: Sequence[str], *, offered: bool, robust: bool) -> str:
     offered : whether their configuration lets the controller offer reserve (False: the
         configuration offers none).
     robust : whether any of them plans against the uncertainty box.
+    event_steps : D of their IL event model (an activation of up to D periods anywhere in the
+        horizon); None for the paper's whole-horizon model (curtailed for the whole horizon).
     """
     names = _join(labels)
     plural = len(labels) > 1
@@ -148,11 +152,18 @@ def no_reserve(labels: Sequence[str], *, offered: bool, robust: bool) -> str:
         " (and, for a robust controller, for every forecast error in the box)" if robust else ""
     )
     who = "none of them" if plural else "it"
+    if event_steps is None:
+        called = "curtailed for the whole horizon"
+    else:
+        called = (
+            f"called for up to {event_steps} periods at any time in the horizon (within the "
+            "event's comfort allowance)"
+        )
     return (
         f"{names} earn{'' if plural else 's'} no reserve revenue: {who} offered reserve in any "
         "period. An offer must keep every zone in the comfort band if the reserve is "
-        f"curtailed for the whole horizon{margin}, and at these (synthetic) reserve prices the "
-        "optimiser found no offer whose revenue pays for the extra cooling this needs."
+        f"{called}{margin}, and at these (synthetic) reserve prices the optimiser found no "
+        "offer whose revenue pays for the extra cooling this needs."
     )
 
 
