@@ -421,7 +421,10 @@ def plot_power_reserve(
         ax.set_title(label, loc="left", fontsize="medium")
         ax.set_ylabel("power\n[kW]")
         ax.set_ylim(bottom=0.0)
-        ax.legend(handles, labels, fontsize="x-small", loc="upper left")
+        if ax is axes[0]:  # beside the panels, so that it hides no data
+            ax.legend(
+                handles, labels, fontsize="x-small", loc="upper left", bbox_to_anchor=(1.17, 1.0)
+            )
     axes[-1].set_xlabel(_TIME_LABEL)
     if isinstance(next(iter(scenarios.values())).index, pd.DatetimeIndex):
         _format_time_axis(axes[-1])
