@@ -124,6 +124,7 @@ def test_revenue_trend_is_set_against_the_papers_rise() -> None:
     rise = text.revenue_trend("the event model", 10.0, 11.0, 12.5)
     assert "rises by 10.0 % in (b) and rises by 25.0 % in (c)" in rise
     assert rise.endswith("— as in the paper.")
+    assert "((a) 10.00, (b) 11.00, (c) 12.50 SGD over the run)" in rise
     fall = text.revenue_trend("m", 10.0, 9.0, 10.0)
     assert "falls by 10.0 % in (b) and stays the same in (c)" in fall
     assert "unlike the paper, where it rises in both ((b) +1.7 %, (c) +12 %)" in fall
