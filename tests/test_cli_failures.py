@@ -45,9 +45,20 @@ def test_reproduce_exits_1_and_marks_the_report_incomplete(
     import hvacflex.reproduce as reproduce_mod
 
     monkeypatch.setattr(reproduce_mod, "run_sweep", _failing_sweep)
+    plan = reproduce_mod.Plan.quick()
+    total = sum(
+        len(jobs(plan))
+        for jobs in (
+            reproduce_mod.scenario_jobs,
+            reproduce_mod.ppp_jobs,
+            reproduce_mod.uncertainty_jobs,
+            reproduce_mod.corner_jobs,
+        )
+    )
+    assert total == 19  # (a)–(c) under both reserve models, thermostat, 4 PPP, 6 robustness, 2
     result = CliRunner().invoke(app, ["reproduce", "--quick", "--out", str(tmp_path)])
     assert result.exit_code == 1, result.output
-    assert "16 of 16 runs failed" in result.output and "INCOMPLETE" in result.output
+    assert f"{total} of {total} runs failed" in result.output and "INCOMPLETE" in result.output
     report = (tmp_path / "report.html").read_text()
     body = report[report.index("<body>") :]
     first_section = body[body.index("<section") :]

@@ -7,9 +7,11 @@ import subprocess
 from html.parser import HTMLParser
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 import pytest
 
+from hvacflex.kpi import load_results
 from hvacflex.reproduce import reproduce
 
 
@@ -119,6 +121,56 @@ def test_robust_costs_more_than_nominal(quick_report: Path) -> None:
     assert cost.loc["(b) RMPC"] > cost.loc["(a) NMPC"]
 
 
+def test_table1_has_rows_for_both_reserve_models(quick_report: Path) -> None:
+    table = pd.read_csv(quick_report / "table1.csv", index_col=0)
+    models = table["reserve_model"]
+    assert models.to_list() == ["event"] * 3 + ["whole-horizon"] * 3
+    for model in ("event", "whole-horizon"):
+        block = table[models == model]
+        assert np.isfinite(block["energy_cost_sgd"]).all() and (block["energy_cost_sgd"] > 0).all()
+        assert block["energy_cost_change_pct"].iloc[0] == 0.0  # against its own (a)
+    # each row is its own run's monthly average
+    kpis = pd.read_csv(quick_report / "kpi_scenarios.csv", index_col=0)
+    for label in table.index:
+        for quantity in ("energy_cost_sgd", "reserve_revenue_sgd", "net_cost_sgd"):
+            expected = kpis.loc[f"monthly_avg_{quantity}", label]
+            assert table.loc[label, quantity] == pytest.approx(expected), (label, quantity)
+    versus = pd.read_csv(quick_report / "table1_vs_paper.csv", index_col=0)
+    assert versus.loc["(b) RMPC, whole-horizon", "energy_cost_sgd (paper)"] == 1530.0
+    assert versus.loc["(b) RMPC", "energy_cost_sgd (paper)"] == 1530.0
+
+
+def _run_dir(report: Path, name: str) -> Path:
+    """The folder ``runs/<name>-<config hash>`` of one run."""
+    (folder,) = [p for p in (report / "runs").iterdir() if p.name.rsplit("-", 1)[0] == name]
+    return folder
+
+
+def test_worst_event_temperature_is_recorded_for_every_plan(quick_report: Path) -> None:
+    for run in ("nmpc", "rmpc", "paper-rmpc"):
+        frame = load_results(_run_dir(quick_report, run))
+        zones = [c.removeprefix("temp_end_") for c in frame.columns if c.startswith("temp_end_")]
+        worst = frame[[f"event_worst_{z}" for z in zones]].to_numpy()
+        served = frame[[f"temp_served_{z}" for z in zones]].to_numpy()
+        planned = (frame["solve_status"] == "optimal").to_numpy() & ~frame["fallback"].to_numpy()
+        assert planned.any()
+        assert np.isfinite(worst[planned]).all(), run
+        assert (worst[planned] >= served[planned] - 1e-9).all(), run
+    thermostat = load_results(_run_dir(quick_report, "thermostat"))
+    assert thermostat.filter(like="event_worst_").isna().all().all()
+
+
+def test_fig5_draws_the_worst_event_and_fig6_a_reserve_band(quick_report: Path) -> None:
+    temps = pd.read_csv(quick_report / "figures" / "fig5_temperatures.csv")
+    assert temps["event_worst_degc"].notna().any()
+    band = pd.read_csv(quick_report / "figures" / "fig6_power_reserve.csv")
+    offered = band["reserve_kw"] > 0
+    assert offered.any()  # the event model offers reserve
+    height = band["reserve_band_upper_kw"] - band["reserve_band_lower_kw"]
+    assert height.to_numpy() == pytest.approx(band["reserve_kw"].to_numpy())
+    assert (height[offered] > 0).all()
+
+
 def test_curtailed_prediction_is_never_cooler_than_served(quick_report: Path) -> None:
     temps = pd.read_csv(quick_report / "figures" / "fig5_temperatures.csv")
     both = temps.dropna(subset=["temp_served_degc", "temp_curtailed_degc"])
@@ -151,10 +203,10 @@ def test_second_run_reuses_cached_simulations(quick_report: Path) -> None:
     mtimes = {path: path.stat().st_mtime_ns for path in results}
     logs: list[str] = []
     again = reproduce(quick_report, quick=True, workers=1, log=logs.append)
-    assert again.complete and len(again.outcomes) == 16
+    assert again.complete and len(again.outcomes) == 19
     assert all(o.cached for o in again.outcomes)
-    assert sum("ok (cached)" in line for line in logs) == 16
-    assert len(results) == 16 and {p: p.stat().st_mtime_ns for p in results} == mtimes
+    assert sum("ok (cached)" in line for line in logs) == 19
+    assert len(results) == 19 and {p: p.stat().st_mtime_ns for p in results} == mtimes
     assert {name: (quick_report / name).read_bytes() for name in outputs} == before
 
 

@@ -65,9 +65,6 @@ _DERIVED_TEMP_PREFIXES = ("end_", "served_", "curtailed_")
 _HOURS_PER_DAY = 24.0
 
 
-# ----------------------------------------------------------------------------- helpers
-
-
 def _column(results: pd.DataFrame, name: str) -> pd.Series:
     if name not in results.columns:
         raise DataError(

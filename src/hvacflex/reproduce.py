@@ -2,8 +2,10 @@
 
 One call runs, as Dask jobs (see :mod:`hvacflex.sim.sweep`):
 
-* the paper's scenarios (a) NMPC, (b) RMPC, (c) RMPC + PPP and the thermostat baseline, over
-  the whole of 2014 (``--quick``: one week) — Table 1, Fig. 5, Fig. 6 and the comfort figure;
+* the paper's scenarios (a) NMPC, (b) RMPC, (c) RMPC + PPP under the product's IL event
+  model, the same three under the paper's whole-horizon reserve model, and the thermostat
+  baseline, over the whole of 2014 (``--quick``: one week) — Table 1 for both models, Fig. 5,
+  Fig. 6 and the comfort figure;
 * the PPP sweep 0.5–30 SGD/kW on scenario (c) — Fig. 7;
 * the uncertainty sweep 0–50 % of the heat gains for open-loop RMPC (and the affine-feedback
   RMPC) next to NMPC — the price of robustness;
@@ -16,7 +18,6 @@ incomplete at its top, and :attr:`Reproduction.complete` is False (the CLI exits
 
 from __future__ import annotations
 
-import json
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -24,7 +25,13 @@ from typing import Any
 
 import pandas as pd
 
-from hvacflex.config import PAPER_SCENARIOS, ScenarioConfig, preset, scaled_uncertainty
+from hvacflex.config import (
+    PAPER_MODEL_SCENARIOS,
+    PAPER_SCENARIOS,
+    ScenarioConfig,
+    preset,
+    scaled_uncertainty,
+)
 from hvacflex.kpi import load_results
 from hvacflex.sim.sweep import JobOutcome, outcomes_table, run_sweep
 
@@ -53,6 +60,22 @@ SCENARIO_LABELS: dict[str, str] = {
     "c": "(c) RMPC + PPP",
     "thermostat": "thermostat",
 }
+WHOLE_HORIZON_PREFIX = "paper-"
+"""Key prefix of the scenarios run with the paper's whole-horizon reserve model."""
+SCENARIO_LABELS |= {
+    f"{WHOLE_HORIZON_PREFIX}{letter}": f"{SCENARIO_LABELS[letter]}, whole-horizon"
+    for letter in PAPER_MODEL_SCENARIOS
+}
+
+
+def model_names() -> dict[str, str]:
+    """Reserve model → its name in the report, with the product presets' D, α and R."""
+    reserve = preset(PAPER_SCENARIOS["a"]).reserve
+    return {
+        "event": f"the event model (D = {reserve.event_max_steps}, "
+        f"α = {reserve.event_allowance_k:g} K, R = {reserve.event_recovery_steps})",
+        "whole-horizon": "the paper's whole-horizon model",
+    }
 
 
 @dataclass(frozen=True)
@@ -96,9 +119,13 @@ class Plan:
 
 
 def scenario_jobs(plan: Plan) -> list[tuple[dict[str, Any], ScenarioConfig]]:
-    """Scenarios (a), (b), (c) and the thermostat over the plan's period."""
+    """Scenarios (a), (b), (c) with each reserve model, and the thermostat, over the plan's
+    period (keys ``a``, ``paper-a``, …, ``thermostat``)."""
+    whole_horizon = [
+        (f"{WHOLE_HORIZON_PREFIX}{letter}", name) for letter, name in PAPER_MODEL_SCENARIOS.items()
+    ]
     jobs: list[tuple[dict[str, Any], ScenarioConfig]] = []
-    for letter, name in [*PAPER_SCENARIOS.items(), ("thermostat", "thermostat")]:
+    for letter, name in [*PAPER_SCENARIOS.items(), *whole_horizon, ("thermostat", "thermostat")]:
         cfg = preset(name, start=plan.start, days=plan.days)
         jobs.append(({"scenario": letter}, cfg))
     return jobs
@@ -280,14 +307,21 @@ def display_days(frame: pd.DataFrame, days: int = 2) -> tuple[pd.Timestamp, pd.T
 
 def build_sections(plan: Plan, by_group: dict[str, list[JobOutcome]], out: Path) -> list[Any]:
     """Figures, tables and text of the report."""
+    from hvacflex.report import notes
+
     figures = out / "figures"
     figures.mkdir(exist_ok=True)
     scenario_frames = _frames(by_group["scenarios"])
     paper = {k: v for k, v in scenario_frames.items() if k in PAPER_SCENARIOS}
+    whole = {
+        k: scenario_frames[f"{WHOLE_HORIZON_PREFIX}{k}"]
+        for k in PAPER_MODEL_SCENARIOS
+        if f"{WHOLE_HORIZON_PREFIX}{k}" in scenario_frames
+    }
     sections: list[Any] = []
     if paper:
         sections.append(paper_figures_section(paper, figures))
-        sections.append(table1_section(plan, paper, out))
+        sections.append(table1_section(plan, paper, whole, out))
     if scenario_frames:
         corner = _frames(by_group["corner"])
         sections.append(comfort_section(plan, scenario_frames, corner, out, figures))
@@ -297,8 +331,8 @@ def build_sections(plan: Plan, by_group: dict[str, list[JobOutcome]], out: Path)
     unc = outcomes_table([o for o in by_group["uncertainty"] if o.ok])
     if not unc.empty:
         sections.append(uncertainty_section(plan, unc, figures))
-    sections.append(differences_section())
-    sections.append(configuration_section(by_group))
+    sections.append(notes.differences_section())
+    sections.append(notes.configuration_section(by_group))
     return sections
 
 
@@ -312,7 +346,12 @@ def paper_figures_section(paper: Mapping[str, pd.DataFrame], figures: Path) -> A
     window = {SCENARIO_LABELS[k]: f[(f.index >= start) & (f.index < end)] for k, f in paper.items()}
     reference = next(iter(window.values()))
     fig2 = plots.plot_prices(reference, figures / "fig2_prices.png")
-    fig5 = plots.plot_temperatures(window, figures / "fig5_temperatures.png")
+    fig5 = plots.plot_temperatures(
+        window,
+        figures / "fig5_temperatures.png",
+        title="Served and worst-IL-event zone temperatures",
+        series=("temp_end", "temp_served", "event_worst"),
+    )
     fig6 = plots.plot_power_reserve(window, figures / "fig6_power_reserve.png")
     return Section(
         title="Fig. 2, 5, 6 — prices, temperatures, power and reserve",
@@ -321,34 +360,95 @@ def paper_figures_section(paper: Mapping[str, pd.DataFrame], figures: Path) -> A
             "days with the highest energy price in the simulated period, where the "
             "controllers differ most. The reserve price is SYNTHETIC (no public "
             "history of NEMS IL prices exists; see the data notes).",
+            f"Scenarios under {model_names()['event']}. Fig. 5 draws, per zone, the realised "
+            "temperature, the plan's served prediction and its worst prediction over every "
+            "IL event it plans for and every disturbance in the box (dash-dot; it may exceed "
+            "the upper bound by α during and after an event). Fig. 6 draws the reserve band: "
+            "from the served power down to the power drawn if the offered reserve is called.",
         ],
         figures=[fig2, fig5, fig6],
     )
 
 
-def table1_section(plan: Plan, paper: Mapping[str, pd.DataFrame], out: Path) -> Any:
-    """Table 1 (average cost per month) beside the paper's; writes both as CSV."""
+def table1_section(
+    plan: Plan,
+    paper: Mapping[str, pd.DataFrame],
+    whole: Mapping[str, pd.DataFrame],
+    out: Path,
+) -> Any:
+    """Table 1 (average cost per month) for both reserve models, and beside the paper's.
+
+    ``paper`` holds the product presets' runs (event model), ``whole`` the ``paper-*``
+    presets' (whole-horizon model), each keyed by scenario letter. Writes ``table1.csv`` (one
+    block of rows per model, each with % against its own (a)) and ``table1_vs_paper.csv``
+    (each model's rows beside the published ones).
+    """
     from hvacflex import kpi
     from hvacflex.report import tables
     from hvacflex.report.html import Section
 
-    monthly = {SCENARIO_LABELS[k]: kpi.monthly_table(f) for k, f in sorted(paper.items())}
-    table1 = tables.table1(monthly)
+    names = model_names()
+    labelled = {
+        "event": {SCENARIO_LABELS[k]: f for k, f in sorted(paper.items())},
+        "whole-horizon": {
+            SCENARIO_LABELS[f"{WHOLE_HORIZON_PREFIX}{k}"]: f for k, f in sorted(whole.items())
+        },
+    }
+    per_model = {
+        model: tables.table1({label: kpi.monthly_table(f) for label, f in frames.items()})
+        for model, frames in labelled.items()
+        if frames
+    }
+    table1 = tables.table1_models(per_model)
     table1.to_csv(out / "table1.csv")
-    comparison = tables.side_by_side(table1, tables.PAPER_TABLE1)
+    comparison = tables.table1_models(
+        {
+            model: tables.side_by_side(table, tables.PAPER_TABLE1)
+            for model, table in per_model.items()
+        }
+    )
     comparison.to_csv(out / "table1_vs_paper.csv")
+    revenue = {
+        model: {k: kpi.summary(f)["reserve_revenue_sgd"] for k, f in frames.items()}
+        for model, frames in (("event", paper), ("whole-horizon", whole))
+    }
     paper_summaries = {k: kpi.summary(f) for k, f in paper.items()}
     return Section(
-        title="Table 1 — average cost per month",
+        title="Table 1 — average cost per month, both reserve models",
         paragraphs=[
             f"Simulated {plan.days:g} days from {plan.start}. Cost = energy bought at "
             "USEP; revenue = synthetic reserve price × reserve capacity offered; "
             "total = cost − revenue (the paper's definition; the PPP charge is "
             "reported separately below).",
+            f"Column reserve_model: event = {names['event']}, the product presets nmpc, "
+            f"rmpc, rmpc-ppp; whole-horizon = {names['whole-horizon']}, the presets "
+            "paper-nmpc, paper-rmpc, paper-rmpc-ppp, where the curtailed trajectory must stay "
+            "inside the strict band for the whole horizon. Each model's % changes are against "
+            "its own (a). The second table sets each model's rows beside the published "
+            "Table 1.",
             " ".join(scenario_sentences(paper_summaries)),
+            " ".join(revenue_sentences(revenue)),
         ],
         tables=[table1, comparison],
     )
+
+
+def revenue_sentences(revenue: Mapping[str, Mapping[str, float]]) -> list[str]:
+    """Whether reserve revenue rises in (b) and (c) against (a), per reserve model.
+
+    Parameters
+    ----------
+    revenue : model (``"event"``, ``"whole-horizon"``) → scenario letter → reserve revenue
+        of the run [SGD]; a model missing a scenario is skipped.
+    """
+    from hvacflex.report import text
+
+    names = model_names()
+    return [
+        text.revenue_trend(names.get(model, model), by_letter["a"], by_letter["b"], by_letter["c"])
+        for model, by_letter in revenue.items()
+        if all(letter in by_letter for letter in ("a", "b", "c"))
+    ]
 
 
 def comfort_section(
@@ -477,6 +577,7 @@ def scenario_sentences(summaries: Mapping[str, Mapping[str, float]]) -> list[str
     not_offered: list[str] = []
     unused: list[str] = []
     unused_robust = False
+    event_steps = preset(PAPER_SCENARIOS["a"]).reserve.event_max_steps
     for letter, kpis in summaries.items():
         if letter not in PAPER_SCENARIOS:
             continue
@@ -492,7 +593,9 @@ def scenario_sentences(summaries: Mapping[str, Mapping[str, float]]) -> list[str
             unused.append(label)
             unused_robust = unused_robust or controller.robust != "none"
     if unused:
-        sentences.append(text.no_reserve(unused, offered=True, robust=unused_robust))
+        sentences.append(
+            text.no_reserve(unused, offered=True, robust=unused_robust, event_steps=event_steps)
+        )
     if not_offered:
         sentences.append(text.no_reserve(not_offered, offered=False, robust=False))
     return sentences
@@ -555,58 +658,4 @@ def ppp_sentence(ppp: pd.DataFrame) -> str:
         float(high["peak_price_sgd_per_kw"]),
         float(high["peak_power_kw"]),
         ratio,
-    )
-
-
-def differences_section() -> Any:
-    from hvacflex.report.html import Section
-
-    return Section(
-        title="Differences from the paper",
-        paragraphs=[
-            "Reserve (IL) prices are synthetic: no public history of NEMS reserve prices "
-            "exists. They are generated from USEP with a seeded, spike-correlated model whose "
-            "scale was calibrated once so that scenario (a)'s reserve revenue is about 1 % of "
-            "its energy cost, as in the paper's Table 1.",
-            "Weather is a typical year (TMYx 2009–2023, Singapore Changi) mapped onto 2014; "
-            "measured 2014 weather was not available in redistributable form.",
-            "The building is our own 5-zone Singapore office floor (the shipped office5.toml) "
-            "sized to the paper's load scale (≈15 kW average HVAC power), not the paper's "
-            "(unpublished) building.",
-            "Served = u (bought at USEP) and curtailed = u − r (paid the reserve price); the "
-            "paper's eq. 5/10b/10h read literally would consume u + r that is never paid for.",
-            "u − r ≥ u_min keeps ventilation where the paper has u − r ≥ 0; reserve power is "
-            "pᵀr (the paper's K(−r) would count the constant power term).",
-            "The robust margin is the per-row form δ_k = Σ_j |C A^(k−1−j) E| σ_j, which is "
-            "what the paper's dual construction evaluates to; read literally as a per-step "
-            "recursion, eq. 13 would loosen the lower comfort bound.",
-            "Curtailment is assumed possible over the whole horizon (conservative); gate "
-            "closure and the aggregator needed for loads below the IL threshold are out of "
-            "scope. The plant is the exact nonlinear (bilinear) model; the controller uses "
-            "the linearisation of docs/model.md §1, so there is model–plant mismatch.",
-        ],
-    )
-
-
-def configuration_section(by_group: dict[str, list[JobOutcome]]) -> Any:
-    from hvacflex.report.html import Section
-
-    configs = {}
-    for outcomes in by_group.values():
-        for outcome in outcomes:
-            path = Path(outcome.out_dir) / "config.json"
-            if path.is_file():
-                configs[outcome.label] = json.loads(path.read_text())
-    first: dict[str, Any] = next(iter(configs.values()), {})
-    return Section(
-        title="Run configuration and data provenance",
-        paragraphs=[
-            "Energy prices: NEMS USEP 2014, half-hourly, Energy Market Company Singapore "
-            "(sources and licences: hvacflex/resources/PROVENANCE.md). Weather: the TMYx "
-            "typical year of Singapore Changi (NOAA ISD + Copernicus ERA5). Every run's full "
-            "configuration is stored in its results file and in config.json in its folder; "
-            "the first one is shown here, the others differ only in the swept setting.",
-            f"Runs: {', '.join(sorted(configs))}.",
-        ],
-        code=json.dumps(first, indent=2),
     )

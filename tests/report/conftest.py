@@ -23,7 +23,8 @@ def fabricate_results(
     predictions: bool = True,
 ) -> pd.DataFrame:
     """A plausible results frame: office-hours load, a USEP-like price, reserve offered while
-    the load is up, IL activated in a few periods, curtailed ≥ served temperatures."""
+    the load is up, IL activated in a few periods, curtailed ≥ served temperatures and the worst
+    IL event 0.1 K above curtailed."""
     rng = np.random.default_rng(seed)
     n = round(days * 48)
     index = pd.date_range(start, periods=n, freq="30min", tz=TZ, name="time")
@@ -57,6 +58,7 @@ def fabricate_results(
         if predictions:
             frame[f"temp_served_{zone}_degc"] = served
             frame[f"temp_curtailed_{zone}_degc"] = curtailed
+            frame[f"event_worst_{zone}_degc"] = curtailed + 0.1
         frame[f"comfort_lower_{zone}_degc"] = lower
         frame[f"comfort_upper_{zone}_degc"] = upper
     frame |= {

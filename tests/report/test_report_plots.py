@@ -10,7 +10,7 @@ import pandas as pd
 import pytest
 
 from hvacflex import kpi
-from hvacflex.errors import DataError
+from hvacflex.errors import DataError, InputError
 from hvacflex.report import plots
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
@@ -78,6 +78,36 @@ def test_plot_temperatures_without_predictions_and_a_zone_subset(
     assert data["temp_end_degc"].notna().all()
 
 
+def test_plot_temperatures_draws_the_worst_il_event_series(
+    tmp_path: Path, scenarios: dict[str, pd.DataFrame]
+) -> None:
+    path = plots.plot_temperatures(
+        scenarios, tmp_path / "fig5.png", series=("temp_end", "temp_served", "event_worst")
+    )
+    data = _assert_png_and_csv(path, tmp_path / "fig5.png")
+    for label, results in scenarios.items():
+        rows = data[(data["scenario"] == label) & (data["zone"] == "north")]
+        assert rows["event_worst_degc"].to_numpy() == pytest.approx(
+            results["event_worst_north_degc"].to_numpy()
+        )
+    # the CSV keeps every series, also those not drawn
+    assert data["temp_curtailed_degc"].notna().all()
+    assert (data["event_worst_degc"] >= data["temp_curtailed_degc"]).all()
+
+
+def test_plot_temperatures_without_the_event_column_and_an_unknown_series(
+    tmp_path: Path, make_results: Factory
+) -> None:
+    results = make_results().drop(columns=["event_worst_north_degc", "event_worst_core_degc"])
+    path = plots.plot_temperatures({"older run": results}, tmp_path / "t.png")
+    data = _assert_png_and_csv(path, tmp_path / "t.png")
+    assert data["event_worst_degc"].isna().all()
+    assert data["temp_served_degc"].notna().all()
+    with pytest.raises(InputError, match="series") as info:
+        plots.plot_temperatures({"x": results}, tmp_path / "u.png", series=("temp_worst",))
+    assert "event_worst" in str(info.value)
+
+
 def test_plot_power_reserve(tmp_path: Path, scenarios: dict[str, pd.DataFrame]) -> None:
     path = plots.plot_power_reserve(scenarios, tmp_path / "fig6.png")
     data = _assert_png_and_csv(path, tmp_path / "fig6.png")
@@ -85,6 +115,25 @@ def test_plot_power_reserve(tmp_path: Path, scenarios: dict[str, pd.DataFrame]) 
         rows = data[data["scenario"] == label]
         assert rows["power_kw"].max() == pytest.approx(kpi.peak_power_kw(results))
         assert rows["reserve_kw"].to_numpy() == pytest.approx(results["reserve_kw"].to_numpy())
+        # the band runs from the served power down by the reserve offered
+        upper = rows["reserve_band_upper_kw"].to_numpy()
+        lower = rows["reserve_band_lower_kw"].to_numpy()
+        assert upper == pytest.approx(results["power_served_kw"].to_numpy())
+        assert upper - lower == pytest.approx(results["reserve_kw"].to_numpy())
+        offered = results["reserve_kw"].to_numpy() > 0
+        assert offered.any() and (upper[offered] > lower[offered]).all()
+        assert (upper[~offered] == lower[~offered]).all()
+
+
+def test_power_reserve_band_without_served_power_hangs_from_the_plant_power(
+    make_results: Factory,
+) -> None:
+    results = make_results().drop(columns=["power_served_kw", "power_curtailed_kw"])
+    data = plots.power_reserve_data({"x": results})
+    assert data["reserve_band_upper_kw"].to_numpy() == pytest.approx(results["power_kw"].to_numpy())
+    assert (data["reserve_band_upper_kw"] - data["reserve_band_lower_kw"]).to_numpy() == (
+        pytest.approx(results["reserve_kw"].to_numpy())
+    )
 
 
 def test_plot_ppp_sweep_normalises_by_the_maximum(tmp_path: Path) -> None:

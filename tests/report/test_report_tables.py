@@ -4,10 +4,12 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
+import numpy as np
 import pandas as pd
 import pytest
 
 from hvacflex import kpi
+from hvacflex.errors import InputError
 from hvacflex.report import tables
 
 Factory = Callable[..., pd.DataFrame]
@@ -117,3 +119,33 @@ def test_format_value_formats_kpi_names_by_their_unit() -> None:
     assert tables.format_value("max_delta_vs_half_band", 0.83125) == "0.8313"
     assert tables.format_value("net_cost_sgd", 1234.5) == "1,234.50"
     assert tables.format_value("controller", "rmpc") == "rmpc"
+
+
+def test_table1_models_has_a_block_of_rows_per_model() -> None:
+    event = tables.table1({"(a)": _monthly([1000.0], [10.0]), "(b)": _monthly([1100.0], [12.0])})
+    whole = tables.table1(
+        {"(a) wh": _monthly([1010.0], [0.0]), "(b) wh": _monthly([1111.0], [0.0])}
+    )
+    both = tables.table1_models({"event": event, "whole-horizon": whole})
+    assert list(both.index) == ["(a)", "(b)", "(a) wh", "(b) wh"]
+    assert both.columns[0] == tables.RESERVE_MODEL_COLUMN
+    assert both[tables.RESERVE_MODEL_COLUMN].to_list() == ["event"] * 2 + ["whole-horizon"] * 2
+    # each block keeps its % against its own (a)
+    assert both.loc["(b)", "energy_cost_change_pct"] == pytest.approx(10.0)
+    assert both.loc["(b) wh", "energy_cost_change_pct"] == pytest.approx(10.0)
+    assert np.isnan(both.loc["(b) wh", "reserve_revenue_change_pct"])  # against zero
+    assert both.loc["(a) wh", "net_cost_sgd"] == pytest.approx(1010.0)
+    side = tables.table1_models(
+        {model: tables.side_by_side(t) for model, t in (("event", event), ("wh", whole))}
+    )
+    assert side.loc["(b) wh", "energy_cost_sgd (paper)"] == 1530.0
+    assert side.loc["(b) wh", "paper_scenario"] == "(b) RMPC"
+
+
+def test_table1_models_refuses_no_model_and_repeated_labels() -> None:
+    with pytest.raises(InputError, match="at least one model"):
+        tables.table1_models({})
+    event = tables.table1({"(a)": _monthly([1000.0], [10.0])})
+    with pytest.raises(InputError, match="repeat") as info:
+        tables.table1_models({"event": event, "whole-horizon": event})
+    assert "(a)" in str(info.value)

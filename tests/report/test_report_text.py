@@ -6,7 +6,13 @@ import pandas as pd
 import pytest
 
 from hvacflex.report import text
-from hvacflex.reproduce import Plan, comfort_sentences, ppp_sentence, scenario_sentences
+from hvacflex.reproduce import (
+    Plan,
+    comfort_sentences,
+    ppp_sentence,
+    revenue_sentences,
+    scenario_sentences,
+)
 
 
 def _kpis(net_cost: float, peak: float, revenue: float = 0.0) -> dict[str, float]:
@@ -55,13 +61,18 @@ def test_zero_reserve_revenue_is_stated_with_its_reason() -> None:
     assert any("(a) NMPC earns 1.20 SGD of reserve revenue, 1.19 %" in s for s in sentences)
     (zero,) = [s for s in sentences if "no reserve revenue" in s]
     assert zero.startswith("(b) RMPC and (c) RMPC + PPP earn no reserve revenue: none of them")
-    assert "curtailed for the whole horizon" in zero
+    # the product presets plan for IL events of up to D periods, not for the whole horizon
+    assert "called for up to 4 periods at any time in the horizon" in zero
+    assert "whole horizon" not in zero
     assert "every forecast error" in zero  # (b) and (c) are robust
     paid = scenario_sentences({"b": _kpis(110, 41, revenue=0.5)})
     assert not any("no reserve revenue" in s for s in paid)
     nominal = text.no_reserve(["(a) NMPC"], offered=True, robust=False)
     assert nominal.startswith("(a) NMPC earns no reserve revenue: it offered")
     assert "forecast error" not in nominal
+    assert "curtailed for the whole horizon" in nominal  # the paper's model (event_steps None)
+    event = text.no_reserve(["(a) NMPC"], offered=True, robust=False, event_steps=3)
+    assert "called for up to 3 periods" in event and "whole horizon" not in event
     disabled = text.no_reserve(["x"], offered=False, robust=False)
     assert "its configuration offers no reserve" in disabled and "horizon" not in disabled
 
@@ -107,3 +118,32 @@ def test_ppp_sentence_follows_the_sweep() -> None:
     assert "× 1.100" in sentence
     flat = lower.assign(peak_power_kw=[40.0, 40.0])
     assert "does not lower the peak" in ppp_sentence(flat)
+
+
+def test_revenue_trend_is_set_against_the_papers_rise() -> None:
+    rise = text.revenue_trend("the event model", 10.0, 11.0, 12.5)
+    assert "rises by 10.0 % in (b) and rises by 25.0 % in (c)" in rise
+    assert rise.endswith("— as in the paper.")
+    assert "((a) 10.00, (b) 11.00, (c) 12.50 SGD over the run)" in rise
+    fall = text.revenue_trend("m", 10.0, 9.0, 10.0)
+    assert "falls by 10.0 % in (b) and stays the same in (c)" in fall
+    assert "unlike the paper, where it rises in both ((b) +1.7 %, (c) +12 %)" in fall
+    from_zero = text.revenue_trend("m", 0.0, 2.0, 0.0)
+    assert "rises from nothing in (b) and stays at zero in (c)" in from_zero
+    assert "unlike the paper" in from_zero
+    none = text.revenue_trend("m", 0.0, 0.0, 0.0)
+    assert none.startswith("Under m no scenario earns reserve revenue")
+
+
+def test_revenue_sentences_name_each_complete_model() -> None:
+    sentences = revenue_sentences(
+        {
+            "event": {"a": 10.0, "b": 12.0, "c": 13.0},
+            "whole-horizon": {"a": 0.0, "b": 0.0, "c": 0.0},
+            "partial": {"a": 1.0, "b": 2.0},
+        }
+    )
+    assert len(sentences) == 2
+    assert sentences[0].startswith("Under the event model (D = 4")
+    assert "as in the paper" in sentences[0]
+    assert sentences[1].startswith("Under the paper's whole-horizon model no scenario earns")

@@ -189,3 +189,27 @@ def test_event_model_closed_loop_with_the_lp_curtails_at_most_d_periods(tmp_path
     assert not frame["fallback"].any()
     config = json.loads((tmp_path / CONFIG_FILE).read_text())
     assert config["reserve"]["event_max_steps"] == 4  # config.json records [reserve]
+
+
+def test_worst_event_temperature_is_recorded_for_every_fresh_plan(tmp_path: Path) -> None:
+    cfg = with_overrides(
+        preset("nmpc", start=START, days=0.5),
+        {"activation.mode": "always", "data.reserve_price_scale": 40.0},
+    )
+    setup = prepare(cfg)
+    frame = run_simulation(cfg, tmp_path, progress=False).frame
+    zones = setup.zone_names
+    worst = frame[[f"event_worst_{z}_degc" for z in zones]].to_numpy()
+    served = frame[[f"temp_served_{z}_degc" for z in zones]].to_numpy()
+    curtailed = frame[[f"temp_curtailed_{z}_degc" for z in zones]].to_numpy()
+    fresh = (frame["solve_status"] == "optimal").to_numpy() & ~frame["fallback"].to_numpy()
+    locked = (frame["solve_status"] == "event-plan").to_numpy()
+    assert fresh.sum() > 0 and locked.sum() > 0  # the event locks the plan for D − 1 periods
+    assert np.isfinite(worst[fresh]).all()
+    assert np.isnan(worst[~fresh]).all()
+    # the worst over the event set × the box is never below the served or the s = 0 event plan
+    assert (worst[fresh] >= served[fresh] - 1e-9).all()
+    assert (worst[fresh] >= curtailed[fresh] - 1e-9).all()
+    assert (frame["reserve_kw"] > 0).any()
+    offered = fresh & (frame["reserve_kw"] > 0).to_numpy()
+    assert (worst[offered].max(axis=1) > served[offered].max(axis=1)).all()

@@ -63,6 +63,9 @@ class Action:
         temperatures without and with IL activation [°C] (NaN without a plan).
     event_plan : the plan's first D + R steps, which an IL activation starting now locks
         (``None`` without a plan, or under the whole-horizon reserve model).
+    predicted_event_worst_degc : (m,) worst zone temperature at the end of this period over
+        the plan's event set × the uncertainty box (``RMPCSolution.y_event_worst`` of output
+        step 1) [°C]; ``None`` without a plan.
     """
 
     flow_kg_s: FloatArray
@@ -77,6 +80,7 @@ class Action:
     predicted_served_degc: FloatArray
     predicted_curtailed_degc: FloatArray
     event_plan: EventPlan | None = None
+    predicted_event_worst_degc: FloatArray | None = None
 
 
 class Controller(Protocol):

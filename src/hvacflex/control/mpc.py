@@ -370,6 +370,7 @@ class MPCController:
                 predicted_served_degc=c @ solution.x_served[1],
                 predicted_curtailed_degc=c @ solution.x_curtailed[1],
                 event_plan=self._event_plan(problem, solution),
+                predicted_event_worst_degc=np.asarray(solution.y_event_worst[0], dtype=float),
             )
         return self._fallback(x_degc, forecast, solution)
 

@@ -23,7 +23,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from hvacflex import kpi
-from hvacflex.errors import DataError
+from hvacflex.errors import DataError, InputError
 
 DPI = 150
 """Resolution of the PNG files [dots per inch]."""
@@ -164,10 +164,16 @@ TEMPERATURE_SERIES = {
     "temp_end": "realised",
     "temp_served": "served (predicted)",
     "temp_curtailed": "curtailed (predicted)",
+    "event_worst": "worst IL event (predicted)",
 }
-"""Temperature columns drawn by :func:`plot_temperatures` (prefix → legend label)."""
+"""Temperature columns of :func:`temperature_data` (prefix → legend label)."""
 
-_TEMPERATURE_STYLES = {"temp_end": "-", "temp_served": "--", "temp_curtailed": ":"}
+_TEMPERATURE_STYLES = {
+    "temp_end": "-",
+    "temp_served": "--",
+    "temp_curtailed": ":",
+    "event_worst": "-.",
+}
 
 
 def temperature_data(
@@ -176,8 +182,9 @@ def temperature_data(
     """Long table behind :func:`plot_temperatures`, one row per scenario, zone and period.
 
     Columns: ``scenario``, ``time_end`` (period end, local time), ``zone``,
-    ``temp_end_degc`` (realised), ``temp_served_degc`` and ``temp_curtailed_degc`` (one-step
-    predictions; NaN when the results lack them), ``comfort_lower_degc``,
+    ``temp_end_degc`` (realised), ``temp_served_degc``, ``temp_curtailed_degc`` and
+    ``event_worst_degc`` (one-step predictions; the last is the worst over the plan's
+    IL event set × the uncertainty box; NaN when the results lack them), ``comfort_lower_degc``,
     ``comfort_upper_degc``, ``il_activated``.
     """
     rows = []
@@ -211,6 +218,7 @@ def plot_temperatures(
     *,
     zones: Sequence[str] | None = None,
     title: str = "Served and curtailed zone temperatures",
+    series: Sequence[str] = tuple(TEMPERATURE_SERIES),
 ) -> Path:
     """Fig. 5: zone temperatures with the comfort band, one panel per scenario.
 
@@ -222,6 +230,8 @@ def plot_temperatures(
     * ``temp_served_<zone>_degc`` (dashed) and ``temp_curtailed_<zone>_degc`` (dotted), when
       present: the plan's one-step prediction of the served (u) and curtailed (u − r)
       temperature at period end — the paper's X^NC and X^C;
+    * ``event_worst_<zone>_degc`` (dash-dot), when present: the plan's worst end-of-period
+      temperature over its IL event set × the uncertainty box (``y_event_worst``);
     * the comfort band (black steps) of the first zone drawn, and of any other zone whose
       band differs from it.
 
@@ -230,11 +240,20 @@ def plot_temperatures(
     scenarios : scenario label → results frame (select the displayed days, e.g. 2 days).
     path : PNG file to write; the CSV (:func:`temperature_data`) goes next to it.
     zones : zones to draw; default all zones of each frame.
+    series : prefixes of :data:`TEMPERATURE_SERIES` to draw (the CSV holds them all).
 
     Returns
     -------
     The PNG path.
     """
+    unknown = [prefix for prefix in series if prefix not in TEMPERATURE_SERIES]
+    if unknown:
+        raise InputError(
+            "unknown temperature series",
+            field="series",
+            value=unknown,
+            hint=f"choose from {', '.join(TEMPERATURE_SERIES)}",
+        )
     data = temperature_data(scenarios, zones)
     figure, axes = _new_figure(len(scenarios), sharey=True)
     for ax, (label, results) in zip(axes, scenarios.items(), strict=True):
@@ -244,7 +263,8 @@ def plot_temperatures(
         for i, (zone, rows) in enumerate(part.groupby("zone", sort=False)):
             color = f"C{i % 10}"
             ends = rows["time_end"].to_numpy()
-            for prefix, name in TEMPERATURE_SERIES.items():
+            for prefix in series:
+                name = TEMPERATURE_SERIES[prefix]
                 values = rows[f"{prefix}_degc"].to_numpy(float)
                 if np.all(np.isnan(values)):
                     continue
@@ -306,7 +326,10 @@ def power_reserve_data(scenarios: Mapping[str, pd.DataFrame]) -> pd.DataFrame:
 
     Columns: ``scenario``, ``time`` (period start, local time), ``power_kw``,
     ``power_served_kw``, ``power_curtailed_kw``, ``reserve_kw`` [kW], ``il_activated``,
-    ``energy_price_sgd_per_mwh``; optional columns absent from the results are NaN.
+    ``energy_price_sgd_per_mwh``; optional columns absent from the results are NaN. Then the
+    reserve band [kW]: ``reserve_band_upper_kw`` (the served power, ``power_kw`` when the
+    results lack it) and ``reserve_band_lower_kw`` = upper − ``reserve_kw`` (the power the
+    building would draw if the offered reserve were called).
     """
     columns = [
         "power_kw",
@@ -322,6 +345,10 @@ def power_reserve_data(scenarios: Mapping[str, pd.DataFrame]) -> pd.DataFrame:
         part = pd.DataFrame({"scenario": label, "time": _local_times(results.index)})
         for col in columns:
             part[col] = results[col].to_numpy() if col in results.columns else np.nan
+        upper = part["power_served_kw"].to_numpy(float)
+        upper = np.where(np.isnan(upper), part["power_kw"].to_numpy(float), upper)
+        part["reserve_band_upper_kw"] = upper
+        part["reserve_band_lower_kw"] = upper - part["reserve_kw"].to_numpy(float)
         parts.append(part)
     return pd.concat(parts, ignore_index=True)
 
@@ -335,9 +362,10 @@ def plot_power_reserve(
 ) -> Path:
     """Fig. 6: plant power and reserve capacity offered, one panel per scenario.
 
-    Draws ``power_kw`` (the power actually drawn, steps), ``reserve_kw`` (the capacity
-    ``pᵀr`` offered, filled steps) and, on a faint right axis, the energy price, so that load
-    shifting away from expensive periods is visible.
+    Draws ``power_kw`` (the power actually drawn, steps), the reserve band (filled between the
+    served power and served − ``reserve_kw``: the capacity ``pᵀr`` offered, shown where it
+    would be shed from), ``reserve_kw`` itself (thin steps from zero) and, on a faint right
+    axis, the energy price, so that load shifting away from expensive periods is visible.
 
     Parameters
     ----------
@@ -354,13 +382,23 @@ def plot_power_reserve(
     price_axes: list[Axes] = []
     for ax, (label, results) in zip(axes, scenarios.items(), strict=True):
         edges = _period_edges(results)
-        _step(ax, edges, results["power_kw"].to_numpy(float), color="C0", label="power")
+        band = data[data["scenario"] == label]
         ax.stairs(
-            results["reserve_kw"].to_numpy(float),
+            band["reserve_band_upper_kw"].to_numpy(float),
             edges,
+            baseline=band["reserve_band_lower_kw"].to_numpy(float),
             fill=True,
             color="C2",
-            alpha=0.5,
+            alpha=0.4,
+            label="reserve band (served → curtailed)",
+        )
+        _step(ax, edges, results["power_kw"].to_numpy(float), color="C0", label="power")
+        _step(
+            ax,
+            edges,
+            band["reserve_kw"].to_numpy(float),
+            color="C2",
+            linewidth=0.8,
             label="reserve capacity",
         )
         handles, labels = ax.get_legend_handles_labels()
@@ -383,7 +421,10 @@ def plot_power_reserve(
         ax.set_title(label, loc="left", fontsize="medium")
         ax.set_ylabel("power\n[kW]")
         ax.set_ylim(bottom=0.0)
-        ax.legend(handles, labels, fontsize="x-small", loc="upper left")
+        if ax is axes[0]:  # beside the panels, so that it hides no data
+            ax.legend(
+                handles, labels, fontsize="x-small", loc="upper left", bbox_to_anchor=(1.17, 1.0)
+            )
     axes[-1].set_xlabel(_TIME_LABEL)
     if isinstance(next(iter(scenarios.values())).index, pd.DatetimeIndex):
         _format_time_axis(axes[-1])

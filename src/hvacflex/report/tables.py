@@ -123,6 +123,41 @@ def side_by_side(ours: pd.DataFrame, paper: pd.DataFrame | None = None) -> pd.Da
     return result
 
 
+RESERVE_MODEL_COLUMN = "reserve_model"
+"""Column of :func:`table1_models` naming the reserve model of each row."""
+
+
+def table1_models(tables: Mapping[str, pd.DataFrame]) -> pd.DataFrame:
+    """Table 1 of several reserve models in one table: one block of rows per model.
+
+    Parameters
+    ----------
+    tables : reserve model name → a :func:`table1` (or :func:`side_by_side`) output of that
+        model's scenarios (a), (b), (c), in display order; each keeps its % against its own
+        (a), so the blocks compare the scenarios within a model and the rows across models.
+
+    Returns
+    -------
+    DataFrame with the rows of every table in order (index ``scenario``, the row labels of the
+    tables, which must be distinct) and a first column :data:`RESERVE_MODEL_COLUMN`.
+    """
+    if not tables:
+        raise InputError("table1_models needs at least one model", field="tables", value={})
+    labels = [label for table in tables.values() for label in table.index]
+    repeated = sorted({label for label in labels if labels.count(label) > 1})
+    if repeated:
+        raise InputError(
+            "scenario labels repeat across reserve models",
+            field="tables",
+            value=repeated,
+            hint="label each model's scenarios distinctly, e.g. '(a) NMPC, whole-horizon'",
+        )
+    blocks = [table.assign(**{RESERVE_MODEL_COLUMN: model}) for model, table in tables.items()]
+    frame = pd.concat(blocks)
+    columns = [RESERVE_MODEL_COLUMN, *(c for c in frame.columns if c != RESERVE_MODEL_COLUMN)]
+    return frame[columns].rename_axis("scenario")
+
+
 # ----------------------------------------------------------------------------- rendering
 
 

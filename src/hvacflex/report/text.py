@@ -129,7 +129,9 @@ def reserve_revenue(label: str, revenue_sgd: float, energy_cost_sgd: float) -> s
     return f"{label} earns {revenue_sgd:,.2f} SGD of reserve revenue{tail}."
 
 
-def no_reserve(labels: Sequence[str], *, offered: bool, robust: bool) -> str:
+def no_reserve(
+    labels: Sequence[str], *, offered: bool, robust: bool, event_steps: int | None = None
+) -> str:
     """Why the scenarios ``labels`` earn no reserve revenue.
 
     Parameters
@@ -138,6 +140,8 @@ def no_reserve(labels: Sequence[str], *, offered: bool, robust: bool) -> str:
     offered : whether their configuration lets the controller offer reserve (False: the
         configuration offers none).
     robust : whether any of them plans against the uncertainty box.
+    event_steps : D of their IL event model (an activation of up to D periods anywhere in the
+        horizon); None for the paper's whole-horizon model (curtailed for the whole horizon).
     """
     names = _join(labels)
     plural = len(labels) > 1
@@ -148,9 +152,62 @@ def no_reserve(labels: Sequence[str], *, offered: bool, robust: bool) -> str:
         " (and, for a robust controller, for every forecast error in the box)" if robust else ""
     )
     who = "none of them" if plural else "it"
+    if event_steps is None:
+        called = "curtailed for the whole horizon"
+    else:
+        called = (
+            f"called for up to {event_steps} periods at any time in the horizon (within the "
+            "event's comfort allowance)"
+        )
     return (
         f"{names} earn{'' if plural else 's'} no reserve revenue: {who} offered reserve in any "
         "period. An offer must keep every zone in the comfort band if the reserve is "
-        f"curtailed for the whole horizon{margin}, and at these (synthetic) reserve prices the "
-        "optimiser found no offer whose revenue pays for the extra cooling this needs."
+        f"{called}{margin}, and at these (synthetic) reserve prices the optimiser found no "
+        "offer whose revenue pays for the extra cooling this needs."
     )
+
+
+PAPER_REVENUE_CHANGE_PCT = {"(b)": 1.7, "(c)": 12.0}
+"""Reserve revenue of (b) and (c) against (a) in the paper's Table 1 [%]: it rises in both."""
+
+NEGLIGIBLE_REVENUE_SGD = 1e-6
+"""Revenue below this is zero up to solver tolerance [SGD]."""
+
+
+def _revenue_move(revenue_sgd: float, reference_sgd: float) -> tuple[int, str]:
+    """(+1 rises / 0 same / −1 falls, phrase) of a revenue against (a)'s."""
+    change = _relative_change(revenue_sgd, reference_sgd)
+    if math.isnan(change):
+        if revenue_sgd > NEGLIGIBLE_REVENUE_SGD:
+            return 1, "rises from nothing"
+        return 0, "stays at zero"
+    if abs(change) < SAME_RELATIVE:
+        return 0, "stays the same"
+    verb = "rises" if change > 0 else "falls"
+    return (1 if change > 0 else -1), f"{verb} by {100 * abs(change):.1f} %"
+
+
+def revenue_trend(
+    model: str, revenue_a_sgd: float, revenue_b_sgd: float, revenue_c_sgd: float
+) -> str:
+    """Whether reserve revenue rises in (b) and (c) against (a) under ``model``, set against the
+    paper's finding (it rises in both), from the three runs' reserve revenue [SGD]."""
+    numbers = (
+        f"(a) {revenue_a_sgd:,.2f}, (b) {revenue_b_sgd:,.2f}, (c) {revenue_c_sgd:,.2f} SGD "
+        "over the run"
+    )
+    if max(revenue_a_sgd, revenue_b_sgd, revenue_c_sgd) <= NEGLIGIBLE_REVENUE_SGD:
+        return (
+            f"Under {model} no scenario earns reserve revenue ({numbers}), so the paper's "
+            "rise in (b) and (c) cannot appear."
+        )
+    sign_b, move_b = _revenue_move(revenue_b_sgd, revenue_a_sgd)
+    sign_c, move_c = _revenue_move(revenue_c_sgd, revenue_a_sgd)
+    head = (
+        f"Under {model}, reserve revenue {move_b} in (b) and {move_c} in (c) "
+        f"against (a) ({numbers})"
+    )
+    if sign_b > 0 and sign_c > 0:
+        return f"{head} — as in the paper."
+    paper = ", ".join(f"{k} +{v:g} %" for k, v in PAPER_REVENUE_CHANGE_PCT.items())
+    return f"{head} — unlike the paper, where it rises in both ({paper})."

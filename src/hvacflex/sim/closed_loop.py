@@ -220,6 +220,7 @@ class _Recorder:
                 f"temp_end_{zone}_degc",
                 f"temp_served_{zone}_degc",
                 f"temp_curtailed_{zone}_degc",
+                f"event_worst_{zone}_degc",
                 f"comfort_lower_{zone}_degc",
                 f"comfort_upper_{zone}_degc",
                 f"prediction_error_{zone}_k",
@@ -417,6 +418,8 @@ class ClosedLoop:
             row[col[f"temp_end_{zone}_degc"]] = end[z]
             row[col[f"temp_served_{zone}_degc"]] = action.predicted_served_degc[z]
             row[col[f"temp_curtailed_{zone}_degc"]] = action.predicted_curtailed_degc[z]
+            if action.predicted_event_worst_degc is not None:
+                row[col[f"event_worst_{zone}_degc"]] = action.predicted_event_worst_degc[z]
             row[col[f"comfort_lower_{zone}_degc"]] = exo.comfort_lower_degc[k, z]
             row[col[f"comfort_upper_{zone}_degc"]] = exo.comfort_upper_degc[k, z]
         first_d = col[f"d_{self.setup.model.channels[0].name}"]
