@@ -134,10 +134,10 @@ def test_simulate_on_a_truncated_results_file_exits_2_with_the_fix(tmp_path: Pat
 def test_simulate_refuses_a_checkpoint_of_other_code(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    import hvacflex.sim.closed_loop as closed_loop
+    import hvacflex.version as version
     from hvacflex.config import preset
 
-    monkeypatch.setattr(closed_loop, "code_version", lambda: "0.0.1+src.oldoldoldold")
+    monkeypatch.setattr(version, "code_version", lambda: "0.0.1+src.oldoldoldold")
     run_simulation(
         preset("thermostat", start=START, days=0.5), tmp_path, progress=False, stop_after_steps=5
     )
@@ -145,7 +145,7 @@ def test_simulate_refuses_a_checkpoint_of_other_code(
     result = CliRunner().invoke(app, [*SIMULATE, "--out", str(tmp_path)])
     assert result.exit_code == 2, result.output
     output = " ".join(result.output.split())  # rich wraps long lines
-    assert "0.0.1+src.oldoldoldold" in output and closed_loop.code_version() in output
+    assert "0.0.1+src.oldoldoldold" in output and version.code_version() in output
     assert "--fresh" in output
 
 

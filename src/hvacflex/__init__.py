@@ -5,11 +5,11 @@ interruptible-load reserve, keeps a utility peak-power price in check, and keeps
 for every forecast error inside a box. See ``docs/model.md`` for the model and the problem.
 """
 
-from importlib.metadata import PackageNotFoundError, version
+from importlib import metadata
 
 try:
-    __version__ = version("hvacflex")
-except PackageNotFoundError:  # running from a source tree without installation
+    __version__ = metadata.version("hvacflex")
+except metadata.PackageNotFoundError:  # running from a source tree without installation
     __version__ = "0.0.0+unknown"
 
 __all__ = ["__version__"]

@@ -256,13 +256,13 @@ def test_editing_the_building_file_invalidates_cached_results(tmp_path: Path) ->
 def test_results_of_other_code_are_not_reused(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    import hvacflex.sim.closed_loop as closed_loop
+    import hvacflex.version as version
 
     cfg = preset("thermostat", start=START, days=0.25)
     first = run_simulation(cfg, tmp_path, progress=False)
-    assert read_results(first.results_path)[1]["version"] == closed_loop.code_version()
+    assert read_results(first.results_path)[1]["version"] == version.code_version()
     assert run_simulation(cfg, tmp_path, progress=False).cached
-    monkeypatch.setattr(closed_loop, "code_version", lambda: "9.9.9+src.otherotherot")
+    monkeypatch.setattr(version, "code_version", lambda: "9.9.9+src.otherotherot")
     again = run_simulation(cfg, tmp_path, progress=False)
     assert not again.cached
     assert read_results(again.results_path)[1]["version"] == "9.9.9+src.otherotherot"
@@ -271,14 +271,14 @@ def test_results_of_other_code_are_not_reused(
 def test_a_checkpoint_of_other_code_is_refused_naming_both_versions(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    import hvacflex.sim.closed_loop as closed_loop
+    import hvacflex.version as version
     from hvacflex.errors import StoredStateError
 
     cfg = preset("thermostat", start=START, days=0.5)
-    ours = closed_loop.code_version()
+    ours = version.code_version()
     run_simulation(cfg, tmp_path, progress=False, stop_after_steps=10)
     assert (tmp_path / CHECKPOINT_FILE).is_file()
-    monkeypatch.setattr(closed_loop, "code_version", lambda: "9.9.9+src.otherotherot")
+    monkeypatch.setattr(version, "code_version", lambda: "9.9.9+src.otherotherot")
     with pytest.raises(StoredStateError) as caught:
         run_simulation(cfg, tmp_path, progress=False)
     message = str(caught.value)

@@ -22,7 +22,6 @@ uninterrupted run.
 
 from __future__ import annotations
 
-import hashlib
 import json
 import pickle
 import time
@@ -33,9 +32,8 @@ from typing import Any, Protocol
 
 import numpy as np
 import pandas as pd
-import pyarrow as pa
-import pyarrow.parquet as pq
 
+from hvacflex import version
 from hvacflex.building.discretize import LinearModel, linearize
 from hvacflex.building.hvac import hvac_power_kw
 from hvacflex.building.io import load_building
@@ -49,18 +47,24 @@ from hvacflex.data.forecast import Exogenous, Forecaster, load_exogenous
 from hvacflex.data.gains import ComfortBand
 from hvacflex.data.market import RESERVE_PRICE_SCALE
 from hvacflex.data.uncertainty import DisturbanceSampler, UncertaintyBox
-from hvacflex.errors import ConfigError, HvacflexError, StoredStateError
-from hvacflex.kpi import RESULTS_FILENAME as RESULTS_FILE
+from hvacflex.errors import ConfigError, HvacflexError
 from hvacflex.paths import resolve_building
 from hvacflex.sim.activation import activation_schedule
 from hvacflex.sim.events import EventTracker, PeriodOutcome, Role
 from hvacflex.sim.measurement import Sensors, kalman_config
 from hvacflex.sim.progress import progress_bar
-from hvacflex.version import atomic_write, atomic_write_bytes, atomic_write_text, code_version
+from hvacflex.sim.run_files import CHECKPOINT_FILE as CHECKPOINT_FILE
+from hvacflex.sim.run_files import CONFIG_FILE as CONFIG_FILE
+from hvacflex.sim.run_files import RESULTS_FILE as RESULTS_FILE
+from hvacflex.sim.run_files import SUMMARY_FILE as SUMMARY_FILE
+from hvacflex.sim.run_files import check_checkpoint_code as check_checkpoint_code
+from hvacflex.sim.run_files import load_checkpoint as load_checkpoint
+from hvacflex.sim.run_files import read_results as read_results
+from hvacflex.sim.run_files import read_summary as read_summary
+from hvacflex.sim.run_files import run_key as run_key
+from hvacflex.sim.run_files import write_results as write_results
+from hvacflex.version import atomic_write_bytes, atomic_write_text
 
-CHECKPOINT_FILE = "checkpoint.pkl"
-SUMMARY_FILE = "summary.json"
-CONFIG_FILE = "config.json"
 DEFAULT_CHECKPOINT_EVERY = 336
 """Steps between checkpoints (one week of 30-min periods)."""
 
@@ -434,7 +438,7 @@ class ClosedLoop:
         rec = self.recorder
         return {
             "config_hash": run_key(self.setup.config),
-            "code_version": code_version(),
+            "code_version": version.code_version(),
             "k": self.k,
             "x": self.x.copy(),
             "month": self.month,
@@ -476,138 +480,6 @@ class ClosedLoop:
         return self.recorder.frame(self.setup.exogenous.index, self.k)
 
 
-def run_key(config: ScenarioConfig) -> str:
-    """Identity of a run's inputs: the configuration and the bytes of its input files.
-
-    The configuration names the building and data files; editing one of them (a building
-    TOML, a price CSV) must not let a cached result or a checkpoint be re-used, so their
-    contents enter the key. The shipped default data is fixed and stays out of it.
-    """
-    digest = hashlib.sha256(config.config_hash().encode())
-    files = [resolve_building(config.building)]
-    for name in ("weather_file", "usep_source", "reserve_source"):
-        value = getattr(config.data, name)
-        if value is not None:
-            path = Path(value)
-            files += sorted(path.glob("*")) if path.is_dir() else [path]
-    if config.activation.mode == "file" and config.activation.file is not None:
-        files.append(Path(config.activation.file))
-    for path in files:
-        digest.update(str(path.name).encode())
-        if path.is_file():
-            digest.update(path.read_bytes())
-    return digest.hexdigest()[:16]
-
-
-def write_results(frame: pd.DataFrame, path: Path, config: ScenarioConfig) -> None:
-    """Parquet with the run's configuration and code version in the file metadata."""
-    table = pa.Table.from_pandas(frame)
-    metadata = dict(table.schema.metadata or {})
-    metadata[b"hvacflex.config"] = json.dumps(config.to_dict()).encode()
-    metadata[b"hvacflex.config_hash"] = config.config_hash().encode()
-    metadata[b"hvacflex.run_key"] = run_key(config).encode()
-    metadata[b"hvacflex.version"] = code_version().encode()
-    table = table.replace_schema_metadata(metadata)
-    atomic_write(path, lambda tmp: pq.write_table(table, tmp))
-
-
-_FRESH_HINT = "delete the file or run again with --fresh (hvacflex simulate --fresh)"
-
-
-def read_results(path: Path) -> tuple[pd.DataFrame, dict[str, Any]]:
-    """A results file and the metadata stored with it (``config``, ``config_hash``,
-    ``run_key``, ``version``).
-
-    Raises
-    ------
-    StoredStateError
-        When the file is not a readable Parquet file (e.g. truncated) or its hvacflex
-        metadata is damaged.
-    """
-    try:
-        table = pq.read_table(path)
-        meta = table.schema.metadata or {}
-        stored = {
-            "config": json.loads(meta.get(b"hvacflex.config", b"{}")),
-            "config_hash": meta.get(b"hvacflex.config_hash", b"").decode(),
-            "run_key": meta.get(b"hvacflex.run_key", b"").decode(),
-            "version": meta.get(b"hvacflex.version", b"").decode(),
-        }
-        frame = table.to_pandas()
-    except (OSError, pa.ArrowException, ValueError) as exc:
-        raise StoredStateError(
-            f"not a readable results file (truncated or damaged: {type(exc).__name__})",
-            source=path,
-            hint=_FRESH_HINT,
-        ) from None
-    return frame, stored
-
-
-def read_summary(path: Path) -> dict[str, float]:
-    """A run's ``summary.json``.
-
-    Raises
-    ------
-    StoredStateError
-        When the file is not a JSON object (e.g. truncated).
-    """
-    try:
-        summary = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise StoredStateError(
-            f"not a readable summary file (truncated or damaged: {type(exc).__name__})",
-            source=path,
-            hint=_FRESH_HINT,
-        ) from None
-    if not isinstance(summary, dict):
-        raise StoredStateError(
-            "not a summary file (expected a JSON object)", source=path, hint=_FRESH_HINT
-        )
-    return summary
-
-
-def load_checkpoint(path: Path) -> dict[str, Any]:
-    """The state stored by :meth:`ClosedLoop.save_checkpoint`.
-
-    Raises
-    ------
-    StoredStateError
-        When the file cannot be unpickled (e.g. truncated) or holds no checkpoint.
-    """
-    try:
-        with path.open("rb") as fh:
-            state = pickle.load(fh)
-    except Exception as exc:  # a damaged pickle raises almost anything
-        raise StoredStateError(
-            f"not a readable checkpoint (truncated or damaged: {type(exc).__name__})",
-            source=path,
-            hint=_FRESH_HINT,
-        ) from None
-    if not isinstance(state, dict) or "config_hash" not in state or "k" not in state:
-        raise StoredStateError("not a checkpoint of hvacflex", source=path, hint=_FRESH_HINT)
-    return state
-
-
-def check_checkpoint_code(state: dict[str, Any], path: Path) -> None:
-    """Refuse a checkpoint written by other code (its controller or plant may differ).
-
-    Raises
-    ------
-    StoredStateError
-        Naming the checkpoint's code version and this one, with the ``--fresh`` hint.
-    """
-    stored = str(state.get("code_version", "unknown (older hvacflex)"))
-    current = code_version()
-    if stored != current:
-        raise StoredStateError(
-            f"checkpoint was written by hvacflex {stored}, this is hvacflex {current}; "
-            "resuming would mix two versions of the code in one run",
-            source=path,
-            field="code_version",
-            hint="run again with --fresh to start this run afresh (or delete the checkpoint)",
-        )
-
-
 def run_simulation(
     config: ScenarioConfig,
     out_dir: str | Path,
@@ -646,7 +518,7 @@ def run_simulation(
     config_hash = run_key(config)
     if resume and results_path.is_file():
         frame, stored = read_results(results_path)
-        same_code = stored["version"] == code_version()
+        same_code = stored["version"] == version.code_version()
         if stored["run_key"] == config_hash and same_code and (out / SUMMARY_FILE).is_file():
             summary = read_summary(out / SUMMARY_FILE)
             return RunResult(out, frame, summary, cached=True)
