@@ -389,7 +389,11 @@ def _no_columns() -> IntArray:
 
 @dataclass(frozen=True, eq=False)
 class FeedbackColumns:
-    """Columns of the feedback LP beyond the plan (index arrays shaped like the quantity)."""
+    """Columns of the feedback LP beyond the plan (index arrays shaped like the quantity).
+
+    ``qpos``, ``qneg`` (pairs, nd) are the Q^± of the robust peak (empty unless φ > 0);
+    ``q_shift`` (pairs,): one step later pair e starts from pair ``q_shift[e]``.
+    """
 
     delta: IntArray  # (N, ny) comfort margins δ
     mu: IntArray  # (N, m) input margins μ
@@ -399,9 +403,9 @@ class FeedbackColumns:
     psi: IntArray  # (n_key, ny, r) Ψ
     ypos: IntArray  # (n_key, ny, nd) Y⁺
     yneg: IntArray  # (n_key, ny, nd) Y⁻
-    qpos: IntArray = field(default_factory=_no_columns)  # (pairs, nd) Q⁺ of the robust peak (φ > 0 only)
-    qneg: IntArray = field(default_factory=_no_columns)  # (pairs, nd) Q⁻
-    q_shift: IntArray = field(default_factory=_no_columns)  # (pairs,) one step later pair e starts from q_shift[e]
+    qpos: IntArray = field(default_factory=_no_columns)
+    qneg: IntArray = field(default_factory=_no_columns)
+    q_shift: IntArray = field(default_factory=_no_columns)
 
 
 def add_feedback_variables(lp: LPBuilder, p: RMPCProblem, maps: FeedbackMaps) -> FeedbackColumns:

@@ -111,7 +111,7 @@ class MatrixPattern:
         indptr = np.concatenate([[0], np.cumsum(counts)]).astype(np.int32)
         constant = np.bincount(
             position[:num_constant], weights=lp.constant.values[keep], minlength=keys.size
-        )
+        ).astype(np.float64)
         return MatrixPattern(
             indptr=indptr,
             indices=(keys % lp.num_rows).astype(np.int32),
