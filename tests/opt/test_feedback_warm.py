@@ -25,6 +25,13 @@ from hvacflex.sim.closed_loop import run_simulation
 
 #: Objective agreement of the warm and the cold path (relative).
 OBJECTIVE_REL_TOL = 1e-9
+#: The same over a whole recorded office5 day. 1e-9 cannot hold there: HiGHS accepts a vertex
+#: as optimal within its primal/dual feasibility tolerance (1e-7), and on this LP (duals up to
+#: ≈ 50 SGD per K, σ coefficients down to 1e-9) that leaves the objective determined to only
+#: ≈ 1e-8 relative. From step 12 of 2014-03-03 the warm and the cold solve stop at different
+#: such vertices: measured worst 8.7e-9 (plan objective, step 24; a solve with tolerances
+#: 1e-10 lies between the two, nearer the warm one).
+OFFICE5_DAY_REL_TOL = 2e-8
 HORIZON = 8
 STEPS = 6
 
@@ -57,7 +64,10 @@ def _receding(seed: int, structure: str, phi: float) -> list[RMPCProblem]:
 
 
 def _assert_same_optima(
-    problems: list[RMPCProblem], cold_steps: tuple[int, ...] = (0,), **warm_options: Any
+    problems: list[RMPCProblem],
+    cold_steps: tuple[int, ...] = (0,),
+    rel_tol: float = OBJECTIVE_REL_TOL,
+    **warm_options: Any,
 ) -> list[int]:
     """Solve ``problems`` warm (one solver) and cold (rebuilt each step); compare the LP and
     plan objectives. The warm solver starts cold at ``cold_steps`` only. Returns the warm
@@ -71,9 +81,9 @@ def _assert_same_optima(
         assert warm_solution.status is cold_solution.status is SolveStatus.OPTIMAL, step
         assert warm_solution.warm_start is (step not in cold_steps), step
         lp_warm, lp_cold = warm.last_lp_objective_sgd, cold.last_lp_objective_sgd
-        assert abs(lp_warm - lp_cold) <= OBJECTIVE_REL_TOL * abs(lp_cold), (step, lp_warm, lp_cold)
+        assert abs(lp_warm - lp_cold) <= rel_tol * abs(lp_cold), (step, lp_warm, lp_cold)
         plan_warm, plan_cold = warm_solution.objective_sgd, cold_solution.objective_sgd
-        assert abs(plan_warm - plan_cold) <= OBJECTIVE_REL_TOL * abs(plan_cold), step
+        assert abs(plan_warm - plan_cold) <= rel_tol * abs(plan_cold), (step, plan_warm, plan_cold)
         iterations.append(warm_solution.simplex_iterations)
     return iterations
 
@@ -179,5 +189,6 @@ def test_warm_equals_cold_on_a_recorded_office5_day(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """A whole day (48 steps) of closed-loop feedback problems of office5."""
-    iterations = _assert_same_optima(_recorded(tmp_path, monkeypatch, 48, 1))
+    problems = _recorded(tmp_path, monkeypatch, 48, 1)
+    iterations = _assert_same_optima(problems, rel_tol=OFFICE5_DAY_REL_TOL)
     assert float(np.median(iterations[1:])) < iterations[0] / 20
