@@ -76,11 +76,8 @@ previous step's basis rotated by one step. The structural coefficients (gains, �
 depend only on the problem's structure and are assembled once (:func:`build_feedback_lp` with
 ``constants``); σ and p enter as *varying* coefficients in fixed positions (zeros kept), so
 the sparsity pattern is fixed for a given φ support (φ = 0 everywhere or not).
-
-Warm start: the blocks indexed by the step k (plan x, z, u, r, ε; δ, μ and their rows; flow
-and peak rows) are marked ``time_indexed``; the gains Θ, U^±, Ψ and Y^± of the shift-invariant
-structures are indexed by the *lag* k − j and keep their statuses; Q^± and their rows (pairs
-(k, j)) are rotated within each lag (:func:`pair_shift`).
+Blocks indexed by the step k are ``time_indexed`` (for the warm start's rotation); the gains,
+Ψ and Y^± are indexed by the lag; Q^± rotate within each lag (:func:`pair_shift`).
 """
 
 from __future__ import annotations
@@ -383,17 +380,14 @@ def feedback_maps(problem: RMPCProblem, options: FeedbackOptions) -> FeedbackMap
 # ---------------------------------------------------------------------- LP families
 
 
-def _no_columns() -> IntArray:
+def _no_columns() -> IntArray:  # default of the Q columns: none
     return np.zeros((0,), dtype=np.int64)
 
 
 @dataclass(frozen=True, eq=False)
 class FeedbackColumns:
-    """Columns of the feedback LP beyond the plan (index arrays shaped like the quantity).
-
-    ``qpos``, ``qneg`` (pairs, nd) are the Q^± of the robust peak (empty unless φ > 0);
-    ``q_shift`` (pairs,): one step later pair e starts from pair ``q_shift[e]``.
-    """
+    """Columns of the feedback LP beyond the plan (index arrays shaped like the quantity);
+    Q^± (pairs, nd) only if φ > 0, one step later pair e starts from pair ``q_shift[e]``."""
 
     delta: IntArray  # (N, ny) comfort margins δ
     mu: IntArray  # (N, m) input margins μ
@@ -566,11 +560,9 @@ def pair_shift(pair_k: IntArray, pair_j: IntArray) -> IntArray:
     within each lag, like the time-indexed blocks' roll)."""
     lag = pair_k - pair_j
     order = np.lexsort((pair_j, lag))
-    sorted_lag = lag[order]
-    position = np.arange(order.size)
-    first = np.searchsorted(sorted_lag, sorted_lag, side="left")
+    sorted_lag, position = lag[order], np.arange(order.size)
     last = np.searchsorted(sorted_lag, sorted_lag, side="right") - 1
-    following = np.where(position < last, position + 1, first)
+    following = np.where(position < last, position + 1, np.searchsorted(sorted_lag, sorted_lag))
     shift = np.empty_like(order)
     shift[order] = order[following]
     return shift.astype(np.int64)
@@ -641,9 +633,7 @@ def output_response(maps: FeedbackMaps, tensor: FloatArray) -> FloatArray:
     response = np.where(causal, maps.g_resp[np.clip(lag, 0, None)], 0.0)
     h_full = np.where(causal, maps.h_resp[np.clip(lag, 0, None)], 0.0)  # [k-1, t]
     # Σ_t H_{k-1-t} U_{t,j} with t ≤ k-1 (U_{t,j} = 0 for t ≤ j)
-    m = tensor.shape[2]
-    # as one matrix product [(k, a), (t, b)] @ [(t, b), (j, l)]; the gains are sparse (lags
-    # up to L only), so multiply sparse-times-dense
+    m = tensor.shape[2]  # [(k, a), (t, b)] @ [(t, b), (j, l)], the gains sparse (lags ≤ L)
     h_rows = h_full.transpose(0, 2, 1, 3).reshape(horizon * ny, horizon * m)
     u_cols = (tensor / maps.scale).transpose(0, 2, 1, 3).reshape(horizon * m, horizon * nd)
     product = np.asarray((sparse.csc_matrix(u_cols).T @ h_rows.T).T)
