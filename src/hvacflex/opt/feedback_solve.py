@@ -11,8 +11,8 @@ coefficients are kept even when zero; the Q block of the robust peak exists for 
 support), the gains and their response blocks are indexed by the *lag* (shift-invariant
 structures), and every block indexed by the step k is marked ``time_indexed``: the previous
 optimal basis rotated by one step (:func:`hvacflex.opt.basis.rotation`, Q pairs by
-:func:`hvacflex.opt.feedback.pair_shift`) is then a few simplex iterations (0–20 on office5)
-from the next optimum.
+:func:`hvacflex.opt.feedback.pair_shift`) is then a few simplex iterations (median 3, p90 12
+over a closed-loop day of office5) from the next optimum.
 
 The σ coefficients of the margin rows (≈ 130k, almost all of which move every step) make
 in-place coefficient updates (``changeCoeff``, ≈ 2 µs each) slower than replacing the whole
