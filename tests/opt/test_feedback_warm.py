@@ -29,8 +29,8 @@ OBJECTIVE_REL_TOL = 1e-9
 #: as optimal within its primal/dual feasibility tolerance (1e-7), and on this LP (duals up to
 #: ≈ 50 SGD per K, σ coefficients down to 1e-9) that leaves the objective determined to only
 #: ≈ 1e-8 relative. From step 12 of 2014-03-03 the warm and the cold solve stop at different
-#: such vertices: measured worst 8.7e-9 (plan objective, step 24; a solve with tolerances
-#: 1e-10 lies between the two, nearer the warm one).
+#: such vertices: measured worst 1.1e-8 (step 21; at step 24, 8.7e-9, a solve with
+#: tolerances 1e-10 lies between the two, nearer the warm one).
 OFFICE5_DAY_REL_TOL = 2e-8
 HORIZON = 8
 STEPS = 6
