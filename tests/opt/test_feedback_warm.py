@@ -107,6 +107,29 @@ def test_phi_support_change_rebuilds_the_layout() -> None:
     _assert_same_optima(problems, cold_steps=(0, 3, 4))
 
 
+def test_a_failed_step_keeps_the_warm_start() -> None:
+    """An infeasible step (a 0.01 K band without slack) leaves the next step warm: a failure
+    (e.g. a time limit on a loaded machine) must not turn every later step into a cold solve."""
+    problems = _receding(0, "zone-local", 0.0)
+    problems[2] = random_problem(
+        0,
+        robust="feedback",
+        feedback=problems[2].feedback,
+        y_min=np.full((HORIZON, 2), 25.99),
+        y_max=np.full((HORIZON, 2), 26.0),
+        slack_max_kelvin=0.0,
+        peak_price_sgd_per_kw=0.0,  # the sequence's φ support: same layout
+    )
+    solver = FeedbackSolver(problems[0])
+    solutions = [solver.solve(problem) for problem in problems]
+    assert solutions[2].status is SolveStatus.INFEASIBLE
+    assert solutions[3].warm_start and solutions[3].ok
+    cold = FeedbackSolver(problems[3], warm_start=False).solve(problems[3])
+    assert abs(solutions[3].objective_sgd - cold.objective_sgd) <= OBJECTIVE_REL_TOL * abs(
+        cold.objective_sgd
+    )
+
+
 def test_basis_round_trip_resumes_as_if_never_stopped() -> None:
     problems = _receding(2, "time-invariant", 1.5)
     straight = FeedbackSolver(problems[0])

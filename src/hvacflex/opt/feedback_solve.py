@@ -212,6 +212,7 @@ class FeedbackSolver:
         _, self._cold_scale_strategy = self._highs.getOptionValue("simplex_scale_strategy")
         # statuses of the last optimal basis (or of set_basis), to start the next solve from
         self._basis: tuple[StatusArray, StatusArray] | None = None
+        self._start: tuple[StatusArray, StatusArray] | None = None  # this solve's start
         self.last_size: FeedbackLPSize | None = None
         self.last_lp_objective_sgd = float("nan")
 
@@ -285,6 +286,7 @@ class FeedbackSolver:
         Nonbasic statuses that the current bounds do not allow are replaced by the ones the
         bounds imply; nonbasic rows sit at their only finite bound.
         """
+        self._start = None
         if self._basis is None:
             return False
         col_status, row_status = self._basis
@@ -296,6 +298,7 @@ class FeedbackSolver:
         )
         row_nonbasic = nonbasic_status(lp.row_lower, lp.row_upper)
         row_status = np.where(row_status == BASIC, BASIC, row_nonbasic).astype(np.int8)
+        self._start = (col_status, row_status)  # kept as the basis if this solve fails
         basis = highs_basis(col_status, row_status)
         basis.valid = True
         basis.alien = False  # a rotation of a basis keeps the count of basic variables
@@ -327,8 +330,8 @@ class FeedbackSolver:
             f"HiGHS: {highs.modelStatusToString(model_status)} ({iterations} simplex "
             f"iterations, {'warm' if warm else 'cold'})"
         )
-        if not status.ok:
-            self._basis = None
+        if not status.ok:  # keep this step's start: the next step rotates it once more
+            self._basis = self._start
             return status, np.full(lp.num_cols, np.nan), message, elapsed, iterations
         values = np.asarray(highs.getSolution().col_value)
         _, basic = highs.getBasicVariables()
