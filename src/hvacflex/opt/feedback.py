@@ -71,17 +71,21 @@ U⁺, U⁻ (gain rows·nd), Ψ (keys·ny·r), Y⁺, Y⁻ (keys·ny·nd), Q⁺, Q
 on k − j only, so there are N − 1 keys instead of ~N²/2 — this is what makes that structure
 fast. The LP is built over :class:`hvacflex.opt.lp.LPBuilder` (sharing the plan variables,
 dynamics, comfort rows and plan costs with the open-loop LP) by the ``add_…`` functions below,
-and solved cold each step by :class:`hvacflex.opt.solve.FeedbackSolver` (its size depends on
-σ's and φ's support). The structural coefficients (gains, Ψ and Y rows) depend only on the
-problem's structure and are assembled once (:func:`build_feedback_lp` with ``constants``).
+and solved by :class:`hvacflex.opt.feedback_solve.FeedbackSolver`, warm-started from the
+previous step's basis rotated by one step. The structural coefficients (gains, Ψ and Y rows)
+depend only on the problem's structure and are assembled once (:func:`build_feedback_lp` with
+``constants``); σ and p enter as *varying* coefficients in fixed positions (zeros kept), so
+the sparsity pattern is fixed for a given φ support (φ = 0 everywhere or not).
+Blocks indexed by the step k are ``time_indexed`` (for the warm start's rotation); the gains,
+Ψ and Y^± are indexed by the lag; Q^± rotate within each lag (:func:`pair_shift`).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 
 import numpy as np
-from scipy import linalg
+from scipy import linalg, sparse
 
 from hvacflex.opt.lp import (
     LinearProgram,
@@ -122,6 +126,7 @@ __all__ = [
     "gains_tensor",
     "innovation_basis",
     "output_response",
+    "pair_shift",
 ]
 
 
@@ -375,9 +380,14 @@ def feedback_maps(problem: RMPCProblem, options: FeedbackOptions) -> FeedbackMap
 # ---------------------------------------------------------------------- LP families
 
 
+def _no_columns() -> IntArray:  # default of the Q columns: none
+    return np.zeros((0,), dtype=np.int64)
+
+
 @dataclass(frozen=True, eq=False)
 class FeedbackColumns:
-    """Columns of the feedback LP beyond the plan (index arrays shaped like the quantity)."""
+    """Columns of the feedback LP beyond the plan (index arrays shaped like the quantity);
+    Q^± (pairs, nd) only if φ > 0, one step later pair e starts from pair ``q_shift[e]``."""
 
     delta: IntArray  # (N, ny) comfort margins δ
     mu: IntArray  # (N, m) input margins μ
@@ -387,14 +397,17 @@ class FeedbackColumns:
     psi: IntArray  # (n_key, ny, r) Ψ
     ypos: IntArray  # (n_key, ny, nd) Y⁺
     yneg: IntArray  # (n_key, ny, nd) Y⁻
+    qpos: IntArray = field(default_factory=_no_columns)
+    qneg: IntArray = field(default_factory=_no_columns)
+    q_shift: IntArray = field(default_factory=_no_columns)
 
 
 def add_feedback_variables(lp: LPBuilder, p: RMPCProblem, maps: FeedbackMaps) -> FeedbackColumns:
     """Margins δ, μ ≥ 0, gains Θ (free), |U| = U⁺ + U⁻, Ψ (free) and |Y| = Y⁺ + Y⁻."""
     horizon, ny, nd = p.horizon, p.ny, p.nd
     n_key, r = maps.key_k.size, maps.gains.k_matrix.shape[0]
-    delta = lp.add_columns((horizon, ny), lower=0.0)
-    mu = lp.add_columns((horizon, p.m), lower=0.0)
+    delta = lp.add_columns((horizon, ny), lower=0.0, time_indexed=True)
+    mu = lp.add_columns((horizon, p.m), lower=0.0, time_indexed=True)
     theta = lp.add_columns((maps.gains.num_gains,))
     upos = lp.add_columns((maps.num_groups, nd), lower=0.0)
     uneg = lp.add_columns((maps.num_groups, nd), lower=0.0)
@@ -408,8 +421,8 @@ def add_robust_flow_bounds(
     lp: LPBuilder, p: RMPCProblem, v: PlanColumns, f: FeedbackColumns
 ) -> None:
     """v_k + μ_k ≤ u_max and v_k − r_k − μ_k ≥ u_min for every input (2·N·m rows)."""
-    up = lp.add_rows((p.horizon, p.m), upper=p.u_max)
-    down = lp.add_rows((p.horizon, p.m), lower=p.u_min)
+    up = lp.add_rows((p.horizon, p.m), upper=p.u_max, time_indexed=True)
+    down = lp.add_rows((p.horizon, p.m), lower=p.u_min, time_indexed=True)
     lp.add_coefficients(down[:, v.reserve_inputs], v.r, -1.0)
     for rows, sign in ((up, 1.0), (down, -1.0)):
         lp.add_coefficients(rows, v.u, 1.0)
@@ -420,7 +433,7 @@ def add_robust_peak(lp: LPBuilder, p: RMPCProblem, v: PlanColumns) -> IntArray:
     """φ_k p_k·v_k − β ≤ −φ_k p0_k (N rows; φ p varies); the gains' part is added by
     :func:`add_peak_response`. Returns the rows (N,)."""
     phi = p.phi
-    rows = lp.add_rows((p.horizon,), upper=-phi * p.power_offset_kw)
+    rows = lp.add_rows((p.horizon,), upper=-phi * p.power_offset_kw, time_indexed=True)
     lp.add_varying_coefficients(rows[:, None], v.u, phi[:, None] * p.power_coeff_kw_per_kg_s)
     lp.add_coefficients(rows, np.array(v.beta), -1.0)
     return rows
@@ -431,7 +444,7 @@ def add_comfort_margin_definition(
 ) -> None:
     """δ_k − Σ_j (Y⁺ + Y⁻)_{k,j} σ̃_j = Σ_{unkeyed j} |G_{k-1-j}| σ̃_j (N·ny rows; σ varies)."""
     delta_const = robust_margins(maps.const_operator, sigma)
-    rows = lp.add_rows(f.delta.shape, lower=delta_const, upper=delta_const)
+    rows = lp.add_rows(f.delta.shape, lower=delta_const, upper=delta_const, time_indexed=True)
     lp.add_coefficients(rows, f.delta, 1.0)
     if maps.delta_key.size:
         kk, jj, key = maps.delta_k, maps.delta_j, maps.delta_key
@@ -445,7 +458,7 @@ def add_input_margin_definition(
     lp: LPBuilder, f: FeedbackColumns, maps: FeedbackMaps, sigma: FloatArray
 ) -> None:
     """μ_{k,i} − Σ_j Σ_l (U⁺ + U⁻)_{k,j}[i,l] σ̃_{j,l} = 0 (N·m rows; σ varies)."""
-    rows = lp.add_rows(f.mu.shape, lower=0.0, upper=0.0)
+    rows = lp.add_rows(f.mu.shape, lower=0.0, upper=0.0, time_indexed=True)
     lp.add_coefficients(rows, f.mu, 1.0)
     if maps.gains.num_gains:
         group = maps.uapp_group
@@ -511,19 +524,22 @@ def add_peak_response(
     maps: FeedbackMaps,
     peak_rows: IntArray,
     sigma: FloatArray,
-) -> None:
+) -> FeedbackColumns:
     """The peak rows' robust part ``φ_k Σ_j (Q⁺ + Q⁻)_{k,j} σ̃_j`` with
-    ``Q⁺ − Q⁻ = Q_{k,j} = p_kᵀ U_{k,j}`` for steps with φ_k > 0 (new columns and rows each
-    step, after all others: their number follows φ's support)."""
+    ``Q⁺ − Q⁻ = Q_{k,j} = p_kᵀ U_{k,j}`` for steps with φ_k > 0 (columns and rows after all
+    others: their number follows φ's support). Returns ``f`` with the Q columns."""
     gains, horizon, phi = maps.gains, p.horizon, p.phi
     if not (gains.num_gains and (phi > 0).any()):
-        return
+        return f
     app = np.flatnonzero(phi[gains.app_step] > 0)
     pair_id = gains.app_step[app] * horizon + gains.app_source[app]
     pairs, pair_index = np.unique(pair_id, return_inverse=True)
+    pair_k, pair_j = pairs // horizon, pairs % horizon
+    shift = pair_shift(pair_k, pair_j)
     col_qpos = lp.add_columns((pairs.size, p.nd), lower=0.0)
     col_qneg = lp.add_columns((pairs.size, p.nd), lower=0.0)
-    row_q = lp.add_rows((pairs.size, p.nd), lower=0.0, upper=0.0)
+    row_shift = (shift[:, None] * p.nd + np.arange(p.nd)[None, :]).ravel()
+    row_q = lp.add_rows((pairs.size, p.nd), lower=0.0, upper=0.0, time_permutation=row_shift)
     lp.add_varying_coefficients(row_q, col_qpos, 1.0)
     lp.add_varying_coefficients(row_q, col_qneg, -1.0)
     e_app = gains.app_entry[app]
@@ -532,10 +548,24 @@ def add_peak_response(
     lp.add_varying_coefficients(
         row_q[pair_index], f.theta[e_app][:, None], -p_app[:, None] * k_rows
     )
-    pair_k, pair_j = pairs // horizon, pairs % horizon
     weight = phi[pair_k][:, None] * sigma[pair_j]  # (pairs, nd)
     lp.add_varying_coefficients(peak_rows[pair_k][:, None], col_qpos, weight)
     lp.add_varying_coefficients(peak_rows[pair_k][:, None], col_qneg, weight)
+    return replace(f, qpos=col_qpos, qneg=col_qneg, q_shift=shift)
+
+
+def pair_shift(pair_k: IntArray, pair_j: IntArray) -> IntArray:
+    """(pairs,) time shift of the pairs (k, j): one step later pair e starts from the pair
+    (k + 1, j + 1) of the same lag k − j, the last of each lag from the first (a rotation
+    within each lag, like the time-indexed blocks' roll)."""
+    lag = pair_k - pair_j
+    order = np.lexsort((pair_j, lag))
+    sorted_lag, position = lag[order], np.arange(order.size)
+    last = np.searchsorted(sorted_lag, sorted_lag, side="right") - 1
+    following = np.where(position < last, position + 1, np.searchsorted(sorted_lag, sorted_lag))
+    shift = np.empty_like(order)
+    shift[order] = order[following]
+    return shift.astype(np.int64)
 
 
 def set_feedback_objective(lp: LPBuilder, p: RMPCProblem, v: PlanColumns) -> None:
@@ -565,7 +595,7 @@ def build_feedback_lp(
     add_gain_rows(lp, f, maps)
     add_psi_rows(lp, f, maps)
     add_output_response_rows(lp, f, maps)
-    add_peak_response(lp, p, f, maps, peak_rows, sigma)
+    f = add_peak_response(lp, p, f, maps, peak_rows, sigma)
     set_feedback_objective(lp, p, v)
     return lp.finish(), v, f
 
@@ -603,7 +633,12 @@ def output_response(maps: FeedbackMaps, tensor: FloatArray) -> FloatArray:
     response = np.where(causal, maps.g_resp[np.clip(lag, 0, None)], 0.0)
     h_full = np.where(causal, maps.h_resp[np.clip(lag, 0, None)], 0.0)  # [k-1, t]
     # Σ_t H_{k-1-t} U_{t,j} with t ≤ k-1 (U_{t,j} = 0 for t ≤ j)
-    response = response + np.einsum("ktab,tjbl->kjal", h_full, tensor / maps.scale)
+    m = tensor.shape[2]  # [(k, a), (t, b)] @ [(t, b), (j, l)], the gains sparse (lags ≤ L)
+    h_rows = h_full.transpose(0, 2, 1, 3).reshape(horizon * ny, horizon * m)
+    u_cols = (tensor / maps.scale).transpose(0, 2, 1, 3).reshape(horizon * m, horizon * nd)
+    product = np.asarray((sparse.csc_matrix(u_cols).T @ h_rows.T).T)
+    feedback_part = product.reshape(horizon, ny, horizon, nd).transpose(0, 2, 1, 3)
+    response = response + feedback_part
     result: FloatArray = response.reshape(horizon, horizon, ny, nd) * maps.scale
     return result
 
@@ -628,6 +663,8 @@ def feedback_solution(
     message: str,
     start: float,
     highs_time_s: float,
+    simplex_iterations: int = 0,
+    warm_start: bool = False,
 ) -> RMPCSolution:
     """The :class:`RMPCSolution` of a feedback LP's primal ``values`` (NaN unless optimal);
     ``message`` says what was solved (size, structure) and HiGHS's verdict."""
@@ -640,13 +677,14 @@ def feedback_solution(
             delta=np.full((horizon, ny), np.nan),
             start=start,
             highs_time_s=highs_time_s,
-            simplex_iterations=0,
-            warm_start=False,
+            simplex_iterations=simplex_iterations,
+            warm_start=warm_start,
         )
     plan_cols, feedback_cols = columns
     tensor = gains_tensor(maps, values[feedback_cols.theta], horizon, m, nd)
     # the margins the gains actually give: Σ_j |Y_{k,j}| σ_j
-    delta = np.einsum("kjal,jl->ka", np.abs(output_response(maps, tensor)), problem.d_sigma)
+    delta = np.abs(output_response(maps, tensor)).reshape(horizon, horizon, ny, nd)
+    delta = np.einsum("kjal,jl->ka", delta, problem.d_sigma, optimize=True)
     return plan_solution(
         problem,
         status=status,
@@ -655,7 +693,7 @@ def feedback_solution(
         delta=delta,
         start=start,
         highs_time_s=highs_time_s,
-        simplex_iterations=0,
-        warm_start=False,
+        simplex_iterations=simplex_iterations,
+        warm_start=warm_start,
         feedback_gains=tensor,
     )

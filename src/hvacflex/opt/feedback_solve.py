@@ -1,16 +1,52 @@
-"""The solver of ``robust="feedback"`` problems: :class:`FeedbackSolver` (cold each step).
+"""The solver of ``robust="feedback"`` problems: :class:`FeedbackSolver`, warm-started.
 
-Builds the affine-feedback LP of :mod:`hvacflex.opt.feedback` and solves it with
-:func:`hvacflex.opt.highs_lp.solve_lp`; :func:`hvacflex.opt.solve.solve_rmpc` dispatches here.
+Builds the affine-feedback LP of :mod:`hvacflex.opt.feedback` and keeps it in one HiGHS
+handle between steps; :func:`hvacflex.opt.solve.solve_rmpc` dispatches here.
+
+Warm start (measurements in ``docs/performance.md``, section "Feedback RMPC"). A cold solve
+of the zone-local LP on office5 (7,421 rows, 9,224 columns, ≈ 180k nonzeros) takes ≈ 8,000
+dual simplex iterations (≈ 2 s); building it takes ≈ 3 ms. So the time is in the simplex,
+and the cure is a good starting basis. The LP's sparsity is fixed (the σ- and p-dependent
+coefficients are kept even when zero; the Q block of the robust peak exists for a fixed φ
+support), the gains and their response blocks are indexed by the *lag* (shift-invariant
+structures), and every block indexed by the step k is marked ``time_indexed``: the previous
+optimal basis rotated by one step (:func:`hvacflex.opt.basis.rotation`, Q pairs by
+:func:`hvacflex.opt.feedback.pair_shift`) is then a few simplex iterations (median 3, p90 12
+over a closed-loop day of office5) from the next optimum.
+
+The σ coefficients of the margin rows (≈ 130k, almost all of which move every step) make
+in-place coefficient updates (``changeCoeff``, ≈ 2 µs each) slower than replacing the whole
+model: each step the matrix data are assembled into the fixed CSC pattern
+(:class:`MatrixPattern`, one ``bincount``), passed to HiGHS in one call
+(:func:`hvacflex.opt.highs_lp.pass_csc_model`, ≈ 4 ms) and the rotated basis is set; HiGHS
+then factorises that basis once (≈ 20–30 ms, the bulk of a warm step) and iterates.
+
+``warm_start=False`` is the previous behaviour (rebuild and solve cold each step, with
+presolve and scaling), kept for verification and the benchmark.
 """
 
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
 
 from hvacflex.errors import ProblemError
-from hvacflex.opt.basis import SolverBasis
+from hvacflex.opt.basis import (
+    BASIC,
+    SolverBasis,
+    StatusArray,
+    checked_basis,
+    consistent_status,
+    nonbasic_status,
+    optimal_statuses,
+    rotation,
+)
 from hvacflex.opt.feedback import (
+    FeedbackColumns,
     FeedbackLPSize,
     build_feedback_lp,
     feedback_maps,
@@ -18,31 +54,124 @@ from hvacflex.opt.feedback import (
     gains_tensor,
     output_response,
 )
-from hvacflex.opt.highs_lp import check_time_limit, solve_lp
-from hvacflex.opt.lp import sparse_matrix
+from hvacflex.opt.highs_lp import (
+    HIGHS_ERROR,
+    STATUS_MAP,
+    check_time_limit,
+    highs_basis,
+    pass_csc_model,
+    quiet_highs,
+    solve_lp,
+)
+from hvacflex.opt.lp import LinearProgram, PlanColumns, sparse_matrix
 from hvacflex.opt.options import FeedbackOptions
-from hvacflex.opt.problem import FloatArray, RMPCProblem
-from hvacflex.opt.solution import RMPCSolution
+from hvacflex.opt.problem import FloatArray, IntArray, RMPCProblem
+from hvacflex.opt.solution import RMPCSolution, SolveStatus
 
-__all__ = ["DEFAULT_LP_METHOD", "FeedbackSolver"]
+__all__ = ["DEFAULT_LP_METHOD", "FeedbackSolver", "MatrixPattern"]
 
-#: HiGHS algorithm for the feedback LP ("simplex", "ipm" or "choose").
+#: HiGHS algorithm for the feedback LP ("simplex", "ipm" or "choose"); warm solves are simplex.
 DEFAULT_LP_METHOD = "simplex"
+
+#: Options of every solve: quiet, single-threaded (reproducible), Devex dual pricing (1).
+_BASE_OPTIONS: dict[str, Any] = {
+    "output_flag": False,
+    "log_to_console": False,
+    "threads": 1,
+    "simplex_dual_edge_weight_strategy": 1,
+}
+
+
+@dataclass(frozen=True, eq=False)
+class MatrixPattern:
+    """The fixed CSC sparsity of a feedback LP layout and where its coefficients go.
+
+    ``indptr`` (num_cols + 1,), ``indices`` (nnz,) int32; ``constant`` (nnz,) the structural
+    coefficients summed per position; ``varying_position`` (num_varying,) the position of each
+    varying coefficient (duplicates are summed).
+    """
+
+    indptr: NDArray[np.int32]
+    indices: NDArray[np.int32]
+    constant: FloatArray
+    varying_position: IntArray
+
+    @staticmethod
+    def of(lp: LinearProgram) -> MatrixPattern:
+        """The pattern of ``lp`` (built with its constants): constant nonzeros and every
+        varying coefficient, zero or not."""
+        assert lp.constant is not None
+        keep = lp.constant.values != 0.0
+        rows = np.concatenate([lp.constant.rows[keep], lp.varying.rows])
+        cols = np.concatenate([lp.constant.cols[keep], lp.varying.cols])
+        keys, position = np.unique(cols * lp.num_rows + rows, return_inverse=True)
+        position = position.ravel()
+        num_constant = int(keep.sum())
+        counts = np.bincount(keys // lp.num_rows, minlength=lp.num_cols)
+        indptr = np.concatenate([[0], np.cumsum(counts)]).astype(np.int32)
+        constant = np.bincount(
+            position[:num_constant], weights=lp.constant.values[keep], minlength=keys.size
+        ).astype(np.float64)
+        return MatrixPattern(
+            indptr=indptr,
+            indices=(keys % lp.num_rows).astype(np.int32),
+            constant=constant,
+            varying_position=position[num_constant:],
+        )
+
+    @property
+    def num_nonzeros(self) -> int:
+        """Entries of the pattern (explicit zeros included)."""
+        return int(self.indices.size)
+
+    def data(self, varying: FloatArray) -> FloatArray:
+        """(nnz,) matrix data with the varying coefficients ``varying`` (num_varying,)."""
+        moving = np.bincount(self.varying_position, weights=varying, minlength=self.indices.size)
+        data: FloatArray = self.constant + moving
+        return data
+
+
+@dataclass(frozen=True, eq=False)
+class _Layout:
+    """One fixed LP layout: its φ support, sparsity and time-shift maps."""
+
+    support: bytes  # (φ > 0) per step, the key of the layout
+    pattern: MatrixPattern
+    col_rotation: IntArray
+    row_rotation: IntArray
+
+
+def _layout(problem: RMPCProblem, lp: LinearProgram, f: FeedbackColumns) -> _Layout:
+    """The layout of ``lp`` (built with constants) whose Q columns are ``f.qpos``/``f.qneg``."""
+    col_map, row_map = rotation(lp)
+    for block in (f.qpos, f.qneg):
+        if block.size:
+            col_map[block.ravel()] = block[f.q_shift].ravel()
+    return _Layout(
+        support=(problem.phi > 0).tobytes(),
+        pattern=MatrixPattern.of(lp),
+        col_rotation=col_map,
+        row_rotation=row_map,
+    )
 
 
 class FeedbackSolver:
     """Solver for ``robust="feedback"`` problems of one structure; mirrors :class:`RMPCSolver`.
 
     The structural coefficients of the LP (gains, Ψ and Y rows, dynamics) are assembled once;
-    each :meth:`solve` rebuilds the rest (σ-, p- and φ-dependent rows, costs, bounds) and
-    solves the LP cold with HiGHS (:func:`solve_lp`). No simplex basis is kept:
-    :meth:`get_basis` returns None.
+    each :meth:`solve` rebuilds the rest (σ-, p- and φ-dependent coefficients, costs, bounds),
+    passes the LP to the HiGHS handle it keeps and, after the first step, starts the dual
+    simplex from the previous optimal basis rotated by one step (module docstring).
 
     Parameters
     ----------
     problem : the first problem (``robust="feedback"``); fixes A, B, E, C, N, mask, options
     time_limit_s : wall-clock limit per solve [s]; None = no limit
-    method : HiGHS algorithm, "simplex" (default), "ipm" or "choose"
+    method : HiGHS algorithm of a cold solve, "simplex" (default), "ipm" or "choose"
+    warm_start : keep the basis between solves (default); False rebuilds and solves cold
+        every step (the behaviour before the warm start; for verification and benchmarks)
+    time_shift : each problem is the previous one a step later: rotate the basis by one step
+        (False: restart from the previous basis as is, e.g. re-solving one step's problem)
     """
 
     def __init__(
@@ -51,6 +180,8 @@ class FeedbackSolver:
         *,
         time_limit_s: float | None = None,
         method: str = DEFAULT_LP_METHOD,
+        warm_start: bool = True,
+        time_shift: bool = True,
     ) -> None:
         if problem.robust != "feedback" or problem.feedback is None:
             raise ProblemError(
@@ -63,23 +194,29 @@ class FeedbackSolver:
         check_time_limit(time_limit_s, source="FeedbackSolver")
         self._time_limit_s = time_limit_s
         self._method = method
+        self._warm_start = warm_start
+        self._time_shift = time_shift
         self._structure = problem.structure
+        self._fingerprint = self._structure.fingerprint()
         self._options: FeedbackOptions = problem.feedback
         self._maps = feedback_maps(problem, self._options)
-        first, _, _ = build_feedback_lp(problem, self._maps)
+        first, _, columns = build_feedback_lp(problem, self._maps)
         assert first.constant is not None
         self._constant = first.constant
+        self._layout = _layout(problem, first, columns)
+        self._num_cols, self._num_rows = first.num_cols, first.num_rows
+        # highspy's Python wrapper is only partly typed; treat the handle as Any.
+        self._highs: Any = quiet_highs()
+        for option, value in _BASE_OPTIONS.items():
+            self._highs.setOptionValue(option, value)
+        _, self._cold_scale_strategy = self._highs.getOptionValue("simplex_scale_strategy")
+        # statuses of the last optimal basis (or of set_basis), to start the next solve from
+        self._basis: tuple[StatusArray, StatusArray] | None = None
+        self._start: tuple[StatusArray, StatusArray] | None = None  # this solve's start
         self.last_size: FeedbackLPSize | None = None
+        self.last_lp_objective_sgd = float("nan")
 
-    def solve(self, problem: RMPCProblem) -> RMPCSolution:
-        """Solve ``problem`` (same structure and feedback options as the solver's).
-
-        Raises
-        ------
-        ProblemError
-            if ``problem`` has another structure or other feedback options.
-        """
-        start = time.perf_counter()
+    def _check(self, problem: RMPCProblem) -> None:
         differences = self._structure.differences(problem.structure)
         if problem.feedback != self._options:
             differences.append("feedback")
@@ -90,15 +227,163 @@ class FeedbackSolver:
                 field=differences[0],
                 hint="build a new FeedbackSolver for a problem with another structure",
             )
+
+    def solve(self, problem: RMPCProblem) -> RMPCSolution:
+        """Solve ``problem`` (same structure and feedback options as the solver's).
+
+        Raises
+        ------
+        ProblemError
+            if ``problem`` has another structure or other feedback options.
+        """
+        start = time.perf_counter()
+        self._check(problem)
+        if not self._warm_start:
+            return self._solve_cold(problem, start)
+        lp, plan_cols, feedback_cols = build_feedback_lp(problem, self._maps, constants=False)
+        if (problem.phi > 0).tobytes() != self._layout.support:  # another Q block: new layout
+            full, _, columns = build_feedback_lp(problem, self._maps)
+            self._layout = _layout(problem, full, columns)
+            self._num_cols, self._num_rows = full.num_cols, full.num_rows
+            self._basis = None
+        pattern = self._layout.pattern
+        matrix = (pattern.indptr, pattern.indices, pattern.data(lp.varying.values))
+        self.last_size = FeedbackLPSize(
+            num_cols=lp.num_cols,
+            num_rows=lp.num_rows,
+            num_nonzeros=pattern.num_nonzeros,
+            num_gains=self._maps.gains.num_gains,
+        )
+        bounds = (lp.col_lower, lp.col_upper, lp.row_lower, lp.row_upper)
+        if not pass_csc_model(self._highs, lp.cost, *bounds, matrix):
+            status, values, message, highs_time, iterations, warm = (
+                SolveStatus.ERROR,
+                np.full(lp.num_cols, np.nan),
+                "HiGHS refused the LP",
+                0.0,
+                0,
+                False,
+            )
+        else:
+            warm = self._start_from(lp)
+            status, values, message, highs_time, iterations = self._run_and_read(lp, warm)
+            if status is SolveStatus.ERROR and warm:  # retry once from scratch
+                self._highs.clearSolver()
+                warm = False
+                status, values, message, more_time, more = self._run_and_read(lp, False)
+                highs_time, iterations = highs_time + more_time, iterations + more
+        return self._solution(
+            problem,
+            lp,
+            (plan_cols, feedback_cols),
+            (status, values, message, highs_time, iterations, warm),
+            start,
+        )
+
+    def _start_from(self, lp: LinearProgram) -> bool:
+        """Set the previous basis (rotated by one step if ``time_shift``); whether one was set.
+
+        Nonbasic statuses that the current bounds do not allow are replaced by the ones the
+        bounds imply; nonbasic rows sit at their only finite bound.
+        """
+        self._start = None
+        if self._basis is None:
+            return False
+        col_status, row_status = self._basis
+        if self._time_shift:
+            col_status = col_status[self._layout.col_rotation]
+            row_status = row_status[self._layout.row_rotation]
+        col_status = consistent_status(
+            col_status, lp.col_lower, lp.col_upper, nonbasic_status(lp.col_lower, lp.col_upper)
+        )
+        row_nonbasic = nonbasic_status(lp.row_lower, lp.row_upper)
+        row_status = np.where(row_status == BASIC, BASIC, row_nonbasic).astype(np.int8)
+        self._start = (col_status, row_status)  # kept as the basis if this solve fails
+        basis = highs_basis(col_status, row_status)
+        basis.valid = True
+        basis.alien = False  # a rotation of a basis keeps the count of basic variables
+        return bool(self._highs.setBasis(basis) != HIGHS_ERROR)
+
+    def _run_and_read(
+        self, lp: LinearProgram, warm: bool
+    ) -> tuple[SolveStatus, FloatArray, str, float, int]:
+        """Run HiGHS (warm: simplex without scaling; cold: ``method`` with default scaling)
+        and read status, primal values (NaN unless optimal), message, time and iterations;
+        keeps the optimal basis for the next solve."""
+        highs = self._highs
+        highs.setOptionValue("solver", "simplex" if warm else self._method)
+        highs.setOptionValue("simplex_scale_strategy", 0 if warm else self._cold_scale_strategy)
+        if self._time_limit_s is not None:
+            # HiGHS's run clock accumulates over the runs of this handle: re-arm per solve
+            highs.setOptionValue("time_limit", float(highs.getRunTime()) + self._time_limit_s)
+        tick = time.perf_counter()
+        run_status = highs.run()
+        elapsed = time.perf_counter() - tick
+        model_status = highs.getModelStatus()
+        status = (
+            SolveStatus.ERROR
+            if run_status == HIGHS_ERROR
+            else STATUS_MAP.get(model_status, SolveStatus.ERROR)
+        )
+        iterations = int(highs.getInfo().simplex_iteration_count)
+        message = (
+            f"HiGHS: {highs.modelStatusToString(model_status)} ({iterations} simplex "
+            f"iterations, {'warm' if warm else 'cold'})"
+        )
+        if not status.ok:  # keep this step's start: the next step rotates it once more
+            self._basis = self._start
+            return status, np.full(lp.num_cols, np.nan), message, elapsed, iterations
+        values = np.asarray(highs.getSolution().col_value)
+        _, basic = highs.getBasicVariables()
+        self._basis = optimal_statuses(
+            values,
+            lp.col_lower,
+            lp.col_upper,
+            nonbasic_status(lp.col_lower, lp.col_upper),
+            nonbasic_status(lp.row_lower, lp.row_upper),
+            np.asarray(basic, dtype=np.int64),
+        )
+        return status, values, message, elapsed, iterations
+
+    def _solution(
+        self,
+        problem: RMPCProblem,
+        lp: LinearProgram,
+        columns: tuple[PlanColumns, FeedbackColumns],
+        outcome: tuple[SolveStatus, FloatArray, str, float, int, bool],
+        start: float,
+    ) -> RMPCSolution:
+        status, values, message, highs_time, iterations, warm = outcome
+        size = self.last_size
+        assert size is not None
+        self.last_lp_objective_sgd = float(lp.cost @ values)
+        where = (
+            f"feedback LP '{self._options.structure}' ({size.num_rows} rows, {size.num_cols} "
+            f"columns, {size.num_nonzeros} nonzeros)"
+        )
+        return feedback_solution(
+            problem,
+            self._maps,
+            columns,
+            status=status,
+            values=values,
+            message=f"{where}; {message}",
+            start=start,
+            highs_time_s=highs_time,
+            simplex_iterations=iterations,
+            warm_start=warm,
+        )
+
+    def _solve_cold(self, problem: RMPCProblem, start: float) -> RMPCSolution:
+        """Rebuild the LP and solve it cold with :func:`solve_lp` (``warm_start=False``)."""
         lp, plan_cols, feedback_cols = build_feedback_lp(problem, self._maps, constants=False)
         matrix = sparse_matrix(lp, self._constant, keep_varying_zeros=False, csc=False)
-        size = FeedbackLPSize(
+        self.last_size = FeedbackLPSize(
             num_cols=lp.num_cols,
             num_rows=lp.num_rows,
             num_nonzeros=int(matrix.nnz),
             num_gains=self._maps.gains.num_gains,
         )
-        self.last_size = size
         result = solve_lp(
             lp.cost,
             matrix,
@@ -109,20 +394,8 @@ class FeedbackSolver:
             time_limit_s=self._time_limit_s,
             method=self._method,
         )
-        where = (
-            f"feedback LP '{self._options.structure}' ({size.num_rows} rows, {size.num_cols} "
-            f"columns, {size.num_nonzeros} nonzeros)"
-        )
-        return feedback_solution(
-            problem,
-            self._maps,
-            (plan_cols, feedback_cols),
-            status=result.status,
-            values=result.x,
-            message=f"{where}; {result.message}",
-            start=start,
-            highs_time_s=result.time_s,
-        )
+        outcome = (result.status, result.x, result.message, result.time_s, 0, False)
+        return self._solution(problem, lp, (plan_cols, feedback_cols), outcome, start)
 
     def gains_tensor(self, theta: FloatArray, horizon: int, m: int, nd: int) -> FloatArray:
         """(N, N, m, nd) gains ``U_{k,j}`` from the gain values Θ (see
@@ -135,15 +408,24 @@ class FeedbackSolver:
         return output_response(self._maps, tensor)
 
     def get_basis(self) -> SolverBasis | None:
-        """None: the feedback LP is solved cold every step (its size changes with σ, φ)."""
-        return None
+        """The basis of the last optimal solve (picklable; as solved, not rotated), or None
+        (nothing solved yet, the last solve failed, or ``warm_start=False``)."""
+        if self._basis is None or not self._warm_start:
+            return None
+        return SolverBasis(
+            fingerprint=self._fingerprint,
+            col_status=self._basis[0].copy(),
+            row_status=self._basis[1].copy(),
+        )
 
     def set_basis(self, basis: SolverBasis) -> None:
-        """Refuse: a feedback solver keeps no basis (:meth:`get_basis` returns None)."""
-        raise ProblemError(
-            "a FeedbackSolver keeps no simplex basis",
-            source="FeedbackSolver",
-            field="basis",
-            value=basis.fingerprint[:12],
-            hint="the basis was saved by an open-loop RMPCSolver; resume with the same robust mode",
-        )
+        """Start the next solve from ``basis`` (from :meth:`get_basis` of a solver of the same
+        structure, options and φ support); with ``time_shift`` it is taken as the previous
+        step's and rotated, so a checkpoint resumes as if never stopped.
+
+        Raises
+        ------
+        ProblemError
+            if the basis belongs to another structure or LP size.
+        """
+        self._basis = checked_basis(basis, self._fingerprint, self._num_cols, self._num_rows)

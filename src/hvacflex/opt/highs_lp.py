@@ -26,6 +26,7 @@ __all__ = [
     "check_time_limit",
     "highs_basis",
     "highs_lp",
+    "pass_csc_model",
     "quiet_highs",
     "solve_lp",
 ]
@@ -100,6 +101,43 @@ def highs_lp(
     lp.a_matrix_.index_ = matrix.indices.astype(np.int32)
     lp.a_matrix_.value_ = matrix.data.astype(np.float64)
     return lp
+
+
+def pass_csc_model(
+    highs: Any,
+    cost: FloatArray,
+    col_lower: FloatArray,
+    col_upper: FloatArray,
+    row_lower: FloatArray,
+    row_upper: FloatArray,
+    matrix: tuple[Any, Any, FloatArray],
+) -> bool:
+    """Replace ``highs``'s model by ``min costᵀx s.t. row bounds, column bounds`` in one call.
+
+    ``matrix`` is ``(indptr (num_cols + 1,), indices (nnz,), data (nnz,))`` of a CSC matrix
+    with int32 indices. Much cheaper than :func:`highs_lp` + ``passModel`` (no ``HighsLp``
+    object: the arrays go straight to HiGHS). Returns False if HiGHS refused the model.
+    """
+    indptr, indices, data = matrix
+    num_cols, num_rows = cost.size, row_lower.size
+    status = highs.passModel(
+        num_cols,
+        num_rows,
+        data.size,
+        int(highspy.MatrixFormat.kColwise),
+        int(highspy.ObjSense.kMinimize),
+        0.0,
+        cost,
+        col_lower,
+        col_upper,
+        row_lower,
+        row_upper,
+        indptr[:-1],
+        indices,
+        data,
+        np.zeros(num_cols, dtype=np.int32),  # continuous (HiGHS reads integrality[num_cols])
+    )
+    return bool(status != highspy.HighsStatus.kError)
 
 
 def check_time_limit(time_limit_s: float | None, *, source: str) -> None:

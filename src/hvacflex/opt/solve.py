@@ -7,8 +7,9 @@ costs and bounds without its constant coefficients, pushes only what changed sin
 previous solve — costs, column bounds, row bounds (x0, d̂, g, δ, bounds, p0) and the
 step-varying coefficients (``p_k`` on the power rows, ``φ_k`` on the peak rows, σ in the dual
 form, via ``changeCoeff``) — and re-solves with the dual simplex (warm start).
-:class:`FeedbackSolver` solves the affine-feedback LP of :mod:`hvacflex.opt.feedback` cold
-each step. HiGHS runs single-threaded with its output silenced, so results are reproducible.
+:class:`FeedbackSolver` solves the affine-feedback LP of :mod:`hvacflex.opt.feedback` (warm,
+:mod:`hvacflex.opt.feedback_solve`). HiGHS runs single-threaded with its output silenced, so
+results are reproducible.
 :func:`solve_rmpc` is the one-shot wrapper for both.
 
 Warm start (measurements in ``docs/performance.md``). Successive problems of a receding
