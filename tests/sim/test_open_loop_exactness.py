@@ -22,19 +22,24 @@ RELATIVE_TOLERANCE = 1e-9
 
 
 def _relative_differences(problems: list[RMPCProblem]) -> list[float]:
-    """Per step |warm − cold| / max(1, |cold|) of HiGHS's objective [-]."""
+    """Per step |warm − cold| / max(1, |cold|) of HiGHS's objective [-].
+
+    Also checks that the solver's path is the warm one: at most 1 step in 10 may fall back
+    to a cold solve (a warm start HiGHS cannot use, see docs/performance.md)."""
     warm_solver = RMPCSolver(problems[0])
     differences = []
-    for index, problem in enumerate(problems):
+    warm_steps = 0
+    for problem in problems:
         warm = warm_solver.solve(problem)
         assert warm.status is SolveStatus.OPTIMAL, warm.message
-        assert warm.warm_start is (index > 0)
+        warm_steps += warm.warm_start
         cold_solver = RMPCSolver(problem, event_rows="full")
         cold = cold_solver.solve(problem)
         assert cold.status is SolveStatus.OPTIMAL and not cold.warm_start
         reference = cold_solver.highs_objective_sgd()
         difference = abs(warm_solver.highs_objective_sgd() - reference)
         differences.append(difference / max(1.0, abs(reference)))
+    assert warm_steps >= 0.9 * (len(problems) - 1)
     return differences
 
 

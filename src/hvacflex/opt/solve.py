@@ -35,8 +35,10 @@ violated by more than 1e-7 K. The optimum is the full model's; bases are kept ov
 
 Failures are never silent: :class:`SolveStatus` says what happened, ``RMPCSolution.message``
 says it in words, and every plan array (u, r, P, R, ε, trajectories, costs) is NaN unless the
-status is :attr:`SolveStatus.OPTIMAL`. If a warm-started solve ends in a solver error, the
-solve is retried once from scratch (cold) before the error is reported.
+status is :attr:`SolveStatus.OPTIMAL`. If a warm-started solve ends in a solver error (with
+the building's ZOH matrices, entries down to 1e-10, a rotated basis is now and then
+numerically singular and HiGHS's dual simplex stops), the solve is retried from the previous
+basis unrotated, then from scratch (cold), before the error is reported.
 """
 
 from __future__ import annotations
@@ -395,6 +397,12 @@ class RMPCSolver:
         warm = self._has_basis
         highs_time, status = self._run(warm)
         iterations = int(self._highs.getInfo().simplex_iteration_count)
+        if status is SolveStatus.ERROR and warm and self._time_shift and self._basis is not None:
+            # the rotated basis was (near-)singular for HiGHS: the previous one, unrotated
+            self._start_from(*self._basis, shift=False)
+            retry_time, status = self._run(True)
+            highs_time += retry_time
+            iterations += int(self._highs.getInfo().simplex_iteration_count)
         if status is SolveStatus.ERROR and warm:
             self._highs.clearSolver()
             retry_time, status = self._run(False)
@@ -417,14 +425,17 @@ class RMPCSolver:
             self._has_basis = bool(self._highs.getBasis().valid)
         return self._solution(problem, delta, status, start, highs_time, iterations, warm, values)
 
-    def _start_from(self, col_status: StatusArray, row_status: StatusArray) -> None:
-        """Pass a basis (rotated by one step if ``time_shift``) to HiGHS for the next run.
+    def _start_from(
+        self, col_status: StatusArray, row_status: StatusArray, *, shift: bool = True
+    ) -> None:
+        """Pass a basis (rotated by one step if ``time_shift`` and ``shift``) to HiGHS for the
+        next run.
 
         Nonbasic statuses that the current bounds do not allow (a bound that became
         infinite) are replaced by the one the bounds imply.
         """
         near = self._near
-        if self._time_shift:
+        if self._time_shift and shift:
             col_status = col_status[self._col_rotation]
             row_status = row_status[self._row_rotation]
             near = near[self._row_rotation[self._num_core :] - self._num_core]
