@@ -445,3 +445,33 @@ def test_solution_shapes_and_units() -> None:
             + prob.g
         )
         np.testing.assert_allclose(sol.x_served[k + 1], expected, atol=1e-7)
+
+
+def test_a_failed_warm_start_retries_from_the_unrotated_basis(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """A solver error from the rotated basis (a numerically singular start) is retried from
+    the previous basis unrotated, still warm, before any cold solve."""
+    problems = _shifted_problems(9, 3)
+    solver = RMPCSolver(problems[0])
+    solver.solve(problems[0])
+    solver.solve(problems[1])
+    run = solver._run
+    shifts: list[bool] = []
+    start_from = solver._start_from
+
+    def record_start(*args: object, shift: bool = True) -> None:
+        shifts.append(shift)
+        start_from(*args, shift=shift)  # type: ignore[arg-type]
+
+    def fail_first(warm: bool) -> tuple[float, SolveStatus]:
+        if not shifts[1:]:
+            return 0.0, SolveStatus.ERROR
+        return run(warm)
+
+    monkeypatch.setattr(solver, "_run", fail_first)
+    monkeypatch.setattr(solver, "_start_from", record_start)
+    retried = solver.solve(problems[2])
+    assert shifts == [True, False]
+    assert retried.status is SolveStatus.OPTIMAL and retried.warm_start
+    assert retried.objective_sgd == pytest.approx(solve_rmpc(problems[2]).objective_sgd, abs=1e-7)

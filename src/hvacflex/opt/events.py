@@ -296,11 +296,11 @@ def worst_event_output(
         # contrib[k, j] = H_{k-j} r_j (ny) for j ≤ k, else 0. Under the sign conditions it is
         # ≥ 0 (cooling) or ≤ 0 (heating: then the served plan is the upper-side worst); the
         # clip removes round-off and the heating case.
+        # every H_l r_j as one product, [l, :, j]; then contrib[k, j] = H_{k-j} r_j
+        products = (responses.reshape(horizon * ny, -1) @ r_reserve.T).reshape(horizon, ny, -1)
+        output, source = np.tril_indices(horizon)
         contrib = np.zeros((horizon, horizon, ny))
-        for lag in range(horizon):
-            inputs = steps[: horizon - lag]
-            contrib[inputs + lag, inputs] = r_reserve[: horizon - lag] @ responses[lag].T
-        contrib = np.maximum(contrib, 0.0)
+        contrib[output, source] = np.maximum(products[output - source, :, source], 0.0)
         prefix = np.concatenate(
             [np.zeros((horizon, 1, ny)), np.cumsum(contrib, axis=1)], axis=1
         )  # [k, b] = Σ_{j<b} contrib[k, j]

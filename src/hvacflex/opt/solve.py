@@ -36,8 +36,10 @@ violated by more than 1e-7 K. The optimum is the full model's; bases are kept ov
 
 Failures are never silent: :class:`SolveStatus` says what happened, ``RMPCSolution.message``
 says it in words, and every plan array (u, r, P, R, ε, trajectories, costs) is NaN unless the
-status is :attr:`SolveStatus.OPTIMAL`. If a warm-started solve ends in a solver error, the
-solve is retried once from scratch (cold) before the error is reported.
+status is :attr:`SolveStatus.OPTIMAL`. If a warm-started solve ends in a solver error (with
+the building's ZOH matrices, entries down to 1e-10, a rotated basis is now and then
+numerically singular and HiGHS's dual simplex stops), the solve is retried from the previous
+basis unrotated, then from scratch (cold), before the error is reported.
 """
 
 from __future__ import annotations
@@ -231,6 +233,7 @@ class RMPCSolver:
         self._num_core = int(events[0]) if events.size else lp.num_rows
         assert events.size == 0 or int(events[-1]) == lp.num_rows - 1  # event rows come last
         self._event_matrix = matrix[self._num_core :].tocsr()
+        self._event_indices = self._event_matrix.indices.astype(np.int32)
         num_model = self._num_core if self._lazy else lp.num_rows
         self._model_rows = np.arange(num_model, dtype=np.int64)  # HiGHS row -> LP row
         self._present = np.zeros(events.size, dtype=bool)  # lazy: event rows in HiGHS
@@ -259,36 +262,43 @@ class RMPCSolver:
         """Lazy mode: make HiGHS hold exactly the event rows ``wanted`` (num_event_rows,)."""
         if np.array_equal(wanted, self._present):
             return
-        extra = np.arange(self._num_core, self._model_rows.size, dtype=np.int32)
-        if extra.size:
-            self._highs.deleteRows(extra.size, extra)
-        self._model_rows = self._model_rows[: self._num_core]
-        self._present = np.zeros_like(wanted)
-        self._add_event_rows(np.flatnonzero(wanted))
+        held = self._model_rows[self._num_core :] - self._num_core  # event ids, HiGHS order
+        drop = ~wanted[held]
+        if drop.any():  # HiGHS keeps the order of the rows that stay
+            gone = (self._num_core + np.flatnonzero(drop)).astype(np.int32)
+            self._highs.deleteRows(gone.size, gone)
+            self._model_rows = np.delete(self._model_rows, gone)
+            self._present[held[drop]] = False
+        self._add_event_rows(np.flatnonzero(wanted & ~self._present))
 
     def _add_event_rows(self, ids: IntArray) -> None:
         """Lazy mode: append the event rows ``ids`` to HiGHS's LP (HiGHS makes them basic)."""
         if ids.size == 0:
             return
-        block = self._event_matrix[ids]
+        indptr = self._event_matrix.indptr
+        first, lengths = indptr[ids], indptr[ids + 1] - indptr[ids]
+        starts = np.zeros(ids.size, dtype=np.int32)
+        np.cumsum(lengths[:-1], out=starts[1:])
+        entries = np.repeat(first - starts, lengths) + np.arange(int(lengths.sum()))
         rows = self._num_core + ids
         self._highs.addRows(
             ids.size,
             self._lp.row_lower[rows],
             self._lp.row_upper[rows],
-            block.nnz,
-            block.indptr[:-1].astype(np.int32),
-            block.indices.astype(np.int32),
-            block.data,
+            entries.size,
+            starts,
+            self._event_indices[entries],
+            self._event_matrix.data[entries],
         )
         self._model_rows = np.concatenate([self._model_rows, rows])
         self._present[ids] = True
 
-    def _generate_rows(self, values: FloatArray) -> tuple[float, int, SolveStatus]:
+    def _generate_rows(self, values: FloatArray) -> tuple[float, int, SolveStatus, FloatArray]:
         """Lazy mode: add violated event rows and re-solve warm until none is violated.
 
-        Returns the HiGHS time [s], the simplex iterations and the final status; records
-        which rows are near-active for the next step.
+        Returns the HiGHS time [s], the simplex iterations, the final status and the primal
+        values (num_cols,) of the last run; records which rows are near-active for the next
+        step.
         """
         highs_time, iterations, status = 0.0, 0, SolveStatus.OPTIMAL
         upper = self._lp.row_upper[self._num_core :]
@@ -299,13 +309,13 @@ class RMPCSolver:
             )
             if add.size == 0:
                 self._near = violation >= -LAZY_NEAR_ACTIVE_K
-                return highs_time, iterations, status
+                return highs_time, iterations, status, values
             self._add_event_rows(add)
             elapsed, status = self._run(True)
             highs_time += elapsed
             iterations += int(self._highs.getInfo().simplex_iteration_count)
             if not status.ok:
-                return highs_time, iterations, status
+                return highs_time, iterations, status, values
             values = np.asarray(self._highs.getSolution().col_value)
 
     def _bounds_changed(self) -> None:
@@ -388,19 +398,25 @@ class RMPCSolver:
         warm = self._has_basis
         highs_time, status = self._run(warm)
         iterations = int(self._highs.getInfo().simplex_iteration_count)
+        if status is SolveStatus.ERROR and warm and self._time_shift and self._basis is not None:
+            # the rotated basis was (near-)singular for HiGHS: the previous one, unrotated
+            self._start_from(*self._basis, shift=False)
+            retry_time, status = self._run(True)
+            highs_time += retry_time
+            iterations += int(self._highs.getInfo().simplex_iteration_count)
         if status is SolveStatus.ERROR and warm:
             self._highs.clearSolver()
             retry_time, status = self._run(False)
             highs_time += retry_time
             iterations += int(self._highs.getInfo().simplex_iteration_count)
             warm = False
-        if self._lazy and status.ok:
-            more_time, more_iterations, status = self._generate_rows(
-                np.asarray(self._highs.getSolution().col_value)
-            )
+        values = np.asarray(self._highs.getSolution().col_value) if status.ok else None
+        if self._lazy and values is not None:
+            more_time, more_iterations, status, values = self._generate_rows(values)
             highs_time += more_time
             iterations += more_iterations
-        values = np.asarray(self._highs.getSolution().col_value) if status.ok else None
+            if not status.ok:
+                values = None
         self._basis_given = False
         if values is not None:
             self._basis = self._optimal_basis(values)
@@ -410,14 +426,17 @@ class RMPCSolver:
             self._has_basis = bool(self._highs.getBasis().valid)
         return self._solution(problem, delta, status, start, highs_time, iterations, warm, values)
 
-    def _start_from(self, col_status: StatusArray, row_status: StatusArray) -> None:
-        """Pass a basis (rotated by one step if ``time_shift``) to HiGHS for the next run.
+    def _start_from(
+        self, col_status: StatusArray, row_status: StatusArray, *, shift: bool = True
+    ) -> None:
+        """Pass a basis (rotated by one step if ``time_shift`` and ``shift``) to HiGHS for the
+        next run.
 
         Nonbasic statuses that the current bounds do not allow (a bound that became
         infinite) are replaced by the one the bounds imply.
         """
         near = self._near
-        if self._time_shift:
+        if self._time_shift and shift:
             col_status = col_status[self._col_rotation]
             row_status = row_status[self._row_rotation]
             near = near[self._row_rotation[self._num_core :] - self._num_core]
