@@ -34,6 +34,7 @@ from hvacflex.config import (
     LINEARISATION_MARGIN_K,
     ComfortConfig,
     ControllerConfig,
+    ReserveConfig,
     ScenarioConfig,
 )
 from hvacflex.control.base import Action, FloatArray
@@ -153,6 +154,8 @@ class FleetSettings:
     reserve: bool
     peak_price_sgd_per_kw: float
     billing_mode: str
+    il_events: ReserveConfig = ReserveConfig()
+    """The IL contract (event model D, α, R) every building plans for."""
 
     @staticmethod
     def of(fleet: Fleet, start: str, days: float) -> FleetSettings:
@@ -166,6 +169,7 @@ class FleetSettings:
             reserve=s.reserve.enabled,
             peak_price_sgd_per_kw=s.ppp.peak_price_sgd_per_kw,
             billing_mode=s.ppp.billing_mode,
+            il_events=s.reserve.config(),
         )
 
 
@@ -205,6 +209,7 @@ def building_setup(entry: FleetBuilding, index: int, settings: FleetSettings) ->
         seed=settings.seed + index,
         initial_temp_degc=entry.initial_temp_degc,
         controller=controller,
+        reserve=settings.il_events,
         comfort=comfort,
     )
     building = entry.building
@@ -261,6 +266,7 @@ class BuildingAgent:
             cfg,
             self.setup.box,
             self.setup.linearisation_temp_degc,
+            reserve=self.setup.config.reserve,
         )
         self.loop = ClosedLoop(self.setup, self.controller)
         self._problem: RMPCProblem | None = None
@@ -280,7 +286,9 @@ class BuildingAgent:
         forecast = self.setup.forecaster.forecast(
             loop.k, self.setup.config.controller.horizon_steps + 1
         )
-        problem = self.controller.problem(loop.x, forecast, loop.month_peak_kw)
+        problem = self.controller.problem(
+            loop.x, forecast, loop.month_peak_kw, loop.events.carry_steps
+        )
         self._problem, self._last, self._last_price = problem, None, None
         p_min = power_bounds_kw(problem, problem.u_min)
         return p_min, power_bounds_kw(problem), problem.energy_price_sgd_per_mwh.copy()
