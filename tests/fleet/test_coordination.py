@@ -7,7 +7,13 @@ import pytest
 
 from hvacflex.fleet.agent import BuildingGroup, FleetSettings
 from hvacflex.fleet.centralised import solve_centralised
-from hvacflex.fleet.coordinate import CoordinationOptions, allocate_caps, coordinate
+from hvacflex.fleet.coordinate import (
+    CoordinationOptions,
+    allocate_caps,
+    coordinate,
+    project_caps,
+    reallocate_caps,
+)
 from hvacflex.fleet.generate import generate_fleet
 from hvacflex.fleet.schema import fleet_from_dict
 
@@ -102,3 +108,53 @@ def test_allocate_caps_sum_to_limit() -> None:
         else:
             assert caps[:, k].sum() == pytest.approx(limit[k])
             assert np.all(caps[:, k] >= p_min[:, k] - 1e-9)
+
+
+def test_project_caps_sums_to_limit_within_bounds() -> None:
+    rng = np.random.default_rng(1)
+    for _ in range(50):
+        lower = rng.uniform(0, 10, 6)
+        upper = lower + rng.uniform(0, 20, 6)
+        total = float(rng.uniform(lower.sum(), upper.sum()))
+        caps = project_caps(rng.normal(0, 30, 6), lower, upper, total)
+        assert caps.sum() <= total + 1e-9
+        assert caps.sum() == pytest.approx(total, abs=1e-6)
+        assert np.all(caps >= lower - 1e-12)
+        assert np.all(caps <= upper + 1e-12)
+
+
+def test_reallocation_moves_cap_to_high_value_buildings() -> None:
+    """Toy fleet: building b wants ``want`` kW and pays ``weight`` SGD per kW short of it."""
+    want = np.array([[30.0, 30.0], [30.0, 30.0], [30.0, 30.0]])
+    weight = np.array([[1.0, 1.0], [5.0, 5.0], [20.0, 20.0]])
+    p_min = np.zeros((3, 2))
+    p_max = np.full((3, 2), 40.0)
+    limit = np.array([60.0, 60.0])
+    state: dict[str, np.ndarray] = {}
+
+    def finalize_all(
+        price: np.ndarray, caps: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        power = np.minimum(want, caps)
+        state["values"] = np.where(caps < want, weight, 0.0)
+        cost = (weight * (want - power)).sum(axis=1)
+        return power, cost, cost
+
+    first_caps = allocate_caps(limit, p_min, p_max, want)  # equal shares: 20 kW each
+    power, cost, _ = finalize_all(np.zeros(2), first_caps)
+    caps, power, cost, rounds = reallocate_caps(
+        finalize_all,
+        lambda: state["values"],
+        np.zeros(2),
+        (first_caps, power, cost),
+        limit,
+        p_min,
+        p_max,
+        CoordinationOptions(cap_rounds=8),
+    )
+    assert rounds > 0
+    assert np.all(caps.sum(axis=0) <= limit + 1e-9)
+    assert np.all(power.sum(axis=0) <= limit + 1e-9)
+    # the optimum gives the two high-value buildings 30 kW each: cost 30 × 1 per period
+    assert cost.sum() < 0.5 * (weight * (want - np.minimum(want, first_caps))).sum()
+    assert caps[0, 0] < first_caps[0, 0] and caps[2, 0] > first_caps[2, 0]

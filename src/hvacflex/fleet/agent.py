@@ -22,7 +22,7 @@ buildings; it is what runs as a Dask actor.
 from __future__ import annotations
 
 import dataclasses
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -77,6 +77,13 @@ class _StagedSolver(RMPCSolver):
         """Solve ``problem`` (never the staged plan)."""
         self.staged = None
         return super().solve(problem)
+
+    def cap_values_sgd_per_kw(self) -> FloatArray:
+        """(N,) marginal value of the power caps at the last optimum [SGD per kW of cap]:
+        minus the reduced costs of the plan's power columns (≥ 0; 0 where a cap is slack)."""
+        duals = np.asarray(self._highs.getSolution().col_dual, dtype=float)
+        value: FloatArray = np.maximum(-duals[self.layout.plan.power], 0.0)
+        return value
 
 
 class FleetController(MPCController):
@@ -154,7 +161,7 @@ class FleetSettings:
     reserve: bool
     peak_price_sgd_per_kw: float
     billing_mode: str
-    il_events: ReserveConfig = ReserveConfig()
+    il_events: ReserveConfig = field(default_factory=ReserveConfig)
     """The IL contract (event model D, α, R) every building plans for."""
 
     @staticmethod
@@ -350,6 +357,16 @@ class BuildingAgent:
         )
         return result
 
+    def cap_values(self) -> FloatArray:
+        """(N,) marginal value of this building's caps at its last solve [SGD/kW] (zeros
+        when it failed); what the coordinator reallocates caps by."""
+        base = self._problem
+        assert base is not None, "begin_step() first"
+        last = self._last
+        if last is None or last.status is not SolveStatus.OPTIMAL:
+            return np.zeros(base.horizon)
+        return self.controller.solver(base).cap_values_sgd_per_kw()
+
     def advance(self) -> dict[str, float]:
         """Apply the staged plan's first step to the plant; the step's row values."""
         k = self.loop.k
@@ -409,6 +426,10 @@ class BuildingGroup:
     ) -> tuple[FloatArray, FloatArray, FloatArray]:
         """Fix every plan inside its caps (B, N) [kW]; like :meth:`solve`."""
         return _stack([a.finalize(price_sgd_per_mwh, cap_kw[i]) for i, a in enumerate(self.agents)])
+
+    def cap_values(self) -> FloatArray:
+        """(B, N) marginal values of the caps at the last solves [SGD/kW]."""
+        return np.array([agent.cap_values() for agent in self.agents])
 
     def advance(self) -> dict[str, FloatArray]:
         """Step every plant; (B,) arrays of the step's planned and realised power etc."""

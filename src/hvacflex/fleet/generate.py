@@ -147,6 +147,7 @@ def generate_fleet(
             "gap_tolerance": 0.002,
             "feasibility_tolerance": 0.005,
             "step_sgd_per_mwh": 0.0,
+            "cap_rounds": 4,
         },
         "buildings": entries,
     }

@@ -27,6 +27,7 @@ building file is (:func:`hvacflex.building.io.building_from_dict`)::
     gap_tolerance = 0.002
     feasibility_tolerance = 0.005
     step_sgd_per_mwh = 0.0          # 0 = automatic (mean energy price)
+    cap_rounds = 4                  # cap reallocation rounds by the caps' marginal values
 
     [[buildings]]
     name = "b000"
@@ -119,6 +120,7 @@ class CoordinationSpec(_Spec):
     gap_tolerance: Annotated[Finite, Field(gt=0.0)] = 0.002
     feasibility_tolerance: Annotated[Finite, Field(ge=0.0)] = 0.005
     step_sgd_per_mwh: Annotated[Finite, Field(ge=0.0)] = 0.0
+    cap_rounds: Annotated[int, Strict(), Field(ge=0, le=100)] = 4
 
 
 class BuildingEntrySpec(_Spec):
