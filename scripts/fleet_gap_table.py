@@ -44,13 +44,14 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--iterations", type=int, nargs="+", default=[5, 15])
     parser.add_argument("--rounds", type=int, nargs="+", default=[0, 4, 8])
+    parser.add_argument("--cases", type=int, nargs="+", default=[0, 1], help="indices of CASES")
     args = parser.parse_args()
     print(
         "| case | iterations | cap rounds | centralised [SGD] | coordinated [SGD] | gap | "
         "feasible | time [s] |"
     )
     print("|---|---|---|---|---|---|---|---|")
-    for buildings, steps, label in CASES:
+    for buildings, steps, label in (CASES[i] for i in args.cases):
         group = group_at(buildings, steps)
         p_min, p_max, price = group.begin_step()
         free_power, _, _ = group.solve(np.zeros(48))

@@ -279,6 +279,7 @@ class BuildingAgent:
         self._problem: RMPCProblem | None = None
         self._last: RMPCSolution | None = None
         self._last_price: FloatArray | None = None
+        self._last_cap: FloatArray | float = np.inf
 
     @property
     def problem(self) -> RMPCProblem:
@@ -310,6 +311,7 @@ class BuildingAgent:
         problem = dataclasses.replace(base, **changes)
         solution = self.controller.solver(problem).solve_now(problem)
         self._last, self._last_price = solution, price_kw.copy()
+        self._last_cap = np.inf if cap_kw is None else np.asarray(cap_kw, dtype=float).copy()
         if solution.status is not SolveStatus.OPTIMAL:
             nan = np.full(base.horizon, np.nan)
             return StepSolve(nan, np.nan, np.nan, False)
@@ -336,6 +338,8 @@ class BuildingAgent:
             and self._last_price is not None
             and np.array_equal(self._last_price, price)
             and bool(np.all(last.power_kw <= cap + CAP_TOLERANCE_KW))
+            # optimal under the new caps only if they are no looser than the last solve's
+            and bool(np.all(cap <= self._last_cap))
         )
         if reuse:
             assert last is not None
