@@ -44,6 +44,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--iterations", type=int, nargs="+", default=[5, 15])
     parser.add_argument("--rounds", type=int, nargs="+", default=[0, 4, 8])
+    parser.add_argument("--step-share", type=float, default=0.25, help="cap_step_share")
     parser.add_argument("--cases", type=int, nargs="+", default=[0, 1], help="indices of CASES")
     args = parser.parse_args()
     print(
@@ -68,7 +69,11 @@ def main() -> None:
                     p_max,
                     price,
                     0.5,
-                    CoordinationOptions(max_iterations=iterations, cap_rounds=rounds),
+                    CoordinationOptions(
+                        max_iterations=iterations,
+                        cap_rounds=rounds,
+                        cap_step_share=args.step_share,
+                    ),
                     cap_values_all=group.cap_values,
                 )
                 elapsed = time.perf_counter() - start

@@ -71,6 +71,35 @@ def test_coordinated_plan_feasible_and_near_centralised(group_at_morning: Buildi
     assert float(np.sum(costs)) == pytest.approx(central.objective_sgd, rel=1e-6)
 
 
+def test_cap_reallocation_lowers_the_cost_and_stays_feasible(
+    group_at_morning: BuildingGroup,
+) -> None:
+    group = group_at_morning
+    p_min, p_max, price = group.begin_step()
+    free_power, _, _ = group.solve(np.zeros(48))
+    limit = np.full(48, 0.9 * free_power.sum(axis=0).max())
+    result = coordinate(
+        group.solve,
+        group.finalize,
+        limit,
+        p_min,
+        p_max,
+        price,
+        0.5,
+        CoordinationOptions(max_iterations=5, cap_rounds=4),
+        cap_values_all=group.cap_values,
+    )
+    assert result.capped and result.cap_rounds > 0
+    assert np.all(result.power_kw.sum(axis=0) <= limit + 1e-6)
+    assert np.all(result.cap_kw.sum(axis=0) <= limit + 1e-6)
+    # the plans staged on the buildings are the returned ones
+    for agent, power in zip(group.agents, result.power_kw, strict=True):
+        assert agent.controller.solver(agent.problem).staged is not None
+        np.testing.assert_allclose(agent._last.power_kw, power, atol=1e-6)  # type: ignore[union-attr]
+    # never worse than the first allocation (measured: 83 % → 43 % above the optimum)
+    assert float(np.sum(result.cost_sgd)) <= result.capped_cost_sgd * (1 + 1e-9)
+
+
 def test_minimum_powers_above_limit_flagged(group_at_morning: BuildingGroup) -> None:
     group = group_at_morning
     p_min, p_max, price = group.begin_step()
