@@ -218,6 +218,26 @@ def reallocate_caps(
     return best.caps_kw, best.power_kw, best.cost_sgd, rounds
 
 
+def _caps_for(
+    power: FloatArray,
+    request: FloatArray,
+    limit_kw: FloatArray,
+    p_min: FloatArray,
+    p_max: FloatArray,
+    may_bind: np.ndarray,
+) -> tuple[FloatArray, bool]:
+    """(B, N) caps for the final solve and whether the plans had to be capped."""
+    if not may_bind.any() or bool(np.all(power.sum(axis=0) <= limit_kw + VIOLATION_FLOOR_KW)):
+        # keep the plans; the first period's caps still bound the applied step (and any
+        # fallback): each building's planned power plus an equal share of the spare limit
+        caps = np.full(p_min.shape, np.inf)
+        if may_bind[0]:
+            first = np.maximum(power[:, 0], p_min[:, 0])
+            caps[:, 0] = first + max(float(limit_kw[0] - first.sum()), 0.0) / first.size
+        return caps, False
+    return allocate_caps(limit_kw, p_min, p_max, request), True
+
+
 def coordinate(
     solve_all: SolveAll,
     finalize_all: FinalizeAll,
@@ -285,20 +305,7 @@ def coordinate(
         last_sign = np.where(sign != 0, sign, last_sign)
         price = np.where(active, np.clip(price + step * over, 0.0, price_max), 0.0)
     request = np.mean(history[len(history) // 2 :], axis=0)
-    feasible = not may_bind.any() or bool(
-        np.all(power.sum(axis=0) <= limit_kw + VIOLATION_FLOOR_KW)
-    )
-    if feasible:
-        # keep the plans; the first period's caps still bound the applied step (and any
-        # fallback): each building's planned power plus an equal share of the spare limit
-        caps = np.full(p_min.shape, np.inf)
-        if may_bind[0]:
-            first = np.maximum(power[:, 0], p_min[:, 0])
-            caps[:, 0] = first + max(float(limit_kw[0] - first.sum()), 0.0) / first.size
-        capped = False
-    else:
-        caps = allocate_caps(limit_kw, p_min, p_max, request)
-        capped = True
+    caps, capped = _caps_for(power, request, limit_kw, p_min, p_max, may_bind)
     final_power, final_cost, _ = finalize_all(price, caps)
     capped_cost, rounds = np.nan, 0
     if capped and cap_values_all is not None:
