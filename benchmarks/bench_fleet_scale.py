@@ -34,12 +34,14 @@ def _worker_rss_bytes() -> int:
 
 
 def measure(
-    buildings: int, workers: int, steps: int, start: str, iterations: int
+    buildings: int, workers: int, steps: int, start: str, iterations: int, cap_rounds: int
 ) -> dict[str, Any]:
     """One run; its timings, iterations and the workers' memory."""
     doc = generate_fleet(buildings, 17)
     if iterations:
         doc["coordination"]["max_iterations"] = iterations
+    if cap_rounds >= 0:
+        doc["coordination"]["cap_rounds"] = cap_rounds
     with tempfile.TemporaryDirectory() as tmp:
         path = write_fleet(doc, Path(tmp) / "fleet.toml")
         memory: list[int] = []
@@ -79,6 +81,7 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=3)
     parser.add_argument("--start", default="2014-03-03 08:00")
     parser.add_argument("--iterations", type=int, default=0, help="0 = the fleet's (10)")
+    parser.add_argument("--cap-rounds", type=int, default=-1, help="-1 = the fleet's (4)")
     args = parser.parse_args()
     print(f"load average at start: {os.getloadavg()}")
     print(
@@ -88,7 +91,9 @@ def main() -> None:
     print("|---|---|---|---|---|---|")
     for buildings in args.buildings:
         for workers in args.workers:
-            r = measure(buildings, workers, args.steps, args.start, args.iterations)
+            r = measure(
+                buildings, workers, args.steps, args.start, args.iterations, args.cap_rounds
+            )
             print(
                 f"| {buildings} | {workers} | {r['setup_s']:.1f} | {r['step_mean_s']:.2f} / "
                 f"{r['step_max_s']:.2f} | {r['iterations']:.1f} | {r['rss_mib']:.0f} |",
