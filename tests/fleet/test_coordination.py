@@ -7,7 +7,13 @@ import pytest
 
 from hvacflex.fleet.agent import BuildingGroup, FleetSettings
 from hvacflex.fleet.centralised import solve_centralised
-from hvacflex.fleet.coordinate import CoordinationOptions, allocate_caps, coordinate
+from hvacflex.fleet.coordinate import (
+    CoordinationOptions,
+    allocate_caps,
+    coordinate,
+    project_caps,
+    reallocate_caps,
+)
 from hvacflex.fleet.generate import generate_fleet
 from hvacflex.fleet.schema import fleet_from_dict
 
@@ -65,6 +71,35 @@ def test_coordinated_plan_feasible_and_near_centralised(group_at_morning: Buildi
     assert float(np.sum(costs)) == pytest.approx(central.objective_sgd, rel=1e-6)
 
 
+def test_cap_reallocation_lowers_the_cost_and_stays_feasible(
+    group_at_morning: BuildingGroup,
+) -> None:
+    group = group_at_morning
+    p_min, p_max, price = group.begin_step()
+    free_power, _, _ = group.solve(np.zeros(48))
+    limit = np.full(48, 0.9 * free_power.sum(axis=0).max())
+    result = coordinate(
+        group.solve,
+        group.finalize,
+        limit,
+        p_min,
+        p_max,
+        price,
+        0.5,
+        CoordinationOptions(max_iterations=5, cap_rounds=4),
+        cap_values_all=group.cap_values,
+    )
+    assert result.capped and result.cap_rounds > 0
+    assert np.all(result.power_kw.sum(axis=0) <= limit + 1e-6)
+    assert np.all(result.cap_kw.sum(axis=0) <= limit + 1e-6)
+    # the plans staged on the buildings are the returned ones
+    for agent, power in zip(group.agents, result.power_kw, strict=True):
+        assert agent.controller.solver(agent.problem).staged is not None
+        np.testing.assert_allclose(agent._last.power_kw, power, atol=1e-6)  # type: ignore[union-attr]
+    # never worse than the first allocation (measured: 83 % → 43 % above the optimum)
+    assert float(np.sum(result.cost_sgd)) <= result.capped_cost_sgd * (1 + 1e-9)
+
+
 def test_minimum_powers_above_limit_flagged(group_at_morning: BuildingGroup) -> None:
     group = group_at_morning
     p_min, p_max, price = group.begin_step()
@@ -102,3 +137,53 @@ def test_allocate_caps_sum_to_limit() -> None:
         else:
             assert caps[:, k].sum() == pytest.approx(limit[k])
             assert np.all(caps[:, k] >= p_min[:, k] - 1e-9)
+
+
+def test_project_caps_sums_to_limit_within_bounds() -> None:
+    rng = np.random.default_rng(1)
+    for _ in range(50):
+        lower = rng.uniform(0, 10, 6)
+        upper = lower + rng.uniform(0, 20, 6)
+        total = float(rng.uniform(lower.sum(), upper.sum()))
+        caps = project_caps(rng.normal(0, 30, 6), lower, upper, total)
+        assert caps.sum() <= total + 1e-9
+        assert caps.sum() == pytest.approx(total, abs=1e-6)
+        assert np.all(caps >= lower - 1e-12)
+        assert np.all(caps <= upper + 1e-12)
+
+
+def test_reallocation_moves_cap_to_high_value_buildings() -> None:
+    """Toy fleet: building b wants ``want`` kW and pays ``weight`` SGD per kW short of it."""
+    want = np.array([[30.0, 30.0], [30.0, 30.0], [30.0, 30.0]])
+    weight = np.array([[1.0, 1.0], [5.0, 5.0], [20.0, 20.0]])
+    p_min = np.zeros((3, 2))
+    p_max = np.full((3, 2), 40.0)
+    limit = np.array([60.0, 60.0])
+    state: dict[str, np.ndarray] = {}
+
+    def finalize_all(
+        price: np.ndarray, caps: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        power = np.minimum(want, caps)
+        state["values"] = np.where(caps < want, weight, 0.0)
+        cost = (weight * (want - power)).sum(axis=1)
+        return power, cost, cost
+
+    first_caps = allocate_caps(limit, p_min, p_max, want)  # equal shares: 20 kW each
+    power, cost, _ = finalize_all(np.zeros(2), first_caps)
+    caps, power, cost, rounds = reallocate_caps(
+        finalize_all,
+        lambda: state["values"],
+        np.zeros(2),
+        (first_caps, power, cost),
+        limit,
+        p_min,
+        p_max,
+        CoordinationOptions(cap_rounds=8),
+    )
+    assert rounds > 0
+    assert np.all(caps.sum(axis=0) <= limit + 1e-9)
+    assert np.all(power.sum(axis=0) <= limit + 1e-9)
+    # the optimum gives the two high-value buildings 30 kW each: cost 30 × 1 per period
+    assert cost.sum() < 0.5 * (weight * (want - np.minimum(want, first_caps))).sum()
+    assert caps[0, 0] < first_caps[0, 0] and caps[2, 0] > first_caps[2, 0]

@@ -5,7 +5,9 @@ from pathlib import Path
 
 import pytest
 
+from hvacflex.config.presets import PRODUCT_RESERVE
 from hvacflex.errors import BuildingConfigError
+from hvacflex.fleet.agent import BuildingAgent, FleetSettings
 from hvacflex.fleet.generate import generate_fleet, to_toml, write_fleet
 from hvacflex.fleet.schema import FleetConfigError, load_fleet
 from hvacflex.paths import resources_dir
@@ -58,3 +60,35 @@ def test_limit_needs_exactly_one_form(tmp_path: Path) -> None:
     path = write_fleet(doc, tmp_path / "f.toml")
     with pytest.raises(FleetConfigError, match="exactly one"):
         load_fleet(path)
+
+
+def test_reserve_defaults_to_the_product_event_model(tmp_path: Path) -> None:
+    doc = generate_fleet(1, 1)
+    del doc["reserve"]  # a fleet file without [reserve] gets the product's contract
+    fleet = load_fleet(write_fleet(doc, tmp_path / "f.toml"))
+    config = fleet.spec.reserve.config()
+    assert config.event_max_steps == PRODUCT_RESERVE["event_max_steps"]
+    assert config.event_allowance_k == PRODUCT_RESERVE["event_allowance_k"]
+    assert config.event_recovery_steps == PRODUCT_RESERVE["event_recovery_steps"]
+    settings = FleetSettings.of(fleet, "2014-03-03", 1)
+    assert settings.il_events == config
+    # every building's controller builds event-model problems with these settings
+    agent = BuildingAgent(fleet.buildings[0], 0, settings)
+    agent.begin_step()
+    assert agent.problem.il_event_max_steps == config.event_max_steps
+    assert agent.problem.il_event_allowance_kelvin == config.event_allowance_k
+    assert agent.problem.il_event_recovery_steps == config.event_recovery_steps
+    assert agent.loop.events.carry_steps == 0
+
+
+def test_whole_horizon_reserve_and_its_errors(tmp_path: Path) -> None:
+    doc = generate_fleet(1, 1)
+    doc["reserve"] = {"enabled": True, "event_max_steps": 0}
+    with pytest.raises(FleetConfigError, match=r"reserve.*allowance"):
+        load_fleet(write_fleet(doc, tmp_path / "a.toml"))
+    doc["reserve"].update(event_allowance_k=0.0, event_recovery_steps=0)
+    config = load_fleet(write_fleet(doc, tmp_path / "b.toml")).spec.reserve.config()
+    assert config.event_max_steps is None and config.event_allowance_k == 0.0
+    doc["reserve"] = {"event_max_steps": -1}
+    with pytest.raises(FleetConfigError, match=r"reserve\.event_max_steps"):
+        load_fleet(write_fleet(doc, tmp_path / "c.toml"))

@@ -22,7 +22,7 @@ buildings; it is what runs as a Dask actor.
 from __future__ import annotations
 
 import dataclasses
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -34,6 +34,7 @@ from hvacflex.config import (
     LINEARISATION_MARGIN_K,
     ComfortConfig,
     ControllerConfig,
+    ReserveConfig,
     ScenarioConfig,
 )
 from hvacflex.control.base import Action, FloatArray
@@ -76,6 +77,13 @@ class _StagedSolver(RMPCSolver):
         """Solve ``problem`` (never the staged plan)."""
         self.staged = None
         return super().solve(problem)
+
+    def cap_values_sgd_per_kw(self) -> FloatArray:
+        """(N,) marginal value of the power caps at the last optimum [SGD per kW of cap]:
+        minus the reduced costs of the plan's power columns (≥ 0; 0 where a cap is slack)."""
+        duals = np.asarray(self._highs.getSolution().col_dual, dtype=float)
+        value: FloatArray = np.maximum(-duals[self.layout.plan.power], 0.0)
+        return value
 
 
 class FleetController(MPCController):
@@ -153,6 +161,8 @@ class FleetSettings:
     reserve: bool
     peak_price_sgd_per_kw: float
     billing_mode: str
+    il_events: ReserveConfig = field(default_factory=ReserveConfig)
+    """The IL contract (event model D, α, R) every building plans for."""
 
     @staticmethod
     def of(fleet: Fleet, start: str, days: float) -> FleetSettings:
@@ -166,6 +176,7 @@ class FleetSettings:
             reserve=s.reserve.enabled,
             peak_price_sgd_per_kw=s.ppp.peak_price_sgd_per_kw,
             billing_mode=s.ppp.billing_mode,
+            il_events=s.reserve.config(),
         )
 
 
@@ -205,6 +216,7 @@ def building_setup(entry: FleetBuilding, index: int, settings: FleetSettings) ->
         seed=settings.seed + index,
         initial_temp_degc=entry.initial_temp_degc,
         controller=controller,
+        reserve=settings.il_events,
         comfort=comfort,
     )
     building = entry.building
@@ -261,11 +273,13 @@ class BuildingAgent:
             cfg,
             self.setup.box,
             self.setup.linearisation_temp_degc,
+            reserve=self.setup.config.reserve,
         )
         self.loop = ClosedLoop(self.setup, self.controller)
         self._problem: RMPCProblem | None = None
         self._last: RMPCSolution | None = None
         self._last_price: FloatArray | None = None
+        self._last_cap: FloatArray | float = np.inf
 
     @property
     def problem(self) -> RMPCProblem:
@@ -280,7 +294,9 @@ class BuildingAgent:
         forecast = self.setup.forecaster.forecast(
             loop.k, self.setup.config.controller.horizon_steps + 1
         )
-        problem = self.controller.problem(loop.x, forecast, loop.month_peak_kw)
+        problem = self.controller.problem(
+            loop.x, forecast, loop.month_peak_kw, loop.events.carry_steps
+        )
         self._problem, self._last, self._last_price = problem, None, None
         p_min = power_bounds_kw(problem, problem.u_min)
         return p_min, power_bounds_kw(problem), problem.energy_price_sgd_per_mwh.copy()
@@ -295,6 +311,7 @@ class BuildingAgent:
         problem = dataclasses.replace(base, **changes)
         solution = self.controller.solver(problem).solve_now(problem)
         self._last, self._last_price = solution, price_kw.copy()
+        self._last_cap = np.inf if cap_kw is None else np.asarray(cap_kw, dtype=float).copy()
         if solution.status is not SolveStatus.OPTIMAL:
             nan = np.full(base.horizon, np.nan)
             return StepSolve(nan, np.nan, np.nan, False)
@@ -321,6 +338,8 @@ class BuildingAgent:
             and self._last_price is not None
             and np.array_equal(self._last_price, price)
             and bool(np.all(last.power_kw <= cap + CAP_TOLERANCE_KW))
+            # optimal under the new caps only if they are no looser than the last solve's
+            and bool(np.all(cap <= self._last_cap))
         )
         if reuse:
             assert last is not None
@@ -341,6 +360,16 @@ class BuildingAgent:
             base.power_coeff_kw_per_kg_s[0].copy(),
         )
         return result
+
+    def cap_values(self) -> FloatArray:
+        """(N,) marginal value of this building's caps at its last solve [SGD/kW] (zeros
+        when it failed); what the coordinator reallocates caps by."""
+        base = self._problem
+        assert base is not None, "begin_step() first"
+        last = self._last
+        if last is None or last.status is not SolveStatus.OPTIMAL:
+            return np.zeros(base.horizon)
+        return self.controller.solver(base).cap_values_sgd_per_kw()
 
     def advance(self) -> dict[str, float]:
         """Apply the staged plan's first step to the plant; the step's row values."""
@@ -401,6 +430,10 @@ class BuildingGroup:
     ) -> tuple[FloatArray, FloatArray, FloatArray]:
         """Fix every plan inside its caps (B, N) [kW]; like :meth:`solve`."""
         return _stack([a.finalize(price_sgd_per_mwh, cap_kw[i]) for i, a in enumerate(self.agents)])
+
+    def cap_values(self) -> FloatArray:
+        """(B, N) marginal values of the caps at the last solves [SGD/kW]."""
+        return np.array([agent.cap_values() for agent in self.agents])
 
     def advance(self) -> dict[str, FloatArray]:
         """Step every plant; (B,) arrays of the step's planned and realised power etc."""

@@ -28,6 +28,14 @@ warm, with its caps as bounds on its plan's power (``RMPCProblem.power_max_kw``)
 plan therefore satisfies Σ P ≤ F over the whole horizon; its first step is applied. Where the
 minimum powers alone exceed F (``feeder_infeasible``), every building runs at its minimum
 and the excess is reported.
+
+The averaged requests can be far from the best split of F (morning pull-down). A few
+**cap-reallocation rounds** (primal decomposition, ``cap_rounds``) follow: the marginal value
+μ_b,k ≥ 0 [SGD/kW] of each building's cap (the dual of its power bound, from its own LP)
+says who would gain most from one more kW; caps move from low-μ to high-μ buildings,
+stay on Σ_b cap = F and the buildings re-solve in parallel; a round is kept only if the
+fleet cost falls (:func:`reallocate_caps`). Every allocation sums to F, so the guarantee
+holds after any number of rounds.
 """
 
 from __future__ import annotations
@@ -39,6 +47,8 @@ import numpy as np
 
 from hvacflex.control.base import FloatArray
 
+CapValuesAll = Callable[[], FloatArray]
+"""() → (B, N) marginal values of the caps at the buildings' last solves [SGD/kW]."""
 SolveAll = Callable[[FloatArray], tuple[FloatArray, FloatArray, FloatArray]]
 """λ (N,) → (B, N) powers [kW], (B,) costs [SGD], (B,) Lagrangian objectives [SGD]."""
 FinalizeAll = Callable[[FloatArray, FloatArray], tuple[FloatArray, FloatArray, FloatArray]]
@@ -56,6 +66,10 @@ class CoordinationOptions:
     gap_tolerance: float = 0.002
     feasibility_tolerance: float = 0.005
     step_sgd_per_mwh: float = 0.0
+    cap_rounds: int = 4
+    """Cap-reallocation rounds after the caps are first allocated (0 = none)."""
+    cap_step_share: float = 0.25
+    """First reallocation move: this share of the mean headroom above P_min per building."""
 
 
 @dataclass(frozen=True)
@@ -74,6 +88,8 @@ class CoordinationResult:
     infeasible : (N,) bool, periods where Σ P_min > F.
     excess_kw : (N,) Σ P_min − F where infeasible, else 0.
     capped : whether caps were needed (a re-solve happened).
+    cap_rounds : reallocation rounds run (each one solve per building).
+    capped_cost_sgd : fleet cost of the first cap allocation [SGD] (NaN if not capped).
     """
 
     power_kw: FloatArray
@@ -86,6 +102,8 @@ class CoordinationResult:
     infeasible: np.ndarray
     excess_kw: FloatArray
     capped: bool
+    cap_rounds: int = 0
+    capped_cost_sgd: float = float("nan")
 
 
 def allocate_caps(
@@ -114,6 +132,112 @@ def allocate_caps(
     return caps
 
 
+def project_caps(
+    caps_kw: FloatArray, lower_kw: FloatArray, upper_kw: FloatArray, total_kw: float
+) -> FloatArray:
+    """(B,) ``caps_kw`` shifted by one common amount and clipped to [lower, upper] so that
+    they sum to ``total_kw`` (never above it; needs Σ lower ≤ total ≤ Σ upper)."""
+    low = float(np.min(lower_kw - caps_kw))
+    high = float(np.max(upper_kw - caps_kw))
+    for _ in range(80):  # bisection on the shift; keeps the side whose sum is ≤ total
+        mid = 0.5 * (low + high)
+        if float(np.clip(caps_kw + mid, lower_kw, upper_kw).sum()) > total_kw:
+            high = mid
+        else:
+            low = mid
+    projected: FloatArray = np.clip(caps_kw + low, lower_kw, upper_kw)
+    return projected
+
+
+def _total_cost(cost_sgd: FloatArray) -> float:
+    return float(np.sum(cost_sgd)) if np.all(np.isfinite(cost_sgd)) else np.inf
+
+
+@dataclass
+class _Allocation:
+    caps_kw: FloatArray
+    power_kw: FloatArray
+    cost_sgd: FloatArray
+    values: FloatArray
+
+    @property
+    def total_sgd(self) -> float:
+        return _total_cost(self.cost_sgd)
+
+
+def reallocate_caps(
+    finalize_all: FinalizeAll,
+    cap_values_all: CapValuesAll,
+    price: FloatArray,
+    first: tuple[FloatArray, FloatArray, FloatArray],
+    limit_kw: FloatArray,
+    p_min: FloatArray,
+    p_max: FloatArray,
+    options: CoordinationOptions,
+) -> tuple[FloatArray, FloatArray, FloatArray, int]:
+    """Move cap from buildings that value it little to those that value it much.
+
+    ``first`` = (caps, powers, costs) of the first allocation, (B, N) / (B,). Each round
+    shifts every capped period's caps by ``step × (μ_b − mean μ) / max |μ − mean μ|``,
+    with μ_b,k ≥ 0 [SGD/kW] the marginal value of building b's cap (the dual of its power
+    bound), projects them back onto Σ_b cap = F, cap ∈ [P_min, P_max]
+    (:func:`project_caps`) and re-solves every building (warm, in parallel). A round that
+    lowers the fleet cost is kept and the step grows ×1.5; otherwise the step halves. The
+    kept caps always sum to F, so the plans stay feasible. Returns the best (caps, powers,
+    costs) — staged on the buildings — and the rounds run.
+    """
+    caps, power, cost = first
+    periods = np.flatnonzero(np.isfinite(caps).all(axis=0) & (p_min.sum(axis=0) < limit_kw))
+    if periods.size == 0 or options.cap_rounds <= 0:
+        return caps, power, cost, 0
+    best = _Allocation(caps, power, cost, cap_values_all())
+    headroom = (limit_kw[periods] - p_min[:, periods].sum(axis=0)) / caps.shape[0]
+    step = options.cap_step_share * headroom
+    staged_is_best, rounds = True, 0
+    for _ in range(options.cap_rounds):
+        centred = best.values[:, periods] - best.values[:, periods].mean(axis=0)
+        scale = np.abs(centred).max(axis=0)
+        move = np.where(scale > 1e-9, centred / np.maximum(scale, 1e-9), 0.0) * step
+        if not np.any(move):
+            break
+        trial = best.caps_kw.copy()
+        for j, k in enumerate(periods):
+            trial[:, k] = project_caps(
+                best.caps_kw[:, k] + move[:, j], p_min[:, k], p_max[:, k], float(limit_kw[k])
+            )
+        power, cost, _ = finalize_all(price, trial)
+        rounds += 1
+        if _total_cost(cost) < best.total_sgd:
+            best = _Allocation(trial, power, cost, cap_values_all())
+            step, staged_is_best = 1.5 * step, True
+        else:
+            step, staged_is_best = 0.5 * step, False
+    if not staged_is_best:  # stage the best plans again
+        power, cost, _ = finalize_all(price, best.caps_kw)
+        best = _Allocation(best.caps_kw, power, cost, best.values)
+    return best.caps_kw, best.power_kw, best.cost_sgd, rounds
+
+
+def _caps_for(
+    power: FloatArray,
+    request: FloatArray,
+    limit_kw: FloatArray,
+    p_min: FloatArray,
+    p_max: FloatArray,
+    may_bind: np.ndarray,
+) -> tuple[FloatArray, bool]:
+    """(B, N) caps for the final solve and whether the plans had to be capped."""
+    if not may_bind.any() or bool(np.all(power.sum(axis=0) <= limit_kw + VIOLATION_FLOOR_KW)):
+        # keep the plans; the first period's caps still bound the applied step (and any
+        # fallback): each building's planned power plus an equal share of the spare limit
+        caps = np.full(p_min.shape, np.inf)
+        if may_bind[0]:
+            first = np.maximum(power[:, 0], p_min[:, 0])
+            caps[:, 0] = first + max(float(limit_kw[0] - first.sum()), 0.0) / first.size
+        return caps, False
+    return allocate_caps(limit_kw, p_min, p_max, request), True
+
+
 def coordinate(
     solve_all: SolveAll,
     finalize_all: FinalizeAll,
@@ -124,6 +248,7 @@ def coordinate(
     dt_h: float,
     options: CoordinationOptions,
     initial_price: FloatArray | None = None,
+    cap_values_all: CapValuesAll | None = None,
 ) -> CoordinationResult:
     """Coordinate one step (see the module docstring).
 
@@ -135,6 +260,8 @@ def coordinate(
     energy_price_sgd_per_mwh : (B, N) energy prices (for the default step size).
     dt_h : period length [h].
     initial_price : (N,) λ to start from (e.g. the previous step's, shifted).
+    cap_values_all : the buildings' cap values at their last solves; with it, caps are
+        reallocated for ``options.cap_rounds`` rounds (:func:`reallocate_caps`).
     """
     horizon = limit_kw.shape[0]
     may_bind = p_max.sum(axis=0) > limit_kw
@@ -178,21 +305,21 @@ def coordinate(
         last_sign = np.where(sign != 0, sign, last_sign)
         price = np.where(active, np.clip(price + step * over, 0.0, price_max), 0.0)
     request = np.mean(history[len(history) // 2 :], axis=0)
-    feasible = not may_bind.any() or bool(
-        np.all(power.sum(axis=0) <= limit_kw + VIOLATION_FLOOR_KW)
-    )
-    if feasible:
-        # keep the plans; the first period's caps still bound the applied step (and any
-        # fallback): each building's planned power plus an equal share of the spare limit
-        caps = np.full(p_min.shape, np.inf)
-        if may_bind[0]:
-            first = np.maximum(power[:, 0], p_min[:, 0])
-            caps[:, 0] = first + max(float(limit_kw[0] - first.sum()), 0.0) / first.size
-        capped = False
-    else:
-        caps = allocate_caps(limit_kw, p_min, p_max, request)
-        capped = True
+    caps, capped = _caps_for(power, request, limit_kw, p_min, p_max, may_bind)
     final_power, final_cost, _ = finalize_all(price, caps)
+    capped_cost, rounds = np.nan, 0
+    if capped and cap_values_all is not None:
+        capped_cost = _total_cost(final_cost)
+        caps, final_power, final_cost, rounds = reallocate_caps(
+            finalize_all,
+            cap_values_all,
+            price,
+            (caps, final_power, final_cost),
+            limit_kw,
+            p_min,
+            p_max,
+            options,
+        )
     final_power = np.where(np.isnan(final_power), p_max, final_power)
     primal = float(np.nansum(final_cost))
     return CoordinationResult(
@@ -206,4 +333,6 @@ def coordinate(
         infeasible=infeasible,
         excess_kw=excess,
         capped=capped,
+        cap_rounds=rounds,
+        capped_cost_sgd=capped_cost,
     )

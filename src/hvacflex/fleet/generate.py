@@ -19,6 +19,7 @@ import numpy as np
 
 from hvacflex.building.hvac import hvac_power_kw
 from hvacflex.building.io import building_from_dict
+from hvacflex.config.presets import PRODUCT_RESERVE
 from hvacflex.errors import ConfigError
 from hvacflex.fleet.schema import fleet_from_dict
 from hvacflex.paths import resolve_building
@@ -139,13 +140,14 @@ def generate_fleet(
         "min_bid_mw": float(min_bid_mw),
         "robust": "tightening",
         "horizon_steps": 48,
-        "reserve": {"enabled": True},
+        "reserve": {"enabled": True, **PRODUCT_RESERVE},
         "ppp": {"peak_price_sgd_per_kw": 0.0, "billing_mode": "horizon"},
         "coordination": {
             "max_iterations": 10,
             "gap_tolerance": 0.002,
             "feasibility_tolerance": 0.005,
             "step_sgd_per_mwh": 0.0,
+            "cap_rounds": 4,
         },
         "buildings": entries,
     }

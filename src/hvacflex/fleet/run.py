@@ -55,6 +55,9 @@ DT_H = 0.5
 DEFAULT_CHECKPOINT_EVERY = 12
 MAX_RECOVERIES = 3
 ACTOR_TIMEOUT_S = 60.0
+ACTOR_TIMEOUT_PER_BUILDING_S = 2.0
+"""An actor call times out after max(ACTOR_TIMEOUT_S, this × the group's buildings) [s]:
+a group's call solves each of its buildings once (≈ 0.05–0.5 s each at D = 4)."""
 """A group call that takes longer than this is checked for a lost worker (then retried)."""
 
 
@@ -136,9 +139,11 @@ class _Groups:
         if self.client is None:
             return calls
         results = []
+        largest = max(len(idx) for idx in self.indices)
+        timeout_s = max(ACTOR_TIMEOUT_S, ACTOR_TIMEOUT_PER_BUILDING_S * largest)
         for c in calls:
             try:
-                results.append(c.result(timeout=ACTOR_TIMEOUT_S))
+                results.append(c.result(timeout=timeout_s))
             except TimeoutError:
                 self.check_alive()
                 raise
@@ -327,7 +332,11 @@ def _coordination_options(fleet: Any) -> CoordinationOptions:
     """The fleet file's ``[coordination]`` settings."""
     cs = fleet.spec.coordination
     return CoordinationOptions(
-        cs.max_iterations, cs.gap_tolerance, cs.feasibility_tolerance, cs.step_sgd_per_mwh
+        cs.max_iterations,
+        cs.gap_tolerance,
+        cs.feasibility_tolerance,
+        cs.step_sgd_per_mwh,
+        cap_rounds=cs.cap_rounds,
     )
 
 
@@ -428,8 +437,22 @@ def _coordinate_step(
         power, cost, lagrangian = (np.concatenate([p[j] for p in parts])[order] for j in range(3))
         return power, cost, lagrangian
 
+    def cap_values_all() -> FloatArray:
+        parts = groups.broadcast("cap_values")
+        values: FloatArray = np.concatenate(parts)[np.argsort(np.concatenate(groups.indices))]
+        return values
+
     result = coordinate(
-        solve_all, finalize_all, feeder_kw, p_min, p_max, energy, DT_H, options, price
+        solve_all,
+        finalize_all,
+        feeder_kw,
+        p_min,
+        p_max,
+        energy,
+        DT_H,
+        options,
+        price,
+        cap_values_all=cap_values_all,
     )
     return result, p_min
 

@@ -15,6 +15,9 @@ building file is (:func:`hvacflex.building.io.building_from_dict`)::
 
     [reserve]
     enabled = true
+    event_max_steps = 4             # D (0 = the whole-horizon model); default: the product's
+    event_allowance_k = 1.0         # α [K]
+    event_recovery_steps = 2        # R [periods]
 
     [ppp]
     peak_price_sgd_per_kw = 0.0
@@ -24,6 +27,7 @@ building file is (:func:`hvacflex.building.io.building_from_dict`)::
     gap_tolerance = 0.002
     feasibility_tolerance = 0.005
     step_sgd_per_mwh = 0.0          # 0 = automatic (mean energy price)
+    cap_rounds = 4                  # cap reallocation rounds by the caps' marginal values
 
     [[buildings]]
     name = "b000"
@@ -50,6 +54,8 @@ from pydantic import BaseModel, ConfigDict, Field, Strict, ValidationError, mode
 
 from hvacflex.building.io import building_from_dict
 from hvacflex.building.model import Building
+from hvacflex.config import ReserveConfig
+from hvacflex.config.presets import PRODUCT_RESERVE
 from hvacflex.errors import ConfigError, DataError
 from hvacflex.tomlio import read_toml
 
@@ -68,7 +74,40 @@ class _Spec(BaseModel):
 
 
 class ReserveSpec(_Spec):
+    """The IL contract every building plans for (defaults: the product's, PRODUCT_RESERVE).
+
+    ``event_max_steps`` = D ≥ 1 is the event model (docs/il_events.md); 0 selects the
+    paper's whole-horizon model (then α and R must be 0).
+    """
+
     enabled: bool = True
+    event_max_steps: Annotated[int, Strict(), Field(ge=0, le=48)] = PRODUCT_RESERVE[
+        "event_max_steps"
+    ]
+    event_allowance_k: Annotated[Finite, Field(ge=0.0, le=5.0)] = PRODUCT_RESERVE[
+        "event_allowance_k"
+    ]
+    event_recovery_steps: Annotated[int, Strict(), Field(ge=0, le=48)] = PRODUCT_RESERVE[
+        "event_recovery_steps"
+    ]
+
+    @model_validator(mode="after")
+    def _whole_horizon(self) -> Self:
+        if self.event_max_steps == 0 and (self.event_allowance_k or self.event_recovery_steps):
+            raise ValueError(
+                "event_allowance_k and event_recovery_steps need the event model "
+                "(event_max_steps ≥ 1); the whole-horizon model (0) has no allowance"
+            )
+        return self
+
+    def config(self) -> ReserveConfig:
+        """The single-building :class:`ReserveConfig` of these settings."""
+        events = self.event_max_steps > 0
+        return ReserveConfig(
+            event_max_steps=self.event_max_steps if events else None,
+            event_allowance_k=self.event_allowance_k if events else 0.0,
+            event_recovery_steps=self.event_recovery_steps if events else 0,
+        )
 
 
 class PPPSpec(_Spec):
@@ -81,6 +120,7 @@ class CoordinationSpec(_Spec):
     gap_tolerance: Annotated[Finite, Field(gt=0.0)] = 0.002
     feasibility_tolerance: Annotated[Finite, Field(ge=0.0)] = 0.005
     step_sgd_per_mwh: Annotated[Finite, Field(ge=0.0)] = 0.0
+    cap_rounds: Annotated[int, Strict(), Field(ge=0, le=100)] = 4
 
 
 class BuildingEntrySpec(_Spec):
@@ -137,6 +177,8 @@ _HINTS = {
     "buildings": "add [[buildings]] tables (hvacflex fleet generate writes them)",
     "building": "a complete building description, as in a building TOML file",
     "occupied_hours": "[start, end] local hours, e.g. [8, 18]",
+    "event_max_steps": "D in 30-min periods (4 = the NEMS 120-min rule), 0 = whole horizon",
+    "event_allowance_k": "α [K] above the upper comfort bound during an event, e.g. 1.0",
 }
 
 

@@ -1,0 +1,106 @@
+"""Fleet scale: per-step wall time, iterations and memory per building (issue 17).
+
+For each fleet size B (generated, seed 17, default feeder limit) and each worker count W,
+runs ``--steps`` steps from ``--start`` on a ``LocalCluster`` of W single-threaded workers
+(:func:`hvacflex.fleet.run.run_fleet`) and prints one markdown row: set-up time (building
+the agents on the workers), per-step wall time (mean, max), coordination iterations per
+step, cap-reallocation rounds, and the workers' resident memory after the run; the memory
+per building is the slope of total worker memory between fleet sizes at the same W.
+
+    python benchmarks/bench_fleet_scale.py --buildings 10 100 --workers 1 2 --steps 3
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from hvacflex.fleet.generate import generate_fleet, write_fleet
+from hvacflex.fleet.run import run_fleet
+
+MIB = 2**20
+
+
+def _worker_rss_bytes() -> int:
+    import psutil
+
+    return int(psutil.Process(os.getpid()).memory_info().rss)
+
+
+def measure(
+    buildings: int, workers: int, steps: int, start: str, iterations: int, cap_rounds: int
+) -> dict[str, Any]:
+    """One run; its timings, iterations and the workers' memory."""
+    doc = generate_fleet(buildings, 17)
+    if iterations:
+        doc["coordination"]["max_iterations"] = iterations
+    if cap_rounds >= 0:
+        doc["coordination"]["cap_rounds"] = cap_rounds
+    with tempfile.TemporaryDirectory() as tmp:
+        path = write_fleet(doc, Path(tmp) / "fleet.toml")
+        memory: list[int] = []
+        marks: list[float] = []
+
+        def on_step(k: int, groups: Any) -> None:
+            marks.append(time.perf_counter())
+            if k == steps and groups.client is not None:
+                memory.extend(groups.client.run(_worker_rss_bytes).values())
+
+        t0 = time.perf_counter()
+        result = run_fleet(
+            path,
+            Path(tmp) / "out",
+            start=start,
+            days=steps / 48,
+            workers=workers,
+            checkpoint_every=10**6,
+            resume=False,
+            on_step=on_step,
+        )
+    frame = result.frame
+    step_s = frame["step_time_s"].to_numpy(float)
+    return {
+        "setup_s": marks[0] - t0 - step_s[0],
+        "step_mean_s": float(np.mean(step_s)),
+        "step_max_s": float(np.max(step_s)),
+        "iterations": float(frame["coordination_iterations"].mean()),
+        "rss_mib": sum(memory) / MIB,
+    }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--buildings", type=int, nargs="+", default=[10, 100])
+    parser.add_argument("--workers", type=int, nargs="+", default=[1, 2])
+    parser.add_argument("--steps", type=int, default=3)
+    parser.add_argument("--start", default="2014-03-03 08:00")
+    parser.add_argument("--iterations", type=int, default=0, help="0 = the fleet's (10)")
+    parser.add_argument("--cap-rounds", type=int, default=-1, help="-1 = the fleet's (4)")
+    args = parser.parse_args()
+    print(f"load average at start: {os.getloadavg()}")
+    print(
+        "| buildings | workers | set-up [s] | step mean / max [s] | iterations/step | "
+        "worker memory [MiB] |"
+    )
+    print("|---|---|---|---|---|---|")
+    for buildings in args.buildings:
+        for workers in args.workers:
+            r = measure(
+                buildings, workers, args.steps, args.start, args.iterations, args.cap_rounds
+            )
+            print(
+                f"| {buildings} | {workers} | {r['setup_s']:.1f} | {r['step_mean_s']:.2f} / "
+                f"{r['step_max_s']:.2f} | {r['iterations']:.1f} | {r['rss_mib']:.0f} |",
+                flush=True,
+            )
+    print(f"load average at end: {os.getloadavg()}")
+
+
+if __name__ == "__main__":
+    main()
