@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import time
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -96,15 +95,6 @@ def test_perfect_forecast_is_a_slice(week: Exogenous) -> None:
     assert last.horizon == 48
     with pytest.raises(DataError, match="outside the loaded data"):
         forecaster.forecast(7 * 48 + 1, 48)
-
-
-def test_perfect_forecast_costs_microseconds(week: Exogenous) -> None:
-    forecaster = Forecaster(week)
-    n = 2000
-    started = time.perf_counter()
-    for k in range(n):
-        forecaster.forecast(k % 300, 48)
-    assert (time.perf_counter() - started) / n < 100e-6
 
 
 def test_price_persistence_is_yesterdays_same_period(week: Exogenous) -> None:
