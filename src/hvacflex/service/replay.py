@@ -98,6 +98,9 @@ def action_from_plan(plan: dict[str, Any]) -> Action:
         delta_max_k=_none_nan(plan["delta_max_k"]),
         predicted_served_degc=_nan(plan["predicted_served_degc"]),
         predicted_curtailed_degc=_nan(plan["predicted_curtailed_degc"]),
+        predicted_event_worst_degc=None
+        if plan.get("predicted_event_worst_degc") is None
+        else _nan(plan["predicted_event_worst_degc"]),
     )
 
 

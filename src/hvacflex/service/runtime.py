@@ -452,6 +452,9 @@ class Runtime:
             "delta_max_k": finite(action.delta_max_k),
             "predicted_served_degc": finite_list(action.predicted_served_degc),
             "predicted_curtailed_degc": finite_list(action.predicted_curtailed_degc),
+            "predicted_event_worst_degc": None
+            if action.predicted_event_worst_degc is None
+            else finite_list(action.predicted_event_worst_degc),
             **columns,
         }
 

@@ -206,6 +206,7 @@ class Plan(BaseModel):
     delta_max_k: float | None
     predicted_served_degc: list[float | None]
     predicted_curtailed_degc: list[float | None]
+    predicted_event_worst_degc: list[float | None] | None = None
     horizon_time: list[str]
     horizon_power_kw: list[float | None]
     horizon_reserve_kw: list[float | None]
