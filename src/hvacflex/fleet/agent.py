@@ -29,7 +29,6 @@ import numpy as np
 import pandas as pd
 
 from hvacflex.building.discretize import linearize
-from hvacflex.building.plant import NonlinearPlant
 from hvacflex.config import (
     LINEARISATION_MARGIN_K,
     ComfortConfig,
@@ -39,12 +38,11 @@ from hvacflex.config import (
 )
 from hvacflex.control.base import Action, FloatArray
 from hvacflex.control.mpc import MPCController
-from hvacflex.data.forecast import Forecast, Forecaster, load_exogenous
+from hvacflex.data.forecast import Forecast, load_exogenous
 from hvacflex.data.gains import DEFAULT_OFFICE_SCHEDULE, ComfortBand, OfficeSchedule
-from hvacflex.data.uncertainty import UncertaintyBox
 from hvacflex.fleet.schema import Fleet, FleetBuilding, fleet_from_dict
 from hvacflex.opt import RMPCProblem, RMPCSolution, RMPCSolver, SolveStatus
-from hvacflex.sim.closed_loop import ClosedLoop, Setup
+from hvacflex.sim.closed_loop import ClosedLoop, Setup, assemble_setup
 from hvacflex.units import KWH_PER_MWH
 
 CAP_TOLERANCE_KW = 1e-6
@@ -233,20 +231,8 @@ def building_setup(entry: FleetBuilding, index: int, settings: FleetSettings) ->
         seed=settings.seed,
         schedule=_schedule(entry.occupied_hours),
     )
-    box = UncertaintyBox(
-        relative=dict(config.uncertainty.relative), absolute=dict(config.uncertainty.absolute)
-    )
-    return Setup(
-        config=config,
-        building=building,
-        model=model,
-        plant=NonlinearPlant(building),
-        exogenous=exogenous,
-        forecaster=Forecaster(exogenous),
-        box=box,
-        activation=np.zeros(config.steps, dtype=bool),
-        linearisation_temp_degc=temp_ref,
-    )
+    no_activation = np.zeros(config.steps, dtype=bool)
+    return assemble_setup(config, building, model, exogenous, no_activation, temp_ref)
 
 
 @dataclass

@@ -151,10 +151,28 @@ def prepare(config: ScenarioConfig, building: Building | None = None) -> Setup:
         seed=config.seed,
         reserve_scale_sgd_per_mwh=scale,
     )
+    activation = activation_schedule(
+        config.activation,
+        exogenous.index[: config.steps],
+        seed=config.seed,
+        max_steps=config.activation_max_steps,
+    )
+    return assemble_setup(config, building, model, exogenous, activation, temp_ref)
+
+
+def assemble_setup(
+    config: ScenarioConfig,
+    building: Building,
+    model: LinearModel,
+    exogenous: Exogenous,
+    activation: np.ndarray,
+    linearisation_temp_degc: float,
+) -> Setup:
+    """The :class:`Setup` of loaded parts: adds the plant, forecaster and uncertainty box.
+    ``activation`` (steps,) bool: the IL activation schedule."""
     box = UncertaintyBox(
         relative=dict(config.uncertainty.relative), absolute=dict(config.uncertainty.absolute)
     )
-    index = exogenous.index[: config.steps]
     return Setup(
         config=config,
         building=building,
@@ -163,10 +181,8 @@ def prepare(config: ScenarioConfig, building: Building | None = None) -> Setup:
         exogenous=exogenous,
         forecaster=Forecaster(exogenous),
         box=box,
-        activation=activation_schedule(
-            config.activation, index, seed=config.seed, max_steps=config.activation_max_steps
-        ),
-        linearisation_temp_degc=temp_ref,
+        activation=activation,
+        linearisation_temp_degc=linearisation_temp_degc,
     )
 
 
