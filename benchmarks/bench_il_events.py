@@ -28,24 +28,12 @@ import numpy as np
 from hvacflex.config import preset
 from hvacflex.opt.problem import RMPCProblem
 from hvacflex.opt.solve import RMPCSolver
-from hvacflex.sim.closed_loop import ClosedLoop, prepare
+from hvacflex.sim import recording
 
 
 def recorded_problems(start: str, steps: int) -> list[RMPCProblem]:
     """The problems the ``rmpc`` controller builds over the first ``steps`` periods."""
-    loop = ClosedLoop(prepare(preset("rmpc", start=start, days=1)))
-    problems: list[RMPCProblem] = []
-    build = loop.controller.problem  # type: ignore[attr-defined]
-
-    def record(*args: Any, **kwargs: Any) -> RMPCProblem:
-        problem: RMPCProblem = build(*args, **kwargs)
-        problems.append(problem)
-        return problem
-
-    loop.controller.problem = record  # type: ignore[attr-defined]
-    while loop.k < steps:
-        loop.step()
-    return problems
+    return recording.recorded_problems(preset("rmpc", start=start, days=1), steps)
 
 
 def with_events(problem: RMPCProblem, max_steps: int | None, price: float) -> RMPCProblem:

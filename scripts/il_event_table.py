@@ -26,26 +26,9 @@ import numpy as np
 
 from hvacflex.config import preset
 from hvacflex.opt import RMPCProblem, RMPCSolver, solve_rmpc
-from hvacflex.sim.closed_loop import ClosedLoop, prepare
+from hvacflex.sim.recording import recorded_problems
 
 STEPS_PER_HOUR = 2
-
-
-def recorded_problems(start: str, steps: int) -> list[RMPCProblem]:
-    """The problems the ``rmpc`` controller builds over the first ``steps`` periods."""
-    loop = ClosedLoop(prepare(preset("rmpc", start=start, days=1)))
-    problems: list[RMPCProblem] = []
-    build = loop.controller.problem  # type: ignore[attr-defined]
-
-    def record(*args: Any, **kwargs: Any) -> RMPCProblem:
-        problem: RMPCProblem = build(*args, **kwargs)
-        problems.append(problem)
-        return problem
-
-    loop.controller.problem = record  # type: ignore[attr-defined]
-    while loop.k < steps:
-        loop.step()
-    return problems
 
 
 def with_events(
@@ -130,7 +113,7 @@ def main() -> None:
     parser.add_argument("--timing-price", type=float, default=40.0, help="flat SGD/MWh")
     args = parser.parse_args()
     steps = 13 * STEPS_PER_HOUR + 1
-    problems = recorded_problems(args.start, steps)
+    problems = recorded_problems(preset("rmpc", start=args.start, days=1), steps)
     print(
         f"## LP sizes and warm solve times (N = {problems[0].horizon}, R = 2, α = 1 K, "
         f"flat reserve price {args.timing_price:g} SGD/MWh, {steps} receding steps)\n"
