@@ -124,7 +124,12 @@ def test_robust_costs_more_than_nominal(quick_report: Path) -> None:
 def test_table1_has_rows_for_both_reserve_models(quick_report: Path) -> None:
     table = pd.read_csv(quick_report / "table1.csv", index_col=0)
     models = table["reserve_model"]
-    assert models.to_list() == ["event"] * 3 + ["whole-horizon"] * 3
+    assert models.to_list() == ["event"] * 3 + ["whole-horizon"] * 5
+    feedback_rows = [label for label in table.index if "affine feedback" in label]
+    assert feedback_rows == [
+        "(b) RMPC, affine feedback, whole-horizon",
+        "(c) RMPC + PPP, affine feedback, whole-horizon",
+    ]
     for model in ("event", "whole-horizon"):
         block = table[models == model]
         assert np.isfinite(block["energy_cost_sgd"]).all() and (block["energy_cost_sgd"] > 0).all()
@@ -138,6 +143,7 @@ def test_table1_has_rows_for_both_reserve_models(quick_report: Path) -> None:
     versus = pd.read_csv(quick_report / "table1_vs_paper.csv", index_col=0)
     assert versus.loc["(b) RMPC, whole-horizon", "energy_cost_sgd (paper)"] == 1530.0
     assert versus.loc["(b) RMPC", "energy_cost_sgd (paper)"] == 1530.0
+    assert np.isnan(versus.loc[feedback_rows, "energy_cost_sgd (paper)"]).all()
 
 
 def _run_dir(report: Path, name: str) -> Path:
@@ -203,10 +209,10 @@ def test_second_run_reuses_cached_simulations(quick_report: Path) -> None:
     mtimes = {path: path.stat().st_mtime_ns for path in results}
     logs: list[str] = []
     again = reproduce(quick_report, quick=True, workers=1, log=logs.append)
-    assert again.complete and len(again.outcomes) == 19
+    assert again.complete and len(again.outcomes) == 21
     assert all(o.cached for o in again.outcomes)
-    assert sum("ok (cached)" in line for line in logs) == 19
-    assert len(results) == 19 and {p: p.stat().st_mtime_ns for p in results} == mtimes
+    assert sum("ok (cached)" in line for line in logs) == 21
+    assert len(results) == 21 and {p: p.stat().st_mtime_ns for p in results} == mtimes
     assert {name: (quick_report / name).read_bytes() for name in outputs} == before
 
 

@@ -3,9 +3,10 @@
 One call runs, as Dask jobs (see :mod:`hvacflex.sim.sweep`):
 
 * the paper's scenarios (a) NMPC, (b) RMPC, (c) RMPC + PPP under the product's IL event
-  model, the same three under the paper's whole-horizon reserve model, and the thermostat
-  baseline, over the whole of 2014 (``--quick``: one week) — Table 1 for both models, Fig. 5,
-  Fig. 6 and the comfort figure;
+  model, the same three under the paper's whole-horizon reserve model, (b) and (c) with
+  affine disturbance feedback (whole-horizon model), and the thermostat baseline, over the
+  whole of 2014 (``--quick``: one week) — Table 1 for both models, Fig. 5, Fig. 6 and the
+  comfort figure;
 * the PPP sweep 0.5–30 SGD/kW on scenario (c) — Fig. 7;
 * the uncertainty sweep 0–50 % of the heat gains for open-loop RMPC (and the affine-feedback
   RMPC) next to NMPC — the price of robustness;
@@ -26,6 +27,7 @@ from typing import Any
 import pandas as pd
 
 from hvacflex.config import (
+    PAPER_FEEDBACK_SCENARIOS,
     PAPER_MODEL_SCENARIOS,
     PAPER_SCENARIOS,
     ScenarioConfig,
@@ -65,6 +67,12 @@ WHOLE_HORIZON_PREFIX = "paper-"
 SCENARIO_LABELS |= {
     f"{WHOLE_HORIZON_PREFIX}{letter}": f"{SCENARIO_LABELS[letter]}, whole-horizon"
     for letter in PAPER_MODEL_SCENARIOS
+}
+FEEDBACK_PREFIX = "feedback-"
+"""Key prefix of the robust scenarios run with affine disturbance feedback."""
+SCENARIO_LABELS |= {
+    f"{FEEDBACK_PREFIX}{letter}": f"{SCENARIO_LABELS[letter]}, affine feedback, whole-horizon"
+    for letter in PAPER_FEEDBACK_SCENARIOS
 }
 
 
@@ -119,13 +127,18 @@ class Plan:
 
 
 def scenario_jobs(plan: Plan) -> list[tuple[dict[str, Any], ScenarioConfig]]:
-    """Scenarios (a), (b), (c) with each reserve model, and the thermostat, over the plan's
-    period (keys ``a``, ``paper-a``, …, ``thermostat``)."""
+    """Scenarios (a), (b), (c) with each reserve model, (b) and (c) with affine feedback, and
+    the thermostat, over the plan's period (keys ``a``, ``paper-a``, …, ``feedback-b``,
+    ``feedback-c``, ``thermostat``)."""
     whole_horizon = [
         (f"{WHOLE_HORIZON_PREFIX}{letter}", name) for letter, name in PAPER_MODEL_SCENARIOS.items()
     ]
+    feedback = [
+        (f"{FEEDBACK_PREFIX}{letter}", name) for letter, name in PAPER_FEEDBACK_SCENARIOS.items()
+    ]
     jobs: list[tuple[dict[str, Any], ScenarioConfig]] = []
-    for letter, name in [*PAPER_SCENARIOS.items(), *whole_horizon, ("thermostat", "thermostat")]:
+    runs = [*PAPER_SCENARIOS.items(), *whole_horizon, *feedback, ("thermostat", "thermostat")]
+    for letter, name in runs:
         cfg = preset(name, start=plan.start, days=plan.days)
         jobs.append(({"scenario": letter}, cfg))
     return jobs
@@ -318,10 +331,15 @@ def build_sections(plan: Plan, by_group: dict[str, list[JobOutcome]], out: Path)
         for k in PAPER_MODEL_SCENARIOS
         if f"{WHOLE_HORIZON_PREFIX}{k}" in scenario_frames
     }
+    feedback = {
+        k: scenario_frames[f"{FEEDBACK_PREFIX}{k}"]
+        for k in PAPER_FEEDBACK_SCENARIOS
+        if f"{FEEDBACK_PREFIX}{k}" in scenario_frames
+    }
     sections: list[Any] = []
     if paper:
         sections.append(paper_figures_section(paper, figures))
-        sections.append(table1_section(plan, paper, whole, out))
+        sections.append(table1_section(plan, paper, whole, out, feedback=feedback))
     if scenario_frames:
         corner = _frames(by_group["corner"])
         sections.append(comfort_section(plan, scenario_frames, corner, out, figures))
@@ -375,13 +393,16 @@ def table1_section(
     paper: Mapping[str, pd.DataFrame],
     whole: Mapping[str, pd.DataFrame],
     out: Path,
+    *,
+    feedback: Mapping[str, pd.DataFrame] | None = None,
 ) -> Any:
     """Table 1 (average cost per month) for both reserve models, and beside the paper's.
 
     ``paper`` holds the product presets' runs (event model), ``whole`` the ``paper-*``
-    presets' (whole-horizon model), each keyed by scenario letter. Writes ``table1.csv`` (one
-    block of rows per model, each with % against its own (a)) and ``table1_vs_paper.csv``
-    (each model's rows beside the published ones).
+    presets' (whole-horizon model), ``feedback`` the affine-feedback runs of (b) and (c)
+    (whole-horizon model, rows after ``whole``'s in its block), each keyed by scenario
+    letter. Writes ``table1.csv`` (one block of rows per model, each with % against its own
+    (a)) and ``table1_vs_paper.csv`` (each model's rows beside the published ones).
     """
     from hvacflex import kpi
     from hvacflex.report import tables
@@ -392,6 +413,9 @@ def table1_section(
         "event": {SCENARIO_LABELS[k]: f for k, f in sorted(paper.items())},
         "whole-horizon": {
             SCENARIO_LABELS[f"{WHOLE_HORIZON_PREFIX}{k}"]: f for k, f in sorted(whole.items())
+        }
+        | {
+            SCENARIO_LABELS[f"{FEEDBACK_PREFIX}{k}"]: f for k, f in sorted((feedback or {}).items())
         },
     }
     per_model = {
@@ -423,7 +447,9 @@ def table1_section(
             f"Column reserve_model: event = {names['event']}, the product presets nmpc, "
             f"rmpc, rmpc-ppp; whole-horizon = {names['whole-horizon']}, the presets "
             "paper-nmpc, paper-rmpc, paper-rmpc-ppp, where the curtailed trajectory must stay "
-            "inside the strict band for the whole horizon. Each model's % changes are against "
+            "inside the strict band for the whole horizon, and rmpc-feedback, "
+            "rmpc-feedback-ppp (affine disturbance feedback, zone-local; the feedback LP plans "
+            "for the whole-horizon model only). Each model's % changes are against "
             "its own (a). The second table sets each model's rows beside the published "
             "Table 1.",
             " ".join(scenario_sentences(paper_summaries)),

@@ -79,3 +79,6 @@ PAPER_MODEL_SCENARIOS: dict[str, str] = {
     "c": "paper-rmpc-ppp",
 }
 """The paper's scenario letters with the paper's whole-horizon reserve model."""
+
+PAPER_FEEDBACK_SCENARIOS: dict[str, str] = {"b": "rmpc-feedback", "c": "rmpc-feedback-ppp"}
+"""The robust scenarios (b), (c) with affine disturbance feedback (whole-horizon model)."""
