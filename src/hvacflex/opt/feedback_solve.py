@@ -278,13 +278,7 @@ class FeedbackSolver:
                 False,
             )
         else:
-            warm = self._start_from(lp)
-            status, values, message, highs_time, iterations = self._run_and_read(lp, warm)
-            if status is SolveStatus.ERROR and warm:  # retry once from scratch
-                self._highs.clearSolver()
-                warm = False
-                status, values, message, more_time, more = self._run_and_read(lp, False)
-                highs_time, iterations = highs_time + more_time, iterations + more
+            status, values, message, highs_time, iterations, warm = self._run_with_retries(lp)
         return self._solution(
             problem,
             lp,
@@ -293,8 +287,37 @@ class FeedbackSolver:
             start,
         )
 
-    def _start_from(self, lp: LinearProgram) -> bool:
-        """Set the previous basis (rotated by one step if ``time_shift``); whether one was set.
+    def _run_with_retries(
+        self, lp: LinearProgram
+    ) -> tuple[SolveStatus, FloatArray, str, float, int, bool]:
+        """Run from the rotated previous basis; if HiGHS fails on it (a rotated basis can be
+        near-singular: "ratio test failed due to excessive dual values"), from the previous
+        optimal basis unrotated (one HiGHS has factorised before), then from scratch.
+        Returns status, values, message, HiGHS time [s], iterations and whether it ran warm."""
+        previous = self._basis
+        warm = self._start_from(lp)
+        status, values, message, highs_time, iterations = self._run_and_read(lp, warm)
+        retries = []
+        if warm and self._time_shift and previous is not None:
+            retries.append(False)  # unrotated
+        if warm:
+            retries.append(True)  # cold
+        for cold in retries:
+            if status is not SolveStatus.ERROR:
+                break
+            if cold:
+                self._highs.clearSolver()
+                warm = False
+            else:
+                self._basis = previous
+                warm = self._start_from(lp, shift=False)
+            status, values, message, more_time, more = self._run_and_read(lp, warm)
+            highs_time, iterations = highs_time + more_time, iterations + more
+        return status, values, message, highs_time, iterations, warm
+
+    def _start_from(self, lp: LinearProgram, *, shift: bool = True) -> bool:
+        """Set the previous basis (rotated by one step if ``time_shift`` and ``shift``);
+        whether one was set.
 
         Nonbasic statuses that the current bounds do not allow are replaced by the ones the
         bounds imply; nonbasic rows sit at their only finite bound.
@@ -303,7 +326,7 @@ class FeedbackSolver:
         if self._basis is None:
             return False
         col_status, row_status = self._basis
-        if self._time_shift:
+        if self._time_shift and shift:
             col_status = col_status[self._layout.col_rotation]
             row_status = row_status[self._layout.row_rotation]
         col_status = consistent_status(
@@ -338,7 +361,7 @@ class FeedbackSolver:
             if run_status == HIGHS_ERROR
             else STATUS_MAP.get(model_status, SolveStatus.ERROR)
         )
-        iterations = int(highs.getInfo().simplex_iteration_count)
+        iterations = max(0, int(highs.getInfo().simplex_iteration_count))  # -1 on error
         message = (
             f"HiGHS: {highs.modelStatusToString(model_status)} ({iterations} simplex "
             f"iterations, {'warm' if warm else 'cold'})"
