@@ -66,25 +66,23 @@ from hvacflex.opt.options import FeedbackOptions
 from hvacflex.opt.problem import FloatArray, IntArray, RMPCProblem
 from hvacflex.opt.solution import RMPCSolution, SolveStatus
 
-__all__ = ["COLD_SCALE_STRATEGY", "DEFAULT_LP_METHOD", "FeedbackSolver", "MatrixPattern"]
+__all__ = ["DEFAULT_LP_METHOD", "FeedbackSolver", "MatrixPattern"]
 
 #: HiGHS algorithm for the feedback LP ("simplex", "ipm" or "choose"); warm solves are simplex.
 DEFAULT_LP_METHOD = "simplex"
 
-#: Options of every solve: quiet, single-threaded (reproducible), Devex dual pricing (1), no
-#: presolve (a warm run skips it anyway; on a cold run of the office5 LP presolve removes
-#: only 2 % of the rows and costs more than it saves).
+#: Options of every solve: quiet, single-threaded (reproducible), Devex dual pricing (1).
+#: A cold run keeps HiGHS's presolve and scaling: without presolve and with max-value
+#: scaling (``simplex_scale_strategy`` 4) a cold office5 step takes ≈ 40 % less (≈ 7,300
+#: instead of ≈ 8,100 iterations) but stops at another optimal vertex, and the warm steps
+#: that follow from it were ≈ 20 % slower each (their bases factorise more slowly), which
+#: cancelled the gain within a day (docs/performance.md, "Feedback RMPC").
 _BASE_OPTIONS: dict[str, Any] = {
     "output_flag": False,
     "log_to_console": False,
     "threads": 1,
     "simplex_dual_edge_weight_strategy": 1,
-    "presolve": "off",
 }
-#: HiGHS ``simplex_scale_strategy`` of a cold run: 4 (max-value scaling) took ≈ 6,900–7,100
-#: iterations and ≈ 1.1 s CPU on office5 days where the default (2) took ≈ 8,100 and ≈ 2 s.
-#: Warm runs are unscaled (0), like the open-loop warm solve.
-COLD_SCALE_STRATEGY = 4
 
 
 @dataclass(frozen=True, eq=False)
@@ -219,6 +217,7 @@ class FeedbackSolver:
         self._highs: Any = quiet_highs()
         for option, value in _BASE_OPTIONS.items():
             self._highs.setOptionValue(option, value)
+        _, self._cold_scale_strategy = self._highs.getOptionValue("simplex_scale_strategy")
         self._tolerance = feasibility_tolerance
         if feasibility_tolerance is not None:
             for option in ("primal_feasibility_tolerance", "dual_feasibility_tolerance"):
@@ -348,7 +347,7 @@ class FeedbackSolver:
         keeps the optimal basis for the next solve."""
         highs = self._highs
         highs.setOptionValue("solver", "simplex" if warm else self._method)
-        highs.setOptionValue("simplex_scale_strategy", 0 if warm else COLD_SCALE_STRATEGY)
+        highs.setOptionValue("simplex_scale_strategy", 0 if warm else self._cold_scale_strategy)
         if self._time_limit_s is not None:
             # HiGHS's run clock accumulates over the runs of this handle: re-arm per solve
             highs.setOptionValue("time_limit", float(highs.getRunTime()) + self._time_limit_s)
