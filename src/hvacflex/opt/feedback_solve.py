@@ -73,10 +73,10 @@ DEFAULT_LP_METHOD = "simplex"
 
 #: Options of every solve: quiet, single-threaded (reproducible), Devex dual pricing (1).
 #: A cold run keeps HiGHS's presolve and scaling: without presolve and with max-value
-#: scaling (``simplex_scale_strategy`` 4) a cold office5 step takes ≈ 40 % less (≈ 7,300
-#: instead of ≈ 8,100 iterations) but stops at another optimal vertex, and the warm steps
-#: that follow from it were ≈ 20 % slower each (their bases factorise more slowly), which
-#: cancelled the gain within a day (docs/performance.md, "Feedback RMPC").
+#: scaling (``simplex_scale_strategy`` 4) a cold office5 step took ≈ 20–40 % less CPU
+#: (≈ 7,300 instead of ≈ 8,100 iterations), but every warm step after it took ≈ 20–35 % more
+#: (with fewer iterations; the cause was not isolated), which cancelled the gain within a
+#: day (docs/performance.md, "Feedback RMPC").
 _BASE_OPTIONS: dict[str, Any] = {
     "output_flag": False,
     "log_to_console": False,
