@@ -19,7 +19,9 @@ in-place coefficient updates (``changeCoeff``, ≈ 2 µs each) slower than repla
 model: each step the matrix data are assembled into the fixed CSC pattern
 (:class:`MatrixPattern`, one ``bincount``), passed to HiGHS in one call
 (:func:`hvacflex.opt.highs_lp.pass_csc_model`, ≈ 4 ms) and the rotated basis is set; HiGHS
-then factorises that basis once (≈ 20–30 ms, the bulk of a warm step) and iterates.
+then factorises that basis once (≈ 20–30 ms, the bulk of a warm step) and iterates. If
+HiGHS fails on the rotated basis (near-singular), the step is re-run from the previous
+optimal basis unrotated, and only then cold.
 
 ``warm_start=False`` is the previous behaviour (rebuild and solve cold each step, with
 presolve and scaling), kept for verification and the benchmark.
