@@ -17,7 +17,10 @@ CPU times (median, p90, max) and simplex iterations:
 3. feedback warm: :class:`FeedbackSolver` (one HiGHS handle, time-shifted basis);
 4. feedback cold: ``FeedbackSolver(..., warm_start=False)``, the LP rebuilt and solved from
    scratch (every ``--cold-every``-th step, ≈ 2 s each), with the largest relative objective
-   difference between (3) and (4) on those steps.
+   difference between (3) and (4) on those steps;
+
+and the CPU split of a feedback warm step (LP build, ``passModel``, basis, HiGHS ``run()``,
+reading, the solution's realised margins).
 
 Step 0 of every warm sequence is a cold solve; it is in max, not in median/p90 (a 1-day
 closed loop of 48 steps carries it in its mean). Times are wall (``perf_counter``) and CPU
@@ -31,39 +34,61 @@ import argparse
 import dataclasses
 import os
 import platform
-import tempfile
 import time
 from collections.abc import Callable
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from hvacflex.config import preset
-from hvacflex.opt import FeedbackSolver, RMPCProblem, RMPCSolver
-from hvacflex.sim.closed_loop import run_simulation
+from hvacflex.opt import FeedbackSolver, RMPCProblem, RMPCSolver, feedback_solve
+from hvacflex.sim.recording import recorded_problems
 
 
-def record(name: str, start: str, steps: int, out: Path) -> list[RMPCProblem]:
+def record(name: str, start: str, steps: int) -> list[RMPCProblem]:
     """The problems the controller of preset ``name`` solved in a closed loop of ``steps``."""
-    problems: list[RMPCProblem] = []
-    originals: dict[type, Callable[..., Any]] = {}
-    for solver_class in (FeedbackSolver, RMPCSolver):
-        original = solver_class.solve
-        originals[solver_class] = original
+    return recorded_problems(preset(name, start=start, days=steps / 48.0 + 1.0), steps)
 
-        def recording(self: Any, problem: RMPCProblem, _original: Any = original) -> Any:
-            problems.append(problem)
-            return _original(self, problem)
 
-        setattr(solver_class, "solve", recording)  # noqa: B010 (patch the class, not an instance)
+def warm_split(problems: list[RMPCProblem]) -> dict[str, float]:
+    """Mean CPU time [ms] of each part of a warm :class:`FeedbackSolver` step (steps 1..):
+    the LP build, ``passModel``, setting the rotated basis, HiGHS ``run()``, reading the
+    solution and basis, and building the :class:`RMPCSolution` (realised margins)."""
+    parts: dict[str, float] = {}
+    patched: list[tuple[Any, str, Any]] = []
+
+    def timing(owner: Any, attribute: str, part: str) -> None:
+        original = getattr(owner, attribute)
+
+        def timed_call(*args: Any, **kwargs: Any) -> Any:
+            tick = time.process_time()
+            try:
+                return original(*args, **kwargs)
+            finally:
+                parts[part] = parts.get(part, 0.0) + time.process_time() - tick
+
+        patched.append((owner, attribute, original))
+        setattr(owner, attribute, timed_call)
+
+    solver = FeedbackSolver(problems[0])
+    solver.solve(problems[0])
+    timing(feedback_solve, "build_feedback_lp", "LP build (no constants)")
+    timing(feedback_solve, "pass_csc_model", "passModel")
+    timing(FeedbackSolver, "_start_from", "basis: rotate + setBasis")
+    timing(FeedbackSolver, "_run_and_read", "run + read solution/basis")
+    timing(type(solver._highs), "run", "HiGHS run()")
+    timing(FeedbackSolver, "_solution", "solution (margins, plan)")
+    tick = time.process_time()
     try:
-        config = preset(name, start=start, days=steps / 48.0 + 1.0)
-        run_simulation(config, out / name, progress=False, stop_after_steps=steps)
+        for problem in problems[1:]:
+            solver.solve(problem)
     finally:
-        for solver_class, original in originals.items():
-            setattr(solver_class, "solve", original)  # noqa: B010
-    return problems
+        for owner, attribute, original in reversed(patched):
+            setattr(owner, attribute, original)
+    parts["step"] = time.process_time() - tick
+    parts["run + read solution/basis"] -= parts["HiGHS run()"]
+    parts["rest (matrix data, checks)"] = 2 * parts["step"] - sum(parts.values())
+    return {part: 1e3 * total / (len(problems) - 1) for part, total in parts.items()}
 
 
 def timed(solve: Callable[[RMPCProblem], Any], problems: list[RMPCProblem]) -> dict[str, Any]:
@@ -98,9 +123,8 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=48)
     parser.add_argument("--cold-every", type=int, default=4)
     args = parser.parse_args()
-    with tempfile.TemporaryDirectory() as folder:
-        feedback = record("rmpc-feedback", args.start, args.steps, Path(folder))
-        open_loop = record("rmpc", args.start, args.steps, Path(folder))
+    feedback = record("rmpc-feedback", args.start, args.steps)
+    open_loop = record("rmpc", args.start, args.steps)
     whole_horizon = [dataclasses.replace(p, robust="tightening", feedback=None) for p in feedback]
     warm_open = RMPCSolver(open_loop[0])
     warm_whole = RMPCSolver(whole_horizon[0])
@@ -140,6 +164,10 @@ def main() -> None:
         f"{median['feedback cold (rebuild each step)'] / fb:.0f}x"
     )
     print(f"warm vs cold objective, worst relative difference: {worst:.1e}")
+    split = warm_split(feedback)
+    print("CPU split of a feedback warm step, mean over steps 1.. [ms]:")
+    for part, value in split.items():
+        print(f"  {part:<36} {value:7.1f}")
 
 
 if __name__ == "__main__":

@@ -166,3 +166,38 @@ def test_open_loop_solver_refuses_a_feedback_problem() -> None:
     problem = random_problem(0, robust="feedback", feedback=FeedbackOptions())
     with pytest.raises(ProblemError, match="FeedbackSolver"):
         RMPCSolver(problem)
+
+
+@pytest.mark.parametrize("structure", ["time-invariant", "zone-local"])
+@pytest.mark.parametrize("seed", range(3))
+def test_lag_response_equals_the_full_response(seed: int, structure: str) -> None:
+    """The per-lag response (shift-invariant gains) is the full product's, block by block,
+    and so are the realised margins reported in the solution."""
+    from hvacflex.opt.feedback import feedback_maps
+    from hvacflex.opt.feedback_result import (
+        gains_tensor,
+        lag_output_response,
+        output_response,
+        realised_margins,
+    )
+
+    options = FeedbackOptions(structure=structure, memory_steps=3)  # type: ignore[arg-type]
+    problem = random_problem(seed, horizon=9, robust="feedback", feedback=options)
+    maps = feedback_maps(problem, options)
+    assert maps.gains.shift_invariant
+    theta = np.random.default_rng(seed).normal(size=maps.gains.num_gains)
+    tensor = gains_tensor(maps, theta, problem.horizon, problem.m, problem.nd)
+    full = output_response(maps, tensor)
+    lags = lag_output_response(maps, tensor)
+    for k1, j in itertools.product(range(problem.horizon), repeat=2):
+        expected = lags[k1 - j] if k1 >= j else np.zeros_like(lags[0])
+        np.testing.assert_allclose(full[k1, j], expected, rtol=1e-12, atol=1e-12)
+    general = np.einsum("kjal,jl->ka", np.abs(full), problem.d_sigma)
+    np.testing.assert_allclose(
+        realised_margins(maps, tensor, problem.d_sigma), general, rtol=1e-12, atol=1e-12
+    )
+    solution = FeedbackSolver(problem).solve(problem)
+    assert solution.ok and np.any(solution.feedback_gains != 0.0)
+    response = np.abs(output_response(maps, solution.feedback_gains))
+    reported = np.einsum("kjal,jl->ka", response, problem.d_sigma)
+    np.testing.assert_allclose(solution.delta, reported, rtol=1e-12, atol=1e-12)

@@ -13,6 +13,7 @@ Modules, each importing only those above it:
   per constraint family;
 - :mod:`~hvacflex.opt.solution`: :class:`RMPCSolution` and how it is built from a plan;
 - :mod:`~hvacflex.opt.feedback`: the affine disturbance-feedback parameterisation and its LP;
+- :mod:`~hvacflex.opt.feedback_result`: a feedback LP's solution (gains, realised margins);
 - :mod:`~hvacflex.opt.basis`: simplex bases as arrays (time shift, checks);
 - :mod:`~hvacflex.opt.highs_lp`: generic HiGHS helpers (model, status, one-shot solve);
 - :mod:`~hvacflex.opt.feedback_solve`: the feedback solver (cold, via highs_lp);

@@ -72,7 +72,8 @@ on k − j only, so there are N − 1 keys instead of ~N²/2 — this is what ma
 fast. The LP is built over :class:`hvacflex.opt.lp.LPBuilder` (sharing the plan variables,
 dynamics, comfort rows and plan costs with the open-loop LP) by the ``add_…`` functions below,
 and solved by :class:`hvacflex.opt.feedback_solve.FeedbackSolver`, warm-started from the
-previous step's basis rotated by one step. The structural coefficients (gains, Ψ and Y rows)
+previous step's basis rotated by one step; the solution (gains tensor, realised margins) is
+read by :mod:`hvacflex.opt.feedback_result`. The structural coefficients (gains, Ψ and Y rows)
 depend only on the problem's structure and are assembled once (:func:`build_feedback_lp` with
 ``constants``); σ and p enter as *varying* coefficients in fixed positions (zeros kept), so
 the sparsity pattern is fixed for a given φ support (φ = 0 everywhere or not).
@@ -85,7 +86,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-from scipy import linalg, sparse
+from scipy import linalg
 
 from hvacflex.opt.lp import (
     LinearProgram,
@@ -100,13 +101,6 @@ from hvacflex.opt.lp import (
 from hvacflex.opt.options import FeedbackOptions
 from hvacflex.opt.problem import FloatArray, IntArray, RMPCProblem
 from hvacflex.opt.robust import impulse_responses, margin_operator, robust_margins
-from hvacflex.opt.solution import (
-    RMPCSolution,
-    SolveStatus,
-    failed_solution,
-    plan_from_values,
-    plan_solution,
-)
 from hvacflex.units import KWH_PER_MWH
 
 #: Relative pivot below which a (column-normalised) column of E counts as dependent.
@@ -121,11 +115,8 @@ __all__ = [
     "GainParameterisation",
     "build_feedback_lp",
     "feedback_maps",
-    "feedback_solution",
     "gain_parameterisation",
-    "gains_tensor",
     "innovation_basis",
-    "output_response",
     "pair_shift",
 ]
 
@@ -600,49 +591,6 @@ def build_feedback_lp(
     return lp.finish(), v, f
 
 
-# ---------------------------------------------------------------------- solution
-
-
-def gains_tensor(
-    maps: FeedbackMaps, theta: FloatArray, horizon: int, m: int, nd: int
-) -> FloatArray:
-    """(N, N, m, nd) gains ``U_{k,j}`` (coefficient of w_j in u_k [kg/s per unit of w])
-    from the gain values Θ."""
-    gains = maps.gains
-    tensor = np.zeros((horizon, horizon, m, nd))
-    if gains.num_gains:
-        e_app = gains.app_entry
-        np.add.at(
-            tensor,
-            (gains.app_step, gains.app_source, gains.entry_input[e_app]),
-            theta[e_app][:, None] * gains.k_matrix[gains.entry_component[e_app]],
-        )
-    scaled: FloatArray = tensor * maps.scale  # coefficient on w = coefficient on w̃ · ‖E_l‖
-    return scaled
-
-
-def output_response(maps: FeedbackMaps, tensor: FloatArray) -> FloatArray:
-    """(N, N, ny, nd) ``Y[k-1, j]``: coefficient of w_j in C x_k under the gains ``tensor``.
-
-    ``tensor`` as from :func:`gains_tensor` (per unit of w); so is the result.
-    """
-    horizon = tensor.shape[0]
-    ny, nd = maps.g_resp.shape[1:]
-    lag = np.arange(horizon)[:, None] - np.arange(horizon)[None, :]  # (k-1) - j
-    causal = (lag >= 0)[:, :, None, None]
-    response = np.where(causal, maps.g_resp[np.clip(lag, 0, None)], 0.0)
-    h_full = np.where(causal, maps.h_resp[np.clip(lag, 0, None)], 0.0)  # [k-1, t]
-    # Σ_t H_{k-1-t} U_{t,j} with t ≤ k-1 (U_{t,j} = 0 for t ≤ j)
-    m = tensor.shape[2]  # [(k, a), (t, b)] @ [(t, b), (j, l)], the gains sparse (lags ≤ L)
-    h_rows = h_full.transpose(0, 2, 1, 3).reshape(horizon * ny, horizon * m)
-    u_cols = (tensor / maps.scale).transpose(0, 2, 1, 3).reshape(horizon * m, horizon * nd)
-    product = np.asarray((sparse.csc_matrix(u_cols).T @ h_rows.T).T)
-    feedback_part = product.reshape(horizon, ny, horizon, nd).transpose(0, 2, 1, 3)
-    response = response + feedback_part
-    result: FloatArray = response.reshape(horizon, horizon, ny, nd) * maps.scale
-    return result
-
-
 @dataclass(frozen=True)
 class FeedbackLPSize:
     """Size of one assembled feedback LP."""
@@ -651,49 +599,3 @@ class FeedbackLPSize:
     num_rows: int
     num_nonzeros: int
     num_gains: int
-
-
-def feedback_solution(
-    problem: RMPCProblem,
-    maps: FeedbackMaps,
-    columns: tuple[PlanColumns, FeedbackColumns],
-    *,
-    status: SolveStatus,
-    values: FloatArray,
-    message: str,
-    start: float,
-    highs_time_s: float,
-    simplex_iterations: int = 0,
-    warm_start: bool = False,
-) -> RMPCSolution:
-    """The :class:`RMPCSolution` of a feedback LP's primal ``values`` (NaN unless optimal);
-    ``message`` says what was solved (size, structure) and HiGHS's verdict."""
-    horizon, m, ny, nd = problem.horizon, problem.m, problem.ny, problem.nd
-    if not status.ok:
-        return failed_solution(
-            problem,
-            status=status,
-            message=f"{status.value}: {message}; no plan returned",
-            delta=np.full((horizon, ny), np.nan),
-            start=start,
-            highs_time_s=highs_time_s,
-            simplex_iterations=simplex_iterations,
-            warm_start=warm_start,
-        )
-    plan_cols, feedback_cols = columns
-    tensor = gains_tensor(maps, values[feedback_cols.theta], horizon, m, nd)
-    # the margins the gains actually give: Σ_j |Y_{k,j}| σ_j
-    delta = np.abs(output_response(maps, tensor)).reshape(horizon, horizon, ny, nd)
-    delta = np.einsum("kjal,jl->ka", delta, problem.d_sigma, optimize=True)
-    return plan_solution(
-        problem,
-        status=status,
-        message=f"optimal: {message}",
-        plan=plan_from_values(problem, plan_cols, values),
-        delta=delta,
-        start=start,
-        highs_time_s=highs_time_s,
-        simplex_iterations=simplex_iterations,
-        warm_start=warm_start,
-        feedback_gains=tensor,
-    )

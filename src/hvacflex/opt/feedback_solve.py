@@ -19,7 +19,9 @@ in-place coefficient updates (``changeCoeff``, ≈ 2 µs each) slower than repla
 model: each step the matrix data are assembled into the fixed CSC pattern
 (:class:`MatrixPattern`, one ``bincount``), passed to HiGHS in one call
 (:func:`hvacflex.opt.highs_lp.pass_csc_model`, ≈ 4 ms) and the rotated basis is set; HiGHS
-then factorises that basis once (≈ 20–30 ms, the bulk of a warm step) and iterates.
+then factorises that basis once (≈ 20–30 ms, the bulk of a warm step) and iterates. If
+HiGHS fails on the rotated basis (near-singular), the step is re-run from the previous
+optimal basis unrotated, and only then cold.
 
 ``warm_start=False`` is the previous behaviour (rebuild and solve cold each step, with
 presolve and scaling), kept for verification and the benchmark.
@@ -50,10 +52,8 @@ from hvacflex.opt.feedback import (
     FeedbackLPSize,
     build_feedback_lp,
     feedback_maps,
-    feedback_solution,
-    gains_tensor,
-    output_response,
 )
+from hvacflex.opt.feedback_result import feedback_solution, gains_tensor, output_response
 from hvacflex.opt.highs_lp import (
     HIGHS_ERROR,
     STATUS_MAP,
@@ -74,6 +74,11 @@ __all__ = ["DEFAULT_LP_METHOD", "FeedbackSolver", "MatrixPattern"]
 DEFAULT_LP_METHOD = "simplex"
 
 #: Options of every solve: quiet, single-threaded (reproducible), Devex dual pricing (1).
+#: A cold run keeps HiGHS's presolve and scaling: without presolve and with max-value
+#: scaling (``simplex_scale_strategy`` 4) a cold office5 step took ≈ 20–40 % less CPU
+#: (≈ 7,300 instead of ≈ 8,100 iterations), but every warm step after it took ≈ 20–35 % more
+#: (with fewer iterations; the cause was not isolated), which cancelled the gain within a
+#: day (docs/performance.md, "Feedback RMPC").
 _BASE_OPTIONS: dict[str, Any] = {
     "output_flag": False,
     "log_to_console": False,
@@ -172,6 +177,10 @@ class FeedbackSolver:
         every step (the behaviour before the warm start; for verification and benchmarks)
     time_shift : each problem is the previous one a step later: rotate the basis by one step
         (False: restart from the previous basis as is, e.g. re-solving one step's problem)
+    feasibility_tolerance : HiGHS's primal and dual feasibility tolerances of every solve
+        (warm and cold); None keeps HiGHS's 1e-7. Tighter tolerances make the optimum's
+        objective independent of the vertex the simplex stops at (the exactness tests use
+        1e-10); the product path keeps the default.
     """
 
     def __init__(
@@ -182,6 +191,7 @@ class FeedbackSolver:
         method: str = DEFAULT_LP_METHOD,
         warm_start: bool = True,
         time_shift: bool = True,
+        feasibility_tolerance: float | None = None,
     ) -> None:
         if problem.robust != "feedback" or problem.feedback is None:
             raise ProblemError(
@@ -210,6 +220,10 @@ class FeedbackSolver:
         for option, value in _BASE_OPTIONS.items():
             self._highs.setOptionValue(option, value)
         _, self._cold_scale_strategy = self._highs.getOptionValue("simplex_scale_strategy")
+        self._tolerance = feasibility_tolerance
+        if feasibility_tolerance is not None:
+            for option in ("primal_feasibility_tolerance", "dual_feasibility_tolerance"):
+                self._highs.setOptionValue(option, feasibility_tolerance)
         # statuses of the last optimal basis (or of set_basis), to start the next solve from
         self._basis: tuple[StatusArray, StatusArray] | None = None
         self._start: tuple[StatusArray, StatusArray] | None = None  # this solve's start
@@ -265,13 +279,7 @@ class FeedbackSolver:
                 False,
             )
         else:
-            warm = self._start_from(lp)
-            status, values, message, highs_time, iterations = self._run_and_read(lp, warm)
-            if status is SolveStatus.ERROR and warm:  # retry once from scratch
-                self._highs.clearSolver()
-                warm = False
-                status, values, message, more_time, more = self._run_and_read(lp, False)
-                highs_time, iterations = highs_time + more_time, iterations + more
+            status, values, message, highs_time, iterations, warm = self._run_with_retries(lp)
         return self._solution(
             problem,
             lp,
@@ -280,8 +288,37 @@ class FeedbackSolver:
             start,
         )
 
-    def _start_from(self, lp: LinearProgram) -> bool:
-        """Set the previous basis (rotated by one step if ``time_shift``); whether one was set.
+    def _run_with_retries(
+        self, lp: LinearProgram
+    ) -> tuple[SolveStatus, FloatArray, str, float, int, bool]:
+        """Run from the rotated previous basis; if HiGHS fails on it (a rotated basis can be
+        near-singular: "ratio test failed due to excessive dual values"), from the previous
+        optimal basis unrotated (one HiGHS has factorised before), then from scratch.
+        Returns status, values, message, HiGHS time [s], iterations and whether it ran warm."""
+        previous = self._basis
+        warm = self._start_from(lp)
+        status, values, message, highs_time, iterations = self._run_and_read(lp, warm)
+        retries = []
+        if warm and self._time_shift and previous is not None:
+            retries.append(False)  # unrotated
+        if warm:
+            retries.append(True)  # cold
+        for cold in retries:
+            if status is not SolveStatus.ERROR:
+                break
+            if cold:
+                self._highs.clearSolver()
+                warm = False
+            else:
+                self._basis = previous
+                warm = self._start_from(lp, shift=False)
+            status, values, message, more_time, more = self._run_and_read(lp, warm)
+            highs_time, iterations = highs_time + more_time, iterations + more
+        return status, values, message, highs_time, iterations, warm
+
+    def _start_from(self, lp: LinearProgram, *, shift: bool = True) -> bool:
+        """Set the previous basis (rotated by one step if ``time_shift`` and ``shift``);
+        whether one was set.
 
         Nonbasic statuses that the current bounds do not allow are replaced by the ones the
         bounds imply; nonbasic rows sit at their only finite bound.
@@ -290,7 +327,7 @@ class FeedbackSolver:
         if self._basis is None:
             return False
         col_status, row_status = self._basis
-        if self._time_shift:
+        if self._time_shift and shift:
             col_status = col_status[self._layout.col_rotation]
             row_status = row_status[self._layout.row_rotation]
         col_status = consistent_status(
@@ -325,7 +362,7 @@ class FeedbackSolver:
             if run_status == HIGHS_ERROR
             else STATUS_MAP.get(model_status, SolveStatus.ERROR)
         )
-        iterations = int(highs.getInfo().simplex_iteration_count)
+        iterations = max(0, int(highs.getInfo().simplex_iteration_count))  # -1 on error
         message = (
             f"HiGHS: {highs.modelStatusToString(model_status)} ({iterations} simplex "
             f"iterations, {'warm' if warm else 'cold'})"
@@ -393,18 +430,19 @@ class FeedbackSolver:
             lp.col_upper,
             time_limit_s=self._time_limit_s,
             method=self._method,
+            feasibility_tolerance=self._tolerance,
         )
         outcome = (result.status, result.x, result.message, result.time_s, 0, False)
         return self._solution(problem, lp, (plan_cols, feedback_cols), outcome, start)
 
     def gains_tensor(self, theta: FloatArray, horizon: int, m: int, nd: int) -> FloatArray:
         """(N, N, m, nd) gains ``U_{k,j}`` from the gain values Θ (see
-        :func:`hvacflex.opt.feedback.gains_tensor`)."""
+        :func:`hvacflex.opt.feedback_result.gains_tensor`)."""
         return gains_tensor(self._maps, theta, horizon, m, nd)
 
     def output_response(self, tensor: FloatArray) -> FloatArray:
         """(N, N, ny, nd) output response ``Y[k-1, j]`` under the gains ``tensor`` (see
-        :func:`hvacflex.opt.feedback.output_response`)."""
+        :func:`hvacflex.opt.feedback_result.output_response`)."""
         return output_response(self._maps, tensor)
 
     def get_basis(self) -> SolverBasis | None:

@@ -170,6 +170,7 @@ def solve_lp(
     *,
     time_limit_s: float | None = None,
     method: str = "choose",
+    feasibility_tolerance: float | None = None,
 ) -> LPResult:
     """Solve ``min costᵀx s.t. row_lower ≤ A x ≤ row_upper, col_lower ≤ x ≤ col_upper`` cold.
 
@@ -183,6 +184,8 @@ def solve_lp(
     row_lower, row_upper : (num_rows,) row bounds (±inf allowed)
     time_limit_s : wall-clock limit [s]; None = no limit
     method : HiGHS ``solver`` option: "choose", "simplex" or "ipm"
+    feasibility_tolerance : HiGHS's primal and dual feasibility tolerances; None keeps
+        HiGHS's (1e-7)
 
     Returns
     -------
@@ -198,6 +201,9 @@ def solve_lp(
         ("time_limit", float(time_limit_s) if time_limit_s is not None else np.inf),
     ):
         highs.setOptionValue(option, value)
+    if feasibility_tolerance is not None:
+        for option in ("primal_feasibility_tolerance", "dual_feasibility_tolerance"):
+            highs.setOptionValue(option, feasibility_tolerance)
     num_cols = a_csr.shape[1]
     lp = highs_lp(cost, a_csr, row_lower, row_upper, col_lower, col_upper)
     if highs.passModel(lp) == highspy.HighsStatus.kError:
