@@ -76,13 +76,6 @@ class _StagedSolver(RMPCSolver):
         self.staged = None
         return super().solve(problem)
 
-    def cap_values_sgd_per_kw(self) -> FloatArray:
-        """(N,) marginal value of the power caps at the last optimum [SGD per kW of cap]:
-        minus the reduced costs of the plan's power columns (≥ 0; 0 where a cap is slack)."""
-        duals = np.asarray(self._highs.getSolution().col_dual, dtype=float)
-        value: FloatArray = np.maximum(-duals[self.layout.plan.power], 0.0)
-        return value
-
 
 class FleetController(MPCController):
     """The building's MPC, driven by the fleet coordinator.
@@ -355,7 +348,7 @@ class BuildingAgent:
         last = self._last
         if last is None or last.status is not SolveStatus.OPTIMAL:
             return np.zeros(base.horizon)
-        return self.controller.solver(base).cap_values_sgd_per_kw()
+        return self.controller.solver(base).power_cap_values_sgd_per_kw()
 
     def advance(self) -> dict[str, float]:
         """Apply the staged plan's first step to the plant; the step's row values."""

@@ -193,6 +193,7 @@ class RMPCSolver:
         # statuses of the last optimal basis (or of set_basis), to start the next solve from
         self._basis: tuple[StatusArray, StatusArray] | None = None
         self._basis_given = False
+        self._optimal = False  # the last solve ended optimal (its duals are meaningful)
 
     # ------------------------------------------------------------------ properties
     @property
@@ -418,6 +419,7 @@ class RMPCSolver:
             if not status.ok:
                 values = None
         self._basis_given = False
+        self._optimal = values is not None and status is SolveStatus.OPTIMAL
         if values is not None:
             self._basis = self._optimal_basis(values)
             self._has_basis = True
@@ -559,6 +561,30 @@ class RMPCSolver:
     def highs_objective_sgd(self) -> float:
         """HiGHS's objective value of the last solve (includes the reserve tie-break) [SGD]."""
         return float(self._highs.getInfo().objective_function_value)
+
+    def power_cap_values_sgd_per_kw(self) -> FloatArray:
+        """(N,) marginal value of the power caps at the last optimum [SGD per kW of cap].
+
+        Entry k is how much the optimal objective falls per kW added to
+        ``RMPCProblem.power_max_kw`` in period k: minus the reduced cost (column dual) of the
+        plan's power column k, ≥ 0, and 0 where the cap is slack (or +inf). With lazy event
+        rows it is the dual of the final LP, which has the same optimum as the full one.
+
+        Raises
+        ------
+        ProblemError
+            if the last :meth:`solve` did not end optimal (or none ran yet).
+        """
+        if not self._optimal:
+            raise ProblemError(
+                "no optimal solution to take the cap values from",
+                source="RMPCSolver",
+                field="power_max_kw",
+                hint="call solve() first and check that its status is OPTIMAL",
+            )
+        duals = np.asarray(self._highs.getSolution().col_dual, dtype=float)
+        value: FloatArray = np.maximum(-duals[self._layout.plan.power], 0.0)
+        return value
 
     # ------------------------------------------------------------------ basis
     def get_basis(self) -> SolverBasis | None:
