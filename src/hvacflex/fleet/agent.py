@@ -22,6 +22,7 @@ buildings; it is what runs as a Dask actor.
 from __future__ import annotations
 
 import dataclasses
+import time
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -387,9 +388,12 @@ class BuildingGroup:
     def __init__(
         self, fleet_doc: dict[str, Any], indices: list[int], settings: FleetSettings
     ) -> None:
+        tick, cpu = time.perf_counter(), time.process_time()
         fleet = fleet_from_dict(fleet_doc, source="fleet")
         self.indices = list(indices)
         self.agents = [BuildingAgent(fleet.buildings[i], i, settings) for i in self.indices]
+        self.setup_s = (time.perf_counter() - tick, time.process_time() - cpu)
+        """(wall, process CPU) time [s] this group took to build its agents."""
 
     def begin_step(self) -> tuple[FloatArray, FloatArray, FloatArray]:
         """(B, N) minimum and maximum power [kW] and (B, N) energy prices [SGD/MWh]."""
@@ -414,6 +418,14 @@ class BuildingGroup:
         """(B, N) marginal values of the caps at the last solves [SGD/kW]."""
         return np.array([agent.cap_values() for agent in self.agents])
 
+    def finalize_with_values(
+        self, price_sgd_per_mwh: FloatArray, cap_kw: FloatArray
+    ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+        """:meth:`finalize`, and the cap values (B, N) [SGD/kW] after it (one round trip
+        instead of two in the cap reallocation)."""
+        power, cost, lagrangian = self.finalize(price_sgd_per_mwh, cap_kw)
+        return power, cost, lagrangian, self.cap_values()
+
     def advance(self) -> dict[str, FloatArray]:
         """Step every plant; (B,) arrays of the step's planned and realised power etc."""
         rows = [agent.advance() for agent in self.agents]
@@ -432,6 +444,10 @@ class BuildingGroup:
 
     def ping(self) -> int:
         return len(self.agents)
+
+    def timings(self) -> tuple[float, float, float]:
+        """(set-up wall [s], set-up CPU [s], this process's CPU time so far [s]) (benchmarks)."""
+        return self.setup_s[0], self.setup_s[1], time.process_time()
 
 
 def _stack(parts: list[StepSolve]) -> tuple[FloatArray, FloatArray, FloatArray]:
