@@ -8,7 +8,9 @@ runs ``--steps`` steps from ``--start`` on a ``LocalCluster`` of W single-thread
   groups' own agent-building time (wall, and CPU summed over the workers);
 * the cold first step (every building's first, cold solve) and the mean of the warm steps
   after it: wall time, and CPU time summed over the workers (on a loaded machine the CPU
-  time is the measure of work; wall time depends on the load);
+  time is the measure of work; wall time depends on the load); the busiest worker's CPU and
+  the coordinator's (this process: coordination, Dask client and scheduler) per warm step —
+  on an idle machine a warm step cannot take less than the busiest worker's CPU time;
 * coordination iterations and cap-reallocation rounds per step;
 * the workers' resident memory after the run (memory per building = the slope between fleet
   sizes at the same W).
@@ -59,8 +61,11 @@ def measure(
         marks: list[float] = []
         timings: list[np.ndarray] = []
 
+        coordinator_cpu: list[float] = []
+
         def on_step(k: int, groups: Any) -> None:
             marks.append(time.perf_counter())
+            coordinator_cpu.append(time.process_time())
             timings.append(_group_timings(groups))
             print(f"  step {k}: {marks[-1] - t0:.1f} s since start", flush=True)
             if k == steps and groups.client is not None:
@@ -80,14 +85,16 @@ def measure(
     frame = result.frame
     step_s = frame["step_time_s"].to_numpy(float)
     first = timings[0]
-    cpu_at = np.array([t[:, 2].sum() for t in timings])
+    group_cpu = np.diff(np.array([t[:, 2] for t in timings]), axis=0)  # (steps - 1, G)
     return {
         "setup_s": marks[0] - t0 - step_s[0],
         "agents_wall_s": float(first[:, 0].max()),
         "agents_cpu_s": float(first[:, 1].sum()),
         "cold_s": float(step_s[0]),
         "warm_s": float(np.mean(step_s[1:])) if steps > 1 else float("nan"),
-        "warm_cpu_s": float(np.mean(np.diff(cpu_at))) if steps > 1 else float("nan"),
+        "warm_cpu_s": float(np.mean(group_cpu.sum(axis=1))) if steps > 1 else float("nan"),
+        "warm_group_cpu_max_s": float(np.mean(group_cpu.max(axis=1))) if steps > 1 else np.nan,
+        "warm_coordinator_cpu_s": float(np.mean(np.diff(coordinator_cpu))) if steps > 1 else np.nan,
         "iterations": float(frame["coordination_iterations"].mean()),
         "rss_mib": sum(memory) / MIB,
     }
@@ -105,10 +112,11 @@ def main() -> None:
     print(f"load average at start: {os.getloadavg()}", flush=True)
     header = (
         "| buildings | workers | set-up [s] | agents wall / CPU [s] | cold step [s] | "
-        "warm step wall / CPU [s] | iterations/step | worker memory [MiB] |"
+        "warm step wall / CPU [s] | busiest worker / coordinator CPU [s] | iterations/step | "
+        "worker memory [MiB] |"
     )
     print(header)
-    print("|---|---|---|---|---|---|---|---|", flush=True)
+    print("|---|---|---|---|---|---|---|---|---|", flush=True)
     for buildings in args.buildings:
         for workers in args.workers:
             r = measure(
@@ -117,7 +125,8 @@ def main() -> None:
             print(
                 f"| {buildings} | {workers} | {r['setup_s']:.1f} | {r['agents_wall_s']:.1f} / "
                 f"{r['agents_cpu_s']:.1f} | {r['cold_s']:.2f} | {r['warm_s']:.2f} / "
-                f"{r['warm_cpu_s']:.2f} | {r['iterations']:.1f} | {r['rss_mib']:.0f} |",
+                f"{r['warm_cpu_s']:.2f} | {r['warm_group_cpu_max_s']:.2f} / "
+                f"{r['warm_coordinator_cpu_s']:.2f} | {r['iterations']:.1f} | {r['rss_mib']:.0f} |",
                 flush=True,
             )
             print(f"load average now: {os.getloadavg()}", flush=True)
