@@ -81,3 +81,33 @@ def test_cap_values_need_an_optimal_solve() -> None:
     solver.solve(problem)
     values = solver.power_cap_values_sgd_per_kw()
     assert np.all(values == 0.0)  # no cap: nothing to gain from more of it
+
+
+def test_with_price_and_cap_equals_replace_and_checks_its_fields() -> None:
+    problem = random_problem(np.random.default_rng(5))
+    price = problem.energy_price_sgd_per_mwh + np.linspace(0.0, 40.0, problem.horizon)
+    cap = np.full(problem.horizon, 1e3)
+    variant = problem.with_price_and_cap(price, cap)
+    replaced = dataclasses.replace(problem, energy_price_sgd_per_mwh=price, power_max_kw=cap)
+    for f in dataclasses.fields(problem):
+        if f.init:
+            np.testing.assert_array_equal(
+                np.asarray(getattr(variant, f.name), dtype=object),
+                np.asarray(getattr(replaced, f.name), dtype=object),
+                err_msg=f.name,
+            )
+    assert variant.structure is problem.structure
+    assert problem.power_max_kw.shape == (problem.horizon,) and np.all(
+        np.isinf(problem.power_max_kw)
+    )
+    solver = RMPCSolver(problem, time_shift=False)
+    solver.solve(problem)
+    warm = solver.solve(variant)
+    assert warm.objective_sgd == pytest.approx(solve_rmpc(replaced).objective_sgd, rel=1e-7)
+    with pytest.raises(ProblemError, match="energy_price_sgd_per_mwh"):
+        problem.with_price_and_cap(price[:-1])
+    with pytest.raises(ProblemError, match="power_max_kw"):
+        problem.with_price_and_cap(price, -np.inf)
+    feedback = dataclasses.replace(problem, robust="feedback")
+    with pytest.raises(ProblemError, match="power_max_kw"):
+        feedback.with_price_and_cap(price, cap)

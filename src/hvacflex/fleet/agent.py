@@ -284,11 +284,9 @@ class BuildingAgent:
     def _solve(self, price_kw: FloatArray, cap_kw: FloatArray | None = None) -> StepSolve:
         base = self._problem
         assert base is not None, "begin_step() first"
-        changes: dict[str, Any] = {
-            "energy_price_sgd_per_mwh": base.energy_price_sgd_per_mwh + price_kw,
-            "power_max_kw": np.inf if cap_kw is None else cap_kw,
-        }
-        problem = dataclasses.replace(base, **changes)
+        problem = base.with_price_and_cap(
+            base.energy_price_sgd_per_mwh + price_kw, np.inf if cap_kw is None else cap_kw
+        )
         solution = self.controller.solver(problem).solve_now(problem)
         self._last, self._last_price = solution, price_kw.copy()
         self._last_cap = np.inf if cap_kw is None else np.asarray(cap_kw, dtype=float).copy()

@@ -390,6 +390,7 @@ class RMPCSolver:
                     field=differences[0],
                     hint="build a new RMPCSolver for a problem with another structure",
                 )
+            self._structure = problem.structure  # equal: its variants skip the comparison
         delta = self._delta(problem)
         if problem is not self._last_problem:
             self._update(problem, delta)
