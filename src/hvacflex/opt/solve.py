@@ -234,7 +234,7 @@ class RMPCSolver:
         self._num_core = int(events[0]) if events.size else lp.num_rows
         assert events.size == 0 or int(events[-1]) == lp.num_rows - 1  # event rows come last
         self._event_matrix = matrix[self._num_core :].tocsr()
-        self._event_indices = self._event_matrix.indices.astype(np.int32)
+        self._event_indices = np.asarray(self._event_matrix.indices, dtype=np.int32)  # no copy
         num_model = self._num_core if self._lazy else lp.num_rows
         self._model_rows = np.arange(num_model, dtype=np.int64)  # HiGHS row -> LP row
         self._present = np.zeros(events.size, dtype=bool)  # lazy: event rows in HiGHS
