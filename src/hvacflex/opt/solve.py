@@ -44,6 +44,7 @@ basis unrotated, then from scratch (cold), before the error is reported.
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from typing import Any, Literal
 
@@ -72,7 +73,7 @@ from hvacflex.opt.highs_lp import (
     quiet_highs,
     solve_lp,
 )
-from hvacflex.opt.lp import LPLayout, build_lp, sparse_matrix
+from hvacflex.opt.lp import LinearProgram, LPLayout, build_lp, sparse_matrix
 from hvacflex.opt.problem import BoolArray, FloatArray, IntArray, RMPCProblem
 from hvacflex.opt.robust import impulse_responses, margin_operator, robust_margins
 from hvacflex.opt.solution import (
@@ -254,7 +255,8 @@ class RMPCSolver:
                 source="RMPCSolver",
                 hint="check the problem arrays for extreme magnitudes",
             )
-        self._lp = lp
+        # HiGHS holds the matrix now: the structural coefficients (≈ 4 MiB) are not kept
+        self._lp: LinearProgram = dataclasses.replace(lp, constant=None)
         self._bounds_changed()
         if self._lazy:
             self._set_event_rows(self._seed)
