@@ -596,25 +596,17 @@ def surface_column_name(azimuth_deg: float, tilt_deg: float) -> str:
     return f"solar_az{azimuth_deg:g}_tilt{tilt_deg:g}_w_per_m2"
 
 
-SolarGeometry = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
-"""(T,) apparent zenith [°], solar azimuth [°], extraterrestrial DNI [W/m²], relative
-airmass, at the period midpoints."""
-
-
-def _solar_geometry_on(mid: pd.DatetimeIndex, location: EpwLocation) -> SolarGeometry:
-    """The solar geometry at the times ``mid`` (arrays read-only: they may be cached)."""
+def _solar_geometry_on(mid: pd.DatetimeIndex, location: EpwLocation) -> tuple[np.ndarray, ...]:
+    """(T,) apparent zenith [°], solar azimuth [°], extraterrestrial DNI [W/m²] and relative
+    airmass at the times ``mid`` (read-only arrays: they may be cached)."""
     import pvlib
 
-    position = pvlib.solarposition.get_solarposition(
-        mid, location.latitude_deg, location.longitude_deg, altitude=location.elevation_m
-    )
+    lat, lon, alt = location.latitude_deg, location.longitude_deg, location.elevation_m
+    position = pvlib.solarposition.get_solarposition(mid, lat, lon, altitude=alt)
     zenith = position["apparent_zenith"].to_numpy()
-    arrays = (
-        zenith,
-        position["azimuth"].to_numpy(),
-        pvlib.irradiance.get_extra_radiation(mid).to_numpy(),
-        np.asarray(pvlib.atmosphere.get_relative_airmass(zenith), dtype=float),
-    )
+    extra = pvlib.irradiance.get_extra_radiation(mid).to_numpy()
+    airmass = np.asarray(pvlib.atmosphere.get_relative_airmass(zenith), dtype=float)
+    arrays = (zenith, position["azimuth"].to_numpy(), extra, airmass)
     for array in arrays:
         array.flags.writeable = False
     return arrays
@@ -623,12 +615,12 @@ def _solar_geometry_on(mid: pd.DatetimeIndex, location: EpwLocation) -> SolarGeo
 @functools.lru_cache(maxsize=16)
 def _solar_geometry(
     first_ns: int, periods: int, step_ns: int, tz: str, location: EpwLocation
-) -> SolarGeometry:
-    """:func:`_solar_geometry_on` the midpoints of a regular index, cached: every building of
-    a fleet (every surface of a building) shares the sun of one site and period."""
-    starts = pd.date_range(pd.Timestamp(first_ns, tz="UTC").tz_convert(tz), periods=periods,
-                           freq=pd.Timedelta(step_ns, unit="ns"))  # fmt: skip
-    return _solar_geometry_on(starts + pd.Timedelta(step_ns // 2, unit="ns"), location)
+) -> tuple[np.ndarray, ...]:
+    """:func:`_solar_geometry_on` a regular index's midpoints, cached (shared by a fleet)."""
+    step = pd.Timedelta(step_ns, unit="ns")
+    first = pd.Timestamp(first_ns, tz="UTC").tz_convert(tz)
+    starts = pd.date_range(first, periods=periods, freq=step)
+    return _solar_geometry_on(starts + step / 2, location)
 
 
 def surface_irradiance_w_per_m2(
@@ -671,11 +663,12 @@ def surface_irradiance_w_per_m2(
         )
     stamps = index.as_unit("ns").asi8
     step_ns = int(stamps[1] - stamps[0])
-    if bool(np.all(np.diff(stamps) == step_ns)):  # regular: the geometry is shared (cached)
-        geometry = _solar_geometry(int(stamps[0]), len(index), step_ns, str(index.tz), location)
-    else:
-        geometry = _solar_geometry_on(index + (index[1] - index[0]) / 2, location)
-    zenith, azimuth, dni_extra, airmass = geometry
+    regular = bool(np.all(np.diff(stamps) == step_ns))  # then the geometry is cached
+    zenith, azimuth, dni_extra, airmass = (
+        _solar_geometry(int(stamps[0]), len(index), step_ns, str(index.tz), location)
+        if regular
+        else _solar_geometry_on(index + (index[1] - index[0]) / 2, location)
+    )
     dni = np.where(zenith < 90.0, weather["dni_w_per_m2"].to_numpy(dtype=float), 0.0)
     ghi = weather["ghi_w_per_m2"].to_numpy(dtype=float)
     dhi = weather["dhi_w_per_m2"].to_numpy(dtype=float)
