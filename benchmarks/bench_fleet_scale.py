@@ -1,11 +1,19 @@
-"""Fleet scale: per-step wall time, iterations and memory per building (issue 17).
+"""Fleet scale: set-up, cold and warm step times, iterations and memory (issue 17).
 
 For each fleet size B (generated, seed 17, default feeder limit) and each worker count W,
 runs ``--steps`` steps from ``--start`` on a ``LocalCluster`` of W single-threaded workers
-(:func:`hvacflex.fleet.run.run_fleet`) and prints one markdown row: set-up time (building
-the agents on the workers), per-step wall time (mean, max), coordination iterations per
-step, cap-reallocation rounds, and the workers' resident memory after the run; the memory
-per building is the slope of total worker memory between fleet sizes at the same W.
+(:func:`hvacflex.fleet.run.run_fleet`) and prints one markdown row:
+
+* set-up: wall time from the call to the first step (cluster start + agents), and the
+  groups' own agent-building time (wall, and CPU summed over the workers);
+* the cold first step (every building's first, cold solve) and the mean of the warm steps
+  after it: wall time, and CPU time summed over the workers (on a loaded machine the CPU
+  time is the measure of work; wall time depends on the load); the busiest worker's CPU and
+  the coordinator's (this process: coordination, Dask client and scheduler) per warm step —
+  on an idle machine a warm step cannot take less than the busiest worker's CPU time;
+* coordination iterations and cap-reallocation rounds per step;
+* the workers' resident memory after the run (memory per building = the slope between fleet
+  sizes at the same W).
 
     python benchmarks/bench_fleet_scale.py --buildings 10 100 --workers 1 2 --steps 3
 """
@@ -33,6 +41,11 @@ def _worker_rss_bytes() -> int:
     return int(psutil.Process(os.getpid()).memory_info().rss)
 
 
+def _group_timings(groups: Any) -> np.ndarray:
+    """(G, 3) set-up wall, set-up CPU and CPU so far [s] of every group."""
+    return np.array(groups.broadcast("timings"), dtype=float)
+
+
 def measure(
     buildings: int, workers: int, steps: int, start: str, iterations: int, cap_rounds: int
 ) -> dict[str, Any]:
@@ -46,9 +59,15 @@ def measure(
         path = write_fleet(doc, Path(tmp) / "fleet.toml")
         memory: list[int] = []
         marks: list[float] = []
+        timings: list[np.ndarray] = []
+
+        coordinator_cpu: list[float] = []
 
         def on_step(k: int, groups: Any) -> None:
             marks.append(time.perf_counter())
+            coordinator_cpu.append(time.process_time())
+            timings.append(_group_timings(groups))
+            print(f"  step {k}: {marks[-1] - t0:.1f} s since start", flush=True)
             if k == steps and groups.client is not None:
                 memory.extend(groups.client.run(_worker_rss_bytes).values())
 
@@ -65,10 +84,17 @@ def measure(
         )
     frame = result.frame
     step_s = frame["step_time_s"].to_numpy(float)
+    first = timings[0]
+    group_cpu = np.diff(np.array([t[:, 2] for t in timings]), axis=0)  # (steps - 1, G)
     return {
         "setup_s": marks[0] - t0 - step_s[0],
-        "step_mean_s": float(np.mean(step_s)),
-        "step_max_s": float(np.max(step_s)),
+        "agents_wall_s": float(first[:, 0].max()),
+        "agents_cpu_s": float(first[:, 1].sum()),
+        "cold_s": float(step_s[0]),
+        "warm_s": float(np.mean(step_s[1:])) if steps > 1 else float("nan"),
+        "warm_cpu_s": float(np.mean(group_cpu.sum(axis=1))) if steps > 1 else float("nan"),
+        "warm_group_cpu_max_s": float(np.mean(group_cpu.max(axis=1))) if steps > 1 else np.nan,
+        "warm_coordinator_cpu_s": float(np.mean(np.diff(coordinator_cpu))) if steps > 1 else np.nan,
         "iterations": float(frame["coordination_iterations"].mean()),
         "rss_mib": sum(memory) / MIB,
     }
@@ -83,22 +109,27 @@ def main() -> None:
     parser.add_argument("--iterations", type=int, default=0, help="0 = the fleet's (10)")
     parser.add_argument("--cap-rounds", type=int, default=-1, help="-1 = the fleet's (4)")
     args = parser.parse_args()
-    print(f"load average at start: {os.getloadavg()}")
-    print(
-        "| buildings | workers | set-up [s] | step mean / max [s] | iterations/step | "
+    print(f"load average at start: {os.getloadavg()}", flush=True)
+    header = (
+        "| buildings | workers | set-up [s] | agents wall / CPU [s] | cold step [s] | "
+        "warm step wall / CPU [s] | busiest worker / coordinator CPU [s] | iterations/step | "
         "worker memory [MiB] |"
     )
-    print("|---|---|---|---|---|---|")
+    print(header)
+    print("|---|---|---|---|---|---|---|---|---|", flush=True)
     for buildings in args.buildings:
         for workers in args.workers:
             r = measure(
                 buildings, workers, args.steps, args.start, args.iterations, args.cap_rounds
             )
             print(
-                f"| {buildings} | {workers} | {r['setup_s']:.1f} | {r['step_mean_s']:.2f} / "
-                f"{r['step_max_s']:.2f} | {r['iterations']:.1f} | {r['rss_mib']:.0f} |",
+                f"| {buildings} | {workers} | {r['setup_s']:.1f} | {r['agents_wall_s']:.1f} / "
+                f"{r['agents_cpu_s']:.1f} | {r['cold_s']:.2f} | {r['warm_s']:.2f} / "
+                f"{r['warm_cpu_s']:.2f} | {r['warm_group_cpu_max_s']:.2f} / "
+                f"{r['warm_coordinator_cpu_s']:.2f} | {r['iterations']:.1f} | {r['rss_mib']:.0f} |",
                 flush=True,
             )
+            print(f"load average now: {os.getloadavg()}", flush=True)
     print(f"load average at end: {os.getloadavg()}")
 
 

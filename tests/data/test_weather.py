@@ -318,3 +318,20 @@ def test_an_edited_file_is_read_again(tmp_path: Path, shared_data_dir: Path) -> 
     _set_field(lines, 0, 6, "-5.0")
     path.write_text("\n".join(lines) + "\n", encoding="latin-1")
     assert read_epw(path)[0]["outdoor_temp_degc"].iloc[0] == -5.0
+
+
+def test_irradiance_same_on_a_regular_index_cached_or_not(
+    tmyx: tuple[pd.DataFrame, EpwLocation], tmyx_2014: pd.DataFrame
+) -> None:
+    """The sun's geometry of a regular index is cached (fleets share it); a copy of the
+    frame without one row (an irregular index, computed without the cache) gives the same
+    irradiance on the rows they share, and a second call the same as the first."""
+    _, location = tmyx
+    days = tmyx_2014.loc["2014-03-20":"2014-03-21"]
+    surfaces = [(90.0, 90.0), (225.0, 60.0)]
+    first = surface_irradiance_w_per_m2(days, location, surfaces)
+    again = surface_irradiance_w_per_m2(days, location, surfaces)
+    gappy = surface_irradiance_w_per_m2(days.drop(days.index[30]), location, surfaces)
+    np.testing.assert_array_equal(first.to_numpy(), again.to_numpy())
+    assert first.loc["2014-03-20 12:00"].min() > 0.0
+    np.testing.assert_allclose(gappy.to_numpy(), first.drop(first.index[30]).to_numpy(), atol=1e-9)

@@ -12,6 +12,7 @@ from hvacflex.fleet.coordinate import (
     allocate_caps,
     coordinate,
     project_caps,
+    project_caps_periods,
     reallocate_caps,
 )
 from hvacflex.fleet.generate import generate_fleet
@@ -98,6 +99,37 @@ def test_cap_reallocation_lowers_the_cost_and_stays_feasible(
         np.testing.assert_allclose(agent._last.power_kw, power, atol=1e-6)  # type: ignore[union-attr]
     # never worse than the first allocation (measured: 83 % → 43 % above the optimum)
     assert float(np.sum(result.cost_sgd)) <= result.capped_cost_sgd * (1 + 1e-9)
+
+
+def test_finalize_with_values_is_finalize_then_cap_values(
+    group_at_morning: BuildingGroup,
+) -> None:
+    """What run.py sends per reallocation round (one call) equals the two calls it replaced."""
+    group = group_at_morning
+    p_min, p_max, _ = group.begin_step()
+    free_power, _, _ = group.solve(np.zeros(48))
+    caps = allocate_caps(np.full(48, 0.8 * free_power.sum(axis=0).max()), p_min, p_max, free_power)
+    power, cost, lagrangian, values = group.finalize_with_values(np.zeros(48), caps)
+    again = group.finalize(np.zeros(48), caps)
+    np.testing.assert_array_equal(power, again[0])
+    np.testing.assert_array_equal(cost, again[1])
+    np.testing.assert_array_equal(lagrangian, again[2])
+    np.testing.assert_array_equal(values, group.cap_values())
+    assert values.shape == (4, 48) and np.all(values >= 0) and values.max() > 0
+
+
+def test_project_caps_periods_is_project_caps_per_period() -> None:
+    rng = np.random.default_rng(2)
+    lower = rng.uniform(0, 10, (7, 30))
+    upper = lower + rng.uniform(1, 40, (7, 30))
+    total = 0.5 * (lower.sum(axis=1) + upper.sum(axis=1))
+    caps = rng.normal(0, 30, (7, 30))
+    together = project_caps_periods(caps, lower, upper, total)
+    for k in range(7):
+        np.testing.assert_array_equal(
+            together[k], project_caps(caps[k], lower[k], upper[k], float(total[k]))
+        )
+        assert together[k].sum() <= total[k] and together[k].sum() == pytest.approx(total[k])
 
 
 def test_minimum_powers_above_limit_flagged(group_at_morning: BuildingGroup) -> None:

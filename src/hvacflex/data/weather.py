@@ -596,6 +596,33 @@ def surface_column_name(azimuth_deg: float, tilt_deg: float) -> str:
     return f"solar_az{azimuth_deg:g}_tilt{tilt_deg:g}_w_per_m2"
 
 
+def _solar_geometry_on(mid: pd.DatetimeIndex, location: EpwLocation) -> tuple[np.ndarray, ...]:
+    """(T,) apparent zenith [°], solar azimuth [°], extraterrestrial DNI [W/m²] and relative
+    airmass at the times ``mid`` (read-only arrays: they may be cached)."""
+    import pvlib
+
+    lat, lon, alt = location.latitude_deg, location.longitude_deg, location.elevation_m
+    position = pvlib.solarposition.get_solarposition(mid, lat, lon, altitude=alt)
+    zenith = position["apparent_zenith"].to_numpy()
+    extra = pvlib.irradiance.get_extra_radiation(mid).to_numpy()
+    airmass = np.asarray(pvlib.atmosphere.get_relative_airmass(zenith), dtype=float)
+    arrays = (zenith, position["azimuth"].to_numpy(), extra, airmass)
+    for array in arrays:
+        array.flags.writeable = False
+    return arrays
+
+
+@functools.lru_cache(maxsize=16)
+def _solar_geometry(
+    first_ns: int, periods: int, step_ns: int, tz: str, location: EpwLocation
+) -> tuple[np.ndarray, ...]:
+    """:func:`_solar_geometry_on` a regular index's midpoints, cached (shared by a fleet)."""
+    step = pd.Timedelta(step_ns, unit="ns")
+    first = pd.Timestamp(first_ns, tz="UTC").tz_convert(tz)
+    starts = pd.date_range(first, periods=periods, freq=step)
+    return _solar_geometry_on(starts + step / 2, location)
+
+
 def surface_irradiance_w_per_m2(
     weather: pd.DataFrame,
     location: EpwLocation,
@@ -634,18 +661,17 @@ def surface_irradiance_w_per_m2(
             value=type(index).__name__,
             hint="use the frame returned by weather_30min",
         )
-    step = index[1] - index[0]
-    mid = index + step / 2
-    position = pvlib.solarposition.get_solarposition(
-        mid, location.latitude_deg, location.longitude_deg, altitude=location.elevation_m
+    stamps = index.as_unit("ns").asi8
+    step_ns = int(stamps[1] - stamps[0])
+    regular = bool(np.all(np.diff(stamps) == step_ns))  # then the geometry is cached
+    zenith, azimuth, dni_extra, airmass = (
+        _solar_geometry(int(stamps[0]), len(index), step_ns, str(index.tz), location)
+        if regular
+        else _solar_geometry_on(index + (index[1] - index[0]) / 2, location)
     )
-    zenith = position["apparent_zenith"].to_numpy()
-    azimuth = position["azimuth"].to_numpy()
     dni = np.where(zenith < 90.0, weather["dni_w_per_m2"].to_numpy(dtype=float), 0.0)
     ghi = weather["ghi_w_per_m2"].to_numpy(dtype=float)
     dhi = weather["dhi_w_per_m2"].to_numpy(dtype=float)
-    dni_extra = pvlib.irradiance.get_extra_radiation(mid).to_numpy()
-    airmass = pvlib.atmosphere.get_relative_airmass(zenith)
     out: dict[str, np.ndarray] = {}
     for surface_azimuth, surface_tilt in surfaces:
         if not (0.0 <= surface_tilt <= 180.0) or not math.isfinite(surface_azimuth):

@@ -22,6 +22,7 @@ buildings; it is what runs as a Dask actor.
 from __future__ import annotations
 
 import dataclasses
+import time
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -75,13 +76,6 @@ class _StagedSolver(RMPCSolver):
         """Solve ``problem`` (never the staged plan)."""
         self.staged = None
         return super().solve(problem)
-
-    def cap_values_sgd_per_kw(self) -> FloatArray:
-        """(N,) marginal value of the power caps at the last optimum [SGD per kW of cap]:
-        minus the reduced costs of the plan's power columns (≥ 0; 0 where a cap is slack)."""
-        duals = np.asarray(self._highs.getSolution().col_dual, dtype=float)
-        value: FloatArray = np.maximum(-duals[self.layout.plan.power], 0.0)
-        return value
 
 
 class FleetController(MPCController):
@@ -290,11 +284,9 @@ class BuildingAgent:
     def _solve(self, price_kw: FloatArray, cap_kw: FloatArray | None = None) -> StepSolve:
         base = self._problem
         assert base is not None, "begin_step() first"
-        changes: dict[str, Any] = {
-            "energy_price_sgd_per_mwh": base.energy_price_sgd_per_mwh + price_kw,
-            "power_max_kw": np.inf if cap_kw is None else cap_kw,
-        }
-        problem = dataclasses.replace(base, **changes)
+        problem = base.with_price_and_cap(
+            base.energy_price_sgd_per_mwh + price_kw, np.inf if cap_kw is None else cap_kw
+        )
         solution = self.controller.solver(problem).solve_now(problem)
         self._last, self._last_price = solution, price_kw.copy()
         self._last_cap = np.inf if cap_kw is None else np.asarray(cap_kw, dtype=float).copy()
@@ -355,7 +347,7 @@ class BuildingAgent:
         last = self._last
         if last is None or last.status is not SolveStatus.OPTIMAL:
             return np.zeros(base.horizon)
-        return self.controller.solver(base).cap_values_sgd_per_kw()
+        return self.controller.solver(base).power_cap_values_sgd_per_kw()
 
     def advance(self) -> dict[str, float]:
         """Apply the staged plan's first step to the plant; the step's row values."""
@@ -394,9 +386,12 @@ class BuildingGroup:
     def __init__(
         self, fleet_doc: dict[str, Any], indices: list[int], settings: FleetSettings
     ) -> None:
+        tick, cpu = time.perf_counter(), time.process_time()
         fleet = fleet_from_dict(fleet_doc, source="fleet")
         self.indices = list(indices)
         self.agents = [BuildingAgent(fleet.buildings[i], i, settings) for i in self.indices]
+        self.setup_s = (time.perf_counter() - tick, time.process_time() - cpu)
+        """(wall, process CPU) time [s] this group took to build its agents."""
 
     def begin_step(self) -> tuple[FloatArray, FloatArray, FloatArray]:
         """(B, N) minimum and maximum power [kW] and (B, N) energy prices [SGD/MWh]."""
@@ -421,6 +416,14 @@ class BuildingGroup:
         """(B, N) marginal values of the caps at the last solves [SGD/kW]."""
         return np.array([agent.cap_values() for agent in self.agents])
 
+    def finalize_with_values(
+        self, price_sgd_per_mwh: FloatArray, cap_kw: FloatArray
+    ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+        """:meth:`finalize`, and the cap values (B, N) [SGD/kW] after it (one round trip
+        instead of two in the cap reallocation)."""
+        power, cost, lagrangian = self.finalize(price_sgd_per_mwh, cap_kw)
+        return power, cost, lagrangian, self.cap_values()
+
     def advance(self) -> dict[str, FloatArray]:
         """Step every plant; (B,) arrays of the step's planned and realised power etc."""
         rows = [agent.advance() for agent in self.agents]
@@ -439,6 +442,10 @@ class BuildingGroup:
 
     def ping(self) -> int:
         return len(self.agents)
+
+    def timings(self) -> tuple[float, float, float]:
+        """(set-up wall [s], set-up CPU [s], this process's CPU time so far [s]) (benchmarks)."""
+        return self.setup_s[0], self.setup_s[1], time.process_time()
 
 
 def _stack(parts: list[StepSolve]) -> tuple[FloatArray, FloatArray, FloatArray]:

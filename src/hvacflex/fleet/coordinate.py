@@ -137,15 +137,25 @@ def project_caps(
 ) -> FloatArray:
     """(B,) ``caps_kw`` shifted by one common amount and clipped to [lower, upper] so that
     they sum to ``total_kw`` (never above it; needs Σ lower ≤ total ≤ Σ upper)."""
-    low = float(np.min(lower_kw - caps_kw))
-    high = float(np.max(upper_kw - caps_kw))
-    for _ in range(80):  # bisection on the shift; keeps the side whose sum is ≤ total
+    projected: FloatArray = project_caps_periods(
+        caps_kw[None, :], lower_kw[None, :], upper_kw[None, :], np.array([total_kw])
+    )[0]
+    return projected
+
+
+def project_caps_periods(
+    caps_kw: FloatArray, lower_kw: FloatArray, upper_kw: FloatArray, total_kw: FloatArray
+) -> FloatArray:
+    """:func:`project_caps` for P periods at once: rows of (P, B) ``caps_kw``, bounds (P, B),
+    totals (P,) [kW]; one bisection on the P shifts together."""
+    low = np.min(lower_kw - caps_kw, axis=1)
+    high = np.max(upper_kw - caps_kw, axis=1)
+    for _ in range(80):  # bisection on the shifts; keeps the side whose sum is ≤ total
         mid = 0.5 * (low + high)
-        if float(np.clip(caps_kw + mid, lower_kw, upper_kw).sum()) > total_kw:
-            high = mid
-        else:
-            low = mid
-    projected: FloatArray = np.clip(caps_kw + low, lower_kw, upper_kw)
+        over = np.clip(caps_kw + mid[:, None], lower_kw, upper_kw).sum(axis=1) > total_kw
+        high = np.where(over, mid, high)
+        low = np.where(over, low, mid)
+    projected: FloatArray = np.clip(caps_kw + low[:, None], lower_kw, upper_kw)
     return projected
 
 
@@ -201,10 +211,12 @@ def reallocate_caps(
         if not np.any(move):
             break
         trial = best.caps_kw.copy()
-        for j, k in enumerate(periods):
-            trial[:, k] = project_caps(
-                best.caps_kw[:, k] + move[:, j], p_min[:, k], p_max[:, k], float(limit_kw[k])
-            )
+        trial[:, periods] = project_caps_periods(
+            np.ascontiguousarray((best.caps_kw[:, periods] + move).T),
+            np.ascontiguousarray(p_min[:, periods].T),
+            np.ascontiguousarray(p_max[:, periods].T),
+            limit_kw[periods],
+        ).T
         power, cost, _ = finalize_all(price, trial)
         rounds += 1
         if _total_cost(cost) < best.total_sgd:

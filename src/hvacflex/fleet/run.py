@@ -429,18 +429,22 @@ def _coordinate_step(
         power, cost, lagrangian = groups.stacked("solve", lam)
         return power, cost, lagrangian
 
+    order = np.argsort(np.concatenate(groups.indices))
+    values_after: list[FloatArray] = []  # the cap values after the last finalize_all
+
     def finalize_all(
         lam: FloatArray, caps: FloatArray
     ) -> tuple[FloatArray, FloatArray, FloatArray]:
-        parts = groups.call("finalize", [lam] * len(groups.groups), groups.split(caps))
-        order = np.argsort(np.concatenate(groups.indices))
-        power, cost, lagrangian = (np.concatenate([p[j] for p in parts])[order] for j in range(3))
+        parts = groups.call("finalize_with_values", [lam] * len(groups.groups), groups.split(caps))
+        power, cost, lagrangian, values = (
+            np.concatenate([p[j] for p in parts])[order] for j in range(4)
+        )
+        values_after[:] = [values]
         return power, cost, lagrangian
 
     def cap_values_all() -> FloatArray:
-        parts = groups.broadcast("cap_values")
-        values: FloatArray = np.concatenate(parts)[np.argsort(np.concatenate(groups.indices))]
-        return values
+        # reallocate_caps asks for the values right after a finalize_all: they came with it
+        return values_after[0]
 
     result = coordinate(
         solve_all,

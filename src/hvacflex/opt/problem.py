@@ -54,6 +54,7 @@ The LP itself is built by :mod:`hvacflex.opt.lp` (open loop) and :mod:`hvacflex.
 
 from __future__ import annotations
 
+import copy
 import hashlib
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -551,6 +552,33 @@ class RMPCProblem:
     def structure(self) -> RMPCStructure:
         """What fixes the LP's sparsity pattern (see :class:`RMPCStructure`)."""
         return self._structure
+
+    def with_price_and_cap(
+        self,
+        energy_price_sgd_per_mwh: FloatArray,
+        power_max_kw: float | FloatArray = np.inf,
+    ) -> RMPCProblem:
+        """This problem with another energy price (N,) [SGD/MWh] and power cap (scalar or
+        (N,)) [kW] — equal to ``dataclasses.replace(self, energy_price_sgd_per_mwh=...,
+        power_max_kw=...)``, but only the two new fields are checked (the rest was) and the
+        :attr:`structure` object is shared, so a warm :class:`~hvacflex.opt.RMPCSolver`
+        needs no structure comparison (fleet coordination re-solves one step at many prices).
+
+        Raises
+        ------
+        ProblemError
+            as the constructor does for these two fields.
+        """
+        horizon = self.horizon
+        price = _float_array("energy_price_sgd_per_mwh", energy_price_sgd_per_mwh, ((horizon,),))
+        cap = _float_array(
+            "power_max_kw", power_max_kw, ((), (horizon,)), target=(horizon,), allow_pos_inf=True
+        )
+        variant = copy.copy(self)
+        variant._put("energy_price_sgd_per_mwh", price)
+        variant._put("power_max_kw", cap)
+        variant._check_feedback()
+        return variant
 
     @property
     def g(self) -> FloatArray:

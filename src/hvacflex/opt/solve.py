@@ -44,6 +44,7 @@ basis unrotated, then from scratch (cold), before the error is reported.
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from typing import Any, Literal
 
@@ -72,7 +73,7 @@ from hvacflex.opt.highs_lp import (
     quiet_highs,
     solve_lp,
 )
-from hvacflex.opt.lp import LPLayout, build_lp, sparse_matrix
+from hvacflex.opt.lp import LinearProgram, LPLayout, build_lp, sparse_matrix
 from hvacflex.opt.problem import BoolArray, FloatArray, IntArray, RMPCProblem
 from hvacflex.opt.robust import impulse_responses, margin_operator, robust_margins
 from hvacflex.opt.solution import (
@@ -193,6 +194,7 @@ class RMPCSolver:
         # statuses of the last optimal basis (or of set_basis), to start the next solve from
         self._basis: tuple[StatusArray, StatusArray] | None = None
         self._basis_given = False
+        self._optimal = False  # the last solve ended optimal (its duals are meaningful)
 
     # ------------------------------------------------------------------ properties
     @property
@@ -233,7 +235,7 @@ class RMPCSolver:
         self._num_core = int(events[0]) if events.size else lp.num_rows
         assert events.size == 0 or int(events[-1]) == lp.num_rows - 1  # event rows come last
         self._event_matrix = matrix[self._num_core :].tocsr()
-        self._event_indices = self._event_matrix.indices.astype(np.int32)
+        self._event_indices = np.asarray(self._event_matrix.indices, dtype=np.int32)  # no copy
         num_model = self._num_core if self._lazy else lp.num_rows
         self._model_rows = np.arange(num_model, dtype=np.int64)  # HiGHS row -> LP row
         self._present = np.zeros(events.size, dtype=bool)  # lazy: event rows in HiGHS
@@ -253,7 +255,8 @@ class RMPCSolver:
                 source="RMPCSolver",
                 hint="check the problem arrays for extreme magnitudes",
             )
-        self._lp = lp
+        # HiGHS holds the matrix now: the structural coefficients (≈ 4 MiB) are not kept
+        self._lp: LinearProgram = dataclasses.replace(lp, constant=None)
         self._bounds_changed()
         if self._lazy:
             self._set_event_rows(self._seed)
@@ -389,6 +392,7 @@ class RMPCSolver:
                     field=differences[0],
                     hint="build a new RMPCSolver for a problem with another structure",
                 )
+            self._structure = problem.structure  # equal: its variants skip the comparison
         delta = self._delta(problem)
         if problem is not self._last_problem:
             self._update(problem, delta)
@@ -418,6 +422,7 @@ class RMPCSolver:
             if not status.ok:
                 values = None
         self._basis_given = False
+        self._optimal = values is not None and status is SolveStatus.OPTIMAL
         if values is not None:
             self._basis = self._optimal_basis(values)
             self._has_basis = True
@@ -559,6 +564,30 @@ class RMPCSolver:
     def highs_objective_sgd(self) -> float:
         """HiGHS's objective value of the last solve (includes the reserve tie-break) [SGD]."""
         return float(self._highs.getInfo().objective_function_value)
+
+    def power_cap_values_sgd_per_kw(self) -> FloatArray:
+        """(N,) marginal value of the power caps at the last optimum [SGD per kW of cap].
+
+        Entry k is how much the optimal objective falls per kW added to
+        ``RMPCProblem.power_max_kw`` in period k: minus the reduced cost (column dual) of the
+        plan's power column k, ≥ 0, and 0 where the cap is slack (or +inf). With lazy event
+        rows it is the dual of the final LP, which has the same optimum as the full one.
+
+        Raises
+        ------
+        ProblemError
+            if the last :meth:`solve` did not end optimal (or none ran yet).
+        """
+        if not self._optimal:
+            raise ProblemError(
+                "no optimal solution to take the cap values from",
+                source="RMPCSolver",
+                field="power_max_kw",
+                hint="call solve() first and check that its status is OPTIMAL",
+            )
+        duals = np.asarray(self._highs.getSolution().col_dual, dtype=float)
+        value: FloatArray = np.maximum(-duals[self._layout.plan.power], 0.0)
+        return value
 
     # ------------------------------------------------------------------ basis
     def get_basis(self) -> SolverBasis | None:
