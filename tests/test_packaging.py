@@ -71,7 +71,7 @@ def test_default_paths_are_package_data(monkeypatch: pytest.MonkeyPatch) -> None
 
 def test_no_code_or_test_reaches_outside_the_repository() -> None:
     # spelt from parts so that this file does not itself name the paths it looks for
-    shared = "shared"
+    shared = "".join(("sha", "red"))
     needles = (f"../{shared}", f"{shared}/data", f"/work/{shared}")
     offenders = [
         f"{path.relative_to(REPO)}: {needle}"
