@@ -61,6 +61,7 @@ from hvacflex.opt.highs_lp import (
     highs_basis,
     pass_csc_model,
     quiet_highs,
+    set_feasibility_tolerance,
     solve_lp,
 )
 from hvacflex.opt.lp import LinearProgram, PlanColumns, sparse_matrix
@@ -221,9 +222,7 @@ class FeedbackSolver:
             self._highs.setOptionValue(option, value)
         _, self._cold_scale_strategy = self._highs.getOptionValue("simplex_scale_strategy")
         self._tolerance = feasibility_tolerance
-        if feasibility_tolerance is not None:
-            for option in ("primal_feasibility_tolerance", "dual_feasibility_tolerance"):
-                self._highs.setOptionValue(option, feasibility_tolerance)
+        set_feasibility_tolerance(self._highs, feasibility_tolerance)
         # statuses of the last optimal basis (or of set_basis), to start the next solve from
         self._basis: tuple[StatusArray, StatusArray] | None = None
         self._start: tuple[StatusArray, StatusArray] | None = None  # this solve's start

@@ -160,6 +160,14 @@ class LPResult(NamedTuple):
     time_s: float
 
 
+def set_feasibility_tolerance(highs: Any, tolerance: float | None) -> None:
+    """Set HiGHS's primal and dual feasibility tolerances to ``tolerance``; None leaves
+    HiGHS's (1e-7)."""
+    if tolerance is not None:
+        for option in ("primal_feasibility_tolerance", "dual_feasibility_tolerance"):
+            highs.setOptionValue(option, tolerance)
+
+
 def solve_lp(
     cost: FloatArray,
     a_csr: Any,
@@ -201,9 +209,7 @@ def solve_lp(
         ("time_limit", float(time_limit_s) if time_limit_s is not None else np.inf),
     ):
         highs.setOptionValue(option, value)
-    if feasibility_tolerance is not None:
-        for option in ("primal_feasibility_tolerance", "dual_feasibility_tolerance"):
-            highs.setOptionValue(option, feasibility_tolerance)
+    set_feasibility_tolerance(highs, feasibility_tolerance)
     num_cols = a_csr.shape[1]
     lp = highs_lp(cost, a_csr, row_lower, row_upper, col_lower, col_upper)
     if highs.passModel(lp) == highspy.HighsStatus.kError:
