@@ -1,0 +1,217 @@
+"""The plant interface: what the closed loop drives, one 30-min period at a time.
+
+A plant is anything that turns an :class:`Actuation` (what the building's actuators are told
+for the period) and the period's realised :class:`Disturbance` into an :class:`Observation`
+(what the meters and sensors read at the end of the period). The closed loop talks to the
+plant only through :class:`Plant`; the first implementation is :class:`RCPlant`, hvacflex's
+exact nonlinear RC network (:class:`hvacflex.building.plant.NonlinearPlant`) with the exact
+HVAC power model (:func:`hvacflex.building.hvac.hvac_power_kw`).
+
+A plant that can snapshot its state (``can_snapshot``) lets the closed loop compute the
+counterfactual of an IL activation (the same period with and without curtailment) by
+``get_state`` → ``step`` → ``set_state`` → ``step``. An external emulator that cannot (an
+EnergyPlus run cannot be copied mid-simulation) says so, and the closed loop resumes it by
+replaying the recorded actuations instead.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Protocol, runtime_checkable
+
+import numpy as np
+import numpy.typing as npt
+
+from hvacflex.building.hvac import hvac_power_kw
+from hvacflex.building.model import Building
+from hvacflex.building.plant import NonlinearPlant
+
+FloatArray = npt.NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class Actuation:
+    """What the plant is told for one period (held over the period).
+
+    Exactly one of ``flow_kg_s``, ``setpoint_degc`` and ``cooling_kw`` is given: the way the
+    plant is actuated (supply-flow control, supervisory setpoints, or delivered sensible
+    cooling for identified models of packaged units).
+
+    Attributes
+    ----------
+    flow_kg_s : (m,) supply air mass flow per zone [kg/s], or None.
+    setpoint_degc : (m,) zone cooling setpoint [°C], or None.
+    cooling_kw : (m,) delivered sensible cooling per zone [kW] (≥ 0), or None.
+    supply_temp_degc : supply-air temperature [°C]; None: the plant's own (design) value.
+    """
+
+    flow_kg_s: FloatArray | None = None
+    setpoint_degc: FloatArray | None = None
+    cooling_kw: FloatArray | None = None
+    supply_temp_degc: float | None = None
+
+    def __post_init__(self) -> None:
+        given = [
+            name
+            for name in ("flow_kg_s", "setpoint_degc", "cooling_kw")
+            if getattr(self, name) is not None
+        ]
+        if len(given) != 1:
+            raise ValueError(
+                "an Actuation carries exactly one of flow_kg_s, setpoint_degc, cooling_kw; "
+                f"got {given or 'none'}"
+            )
+
+    @property
+    def kind(self) -> str:
+        """``"flow"``, ``"setpoint"`` or ``"cooling"``."""
+        if self.flow_kg_s is not None:
+            return "flow"
+        if self.setpoint_degc is not None:
+            return "setpoint"
+        return "cooling"
+
+
+@dataclass(frozen=True)
+class Disturbance:
+    """The realised outside world over one period, as the plant's model needs it.
+
+    Attributes
+    ----------
+    d : (nd,) disturbance channels in the building's channel order (outdoor temperature [°C],
+        solar [W/m²], internal gains [W]; :mod:`hvacflex.building.channels`).
+    outdoor_temp_degc : outdoor dry-bulb temperature [°C].
+    outdoor_humidity_ratio_kg_per_kg : outdoor humidity ratio [kg/kg].
+
+    A plant with its own weather (EnergyPlus reads the EPW) may ignore these.
+    """
+
+    d: FloatArray
+    outdoor_temp_degc: float
+    outdoor_humidity_ratio_kg_per_kg: float
+
+
+@dataclass(frozen=True)
+class Observation:
+    """What the plant's sensors and meters read over one period.
+
+    Attributes
+    ----------
+    zone_temp_degc : (m,) zone air temperature at the end of the period [°C].
+    zone_mean_temp_degc : (m,) mean zone air temperature over the period [°C].
+    node_temp_degc : (n,) every node temperature the plant can show at the end of the period
+        [°C] (the RC plant: its full state), or None.
+    supply_flow_kg_s : (m,) mean supply air mass flow per zone over the period [kg/s].
+    power_kw : mean HVAC electric power over the period (fans + cooling plant) [kW].
+    facility_power_kw : mean whole-facility electric power [kW] (NaN where not metered).
+    outdoor_temp_degc : mean outdoor dry-bulb temperature over the period [°C].
+    """
+
+    zone_temp_degc: FloatArray
+    zone_mean_temp_degc: FloatArray
+    node_temp_degc: FloatArray | None
+    supply_flow_kg_s: FloatArray
+    power_kw: float
+    facility_power_kw: float
+    outdoor_temp_degc: float
+
+
+@runtime_checkable
+class Plant(Protocol):
+    """A building the closed loop drives period by period.
+
+    Attributes
+    ----------
+    zone_names : the zones, in the order of every (m,) array.
+    can_snapshot : True when :meth:`get_state` / :meth:`set_state` copy the whole plant (so a
+        period can be stepped twice from the same state); False for an external emulator.
+    actuations : the :attr:`Actuation.kind` values the plant accepts.
+    """
+
+    zone_names: tuple[str, ...]
+    can_snapshot: bool
+    actuations: tuple[str, ...]
+
+    def reset(self, initial_temp_degc: float) -> Observation:
+        """Start (again) with every temperature at ``initial_temp_degc`` [°C]; the
+        observation of the state before the first period."""
+        ...
+
+    def step(self, actuation: Actuation, disturbance: Disturbance, dt_s: float) -> Observation:
+        """Advance one period of ``dt_s`` [s] under ``actuation`` and ``disturbance``."""
+        ...
+
+    def get_state(self) -> dict[str, Any]:
+        """The plant's state as data (JSON values and numpy arrays)."""
+        ...
+
+    def set_state(self, state: dict[str, Any]) -> None:
+        """Restore :meth:`get_state` (only where ``can_snapshot``)."""
+        ...
+
+
+class RCPlant:
+    """hvacflex's exact nonlinear RC network as a :class:`Plant` (flow actuation only).
+
+    Parameters
+    ----------
+    building : the building.
+    plant : its nonlinear plant, if already built (shares the step-matrix cache).
+    """
+
+    can_snapshot = True
+    actuations = ("flow",)
+
+    def __init__(self, building: Building, plant: NonlinearPlant | None = None) -> None:
+        self.building = building
+        self.plant = plant if plant is not None else NonlinearPlant(building)
+        self.zone_names = tuple(building.zone_names)
+        self._zones = np.asarray(self.plant.network.zone_node_index)
+        self.x = np.full(self.plant.n, np.nan)
+
+    def reset(self, initial_temp_degc: float) -> Observation:
+        self.x = np.full(self.plant.n, float(initial_temp_degc))
+        zones = self.x[self._zones]
+        return Observation(
+            zone_temp_degc=zones.copy(),
+            zone_mean_temp_degc=zones.copy(),
+            node_temp_degc=self.x.copy(),
+            supply_flow_kg_s=np.zeros(len(self.zone_names)),
+            power_kw=float("nan"),
+            facility_power_kw=float("nan"),
+            outdoor_temp_degc=float("nan"),
+        )
+
+    def step(self, actuation: Actuation, disturbance: Disturbance, dt_s: float) -> Observation:
+        if actuation.flow_kg_s is None:
+            raise ValueError(f"the RC plant is flow-actuated; got a {actuation.kind} actuation")
+        flow = np.asarray(actuation.flow_kg_s, dtype=np.float64)
+        start = self.x[self._zones]
+        x_next = self.plant.step(self.x, flow, disturbance.d, dt_s)
+        end = x_next[self._zones]
+        mean = 0.5 * (start + end)
+        power = float(
+            hvac_power_kw(
+                self.building.hvac,
+                flow,
+                mean,
+                disturbance.outdoor_temp_degc,
+                disturbance.outdoor_humidity_ratio_kg_per_kg,
+            )
+        )
+        self.x = x_next
+        return Observation(
+            zone_temp_degc=end.copy(),
+            zone_mean_temp_degc=mean,
+            node_temp_degc=x_next.copy(),
+            supply_flow_kg_s=flow.copy(),
+            power_kw=power,
+            facility_power_kw=float("nan"),
+            outdoor_temp_degc=float(disturbance.outdoor_temp_degc),
+        )
+
+    def get_state(self) -> dict[str, Any]:
+        return {"x_degc": self.x.copy()}
+
+    def set_state(self, state: dict[str, Any]) -> None:
+        self.x = np.asarray(state["x_degc"], dtype=np.float64).copy()
