@@ -7,6 +7,7 @@ Imports are read from the source (``ast``), counting imports inside functions an
 from __future__ import annotations
 
 import ast
+import warnings
 from pathlib import Path
 
 import pytest
@@ -14,12 +15,17 @@ import pytest
 SRC = Path(__file__).resolve().parents[1] / "src"
 PACKAGE = SRC / "hvacflex"
 MAX_FUNCTION_LINES = 100
-MAX_MODULE_LINES = 700
+MAX_MODULE_LINES = 1000
+"""A module holds one concept: past this it is more than one (the test fails)."""
+WARN_MODULE_LINES = 800
+"""Past this a module is getting large: the test warns, so the split is planned, not forced."""
 
 LAYERS: list[set[str]] = [
     {"errors", "units", "constants", "paths", "tomlio", "version", "resources", "results_file"},
+    {"results"},
     {"building"},
     {"data"},
+    {"energyplus"},
     {"opt"},
     {"kpi"},
     {"config"},
@@ -146,7 +152,10 @@ def test_cycle_finder_finds_a_cycle() -> None:
 )
 def test_functions_and_modules_are_short(path: Path) -> None:
     source = path.read_text(encoding="utf-8")
-    assert len(source.splitlines()) <= MAX_MODULE_LINES
+    lines = len(source.splitlines())
+    assert lines <= MAX_MODULE_LINES, f"{lines} lines: more than one concept, split it"
+    if lines > WARN_MODULE_LINES:
+        warnings.warn(f"{path.name}: {lines} lines (warn at {WARN_MODULE_LINES})", stacklevel=1)
     long_functions = [
         f"{node.name}: {node.end_lineno - node.lineno + 1} lines"
         for node in ast.walk(ast.parse(source))
