@@ -18,7 +18,7 @@ import numpy as np
 
 from hvacflex.building.summary import design_disturbance
 from hvacflex.config import preset
-from hvacflex.sim.closed_loop import prepare
+from hvacflex.sim.setup import prepare
 
 
 def per_call_us(call: Callable[[int], object], calls: int) -> tuple[float, float]:

@@ -17,7 +17,8 @@ import math
 
 from hvacflex import kpi
 from hvacflex.config import preset, with_overrides
-from hvacflex.sim.closed_loop import ClosedLoop, prepare
+from hvacflex.sim.closed_loop import ClosedLoop
+from hvacflex.sim.setup import prepare
 
 
 def revenue_share(scale: float, starts: list[str], days: float) -> float:

@@ -18,7 +18,8 @@ from typing import Any
 from hvacflex import kpi
 from hvacflex.config import preset, with_overrides
 from hvacflex.data.market import RESERVE_PRICE_SCALE
-from hvacflex.sim.closed_loop import ClosedLoop, prepare
+from hvacflex.sim.closed_loop import ClosedLoop
+from hvacflex.sim.setup import prepare
 
 COLUMNS = (
     "reserve_offered_mean_kw",

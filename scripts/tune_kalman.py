@@ -21,7 +21,8 @@ import numpy as np
 
 from hvacflex.config import preset
 from hvacflex.control import estimation as est
-from hvacflex.sim.closed_loop import ClosedLoop, prepare
+from hvacflex.sim.closed_loop import ClosedLoop
+from hvacflex.sim.setup import prepare
 
 GRID_K = (0.002, 0.005, 0.01, 0.02, 0.05, 0.1, 0.2, 0.5)
 BURN_IN_STEPS = 12

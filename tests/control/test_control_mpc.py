@@ -13,7 +13,7 @@ from hvacflex.control.mpc import MPCController
 from hvacflex.errors import ConfigError
 from hvacflex.opt import RMPCProblem, RMPCSolution, SolveStatus
 from hvacflex.opt.solution import failed_solution
-from hvacflex.sim.closed_loop import Setup, make_controller, prepare
+from hvacflex.sim.setup import Setup, make_controller, prepare
 
 START = "2014-03-03"  # a Monday
 

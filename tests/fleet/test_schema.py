@@ -78,7 +78,7 @@ def test_reserve_defaults_to_the_product_event_model(tmp_path: Path) -> None:
     assert agent.problem.il_event_max_steps == config.event_max_steps
     assert agent.problem.il_event_allowance_kelvin == config.event_allowance_k
     assert agent.problem.il_event_recovery_steps == config.event_recovery_steps
-    assert agent.loop.events.carry_steps == 0
+    assert agent.control.allowance_carry_steps == 0
 
 
 def test_whole_horizon_reserve_and_its_errors(tmp_path: Path) -> None:

@@ -19,7 +19,8 @@ from service_fixtures import SERVE, START, Server, free_port, operator_key_for
 from hvacflex.config import preset, with_overrides
 from hvacflex.kpi import RESULTS_FILENAME as RESULTS_FILE
 from hvacflex.service.replay import ServiceError, replay
-from hvacflex.sim.closed_loop import read_results, run_simulation
+from hvacflex.sim.closed_loop import run_simulation
+from hvacflex.sim.run_files import read_results
 
 DAYS = 1.0
 KILL_AFTER_PLANS = 30

@@ -7,8 +7,10 @@ import signal
 import subprocess
 import sys
 import time
+from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -18,28 +20,50 @@ from hvacflex import kpi
 from hvacflex.building.hvac import affine_power_model
 from hvacflex.config import preset, scaled_uncertainty, with_overrides
 from hvacflex.paths import buildings_dir
-from hvacflex.sim.closed_loop import (
-    CHECKPOINT_FILE,
-    ClosedLoop,
-    prepare,
-    read_results,
-    run_simulation,
-)
+from hvacflex.sim.closed_loop import ClosedLoop, run_simulation
+from hvacflex.sim.plant import Actuation, Disturbance, Observation
+from hvacflex.sim.run_files import CHECKPOINT_FILE, read_results
+from hvacflex.sim.setup import prepare
 
 START = "2014-03-03"  # a Monday
 
 
 class LinearPlant:
-    """The controller's own model as the plant (perfect model)."""
+    """The controller's own model as the plant (perfect model), with its affine power: a test
+    double of :class:`hvacflex.sim.plant.Plant`."""
 
-    def __init__(self, model: object) -> None:
+    can_snapshot = True
+    actuations = ("flow",)
+
+    def __init__(self, model: object, power_kw: Callable[[int, np.ndarray], float]) -> None:
         self.m = model
+        self.power_kw = power_kw
+        self.zone_names = tuple(model.zone_names)  # type: ignore[attr-defined]
+        self.zone_rows = model.c.argmax(axis=1)  # type: ignore[attr-defined]
+        self.x = np.zeros(0)
+        self.k = 0
 
-    def step(
-        self, x: np.ndarray, flow: np.ndarray, d: np.ndarray, dt_s: float = 1800.0
-    ) -> np.ndarray:
-        m = self.m
-        return m.a @ x + m.b @ flow + m.e @ d + m.g  # type: ignore[attr-defined]
+    def reset(self, initial_temp_degc: float) -> Observation:
+        self.x = np.full(self.m.a.shape[0], initial_temp_degc)  # type: ignore[attr-defined]
+        self.k = 0
+        return self._observe(self.x, np.zeros(len(self.zone_names)), float("nan"))
+
+    def step(self, actuation: Actuation, disturbance: Disturbance, dt_s: float) -> Observation:
+        m, flow = self.m, np.asarray(actuation.flow_kg_s)
+        x = m.a @ self.x + m.b @ flow + m.e @ disturbance.d + m.g  # type: ignore[attr-defined]
+        observation = self._observe(x, flow, self.power_kw(self.k, flow))
+        self.x, self.k = x, self.k + 1
+        return observation
+
+    def _observe(self, x: np.ndarray, flow: np.ndarray, power_kw: float) -> Observation:
+        zones = x[self.zone_rows]
+        return Observation(zones, zones, x.copy(), flow, power_kw, float("nan"), float("nan"))
+
+    def get_state(self) -> dict[str, Any]:
+        return {"x": self.x.copy(), "k": self.k}
+
+    def set_state(self, state: dict[str, Any]) -> None:
+        self.x, self.k = state["x"].copy(), state["k"]
 
 
 def test_perfect_model_closed_loop_cost_is_the_sum_of_first_step_costs() -> None:
@@ -53,7 +77,7 @@ def test_perfect_model_closed_loop_cost_is_the_sum_of_first_step_costs() -> None
     outdoor = next(i for i, ch in enumerate(model.channels) if ch.kind == "outdoor_temp")
     exo = setup.exogenous
 
-    def affine_power(k: int, flow: np.ndarray, zone: np.ndarray, t_out: float, w: float) -> float:
+    def affine_power(k: int, flow: np.ndarray) -> float:
         p0, p = affine_power_model(
             setup.building.hvac,
             exo.disturbances[k : k + 1, outdoor],
@@ -63,7 +87,7 @@ def test_perfect_model_closed_loop_cost_is_the_sum_of_first_step_costs() -> None
         )
         return float(p0[0] + p[0] @ flow)
 
-    loop = ClosedLoop(setup, plant=LinearPlant(model), power_fn=affine_power)
+    loop = ClosedLoop(setup, plant=LinearPlant(model, affine_power))
     while loop.k < loop.steps:
         loop.step()
     frame = loop.frame()

@@ -10,7 +10,9 @@ import pytest
 
 from hvacflex.config import load_config, preset, with_overrides
 from hvacflex.errors import ConfigError
-from hvacflex.sim.closed_loop import CHECKPOINT_FILE, ClosedLoop, prepare, run_simulation
+from hvacflex.sim.closed_loop import ClosedLoop, run_simulation
+from hvacflex.sim.run_files import CHECKPOINT_FILE
+from hvacflex.sim.setup import prepare
 
 HOT_START = "2014-05-05"
 

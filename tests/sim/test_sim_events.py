@@ -1,18 +1,20 @@
 """IL events in the closed loop: the tracker's state machine and a stub-controller loop."""
 
 import json
-import pickle
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pandas as pd
 
+from hvacflex import state as hvacflex_state
 from hvacflex.config import preset, with_overrides
-from hvacflex.control.base import Action, EventPlan
+from hvacflex.control.base import Action, Controller, EventPlan
 from hvacflex.data.forecast import Forecast
-from hvacflex.sim.closed_loop import CONFIG_FILE, ClosedLoop, prepare, run_simulation
+from hvacflex.sim.closed_loop import ClosedLoop, run_simulation
 from hvacflex.sim.events import EventTracker, Role
+from hvacflex.sim.run_files import CONFIG_FILE
+from hvacflex.sim.setup import prepare
 
 START = "2014-03-03"
 
@@ -91,15 +93,17 @@ def test_whole_horizon_model_curtails_every_activated_period_with_the_fresh_plan
     assert [o.reference_power_kw for o in outcomes[:3]] == [9.0, 9.0, 9.0]
 
 
-class StubPlanner:
-    """A state-dependent planner that offers reserve, for testing the loop without an LP."""
+class StubPlanner(Controller):
+    """A state-dependent planner that offers reserve, for testing the loop without an LP
+    (the protocol's defaults give it hold, the applied-flow note and no model)."""
 
     def __init__(self, flow_max: np.ndarray, steps: int) -> None:
         self.flow_max, self.steps, self.calls, self.carries = flow_max, steps, 0, []
 
     def act(
         self, x: np.ndarray, forecast: Forecast, *, peak_floor_kw: float,
-        allowance_carry_steps: int = 0,
+        allowance_carry_steps: int = 0, measured_zone_temp_degc: np.ndarray | None = None,
+        plan: Any = None,
     ) -> Action:  # fmt: skip
         self.calls += 1
         self.carries.append(allowance_carry_steps)
@@ -168,7 +172,7 @@ def test_checkpoint_mid_event_resumes_identically() -> None:
     split, _ = _stub_loop()
     while split.k < 2:  # inside the event (periods 0 … 3)
         split.step()
-    state = pickle.loads(pickle.dumps(split.get_state()))
+    state = hvacflex_state.decode(hvacflex_state.encode(split.get_state()))  # data only
     resumed, _ = _stub_loop()
     resumed.set_state(state)
     while resumed.k < resumed.steps:

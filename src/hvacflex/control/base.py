@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Protocol
 
 import numpy as np
 import numpy.typing as npt
 
+from hvacflex.control.estimation import StepModel
 from hvacflex.data.forecast import Forecast
 
 FloatArray = npt.NDArray[np.float64]
@@ -84,7 +86,16 @@ class Action:
 
 
 class Controller(Protocol):
-    """A controller the closed-loop simulator can drive and checkpoint."""
+    """A controller the closed loop, the service and the fleet drive through one
+    :class:`hvacflex.sim.step.ControlStep`, and checkpoint.
+
+    Concrete controllers subclass it explicitly to inherit the no-op defaults: a rule-based
+    controller implements :meth:`act`, :meth:`get_state` and :meth:`set_state` only; an MPC
+    also takes measurements, holds through locked IL events, and shows its model and plan.
+    """
+
+    takes_measurements: bool = False
+    """True when :meth:`act` and :meth:`hold` need ``measured_zone_temp_degc`` (a filter)."""
 
     def act(
         self,
@@ -93,21 +104,54 @@ class Controller(Protocol):
         *,
         peak_floor_kw: float,
         allowance_carry_steps: int = 0,
+        measured_zone_temp_degc: FloatArray | None = None,
+        plan: Any = None,
     ) -> Action:
         """Decide the action for the period starting now.
 
         Parameters
         ----------
         x_degc : (n,) measured node temperatures [°C].
-        forecast : prices, disturbances and comfort bounds over the horizon from now.
+        forecast : prices, φ, disturbances and comfort bounds over the horizon from now.
         peak_floor_kw : peak already incurred in this billing period [kW] (billing-period PPP).
         allowance_carry_steps : periods from now that still belong to the recovery of an IL
             event that just ended: their end temperatures may use the event allowance α.
+        measured_zone_temp_degc : (m,) zone-air readings [°C] (controllers with a filter).
+        plan : a plan decided elsewhere (the fleet coordinator's) to apply instead of solving;
+            controllers that do not plan ignore it.
         """
         ...
 
+    def hold(
+        self,
+        forecast: Forecast,
+        flow_kg_s: FloatArray,
+        measured_zone_temp_degc: FloatArray | None = None,
+    ) -> None:
+        """A period that runs a locked IL-event plan (flow (m,) [kg/s]) without a decision."""
+        return None
+
+    def note_applied_flow(self, flow_kg_s: FloatArray) -> None:
+        """The flow (m,) [kg/s] the plant ran this period (u − r when curtailed)."""
+        return None
+
+    @property
+    def step_model(self) -> StepModel | None:
+        """The model the last decision was planned with (None: the controller has none)."""
+        return None
+
+    @property
+    def last_plan(self) -> Any:
+        """The last optimal plan over the horizon (an ``RMPCSolution``), or None."""
+        return None
+
+    def observe_problems(self, callback: Callable[[Any], None]) -> bool:
+        """Call ``callback`` with every optimisation problem built from now on; False when
+        the controller builds none."""
+        return False
+
     def get_state(self) -> dict[str, Any]:
-        """Picklable state needed to resume identically after a checkpoint."""
+        """State needed to resume identically, as data (:mod:`hvacflex.state`)."""
         ...
 
     def set_state(self, state: dict[str, Any]) -> None:

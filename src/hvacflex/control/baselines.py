@@ -18,7 +18,7 @@ import numpy as np
 
 from hvacflex.building.discretize import LinearModel
 from hvacflex.building.model import HvacSystem
-from hvacflex.control.base import Action, FloatArray
+from hvacflex.control.base import Action, Controller, FloatArray
 from hvacflex.data.forecast import Forecast
 
 UNOCCUPIED_MARGIN_K = 1.0
@@ -59,7 +59,7 @@ def unplanned_action(
     )
 
 
-class ThermostatController:
+class ThermostatController(Controller):
     """Dead-beat thermostat on the linear model (see the module docstring).
 
     Parameters
@@ -111,6 +111,8 @@ class ThermostatController:
         *,
         peak_floor_kw: float,
         allowance_carry_steps: int = 0,
+        measured_zone_temp_degc: FloatArray | None = None,
+        plan: Any = None,
     ) -> Action:
         return unplanned_action(
             self._model,

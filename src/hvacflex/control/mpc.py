@@ -22,6 +22,7 @@ offers no reserve, and says so in the :class:`~hvacflex.control.base.Action`.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import replace
 from typing import Any
 
@@ -32,7 +33,7 @@ from hvacflex.building.hvac import affine_power_model
 from hvacflex.building.model import Building
 from hvacflex.building.rc import build_network
 from hvacflex.config import ControllerConfig, Linearisation, ReserveConfig
-from hvacflex.control.base import Action, EventPlan, FloatArray
+from hvacflex.control.base import Action, Controller, EventPlan, FloatArray
 from hvacflex.control.baselines import ThermostatController, unplanned_action
 from hvacflex.control.estimation import (
     AppliedStep,
@@ -43,6 +44,7 @@ from hvacflex.control.estimation import (
 )
 from hvacflex.control.trajectory import relinearised_first_step
 from hvacflex.data.forecast import Forecast
+from hvacflex.data.signals import effective_peak_price
 from hvacflex.data.uncertainty import UncertaintyBox
 from hvacflex.errors import ConfigError, ProblemError
 from hvacflex.opt import (
@@ -80,7 +82,7 @@ RESERVE_FLOW_TOLERANCE_KG_S = 1e-6
 """Reserve flows below this are zero up to the solver's tolerance and are not offered."""
 
 
-class MPCController:
+class MPCController(Controller):
     """Nominal or robust MPC for one building (see the module docstring).
 
     Parameters
@@ -135,6 +137,18 @@ class MPCController:
         self._step_model: StepModel = model
         self._solver_model: StepModel = model
         self._held = False
+        self.takes_measurements = estimation is not None
+        self._observers: list[Callable[[RMPCProblem], None]] = []
+
+    @property
+    def last_plan(self) -> RMPCSolution | None:
+        """The last optimal plan over the horizon (None before the first)."""
+        return self._previous_plan
+
+    def observe_problems(self, callback: Callable[[RMPCProblem], None]) -> bool:
+        """Call ``callback`` with the problem of every later :meth:`act`."""
+        self._observers.append(callback)
+        return True
 
     @property
     def step_model(self) -> StepModel:
@@ -235,7 +249,7 @@ class MPCController:
             d_sigma=sigma,
             energy_price_sgd_per_mwh=forecast.energy_price_sgd_per_mwh[:horizon],
             reserve_price_sgd_per_mwh=reserve_price,
-            peak_price_sgd_per_kw=cfg.peak_price_sgd_per_kw,
+            peak_price_sgd_per_kw=effective_peak_price(forecast, cfg.peak_price_sgd_per_kw),
             peak_floor_kw=floor,
             power_offset_kw=p0,
             power_coeff_kw_per_kg_s=p,
@@ -272,9 +286,12 @@ class MPCController:
         peak_floor_kw: float,
         allowance_carry_steps: int = 0,
         measured_zone_temp_degc: FloatArray | None = None,
+        plan: RMPCSolution | None = None,
     ) -> Action:
         """Decide the period's action from the plant state ``x_degc`` (n,) (full state) or,
-        with a filter, from the measured zone temperatures (m,) [°C] alone."""
+        with a filter, from the measured zone temperatures (m,) [°C] alone; ``plan``: a
+        solution of this period's problem decided elsewhere (the fleet coordinator's), applied
+        as if the solver had returned it."""
         offset = extra = None
         if self._estimator is not None:
             if measured_zone_temp_degc is None:
@@ -287,15 +304,15 @@ class MPCController:
             estimate = self._estimator.estimate(measured_zone_temp_degc, self._model)
             x_degc, offset = estimate.x_degc, estimate.offset_k
         step_model: StepModel = self._model
-        plan = self._previous_plan
-        fresh = plan is not None and self._plan_age == 0 and not self._held
-        if self._network is not None and plan is not None and fresh:
+        previous = self._previous_plan
+        fresh = previous is not None and self._plan_age == 0 and not self._held
+        if self._network is not None and previous is not None and fresh:
             step_model = relinearised_first_step(
                 self._building,
                 self._network,
                 self._model.c,
-                plan.u,
-                plan.x_served,
+                previous.u,
+                previous.x_served,
                 self._model.c @ x_degc,
                 self._model.dt_s,
             )
@@ -312,10 +329,12 @@ class MPCController:
             offset_k=offset,
             extra_margin_k=extra,
         )
+        for observe in self._observers:
+            observe(problem)
         if self._solver is not None and step_model is not self._solver_model:
             self._carry_basis_to(problem)
         self._solver_model = step_model
-        action = self._decide(problem, x_degc, forecast)
+        action = self._decide(problem, x_degc, forecast, plan)
         self._step_model, self._held = step_model, False
         if self._estimator is not None:
             self._estimator.applied(
@@ -333,7 +352,13 @@ class MPCController:
             None if basis is None else replace(basis, fingerprint=problem.structure.fingerprint())
         )
 
-    def _decide(self, problem: RMPCProblem, x_degc: FloatArray, forecast: Forecast) -> Action:
+    def _decide(
+        self,
+        problem: RMPCProblem,
+        x_degc: FloatArray,
+        forecast: Forecast,
+        plan: RMPCSolution | None = None,
+    ) -> Action:
         if self._solver is None:
             solver_class = FeedbackSolver if problem.robust == "feedback" else RMPCSolver
             self._solver = solver_class(problem, time_limit_s=self._config.time_limit_s)
@@ -347,7 +372,7 @@ class MPCController:
                 except ProblemError:  # another row count (e.g. lazy event rows): cold start
                     pass
                 self._pending_basis = None
-        solution = self._solver.solve(problem)
+        solution = plan if plan is not None else self._solver.solve(problem)
         if solution.status is SolveStatus.OPTIMAL:
             self._previous_plan, self._plan_age = solution, 0
             c = self._model.c

@@ -217,10 +217,13 @@ class Forecast(ExogenousSeries):
     :class:`ExogenousSeries` over N = horizon periods, and the step ``step`` = k.
 
     ``disturbances`` is the forecast d̂ (the data itself under perfect foresight); prices are
-    the data or their persistence forecast.
+    the data or their persistence forecast. ``peak_price_sgd_per_kw`` is the peak-power price
+    φ [SGD/kW] an operator signalled (:class:`hvacflex.data.signals.OperatorSignals`), or
+    None: the controller's configured φ.
     """
 
     step: int = field(kw_only=True)
+    peak_price_sgd_per_kw: float | None = field(default=None, kw_only=True)
 
     @property
     def horizon(self) -> int:

@@ -1,7 +1,8 @@
 """One building of a fleet as a long-lived, steppable controller + plant (a "building agent").
 
 An agent wraps the single-building machinery unchanged: the RMPC problem is built by
-:meth:`hvacflex.control.mpc.MPCController.problem`, the plant is stepped and recorded by
+:meth:`hvacflex.control.mpc.MPCController.problem`, the period is decided by the one
+:class:`hvacflex.sim.step.ControlStep` and the plant stepped and recorded by
 :class:`hvacflex.sim.closed_loop.ClosedLoop` (so each building's rows have the schema of a
 single-building run). What the fleet adds is the coordination hook: each step the agent
 
@@ -13,7 +14,8 @@ single-building run). What the fleet adds is the coordination hook: each step th
 3. :meth:`BuildingAgent.finalize` fixes the plan, re-solving with per-period power caps
    (N,) [kW] (``RMPCProblem.power_max_kw``, a bound on the plan's power column) when the
    coordinator allocates them,
-4. :meth:`BuildingAgent.advance` applies its first step to the nonlinear plant.
+4. :meth:`BuildingAgent.advance` passes the fixed plan to the control step
+   (``ClosedLoop.step(plan=...)``) and applies its first step to the plant.
 
 A :class:`BuildingGroup` holds the agents of one worker and vectorises these calls over its
 buildings; it is what runs as a Dask actor.
@@ -43,7 +45,9 @@ from hvacflex.data.forecast import Forecast, load_exogenous
 from hvacflex.data.gains import DEFAULT_OFFICE_SCHEDULE, ComfortBand, OfficeSchedule
 from hvacflex.fleet.schema import Fleet, FleetBuilding, fleet_from_dict
 from hvacflex.opt import RMPCProblem, RMPCSolution, RMPCSolver, SolveStatus
-from hvacflex.sim.closed_loop import ClosedLoop, Setup, assemble_setup
+from hvacflex.sim.closed_loop import ClosedLoop
+from hvacflex.sim.setup import Setup, assemble_setup
+from hvacflex.sim.step import ControlStep
 from hvacflex.units import KWH_PER_MWH
 
 CAP_TOLERANCE_KW = 1e-6
@@ -62,28 +66,13 @@ def power_bounds_kw(problem: RMPCProblem, u_max: FloatArray | None = None) -> Fl
     return bound
 
 
-class _StagedSolver(RMPCSolver):
-    """The building's warm-started solver; :meth:`solve` returns a plan the coordinator
-    staged (so that :meth:`MPCController.act` applies the coordinated plan unchanged)."""
-
-    staged: RMPCSolution | None = None
-
-    def solve(self, problem: RMPCProblem) -> RMPCSolution:
-        staged, self.staged = self.staged, None
-        return staged if staged is not None else super().solve(problem)
-
-    def solve_now(self, problem: RMPCProblem) -> RMPCSolution:
-        """Solve ``problem`` (never the staged plan)."""
-        self.staged = None
-        return super().solve(problem)
-
-
 class FleetController(MPCController):
     """The building's MPC, driven by the fleet coordinator.
 
     One warm-started solver without time shift (the same step is re-solved at several
-    prices). :meth:`act` applies the staged plan through :meth:`MPCController.act` (its
-    fallbacks included) and then enforces the step's power cap on whatever it returns:
+    prices). :meth:`act` applies the coordinator's plan (passed in as ``plan``) through
+    :meth:`MPCController.act` (its fallbacks included) and then enforces the step's power
+    cap on whatever it returns:
     flows above the cap are scaled towards the lower bounds until the affine power meets it.
     """
 
@@ -92,15 +81,16 @@ class FleetController(MPCController):
         self.cap_now_kw = np.inf
         self.power_now: tuple[float, FloatArray] | None = None
 
-    def solver(self, problem: RMPCProblem) -> _StagedSolver:
+    def solver(self, problem: RMPCProblem) -> RMPCSolver:
+        """The building's solver (built on first use, from a restored basis if any)."""
         if self._solver is None:
-            self._solver = _StagedSolver(
+            self._solver = RMPCSolver(
                 problem, time_limit_s=self._config.time_limit_s, time_shift=False
             )
             if self._pending_basis is not None:
                 self._solver.set_basis(self._pending_basis)
                 self._pending_basis = None
-        assert isinstance(self._solver, _StagedSolver)
+        assert isinstance(self._solver, RMPCSolver)
         return self._solver
 
     def act(
@@ -111,6 +101,7 @@ class FleetController(MPCController):
         peak_floor_kw: float,
         allowance_carry_steps: int = 0,
         measured_zone_temp_degc: FloatArray | None = None,
+        plan: RMPCSolution | None = None,
     ) -> Action:
         action = super().act(
             x_degc,
@@ -118,6 +109,7 @@ class FleetController(MPCController):
             peak_floor_kw=peak_floor_kw,
             allowance_carry_steps=allowance_carry_steps,
             measured_zone_temp_degc=measured_zone_temp_degc,
+            plan=plan,
         )
         if self.power_now is None or not np.isfinite(self.cap_now_kw):
             return action
@@ -255,8 +247,11 @@ class BuildingAgent:
             self.setup.linearisation_temp_degc,
             reserve=self.setup.config.reserve,
         )
-        self.loop = ClosedLoop(self.setup, self.controller)
+        self.control = ControlStep(self.setup.config, self.controller, len(self.setup.zone_names))
+        self.loop = ClosedLoop(self.setup, control=self.control)
         self._problem: RMPCProblem | None = None
+        self._staged: RMPCSolution | None = None
+        """The coordinator's plan of the step, applied by :meth:`advance`."""
         self._last: RMPCSolution | None = None
         self._last_price: FloatArray | None = None
         self._last_cap: FloatArray | float = np.inf
@@ -275,7 +270,7 @@ class BuildingAgent:
             loop.k, self.setup.config.controller.horizon_steps + 1
         )
         problem = self.controller.problem(
-            loop.x, forecast, loop.month_peak_kw, loop.events.carry_steps
+            loop.x, forecast, loop.month_peak_kw, self.control.allowance_carry_steps
         )
         self._problem, self._last, self._last_price = problem, None, None
         p_min = power_bounds_kw(problem, problem.u_min)
@@ -287,7 +282,7 @@ class BuildingAgent:
         problem = base.with_price_and_cap(
             base.energy_price_sgd_per_mwh + price_kw, np.inf if cap_kw is None else cap_kw
         )
-        solution = self.controller.solver(problem).solve_now(problem)
+        solution = self.controller.solver(problem).solve(problem)
         self._last, self._last_price = solution, price_kw.copy()
         self._last_cap = np.inf if cap_kw is None else np.asarray(cap_kw, dtype=float).copy()
         if solution.status is not SolveStatus.OPTIMAL:
@@ -330,8 +325,7 @@ class BuildingAgent:
             # coordinator flags those periods; the cap row then sits at the minimum
             floor = power_bounds_kw(base, base.u_min)
             result = self._solve(price, np.maximum(cap, floor + CAP_TOLERANCE_KW))
-        solver = self.controller.solver(base)
-        solver.staged = self._last
+        self._staged = self._last
         self.controller.cap_now_kw = float(cap[0])
         self.controller.power_now = (
             float(base.power_offset_kw[0]),
@@ -352,7 +346,8 @@ class BuildingAgent:
     def advance(self) -> dict[str, float]:
         """Apply the staged plan's first step to the plant; the step's row values."""
         k = self.loop.k
-        self.loop.step()
+        plan, self._staged = self._staged, None
+        self.loop.step(plan=plan)
         col = self.loop.recorder.column_index
         row = self.loop.recorder.values[k]
         return {

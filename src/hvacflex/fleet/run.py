@@ -9,7 +9,8 @@ HiGHS solvers included, live on the workers across steps and only prices, powers
 travel.
 
 Checkpoints: every ``checkpoint_every`` steps the coordinator collects every building's
-state (:meth:`ClosedLoop.get_state`) and the fleet rows and writes ``checkpoint.pkl``
+state (:meth:`ClosedLoop.get_state`) and the fleet rows and writes ``checkpoint.npz``
+(data only, :mod:`hvacflex.state`)
 atomically. If a worker is lost mid-run, the step fails; the coordinator re-creates the
 groups on the workers there are, restores every building from the last checkpoint and goes
 on from there (the run is deterministic, so the result is the same). Started again with the
@@ -26,7 +27,6 @@ from __future__ import annotations
 import hashlib
 import json
 import logging
-import pickle
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -38,18 +38,23 @@ import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
 
+from hvacflex import state
 from hvacflex.control.base import FloatArray
 from hvacflex.errors import HvacflexError
 from hvacflex.fleet.agent import BuildingGroup, FleetSettings
 from hvacflex.fleet.coordinate import CoordinationOptions, coordinate
 from hvacflex.fleet.schema import Fleet, load_fleet
-from hvacflex.sim.closed_loop import check_checkpoint_code, load_checkpoint
+from hvacflex.sim.run_files import (
+    check_checkpoint_code,
+    load_checkpoint,
+    refuse_old_checkpoint,
+)
 from hvacflex.tomlio import read_toml
-from hvacflex.version import atomic_write, atomic_write_bytes, atomic_write_text, code_version
+from hvacflex.version import atomic_write, atomic_write_text, code_version
 
 RESULTS_FILE = "results.parquet"
 BUILDINGS_FILE = "buildings.parquet"
-CHECKPOINT_FILE = "checkpoint.pkl"
+CHECKPOINT_FILE = "checkpoint.npz"
 SUMMARY_FILE = "summary.json"
 DT_H = 0.5
 DEFAULT_CHECKPOINT_EVERY = 12
@@ -164,8 +169,8 @@ class _Groups:
     def get_states(self) -> list[dict[str, Any]]:
         states: list[dict[str, Any]] = [{}] * self.n
         for idx, part in zip(self.indices, self.broadcast("get_state"), strict=True):
-            for i, state in zip(idx, part, strict=True):
-                states[i] = state
+            for i, one in zip(idx, part, strict=True):
+                states[i] = one
         return states
 
     def set_states(self, states: list[dict[str, Any]]) -> None:
@@ -223,6 +228,8 @@ def run_fleet(
     doc = read_toml(path, what="fleet")
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
+    if resume:
+        refuse_old_checkpoint(out)
     settings = FleetSettings.of(fleet, start, days)
     horizon = settings.horizon_steps
     index, limit, planning_limit = _feeder_timeline(fleet, start, days, horizon)
@@ -278,7 +285,7 @@ def run_fleet(
             _notify(progress, on_step, k, steps, groups)
             if k % checkpoint_every == 0 and k < steps:
                 checkpoint = snapshot()
-                atomic_write_bytes(checkpoint_path, pickle.dumps(checkpoint, protocol=5))
+                state.save(checkpoint_path, checkpoint)
 
         long = _collect_buildings(groups, fleet, values, col)
     finally:

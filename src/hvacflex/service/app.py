@@ -35,7 +35,6 @@ from hvacflex.service.db import (
     session_factory,
 )
 from hvacflex.service.keys import KeyVerifier, Principal, create_key
-from hvacflex.service.periods import ConflictError
 from hvacflex.service.runtime import NotFoundError, Runtime, to_local
 from hvacflex.service.schemas import (
     ENERGY_PRICE_LIMIT_SGD_PER_MWH,
@@ -58,6 +57,7 @@ from hvacflex.service.schemas import (
     Registered,
     Stored,
 )
+from hvacflex.sim.step import ConflictError
 
 MAX_BODY_BYTES = 1 << 20
 """Largest request body accepted (1 MiB); larger ones get 413."""

@@ -122,8 +122,8 @@ class PlanRow(Base):
 
 class ControllerState(Base):
     """What a building's controller needs to continue warm-started, and its IL event state
-    (:meth:`hvacflex.service.periods.PeriodStepper.get_state`; pickled, trusted: written only
-    by this service)."""
+    (:meth:`hvacflex.sim.step.ControlStep.get_state` in the data-only format of
+    :mod:`hvacflex.state`: never unpickled; a pickle of an older hvacflex is refused)."""
 
     __tablename__ = "controller_state"
     building_id: Mapped[str] = mapped_column(ForeignKey("buildings.building_id"), primary_key=True)

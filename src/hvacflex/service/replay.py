@@ -5,7 +5,7 @@
 each period it posts the scenario's IL activation starts and ends as the operator (the
 activation schedule of ``simulate``), then the measured node temperatures (and the previous
 period's power) as the building, and applies the plan the service returns to the nonlinear
-plant. The IL event model runs in the service (:mod:`hvacflex.service.periods`): the loop's
+plant. The IL event model runs in the service (:class:`hvacflex.sim.step.ControlStep`): the loop's
 own tracker is replaced by :class:`RemoteEvents`, which reports the period's role and outcome
 as the service decided them. The clock is accelerated: a period lasts as long as the service
 takes to plan it. The results files are those of ``simulate`` (``results.parquet``,
@@ -26,19 +26,16 @@ from typing import Any
 import numpy as np
 
 from hvacflex.config import ScenarioConfig, preset
-from hvacflex.control.base import Action, EventPlan, FloatArray
+from hvacflex.control.base import Action, FloatArray
 from hvacflex.data.forecast import Forecast
 from hvacflex.errors import HvacflexError
 from hvacflex.kpi import RESULTS_FILENAME
 from hvacflex.paths import resolve_building
-from hvacflex.sim.closed_loop import (
-    CONFIG_FILE,
-    SUMMARY_FILE,
-    ClosedLoop,
-    prepare,
-    write_results,
-)
-from hvacflex.sim.events import EventTracker, PeriodOutcome, Role
+from hvacflex.sim.closed_loop import ClosedLoop
+from hvacflex.sim.events import PeriodOutcome, Role
+from hvacflex.sim.run_files import CONFIG_FILE, SUMMARY_FILE, write_results
+from hvacflex.sim.setup import prepare
+from hvacflex.sim.step import Decision, decision_status
 from hvacflex.version import atomic_write_text
 
 TIMEOUT_S = 120.0
@@ -109,7 +106,7 @@ def _none_nan(value: Any) -> float:
 
 
 class RemoteController:
-    """A controller that asks the service: posts the measurement, returns its plan."""
+    """The building's side of the exchange: posts the measurement, returns the plan."""
 
     def __init__(
         self,
@@ -122,8 +119,6 @@ class RemoteController:
         self.on_plan = on_plan
         self.previous_power_kw: float | None = None
         self.plans: list[dict[str, Any]] = []
-        self.pending: dict[str, Any] | None = None
-        """The plan of the period being played, once posted and not yet applied."""
 
     def exchange(self, x_degc: FloatArray, time: str) -> dict[str, Any]:
         """Post the measurement of the period starting at ``time``; the service's plan."""
@@ -138,80 +133,67 @@ class RemoteController:
         self.plans.append(plan)
         if self.on_plan is not None:
             self.on_plan(plan)
-        self.pending = plan
         return plan
 
-    def take(self) -> dict[str, Any]:
-        """The pending plan (consumed)."""
-        plan, self.pending = self.pending, None
-        assert plan is not None, "no plan posted for this period"
-        return plan
 
-    def act(
-        self,
-        x_degc: FloatArray,
-        forecast: Forecast,
-        *,
-        peak_floor_kw: float,
-        allowance_carry_steps: int = 0,
-    ) -> Action:
-        """The service's plan of the period (posted now unless :class:`RemoteEvents` did);
-        the peak floor and the recovery allowance are the service's own."""
-        if self.pending is None:
-            self.exchange(x_degc, forecast.index[0].isoformat())
-        return action_from_plan(self.take())
-
-    def get_state(self) -> dict[str, Any]:
-        return {}
-
-    def set_state(self, state: dict[str, Any]) -> None:
-        return None
-
-
-class RemoteEvents(EventTracker):
-    """The closed loop's IL event tracker, answered by the service.
+class RemoteControl:
+    """The closed loop's control step, answered by the service.
 
     Each period it posts the activation start or end the schedule has there (operator key)
-    and the building's measurement, and reports the role, the locked plan's step and the
-    outcome of the service's plan (the rules run only in the service).
+    and the building's measurement, and returns the service's decision: its plan, role and
+    IL outcome (the rules run only in the service's :class:`~hvacflex.sim.step.ControlStep`).
     """
 
-    def __init__(self, loop: ClosedLoop, remote: RemoteController, operator: Client) -> None:
-        super().__init__(None, 0, 0.0)
-        self.loop = loop
+    takes_measurements = False
+    step_model = None
+
+    def __init__(self, remote: RemoteController, operator: Client) -> None:
         self.remote = remote
         self.operator = operator
         self.active = False
 
-    def role(self, activated: bool) -> Role:
-        loop = self.loop
-        time = loop.setup.exogenous.index[loop.k].isoformat()
-        if activated != self.active:
+    def decide(
+        self,
+        k: int,
+        x_degc: FloatArray,
+        forecast: Forecast,
+        *,
+        peak_floor_kw: float,
+        activated: Callable[[int], bool],
+        measured_zone_temp_degc: FloatArray | None = None,
+        plan: Any = None,
+    ) -> Decision:
+        """Post period ``k``'s activation change and measurement; the service's decision
+        (its peak floor and recovery allowance are its own)."""
+        time = forecast.index[0].isoformat()
+        if activated(k) != self.active:
+            self.active = activated(k)
             body = {
-                "event": "start" if activated else "end",
+                "event": "start" if self.active else "end",
                 "time": time,
                 "building_ids": [self.remote.building_id],
             }
             self.operator.call("POST", "/v1/activations", body)
-            self.active = activated
-        plan = self.remote.exchange(loop.x, time)
-        return Role(plan["il_role"])
-
-    def lock(self, plan: EventPlan | None) -> None:
-        return None
-
-    def locked_action(self) -> Action:
-        return action_from_plan(self.remote.take())
-
-    def finish(self, role: Role, action: Action) -> PeriodOutcome:
-        plan = self.remote.plans[-1]
-        return PeriodOutcome(
-            curtailed=bool(plan["il_curtailed"]),
-            beyond_model=bool(plan["il_beyond_model"]),
-            event_window=bool(plan["il_event_window"]),
-            allowance_k=float(plan["il_allowance_k"]),
-            reference_power_kw=_none_nan(plan["il_reference_power_kw"]),
+        answer = self.remote.exchange(x_degc, time)
+        action = action_from_plan(answer)
+        role = Role(answer["il_role"])
+        outcome = PeriodOutcome(
+            curtailed=bool(answer["il_curtailed"]),
+            beyond_model=bool(answer["il_beyond_model"]),
+            event_window=bool(answer["il_event_window"]),
+            allowance_k=float(answer["il_allowance_k"]),
+            reference_power_kw=_none_nan(answer["il_reference_power_kw"]),
         )
+        curtailed = action.flow_kg_s - action.reserve_flow_kg_s
+        applied = curtailed if outcome.curtailed else action.flow_kg_s
+        status = decision_status(role, action)
+        return Decision(action, status, role, outcome, applied, None, None)
+
+    def get_state(self) -> dict[str, Any]:
+        return {"active": self.active}
+
+    def set_state(self, state: dict[str, Any]) -> None:
+        self.active = bool(state["active"])
 
 
 def registration(config: ScenarioConfig, building_id: str) -> dict[str, Any]:
@@ -286,8 +268,7 @@ def replay(
         )
         building_key = str(registered["key"])
     remote = RemoteController(Client(url, building_key), building_id, on_plan)
-    loop = ClosedLoop(prepare(config), controller=remote)
-    loop.events = RemoteEvents(loop, remote, Client(url, operator_key))
+    loop = ClosedLoop(prepare(config), control=RemoteControl(remote, Client(url, operator_key)))
     column = loop.recorder.column_index["power_kw"]
     last = loop.steps if stop_after_steps is None else min(loop.steps, stop_after_steps)
     while loop.k < last:

@@ -1,27 +1,28 @@
 """One controller per registered building, driven by measurements and operator signals.
 
-The controller is the one ``hvacflex simulate`` uses (:func:`hvacflex.sim.closed_loop.prepare`
-and :func:`~hvacflex.sim.closed_loop.make_controller`), kept in memory per building and
-warm-started between periods. After every plan its state (LP basis, previous plan) is stored
-in the database in the same transaction as the plan, so a restarted service continues where
-the last acknowledged plan left off.
+The controller is the one ``hvacflex simulate`` uses (:func:`hvacflex.sim.setup.prepare`
+and :func:`~hvacflex.sim.setup.make_controller`), kept in memory per building inside a
+:class:`hvacflex.sim.step.ControlStep` and warm-started between periods. After every plan
+the step's state (LP basis, previous plan, IL events; data only, :mod:`hvacflex.state`) is
+stored in the database in the same transaction as the plan, so a restarted service
+continues where the last acknowledged plan left off. A state stored by an older hvacflex
+(a pickle) is refused, never loaded.
 
-Signals enter the forecast the controller sees: operator prices replace the shipped prices
-for the periods they cover, the operator's peak-power price replaces the scenario's φ, and
+Signals enter the forecast the controller sees (:class:`hvacflex.data.signals.
+OperatorSignals`): operator prices replace the shipped prices for the periods they cover,
+the operator's peak-power price replaces the scenario's φ (no controller is rebuilt), and
 the month's peak so far is the largest ``previous_power_kw`` the building reported in the
 month. IL activation follows the event semantics of the closed loop
-(:mod:`hvacflex.service.periods`): an activation start or end re-plans the current period at
+(:class:`~hvacflex.sim.step.ControlStep`): an activation start or end re-plans the current period at
 once; a start locks the plan, whose curtailed flows the building runs while the event lasts.
 """
 
 from __future__ import annotations
 
 import bisect
-import dataclasses
 import hashlib
 import json
 import math
-import pickle
 import threading
 import tomllib
 from collections.abc import Callable
@@ -34,10 +35,12 @@ import pandas as pd
 from sqlalchemy import func, select
 from sqlalchemy.orm import Session, sessionmaker
 
+from hvacflex import state
 from hvacflex.building.io import building_from_dict
 from hvacflex.building.model import Building
 from hvacflex.config import ScenarioConfig, preset, with_overrides
 from hvacflex.control.base import Controller
+from hvacflex.data.signals import OperatorSignals, effective_peak_price
 from hvacflex.errors import InputError
 from hvacflex.paths import resolve_building
 from hvacflex.service.db import (
@@ -48,15 +51,7 @@ from hvacflex.service.db import (
     PlanRow,
     Signal,
 )
-from hvacflex.service.periods import (
-    ConflictError,
-    Decision,
-    PeriodStepper,
-    event_columns,
-    finite,
-    finite_list,
-    horizon_columns,
-)
+from hvacflex.service.payload import event_columns, finite, finite_list, horizon_columns
 from hvacflex.service.schemas import (
     TEMP_MAX_DEGC,
     TEMP_MIN_DEGC,
@@ -64,8 +59,8 @@ from hvacflex.service.schemas import (
     MeasurementIn,
     ScenarioSettings,
 )
-from hvacflex.sim.closed_loop import Setup, make_controller, prepare
-from hvacflex.sim.events import Role
+from hvacflex.sim.setup import Setup, make_controller, prepare
+from hvacflex.sim.step import ConflictError, ControlStep, Decision
 
 TIMEZONE = "Asia/Singapore"
 PERIOD = pd.Timedelta(minutes=30)
@@ -174,10 +169,12 @@ class BuildingRuntime:
 
     building_id: str
     setup: Setup
-    controller: Controller
-    peak_price_sgd_per_kw: float
+    control: ControlStep
     lock: threading.Lock
-    periods: PeriodStepper
+
+    @property
+    def controller(self) -> Controller:
+        return self.control.controller
 
     @property
     def steps(self) -> int:
@@ -213,22 +210,6 @@ class BuildingRuntime:
 
     def time_of(self, k: int) -> str:
         return str(self.setup.exogenous.index[k].isoformat())
-
-    def set_peak_price(self, value: float) -> None:
-        """Replace φ, keeping the controller's warm start."""
-        if value == self.peak_price_sgd_per_kw:
-            return
-        state = self.controller.get_state()
-        cfg = dataclasses.replace(
-            self.setup.config,
-            controller=dataclasses.replace(
-                self.setup.config.controller, peak_price_sgd_per_kw=value
-            ),
-        )
-        self.setup = dataclasses.replace(self.setup, config=cfg)
-        self.controller = make_controller(self.setup)
-        self.controller.set_state(state)
-        self.peak_price_sgd_per_kw = value
 
 
 class Runtime:
@@ -288,15 +269,9 @@ class Runtime:
         runtime = _building_runtime(building_id, setup)
         stored = session.get(ControllerState, building_id)
         if stored is not None:
-            state = pickle.loads(stored.state)
-            if "events" not in state:  # stored before the event model: the controller's alone
-                state = {
-                    "period": stored.period,
-                    "before": None,
-                    "controller": state,
-                    "events": runtime.periods.tracker.get_state(),
-                }
-            runtime.periods.set_state(runtime.controller, state)
+            runtime.control.set_state(
+                state.decode(stored.state, source=f"the stored state of building {building_id}")
+            )
         with self._lock:
             self._buildings.setdefault(building_id, runtime)
             return self._buildings[building_id]
@@ -312,6 +287,13 @@ class Runtime:
         )
 
     # -- signals ------------------------------------------------------------------------
+    def signals(self, session: Session) -> OperatorSignals:
+        """The operator's signals in force: posted prices by period, the latest φ."""
+        energy, reserve = self._price_overrides(session)
+        peak = self.latest_signal(session, "peak_price")
+        phi = None if peak is None else float(peak["peak_price_sgd_per_kw"])
+        return OperatorSignals(energy, reserve, peak_price_sgd_per_kw=phi)
+
     def _price_overrides(
         self, session: Session
     ) -> tuple[dict[pd.Timestamp, float], dict[pd.Timestamp, float]]:
@@ -381,7 +363,7 @@ class Runtime:
         self, session: Session, runtime: BuildingRuntime, k: int, x_degc: np.ndarray, trigger: str
     ) -> dict[str, Any]:
         """Plan period k from the node temperatures ``x_degc`` (n,) [°C] under the IL event
-        model (:class:`~hvacflex.service.periods.PeriodStepper`) and store the plan (the
+        model (:class:`~hvacflex.sim.step.ControlStep`) and store the plan (the
         caller commits); the controller's and the event state are stored with it.
 
         Raises
@@ -389,35 +371,29 @@ class Runtime:
         ConflictError : k is before the building's latest planned period.
         """
         setup = runtime.setup
-        peak = self.latest_signal(session, "peak_price")
-        if peak is not None:
-            runtime.set_peak_price(float(peak["peak_price_sgd_per_kw"]))
-        forecast = setup.forecaster.forecast(k, setup.config.controller.horizon_steps + 1)
-        energy, reserve = self._price_overrides(session)
-        if energy or reserve:
-            e = np.array(forecast.energy_price_sgd_per_mwh, dtype=float)
-            r = np.array(forecast.reserve_price_sgd_per_mwh, dtype=float)
-            for i, stamp in enumerate(forecast.index):
-                utc = stamp.tz_convert("UTC")
-                e[i] = energy.get(utc, e[i])
-                r[i] = reserve.get(utc, r[i])
-            forecast = dataclasses.replace(
-                forecast, energy_price_sgd_per_mwh=e, reserve_price_sgd_per_mwh=r
-            )
+        forecast = self.signals(session).apply(
+            setup.forecaster.forecast(k, setup.config.controller.horizon_steps + 1)
+        )
         floor = self._month_peak_kw(session, runtime, k)
         activated = self.activity(session, runtime)
-        decision = runtime.periods.decide(
-            runtime.controller, k, x_degc, forecast, peak_floor_kw=floor, activated=activated
+        control = runtime.control
+        measured = setup.model.c @ x_degc if control.takes_measurements else None
+        decision = control.decide(
+            k,
+            x_degc,
+            forecast,
+            peak_floor_kw=floor,
+            activated=activated,
+            measured_zone_temp_degc=measured,
         )
-        state = runtime.periods.get_state(runtime.controller)
-        solution = state["controller"].get("previous_plan")
-        if decision.action.fallback or decision.role is Role.EVENT_LOCKED:
-            solution = None  # no optimisation this period (the locked plan is reported)
-        payload = self._payload(runtime, k, decision, solution, forecast.index)
+        payload = self._payload(runtime, k, decision, decision.plan, forecast.index)
+        payload["peak_price_sgd_per_kw"] = effective_peak_price(
+            forecast, setup.config.controller.peak_price_sgd_per_kw
+        )
         payload.update(event_columns(decision, activated(k)))
         self._store_plan(session, runtime.building_id, k, trigger, payload)
         stored = session.get(ControllerState, runtime.building_id)
-        blob = pickle.dumps(state, protocol=pickle.HIGHEST_PROTOCOL)
+        blob = state.encode(control.get_state())
         if stored is None:
             session.add(ControllerState(building_id=runtime.building_id, period=k, state=blob))
         else:
@@ -575,7 +551,7 @@ class Runtime:
             if not 0 <= k < runtime.steps:
                 continue
             with runtime.lock, self.sessions() as session, session.begin():
-                if runtime.periods.period >= k:  # planned already (or a later period)
+                if runtime.control.period >= k:  # planned already (or a later period)
                     continue
                 x = self._latest_state(session, building_id, k)
                 if x is None:
@@ -625,12 +601,7 @@ class Runtime:
 
 
 def _building_runtime(building_id: str, setup: Setup) -> BuildingRuntime:
-    controller = make_controller(setup)
-    return BuildingRuntime(
-        building_id,
-        setup,
-        controller,
-        setup.config.controller.peak_price_sgd_per_kw,
-        threading.Lock(),
-        PeriodStepper(setup.config, setup.model.c),
+    control = ControlStep(
+        setup.config, make_controller(setup), len(setup.zone_names), replannable=True
     )
+    return BuildingRuntime(building_id, setup, control, threading.Lock())

@@ -1,21 +1,25 @@
-"""Receding-horizon closed-loop simulation against the nonlinear building plant.
+"""Receding-horizon closed-loop simulation against a building plant.
 
-Every 30 minutes (docs/model.md §4): forecast → controller (MPC solve or rule) → the first step
-is applied to the exact nonlinear plant under the realised disturbance d̂ + w (w drawn in
-the uncertainty box) → measure → repeat. When interruptible load is activated the plant runs
-u − r: under the event model the locked plan of the event's first period for at most D
-periods, under the whole-horizon model each period's fresh plan (:mod:`hvacflex.sim.events`).
+Every 30 minutes (docs/model.md §4): forecast → :class:`hvacflex.sim.step.ControlStep`
+(controller, IL events) → the decision is applied to the plant (:class:`hvacflex.sim.plant.
+Plant`; by default hvacflex's exact nonlinear RC network) under the realised disturbance
+d̂ + w (w drawn in the uncertainty box) → measure → repeat. When interruptible load is
+activated the plant runs u − r: under the event model the locked plan of the event's first
+period for at most D periods, under the whole-horizon model each period's fresh plan
+(:mod:`hvacflex.sim.events`).
 The reserve capacity scheduled is paid whether activated or not; delivery is settled in
 :mod:`hvacflex.kpi`.
 
 Each row of the output (``results.parquet``, schema in ``docs/architecture.md``) describes one
-period. Both counterfactual plant steps are computed each period (served: u, curtailed: u − r)
-so the power with and without activation is known; the applied one is chosen by the
-activation schedule.
+period. On a plant that can snapshot its state both counterfactual plant steps are computed
+each period (served: u, curtailed: u − r) so the power with and without activation is known;
+the applied one is chosen by the activation schedule. On one that cannot (an external
+emulator) only the applied step is run and the counterfactual columns are NaN.
 
-A run checkpoints every ``checkpoint_every`` steps and on interruption (Ctrl-C): the plant
-state, the step index, the sampler's and sensors' RNG states, the controller's state (LP
-basis, previous plan, filter) and the rows so far. Started again with the same
+A run checkpoints every ``checkpoint_every`` steps and on interruption (Ctrl-C), in the
+data-only format of :mod:`hvacflex.state`: the plant state, the step index, the sampler's
+and sensors' RNG states, the control step's state (LP basis, previous plan, filter, IL
+events) and the rows so far. Started again with the same
 configuration, it resumes from the checkpoint and ends with results identical to an
 uninterrupted run.
 """
@@ -23,7 +27,6 @@ uninterrupted run.
 from __future__ import annotations
 
 import json
-import pickle
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -33,53 +36,38 @@ from typing import Any, Protocol
 import numpy as np
 import pandas as pd
 
-from hvacflex import version
-from hvacflex.building.discretize import LinearModel, linearize
-from hvacflex.building.hvac import hvac_power_kw
-from hvacflex.building.io import load_building
-from hvacflex.building.model import Building
-from hvacflex.building.plant import NonlinearPlant
-from hvacflex.config import LINEARISATION_MARGIN_K, ScenarioConfig
-from hvacflex.control.base import Action, Controller, FloatArray
-from hvacflex.control.baselines import ThermostatController
-from hvacflex.control.mpc import MPCController
-from hvacflex.data.forecast import Exogenous, Forecaster, load_exogenous
-from hvacflex.data.gains import ComfortBand
-from hvacflex.data.market import RESERVE_PRICE_SCALE
-from hvacflex.data.uncertainty import DisturbanceSampler, UncertaintyBox
+from hvacflex import state, version
+from hvacflex.config import ScenarioConfig
+from hvacflex.control.base import Controller, FloatArray
+from hvacflex.control.estimation import StepModel
+from hvacflex.data.forecast import Forecast
+from hvacflex.data.signals import OperatorSignals, effective_peak_price
+from hvacflex.data.uncertainty import DisturbanceSampler
 from hvacflex.errors import ConfigError, HvacflexError
-from hvacflex.paths import resolve_building
-from hvacflex.sim.activation import activation_schedule
-from hvacflex.sim.events import EventTracker, PeriodOutcome, Role
-from hvacflex.sim.measurement import Sensors, kalman_config
+from hvacflex.sim.measurement import Sensors
+from hvacflex.sim.plant import Actuation, Disturbance, Observation, Plant, RCPlant
 from hvacflex.sim.progress import progress_bar
-from hvacflex.sim.run_files import CHECKPOINT_FILE as CHECKPOINT_FILE
-from hvacflex.sim.run_files import CONFIG_FILE as CONFIG_FILE
-from hvacflex.sim.run_files import RESULTS_FILE as RESULTS_FILE
-from hvacflex.sim.run_files import SUMMARY_FILE as SUMMARY_FILE
-from hvacflex.sim.run_files import check_checkpoint_code as check_checkpoint_code
-from hvacflex.sim.run_files import load_checkpoint as load_checkpoint
-from hvacflex.sim.run_files import read_results as read_results
-from hvacflex.sim.run_files import read_summary as read_summary
-from hvacflex.sim.run_files import run_key as run_key
-from hvacflex.sim.run_files import write_results as write_results
-from hvacflex.version import atomic_write_bytes, atomic_write_text
+from hvacflex.sim.run_files import (
+    CHECKPOINT_FILE,
+    CONFIG_FILE,
+    RESULTS_FILE,
+    SUMMARY_FILE,
+    check_checkpoint_code,
+    load_checkpoint,
+    read_results,
+    read_summary,
+    refuse_old_checkpoint,
+    run_key,
+    write_results,
+)
+from hvacflex.sim.setup import Setup, make_controller, prepare
+from hvacflex.sim.step import ControlStep, Decision
+from hvacflex.version import atomic_write_text
 
 DEFAULT_CHECKPOINT_EVERY = 336
 """Steps between checkpoints (one week of 30-min periods)."""
 
 ProgressCallback = Callable[[int, int], None]
-PowerFunction = Callable[[int, FloatArray, FloatArray, float, float], float]
-"""(step, flow_kg_s (m,), mean zone temperature (m,) [°C], outdoor temp [°C], humidity
-ratio [kg/kg]) → electric power [kW]."""
-
-
-class Plant(Protocol):
-    """Anything that advances the node temperatures over one period."""
-
-    def step(
-        self, x_degc: FloatArray, flow_kg_s: FloatArray, d: FloatArray, dt_s: float = ...
-    ) -> FloatArray: ...
 
 
 @dataclass(frozen=True)
@@ -104,104 +92,6 @@ class RunResult:
     @property
     def results_path(self) -> Path:
         return self.out_dir / RESULTS_FILE
-
-
-@dataclass(frozen=True)
-class Setup:
-    """Everything a run needs, built from its configuration."""
-
-    config: ScenarioConfig
-    building: Building
-    model: LinearModel
-    plant: NonlinearPlant
-    exogenous: Exogenous
-    forecaster: Forecaster
-    box: UncertaintyBox
-    activation: np.ndarray
-    linearisation_temp_degc: float
-
-    @property
-    def zone_names(self) -> tuple[str, ...]:
-        return tuple(self.building.zone_names)
-
-
-def prepare(config: ScenarioConfig, building: Building | None = None) -> Setup:
-    """Load the building and data and build the linear model for ``config`` (``building``:
-    a description received as content, e.g. by the service, instead of ``config.building``)."""
-    if building is None:
-        building = load_building(resolve_building(config.building))
-    temp_ref = config.controller.linearisation_temp_degc
-    if temp_ref is None:
-        temp_ref = config.comfort.occupied_degc[1] - LINEARISATION_MARGIN_K
-    model = linearize(building, dt_s=config.dt_s, linearisation_temp_degc=temp_ref)
-    data = config.data
-    scale = RESERVE_PRICE_SCALE if data.reserve_price_scale is None else data.reserve_price_scale
-    exogenous = load_exogenous(
-        model.channels,
-        [zone.floor_area_m2 for zone in building.zones],
-        building.gains,
-        start=config.start_timestamp,
-        steps=config.steps,
-        horizon_steps=config.controller.horizon_steps,
-        weather_file=data.weather_file,
-        usep_source=data.usep_source,
-        reserve_source=data.reserve_source,
-        price_gap_fill=data.price_gap_fill,
-        comfort=ComfortBand(config.comfort.occupied_degc, config.comfort.unoccupied_degc),
-        seed=config.seed,
-        reserve_scale_sgd_per_mwh=scale,
-    )
-    activation = activation_schedule(
-        config.activation,
-        exogenous.index[: config.steps],
-        seed=config.seed,
-        max_steps=config.activation_max_steps,
-    )
-    return assemble_setup(config, building, model, exogenous, activation, temp_ref)
-
-
-def assemble_setup(
-    config: ScenarioConfig,
-    building: Building,
-    model: LinearModel,
-    exogenous: Exogenous,
-    activation: np.ndarray,
-    linearisation_temp_degc: float,
-) -> Setup:
-    """The :class:`Setup` of loaded parts: adds the plant, forecaster and uncertainty box.
-    ``activation`` (steps,) bool: the IL activation schedule."""
-    box = UncertaintyBox(
-        relative=dict(config.uncertainty.relative), absolute=dict(config.uncertainty.absolute)
-    )
-    return Setup(
-        config=config,
-        building=building,
-        model=model,
-        plant=NonlinearPlant(building),
-        exogenous=exogenous,
-        forecaster=Forecaster(exogenous),
-        box=box,
-        activation=activation,
-        linearisation_temp_degc=linearisation_temp_degc,
-    )
-
-
-def make_controller(setup: Setup) -> Controller:
-    """The controller the configuration asks for."""
-    cfg = setup.config.controller
-    hvac = setup.building.hvac
-    if cfg.kind == "thermostat":
-        return ThermostatController(setup.model, hvac, cfg.thermostat_setpoint_degc)
-    return MPCController(
-        setup.building,
-        setup.model,
-        cfg,
-        setup.box,
-        setup.linearisation_temp_degc,
-        reserve=setup.config.reserve,
-        estimation=kalman_config(setup.config),
-        linearisation=cfg.linearisation,
-    )
 
 
 class _Recorder:
@@ -264,10 +154,55 @@ class _Recorder:
         return frame
 
 
+class Control(Protocol):
+    """What decides a period for the closed loop: a :class:`ControlStep`, or a stand-in with
+    the same calls (the service replay's, which asks the service)."""
+
+    @property
+    def takes_measurements(self) -> bool: ...
+
+    @property
+    def step_model(self) -> StepModel | None: ...
+
+    def decide(
+        self,
+        k: int,
+        x_degc: FloatArray,
+        forecast: Forecast,
+        *,
+        peak_floor_kw: float,
+        activated: Callable[[int], bool],
+        measured_zone_temp_degc: FloatArray | None = None,
+        plan: Any = None,
+    ) -> Decision: ...
+
+    def get_state(self) -> dict[str, Any]: ...
+
+    def set_state(self, state: dict[str, Any]) -> None: ...
+
+
+@dataclass(frozen=True)
+class _PlantPeriod:
+    """One period on the plant: the applied step and both counterfactuals."""
+
+    applied: Observation
+    served_power_kw: float
+    curtailed_power_kw: float
+    x_next_degc: FloatArray
+
+
 class ClosedLoop:
     """A closed-loop run that can be advanced, checkpointed and resumed.
 
     Most users call :func:`run_simulation`; this class is the stepping engine behind it.
+
+    Parameters
+    ----------
+    setup : the run's parts (:func:`hvacflex.sim.setup.prepare`).
+    controller : the controller (default: the one the configuration asks for).
+    plant : the plant (default: hvacflex's RC network, :class:`hvacflex.sim.plant.RCPlant`).
+    control : what decides each period (default: a :class:`ControlStep` of ``controller``).
+    signals : operator signals laid over every forecast (prices, φ).
     """
 
     def __init__(
@@ -276,18 +211,22 @@ class ClosedLoop:
         controller: Controller | None = None,
         *,
         plant: Plant | None = None,
-        power_fn: PowerFunction | None = None,
+        control: Control | None = None,
+        signals: OperatorSignals | None = None,
     ) -> None:
-        """``plant`` and ``power_fn`` replace the nonlinear plant and the exact HVAC power
-        (e.g. by the controller's own linear model, to test the loop in isolation)."""
         self.setup = setup
-        self.controller = controller if controller is not None else make_controller(setup)
-        self.plant: Plant = plant if plant is not None else setup.plant
-        self.power_fn: PowerFunction = power_fn if power_fn is not None else self._exact_power
         cfg = setup.config
+        if control is None:
+            chosen = controller if controller is not None else make_controller(setup)
+            control = ControlStep(cfg, chosen, len(setup.zone_names))
+        self.control: Control = control
+        default = RCPlant(setup.building, setup.plant) if plant is None else None
+        self.plant: Plant = plant if plant is not None else default  # type: ignore[assignment]
+        self.signals = signals if signals is not None else OperatorSignals()
         self.steps = cfg.steps
         self.k = 0
         self.x = np.full(len(setup.model.node_names), cfg.initial_temp_degc)
+        self.plant.reset(cfg.initial_temp_degc)
         self.sampler = DisturbanceSampler(
             cfg.realisation.mode, seed=cfg.seed, ar1_coefficient=cfg.realisation.ar1_coefficient
         )
@@ -300,18 +239,20 @@ class ClosedLoop:
             i for i, ch in enumerate(setup.model.channels) if ch.kind == "outdoor_temp"
         )
         self.timing_s = {"controller": 0.0, "plant": 0.0, "record": 0.0}
-        self.sensors = Sensors(cfg, setup.model.c, self.controller)
-        reserve = cfg.reserve
-        events = reserve.event_max_steps is not None
-        self.events = EventTracker(
-            reserve.event_max_steps,
-            reserve.event_recovery_steps if events else 0,
-            reserve.event_allowance_k if events else 0.0,
-        )
+        self.sensors = Sensors(cfg, setup.model.c, self.control.takes_measurements)
+
+    @property
+    def controller(self) -> Controller | None:
+        """The controller the control step drives (None for a stand-in control)."""
+        return self.control.controller if isinstance(self.control, ControlStep) else None
+
+    def _activated(self, j: int) -> bool:
+        return bool(self.setup.activation[j])
 
     # -- one period -------------------------------------------------------------------
-    def step(self) -> None:
-        """Simulate period ``k`` and advance."""
+    def step(self, plan: Any = None) -> None:
+        """Simulate period ``k`` and advance; ``plan``: this period's plan decided elsewhere
+        (a fleet coordinator's), applied as the controller's."""
         setup, k = self.setup, self.k
         exo = setup.exogenous
         month = exo.index[k].month
@@ -319,82 +260,93 @@ class ClosedLoop:
             self.month, self.month_peak_kw = month, 0.0
         t0 = time.perf_counter()
         # one period beyond the horizon: the band at the end of the last planned period
-        forecast = setup.forecaster.forecast(k, setup.config.controller.horizon_steps + 1)
-        activated = bool(setup.activation[k])
-        role = self.events.role(activated)
-        if role is Role.EVENT_LOCKED:
-            action = self.events.locked_action()
-            self.sensors.hold(self.x, forecast, action.flow_kg_s - action.reserve_flow_kg_s)
-        else:
-            action = self.sensors.act(
-                self.controller,
-                self.x,
-                forecast,
-                peak_floor_kw=self.month_peak_kw,
-                allowance_carry_steps=self.events.carry_steps,
-            )
-        if role is Role.EVENT_START:
-            self.events.lock(action.event_plan)
-        outcome = self.events.finish(role, action)
+        forecast = self.signals.apply(
+            setup.forecaster.forecast(k, setup.config.controller.horizon_steps + 1)
+        )
+        decision = self.control.decide(
+            k,
+            self.x,
+            forecast,
+            peak_floor_kw=self.month_peak_kw,
+            activated=self._activated,
+            measured_zone_temp_degc=self.sensors.read(self.x),
+            plan=plan,
+        )
         t1 = time.perf_counter()
 
         d_hat = exo.disturbances[k]
         sigma = setup.box.sigma(d_hat[None, :], setup.model.channels)[0]
         w = self.sampler.sample(sigma)
         d_real = d_hat + w
-        t_out = d_real[self._outdoor]
-        humidity = float(exo.outdoor_humidity_ratio_kg_per_kg[k])
-
-        served_flow = action.flow_kg_s
-        curtailed_flow = action.flow_kg_s - action.reserve_flow_kg_s
-        x_served = self.plant.step(self.x, served_flow, d_real, setup.config.dt_s)
-        zone_start = self.x[self._zone_rows]
-        mean_served = 0.5 * (zone_start + x_served[self._zone_rows])
-        power_served = self.power_fn(k, served_flow, mean_served, t_out, humidity)
-        if np.any(action.reserve_flow_kg_s > 0):
-            x_curtailed = self.plant.step(self.x, curtailed_flow, d_real, setup.config.dt_s)
-            mean_curtailed = 0.5 * (zone_start + x_curtailed[self._zone_rows])
-            power_curtailed = self.power_fn(k, curtailed_flow, mean_curtailed, t_out, humidity)
-        else:  # no reserve offered: activation changes nothing
-            x_curtailed, power_curtailed = x_served, power_served
-        x_next = x_curtailed if outcome.curtailed else x_served
-        power = power_curtailed if outcome.curtailed else power_served
-        applied_flow = curtailed_flow if outcome.curtailed else served_flow
-        self.sensors.applied(applied_flow)
-        error_k = self.sensors.prediction_error_k(setup.model, self.x, applied_flow, d_real, x_next)
+        disturbance = Disturbance(
+            d_real, float(d_real[self._outdoor]), float(exo.outdoor_humidity_ratio_kg_per_kg[k])
+        )
+        period = self._plant_period(decision, disturbance)
+        step_model = self.control.step_model
+        error_k = self.sensors.prediction_error_k(
+            setup.model if step_model is None else step_model,
+            self.x,
+            decision.applied_flow_kg_s,
+            d_real,
+            period.x_next_degc,
+        )
         t2 = time.perf_counter()
 
-        self._record(k, action, forecast, d_hat, w, x_next, power, power_served, power_curtailed)
+        power = period.applied.power_kw
+        self._record(k, decision, forecast, d_hat, w, period)
         row, col = self.recorder.values[k], self.recorder.column_index
         for z, zone in enumerate(setup.zone_names):
             row[col[f"prediction_error_{zone}_k"]] = error_k[z]
-        self._record_event(k, activated, outcome)
+        self._record_event(k, decision)
         self.month_peak_kw = max(self.month_peak_kw, power)
-        self.x = x_next
+        self.x = period.x_next_degc
         self.k += 1
         t3 = time.perf_counter()
         self.timing_s["controller"] += t1 - t0
         self.timing_s["plant"] += t2 - t1
         self.timing_s["record"] += t3 - t2
 
-    def _exact_power(
-        self,
-        k: int,
-        flow: FloatArray,
-        zone_mean_degc: FloatArray,
-        outdoor_temp_degc: float,
-        humidity: float,
-    ) -> float:
-        """Plant electric power [kW] at the period's mean zone temperature (exact model)."""
-        return float(
-            hvac_power_kw(
-                self.setup.building.hvac, flow, zone_mean_degc, outdoor_temp_degc, humidity
-            )
-        )
+    def _plant_period(self, decision: Decision, disturbance: Disturbance) -> _PlantPeriod:
+        """Run the period on the plant: the served and the curtailed step where the plant can
+        snapshot (the applied one is kept), the applied step alone where it cannot."""
+        plant, dt_s = self.plant, self.setup.config.dt_s
+        action = decision.action
+        curtailed = decision.outcome.curtailed
+        served_flow = action.flow_kg_s
+        curtailed_flow = action.flow_kg_s - action.reserve_flow_kg_s
+        offered = bool(np.any(action.reserve_flow_kg_s > 0))
+        if not plant.can_snapshot:
+            applied = plant.step(Actuation(flow_kg_s=decision.applied_flow_kg_s), disturbance, dt_s)
+            nan = float("nan")
+            served_kw = applied.power_kw if not curtailed else nan
+            curtailed_kw = applied.power_kw if curtailed or not offered else nan
+            return _PlantPeriod(applied, served_kw, curtailed_kw, self._state_after(applied))
+        before = plant.get_state()
+        served = plant.step(Actuation(flow_kg_s=served_flow), disturbance, dt_s)
+        if offered:
+            after_served = plant.get_state()
+            plant.set_state(before)
+            cut = plant.step(Actuation(flow_kg_s=curtailed_flow), disturbance, dt_s)
+            if not curtailed:
+                plant.set_state(after_served)
+        else:  # no reserve offered: activation changes nothing
+            cut = served
+        applied = cut if curtailed else served
+        return _PlantPeriod(applied, served.power_kw, cut.power_kw, self._state_after(applied))
 
-    def _record_event(self, k: int, activated: bool, outcome: PeriodOutcome) -> None:
+    def _state_after(self, observation: Observation) -> FloatArray:
+        """The node temperatures (n,) [°C] after the period: the plant's own where it shows
+        them, else the zone readings over the model's other nodes carried unchanged."""
+        if observation.node_temp_degc is not None:
+            return np.asarray(observation.node_temp_degc, dtype=float)
+        x = self.x.copy()
+        x[self._zone_rows] = observation.zone_temp_degc
+        return x
+
+    def _record_event(self, k: int, decision: Decision) -> None:
         rec, col = self.recorder, self.recorder.column_index
-        rec.flags["il_activated"][k] = activated
+        outcome = decision.outcome
+        rec.flags["il_activated"][k] = self._activated(k)
         rec.flags["il_curtailed"][k] = outcome.curtailed
         rec.flags["il_beyond_model"][k] = outcome.beyond_model
         rec.flags["il_event_window"][k] = outcome.event_window
@@ -406,31 +358,30 @@ class ClosedLoop:
     def _record(
         self,
         k: int,
-        action: Action,
-        forecast: Any,
+        decision: Decision,
+        forecast: Forecast,
         d_hat: FloatArray,
         w: FloatArray,
-        x_next: FloatArray,
-        power: float,
-        power_served: float,
-        power_curtailed: float,
+        period: _PlantPeriod,
     ) -> None:
         rec, col = self.recorder, self.recorder.column_index
         row = rec.values[k]
         exo = self.setup.exogenous
+        action = decision.action
+        phi = effective_peak_price(forecast, self.setup.config.controller.peak_price_sgd_per_kw)
         row[col["energy_price_sgd_per_mwh"]] = exo.energy_price_sgd_per_mwh[k]
         row[col["reserve_price_sgd_per_mwh"]] = exo.reserve_price_sgd_per_mwh[k]
-        row[col["peak_price_sgd_per_kw"]] = self.setup.config.controller.peak_price_sgd_per_kw
-        row[col["power_kw"]] = power
-        row[col["power_served_kw"]] = power_served
-        row[col["power_curtailed_kw"]] = power_curtailed
+        row[col["peak_price_sgd_per_kw"]] = phi
+        row[col["power_kw"]] = period.applied.power_kw
+        row[col["power_served_kw"]] = period.served_power_kw
+        row[col["power_curtailed_kw"]] = period.curtailed_power_kw
         row[col["planned_power_kw"]] = action.planned_power_kw
         row[col["reserve_kw"]] = action.reserve_kw
         row[col["solve_time_s"]] = action.solve_time_s
         row[col["planned_slack_max_k"]] = action.planned_slack_max_k
         row[col["delta_max_k"]] = action.delta_max_k
         start = self.x[self._zone_rows]
-        end = x_next[self._zone_rows]
+        end = period.x_next_degc[self._zone_rows]
         for z, zone in enumerate(self.setup.zone_names):
             row[col[f"flow_{zone}_kg_s"]] = action.flow_kg_s[z]
             row[col[f"reserve_flow_{zone}_kg_s"]] = action.reserve_flow_kg_s[z]
@@ -451,18 +402,19 @@ class ClosedLoop:
 
     # -- checkpoints ------------------------------------------------------------------
     def get_state(self) -> dict[str, Any]:
+        """The run's state as data (:mod:`hvacflex.state`)."""
         rec = self.recorder
         return {
             "config_hash": run_key(self.setup.config),
             "code_version": version.code_version(),
             "k": self.k,
             "x": self.x.copy(),
+            "plant": self.plant.get_state() if self.plant.can_snapshot else None,
             "month": self.month,
             "month_peak_kw": self.month_peak_kw,
             "sampler": self.sampler.get_state(),
             "sensors": self.sensors.get_state(),
-            "controller": self.controller.get_state(),
-            "events": self.events.get_state(),
+            "control": self.control.get_state(),
             "values": rec.values[: self.k].copy(),
             "flags": {name: flags[: self.k].copy() for name, flags in rec.flags.items()},
             "status": rec.status[: self.k].copy(),
@@ -476,21 +428,22 @@ class ClosedLoop:
                 f"configuration {expected}; start afresh or use the matching configuration"
             )
         k = state["k"]
-        self.k, self.x = k, state["x"].copy()
+        self.k, self.x = k, np.asarray(state["x"], dtype=float).copy()
+        if state["plant"] is not None:
+            self.plant.set_state(state["plant"])
         self.month, self.month_peak_kw = state["month"], state["month_peak_kw"]
         self.sampler.set_state(state["sampler"])
         self.sensors.set_state(state["sensors"])
-        self.controller.set_state(state["controller"])
+        self.control.set_state(state["control"])
         rec = self.recorder
         rec.values[:k] = state["values"]
-        self.events.set_state(state["events"])
         for name, flags in state["flags"].items():
             rec.flags[name][:k] = flags
         rec.status[:k] = state["status"]
 
     def save_checkpoint(self, path: Path) -> None:
         """Write the state atomically (a crash mid-write leaves the previous checkpoint)."""
-        atomic_write_bytes(path, pickle.dumps(self.get_state(), protocol=pickle.HIGHEST_PROTOCOL))
+        state.save(path, self.get_state())
 
     def frame(self) -> pd.DataFrame:
         return self.recorder.frame(self.setup.exogenous.index, self.k)
@@ -531,6 +484,8 @@ def run_simulation(
     out.mkdir(parents=True, exist_ok=True)
     results_path = out / RESULTS_FILE
     checkpoint_path = out / CHECKPOINT_FILE
+    if resume:
+        refuse_old_checkpoint(out)
     config_hash = run_key(config)
     if resume and results_path.is_file():
         frame, stored = read_results(results_path)
@@ -539,17 +494,17 @@ def run_simulation(
             summary = read_summary(out / SUMMARY_FILE)
             return RunResult(out, frame, summary, cached=True)
 
-    state: dict[str, Any] | None = None
+    stored_state: dict[str, Any] | None = None
     if resume and checkpoint_path.is_file():
-        state = load_checkpoint(checkpoint_path)
-        if state["config_hash"] == config_hash:
-            check_checkpoint_code(state, checkpoint_path)
+        stored_state = load_checkpoint(checkpoint_path)
+        if stored_state["config_hash"] == config_hash:
+            check_checkpoint_code(stored_state, checkpoint_path)
         else:  # a checkpoint of another configuration: this run starts afresh over it
-            state = None
+            stored_state = None
     loop = ClosedLoop(prepare(config))
     resumed_from: int | None = None
-    if state is not None:
-        loop.set_state(state)
+    if stored_state is not None:
+        loop.set_state(stored_state)
         resumed_from = loop.k
     atomic_write_text(out / CONFIG_FILE, json.dumps(config.to_dict(), indent=2))
 

@@ -8,13 +8,11 @@ it, to be re-solved warm or cold elsewhere.
 
 from __future__ import annotations
 
-from typing import Any
-
 from hvacflex.config import ScenarioConfig
-from hvacflex.control.mpc import MPCController
 from hvacflex.errors import ConfigError
 from hvacflex.opt.problem import RMPCProblem
-from hvacflex.sim.closed_loop import ClosedLoop, prepare
+from hvacflex.sim.closed_loop import ClosedLoop
+from hvacflex.sim.setup import prepare
 
 __all__ = ["recorded_problems"]
 
@@ -37,8 +35,9 @@ def recorded_problems(config: ScenarioConfig, steps: int) -> list[RMPCProblem]:
             hint="pass steps ≥ 1",
         )
     loop = ClosedLoop(prepare(config))
+    problems: list[RMPCProblem] = []
     controller = loop.controller
-    if not isinstance(controller, MPCController):
+    if controller is None or not controller.observe_problems(problems.append):
         raise ConfigError(
             "only an MPC controller builds LPs",
             source="recorded_problems",
@@ -46,15 +45,6 @@ def recorded_problems(config: ScenarioConfig, steps: int) -> list[RMPCProblem]:
             value=type(controller).__name__,
             hint="record an rmpc or nmpc scenario",
         )
-    problems: list[RMPCProblem] = []
-    build = controller.problem
-
-    def record(*args: Any, **kwargs: Any) -> RMPCProblem:
-        problem = build(*args, **kwargs)
-        problems.append(problem)
-        return problem
-
-    controller.problem = record  # type: ignore[method-assign]
     while loop.k < steps:
         loop.step()
     return problems

@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import pickle
 from pathlib import Path
 from typing import Any
 
@@ -14,7 +13,7 @@ import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from hvacflex import version
+from hvacflex import state, version
 from hvacflex.config import ScenarioConfig
 from hvacflex.errors import StoredStateError
 from hvacflex.paths import resolve_building
@@ -22,7 +21,9 @@ from hvacflex.results_file import RESULTS_FILENAME
 from hvacflex.version import atomic_write
 
 RESULTS_FILE = RESULTS_FILENAME
-CHECKPOINT_FILE = "checkpoint.pkl"
+CHECKPOINT_FILE = "checkpoint.npz"
+OLD_CHECKPOINT_FILE = "checkpoint.pkl"
+"""The pickle checkpoint of hvacflex before the data-only format (refused, never read)."""
 SUMMARY_FILE = "summary.json"
 CONFIG_FILE = "config.json"
 
@@ -118,25 +119,43 @@ def read_summary(path: Path) -> dict[str, float]:
 
 
 def load_checkpoint(path: Path) -> dict[str, Any]:
-    """The state stored by :meth:`ClosedLoop.save_checkpoint`.
+    """The state stored by :meth:`ClosedLoop.save_checkpoint` (:mod:`hvacflex.state`).
 
     Raises
     ------
     StoredStateError
-        When the file cannot be unpickled (e.g. truncated) or holds no checkpoint.
+        When the file is not a checkpoint (truncated, damaged, another format version, or
+        the pickle of an older hvacflex, which is never unpickled).
     """
     try:
-        with path.open("rb") as fh:
-            state = pickle.load(fh)
-    except Exception as exc:  # a damaged pickle raises almost anything
+        stored = state.load(path)
+    except (OSError, state.DamagedStateError) as exc:
         raise StoredStateError(
             f"not a readable checkpoint (truncated or damaged: {type(exc).__name__})",
             source=path,
             hint=_FRESH_HINT,
         ) from None
-    if not isinstance(state, dict) or "config_hash" not in state or "k" not in state:
+    if not isinstance(stored, dict) or "config_hash" not in stored or "k" not in stored:
         raise StoredStateError("not a checkpoint of hvacflex", source=path, hint=_FRESH_HINT)
-    return state
+    return stored
+
+
+def refuse_old_checkpoint(out_dir: Path) -> None:
+    """Refuse a run folder holding the pickle checkpoint of an older hvacflex.
+
+    Raises
+    ------
+    StoredStateError
+        Naming the file and how to start afresh.
+    """
+    old = out_dir / OLD_CHECKPOINT_FILE
+    if old.is_file():
+        raise StoredStateError(
+            "a checkpoint of an older hvacflex (pickle format), which is no longer read "
+            "(loading a pickle can run any code it holds)",
+            source=old,
+            hint="run again with --fresh to start this run afresh (or delete the file)",
+        )
 
 
 def check_checkpoint_code(state: dict[str, Any], path: Path) -> None:

@@ -1,0 +1,291 @@
+"""The one place where a period is decided: :class:`ControlStep`.
+
+Every driver — the closed loop (:mod:`hvacflex.sim.closed_loop`), the live service
+(:mod:`hvacflex.service.runtime`) and a fleet's building agents (:mod:`hvacflex.fleet.agent`) —
+decides a period through :meth:`ControlStep.decide`, which owns the controller, the IL event
+tracker (:class:`hvacflex.sim.events.EventTracker`, ``docs/il_events.md``) and the hold/lock
+rules:
+
+1. the period's IL role from the activation signal (served, curtail the fresh plan, an event
+   starts, an event continues, beyond the model);
+2. a locked event period applies the locked plan's step without a decision (the controller
+   only :meth:`~hvacflex.control.base.Controller.hold` s, so a filter still measures); any
+   other period asks the controller (``plan``: a plan decided elsewhere, the fleet
+   coordinator's, applied as the solver's);
+3. an event start locks the plan just made;
+4. the tracker settles the period (curtailed?, allowance, reference power) and the
+   controller is told the flow the plant will run.
+
+A period may be decided more than once (the service: a boundary plan, then the
+measurement; an activation during the period). With ``replannable=True`` each decision of a
+period starts from the controller and tracker state *before* the period, which
+:meth:`ControlStep.get_state` stores, so a restarted service re-plans exactly as the
+running one would. Periods nobody decided (a building that posted nothing) only advance the
+IL bookkeeping.
+"""
+
+from __future__ import annotations
+
+import enum
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from hvacflex.config import ScenarioConfig
+from hvacflex.control.base import Action, Controller, EventPlan, FloatArray
+from hvacflex.control.estimation import StepModel
+from hvacflex.data.forecast import Forecast
+from hvacflex.errors import InputError
+from hvacflex.sim.events import EventTracker, PeriodOutcome, Role
+
+STATE_KIND = "control-step"
+"""Tag of a :meth:`ControlStep.get_state` (inside the versioned :mod:`hvacflex.state`)."""
+
+
+class ConflictError(InputError):
+    """The request contradicts what is stored (e.g. a different measurement for a period,
+    or a period before the building's latest planned one: plans only go forward)."""
+
+
+class DecisionStatus(enum.Enum):
+    """How a period's action came about."""
+
+    PLANNED = "planned"
+    """The controller's optimal plan (an MPC)."""
+    RULE = "rule"
+    """A rule-based controller decided."""
+    FALLBACK = "fallback"
+    """The plan could not be used; a safe rule decided (solver failure, capped plan)."""
+    LOCKED = "locked"
+    """A locked IL event plan's step: no decision was made."""
+
+
+@dataclass(frozen=True)
+class Decision:
+    """What the building runs in one period.
+
+    Attributes
+    ----------
+    action : the plan's first step (u₀, r₀, …), or the locked event plan's step j.
+    status : how the action came about.
+    role : the period's IL role.
+    outcome : the period's IL columns (curtailed, beyond model, allowance α in force,
+        reference power).
+    applied_flow_kg_s : (m,) the flow to run [kg/s]: u − r when curtailed, else u.
+    plan : the optimal plan over the horizon made this period (an ``RMPCSolution``), or None
+        (a rule, a fallback, a locked period).
+    locked : the locked event plan and the period's index in it when the period belongs to
+        it (an event's start or continuation), else None.
+    """
+
+    action: Action
+    status: DecisionStatus
+    role: Role
+    outcome: PeriodOutcome
+    applied_flow_kg_s: FloatArray
+    plan: Any
+    locked: tuple[EventPlan, int] | None
+
+    @property
+    def allowance_k(self) -> float:
+        """α in force this period [K] (0 outside an event and its recovery)."""
+        return float(self.outcome.allowance_k)
+
+
+def event_tracker(config: ScenarioConfig) -> EventTracker:
+    """The tracker of ``config``'s reserve model."""
+    reserve = config.reserve
+    events = reserve.event_max_steps is not None
+    return EventTracker(
+        reserve.event_max_steps,
+        reserve.event_recovery_steps if events else 0,
+        reserve.event_allowance_k if events else 0.0,
+    )
+
+
+def _unplanned(zones: int) -> Action:
+    """The action of a period nobody planned (only its IL bookkeeping is advanced)."""
+    nan = np.full(zones, math.nan)
+    return Action(
+        flow_kg_s=nan,
+        reserve_flow_kg_s=np.zeros(zones),
+        reserve_kw=0.0,
+        planned_power_kw=math.nan,
+        status="not-planned",
+        fallback=True,
+        solve_time_s=0.0,
+        planned_slack_max_k=math.nan,
+        delta_max_k=math.nan,
+        predicted_served_degc=nan,
+        predicted_curtailed_degc=nan,
+    )
+
+
+class ControlStep:
+    """A building's controller and IL event state, deciding one period at a time.
+
+    Parameters
+    ----------
+    config : the building's scenario (``[reserve]``: the event model).
+    controller : the controller (any :class:`~hvacflex.control.base.Controller`).
+    zones : m, the number of zones.
+    replannable : keep the state before each period so the period can be decided again
+        (the service); the closed loop and the fleet decide each period once.
+    """
+
+    def __init__(
+        self,
+        config: ScenarioConfig,
+        controller: Controller,
+        zones: int,
+        *,
+        replannable: bool = False,
+    ) -> None:
+        self.controller = controller
+        self.tracker = event_tracker(config)
+        self.zones = zones
+        self.replannable = replannable
+        self.period = -1
+        """The latest period decided (−1: none)."""
+        self._before: dict[str, Any] | None = None
+
+    @property
+    def takes_measurements(self) -> bool:
+        """True when :meth:`decide` needs ``measured_zone_temp_degc``."""
+        return bool(self.controller.takes_measurements)
+
+    @property
+    def step_model(self) -> StepModel | None:
+        """The model the controller planned the last period with (None: it has none)."""
+        return self.controller.step_model
+
+    @property
+    def allowance_carry_steps(self) -> int:
+        """Periods from now that still belong to the recovery of the last event."""
+        return self.tracker.carry_steps
+
+    def decide(
+        self,
+        k: int,
+        x_degc: FloatArray,
+        forecast: Forecast,
+        *,
+        peak_floor_kw: float,
+        activated: Callable[[int], bool],
+        measured_zone_temp_degc: FloatArray | None = None,
+        plan: Any = None,
+    ) -> Decision:
+        """Decide period ``k``.
+
+        Parameters
+        ----------
+        k : the period (steps from the scenario's start).
+        x_degc : (n,) node temperatures [°C] (the plant's state, or the building's report).
+        forecast : the controller's view of the horizon from ``k``, signals applied.
+        peak_floor_kw : the peak already incurred in this billing period [kW].
+        activated : whether IL is activated in period j.
+        measured_zone_temp_degc : (m,) zone-air readings [°C] for a controller with a filter.
+        plan : a plan of this period decided elsewhere (the fleet coordinator's).
+
+        Raises
+        ------
+        ConflictError : ``k`` is before the latest decided period.
+        """
+        self._start_period(k, activated)
+        controller, tracker = self.controller, self.tracker
+        role = tracker.role(activated(k))
+        if role is Role.EVENT_LOCKED:
+            action = tracker.locked_action()
+            controller.hold(
+                forecast, action.flow_kg_s - action.reserve_flow_kg_s, measured_zone_temp_degc
+            )
+        else:
+            action = controller.act(
+                x_degc,
+                forecast,
+                peak_floor_kw=peak_floor_kw,
+                allowance_carry_steps=tracker.carry_steps,
+                measured_zone_temp_degc=measured_zone_temp_degc,
+                plan=plan,
+            )
+        if role is Role.EVENT_START:
+            tracker.lock(action.event_plan)
+        locked = None
+        if tracker.locked is not None and role in (Role.EVENT_START, Role.EVENT_LOCKED):
+            locked = (tracker.locked, tracker.plan_step)
+        outcome = tracker.finish(role, action)
+        applied = action.flow_kg_s - action.reserve_flow_kg_s if outcome.curtailed else None
+        applied_flow = np.asarray(action.flow_kg_s if applied is None else applied, dtype=float)
+        controller.note_applied_flow(applied_flow)
+        status = decision_status(role, action)
+        made = controller.last_plan if status is DecisionStatus.PLANNED else None
+        return Decision(action, status, role, outcome, applied_flow, made, locked)
+
+    def _start_period(self, k: int, activated: Callable[[int], bool]) -> None:
+        if k < self.period:
+            raise ConflictError(
+                f"period {k} is before the building's latest planned period {self.period}",
+                field="time",
+                value=k,
+                hint="plans go forward: post the measurement of the current period",
+            )
+        if k == self.period and self._before is not None:  # decide again from before it
+            self.controller.set_state(self._before["controller"])
+            self.tracker.set_state(self._before["events"])
+        else:
+            for j in range(self.period + 1, k):
+                self._skip(activated(j))
+        if self.replannable:
+            self._before = {
+                "controller": self.controller.get_state(),
+                "events": self.tracker.get_state(),
+            }
+        self.period = k
+
+    def _skip(self, activated: bool) -> None:
+        tracker = self.tracker
+        role = tracker.role(activated)
+        action = tracker.locked_action() if role is Role.EVENT_LOCKED else _unplanned(self.zones)
+        if role is Role.EVENT_START:
+            tracker.lock(None)
+        tracker.finish(role, action)
+
+    # -- the one checkpoint format ----------------------------------------------------------
+    def get_state(self) -> dict[str, Any]:
+        """Data only (:mod:`hvacflex.state`): the controller and tracker after the latest
+        decision, and before it (``replannable``)."""
+        return {
+            "kind": STATE_KIND,
+            "period": self.period,
+            "before": self._before,
+            "controller": self.controller.get_state(),
+            "events": self.tracker.get_state(),
+        }
+
+    def set_state(self, state: dict[str, Any]) -> None:
+        """Restore :meth:`get_state`."""
+        if state.get("kind") != STATE_KIND:
+            raise InputError(
+                "not the state of a control step",
+                field="kind",
+                value=state.get("kind"),
+                hint="start afresh",
+            )
+        self.period = int(state["period"])
+        self._before = state["before"]
+        self.controller.set_state(state["controller"])
+        self.tracker.set_state(state["events"])
+
+
+def decision_status(role: Role, action: Action) -> DecisionStatus:
+    """How ``action`` came about in a period of IL role ``role``."""
+    if role is Role.EVENT_LOCKED:
+        return DecisionStatus.LOCKED
+    if action.fallback:
+        return DecisionStatus.FALLBACK
+    if action.status == "rule":
+        return DecisionStatus.RULE
+    return DecisionStatus.PLANNED

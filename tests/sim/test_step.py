@@ -1,0 +1,168 @@
+"""ControlStep: the one place a period is decided (roles, hold/lock, replanning, state)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import pytest
+
+from hvacflex import state
+from hvacflex.config import preset
+from hvacflex.control.base import Action, Controller, EventPlan
+from hvacflex.data.forecast import Forecast
+from hvacflex.sim.events import Role
+from hvacflex.sim.step import ConflictError, ControlStep, DecisionStatus
+
+ZONES = 2
+STEPS = 6  # D + R of the product presets: 4 + 2
+
+
+class CountingController(Controller):
+    """Plans flows that grow with each call; records what the step asks of it."""
+
+    def __init__(self) -> None:
+        self.calls = 0
+        self.holds: list[np.ndarray] = []
+        self.applied: list[np.ndarray] = []
+        self.measured: list[Any] = []
+
+    def act(
+        self,
+        x_degc: np.ndarray,
+        forecast: Forecast,
+        *,
+        peak_floor_kw: float,
+        allowance_carry_steps: int = 0,
+        measured_zone_temp_degc: np.ndarray | None = None,
+        plan: Any = None,
+    ) -> Action:
+        self.calls += 1
+        self.measured.append(measured_zone_temp_degc)
+        flow = np.full((STEPS, ZONES), 1.0 + self.calls)
+        event = EventPlan(
+            flow_kg_s=flow,
+            reserve_flow_kg_s=0.25 * flow,
+            served_power_kw=np.full(STEPS, 10.0),
+            reserve_kw=np.full(STEPS, 2.0),
+            predicted_served_degc=np.full(flow.shape, 25.0),
+            predicted_curtailed_degc=np.full(flow.shape, 25.5),
+        )
+        return Action(
+            flow_kg_s=flow[0],
+            reserve_flow_kg_s=0.25 * flow[0],
+            reserve_kw=2.0,
+            planned_power_kw=10.0,
+            status="optimal",
+            fallback=False,
+            solve_time_s=0.0,
+            planned_slack_max_k=0.0,
+            delta_max_k=0.0,
+            predicted_served_degc=np.full(ZONES, 25.0),
+            predicted_curtailed_degc=np.full(ZONES, 25.5),
+            event_plan=event,
+        )
+
+    def hold(
+        self, forecast: Forecast, flow_kg_s: np.ndarray, measured_zone_temp_degc: Any = None
+    ) -> None:
+        self.holds.append(np.asarray(flow_kg_s))
+
+    def note_applied_flow(self, flow_kg_s: np.ndarray) -> None:
+        self.applied.append(np.asarray(flow_kg_s))
+
+    def get_state(self) -> dict[str, Any]:
+        return {"calls": self.calls}
+
+    def set_state(self, state: dict[str, Any]) -> None:
+        self.calls = int(state["calls"])
+
+
+def _step(replannable: bool = False) -> tuple[ControlStep, CountingController]:
+    controller = CountingController()
+    config = preset("rmpc", start="2014-03-03", days=1.0)  # event model: D = 4, R = 2
+    return ControlStep(config, controller, ZONES, replannable=replannable), controller
+
+
+def _decide(step: ControlStep, k: int, active: set[int], **kw: Any) -> Any:
+    return step.decide(
+        k,
+        np.full(3, 25.0),
+        None,  # type: ignore[arg-type]  # the counting controller never reads it
+        peak_floor_kw=0.0,
+        activated=lambda j: j in active,
+        **kw,
+    )
+
+
+def test_an_event_locks_the_start_plan_holds_and_curtails_then_resumes() -> None:
+    step, controller = _step()
+    active = {1, 2, 3, 4, 5, 6}  # longer than D = 4
+    decisions = [_decide(step, k, active) for k in range(8)]
+    roles = [d.role for d in decisions]
+    assert roles[:6] == [
+        Role.SERVED,
+        Role.EVENT_START,
+        Role.EVENT_LOCKED,
+        Role.EVENT_LOCKED,
+        Role.EVENT_LOCKED,
+        Role.BEYOND_MODEL,
+    ]
+    # the locked periods ask nothing of the controller: it only holds, at u − r of the plan
+    assert controller.calls == 8 - 3
+    assert len(controller.holds) == 3
+    np.testing.assert_allclose(controller.holds[0], 0.75 * 3.0)  # plan made at k = 1
+    statuses = [d.status for d in decisions]
+    assert statuses[2:5] == [DecisionStatus.LOCKED] * 3
+    assert statuses[0] is DecisionStatus.PLANNED
+    # curtailed periods run u − r, and the controller is told the flow that ran
+    assert [d.outcome.curtailed for d in decisions[:6]] == [False, True, True, True, True, False]
+    np.testing.assert_allclose(decisions[1].applied_flow_kg_s, 0.75 * 3.0)
+    np.testing.assert_allclose(decisions[0].applied_flow_kg_s, 2.0)
+    assert len(controller.applied) == 8
+    assert decisions[1].locked is not None and decisions[1].locked[1] == 0
+    assert decisions[3].locked is not None and decisions[3].locked[1] == 2
+    assert decisions[1].allowance_k > 0  # the event's allowance is in force
+
+
+def test_measurements_reach_the_controller() -> None:
+    step, controller = _step()
+    reading = np.array([24.0, 26.0])
+    _decide(step, 0, set(), measured_zone_temp_degc=reading)
+    np.testing.assert_array_equal(controller.measured[0], reading)
+
+
+def test_a_replannable_step_decides_a_period_again_from_before_it() -> None:
+    step, controller = _step(replannable=True)
+    first = _decide(step, 0, set())
+    again = _decide(step, 0, set())  # e.g. the measurement after the boundary plan
+    np.testing.assert_array_equal(first.action.flow_kg_s, again.action.flow_kg_s)
+    assert controller.calls == 1  # restored to before period 0, then decided once more
+    with pytest.raises(ConflictError, match="before the building's latest planned period"):
+        _decide(step, -1, set())
+
+
+def test_periods_nobody_decided_advance_the_event_bookkeeping() -> None:
+    step, controller = _step()
+    _decide(step, 0, {1, 2})
+    later = _decide(step, 3, {1, 2})  # periods 1–2 (an event) were never decided
+    assert controller.calls == 2
+    assert later.role is Role.SERVED
+
+
+def test_the_state_is_data_and_resumes_identically() -> None:
+    whole, _ = _step()
+    active = {2, 3, 4}
+    expected = [_decide(whole, k, active) for k in range(7)]
+    split, _ = _step()
+    for k in range(3):  # stop inside the event
+        _decide(split, k, active)
+    blob = state.encode(split.get_state())
+    resumed, _ = _step()
+    resumed.set_state(state.decode(blob))
+    for k in range(3, 7):
+        got = _decide(resumed, k, active)
+        assert got.role is expected[k].role
+        np.testing.assert_array_equal(got.applied_flow_kg_s, expected[k].applied_flow_kg_s)
+    with pytest.raises(Exception, match="not the state of a control step"):
+        resumed.set_state({"kind": "something else"})
