@@ -35,8 +35,6 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import pandas as pd
-import pyarrow as pa
-import pyarrow.parquet as pq
 
 from hvacflex.errors import DataError, InputError, StoredStateError
 from hvacflex.version import atomic_write
@@ -423,6 +421,9 @@ def write_results(frame: pd.DataFrame, path: str | Path, metadata: Mapping[str, 
     metadata : ``{key: value}``, e.g. :data:`META_RUN_KEY`; written in this order after
         pandas' own metadata.
     """
+    import pyarrow as pa  # here, not at the top: importing the schema stays cheap
+    import pyarrow.parquet as pq
+
     table = pa.Table.from_pandas(frame)
     stored = dict(table.schema.metadata or {})
     for key, value in metadata.items():
@@ -431,8 +432,12 @@ def write_results(frame: pd.DataFrame, path: str | Path, metadata: Mapping[str, 
     atomic_write(path, lambda tmp: pq.write_table(table, tmp))
 
 
-_READ_ERRORS = (OSError, pa.ArrowException, ValueError, TypeError, RuntimeError)
-"""What reading a file that is not (a whole) Parquet file raises (pyarrow: ArrowInvalid, …)."""
+def _read_errors() -> tuple[type[Exception], ...]:
+    """What reading a file that is not (a whole) Parquet file raises (pyarrow: ArrowInvalid,
+    …); a function so that pyarrow is imported only when a file is read."""
+    import pyarrow as pa
+
+    return (OSError, pa.ArrowException, ValueError, TypeError, RuntimeError)
 
 
 def read_metadata(path: str | Path) -> dict[str, str]:
@@ -444,9 +449,11 @@ def read_metadata(path: str | Path) -> dict[str, str]:
     StoredStateError
         When the file is not a readable Parquet file.
     """
+    import pyarrow.parquet as pq
+
     try:
         schema = pq.read_schema(path)
-    except _READ_ERRORS as exc:
+    except _read_errors() as exc:
         raise _unreadable(Path(path), exc) from None
     return _hvacflex_metadata(schema.metadata)
 
@@ -461,12 +468,14 @@ def read_results(path: str | Path) -> tuple[pd.DataFrame, dict[str, str]]:
     """
     try:
         return _read_table(Path(path))
-    except _READ_ERRORS as exc:
+    except _read_errors() as exc:
         raise _unreadable(Path(path), exc) from None
 
 
 def _read_table(path: Path) -> tuple[pd.DataFrame, dict[str, str]]:
     """The one Parquet reading of a results file: (frame, hvacflex metadata)."""
+    import pyarrow.parquet as pq
+
     table = pq.read_table(path)
     return table.to_pandas(), _hvacflex_metadata(table.schema.metadata)
 
@@ -516,7 +525,7 @@ def load_results(path: str | Path) -> pd.DataFrame:
         )
     try:
         results, _ = _read_table(file)
-    except _READ_ERRORS as exc:
+    except _read_errors() as exc:
         raise DataError(
             f"not a results file: cannot be read as Parquet ({type(exc).__name__})",
             source=file,
