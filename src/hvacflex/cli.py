@@ -498,6 +498,7 @@ def serve_replay(
 ) -> None:
     """Play the nonlinear plant as a building over HTTP; writes the files of `simulate`."""
     from hvacflex.errors import HvacflexError
+    from hvacflex.results import RESULTS_FILENAME
     from hvacflex.service.replay import replay
 
     try:
@@ -506,7 +507,7 @@ def serve_replay(
     except HvacflexError as exc:
         typer.echo(f"error: {exc}", err=True)
         raise typer.Exit(2) from None
-    typer.echo(_run_summary_line(cfg.name, result.summary, result.out_dir / "results.parquet"))
+    typer.echo(_run_summary_line(cfg.name, result.summary, result.out_dir / RESULTS_FILENAME))
 
 
 if __name__ == "__main__":
