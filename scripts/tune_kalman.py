@@ -19,6 +19,7 @@ import itertools
 
 import numpy as np
 
+from hvacflex import results as schema
 from hvacflex.config import preset
 from hvacflex.control import estimation as est
 from hvacflex.sim.closed_loop import ClosedLoop
@@ -38,8 +39,8 @@ def record(start: str, days: float) -> dict[str, np.ndarray]:
     frame = loop.frame()
     setup = loop.setup
     zones, channels = setup.zone_names, setup.model.channels
-    flows = frame[[f"flow_{z}_kg_s" for z in zones]].to_numpy()
-    d_hat = frame[[f"d_{c.name}" for c in channels]].to_numpy()
+    flows = frame[schema.FLOW.names(zones)].to_numpy()
+    d_hat = frame[schema.FORECAST_DISTURBANCE.names(c.name for c in channels)].to_numpy()
     sigma = setup.box.sigma(d_hat, channels)
     return {"x": np.array(states), "u": flows, "d": d_hat, "sigma": sigma}
 

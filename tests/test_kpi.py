@@ -209,6 +209,19 @@ def test_discomfort_max_violation_and_violation_share() -> None:
     assert kpi.violation_share(df, tolerance_k=0.001) == pytest.approx(0.75)
 
 
+def test_step_discomfort_sums_the_zones_of_each_period() -> None:
+    df = results_frame(
+        3,
+        freq="15min",
+        temp_end={"north": [22.0, 26.5, 24.0], "core": [24.0, 27.0, 22.5]},
+    )
+    # band [23, 26], Δt = 0.25 h: north 1, 0.5, 0 K; core 0, 1, 0.5 K
+    step = kpi.step_discomfort_kelvin_hours(df)
+    np.testing.assert_allclose(step.to_numpy(), [0.25, 0.375, 0.125])
+    assert step.index.equals(df.index)
+    assert step.sum() == pytest.approx(kpi.total_discomfort_kelvin_hours(df))
+
+
 def test_discomfort_uses_the_band_in_force_at_period_end() -> None:
     df = results_frame(2, temp_end={"north": [21.0, 21.0]}, lower=[20.0, 23.0], upper=[30.0, 26.0])
     # unoccupied band 20–30 then occupied 23–26: deviation 0 then 2 K → 1 K·h
@@ -274,17 +287,6 @@ def test_summary_gathers_the_kpis() -> None:
     assert all(isinstance(v, float) for v in out.values())
 
 
-def test_load_results_from_dir_or_file_keeps_the_tz_index(tmp_path: Path) -> None:
-    df = results_frame(4)
-    df.to_parquet(tmp_path / "results.parquet")
-    for path in (tmp_path, tmp_path / "results.parquet"):
-        loaded = kpi.load_results(path)
-        assert loaded.index.equals(df.index)
-        assert kpi.energy_cost_sgd(loaded) == pytest.approx(2.0)
-    with pytest.raises(DataError, match="results file not found"):
-        kpi.load_results(tmp_path / "nothing")
-
-
 def test_kpi_command_compares_runs(tmp_path: Path) -> None:
     from hvacflex.cli import app
 
@@ -298,22 +300,6 @@ def test_kpi_command_compares_runs(tmp_path: Path) -> None:
     assert "nmpc" in result.output and "rmpc" in result.output
     assert "energy_cost_sgd" in result.output
     assert "2.00" in result.output and "4.00" in result.output
-
-
-def test_load_results_refuses_what_is_not_a_results_file(tmp_path: Path) -> None:
-    with pytest.raises(DataError, match="no such file or directory"):
-        kpi.load_results(tmp_path / "missing_dir")
-    with pytest.raises(DataError, match=r"holds no results\.parquet"):
-        kpi.load_results(tmp_path)
-    text = tmp_path / "notes.parquet"
-    text.write_text("not parquet at all")
-    with pytest.raises(DataError, match="cannot be read as Parquet"):
-        kpi.load_results(text)
-    other = tmp_path / "other.parquet"
-    pd.DataFrame({"x": [1.0, 2.0]}).to_parquet(other)
-    with pytest.raises(DataError, match="required columns are missing") as info:
-        kpi.load_results(other)
-    assert info.value.field == "power_kw, energy_price_sgd_per_mwh"
 
 
 @pytest.mark.parametrize("target", ["missing_dir", "README.md", "empty_dir"])

@@ -11,8 +11,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from hvacflex.kpi import load_results
 from hvacflex.reproduce import reproduce
+from hvacflex.results import load_results
 
 
 @pytest.fixture(scope="module")

@@ -167,13 +167,14 @@ def kpi(
     from hvacflex import kpi as kpis
     from hvacflex.errors import HvacflexError
     from hvacflex.report.tables import format_value
+    from hvacflex.results import RESULTS_FILENAME, load_results
 
     columns: dict[str, dict[str, float]] = {}
     for path in paths:
         if path.is_dir():
             name = path.name
         else:
-            name = path.parent.name if path.name == kpis.RESULTS_FILENAME else path.stem
+            name = path.parent.name if path.name == RESULTS_FILENAME else path.stem
         unique = name
         suffix = 2
         while unique in columns:
@@ -186,7 +187,7 @@ def kpi(
             if fleet_results is not None:  # a fleet run (hvacflex fleet simulate)
                 columns[unique] = fleet_summary(fleet_results)
             else:
-                results = kpis.load_results(path)
+                results = load_results(path)
                 columns[unique] = kpis.summary(results, peak_price_sgd_per_kw)
         except HvacflexError as exc:
             where = "" if str(path) in str(exc) else f"{path}: "
@@ -497,6 +498,7 @@ def serve_replay(
 ) -> None:
     """Play the nonlinear plant as a building over HTTP; writes the files of `simulate`."""
     from hvacflex.errors import HvacflexError
+    from hvacflex.results import RESULTS_FILENAME
     from hvacflex.service.replay import replay
 
     try:
@@ -505,7 +507,7 @@ def serve_replay(
     except HvacflexError as exc:
         typer.echo(f"error: {exc}", err=True)
         raise typer.Exit(2) from None
-    typer.echo(_run_summary_line(cfg.name, result.summary, result.out_dir / "results.parquet"))
+    typer.echo(_run_summary_line(cfg.name, result.summary, result.out_dir / RESULTS_FILENAME))
 
 
 if __name__ == "__main__":

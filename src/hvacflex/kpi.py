@@ -3,8 +3,9 @@
 Every function takes the results DataFrame of one run (one row per control step; the column
 schema is the *Results* table of ``docs/architecture.md``) and returns a number, a Series or a
 small DataFrame whose unit is in its name. The functions are pure: they never modify their
-input and never read files (:func:`load_results`, re-exported from
-:mod:`hvacflex.results_file`, reads one).
+input and never read files (:func:`hvacflex.results.load_results` reads one). Column names
+come from the schema in :mod:`hvacflex.results`; they work on any frame with those columns
+(a fleet's totals too: :mod:`hvacflex.fleet.kpi`).
 
 Conventions
 -----------
@@ -13,7 +14,8 @@ Conventions
   :data:`DEFAULT_STEP_H` (30 min) when the index is not a ``DatetimeIndex`` or has fewer
   than two rows.
 * Zones are discovered from the ``temp_<zone>_degc`` columns (``temp_end_``, ``temp_served_``
-  and ``temp_curtailed_`` columns of the same zones are not zones themselves).
+  and ``temp_curtailed_`` columns of the same zones are not zones themselves;
+  :func:`hvacflex.results.zone_names`).
 * Energy is ``Σ_k P_k Δt``; energy cost ``Σ_k c_k P_k Δt / 1000`` with ``c`` in SGD/MWh;
   reserve revenue ``Σ_k b_k R_k Δt / 1000`` for the capacity ``R`` offered (paid whether or
   not the interruptible load is activated).
@@ -36,15 +38,11 @@ Conventions
 
 from __future__ import annotations
 
-import re
-
 import numpy as np
 import pandas as pd
 
+from hvacflex import results as schema
 from hvacflex.errors import DataError
-from hvacflex.results_file import RESULTS_FILENAME as RESULTS_FILENAME
-from hvacflex.results_file import RESULTS_REQUIRED_COLUMNS as RESULTS_REQUIRED_COLUMNS
-from hvacflex.results_file import load_results as load_results
 from hvacflex.units import KWH_PER_MWH
 
 DEFAULT_STEP_H = 0.5
@@ -60,8 +58,6 @@ PLANNED_SLACK_TOLERANCE_K = 1e-6
 """A plan counts as needing slack when its largest slack exceeds this [K] (LP tolerance)."""
 
 
-_TEMP_COLUMN = re.compile(r"^temp_(?P<zone>.+)_degc$")
-_DERIVED_TEMP_PREFIXES = ("end_", "served_", "curtailed_")
 _HOURS_PER_DAY = 24.0
 
 
@@ -107,18 +103,7 @@ def zone_names(results: pd.DataFrame) -> list[str]:
     DataError
         When the frame has no zone temperature column.
     """
-    candidates = [
-        match["zone"] for col in results.columns if (match := _TEMP_COLUMN.match(str(col)))
-    ]
-    candidate_set = set(candidates)
-    zones = [
-        name
-        for name in candidates
-        if not any(
-            name.startswith(prefix) and name[len(prefix) :] in candidate_set
-            for prefix in _DERIVED_TEMP_PREFIXES
-        )
-    ]
+    zones = schema.zone_names(results.columns)
     if not zones:
         raise DataError(
             "results frame has no zone temperature column 'temp_<zone>_degc'",
@@ -446,9 +431,9 @@ def _comfort_deviation_k(results: pd.DataFrame, allowance_k: float = 0.0) -> pd.
     widen = allowance_k * np.nan_to_num(_optional(results, "il_allowance_k", 0.0))
     deviations = {}
     for zone in zone_names(results):
-        temp = _values(results, f"temp_end_{zone}_degc")
-        lower = _values(results, f"comfort_lower_{zone}_degc")
-        upper = _values(results, f"comfort_upper_{zone}_degc") + widen
+        temp = _values(results, schema.TEMP_END.name(zone))
+        lower = _values(results, schema.COMFORT_LOWER.name(zone))
+        upper = _values(results, schema.COMFORT_UPPER.name(zone)) + widen
         deviations[zone] = np.maximum(lower - temp, 0.0) + np.maximum(temp - upper, 0.0)
     return pd.DataFrame(deviations, index=results.index)
 
@@ -485,6 +470,22 @@ def discomfort_kelvin_hours(results: pd.DataFrame) -> pd.Series:
     return (_comfort_deviation_k(results).sum() * step_hours(results)).rename(
         "discomfort_kelvin_hours"
     )
+
+
+def step_discomfort_kelvin_hours(results: pd.DataFrame) -> pd.Series:
+    """(T,) discomfort of each period summed over zones [K·h] (the terms of
+    :func:`total_discomfort_kelvin_hours`): ``Δt Σ_zone deviation at period end``.
+
+    Returns
+    -------
+    Series on the frame's index, named ``discomfort_kelvin_hours``.
+    """
+    step_h = step_hours(results)
+    deviation = _comfort_deviation_k(results)
+    total = np.zeros(len(results))
+    for zone in deviation.columns:  # zone order, as the fleet's column always summed
+        total += deviation[zone].to_numpy() * step_h
+    return pd.Series(total, index=results.index, name="discomfort_kelvin_hours")
 
 
 def total_discomfort_kelvin_hours(results: pd.DataFrame) -> float:
@@ -545,8 +546,8 @@ def max_delta_vs_half_band(results: pd.DataFrame) -> float:
     half_band_k = min(
         float(
             np.nanmin(
-                _values(results, f"comfort_upper_{zone}_degc")
-                - _values(results, f"comfort_lower_{zone}_degc")
+                _values(results, schema.COMFORT_UPPER.name(zone))
+                - _values(results, schema.COMFORT_LOWER.name(zone))
             )
         )
         / 2.0
@@ -640,7 +641,7 @@ def il_summary(results: pd.DataFrame) -> dict[str, float]:
 def prediction_error_summary(results: pd.DataFrame) -> dict[str, float]:
     """``prediction_error_rms_k``, ``_max_k`` [K]: RMS and largest |e| over steps and zones of
     the one-step prediction errors ``prediction_error_<zone>_k`` (NaN left out); or {}."""
-    names = [f"prediction_error_{zone}_k" for zone in zone_names(results)]
+    names = schema.PREDICTION_ERROR.names(zone_names(results))
     if not all(name in results.columns for name in names):
         return {}
     values = np.abs(results[names].to_numpy(dtype=float)).ravel()

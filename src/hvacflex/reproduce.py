@@ -34,7 +34,7 @@ from hvacflex.config import (
     preset,
     scaled_uncertainty,
 )
-from hvacflex.kpi import load_results
+from hvacflex.results import load_results
 from hvacflex.sim.sweep import JobOutcome, outcomes_table, run_sweep
 
 ScenarioLabel = str

@@ -56,6 +56,7 @@ def simulate(
     from hvacflex.fleet.report import write_fleet_report
     from hvacflex.fleet.run import run_fleet
     from hvacflex.fleet.schema import load_fleet
+    from hvacflex.results import RESULTS_FILENAME
 
     if days <= 0 or days * 48 != round(days * 48):
         typer.echo("error: --days must be a positive multiple of 30 minutes", err=True)
@@ -76,7 +77,8 @@ def simulate(
         raise typer.Exit(2) from None
     s = result.summary
     typer.echo(
-        f"{out}/results.parquet: {int(s['steps'])} steps, peak {s['peak_fleet_power_kw']:.1f} kW, "
+        f"{out / RESULTS_FILENAME}: {int(s['steps'])} steps, "
+        f"peak {s['peak_fleet_power_kw']:.1f} kW, "
         f"planned over limit max {s['max_planned_over_limit_kw']:.3g} kW, realised over limit "
         f"max {s['max_realised_over_limit_pct']:.2f} %, "
         f"bid accepted {100 * s['bid_accepted_share']:.0f} %, "

@@ -1,4 +1,9 @@
-"""Fleet KPIs from a fleet run's ``results.parquet`` (and ``buildings.parquet``)."""
+"""Fleet KPIs from a fleet run's ``results.parquet`` (and ``buildings.parquet``).
+
+The money and energy KPIs are :mod:`hvacflex.kpi`'s functions applied to the fleet frame
+seen as one building (:func:`as_kpi_frame`: the fleet's power is ``power_kw``, the settled
+bid is ``reserve_kw``), so Δt comes from the index and the SGD/MWh conversion from one place.
+"""
 
 from __future__ import annotations
 
@@ -8,9 +13,18 @@ import numpy as np
 import pandas as pd
 
 from hvacflex import kpi as kpis
+from hvacflex import results as schema
+from hvacflex.errors import StoredStateError
 
-DT_H = 0.5
 FLEET_MARKER_COLUMN = "fleet_power_kw"
+
+KPI_COLUMNS = {
+    "fleet_power_kw": "power_kw",
+    "settled_reserve_kw": "reserve_kw",
+    "energy_price_sgd_per_mwh": "energy_price_sgd_per_mwh",
+    "reserve_price_sgd_per_mwh": "reserve_price_sgd_per_mwh",
+}
+"""Fleet column → the :mod:`hvacflex.kpi` column it plays (revenue is the settled bid's)."""
 
 
 def is_fleet_results(results: pd.DataFrame) -> bool:
@@ -18,27 +32,31 @@ def is_fleet_results(results: pd.DataFrame) -> bool:
     return FLEET_MARKER_COLUMN in results.columns
 
 
+def as_kpi_frame(results: pd.DataFrame) -> pd.DataFrame:
+    """The fleet frame's :data:`KPI_COLUMNS` under their :mod:`hvacflex.kpi` names (same
+    index), for the single-building KPI functions."""
+    return results[list(KPI_COLUMNS)].rename(columns=KPI_COLUMNS)
+
+
 def fleet_summary(results: pd.DataFrame, buildings: pd.DataFrame | None = None) -> dict[str, float]:
     """Fleet KPIs: energy, cost, settled reserve revenue, the feeder limit and the bid."""
+    fleet = as_kpi_frame(results)
     power = results["fleet_power_kw"].to_numpy(float)
     planned = results["planned_fleet_power_kw"].to_numpy(float)
     limit = results["feeder_limit_kw"].to_numpy(float)
-    price = results["energy_price_sgd_per_mwh"].to_numpy(float)
-    reserve_price = results["reserve_price_sgd_per_mwh"].to_numpy(float)
-    settled = results["settled_reserve_kw"].to_numpy(float)
     finite = np.isfinite(limit)
     over_planned = np.where(finite, planned - limit, -np.inf)
     over_real = np.where(finite, (power - limit) / np.where(finite, limit, 1.0), -np.inf)
-    energy_cost = float(np.sum(power * price) * DT_H / 1000.0)
-    revenue = float(np.sum(settled * reserve_price) * DT_H / 1000.0)
     out = {
-        "buildings": float(buildings["building"].nunique()) if buildings is not None else np.nan,
+        "buildings": float(buildings[schema.BUILDING_COLUMN].nunique())
+        if buildings is not None
+        else np.nan,
         "steps": float(len(results)),
-        "energy_kwh": float(np.sum(power) * DT_H),
-        "energy_cost_sgd": energy_cost,
-        "reserve_revenue_sgd": revenue,
-        "net_cost_sgd": energy_cost - revenue,
-        "peak_fleet_power_kw": float(np.max(power, initial=0.0)),
+        "energy_kwh": kpis.energy_kwh(fleet),
+        "energy_cost_sgd": kpis.energy_cost_sgd(fleet),
+        "reserve_revenue_sgd": kpis.reserve_revenue_sgd(fleet),
+        "net_cost_sgd": kpis.net_cost_sgd(fleet),
+        "peak_fleet_power_kw": kpis.peak_power_kw(fleet) if len(fleet) else 0.0,
         "max_planned_over_limit_kw": float(np.max(over_planned, initial=-np.inf)),
         "max_realised_over_limit_pct": 100.0 * float(np.max(over_real, initial=-np.inf)),
         "feeder_infeasible_steps": float(results["feeder_infeasible"].sum()),
@@ -57,28 +75,27 @@ def fleet_summary(results: pd.DataFrame, buildings: pd.DataFrame | None = None) 
 def building_table(buildings: pd.DataFrame) -> pd.DataFrame:
     """Per-building KPIs (rows: buildings; columns: :func:`hvacflex.kpi.summary`'s)."""
     rows = {
-        name: kpis.summary(frame.drop(columns="building"))
-        for name, frame in buildings.groupby("building", sort=True)
+        name: kpis.summary(frame.drop(columns=schema.BUILDING_COLUMN))
+        for name, frame in buildings.groupby(schema.BUILDING_COLUMN, sort=True)
     }
     return pd.DataFrame(rows).T
 
 
 def load_buildings(run_dir: Path) -> pd.DataFrame | None:
     """The run's ``buildings.parquet`` if there is one."""
-    path = run_dir / "buildings.parquet"
-    return pd.read_parquet(path) if path.is_file() else None
+    path = run_dir / schema.BUILDINGS_FILENAME
+    return schema.read_results(path)[0] if path.is_file() else None
 
 
 def load_fleet_results(path: Path) -> pd.DataFrame | None:
     """A fleet run's results table if ``path`` (a run folder or its results file) holds
     one, else None (not a fleet run)."""
-    import pyarrow.parquet as pq
-
-    file = path / "results.parquet" if path.is_dir() else path
+    file = path / schema.RESULTS_FILENAME if path.is_dir() else path
+    if not file.is_file():
+        return None
     try:
-        meta = pq.read_schema(file).metadata or {}
-    except (OSError, ValueError):
+        if schema.META_FLEET not in schema.read_metadata(file):
+            return None
+    except StoredStateError:  # not Parquet: not a fleet run (the caller says what it is)
         return None
-    if b"hvacflex.fleet" not in meta:
-        return None
-    return pd.read_parquet(file)
+    return schema.read_results(file)[0]

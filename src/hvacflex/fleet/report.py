@@ -12,12 +12,13 @@ import matplotlib.pyplot as plt
 import pandas as pd
 
 from hvacflex.report.html import Section, write_report
+from hvacflex.results import RESULTS_FILENAME, read_results
 
 
 def write_fleet_report(run_dir: str | Path, min_bid_mw: float | None = None) -> Path:
     """Render ``report.html`` from a fleet run's files (see :mod:`hvacflex.fleet.run`)."""
     out = Path(run_dir)
-    results = pd.read_parquet(out / "results.parquet")
+    results, _ = read_results(out / RESULTS_FILENAME)
     table = pd.read_csv(out / "buildings_summary.csv", index_col="building")
     summary = pd.read_json(out / "summary.json", typ="series")
     figures = []

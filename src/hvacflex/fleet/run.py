@@ -17,9 +17,9 @@ on from there (the run is deterministic, so the result is the same). Started aga
 same fleet file, period and code, a run resumes from its checkpoint.
 
 Files written to ``out``: ``results.parquet`` (one row per step, fleet columns; schema in
-docs/fleet.md), ``buildings.parquet`` (long format: the single-building columns of every
-building plus ``building``), ``summary.json`` (fleet KPIs), ``buildings_summary.csv``
-(per-building KPIs), ``config.json``.
+:mod:`hvacflex.results` and docs/fleet.md), ``buildings.parquet`` (long format: the
+single-building columns of every building plus ``building``), ``summary.json`` (fleet KPIs),
+``buildings_summary.csv`` (per-building KPIs), ``config.json``.
 """
 
 from __future__ import annotations
@@ -35,28 +35,31 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
-import pyarrow as pa
-import pyarrow.parquet as pq
 
+from hvacflex import kpi as kpis
+from hvacflex import results as schema
 from hvacflex import state
+from hvacflex.constants import TIMEZONE
 from hvacflex.control.base import FloatArray
 from hvacflex.errors import HvacflexError
 from hvacflex.fleet.agent import BuildingGroup, FleetSettings
 from hvacflex.fleet.coordinate import CoordinationOptions, coordinate
-from hvacflex.fleet.schema import Fleet, load_fleet
+from hvacflex.fleet.schema import load_fleet
 from hvacflex.sim.run_files import (
     check_checkpoint_code,
     load_checkpoint,
     refuse_old_checkpoint,
 )
 from hvacflex.tomlio import read_toml
-from hvacflex.version import atomic_write, atomic_write_text, code_version
+from hvacflex.units import SECONDS_PER_HOUR, STEP_30MIN_S
+from hvacflex.version import atomic_write_text, code_version
 
-RESULTS_FILE = "results.parquet"
-BUILDINGS_FILE = "buildings.parquet"
 CHECKPOINT_FILE = "checkpoint.npz"
 SUMMARY_FILE = "summary.json"
-DT_H = 0.5
+STEP = pd.Timedelta(seconds=STEP_30MIN_S)
+"""The fleet's control step (the building agents' ``dt_s``)."""
+DT_H = STEP_30MIN_S / SECONDS_PER_HOUR
+"""The control step [h], for the coordination's energy terms."""
 DEFAULT_CHECKPOINT_EVERY = 12
 MAX_RECOVERIES = 3
 ACTOR_TIMEOUT_S = 60.0
@@ -70,22 +73,7 @@ class WorkerLostError(RuntimeError):
     """A Dask worker holding building groups is gone."""
 
 
-FLOAT_COLUMNS = (
-    "planned_fleet_power_kw",
-    "fleet_power_kw",
-    "feeder_limit_kw",
-    "fleet_reserve_kw",
-    "fleet_min_power_kw",
-    "feeder_excess_kw",
-    "feeder_price_sgd_per_mwh",
-    "coordination_gap",
-    "coordination_time_s",
-    "step_time_s",
-    "energy_price_sgd_per_mwh",
-    "reserve_price_sgd_per_mwh",
-    "settled_reserve_kw",
-    "discomfort_kelvin_hours",
-)
+FLOAT_COLUMNS = tuple(schema.FLEET_FLOAT_UNITS)
 log = logging.getLogger(__name__)
 
 
@@ -182,19 +170,6 @@ def fleet_key(fleet_path: Path, start: str, days: float) -> str:
     digest = hashlib.sha256(fleet_path.read_bytes())
     digest.update(f"{start}|{days}".encode())
     return digest.hexdigest()[:16]
-
-
-def _discomfort_kelvin_hours(frame: pd.DataFrame) -> np.ndarray:
-    """(T,) comfort violation of the period-end temperatures, summed over zones [K·h]."""
-    total = np.zeros(len(frame))
-    for col in frame.columns:
-        if col.startswith("temp_end_") and col.endswith("_degc"):
-            zone = col[len("temp_end_") : -len("_degc")]
-            t = frame[col].to_numpy(float)
-            lo = frame[f"comfort_lower_{zone}_degc"].to_numpy(float)
-            hi = frame[f"comfort_upper_{zone}_degc"].to_numpy(float)
-            total += (np.maximum(lo - t, 0.0) + np.maximum(t - hi, 0.0)) * DT_H
-    return total
 
 
 def run_fleet(
@@ -319,9 +294,9 @@ def _feeder_timeline(
 ) -> tuple[pd.DatetimeIndex, FloatArray, FloatArray]:
     """(simulated period starts, feeder limit [kW] and planning limit [kW] over the run plus
     one horizon)."""
-    steps = round(days * 48)
-    index = pd.date_range(pd.Timestamp(start, tz="Asia/Singapore"), periods=steps, freq="30min")
-    full_index = pd.date_range(index[0], periods=steps + horizon, freq="30min")
+    steps = round(days * 24.0 / DT_H)
+    index = pd.date_range(pd.Timestamp(start, tz=TIMEZONE), periods=steps, freq=STEP)
+    full_index = pd.date_range(index[0], periods=steps + horizon, freq=STEP)
     limit = fleet.limit_series_kw(full_index)
     return index, limit, limit * (1.0 - fleet.spec.feeder_margin)
 
@@ -407,10 +382,10 @@ def _results_frame(
 ) -> pd.DataFrame:
     """The fleet's per-step results table."""
     frame = pd.DataFrame(values, index=index, columns=list(FLOAT_COLUMNS))
-    frame.index.name = "time"
-    frame["bid_accepted"] = flags[:, 0]
-    frame["feeder_infeasible"] = flags[:, 1]
-    frame["coordination_iterations"] = iterations
+    frame.index.name = schema.INDEX_NAME
+    for j, name in enumerate(schema.FLEET_FLAG_COLUMNS):
+        frame[name] = flags[:, j]
+    frame[schema.FLEET_ITERATIONS_COLUMN] = iterations
     return frame
 
 
@@ -478,12 +453,12 @@ def _collect_buildings(
     by_index = dict(zip(order.tolist(), building_frames, strict=True))
     n = len(fleet.buildings)
     long: pd.DataFrame = pd.concat(
-        [by_index[i].assign(building=fleet.buildings[i].name) for i in range(n)]
+        [by_index[i].assign(**{schema.BUILDING_COLUMN: fleet.buildings[i].name}) for i in range(n)]
     )
     values[:, col["energy_price_sgd_per_mwh"]] = by_index[0]["energy_price_sgd_per_mwh"]
     values[:, col["reserve_price_sgd_per_mwh"]] = by_index[0]["reserve_price_sgd_per_mwh"]
     values[:, col["discomfort_kelvin_hours"]] = sum(
-        _discomfort_kelvin_hours(by_index[i]) for i in range(n)
+        kpis.step_discomfort_kelvin_hours(by_index[i]).to_numpy() for i in range(n)
     )
     return long
 
@@ -540,9 +515,14 @@ def _write_outputs(
     """Results, per-building results, summary and per-building table; the summary."""
     from hvacflex.fleet.kpi import building_table, fleet_summary
 
-    _write(frame, out / RESULTS_FILE, fleet, key)
-    long.index.name = "time"
-    _write(long, out / BUILDINGS_FILE, fleet, key)
+    metadata = {
+        schema.META_FLEET: fleet.name,
+        schema.META_RUN_KEY: key,
+        schema.META_VERSION: code_version(),
+    }
+    schema.write_results(frame, out / schema.RESULTS_FILENAME, metadata)
+    long.index.name = schema.INDEX_NAME
+    schema.write_results(long, out / schema.BUILDINGS_FILENAME, metadata)
     summary = fleet_summary(frame, long)
     summary["recoveries"] = float(recoveries)
     atomic_write_text(out / SUMMARY_FILE, json.dumps(summary, indent=2))
@@ -561,13 +541,3 @@ def _existing_client(address: str) -> Any | None:
     except ValueError:
         return None
     return client if client.scheduler.address == address else None
-
-
-def _write(frame: pd.DataFrame, path: Path, fleet: Fleet, key: str) -> None:
-    table = pa.Table.from_pandas(frame)
-    meta = dict(table.schema.metadata or {})
-    meta[b"hvacflex.fleet"] = fleet.name.encode()
-    meta[b"hvacflex.run_key"] = key.encode()
-    meta[b"hvacflex.version"] = code_version().encode()
-    table = table.replace_schema_metadata(meta)
-    atomic_write(path, lambda tmp: pq.write_table(table, tmp))

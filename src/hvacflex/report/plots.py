@@ -23,6 +23,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from hvacflex import kpi
+from hvacflex import results as schema
 from hvacflex.errors import DataError, InputError
 
 DPI = 150
@@ -168,6 +169,16 @@ TEMPERATURE_SERIES = {
 }
 """Temperature columns of :func:`temperature_data` (prefix → legend label)."""
 
+_TEMPERATURE_COLUMNS = {
+    "temp_end": schema.TEMP_END,
+    "temp_served": schema.TEMP_SERVED,
+    "temp_curtailed": schema.TEMP_CURTAILED,
+    "event_worst": schema.EVENT_WORST,
+}
+"""The results column of each :data:`TEMPERATURE_SERIES` prefix."""
+
+_COMFORT_COLUMNS = {"lower": schema.COMFORT_LOWER, "upper": schema.COMFORT_UPPER}
+
 _TEMPERATURE_STYLES = {
     "temp_end": "-",
     "temp_served": "--",
@@ -191,15 +202,15 @@ def temperature_data(
     for label, results in scenarios.items():
         ends = _period_edges(results)[1:]
         for zone in zones if zones is not None else kpi.zone_names(results):
-            _require(results, [f"temp_end_{zone}_degc"], f"results of scenario {label!r}")
+            _require(results, [schema.TEMP_END.name(zone)], f"results of scenario {label!r}")
             part = pd.DataFrame({"scenario": label, "time_end": ends, "zone": zone})
             for prefix in TEMPERATURE_SERIES:
-                col = f"{prefix}_{zone}_degc"
+                col = _TEMPERATURE_COLUMNS[prefix].name(zone)
                 part[f"{prefix}_degc"] = (
                     results[col].to_numpy(float) if col in results.columns else np.nan
                 )
-            for bound in ("lower", "upper"):
-                col = f"comfort_{bound}_{zone}_degc"
+            for bound, kind in _COMFORT_COLUMNS.items():
+                col = kind.name(zone)
                 part[f"comfort_{bound}_degc"] = (
                     results[col].to_numpy(float) if col in results.columns else np.nan
                 )

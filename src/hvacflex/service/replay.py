@@ -29,8 +29,8 @@ from hvacflex.config import ScenarioConfig, preset
 from hvacflex.control.base import Action, FloatArray
 from hvacflex.data.forecast import Forecast
 from hvacflex.errors import HvacflexError
-from hvacflex.kpi import RESULTS_FILENAME
 from hvacflex.paths import resolve_building
+from hvacflex.results import RESULTS_FILENAME
 from hvacflex.sim.closed_loop import ClosedLoop
 from hvacflex.sim.events import PeriodOutcome, Role
 from hvacflex.sim.run_files import CONFIG_FILE, SUMMARY_FILE, write_results

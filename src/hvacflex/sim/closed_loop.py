@@ -36,7 +36,7 @@ from typing import Any, Protocol
 import numpy as np
 import pandas as pd
 
-from hvacflex import state, version
+from hvacflex import results, state, version
 from hvacflex.config import ScenarioConfig
 from hvacflex.control.base import Controller, FloatArray
 from hvacflex.control.estimation import StepModel
@@ -95,48 +95,19 @@ class RunResult:
 
 
 class _Recorder:
-    """Preallocated per-step columns (cheap to fill, to checkpoint and to turn into a frame)."""
+    """Preallocated per-step columns (cheap to fill, to checkpoint and to turn into a frame);
+    the columns are those of the results schema (:func:`hvacflex.results.step_columns`)."""
 
-    FLAG_COLUMNS: tuple[str, ...] = (
-        "il_activated",
-        "il_curtailed",
-        "il_beyond_model",
-        "il_event_window",
-        "fallback",
-    )
+    FLAG_COLUMNS: tuple[str, ...] = results.FLAG_COLUMNS
 
     def __init__(self, steps: int, zones: tuple[str, ...], channels: tuple[str, ...]) -> None:
-        self.float_columns = [
-            "energy_price_sgd_per_mwh",
-            "reserve_price_sgd_per_mwh",
-            "peak_price_sgd_per_kw",
-            "power_kw",
-            "power_served_kw",
-            "power_curtailed_kw",
-            "planned_power_kw",
-            "reserve_kw",
-            "solve_time_s",
-            "planned_slack_max_k",
-            "delta_max_k",
-            "il_allowance_k",
-            "il_reference_power_kw",
-            "il_penalty_price_sgd_per_mwh",
-        ]
-        for zone in zones:
-            self.float_columns += [
-                f"flow_{zone}_kg_s",
-                f"reserve_flow_{zone}_kg_s",
-                f"temp_{zone}_degc",
-                f"temp_end_{zone}_degc",
-                f"temp_served_{zone}_degc",
-                f"temp_curtailed_{zone}_degc",
-                f"event_worst_{zone}_degc",
-                f"comfort_lower_{zone}_degc",
-                f"comfort_upper_{zone}_degc",
-                f"prediction_error_{zone}_k",
-            ]
-        self.float_columns += [f"d_{c}" for c in channels] + [f"w_{c}" for c in channels]
+        self.float_columns = results.step_columns(zones, channels)
         self.column_index = {name: i for i, name in enumerate(self.float_columns)}
+        self.zone_index = {
+            kind: np.array([self.column_index[kind.name(zone)] for zone in zones])
+            for kind in results.ZONE_COLUMNS
+        }
+        """Per-zone column kind → (m,) positions of its zones' columns."""
         self.values = np.full((steps, len(self.float_columns)), np.nan)
         self.flags = {name: np.zeros(steps, dtype=bool) for name in self.FLAG_COLUMNS}
         self.status = np.empty(steps, dtype=object)
@@ -147,10 +118,10 @@ class _Recorder:
         )
         for name, flags in self.flags.items():
             frame[name] = flags[:steps_done]
-        frame["solve_status"] = pd.Series(
+        frame[results.STATUS_COLUMN] = pd.Series(
             self.status[:steps_done], index=frame.index, dtype="string"
         )
-        frame.index.name = "time"
+        frame.index.name = results.INDEX_NAME
         return frame
 
 
@@ -294,9 +265,7 @@ class ClosedLoop:
 
         power = period.applied.power_kw
         self._record(k, decision, forecast, d_hat, w, period)
-        row, col = self.recorder.values[k], self.recorder.column_index
-        for z, zone in enumerate(setup.zone_names):
-            row[col[f"prediction_error_{zone}_k"]] = error_k[z]
+        self.recorder.values[k, self.recorder.zone_index[results.PREDICTION_ERROR]] = error_k
         self._record_event(k, decision)
         self.month_peak_kw = max(self.month_peak_kw, power)
         self.x = period.x_next_degc
@@ -380,20 +349,18 @@ class ClosedLoop:
         row[col["solve_time_s"]] = action.solve_time_s
         row[col["planned_slack_max_k"]] = action.planned_slack_max_k
         row[col["delta_max_k"]] = action.delta_max_k
-        start = self.x[self._zone_rows]
-        end = period.x_next_degc[self._zone_rows]
-        for z, zone in enumerate(self.setup.zone_names):
-            row[col[f"flow_{zone}_kg_s"]] = action.flow_kg_s[z]
-            row[col[f"reserve_flow_{zone}_kg_s"]] = action.reserve_flow_kg_s[z]
-            row[col[f"temp_{zone}_degc"]] = start[z]
-            row[col[f"temp_end_{zone}_degc"]] = end[z]
-            row[col[f"temp_served_{zone}_degc"]] = action.predicted_served_degc[z]
-            row[col[f"temp_curtailed_{zone}_degc"]] = action.predicted_curtailed_degc[z]
-            if action.predicted_event_worst_degc is not None:
-                row[col[f"event_worst_{zone}_degc"]] = action.predicted_event_worst_degc[z]
-            row[col[f"comfort_lower_{zone}_degc"]] = exo.comfort_lower_degc[k, z]
-            row[col[f"comfort_upper_{zone}_degc"]] = exo.comfort_upper_degc[k, z]
-        first_d = col[f"d_{self.setup.model.channels[0].name}"]
+        zone = rec.zone_index
+        row[zone[results.FLOW]] = action.flow_kg_s
+        row[zone[results.RESERVE_FLOW]] = action.reserve_flow_kg_s
+        row[zone[results.TEMP]] = self.x[self._zone_rows]
+        row[zone[results.TEMP_END]] = period.x_next_degc[self._zone_rows]
+        row[zone[results.TEMP_SERVED]] = action.predicted_served_degc
+        row[zone[results.TEMP_CURTAILED]] = action.predicted_curtailed_degc
+        if action.predicted_event_worst_degc is not None:
+            row[zone[results.EVENT_WORST]] = action.predicted_event_worst_degc
+        row[zone[results.COMFORT_LOWER]] = exo.comfort_lower_degc[k]
+        row[zone[results.COMFORT_UPPER]] = exo.comfort_upper_degc[k]
+        first_d = col[results.FORECAST_DISTURBANCE.name(self.setup.model.channels[0].name)]
         nd = len(d_hat)
         row[first_d : first_d + nd] = d_hat
         row[first_d + nd : first_d + 2 * nd] = w

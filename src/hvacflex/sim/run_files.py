@@ -1,6 +1,10 @@
 """The files of a run directory: results (Parquet with the run's metadata), summary,
 configuration and checkpoint; their names, writers and readers, and the run key that decides
-whether a stored result or checkpoint belongs to a configuration."""
+whether a stored result or checkpoint belongs to a configuration.
+
+The results file itself (its columns, the Parquet writer and reader) is
+:mod:`hvacflex.results`; this module adds what a run stores with it: the configuration, the
+run key and the code version (:func:`run_metadata`)."""
 
 from __future__ import annotations
 
@@ -10,15 +14,12 @@ from pathlib import Path
 from typing import Any
 
 import pandas as pd
-import pyarrow as pa
-import pyarrow.parquet as pq
 
-from hvacflex import state, version
+from hvacflex import results, state, version
 from hvacflex.config import ScenarioConfig
 from hvacflex.errors import StoredStateError
 from hvacflex.paths import resolve_building
-from hvacflex.results_file import RESULTS_FILENAME
-from hvacflex.version import atomic_write
+from hvacflex.results import RESULTS_FILENAME
 
 RESULTS_FILE = RESULTS_FILENAME
 CHECKPOINT_FILE = "checkpoint.npz"
@@ -51,24 +52,29 @@ def run_key(config: ScenarioConfig) -> str:
     return digest.hexdigest()[:16]
 
 
+def run_metadata(config: ScenarioConfig) -> dict[str, str]:
+    """What a run's results file stores in its metadata: the configuration (JSON), its hash,
+    the run key and the code version (keys of :mod:`hvacflex.results`)."""
+    return {
+        results.META_CONFIG: json.dumps(config.to_dict()),
+        results.META_CONFIG_HASH: config.config_hash(),
+        results.META_RUN_KEY: run_key(config),
+        results.META_VERSION: version.code_version(),
+    }
+
+
 def write_results(frame: pd.DataFrame, path: Path, config: ScenarioConfig) -> None:
-    """Parquet with the run's configuration and code version in the file metadata."""
-    table = pa.Table.from_pandas(frame)
-    metadata = dict(table.schema.metadata or {})
-    metadata[b"hvacflex.config"] = json.dumps(config.to_dict()).encode()
-    metadata[b"hvacflex.config_hash"] = config.config_hash().encode()
-    metadata[b"hvacflex.run_key"] = run_key(config).encode()
-    metadata[b"hvacflex.version"] = version.code_version().encode()
-    table = table.replace_schema_metadata(metadata)
-    atomic_write(path, lambda tmp: pq.write_table(table, tmp))
+    """A run's results file: :func:`hvacflex.results.write_results` with
+    :func:`run_metadata`."""
+    results.write_results(frame, path, run_metadata(config))
 
 
 _FRESH_HINT = "delete the file or run again with --fresh (hvacflex simulate --fresh)"
 
 
 def read_results(path: Path) -> tuple[pd.DataFrame, dict[str, Any]]:
-    """A results file and the metadata stored with it (``config``, ``config_hash``,
-    ``run_key``, ``version``).
+    """A run's results file and the metadata stored with it: ``config`` (decoded; ``{}``
+    when absent), ``config_hash``, ``run_key``, ``version`` (``""`` when absent).
 
     Raises
     ------
@@ -76,23 +82,18 @@ def read_results(path: Path) -> tuple[pd.DataFrame, dict[str, Any]]:
         When the file is not a readable Parquet file (e.g. truncated) or its hvacflex
         metadata is damaged.
     """
+    frame, meta = results.read_results(path)
     try:
-        table = pq.read_table(path)
-        meta = table.schema.metadata or {}
-        stored = {
-            "config": json.loads(meta.get(b"hvacflex.config", b"{}")),
-            "config_hash": meta.get(b"hvacflex.config_hash", b"").decode(),
-            "run_key": meta.get(b"hvacflex.run_key", b"").decode(),
-            "version": meta.get(b"hvacflex.version", b"").decode(),
-        }
-        frame = table.to_pandas()
-    except (OSError, pa.ArrowException, ValueError) as exc:
+        config = json.loads(meta.get(results.META_CONFIG, "{}"))
+    except json.JSONDecodeError as exc:
         raise StoredStateError(
             f"not a readable results file (truncated or damaged: {type(exc).__name__})",
             source=path,
+            field=results.METADATA_PREFIX + results.META_CONFIG,
             hint=_FRESH_HINT,
         ) from None
-    return frame, stored
+    keys = (results.META_CONFIG_HASH, results.META_RUN_KEY, results.META_VERSION)
+    return frame, {results.META_CONFIG: config} | {key: meta.get(key, "") for key in keys}
 
 
 def read_summary(path: Path) -> dict[str, float]:

@@ -1,0 +1,112 @@
+"""The plant interface: RCPlant is the nonlinear RC network, and any Plant runs a closed loop."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import pytest
+
+from hvacflex.building.hvac import hvac_power_kw
+from hvacflex.building.plant import NonlinearPlant
+from hvacflex.config import preset, with_overrides
+from hvacflex.sim.closed_loop import ClosedLoop
+from hvacflex.sim.plant import Actuation, Disturbance, Observation, Plant, RCPlant
+from hvacflex.sim.setup import prepare
+
+START = "2014-03-03"
+
+
+@pytest.fixture(scope="module")
+def setup():  # type: ignore[no-untyped-def]
+    cfg = with_overrides(preset("rmpc", start=START, days=0.25), {"activation.mode": "always"})
+    return prepare(cfg)
+
+
+def test_an_actuation_carries_exactly_one_way_to_drive_the_plant() -> None:
+    assert Actuation(setpoint_degc=np.array([24.0])).kind == "setpoint"
+    with pytest.raises(ValueError, match="exactly one"):
+        Actuation()
+    with pytest.raises(ValueError, match="exactly one"):
+        Actuation(flow_kg_s=np.ones(1), cooling_kw=np.ones(1))
+
+
+def test_rc_plant_is_the_nonlinear_network_and_the_exact_power(setup) -> None:  # type: ignore[no-untyped-def]
+    building = setup.building
+    plant = RCPlant(building)
+    assert isinstance(plant, Plant)
+    plant.reset(26.0)
+    reference = NonlinearPlant(building)
+    x = np.full(reference.n, 26.0)
+    flow = 0.5 * np.asarray(building.hvac.flow_max_kg_s)
+    d = setup.exogenous.disturbances[20]
+    t_out = float(setup.exogenous.outdoor_temp_degc[20])
+    w = float(setup.exogenous.outdoor_humidity_ratio_kg_per_kg[20])
+    observed = plant.step(Actuation(flow_kg_s=flow), Disturbance(d, t_out, w), 1800.0)
+    x_next = reference.step(x, flow, d, 1800.0)
+    zones = reference.network.zone_node_index
+    np.testing.assert_array_equal(observed.node_temp_degc, x_next)
+    np.testing.assert_array_equal(observed.zone_temp_degc, x_next[zones])
+    mean = 0.5 * (x[zones] + x_next[zones])
+    assert observed.power_kw == hvac_power_kw(building.hvac, flow, mean, t_out, w)
+    # a snapshot restores the state exactly
+    saved = plant.get_state()
+    plant.step(Actuation(flow_kg_s=flow), Disturbance(d, t_out, w), 1800.0)
+    plant.set_state(saved)
+    np.testing.assert_array_equal(plant.x, x_next)
+    with pytest.raises(ValueError, match="flow-actuated"):
+        plant.step(Actuation(setpoint_degc=np.full(5, 24.0)), Disturbance(d, t_out, w), 1800.0)
+
+
+class ZoneOnlyPlant:
+    """A test double of an external emulator: zone temperatures only, no snapshots, power a
+    fixed kW per kg/s of flow."""
+
+    can_snapshot = False
+    actuations = ("flow",)
+
+    def __init__(self, zone_names: tuple[str, ...]) -> None:
+        self.zone_names = zone_names
+        self.temps = np.zeros(len(zone_names))
+        self.flows: list[np.ndarray] = []
+
+    def reset(self, initial_temp_degc: float) -> Observation:
+        self.temps = np.full(len(self.zone_names), initial_temp_degc)
+        return self._observe(np.zeros(len(self.zone_names)))
+
+    def step(self, actuation: Actuation, disturbance: Disturbance, dt_s: float) -> Observation:
+        flow = np.asarray(actuation.flow_kg_s, dtype=float)
+        self.flows.append(flow)
+        # relax towards the outdoor temperature, cooled by the flow
+        self.temps = self.temps + 0.1 * (disturbance.outdoor_temp_degc - self.temps) - flow
+        return self._observe(flow)
+
+    def _observe(self, flow: np.ndarray) -> Observation:
+        return Observation(
+            self.temps.copy(), self.temps.copy(), None, flow, 2.0 * float(flow.sum()),
+            float("nan"), float("nan"),
+        )  # fmt: skip
+
+    def get_state(self) -> dict[str, Any]:
+        raise AssertionError("the closed loop must not snapshot a plant that cannot")
+
+    def set_state(self, state: dict[str, Any]) -> None:
+        raise AssertionError("the closed loop must not snapshot a plant that cannot")
+
+
+def test_a_test_double_plant_runs_a_closed_loop(setup) -> None:  # type: ignore[no-untyped-def]
+    plant = ZoneOnlyPlant(setup.zone_names)
+    loop = ClosedLoop(setup, plant=plant)
+    while loop.k < loop.steps:
+        loop.step()
+    frame = loop.frame()
+    assert len(plant.flows) == loop.steps  # one plant step a period: no counterfactual
+    applied = np.array(plant.flows)
+    np.testing.assert_allclose(frame["power_kw"], 2.0 * applied.sum(axis=1))
+    zone = setup.zone_names[0]
+    np.testing.assert_allclose(frame[f"temp_end_{zone}_degc"].iloc[-1], plant.temps[0])
+    # activated all along: curtailed periods have no served counterfactual, and vice versa
+    curtailed = frame["il_curtailed"].to_numpy()
+    assert curtailed.any()
+    assert frame.loc[curtailed, "power_served_kw"].isna().all()
+    assert not frame.loc[curtailed, "power_curtailed_kw"].isna().any()
