@@ -35,6 +35,7 @@ LAYERS: list[set[str]] = [
     {"report"},
     {"reproduce"},
     {"fleet", "service"},
+    {"api"},
     {"cli"},
 ]
 """Bottom to top: a part may import its own layer's modules and the layers below it only."""

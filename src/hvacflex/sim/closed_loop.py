@@ -105,6 +105,11 @@ class RunResult:
     def results_path(self) -> Path:
         return self.out_dir / RESULTS_FILE
 
+    @property
+    def results(self) -> pd.DataFrame:
+        """The results table, ``frame`` (one row per period; ``docs/architecture.md``)."""
+        return self.frame
+
 
 @dataclass(frozen=True)
 class Setup:
