@@ -231,3 +231,12 @@ def test_overrides_are_validated_and_can_clear_the_event_model() -> None:
         with_overrides(preset("rmpc"), {"controller.robust": "dual"})
     with pytest.raises(ConfigError, match="unknown setting"):
         with_overrides(preset("rmpc"), {"nonsense": 1})
+
+
+def test_resolve_scenario_prefers_a_preset_to_a_file_of_its_name(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    (tmp_path / "nmpc").write_text('preset = "rmpc"\n')
+    monkeypatch.chdir(tmp_path)
+    assert resolve_scenario("nmpc").controller.robust == "none"
+    assert resolve_scenario(Path("nmpc")).controller.robust == "tightening"

@@ -232,9 +232,9 @@ def resolve_scenario(
 
     Parameters
     ----------
-    source : a :class:`ScenarioConfig` as is; a ``Path``, or a string that ends in ``.toml``
-        or names an existing file, is read with :func:`load_config`; any other string is a
-        preset name (:func:`preset`).
+    source : a :class:`ScenarioConfig` as is; a preset name (:func:`preset`); a ``Path``, or
+        another string that ends in ``.toml`` or names an existing file, is read with
+        :func:`load_config`; any other string is an unknown preset.
     overrides : settings as :func:`with_overrides` takes them (``start``, ``days``, ``seed``,
         ``building``, ``price_gap_fill``, ``controller={...}``, …); empty or None: none.
 
@@ -244,10 +244,12 @@ def resolve_scenario(
     """
     if isinstance(source, ScenarioConfig):
         cfg = source
+    elif isinstance(source, str) and source in PRESETS:
+        cfg = preset(source)
     elif isinstance(source, Path) or source.endswith(".toml") or Path(source).is_file():
         cfg = load_config(source)
     else:
-        cfg = preset(source)
+        cfg = preset(source)  # an unknown preset: the error lists the presets
     return with_overrides(cfg, overrides) if overrides else cfg
 
 
