@@ -44,6 +44,9 @@ def test_a_table_override_sets_what_it_names_like_a_toml_table(tmp_path: Path) -
     assert table.controller.robust == cfg.controller.robust  # the rest of the table stays
     nested = with_overrides(cfg, {"uncertainty": {"relative": {"solar": 0.5}}})
     assert nested.uncertainty.relative == {"solar": 0.5}  # a setting's own table: replaced
+    # a unique leaf named like a table still sets the leaf; a dict sets the table
+    assert not with_overrides(cfg, {"reserve": False}).controller.reserve
+    assert with_overrides(cfg, {"reserve": {"event_max_steps": 2}}).reserve.event_max_steps == 2
     file = tmp_path / "s.toml"
     file.write_text('preset = "rmpc-ppp"\n[uncertainty.relative]\nsolar = 0.5\n')
     assert load_config(file).uncertainty == nested.uncertainty

@@ -205,13 +205,26 @@ def with_overrides(cfg: ScenarioConfig, overrides: Mapping[str, Any]) -> Scenari
     data = cfg.to_dict()
     tables = _table_paths(cfg)
     for key, value in overrides.items():
-        dotted = tuple(key.split("."))
-        path = dotted if dotted in tables else resolve_key(key)
+        path = _override_path(key, value, tables)
         node = data
         for part in path[:-1]:
             node = node[part]
         _assign(node, path, value, tables)
     return _validate(data, source="override")
+
+
+def _override_path(key: str, value: Any, tables: set[tuple[str, ...]]) -> tuple[str, ...]:
+    """The path an override sets: a table for a dict, else the setting :func:`resolve_key`
+    finds (``reserve=False`` is ``controller.reserve``, ``reserve={...}`` the table)."""
+    dotted = tuple(key.split("."))
+    if dotted in tables and isinstance(value, Mapping):
+        return dotted
+    try:
+        return resolve_key(key)
+    except ConfigError:
+        if dotted in tables:
+            return dotted  # a table given a non-table value: the schema names the field
+        raise
 
 
 def _assign(
