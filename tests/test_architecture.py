@@ -35,6 +35,7 @@ LAYERS: list[set[str]] = [
     {"report"},
     {"reproduce"},
     {"fleet", "service"},
+    {"api"},
     {"cli"},
 ]
 """Bottom to top: a part may import its own layer's modules and the layers below it only."""
@@ -164,3 +165,109 @@ def test_functions_and_modules_are_short(path: Path) -> None:
         and node.end_lineno - node.lineno + 1 > MAX_FUNCTION_LINES
     ]
     assert long_functions == []
+
+
+TESTS = Path(__file__).resolve().parent
+
+TEST_FILE_OF_ROOT = "test_api.py"
+"""The root package's own code is the lazy public API, tested with :mod:`hvacflex.api`."""
+
+MIRROR_EXEMPT_PREFIXES = ("hvacflex.service.migrations",)
+"""Alembic's environment and revision scripts: run by the service's database tests
+(``tests/service/test_service_api.py``), never imported as modules."""
+
+WITHOUT_OWN_TEST_FILE: set[str] = {
+    "hvacflex.building.channels",
+    "hvacflex.building.io",
+    "hvacflex.building.model",
+    "hvacflex.building.plant",
+    "hvacflex.building.schema",
+    "hvacflex.config.model",
+    "hvacflex.config.presets",
+    "hvacflex.config.schema",
+    "hvacflex.control.base",
+    "hvacflex.control.baselines",
+    "hvacflex.control.mpc",
+    "hvacflex.control.prediction_error",
+    "hvacflex.control.trajectory",
+    "hvacflex.fleet.agent",
+    "hvacflex.fleet.centralised",
+    "hvacflex.fleet.cli",
+    "hvacflex.fleet.coordinate",
+    "hvacflex.fleet.generate",
+    "hvacflex.fleet.kpi",
+    "hvacflex.fleet.report",
+    "hvacflex.opt.basis",
+    "hvacflex.opt.feedback_result",
+    "hvacflex.opt.feedback_solve",
+    "hvacflex.opt.highs_lp",
+    "hvacflex.opt.options",
+    "hvacflex.opt.solution",
+    "hvacflex.opt.testing",
+    "hvacflex.report.data_summary",
+    "hvacflex.report.notes",
+    "hvacflex.report.validation_plots",
+    "hvacflex.results_file",
+    "hvacflex.service.app",
+    "hvacflex.service.db",
+    "hvacflex.service.keys",
+    "hvacflex.service.periods",
+    "hvacflex.service.replay",
+    "hvacflex.service.runtime",
+    "hvacflex.service.schemas",
+    "hvacflex.sim.events",
+    "hvacflex.sim.measurement",
+    "hvacflex.sim.plant",
+    "hvacflex.sim.progress",
+    "hvacflex.sim.recording",
+    "hvacflex.sim.run_files",
+    "hvacflex.units",
+    "hvacflex.validation.ideal_loads",
+}
+"""Today's modules without ``tests/<package>/test_<module>.py`` (grandfathered).
+
+The list may only shrink: a module that gains its test file, or disappears, must leave it,
+and a new module must come with its test file."""
+
+
+def _own_test_file(module: str) -> Path | None:
+    """Where a module's tests live: ``hvacflex.a.b`` → ``tests/a/test_b.py``,
+    ``hvacflex.a`` → ``tests/test_a.py``. None for a package ``__init__`` that only
+    documents and re-exports (no function or class of its own)."""
+    if module == "hvacflex":
+        return TESTS / TEST_FILE_OF_ROOT
+    path = _modules()[module]
+    if path.name == "__init__.py":
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        defines = (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)
+        if not any(isinstance(node, defines) for node in tree.body):
+            return None
+    *package, name = module.split(".")[1:]
+    return TESTS.joinpath(*package, f"test_{name}.py")
+
+
+def _modules_to_mirror() -> dict[str, Path]:
+    return {
+        module: test_file
+        for module in sorted(_modules())
+        if not module.startswith(MIRROR_EXEMPT_PREFIXES)
+        and (test_file := _own_test_file(module)) is not None
+    }
+
+
+def test_tests_mirror_the_package() -> None:
+    """Every module has its own test file, but the grandfathered ones (a list that only
+    shrinks: it must name exactly the modules without one)."""
+    missing = {module for module, test in _modules_to_mirror().items() if not test.is_file()}
+    new_without = sorted(missing - WITHOUT_OWN_TEST_FILE)
+    assert new_without == [], "add tests/<package>/test_<module>.py for these modules"
+    stale = sorted(WITHOUT_OWN_TEST_FILE - missing)
+    assert stale == [], "these have a test file now or are gone: drop them from the list"
+
+
+def test_the_mirror_rule_maps_modules_to_their_test_files() -> None:
+    assert _own_test_file("hvacflex.building.rc") == TESTS / "building" / "test_rc.py"
+    assert _own_test_file("hvacflex.kpi") == TESTS / "test_kpi.py"
+    assert _own_test_file("hvacflex.config") == TESTS / "test_config.py"  # code in __init__
+    assert _own_test_file("hvacflex.opt") is None  # re-exports only
+    assert _own_test_file("hvacflex") == TESTS / "test_api.py"

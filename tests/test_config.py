@@ -8,6 +8,7 @@ from hvacflex.config import (
     PRESET_NAMES,
     load_config,
     preset,
+    resolve_scenario,
     scaled_uncertainty,
     with_overrides,
 )
@@ -34,6 +35,54 @@ def test_overrides_by_leaf_or_dotted_name_agree() -> None:
     two = with_overrides(cfg, {"controller.peak_price_sgd_per_kw": 2.0})
     assert one == two
     assert one.config_hash() != cfg.config_hash()
+
+
+def test_a_table_override_sets_what_it_names_like_a_toml_table(tmp_path: Path) -> None:
+    cfg = preset("rmpc-ppp")
+    table = with_overrides(cfg, {"controller": {"peak_price_sgd_per_kw": 2.5}})
+    assert table == with_overrides(cfg, {"controller.peak_price_sgd_per_kw": 2.5})
+    assert table.controller.robust == cfg.controller.robust  # the rest of the table stays
+    nested = with_overrides(cfg, {"uncertainty": {"relative": {"solar": 0.5}}})
+    assert nested.uncertainty.relative == {"solar": 0.5}  # a setting's own table: replaced
+    # a unique leaf named like a table still sets the leaf; a dict sets the table
+    assert not with_overrides(cfg, {"reserve": False}).controller.reserve
+    assert with_overrides(cfg, {"reserve": {"event_max_steps": 2}}).reserve.event_max_steps == 2
+    file = tmp_path / "s.toml"
+    file.write_text('preset = "rmpc-ppp"\n[uncertainty.relative]\nsolar = 0.5\n')
+    assert load_config(file).uncertainty == nested.uncertainty
+
+
+@pytest.mark.parametrize(
+    ("overrides", "field", "words"),
+    [
+        ({"controller": {"peak_price": 1.0}}, "controller.peak_price", "peak_price_sgd_per_kw"),
+        ({"controller": {"peak_price_sgd_per_kw": -1.0}}, "controller.peak_price_sgd_per_kw", "≥"),
+        ({"controller": 3}, "controller", "must be a table"),
+        ({"dayz": 1}, "dayz", "unknown setting"),
+    ],
+)
+def test_a_bad_table_override_names_its_field(
+    overrides: dict[str, object], field: str, words: str
+) -> None:
+    with pytest.raises(ConfigError) as err:
+        with_overrides(preset("rmpc"), overrides)
+    assert err.value.field == field
+    assert words in str(err.value)
+
+
+def test_resolve_scenario_takes_a_preset_a_file_or_a_config(tmp_path: Path) -> None:
+    file = tmp_path / "mine.toml"
+    file.write_text('preset = "nmpc"\ndays = 2\n')
+    from_file = resolve_scenario(file, {"seed": 7})
+    assert from_file == resolve_scenario(str(file), {"seed": 7})
+    assert (from_file.name, from_file.controller.robust, from_file.days) == ("nmpc", "none", 2)
+    assert from_file.seed == 7
+    by_name = resolve_scenario("rmpc", {"start": "2014-03-03", "price_gap_fill": "previous-day"})
+    assert by_name.start == "2014-03-03" and by_name.data.price_gap_fill == "previous-day"
+    assert resolve_scenario(by_name) is by_name
+    with pytest.raises(ConfigError) as err:
+        resolve_scenario("rmcp")
+    assert err.value.field == "scenario" and "rmpc-ppp" in str(err.value)
 
 
 def test_config_hash_ignores_the_name() -> None:
@@ -185,3 +234,12 @@ def test_overrides_are_validated_and_can_clear_the_event_model() -> None:
         with_overrides(preset("rmpc"), {"controller.robust": "dual"})
     with pytest.raises(ConfigError, match="unknown setting"):
         with_overrides(preset("rmpc"), {"nonsense": 1})
+
+
+def test_resolve_scenario_prefers_a_preset_to_a_file_of_its_name(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    (tmp_path / "nmpc").write_text('preset = "rmpc"\n')
+    monkeypatch.chdir(tmp_path)
+    assert resolve_scenario("nmpc").controller.robust == "none"
+    assert resolve_scenario(Path("nmpc")).controller.robust == "tightening"

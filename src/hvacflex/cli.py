@@ -11,6 +11,8 @@ from typing import TYPE_CHECKING
 
 import typer
 
+from hvacflex.constants import RUN_DIR
+
 PRESET_HELP = (
     "Preset: nmpc, rmpc, rmpc-ppp, nmpc-no-reserve, thermostat, rmpc-feedback, "
     "rmpc-feedback-ppp, rmpc-output-feedback, paper-nmpc, paper-rmpc, paper-rmpc-ppp."
@@ -249,21 +251,15 @@ def _scenario_config(
     price_gap_fill: str | None = None,
 ) -> ScenarioConfig:
     """A ScenarioConfig from a preset name or a TOML file, with --start/--days and
-    --price-gap-fill applied (as overrides of ``start``, ``days``, ``data.price_gap_fill``)."""
-    from hvacflex.config import load_config, preset, with_overrides
+    --price-gap-fill applied (as overrides of ``start``, ``days``, ``data.price_gap_fill``).
 
-    if config is not None:
-        cfg = load_config(config)
-    else:
-        cfg = preset(scenario or "rmpc")
-    overrides: dict[str, object] = {}
-    if start is not None:
-        overrides["start"] = start
-    if days is not None:
-        overrides["days"] = days
-    if price_gap_fill is not None:
-        overrides["data.price_gap_fill"] = price_gap_fill
-    return with_overrides(cfg, overrides) if overrides else cfg
+    The options given become the overrides of :func:`hvacflex.config.resolve_scenario`, the
+    one path ``hvacflex.simulate`` takes too."""
+    from hvacflex.config import resolve_scenario
+
+    given = {"start": start, "days": days, "price_gap_fill": price_gap_fill}
+    overrides = {key: value for key, value in given.items() if value is not None}
+    return resolve_scenario(config if config is not None else scenario or "rmpc", overrides)
 
 
 @app.command()
@@ -282,7 +278,7 @@ def simulate(
         "--price-gap-fill",
         help=PRICE_GAP_FILL_HELP,
     ),
-    out: Path = typer.Option(Path("results/run"), help="Output folder."),  # noqa: B008
+    out: Path = typer.Option(Path(RUN_DIR), help="Output folder."),  # noqa: B008
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
     fresh: bool = typer.Option(False, help="Ignore existing results and checkpoints."),
     checkpoint_every: int = typer.Option(

@@ -10,6 +10,10 @@ from __future__ import annotations
 TIMEZONE = "Asia/Singapore"
 """Time zone of every time index: the NEMS market, the weather and the occupancy schedules."""
 
+RUN_DIR = "results/run"
+"""Folder a closed-loop run writes to when none is given (``hvacflex simulate --out`` and
+``hvacflex.simulate(out=...)``), relative to the working directory."""
+
 HORIZON_STEPS = 48
 """Default MPC prediction horizon: 48 steps of 30 min, one day."""
 

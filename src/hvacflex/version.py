@@ -1,5 +1,6 @@
 """The version of the code that produced a result, and atomic writes of result files.
 
+``__version__`` is the installed package's version (``hvacflex.__version__`` re-exports it).
 :func:`code_version` identifies the running code: the package version plus a hash of the bytes
 of every ``.py`` file of the installed ``hvacflex`` package. It enters the key of cached
 results and is stored in checkpoints, so a result computed by other code is never re-used
@@ -14,9 +15,13 @@ import os
 import tempfile
 from collections.abc import Callable
 from functools import lru_cache
+from importlib import metadata
 from pathlib import Path
 
-from hvacflex import __version__
+try:
+    __version__ = metadata.version("hvacflex")
+except metadata.PackageNotFoundError:  # running from a source tree without installation
+    __version__ = "0.0.0+unknown"
 
 _SOURCE_HASH_CHARS = 12
 """Hex characters of the source hash kept in the version string."""

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from building_fixtures import write_building
 from scipy.integrate import solve_ivp
-from test_building_discretize import SINGLE_NODE
+from test_discretize import SINGLE_NODE
 
 from hvacflex.building.io import load_building
 from hvacflex.building.model import Building

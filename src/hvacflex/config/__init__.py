@@ -106,6 +106,7 @@ __all__ = [
     "load_config",
     "preset",
     "resolve_key",
+    "resolve_scenario",
     "scaled_uncertainty",
     "scenario_error",
     "with_overrides",
@@ -192,19 +193,77 @@ def load_config(path: str | Path) -> ScenarioConfig:
 
 
 def with_overrides(cfg: ScenarioConfig, overrides: Mapping[str, Any]) -> ScenarioConfig:
-    """A copy with fields replaced; keys are dotted paths or unique leaf names.
+    """A copy with fields replaced; keys are dotted paths, unique leaf names or tables.
 
     ``{"peak_price_sgd_per_kw": 2.0}`` and ``{"controller.peak_price_sgd_per_kw": 2.0}`` are
-    the same override. Values are validated like file input.
+    the same override, and so is ``{"controller": {"peak_price_sgd_per_kw": 2.0}}``: a table
+    given as a dict replaces the settings it names and keeps the others; a setting whose value
+    is a table of its own (``uncertainty.relative``) is replaced whole, as in a scenario file.
+    Values are validated like file input (an unknown key inside a table is an error naming it,
+    e.g. ``controller.peak_price``).
     """
     data = cfg.to_dict()
+    tables = _table_paths(cfg)
     for key, value in overrides.items():
-        path = resolve_key(key)
+        path = _override_path(key, value, tables)
         node = data
         for part in path[:-1]:
             node = node[part]
-        node[path[-1]] = value
+        _assign(node, path, value, tables)
     return _validate(data, source="override")
+
+
+def _override_path(key: str, value: Any, tables: set[tuple[str, ...]]) -> tuple[str, ...]:
+    """The path an override sets: a table for a dict, else the setting :func:`resolve_key`
+    finds (``reserve=False`` is ``controller.reserve``, ``reserve={...}`` the table)."""
+    dotted = tuple(key.split("."))
+    if dotted in tables and isinstance(value, Mapping):
+        return dotted
+    try:
+        return resolve_key(key)
+    except ConfigError:
+        if dotted in tables:
+            return dotted  # a table given a non-table value: the schema names the field
+        raise
+
+
+def _assign(
+    node: dict[str, Any], path: tuple[str, ...], value: Any, tables: set[tuple[str, ...]]
+) -> None:
+    """``node[path[-1]] = value``, merging a dict given for a table key by key."""
+    if path in tables and isinstance(value, Mapping):
+        for key, item in value.items():
+            _assign(node[path[-1]], (*path, str(key)), item, tables)
+    else:
+        node[path[-1]] = value  # a non-table value for a table: the schema names the field
+
+
+def resolve_scenario(
+    source: str | Path | ScenarioConfig, overrides: Mapping[str, Any] | None = None
+) -> ScenarioConfig:
+    """The scenario of a run: a preset name, a scenario TOML file or a config, overridden.
+
+    Parameters
+    ----------
+    source : a :class:`ScenarioConfig` as is; a preset name (:func:`preset`); a ``Path``, or
+        another string that ends in ``.toml`` or names an existing file, is read with
+        :func:`load_config`; any other string is an unknown preset.
+    overrides : settings as :func:`with_overrides` takes them (``start``, ``days``, ``seed``,
+        ``building``, ``price_gap_fill``, ``controller={...}``, …); empty or None: none.
+
+    Raises
+    ------
+    ConfigError : an unknown preset (field ``scenario``), an invalid file or override.
+    """
+    if isinstance(source, ScenarioConfig):
+        cfg = source
+    elif isinstance(source, str) and source in PRESETS:
+        cfg = preset(source)
+    elif isinstance(source, Path) or source.endswith(".toml") or Path(source).is_file():
+        cfg = load_config(source)
+    else:
+        cfg = preset(source)  # an unknown preset: the error lists the presets
+    return with_overrides(cfg, overrides) if overrides else cfg
 
 
 def scaled_uncertainty(cfg: ScenarioConfig, level: float) -> ScenarioConfig:
@@ -272,6 +331,16 @@ def _leaf_paths(obj: Any, prefix: tuple[str, ...] = ()) -> list[tuple[str, ...]]
             out += _leaf_paths(value, (*prefix, f.name))
         else:
             out.append((*prefix, f.name))
+    return out
+
+
+def _table_paths(obj: Any, prefix: tuple[str, ...] = ()) -> set[tuple[str, ...]]:
+    """The dotted paths of the tables (nested dataclasses) of a config."""
+    out: set[tuple[str, ...]] = set()
+    for f in fields(obj):
+        value = getattr(obj, f.name)
+        if is_dataclass(value):
+            out |= {(*prefix, f.name)} | _table_paths(value, (*prefix, f.name))
     return out
 
 

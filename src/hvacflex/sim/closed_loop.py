@@ -93,6 +93,11 @@ class RunResult:
     def results_path(self) -> Path:
         return self.out_dir / RESULTS_FILE
 
+    @property
+    def results(self) -> pd.DataFrame:
+        """The results table, ``frame`` (one row per period; ``docs/architecture.md``)."""
+        return self.frame
+
 
 class _Recorder:
     """Preallocated per-step columns (cheap to fill, to checkpoint and to turn into a frame);

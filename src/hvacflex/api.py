@@ -1,0 +1,123 @@
+"""The public API: what ``import hvacflex`` offers.
+
+``hvacflex/__init__.py`` exposes these names lazily, so ``import hvacflex`` (and the command
+line) stays cheap; the first use of one imports this module and what it needs::
+
+    import hvacflex
+
+    run = hvacflex.simulate("rmpc", start="2014-03-03", days=1, out="results/rmpc")
+    run.summary["net_cost_sgd"]          # the content of results/rmpc/summary.json
+    run.results["power_kw"]              # the results table, one row per 30-min period
+    hvacflex.simulate("rmpc-ppp", days=1, controller={"peak_price_sgd_per_kw": 1.5})
+
+:func:`simulate` builds its scenario on the path ``hvacflex simulate`` takes
+(:func:`hvacflex.config.resolve_scenario`) and runs it with
+:func:`hvacflex.sim.closed_loop.run_simulation`, so the two give the same results.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+
+from hvacflex import kpi
+from hvacflex.building.io import load_building as _load_building_file
+from hvacflex.building.model import Building
+from hvacflex.config import ScenarioConfig, load_config, preset, resolve_scenario
+from hvacflex.constants import RUN_DIR
+from hvacflex.paths import resolve_building
+from hvacflex.sim.closed_loop import DEFAULT_CHECKPOINT_EVERY, RunResult, run_simulation
+
+__all__ = [
+    "RunResult",
+    "kpi_summary",
+    "load_building",
+    "load_config",
+    "preset",
+    "simulate",
+]
+
+
+def simulate(
+    config_or_preset: str | Path | ScenarioConfig = "rmpc",
+    out: str | Path = RUN_DIR,
+    *,
+    quiet: bool = False,
+    fresh: bool = False,
+    checkpoint_every: int = DEFAULT_CHECKPOINT_EVERY,
+    **overrides: Any,
+) -> RunResult:
+    """Run a closed-loop simulation, as ``hvacflex simulate`` does, and return its result.
+
+    Parameters
+    ----------
+    config_or_preset : a preset name (``"rmpc"``, ``"nmpc"``, … :data:`hvacflex.config.
+        PRESET_NAMES`), a scenario TOML file (a ``Path``, or a string ending in ``.toml`` or
+        naming a file), or a :class:`~hvacflex.config.ScenarioConfig`.
+    out : the run's folder (``results.parquet``, ``summary.json``, ``config.json``, the
+        checkpoint); default ``results/run`` like the command line's ``--out``. A finished
+        run of the same inputs and code there is re-used; an unfinished one is resumed.
+    quiet : no progress bar (``--quiet``).
+    fresh : ignore existing results and checkpoints in ``out`` (``--fresh``).
+    checkpoint_every : steps between checkpoints (``--checkpoint-every``; 336 = one week).
+    **overrides : scenario settings, validated by the scenario schema like a TOML file:
+        top-level fields (``start="2014-03-03"``, ``days=1``, ``seed=7``,
+        ``building="office5"``), the command line's ``price_gap_fill``, unique leaf names or
+        dotted paths (``peak_price_sgd_per_kw=1.5``), and tables as dicts merged into the
+        scenario's table (``controller={"peak_price_sgd_per_kw": 1.5}``).
+
+    Returns
+    -------
+    The :class:`RunResult`: ``summary`` (the KPIs, the content of ``summary.json``),
+    ``results`` (the results DataFrame, one row per 30-min period), ``out_dir``.
+
+    Raises
+    ------
+    ConfigError : an unknown preset, an invalid scenario file or override (naming the field,
+        e.g. ``controller.peak_price``), or ``checkpoint_every`` < 1.
+    DataError : missing or malformed data or building files.
+    """
+    config = resolve_scenario(config_or_preset, overrides)
+    return run_simulation(
+        config, out, progress=not quiet, resume=not fresh, checkpoint_every=checkpoint_every
+    )
+
+
+def load_building(name_or_path: str | Path) -> Building:
+    """A building: a shipped name (``"office5"``, ``"room1"``…) or a building TOML file.
+
+    Raises
+    ------
+    DataError : no such file and no shipped building of that name (the hint lists them).
+    BuildingConfigError : an invalid building file (naming the file, field and value).
+    """
+    return _load_building_file(resolve_building(name_or_path))
+
+
+def kpi_summary(
+    results: pd.DataFrame | RunResult | str | Path, peak_price_sgd_per_kw: float | None = None
+) -> dict[str, float]:
+    """The KPIs of a run, as ``hvacflex kpi`` prints them (:func:`hvacflex.kpi.summary`).
+
+    Parameters
+    ----------
+    results : a results DataFrame, a :class:`RunResult`, or a run folder / results Parquet
+        file (read with :func:`hvacflex.kpi.load_results`).
+    peak_price_sgd_per_kw : price the PPP charge at this φ [SGD/kW]; default: the run's
+        ``peak_price_sgd_per_kw`` column.
+
+    Returns
+    -------
+    ``{name: value}``, units in the names (``energy_kwh``, ``net_cost_sgd``, …). Unlike
+    ``RunResult.summary`` it holds no timing keys (``steps_per_s``, ``time_*``), which only a
+    simulation measures.
+    """
+    if isinstance(results, RunResult):
+        frame = results.results
+    elif isinstance(results, pd.DataFrame):
+        frame = results
+    else:
+        frame = kpi.load_results(results)
+    return kpi.summary(frame, peak_price_sgd_per_kw)

@@ -1,0 +1,64 @@
+"""Error messages name where, what and how to fix it; the family is catchable as one."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from hvacflex.errors import (
+    BuildingConfigError,
+    ConfigError,
+    DataError,
+    HvacflexError,
+    InputError,
+    ProblemError,
+    StoredStateError,
+)
+
+
+def test_the_message_names_file_line_field_value_and_hint() -> None:
+    error = InputError(
+        "must be > 0",
+        source=Path("b.toml"),
+        line=3,
+        field="walls[0].area_m2",
+        value=-1.0,
+        hint="give the area in m²",
+    )
+    assert (
+        str(error)
+        == "b.toml:3: field 'walls[0].area_m2': must be > 0 (got -1.0). Give the area in m²"
+    )
+    assert (error.source, error.line, error.field, error.value) == (
+        "b.toml",
+        3,
+        "walls[0].area_m2",
+        -1.0,
+    )
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "text"),
+    [
+        ({}, "bad"),
+        ({"line": 7}, "line 7: bad"),
+        ({"field": "days"}, "field 'days': bad"),
+        ({"value": "x"}, "bad (got 'x')"),
+        ({"value": 0}, "bad (got 0)"),  # a falsy value is still shown
+        ({"hint": "use 2"}, "bad. Use 2"),
+    ],
+)
+def test_parts_not_given_are_left_out(kwargs: dict[str, object], text: str) -> None:
+    assert str(InputError("bad", **kwargs)) == text  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize(
+    "kind", [ConfigError, BuildingConfigError, DataError, ProblemError, StoredStateError]
+)
+def test_every_input_error_is_a_value_error_and_an_hvacflex_error(
+    kind: type[InputError],
+) -> None:
+    with pytest.raises(HvacflexError):
+        raise kind("bad")
+    assert issubclass(kind, ValueError) and issubclass(kind, InputError)
