@@ -28,6 +28,7 @@ from hvacflex.building.model import Building
 from hvacflex.config import ScenarioConfig, load_config, preset, resolve_scenario
 from hvacflex.constants import RUN_DIR
 from hvacflex.paths import resolve_building
+from hvacflex.results import load_results
 from hvacflex.sim.closed_loop import DEFAULT_CHECKPOINT_EVERY, RunResult, run_simulation
 
 __all__ = [
@@ -119,5 +120,5 @@ def kpi_summary(
     elif isinstance(results, pd.DataFrame):
         frame = results
     else:
-        frame = kpi.load_results(results)
+        frame = load_results(results)
     return kpi.summary(frame, peak_price_sgd_per_kw)

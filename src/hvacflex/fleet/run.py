@@ -172,6 +172,16 @@ def fleet_key(fleet_path: Path, start: str, days: float) -> str:
     return digest.hexdigest()[:16]
 
 
+def _run_dir(out_dir: str | Path, resume: bool) -> Path:
+    """The run's folder, made; one holding an older hvacflex's pickle checkpoint is refused
+    when resuming."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    if resume:
+        refuse_old_checkpoint(out)
+    return out
+
+
 def run_fleet(
     fleet_path: str | Path,
     out_dir: str | Path,
@@ -201,10 +211,7 @@ def run_fleet(
     path = Path(fleet_path)
     fleet = load_fleet(path)
     doc = read_toml(path, what="fleet")
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    if resume:
-        refuse_old_checkpoint(out)
+    out = _run_dir(out_dir, resume)
     settings = FleetSettings.of(fleet, start, days)
     horizon = settings.horizon_steps
     index, limit, planning_limit = _feeder_timeline(fleet, start, days, horizon)
