@@ -8,12 +8,12 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from hvacflex.data.solar import surface_irradiance_w_per_m2
 from hvacflex.data.weather import (
     EpwLocation,
     humidity_ratio_kg_per_kg,
     read_epw,
     saturation_pressure_pa,
-    surface_irradiance_w_per_m2,
     weather_30min,
 )
 from hvacflex.errors import DataError
@@ -314,10 +314,10 @@ def test_a_duplicated_row_is_refused(tmp_path: Path, shared_data_dir: Path) -> N
 def test_an_edited_file_is_read_again(tmp_path: Path, shared_data_dir: Path) -> None:
     lines = _epw_lines(shared_data_dir)
     path = _write(tmp_path, lines)
-    assert read_epw(path)[0]["outdoor_temp_degc"].iloc[0] != -5.0
-    _set_field(lines, 0, 6, "-5.0")
+    assert read_epw(path)[0]["outdoor_temp_degc"].iloc[0] != 31.5
+    _set_field(lines, 0, 6, "31.5")  # above the dew point: a valid row
     path.write_text("\n".join(lines) + "\n", encoding="latin-1")
-    assert read_epw(path)[0]["outdoor_temp_degc"].iloc[0] == -5.0
+    assert read_epw(path)[0]["outdoor_temp_degc"].iloc[0] == 31.5
 
 
 def test_irradiance_same_on_a_regular_index_cached_or_not(
