@@ -438,7 +438,7 @@ def _check_consistency(source: str | Path, frame: pd.DataFrame, location: EpwLoc
     _refuse_rows(
         source,
         frame,
-        excess > DEWPOINT_ABOVE_DRY_BULB_TOLERANCE_K + 1e-9,
+        np.round(excess, 6) > DEWPOINT_ABOVE_DRY_BULB_TOLERANCE_K,  # 0.1-K steps, no float noise
         "dewpoint_degc",
         f"dew point above the dry bulb by more than {DEWPOINT_ABOVE_DRY_BULB_TOLERANCE_K:g} K",
         "the dew point cannot exceed the dry-bulb temperature; the file is damaged or its "
