@@ -25,8 +25,9 @@ included):
   angle on the surface);
 * sky diffuse: Hay–Davies (``pvlib.irradiance.haydavies``) with the anisotropy index
   ``(B_n / f) / E₀`` and the beam ratio ``R_b = mean(L cos⁺θ) / max(mean(L cos θz),
-  f · cos 85°)`` — the ratio of integrals, with the horizontal projection limited as
-  EnergyPlus and pvlib's Perez model limit the circumsolar term (cos θz ≥ cos 85°);
+  f · cos 85°)`` — the ratio of integrals, with the horizontal projection limited as the
+  Perez (1990) sky model limits its circumsolar term, ``b = max(cos 85°, cos θz)``
+  (pvlib's ``perez``; EnergyPlus's sky radiance model is Perez 1990);
   without the limit, a period whose sun stays just above the horizon divides the
   circumsolar diffuse by ≈ 0.02;
 * ground-reflected: ``pvlib.irradiance.get_ground_diffuse`` with albedo :data:`ALBEDO`.
@@ -51,17 +52,13 @@ from hvacflex.errors import DataError
 ALBEDO = 0.2
 """Ground reflectance used for façade irradiance (urban/grass ground) [-]."""
 
-SKY_DIFFUSE_MODEL = "haydavies"
-"""Sky-diffuse transposition model (pvlib's Hay–Davies: anisotropic, needs extraterrestrial
-DNI); :func:`surface_irradiance_components` applies it with the period-integrated beam
-ratio."""
-
 SUBSAMPLES_PER_PERIOD = 6
 """Sun positions sampled per period (5 min apart in a 30-min period)."""
 
 CIRCUMSOLAR_MIN_COS_ZENITH = math.cos(math.radians(85.0))
 """Lower limit of the (sunlit-time mean) cos θz dividing the circumsolar diffuse [-]: the
-limit EnergyPlus and pvlib's Perez model use (zenith 85°)."""
+limit of the Perez (1990) sky model's circumsolar term, b = max(cos 85°, cos θz), as in
+pvlib's ``perez``."""
 
 HORIZON_ZENITH_DEG = 90.0
 """Apparent zenith of the horizon [°]: the sun is up below it."""
