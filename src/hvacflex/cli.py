@@ -47,6 +47,9 @@ def data_show(
     building: str = typer.Option("office5", help="Building (shipped name or TOML path)."),
     weather: Path | None = typer.Option(None, help="EPW file (default: TMYx Singapore Changi)."),  # noqa: B008
     fig2: Path | None = typer.Option(None, help="Write Fig. 2 (energy & reserve price) PNG."),  # noqa: B008
+    csv: Path | None = typer.Option(  # noqa: B008
+        None, help="Write the summarised 30-min series as CSV (results-file column names)."
+    ),
 ) -> None:
     """Summarise prices, reserve prices (synthetic), weather, gains and the uncertainty box."""
     from hvacflex.building.discretize import linearize
@@ -56,7 +59,11 @@ def data_show(
     from hvacflex.data.uncertainty import DEFAULT_UNCERTAINTY, paper_uncertainty
     from hvacflex.errors import HvacflexError
     from hvacflex.paths import resolve_building
-    from hvacflex.report.data_summary import exogenous_summary_text, write_fig2
+    from hvacflex.report.data_summary import (
+        exogenous_summary_text,
+        write_exogenous_csv,
+        write_fig2,
+    )
 
     steps = days * PERIODS_PER_DAY
     try:
@@ -79,6 +86,13 @@ def data_show(
     if fig2 is not None:
         write_fig2(exo, fig2, steps)
         typer.echo(f"\nwrote {fig2}")
+    if csv is not None:
+        try:
+            write_exogenous_csv(exo, steps, model.zone_names, csv)
+        except HvacflexError as exc:
+            typer.echo(f"error: {exc}", err=True)
+            raise typer.Exit(code=2) from None
+        typer.echo(f"\nwrote {csv} ({steps} periods)")
 
 
 def _fleet_group() -> typer.Typer:

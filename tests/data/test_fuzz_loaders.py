@@ -29,10 +29,13 @@ from hvacflex.data.market import (
     load_usep,
 )
 from hvacflex.data.weather import (
+    DEWPOINT_ABOVE_DRY_BULB_TOLERANCE_K,
+    DIFFUSE_ABOVE_GLOBAL_TOLERANCE_WH_PER_M2,
     ELEVATION_RANGE_M,
     EPW_FIELDS,
     GROUND_TEMP_RANGE_DEGC,
     TIMEZONE_RANGE_H,
+    night_hours,
     parse_epw_text,
 )
 from hvacflex.errors import DataError
@@ -178,6 +181,13 @@ def _check_epw(data: bytes) -> None:
         assert (values >= spec.minimum).all() and (values <= spec.maximum).all(), spec.column
         if spec.missing is not None:
             assert (values < spec.missing).all(), spec.column
+    # fields that contradict each other are refused (tolerances in hvacflex.data.weather)
+    dew_excess = frame["dewpoint_degc"] - frame["outdoor_temp_degc"]
+    assert (dew_excess.round(6) <= DEWPOINT_ABOVE_DRY_BULB_TOLERANCE_K).all()
+    diffuse_excess = frame["dhi_w_per_m2"] - frame["ghi_w_per_m2"]
+    assert (diffuse_excess <= DIFFUSE_ABOVE_GLOBAL_TOLERANCE_WH_PER_M2).all()
+    night = night_hours(location, EPW_HOURS)
+    assert (frame.loc[night, ["ghi_w_per_m2", "dni_w_per_m2"]].to_numpy() == 0).all()
     starts = pd.date_range("2001-01-01", periods=EPW_HOURS, freq="h")
     assert (frame["month"].to_numpy() == starts.month).all()
     assert (frame["day"].to_numpy() == starts.day).all()

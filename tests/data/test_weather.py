@@ -8,12 +8,14 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from hvacflex.data.solar import surface_irradiance_w_per_m2
 from hvacflex.data.weather import (
     EpwLocation,
     humidity_ratio_kg_per_kg,
+    night_hours,
+    parse_epw_text,
     read_epw,
     saturation_pressure_pa,
-    surface_irradiance_w_per_m2,
     weather_30min,
 )
 from hvacflex.errors import DataError
@@ -314,10 +316,10 @@ def test_a_duplicated_row_is_refused(tmp_path: Path, shared_data_dir: Path) -> N
 def test_an_edited_file_is_read_again(tmp_path: Path, shared_data_dir: Path) -> None:
     lines = _epw_lines(shared_data_dir)
     path = _write(tmp_path, lines)
-    assert read_epw(path)[0]["outdoor_temp_degc"].iloc[0] != -5.0
-    _set_field(lines, 0, 6, "-5.0")
+    assert read_epw(path)[0]["outdoor_temp_degc"].iloc[0] != 31.5
+    _set_field(lines, 0, 6, "31.5")  # above the dew point: a valid row
     path.write_text("\n".join(lines) + "\n", encoding="latin-1")
-    assert read_epw(path)[0]["outdoor_temp_degc"].iloc[0] == -5.0
+    assert read_epw(path)[0]["outdoor_temp_degc"].iloc[0] == 31.5
 
 
 def test_irradiance_same_on_a_regular_index_cached_or_not(
@@ -335,3 +337,124 @@ def test_irradiance_same_on_a_regular_index_cached_or_not(
     np.testing.assert_array_equal(first.to_numpy(), again.to_numpy())
     assert first.loc["2014-03-20 12:00"].min() > 0.0
     np.testing.assert_allclose(gappy.to_numpy(), first.drop(first.index[30]).to_numpy(), atol=1e-9)
+
+
+# ------------------------------------------------ fields that contradict each other
+# A hand-made day (1 January, Singapore Changi, UTC+8): sunrise 07:07, sunset 19:13 local;
+# at 07:00 the sun is 2.3° below the horizon, at 19:00 1.6° above it (pvlib SPA).
+
+_HAND_HEADER = [
+    "LOCATION,Hand-made,SG,SGP,test,486980,1.3678,103.9826,8.0,6.7",
+    "DESIGN CONDITIONS,0",
+    "TYPICAL/EXTREME PERIODS,0",
+    "GROUND TEMPERATURES,0",
+    "HOLIDAYS/DAYLIGHT SAVINGS,No,0,0,0",
+    "COMMENTS 1,hand-made test file",
+    "COMMENTS 2,",
+    "DATA PERIODS,1,1,Data,Wednesday,1/ 1,1/ 1",
+]
+_SUN_HOURS = range(8, 21)  # EPW hours 8 … 20 cover 07:00 … 20:00 local
+
+
+def _hand_row(hour: int, **fields: float) -> str:
+    """One EPW row of 1 January (35 fields); ``fields`` override dry bulb, dew point, GHI,
+    DNI, DHI (by column name)."""
+    sun = hour in _SUN_HOURS
+    values = {
+        "outdoor_temp_degc": 27.0,
+        "dewpoint_degc": 24.0,
+        "ghi_w_per_m2": 300.0 if sun else 0.0,
+        "dni_w_per_m2": 200.0 if sun else 0.0,
+        "dhi_w_per_m2": 150.0 if sun else 0.0,
+    } | fields
+    row = ["2001", "1", "1", str(hour), "0", "?"] + ["0"] * 29
+    row[6], row[7] = f"{values['outdoor_temp_degc']:g}", f"{values['dewpoint_degc']:g}"
+    row[8], row[9], row[21] = "84", "101000", "2.0"
+    for index, column in ((13, "ghi_w_per_m2"), (14, "dni_w_per_m2"), (15, "dhi_w_per_m2")):
+        row[index] = f"{values[column]:g}"
+    return ",".join(row)
+
+
+def _hand_day(edits: dict[int, dict[str, float]] | None = None, tz_h: float = 8.0) -> str:
+    header = list(_HAND_HEADER)
+    header[0] = header[0].replace(",8.0,", f",{tz_h:g},")
+    rows = [_hand_row(h, **(edits or {}).get(h, {})) for h in range(1, 25)]
+    return "\n".join(header + rows) + "\n"
+
+
+def _parse_day(text: str) -> pd.DataFrame:
+    return parse_epw_text(text, "hand.epw", hours=24)[0]
+
+
+def test_a_consistent_hand_made_day_loads() -> None:
+    frame = _parse_day(_hand_day())
+    assert len(frame) == 24
+    assert frame["ghi_w_per_m2"].sum() == 300.0 * len(_SUN_HOURS)
+
+
+@pytest.mark.parametrize(
+    ("edits", "line", "field", "value", "message"),
+    [
+        # dew point 0.5 K above the dry bulb at 03:00–04:00
+        ({4: {"dewpoint_degc": 27.5}}, 12, "dewpoint_degc", 27.5, "dew point above the dry bulb"),
+        # diffuse 20 Wh/m² above global at noon
+        ({13: {"dhi_w_per_m2": 320.0}}, 21, "dhi_w_per_m2", 320.0, "diffuse horizontal above"),
+        # global irradiance at 01:00–02:00
+        ({2: {"ghi_w_per_m2": 40.0, "dhi_w_per_m2": 40.0}}, 10, "ghi_w_per_m2", 40.0, "below the"),
+        # beam at 05:00–06:00 (the sun 16° below the horizon at 06:00)
+        ({6: {"dni_w_per_m2": 12.0}}, 14, "dni_w_per_m2", 12.0, "sun is below the horizon"),
+        # an hour after sunset: 20:00–21:00 (the sun 5.7° below at 19:30, 12.6° at 20:00)
+        ({21: {"ghi_w_per_m2": 3.0, "dhi_w_per_m2": 3.0}}, 29, "ghi_w_per_m2", 3.0, "horizon"),
+    ],
+)
+def test_contradicting_fields_name_file_line_field_and_value(
+    edits: dict[int, dict[str, float]], line: int, field: str, value: float, message: str
+) -> None:
+    with pytest.raises(DataError, match=message) as info:
+        _parse_day(_hand_day(edits))
+    assert info.value.source == "hand.epw"
+    assert info.value.line == line  # 8 header lines + EPW hour
+    assert info.value.field is not None and info.value.field.startswith(field)
+    assert info.value.value == value
+
+
+@pytest.mark.parametrize(
+    "edits",
+    [
+        {4: {"dewpoint_degc": 27.1}},  # 0.1 K above: one unit of the file's resolution
+        {13: {"dhi_w_per_m2": 301.0}},  # 1 Wh/m² above global: one unit
+        {8: {"ghi_w_per_m2": 60.0, "dni_w_per_m2": 250.0, "dhi_w_per_m2": 40.0}},  # sunrise hour
+        {20: {"ghi_w_per_m2": 20.0, "dni_w_per_m2": 90.0, "dhi_w_per_m2": 15.0}},  # sunset hour
+        {4: {"dewpoint_degc": 27.0}},  # saturated air
+    ],
+)
+def test_tolerances_accept_rounding_and_the_sunrise_and_sunset_hours(
+    edits: dict[int, dict[str, float]],
+) -> None:
+    frame = _parse_day(_hand_day(edits))
+    ((hour, fields),) = edits.items()
+    for column, value in fields.items():
+        assert frame.loc[hour - 1, column] == value
+
+
+def test_a_wrong_time_zone_puts_the_sun_at_night() -> None:
+    """The same day labelled UTC+0: its hours 8 … 20 become 15:00 … 04:00 Singapore time, and
+    the first of them at night is hour 13 (12:00–13:00 UTC = 20:00–21:00 SGT)."""
+    with pytest.raises(DataError, match="below the horizon") as info:
+        _parse_day(_hand_day(tz_h=0.0))
+    assert info.value.line == 8 + 13
+
+
+def test_night_hours_of_the_shipped_files_have_no_irradiance(shared_data_dir: Path) -> None:
+    """Both shipped EPW files load under the new rules; their night hours (sun > 1° below
+    the horizon all hour) are dark and they are a little under half of the year."""
+    for path in (
+        shared_data_dir / "weather" / TMYX,
+        shared_data_dir / "bestest" / "725650TYCST.epw",
+    ):
+        hourly, location = read_epw(path)
+        night = night_hours(location, len(hourly))
+        assert 0.40 < night.mean() < 0.50
+        assert (hourly.loc[night, ["ghi_w_per_m2", "dni_w_per_m2"]].to_numpy() == 0).all()
+        assert (hourly["dewpoint_degc"] <= hourly["outdoor_temp_degc"]).all()
+        assert (hourly["dhi_w_per_m2"] <= hourly["ghi_w_per_m2"]).all()

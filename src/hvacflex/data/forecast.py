@@ -52,18 +52,14 @@ from hvacflex.data.market import (
     load_usep,
     synthetic_reserve_prices,
 )
+from hvacflex.data.solar import surface_irradiance_w_per_m2
 from hvacflex.data.uncertainty import (
     AR1_COEFFICIENT,
     DEFAULT_UNCERTAINTY,
     UncertaintyBox,
     check_ar1_coefficient,
 )
-from hvacflex.data.weather import (
-    EpwLocation,
-    read_epw,
-    surface_irradiance_w_per_m2,
-    weather_30min,
-)
+from hvacflex.data.weather import EpwLocation, read_epw, weather_30min
 from hvacflex.errors import ConfigError, DataError
 from hvacflex.paths import DATA_DIR_ENV, data_dir
 

@@ -15,11 +15,14 @@ Resampling to 30-min periods ``[t, t+30 min)`` (:func:`weather_30min`)
 ----------------------------------------------------------------------
 * State variables are interpolated linearly between the hourly instants and evaluated at the
   period midpoint ``t + 15 min``; for a piecewise-linear signal that *is* the period mean.
-* Irradiances keep each hour's energy: the hour's mean is split between its two halves in
-  proportion to ``max(cos θz, 0)`` at the halves' midpoints (θz the solar zenith angle), so
-  the hourly mean is preserved exactly and no beam falls in a half-hour when the sun is below
-  the horizon (a half-hour gets at most twice the hour's mean). Where the sun is below the
-  horizon at both midpoints the hour's value is split equally.
+* Irradiances keep each hour's energy: the two halves of an hour average to the hour's
+  mean. GHI and DHI (horizontal) are shared between the halves in proportion to the
+  integral of ``max(cos θz, 0)`` over each half, DNI (normal to the beam) in proportion to
+  each half's sunlit time (θz the apparent solar zenith, sampled as in
+  :func:`hvacflex.data.solar.period_sun`). So no beam falls in a half-hour the sun is
+  below the horizon, and the DNI of a sunrise hour is the DNI while the sun is up, not
+  twice the hour's mean. Where the sun is below the horizon over a whole hour its values
+  are split equally.
 * Humidity ratio follows from the period's dew point and pressure.
 
 EPW files hold a typical year assembled from different years; :func:`weather_30min` maps the
@@ -31,7 +34,6 @@ from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -39,6 +41,7 @@ import numpy as np
 import pandas as pd
 
 from hvacflex.constants import TIMEZONE
+from hvacflex.data.solar import period_sun
 from hvacflex.errors import DataError
 from hvacflex.units import KELVIN_OFFSET
 
@@ -141,6 +144,30 @@ ELEVATION_RANGE_M = (-1000.0, 9999.9)
 GROUND_TEMP_RANGE_DEGC = (-70.0, 70.0)
 """Valid monthly ground temperatures [°C] (same range as the dry bulb)."""
 
+DEWPOINT_ABOVE_DRY_BULB_TOLERANCE_K = 0.1
+"""How far the dew point may exceed the dry bulb [K]: one unit of the EPW's resolution
+(0.1 °C), for converters that round the two fields from different sources. Beyond it the
+row is refused (air cannot hold more water than saturates it). The shipped files have no
+row with the dew point above the dry bulb."""
+
+DIFFUSE_ABOVE_GLOBAL_TOLERANCE_WH_PER_M2 = 1.0
+"""How far the diffuse horizontal may exceed the global horizontal irradiance [Wh/m²]: one
+unit of the EPW's resolution, for fields rounded independently (GHI = DHI + DNI·cos θz ≥
+DHI). The shipped files have no row with DHI above GHI."""
+
+NIGHT_ELEVATION_TOLERANCE_DEG = 1.0
+"""An hour is night when the sun's apparent elevation stays below −this [°] at its start,
+middle and end; a night hour must have zero GHI and DNI. The margin covers the sun
+position of the check (taken for a fixed non-leap year, :data:`SUN_CHECK_YEAR`, while a
+typical year's hours come from different years: ≤ 0.4° of declination), the uncertain
+refraction at the horizon (≈ 0.5°) and stamps rounded to the minute. Sunrise and sunset
+hours always have the sun above the horizon for part of the hour and so are never night.
+In the shipped files the lowest sun with irradiance is 0.25° above the horizon (Denver
+TMY3, DNI) and 2.45° (Singapore TMYx)."""
+
+SUN_CHECK_YEAR = 2001
+"""Non-leap year whose sun positions the night check uses for the typical year's rows."""
+
 _STATE_COLUMNS = (
     "outdoor_temp_degc",
     "dewpoint_degc",
@@ -149,12 +176,6 @@ _STATE_COLUMNS = (
     "wind_speed_m_s",
 )
 _IRRADIANCE_COLUMNS = ("ghi_w_per_m2", "dni_w_per_m2", "dhi_w_per_m2")
-
-ALBEDO = 0.2
-"""Ground reflectance used for façade irradiance (urban/grass ground) [-]."""
-
-SKY_DIFFUSE_MODEL = "haydavies"
-"""pvlib sky-diffuse transposition model (anisotropic, needs extraterrestrial DNI)."""
 
 MOLAR_MASS_RATIO_WATER_AIR = 0.621945
 """Ratio of the molar masses of water vapour and dry air [-] (ASHRAE Fundamentals ch. 1)."""
@@ -342,6 +363,7 @@ def parse_epw_text(
             hint="a leap-year file has 8,784 rows with all of 29 February",
         )
     _check_calendar(source, frame, hours)
+    _check_consistency(source, frame, location)
     return frame.drop(columns="line"), location
 
 
@@ -363,6 +385,86 @@ def _check_calendar(source: str | Path, frame: pd.DataFrame, hours: int) -> None
             value=(month, day, hour),
             hint="a line is missing, repeated or out of order; the file is not a standard "
             "hourly EPW",
+        )
+
+
+def _field_name(column: str) -> str:
+    spec = next(f for f in EPW_FIELDS if f.column == column)
+    return f"{spec.column} ({spec.name}, field {spec.index + 1})"
+
+
+def _refuse_rows(
+    source: str | Path, frame: pd.DataFrame, bad: np.ndarray, column: str, message: str, hint: str
+) -> None:
+    """Raise a DataError naming the first row where ``bad`` holds, if any."""
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise DataError(
+            f"{message} ({int(bad.sum())} row(s))",
+            source=source,
+            line=int(frame["line"].iloc[i]),
+            field=_field_name(column),
+            value=float(frame[column].iloc[i]),
+            hint=hint,
+        )
+
+
+def night_hours(location: EpwLocation, hours: int) -> np.ndarray:
+    """(hours,) True for the hours of the typical year that are night at ``location``: the
+    sun's apparent elevation below −:data:`NIGHT_ELEVATION_TOLERANCE_DEG` at the hour's
+    start, middle and end (row i covers hour i of :data:`SUN_CHECK_YEAR`, local standard
+    time)."""
+    import pvlib
+
+    starts_lst = pd.date_range(
+        pd.Timestamp(year=SUN_CHECK_YEAR, month=1, day=1), periods=hours, freq="h"
+    )
+    starts_utc = starts_lst - pd.Timedelta(hours=location.tz_offset_h)
+    instants = pd.DatetimeIndex(
+        np.concatenate([starts_utc + pd.Timedelta(minutes=m) for m in (0, 30, 60)])
+    ).tz_localize("UTC")
+    position = pvlib.solarposition.get_solarposition(
+        instants, location.latitude_deg, location.longitude_deg, altitude=location.elevation_m
+    )
+    elevation = position["apparent_elevation"].to_numpy(dtype=float).reshape(3, hours)
+    result: np.ndarray = elevation.max(axis=0) < -NIGHT_ELEVATION_TOLERANCE_DEG
+    return result
+
+
+def _check_consistency(source: str | Path, frame: pd.DataFrame, location: EpwLocation) -> None:
+    """Refuse rows whose fields contradict each other: dew point above dry bulb, diffuse
+    above global, irradiance at night (tolerances: the constants above)."""
+    excess = frame["dewpoint_degc"].to_numpy() - frame["outdoor_temp_degc"].to_numpy()
+    _refuse_rows(
+        source,
+        frame,
+        np.round(excess, 6) > DEWPOINT_ABOVE_DRY_BULB_TOLERANCE_K,  # 0.1-K steps, no float noise
+        "dewpoint_degc",
+        f"dew point above the dry bulb by more than {DEWPOINT_ABOVE_DRY_BULB_TOLERANCE_K:g} K",
+        "the dew point cannot exceed the dry-bulb temperature; the file is damaged or its "
+        "columns are swapped",
+    )
+    diffuse_excess = frame["dhi_w_per_m2"].to_numpy() - frame["ghi_w_per_m2"].to_numpy()
+    _refuse_rows(
+        source,
+        frame,
+        diffuse_excess > DIFFUSE_ABOVE_GLOBAL_TOLERANCE_WH_PER_M2,
+        "dhi_w_per_m2",
+        "diffuse horizontal above global horizontal irradiance by more than "
+        f"{DIFFUSE_ABOVE_GLOBAL_TOLERANCE_WH_PER_M2:g} Wh/m²",
+        "global = diffuse + beam ≥ diffuse; the file is damaged or its columns are swapped",
+    )
+    night = night_hours(location, len(frame))
+    for column in ("ghi_w_per_m2", "dni_w_per_m2"):
+        _refuse_rows(
+            source,
+            frame,
+            night & (frame[column].to_numpy() > 0.0),
+            column,
+            f"irradiance while the sun is below the horizon (more than "
+            f"{NIGHT_ELEVATION_TOLERANCE_DEG:g}° below it all hour)",
+            "the file's hours or its LOCATION (longitude, time zone) are wrong: EPW hours are "
+            "local standard time, hour h covering [h−1, h)",
         )
 
 
@@ -433,8 +535,12 @@ def read_epw(path: str | Path) -> tuple[pd.DataFrame, EpwLocation]:
     DataError
         naming line and field for a bad header (location, time zone, elevation, ground
         temperatures), a row with too few or too many fields, a truncated file, rows out of
-        calendar order, or a missing, non-numeric, missing-coded or out-of-range value
-        (ranges in :data:`EPW_FIELDS`).
+        calendar order, a missing, non-numeric, missing-coded or out-of-range value (ranges
+        in :data:`EPW_FIELDS`), or fields that contradict each other: dew point above dry
+        bulb, diffuse above global, GHI or DNI while the sun is below the horizon (tolerances
+        :data:`DEWPOINT_ABOVE_DRY_BULB_TOLERANCE_K`,
+        :data:`DIFFUSE_ABOVE_GLOBAL_TOLERANCE_WH_PER_M2`,
+        :data:`NIGHT_ELEVATION_TOLERANCE_DEG`).
     """
     resolved = Path(path).resolve()
     try:
@@ -492,18 +598,6 @@ def humidity_ratio_kg_per_kg(dewpoint_degc: np.ndarray, pressure_pa: np.ndarray)
     return result
 
 
-def _cos_zenith(times_utc: pd.DatetimeIndex, location: EpwLocation) -> np.ndarray:
-    """max(cos θz, 0) at the given instants (pvlib solar position, apparent zenith)."""
-    import pvlib
-
-    position = pvlib.solarposition.get_solarposition(
-        times_utc, location.latitude_deg, location.longitude_deg, altitude=location.elevation_m
-    )
-    zenith = np.asarray(position["apparent_zenith"], dtype=float)
-    result: np.ndarray = np.maximum(np.cos(np.radians(zenith)), 0.0)
-    return result
-
-
 def year_index(year: int, tz: str = TIMEZONE) -> pd.DatetimeIndex:
     """All 30-min period starts of ``year`` in ``tz`` (17,520 or 17,568 periods)."""
     return pd.date_range(
@@ -557,24 +651,52 @@ def weather_30min(
         out[column] = np.interp(np.mod(hours_mid, n), instants, values)
     # Irradiance: hour bucket i covers [i, i + 1) h of the typical year.
     bucket = np.floor(np.mod(hours_mid, n)).astype(int)
-    second_half = (np.mod(hours_mid, 1.0) > 0.5).astype(int)
-    # Solar geometry at both half-hour midpoints of each hour bucket (UTC instants).
-    hour_start_utc = local.floor("h") - offset  # start of the period's LST hour, in UTC
-    first_mid = (hour_start_utc + pd.Timedelta(minutes=15)).tz_localize("UTC")
-    second_mid = (hour_start_utc + pd.Timedelta(minutes=45)).tz_localize("UTC")
-    w1 = _cos_zenith(first_mid, location)
-    w2 = _cos_zenith(second_mid, location)
-    total = w1 + w2
-    mine = np.where(second_half == 1, w2, w1)
-    factor = np.where(total > 0, 2.0 * mine / np.where(total > 0, total, 1.0), 1.0)
+    second_half = np.mod(hours_mid, 1.0) > 0.5
+    first_share, second_share = _half_hour_shares(local.floor("h") - offset, location)
     for column in _IRRADIANCE_COLUMNS:
-        hourly = epw[column].to_numpy(dtype=float)
-        out[column] = hourly[bucket] * factor
+        share = np.where(second_half, second_share[column], first_share[column])
+        out[column] = epw[column].to_numpy(dtype=float)[bucket] * share
     out["humidity_ratio_kg_per_kg"] = humidity_ratio_kg_per_kg(
         out["dewpoint_degc"], out["pressure_pa"]
     )
     out["ground_temp_degc"] = _ground_temp(location, hours_mid, epw)
     return pd.DataFrame(out, index=index)
+
+
+def _half_hour_shares(
+    hour_start_utc: pd.DatetimeIndex, location: EpwLocation
+) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
+    """Factors sharing an hour's mean irradiance between its halves (see the module docstring).
+
+    Parameters
+    ----------
+    hour_start_utc : (T,) tz-naive UTC start of the file's local-standard-time hour of each
+        period.
+    location : the site.
+
+    Returns
+    -------
+    first, second : the factors of the first and second half-hour, each a dict irradiance
+        column → (T,) array; the two halves' factors average to 1.
+    """
+    hours, inverse = np.unique(hour_start_utc.as_unit("ns").asi8, return_inverse=True)
+    half = pd.Timedelta(minutes=30)
+    starts = pd.DatetimeIndex(hours, tz="UTC")
+    suns = (period_sun(starts, half, location), period_sun(starts + half, half, location))
+    result: tuple[dict[str, np.ndarray], dict[str, np.ndarray]] = ({}, {})
+    horizontal = [sun.mean_cos_zenith for sun in suns]
+    sunlit = [sun.sunlit_fraction for sun in suns]
+    for column, weights in (
+        ("ghi_w_per_m2", horizontal),
+        ("dhi_w_per_m2", horizontal),
+        ("dni_w_per_m2", sunlit),
+    ):
+        total = weights[0] + weights[1]
+        positive = total > 0
+        for i in (0, 1):
+            share = np.where(positive, 2.0 * weights[i] / np.where(positive, total, 1.0), 1.0)
+            result[i][column] = share[inverse]
+    return result
 
 
 def _ground_temp(location: EpwLocation, hours_mid: np.ndarray, epw: pd.DataFrame) -> np.ndarray:
@@ -589,111 +711,3 @@ def _ground_temp(location: EpwLocation, hours_mid: np.ndarray, epw: pd.DataFrame
         period=EPW_HOURS_PER_YEAR,
     )
     return result
-
-
-def surface_column_name(azimuth_deg: float, tilt_deg: float) -> str:
-    """Column name of a surface's irradiance; equals the disturbance channel name."""
-    return f"solar_az{azimuth_deg:g}_tilt{tilt_deg:g}_w_per_m2"
-
-
-def _solar_geometry_on(mid: pd.DatetimeIndex, location: EpwLocation) -> tuple[np.ndarray, ...]:
-    """(T,) apparent zenith [°], solar azimuth [°], extraterrestrial DNI [W/m²] and relative
-    airmass at the times ``mid`` (read-only arrays: they may be cached)."""
-    import pvlib
-
-    lat, lon, alt = location.latitude_deg, location.longitude_deg, location.elevation_m
-    position = pvlib.solarposition.get_solarposition(mid, lat, lon, altitude=alt)
-    zenith = position["apparent_zenith"].to_numpy()
-    extra = pvlib.irradiance.get_extra_radiation(mid).to_numpy()
-    airmass = np.asarray(pvlib.atmosphere.get_relative_airmass(zenith), dtype=float)
-    arrays = (zenith, position["azimuth"].to_numpy(), extra, airmass)
-    for array in arrays:
-        array.flags.writeable = False
-    return arrays
-
-
-@functools.lru_cache(maxsize=16)
-def _solar_geometry(
-    first_ns: int, periods: int, step_ns: int, tz: str, location: EpwLocation
-) -> tuple[np.ndarray, ...]:
-    """:func:`_solar_geometry_on` a regular index's midpoints, cached (shared by a fleet)."""
-    step = pd.Timedelta(step_ns, unit="ns")
-    first = pd.Timestamp(first_ns, tz="UTC").tz_convert(tz)
-    starts = pd.date_range(first, periods=periods, freq=step)
-    return _solar_geometry_on(starts + step / 2, location)
-
-
-def surface_irradiance_w_per_m2(
-    weather: pd.DataFrame,
-    location: EpwLocation,
-    surfaces: Sequence[tuple[float, float]],
-    *,
-    albedo: float = ALBEDO,
-    model: str = SKY_DIFFUSE_MODEL,
-) -> pd.DataFrame:
-    """Total irradiance on tilted surfaces (beam + sky diffuse + ground-reflected).
-
-    Solar position (pvlib, apparent zenith) is taken at each period's midpoint; the
-    transposition is ``pvlib.irradiance.get_total_irradiance`` with the ``model`` sky-diffuse
-    model, extraterrestrial DNI and ground ``albedo``. DNI is set to zero while the sun is
-    below the horizon at the midpoint.
-
-    Parameters
-    ----------
-    weather : frame on a regular tz-aware index of period starts with ``ghi_w_per_m2``,
-        ``dni_w_per_m2``, ``dhi_w_per_m2`` [W/m², period means] (from :func:`weather_30min`).
-    location : the site.
-    surfaces : (azimuth_deg, tilt_deg) per surface: azimuth clockwise from north
-        (90 = east-facing, 180 = south-facing), tilt from horizontal (90 = wall, 0 = roof).
-
-    Returns
-    -------
-    (T, len(surfaces)) DataFrame [W/m², ≥ 0], one column per surface named
-    ``solar_az{azimuth}_tilt{tilt}_w_per_m2`` (the disturbance channel names).
-    """
-    import pvlib
-
-    index = weather.index
-    if not isinstance(index, pd.DatetimeIndex) or index.tz is None or len(index) < 2:
-        raise DataError(
-            "weather must be on a tz-aware index of at least two period starts",
-            field="weather.index",
-            value=type(index).__name__,
-            hint="use the frame returned by weather_30min",
-        )
-    stamps = index.as_unit("ns").asi8
-    step_ns = int(stamps[1] - stamps[0])
-    regular = bool(np.all(np.diff(stamps) == step_ns))  # then the geometry is cached
-    zenith, azimuth, dni_extra, airmass = (
-        _solar_geometry(int(stamps[0]), len(index), step_ns, str(index.tz), location)
-        if regular
-        else _solar_geometry_on(index + (index[1] - index[0]) / 2, location)
-    )
-    dni = np.where(zenith < 90.0, weather["dni_w_per_m2"].to_numpy(dtype=float), 0.0)
-    ghi = weather["ghi_w_per_m2"].to_numpy(dtype=float)
-    dhi = weather["dhi_w_per_m2"].to_numpy(dtype=float)
-    out: dict[str, np.ndarray] = {}
-    for surface_azimuth, surface_tilt in surfaces:
-        if not (0.0 <= surface_tilt <= 180.0) or not math.isfinite(surface_azimuth):
-            raise DataError(
-                "bad surface orientation",
-                field="surfaces",
-                value=(surface_azimuth, surface_tilt),
-                hint="azimuth in degrees clockwise from north, tilt 0…180° from horizontal",
-            )
-        total = pvlib.irradiance.get_total_irradiance(
-            surface_tilt,
-            surface_azimuth,
-            zenith,
-            azimuth,
-            dni,
-            ghi,
-            dhi,
-            dni_extra=dni_extra,
-            airmass=airmass,
-            albedo=albedo,
-            model=model,
-        )
-        poa = np.nan_to_num(np.asarray(total["poa_global"], dtype=float), nan=0.0)
-        out[surface_column_name(surface_azimuth, surface_tilt)] = np.maximum(poa, 0.0)
-    return pd.DataFrame(out, index=index)

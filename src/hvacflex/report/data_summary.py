@@ -1,5 +1,6 @@
-"""What ``hvacflex data show`` prints and draws: a text summary of the exogenous data and the
-paper's Fig. 2 (energy and reserve price) from an :class:`hvacflex.data.forecast.Exogenous`.
+"""What ``hvacflex data show`` prints, draws and writes: a text summary of the exogenous data,
+the paper's Fig. 2 (energy and reserve price) and the summarised 30-min series as CSV, from an
+:class:`hvacflex.data.forecast.Exogenous`.
 
 Pure functions of loaded data; the command itself (options, loading, exit codes) lives in
 :mod:`hvacflex.cli`.
@@ -7,10 +8,11 @@ Pure functions of loaded data; the command itself (options, loading, exit codes)
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
@@ -18,6 +20,7 @@ from hvacflex.building.discretize import LinearModel
 from hvacflex.constants import HORIZON_STEPS
 from hvacflex.data.forecast import Exogenous
 from hvacflex.data.uncertainty import UncertaintyBox
+from hvacflex.errors import InputError
 from hvacflex.opt.robust import impulse_responses, margin_operator, robust_margins
 
 FIG2_DPI = 120
@@ -141,3 +144,63 @@ def write_fig2(exo: Exogenous, path: Path, steps: int) -> None:
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=FIG2_DPI)
+
+
+def exogenous_frame(exo: Exogenous, steps: int, zone_names: Sequence[str]) -> pd.DataFrame:
+    """The first ``steps`` periods of the exogenous data, one column per series, named as in
+    the results file (docs/architecture.md, Results).
+
+    Parameters
+    ----------
+    exo : exogenous data over at least ``steps`` periods.
+    steps : number of 30-min periods.
+    zone_names : (m,) the building's zones, for the comfort-band columns.
+
+    Returns
+    -------
+    (steps rows) DataFrame on the tz-aware index ``time`` of period starts:
+    ``energy_price_sgd_per_mwh``, ``reserve_price_sgd_per_mwh`` [SGD/MWh], one column per
+    disturbance channel under its channel name (``outdoor_temp_degc``,
+    ``solar_az90_tilt90_w_per_m2``, ``internal_gain_<zone>_w``, …: the ``<channel>`` of the
+    results file's ``d_<channel>``; channel units), ``outdoor_humidity_ratio_kg_per_kg``
+    [kg/kg], ``occupied`` [bool], ``comfort_lower_<zone>_degc``, ``comfort_upper_<zone>_degc``
+    [°C].
+    """
+    columns: dict[str, np.ndarray] = {
+        "energy_price_sgd_per_mwh": exo.energy_price_sgd_per_mwh[:steps],
+        "reserve_price_sgd_per_mwh": exo.reserve_price_sgd_per_mwh[:steps],
+    }
+    for i, channel in enumerate(exo.channels):
+        columns[channel.name] = exo.disturbances[:steps, i]
+    columns["outdoor_humidity_ratio_kg_per_kg"] = exo.outdoor_humidity_ratio_kg_per_kg[:steps]
+    columns["occupied"] = exo.occupied[:steps]
+    for j, zone in enumerate(zone_names):
+        columns[f"comfort_lower_{zone}_degc"] = exo.comfort_lower_degc[:steps, j]
+        columns[f"comfort_upper_{zone}_degc"] = exo.comfort_upper_degc[:steps, j]
+    return pd.DataFrame(columns, index=pd.DatetimeIndex(exo.index[:steps], name="time"))
+
+
+def write_exogenous_csv(
+    exo: Exogenous, steps: int, zone_names: Sequence[str], path: Path
+) -> pd.DataFrame:
+    """Write :func:`exogenous_frame` to ``path`` as CSV (times with their UTC offset)
+    and return it.
+
+    Raises
+    ------
+    InputError
+        if ``path`` cannot be written (a folder, a missing parent that cannot be created, no
+        permission).
+    """
+    frame = exogenous_frame(exo, steps, zone_names)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        frame.to_csv(path)
+    except OSError as exc:
+        raise InputError(
+            f"cannot write the CSV file: {exc.strerror or exc}",
+            source=path,
+            field="--csv",
+            hint="give a writable file path",
+        ) from None
+    return frame

@@ -10,7 +10,8 @@ Procedure
 * Weather: :func:`hvacflex.data.weather.weather_30min` on the file's local standard time
   (UTC−7, ``Etc/GMT+7``; no daylight saving), a non-leap year. Dry bulb linearly
   interpolated, irradiance hour totals kept. Irradiance on every orientation including the
-  roof with pvlib's Hay–Davies transposition, ground reflectance 0.2. Sky long-wave
+  roof with :mod:`hvacflex.data.solar` (Hay–Davies on period-integrated sun geometry),
+  ground reflectance 0.2. Sky long-wave
   ``σ T_out⁴ − L↓`` with ``L↓`` the EPW horizontal infrared radiation (field 12, held over
   its hour). Internal gain 200 W constant.
 * Time stepping: exact ZOH of the linear network at ``DT_S`` = 10 min, the 30-min
@@ -35,14 +36,8 @@ from numpy.typing import NDArray
 from hvacflex.building.io import load_building
 from hvacflex.building.model import Building
 from hvacflex.building.rc import ThermalNetwork, build_network
-from hvacflex.data.weather import (
-    ALBEDO,
-    SKY_DIFFUSE_MODEL,
-    EpwLocation,
-    read_epw,
-    surface_irradiance_w_per_m2,
-    weather_30min,
-)
+from hvacflex.data.solar import surface_irradiance_components, surface_irradiance_w_per_m2
+from hvacflex.data.weather import EpwLocation, read_epw, weather_30min
 from hvacflex.units import KELVIN_OFFSET
 from hvacflex.validation.ideal_loads import simulate_zone_loads
 
@@ -211,40 +206,15 @@ def plane_irradiance_components(
     weather: pd.DataFrame, location: EpwLocation, azimuth_deg: float, tilt_deg: float
 ) -> tuple[FloatArray, FloatArray, FloatArray]:
     """Beam and diffuse (sky + ground) irradiance on a plane and the beam's incidence angle,
-    with the same geometry and Hay–Davies transposition as
-    :func:`hvacflex.data.weather.surface_irradiance_w_per_m2` (their sum equals its total).
+    from :func:`hvacflex.data.solar.surface_irradiance_components` (their sum equals
+    :func:`hvacflex.data.solar.surface_irradiance_w_per_m2`).
 
     Returns
     -------
     beam_w_per_m2, diffuse_w_per_m2, incidence_deg : (T,) each.
     """
-    import pvlib
-
-    index = pd.DatetimeIndex(weather.index)
-    mid = index + (index[1] - index[0]) / 2
-    position = pvlib.solarposition.get_solarposition(
-        mid, location.latitude_deg, location.longitude_deg, altitude=location.elevation_m
-    )
-    zenith = position["apparent_zenith"].to_numpy()
-    azimuth = position["azimuth"].to_numpy()
-    dni = np.where(zenith < 90.0, weather["dni_w_per_m2"].to_numpy(dtype=float), 0.0)
-    total = pvlib.irradiance.get_total_irradiance(
-        tilt_deg,
-        azimuth_deg,
-        zenith,
-        azimuth,
-        dni,
-        weather["ghi_w_per_m2"].to_numpy(dtype=float),
-        weather["dhi_w_per_m2"].to_numpy(dtype=float),
-        dni_extra=pvlib.irradiance.get_extra_radiation(mid).to_numpy(),
-        airmass=pvlib.atmosphere.get_relative_airmass(zenith),
-        albedo=ALBEDO,
-        model=SKY_DIFFUSE_MODEL,
-    )
-    beam = np.maximum(np.nan_to_num(np.asarray(total["poa_direct"], dtype=float)), 0.0)
-    diffuse = np.maximum(np.nan_to_num(np.asarray(total["poa_diffuse"], dtype=float)), 0.0)
-    incidence = np.asarray(pvlib.irradiance.aoi(tilt_deg, azimuth_deg, zenith, azimuth))
-    return beam, diffuse, np.nan_to_num(incidence, nan=90.0)
+    parts = surface_irradiance_components(weather, location, azimuth_deg, tilt_deg)
+    return parts.beam_w_per_m2, parts.diffuse_w_per_m2, parts.incidence_deg
 
 
 def bestest_disturbances(building: Building, net: ThermalNetwork, epw_path: Path) -> pd.DataFrame:
