@@ -1,3 +1,4 @@
+import re
 from pathlib import Path
 
 import pytest
@@ -6,6 +7,7 @@ from hvacflex.config import (
     PAPER_MODEL_SCENARIOS,
     PAPER_SCENARIOS,
     PRESET_NAMES,
+    ScenarioConfig,
     load_config,
     preset,
     scaled_uncertainty,
@@ -185,3 +187,31 @@ def test_overrides_are_validated_and_can_clear_the_event_model() -> None:
         with_overrides(preset("rmpc"), {"controller.robust": "dual"})
     with pytest.raises(ConfigError, match="unknown setting"):
         with_overrides(preset("rmpc"), {"nonsense": 1})
+
+
+def test_plant_table_defaults_to_rc_and_keeps_the_run_key(tmp_path: Path) -> None:
+    default = ScenarioConfig()
+    assert default.plant.kind == "rc" and default.plant.resolved_actuation == "flow"
+    path = tmp_path / "eplus.toml"
+    path.write_text('[plant]\nkind = "energyplus"\nidf = "model.idf"\n')
+    config = load_config(path)
+    assert config.plant.idf == "model.idf" and config.plant.timesteps_per_hour == 6
+    assert config.plant.resolved_actuation == "setpoint"
+    assert config.config_hash() != default.config_hash()
+
+
+@pytest.mark.parametrize(
+    ("text", "field"),
+    [
+        ('[plant]\nkind = "modelica"\n', "plant.kind"),
+        ('[plant]\nkind = "energyplus"\nbogus = 1\n', "plant.bogus"),
+        ('[plant]\nkind = "energyplus"\ntimesteps_per_hour = 5\n', "plant.timesteps_per_hour"),
+        ('[plant]\nactuation = "setpoint"\n', "plant.actuation"),
+        ('[plant]\nkind = "energyplus"\nactuation = "valve"\n', "plant.actuation"),
+    ],
+)
+def test_bad_plant_tables_name_the_field(tmp_path: Path, text: str, field: str) -> None:
+    path = tmp_path / "bad.toml"
+    path.write_text(text)
+    with pytest.raises(ConfigError, match=re.escape(field)):
+        load_config(path)

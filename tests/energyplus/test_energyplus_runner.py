@@ -56,7 +56,7 @@ def test_a_fatal_error_quotes_eplusout_err(tmp_path: Path) -> None:
     )
     assert "No-Such-Schedule" in text
     sim = CoSimulation(_spec(text), tmp_path)
-    with pytest.raises(EnergyPlusError, match=r"(?s)exit code 1.*Severe.*NO-SUCH-SCHEDULE"):
+    with pytest.raises(EnergyPlusError, match=r"(?s)exit code 1.*Severe.*NO-SUCH-SCHEDULE.*Fatal"):
         sim.start()
     sim.close()
 

@@ -34,6 +34,7 @@ import queue
 import shutil
 import tempfile
 import threading
+import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -178,6 +179,8 @@ class CoSimulation:
         self._keep: list[object] = []
         self.engine_time_s = 0.0
         """Wall time the caller spent waiting for the engine in :meth:`advance` [s]."""
+        self.callback_time_s = 0.0
+        """CPU time spent in this module's Python callbacks (engine thread) [s]."""
 
     # ---- caller side -------------------------------------------------------------------
 
@@ -220,8 +223,6 @@ class CoSimulation:
     def advance(self, actuator_values: FloatArray) -> PeriodReading:
         """Run one period with ``actuator_values`` (na,) held (NaN: the IDF's own control)
         and return its readings."""
-        import time
-
         values = np.asarray(actuator_values, dtype=np.float64)
         if values.shape != (len(self.spec.actuators),):
             raise ValueError(
@@ -280,11 +281,16 @@ class CoSimulation:
                 source=self.spec.source,
                 hint="the plant cannot step past the scenario's last day; start a new plant",
             )
-        body = "\n".join(quoted) if quoted else "(no severe or fatal line in eplusout.err)"
+        body = (
+            "\n".join(f"  {line}" for line in quoted)
+            if quoted
+            else ("  (no severe or fatal line in eplusout.err)")
+        )
         return EnergyPlusError(
-            f"EnergyPlus stopped with an error (exit code {rc}):\n{body}\n",
+            f"EnergyPlus stopped with an error (exit code {rc})",
             source=self.spec.source,
-            hint=f"fix the IDF as eplusout.err says (the whole file is {err})",
+            hint=f"fix the model as EnergyPlus's eplusout.err says (the whole file: {err}):\n"
+            + body,
         )
 
     # ---- engine side (worker thread) -------------------------------------------------
@@ -302,12 +308,15 @@ class CoSimulation:
         def callback(state: Any) -> None:
             if self._stopping:
                 return
+            began = time.thread_time()
             try:
                 body(state)
             except BaseException as error:
                 self._stopping = True
                 self._api.lib.stopSimulation(state)
                 self._to_caller.put(("error", error))
+            self.callback_time_s += time.thread_time() - began
+
 
         return callback
 
@@ -410,15 +419,22 @@ class CoSimulation:
 
 
 def _why(lines: list[str]) -> list[str]:
-    """The severe and fatal lines of ``eplusout.err`` with their continuation lines."""
-    quoted: list[str] = []
-    keep = False
+    """The severe and fatal lines of ``eplusout.err`` with their continuation lines: the
+    first :data:`ERR_LINES_QUOTED` of them, and the fatal ones always."""
+    blocks: list[list[str]] = []
     for line in lines:
         text = line.strip()
         if "** Severe  **" in text or "**  Fatal  **" in text:
-            keep = True
-        elif "~~~" not in text:
-            keep = False
-        if keep:
-            quoted.append(text)
-    return quoted[:ERR_LINES_QUOTED]
+            blocks.append([text])
+        elif "** Warning **" in text or "~~~" not in text:
+            if blocks and blocks[-1][0] != "":
+                blocks.append([""])  # a gap: what follows is not part of the last block
+        elif blocks and blocks[-1][0] != "":
+            blocks[-1].append(text)
+    kept = [b for b in blocks if b[0]]
+    quoted = [line for block in kept for line in block]
+    if len(quoted) <= ERR_LINES_QUOTED:
+        return quoted
+    fatal = [line for block in kept if "Fatal" in block[0] for line in block]
+    head = quoted[: max(ERR_LINES_QUOTED - len(fatal), 2)]
+    return [*head, f"... ({len(quoted) - len(head) - len(fatal)} more lines)", *fatal]
