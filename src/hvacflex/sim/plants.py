@@ -114,5 +114,6 @@ def make_plant(
         epw_path=epw,
         actuation=actuation,
         timesteps_per_hour=config.timesteps_per_hour,
+        supply_temp_degc=building.hvac.supply_temp_degc,
         work_dir=work_dir,
     )
