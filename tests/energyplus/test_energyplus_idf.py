@@ -125,5 +125,7 @@ def test_weather_must_cover_every_day(tmp_path: Path) -> None:
     check_weather_covers(january, pd.Timestamp("2014-01-30"), pd.Timestamp("2014-01-31"))
     with pytest.raises(DataError, match=r"does not cover the run.*04 March"):
         check_weather_covers(january, DAY, DAY)
+    with pytest.raises(DataError, match=r"no rows for 29 February"):
+        check_weather_covers(EPW, pd.Timestamp("2016-02-28"), pd.Timestamp("2016-03-01"))
     with pytest.raises(DataError, match="weather file not found"):
         check_weather_covers(tmp_path / "none.epw", DAY, DAY)

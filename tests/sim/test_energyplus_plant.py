@@ -256,3 +256,16 @@ def test_flow_actuation_on_ideal_loads() -> None:
     assert np.all(added_kg_s[4:] >= 0.3 - 1e-9)  # the ideal loads' inlet carries the flow
     drop_k = _temps(off)[5:] - _temps(on)[5:]
     assert np.all(drop_k > 1.0), drop_k  # 0.3 kg/s of 13 °C air per zone cools every zone
+
+
+def test_a_mid_day_start_runs_the_morning_under_the_idf(baseline: list[Observation]) -> None:
+    """A 12:00 start: EnergyPlus runs the day from midnight, 00:00-12:00 under the IDF's own
+    schedules (the baseline sent those same setpoints), then steps from 12:00."""
+    noon = START + pd.Timedelta(hours=12)
+    plant = EnergyPlusPlant.from_file(IDF, ZONES, start=noon, steps=4, epw_path=EPW)
+    first = plant.reset(25.0)
+    np.testing.assert_allclose(first.zone_temp_degc, baseline[23].zone_temp_degc, atol=0.05)
+    nxt = plant.step(Actuation(setpoint_degc=np.full(5, 23.9)), DISTURBANCE, 1800.0)
+    plant.close()
+    np.testing.assert_allclose(nxt.zone_mean_temp_degc, baseline[24].zone_mean_temp_degc, atol=0.05)
+    assert nxt.outdoor_temp_degc == baseline[24].outdoor_temp_degc

@@ -366,7 +366,8 @@ def check_weather_covers(
     Raises
     ------
     DataError
-        when the file is missing or lacks a day of the run (naming the first missing day).
+        when the file is missing or lacks a day of the run (naming the first missing day;
+        a 29 February counts: EnergyPlus would skip it and the run would end a day early).
     """
     path = Path(epw_path)
     if not path.is_file():
@@ -398,7 +399,7 @@ def check_weather_covers(
             hint="the file looks damaged",
         ) from None
     wanted = pd.date_range(start_date.normalize(), end_date.normalize(), freq="D")
-    missing = [d for d in wanted if (d.month, d.day) not in days and (d.month, d.day) != (2, 29)]
+    missing = [d for d in wanted if (d.month, d.day) not in days]
     if missing:
         covered = sorted(days)
         span = (
@@ -413,6 +414,7 @@ def check_weather_covers(
             source=path,
             field="data.weather_file",
             value=str(missing[0].date()),
-            hint="give a weather file with every day of the run (a whole-year EPW), or move "
-            "the scenario's start and days into the file's period",
+            hint="give a weather file with every day of the run (a whole-year EPW; a leap day "
+            "needs a leap-year file: EnergyPlus skips a 29 February its weather lacks), or "
+            "move the scenario's start and days into the file's period",
         )
