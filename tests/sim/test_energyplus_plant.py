@@ -265,6 +265,7 @@ def test_a_mid_day_start_runs_the_morning_under_the_idf(baseline: list[Observati
     plant = EnergyPlusPlant.from_file(IDF, ZONES, start=noon, steps=4, epw_path=EPW)
     first = plant.reset(25.0)
     np.testing.assert_allclose(first.zone_temp_degc, baseline[23].zone_temp_degc, atol=0.05)
+    assert np.isnan(first.power_kw) and np.isnan(first.facility_power_kw)  # nothing metered
     nxt = plant.step(Actuation(setpoint_degc=np.full(5, 23.9)), DISTURBANCE, 1800.0)
     plant.close()
     np.testing.assert_allclose(nxt.zone_mean_temp_degc, baseline[24].zone_mean_temp_degc, atol=0.05)

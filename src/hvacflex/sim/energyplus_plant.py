@@ -35,6 +35,7 @@ readings (the engine is deterministic).
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 from pathlib import Path
 from typing import Any, Literal
 
@@ -262,14 +263,18 @@ class EnergyPlusPlant:
     def reset(self, initial_temp_degc: float) -> Observation:
         """Start EnergyPlus afresh (sizing and warm-up on the first day's weather: EnergyPlus
         sets its own initial state, ``initial_temp_degc`` is not used) and run, under the
-        IDF's own control, the periods of the first day before ``start``."""
+        IDF's own control, the periods of the first day before ``start``.
+
+        The observation is the state at ``start``: temperatures, flows and outdoor
+        temperature as read then; ``power_kw`` and ``facility_power_kw`` NaN (no period has
+        been metered), as on the RC plant."""
         self.close()
         self._history = []
         self._sim = CoSimulation(self._spec, self.work_dir)
         reading = self._sim.start()
         for _ in range(self._skip_periods):
             reading = self._sim.advance(np.full(len(self._spec.actuators), np.nan))
-        return self._observation(reading)
+        return replace(self._observation(reading), power_kw=np.nan, facility_power_kw=np.nan)
 
     def step(self, actuation: Actuation, disturbance: Disturbance, dt_s: float) -> Observation:
         began = time.perf_counter()
