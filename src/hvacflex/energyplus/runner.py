@@ -262,7 +262,7 @@ class CoSimulation:
         if kind == "reading":
             assert isinstance(payload, PeriodReading)
             return payload
-        self._failed = True
+        self._failed = kind == "error" or int(payload) != 0  # keep the files of a failed run
         if self._thread is not None:
             self._thread.join(JOIN_TIMEOUT_S)
         if kind == "error":
