@@ -157,6 +157,18 @@ def test_unknown_zone_names_it_and_the_idf_zones() -> None:
         )
 
 
+def test_two_zones_cannot_share_an_idf_zone() -> None:
+    with pytest.raises(InputError, match=r"same IDF zone.*SPACE1-1"):
+        EnergyPlusPlant.from_file(
+            IDF,
+            ("a", "b"),
+            idf_zone_names=("space1-1", "Space1-1"),
+            start=START,
+            steps=STEPS,
+            epw_path=EPW,
+        )
+
+
 def test_flow_actuation_needs_an_actuatable_flow() -> None:
     with pytest.raises(InputError, match="VAV:Reheat has no flow actuator"):
         EnergyPlusPlant.from_file(

@@ -50,6 +50,7 @@ from hvacflex.energyplus.hvac import (
     zone_inlet_nodes,
 )
 from hvacflex.energyplus.idf import (
+    IdfObject,
     check_weather_covers,
     match_zones,
     parse_idf,
@@ -164,6 +165,15 @@ class EnergyPlusPlant:
         self.idf_zone_names = match_zones(
             wanted, prepared.zone_names, source, "zones.energyplus_zone"
         )
+        doubled = sorted({z for z in self.idf_zone_names if self.idf_zone_names.count(z) > 1})
+        if doubled:
+            raise InputError(
+                "two hvacflex zones name the same IDF zone",
+                source=source,
+                field="zones.energyplus_zone",
+                value=doubled[0],
+                hint="map each hvacflex zone to its own IDF zone",
+            )
         self.epw_path = Path(epw_path)
         check_weather_covers(self.epw_path, first_day, last_day)
         self._skip_periods = int((naive - first_day) / pd.Timedelta(seconds=PERIOD_S))
@@ -186,7 +196,9 @@ class EnergyPlusPlant:
 
     # ---- what is read and actuated -----------------------------------------------------
 
-    def _co_sim_spec(self, text: str, objects: Any, timesteps_per_hour: int) -> CoSimSpec:
+    def _co_sim_spec(
+        self, text: str, objects: tuple[IdfObject, ...], timesteps_per_hour: int
+    ) -> CoSimSpec:
         m = len(self.zone_names)
         variables = [Variable("Zone Mean Air Temperature", z) for z in self.idf_zone_names]
         self._inlets: list[list[int]] = []
@@ -216,7 +228,9 @@ class EnergyPlusPlant:
             timestep_rule=self._setpoint_rule if self.actuation == "setpoint" else None,
         )
 
-    def _setpoint_actuators(self, objects: Any, variables: list[Variable]) -> list[Actuator]:
+    def _setpoint_actuators(
+        self, objects: tuple[IdfObject, ...], variables: list[Variable]
+    ) -> list[Actuator]:
         for zone in self.idf_zone_names:
             if not has_thermostat(objects, zone):
                 raise InputError(
