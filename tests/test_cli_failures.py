@@ -176,3 +176,12 @@ def test_no_highs_banner_on_the_command_output(tmp_path: Path) -> None:
     assert done.returncode == 0, done.stderr
     assert "rmpc-ppp:" in done.stdout  # the command ran and solved LPs
     assert "HiGHS" not in done.stdout + done.stderr
+
+
+def test_simulate_with_a_bad_plant_table_exits_2(tmp_path: Path) -> None:
+    config = tmp_path / "scenario.toml"
+    config.write_text('name = "mine"\n[plant]\nkind = "energyplus"\ntimesteps_per_hour = 7\n')
+    args = ["simulate", "--config", str(config), "--days", "0.25", "--out", str(tmp_path / "o")]
+    result = CliRunner().invoke(app, args)
+    assert result.exit_code == 2, result.output
+    assert "plant.timesteps_per_hour" in result.output and "Traceback" not in result.output

@@ -1,3 +1,4 @@
+import re
 from pathlib import Path
 
 import pytest
@@ -6,6 +7,7 @@ from hvacflex.config import (
     PAPER_MODEL_SCENARIOS,
     PAPER_SCENARIOS,
     PRESET_NAMES,
+    ScenarioConfig,
     load_config,
     preset,
     resolve_scenario,
@@ -243,3 +245,31 @@ def test_resolve_scenario_prefers_a_preset_to_a_file_of_its_name(
     monkeypatch.chdir(tmp_path)
     assert resolve_scenario("nmpc").controller.robust == "none"
     assert resolve_scenario(Path("nmpc")).controller.robust == "tightening"
+
+
+def test_plant_table_defaults_to_rc_and_keeps_the_run_key(tmp_path: Path) -> None:
+    default = ScenarioConfig()
+    assert default.plant.kind == "rc" and default.plant.resolved_actuation == "flow"
+    path = tmp_path / "eplus.toml"
+    path.write_text('[plant]\nkind = "energyplus"\nidf = "model.idf"\n')
+    config = load_config(path)
+    assert config.plant.idf == "model.idf" and config.plant.timesteps_per_hour == 6
+    assert config.plant.resolved_actuation == "setpoint"
+    assert config.config_hash() != default.config_hash()
+
+
+@pytest.mark.parametrize(
+    ("text", "field"),
+    [
+        ('[plant]\nkind = "modelica"\n', "plant.kind"),
+        ('[plant]\nkind = "energyplus"\nbogus = 1\n', "plant.bogus"),
+        ('[plant]\nkind = "energyplus"\ntimesteps_per_hour = 5\n', "plant.timesteps_per_hour"),
+        ('[plant]\nactuation = "setpoint"\n', "plant.actuation"),
+        ('[plant]\nkind = "energyplus"\nactuation = "valve"\n', "plant.actuation"),
+    ],
+)
+def test_bad_plant_tables_name_the_field(tmp_path: Path, text: str, field: str) -> None:
+    path = tmp_path / "bad.toml"
+    path.write_text(text)
+    with pytest.raises(ConfigError, match=re.escape(field)):
+        load_config(path)

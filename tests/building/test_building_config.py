@@ -242,3 +242,12 @@ def test_schema_errors_name_field_and_say_what_is_wrong(
     with pytest.raises(BuildingConfigError, match=message) as info:
         load_building(write_building(tmp_path, _replace(old, new)))
     assert info.value.field == field
+
+
+def test_energyplus_zone_is_optional_and_read(tmp_path: Path) -> None:
+    text = MINIMAL_TOML.replace('name = "b"\n', 'name = "b"\nenergyplus_zone = "SPACE2-1"\n', 1)
+    building = load_building(write_building(tmp_path, text))
+    assert [z.energyplus_zone for z in building.zones] == [None, "SPACE2-1"]
+    empty = MINIMAL_TOML.replace('name = "b"\n', 'name = "b"\nenergyplus_zone = ""\n', 1)
+    with pytest.raises(BuildingConfigError, match=r"zones\[1\]\.energyplus_zone"):
+        load_building(write_building(tmp_path, empty, "empty.toml"))

@@ -342,6 +342,8 @@ class Zone:
         inside film, then read as convective only, and to a radiant star node by h_r·A
         (the mean-radiant-temperature star of Walton / ISO 13790); radiative gains land on
         the surface nodes. Massless nodes are eliminated exactly (Kron reduction).
+    energyplus_zone : the name of this zone in an EnergyPlus model driven as the plant
+        (matched case-insensitively); ``None``: the zone's own ``name``.
     """
 
     name: str
@@ -352,6 +354,7 @@ class Zone:
     internal_gain_radiative_fraction: float = 0.0
     solar_lost_fraction: float = 0.0
     interior_radiation_w_per_m2k: float | None = None
+    energyplus_zone: str | None = None
 
     @property
     def volume_m3(self) -> float:

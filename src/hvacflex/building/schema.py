@@ -12,7 +12,8 @@ File layout (see ``buildings/office5.toml`` for a commented example)::
     name, description, latitude_deg?, longitude_deg?
     [[zones]]            name, floor_area_m2, height_m, capacitance_multiplier?,
                          infiltration_ach?, internal_gain_radiative_fraction?,
-                         solar_lost_fraction?, interior_radiation_w_per_m2k?
+                         solar_lost_fraction?, interior_radiation_w_per_m2k?,
+                         energyplus_zone? (the zone's name in an EnergyPlus plant's IDF)
     [constructions.X]    r_value_m2k_per_w + capacitance_j_per_m2k   (homogeneous)
                          or layers = [{thickness_m, conductivity_w_per_mk,
                                        density_kg_per_m3, specific_heat_j_per_kgk}, ...]
@@ -118,6 +119,7 @@ class ZoneSpec(Spec):
     internal_gain_radiative_fraction: Fraction = 0.0
     solar_lost_fraction: Fraction = 0.0
     interior_radiation_w_per_m2k: Positive | None = None
+    energyplus_zone: Annotated[Text, Field(min_length=1)] | None = None
 
 
 class LayerSpec(Spec):

@@ -29,6 +29,8 @@ PriceGapFill = Literal["none", "previous-day"]
 DisturbanceKind = Literal["outdoor_temp", "solar", "internal_gain", "ground_temp"]
 Linearisation = Literal["fixed", "trajectory"]
 EstimationMode = Literal["full-state", "kalman"]
+PlantKind = Literal["rc", "energyplus"]
+PlantActuation = Literal["setpoint", "flow"]
 
 NEMS_MAX_INTERRUPTION_STEPS = 4
 """The NEMS 120-minute rule (since 2019): after four 30-min periods of interruption the
@@ -181,6 +183,30 @@ class ComfortConfig:
 
 
 @dataclass(frozen=True)
+class PlantConfig:
+    """What the closed loop drives (``[plant]``, docs/energyplus.md).
+
+    ``kind = "rc"`` is hvacflex's own RC network (flow-actuated); ``"energyplus"`` an
+    EnergyPlus 25.2 model: ``idf`` is ``"generated"`` (the building's own export, ``--hvac
+    vav``) or the path of an IDF file; ``actuation`` is ``"setpoint"`` (zone cooling
+    setpoints, the EnergyPlus default) or ``"flow"`` (zone supply flows; the RC plant's only
+    one); ``None`` = the plant's default. ``timesteps_per_hour`` is EnergyPlus's zone time step.
+    """
+
+    kind: PlantKind = "rc"
+    idf: str = "generated"
+    actuation: PlantActuation | None = None
+    timesteps_per_hour: int = 6
+
+    @property
+    def resolved_actuation(self) -> PlantActuation:
+        """The actuation used: the given one, else ``"flow"`` (rc) / ``"setpoint"``."""
+        if self.actuation is not None:
+            return self.actuation
+        return "flow" if self.kind == "rc" else "setpoint"
+
+
+@dataclass(frozen=True)
 class ScenarioConfig:
     """Everything one closed-loop run needs. Build with ``load_config`` or ``preset``."""
 
@@ -199,6 +225,7 @@ class ScenarioConfig:
     activation: ActivationConfig = field(default_factory=ActivationConfig)
     data: DataConfig = field(default_factory=DataConfig)
     comfort: ComfortConfig = field(default_factory=ComfortConfig)
+    plant: PlantConfig = field(default_factory=PlantConfig)
 
     @property
     def steps(self) -> int:
@@ -228,5 +255,7 @@ class ScenarioConfig:
         """Stable 12-hex-digit hash of every field except ``name`` (used to cache runs)."""
         payload = self.to_dict()
         payload.pop("name")
+        if self.plant == PlantConfig():
+            payload.pop("plant")  # the default plant keeps the run keys of earlier versions
         text = json.dumps(payload, sort_keys=True)
         return hashlib.sha256(text.encode()).hexdigest()[:12]

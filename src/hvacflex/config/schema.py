@@ -24,6 +24,7 @@ File layout (every key optional)::
     [data]         weather_file, usep_source, reserve_source, reserve_price_scale,
                    price_gap_fill
     [comfort]      occupied_degc = [lower, upper], unoccupied_degc = [lower, upper]
+    [plant]        kind, idf, actuation, timesteps_per_hour
 """
 
 from __future__ import annotations
@@ -56,6 +57,9 @@ from hvacflex.config.model import (
     EstimationMode,
     FeedbackConfig,
     Linearisation,
+    PlantActuation,
+    PlantConfig,
+    PlantKind,
     PriceGapFill,
     RealisationConfig,
     RealisationMode,
@@ -63,6 +67,7 @@ from hvacflex.config.model import (
     ScenarioConfig,
     UncertaintyConfig,
 )
+from hvacflex.energyplus.idf import VALID_TIMESTEPS_PER_HOUR
 from hvacflex.opt.options import FeedbackStructure, RobustMode
 from hvacflex.units import STEP_30MIN_S
 
@@ -210,6 +215,37 @@ class ComfortSpec(Spec):
     )
 
 
+def _valid_timesteps(value: int) -> int:
+    if value not in VALID_TIMESTEPS_PER_HOUR:
+        raise rule_error(
+            "EnergyPlus zone time steps must tile the 30-min period",
+            "",
+            value,
+            hint=f"use one of {list(VALID_TIMESTEPS_PER_HOUR)}",
+        )
+    return value
+
+
+class PlantSpec(Spec):
+    kind: PlantKind = default(PlantConfig, "kind")
+    idf: Annotated[Text, Field(min_length=1)] = default(PlantConfig, "idf")
+    actuation: PlantActuation | None = default(PlantConfig, "actuation")
+    timesteps_per_hour: Annotated[PositiveInt, AfterValidator(_valid_timesteps)] = default(
+        PlantConfig, "timesteps_per_hour"
+    )
+
+    @model_validator(mode="after")
+    def _rc_is_flow_actuated(self) -> Self:
+        if self.kind == "rc" and self.actuation == "setpoint":
+            raise rule_error(
+                "the RC plant is flow-actuated",
+                "actuation",
+                "setpoint",
+                hint="use actuation = 'flow' (or leave it out), or kind = 'energyplus'",
+            )
+        return self
+
+
 def _period_start(text: str) -> str:
     """A local date-time on a 30-min period start, without a time-zone offset."""
     try:
@@ -258,6 +294,7 @@ class ScenarioSpec(Spec):
     activation: ActivationSpec = ActivationSpec()
     data: DataSpec = DataSpec()
     comfort: ComfortSpec = ComfortSpec()
+    plant: PlantSpec = PlantSpec()
 
     @model_validator(mode="after")
     def _events_need_an_open_loop_policy(self) -> Self:
@@ -284,6 +321,7 @@ TABLES: dict[type[BaseModel], type] = {
     ActivationSpec: ActivationConfig,
     DataSpec: DataConfig,
     ComfortSpec: ComfortConfig,
+    PlantSpec: PlantConfig,
 }
 """Each table's schema and the domain dataclass it becomes."""
 

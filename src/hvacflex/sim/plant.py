@@ -160,7 +160,7 @@ class RCPlant:
     """
 
     can_snapshot = True
-    actuations = ("flow",)
+    actuations: tuple[str, ...] = ("flow",)
 
     def __init__(self, building: Building, plant: NonlinearPlant | None = None) -> None:
         self.building = building

