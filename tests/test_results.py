@@ -77,6 +77,7 @@ def test_step_columns_of_one_zone_and_channel_written_out() -> None:
         "reserve_price_sgd_per_mwh",
         "peak_price_sgd_per_kw",
         "power_kw",
+        "facility_power_kw",
         "power_served_kw",
         "power_curtailed_kw",
         "planned_power_kw",

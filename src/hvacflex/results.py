@@ -72,6 +72,7 @@ STEP_SCALAR_UNITS: dict[str, str] = {
     "reserve_price_sgd_per_mwh": "SGD/MWh",
     "peak_price_sgd_per_kw": "SGD/kW",
     "power_kw": "kW",
+    "facility_power_kw": "kW",
     "power_served_kw": "kW",
     "power_curtailed_kw": "kW",
     "planned_power_kw": "kW",

@@ -45,7 +45,8 @@ from hvacflex.data.signals import OperatorSignals, effective_peak_price
 from hvacflex.data.uncertainty import DisturbanceSampler
 from hvacflex.errors import ConfigError, HvacflexError
 from hvacflex.sim.measurement import Sensors
-from hvacflex.sim.plant import Actuation, Disturbance, Observation, Plant, RCPlant
+from hvacflex.sim.plant import Actuation, Disturbance, Observation, Plant
+from hvacflex.sim.plants import plant_summary, scenario_plant
 from hvacflex.sim.progress import progress_bar
 from hvacflex.sim.run_files import (
     CHECKPOINT_FILE,
@@ -196,13 +197,15 @@ class ClosedLoop:
             chosen = controller if controller is not None else make_controller(setup)
             control = ControlStep(cfg, chosen, len(setup.zone_names))
         self.control: Control = control
-        default = RCPlant(setup.building, setup.plant) if plant is None else None
-        self.plant: Plant = plant if plant is not None else default  # type: ignore[assignment]
+        self.plant: Plant = plant if plant is not None else scenario_plant(setup)
+        self.actuation = self.plant.actuations[0]
+        """How the plant is driven: ``"flow"`` (the plan's flows) or ``"setpoint"``."""
         self.signals = signals if signals is not None else OperatorSignals()
         self.steps = cfg.steps
         self.k = 0
+        self._zone_rows = setup.model.c.argmax(axis=1)
         self.x = np.full(len(setup.model.node_names), cfg.initial_temp_degc)
-        self.plant.reset(cfg.initial_temp_degc)
+        self.x = self._state_after(self.plant.reset(cfg.initial_temp_degc), None)
         self.sampler = DisturbanceSampler(
             cfg.realisation.mode, seed=cfg.seed, ar1_coefficient=cfg.realisation.ar1_coefficient
         )
@@ -210,7 +213,6 @@ class ClosedLoop:
         self.month = -1
         channel_names = tuple(ch.name for ch in setup.model.channels)
         self.recorder = _Recorder(self.steps, setup.zone_names, channel_names)
-        self._zone_rows = setup.model.c.argmax(axis=1)
         self._outdoor = next(
             i for i, ch in enumerate(setup.model.channels) if ch.kind == "outdoor_temp"
         )
@@ -286,36 +288,59 @@ class ClosedLoop:
         plant, dt_s = self.plant, self.setup.config.dt_s
         action = decision.action
         curtailed = decision.outcome.curtailed
-        served_flow = action.flow_kg_s
-        curtailed_flow = action.flow_kg_s - action.reserve_flow_kg_s
+        served_act = self._actuation(decision, curtailed=False)
         offered = bool(np.any(action.reserve_flow_kg_s > 0))
         if not plant.can_snapshot:
-            applied = plant.step(Actuation(flow_kg_s=decision.applied_flow_kg_s), disturbance, dt_s)
+            applied_act = self._actuation(decision, curtailed=curtailed)
+            applied = plant.step(applied_act, disturbance, dt_s)
             nan = float("nan")
             served_kw = applied.power_kw if not curtailed else nan
             curtailed_kw = applied.power_kw if curtailed or not offered else nan
-            return _PlantPeriod(applied, served_kw, curtailed_kw, self._state_after(applied))
+            x_next = self._state_after(applied, disturbance)
+            return _PlantPeriod(applied, served_kw, curtailed_kw, x_next)
         before = plant.get_state()
-        served = plant.step(Actuation(flow_kg_s=served_flow), disturbance, dt_s)
+        served = plant.step(served_act, disturbance, dt_s)
         if offered:
             after_served = plant.get_state()
             plant.set_state(before)
-            cut = plant.step(Actuation(flow_kg_s=curtailed_flow), disturbance, dt_s)
+            cut = plant.step(self._actuation(decision, curtailed=True), disturbance, dt_s)
             if not curtailed:
                 plant.set_state(after_served)
         else:  # no reserve offered: activation changes nothing
             cut = served
         applied = cut if curtailed else served
-        return _PlantPeriod(applied, served.power_kw, cut.power_kw, self._state_after(applied))
+        x_next = self._state_after(applied, disturbance)
+        return _PlantPeriod(applied, served.power_kw, cut.power_kw, x_next)
 
-    def _state_after(self, observation: Observation) -> FloatArray:
+    def _actuation(self, decision: Decision, *, curtailed: bool) -> Actuation:
+        """What the plant is told: the flows (u, or u − r when curtailed), or under setpoint
+        actuation each zone's planned end-of-period temperature (served, or curtailed)
+        clipped to the period's comfort band (its upper bound raised by the allowance α in
+        force), as a supervisory MPC hands setpoints to a BMS (docs/energyplus.md)."""
+        action = decision.action
+        if self.actuation == "flow":
+            flow = action.flow_kg_s - action.reserve_flow_kg_s if curtailed else action.flow_kg_s
+            return Actuation(flow_kg_s=flow)
+        k, exo = self.k, self.setup.exogenous
+        planned = action.predicted_curtailed_degc if curtailed else action.predicted_served_degc
+        lower = exo.comfort_lower_degc[k]
+        upper = exo.comfort_upper_degc[k] + decision.allowance_k
+        return Actuation(setpoint_degc=np.clip(np.nan_to_num(planned, nan=upper), lower, upper))
+
+    def _state_after(self, observation: Observation, disturbance: Disturbance | None) -> FloatArray:
         """The node temperatures (n,) [°C] after the period: the plant's own where it shows
-        them, else the zone readings over the model's other nodes carried unchanged."""
+        them; else the controller's model predicts the other nodes from the state before,
+        the flows the plant reports and the realised disturbance, and the zone readings
+        replace its zone nodes (an open-loop observer of the hidden wall temperatures)."""
         if observation.node_temp_degc is not None:
             return np.asarray(observation.node_temp_degc, dtype=float)
+        model = self.setup.model
         x = self.x.copy()
+        if disturbance is not None:
+            flow = np.asarray(observation.supply_flow_kg_s, dtype=float)
+            x = model.a @ x + model.b @ flow + model.e @ disturbance.d + model.g
         x[self._zone_rows] = observation.zone_temp_degc
-        return x
+        return np.asarray(x, dtype=float)
 
     def _record_event(self, k: int, decision: Decision) -> None:
         rec, col = self.recorder, self.recorder.column_index
@@ -347,6 +372,7 @@ class ClosedLoop:
         row[col["reserve_price_sgd_per_mwh"]] = exo.reserve_price_sgd_per_mwh[k]
         row[col["peak_price_sgd_per_kw"]] = phi
         row[col["power_kw"]] = period.applied.power_kw
+        row[col["facility_power_kw"]] = period.applied.facility_power_kw
         row[col["power_served_kw"]] = period.served_power_kw
         row[col["power_curtailed_kw"]] = period.curtailed_power_kw
         row[col["planned_power_kw"]] = action.planned_power_kw
@@ -381,7 +407,7 @@ class ClosedLoop:
             "code_version": version.code_version(),
             "k": self.k,
             "x": self.x.copy(),
-            "plant": self.plant.get_state() if self.plant.can_snapshot else None,
+            "plant": self.plant.get_state(),
             "month": self.month,
             "month_peak_kw": self.month_peak_kw,
             "sampler": self.sampler.get_state(),
@@ -401,8 +427,7 @@ class ClosedLoop:
             )
         k = state["k"]
         self.k, self.x = k, np.asarray(state["x"], dtype=float).copy()
-        if state["plant"] is not None:
-            self.plant.set_state(state["plant"])
+        self.plant.set_state(state["plant"])  # an emulator replays its recorded actuations
         self.month, self.month_peak_kw = state["month"], state["month_peak_kw"]
         self.sampler.set_state(state["sampler"])
         self.sensors.set_state(state["sensors"])
@@ -454,60 +479,84 @@ def run_simulation(
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    results_path = out / RESULTS_FILE
     checkpoint_path = out / CHECKPOINT_FILE
     if resume:
         refuse_old_checkpoint(out)
-    config_hash = run_key(config)
-    if resume and results_path.is_file():
-        frame, stored = read_results(results_path)
-        same_code = stored["version"] == version.code_version()
-        if stored["run_key"] == config_hash and same_code and (out / SUMMARY_FILE).is_file():
-            summary = read_summary(out / SUMMARY_FILE)
-            return RunResult(out, frame, summary, cached=True)
-
-    stored_state: dict[str, Any] | None = None
-    if resume and checkpoint_path.is_file():
-        stored_state = load_checkpoint(checkpoint_path)
-        if stored_state["config_hash"] == config_hash:
-            check_checkpoint_code(stored_state, checkpoint_path)
-        else:  # a checkpoint of another configuration: this run starts afresh over it
-            stored_state = None
+        cached = _cached_result(out, config)
+        if cached is not None:
+            return cached
+    stored_state = _matching_checkpoint(checkpoint_path, config) if resume else None
     loop = ClosedLoop(prepare(config))
-    resumed_from: int | None = None
-    if stored_state is not None:
-        loop.set_state(stored_state)
-        resumed_from = loop.k
-    atomic_write_text(out / CONFIG_FILE, json.dumps(config.to_dict(), indent=2))
-
-    last = loop.steps if stop_after_steps is None else min(loop.steps, stop_after_steps)
     try:
-        with progress_bar(progress, config.name, loop.steps, loop.k) as advance:
-            while loop.k < last:
-                loop.step()
-                advance()
-                if on_step is not None:
-                    on_step(loop.k, loop.steps)
-                if loop.k % checkpoint_every == 0 and loop.k < loop.steps:
-                    loop.save_checkpoint(checkpoint_path)
-    except BaseException:
-        loop.save_checkpoint(checkpoint_path)
-        raise
+        resumed_from: int | None = None
+        if stored_state is not None:
+            loop.set_state(stored_state)
+            resumed_from = loop.k
+        atomic_write_text(out / CONFIG_FILE, json.dumps(config.to_dict(), indent=2))
+        last = loop.steps if stop_after_steps is None else min(loop.steps, stop_after_steps)
+        try:
+            with progress_bar(progress, config.name, loop.steps, loop.k) as advance:
+                while loop.k < last:
+                    loop.step()
+                    advance()
+                    if on_step is not None:
+                        on_step(loop.k, loop.steps)
+                    if loop.k % checkpoint_every == 0 and loop.k < loop.steps:
+                        loop.save_checkpoint(checkpoint_path)
+        except BaseException:
+            loop.save_checkpoint(checkpoint_path)
+            raise
+    finally:
+        close = getattr(loop.plant, "close", None)
+        if close is not None:  # an emulator's run ends with the loop
+            close()
     if loop.k < loop.steps:
         loop.save_checkpoint(checkpoint_path)
         frame = loop.frame()
         return RunResult(out, frame, kpi_summary(frame), resumed_from_step=resumed_from)
+    return _finish(loop, out, config, resumed_from)
+
+
+def _cached_result(out: Path, config: ScenarioConfig) -> RunResult | None:
+    """The finished results of the same inputs and code in ``out``, or None."""
+    results_path = out / RESULTS_FILE
+    if not results_path.is_file():
+        return None
+    frame, stored = read_results(results_path)
+    same_code = stored["version"] == version.code_version()
+    if stored["run_key"] == run_key(config) and same_code and (out / SUMMARY_FILE).is_file():
+        return RunResult(out, frame, read_summary(out / SUMMARY_FILE), cached=True)
+    return None
+
+
+def _matching_checkpoint(path: Path, config: ScenarioConfig) -> dict[str, Any] | None:
+    """The checkpoint at ``path`` if it belongs to ``config`` (written by this code), else
+    None (a checkpoint of another configuration: the run starts afresh over it)."""
+    if not path.is_file():
+        return None
+    stored = load_checkpoint(path)
+    if stored["config_hash"] != run_key(config):
+        return None
+    check_checkpoint_code(stored, path)
+    return stored
+
+
+def _finish(
+    loop: ClosedLoop, out: Path, config: ScenarioConfig, resumed_from: int | None
+) -> RunResult:
+    """Write the results and the summary of a finished run, and drop its checkpoint."""
+    from hvacflex.kpi import summary as kpi_summary
 
     frame = loop.frame()
-    write_results(frame, results_path, config)
-    summary = kpi_summary(frame)
+    write_results(frame, out / RESULTS_FILE, config)
+    summary: dict[str, Any] = {**kpi_summary(frame), **plant_summary(config.plant)}
     # timing_s covers only the steps simulated by this call (it is not checkpointed)
     steps_timed = loop.k - (resumed_from or 0)
     summary["steps_per_s"] = _steps_per_second(loop, steps_timed)
     for part, seconds in loop.timing_s.items():
         summary[f"time_{part}_ms_per_step"] = 1e3 * seconds / max(steps_timed, 1)
     atomic_write_text(out / SUMMARY_FILE, json.dumps(summary, indent=2))
-    checkpoint_path.unlink(missing_ok=True)
+    (out / CHECKPOINT_FILE).unlink(missing_ok=True)
     return RunResult(out, frame, summary, resumed_from_step=resumed_from)
 
 

@@ -24,6 +24,7 @@ from hvacflex.errors import ConfigError
 from hvacflex.paths import data_dir
 from hvacflex.sim.energyplus_plant import EnergyPlusPlant
 from hvacflex.sim.plant import Plant, RCPlant
+from hvacflex.sim.setup import Setup
 
 EXPORT_MODULE = "hvacflex.energyplus.export"
 """Where ``export_idf(building, *, hvac="vav", epw_path=None) -> str`` lives."""
@@ -117,3 +118,28 @@ def make_plant(
         supply_temp_degc=building.hvac.supply_temp_degc,
         work_dir=work_dir,
     )
+
+
+def scenario_plant(setup: Setup) -> Plant:
+    """The plant of a prepared run: :func:`make_plant` of its ``[plant]`` table, over the
+    run's periods and weather (sharing the RC model's step-matrix cache)."""
+    config = setup.config
+    return make_plant(
+        config.plant,
+        setup.building,
+        start=config.start_timestamp,
+        steps=config.steps,
+        weather_file=config.data.weather_file,
+        nonlinear_plant=setup.plant,
+    )
+
+
+def plant_summary(config: PlantConfig) -> dict[str, str]:
+    """The summary keys that say what the run was graded on: ``plant`` (``"rc"`` or
+    ``"energyplus"``), ``plant_idf`` (the IDF, ``""`` on the RC plant) and
+    ``plant_actuation``."""
+    return {
+        "plant": config.kind,
+        "plant_idf": config.idf if config.kind == "energyplus" else "",
+        "plant_actuation": config.resolved_actuation,
+    }
