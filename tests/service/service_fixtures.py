@@ -98,4 +98,4 @@ def operator_key_for(db_url: str) -> str:
         text=True,
         timeout=120,
     )
-    return out.stdout.strip()
+    return out.stdout.strip().splitlines()[-1]

@@ -16,7 +16,9 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import urllib.error
+import urllib.parse
 import urllib.request
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -28,7 +30,7 @@ import numpy as np
 from hvacflex.config import ScenarioConfig, preset
 from hvacflex.control.base import Action, EventPlan, FloatArray
 from hvacflex.data.forecast import Forecast
-from hvacflex.errors import HvacflexError
+from hvacflex.errors import HvacflexError, InputError
 from hvacflex.kpi import RESULTS_FILENAME
 from hvacflex.paths import resolve_building
 from hvacflex.sim.closed_loop import (
@@ -42,6 +44,8 @@ from hvacflex.sim.events import EventTracker, PeriodOutcome, Role
 from hvacflex.version import atomic_write_text
 
 TIMEOUT_S = 120.0
+KEY_ENV = "HVACFLEX_KEY"
+"""The environment variable a client command reads its key from (unless ``--key-file``)."""
 
 
 class ServiceError(HvacflexError):
@@ -50,6 +54,56 @@ class ServiceError(HvacflexError):
     def __init__(self, status: int, message: str) -> None:
         self.status = status
         super().__init__(f"service answered {status}: {message}")
+
+
+def check_service_url(url: str) -> str:
+    """``url`` if it is an http(s) URL with a host (and a valid port), else refused.
+
+    Raises
+    ------
+    InputError : another scheme, no host, or a port that is not 1–65535.
+    """
+    hint = "e.g. --url http://127.0.0.1:8000 or --url https://service.example:8443"
+    try:
+        parts = urllib.parse.urlsplit(url)
+        port = parts.port
+    except ValueError as exc:
+        raise InputError(f"not a URL ({exc})", field="--url", value=url, hint=hint) from None
+    if parts.scheme not in ("http", "https") or not parts.hostname:
+        raise InputError("not an http(s) URL with a host", field="--url", value=url, hint=hint)
+    if port == 0:
+        raise InputError("port must be 1–65535", field="--url", value=url, hint=hint)
+    return url
+
+
+def read_key(key_file: Path | None) -> str:
+    """The client's key: the first line of ``key_file``, else ``$HVACFLEX_KEY``.
+
+    Raises
+    ------
+    InputError : the file is missing, unreadable or empty, or neither is given.
+    """
+    if key_file is not None:
+        try:
+            text = key_file.read_text(encoding="utf-8")
+        except (OSError, UnicodeDecodeError) as exc:
+            reason = getattr(exc, "strerror", None) or exc
+            raise InputError(
+                f"cannot read the key file ({reason})", field="--key-file", value=str(key_file)
+            ) from None
+        key = text.strip().splitlines()[0].strip() if text.strip() else ""
+        if not key:
+            raise InputError("the key file is empty", field="--key-file", value=str(key_file))
+        return key
+    key = os.environ.get(KEY_ENV, "").strip()
+    if not key:
+        raise InputError(
+            "no key given",
+            field="--key-file",
+            hint=f"set {KEY_ENV} to an operator key, or pass --key-file FILE "
+            "(a file made by `hvacflex serve key create --role operator --key-file FILE`)",
+        )
+    return key
 
 
 @dataclass
@@ -77,6 +131,14 @@ class Client:
             except (ValueError, AttributeError):
                 message = exc.reason
             raise ServiceError(exc.code, str(message)) from None
+        except (OSError, ValueError) as exc:  # URLError, a refused or reset connection
+            reason = getattr(exc, "reason", None) or exc
+            raise InputError(
+                f"cannot reach the service ({reason})",
+                field="--url",
+                value=self.url,
+                hint="start it with `hvacflex serve`, or check the URL and port",
+            ) from None
         return envelope["payload"]
 
 
@@ -280,6 +342,14 @@ def replay(
     """
     from hvacflex.kpi import summary as kpi_summary
 
+    check_service_url(url)
+    out = Path(out_dir)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:  # a file there or above it, no permission
+        raise InputError(
+            f"cannot create the folder ({exc.strerror or exc})", field="--out", value=str(out)
+        ) from None
     if building_key is None:
         registered = Client(url, operator_key).call(
             "POST", "/v1/buildings", registration(config, building_id)
@@ -294,8 +364,6 @@ def replay(
         k = loop.k
         remote.previous_power_kw = None if k == 0 else float(loop.recorder.values[k - 1, column])
         loop.step()
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
     frame = loop.frame()
     summary = kpi_summary(frame)
     if loop.k == loop.steps:
