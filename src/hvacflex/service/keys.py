@@ -201,11 +201,11 @@ class KeyVerifier:
             if digest in self._refused:
                 return None
             verified = self._verified.get(digest) == key_id
-        row = session.get(ApiKey, key_id)
         if not verified:
             wait_s = self.attempts.take(client)
             if wait_s > 0.0:
                 raise RateLimitedError(wait_s)
+        row = session.get(ApiKey, key_id)
         if row is None or row.revoked:
             if not verified:
                 _hash(secret, b"timing-equaliser")  # same work whether or not the id exists
