@@ -105,6 +105,14 @@ _ERRORS: dict[int | str, dict[str, Any]] = {
     },
 }
 """The errors of a route that needs a key."""
+_JSON_ERRORS: dict[int | str, dict[str, Any]] = {
+    code: {
+        "description": spec["description"],
+        "content": {"application/json": {"schema": {"$ref": "#/components/schemas/ErrorEnvelope"}}},
+    }
+    for code, spec in _COMMON_ERRORS.items()
+}
+"""The common errors of a route whose own answer is not JSON (``/v1/metrics``)."""
 PACKAGE_DIR = Path(__file__).resolve().parents[1]
 """The installed package, named in no message (errors name shipped files by name only)."""
 
@@ -381,7 +389,10 @@ def _building_routes(app: FastAPI, runtime: Runtime, auth: _Auth) -> None:
         "/v1/metrics",
         tags=["service"],
         response_class=PlainTextResponse,
-        responses={200: {"content": {"text/plain": {"schema": {"type": "string"}}}}},
+        responses={
+            200: {"content": {"text/plain": {"schema": {"type": "string"}}}},
+            **_JSON_ERRORS,
+        },
     )
     def metrics() -> PlainTextResponse:
         """Prometheus text format (no key needed; no building ids): requests, latencies,
