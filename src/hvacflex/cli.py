@@ -483,6 +483,8 @@ def serve(
     ctx.ensure_object(dict)["serve_db"] = db
     if ctx.invoked_subcommand is not None:
         return
+    import sys
+
     import uvicorn
 
     from hvacflex.errors import HvacflexError, InputError
@@ -515,6 +517,7 @@ def serve(
     except HvacflexError as exc:
         raise _exit_on_error(exc) from None
     typer.echo(f"hvacflex service on {service_url(host, port, tls)} (API under /v1)")
+    sys.stdout.flush()  # the URL reaches a pipe (a supervisor, a test) before the first request
     uvicorn.run(
         service,
         host=host,
