@@ -36,10 +36,12 @@ KEY_ID_PATTERN = re.compile(r"[0-9a-f]{16}")
 """A key id: 16 lowercase hex digits (``secrets.token_hex(8)``)."""
 NEGATIVE_CACHE_SIZE = 100_000
 """Refused keys remembered (by SHA-256) so that repeating one costs no scrypt."""
-UNKNOWN_KEY_BURST = 20.0
+UNKNOWN_KEY_BURST = 10.0
 """Attempts at keys not verified before that one client may make at once."""
-UNKNOWN_KEY_PER_S = 2.0
-"""Such attempts per client per second after the burst [1/s] (each costs one scrypt)."""
+UNKNOWN_KEY_PER_S = 0.2
+"""Such attempts per client per second after the burst [1/s]: each costs one scrypt
+(≈ 0.05 s on an idle core, 0.5 s on the loaded shared machine), so one client can hold at
+most a tenth of a core this way."""
 
 
 class RateLimitedError(HvacflexError):
