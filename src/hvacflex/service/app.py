@@ -230,6 +230,7 @@ def create_app(
         app.state.wall_clock_stop = start_wall_clock(runtime)
     _error_handlers(app)
     auth = _Auth(sessions)
+    _service_routes(app, runtime)
     _building_routes(app, runtime, auth)
     _signal_routes(app, runtime, auth)
     _operator_routes(app, runtime, auth)
@@ -371,11 +372,9 @@ def _roles(auth: _Auth) -> tuple[Any, Any, Any]:
     return operator, building_reader, building_writer
 
 
-def _building_routes(app: FastAPI, runtime: Runtime, auth: _Auth) -> None:
-    """Health, registration, buildings, measurements and plans."""
+def _service_routes(app: FastAPI, runtime: Runtime) -> None:
+    """Health and metrics: no key needed."""
     sessions, engine = runtime.sessions, app.state.engine
-    operator, building_reader, building_writer = _roles(auth)
-    Operator = Annotated[Principal, Depends(operator)]
 
     @app.get("/v1/health", tags=["service"])
     def health() -> Envelope[Health]:
@@ -400,6 +399,13 @@ def _building_routes(app: FastAPI, runtime: Runtime, auth: _Auth) -> None:
         with sessions() as session:
             text = metrics_text(session, app.state.request_metrics, app.state.stale_after_s)
         return PlainTextResponse(text, media_type=PROMETHEUS_CONTENT_TYPE)
+
+
+def _building_routes(app: FastAPI, runtime: Runtime, auth: _Auth) -> None:
+    """Registration, buildings, measurements and plans."""
+    sessions = runtime.sessions
+    operator, building_reader, building_writer = _roles(auth)
+    Operator = Annotated[Principal, Depends(operator)]
 
     @app.post("/v1/buildings", tags=["operator"], responses=_ERRORS, status_code=201)
     def register(body: RegisterBuilding, who: Operator) -> Envelope[Registered]:
