@@ -57,8 +57,12 @@ def test_integers_are_numbers_and_iso_strings_are_times(service: Service) -> Non
 @pytest.mark.parametrize(
     ("path", "body", "field"),
     [
-        ("/v1/signals/prices", {"start": "9999-01-01", "energy_price_sgd_per_mwh": [1.0]}, "start"),
-        ("/v1/signals/prices", {"start": "0001-01-01", "energy_price_sgd_per_mwh": [1.0]}, "start"),
+        ("/v1/signals/prices", {"start": "2015-01-01", "energy_price_sgd_per_mwh": [1.0]}, "start"),
+        (
+            "/v1/signals/prices",
+            {"start": "2013-12-31T23:30", "energy_price_sgd_per_mwh": [1.0]},
+            "start",
+        ),
         (
             "/v1/signals/prices",
             {"start": "2014-12-31T23:30", "energy_price_sgd_per_mwh": [1.0, 1.0]},
@@ -80,6 +84,21 @@ def test_times_outside_the_price_data_are_refused_with_the_range(
     assert response.status_code == 422
     message = response.json()["message"]
     assert f"field '{field}'" in message and first.isoformat() in message, message
+
+
+@pytest.mark.parametrize(
+    "time", ["9999-01-01", "0001-01-01", "9999-12-31T23:59:59-12:00", "0001-01-01T00:00+14:00"]
+)
+def test_absurd_years_are_refused_by_the_schema(service: Service, time: str) -> None:
+    for path, body, field in [
+        ("/v1/signals/prices", {"start": time, "energy_price_sgd_per_mwh": [1.0]}, "start"),
+        ("/v1/clock", {"time": time}, "time"),
+        ("/v1/activations", {"event": "start", "time": time}, "time"),
+    ]:
+        response = _post(service, path, body)
+        assert response.status_code == 422, (path, time, response.text)
+        assert f"field '{field}'" in response.json()["message"]
+        assert "1900–2199" in response.json()["message"]
 
 
 def test_prices_beyond_the_cap_are_refused_with_the_cap(service: Service) -> None:

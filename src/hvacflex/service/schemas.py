@@ -11,7 +11,7 @@ from __future__ import annotations
 from datetime import datetime
 from typing import Annotated, Any, Generic, Literal, TypeVar
 
-from pydantic import BaseModel, BeforeValidator, ConfigDict, Field
+from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, Field
 
 from hvacflex.config import PRESET_NAMES
 
@@ -57,7 +57,20 @@ def _iso_string(value: Any) -> Any:
     return value
 
 
-IsoTime = Annotated[datetime, Field(strict=False), BeforeValidator(_iso_string)]
+TIME_YEARS = (1900, 2199)
+"""Years a request time may have at all (the service then checks its own planning range);
+beyond them a time cannot even be converted between time zones."""
+
+
+def _sane_year(value: datetime) -> datetime:
+    if not TIME_YEARS[0] <= value.year <= TIME_YEARS[1]:
+        raise ValueError(f"must be a time in the years {TIME_YEARS[0]}–{TIME_YEARS[1]}")
+    return value
+
+
+IsoTime = Annotated[
+    datetime, Field(strict=False), BeforeValidator(_iso_string), AfterValidator(_sane_year)
+]
 """A time in a request: an ISO 8601 string (parsed by pydantic), nothing else."""
 EnergyPrice = Annotated[
     float, Field(ge=-ENERGY_PRICE_LIMIT_SGD_PER_MWH, le=ENERGY_PRICE_LIMIT_SGD_PER_MWH)
