@@ -473,7 +473,7 @@ def serve(
     ),
     stale_after_s: float = typer.Option(
         3600.0,
-        help="A building with no measurement for this long [s] is stale: its plan "
+        help="A building with no measurement for this many seconds is stale: its plan "
         "is left out of the aggregate bid.",
     ),
     log_level: str = typer.Option("info", help="JSON log level: debug, info, warning, error."),
