@@ -8,6 +8,7 @@ import signal
 import socket
 import subprocess
 import sys
+import tempfile
 import time
 import urllib.request
 from dataclasses import dataclass
@@ -55,6 +56,7 @@ class Server:
     db_url: str
     port: int
     process: subprocess.Popen[bytes] | None = None
+    log: Any = None
 
     @property
     def url(self) -> str:
@@ -63,11 +65,14 @@ class Server:
     def start(self, timeout_s: float = 60.0) -> None:
         cmd = [*SERVE, "--db", self.db_url]
         cmd += ["--host", "127.0.0.1", "--port", str(self.port)]
-        self.process = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+        # the JSON log goes to a file: a pipe nobody reads would fill and block the server
+        self.log = tempfile.TemporaryFile()
+        self.process = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=self.log)
         deadline = time.monotonic() + timeout_s
         while time.monotonic() < deadline:
             if self.process.poll() is not None:
-                raise RuntimeError(f"server exited: {self.process.stderr.read()!r}")  # type: ignore[union-attr]
+                self.log.seek(0)
+                raise RuntimeError(f"server exited: {self.log.read()!r}")
             try:
                 with urllib.request.urlopen(f"{self.url}/v1/health", timeout=2) as response:
                     if response.status == 200:
@@ -98,4 +103,4 @@ def operator_key_for(db_url: str) -> str:
         text=True,
         timeout=120,
     )
-    return out.stdout.strip()
+    return out.stdout.strip().splitlines()[-1]

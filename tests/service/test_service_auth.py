@@ -23,7 +23,7 @@ ROUTES: list[tuple[str, str, set[str]]] = [
     ("GET", "/v1/bid", {"operator"}),
     ("GET", "/v1/audit", {"operator"}),
 ]
-OPEN_ROUTES = {("GET", "/v1/health")}
+OPEN_ROUTES = {("GET", "/v1/health"), ("GET", "/v1/metrics")}
 
 
 def _body(service: Service, method: str, path: str) -> dict[str, Any] | None:

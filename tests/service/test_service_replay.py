@@ -17,6 +17,7 @@ import pytest
 from service_fixtures import SERVE, START, Server, free_port, operator_key_for
 
 from hvacflex.config import preset, with_overrides
+from hvacflex.errors import InputError
 from hvacflex.results import RESULTS_FILENAME as RESULTS_FILE
 from hvacflex.service.replay import ServiceError, replay
 from hvacflex.sim.closed_loop import run_simulation
@@ -99,7 +100,7 @@ def test_kill9_and_restart_continue_from_the_database(
             try:
                 replay(server.url, key, _config(), tmp_path / "first", building_id="kill",
                        on_plan=acknowledged.append)  # fmt: skip
-            except (ServiceError, OSError) as exc:
+            except (ServiceError, InputError, OSError) as exc:  # InputError: unreachable
                 outcome["error"] = exc
 
         thread = threading.Thread(target=play)
@@ -164,4 +165,4 @@ def _building_key(db: Path, server: Server) -> str:
         timeout=120,
     )
     assert db.is_file()
-    return out.stdout.strip()
+    return out.stdout.strip().splitlines()[-1]

@@ -8,19 +8,23 @@ gets 403 on any other building. Every mutating request is written to the ``audit
 (who, when, what) before its response is sent.
 """
 
+import functools
 import hashlib
 import json
 import threading
 from collections.abc import Awaitable, Callable, MutableMapping
+from pathlib import Path
 from typing import Annotated, Any
 
 import pandas as pd
 from fastapi import Depends, FastAPI, HTTPException, Query, Request
 from fastapi.exceptions import RequestValidationError
-from fastapi.responses import JSONResponse
+from fastapi.responses import JSONResponse, PlainTextResponse
 from fastapi.security import APIKeyHeader
 from sqlalchemy import select
 from sqlalchemy.orm import Session, sessionmaker
+from starlette.exceptions import HTTPException as StarletteHTTPException
+from starlette.routing import Match
 
 from hvacflex import __version__
 from hvacflex.errors import HvacflexError, InputError
@@ -30,14 +34,20 @@ from hvacflex.service.db import (
     AuditEntry,
     ServiceClock,
     Signal,
-    make_engine,
-    migrate,
+    open_database,
     session_factory,
 )
-from hvacflex.service.keys import KeyVerifier, Principal, create_key
+from hvacflex.service.keys import KeyVerifier, Principal, RateLimitedError, create_key
+from hvacflex.service.operations import (
+    DEFAULT_STALE_AFTER_S,
+    PROMETHEUS_CONTENT_TYPE,
+    ObserveRequests,
+    RequestMetrics,
+    metrics_text,
+    stale_buildings,
+)
 from hvacflex.service.runtime import NotFoundError, Runtime, to_local
 from hvacflex.service.schemas import (
-    ENERGY_PRICE_LIMIT_SGD_PER_MWH,
     ActivationIn,
     AuditRecord,
     Bid,
@@ -71,17 +81,40 @@ Receive = Callable[[], Awaitable[Message]]
 Send = Callable[[Message], Awaitable[None]]
 ASGIApp = Callable[[Scope, Receive, Send], Awaitable[None]]
 
-_ERRORS: dict[int | str, dict[str, Any]] = {
+_COMMON_ERRORS: dict[int | str, dict[str, Any]] = {
     code: {"model": ErrorEnvelope, "description": text}
     for code, text in (
-        (401, "No key, or an unknown key"),
-        (403, "The key's role or building does not allow this"),
-        (404, "No such building or plan"),
-        (409, "Conflicts with what is stored"),
+        (400, "The body is not JSON, or not UTF-8"),
+        (404, "No such route, building or plan"),
+        (405, "Method not allowed; the Allow header lists the route's methods"),
         (413, "Body too large"),
         (422, "Invalid input; the message names the field"),
     )
 }
+"""Errors any route may answer (every one in the envelope)."""
+_ERRORS: dict[int | str, dict[str, Any]] = {
+    **_COMMON_ERRORS,
+    **{
+        code: {"model": ErrorEnvelope, "description": text}
+        for code, text in (
+            (401, "No key, or an unknown or revoked key"),
+            (403, "The key's role or building does not allow this"),
+            (409, "Conflicts with what is stored"),
+            (429, "Too many attempts with unknown keys; see Retry-After"),
+        )
+    },
+}
+"""The errors of a route that needs a key."""
+_JSON_ERRORS: dict[int | str, dict[str, Any]] = {
+    code: {
+        "description": spec["description"],
+        "content": {"application/json": {"schema": {"$ref": "#/components/schemas/ErrorEnvelope"}}},
+    }
+    for code, spec in _COMMON_ERRORS.items()
+}
+"""The common errors of a route whose own answer is not JSON (``/v1/metrics``)."""
+PACKAGE_DIR = Path(__file__).resolve().parents[1]
+"""The installed package, named in no message (errors name shipped files by name only)."""
 
 
 def _envelope(status: int, message: str, payload: Any = None) -> JSONResponse:
@@ -156,14 +189,27 @@ def start_wall_clock(runtime: Runtime, poll_s: float = 10.0) -> threading.Event:
     return stop
 
 
-def create_app(db_url: str = DEFAULT_DB_URL, *, wall_clock: bool = False) -> FastAPI:
+def create_app(
+    db_url: str = DEFAULT_DB_URL,
+    *,
+    wall_clock: bool = False,
+    stale_after_s: float = DEFAULT_STALE_AFTER_S,
+) -> FastAPI:
     """The service app on the database at ``db_url`` (migrated to the newest schema).
 
     ``wall_clock`` runs the 30-min boundary trigger on the wall clock as well (buildings
     whose scenario covers today); otherwise the operator drives it with ``POST /v1/clock``.
+    A building whose latest measurement is older than ``stale_after_s`` [s] is stale: its
+    plan is left out of the aggregate bid.
+
+    Raises
+    ------
+    InputError : the database cannot be opened (:func:`~hvacflex.service.db.open_database`),
+        or ``stale_after_s`` is not positive.
     """
-    engine = make_engine(db_url)
-    migrate(engine)
+    if not stale_after_s > 0:
+        raise InputError("must be > 0 s", field="stale_after_s", value=stale_after_s)
+    engine = open_database(db_url)
     sessions = session_factory(engine)
     runtime = Runtime(sessions)
     app = FastAPI(
@@ -173,40 +219,89 @@ def create_app(db_url: str = DEFAULT_DB_URL, *, wall_clock: bool = False) -> Fas
         openapi_url="/v1/openapi.json",
         docs_url="/v1/docs",
         redoc_url=None,
+        responses=_COMMON_ERRORS,
     )
     app.state.sessions = sessions
     app.state.runtime = runtime
     app.state.engine = engine
+    app.state.stale_after_s = stale_after_s
+    app.state.request_metrics = RequestMetrics()
     if wall_clock:
         app.state.wall_clock_stop = start_wall_clock(runtime)
     _error_handlers(app)
     auth = _Auth(sessions)
+    _service_routes(app, runtime)
     _building_routes(app, runtime, auth)
     _signal_routes(app, runtime, auth)
     _operator_routes(app, runtime, auth)
     app.add_middleware(BodyLimitAndAudit, sessions=sessions)
+    app.add_middleware(ObserveRequests, metrics=app.state.request_metrics)
     return app
+
+
+def allowed_methods(app: FastAPI, scope: Scope) -> list[str]:
+    """The methods of every route whose path matches the request's (for ``Allow``)."""
+    methods: set[str] = set()
+    for route in app.router.routes:
+        match, _ = route.matches({**scope, "method": "GET"})
+        if match is not Match.NONE:
+            methods |= set(getattr(route, "methods", None) or ())
+    return sorted(methods)
+
+
+def field_name(location: Any) -> str:
+    """A pydantic error location as the field a client wrote: ``("body", "prices", 0)`` →
+    ``prices[0]``; a query or path parameter keeps its kind (``query.period``)."""
+    parts = list(location)
+    if parts[:1] == ["body"] and len(parts) > 1:
+        parts = parts[1:]
+    name = ""
+    for part in parts:
+        name += f"[{part}]" if isinstance(part, int) else (f".{part}" if name else str(part))
+    return name or "body"
+
+
+def public_message(exc: HvacflexError) -> str:
+    """The error's message without server paths: a file is named by its name alone."""
+    text = str(exc)
+    source = getattr(exc, "source", None)
+    if source and ("/" in source or "\\" in source):
+        text = text.replace(source, Path(source).name)
+    return text.replace(str(PACKAGE_DIR), "hvacflex")
 
 
 def _error_handlers(app: FastAPI) -> None:
     """Every error in the envelope; the project's input errors as 4xx naming the field."""
 
-    @app.exception_handler(HTTPException)
-    async def _http_error(_request: Request, exc: HTTPException) -> JSONResponse:
-        response = _envelope(exc.status_code, str(exc.detail))
+    @app.exception_handler(StarletteHTTPException)
+    async def _http_error(request: Request, exc: StarletteHTTPException) -> JSONResponse:
+        message = str(exc.detail)
+        if exc.status_code == 400:
+            message = "the body is not valid JSON in UTF-8"
+        response = _envelope(exc.status_code, message)
         if exc.headers:
             response.headers.update(exc.headers)
+        if exc.status_code == 405:
+            response.headers["Allow"] = ", ".join(allowed_methods(app, request.scope))
         return response
 
     @app.exception_handler(RequestValidationError)
     async def _validation_error(_request: Request, exc: RequestValidationError) -> JSONResponse:
         errors = [
-            {"field": ".".join(str(p) for p in e.get("loc", ())), "message": str(e.get("msg"))}
+            {"field": field_name(e.get("loc", ())), "message": str(e.get("msg"))}
             for e in exc.errors()
         ]
+        if any(e.get("type") == "json_invalid" for e in exc.errors()):
+            return _envelope(400, "the body is not valid JSON", errors)
         first = errors[0] if errors else {"field": "body", "message": "invalid"}
         more = f" (and {len(errors) - 1} more)" if len(errors) > 1 else ""
         return _envelope(422, f"field '{first['field']}': {first['message']}{more}", errors)
+
+    @app.exception_handler(RateLimitedError)
+    async def _rate_limited(_request: Request, exc: RateLimitedError) -> JSONResponse:
+        response = _envelope(429, str(exc))
+        response.headers["Retry-After"] = str(max(1, round(exc.retry_after_s + 0.5)))
+        return response
 
     @app.exception_handler(HvacflexError)
     async def _input_error(_request: Request, exc: HvacflexError) -> JSONResponse:
@@ -218,9 +313,8 @@ def _error_handlers(app: FastAPI) -> None:
             else 422
         )
         field = exc.field if isinstance(exc, InputError) else None
-        return _envelope(
-            status, str(exc), [{"field": field, "message": str(exc)}] if field else None
-        )
+        message = public_message(exc)
+        return _envelope(status, message, [{"field": field, "message": message}] if field else None)
 
     @app.exception_handler(Exception)
     async def _server_error(_request: Request, exc: Exception) -> JSONResponse:
@@ -242,8 +336,9 @@ class _Auth:
     ) -> Principal:
         if not key:
             raise HTTPException(401, f"missing {API_KEY_HEADER} header")
+        client = request.client.host if request.client else "-"
         with self.sessions() as session:
-            who = self.verifier.verify(session, key)
+            who = self.verifier.verify(session, key, client)
         if who is None:
             raise HTTPException(401, "unknown or revoked key")
         request.state.principal = who
@@ -277,11 +372,9 @@ def _roles(auth: _Auth) -> tuple[Any, Any, Any]:
     return operator, building_reader, building_writer
 
 
-def _building_routes(app: FastAPI, runtime: Runtime, auth: _Auth) -> None:
-    """Health, registration, buildings, measurements and plans."""
+def _service_routes(app: FastAPI, runtime: Runtime) -> None:
+    """Health and metrics: no key needed."""
     sessions, engine = runtime.sessions, app.state.engine
-    operator, building_reader, building_writer = _roles(auth)
-    Operator = Annotated[Principal, Depends(operator)]
 
     @app.get("/v1/health", tags=["service"])
     def health() -> Envelope[Health]:
@@ -290,6 +383,29 @@ def _building_routes(app: FastAPI, runtime: Runtime, auth: _Auth) -> None:
             session.execute(select(1))
         payload = Health(service="hvacflex", version=__version__, database=engine.dialect.name)
         return Envelope(status=200, message="ok", payload=payload)
+
+    @app.get(
+        "/v1/metrics",
+        tags=["service"],
+        response_class=PlainTextResponse,
+        responses={
+            200: {"content": {"text/plain": {"schema": {"type": "string"}}}},
+            **_JSON_ERRORS,
+        },
+    )
+    def metrics() -> PlainTextResponse:
+        """Prometheus text format (no key needed; no building ids): requests, latencies,
+        plans, solver failures, buildings and stale buildings (docs/service.md)."""
+        with sessions() as session:
+            text = metrics_text(session, app.state.request_metrics, app.state.stale_after_s)
+        return PlainTextResponse(text, media_type=PROMETHEUS_CONTENT_TYPE)
+
+
+def _building_routes(app: FastAPI, runtime: Runtime, auth: _Auth) -> None:
+    """Registration, buildings, measurements and plans."""
+    sessions = runtime.sessions
+    operator, building_reader, building_writer = _roles(auth)
+    Operator = Annotated[Principal, Depends(operator)]
 
     @app.post("/v1/buildings", tags=["operator"], responses=_ERRORS, status_code=201)
     def register(body: RegisterBuilding, who: Operator) -> Envelope[Registered]:
@@ -397,6 +513,11 @@ def _signal_routes(app: FastAPI, runtime: Runtime, auth: _Auth) -> None:
         start = to_local(body.start)
         if start != start.floor("30min"):
             raise InputError("must be a 30-min period start", field="start", value=str(start))
+        check_plannable(start, "start")
+        last = len(body.energy_price_sgd_per_mwh) - 1
+        check_plannable(
+            start + last * pd.Timedelta(minutes=30), f"energy_price_sgd_per_mwh[{last}]"
+        )
         _check_prices(body)
         stored = _store_signal(
             "prices",
@@ -425,6 +546,7 @@ def _signal_routes(app: FastAPI, runtime: Runtime, auth: _Auth) -> None:
         """IL activation start or end; the affected buildings' current plans change at once
         (the plans re-issued are returned)."""
         time = to_local(body.time)
+        check_plannable(time, "time")
         with sessions() as session, session.begin():
             known = set(runtime.building_ids(session))
             targets = sorted(known) if body.building_ids is None else body.building_ids
@@ -452,6 +574,7 @@ def _signal_routes(app: FastAPI, runtime: Runtime, auth: _Auth) -> None:
         """Advance the service clock; each building without a plan for the period that now
         starts is planned on its latest measurement (the 30-min boundary trigger)."""
         time = to_local(body.time)
+        check_plannable(time, "time")
         with sessions() as session, session.begin():
             row = session.get(ServiceClock, 1)
             if row is None:
@@ -471,9 +594,12 @@ def _operator_routes(app: FastAPI, runtime: Runtime, auth: _Auth) -> None:
     @app.get("/v1/bid", tags=["operator"], responses=_ERRORS)
     def aggregate_bid(_who: Operator) -> Envelope[Bid]:
         """The sum over every building's latest plan: reserve offered and planned power per
-        period start, and whether the planned power exceeds the feeder limit."""
+        period start, and whether the planned power exceeds the feeder limit. A stale
+        building (no measurement for ``stale_after_s``) is listed and left out of the sums."""
         with sessions() as session:
-            plans = [runtime.latest_plan(session, b) for b in runtime.building_ids(session)]
+            stale = stale_buildings(session, app.state.stale_after_s)
+            fresh = [b for b in runtime.building_ids(session) if b not in set(stale)]
+            plans = [runtime.latest_plan(session, b) for b in fresh]
             feeder = runtime.latest_signal(session, "feeder_limit")
         reserve: dict[str, float] = {}
         power: dict[str, float] = {}
@@ -508,8 +634,10 @@ def _operator_routes(app: FastAPI, runtime: Runtime, auth: _Auth) -> None:
             buildings=members,
             feeder_limit_kw=limit,
             feeder_limit_exceeded=limit is not None and any(power[t] > limit for t in times),
+            stale_buildings=stale,
         )
-        return Envelope(status=200, message=f"{len(members)} buildings", payload=bid)
+        message = f"{len(members)} buildings" + (f", {len(stale)} stale left out" if stale else "")
+        return Envelope(status=200, message=message, payload=bid)
 
     @app.get("/v1/audit", tags=["operator"], responses=_ERRORS)
     def audit(
@@ -533,6 +661,34 @@ def _operator_routes(app: FastAPI, runtime: Runtime, auth: _Auth) -> None:
         return Envelope(status=200, message=f"{len(records)} records", payload=records)
 
 
+@functools.cache
+def plannable_span() -> tuple[pd.Timestamp, pd.Timestamp]:
+    """The first and the last period start the service can plan: those of the price data
+    (Singapore time)."""
+    from hvacflex.data.forecast import DEFAULT_USEP_FOLDER
+    from hvacflex.data.market import load_usep
+    from hvacflex.paths import data_dir
+
+    index = load_usep(data_dir() / DEFAULT_USEP_FOLDER).index
+    return index[0], index[-1]
+
+
+def check_plannable(stamp: pd.Timestamp, field: str) -> None:
+    """Refuse a time outside the price data (:func:`plannable_span`), naming the range.
+
+    Raises
+    ------
+    InputError : ``stamp`` is before the first or after the last period start.
+    """
+    first, last = plannable_span()
+    if not first <= stamp <= last:
+        raise InputError(
+            f"outside the times the service can plan, {first.isoformat()} … {last.isoformat()}",
+            field=field,
+            value=stamp.isoformat(),
+        )
+
+
 def to_local_iso(text: str) -> str:
     """An ISO time as Singapore-time ISO (so plans of different buildings line up)."""
     from datetime import datetime
@@ -541,26 +697,11 @@ def to_local_iso(text: str) -> str:
 
 
 def _check_prices(body: PricesIn) -> None:
-    limit = ENERGY_PRICE_LIMIT_SGD_PER_MWH
-    for i, value in enumerate(body.energy_price_sgd_per_mwh):
-        if not -limit <= value <= limit:
-            raise InputError(
-                f"must be in [-{limit:g}, {limit:g}] SGD/MWh",
-                field=f"energy_price_sgd_per_mwh[{i}]",
-                value=value,
-            )
+    """As many reserve prices as energy prices (the ranges are the schema's)."""
     reserve = body.reserve_price_sgd_per_mwh
-    if reserve is not None:
-        if len(reserve) != len(body.energy_price_sgd_per_mwh):
-            raise InputError(
-                "must have as many periods as energy_price_sgd_per_mwh",
-                field="reserve_price_sgd_per_mwh",
-                value=len(reserve),
-            )
-        for i, value in enumerate(reserve):
-            if not 0.0 <= value <= limit:
-                raise InputError(
-                    f"must be in [0, {limit:g}] SGD/MWh",
-                    field=f"reserve_price_sgd_per_mwh[{i}]",
-                    value=value,
-                )
+    if reserve is not None and len(reserve) != len(body.energy_price_sgd_per_mwh):
+        raise InputError(
+            "must have as many periods as energy_price_sgd_per_mwh",
+            field="reserve_price_sgd_per_mwh",
+            value=len(reserve),
+        )

@@ -7,6 +7,7 @@ classes here mirror them.
 
 from __future__ import annotations
 
+import os
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
@@ -24,11 +25,17 @@ from sqlalchemy import (
     create_engine,
     event,
 )
-from sqlalchemy.engine import Engine
+from sqlalchemy.engine import Engine, make_url
+from sqlalchemy.exc import ArgumentError, NoSuchModuleError, SQLAlchemyError
 from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column, sessionmaker
+
+from hvacflex.errors import InputError
 
 DEFAULT_DB_URL = "sqlite:///hvacflex-service.db"
 """An SQLite file in the working folder (embedded, no set-up)."""
+DB_URL_HINT = "use sqlite:///FILE or postgresql+psycopg://USER:PASSWORD@HOST:PORT/DB"
+PRIVATE_FILE_MODE = 0o600
+"""Mode of the files the service creates that hold secrets (the SQLite file, key files)."""
 
 MIGRATIONS_DIR = Path(__file__).resolve().parent / "migrations"
 
@@ -173,6 +180,78 @@ def make_engine(url: str = DEFAULT_DB_URL) -> Engine:
             cursor.execute("PRAGMA foreign_keys=ON")
             cursor.close()
 
+    return engine
+
+
+def sqlite_file(url: str) -> Path | None:
+    """The file of an SQLite URL (None for another database or an in-memory one)."""
+    parsed = make_url(url)
+    if parsed.get_backend_name() != "sqlite" or parsed.database in (None, "", ":memory:"):
+        return None
+    return Path(parsed.database)
+
+
+def create_private_file(path: Path) -> None:
+    """Create ``path`` empty with mode 0600 unless it exists (never widens an existing one)."""
+    try:
+        descriptor = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, PRIVATE_FILE_MODE)
+    except FileExistsError:
+        return
+    os.close(descriptor)
+
+
+def open_database(url: str = DEFAULT_DB_URL) -> Engine:
+    """An engine on ``url``, migrated to the newest schema, checked before any work starts.
+
+    A new SQLite file is created with mode 0600 (it holds the key hashes and the audit).
+
+    Raises
+    ------
+    InputError : the URL is malformed, names an unknown dialect or driver, an SQLite file in
+        a missing folder or a file that is not an SQLite database, or a server that does not
+        answer (field ``db``; the message carries the driver's reason, never a traceback).
+    """
+    try:
+        parsed = make_url(url)
+        engine = make_engine(url)
+    except (ArgumentError, NoSuchModuleError, ValueError) as exc:
+        raise InputError(
+            f"not a database URL this service can use ({exc})",
+            field="db",
+            value=url,
+            hint=DB_URL_HINT,
+        ) from None
+    except ImportError as exc:
+        raise InputError(
+            f"the database driver is not installed ({exc})",
+            field="db",
+            value=url,
+            hint='for PostgreSQL: pip install "psycopg[binary]"',
+        ) from None
+    path = sqlite_file(url)
+    if path is not None:
+        if not path.parent.is_dir():
+            raise InputError(
+                "the folder of the SQLite file does not exist",
+                field="db",
+                value=url,
+                hint=f"create {path.parent} first, or choose another file",
+            )
+        if path.is_dir():
+            raise InputError("names a folder, not a file", field="db", value=url, hint=DB_URL_HINT)
+        create_private_file(path)
+    try:
+        migrate(engine)
+    except SQLAlchemyError as exc:
+        engine.dispose()
+        reason = str(getattr(exc, "orig", None) or exc).strip().splitlines()[0]
+        what = "an SQLite database" if path is not None else "a database server"
+        raise InputError(
+            f"cannot open the database ({reason})",
+            field="db",
+            value=parsed.render_as_string(hide_password=True),
+            hint=f"check that it is {what} this user may write and that it is running",
+        ) from None
     return engine
 
 

@@ -1,13 +1,13 @@
-"""The replay client: a building played over HTTP by the nonlinear plant of ``simulate``.
+"""The replay client: a building played over HTTP by the plant of ``simulate``.
 
 ``hvacflex serve replay`` registers the building (operator key), then runs the closed loop of
-:mod:`hvacflex.sim.closed_loop` with a :class:`RemoteController` in place of the controller:
-each period it posts the scenario's IL activation starts and ends as the operator (the
-activation schedule of ``simulate``), then the measured node temperatures (and the previous
-period's power) as the building, and applies the plan the service returns to the nonlinear
-plant. The IL event model runs in the service (:class:`hvacflex.sim.step.ControlStep`): the loop's
-own tracker is replaced by :class:`RemoteEvents`, which reports the period's role and outcome
-as the service decided them. The clock is accelerated: a period lasts as long as the service
+:mod:`hvacflex.sim.closed_loop` with a :class:`RemoteControl` in place of its
+:class:`~hvacflex.sim.step.ControlStep`: each period it posts the scenario's IL activation
+starts and ends as the operator (the activation schedule of ``simulate``), then the measured
+node temperatures (and the previous period's power) as the building, and applies the plan the
+service returns to the plant. The decision — controller and IL event rules — is made only in
+the service, by its own ``ControlStep``; :class:`RemoteControl` hands back the service's
+action, role and outcome. The clock is accelerated: a period lasts as long as the service
 takes to plan it. The results files are those of ``simulate`` (``results.parquet``,
 ``summary.json``, ``config.json``).
 """
@@ -16,7 +16,9 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import urllib.error
+import urllib.parse
 import urllib.request
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -28,7 +30,7 @@ import numpy as np
 from hvacflex.config import ScenarioConfig, preset
 from hvacflex.control.base import Action, FloatArray
 from hvacflex.data.forecast import Forecast
-from hvacflex.errors import HvacflexError
+from hvacflex.errors import HvacflexError, InputError
 from hvacflex.paths import resolve_building
 from hvacflex.results import RESULTS_FILENAME
 from hvacflex.sim.closed_loop import ClosedLoop
@@ -39,6 +41,8 @@ from hvacflex.sim.step import Decision, decision_status
 from hvacflex.version import atomic_write_text
 
 TIMEOUT_S = 120.0
+KEY_ENV = "HVACFLEX_KEY"
+"""The environment variable a client command reads its key from (unless ``--key-file``)."""
 
 
 class ServiceError(HvacflexError):
@@ -47,6 +51,56 @@ class ServiceError(HvacflexError):
     def __init__(self, status: int, message: str) -> None:
         self.status = status
         super().__init__(f"service answered {status}: {message}")
+
+
+def check_service_url(url: str) -> str:
+    """``url`` if it is an http(s) URL with a host (and a valid port), else refused.
+
+    Raises
+    ------
+    InputError : another scheme, no host, or a port that is not 1–65535.
+    """
+    hint = "e.g. --url http://127.0.0.1:8000 or --url https://service.example:8443"
+    try:
+        parts = urllib.parse.urlsplit(url)
+        port = parts.port
+    except ValueError as exc:
+        raise InputError(f"not a URL ({exc})", field="--url", value=url, hint=hint) from None
+    if parts.scheme not in ("http", "https") or not parts.hostname:
+        raise InputError("not an http(s) URL with a host", field="--url", value=url, hint=hint)
+    if port == 0:
+        raise InputError("port must be 1–65535", field="--url", value=url, hint=hint)
+    return url
+
+
+def read_key(key_file: Path | None) -> str:
+    """The client's key: the first line of ``key_file``, else ``$HVACFLEX_KEY``.
+
+    Raises
+    ------
+    InputError : the file is missing, unreadable or empty, or neither is given.
+    """
+    if key_file is not None:
+        try:
+            text = key_file.read_text(encoding="utf-8")
+        except (OSError, UnicodeDecodeError) as exc:
+            reason = getattr(exc, "strerror", None) or exc
+            raise InputError(
+                f"cannot read the key file ({reason})", field="--key-file", value=str(key_file)
+            ) from None
+        key = text.strip().splitlines()[0].strip() if text.strip() else ""
+        if not key:
+            raise InputError("the key file is empty", field="--key-file", value=str(key_file))
+        return key
+    key = os.environ.get(KEY_ENV, "").strip()
+    if not key:
+        raise InputError(
+            "no key given",
+            field="--key-file",
+            hint=f"set {KEY_ENV} to an operator key, or pass --key-file FILE "
+            "(a file made by `hvacflex serve key create --role operator --key-file FILE`)",
+        )
+    return key
 
 
 @dataclass
@@ -74,6 +128,14 @@ class Client:
             except (ValueError, AttributeError):
                 message = exc.reason
             raise ServiceError(exc.code, str(message)) from None
+        except (OSError, ValueError) as exc:  # URLError, a refused or reset connection
+            reason = getattr(exc, "reason", None) or exc
+            raise InputError(
+                f"cannot reach the service ({reason})",
+                field="--url",
+                value=self.url,
+                hint="start it with `hvacflex serve`, or check the URL and port",
+            ) from None
         return envelope["payload"]
 
 
@@ -262,6 +324,14 @@ def replay(
     """
     from hvacflex.kpi import summary as kpi_summary
 
+    check_service_url(url)
+    out = Path(out_dir)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:  # a file there or above it, no permission
+        raise InputError(
+            f"cannot create the folder ({exc.strerror or exc})", field="--out", value=str(out)
+        ) from None
     if building_key is None:
         registered = Client(url, operator_key).call(
             "POST", "/v1/buildings", registration(config, building_id)
@@ -275,8 +345,6 @@ def replay(
         k = loop.k
         remote.previous_power_kw = None if k == 0 else float(loop.recorder.values[k - 1, column])
         loop.step()
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
     frame = loop.frame()
     summary = kpi_summary(frame)
     if loop.k == loop.steps:

@@ -1,16 +1,17 @@
 """Request and response bodies of the service API (pydantic), with units and physical ranges.
 
 Every response is an :class:`Envelope` ``{status, message, payload}`` (as BOPTEST's).
-Times are ISO 8601; a time without an offset is local Singapore time, like the scenario's
-``start``.
+Times are ISO 8601 strings; a time without an offset is local Singapore time, like the
+scenario's ``start``. Request bodies are strict: nothing is coerced (``false`` is not a
+number, ``0`` is not a time, ``"1"`` is not a number).
 """
 
 from __future__ import annotations
 
 from datetime import datetime
-from typing import Any, Generic, Literal, TypeVar
+from typing import Annotated, Any, Generic, Literal, TypeVar
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, Field
 
 from hvacflex.config import PRESET_NAMES
 
@@ -46,7 +47,37 @@ PresetName = Literal[
 ]
 assert set(PresetName.__args__) == set(PRESET_NAMES)  # type: ignore[attr-defined]
 
-_STRICT = ConfigDict(extra="forbid", allow_inf_nan=False)
+_STRICT = ConfigDict(extra="forbid", allow_inf_nan=False, strict=True)
+
+
+def _iso_string(value: Any) -> Any:
+    """Times arrive as ISO 8601 strings only (a number is not read as seconds since 1970)."""
+    if not isinstance(value, str):
+        raise ValueError("must be an ISO 8601 time string, e.g. 2014-03-03T08:00+08:00")
+    return value
+
+
+TIME_YEARS = (1900, 2199)
+"""Years a request time may have at all (the service then checks its own planning range);
+beyond them a time cannot even be converted between time zones."""
+
+
+def _sane_year(value: datetime) -> datetime:
+    if not TIME_YEARS[0] <= value.year <= TIME_YEARS[1]:
+        raise ValueError(f"must be a time in the years {TIME_YEARS[0]}–{TIME_YEARS[1]}")
+    return value
+
+
+IsoTime = Annotated[
+    datetime, Field(strict=False), BeforeValidator(_iso_string), AfterValidator(_sane_year)
+]
+"""A time in a request: an ISO 8601 string (parsed by pydantic), nothing else."""
+EnergyPrice = Annotated[
+    float, Field(ge=-ENERGY_PRICE_LIMIT_SGD_PER_MWH, le=ENERGY_PRICE_LIMIT_SGD_PER_MWH)
+]
+"""An energy price within the NEMS offer price cap [SGD/MWh]."""
+ReservePrice = Annotated[float, Field(ge=0.0, le=ENERGY_PRICE_LIMIT_SGD_PER_MWH)]
+"""A reserve price within [0, the NEMS offer price cap] [SGD/MWh]."""
 
 
 class Envelope(BaseModel, Generic[T]):
@@ -122,7 +153,7 @@ class MeasurementIn(BaseModel):
     """The building's state at the start of a period."""
 
     model_config = _STRICT
-    time: datetime = Field(description="Start of the period measured (a 30-min boundary).")
+    time: IsoTime = Field(description="Start of the period measured (a 30-min boundary).")
     node_temperatures_degc: list[float] = Field(
         min_length=1, max_length=10_000, description="(n,) node temperatures [°C]."
     )
@@ -135,9 +166,9 @@ class PricesIn(BaseModel):
     """Energy (and optionally reserve) prices for consecutive periods from ``start``."""
 
     model_config = _STRICT
-    start: datetime
-    energy_price_sgd_per_mwh: list[float] = Field(min_length=1, max_length=MAX_PRICE_PERIODS)
-    reserve_price_sgd_per_mwh: list[float] | None = Field(
+    start: IsoTime
+    energy_price_sgd_per_mwh: list[EnergyPrice] = Field(min_length=1, max_length=MAX_PRICE_PERIODS)
+    reserve_price_sgd_per_mwh: list[ReservePrice] | None = Field(
         default=None, min_length=1, max_length=MAX_PRICE_PERIODS
     )
 
@@ -157,7 +188,7 @@ class ActivationIn(BaseModel):
 
     model_config = _STRICT
     event: Literal["start", "end"]
-    time: datetime
+    time: IsoTime
     building_ids: list[str] | None = Field(default=None, max_length=10_000)
 
 
@@ -166,7 +197,7 @@ class ClockIn(BaseModel):
     it are planned on the latest measurement of buildings that sent none for them."""
 
     model_config = _STRICT
-    time: datetime
+    time: IsoTime
 
 
 class Plan(BaseModel):
@@ -234,6 +265,11 @@ class Bid(BaseModel):
     buildings: list[BidBuilding]
     feeder_limit_kw: float | None
     feeder_limit_exceeded: bool
+    stale_buildings: list[str] = Field(
+        default_factory=list,
+        description="Buildings with a plan but no measurement for longer than the service's "
+        "stale time (``serve --stale-after-s``); their plans are not counted in the sums.",
+    )
 
 
 class Stored(BaseModel):

@@ -1,0 +1,169 @@
+"""Keys: `serve key create/list/revoke`, revocation on the next request, the unknown-key
+rate limit and negative cache, key and database files 0600, --db before or after the
+subcommand (or $HVACFLEX_DB)."""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import stat
+import time
+from pathlib import Path
+
+import pytest
+from fastapi.testclient import TestClient
+from typer.testing import CliRunner
+
+from hvacflex.cli import app as cli
+from hvacflex.service.app import create_app
+from hvacflex.service.keys import (
+    UNKNOWN_KEY_BURST,
+    UNKNOWN_KEY_PER_S,
+    KeyVerifier,
+    RateLimitedError,
+    TokenBucket,
+    create_key,
+)
+
+RUNNER = CliRunner()
+
+
+def _cli(*args: str, env: dict[str, str] | None = None) -> tuple[int, str]:
+    result = RUNNER.invoke(cli, list(args), env=env)
+    assert "Traceback" not in result.output
+    return result.exit_code, result.output
+
+
+def _create(db: str, *args: str) -> str:
+    code, out = _cli("serve", "key", "create", *args, "--db", db)
+    assert code == 0, out
+    return out.strip().splitlines()[-1]
+
+
+def test_create_list_revoke_with_db_before_or_after_the_subcommand(tmp_path: Path) -> None:
+    db = f"sqlite:///{tmp_path / 'keys.db'}"
+    operator = _create(db, "--role", "operator")
+    assert operator.startswith("hvf_") and " " not in operator
+    code, out = _cli("serve", "--db", db, "key", "create", "--role", "building", "--building", "b7")
+    assert code == 0, out
+    building = out.strip().splitlines()[-1]
+    operator_id, building_id = operator.split("_")[1], building.split("_")[1]
+    code, listing = _cli("serve", "key", "list", env={"HVACFLEX_DB": db})
+    assert code == 0, listing
+    rows = [line.split() for line in listing.strip().splitlines()]
+    assert [r[:3] for r in rows] == [
+        [operator_id, "operator", "-"],
+        [building_id, "building", "b7"],
+    ]
+    assert all(r[4] == "active" for r in rows) and all(r[3].endswith("Z") for r in rows)
+    code, out = _cli("serve", "--db", db, "key", "revoke", building_id)
+    assert code == 0 and "is now revoked" in out
+    code, listing = _cli("serve", "key", "list", "--db", db)
+    assert listing.split()[4::5] == ["active", "revoked"]
+    assert stat.S_IMODE(os.stat(tmp_path / "keys.db").st_mode) == 0o600
+
+
+def test_key_files_are_0600_and_never_overwritten(tmp_path: Path) -> None:
+    db = f"sqlite:///{tmp_path / 'k.db'}"
+    key_file = tmp_path / "operator.key"
+    key = _create(db, "--role", "operator", "--key-file", str(key_file))
+    assert key_file.read_text().strip() == key
+    assert stat.S_IMODE(os.stat(key_file).st_mode) == 0o600
+    code, out = _cli(
+        "serve", "key", "create", "--role", "operator", "--key-file", str(key_file), "--db", db
+    )
+    assert code == 2 and "exists already" in out
+    assert key_file.read_text().strip() == key
+
+
+@pytest.mark.parametrize(
+    ("args", "expected"),
+    [
+        (["revoke", "0123"], "not a key id"),
+        (["revoke", "0123456789abcdef"], "no such key"),
+        (["create", "--role", "admin"], "unknown role"),
+        (["create", "--role", "building"], "needs its building"),
+    ],
+)
+def test_key_commands_refuse_bad_input(tmp_path: Path, args: list[str], expected: str) -> None:
+    code, out = _cli("serve", "key", *args, "--db", f"sqlite:///{tmp_path / 'k.db'}")
+    assert code == 2 and expected in out
+
+
+def test_a_revoked_key_is_refused_on_its_next_request(tmp_path: Path) -> None:
+    db = f"sqlite:///{tmp_path / 'live.db'}"
+    operator = _create(db, "--role", "operator")
+    second = _create(db, "--role", "operator")
+    client = TestClient(create_app(db))
+    for key in (operator, second):
+        assert client.get("/v1/buildings", headers={"X-API-Key": key}).status_code == 200
+    code, _ = _cli("serve", "key", "revoke", second.split("_")[1], "--db", db)
+    assert code == 0
+    refused = client.get("/v1/buildings", headers={"X-API-Key": second})
+    assert refused.status_code == 401 and refused.json()["message"] == "unknown or revoked key"
+    assert client.get("/v1/buildings", headers={"X-API-Key": operator}).status_code == 200
+
+
+def test_a_flood_of_unknown_keys_is_limited_and_leaves_valid_reads_fast(tmp_path: Path) -> None:
+    """1,000 well-formed unknown keys from one client: after the burst they get 429 without
+    an scrypt or a database read, and a valid client's reads stay fast."""
+    app = create_app(f"sqlite:///{tmp_path / 'flood.db'}")
+    with app.state.sessions() as session, session.begin():
+        operator = create_key(session, "operator")
+        newcomer = create_key(session, "operator")
+    client = TestClient(app)
+    assert client.get("/v1/buildings", headers={"X-API-Key": operator}).status_code == 200
+    started = time.perf_counter()
+    responses = [
+        client.get("/v1/buildings", headers={"X-API-Key": f"hvf_{i:016x}_unknown-secret-{i}"})
+        for i in range(1000)
+    ]
+    flood_s = time.perf_counter() - started
+    codes = [r.status_code for r in responses]
+    assert set(codes) == {401, 429}
+    burst = int(UNKNOWN_KEY_BURST) - 1  # the operator key's first verification took one
+    assert codes[:burst] == [401] * burst
+    assert codes.count(401) <= UNKNOWN_KEY_BURST + UNKNOWN_KEY_PER_S * flood_s + 1  # + refill
+    limited = responses[codes.index(429)]
+    assert int(limited.headers["Retry-After"]) >= 1
+    assert limited.json()["status"] == 429 and set(limited.json()) == {
+        "status",
+        "message",
+        "payload",
+    }
+    reads_s = []
+    for _ in range(50):
+        t0 = time.perf_counter()
+        response = client.get("/v1/buildings", headers={"X-API-Key": operator})
+        reads_s.append(time.perf_counter() - t0)
+        assert response.status_code == 200
+    reads_s.sort()
+    # a key first used after the flood, from another client, is verified at once
+    elsewhere = TestClient(app, client=("192.0.2.7", 50000))
+    assert elsewhere.get("/v1/buildings", headers={"X-API-Key": newcomer}).status_code == 200
+    assert reads_s[len(reads_s) // 2] < 0.05, reads_s  # the read target: p50 well under 50 ms
+    assert flood_s < 60.0  # 1,000 scrypts alone take ≈ 50–100 s on this machine
+
+
+def test_refused_keys_are_remembered_and_cost_no_second_scrypt(tmp_path: Path) -> None:
+    app = create_app(f"sqlite:///{tmp_path / 'neg.db'}")
+    verifier = KeyVerifier(TokenBucket(capacity=1.0, refill_per_s=1e-6))
+    unknown = "hvf_0123456789abcdef_secret"
+    with app.state.sessions() as session:
+        assert verifier.verify(session, unknown, "client") is None  # takes the only token
+        t0 = time.perf_counter()
+        assert verifier.verify(session, unknown, "client") is None  # cached: no token needed
+        assert time.perf_counter() - t0 < 0.01
+        with pytest.raises(RateLimitedError) as info:
+            verifier.verify(session, "hvf_0123456789abcdee_other", "client")
+        assert info.value.retry_after_s > 1000.0
+        assert verifier.verify(session, "hvf_0123456789abcdee_other", "elsewhere") is None
+    assert hashlib.sha256(unknown.encode()).hexdigest() in verifier._refused
+
+
+def test_token_bucket_refills_at_its_rate() -> None:
+    bucket = TokenBucket(capacity=2.0, refill_per_s=0.5)
+    assert [bucket.take("a", now_s=0.0) for _ in range(3)] == [0.0, 0.0, 2.0]
+    assert bucket.take("a", now_s=1.0) == pytest.approx(1.0)
+    assert bucket.take("a", now_s=2.0) == 0.0
+    assert bucket.take("b", now_s=2.0) == 0.0  # another client has its own bucket
