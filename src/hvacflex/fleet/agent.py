@@ -31,9 +31,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from hvacflex.building.discretize import linearize
 from hvacflex.config import (
-    LINEARISATION_MARGIN_K,
     ComfortConfig,
     ControllerConfig,
     ReserveConfig,
@@ -41,12 +39,12 @@ from hvacflex.config import (
 )
 from hvacflex.control.base import Action, FloatArray
 from hvacflex.control.mpc import MPCController
-from hvacflex.data.forecast import Forecast, load_exogenous
-from hvacflex.data.gains import DEFAULT_OFFICE_SCHEDULE, ComfortBand, OfficeSchedule
+from hvacflex.data.forecast import Forecast
+from hvacflex.data.gains import DEFAULT_OFFICE_SCHEDULE, OfficeSchedule
 from hvacflex.fleet.schema import Fleet, FleetBuilding, fleet_from_dict
 from hvacflex.opt import RMPCProblem, RMPCSolution, RMPCSolver, SolveStatus
 from hvacflex.sim.closed_loop import ClosedLoop
-from hvacflex.sim.setup import Setup, assemble_setup
+from hvacflex.sim.setup import Setup, prepare
 from hvacflex.sim.step import ControlStep
 from hvacflex.units import KWH_PER_MWH
 
@@ -182,7 +180,9 @@ def _schedule(hours: tuple[int, int]) -> OfficeSchedule:
 
 
 def building_setup(entry: FleetBuilding, index: int, settings: FleetSettings) -> Setup:
-    """The single-building :class:`Setup` of one fleet building (its own seed)."""
+    """The single-building :class:`Setup` of one fleet building (its own seed), made by the
+    one set-up path :func:`hvacflex.sim.setup.prepare` (no IL activation: the fleet run
+    does not simulate activations)."""
     controller = ControllerConfig(
         robust=settings.robust,  # type: ignore[arg-type]
         reserve=settings.reserve,
@@ -203,22 +203,12 @@ def building_setup(entry: FleetBuilding, index: int, settings: FleetSettings) ->
         reserve=settings.il_events,
         comfort=comfort,
     )
-    building = entry.building
-    temp_ref = comfort.occupied_degc[1] - LINEARISATION_MARGIN_K
-    model = linearize(building, dt_s=config.dt_s, linearisation_temp_degc=temp_ref)
-    exogenous = load_exogenous(
-        model.channels,
-        [zone.floor_area_m2 for zone in building.zones],
-        building.gains,
-        start=config.start_timestamp,
-        steps=config.steps,
-        horizon_steps=settings.horizon_steps,
-        comfort=ComfortBand(comfort.occupied_degc, comfort.unoccupied_degc),
-        seed=settings.seed,
+    return prepare(
+        config,
+        entry.building,
         schedule=_schedule(entry.occupied_hours),
+        market_seed=settings.seed,  # one market: every building sees the same reserve price
     )
-    no_activation = np.zeros(config.steps, dtype=bool)
-    return assemble_setup(config, building, model, exogenous, no_activation, temp_ref)
 
 
 @dataclass

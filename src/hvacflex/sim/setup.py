@@ -20,7 +20,7 @@ from hvacflex.control.base import Controller
 from hvacflex.control.baselines import ThermostatController
 from hvacflex.control.mpc import MPCController
 from hvacflex.data.forecast import Exogenous, Forecaster, load_exogenous
-from hvacflex.data.gains import ComfortBand
+from hvacflex.data.gains import DEFAULT_OFFICE_SCHEDULE, ComfortBand, OfficeSchedule
 from hvacflex.data.market import RESERVE_PRICE_SCALE
 from hvacflex.data.uncertainty import UncertaintyBox
 from hvacflex.paths import resolve_building
@@ -47,9 +47,25 @@ class Setup:
         return tuple(self.building.zone_names)
 
 
-def prepare(config: ScenarioConfig, building: Building | None = None) -> Setup:
-    """Load the building and data and build the linear model for ``config`` (``building``:
-    a description received as content, e.g. by the service, instead of ``config.building``)."""
+def prepare(
+    config: ScenarioConfig,
+    building: Building | None = None,
+    *,
+    schedule: OfficeSchedule = DEFAULT_OFFICE_SCHEDULE,
+    market_seed: int | None = None,
+) -> Setup:
+    """Load the building and data and build the linear model for ``config``.
+
+    Parameters
+    ----------
+    config : the scenario.
+    building : a description received as content (the service, a fleet file) instead of
+        ``config.building``.
+    schedule : the occupancy schedule of the internal gains and comfort band (a fleet shifts
+        each building's hours).
+    market_seed : seed of the synthetic reserve prices (None: ``config.seed``); a fleet's
+        buildings share one market.
+    """
     if building is None:
         building = load_building(resolve_building(config.building))
     temp_ref = config.controller.linearisation_temp_degc
@@ -70,7 +86,8 @@ def prepare(config: ScenarioConfig, building: Building | None = None) -> Setup:
         reserve_source=data.reserve_source,
         price_gap_fill=data.price_gap_fill,
         comfort=ComfortBand(config.comfort.occupied_degc, config.comfort.unoccupied_degc),
-        seed=config.seed,
+        seed=config.seed if market_seed is None else market_seed,
+        schedule=schedule,
         reserve_scale_sgd_per_mwh=scale,
     )
     activation = activation_schedule(
