@@ -65,6 +65,10 @@ from hvacflex.sim.setup import Setup, make_controller, prepare
 from hvacflex.sim.step import ControlStep, Decision
 from hvacflex.version import atomic_write_text
 
+SETPOINT_IDLE_FLOW_KG_S = 1e-3
+"""A zone whose planned flow is within this of its minimum is left to float (setpoint
+actuation)."""
+
 DEFAULT_CHECKPOINT_EVERY = 336
 """Steps between checkpoints (one week of 30-min periods)."""
 
@@ -204,6 +208,12 @@ class ClosedLoop:
         self.steps = cfg.steps
         self.k = 0
         self._zone_rows = setup.model.c.argmax(axis=1)
+        hvac = setup.building.hvac
+        self._flow_min_kg_s = (
+            hvac.flow_min_at(np.array([False]))[0],
+            hvac.flow_min_at(np.array([True]))[0],
+        )
+        """(m,) lowest flow [kg/s] when unoccupied and when occupied."""
         self.x = np.full(len(setup.model.node_names), cfg.initial_temp_degc)
         self.x = self._state_after(self.plant.reset(cfg.initial_temp_degc), None)
         self.sampler = DisturbanceSampler(
@@ -316,16 +326,20 @@ class ClosedLoop:
         """What the plant is told: the flows (u, or u − r when curtailed), or under setpoint
         actuation each zone's planned end-of-period temperature (served, or curtailed)
         clipped to the period's comfort band (its upper bound raised by the allowance α in
-        force), as a supervisory MPC hands setpoints to a BMS (docs/energyplus.md)."""
+        force), as a supervisory MPC hands setpoints to a BMS; a zone the plan leaves at its
+        minimum flow gets the band's upper bound, so the plant's loop does not cool it
+        towards a temperature the plan expects it to drift to (docs/energyplus.md)."""
         action = decision.action
+        flow = action.flow_kg_s - action.reserve_flow_kg_s if curtailed else action.flow_kg_s
         if self.actuation == "flow":
-            flow = action.flow_kg_s - action.reserve_flow_kg_s if curtailed else action.flow_kg_s
             return Actuation(flow_kg_s=flow)
         k, exo = self.k, self.setup.exogenous
         planned = action.predicted_curtailed_degc if curtailed else action.predicted_served_degc
         lower = exo.comfort_lower_degc[k]
         upper = exo.comfort_upper_degc[k] + decision.allowance_k
-        return Actuation(setpoint_degc=np.clip(np.nan_to_num(planned, nan=upper), lower, upper))
+        setpoint = np.clip(np.nan_to_num(planned, nan=upper), lower, upper)
+        idle = flow <= self._flow_min_kg_s[int(exo.occupied[k])] + SETPOINT_IDLE_FLOW_KG_S
+        return Actuation(setpoint_degc=np.where(idle, upper, setpoint))
 
     def _state_after(self, observation: Observation, disturbance: Disturbance | None) -> FloatArray:
         """The node temperatures (n,) [°C] after the period: the plant's own where it shows
