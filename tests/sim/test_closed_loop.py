@@ -206,6 +206,50 @@ def test_killed_run_resumes_from_its_last_checkpoint(tmp_path: Path) -> None:
     )
 
 
+def _kill_and_resume(tmp_path: Path, rng: np.random.Generator, every: int) -> int:
+    """Start ``simulate`` (rmpc, one day, a checkpoint every ``every`` steps), kill it with
+    SIGKILL a random time after its first checkpoint, resume; the step it resumed from."""
+    out = tmp_path / f"killed-{rng.integers(1 << 30)}"
+    args = [
+        sys.executable, "-m", "hvacflex.cli", "simulate", "--scenario", "rmpc",
+        "--start", START, "--days", "1", "--out", str(out), "--quiet",
+        "--checkpoint-every", str(every),
+    ]  # fmt: skip
+    proc = subprocess.Popen(args, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.monotonic() + 120
+    while not (out / CHECKPOINT_FILE).exists() and time.monotonic() < deadline:
+        time.sleep(0.05)
+    time.sleep(float(rng.uniform(0.0, 1.5)))
+    os.kill(proc.pid, signal.SIGKILL)
+    proc.wait()
+    cfg = preset("rmpc", start=START, days=1.0)
+    if not (out / CHECKPOINT_FILE).exists():  # it finished before the kill
+        return -1
+    resumed = run_simulation(cfg, out, progress=False, checkpoint_every=every)
+    whole = run_simulation(cfg, tmp_path / "whole", progress=False, checkpoint_every=every)
+    columns = [c for c in whole.frame.columns if c != "solve_time_s"]
+    pd.testing.assert_frame_equal(
+        resumed.frame[columns], whole.frame[columns], check_exact=True, check_freq=False
+    )
+    assert resumed.resumed_from_step is not None
+    return resumed.resumed_from_step
+
+
+def test_kills_at_random_steps_resume_bit_identical(tmp_path: Path) -> None:
+    """A killed run resumes from its last periodic checkpoint; the uninterrupted run
+    restarts its solver warm at the same steps, so the results are equal bit for bit."""
+    rng = np.random.default_rng(11)
+    steps = [_kill_and_resume(tmp_path, rng, every=4) for _ in range(2)]
+    assert any(k > 0 for k in steps)
+
+
+@pytest.mark.slow
+def test_twenty_kills_resume_bit_identical(tmp_path: Path) -> None:
+    rng = np.random.default_rng(29)
+    steps = [_kill_and_resume(tmp_path, rng, every=3) for _ in range(20)]
+    assert sum(k > 0 for k in steps) >= 15, steps
+
+
 def test_same_seed_same_results_other_seed_other_disturbances(tmp_path: Path) -> None:
     cfg = preset("nmpc", start=START, days=0.5)
     one = run_simulation(cfg, tmp_path / "1", progress=False).frame

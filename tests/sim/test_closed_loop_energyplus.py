@@ -46,7 +46,7 @@ def _scenario(folder: Path) -> Path:
 def day(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, pd.DataFrame, dict]:  # type: ignore[type-arg]
     folder = tmp_path_factory.mktemp("eplus")
     config = load_config(_scenario(folder))
-    result = run_simulation(config, folder / "whole", progress=False)
+    result = run_simulation(config, folder / "whole", progress=False, checkpoint_every=10)
     summary = json.loads((folder / "whole" / "summary.json").read_text())
     return folder, result.frame, summary
 
@@ -74,10 +74,13 @@ def test_energyplus_tracks_the_planned_temperatures_and_meters_the_facility(day)
 def test_an_interrupted_run_resumes_by_replay_to_the_same_results(day) -> None:  # type: ignore[no-untyped-def]
     folder, whole, _ = day
     config = load_config(folder / "scenario.toml")
-    partial = run_simulation(config, folder / "split", progress=False, stop_after_steps=20)
+    split = {"progress": False, "checkpoint_every": 10}
+    partial = run_simulation(config, folder / "split", stop_after_steps=20, **split)  # type: ignore[arg-type]
     assert partial.resumed_from_step is None and len(partial.frame) == 20
-    resumed = run_simulation(config, folder / "split", progress=False)
+    resumed = run_simulation(config, folder / "split", **split)  # type: ignore[arg-type]
     assert resumed.resumed_from_step == 20
     frame, _ = read_results(folder / "split" / "results.parquet")
     columns = [c for c in whole.columns if c != "solve_time_s"]
-    pd.testing.assert_frame_equal(frame[columns], whole[columns], check_freq=False, check_exact=True)
+    pd.testing.assert_frame_equal(
+        frame[columns], whole[columns], check_freq=False, check_exact=True
+    )

@@ -150,6 +150,13 @@ class Controller(Protocol):
         the controller builds none."""
         return False
 
+    def restart_warm(self) -> None:
+        """Continue as a run resumed from :meth:`get_state` would: a controller that keeps
+        live solver state beyond what :meth:`get_state` returns drops it here (the closed
+        loop calls this at every checkpoint, so a resumed run equals an uninterrupted one
+        bit for bit)."""
+        return None
+
     def get_state(self) -> dict[str, Any]:
         """State needed to resume identically, as data (:mod:`hvacflex.state`)."""
         ...

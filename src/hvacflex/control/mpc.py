@@ -447,13 +447,22 @@ class MPCController(Controller):
 
     def get_state(self) -> dict[str, Any]:
         return {
-            "basis": self._solver.get_basis() if self._solver is not None else None,
+            "basis": self._solver.get_basis() if self._solver is not None else self._pending_basis,
             "previous_plan": self._previous_plan,
             "plan_age": self._plan_age,
             "estimator": self._estimator.get_state() if self._estimator is not None else None,
             "step_model": self._step_model,
             "held": self._held,
         }
+
+    def restart_warm(self) -> None:
+        """Drop the solver (HiGHS's factorisation and internal state) and keep its basis to
+        warm-start a new one at the next solve, as a controller restored by
+        :meth:`set_state` starts."""
+        if self._solver is not None:
+            basis = self._solver.get_basis()
+            self._solver = None
+            self._pending_basis = basis
 
     def set_state(self, state: dict[str, Any]) -> None:
         basis = state["basis"]

@@ -251,6 +251,9 @@ class RemoteControl:
         status = decision_status(role, action)
         return Decision(action, status, role, outcome, applied, None, None)
 
+    def restart_warm(self) -> None:
+        return None  # the service keeps the controller
+
     def get_state(self) -> dict[str, Any]:
         return {"active": self.active}
 

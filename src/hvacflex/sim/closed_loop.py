@@ -157,6 +157,8 @@ class Control(Protocol):
         plan: Any = None,
     ) -> Decision: ...
 
+    def restart_warm(self) -> None: ...
+
     def get_state(self) -> dict[str, Any]: ...
 
     def set_state(self, state: dict[str, Any]) -> None: ...
@@ -453,8 +455,12 @@ class ClosedLoop:
         rec.status[:k] = state["status"]
 
     def save_checkpoint(self, path: Path) -> None:
-        """Write the state atomically (a crash mid-write leaves the previous checkpoint)."""
+        """Write the state atomically (a crash mid-write leaves the previous checkpoint), and
+        continue from it as a resumed run would (the controller restarts its solver warm
+        from the stored basis), so a run resumed from any checkpoint ends with the results of
+        the uninterrupted run, bit for bit."""
         state.save(path, self.get_state())
+        self.control.restart_warm()
 
     def frame(self) -> pd.DataFrame:
         return self.recorder.frame(self.setup.exogenous.index, self.k)

@@ -253,6 +253,11 @@ class ControlStep:
             tracker.lock(None)
         tracker.finish(role, action)
 
+    def restart_warm(self) -> None:
+        """Continue as if resumed from :meth:`get_state` (see
+        :meth:`hvacflex.control.base.Controller.restart_warm`)."""
+        self.controller.restart_warm()
+
     # -- the one checkpoint format ----------------------------------------------------------
     def get_state(self) -> dict[str, Any]:
         """Data only (:mod:`hvacflex.state`): the controller and tracker after the latest
