@@ -139,10 +139,9 @@ class RMPCSolver:
         feasibility_tolerance: float | None = None,
     ) -> None:
         self._structure = problem.structure
-        self._fingerprint = self._structure.fingerprint()
         self._session = HighsSession(
             source="RMPCSolver",
-            fingerprint=self._fingerprint,
+            fingerprint=self._structure.fingerprint(),
             time_limit_s=time_limit_s,
             time_shift=time_shift,
             feasibility_tolerance=feasibility_tolerance,
@@ -581,14 +580,8 @@ def make_solver(
     ProblemError
         if ``time_limit_s`` is not a positive number of seconds.
     """
-    if problem.robust == "feedback":
-        return FeedbackSolver(
-            problem,
-            time_limit_s=time_limit_s,
-            time_shift=time_shift,
-            feasibility_tolerance=feasibility_tolerance,
-        )
-    return RMPCSolver(
+    solver_class = FeedbackSolver if problem.robust == "feedback" else RMPCSolver
+    return solver_class(
         problem,
         time_limit_s=time_limit_s,
         time_shift=time_shift,
