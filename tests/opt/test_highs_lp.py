@@ -18,6 +18,7 @@ from hvacflex.opt.highs_lp import (
     WARM_SCALE_STRATEGY,
     HighsSession,
     RunOutcome,
+    SessionOptions,
     pass_csc_model,
     quiet_highs,
 )
@@ -32,16 +33,11 @@ OPTIMUM = np.array([8.0 / 5.0, 6.0 / 5.0])
 OPTIMAL_BASIS = (np.array([BASIC, BASIC], dtype=np.int8), np.array([UPPER, UPPER], dtype=np.int8))
 
 
-def _session(**options: object) -> HighsSession:
+def _session(
+    options: SessionOptions | None = None, *, source: str = "test", method: str | None = None
+) -> HighsSession:
     """A session holding the hand-solved LP."""
-    settings: dict[str, object] = {
-        "source": "test",
-        "fingerprint": "lp",
-        "time_limit_s": None,
-        "time_shift": True,
-    }
-    settings.update(options)
-    session = HighsSession(**settings)  # type: ignore[arg-type]
+    session = HighsSession(source, "lp", options or SessionOptions(), method=method)
     matrix = (
         MATRIX.indptr.astype(np.int32),
         MATRIX.indices.astype(np.int32),
@@ -62,7 +58,7 @@ def test_a_cold_run_reaches_the_hand_computed_optimum() -> None:
 
 
 def test_options_are_base_options_and_per_run_scaling_and_method() -> None:
-    session = _session(feasibility_tolerance=1e-10, method="ipm")
+    session = _session(SessionOptions(feasibility_tolerance=1e-10), method="ipm")
     highs = session.highs
     for option, value in BASE_OPTIONS.items():
         assert highs.getOptionValue(option)[1] == value, option
@@ -82,13 +78,13 @@ def test_options_are_base_options_and_per_run_scaling_and_method() -> None:
 
 
 def test_the_time_limit_is_re_armed_on_the_run_clock_before_every_run() -> None:
-    session = _session(time_limit_s=5.0)
+    session = _session(SessionOptions(time_limit_s=5.0))
     for _ in range(3):
         clock_s = float(session.highs.getRunTime())
         session.run(False)
         assert session.highs.getOptionValue("time_limit")[1] == pytest.approx(clock_s + 5.0)
     with pytest.raises(ProblemError, match="time limit"):
-        _session(time_limit_s=0.0)
+        _session(SessionOptions(time_limit_s=0.0))
 
 
 def test_starting_from_the_optimal_basis_needs_no_iteration() -> None:
@@ -111,7 +107,7 @@ def test_the_stored_basis_rotates_only_with_time_shift() -> None:
     rotation = (np.array([1, 0]), np.array([1, 0]))
     basis = (np.array([BASIC, UPPER], dtype=np.int8), np.array([0, BASIC], dtype=np.int8))
     for time_shift, expected in ((True, ([UPPER, BASIC], [BASIC, 0])), (False, basis)):
-        session = _session(time_shift=time_shift)
+        session = _session(SessionOptions(time_shift=time_shift))
         session.basis = basis
         col_status, row_status = session.start_statuses(rotation, shift=True)
         assert col_status.tolist() == list(expected[0])
@@ -120,9 +116,9 @@ def test_the_stored_basis_rotates_only_with_time_shift() -> None:
         assert [a.tolist() for a in unrotated] == [b.tolist() for b in basis]
 
 
-def _with_basis(**options: object) -> HighsSession:
+def _with_basis(options: SessionOptions | None = None) -> HighsSession:
     """A session holding the LP and, as its stored basis, the optimal one."""
-    session = _session(**options)
+    session = _session(options)
     session.basis = OPTIMAL_BASIS
     return session
 
@@ -172,7 +168,7 @@ def test_a_failed_unrotated_retry_ends_cold() -> None:
 
 
 def test_no_unrotated_retry_without_time_shift_or_basis_and_no_retry_after_a_cold_run() -> None:
-    runs, calls, outcome = _ladder(_with_basis(time_shift=False), 1, warm=True)
+    runs, calls, outcome = _ladder(_with_basis(SessionOptions(time_shift=False)), 1, warm=True)
     assert runs == [True, False] and calls == [] and outcome.status is SolveStatus.OPTIMAL
     runs, calls, outcome = _ladder(_session(), 1, warm=True)  # no stored basis
     assert runs == [True, False] and calls == []

@@ -53,7 +53,13 @@ from hvacflex.opt.feedback import (
     feedback_maps,
 )
 from hvacflex.opt.feedback_result import feedback_solution, gains_tensor, output_response
-from hvacflex.opt.highs_lp import HighsSession, Statuses, pass_csc_model, solve_lp
+from hvacflex.opt.highs_lp import (
+    HighsSession,
+    SessionOptions,
+    Statuses,
+    pass_csc_model,
+    solve_lp,
+)
 from hvacflex.opt.lp import LinearProgram, PlanColumns, sparse_matrix
 from hvacflex.opt.options import FeedbackOptions
 from hvacflex.opt.problem import FloatArray, IntArray, RMPCProblem
@@ -180,14 +186,9 @@ class FeedbackSolver:
                 hint="use RMPCSolver for the open-loop modes",
             )
         self._structure = problem.structure
-        self._session = HighsSession(
-            source="FeedbackSolver",
-            fingerprint=self._structure.fingerprint(),
-            time_limit_s=time_limit_s,
-            time_shift=time_shift,
-            feasibility_tolerance=feasibility_tolerance,
-            method=method,
-        )
+        options = SessionOptions(time_limit_s, time_shift, feasibility_tolerance)
+        fingerprint = self._structure.fingerprint()
+        self._session = HighsSession("FeedbackSolver", fingerprint, options, method=method)
         self._time_limit_s = time_limit_s
         self._method = method
         self._warm_start = warm_start

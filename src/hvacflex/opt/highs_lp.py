@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Mapping
+from dataclasses import dataclass
 from types import MappingProxyType
 from typing import Any, NamedTuple
 
@@ -38,6 +39,7 @@ __all__ = [
     "HighsSession",
     "LPResult",
     "RunOutcome",
+    "SessionOptions",
     "check_time_limit",
     "highs_basis",
     "highs_lp",
@@ -280,6 +282,21 @@ class RunOutcome(NamedTuple):
     warm: bool
 
 
+@dataclass(frozen=True)
+class SessionOptions:
+    """What every warm-started solver lets its caller choose about its HiGHS session.
+
+    ``time_limit_s``: wall-clock limit per solve [s] (every run of one solve, not
+    cumulative), None = no limit; ``time_shift``: each LP is the previous one a step later, so
+    a stored basis is rotated by one step (False: used as is); ``feasibility_tolerance``:
+    HiGHS's primal and dual feasibility tolerances, None keeps HiGHS's 1e-7.
+    """
+
+    time_limit_s: float | None = None
+    time_shift: bool = True
+    feasibility_tolerance: float | None = None
+
+
 class HighsSession:
     """One HiGHS handle kept over a sequence of LPs, and its warm start.
 
@@ -300,11 +317,7 @@ class HighsSession:
     ----------
     source : the strategy's name, for error messages
     fingerprint : the problem structure's fingerprint (:class:`SolverBasis` carries it)
-    time_limit_s : wall-clock limit per solve [s] (every run of one solve, not cumulative);
-        None = no limit
-    time_shift : each LP is the previous one a step later: start from the stored basis
-        rotated by one step (False: as is)
-    feasibility_tolerance : HiGHS's primal and dual feasibility tolerances; None keeps 1e-7
+    options : time limit, time shift and feasibility tolerance (:class:`SessionOptions`)
     method : HiGHS ``solver`` option of a cold run ("simplex", "ipm", "choose"; warm runs are
         "simplex"); None leaves HiGHS's default ("choose") for every run
 
@@ -315,22 +328,16 @@ class HighsSession:
     """
 
     def __init__(
-        self,
-        *,
-        source: str,
-        fingerprint: str,
-        time_limit_s: float | None,
-        time_shift: bool,
-        feasibility_tolerance: float | None = None,
-        method: str | None = None,
+        self, source: str, fingerprint: str, options: SessionOptions, *, method: str | None = None
     ) -> None:
+        time_limit_s = options.time_limit_s
         check_time_limit(time_limit_s, source=source)
         # highspy's Python wrapper is only partly typed; treat the handle as Any.
         self.highs: Any = quiet_highs()
         for option, value in BASE_OPTIONS.items():
             self.highs.setOptionValue(option, value)
         _, cold_scale_strategy = self.highs.getOptionValue("simplex_scale_strategy")
-        set_feasibility_tolerance(self.highs, feasibility_tolerance)
+        set_feasibility_tolerance(self.highs, options.feasibility_tolerance)
         self._run_options: dict[bool, dict[str, Any]] = {
             True: {"simplex_scale_strategy": WARM_SCALE_STRATEGY},
             False: {"simplex_scale_strategy": cold_scale_strategy},
@@ -342,7 +349,7 @@ class HighsSession:
         self._time_limit_s = float(time_limit_s) if time_limit_s is not None else None
         self.source = source
         self.fingerprint = fingerprint
-        self.time_shift = time_shift
+        self.time_shift = options.time_shift
         self.basis: Statuses | None = None
         """The statuses the next solve starts from (as solved, not rotated), or None."""
         self.basis_given = False

@@ -67,7 +67,14 @@ from hvacflex.opt.basis import (
 )
 from hvacflex.opt.events import most_violated_rows, reserve_responses
 from hvacflex.opt.feedback_solve import DEFAULT_LP_METHOD, FeedbackSolver
-from hvacflex.opt.highs_lp import HIGHS_ERROR, HighsSession, LPResult, highs_lp, solve_lp
+from hvacflex.opt.highs_lp import (
+    HIGHS_ERROR,
+    HighsSession,
+    LPResult,
+    SessionOptions,
+    highs_lp,
+    solve_lp,
+)
 from hvacflex.opt.lp import LinearProgram, LPLayout, build_lp, sparse_matrix
 from hvacflex.opt.problem import BoolArray, FloatArray, IntArray, RMPCProblem
 from hvacflex.opt.robust import impulse_responses, margin_operator, robust_margins
@@ -139,13 +146,8 @@ class RMPCSolver:
         feasibility_tolerance: float | None = None,
     ) -> None:
         self._structure = problem.structure
-        self._session = HighsSession(
-            source="RMPCSolver",
-            fingerprint=self._structure.fingerprint(),
-            time_limit_s=time_limit_s,
-            time_shift=time_shift,
-            feasibility_tolerance=feasibility_tolerance,
-        )
+        options = SessionOptions(time_limit_s, time_shift, feasibility_tolerance)
+        self._session = HighsSession("RMPCSolver", self._structure.fingerprint(), options)
         if problem.robust == "feedback":
             raise ProblemError(
                 "RMPCSolver solves the open-loop problem only",
