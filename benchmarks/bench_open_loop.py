@@ -100,7 +100,8 @@ class TimedHighs:
 def instrumented_solver(problem: RMPCProblem, timings: Timings) -> RMPCSolver:
     """An :class:`RMPCSolver` whose parts add their wall time [s] to ``timings``."""
     solver = RMPCSolver(problem)
-    solver._highs = TimedHighs(solver._highs, timings)
+    session = solver._session  # the one HiGHS session: time its handle's calls
+    session.highs = TimedHighs(session.highs, timings)
     timed(solve_module, "build_lp", "coefficients", timings)
     timed(solver, "_delta", "coefficients", timings)
     timed(solver, "_update", "push", timings, exclude="coefficients")

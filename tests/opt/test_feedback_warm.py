@@ -144,20 +144,19 @@ def test_a_failed_rotated_start_retries_the_previous_basis_unrotated(
         solver.solve(problem)
     runs: list[bool] = []
     shifts: list[bool] = []
-    run, start_from = FeedbackSolver._run_and_read, FeedbackSolver._start_from
+    run, start_from = solver._session.run, FeedbackSolver._start_from
 
-    def failing_once(self: FeedbackSolver, lp: Any, warm: bool) -> Any:
+    def failing_once(warm: bool) -> tuple[float, SolveStatus]:
         runs.append(warm)
-        if len(runs) == 1:  # what a failed run leaves behind: its start as the basis
-            self._basis = self._start
-            return SolveStatus.ERROR, np.full(lp.num_cols, np.nan), "forced", 0.0, 0
-        return run(self, lp, warm)
+        if len(runs) == 1:
+            return 0.0, SolveStatus.ERROR
+        return run(warm)
 
     def recording(self: FeedbackSolver, lp: Any, *, shift: bool = True) -> bool:
         shifts.append(shift)
         return start_from(self, lp, shift=shift)
 
-    monkeypatch.setattr(FeedbackSolver, "_run_and_read", failing_once)
+    monkeypatch.setattr(solver._session, "run", failing_once)
     monkeypatch.setattr(FeedbackSolver, "_start_from", recording)
     solution = solver.solve(problems[2])
     assert runs == [True, True] and shifts == [True, False]  # no cold solve

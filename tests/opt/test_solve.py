@@ -456,22 +456,46 @@ def test_a_failed_warm_start_retries_from_the_unrotated_basis(
     solver = RMPCSolver(problems[0])
     solver.solve(problems[0])
     solver.solve(problems[1])
-    run = solver._run
+    run = solver._session.run
     shifts: list[bool] = []
     start_from = solver._start_from
 
-    def record_start(*args: object, shift: bool = True) -> None:
+    def record_start(*, shift: bool = True) -> bool:
         shifts.append(shift)
-        start_from(*args, shift=shift)  # type: ignore[arg-type]
+        return start_from(shift=shift)
 
     def fail_first(warm: bool) -> tuple[float, SolveStatus]:
         if not shifts[1:]:
             return 0.0, SolveStatus.ERROR
         return run(warm)
 
-    monkeypatch.setattr(solver, "_run", fail_first)
+    monkeypatch.setattr(solver._session, "run", fail_first)
     monkeypatch.setattr(solver, "_start_from", record_start)
     retried = solver.solve(problems[2])
     assert shifts == [True, False]
     assert retried.status is SolveStatus.OPTIMAL and retried.warm_start
     assert retried.objective_sgd == pytest.approx(solve_rmpc(problems[2]).objective_sgd, abs=1e-7)
+
+
+@pytest.mark.parametrize("robust", ["tightening", "feedback"])
+def test_make_solver_builds_the_solver_of_the_robust_mode_with_its_options(robust: str) -> None:
+    from hvacflex.opt import FeedbackSolver, make_solver
+
+    if robust == "feedback":
+        problems = [random_problem(11, robust="feedback")] * 3  # re-solved: no time shift
+    else:
+        problems = _shifted_problems(11, 3)
+    expected_class = FeedbackSolver if robust == "feedback" else RMPCSolver
+    made = make_solver(problems[0], time_shift=False, feasibility_tolerance=1e-10)
+    direct = expected_class(problems[0], time_shift=False, feasibility_tolerance=1e-10)
+    assert type(made) is expected_class
+    for problem in problems:
+        a, b = made.solve(problem), direct.solve(problem)
+        assert a.status is b.status is SolveStatus.OPTIMAL
+        assert a.objective_sgd == b.objective_sgd
+        assert a.simplex_iterations == b.simplex_iterations
+        assert a.warm_start == b.warm_start
+    highs = made._session.highs
+    assert highs.getOptionValue("primal_feasibility_tolerance")[1] == 1e-10
+    with pytest.raises(ProblemError, match="time limit"):
+        make_solver(problems[0], time_limit_s=0.0)

@@ -49,12 +49,12 @@ from hvacflex.data.uncertainty import UncertaintyBox
 from hvacflex.errors import ConfigError, ProblemError
 from hvacflex.opt import (
     FeedbackOptions,
-    FeedbackSolver,
     RMPCProblem,
     RMPCSolution,
-    RMPCSolver,
     SolverBasis,
     SolveStatus,
+    WarmSolver,
+    make_solver,
 )
 from hvacflex.units import SECONDS_PER_HOUR
 
@@ -128,7 +128,7 @@ class MPCController(Controller):
             i for i, ch in enumerate(model.channels) if ch.kind == "outdoor_temp"
         )
         self._thermostat = ThermostatController(model, hvac, config.thermostat_setpoint_degc)
-        self._solver: RMPCSolver | FeedbackSolver | None = None
+        self._solver: WarmSolver | None = None
         self._pending_basis: SolverBasis | None = None
         self._previous_plan: RMPCSolution | None = None
         self._plan_age = 0
@@ -360,8 +360,7 @@ class MPCController(Controller):
         plan: RMPCSolution | None = None,
     ) -> Action:
         if self._solver is None:
-            solver_class = FeedbackSolver if problem.robust == "feedback" else RMPCSolver
-            self._solver = solver_class(problem, time_limit_s=self._config.time_limit_s)
+            self._solver = make_solver(problem, time_limit_s=self._config.time_limit_s)
             pending = self._pending_basis
             if pending is not None and self._network is not None:
                 # trajectory linearisation: every step is a new structure of the same layout

@@ -15,9 +15,12 @@ Modules, each importing only those above it:
 - :mod:`~hvacflex.opt.feedback`: the affine disturbance-feedback parameterisation and its LP;
 - :mod:`~hvacflex.opt.feedback_result`: a feedback LP's solution (gains, realised margins);
 - :mod:`~hvacflex.opt.basis`: simplex bases as arrays (time shift, checks);
-- :mod:`~hvacflex.opt.highs_lp`: generic HiGHS helpers (model, status, one-shot solve);
-- :mod:`~hvacflex.opt.feedback_solve`: the feedback solver (cold, via highs_lp);
-- :mod:`~hvacflex.opt.solve`: the HiGHS solvers (through highs_lp, the only highspy importer);
+- :mod:`~hvacflex.opt.highs_lp`: the only highspy importer: ``HighsSession`` (handle, options,
+  runs, time limit, status, basis, retry ladder), model passing, the one-shot solve;
+- :mod:`~hvacflex.opt.feedback_solve`: ``FeedbackSolver``, the feedback LP's strategy on a
+  session;
+- :mod:`~hvacflex.opt.solve`: ``RMPCSolver``, the open-loop LP's strategy on a session, and
+  ``make_solver``, the one factory of both;
 - :mod:`~hvacflex.opt.testing`: seeded random problems for tests and benchmarks.
 """
 
@@ -25,7 +28,7 @@ from hvacflex.opt.basis import SolverBasis
 from hvacflex.opt.options import FeedbackOptions
 from hvacflex.opt.problem import RMPCProblem
 from hvacflex.opt.solution import RMPCSolution, SolveStatus
-from hvacflex.opt.solve import FeedbackSolver, RMPCSolver, solve_rmpc
+from hvacflex.opt.solve import FeedbackSolver, RMPCSolver, WarmSolver, make_solver, solve_rmpc
 
 __all__ = [
     "FeedbackOptions",
@@ -35,5 +38,7 @@ __all__ = [
     "RMPCSolver",
     "SolveStatus",
     "SolverBasis",
+    "WarmSolver",
+    "make_solver",
     "solve_rmpc",
 ]

@@ -1,6 +1,7 @@
 """Simplex bases as arrays of HiGHS status codes: the time shift, statuses from bounds, checks.
 
-Pure numpy (no solver): :mod:`hvacflex.opt.solve` passes these statuses to and from HiGHS.
+Pure numpy (no solver): :class:`hvacflex.opt.highs_lp.HighsSession` passes these statuses to
+and from HiGHS.
 Codes are HiGHS's ``HighsBasisStatus``: 0 lower, 1 basic, 2 upper, 3 zero (free), 4 nonbasic.
 """
 
@@ -71,6 +72,33 @@ def consistent_status(
     if bad.any():
         status = np.where(bad, nonbasic, status).astype(np.int8)
     return status
+
+
+def bounded_start(
+    col_status: StatusArray,
+    row_status: StatusArray,
+    col_lower: FloatArray,
+    col_upper: FloatArray,
+    col_nonbasic: StatusArray,
+    row_nonbasic: StatusArray,
+) -> tuple[StatusArray, StatusArray]:
+    """A stored basis made a valid start for the current bounds.
+
+    Parameters
+    ----------
+    col_status, row_status : (num_cols,), (num_rows,) stored statuses (rotated or not)
+    col_lower, col_upper : (num_cols,) the column bounds now
+    col_nonbasic, row_nonbasic : (num_cols,), (num_rows,) :func:`nonbasic_status` of the
+        column and row bounds now
+
+    Returns
+    -------
+    The column statuses through :func:`consistent_status`, and the row statuses with every
+    nonbasic row at its only finite bound (every row is an equality or one-sided).
+    """
+    col_status = consistent_status(col_status, col_lower, col_upper, col_nonbasic)
+    row_status = np.where(row_status == BASIC, BASIC, row_nonbasic).astype(np.int8)
+    return col_status, row_status
 
 
 def optimal_statuses(

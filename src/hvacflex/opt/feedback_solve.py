@@ -1,7 +1,10 @@
 """The solver of ``robust="feedback"`` problems: :class:`FeedbackSolver`, warm-started.
 
-Builds the affine-feedback LP of :mod:`hvacflex.opt.feedback` and keeps it in one HiGHS
-handle between steps; :func:`hvacflex.opt.solve.solve_rmpc` dispatches here.
+Builds the affine-feedback LP of :mod:`hvacflex.opt.feedback` and keeps it in one
+:class:`~hvacflex.opt.highs_lp.HighsSession` between steps (the session runs HiGHS, keeps the
+basis and retries; this module builds the LP and maps the basis onto it);
+:func:`hvacflex.opt.solve.make_solver` and :func:`~hvacflex.opt.solve.solve_rmpc` dispatch
+here.
 
 Warm start (measurements in ``docs/performance.md``, section "Feedback RMPC"). A cold solve
 of the zone-local LP on office5 (7,421 rows, 9,224 columns, ≈ 180k nonzeros) takes ≈ 8,000
@@ -21,7 +24,7 @@ model: each step the matrix data are assembled into the fixed CSC pattern
 (:func:`hvacflex.opt.highs_lp.pass_csc_model`, ≈ 4 ms) and the rotated basis is set; HiGHS
 then factorises that basis once (≈ 20–30 ms, the bulk of a warm step) and iterates. If
 HiGHS fails on the rotated basis (near-singular), the step is re-run from the previous
-optimal basis unrotated, and only then cold.
+optimal basis unrotated, and only then cold (the session's retry ladder).
 
 ``warm_start=False`` is the previous behaviour (rebuild and solve cold each step, with
 presolve and scaling), kept for verification and the benchmark.
@@ -31,18 +34,14 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from hvacflex.errors import ProblemError
 from hvacflex.opt.basis import (
-    BASIC,
     SolverBasis,
-    StatusArray,
-    checked_basis,
-    consistent_status,
+    bounded_start,
     nonbasic_status,
     optimal_statuses,
     rotation,
@@ -55,13 +54,10 @@ from hvacflex.opt.feedback import (
 )
 from hvacflex.opt.feedback_result import feedback_solution, gains_tensor, output_response
 from hvacflex.opt.highs_lp import (
-    HIGHS_ERROR,
-    STATUS_MAP,
-    check_time_limit,
-    highs_basis,
+    HighsSession,
+    SessionOptions,
+    Statuses,
     pass_csc_model,
-    quiet_highs,
-    set_feasibility_tolerance,
     solve_lp,
 )
 from hvacflex.opt.lp import LinearProgram, PlanColumns, sparse_matrix
@@ -73,19 +69,6 @@ __all__ = ["DEFAULT_LP_METHOD", "FeedbackSolver", "MatrixPattern"]
 
 #: HiGHS algorithm for the feedback LP ("simplex", "ipm" or "choose"); warm solves are simplex.
 DEFAULT_LP_METHOD = "simplex"
-
-#: Options of every solve: quiet, single-threaded (reproducible), Devex dual pricing (1).
-#: A cold run keeps HiGHS's presolve and scaling: without presolve and with max-value
-#: scaling (``simplex_scale_strategy`` 4) a cold office5 step took ≈ 20–40 % less CPU
-#: (≈ 7,300 instead of ≈ 8,100 iterations), but every warm step after it took ≈ 20–35 % more
-#: (with fewer iterations; the cause was not isolated), which cancelled the gain within a
-#: day (docs/performance.md, "Feedback RMPC").
-_BASE_OPTIONS: dict[str, Any] = {
-    "output_flag": False,
-    "log_to_console": False,
-    "threads": 1,
-    "simplex_dual_edge_weight_strategy": 1,
-}
 
 
 @dataclass(frozen=True, eq=False)
@@ -202,13 +185,13 @@ class FeedbackSolver:
                 value=problem.robust,
                 hint="use RMPCSolver for the open-loop modes",
             )
-        check_time_limit(time_limit_s, source="FeedbackSolver")
+        self._structure = problem.structure
+        options = SessionOptions(time_limit_s, time_shift, feasibility_tolerance)
+        fingerprint = self._structure.fingerprint()
+        self._session = HighsSession("FeedbackSolver", fingerprint, options, method=method)
         self._time_limit_s = time_limit_s
         self._method = method
         self._warm_start = warm_start
-        self._time_shift = time_shift
-        self._structure = problem.structure
-        self._fingerprint = self._structure.fingerprint()
         self._options: FeedbackOptions = problem.feedback
         self._maps = feedback_maps(problem, self._options)
         first, _, columns = build_feedback_lp(problem, self._maps)
@@ -216,16 +199,8 @@ class FeedbackSolver:
         self._constant = first.constant
         self._layout = _layout(problem, first, columns)
         self._num_cols, self._num_rows = first.num_cols, first.num_rows
-        # highspy's Python wrapper is only partly typed; treat the handle as Any.
-        self._highs: Any = quiet_highs()
-        for option, value in _BASE_OPTIONS.items():
-            self._highs.setOptionValue(option, value)
-        _, self._cold_scale_strategy = self._highs.getOptionValue("simplex_scale_strategy")
         self._tolerance = feasibility_tolerance
-        set_feasibility_tolerance(self._highs, feasibility_tolerance)
-        # statuses of the last optimal basis (or of set_basis), to start the next solve from
-        self._basis: tuple[StatusArray, StatusArray] | None = None
-        self._start: tuple[StatusArray, StatusArray] | None = None  # this solve's start
+        self._start: Statuses | None = None  # this solve's start (kept if the solve fails)
         self.last_size: FeedbackLPSize | None = None
         self.last_lp_objective_sgd = float("nan")
 
@@ -233,13 +208,7 @@ class FeedbackSolver:
         differences = self._structure.differences(problem.structure)
         if problem.feedback != self._options:
             differences.append("feedback")
-        if differences:
-            raise ProblemError(
-                f"the problem's structure differs from the solver's in {differences}",
-                source="FeedbackSolver",
-                field=differences[0],
-                hint="build a new FeedbackSolver for a problem with another structure",
-            )
+        self._session.check_same_structure(differences)
 
     def solve(self, problem: RMPCProblem) -> RMPCSolution:
         """Solve ``problem`` (same structure and feedback options as the solver's).
@@ -258,7 +227,7 @@ class FeedbackSolver:
             full, _, columns = build_feedback_lp(problem, self._maps)
             self._layout = _layout(problem, full, columns)
             self._num_cols, self._num_rows = full.num_cols, full.num_rows
-            self._basis = None
+            self._session.basis = None
         pattern = self._layout.pattern
         matrix = (pattern.indptr, pattern.indices, pattern.data(lp.varying.values))
         self.last_size = FeedbackLPSize(
@@ -268,7 +237,7 @@ class FeedbackSolver:
             num_gains=self._maps.gains.num_gains,
         )
         bounds = (lp.col_lower, lp.col_upper, lp.row_lower, lp.row_upper)
-        if not pass_csc_model(self._highs, lp.cost, *bounds, matrix):
+        if not pass_csc_model(self._session.highs, lp.cost, *bounds, matrix):
             status, values, message, highs_time, iterations, warm = (
                 SolveStatus.ERROR,
                 np.full(lp.num_cols, np.nan),
@@ -290,96 +259,56 @@ class FeedbackSolver:
     def _run_with_retries(
         self, lp: LinearProgram
     ) -> tuple[SolveStatus, FloatArray, str, float, int, bool]:
-        """Run from the rotated previous basis; if HiGHS fails on it (a rotated basis can be
-        near-singular: "ratio test failed due to excessive dual values"), from the previous
-        optimal basis unrotated (one HiGHS has factorised before), then from scratch.
-        Returns status, values, message, HiGHS time [s], iterations and whether it ran warm."""
-        previous = self._basis
-        warm = self._start_from(lp)
-        status, values, message, highs_time, iterations = self._run_and_read(lp, warm)
-        retries = []
-        if warm and self._time_shift and previous is not None:
-            retries.append(False)  # unrotated
-        if warm:
-            retries.append(True)  # cold
-        for cold in retries:
-            if status is not SolveStatus.ERROR:
-                break
-            if cold:
-                self._highs.clearSolver()
-                warm = False
-            else:
-                self._basis = previous
-                warm = self._start_from(lp, shift=False)
-            status, values, message, more_time, more = self._run_and_read(lp, warm)
-            highs_time, iterations = highs_time + more_time, iterations + more
+        """Run from the rotated previous basis, through the session's retry ladder (unrotated,
+        then cold); keep the optimal basis for the next solve, or this solve's start if it
+        failed (the next step rotates it once more). Returns status, values (NaN unless
+        optimal), message, HiGHS time [s], iterations and whether it ran warm."""
+        session = self._session
+        status, highs_time, iterations, warm = session.run_with_retries(
+            self._start_from(lp), lambda: self._start_from(lp, shift=False)
+        )
+        message = (
+            f"HiGHS: {session.model_status_text()} ({iterations} simplex "
+            f"iterations, {'warm' if warm else 'cold'})"
+        )
+        if not status.ok:
+            session.keep(self._start)
+            return status, np.full(lp.num_cols, np.nan), message, highs_time, iterations, warm
+        values = session.values()
+        session.keep(
+            optimal_statuses(
+                values,
+                lp.col_lower,
+                lp.col_upper,
+                nonbasic_status(lp.col_lower, lp.col_upper),
+                nonbasic_status(lp.row_lower, lp.row_upper),
+                session.basic_variables(),
+            )
+        )
         return status, values, message, highs_time, iterations, warm
 
     def _start_from(self, lp: LinearProgram, *, shift: bool = True) -> bool:
-        """Set the previous basis (rotated by one step if ``time_shift`` and ``shift``);
+        """Set the previous basis (rotated by one step if the session rotates ``shift``);
         whether one was set.
 
         Nonbasic statuses that the current bounds do not allow are replaced by the ones the
         bounds imply; nonbasic rows sit at their only finite bound.
         """
         self._start = None
-        if self._basis is None:
+        if self._session.basis is None:
             return False
-        col_status, row_status = self._basis
-        if self._time_shift and shift:
-            col_status = col_status[self._layout.col_rotation]
-            row_status = row_status[self._layout.row_rotation]
-        col_status = consistent_status(
-            col_status, lp.col_lower, lp.col_upper, nonbasic_status(lp.col_lower, lp.col_upper)
+        col_status, row_status = self._session.start_statuses(
+            (self._layout.col_rotation, self._layout.row_rotation), shift=shift
         )
-        row_nonbasic = nonbasic_status(lp.row_lower, lp.row_upper)
-        row_status = np.where(row_status == BASIC, BASIC, row_nonbasic).astype(np.int8)
-        self._start = (col_status, row_status)  # kept as the basis if this solve fails
-        basis = highs_basis(col_status, row_status)
-        basis.valid = True
-        basis.alien = False  # a rotation of a basis keeps the count of basic variables
-        return bool(self._highs.setBasis(basis) != HIGHS_ERROR)
-
-    def _run_and_read(
-        self, lp: LinearProgram, warm: bool
-    ) -> tuple[SolveStatus, FloatArray, str, float, int]:
-        """Run HiGHS (warm: simplex without scaling; cold: ``method`` with default scaling)
-        and read status, primal values (NaN unless optimal), message, time and iterations;
-        keeps the optimal basis for the next solve."""
-        highs = self._highs
-        highs.setOptionValue("solver", "simplex" if warm else self._method)
-        highs.setOptionValue("simplex_scale_strategy", 0 if warm else self._cold_scale_strategy)
-        if self._time_limit_s is not None:
-            # HiGHS's run clock accumulates over the runs of this handle: re-arm per solve
-            highs.setOptionValue("time_limit", float(highs.getRunTime()) + self._time_limit_s)
-        tick = time.perf_counter()
-        run_status = highs.run()
-        elapsed = time.perf_counter() - tick
-        model_status = highs.getModelStatus()
-        status = (
-            SolveStatus.ERROR
-            if run_status == HIGHS_ERROR
-            else STATUS_MAP.get(model_status, SolveStatus.ERROR)
-        )
-        iterations = max(0, int(highs.getInfo().simplex_iteration_count))  # -1 on error
-        message = (
-            f"HiGHS: {highs.modelStatusToString(model_status)} ({iterations} simplex "
-            f"iterations, {'warm' if warm else 'cold'})"
-        )
-        if not status.ok:  # keep this step's start: the next step rotates it once more
-            self._basis = self._start
-            return status, np.full(lp.num_cols, np.nan), message, elapsed, iterations
-        values = np.asarray(highs.getSolution().col_value)
-        _, basic = highs.getBasicVariables()
-        self._basis = optimal_statuses(
-            values,
+        self._start = bounded_start(
+            col_status,
+            row_status,
             lp.col_lower,
             lp.col_upper,
             nonbasic_status(lp.col_lower, lp.col_upper),
             nonbasic_status(lp.row_lower, lp.row_upper),
-            np.asarray(basic, dtype=np.int64),
         )
-        return status, values, message, elapsed, iterations
+        return self._session.set_start(*self._start)
 
     def _solution(
         self,
@@ -447,13 +376,7 @@ class FeedbackSolver:
     def get_basis(self) -> SolverBasis | None:
         """The basis of the last optimal solve (picklable; as solved, not rotated), or None
         (nothing solved yet, the last solve failed, or ``warm_start=False``)."""
-        if self._basis is None or not self._warm_start:
-            return None
-        return SolverBasis(
-            fingerprint=self._fingerprint,
-            col_status=self._basis[0].copy(),
-            row_status=self._basis[1].copy(),
-        )
+        return self._session.get_basis() if self._warm_start else None
 
     def set_basis(self, basis: SolverBasis) -> None:
         """Start the next solve from ``basis`` (from :meth:`get_basis` of a solver of the same
@@ -465,4 +388,4 @@ class FeedbackSolver:
         ProblemError
             if the basis belongs to another structure or LP size.
         """
-        self._basis = checked_basis(basis, self._fingerprint, self._num_cols, self._num_rows)
+        self._session.set_basis(basis, self._num_cols, self._num_rows)

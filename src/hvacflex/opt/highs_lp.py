@@ -1,14 +1,25 @@
 """The HiGHS boundary: the only module of hvacflex that imports highspy.
 
-A silent HiGHS handle (:func:`quiet_highs`), the ``HighsLp`` of a sparse LP
-(:func:`highs_lp`), the status mapping, basis conversion (:func:`highs_basis`) and the cold
-one-shot solve used by the feedback solver (:func:`solve_lp`). Everything else in hvacflex sees
-:class:`~hvacflex.opt.solution.SolveStatus` and numpy arrays.
+:class:`HighsSession` is the one HiGHS session of a warm-started solver: the handle and its
+options (:data:`BASE_OPTIONS`, the feasibility tolerance, the per-run scaling and algorithm),
+``run()`` with the time limit re-armed per solve, the status mapping, the stored simplex basis
+(get/set, :class:`~hvacflex.opt.basis.SolverBasis`), the start from it and the retry ladder
+(rotated start → unrotated → cold). The open-loop :class:`~hvacflex.opt.solve.RMPCSolver` and
+the :class:`~hvacflex.opt.feedback_solve.FeedbackSolver` are strategies on it: each builds and
+updates its own LP in the session's handle and maps the stored basis onto it.
+
+Around it: a silent HiGHS handle (:func:`quiet_highs`), the ``HighsLp`` of a sparse LP
+(:func:`highs_lp`), one-call model replacement (:func:`pass_csc_model`), basis conversion
+(:func:`highs_basis`) and the cold one-shot solve (:func:`solve_lp`). Everything else in
+hvacflex sees :class:`~hvacflex.opt.solution.SolveStatus` and numpy arrays.
 """
 
 from __future__ import annotations
 
 import time
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from types import MappingProxyType
 from typing import Any, NamedTuple
 
 import highspy
@@ -16,23 +27,48 @@ import numpy as np
 from scipy import sparse
 
 from hvacflex.errors import ProblemError
-from hvacflex.opt.problem import FloatArray
+from hvacflex.opt.basis import SolverBasis, StatusArray, checked_basis
+from hvacflex.opt.problem import FloatArray, IntArray
 from hvacflex.opt.solution import SolveStatus
 
 __all__ = [
+    "BASE_OPTIONS",
     "HIGHS_ERROR",
     "STATUS_MAP",
+    "WARM_SCALE_STRATEGY",
+    "HighsSession",
     "LPResult",
+    "RunOutcome",
+    "SessionOptions",
     "check_time_limit",
     "highs_basis",
     "highs_lp",
     "pass_csc_model",
     "quiet_highs",
+    "set_feasibility_tolerance",
     "solve_lp",
 ]
 
 HIGHS_ERROR = highspy.HighsStatus.kError
 """The ``HighsStatus`` of a call that failed."""
+
+#: Options of every HiGHS handle: silent and single-threaded (reproducible).
+_QUIET_OPTIONS: Mapping[str, Any] = MappingProxyType(
+    {"output_flag": False, "log_to_console": False, "threads": 1}
+)
+#: Options of every :class:`HighsSession`: quiet, single-threaded, Devex dual pricing (1).
+#: Every step re-initialises the simplex (a new basis; the power-row coefficients p_k change),
+#: and dual steepest-edge weights would then be recomputed from scratch, one BTRAN per row.
+#: A cold run keeps HiGHS's presolve and scaling: on the feedback LP, without presolve and
+#: with max-value scaling (``simplex_scale_strategy`` 4) a cold office5 step took ≈ 20–40 %
+#: less CPU (≈ 7,300 instead of ≈ 8,100 iterations), but every warm step after it took
+#: ≈ 20–35 % more (with fewer iterations; the cause was not isolated), which cancelled the gain
+#: within a day (docs/performance.md, "Feedback RMPC").
+BASE_OPTIONS: Mapping[str, Any] = MappingProxyType(
+    {**_QUIET_OPTIONS, "simplex_dual_edge_weight_strategy": 1}
+)
+#: ``simplex_scale_strategy`` of a warm run (0: no scaling); cold runs keep HiGHS's default.
+WARM_SCALE_STRATEGY = 0
 
 _BASIS_STATUS = np.array([highspy.HighsBasisStatus(code) for code in range(5)], dtype=object)
 
@@ -182,8 +218,8 @@ def solve_lp(
 ) -> LPResult:
     """Solve ``min costᵀx s.t. row_lower ≤ A x ≤ row_upper, col_lower ≤ x ≤ col_upper`` cold.
 
-    A generic one-shot HiGHS call (used by :class:`FeedbackSolver`); single-threaded and
-    silent like :class:`RMPCSolver`.
+    A generic one-shot HiGHS call (the feedback solver's ``warm_start=False`` path);
+    single-threaded and silent like :class:`HighsSession`, with HiGHS's default pricing.
 
     Parameters
     ----------
@@ -202,9 +238,7 @@ def solve_lp(
     """
     highs: Any = quiet_highs()
     for option, value in (
-        ("output_flag", False),
-        ("log_to_console", False),
-        ("threads", 1),
+        *_QUIET_OPTIONS.items(),
         ("solver", method),
         ("time_limit", float(time_limit_s) if time_limit_s is not None else np.inf),
     ):
@@ -231,3 +265,237 @@ def solve_lp(
     if not status.ok:
         return LPResult(status, np.full(num_cols, np.nan), message, elapsed)
     return LPResult(status, np.asarray(highs.getSolution().col_value), message, elapsed)
+
+
+Statuses = tuple[StatusArray, StatusArray]
+"""(num_cols,), (num_rows,) HiGHS basis status codes of the columns and rows of an LP."""
+
+
+class RunOutcome(NamedTuple):
+    """What :meth:`HighsSession.run_with_retries` ended with: the status of the last run, the
+    wall time of every ``run()`` [s], the simplex iterations of every run, and whether the last
+    run started from a basis (warm)."""
+
+    status: SolveStatus
+    highs_time_s: float
+    iterations: int
+    warm: bool
+
+
+@dataclass(frozen=True)
+class SessionOptions:
+    """What every warm-started solver lets its caller choose about its HiGHS session.
+
+    ``time_limit_s``: wall-clock limit per solve [s] (every run of one solve, not
+    cumulative), None = no limit; ``time_shift``: each LP is the previous one a step later, so
+    a stored basis is rotated by one step (False: used as is); ``feasibility_tolerance``:
+    HiGHS's primal and dual feasibility tolerances, None keeps HiGHS's 1e-7.
+    """
+
+    time_limit_s: float | None = None
+    time_shift: bool = True
+    feasibility_tolerance: float | None = None
+
+
+class HighsSession:
+    """One HiGHS handle kept over a sequence of LPs, and its warm start.
+
+    The session owns how HiGHS runs; the strategy that holds it (``RMPCSolver``,
+    ``FeedbackSolver``) owns the LP in :attr:`highs` and how a stored basis maps onto it
+    (which rows HiGHS holds, the bounds that decide nonbasic statuses).
+
+    * options: :data:`BASE_OPTIONS` and the feasibility tolerance once; per run, a warm run
+      has no scaling (:data:`WARM_SCALE_STRATEGY`) and the dual simplex, a cold run HiGHS's
+      default scaling and ``method`` (an option is set only when it changes);
+    * :meth:`run`: one ``run()``, the time limit re-armed so that it holds per solve;
+    * the basis: :attr:`basis` holds the statuses the next solve starts from (the last
+      optimal basis as solved, or the one :meth:`set_basis` gave); :meth:`start_statuses`
+      rotates it by one step, :meth:`set_start` passes a start to HiGHS;
+    * :meth:`run_with_retries`: the ladder rotated start → the basis unrotated → cold.
+
+    Parameters
+    ----------
+    source : the strategy's name, for error messages
+    fingerprint : the problem structure's fingerprint (:class:`SolverBasis` carries it)
+    options : time limit, time shift and feasibility tolerance (:class:`SessionOptions`)
+    method : HiGHS ``solver`` option of a cold run ("simplex", "ipm", "choose"; warm runs are
+        "simplex"); None leaves HiGHS's default ("choose") for every run
+
+    Raises
+    ------
+    ProblemError
+        if ``time_limit_s`` is not a positive number of seconds.
+    """
+
+    def __init__(
+        self, source: str, fingerprint: str, options: SessionOptions, *, method: str | None = None
+    ) -> None:
+        time_limit_s = options.time_limit_s
+        check_time_limit(time_limit_s, source=source)
+        # highspy's Python wrapper is only partly typed; treat the handle as Any.
+        self.highs: Any = quiet_highs()
+        for option, value in BASE_OPTIONS.items():
+            self.highs.setOptionValue(option, value)
+        _, cold_scale_strategy = self.highs.getOptionValue("simplex_scale_strategy")
+        set_feasibility_tolerance(self.highs, options.feasibility_tolerance)
+        self._run_options: dict[bool, dict[str, Any]] = {
+            True: {"simplex_scale_strategy": WARM_SCALE_STRATEGY},
+            False: {"simplex_scale_strategy": cold_scale_strategy},
+        }
+        if method is not None:
+            self._run_options[True]["solver"] = "simplex"
+            self._run_options[False]["solver"] = method
+        self._options_now: dict[str, Any] = {"simplex_scale_strategy": cold_scale_strategy}
+        self._time_limit_s = float(time_limit_s) if time_limit_s is not None else None
+        self.source = source
+        self.fingerprint = fingerprint
+        self.time_shift = options.time_shift
+        self.basis: Statuses | None = None
+        """The statuses the next solve starts from (as solved, not rotated), or None."""
+        self.basis_given = False
+        """:attr:`basis` came from :meth:`set_basis` since the last solve."""
+        self.has_basis = False
+        """HiGHS holds a basis to start from (its own, or one just set)."""
+
+    def check_same_structure(self, differences: list[str]) -> None:
+        """Refuse a problem whose structure differs from the session's LP in ``differences``
+        (field names; empty: the same structure).
+
+        Raises
+        ------
+        ProblemError
+            naming the first difference, if there is one.
+        """
+        if differences:
+            raise ProblemError(
+                f"the problem's structure differs from the solver's in {differences}",
+                source=self.source,
+                field=differences[0],
+                hint=f"build a new {self.source} for a problem with another structure",
+            )
+
+    # ------------------------------------------------------------------ runs
+    def run(self, warm: bool) -> tuple[float, SolveStatus]:
+        """One HiGHS ``run()`` with the warm or cold options; its wall time [s] and status."""
+        highs = self.highs
+        for option, value in self._run_options[warm].items():
+            if self._options_now.get(option) != value:
+                highs.setOptionValue(option, value)
+                self._options_now[option] = value
+        if self._time_limit_s is not None:
+            # HiGHS checks ``time_limit`` against the handle's run clock, which accumulates
+            # over every run() of this handle: re-arm it so the limit is per solve.
+            highs.setOptionValue("time_limit", float(highs.getRunTime()) + self._time_limit_s)
+        tick = time.perf_counter()
+        run_status = highs.run()
+        elapsed = time.perf_counter() - tick
+        if run_status == HIGHS_ERROR:
+            return elapsed, SolveStatus.ERROR
+        return elapsed, STATUS_MAP.get(highs.getModelStatus(), SolveStatus.ERROR)
+
+    def run_with_retries(self, warm: bool, restart: Callable[[], bool]) -> RunOutcome:
+        """Run (from the start already set if ``warm``) and, on a solver error after a warm
+        start, retry.
+
+        A rotated basis can be numerically (near-)singular for HiGHS (entries of the ZOH
+        matrices down to 1e-10; "ratio test failed due to excessive dual values"): with
+        ``time_shift`` and a stored basis the run is repeated from ``restart()`` (the
+        strategy sets the stored basis unrotated, one HiGHS factorised before, and says
+        whether it could), then from scratch (cold) before the error is reported.
+        """
+        highs_time, status = self.run(warm)
+        iterations = self.iterations()
+        started_warm = warm
+        if status is SolveStatus.ERROR and warm and self.time_shift and self.basis is not None:
+            warm = restart()
+            more_time, status = self.run(warm)
+            highs_time, iterations = highs_time + more_time, iterations + self.iterations()
+        if status is SolveStatus.ERROR and started_warm:
+            self.highs.clearSolver()
+            warm = self.has_basis = False
+            more_time, status = self.run(False)
+            highs_time, iterations = highs_time + more_time, iterations + self.iterations()
+        return RunOutcome(status, highs_time, iterations, warm)
+
+    def iterations(self) -> int:
+        """Simplex iterations of the last run (0 where HiGHS reports none)."""
+        return max(0, int(self.highs.getInfo().simplex_iteration_count))
+
+    def values(self) -> FloatArray:
+        """(num_cols,) primal values of the last run."""
+        return np.asarray(self.highs.getSolution().col_value)
+
+    def basic_variables(self) -> IntArray:
+        """(num_rows held,) HiGHS's basic variables: column j ≥ 0, row i as −1 − i."""
+        _, basic = self.highs.getBasicVariables()
+        return np.asarray(basic, dtype=np.int64)
+
+    def model_status_text(self) -> str:
+        """HiGHS's model status of the last run, in words."""
+        return str(self.highs.modelStatusToString(self.highs.getModelStatus()))
+
+    # ------------------------------------------------------------------ basis
+    def rotates(self, shift: bool) -> bool:
+        """Whether a start asked for with ``shift`` is rotated by one step."""
+        return self.time_shift and shift
+
+    def start_statuses(self, rotation: tuple[IntArray, IntArray], *, shift: bool) -> Statuses:
+        """The stored basis (not None), rotated by ``rotation`` (column and row maps,
+        ``new = old[map]``) if :meth:`rotates`; the caller makes it fit the bounds."""
+        assert self.basis is not None
+        col_status, row_status = self.basis
+        if self.rotates(shift):
+            return col_status[rotation[0]], row_status[rotation[1]]
+        return col_status, row_status
+
+    def set_start(self, col_status: StatusArray, row_status: StatusArray) -> bool:
+        """Start the next run from these statuses (of the rows HiGHS holds); whether HiGHS
+        took them (if not, it starts cold rather than fail)."""
+        basis = highs_basis(col_status, row_status)
+        basis.valid = True
+        basis.alien = False  # a rotation of a basis keeps the count of basic variables
+        if self.highs.setBasis(basis) == HIGHS_ERROR:
+            self.highs.clearSolver()
+            self.has_basis = False
+        else:
+            self.has_basis = True
+        return self.has_basis
+
+    def keep(self, basis: Statuses | None) -> None:
+        """After a solve: the next one starts from ``basis`` (None: from HiGHS's own, if it
+        holds a valid one, else cold)."""
+        self.basis = basis
+        self.basis_given = False
+        self.has_basis = basis is not None or bool(self.highs.getBasis().valid)
+
+    def get_basis(self, *, or_highs: bool = False) -> SolverBasis | None:
+        """The stored basis as a :class:`SolverBasis` (copies), or None; with ``or_highs``
+        HiGHS's own basis when none is stored (valid only where HiGHS holds every row)."""
+        statuses = self.basis
+        if statuses is None and or_highs:
+            held = self.highs.getBasis()
+            if held.valid:
+                statuses = (
+                    np.array([int(s) for s in held.col_status], dtype=np.int8),
+                    np.array([int(s) for s in held.row_status], dtype=np.int8),
+                )
+        if statuses is None:
+            return None
+        return SolverBasis(
+            fingerprint=self.fingerprint,
+            col_status=statuses[0].copy(),
+            row_status=statuses[1].copy(),
+        )
+
+    def set_basis(self, basis: SolverBasis, num_cols: int, num_rows: int) -> None:
+        """Start the next solve from ``basis`` (taken as the previous step's: rotated with
+        ``time_shift``, so a checkpoint resumes as if never stopped).
+
+        Raises
+        ------
+        ProblemError
+            if ``basis`` belongs to another structure or LP size, or is no simplex basis.
+        """
+        self.basis = checked_basis(basis, self.fingerprint, num_cols, num_rows)
+        self.basis_given = True
+        self.has_basis = True

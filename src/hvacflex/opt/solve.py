@@ -1,6 +1,12 @@
 """Solve :class:`~hvacflex.opt.problem.RMPCProblem` with HiGHS (through
 :mod:`hvacflex.opt.highs_lp`, the only highspy importer).
 
+:func:`make_solver` gives the warm-started solver of a problem's robust mode, with the same
+keywords for both: :class:`RMPCSolver` (open loop, here) or :class:`FeedbackSolver`
+(:mod:`hvacflex.opt.feedback_solve`). Both are strategies on one
+:class:`~hvacflex.opt.highs_lp.HighsSession` (handle, options, runs, time limit, status,
+basis, retries); what stays here is the open-loop LP and how a basis maps onto it.
+
 :class:`RMPCSolver` builds the sparse LP of :mod:`hvacflex.opt.lp` once per structure
 (A, B, E, C, N, reserve mask, robust mode). Each :meth:`RMPCSolver.solve` rebuilds the LP's
 costs and bounds without its constant coefficients, pushes only what changed since the
@@ -20,10 +26,9 @@ marks ``time_indexed``) start step k, and those of step 0 start step N − 1 (a 
 the number of basic variables, so HiGHS takes the basis as is). The basis is read after each
 optimal solve from HiGHS's basic-variable list and the primal values (every row of the LP is
 an equality or one-sided, so a nonbasic row's status follows from its bounds), which is much
-cheaper than ``getBasis``. HiGHS uses Devex dual pricing: every step re-initialises the
-simplex (new basis; the power-row coefficients p_k change), and dual steepest-edge weights
-would then be recomputed from scratch, one BTRAN per row. Warm solves run without scaling;
-cold solves keep HiGHS's default scaling and presolve.
+cheaper than ``getBasis``. HiGHS uses Devex dual pricing
+(:data:`~hvacflex.opt.highs_lp.BASE_OPTIONS`). Warm solves run without scaling; cold solves
+keep HiGHS's default scaling and presolve.
 
 IL event rows (``RMPCSolver(..., event_rows="lazy")``, the default): the event model's
 ≈ N²·ny/2 rows are mostly slack at the optimum, so HiGHS holds only the core rows plus the
@@ -55,8 +60,7 @@ from hvacflex.opt.basis import (
     BASIC,
     SolverBasis,
     StatusArray,
-    checked_basis,
-    consistent_status,
+    bounded_start,
     nonbasic_status,
     optimal_statuses,
     rotation,
@@ -65,12 +69,10 @@ from hvacflex.opt.events import most_violated_rows, reserve_responses
 from hvacflex.opt.feedback_solve import DEFAULT_LP_METHOD, FeedbackSolver
 from hvacflex.opt.highs_lp import (
     HIGHS_ERROR,
-    STATUS_MAP,
+    HighsSession,
     LPResult,
-    check_time_limit,
-    highs_basis,
+    SessionOptions,
     highs_lp,
-    quiet_highs,
     solve_lp,
 )
 from hvacflex.opt.lp import LinearProgram, LPLayout, build_lp, sparse_matrix
@@ -92,27 +94,18 @@ __all__ = [
     "RMPCSolver",
     "SolveStatus",
     "SolverBasis",
+    "WarmSolver",
+    "make_solver",
     "solve_lp",
     "solve_rmpc",
 ]
 
-#: HiGHS basis status codes (``HighsBasisStatus``) as stored in :class:`SolverBasis`.
-#: Options of every solve: quiet, single-threaded (reproducible), Devex dual pricing (1).
-_BASE_OPTIONS: dict[str, Any] = {
-    "output_flag": False,
-    "log_to_console": False,
-    "threads": 1,
-    "simplex_dual_edge_weight_strategy": 1,
-}
 #: Lazy event rows: an absent event row violated by more than this is added [K].
 LAZY_VIOLATION_TOLERANCE_K = 1e-7
 #: Lazy event rows: rows with a slack up to this at the optimum stay in the next step's LP [K].
 LAZY_NEAR_ACTIVE_K = 1e-3
 #: How the IL event rows enter the LP: all of them, or generated lazily.
 EventRowMode = Literal["full", "lazy"]
-
-#: ``simplex_scale_strategy`` of a warm solve (0: no scaling); cold solves use HiGHS's default.
-_WARM_SCALE_STRATEGY = 0
 
 
 class RMPCSolver:
@@ -133,6 +126,8 @@ class RMPCSolver:
         most violated absent row per (output, zone, kind) and re-solves warm until no absent
         row is violated by more than :data:`LAZY_VIOLATION_TOLERANCE_K` — the same optimum.
         Bases (:meth:`get_basis`) always cover every row (absent rows basic).
+    feasibility_tolerance : HiGHS's primal and dual feasibility tolerances of every solve;
+        None keeps HiGHS's 1e-7
 
     Examples
     --------
@@ -148,8 +143,11 @@ class RMPCSolver:
         time_limit_s: float | None = None,
         time_shift: bool = True,
         event_rows: EventRowMode = "lazy",
+        feasibility_tolerance: float | None = None,
     ) -> None:
-        check_time_limit(time_limit_s, source="RMPCSolver")
+        self._structure = problem.structure
+        options = SessionOptions(time_limit_s, time_shift, feasibility_tolerance)
+        self._session = HighsSession("RMPCSolver", self._structure.fingerprint(), options)
         if problem.robust == "feedback":
             raise ProblemError(
                 "RMPCSolver solves the open-loop problem only",
@@ -158,8 +156,6 @@ class RMPCSolver:
                 value=problem.robust,
                 hint="use hvacflex.opt.feedback.FeedbackSolver (or solve_rmpc) for feedback",
             )
-        self._structure = problem.structure
-        self._fingerprint = self._structure.fingerprint()
         self._responses = impulse_responses(
             problem.a_matrix, problem.e_matrix, problem.c_matrix, problem.horizon
         )
@@ -170,14 +166,6 @@ class RMPCSolver:
             problem.c_matrix,
             problem.horizon,
         )
-        # highspy's Python wrapper is only partly typed; treat the handle as Any.
-        self._highs: Any = quiet_highs()
-        for option, value in _BASE_OPTIONS.items():
-            self._highs.setOptionValue(option, value)
-        _, self._cold_scale_strategy = self._highs.getOptionValue("simplex_scale_strategy")
-        self._scale_strategy = self._cold_scale_strategy
-        self._time_limit_s = float(time_limit_s) if time_limit_s is not None else None
-        self._time_shift = time_shift
         if event_rows not in ("full", "lazy"):
             raise ProblemError(
                 "unknown event row mode",
@@ -190,13 +178,14 @@ class RMPCSolver:
         self._build(problem)
         self._col_rotation, self._row_rotation = rotation(self._lp)
         self._last_problem: RMPCProblem | None = problem
-        self._has_basis = False
-        # statuses of the last optimal basis (or of set_basis), to start the next solve from
-        self._basis: tuple[StatusArray, StatusArray] | None = None
-        self._basis_given = False
         self._optimal = False  # the last solve ended optimal (its duals are meaningful)
 
     # ------------------------------------------------------------------ properties
+    @property
+    def _highs(self) -> Any:
+        """The session's HiGHS handle, which holds this solver's LP."""
+        return self._session.highs
+
     @property
     def layout(self) -> LPLayout:
         """Column/row indices of the LP."""
@@ -314,12 +303,12 @@ class RMPCSolver:
                 self._near = violation >= -LAZY_NEAR_ACTIVE_K
                 return highs_time, iterations, status, values
             self._add_event_rows(add)
-            elapsed, status = self._run(True)
+            elapsed, status = self._session.run(True)
             highs_time += elapsed
-            iterations += int(self._highs.getInfo().simplex_iteration_count)
+            iterations += self._session.iterations()
             if not status.ok:
                 return highs_time, iterations, status, values
-            values = np.asarray(self._highs.getSolution().col_value)
+            values = self._session.values()
 
     def _bounds_changed(self) -> None:
         """Refresh the bound data that basis statuses are derived from (after any update)."""
@@ -384,87 +373,60 @@ class RMPCSolver:
         """
         start = time.perf_counter()
         if problem.structure is not self._structure:
-            differences = self._structure.differences(problem.structure)
-            if differences:
-                raise ProblemError(
-                    f"the problem's structure differs from the solver's in {differences}",
-                    source="RMPCSolver",
-                    field=differences[0],
-                    hint="build a new RMPCSolver for a problem with another structure",
-                )
+            self._session.check_same_structure(self._structure.differences(problem.structure))
             self._structure = problem.structure  # equal: its variants skip the comparison
         delta = self._delta(problem)
         if problem is not self._last_problem:
             self._update(problem, delta)
             self._last_problem = problem
-        if self._basis is not None and (self._time_shift or self._basis_given):
-            self._start_from(*self._basis)
-        warm = self._has_basis
-        highs_time, status = self._run(warm)
-        iterations = int(self._highs.getInfo().simplex_iteration_count)
-        if status is SolveStatus.ERROR and warm and self._time_shift and self._basis is not None:
-            # the rotated basis was (near-)singular for HiGHS: the previous one, unrotated
-            self._start_from(*self._basis, shift=False)
-            retry_time, status = self._run(True)
-            highs_time += retry_time
-            iterations += int(self._highs.getInfo().simplex_iteration_count)
-        if status is SolveStatus.ERROR and warm:
-            self._highs.clearSolver()
-            retry_time, status = self._run(False)
-            highs_time += retry_time
-            iterations += int(self._highs.getInfo().simplex_iteration_count)
-            warm = False
-        values = np.asarray(self._highs.getSolution().col_value) if status.ok else None
+        session = self._session
+        if session.basis is not None and (session.time_shift or session.basis_given):
+            self._start_from()
+        status, highs_time, iterations, warm = session.run_with_retries(
+            session.has_basis, lambda: self._start_from(shift=False)
+        )
+        values = session.values() if status.ok else None
         if self._lazy and values is not None:
             more_time, more_iterations, status, values = self._generate_rows(values)
             highs_time += more_time
             iterations += more_iterations
             if not status.ok:
                 values = None
-        self._basis_given = False
         self._optimal = values is not None and status is SolveStatus.OPTIMAL
-        if values is not None:
-            self._basis = self._optimal_basis(values)
-            self._has_basis = True
-        else:
-            self._basis = None
-            self._has_basis = bool(self._highs.getBasis().valid)
+        session.keep(self._optimal_basis(values) if values is not None else None)
         return self._solution(problem, delta, status, start, highs_time, iterations, warm, values)
 
-    def _start_from(
-        self, col_status: StatusArray, row_status: StatusArray, *, shift: bool = True
-    ) -> None:
-        """Pass a basis (rotated by one step if ``time_shift`` and ``shift``) to HiGHS for the
-        next run.
+    def _start_from(self, *, shift: bool = True) -> bool:
+        """Start HiGHS's next run from the stored basis (rotated by one step if the session
+        :meth:`~hvacflex.opt.highs_lp.HighsSession.rotates`); whether HiGHS took it.
 
-        Nonbasic statuses that the current bounds do not allow (a bound that became
-        infinite) are replaced by the one the bounds imply.
+        Lazy event rows: HiGHS then holds the rows nonbasic or near-active in that basis and
+        the seed rows. Nonbasic statuses that the current bounds do not allow (a bound that
+        became infinite) are replaced by the one the bounds imply.
         """
-        near = self._near
-        if self._time_shift and shift:
-            col_status = col_status[self._col_rotation]
-            row_status = row_status[self._row_rotation]
-            near = near[self._row_rotation[self._num_core :] - self._num_core]
-        col_status = consistent_status(
-            col_status, self._col_lower, self._col_upper, self._col_nonbasic
+        session = self._session
+        col_status, row_status = session.start_statuses(
+            (self._col_rotation, self._row_rotation), shift=shift
         )
+        near = self._near
+        if session.rotates(shift):
+            near = near[self._row_rotation[self._num_core :] - self._num_core]
         if self._lazy:  # nonbasic and near-active rows (rotated) and the seed
             self._set_event_rows((row_status[self._num_core :] != BASIC) | near | self._seed)
-            row_status = row_status[self._model_rows]
-        row_status = np.where(row_status == BASIC, BASIC, self._row_nonbasic[self._model_rows])
-        basis = highs_basis(col_status, row_status)
-        basis.valid = True
-        basis.alien = False  # a rotation of a basis keeps the count of basic variables
-        if self._highs.setBasis(basis) == HIGHS_ERROR:
-            self._highs.clearSolver()  # start cold rather than fail
-            self._has_basis = False
-        else:
-            self._has_basis = True
+        rows = self._model_rows
+        start = bounded_start(
+            col_status,
+            row_status[rows],
+            self._col_lower,
+            self._col_upper,
+            self._col_nonbasic,
+            self._row_nonbasic[rows],
+        )
+        return session.set_start(*start)
 
     def _optimal_basis(self, values: FloatArray) -> tuple[StatusArray, StatusArray]:
         """Statuses of HiGHS's current (optimal) basis (see :func:`optimal_statuses`)."""
-        _, basic_list = self._highs.getBasicVariables()
-        basic = np.asarray(basic_list, dtype=np.int64)
+        basic = self._session.basic_variables()
         if self._lazy:  # HiGHS row i is LP row model_rows[i]
             rows = basic < 0
             basic[rows] = -1 - self._model_rows[-1 - basic[rows]]
@@ -480,28 +442,10 @@ class RMPCSolver:
             row_status[self._num_core :][~self._present] = BASIC
         return col_status, row_status
 
-    def _run(self, warm: bool) -> tuple[float, SolveStatus]:
-        scale = _WARM_SCALE_STRATEGY if warm else self._cold_scale_strategy
-        if scale != self._scale_strategy:
-            self._highs.setOptionValue("simplex_scale_strategy", scale)
-            self._scale_strategy = scale
-        if self._time_limit_s is not None:
-            # HiGHS checks ``time_limit`` against the Highs object's run clock, which
-            # accumulates over every run() of this object: re-arm it so the limit is per solve.
-            self._highs.setOptionValue(
-                "time_limit", float(self._highs.getRunTime()) + self._time_limit_s
-            )
-        tick = time.perf_counter()
-        run_status = self._highs.run()
-        elapsed = time.perf_counter() - tick
-        if run_status == HIGHS_ERROR:
-            return elapsed, SolveStatus.ERROR
-        return elapsed, STATUS_MAP.get(self._highs.getModelStatus(), SolveStatus.ERROR)
-
     def _message(
         self, problem: RMPCProblem, delta: FloatArray, status: SolveStatus, iterations: int
     ) -> str:
-        model_status = self._highs.modelStatusToString(self._highs.getModelStatus())
+        model_status = self._session.model_status_text()
         if status is SolveStatus.OPTIMAL:
             return f"optimal ({iterations} simplex iterations)"
         if status is SolveStatus.INFEASIBLE:
@@ -592,20 +536,8 @@ class RMPCSolver:
     # ------------------------------------------------------------------ basis
     def get_basis(self) -> SolverBasis | None:
         """The basis of the last solve (picklable; as solved, not rotated), or None if none yet."""
-        if self._basis is not None:
-            return SolverBasis(
-                fingerprint=self._fingerprint,
-                col_status=self._basis[0].copy(),
-                row_status=self._basis[1].copy(),
-            )
-        basis = self._highs.getBasis()
-        if not basis.valid or self._lazy:  # lazy: HiGHS's basis covers some rows only
-            return None
-        return SolverBasis(
-            fingerprint=self._fingerprint,
-            col_status=np.array([int(s) for s in basis.col_status], dtype=np.int8),
-            row_status=np.array([int(s) for s in basis.row_status], dtype=np.int8),
-        )
+        # lazy event rows: HiGHS's own basis covers some rows only
+        return self._session.get_basis(or_highs=not self._lazy)
 
     def set_basis(self, basis: SolverBasis) -> None:
         """Start the next solve from ``basis`` (from :meth:`get_basis` of a same-structure solver).
@@ -618,9 +550,45 @@ class RMPCSolver:
         ProblemError
             if the basis belongs to another structure or HiGHS rejects it.
         """
-        self._basis = checked_basis(basis, self._fingerprint, self.num_cols, self.num_rows)
-        self._basis_given = True
-        self._has_basis = True
+        self._session.set_basis(basis, self.num_cols, self.num_rows)
+
+
+WarmSolver = RMPCSolver | FeedbackSolver
+"""A warm-started solver of either kind (what :func:`make_solver` returns)."""
+
+
+def make_solver(
+    problem: RMPCProblem,
+    *,
+    time_limit_s: float | None = None,
+    time_shift: bool = True,
+    feasibility_tolerance: float | None = None,
+) -> WarmSolver:
+    """The warm-started solver for problems of ``problem``'s structure and robust mode.
+
+    :class:`FeedbackSolver` for ``robust="feedback"``, else :class:`RMPCSolver` (lazy IL
+    event rows), each with its defaults for what only it has.
+
+    Parameters
+    ----------
+    problem : the first problem; fixes the structure
+    time_limit_s : wall-clock limit per solve [s]; None = no limit
+    time_shift : each problem is the previous one a step later (receding horizon): start from
+        the previous basis rotated by one step; False: as is
+    feasibility_tolerance : HiGHS's primal and dual feasibility tolerances; None keeps 1e-7
+
+    Raises
+    ------
+    ProblemError
+        if ``time_limit_s`` is not a positive number of seconds.
+    """
+    solver_class = FeedbackSolver if problem.robust == "feedback" else RMPCSolver
+    return solver_class(
+        problem,
+        time_limit_s=time_limit_s,
+        time_shift=time_shift,
+        feasibility_tolerance=feasibility_tolerance,
+    )
 
 
 def solve_rmpc(problem: RMPCProblem, *, time_limit_s: float | None = None) -> RMPCSolution:
@@ -636,6 +604,4 @@ def solve_rmpc(problem: RMPCProblem, *, time_limit_s: float | None = None) -> RM
     :class:`RMPCSolution`; check ``sol.status`` (arrays are NaN unless OPTIMAL).
     ``robust="feedback"`` problems go to :class:`FeedbackSolver`.
     """
-    if problem.robust == "feedback":
-        return FeedbackSolver(problem, time_limit_s=time_limit_s).solve(problem)
-    return RMPCSolver(problem, time_limit_s=time_limit_s).solve(problem)
+    return make_solver(problem, time_limit_s=time_limit_s).solve(problem)
