@@ -1,0 +1,1 @@
+"""EnergyPlus: an independent model of a hvacflex building (IDF export)."""
