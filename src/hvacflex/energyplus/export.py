@@ -51,9 +51,11 @@ What is mapped, and how
   ``"ideal"``: ``ZoneHVAC:IdealLoadsAirSystem`` per zone (through its template) supplying at
   ``supply_temp_degc`` and the supply humidity ratio of :mod:`hvacflex.building.hvac`, flow
   limited to ``flow_max_kg_s``, heating off, outdoor air f_oa × the ventilation flow.
-  Both use one thermostat: cooling at :data:`THERMOSTAT_SETPOINT_DEGC` while occupied and
-  1 K inside the unoccupied upper bound otherwise (hvacflex's ``ThermostatController`` rule),
-  heating set-point at the lowest comfort bound (no heating equipment exists).
+  ``"none"``: no HVAC at all, the zones float freely (for validation).
+  ``vav`` and ``ideal`` use one thermostat: cooling at :data:`THERMOSTAT_SETPOINT_DEGC` while
+  occupied and 1 K inside the unoccupied upper bound otherwise (hvacflex's
+  ``ThermostatController`` rule), heating set-point at the lowest comfort bound (no heating
+  equipment exists).
 * **Site**: ``Site:Location`` and the ground temperatures from the EPW (default: the shipped
   TMYx Singapore Changi file); a cooling and a heating ``SizingPeriod:DesignDay`` from the
   EPW header's ASHRAE design conditions (cooling 0.4 % dry bulb with its mean coincident wet
@@ -80,7 +82,7 @@ What is approximated
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from datetime import date
 from pathlib import Path
@@ -106,8 +108,9 @@ from hvacflex.units import RHO_AIR_KG_PER_M3, W_PER_KW
 ENERGYPLUS_VERSION = "25.2"
 """The EnergyPlus input syntax written (``Version`` object)."""
 
-HVAC_KINDS = ("vav", "ideal")
-"""``--hvac`` choices: a VAV air loop with a chiller, or ideal loads per zone."""
+HVAC_KINDS = ("vav", "ideal", "none")
+"""``--hvac`` choices: a VAV air loop with a chiller, ideal loads per zone, or no HVAC (the
+zones float freely: the free-float validation case)."""
 
 EXPORT_YEAR = 2014
 """Calendar year of the run period and the public holidays (the year of the market data)."""
@@ -138,8 +141,8 @@ def export_idf(building: Building, *, hvac: str = "vav", epw_path: Path | None =
     Parameters
     ----------
     building : the validated building.
-    hvac : ``"vav"`` (HVACTemplate VAV air loop with a chiller; run EnergyPlus with ``-x``)
-        or ``"ideal"`` (ideal loads per zone).
+    hvac : ``"vav"`` (HVACTemplate VAV air loop with a chiller; run EnergyPlus with ``-x``),
+        ``"ideal"`` (ideal loads per zone) or ``"none"`` (free-floating zones).
     epw_path : weather file for the site and design days (default: the shipped TMYx
         Singapore Changi EPW).
 
@@ -176,7 +179,7 @@ def export_idf(building: Building, *, hvac: str = "vav", epw_path: Path | None =
         *zone_objects(building),
         *surface_objects(building),
         *_gain_objects(building),
-        *(_vav_objects(building) if hvac == "vav" else _ideal_objects(building)),
+        *_HVAC_WRITERS[hvac](building),
         *_output_objects(hvac),
     ]
     return "\n\n".join(parts) + "\n"
@@ -539,6 +542,18 @@ def _ideal_objects(b: Building) -> list[str]:
             )
         )  # fmt: skip
     return objects
+
+
+def _no_hvac_objects(b: Building) -> list[str]:
+    """Free-floating zones: no HVAC objects at all."""
+    return []
+
+
+_HVAC_WRITERS: dict[str, Callable[[Building], list[str]]] = {
+    "vav": _vav_objects,
+    "ideal": _ideal_objects,
+    "none": _no_hvac_objects,
+}
 
 
 # ---- outputs ------------------------------------------------------------------------------
