@@ -309,6 +309,38 @@ def test_cli_writes_the_idf_and_rejects_bad_input(tmp_path: Path) -> None:
     assert "cannot write" in missing.output
 
 
+def test_design_conditions_from_the_header_and_from_the_data(tmp_path: Path) -> None:
+    """The shipped EPW's ASHRAE line (PROVENANCE §5: cooling 0.4 % 33.2 °C, MCWB 26.3 °C,
+    range 5.8 K; heating 99.6 % 23.3 °C); without it, percentiles of the hourly data."""
+    from hvacflex.data.forecast import DEFAULT_WEATHER_FILE
+    from hvacflex.data.weather import read_epw
+    from hvacflex.energyplus.export import design_conditions
+    from hvacflex.paths import data_dir
+
+    epw = data_dir() / "weather" / DEFAULT_WEATHER_FILE
+    header = design_conditions(epw)
+    assert (header.source, header.cooling_month, header.heating_month) == ("header", 5, 1)
+    assert (header.cooling_dry_bulb_degc, header.cooling_wet_bulb_degc) == (33.2, 26.3)
+    assert (header.cooling_daily_range_k, header.heating_dry_bulb_degc) == (5.8, 23.3)
+    lines = epw.read_text().splitlines()
+    lines[1] = "DESIGN CONDITIONS,0"
+    stripped = tmp_path / "no_design.epw"
+    stripped.write_text("\n".join(lines) + "\n")
+    data = design_conditions(stripped)
+    temps = read_epw(epw)[0]["outdoor_temp_degc"].to_numpy()
+    assert data.source == "data"
+    assert data.cooling_dry_bulb_degc == pytest.approx(np.percentile(temps, 99.6))
+    assert data.heating_dry_bulb_degc == pytest.approx(np.percentile(temps, 0.4))
+    assert data.cooling_wet_bulb_degc is None
+    assert data.cooling_dewpoint_degc is not None
+    text = export_idf(load_building(resolve_building("room1")), epw_path=stripped)
+    (cooling, _) = by_class(parse_idf(text), "SizingPeriod:DesignDay")
+    assert (cooling[8], float(cooling[9])) == (
+        "DewPoint",
+        pytest.approx(data.cooling_dewpoint_degc),
+    )
+
+
 # ---- EnergyPlus runs the export ------------------------------------------------------------
 
 
@@ -360,3 +392,25 @@ def test_energyplus_runs_two_days_without_severe_errors(
     if hvac == "vav":
         hvac_j = run.hourly["Electricity:HVAC [J]"] + run.hourly["Electricity:Plant [J]"]
         assert (hvac_j.between_time("13:00", "16:00") > 0).all()
+        _assert_sized_like_the_hvac_system(building, run.workdir / "eplusout.eio")
+
+
+def _assert_sized_like_the_hvac_system(building: Building, eio: Path) -> None:
+    """EnergyPlus's own sizing report: terminal maxima = flow_max / ρ, fan design power
+    = κ_f (Σ ṁ_max)^n."""
+    sizing = {}
+    for line in eio.read_text().splitlines():
+        if line.startswith(" Component Sizing Information"):
+            _, kind, name, what, value = (f.strip() for f in line.split(",")[:5])
+            try:
+                sizing[(kind, name, what)] = float(value)
+            except ValueError:  # a text entry (e.g. a sizing option)
+                continue
+    for i, zone in enumerate(building.zones):
+        key = ("AirTerminal:SingleDuct:VAV:NoReheat", f"{zone.name.upper()} VAV",
+               "Design Size Maximum Air Flow Rate [m3/s]")  # fmt: skip
+        assert sizing[key] == pytest.approx(building.hvac.flow_max_kg_s[i] / 1.2, rel=1e-4)
+    fan = [v for (k, _, w), v in sizing.items() if k == "Fan:VariableVolume" and "Power" in w]
+    flow = sum(building.hvac.flow_max_kg_s)
+    expected_w = 1000 * building.hvac.fan_coeff_kw * flow**building.hvac.fan_exponent
+    assert fan == [pytest.approx(expected_w, rel=1e-4)]
