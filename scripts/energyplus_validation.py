@@ -1,8 +1,9 @@
-"""hvacflex's RC plant against EnergyPlus on the exported building: free float and thermostat.
+"""hvacflex's RC plant against EnergyPlus on the exported building : three cases.
 
 For each ``--start``: :func:`hvacflex.validation.energyplus.free_float_comparison` (export with
 ``hvac="none"``, same EPW and gain schedules, ``--spinup`` days discarded) and, for office5,
-:func:`~hvacflex.validation.energyplus.thermostat_comparison` (the ``thermostat`` preset
+:func:`~hvacflex.validation.energyplus.fixed_flow_comparison` (scheduled ventilation flows)
+and :func:`~hvacflex.validation.energyplus.thermostat_comparison` (the ``thermostat`` preset
 against the ``vav`` export). Writes ``OUT/temperatures.csv`` (``case, start, zone, rmse_k,
 bias_k, max_abs_k`` and both means, on hourly means), ``OUT/temperatures_hourly.csv`` and
 ``OUT/energy.csv`` (``case, start, quantity, hvacflex_kwh, energyplus_kwh, diff_pct``), and
@@ -25,7 +26,11 @@ import pandas as pd
 from hvacflex.building.io import load_building
 from hvacflex.paths import resolve_building
 from hvacflex.report.tables import to_markdown
-from hvacflex.validation.energyplus import free_float_comparison, thermostat_comparison
+from hvacflex.validation.energyplus import (
+    fixed_flow_comparison,
+    free_float_comparison,
+    thermostat_comparison,
+)
 
 
 def main() -> None:
@@ -54,16 +59,20 @@ def main() -> None:
         series.append(result.hourly.assign(case="free-float", start=start_text))
         if args.building != "office5":
             continue
-        thermostat = thermostat_comparison(
-            start=start,
-            days=args.days,
-            spinup_days=args.spinup,
-            workdir=args.out / f"energyplus_thermostat_{start_text}",
-        )
-        print(f"{start_text} thermostat: EnergyPlus severe errors {thermostat.severe_count}")
-        tables.append(thermostat.table.assign(case="thermostat", start=start_text))
-        series.append(thermostat.hourly.assign(case="thermostat", start=start_text))
-        energies.append(thermostat.energy.assign(case="thermostat", start=start_text))
+        cases = {
+            "fixed-flow": lambda out, start=start: fixed_flow_comparison(
+                building, start=start, days=args.days, spinup_days=args.spinup, workdir=out
+            ),
+            "thermostat": lambda out, start=start: thermostat_comparison(
+                start=start, days=args.days, spinup_days=args.spinup, workdir=out
+            ),
+        }
+        for case, compare in cases.items():
+            result = compare(args.out / f"energyplus_{case}_{start_text}")
+            print(f"{start_text} {case}: EnergyPlus severe errors {result.severe_count}")
+            tables.append(result.table.assign(case=case, start=start_text))
+            series.append(result.hourly.assign(case=case, start=start_text))
+            energies.append(result.energy.assign(case=case, start=start_text))
     table = pd.concat(tables, ignore_index=True)
     first = ["case", "start", "zone"]
     table = table[first + [c for c in table.columns if c not in first]]

