@@ -154,7 +154,11 @@ def run_energyplus(
     )
     errors = err_path.read_text(encoding="utf-8", errors="replace") if err_path.is_file() else ""
     if proc.returncode != 0 or "EnergyPlus Completed Successfully" not in errors:
-        why = [line for line in errors.splitlines() if "Severe" in line or "Fatal" in line]
+        why = [
+            line.strip()
+            for line in errors.splitlines()
+            if "** Severe  **" in line or "**  Fatal  **" in line
+        ]
         raise DataError(
             "EnergyPlus did not complete",
             source=err_path,
