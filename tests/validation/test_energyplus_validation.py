@@ -209,3 +209,21 @@ def test_energyplus_failure_is_a_data_error_with_the_reason(tmp_path: Path) -> N
             workdir=tmp_path,
         )
     assert "Severe" in str(info.value) or "Fatal" in str(info.value)
+
+
+def test_zone_air_figure_has_one_panel_per_zone(tmp_path: Path) -> None:
+    from matplotlib.image import imread
+
+    from hvacflex.report.validation_plots import plot_energyplus_zone_air
+
+    times = pd.date_range("2014-03-03", periods=24, freq="h", tz="Asia/Singapore")
+    hourly = pd.concat(
+        pd.DataFrame(
+            {"time": times, "zone": zone, "hvacflex_degc": 25.0 + i, "energyplus_degc": 26.0}
+        )
+        for i, zone in enumerate(("north", "core"))
+    )
+    path = plot_energyplus_zone_air(hourly, tmp_path / "air.png", title="test")
+    height, width = imread(path).shape[:2]
+    assert width > 0
+    assert height > width * 0.3  # two stacked panels
