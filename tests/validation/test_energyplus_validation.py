@@ -150,13 +150,17 @@ def test_office5_thermostat_week_against_energyplus(tmp_path: Path) -> None:
     assert (result.table["rmse_k"] < 5.0).all()
 
 
-def test_with_cooling_setpoint_replaces_the_schedule() -> None:
+def test_with_cooling_setpoint_keeps_the_design_days() -> None:
     text = export_idf(load_building(resolve_building("office5")), hvac="vav")
     changed = ev.with_cooling_setpoint(text, 55.0)
-    assert "Schedule:Constant,\n  cooling setpoint,\n  temperature,\n  55;" in changed
-    assert "Schedule:Compact,\n  cooling setpoint," not in changed
+    block = changed[changed.index("Schedule:Compact,\n  cooling setpoint,") :].split(";")[0]
+    fields = [f.strip() for f in block.split(",")[1:]]
+    assert fields[3] == "For: SummerDesignDay WinterDesignDay"
+    # the design days keep the occupied 24 °C, the run days get the constant
+    assert fields[4:10] == ["Until: 08:00", "29", "Until: 18:00", "24", "Until: 24:00", "29"]
+    assert fields[10:] == ["For: AllOtherDays", "Until: 24:00", "55"]
     with pytest.raises(DataError, match="cooling set-point"):
-        ev.with_cooling_setpoint(changed, 55.0)
+        ev.with_cooling_setpoint("Version,\n  25.2;\n", 55.0)
 
 
 def test_rc_fixed_flow_runs_at_the_ventilation_flows() -> None:

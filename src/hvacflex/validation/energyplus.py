@@ -448,17 +448,27 @@ scheduled ones accepted in the fixed-flow case [-]."""
 
 
 def with_cooling_setpoint(idf_text: str, setpoint_degc: float) -> str:
-    """An export with its cooling set-point schedule replaced by a constant."""
-    constant = idf_object("Schedule:Constant", COOLING_SETPOINT, "temperature", setpoint_degc)
-    pattern = rf"^Schedule:Compact,\n  {re.escape(COOLING_SETPOINT)},.*?;"
-    text, count = re.subn(pattern, constant, idf_text, count=1, flags=re.S | re.M)
-    if count != 1:
+    """An export whose cooling set-point is the constant ``setpoint_degc`` on every day of the
+    run; the design days keep the export's thermostat, so EnergyPlus sizes the plant exactly
+    as for the export itself (a set-point of 55 °C on the design day would size the coil and
+    chiller for 55 °C return air)."""
+    pattern = rf"^Schedule:Compact,\n  {re.escape(COOLING_SETPOINT)},\n.*?;"
+    match = re.search(pattern, idf_text, flags=re.S | re.M)
+    if match is None:
         raise DataError(
             "the IDF has no cooling set-point schedule to replace",
             field=COOLING_SETPOINT,
             hint="export the building with hvacflex.energyplus.export.export_idf",
         )
-    return text
+    fields = [f.strip() for f in match.group(0).rstrip(";").split(",")[1:]]
+    day_blocks = [i for i, f in enumerate(fields) if f.startswith("For:")]
+    design_day = fields[day_blocks[0] + 1 : day_blocks[1]]
+    schedule = idf_object(
+        "Schedule:Compact", COOLING_SETPOINT, "temperature", "Through: 12/31",
+        "For: SummerDesignDay WinterDesignDay", *design_day,
+        "For: AllOtherDays", "Until: 24:00", setpoint_degc,
+    )  # fmt: skip
+    return idf_text[: match.start()] + schedule + idf_text[match.end() :]
 
 
 def fixed_flow_comparison(
