@@ -113,7 +113,8 @@ def test_step_columns_of_one_zone_and_channel_written_out() -> None:
 
 def test_step_columns_are_the_closed_loop_frame_columns() -> None:
     from hvacflex.config import preset
-    from hvacflex.sim.closed_loop import ClosedLoop, prepare
+    from hvacflex.sim.closed_loop import ClosedLoop
+    from hvacflex.sim.setup import prepare
 
     loop = ClosedLoop(prepare(preset("thermostat", start="2014-03-03", days=0.25)))
     loop.step()

@@ -125,6 +125,37 @@ def building_show(
     typer.echo(text)
 
 
+@building_app.command("export-idf")
+def building_export_idf(
+    building: str = typer.Argument(..., help="A building TOML file or a shipped name (office5)."),
+    out: Path = typer.Option(..., "--out", help="The IDF file to write."),  # noqa: B008
+    hvac: str = typer.Option(
+        "vav", help="HVAC: vav (air loop + chiller), ideal (ideal loads) or none (free float)."
+    ),
+    weather: Path | None = typer.Option(None, help="EPW for the site (default: Singapore TMYx)."),  # noqa: B008
+) -> None:
+    """Write an EnergyPlus 25.2 model (IDF) of a building; run it with `energyplus -x`."""
+    from hvacflex.building.io import load_building
+    from hvacflex.energyplus.export import export_idf
+    from hvacflex.errors import HvacflexError
+    from hvacflex.paths import resolve_building
+    from hvacflex.version import atomic_write_text
+
+    try:
+        text = export_idf(load_building(resolve_building(building)), hvac=hvac, epw_path=weather)
+    except HvacflexError as exc:
+        typer.echo(f"error: {exc}", err=True)
+        raise typer.Exit(2) from None
+    try:
+        atomic_write_text(out, text)
+    except OSError as exc:
+        typer.echo(f"error: {out}: cannot write the IDF ({exc.strerror})", err=True)
+        raise typer.Exit(2) from None
+    typer.echo(
+        f"wrote {out} (EnergyPlus 25.2, hvac {hvac}); run: energyplus -x -w WEATHER.epw {out}"
+    )
+
+
 validate_app = typer.Typer(help="Validate the building model.", no_args_is_help=True)
 app.add_typer(validate_app, name="validate")
 

@@ -1,4 +1,5 @@
-"""Files of the ASHRAE Standard 140 validation: the comparison table and its two figures.
+"""Files of the ASHRAE Standard 140 validation (the comparison table and its two figures) and
+the EnergyPlus comparison's zone-air figure (:func:`plot_energyplus_zone_air`).
 
 :func:`write_bestest_outputs` writes what ``hvacflex validate bestest`` leaves in its folder
 from a :class:`hvacflex.validation.bestest.BestestResult`. Figures are drawn on
@@ -130,4 +131,33 @@ def plot_free_float_days(result: BestestResult, png_path: Path, csv_path: Path) 
     fig.tight_layout()
     fig.savefig(png_path, dpi=DPI)
     pd.concat(day_frames).to_csv(csv_path, float_format="%.3f")
+    return png_path
+
+
+def plot_energyplus_zone_air(hourly: pd.DataFrame, png_path: Path, *, title: str) -> Path:
+    """Hourly zone air of hvacflex and EnergyPlus, one panel per zone.
+
+    Parameters
+    ----------
+    hourly : rows ``time``, ``zone``, ``hvacflex_degc``, ``energyplus_degc`` (the ``hourly``
+        frame of :mod:`hvacflex.validation.energyplus`'s comparisons) [°C].
+    png_path : the PNG to write.
+    title : the figure's title (case and week).
+
+    Returns the PNG path.
+    """
+    zones = list(dict.fromkeys(hourly["zone"]))
+    fig = Figure(figsize=(12, 2.2 * len(zones) + 0.6))
+    FigureCanvasAgg(fig)
+    axes = np.atleast_1d(fig.subplots(len(zones), 1, sharex=True))
+    for ax, zone in zip(axes, zones, strict=True):
+        rows = hourly[hourly["zone"] == zone]
+        ax.plot(rows["time"], rows["hvacflex_degc"], label="hvacflex (RC plant)")
+        ax.plot(rows["time"], rows["energyplus_degc"], ls="--", label="EnergyPlus 25.2")
+        ax.set_ylabel(f"{zone} [°C]")
+        ax.grid(alpha=0.3)
+    axes[0].legend(loc="upper right")
+    axes[0].set_title(title)
+    fig.tight_layout()
+    fig.savefig(png_path, dpi=DPI)
     return png_path

