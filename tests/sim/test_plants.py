@@ -31,7 +31,7 @@ def test_the_default_plant_is_the_rc_network(office5) -> None:  # type: ignore[n
 
 
 def test_the_rc_plant_takes_no_setpoints(office5) -> None:  # type: ignore[no-untyped-def]
-    with pytest.raises(ConfigError, match="plant.actuation"):
+    with pytest.raises(ConfigError, match=r"plant\.actuation"):
         make_plant(PlantConfig(actuation="setpoint"), office5, start=START, steps=4)
 
 
