@@ -185,6 +185,64 @@ def validate_bestest(
         typer.echo(f"wrote {path}")
 
 
+@validate_app.command("energyplus")
+def validate_energyplus(
+    building: str = typer.Argument("office5", help="A shipped building name or a TOML file."),
+    start: list[str] = typer.Option(  # noqa: B008
+        ["2014-03-03", "2014-05-05"],
+        "--start",
+        help="First compared day, YYYY-MM-DD (repeat for several weeks).",
+    ),
+    days: int = typer.Option(7, "--days", min=1, max=31, help="Days compared per start."),
+    spinup_days: int = typer.Option(
+        7, "--spinup-days", min=0, max=31, help="Days simulated before and discarded."
+    ),
+    out: Path = typer.Option(  # noqa: B008
+        Path("energyplus_validation"), "--out", help="Folder for the CSV tables and figures."
+    ),
+) -> None:
+    """hvacflex's RC plant against EnergyPlus on the building's IDF export: free-float, and
+    for office5 fixed-flow and thermostat (zone air RMSE, cooling energy, HVAC electricity)."""
+    from datetime import date
+
+    from hvacflex.building.io import load_building
+    from hvacflex.errors import HvacflexError, InputError
+    from hvacflex.paths import resolve_building
+    from hvacflex.report.tables import to_markdown
+    from hvacflex.report.validation_plots import write_energyplus_outputs
+    from hvacflex.validation.energyplus import run_energyplus_validation
+
+    try:
+        starts = []
+        for text in start:
+            try:
+                starts.append(date.fromisoformat(text))
+            except ValueError:
+                raise InputError(
+                    "not a date", field="--start", value=text, hint="write YYYY-MM-DD"
+                ) from None
+        if out.exists() and not out.is_dir():
+            raise InputError("is a file, not a folder", field="--out", value=str(out))
+        model = load_building(resolve_building(building))
+        result = run_energyplus_validation(
+            model,
+            starts=starts,
+            days=days,
+            spinup_days=spinup_days,
+            workdir=out,
+            progress=lambda message: typer.echo(f"… {message}"),
+        )
+        paths = write_energyplus_outputs(result, out)
+    except HvacflexError as exc:
+        typer.echo(f"error: {exc}", err=True)
+        raise typer.Exit(2) from None
+    typer.echo(to_markdown(result.temperatures.set_index("case").round(2)))
+    if not result.energy.empty:
+        typer.echo(to_markdown(result.energy.set_index("case").round(1)))
+    for path in paths:
+        typer.echo(f"wrote {path}")
+
+
 @app.command()
 def version() -> None:
     """Print the hvacflex version."""

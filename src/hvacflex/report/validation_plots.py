@@ -23,6 +23,7 @@ from hvacflex.validation.bestest import (
     BestestResult,
     table_markdown,
 )
+from hvacflex.validation.energyplus import EnergyPlusValidation
 
 DPI = 110
 """Resolution of the PNG files [dots per inch]."""
@@ -161,3 +162,19 @@ def plot_energyplus_zone_air(hourly: pd.DataFrame, png_path: Path, *, title: str
     fig.tight_layout()
     fig.savefig(png_path, dpi=DPI)
     return png_path
+
+
+def write_energyplus_outputs(result: EnergyPlusValidation, out: Path) -> list[Path]:
+    """Write ``temperatures.csv``, ``temperatures_hourly.csv``, ``energy.csv`` and one
+    figure per case and week (``temperatures_<case>_<start>.png``) into ``out``."""
+    out.mkdir(parents=True, exist_ok=True)
+    paths: list[Path] = []
+    for (case, label), frame in result.hourly.groupby(["case", "start"], sort=False):
+        path = out / f"temperatures_{case}_{label}.png"
+        title = f"{result.building}, {case}, from {label}: hourly zone air"
+        plot_energyplus_zone_air(frame, path, title=title)
+        paths.append(path)
+    result.temperatures.to_csv(out / "temperatures.csv", index=False, float_format="%.3f")
+    result.hourly.to_csv(out / "temperatures_hourly.csv", index=False, float_format="%.3f")
+    result.energy.to_csv(out / "energy.csv", index=False, float_format="%.2f")
+    return [*paths, out / "temperatures.csv", out / "temperatures_hourly.csv", out / "energy.csv"]

@@ -21,6 +21,7 @@ from __future__ import annotations
 import importlib
 import re
 import subprocess
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from datetime import date, timedelta
 from pathlib import Path
@@ -560,3 +561,87 @@ def _conditioned_comparison(
     )
     energy["diff_pct"] = 100.0 * (energy["hvacflex_kwh"] / energy["energyplus_kwh"] - 1.0)
     return ConditionedComparison(hourly, comparison_table(hourly), energy, run.severe_count)
+
+
+CONDITIONED_CASES_BUILDING = "office5"
+"""The building whose export the conditioned cases (fixed flow, thermostat) compare."""
+
+
+@dataclass(frozen=True)
+class EnergyPlusValidation:
+    """The comparison of hvacflex's RC plant with EnergyPlus (``hvacflex validate
+    energyplus``; written by :func:`hvacflex.report.validation_plots.write_energyplus_outputs`).
+
+    Attributes
+    ----------
+    building : the building's name.
+    temperatures : ``case, start, zone, rmse_k, bias_k, max_abs_k`` (and both means), on
+        hourly means of zone air temperature.
+    hourly : the hourly series compared (``case``, ``start`` columns).
+    energy : ``case, start, quantity, hvacflex_kwh, energyplus_kwh, diff_pct``, ``quantity``
+        ``cooling_energy`` (coil total, sensible + latent) or ``hvac_electricity`` (fans +
+        cooling plant); empty without conditioned cases.
+    """
+
+    building: str
+    temperatures: pd.DataFrame
+    hourly: pd.DataFrame
+    energy: pd.DataFrame
+
+
+def run_energyplus_validation(
+    building: Building,
+    *,
+    starts: Sequence[date],
+    days: int,
+    spinup_days: int,
+    workdir: Path,
+    progress: Callable[[str], None] = lambda message: None,
+) -> EnergyPlusValidation:
+    """Run the cases for every start: the ``free-float`` case (the export with
+    ``hvac="none"``) for any building, and for office5 the ``fixed-flow`` and ``thermostat``
+    cases (the ``vav`` export); ``days`` compared after ``spinup_days``; EnergyPlus's files in
+    ``workdir``."""
+    tables, series, energies = [], [], []
+    for start in starts:
+        label = start.isoformat()
+        progress(f"{label} free-float")
+        result = free_float_comparison(
+            building,
+            start=start,
+            days=days,
+            spinup_days=spinup_days,
+            workdir=workdir / f"energyplus_{label}",
+        )
+        tables.append(result.table.assign(case="free-float", start=label))
+        series.append(result.hourly.assign(case="free-float", start=label))
+        if building.name != CONDITIONED_CASES_BUILDING:
+            continue
+        for case in ("fixed-flow", "thermostat"):
+            progress(f"{label} {case}")
+            workdir_case = workdir / f"energyplus_{case}_{label}"
+            if case == "fixed-flow":
+                conditioned = fixed_flow_comparison(
+                    building, start=start, days=days, spinup_days=spinup_days, workdir=workdir_case
+                )
+            else:
+                conditioned = thermostat_comparison(
+                    start=start, days=days, spinup_days=spinup_days, workdir=workdir_case
+                )
+            tables.append(conditioned.table.assign(case=case, start=label))
+            series.append(conditioned.hourly.assign(case=case, start=label))
+            energies.append(conditioned.energy.assign(case=case, start=label))
+    first = ["case", "start", "zone"]
+    table = pd.concat(tables, ignore_index=True)
+    columns = ["case", "start", "quantity", "hvacflex_kwh", "energyplus_kwh", "diff_pct"]
+    energy = (
+        pd.concat(energies, ignore_index=True)[columns]
+        if energies
+        else pd.DataFrame(columns=columns)
+    )
+    return EnergyPlusValidation(
+        building.name,
+        table[first + [c for c in table.columns if c not in first]],
+        pd.concat(series, ignore_index=True),
+        energy,
+    )
