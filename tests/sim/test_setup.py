@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+from pathlib import Path
 
 import numpy as np
 
@@ -11,6 +12,7 @@ from hvacflex.config import preset
 from hvacflex.control.baselines import ThermostatController
 from hvacflex.control.mpc import MPCController
 from hvacflex.paths import resolve_building
+from hvacflex.sim.run_files import run_key
 from hvacflex.sim.setup import make_controller, prepare
 
 
@@ -94,3 +96,13 @@ def test_calibrated_box_replaces_the_scenario_box_and_stress_box_is_separate() -
     assert setup.box.channel_absolute[outdoor_name] > 0.0
     assert setup.sampling_box.relative == {"internal_gain": 0.3}
     assert not setup.calibration.model_error_k  # no results file given
+
+
+def test_the_training_results_file_enters_the_run_key(tmp_path: Path) -> None:
+    errors = tmp_path / "train.parquet"
+    errors.write_bytes(b"first")
+    calibrate = {"train": "2014-02-24..2014-02-28", "prediction_errors": str(errors)}
+    cfg = preset("rmpc", start="2014-03-03", days=1, uncertainty={"calibrate": calibrate})
+    before = run_key(cfg)
+    errors.write_bytes(b"second")
+    assert run_key(cfg) != before
