@@ -6,11 +6,13 @@ import dataclasses
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from hvacflex.building.io import load_building
 from hvacflex.config import preset
 from hvacflex.control.baselines import ThermostatController
 from hvacflex.control.mpc import MPCController
+from hvacflex.errors import ConfigError
 from hvacflex.paths import resolve_building
 from hvacflex.sim.run_files import run_key
 from hvacflex.sim.setup import make_controller, prepare
@@ -106,3 +108,10 @@ def test_the_training_results_file_enters_the_run_key(tmp_path: Path) -> None:
     before = run_key(cfg)
     errors.write_bytes(b"second")
     assert run_key(cfg) != before
+
+
+def test_a_missing_training_results_file_is_a_config_error() -> None:
+    calibrate = {"train": "2014-02-24..2014-02-25", "prediction_errors": "no/such.parquet"}
+    cfg = preset("rmpc", start="2014-03-03", days=0.25, uncertainty={"calibrate": calibrate})
+    with pytest.raises(ConfigError, match="prediction_errors"):
+        prepare(cfg)

@@ -15,6 +15,7 @@ calibrate`` the box is sized from a training period's errors (:func:`calibrated_
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -183,6 +184,14 @@ def _training_prediction_errors(
     path: str, zones: tuple[str, ...] | list[str], first: pd.Timestamp, last: pd.Timestamp
 ) -> dict[str, np.ndarray]:
     """zone → one-step prediction errors [K] of the results file's rows on the training days."""
+    if not Path(path).is_file():
+        raise ConfigError(
+            "no such results file",
+            field="uncertainty.calibrate.prediction_errors",
+            value=path,
+            hint="simulate the training days first and give that run's results.parquet "
+            "(a path relative to the working directory)",
+        )
     frame, _ = read_results(path)
     rows = frame[(frame.index >= first) & (frame.index < last + pd.Timedelta(days=1))]
     columns = [PREDICTION_ERROR.name(zone) for zone in zones]
