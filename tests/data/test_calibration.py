@@ -23,24 +23,42 @@ def test_half_widths_are_the_quantiles_of_synthetic_errors() -> None:
     rng = np.random.default_rng(11)
     s = 200_000
     forecasts = np.column_stack(
-        [np.full(s, 28.0), rng.uniform(0.0, 500.0, s), rng.uniform(1000.0, 3000.0, s)]
+        [np.full(s, 28.0), rng.uniform(100.0, 500.0, s), rng.uniform(1000.0, 3000.0, s)]
     )
-    forecasts[: s // 4, 1] = 0.0  # night: solar forecast 0, and exact
+    low = np.arange(s) < s // 4
+    forecasts[low, 1] = rng.uniform(0.0, 50.0, low.sum())  # sunrise: below 20 % of the peak
     errors = np.column_stack(
         [
             rng.uniform(-2.0, 2.0, s),  # |e| ~ U(0, 2): Q_0.9 = 1.8 K
-            forecasts[:, 1] * rng.uniform(-0.5, 0.5, s),  # |e|/d̂ ~ U(0, 0.5): Q_0.9 = 0.45
+            np.where(
+                low,
+                rng.uniform(-30.0, 30.0, s),  # low forecasts: |e| ~ U(0, 30), Q_0.9 = 27 W/m²
+                forecasts[:, 1] * rng.uniform(-0.5, 0.5, s),  # |e|/d̂ ~ U(0, 0.5)
+            ),
             forecasts[:, 2] * rng.normal(0.0, 0.1, s),  # |e|/d̂ half-normal: Q_0.9 = 0.1645
         ]
     )
     cal = calibrate_box(errors, forecasts, CHANNELS, 0.9)
     assert cal.box.channel_absolute["outdoor_temp_degc"] == pytest.approx(1.8, abs=0.01)
-    assert cal.box.channel_relative[CHANNELS[1].name] == pytest.approx(0.45, abs=0.005)
+    solar = CHANNELS[1].name
+    assert cal.box.channel_absolute[solar] == pytest.approx(27.0, abs=0.3)
+    # high forecasts: Q_0.9 of max(|e| − 27, 0)/d̂ with |e| = u·d̂, u ~ U(0, 0.5), d̂ ~ U(100, 500)
+    u = rng.uniform(0.0, 0.5, s)
+    d = rng.uniform(100.0, 500.0, s)
+    expected = np.quantile(np.maximum(u * d - cal.box.channel_absolute[solar], 0.0) / d, 0.9)
+    assert cal.box.channel_relative[solar] == pytest.approx(expected, abs=0.005)
     assert cal.box.channel_relative[CHANNELS[2].name] == pytest.approx(0.1645, abs=0.002)
+    assert cal.box.channel_absolute[CHANNELS[2].name] == 0.0  # these forecasts are never low
     assert cal.samples == s and cal.quantile == 0.9
     inside = coverage(errors, forecasts, cal.box, CHANNELS)
-    np.testing.assert_array_less(0.9 - 1e-9, inside[[0, 2]])  # at least q in sample
-    assert inside[1] >= 0.9
+    np.testing.assert_array_less(0.9 - 1e-9, inside)  # at least q in sample
+
+
+def test_a_channel_forecast_at_zero_throughout_is_sized_absolutely() -> None:
+    errors = np.column_stack([np.zeros(4), np.array([0.0, 1.0, 2.0, 3.0]), np.zeros(4)])
+    cal = calibrate_box(errors, np.zeros((4, 3)), CHANNELS, 0.5)
+    assert cal.box.channel_absolute[CHANNELS[1].name] == 2.0  # next-higher of the median
+    assert cal.box.channel_relative[CHANNELS[1].name] == 0.0
 
 
 def test_coverage_on_hand_made_errors() -> None:

@@ -10,9 +10,12 @@ period, at a stated quantile q (e.g. 0.95):
 
   - temperatures (``outdoor_temp``, ``ground_temp``): absolute half-width
     ``σ_i = Q_q(|e_i|)`` [K];
-  - heat gains (``solar``, ``internal_gain``): relative half-width ``σ_i = r_i · |d̂_i|``
-    with ``r_i = Q_q(|e_i| / |d̂_i|)`` over the samples with ``|d̂_i| > 0`` (a gain forecast
-    at 0 — night-time sun — is taken as exact: the sun does not rise early);
+  - heat gains (``solar``, ``internal_gain``): ``σ_i = r_i · |d̂_i| + a_i``. The samples
+    with a low forecast, ``|d̂_i| < LOW_FORECAST_FRACTION · max |d̂_i|`` (sunrise and sunset,
+    where a climatology says "some sun" and the façade has none or much more), give the
+    absolute part ``a_i = Q_q(|e_i|)``; the others the relative part ``r_i = Q_q(max(|e_i|
+    − a_i, 0) / |d̂_i|)``. Each group is then covered at q, so the whole is (a channel
+    without low forecasts gets ``a_i = 0`` and ``r_i = Q_q(|e_i|/|d̂_i|)``);
 
 * **model error** (one term per zone): ``ε_z = Q_q(|ε_z,k|)`` [K per step] of the one-step
   prediction error ``prediction_error_<zone>_k`` of the results (the error of the
@@ -42,6 +45,10 @@ from hvacflex.errors import ConfigError, DataError
 
 RELATIVE_KINDS = ("solar", "internal_gain")
 """Channel kinds whose calibrated half-width is relative to the forecast."""
+
+LOW_FORECAST_FRACTION = 0.2
+"""A heat-gain forecast below this fraction of the channel's largest is "low" (its error is
+sized absolutely)."""
 
 COVERAGE_RELATIVE_TOLERANCE = 1e-9
 """An error counts as inside the box up to this relative round-off of σ."""
@@ -154,8 +161,11 @@ def calibrate_box(
     for i, ch in enumerate(channels):
         e, d_hat = np.abs(errors[:, i]), np.abs(forecasts[:, i])
         if ch.kind in RELATIVE_KINDS:
-            positive = d_hat > 0
-            relative[ch.name] = _quantile(e[positive] / d_hat[positive], quantile)
+            peak = d_hat.max() if d_hat.size else 0.0
+            high = (d_hat > 0) & (d_hat >= LOW_FORECAST_FRACTION * peak)
+            absolute[ch.name] = _quantile(e[~high], quantile)
+            excess = np.maximum(e[high] - absolute[ch.name], 0.0)
+            relative[ch.name] = _quantile(excess / d_hat[high], quantile)
         else:
             absolute[ch.name] = _quantile(e, quantile)
     model_error: dict[str, float] = {}
