@@ -9,9 +9,9 @@ statistical weather forecast fitted on the 28 days before the run and the schedu
    ``rmpc`` with the calibrated box, under the realistic errors; then the stress case — an
    extra correlated (AR(1)) error outside the box, ±30 % of solar and internal gains and
    ±1.5 K outdoor — for ``nmpc`` and both ``rmpc``.
-3. The calibrated box's out-of-sample coverage on the test days, per channel over every lead
-   of the horizon (seed of the first run), and the model-error term's on the calibrated
-   RMPC's test runs (all seeds).
+3. The calibrated box's coverage, per channel over every lead of the horizon (seed of the
+   first run): in sample (training days), out of sample (test days), and the default box's
+   out of sample; the model-error term's on the calibrated RMPC's test runs (all seeds).
 
 Markdown tables go to stdout (copied into ``docs/forecast.md``)::
 
@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import argparse
 import statistics
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -30,6 +31,7 @@ import pandas as pd
 
 from hvacflex.config import ScenarioConfig, preset
 from hvacflex.data.calibration import coverage, forecast_errors, model_error_coverage
+from hvacflex.data.uncertainty import DEFAULT_UNCERTAINTY
 from hvacflex.results import PREDICTION_ERROR
 from hvacflex.sim.closed_loop import run_simulation
 from hvacflex.sim.setup import prepare
@@ -81,25 +83,42 @@ def _scenarios(
     return out
 
 
-def _coverage_rows(config: ScenarioConfig, frames: list[pd.DataFrame]) -> list[str]:
-    """Markdown rows: in-sample and out-of-sample coverage of the calibrated box."""
+def _lead_errors(config: ScenarioConfig) -> tuple[np.ndarray, np.ndarray]:
+    """Errors and forecasts (S, nd) of every forecast of a scenario's run, every lead."""
     setup = prepare(config)
-    assert setup.calibration is not None
     horizon = config.controller.horizon_steps
-    channels = setup.model.channels
-    test_errors, test_forecasts = forecast_errors(
+    return forecast_errors(
         setup.forecaster, setup.exogenous.disturbances, range(config.steps), horizon
     )
-    out_of_sample = coverage(test_errors, test_forecasts, setup.box, channels)
+
+
+def _coverage_rows(
+    config: ScenarioConfig, frames: list[pd.DataFrame], args: argparse.Namespace
+) -> list[str]:
+    """Markdown rows: the calibrated box's coverage in sample (training days) and out of
+    sample (test days), and the default box's out of sample."""
+    setup = prepare(config)
+    assert setup.calibration is not None
+    channels = setup.model.channels
+    test = _lead_errors(config)
+    out_of_sample = coverage(*test, setup.box, channels)
+    default_box = coverage(*test, DEFAULT_UNCERTAINTY, channels)
+    training = replace(
+        config, start=args.train_start, days=float(args.train_days),
+        uncertainty=replace(config.uncertainty, calibrate=None),
+    )  # fmt: skip
+    in_sample = coverage(*_lead_errors(training), setup.box, channels)
     rows = []
     for i, ch in enumerate(channels):
         relative = setup.box.channel_relative.get(ch.name)
-        size = (
-            f"±{100 * relative:.0f} %"
-            if relative is not None
-            else (f"±{setup.box.channel_absolute.get(ch.name, 0.0):.2f}")
+        absolute = setup.box.channel_absolute.get(ch.name, 0.0)
+        size = f"±{absolute:.3g}"
+        if relative is not None:
+            size = f"±({100 * relative:.0f} % · d̂ + {absolute:.3g})"
+        rows.append(
+            f"| {ch.name} | {size} | {100 * in_sample[i]:.1f} % | {100 * out_of_sample[i]:.1f} % "
+            f"| {100 * default_box[i]:.1f} % |"
         )
-        rows.append(f"| {ch.name} | {size} | {100 * out_of_sample[i]:.1f} % |")
     zones = setup.zone_names
     errors = {
         z: np.concatenate([f[PREDICTION_ERROR.name(z)].to_numpy() for f in frames]) for z in zones
@@ -107,8 +126,8 @@ def _coverage_rows(config: ScenarioConfig, frames: list[pd.DataFrame]) -> list[s
     covered = model_error_coverage(errors, setup.calibration.model_error_k)
     for z in zones:
         rows.append(
-            f"| model error {z} [K/step] | ±{setup.calibration.model_error_k[z]:.3f} | "
-            f"{100 * covered[z]:.1f} % |"
+            f"| model error {z} [K/step] | ±{setup.calibration.model_error_k[z]:.3f} | | "
+            f"{100 * covered[z]:.1f} % | |"
         )
     return rows
 
@@ -155,9 +174,9 @@ def main() -> None:
         f"\n### Calibrated box (q = {args.quantile}), coverage on the test days, "
         f"seed {args.seeds[0]}\n"
     )
-    print("| channel | half-width | out-of-sample coverage |")
-    print("|---|---|---|")
-    for row in _coverage_rows(first, frames["realistic/rmpc-calibrated"]):
+    print("| channel | half-width | in sample | out of sample | default box, out of sample |")
+    print("|---|---|---|---|---|")
+    for row in _coverage_rows(first, frames["realistic/rmpc-calibrated"], args):
         print(row)
 
 
