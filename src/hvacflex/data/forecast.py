@@ -365,7 +365,7 @@ class Forecaster:
             humidity = self.exogenous.outdoor_humidity_ratio_kg_per_kg[k : k + horizon]
             return _readonly(disturbances), humidity
         last = weather.last_value if k == 0 else self._observed[k - 1]
-        last_period = int(self._periods[k] - 1) % 48
+        last_period = int(self._periods[k] - 1) % PERIODS_PER_DAY
         predicted = weather.model.predict(last, last_period, self._periods[k : k + horizon])
         disturbances[:, list(weather.columns)] = predicted[:, :-1]
         return _readonly(disturbances), _readonly(predicted[:, -1])
