@@ -1,3 +1,5 @@
+import hashlib
+import json
 import re
 from pathlib import Path
 
@@ -269,6 +271,63 @@ def test_plant_table_defaults_to_rc_and_keeps_the_run_key(tmp_path: Path) -> Non
     ],
 )
 def test_bad_plant_tables_name_the_field(tmp_path: Path, text: str, field: str) -> None:
+    path = tmp_path / "bad.toml"
+    path.write_text(text)
+    with pytest.raises(ConfigError, match=re.escape(field)):
+        load_config(path)
+
+
+def test_forecast_occupancy_and_calibration_tables(tmp_path: Path) -> None:
+    default = ScenarioConfig()
+    assert default.forecast.weather == "perfect" and default.realisation.occupancy == "schedule"
+    assert default.uncertainty.calibrate is None
+    path = tmp_path / "realistic.toml"
+    path.write_text(
+        'start = "2014-03-03"\ndays = 3\n[forecast]\nweather = "statistical"\ntrain_days = 14\n'
+        '[realisation]\nmode = "zero"\noccupancy = "stochastic"\n'
+        "box_absolute = { outdoor_temp = 1.5 }\n"
+        '[uncertainty]\ncalibrate = { train = "2014-02-24..2014-03-02", quantile = 0.9 }\n'
+    )
+    config = load_config(path)
+    assert config.forecast.train_days == 14
+    assert config.realisation.box_absolute == {"outdoor_temp": 1.5}
+    assert config.uncertainty.calibrate is not None
+    assert config.uncertainty.calibrate.quantile == 0.9
+    first, last = config.uncertainty.calibrate.train_days
+    assert (last - first).days == 6
+    assert config.config_hash() != default.config_hash()
+    again = with_overrides(config, {"days": 2})  # the tables survive a round trip
+    assert again.uncertainty.calibrate == config.uncertainty.calibrate
+
+
+def test_default_forecast_settings_keep_the_run_keys_of_earlier_versions() -> None:
+    cfg = preset("rmpc")
+    earlier = cfg.to_dict()  # the payload before [forecast] and the new keys existed
+    for key in ("name", "plant", "forecast"):
+        earlier.pop(key)
+    for key in ("occupancy", "box_relative", "box_absolute"):
+        earlier["realisation"].pop(key)
+    earlier["uncertainty"].pop("calibrate")
+    digest = hashlib.sha256(json.dumps(earlier, sort_keys=True).encode()).hexdigest()[:12]
+    assert cfg.config_hash() == digest
+
+
+@pytest.mark.parametrize(
+    ("text", "field"),
+    [
+        ('[forecast]\nweather = "oracle"\n', "forecast.weather"),
+        ("[forecast]\ntrain_days = 0\n", "forecast.train_days"),
+        ('[realisation]\noccupancy = "random"\n', "realisation.occupancy"),
+        ("[realisation]\nbox_relative = { wind = 0.1 }\n", "realisation.box_relative"),
+        ('[uncertainty]\ncalibrate = { train = "2014-02-24" }\n', "uncertainty.calibrate.train"),
+        ('[uncertainty]\ncalibrate = { train = "2014-03-02..2014-02-24" }\n', "calibrate.train"),
+        ('[uncertainty]\ncalibrate = { train = "2014-02-24..2014-03-02", quantile = 1.0 }\n',
+         "uncertainty.calibrate.quantile"),
+        ('start = "2014-03-03"\n[uncertainty]\ncalibrate = { train = "2014-03-01..2014-03-04" }\n',
+         "uncertainty.calibrate.train"),
+    ],
+)  # fmt: skip
+def test_bad_forecast_tables_name_the_field(tmp_path: Path, text: str, field: str) -> None:
     path = tmp_path / "bad.toml"
     path.write_text(text)
     with pytest.raises(ConfigError, match=re.escape(field)):

@@ -3,13 +3,14 @@
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
 from hvacflex.config import preset
 from hvacflex.control.baselines import ThermostatController, unplanned_action
-from hvacflex.control.mpc import MPCController
+from hvacflex.control.mpc import MPCController, model_error_margins
 from hvacflex.errors import ConfigError
 from hvacflex.opt import RMPCProblem, RMPCSolution, SolveStatus
 from hvacflex.opt.solution import failed_solution
@@ -114,3 +115,49 @@ def test_the_reserve_contract_reaches_the_problem_and_the_event_plan(setup: Setu
     problem = whole.problem(x, forecast, 0.0, allowance_carry_steps=2)
     assert problem.il_event_max_steps is None and problem.il_allowance_carry_steps == 0
     assert whole.act(x, forecast, peak_floor_kw=0.0).event_plan is None
+
+
+def test_model_error_margin_accumulates_the_zone_error_by_hand(setup: Setup) -> None:
+    model = setup.model
+    m = model.c.shape[0]
+    eps = np.linspace(0.1, 0.3, m)
+    margin = model_error_margins(model, eps, setup.config.controller)
+    horizon = setup.config.controller.horizon_steps
+    assert margin.shape == (horizon, m)
+    np.testing.assert_allclose(margin[0], eps, atol=1e-12)  # step 1: the one-step error
+    # step k: Σ_{j<k} |C A^{k−1−j} Cᵀ| ε, by matrix powers
+    k = 5
+    expected = sum(
+        np.abs(model.c @ np.linalg.matrix_power(model.a, lag) @ model.c.T) @ eps for lag in range(k)
+    )
+    np.testing.assert_allclose(margin[k - 1], expected, rtol=1e-10)
+    assert (np.diff(margin, axis=0) >= -1e-12).all()
+
+
+def test_model_error_tightens_the_robust_plan_only(setup: Setup) -> None:
+    base = MPCController(
+        setup.building, setup.model, setup.config.controller, setup.box,
+        setup.linearisation_temp_degc,
+    )  # fmt: skip
+    eps = np.full(setup.model.c.shape[0], 0.2)
+    tightened = MPCController(
+        setup.building, setup.model, setup.config.controller, setup.box,
+        setup.linearisation_temp_degc, model_error_k=eps,
+    )  # fmt: skip
+    seen: list[RMPCProblem] = []
+    for controller in (base, tightened):
+        controller.observe_problems(seen.append)
+        x = np.full(setup.model.a.shape[0], 25.0)
+        controller.act(x, setup.forecaster.forecast(20, 49), peak_floor_kw=0.0)
+    assert (seen[1].y_max <= seen[0].y_max + 1e-12).all()
+    assert (seen[1].y_max < seen[0].y_max - 0.1).any()
+    nominal = replace(setup.config.controller, robust="none")
+    ignored = MPCController(
+        setup.building, setup.model, nominal, setup.box, setup.linearisation_temp_degc,
+        model_error_k=eps,
+    )  # fmt: skip
+    ignored.observe_problems(seen.append)
+    ignored.act(
+        np.full(setup.model.a.shape[0], 25.0), setup.forecaster.forecast(20, 49), peak_floor_kw=0.0
+    )
+    np.testing.assert_array_equal(seen[2].y_max, seen[0].y_max)

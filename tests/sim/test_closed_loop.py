@@ -381,3 +381,25 @@ def test_a_truncated_checkpoint_or_results_file_gives_a_clear_error(tmp_path: Pa
     (tmp_path / "done" / "summary.json").write_text('{"steps": 2')
     with pytest.raises(StoredStateError, match="not a readable summary file"):
         run_simulation(cfg, tmp_path / "done", progress=False)
+
+
+def test_results_record_the_controllers_forecast_and_its_realised_error() -> None:
+    cfg = preset(
+        "nmpc",
+        start="2014-03-03",
+        days=3 / 48,
+        forecast={"weather": "statistical", "train_days": 7},
+        realisation={"occupancy": "stochastic", "mode": "zero"},
+    )
+    loop = ClosedLoop(prepare(cfg))
+    for _ in range(3):
+        loop.step()
+    frame = loop.frame()
+    names = [ch.name for ch in loop.setup.model.channels]
+    d_hat = frame[[f"d_{n}" for n in names]].to_numpy()
+    w = frame[[f"w_{n}" for n in names]].to_numpy()
+    for k in range(3):
+        np.testing.assert_allclose(d_hat[k], loop.setup.forecaster.forecast(k, 2).disturbances[0])
+    # the plant saw the data: forecast + error = the data (no extra draw with mode "zero")
+    np.testing.assert_allclose(d_hat + w, loop.setup.exogenous.disturbances[:3], rtol=1e-12)
+    assert np.abs(w).max() > 0.0

@@ -15,6 +15,7 @@ from typing import Any, Literal
 import pandas as pd
 
 from hvacflex.constants import AR1_COEFFICIENT, HORIZON_STEPS, TIMEZONE
+from hvacflex.data.weather_forecast import WEATHER_TRAIN_DAYS
 from hvacflex.opt.options import (
     DEFAULT_COMFORT_PENALTY_SGD_PER_KELVIN_HOUR,
     FeedbackStructure,
@@ -31,6 +32,8 @@ Linearisation = Literal["fixed", "trajectory"]
 EstimationMode = Literal["full-state", "kalman"]
 PlantKind = Literal["rc", "energyplus"]
 PlantActuation = Literal["setpoint", "flow"]
+WeatherForecastMode = Literal["perfect", "statistical"]
+OccupancyMode = Literal["schedule", "stochastic"]
 
 NEMS_MAX_INTERRUPTION_STEPS = 4
 """The NEMS 120-minute rule (since 2019): after four 30-min periods of interruption the
@@ -117,6 +120,30 @@ class ReserveConfig:
 
 
 @dataclass(frozen=True)
+class CalibrationConfig:
+    """Size the box from a training period's errors (``[uncertainty] calibrate``,
+    docs/forecast.md, :func:`hvacflex.data.calibration.calibrate_box`).
+
+    ``train`` is ``"YYYY-MM-DD..YYYY-MM-DD"`` (both days included; it must not overlap the
+    run); the box's half-widths per channel are the ``quantile`` of the errors of the
+    forecasts the scenario's forecaster would have made on those days (every lead of the
+    horizon), against the data the plant would have seen. ``prediction_errors``: a results
+    file (``results.parquet``) whose ``prediction_error_<zone>_k`` on the training days size
+    the per-zone model-error term; ``None``: no model-error term.
+    """
+
+    train: str
+    quantile: float = 0.95
+    prediction_errors: str | None = None
+
+    @property
+    def train_days(self) -> tuple[pd.Timestamp, pd.Timestamp]:
+        """(first day, last day) of the training period, local midnight."""
+        first, last = self.train.split("..")
+        return pd.Timestamp(first, tz=TIMEZONE), pd.Timestamp(last, tz=TIMEZONE)
+
+
+@dataclass(frozen=True)
 class UncertaintyConfig:
     """Half-widths σ of the forecast-error box, per disturbance kind.
 
@@ -130,14 +157,41 @@ class UncertaintyConfig:
         default_factory=lambda: {"solar": 0.05, "internal_gain": 0.05}
     )
     absolute: Mapping[str, float] = field(default_factory=lambda: {"outdoor_temp": 0.5})
+    calibrate: CalibrationConfig | None = None
+    """Replace ``relative``/``absolute`` by a box calibrated on a training period."""
 
 
 @dataclass(frozen=True)
 class RealisationConfig:
-    """How the simulator draws the realised forecast error w inside the box."""
+    """What the plant sees (``[realisation]``): the data, the internal gains' occupancy and
+    an extra error w drawn in a box.
+
+    ``occupancy = "schedule"``: the gains of the office schedule; ``"stochastic"``: a seeded
+    stochastic occupancy model per zone (:mod:`hvacflex.data.occupancy`), while the
+    controller still forecasts the schedule. w is drawn by ``mode`` in the scenario's
+    uncertainty box, or — when ``box_relative`` or ``box_absolute`` is given — in a box of its
+    own (``box_relative``, ``box_absolute``: kind → fraction / value, as in
+    ``[uncertainty]``; a stress test outside the box the controller plans for).
+    """
 
     mode: RealisationMode = "uniform"
     ar1_coefficient: float = AR1_COEFFICIENT
+    occupancy: OccupancyMode = "schedule"
+    box_relative: Mapping[str, float] | None = None
+    box_absolute: Mapping[str, float] | None = None
+
+
+@dataclass(frozen=True)
+class ForecastConfig:
+    """What the controller is told about the future (``[forecast]``, docs/forecast.md).
+
+    ``weather = "perfect"``: the weather file itself; ``"statistical"``: diurnal climatology
+    plus a decaying AR(1) anomaly fitted on the ``train_days`` days before the run
+    (:mod:`hvacflex.data.weather_forecast`). Internal gains are always the schedule's.
+    """
+
+    weather: WeatherForecastMode = "perfect"
+    train_days: int = WEATHER_TRAIN_DAYS
 
 
 @dataclass(frozen=True)
@@ -226,6 +280,7 @@ class ScenarioConfig:
     data: DataConfig = field(default_factory=DataConfig)
     comfort: ComfortConfig = field(default_factory=ComfortConfig)
     plant: PlantConfig = field(default_factory=PlantConfig)
+    forecast: ForecastConfig = field(default_factory=ForecastConfig)
 
     @property
     def steps(self) -> int:
@@ -257,5 +312,15 @@ class ScenarioConfig:
         payload.pop("name")
         if self.plant == PlantConfig():
             payload.pop("plant")  # the default plant keeps the run keys of earlier versions
+        if self.forecast == ForecastConfig():
+            payload.pop("forecast")  # so do the default forecast, occupancy and box
+        for table, key, empty in (
+            ("realisation", "occupancy", "schedule"),
+            ("realisation", "box_relative", None),
+            ("realisation", "box_absolute", None),
+            ("uncertainty", "calibrate", None),
+        ):
+            if payload[table][key] == empty:
+                payload[table].pop(key)
         text = json.dumps(payload, sort_keys=True)
         return hashlib.sha256(text.encode()).hexdigest()[:12]

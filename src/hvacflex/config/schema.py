@@ -18,8 +18,10 @@ File layout (every key optional)::
     [reserve]      event_max_steps, event_allowance_k, event_recovery_steps,
                    non_delivery_penalty_sgd_per_mwh
     [estimation]   mode, measurement_noise_k
-    [uncertainty]  relative = {kind = fraction}, absolute = {kind = value}
-    [realisation]  mode, ar1_coefficient
+    [uncertainty]  relative = {kind = fraction}, absolute = {kind = value},
+                   calibrate = {train = "YYYY-MM-DD..YYYY-MM-DD", quantile, prediction_errors}
+    [realisation]  mode, ar1_coefficient, occupancy, box_relative, box_absolute
+    [forecast]     weather, train_days
     [activation]   mode, events_per_year, duration_steps, file
     [data]         weather_file, usep_source, reserve_source, reserve_price_scale,
                    price_gap_fill
@@ -48,6 +50,7 @@ from hvacflex.config.model import (
     ActivationConfig,
     ActivationMode,
     BillingMode,
+    CalibrationConfig,
     ComfortConfig,
     ControllerConfig,
     ControllerKind,
@@ -56,7 +59,9 @@ from hvacflex.config.model import (
     EstimationConfig,
     EstimationMode,
     FeedbackConfig,
+    ForecastConfig,
     Linearisation,
+    OccupancyMode,
     PlantActuation,
     PlantConfig,
     PlantKind,
@@ -66,6 +71,7 @@ from hvacflex.config.model import (
     ReserveConfig,
     ScenarioConfig,
     UncertaintyConfig,
+    WeatherForecastMode,
 )
 from hvacflex.energyplus.idf import VALID_TIMESTEPS_PER_HOUR
 from hvacflex.opt.options import FeedbackStructure, RobustMode
@@ -165,9 +171,33 @@ class EstimationSpec(Spec):
     measurement_noise_k: NonNegative = default(EstimationConfig, "measurement_noise_k")
 
 
+def _train_period(text: str) -> str:
+    """``"YYYY-MM-DD..YYYY-MM-DD"``, first day ≤ last day."""
+    parts = text.split("..")
+    hint = "e.g. '2014-02-24..2014-03-02' (both days included)"
+    if len(parts) != 2:
+        raise rule_error("not a period 'first..last'", "", text, hint=hint)
+    try:
+        first, last = (pd.Timestamp(p) for p in parts)
+    except ValueError:
+        raise rule_error("not a period of dates", "", text, hint=hint) from None
+    if first != first.normalize() or last != last.normalize() or first.tzinfo or last.tzinfo:
+        raise rule_error("give whole days without a time or time zone", "", text, hint=hint)
+    if last < first:
+        raise rule_error("the last day is before the first", "", text, hint=hint)
+    return text
+
+
+class CalibrationSpec(Spec):
+    train: Annotated[Text, AfterValidator(_train_period)]
+    quantile: Annotated[Number, Field(gt=0.0, lt=1.0)] = default(CalibrationConfig, "quantile")
+    prediction_errors: Text | None = default(CalibrationConfig, "prediction_errors")
+
+
 class UncertaintySpec(Spec):
     relative: dict[DisturbanceKind, NonNegative] = default(UncertaintyConfig, "relative")
     absolute: dict[DisturbanceKind, NonNegative] = default(UncertaintyConfig, "absolute")
+    calibrate: CalibrationSpec | None = None
 
 
 class RealisationSpec(Spec):
@@ -175,6 +205,18 @@ class RealisationSpec(Spec):
     ar1_coefficient: Annotated[Number, Field(ge=0.0, lt=1.0)] = default(
         RealisationConfig, "ar1_coefficient"
     )
+    occupancy: OccupancyMode = default(RealisationConfig, "occupancy")
+    box_relative: dict[DisturbanceKind, NonNegative] | None = default(
+        RealisationConfig, "box_relative"
+    )
+    box_absolute: dict[DisturbanceKind, NonNegative] | None = default(
+        RealisationConfig, "box_absolute"
+    )
+
+
+class ForecastSpec(Spec):
+    weather: WeatherForecastMode = default(ForecastConfig, "weather")
+    train_days: PositiveInt = default(ForecastConfig, "train_days")
 
 
 class ActivationSpec(Spec):
@@ -295,6 +337,25 @@ class ScenarioSpec(Spec):
     data: DataSpec = DataSpec()
     comfort: ComfortSpec = ComfortSpec()
     plant: PlantSpec = PlantSpec()
+    forecast: ForecastSpec = ForecastSpec()
+
+    @model_validator(mode="after")
+    def _training_before_or_after_the_run(self) -> Self:
+        calibrate = self.uncertainty.calibrate
+        if calibrate is None:
+            return self
+        first, last = (pd.Timestamp(p) for p in calibrate.train.split(".."))
+        start = pd.Timestamp(self.start)
+        end = start + pd.Timedelta(days=self.days)
+        if first < end and last + pd.Timedelta(days=1) > start:
+            raise rule_error(
+                "the training period overlaps the run",
+                "uncertainty.calibrate.train",
+                calibrate.train,
+                hint=f"the run is {start:%Y-%m-%d %H:%M} … {end:%Y-%m-%d %H:%M}; train on "
+                "other days, so the box's coverage on the run is out of sample",
+            )
+        return self
 
     @model_validator(mode="after")
     def _events_need_an_open_loop_policy(self) -> Self:
@@ -322,6 +383,8 @@ TABLES: dict[type[BaseModel], type] = {
     DataSpec: DataConfig,
     ComfortSpec: ComfortConfig,
     PlantSpec: PlantConfig,
+    CalibrationSpec: CalibrationConfig,
+    ForecastSpec: ForecastConfig,
 }
 """Each table's schema and the domain dataclass it becomes."""
 

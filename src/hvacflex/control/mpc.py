@@ -56,6 +56,7 @@ from hvacflex.opt import (
     WarmSolver,
     make_solver,
 )
+from hvacflex.opt.robust import comfort_margins
 from hvacflex.units import SECONDS_PER_HOUR
 
 
@@ -82,6 +83,17 @@ RESERVE_FLOW_TOLERANCE_KG_S = 1e-6
 """Reserve flows below this are zero up to the solver's tolerance and are not offered."""
 
 
+def model_error_margins(
+    model: LinearModel, model_error_k: FloatArray, config: ControllerConfig
+) -> FloatArray:
+    """Comfort margin (N, m) [K] of a per-zone one-step model error ``|ε_z| ≤ model_error_k``
+    (m,) [K per step] entering every step's zone temperature: the box margin of
+    :func:`hvacflex.opt.robust.comfort_margins` with ``E = Cᵀ`` and σ = ε,
+    ``Σ_{j<k} |C A^{k−1−j} Cᵀ| ε`` (docs/forecast.md)."""
+    sigma = np.tile(model_error_k, (config.horizon_steps, 1))
+    return comfort_margins(model.a, model.c.T, model.c, sigma)
+
+
 class MPCController(Controller):
     """Nominal or robust MPC for one building (see the module docstring).
 
@@ -99,6 +111,10 @@ class MPCController(Controller):
         (docs/estimation.md) added to δ when the MPC is robust; None = full state.
     linearisation : ``"fixed"`` (``model`` throughout) or ``"trajectory"`` (re-linearised
         each step about the previous plan shifted by one step, docs/estimation.md §3).
+    model_error_k : (m,) calibrated one-step model error per zone [K per step]
+        (:func:`hvacflex.data.calibration.calibrate_box`); its margin
+        (:func:`model_error_margins`) tightens the comfort band on top of δ when the MPC is
+        robust; None = no model-error term.
     """
 
     def __init__(
@@ -112,6 +128,7 @@ class MPCController(Controller):
         *,
         estimation: KalmanConfig | None = None,
         linearisation: Linearisation = "fixed",
+        model_error_k: FloatArray | None = None,
     ) -> None:
         self._building = building
         self._reserve = reserve if reserve is not None else ReserveConfig()
@@ -139,6 +156,11 @@ class MPCController(Controller):
         self._held = False
         self.takes_measurements = estimation is not None
         self._observers: list[Callable[[RMPCProblem], None]] = []
+        self._model_error_margin_k = (
+            None
+            if model_error_k is None or config.robust == "none"
+            else model_error_margins(model, np.asarray(model_error_k, dtype=float), config)
+        )
 
     @property
     def last_plan(self) -> RMPCSolution | None:
@@ -320,6 +342,9 @@ class MPCController(Controller):
         sigma = self._box.sigma(forecast.disturbances[:horizon], self._model.channels)
         if self._estimator is not None and self._config.robust != "none":
             extra = self._estimator.margins(step_model, sigma.max(axis=0), horizon)
+        if self._model_error_margin_k is not None:
+            model_margin = self._model_error_margin_k
+            extra = model_margin if extra is None else extra + model_margin
         problem = self.problem(
             x_degc,
             forecast,

@@ -18,12 +18,15 @@ full horizon.
 
 :class:`Forecaster` serves ``forecast(k, horizon)`` from precomputed arrays: perfect
 foresight, or price persistence (yesterday's same period) and/or an AR(1) disturbance
-forecast error that grows with lead time (as BOPTEST's forecast-uncertainty emulator).
+forecast error that grows with lead time (as BOPTEST's forecast-uncertainty emulator), or a
+forecaster that does not know the future: the weather from a statistical model fitted on the
+days before the run (:mod:`hvacflex.data.weather_forecast`)
+and the internal gains from the schedule while the plant sees stochastic occupancy
+(:mod:`hvacflex.data.occupancy`); docs/forecast.md.
 """
 
 from __future__ import annotations
 
-import functools
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -59,7 +62,8 @@ from hvacflex.data.uncertainty import (
     UncertaintyBox,
     check_ar1_coefficient,
 )
-from hvacflex.data.weather import EpwLocation, read_epw, weather_30min
+from hvacflex.data.weather import EpwLocation, weather_on
+from hvacflex.data.weather_forecast import StatisticalWeather, period_of_day
 from hvacflex.errors import ConfigError, DataError
 from hvacflex.paths import DATA_DIR_ENV, data_dir
 
@@ -245,6 +249,12 @@ class Forecaster:
     seed : random seed of the AR(1) error.
     error_box : standard deviations of the AR(1) error (default ``DEFAULT_UNCERTAINTY``).
     ar1_coefficient : φ per 30-min step.
+    weather : a :class:`StatisticalWeather` fitted before the data: the weather channels and
+        the outdoor humidity of the forecast at k come from it and from the data of periods
+        before k only (never the data of k or later); None: the data (perfect foresight).
+    expected_disturbances : (T, nd) what the controller expects of the non-weather channels
+        (internal gains: the schedule, while the plant sees stochastic occupancy); None: the
+        data.
 
     ``forecast(k, horizon)`` returns read-only views of the data in the default mode (no
     copies).
@@ -259,6 +269,8 @@ class Forecaster:
         *,
         error_box: UncertaintyBox = DEFAULT_UNCERTAINTY,
         ar1_coefficient: float = AR1_COEFFICIENT,
+        weather: StatisticalWeather | None = None,
+        expected_disturbances: np.ndarray | None = None,
     ) -> None:
         if mode not in get_args(PriceMode):
             raise ConfigError(
@@ -289,6 +301,38 @@ class Forecaster:
         self._nonnegative = np.array(
             [ch.kind in ("solar", "internal_gain") for ch in x.channels], dtype=bool
         )
+        self._init_realistic(weather, expected_disturbances)
+
+    def _init_realistic(
+        self, weather: StatisticalWeather | None, expected: np.ndarray | None
+    ) -> None:
+        """Precompute the inputs of a forecaster that does not know the future."""
+        x = self.exogenous
+        if (weather is not None or expected is not None) and self.disturbance_error != "none":
+            raise ConfigError(
+                "the AR(1) forecast error is for a perfect forecast",
+                field="disturbance_error",
+                value=self.disturbance_error,
+                hint="use disturbance_error='none' with a statistical weather forecast or "
+                "expected disturbances",
+            )
+        self.weather = weather
+        self._expected = x.disturbances if expected is None else _readonly(expected)
+        if self._expected.shape != x.disturbances.shape:
+            raise DataError(
+                "expected disturbances must have the data's shape",
+                source="Forecaster",
+                field="expected_disturbances",
+                value=self._expected.shape,
+                hint=f"expected {x.disturbances.shape}",
+            )
+        if weather is None:
+            return
+        columns = list(weather.columns)
+        self._observed = np.column_stack(
+            [x.disturbances[:, columns], x.outdoor_humidity_ratio_kg_per_kg]
+        )
+        self._periods = period_of_day(x.index)
 
     def _lag(self, days: int) -> tuple[np.ndarray, np.ndarray]:
         if days not in self._lagged:
@@ -311,6 +355,20 @@ class Forecaster:
             energy_parts.append(energy[k + start : k + stop])
             reserve_parts.append(reserve[k + start : k + stop])
         return _readonly(np.concatenate(energy_parts)), _readonly(np.concatenate(reserve_parts))
+
+    def _statistical(self, k: int, horizon: int) -> tuple[np.ndarray, np.ndarray]:
+        """(horizon, nd) disturbances and (horizon,) humidity of the realistic forecast:
+        the expected (scheduled) gains, the weather from the model and periods < k."""
+        disturbances = np.array(self._expected[k : k + horizon], dtype=float)
+        weather = self.weather
+        if weather is None:
+            humidity = self.exogenous.outdoor_humidity_ratio_kg_per_kg[k : k + horizon]
+            return _readonly(disturbances), humidity
+        last = weather.last_value if k == 0 else self._observed[k - 1]
+        last_period = int(self._periods[k] - 1) % PERIODS_PER_DAY
+        predicted = weather.model.predict(last, last_period, self._periods[k : k + horizon])
+        disturbances[:, list(weather.columns)] = predicted[:, :-1]
+        return _readonly(disturbances), _readonly(predicted[:, -1])
 
     def _disturbances(self, k: int, horizon: int) -> np.ndarray:
         truth = self.exogenous.disturbances[k : k + horizon]
@@ -346,14 +404,19 @@ class Forecaster:
         x = self.exogenous
         end = k + horizon
         energy, reserve = self._prices(k, horizon)
+        if self.weather is None and self._expected is x.disturbances:
+            disturbances = self._disturbances(k, horizon)
+            humidity = x.outdoor_humidity_ratio_kg_per_kg[k:end]
+        else:
+            disturbances, humidity = self._statistical(k, horizon)
         return Forecast(
             self._index[k:end],
             energy,
             reserve,
             x.reserve_price_synthetic,
-            self._disturbances(k, horizon),
+            disturbances,
             self._channels,
-            x.outdoor_humidity_ratio_kg_per_kg[k:end],
+            humidity,
             x.comfort_lower_degc[k:end],
             x.comfort_upper_degc[k:end],
             x.occupied[k:end],
@@ -362,20 +425,9 @@ class Forecaster:
         )
 
 
-@functools.lru_cache(maxsize=8)
-def _weather_year(path: str, year: int) -> tuple[pd.DataFrame, EpwLocation]:
-    epw, location = read_epw(path)
-    return weather_30min(epw, location, year), location
-
-
-def _weather_on(index: pd.DatetimeIndex, path: Path) -> tuple[pd.DataFrame, EpwLocation]:
-    resolved = str(path.resolve())
-    local = index.tz_convert(TIMEZONE)
-    years = sorted(set(local.year))
-    parts = [_weather_year(resolved, y)[0] for y in years]
-    location = _weather_year(resolved, years[0])[1]
-    full = pd.concat(parts) if len(parts) > 1 else parts[0]
-    return full.loc[local], location
+def default_weather_file() -> Path:
+    """The shipped EPW (:data:`DEFAULT_WEATHER_FILE` in ``<data_dir>/weather``)."""
+    return data_dir() / "weather" / DEFAULT_WEATHER_FILE
 
 
 def _check_coverage(
@@ -497,12 +549,8 @@ def load_exogenous(
     reserve, synthetic = _reserve_prices(
         index, steps, energy, reserve_source, seed, reserve_scale_sgd_per_mwh, price_gap_fill
     )
-    weather_path = (
-        Path(weather_file)
-        if weather_file is not None
-        else data_dir() / "weather" / DEFAULT_WEATHER_FILE
-    )
-    weather, location = _weather_on(index, weather_path)
+    weather_path = Path(weather_file) if weather_file is not None else default_weather_file()
+    weather, location = weather_on(index, weather_path)
     d = _disturbance_matrix(channels, index, weather, location, gains, gain_areas, schedule)
     band = comfort or ComfortBand()
     lower, upper = comfort_bounds_degc(

@@ -56,10 +56,12 @@ def check_ar1_coefficient(ar1_coefficient: float) -> None:
         )
 
 
-def _frozen_mapping(values: Mapping[str, float], name: str) -> Mapping[str, float]:
+def _frozen_mapping(
+    values: Mapping[str, float], name: str, *, by_kind: bool = True
+) -> Mapping[str, float]:
     checked: dict[str, float] = {}
     for kind, value in dict(values).items():
-        if kind not in CHANNEL_UNITS:
+        if by_kind and kind not in CHANNEL_UNITS:
             raise ConfigError(
                 "unknown disturbance channel kind",
                 source="UncertaintyBox",
@@ -90,19 +92,31 @@ class UncertaintyBox:
     relative : kind → fraction of the forecast's magnitude (0.2 = ±20 %).
     absolute : kind → half-width in the channel's unit (K for temperatures, W/m² for solar,
         W for internal gains).
+    channel_relative, channel_absolute : channel *name* → the same, for one channel; a
+        channel named in either replaces its kind's two values by these (a missing one is
+        0). A calibrated box (:func:`hvacflex.data.calibration.calibrate_box`) is per channel.
     """
 
     relative: Mapping[str, float] = field(default_factory=dict)
     absolute: Mapping[str, float] = field(default_factory=dict)
+    channel_relative: Mapping[str, float] = field(default_factory=dict)
+    channel_absolute: Mapping[str, float] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "relative", _frozen_mapping(self.relative, "relative"))
         object.__setattr__(self, "absolute", _frozen_mapping(self.absolute, "absolute"))
+        for name in ("channel_relative", "channel_absolute"):
+            values = _frozen_mapping(getattr(self, name), name, by_kind=False)
+            object.__setattr__(self, name, values)
 
     def coefficients(self, channels: Sequence[DisturbanceChannel]) -> tuple[np.ndarray, np.ndarray]:
         """Per-channel (relative (nd,), absolute (nd,)) coefficients, for precomputation."""
         relative = np.array([self.relative.get(ch.kind, 0.0) for ch in channels], dtype=float)
         absolute = np.array([self.absolute.get(ch.kind, 0.0) for ch in channels], dtype=float)
+        for i, ch in enumerate(channels):
+            if ch.name in self.channel_relative or ch.name in self.channel_absolute:
+                relative[i] = self.channel_relative.get(ch.name, 0.0)
+                absolute[i] = self.channel_absolute.get(ch.name, 0.0)
         return relative, absolute
 
     def sigma(self, d_forecast: np.ndarray, channels: Sequence[DisturbanceChannel]) -> np.ndarray:
@@ -134,18 +148,23 @@ class UncertaintyBox:
         return UncertaintyBox(
             {k: v * factor for k, v in self.relative.items()},
             {k: v * factor for k, v in self.absolute.items()},
+            {k: v * factor for k, v in self.channel_relative.items()},
+            {k: v * factor for k, v in self.channel_absolute.items()},
         )
 
     def describe(self) -> str:
         """Human-readable summary, e.g. ``"solar ±20 %, outdoor_temp ±0.5 degC"``."""
         parts = [f"{k} ±{v * 100:g} %" for k, v in self.relative.items() if v]
         parts += [f"{k} ±{v:g} {CHANNEL_UNITS[k]}" for k, v in self.absolute.items() if v]
+        parts += [f"{k} ±{v * 100:.3g} %" for k, v in self.channel_relative.items() if v]
+        parts += [f"{k} ±{v:.3g}" for k, v in self.channel_absolute.items() if v]
         return ", ".join(parts) or "none"
 
     @property
     def is_zero(self) -> bool:
         """True if the box is a point (nominal MPC)."""
-        return not any(self.relative.values()) and not any(self.absolute.values())
+        values = (self.relative, self.absolute, self.channel_relative, self.channel_absolute)
+        return not any(any(v.values()) for v in values)
 
 
 DEFAULT_UNCERTAINTY = UncertaintyBox(

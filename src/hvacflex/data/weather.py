@@ -711,3 +711,22 @@ def _ground_temp(location: EpwLocation, hours_mid: np.ndarray, epw: pd.DataFrame
         period=EPW_HOURS_PER_YEAR,
     )
     return result
+
+
+@functools.lru_cache(maxsize=8)
+def _weather_year(path: str, year: int) -> tuple[pd.DataFrame, EpwLocation]:
+    epw, location = read_epw(path)
+    return weather_30min(epw, location, year), location
+
+
+def weather_on(index: pd.DatetimeIndex, path: Path) -> tuple[pd.DataFrame, EpwLocation]:
+    """The 30-min weather (:func:`weather_30min`) of the EPW at ``path`` on ``index`` (tz-aware
+    period starts; the typical year is mapped onto each calendar year the index touches),
+    and the file's location."""
+    resolved = str(path.resolve())
+    local = index.tz_convert(TIMEZONE)
+    years = sorted(set(local.year))
+    parts = [_weather_year(resolved, y)[0] for y in years]
+    location = _weather_year(resolved, years[0])[1]
+    full = pd.concat(parts) if len(parts) > 1 else parts[0]
+    return full.loc[local], location

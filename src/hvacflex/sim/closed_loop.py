@@ -3,7 +3,10 @@
 Every 30 minutes (docs/model.md §4): forecast → :class:`hvacflex.sim.step.ControlStep`
 (controller, IL events) → the decision is applied to the plant (:class:`hvacflex.sim.plant.
 Plant`; by default hvacflex's exact nonlinear RC network) under the realised disturbance
-d̂ + w (w drawn in the uncertainty box) → measure → repeat. When interruptible load is
+d + w (the data, :attr:`Setup.exogenous`, plus w drawn in the uncertainty box or the
+realisation's own) → measure → repeat. The forecast the controller sees may differ from the
+data (docs/forecast.md); the results' ``d_<channel>`` is that forecast of the period and
+``w_<channel>`` its realised error. When interruptible load is
 activated the plant runs u − r: under the event model the locked plan of the event's first
 period for at most D periods, under the whole-horizon model each period's fresh plan
 (:mod:`hvacflex.sim.events`).
@@ -264,10 +267,14 @@ class ClosedLoop:
         )
         t1 = time.perf_counter()
 
-        d_hat = exo.disturbances[k]
-        sigma = setup.box.sigma(d_hat[None, :], setup.model.channels)[0]
-        w = self.sampler.sample(sigma)
-        d_real = d_hat + w
+        # the plant sees the data plus a draw in the sampling box; the results record the
+        # controller's forecast of the period and its error (0 + draw under perfect foresight)
+        d_data = exo.disturbances[k]
+        d_hat = np.asarray(forecast.disturbances[0], dtype=float)
+        sigma = setup.sampling_box.sigma(d_data[None, :], setup.model.channels)[0]
+        w_box = self.sampler.sample(sigma)
+        d_real = d_data + w_box
+        w = (d_data - d_hat) + w_box
         disturbance = Disturbance(
             d_real, float(d_real[self._outdoor]), float(exo.outdoor_humidity_ratio_kg_per_kg[k])
         )

@@ -45,6 +45,9 @@ def run_key(config: ScenarioConfig) -> str:
             files += sorted(path.glob("*")) if path.is_dir() else [path]
     if config.activation.mode == "file" and config.activation.file is not None:
         files.append(Path(config.activation.file))
+    calibrate = config.uncertainty.calibrate
+    if calibrate is not None and calibrate.prediction_errors is not None:
+        files.append(Path(calibrate.prediction_errors))  # the training run sizes the box
     for path in files:
         digest.update(str(path.name).encode())
         if path.is_file():
