@@ -59,6 +59,7 @@ from hvacflex.service.schemas import (
     FeederLimitIn,
     Health,
     MeasurementIn,
+    MeasurementRecord,
     PeakPriceIn,
     Plan,
     PlanList,
@@ -484,6 +485,35 @@ def _building_routes(app: FastAPI, runtime: Runtime, auth: _Auth) -> None:
         if plan is None:
             raise HTTPException(404, "no plan yet")
         return Envelope(status=200, message="ok", payload=Plan(**plan))
+
+    @app.get("/v1/buildings/{building_id}/measurements", tags=["building"], responses=_ERRORS)
+    def get_measurements(
+        building_id: str,
+        _who: Annotated[Principal, Depends(building_reader)],
+        limit: Annotated[int, Query(ge=1, le=1000)] = 48,
+    ) -> Envelope[list[MeasurementRecord]]:
+        """The building's latest measurements, newest first: period, time and the power it
+        metered in the period before (what an OpenADR VEN reports as telemetry)."""
+        from hvacflex.service.db import Measurement
+
+        with sessions() as session:
+            built = runtime.get(session, building_id)
+            rows = session.scalars(
+                select(Measurement)
+                .where(Measurement.building_id == building_id)
+                .order_by(Measurement.period.desc())
+                .limit(limit)
+            )
+            records = [
+                MeasurementRecord(
+                    period=r.period,
+                    time=built.time_of(r.period),
+                    previous_power_kw=r.previous_power_kw,
+                    received_at=r.received_at.isoformat(),
+                )
+                for r in rows
+            ]
+        return Envelope(status=200, message=f"{len(records)} measurements", payload=records)
 
     @app.get("/v1/plans", tags=["operator"], responses=_ERRORS)
     def all_plans(_who: Operator) -> Envelope[PlanList]:
