@@ -499,14 +499,28 @@ def openadr_client(ven: OpenAdrVen) -> Any:
     rate = objects.SamplingRate(min_period=SAMPLING_MIN, max_period=SAMPLING_MAX, on_change=False)
     for building_id in config.building_ids:
         reports = (
-            (TELEMETRY_REPORT, "metered_power_kw", enums.READING_TYPE.DIRECT_READ,
-             enums.REPORT_TYPE.READING, lambda b=building_id: ven.metered_power(b)),
-            (FORECAST_REPORT, "planned_power_kw", enums.READING_TYPE.PROJECTED,
-             enums.REPORT_TYPE.USAGE, lambda b=building_id: ven.forecast(b, "horizon_power_kw")),
-            (FORECAST_REPORT, "reserve_offer_kw", enums.READING_TYPE.PROJECTED,
-             enums.REPORT_TYPE.UP_REGULATION_CAPACITY_AVAILABLE,
-             lambda b=building_id: ven.forecast(b, "horizon_reserve_kw")),
-        )  # fmt: skip
+            (
+                TELEMETRY_REPORT,
+                "metered_power_kw",
+                enums.READING_TYPE.DIRECT_READ,
+                enums.REPORT_TYPE.READING,
+                lambda b=building_id: ven.metered_power(b),
+            ),
+            (
+                FORECAST_REPORT,
+                "planned_power_kw",
+                enums.READING_TYPE.PROJECTED,
+                enums.REPORT_TYPE.USAGE,
+                lambda b=building_id: ven.forecast(b, "horizon_power_kw"),
+            ),
+            (
+                FORECAST_REPORT,
+                "reserve_offer_kw",
+                enums.READING_TYPE.PROJECTED,
+                enums.REPORT_TYPE.UP_REGULATION_CAPACITY_AVAILABLE,
+                lambda b=building_id: ven.forecast(b, "horizon_reserve_kw"),
+            ),
+        )
         for specifier, what, reading_type, report_type, read in reports:
 
             async def callback(read: Callable[[], list[tuple[datetime, float]]] = read) -> Any:
