@@ -233,6 +233,7 @@ def create_app(
     auth = _Auth(sessions)
     _service_routes(app, runtime)
     _building_routes(app, runtime, auth)
+    _measurement_routes(app, runtime, auth)
     _signal_routes(app, runtime, auth)
     _operator_routes(app, runtime, auth)
     app.add_middleware(BodyLimitAndAudit, sessions=sessions)
@@ -486,6 +487,20 @@ def _building_routes(app: FastAPI, runtime: Runtime, auth: _Auth) -> None:
             raise HTTPException(404, "no plan yet")
         return Envelope(status=200, message="ok", payload=Plan(**plan))
 
+    @app.get("/v1/plans", tags=["operator"], responses=_ERRORS)
+    def all_plans(_who: Operator) -> Envelope[PlanList]:
+        """Every building's latest plan."""
+        with sessions() as session:
+            plans = [runtime.latest_plan(session, b) for b in runtime.building_ids(session)]
+        out = [Plan(**p) for p in plans if p is not None]
+        return Envelope(status=200, message=f"{len(out)} plans", payload=PlanList(plans=out))
+
+
+def _measurement_routes(app: FastAPI, runtime: Runtime, auth: _Auth) -> None:
+    """The stored measurements (what a building metered), for the operator or the building."""
+    sessions = runtime.sessions
+    building_reader = _roles(auth)[1]
+
     @app.get("/v1/buildings/{building_id}/measurements", tags=["building"], responses=_ERRORS)
     def get_measurements(
         building_id: str,
@@ -514,14 +529,6 @@ def _building_routes(app: FastAPI, runtime: Runtime, auth: _Auth) -> None:
                 for r in rows
             ]
         return Envelope(status=200, message=f"{len(records)} measurements", payload=records)
-
-    @app.get("/v1/plans", tags=["operator"], responses=_ERRORS)
-    def all_plans(_who: Operator) -> Envelope[PlanList]:
-        """Every building's latest plan."""
-        with sessions() as session:
-            plans = [runtime.latest_plan(session, b) for b in runtime.building_ids(session)]
-        out = [Plan(**p) for p in plans if p is not None]
-        return Envelope(status=200, message=f"{len(out)} plans", payload=PlanList(plans=out))
 
 
 def _signal_routes(app: FastAPI, runtime: Runtime, auth: _Auth) -> None:
