@@ -738,7 +738,7 @@ def serve_openadr_ven(
     ven_name: str = typer.Option(..., help="This VEN's name, as the VTN knows it."),
     url: str = typer.Option(..., help="The hvacflex service, e.g. http://127.0.0.1:8000."),
     building: list[str] = typer.Option(  # noqa: B008
-        [], "--building", help="A building the VTN dispatches (repeat for more)."
+        [], "--building", help="A building the VTN dispatches (repeat; default: all at start)."
     ),
     key_file: Path | None = typer.Option(  # noqa: B008
         None, help="File holding an operator key of the service (else $HVACFLEX_KEY)."
@@ -767,31 +767,18 @@ def serve_openadr_ven(
     import asyncio
     import logging
 
-    import pandas as pd
-
-    from hvacflex.errors import HvacflexError, InputError
-    from hvacflex.service.openadr import VenConfig, run_ven
+    from hvacflex.errors import HvacflexError
+    from hvacflex.service.openadr import VenConfig, parse_clock_offset, run_ven
     from hvacflex.service.replay import read_key
 
     try:
-        try:
-            offset = pd.Timedelta(clock_offset)
-        except ValueError:
-            raise InputError(
-                "not a duration",
-                field="--clock-offset",
-                value=clock_offset,
-                hint="e.g. '-4656 days +01:30:00', '-111744h' or '0s'",
-            ) from None
-        if stop_after_s is not None and not (math.isfinite(stop_after_s) and stop_after_s > 0):
-            raise InputError("must be > 0 s", field="--stop-after-s", value=stop_after_s)
         config = VenConfig(
             vtn_url=vtn_url,
             ven_name=ven_name,
             service_url=url,
             operator_key=read_key(key_file),
             building_ids=tuple(building),
-            clock_offset=offset,
+            clock_offset=parse_clock_offset(clock_offset),
             cert=cert,
             key=key,
             ca=ca,

@@ -8,6 +8,7 @@ import os
 import subprocess
 import tempfile
 import time
+from dataclasses import dataclass
 from datetime import UTC, datetime, timedelta
 from pathlib import Path
 from typing import Any
@@ -293,58 +294,81 @@ def _wait(condition: Any, timeout_s: float, what: str, log: Any) -> None:
     raise AssertionError(f"{what} within {timeout_s} s; VEN log:\n{log.read().decode()[-4000:]}")
 
 
+@dataclass
+class _Site:
+    """A service (``hvacflex serve``) with building b1 registered and measured at 15:00."""
+
+    url: str
+    operator_key: str
+    operator: Client
+    bems: Client
+    nodes: int
+    first: dict[str, Any]
+
+    @staticmethod
+    def start(server_factory: Any) -> _Site:
+        server = server_factory()
+        server.start()
+        operator_key = operator_key_for(server.db_url)
+        operator = Client(server.url, operator_key)
+        registered = operator.call("POST", "/v1/buildings", registration("b1"))
+        site = _Site(
+            server.url,
+            operator_key,
+            operator,
+            Client(server.url, registered["key"]),
+            len(registered["nodes"]),
+            {},
+        )
+        site.first = site.measure("2014-03-03T15:00+08:00", MEASURED_POWER_KW)
+        return site
+
+    def measure(self, time_text: str, power_kw: float) -> dict[str, Any]:
+        body = {
+            "time": time_text,
+            "node_temperatures_degc": [24.0] * self.nodes,
+            "previous_power_kw": power_kw,
+        }
+        plan: dict[str, Any] = self.bems.call("POST", "/v1/buildings/b1/measurements", body)
+        return plan
+
+    def start_ven(
+        self, vtn: LoopbackVtn, offset: pd.Timedelta, files: TlsFiles | None
+    ) -> tuple[subprocess.Popen[bytes], Any]:
+        """``serve openadr-ven`` for b1 against ``vtn`` (a subprocess) and its log file."""
+        command = [*SERVE, "openadr-ven", "--vtn-url", vtn.url, "--ven-name", "site-1"]
+        command += ["--url", self.url, "--building", "b1", "--clock-offset", str(offset)]
+        command += ["--stop-after-s", "150"]
+        if files is not None:
+            command += ["--cert", str(files.ven_cert), "--key", str(files.ven_key)]
+            command += ["--ca", str(files.ca), "--vtn-fingerprint", str(vtn.fingerprint)]
+        log = tempfile.TemporaryFile()
+        env = {**os.environ, "HVACFLEX_KEY": self.operator_key}
+        return subprocess.Popen(command, stdout=log, stderr=subprocess.STDOUT, env=env), log
+
+
+def _next_half_hour() -> datetime:
+    now = pd.Timestamp.now(tz="UTC")
+    start: datetime = (now.floor("30min") + pd.Timedelta(minutes=30)).to_pydatetime()
+    return start
+
+
 @pytest.mark.parametrize("tls", [False, True], ids=["http", "mutual-tls"])
 def test_a_vtn_drives_a_building_through_the_ven(
     server_factory: Any, tmp_path: Path, tls: bool
 ) -> None:
-    server = server_factory()
-    server.start()
-    operator_key = operator_key_for(server.db_url)
-    operator = Client(server.url, operator_key)
-    registered = operator.call("POST", "/v1/buildings", registration("b1"))
-    bems = Client(server.url, registered["key"])
-    nodes = len(registered["nodes"])
-
-    def measure(time_text: str, power_kw: float) -> dict[str, Any]:
-        body = {
-            "time": time_text,
-            "node_temperatures_degc": [24.0] * nodes,
-            "previous_power_kw": power_kw,
-        }
-        plan: dict[str, Any] = bems.call("POST", "/v1/buildings/b1/measurements", body)
-        return plan
-
-    first = measure("2014-03-03T15:00+08:00", MEASURED_POWER_KW)
+    site = _Site.start(server_factory)
+    operator_key, operator, first = site.operator_key, site.operator, site.first
+    measure = site.measure
     reserve = dict(zip(first["horizon_time"], first["horizon_reserve_kw"], strict=False))
     assert reserve["2014-03-03T16:00:00+08:00"] > 0 and reserve["2014-03-03T16:30:00+08:00"] > 0
 
-    real0 = (pd.Timestamp.now(tz="UTC").floor("30min") + pd.Timedelta(minutes=30)).to_pydatetime()
+    real0 = _next_half_hour()
     offset = E2E_T0 - pd.Timestamp(real0)
     files = TlsFiles.make(tmp_path) if tls else None
     vtn = LoopbackVtn(free_port(), _events(real0), files, run_for_s=150.0)
     vtn.start()
-    command = [
-        *SERVE,
-        "openadr-ven",
-        "--vtn-url",
-        vtn.url,
-        "--ven-name",
-        "site-1",
-        "--url",
-        server.url,
-        "--building",
-        "b1",
-        "--clock-offset",
-        str(offset),
-        "--stop-after-s",
-        "150",
-    ]
-    if files is not None:
-        command += ["--cert", str(files.ven_cert), "--key", str(files.ven_key)]
-        command += ["--ca", str(files.ca), "--vtn-fingerprint", str(vtn.fingerprint)]
-    log = tempfile.TemporaryFile()
-    env = {**os.environ, "HVACFLEX_KEY": operator_key}
-    ven = subprocess.Popen(command, stdout=log, stderr=subprocess.STDOUT, env=env)
+    ven, log = site.start_ven(vtn, offset, files)
     wanted = ("b1.metered_power_kw", "b1.planned_power_kw", "b1.reserve_offer_kw")
     try:
         _wait(lambda: len(vtn.opts) == 4, 120, "four opt responses", log)
@@ -404,3 +428,35 @@ def test_a_vtn_drives_a_building_through_the_ven(
     ]
     after = operator.call("POST", "/v1/clock", {"time": "2014-03-03T17:00+08:00"})["plans"]
     assert [(p["period"], p["il_activated"]) for p in after] == [(34, False)]
+
+
+def test_a_vtn_that_goes_away_and_comes_back_re_registers_the_ven(server_factory: Any) -> None:
+    site = _Site.start(server_factory)
+    real0 = _next_half_hour()
+    offset = E2E_T0 - pd.Timestamp(real0)
+    price, demand = _events(real0)[:2]
+    port = free_port()
+    before = LoopbackVtn(port, [price], run_for_s=150.0)
+    before.start()
+    ven, log = site.start_ven(before, offset, None)
+    after: LoopbackVtn | None = None
+    try:
+        _wait(lambda: before.opts == {before.event_ids[0]: OPT_IN}, 120, "the price opt", log)
+        before.stop()
+        time.sleep(3.0)  # the VEN polls a VTN that is not there (and logs it)
+        after = LoopbackVtn(port, [demand], run_for_s=150.0)  # a fresh VTN: it knows no VEN
+        after.start()
+        vtn = after
+        _wait(lambda: vtn.opts == {vtn.event_ids[0]: OPT_IN}, 60, "the demand opt", log)
+        assert ven.poll() is None, "the VEN must survive the VTN's absence"
+    finally:
+        ven.terminate()
+        ven.wait(timeout=30)
+        before.stop()
+        if after is not None:
+            after.stop()
+    assert after is not None and after.registrations == 1  # re-registered on the VTN's request
+    key_id = site.operator_key.split("_")[1]
+    audit = site.operator.call("GET", "/v1/audit")
+    posted = [(a["path"], a["status_code"]) for a in audit if a["key_id"] == key_id]
+    assert ("/v1/signals/prices", 200) in posted and ("/v1/signals/peak-price", 200) in posted

@@ -54,7 +54,7 @@ import logging
 import math
 import signal
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from datetime import datetime, timedelta
 from pathlib import Path
 from typing import Any
@@ -154,6 +154,25 @@ class VenConfig:
         for name, path in (("--cert", self.cert), ("--key", self.key), ("--ca", self.ca)):
             if path is not None and not path.is_file():
                 raise InputError("no such file", field=name, value=str(path))
+
+
+def parse_clock_offset(text: str) -> pd.Timedelta:
+    """``--clock-offset``: a duration as pandas reads it (``"-4656 days +01:30:00"``,
+    ``"-111744h"``, ``"-6704460min"``, ``"0s"``).
+
+    Raises
+    ------
+    InputError : not a duration.
+    """
+    try:
+        return pd.Timedelta(text)
+    except ValueError:
+        raise InputError(
+            "not a duration",
+            field="--clock-offset",
+            value=text,
+            hint="e.g. '-4656 days +01:30:00', '-111744h' or '0s'",
+        ) from None
 
 
 @dataclass(frozen=True)
@@ -543,8 +562,20 @@ def openadr_client(ven: OpenAdrVen) -> Any:
 
 
 async def run_ven(config: VenConfig, *, stop_after_s: float | None = None) -> None:
-    """Run the VEN until SIGINT/SIGTERM (or ``stop_after_s`` [s]), then stop it cleanly."""
-    client = openadr_client(OpenAdrVen(config))
+    """Run the VEN until SIGINT/SIGTERM (or ``stop_after_s`` [s]), then stop it cleanly.
+
+    Raises
+    ------
+    InputError : ``stop_after_s`` is not a positive number, or the VTN did not register
+        the VEN.
+    """
+    if stop_after_s is not None and not (math.isfinite(stop_after_s) and stop_after_s > 0):
+        raise InputError("must be > 0 s", field="--stop-after-s", value=stop_after_s)
+    service = Client(config.service_url, config.operator_key)
+    if not config.building_ids:
+        config = replace(config, building_ids=tuple(service.call("GET", "/v1/buildings")))
+        logger.info("buildings: %s", ", ".join(config.building_ids) or "none registered")
+    client = openadr_client(OpenAdrVen(config, service))
     stop = asyncio.Event()
     loop = asyncio.get_running_loop()
     for sig in (signal.SIGINT, signal.SIGTERM):
