@@ -219,27 +219,39 @@ def test_bad_settings_are_refused_naming_the_option(change: dict[str, Any], fiel
     assert raised.value.field == field
 
 
-def test_the_command_exits_2_on_a_bad_offset_without_a_traceback() -> None:
+@pytest.mark.parametrize(
+    ("extra", "field", "reason"),
+    [
+        (["--building", "b1", "--clock-offset", "soon"], "--clock-offset", "not a duration"),
+        (["--building", "b1"], "--vtn-url", "did not register"),  # no VTN at that port
+        ([], "--url", "cannot reach the service"),  # the buildings are asked of the service
+    ],
+    ids=["offset", "no-vtn", "no-service"],
+)
+def test_the_command_exits_2_naming_the_option(extra: list[str], field: str, reason: str) -> None:
+    vtn_url = f"http://127.0.0.1:{free_port()}/OpenADR2/Simple/2.0b"
+    service_url = f"http://127.0.0.1:{free_port()}"
     done = subprocess.run(
         [
             *SERVE,
             "openadr-ven",
             "--vtn-url",
-            "http://127.0.0.1:9",
+            vtn_url,
             "--ven-name",
             "v",
             "--url",
-            "http://127.0.0.1:9",
-            "--clock-offset",
-            "soon",
+            service_url,
+            *extra,
         ],
         capture_output=True,
         text=True,
         timeout=120,
         env={**os.environ, "HVACFLEX_KEY": "hvf_0_x"},
     )
-    assert done.returncode == 2
-    assert "--clock-offset" in done.stderr and "Traceback" not in done.stderr
+    assert done.returncode == 2, done.stderr
+    error = done.stderr.strip().splitlines()[-1]
+    assert error.startswith(f"error: field '{field}'") and reason in error, error
+    assert "Traceback" not in done.stderr
 
 
 # -- end to end --------------------------------------------------------------------------
