@@ -168,7 +168,7 @@ def _ven(service: Client, buildings: tuple[str, ...] = ("b1",)) -> OpenAdrVen:
         buildings,
         OFFSET,
     )
-    return OpenAdrVen(config, service)
+    return OpenAdrVen(config, service, clock=lambda: T0)
 
 
 def test_an_event_with_a_signal_the_service_cannot_carry_out_is_opted_out() -> None:
@@ -472,3 +472,36 @@ def test_a_vtn_that_goes_away_and_comes_back_re_registers_the_ven(server_factory
     audit = site.operator.call("GET", "/v1/audit")
     posted = [(a["path"], a["status_code"]) for a in audit if a["key_id"] == key_id]
     assert ("/v1/signals/prices", 200) in posted and ("/v1/signals/peak-price", 200) in posted
+
+
+def test_a_cancelled_or_modified_dispatch_ends_what_it_activated() -> None:
+    service = _RecordingService(_plan([1.0, 1.0, 1.0]))
+    now = {"t": T0 - HALF_HOUR}
+    ven = OpenAdrVen(_ven(service).config, service, clock=lambda: now["t"])
+    dispatch = {
+        "event_descriptor": {"event_id": "d1", "event_status": "far"},
+        "event_signals": [_signal("LOAD_DISPATCH", "delta", [5.0, 5.0])],
+    }
+    cancelled = {**dispatch, "event_descriptor": {"event_id": "d1", "event_status": "cancelled"}}
+
+    def posted() -> list[tuple[str, str]]:
+        out = [(r[2]["event"], r[2]["time"][11:16]) for r in service.requests if r[0] == "POST"]
+        service.requests.clear()
+        return out
+
+    assert ven.handle_event(dispatch) == OPT_IN
+    assert posted() == [("start", "09:30"), ("end", "10:30")]
+    # cancelled before it starts: an end at its start, posted later, wins in that period
+    assert ven.handle_event(cancelled) == OPT_IN
+    assert posted() == [("end", "09:30")]
+    # modified while it runs (10:00): ended now, then the new version is posted
+    ven.handle_event(dispatch)
+    posted()
+    now["t"] = T0 + HALF_HOUR
+    assert ven.handle_event(dispatch) == OPT_IN
+    assert posted() == [("end", "10:00"), ("start", "10:00"), ("end", "10:30")]
+    # cancelled after it ended: nothing to undo; a dispatch entirely past is opted out
+    now["t"] = T0 + 4 * HALF_HOUR
+    assert ven.handle_event(cancelled) == OPT_IN
+    assert ven.handle_event(dispatch) == OPT_OUT
+    assert posted() == []

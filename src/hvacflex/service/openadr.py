@@ -55,7 +55,7 @@ import math
 import signal
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field, replace
-from datetime import datetime, timedelta
+from datetime import UTC, datetime, timedelta
 from pathlib import Path
 from typing import Any
 
@@ -378,9 +378,17 @@ class OpenAdrVen:
     the openleadr client's event loop keeps polling.
     """
 
-    def __init__(self, config: VenConfig, service: Client | None = None) -> None:
+    def __init__(
+        self,
+        config: VenConfig,
+        service: Client | None = None,
+        clock: Callable[[], datetime] = lambda: datetime.now(UTC),
+    ) -> None:
         self.config = config
         self.service = service or Client(config.service_url, config.operator_key)
+        self.clock = clock
+        self.activations: dict[str, list[tuple[pd.Timestamp, pd.Timestamp, tuple[str, ...]]]] = {}
+        """Per dispatch event id: the activation runs posted and their buildings (memory)."""
 
     # -- events --------------------------------------------------------------------------
     async def on_event(self, event: dict[str, Any]) -> str:
@@ -389,10 +397,15 @@ class OpenAdrVen:
 
     def handle_event(self, event: dict[str, Any]) -> str:
         """Carry out every signal of ``event``; optIn only if every one was carried out."""
-        event_id = event.get("event_descriptor", {}).get("event_id")
-        if event.get("event_descriptor", {}).get("event_status") == "cancelled":
-            logger.info("event %s cancelled; nothing changed in the service", event_id)
+        event_id = str(event.get("event_descriptor", {}).get("event_id"))
+        try:
+            self._undo_activations(event_id)  # a modified or cancelled event replaces them
+        except HvacflexError as exc:
+            logger.warning("event %s: activations not undone (the service: %s)", event_id, exc)
             return OPT_OUT
+        if event.get("event_descriptor", {}).get("event_status") == "cancelled":
+            logger.info("event %s cancelled (acknowledged)", event_id)
+            return OPT_IN
         opts: list[str] = []
         for event_signal in _signals(event):
             name = str(event_signal.get("signal_name"))
@@ -425,14 +438,27 @@ class OpenAdrVen:
             return self._dispatch(dispatched_periods(event_signal, offset), event)
         raise EventRefused(f"signal {name!r} has no meaning for the service")
 
+    def _now(self) -> pd.Timestamp:
+        """The current period start in service time (the VEN's clock + the offset)."""
+        return to_service_time(self.clock(), self.config.clock_offset).floor(PERIOD)
+
     def _dispatch(self, periods: list[pd.Timestamp], event: dict[str, Any]) -> str:
+        """Activate the buildings that offered every dispatched period from now on (a run
+        already under way starts now; periods past are not asked of the plan)."""
+        now = self._now()
+        periods = [t for t in periods if t >= now]
+        if not periods:
+            raise EventRefused("every dispatched period is over")
         targets = event_buildings(event, self.config.building_ids)
         plans = {b: self._latest_plan(b) for b in targets}
         decision = decide_dispatch(periods, plans)
         for building_id, reason in decision.refused.items():
             logger.warning("dispatch: %s not activated (%s)", building_id, reason)
         if decision.activated:
-            for start, end in activation_runs(periods):
+            runs = activation_runs(periods)
+            event_id = str(event.get("event_descriptor", {}).get("event_id"))
+            self.activations[event_id] = [(a, b, decision.activated) for a, b in runs]
+            for start, end in runs:
                 for kind, time in (("start", start), ("end", end)):
                     body = {
                         "event": kind,
@@ -442,6 +468,21 @@ class OpenAdrVen:
                     self.service.call("POST", "/v1/activations", body)
             logger.info("dispatch: %s activated", ", ".join(decision.activated))
         return decision.opt
+
+    def _undo_activations(self, event_id: str) -> None:
+        """End the activations a dispatch posted that have not ended yet: at the start of
+        a run still ahead (posted later, the end wins within its period), else now."""
+        now = self._now()
+        for start, end, buildings in self.activations.pop(event_id, []):
+            if end <= now:
+                continue
+            body = {
+                "event": "end",
+                "time": max(start, now).isoformat(),
+                "building_ids": list(buildings),
+            }
+            self.service.call("POST", "/v1/activations", body)
+            logger.info("event %s: activation from %s undone", event_id, start.isoformat())
 
     def _latest_plan(self, building_id: str) -> dict[str, Any] | None:
         try:
