@@ -72,18 +72,18 @@ def events(start: datetime, building: str) -> list[dict[str, Any]]:
 
 
 async def serve(args: argparse.Namespace) -> None:
-    ven_id, registration_id = "ven-1", "reg-1"
+    the_ven_id, registration_id = "ven-1", "reg-1"
     registered: list[str] = []
 
     def on_create_party_registration(info: dict[str, Any]) -> tuple[str, str] | bool:
         if info.get("ven_name") != args.ven_name:
             return False
         registered.append(info["ven_name"])
-        print(f"VEN {info['ven_name']} registered as {ven_id}", flush=True)
-        return ven_id, registration_id
+        print(f"VEN {info['ven_name']} registered as {the_ven_id}", flush=True)
+        return the_ven_id, registration_id
 
-    def ven_lookup(ven_id_asked: str) -> dict[str, Any]:
-        if ven_id_asked != ven_id or not registered:
+    def ven_lookup(ven_id: str) -> dict[str, Any]:  # openleadr calls it with ven_id=…
+        if ven_id != the_ven_id or not registered:
             return {}
         return {"ven_id": ven_id, "ven_name": args.ven_name, "registration_id": registration_id}
 
@@ -115,7 +115,7 @@ async def serve(args: argparse.Namespace) -> None:
     start = next_half_hour(datetime.now(UTC))
     offset_min = int((args.service_start - start).total_seconds() // 60)
     for event in events(start, args.building):
-        server.add_event(ven_id=ven_id, callback=on_opt, **event)
+        server.add_event(ven_id=the_ven_id, callback=on_opt, **event)
     await server.run()
     print(f"VTN on http://127.0.0.1:{args.port}/OpenADR2/Simple/2.0b", flush=True)
     print(f"events from {start.isoformat()}; pass --clock-offset '{offset_min}min'", flush=True)
