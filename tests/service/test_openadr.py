@@ -505,3 +505,20 @@ def test_a_cancelled_or_modified_dispatch_ends_what_it_activated() -> None:
     assert ven.handle_event(cancelled) == OPT_IN
     assert ven.handle_event(dispatch) == OPT_OUT
     assert posted() == []
+
+
+def test_a_signal_the_service_refuses_is_opted_out() -> None:
+    from hvacflex.service.replay import ServiceError
+
+    class Refusing(_RecordingService):
+        def call(self, method: str, path: str, body: Any = None) -> Any:
+            super().call(method, path, body)
+            raise ServiceError(422, "field 'start': outside the times the service can plan")
+
+    service = Refusing(_plan([1.0]))
+    event = {
+        "event_descriptor": {"event_id": "p1", "event_status": "far"},
+        "event_signals": [_signal("ELECTRICITY_PRICE", "price", [0.1])],
+    }
+    assert _ven(service).handle_event(event) == OPT_OUT
+    assert [r[1] for r in service.requests] == ["/v1/signals/prices"]
