@@ -20,10 +20,10 @@ TIMEOUT_S = 120
 """Each script runs in well under 30 s alone; the limit leaves room for a loaded machine."""
 
 
-def _run(script: str, cwd: Path) -> str:
+def _run(script: str, cwd: Path, *args: str) -> str:
     path = os.pathsep.join([str(SRC), os.environ.get("PYTHONPATH", "")])
     done = subprocess.run(
-        [sys.executable, str(EXAMPLES / script)],
+        [sys.executable, str(EXAMPLES / script), *args],
         cwd=cwd,
         env={**os.environ, "PYTHONPATH": path},
         capture_output=True,
@@ -40,7 +40,7 @@ def _summary(run_dir: Path) -> dict[str, float]:
 
 
 def test_every_example_is_tested() -> None:
-    tested = {"compare_rmpc_nmpc.py", "peak_price.py", "one_room.py"}
+    tested = {"compare_rmpc_nmpc.py", "peak_price.py", "one_room.py", "openadr_vtn.py"}
     assert {p.name for p in EXAMPLES.glob("*.py")} == tested
 
 
@@ -72,3 +72,25 @@ def test_one_room(tmp_path: Path) -> None:
     assert float(energy.split()[1]) == pytest.approx(summary["energy_kwh"], abs=0.005)
     config = json.loads((tmp_path / "results/examples/room1/config.json").read_text())
     assert config["building"] == "room1"
+
+
+def test_openadr_vtn_runs_bounded_and_prints_the_clock_offset(tmp_path: Path) -> None:
+    """The example VTN alone (no VEN: `tests/service/test_openadr.py` drives a VEN) starts,
+    prints its URL and the offset that maps its first event onto the service's 2014 day,
+    and stops by itself."""
+    import socket
+
+    import pandas as pd
+
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        port = sock.getsockname()[1]
+    out = _run("openadr_vtn.py", tmp_path, "--port", str(port), "--duration-s", "1")
+    lines = out.splitlines()
+    assert f"VTN on http://127.0.0.1:{port}/OpenADR2/Simple/2.0b" in lines
+    events = next(line for line in lines if line.startswith("events from "))
+    start, offset = events.removeprefix("events from ").split("; pass --clock-offset ")
+    mapped = pd.Timestamp(start) + pd.Timedelta(offset.strip("'"))
+    assert mapped == pd.Timestamp("2014-03-03T15:30+08:00")
+    assert pd.Timestamp(start) > pd.Timestamp.now(tz="UTC")
+    assert lines[-1] == "stopped after 1 s; 0 VEN registrations"

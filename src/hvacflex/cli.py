@@ -730,5 +730,66 @@ def serve_replay(
     typer.echo(_run_summary_line(cfg.name, result.summary, result.out_dir / RESULTS_FILENAME))
 
 
+@serve_app.command("openadr-ven")
+def serve_openadr_ven(
+    vtn_url: str = typer.Option(
+        ..., help="The VTN, e.g. http://127.0.0.1:8080/OpenADR2/Simple/2.0b."
+    ),
+    ven_name: str = typer.Option(..., help="This VEN's name, as the VTN knows it."),
+    url: str = typer.Option(..., help="The hvacflex service, e.g. http://127.0.0.1:8000."),
+    building: list[str] = typer.Option(  # noqa: B008
+        [], "--building", help="A building the VTN dispatches (repeat; default: all at start)."
+    ),
+    key_file: Path | None = typer.Option(  # noqa: B008
+        None, help="File holding an operator key of the service (else $HVACFLEX_KEY)."
+    ),
+    cert: Path | None = typer.Option(  # noqa: B008
+        None, help="TLS/signing: this VEN's certificate, PEM (with --key and --ca)."
+    ),
+    key: Path | None = typer.Option(  # noqa: B008
+        None, help="TLS/signing: the private key of --cert, PEM (not the service key)."
+    ),
+    ca: Path | None = typer.Option(None, help="TLS: the CA of the VTN's certificate, PEM."),  # noqa: B008
+    vtn_fingerprint: str | None = typer.Option(
+        None, help="The VTN certificate's fingerprint: check the VTN's message signatures."
+    ),
+    clock_offset: str = typer.Option(
+        "0s",
+        help="Added to event times to get service times (30-min multiple), e.g. "
+        "'-4656 days +01:30:00' to drive a 2014 scenario from a VTN on today's clock.",
+    ),
+    stop_after_s: float | None = typer.Option(
+        None, help="Stop after this many seconds (else at SIGINT/SIGTERM)."
+    ),
+) -> None:
+    """OpenADR 2.0b VEN: VTN events become the service's prices, φ and IL activations; it
+    reports metered power, planned power and the reserve offer (docs/service.md)."""
+    import asyncio
+    import logging
+
+    from hvacflex.errors import HvacflexError
+    from hvacflex.service.openadr import VenConfig, parse_clock_offset, run_ven
+    from hvacflex.service.replay import read_key
+
+    try:
+        config = VenConfig(
+            vtn_url=vtn_url,
+            ven_name=ven_name,
+            service_url=url,
+            operator_key=read_key(key_file),
+            building_ids=tuple(building),
+            clock_offset=parse_clock_offset(clock_offset),
+            cert=cert,
+            key=key,
+            ca=ca,
+            vtn_fingerprint=vtn_fingerprint,
+        )
+        logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(message)s")
+        typer.echo(f"hvacflex VEN {ven_name} → {vtn_url}; service {url}", err=True)
+        asyncio.run(run_ven(config, stop_after_s=stop_after_s))
+    except HvacflexError as exc:
+        raise _exit_on_error(exc) from None
+
+
 if __name__ == "__main__":
     app()

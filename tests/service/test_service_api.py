@@ -155,6 +155,8 @@ def test_prices_change_the_plan(service: Service) -> None:
     assert response.status_code == 200
     dear = _measure(service, "b2", f"{START}T02:30").json()["payload"]
     assert dear["objective_sgd"] > 2 * base["objective_sgd"]
+    assert dear["horizon_energy_price_sgd_per_mwh"][:47] == [4000.0] * 47
+    assert base["horizon_energy_price_sgd_per_mwh"][1] != 4000.0
     bad = {"start": f"{START}T02:30", "energy_price_sgd_per_mwh": [1e9]}
     response = service.client.post("/v1/signals/prices", json=bad, headers=service.op())
     assert response.status_code == 422 and "energy_price_sgd_per_mwh[0]" in response.text
@@ -237,6 +239,31 @@ def test_peak_price_enters_the_plan(service: Service) -> None:
         "/v1/signals/peak-price", json={"peak_price_sgd_per_kw": 0.0}, headers=service.op()
     )
     assert max(after["horizon_power_kw"]) < max(before["horizon_power_kw"])
+    assert after["peak_price_sgd_per_kw"] == 50.0
+    assert before["peak_price_sgd_per_kw"] != 50.0
+
+
+def test_measurements_are_listed_with_their_metered_power(service: Service) -> None:
+    response = service.client.post("/v1/buildings", json=registration("m1"), headers=service.op())
+    key = response.json()["payload"]["key"]
+    for when, power_kw in ((f"{START}T00:00", None), (f"{START}T00:30", 37.5)):
+        body = {
+            "time": when,
+            "node_temperatures_degc": [25.0] * len(service.nodes),
+            "previous_power_kw": power_kw,
+        }
+        measured = service.client.post(
+            "/v1/buildings/m1/measurements", json=body, headers={"X-API-Key": key}
+        )
+        assert measured.status_code == 200, measured.text
+    listed = service.client.get("/v1/buildings/m1/measurements", headers=service.op())
+    records = listed.json()["payload"]
+    assert [(r["period"], r["time"], r["previous_power_kw"]) for r in records] == [
+        (1, "2014-03-03T00:30:00+08:00", 37.5),
+        (0, "2014-03-03T00:00:00+08:00", None),
+    ]
+    newest = service.client.get("/v1/buildings/m1/measurements?limit=1", headers={"X-API-Key": key})
+    assert [r["period"] for r in newest.json()["payload"]] == [1]
 
 
 def test_every_mutating_request_is_audited(service: Service) -> None:

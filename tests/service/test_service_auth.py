@@ -13,6 +13,7 @@ ROUTES: list[tuple[str, str, set[str]]] = [
     ("GET", "/v1/buildings", {"operator"}),
     ("GET", "/v1/buildings/{b}", {"operator", "own"}),
     ("POST", "/v1/buildings/{b}/measurements", {"own"}),
+    ("GET", "/v1/buildings/{b}/measurements", {"operator", "own"}),
     ("GET", "/v1/buildings/{b}/plan", {"operator", "own"}),
     ("GET", "/v1/plans", {"operator"}),
     ("POST", "/v1/signals/prices", {"operator"}),

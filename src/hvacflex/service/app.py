@@ -59,6 +59,7 @@ from hvacflex.service.schemas import (
     FeederLimitIn,
     Health,
     MeasurementIn,
+    MeasurementRecord,
     PeakPriceIn,
     Plan,
     PlanList,
@@ -232,6 +233,7 @@ def create_app(
     auth = _Auth(sessions)
     _service_routes(app, runtime)
     _building_routes(app, runtime, auth)
+    _measurement_routes(app, runtime, auth)
     _signal_routes(app, runtime, auth)
     _operator_routes(app, runtime, auth)
     app.add_middleware(BodyLimitAndAudit, sessions=sessions)
@@ -492,6 +494,41 @@ def _building_routes(app: FastAPI, runtime: Runtime, auth: _Auth) -> None:
             plans = [runtime.latest_plan(session, b) for b in runtime.building_ids(session)]
         out = [Plan(**p) for p in plans if p is not None]
         return Envelope(status=200, message=f"{len(out)} plans", payload=PlanList(plans=out))
+
+
+def _measurement_routes(app: FastAPI, runtime: Runtime, auth: _Auth) -> None:
+    """The stored measurements (what a building metered), for the operator or the building."""
+    sessions = runtime.sessions
+    building_reader = _roles(auth)[1]
+
+    @app.get("/v1/buildings/{building_id}/measurements", tags=["building"], responses=_ERRORS)
+    def get_measurements(
+        building_id: str,
+        _who: Annotated[Principal, Depends(building_reader)],
+        limit: Annotated[int, Query(ge=1, le=1000)] = 48,
+    ) -> Envelope[list[MeasurementRecord]]:
+        """The building's latest measurements, newest first: period, time and the power it
+        metered in the period before (what an OpenADR VEN reports as telemetry)."""
+        from hvacflex.service.db import Measurement
+
+        with sessions() as session:
+            built = runtime.get(session, building_id)
+            rows = session.scalars(
+                select(Measurement)
+                .where(Measurement.building_id == building_id)
+                .order_by(Measurement.period.desc())
+                .limit(limit)
+            )
+            records = [
+                MeasurementRecord(
+                    period=r.period,
+                    time=built.time_of(r.period),
+                    previous_power_kw=r.previous_power_kw,
+                    received_at=r.received_at.isoformat(),
+                )
+                for r in rows
+            ]
+        return Envelope(status=200, message=f"{len(records)} measurements", payload=records)
 
 
 def _signal_routes(app: FastAPI, runtime: Runtime, auth: _Auth) -> None:

@@ -390,6 +390,9 @@ class Runtime:
         payload["peak_price_sgd_per_kw"] = effective_peak_price(
             forecast, setup.config.controller.peak_price_sgd_per_kw
         )
+        payload["horizon_energy_price_sgd_per_mwh"] = finite_list(
+            forecast.energy_price_sgd_per_mwh[: len(payload["horizon_time"])]
+        )
         payload.update(event_columns(decision, activated(k)))
         self._store_plan(session, runtime.building_id, k, trigger, payload)
         stored = session.get(ControllerState, runtime.building_id)

@@ -242,6 +242,25 @@ class Plan(BaseModel):
     horizon_power_kw: list[float | None]
     horizon_reserve_kw: list[float | None]
     horizon_temp_degc: list[list[float | None]]
+    horizon_energy_price_sgd_per_mwh: list[float | None] | None = Field(
+        default=None,
+        description="Energy price the plan used per horizon period [SGD/MWh] (posted prices "
+        "where the operator sent them, else the shipped USEP).",
+    )
+    peak_price_sgd_per_kw: float | None = Field(
+        default=None, description="The peak-power price φ the plan was made with [SGD/kW]."
+    )
+
+
+class MeasurementRecord(BaseModel):
+    """A stored measurement: its period and what the building metered before it."""
+
+    period: int
+    time: str = Field(description="Start of the period measured.")
+    previous_power_kw: float | None = Field(
+        description="Mean electric power the building reported for the previous period [kW]."
+    )
+    received_at: str = Field(description="When the service received it (UTC).")
 
 
 class PlanList(BaseModel):
