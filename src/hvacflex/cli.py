@@ -387,6 +387,7 @@ def simulate(
     checkpoint_every: int = typer.Option(
         336, min=1, help="Steps between checkpoints (336 = one week)."
     ),
+    no_report: bool = typer.Option(False, "--no-report", help="Write no report.html in OUT."),
 ) -> None:
     """Run a closed-loop simulation (resumes from a checkpoint in OUT if there is one)."""
     from rich.console import Console
@@ -401,6 +402,10 @@ def simulate(
         result = run_simulation(
             cfg, out, progress=not quiet, resume=not fresh, checkpoint_every=checkpoint_every
         )
+        if not no_report:
+            from hvacflex.report.run_report import report_for_run_dir
+
+            report_for_run_dir(result.out_dir)
     except HvacflexError as exc:
         console.print(f"[red]error:[/red] {escape(str(exc))}")
         raise typer.Exit(2) from None
@@ -409,6 +414,37 @@ def simulate(
     elif result.resumed_from_step is not None:
         console.print(f"resumed from step {result.resumed_from_step}")
     console.print(_run_summary_line(cfg.name, result.summary, result.results_path))
+
+
+@app.command()
+def report(
+    runs: list[Path] = typer.Argument(  # noqa: B008
+        ..., help="Run folders (holding results.parquet) or results Parquet files."
+    ),
+    out: Path = typer.Option(..., "--out", help="The HTML file to write."),  # noqa: B008
+    baseline: Path | None = typer.Option(  # noqa: B008
+        None, help="A run to compare against (shown too; Δ columns in the KPI table)."
+    ),
+    peak_price_sgd_per_kw: float | None = typer.Option(
+        None,
+        "--peak-price",
+        help="φ of the one tariff every run is billed at [SGD/kW] (default: the largest "
+        "any run recorded).",
+    ),
+) -> None:
+    """Write one self-contained HTML page for runs: temperatures, power and reserve, prices,
+    the cost under one tariff and the KPIs (per run, per m², against a baseline)."""
+    from hvacflex.errors import HvacflexError
+    from hvacflex.report.run_report import write_run_report
+
+    try:
+        path = write_run_report(
+            runs, out, baseline=baseline, peak_price_sgd_per_kw=peak_price_sgd_per_kw
+        )
+    except HvacflexError as exc:
+        typer.echo(f"error: {exc}", err=True)
+        raise typer.Exit(2) from None
+    typer.echo(f"report → {path}")
 
 
 def _run_summary_line(name: str, s: dict[str, float], results_path: Path) -> str:
