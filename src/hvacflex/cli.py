@@ -113,7 +113,9 @@ def building_show(
 ) -> None:
     """Print zones, nodes, time constants, UA, design load and model checks of a building."""
     from hvacflex.building.io import load_building
-    from hvacflex.building.summary import building_summary_text
+    from hvacflex.building.summary import building_summary_text, format_comfort_band
+    from hvacflex.config import ScenarioConfig
+    from hvacflex.data.gains import DEFAULT_OFFICE_SCHEDULE
     from hvacflex.errors import HvacflexError
     from hvacflex.paths import resolve_building
 
@@ -122,7 +124,14 @@ def building_show(
     except HvacflexError as exc:
         typer.echo(f"error: {exc}", err=True)
         raise typer.Exit(2) from None
-    typer.echo(text)
+    comfort = ScenarioConfig().comfort
+    band = format_comfort_band(
+        comfort.occupied_degc,
+        comfort.unoccupied_degc,
+        DEFAULT_OFFICE_SCHEDULE.occupied_hours,
+        "default scenario",
+    )
+    typer.echo(f"{text}\n{band}")
 
 
 @building_app.command("export-idf")
