@@ -28,6 +28,7 @@ from starlette.routing import Match
 
 from hvacflex import __version__
 from hvacflex.errors import HvacflexError, InputError
+from hvacflex.service.dashboard import add_page_routes
 from hvacflex.service.db import (
     DEFAULT_DB_URL,
     Activation,
@@ -47,7 +48,6 @@ from hvacflex.service.operations import (
     stale_buildings,
 )
 from hvacflex.service.runtime import NotFoundError, Runtime, to_local
-from hvacflex.service.dashboard import add_page_routes
 from hvacflex.service.schemas import (
     ActivationIn,
     ActivationRecord,
