@@ -523,7 +523,13 @@ def sweep(
         console.print(escape(f"[{done}/{len(jobs)}] {outcome.params} {state}"))
 
     outcomes = run_sweep(
-        jobs, out, scheduler=scheduler, n_workers=workers, on_done=report, fresh=fresh
+        jobs,
+        out,
+        scheduler=scheduler,
+        n_workers=workers,
+        on_done=report,
+        fresh=fresh,
+        progress=True,
     )
     table = outcomes_table(outcomes)
     out.mkdir(parents=True, exist_ok=True)
