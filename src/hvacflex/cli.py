@@ -179,12 +179,12 @@ def validate_bestest(
     from hvacflex.errors import HvacflexError
     from hvacflex.paths import buildings_dir, data_dir
     from hvacflex.report.validation_plots import write_bestest_outputs
-    from hvacflex.validation.bestest import run_bestest, table_markdown
+    from hvacflex.sim.progress import task_progress
+    from hvacflex.validation.bestest import run_bestest, stage_count, table_markdown
 
     try:
-        result = run_bestest(
-            data_dir() / "bestest", buildings_dir(), progress=lambda m: typer.echo(f"… {m}")
-        )
+        with task_progress(True, "bestest", stage_count()) as bar:
+            result = run_bestest(data_dir() / "bestest", buildings_dir(), progress=bar.stage)
         paths = write_bestest_outputs(result, out)
     except HvacflexError as exc:
         typer.echo(f"error: {exc}", err=True)
@@ -219,7 +219,8 @@ def validate_energyplus(
     from hvacflex.paths import resolve_building
     from hvacflex.report.tables import to_markdown
     from hvacflex.report.validation_plots import write_energyplus_outputs
-    from hvacflex.validation.energyplus import run_energyplus_validation
+    from hvacflex.sim.progress import task_progress
+    from hvacflex.validation.energyplus import run_energyplus_validation, stage_count
 
     try:
         starts = []
@@ -233,14 +234,15 @@ def validate_energyplus(
         if out.exists() and not out.is_dir():
             raise InputError("is a file, not a folder", field="--out", value=str(out))
         model = load_building(resolve_building(building))
-        result = run_energyplus_validation(
-            model,
-            starts=starts,
-            days=days,
-            spinup_days=spinup_days,
-            workdir=out,
-            progress=lambda message: typer.echo(f"… {message}"),
-        )
+        with task_progress(True, "energyplus", stage_count(model, starts)) as bar:
+            result = run_energyplus_validation(
+                model,
+                starts=starts,
+                days=days,
+                spinup_days=spinup_days,
+                workdir=out,
+                progress=bar.stage,
+            )
         paths = write_energyplus_outputs(result, out)
     except HvacflexError as exc:
         typer.echo(f"error: {exc}", err=True)

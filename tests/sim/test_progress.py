@@ -37,3 +37,14 @@ def test_progress_bar_advances_the_steps_done() -> None:
     assert bar._progress.tasks[0].completed == 25
     with progress_bar(False, "rmpc", total=30, done=0) as quiet:
         assert quiet() is None
+
+
+def test_stages_count_the_stages_before_the_running_one() -> None:
+    with task_progress(True, "bestest", 3) as bar:
+        bar.stage("weather")
+        assert bar.completed == 0
+        bar.stage("case 600")
+        bar.stage("case 900")
+        task = bar._progress.tasks[0]
+        assert task.completed == 2 and task.fields["info"] == "case 900"
+    assert task.completed == 3 and task.fields["info"] == "done"

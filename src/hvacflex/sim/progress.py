@@ -64,6 +64,7 @@ class task_progress:
     def __init__(self, enabled: bool, description: str, total: int, completed: int = 0) -> None:
         self.enabled = enabled and total > 0
         self.description, self.total, self.completed = description, total, completed
+        self._stages = 0
 
     def __enter__(self) -> task_progress:
         if self.enabled:
@@ -100,6 +101,12 @@ class task_progress:
             if info is not None:
                 self._progress.update(self._task, info=info)
 
+    def stage(self, message: str) -> None:
+        """Start a stage of staged work (``total`` stages): the stages before it are done,
+        ``message`` names the one running (a ``progress`` callback of the validations)."""
+        self._stages += 1
+        self(completed=self._stages - 1, info=message)
+
     def warn(self, text: str) -> None:
         """A warning line above the bar (on stderr when the bar is off)."""
         if self.enabled:
@@ -111,6 +118,8 @@ class task_progress:
 
             print(f"warning: {text}", file=sys.stderr)
 
-    def __exit__(self, *exc: object) -> None:
+    def __exit__(self, exc_type: object, *exc: object) -> None:
         if self.enabled:
+            if exc_type is None and self._stages:
+                self._progress.update(self._task, completed=self.total, info="done")
             self._progress.stop()
