@@ -143,6 +143,11 @@ def test_cli_report_and_its_errors(tmp_path: Path, make_results: Factory) -> Non
     missing = CliRunner().invoke(app, ["report", str(tmp_path / "nope"), "--out", str(out)])
     assert missing.exit_code == 2
     assert "results file not found" in missing.output and "Traceback" not in missing.output
+    flat = _constant_run(5.0)
+    zoneless = _save_run(tmp_path / "fleet", flat.drop(columns=flat.filter(like="_z_").columns))
+    refused = CliRunner().invoke(app, ["report", str(zoneless), "--out", str(out)])
+    assert refused.exit_code == 2
+    assert "no zone temperature column" in refused.output and "Traceback" not in refused.output
 
 
 def test_simulate_writes_its_report_unless_told_not_to(tmp_path: Path) -> None:
