@@ -100,6 +100,7 @@ def test_dashboard_in_headless_chromium(chromium: Any, live_service: tuple[str, 
     # the page refreshes by itself: the plan, its chart and the bid appear without a reload
     page.wait_for_selector('[data-building="b1"] svg.chart', timeout=30_000)
     assert "b1: plan of period 16" in page.inner_text("#buildings")
+    assert page.locator('[data-building="b1"] svg.temperatures path').count() == 5  # zones
     assert "feeder limit of 25.0 kW" in page.inner_text("#bid")
     assert page.locator("#bid svg.chart").count() == 1
     audit = page.inner_text("#audit")
