@@ -20,6 +20,7 @@ from hvacflex.report.run_report import (
     ReportRun,
     change_vs_baseline_pct,
     cost_breakdown,
+    formatted_kpi_table,
     kpi_table,
     load_runs,
     tariff_peak_price_sgd_per_kw,
@@ -104,6 +105,10 @@ def test_kpis_per_m2_and_change_against_baseline() -> None:
     assert np.isnan(changes.loc["discomfort_kelvin_hours", "half vs base"])  # baseline 0
     with pytest.raises(InputError):
         change_vs_baseline_pct(table, "nope")
+    shown = formatted_kpi_table(table, changes)
+    assert shown.loc["il_events", "base"] == "0" and shown.loc["energy_kwh", "base"] == "240.00"
+    assert shown.loc["violation_share", "half"] == "0.00 %"
+    assert shown.loc["energy_kwh", "Δ half vs base"] == "-50.0 %"
 
 
 def test_load_runs_reads_the_building_floor_area(tmp_path: Path, make_results: Factory) -> None:

@@ -206,14 +206,23 @@ def change_vs_baseline_pct(table: pd.DataFrame, baseline: str) -> pd.DataFrame:
     return pd.DataFrame(changes, index=table.index)
 
 
+COUNT_KPIS = ("il_events", "fallback_count")
+"""KPIs of :data:`REPORT_KPIS` that count things: shown as whole numbers."""
+
+
+def _kpi_text(name: str, value: float) -> str:
+    if name in COUNT_KPIS and np.isfinite(value):
+        return f"{value:,.0f}"
+    return format_value(name, value)
+
+
 def formatted_kpi_table(table: pd.DataFrame, changes: pd.DataFrame | None) -> pd.DataFrame:
     """The KPI table as display text: values by their KPI's unit
-    (:func:`hvacflex.report.tables.format_value`), changes as signed percentages."""
+    (:func:`hvacflex.report.tables.format_value`; counts whole), changes as signed
+    percentages."""
     shown = pd.DataFrame(
         {
-            column: [
-                format_value(str(kpi_name), value) for kpi_name, value in table[column].items()
-            ]
+            column: [_kpi_text(str(name), float(value)) for name, value in table[column].items()]
             for column in table.columns
         },
         index=table.index,
