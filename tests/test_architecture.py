@@ -212,7 +212,6 @@ WITHOUT_OWN_TEST_FILE: set[str] = {
     "hvacflex.service.schemas",
     "hvacflex.sim.events",
     "hvacflex.sim.measurement",
-    "hvacflex.sim.progress",
     "hvacflex.sim.recording",
     "hvacflex.sim.run_files",
     "hvacflex.units",

@@ -50,6 +50,8 @@ def test_wheel_holds_every_shipped_resource(wheel: Path) -> None:
         "hvacflex/resources/nems_usep_2014/USEP_Dec-2014.csv",
         "hvacflex/resources/bestest/std140_2020_example_results_600_900.csv",
         "hvacflex/py.typed",
+        "hvacflex/service/pages/dashboard.html",  # the service's own pages (GET /, /v1/docs)
+        "hvacflex/service/pages/api_docs.html",
     ):
         assert required in names
 

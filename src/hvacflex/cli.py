@@ -113,7 +113,9 @@ def building_show(
 ) -> None:
     """Print zones, nodes, time constants, UA, design load and model checks of a building."""
     from hvacflex.building.io import load_building
-    from hvacflex.building.summary import building_summary_text
+    from hvacflex.building.summary import building_summary_text, format_comfort_band
+    from hvacflex.config import ScenarioConfig
+    from hvacflex.data.gains import DEFAULT_OFFICE_SCHEDULE
     from hvacflex.errors import HvacflexError
     from hvacflex.paths import resolve_building
 
@@ -122,7 +124,14 @@ def building_show(
     except HvacflexError as exc:
         typer.echo(f"error: {exc}", err=True)
         raise typer.Exit(2) from None
-    typer.echo(text)
+    comfort = ScenarioConfig().comfort
+    band = format_comfort_band(
+        comfort.occupied_degc,
+        comfort.unoccupied_degc,
+        DEFAULT_OFFICE_SCHEDULE.occupied_hours,
+        "default scenario",
+    )
+    typer.echo(f"{text}\n{band}")
 
 
 @building_app.command("export-idf")
@@ -170,12 +179,12 @@ def validate_bestest(
     from hvacflex.errors import HvacflexError
     from hvacflex.paths import buildings_dir, data_dir
     from hvacflex.report.validation_plots import write_bestest_outputs
-    from hvacflex.validation.bestest import run_bestest, table_markdown
+    from hvacflex.sim.progress import task_progress
+    from hvacflex.validation.bestest import run_bestest, stage_count, table_markdown
 
     try:
-        result = run_bestest(
-            data_dir() / "bestest", buildings_dir(), progress=lambda m: typer.echo(f"… {m}")
-        )
+        with task_progress(True, "bestest", stage_count()) as bar:
+            result = run_bestest(data_dir() / "bestest", buildings_dir(), progress=bar.stage)
         paths = write_bestest_outputs(result, out)
     except HvacflexError as exc:
         typer.echo(f"error: {exc}", err=True)
@@ -210,7 +219,8 @@ def validate_energyplus(
     from hvacflex.paths import resolve_building
     from hvacflex.report.tables import to_markdown
     from hvacflex.report.validation_plots import write_energyplus_outputs
-    from hvacflex.validation.energyplus import run_energyplus_validation
+    from hvacflex.sim.progress import task_progress
+    from hvacflex.validation.energyplus import run_energyplus_validation, stage_count
 
     try:
         starts = []
@@ -224,14 +234,15 @@ def validate_energyplus(
         if out.exists() and not out.is_dir():
             raise InputError("is a file, not a folder", field="--out", value=str(out))
         model = load_building(resolve_building(building))
-        result = run_energyplus_validation(
-            model,
-            starts=starts,
-            days=days,
-            spinup_days=spinup_days,
-            workdir=out,
-            progress=lambda message: typer.echo(f"… {message}"),
-        )
+        with task_progress(True, "energyplus", stage_count(model, starts)) as bar:
+            result = run_energyplus_validation(
+                model,
+                starts=starts,
+                days=days,
+                spinup_days=spinup_days,
+                workdir=out,
+                progress=bar.stage,
+            )
         paths = write_energyplus_outputs(result, out)
     except HvacflexError as exc:
         typer.echo(f"error: {exc}", err=True)
@@ -387,6 +398,7 @@ def simulate(
     checkpoint_every: int = typer.Option(
         336, min=1, help="Steps between checkpoints (336 = one week)."
     ),
+    no_report: bool = typer.Option(False, "--no-report", help="Write no report.html in OUT."),
 ) -> None:
     """Run a closed-loop simulation (resumes from a checkpoint in OUT if there is one)."""
     from rich.console import Console
@@ -401,6 +413,10 @@ def simulate(
         result = run_simulation(
             cfg, out, progress=not quiet, resume=not fresh, checkpoint_every=checkpoint_every
         )
+        if not no_report:
+            from hvacflex.report.run_report import report_for_run_dir
+
+            report_for_run_dir(result.out_dir)
     except HvacflexError as exc:
         console.print(f"[red]error:[/red] {escape(str(exc))}")
         raise typer.Exit(2) from None
@@ -409,6 +425,37 @@ def simulate(
     elif result.resumed_from_step is not None:
         console.print(f"resumed from step {result.resumed_from_step}")
     console.print(_run_summary_line(cfg.name, result.summary, result.results_path))
+
+
+@app.command()
+def report(
+    runs: list[Path] = typer.Argument(  # noqa: B008
+        ..., help="Run folders (holding results.parquet) or results Parquet files."
+    ),
+    out: Path = typer.Option(..., "--out", help="The HTML file to write."),  # noqa: B008
+    baseline: Path | None = typer.Option(  # noqa: B008
+        None, help="A run to compare against (shown too; Δ columns in the KPI table)."
+    ),
+    peak_price_sgd_per_kw: float | None = typer.Option(
+        None,
+        "--peak-price",
+        help="φ of the one tariff every run is billed at [SGD/kW] (default: the largest "
+        "any run recorded).",
+    ),
+) -> None:
+    """Write one self-contained HTML page for runs: temperatures, power and reserve, prices,
+    the cost under one tariff and the KPIs (per run, per m², against a baseline)."""
+    from hvacflex.errors import HvacflexError
+    from hvacflex.report.run_report import write_run_report
+
+    try:
+        path = write_run_report(
+            runs, out, baseline=baseline, peak_price_sgd_per_kw=peak_price_sgd_per_kw
+        )
+    except HvacflexError as exc:
+        typer.echo(f"error: {exc}", err=True)
+        raise typer.Exit(2) from None
+    typer.echo(f"report → {path}")
 
 
 def _run_summary_line(name: str, s: dict[str, float], results_path: Path) -> str:
@@ -478,7 +525,13 @@ def sweep(
         console.print(escape(f"[{done}/{len(jobs)}] {outcome.params} {state}"))
 
     outcomes = run_sweep(
-        jobs, out, scheduler=scheduler, n_workers=workers, on_done=report, fresh=fresh
+        jobs,
+        out,
+        scheduler=scheduler,
+        n_workers=workers,
+        on_done=report,
+        fresh=fresh,
+        progress=True,
     )
     table = outcomes_table(outcomes)
     out.mkdir(parents=True, exist_ok=True)

@@ -270,7 +270,13 @@ def reproduce(
         log(f"  [{done}/{len(all_jobs)}] {outcome.label} {state}")
 
     outcomes = run_sweep(
-        all_jobs, out, scheduler=scheduler, n_workers=workers, on_done=progress, fresh=fresh
+        all_jobs,
+        out,
+        scheduler=scheduler,
+        n_workers=workers,
+        on_done=progress,
+        fresh=fresh,
+        progress=True,  # the bar over all runs: done/total, elapsed, ETA
     )
     failed = [o for o in outcomes if not o.ok]
     by_group: dict[str, list[JobOutcome]] = {}

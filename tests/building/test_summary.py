@@ -2,10 +2,17 @@
 
 from __future__ import annotations
 
+import re
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
 import pytest
 
+from hvacflex.building.discretize import continuous_affine_model
 from hvacflex.building.model import Building
-from hvacflex.building.summary import format_summary, summarize
+from hvacflex.building.rc import build_network
+from hvacflex.building.summary import format_summary, summarize, ventilation_warning
 
 
 def test_office5_summary_numbers(office5: Building) -> None:
@@ -36,3 +43,75 @@ def test_cli_building_show() -> None:
     assert "office5" in result.output and "Envelope UA" in result.output
     missing = CliRunner().invoke(app, ["building", "show", "no_such_building"])
     assert missing.exit_code == 2
+
+
+KW_PER_TON_REFRIGERATION = 3.51685
+"""1 refrigeration ton (12,000 BTU/h) [kW] (ASHRAE Handbook, Fundamentals: units)."""
+
+DOCS_BUILDINGS = Path(__file__).parents[2] / "docs" / "buildings.md"
+
+
+def _doc_number(pattern: str) -> float:
+    """The number captured by ``pattern`` in docs/buildings.md (thousands commas dropped)."""
+    match = re.search(pattern, DOCS_BUILDINGS.read_text(encoding="utf-8"))
+    assert match is not None, f"docs/buildings.md no longer says {pattern!r}"
+    return float(match.group(1).replace(",", ""))
+
+
+def test_docs_figures_match_building_show(office5: Building) -> None:
+    """The numbers docs/buildings.md quotes for office5 are the ones `building show` prints."""
+    s = summarize(office5)
+    assert _doc_number(r"electric \*\*([\d.]+) kW\*\*") == round(s.design_power_kw, 1)
+    assert _doc_number(r"zone sensible ([\d.]+) kW") == round(s.design_zone_load_kw, 1)
+    per_m2 = s.design_coil_load_kw * 1000 / s.floor_area_m2
+    assert _doc_number(r"\(\*\*(\d+) W/m²\*\*, design range") == round(per_m2)
+    assert _doc_number(r"eigen-analysis \*\*(\d+) h\*\*") == round(s.time_constants_h[-1])
+    assert _doc_number(r"`building show`: \*\*(\d+) h\*\*") == round(
+        s.time_constants_min_flow_h[-1]
+    )
+    air = _doc_number(r"outdoor air ([\d,]+) L/s ≥")
+    assert air == round(s.outdoor_air_at_ventilation_flow_l_s)
+    assert _doc_number(r"L/s ≥ ([\d,]+) L/s") == round(s.ventilation_need_l_s)
+    net = build_network(office5)
+    ventilation = np.asarray(office5.hvac.ventilation_flow_kg_s)
+    a_vent, *_ = continuous_affine_model(office5, net, ventilation, 23.0)
+    slowest_h = float(np.max(-1.0 / np.linalg.eigvals(a_vent).real)) / 3600.0
+    assert _doc_number(r"slowest mode drops to (\d+) h") == round(slowest_h)
+
+
+def test_office5_comments_match_its_values(office5: Building) -> None:
+    assert office5.source_path is not None
+    text = Path(office5.source_path).read_text(encoding="utf-8")
+    plant_kw_per_rt = [float(v) for v in re.findall(r"([\d.]+) kW/RT", text)]
+    assert plant_kw_per_rt[0] == round(KW_PER_TON_REFRIGERATION / office5.hvac.cop, 2)
+    assert len(plant_kw_per_rt) == 2 and plant_kw_per_rt[1] == 1.0  # "with the fan ≈ 1 kW/RT"
+    need = re.search(r"= ([\d,]+) L/s \(", text)
+    assert need is not None
+    assert float(need.group(1).replace(",", "")) == round(summarize(office5).ventilation_need_l_s)
+    air = re.search(r"outdoor\s*#?\s*air ([\d,]+) L/s", text)
+    assert air is not None
+    assert float(air.group(1).replace(",", "")) == round(
+        summarize(office5).outdoor_air_at_ventilation_flow_l_s
+    )
+    assert "40 %" not in text and max(office5.hvac.flow_min_kg_s) == 0.0
+
+
+def test_ventilation_below_requirement_is_warned(office5: Building) -> None:
+    assert ventilation_warning(summarize(office5)) is None
+    starved = replace(office5, hvac=replace(office5.hvac, outdoor_air_fraction=0.2))
+    s = summarize(starved)
+    assert s.outdoor_air_at_ventilation_flow_l_s < s.ventilation_need_l_s
+    assert "WARNING: ventilation below requirement" in format_summary(s)
+
+
+def test_cli_building_show_prints_the_comfort_band() -> None:
+    from typer.testing import CliRunner
+
+    from hvacflex.cli import app
+    from hvacflex.config import ScenarioConfig
+
+    result = CliRunner().invoke(app, ["building", "show", "office5"])
+    assert result.exit_code == 0, result.output
+    lower, upper = ScenarioConfig().comfort.occupied_degc
+    assert f"Comfort band (default scenario): {lower:g}–{upper:g} °C occupied" in result.output
+    assert "WARNING" not in result.output

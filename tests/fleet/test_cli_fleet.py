@@ -1,10 +1,16 @@
 from __future__ import annotations
 
 from pathlib import Path
+from types import SimpleNamespace
 
+import pytest
 from typer.testing import CliRunner
 
 from hvacflex.cli import app
+from hvacflex.fleet.cli import CoordinationWatch
+from hvacflex.fleet.coordinate import CoordinationOptions
+from hvacflex.fleet.run import FleetStepProgress, step_progress
+from hvacflex.sim.progress import task_progress
 
 
 def test_generate_simulate_kpi(tmp_path: Path) -> None:
@@ -59,3 +65,29 @@ def test_bad_fleet_file_exit_2(tmp_path: Path) -> None:
     )
     assert done.exit_code == 2
     assert "bad.toml" in done.output and "buildings" in done.output
+
+
+def _step(done: int, iterations: int, gap: float) -> FleetStepProgress:
+    return step_progress(
+        done, 4, SimpleNamespace(iterations=iterations, gap=gap), CoordinationOptions(10, 0.002)
+    )
+
+
+def teststep_progress_flags_an_unconverged_stop_at_the_limit() -> None:
+    assert _step(1, 10, 0.44).at_iteration_limit
+    assert not _step(1, 10, 0.001).at_iteration_limit  # converged on the last iteration
+    assert not _step(1, 3, 0.44).at_iteration_limit  # stopped early: feasible and tight
+    assert _step(1, 10, float("nan")).at_iteration_limit  # no bound: not converged
+
+
+def test_coordination_watch_warns_once_and_sums_up(capsys: pytest.CaptureFixture[str]) -> None:
+    watch = CoordinationWatch()
+    with task_progress(False, "fleet", 4) as update:
+        watch.update = update
+        for done, iterations, gap in [(1, 10, 0.44), (2, 4, 0.001), (3, 10, 0.5), (4, 10, 0.3)]:
+            watch(_step(done, iterations, gap))
+    assert update.completed == 4
+    err = capsys.readouterr().err
+    assert err.count("warning:") == 1 and "step 1: coordination stopped at its iteration" in err
+    assert watch.at_limit == 3 and watch.worst_gap == 0.5
+    assert "in 3 of 4 steps (largest gap 0.5, tolerance 0.002)" in watch.summary()

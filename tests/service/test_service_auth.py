@@ -20,6 +20,7 @@ ROUTES: list[tuple[str, str, set[str]]] = [
     ("POST", "/v1/signals/peak-price", {"operator"}),
     ("POST", "/v1/signals/feeder-limit", {"operator"}),
     ("POST", "/v1/activations", {"operator"}),
+    ("GET", "/v1/activations", {"operator"}),
     ("POST", "/v1/clock", {"operator"}),
     ("GET", "/v1/bid", {"operator"}),
     ("GET", "/v1/audit", {"operator"}),

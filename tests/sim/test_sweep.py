@@ -4,7 +4,13 @@ import pytest
 
 from hvacflex.config import preset
 from hvacflex.errors import ConfigError
-from hvacflex.sim.sweep import expand_grid, outcomes_table, parse_param, run_sweep
+from hvacflex.sim.sweep import (
+    expand_grid,
+    outcomes_table,
+    parse_param,
+    quiet_dask_logs,
+    run_sweep,
+)
 
 
 def test_parse_param_values() -> None:
@@ -23,12 +29,17 @@ def test_grid_is_the_product_and_validated() -> None:
         expand_grid(base, {"peak_price_sgd_per_kw": [-1.0]})
 
 
-def test_a_failing_job_does_not_lose_the_others(tmp_path: Path) -> None:
+def test_a_failing_job_does_not_lose_the_others(
+    tmp_path: Path, capfd: pytest.CaptureFixture[str]
+) -> None:
     base = preset("thermostat", start="2014-03-03", days=0.25)
     jobs = expand_grid(base, {"building": ["office5", "no-such-building"]})
     done = []
-    outcomes = run_sweep(jobs, tmp_path, n_workers=2, on_done=done.append)
+    outcomes = run_sweep(jobs, tmp_path, n_workers=2, on_done=done.append, progress=True)
     assert len(done) == 2
+    printed = capfd.readouterr()
+    assert "sweep" in printed.out and "2/2" in printed.out and "1 failed" in printed.out
+    assert " - WARNING - " not in printed.err  # no stray Dask warnings (its errors show)
     ok, failed = outcomes
     assert ok.ok and ok.summary is not None and ok.summary["steps"] == 12
     assert not failed.ok and "no-such-building" in (failed.error or "")
@@ -42,3 +53,13 @@ def test_a_failing_job_does_not_lose_the_others(tmp_path: Path) -> None:
     # --fresh simulates again
     fresh = run_sweep(jobs[:1], tmp_path, n_workers=1, fresh=True)
     assert fresh[0].ok and not fresh[0].cached
+
+
+def test_quiet_dask_logs_here_and_for_the_workers() -> None:
+    import logging
+
+    import dask
+
+    quiet_dask_logs()
+    assert logging.getLogger("distributed").getEffectiveLevel() == logging.ERROR
+    assert dask.config.get("logging.distributed") == "error"

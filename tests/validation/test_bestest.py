@@ -90,3 +90,21 @@ def test_full_year_bestest(shipped_buildings_dir: Path, bestest_dir: Path, tmp_p
     assert result.n_in_range >= N_IN_RANGE_ACHIEVED, bt.table_markdown(result.table)
     paths = write_bestest_outputs(result, tmp_path)
     assert all(p.is_file() and p.stat().st_size > 0 for p in paths)
+
+
+def test_stage_count_is_the_number_of_progress_messages(
+    shipped_buildings_dir: Path, bestest_dir: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The progress bar's total (`validate bestest`) equals the stages run_bestest announces."""
+
+    class NoCase:
+        def quantities(self) -> dict[str, float]:
+            return {}
+
+    monkeypatch.setattr(bt, "bestest_disturbances", lambda *args: None)
+    monkeypatch.setattr(bt, "run_case", lambda *args, **kwargs: NoCase())
+    monkeypatch.setattr(bt, "comparison_table", lambda values, reference: reference)
+    messages: list[str] = []
+    bt.run_bestest(bestest_dir, shipped_buildings_dir, progress=messages.append)
+    assert len(messages) == bt.stage_count() == 6
+    assert messages[0].startswith("weather and solar") and messages[-1] == "case 900FF"

@@ -240,3 +240,33 @@ def test_missing_energyplus_names_the_extra(monkeypatch: pytest.MonkeyPatch) -> 
     monkeypatch.setattr(ev.importlib, "import_module", not_installed)
     with pytest.raises(ConfigError, match=r"hvacflex\[energyplus\]"):
         ev.energyplus_executable()
+
+
+def test_stage_count_is_the_number_of_progress_messages(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The progress bar's total (`validate energyplus`) equals the stages announced."""
+
+    class Stop(Exception):
+        pass
+
+    messages: list[str] = []
+
+    def record(message: str) -> None:
+        messages.append(message)
+
+    def stub(*args: object, **kwargs: object) -> object:
+        raise Stop
+
+    starts = [date(2014, 3, 3), date(2014, 5, 5)]
+    for name, expected in (("office5", 6), ("room1", 2)):
+        building = load_building(resolve_building(name))
+        assert ev.stage_count(building, starts) == expected
+    # the stages announced before the first (stubbed) case fails: one per start and case
+    monkeypatch.setattr(ev, "free_float_comparison", stub)
+    office5 = load_building(resolve_building("office5"))
+    with pytest.raises(Stop):
+        ev.run_energyplus_validation(
+            office5, starts=starts, days=1, spinup_days=0, workdir=tmp_path, progress=record
+        )
+    assert messages == ["2014-03-03 free-float"]

@@ -214,8 +214,39 @@ def _taus(values: tuple[float, ...]) -> str:
     return ", ".join(shown)
 
 
+def ventilation_warning(s: BuildingSummary) -> str | None:
+    """A warning line when the outdoor air at ventilation flow is below the requirement
+    (:data:`VENTILATION_L_S_PER_PERSON`, :data:`VENTILATION_L_S_PER_M2`), else None."""
+    if s.outdoor_air_at_ventilation_flow_l_s >= s.ventilation_need_l_s:
+        return None
+    return (
+        f"WARNING: ventilation below requirement: outdoor air at ventilation flow "
+        f"{s.outdoor_air_at_ventilation_flow_l_s:.0f} L/s < {s.ventilation_need_l_s:.0f} L/s "
+        f"needed ({VENTILATION_L_S_PER_PERSON:g} L/s per person + {VENTILATION_L_S_PER_M2:g} "
+        "L/s per m²); raise [hvac] ventilation_flow_kg_s or outdoor_air_fraction"
+    )
+
+
+def format_comfort_band(
+    occupied_degc: tuple[float, float],
+    unoccupied_degc: tuple[float, float],
+    occupied_hours: tuple[int, int],
+    source: str,
+) -> str:
+    """The comfort band as one line: occupied band [°C] in the occupied hours of working
+    days (local time), unoccupied band otherwise, and where it comes from (``source``)."""
+    return (
+        f"Comfort band ({source}): {occupied_degc[0]:g}–{occupied_degc[1]:g} °C occupied "
+        f"({occupied_hours[0]:02d}:00–{occupied_hours[1]:02d}:00 working days), "
+        f"{unoccupied_degc[0]:g}–{unoccupied_degc[1]:g} °C otherwise; set it in the "
+        "scenario's [comfort] table"
+    )
+
+
 def format_summary(s: BuildingSummary) -> str:
-    """Plain-text rendering of a :class:`BuildingSummary`."""
+    """Plain-text rendering of a :class:`BuildingSummary` (with :func:`ventilation_warning`
+    under the flow range when ventilation falls short)."""
+    warning = ventilation_warning(s)
     lines = [
         f"Building {s.name!r}  ({s.source})",
         f"  {s.description}",
@@ -255,6 +286,7 @@ def format_summary(s: BuildingSummary) -> str:
         f"Flow range: Σ {s.flow_min_total_kg_s:.2f} – {s.flow_max_total_kg_s:.2f} kg/s; outdoor "
         f"air at ventilation flow {s.outdoor_air_at_ventilation_flow_l_s:.0f} L/s (need "
         f"{s.ventilation_need_l_s:.0f} L/s)",
+        *([warning] if warning else []),
         "",
         f"Discrete model (Δt {s.dt_s:g} s, T₀ {s.linearisation_temp_degc:g} °C):",
         f"  A ≥ 0 elementwise (tol {A_TOLERANCE:g}): {_yes(s.a_nonnegative)} (min {s.a_min:.3g})",

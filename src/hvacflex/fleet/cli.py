@@ -3,8 +3,14 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import typer
+
+from hvacflex.sim.progress import task_progress
+
+if TYPE_CHECKING:
+    from hvacflex.fleet.run import FleetStepProgress
 
 fleet_app = typer.Typer(help="Fleets of buildings under a feeder limit.", no_args_is_help=True)
 
@@ -61,20 +67,26 @@ def simulate(
     if days <= 0 or days * 48 != round(days * 48):
         typer.echo("error: --days must be a positive multiple of 30 minutes", err=True)
         raise typer.Exit(2)
+    watch = CoordinationWatch()
     try:
-        result = run_fleet(
-            fleet,
-            out,
-            start=start,
-            days=days,
-            scheduler=scheduler,
-            workers=workers,
-            resume=not fresh,
-        )
+        with task_progress(True, "fleet", round(days * 48)) as update:
+            watch.update = update
+            result = run_fleet(
+                fleet,
+                out,
+                start=start,
+                days=days,
+                scheduler=scheduler,
+                workers=workers,
+                resume=not fresh,
+                progress=watch,
+            )
         write_fleet_report(out, load_fleet(fleet).spec.min_bid_mw)
     except HvacflexError as exc:
         typer.echo(f"error: {exc}", err=True)
         raise typer.Exit(2) from None
+    if watch.at_limit:
+        typer.echo(f"warning: {watch.summary()}", err=True)
     s = result.summary
     typer.echo(
         f"{out / RESULTS_FILENAME}: {int(s['steps'])} steps, "
@@ -85,3 +97,46 @@ def simulate(
         f"{s['coordination_iterations_mean']:.1f} iterations/step, "
         f"{s['step_time_s_mean']:.2f} s/step"
     )
+
+
+class CoordinationWatch:
+    """The fleet's progress callback: the bar's step count and its text (iterations and gap
+    of the last step), a warning above the bar the first time coordination stops at its
+    iteration limit unconverged, and the count of such steps for the closing warning."""
+
+    def __init__(self) -> None:
+        self.update: task_progress | None = None
+        self.at_limit = 0
+        self.steps = 0
+        self.worst_gap = 0.0
+        self.last: FleetStepProgress | None = None
+
+    def __call__(self, step: FleetStepProgress) -> None:
+        self.steps += 1
+        self.last = step
+        if step.at_iteration_limit:
+            self.at_limit += 1
+            self.worst_gap = max(self.worst_gap, step.gap)
+        if self.update is None:
+            return
+        limit = " [at limit]" if step.at_iteration_limit else ""
+        self.update(
+            completed=step.done,
+            info=f"{step.iterations} iterations, gap {step.gap:.3g}{limit}",
+        )
+        if step.at_iteration_limit and self.at_limit == 1:
+            self.update.warn(
+                f"step {step.done}: coordination stopped at its iteration limit "
+                f"({step.max_iterations}) with gap {step.gap:.3g} > tolerance "
+                f"{step.gap_tolerance:g}; the plans keep the last prices and caps"
+            )
+
+    def summary(self) -> str:
+        """The closing warning (call when :attr:`at_limit` > 0)."""
+        assert self.last is not None
+        return (
+            f"coordination stopped at its iteration limit ({self.last.max_iterations}) in "
+            f"{self.at_limit} of {self.steps} steps (largest gap {self.worst_gap:.3g}, "
+            f"tolerance {self.last.gap_tolerance:g}); raise [coordination] max_iterations or "
+            "gap_tolerance in the fleet file"
+        )

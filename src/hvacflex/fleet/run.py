@@ -78,6 +78,29 @@ log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
+class FleetStepProgress:
+    """What the progress display shows after each fleet step.
+
+    Attributes
+    ----------
+    done, steps : steps done and in all.
+    iterations : price iterations of this step's coordination.
+    gap : its relative duality gap, (Σ cost − bound) / |Σ cost|.
+    at_iteration_limit : the coordination stopped at ``max_iterations`` with the gap above
+        ``gap_tolerance`` (not converged: the plans keep the last prices and caps).
+    max_iterations, gap_tolerance : the fleet's coordination settings.
+    """
+
+    done: int
+    steps: int
+    iterations: int
+    gap: float
+    at_iteration_limit: bool
+    max_iterations: int
+    gap_tolerance: float
+
+
+@dataclass(frozen=True)
 class FleetRunResult:
     out_dir: Path
     frame: pd.DataFrame
@@ -192,7 +215,7 @@ def run_fleet(
     workers: int | None = 2,
     checkpoint_every: int = DEFAULT_CHECKPOINT_EVERY,
     resume: bool = True,
-    progress: Callable[[int, int], None] | None = None,
+    progress: Callable[[FleetStepProgress], None] | None = None,
     on_step: Callable[[int, Any], None] | None = None,
 ) -> FleetRunResult:
     """Simulate a fleet (see the module docstring).
@@ -206,6 +229,7 @@ def run_fleet(
         processes (one thread each); ``workers=0`` runs in this process without Dask.
     checkpoint_every : steps between checkpoints.
     resume : resume from a checkpoint of the same inputs and code.
+    progress : called after each step with its :class:`FleetStepProgress`.
     on_step : called with (steps done, the run's group handle) after each step (tests).
     """
     path = Path(fleet_path)
@@ -264,7 +288,7 @@ def run_fleet(
             iterations[k] = result.iterations
             price = np.append(result.price_sgd_per_mwh[1:], result.price_sgd_per_mwh[-1])
             k += 1
-            _notify(progress, on_step, k, steps, groups)
+            _notify(progress, on_step, step_progress(k, steps, result, options), groups)
             if k % checkpoint_every == 0 and k < steps:
                 checkpoint = snapshot()
                 state.save(checkpoint_path, checkpoint)
@@ -283,17 +307,33 @@ def run_fleet(
 
 
 def _notify(
-    progress: Callable[[int, int], None] | None,
+    progress: Callable[[FleetStepProgress], None] | None,
     on_step: Callable[[int, Any], None] | None,
-    k: int,
-    steps: int,
+    step: FleetStepProgress,
     groups: Any,
 ) -> None:
-    """Tell the progress bar and the test hook that ``k`` of ``steps`` steps are done."""
+    """Tell the progress display and the test hook that ``step.done`` steps are done."""
     if progress is not None:
-        progress(k, steps)
+        progress(step)
     if on_step is not None:
-        on_step(k, groups)
+        on_step(step.done, groups)
+
+
+def step_progress(
+    done: int, steps: int, result: Any, options: CoordinationOptions
+) -> FleetStepProgress:
+    """The :class:`FleetStepProgress` of a step whose coordination gave ``result``."""
+    gap = float(result.gap)
+    return FleetStepProgress(
+        done=done,
+        steps=steps,
+        iterations=int(result.iterations),
+        gap=gap,
+        at_iteration_limit=result.iterations >= options.max_iterations
+        and not gap <= options.gap_tolerance,
+        max_iterations=options.max_iterations,
+        gap_tolerance=options.gap_tolerance,
+    )
 
 
 def _feeder_timeline(
@@ -476,7 +516,10 @@ def _start_dask(scheduler: str | None, workers: int | None) -> tuple[Any, Any, A
         return None, None, None
     import dask.distributed
 
+    from hvacflex.sim.sweep import quiet_dask_logs
+
     distributed: Any = dask.distributed  # untyped package
+    quiet_dask_logs()
     if scheduler is None:
         cluster = distributed.LocalCluster(
             n_workers=workers or 1, threads_per_worker=1, processes=True, dashboard_address=None

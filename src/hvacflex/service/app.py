@@ -28,6 +28,7 @@ from starlette.routing import Match
 
 from hvacflex import __version__
 from hvacflex.errors import HvacflexError, InputError
+from hvacflex.service.dashboard import add_page_routes
 from hvacflex.service.db import (
     DEFAULT_DB_URL,
     Activation,
@@ -49,6 +50,7 @@ from hvacflex.service.operations import (
 from hvacflex.service.runtime import NotFoundError, Runtime, to_local
 from hvacflex.service.schemas import (
     ActivationIn,
+    ActivationRecord,
     AuditRecord,
     Bid,
     BidBuilding,
@@ -218,7 +220,7 @@ def create_app(
         version=__version__,
         description="Prices and activations in, plans and reserve bids out. See docs/service.md.",
         openapi_url="/v1/openapi.json",
-        docs_url="/v1/docs",
+        docs_url=None,  # /v1/docs is the self-hosted page of hvacflex.service.dashboard
         redoc_url=None,
         responses=_COMMON_ERRORS,
     )
@@ -236,6 +238,7 @@ def create_app(
     _measurement_routes(app, runtime, auth)
     _signal_routes(app, runtime, auth)
     _operator_routes(app, runtime, auth)
+    add_page_routes(app)
     app.add_middleware(BodyLimitAndAudit, sessions=sessions)
     app.add_middleware(ObserveRequests, metrics=app.state.request_metrics)
     return app
@@ -675,6 +678,25 @@ def _operator_routes(app: FastAPI, runtime: Runtime, auth: _Auth) -> None:
         )
         message = f"{len(members)} buildings" + (f", {len(stale)} stale left out" if stale else "")
         return Envelope(status=200, message=message, payload=bid)
+
+    @app.get("/v1/activations", tags=["operator"], responses=_ERRORS)
+    def activations(
+        _who: Operator, limit: Annotated[int, Query(ge=1, le=1000)] = 100
+    ) -> Envelope[list[ActivationRecord]]:
+        """The latest IL activation starts and ends, newest first."""
+        with sessions() as session:
+            rows = session.scalars(select(Activation).order_by(Activation.id.desc()).limit(limit))
+            records = [
+                ActivationRecord(
+                    id=r.id,
+                    building_id=r.building_id,
+                    event=r.event,
+                    time=to_local_iso(r.time_utc),
+                    received_at=r.created_at.isoformat(),
+                )
+                for r in rows
+            ]
+        return Envelope(status=200, message=f"{len(records)} activations", payload=records)
 
     @app.get("/v1/audit", tags=["operator"], responses=_ERRORS)
     def audit(

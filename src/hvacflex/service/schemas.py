@@ -296,6 +296,16 @@ class Stored(BaseModel):
     kind: str
 
 
+class ActivationRecord(BaseModel):
+    """A stored IL activation start or end (``building_id`` None: every building)."""
+
+    id: int
+    building_id: str | None
+    event: str
+    time: str = Field(description="The activation's time (ISO 8601, Singapore time).")
+    received_at: str = Field(description="When the service stored it (ISO 8601, UTC).")
+
+
 class AuditRecord(BaseModel):
     at: str
     key_id: str | None

@@ -51,3 +51,75 @@ class progress_bar:
         if self.enabled:
             self._progress.update(self._task, completed=self.done + self._n)
             self._progress.stop()
+
+
+class task_progress:
+    """A rich progress bar for work of ``total`` units (runs, fleet steps): description,
+    bar, done/total, elapsed time, ETA and a free text (``info``); nothing when disabled.
+
+    ``with task_progress(True, "sweep", 12) as update: update(completed=3, info="…")``;
+    ``update.warn(text)`` prints a line above the bar (or plainly when the bar is off).
+    """
+
+    def __init__(self, enabled: bool, description: str, total: int, completed: int = 0) -> None:
+        self.enabled = enabled and total > 0
+        self.description, self.total, self.completed = description, total, completed
+        self._stages = 0
+
+    def __enter__(self) -> task_progress:
+        if self.enabled:
+            from rich.progress import (
+                BarColumn,
+                MofNCompleteColumn,
+                Progress,
+                TextColumn,
+                TimeElapsedColumn,
+                TimeRemainingColumn,
+            )
+
+            self._progress = Progress(
+                TextColumn("[bold]{task.description}"),
+                BarColumn(),
+                MofNCompleteColumn(),
+                TextColumn("elapsed"),
+                TimeElapsedColumn(),
+                TextColumn("ETA"),
+                TimeRemainingColumn(),
+                TextColumn("{task.fields[info]}"),
+            )
+            self._progress.start()
+            self._task = self._progress.add_task(
+                self.description, total=self.total, completed=self.completed, info=""
+            )
+        return self
+
+    def __call__(self, *, completed: int | None = None, info: str | None = None) -> None:
+        """Set the units done (default: one more) and the free text."""
+        self.completed = self.completed + 1 if completed is None else completed
+        if self.enabled:
+            self._progress.update(self._task, completed=self.completed)
+            if info is not None:
+                self._progress.update(self._task, info=info)
+
+    def stage(self, message: str) -> None:
+        """Start a stage of staged work (``total`` stages): the stages before it are done,
+        ``message`` names the one running (a ``progress`` callback of the validations)."""
+        self._stages += 1
+        self(completed=self._stages - 1, info=message)
+
+    def warn(self, text: str) -> None:
+        """A warning line above the bar (on stderr when the bar is off)."""
+        if self.enabled:
+            from rich.markup import escape
+
+            self._progress.console.print(f"[yellow]warning:[/yellow] {escape(text)}")
+        else:
+            import sys
+
+            print(f"warning: {text}", file=sys.stderr)
+
+    def __exit__(self, exc_type: object, *exc: object) -> None:
+        if self.enabled:
+            if exc_type is None and self._stages:
+                self._progress.update(self._task, completed=self.total, info="done")
+            self._progress.stop()

@@ -100,6 +100,22 @@ def _run_job(
     return result.summary, result.cached
 
 
+DASK_LOG_LEVEL = "error"
+"""Level of Dask's own loggers in hvacflex runs: its warnings (ports, worker restarts that
+hvacflex recovers from, long GC pauses) are not the user's business; errors still show."""
+
+
+def quiet_dask_logs() -> None:
+    """Set Dask's ``distributed`` loggers to :data:`DASK_LOG_LEVEL`, here and (through the
+    configuration a ``LocalCluster`` hands its workers) in the worker processes."""
+    import logging
+
+    import dask
+
+    dask.config.set({"logging": {"distributed": DASK_LOG_LEVEL}})
+    logging.getLogger("distributed").setLevel(DASK_LOG_LEVEL.upper())
+
+
 def run_sweep(
     jobs: Sequence[tuple[dict[str, Any], ScenarioConfig]],
     out_root: str | Path,
@@ -108,6 +124,7 @@ def run_sweep(
     n_workers: int = 2,
     on_done: JobCallback | None = None,
     fresh: bool = False,
+    progress: bool = False,
 ) -> list[JobOutcome]:
     """Run ``jobs`` (from :func:`expand_grid`) on Dask and return their outcomes in order.
 
@@ -119,9 +136,13 @@ def run_sweep(
         ``LocalCluster`` of ``n_workers`` single-threaded processes.
     on_done : called with each outcome as it finishes (progress per job).
     fresh : ignore finished results and checkpoints in the run folders (simulate again).
+    progress : show a progress bar over the jobs (done/total, elapsed, ETA, failures).
     """
     from dask.distributed import Client, LocalCluster, as_completed
 
+    from hvacflex.sim.progress import task_progress
+
+    quiet_dask_logs()
     root = Path(out_root)
     dirs = [str(run_dir(root, cfg)) for _, cfg in jobs]
     cluster = None
@@ -144,28 +165,32 @@ def run_sweep(
             for i, ((_, cfg), out) in enumerate(zip(jobs, dirs, strict=True))
         ]
         position = {future.key: i for i, future in enumerate(futures)}
-        for future in as_completed(futures):  # type: ignore[no-untyped-call]
-            i = position[future.key]
-            overrides, cfg = jobs[i]
-            summary: dict[str, float] | None = None
-            cached = False
-            try:
-                summary, cached = future.result()
-                error = None
-            except Exception as exc:  # a failing job must not lose the others
-                error = "".join(traceback.format_exception_only(type(exc), exc)).strip()
-            outcome = JobOutcome(
-                label=cfg.name,
-                config_hash=cfg.config_hash(),
-                params=overrides,
-                out_dir=dirs[i],
-                summary=summary,
-                error=error,
-                cached=cached,
-            )
-            outcomes[i] = outcome
-            if on_done is not None:
-                on_done(outcome)
+        failed = 0
+        with task_progress(progress, "sweep", len(jobs)) as update:
+            for future in as_completed(futures):  # type: ignore[no-untyped-call]
+                i = position[future.key]
+                overrides, cfg = jobs[i]
+                summary: dict[str, float] | None = None
+                cached = False
+                try:
+                    summary, cached = future.result()
+                    error = None
+                except Exception as exc:  # a failing job must not lose the others
+                    error = "".join(traceback.format_exception_only(type(exc), exc)).strip()
+                outcome = JobOutcome(
+                    label=cfg.name,
+                    config_hash=cfg.config_hash(),
+                    params=overrides,
+                    out_dir=dirs[i],
+                    summary=summary,
+                    error=error,
+                    cached=cached,
+                )
+                outcomes[i] = outcome
+                failed += outcome.error is not None
+                update(info=f"{failed} failed" if failed else "")
+                if on_done is not None:
+                    on_done(outcome)
     finally:
         client.close()  # type: ignore[no-untyped-call]
         if cluster is not None:

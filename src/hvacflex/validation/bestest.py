@@ -363,6 +363,12 @@ def comparison_table(values: dict[str, float], reference: pd.DataFrame) -> pd.Da
     return pd.DataFrame.from_records(records)
 
 
+def stage_count() -> int:
+    """Stages :func:`run_bestest` announces through ``progress``: weather and solar once per
+    building, then one per case."""
+    return len({name for name, _ in CASES.values()}) + len(CASES)
+
+
 def run_bestest(
     bestest_dir: Path,
     buildings_dir: Path,

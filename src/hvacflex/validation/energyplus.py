@@ -589,6 +589,13 @@ class EnergyPlusValidation:
     energy: pd.DataFrame
 
 
+def stage_count(building: Building, starts: Sequence[date]) -> int:
+    """Stages :func:`run_energyplus_validation` announces through ``progress``: per start
+    the free-float case, and for office5 the fixed-flow and thermostat cases too."""
+    per_start = 3 if building.name == CONDITIONED_CASES_BUILDING else 1
+    return per_start * len(starts)
+
+
 def run_energyplus_validation(
     building: Building,
     *,

@@ -1,0 +1,50 @@
+"""The progress displays: the closed loop's steps bar and the bar of runs / fleet steps."""
+
+from __future__ import annotations
+
+import pytest
+
+from hvacflex.sim.progress import progress_bar, task_progress
+
+
+def test_task_progress_counts_and_shows_its_text() -> None:
+    with task_progress(True, "sweep", 4) as update:
+        update()
+        update(info="1 failed")
+        update(completed=4)
+        task = update._progress.tasks[0]
+        assert task.completed == 4 and task.total == 4
+        assert task.fields["info"] == "1 failed"
+        assert task.finished
+    assert update.completed == 4
+
+
+def test_disabled_task_progress_still_counts_and_warns_on_stderr(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    with task_progress(False, "fleet", 3) as update:
+        update()
+        update.warn("coordination [at limit]")
+    assert update.completed == 1
+    assert capsys.readouterr().err == "warning: coordination [at limit]\n"
+
+
+def test_progress_bar_advances_the_steps_done() -> None:
+    bar = progress_bar(True, "rmpc", total=30, done=5)
+    with bar as advance:
+        for _ in range(20):
+            advance()
+    assert bar._progress.tasks[0].completed == 25
+    with progress_bar(False, "rmpc", total=30, done=0) as quiet:
+        assert quiet() is None
+
+
+def test_stages_count_the_stages_before_the_running_one() -> None:
+    with task_progress(True, "bestest", 3) as bar:
+        bar.stage("weather")
+        assert bar.completed == 0
+        bar.stage("case 600")
+        bar.stage("case 900")
+        task = bar._progress.tasks[0]
+        assert task.completed == 2 and task.fields["info"] == "case 900"
+    assert task.completed == 3 and task.fields["info"] == "done"
