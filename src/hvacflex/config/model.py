@@ -31,6 +31,7 @@ Linearisation = Literal["fixed", "trajectory"]
 EstimationMode = Literal["full-state", "kalman"]
 PlantKind = Literal["rc", "energyplus"]
 PlantActuation = Literal["setpoint", "flow"]
+ILBaseline = Literal["pre-event", "similar-days"]
 
 NEMS_MAX_INTERRUPTION_STEPS = 4
 """The NEMS 120-minute rule (since 2019): after four 30-min periods of interruption the
@@ -114,6 +115,12 @@ class ReserveConfig:
     event_recovery_steps: int = 0
     non_delivery_penalty_sgd_per_mwh: float = DEFAULT_NON_DELIVERY_PENALTY_SGD_PER_MWH
     """Price of reserve not delivered during an activation [SGD/MWh of shortfall]."""
+    non_delivery_forfeits_reserve_payment: bool = True
+    """Whether the reserve payment of the capacity not delivered is paid back as well."""
+    il_baseline: ILBaseline = "pre-event"
+    """How delivery is measured (:mod:`hvacflex.settlement`): against the metered power of
+    the period before the activation (``"pre-event"``) or the mean of the same period on the
+    last 5 similar days (``"similar-days"``)."""
 
 
 @dataclass(frozen=True)

@@ -16,7 +16,8 @@ File layout (every key optional)::
                    linearisation
     [controller.feedback]  structure, memory_steps
     [reserve]      event_max_steps, event_allowance_k, event_recovery_steps,
-                   non_delivery_penalty_sgd_per_mwh
+                   non_delivery_penalty_sgd_per_mwh,
+                   non_delivery_forfeits_reserve_payment, il_baseline
     [estimation]   mode, measurement_noise_k
     [uncertainty]  relative = {kind = fraction}, absolute = {kind = value}
     [realisation]  mode, ar1_coefficient
@@ -56,6 +57,7 @@ from hvacflex.config.model import (
     EstimationConfig,
     EstimationMode,
     FeedbackConfig,
+    ILBaseline,
     Linearisation,
     PlantActuation,
     PlantConfig,
@@ -158,6 +160,10 @@ class ReserveSpec(Spec):
     non_delivery_penalty_sgd_per_mwh: NonNegative = default(
         ReserveConfig, "non_delivery_penalty_sgd_per_mwh"
     )
+    non_delivery_forfeits_reserve_payment: bool = default(
+        ReserveConfig, "non_delivery_forfeits_reserve_payment"
+    )
+    il_baseline: ILBaseline = default(ReserveConfig, "il_baseline")
 
 
 class EstimationSpec(Spec):

@@ -7,8 +7,9 @@ d̂ + w (w drawn in the uncertainty box) → measure → repeat. When interrupti
 activated the plant runs u − r: under the event model the locked plan of the event's first
 period for at most D periods, under the whole-horizon model each period's fresh plan
 (:mod:`hvacflex.sim.events`).
-The reserve capacity scheduled is paid whether activated or not; delivery is settled in
-:mod:`hvacflex.kpi`.
+The reserve capacity scheduled is paid whether activated or not; delivery is settled against
+metered power (:mod:`hvacflex.settlement`, the ``il_baseline_power_kw``, ``il_delivered_kw``
+and ``il_shortfall_kw`` columns of :meth:`ClosedLoop.frame`) and summed in :mod:`hvacflex.kpi`.
 
 Each row of the output (``results.parquet``, schema in ``docs/architecture.md``) describes one
 period. On a plant that can snapshot its state both counterfactual plant steps are computed
@@ -44,6 +45,7 @@ from hvacflex.data.forecast import Forecast
 from hvacflex.data.signals import OperatorSignals, effective_peak_price
 from hvacflex.data.uncertainty import DisturbanceSampler
 from hvacflex.errors import ConfigError, HvacflexError
+from hvacflex.settlement import SETTLEMENT_COLUMNS, settlement_columns
 from hvacflex.sim.measurement import Sensors
 from hvacflex.sim.plant import Actuation, Disturbance, Observation, Plant
 from hvacflex.sim.plants import plant_summary, scenario_plant
@@ -351,8 +353,13 @@ class ClosedLoop:
         rec.flags["il_event_window"][k] = outcome.event_window
         rec.values[k, col["il_allowance_k"]] = outcome.allowance_k
         rec.values[k, col["il_reference_power_kw"]] = outcome.reference_power_kw
-        penalty = self.setup.config.reserve.non_delivery_penalty_sgd_per_mwh
-        rec.values[k, col["il_penalty_price_sgd_per_mwh"]] = penalty
+        reserve = self.setup.config.reserve
+        rec.values[k, col["il_penalty_price_sgd_per_mwh"]] = (
+            reserve.non_delivery_penalty_sgd_per_mwh
+        )
+        forfeited = self.setup.exogenous.reserve_price_sgd_per_mwh[k]
+        forfeit = reserve.non_delivery_forfeits_reserve_payment
+        rec.values[k, col["il_forfeited_price_sgd_per_mwh"]] = forfeited if forfeit else 0.0
 
     def _record(
         self,
@@ -443,7 +450,14 @@ class ClosedLoop:
         state.save(path, self.get_state())
 
     def frame(self) -> pd.DataFrame:
-        return self.recorder.frame(self.setup.exogenous.index, self.k)
+        """The results so far, settled against metered power (:mod:`hvacflex.settlement`:
+        the settlement columns are a function of the whole series, so they are computed
+        here, not per step)."""
+        frame = self.recorder.frame(self.setup.exogenous.index, self.k)
+        settled = settlement_columns(frame, self.setup.config.reserve.il_baseline)
+        for name in SETTLEMENT_COLUMNS:
+            frame[name] = settled[name].to_numpy()
+        return frame
 
 
 def run_simulation(
