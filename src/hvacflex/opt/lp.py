@@ -386,12 +386,18 @@ def add_comfort_with_margins(
     ``margin_k`` (N, ny) are constant margins δ [K]; ``margin_cols`` (N, ny), if given, are
     margin *variables* added as ``+δ`` on the upper and ``−δ`` on the lower rows. Returns the
     row blocks (N, ny) with their sign (+1 upper, −1 lower). In the IL event model the upper
-    bound of outputs 1..c (``il_allowance_carry_steps``) is widened by α.
+    bound of outputs 1..c (``il_allowance_carry_steps``, the recovery from a real curtailment)
+    is widened by the decaying allowance of :func:`~hvacflex.opt.events.carry_allowance`;
+    never otherwise (α belongs to the event rows).
     """
     trajectories = [v.x, v.z] if v.has_curtailed else [v.x]
     shape = (p.horizon, p.ny)
     carry = carry_allowance(
-        p.horizon, p.ny, p.il_event_allowance_kelvin, p.il_allowance_carry_steps
+        p.horizon,
+        p.ny,
+        p.il_event_allowance_kelvin,
+        p.il_allowance_carry_steps,
+        p.il_event_recovery_steps,
     )
     blocks: list[tuple[IntArray, float]] = []
     for state in trajectories:
@@ -490,7 +496,12 @@ def add_il_event_comfort(
     if rows.num_rows == 0:
         return np.zeros(0, dtype=np.int64), rows
     lower, upper = event_row_bounds(
-        rows, p.y_max, margin_k, p.il_event_allowance_kelvin, p.il_allowance_carry_steps
+        rows,
+        p.y_max,
+        margin_k,
+        p.il_event_allowance_kelvin,
+        p.il_allowance_carry_steps,
+        p.il_event_recovery_steps,
     )
     index = lp.add_rows(
         (rows.num_rows,),

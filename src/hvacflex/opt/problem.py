@@ -188,8 +188,9 @@ class RMPCProblem:
     il_event_allowance_kelvin : α ≥ 0 [K] added to the upper comfort bound during an event and
         R steps after it (event model only)
     il_event_recovery_steps : R ≥ 0 [steps] (event model only)
-    il_allowance_carry_steps : c, 0 ≤ c ≤ N: outputs 1..c get α under every pattern, the
-        served plan included (event model only)
+    il_allowance_carry_steps : c, 0 ≤ c ≤ N: outputs 1..c are the recovery from a real
+        curtailment and get the decaying allowance α·min(1, (c − t + 1)/(R + 1)) under every
+        pattern, the served plan included (event model only)
 
     After construction every array field is a read-only float array of its full shape
     (``d_sigma`` (N,nd), ``u_min``/``u_max`` (N,m), ``y_min``/``y_max`` (N,ny),
