@@ -40,9 +40,6 @@ provider may resume consumption. The product presets plan for events of up to th
 DEFAULT_EVENTS_PER_YEAR = 4.0
 """Rate of random IL activations [events per year]: contingencies are rare."""
 
-STRESS_EVENTS_PER_YEAR = 365.0
-"""Rate of the ``stress`` activation mode [events per year]: about one a day."""
-
 DEFAULT_NON_DELIVERY_PENALTY_SGD_PER_MWH = 4500.0
 """Penalty on reserve not delivered during an activation [SGD/MWh]: the NEMS energy price
 cap, i.e. the shortfall is charged as if bought at the cap."""
@@ -152,8 +149,9 @@ class ActivationConfig:
     """When the grid operator activates the IL reserve (:mod:`hvacflex.sim.activation`).
 
     ``never``; ``random``: events at ``events_per_year`` (seeded), each lasting 1 …
-    ``duration_steps`` periods (uniform), never overlapping; ``stress``: the same at about
-    one event a day; ``file``: periods read from a CSV; ``always``: every period (the paper's
+    ``duration_steps`` periods (uniform), never overlapping; ``stress``: one activation every
+    weekday, starting between 08:00 and 18:00, 1 … ``duration_steps`` periods (seeded);
+    ``file``: periods read from a CSV; ``always``: every period (the paper's
     literal case; under the event model the periods past the event length are counted as
     beyond the model).
     """
