@@ -102,3 +102,17 @@ def test_an_unknown_baseline_rule_is_a_config_error() -> None:
     frame = _frame([1.0], [0.0], [False])
     with pytest.raises(ConfigError, match="baseline"):
         settlement.settlement_columns(frame, "yesterday")
+
+
+def test_the_baseline_of_an_activation_starting_now_uses_only_the_history() -> None:
+    index = pd.date_range("2014-03-03 00:00", periods=3 * 48 + 21, freq="30min", tz=TZ)
+    power = np.arange(len(index) - 1, dtype=float)  # the history before the coming period
+    activated = np.zeros(len(power), dtype=bool)
+    assert np.isnan(settlement.start_baseline_kw("pre-event", power[:0], activated[:0], index[:1]))
+    assert settlement.start_baseline_kw("pre-event", power, activated, index) == power[-1]
+    # Thursday 10:00 (period 3·48 + 20 = 164): Mon, Tue, Wed at 10:00 → 20, 68, 116
+    now = len(index) - 1
+    assert index[now].hour == 10 and index[now].minute == 0
+    expected = np.mean([now - 48 * d for d in (1, 2, 3)])
+    similar = settlement.start_baseline_kw("similar-days", power, activated, index)
+    assert similar == pytest.approx(expected)

@@ -153,6 +153,30 @@ def baseline_power_kw(
     )
 
 
+SIMILAR_DAYS_LOOKBACK_DAYS = 7 * SIMILAR_DAYS
+"""Days of history :func:`start_baseline_kw` searches for similar days (5 weekends span
+five weeks)."""
+
+
+def start_baseline_kw(
+    rule: str, power_kw: FloatArray, activated: BoolArray, index: pd.DatetimeIndex
+) -> float:
+    """The baseline an activation starting in period k would be settled against [kW], from
+    the history before it: ``power_kw`` and ``activated`` (k,), ``index`` (k + 1,) the
+    period starts up to and including k. NaN when there is none (k = 0)."""
+    k = len(power_kw)
+    if k == 0:
+        return float("nan")
+    if rule == "pre-event":
+        return float(power_kw[-1])
+    periods_per_day = max(round(pd.Timedelta(days=1) / (index[1] - index[0])), 1)
+    first = max(0, k - SIMILAR_DAYS_LOOKBACK_DAYS * periods_per_day)
+    power = np.append(np.asarray(power_kw[first:], dtype=float), np.nan)
+    active = np.append(np.asarray(activated[first:], dtype=bool), True)
+    baseline = baseline_power_kw(rule, power, active, index[first : k + 1])
+    return float(baseline[-1])
+
+
 def delivered_kw(baseline_kw: FloatArray, power_kw: FloatArray, activated: BoolArray) -> FloatArray:
     """(T,) delivered reduction ``max(0, B − P)`` in activated periods, 0 elsewhere and
     where there is no baseline [kW]."""

@@ -413,10 +413,11 @@ def add_comfort_with_margins(
 
 
 def set_plan_costs(lp: LPBuilder, p: RMPCProblem, v: PlanColumns) -> None:
-    """Objective terms both LPs share: −reserve revenue (plus the tie-break) on r, ρ·Δt on ε,
+    """Objective terms both LPs share: −reserve revenue b_k q_k·r_k Δt (plus the tie-break)
+    on r, ρ·Δt on ε,
     1 on β [SGD]; the energy cost sits on P (open loop) or on u (feedback)."""
     dt = p.dt_h
-    reserve_kw_per_kg_s = p.power_coeff_kw_per_kg_s[:, v.reserve_inputs]
+    reserve_kw_per_kg_s = p.reserve_kw_per_kg_s[:, v.reserve_inputs]
     lp.set_cost(
         v.r,
         -dt * p.reserve_price_sgd_per_mwh[:, None] * reserve_kw_per_kg_s / KWH_PER_MWH

@@ -45,7 +45,7 @@ from hvacflex.data.forecast import Forecast
 from hvacflex.data.signals import OperatorSignals, effective_peak_price
 from hvacflex.data.uncertainty import DisturbanceSampler
 from hvacflex.errors import ConfigError, HvacflexError
-from hvacflex.settlement import SETTLEMENT_COLUMNS, settlement_columns
+from hvacflex.settlement import SETTLEMENT_COLUMNS, settlement_columns, start_baseline_kw
 from hvacflex.sim.measurement import Sensors
 from hvacflex.sim.plant import Actuation, Disturbance, Observation, Plant
 from hvacflex.sim.plants import plant_summary, scenario_plant
@@ -153,6 +153,7 @@ class Control(Protocol):
         activated: Callable[[int], bool],
         measured_zone_temp_degc: FloatArray | None = None,
         plan: Any = None,
+        baseline_power_kw: float | None = None,
     ) -> Decision: ...
 
     def get_state(self) -> dict[str, Any]: ...
@@ -251,6 +252,7 @@ class ClosedLoop:
             activated=self._activated,
             measured_zone_temp_degc=self.sensors.read(self.x),
             plan=plan,
+            baseline_power_kw=self._start_baseline_kw(k),
         )
         t1 = time.perf_counter()
 
@@ -283,6 +285,18 @@ class ClosedLoop:
         self.timing_s["controller"] += t1 - t0
         self.timing_s["plant"] += t2 - t1
         self.timing_s["record"] += t3 - t2
+
+    def _start_baseline_kw(self, k: int) -> float:
+        """The baseline an activation starting at ``k`` would be settled against [kW] (the
+        scenario's ``il_baseline`` rule over the metered power so far; NaN at k = 0)."""
+        power = self.recorder.values[:k, self.recorder.column_index["power_kw"]]
+        activated = self.recorder.flags["il_activated"][:k]
+        return start_baseline_kw(
+            self.setup.config.reserve.il_baseline,
+            power,
+            activated,
+            self.setup.exogenous.index[: k + 1],
+        )
 
     def _plant_period(self, decision: Decision, disturbance: Disturbance) -> _PlantPeriod:
         """Run the period on the plant: the served and the curtailed step where the plant can
