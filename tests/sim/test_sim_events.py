@@ -223,6 +223,26 @@ def test_closed_loop_settles_the_locked_event_against_the_metered_power() -> Non
     np.testing.assert_allclose(frame["il_shortfall_kw"], frame["reserve_kw"])
 
 
+def test_the_scenario_baseline_rule_settles_the_closed_loop_frame() -> None:
+    from hvacflex.settlement import SETTLEMENT_COLUMNS, settlement_columns
+
+    cfg = with_overrides(
+        preset("nmpc", start=START, days=0.25),
+        {"activation.mode": "random", "activation.events_per_year": 20_000.0,
+         "reserve.il_baseline": "similar-days"},
+    )  # fmt: skip
+    setup = prepare(cfg)
+    loop = ClosedLoop(setup, StubPlanner(np.asarray(setup.building.hvac.flow_max_kg_s), 6))
+    while loop.k < loop.steps:
+        loop.step()
+    frame = loop.frame()
+    assert 0 < frame["il_activated"].sum() < len(frame)
+    expected = settlement_columns(frame, "similar-days")
+    for name in SETTLEMENT_COLUMNS:
+        np.testing.assert_array_equal(frame[name].to_numpy(), expected[name].to_numpy())
+    assert frame["il_baseline_power_kw"][frame["il_activated"]].notna().any()
+
+
 def test_checkpoint_mid_event_resumes_identically() -> None:
     whole, _ = _stub_loop()
     while whole.k < whole.steps:

@@ -265,7 +265,7 @@ class MPCController(Controller):
             peak_floor_kw=floor,
             power_offset_kw=p0,
             power_coeff_kw_per_kg_s=p,
-            reserve_power_coeff_kw_per_kg_s=np.minimum(reserve_coeff, p),
+            reserve_power_coeff_kw_per_kg_s=np.minimum(reserve_coeff, p) if events else None,
             u_min=u_min,
             u_max=self._flow_max,
             y_min=y_min,
@@ -460,7 +460,8 @@ class MPCController(Controller):
         baseline (NaN, the run's first period): nothing would be seen; an unknown one
         (None): not checked."""
         baseline = self._baseline_kw
-        if baseline is None or not np.any(reserve_flow_kg_s > 0.0):
+        paper = self._reserve.event_max_steps is None  # the whole-horizon model: as published
+        if paper or baseline is None or not np.any(reserve_flow_kg_s > 0.0):
             return True
         if not np.isfinite(baseline):
             return False

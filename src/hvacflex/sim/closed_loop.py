@@ -286,9 +286,12 @@ class ClosedLoop:
         self.timing_s["plant"] += t2 - t1
         self.timing_s["record"] += t3 - t2
 
-    def _start_baseline_kw(self, k: int) -> float:
+    def _start_baseline_kw(self, k: int) -> float | None:
         """The baseline an activation starting at ``k`` would be settled against [kW] (the
-        scenario's ``il_baseline`` rule over the metered power so far; NaN at k = 0)."""
+        scenario's ``il_baseline`` rule over the metered power so far; None at k = 0, where
+        there is no metered period yet, as a building that posts no previous power)."""
+        if k == 0:
+            return None
         power = self.recorder.values[:k, self.recorder.column_index["power_kw"]]
         activated = self.recorder.flags["il_activated"][:k]
         return start_baseline_kw(
