@@ -7,6 +7,7 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
+import pytest
 
 from hvacflex import state as hvacflex_state
 from hvacflex.config import preset, with_overrides
@@ -295,3 +296,22 @@ def test_worst_event_temperature_is_recorded_for_every_fresh_plan(tmp_path: Path
     assert (frame["reserve_kw"] > 0).any()
     offered = fresh & (frame["reserve_kw"] > 0).to_numpy()
     assert (worst[offered].max(axis=1) > served[offered].max(axis=1)).all()
+
+
+@pytest.mark.slow
+def test_stress_week_is_settled_against_metered_power(tmp_path: Path) -> None:
+    """Issue 25's done-when case: ``rmpc``, 5 days from 2014-03-03, stress activations."""
+    cfg = with_overrides(preset("rmpc", start=START, days=5.0), {"activation.mode": "stress"})
+    result = run_simulation(cfg, tmp_path, progress=False)
+    frame, summary = result.frame, result.summary
+    activated = frame["il_activated"].to_numpy(bool)
+    assert activated.sum() >= 4
+    recomputed = float(
+        np.nansum(np.maximum(frame["il_baseline_power_kw"] - frame["power_kw"], 0.0)[activated])
+        * 0.5
+    )
+    assert recomputed == pytest.approx(summary["il_delivered_metered_kwh"], rel=0.01)
+    assert summary["il_delivered_metered_kwh"] >= 0.95 * summary["il_offered_kwh"]
+    for key in ("il_shortfall_kwh", "il_penalty_sgd", "il_delivered_counterfactual_kwh"):
+        assert np.isfinite(summary[key])
+    assert summary["il_delivered_counterfactual_kwh"] >= 0.98 * summary["il_offered_kwh"]
