@@ -27,7 +27,7 @@ LAYERS: list[set[str]] = [
     {"data"},
     {"energyplus"},
     {"opt"},
-    {"kpi"},
+    {"kpi", "settlement"},
     {"config"},
     {"control"},
     {"sim"},

@@ -199,6 +199,8 @@ def test_reserve_section_is_read_and_recorded(tmp_path: Path) -> None:
         "event_allowance_k": 0.5,
         "event_recovery_steps": 1,
         "non_delivery_penalty_sgd_per_mwh": 1000.0,
+        "non_delivery_forfeits_reserve_payment": True,
+        "il_baseline": "pre-event",
     }
     assert cfg.config_hash() != preset("paper-rmpc").config_hash()
 
@@ -331,4 +333,13 @@ def test_bad_forecast_tables_name_the_field(tmp_path: Path, text: str, field: st
     path = tmp_path / "bad.toml"
     path.write_text(text)
     with pytest.raises(ConfigError, match=re.escape(field)):
+        load_config(path)
+
+
+def test_il_baseline_is_a_reserve_setting(tmp_path: Path) -> None:
+    path = tmp_path / "baseline.toml"
+    path.write_text('preset = "rmpc"\n[reserve]\nil_baseline = "similar-days"\n')
+    assert load_config(path).reserve.il_baseline == "similar-days"
+    path.write_text('preset = "rmpc"\n[reserve]\nil_baseline = "yesterday"\n')
+    with pytest.raises(ConfigError, match="il_baseline"):
         load_config(path)

@@ -335,16 +335,23 @@ def _event_frame() -> pd.DataFrame:
     df["il_allowance_k"] = [0.0, 1.0, 1.0, 1.0, 0.0, 0.0]
     df["il_reference_power_kw"] = [np.nan, 11.0, 12.0, 11.0, np.nan, np.nan]
     df["il_penalty_price_sgd_per_mwh"] = 1000.0
+    df["il_forfeited_price_sgd_per_mwh"] = 50.0
     return df
 
 
 def test_il_settlement_on_a_hand_made_event() -> None:
     df = _event_frame()
-    # delivered: 11 − 7 = 4 (all of the 4 kW), 12 − 9 = 3 (1 kW short)
-    np.testing.assert_allclose(kpi.il_delivered_kw(df), [0, 4, 3, 0, 0, 0])
-    assert kpi.il_shortfall_kwh(df) == pytest.approx(1.0 * 0.5)
-    assert kpi.il_penalty_sgd(df) == pytest.approx(0.5 * 1000 / 1000)
-    assert kpi.il_delivered_ratio(df) == pytest.approx(7.0 / 8.0)
+    # pre-event baseline: 10 kW (period 0) held for periods 1–3; metered 7, 9, 12 kW
+    np.testing.assert_allclose(kpi.il_delivered_kw(df), [0, 3, 1, 0, 0, 0])
+    np.testing.assert_allclose(kpi.il_shortfall_kw(df), [0, 1, 3, 0, 0, 0])
+    assert kpi.il_offered_kwh(df) == pytest.approx((4 + 4 + 0) * 0.5)
+    assert kpi.il_delivered_metered_kwh(df) == pytest.approx((3 + 1) * 0.5)
+    assert kpi.il_shortfall_kwh(df) == pytest.approx(4.0 * 0.5)
+    # 2 kWh short at 1000 SGD/MWh plus the forfeited 50 SGD/MWh reserve payment
+    assert kpi.il_penalty_sgd(df) == pytest.approx(2.0 * 1050 / 1000)
+    assert kpi.il_delivered_ratio(df) == pytest.approx(2.0 / 4.0)
+    # the plant's counterfactual: served = metered in this frame, so nothing
+    assert kpi.il_delivered_counterfactual_kwh(df) == 0.0
     # recovery period 3: 12 kW against the plan's 11 kW for half an hour
     assert kpi.il_recovery_energy_kwh(df) == pytest.approx(0.5)
     assert kpi.il_event_count(df) == 1 and kpi.il_beyond_model_steps(df) == 1
@@ -352,21 +359,49 @@ def test_il_settlement_on_a_hand_made_event() -> None:
     revenue = 4.0 * 4 * 50.0 * 0.5 / 1000
     assert kpi.reserve_revenue_sgd(df) == pytest.approx(revenue)
     energy = sum([10.0, 7.0, 9.0, 12.0, 10.0, 10.0]) * 100.0 * 0.5 / 1000
-    assert kpi.net_cost_sgd(df) == pytest.approx(energy - revenue + 0.5)
-    assert kpi.monthly_table(df)["il_penalty_sgd"].sum() == pytest.approx(0.5)
+    assert kpi.net_cost_sgd(df) == pytest.approx(energy - revenue + 2.1)
+    assert kpi.monthly_table(df)["il_penalty_sgd"].sum() == pytest.approx(2.1)
     assert kpi.reserve_offered_mean_kw(df) == pytest.approx(16.0 / 6)
     assert kpi.reserve_period_share(df) == pytest.approx(4 / 6)
 
 
-def test_event_discomfort_is_measured_beyond_the_allowance() -> None:
+def test_il_settlement_reads_the_settlement_columns_when_present() -> None:
     df = _event_frame()
-    # in the window the upper bound is 27 °C: only 27.5 exceeds it (0.5 K); outside the
-    # window the strict 26 °C: period 4 at 26.4 (0.4 K)
-    assert kpi.discomfort_event_kelvin_hours(df) == pytest.approx(0.5 * 0.5)
+    df["il_baseline_power_kw"] = [np.nan, 12.0, 12.0, 12.0, np.nan, np.nan]
+    df["il_delivered_kw"] = [0.0, 5.0, 3.0, 0.0, 0.0, 0.0]
+    df["il_shortfall_kw"] = [0.0, 0.0, 1.0, 0.0, 0.0, 0.0]
+    df["power_served_kw"] = [10.0, 11.0, 12.5, 12.0, 10.0, 10.0]
+    assert kpi.il_delivered_metered_kwh(df) == pytest.approx(8.0 * 0.5)
+    assert kpi.il_penalty_sgd(df) == pytest.approx(0.5 * 1050 / 1000)
+    # served − metered over the activated periods 1–3: 4 + 3.5 + 0
+    assert kpi.il_delivered_counterfactual_kwh(df) == pytest.approx(7.5 * 0.5)
+    df.loc[df.index[2], "power_served_kw"] = np.nan  # a plant that cannot snapshot
+    assert np.isnan(kpi.il_delivered_counterfactual_kwh(df))
+    out = kpi.summary(df)
+    for key in (
+        "il_offered_kwh",
+        "il_delivered_metered_kwh",
+        "il_shortfall_kwh",
+        "il_penalty_sgd",
+        "il_delivered_counterfactual_kwh",
+    ):
+        assert key in out
+    assert out["il_offered_kwh"] == pytest.approx(4.0)
+
+
+def test_event_discomfort_against_the_normal_band_and_within_the_allowance() -> None:
+    df = _event_frame()
+    # in the window (periods 1–3) the strict 26 °C band: 0.5 + 1.5 + 0.2 K; with the
+    # allowance (27 °C) only 27.5 exceeds it (0.5 K); outside the window the strict 26 °C:
+    # period 4 at 26.4 (0.4 K)
+    assert kpi.discomfort_event_kelvin_hours(df) == pytest.approx(2.2 * 0.5)
+    assert kpi.discomfort_event_beyond_allowance_kelvin_hours(df) == pytest.approx(0.5 * 0.5)
+    assert kpi.discomfort_event_within_allowance_kelvin_hours(df) == pytest.approx(1.7 * 0.5)
     assert kpi.discomfort_outside_events_kelvin_hours(df) == pytest.approx(0.4 * 0.5)
     out = kpi.summary(df)
-    assert out["il_penalty_sgd"] == pytest.approx(0.5)
+    assert out["il_penalty_sgd"] == pytest.approx(2.1)
     assert out["il_beyond_model_steps"] == 1.0
+    assert out["discomfort_event_beyond_allowance_kelvin_hours"] == pytest.approx(0.25)
     # the strict total still counts every deviation from the strict band
     assert out["discomfort_kelvin_hours"] == pytest.approx((0.5 + 1.5 + 0.2 + 0.4) * 0.5)
 
@@ -376,3 +411,4 @@ def test_results_without_il_columns_have_no_events() -> None:
     assert kpi.il_penalty_sgd(df) == 0.0 and kpi.il_shortfall_kwh(df) == 0.0
     assert kpi.il_delivered_ratio(df) == 1.0  # nothing was due
     assert kpi.discomfort_event_kelvin_hours(df) == 0.0
+    assert kpi.il_offered_kwh(df) == 0.0 and kpi.il_delivered_counterfactual_kwh(df) == 0.0

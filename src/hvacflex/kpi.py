@@ -22,11 +22,13 @@ Conventions
 * Net cost is energy cost − reserve revenue + IL penalty: the paper's Table 1 "Total" (the
   paper has no penalty). The peak-power charge (PPP) is reported separately, as the paper
   does.
-* IL settlement (columns ``il_*`` of :mod:`hvacflex.sim.events`): in a curtailed period the
-  building **delivers** ``il_reference_power_kw − power_kw`` (the locked plan's served power
-  p0_j + p_jᵀu_j less the plant's actual power); the **shortfall** ``max(reserve_kw −
-  delivered, 0)`` is charged at ``il_penalty_price_sgd_per_mwh``. Results without these
-  columns (older runs) have no IL events.
+* IL settlement against metered power (:mod:`hvacflex.settlement`, ``docs/il_events.md``):
+  in an activated period (``il_activated``) the building **delivers** ``il_delivered_kw`` =
+  max(0, ``il_baseline_power_kw`` − ``power_kw``); the **shortfall** ``il_shortfall_kw`` =
+  max(0, ``reserve_kw`` − delivered) is charged at ``il_penalty_price_sgd_per_mwh`` plus the
+  forfeited reserve price ``il_forfeited_price_sgd_per_mwh``. Results without the
+  settlement columns are settled here with the ``pre-event`` baseline; without
+  ``il_activated`` (older runs) they have no IL events.
 * Peaks are taken on 30-min average power (the billing interval): steps shorter than
   30 min are averaged into 30-min intervals; longer steps are used as they are.
 * Months are calendar months in the index's local time.
@@ -42,6 +44,7 @@ import numpy as np
 import pandas as pd
 
 from hvacflex import results as schema
+from hvacflex import settlement
 from hvacflex.errors import DataError
 from hvacflex.units import KWH_PER_MWH
 
@@ -169,18 +172,54 @@ def _flag(results: pd.DataFrame, name: str) -> np.ndarray:
     return _optional(results, name, 0.0) > 0.5
 
 
+def _activated(results: pd.DataFrame) -> np.ndarray:
+    return _flag(results, "il_activated")
+
+
+def _settled(results: pd.DataFrame, name: str) -> np.ndarray:
+    """A settlement column (:mod:`hvacflex.settlement`), or — for results written before
+    it existed — the same column computed from the frame with the ``pre-event`` baseline."""
+    if name in results.columns:
+        values: np.ndarray = np.nan_to_num(np.asarray(results[name], dtype=float))
+        return values
+    return settlement.settlement_columns(results)[name].to_numpy(dtype=float)
+
+
 def il_delivered_kw(results: pd.DataFrame) -> np.ndarray:
-    """(T,) reserve delivered [kW]: ``il_reference_power_kw − power_kw`` in curtailed periods
-    (column ``il_curtailed``), 0 elsewhere."""
-    delivered = _optional(results, "il_reference_power_kw", np.nan) - _values(results, "power_kw")
-    return np.where(_flag(results, "il_curtailed"), np.nan_to_num(delivered), 0.0)
+    """(T,) reserve delivered against the metered baseline [kW]: ``il_delivered_kw`` =
+    max(0, ``il_baseline_power_kw`` − ``power_kw``) in activated periods, 0 elsewhere."""
+    return _settled(results, settlement.DELIVERED_COLUMN)
 
 
 def il_shortfall_kw(results: pd.DataFrame) -> np.ndarray:
-    """(T,) reserve offered but not delivered in curtailed periods, ``max(R − delivered, 0)``
-    [kW]."""
-    shortfall = np.maximum(_values(results, "reserve_kw") - il_delivered_kw(results), 0.0)
-    return np.where(_flag(results, "il_curtailed"), shortfall, 0.0)
+    """(T,) reserve paid for but not delivered in activated periods, ``max(R − delivered,
+    0)`` [kW] (column ``il_shortfall_kw``)."""
+    return _settled(results, settlement.SHORTFALL_COLUMN)
+
+
+def il_offered_kwh(results: pd.DataFrame) -> float:
+    """Reserve energy due over the activated periods, ``Σ reserve_kw · Δt`` [kWh]."""
+    offered = _values(results, "reserve_kw")[_activated(results)]
+    return float(np.sum(offered) * step_hours(results))
+
+
+def il_delivered_metered_kwh(results: pd.DataFrame) -> float:
+    """Reserve energy delivered against the metered baseline, ``Σ il_delivered_kw · Δt``
+    [kWh] (activated periods)."""
+    return float(np.sum(il_delivered_kw(results)) * step_hours(results))
+
+
+def il_delivered_counterfactual_kwh(results: pd.DataFrame) -> float:
+    """The plant's own reduction over the activated periods, ``Σ max(0, power_served_kw −
+    power_kw) · Δt`` [kWh]: the same step without curtailment less the metered power (for
+    diagnosis: the market cannot see it). NaN where the plant cannot give the served step
+    (a plant that cannot snapshot) in an activated period; 0 without activations."""
+    activated = _activated(results)
+    served = _optional(results, "power_served_kw", np.nan)[activated]
+    if np.any(~np.isfinite(served)):
+        return float("nan")
+    reduction = np.maximum(served - _values(results, "power_kw")[activated], 0.0)
+    return float(np.sum(reduction) * step_hours(results))
 
 
 def il_shortfall_kwh(results: pd.DataFrame) -> float:
@@ -188,24 +227,33 @@ def il_shortfall_kwh(results: pd.DataFrame) -> float:
     return float(np.sum(il_shortfall_kw(results)) * step_hours(results))
 
 
+def il_penalty_step_sgd(results: pd.DataFrame) -> np.ndarray:
+    """(T,) non-delivery penalty of each period ``S_k Δt (π_k + f_k) / 1000`` [SGD]: the
+    shortfall S at the penalty price π (``il_penalty_price_sgd_per_mwh``) plus the forfeited
+    reserve payment f (``il_forfeited_price_sgd_per_mwh``, the reserve price when the
+    contract forfeits it); no penalty where the columns are absent."""
+    price = _optional(results, "il_penalty_price_sgd_per_mwh", 0.0) + np.nan_to_num(
+        _optional(results, "il_forfeited_price_sgd_per_mwh", 0.0)
+    )
+    penalty: np.ndarray = il_shortfall_kw(results) * price * step_hours(results) / KWH_PER_MWH
+    return penalty
+
+
 def il_penalty_sgd(results: pd.DataFrame) -> float:
-    """Non-delivery penalty ``Σ_k shortfall_k · price_k · Δt / 1000`` [SGD] (price column
-    ``il_penalty_price_sgd_per_mwh``; no penalty when absent)."""
-    price = _optional(results, "il_penalty_price_sgd_per_mwh", 0.0)
-    return float(np.sum(il_shortfall_kw(results) * price) * step_hours(results) / KWH_PER_MWH)
+    """Non-delivery penalty summed over the run [SGD] (:func:`il_penalty_step_sgd`)."""
+    return float(np.sum(il_penalty_step_sgd(results)))
 
 
 def il_delivered_ratio(results: pd.DataFrame) -> float:
-    """Delivered / offered reserve energy over the curtailed periods.
+    """Delivered (metered) / offered reserve energy over the activated periods.
 
     1.0 when no reserve was due (no activation, or nothing offered in the activated
     periods): nothing was owed, nothing fell short; and summaries stay NaN-free (comparable).
     """
-    curtailed = _flag(results, "il_curtailed")
-    offered = float(np.sum(_values(results, "reserve_kw")[curtailed]))
+    offered = il_offered_kwh(results)
     if offered <= 0.0:
         return 1.0
-    return float(np.sum(il_delivered_kw(results)[curtailed])) / offered
+    return il_delivered_metered_kwh(results) / offered
 
 
 def il_recovery_energy_kwh(results: pd.DataFrame) -> float:
@@ -354,10 +402,7 @@ def monthly_table(
             * _values(results, "reserve_price_sgd_per_mwh")
             * dt_h
             / KWH_PER_MWH,
-            "il_penalty_sgd": il_shortfall_kw(results)
-            * _optional(results, "il_penalty_price_sgd_per_mwh", 0.0)
-            * dt_h
-            / KWH_PER_MWH,
+            "il_penalty_sgd": il_penalty_step_sgd(results),
             "energy_kwh": power_kw * dt_h,
         },
         index=months,
@@ -439,15 +484,34 @@ def _comfort_deviation_k(results: pd.DataFrame, allowance_k: float = 0.0) -> pd.
 
 
 def discomfort_event_kelvin_hours(results: pd.DataFrame) -> float:
-    """Discomfort in IL event windows beyond the allowance [K·h], all zones.
+    """Discomfort in IL event windows against the normal band [K·h], all zones.
 
     Over the periods of ``il_event_window`` (curtailment and recovery), the deviation at
-    period end from the band whose upper bound is widened by α (``il_allowance_k``): what the
-    contract does not allow. 0 without events.
+    period end from the strict band — what the occupants feel, allowance or not; split by
+    :func:`discomfort_event_within_allowance_kelvin_hours` and
+    :func:`discomfort_event_beyond_allowance_kelvin_hours`. 0 without events.
     """
+    window = _flag(results, "il_event_window")
+    deviation = _comfort_deviation_k(results).to_numpy()
+    return float(np.sum(deviation[window]) * step_hours(results))
+
+
+def discomfort_event_beyond_allowance_kelvin_hours(results: pd.DataFrame) -> float:
+    """Discomfort in IL event windows beyond the allowance [K·h], all zones: the deviation
+    from the band whose upper bound is widened by α (``il_allowance_k``), what the contract
+    does not allow. 0 without events."""
     window = _flag(results, "il_event_window")
     deviation = _comfort_deviation_k(results, allowance_k=1.0).to_numpy()
     return float(np.sum(deviation[window]) * step_hours(results))
+
+
+def discomfort_event_within_allowance_kelvin_hours(results: pd.DataFrame) -> float:
+    """Discomfort in IL event windows that the allowance covers [K·h]: against the normal
+    band less beyond the allowance (the warming the contract allows and the occupants
+    still feel)."""
+    return discomfort_event_kelvin_hours(results) - discomfort_event_beyond_allowance_kelvin_hours(
+        results
+    )
 
 
 def discomfort_outside_events_kelvin_hours(results: pd.DataFrame) -> float:
@@ -629,11 +693,21 @@ def il_summary(results: pd.DataFrame) -> dict[str, float]:
         "reserve_period_share": reserve_period_share(results),
         "il_events": float(il_event_count(results)),
         "il_curtailed_steps": float(np.sum(_flag(results, "il_curtailed"))),
+        "il_activated_steps": float(np.sum(_activated(results))),
+        "il_offered_kwh": il_offered_kwh(results),
+        "il_delivered_metered_kwh": il_delivered_metered_kwh(results),
+        "il_delivered_counterfactual_kwh": il_delivered_counterfactual_kwh(results),
         "il_delivered_ratio": il_delivered_ratio(results),
         "il_shortfall_kwh": il_shortfall_kwh(results),
         "il_recovery_energy_kwh": il_recovery_energy_kwh(results),
         "il_beyond_model_steps": float(il_beyond_model_steps(results)),
         "discomfort_event_kelvin_hours": discomfort_event_kelvin_hours(results),
+        "discomfort_event_within_allowance_kelvin_hours": (
+            discomfort_event_within_allowance_kelvin_hours(results)
+        ),
+        "discomfort_event_beyond_allowance_kelvin_hours": (
+            discomfort_event_beyond_allowance_kelvin_hours(results)
+        ),
         "discomfort_outside_events_kelvin_hours": discomfort_outside_events_kelvin_hours(results),
     }
 

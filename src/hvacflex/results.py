@@ -83,6 +83,10 @@ STEP_SCALAR_UNITS: dict[str, str] = {
     "il_allowance_k": "K",
     "il_reference_power_kw": "kW",
     "il_penalty_price_sgd_per_mwh": "SGD/MWh",
+    "il_forfeited_price_sgd_per_mwh": "SGD/MWh",
+    "il_baseline_power_kw": "kW",
+    "il_delivered_kw": "kW",
+    "il_shortfall_kw": "kW",
 }
 """The per-step float columns that are not per zone or channel, in file order → unit."""
 

@@ -13,6 +13,7 @@ from hvacflex.building.hvac import (
     fan_secant,
     hvac_power,
     hvac_power_kw,
+    reserve_power_coeff,
     saturation_humidity_ratio_kg_per_kg,
 )
 from hvacflex.building.model import Building, HvacSystem
@@ -127,3 +128,27 @@ def test_office5_affine_error_small(office5: Building) -> None:
     )
     assert error.max_underestimate_kw <= 1e-9
     assert error.max_rel < 0.10
+
+
+def test_reserve_coefficient_is_a_lower_bound_of_the_exact_reduction() -> None:
+    """q·r ≤ P(u, T_cut) − P(u − r, T_cut) for every curtailed state at least as warm and a
+    reduced flow at least the one the tangent was taken at (seeded random draws)."""
+    hvac = _hvac(fan_exponent=2.5)
+    rng = np.random.default_rng(7)
+    for _ in range(200):
+        t_out, w_out = rng.uniform(24.0, 34.0), rng.uniform(0.012, 0.022)
+        zone_low = rng.uniform(22.0, 26.0, 2)
+        low = np.array(hvac.flow_min_kg_s)
+        flow = rng.uniform(low, np.array(hvac.flow_max_kg_s))
+        shed = rng.uniform(0.0, flow - low)
+        q = reserve_power_coeff(
+            hvac, [t_out], [w_out], zone_low[None], [float((flow - shed).sum())]
+        )
+        warmer = zone_low + rng.uniform(0.0, 2.0, 2)
+        served = hvac_power_kw(hvac, flow, warmer, t_out, w_out)
+        curtailed = hvac_power_kw(hvac, flow - shed, warmer, t_out, w_out)
+        assert float(q[0] @ shed) <= served - curtailed + 1e-9
+    # and below the LP's secant coefficient at the same state
+    _, p = affine_power_model(hvac, [30.0], [0.018], 24.0)
+    q = reserve_power_coeff(hvac, [30.0], [0.018], np.full((1, 2), 24.0), [0.5])
+    assert (q < p).all()

@@ -161,3 +161,28 @@ def test_model_error_tightens_the_robust_plan_only(setup: Setup) -> None:
         np.full(setup.model.a.shape[0], 25.0), setup.forecaster.forecast(20, 49), peak_floor_kw=0.0
     )
     np.testing.assert_array_equal(seen[2].y_max, seen[0].y_max)
+
+
+def test_no_reserve_is_offered_where_the_baseline_would_not_see_it(setup: Setup) -> None:
+    """An air handler that was off before (metered baseline ≈ 0 kW): an activation now
+    would show no reduction, so nothing is offered; with the baseline unknown or high the
+    same plan offers reserve, declared at q·r ≤ p·r."""
+    cfg = setup.config.controller
+    x = np.full(len(setup.model.node_names), 25.0)
+    for k in range(20, 36):  # 10:00 … 17:30
+        forecast = setup.forecaster.forecast(k, cfg.horizon_steps + 1)
+        free = make_controller(setup)
+        offered = free.act(x, forecast, peak_floor_kw=0.0)
+        if offered.reserve_kw > 0:
+            break
+    else:
+        pytest.fail("no offer in the searched periods")
+    assert isinstance(free, MPCController)
+    blind = make_controller(setup)
+    blind.note_baseline_power(0.0)
+    assert blind.act(x, forecast, peak_floor_kw=0.0).reserve_kw == 0.0
+    high = make_controller(setup)
+    high.note_baseline_power(1e6)
+    assert high.act(x, forecast, peak_floor_kw=0.0).reserve_kw == pytest.approx(offered.reserve_kw)
+    problem = free.problem(x, forecast, 0.0)
+    assert (problem.reserve_kw_per_kg_s <= problem.power_coeff_kw_per_kg_s).all()

@@ -13,7 +13,7 @@ import pytest
 
 from hvacflex.errors import ProblemError
 from hvacflex.opt import RMPCProblem, RMPCSolver, SolveStatus, solve_rmpc
-from hvacflex.opt.events import event_rotation, event_rows
+from hvacflex.opt.events import carry_allowance, event_rotation, event_rows
 from hvacflex.opt.lp import build_lp
 from hvacflex.opt.options import RESERVE_TIE_BREAK_SGD_PER_KG_S_HOUR
 from hvacflex.opt.testing import random_problem
@@ -46,12 +46,14 @@ def _upper_widening(prob: RMPCProblem, event: tuple[int, int] | None) -> np.ndar
     """(N,) α where output t = k+1 may use the allowance under ``event`` (None: served)."""
     alpha = prob.il_event_allowance_kelvin
     widen = np.zeros(prob.horizon)
-    widen[: prob.il_allowance_carry_steps] = alpha
+    carry, recovery = prob.il_allowance_carry_steps, prob.il_event_recovery_steps
+    for t in range(1, carry + 1):  # the recovery's decaying allowance
+        widen[t - 1] = alpha * min(1.0, (carry - t + 1) / (recovery + 1))
     if event is not None:
         s, length = event
         for k in range(prob.horizon):
             if s + 1 <= k + 1 <= s + length + prob.il_event_recovery_steps:
-                widen[k] = alpha
+                widen[k] = alpha  # the event's own allowance (≥ the recovery's)
     return widen
 
 
@@ -443,3 +445,11 @@ def test_unknown_event_row_mode_is_refused() -> None:
     with pytest.raises(ProblemError, match="event row mode") as info:
         RMPCSolver(random_problem(0), event_rows="some")  # type: ignore[arg-type]
     assert info.value.field == "event_rows"
+
+
+def test_recovery_allowance_decays_to_the_strict_band() -> None:
+    """c = R = 2: α·2/3, α·1/3, then the strict band; one step later (c = 1) the same
+    instant keeps its α/3; outside a recovery (c = 0) nothing widens the served plan."""
+    np.testing.assert_allclose(carry_allowance(4, 1, 1.5, 2, 2)[:, 0], [1.0, 0.5, 0.0, 0.0])
+    np.testing.assert_allclose(carry_allowance(4, 1, 1.5, 1, 2)[:, 0], [0.5, 0.0, 0.0, 0.0])
+    assert not carry_allowance(4, 2, 1.5, 0, 2).any()

@@ -24,13 +24,14 @@ from hvacflex.sim.closed_loop import run_simulation
 from hvacflex.sim.run_files import read_results
 
 DAYS = 1.0
-KILL_AFTER_PLANS = 30
-"""Plans acknowledged before the kill: the scenario's IL event runs over periods 29–33, so
+KILL_AFTER_PLANS = 34
+"""Plans acknowledged before the kill: the scenario's IL event runs over periods 33–38, so
 the server is killed during the event."""
-SETTINGS = {"seed": 25, "activation.mode": "stress", "activation.duration_steps": 6}
-"""``stress`` activations up to 6 periods long: with seed 25 one event on the day, periods
-29–33 (14:30–17:00, reserve offered), longer than D = 4, so the event start, its locked
-periods, a period beyond the model and the recovery are all compared."""
+SETTINGS = {"seed": 9, "activation.mode": "stress", "activation.duration_steps": 6}
+"""``stress`` activations (one every weekday, 08:00–18:00 starts) up to 6 periods long: with
+seed 9 the day's event covers periods 33–38 (16:30–19:30; curtailed with reserve offered in
+33–34), longer than D = 4, so the event start, its locked periods, a period beyond the model
+and the recovery are all compared."""
 
 
 def _config() -> Any:

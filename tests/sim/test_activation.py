@@ -47,10 +47,25 @@ def test_random_duration_defaults_to_the_event_length_d() -> None:
     assert lengths.max() == 4
 
 
-def test_stress_is_about_one_event_a_day() -> None:
+def test_stress_is_one_event_every_weekday_in_office_hours() -> None:
+    # 1–30 March 2014 (from Saturday 1st): 20 weekdays (3–7, 10–14, 17–21, 24–28)
     month = pd.date_range("2014-03-01", periods=30 * 48, freq="30min", tz="Asia/Singapore")
-    starts, _ = _blocks(activation_schedule(ActivationConfig(mode="stress"), month, seed=3))
-    assert 30 - 4 * np.sqrt(30) < len(starts) < 30 + 4 * np.sqrt(30)
+    flags = activation_schedule(ActivationConfig(mode="stress"), month, seed=3)
+    starts, lengths = _blocks(flags)
+    start_times = month[starts]
+    assert len(starts) == 20  # one on each weekday
+    assert sorted(set(start_times.day)) == [
+        d for d in range(1, 31) if pd.Timestamp(2014, 3, d).day_of_week < 5
+    ]
+    hours = start_times.hour + start_times.minute / 60
+    assert (hours >= 8.0).all() and (hours < 18.0).all()
+    assert lengths.min() >= 1 and lengths.max() <= 4 and len(set(lengths.tolist())) > 1
+    again = activation_schedule(ActivationConfig(mode="stress"), month, seed=3)
+    assert np.array_equal(flags, again)  # seeded
+    other = activation_schedule(ActivationConfig(mode="stress"), month, seed=4)
+    assert not np.array_equal(flags, other)
+    short = activation_schedule(ActivationConfig(mode="stress", duration_steps=1), month, seed=3)
+    assert _blocks(short)[1].max() == 1
 
 
 def test_file_schedule_aligns_on_period_starts(tmp_path: Path) -> None:

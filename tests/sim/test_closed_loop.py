@@ -165,7 +165,7 @@ def test_rmpc_keeps_comfort_when_reserve_is_always_activated(tmp_path: Path) -> 
 def test_resume_from_checkpoint_gives_identical_results(tmp_path: Path) -> None:
     cfg = with_overrides(
         preset("rmpc-ppp", start=START, days=2.0),
-        {"activation.mode": "stress"},  # about one IL event a day
+        {"activation.mode": "stress"},  # one IL event every weekday
     )
     whole = run_simulation(cfg, tmp_path / "whole", progress=False).frame
     first = run_simulation(

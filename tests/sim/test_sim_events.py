@@ -1,11 +1,13 @@
 """IL events in the closed loop: the tracker's state machine and a stub-controller loop."""
 
+import dataclasses
 import json
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pandas as pd
+import pytest
 
 from hvacflex import state as hvacflex_state
 from hvacflex.config import preset, with_overrides
@@ -74,12 +76,46 @@ def test_event_locks_the_plan_for_d_periods_then_recovers_and_counts_beyond() ->
     assert [o.curtailed for o in outcomes] == [0, 1, 1, 0, 0, 0, 0, 0]
     assert [o.beyond_model for o in outcomes] == [0, 0, 0, 1, 0, 0, 0, 0]
     assert [o.event_window for o in outcomes] == [0, 1, 1, 1, 0, 0, 0, 0]
-    assert [o.allowance_k for o in outcomes] == [0, 1, 1, 1, 0, 0, 0, 0]
+    # α in full while the plan curtails; in the recovery period (c = 1 of R = 1) α/2
+    assert [o.allowance_k for o in outcomes] == [0, 1, 1, 0.5, 0, 0, 0, 0]
     refs = [o.reference_power_kw for o in outcomes]
     assert refs[1:4] == [10.0, 11.0, 12.0]  # the locked plan's served power, recovery incl.
     assert np.isnan([refs[0], *refs[4:]]).all()
     # the plan after the curtailment carries the allowance for the R recovery periods
     assert carries == [0, 0, 0, 1, 0, 0, 0, 0]
+
+
+def test_an_event_with_nothing_offered_grants_no_allowance_and_no_recovery() -> None:
+    tracker = EventTracker(max_steps=2, recovery_steps=2, allowance_k=1.0)
+    empty = _plan([10.0, 11.0, 12.0])
+    empty = EventPlan(**{**empty.__dict__, "reserve_flow_kg_s": np.zeros((3, 1))})
+    outcomes, carries = [], []
+    for activated in [1, 1, 0, 0]:
+        role = tracker.role(bool(activated))
+        carries.append(tracker.carry_steps)
+        if role is Role.EVENT_LOCKED:
+            action = tracker.locked_action()
+        else:
+            action = dataclasses.replace(_action(empty), reserve_flow_kg_s=np.zeros(1))
+        if role is Role.EVENT_START:
+            tracker.lock(action.event_plan)
+        outcomes.append(tracker.finish(role, action))
+    assert [o.curtailed for o in outcomes] == [0, 0, 0, 0]
+    assert [o.event_window for o in outcomes] == [0, 0, 0, 0]
+    assert [o.allowance_k for o in outcomes] == [0, 0, 0, 0]
+    assert carries == [0, 0, 0, 0]
+
+
+def test_recovery_allowance_decays_over_r_periods() -> None:
+    tracker = EventTracker(max_steps=1, recovery_steps=2, allowance_k=1.5)
+    allowances = []
+    for activated in [1, 0, 0, 0]:
+        role = tracker.role(bool(activated))
+        action = _action(_plan([10.0, 11.0]))
+        if role is Role.EVENT_START:
+            tracker.lock(action.event_plan)
+        allowances.append(tracker.finish(role, action).allowance_k)
+    np.testing.assert_allclose(allowances, [1.5, 1.0, 0.5, 0.0])
 
 
 def test_whole_horizon_model_curtails_every_activated_period_with_the_fresh_plan() -> None:
@@ -165,6 +201,49 @@ def test_closed_loop_applies_the_locked_plan_and_resumes_after_d() -> None:
     assert frame["il_event_window"].tolist()[:7] == [True] * 6 + [False]
 
 
+def test_without_activations_the_allowance_is_zero_in_every_period() -> None:
+    cfg = with_overrides(preset("nmpc", start=START, days=0.25), {"activation.mode": "never"})
+    setup = prepare(cfg)
+    loop = ClosedLoop(setup, StubPlanner(np.asarray(setup.building.hvac.flow_max_kg_s), 6))
+    while loop.k < loop.steps:
+        loop.step()
+    frame = loop.frame()
+    assert frame["reserve_kw"].gt(0).all()  # offered in every period, never activated
+    assert (frame["il_allowance_k"] == 0.0).all()
+    assert not frame["il_event_window"].any() and not frame["il_activated"].any()
+    assert frame["il_baseline_power_kw"].isna().all() and (frame["il_delivered_kw"] == 0).all()
+
+
+def test_closed_loop_settles_the_locked_event_against_the_metered_power() -> None:
+    loop, _ = _stub_loop()
+    while loop.k < loop.steps:
+        loop.step()
+    frame = loop.frame()
+    # activated from period 0: no period before it, no baseline, nothing shown delivered
+    assert frame["il_baseline_power_kw"].isna().all()
+    np.testing.assert_allclose(frame["il_shortfall_kw"], frame["reserve_kw"])
+
+
+def test_the_scenario_baseline_rule_settles_the_closed_loop_frame() -> None:
+    from hvacflex.settlement import SETTLEMENT_COLUMNS, settlement_columns
+
+    cfg = with_overrides(
+        preset("nmpc", start=START, days=0.25),
+        {"activation.mode": "random", "activation.events_per_year": 20_000.0,
+         "reserve.il_baseline": "similar-days"},
+    )  # fmt: skip
+    setup = prepare(cfg)
+    loop = ClosedLoop(setup, StubPlanner(np.asarray(setup.building.hvac.flow_max_kg_s), 6))
+    while loop.k < loop.steps:
+        loop.step()
+    frame = loop.frame()
+    assert 0 < frame["il_activated"].sum() < len(frame)
+    expected = settlement_columns(frame, "similar-days")
+    for name in SETTLEMENT_COLUMNS:
+        np.testing.assert_array_equal(frame[name].to_numpy(), expected[name].to_numpy())
+    assert frame["il_baseline_power_kw"][frame["il_activated"]].notna().any()
+
+
 def test_checkpoint_mid_event_resumes_identically() -> None:
     whole, _ = _stub_loop()
     while whole.k < whole.steps:
@@ -217,3 +296,22 @@ def test_worst_event_temperature_is_recorded_for_every_fresh_plan(tmp_path: Path
     assert (frame["reserve_kw"] > 0).any()
     offered = fresh & (frame["reserve_kw"] > 0).to_numpy()
     assert (worst[offered].max(axis=1) > served[offered].max(axis=1)).all()
+
+
+@pytest.mark.slow
+def test_stress_week_is_settled_against_metered_power(tmp_path: Path) -> None:
+    """Issue 25's done-when case: ``rmpc``, 5 days from 2014-03-03, stress activations."""
+    cfg = with_overrides(preset("rmpc", start=START, days=5.0), {"activation.mode": "stress"})
+    result = run_simulation(cfg, tmp_path, progress=False)
+    frame, summary = result.frame, result.summary
+    activated = frame["il_activated"].to_numpy(bool)
+    assert activated.sum() >= 4
+    recomputed = float(
+        np.nansum(np.maximum(frame["il_baseline_power_kw"] - frame["power_kw"], 0.0)[activated])
+        * 0.5
+    )
+    assert recomputed == pytest.approx(summary["il_delivered_metered_kwh"], rel=0.01)
+    assert summary["il_delivered_metered_kwh"] >= 0.95 * summary["il_offered_kwh"]
+    for key in ("il_shortfall_kwh", "il_penalty_sgd", "il_delivered_counterfactual_kwh"):
+        assert np.isfinite(summary[key])
+    assert summary["il_delivered_counterfactual_kwh"] >= 0.98 * summary["il_offered_kwh"]

@@ -222,15 +222,7 @@ def affine_power_model(
     m = len(hvac.flow_min_kg_s)
     t_ref = np.broadcast_to(np.asarray(zone_temp_ref_degc, dtype=np.float64), (m,))
     f_oa = hvac.outdoor_air_fraction
-    # sensible coil heat per kg/s of each zone's flow [W per kg/s], (N, m)
-    sensible = CP_AIR_J_PER_KG_K * (
-        (1.0 - f_oa) * t_ref[None, :] + f_oa * t_out[:, None] - hvac.supply_temp_degc
-    )
-    latent = f_oa * H_FG_J_PER_KG * np.maximum(w_out - supply_humidity_ratio_kg_per_kg(hvac), 0.0)
-    coil = (
-        (np.maximum(sensible, 0.0) + latent[:, None]) / hvac.cop
-        + np.maximum(-sensible, 0.0) / hvac.heating_efficiency
-    ) / W_PER_KW
+    coil = _coil_kw_per_kg_s(hvac, t_out, w_out, np.broadcast_to(t_ref, (t_out.size, m)))
     if flow_min_kg_s is None:
         low_total: FloatArray = np.full(t_out.shape, float(sum(hvac.flow_min_kg_s)))
     else:
@@ -245,6 +237,58 @@ def affine_power_model(
         / W_PER_KW
     )
     return p0, p
+
+
+def _coil_kw_per_kg_s(
+    hvac: HvacSystem, t_out: FloatArray, w_out: FloatArray, zone_temp_degc: FloatArray
+) -> FloatArray:
+    """(N, m) coil electric power per kg/s of each zone's supply flow [kW per kg/s], with the
+    return air of zone i at ``zone_temp_degc`` (N, m) and outdoor air at (N,) t_out, w_out."""
+    f_oa = hvac.outdoor_air_fraction
+    # sensible coil heat per kg/s of each zone's flow [W per kg/s], (N, m)
+    sensible = CP_AIR_J_PER_KG_K * (
+        (1.0 - f_oa) * zone_temp_degc + f_oa * t_out[:, None] - hvac.supply_temp_degc
+    )
+    latent = f_oa * H_FG_J_PER_KG * np.maximum(w_out - supply_humidity_ratio_kg_per_kg(hvac), 0.0)
+    coil: FloatArray = (
+        (np.maximum(sensible, 0.0) + latent[:, None]) / hvac.cop
+        + np.maximum(-sensible, 0.0) / hvac.heating_efficiency
+    ) / W_PER_KW
+    return coil
+
+
+def reserve_power_coeff(
+    hvac: HvacSystem,
+    outdoor_temp_degc: ArrayLike,
+    outdoor_humidity_ratio_kg_per_kg: ArrayLike,
+    zone_temp_degc: ArrayLike,
+    total_flow_curtailed_kg_s: ArrayLike,
+) -> FloatArray:
+    """(N, m) power reduction per kg/s of flow shed that curtailment surely achieves [kW per
+    kg/s]: a lower bound of the exact reduction P(u) − P(u − r) per unit of r.
+
+    The fan power κ S^n is convex in the total flow S, so shedding r from S gives at least
+    the tangent at the reduced flow, n κ (S − Σr)^(n−1) per kg/s (the LP's secant over the
+    whole range gives more); the coil's power per kg/s grows with the return-air temperature,
+    so it is taken at the coolest return air the curtailed period may see.
+
+    Parameters
+    ----------
+    outdoor_temp_degc, outdoor_humidity_ratio_kg_per_kg : (N,) [°C], [kg/kg].
+    zone_temp_degc : (N, m) return-air (zone) temperature the coil term is evaluated at [°C],
+        e.g. the lower comfort bound.
+    total_flow_curtailed_kg_s : (N,) total supply flow after curtailment S − Σr [kg/s] (a
+        lower estimate makes the bound safer).
+    """
+    t_out = np.atleast_1d(np.asarray(outdoor_temp_degc, dtype=np.float64))
+    w_out = np.atleast_1d(np.asarray(outdoor_humidity_ratio_kg_per_kg, dtype=np.float64))
+    m = len(hvac.flow_min_kg_s)
+    zone = np.broadcast_to(np.asarray(zone_temp_degc, dtype=np.float64), (t_out.size, m))
+    flow = np.maximum(np.asarray(total_flow_curtailed_kg_s, dtype=np.float64), 0.0)
+    kappa, n = hvac.fan_coeff_kw, hvac.fan_exponent
+    tangent = n * kappa * np.broadcast_to(flow, t_out.shape) ** (n - 1.0)
+    coeff: FloatArray = _coil_kw_per_kg_s(hvac, t_out, w_out, zone) + tangent[:, None]
+    return coeff
 
 
 @dataclass(frozen=True)

@@ -34,6 +34,7 @@ PlantKind = Literal["rc", "energyplus"]
 PlantActuation = Literal["setpoint", "flow"]
 WeatherForecastMode = Literal["perfect", "statistical"]
 OccupancyMode = Literal["schedule", "stochastic"]
+ILBaseline = Literal["pre-event", "similar-days"]
 
 NEMS_MAX_INTERRUPTION_STEPS = 4
 """The NEMS 120-minute rule (since 2019): after four 30-min periods of interruption the
@@ -41,9 +42,6 @@ provider may resume consumption. The product presets plan for events of up to th
 
 DEFAULT_EVENTS_PER_YEAR = 4.0
 """Rate of random IL activations [events per year]: contingencies are rare."""
-
-STRESS_EVENTS_PER_YEAR = 365.0
-"""Rate of the ``stress`` activation mode [events per year]: about one a day."""
 
 DEFAULT_NON_DELIVERY_PENALTY_SGD_PER_MWH = 4500.0
 """Penalty on reserve not delivered during an activation [SGD/MWh]: the NEMS energy price
@@ -117,6 +115,12 @@ class ReserveConfig:
     event_recovery_steps: int = 0
     non_delivery_penalty_sgd_per_mwh: float = DEFAULT_NON_DELIVERY_PENALTY_SGD_PER_MWH
     """Price of reserve not delivered during an activation [SGD/MWh of shortfall]."""
+    non_delivery_forfeits_reserve_payment: bool = True
+    """Whether the reserve payment of the capacity not delivered is paid back as well."""
+    il_baseline: ILBaseline = "pre-event"
+    """How delivery is measured (:mod:`hvacflex.settlement`): against the metered power of
+    the period before the activation (``"pre-event"``) or the mean of the same period on the
+    last 5 similar days (``"similar-days"``)."""
 
 
 @dataclass(frozen=True)
@@ -199,8 +203,9 @@ class ActivationConfig:
     """When the grid operator activates the IL reserve (:mod:`hvacflex.sim.activation`).
 
     ``never``; ``random``: events at ``events_per_year`` (seeded), each lasting 1 …
-    ``duration_steps`` periods (uniform), never overlapping; ``stress``: the same at about
-    one event a day; ``file``: periods read from a CSV; ``always``: every period (the paper's
+    ``duration_steps`` periods (uniform), never overlapping; ``stress``: one activation every
+    weekday, starting between 08:00 and 18:00, 1 … ``duration_steps`` periods (seeded);
+    ``file``: periods read from a CSV; ``always``: every period (the paper's
     literal case; under the event model the periods past the event length are counted as
     beyond the model).
     """

@@ -16,7 +16,8 @@ File layout (every key optional)::
                    linearisation
     [controller.feedback]  structure, memory_steps
     [reserve]      event_max_steps, event_allowance_k, event_recovery_steps,
-                   non_delivery_penalty_sgd_per_mwh
+                   non_delivery_penalty_sgd_per_mwh,
+                   non_delivery_forfeits_reserve_payment, il_baseline
     [estimation]   mode, measurement_noise_k
     [uncertainty]  relative = {kind = fraction}, absolute = {kind = value},
                    calibrate = {train = "YYYY-MM-DD..YYYY-MM-DD", quantile, prediction_errors}
@@ -60,6 +61,7 @@ from hvacflex.config.model import (
     EstimationMode,
     FeedbackConfig,
     ForecastConfig,
+    ILBaseline,
     Linearisation,
     OccupancyMode,
     PlantActuation,
@@ -164,6 +166,10 @@ class ReserveSpec(Spec):
     non_delivery_penalty_sgd_per_mwh: NonNegative = default(
         ReserveConfig, "non_delivery_penalty_sgd_per_mwh"
     )
+    non_delivery_forfeits_reserve_payment: bool = default(
+        ReserveConfig, "non_delivery_forfeits_reserve_payment"
+    )
+    il_baseline: ILBaseline = default(ReserveConfig, "il_baseline")
 
 
 class EstimationSpec(Spec):

@@ -135,6 +135,13 @@ class Controller(Protocol):
         """The flow (m,) [kg/s] the plant ran this period (u − r when curtailed)."""
         return None
 
+    def note_baseline_power(self, baseline_power_kw: float | None) -> None:
+        """The metered baseline an activation starting in the coming period would be settled
+        against [kW] (:mod:`hvacflex.settlement`; NaN: none, e.g. the run's first period;
+        None: unknown to the driver). A controller that offers reserve uses it to offer only
+        what the baseline would see."""
+        return None
+
     @property
     def step_model(self) -> StepModel | None:
         """The model the last decision was planned with (None: the controller has none)."""

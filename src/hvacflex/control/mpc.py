@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 
 from hvacflex.building.discretize import LinearModel
-from hvacflex.building.hvac import affine_power_model
+from hvacflex.building.hvac import affine_power_model, reserve_power_coeff
 from hvacflex.building.model import Building
 from hvacflex.building.rc import build_network
 from hvacflex.config import ControllerConfig, Linearisation, ReserveConfig
@@ -81,6 +81,9 @@ def comfort_bounds_at_period_ends(
 
 RESERVE_FLOW_TOLERANCE_KG_S = 1e-6
 """Reserve flows below this are zero up to the solver's tolerance and are not offered."""
+
+BASELINE_TOLERANCE_KW = 1e-6
+"""An offer that exceeds what the baseline would see by no more than this is kept [kW]."""
 
 
 def model_error_margins(
@@ -148,6 +151,8 @@ class MPCController(Controller):
         self._solver: WarmSolver | None = None
         self._pending_basis: SolverBasis | None = None
         self._previous_plan: RMPCSolution | None = None
+        self._baseline_kw: float | None = None
+        self._previous_planned_kw: float | None = None
         self._plan_age = 0
         self._estimator = KalmanEstimator(estimation) if estimation is not None else None
         self._network = build_network(building) if linearisation == "trajectory" else None
@@ -255,6 +260,13 @@ class MPCController(Controller):
             self._temp_ref_degc,
             flow_min_kg_s=u_min,
         )
+        reserve_coeff = reserve_power_coeff(
+            self._building.hvac,
+            d_hat[:, self._outdoor_index],
+            forecast.outdoor_humidity_ratio_kg_per_kg[:horizon],
+            self._return_air_estimate_degc(x_degc, y_min),
+            self._curtailed_flow_estimate_kg_s(u_min),
+        )
         reserve_price = forecast.reserve_price_sgd_per_mwh[:horizon]
         if not cfg.reserve:
             reserve_price = np.zeros_like(reserve_price)
@@ -275,6 +287,7 @@ class MPCController(Controller):
             peak_floor_kw=floor,
             power_offset_kw=p0,
             power_coeff_kw_per_kg_s=p,
+            reserve_power_coeff_kw_per_kg_s=np.minimum(reserve_coeff, p) if events else None,
             u_min=u_min,
             u_max=self._flow_max,
             y_min=y_min,
@@ -299,6 +312,36 @@ class MPCController(Controller):
             il_event_recovery_steps=self._reserve.event_recovery_steps if events else 0,
             il_allowance_carry_steps=min(allowance_carry_steps, horizon) if events else 0,
         )
+
+    def _return_air_estimate_degc(self, x_degc: FloatArray, y_min: FloatArray) -> FloatArray:
+        """(N, m) zone (return-air) temperatures at which the coil term of the reserve's
+        power is taken [°C]: the previous plan's served zone temperatures at the start of
+        each step, one step on (now: the measured state), never below the lower comfort
+        bound. Curtailment only warms the zones, so the curtailed return air is warmer and
+        its coil power per kg/s larger: a lower bound while the plan holds."""
+        c = self._model.c
+        plan = self._previous_plan
+        horizon = y_min.shape[0]
+        if plan is None or plan.x_served.shape[0] != horizon + 1:
+            start = np.broadcast_to(c @ np.asarray(x_degc, dtype=float), y_min.shape)
+        else:
+            served = plan.x_served[1:] @ c.T  # start of the new steps 0 … N − 1
+            start = np.concatenate([(c @ np.asarray(x_degc, dtype=float))[None], served[1:]])
+        estimate: FloatArray = np.maximum(start, y_min)
+        return estimate
+
+    def _curtailed_flow_estimate_kg_s(self, u_min: FloatArray) -> FloatArray:
+        """(N,) total flow after curtailment at which the fan's tangent bounds the reserve's
+        power [kg/s]: the previous plan's Σ(u − r), one step on (its last step repeated), never
+        below the step's Σ u_min; Σ u_min alone without a previous plan."""
+        low: FloatArray = np.asarray(u_min, dtype=float).sum(axis=1)
+        plan = self._previous_plan
+        if plan is None or plan.u.shape[0] != low.size:
+            return low
+        curtailed = (plan.u - plan.r).sum(axis=1)
+        shifted = np.concatenate([curtailed[1:], curtailed[-1:]])
+        estimate: FloatArray = np.maximum(shifted, low)
+        return estimate
 
     def act(
         self,
@@ -328,6 +371,9 @@ class MPCController(Controller):
         step_model: StepModel = self._model
         previous = self._previous_plan
         fresh = previous is not None and self._plan_age == 0 and not self._held
+        self._previous_planned_kw = (
+            float(previous.power_kw[0]) if previous is not None and fresh else None
+        )
         if self._network is not None and previous is not None and fresh:
             step_model = relinearised_first_step(
                 self._building,
@@ -406,10 +452,12 @@ class MPCController(Controller):
             flow = np.clip(solution.u[0], low, self._flow_max)
             reserve = np.clip(solution.r[0], 0.0, flow - low)
             reserve[reserve < RESERVE_FLOW_TOLERANCE_KG_S] = 0.0
+            if not self._baseline_sees(problem, 0, float(solution.power_kw[0]), reserve):
+                reserve = np.zeros_like(reserve)
             return Action(
                 flow_kg_s=flow,
                 reserve_flow_kg_s=reserve,
-                reserve_kw=float(problem.power_coeff_kw_per_kg_s[0] @ reserve),
+                reserve_kw=float(problem.reserve_kw_per_kg_s[0] @ reserve),
                 planned_power_kw=float(solution.power_kw[0]),
                 status=solution.status.value,
                 fallback=False,
@@ -422,6 +470,33 @@ class MPCController(Controller):
                 predicted_event_worst_degc=np.asarray(solution.y_event_worst[0], dtype=float),
             )
         return self._fallback(x_degc, forecast, solution)
+
+    def note_baseline_power(self, baseline_power_kw: float | None) -> None:
+        self._baseline_kw = baseline_power_kw
+
+    def _baseline_sees(
+        self, problem: RMPCProblem, j: int, served_power_kw: float, reserve_flow_kg_s: FloatArray
+    ) -> bool:
+        """Whether the offer q_j·r_j of step j would be seen by the settlement baseline B of
+        an activation starting now: the plan's curtailed power P_j − p_j·r_j (less the
+        model's excess over the metered power of the period before) plus the offer stays at
+        or below B (:func:`hvacflex.settlement.pre_event_baseline_kw`). No
+        baseline (NaN, the run's first period): nothing would be seen; an unknown one
+        (None): not checked."""
+        baseline = self._baseline_kw
+        paper = self._reserve.event_max_steps is None  # the whole-horizon model: as published
+        if paper or baseline is None or not np.any(reserve_flow_kg_s > 0.0):
+            return True
+        if not np.isfinite(baseline):
+            return False
+        shed_kw = float(problem.power_coeff_kw_per_kg_s[j] @ reserve_flow_kg_s)
+        offer_kw = float(problem.reserve_kw_per_kg_s[j] @ reserve_flow_kg_s)
+        # the affine model runs above the metered power (fan secant): its excess over the
+        # baseline period's metered power, where the last plan is known, is taken off
+        previous = self._previous_planned_kw
+        excess_kw = max(previous - baseline, 0.0) if previous is not None else 0.0
+        curtailed_kw = served_power_kw - shed_kw - excess_kw
+        return curtailed_kw + offer_kw <= baseline + BASELINE_TOLERANCE_KW
 
     def _event_plan(self, problem: RMPCProblem, solution: RMPCSolution) -> EventPlan | None:
         """The first D + R steps of an optimal plan, for an IL event starting now.
@@ -437,14 +512,19 @@ class MPCController(Controller):
         flow = np.clip(solution.u[:steps], low, self._flow_max)
         flow_reserve = np.clip(solution.r[:steps], 0.0, flow - low)
         flow_reserve[flow_reserve < RESERVE_FLOW_TOLERANCE_KG_S] = 0.0
+        served_kw = np.asarray(solution.power_kw, dtype=float)
+        for j in range(min(reserve.event_max_steps, steps)):
+            if not self._baseline_sees(problem, j, float(served_kw[j]), flow_reserve[j]):
+                flow_reserve[j] = 0.0
         coeff = np.asarray(problem.power_coeff_kw_per_kg_s, dtype=float)[:steps]
+        reserve_coeff = np.asarray(problem.reserve_kw_per_kg_s, dtype=float)[:steps]
         offset = np.asarray(problem.power_offset_kw, dtype=float)[:steps]
         c = self._model.c
         return EventPlan(
             flow_kg_s=flow,
             reserve_flow_kg_s=flow_reserve,
             served_power_kw=offset + np.einsum("km,km->k", coeff, flow),
-            reserve_kw=np.einsum("km,km->k", coeff, flow_reserve),
+            reserve_kw=np.einsum("km,km->k", reserve_coeff, flow_reserve),
             predicted_served_degc=solution.x_served[1 : steps + 1] @ c.T,
             predicted_curtailed_degc=solution.x_curtailed[1 : steps + 1] @ c.T,
         )

@@ -30,8 +30,11 @@ margin δ_t of :mod:`hvacflex.opt.robust` applies unchanged. For cooling reserve
   A row with a smaller L is implied by the one with the largest L (the extra terms are ≥ 0),
   so these at most two rows per (t, s, zone) are the exact robust counterpart.
 
-Outputs ``t ≤ c`` (``il_allowance_carry_steps``) get α under every pattern, the served plan
-included (the zone is still recovering from an event that ended before the horizon). The
+Outputs ``t ≤ c`` (``il_allowance_carry_steps``) belong to the recovery from an event that
+ended before the horizon (the zone is still warm from a real curtailment): the served plan and
+the strict rows get a decaying allowance ``α · min(1, (c − t + 1)/(R + 1))``
+(:func:`carry_allowance`); outside such a recovery (c = 0) the served plan never gets α, only
+the event rows do. The
 event rows share the slack ``ε_t`` of the served rows (as the whole-horizon model's curtailed
 rows do). With ``D = N``, ``α = 0`` and ``R = 0`` the row at ``(t, s = 0)`` is the
 whole-horizon curtailed row ``C z_t ≤ y^hi_t − δ_t + ε_t`` and implies every other one, so
@@ -210,10 +213,22 @@ def event_matrix(
     return matrix
 
 
-def carry_allowance(horizon: int, ny: int, allowance_kelvin: float, carry_steps: int) -> FloatArray:
-    """(N, ny) widening of the served upper bound: α on outputs t = 1 … c, 0 elsewhere [K]."""
+def carry_allowance(
+    horizon: int, ny: int, allowance_kelvin: float, carry_steps: int, recovery_steps: int = 0
+) -> FloatArray:
+    """(N, ny) widening of the upper bound during the recovery from an event that ended
+    before the horizon [K]: a decaying allowance ``α · min(1, (c − t + 1) / (R + 1))`` on
+    outputs t = 1 … c, 0 elsewhere.
+
+    With c = R (the plan made as the curtailment ends) the widening falls from α·R/(R+1) at
+    t = 1 to α/(R+1) at t = R; one step later (c = R − 1) the same instants get the same
+    widening, so a recovery is bounded consistently from plan to plan and reaches the strict
+    band one period after it ends.
+    """
     widening = np.zeros((horizon, ny))
-    widening[:carry_steps] = allowance_kelvin
+    steps = np.arange(1, min(carry_steps, horizon) + 1)
+    share = np.minimum(1.0, (carry_steps - steps + 1) / (recovery_steps + 1))
+    widening[: steps.size] = allowance_kelvin * share[:, None]
     return widening
 
 
@@ -223,16 +238,19 @@ def event_row_bounds(
     delta: FloatArray,
     allowance_kelvin: float,
     carry_steps: int,
+    recovery_steps: int = 0,
 ) -> tuple[FloatArray, FloatArray]:
     """Lower (−inf) and upper bounds of the event rows [°C].
 
-    Upper: ``y^hi_t − δ_t + α`` on allowance rows and on every row with t ≤ c, else
-    ``y^hi_t − δ_t``. ``y_max`` and ``delta`` are (N, ny).
+    Upper: ``y^hi_t − δ_t + α`` on allowance rows, ``y^hi_t − δ_t`` plus the recovery's
+    decaying allowance (:func:`carry_allowance`) on strict rows. ``y_max`` and ``delta`` are
+    (N, ny).
     """
-    widened = rows.allowance | (rows.step < carry_steps)
+    horizon, ny = y_max.shape
+    carry = carry_allowance(horizon, ny, allowance_kelvin, carry_steps, recovery_steps)
     upper = y_max[rows.step, rows.output] - delta[rows.step, rows.output]
-    upper = upper + np.where(widened, allowance_kelvin, 0.0)
-    return np.full(rows.num_rows, -np.inf), upper
+    widening = np.where(rows.allowance, allowance_kelvin, carry[rows.step, rows.output])
+    return np.full(rows.num_rows, -np.inf), upper + widening
 
 
 def event_rotation(rows: EventRows) -> IntArray:

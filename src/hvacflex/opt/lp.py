@@ -386,12 +386,18 @@ def add_comfort_with_margins(
     ``margin_k`` (N, ny) are constant margins δ [K]; ``margin_cols`` (N, ny), if given, are
     margin *variables* added as ``+δ`` on the upper and ``−δ`` on the lower rows. Returns the
     row blocks (N, ny) with their sign (+1 upper, −1 lower). In the IL event model the upper
-    bound of outputs 1..c (``il_allowance_carry_steps``) is widened by α.
+    bound of outputs 1..c (``il_allowance_carry_steps``, the recovery from a real curtailment)
+    is widened by the decaying allowance of :func:`~hvacflex.opt.events.carry_allowance`;
+    never otherwise (α belongs to the event rows).
     """
     trajectories = [v.x, v.z] if v.has_curtailed else [v.x]
     shape = (p.horizon, p.ny)
     carry = carry_allowance(
-        p.horizon, p.ny, p.il_event_allowance_kelvin, p.il_allowance_carry_steps
+        p.horizon,
+        p.ny,
+        p.il_event_allowance_kelvin,
+        p.il_allowance_carry_steps,
+        p.il_event_recovery_steps,
     )
     blocks: list[tuple[IntArray, float]] = []
     for state in trajectories:
@@ -407,10 +413,11 @@ def add_comfort_with_margins(
 
 
 def set_plan_costs(lp: LPBuilder, p: RMPCProblem, v: PlanColumns) -> None:
-    """Objective terms both LPs share: −reserve revenue (plus the tie-break) on r, ρ·Δt on ε,
+    """Objective terms both LPs share: −reserve revenue b_k q_k·r_k Δt (plus the tie-break)
+    on r, ρ·Δt on ε,
     1 on β [SGD]; the energy cost sits on P (open loop) or on u (feedback)."""
     dt = p.dt_h
-    reserve_kw_per_kg_s = p.power_coeff_kw_per_kg_s[:, v.reserve_inputs]
+    reserve_kw_per_kg_s = p.reserve_kw_per_kg_s[:, v.reserve_inputs]
     lp.set_cost(
         v.r,
         -dt * p.reserve_price_sgd_per_mwh[:, None] * reserve_kw_per_kg_s / KWH_PER_MWH
@@ -490,7 +497,12 @@ def add_il_event_comfort(
     if rows.num_rows == 0:
         return np.zeros(0, dtype=np.int64), rows
     lower, upper = event_row_bounds(
-        rows, p.y_max, margin_k, p.il_event_allowance_kelvin, p.il_allowance_carry_steps
+        rows,
+        p.y_max,
+        margin_k,
+        p.il_event_allowance_kelvin,
+        p.il_allowance_carry_steps,
+        p.il_event_recovery_steps,
     )
     index = lp.add_rows(
         (rows.num_rows,),

@@ -165,7 +165,7 @@ class RMPCProblem:
     d_sigma : (N,nd) or (nd,) box half-widths σ ≥ 0 of the forecast error [disturbance units]
     energy_price_sgd_per_mwh, reserve_price_sgd_per_mwh : (N,) c_k, b_k [SGD/MWh]
     power_offset_kw : (N,) p0_k [kW]
-    power_coeff_kw_per_kg_s : (N,m) p_k: P_k = p0_k + p_k·u_k, R_k = p_k·r_k [kW per kg/s]
+    power_coeff_kw_per_kg_s : (N,m) p_k: P_k = p0_k + p_k·u_k [kW per kg/s]
     u_min, u_max : (m,) or (N,m) flow bounds [kg/s]; u_min ≤ u − r, u ≤ u_max
     y_min, y_max : (N,ny) or (ny,) comfort bounds on C x_1..C x_N [°C]; y_min may be −inf,
         y_max +inf
@@ -188,8 +188,12 @@ class RMPCProblem:
     il_event_allowance_kelvin : α ≥ 0 [K] added to the upper comfort bound during an event and
         R steps after it (event model only)
     il_event_recovery_steps : R ≥ 0 [steps] (event model only)
-    il_allowance_carry_steps : c, 0 ≤ c ≤ N: outputs 1..c get α under every pattern, the
-        served plan included (event model only)
+    reserve_power_coeff_kw_per_kg_s : (N,m) q_k, the reserve capacity offered R_k = q_k·r_k
+        [kW per kg/s] — a lower bound of the real power reduction per kg/s shed (fan tangent
+        at the low flow, coil at the curtailed mixed-air state); None = p_k (the paper's)
+    il_allowance_carry_steps : c, 0 ≤ c ≤ N: outputs 1..c are the recovery from a real
+        curtailment and get the decaying allowance α·min(1, (c − t + 1)/(R + 1)) under every
+        pattern, the served plan included (event model only)
 
     After construction every array field is a read-only float array of its full shape
     (``d_sigma`` (N,nd), ``u_min``/``u_max`` (N,m), ``y_min``/``y_max`` (N,ny),
@@ -225,6 +229,7 @@ class RMPCProblem:
     il_event_allowance_kelvin: float = 0.0
     il_event_recovery_steps: int = 0
     il_allowance_carry_steps: int = 0
+    reserve_power_coeff_kw_per_kg_s: FloatArray | None = None
     _structure: RMPCStructure = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -247,6 +252,14 @@ class RMPCProblem:
                 il_event_recovery_steps=self.il_event_recovery_steps,
             ),
         )
+
+    @property
+    def reserve_kw_per_kg_s(self) -> FloatArray:
+        """(N, m) q_k, the reserve capacity per kg/s of reserve flow [kW per kg/s] (the
+        normalised ``reserve_power_coeff_kw_per_kg_s``; p_k where that was None)."""
+        coeff = self.reserve_power_coeff_kw_per_kg_s
+        assert coeff is not None  # set by __post_init__
+        return coeff
 
     def _put(self, name: str, value: object) -> None:
         object.__setattr__(self, name, value)
@@ -292,6 +305,13 @@ class RMPCProblem:
         put(
             "power_coeff_kw_per_kg_s",
             _float_array("power_coeff_kw_per_kg_s", self.power_coeff_kw_per_kg_s, ((horizon, m),)),
+        )
+        reserve_coeff = self.reserve_power_coeff_kw_per_kg_s
+        put(
+            "reserve_power_coeff_kw_per_kg_s",
+            self.power_coeff_kw_per_kg_s
+            if reserve_coeff is None
+            else _float_array("reserve_power_coeff_kw_per_kg_s", reserve_coeff, ((horizon, m),)),
         )
         for name in ("u_min", "u_max"):
             put(

@@ -54,7 +54,7 @@ class RMPCSolution:
     objective_sgd : energy_cost − reserve_revenue + comfort_penalty + peak_charge [SGD]
         (the reserve tie-break ``tie_break_sgd`` is excluded)
     u, r : (N, m) planned flows and reserve flows [kg/s] (r = 0 on masked inputs)
-    power_kw : (N,) P_k = p0_k + p_k·u_k [kW];  reserve_kw : (N,) R_k = p_k·r_k [kW]
+    power_kw : (N,) P_k = p0_k + p_k·u_k [kW];  reserve_kw : (N,) R_k = q_k·r_k [kW]
     peak_kw : max_k P_k [kW];  peak_charge_sgd : β [SGD]
     slack : (N, ny) ε_k for outputs at steps 1..N [K];  delta : (N, ny) robust margins δ_k [K]
         (zero for robust="none"; for robust="dual" the equivalent tightening, for reference)
@@ -229,7 +229,7 @@ def plan_solution(
     p = problem.power_coeff_kw_per_kg_s
     u, r, slack, peak_charge_sgd = plan.u, plan.r, plan.slack, plan.peak_charge_sgd
     power = problem.power_offset_kw + np.einsum("km,km->k", p, u)
-    reserve = np.einsum("km,km->k", p, r)
+    reserve = np.einsum("km,km->k", problem.reserve_kw_per_kg_s, r)
     energy = float(dt * problem.energy_price_sgd_per_mwh @ power / KWH_PER_MWH)
     revenue = float(dt * problem.reserve_price_sgd_per_mwh @ reserve / KWH_PER_MWH)
     comfort = float(problem.comfort_penalty_sgd_per_kelvin_hour * dt * slack.sum())

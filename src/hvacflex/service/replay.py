@@ -224,9 +224,10 @@ class RemoteControl:
         activated: Callable[[int], bool],
         measured_zone_temp_degc: FloatArray | None = None,
         plan: Any = None,
+        baseline_power_kw: float | None = None,
     ) -> Decision:
         """Post period ``k``'s activation change and measurement; the service's decision
-        (its peak floor and recovery allowance are its own)."""
+        (its peak floor, recovery allowance and settlement baseline are its own)."""
         time = forecast.index[0].isoformat()
         if activated(k) != self.active:
             self.active = activated(k)

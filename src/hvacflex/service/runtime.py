@@ -358,6 +358,18 @@ class Runtime:
                 peak = max(peak, float(power))
         return peak
 
+    def _previous_power_kw(
+        self, session: Session, runtime: BuildingRuntime, k: int
+    ) -> float | None:
+        """The metered power of period k − 1 the building posted with period k's measurement
+        (the pre-event settlement baseline of an activation starting at k), or None."""
+        power = session.execute(
+            select(Measurement.previous_power_kw).where(
+                Measurement.building_id == runtime.building_id, Measurement.period == k
+            )
+        ).scalar()
+        return None if power is None else float(power)
+
     # -- plans --------------------------------------------------------------------------
     def plan(
         self, session: Session, runtime: BuildingRuntime, k: int, x_degc: np.ndarray, trigger: str
@@ -385,6 +397,7 @@ class Runtime:
             peak_floor_kw=floor,
             activated=activated,
             measured_zone_temp_degc=measured,
+            baseline_power_kw=self._previous_power_kw(session, runtime, k),
         )
         payload = self._payload(runtime, k, decision, decision.plan, forecast.index)
         payload["peak_price_sgd_per_kw"] = effective_peak_price(

@@ -7,7 +7,9 @@ curtails its consumption (:mod:`hvacflex.sim.closed_loop` says how). Modes:
 * ``random``: activations start at ``events_per_year`` (a Poisson process of that rate,
   seeded), each lasting 1 … D periods (uniform), never overlapping and separated by at least
   one period so that each stays one event;
-* ``stress``: the same at about one event a day (:data:`STRESS_EVENTS_PER_YEAR`);
+* ``stress``: one activation every weekday (local time), starting at a period start
+  between :data:`STRESS_FIRST_START_H` and :data:`STRESS_LAST_START_H` (office hours, when the
+  building has load to shed), lasting 1 … D periods (uniform), seeded;
 * ``file``: a CSV with columns ``time`` (period start, ISO 8601) and ``activated`` (0/1);
 * ``always``: every period, the paper's literal case (under the event model the periods after
   the first D are beyond the model and counted as such).
@@ -23,7 +25,6 @@ import numpy.typing as npt
 import pandas as pd
 
 from hvacflex.config import NEMS_MAX_INTERRUPTION_STEPS, ActivationConfig
-from hvacflex.config.model import STRESS_EVENTS_PER_YEAR
 from hvacflex.errors import DataError
 from hvacflex.units import SECONDS_PER_HOUR
 
@@ -34,6 +35,11 @@ HOURS_PER_YEAR = 8760.0
 
 _SEED_STREAM = 0xA11
 """Mixed into the scenario seed so the activation draws are independent of the others."""
+
+STRESS_FIRST_START_H = 8.0
+"""Earliest start of a ``stress`` activation [h, local time]."""
+STRESS_LAST_START_H = 18.0
+"""``stress`` activations start before this hour [h, local time]."""
 
 
 def activation_schedule(
@@ -59,9 +65,12 @@ def activation_schedule(
         return np.zeros(steps, dtype=bool)
     if config.mode == "always":
         return np.ones(steps, dtype=bool)
-    if config.mode in ("random", "stress"):
-        rate = STRESS_EVENTS_PER_YEAR if config.mode == "stress" else config.events_per_year
-        return random_events(steps, rate, longest, seed, step_h=_step_hours(index))
+    if config.mode == "stress":
+        return stress_events(index, longest, seed)
+    if config.mode == "random":
+        return random_events(
+            steps, config.events_per_year, longest, seed, step_h=_step_hours(index)
+        )
     if config.file is None:  # guarded by config validation; kept for the type checker
         raise DataError("activation mode 'file' needs a file", field="activation.file")
     return read_activation_file(Path(config.file), index)
@@ -94,6 +103,31 @@ def random_events(
         length = int(durations[start])
         active[start : start + length] = True
         free_from = start + length + 1
+    return active
+
+
+def stress_events(index: pd.DatetimeIndex, max_steps: int, seed: int) -> BoolArray:
+    """(T,) bool: one seeded activation on every weekday of ``index`` (local time).
+
+    Each starts at a period start drawn uniformly from those in [08:00, 18:00)
+    (:data:`STRESS_FIRST_START_H`, :data:`STRESS_LAST_START_H`) and lasts a uniform 1 …
+    ``max_steps`` periods (cut at the end of the run). Days are drawn in calendar order from
+    one seeded stream, so a run's first days are activated alike whatever its length.
+    """
+    rng = np.random.default_rng([seed, _SEED_STREAM, 1])
+    local = index.tz_localize(None) if index.tz is not None else index
+    hours = np.asarray(local.hour + local.minute / 60.0)
+    days = np.asarray(local.normalize().asi8)
+    weekday = np.asarray(local.day_of_week < 5)
+    window = weekday & (hours >= STRESS_FIRST_START_H) & (hours < STRESS_LAST_START_H)
+    active = np.zeros(len(index), dtype=bool)
+    for day in np.unique(days).tolist():
+        slots = np.flatnonzero(window & (days == day))
+        start_draw, length = rng.random(), int(rng.integers(1, max_steps + 1))
+        if slots.size == 0:
+            continue
+        start = int(slots[min(int(start_draw * slots.size), slots.size - 1)])
+        active[start : start + length] = True
     return active
 
 

@@ -10,8 +10,9 @@ data (docs/forecast.md); the results' ``d_<channel>`` is that forecast of the pe
 activated the plant runs u − r: under the event model the locked plan of the event's first
 period for at most D periods, under the whole-horizon model each period's fresh plan
 (:mod:`hvacflex.sim.events`).
-The reserve capacity scheduled is paid whether activated or not; delivery is settled in
-:mod:`hvacflex.kpi`.
+The reserve capacity scheduled is paid whether activated or not; delivery is settled against
+metered power (:mod:`hvacflex.settlement`, the ``il_baseline_power_kw``, ``il_delivered_kw``
+and ``il_shortfall_kw`` columns of :meth:`ClosedLoop.frame`) and summed in :mod:`hvacflex.kpi`.
 
 Each row of the output (``results.parquet``, schema in ``docs/architecture.md``) describes one
 period. On a plant that can snapshot its state both counterfactual plant steps are computed
@@ -47,6 +48,7 @@ from hvacflex.data.forecast import Forecast
 from hvacflex.data.signals import OperatorSignals, effective_peak_price
 from hvacflex.data.uncertainty import DisturbanceSampler
 from hvacflex.errors import ConfigError, HvacflexError
+from hvacflex.settlement import SETTLEMENT_COLUMNS, settlement_columns, start_baseline_kw
 from hvacflex.sim.measurement import Sensors
 from hvacflex.sim.plant import Actuation, Disturbance, Observation, Plant
 from hvacflex.sim.plants import plant_summary, scenario_plant
@@ -158,6 +160,7 @@ class Control(Protocol):
         activated: Callable[[int], bool],
         measured_zone_temp_degc: FloatArray | None = None,
         plan: Any = None,
+        baseline_power_kw: float | None = None,
     ) -> Decision: ...
 
     def restart_warm(self) -> None: ...
@@ -264,6 +267,7 @@ class ClosedLoop:
             activated=self._activated,
             measured_zone_temp_degc=self.sensors.read(self.x),
             plan=plan,
+            baseline_power_kw=self._start_baseline_kw(k),
         )
         t1 = time.perf_counter()
 
@@ -300,6 +304,21 @@ class ClosedLoop:
         self.timing_s["controller"] += t1 - t0
         self.timing_s["plant"] += t2 - t1
         self.timing_s["record"] += t3 - t2
+
+    def _start_baseline_kw(self, k: int) -> float | None:
+        """The baseline an activation starting at ``k`` would be settled against [kW] (the
+        scenario's ``il_baseline`` rule over the metered power so far; None at k = 0, where
+        there is no metered period yet, as a building that posts no previous power)."""
+        if k == 0:
+            return None
+        power = self.recorder.values[:k, self.recorder.column_index["power_kw"]]
+        activated = self.recorder.flags["il_activated"][:k]
+        return start_baseline_kw(
+            self.setup.config.reserve.il_baseline,
+            power,
+            activated,
+            self.setup.exogenous.index[: k + 1],
+        )
 
     def _plant_period(self, decision: Decision, disturbance: Disturbance) -> _PlantPeriod:
         """Run the period on the plant: the served and the curtailed step where the plant can
@@ -374,8 +393,13 @@ class ClosedLoop:
         rec.flags["il_event_window"][k] = outcome.event_window
         rec.values[k, col["il_allowance_k"]] = outcome.allowance_k
         rec.values[k, col["il_reference_power_kw"]] = outcome.reference_power_kw
-        penalty = self.setup.config.reserve.non_delivery_penalty_sgd_per_mwh
-        rec.values[k, col["il_penalty_price_sgd_per_mwh"]] = penalty
+        reserve = self.setup.config.reserve
+        rec.values[k, col["il_penalty_price_sgd_per_mwh"]] = (
+            reserve.non_delivery_penalty_sgd_per_mwh
+        )
+        forfeited = self.setup.exogenous.reserve_price_sgd_per_mwh[k]
+        forfeit = reserve.non_delivery_forfeits_reserve_payment
+        rec.values[k, col["il_forfeited_price_sgd_per_mwh"]] = forfeited if forfeit else 0.0
 
     def _record(
         self,
@@ -470,7 +494,14 @@ class ClosedLoop:
         self.control.restart_warm()
 
     def frame(self) -> pd.DataFrame:
-        return self.recorder.frame(self.setup.exogenous.index, self.k)
+        """The results so far, settled against metered power (:mod:`hvacflex.settlement`:
+        the settlement columns are a function of the whole series, so they are computed
+        here, not per step)."""
+        frame = self.recorder.frame(self.setup.exogenous.index, self.k)
+        settled = settlement_columns(frame, self.setup.config.reserve.il_baseline)
+        for name in SETTLEMENT_COLUMNS:
+            frame[name] = settled[name].to_numpy()
+        return frame
 
 
 def run_simulation(

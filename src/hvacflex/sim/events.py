@@ -4,10 +4,13 @@ Event model (``[reserve] event_max_steps`` = D set; ``docs/il_events.md``): when
 activation starts at step s, the building locks the plan made at s and applies its
 curtailed flows u_j − r_j while the activation lasts, for at most D periods, without
 re-optimising. After D periods it resumes consumption (the NEMS 120-min rule); activated
-periods after that are **beyond the model** and counted. When the curtailment ends, the R
-periods after it are the event's recovery: the controller re-plans with the allowance α still
-granted to them (``allowance_carry_steps``). The locked plan's served power p0_j + p_jᵀu_j is
-the reference against which delivery and recovery energy are settled.
+periods after that are **beyond the model** and counted. The allowance α is granted only to a
+building that was actually curtailed (reserve offered, r > 0, in the event's periods): while
+the event's plan runs, in full; when the curtailment ends, the R periods after it are the
+event's recovery, whose allowance decays (α·R/(R+1), …, α/(R+1); the controller re-plans with
+``allowance_carry_steps``). With no activation α is never granted. The locked plan's served
+power p0_j + p_jᵀu_j is recorded (``il_reference_power_kw``) for the recovery-energy KPI;
+delivery is settled against metered power (:mod:`hvacflex.settlement`).
 
 Whole-horizon model (D = None, the paper's): every activated period curtails the fresh plan
 of that period (u₀ − r₀), which the model keeps inside the strict band for any activation.
@@ -49,6 +52,13 @@ class PeriodOutcome:
     reference_power_kw: float
 
 
+def recovery_allowance_k(allowance_k: float, recovery_left: int, recovery_steps: int) -> float:
+    """The allowance in force at the end of a recovery period [K]: ``α · min(1, c / (R +
+    1))`` with c the recovery periods left including this one — the plans' decaying
+    allowance (:func:`hvacflex.opt.events.carry_allowance` at t = 1)."""
+    return allowance_k * min(1.0, recovery_left / (recovery_steps + 1))
+
+
 class EventTracker:
     """The IL event state of a closed-loop run (checkpointed with it).
 
@@ -71,6 +81,9 @@ class EventTracker:
         self.recovery_left = 0
         """Recovery periods still to come after the last curtailment."""
         self._curtailed_last = False
+        """The previous period ran an activation's plan (u − r, whatever r was)."""
+        self._event_offered = False
+        """The current activation has curtailed a period with reserve offered (r > 0)."""
 
     @property
     def event_model(self) -> bool:
@@ -98,7 +111,9 @@ class EventTracker:
         else:
             role = Role.EVENT_LOCKED if self._curtailed_last else Role.SERVED
         if self._curtailed_last and role not in (Role.EVENT_LOCKED, Role.CURTAIL_FRESH):
-            self.recovery_left = self.recovery_steps  # the curtailment has just ended
+            if self._event_offered:  # a real curtailment has just ended
+                self.recovery_left = self.recovery_steps
+            self._event_offered = False
         return role
 
     def lock(self, plan: EventPlan | None) -> None:
@@ -126,25 +141,41 @@ class EventTracker:
         )
 
     def finish(self, role: Role, action: Action) -> PeriodOutcome:
-        """Close the period: whether it curtailed, and its settlement reference."""
-        curtailed = role in (Role.CURTAIL_FRESH, Role.EVENT_LOCKED) or (
+        """Close the period: whether it curtailed, the allowance in force, and its
+        settlement reference.
+
+        A period is **curtailed** when it runs an activation's u − r with reserve offered
+        (r > 0); only then do the event window and the allowance α apply (a building that
+        offered nothing is granted nothing). α is granted in full while the activation's
+        plan runs, and in its recovery the decaying share of :func:`recovery_allowance_k`.
+        """
+        running = role in (Role.CURTAIL_FRESH, Role.EVENT_LOCKED) or (
             role is Role.EVENT_START and self.locked is not None
         )
-        window = curtailed or self.recovery_left > 0
+        curtailed = running and bool(np.any(np.asarray(action.reserve_flow_kg_s) > 0.0))
+        self._event_offered = self._event_offered or curtailed
+        in_event = running and self._event_offered
+        window = in_event or self.recovery_left > 0
         reference = float("nan")
-        if curtailed:
+        allowance = self.allowance_k if in_event else 0.0
+        if running:
             reference = self._reference_power_kw(action)
         elif window:
             reference = self._reference_power_kw(None)
+            allowance = recovery_allowance_k(
+                self.allowance_k, self.recovery_left, self.recovery_steps
+            )
             self.recovery_left -= 1
         if not window and self.age is None:
             self.locked, self.plan_step = None, -1
-        self._curtailed_last = curtailed
+        if not running:
+            self._event_offered = False
+        self._curtailed_last = running
         return PeriodOutcome(
             curtailed=curtailed,
             beyond_model=role is Role.BEYOND_MODEL,
             event_window=window,
-            allowance_k=self.allowance_k if window and self.event_model else 0.0,
+            allowance_k=allowance if self.event_model else 0.0,
             reference_power_kw=reference,
         )
 
@@ -162,6 +193,7 @@ class EventTracker:
             "plan_step": self.plan_step,
             "recovery_left": self.recovery_left,
             "curtailed_last": self._curtailed_last,
+            "event_offered": self._event_offered,
         }
 
     def set_state(self, state: dict[str, object]) -> None:
@@ -172,3 +204,4 @@ class EventTracker:
         self.plan_step = int(state["plan_step"])  # type: ignore[call-overload]
         self.recovery_left = int(state["recovery_left"])  # type: ignore[call-overload]
         self._curtailed_last = bool(state["curtailed_last"])
+        self._event_offered = bool(state.get("event_offered", False))

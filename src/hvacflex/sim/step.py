@@ -177,6 +177,7 @@ class ControlStep:
         activated: Callable[[int], bool],
         measured_zone_temp_degc: FloatArray | None = None,
         plan: Any = None,
+        baseline_power_kw: float | None = None,
     ) -> Decision:
         """Decide period ``k``.
 
@@ -189,6 +190,8 @@ class ControlStep:
         activated : whether IL is activated in period j.
         measured_zone_temp_degc : (m,) zone-air readings [°C] for a controller with a filter.
         plan : a plan of this period decided elsewhere (the fleet coordinator's).
+        baseline_power_kw : the metered baseline an activation starting at ``k`` would be
+            settled against [kW] (NaN: none; None: unknown), told to the controller.
 
         Raises
         ------
@@ -203,6 +206,7 @@ class ControlStep:
                 forecast, action.flow_kg_s - action.reserve_flow_kg_s, measured_zone_temp_degc
             )
         else:
+            controller.note_baseline_power(baseline_power_kw)
             action = controller.act(
                 x_degc,
                 forecast,
