@@ -173,5 +173,6 @@ def test_no_highs_banner_on_the_command_output(tmp_path: Path) -> None:
     ]  # fmt: skip
     done = subprocess.run(args, capture_output=True, text=True, timeout=300, env=os.environ.copy())
     assert done.returncode == 0, done.stderr
-    assert "rmpc-ppp:" in done.stdout  # the command ran and solved LPs
+    # the command ran and solved LPs; its summary line names the scenario, building and dates
+    assert f"scenario rmpc-ppp, building office5, {START} to {START}T06:00:" in done.stdout
     assert "HiGHS" not in done.stdout + done.stderr

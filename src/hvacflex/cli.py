@@ -415,7 +415,8 @@ def simulate(
         console.print(f"re-used finished results in {result.out_dir}")
     elif result.resumed_from_step is not None:
         console.print(f"resumed from step {result.resumed_from_step}")
-    console.print(_run_summary_line(run_label(cfg), result.summary, result.results_path))
+    summary = _run_summary_line(run_label(cfg), result.summary, result.results_path)
+    console.print(summary, soft_wrap=True, markup=False, highlight=False)
 
 
 def run_label(cfg: ScenarioConfig) -> str:
