@@ -9,9 +9,8 @@ from __future__ import annotations
 
 import re
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
-import click
 import typer
 import typer.core
 
@@ -45,13 +44,13 @@ def _use_readable_metavars() -> None:
     and ``--quick <bool>``, which reads as if the flag took a value)."""
     typer_display_type = typer.core._TyperParameter.display_type
 
-    def display_type(self: typer.core._TyperParameter, ctx: click.Context) -> str:
+    def display_type(self: typer.core._TyperParameter, ctx: Any) -> str:
         label = typer_display_type(self, ctx).removeprefix("<").removesuffix(">")
         label = re.sub(r"^list\[(.*)\]$", r"\1...", label)
         label = re.sub(r"\b(str|int|float|Path|bool)\b", lambda m: _METAVARS[m[1]], label)
         return label.replace(" range", " RANGE")
 
-    def display_type_rich(self: typer.core.TyperOption, ctx: click.Context) -> str | None:
+    def display_type_rich(self: typer.core.TyperOption, ctx: Any) -> str | None:
         if self.metavar is not None:
             return self.metavar
         return None if self.is_flag else display_type(self, ctx)
@@ -497,7 +496,11 @@ def sweep(
     def report(outcome: JobOutcome) -> None:
         nonlocal done
         done += 1
-        state = "[green]ok[/green]" if outcome.ok else f"[red]failed[/red]: {escape(outcome.error)}"
+        state = (
+            "[green]ok[/green]"
+            if outcome.ok
+            else f"[red]failed[/red]: {escape(str(outcome.error))}"
+        )
         console.print(f"{escape(f'[{done}/{len(jobs)}] {outcome.params}')} {state}")
 
     outcomes = run_sweep(

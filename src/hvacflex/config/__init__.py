@@ -245,7 +245,7 @@ def _paths_from_folder(raw: Mapping[str, Any], folder: Path) -> dict[str, Any]:
     if isinstance(building, str) and (Path(building).suffix == ".toml" or "/" in building):
         out["building"] = from_folder(building)
     for table, key in SCENARIO_PATH_KEYS:
-        section = raw.get(table)
+        section = out.get(table)
         if isinstance(section, Mapping) and isinstance(section.get(key), str):
             out[table] = {**section, key: from_folder(section[key])}
     return out
