@@ -14,6 +14,7 @@ from hvacflex.dates import StartDateError, normalise_start
         ("2014-03-04T00:00", "2014-03-04"),
         ("2014-03-04T08:30", "2014-03-04T08:30"),
         (" 2014-12-31T23:30 ", "2014-12-31T23:30"),
+        ("2014-03-04T08:30:00", "2014-03-04T08:30"),  # zero seconds, as the service allows
     ],
 )
 def test_iso_dates_are_normalised(text: str, normal: str) -> None:
@@ -28,7 +29,7 @@ def test_iso_dates_are_normalised(text: str, normal: str) -> None:
         ("4 March 2014", "ISO 8601"),
         ("2014-03-04 08:00", "ISO 8601"),
         ("2014-03-04T08:00+08:00", "ISO 8601"),
-        ("2014-03-04T08:00:00", "ISO 8601"),
+        ("2014-03-04T08:00:15", "ISO 8601"),
         ("2014-3-4", "ISO 8601"),
         ("2014-02-30", "calendar"),
         ("2014-03-04T24:00", "calendar"),

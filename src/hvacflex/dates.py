@@ -1,9 +1,9 @@
 """Dates the user writes: ISO 8601 only, on the 30-min grid, in Singapore local time.
 
 Every command and the scenario file take a start as ``YYYY-MM-DD`` (midnight) or
-``YYYY-MM-DDTHH:MM`` (a period start, minutes 00 or 30). Nothing else is guessed: ``04/03/2014``
-could be 4 March or 3 April, so it is refused rather than read one way silently. The
-normalised spelling (:func:`normalise_start`) is what configurations store and hash.
+``YYYY-MM-DDTHH:MM`` (a period start, minutes 00 or 30; ``:00`` seconds may follow). Nothing
+else is guessed: ``04/03/2014`` could be 4 March or 3 April, so it is refused rather than
+read one way silently. The normalised spelling (:func:`normalise_start`) is what configurations store and hash.
 """
 
 from __future__ import annotations
@@ -19,7 +19,8 @@ ISO_START_FORMS = "YYYY-MM-DD or YYYY-MM-DDTHH:MM"
 START_EXAMPLE = f"{DEFAULT_START} or {DEFAULT_START}T08:30"
 """An example of each form."""
 
-_ISO_START = re.compile(r"(\d{4})-(\d{2})-(\d{2})(?:T(\d{2}):(\d{2}))?")
+_ISO_START = re.compile(r"(\d{4})-(\d{2})-(\d{2})(?:T(\d{2}):(\d{2})(?::00)?)?")
+"""The two forms; zero seconds (``T08:30:00``, what the service's schema allows) are read too."""
 
 
 class StartDateError(ValueError):
