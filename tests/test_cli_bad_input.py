@@ -92,6 +92,18 @@ CASES: list[tuple[str, list[str], list[str]]] = [
     # another configuration's run in the output folder
     ("other-config-folder", [*SIM, "--out", "{tmp}/thermostat_run"],
      ["another configuration", "controller.kind", "--fresh"]),
+    # scheduler addresses: malformed, or nothing listening (Dask waits 30 s, then a traceback)
+    ("sweep-scheduler-not-an-address", ["sweep", "--param", "seed=1", "--scheduler", "not a url"],
+     ["'--scheduler'", "not a url"]),
+    ("sweep-scheduler-closed-port", ["sweep", "--param", "seed=1", "--scheduler",
+                                     "tcp://127.0.0.1:1"], ["'--scheduler'", "no scheduler"]),
+    ("reproduce-scheduler-closed-port", ["reproduce", "--scheduler", "127.0.0.1:1"],
+     ["'--scheduler'", "127.0.0.1:1"]),
+    ("fleet-scheduler-closed-port", [*FLEET_SIM, "--scheduler", "tcp://127.0.0.1:1"],
+     ["'--scheduler'", "no scheduler"]),
+    ("fleet-seed-negative", ["fleet", "generate", "--buildings", "2", "--seed", "-1",
+                             "--out", "x.toml"], ["'--seed'"]),
+    ("scenario-seed-negative", ["sweep", "--param", "seed=-1"], ["'seed'", "≥ 0"]),
     # files
     ("config-missing", [*SIM, "--config", "{tmp}/none.toml"], ["none.toml", "not found"]),
     ("config-folder", [*SIM, "--config", "{folder}"], ["{folder}"]),

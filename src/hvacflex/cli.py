@@ -480,7 +480,14 @@ def sweep(
 
     from hvacflex.errors import HvacflexError
     from hvacflex.paths import check_output_dir
-    from hvacflex.sim.sweep import JobOutcome, expand_grid, outcomes_table, parse_param, run_sweep
+    from hvacflex.sim.sweep import (
+        JobOutcome,
+        check_scheduler,
+        expand_grid,
+        outcomes_table,
+        parse_param,
+        run_sweep,
+    )
     from hvacflex.version import atomic_write_text
 
     console = Console()
@@ -489,6 +496,8 @@ def sweep(
         grid = dict(parse_param(p) for p in param)
         jobs = expand_grid(cfg, grid)
         check_output_dir(out, "--out")
+        if scheduler is not None:
+            check_scheduler(scheduler)
     except HvacflexError as exc:
         raise _fail(exc) from None
     done = 0
@@ -536,9 +545,12 @@ def reproduce(
     from hvacflex.errors import HvacflexError
     from hvacflex.paths import check_output_dir
     from hvacflex.reproduce import reproduce as run_reproduction
+    from hvacflex.sim.sweep import check_scheduler
 
     try:
         check_output_dir(out, "--out")
+        if scheduler is not None:
+            check_scheduler(scheduler)
         result = run_reproduction(
             out, quick=quick, scheduler=scheduler, workers=workers, log=typer.echo, fresh=fresh
         )

@@ -3,7 +3,8 @@
 Every command and the scenario file take a start as ``YYYY-MM-DD`` (midnight) or
 ``YYYY-MM-DDTHH:MM`` (a period start, minutes 00 or 30; ``:00`` seconds may follow). Nothing
 else is guessed: ``04/03/2014`` could be 4 March or 3 April, so it is refused rather than
-read one way silently. The normalised spelling (:func:`normalise_start`) is what configurations store and hash.
+read one way silently. The normalised spelling (:func:`normalise_start`) is what
+configurations store and hash.
 """
 
 from __future__ import annotations

@@ -286,7 +286,7 @@ class ScenarioSpec(Spec):
     start: Annotated[Text, AfterValidator(_period_start)] = default(ScenarioConfig, "start")
     days: Annotated[Number, AfterValidator(_whole_periods)] = default(ScenarioConfig, "days")
     dt_s: Annotated[Positive, AfterValidator(_half_hourly)] = default(ScenarioConfig, "dt_s")
-    seed: Integer = default(ScenarioConfig, "seed")
+    seed: NonNegativeInt = default(ScenarioConfig, "seed")
     initial_temp_degc: Annotated[
         Number, Field(ge=INITIAL_TEMP_MIN_DEGC, le=INITIAL_TEMP_MAX_DEGC)
     ] = default(ScenarioConfig, "initial_temp_degc")

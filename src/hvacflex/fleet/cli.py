@@ -49,7 +49,7 @@ def generate(
     buildings: int = typer.Option(
         ..., "--buildings", min=1, max=MAX_FLEET_BUILDINGS, help="Number of buildings."
     ),
-    seed: int = typer.Option(2014, "--seed", help="Seed of the random choices."),
+    seed: int = typer.Option(2014, "--seed", min=0, help="Seed of the random choices."),
     out: Path = typer.Option(..., "--out", help="Fleet TOML file to write."),  # noqa: B008
     template: str = typer.Option("office5", "--template", help="Template building."),
     feeder_limit_kw: float | None = typer.Option(
@@ -111,9 +111,12 @@ def simulate(
     from hvacflex.fleet.run import run_fleet
     from hvacflex.fleet.schema import load_fleet
     from hvacflex.paths import check_output_dir
+    from hvacflex.sim.sweep import check_scheduler
 
     try:
         check_output_dir(out, "--out")
+        if scheduler is not None:
+            check_scheduler(scheduler)
         result = run_fleet(
             fleet,
             out,
