@@ -88,6 +88,8 @@ def test_sweep_with_a_missing_building_exits_1(tmp_path: Path) -> None:
     result = CliRunner().invoke(app, args)
     assert result.exit_code == 1, result.output
     assert "1 ok, 1 failed" in result.output and "no-such-building" in result.output
+    assert "'office5'} ok" in result.output and "} failed: " in result.output  # rendered …
+    assert "[green]" not in result.output and "[red]" not in result.output  # … not printed
 
 
 def test_simulate_with_a_missing_building_exits_2(tmp_path: Path) -> None:
