@@ -92,6 +92,12 @@ def test_help_shows_click_metavars_and_flags_without_a_value(command: list[str])
     assert "BOOLEAN" not in help_line and "Show this message" in help_line
 
 
+def test_optional_paths_read_path_in_help() -> None:
+    result = CliRunner().invoke(app, ["simulate", "--help"], env={"COLUMNS": "200"})
+    config = next(line for line in result.output.splitlines() if "--config" in line)
+    assert "PATH" in config and " path " not in config
+
+
 def test_quick_is_a_flag_and_workers_an_integer_in_help() -> None:
     result = CliRunner().invoke(app, ["reproduce", "--help"], env={"COLUMNS": "200"})
     quick = next(line for line in result.output.splitlines() if "--quick" in line)

@@ -34,7 +34,17 @@ if TYPE_CHECKING:
     from hvacflex.config import ScenarioConfig
     from hvacflex.errors import HvacflexError
 
-_METAVARS = {"str": "TEXT", "int": "INTEGER", "float": "FLOAT", "Path": "PATH", "bool": "BOOLEAN"}
+_METAVARS = {
+    "str": "TEXT",
+    "int": "INTEGER",
+    "float": "FLOAT",
+    "Path": "PATH",
+    "path": "PATH",
+    "file": "FILE",
+    "directory": "DIRECTORY",
+    "bool": "BOOLEAN",
+}
+_TYPE_NAMES = re.compile(rf"\b({'|'.join(_METAVARS)})\b")
 """click's names of the value types, which ``--help`` shows instead of typer's ``<str>``."""
 
 
@@ -47,7 +57,7 @@ def _use_readable_metavars() -> None:
     def display_type(self: typer.core._TyperParameter, ctx: Any) -> str:
         label = typer_display_type(self, ctx).removeprefix("<").removesuffix(">")
         label = re.sub(r"^list\[(.*)\]$", r"\1...", label)
-        label = re.sub(r"\b(str|int|float|Path|bool)\b", lambda m: _METAVARS[m[1]], label)
+        label = _TYPE_NAMES.sub(lambda m: _METAVARS[m[1]], label)
         return label.replace(" range", " RANGE")
 
     def display_type_rich(self: typer.core.TyperOption, ctx: Any) -> str | None:
