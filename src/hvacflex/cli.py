@@ -134,6 +134,9 @@ def _check_finite(value: float | None) -> float | None:
     return value
 
 
+DATA_SHOW_MAX_DAYS = 366
+"""Longest span ``data show`` summarises [days]: the shipped prices cover one year."""
+
 data_app = typer.Typer(help="Inspect prices, weather, gains and the uncertainty box.")
 app.add_typer(data_app, name="data")
 
@@ -145,7 +148,7 @@ def data_show(
         help=f"First day (Singapore local time), {ISO_START_FORMS}.",
         callback=_check_start,
     ),
-    days: int = typer.Option(7, min=1, max=366, help="Number of days."),
+    days: int = typer.Option(7, min=1, max=DATA_SHOW_MAX_DAYS, help="Number of days."),
     building_file: str = typer.Option(
         "office5", "--building-file", help="Building: a TOML file or a shipped name (office5)."
     ),
