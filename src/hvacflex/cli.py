@@ -258,7 +258,9 @@ def version() -> None:
 @app.command()
 def kpi(
     paths: list[Path] = typer.Argument(  # noqa: B008
-        ..., help="Run directories (holding results.parquet) or results Parquet files."
+        ...,
+        metavar="RUN",
+        help="Run directories (holding results.parquet) or results Parquet files.",
     ),
     peak_price_sgd_per_kw: float | None = typer.Option(
         None,
