@@ -44,8 +44,8 @@ _METAVARS = {
     "directory": "DIRECTORY",
     "bool": "BOOLEAN",
 }
-_TYPE_NAMES = re.compile(rf"\b({'|'.join(_METAVARS)})\b")
 """click's names of the value types, which ``--help`` shows instead of typer's ``<str>``."""
+_TYPE_NAMES = re.compile(rf"\b({'|'.join(_METAVARS)})\b")
 
 
 def _use_readable_metavars() -> None:
