@@ -104,3 +104,67 @@ def test_validate_energyplus_writes_its_tables(tmp_path: Path) -> None:
     energy = pd.read_csv(out / "energy.csv")
     assert set(energy["quantity"]) == {"cooling_energy", "hvac_electricity"}
     assert (out / "temperatures_thermostat_2014-03-03.png").is_file()
+
+
+def test_version_option_prints_the_version() -> None:
+    result = CliRunner().invoke(app, ["--version"])
+    assert result.exit_code == 0
+    assert result.output.strip() == f"hvacflex {__version__}"
+
+
+@pytest.mark.parametrize(
+    "command",
+    [["simulate"], ["reproduce"], ["kpi"], ["sweep"], ["data", "show"], ["fleet", "simulate"]],
+)
+def test_help_shows_click_metavars_and_flags_without_a_value(command: list[str]) -> None:
+    result = CliRunner().invoke(app, [*command, "--help"], env={"COLUMNS": "200"})
+    assert result.exit_code == 0, result.output
+    for typer_style in ("<bool>", "<str>", "<int>", "<float>", "<path>", "list[Path]"):
+        assert typer_style not in result.output
+    assert "PATH" in result.output or "TEXT" in result.output
+    help_line = next(line for line in result.output.splitlines() if "--help" in line)
+    assert "BOOLEAN" not in help_line and "Show this message" in help_line
+
+
+def test_optional_paths_read_path_in_help() -> None:
+    result = CliRunner().invoke(app, ["simulate", "--help"], env={"COLUMNS": "200"})
+    config = next(line for line in result.output.splitlines() if "--config" in line)
+    assert "PATH" in config and " path " not in config
+
+
+def test_quick_is_a_flag_and_workers_an_integer_in_help() -> None:
+    result = CliRunner().invoke(app, ["reproduce", "--help"], env={"COLUMNS": "200"})
+    quick = next(line for line in result.output.splitlines() if "--quick" in line)
+    workers = next(line for line in result.output.splitlines() if "--workers" in line)
+    assert "One week" in quick and "BOOLEAN" not in quick and "TEXT" not in quick
+    assert "INTEGER" in workers
+
+
+@pytest.mark.parametrize(
+    "command", [["simulate"], ["sweep"], ["data", "show"], ["fleet", "simulate"]]
+)
+def test_every_command_shows_the_one_default_start(command: list[str]) -> None:
+    from hvacflex.config import ScenarioConfig, preset
+    from hvacflex.config.presets import PRESET_NAMES
+    from hvacflex.constants import DEFAULT_START
+
+    assert ScenarioConfig().start == DEFAULT_START
+    assert {preset(name).start for name in PRESET_NAMES} == {DEFAULT_START}
+    result = CliRunner().invoke(app, [*command, "--help"], env={"COLUMNS": "200"})
+    assert DEFAULT_START in result.output and "YYYY-MM-DD" in result.output
+
+
+def test_data_show_takes_a_building_file_not_a_building_id() -> None:
+    result = CliRunner().invoke(app, ["data", "show", "--help"], env={"COLUMNS": "200"})
+    assert "--building-file" in result.output
+    refused = CliRunner().invoke(app, ["data", "show", "--building", "office5"])
+    assert refused.exit_code == 2 and "No such option" in refused.output
+
+
+def test_run_label_names_scenario_building_and_dates() -> None:
+    from hvacflex.cli import run_label
+    from hvacflex.config import preset
+
+    label = run_label(preset("thermostat", start="2014-03-04T08:00", days=0.5))
+    assert label == "scenario thermostat, building office5, 2014-03-04T08:00 to 2014-03-04T20:00"
+    assert run_label(preset("rmpc", days=2)).endswith("2014-01-01 to 2014-01-03")

@@ -30,9 +30,11 @@ def test_data_show_prints_summary_and_writes_fig2(tmp_path: Path) -> None:
 
 
 def test_data_show_reports_bad_input() -> None:
-    result = CliRunner().invoke(app, ["data", "show", "--start", "2014-01-01 00:10"])
+    result = CliRunner().invoke(
+        app, ["data", "show", "--start", "2014-01-01T00:10"], env={"COLUMNS": "300"}
+    )
     assert result.exit_code == 2
-    assert "30-min boundary" in result.output
+    assert "'--start'" in result.output and "must start a 30-min period" in result.output
 
 
 def _csv(tmp_path: Path, start: str, days: int) -> tuple[pd.DataFrame, str]:

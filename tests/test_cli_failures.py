@@ -89,6 +89,8 @@ def test_sweep_with_a_missing_building_exits_1(tmp_path: Path) -> None:
     result = CliRunner().invoke(app, args)
     assert result.exit_code == 1, result.output
     assert "1 ok, 1 failed" in result.output and "no-such-building" in result.output
+    assert "'office5'} ok" in result.output and "} failed: " in result.output  # rendered …
+    assert "[green]" not in result.output and "[red]" not in result.output  # … not printed
 
 
 def test_simulate_with_a_missing_building_exits_2(tmp_path: Path) -> None:
@@ -174,7 +176,8 @@ def test_no_highs_banner_on_the_command_output(tmp_path: Path) -> None:
     ]  # fmt: skip
     done = subprocess.run(args, capture_output=True, text=True, timeout=300, env=os.environ.copy())
     assert done.returncode == 0, done.stderr
-    assert "rmpc-ppp:" in done.stdout  # the command ran and solved LPs
+    # the command ran and solved LPs; its summary line names the scenario, building and dates
+    assert f"scenario rmpc-ppp, building office5, {START} to {START}T06:00:" in done.stdout
     assert "HiGHS" not in done.stdout + done.stderr
 
 

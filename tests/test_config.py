@@ -343,3 +343,75 @@ def test_il_baseline_is_a_reserve_setting(tmp_path: Path) -> None:
     path.write_text('preset = "rmpc"\n[reserve]\nil_baseline = "yesterday"\n')
     with pytest.raises(ConfigError, match="il_baseline"):
         load_config(path)
+
+
+def test_start_is_stored_normalised_and_only_iso_8601_is_read(tmp_path: Path) -> None:
+    assert with_overrides(preset("rmpc"), {"start": "2014-03-04T00:00"}).start == "2014-03-04"
+    cfg = with_overrides(preset("rmpc"), {"start": "2014-03-04T08:30"})
+    assert cfg.to_dict()["start"] == "2014-03-04T08:30"  # what config.json keeps
+    path = tmp_path / "us.toml"
+    path.write_text('start = "04/03/2014"\n')
+    with pytest.raises(ConfigError) as err:
+        load_config(path)
+    assert err.value.field == "start" and "ISO 8601" in str(err.value)
+
+
+@pytest.mark.parametrize(
+    ("text", "field", "words"),
+    [
+        ("days = 1e-9\n", "days", "at least one 30-min period"),
+        ("days = 0.3\n", "days", "whole number of 30-min periods"),
+        ("days = 1e6\n", "days", "at most 3660"),
+        ("initial_temp_degc = -500\n", "initial_temp_degc", "between -40 and 60"),
+        ("[controller]\nhorizon_steps = 100000000\n", "controller.horizon_steps", "≤ 336"),
+        ("[comfort]\nunoccupied_degc = [20, 300]\n", "comfort.unoccupied_degc", "upper bound"),
+        ("[controller]\nthermostat_setpoint_degc = 75\n", "controller.thermostat_setpoint_degc",
+         "between 0 and 50"),
+    ],
+)  # fmt: skip
+def test_impossible_values_are_refused_with_the_allowed_range(
+    tmp_path: Path, text: str, field: str, words: str
+) -> None:
+    path = tmp_path / "bad.toml"
+    path.write_text(text)
+    with pytest.raises(ConfigError) as err:
+        load_config(path)
+    assert err.value.field == field
+    assert words in str(err.value)
+
+
+def test_the_horizon_cap_is_the_services() -> None:
+    from hvacflex.constants import MAX_HORIZON_STEPS
+    from hvacflex.service.runtime import MAX_HORIZON_STEPS as SERVICE_MAX_HORIZON_STEPS
+
+    assert MAX_HORIZON_STEPS == SERVICE_MAX_HORIZON_STEPS
+    assert with_overrides(preset("rmpc"), {"horizon_steps": MAX_HORIZON_STEPS}).controller
+
+
+def test_paths_in_a_scenario_file_are_relative_to_the_file(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    folder = tmp_path / "project"
+    folder.mkdir()
+    (folder / "scenario.toml").write_text(
+        'building = "buildings/mine.toml"\n'
+        "[data]\nweather_file = 'weather.epw'\nusep_source = '/abs/usep'\n"
+        "[activation]\nmode = 'file'\nfile = 'events.csv'\n"
+    )
+    monkeypatch.chdir(tmp_path)
+    cfg = load_config(Path("project/scenario.toml"))
+    assert Path(cfg.building) == Path("project/buildings/mine.toml")
+    assert Path(str(cfg.data.weather_file)) == Path("project/weather.epw")
+    assert cfg.data.usep_source == "/abs/usep"  # absolute paths stay as written
+    assert Path(str(cfg.activation.file)) == Path("project/events.csv")
+    shipped = tmp_path / "named.toml"
+    shipped.write_text('building = "office5"\n')
+    assert load_config(shipped).building == "office5"  # a shipped name is not a path
+
+
+def test_a_preset_scenario_file_keeps_the_presets_own_values(tmp_path: Path) -> None:
+    folder = tmp_path / "sub"
+    folder.mkdir()
+    (folder / "s.toml").write_text('preset = "rmpc-ppp"\ndays = 1\n')
+    cfg = load_config(folder / "s.toml")
+    assert cfg.building == preset("rmpc-ppp").building and cfg.days == 1

@@ -59,3 +59,28 @@ def test_a_failed_write_keeps_the_previous_file(tmp_path: Path) -> None:
         atomic_write(target, half_then_crash)
     assert target.read_text() == "complete"
     assert [p.name for p in tmp_path.iterdir()] == ["results.parquet"]
+
+
+@pytest.mark.parametrize(("umask", "expected"), [(0o022, 0o644), (0o027, 0o640), (0o002, 0o664)])
+def test_atomic_writes_get_the_mode_of_a_new_file_under_the_umask(
+    tmp_path: Path, umask: int, expected: int
+) -> None:
+    import os
+    import stat
+
+    old = os.umask(umask)
+    try:
+        written = atomic_write_text(tmp_path / "summary.json", "{}")
+        plain = tmp_path / "plain.txt"
+        plain.write_text("x")  # what open() gives, for comparison
+    finally:
+        os.umask(old)
+    assert stat.S_IMODE(written.stat().st_mode) == expected
+    assert stat.S_IMODE(plain.stat().st_mode) == expected
+
+
+def test_atomic_write_keeps_an_explicit_private_mode(tmp_path: Path) -> None:
+    import stat
+
+    written = atomic_write(tmp_path / "key", lambda tmp: tmp.write_bytes(b"k"), mode=0o600)
+    assert stat.S_IMODE(written.stat().st_mode) == 0o600

@@ -1,6 +1,8 @@
 """The ``hvacflex`` command line.
 
-Each command imports what it needs inside its body, so ``hvacflex --help`` stays fast.
+Each command imports what it needs inside its body, so ``hvacflex --help`` stays fast. Bad
+input of any kind (an option, a file, an output path) exits 2 with a message naming the option
+or field, the value and a fix, and is checked before any long work starts.
 """
 
 from __future__ import annotations
@@ -10,18 +12,17 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import typer
+import typer.core
 
-from hvacflex.constants import RUN_DIR
-
-PRESET_HELP = (
-    "Preset: nmpc, rmpc, rmpc-ppp, nmpc-no-reserve, thermostat, rmpc-feedback, "
-    "rmpc-feedback-ppp, rmpc-output-feedback, paper-nmpc, paper-rmpc, paper-rmpc-ppp."
-)
-"""The presets, spelled out so that ``--help`` need not import the configuration
-(``tests/test_cli.py`` checks it against ``hvacflex.config.PRESET_NAMES``)."""
+from hvacflex.cli_help import PRESET_HELP, START_HELP, use_readable_metavars
+from hvacflex.constants import DEFAULT_START, RUN_DIR
+from hvacflex.dates import ISO_START_FORMS, START_EXAMPLE
 
 if TYPE_CHECKING:
     from hvacflex.config import ScenarioConfig
+    from hvacflex.errors import HvacflexError
+
+use_readable_metavars()
 
 app = typer.Typer(
     name="hvacflex",
@@ -31,10 +32,63 @@ app = typer.Typer(
 )
 
 
+def _print_version(value: bool) -> None:
+    """Callback of ``--version``: print the version and stop."""
+    if value:
+        from hvacflex import __version__
+
+        typer.echo(f"hvacflex {__version__}")
+        raise typer.Exit()
+
+
 @app.callback()
-def main() -> None:
+def main(
+    version: bool = typer.Option(
+        False,
+        "--version",
+        help="Print the version and exit.",
+        callback=_print_version,
+        is_eager=True,
+    ),
+) -> None:
     """Robust predictive control of building HVAC in electricity markets."""
 
+
+def _fail(exc: HvacflexError) -> typer.Exit:
+    """Print a bad-input error (no traceback) and return the exit of code 2 to raise."""
+    from rich.console import Console
+    from rich.markup import escape
+
+    Console(stderr=True).print(f"[red]error:[/red] {escape(str(exc))}", soft_wrap=True)
+    return typer.Exit(code=2)
+
+
+def _check_start(value: str | None) -> str | None:
+    """Callback of ``--start``: an ISO 8601 date on a 30-min period start, normalised.
+
+    Raises ``typer.BadParameter`` (exit code 2, the message names ``--start``).
+    """
+    from hvacflex.dates import StartDateError, normalise_start
+
+    if value is None:
+        return None
+    try:
+        return normalise_start(value)
+    except StartDateError as exc:
+        raise typer.BadParameter(f"{exc.problem} (got {value!r}); e.g. {START_EXAMPLE}") from None
+
+
+def _check_finite(value: float | None) -> float | None:
+    """Callback of a number option that must be finite (not nan or inf)."""
+    import math
+
+    if value is not None and not math.isfinite(value):
+        raise typer.BadParameter(f"must be a finite number (got {value!r})")
+    return value
+
+
+DATA_SHOW_MAX_DAYS = 366
+"""Longest span ``data show`` summarises [days]: the shipped prices cover one year."""
 
 data_app = typer.Typer(help="Inspect prices, weather, gains and the uncertainty box.")
 app.add_typer(data_app, name="data")
@@ -42,9 +96,15 @@ app.add_typer(data_app, name="data")
 
 @data_app.command("show")
 def data_show(
-    start: str = typer.Option("2014-01-01", help="First day (Singapore time)."),
-    days: int = typer.Option(7, min=1, help="Number of days."),
-    building: str = typer.Option("office5", help="Building (shipped name or TOML path)."),
+    start: str = typer.Option(
+        DEFAULT_START,
+        help=f"First day (Singapore local time), {ISO_START_FORMS}.",
+        callback=_check_start,
+    ),
+    days: int = typer.Option(7, min=1, max=DATA_SHOW_MAX_DAYS, help="Number of days."),
+    building_file: str = typer.Option(
+        "office5", "--building-file", help="Building: a TOML file or a shipped name (office5)."
+    ),
     weather: Path | None = typer.Option(None, help="EPW file (default: TMYx Singapore Changi)."),  # noqa: B008
     fig2: Path | None = typer.Option(None, help="Write Fig. 2 (energy & reserve price) PNG."),  # noqa: B008
     csv: Path | None = typer.Option(  # noqa: B008
@@ -58,7 +118,7 @@ def data_show(
     from hvacflex.data.forecast import load_exogenous
     from hvacflex.data.uncertainty import DEFAULT_UNCERTAINTY, paper_uncertainty
     from hvacflex.errors import HvacflexError
-    from hvacflex.paths import resolve_building
+    from hvacflex.paths import check_output_file, resolve_building
     from hvacflex.report.data_summary import (
         exogenous_summary_text,
         write_exogenous_csv,
@@ -67,7 +127,9 @@ def data_show(
 
     steps = days * PERIODS_PER_DAY
     try:
-        b = load_building(resolve_building(building))
+        if fig2 is not None:
+            check_output_file(fig2, "--fig2")
+        b = load_building(resolve_building(building_file))
         model = linearize(b)
         exo = load_exogenous(
             model.channels,
@@ -79,8 +141,7 @@ def data_show(
             weather_file=weather,
         )
     except HvacflexError as exc:
-        typer.echo(f"error: {exc}", err=True)
-        raise typer.Exit(code=2) from None
+        raise _fail(exc) from None
     boxes = {"default": DEFAULT_UNCERTAINTY, "paper": paper_uncertainty()}
     typer.echo(exogenous_summary_text(exo, steps, days, b.name, model, boxes))
     if fig2 is not None:
@@ -122,8 +183,7 @@ def building_show(
     try:
         text = building_summary_text(load_building(resolve_building(building)))
     except HvacflexError as exc:
-        typer.echo(f"error: {exc}", err=True)
-        raise typer.Exit(2) from None
+        raise _fail(exc) from None
     comfort = ScenarioConfig().comfort
     band = format_comfort_band(
         comfort.occupied_degc,
@@ -177,18 +237,18 @@ def validate_bestest(
 ) -> None:
     """ASHRAE Standard 140 Cases 600, 900, 600FF, 900FF against the six example programs."""
     from hvacflex.errors import HvacflexError
-    from hvacflex.paths import buildings_dir, data_dir
+    from hvacflex.paths import buildings_dir, check_output_dir, data_dir
     from hvacflex.report.validation_plots import write_bestest_outputs
     from hvacflex.sim.progress import task_progress
     from hvacflex.validation.bestest import run_bestest, stage_count, table_markdown
 
     try:
+        check_output_dir(out, "--out")
         with task_progress(True, "bestest", stage_count()) as bar:
             result = run_bestest(data_dir() / "bestest", buildings_dir(), progress=bar.stage)
         paths = write_bestest_outputs(result, out)
     except HvacflexError as exc:
-        typer.echo(f"error: {exc}", err=True)
-        raise typer.Exit(2) from None
+        raise _fail(exc) from None
     typer.echo(table_markdown(result.table))
     for path in paths:
         typer.echo(f"wrote {path}")
@@ -265,11 +325,15 @@ def version() -> None:
 @app.command()
 def kpi(
     paths: list[Path] = typer.Argument(  # noqa: B008
-        ..., help="Run directories (holding results.parquet) or results Parquet files."
+        ...,
+        metavar="RUN",
+        help="Run directories (holding results.parquet) or results Parquet files.",
     ),
     peak_price_sgd_per_kw: float | None = typer.Option(
         None,
         "--peak-price",
+        min=0.0,
+        callback=_check_finite,
         help="Price the PPP charge of every run at this φ [SGD/kW] "
         "(default: each run's peak_price_sgd_per_kw column).",
     ),
@@ -282,9 +346,17 @@ def kpi(
 
     from hvacflex import kpi as kpis
     from hvacflex.errors import HvacflexError
+    from hvacflex.fleet.kpi import fleet_summary, load_fleet_results
+    from hvacflex.paths import check_output_file
     from hvacflex.report.tables import format_value
     from hvacflex.results import RESULTS_FILENAME, load_results
+    from hvacflex.version import atomic_write_text
 
+    if csv is not None:
+        try:
+            check_output_file(csv, "--csv")
+        except HvacflexError as exc:
+            raise _fail(exc) from None
     columns: dict[str, dict[str, float]] = {}
     for path in paths:
         if path.is_dir():
@@ -297,8 +369,6 @@ def kpi(
             unique = f"{name}#{suffix}"
             suffix += 1
         try:
-            from hvacflex.fleet.kpi import fleet_summary, load_fleet_results
-
             fleet_results = load_fleet_results(path)
             if fleet_results is not None:  # a fleet run (hvacflex fleet simulate)
                 columns[unique] = fleet_summary(fleet_results)
@@ -311,7 +381,7 @@ def kpi(
             raise typer.Exit(2) from None
     frame = pd.DataFrame(columns)
     if csv is not None:
-        frame.to_csv(csv, index_label="kpi")
+        atomic_write_text(csv, frame.to_csv(index_label="kpi"))
     table = Table(title="KPIs per run")
     table.add_column("kpi")
     for name in frame.columns:
@@ -327,32 +397,25 @@ PRICE_GAP_FILL_HELP = (
 )
 """Help of ``--price-gap-fill`` (``simulate`` and ``sweep``)."""
 
-MAX_DAYS = 3660.0
-"""Longest run the command line accepts [days] (ten years)."""
-
 PERIODS_PER_DAY = 48
 """30-min control periods per day."""
 
+MAX_WORKERS = 256
+"""Most local worker processes ``sweep`` and ``reproduce`` start."""
+
 
 def _check_days(value: float | None) -> float | None:
-    """Callback of ``--days``: a finite, positive whole number of 30-min periods, ≤ MAX_DAYS.
+    """Callback of ``--days``: a finite, positive whole number of 30-min periods, ≤ ten years
+    (:func:`hvacflex.config.schema.whole_periods_problem`, the scenario file's rule).
 
     Raises ``typer.BadParameter`` (exit code 2, the message names ``--days``).
     """
+    from hvacflex.config.schema import whole_periods_problem
+
     if value is None:
         return None
-    periods = value * PERIODS_PER_DAY
-    if not math.isfinite(value):
-        problem = "must be a finite number of days"
-    elif value <= 0:
-        problem = "must be > 0"
-    elif value > MAX_DAYS:
-        problem = f"must be at most {MAX_DAYS:g} days (ten years)"
-    elif periods < 1:
-        problem = "must be at least one 30-min period (1/48 day ≈ 0.0208)"
-    elif abs(periods - round(periods)) > 1e-6:
-        problem = "must be a whole number of 30-min periods (a multiple of 1/48 day)"
-    else:
+    problem = whole_periods_problem(value)
+    if problem is None:
         return value
     raise typer.BadParameter(f"{problem} (got {value!r}); e.g. --days 0.5, --days 7 or --days 365")
 
@@ -383,7 +446,7 @@ def simulate(
         help=PRESET_HELP,
     ),
     config: Path | None = typer.Option(None, help="Scenario TOML file (overrides --scenario)."),  # noqa: B008
-    start: str | None = typer.Option(None, help="First day, e.g. 2014-01-01."),
+    start: str | None = typer.Option(None, help=START_HELP, callback=_check_start),
     days: float | None = typer.Option(
         None, help="Number of days to simulate.", callback=_check_days
     ),
@@ -392,9 +455,15 @@ def simulate(
         "--price-gap-fill",
         help=PRICE_GAP_FILL_HELP,
     ),
-    out: Path = typer.Option(Path(RUN_DIR), help="Output folder."),  # noqa: B008
+    out: Path = typer.Option(  # noqa: B008
+        Path(RUN_DIR),
+        help="Output folder. A folder holding another configuration's run is refused "
+        "(--fresh replaces it); the same configuration resumes or re-uses its results.",
+    ),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
-    fresh: bool = typer.Option(False, help="Ignore existing results and checkpoints."),
+    fresh: bool = typer.Option(
+        False, help="Ignore existing results and checkpoints (and replace another run's)."
+    ),
     checkpoint_every: int = typer.Option(
         336, min=1, help="Steps between checkpoints (336 = one week)."
     ),
@@ -402,14 +471,18 @@ def simulate(
 ) -> None:
     """Run a closed-loop simulation (resumes from a checkpoint in OUT if there is one)."""
     from rich.console import Console
-    from rich.markup import escape
 
     from hvacflex.errors import HvacflexError
+    from hvacflex.paths import check_output_dir
     from hvacflex.sim.closed_loop import run_simulation
+    from hvacflex.sim.run_files import check_linearisation, check_out_dir
 
     console = Console()
     try:
         cfg = _scenario_config(scenario, config, start, days, price_gap_fill)
+        check_linearisation(cfg, config if config is not None else "preset")
+        check_output_dir(out, "--out")
+        check_out_dir(out, cfg, fresh)
         result = run_simulation(
             cfg, out, progress=not quiet, resume=not fresh, checkpoint_every=checkpoint_every
         )
@@ -418,13 +491,25 @@ def simulate(
 
             report_for_run_dir(result.out_dir)
     except HvacflexError as exc:
-        console.print(f"[red]error:[/red] {escape(str(exc))}")
-        raise typer.Exit(2) from None
+        raise _fail(exc) from None
     if result.cached:
         console.print(f"re-used finished results in {result.out_dir}")
     elif result.resumed_from_step is not None:
         console.print(f"resumed from step {result.resumed_from_step}")
-    console.print(_run_summary_line(cfg.name, result.summary, result.results_path))
+    summary = _run_summary_line(run_label(cfg), result.summary, result.results_path)
+    console.print(summary, soft_wrap=True, markup=False, highlight=False)
+
+
+def run_label(cfg: ScenarioConfig) -> str:
+    """What ran: ``"scenario rmpc, building office5, 2014-03-04 to 2014-03-04T12:00"`` (the
+    first period's start and the last period's end, Singapore local time)."""
+    import pandas as pd
+
+    from hvacflex.dates import normalise_start
+
+    end = cfg.start_timestamp + pd.Timedelta(seconds=cfg.steps * cfg.dt_s)
+    end_text = normalise_start(end.strftime("%Y-%m-%dT%H:%M"))
+    return f"scenario {cfg.name}, building {cfg.building}, {cfg.start} to {end_text}"
 
 
 @app.command()
@@ -483,7 +568,7 @@ def sweep(
     ),
     scenario: str = typer.Option("rmpc-ppp", help="Preset the sweep starts from."),
     config: Path | None = typer.Option(None, help="Scenario TOML file (overrides --scenario)."),  # noqa: B008
-    start: str | None = typer.Option(None, help="First day, e.g. 2014-01-01."),
+    start: str | None = typer.Option(None, help=START_HELP, callback=_check_start),
     days: float | None = typer.Option(None, help="Number of days per run.", callback=_check_days),
     price_gap_fill: str | None = typer.Option(
         None,
@@ -494,7 +579,9 @@ def sweep(
     scheduler: str | None = typer.Option(
         None, help="dask.distributed scheduler address; default: a LocalCluster here."
     ),
-    workers: int = typer.Option(2, help="Local worker processes (without --scheduler)."),
+    workers: int = typer.Option(
+        2, min=1, max=MAX_WORKERS, help="Local worker processes (without --scheduler)."
+    ),
     fresh: bool = typer.Option(False, help="Ignore existing results and checkpoints."),
 ) -> None:
     """Run independent closed-loop simulations over a parameter grid on Dask.
@@ -505,7 +592,15 @@ def sweep(
     from rich.markup import escape
 
     from hvacflex.errors import HvacflexError
-    from hvacflex.sim.sweep import JobOutcome, expand_grid, outcomes_table, parse_param, run_sweep
+    from hvacflex.paths import check_output_dir
+    from hvacflex.sim.sweep import (
+        JobOutcome,
+        check_scheduler,
+        expand_grid,
+        outcomes_table,
+        parse_param,
+        run_sweep,
+    )
     from hvacflex.version import atomic_write_text
 
     console = Console()
@@ -513,16 +608,22 @@ def sweep(
         cfg = _scenario_config(scenario, config, start, days, price_gap_fill)
         grid = dict(parse_param(p) for p in param)
         jobs = expand_grid(cfg, grid)
+        check_output_dir(out, "--out")
+        if scheduler is not None:
+            check_scheduler(scheduler)
     except HvacflexError as exc:
-        console.print(f"[red]error:[/red] {escape(str(exc))}")
-        raise typer.Exit(2) from None
+        raise _fail(exc) from None
     done = 0
 
     def report(outcome: JobOutcome) -> None:
         nonlocal done
         done += 1
-        state = "[green]ok[/green]" if outcome.ok else f"[red]failed[/red]: {outcome.error}"
-        console.print(escape(f"[{done}/{len(jobs)}] {outcome.params} {state}"))
+        state = (
+            "[green]ok[/green]"
+            if outcome.ok
+            else f"[red]failed[/red]: {escape(str(outcome.error))}"
+        )
+        console.print(f"{escape(f'[{done}/{len(jobs)}] {outcome.params}')} {state}")
 
     outcomes = run_sweep(
         jobs,
@@ -534,7 +635,6 @@ def sweep(
         progress=True,
     )
     table = outcomes_table(outcomes)
-    out.mkdir(parents=True, exist_ok=True)
     atomic_write_text(out / "sweep.csv", table.to_csv(index=False))
     failed = sum(not o.ok for o in outcomes)
     console.print(f"{len(outcomes) - failed} ok, {failed} failed → {out / 'sweep.csv'}")
@@ -552,7 +652,9 @@ def reproduce(
     scheduler: str | None = typer.Option(
         None, help="dask.distributed scheduler address; default: a LocalCluster here."
     ),
-    workers: int = typer.Option(2, help="Local worker processes (without --scheduler)."),
+    workers: int = typer.Option(
+        2, min=1, max=MAX_WORKERS, help="Local worker processes (without --scheduler)."
+    ),
     fresh: bool = typer.Option(False, help="Ignore existing results and checkpoints."),
 ) -> None:
     """Regenerate the paper's Fig. 2, 5, 6, 7 and Table 1 (+ comfort and robustness) as HTML.
@@ -560,15 +662,19 @@ def reproduce(
     Exits 1 when any run fails; the report is still written, marked incomplete at its top.
     """
     from hvacflex.errors import HvacflexError
+    from hvacflex.paths import check_output_dir
     from hvacflex.reproduce import reproduce as run_reproduction
+    from hvacflex.sim.sweep import check_scheduler
 
     try:
+        check_output_dir(out, "--out")
+        if scheduler is not None:
+            check_scheduler(scheduler)
         result = run_reproduction(
             out, quick=quick, scheduler=scheduler, workers=workers, log=typer.echo, fresh=fresh
         )
     except HvacflexError as exc:
-        typer.echo(f"error: {exc}", err=True)
-        raise typer.Exit(2) from None
+        raise _fail(exc) from None
     if not result.complete:
         typer.echo(
             f"error: {len(result.failed)} of {len(result.outcomes)} runs failed; the report "

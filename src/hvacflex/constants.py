@@ -20,3 +20,10 @@ HORIZON_STEPS = 48
 AR1_COEFFICIENT = 0.9
 """Default lag-one autocorrelation of AR(1) disturbance errors per 30-min step [-]
 (a correlation time of about 5 h)."""
+
+DEFAULT_START = "2014-01-01"
+"""First day of a run when none is given (every command and the scenario file) [local date]."""
+
+MAX_HORIZON_STEPS = 336
+"""Longest MPC prediction horizon accepted anywhere: 336 steps of 30 min, one week (the
+service's cap, ``hvacflex.service.runtime.MAX_HORIZON_STEPS``)."""

@@ -10,10 +10,11 @@ TOMLs.
 from __future__ import annotations
 
 import os
+import tempfile
 from importlib.resources import files
 from pathlib import Path
 
-from hvacflex.errors import DataError
+from hvacflex.errors import DataError, InputError
 
 DATA_DIR_ENV = "HVACFLEX_DATA_DIR"
 BUILDINGS_DIR_ENV = "HVACFLEX_BUILDINGS_DIR"
@@ -72,3 +73,67 @@ def resolve_building(name_or_path: str | Path) -> Path:
 def repo_root() -> Path:
     """The repository root of a source checkout (``src/hvacflex/..``); may not exist."""
     return Path(__file__).resolve().parents[2]
+
+
+def check_output_dir(path: str | Path, field: str) -> Path:
+    """Make sure results can be written into folder ``path``, before any work: create it
+    (with its parents) and write and remove a probe file in it.
+
+    Parameters
+    ----------
+    path : the output folder.
+    field : the option or key that named it (``"--out"``), for the message.
+
+    Raises
+    ------
+    InputError
+        Naming ``field``, the path and why (a file is in the way, no permission, a read-only
+        or virtual file system such as ``/proc``), with a hint.
+    """
+    return _writable_folder(Path(path), field, Path(path), "the output folder")
+
+
+def _writable_folder(folder: Path, field: str, named: Path, what: str) -> Path:
+    """:func:`check_output_dir` of ``folder``; messages say ``what`` ``named`` is."""
+    blocker = next((p for p in (folder, *folder.parents) if p.exists() and not p.is_dir()), None)
+    if blocker is not None:
+        where = "is a file" if blocker == named else f"is inside {blocker}, which is a file"
+        raise InputError(
+            f"{what} {where}",
+            field=field,
+            value=str(named),
+            hint=f"give {field} a path whose folders are folders, not files",
+        )
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        with tempfile.TemporaryFile(dir=folder, prefix=".hvacflex-probe-"):
+            pass
+    except OSError as exc:
+        raise InputError(
+            f"cannot write {what} there ({exc.strerror or type(exc).__name__})",
+            field=field,
+            value=str(named),
+            hint=f"give {field} a folder you can write to",
+        ) from None
+    return folder
+
+
+def check_output_file(path: str | Path, field: str) -> Path:
+    """Make sure file ``path`` can be written, before any work: its folder is created and
+    writable (:func:`check_output_dir`) and ``path`` is not a folder.
+
+    Raises
+    ------
+    InputError
+        Naming ``field``, the path and why, with a hint.
+    """
+    target = Path(path)
+    if target.is_dir():
+        raise InputError(
+            "the output file is a folder",
+            field=field,
+            value=str(target),
+            hint=f"give {field} the path of a file, not of a folder",
+        )
+    _writable_folder(target.parent, field, target, "the output file")
+    return target

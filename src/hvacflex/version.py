@@ -5,7 +5,7 @@
 of every ``.py`` file of the installed ``hvacflex`` package. It enters the key of cached
 results and is stored in checkpoints, so a result computed by other code is never re-used
 silently. :func:`atomic_write` writes a file so that a reader (or a crash) never sees it half
-written.
+written, with the permissions of any file the user creates (0644 under the usual umask 022).
 """
 
 from __future__ import annotations
@@ -13,6 +13,7 @@ from __future__ import annotations
 import hashlib
 import os
 import tempfile
+import threading
 from collections.abc import Callable
 from functools import lru_cache
 from importlib import metadata
@@ -62,7 +63,23 @@ def code_version() -> str:
     return __version__ if digest is None else f"{__version__}+src.{digest}"
 
 
-def atomic_write(path: str | Path, write: Callable[[Path], object]) -> Path:
+NEW_FILE_MODE = 0o666
+"""Permissions a new file asks for before the umask, as ``open()`` does (0644 under 022)."""
+
+_UMASK_LOCK = threading.Lock()
+
+
+def current_umask() -> int:
+    """The process's umask (read by setting and restoring it, under a lock)."""
+    with _UMASK_LOCK:
+        mask = os.umask(0o077)
+        os.umask(mask)
+    return mask
+
+
+def atomic_write(
+    path: str | Path, write: Callable[[Path], object], *, mode: int | None = None
+) -> Path:
     """Write ``path`` atomically: ``write(tmp)`` fills a temporary file beside it, then rename.
 
     The temporary file is in the same folder (so the rename is atomic on POSIX and Windows)
@@ -72,6 +89,9 @@ def atomic_write(path: str | Path, write: Callable[[Path], object]) -> Path:
     ----------
     path : the file to write.
     write : called with the temporary file's path; must write the whole content there.
+    mode : permission bits of the file; None: those of a file created with ``open()``
+        (``NEW_FILE_MODE`` less the umask, 0644 under the usual umask 022). The temporary
+        file is private (0600) until it has them.
 
     Returns
     -------
@@ -83,6 +103,7 @@ def atomic_write(path: str | Path, write: Callable[[Path], object]) -> Path:
     tmp = Path(tmp_name)
     try:
         write(tmp)
+        os.chmod(tmp, NEW_FILE_MODE & ~current_umask() if mode is None else mode)
         os.replace(tmp, target)
     except BaseException:
         tmp.unlink(missing_ok=True)

@@ -92,3 +92,28 @@ def test_whole_horizon_reserve_and_its_errors(tmp_path: Path) -> None:
     doc["reserve"] = {"event_max_steps": -1}
     with pytest.raises(FleetConfigError, match=r"reserve\.event_max_steps"):
         load_fleet(write_fleet(doc, tmp_path / "c.toml"))
+
+
+@pytest.mark.parametrize(
+    ("key", "value", "field"),
+    [
+        ("initial_temp_degc", -500.0, "initial_temp_degc"),
+        ("comfort_occupied_degc", [200.0, 300.0], "comfort_occupied_degc"),
+    ],
+)
+def test_impossible_temperatures_are_refused(
+    tmp_path: Path, key: str, value: object, field: str
+) -> None:
+    doc = generate_fleet(2, 1)
+    doc["buildings"][1][key] = value
+    path = write_fleet(doc, tmp_path / "f.toml")
+    with pytest.raises(FleetConfigError, match=rf"buildings\[1\]\.{field}"):
+        load_fleet(path)
+
+
+def test_generate_caps_the_number_of_buildings() -> None:
+    from hvacflex.errors import ConfigError
+    from hvacflex.fleet.generate import MAX_FLEET_BUILDINGS
+
+    with pytest.raises(ConfigError, match=r"field 'buildings'.*1 … 1000"):
+        generate_fleet(MAX_FLEET_BUILDINGS + 1, 1)

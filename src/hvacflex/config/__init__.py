@@ -38,6 +38,7 @@ from typing import Any
 from pydantic import BaseModel, ValidationError
 from pydantic_core import ErrorDetails
 
+from hvacflex.config import schema
 from hvacflex.config.model import (
     NEMS_MAX_INTERRUPTION_STEPS,
     ActivationConfig,
@@ -68,6 +69,7 @@ from hvacflex.config.presets import (
     PRESETS,
 )
 from hvacflex.config.schema import RENAMED_KEYS, RULE_ERROR, ScenarioSpec, to_domain
+from hvacflex.constants import MAX_HORIZON_STEPS
 from hvacflex.errors import ConfigError
 from hvacflex.opt.options import (
     DEFAULT_COMFORT_PENALTY_SGD_PER_KELVIN_HOUR,
@@ -105,6 +107,8 @@ __all__ = [
     "RobustMode",
     "ScenarioConfig",
     "UncertaintyConfig",
+    "config_from_dict",
+    "differing_settings",
     "load_config",
     "preset",
     "resolve_key",
@@ -151,6 +155,26 @@ _MESSAGES: dict[str, str] = {
 """Our wording of pydantic's error types (``ctx`` fills the braces)."""
 
 
+_RANGES = ("greater_than", "greater_than_equal", "less_than", "less_than_equal")
+"""pydantic's error types of a value outside its range."""
+
+_INDOOR_RANGE = (
+    f"indoor temperatures are in °C, between {schema.INDOOR_TEMP_MIN_DEGC:g} and "
+    f"{schema.INDOOR_TEMP_MAX_DEGC:g}"
+)
+_RANGE_HINTS: dict[str, str] = {
+    "initial_temp_degc": f"a building starts between {schema.INITIAL_TEMP_MIN_DEGC:g} and "
+    f"{schema.INITIAL_TEMP_MAX_DEGC:g} °C (default {ScenarioConfig.initial_temp_degc:g})",
+    "horizon_steps": f"give 1 … {MAX_HORIZON_STEPS} periods of 30 min (one week, the "
+    f"service's cap; default {ControllerConfig.horizon_steps})",
+    "occupied_degc": f"{_INDOOR_RANGE}; default {list(ComfortConfig.occupied_degc)}",
+    "unoccupied_degc": f"{_INDOOR_RANGE}; default {list(ComfortConfig.unoccupied_degc)}",
+    "thermostat_setpoint_degc": _INDOOR_RANGE,
+    "linearisation_temp_degc": _INDOOR_RANGE,
+}
+"""Hints of the range errors of the fields whose range is physical (the allowed range)."""
+
+
 def preset(name: str, **overrides: Any) -> ScenarioConfig:
     """A named preset, with optional overrides (dotted keys, e.g. ``controller.robust``).
 
@@ -171,6 +195,9 @@ def preset(name: str, **overrides: Any) -> ScenarioConfig:
 def load_config(path: str | Path) -> ScenarioConfig:
     """Load a scenario TOML file (optionally starting from ``preset = "..."``).
 
+    Relative paths in the file (``building``, ``data.weather_file``, ``data.usep_source``,
+    ``data.reserve_source``, ``activation.file``) are relative to the file's folder.
+
     Raises
     ------
     ConfigError : naming the file, the field path, the value and a hint.
@@ -189,9 +216,42 @@ def load_config(path: str | Path) -> ScenarioConfig:
                 hint=f"use one of {list(PRESET_NAMES)}",
             )
         base = {"name": base_name, **PRESETS[base_name]}
-    merged = _deep_merge(base, raw)
+    merged = _deep_merge(base, _paths_from_folder(raw, path.parent))
     merged.setdefault("name", path.stem)
     return _validate(merged, source=path)
+
+
+SCENARIO_PATH_KEYS: tuple[tuple[str, str], ...] = (
+    ("data", "weather_file"),
+    ("data", "usep_source"),
+    ("data", "reserve_source"),
+    ("activation", "file"),
+)
+"""(table, key) of the scenario file's keys that name a file or folder."""
+
+
+def _paths_from_folder(raw: Mapping[str, Any], folder: Path) -> dict[str, Any]:
+    """The parsed scenario with the relative paths it writes taken from ``folder`` (the
+    scenario file's), not from the working directory.
+
+    ``building`` is a path when it has a folder or ends in ``.toml`` (else a shipped name such
+    as ``office5``); the keys of :data:`SCENARIO_PATH_KEYS` are always paths. Values that are
+    not strings are left for the schema to refuse.
+    """
+
+    def from_folder(value: str) -> str:
+        candidate = Path(value).expanduser()
+        return str(candidate if candidate.is_absolute() else folder / candidate)
+
+    out = dict(raw)
+    building = raw.get("building")
+    if isinstance(building, str) and (Path(building).suffix == ".toml" or "/" in building):
+        out["building"] = from_folder(building)
+    for table, key in SCENARIO_PATH_KEYS:
+        section = out.get(table)
+        if isinstance(section, Mapping) and isinstance(section.get(key), str):
+            out[table] = {**section, key: from_folder(section[key])}
+    return out
 
 
 def with_overrides(cfg: ScenarioConfig, overrides: Mapping[str, Any]) -> ScenarioConfig:
@@ -268,6 +328,32 @@ def resolve_scenario(
     return with_overrides(cfg, overrides) if overrides else cfg
 
 
+def config_from_dict(document: Mapping[str, Any], *, source: str | Path) -> ScenarioConfig:
+    """A :class:`ScenarioConfig` from its :meth:`~ScenarioConfig.to_dict` form (e.g. a run's
+    ``config.json``), validated like a scenario file.
+
+    Raises
+    ------
+    ConfigError : naming ``source``, the field path, the value and a hint.
+    """
+    return _validate(document, source=source)
+
+
+def differing_settings(a: ScenarioConfig, b: ScenarioConfig) -> list[str]:
+    """The dotted settings (all but ``name``) whose values differ between two scenarios."""
+    return [
+        ".".join(path)
+        for path in _leaf_paths(a)
+        if path != ("name",) and _get(a, path) != _get(b, path)
+    ]
+
+
+def _get(cfg: Any, path: tuple[str, ...]) -> Any:
+    for part in path:
+        cfg = getattr(cfg, part)
+    return cfg
+
+
 def scaled_uncertainty(cfg: ScenarioConfig, level: float) -> ScenarioConfig:
     """The scenario with σ = ``level`` × the heat gains (solar, internal), keeping T_out's σ."""
     unc = replace(cfg.uncertainty, relative={"solar": level, "internal_gain": level})
@@ -309,6 +395,10 @@ def scenario_error(exc: ValidationError, source: str | Path) -> ConfigError:
         message = template.format(**ctx) if template else error["msg"]
         if "expected" in ctx:
             hint = f"use one of {ctx['expected']}"
+        if loc and loc[-1] in ("0", "1") and len(loc) >= 2 and loc[-2] in _RANGE_HINTS:
+            message = f"{('lower', 'upper')[int(loc[-1])]} bound {message}"
+            loc = loc[:-1]
+        hint = _RANGE_HINTS.get(loc[-1]) if loc and error["type"] in _RANGES else hint
     return ConfigError(message, source=source, field=".".join(loc), value=value, hint=hint)
 
 

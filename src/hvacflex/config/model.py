@@ -14,7 +14,7 @@ from typing import Any, Literal
 
 import pandas as pd
 
-from hvacflex.constants import AR1_COEFFICIENT, HORIZON_STEPS, TIMEZONE
+from hvacflex.constants import AR1_COEFFICIENT, DEFAULT_START, HORIZON_STEPS, TIMEZONE
 from hvacflex.data.weather_forecast import WEATHER_TRAIN_DAYS
 from hvacflex.opt.options import (
     DEFAULT_COMFORT_PENALTY_SGD_PER_KELVIN_HOUR,
@@ -271,7 +271,8 @@ class ScenarioConfig:
 
     name: str = "rmpc"
     building: str = "office5"
-    start: str = "2014-01-01"
+    start: str = DEFAULT_START
+    """First period [local time, ISO 8601: YYYY-MM-DD or YYYY-MM-DDTHH:MM, normalised]."""
     days: float = 7.0
     dt_s: float = 1800.0
     seed: int = 2014

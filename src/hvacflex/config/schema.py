@@ -32,6 +32,7 @@ File layout (every key optional)::
 
 from __future__ import annotations
 
+import math
 from dataclasses import MISSING, fields
 from typing import Annotated, Any, Self
 
@@ -75,6 +76,8 @@ from hvacflex.config.model import (
     UncertaintyConfig,
     WeatherForecastMode,
 )
+from hvacflex.constants import MAX_HORIZON_STEPS
+from hvacflex.dates import START_EXAMPLE, StartDateError, normalise_start
 from hvacflex.energyplus.idf import VALID_TIMESTEPS_PER_HOUR
 from hvacflex.opt.options import FeedbackStructure, RobustMode
 from hvacflex.units import STEP_30MIN_S
@@ -88,7 +91,21 @@ PositiveInt = Annotated[Integer, Field(ge=1)]
 NonNegativeInt = Annotated[Integer, Field(ge=0)]
 Text = Annotated[str, Strict()]
 Flag = Annotated[bool, Strict()]
-Band = tuple[Number, Number]
+INDOOR_TEMP_MIN_DEGC = 0.0
+INDOOR_TEMP_MAX_DEGC = 50.0
+"""Range of an indoor temperature the controller aims at (comfort bounds, thermostat set
+point, linearisation temperature) [°C]: wider than any comfort standard, narrow enough to
+refuse a typo (260 for 26) or Fahrenheit."""
+IndoorTemp = Annotated[Number, Field(ge=INDOOR_TEMP_MIN_DEGC, le=INDOOR_TEMP_MAX_DEGC)]
+INITIAL_TEMP_MIN_DEGC = -40.0
+INITIAL_TEMP_MAX_DEGC = 60.0
+"""Range of the temperature a building can start a run at [°C] (an unheated building in a
+cold winter to a closed one in the sun); outside it the state is physically impossible."""
+MAX_DAYS = 3660.0
+"""Longest run [days] (ten years)."""
+PERIODS_PER_DAY = 48
+"""30-min control periods per day."""
+Band = tuple[IndoorTemp, IndoorTemp]
 """A comfort band ``[lower, upper]`` [°C]."""
 
 RULE_ERROR = "scenario_rule"
@@ -140,10 +157,14 @@ class ControllerSpec(Spec):
     comfort_penalty_sgd_per_kelvin_hour: Positive = default(
         ControllerConfig, "comfort_penalty_sgd_per_kelvin_hour"
     )
-    horizon_steps: PositiveInt = default(ControllerConfig, "horizon_steps")
-    linearisation_temp_degc: Number | None = default(ControllerConfig, "linearisation_temp_degc")
+    horizon_steps: Annotated[PositiveInt, Field(le=MAX_HORIZON_STEPS)] = default(
+        ControllerConfig, "horizon_steps"
+    )
+    linearisation_temp_degc: IndoorTemp | None = default(
+        ControllerConfig, "linearisation_temp_degc"
+    )
     time_limit_s: Positive = default(ControllerConfig, "time_limit_s")
-    thermostat_setpoint_degc: Number = default(ControllerConfig, "thermostat_setpoint_degc")
+    thermostat_setpoint_degc: IndoorTemp = default(ControllerConfig, "thermostat_setpoint_degc")
     feedback: FeedbackSpec = FeedbackSpec()
     linearisation: Linearisation = default(ControllerConfig, "linearisation")
 
@@ -295,23 +316,41 @@ class PlantSpec(Spec):
 
 
 def _period_start(text: str) -> str:
-    """A local date-time on a 30-min period start, without a time-zone offset."""
+    """A local date-time on a 30-min period start in ISO 8601, normalised
+    (:func:`hvacflex.dates.normalise_start`)."""
     try:
-        start = pd.Timestamp(text)
-    except ValueError:
-        raise rule_error("not a date", "", text, hint="e.g. 2014-03-01") from None
-    if start.tzinfo is not None:
+        return normalise_start(text)
+    except StartDateError as exc:
         raise rule_error(
-            "give local Singapore time without a time-zone offset",
-            "",
-            text,
-            hint="e.g. 2014-03-01 or 2014-03-01T08:00",
-        )
-    if start != start.floor("30min"):
-        raise rule_error(
-            "must start a 30-min period", "", text, hint="e.g. 2014-03-01T08:00 or 2014-03-01T08:30"
-        )
-    return text
+            exc.problem, "", text, hint=f"e.g. {START_EXAMPLE} (Singapore local time)"
+        ) from None
+
+
+def whole_periods_problem(days: float) -> str | None:
+    """What is wrong with a run length of ``days`` [days], or None: it must be finite, > 0,
+    at most :data:`MAX_DAYS` and a whole number (≥ 1) of 30-min periods."""
+    periods = days * PERIODS_PER_DAY
+    if not math.isfinite(days):
+        return "must be a finite number of days"
+    if days <= 0:
+        return "must be > 0"
+    if days > MAX_DAYS:
+        return f"must be at most {MAX_DAYS:g} days (ten years)"
+    if periods < 1 - 1e-6:
+        return "must be at least one 30-min period (1/48 day ≈ 0.0208)"
+    if abs(periods - round(periods)) > 1e-6:
+        return "must be a whole number of 30-min periods (a multiple of 1/48 day)"
+    return None
+
+
+DAYS_HINT = "e.g. days = 0.5, 7 or 365"
+
+
+def _whole_periods(days: float) -> float:
+    problem = whole_periods_problem(days)
+    if problem is not None:
+        raise rule_error(problem, "", days, hint=DAYS_HINT)
+    return days
 
 
 def _half_hourly(dt_s: float) -> float:
@@ -330,10 +369,12 @@ class ScenarioSpec(Spec):
     name: Text = default(ScenarioConfig, "name")
     building: Text = default(ScenarioConfig, "building")
     start: Annotated[Text, AfterValidator(_period_start)] = default(ScenarioConfig, "start")
-    days: Positive = default(ScenarioConfig, "days")
+    days: Annotated[Number, AfterValidator(_whole_periods)] = default(ScenarioConfig, "days")
     dt_s: Annotated[Positive, AfterValidator(_half_hourly)] = default(ScenarioConfig, "dt_s")
-    seed: Integer = default(ScenarioConfig, "seed")
-    initial_temp_degc: Number = default(ScenarioConfig, "initial_temp_degc")
+    seed: NonNegativeInt = default(ScenarioConfig, "seed")
+    initial_temp_degc: Annotated[
+        Number, Field(ge=INITIAL_TEMP_MIN_DEGC, le=INITIAL_TEMP_MAX_DEGC)
+    ] = default(ScenarioConfig, "initial_temp_degc")
     controller: ControllerSpec = ControllerSpec()
     reserve: ReserveSpec = ReserveSpec()
     estimation: EstimationSpec = EstimationSpec()

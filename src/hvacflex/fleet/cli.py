@@ -2,37 +2,83 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import typer
 
+from hvacflex.constants import DEFAULT_START
+from hvacflex.dates import ISO_START_FORMS, START_EXAMPLE, StartDateError, normalise_start
+from hvacflex.fleet.generate import MAX_FLEET_BUILDINGS
 from hvacflex.sim.progress import task_progress
 
 if TYPE_CHECKING:
     from hvacflex.fleet.run import FleetStepProgress
+
+MAX_WORKERS = 256
+"""Most LocalCluster workers ``fleet simulate`` starts."""
+
+
+def _check_start(value: str) -> str:
+    """Callback of ``--start``: ISO 8601 on a 30-min period start, normalised."""
+    try:
+        return normalise_start(value)
+    except StartDateError as exc:
+        raise typer.BadParameter(f"{exc.problem} (got {value!r}); e.g. {START_EXAMPLE}") from None
+
+
+def _check_days(value: float) -> float:
+    """Callback of ``--days``: a finite, positive whole number of 30-min periods (the
+    scenario file's rule, :func:`hvacflex.config.schema.whole_periods_problem`)."""
+    from hvacflex.config.schema import whole_periods_problem
+
+    problem = whole_periods_problem(value)
+    if problem is not None:
+        raise typer.BadParameter(f"{problem} (got {value!r}); e.g. --days 0.5 or --days 7")
+    return value
+
+
+def _check_optional_number(value: float | None) -> float | None:
+    """Callback of a number option: not nan (inf is allowed where it means 'none')."""
+    if value is not None and math.isnan(value):
+        raise typer.BadParameter("must be a number (got nan)")
+    return value
+
 
 fleet_app = typer.Typer(help="Fleets of buildings under a feeder limit.", no_args_is_help=True)
 
 
 @fleet_app.command("generate")
 def generate(
-    buildings: int = typer.Option(..., "--buildings", help="Number of buildings."),
-    seed: int = typer.Option(2014, "--seed", help="Seed of the random choices."),
+    buildings: int = typer.Option(
+        ..., "--buildings", min=1, max=MAX_FLEET_BUILDINGS, help="Number of buildings."
+    ),
+    seed: int = typer.Option(2014, "--seed", min=0, help="Seed of the random choices."),
     out: Path = typer.Option(..., "--out", help="Fleet TOML file to write."),  # noqa: B008
     template: str = typer.Option("office5", "--template", help="Template building."),
     feeder_limit_kw: float | None = typer.Option(
         None,
         "--feeder-limit-kw",
+        min=0.0,
+        callback=_check_optional_number,
         help="Feeder limit [kW] (inf = none; default: a share of design power).",
     ),
-    min_bid_mw: float = typer.Option(0.1, "--min-bid-mw", help="Minimum reserve bid [MW]."),
+    min_bid_mw: float = typer.Option(
+        0.1,
+        "--min-bid-mw",
+        min=0.0,
+        callback=_check_optional_number,
+        help="Minimum reserve bid [MW].",
+    ),
 ) -> None:
     """Write a heterogeneous fleet of buildings from the shipped templates."""
     from hvacflex.errors import HvacflexError
     from hvacflex.fleet.generate import generate_fleet, write_fleet
+    from hvacflex.paths import check_output_file
 
     try:
+        check_output_file(out, "--out")
         doc = generate_fleet(
             buildings,
             seed,
@@ -50,11 +96,18 @@ def generate(
 @fleet_app.command("simulate")
 def simulate(
     fleet: Path = typer.Option(..., "--fleet", help="Fleet TOML file."),  # noqa: B008
-    start: str = typer.Option("2014-03-03", "--start", help="First day (local time)."),
-    days: float = typer.Option(7.0, "--days", help="Days to simulate."),
+    start: str = typer.Option(
+        DEFAULT_START,
+        "--start",
+        help=f"First day (Singapore local time), {ISO_START_FORMS}.",
+        callback=_check_start,
+    ),
+    days: float = typer.Option(7.0, "--days", help="Days to simulate.", callback=_check_days),
     out: Path = typer.Option(..., "--out", help="Output folder."),  # noqa: B008
     scheduler: str | None = typer.Option(None, "--scheduler", help="Dask scheduler address."),
-    workers: int = typer.Option(2, "--workers", help="LocalCluster workers (0 = no Dask)."),
+    workers: int = typer.Option(
+        2, "--workers", min=0, max=MAX_WORKERS, help="LocalCluster workers (0 = no Dask)."
+    ),
     fresh: bool = typer.Option(False, "--fresh", help="Ignore a checkpoint."),
 ) -> None:
     """Simulate a fleet under its feeder limit with coordinated RMPC (results.parquet)."""
@@ -62,13 +115,15 @@ def simulate(
     from hvacflex.fleet.report import write_fleet_report
     from hvacflex.fleet.run import run_fleet
     from hvacflex.fleet.schema import load_fleet
+    from hvacflex.paths import check_output_dir
     from hvacflex.results import RESULTS_FILENAME
+    from hvacflex.sim.sweep import check_scheduler
 
-    if days <= 0 or days * 48 != round(days * 48):
-        typer.echo("error: --days must be a positive multiple of 30 minutes", err=True)
-        raise typer.Exit(2)
     watch = CoordinationWatch()
     try:
+        check_output_dir(out, "--out")
+        if scheduler is not None:
+            check_scheduler(scheduler)
         with task_progress(True, "fleet", round(days * 48)) as update:
             watch.update = update
             result = run_fleet(

@@ -26,6 +26,10 @@ from hvacflex.paths import resolve_building
 from hvacflex.tomlio import read_toml
 from hvacflex.version import atomic_write_text
 
+MAX_FLEET_BUILDINGS = 1000
+"""Most buildings a generated fleet holds: a fleet simulation solves one RMPC per building and
+coordination iteration, so beyond this a run takes days."""
+
 TEMPLATES = ("office5",)
 COMFORT_VARIANTS: tuple[tuple[float, float], ...] = ((23.0, 26.0), (22.5, 25.5), (23.5, 26.5))
 DESIGN_OUTDOOR_DEGC = 32.0
@@ -103,14 +107,19 @@ def generate_fleet(
 
     Parameters
     ----------
-    buildings : number of buildings ≥ 1.
+    buildings : number of buildings, 1 … ``MAX_FLEET_BUILDINGS``.
     seed : seed of every random choice (same seed → same fleet).
     template : shipped building name or path of the template building TOML.
     feeder_limit_kw : the feeder limit [kW]; None → ``limit_fraction`` × the fleet's design
         power (:func:`design_power_kw`); ``inf`` → no limit.
     """
-    if buildings < 1:
-        raise ConfigError("a fleet needs at least one building", field="buildings", value=buildings)
+    if not 1 <= buildings <= MAX_FLEET_BUILDINGS:
+        raise ConfigError(
+            f"a fleet holds 1 … {MAX_FLEET_BUILDINGS} buildings",
+            field="buildings",
+            value=buildings,
+            hint=f"give a number of buildings between 1 and {MAX_FLEET_BUILDINGS}",
+        )
     base = read_toml(resolve_building(template), what="building")
     rng = np.random.default_rng(seed)
     entries = []

@@ -56,11 +56,19 @@ from hvacflex.building.io import building_from_dict
 from hvacflex.building.model import Building
 from hvacflex.config import ReserveConfig
 from hvacflex.config.presets import PRODUCT_RESERVE
+from hvacflex.config.schema import (
+    INDOOR_TEMP_MAX_DEGC,
+    INDOOR_TEMP_MIN_DEGC,
+    INITIAL_TEMP_MAX_DEGC,
+    INITIAL_TEMP_MIN_DEGC,
+)
 from hvacflex.errors import ConfigError, DataError
 from hvacflex.tomlio import read_toml
 
 Number = Annotated[float, Strict()]
 Finite = Annotated[float, Strict(), Field(allow_inf_nan=False)]
+IndoorTemp = Annotated[Finite, Field(ge=INDOOR_TEMP_MIN_DEGC, le=INDOOR_TEMP_MAX_DEGC)]
+"""A comfort bound [°C], in the scenario file's physical range."""
 Text = Annotated[str, Strict(), Field(min_length=1)]
 NAME_PATTERN = r"^[A-Za-z][A-Za-z0-9_\-]*$"
 
@@ -127,9 +135,11 @@ class BuildingEntrySpec(_Spec):
     name: Annotated[Text, Field(pattern=NAME_PATTERN)]
     template: str = ""
     occupied_hours: tuple[Annotated[int, Strict()], Annotated[int, Strict()]] = (8, 18)
-    comfort_occupied_degc: tuple[Finite, Finite] = (23.0, 26.0)
-    comfort_unoccupied_degc: tuple[Finite, Finite] = (20.0, 30.0)
-    initial_temp_degc: Finite = 25.0
+    comfort_occupied_degc: tuple[IndoorTemp, IndoorTemp] = (23.0, 26.0)
+    comfort_unoccupied_degc: tuple[IndoorTemp, IndoorTemp] = (20.0, 30.0)
+    initial_temp_degc: Annotated[
+        Finite, Field(ge=INITIAL_TEMP_MIN_DEGC, le=INITIAL_TEMP_MAX_DEGC)
+    ] = 25.0
     building: dict[str, Any]
 
     @model_validator(mode="after")

@@ -140,14 +140,15 @@ def scenario_config(settings: ScenarioSettings, building_id: str) -> ScenarioCon
         overrides[path] = value
     overrides.update(start=settings.start, days=settings.days, building=building_id)
     overrides["name"] = building_id
-    config = with_overrides(preset(settings.preset), overrides)
-    controller = config.controller
-    if controller.horizon_steps > MAX_HORIZON_STEPS:
+    horizon = overrides.get("controller.horizon_steps")
+    if isinstance(horizon, int) and horizon > MAX_HORIZON_STEPS:  # before the scenario's cap
         raise InputError(
             f"must be ≤ {MAX_HORIZON_STEPS} periods (one week) in the service",
             field="scenario.settings.controller.horizon_steps",
-            value=controller.horizon_steps,
+            value=horizon,
         )
+    config = with_overrides(preset(settings.preset), overrides)
+    controller = config.controller
     if controller.time_limit_s > MAX_TIME_LIMIT_S:
         raise InputError(
             f"must be ≤ {MAX_TIME_LIMIT_S:g} s in the service",

@@ -48,6 +48,7 @@ from hvacflex.data.forecast import Forecast
 from hvacflex.data.signals import OperatorSignals, effective_peak_price
 from hvacflex.data.uncertainty import DisturbanceSampler
 from hvacflex.errors import ConfigError, HvacflexError
+from hvacflex.paths import check_output_dir
 from hvacflex.settlement import SETTLEMENT_COLUMNS, settlement_columns, start_baseline_kw
 from hvacflex.sim.measurement import Sensors
 from hvacflex.sim.plant import Actuation, Disturbance, Observation, Plant
@@ -59,6 +60,7 @@ from hvacflex.sim.run_files import (
     RESULTS_FILE,
     SUMMARY_FILE,
     check_checkpoint_code,
+    check_out_dir,
     load_checkpoint,
     read_results,
     read_summary,
@@ -535,8 +537,8 @@ def run_simulation(
     if checkpoint_every < 1:
         raise ConfigError("must be ≥ 1 step", field="checkpoint_every", value=checkpoint_every)
 
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
+    out = check_output_dir(Path(out_dir), "out_dir")
+    check_out_dir(out, config, fresh=not resume)  # another configuration's run is refused
     checkpoint_path = out / CHECKPOINT_FILE
     if resume:
         refuse_old_checkpoint(out)

@@ -16,8 +16,15 @@ from typing import Any
 import pandas as pd
 
 from hvacflex import results, state, version
-from hvacflex.config import ScenarioConfig
-from hvacflex.errors import StoredStateError
+from hvacflex.building.io import load_building
+from hvacflex.building.model import Building
+from hvacflex.config import (
+    LINEARISATION_MARGIN_K,
+    ScenarioConfig,
+    config_from_dict,
+    differing_settings,
+)
+from hvacflex.errors import ConfigError, HvacflexError, StoredStateError
 from hvacflex.paths import resolve_building
 from hvacflex.results import RESULTS_FILENAME
 
@@ -180,3 +187,138 @@ def check_checkpoint_code(state: dict[str, Any], path: Path) -> None:
             field="code_version",
             hint="run again with --fresh to start this run afresh (or delete the checkpoint)",
         )
+
+
+RUN_FILES = (RESULTS_FILE, SUMMARY_FILE, CONFIG_FILE, CHECKPOINT_FILE)
+"""Every file a run writes into its folder."""
+
+_SHOWN_SETTINGS = 4
+"""Differing settings named in the message of :func:`check_out_dir` (then "and N more")."""
+
+
+def stored_config(out_dir: Path) -> ScenarioConfig | None:
+    """The configuration of the run stored in ``out_dir``: its ``config.json`` (written before
+    the first step, so a folder with only a checkpoint has one too), else the configuration in
+    its results file's metadata; None when the folder holds no run.
+
+    Raises
+    ------
+    StoredStateError
+        When the stored configuration is unreadable or not one this hvacflex accepts.
+    """
+    config_path, results_path = out_dir / CONFIG_FILE, out_dir / RESULTS_FILE
+    source = config_path
+    try:
+        if config_path.is_file():
+            document = json.loads(config_path.read_text(encoding="utf-8"))
+        elif results_path.is_file():
+            source, document = results_path, read_results(results_path)[1]["config"]
+        else:
+            return None
+        if not isinstance(document, dict):
+            raise TypeError("not a JSON object")
+        return config_from_dict(document, source=source)
+    except (OSError, UnicodeDecodeError, ValueError, TypeError, HvacflexError) as exc:
+        raise StoredStateError(
+            f"the folder holds a run whose configuration cannot be read ({exc})",
+            source=source,
+            hint="use another --out folder, or run again with --fresh to replace that run",
+        ) from None
+
+
+def check_out_dir(out_dir: str | Path, config: ScenarioConfig, fresh: bool) -> None:
+    """Refuse to write ``config``'s run over a folder holding another configuration's run.
+
+    The same configuration (every setting but ``name``) resumes from its checkpoint or re-uses
+    its results as before; with ``fresh`` another configuration's files (results, summary,
+    config, checkpoint) are removed, so the folder never mixes two runs. Call it before any
+    work.
+
+    Raises
+    ------
+    StoredStateError
+        Naming the folder, the settings that differ (theirs and ours) and the fixes.
+    """
+    out = Path(out_dir)
+    if not out.is_dir():
+        return
+    try:
+        stored = stored_config(out)
+    except StoredStateError:
+        if not fresh:
+            raise
+        stored = None
+    if stored is None:
+        if fresh:
+            _remove_run_files(out)
+        return
+    differ = differing_settings(stored, config)
+    if not differ:
+        return
+    if fresh:
+        _remove_run_files(out)
+        return
+    shown = ", ".join(
+        f"{name} {_setting(stored, name)!r} there, {_setting(config, name)!r} here"
+        for name in differ[:_SHOWN_SETTINGS]
+    )
+    more = f" and {len(differ) - _SHOWN_SETTINGS} more" if len(differ) > _SHOWN_SETTINGS else ""
+    raise StoredStateError(
+        f"the folder holds the run of another configuration ('{stored.name}': {shown}{more})",
+        source=out,
+        hint="give another --out folder, or run again with --fresh to replace that run",
+    )
+
+
+def _setting(config: ScenarioConfig, dotted: str) -> object:
+    value: object = config
+    for part in dotted.split("."):
+        value = getattr(value, part)
+    return value
+
+
+def _remove_run_files(out: Path) -> None:
+    for name in RUN_FILES:
+        (out / name).unlink(missing_ok=True)
+
+
+def check_linearisation(
+    config: ScenarioConfig, source: str | Path | None = None, building: Building | None = None
+) -> None:
+    """Refuse, before any work, a scenario whose linearisation temperature T₀ is at or below
+    the building's supply-air temperature, naming the setting the user wrote: T₀ itself
+    (``controller.linearisation_temp_degc``) or, when it is derived from the comfort band
+    (T₀ = occupied upper bound − ``LINEARISATION_MARGIN_K``), ``comfort.occupied_degc``.
+
+    Raises
+    ------
+    ConfigError
+        Naming ``source`` (the scenario file), the field, the value and a hint.
+    """
+    if building is None:  # else a description received as content
+        building = load_building(resolve_building(config.building))
+    supply_degc = building.hvac.supply_temp_degc
+    written = config.controller.linearisation_temp_degc
+    upper_degc = config.comfort.occupied_degc[1]
+    temp_ref_degc = upper_degc - LINEARISATION_MARGIN_K if written is None else written
+    if temp_ref_degc > supply_degc:
+        return
+    if written is not None:
+        raise ConfigError(
+            f"must be above the supply-air temperature {supply_degc:g} °C of building "
+            f"'{building.name}'",
+            source=source,
+            field="controller.linearisation_temp_degc",
+            value=written,
+            hint=f"set it between {supply_degc:g} and the occupied upper comfort bound",
+        )
+    raise ConfigError(
+        f"the occupied upper comfort bound less {LINEARISATION_MARGIN_K:g} K (the "
+        f"linearisation temperature) must be above the supply-air temperature "
+        f"{supply_degc:g} °C of building '{building.name}'",
+        source=source,
+        field="comfort.occupied_degc",
+        value=list(config.comfort.occupied_degc),
+        hint=f"raise the upper bound above {supply_degc + LINEARISATION_MARGIN_K:g} °C, "
+        "or set controller.linearisation_temp_degc",
+    )

@@ -40,6 +40,7 @@ from hvacflex.paths import resolve_building
 from hvacflex.results import PREDICTION_ERROR, read_results
 from hvacflex.sim.activation import activation_schedule
 from hvacflex.sim.measurement import kalman_config
+from hvacflex.sim.run_files import check_linearisation
 
 
 @dataclass(frozen=True)
@@ -91,6 +92,7 @@ def prepare(
     """
     if building is None:
         building = load_building(resolve_building(config.building))
+    check_linearisation(config, building=building)
     temp_ref = config.controller.linearisation_temp_degc
     if temp_ref is None:
         temp_ref = config.comfort.occupied_degc[1] - LINEARISATION_MARGIN_K

@@ -20,7 +20,7 @@ from typing import Any
 import pandas as pd
 
 from hvacflex.config import ScenarioConfig, with_overrides
-from hvacflex.errors import ConfigError
+from hvacflex.errors import ConfigError, InputError
 
 JobCallback = Callable[["JobOutcome"], None]
 
@@ -210,3 +210,43 @@ def outcomes_table(outcomes: Sequence[JobOutcome]) -> pd.DataFrame:
         row["out_dir"] = outcome.out_dir
         rows.append(row)
     return pd.DataFrame(rows)
+
+
+SCHEDULER_CONNECT_TIMEOUT_S = 5.0
+"""How long :func:`check_scheduler` waits for a TCP connection to the scheduler [s]."""
+
+
+def check_scheduler(address: str, field: str = "--scheduler") -> None:
+    """Refuse, before any work, a Dask scheduler address that is malformed or that nothing
+    listens on (a TCP address: ``tcp://host:port`` or ``host:port``); Dask itself would fail
+    only after a 30-s timeout, with a traceback.
+
+    Raises
+    ------
+    InputError
+        Naming ``field``, the address and why, with a hint.
+    """
+    import socket
+
+    from distributed.comm.addressing import parse_address, parse_host_port
+
+    hint = "give the address of a running scheduler, e.g. tcp://127.0.0.1:8786 (dask scheduler)"
+    try:
+        protocol, location = parse_address(address)
+        if protocol not in ("tcp", "tls"):
+            return  # inproc://, ucx://…: left to Dask
+        host, port = parse_host_port(location)
+    except ValueError as exc:
+        raise InputError(
+            f"not a scheduler address ({exc})", field=field, value=address, hint=hint
+        ) from None
+    try:
+        with socket.create_connection((host, port), timeout=SCHEDULER_CONNECT_TIMEOUT_S):
+            pass
+    except OSError as exc:
+        raise InputError(
+            f"no scheduler answers there ({exc.strerror or type(exc).__name__})",
+            field=field,
+            value=address,
+            hint=hint,
+        ) from None
