@@ -31,6 +31,7 @@ LAYERS: list[set[str]] = [
     {"config"},
     {"control"},
     {"sim"},
+    {"identify"},
     {"validation"},
     {"report"},
     {"reproduce"},
