@@ -42,9 +42,7 @@ def make_synthetic_trend(days: int, seed: int = 0, noise_k: float = 0.0) -> pd.D
         gain = flow[k] * CP_AIR_J_PER_KG_K / 1000.0
         lhs = np.eye(2) - model.d_mean[:, 4:] * gain[None, :]
         rhs = (
-            model.c_mean @ x
-            + model.d_mean @ base
-            - model.d_mean[:, 4:] @ (gain * SUPPLY_TEMP_DEGC)
+            model.c_mean @ x + model.d_mean @ base - model.d_mean[:, 4:] @ (gain * SUPPLY_TEMP_DEGC)
         )
         temps[k] = np.linalg.solve(lhs, rhs)
         u = base.copy()

@@ -23,7 +23,9 @@ ZONES = ("Room-A", "ROOM_b")
 
 
 @pytest.fixture(scope="module")
-def trend(tmp_path_factory: pytest.TempPathFactory, synthetic_trend: Callable[..., pd.DataFrame]) -> Path:
+def trend(
+    tmp_path_factory: pytest.TempPathFactory, synthetic_trend: Callable[..., pd.DataFrame]
+) -> Path:
     path = tmp_path_factory.mktemp("fit") / "trend.csv"
     write_trend(synthetic_trend(days=6, seed=1, noise_k=0.02), path)
     return path

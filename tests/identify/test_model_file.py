@@ -53,7 +53,9 @@ def test_zone_names_become_lower_case_identifiers() -> None:
 
 def test_a_negative_capacitance_is_refused_naming_the_field(tmp_path: Path) -> None:
     path = write_identified_model(_model(), tmp_path / "model.toml")
-    text = path.read_text(encoding="utf-8").replace("c_air_kj_per_k = 800.0", "c_air_kj_per_k = -8.0")
+    text = path.read_text(encoding="utf-8").replace(
+        "c_air_kj_per_k = 800.0", "c_air_kj_per_k = -8.0"
+    )
     path.write_text(text, encoding="utf-8")
     with pytest.raises(ConfigError) as caught:
         load_identified_model(path)

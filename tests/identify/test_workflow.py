@@ -1,0 +1,88 @@
+"""``identify fit`` end to end on synthetic data, its options, and the CLI's exit codes."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+
+import pandas as pd
+import pytest
+from typer.testing import CliRunner
+
+from hvacflex.cli import app
+from hvacflex.errors import InputError
+from hvacflex.identify.model_file import load_identified_model
+from hvacflex.identify.trend import write_trend
+from hvacflex.identify.workflow import identify, parse_days, zones_and_couplings
+
+
+@pytest.fixture(scope="module")
+def trend(
+    tmp_path_factory: pytest.TempPathFactory, synthetic_trend: Callable[..., pd.DataFrame]
+) -> Path:
+    return write_trend(synthetic_trend(days=6, seed=2), tmp_path_factory.mktemp("wf") / "trend.csv")
+
+
+def test_fit_writes_a_model_and_a_report_beside_it(trend: Path, tmp_path: Path) -> None:
+    out = tmp_path / "fitted" / "model.toml"
+    outcome = identify(
+        trend,
+        out,
+        zones="Room-A,ROOM_b",
+        train="2014-03-03..2014-03-07",
+        test="2014-03-08..2014-03-08",
+    )
+    report = pd.read_csv(out.parent / "fit_report.csv")
+    assert list(report["zone"]) == ["room_a", "room_b"]
+    assert list(report["energyplus_zone"]) == ["Room-A", "ROOM_b"]
+    assert {"rmse_1step_k", "rmse_24h_k", "bias_k"} <= set(report.columns)
+    assert (report["rmse_24h_k"] < 0.15).all()
+    model = load_identified_model(out)
+    assert model.zones == ("room_a", "room_b") and model.power is not None
+    assert model.provenance["test"] == "2014-03-08..2014-03-08"
+    parameters = pd.read_csv(outcome.parameters_path)
+    assert {"value", "std_error"} <= set(parameters.columns) and len(parameters) == 2 * 9 + 1
+
+
+def test_day_ranges_include_both_ends() -> None:
+    index = pd.date_range("2014-03-03", periods=5 * 48, freq="30min", tz="Asia/Singapore")
+    assert parse_days("2014-03-04..2014-03-05", index, "--train") == (48, 3 * 48)
+    with pytest.raises(InputError, match="not a day range"):
+        parse_days("2014-03-04", index, "--train")
+    with pytest.raises(InputError, match="holds no data"):
+        parse_days("2015-01-01..2015-01-02", index, "--test")
+
+
+def test_zones_come_from_the_option_or_the_template(tmp_path: Path) -> None:
+    assert zones_and_couplings("A,B,C", None, None) == (("A", "B", "C"), None)
+    assert zones_and_couplings("A,B,C", "a-B,C-b", None)[1] == [("A", "B"), ("C", "B")]
+    with pytest.raises(InputError, match="not a pair"):
+        zones_and_couplings("A,B", "A-D", None)
+    with pytest.raises(InputError, match="exactly one"):
+        zones_and_couplings(None, None, None)
+    from hvacflex.paths import resolve_building
+
+    zones, couples = zones_and_couplings(None, None, resolve_building("office5"))
+    assert "core" in zones and couples and all(a != b for a, b in couples)
+
+
+def test_the_cli_exits_2_on_a_gap_and_names_the_line(trend: Path, tmp_path: Path) -> None:
+    frame = pd.read_csv(trend)
+    gapped = tmp_path / "gapped.csv"
+    frame.drop(index=10).to_csv(gapped, index=False)
+    result = CliRunner().invoke(
+        app,
+        [
+            "identify",
+            "fit",
+            "--data",
+            str(gapped),
+            "--zones",
+            "Room-A",
+            "--out",
+            str(tmp_path / "m.toml"),
+        ],
+    )
+    assert result.exit_code == 2
+    assert "gapped.csv:12" in result.output and "gap in the time index" in result.output
+    assert "Traceback" not in result.output
