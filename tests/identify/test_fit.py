@@ -75,3 +75,16 @@ def test_a_zone_the_data_lacks_or_without_supply_air_is_refused(
     path = write_trend(frame, tmp_path / "setpoint_only.csv")
     with pytest.raises(InputError, match="supply flow and supply temperature"):
         fit_inputs(read_trend(path), ZONES)
+
+
+def test_a_parameter_pushed_onto_its_bound_is_named_in_the_warnings() -> None:
+    from hvacflex.identify.fit import _bound_warnings, _initial_and_bounds
+
+    prior, low, high, _ = _initial_and_bounds(2, 1)
+    theta = prior.copy()
+    theta[0], theta[9 + 1] = low[0], high[9 + 1]  # zone A's c_air, zone B's c_mass
+    assert _bound_warnings(theta, low, high, ("A", "B")) == [
+        "A: c_air_kj_per_k at its bound 10",
+        "B: c_mass_kj_per_k at its bound 1e+07",
+    ]
+    assert _bound_warnings(prior, low, high, ("A", "B")) == []

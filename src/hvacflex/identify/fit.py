@@ -63,6 +63,8 @@ PRIOR_WEIGHT = 0.02
 """Weight of the priors: a residual of this size per unit of log (or linear) deviation."""
 MAX_EVALUATIONS = 60
 """Most residual evaluations per fit (``least_squares``'s ``max_nfev``)."""
+BOUND_TOLERANCE = 1e-4
+"""A parameter within this share of its (log) range from a bound is reported at the bound."""
 TIME_CONSTANT_RANGE_S = (60.0, 28 * 86400.0)
 """Physically plausible time constants (a minute … four weeks) [s]; outside: a warning."""
 
@@ -315,6 +317,34 @@ def _physical_warnings(p: GreyBoxParameters) -> list[str]:
     return found
 
 
+def _bound_warnings(
+    theta: FloatArray, low: FloatArray, high: FloatArray, zones: tuple[str, ...]
+) -> list[str]:
+    """``"<zone>: <parameter> at its bound <b>"`` for every zone parameter the optimiser
+    pushed onto a bound (the data do not determine it, or want a value the priors call
+    non-physical)."""
+    found = []
+    span = high - low
+    k = len(ZONE_PARAMETERS)
+    for index in np.flatnonzero(
+        (theta - low <= BOUND_TOLERANCE * span) | (high - theta <= BOUND_TOLERANCE * span)
+    ):
+        if index >= len(zones) * k:
+            continue  # a coupling at zero is a legitimate finding
+        name = ZONE_PARAMETERS[index % k][0]
+        if name.startswith("solar_") or name == "ua_mass_out_kw_per_k":
+            continue  # zero solar share or no mass-outdoor path: physical
+        zone = zones[index // k]
+        near = (
+            low[index]
+            if theta[index] - low[index] <= BOUND_TOLERANCE * span[index]
+            else high[index]
+        )
+        value = float(np.exp(near)) if ZONE_PARAMETERS[index % k][1] == "log" else float(near)
+        found.append(f"{zone}: {name} at its bound {value:g}")
+    return found
+
+
 def fit_model(data: FitData, couplings: list[tuple[int, int]], train: tuple[int, int]) -> FitResult:
     """Fit the grey-box model on the periods ``train = (first, end)`` (module docstring).
 
@@ -346,7 +376,7 @@ def fit_model(data: FitData, couplings: list[tuple[int, int]], train: tuple[int,
         max_nfev=MAX_EVALUATIONS,
     )
     parameters = _from_vector(result.x, pairs)
-    found = _physical_warnings(parameters)
+    found = _physical_warnings(parameters) + _bound_warnings(result.x, low, high, data.zones)
     if not result.success:
         found.append(f"the optimiser did not converge: {result.message}")
     for text in found:

@@ -198,7 +198,14 @@ def identify(
     report.insert(1, "energyplus_zone", list(inputs.zones))
     report["zone"] = list(ids)
     report["converged"] = fit.converged
-    report["warnings"] = "; ".join(fit.warnings)
+    report["warnings"] = [
+        "; ".join(
+            w
+            for w in fit.warnings
+            if w.startswith(f"{zone}:") or not any(w.startswith(f"{z}:") for z in inputs.zones)
+        )
+        for zone in inputs.zones
+    ]
     power = fit_power_model(data, inputs, train_range)
     day = [inputs.index[r[0]].date().isoformat() for r in (train_range, test_range)]
     last = [inputs.index[r[1] - 1].date().isoformat() for r in (train_range, test_range)]
