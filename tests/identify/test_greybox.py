@@ -132,3 +132,34 @@ def test_time_constants_are_those_of_the_eigenvalues() -> None:
     eigenvalues = np.linalg.eigvals(continuous_matrices(p)[0])
     np.testing.assert_allclose(np.sort(taus), np.sort(-1.0 / eigenvalues.real))
     assert (taus > 0).all()
+
+
+def test_a_boundary_zone_enters_the_balance_and_the_exponential() -> None:
+    base = _random_parameters(2, seed=13)
+    p = GreyBoxParameters(
+        base.zone,
+        base.couplings,
+        base.coupling_ua_kw_per_k,
+        boundaries=1,
+        boundary_couplings=np.array([[0, 0], [1, 0]], dtype=np.int64),
+        boundary_ua_kw_per_k=np.array([0.4, 0.1]),
+    )
+    a_c, b_c = continuous_matrices(p)
+    assert b_c.shape == (4, 4 + 2 + 1)
+    u = np.r_[30.0, 0.5, 1.0, 1.0, 2.0, 1.0, 27.0]
+    x = np.linalg.solve(a_c, -b_c @ u)
+    ua_o, ua_mo = p.value("ua_out_kw_per_k"), p.value("ua_mass_out_kw_per_k")
+    lost_kw = (ua_o * (x[:2] - 30.0) + ua_mo * (x[2:] - 30.0)).sum()
+    lost_kw += (np.array([0.4, 0.1]) * (x[:2] - 27.0)).sum()
+    gains_kw = (
+        0.5 * (p.value("solar_air_m2") + p.value("solar_mass_m2"))
+        + p.value("occupied_gain_kw")
+        + p.value("base_gain_kw")
+    ).sum() - 3.0
+    assert abs(lost_kw - gains_kw) < 1e-9
+    model = discretize(p, DT_S)
+    n, nu = b_c.shape
+    big = np.zeros((n + nu, n + nu))
+    big[:n, :n], big[:n, n:] = a_c * DT_S, b_c * DT_S
+    step = scipy.linalg.expm(big)
+    np.testing.assert_allclose(model.b, step[:n, n:], atol=1e-12)

@@ -25,7 +25,14 @@ def _model() -> IdentifiedModel:
             [1200.0, 6.0e4, 0.08, 1.2, 0.05, 5.0, 8.0, 2.5, -0.2],
         ]
     )
-    parameters = GreyBoxParameters(zone, np.array([[0, 1]], dtype=np.int64), np.array([0.3]))
+    parameters = GreyBoxParameters(
+        zone,
+        np.array([[0, 1]], dtype=np.int64),
+        np.array([0.3]),
+        boundaries=1,
+        boundary_couplings=np.array([[0, 0], [1, 0]], dtype=np.int64),
+        boundary_ua_kw_per_k=np.array([0.5, 0.25]),
+    )
     return IdentifiedModel(
         name="identified from trend.csv",
         zones=("space1_1", "space2_1"),
@@ -33,6 +40,7 @@ def _model() -> IdentifiedModel:
         parameters=parameters,
         power=PowerModel(base_kw=1.0, kw_per_kw_cooling=0.3, kw_per_k_outdoor=0.05),
         provenance={"data": "trend.csv", "train": "2014-03-03..2014-03-17"},
+        boundaries=("PLENUM-1",),
     )
 
 
@@ -42,6 +50,13 @@ def test_a_written_model_reads_back_equal(tmp_path: Path) -> None:
     assert loaded.zones == model.zones and loaded.energyplus_zones == model.energyplus_zones
     np.testing.assert_array_equal(loaded.parameters.zone, model.parameters.zone)
     np.testing.assert_array_equal(loaded.parameters.couplings, model.parameters.couplings)
+    assert loaded.boundaries == ("PLENUM-1",) and loaded.parameters.boundaries == 1
+    np.testing.assert_array_equal(
+        loaded.parameters.boundary_ua_kw_per_k, model.parameters.boundary_ua_kw_per_k
+    )
+    np.testing.assert_array_equal(
+        loaded.parameters.boundary_couplings, model.parameters.boundary_couplings
+    )
     assert loaded.power == model.power and loaded.provenance == model.provenance
 
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 import pytest
 from typer.testing import CliRunner
@@ -20,7 +21,9 @@ from hvacflex.identify.workflow import identify, parse_days, zones_and_couplings
 def trend(
     tmp_path_factory: pytest.TempPathFactory, synthetic_trend: Callable[..., pd.DataFrame]
 ) -> Path:
-    return write_trend(synthetic_trend(days=6, seed=2), tmp_path_factory.mktemp("wf") / "trend.csv")
+    frame = synthetic_trend(days=6, seed=2)
+    frame["temp_Attic_degc"] = 27.0 + np.sin(np.arange(len(frame)) / 48 * 2 * np.pi)
+    return write_trend(frame, tmp_path_factory.mktemp("wf") / "trend.csv")
 
 
 def test_fit_writes_a_model_and_a_report_beside_it(trend: Path, tmp_path: Path) -> None:
@@ -39,9 +42,10 @@ def test_fit_writes_a_model_and_a_report_beside_it(trend: Path, tmp_path: Path) 
     assert (report["rmse_24h_k"] < 0.15).all()
     model = load_identified_model(out)
     assert model.zones == ("room_a", "room_b") and model.power is not None
+    assert model.boundaries == ("Attic",)  # temperature only: a boundary of both zones
     assert model.provenance["test"] == "2014-03-08..2014-03-08"
     parameters = pd.read_csv(outcome.parameters_path)
-    assert {"value", "std_error"} <= set(parameters.columns) and len(parameters) == 2 * 9 + 1
+    assert {"value", "std_error"} <= set(parameters.columns) and len(parameters) == 2 * 9 + 1 + 2
 
 
 def test_day_ranges_include_both_ends() -> None:

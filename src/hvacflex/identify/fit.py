@@ -3,9 +3,9 @@
 Inputs from the trend file (:mod:`hvacflex.identify.trend`): the delivered sensible cooling
 of zone ``i`` is ``Q_i = ṁ_i c_p (T_i − T_supply,i)`` [kW] from its measured supply flow and
 supply temperature (period means); a zone without them is refused (setpoint-only data needs a
-model of the local loop, which this fit does not have). Other zones of the file (an attic, a
-plenum) are not used: their heat exchange is absorbed by the fitted zones' mass nodes and
-outdoor conductances.
+model of the local loop, which this fit does not have). Zones of the file with a temperature
+only (an attic, a plenum) can be boundaries: their measured temperatures are inputs, each
+fitted zone's air node exchanging heat with each of them through a fitted conductance.
 
 The fit minimises, with ``scipy.optimize.least_squares`` (trust-region reflective, bounds of
 :data:`BOUNDS`), the 24-h prediction errors — each training day simulated from its midnight
@@ -110,16 +110,20 @@ class FitData:
     Attributes
     ----------
     index : (T,) period starts; zones : (m,) the data's zone names.
-    y : (T, m) measured zone temperatures [°C]; u : (T, 4 + m) the model's inputs.
+    y : (T, m) measured zone temperatures [°C]; u : (T, 4 + m + nb) the model's inputs.
+    boundaries : (nb,) the data's unconditioned zones whose temperatures are inputs.
     """
 
     index: pd.DatetimeIndex
     zones: tuple[str, ...]
     y: FloatArray
     u: FloatArray
+    boundaries: tuple[str, ...] = ()
 
 
-def fit_inputs(data: TrendData, zones: tuple[str, ...]) -> FitData:
+def fit_inputs(
+    data: TrendData, zones: tuple[str, ...], boundaries: tuple[str, ...] = ()
+) -> FitData:
     """The model's inputs and outputs for ``zones`` (the data's spelling, any case).
 
     Raises
@@ -161,14 +165,16 @@ def fit_inputs(data: TrendData, zones: tuple[str, ...]) -> FitData:
             data.column(OCCUPIED),
             np.ones(len(y)),
             cooling_kw,
+            data.frame[[zone_column("temp", b) for b in boundaries]].to_numpy(dtype=np.float64),
         ]
     )
-    return FitData(index=data.index, zones=names, y=y, u=u)
+    return FitData(index=data.index, zones=names, y=y, u=u, boundaries=tuple(boundaries))
 
 
 def cooling_kw(data: FitData) -> FloatArray:
     """(T, m) the delivered sensible cooling input [kW]."""
-    return data.u[:, 4:]
+    m = data.y.shape[1]
+    return data.u[:, 4 : 4 + m]
 
 
 # ---- parameter vector ------------------------------------------------------------------
@@ -184,17 +190,26 @@ def _to_vector(values: FloatArray, m: int, pairs: int) -> FloatArray:
     )
 
 
-def _from_vector(theta: FloatArray, couplings: np.ndarray) -> GreyBoxParameters:
-    m = _zones_of(theta, len(couplings))
-    names = _names(m, len(couplings))
+def _from_vector(
+    theta: FloatArray, couplings: np.ndarray, edges: np.ndarray | None = None, boundaries: int = 0
+) -> GreyBoxParameters:
+    """Parameters of ``theta``: zone parameters, then the couplings', then the boundary
+    couplings' (``edges``: (q, 2) zone–boundary pairs) conductances."""
+    edges = np.zeros((0, 2), dtype=np.int64) if edges is None else edges
+    m = _zones_of(theta, len(couplings) + len(edges))
+    names = _names(m, len(couplings) + len(edges))
     values = np.array(
         [np.exp(t) if s == "log" else t for t, (_, s) in zip(theta, names, strict=True)]
     )
     k = len(ZONE_PARAMETERS)
+    split = m * k + len(couplings)
     return GreyBoxParameters(
         zone=values[: m * k].reshape(m, k),
         couplings=np.asarray(couplings, dtype=np.int64).reshape(-1, 2),
-        coupling_ua_kw_per_k=values[m * k :],
+        coupling_ua_kw_per_k=values[m * k : split],
+        boundaries=boundaries,
+        boundary_couplings=np.asarray(edges, dtype=np.int64).reshape(-1, 2),
+        boundary_ua_kw_per_k=values[split:],
     )
 
 
@@ -246,13 +261,14 @@ def predictions(
 def _residuals(
     theta: FloatArray,
     couplings: np.ndarray,
+    edges: np.ndarray,
     data: FitData,
     starts: np.ndarray,
     prior: FloatArray,
     scale: FloatArray,
 ) -> FloatArray:
     try:
-        model = discretize(_from_vector(theta, couplings))
+        model = discretize(_from_vector(theta, couplings, edges, len(data.boundaries)))
         one_step, simulated, measured = predictions(model, data, starts)
     except (np.linalg.LinAlgError, ValueError):
         return np.full(2 * starts.size * PERIODS_PER_DAY * data.y.shape[1] + theta.size, 1e3)
@@ -287,21 +303,33 @@ class FitResult:
 
 
 def _standard_errors(
-    result: scipy.optimize.OptimizeResult, couplings: np.ndarray, residual_count: int
+    result: scipy.optimize.OptimizeResult,
+    couplings: np.ndarray,
+    edges: np.ndarray,
+    boundaries: int,
+    residual_count: int,
 ) -> GreyBoxParameters:
     jac = np.asarray(result.jac)
     dof = max(residual_count - jac.shape[1], 1)
     sigma2 = 2.0 * float(result.cost) / dof
     covariance = np.linalg.pinv(jac.T @ jac) * sigma2
     se_theta = np.sqrt(np.clip(np.diag(covariance), 0.0, None))
-    m = _zones_of(result.x, len(couplings))
-    values = _from_vector(result.x, couplings)
-    flat = np.concatenate([values.zone.ravel(), values.coupling_ua_kw_per_k])
-    logs = np.array([s == "log" for _, s in _names(m, len(couplings))])
+    m = _zones_of(result.x, len(couplings) + len(edges))
+    values = _from_vector(result.x, couplings, edges, boundaries)
+    flat = np.concatenate(
+        [values.zone.ravel(), values.coupling_ua_kw_per_k, values.boundary_ua_kw_per_k]
+    )
+    logs = np.array([s == "log" for _, s in _names(m, len(couplings) + len(edges))])
     se = np.where(logs, flat * se_theta, se_theta)
     k = len(ZONE_PARAMETERS)
+    split = m * k + len(couplings)
     return GreyBoxParameters(
-        zone=se[: m * k].reshape(m, k), couplings=values.couplings, coupling_ua_kw_per_k=se[m * k :]
+        zone=se[: m * k].reshape(m, k),
+        couplings=values.couplings,
+        coupling_ua_kw_per_k=se[m * k : split],
+        boundaries=boundaries,
+        boundary_couplings=values.boundary_couplings,
+        boundary_ua_kw_per_k=se[split:],
     )
 
 
@@ -346,7 +374,8 @@ def _bound_warnings(
 
 
 def fit_model(data: FitData, couplings: list[tuple[int, int]], train: tuple[int, int]) -> FitResult:
-    """Fit the grey-box model on the periods ``train = (first, end)`` (module docstring).
+    """Fit the grey-box model on the periods ``train = (first, end)`` (module docstring);
+    every fitted zone may exchange heat with every boundary of ``data``.
 
     Raises
     ------
@@ -363,19 +392,20 @@ def fit_model(data: FitData, couplings: list[tuple[int, int]], train: tuple[int,
             hint="collect or export more days (the issue's target: fit 14, test 7)",
         )
     pairs = np.array(couplings, dtype=np.int64).reshape(-1, 2)
-    m = data.y.shape[1]
-    prior, low, high, scale = _initial_and_bounds(m, len(pairs))
-    window = FitData(data.index[:end], data.zones, data.y[:end], data.u[:end])
+    m, nb = data.y.shape[1], len(data.boundaries)
+    edges = np.array([(i, b) for i in range(m) for b in range(nb)], dtype=np.int64).reshape(-1, 2)
+    prior, low, high, scale = _initial_and_bounds(m, len(pairs) + len(edges))
+    window = FitData(data.index[:end], data.zones, data.y[:end], data.u[:end], data.boundaries)
     result = scipy.optimize.least_squares(
         _residuals,
         prior,
         bounds=(low, high),
-        args=(pairs, window, starts, prior, scale),
+        args=(pairs, edges, window, starts, prior, scale),
         method="trf",
         x_scale="jac",
         max_nfev=MAX_EVALUATIONS,
     )
-    parameters = _from_vector(result.x, pairs)
+    parameters = _from_vector(result.x, pairs, edges, nb)
     found = _physical_warnings(parameters) + _bound_warnings(result.x, low, high, data.zones)
     if not result.success:
         found.append(f"the optimiser did not converge: {result.message}")
@@ -385,7 +415,7 @@ def fit_model(data: FitData, couplings: list[tuple[int, int]], train: tuple[int,
     return FitResult(
         zones=data.zones,
         parameters=parameters,
-        standard_errors=_standard_errors(result, pairs, residual_count),
+        standard_errors=_standard_errors(result, pairs, edges, nb, residual_count),
         converged=bool(result.success),
         message=str(result.message),
         warnings=tuple(found),

@@ -1,12 +1,13 @@
 """The grey-box RC model that ``hvacflex identify fit`` fits, on arrays.
 
 Per zone ``i`` an air node ``Ta_i`` and one mass node ``Tm_i`` (state ``x = [Ta (m), Tm (m)]``
-[°C]); inputs per 30-min period ``u = [To, G, occ, 1, Q (m)]`` (outdoor temperature [°C],
-global horizontal irradiance [kW/m²], occupied share [–], a constant, delivered sensible
-cooling per zone [kW]), held over the period:
+[°C]); inputs per 30-min period ``u = [To, G, occ, 1, Q (m), Tb (nb)]`` (outdoor temperature
+[°C], global horizontal irradiance [kW/m²], occupied share [–], a constant, delivered sensible
+cooling per zone [kW], measured temperatures of unconditioned zones [°C]), held over the
+period:
 
     C_a,i dTa_i/dt = UA_o,i (To − Ta_i) + UA_am,i (Tm_i − Ta_i) + Σ_j UA_ij (Ta_j − Ta_i)
-                     + S_a,i G + P_occ,i occ + P_0,i − Q_i
+                     + Σ_b UA_ib (Tb_b − Ta_i) + S_a,i G + P_occ,i occ + P_0,i − Q_i
     C_m,i dTm_i/dt = UA_am,i (Ta_i − Tm_i) + UA_mo,i (To − Tm_i) + S_m,i G
 
 with ``C`` [kJ/K], ``UA`` [kW/K], ``S`` [m²] (kW per kW/m²), ``P`` [kW]. The measured zone
@@ -19,7 +20,7 @@ state from the measured temperatures; the mass nodes are never measured.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import numpy.typing as npt
@@ -63,11 +64,20 @@ class GreyBoxParameters:
     zone : (m, len(ZONE_PARAMETERS)) per-zone values in :data:`ZONE_PARAMETERS` order.
     couplings : (p, 2) zone index pairs (i < j) that exchange heat.
     coupling_ua_kw_per_k : (p,) their conductances [kW/K].
+    boundaries : nb, the measured boundary temperatures (unconditioned zones) among the
+        inputs, after the cooling: ``u = [To, G, occ, 1, Q (m), Tb (nb)]``.
+    boundary_couplings : (q, 2) (zone index, boundary index) pairs that exchange heat.
+    boundary_ua_kw_per_k : (q,) their conductances [kW/K].
     """
 
     zone: FloatArray
     couplings: npt.NDArray[np.int64]
     coupling_ua_kw_per_k: FloatArray
+    boundaries: int = 0
+    boundary_couplings: npt.NDArray[np.int64] = field(
+        default_factory=lambda: np.zeros((0, 2), dtype=np.int64)
+    )
+    boundary_ua_kw_per_k: FloatArray = field(default_factory=lambda: np.zeros(0))
 
     @property
     def zones(self) -> int:
@@ -98,8 +108,12 @@ def _symmetric_parts(p: GreyBoxParameters) -> tuple[FloatArray, FloatArray, Floa
         conductance[i, j] = conductance[j, i] = ua
     to_outdoor = np.concatenate([ua_o, ua_mo])
     capacitance = np.concatenate([c_air, c_mass])
-    k = conductance - np.diag(conductance.sum(axis=1) + to_outdoor)
-    h = np.zeros((2 * m, len(EXOGENOUS_INPUTS) + m))
+    to_boundary = np.zeros(2 * m)
+    h = np.zeros((2 * m, len(EXOGENOUS_INPUTS) + m + p.boundaries))
+    for (i, b), ua in zip(p.boundary_couplings, p.boundary_ua_kw_per_k, strict=True):
+        to_boundary[i] += ua
+        h[i, len(EXOGENOUS_INPUTS) + m + b] += ua
+    k = conductance - np.diag(conductance.sum(axis=1) + to_outdoor + to_boundary)
     h[:, 0] = to_outdoor
     h[air, 1] = p.value("solar_air_m2")
     h[mass, 1] = p.value("solar_mass_m2")

@@ -50,7 +50,8 @@ class IdentifiedModel:
     ----------
     name : a title; zones : (m,) lower-case identifiers; energyplus_zones : (m,) the data's
     names; parameters : the grey-box parameters; power : the power model or None (no meter in
-    the data); provenance : where it came from (data file, train and test days).
+    the data); provenance : where it came from (data file, train and test days); boundaries :
+    (nb,) the data's unconditioned zones whose measured temperatures are inputs.
     """
 
     name: str
@@ -59,6 +60,7 @@ class IdentifiedModel:
     parameters: GreyBoxParameters
     power: PowerModel | None
     provenance: dict[str, str]
+    boundaries: tuple[str, ...] = ()
 
 
 class _Spec(BaseModel):
@@ -84,6 +86,12 @@ class _CouplingSpec(_Spec):
     ua_kw_per_k: Annotated[float, Field(ge=0)]
 
 
+class _BoundarySpec(_Spec):
+    zone: str
+    boundary: Annotated[str, Field(min_length=1)]
+    ua_kw_per_k: Annotated[float, Field(ge=0)]
+
+
 class _PowerSpec(_Spec):
     base_kw: float
     kw_per_kw_cooling: float
@@ -96,6 +104,8 @@ class _FileSpec(_Spec):
     provenance: dict[str, str] = {}
     zones: Annotated[list[_ZoneSpec], Field(min_length=1)]
     couplings: list[_CouplingSpec] = []
+    boundaries: list[str] = []
+    boundary_couplings: list[_BoundarySpec] = []
     power_model: _PowerSpec | None = None
 
 
@@ -115,6 +125,7 @@ def write_identified_model(model: IdentifiedModel, path: str | Path) -> Path:
     """Write ``model`` as TOML (module docstring); returns the path."""
     path = Path(path)
     lines = [f"kind = {_toml_value(MODEL_KIND)}", f"name = {_toml_value(model.name)}"]
+    lines.append(f"boundaries = {_toml_value(list(model.boundaries))}")
     _table(lines, "[provenance]", dict(model.provenance))
     names = [n for n, _ in ZONE_PARAMETERS]
     for i, zone in enumerate(model.zones):
@@ -128,6 +139,14 @@ def write_identified_model(model: IdentifiedModel, path: str | Path) -> Path:
             lines,
             "[[couplings]]",
             {"zones": [model.zones[i], model.zones[j]], "ua_kw_per_k": float(ua)},
+        )
+    for (i, b), ua in zip(
+        model.parameters.boundary_couplings, model.parameters.boundary_ua_kw_per_k, strict=True
+    ):
+        _table(
+            lines,
+            "[[boundary_couplings]]",
+            {"zone": model.zones[i], "boundary": model.boundaries[b], "ua_kw_per_k": float(ua)},
         )
     if model.power is not None:
         _table(lines, "[power_model]", dict(vars(model.power)))
@@ -169,11 +188,27 @@ def load_identified_model(path: str | Path) -> IdentifiedModel:
                     hint=f"zones are {list(zones)}",
                 )
         pairs.append((zones.index(c.zones[0]), zones.index(c.zones[1])))
+    edges = []
+    for e in spec.boundary_couplings:
+        if e.zone not in zones or e.boundary not in spec.boundaries:
+            raise ConfigError(
+                "unknown zone or boundary",
+                source=path,
+                field="boundary_couplings",
+                value=f"{e.zone}-{e.boundary}",
+                hint=f"zones are {list(zones)}, boundaries {spec.boundaries}",
+            )
+        edges.append((zones.index(e.zone), spec.boundaries.index(e.boundary)))
     names = [n for n, _ in ZONE_PARAMETERS]
     parameters = GreyBoxParameters(
         zone=np.array([[getattr(z, n) for n in names] for z in spec.zones], dtype=np.float64),
         couplings=np.array(pairs, dtype=np.int64).reshape(-1, 2),
         coupling_ua_kw_per_k=np.array([c.ua_kw_per_k for c in spec.couplings], dtype=np.float64),
+        boundaries=len(spec.boundaries),
+        boundary_couplings=np.array(edges, dtype=np.int64).reshape(-1, 2),
+        boundary_ua_kw_per_k=np.array(
+            [e.ua_kw_per_k for e in spec.boundary_couplings], dtype=np.float64
+        ),
     )
     power = None if spec.power_model is None else PowerModel(**spec.power_model.model_dump())
     return IdentifiedModel(
@@ -183,4 +218,5 @@ def load_identified_model(path: str | Path) -> IdentifiedModel:
         parameters=parameters,
         power=power,
         provenance=dict(spec.provenance),
+        boundaries=tuple(spec.boundaries),
     )

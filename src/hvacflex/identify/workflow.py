@@ -4,8 +4,9 @@
 Which zones and which couplings: ``--template BUILDING`` takes the building file's zones
 (their ``energyplus_zone``, else their name, is the data's zone) and couples the zones its
 walls join; ``--zones Z1,Z2`` names the data's zones, and ``--adjacency "Z1-Z2,…"`` the
-couplings (without it every pair may couple and the fit decides). Days: ``--train A..B`` and
-``--test C..D`` (``YYYY-MM-DD``, both ends included); by default the last
+couplings (without it every pair may couple and the fit decides). The data's zones with a
+temperature only (no supply air: a plenum, an attic) are boundaries of every fitted zone.
+Days: ``--train A..B`` and ``--test C..D`` (``YYYY-MM-DD``, both ends included); by default the last
 :data:`DEFAULT_TEST_DAYS` whole days are the test and the days before them the training.
 """
 
@@ -31,7 +32,7 @@ from hvacflex.identify.fit import (
 )
 from hvacflex.identify.greybox import ZONE_PARAMETERS
 from hvacflex.identify.model_file import IdentifiedModel, identifier, write_identified_model
-from hvacflex.identify.trend import read_trend
+from hvacflex.identify.trend import read_trend, zone_column
 
 DEFAULT_TEST_DAYS = 7
 """Test days at the end of the data when ``--test`` is not given."""
@@ -141,7 +142,9 @@ def _pairs(zones: tuple[str, ...], couples: list[tuple[str, str]] | None) -> lis
     return [(int(i), int(j)) for i, j in sorted(found) if i != j]
 
 
-def _parameters_table(fit: FitResult, zones: tuple[str, ...]) -> pd.DataFrame:
+def _parameters_table(
+    fit: FitResult, zones: tuple[str, ...], boundaries: tuple[str, ...]
+) -> pd.DataFrame:
     rows = []
     for i, zone in enumerate(zones):
         for j, (name, _) in enumerate(ZONE_PARAMETERS):
@@ -167,6 +170,20 @@ def _parameters_table(fit: FitResult, zones: tuple[str, ...]) -> pd.DataFrame:
                 "std_error": se,
             }
         )
+    for (i, b), ua, se in zip(
+        fit.parameters.boundary_couplings,
+        fit.parameters.boundary_ua_kw_per_k,
+        fit.standard_errors.boundary_ua_kw_per_k,
+        strict=True,
+    ):
+        rows.append(
+            {
+                "zone": f"{zones[i]}-{boundaries[b]}",
+                "parameter": "ua_kw_per_k",
+                "value": ua,
+                "std_error": se,
+            }
+        )
     return pd.DataFrame(rows)
 
 
@@ -184,7 +201,13 @@ def identify(
     out = Path(out)
     data = read_trend(data_path)
     names, couples = zones_and_couplings(zones, adjacency, template)
-    inputs = fit_inputs(data, names)
+    fitted = {n.lower() for n in names}
+    boundaries = tuple(
+        z
+        for z in data.zones
+        if z.lower() not in fitted and not data.has(zone_column("supply_flow", z))
+    )
+    inputs = fit_inputs(data, names, boundaries)
     if (train is None) != (test is None):
         raise InputError("give both --train and --test, or neither", field="--train")
     if train is None or test is None:
@@ -214,6 +237,7 @@ def identify(
         zones=ids,
         energyplus_zones=inputs.zones,
         parameters=fit.parameters,
+        boundaries=inputs.boundaries,
         power=power,
         provenance={
             "data": str(data_path),
@@ -226,7 +250,9 @@ def identify(
     report_path = out.parent / "fit_report.csv"
     report.to_csv(report_path, index=False, float_format="%.4g")
     parameters_path = out.parent / "fit_parameters.csv"
-    _parameters_table(fit, ids).to_csv(parameters_path, index=False, float_format="%.5g")
+    _parameters_table(fit, ids, inputs.boundaries).to_csv(
+        parameters_path, index=False, float_format="%.5g"
+    )
     power_table = None if power is None else evaluate_power(power, data, inputs, test_range)
     power_path = None
     if power_table is not None:
