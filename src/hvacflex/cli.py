@@ -324,11 +324,16 @@ def identify_fit(
     typer.echo(outcome.report.to_string(index=False, float_format=lambda v: f"{v:.3f}"))
     if outcome.power is not None:
         typer.echo(outcome.power.to_string(index=False, float_format=lambda v: f"{v:.1f}"))
+    from hvacflex.report.identify_plots import plot_identified_fit
+
+    figure = plot_identified_fit(outcome.predictions, outcome.model_path.parent / "fit.png")
     for path in (
         outcome.model_path,
         outcome.report_path,
         outcome.parameters_path,
         outcome.power_path,
+        outcome.model_path.parent / "fit_predictions.csv",
+        figure,
     ):
         if path is not None:
             typer.echo(f"wrote {path}")

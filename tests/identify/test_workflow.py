@@ -90,3 +90,29 @@ def test_the_cli_exits_2_on_a_gap_and_names_the_line(trend: Path, tmp_path: Path
     assert result.exit_code == 2
     assert "gapped.csv:12" in result.output and "gap in the time index" in result.output
     assert "Traceback" not in result.output
+
+
+def test_the_cli_fit_writes_the_figure_and_the_series(trend: Path, tmp_path: Path) -> None:
+    out = tmp_path / "cli" / "model.toml"
+    result = CliRunner().invoke(
+        app,
+        [
+            "identify",
+            "fit",
+            "--data",
+            str(trend),
+            "--zones",
+            "Room-A,ROOM_b",
+            "--train",
+            "2014-03-03..2014-03-07",
+            "--test",
+            "2014-03-08..2014-03-08",
+            "--out",
+            str(out),
+        ],
+    )
+    assert result.exit_code == 0, result.output
+    series = pd.read_csv(out.parent / "fit_predictions.csv", index_col=0)
+    assert len(series) == 48 and "predicted_24h_Room-A_degc" in series.columns
+    assert (out.parent / "fit.png").stat().st_size > 10_000
+    assert "rmse_24h_k" in result.output

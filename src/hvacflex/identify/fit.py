@@ -494,3 +494,18 @@ def evaluate_power(
             }
         )
     return pd.DataFrame(rows)
+
+
+def prediction_frame(result: FitResult, data: FitData, test: tuple[int, int]) -> pd.DataFrame:
+    """The test days' series: per zone ``measured_<zone>_degc``, ``predicted_1step_<zone>_degc``
+    and ``predicted_24h_<zone>_degc`` (the data's zone names), index the period starts."""
+    starts = _day_starts(data.index, *test)
+    model = discretize(result.parameters)
+    one_step, simulated, measured = predictions(model, data, starts)
+    rows = (starts[:, None] + np.arange(PERIODS_PER_DAY)[None, :]).ravel()
+    columns: dict[str, FloatArray] = {}
+    for i, zone in enumerate(result.zones):
+        columns[f"measured_{zone}_degc"] = measured[:, :, i].ravel()
+        columns[f"predicted_1step_{zone}_degc"] = one_step[:, :, i].ravel()
+        columns[f"predicted_24h_{zone}_degc"] = simulated[:, :, i].ravel()
+    return pd.DataFrame(columns, index=data.index[rows])

@@ -29,6 +29,7 @@ from hvacflex.identify.fit import (
     fit_inputs,
     fit_model,
     fit_power_model,
+    prediction_frame,
 )
 from hvacflex.identify.greybox import ZONE_PARAMETERS
 from hvacflex.identify.model_file import IdentifiedModel, identifier, write_identified_model
@@ -46,7 +47,8 @@ class IdentifyOutcome:
     ----------
     model_path, report_path, parameters_path : the files; power_path : or None.
     report : the fit report (one row per zone); power : daily power check or None.
-    fit : the fit.
+    fit : the fit; predictions : the test days' measured and predicted series
+    (:func:`~hvacflex.identify.fit.prediction_frame`, also ``fit_predictions.csv``).
     """
 
     model_path: Path
@@ -56,6 +58,7 @@ class IdentifyOutcome:
     report: pd.DataFrame
     power: pd.DataFrame | None
     fit: FitResult
+    predictions: pd.DataFrame
 
 
 def parse_days(text: str, index: pd.DatetimeIndex, option: str) -> tuple[int, int]:
@@ -258,6 +261,8 @@ def identify(
     if power_table is not None:
         power_path = out.parent / "power_report.csv"
         power_table.to_csv(power_path, index=False, float_format="%.4g")
+    predictions = prediction_frame(fit, inputs, test_range)
+    predictions.to_csv(out.parent / "fit_predictions.csv", float_format="%.4f")
     return IdentifyOutcome(
-        model_path, report_path, parameters_path, power_path, report, power_table, fit
+        model_path, report_path, parameters_path, power_path, report, power_table, fit, predictions
     )
