@@ -86,3 +86,26 @@ def test_a_two_day_collect_on_5zone_air_cooled(tmp_path: Path) -> None:
 def test_a_zone_the_idf_lacks_is_refused() -> None:
     with pytest.raises(InputError, match="no such zone"):
         collect_trend(IDF, start="2014-03-04", days=1, epw_path="unused.epw", zones=("SPACE9-9",))
+
+
+def test_the_cli_exits_2_on_a_missing_idf_or_an_unknown_excitation(tmp_path: Path) -> None:
+    from typer.testing import CliRunner
+
+    from hvacflex.cli import app
+
+    args = [
+        "identify",
+        "collect",
+        "--start",
+        "2014-03-04",
+        "--days",
+        "1",
+        "--out",
+        str(tmp_path / "t.csv"),
+    ]
+    missing = CliRunner().invoke(app, [*args, "--idf", str(tmp_path / "none.idf")])
+    assert missing.exit_code == 2 and "none.idf" in missing.output
+    unknown = CliRunner().invoke(app, [*args, "--idf", str(IDF), "--excitation", "chirp"])
+    assert unknown.exit_code == 2 and "unknown excitation" in unknown.output
+    assert "Traceback" not in missing.output + unknown.output
+    assert not (tmp_path / "t.csv").exists()
