@@ -41,6 +41,7 @@ LAYERS: list[set[str]] = [
     {"config"},
     {"control"},
     {"sim"},
+    {"identify"},
     {"validation"},
     {"report"},
     {"reproduce"},

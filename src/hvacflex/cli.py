@@ -314,6 +314,102 @@ def validate_energyplus(
         typer.echo(f"wrote {path}")
 
 
+identify_app = typer.Typer(
+    help="Identify a controller model from measured trend data (docs/identify.md).",
+    no_args_is_help=True,
+)
+app.add_typer(identify_app, name="identify")
+
+
+@identify_app.command("collect")
+def identify_collect(
+    idf: Path = typer.Option(..., "--idf", help="The EnergyPlus 25.2 model."),  # noqa: B008
+    start: str = typer.Option(..., "--start", help="First day, YYYY-MM-DD."),
+    days: int = typer.Option(..., "--days", min=1, max=366, help="Number of days."),
+    out: Path = typer.Option(..., "--out", help="The trend CSV to write."),  # noqa: B008
+    weather: Path | None = typer.Option(  # noqa: B008
+        None, "--weather", help="EPW file (default: the shipped Singapore TMYx)."
+    ),
+    excitation: str = typer.Option(
+        "prbs", "--excitation", help="Setpoint excitation: prbs, steps or none."
+    ),
+    zones: str | None = typer.Option(
+        None, "--zones", help="IDF zones, comma-separated (default: every zone with a thermostat)."
+    ),
+    seed: int = typer.Option(0, "--seed", help="Seed of the PRBS."),
+) -> None:
+    """Run the IDF under its own control plus a seeded setpoint excitation; write trend data."""
+    from hvacflex.data.forecast import DEFAULT_WEATHER_FILE
+    from hvacflex.errors import HvacflexError
+    from hvacflex.identify.collect import collect_trend
+    from hvacflex.identify.trend import write_trend
+    from hvacflex.paths import data_dir
+
+    epw = weather if weather is not None else data_dir() / "weather" / DEFAULT_WEATHER_FILE
+    names = None if zones is None else tuple(z.strip() for z in zones.split(",") if z.strip())
+    try:
+        frame = collect_trend(
+            idf, start=start, days=days, epw_path=epw, excitation=excitation, zones=names, seed=seed
+        )
+    except HvacflexError as exc:
+        raise _exit_on_error(exc) from None
+    typer.echo(f"wrote {write_trend(frame, out)} ({len(frame)} periods)")
+
+
+@identify_app.command("fit")
+def identify_fit(
+    data: Path = typer.Option(..., "--data", help="The trend CSV."),  # noqa: B008
+    out: Path = typer.Option(..., "--out", help="The model TOML to write."),  # noqa: B008
+    template: str | None = typer.Option(
+        None, "--template", help="A building file: its zones and the walls between them."
+    ),
+    zones: str | None = typer.Option(None, "--zones", help="The data's zones, comma-separated."),
+    adjacency: str | None = typer.Option(
+        None, "--adjacency", help='Coupled zones, "Z1-Z2,Z1-Z3" (default: every pair).'
+    ),
+    train: str | None = typer.Option(None, "--train", help="YYYY-MM-DD..YYYY-MM-DD"),
+    test: str | None = typer.Option(None, "--test", help="YYYY-MM-DD..YYYY-MM-DD"),
+) -> None:
+    """Fit a grey-box RC model to trend data; write it, fit_report.csv and the parameters."""
+    import warnings
+
+    from hvacflex.errors import HvacflexError
+    from hvacflex.identify.workflow import identify
+    from hvacflex.paths import resolve_building
+
+    try:
+        building = None if template is None else resolve_building(template)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # they are in the fit report's warnings column
+            outcome = identify(
+                data,
+                out,
+                zones=zones,
+                adjacency=adjacency,
+                template=building,
+                train=train,
+                test=test,
+            )
+    except HvacflexError as exc:
+        raise _exit_on_error(exc) from None
+    typer.echo(outcome.report.to_string(index=False, float_format=lambda v: f"{v:.3f}"))
+    if outcome.power is not None:
+        typer.echo(outcome.power.to_string(index=False, float_format=lambda v: f"{v:.1f}"))
+    from hvacflex.report.identify_plots import plot_identified_fit
+
+    figure = plot_identified_fit(outcome.predictions, outcome.model_path.parent / "fit.png")
+    for path in (
+        outcome.model_path,
+        outcome.report_path,
+        outcome.parameters_path,
+        outcome.power_path,
+        outcome.model_path.parent / "fit_predictions.csv",
+        figure,
+    ):
+        if path is not None:
+            typer.echo(f"wrote {path}")
+
+
 @app.command()
 def version() -> None:
     """Print the hvacflex version."""

@@ -14,6 +14,8 @@ Actuation (docs/energyplus.md):
   zone time step in which some zone is warmer than its actuated cooling setpoint, the air
   loop's availability schedules (availability managers, fans, cooling coils) are forced on,
   so pre-cooling works outside the IDF's hours; otherwise the IDF's schedules decide.
+  An all-NaN setpoint actuation releases every zone to the IDF's own schedules for the
+  period (the building's own control, e.g. ``hvacflex identify collect --excitation none``).
 * ``"flow"``: each zone's ``ZoneHVAC:IdealLoadsAirSystem`` supply mass flow and supply
   temperature (the actuation's, else the plant's ``supply_temp_degc``); an IDF without ideal
   loads is refused.
@@ -102,6 +104,9 @@ class EnergyPlusPlant:
         actuation gives none (``make_plant``: the building's ``hvac.supply_temp_degc``);
         required in flow mode, unused in setpoint mode.
     work_dir : folder for EnergyPlus's files (None: a temporary folder per run).
+    extra_variables : (ne,) further output variables read every period; their period means
+        are :attr:`extra_mean` after each :meth:`reset` / :meth:`step` (the trend collection
+        of ``hvacflex identify collect`` reads supply temperatures, solar and occupancy so).
 
     Raises
     ------
@@ -128,6 +133,7 @@ class EnergyPlusPlant:
         singapore_site: bool = True,
         supply_temp_degc: float | None = None,
         work_dir: Path | None = None,
+        extra_variables: tuple[Variable, ...] = (),
     ) -> None:
         if actuation not in ("setpoint", "flow"):
             raise InputError(
@@ -181,7 +187,10 @@ class EnergyPlusPlant:
         if any(o.class_name.lower().startswith("hvactemplate:") for o in objects):
             text = expand_hvac_templates(text, self.source)
             objects = parse_idf(text, source)
+        self._extra_variables = tuple(extra_variables)
         self._spec = self._co_sim_spec(text, objects, timesteps_per_hour)
+        self.extra_mean: FloatArray = np.full(len(self._extra_variables), np.nan)
+        """(ne,) period means of ``extra_variables`` in the last period read."""
         self._sim: CoSimulation | None = None
         self._history: list[FloatArray] = []
         self.python_time_s = 0.0
@@ -217,6 +226,8 @@ class EnergyPlusPlant:
             actuators = [Actuator("Ideal Loads Air System", "Air Mass Flow Rate", n) for n in names]
             actuators += [Actuator("Ideal Loads Air System", "Air Temperature", n) for n in names]
         self._m = m
+        self._extra_start = len(variables)
+        variables += list(self._extra_variables)
         return CoSimSpec(
             idf_text=text,
             epw_path=self.epw_path,
@@ -320,12 +331,14 @@ class EnergyPlusPlant:
             values[:m] = np.maximum(np.asarray(actuation.flow_kg_s, dtype=np.float64), 0.0)
             supply = actuation.supply_temp_degc
             values[m : 2 * m] = self.supply_temp_degc if supply is None else supply
-        if values[:m].shape != (m,) or not np.isfinite(values[:m]).all():
+        released = self.actuation == "setpoint" and bool(np.isnan(values[:m]).all())
+        if values[:m].shape != (m,) or not (released or np.isfinite(values[:m]).all()):
             raise ValueError(f"the actuation needs {m} finite values, got {values[:m]}")
         return values
 
     def _observation(self, reading: PeriodReading) -> Observation:
         m = self._m
+        self.extra_mean = reading.variables_mean[self._extra_start :].copy()
         flow = np.array([reading.variables_mean[idx].sum() for idx in self._inlets])
         hvac_j = np.nan_to_num(reading.meters_j[: len(HVAC_METERS)], nan=0.0).sum()
         return Observation(

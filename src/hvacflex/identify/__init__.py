@@ -1,0 +1,1 @@
+"""Identify a controller model (grey-box RC) from measured trend data (docs/identify.md)."""

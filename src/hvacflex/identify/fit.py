@@ -1,0 +1,511 @@
+"""Fit the grey-box model (:mod:`hvacflex.identify.greybox`) to trend data.
+
+Inputs from the trend file (:mod:`hvacflex.identify.trend`): the delivered sensible cooling
+of zone ``i`` is ``Q_i = ṁ_i c_p (T_i − T_supply,i)`` [kW] from its measured supply flow and
+supply temperature (period means); a zone without them is refused (setpoint-only data needs a
+model of the local loop, which this fit does not have). Zones of the file with a temperature
+only (an attic, a plenum) can be boundaries: their measured temperatures are inputs, each
+fitted zone's air node exchanging heat with each of them through a fitted conductance.
+
+The fit minimises, with ``scipy.optimize.least_squares`` (trust-region reflective, bounds of
+:data:`BOUNDS`), the 24-h prediction errors — each training day simulated from its midnight
+state, estimated by the Kalman filter from the measurements before it — plus the one-step
+errors, plus weak priors (:data:`PRIOR_WEIGHT`) pulling each parameter toward
+:data:`INITIAL` (log scale for the positive ones). The first day only warms the filter up.
+
+The evaluation (:func:`evaluate`) runs the filter over the whole file and reports, on the
+test days, per zone: ``rmse_1step_k`` (the filter's one-step predictions), ``rmse_24h_k``
+(24-h simulations from each midnight's estimated state) and ``bias_k`` (mean 24-h error,
+predicted − measured).
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+import scipy.optimize
+
+from hvacflex.errors import InputError
+from hvacflex.identify.greybox import (
+    ZONE_PARAMETERS,
+    DiscreteModel,
+    FloatArray,
+    GreyBoxParameters,
+    discretize,
+    filter_states,
+    simulate_windows,
+    time_constants_s,
+)
+from hvacflex.identify.model_file import PowerModel
+from hvacflex.identify.trend import (
+    GHI,
+    HVAC_POWER,
+    OCCUPIED,
+    OUTDOOR_TEMP,
+    TrendData,
+    zone_column,
+)
+from hvacflex.units import CP_AIR_J_PER_KG_K
+
+PERIODS_PER_DAY = 48
+PERIOD_S_HOURS = 0.5
+"""One period in hours (kW → kWh)."""
+WARMUP_DAYS = 1
+"""Days at the start of the file that only warm the state estimate up."""
+MIN_TRAIN_DAYS = 3
+"""Fewer training days than this are refused (besides the warm-up day)."""
+ONE_STEP_WEIGHT = 1.0
+"""Weight of the one-step errors next to the 24-h errors in the fit."""
+PRIOR_WEIGHT = 0.02
+"""Weight of the priors: a residual of this size per unit of log (or linear) deviation."""
+MAX_EVALUATIONS = 60
+"""Most residual evaluations per fit (``least_squares``'s ``max_nfev``)."""
+BOUND_TOLERANCE = 1e-4
+"""A parameter within this share of its (log) range from a bound is reported at the bound."""
+TIME_CONSTANT_RANGE_S = (60.0, 28 * 86400.0)
+"""Physically plausible time constants (a minute … four weeks) [s]; outside: a warning."""
+
+INITIAL: dict[str, float] = {
+    "c_air_kj_per_k": 2.0e3,
+    "c_mass_kj_per_k": 1.0e5,
+    "ua_out_kw_per_k": 0.05,
+    "ua_air_mass_kw_per_k": 0.5,
+    "ua_mass_out_kw_per_k": 0.05,
+    "solar_air_m2": 2.0,
+    "solar_mass_m2": 2.0,
+    "occupied_gain_kw": 1.0,
+    "base_gain_kw": 0.5,
+    "ua_kw_per_k": 0.05,
+}
+"""Starting point and prior of every parameter (its unit in its name)."""
+BOUNDS: dict[str, tuple[float, float]] = {
+    "c_air_kj_per_k": (10.0, 1.0e5),
+    "c_mass_kj_per_k": (1.0e3, 1.0e7),
+    "ua_out_kw_per_k": (1.0e-4, 50.0),
+    "ua_air_mass_kw_per_k": (1.0e-3, 50.0),
+    "ua_mass_out_kw_per_k": (1.0e-4, 50.0),
+    "solar_air_m2": (0.0, 200.0),
+    "solar_mass_m2": (0.0, 200.0),
+    "occupied_gain_kw": (0.0, 100.0),
+    "base_gain_kw": (-50.0, 50.0),
+    "ua_kw_per_k": (1.0e-4, 20.0),
+}
+"""Physical bounds of every parameter."""
+LINEAR_PRIOR_SCALE = {
+    "solar_air_m2": 10.0,
+    "solar_mass_m2": 10.0,
+    "occupied_gain_kw": 2.0,
+    "base_gain_kw": 2.0,
+}
+"""Linear parameters: the deviation from the prior that counts as one unit [their unit]."""
+
+
+@dataclass(frozen=True)
+class FitData:
+    """The fit's arrays on the 30-min grid.
+
+    Attributes
+    ----------
+    index : (T,) period starts; zones : (m,) the data's zone names.
+    y : (T, m) measured zone temperatures [°C]; u : (T, 4 + m + nb) the model's inputs.
+    boundaries : (nb,) the data's unconditioned zones whose temperatures are inputs.
+    """
+
+    index: pd.DatetimeIndex
+    zones: tuple[str, ...]
+    y: FloatArray
+    u: FloatArray
+    boundaries: tuple[str, ...] = ()
+
+
+def fit_inputs(
+    data: TrendData, zones: tuple[str, ...], boundaries: tuple[str, ...] = ()
+) -> FitData:
+    """The model's inputs and outputs for ``zones`` (the data's spelling, any case).
+
+    Raises
+    ------
+    InputError
+        for a zone the data lacks, or one without supply flow and temperature.
+    """
+    lookup = {z.lower(): z for z in data.zones}
+    spelled = []
+    for zone in zones:
+        if zone.lower() not in lookup:
+            raise InputError(
+                "the trend data has no such zone",
+                source=data.source,
+                field="--zones",
+                value=zone,
+                hint=f"its zones are {list(data.zones)}",
+            )
+        spelled.append(lookup[zone.lower()])
+    names = tuple(spelled)
+    for zone in names:
+        if not data.has(zone_column("supply_flow", zone)):
+            raise InputError(
+                "the fit needs the zone's supply flow and supply temperature",
+                source=data.source,
+                field=zone_column("supply_flow", zone),
+                hint="export the zone's supply air flow and temperature (setpoint-only data "
+                "is not supported by this fit)",
+            )
+    y = data.zone_series("temp", names)
+    flow = data.zone_series("supply_flow", names)
+    supply = data.zone_series("supply_temp", names)
+    assert y is not None and flow is not None and supply is not None
+    cooling_kw = flow * CP_AIR_J_PER_KG_K * (y - supply) / 1000.0
+    u = np.column_stack(
+        [
+            data.column(OUTDOOR_TEMP),
+            data.column(GHI) / 1000.0,
+            data.column(OCCUPIED),
+            np.ones(len(y)),
+            cooling_kw,
+            data.frame[[zone_column("temp", b) for b in boundaries]].to_numpy(dtype=np.float64),
+        ]
+    )
+    return FitData(index=data.index, zones=names, y=y, u=u, boundaries=tuple(boundaries))
+
+
+def cooling_kw(data: FitData) -> FloatArray:
+    """(T, m) the delivered sensible cooling input [kW]."""
+    m = data.y.shape[1]
+    return data.u[:, 4 : 4 + m]
+
+
+# ---- parameter vector ------------------------------------------------------------------
+
+
+def _names(m: int, pairs: int) -> list[tuple[str, str]]:
+    return [(n, s) for _ in range(m) for n, s in ZONE_PARAMETERS] + [("ua_kw_per_k", "log")] * pairs
+
+
+def _to_vector(values: FloatArray, m: int, pairs: int) -> FloatArray:
+    return np.array(
+        [np.log(v) if s == "log" else v for v, (_, s) in zip(values, _names(m, pairs), strict=True)]
+    )
+
+
+def _from_vector(
+    theta: FloatArray, couplings: np.ndarray, edges: np.ndarray | None = None, boundaries: int = 0
+) -> GreyBoxParameters:
+    """Parameters of ``theta``: zone parameters, then the couplings', then the boundary
+    couplings' (``edges``: (q, 2) zone–boundary pairs) conductances."""
+    edges = np.zeros((0, 2), dtype=np.int64) if edges is None else edges
+    m = _zones_of(theta, len(couplings) + len(edges))
+    names = _names(m, len(couplings) + len(edges))
+    values = np.array(
+        [np.exp(t) if s == "log" else t for t, (_, s) in zip(theta, names, strict=True)]
+    )
+    k = len(ZONE_PARAMETERS)
+    split = m * k + len(couplings)
+    return GreyBoxParameters(
+        zone=values[: m * k].reshape(m, k),
+        couplings=np.asarray(couplings, dtype=np.int64).reshape(-1, 2),
+        coupling_ua_kw_per_k=values[m * k : split],
+        boundaries=boundaries,
+        boundary_couplings=np.asarray(edges, dtype=np.int64).reshape(-1, 2),
+        boundary_ua_kw_per_k=values[split:],
+    )
+
+
+def _zones_of(theta: FloatArray, pairs: int) -> int:
+    return (len(theta) - pairs) // len(ZONE_PARAMETERS)
+
+
+def _initial_and_bounds(
+    m: int, pairs: int
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    names = _names(m, pairs)
+    initial = np.array([INITIAL[n] for n, _ in names])
+    low = np.array([BOUNDS[n][0] for n, _ in names])
+    high = np.array([BOUNDS[n][1] for n, _ in names])
+    scale = np.array([1.0 if s == "log" else LINEAR_PRIOR_SCALE[n] for n, s in names])
+    return (
+        _to_vector(initial, m, pairs),
+        _to_vector(low, m, pairs),
+        _to_vector(high, m, pairs),
+        scale,
+    )
+
+
+# ---- residuals -------------------------------------------------------------------------
+
+
+def _day_starts(index: pd.DatetimeIndex, first: int, last: int) -> np.ndarray:
+    """Positions of the local midnights k with first ≤ k and k + 48 ≤ last."""
+    k = np.flatnonzero((index.hour == 0) & (index.minute == 0))
+    return k[(k >= first) & (k + PERIODS_PER_DAY <= last)]
+
+
+def predictions(
+    model: DiscreteModel, data: FitData, starts: np.ndarray
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """One-step and 24-h predictions on the days starting at ``starts``.
+
+    Returns
+    -------
+    one_step : (D, 48, m), simulated : (D, 48, m), measured : (D, 48, m) [°C].
+    """
+    states = filter_states(model, data.y, data.u)
+    one_step_all = np.einsum("ij,tj->ti", model.c_mean, states) + data.u @ model.d_mean.T
+    rows = starts[:, None] + np.arange(PERIODS_PER_DAY)[None, :]
+    simulated = simulate_windows(model, states[starts], data.u[rows], PERIODS_PER_DAY)
+    return one_step_all[rows], simulated, data.y[rows]
+
+
+def _residuals(
+    theta: FloatArray,
+    couplings: np.ndarray,
+    edges: np.ndarray,
+    data: FitData,
+    starts: np.ndarray,
+    prior: FloatArray,
+    scale: FloatArray,
+) -> FloatArray:
+    try:
+        model = discretize(_from_vector(theta, couplings, edges, len(data.boundaries)))
+        one_step, simulated, measured = predictions(model, data, starts)
+    except (np.linalg.LinAlgError, ValueError):
+        return np.full(2 * starts.size * PERIODS_PER_DAY * data.y.shape[1] + theta.size, 1e3)
+    return np.concatenate(
+        [
+            (simulated - measured).ravel(),
+            ONE_STEP_WEIGHT * (one_step - measured).ravel(),
+            PRIOR_WEIGHT * (theta - prior) / scale,
+        ]
+    )
+
+
+@dataclass(frozen=True)
+class FitResult:
+    """A fitted model.
+
+    Attributes
+    ----------
+    zones : (m,) the data's zone names; parameters : the fitted values.
+    standard_errors : same shapes as ``parameters`` (``zone``, ``coupling_ua_kw_per_k``),
+        from the Jacobian at the optimum (NaN where not identifiable).
+    converged : whether ``least_squares`` reported convergence; message : its message.
+    warnings : (w,) non-physical or doubtful findings (also raised as warnings).
+    """
+
+    zones: tuple[str, ...]
+    parameters: GreyBoxParameters
+    standard_errors: GreyBoxParameters
+    converged: bool
+    message: str
+    warnings: tuple[str, ...]
+
+
+def _standard_errors(
+    result: scipy.optimize.OptimizeResult,
+    couplings: np.ndarray,
+    edges: np.ndarray,
+    boundaries: int,
+    residual_count: int,
+) -> GreyBoxParameters:
+    jac = np.asarray(result.jac)
+    dof = max(residual_count - jac.shape[1], 1)
+    sigma2 = 2.0 * float(result.cost) / dof
+    covariance = np.linalg.pinv(jac.T @ jac) * sigma2
+    se_theta = np.sqrt(np.clip(np.diag(covariance), 0.0, None))
+    m = _zones_of(result.x, len(couplings) + len(edges))
+    values = _from_vector(result.x, couplings, edges, boundaries)
+    flat = np.concatenate(
+        [values.zone.ravel(), values.coupling_ua_kw_per_k, values.boundary_ua_kw_per_k]
+    )
+    logs = np.array([s == "log" for _, s in _names(m, len(couplings) + len(edges))])
+    se = np.where(logs, flat * se_theta, se_theta)
+    k = len(ZONE_PARAMETERS)
+    split = m * k + len(couplings)
+    return GreyBoxParameters(
+        zone=se[: m * k].reshape(m, k),
+        couplings=values.couplings,
+        coupling_ua_kw_per_k=se[m * k : split],
+        boundaries=boundaries,
+        boundary_couplings=values.boundary_couplings,
+        boundary_ua_kw_per_k=se[split:],
+    )
+
+
+def _physical_warnings(p: GreyBoxParameters) -> list[str]:
+    found = []
+    low, high = TIME_CONSTANT_RANGE_S
+    taus = time_constants_s(p)
+    if not np.all(np.isfinite(taus)) or taus.min() < low or taus.max() > high:
+        found.append(
+            f"time constants {taus.min():.3g} … {taus.max():.3g} s lie outside "
+            f"{low:g} … {high:g} s (a minute … four weeks)"
+        )
+    return found
+
+
+def _bound_warnings(
+    theta: FloatArray, low: FloatArray, high: FloatArray, zones: tuple[str, ...]
+) -> list[str]:
+    """``"<zone>: <parameter> at its bound <b>"`` for every zone parameter the optimiser
+    pushed onto a bound (the data do not determine it, or want a value the priors call
+    non-physical)."""
+    found = []
+    span = high - low
+    k = len(ZONE_PARAMETERS)
+    for index in np.flatnonzero(
+        (theta - low <= BOUND_TOLERANCE * span) | (high - theta <= BOUND_TOLERANCE * span)
+    ):
+        if index >= len(zones) * k:
+            continue  # a coupling at zero is a legitimate finding
+        name = ZONE_PARAMETERS[index % k][0]
+        if name.startswith("solar_") or name == "ua_mass_out_kw_per_k":
+            continue  # zero solar share or no mass-outdoor path: physical
+        zone = zones[index // k]
+        near = (
+            low[index]
+            if theta[index] - low[index] <= BOUND_TOLERANCE * span[index]
+            else high[index]
+        )
+        value = float(np.exp(near)) if ZONE_PARAMETERS[index % k][1] == "log" else float(near)
+        found.append(f"{zone}: {name} at its bound {value:g}")
+    return found
+
+
+def fit_model(data: FitData, couplings: list[tuple[int, int]], train: tuple[int, int]) -> FitResult:
+    """Fit the grey-box model on the periods ``train = (first, end)`` (module docstring);
+    every fitted zone may exchange heat with every boundary of ``data``.
+
+    Raises
+    ------
+    InputError
+        for fewer than :data:`MIN_TRAIN_DAYS` whole training days after the warm-up day.
+    """
+    first, end = train
+    starts = _day_starts(data.index, first + WARMUP_DAYS * PERIODS_PER_DAY, end)
+    if starts.size < MIN_TRAIN_DAYS:
+        raise InputError(
+            f"too few days to fit: {starts.size} whole training days after the "
+            f"{WARMUP_DAYS}-day warm-up, need {MIN_TRAIN_DAYS}",
+            field="--train",
+            hint="collect or export more days (the issue's target: fit 14, test 7)",
+        )
+    pairs = np.array(couplings, dtype=np.int64).reshape(-1, 2)
+    m, nb = data.y.shape[1], len(data.boundaries)
+    edges = np.array([(i, b) for i in range(m) for b in range(nb)], dtype=np.int64).reshape(-1, 2)
+    prior, low, high, scale = _initial_and_bounds(m, len(pairs) + len(edges))
+    window = FitData(data.index[:end], data.zones, data.y[:end], data.u[:end], data.boundaries)
+    result = scipy.optimize.least_squares(
+        _residuals,
+        prior,
+        bounds=(low, high),
+        args=(pairs, edges, window, starts, prior, scale),
+        method="trf",
+        x_scale="jac",
+        max_nfev=MAX_EVALUATIONS,
+    )
+    parameters = _from_vector(result.x, pairs, edges, nb)
+    found = _physical_warnings(parameters) + _bound_warnings(result.x, low, high, data.zones)
+    if not result.success:
+        found.append(f"the optimiser did not converge: {result.message}")
+    for text in found:
+        warnings.warn(text, stacklevel=2)
+    residual_count = int(result.fun.size)
+    return FitResult(
+        zones=data.zones,
+        parameters=parameters,
+        standard_errors=_standard_errors(result, pairs, edges, nb, residual_count),
+        converged=bool(result.success),
+        message=str(result.message),
+        warnings=tuple(found),
+    )
+
+
+def evaluate(result: FitResult, data: FitData, test: tuple[int, int]) -> pd.DataFrame:
+    """The fit report on the test periods (module docstring).
+
+    Returns
+    -------
+    One row per zone: ``zone``, ``rmse_1step_k``, ``rmse_24h_k``, ``bias_k``, ``days``.
+    """
+    starts = _day_starts(data.index, *test)
+    if starts.size == 0:
+        raise InputError(
+            "no whole test day", field="--test", hint="give at least one whole day to test on"
+        )
+    model = discretize(result.parameters)
+    one_step, simulated, measured = predictions(model, data, starts)
+    error_1, error_24 = one_step - measured, simulated - measured
+    return pd.DataFrame(
+        {
+            "zone": list(result.zones),
+            "rmse_1step_k": np.sqrt((error_1**2).mean(axis=(0, 1))),
+            "rmse_24h_k": np.sqrt((error_24**2).mean(axis=(0, 1))),
+            "bias_k": error_24.mean(axis=(0, 1)),
+            "days": starts.size,
+        }
+    )
+
+
+def fit_power_model(data: TrendData, inputs: FitData, train: tuple[int, int]) -> PowerModel | None:
+    """Least-squares fit of HVAC electricity against delivered cooling and outdoor
+    temperature on the training periods (:class:`~hvacflex.identify.model_file.PowerModel`);
+    None when the data has no ``hvac_power_kw`` or it is 0 throughout the training."""
+    first, end = train
+    if not data.has(HVAC_POWER) or not np.any(data.column(HVAC_POWER)[first:end]):
+        return None  # no meter, or nothing on it (ideal loads are not metered)
+    regressors = _power_regressors(inputs)[first:end]
+    coefficients, *_ = np.linalg.lstsq(regressors, data.column(HVAC_POWER)[first:end], rcond=None)
+    base, per_cooling, per_outdoor = (float(c) for c in coefficients)
+    return PowerModel(base_kw=base, kw_per_kw_cooling=per_cooling, kw_per_k_outdoor=per_outdoor)
+
+
+def _power_regressors(inputs: FitData) -> FloatArray:
+    return np.column_stack([np.ones(len(inputs.y)), cooling_kw(inputs).sum(axis=1), inputs.u[:, 0]])
+
+
+def power_kw(power: PowerModel, inputs: FitData) -> FloatArray:
+    """(T,) the power model's HVAC electricity [kW]."""
+    coefficients = np.array([power.base_kw, power.kw_per_kw_cooling, power.kw_per_k_outdoor])
+    result: FloatArray = _power_regressors(inputs) @ coefficients
+    return result
+
+
+def evaluate_power(
+    power: PowerModel, data: TrendData, inputs: FitData, test: tuple[int, int]
+) -> pd.DataFrame:
+    """Daily HVAC electricity on the test days: ``day``, ``measured_kwh``, ``predicted_kwh``,
+    ``error_pct`` (predicted − measured, % of measured)."""
+    starts = _day_starts(inputs.index, *test)
+    hours = PERIOD_S_HOURS
+    measured = data.column(HVAC_POWER)
+    predicted = power_kw(power, inputs)
+    rows = []
+    for k in starts:
+        day = slice(int(k), int(k) + PERIODS_PER_DAY)
+        m_kwh, p_kwh = measured[day].sum() * hours, predicted[day].sum() * hours
+        rows.append(
+            {
+                "day": inputs.index[k].date().isoformat(),
+                "measured_kwh": m_kwh,
+                "predicted_kwh": p_kwh,
+                "error_pct": 100.0 * (p_kwh - m_kwh) / m_kwh if m_kwh > 0 else np.nan,
+            }
+        )
+    return pd.DataFrame(rows)
+
+
+def prediction_frame(result: FitResult, data: FitData, test: tuple[int, int]) -> pd.DataFrame:
+    """The test days' series: per zone ``measured_<zone>_degc``, ``predicted_1step_<zone>_degc``
+    and ``predicted_24h_<zone>_degc`` (the data's zone names), index the period starts."""
+    starts = _day_starts(data.index, *test)
+    model = discretize(result.parameters)
+    one_step, simulated, measured = predictions(model, data, starts)
+    rows = (starts[:, None] + np.arange(PERIODS_PER_DAY)[None, :]).ravel()
+    columns: dict[str, FloatArray] = {}
+    for i, zone in enumerate(result.zones):
+        columns[f"measured_{zone}_degc"] = measured[:, :, i].ravel()
+        columns[f"predicted_1step_{zone}_degc"] = one_step[:, :, i].ravel()
+        columns[f"predicted_24h_{zone}_degc"] = simulated[:, :, i].ravel()
+    return pd.DataFrame(columns, index=data.index[rows])

@@ -1,0 +1,268 @@
+"""``hvacflex identify fit`` end to end: trend file in; ``model.toml``, ``fit_report.csv``,
+``fit_parameters.csv`` and (with a metered HVAC) ``power_report.csv`` out, side by side.
+
+Which zones and which couplings: ``--template BUILDING`` takes the building file's zones
+(their ``energyplus_zone``, else their name, is the data's zone) and couples the zones its
+walls join; ``--zones Z1,Z2`` names the data's zones, and ``--adjacency "Z1-Z2,…"`` the
+couplings (without it every pair may couple and the fit decides). The data's zones with a
+temperature only (no supply air: a plenum, an attic) are boundaries of every fitted zone.
+Days: ``--train A..B`` and ``--test C..D`` (``YYYY-MM-DD``, both ends included); by default the last
+:data:`DEFAULT_TEST_DAYS` whole days are the test and the days before them the training.
+"""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from hvacflex.building.io import load_building
+from hvacflex.errors import InputError
+from hvacflex.identify.fit import (
+    PERIODS_PER_DAY,
+    FitResult,
+    evaluate,
+    evaluate_power,
+    fit_inputs,
+    fit_model,
+    fit_power_model,
+    prediction_frame,
+)
+from hvacflex.identify.greybox import ZONE_PARAMETERS
+from hvacflex.identify.model_file import IdentifiedModel, identifier, write_identified_model
+from hvacflex.identify.trend import read_trend, zone_column
+
+DEFAULT_TEST_DAYS = 7
+"""Test days at the end of the data when ``--test`` is not given."""
+
+
+@dataclass(frozen=True)
+class IdentifyOutcome:
+    """What ``identify fit`` wrote and measured.
+
+    Attributes
+    ----------
+    model_path, report_path, parameters_path : the files; power_path : or None.
+    report : the fit report (one row per zone); power : daily power check or None.
+    fit : the fit; predictions : the test days' measured and predicted series
+    (:func:`~hvacflex.identify.fit.prediction_frame`, also ``fit_predictions.csv``).
+    """
+
+    model_path: Path
+    report_path: Path
+    parameters_path: Path
+    power_path: Path | None
+    report: pd.DataFrame
+    power: pd.DataFrame | None
+    fit: FitResult
+    predictions: pd.DataFrame
+
+
+def parse_days(text: str, index: pd.DatetimeIndex, option: str) -> tuple[int, int]:
+    """``"YYYY-MM-DD..YYYY-MM-DD"`` → (first, end) period positions (both days included)."""
+    parts = text.split("..")
+    try:
+        if len(parts) != 2:
+            raise ValueError(text)
+        first, last = (pd.Timestamp(p).date() for p in parts)
+    except ValueError:
+        raise InputError(
+            "not a day range", field=option, value=text, hint="write YYYY-MM-DD..YYYY-MM-DD"
+        ) from None
+    days = np.array([t.date() for t in index])
+    inside = np.flatnonzero((days >= first) & (days <= last))
+    if last < first or inside.size == 0:
+        raise InputError(
+            "the day range holds no data",
+            field=option,
+            value=text,
+            hint=f"the data covers {days[0]} … {days[-1]}",
+        )
+    return int(inside[0]), int(inside[-1]) + 1
+
+
+def _default_ranges(index: pd.DatetimeIndex) -> tuple[tuple[int, int], tuple[int, int]]:
+    midnights = np.flatnonzero((index.hour == 0) & (index.minute == 0))
+    whole = midnights[midnights + PERIODS_PER_DAY <= len(index)]
+    if whole.size <= DEFAULT_TEST_DAYS:
+        raise InputError(
+            f"too few days: {whole.size} whole days, the default split tests on the last "
+            f"{DEFAULT_TEST_DAYS}",
+            field="--data",
+            hint="give --train and --test, or more data",
+        )
+    split = int(whole[-DEFAULT_TEST_DAYS])
+    return (0, split), (split, len(index))
+
+
+def zones_and_couplings(
+    zones: str | None, adjacency: str | None, template: str | Path | None
+) -> tuple[tuple[str, ...], list[tuple[str, str]] | None]:
+    """The data's zone names and the coupled pairs (None: every pair)."""
+    if (zones is None) == (template is None):
+        raise InputError(
+            "give exactly one of --template and --zones",
+            field="--zones",
+            hint="--template BUILDING.toml or --zones Z1,Z2,…",
+        )
+    if template is not None:
+        building = load_building(template)
+        name_of = {z.name: z.energyplus_zone or z.name for z in building.zones}
+        pairs = {
+            tuple(sorted((name_of[w.zone], name_of[w.adjacent])))
+            for w in building.walls
+            if w.adjacent in name_of
+        }
+        return tuple(name_of.values()), [(a, b) for a, b in sorted(pairs)]
+    assert zones is not None
+    names = tuple(z.strip() for z in zones.split(",") if z.strip())
+    if adjacency is None:
+        return names, None
+    couples = []
+    for item in adjacency.split(","):
+        ends = [e.strip() for e in item.split("-") if e.strip()] if item.count("-") == 1 else []
+        lookup = {n.lower(): n for n in names}
+        if len(ends) != 2 or any(e.lower() not in lookup for e in ends):
+            raise InputError(
+                "not a pair of the --zones",
+                field="--adjacency",
+                value=item,
+                hint=f"write Z1-Z2 with zones of {list(names)} (names containing '-' need "
+                "--template)",
+            )
+        couples.append((lookup[ends[0].lower()], lookup[ends[1].lower()]))
+    return names, couples
+
+
+def _pairs(zones: tuple[str, ...], couples: list[tuple[str, str]] | None) -> list[tuple[int, int]]:
+    if couples is None:
+        return list(itertools.combinations(range(len(zones)), 2))
+    lower = [z.lower() for z in zones]
+    found = {tuple(sorted((lower.index(a.lower()), lower.index(b.lower())))) for a, b in couples}
+    return [(int(i), int(j)) for i, j in sorted(found) if i != j]
+
+
+def _parameters_table(
+    fit: FitResult, zones: tuple[str, ...], boundaries: tuple[str, ...]
+) -> pd.DataFrame:
+    rows = []
+    for i, zone in enumerate(zones):
+        for j, (name, _) in enumerate(ZONE_PARAMETERS):
+            rows.append(
+                {
+                    "zone": zone,
+                    "parameter": name,
+                    "value": fit.parameters.zone[i, j],
+                    "std_error": fit.standard_errors.zone[i, j],
+                }
+            )
+    for (i, j), ua, se in zip(
+        fit.parameters.couplings,
+        fit.parameters.coupling_ua_kw_per_k,
+        fit.standard_errors.coupling_ua_kw_per_k,
+        strict=True,
+    ):
+        rows.append(
+            {
+                "zone": f"{zones[i]}-{zones[j]}",
+                "parameter": "ua_kw_per_k",
+                "value": ua,
+                "std_error": se,
+            }
+        )
+    for (i, b), ua, se in zip(
+        fit.parameters.boundary_couplings,
+        fit.parameters.boundary_ua_kw_per_k,
+        fit.standard_errors.boundary_ua_kw_per_k,
+        strict=True,
+    ):
+        rows.append(
+            {
+                "zone": f"{zones[i]}-{boundaries[b]}",
+                "parameter": "ua_kw_per_k",
+                "value": ua,
+                "std_error": se,
+            }
+        )
+    return pd.DataFrame(rows)
+
+
+def identify(
+    data_path: str | Path,
+    out: str | Path,
+    *,
+    zones: str | None = None,
+    adjacency: str | None = None,
+    template: str | Path | None = None,
+    train: str | None = None,
+    test: str | None = None,
+) -> IdentifyOutcome:
+    """Fit, evaluate and write (module docstring)."""
+    out = Path(out)
+    data = read_trend(data_path)
+    names, couples = zones_and_couplings(zones, adjacency, template)
+    fitted = {n.lower() for n in names}
+    boundaries = tuple(
+        z
+        for z in data.zones
+        if z.lower() not in fitted and not data.has(zone_column("supply_flow", z))
+    )
+    inputs = fit_inputs(data, names, boundaries)
+    if (train is None) != (test is None):
+        raise InputError("give both --train and --test, or neither", field="--train")
+    if train is None or test is None:
+        train_range, test_range = _default_ranges(inputs.index)
+    else:
+        train_range = parse_days(train, inputs.index, "--train")
+        test_range = parse_days(test, inputs.index, "--test")
+    fit = fit_model(inputs, _pairs(inputs.zones, couples), train_range)
+    report = evaluate(fit, inputs, test_range)
+    ids = tuple(identifier(z) for z in inputs.zones)
+    report.insert(1, "energyplus_zone", list(inputs.zones))
+    report["zone"] = list(ids)
+    report["converged"] = fit.converged
+    report["warnings"] = [
+        "; ".join(
+            w
+            for w in fit.warnings
+            if w.startswith(f"{zone}:") or not any(w.startswith(f"{z}:") for z in inputs.zones)
+        )
+        for zone in inputs.zones
+    ]
+    power = fit_power_model(data, inputs, train_range)
+    day = [inputs.index[r[0]].date().isoformat() for r in (train_range, test_range)]
+    last = [inputs.index[r[1] - 1].date().isoformat() for r in (train_range, test_range)]
+    model = IdentifiedModel(
+        name=f"identified from {Path(data_path).name}",
+        zones=ids,
+        energyplus_zones=inputs.zones,
+        parameters=fit.parameters,
+        boundaries=inputs.boundaries,
+        power=power,
+        provenance={
+            "data": str(data_path),
+            "train": f"{day[0]}..{last[0]}",
+            "test": f"{day[1]}..{last[1]}",
+        },
+    )
+    out.parent.mkdir(parents=True, exist_ok=True)
+    model_path = write_identified_model(model, out)
+    report_path = out.parent / "fit_report.csv"
+    report.to_csv(report_path, index=False, float_format="%.4g")
+    parameters_path = out.parent / "fit_parameters.csv"
+    _parameters_table(fit, ids, inputs.boundaries).to_csv(
+        parameters_path, index=False, float_format="%.5g"
+    )
+    power_table = None if power is None else evaluate_power(power, data, inputs, test_range)
+    power_path = None
+    if power_table is not None:
+        power_path = out.parent / "power_report.csv"
+        power_table.to_csv(power_path, index=False, float_format="%.4g")
+    predictions = prediction_frame(fit, inputs, test_range)
+    predictions.to_csv(out.parent / "fit_predictions.csv", float_format="%.4f")
+    return IdentifyOutcome(
+        model_path, report_path, parameters_path, power_path, report, power_table, fit, predictions
+    )

@@ -1,0 +1,90 @@
+"""The fit recovers a model it can represent, and refuses what it cannot fit."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from hvacflex.errors import InputError
+from hvacflex.identify.fit import (
+    evaluate,
+    evaluate_power,
+    fit_inputs,
+    fit_model,
+    fit_power_model,
+)
+from hvacflex.identify.trend import read_trend, write_trend
+
+ZONES = ("Room-A", "ROOM_b")
+
+
+@pytest.fixture(scope="module")
+def trend(
+    tmp_path_factory: pytest.TempPathFactory, synthetic_trend: Callable[..., pd.DataFrame]
+) -> Path:
+    path = tmp_path_factory.mktemp("fit") / "trend.csv"
+    write_trend(synthetic_trend(days=6, seed=1, noise_k=0.02), path)
+    return path
+
+
+def test_the_fit_predicts_a_model_of_its_own_structure(trend: Path) -> None:
+    data = read_trend(trend)
+    inputs = fit_inputs(data, ("room-a", "room_B"))  # any case
+    assert inputs.zones == ZONES
+    result = fit_model(inputs, [(0, 1)], (0, 5 * 48))
+    report = evaluate(result, inputs, (5 * 48, 6 * 48))
+    # noise 0.02 K on the measurements; a zero model error would leave ~0.02 K
+    assert (report["rmse_24h_k"] < 0.15).all(), report
+    assert (report["rmse_1step_k"] < 0.1).all(), report
+    assert (report["bias_k"].abs() < 0.1).all()
+    # the standard errors exist and are finite for the well-identified capacitances
+    assert np.isfinite(result.standard_errors.zone[:, 0]).all()
+
+
+def test_the_power_model_recovers_the_metered_relation(trend: Path) -> None:
+    data = read_trend(trend)
+    inputs = fit_inputs(data, ZONES)
+    power = fit_power_model(data, inputs, (0, 5 * 48))
+    assert power is not None
+    assert power.kw_per_kw_cooling == pytest.approx(0.3, abs=1e-3)  # temps carry 0.02 K noise
+    assert power.kw_per_k_outdoor == pytest.approx(0.05, abs=1e-3)
+    daily = evaluate_power(power, data, inputs, (5 * 48, 6 * 48))
+    assert len(daily) == 1 and abs(daily["error_pct"].iloc[0]) < 0.5
+
+
+def test_too_few_days_are_refused(trend: Path) -> None:
+    inputs = fit_inputs(read_trend(trend), ZONES)
+    with pytest.raises(InputError, match="too few days to fit"):
+        fit_model(inputs, [], (0, 3 * 48))
+
+
+def test_a_zone_the_data_lacks_or_without_supply_air_is_refused(
+    trend: Path, tmp_path: Path, synthetic_trend: Callable[..., pd.DataFrame]
+) -> None:
+    data = read_trend(trend)
+    with pytest.raises(InputError, match="no such zone") as caught:
+        fit_inputs(data, ("Room-A", "attic"))
+    assert caught.value.value == "attic"
+    frame = synthetic_trend(days=1).drop(
+        columns=["supply_flow_ROOM_b_kg_s", "supply_temp_ROOM_b_degc"]
+    )
+    path = write_trend(frame, tmp_path / "setpoint_only.csv")
+    with pytest.raises(InputError, match="supply flow and supply temperature"):
+        fit_inputs(read_trend(path), ZONES)
+
+
+def test_a_parameter_pushed_onto_its_bound_is_named_in_the_warnings() -> None:
+    from hvacflex.identify.fit import _bound_warnings, _initial_and_bounds
+
+    prior, low, high, _ = _initial_and_bounds(2, 1)
+    theta = prior.copy()
+    theta[0], theta[9 + 1] = low[0], high[9 + 1]  # zone A's c_air, zone B's c_mass
+    assert _bound_warnings(theta, low, high, ("A", "B")) == [
+        "A: c_air_kj_per_k at its bound 10",
+        "B: c_mass_kj_per_k at its bound 1e+07",
+    ]
+    assert _bound_warnings(prior, low, high, ("A", "B")) == []

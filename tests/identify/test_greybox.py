@@ -1,0 +1,165 @@
+"""The grey-box model against independent references: scipy's matrix exponential and Riccati
+solver, a single RC node's analytic step response, the steady-state heat balance."""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import scipy.linalg
+
+from hvacflex.identify.greybox import (
+    MEASUREMENT_STD_K,
+    PROCESS_STD_AIR_K,
+    PROCESS_STD_MASS_K,
+    ZONE_PARAMETERS,
+    GreyBoxParameters,
+    continuous_matrices,
+    discretize,
+    filter_states,
+    simulate_windows,
+    time_constants_s,
+)
+
+DT_S = 1800.0
+
+
+def _random_parameters(m: int, seed: int) -> GreyBoxParameters:
+    rng = np.random.default_rng(seed)
+    zone = np.column_stack(
+        [
+            rng.uniform(500, 5000, m),  # c_air
+            rng.uniform(1e4, 1e6, m),  # c_mass
+            rng.uniform(0.01, 0.5, m),
+            rng.uniform(0.1, 3.0, m),
+            rng.uniform(0.01, 0.5, m),
+            rng.uniform(0, 10, m),
+            rng.uniform(0, 10, m),
+            rng.uniform(0, 3, m),
+            rng.uniform(-1, 1, m),
+        ]
+    )
+    assert zone.shape[1] == len(ZONE_PARAMETERS)
+    pairs = np.array(list(itertools.combinations(range(m), 2)), dtype=np.int64).reshape(-1, 2)
+    return GreyBoxParameters(zone, pairs, rng.uniform(0.01, 0.3, len(pairs)))
+
+
+def test_discretisation_equals_the_augmented_matrix_exponential() -> None:
+    p = _random_parameters(4, seed=3)
+    model = discretize(p, DT_S)
+    a_c, b_c = continuous_matrices(p)
+    n, nu = b_c.shape
+    big = np.zeros((2 * (n + nu), 2 * (n + nu)))
+    big[:n, :n], big[:n, n : n + nu] = a_c * DT_S, b_c * DT_S
+    big[: n + nu, n + nu :] = np.eye(n + nu) * DT_S
+    e = scipy.linalg.expm(big)
+    step, integral = e[: n + nu, : n + nu], e[: n + nu, n + nu :] / DT_S
+    np.testing.assert_allclose(model.a, step[:n, :n], atol=1e-12)
+    np.testing.assert_allclose(model.b, step[:n, n:], atol=1e-12)
+    np.testing.assert_allclose(model.c_mean, integral[:4, :n], atol=1e-12)
+    np.testing.assert_allclose(model.d_mean, integral[:4, n:], atol=1e-12)
+
+
+def test_kalman_gain_equals_scipys_riccati_solution() -> None:
+    p = _random_parameters(3, seed=5)
+    model = discretize(p, DT_S)
+    noise = np.diag(np.r_[np.full(3, PROCESS_STD_AIR_K), np.full(3, PROCESS_STD_MASS_K)] ** 2)
+    r = np.eye(3) * MEASUREMENT_STD_K**2
+    cov = scipy.linalg.solve_discrete_are(model.a.T, model.c_mean.T, noise, r)
+    gain = model.a @ cov @ model.c_mean.T @ np.linalg.inv(model.c_mean @ cov @ model.c_mean.T + r)
+    np.testing.assert_allclose(model.gain, gain, atol=1e-9)
+
+
+def test_one_zone_with_a_stiff_mass_follows_the_rc_step_response() -> None:
+    """Air node alone (mass coupling tiny, mass huge): T(t) = To + (T0 − To)·exp(−t UA/C)."""
+    c_air, ua = 3000.0, 0.2
+    zone = np.array([[c_air, 1e7, ua, 1e-7, 1e-7, 0.0, 0.0, 0.0, 0.0]])
+    p = GreyBoxParameters(zone, np.zeros((0, 2), dtype=np.int64), np.zeros(0))
+    model = discretize(p, DT_S)
+    u = np.array([[30.0, 0.0, 0.0, 1.0, 0.0]] * 4)
+    x0 = np.array([[20.0, 20.0]])
+    means = simulate_windows(model, x0, u[None], 4)[0, :, 0]
+    tau = c_air / ua
+    t = np.linspace(0.0, 4 * DT_S, 4001)
+    exact = 30.0 + (20.0 - 30.0) * np.exp(-t / tau)
+    expected = [exact[i * 1000 : (i + 1) * 1000 + 1].mean() for i in range(4)]
+    np.testing.assert_allclose(means, expected, atol=1e-4)  # the mass coupling is negligible
+
+
+def test_steady_state_balances_heat_in_and_out() -> None:
+    p = _random_parameters(3, seed=7)
+    a_c, b_c = continuous_matrices(p)
+    u = np.r_[31.0, 0.6, 1.0, 1.0, 2.0, 1.5, 0.5]
+    x = np.linalg.solve(a_c, -b_c @ u)
+    ua_o, ua_mo = p.value("ua_out_kw_per_k"), p.value("ua_mass_out_kw_per_k")
+    lost_kw = (ua_o * (x[:3] - 31.0) + ua_mo * (x[3:] - 31.0)).sum()
+    gains_kw = (
+        0.6 * (p.value("solar_air_m2") + p.value("solar_mass_m2"))
+        + p.value("occupied_gain_kw")
+        + p.value("base_gain_kw")
+    ).sum() - u[4:].sum()
+    assert abs(lost_kw - gains_kw) < 1e-9
+
+
+def test_the_filter_converges_to_the_true_state_of_its_own_model() -> None:
+    p = _random_parameters(2, seed=11)
+    model = discretize(p, DT_S)
+    rng = np.random.default_rng(0)
+    steps = 400
+    u = np.column_stack(
+        [
+            30 + rng.normal(0, 1, steps),
+            rng.uniform(0, 0.8, steps),
+            rng.integers(0, 2, steps),
+            np.ones(steps),
+            rng.uniform(0, 3, (steps, 2)),
+        ]
+    )
+    x = np.array([24.0, 25.0, 27.0, 28.0])
+    truth, y = np.empty((steps, 4)), np.empty((steps, 2))
+    for k in range(steps):
+        truth[k] = x
+        y[k] = model.c_mean @ x + model.d_mean @ u[k]
+        x = model.a @ x + model.b @ u[k]
+    estimates = filter_states(model, y, u)
+    assert np.abs(estimates[-50:] - truth[-50:]).max() < 1e-3
+    assert np.abs(estimates[0] - truth[0]).max() > 0.5  # it did start wrong
+
+
+def test_time_constants_are_those_of_the_eigenvalues() -> None:
+    p = _random_parameters(2, seed=1)
+    taus = time_constants_s(p)
+    eigenvalues = np.linalg.eigvals(continuous_matrices(p)[0])
+    np.testing.assert_allclose(np.sort(taus), np.sort(-1.0 / eigenvalues.real))
+    assert (taus > 0).all()
+
+
+def test_a_boundary_zone_enters_the_balance_and_the_exponential() -> None:
+    base = _random_parameters(2, seed=13)
+    p = GreyBoxParameters(
+        base.zone,
+        base.couplings,
+        base.coupling_ua_kw_per_k,
+        boundaries=1,
+        boundary_couplings=np.array([[0, 0], [1, 0]], dtype=np.int64),
+        boundary_ua_kw_per_k=np.array([0.4, 0.1]),
+    )
+    a_c, b_c = continuous_matrices(p)
+    assert b_c.shape == (4, 4 + 2 + 1)
+    u = np.r_[30.0, 0.5, 1.0, 1.0, 2.0, 1.0, 27.0]
+    x = np.linalg.solve(a_c, -b_c @ u)
+    ua_o, ua_mo = p.value("ua_out_kw_per_k"), p.value("ua_mass_out_kw_per_k")
+    lost_kw = (ua_o * (x[:2] - 30.0) + ua_mo * (x[2:] - 30.0)).sum()
+    lost_kw += (np.array([0.4, 0.1]) * (x[:2] - 27.0)).sum()
+    gains_kw = (
+        0.5 * (p.value("solar_air_m2") + p.value("solar_mass_m2"))
+        + p.value("occupied_gain_kw")
+        + p.value("base_gain_kw")
+    ).sum() - 3.0
+    assert abs(lost_kw - gains_kw) < 1e-9
+    model = discretize(p, DT_S)
+    n, nu = b_c.shape
+    big = np.zeros((n + nu, n + nu))
+    big[:n, :n], big[:n, n:] = a_c * DT_S, b_c * DT_S
+    step = scipy.linalg.expm(big)
+    np.testing.assert_allclose(model.b, step[:n, n:], atol=1e-12)

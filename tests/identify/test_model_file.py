@@ -1,0 +1,85 @@
+"""The identified-model file: written, read back equal, refused when invalid."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from hvacflex.errors import ConfigError
+from hvacflex.identify.greybox import GreyBoxParameters
+from hvacflex.identify.model_file import (
+    IdentifiedModel,
+    PowerModel,
+    identifier,
+    load_identified_model,
+    write_identified_model,
+)
+
+
+def _model() -> IdentifiedModel:
+    zone = np.array(
+        [
+            [800.0, 3.0e4, 0.05, 0.8, 0.03, 3.0, 6.0, 1.5, 0.4],
+            [1200.0, 6.0e4, 0.08, 1.2, 0.05, 5.0, 8.0, 2.5, -0.2],
+        ]
+    )
+    parameters = GreyBoxParameters(
+        zone,
+        np.array([[0, 1]], dtype=np.int64),
+        np.array([0.3]),
+        boundaries=1,
+        boundary_couplings=np.array([[0, 0], [1, 0]], dtype=np.int64),
+        boundary_ua_kw_per_k=np.array([0.5, 0.25]),
+    )
+    return IdentifiedModel(
+        name="identified from trend.csv",
+        zones=("space1_1", "space2_1"),
+        energyplus_zones=("SPACE1-1", "Space2-1"),
+        parameters=parameters,
+        power=PowerModel(base_kw=1.0, kw_per_kw_cooling=0.3, kw_per_k_outdoor=0.05),
+        provenance={"data": "trend.csv", "train": "2014-03-03..2014-03-17"},
+        boundaries=("PLENUM-1",),
+    )
+
+
+def test_a_written_model_reads_back_equal(tmp_path: Path) -> None:
+    model = _model()
+    loaded = load_identified_model(write_identified_model(model, tmp_path / "model.toml"))
+    assert loaded.zones == model.zones and loaded.energyplus_zones == model.energyplus_zones
+    np.testing.assert_array_equal(loaded.parameters.zone, model.parameters.zone)
+    np.testing.assert_array_equal(loaded.parameters.couplings, model.parameters.couplings)
+    assert loaded.boundaries == ("PLENUM-1",) and loaded.parameters.boundaries == 1
+    np.testing.assert_array_equal(
+        loaded.parameters.boundary_ua_kw_per_k, model.parameters.boundary_ua_kw_per_k
+    )
+    np.testing.assert_array_equal(
+        loaded.parameters.boundary_couplings, model.parameters.boundary_couplings
+    )
+    assert loaded.power == model.power and loaded.provenance == model.provenance
+
+
+def test_zone_names_become_lower_case_identifiers() -> None:
+    assert identifier("SPACE1-1") == "space1_1"
+    assert identifier("Core Zone") == "core_zone"
+    assert identifier("1st floor") == "zone_1st_floor"
+
+
+def test_a_negative_capacitance_is_refused_naming_the_field(tmp_path: Path) -> None:
+    path = write_identified_model(_model(), tmp_path / "model.toml")
+    text = path.read_text(encoding="utf-8").replace(
+        "c_air_kj_per_k = 800.0", "c_air_kj_per_k = -8.0"
+    )
+    path.write_text(text, encoding="utf-8")
+    with pytest.raises(ConfigError) as caught:
+        load_identified_model(path)
+    assert caught.value.field == "zones.0.c_air_kj_per_k" and caught.value.value == -8.0
+
+
+def test_a_coupling_to_an_unknown_zone_is_refused(tmp_path: Path) -> None:
+    path = write_identified_model(_model(), tmp_path / "model.toml")
+    text = path.read_text(encoding="utf-8").replace('["space1_1", "space2_1"]', '["space1_1", "x"]')
+    path.write_text(text, encoding="utf-8")
+    with pytest.raises(ConfigError, match="unknown zone"):
+        load_identified_model(path)
