@@ -56,7 +56,7 @@ def fleet(tmp_path_factory: pytest.TempPathFactory) -> tuple[TestClient, dict[st
         keys[building_id] = registered.json()["payload"]["key"]
         nodes = registered.json()["payload"]["nodes"]
         measured = client.post(
-            f"/v1/buildings/{building_id}/measurements",
+            f"/v1/buildings/{building_id}/measurements?wait_s=10",
             json={"time": f"{START}T00:00", "node_temperatures_degc": [24.0] * len(nodes)},
             headers={"X-API-Key": keys[building_id]},
         )

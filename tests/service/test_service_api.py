@@ -15,7 +15,7 @@ from hvacflex.service.app import MAX_BODY_BYTES, create_app
 def _measure(service: Service, building_id: str, time: str, temp: float = 25.0) -> Any:
     body = {"time": time, "node_temperatures_degc": [temp] * len(service.nodes)}
     return service.client.post(
-        f"/v1/buildings/{building_id}/measurements",
+        f"/v1/buildings/{building_id}/measurements?wait_s=10",
         json=body,
         headers=service.headers(service.keys[building_id]),
     )

@@ -42,7 +42,9 @@ def app(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[TestClient, 
 
 def _measure(client: TestClient, key: str, time: str, nodes: int) -> dict[str, Any]:
     body = {"time": time, "node_temperatures_degc": [24.5] * nodes}
-    response = client.post("/v1/buildings/e1/measurements", json=body, headers={"X-API-Key": key})
+    response = client.post(
+        "/v1/buildings/e1/measurements?wait_s=10", json=body, headers={"X-API-Key": key}
+    )
     assert response.status_code == 200, response.text
     plan: dict[str, Any] = response.json()["payload"]
     return plan
@@ -152,7 +154,7 @@ def test_output_feedback_building_holds_its_filter_through_the_event(
     def measure(time: str) -> dict[str, Any]:
         payload = {"time": f"{START}T{time}", "node_temperatures_degc": [24.5] * nodes}
         answer = client.post(
-            "/v1/buildings/k1/measurements", json=payload, headers={"X-API-Key": key}
+            "/v1/buildings/k1/measurements?wait_s=10", json=payload, headers={"X-API-Key": key}
         )
         assert answer.status_code == 200, answer.text
         plan: dict[str, Any] = answer.json()["payload"]

@@ -244,6 +244,19 @@ class Plan(BaseModel):
     horizon_temp_degc: list[list[float | None]]
 
 
+class PlanAck(BaseModel):
+    """A measurement acknowledged (202): stored, its plan to come as ``revision``."""
+
+    building_id: str
+    period: int
+    time: str
+    revision: int = Field(description="The revision of the period's plan this produces.")
+
+
+MAX_WAIT_S = 10.0
+"""Longest a measurement request may wait for its plan (``?wait_s``) [s]."""
+
+
 class PlanList(BaseModel):
     plans: list[Plan]
 
