@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import logging
 import socket
+from collections.abc import Callable
 from datetime import UTC, datetime, timedelta
 from pathlib import Path
 from typing import Any
@@ -41,10 +42,9 @@ def _room(building_id: str) -> dict[str, Any]:
 
 
 @pytest.fixture(scope="module")
-def fleet(tmp_path_factory: pytest.TempPathFactory) -> tuple[TestClient, dict[str, str], Any]:
+def fleet(make_db_url: Callable[[str], str]) -> tuple[TestClient, dict[str, str], Any]:
     """Two room1 buildings, each with a plan of period 0."""
-    db = tmp_path_factory.mktemp("ops") / "ops.db"
-    app = create_app(f"sqlite:///{db}", stale_after_s=STALE_AFTER_S)
+    app = create_app(make_db_url("ops"), stale_after_s=STALE_AFTER_S)
     with app.state.sessions() as session, session.begin():
         operator = create_key(session, "operator")
     client = TestClient(app)

@@ -4,8 +4,7 @@ event state survives a restart (it is stored with the controller's state)."""
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-from pathlib import Path
+from collections.abc import Callable, Iterator
 from typing import Any
 
 import pytest
@@ -20,10 +19,9 @@ RESERVE = preset("rmpc").reserve
 
 
 @pytest.fixture(scope="module")
-def app(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[TestClient, str, str]]:
+def app(make_db_url: Callable[[str], str]) -> Iterator[tuple[TestClient, str, str]]:
     """A fresh service with building ``e1`` (``rmpc``: D = 4, R = 2) and dear reserve."""
-    db: Path = tmp_path_factory.mktemp("events") / "events.db"
-    application = create_app(f"sqlite:///{db}")
+    application = create_app(make_db_url("events"))
     with application.state.sessions() as session, session.begin():
         operator_key = create_key(session, "operator")
     client = TestClient(application)
