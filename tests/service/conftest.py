@@ -29,10 +29,10 @@ from hvacflex.service.keys import create_key
 def make_db_url(
     request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory
 ) -> Iterator[Callable[[str], str]]:
-    """A factory of fresh, empty databases of one kind: ``make(name) → URL``."""
+    """A factory of fresh, empty databases of one kind: ``make(name) → URL`` (a new one
+    at every call)."""
     if request.param == "sqlite":
-        root = tmp_path_factory.mktemp("db")
-        yield lambda name: f"sqlite:///{root / name}.db"
+        yield lambda name: f"sqlite:///{tmp_path_factory.mktemp(name) / name}.db"
         return
     import os
 

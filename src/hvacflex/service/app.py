@@ -242,6 +242,7 @@ def create_app(
     auth = _Auth(sessions)
     _service_routes(app, runtime)
     _building_routes(app, planner, auth)
+    _plan_routes(app, planner, auth)
     _signal_routes(app, planner, auth)
     _operator_routes(app, runtime, auth)
     app.add_middleware(BodyLimitAndAudit, sessions=sessions)
@@ -424,10 +425,10 @@ def _service_routes(app: FastAPI, runtime: Runtime) -> None:
 
 
 def _building_routes(app: FastAPI, planner: Planner, auth: _Auth) -> None:
-    """Registration, buildings, measurements and plans."""
+    """Registration, the buildings and every building's latest plan."""
     runtime = planner.runtime
     sessions = runtime.sessions
-    operator, building_reader, building_writer = _roles(auth)
+    operator, building_reader, _building_writer = _roles(auth)
     Operator = Annotated[Principal, Depends(operator)]
 
     @app.post("/v1/buildings", tags=["operator"], responses=_ERRORS, status_code=201)
@@ -482,6 +483,22 @@ def _building_routes(app: FastAPI, planner: Planner, auth: _Auth) -> None:
         )
         return Envelope(status=200, message="ok", payload=info)
 
+    @app.get("/v1/plans", tags=["operator"], responses=_ERRORS)
+    def all_plans(_who: Operator) -> Envelope[PlanList]:
+        """Every building's latest plan."""
+        with sessions() as session:
+            plans = [runtime.latest_plan(session, b) for b in runtime.building_ids(session)]
+        out = [Plan(**p) for p in plans if p is not None]
+        return Envelope(status=200, message=f"{len(out)} plans", payload=PlanList(plans=out))
+
+
+def _plan_routes(app: FastAPI, planner: Planner, auth: _Auth) -> None:
+    """A building's measurements (acknowledged, planned off the request path) and its
+    latest plan (read at once)."""
+    runtime = planner.runtime
+    sessions = runtime.sessions
+    _operator, building_reader, building_writer = _roles(auth)
+
     @app.post(
         "/v1/buildings/{building_id}/measurements",
         tags=["building"],
@@ -533,14 +550,6 @@ def _building_routes(app: FastAPI, planner: Planner, auth: _Auth) -> None:
         if plan is None:
             raise HTTPException(404, "no plan yet")
         return Envelope(status=200, message="ok", payload=Plan(**plan))
-
-    @app.get("/v1/plans", tags=["operator"], responses=_ERRORS)
-    def all_plans(_who: Operator) -> Envelope[PlanList]:
-        """Every building's latest plan."""
-        with sessions() as session:
-            plans = [runtime.latest_plan(session, b) for b in runtime.building_ids(session)]
-        out = [Plan(**p) for p in plans if p is not None]
-        return Envelope(status=200, message=f"{len(out)} plans", payload=PlanList(plans=out))
 
 
 def _signal_routes(app: FastAPI, planner: Planner, auth: _Auth) -> None:
