@@ -14,8 +14,10 @@ from typing import Any
 import pytest
 from fastapi.testclient import TestClient
 from service_fixtures import START, operator_key_for, registration, stored_plans
+from sqlalchemy import func, select
 
 from hvacflex.service.app import create_app
+from hvacflex.service.db import Measurement
 from hvacflex.service.keys import create_key
 from hvacflex.service.replay import Client
 
@@ -105,6 +107,32 @@ def test_acknowledged_at_once_reads_do_not_wait_and_wait_s_returns_the_plan(
     assert plan["status"] == "optimal"
     latest = client.get("/v1/buildings/p1/plan", headers={"X-API-Key": keys["p1"]})
     assert latest.json()["payload"]["objective_sgd"] == plan["objective_sgd"]
+
+
+def test_the_same_body_posted_at_once_is_one_measurement(
+    served: tuple[TestClient, dict[str, str], list[str], Any, str],
+) -> None:
+    """A BEMS that retries while its first request is in flight: 6 posts of one body at the
+    same instant are one stored measurement, all acknowledged with the same revision."""
+    client, keys, nodes, app, _url = served
+    body = _body("00:00", nodes)
+    barrier = threading.Barrier(6)
+    answers: list[Any] = []
+
+    def post() -> None:
+        barrier.wait(timeout=30)
+        answers.append(_post(client, keys["p1"], body))
+
+    threads = [threading.Thread(target=post) for _ in range(6)]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join(timeout=60)
+    assert sorted(a.status_code for a in answers)[-1] <= 202, [a.text for a in answers]
+    assert {a.json()["payload"]["revision"] for a in answers} == {1}
+    with app.state.sessions() as session:
+        count = session.scalar(select(func.count(Measurement.id)))
+    assert count == 1
 
 
 def test_wait_s_is_bounded(served: tuple[TestClient, dict[str, str], list[str], Any, str]) -> None:

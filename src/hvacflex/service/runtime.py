@@ -26,7 +26,7 @@ import math
 import threading
 import tomllib
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from datetime import datetime
 from typing import Any
 
@@ -182,6 +182,9 @@ class BuildingRuntime:
     setup: Setup
     control: ControlStep
     lock: threading.Lock
+    """Held while the controller plans (seconds)."""
+    store_lock: threading.Lock = field(default_factory=threading.Lock)
+    """Held while a measurement is stored (milliseconds): one write per period at a time."""
 
     @property
     def controller(self) -> Controller:
@@ -533,7 +536,7 @@ class Runtime:
             {"period": k, "x": x.tolist(), "previous_power_kw": body.previous_power_kw}
         )
         digest = hashlib.sha256(canonical.encode()).hexdigest()
-        with self.sessions() as session, session.begin():
+        with runtime.store_lock, self.sessions() as session, session.begin():
             existing = session.scalars(
                 select(Measurement).where(
                     Measurement.building_id == building_id, Measurement.period == k
