@@ -1,25 +1,61 @@
-"""Service fixtures: an in-process app on a temporary SQLite file with two buildings, and
-real servers (uvicorn subprocesses on 127.0.0.1)."""
+"""Service fixtures: an in-process app with two buildings, and real servers (uvicorn
+subprocesses on 127.0.0.1) — on SQLite and, where ``HVACFLEX_TEST_POSTGRES_URL`` names a
+PostgreSQL database (``.ci/run`` always sets it), on PostgreSQL too: every test that takes
+``make_db_url`` (or a fixture built on it) runs once per database."""
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
 import pytest
 from fastapi.testclient import TestClient
-from service_fixtures import Server, Service, free_port, registration
+from service_fixtures import (
+    POSTGRES_ENV,
+    Server,
+    Service,
+    drop_postgres_database,
+    free_port,
+    new_postgres_database,
+    registration,
+)
 
 from hvacflex.service.app import create_app
 from hvacflex.service.keys import create_key
 
 
+@pytest.fixture(scope="module", params=["sqlite", "postgresql"])
+def make_db_url(
+    request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory
+) -> Iterator[Callable[[str], str]]:
+    """A factory of fresh, empty databases of one kind: ``make(name) → URL`` (a new one
+    at every call)."""
+    if request.param == "sqlite":
+        yield lambda name: f"sqlite:///{tmp_path_factory.mktemp(name) / name}.db"
+        return
+    import os
+
+    base = os.environ.get(POSTGRES_ENV)
+    if not base:
+        pytest.skip(f"{POSTGRES_ENV} is not set (.ci/run starts a PostgreSQL cluster and sets it)")
+    made: list[str] = []
+
+    def make(_name: str) -> str:
+        url = new_postgres_database(base)
+        made.append(url)
+        return url
+
+    yield make
+    for url in made:
+        drop_postgres_database(base, url)
+
+
 @pytest.fixture(scope="module")
-def service(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Service]:
+def service(make_db_url: Callable[[str], str]) -> Iterator[Service]:
     """An app with two registered buildings, ``b1`` and ``b2`` (one day each)."""
-    db = tmp_path_factory.mktemp("service") / "service.db"
-    app = create_app(f"sqlite:///{db}")
+    db_url = make_db_url("service")
+    app = create_app(db_url)
     with app.state.sessions() as session, session.begin():
         operator_key = create_key(session, "operator")
     client = TestClient(app)
@@ -32,16 +68,18 @@ def service(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Service]:
         assert response.status_code == 201, response.text
         keys[building_id] = response.json()["payload"]["key"]
         nodes = response.json()["payload"]["nodes"]
-    yield Service(client, operator_key, keys, nodes)
+    yield Service(client, operator_key, keys, nodes, db_url)
     client.close()
+    app.state.planner.shutdown()
+    app.state.engine.dispose()
 
 
 @pytest.fixture
-def server_factory(tmp_path: Path) -> Iterator[Any]:
+def server_factory(make_db_url: Callable[[str], str], tmp_path: Path) -> Iterator[Any]:
     servers: list[Server] = []
 
     def make(name: str = "service") -> Server:
-        server = Server(f"sqlite:///{tmp_path / name}.db", free_port())
+        server = Server(make_db_url(f"{tmp_path.name}-{name}"), free_port())
         servers.append(server)
         return server
 

@@ -11,12 +11,17 @@ import sys
 import tempfile
 import time
 import urllib.request
+import uuid
 from dataclasses import dataclass
 from typing import Any
 
 from fastapi.testclient import TestClient
+from sqlalchemy import create_engine, text
+from sqlalchemy.engine import make_url
 
 START = "2014-03-03"
+POSTGRES_ENV = "HVACFLEX_TEST_POSTGRES_URL"
+"""A PostgreSQL URL whose role may create databases: the service tests run there too."""
 SERVE = [sys.executable, "-m", "hvacflex.cli", "serve"]
 
 
@@ -34,6 +39,7 @@ class Service:
     operator_key: str
     keys: dict[str, str]
     nodes: list[str]
+    db_url: str = ""
 
     def headers(self, key: str | None) -> dict[str, str]:
         return {} if key is None else {"X-API-Key": key}
@@ -104,3 +110,33 @@ def operator_key_for(db_url: str) -> str:
         timeout=120,
     )
     return out.stdout.strip().splitlines()[-1]
+
+
+def new_postgres_database(base_url: str) -> str:
+    """A new, empty database on the server of ``base_url`` (its role may create them)."""
+    name = f"hvacflex_t_{uuid.uuid4().hex[:12]}"
+    engine = create_engine(base_url, isolation_level="AUTOCOMMIT")
+    with engine.connect() as connection:
+        connection.execute(text(f'CREATE DATABASE "{name}"'))
+    engine.dispose()
+    return make_url(base_url).set(database=name).render_as_string(hide_password=False)
+
+
+def drop_postgres_database(base_url: str, url: str) -> None:
+    """Drop a database made by :func:`new_postgres_database` (closing its connections)."""
+    name = make_url(url).database
+    engine = create_engine(base_url, isolation_level="AUTOCOMMIT")
+    with engine.connect() as connection:
+        connection.execute(text(f'DROP DATABASE IF EXISTS "{name}" WITH (FORCE)'))
+    engine.dispose()
+
+
+def stored_plans(db_url: str) -> dict[tuple[str, int, int], Any]:
+    """Every stored plan's objective by (building, period, revision), read with SQL."""
+    engine = create_engine(db_url)
+    with engine.connect() as connection:
+        rows = connection.execute(
+            text("SELECT building_id, period, revision, objective_sgd FROM plans")
+        ).all()
+    engine.dispose()
+    return {(b, p, r): o for b, p, r, o in rows}

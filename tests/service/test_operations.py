@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import logging
 import socket
+from collections.abc import Callable
 from datetime import UTC, datetime, timedelta
 from pathlib import Path
 from typing import Any
@@ -41,10 +42,9 @@ def _room(building_id: str) -> dict[str, Any]:
 
 
 @pytest.fixture(scope="module")
-def fleet(tmp_path_factory: pytest.TempPathFactory) -> tuple[TestClient, dict[str, str], Any]:
+def fleet(make_db_url: Callable[[str], str]) -> tuple[TestClient, dict[str, str], Any]:
     """Two room1 buildings, each with a plan of period 0."""
-    db = tmp_path_factory.mktemp("ops") / "ops.db"
-    app = create_app(f"sqlite:///{db}", stale_after_s=STALE_AFTER_S)
+    app = create_app(make_db_url("ops"), stale_after_s=STALE_AFTER_S)
     with app.state.sessions() as session, session.begin():
         operator = create_key(session, "operator")
     client = TestClient(app)
@@ -56,7 +56,7 @@ def fleet(tmp_path_factory: pytest.TempPathFactory) -> tuple[TestClient, dict[st
         keys[building_id] = registered.json()["payload"]["key"]
         nodes = registered.json()["payload"]["nodes"]
         measured = client.post(
-            f"/v1/buildings/{building_id}/measurements",
+            f"/v1/buildings/{building_id}/measurements?wait_s=10",
             json={"time": f"{START}T00:00", "node_temperatures_degc": [24.0] * len(nodes)},
             headers={"X-API-Key": keys[building_id]},
         )

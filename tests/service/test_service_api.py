@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from typing import Any
 
 import pytest
 from service_fixtures import START, Service, registration
 from sqlalchemy import inspect
+from sqlalchemy.engine import make_url
 
 from hvacflex.service.app import MAX_BODY_BYTES, create_app
 
@@ -15,7 +17,7 @@ from hvacflex.service.app import MAX_BODY_BYTES, create_app
 def _measure(service: Service, building_id: str, time: str, temp: float = 25.0) -> Any:
     body = {"time": time, "node_temperatures_degc": [temp] * len(service.nodes)}
     return service.client.post(
-        f"/v1/buildings/{building_id}/measurements",
+        f"/v1/buildings/{building_id}/measurements?wait_s=10",
         json=body,
         headers=service.headers(service.keys[building_id]),
     )
@@ -26,7 +28,7 @@ def test_health_needs_no_key_and_uses_the_envelope(service: Service) -> None:
     assert response.status_code == 200
     body = response.json()
     assert set(body) == {"status", "message", "payload"}
-    assert body["payload"]["database"] == "sqlite"
+    assert body["payload"]["database"] == make_url(service.db_url).get_backend_name()
 
 
 def test_openapi_is_published_with_every_route_under_v1(service: Service) -> None:
@@ -36,11 +38,16 @@ def test_openapi_is_published_with_every_route_under_v1(service: Service) -> Non
     assert "X-API-Key" in str(schema["components"]["securitySchemes"])
 
 
-def test_migrations_create_the_schema(tmp_path: Any) -> None:
-    app = create_app(f"sqlite:///{tmp_path / 'fresh.db'}")
+def test_migrations_create_the_schema(make_db_url: Callable[[str], str]) -> None:
+    url = make_db_url("fresh")
+    app = create_app(url)
     tables = set(inspect(app.state.engine).get_table_names())
     assert {"alembic_version", "api_keys", "plans", "measurements", "audit"} <= tables
-    create_app(f"sqlite:///{tmp_path / 'fresh.db'}")  # a second start is a no-op upgrade
+    again = create_app(url)  # a second start is a no-op upgrade
+    assert set(inspect(again.state.engine).get_table_names()) == tables
+    for started in (app, again):
+        started.state.planner.shutdown()
+        started.state.engine.dispose()
 
 
 def test_migrations_are_packaged() -> None:

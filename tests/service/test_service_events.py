@@ -4,8 +4,7 @@ event state survives a restart (it is stored with the controller's state)."""
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-from pathlib import Path
+from collections.abc import Callable, Iterator
 from typing import Any
 
 import pytest
@@ -20,10 +19,9 @@ RESERVE = preset("rmpc").reserve
 
 
 @pytest.fixture(scope="module")
-def app(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[TestClient, str, str]]:
+def app(make_db_url: Callable[[str], str]) -> Iterator[tuple[TestClient, str, str]]:
     """A fresh service with building ``e1`` (``rmpc``: D = 4, R = 2) and dear reserve."""
-    db: Path = tmp_path_factory.mktemp("events") / "events.db"
-    application = create_app(f"sqlite:///{db}")
+    application = create_app(make_db_url("events"))
     with application.state.sessions() as session, session.begin():
         operator_key = create_key(session, "operator")
     client = TestClient(application)
@@ -42,7 +40,9 @@ def app(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[TestClient, 
 
 def _measure(client: TestClient, key: str, time: str, nodes: int) -> dict[str, Any]:
     body = {"time": time, "node_temperatures_degc": [24.5] * nodes}
-    response = client.post("/v1/buildings/e1/measurements", json=body, headers={"X-API-Key": key})
+    response = client.post(
+        "/v1/buildings/e1/measurements?wait_s=10", json=body, headers={"X-API-Key": key}
+    )
     assert response.status_code == 200, response.text
     plan: dict[str, Any] = response.json()["payload"]
     return plan
@@ -156,7 +156,7 @@ def test_output_feedback_building_holds_its_filter_through_the_event(
     def measure(time: str) -> dict[str, Any]:
         payload = {"time": f"{START}T{time}", "node_temperatures_degc": [24.5] * nodes}
         answer = client.post(
-            "/v1/buildings/k1/measurements", json=payload, headers={"X-API-Key": key}
+            "/v1/buildings/k1/measurements?wait_s=10", json=payload, headers={"X-API-Key": key}
         )
         assert answer.status_code == 200, answer.text
         plan: dict[str, Any] = answer.json()["payload"]

@@ -8,6 +8,7 @@ import hashlib
 import os
 import stat
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -90,8 +91,8 @@ def test_key_commands_refuse_bad_input(tmp_path: Path, args: list[str], expected
     assert code == 2 and expected in out
 
 
-def test_a_revoked_key_is_refused_on_its_next_request(tmp_path: Path) -> None:
-    db = f"sqlite:///{tmp_path / 'live.db'}"
+def test_a_revoked_key_is_refused_on_its_next_request(make_db_url: Callable[[str], str]) -> None:
+    db = make_db_url("live")
     operator = _create(db, "--role", "operator")
     second = _create(db, "--role", "operator")
     client = TestClient(create_app(db))

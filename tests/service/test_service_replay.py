@@ -3,18 +3,17 @@ restart loses no acknowledged write and plans with the same objectives."""
 
 from __future__ import annotations
 
-import sqlite3
 import subprocess
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pandas as pd
 import pytest
-from service_fixtures import SERVE, START, Server, free_port, operator_key_for
+from service_fixtures import SERVE, START, Server, free_port, operator_key_for, stored_plans
 
 from hvacflex.config import preset, with_overrides
 from hvacflex.errors import InputError
@@ -40,10 +39,12 @@ def _config() -> Any:
 
 
 @pytest.fixture(scope="module")
-def reference(tmp_path_factory: pytest.TempPathFactory) -> Iterator[dict[str, Any]]:
+def reference(
+    tmp_path_factory: pytest.TempPathFactory, make_db_url: Callable[[str], str]
+) -> Iterator[dict[str, Any]]:
     """An uninterrupted replay of one day and ``simulate`` of the same scenario."""
     root = tmp_path_factory.mktemp("replay")
-    server = Server(f"sqlite:///{root / 'ref.db'}", free_port())
+    server = Server(make_db_url("ref"), free_port())
     server.start()
     try:
         key = operator_key_for(server.db_url)
@@ -88,9 +89,9 @@ def test_replay_writes_the_files_of_simulate_and_equals_it(reference: dict[str, 
 
 
 def test_kill9_and_restart_continue_from_the_database(
-    reference: dict[str, Any], tmp_path: Path
+    reference: dict[str, Any], tmp_path: Path, make_db_url: Callable[[str], str]
 ) -> None:
-    server = Server(f"sqlite:///{tmp_path / 'killed.db'}", free_port())
+    server = Server(make_db_url("killed"), free_port())
     server.start()
     acknowledged: list[dict[str, Any]] = []
     outcome: dict[str, Any] = {}
@@ -116,14 +117,12 @@ def test_kill9_and_restart_continue_from_the_database(
         assert KILL_AFTER_PLANS <= killed_at < round(DAYS * 48)
 
         # every acknowledged plan is in the database, unchanged
-        with sqlite3.connect(tmp_path / "killed.db") as db:
-            rows = db.execute("SELECT period, revision, objective_sgd FROM plans").fetchall()
-        stored = {(p, r): o for p, r, o in rows}
+        stored = stored_plans(server.db_url)
         for plan in acknowledged:
-            assert stored[(plan["period"], plan["revision"])] == plan["objective_sgd"]
+            assert stored[("kill", plan["period"], plan["revision"])] == plan["objective_sgd"]
 
         server.start()
-        building_key = _building_key(tmp_path / "killed.db", server)
+        building_key = _building_key(server)
         result = replay(server.url, key, _config(), tmp_path / "second", building_id="kill",
                         building_key=building_key)  # fmt: skip
     finally:
@@ -146,7 +145,7 @@ def test_kill9_and_restart_continue_from_the_database(
     )  # fmt: skip
 
 
-def _building_key(db: Path, server: Server) -> str:
+def _building_key(server: Server) -> str:
     """A new key for building ``kill`` (the registration's key went with the client)."""
     out = subprocess.run(
         [
@@ -165,5 +164,4 @@ def _building_key(db: Path, server: Server) -> str:
         text=True,
         timeout=120,
     )
-    assert db.is_file()
     return out.stdout.strip().splitlines()[-1]

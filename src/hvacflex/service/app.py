@@ -8,11 +8,12 @@ gets 403 on any other building. Every mutating request is written to the ``audit
 (who, when, what) before its response is sent.
 """
 
+import contextlib
 import functools
 import hashlib
 import json
 import threading
-from collections.abc import Awaitable, Callable, MutableMapping
+from collections.abc import AsyncIterator, Awaitable, Callable, MutableMapping
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -47,8 +48,10 @@ from hvacflex.service.operations import (
     metrics_text,
     stale_buildings,
 )
+from hvacflex.service.planner import DEFAULT_PLAN_WORKERS, Planner
 from hvacflex.service.runtime import NotFoundError, Runtime, to_local
 from hvacflex.service.schemas import (
+    MAX_WAIT_S,
     ActivationIn,
     ActivationRecord,
     AuditRecord,
@@ -64,6 +67,7 @@ from hvacflex.service.schemas import (
     MeasurementRecord,
     PeakPriceIn,
     Plan,
+    PlanAck,
     PlanList,
     PricesIn,
     RegisterBuilding,
@@ -175,7 +179,7 @@ class BodyLimitAndAudit:
             )
 
 
-def start_wall_clock(runtime: Runtime, poll_s: float = 10.0) -> threading.Event:
+def start_wall_clock(planner: Planner, poll_s: float = 10.0) -> threading.Event:
     """A daemon thread that runs the 30-min boundary trigger at each wall-clock boundary
     (Singapore time); set the returned event to stop it."""
     stop = threading.Event()
@@ -186,7 +190,7 @@ def start_wall_clock(runtime: Runtime, poll_s: float = 10.0) -> threading.Event:
             now = pd.Timestamp.now(tz="Asia/Singapore").floor("30min")
             if now != last:
                 last = now
-                runtime.boundary(now.to_pydatetime())
+                planner.boundary(now.to_pydatetime())
 
     threading.Thread(target=tick, name="hvacflex-wall-clock", daemon=True).start()
     return stop
@@ -197,13 +201,16 @@ def create_app(
     *,
     wall_clock: bool = False,
     stale_after_s: float = DEFAULT_STALE_AFTER_S,
+    plan_workers: int = DEFAULT_PLAN_WORKERS,
 ) -> FastAPI:
     """The service app on the database at ``db_url`` (migrated to the newest schema).
 
     ``wall_clock`` runs the 30-min boundary trigger on the wall clock as well (buildings
     whose scenario covers today); otherwise the operator drives it with ``POST /v1/clock``.
     A building whose latest measurement is older than ``stale_after_s`` [s] is stale: its
-    plan is left out of the aggregate bid.
+    plan is left out of the aggregate bid. Plans are made by ``plan_workers`` threads off
+    the request path (:mod:`.planner`); measurements acknowledged before a restart and not
+    yet planned are queued at once.
 
     Raises
     ------
@@ -215,6 +222,7 @@ def create_app(
     engine = open_database(db_url)
     sessions = session_factory(engine)
     runtime = Runtime(sessions)
+    planner = Planner(runtime, plan_workers)
     app = FastAPI(
         title="hvacflex service",
         version=__version__,
@@ -223,25 +231,40 @@ def create_app(
         docs_url=None,  # /v1/docs is the self-hosted page of hvacflex.service.dashboard
         redoc_url=None,
         responses=_COMMON_ERRORS,
+        lifespan=_stop_on_shutdown(planner),
     )
     app.state.sessions = sessions
     app.state.runtime = runtime
+    app.state.planner = planner
     app.state.engine = engine
     app.state.stale_after_s = stale_after_s
     app.state.request_metrics = RequestMetrics()
     if wall_clock:
-        app.state.wall_clock_stop = start_wall_clock(runtime)
+        app.state.wall_clock_stop = start_wall_clock(planner)
     _error_handlers(app)
     auth = _Auth(sessions)
     _service_routes(app, runtime)
-    _building_routes(app, runtime, auth)
+    _building_routes(app, planner, auth)
+    _plan_routes(app, planner, auth)
     _measurement_routes(app, runtime, auth)
-    _signal_routes(app, runtime, auth)
+    _signal_routes(app, planner, auth)
     _operator_routes(app, runtime, auth)
     add_page_routes(app)
     app.add_middleware(BodyLimitAndAudit, sessions=sessions)
     app.add_middleware(ObserveRequests, metrics=app.state.request_metrics)
+    planner.recover()
     return app
+
+
+def _stop_on_shutdown(planner: Planner) -> Callable[[FastAPI], Any]:
+    """The app's lifespan: the planner's workers stop when the server does."""
+
+    @contextlib.asynccontextmanager
+    async def lifespan(_app: FastAPI) -> AsyncIterator[None]:
+        yield
+        planner.shutdown()
+
+    return lifespan
 
 
 def allowed_methods(app: FastAPI, scope: Scope) -> list[str]:
@@ -406,10 +429,11 @@ def _service_routes(app: FastAPI, runtime: Runtime) -> None:
         return PlainTextResponse(text, media_type=PROMETHEUS_CONTENT_TYPE)
 
 
-def _building_routes(app: FastAPI, runtime: Runtime, auth: _Auth) -> None:
-    """Registration, buildings, measurements and plans."""
+def _building_routes(app: FastAPI, planner: Planner, auth: _Auth) -> None:
+    """Registration, the buildings and every building's latest plan."""
+    runtime = planner.runtime
     sessions = runtime.sessions
-    operator, building_reader, building_writer = _roles(auth)
+    operator, building_reader, _building_writer = _roles(auth)
     Operator = Annotated[Principal, Depends(operator)]
 
     @app.post("/v1/buildings", tags=["operator"], responses=_ERRORS, status_code=201)
@@ -464,16 +488,54 @@ def _building_routes(app: FastAPI, runtime: Runtime, auth: _Auth) -> None:
         )
         return Envelope(status=200, message="ok", payload=info)
 
-    @app.post("/v1/buildings/{building_id}/measurements", tags=["building"], responses=_ERRORS)
+    @app.get("/v1/plans", tags=["operator"], responses=_ERRORS)
+    def all_plans(_who: Operator) -> Envelope[PlanList]:
+        """Every building's latest plan."""
+        with sessions() as session:
+            plans = [runtime.latest_plan(session, b) for b in runtime.building_ids(session)]
+        out = [Plan(**p) for p in plans if p is not None]
+        return Envelope(status=200, message=f"{len(out)} plans", payload=PlanList(plans=out))
+
+
+def _plan_routes(app: FastAPI, planner: Planner, auth: _Auth) -> None:
+    """A building's measurements (acknowledged, planned off the request path) and its
+    latest plan (read at once)."""
+    runtime = planner.runtime
+    sessions = runtime.sessions
+    _operator, building_reader, building_writer = _roles(auth)
+
+    @app.post(
+        "/v1/buildings/{building_id}/measurements",
+        tags=["building"],
+        responses={
+            202: {
+                "model": Envelope[PlanAck],
+                "description": "Stored; its plan (this revision) is being made",
+            },
+            **_ERRORS,
+        },
+    )
     def post_measurement(
         building_id: str,
         body: MeasurementIn,
         _who: Annotated[Principal, Depends(building_writer)],
+        wait_s: Annotated[float, Query(ge=0, le=MAX_WAIT_S)] = 0.0,
     ) -> Envelope[Plan]:
-        """The building's state at a period start; plans that period at once and returns the
-        plan. The same measurement twice is stored once (the stored plan is returned)."""
-        plan, new = runtime.measurement(building_id, body)
-        message = "planned" if new else "measurement already stored; stored plan"
+        """The building's state at a period start. Stored, then planned off the request
+        path: 202 with the revision its plan will have; with ``wait_s`` the plan itself
+        (200) if it is made within that many seconds. The same measurement twice is stored
+        once (the stored plan, or the same revision, is returned)."""
+        ack = planner.acknowledge(building_id, body)
+        plan = ack.wait(wait_s)
+        if plan is None:
+            payload = PlanAck(
+                building_id=building_id, period=ack.period, time=ack.time, revision=ack.revision
+            )
+            message = "stored; planning" if ack.new else "measurement already stored; planning"
+            return JSONResponse(  # type: ignore[return-value]
+                {"status": 202, "message": message, "payload": payload.model_dump()}, 202
+            )
+        message = "planned" if ack.new else "measurement already stored; stored plan"
         return Envelope(status=200, message=message, payload=Plan(**plan))
 
     @app.get("/v1/buildings/{building_id}/plan", tags=["building"], responses=_ERRORS)
@@ -482,21 +544,17 @@ def _building_routes(app: FastAPI, runtime: Runtime, auth: _Auth) -> None:
         _who: Annotated[Principal, Depends(building_reader)],
         period: Annotated[int | None, Query(ge=0, le=1_000_000)] = None,
     ) -> Envelope[Plan]:
-        """The latest plan (of ``period`` if given)."""
+        """The latest finished plan (of ``period`` if given), at once: a plan being made
+        is not waited for."""
+        from hvacflex.service.db import BuildingRow
+
         with sessions() as session:
-            runtime.get(session, building_id)
+            if session.get(BuildingRow, building_id) is None:
+                raise NotFoundError("no such building", field="building_id", value=building_id)
             plan = runtime.latest_plan(session, building_id, period)
         if plan is None:
             raise HTTPException(404, "no plan yet")
         return Envelope(status=200, message="ok", payload=Plan(**plan))
-
-    @app.get("/v1/plans", tags=["operator"], responses=_ERRORS)
-    def all_plans(_who: Operator) -> Envelope[PlanList]:
-        """Every building's latest plan."""
-        with sessions() as session:
-            plans = [runtime.latest_plan(session, b) for b in runtime.building_ids(session)]
-        out = [Plan(**p) for p in plans if p is not None]
-        return Envelope(status=200, message=f"{len(out)} plans", payload=PlanList(plans=out))
 
 
 def _measurement_routes(app: FastAPI, runtime: Runtime, auth: _Auth) -> None:
@@ -534,8 +592,9 @@ def _measurement_routes(app: FastAPI, runtime: Runtime, auth: _Auth) -> None:
         return Envelope(status=200, message=f"{len(records)} measurements", payload=records)
 
 
-def _signal_routes(app: FastAPI, runtime: Runtime, auth: _Auth) -> None:
+def _signal_routes(app: FastAPI, planner: Planner, auth: _Auth) -> None:
     """Prices, the peak-power price, the feeder limit, activations and the clock."""
+    runtime = planner.runtime
     sessions = runtime.sessions
     Operator = Annotated[Principal, Depends(_roles(auth)[0])]
 
@@ -603,7 +662,7 @@ def _signal_routes(app: FastAPI, runtime: Runtime, auth: _Auth) -> None:
                         time_utc=time.tz_convert("UTC").isoformat(),
                     )
                 )
-        plans = runtime.activation(targets)
+        plans = planner.activation(targets)
         payload = PlanList(plans=[Plan(**p) for p in plans])
         return Envelope(
             status=200, message=f"{body.event}: {len(plans)} plans changed", payload=payload
@@ -621,7 +680,7 @@ def _signal_routes(app: FastAPI, runtime: Runtime, auth: _Auth) -> None:
                 session.add(ServiceClock(id=1, time_utc=time.tz_convert("UTC").isoformat()))
             else:
                 row.time_utc = time.tz_convert("UTC").isoformat()
-        plans = runtime.boundary(body.time)
+        plans = planner.boundary(body.time)
         payload = PlanList(plans=[Plan(**p) for p in plans])
         return Envelope(status=200, message=f"{len(plans)} plans made", payload=payload)
 

@@ -17,6 +17,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import time as time_module
 import urllib.error
 import urllib.parse
 import urllib.request
@@ -33,6 +34,7 @@ from hvacflex.data.forecast import Forecast
 from hvacflex.errors import HvacflexError, InputError
 from hvacflex.paths import resolve_building
 from hvacflex.results import RESULTS_FILENAME
+from hvacflex.service.schemas import MAX_WAIT_S
 from hvacflex.sim.closed_loop import ClosedLoop
 from hvacflex.sim.events import PeriodOutcome, Role
 from hvacflex.sim.run_files import CONFIG_FILE, SUMMARY_FILE, write_results
@@ -41,6 +43,8 @@ from hvacflex.sim.step import Decision, decision_status
 from hvacflex.version import atomic_write_text
 
 TIMEOUT_S = 120.0
+PLAN_TIMEOUT_S = 600.0
+"""How long the replay waits for one period's plan in all (``wait_s`` at a time) [s]."""
 KEY_ENV = "HVACFLEX_KEY"
 """The environment variable a client command reads its key from (unless ``--key-file``)."""
 
@@ -112,6 +116,11 @@ class Client:
 
     def call(self, method: str, path: str, body: Any = None) -> Any:
         """The ``payload`` of the envelope; raises :class:`ServiceError` on 4xx/5xx."""
+        return self.call_status(method, path, body)[1]
+
+    def call_status(self, method: str, path: str, body: Any = None) -> tuple[int, Any]:
+        """The HTTP status and the ``payload`` of the envelope; raises
+        :class:`ServiceError` on 4xx/5xx."""
         data = None if body is None else json.dumps(body).encode()
         request = urllib.request.Request(
             self.url.rstrip("/") + path,
@@ -121,6 +130,7 @@ class Client:
         )
         try:
             with urllib.request.urlopen(request, timeout=TIMEOUT_S) as response:
+                status = int(response.status)
                 envelope = json.loads(response.read())
         except urllib.error.HTTPError as exc:
             try:
@@ -136,7 +146,7 @@ class Client:
                 value=self.url,
                 hint="start it with `hvacflex serve`, or check the URL and port",
             ) from None
-        return envelope["payload"]
+        return status, envelope["payload"]
 
 
 def _nan(values: Any) -> FloatArray:
@@ -189,9 +199,15 @@ class RemoteController:
             "node_temperatures_degc": [float(v) for v in x_degc],
             "previous_power_kw": self.previous_power_kw,
         }
-        plan: dict[str, Any] = self.client.call(
-            "POST", f"/v1/buildings/{self.building_id}/measurements", body
-        )
+        path = f"/v1/buildings/{self.building_id}/measurements?wait_s={MAX_WAIT_S:g}"
+        status, plan = self.client.call_status("POST", path, body)
+        plan = dict(plan)
+        deadline = time_module.monotonic() + PLAN_TIMEOUT_S
+        while status == 202:  # not planned within wait_s: the same body again waits on
+            if time_module.monotonic() > deadline:
+                raise ServiceError(202, f"no plan for {time} within {PLAN_TIMEOUT_S:g} s")
+            status, answer = self.client.call_status("POST", path, body)
+            plan = dict(answer)
         self.plans.append(plan)
         if self.on_plan is not None:
             self.on_plan(plan)

@@ -26,7 +26,7 @@ import math
 import threading
 import tomllib
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from datetime import datetime
 from typing import Any
 
@@ -164,6 +164,17 @@ def to_local(time: datetime) -> pd.Timestamp:
     return stamp.tz_localize(TIMEZONE) if stamp.tzinfo is None else stamp.tz_convert(TIMEZONE)
 
 
+@dataclass(frozen=True)
+class StoredMeasurement:
+    """A stored measurement: its period and start time, whether it was new, and its plan
+    if the period's measurement was planned already (a repeated body)."""
+
+    period: int
+    time: str
+    new: bool
+    plan: dict[str, Any] | None
+
+
 @dataclass
 class BuildingRuntime:
     """A building's setup (model, shipped data) and its controller, in memory."""
@@ -172,6 +183,9 @@ class BuildingRuntime:
     setup: Setup
     control: ControlStep
     lock: threading.Lock
+    """Held while the controller plans (seconds)."""
+    store_lock: threading.Lock = field(default_factory=threading.Lock)
+    """Held while a measurement is stored (milliseconds): one write per period at a time."""
 
     @property
     def controller(self) -> Controller:
@@ -373,11 +387,18 @@ class Runtime:
 
     # -- plans --------------------------------------------------------------------------
     def plan(
-        self, session: Session, runtime: BuildingRuntime, k: int, x_degc: np.ndarray, trigger: str
+        self,
+        session: Session,
+        runtime: BuildingRuntime,
+        k: int,
+        x_degc: np.ndarray,
+        trigger: str,
+        revision: int | None = None,
     ) -> dict[str, Any]:
         """Plan period k from the node temperatures ``x_degc`` (n,) [°C] under the IL event
         model (:class:`~hvacflex.sim.step.ControlStep`) and store the plan (the
-        caller commits); the controller's and the event state are stored with it.
+        caller commits) as ``revision`` (default: the period's next); the controller's and
+        the event state are stored with it.
 
         Raises
         ------
@@ -408,7 +429,7 @@ class Runtime:
             forecast.energy_price_sgd_per_mwh[: len(payload["horizon_time"])]
         )
         payload.update(event_columns(decision, activated(k)))
-        self._store_plan(session, runtime.building_id, k, trigger, payload)
+        self._store_plan(session, runtime.building_id, k, trigger, payload, revision)
         stored = session.get(ControllerState, runtime.building_id)
         blob = state.encode(control.get_state())
         if stored is None:
@@ -452,14 +473,22 @@ class Runtime:
         }
 
     def _store_plan(
-        self, session: Session, building_id: str, k: int, trigger: str, payload: dict[str, Any]
+        self,
+        session: Session,
+        building_id: str,
+        k: int,
+        trigger: str,
+        payload: dict[str, Any],
+        revision: int | None,
     ) -> None:
-        latest = session.scalar(
-            select(func.max(PlanRow.revision)).where(
-                PlanRow.building_id == building_id, PlanRow.period == k
+        if revision is None:
+            latest = session.scalar(
+                select(func.max(PlanRow.revision)).where(
+                    PlanRow.building_id == building_id, PlanRow.period == k
+                )
             )
-        )
-        payload["revision"] = (latest or 0) + 1
+            revision = (latest or 0) + 1
+        payload["revision"] = revision
         payload["trigger"] = trigger
         session.add(
             PlanRow(
@@ -486,17 +515,21 @@ class Runtime:
         ).first()
         return None if row is None else dict(json.loads(row.payload_json))
 
-    # -- the loop's triggers ------------------------------------------------------------
-    def measurement(self, building_id: str, body: MeasurementIn) -> tuple[dict[str, Any], bool]:
-        """Store a measurement and plan its period; the same body twice is one record.
+    # -- the loop's triggers (run by :class:`~hvacflex.service.planner.Planner`) --------
+    def store_measurement(
+        self, building_id: str, body: MeasurementIn, not_before: int = -1
+    ) -> StoredMeasurement:
+        """Validate and store a measurement (committed when this returns); the same body
+        twice is one record. It is planned later (:meth:`plan_measurement`).
 
-        Returns the plan and whether the measurement was new.
+        ``not_before`` is the latest period with a measurement waiting to be planned.
 
         Raises
         ------
         InputError : the time is not a period of the scenario, or temperatures are out of
             range or of the wrong count.
-        ConflictError : another measurement is stored for the period.
+        ConflictError : another measurement is stored for the period, or the period is
+            before the latest planned (or waiting) one.
         """
         with self.sessions() as session:
             runtime = self.get(session, building_id)
@@ -520,7 +553,7 @@ class Runtime:
             {"period": k, "x": x.tolist(), "previous_power_kw": body.previous_power_kw}
         )
         digest = hashlib.sha256(canonical.encode()).hexdigest()
-        with runtime.lock, self.sessions() as session, session.begin():
+        with runtime.store_lock, self.sessions() as session, session.begin():
             existing = session.scalars(
                 select(Measurement).where(
                     Measurement.building_id == building_id, Measurement.period == k
@@ -534,76 +567,101 @@ class Runtime:
                         value=runtime.time_of(k),
                         hint="measurements are write-once per building and period",
                     )
-                plan = self.latest_plan(session, building_id, k)
-                if plan is not None:
-                    return plan, False
-            else:
-                session.add(
-                    Measurement(
-                        building_id=building_id,
-                        period=k,
-                        body_json=canonical,
-                        body_sha256=digest,
-                        previous_power_kw=body.previous_power_kw,
-                    )
+                plan = self.own_plan(session, building_id, k)
+                return StoredMeasurement(k, runtime.time_of(k), False, plan)
+            latest = session.scalar(
+                select(func.max(PlanRow.period)).where(PlanRow.building_id == building_id)
+            )
+            last = max(-1 if latest is None else int(latest), not_before)
+            if k < last:
+                raise ConflictError(
+                    f"period {k} is before the building's latest planned period {last}",
+                    field="time",
+                    value=k,
+                    hint="plans go forward: post the measurement of the current period",
                 )
-                session.flush()
+            session.add(
+                Measurement(
+                    building_id=building_id,
+                    period=k,
+                    body_json=canonical,
+                    body_sha256=digest,
+                    previous_power_kw=body.previous_power_kw,
+                )
+            )
+        return StoredMeasurement(k, runtime.time_of(k), True, None)
+
+    def own_plan(self, session: Session, building_id: str, k: int) -> dict[str, Any] | None:
+        """The latest plan of period k if the period's measurement was planned (None while
+        it waits for its plan)."""
+        planned = session.scalar(
+            select(func.count(PlanRow.id)).where(
+                PlanRow.building_id == building_id,
+                PlanRow.period == k,
+                PlanRow.trigger == "measurement",
+            )
+        )
+        return self.latest_plan(session, building_id, k) if planned else None
+
+    def plan_measurement(self, building_id: str, k: int, revision: int) -> dict[str, Any]:
+        """Plan period k on its stored measurement, as plan ``revision``, and commit."""
+        with self.sessions() as session:
+            runtime = self.get(session, building_id)
+        with runtime.lock, self.sessions() as session, session.begin():
+            row = session.scalars(
+                select(Measurement).where(
+                    Measurement.building_id == building_id, Measurement.period == k
+                )
+            ).one()
+            x = np.asarray(json.loads(row.body_json)["x"], dtype=float)
             try:
-                return self.plan(session, runtime, k, x, "measurement"), existing is None
+                return self.plan(session, runtime, k, x, "measurement", revision=revision)
             except BaseException:
                 self.evict(building_id)
                 raise
 
-    def boundary(self, time: datetime) -> list[dict[str, Any]]:
-        """At a 30-min boundary: plan the current period of every building that has no
-        plan for it yet, on its latest measurement."""
-        plans: list[dict[str, Any]] = []
+    def boundary_building(self, building_id: str, time: datetime) -> dict[str, Any] | None:
+        """At a 30-min boundary: plan the building's current period if it has no plan for
+        it yet, on its latest measurement (None when nothing is planned)."""
         with self.sessions() as session:
-            ids = self.building_ids(session)
-        for building_id in ids:
-            with self.sessions() as session:
-                runtime = self.get(session, building_id)
-            stamp = to_local(time)
-            k = math.floor((stamp - runtime.setup.exogenous.index[0]) / PERIOD)
-            if not 0 <= k < runtime.steps:
-                continue
-            with runtime.lock, self.sessions() as session, session.begin():
-                if runtime.control.period >= k:  # planned already (or a later period)
-                    continue
-                x = self._latest_state(session, building_id, k)
-                if x is None:
-                    continue
-                try:
-                    plans.append(self.plan(session, runtime, k, x, "boundary"))
-                except BaseException:
-                    self.evict(building_id)
-                    raise
-        return plans
+            runtime = self.get(session, building_id)
+        stamp = to_local(time)
+        k = math.floor((stamp - runtime.setup.exogenous.index[0]) / PERIOD)
+        if not 0 <= k < runtime.steps:
+            return None
+        with runtime.lock, self.sessions() as session, session.begin():
+            if runtime.control.period >= k:  # planned already (or a later period)
+                return None
+            x = self._latest_state(session, building_id, k)
+            if x is None:
+                return None
+            try:
+                return self.plan(session, runtime, k, x, "boundary")
+            except BaseException:
+                self.evict(building_id)
+                raise
 
-    def activation(self, building_ids: list[str]) -> list[dict[str, Any]]:
-        """Re-plan each building's latest period whose activation state the stored events
-        (committed by the caller) change: an activation start or end takes effect at once,
-        by the IL event semantics of the closed loop."""
-        plans: list[dict[str, Any]] = []
-        for building_id in building_ids:
-            with self.sessions() as session:
-                runtime = self.get(session, building_id)
-            with runtime.lock, self.sessions() as session, session.begin():
-                plan = self.latest_plan(session, building_id)
-                if plan is None:
-                    continue
-                k = int(plan["period"])
-                if self.activated(session, runtime, k) == plan["il_activated"]:
-                    continue
-                x = self._latest_state(session, building_id, k)
-                if x is None:
-                    continue
-                try:
-                    plans.append(self.plan(session, runtime, k, x, "activation"))
-                except BaseException:
-                    self.evict(building_id)
-                    raise
-        return plans
+    def activation_building(self, building_id: str) -> dict[str, Any] | None:
+        """Re-plan the building's latest period if the stored activation events (committed
+        by the caller) change its activation state: an activation start or end takes effect
+        at once, by the IL event semantics of the closed loop (None when nothing changes)."""
+        with self.sessions() as session:
+            runtime = self.get(session, building_id)
+        with runtime.lock, self.sessions() as session, session.begin():
+            plan = self.latest_plan(session, building_id)
+            if plan is None:
+                return None
+            k = int(plan["period"])
+            if self.activated(session, runtime, k) == plan["il_activated"]:
+                return None
+            x = self._latest_state(session, building_id, k)
+            if x is None:
+                return None
+            try:
+                return self.plan(session, runtime, k, x, "activation")
+            except BaseException:
+                self.evict(building_id)
+                raise
 
     @staticmethod
     def _latest_state(session: Session, building_id: str, k: int) -> np.ndarray | None:

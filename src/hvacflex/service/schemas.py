@@ -263,6 +263,19 @@ class MeasurementRecord(BaseModel):
     received_at: str = Field(description="When the service received it (UTC).")
 
 
+class PlanAck(BaseModel):
+    """A measurement acknowledged (202): stored, its plan to come as ``revision``."""
+
+    building_id: str
+    period: int
+    time: str
+    revision: int = Field(description="The revision of the period's plan this produces.")
+
+
+MAX_WAIT_S = 10.0
+"""Longest a measurement request may wait for its plan (``?wait_s``) [s]."""
+
+
 class PlanList(BaseModel):
     plans: list[Plan]
 

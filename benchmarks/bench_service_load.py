@@ -1,0 +1,274 @@
+"""Load test of ``hvacflex serve`` on loopback: buildings posting at once, readers reading.
+
+Starts ``hvacflex serve`` (a subprocess on 127.0.0.1, a free port) on a fresh SQLite file
+or on ``--db URL``, registers ``--buildings`` buildings (``office5``, ``rmpc``, one day),
+lets ``--readers`` clients read plans (``GET /v1/buildings/{id}/plan``, operator key)
+without pause — alone for ``--idle-s`` seconds first (nothing planned: the baseline) — and
+for ``--rounds`` periods lets every building post its measurement at the same instant (no
+``wait_s``: the acknowledgement is timed; each building from its own loopback address).
+A round ends when every building's plan of that period is stored; the test ends after the
+last round (or at ``--max-s``, whichever comes first) and prints the latencies [ms] and
+the machine's load.
+
+    PYTHONPATH=src python benchmarks/bench_service_load.py --buildings 20 --readers 20 \
+        --rounds 3 [--db postgresql+psycopg://…] [--json out.json]
+
+Targets (issue 29): reads p99 ≤ 50 ms, acknowledgements p99 ≤ 200 ms (the solve apart).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import socket
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from pathlib import Path
+from typing import Any
+
+import httpx
+import numpy as np
+
+START = "2014-03-03"
+SERVE = [sys.executable, "-m", "hvacflex.cli", "serve"]
+
+
+def _free_port() -> int:
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        port: int = sock.getsockname()[1]
+        return port
+
+
+def _start(db_url: str, port: int, log: Any) -> subprocess.Popen[bytes]:
+    process = subprocess.Popen(
+        [*SERVE, "--db", db_url, "--host", "127.0.0.1", "--port", str(port)],
+        stdout=subprocess.DEVNULL,
+        stderr=log,
+    )
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline:
+        if process.poll() is not None:
+            raise RuntimeError("the server exited; see its log")
+        try:
+            if httpx.get(f"http://127.0.0.1:{port}/v1/health", timeout=2).status_code == 200:
+                return process
+        except httpx.HTTPError:
+            time.sleep(0.2)
+    process.terminate()
+    raise RuntimeError("the server did not start")
+
+
+def _operator_key(db_url: str) -> str:
+    out = subprocess.run(
+        [*SERVE, "key", "create", "--role", "operator", "--db", db_url],
+        check=True,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    return out.stdout.strip().splitlines()[-1]
+
+
+def _percentiles_ms(samples_s: list[float]) -> dict[str, float]:
+    if not samples_s:
+        return {"n": 0}
+    values = np.asarray(samples_s) * 1e3
+    return {
+        "n": int(values.size),
+        "p50": float(np.percentile(values, 50)),
+        "p99": float(np.percentile(values, 99)),
+        "max": float(values.max()),
+    }
+
+
+def _building_client(url: str, keys: dict[str, str], building_id: str) -> httpx.Client:
+    """A building's client, from its own loopback address (each BEMS has its own, and the
+    service rate-limits first uses of keys per address)."""
+    i = sorted(keys).index(building_id)
+    transport = httpx.HTTPTransport(local_address=f"127.0.1.{i + 1}")
+    return httpx.Client(
+        base_url=url, headers={"X-API-Key": keys[building_id]}, transport=transport, timeout=60
+    )
+
+
+def _warm_keys(url: str, keys: dict[str, str]) -> None:
+    """Each building's key used once (its one scrypt), as a BEMS does when it connects."""
+    for building_id in keys:
+        with _building_client(url, keys, building_id) as client:
+            client.get(f"/v1/buildings/{building_id}").raise_for_status()
+
+
+class Readers:
+    """``count`` threads reading plans of the buildings in turn until stopped."""
+
+    def __init__(self, url: str, key: str, building_ids: list[str], count: int) -> None:
+        self.url, self.key, self.ids = url, key, building_ids
+        self.stop = threading.Event()
+        self.latencies_s: list[float] = []
+        self.errors = 0
+        self.lock = threading.Lock()
+        self.threads = [threading.Thread(target=self._read, args=(i,)) for i in range(count)]
+
+    def _read(self, i: int) -> None:
+        with httpx.Client(base_url=self.url, headers={"X-API-Key": self.key}) as client:
+            j = i
+            while not self.stop.is_set():
+                building_id = self.ids[j % len(self.ids)]
+                j += 1
+                started = time.perf_counter()
+                response = client.get(f"/v1/buildings/{building_id}/plan", timeout=30)
+                elapsed = time.perf_counter() - started
+                with self.lock:
+                    self.latencies_s.append(elapsed)
+                    self.errors += response.status_code not in (200, 404)
+
+    def __enter__(self) -> Readers:
+        for thread in self.threads:
+            thread.start()
+        return self
+
+    def __exit__(self, *_exc: object) -> None:
+        self.stop.set()
+        for thread in self.threads:
+            thread.join(timeout=60)
+
+
+def _post_round(
+    url: str, keys: dict[str, str], nodes: int, k: int
+) -> tuple[list[float], dict[str, int]]:
+    """Every building posts period k's measurement at the same instant; the ack times [s]
+    and the revision each was promised."""
+    barrier = threading.Barrier(len(keys))
+    acks_s: list[float] = []
+    revisions: dict[str, int] = {}
+    lock = threading.Lock()
+    stamp = f"{START}T{k // 2:02d}:{30 * (k % 2):02d}"
+
+    def post(building_id: str) -> None:
+        body = {"time": stamp, "node_temperatures_degc": [24.0 + 0.1 * k] * nodes}
+        with _building_client(url, keys, building_id) as client:
+            client.get("/v1/health")  # connect before the barrier
+            barrier.wait(timeout=60)
+            started = time.perf_counter()
+            response = client.post(f"/v1/buildings/{building_id}/measurements", json=body)
+            elapsed = time.perf_counter() - started
+        if response.status_code not in (200, 202):
+            raise RuntimeError(f"{building_id}: {response.status_code} {response.text}")
+        with lock:
+            acks_s.append(elapsed)
+            revisions[building_id] = int(response.json()["payload"]["revision"])
+
+    threads = [threading.Thread(target=post, args=(b,)) for b in keys]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join(timeout=120)
+    return acks_s, revisions
+
+
+def _wait_for_plans(url: str, key: str, k: int, revisions: dict[str, int], max_s: float) -> bool:
+    """Whether every building's plan of period k (of the promised revision) is stored."""
+    deadline = time.monotonic() + max_s
+    waiting = dict(revisions)
+    with httpx.Client(base_url=url, headers={"X-API-Key": key}) as client:
+        while waiting and time.monotonic() < deadline:
+            for building_id, revision in list(waiting.items()):
+                response = client.get(f"/v1/buildings/{building_id}/plan", params={"period": k})
+                if (
+                    response.status_code == 200
+                    and response.json()["payload"]["revision"] >= revision
+                ):
+                    del waiting[building_id]
+            time.sleep(0.05)
+    return not waiting
+
+
+def run(args: argparse.Namespace) -> dict[str, Any]:
+    """The load test; its figures as a dict."""
+    started = time.monotonic()
+    folder = Path(tempfile.mkdtemp(prefix="hvacflex-load-"))
+    db_url = args.db or f"sqlite:///{folder / 'load.db'}"
+    port = _free_port()
+    url = f"http://127.0.0.1:{port}"
+    with open(folder / "server.log", "wb") as log:
+        process = _start(db_url, port, log)
+        try:
+            operator = _operator_key(db_url)
+            keys: dict[str, str] = {}
+            nodes = 0
+            with httpx.Client(base_url=url, headers={"X-API-Key": operator}, timeout=120) as op:
+                for i in range(args.buildings):
+                    body = {
+                        "building_id": f"load{i:02d}",
+                        "building": {"name": args.building},
+                        "scenario": {"preset": "rmpc", "start": START, "days": 1},
+                    }
+                    payload = op.post("/v1/buildings", json=body).raise_for_status().json()
+                    keys[body["building_id"]] = payload["payload"]["key"]
+                    nodes = len(payload["payload"]["nodes"])
+            _warm_keys(url, keys)
+            load_before = os.getloadavg()
+            with Readers(url, operator, list(keys), args.readers) as idle:
+                time.sleep(args.idle_s)  # reads alone: nothing is being planned
+            acks_s: list[float] = []
+            plans_s: list[float] = []
+            complete = True
+            with Readers(url, operator, list(keys), args.readers) as readers:
+                for k in range(args.rounds):
+                    if time.monotonic() - started > args.max_s:
+                        complete = False
+                        break
+                    round_start = time.perf_counter()
+                    round_acks, revisions = _post_round(url, keys, nodes, k)
+                    acks_s += round_acks
+                    left = max(args.max_s - (time.monotonic() - started), 1.0)
+                    complete &= _wait_for_plans(url, operator, k, revisions, left)
+                    plans_s.append(time.perf_counter() - round_start)
+            load_after = os.getloadavg()
+        finally:
+            process.terminate()
+            process.wait(timeout=60)
+    return {
+        "database": db_url.split(":", 1)[0],
+        "buildings": args.buildings,
+        "readers": args.readers,
+        "rounds": args.rounds,
+        "complete": complete,
+        "reads_while_idle_ms": _percentiles_ms(idle.latencies_s),
+        "reads_ms": _percentiles_ms(readers.latencies_s),
+        "read_errors": readers.errors,
+        "acks_ms": _percentiles_ms(acks_s),
+        "round_until_all_planned_s": [round(s, 2) for s in plans_s],
+        "load_average_1min_before_after": [round(load_before[0], 1), round(load_after[0], 1)],
+        "cpus": os.cpu_count(),
+        "wall_s": round(time.monotonic() - started, 1),
+    }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--buildings", type=int, default=20)
+    parser.add_argument("--readers", type=int, default=20)
+    parser.add_argument("--rounds", type=int, default=3, help="periods posted by every building")
+    parser.add_argument("--building", default="office5", help="shipped building of each")
+    parser.add_argument("--db", default=None, help="database URL (default: a fresh SQLite file)")
+    parser.add_argument(
+        "--idle-s", type=float, default=10.0, help="reads alone first, for comparison [s]"
+    )
+    parser.add_argument("--max-s", type=float, default=300.0, help="stop after this long [s]")
+    parser.add_argument("--json", type=Path, default=None, help="write the figures here too")
+    args = parser.parse_args()
+    figures = run(args)
+    text = json.dumps(figures, indent=2)
+    print(text)
+    if args.json is not None:
+        args.json.write_text(text + "\n")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,274 @@
+"""Planning off the request path: a measurement is acknowledged once stored, and planned by
+a worker thread.
+
+Why threads and not processes: each building's controller lives in memory, warm-started
+between periods (the HiGHS session, its basis, the previous plan, the filter and the IL
+event state); a process pool would have to ship that state to a process and back for every
+plan (or pin buildings to processes), and SQLite takes one writer at a time whichever
+process writes. HiGHS releases the GIL while it solves (``Highs.run``; measured: a pure-
+Python counter thread kept 47 % of its solo rate during a 16 s solve on the 2 shared cores,
+i.e. it shared the CPUs rather than waiting), so a solve in a worker thread leaves the
+request threads running; only the LP's construction in Python competes with them for the
+GIL.
+
+The rules that keep the loop's semantics of a synchronous service:
+
+* **One queue per building, first in first out**; buildings are planned in parallel on a
+  pool of ``workers`` threads, but a building's jobs never overtake each other (its
+  controller is stepped forward in order).
+* **A measurement is acknowledged with the revision its plan will have** (202). The
+  revision is reserved when it is acknowledged; no other job stores a plan for that
+  building while one of its measurements waits: a boundary or activation job that meets a
+  waiting measurement goes back to the end of the queue, behind it — as it was when the
+  measurement was planned on its request.
+* **Restart safety**: the measurement is committed before it is acknowledged; a measurement
+  without its plan (trigger ``measurement``) is queued again when the service starts
+  (:meth:`Planner.recover`), so an acknowledged measurement is planned after a crash.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+from collections import deque
+from collections.abc import Callable
+from concurrent.futures import Future, ThreadPoolExecutor
+from dataclasses import dataclass, field
+from datetime import datetime
+from functools import partial
+from typing import Any
+
+from sqlalchemy import func, select
+
+from hvacflex.service.db import Measurement, PlanRow
+from hvacflex.service.runtime import Runtime
+from hvacflex.service.schemas import MeasurementIn
+
+DEFAULT_PLAN_WORKERS = 2
+"""Planning threads: one per core of a small server (a solve releases the GIL)."""
+OPERATOR_WAIT_S = 300.0
+"""How long an operator's clock or activation request waits for the plans it triggers [s]
+(a plan's solve is capped at ``MAX_TIME_LIMIT_S``; this leaves room for a queue)."""
+
+LOG = logging.getLogger("hvacflex.service.planner")
+
+Plan = dict[str, Any]
+
+
+@dataclass(frozen=True)
+class Ack:
+    """A measurement's acknowledgement: its period and the revision of its plan.
+
+    ``plan`` is the stored plan when the measurement was planned before (a repeated body);
+    otherwise ``future`` resolves to the plan once the worker has stored it.
+    """
+
+    building_id: str
+    period: int
+    time: str
+    revision: int
+    new: bool
+    plan: Plan | None = None
+    future: Future[Plan] | None = field(default=None, compare=False)
+
+    def wait(self, timeout_s: float) -> Plan | None:
+        """The plan, waiting up to ``timeout_s`` [s] for it (None when not done by then).
+
+        Raises
+        ------
+        Exception : whatever planning raised (an input error maps to a 4xx).
+        """
+        if self.plan is not None:
+            return self.plan
+        assert self.future is not None
+        if timeout_s <= 0 and not self.future.done():
+            return None
+        try:
+            return self.future.result(timeout=max(timeout_s, 0.0))
+        except TimeoutError:
+            return None
+
+
+@dataclass
+class _Job:
+    work: Callable[[], Any]
+    future: Future[Any]
+    measurement: tuple[str, int] | None = None
+
+
+class Planner:
+    """The service's planning workers over a :class:`~hvacflex.service.runtime.Runtime`."""
+
+    def __init__(self, runtime: Runtime, workers: int = DEFAULT_PLAN_WORKERS) -> None:
+        self.runtime = runtime
+        self._pool = ThreadPoolExecutor(max(1, workers), thread_name_prefix="hvacflex-plan")
+        self._lock = threading.Lock()
+        self._queues: dict[str, deque[_Job]] = {}
+        self._draining: set[str] = set()
+        self._waiting: dict[tuple[str, int], int] = {}
+        """Measurements acknowledged and not yet planned: (building, period) → revision."""
+        self._busy_other: set[str] = set()
+        """Buildings running a boundary or activation job now (it may store one plan)."""
+        self._running_futures: dict[tuple[str, int], Future[Plan]] = {}
+        """The futures of the measurements being planned now."""
+
+    # -- measurements -------------------------------------------------------------------
+    def acknowledge(self, building_id: str, body: MeasurementIn) -> Ack:
+        """Store the measurement (committed before this returns) and queue its plan.
+
+        Raises
+        ------
+        InputError, ConflictError : as :meth:`Runtime.store_measurement`.
+        """
+        with self._lock:
+            waiting = [k for (b, k) in self._waiting if b == building_id]
+        stored = self.runtime.store_measurement(
+            building_id, body, not_before=max(waiting, default=-1)
+        )
+        k, time = stored.period, stored.time
+        with self._lock:
+            revision = self._waiting.get((building_id, k))
+            if revision is not None:  # acknowledged before, still waiting
+                return Ack(
+                    building_id, k, time, revision, False, future=self._future_of(k, building_id)
+                )
+            plan = stored.plan
+            if plan is None and not stored.new:  # planned since it was read, or failed
+                with self.runtime.sessions() as session:
+                    plan = self.runtime.own_plan(session, building_id, k)
+            if plan is not None:
+                return Ack(building_id, k, time, int(plan["revision"]), False, plan=plan)
+            future, revision = self._queue_measurement(building_id, k)
+        return Ack(building_id, k, time, revision, stored.new, future=future)
+
+    def _queue_measurement(self, building_id: str, k: int) -> tuple[Future[Plan], int]:
+        """Reserve the plan's revision and queue the plan (the caller holds ``_lock``)."""
+        with self.runtime.sessions() as session:
+            latest = session.scalar(
+                select(func.max(PlanRow.revision)).where(
+                    PlanRow.building_id == building_id, PlanRow.period == k
+                )
+            )
+        # a boundary or activation job running now may still store one plan of period k
+        revision = (latest or 0) + 1 + (building_id in self._busy_other)
+        self._waiting[(building_id, k)] = revision
+
+        def work() -> Plan:
+            return self.runtime.plan_measurement(building_id, k, revision)
+
+        job = _Job(work, Future(), measurement=(building_id, k))
+        self._enqueue(building_id, job)
+        return job.future, revision
+
+    def _future_of(self, k: int, building_id: str) -> Future[Plan]:
+        for job in self._queues.get(building_id, ()):
+            if job.measurement == (building_id, k):
+                return job.future
+        running: Future[Plan] = self._running_futures[(building_id, k)]
+        return running
+
+    # -- operator triggers --------------------------------------------------------------
+    def boundary(self, time: datetime) -> list[Plan]:
+        """The 30-min boundary trigger (:meth:`Runtime.boundary_building`) for every
+        building, planned by the workers; waits for the plans."""
+        with self.runtime.sessions() as session:
+            ids = self.runtime.building_ids(session)
+        futures = [self.submit(b, partial(self.runtime.boundary_building, b, time)) for b in ids]
+        return _results(futures)
+
+    def activation(self, building_ids: list[str]) -> list[Plan]:
+        """Re-plan the buildings whose activation state changed
+        (:meth:`Runtime.activation_building`); waits for the plans."""
+        futures = [
+            self.submit(b, partial(self.runtime.activation_building, b)) for b in building_ids
+        ]
+        return _results(futures)
+
+    def submit(self, building_id: str, work: Callable[[], Plan | None]) -> Future[Plan | None]:
+        """Run ``work`` (a boundary or activation job) in the building's queue."""
+        job = _Job(work, Future())
+        with self._lock:
+            self._enqueue(building_id, job)
+        return job.future
+
+    # -- start and stop -----------------------------------------------------------------
+    def recover(self) -> int:
+        """Queue every stored measurement that has no plan of its own yet (a crash between
+        acknowledgement and plan); returns how many."""
+        with self.runtime.sessions() as session:
+            planned = (
+                select(PlanRow.id)
+                .where(
+                    PlanRow.building_id == Measurement.building_id,
+                    PlanRow.period == Measurement.period,
+                    PlanRow.trigger == "measurement",
+                )
+                .exists()
+            )
+            rows = session.execute(
+                select(Measurement.building_id, Measurement.period)
+                .where(~planned)
+                .order_by(Measurement.building_id, Measurement.period)
+            ).all()
+        with self._lock:
+            for building_id, k in rows:
+                self._queue_measurement(building_id, int(k))
+        if rows:
+            LOG.info("queued %d measurements acknowledged before the restart", len(rows))
+        return len(rows)
+
+    def shutdown(self) -> None:
+        """Stop taking jobs; jobs not started stay in the database and are recovered."""
+        self._pool.shutdown(wait=True, cancel_futures=True)
+
+    # -- the queues ---------------------------------------------------------------------
+    def _enqueue(self, building_id: str, job: _Job) -> None:
+        """Append a job (the caller holds ``_lock``) and start the building's drain."""
+        self._queues.setdefault(building_id, deque()).append(job)
+        if building_id not in self._draining:
+            self._draining.add(building_id)
+            self._pool.submit(self._drain, building_id)
+
+    def _drain(self, building_id: str) -> None:
+        """Run the building's jobs in order until its queue is empty."""
+        while True:
+            with self._lock:
+                queue = self._queues.get(building_id)
+                if not queue:
+                    self._draining.discard(building_id)
+                    return
+                job = queue.popleft()
+                if job.measurement is None:
+                    if any(b == building_id for (b, _) in self._waiting):
+                        queue.append(job)  # behind the waiting measurement(s)
+                        continue
+                    self._busy_other.add(building_id)
+                else:
+                    self._running_futures[job.measurement] = job.future
+            self._run(building_id, job)
+
+    def _run(self, building_id: str, job: _Job) -> None:
+        try:
+            result = job.work()
+        except BaseException as exc:  # the waiter gets the error; the queue goes on
+            if job.measurement is not None:
+                LOG.exception("planning %s failed", job.measurement)
+            self._finish(building_id, job)
+            job.future.set_exception(exc)
+            return
+        self._finish(building_id, job)
+        job.future.set_result(result)
+
+    def _finish(self, building_id: str, job: _Job) -> None:
+        with self._lock:
+            if job.measurement is None:
+                self._busy_other.discard(building_id)
+            else:
+                self._waiting.pop(job.measurement, None)
+                self._running_futures.pop(job.measurement, None)
+
+
+def _results(futures: list[Future[Plan | None]]) -> list[Plan]:
+    """The plans the jobs made, in order (jobs that planned nothing left out)."""
+    plans = [f.result(timeout=OPERATOR_WAIT_S) for f in futures]
+    return [p for p in plans if p is not None]
