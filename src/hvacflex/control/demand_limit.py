@@ -7,8 +7,8 @@ plant's power model (:func:`hvacflex.building.hvac.hvac_power_kw` at the mean of
 temperatures now and at the predicted period end, the forecast outdoor air; latent gains
 left out). When that power exceeds the **peak target**, it raises every zone's set-point in
 steps of :data:`SETPOINT_STEP_K`, up to the comfort band's upper bound less
-:data:`UPPER_MARGIN_K`, and takes the smallest raise whose predicted power is within the
-target (the largest raise when none is).
+:data:`UPPER_MARGIN_K` (the last candidate), and takes the smallest raise whose predicted power
+is within the target (the largest raise when none is).
 
 **How the target is set**: ``target = max(f × P_ref, P_month)``, where
 
@@ -127,9 +127,9 @@ class DemandLimitController(ThermostatController):
             return flow, 0.0
         ceiling = forecast.comfort_upper_degc[0] - UPPER_MARGIN_K
         room_k = float(np.max(ceiling - base))
+        raises = [*np.arange(SETPOINT_STEP_K, room_k - 1e-9, SETPOINT_STEP_K), room_k]
         raise_k = 0.0
-        for step in range(1, int(np.floor(room_k / SETPOINT_STEP_K + 1e-9)) + 1):
-            raise_k = step * SETPOINT_STEP_K
+        for raise_k in (float(r) for r in raises if r > 0):
             target = np.maximum(np.minimum(base + raise_k, ceiling), base)
             flow = self.flows_for(x_degc, d_now, target, occupied)
             if self._power_kw(x_degc, flow, forecast) <= target_kw:
