@@ -186,7 +186,6 @@ WITHOUT_OWN_TEST_FILE: set[str] = {
     "hvacflex.config.presets",
     "hvacflex.config.schema",
     "hvacflex.control.base",
-    "hvacflex.control.baselines",
     "hvacflex.control.mpc",
     "hvacflex.control.prediction_error",
     "hvacflex.control.trajectory",
