@@ -14,8 +14,9 @@ import typer
 from hvacflex.constants import RUN_DIR
 
 PRESET_HELP = (
-    "Preset: nmpc, rmpc, rmpc-ppp, nmpc-no-reserve, thermostat, rmpc-feedback, "
-    "rmpc-feedback-ppp, rmpc-output-feedback, paper-nmpc, paper-rmpc, paper-rmpc-ppp."
+    "Preset: nmpc, rmpc, rmpc-ppp, nmpc-no-reserve, thermostat, thermostat-25.5, "
+    "trim-respond, demand-limit, gta-dr, rmpc-feedback, rmpc-feedback-ppp, "
+    "rmpc-output-feedback, paper-nmpc, paper-rmpc, paper-rmpc-ppp."
 )
 """The presets, spelled out so that ``--help`` need not import the configuration
 (``tests/test_cli.py`` checks it against ``hvacflex.config.PRESET_NAMES``)."""
