@@ -6,6 +6,7 @@ import dataclasses
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pytest
 
 import hvacflex
@@ -17,6 +18,7 @@ from hvacflex.control.gta_dr import GtaDrController
 from hvacflex.control.mpc import MPCController
 from hvacflex.control.trim_respond import TrimRespondController
 from hvacflex.paths import resolve_building
+from hvacflex.sim.closed_loop import run_simulation
 from hvacflex.sim.setup import make_controller, prepare
 
 
@@ -110,3 +112,15 @@ def test_gta_dr_curtails_its_offer_when_activated(tmp_path: Path) -> None:
     # the allowance α is in force during the event and its recovery
     assert (frame.loc[frame["il_event_window"], "il_allowance_k"] == 1.0).all()
     assert run.summary["discomfort_event_kelvin_hours"] < 0.05
+
+
+@pytest.mark.parametrize("name", BASELINE_PRESETS)
+def test_a_baseline_run_resumed_from_its_checkpoint_is_identical(name: str, tmp_path: Path) -> None:
+    cfg = preset(name, start="2014-03-03", days=1.5)  # the learned state crosses a day
+    whole = run_simulation(cfg, tmp_path / "whole", progress=False).frame
+    run_simulation(
+        cfg, tmp_path / "split", progress=False, checkpoint_every=24, stop_after_steps=50
+    )
+    second = run_simulation(cfg, tmp_path / "split", progress=False, checkpoint_every=24)
+    assert second.resumed_from_step == 50
+    pd.testing.assert_frame_equal(whole, second.frame)
