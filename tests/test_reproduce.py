@@ -11,7 +11,15 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from hvacflex.reproduce import reproduce
+from hvacflex.config import BASELINE_PRESETS
+from hvacflex.reproduce import (
+    RULE_BASED_SCENARIOS,
+    SCENARIO_LABELS,
+    TARIFF_PEAK_PRICE_SGD_PER_KW,
+    Plan,
+    reproduce,
+    scenario_jobs,
+)
 from hvacflex.results import load_results
 
 
@@ -24,6 +32,7 @@ def quick_report(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 EXPECTED = [
     "report.html",
+    "does_it_pay.csv",
     "table1.csv",
     "table1_vs_paper.csv",
     "kpi_scenarios.csv",
@@ -40,6 +49,34 @@ EXPECTED = [
     "figures/robustness_price.png",
     "figures/robustness_price.csv",
 ]
+
+
+def test_the_quick_plan_runs_every_baseline_over_the_scenarios_period() -> None:
+    plan = Plan.quick()
+    jobs = {params["scenario"]: cfg for params, cfg in scenario_jobs(plan)}
+    assert set(BASELINE_PRESETS) <= set(jobs) and "thermostat" in jobs
+    for name in RULE_BASED_SCENARIOS:
+        assert jobs[name].controller.kind != "mpc"
+        assert (jobs[name].start, jobs[name].days) == (plan.start, plan.days)
+
+
+def test_does_it_pay_ranks_every_scenario_under_one_tariff(quick_report: Path) -> None:
+    table = pd.read_csv(quick_report / "does_it_pay.csv")
+    kpis = pd.read_csv(quick_report / "kpi_scenarios.csv", index_col=0)
+    assert set(table["controller"]) == set(kpis.columns)
+    assert list(table["rank"]) == list(range(1, len(table) + 1))
+    assert table["tariff_cost_sgd_per_month"].is_monotonic_increasing
+    reference = table["reference"].iloc[0]
+    baselines = {SCENARIO_LABELS[k] for k in RULE_BASED_SCENARIOS}
+    assert reference in baselines
+    assert set(table.loc[table["rule_based"], "controller"]) == baselines
+    # every run's peak is charged at the one φ, whatever it planned with
+    for label in ("(a) NMPC", "(c) RMPC + PPP"):
+        assert kpis.loc["ppp_charge_sgd", label] == pytest.approx(
+            TARIFF_PEAK_PRICE_SGD_PER_KW * kpis.loc["peak_power_kw", label]
+        )
+    text = (quick_report / "report.html").read_text()
+    assert text.index("Does it pay?") < text.index("Table 1")
 
 
 @pytest.mark.parametrize("name", EXPECTED)
@@ -209,10 +246,10 @@ def test_second_run_reuses_cached_simulations(quick_report: Path) -> None:
     mtimes = {path: path.stat().st_mtime_ns for path in results}
     logs: list[str] = []
     again = reproduce(quick_report, quick=True, workers=1, log=logs.append)
-    assert again.complete and len(again.outcomes) == 21
+    assert again.complete and len(again.outcomes) == 25  # 21 + the four strong baselines
     assert all(o.cached for o in again.outcomes)
-    assert sum("ok (cached)" in line for line in logs) == 21
-    assert len(results) == 21 and {p: p.stat().st_mtime_ns for p in results} == mtimes
+    assert sum("ok (cached)" in line for line in logs) == 25
+    assert len(results) == 25 and {p: p.stat().st_mtime_ns for p in results} == mtimes
     assert {name: (quick_report / name).read_bytes() for name in outputs} == before
 
 

@@ -14,13 +14,19 @@ from typing import TYPE_CHECKING, Any
 import typer
 import typer.core
 
-from hvacflex.cli_help import PRESET_HELP, START_HELP, use_readable_metavars
+from hvacflex.cli_help import (
+    PRESET_HELP,
+    START_HELP,
+    exit_on_error,
+    fail,
+    use_readable_metavars,
+)
+from hvacflex.cli_model import identify_app, validate_app
 from hvacflex.constants import DEFAULT_START, RUN_DIR
 from hvacflex.dates import ISO_START_FORMS, START_EXAMPLE
 
 if TYPE_CHECKING:
     from hvacflex.config import ScenarioConfig
-    from hvacflex.errors import HvacflexError
 
 use_readable_metavars()
 
@@ -52,15 +58,6 @@ def main(
     ),
 ) -> None:
     """Robust predictive control of building HVAC in electricity markets."""
-
-
-def _fail(exc: HvacflexError) -> typer.Exit:
-    """Print a bad-input error (no traceback) and return the exit of code 2 to raise."""
-    from rich.console import Console
-    from rich.markup import escape
-
-    Console(stderr=True).print(f"[red]error:[/red] {escape(str(exc))}", soft_wrap=True)
-    return typer.Exit(code=2)
 
 
 def _check_start(value: str | None) -> str | None:
@@ -141,7 +138,7 @@ def data_show(
             weather_file=weather,
         )
     except HvacflexError as exc:
-        raise _fail(exc) from None
+        raise fail(exc) from None
     boxes = {"default": DEFAULT_UNCERTAINTY, "paper": paper_uncertainty()}
     typer.echo(exogenous_summary_text(exo, steps, days, b.name, model, boxes))
     if fig2 is not None:
@@ -183,7 +180,7 @@ def building_show(
     try:
         text = building_summary_text(load_building(resolve_building(building)))
     except HvacflexError as exc:
-        raise _fail(exc) from None
+        raise fail(exc) from None
     comfort = ScenarioConfig().comfort
     band = format_comfort_band(
         comfort.occupied_degc,
@@ -225,189 +222,8 @@ def building_export_idf(
     )
 
 
-validate_app = typer.Typer(help="Validate the building model.", no_args_is_help=True)
 app.add_typer(validate_app, name="validate")
-
-
-@validate_app.command("bestest")
-def validate_bestest(
-    out: Path = typer.Option(  # noqa: B008
-        Path("bestest_results"), "--out", help="Folder for the table, CSV and PNG figures."
-    ),
-) -> None:
-    """ASHRAE Standard 140 Cases 600, 900, 600FF, 900FF against the six example programs."""
-    from hvacflex.errors import HvacflexError
-    from hvacflex.paths import buildings_dir, check_output_dir, data_dir
-    from hvacflex.report.validation_plots import write_bestest_outputs
-    from hvacflex.sim.progress import task_progress
-    from hvacflex.validation.bestest import run_bestest, stage_count, table_markdown
-
-    try:
-        check_output_dir(out, "--out")
-        with task_progress(True, "bestest", stage_count()) as bar:
-            result = run_bestest(data_dir() / "bestest", buildings_dir(), progress=bar.stage)
-        paths = write_bestest_outputs(result, out)
-    except HvacflexError as exc:
-        raise _fail(exc) from None
-    typer.echo(table_markdown(result.table))
-    for path in paths:
-        typer.echo(f"wrote {path}")
-
-
-@validate_app.command("energyplus")
-def validate_energyplus(
-    building: str = typer.Argument("office5", help="A shipped building name or a TOML file."),
-    start: list[str] = typer.Option(  # noqa: B008
-        ["2014-03-03", "2014-05-05"],
-        "--start",
-        help="First compared day, YYYY-MM-DD (repeat for several weeks).",
-    ),
-    days: int = typer.Option(7, "--days", min=1, max=31, help="Days compared per start."),
-    spinup_days: int = typer.Option(
-        7, "--spinup-days", min=0, max=31, help="Days simulated before and discarded."
-    ),
-    out: Path = typer.Option(  # noqa: B008
-        Path("energyplus_validation"), "--out", help="Folder for the CSV tables and figures."
-    ),
-) -> None:
-    """hvacflex's RC plant against EnergyPlus on the building's IDF export: free-float, and
-    for office5 fixed-flow and thermostat (zone air RMSE, cooling energy, HVAC electricity)."""
-    from datetime import date
-
-    from hvacflex.building.io import load_building
-    from hvacflex.errors import HvacflexError, InputError
-    from hvacflex.paths import resolve_building
-    from hvacflex.report.tables import to_markdown
-    from hvacflex.report.validation_plots import write_energyplus_outputs
-    from hvacflex.sim.progress import task_progress
-    from hvacflex.validation.energyplus import run_energyplus_validation, stage_count
-
-    try:
-        starts = []
-        for text in start:
-            try:
-                starts.append(date.fromisoformat(text))
-            except ValueError:
-                raise InputError(
-                    "not a date", field="--start", value=text, hint="write YYYY-MM-DD"
-                ) from None
-        if out.exists() and not out.is_dir():
-            raise InputError("is a file, not a folder", field="--out", value=str(out))
-        model = load_building(resolve_building(building))
-        with task_progress(True, "energyplus", stage_count(model, starts)) as bar:
-            result = run_energyplus_validation(
-                model,
-                starts=starts,
-                days=days,
-                spinup_days=spinup_days,
-                workdir=out,
-                progress=bar.stage,
-            )
-        paths = write_energyplus_outputs(result, out)
-    except HvacflexError as exc:
-        typer.echo(f"error: {exc}", err=True)
-        raise typer.Exit(2) from None
-    typer.echo(to_markdown(result.temperatures.set_index("case").round(2)))
-    if not result.energy.empty:
-        typer.echo(to_markdown(result.energy.set_index("case").round(1)))
-    for path in paths:
-        typer.echo(f"wrote {path}")
-
-
-identify_app = typer.Typer(
-    help="Identify a controller model from measured trend data (docs/identify.md).",
-    no_args_is_help=True,
-)
 app.add_typer(identify_app, name="identify")
-
-
-@identify_app.command("collect")
-def identify_collect(
-    idf: Path = typer.Option(..., "--idf", help="The EnergyPlus 25.2 model."),  # noqa: B008
-    start: str = typer.Option(..., "--start", help="First day, YYYY-MM-DD."),
-    days: int = typer.Option(..., "--days", min=1, max=366, help="Number of days."),
-    out: Path = typer.Option(..., "--out", help="The trend CSV to write."),  # noqa: B008
-    weather: Path | None = typer.Option(  # noqa: B008
-        None, "--weather", help="EPW file (default: the shipped Singapore TMYx)."
-    ),
-    excitation: str = typer.Option(
-        "prbs", "--excitation", help="Setpoint excitation: prbs, steps or none."
-    ),
-    zones: str | None = typer.Option(
-        None, "--zones", help="IDF zones, comma-separated (default: every zone with a thermostat)."
-    ),
-    seed: int = typer.Option(0, "--seed", help="Seed of the PRBS."),
-) -> None:
-    """Run the IDF under its own control plus a seeded setpoint excitation; write trend data."""
-    from hvacflex.data.forecast import DEFAULT_WEATHER_FILE
-    from hvacflex.errors import HvacflexError
-    from hvacflex.identify.collect import collect_trend
-    from hvacflex.identify.trend import write_trend
-    from hvacflex.paths import data_dir
-
-    epw = weather if weather is not None else data_dir() / "weather" / DEFAULT_WEATHER_FILE
-    names = None if zones is None else tuple(z.strip() for z in zones.split(",") if z.strip())
-    try:
-        frame = collect_trend(
-            idf, start=start, days=days, epw_path=epw, excitation=excitation, zones=names, seed=seed
-        )
-    except HvacflexError as exc:
-        raise _exit_on_error(exc) from None
-    typer.echo(f"wrote {write_trend(frame, out)} ({len(frame)} periods)")
-
-
-@identify_app.command("fit")
-def identify_fit(
-    data: Path = typer.Option(..., "--data", help="The trend CSV."),  # noqa: B008
-    out: Path = typer.Option(..., "--out", help="The model TOML to write."),  # noqa: B008
-    template: str | None = typer.Option(
-        None, "--template", help="A building file: its zones and the walls between them."
-    ),
-    zones: str | None = typer.Option(None, "--zones", help="The data's zones, comma-separated."),
-    adjacency: str | None = typer.Option(
-        None, "--adjacency", help='Coupled zones, "Z1-Z2,Z1-Z3" (default: every pair).'
-    ),
-    train: str | None = typer.Option(None, "--train", help="YYYY-MM-DD..YYYY-MM-DD"),
-    test: str | None = typer.Option(None, "--test", help="YYYY-MM-DD..YYYY-MM-DD"),
-) -> None:
-    """Fit a grey-box RC model to trend data; write it, fit_report.csv and the parameters."""
-    import warnings
-
-    from hvacflex.errors import HvacflexError
-    from hvacflex.identify.workflow import identify
-    from hvacflex.paths import resolve_building
-
-    try:
-        building = None if template is None else resolve_building(template)
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")  # they are in the fit report's warnings column
-            outcome = identify(
-                data,
-                out,
-                zones=zones,
-                adjacency=adjacency,
-                template=building,
-                train=train,
-                test=test,
-            )
-    except HvacflexError as exc:
-        raise _exit_on_error(exc) from None
-    typer.echo(outcome.report.to_string(index=False, float_format=lambda v: f"{v:.3f}"))
-    if outcome.power is not None:
-        typer.echo(outcome.power.to_string(index=False, float_format=lambda v: f"{v:.1f}"))
-    from hvacflex.report.identify_plots import plot_identified_fit
-
-    figure = plot_identified_fit(outcome.predictions, outcome.model_path.parent / "fit.png")
-    for path in (
-        outcome.model_path,
-        outcome.report_path,
-        outcome.parameters_path,
-        outcome.power_path,
-        outcome.model_path.parent / "fit_predictions.csv",
-        figure,
-    ):
-        if path is not None:
-            typer.echo(f"wrote {path}")
 
 
 @app.command()
@@ -452,7 +268,7 @@ def kpi(
         try:
             check_output_file(csv, "--csv")
         except HvacflexError as exc:
-            raise _fail(exc) from None
+            raise fail(exc) from None
     columns: dict[str, dict[str, float]] = {}
     for path in paths:
         if path.is_dir():
@@ -587,7 +403,7 @@ def simulate(
 
             report_for_run_dir(result.out_dir)
     except HvacflexError as exc:
-        raise _fail(exc) from None
+        raise fail(exc) from None
     if result.cached:
         console.print(f"re-used finished results in {result.out_dir}")
     elif result.resumed_from_step is not None:
@@ -708,7 +524,7 @@ def sweep(
         if scheduler is not None:
             check_scheduler(scheduler)
     except HvacflexError as exc:
-        raise _fail(exc) from None
+        raise fail(exc) from None
     done = 0
 
     def report(outcome: JobOutcome) -> None:
@@ -770,7 +586,7 @@ def reproduce(
             out, quick=quick, scheduler=scheduler, workers=workers, log=typer.echo, fresh=fresh
         )
     except HvacflexError as exc:
-        raise _fail(exc) from None
+        raise fail(exc) from None
     if not result.complete:
         typer.echo(
             f"error: {len(result.failed)} of {len(result.outcomes)} runs failed; the report "
@@ -804,11 +620,6 @@ def _serve_db(ctx: typer.Context, db: str | None) -> str:
         return db
     given = ctx.find_object(dict)
     return str((given or {}).get("serve_db") or DEFAULT_SERVE_DB)
-
-
-def _exit_on_error(exc: Exception) -> typer.Exit:
-    typer.echo(f"error: {exc}", err=True)
-    return typer.Exit(2)
 
 
 @serve_app.callback()
@@ -870,7 +681,7 @@ def serve(
         check_listen_address(host, port)
         service = create_app(_serve_db(ctx, db), wall_clock=wall_clock, stale_after_s=stale_after_s)
     except HvacflexError as exc:
-        raise _exit_on_error(exc) from None
+        raise exit_on_error(exc) from None
     typer.echo(f"hvacflex service on {service_url(host, port, tls)} (API under /v1)")
     sys.stdout.flush()  # the URL reaches a pipe (a supervisor, a test) before the first request
     uvicorn.run(
@@ -892,7 +703,7 @@ def _key_sessions(ctx: typer.Context, db: str | None) -> Any:
     try:
         return session_factory(open_database(_serve_db(ctx, db)))
     except HvacflexError as exc:
-        raise _exit_on_error(exc) from None
+        raise exit_on_error(exc) from None
 
 
 @serve_key_app.command("create")
@@ -916,7 +727,7 @@ def serve_key_create(
             if key_file is not None:
                 write_key_file(key_file, key)
     except HvacflexError as exc:
-        raise _exit_on_error(exc) from None
+        raise exit_on_error(exc) from None
     where = f" (also in {key_file})" if key_file is not None else ""
     typer.echo(f"created {role} key {key.split('_')[1]}{where}; it is shown once:")
     typer.echo(key)
@@ -952,7 +763,7 @@ def serve_key_revoke(
         with sessions() as session, session.begin():
             was = revoke_key(session, key_id)
     except HvacflexError as exc:
-        raise _exit_on_error(exc) from None
+        raise exit_on_error(exc) from None
     typer.echo(f"key {key_id} {'was already' if was else 'is now'} revoked")
 
 
@@ -981,7 +792,7 @@ def serve_replay(
         cfg = _scenario_config(scenario, config, start, days)
         result = replay(url, key, cfg, out, building_id=building_id)
     except HvacflexError as exc:
-        raise _exit_on_error(exc) from None
+        raise exit_on_error(exc) from None
     typer.echo(_run_summary_line(cfg.name, result.summary, result.out_dir / RESULTS_FILENAME))
 
 
@@ -1043,7 +854,7 @@ def serve_openadr_ven(
         typer.echo(f"hvacflex VEN {ven_name} → {vtn_url}; service {url}", err=True)
         asyncio.run(run_ven(config, stop_after_s=stop_after_s))
     except HvacflexError as exc:
-        raise _exit_on_error(exc) from None
+        raise exit_on_error(exc) from None
 
 
 if __name__ == "__main__":

@@ -4,7 +4,7 @@ click's names of value types (TEXT, INTEGER, PATH) in ``--help``."""
 from __future__ import annotations
 
 import re
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import typer
 import typer.core
@@ -12,9 +12,13 @@ import typer.core
 from hvacflex.constants import DEFAULT_START
 from hvacflex.dates import ISO_START_FORMS, START_EXAMPLE
 
+if TYPE_CHECKING:
+    from hvacflex.errors import HvacflexError
+
 PRESET_HELP = (
-    "Preset: nmpc, rmpc, rmpc-ppp, nmpc-no-reserve, thermostat, rmpc-feedback, "
-    "rmpc-feedback-ppp, rmpc-output-feedback, paper-nmpc, paper-rmpc, paper-rmpc-ppp."
+    "Preset: nmpc, rmpc, rmpc-ppp, nmpc-no-reserve, thermostat, thermostat-25.5, "
+    "trim-respond, demand-limit, gta-dr, rmpc-feedback, rmpc-feedback-ppp, "
+    "rmpc-output-feedback, paper-nmpc, paper-rmpc, paper-rmpc-ppp."
 )
 """The presets, spelled out so that ``--help`` need not import the configuration
 (``tests/test_cli.py`` checks it against ``hvacflex.config.PRESET_NAMES``)."""
@@ -58,3 +62,18 @@ def use_readable_metavars() -> None:
 
     typer.core._TyperParameter.display_type = display_type  # type: ignore[method-assign]
     typer.core.TyperOption.display_type_rich = display_type_rich  # type: ignore[method-assign]
+
+
+def fail(exc: HvacflexError) -> typer.Exit:
+    """Print a bad-input error (no traceback) and return the exit of code 2 to raise."""
+    from rich.console import Console
+    from rich.markup import escape
+
+    Console(stderr=True).print(f"[red]error:[/red] {escape(str(exc))}", soft_wrap=True)
+    return typer.Exit(code=2)
+
+
+def exit_on_error(exc: Exception) -> typer.Exit:
+    """Print ``exc`` as an error line and return the exit of code 2 to raise."""
+    typer.echo(f"error: {exc}", err=True)
+    return typer.Exit(2)

@@ -4,9 +4,11 @@ One call runs, as Dask jobs (see :mod:`hvacflex.sim.sweep`):
 
 * the paper's scenarios (a) NMPC, (b) RMPC, (c) RMPC + PPP under the product's IL event
   model, the same three under the paper's whole-horizon reserve model, (b) and (c) with
-  affine disturbance feedback (whole-horizon model), and the thermostat baseline, over the
-  whole of 2014 (``--quick``: one week) — Table 1 for both models, Fig. 5, Fig. 6 and the
-  comfort figure;
+  affine disturbance feedback (whole-horizon model), the 24 °C thermostat and the strong
+  rule-based baselines (``thermostat-25.5``, ``trim-respond``, ``demand-limit``, ``gta-dr``;
+  docs/baselines.md), over the whole of 2014 (``--quick``: one week) — the "does it pay?"
+  table (every run priced with one tariff, :mod:`hvacflex.report.does_it_pay`), Table 1 for
+  both models, Fig. 5, Fig. 6 and the comfort figure;
 * the PPP sweep 0.5–30 SGD/kW on scenario (c) — Fig. 7;
 * the uncertainty sweep 0–50 % of the heat gains for open-loop RMPC (and the affine-feedback
   RMPC) next to NMPC — the price of robustness;
@@ -26,7 +28,10 @@ from typing import Any
 
 import pandas as pd
 
+from hvacflex.building.io import load_building
 from hvacflex.config import (
+    BASELINE_PRESETS,
+    DEFAULT_PEAK_PRICE_PAPER_SGD_PER_KW,
     PAPER_FEEDBACK_SCENARIOS,
     PAPER_MODEL_SCENARIOS,
     PAPER_SCENARIOS,
@@ -34,6 +39,7 @@ from hvacflex.config import (
     preset,
     scaled_uncertainty,
 )
+from hvacflex.paths import resolve_building
 from hvacflex.results import load_results
 from hvacflex.sim.sweep import JobOutcome, outcomes_table, run_sweep
 
@@ -56,12 +62,19 @@ QUICK_PPP_VALUES_SGD_PER_KW: tuple[float, ...] = (0.5, 1.5, 5.0, 30.0)
 UNCERTAINTY_LEVELS: tuple[float, ...] = (0.0, 0.05, 0.1, 0.2, 0.3, 0.5)
 QUICK_UNCERTAINTY_LEVELS: tuple[float, ...] = (0.0, 0.25, 0.5)
 
+TARIFF_PEAK_PRICE_SGD_PER_KW = DEFAULT_PEAK_PRICE_PAPER_SGD_PER_KW
+"""φ of the one tariff every comparison prices every run with [SGD/kW per month]: the
+paper's peak-power price, billed on each calendar month's peak whether or not the
+controller planned for it."""
+
 SCENARIO_LABELS: dict[str, str] = {
     "a": "(a) NMPC",
     "b": "(b) RMPC",
     "c": "(c) RMPC + PPP",
     "thermostat": "thermostat",
-}
+} | {name: name for name in BASELINE_PRESETS}
+RULE_BASED_SCENARIOS: tuple[str, ...] = ("thermostat", *BASELINE_PRESETS)
+"""Scenario keys of the rule-based runs (the baselines "does it pay?" ranks against)."""
 WHOLE_HORIZON_PREFIX = "paper-"
 """Key prefix of the scenarios run with the paper's whole-horizon reserve model."""
 SCENARIO_LABELS |= {
@@ -127,9 +140,9 @@ class Plan:
 
 
 def scenario_jobs(plan: Plan) -> list[tuple[dict[str, Any], ScenarioConfig]]:
-    """Scenarios (a), (b), (c) with each reserve model, (b) and (c) with affine feedback, and
-    the thermostat, over the plan's period (keys ``a``, ``paper-a``, …, ``feedback-b``,
-    ``feedback-c``, ``thermostat``)."""
+    """Scenarios (a), (b), (c) with each reserve model, (b) and (c) with affine feedback, the
+    thermostat and the strong baselines, over the plan's period (keys ``a``, ``paper-a``, …,
+    ``feedback-b``, ``feedback-c``, ``thermostat``, and the baselines' preset names)."""
     whole_horizon = [
         (f"{WHOLE_HORIZON_PREFIX}{letter}", name) for letter, name in PAPER_MODEL_SCENARIOS.items()
     ]
@@ -137,7 +150,8 @@ def scenario_jobs(plan: Plan) -> list[tuple[dict[str, Any], ScenarioConfig]]:
         (f"{FEEDBACK_PREFIX}{letter}", name) for letter, name in PAPER_FEEDBACK_SCENARIOS.items()
     ]
     jobs: list[tuple[dict[str, Any], ScenarioConfig]] = []
-    runs = [*PAPER_SCENARIOS.items(), *whole_horizon, *feedback, ("thermostat", "thermostat")]
+    baselines = [(name, name) for name in RULE_BASED_SCENARIOS]
+    runs = [*PAPER_SCENARIOS.items(), *whole_horizon, *feedback, *baselines]
     for letter, name in runs:
         cfg = preset(name, start=plan.start, days=plan.days)
         jobs.append(({"scenario": letter}, cfg))
@@ -343,6 +357,8 @@ def build_sections(plan: Plan, by_group: dict[str, list[JobOutcome]], out: Path)
         if f"{FEEDBACK_PREFIX}{k}" in scenario_frames
     }
     sections: list[Any] = []
+    if any(k in RULE_BASED_SCENARIOS for k in scenario_frames):
+        sections.append(does_it_pay_section(plan, scenario_frames, out))
     if paper:
         sections.append(paper_figures_section(paper, figures))
         sections.append(table1_section(plan, paper, whole, out, feedback=feedback))
@@ -358,6 +374,48 @@ def build_sections(plan: Plan, by_group: dict[str, list[JobOutcome]], out: Path)
     sections.append(notes.differences_section())
     sections.append(notes.configuration_section(by_group))
     return sections
+
+
+def floor_area_m2() -> float:
+    """Conditioned floor area of the reproduction's building [m²]."""
+    building = load_building(resolve_building(preset(PAPER_SCENARIOS["a"]).building))
+    return float(sum(zone.floor_area_m2 for zone in building.zones))
+
+
+def does_it_pay_section(plan: Plan, scenario_frames: Mapping[str, pd.DataFrame], out: Path) -> Any:
+    """The "does it pay?" table (:mod:`hvacflex.report.does_it_pay`); writes
+    ``does_it_pay.csv``."""
+    from hvacflex.report import does_it_pay as pay
+    from hvacflex.report.html import Section
+
+    labelled = {SCENARIO_LABELS.get(k, k): f for k, f in scenario_frames.items()}
+    rule_based = {SCENARIO_LABELS.get(k, k) for k in RULE_BASED_SCENARIOS}
+    area_m2 = floor_area_m2()
+    table = pay.does_it_pay(
+        labelled,
+        rule_based,
+        peak_price_sgd_per_kw=TARIFF_PEAK_PRICE_SGD_PER_KW,
+        floor_area_m2=area_m2,
+    )
+    pay.write_does_it_pay(table, out)
+    reference = str(table["reference"].iloc[0])
+    paying = [str(c) for c in table.loc[table["pays"], "controller"]]
+    return Section(
+        title="Does it pay? — every controller under one tariff",
+        paragraphs=[
+            f"Simulated {plan.days:g} days from {plan.start}, scaled to a month. Every run is "
+            "priced with the same tariff: energy at USEP + φ × each month's billed peak "
+            f"(φ = {TARIFF_PEAK_PRICE_SGD_PER_KW:g} SGD/kW, whatever φ the controller "
+            "planned with) + IL non-delivery penalties − reserve revenue; per m² over "
+            f"{area_m2:g} m² of floor. The reference is the cheapest rule-based baseline "
+            f"that keeps comfort: {reference}. The reserve revenue rests on the SYNTHETIC "
+            "reserve price, and the plant is hvacflex's own RC model.",
+            "Cheaper than the reference without more discomfort: "
+            + (", ".join(paying) if paying else "none")
+            + ".",
+        ],
+        tables=[table],
+    )
 
 
 def paper_figures_section(paper: Mapping[str, pd.DataFrame], figures: Path) -> Any:
@@ -490,13 +548,17 @@ def comfort_section(
     out: Path,
     figures: Path,
 ) -> Any:
-    """Discomfort of every scenario (and the hot-corner runs); writes kpi_scenarios.csv."""
+    """Discomfort of every scenario (and the hot-corner runs); writes kpi_scenarios.csv,
+    whose ``ppp_charge_sgd`` and ``net_cost_with_ppp_sgd`` price every run at the one
+    tariff's φ (:data:`TARIFF_PEAK_PRICE_SGD_PER_KW`)."""
     from hvacflex import kpi
     from hvacflex.report import plots, text
     from hvacflex.report.html import Section
 
     all_frames = {SCENARIO_LABELS.get(k, k): f for k, f in scenario_frames.items()}
-    summary = pd.DataFrame({name: kpi.summary(f) for name, f in all_frames.items()})
+    summary = pd.DataFrame(
+        {name: kpi.summary(f, TARIFF_PEAK_PRICE_SGD_PER_KW) for name, f in all_frames.items()}
+    )
     summary.to_csv(out / "kpi_scenarios.csv")
     fig_comfort = plots.plot_discomfort(all_frames, figures / "comfort.png")
     figures_comfort = [fig_comfort]

@@ -61,6 +61,7 @@ from hvacflex.config.model import (
     UncertaintyConfig,
 )
 from hvacflex.config.presets import (
+    BASELINE_PRESETS,
     DEFAULT_PEAK_PRICE_PAPER_SGD_PER_KW,
     PAPER_FEEDBACK_SCENARIOS,
     PAPER_MODEL_SCENARIOS,
@@ -79,6 +80,7 @@ from hvacflex.opt.options import (
 from hvacflex.tomlio import read_toml
 
 __all__ = [
+    "BASELINE_PRESETS",
     "DEFAULT_COMFORT_PENALTY_SGD_PER_KELVIN_HOUR",
     "DEFAULT_PEAK_PRICE_PAPER_SGD_PER_KW",
     "LINEARISATION_MARGIN_K",

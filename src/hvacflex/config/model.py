@@ -22,7 +22,7 @@ from hvacflex.opt.options import (
     RobustMode,
 )
 
-ControllerKind = Literal["mpc", "thermostat"]
+ControllerKind = Literal["mpc", "thermostat", "trim-respond", "demand-limit", "gta-dr"]
 BillingMode = Literal["horizon", "billing-period"]
 RealisationMode = Literal["zero", "uniform", "worst-upper", "worst-lower", "ar1"]
 ActivationMode = Literal["never", "always", "random", "stress", "file"]
@@ -79,6 +79,14 @@ class ControllerConfig:
     ``LINEARISATION_MARGIN_K`` (25 °C for the default band), where the controller operates."""
     time_limit_s: float = 20.0
     thermostat_setpoint_degc: float = 24.0
+    """Occupied set-point of the rule-based controllers (and the MPC's fallback) [°C]."""
+    optimal_start: bool = False
+    """Rule-based controllers: pre-cool before occupancy with the learned lead
+    (:class:`hvacflex.control.baselines.OptimalStart`)."""
+    demand_limit_fraction: float = 0.9
+    """``demand-limit``: the peak target's share of yesterday's unmanaged peak."""
+    reserve_share: float = 0.2
+    """``gta-dr``: the share of the predicted HVAC load offered as IL reserve."""
     feedback: FeedbackConfig = field(default_factory=FeedbackConfig)
     linearisation: Linearisation = "fixed"
     """``"fixed"``: the model linearised once at (ṁ_min, T₀); ``"trajectory"``: re-linearised

@@ -7,6 +7,10 @@ load **events** (at most one activation of up to D = 4 periods in the horizon, t
 it); the ``paper-*`` presets keep the paper's whole-horizon model (the curtailed trajectory
 inside the strict band for the whole horizon). See ``docs/il_events.md``.
 
+Product presets bill the peak per billing period (``billing_mode = "billing-period"``: the
+MPC knows the month's peak so far); the ``paper-*`` and feedback presets keep the paper's
+per-horizon peak. The rule-based baselines are described in ``docs/baselines.md``.
+
     nmpc               (a) nominal MPC, reserve offered under the event model, φ = 0
     rmpc               (b) robust MPC (σ from the box), event model, φ = 0
     rmpc-ppp           (c) robust MPC with a peak-power price φ = 1.5 SGD/kW, event model
@@ -14,7 +18,13 @@ inside the strict band for the whole horizon). See ``docs/il_events.md``.
     paper-rmpc         (b) with the paper's whole-horizon reserve model
     paper-rmpc-ppp     (c) with the paper's whole-horizon reserve model
     nmpc-no-reserve    nominal MPC that offers no reserve
-    thermostat         rule-based flow control to a set-point, no reserve
+    thermostat         rule-based flow control to a set-point (24 °C), no reserve
+    thermostat-25.5    the thermostat at 25.5 °C with a learned optimal start, no reserve
+    trim-respond       ASHRAE Guideline 36-style zone-airflow (and supply-air) trim and
+                       respond, 25 °C, optimal start, no reserve
+    demand-limit       thermostat-25.5 that raises set-points to hold a peak target
+    gta-dr             thermostat-25.5 that offers 20 % of its load as IL reserve and raises
+                       its set-points by α when activated (event model)
     rmpc-feedback      robust MPC with affine disturbance feedback; whole-horizon reserve
                        model (the feedback LP does not support events)
     rmpc-feedback-ppp  the same with φ = 1.5 SGD/kW
@@ -49,19 +59,53 @@ PRODUCT_RESERVE: dict[str, Any] = {
 
 _PPP: dict[str, Any] = {"peak_price_sgd_per_kw": DEFAULT_PEAK_PRICE_PAPER_SGD_PER_KW}
 
+_BILLED: dict[str, Any] = {"billing_mode": "billing-period"}
+"""The product presets bill the peak per billing period (calendar month)."""
+
+BASELINE_SETPOINT_DEGC = 25.5
+"""Occupied set-point of the strong rule-based baselines [°C]: within 2.8 % of NMPC's cost in
+the issue-26 review, without discomfort (the 24 °C thermostat is 16 % dearer)."""
+
+TRIM_RESPOND_SETPOINT_DEGC = 25.0
+"""Occupied set-point of ``trim-respond`` [°C]: its loop floats about ±0.5 K around it."""
+
+_RULE: dict[str, Any] = {
+    "robust": "none",
+    "reserve": False,
+    "thermostat_setpoint_degc": BASELINE_SETPOINT_DEGC,
+    "optimal_start": True,
+    **_BILLED,
+}
+
 PRESETS: dict[str, dict[str, Any]] = {
-    "nmpc": {"controller": {"robust": "none"}, "reserve": PRODUCT_RESERVE},
-    "rmpc": {"controller": {"robust": "tightening"}, "reserve": PRODUCT_RESERVE},
-    "rmpc-ppp": {"controller": {"robust": "tightening", **_PPP}, "reserve": PRODUCT_RESERVE},
+    "nmpc": {"controller": {"robust": "none", **_BILLED}, "reserve": PRODUCT_RESERVE},
+    "rmpc": {"controller": {"robust": "tightening", **_BILLED}, "reserve": PRODUCT_RESERVE},
+    "rmpc-ppp": {
+        "controller": {"robust": "tightening", **_PPP, **_BILLED},
+        "reserve": PRODUCT_RESERVE,
+    },
     "paper-nmpc": {"controller": {"robust": "none"}},
     "paper-rmpc": {"controller": {"robust": "tightening"}},
     "paper-rmpc-ppp": {"controller": {"robust": "tightening", **_PPP}},
-    "nmpc-no-reserve": {"controller": {"robust": "none", "reserve": False}},
+    "nmpc-no-reserve": {"controller": {"robust": "none", "reserve": False, **_BILLED}},
     "thermostat": {"controller": {"kind": "thermostat", "robust": "none", "reserve": False}},
+    "thermostat-25.5": {"controller": {"kind": "thermostat", **_RULE}},
+    "trim-respond": {
+        "controller": {
+            "kind": "trim-respond",
+            **_RULE,
+            "thermostat_setpoint_degc": TRIM_RESPOND_SETPOINT_DEGC,
+        }
+    },
+    "demand-limit": {"controller": {"kind": "demand-limit", **_RULE}},
+    "gta-dr": {
+        "controller": {"kind": "gta-dr", **_RULE, "reserve": True},
+        "reserve": PRODUCT_RESERVE,
+    },
     "rmpc-feedback": {"controller": {"robust": "feedback"}},
     "rmpc-feedback-ppp": {"controller": {"robust": "feedback", **_PPP}},
     "rmpc-output-feedback": {
-        "controller": {"robust": "tightening", "linearisation": "trajectory"},
+        "controller": {"robust": "tightening", "linearisation": "trajectory", **_BILLED},
         "estimation": {"mode": "kalman"},
         "reserve": PRODUCT_RESERVE,
     },
@@ -82,3 +126,6 @@ PAPER_MODEL_SCENARIOS: dict[str, str] = {
 
 PAPER_FEEDBACK_SCENARIOS: dict[str, str] = {"b": "rmpc-feedback", "c": "rmpc-feedback-ppp"}
 """The robust scenarios (b), (c) with affine disturbance feedback (whole-horizon model)."""
+
+BASELINE_PRESETS: tuple[str, ...] = ("thermostat-25.5", "trim-respond", "demand-limit", "gta-dr")
+"""The strong rule-based baselines (docs/baselines.md), which "does it pay?" ranks against."""

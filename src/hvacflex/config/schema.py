@@ -13,7 +13,7 @@ File layout (every key optional)::
     [controller]   kind, robust, reserve, peak_price_sgd_per_kw, billing_mode,
                    comfort_penalty_sgd_per_kelvin_hour, horizon_steps,
                    linearisation_temp_degc, time_limit_s, thermostat_setpoint_degc,
-                   linearisation
+                   linearisation, optimal_start, demand_limit_fraction, reserve_share
     [controller.feedback]  structure, memory_steps
     [reserve]      event_max_steps, event_allowance_k, event_recovery_steps,
                    non_delivery_penalty_sgd_per_mwh,
@@ -167,15 +167,22 @@ class ControllerSpec(Spec):
     thermostat_setpoint_degc: IndoorTemp = default(ControllerConfig, "thermostat_setpoint_degc")
     feedback: FeedbackSpec = FeedbackSpec()
     linearisation: Linearisation = default(ControllerConfig, "linearisation")
+    optimal_start: Flag = default(ControllerConfig, "optimal_start")
+    demand_limit_fraction: Annotated[Number, Field(gt=0.0, le=1.0)] = default(
+        ControllerConfig, "demand_limit_fraction"
+    )
+    reserve_share: Annotated[Number, Field(ge=0.0, le=1.0)] = default(
+        ControllerConfig, "reserve_share"
+    )
 
     @model_validator(mode="after")
     def _thermostat_offers_no_reserve(self) -> Self:
-        if self.kind == "thermostat" and self.reserve:
+        if self.kind in ("thermostat", "trim-respond", "demand-limit") and self.reserve:
             raise rule_error(
-                "the thermostat baseline cannot offer reserve",
+                f"the {self.kind} baseline cannot offer reserve",
                 "reserve",
                 True,
-                hint="set reserve = false or kind = 'mpc'",
+                hint="set reserve = false, or kind = 'gta-dr' or 'mpc'",
             )
         return self
 
@@ -401,6 +408,18 @@ class ScenarioSpec(Spec):
                 calibrate.train,
                 hint=f"the run is {start:%Y-%m-%d %H:%M} … {end:%Y-%m-%d %H:%M}; train on "
                 "other days, so the box's coverage on the run is out of sample",
+            )
+        return self
+
+    @model_validator(mode="after")
+    def _gta_dr_needs_events(self) -> Self:
+        if self.controller.kind == "gta-dr" and self.reserve.event_max_steps is None:
+            raise rule_error(
+                "the gta-dr baseline raises set-points by the event allowance α, which needs "
+                "the IL event model",
+                "reserve.event_max_steps",
+                None,
+                hint="set [reserve] event_max_steps (e.g. 4) and event_allowance_k (e.g. 1.0)",
             )
         return self
 

@@ -68,6 +68,9 @@ class Action:
     predicted_event_worst_degc : (m,) worst zone temperature at the end of this period over
         the plan's event set × the uncertainty box (``RMPCSolution.y_event_worst`` of output
         step 1) [°C]; ``None`` without a plan.
+    supply_temp_degc : supply-air temperature set-point for the period [°C], handed to a
+        flow-actuated plant that accepts one (``Actuation.supply_temp_degc``); ``None``: the
+        plant's own (design) value.
     """
 
     flow_kg_s: FloatArray
@@ -83,6 +86,7 @@ class Action:
     predicted_curtailed_degc: FloatArray
     event_plan: EventPlan | None = None
     predicted_event_worst_degc: FloatArray | None = None
+    supply_temp_degc: float | None = None
 
 
 class Controller(Protocol):

@@ -8,6 +8,21 @@ set-point (occupied) or just inside the upper unoccupied bound, clipped to the f
 
 This is an ideal discrete-time thermostat (a dead-beat P rule), used as the paper-independent
 reference and as the MPC's fallback when an optimisation fails.
+
+**Optimal start** (:class:`OptimalStart`, preset ``thermostat-25.5``): the thermostat starts
+cooling to the occupied set-point ``lead_steps`` periods before occupancy, and learns the lead
+from the previous occupied day (the rule of ASHRAE Guideline 36 §5.1.9's optimal start, made
+adaptive): at the start of the first occupied period of a day,
+
+* the band was **missed** (some zone above the occupied upper bound by more than
+  :data:`REACHED_TOLERANCE_K`): start one period earlier next time;
+* the band was reached and every zone was already inside it one period before occupancy
+  (the last pre-cooling period was not needed): start one period later next time;
+* otherwise keep the lead;
+
+always within [:data:`OPTIMAL_START_FLOOR_STEPS`, :data:`OPTIMAL_START_CEILING_STEPS`],
+starting from :data:`OPTIMAL_START_INITIAL_STEPS`. So the lead settles on the latest start
+that still reaches the band at occupancy.
 """
 
 from __future__ import annotations
@@ -23,6 +38,85 @@ from hvacflex.data.forecast import Forecast
 
 UNOCCUPIED_MARGIN_K = 1.0
 """Unoccupied set-point sits this far inside the upper unoccupied comfort bound [K]."""
+
+REACHED_TOLERANCE_K = 0.05
+"""A zone counts as inside the occupied band at occupancy up to this much above it [K]."""
+
+OPTIMAL_START_INITIAL_STEPS = 2
+"""Pre-cooling lead before the first learned day [30-min periods]."""
+
+OPTIMAL_START_FLOOR_STEPS = 0
+"""Shortest pre-cooling lead [periods] (0: start cooling at occupancy)."""
+
+OPTIMAL_START_CEILING_STEPS = 8
+"""Longest pre-cooling lead [periods] (4 h: a night-time pull-down is not a start)."""
+
+
+class OptimalStart:
+    """The learned pre-cooling lead of an optimal start (rule in the module docstring).
+
+    Parameters
+    ----------
+    initial_steps, floor_steps, ceiling_steps : the lead to begin with and its limits
+        [30-min periods].
+    """
+
+    def __init__(
+        self,
+        initial_steps: int = OPTIMAL_START_INITIAL_STEPS,
+        floor_steps: int = OPTIMAL_START_FLOOR_STEPS,
+        ceiling_steps: int = OPTIMAL_START_CEILING_STEPS,
+    ) -> None:
+        if not floor_steps <= initial_steps <= ceiling_steps:
+            raise ValueError(
+                f"optimal start needs floor ≤ initial ≤ ceiling, got "
+                f"{floor_steps}, {initial_steps}, {ceiling_steps}"
+            )
+        self.floor_steps = floor_steps
+        self.ceiling_steps = ceiling_steps
+        self.lead_steps = initial_steps
+        """Periods before occupancy at which pre-cooling starts."""
+        self._was_occupied: bool | None = None
+        self._early_in_band: bool | None = None
+
+    def observe(self, forecast: Forecast, zone_temp_degc: FloatArray) -> bool:
+        """Learn from the zone temperatures (m,) [°C] at the start of the forecast's first
+        period and say whether this period pre-cools (unoccupied, occupancy within the lead).
+        Call once per decided period."""
+        occupied = np.asarray(forecast.occupied, dtype=bool)
+        now = bool(occupied[0])
+        if now and self._was_occupied is False:
+            upper = forecast.comfort_upper_degc[0]
+            if bool(np.any(zone_temp_degc > upper + REACHED_TOLERANCE_K)):
+                self.lead_steps = min(self.lead_steps + 1, self.ceiling_steps)
+            elif self._early_in_band:
+                self.lead_steps = max(self.lead_steps - 1, self.floor_steps)
+        if not now and occupied.size > 1 and bool(occupied[1]):
+            upper_next = forecast.comfort_upper_degc[1]
+            self._early_in_band = bool(np.all(zone_temp_degc <= upper_next + REACHED_TOLERANCE_K))
+        self._was_occupied = now
+        return not now and bool(np.any(occupied[1 : self.lead_steps + 1]))
+
+    def get_state(self) -> dict[str, Any]:
+        return {
+            "lead_steps": self.lead_steps,
+            "was_occupied": self._was_occupied,
+            "early_in_band": self._early_in_band,
+        }
+
+    def set_state(self, state: dict[str, Any]) -> None:
+        self.lead_steps = int(state["lead_steps"])
+        was, early = state["was_occupied"], state["early_in_band"]
+        self._was_occupied = None if was is None else bool(was)
+        self._early_in_band = None if early is None else bool(early)
+
+
+def first_occupied_band(forecast: Forecast) -> tuple[FloatArray, FloatArray]:
+    """The comfort band (lower, upper), each (m,) [°C], of the forecast's first occupied
+    period (period 0's band when none is occupied)."""
+    occupied = np.flatnonzero(np.asarray(forecast.occupied, dtype=bool))
+    j = int(occupied[0]) if occupied.size else 0
+    return forecast.comfort_lower_degc[j], forecast.comfort_upper_degc[j]
 
 
 def unplanned_action(
@@ -67,14 +161,49 @@ class ThermostatController(Controller):
     model : the building's discrete linear model.
     hvac : flow limits (minimum, ventilation flow while occupied, maximum).
     setpoint_degc : occupied set-point [°C].
+    optimal_start : pre-cool to the set-point before occupancy with this learner (None: the
+        set-point applies from the first occupied period).
     """
 
-    def __init__(self, model: LinearModel, hvac: HvacSystem, setpoint_degc: float = 24.0) -> None:
+    def __init__(
+        self,
+        model: LinearModel,
+        hvac: HvacSystem,
+        setpoint_degc: float = 24.0,
+        optimal_start: OptimalStart | None = None,
+    ) -> None:
         self._model = model
         self._hvac = hvac
         self._flow_max = np.asarray(hvac.flow_max_kg_s, dtype=float)
         self._setpoint_degc = setpoint_degc
         self._cb_inv = np.linalg.pinv(model.c @ model.b)
+        self.optimal_start = optimal_start
+        self._precool = False
+
+    @property
+    def model(self) -> LinearModel:
+        """The linear model the rule predicts with."""
+        return self._model
+
+    @property
+    def hvac(self) -> HvacSystem:
+        return self._hvac
+
+    @property
+    def setpoint_degc(self) -> float:
+        """The occupied set-point [°C]."""
+        return self._setpoint_degc
+
+    @property
+    def precooling(self) -> bool:
+        """True when the last observed period pre-cools before occupancy (optimal start)."""
+        return self._precool
+
+    def observe(self, x_degc: FloatArray, forecast: Forecast) -> None:
+        """Advance the optimal start by one decided period (no-op without one)."""
+        if self.optimal_start is not None:
+            zone_temp = self._model.c @ x_degc
+            self._precool = self.optimal_start.observe(forecast, zone_temp)
 
     def flows_for(
         self, x_degc: FloatArray, d_now: FloatArray, target_degc: FloatArray, occupied: bool
@@ -93,6 +222,11 @@ class ThermostatController(Controller):
         target: FloatArray
         if bool(forecast.occupied[0]):
             target = np.clip(np.full_like(upper, self._setpoint_degc), lower, upper)
+        elif self._precool:
+            occupied_lower, occupied_upper = first_occupied_band(forecast)
+            target = np.clip(
+                np.full_like(upper, self._setpoint_degc), occupied_lower, occupied_upper
+            )
         else:
             target = np.maximum(upper - UNOCCUPIED_MARGIN_K, lower)
         return target
@@ -114,6 +248,7 @@ class ThermostatController(Controller):
         measured_zone_temp_degc: FloatArray | None = None,
         plan: Any = None,
     ) -> Action:
+        self.observe(x_degc, forecast)
         return unplanned_action(
             self._model,
             x_degc,
@@ -126,7 +261,10 @@ class ThermostatController(Controller):
         )
 
     def get_state(self) -> dict[str, Any]:
-        return {}
+        start = None if self.optimal_start is None else self.optimal_start.get_state()
+        return {"optimal_start": start, "precool": self._precool}
 
     def set_state(self, state: dict[str, Any]) -> None:
-        return None
+        if self.optimal_start is not None and state.get("optimal_start") is not None:
+            self.optimal_start.set_state(state["optimal_start"])
+        self._precool = bool(state.get("precool", False))

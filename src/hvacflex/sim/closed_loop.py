@@ -353,7 +353,8 @@ class ClosedLoop:
         return _PlantPeriod(applied, served.power_kw, cut.power_kw, x_next)
 
     def _actuation(self, decision: Decision, *, curtailed: bool) -> Actuation:
-        """What the plant is told: the flows (u, or u − r when curtailed), or under setpoint
+        """What the plant is told: the flows (u, or u − r when curtailed) with the action's
+        supply-air temperature (None: the plant's own), or under setpoint
         actuation each zone's planned end-of-period temperature (served, or curtailed)
         clipped to the period's comfort band (its upper bound raised by the allowance α in
         force), as a supervisory MPC hands setpoints to a BMS; a zone the plan leaves at its
@@ -362,7 +363,7 @@ class ClosedLoop:
         action = decision.action
         flow = action.flow_kg_s - action.reserve_flow_kg_s if curtailed else action.flow_kg_s
         if self.actuation == "flow":
-            return Actuation(flow_kg_s=flow)
+            return Actuation(flow_kg_s=flow, supply_temp_degc=action.supply_temp_degc)
         k, exo = self.k, self.setup.exogenous
         planned = action.predicted_curtailed_degc if curtailed else action.predicted_served_degc
         lower = exo.comfort_lower_degc[k]

@@ -26,8 +26,11 @@ from hvacflex.building.model import Building
 from hvacflex.building.plant import NonlinearPlant
 from hvacflex.config import LINEARISATION_MARGIN_K, ScenarioConfig
 from hvacflex.control.base import Controller
-from hvacflex.control.baselines import ThermostatController
+from hvacflex.control.baselines import OptimalStart, ThermostatController
+from hvacflex.control.demand_limit import DemandLimitController
+from hvacflex.control.gta_dr import GtaDrController
 from hvacflex.control.mpc import MPCController
+from hvacflex.control.trim_respond import TrimRespondController
 from hvacflex.data.calibration import Calibration, calibrate_box, forecast_errors
 from hvacflex.data.forecast import Exogenous, Forecaster, default_weather_file, load_exogenous
 from hvacflex.data.gains import DEFAULT_OFFICE_SCHEDULE, ComfortBand, OfficeSchedule
@@ -281,11 +284,11 @@ def assemble_setup(
 
 
 def make_controller(setup: Setup) -> Controller:
-    """The controller the configuration asks for."""
+    """The controller the configuration asks for (``[controller] kind``; the rule-based
+    baselines are described in docs/baselines.md)."""
     cfg = setup.config.controller
-    hvac = setup.building.hvac
-    if cfg.kind == "thermostat":
-        return ThermostatController(setup.model, hvac, cfg.thermostat_setpoint_degc)
+    if cfg.kind != "mpc":
+        return make_rule_controller(setup)
     return MPCController(
         setup.building,
         setup.model,
@@ -305,3 +308,33 @@ def _model_error_k(setup: Setup) -> np.ndarray | None:
     if calibration is None or not calibration.model_error_k:
         return None
     return np.array([calibration.model_error_k.get(z, 0.0) for z in setup.zone_names])
+
+
+def make_rule_controller(setup: Setup) -> Controller:
+    """The rule-based controller of ``[controller] kind`` (not ``"mpc"``)."""
+    config = setup.config
+    cfg, model, hvac = config.controller, setup.model, setup.building.hvac
+    setpoint = cfg.thermostat_setpoint_degc
+    start = OptimalStart() if cfg.optimal_start else None
+    if cfg.kind == "trim-respond":
+        plant = config.plant
+        accepts_supply_temp = plant.kind != "rc" and plant.resolved_actuation == "flow"
+        return TrimRespondController(
+            model, hvac, setpoint, start, reset_supply_temp=accepts_supply_temp
+        )
+    if cfg.kind == "demand-limit":
+        return DemandLimitController(model, hvac, setpoint, start, cfg.demand_limit_fraction)
+    if cfg.kind == "gta-dr":
+        reserve = config.reserve
+        assert reserve.event_max_steps is not None  # the schema requires the event model
+        return GtaDrController(
+            model,
+            hvac,
+            setpoint,
+            start,
+            reserve_share=cfg.reserve_share if cfg.reserve else 0.0,
+            raise_k=reserve.event_allowance_k,
+            event_steps=reserve.event_max_steps,
+            recovery_steps=reserve.event_recovery_steps,
+        )
+    return ThermostatController(model, hvac, setpoint, start)
