@@ -89,7 +89,7 @@ def test_dashboard_in_headless_chromium(chromium: Any, live_service: tuple[str, 
         assert registered.status_code == 201, registered.text
         key, nodes = registered.json()["payload"]["key"], registered.json()["payload"]["nodes"]
         measured = client.post(
-            "/v1/buildings/b1/measurements",
+            "/v1/buildings/b1/measurements?wait_s=10",
             json={"time": f"{START}T08:00", "node_temperatures_degc": [25.0] * len(nodes)},
             headers={"X-API-Key": key},
         )

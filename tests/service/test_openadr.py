@@ -341,7 +341,9 @@ class _Site:
             "node_temperatures_degc": [24.0] * self.nodes,
             "previous_power_kw": power_kw,
         }
-        plan: dict[str, Any] = self.bems.call("POST", "/v1/buildings/b1/measurements", body)
+        plan: dict[str, Any] = self.bems.call(
+            "POST", "/v1/buildings/b1/measurements?wait_s=10", body
+        )
         return plan
 
     def start_ven(

@@ -260,7 +260,7 @@ def test_measurements_are_listed_with_their_metered_power(service: Service) -> N
             "previous_power_kw": power_kw,
         }
         measured = service.client.post(
-            "/v1/buildings/m1/measurements", json=body, headers={"X-API-Key": key}
+            "/v1/buildings/m1/measurements?wait_s=10", json=body, headers={"X-API-Key": key}
         )
         assert measured.status_code == 200, measured.text
     listed = service.client.get("/v1/buildings/m1/measurements", headers=service.op())

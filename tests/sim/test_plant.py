@@ -10,6 +10,7 @@ import pytest
 from hvacflex.building.hvac import hvac_power_kw
 from hvacflex.building.plant import NonlinearPlant
 from hvacflex.config import preset, with_overrides
+from hvacflex.control.base import Action, Controller
 from hvacflex.sim.closed_loop import ClosedLoop
 from hvacflex.sim.plant import Actuation, Disturbance, Observation, Plant, RCPlant
 from hvacflex.sim.setup import prepare
@@ -19,7 +20,10 @@ START = "2014-03-03"
 
 @pytest.fixture(scope="module")
 def setup():  # type: ignore[no-untyped-def]
-    cfg = with_overrides(preset("rmpc", start=START, days=0.25), {"activation.mode": "always"})
+    # the whole-horizon reserve model: every activated period curtails its fresh plan
+    cfg = with_overrides(
+        preset("paper-rmpc", start=f"{START}T10:00", days=0.25), {"activation.mode": "always"}
+    )
     return prepare(cfg)
 
 
@@ -78,7 +82,7 @@ class ZoneOnlyPlant:
         flow = np.asarray(actuation.flow_kg_s, dtype=float)
         self.flows.append(flow)
         # relax towards the outdoor temperature, cooled by the flow
-        self.temps = self.temps + 0.1 * (disturbance.outdoor_temp_degc - self.temps) - flow
+        self.temps = self.temps + 0.1 * (disturbance.outdoor_temp_degc - self.temps) - 0.1 * flow
         return self._observe(flow)
 
     def _observe(self, flow: np.ndarray) -> Observation:
@@ -94,9 +98,34 @@ class ZoneOnlyPlant:
         raise AssertionError("the closed loop must not snapshot a plant that cannot")
 
 
+class HalfFlowOffering(Controller):
+    """Half the maximum flow, a quarter of it offered as reserve: a controller that always
+    offers, so an always-activated run curtails every period."""
+
+    def __init__(self, flow_max_kg_s: np.ndarray) -> None:
+        self.flow = 0.5 * np.asarray(flow_max_kg_s, dtype=float)
+
+    def act(self, x_degc: Any, forecast: Any, **_: Any) -> Action:  # type: ignore[override]
+        zones = len(self.flow)
+        return Action(
+            flow_kg_s=self.flow, reserve_flow_kg_s=0.25 * self.flow, reserve_kw=1.0,
+            planned_power_kw=float("nan"), status="rule", fallback=False, solve_time_s=0.0,
+            planned_slack_max_k=float("nan"), delta_max_k=float("nan"),
+            predicted_served_degc=np.full(zones, 25.0),
+            predicted_curtailed_degc=np.full(zones, 25.5),
+        )  # fmt: skip
+
+    def get_state(self) -> dict[str, Any]:
+        return {}
+
+    def set_state(self, state: dict[str, Any]) -> None:
+        return None
+
+
 def test_a_test_double_plant_runs_a_closed_loop(setup) -> None:  # type: ignore[no-untyped-def]
     plant = ZoneOnlyPlant(setup.zone_names)
-    loop = ClosedLoop(setup, plant=plant)
+    controller = HalfFlowOffering(setup.building.hvac.flow_max_kg_s)
+    loop = ClosedLoop(setup, controller, plant=plant)
     while loop.k < loop.steps:
         loop.step()
     frame = loop.frame()
