@@ -62,6 +62,9 @@ DT_H = STEP_30MIN_S / SECONDS_PER_HOUR
 """The control step [h], for the coordination's energy terms."""
 DEFAULT_CHECKPOINT_EVERY = 12
 MAX_RECOVERIES = 3
+BUILD_ATTEMPTS = 3
+"""Tries at re-creating the building groups after a lost worker (each waits
+``ACTOR_TIMEOUT_S`` for the actors)."""
 ACTOR_TIMEOUT_S = 60.0
 ACTOR_TIMEOUT_PER_BUILDING_S = 2.0
 """An actor call times out after max(ACTOR_TIMEOUT_S, this × the group's buildings) [s]:
@@ -136,7 +139,11 @@ class _Groups:
             )
             for idx, w in zip(self.indices, workers, strict=False)
         ]
-        self.groups = [f.result() for f in futures]
+        try:  # a worker that has just died may still be listed: do not wait on it forever
+            self.groups = [f.result(timeout=ACTOR_TIMEOUT_S) for f in futures]
+        except TimeoutError:
+            self.client.cancel(futures)
+            raise
         self.workers = list(workers[:count])
 
     def check_alive(self) -> None:
@@ -418,8 +425,16 @@ def _recover(
 ) -> tuple[int, FloatArray]:
     """Rebuild the building groups after a lost worker; (step, price) of the checkpoint."""
     log.warning("fleet step %d failed (%s); restoring from step %d", k, exc, checkpoint["k"])
-    client.wait_for_workers(1, timeout=120)
-    groups.build()
+    for attempt in range(1, BUILD_ATTEMPTS + 1):
+        client.wait_for_workers(1, timeout=120)
+        try:
+            groups.build()
+            break
+        except TimeoutError:  # the lost worker was still listed: ask again
+            if attempt == BUILD_ATTEMPTS:
+                raise
+            log.warning("rebuilding the groups timed out (attempt %d); again", attempt)
+            time.sleep(1.0)
     groups.set_states(checkpoint["buildings"])
     return int(checkpoint["k"]), checkpoint["price"].copy()
 
