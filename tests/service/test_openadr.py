@@ -323,7 +323,9 @@ class _Site:
         server.start()
         operator_key = operator_key_for(server.db_url)
         operator = Client(server.url, operator_key)
-        registered = operator.call("POST", "/v1/buildings", registration("b1"))
+        # a reserve price near the energy price, so that the plan offers reserve to dispatch
+        scale = {"data.reserve_price_scale": 150.0}
+        registered = operator.call("POST", "/v1/buildings", registration("b1", **scale))
         site = _Site(
             server.url,
             operator_key,
