@@ -136,6 +136,25 @@ def test_checked_commands_parse() -> None:
                 assert shlex.join(argv) in readme, f"{argv} is not the README's set-up"
 
 
+def assert_every_kpi_in_the_glossary(summary: dict[str, float]) -> None:
+    """Every KPI of a run's summary is explained in docs/glossary.md (a zone's name written
+    as ``<zone>``)."""
+    glossary = (ROOT / "docs" / "glossary.md").read_text(encoding="utf-8")
+    zones = {k.removeprefix("max_violation_").removesuffix("_k") for k in summary} - {
+        "max_violation"
+    }
+    zones = {z for z in zones if f"max_violation_{z}_k" in summary}
+    assert zones == {"north", "east", "south", "west", "core"}
+    missing = []
+    for key in summary:
+        generic = key
+        for zone in zones:
+            generic = generic.replace(f"_{zone}_", "_<zone>_")
+        if f"`{generic}`" not in glossary:
+            missing.append(generic)
+    assert missing == [], "explain these KPIs in docs/glossary.md"
+
+
 def _wrappers(folder: Path) -> dict[str, str]:
     """An environment whose ``hvacflex`` and ``python`` are the ones under test."""
     folder.mkdir()
@@ -186,6 +205,7 @@ def test_runnable_blocks_run_in_order(tmp_path: Path) -> None:
     assert my_room["comfort"]["occupied_degc"] == [23.0, 25.5]
     building = Path(my_room["building"])  # taken from the scenario file's folder
     assert (work / building).resolve() == (work / "my_room.toml").resolve()
+    assert_every_kpi_in_the_glossary(json.loads((work / "results/first/summary.json").read_text()))
     shown = next(out for out in outputs if "Building 'my_room'" in out)
     assert "WARNING" not in shown  # the page says the room's ventilation suffices
     assert "outdoor air at ventilation flow 88 L/s (need 84 L/s)" in shown
