@@ -47,7 +47,7 @@ LAYERS: list[set[str]] = [
     {"reproduce"},
     {"fleet", "service"},
     {"api"},
-    {"cli", "cli_help", "cli_model"},
+    {"cli", "cli_config", "cli_help", "cli_model"},
 ]
 """Bottom to top: a part may import its own layer's modules and the layers below it only."""
 

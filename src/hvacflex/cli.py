@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING, Any
 import typer
 import typer.core
 
+from hvacflex.cli_config import config_app
 from hvacflex.cli_help import (
     PRESET_HELP,
     START_HELP,
@@ -224,6 +225,7 @@ def building_export_idf(
 
 app.add_typer(validate_app, name="validate")
 app.add_typer(identify_app, name="identify")
+app.add_typer(config_app, name="config")
 
 
 @app.command()

@@ -67,6 +67,17 @@ def test_migrations_are_packaged() -> None:
         ({"activation.file": "a.csv"}, "scenario.settings.activation.file"),
         ({"activation.mode": "file"}, "scenario.settings.activation.mode"),
         ({"building": "/tmp/b.toml"}, "scenario.settings.building"),
+        ({"plant.idf": "/etc/passwd"}, "scenario.settings.plant.idf"),
+        ({"plant.kind": "energyplus"}, "scenario.settings.plant.kind"),
+        (
+            {
+                "uncertainty.calibrate": {
+                    "train": "2014-02-01..2014-02-07",
+                    "prediction_errors": "/x",
+                }
+            },
+            "scenario.settings.uncertainty.calibrate",
+        ),
         ({"no_such_setting": 1}, "scenario.settings.no_such_setting"),
         ({"horizon_steps": 100_000}, "scenario.settings.controller.horizon_steps"),
         ({"controller.time_limit_s": 1e6}, "scenario.settings.controller.time_limit_s"),
@@ -80,6 +91,26 @@ def test_registration_refuses_server_files(
     )
     assert response.status_code == 422
     assert field in response.json()["message"]
+
+
+def test_only_settings_that_name_no_file_are_accepted() -> None:
+    from hvacflex.config import SCENARIO_PATH_KEYS
+    from hvacflex.config.reference import table_docs
+    from hvacflex.service.runtime import accepted_setting
+
+    settings = {
+        f"{table.path}.{key.key}" if table.path else key.key
+        for table in table_docs()
+        for key in table.keys
+    }
+    names_a_file = {".".join(p) for p in SCENARIO_PATH_KEYS} | {"building", "plant.idf"}
+    assert names_a_file <= settings
+    assert not any(accepted_setting(path) for path in names_a_file)
+    assert not accepted_setting("uncertainty.calibrate")  # prediction_errors is a file
+    assert not any(accepted_setting(path) for path in settings if path.startswith("plant."))
+    accepted = {path for path in settings if accepted_setting(path)}
+    assert {"controller.peak_price_sgd_per_kw", "reserve.event_allowance_k", "seed"} <= accepted
+    assert {"uncertainty.relative", "activation.mode", "comfort.occupied_degc"} <= accepted
 
 
 def test_registration_validates_content(service: Service) -> None:

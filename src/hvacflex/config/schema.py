@@ -140,30 +140,53 @@ def default(cls: type, name: str) -> Any:
 class Spec(BaseModel):
     """Base of every table: frozen, unknown keys refused."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, use_attribute_docstrings=True)
 
 
 class FeedbackSpec(Spec):
     structure: FeedbackStructure = default(FeedbackConfig, "structure")
+    """Which gains the affine disturbance-feedback policy has: ``full`` (every gain),
+    ``memory`` (innovations of the last ``memory_steps`` only), ``time-invariant`` (one gain
+    per lag up to ``memory_steps``) or ``zone-local`` (each zone's input reacts to its own
+    zone's innovations, time-invariant; docs/closed_loop.md)."""
     memory_steps: PositiveInt = default(FeedbackConfig, "memory_steps")
 
 
 class ControllerSpec(Spec):
     kind: ControllerKind = default(ControllerConfig, "kind")
+    """The controller: ``mpc`` (the model-predictive controller; ``robust`` says which) or a
+    rule-based baseline: ``thermostat``, ``trim-respond``, ``demand-limit``, ``gta-dr``
+    (docs/baselines.md)."""
     robust: RobustMode = default(ControllerConfig, "robust")
+    """How the MPC treats forecast errors: ``none`` the nominal MPC (NMPC), ``tightening`` the
+    robust MPC (RMPC, comfort bounds tightened by the worst case over the box), ``dual`` the
+    same robust LP in explicit dual form, ``feedback`` affine disturbance-feedback policies
+    (docs/closed_loop.md)."""
     reserve: Flag = default(ControllerConfig, "reserve")
+    """Whether interruptible-load (IL) reserve is offered and paid the reserve price."""
     peak_price_sgd_per_kw: NonNegative = default(ControllerConfig, "peak_price_sgd_per_kw")
+    """The peak-power price φ [SGD/kW]: the cost of the highest power of the billing window (0:
+    peak not priced)."""
     billing_mode: BillingMode = default(ControllerConfig, "billing_mode")
+    """Which peak φ is charged on: ``horizon`` (the peak of each plan's horizon, the paper's) or
+    ``billing-period`` (the calendar month's peak, the peak so far being a floor the plan need
+    not pay again)."""
     comfort_penalty_sgd_per_kelvin_hour: Positive = default(
         ControllerConfig, "comfort_penalty_sgd_per_kelvin_hour"
     )
+    """ρ: the price of a planned comfort violation [SGD per K·h] (an exact penalty: large enough
+    that the plan violates only when the band cannot be kept)."""
     horizon_steps: Annotated[PositiveInt, Field(le=MAX_HORIZON_STEPS)] = default(
         ControllerConfig, "horizon_steps"
     )
+    """N: the MPC's look-ahead [30-min periods] (48 = one day)."""
     linearisation_temp_degc: IndoorTemp | None = default(
         ControllerConfig, "linearisation_temp_degc"
     )
     time_limit_s: Positive = default(ControllerConfig, "time_limit_s")
+    """The solver's time limit per plan [s]; without an optimal plan in time the controller
+    falls back to its previous plan (else the thermostat) for that period and offers no
+    reserve (counted in ``fallback_count``)."""
     thermostat_setpoint_degc: IndoorTemp = default(ControllerConfig, "thermostat_setpoint_degc")
     feedback: FeedbackSpec = FeedbackSpec()
     linearisation: Linearisation = default(ControllerConfig, "linearisation")
@@ -189,8 +212,15 @@ class ControllerSpec(Spec):
 
 class ReserveSpec(Spec):
     event_max_steps: PositiveInt | None = default(ReserveConfig, "event_max_steps")
+    """D: the longest IL activation the plan must survive [30-min periods] (the event model: at
+    most one activation of up to D periods in the horizon); leave it out for the paper's
+    whole-horizon model."""
     event_allowance_k: NonNegative = default(ReserveConfig, "event_allowance_k")
+    """α: how far the upper comfort bound widens during an IL event and its recovery [K] (event
+    model only)."""
     event_recovery_steps: NonNegativeInt = default(ReserveConfig, "event_recovery_steps")
+    """R: the periods after an event that keep the allowance α, decaying, for the zones to
+    recover [30-min periods]."""
     non_delivery_penalty_sgd_per_mwh: NonNegative = default(
         ReserveConfig, "non_delivery_penalty_sgd_per_mwh"
     )
@@ -202,6 +232,8 @@ class ReserveSpec(Spec):
 
 class EstimationSpec(Spec):
     mode: EstimationMode = default(EstimationConfig, "mode")
+    """What the controller measures: ``full-state`` (every node temperature of the plant) or
+    ``kalman`` (zone air only, with sensor error, estimated by a Kalman filter)."""
     measurement_noise_k: NonNegative = default(EstimationConfig, "measurement_noise_k")
 
 
@@ -224,37 +256,66 @@ def _train_period(text: str) -> str:
 
 class CalibrationSpec(Spec):
     train: Annotated[Text, AfterValidator(_train_period)]
+    """The training period ``"YYYY-MM-DD..YYYY-MM-DD"`` (both days included, outside the run)
+    whose forecast errors size the box."""
     quantile: Annotated[Number, Field(gt=0.0, lt=1.0)] = default(CalibrationConfig, "quantile")
+    """The quantile of the training errors taken as each channel's half-width (0.95: the box
+    covers 95 % of them)."""
     prediction_errors: Text | None = default(CalibrationConfig, "prediction_errors")
+    """A results file (``results.parquet``) whose ``prediction_error_<zone>_k`` on the training
+    days size a per-zone model-error term; leave it out for none."""
 
 
 class UncertaintySpec(Spec):
     relative: dict[DisturbanceKind, NonNegative] = default(UncertaintyConfig, "relative")
+    """Half-widths of the forecast-error box as a fraction of the forecast, per disturbance kind
+    (``solar = 0.05`` is ±5 %)."""
     absolute: dict[DisturbanceKind, NonNegative] = default(UncertaintyConfig, "absolute")
+    """Half-widths of the forecast-error box in the channel's unit, per disturbance kind (K for
+    ``outdoor_temp`` and ``ground_temp``, W/m² for ``solar``, W for ``internal_gain``); added to
+    ``relative``."""
     calibrate: CalibrationSpec | None = None
 
 
 class RealisationSpec(Spec):
     mode: RealisationMode = default(RealisationConfig, "mode")
+    """How the error w the plant sees is drawn inside the box: ``zero`` (the forecast is exact),
+    ``uniform`` (independent, uniform in ±σ, seeded), ``ar1`` (uniform marginals, correlated in
+    time), ``worst-upper`` (+σ: hottest) or ``worst-lower`` (−σ)."""
     ar1_coefficient: Annotated[Number, Field(ge=0.0, lt=1.0)] = default(
         RealisationConfig, "ar1_coefficient"
     )
+    """The AR(1) coefficient of ``mode = "ar1"`` (0: independent steps; towards 1: slowly
+    varying errors)."""
     occupancy: OccupancyMode = default(RealisationConfig, "occupancy")
+    """The internal gains the plant sees: ``schedule`` (the office schedule the controller
+    forecasts) or ``stochastic`` (seeded occupants per zone)."""
     box_relative: dict[DisturbanceKind, NonNegative] | None = default(
         RealisationConfig, "box_relative"
     )
+    """A box of its own for w, relative half-widths per kind as in ``[uncertainty]`` (a stress
+    test outside the box the controller plans for); leave it out to draw in the scenario's
+    box."""
     box_absolute: dict[DisturbanceKind, NonNegative] | None = default(
         RealisationConfig, "box_absolute"
     )
+    """A box of its own for w, absolute half-widths per kind as in ``[uncertainty]``; leave it
+    out to draw in the scenario's box."""
 
 
 class ForecastSpec(Spec):
     weather: WeatherForecastMode = default(ForecastConfig, "weather")
+    """The weather forecast the controller is told: ``perfect`` (the weather file itself) or
+    ``statistical`` (fitted on the days before the run, docs/forecast.md)."""
     train_days: PositiveInt = default(ForecastConfig, "train_days")
+    """The days before the run the statistical weather forecast is fitted on [days]."""
 
 
 class ActivationSpec(Spec):
     mode: ActivationMode = default(ActivationConfig, "mode")
+    """When the grid activates the IL reserve: ``never``; ``random`` (``events_per_year``,
+    seeded); ``stress`` (one activation every weekday, starting 08:00–18:00); ``file`` (periods
+    read from ``file``); ``always`` (every period, the paper's literal case)."""
     events_per_year: NonNegative = default(ActivationConfig, "events_per_year")
     duration_steps: PositiveInt | None = default(ActivationConfig, "duration_steps")
     file: Text | None = default(ActivationConfig, "file")
@@ -270,13 +331,20 @@ class ActivationSpec(Spec):
 
 class DataSpec(Spec):
     weather_file: Text | None = default(DataConfig, "weather_file")
+    """An EPW weather file (a typical year, mapped onto the run's year); leave it out for the
+    shipped Singapore Changi TMYx."""
     usep_source: Text | None = default(DataConfig, "usep_source")
+    """USEP energy-price CSV file(s) or a folder of them; leave it out for the shipped NEMS USEP
+    2014 (docs/data.md)."""
     reserve_source: Text | None = default(DataConfig, "reserve_source")
+    """A reserve-price CSV; leave it out for the seeded synthetic reserve prices
+    (docs/data.md)."""
     reserve_price_scale: Positive | None = default(DataConfig, "reserve_price_scale")
     price_gap_fill: PriceGapFill = default(DataConfig, "price_gap_fill")
 
 
 def _ordered(band: tuple[float, float]) -> tuple[float, float]:
+    """The lower bound below the upper bound."""
     if not band[0] < band[1]:
         raise rule_error("lower bound must be below the upper bound", "", list(band))
     return band
@@ -286,12 +354,17 @@ class ComfortSpec(Spec):
     occupied_degc: Annotated[Band, AfterValidator(_ordered)] = default(
         ComfortConfig, "occupied_degc"
     )
+    """The comfort band ``[lower, upper]`` while the office is occupied [°C]."""
     unoccupied_degc: Annotated[Band, AfterValidator(_ordered)] = default(
         ComfortConfig, "unoccupied_degc"
     )
+    """The comfort band ``[lower, upper]`` while it is not (nights, weekends, public holidays)
+    [°C]."""
 
 
 def _valid_timesteps(value: int) -> int:
+    """One of :data:`VALID_TIMESTEPS_PER_HOUR` (the zone time steps that tile the 30-min
+    period)."""
     if value not in VALID_TIMESTEPS_PER_HOUR:
         raise rule_error(
             "EnergyPlus zone time steps must tile the 30-min period",
@@ -304,11 +377,20 @@ def _valid_timesteps(value: int) -> int:
 
 class PlantSpec(Spec):
     kind: PlantKind = default(PlantConfig, "kind")
+    """What the controller is graded on: ``rc`` (hvacflex's own nonlinear RC network) or
+    ``energyplus`` (an EnergyPlus 25.2 model, needs ``hvacflex[energyplus]``;
+    docs/energyplus.md)."""
     idf: Annotated[Text, Field(min_length=1)] = default(PlantConfig, "idf")
+    """The EnergyPlus model: ``generated`` (the building's own IDF export) or the path of an
+    EnergyPlus 25.2 IDF file."""
     actuation: PlantActuation | None = default(PlantConfig, "actuation")
+    """What hvacflex sets on the plant: ``setpoint`` (zone cooling setpoints, EnergyPlus's
+    default) or ``flow`` (zone supply flows, the RC plant's only one); leave it out for the
+    plant's default."""
     timesteps_per_hour: Annotated[PositiveInt, AfterValidator(_valid_timesteps)] = default(
         PlantConfig, "timesteps_per_hour"
     )
+    """EnergyPlus's zone time steps per hour."""
 
     @model_validator(mode="after")
     def _rc_is_flow_actuated(self) -> Self:
@@ -354,6 +436,7 @@ DAYS_HINT = "e.g. days = 0.5, 7 or 365"
 
 
 def _whole_periods(days: float) -> float:
+    """A whole number (≥ 1) of 30-min periods, at most :data:`MAX_DAYS` days."""
     problem = whole_periods_problem(days)
     if problem is not None:
         raise rule_error(problem, "", days, hint=DAYS_HINT)
@@ -361,6 +444,7 @@ def _whole_periods(days: float) -> float:
 
 
 def _half_hourly(dt_s: float) -> float:
+    """Only :data:`STEP_30MIN_S` (the 30-min period of the data)."""
     if dt_s != STEP_30MIN_S:
         raise rule_error(
             "the control step must be the 30-min period of the data",
@@ -374,14 +458,22 @@ def _half_hourly(dt_s: float) -> float:
 
 class ScenarioSpec(Spec):
     name: Text = default(ScenarioConfig, "name")
+    """The run's name (in reports and tables); a scenario file's default is its file name."""
     building: Text = default(ScenarioConfig, "building")
+    """The building: a shipped name (``office5``, ``room1``, ``bestest600``, ``bestest900``) or
+    the path of a building TOML file (docs/buildings.md)."""
     start: Annotated[Text, AfterValidator(_period_start)] = default(ScenarioConfig, "start")
     days: Annotated[Number, AfterValidator(_whole_periods)] = default(ScenarioConfig, "days")
+    """The run's length [days]: a whole number of 30-min periods."""
     dt_s: Annotated[Positive, AfterValidator(_half_hourly)] = default(ScenarioConfig, "dt_s")
+    """The control period [s]; prices, weather and KPIs are half-hourly, so only 1800."""
     seed: NonNegativeInt = default(ScenarioConfig, "seed")
+    """The seed of every random draw of the run (forecast errors, activations, occupancy,
+    synthetic reserve prices)."""
     initial_temp_degc: Annotated[
         Number, Field(ge=INITIAL_TEMP_MIN_DEGC, le=INITIAL_TEMP_MAX_DEGC)
     ] = default(ScenarioConfig, "initial_temp_degc")
+    """The temperature of every node of the building at the start [°C]."""
     controller: ControllerSpec = ControllerSpec()
     reserve: ReserveSpec = ReserveSpec()
     estimation: EstimationSpec = EstimationSpec()

@@ -65,14 +65,42 @@ from hvacflex.sim.step import ConflictError, ControlStep, Decision
 TIMEZONE = "Asia/Singapore"
 PERIOD = pd.Timedelta(minutes=30)
 
-FORBIDDEN_SETTINGS = (
-    "building",
-    "data.weather_file",
-    "data.usep_source",
-    "data.reserve_source",
-    "activation.file",
+ACCEPTED_TABLES = ("controller", "reserve", "estimation", "realisation", "forecast", "comfort")
+"""Tables of the scenario whose every setting a registration may give: they shape the
+controller and the contract and name no file (a key added to them later is accepted too)."""
+ACCEPTED_SETTINGS = frozenset(
+    {
+        "seed",
+        "initial_temp_degc",
+        "uncertainty.relative",
+        "uncertainty.absolute",
+        "activation.mode",
+        "activation.events_per_year",
+        "activation.duration_steps",
+        "data.reserve_price_scale",
+        "data.price_gap_fill",
+    }
 )
-"""Scenario settings that would name a file on the server (or replace the building)."""
+"""The settings of the other tables a registration may give. Everything else is refused:
+``building`` (sent as content), the data and activation files, ``plant`` (the plant is the
+building itself; ``plant.idf`` names a file), ``uncertainty.calibrate`` (its
+``prediction_errors`` names a results file) and any key added to those tables later, until
+it is listed here."""
+
+
+_ACCEPTED_HINT = (
+    "send the building as content; shipped data is the default; accepted: every key of "
+    + ", ".join(f"[{table}]" for table in ACCEPTED_TABLES)
+    + " and "
+    + ", ".join(sorted(ACCEPTED_SETTINGS))
+)
+
+
+def accepted_setting(path: str) -> bool:
+    """Whether a registration may give the setting of dotted ``path`` (an allow-list:
+    :data:`ACCEPTED_TABLES`, :data:`ACCEPTED_SETTINGS`)."""
+    return path in ACCEPTED_SETTINGS or path.split(".", 1)[0] in ACCEPTED_TABLES
+
 
 MAX_HORIZON_STEPS = 336
 """Longest MPC horizon a registered building may ask for (one week of periods)."""
@@ -124,12 +152,13 @@ def scenario_config(settings: ScenarioSettings, building_id: str) -> ScenarioCon
             raise InputError(
                 "unknown setting", field=f"scenario.settings.{key}", hint=exc.hint
             ) from None
-        if path in FORBIDDEN_SETTINGS:
+        if not accepted_setting(path):
             raise InputError(
-                "settings may not name files on the server or replace the building",
+                "the service does not take this setting: settings may not name files on the "
+                "server or replace the building or the plant",
                 field=f"scenario.settings.{key}",
                 value=value,
-                hint="send the building as content; shipped data is the default",
+                hint=_ACCEPTED_HINT,
             )
         if path == "activation.mode" and value == "file":
             raise InputError(
