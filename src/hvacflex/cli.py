@@ -631,6 +631,11 @@ def serve(
     wall_clock: bool = typer.Option(
         False, help="Also plan at each wall-clock 30-min boundary (else: POST /v1/clock)."
     ),
+    live: bool = typer.Option(
+        False,
+        help="Live mode: buildings plan on real dates (typical-year weather, the prices of "
+        "the same weekday nearest the date in the price data, unless posted).",
+    ),
     ssl_certfile: Path | None = typer.Option(  # noqa: B008
         None, help="TLS: the server's certificate (chain), PEM; with --ssl-keyfile."
     ),
@@ -679,10 +684,13 @@ def serve(
             )
         tls = check_tls(ssl_certfile, ssl_keyfile)
         check_listen_address(host, port)
-        service = create_app(_serve_db(ctx, db), wall_clock=wall_clock, stale_after_s=stale_after_s)
+        service = create_app(
+            _serve_db(ctx, db), wall_clock=wall_clock, stale_after_s=stale_after_s, live=live
+        )
     except HvacflexError as exc:
         raise exit_on_error(exc) from None
-    typer.echo(f"hvacflex service on {service_url(host, port, tls)} (API under /v1)")
+    mode = "; live mode: real dates" if live else ""
+    typer.echo(f"hvacflex service on {service_url(host, port, tls)} (API under /v1){mode}")
     sys.stdout.flush()  # the URL reaches a pipe (a supervisor, a test) before the first request
     uvicorn.run(
         service,

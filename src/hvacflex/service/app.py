@@ -202,6 +202,7 @@ def create_app(
     wall_clock: bool = False,
     stale_after_s: float = DEFAULT_STALE_AFTER_S,
     plan_workers: int = DEFAULT_PLAN_WORKERS,
+    live: bool = False,
 ) -> FastAPI:
     """The service app on the database at ``db_url`` (migrated to the newest schema).
 
@@ -210,7 +211,9 @@ def create_app(
     A building whose latest measurement is older than ``stale_after_s`` [s] is stale: its
     plan is left out of the aggregate bid. Plans are made by ``plan_workers`` threads off
     the request path (:mod:`.planner`); measurements acknowledged before a restart and not
-    yet planned are queued at once.
+    yet planned are queued at once. ``live``: the live mode — buildings registered plan on
+    real dates (``data.calendar = "live"``) and times of prices, activations and the clock
+    are not held to the price data's span.
 
     Raises
     ------
@@ -221,7 +224,7 @@ def create_app(
         raise InputError("must be > 0 s", field="stale_after_s", value=stale_after_s)
     engine = open_database(db_url)
     sessions = session_factory(engine)
-    runtime = Runtime(sessions)
+    runtime = Runtime(sessions, live=live)
     planner = Planner(runtime, plan_workers)
     app = FastAPI(
         title="hvacflex service",
@@ -612,10 +615,12 @@ def _signal_routes(app: FastAPI, planner: Planner, auth: _Auth) -> None:
         start = to_local(body.start)
         if start != start.floor("30min"):
             raise InputError("must be a 30-min period start", field="start", value=str(start))
-        check_plannable(start, "start")
+        check_plannable(start, "start", runtime.live)
         last = len(body.energy_price_sgd_per_mwh) - 1
         check_plannable(
-            start + last * pd.Timedelta(minutes=30), f"energy_price_sgd_per_mwh[{last}]"
+            start + last * pd.Timedelta(minutes=30),
+            f"energy_price_sgd_per_mwh[{last}]",
+            runtime.live,
         )
         _check_prices(body)
         stored = _store_signal(
@@ -645,7 +650,7 @@ def _signal_routes(app: FastAPI, planner: Planner, auth: _Auth) -> None:
         """IL activation start or end; the affected buildings' current plans change at once
         (the plans re-issued are returned)."""
         time = to_local(body.time)
-        check_plannable(time, "time")
+        check_plannable(time, "time", runtime.live)
         with sessions() as session, session.begin():
             known = set(runtime.building_ids(session))
             targets = sorted(known) if body.building_ids is None else body.building_ids
@@ -673,7 +678,7 @@ def _signal_routes(app: FastAPI, planner: Planner, auth: _Auth) -> None:
         """Advance the service clock; each building without a plan for the period that now
         starts is planned on its latest measurement (the 30-min boundary trigger)."""
         time = to_local(body.time)
-        check_plannable(time, "time")
+        check_plannable(time, "time", runtime.live)
         with sessions() as session, session.begin():
             row = session.get(ServiceClock, 1)
             if row is None:
@@ -791,13 +796,16 @@ def plannable_span() -> tuple[pd.Timestamp, pd.Timestamp]:
     return index[0], index[-1]
 
 
-def check_plannable(stamp: pd.Timestamp, field: str) -> None:
-    """Refuse a time outside the price data (:func:`plannable_span`), naming the range.
+def check_plannable(stamp: pd.Timestamp, field: str, live: bool = False) -> None:
+    """Refuse a time outside the price data (:func:`plannable_span`), naming the range; in
+    live mode (``live``) every time is plannable (a building's own scenario span decides).
 
     Raises
     ------
     InputError : ``stamp`` is before the first or after the last period start.
     """
+    if live:
+        return
     first, last = plannable_span()
     if not first <= stamp <= last:
         raise InputError(

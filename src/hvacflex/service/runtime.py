@@ -74,6 +74,9 @@ FORBIDDEN_SETTINGS = (
 )
 """Scenario settings that would name a file on the server (or replace the building)."""
 
+CALENDAR_SETTING = "data.calendar"
+"""The scenario setting of the live calendar (:mod:`hvacflex.data.calendar`)."""
+
 MAX_HORIZON_STEPS = 336
 """Longest MPC horizon a registered building may ask for (one week of periods)."""
 MAX_TIME_LIMIT_S = 60.0
@@ -230,10 +233,29 @@ class BuildingRuntime:
 class Runtime:
     """The service's controllers and the loop logic, over the database."""
 
-    def __init__(self, sessions: sessionmaker[Session]) -> None:
+    def __init__(self, sessions: sessionmaker[Session], *, live: bool = False) -> None:
         self.sessions = sessions
+        self.live = live
+        """Live mode (``hvacflex serve --live``): buildings plan on real dates (scenario
+        setting ``data.calendar = "live"``, :mod:`hvacflex.data.calendar`)."""
         self._buildings: dict[str, BuildingRuntime] = {}
         self._lock = threading.Lock()
+
+    def _with_calendar(self, settings: ScenarioSettings) -> ScenarioSettings:
+        """In live mode, the settings with ``data.calendar = "live"`` unless they set it."""
+        from hvacflex.config import resolve_key
+
+        if not self.live:
+            return settings
+        for key in settings.settings:
+            try:
+                if ".".join(resolve_key(key)) == CALENDAR_SETTING:
+                    return settings
+            except InputError:
+                continue  # scenario_config names the unknown key
+        return settings.model_copy(
+            update={"settings": {**settings.settings, CALENDAR_SETTING: "live"}}
+        )
 
     # -- buildings ----------------------------------------------------------------------
     def register(
@@ -248,7 +270,15 @@ class Runtime:
         if session.get(BuildingRow, building_id) is not None:
             raise ConflictError("already registered", field="building_id", value=building_id)
         building, document = building_from_source(source, building_id)
+        settings = self._with_calendar(settings)
         config = scenario_config(settings, building_id)
+        if config.data.calendar == "live" and not self.live:
+            raise InputError(
+                "real dates need the service's live mode",
+                field=f"scenario.settings.{CALENDAR_SETTING}",
+                value="live",
+                hint="start the service with `hvacflex serve --live`, or leave the setting out",
+            )
         setup = prepare(config, building)
         runtime = _building_runtime(building_id, setup)
         session.add(
