@@ -835,9 +835,16 @@ def serve_openadr_ven(
     stop_after_s: float | None = typer.Option(
         None, help="Stop after this many seconds (else at SIGINT/SIGTERM)."
     ),
+    db: str = typer.Option(
+        "sqlite:///hvacflex-ven.db",
+        "--db",
+        help="The VEN's record (answers, activations, settlement): sqlite:///FILE or "
+        "postgresql+psycopg://USER@HOST/DB; kept across restarts.",
+    ),
 ) -> None:
     """OpenADR 2.0b VEN: VTN events become the service's prices, φ and IL activations; it
-    reports metered power, planned power and the reserve offer (docs/service.md)."""
+    reports metered power, planned power and the reserve offer, and settles the dispatches
+    it accepted on metered power (docs/service.md)."""
     import asyncio
     import logging
 
@@ -857,6 +864,7 @@ def serve_openadr_ven(
             key=key,
             ca=ca,
             vtn_fingerprint=vtn_fingerprint,
+            db_url=db,
         )
         logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(message)s")
         typer.echo(f"hvacflex VEN {ven_name} → {vtn_url}; service {url}", err=True)
