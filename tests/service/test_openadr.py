@@ -28,6 +28,7 @@ from service_fixtures import SERVE, free_port, operator_key_for, registration
 
 from hvacflex.errors import InputError
 from hvacflex.service.openadr import OPT_IN, OPT_OUT, VenConfig
+from hvacflex.service.openadr_mapping import PERIOD, RESERVE_OFFER_MIN_KW
 from hvacflex.service.replay import Client
 
 
@@ -167,13 +168,18 @@ def _wait(condition: Any, timeout_s: float, what: str, log: Any) -> None:
         if condition():
             return
         time.sleep(0.5)
-    log.seek(0)
-    raise AssertionError(f"{what} within {timeout_s} s; VEN log:\n{log.read().decode()[-4000:]}")
+    noise = ("report", "apscheduler", "number of intervals", "no callback found")
+    lines = [
+        line for line in _logged(log).splitlines() if not any(n in line.lower() for n in noise)
+    ]
+    tail = "\n".join(lines)[-4000:]
+    raise AssertionError(f"{what} within {timeout_s} s; VEN log (reports left out):\n{tail}")
 
 
 @dataclass
 class _Site:
-    """A service (``hvacflex serve``) with building b1 registered and measured at 15:00."""
+    """A service (``hvacflex serve``) with building b1 registered and measured at ``first``
+    (default 2014-03-03 15:00; a live service on a real date)."""
 
     url: str
     operator_key: str
@@ -183,14 +189,18 @@ class _Site:
     first: dict[str, Any]
 
     @staticmethod
-    def start(server_factory: Any) -> _Site:
+    def start(
+        server_factory: Any, first: str = "2014-03-03T15:00+08:00", live: bool = False
+    ) -> _Site:
         server = server_factory()
+        server.live = live
         server.start()
         operator_key = operator_key_for(server.db_url)
         operator = Client(server.url, operator_key)
         # a reserve price near the energy price, so that the plan offers reserve to dispatch
-        scale = {"data.reserve_price_scale": 150.0}
-        registered = operator.call("POST", "/v1/buildings", registration("b1", **scale))
+        body = registration("b1", days=2.0, **{"data.reserve_price_scale": 150.0})
+        body["scenario"]["start"] = first[:10]
+        registered = operator.call("POST", "/v1/buildings", body)
         site = _Site(
             server.url,
             operator_key,
@@ -199,7 +209,7 @@ class _Site:
             len(registered["nodes"]),
             {},
         )
-        site.first = site.measure("2014-03-03T15:00+08:00", MEASURED_POWER_KW)
+        site.first = site.measure(first, MEASURED_POWER_KW)
         return site
 
     def measure(self, time_text: str, power_kw: float) -> dict[str, Any]:
@@ -481,3 +491,79 @@ def test_a_signal_the_service_refuses_is_opted_out(tmp_path: Path) -> None:
     }
     assert make_ven(service, tmp_path).handle_event(event) == OPT_OUT
     assert [r[1] for r in service.requests] == ["/v1/signals/prices"]
+
+
+def _logged(log: Any) -> str:
+    """What the VEN has logged so far."""
+    log.seek(0)
+    text: str = log.read().decode()
+    return text
+
+
+def _offered_pair(plan: dict[str, Any]) -> pd.Timestamp:
+    """The first period after the plan's own from which it offers reserve in two periods."""
+    reserve = plan["horizon_reserve_kw"]
+    for j in range(1, len(reserve) - 1):
+        if min(reserve[j], reserve[j + 1]) > RESERVE_OFFER_MIN_KW:
+            return pd.Timestamp(plan["horizon_time"][j])
+    raise AssertionError(f"the plan offers no two consecutive periods: {reserve}")
+
+
+def test_a_live_service_at_real_times_and_a_restarted_ven_that_keeps_its_dispatch(
+    server_factory: Any, tmp_path: Path
+) -> None:
+    # a live service; the building measured at noon on the next Wednesday but one (real
+    # dates, no clock offset: the VTN's times are the service's)
+    today = pd.Timestamp.now(tz="Asia/Singapore").normalize()
+    day = today + pd.Timedelta(days=7 + (2 - today.day_of_week) % 7)
+    site = _Site.start(server_factory, f"{day:%Y-%m-%d}T12:00+08:00", live=True)
+    start = _offered_pair(site.first)
+    real0 = start.tz_convert("UTC").to_pydatetime()
+    price, _, dispatch, _ = _events(real0 - HALF_HOUR)
+    vtn = LoopbackVtn(free_port(), [price, dispatch], run_for_s=240.0)
+    vtn.start()
+    record = tmp_path / "ven.db"
+    offset = pd.Timedelta(0)
+    ven, log = site.start_ven(vtn, offset, None, record)
+    restarted: subprocess.Popen[bytes] | None = None
+    price_id, dispatch_id = vtn.event_ids
+
+    def activations() -> list[dict[str, Any]]:
+        listed: list[dict[str, Any]] = site.operator.call("GET", "/v1/activations")
+        return listed
+
+    try:
+        _wait(lambda: len(vtn.opts) == 2, 120, "two opt responses", log)
+        assert vtn.opts == {price_id: OPT_IN, dispatch_id: OPT_IN}
+        ven.kill()  # no clean stop: the record is committed before an opt is sent
+        ven.wait(timeout=30)
+        restarted, log = site.start_ven(vtn, offset, None, record)
+        # at registration the VTN sends its events again; both are answered from the record
+        answered = "answered before: optIn"
+        _wait(lambda: _logged(log).count(answered) == 2, 120, "the events answered again", log)
+        vtn.cancel(dispatch_id)  # a new version of the dispatch, status cancelled
+        _wait(lambda: len(activations()) == 3, 120, "the cancellation's end", log)
+        assert "cancelled (acknowledged)" in _logged(log)
+    finally:
+        for process in (ven, restarted):
+            if process is not None and process.poll() is None:
+                process.terminate()
+                process.wait(timeout=30)
+        vtn.stop()
+    assert vtn.registrations == 2
+
+    # the prices were posted once (the restarted VEN answered them from its record); the
+    # dispatch's start and end by the first VEN, the end at its start by the restarted one
+    key_id = site.operator_key.split("_")[1]
+    audit = site.operator.call("GET", "/v1/audit")
+    posted = [(a["path"], a["status_code"]) for a in audit if a["key_id"] == key_id]
+    assert posted.count(("/v1/signals/prices", 200)) == 1, posted
+    assert posted.count(("/v1/activations", 200)) == 3, posted
+    times = [(a["event"], pd.Timestamp(a["time"])) for a in reversed(activations())]
+    assert times == [("start", start), ("end", start + 2 * PERIOD), ("end", start)]
+    # the next plan at the dispatch's start uses the posted price and is not activated
+    plan = site.measure(start.isoformat(), 40.0)
+    assert not plan["il_activated"]
+    assert plan["horizon_energy_price_sgd_per_mwh"][0] == pytest.approx(
+        1000.0 * PRICES_SGD_PER_KWH[1]
+    )
