@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import os
 import subprocess
+import sys
 import tempfile
 import time
 from dataclasses import dataclass
@@ -78,6 +79,28 @@ def test_bad_settings_are_refused_naming_the_option(change: dict[str, Any], fiel
     with pytest.raises(InputError) as raised:
         VenConfig(**{**settings, **change})
     assert raised.value.field == field
+
+
+def test_without_openleadr_the_ven_names_the_extra_to_install(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from hvacflex.errors import ConfigError
+    from hvacflex.service.openadr import openadr_client
+
+    monkeypatch.setitem(sys.modules, "openleadr", None)  # import openleadr → ImportError
+    with pytest.raises(ConfigError) as raised:
+        openadr_client(make_ven(RecordingService(make_plan([1.0])), tmp_path))
+    assert raised.value.hint == 'pip install "hvacflex[openadr]"'
+
+
+def test_the_note_says_what_a_utility_would_still_need_and_how_far_the_adapter_is() -> None:
+    text = (Path(__file__).resolve().parents[2] / "docs" / "service.md").read_text()
+    note = text.split("### What a utility would still need", 1)[1].split("\n## ", 1)[0]
+    for needed in ("**Certification.**", "**EiOpt.**", "**OpenADR 3.0**", "**How far the adapter"):
+        assert needed in note, needed
+    for mapped in ("`ELECTRICITY_PRICE`", "`DEMAND_CHARGE`", "`LOAD_DISPATCH`", "`SIMPLE`"):
+        assert mapped in text.split("### Mapping", 1)[1], mapped  # the mapping table
+    assert "## Live mode: real dates" in text and "`--clock-offset DURATION`" in text
 
 
 @pytest.mark.parametrize(

@@ -102,3 +102,36 @@ def test_real_dates_are_refused_without_the_live_mode(tmp_path: Path) -> None:
         client.close()
         app.state.planner.shutdown()
         app.state.engine.dispose()
+
+
+def test_a_posted_outdoor_temperature_forecast_replaces_the_typical_year(
+    live: tuple[TestClient, str],
+) -> None:
+    client, key = live
+    op = {"X-API-Key": key}
+    now = pd.Timestamp.now(tz=TZ).floor("30min")
+    keys: dict[str, str] = {}
+    nodes = 0
+    for building_id in ("b1", "b2"):  # the same building twice
+        body = _registration(f"{now:%Y-%m-%d}")
+        body["building_id"] = building_id
+        payload = client.post("/v1/buildings", json=body, headers=op).json()["payload"]
+        keys[building_id], nodes = payload["key"], len(payload["nodes"])
+
+    def plan(building_id: str) -> dict[str, Any]:
+        body = {"time": now.isoformat(), "node_temperatures_degc": [24.5] * nodes}
+        path = f"/v1/buildings/{building_id}/measurements?wait_s=10"
+        response = client.post(path, json=body, headers={"X-API-Key": keys[building_id]})
+        assert response.status_code == 200, response.text
+        made: dict[str, Any] = response.json()["payload"]
+        return made
+
+    typical = plan("b1")
+    hot = {"start": now.isoformat(), "outdoor_temp_degc": [40.0] * 49}
+    assert client.post("/v1/signals/weather", json=hot, headers=op).status_code == 200
+    posted = plan("b2")  # the same state and period, planned on the posted forecast
+    # 40 °C outdoor air costs more coil power than the typical year's ~25–32 °C
+    assert sum(posted["horizon_power_kw"]) > sum(typical["horizon_power_kw"]) + 10.0
+    bad = {"start": now.isoformat(), "outdoor_temp_degc": [70.0]}
+    response = client.post("/v1/signals/weather", json=bad, headers=op)
+    assert response.status_code == 422 and "outdoor_temp_degc[0]" in response.text

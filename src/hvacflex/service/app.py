@@ -73,6 +73,7 @@ from hvacflex.service.schemas import (
     RegisterBuilding,
     Registered,
     Stored,
+    WeatherIn,
 )
 from hvacflex.sim.step import ConflictError
 
@@ -629,6 +630,23 @@ def _signal_routes(app: FastAPI, planner: Planner, auth: _Auth) -> None:
                 "start_utc": start.tz_convert("UTC").isoformat(),
                 "energy_price_sgd_per_mwh": body.energy_price_sgd_per_mwh,
                 "reserve_price_sgd_per_mwh": body.reserve_price_sgd_per_mwh,
+            },
+        )
+        return Envelope(status=200, message="stored", payload=stored)
+
+    @app.post("/v1/signals/weather", tags=["operator"], responses=_ERRORS)
+    def post_weather(body: WeatherIn, _who: Operator) -> Envelope[Stored]:
+        """An outdoor-temperature forecast [°C] of consecutive periods from ``start``; it
+        replaces the typical-year outdoor temperature in every building's forecast there."""
+        start = to_local(body.start)
+        if start != start.floor("30min"):
+            raise InputError("must be a 30-min period start", field="start", value=str(start))
+        check_plannable(start, "start", runtime.live)
+        stored = _store_signal(
+            "weather",
+            {
+                "start_utc": start.tz_convert("UTC").isoformat(),
+                "outdoor_temp_degc": body.outdoor_temp_degc,
             },
         )
         return Envelope(status=200, message="stored", payload=stored)

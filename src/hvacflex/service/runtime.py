@@ -333,11 +333,21 @@ class Runtime:
 
     # -- signals ------------------------------------------------------------------------
     def signals(self, session: Session) -> OperatorSignals:
-        """The operator's signals in force: posted prices by period, the latest φ."""
+        """The operator's signals in force: posted prices and outdoor temperatures by
+        period (the latest posted for a period wins), the latest φ."""
         energy, reserve = self._price_overrides(session)
         peak = self.latest_signal(session, "peak_price")
         phi = None if peak is None else float(peak["peak_price_sgd_per_kw"])
-        return OperatorSignals(energy, reserve, peak_price_sgd_per_kw=phi)
+        weather: dict[pd.Timestamp, float] = {}
+        rows = session.scalars(select(Signal).where(Signal.kind == "weather").order_by(Signal.id))
+        for row in rows:
+            body = json.loads(row.body_json)
+            start = pd.Timestamp(body["start_utc"])
+            for i, value in enumerate(body["outdoor_temp_degc"]):
+                weather[start + i * PERIOD] = float(value)
+        return OperatorSignals(
+            energy, reserve, outdoor_temp_degc=weather, peak_price_sgd_per_kw=phi
+        )
 
     def _price_overrides(
         self, session: Session
