@@ -251,6 +251,7 @@ def create_app(
     _building_routes(app, planner, auth)
     _plan_routes(app, planner, auth)
     _measurement_routes(app, runtime, auth)
+    _forecast_signal_routes(app, planner, auth)
     _signal_routes(app, planner, auth)
     _operator_routes(app, runtime, auth)
     add_page_routes(app)
@@ -596,18 +597,20 @@ def _measurement_routes(app: FastAPI, runtime: Runtime, auth: _Auth) -> None:
         return Envelope(status=200, message=f"{len(records)} measurements", payload=records)
 
 
-def _signal_routes(app: FastAPI, planner: Planner, auth: _Auth) -> None:
-    """Prices, the peak-power price, the feeder limit, activations and the clock."""
+def _store_signal(sessions: Any, kind: str, body: dict[str, Any]) -> Stored:
+    """Store an operator signal (committed when this returns)."""
+    with sessions() as session, session.begin():
+        row = Signal(kind=kind, body_json=json.dumps(body))
+        session.add(row)
+        session.flush()
+        return Stored(id=row.id, kind=kind)
+
+
+def _forecast_signal_routes(app: FastAPI, planner: Planner, auth: _Auth) -> None:
+    """Prices and the outdoor-temperature forecast: laid over the buildings' forecasts."""
     runtime = planner.runtime
     sessions = runtime.sessions
     Operator = Annotated[Principal, Depends(_roles(auth)[0])]
-
-    def _store_signal(kind: str, body: dict[str, Any]) -> Stored:
-        with sessions() as session, session.begin():
-            row = Signal(kind=kind, body_json=json.dumps(body))
-            session.add(row)
-            session.flush()
-            return Stored(id=row.id, kind=kind)
 
     @app.post("/v1/signals/prices", tags=["operator"], responses=_ERRORS)
     def post_prices(body: PricesIn, _who: Operator) -> Envelope[Stored]:
@@ -625,6 +628,7 @@ def _signal_routes(app: FastAPI, planner: Planner, auth: _Auth) -> None:
         )
         _check_prices(body)
         stored = _store_signal(
+            sessions,
             "prices",
             {
                 "start_utc": start.tz_convert("UTC").isoformat(),
@@ -643,6 +647,7 @@ def _signal_routes(app: FastAPI, planner: Planner, auth: _Auth) -> None:
             raise InputError("must be a 30-min period start", field="start", value=str(start))
         check_plannable(start, "start", runtime.live)
         stored = _store_signal(
+            sessions,
             "weather",
             {
                 "start_utc": start.tz_convert("UTC").isoformat(),
@@ -651,16 +656,23 @@ def _signal_routes(app: FastAPI, planner: Planner, auth: _Auth) -> None:
         )
         return Envelope(status=200, message="stored", payload=stored)
 
+
+def _signal_routes(app: FastAPI, planner: Planner, auth: _Auth) -> None:
+    """The peak-power price, the feeder limit, activations and the clock."""
+    runtime = planner.runtime
+    sessions = runtime.sessions
+    Operator = Annotated[Principal, Depends(_roles(auth)[0])]
+
     @app.post("/v1/signals/peak-price", tags=["operator"], responses=_ERRORS)
     def post_peak_price(body: PeakPriceIn, _who: Operator) -> Envelope[Stored]:
         """The peak-power price φ [SGD/kW] every building plans with from now on."""
-        stored = _store_signal("peak_price", body.model_dump())
+        stored = _store_signal(sessions, "peak_price", body.model_dump())
         return Envelope(status=200, message="stored", payload=stored)
 
     @app.post("/v1/signals/feeder-limit", tags=["operator"], responses=_ERRORS)
     def post_feeder_limit(body: FeederLimitIn, _who: Operator) -> Envelope[Stored]:
         """The feeder limit [kW] the aggregate bid is checked against."""
-        stored = _store_signal("feeder_limit", body.model_dump())
+        stored = _store_signal(sessions, "feeder_limit", body.model_dump())
         return Envelope(status=200, message="stored", payload=stored)
 
     @app.post("/v1/activations", tags=["operator"], responses=_ERRORS)
