@@ -13,6 +13,11 @@ the VEN's opt responses and the report values it receives, and stops after
 
 The building must be registered and measured (a plan) for the dispatch to be opted in:
 office5 under ``rmpc`` on 2014-03-03 offers reserve from 15:30 to 17:30.
+
+Against a service in live mode (``hvacflex serve --live``: real dates) pass ``--live``: the
+events are for the next half hour of today and the printed offset is ``0min`` (the VEN's
+default). Register the building with today's date as its scenario start and post its
+measurement of the current period first.
 """
 
 from __future__ import annotations
@@ -113,7 +118,7 @@ async def serve(args: argparse.Namespace) -> None:
     server.add_handler("on_create_party_registration", on_create_party_registration)
     server.add_handler("on_register_report", on_register_report)
     start = next_half_hour(datetime.now(UTC))
-    offset_min = int((args.service_start - start).total_seconds() // 60)
+    offset_min = 0 if args.live else int((args.service_start - start).total_seconds() // 60)
     for event in events(start, args.building):
         server.add_event(ven_id=the_ven_id, callback=on_opt, **event)
     await server.run()
@@ -134,6 +139,11 @@ def main() -> None:
         type=datetime.fromisoformat,
         default=datetime.fromisoformat("2014-03-03T15:30+08:00"),
         help="Service time the next half hour maps to.",
+    )
+    parser.add_argument(
+        "--live",
+        action="store_true",
+        help="The service is in live mode (hvacflex serve --live): no clock offset.",
     )
     parser.add_argument("--duration-s", type=float, default=300.0)
     parser.add_argument("--report-s", type=float, default=10.0, help="Report sampling [s].")

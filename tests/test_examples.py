@@ -94,3 +94,5 @@ def test_openadr_vtn_runs_bounded_and_prints_the_clock_offset(tmp_path: Path) ->
     assert mapped == pd.Timestamp("2014-03-03T15:30+08:00")
     assert pd.Timestamp(start) > pd.Timestamp.now(tz="UTC")
     assert lines[-1] == "stopped after 1 s; 0 VEN registrations"
+    live = _run("openadr_vtn.py", tmp_path, "--port", str(port), "--duration-s", "1", "--live")
+    assert any(line.endswith("; pass --clock-offset '0min'") for line in live.splitlines())

@@ -56,6 +56,23 @@ def test_wheel_holds_every_shipped_resource(wheel: Path) -> None:
         assert required in names
 
 
+def test_the_openadr_extra_and_the_ven_migration_ship_in_the_wheel(wheel: Path) -> None:
+    """`pip install "hvacflex[openadr]"` brings openleadr; the VEN's tables are migrated
+    from the wheel (issue 30)."""
+    archive = zipfile.ZipFile(wheel)
+    (metadata,) = [n for n in archive.namelist() if n.endswith(".dist-info/METADATA")]
+    lines = archive.read(metadata).decode().splitlines()
+    assert "Provides-Extra: openadr" in lines
+    assert any(
+        line.startswith("Requires-Dist: openleadr") and 'extra == "openadr"' in line
+        for line in lines
+    )
+    names = set(archive.namelist())
+    for module in ("openadr.py", "openadr_mapping.py", "openadr_store.py"):
+        assert f"hvacflex/service/{module}" in names
+    assert "hvacflex/service/migrations/versions/0002_openadr.py" in names
+
+
 def test_wheel_is_small_and_has_no_iwec(wheel: Path) -> None:
     assert wheel.stat().st_size < MAX_WHEEL_BYTES
     assert not [n for n in zipfile.ZipFile(wheel).namelist() if "IWEC" in n]

@@ -633,6 +633,11 @@ def serve(
     wall_clock: bool = typer.Option(
         False, help="Also plan at each wall-clock 30-min boundary (else: POST /v1/clock)."
     ),
+    live: bool = typer.Option(
+        False,
+        help="Live mode: buildings plan on real dates (typical-year weather, the prices of "
+        "the same weekday nearest the date in the price data, unless posted).",
+    ),
     ssl_certfile: Path | None = typer.Option(  # noqa: B008
         None, help="TLS: the server's certificate (chain), PEM; with --ssl-keyfile."
     ),
@@ -681,10 +686,13 @@ def serve(
             )
         tls = check_tls(ssl_certfile, ssl_keyfile)
         check_listen_address(host, port)
-        service = create_app(_serve_db(ctx, db), wall_clock=wall_clock, stale_after_s=stale_after_s)
+        service = create_app(
+            _serve_db(ctx, db), wall_clock=wall_clock, stale_after_s=stale_after_s, live=live
+        )
     except HvacflexError as exc:
         raise exit_on_error(exc) from None
-    typer.echo(f"hvacflex service on {service_url(host, port, tls)} (API under /v1)")
+    mode = "; live mode: real dates" if live else ""
+    typer.echo(f"hvacflex service on {service_url(host, port, tls)} (API under /v1){mode}")
     sys.stdout.flush()  # the URL reaches a pipe (a supervisor, a test) before the first request
     uvicorn.run(
         service,
@@ -829,9 +837,16 @@ def serve_openadr_ven(
     stop_after_s: float | None = typer.Option(
         None, help="Stop after this many seconds (else at SIGINT/SIGTERM)."
     ),
+    db: str = typer.Option(
+        "sqlite:///hvacflex-ven.db",
+        "--db",
+        help="The VEN's record (answers, activations, settlement): sqlite:///FILE or "
+        "postgresql+psycopg://USER@HOST/DB; kept across restarts.",
+    ),
 ) -> None:
     """OpenADR 2.0b VEN: VTN events become the service's prices, φ and IL activations; it
-    reports metered power, planned power and the reserve offer (docs/service.md)."""
+    reports metered power, planned power and the reserve offer, and settles the dispatches
+    it accepted on metered power (docs/service.md)."""
     import asyncio
     import logging
 
@@ -851,6 +866,7 @@ def serve_openadr_ven(
             key=key,
             ca=ca,
             vtn_fingerprint=vtn_fingerprint,
+            db_url=db,
         )
         logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(message)s")
         typer.echo(f"hvacflex VEN {ven_name} → {vtn_url}; service {url}", err=True)

@@ -169,3 +169,25 @@ def test_price_gap_fill_reaches_the_loader(tmp_path: Path, shared_data_dir: Path
     full = load_usep(source)["energy_price_sgd_per_mwh"]
     assert x.energy_price_sgd_per_mwh[20] == full.loc["2014-03-16 10:00+08:00"]
     assert x.energy_price_sgd_per_mwh[21] == full.loc["2014-03-17 10:30+08:00"]
+
+
+def test_the_live_calendar_plans_real_dates_on_the_mapped_prices_and_the_typical_year(
+    shared_data_dir: Path,
+) -> None:
+    # Wed 2026-12-02 takes the prices of Wed 2014-12-03 (hvacflex.data.calendar); the weather
+    # is the typical year's 2 December, as in any year; the schedule is 2026's
+    live = load_exogenous(
+        CHANNELS, [100.0, 100.0], Gains(), start="2026-12-02", steps=48, calendar="live"
+    )
+    assert live.index[0] == pd.Timestamp("2026-12-02", tz=TZ)
+    usep = load_usep(shared_data_dir / "nems_usep_2014")["energy_price_sgd_per_mwh"]
+    np.testing.assert_array_equal(
+        live.energy_price_sgd_per_mwh[:48], usep.loc["2014-12-03"].to_numpy()
+    )
+    assert live.energy_price_extrapolated.all()
+    same_date = load_exogenous(CHANNELS, [100.0, 100.0], Gains(), start="2014-12-02", steps=48)
+    np.testing.assert_array_equal(live.outdoor_temp_degc[:48], same_date.outdoor_temp_degc[:48])
+    assert live.occupied[:48].any()  # a Wednesday, a working day
+    # the same date under the data calendar is refused
+    with pytest.raises(DataError, match="outside the USEP price data"):
+        load_exogenous(CHANNELS, [100.0, 100.0], Gains(), start="2026-12-02", steps=48)

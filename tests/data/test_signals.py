@@ -45,6 +45,17 @@ def test_prices_replace_their_periods_and_phi_is_carried(forecast) -> None:  # t
     )
 
 
+def test_a_posted_outdoor_temperature_replaces_the_outdoor_channel_there(forecast) -> None:  # type: ignore[no-untyped-def]
+    column = forecast.channel_index("outdoor_temp")
+    assert column  # office5 has one
+    out = OperatorSignals(outdoor_temp_degc={forecast.index[2]: 35.5}).apply(forecast)
+    expected = np.array(forecast.disturbances, dtype=float)
+    expected[2, column] = 35.5
+    np.testing.assert_array_equal(out.disturbances, expected)  # the other channels kept
+    assert out.outdoor_temp_degc[2] == 35.5 and out.outdoor_temp_degc[1] != 35.5
+    np.testing.assert_array_equal(out.energy_price_sgd_per_mwh, forecast.energy_price_sgd_per_mwh)
+
+
 @pytest.mark.parametrize("phi", [-1.0, float("nan"), float("inf")])
 def test_an_impossible_peak_price_is_refused(phi: float) -> None:
     with pytest.raises(InputError, match="peak_price_sgd_per_kw"):

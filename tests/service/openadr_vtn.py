@@ -109,6 +109,8 @@ class LoopbackVtn:
     _stop: threading.Event = field(default_factory=threading.Event)
     _thread: threading.Thread | None = None
     _ready: threading.Event = field(default_factory=threading.Event)
+    _server: Any = None
+    _loop: asyncio.AbstractEventLoop | None = None
 
     @property
     def url(self) -> str:
@@ -192,6 +194,7 @@ class LoopbackVtn:
         for event in self.events:
             self.event_ids.append(server.add_event(ven_id=VEN_ID, callback=self.on_opt, **event))
         await server.run()
+        self._server, self._loop = server, asyncio.get_running_loop()
         self._ready.set()
         deadline = time.monotonic() + self.run_for_s
         while not self._stop.is_set() and time.monotonic() < deadline:
@@ -202,6 +205,11 @@ class LoopbackVtn:
         self._thread = threading.Thread(target=lambda: asyncio.run(self._serve()), daemon=True)
         self._thread.start()
         assert self._ready.wait(30), "the VTN did not start"
+
+    def cancel(self, event_id: str) -> None:
+        """Cancel an event (a new version, status cancelled, sent at the VEN's next poll)."""
+        assert self._loop is not None and self._server is not None, "the VTN is not running"
+        self._loop.call_soon_threadsafe(self._server.cancel_event, VEN_ID, event_id)
 
     def stop(self) -> None:
         self._stop.set()

@@ -63,6 +63,8 @@ class Server:
     port: int
     process: subprocess.Popen[bytes] | None = None
     log: Any = None
+    live: bool = False
+    """Start it in live mode (``--live``: real dates)."""
 
     @property
     def url(self) -> str:
@@ -71,6 +73,7 @@ class Server:
     def start(self, timeout_s: float = 60.0) -> None:
         cmd = [*SERVE, "--db", self.db_url]
         cmd += ["--host", "127.0.0.1", "--port", str(self.port)]
+        cmd += ["--live"] if self.live else []
         # the JSON log goes to a file: a pipe nobody reads would fill and block the server
         self.log = tempfile.TemporaryFile()
         self.process = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=self.log)

@@ -1,195 +1,57 @@
-"""``serve openadr-ven``: the OpenADR 2.0b mapping (hand-computed cases) and, end to end, an
+"""``serve openadr-ven``: the VEN's answers and its record (no VTN), and, end to end, an
 openleadr VTN on 127.0.0.1 driving a registered building through the VEN, with and without
-mutual TLS."""
+mutual TLS, on the 2014 calendar by a clock offset and on a live service at real times."""
 
 from __future__ import annotations
 
 import os
 import subprocess
+import sys
 import tempfile
 import time
 from dataclasses import dataclass
-from datetime import UTC, datetime, timedelta
+from datetime import datetime, timedelta
 from pathlib import Path
 from typing import Any
 
 import pandas as pd
 import pytest
+from openadr_events import (
+    HALF_HOUR,
+    T0,
+    RecordingService,
+    make_plan,
+    make_signal,
+    make_ven,
+)
 from openadr_vtn import LoopbackVtn, TlsFiles
 from service_fixtures import SERVE, free_port, operator_key_for, registration
 
 from hvacflex.errors import InputError
-from hvacflex.service.openadr import (
-    OPT_IN,
-    OPT_OUT,
-    EventRefused,
-    OpenAdrVen,
-    VenConfig,
-    activation_runs,
-    decide_dispatch,
-    demand_charge_sgd_per_kw,
-    dispatched_periods,
-    energy_prices,
-    event_buildings,
-    to_service_time,
-    to_vtn_time,
-)
+from hvacflex.service.openadr import OPT_IN, OPT_OUT, VenConfig
+from hvacflex.service.openadr_mapping import PERIOD, RESERVE_OFFER_MIN_KW
 from hvacflex.service.replay import Client
 
-T0 = datetime(2026, 12, 1, 12, 0, tzinfo=UTC)
-"""A real (VTN) time; with OFFSET it is 2014-03-03 09:30 Singapore time."""
-SERVICE_T0 = pd.Timestamp("2014-03-03T09:30+08:00")
-OFFSET = SERVICE_T0 - pd.Timestamp(T0)
-HALF_HOUR = timedelta(minutes=30)
 
-
-def _signal(name: str, kind: str, payloads: list[float], **extra: Any) -> dict[str, Any]:
-    intervals = [
-        {"dtstart": T0 + j * HALF_HOUR, "duration": HALF_HOUR, "signal_payload": p}
-        for j, p in enumerate(payloads)
-    ]
-    return {"signal_name": name, "signal_type": kind, "intervals": intervals, **extra}
-
-
-def _plan(reserve_kw: list[float]) -> dict[str, Any]:
-    times = [
-        (SERVICE_T0 + j * pd.Timedelta(minutes=30)).isoformat() for j in range(len(reserve_kw))
-    ]
-    return {"horizon_time": times, "horizon_reserve_kw": reserve_kw}
-
-
-def test_the_clock_offset_maps_vtn_times_onto_the_2014_calendar_and_back() -> None:
-    assert OFFSET == pd.Timestamp("2014-03-03T01:30Z") - pd.Timestamp("2026-12-01T12:00Z")
-    assert to_service_time(T0, OFFSET) == SERVICE_T0
-    assert to_vtn_time("2014-03-03T09:30:00+08:00", OFFSET) == T0
-    assert to_vtn_time("2014-03-03T10:00:00", OFFSET) == T0 + HALF_HOUR  # no offset: Singapore
-
-
-def test_prices_in_sgd_per_kwh_become_sgd_per_mwh_per_period() -> None:
-    start, prices = energy_prices(_signal("ELECTRICITY_PRICE", "price", [0.1, 0.25]), OFFSET)
-    assert start == SERVICE_T0
-    assert prices == pytest.approx([100.0, 250.0])
-    # an interval of an hour is two periods; a scale of milli multiplies by 1e-3
-    signal = _signal("ENERGY_PRICE", "price", [120.0], measurement={"unit": "SGD", "scale": "m"})
-    signal["intervals"][0]["duration"] = timedelta(hours=1)
-    assert energy_prices(signal, OFFSET) == (SERVICE_T0, pytest.approx([120.0, 120.0]))
-
-
-@pytest.mark.parametrize(
-    ("signal", "reason"),
-    [
-        (_signal("ELECTRICITY_PRICE", "priceRelative", [0.1]), "only absolute prices"),
-        (_signal("ELECTRICITY_PRICE", "price", [0.1], measurement={"unit": "USD"}), "USD"),
-        (
-            {
-                **_signal("ELECTRICITY_PRICE", "price", [0.1]),
-                "intervals": [
-                    {"dtstart": T0, "duration": HALF_HOUR, "signal_payload": 0.1},
-                    {"dtstart": T0 + 2 * HALF_HOUR, "duration": HALF_HOUR, "signal_payload": 0.1},
-                ],
-            },
-            "gaps",
-        ),
-        (
-            {
-                **_signal("ELECTRICITY_PRICE", "price", [0.1]),
-                "intervals": [
-                    {"dtstart": T0, "duration": timedelta(minutes=15), "signal_payload": 0.1}
-                ],
-            },
-            "30-min",
-        ),
-    ],
-    ids=["relative", "currency", "gap", "15-min"],
-)
-def test_prices_the_service_cannot_take_are_refused(signal: dict[str, Any], reason: str) -> None:
-    with pytest.raises(EventRefused, match=reason):
-        energy_prices(signal, OFFSET)
-
-
-def test_a_demand_charge_is_one_phi() -> None:
-    assert demand_charge_sgd_per_kw(_signal("DEMAND_CHARGE", "price", [3.5, 3.5])) == 3.5
-    with pytest.raises(EventRefused, match="one φ"):
-        demand_charge_sgd_per_kw(_signal("DEMAND_CHARGE", "price", [3.5, 4.0]))
-
-
-def test_dispatched_periods_and_their_activation_runs() -> None:
-    periods = dispatched_periods(_signal("SIMPLE", "level", [1, 2, 0, 1]), OFFSET)
-    half = pd.Timedelta(minutes=30)
-    assert periods == [SERVICE_T0, SERVICE_T0 + half, SERVICE_T0 + 3 * half]
-    assert activation_runs(periods) == [
-        (SERVICE_T0, SERVICE_T0 + 2 * half),
-        (SERVICE_T0 + 3 * half, SERVICE_T0 + 4 * half),
-    ]
-
-
-def test_only_buildings_that_offered_every_dispatched_period_are_activated() -> None:
-    periods = dispatched_periods(_signal("LOAD_DISPATCH", "delta", [5.0, 5.0]), OFFSET)
-    plans = {
-        "full": _plan([2.0, 3.0, 0.0]),
-        "partial": _plan([2.0, 0.0, 4.0]),
-        "none": None,
-    }
-    decision = decide_dispatch(periods, plans)
-    assert decision.activated == ("full",)
-    assert decision.opt == OPT_IN
-    assert "1 period(s): 2014-03-03T10:00:00+08:00" in decision.refused["partial"]
-    assert "2 period(s)" in decision.refused["none"]
-    partial_only = decide_dispatch(periods, {"partial": plans["partial"]})
-    assert partial_only.activated == () and partial_only.opt == OPT_OUT
-
-
-def test_an_event_targets_the_named_buildings_else_all() -> None:
-    ours = ("b1", "b2")
-    assert event_buildings({"targets": [{"resource_id": "b2"}]}, ours) == ("b2",)
-    assert event_buildings({"targets": [{"ven_id": "ven-1"}]}, ours) == ours
-    assert event_buildings({"targets": [{"resource_id": "elsewhere"}]}, ours) == ()
-
-
-class _RecordingService(Client):
-    """A service client that records the requests and answers a fixed plan."""
-
-    def __init__(self, plan: dict[str, Any]) -> None:
-        super().__init__("http://127.0.0.1:1", "key")
-        self.plan = plan
-        self.requests: list[tuple[str, str, Any]] = []
-
-    def call(self, method: str, path: str, body: Any = None) -> Any:
-        self.requests.append((method, path, body))
-        return self.plan if method == "GET" else {}
-
-
-def _ven(service: Client, buildings: tuple[str, ...] = ("b1",)) -> OpenAdrVen:
-    config = VenConfig(
-        "http://127.0.0.1:9/OpenADR2/Simple/2.0b",
-        "site-1",
-        "http://127.0.0.1:8000",
-        "key",
-        buildings,
-        OFFSET,
-    )
-    return OpenAdrVen(config, service, clock=lambda: T0)
-
-
-def test_an_event_with_a_signal_the_service_cannot_carry_out_is_opted_out() -> None:
-    service = _RecordingService(_plan([1.0, 1.0]))
+def test_an_event_with_a_signal_the_service_cannot_carry_out_is_opted_out(tmp_path: Path) -> None:
+    service = RecordingService(make_plan([1.0, 1.0]))
     event = {
         "event_descriptor": {"event_id": "e1", "event_status": "far"},
         "event_signals": [
-            _signal("ELECTRICITY_PRICE", "price", [0.1]),
-            _signal("CHARGE_STATE", "level", [1.0]),
+            make_signal("ELECTRICITY_PRICE", "price", [0.1]),
+            make_signal("CHARGE_STATE", "level", [1.0]),
         ],
     }
-    assert _ven(service).handle_event(event) == OPT_OUT
+    assert make_ven(service, tmp_path).handle_event(event) == OPT_OUT
     # the price was still posted (each signal is carried out on its own)
     assert [r[1] for r in service.requests] == ["/v1/signals/prices"]
     dispatch = {
         "event_descriptor": {"event_id": "e2", "event_status": "far"},
-        "event_signals": [_signal("LOAD_DISPATCH", "delta", [5.0, 5.0])],
+        "event_signals": [make_signal("LOAD_DISPATCH", "delta", [5.0, 5.0])],
         "targets": [{"resource_id": "b1"}],
     }
     service.requests.clear()
-    assert _ven(service).handle_event(dispatch) == OPT_IN
+    assert make_ven(service, tmp_path).handle_event(dispatch) == OPT_IN
     posted = [r[2] for r in service.requests if r[0] == "POST"]
     assert posted == [
         {"event": "start", "time": "2014-03-03T09:30:00+08:00", "building_ids": ["b1"]},
@@ -219,16 +81,41 @@ def test_bad_settings_are_refused_naming_the_option(change: dict[str, Any], fiel
     assert raised.value.field == field
 
 
+def test_without_openleadr_the_ven_names_the_extra_to_install(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from hvacflex.errors import ConfigError
+    from hvacflex.service.openadr import openadr_client
+
+    monkeypatch.setitem(sys.modules, "openleadr", None)  # import openleadr → ImportError
+    with pytest.raises(ConfigError) as raised:
+        openadr_client(make_ven(RecordingService(make_plan([1.0])), tmp_path))
+    assert raised.value.hint == 'pip install "hvacflex[openadr]"'
+
+
+def test_the_note_says_what_a_utility_would_still_need_and_how_far_the_adapter_is() -> None:
+    text = (Path(__file__).resolve().parents[2] / "docs" / "service.md").read_text()
+    note = text.split("### What a utility would still need", 1)[1].split("\n## ", 1)[0]
+    for needed in ("**Certification.**", "**EiOpt.**", "**OpenADR 3.0**", "**How far the adapter"):
+        assert needed in note, needed
+    for mapped in ("`ELECTRICITY_PRICE`", "`DEMAND_CHARGE`", "`LOAD_DISPATCH`", "`SIMPLE`"):
+        assert mapped in text.split("### Mapping", 1)[1], mapped  # the mapping table
+    assert "## Live mode: real dates" in text and "`--clock-offset DURATION`" in text
+
+
 @pytest.mark.parametrize(
     ("extra", "field", "reason"),
     [
         (["--building", "b1", "--clock-offset", "soon"], "--clock-offset", "not a duration"),
         (["--building", "b1"], "--vtn-url", "did not register"),  # no VTN at that port
         ([], "--url", "cannot reach the service"),  # the buildings are asked of the service
+        (["--building", "b1", "--db", "nope://x"], "db", "not a database URL"),
     ],
-    ids=["offset", "no-vtn", "no-service"],
+    ids=["offset", "no-vtn", "no-service", "db"],
 )
-def test_the_command_exits_2_naming_the_option(extra: list[str], field: str, reason: str) -> None:
+def test_the_command_exits_2_naming_the_option(
+    extra: list[str], field: str, reason: str, tmp_path: Path
+) -> None:
     vtn_url = f"http://127.0.0.1:{free_port()}/OpenADR2/Simple/2.0b"
     service_url = f"http://127.0.0.1:{free_port()}"
     done = subprocess.run(
@@ -241,6 +128,8 @@ def test_the_command_exits_2_naming_the_option(extra: list[str], field: str, rea
             "v",
             "--url",
             service_url,
+            "--db",
+            f"sqlite:///{tmp_path / 'ven.db'}",
             *extra,
         ],
         capture_output=True,
@@ -302,13 +191,18 @@ def _wait(condition: Any, timeout_s: float, what: str, log: Any) -> None:
         if condition():
             return
         time.sleep(0.5)
-    log.seek(0)
-    raise AssertionError(f"{what} within {timeout_s} s; VEN log:\n{log.read().decode()[-4000:]}")
+    noise = ("report", "apscheduler", "number of intervals", "no callback found")
+    lines = [
+        line for line in _logged(log).splitlines() if not any(n in line.lower() for n in noise)
+    ]
+    tail = "\n".join(lines)[-4000:]
+    raise AssertionError(f"{what} within {timeout_s} s; VEN log (reports left out):\n{tail}")
 
 
 @dataclass
 class _Site:
-    """A service (``hvacflex serve``) with building b1 registered and measured at 15:00."""
+    """A service (``hvacflex serve``) with building b1 registered and measured at ``first``
+    (default 2014-03-03 15:00; a live service on a real date)."""
 
     url: str
     operator_key: str
@@ -318,14 +212,18 @@ class _Site:
     first: dict[str, Any]
 
     @staticmethod
-    def start(server_factory: Any) -> _Site:
+    def start(
+        server_factory: Any, first: str = "2014-03-03T15:00+08:00", live: bool = False
+    ) -> _Site:
         server = server_factory()
+        server.live = live
         server.start()
         operator_key = operator_key_for(server.db_url)
         operator = Client(server.url, operator_key)
         # a reserve price near the energy price, so that the plan offers reserve to dispatch
-        scale = {"data.reserve_price_scale": 150.0}
-        registered = operator.call("POST", "/v1/buildings", registration("b1", **scale))
+        body = registration("b1", days=2.0, **{"data.reserve_price_scale": 150.0})
+        body["scenario"]["start"] = first[:10]
+        registered = operator.call("POST", "/v1/buildings", body)
         site = _Site(
             server.url,
             operator_key,
@@ -334,7 +232,7 @@ class _Site:
             len(registered["nodes"]),
             {},
         )
-        site.first = site.measure("2014-03-03T15:00+08:00", MEASURED_POWER_KW)
+        site.first = site.measure(first, MEASURED_POWER_KW)
         return site
 
     def measure(self, time_text: str, power_kw: float) -> dict[str, Any]:
@@ -349,11 +247,13 @@ class _Site:
         return plan
 
     def start_ven(
-        self, vtn: LoopbackVtn, offset: pd.Timedelta, files: TlsFiles | None
+        self, vtn: LoopbackVtn, offset: pd.Timedelta, files: TlsFiles | None, record: Path
     ) -> tuple[subprocess.Popen[bytes], Any]:
-        """``serve openadr-ven`` for b1 against ``vtn`` (a subprocess) and its log file."""
+        """``serve openadr-ven`` for b1 against ``vtn`` (a subprocess, its record in the
+        SQLite file ``record``) and its log file."""
         command = [*SERVE, "openadr-ven", "--vtn-url", vtn.url, "--ven-name", "site-1"]
         command += ["--url", self.url, "--building", "b1", "--clock-offset", str(offset)]
+        command += ["--db", f"sqlite:///{record}"]
         command += ["--stop-after-s", "150"]
         if files is not None:
             command += ["--cert", str(files.ven_cert), "--key", str(files.ven_key)]
@@ -384,7 +284,7 @@ def test_a_vtn_drives_a_building_through_the_ven(
     files = TlsFiles.make(tmp_path) if tls else None
     vtn = LoopbackVtn(free_port(), _events(real0), files, run_for_s=150.0)
     vtn.start()
-    ven, log = site.start_ven(vtn, offset, files)
+    ven, log = site.start_ven(vtn, offset, files, tmp_path / "ven.db")
     wanted = ("b1.metered_power_kw", "b1.planned_power_kw", "b1.reserve_offer_kw")
     try:
         _wait(lambda: len(vtn.opts) == 4, 120, "four opt responses", log)
@@ -446,7 +346,9 @@ def test_a_vtn_drives_a_building_through_the_ven(
     assert [(p["period"], p["il_activated"]) for p in after] == [(34, False)]
 
 
-def test_a_vtn_that_goes_away_and_comes_back_re_registers_the_ven(server_factory: Any) -> None:
+def test_a_vtn_that_goes_away_and_comes_back_re_registers_the_ven(
+    server_factory: Any, tmp_path: Path
+) -> None:
     site = _Site.start(server_factory)
     real0 = _next_half_hour()
     offset = E2E_T0 - pd.Timestamp(real0)
@@ -454,7 +356,7 @@ def test_a_vtn_that_goes_away_and_comes_back_re_registers_the_ven(server_factory
     port = free_port()
     before = LoopbackVtn(port, [price], run_for_s=150.0)
     before.start()
-    ven, log = site.start_ven(before, offset, None)
+    ven, log = site.start_ven(before, offset, None, tmp_path / "ven.db")
     after: LoopbackVtn | None = None
     try:
         _wait(lambda: before.opts == {before.event_ids[0]: OPT_IN}, 120, "the price opt", log)
@@ -478,51 +380,213 @@ def test_a_vtn_that_goes_away_and_comes_back_re_registers_the_ven(server_factory
     assert ("/v1/signals/prices", 200) in posted and ("/v1/signals/peak-price", 200) in posted
 
 
-def test_a_cancelled_or_modified_dispatch_ends_what_it_activated() -> None:
-    service = _RecordingService(_plan([1.0, 1.0, 1.0]))
-    now = {"t": T0 - HALF_HOUR}
-    ven = OpenAdrVen(_ven(service).config, service, clock=lambda: now["t"])
-    dispatch = {
-        "event_descriptor": {"event_id": "d1", "event_status": "far"},
-        "event_signals": [_signal("LOAD_DISPATCH", "delta", [5.0, 5.0])],
+def _dispatch(event_id: str, modification: int, status: str = "far") -> dict[str, Any]:
+    """A dispatch of 09:30–10:30 service time (two periods) in version ``modification``."""
+    return {
+        "event_descriptor": {
+            "event_id": event_id,
+            "event_status": status,
+            "modification_number": modification,
+        },
+        "event_signals": [make_signal("LOAD_DISPATCH", "delta", [5.0, 5.0])],
     }
-    cancelled = {**dispatch, "event_descriptor": {"event_id": "d1", "event_status": "cancelled"}}
 
-    def posted() -> list[tuple[str, str]]:
-        out = [(r[2]["event"], r[2]["time"][11:16]) for r in service.requests if r[0] == "POST"]
-        service.requests.clear()
-        return out
 
-    assert ven.handle_event(dispatch) == OPT_IN
-    assert posted() == [("start", "09:30"), ("end", "10:30")]
+def _posted(service: RecordingService) -> list[tuple[str, str]]:
+    """The activation starts and ends posted since the last call (event, HH:MM)."""
+    out = [(r[2]["event"], r[2]["time"][11:16]) for r in service.requests if r[0] == "POST"]
+    service.requests.clear()
+    return out
+
+
+def test_a_cancelled_or_modified_dispatch_ends_what_it_activated(tmp_path: Path) -> None:
+    service = RecordingService(make_plan([1.0, 1.0, 1.0]))
+    now = {"t": T0 - HALF_HOUR}
+    ven = make_ven(service, tmp_path, clock=lambda: now["t"])
+
+    assert ven.handle_event(_dispatch("d1", 0)) == OPT_IN
+    assert _posted(service) == [("start", "09:30"), ("end", "10:30")]
+    # the same version again (a VTN's repeat) is answered as before and posts nothing
+    assert ven.handle_event(_dispatch("d1", 0)) == OPT_IN
+    assert _posted(service) == []
     # cancelled before it starts: an end at its start, posted later, wins in that period
-    assert ven.handle_event(cancelled) == OPT_IN
-    assert posted() == [("end", "09:30")]
+    assert ven.handle_event(_dispatch("d1", 1, "cancelled")) == OPT_IN
+    assert _posted(service) == [("end", "09:30")]
+    assert ven.store.get("d1") is not None and ven.store.get("d1").runs == ()  # type: ignore[union-attr]
     # modified while it runs (10:00): ended now, then the new version is posted
-    ven.handle_event(dispatch)
-    posted()
+    ven.handle_event(_dispatch("d1", 2))
+    _posted(service)
     now["t"] = T0 + HALF_HOUR
-    assert ven.handle_event(dispatch) == OPT_IN
-    assert posted() == [("end", "10:00"), ("start", "10:00"), ("end", "10:30")]
+    assert ven.handle_event(_dispatch("d1", 3)) == OPT_IN
+    assert _posted(service) == [("end", "10:00"), ("start", "10:00"), ("end", "10:30")]
+    # what ran (09:30–10:00) stays on the record with the new run, for the settlement
+    record = ven.store.get("d1")
+    assert record is not None
+    assert [(r.start.strftime("%H:%M"), r.end.strftime("%H:%M")) for r in record.runs] == [
+        ("09:30", "10:00"),
+        ("10:00", "10:30"),
+    ]
     # cancelled after it ended: nothing to undo; a dispatch entirely past is opted out
     now["t"] = T0 + 4 * HALF_HOUR
-    assert ven.handle_event(cancelled) == OPT_IN
-    assert ven.handle_event(dispatch) == OPT_OUT
-    assert posted() == []
+    assert ven.handle_event(_dispatch("d1", 4, "cancelled")) == OPT_IN
+    assert ven.handle_event(_dispatch("d1", 5)) == OPT_OUT
+    assert _posted(service) == []
 
 
-def test_a_signal_the_service_refuses_is_opted_out() -> None:
+def test_a_restarted_ven_keeps_its_answers_and_ends_a_dispatch_cancelled_later(
+    tmp_path: Path,
+) -> None:
+    service = RecordingService(make_plan([1.0, 1.0, 1.0]))
+    first = make_ven(service, tmp_path, clock=lambda: T0 - HALF_HOUR)
+    price = {
+        "event_descriptor": {"event_id": "p1", "event_status": "far", "modification_number": 0},
+        "event_signals": [make_signal("ELECTRICITY_PRICE", "priceRelative", [0.1])],
+    }
+    assert first.handle_event(_dispatch("d1", 0)) == OPT_IN
+    assert first.handle_event(price) == OPT_OUT
+    _posted(service)
+    first.store.engine.dispose()
+    # a new process on the same record: the VTN sends its events again after registration
+    again = make_ven(service, tmp_path, clock=lambda: T0 - HALF_HOUR)
+    assert again.handle_event(_dispatch("d1", 0)) == OPT_IN
+    assert again.handle_event(price) == OPT_OUT
+    assert service.requests == []  # nothing posted twice
+    opted_out = again.store.get("p1")
+    assert opted_out is not None and "only absolute prices" in opted_out.reason
+    # the cancellation reaches the restarted VEN, which still knows what to end
+    assert again.handle_event(_dispatch("d1", 1, "cancelled")) == OPT_IN
+    assert _posted(service) == [("end", "09:30")]
+    record = again.store.get("d1")
+    assert record is not None and record.event_status == "cancelled" and record.runs == ()
+
+
+class _MeteredService(RecordingService):
+    """A recording service that also answers the building's measurements."""
+
+    def __init__(self, plan: dict[str, Any], measurements: list[dict[str, Any]]) -> None:
+        super().__init__(plan)
+        self.measurements = measurements
+
+    def call(self, method: str, path: str, body: Any = None) -> Any:
+        if "/measurements" in path:
+            return list(self.measurements)
+        return super().call(method, path, body)
+
+
+def test_an_accepted_dispatch_is_settled_on_metered_power_once_the_meter_has_passed_it(
+    tmp_path: Path,
+) -> None:
+    # offered 2.0 and 3.0 kW for 09:30 and 10:00 (service time); metered 40 kW at 09:00
+    # (the pre-event baseline), 37.5 kW at 09:30, 39.0 kW at 10:00
+    plan = make_plan([2.0, 3.0, 1.0])
+    measurements = [{"time": "2014-03-03T09:30:00+08:00", "previous_power_kw": 40.0}]
+    service = _MeteredService(plan, measurements)
+    ven = make_ven(service, tmp_path, clock=lambda: T0 - HALF_HOUR)
+    assert ven.handle_event(_dispatch("d1", 0)) == OPT_IN
+    assert ven.settle_due() == []  # the meter has not passed the dispatch
+    measurements.insert(0, {"time": "2014-03-03T10:00:00+08:00", "previous_power_kw": 37.5})
+    assert ven.settle_due() == []
+    measurements.insert(0, {"time": "2014-03-03T10:30:00+08:00", "previous_power_kw": 39.0})
+    assert ven.settle_due() == ["d1"]
+    assert ven.settle_due() == []  # once
+    settled = make_ven(service, tmp_path).store.settlement("d1")  # kept across a restart
+    assert [(p.period_start.strftime("%H:%M"), p.reserve_kw, p.metered_kw) for p in settled] == [
+        ("09:30", 2.0, 37.5),
+        ("10:00", 3.0, 39.0),
+    ]
+    assert [p.baseline_kw for p in settled] == [40.0, 40.0]
+    assert [p.delivered_kw for p in settled] == pytest.approx([2.5, 1.0])  # 40 − metered
+    assert [p.shortfall_kw for p in settled] == pytest.approx([0.0, 2.0])  # offer − delivered
+
+
+def test_a_signal_the_service_refuses_is_opted_out(tmp_path: Path) -> None:
     from hvacflex.service.replay import ServiceError
 
-    class Refusing(_RecordingService):
+    class Refusing(RecordingService):
         def call(self, method: str, path: str, body: Any = None) -> Any:
             super().call(method, path, body)
             raise ServiceError(422, "field 'start': outside the times the service can plan")
 
-    service = Refusing(_plan([1.0]))
+    service = Refusing(make_plan([1.0]))
     event = {
         "event_descriptor": {"event_id": "p1", "event_status": "far"},
-        "event_signals": [_signal("ELECTRICITY_PRICE", "price", [0.1])],
+        "event_signals": [make_signal("ELECTRICITY_PRICE", "price", [0.1])],
     }
-    assert _ven(service).handle_event(event) == OPT_OUT
+    assert make_ven(service, tmp_path).handle_event(event) == OPT_OUT
     assert [r[1] for r in service.requests] == ["/v1/signals/prices"]
+
+
+def _logged(log: Any) -> str:
+    """What the VEN has logged so far."""
+    log.seek(0)
+    text: str = log.read().decode()
+    return text
+
+
+def _offered_pair(plan: dict[str, Any]) -> pd.Timestamp:
+    """The first period after the plan's own from which it offers reserve in two periods."""
+    reserve = plan["horizon_reserve_kw"]
+    for j in range(1, len(reserve) - 1):
+        if min(reserve[j], reserve[j + 1]) > RESERVE_OFFER_MIN_KW:
+            return pd.Timestamp(plan["horizon_time"][j])
+    raise AssertionError(f"the plan offers no two consecutive periods: {reserve}")
+
+
+def test_a_live_service_at_real_times_and_a_restarted_ven_that_keeps_its_dispatch(
+    server_factory: Any, tmp_path: Path
+) -> None:
+    # a live service; the building measured at noon on the next Wednesday but one (real
+    # dates, no clock offset: the VTN's times are the service's)
+    today = pd.Timestamp.now(tz="Asia/Singapore").normalize()
+    day = today + pd.Timedelta(days=7 + (2 - today.day_of_week) % 7)
+    site = _Site.start(server_factory, f"{day:%Y-%m-%d}T12:00+08:00", live=True)
+    start = _offered_pair(site.first)
+    real0 = start.tz_convert("UTC").to_pydatetime()
+    price, _, dispatch, _ = _events(real0 - HALF_HOUR)
+    vtn = LoopbackVtn(free_port(), [price, dispatch], run_for_s=240.0)
+    vtn.start()
+    record = tmp_path / "ven.db"
+    offset = pd.Timedelta(0)
+    ven, log = site.start_ven(vtn, offset, None, record)
+    restarted: subprocess.Popen[bytes] | None = None
+    price_id, dispatch_id = vtn.event_ids
+
+    def activations() -> list[dict[str, Any]]:
+        listed: list[dict[str, Any]] = site.operator.call("GET", "/v1/activations")
+        return listed
+
+    try:
+        _wait(lambda: len(vtn.opts) == 2, 120, "two opt responses", log)
+        assert vtn.opts == {price_id: OPT_IN, dispatch_id: OPT_IN}
+        ven.kill()  # no clean stop: the record is committed before an opt is sent
+        ven.wait(timeout=30)
+        restarted, log = site.start_ven(vtn, offset, None, record)
+        # at registration the VTN sends its events again; both are answered from the record
+        answered = "answered before: optIn"
+        _wait(lambda: _logged(log).count(answered) == 2, 120, "the events answered again", log)
+        vtn.cancel(dispatch_id)  # a new version of the dispatch, status cancelled
+        _wait(lambda: len(activations()) == 3, 120, "the cancellation's end", log)
+        assert "cancelled (acknowledged)" in _logged(log)
+    finally:
+        for process in (ven, restarted):
+            if process is not None and process.poll() is None:
+                process.terminate()
+                process.wait(timeout=30)
+        vtn.stop()
+    assert vtn.registrations == 2
+
+    # the prices were posted once (the restarted VEN answered them from its record); the
+    # dispatch's start and end by the first VEN, the end at its start by the restarted one
+    key_id = site.operator_key.split("_")[1]
+    audit = site.operator.call("GET", "/v1/audit")
+    posted = [(a["path"], a["status_code"]) for a in audit if a["key_id"] == key_id]
+    assert posted.count(("/v1/signals/prices", 200)) == 1, posted
+    assert posted.count(("/v1/activations", 200)) == 3, posted
+    times = [(a["event"], pd.Timestamp(a["time"])) for a in reversed(activations())]
+    assert times == [("start", start), ("end", start + 2 * PERIOD), ("end", start)]
+    # the next plan at the dispatch's start uses the posted price and is not activated
+    plan = site.measure(start.isoformat(), 40.0)
+    assert not plan["il_activated"]
+    assert plan["horizon_energy_price_sgd_per_mwh"][0] == pytest.approx(
+        1000.0 * PRICES_SGD_PER_KWH[1]
+    )

@@ -27,6 +27,7 @@ BillingMode = Literal["horizon", "billing-period"]
 RealisationMode = Literal["zero", "uniform", "worst-upper", "worst-lower", "ar1"]
 ActivationMode = Literal["never", "always", "random", "stress", "file"]
 PriceGapFill = Literal["none", "previous-day"]
+PriceCalendar = Literal["data", "live"]
 DisturbanceKind = Literal["outdoor_temp", "solar", "internal_gain", "ground_temp"]
 Linearisation = Literal["fixed", "trajectory"]
 EstimationMode = Literal["full-state", "kalman"]
@@ -239,6 +240,10 @@ class DataConfig:
     """Scale of the synthetic reserve price; ``None`` = the calibrated default."""
     price_gap_fill: PriceGapFill = "none"
     """Gaps in the price files: ``"none"`` (an error) or ``"previous-day"`` (copy the period)."""
+    calendar: PriceCalendar = "data"
+    """``"data"``: every period inside the price data; ``"live"``: real dates, the prices of
+    a day outside the data from the data's day of the same weekday nearest its date
+    (:mod:`hvacflex.data.calendar`; the service's live mode)."""
 
 
 @dataclass(frozen=True)

@@ -25,7 +25,7 @@ File layout (every key optional)::
     [forecast]     weather, train_days
     [activation]   mode, events_per_year, duration_steps, file
     [data]         weather_file, usep_source, reserve_source, reserve_price_scale,
-                   price_gap_fill
+                   price_gap_fill, calendar
     [comfort]      occupied_degc = [lower, upper], unoccupied_degc = [lower, upper]
     [plant]        kind, idf, actuation, timesteps_per_hour
 """
@@ -68,6 +68,7 @@ from hvacflex.config.model import (
     PlantActuation,
     PlantConfig,
     PlantKind,
+    PriceCalendar,
     PriceGapFill,
     RealisationConfig,
     RealisationMode,
@@ -341,6 +342,7 @@ class DataSpec(Spec):
     (docs/data.md)."""
     reserve_price_scale: Positive | None = default(DataConfig, "reserve_price_scale")
     price_gap_fill: PriceGapFill = default(DataConfig, "price_gap_fill")
+    calendar: PriceCalendar = default(DataConfig, "calendar")
 
 
 def _ordered(band: tuple[float, float]) -> tuple[float, float]:

@@ -9,7 +9,10 @@ full horizon.
 * Energy prices: NEMS USEP (2014 shipped). Every simulated period must lie inside the price
   data (a run outside it is refused, naming the dates the data covers); only the look-ahead
   periods of the last steps' forecasts may fall after its end: they take the same period of
-  the nearest available day and are flagged in ``energy_price_extrapolated``.
+  the nearest available day and are flagged in ``energy_price_extrapolated``. Under the live
+  calendar (``calendar="live"``, :mod:`hvacflex.data.calendar`) any date may be planned: a
+  day outside the price data takes the prices of the data's day of the same weekday nearest
+  its date, flagged in ``energy_price_extrapolated`` as well.
 * Reserve prices: a user CSV (``reserve_source``) or, by default, the seeded synthetic series
   (``reserve_price_synthetic = True``).
 * Weather: an EPW typical year (the Singapore Changi TMYx file by default) mapped onto each
@@ -38,6 +41,7 @@ from scipy.signal import lfilter
 
 from hvacflex.building.channels import DisturbanceChannel
 from hvacflex.constants import HORIZON_STEPS, TIMEZONE
+from hvacflex.data.calendar import Calendar, live_price_index
 from hvacflex.data.gains import (
     DEFAULT_OFFICE_SCHEDULE,
     ComfortBand,
@@ -506,6 +510,7 @@ def load_exogenous(
     reserve_scale_sgd_per_mwh: float = RESERVE_PRICE_SCALE,
     schedule: OfficeSchedule = DEFAULT_OFFICE_SCHEDULE,
     price_gap_fill: FillMode = "none",
+    calendar: Calendar = "data",
 ) -> Exogenous:
     """Load and align all exogenous inputs for a simulation.
 
@@ -528,6 +533,9 @@ def load_exogenous(
     schedule : office schedule for gains and occupancy.
     price_gap_fill : ``fill`` of :func:`~hvacflex.data.market.load_usep` for gaps in the
         price files: ``"none"`` (a gap is an error) or ``"previous-day"``.
+    calendar : ``"data"`` (the simulated periods must lie inside the price data) or
+        ``"live"`` (real dates; days outside the price data take the prices of the mapped
+        day, :mod:`hvacflex.data.calendar`).
 
     Returns
     -------
@@ -536,18 +544,29 @@ def load_exogenous(
     Raises
     ------
     DataError
-        if a simulated period (the first ``steps``) lies outside the price data, naming the
-        dates it covers; and for any error of the loaders.
+        if a simulated period (the first ``steps``) lies outside the price data (calendar
+        ``"data"``), naming the dates it covers; and for any error of the loaders.
     """
     channels = tuple(channels)
     index = _run_index(channels, start, steps, horizon_steps)
     gain_areas, n_zones = _internal_gain_areas_m2(channels, zone_floor_areas_m2)
     usep_from = usep_source if usep_source is not None else data_dir() / DEFAULT_USEP_FOLDER
     usep = load_usep(usep_from, fill=price_gap_fill)
-    _check_coverage(usep.index, index[:steps], "USEP price", usep_from, "usep_source")
-    energy, extrapolated = _align_prices(usep["energy_price_sgd_per_mwh"], index, "USEP")
+    if calendar == "live":
+        lookup, extrapolated = live_price_index(index, pd.DatetimeIndex(usep.index))
+        energy, _ = _align_prices(usep["energy_price_sgd_per_mwh"], lookup, "USEP")
+    else:
+        _check_coverage(usep.index, index[:steps], "USEP price", usep_from, "usep_source")
+        energy, extrapolated = _align_prices(usep["energy_price_sgd_per_mwh"], index, "USEP")
     reserve, synthetic = _reserve_prices(
-        index, steps, energy, reserve_source, seed, reserve_scale_sgd_per_mwh, price_gap_fill
+        index,
+        steps,
+        energy,
+        reserve_source,
+        seed,
+        reserve_scale_sgd_per_mwh,
+        price_gap_fill,
+        calendar,
     )
     weather_path = Path(weather_file) if weather_file is not None else default_weather_file()
     weather, location = weather_on(index, weather_path)
@@ -645,9 +664,11 @@ def _reserve_prices(
     seed: int,
     reserve_scale_sgd_per_mwh: float,
     price_gap_fill: FillMode,
+    calendar: Calendar = "data",
 ) -> tuple[np.ndarray, bool]:
     """(T,) reserve price on ``index`` [SGD/MWh] and whether it is the synthetic series
-    (``reserve_source`` None) rather than the user's CSV files."""
+    (``reserve_source`` None) rather than the user's CSV files (on the days of the live
+    calendar where ``calendar`` is ``"live"``)."""
     if reserve_source is None:
         reserve_series = synthetic_reserve_prices(
             pd.Series(energy_sgd_per_mwh, index=index),
@@ -656,6 +677,10 @@ def _reserve_prices(
         )
         return reserve_series.to_numpy(), True
     reserve_series = load_reserve_prices(reserve_source, fill=price_gap_fill)
+    if calendar == "live":
+        lookup, _ = live_price_index(index, pd.DatetimeIndex(reserve_series.index))
+        reserve, _ = _align_prices(reserve_series, lookup, "reserve price")
+        return reserve, False
     _check_coverage(
         reserve_series.index, index[:steps], "reserve price", reserve_source, "reserve_source"
     )

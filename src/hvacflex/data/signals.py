@@ -1,6 +1,7 @@
 """Operator signals as data: what a grid operator or aggregator changes while a building runs.
 
-Prices for given periods, the peak-power price φ and a feeder limit arrive as one
+Prices for given periods, an outdoor-temperature forecast, the peak-power price φ and a
+feeder limit arrive as one
 :class:`OperatorSignals` value, which :meth:`OperatorSignals.apply` lays over a controller's
 :class:`~hvacflex.data.forecast.Forecast`. A controller reads φ from the forecast
 (:func:`effective_peak_price`), so a new φ changes the next plan without rebuilding the
@@ -34,12 +35,16 @@ class OperatorSignals:
     energy_price_sgd_per_mwh : energy price [SGD/MWh] by period start (tz-aware), replacing
         the forecast's price for those periods.
     reserve_price_sgd_per_mwh : reserve price [SGD/MWh] by period start (tz-aware).
+    outdoor_temp_degc : a posted outdoor-temperature forecast [°C] by period start
+        (tz-aware), replacing every ``outdoor_temp`` channel of the forecast there (the
+        typical-year weather of a live building, docs/service.md).
     peak_price_sgd_per_kw : φ [SGD/kW]; None keeps the scenario's.
     feeder_limit_kw : the feeder's power limit [kW] (None: none); read by a fleet coordinator.
     """
 
     energy_price_sgd_per_mwh: Mapping[pd.Timestamp, float] = field(default_factory=_no_prices)
     reserve_price_sgd_per_mwh: Mapping[pd.Timestamp, float] = field(default_factory=_no_prices)
+    outdoor_temp_degc: Mapping[pd.Timestamp, float] = field(default_factory=_no_prices)
     peak_price_sgd_per_kw: float | None = None
     feeder_limit_kw: float | None = None
 
@@ -64,6 +69,17 @@ class OperatorSignals:
             for i, stamp in enumerate(forecast.index.tz_convert("UTC")):
                 series[i] = utc.get(stamp, series[i])
             changes[name] = series
+        columns = forecast.channel_index("outdoor_temp")
+        if self.outdoor_temp_degc and columns:
+            utc = {
+                pd.Timestamp(t).tz_convert("UTC"): float(v)
+                for t, v in self.outdoor_temp_degc.items()
+            }
+            disturbances = np.array(forecast.disturbances, dtype=float)
+            for i, stamp in enumerate(forecast.index.tz_convert("UTC")):
+                if stamp in utc:
+                    disturbances[i, columns] = utc[stamp]
+            changes["disturbances"] = disturbances
         return dataclasses.replace(forecast, **changes) if changes else forecast  # type: ignore[arg-type]
 
 

@@ -73,6 +73,7 @@ from hvacflex.service.schemas import (
     RegisterBuilding,
     Registered,
     Stored,
+    WeatherIn,
 )
 from hvacflex.sim.step import ConflictError
 
@@ -202,6 +203,7 @@ def create_app(
     wall_clock: bool = False,
     stale_after_s: float = DEFAULT_STALE_AFTER_S,
     plan_workers: int = DEFAULT_PLAN_WORKERS,
+    live: bool = False,
 ) -> FastAPI:
     """The service app on the database at ``db_url`` (migrated to the newest schema).
 
@@ -210,7 +212,9 @@ def create_app(
     A building whose latest measurement is older than ``stale_after_s`` [s] is stale: its
     plan is left out of the aggregate bid. Plans are made by ``plan_workers`` threads off
     the request path (:mod:`.planner`); measurements acknowledged before a restart and not
-    yet planned are queued at once.
+    yet planned are queued at once. ``live``: the live mode — buildings registered plan on
+    real dates (``data.calendar = "live"``) and times of prices, activations and the clock
+    are not held to the price data's span.
 
     Raises
     ------
@@ -221,7 +225,7 @@ def create_app(
         raise InputError("must be > 0 s", field="stale_after_s", value=stale_after_s)
     engine = open_database(db_url)
     sessions = session_factory(engine)
-    runtime = Runtime(sessions)
+    runtime = Runtime(sessions, live=live)
     planner = Planner(runtime, plan_workers)
     app = FastAPI(
         title="hvacflex service",
@@ -247,6 +251,7 @@ def create_app(
     _building_routes(app, planner, auth)
     _plan_routes(app, planner, auth)
     _measurement_routes(app, runtime, auth)
+    _forecast_signal_routes(app, planner, auth)
     _signal_routes(app, planner, auth)
     _operator_routes(app, runtime, auth)
     add_page_routes(app)
@@ -592,18 +597,20 @@ def _measurement_routes(app: FastAPI, runtime: Runtime, auth: _Auth) -> None:
         return Envelope(status=200, message=f"{len(records)} measurements", payload=records)
 
 
-def _signal_routes(app: FastAPI, planner: Planner, auth: _Auth) -> None:
-    """Prices, the peak-power price, the feeder limit, activations and the clock."""
+def _store_signal(sessions: Any, kind: str, body: dict[str, Any]) -> Stored:
+    """Store an operator signal (committed when this returns)."""
+    with sessions() as session, session.begin():
+        row = Signal(kind=kind, body_json=json.dumps(body))
+        session.add(row)
+        session.flush()
+        return Stored(id=row.id, kind=kind)
+
+
+def _forecast_signal_routes(app: FastAPI, planner: Planner, auth: _Auth) -> None:
+    """Prices and the outdoor-temperature forecast: laid over the buildings' forecasts."""
     runtime = planner.runtime
     sessions = runtime.sessions
     Operator = Annotated[Principal, Depends(_roles(auth)[0])]
-
-    def _store_signal(kind: str, body: dict[str, Any]) -> Stored:
-        with sessions() as session, session.begin():
-            row = Signal(kind=kind, body_json=json.dumps(body))
-            session.add(row)
-            session.flush()
-            return Stored(id=row.id, kind=kind)
 
     @app.post("/v1/signals/prices", tags=["operator"], responses=_ERRORS)
     def post_prices(body: PricesIn, _who: Operator) -> Envelope[Stored]:
@@ -612,13 +619,16 @@ def _signal_routes(app: FastAPI, planner: Planner, auth: _Auth) -> None:
         start = to_local(body.start)
         if start != start.floor("30min"):
             raise InputError("must be a 30-min period start", field="start", value=str(start))
-        check_plannable(start, "start")
+        check_plannable(start, "start", runtime.live)
         last = len(body.energy_price_sgd_per_mwh) - 1
         check_plannable(
-            start + last * pd.Timedelta(minutes=30), f"energy_price_sgd_per_mwh[{last}]"
+            start + last * pd.Timedelta(minutes=30),
+            f"energy_price_sgd_per_mwh[{last}]",
+            runtime.live,
         )
         _check_prices(body)
         stored = _store_signal(
+            sessions,
             "prices",
             {
                 "start_utc": start.tz_convert("UTC").isoformat(),
@@ -628,16 +638,41 @@ def _signal_routes(app: FastAPI, planner: Planner, auth: _Auth) -> None:
         )
         return Envelope(status=200, message="stored", payload=stored)
 
+    @app.post("/v1/signals/weather", tags=["operator"], responses=_ERRORS)
+    def post_weather(body: WeatherIn, _who: Operator) -> Envelope[Stored]:
+        """An outdoor-temperature forecast [°C] of consecutive periods from ``start``; it
+        replaces the typical-year outdoor temperature in every building's forecast there."""
+        start = to_local(body.start)
+        if start != start.floor("30min"):
+            raise InputError("must be a 30-min period start", field="start", value=str(start))
+        check_plannable(start, "start", runtime.live)
+        stored = _store_signal(
+            sessions,
+            "weather",
+            {
+                "start_utc": start.tz_convert("UTC").isoformat(),
+                "outdoor_temp_degc": body.outdoor_temp_degc,
+            },
+        )
+        return Envelope(status=200, message="stored", payload=stored)
+
+
+def _signal_routes(app: FastAPI, planner: Planner, auth: _Auth) -> None:
+    """The peak-power price, the feeder limit, activations and the clock."""
+    runtime = planner.runtime
+    sessions = runtime.sessions
+    Operator = Annotated[Principal, Depends(_roles(auth)[0])]
+
     @app.post("/v1/signals/peak-price", tags=["operator"], responses=_ERRORS)
     def post_peak_price(body: PeakPriceIn, _who: Operator) -> Envelope[Stored]:
         """The peak-power price φ [SGD/kW] every building plans with from now on."""
-        stored = _store_signal("peak_price", body.model_dump())
+        stored = _store_signal(sessions, "peak_price", body.model_dump())
         return Envelope(status=200, message="stored", payload=stored)
 
     @app.post("/v1/signals/feeder-limit", tags=["operator"], responses=_ERRORS)
     def post_feeder_limit(body: FeederLimitIn, _who: Operator) -> Envelope[Stored]:
         """The feeder limit [kW] the aggregate bid is checked against."""
-        stored = _store_signal("feeder_limit", body.model_dump())
+        stored = _store_signal(sessions, "feeder_limit", body.model_dump())
         return Envelope(status=200, message="stored", payload=stored)
 
     @app.post("/v1/activations", tags=["operator"], responses=_ERRORS)
@@ -645,7 +680,7 @@ def _signal_routes(app: FastAPI, planner: Planner, auth: _Auth) -> None:
         """IL activation start or end; the affected buildings' current plans change at once
         (the plans re-issued are returned)."""
         time = to_local(body.time)
-        check_plannable(time, "time")
+        check_plannable(time, "time", runtime.live)
         with sessions() as session, session.begin():
             known = set(runtime.building_ids(session))
             targets = sorted(known) if body.building_ids is None else body.building_ids
@@ -673,7 +708,7 @@ def _signal_routes(app: FastAPI, planner: Planner, auth: _Auth) -> None:
         """Advance the service clock; each building without a plan for the period that now
         starts is planned on its latest measurement (the 30-min boundary trigger)."""
         time = to_local(body.time)
-        check_plannable(time, "time")
+        check_plannable(time, "time", runtime.live)
         with sessions() as session, session.begin():
             row = session.get(ServiceClock, 1)
             if row is None:
@@ -791,13 +826,16 @@ def plannable_span() -> tuple[pd.Timestamp, pd.Timestamp]:
     return index[0], index[-1]
 
 
-def check_plannable(stamp: pd.Timestamp, field: str) -> None:
-    """Refuse a time outside the price data (:func:`plannable_span`), naming the range.
+def check_plannable(stamp: pd.Timestamp, field: str, live: bool = False) -> None:
+    """Refuse a time outside the price data (:func:`plannable_span`), naming the range; in
+    live mode (``live``) every time is plannable (a building's own scenario span decides).
 
     Raises
     ------
     InputError : ``stamp`` is before the first or after the last period start.
     """
+    if live:
+        return
     first, last = plannable_span()
     if not first <= stamp <= last:
         raise InputError(

@@ -162,6 +162,49 @@ class AuditEntry(Base):
     body_head: Mapped[str] = mapped_column(Text)
 
 
+class OpenAdrEvent(Base):
+    """An OpenADR event a VEN (``serve openadr-ven``) answered: its latest version, the opt,
+    the activation runs it posted and the reserve each activated building offered
+    (:mod:`hvacflex.service.openadr_store`)."""
+
+    __tablename__ = "openadr_events"
+    __table_args__ = (UniqueConstraint("ven_name", "event_id", name="uq_openadr_event"),)
+    id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
+    ven_name: Mapped[str] = mapped_column(String(128), index=True)
+    event_id: Mapped[str] = mapped_column(String(128))
+    modification_number: Mapped[int] = mapped_column(Integer)
+    event_status: Mapped[str] = mapped_column(String(16))
+    opt: Mapped[str] = mapped_column(String(8))
+    reason: Mapped[str] = mapped_column(Text)
+    runs_json: Mapped[str] = mapped_column(Text)
+    offers_json: Mapped[str] = mapped_column(Text)
+    settled: Mapped[bool] = mapped_column(Boolean, default=False)
+    updated_at: Mapped[datetime] = mapped_column(DateTime(timezone=True), default=utcnow)
+
+
+class OpenAdrSettlement(Base):
+    """One activated period of an OpenADR dispatch, settled against metered power
+    (:mod:`hvacflex.settlement`, pre-event baseline) [kW]."""
+
+    __tablename__ = "openadr_settlements"
+    __table_args__ = (
+        UniqueConstraint(
+            "ven_name", "event_id", "building_id", "period_start", name="uq_openadr_settlement"
+        ),
+    )
+    id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
+    ven_name: Mapped[str] = mapped_column(String(128), index=True)
+    event_id: Mapped[str] = mapped_column(String(128))
+    building_id: Mapped[str] = mapped_column(String(64))
+    period_start: Mapped[str] = mapped_column(String(40))
+    reserve_kw: Mapped[float] = mapped_column(Float)
+    metered_kw: Mapped[float | None] = mapped_column(Float, nullable=True)
+    baseline_kw: Mapped[float | None] = mapped_column(Float, nullable=True)
+    delivered_kw: Mapped[float] = mapped_column(Float)
+    shortfall_kw: Mapped[float] = mapped_column(Float)
+    settled_at: Mapped[datetime] = mapped_column(DateTime(timezone=True), default=utcnow)
+
+
 def make_engine(url: str = DEFAULT_DB_URL) -> Engine:
     """An engine for ``url``; SQLite gets WAL, ``synchronous=FULL`` (a committed write
     survives a crash) and a busy timeout, and may be used from the server's threads."""

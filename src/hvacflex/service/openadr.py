@@ -2,25 +2,11 @@
 
 ``hvacflex serve openadr-ven`` runs :func:`run_ven`: an openleadr ``OpenADRClient`` that
 registers with the VTN, polls it for events and answers them through the service's HTTP API
-with the operator key (:class:`~hvacflex.service.replay.Client`):
-
-========================  =======================================  ==============================
-OpenADR 2.0b signal        service request                          unit conversion
-========================  =======================================  ==============================
-``ELECTRICITY_PRICE``,     ``POST /v1/signals/prices``, one energy  currency/kWh → SGD/MWh (× 1000,
-``ENERGY_PRICE``           price per 30-min period the intervals    times the item base's SI scale)
-(signal type ``price``)    cover
-``DEMAND_CHARGE``          ``POST /v1/signals/peak-price`` (φ)      currency/kW → SGD/kW (× scale)
-``LOAD_DISPATCH``,         ``POST /v1/activations`` start/end per   payload > 0 marks an interval
-``SIMPLE``                 run of dispatched periods, for each      dispatched; the amount is not
-                           target building that offered reserve in  used (the service curtails the
-                           every one of them                        reserve it offered)
-========================  =======================================  ==============================
-
-Event times are real times; the service plans on the calendar of its shipped data (2014).
-``clock_offset`` is added to every event time before it reaches the service and subtracted
-from every service time the VEN reports, so a test VTN can drive a 2014 scenario. It must
-be a whole number of 30-min periods, so a VTN's period-aligned intervals stay aligned.
+with the operator key (:class:`~hvacflex.service.replay.Client`), by the mapping of
+:mod:`hvacflex.service.openadr_mapping` (signals → prices, φ, activations; the clock offset).
+It keeps a record (:mod:`hvacflex.service.openadr_store`) of its answers, the activations it
+posted and their settlement against metered power, so a restarted VEN neither answers an
+event twice nor forgets what to end when the VTN cancels a dispatch.
 
 Opt responses (``oadrCreatedEvent``; one per event, as 2.0b has it): price and demand-charge
 events are opted in when the service stored the signal (optOut when it refused it: a time it
@@ -53,7 +39,7 @@ import asyncio
 import logging
 import math
 import signal
-from collections.abc import Callable, Iterable
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from datetime import UTC, datetime, timedelta
 from pathlib import Path
@@ -62,44 +48,49 @@ from typing import Any
 import pandas as pd
 
 from hvacflex.errors import ConfigError, HvacflexError, InputError
+from hvacflex.service.openadr_mapping import (
+    DEMAND_SIGNALS,
+    DISPATCH_SIGNALS,
+    OPT_IN,
+    OPT_OUT,
+    PERIOD,
+    PRICE_SIGNALS,
+    TIMEZONE,
+    EventRefused,
+    activation_runs,
+    decide_dispatch,
+    demand_charge_sgd_per_kw,
+    dispatched_periods,
+    energy_prices,
+    event_buildings,
+    offered_reserve_kw,
+    signals_of,
+    to_service_time,
+    to_vtn_time,
+)
+from hvacflex.service.openadr_store import (
+    DEFAULT_VEN_DB_URL,
+    ActivationRun,
+    EventRecord,
+    SettledPeriod,
+    VenStore,
+    building_periods,
+    settle_building,
+)
 from hvacflex.service.replay import Client, check_service_url
 
 logger = logging.getLogger("hvacflex.service.openadr")
 
-PERIOD = pd.Timedelta(minutes=30)
-"""The service's period; event intervals must start and end on its boundaries."""
-KWH_PER_MWH = 1000.0
-RESERVE_OFFER_MIN_KW = 1e-3
-"""Smallest planned reserve [kW] that counts as an offer for a period."""
-SERVICE_CURRENCY = "SGD"
-PRICE_SIGNALS = ("ELECTRICITY_PRICE", "ENERGY_PRICE")
-DEMAND_SIGNALS = ("DEMAND_CHARGE",)
-DISPATCH_SIGNALS = ("LOAD_DISPATCH", "SIMPLE", "simple")
-SI_SCALE = {
-    "p": 1e-12,
-    "n": 1e-9,
-    "micro": 1e-6,
-    "m": 1e-3,
-    "c": 1e-2,
-    "d": 1e-1,
-    "none": 1.0,
-    "k": 1e3,
-    "M": 1e6,
-    "G": 1e9,
-    "T": 1e12,
-}
-"""OpenADR's SI scale codes (an item base's ``scale``) as factors."""
-OPT_IN, OPT_OUT = "optIn", "optOut"
+METER_HISTORY_PERIODS = 1000
+"""Measurements the VEN reads back to settle a dispatch (the service's largest page)."""
+SETTLE_EVERY_S = 10.0
+"""How often the running VEN settles the dispatches whose meters have passed their end [s]."""
 TELEMETRY_REPORT = "hvacflex-telemetry"
 FORECAST_REPORT = "hvacflex-forecast"
 REPORT_DURATION = timedelta(hours=24)
 """The data a report can cover (openleadr's report ``duration``)."""
 SAMPLING_MIN, SAMPLING_MAX = timedelta(seconds=1), timedelta(minutes=30)
 """Sampling intervals the VEN accepts from the VTN's report requests."""
-
-
-class EventRefused(HvacflexError):
-    """An event the VEN cannot carry out as sent (it opts out; the reason is logged)."""
 
 
 @dataclass(frozen=True)
@@ -110,6 +101,7 @@ class VenConfig:
     ``cert``/``key``: the VEN's certificate and key (PEM) for mutual TLS and signed
     messages; ``ca``: the CA that signed the VTN's certificate (needed with ``cert``).
     ``vtn_fingerprint``: the VTN's certificate fingerprint, to check its signatures.
+    ``db_url``: the database of the VEN's record (its answers, activations, settlement).
     """
 
     vtn_url: str
@@ -122,6 +114,8 @@ class VenConfig:
     key: Path | None = None
     ca: Path | None = None
     vtn_fingerprint: str | None = None
+    db_url: str = DEFAULT_VEN_DB_URL
+    """The VEN's record (:mod:`~hvacflex.service.openadr_store`)."""
 
     def __post_init__(self) -> None:
         check_service_url(self.service_url)
@@ -176,203 +170,21 @@ def parse_clock_offset(text: str) -> pd.Timedelta:
 
 
 @dataclass(frozen=True)
-class SignalInterval:
-    """One interval of an event signal, in service time."""
+class SignalOutcome:
+    """What carrying out one signal gave: the opt, and for a dispatch the runs posted, the
+    reserve the activated buildings offered (building → period ISO → kW) and why others
+    were left out."""
 
-    start: pd.Timestamp
-    duration: pd.Timedelta
-    value: float
-
-
-def to_service_time(stamp: datetime, clock_offset: pd.Timedelta) -> pd.Timestamp:
-    """An OpenADR (real, tz-aware) time as service time (Singapore)."""
-    local = pd.Timestamp(stamp)
-    if local.tzinfo is None:
-        local = local.tz_localize("UTC")
-    return (local + clock_offset).tz_convert("Asia/Singapore")
-
-
-def to_vtn_time(text: str, clock_offset: pd.Timedelta) -> datetime:
-    """A service time (ISO text) as the real UTC time the VTN sees."""
-    stamp = pd.Timestamp(text)
-    if stamp.tzinfo is None:
-        stamp = stamp.tz_localize("Asia/Singapore")
-    converted: datetime = (stamp - clock_offset).tz_convert("UTC").to_pydatetime()
-    return converted
-
-
-def signal_intervals(
-    event_signal: dict[str, Any], clock_offset: pd.Timedelta
-) -> list[SignalInterval]:
-    """The intervals of a parsed event signal (openleadr's dict), in service time, with their
-    payloads scaled by the signal's item base (``measurement.scale``).
-
-    Raises
-    ------
-    EventRefused : an interval that does not start and end on a 30-min boundary, or a
-        payload that is not a finite number.
-    """
-    scale = SI_SCALE.get(str((event_signal.get("measurement") or {}).get("scale") or "none"), 1.0)
-    out: list[SignalInterval] = []
-    for interval in event_signal.get("intervals") or []:
-        start = to_service_time(interval["dtstart"], clock_offset)
-        duration = pd.Timedelta(interval["duration"])
-        if start != start.floor(PERIOD) or duration <= pd.Timedelta(0) or duration % PERIOD:
-            raise EventRefused(
-                f"interval {start.isoformat()} + {duration} is not whole 30-min periods"
-            )
-        value = float(interval["signal_payload"])
-        if not math.isfinite(value):
-            raise EventRefused(f"interval {start.isoformat()}: payload {value} is not finite")
-        out.append(SignalInterval(start, duration, value * scale))
-    if not out:
-        raise EventRefused("the signal has no intervals")
-    return out
-
-
-def period_values(intervals: Iterable[SignalInterval]) -> pd.Series:
-    """Each interval's value on every 30-min period it covers (service time), in order."""
-    values: dict[pd.Timestamp, float] = {}
-    for interval in intervals:
-        for j in range(interval.duration // PERIOD):
-            values[interval.start + j * PERIOD] = interval.value
-    return pd.Series(values, dtype=float).sort_index()
-
-
-def _check_currency(event_signal: dict[str, Any]) -> None:
-    unit = (event_signal.get("measurement") or {}).get("unit")
-    if unit not in (None, SERVICE_CURRENCY):
-        raise EventRefused(f"prices in {unit}; the service plans in {SERVICE_CURRENCY}")
-
-
-def _check_price_type(event_signal: dict[str, Any]) -> None:
-    kind = event_signal.get("signal_type")
-    if kind != "price":
-        raise EventRefused(
-            f"signal type {kind!r}: only absolute prices (signal type 'price') are mapped"
-        )
-
-
-def energy_prices(
-    event_signal: dict[str, Any], clock_offset: pd.Timedelta
-) -> tuple[pd.Timestamp, list[float]]:
-    """An ``ELECTRICITY_PRICE``/``ENERGY_PRICE`` signal as the service's prices: the first
-    period start and one energy price per consecutive period [SGD/MWh] (payload in
-    currency/kWh × 1000).
-
-    Raises
-    ------
-    EventRefused : not signal type ``price``, a currency other than SGD, or gaps between
-        the intervals.
-    """
-    _check_price_type(event_signal)
-    _check_currency(event_signal)
-    series = period_values(signal_intervals(event_signal, clock_offset))
-    expected = pd.date_range(series.index[0], periods=len(series), freq=PERIOD)
-    if not series.index.equals(expected):
-        raise EventRefused("the price intervals leave gaps")
-    return series.index[0], [float(v) * KWH_PER_MWH for v in series]
-
-
-def demand_charge_sgd_per_kw(event_signal: dict[str, Any]) -> float:
-    """A ``DEMAND_CHARGE`` signal as φ [SGD/kW] (payload in currency/kW).
-
-    The service has one φ, not a schedule: it is set at once, from the next plan on.
-
-    Raises
-    ------
-    EventRefused : not a ``price`` signal, a currency other than SGD, or intervals with
-        different charges.
-    """
-    _check_price_type(event_signal)
-    _check_currency(event_signal)
-    values = {i.value for i in signal_intervals(event_signal, pd.Timedelta(0))}
-    if len(values) != 1:
-        raise EventRefused(f"demand charges {sorted(values)}: the service takes one φ")
-    return values.pop()
-
-
-def dispatched_periods(
-    event_signal: dict[str, Any], clock_offset: pd.Timedelta
-) -> list[pd.Timestamp]:
-    """The 30-min periods (service time) of a dispatch signal whose payload is > 0."""
-    series = period_values(signal_intervals(event_signal, clock_offset))
-    return [pd.Timestamp(t) for t in series.index[series.to_numpy() > 0]]
-
-
-def activation_runs(periods: Iterable[pd.Timestamp]) -> list[tuple[pd.Timestamp, pd.Timestamp]]:
-    """Consecutive periods as (start, end) activation pairs; ``end`` is the end of the last."""
-    runs: list[tuple[pd.Timestamp, pd.Timestamp]] = []
-    for t in sorted(periods):
-        if runs and runs[-1][1] == t:
-            runs[-1] = (runs[-1][0], t + PERIOD)
-        else:
-            runs.append((t, t + PERIOD))
-    return runs
-
-
-def offered_periods(plan: dict[str, Any] | None) -> set[pd.Timestamp]:
-    """The periods (service time) in which a plan offers reserve (> RESERVE_OFFER_MIN_KW)."""
-    if plan is None:
-        return set()
-    return {
-        pd.Timestamp(t).tz_convert("Asia/Singapore")
-        for t, r in zip(plan["horizon_time"], plan["horizon_reserve_kw"], strict=False)
-        if r is not None and r > RESERVE_OFFER_MIN_KW
-    }
-
-
-@dataclass(frozen=True)
-class DispatchDecision:
-    """What the VEN does with a dispatch: the buildings activated and why the others not."""
-
-    activated: tuple[str, ...]
-    refused: dict[str, str]
-
-    @property
-    def opt(self) -> str:
-        return OPT_IN if self.activated else OPT_OUT
-
-
-def decide_dispatch(
-    periods: list[pd.Timestamp], plans: dict[str, dict[str, Any] | None]
-) -> DispatchDecision:
-    """Activate each building whose latest plan offers reserve in every dispatched period;
-    a building with a partial offer (or none) is left out, with the periods it lacks."""
-    activated: list[str] = []
-    refused: dict[str, str] = {}
-    if not periods:
-        return DispatchDecision((), {b: "no period dispatched (all payloads 0)" for b in plans})
-    for building_id, plan in plans.items():
-        missing = sorted(set(periods) - offered_periods(plan))
-        if missing:
-            shown = ", ".join(t.isoformat() for t in missing[:4])
-            refused[building_id] = f"no reserve offered for {len(missing)} period(s): {shown}"
-        else:
-            activated.append(building_id)
-    return DispatchDecision(tuple(activated), refused)
-
-
-def event_buildings(event: dict[str, Any], building_ids: tuple[str, ...]) -> tuple[str, ...]:
-    """The buildings an event targets: those named as resource ids, else all of the VEN's."""
-    named = [
-        str(t["resource_id"])
-        for t in event.get("targets") or []
-        if t.get("resource_id") is not None
-    ]
-    chosen = tuple(b for b in building_ids if b in named)
-    return chosen if named else building_ids
-
-
-def _signals(event: dict[str, Any]) -> list[dict[str, Any]]:
-    signals = event.get("event_signals") or []
-    if isinstance(signals, dict):
-        signals = signals.get("event_signals") or []
-    return list(signals)
+    opt: str
+    runs: tuple[ActivationRun, ...] = ()
+    offers_kw: dict[str, dict[str, float]] = field(default_factory=dict)
+    reason: str = ""
 
 
 class OpenAdrVen:
-    """The VEN's behaviour: events → service requests, service plans → reports.
+    """The VEN's behaviour: events → service requests, service plans → reports, and its
+    record (:class:`~hvacflex.service.openadr_store.VenStore`: answers, activations and
+    their settlement, kept across restarts).
 
     Blocking HTTP calls to the service run in a worker thread (``asyncio.to_thread``) so
     the openleadr client's event loop keeps polling.
@@ -383,12 +195,12 @@ class OpenAdrVen:
         config: VenConfig,
         service: Client | None = None,
         clock: Callable[[], datetime] = lambda: datetime.now(UTC),
+        store: VenStore | None = None,
     ) -> None:
         self.config = config
         self.service = service or Client(config.service_url, config.operator_key)
         self.clock = clock
-        self.activations: dict[str, list[tuple[pd.Timestamp, pd.Timestamp, tuple[str, ...]]]] = {}
-        """Per dispatch event id: the activation runs posted and their buildings (memory)."""
+        self.store = store or VenStore.open(config.db_url, config.ven_name)
 
     # -- events --------------------------------------------------------------------------
     async def on_event(self, event: dict[str, Any]) -> str:
@@ -396,44 +208,75 @@ class OpenAdrVen:
         return await asyncio.to_thread(self.handle_event, event)
 
     def handle_event(self, event: dict[str, Any]) -> str:
-        """Carry out every signal of ``event``; optIn only if every one was carried out."""
-        event_id = str(event.get("event_descriptor", {}).get("event_id"))
+        """Carry out every signal of ``event``; optIn only if every one was carried out.
+
+        A version already answered (the same modification number, e.g. sent again after a
+        restart) gets the recorded opt and changes nothing; a new version first ends what
+        the earlier one activated and has not run yet.
+        """
+        descriptor = event.get("event_descriptor") or {}
+        event_id = str(descriptor.get("event_id"))
+        modification = int(descriptor.get("modification_number") or 0)
+        status = str(descriptor.get("event_status") or "")
+        known = self.store.get(event_id)
+        if known is not None and known.modification_number == modification:
+            logger.info(
+                "event %s (version %d) answered before: %s", event_id, modification, known.opt
+            )
+            return known.opt
         try:
-            self._undo_activations(event_id)  # a modified or cancelled event replaces them
+            kept = self._undo_activations(event_id, known)
         except HvacflexError as exc:
             logger.warning("event %s: activations not undone (the service: %s)", event_id, exc)
             return OPT_OUT
-        if event.get("event_descriptor", {}).get("event_status") == "cancelled":
+        if status == "cancelled":
             logger.info("event %s cancelled (acknowledged)", event_id)
+            self.store.save(replace(kept, modification_number=modification, event_status=status))
             return OPT_IN
-        opts: list[str] = []
-        for event_signal in _signals(event):
+        outcomes: list[SignalOutcome] = []
+        for event_signal in signals_of(event):
             name = str(event_signal.get("signal_name"))
             try:
-                opts.append(self._apply(name, event_signal, event))
+                outcomes.append(self._apply(name, event_signal, event))
             except EventRefused as exc:
                 logger.warning("event %s, %s: opting out (%s)", event_id, name, exc)
-                opts.append(OPT_OUT)
+                outcomes.append(SignalOutcome(OPT_OUT, reason=f"{name}: {exc}"))
             except HvacflexError as exc:  # the service refused it or could not be reached
                 logger.warning("event %s, %s: opting out (the service: %s)", event_id, name, exc)
-                opts.append(OPT_OUT)
-        opt = OPT_IN if opts and all(o == OPT_IN for o in opts) else OPT_OUT
+                outcomes.append(SignalOutcome(OPT_OUT, reason=f"{name}: the service: {exc}"))
+        opt = OPT_IN if outcomes and all(o.opt == OPT_IN for o in outcomes) else OPT_OUT
+        offers = {b: dict(o) for b, o in kept.offers_kw.items()}
+        for outcome in outcomes:
+            for building_id, periods in outcome.offers_kw.items():
+                offers.setdefault(building_id, {}).update(periods)
+        record = EventRecord(
+            event_id,
+            modification,
+            status,
+            opt,
+            "; ".join(o.reason for o in outcomes if o.reason),
+            kept.runs + tuple(r for o in outcomes for r in o.runs),
+            offers,
+        )
+        self.store.save(record)
         logger.info("event %s: %s", event_id, opt)
         return opt
 
-    def _apply(self, name: str, event_signal: dict[str, Any], event: dict[str, Any]) -> str:
+    def _apply(
+        self, name: str, event_signal: dict[str, Any], event: dict[str, Any]
+    ) -> SignalOutcome:
         offset = self.config.clock_offset
         if name in PRICE_SIGNALS:
             start, prices = energy_prices(event_signal, offset)
             body = {"start": start.isoformat(), "energy_price_sgd_per_mwh": prices}
             self.service.call("POST", "/v1/signals/prices", body)
             logger.info("prices of %d periods from %s stored", len(prices), start.isoformat())
-            return OPT_IN
+            return SignalOutcome(OPT_IN)
         if name in DEMAND_SIGNALS:
             phi = demand_charge_sgd_per_kw(event_signal)
             self.service.call("POST", "/v1/signals/peak-price", {"peak_price_sgd_per_kw": phi})
             logger.info("peak-power price φ = %g SGD/kW stored", phi)
-            return OPT_IN
+            return SignalOutcome(OPT_IN)
         if name in DISPATCH_SIGNALS:
             return self._dispatch(dispatched_periods(event_signal, offset), event)
         raise EventRefused(f"signal {name!r} has no meaning for the service")
@@ -442,7 +285,7 @@ class OpenAdrVen:
         """The current period start in service time (the VEN's clock + the offset)."""
         return to_service_time(self.clock(), self.config.clock_offset).floor(PERIOD)
 
-    def _dispatch(self, periods: list[pd.Timestamp], event: dict[str, Any]) -> str:
+    def _dispatch(self, periods: list[pd.Timestamp], event: dict[str, Any]) -> SignalOutcome:
         """Activate the buildings that offered every dispatched period from now on (a run
         already under way starts now; periods past are not asked of the plan)."""
         now = self._now()
@@ -454,35 +297,101 @@ class OpenAdrVen:
         decision = decide_dispatch(periods, plans)
         for building_id, reason in decision.refused.items():
             logger.warning("dispatch: %s not activated (%s)", building_id, reason)
-        if decision.activated:
-            runs = activation_runs(periods)
-            event_id = str(event.get("event_descriptor", {}).get("event_id"))
-            self.activations[event_id] = [(a, b, decision.activated) for a, b in runs]
-            for start, end in runs:
-                for kind, time in (("start", start), ("end", end)):
-                    body = {
-                        "event": kind,
-                        "time": time.isoformat(),
-                        "building_ids": list(decision.activated),
-                    }
-                    self.service.call("POST", "/v1/activations", body)
-            logger.info("dispatch: %s activated", ", ".join(decision.activated))
-        return decision.opt
+        reason = "; ".join(f"{b} not activated ({r})" for b, r in decision.refused.items())
+        if not decision.activated:
+            return SignalOutcome(OPT_OUT, reason=reason)
+        runs = tuple(ActivationRun(a, b, decision.activated) for a, b in activation_runs(periods))
+        for run in runs:
+            for kind, time in (("start", run.start), ("end", run.end)):
+                body = {
+                    "event": kind,
+                    "time": time.isoformat(),
+                    "building_ids": list(decision.activated),
+                }
+                self.service.call("POST", "/v1/activations", body)
+        logger.info("dispatch: %s activated", ", ".join(decision.activated))
+        wanted = {t.isoformat() for t in periods}
+        offers = {
+            b: {
+                t.isoformat(): float(r)
+                for t, r in offered_reserve_kw(plans[b]).items()
+                if t.isoformat() in wanted
+            }
+            for b in decision.activated
+        }
+        return SignalOutcome(OPT_IN, runs, offers, reason)
 
-    def _undo_activations(self, event_id: str) -> None:
-        """End the activations a dispatch posted that have not ended yet: at the start of
-        a run still ahead (posted later, the end wins within its period), else now."""
+    def _undo_activations(self, event_id: str, known: EventRecord | None) -> EventRecord:
+        """End the activations an earlier version of the event posted that have not ended
+        yet: at the start of a run still ahead (posted later, the end wins within its
+        period), else now. Returns the record with the runs (and offers) that ran, which
+        are settled."""
+        if known is None:
+            return EventRecord(event_id, -1, "", OPT_IN)
         now = self._now()
-        for start, end, buildings in self.activations.pop(event_id, []):
-            if end <= now:
+        ran: list[ActivationRun] = []
+        for run in known.runs:
+            if run.end <= now:
+                ran.append(run)
                 continue
             body = {
                 "event": "end",
-                "time": max(start, now).isoformat(),
-                "building_ids": list(buildings),
+                "time": max(run.start, now).isoformat(),
+                "building_ids": list(run.building_ids),
             }
             self.service.call("POST", "/v1/activations", body)
-            logger.info("event %s: activation from %s undone", event_id, start.isoformat())
+            logger.info("event %s: activation from %s undone", event_id, run.start.isoformat())
+            if run.start < now:
+                ran.append(ActivationRun(run.start, now, run.building_ids))
+        kept = {t.isoformat() for r in ran for t in r.periods()}
+        offers = {
+            b: {t: kw for t, kw in o.items() if t in kept} for b, o in known.offers_kw.items()
+        }
+        return replace(known, opt=OPT_IN, reason="", runs=tuple(ran), offers_kw=offers)
+
+    # -- settlement ----------------------------------------------------------------------
+    def settle_due(self) -> list[str]:
+        """Settle every accepted dispatch whose buildings' meters have passed its end
+        (:mod:`~hvacflex.service.openadr_store`); returns the event ids settled."""
+        settled: list[str] = []
+        for record in self.store.unsettled():
+            periods: list[SettledPeriod] = []
+            due = True
+            for building_id in sorted({b for r in record.runs for b in r.building_ids}):
+                activated = building_periods(record.runs, building_id)
+                metered = self.metered_history(building_id)
+                if not metered or max(metered) < activated[-1]:
+                    due = False  # the meter has not passed the last activated period
+                    break
+                offers = record.offers_kw.get(building_id, {})
+                reserve = {pd.Timestamp(t).tz_convert(TIMEZONE): kw for t, kw in offers.items()}
+                periods += settle_building(building_id, activated, reserve, metered)
+            if not due:
+                continue
+            self.store.store_settlement(record.event_id, periods)
+            delivered = sum(p.delivered_kw for p in periods)
+            short = sum(p.shortfall_kw for p in periods)
+            logger.info(
+                "event %s settled: %d period(s), delivered %.3f kW·periods, shortfall %.3f",
+                record.event_id,
+                len(periods),
+                delivered,
+                short,
+            )
+            settled.append(record.event_id)
+        return settled
+
+    def metered_history(self, building_id: str) -> dict[pd.Timestamp, float]:
+        """Period start (service time) → metered power [kW] of the building's latest
+        measurements (each carries the power of the period before it)."""
+        records = self.service.call(
+            "GET", f"/v1/buildings/{building_id}/measurements?limit={METER_HISTORY_PERIODS}"
+        )
+        return {
+            pd.Timestamp(r["time"]).tz_convert(TIMEZONE) - PERIOD: float(r["previous_power_kw"])
+            for r in records
+            if r["previous_power_kw"] is not None
+        }
 
     def _latest_plan(self, building_id: str) -> dict[str, Any] | None:
         try:
@@ -612,11 +521,13 @@ async def run_ven(config: VenConfig, *, stop_after_s: float | None = None) -> No
     """
     if stop_after_s is not None and not (math.isfinite(stop_after_s) and stop_after_s > 0):
         raise InputError("must be > 0 s", field="--stop-after-s", value=stop_after_s)
+    store = VenStore.open(config.db_url, config.ven_name)
     service = Client(config.service_url, config.operator_key)
     if not config.building_ids:
         config = replace(config, building_ids=tuple(service.call("GET", "/v1/buildings")))
         logger.info("buildings: %s", ", ".join(config.building_ids) or "none registered")
-    client = openadr_client(OpenAdrVen(config, service))
+    ven = OpenAdrVen(config, service, store=store)
+    client = openadr_client(ven)
     stop = asyncio.Event()
     loop = asyncio.get_running_loop()
     for sig in (signal.SIGINT, signal.SIGTERM):
@@ -624,6 +535,7 @@ async def run_ven(config: VenConfig, *, stop_after_s: float | None = None) -> No
     await client.run()
     if client.registration_id is None:
         await client.stop()
+        store.engine.dispose()
         raise InputError(
             "the VTN did not register this VEN",
             field="--vtn-url",
@@ -631,9 +543,26 @@ async def run_ven(config: VenConfig, *, stop_after_s: float | None = None) -> No
             hint="check that the VTN runs at that URL and accepts this --ven-name "
             "(and, with TLS, the certificate and CA); openleadr's log above has its reason",
         )
+    settling = asyncio.create_task(_settle_periodically(ven, stop))
     try:
         await asyncio.wait_for(stop.wait(), timeout=stop_after_s)
     except TimeoutError:
         pass
     finally:
+        stop.set()
+        await settling
         await client.stop()
+        store.engine.dispose()
+
+
+async def _settle_periodically(ven: OpenAdrVen, stop: asyncio.Event) -> None:
+    """Settle the dispatches that are due every :data:`SETTLE_EVERY_S` until ``stop``."""
+    while not stop.is_set():
+        try:
+            await asyncio.to_thread(ven.settle_due)
+        except HvacflexError as exc:
+            logger.warning("settlement postponed (the service: %s)", exc)
+        try:
+            await asyncio.wait_for(stop.wait(), timeout=SETTLE_EVERY_S)
+        except TimeoutError:
+            continue

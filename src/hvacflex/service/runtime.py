@@ -102,6 +102,9 @@ def accepted_setting(path: str) -> bool:
     return path in ACCEPTED_SETTINGS or path.split(".", 1)[0] in ACCEPTED_TABLES
 
 
+CALENDAR_SETTING = "data.calendar"
+"""The scenario setting of the live calendar (:mod:`hvacflex.data.calendar`)."""
+
 MAX_HORIZON_STEPS = 336
 """Longest MPC horizon a registered building may ask for (one week of periods)."""
 MAX_TIME_LIMIT_S = 60.0
@@ -259,10 +262,29 @@ class BuildingRuntime:
 class Runtime:
     """The service's controllers and the loop logic, over the database."""
 
-    def __init__(self, sessions: sessionmaker[Session]) -> None:
+    def __init__(self, sessions: sessionmaker[Session], *, live: bool = False) -> None:
         self.sessions = sessions
+        self.live = live
+        """Live mode (``hvacflex serve --live``): buildings plan on real dates (scenario
+        setting ``data.calendar = "live"``, :mod:`hvacflex.data.calendar`)."""
         self._buildings: dict[str, BuildingRuntime] = {}
         self._lock = threading.Lock()
+
+    def _with_calendar(self, settings: ScenarioSettings) -> ScenarioSettings:
+        """In live mode, the settings with ``data.calendar = "live"`` unless they set it."""
+        from hvacflex.config import resolve_key
+
+        if not self.live:
+            return settings
+        for key in settings.settings:
+            try:
+                if ".".join(resolve_key(key)) == CALENDAR_SETTING:
+                    return settings
+            except InputError:
+                continue  # scenario_config names the unknown key
+        return settings.model_copy(
+            update={"settings": {**settings.settings, CALENDAR_SETTING: "live"}}
+        )
 
     # -- buildings ----------------------------------------------------------------------
     def register(
@@ -277,7 +299,15 @@ class Runtime:
         if session.get(BuildingRow, building_id) is not None:
             raise ConflictError("already registered", field="building_id", value=building_id)
         building, document = building_from_source(source, building_id)
+        settings = self._with_calendar(settings)
         config = scenario_config(settings, building_id)
+        if config.data.calendar == "live" and not self.live:
+            raise InputError(
+                "real dates need the service's live mode",
+                field=f"scenario.settings.{CALENDAR_SETTING}",
+                value="live",
+                hint="start the service with `hvacflex serve --live`, or leave the setting out",
+            )
         setup = prepare(config, building)
         runtime = _building_runtime(building_id, setup)
         session.add(
@@ -332,11 +362,21 @@ class Runtime:
 
     # -- signals ------------------------------------------------------------------------
     def signals(self, session: Session) -> OperatorSignals:
-        """The operator's signals in force: posted prices by period, the latest φ."""
+        """The operator's signals in force: posted prices and outdoor temperatures by
+        period (the latest posted for a period wins), the latest φ."""
         energy, reserve = self._price_overrides(session)
         peak = self.latest_signal(session, "peak_price")
         phi = None if peak is None else float(peak["peak_price_sgd_per_kw"])
-        return OperatorSignals(energy, reserve, peak_price_sgd_per_kw=phi)
+        weather: dict[pd.Timestamp, float] = {}
+        rows = session.scalars(select(Signal).where(Signal.kind == "weather").order_by(Signal.id))
+        for row in rows:
+            body = json.loads(row.body_json)
+            start = pd.Timestamp(body["start_utc"])
+            for i, value in enumerate(body["outdoor_temp_degc"]):
+                weather[start + i * PERIOD] = float(value)
+        return OperatorSignals(
+            energy, reserve, outdoor_temp_degc=weather, peak_price_sgd_per_kw=phi
+        )
 
     def _price_overrides(
         self, session: Session

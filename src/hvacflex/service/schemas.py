@@ -82,6 +82,9 @@ EnergyPrice = Annotated[
 """An energy price within the NEMS offer price cap [SGD/MWh]."""
 ReservePrice = Annotated[float, Field(ge=0.0, le=ENERGY_PRICE_LIMIT_SGD_PER_MWH)]
 """A reserve price within [0, the NEMS offer price cap] [SGD/MWh]."""
+OUTDOOR_TEMP_MIN_DEGC, OUTDOOR_TEMP_MAX_DEGC = -50.0, 60.0
+"""Range of a posted outdoor-temperature forecast [°C]."""
+OutdoorTemp = Annotated[float, Field(ge=OUTDOOR_TEMP_MIN_DEGC, le=OUTDOOR_TEMP_MAX_DEGC)]
 
 
 class Envelope(BaseModel, Generic[T]):
@@ -175,6 +178,14 @@ class PricesIn(BaseModel):
     reserve_price_sgd_per_mwh: list[ReservePrice] | None = Field(
         default=None, min_length=1, max_length=MAX_PRICE_PERIODS
     )
+
+
+class WeatherIn(BaseModel):
+    """An outdoor-temperature forecast [°C] for consecutive periods from ``start``."""
+
+    model_config = _STRICT
+    start: IsoTime
+    outdoor_temp_degc: list[OutdoorTemp] = Field(min_length=1, max_length=MAX_PRICE_PERIODS)
 
 
 class PeakPriceIn(BaseModel):

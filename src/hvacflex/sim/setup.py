@@ -146,6 +146,7 @@ def _load_exogenous(
         usep_source=data.usep_source,
         reserve_source=data.reserve_source,
         price_gap_fill=data.price_gap_fill,
+        calendar=data.calendar,
         comfort=ComfortBand(config.comfort.occupied_degc, config.comfort.unoccupied_degc),
         seed=config.seed if market_seed is None else market_seed,
         schedule=schedule,
