@@ -79,6 +79,7 @@ ACCEPTED_SETTINGS = frozenset(
         "activation.duration_steps",
         "data.reserve_price_scale",
         "data.price_gap_fill",
+        "data.calendar",
     }
 )
 """The settings of the other tables a registration may give. Everything else is refused:
