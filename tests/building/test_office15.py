@@ -8,6 +8,7 @@ ODE solver.
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -112,6 +113,29 @@ def test_plant_step_matches_ode_solver(office15: Building) -> None:
         lambda _t, y: plant.derivative(y, flow, d), (0.0, 1800.0), x0, rtol=1e-11, atol=1e-11
     )
     np.testing.assert_allclose(plant.step(x0, flow, d), sol.y[:, -1], atol=1e-7)
+
+
+DOCS_BUILDINGS = Path(__file__).parents[2] / "docs" / "buildings.md"
+
+
+def test_docs_figures_match_building_show(office15: Building) -> None:
+    """The numbers docs/buildings.md quotes for office15 are the ones `building show` prints."""
+    text = DOCS_BUILDINGS.read_text(encoding="utf-8").split("## `office15`")[1]
+    s = summarize(office15)
+
+    def number(pattern: str) -> float:
+        match = re.search(pattern, text)
+        assert match is not None, f"docs/buildings.md no longer says {pattern!r}"
+        return float(match.group(1).replace(",", ""))
+
+    assert number(r"zone sensible \*\*([\d.]+) kW") == round(s.design_zone_load_kw, 1)
+    assert number(r"coil \*\*([\d.]+) kW") == round(s.design_coil_load_kw, 1)
+    assert number(r"electric ([\d.]+) kW") == round(s.design_power_kw, 1)
+    assert number(r"Slowest mode (\d+) h") == round(s.time_constants_h[-1])
+    assert number(r"ventilation flow ([\d,]+) L/s ≥") == round(
+        s.outdoor_air_at_ventilation_flow_l_s
+    )
+    assert number(r"≥ the ([\d,]+) L/s needed") == round(s.ventilation_need_l_s)
 
 
 def test_cli_building_show_office15() -> None:
