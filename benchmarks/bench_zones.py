@@ -18,7 +18,9 @@ prints one table with the two buildings side by side and their ratio:
 * rows and nonzeros HiGHS holds (lazy event rows), warm-step CPU median / p90 [ms] and the
   simplex iterations median;
 * how sparse an *approximation* could make the model: the share of entries of A above
-  1e-6 and of the reserve responses H_l above 1e-3 of their row's largest entry.
+  1e-6 and of the reserve responses H_l above 1e-3 of their row's largest entry, and the
+  nonzeros of the dynamics and event rows if the entries below were dropped (counted, not
+  solved: such an LP is another model, docs/performance.md "Zones").
 
 Growth ≤ linear in zones means ratios ≤ 3 here. This is a script, not a timed test; quote the
 load it prints with any figure.
@@ -37,7 +39,7 @@ import numpy as np
 
 from hvacflex.config import preset
 from hvacflex.opt import RMPCProblem, RMPCSolver
-from hvacflex.opt.events import reserve_responses
+from hvacflex.opt.events import event_matrix, event_rows, reserve_responses
 from hvacflex.opt.lp import build_lp
 from hvacflex.sim.recording import recorded_problems
 
@@ -61,6 +63,8 @@ class Sizes:
     event_nonzeros: int
     a_share_above: float
     h_share_above: float
+    thresholded_dynamics_nonzeros: int
+    thresholded_event_nonzeros: int
 
 
 def lp_sizes(problem: RMPCProblem) -> Sizes:
@@ -77,6 +81,27 @@ def lp_sizes(problem: RMPCProblem) -> Sizes:
         problem.a_matrix, problem.b_matrix[:, mask], problem.c_matrix, problem.horizon
     )
     largest = h.max(axis=2, keepdims=True)
+    kept_a = np.abs(problem.a_matrix) > A_ENTRY_THRESHOLD
+    kept_h = h > H_RELATIVE_THRESHOLD * largest
+    # dynamics: identity + kept A entries (k ≥ 1) + B per step
+    thresholded_dynamics = int(
+        problem.horizon * problem.n
+        + (problem.horizon - 1) * np.count_nonzero(kept_a)
+        + problem.horizon * np.count_nonzero(problem.b_matrix)
+    )
+    rows_of_events = event_rows(
+        problem.horizon, problem.ny, problem.il_event_max_steps, problem.il_event_recovery_steps
+    )
+    plan = layout.plan
+    thresholded_events = event_matrix(
+        rows_of_events,
+        np.where(kept_h, h, 0.0),
+        problem.c_matrix,
+        col_x=plan.x,
+        col_r=plan.r,
+        col_eps=plan.eps,
+        num_cols=program.num_cols,
+    ).nnz
     return Sizes(
         n=problem.n,
         m=problem.m,
@@ -88,7 +113,9 @@ def lp_sizes(problem: RMPCProblem) -> Sizes:
         dynamics_nonzeros=dynamics,
         event_nonzeros=events,
         a_share_above=float(np.mean(np.abs(problem.a_matrix) > A_ENTRY_THRESHOLD)),
-        h_share_above=float(np.mean(h > H_RELATIVE_THRESHOLD * largest)),
+        h_share_above=float(np.mean(kept_h)),
+        thresholded_dynamics_nonzeros=thresholded_dynamics,
+        thresholded_event_nonzeros=int(thresholded_events),
     )
 
 
@@ -182,6 +209,20 @@ def main() -> None:
             f"share of H_l entries > {H_RELATIVE_THRESHOLD:g} × row max",
             sizes["office5"].h_share_above,
             sizes["office15"].h_share_above,
+        )
+    )
+    rows.append(
+        (
+            "dynamics nonzeros, A entries ≤ 1e-6 dropped",
+            sizes["office5"].thresholded_dynamics_nonzeros,
+            sizes["office15"].thresholded_dynamics_nonzeros,
+        )
+    )
+    rows.append(
+        (
+            "event-row nonzeros, H entries ≤ 1e-3 × row max dropped",
+            sizes["office5"].thresholded_event_nonzeros,
+            sizes["office15"].thresholded_event_nonzeros,
         )
     )
     print("| quantity | office5 | office15 | ratio |")
