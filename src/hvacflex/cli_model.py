@@ -55,7 +55,8 @@ def validate_energyplus(
     ),
 ) -> None:
     """hvacflex's RC plant against EnergyPlus on the building's IDF export: free-float, and
-    for office5 fixed-flow and thermostat (zone air RMSE, cooling energy, HVAC electricity)."""
+    for office5 and office15 fixed-flow and thermostat (zone air RMSE, cooling energy, HVAC
+    electricity)."""
     from datetime import date
 
     from hvacflex.building.io import load_building

@@ -26,7 +26,7 @@ from hvacflex.energyplus.export import export_idf
 from hvacflex.errors import InputError
 from hvacflex.paths import resolve_building
 
-SHIPPED = ("office5", "room1", "bestest600", "bestest900")
+SHIPPED = ("office5", "office15", "room1", "bestest600", "bestest900")
 AREA_REL_TOL = 1e-8
 """Vertices carry 10 significant digits: areas agree to about 1e-9 relative."""
 
@@ -350,7 +350,7 @@ RUN_CASES = [
     pytest.param("office5", "none", id="office5-none"),
     *(
         pytest.param(name, hvac, id=f"{name}-{hvac}", marks=pytest.mark.slow)
-        for name in ("room1", "bestest600", "bestest900")
+        for name in ("office15", "room1", "bestest600", "bestest900")
         for hvac in ("vav", "ideal")
     ),
 ]
@@ -387,7 +387,7 @@ def test_energyplus_runs_two_days_without_severe_errors(
         return
     cooling = run.hourly.filter(like="Zone Air System Sensible Cooling Rate")
     assert (cooling.between_time("13:00", "16:00").to_numpy() > 0).all()
-    if name == "office5":
+    if name in ("office5", "office15"):
         assert afternoon.to_numpy() == pytest.approx(24.0, abs=0.2)
     if hvac == "vav":
         hvac_j = run.hourly["Electricity:HVAC [J]"] + run.hourly["Electricity:Plant [J]"]

@@ -137,6 +137,16 @@ def test_rc_thermostat_coil_and_power_are_the_plants() -> None:
     assert hourly.between_time("11:00", "16:00").to_numpy() == pytest.approx(24.25, abs=0.25)
 
 
+def test_rc_thermostat_runs_the_named_building() -> None:
+    """The thermostat case runs office15 too (15 zones): 23.9–24.5 °C in the afternoon."""
+    building, hourly, per_period = ev.rc_thermostat_run(date(2014, 3, 3), 1, "office15")
+    assert building.name == "office15" and list(hourly.columns) == list(building.zone_names)
+    assert len(building.zone_names) == 15 and len(per_period) == 48
+    np.testing.assert_allclose(per_period["recomputed_hvac_kw"], per_period["hvac_kw"], rtol=1e-9)
+    afternoon = hourly.between_time("11:00", "16:00").to_numpy()
+    assert afternoon.min() > 23.8 and afternoon.max() < 24.5
+
+
 @pytest.mark.slow
 def test_office5_thermostat_week_against_energyplus(tmp_path: Path) -> None:
     """The published thermostat comparison runs clean and fills both energy rows."""
@@ -259,7 +269,7 @@ def test_stage_count_is_the_number_of_progress_messages(
         raise Stop
 
     starts = [date(2014, 3, 3), date(2014, 5, 5)]
-    for name, expected in (("office5", 6), ("room1", 2)):
+    for name, expected in (("office5", 6), ("office15", 6), ("room1", 2)):
         building = load_building(resolve_building(name))
         assert ev.stage_count(building, starts) == expected
     # the stages announced before the first (stubbed) case fails: one per start and case

@@ -377,8 +377,11 @@ class ConditionedComparison:
     severe_count: int
 
 
-def rc_thermostat_run(first: date, days: int) -> tuple[Building, pd.DataFrame, pd.DataFrame]:
-    """hvacflex's ``thermostat`` preset from ``first`` with no realised forecast error: hourly
+def rc_thermostat_run(
+    first: date, days: int, building: str = "office5"
+) -> tuple[Building, pd.DataFrame, pd.DataFrame]:
+    """hvacflex's ``thermostat`` preset on ``building`` (a shipped name or a TOML path) from
+    ``first`` with no realised forecast error: hourly
     zone air (trapezoid over the recorded instants), per-period coil heat [W] (sensible ≥ 0 +
     latent) and HVAC electricity [kW] (the loop's ``power_kw``, and recomputed here)."""
     from hvacflex.config import preset
@@ -387,7 +390,11 @@ def rc_thermostat_run(first: date, days: int) -> tuple[Building, pd.DataFrame, p
 
     # realised forecast error w = 0: the plant sees the weather and gains EnergyPlus sees
     config = preset(
-        "thermostat", start=first.isoformat(), days=days, **{"realisation.mode": "zero"}
+        "thermostat",
+        start=first.isoformat(),
+        days=days,
+        building=building,
+        **{"realisation.mode": "zero"},
     )
     loop = ClosedLoop(prepare(config))
     while loop.k < loop.steps:
@@ -425,12 +432,14 @@ def thermostat_comparison(
     days: int = 7,
     spinup_days: int = 7,
     workdir: Path,
+    building_name: str = "office5",
 ) -> ConditionedComparison:
-    """office5 under the 24 °C thermostat, hvacflex (``thermostat`` preset on the RC plant)
-    against EnergyPlus (the ``vav`` export, whose thermostat follows the same rule: 24 °C
-    while occupied, 29 °C otherwise), same weather and gains, ``spinup_days`` discarded."""
+    """``building_name`` (office5 or office15) under the 24 °C thermostat, hvacflex
+    (``thermostat`` preset on the RC plant) against EnergyPlus (the ``vav`` export, whose
+    thermostat follows the same rule: 24 °C while occupied, 29 °C otherwise), same weather
+    and gains, ``spinup_days`` discarded."""
     first = start - timedelta(days=spinup_days)
-    building, rc_hourly, per_period = rc_thermostat_run(first, days + spinup_days)
+    building, rc_hourly, per_period = rc_thermostat_run(first, days + spinup_days, building_name)
     weather = data_dir() / "weather" / DEFAULT_WEATHER_FILE
     run = run_energyplus(
         export_idf(building, hvac="vav", epw_path=weather),
@@ -563,8 +572,8 @@ def _conditioned_comparison(
     return ConditionedComparison(hourly, comparison_table(hourly), energy, run.severe_count)
 
 
-CONDITIONED_CASES_BUILDING = "office5"
-"""The building whose export the conditioned cases (fixed flow, thermostat) compare."""
+CONDITIONED_CASES_BUILDINGS = ("office5", "office15")
+"""The buildings whose exports the conditioned cases (fixed flow, thermostat) compare."""
 
 
 @dataclass(frozen=True)
@@ -591,8 +600,8 @@ class EnergyPlusValidation:
 
 def stage_count(building: Building, starts: Sequence[date]) -> int:
     """Stages :func:`run_energyplus_validation` announces through ``progress``: per start
-    the free-float case, and for office5 the fixed-flow and thermostat cases too."""
-    per_start = 3 if building.name == CONDITIONED_CASES_BUILDING else 1
+    the free-float case, and for office5 and office15 the fixed-flow and thermostat cases too."""
+    per_start = 3 if building.name in CONDITIONED_CASES_BUILDINGS else 1
     return per_start * len(starts)
 
 
@@ -606,9 +615,9 @@ def run_energyplus_validation(
     progress: Callable[[str], None] = lambda message: None,
 ) -> EnergyPlusValidation:
     """Run the cases for every start: the ``free-float`` case (the export with
-    ``hvac="none"``) for any building, and for office5 the ``fixed-flow`` and ``thermostat``
-    cases (the ``vav`` export); ``days`` compared after ``spinup_days``; EnergyPlus's files in
-    ``workdir``."""
+    ``hvac="none"``) for any building, and for office5 and office15 the ``fixed-flow`` and
+    ``thermostat`` cases (the ``vav`` export); ``days`` compared after ``spinup_days``;
+    EnergyPlus's files in ``workdir``."""
     tables, series, energies = [], [], []
     for start in starts:
         label = start.isoformat()
@@ -622,7 +631,7 @@ def run_energyplus_validation(
         )
         tables.append(result.table.assign(case="free-float", start=label))
         series.append(result.hourly.assign(case="free-float", start=label))
-        if building.name != CONDITIONED_CASES_BUILDING:
+        if building.name not in CONDITIONED_CASES_BUILDINGS:
             continue
         for case in ("fixed-flow", "thermostat"):
             progress(f"{label} {case}")
@@ -633,7 +642,11 @@ def run_energyplus_validation(
                 )
             else:
                 conditioned = thermostat_comparison(
-                    start=start, days=days, spinup_days=spinup_days, workdir=workdir_case
+                    start=start,
+                    days=days,
+                    spinup_days=spinup_days,
+                    workdir=workdir_case,
+                    building_name=building.name,
                 )
             tables.append(conditioned.table.assign(case=case, start=label))
             series.append(conditioned.hourly.assign(case=case, start=label))
