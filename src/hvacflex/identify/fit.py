@@ -30,6 +30,7 @@ import scipy.optimize
 
 from hvacflex.errors import InputError
 from hvacflex.identify.greybox import (
+    EXOGENOUS_INPUTS,
     ZONE_PARAMETERS,
     DiscreteModel,
     FloatArray,
@@ -39,7 +40,7 @@ from hvacflex.identify.greybox import (
     simulate_windows,
     time_constants_s,
 )
-from hvacflex.identify.model_file import PowerModel
+from hvacflex.identify.model_file import AirSystem, BoundaryNode, PowerModel
 from hvacflex.identify.trend import (
     GHI,
     HVAC_POWER,
@@ -101,6 +102,12 @@ LINEAR_PRIOR_SCALE = {
     "base_gain_kw": 2.0,
 }
 """Linear parameters: the deviation from the prior that counts as one unit [their unit]."""
+VENTILATION_QUANTILE = 0.05
+"""The least occupied flow of a zone is this quantile of its training flows while occupied."""
+FLOWING_KG_S = 1e-3
+"""A period-mean supply flow above this counts as air supplied [kg/s]."""
+BOUNDARY_MIN_RATE = 1e-6
+"""Lower bound of a boundary node's ``Δt / C`` in its fit (a finite capacitance) [s/J·…]."""
 
 
 @dataclass(frozen=True)
@@ -509,3 +516,92 @@ def prediction_frame(result: FitResult, data: FitData, test: tuple[int, int]) ->
         columns[f"predicted_1step_{zone}_degc"] = one_step[:, :, i].ravel()
         columns[f"predicted_24h_{zone}_degc"] = simulated[:, :, i].ravel()
     return pd.DataFrame(columns, index=data.index[rows])
+
+
+def air_system(inputs: FitData, data: TrendData, train: tuple[int, int]) -> AirSystem:
+    """The supply air the training data show: the flow-weighted mean supply temperature of
+    every fitted zone (one value, the model's ``T_s``), each zone's flow range and its
+    :data:`VENTILATION_QUANTILE` occupied flow.
+
+    Raises
+    ------
+    InputError
+        when no zone received air in the training periods.
+    """
+    first, end = train
+    flow = data.zone_series("supply_flow", inputs.zones)
+    supply = data.zone_series("supply_temp", inputs.zones)
+    assert flow is not None and supply is not None
+    flow, supply = flow[first:end], supply[first:end]
+    if not np.any(flow > FLOWING_KG_S):
+        raise InputError(
+            "no supply air in the training periods",
+            source=data.source,
+            field="supply_flow",
+            hint="train on days when the HVAC ran",
+        )
+    weights = np.where(flow > FLOWING_KG_S, flow, 0.0)
+    supply_temp = float((weights * supply).sum() / weights.sum())
+    occupied = data.column(OCCUPIED)[first:end] > 0
+    low = flow.min(axis=0)
+    high = np.maximum(flow.max(axis=0), low + FLOWING_KG_S)
+    vent = np.quantile(flow[occupied], VENTILATION_QUANTILE, axis=0) if occupied.any() else low
+    return AirSystem(
+        supply_temp_degc=supply_temp,
+        flow_min_kg_s=tuple(float(v) for v in low),
+        flow_max_kg_s=tuple(float(v) for v in high),
+        ventilation_flow_kg_s=tuple(float(v) for v in np.clip(vent, low, high)),
+    )
+
+
+def fit_boundary_nodes(
+    parameters: GreyBoxParameters, inputs: FitData, train: tuple[int, int]
+) -> tuple[BoundaryNode, ...]:
+    """Each boundary as a node for the controller's model (it has no forecast of a measured
+    boundary temperature): ``C_b dTb/dt = Σ_i UA_ib (Ta_i − Tb) + UA_bo (To − Tb) + S_b G +
+    P_b occ`` with the fitted zone conductances ``UA_ib``, the other terms by non-negative
+    linear least squares of the measured period-to-period changes on the training periods
+    (``ΔTb = (Δt/C_b)·[…]``, forward Euler over 30 min)."""
+    first, end = train
+    m = inputs.y.shape[1]
+    boundary_temp = inputs.u[first:end, len(EXOGENOUS_INPUTS) + m :]
+    outdoor, ghi, occ = (inputs.u[first:end, i] for i in range(3))
+    zone_temp = inputs.y[first:end]
+    nodes = []
+    for b in range(parameters.boundaries):
+        tb = boundary_temp[:, b]
+        exchange = np.zeros(len(tb))
+        for (i, k), ua in zip(
+            parameters.boundary_couplings, parameters.boundary_ua_kw_per_k, strict=True
+        ):
+            if k == b:
+                exchange += ua * (zone_temp[:, i] - tb)
+        regressors = np.column_stack([exchange, outdoor - tb, ghi, occ])[:-1]
+        change = np.diff(tb)
+        solution = scipy.optimize.lsq_linear(
+            regressors, change, bounds=([BOUNDARY_MIN_RATE, 0.0, 0.0, 0.0], np.inf)
+        )
+        rate, ua_out, solar, gain = (float(v) for v in solution.x)
+        dt_s = PERIOD_S_HOURS * 3600.0
+        nodes.append(
+            BoundaryNode(
+                c_kj_per_k=dt_s / rate,
+                ua_out_kw_per_k=ua_out / rate,
+                solar_m2=solar / rate,
+                occupied_gain_kw=gain / rate,
+            )
+        )
+    return tuple(nodes)
+
+
+def one_step_errors(
+    result: FitResult, data: FitData, periods: tuple[int, int]
+) -> tuple[pd.DatetimeIndex, FloatArray]:
+    """The filter's one-step prediction errors (predicted − measured) [K] on the whole days
+    of ``periods = (first, end)``: (index (T,), errors (T, m))."""
+    model = discretize(result.parameters)
+    states = filter_states(model, data.y, data.u)
+    predicted = states @ model.c_mean.T + data.u @ model.d_mean.T
+    starts = _day_starts(data.index, *periods)
+    rows = (starts[:, None] + np.arange(PERIODS_PER_DAY)[None, :]).ravel()
+    return data.index[rows], predicted[rows] - data.y[rows]
