@@ -10,7 +10,8 @@ fitted zone's air node exchanging heat with each of them through a fitted conduc
 The fit minimises, with ``scipy.optimize.least_squares`` (trust-region reflective, bounds of
 :data:`BOUNDS`), the 24-h prediction errors — each training day simulated from its midnight
 state, estimated by the Kalman filter from the measurements before it — plus the one-step
-errors, plus weak priors (:data:`PRIOR_WEIGHT`) pulling each parameter toward
+errors, plus a penalty on estimated mass temperatures outside the measured range
+(:data:`MASS_BAND_K`), plus weak priors (:data:`PRIOR_WEIGHT`) pulling each parameter toward
 :data:`INITIAL` (log scale for the positive ones). The first day only warms the filter up.
 
 The evaluation (:func:`evaluate`) runs the filter over the whole file and reports, on the
@@ -60,6 +61,11 @@ MIN_TRAIN_DAYS = 3
 """Fewer training days than this are refused (besides the warm-up day)."""
 ONE_STEP_WEIGHT = 1.0
 """Weight of the one-step errors next to the 24-h errors in the fit."""
+MASS_BAND_K = 2.0
+"""The estimated mass temperatures should stay within the measured zone temperatures' range
+widened by this [K] (a physical prior: a slab is not colder or warmer than every room)."""
+MASS_BAND_WEIGHT = 1.0
+"""Weight of a mass temperature outside that band, per K, next to a 1-K prediction error."""
 PRIOR_WEIGHT = 0.02
 """Weight of the priors: a residual of this size per unit of log (or linear) deviation."""
 MAX_EVALUATIONS = 60
@@ -250,15 +256,16 @@ def _day_starts(index: pd.DatetimeIndex, first: int, last: int) -> np.ndarray:
 
 
 def predictions(
-    model: DiscreteModel, data: FitData, starts: np.ndarray
+    model: DiscreteModel, data: FitData, starts: np.ndarray, states: FloatArray | None = None
 ) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """One-step and 24-h predictions on the days starting at ``starts``.
+    """One-step and 24-h predictions on the days starting at ``starts`` (``states``: the
+    filter's estimates (T, n), if already computed).
 
     Returns
     -------
     one_step : (D, 48, m), simulated : (D, 48, m), measured : (D, 48, m) [°C].
     """
-    states = filter_states(model, data.y, data.u)
+    states = filter_states(model, data.y, data.u) if states is None else states
     one_step_all = np.einsum("ij,tj->ti", model.c_mean, states) + data.u @ model.d_mean.T
     rows = starts[:, None] + np.arange(PERIODS_PER_DAY)[None, :]
     simulated = simulate_windows(model, states[starts], data.u[rows], PERIODS_PER_DAY)
@@ -274,15 +281,22 @@ def _residuals(
     prior: FloatArray,
     scale: FloatArray,
 ) -> FloatArray:
+    m = data.y.shape[1]
     try:
         model = discretize(_from_vector(theta, couplings, edges, len(data.boundaries)))
-        one_step, simulated, measured = predictions(model, data, starts)
+        states = filter_states(model, data.y, data.u)
+        one_step, simulated, measured = predictions(model, data, starts, states)
     except (np.linalg.LinAlgError, ValueError):
-        return np.full(2 * starts.size * PERIODS_PER_DAY * data.y.shape[1] + theta.size, 1e3)
+        return np.full(3 * starts.size * PERIODS_PER_DAY * m + theta.size, 1e3)
+    rows = (starts[:, None] + np.arange(PERIODS_PER_DAY)[None, :]).ravel()
+    mass = states[rows, m : 2 * m]
+    low, high = data.y.min() - MASS_BAND_K, data.y.max() + MASS_BAND_K
+    outside = np.maximum(mass - high, 0.0) + np.maximum(low - mass, 0.0)
     return np.concatenate(
         [
             (simulated - measured).ravel(),
             ONE_STEP_WEIGHT * (one_step - measured).ravel(),
+            MASS_BAND_WEIGHT * outside.ravel(),
             PRIOR_WEIGHT * (theta - prior) / scale,
         ]
     )

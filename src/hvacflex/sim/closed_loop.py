@@ -361,6 +361,8 @@ class ClosedLoop:
         minimum flow gets the band's upper bound, so the plant's loop does not cool it
         towards a temperature the plan expects it to drift to (docs/energyplus.md)."""
         action = decision.action
+        if action.released:  # the plant's own control: no setpoint from hvacflex
+            return Actuation(setpoint_degc=np.full(action.flow_kg_s.shape, np.nan))
         flow = action.flow_kg_s - action.reserve_flow_kg_s if curtailed else action.flow_kg_s
         if self.actuation == "flow":
             return Actuation(flow_kg_s=flow, supply_temp_degc=action.supply_temp_degc)
