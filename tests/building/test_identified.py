@@ -41,7 +41,7 @@ def model_path(tmp_path: Path) -> Path:
         parameters=PARAMETERS,
         power=POWER,
         provenance={},
-        air=AirSystem(SUPPLY_TEMP_DEGC, (0.0, 0.0), (0.5, 0.8), (0.0, 0.0)),
+        air=AirSystem(SUPPLY_TEMP_DEGC, (0.0, 0.0), (0.5, 0.8), (0.0, 0.0), (24.0, 24.0)),
     )
     return write_identified_model(model, tmp_path / "model.toml")
 
@@ -102,6 +102,7 @@ def test_an_identified_building_refuses_walls_and_mismatched_zones() -> None:
                     flow_min_kg_s=0.0,
                     flow_max_kg_s=0.5,
                     ventilation_flow_kg_s=0.1,
+                    mass_temp_degc=24.0,
                 )
             },
         },

@@ -44,9 +44,9 @@ def _model() -> IdentifiedModel:
         parameters=parameters,
         power=PowerModel(base_kw=1.0, kw_per_kw_cooling=0.3, kw_per_k_outdoor=0.05),
         provenance={"data": "trend.csv", "train": "2014-03-03..2014-03-17"},
-        air=AirSystem(13.5, (0.0, 0.05), (0.6, 0.9), (0.1, 0.2)),
+        air=AirSystem(13.5, (0.0, 0.05), (0.6, 0.9), (0.1, 0.2), (22.5, 23.0)),
         boundaries=("PLENUM-1",),
-        boundary_nodes=(BoundaryNode(300.0, 0.02, 1.5, 0.4),),
+        boundary_nodes=(BoundaryNode(300.0, 0.02, 1.5, 0.4, 25.5),),
     )
 
 

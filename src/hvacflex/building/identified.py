@@ -47,7 +47,9 @@ class IdentifiedZone:
     """One fitted zone (units in the names; C in kJ/K, UA in kW/K, S in m², P in kW).
 
     ``flow_min_kg_s`` / ``flow_max_kg_s`` bound the supply flow (the training data's range),
-    ``ventilation_flow_kg_s`` is the flow the zone's unit does not go below while occupied.
+    ``ventilation_flow_kg_s`` is the flow the zone's unit does not go below while occupied;
+    ``mass_temp_degc`` is the mass node's mean estimated temperature on the test days, where a
+    run starts it (a mass of weeks' time constant is not re-estimated within a day).
     """
 
     name: str
@@ -63,6 +65,7 @@ class IdentifiedZone:
     flow_min_kg_s: float
     flow_max_kg_s: float
     ventilation_flow_kg_s: float
+    mass_temp_degc: float
 
 
 @dataclass(frozen=True)
@@ -84,7 +87,8 @@ class IdentifiedBoundary:
     c_kj_per_k : its capacitance [kJ/K]; ua_out_kw_per_k : to the outdoor air [kW/K];
     solar_m2 : share of the horizontal irradiance it absorbs [m²];
     occupied_gain_kw : gain at a people fraction of 1 [kW] (e.g. lights in a return plenum);
-    ua_zone_kw_per_k : zone name → conductance to that zone's air node [kW/K].
+    ua_zone_kw_per_k : zone name → conductance to that zone's air node [kW/K];
+    temp_degc : its mean measured temperature on the test days (a run's start) [°C].
     """
 
     name: str
@@ -93,6 +97,7 @@ class IdentifiedBoundary:
     solar_m2: float
     occupied_gain_kw: float
     ua_zone_kw_per_k: tuple[tuple[str, float], ...]
+    temp_degc: float
 
 
 @dataclass(frozen=True)
@@ -177,3 +182,13 @@ def identified_affine_power(
     p0: FloatArray = rc.power.base_kw + rc.power.kw_per_k_outdoor * outdoor
     p: FloatArray = np.full((outdoor.shape[0], m), max(per_kg_s, 0.0))
     return p0, p
+
+
+def initial_node_temps_degc(rc: IdentifiedRC, zone_temp_degc: float) -> FloatArray:
+    """(2m + nb,) a run's first state: the zones at ``zone_temp_degc`` [°C], the mass and
+    boundary nodes at their estimated temperatures (node order of the identified network)."""
+    return np.array(
+        [zone_temp_degc] * len(rc.zones)
+        + [z.mass_temp_degc for z in rc.zones]
+        + [b.temp_degc for b in rc.boundaries]
+    )

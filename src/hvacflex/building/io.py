@@ -334,6 +334,7 @@ def _identified_building(
                 solar_m2=b.solar_m2,
                 occupied_gain_kw=b.occupied_gain_kw,
                 ua_zone_kw_per_k=tuple(b.ua_zone_kw_per_k.items()),
+                temp_degc=b.temp_degc,
             )
             for b in identified.boundaries
         ),

@@ -40,10 +40,11 @@ A building identified from trend data (``hvacflex identify fit``) has ``[[zones]
     [identified.zones.Z] c_air_kj_per_k, c_mass_kj_per_k, ua_out_kw_per_k,
                          ua_air_mass_kw_per_k, ua_mass_out_kw_per_k, solar_air_m2,
                          solar_mass_m2, occupied_gain_kw, base_gain_kw, flow_min_kg_s,
-                         flow_max_kg_s, ventilation_flow_kg_s   (one table per zone Z)
+                         flow_max_kg_s, ventilation_flow_kg_s, mass_temp_degc
+                         (one table per zone Z)
     [[identified.couplings]]  zones = [Z1, Z2], ua_kw_per_k
     [[identified.boundaries]] name, c_kj_per_k, ua_out_kw_per_k, solar_m2,
-                              occupied_gain_kw, ua_zone_kw_per_k = {Z = …}
+                              occupied_gain_kw, ua_zone_kw_per_k = {Z = …}, temp_degc
     [identified.power_model]  base_kw, kw_per_kw_cooling, kw_per_k_outdoor
 
 The optional keys added for the BESTEST validation (infiltration, radiative split of gains,
@@ -267,6 +268,7 @@ class IdentifiedZoneSpec(Spec):
     flow_min_kg_s: NonNegative
     flow_max_kg_s: Positive
     ventilation_flow_kg_s: NonNegative
+    mass_temp_degc: Annotated[Number, Field(ge=-50.0, le=70.0)]
 
     @model_validator(mode="after")
     def _flows_ordered(self) -> Self:
@@ -292,6 +294,7 @@ class IdentifiedBoundarySpec(Spec):
     solar_m2: NonNegative
     occupied_gain_kw: NonNegative
     ua_zone_kw_per_k: dict[str, NonNegative]
+    temp_degc: Annotated[Number, Field(ge=-50.0, le=70.0)]
 
 
 class IdentifiedPowerSpec(Spec):

@@ -532,10 +532,12 @@ def prediction_frame(result: FitResult, data: FitData, test: tuple[int, int]) ->
     return pd.DataFrame(columns, index=data.index[rows])
 
 
-def air_system(inputs: FitData, data: TrendData, train: tuple[int, int]) -> AirSystem:
+def air_system(
+    inputs: FitData, data: TrendData, train: tuple[int, int], mass_temp_degc: FloatArray
+) -> AirSystem:
     """The supply air the training data show: the flow-weighted mean supply temperature of
     every fitted zone (one value, the model's ``T_s``), each zone's flow range and its
-    :data:`VENTILATION_QUANTILE` occupied flow.
+    :data:`VENTILATION_QUANTILE` occupied flow; ``mass_temp_degc`` (m,) is passed through.
 
     Raises
     ------
@@ -565,17 +567,22 @@ def air_system(inputs: FitData, data: TrendData, train: tuple[int, int]) -> AirS
         flow_min_kg_s=tuple(float(v) for v in low),
         flow_max_kg_s=tuple(float(v) for v in high),
         ventilation_flow_kg_s=tuple(float(v) for v in np.clip(vent, low, high)),
+        mass_temp_degc=tuple(float(v) for v in mass_temp_degc),
     )
 
 
 def fit_boundary_nodes(
-    parameters: GreyBoxParameters, inputs: FitData, train: tuple[int, int]
+    parameters: GreyBoxParameters,
+    inputs: FitData,
+    train: tuple[int, int],
+    test: tuple[int, int],
 ) -> tuple[BoundaryNode, ...]:
     """Each boundary as a node for the controller's model (it has no forecast of a measured
     boundary temperature): ``C_b dTb/dt = Σ_i UA_ib (Ta_i − Tb) + UA_bo (To − Tb) + S_b G +
     P_b occ`` with the fitted zone conductances ``UA_ib``, the other terms by non-negative
     linear least squares of the measured period-to-period changes on the training periods
-    (``ΔTb = (Δt/C_b)·[…]``, forward Euler over 30 min)."""
+    (``ΔTb = (Δt/C_b)·[…]``, forward Euler over 30 min); its start temperature is its mean
+    on the ``test`` periods."""
     first, end = train
     m = inputs.y.shape[1]
     boundary_temp = inputs.u[first:end, len(EXOGENOUS_INPUTS) + m :]
@@ -603,6 +610,7 @@ def fit_boundary_nodes(
                 ua_out_kw_per_k=ua_out / rate,
                 solar_m2=solar / rate,
                 occupied_gain_kw=gain / rate,
+                temp_degc=float(inputs.u[test[0] : test[1], len(EXOGENOUS_INPUTS) + m + b].mean()),
             )
         )
     return tuple(nodes)
@@ -619,3 +627,12 @@ def one_step_errors(
     starts = _day_starts(data.index, *periods)
     rows = (starts[:, None] + np.arange(PERIODS_PER_DAY)[None, :]).ravel()
     return data.index[rows], predicted[rows] - data.y[rows]
+
+
+def mean_mass_temps_degc(result: FitResult, data: FitData, periods: tuple[int, int]) -> FloatArray:
+    """(m,) the filter's mean mass-node temperature estimates over ``periods`` [°C]."""
+    model = discretize(result.parameters)
+    states = filter_states(model, data.y, data.u)
+    m = data.y.shape[1]
+    mean: FloatArray = states[periods[0] : periods[1], m : 2 * m].mean(axis=0)
+    return mean

@@ -40,12 +40,14 @@ PowerModel = IdentifiedPower
 class BoundaryNode:
     """An unconditioned zone's node as fitted after the zones (its couplings to the zones are
     the fit's boundary conductances): ``c_kj_per_k`` [kJ/K], ``ua_out_kw_per_k`` [kW/K],
-    ``solar_m2`` [m²], ``occupied_gain_kw`` [kW]."""
+    ``solar_m2`` [m²], ``occupied_gain_kw`` [kW], ``temp_degc`` its mean measured temperature
+    on the test days [°C]."""
 
     c_kj_per_k: float
     ua_out_kw_per_k: float
     solar_m2: float
     occupied_gain_kw: float
+    temp_degc: float
 
 
 @dataclass(frozen=True)
@@ -56,13 +58,15 @@ class AirSystem:
     ----------
     supply_temp_degc : the supply temperature of the HVAC input [°C];
     flow_min_kg_s, flow_max_kg_s, ventilation_flow_kg_s : (m,) the flow range per zone and
-    the least flow while occupied [kg/s].
+    the least flow while occupied [kg/s]; mass_temp_degc : (m,) each mass node's mean
+    estimated temperature on the test days (where a controlled run starts it) [°C].
     """
 
     supply_temp_degc: float
     flow_min_kg_s: tuple[float, ...]
     flow_max_kg_s: tuple[float, ...]
     ventilation_flow_kg_s: tuple[float, ...]
+    mass_temp_degc: tuple[float, ...]
 
 
 @dataclass(frozen=True)
@@ -120,6 +124,7 @@ def write_identified_model(model: IdentifiedModel, path: str | Path) -> Path:
         values["flow_min_kg_s"] = air.flow_min_kg_s[i]
         values["flow_max_kg_s"] = air.flow_max_kg_s[i]
         values["ventilation_flow_kg_s"] = air.ventilation_flow_kg_s[i]
+        values["mass_temp_degc"] = air.mass_temp_degc[i]
         _table(lines, f"[identified.zones.{zone}]", values)
     for (i, j), ua in zip(
         model.parameters.couplings, model.parameters.coupling_ua_kw_per_k, strict=True
@@ -200,6 +205,7 @@ def load_identified_model(path: str | Path) -> IdentifiedModel:
             flow_min_kg_s=tuple(z.flow_min_kg_s for z in rc.zones),
             flow_max_kg_s=tuple(z.flow_max_kg_s for z in rc.zones),
             ventilation_flow_kg_s=tuple(z.ventilation_flow_kg_s for z in rc.zones),
+            mass_temp_degc=tuple(z.mass_temp_degc for z in rc.zones),
         ),
         boundaries=tuple(node.name for node in rc.boundaries),
         boundary_nodes=tuple(_node(node) for node in rc.boundaries),
@@ -212,4 +218,5 @@ def _node(node: IdentifiedBoundary) -> BoundaryNode:
         ua_out_kw_per_k=node.ua_out_kw_per_k,
         solar_m2=node.solar_m2,
         occupied_gain_kw=node.occupied_gain_kw,
+        temp_degc=node.temp_degc,
     )

@@ -43,6 +43,7 @@ from hvacflex.identify.fit import (
     fit_inputs,
     fit_model,
     fit_power_model,
+    mean_mass_temps_degc,
     one_step_errors,
     prediction_frame,
 )
@@ -265,8 +266,8 @@ def identify(
         energyplus_zones=inputs.zones,
         parameters=fit.parameters,
         boundaries=inputs.boundaries,
-        boundary_nodes=fit_boundary_nodes(fit.parameters, inputs, train_range),
-        air=air_system(inputs, data, train_range),
+        boundary_nodes=fit_boundary_nodes(fit.parameters, inputs, train_range, test_range),
+        air=air_system(inputs, data, train_range, mean_mass_temps_degc(fit, inputs, test_range)),
         power=power,
         provenance={
             "data": str(data_path),

@@ -41,6 +41,7 @@ import numpy as np
 import pandas as pd
 
 from hvacflex import results, state, version
+from hvacflex.building.identified import initial_node_temps_degc
 from hvacflex.config import ScenarioConfig
 from hvacflex.control.base import Controller, FloatArray
 from hvacflex.control.estimation import StepModel
@@ -225,6 +226,8 @@ class ClosedLoop:
         )
         """(m,) lowest flow [kg/s] when unoccupied and when occupied."""
         self.x = np.full(len(setup.model.node_names), cfg.initial_temp_degc)
+        if setup.building.identified is not None:  # hidden nodes at their estimated values
+            self.x = initial_node_temps_degc(setup.building.identified, cfg.initial_temp_degc)
         self.x = self._state_after(self.plant.reset(cfg.initial_temp_degc), None)
         self.sampler = DisturbanceSampler(
             cfg.realisation.mode, seed=cfg.seed, ar1_coefficient=cfg.realisation.ar1_coefficient
