@@ -112,6 +112,14 @@ VENTILATION_QUANTILE = 0.05
 """The least occupied flow of a zone is this quantile of its training flows while occupied."""
 FLOWING_KG_S = 1e-3
 """A period-mean supply flow above this counts as air supplied [kg/s]."""
+MAX_COIL_SUPPLY_TEMP_DEGC = 18.0
+"""A flow-weighted mean supply temperature of cooling air at or above this is no coil's
+(a cycling constant-volume unit) [°C]."""
+COIL_SUPPLY_QUANTILE = 0.05
+"""Then the coil's supply temperature is this quantile of the cooling periods' [–]."""
+COOLING_DIFFERENCE_K = 1.0
+"""Supply air this much colder than the zone counts as cooling air [K] (a constant-volume
+fan also moves air while its coil is off)."""
 BOUNDARY_MIN_RATE = 1e-6
 """Lower bound of a boundary node's ``Δt / C`` in its fit (a finite capacitance) [s/J·…]."""
 
@@ -536,8 +544,15 @@ def air_system(
     inputs: FitData, data: TrendData, train: tuple[int, int], mass_temp_degc: FloatArray
 ) -> AirSystem:
     """The supply air the training data show: the flow-weighted mean supply temperature of
-    every fitted zone (one value, the model's ``T_s``), each zone's flow range and its
+    every fitted zone while its air cools (supply at least :data:`COOLING_DIFFERENCE_K` below
+    the zone; one value, the model's ``T_s``), each zone's flow range and its
     :data:`VENTILATION_QUANTILE` occupied flow; ``mass_temp_degc`` (m,) is passed through.
+
+    A constant-volume unit whose coil cycles within the period has a period-mean supply
+    temperature that is no coil's (fan-only minutes mixed in) and a flow that does not follow
+    its cooling: when that mean is not below :data:`MAX_COIL_SUPPLY_TEMP_DEGC`, ``T_s`` is the
+    :data:`COIL_SUPPLY_QUANTILE` quantile of the cooling periods' supply temperatures and the
+    flows are the equivalent flows ``Q / (c_p (T − T_s))`` that deliver the measured cooling.
 
     Raises
     ------
@@ -549,15 +564,22 @@ def air_system(
     supply = data.zone_series("supply_temp", inputs.zones)
     assert flow is not None and supply is not None
     flow, supply = flow[first:end], supply[first:end]
-    if not np.any(flow > FLOWING_KG_S):
+    cooling = (flow > FLOWING_KG_S) & (inputs.y[first:end] - supply > COOLING_DIFFERENCE_K)
+    if not np.any(cooling):
         raise InputError(
-            "no supply air in the training periods",
+            "no cooling supply air in the training periods",
             source=data.source,
             field="supply_flow",
             hint="train on days when the HVAC ran",
         )
-    weights = np.where(flow > FLOWING_KG_S, flow, 0.0)
+    weights = np.where(cooling, flow, 0.0)
     supply_temp = float((weights * supply).sum() / weights.sum())
+    if supply_temp >= MAX_COIL_SUPPLY_TEMP_DEGC:  # cycling constant-volume coils
+        supply_temp = float(np.quantile(supply[cooling], COIL_SUPPLY_QUANTILE))
+        zone_temp = inputs.y[first:end]
+        delivered_kw = cooling_kw(inputs)[first:end]
+        per_kg_s_kw = CP_AIR_J_PER_KG_K * np.maximum(zone_temp - supply_temp, 1.0) / 1000.0
+        flow = np.clip(delivered_kw / per_kg_s_kw, 0.0, None)
     occupied = data.column(OCCUPIED)[first:end] > 0
     low = flow.min(axis=0)
     high = np.maximum(flow.max(axis=0), low + FLOWING_KG_S)
