@@ -8,12 +8,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import hvacflex
 from hvacflex.building.discretize import linearize
 from hvacflex.building.identified import (
     IdentifiedPower,
     cooling_kw,
     identified_affine_power,
     identified_power_kw,
+    initial_node_temps_degc,
 )
 from hvacflex.building.io import building_from_dict, load_building
 from hvacflex.errors import BuildingConfigError
@@ -124,3 +126,20 @@ def test_an_identified_building_refuses_walls_and_mismatched_zones() -> None:
     with pytest.raises(BuildingConfigError) as caught:
         building_from_dict(designed)
     assert caught.value.field == "zones[0].floor_area_m2"
+
+
+def test_a_run_starts_the_hidden_nodes_at_their_estimated_temperatures(model_path: Path) -> None:
+    building = load_building(model_path)
+    rc = building.identified
+    assert rc is not None
+    # [air a, air b, mass a, mass b]: the zones at the run's start, the mass at the file's
+    np.testing.assert_array_equal(initial_node_temps_degc(rc, 26.0), [26.0, 26.0, 24.0, 24.0])
+    run = hvacflex.simulate(
+        "nmpc",
+        start="2014-03-03",
+        days=0.25,
+        building=str(model_path),
+        quiet=True,
+        out=model_path.parent / "run",
+    )
+    assert run.summary["fallback_count"] == 0 and run.frame["power_kw"].notna().all()

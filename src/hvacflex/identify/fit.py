@@ -121,7 +121,7 @@ COOLING_DIFFERENCE_K = 1.0
 """Supply air this much colder than the zone counts as cooling air [K] (a constant-volume
 fan also moves air while its coil is off)."""
 BOUNDARY_MIN_RATE = 1e-6
-"""Lower bound of a boundary node's ``Δt / C`` in its fit (a finite capacitance) [s/J·…]."""
+"""Lower bound of a boundary node's ``Δt / C`` in its fit [K per kJ]: a finite capacitance."""
 
 
 @dataclass(frozen=True)
