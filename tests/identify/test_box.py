@@ -54,4 +54,4 @@ def test_the_scenario_reads_the_model_and_the_errors_back(tmp_path: Path) -> Non
     assert calibrate is not None and calibrate.quantile == 0.95
     assert calibrate.prediction_errors == str(path.resolve())
     assert config.plant.kind == "energyplus" and config.plant.actuation == "setpoint"
-    assert config.controller.robust == "tightening" and config.estimation.mode == "kalman"
+    assert config.controller.robust == "tightening" and config.estimation.mode == "full-state"

@@ -16,10 +16,10 @@ Files written beside ``model.toml``:
 * ``box_report.csv`` — per zone ``zone``, ``model_error_k``, ``coverage_test``,
   ``coverage_train``, ``quantile``;
 * ``scenario.toml`` — ``preset = "rmpc"``, ``building`` the model, the calibrated box on the
-  test days, ``[estimation] mode = "kalman"`` (a building measures its zone air only: the
-  controller estimates the mass and boundary nodes), and with an IDF the ``[plant]`` that
-  controls the building the data came from (``kind = "energyplus"``, ``actuation =
-  "setpoint"``).
+  test days, and with an IDF the ``[plant]`` that controls the building the data came from
+  (``kind = "energyplus"``, ``actuation = "setpoint"``). The estimation is the default: the
+  measured zone air temperatures, the mass and boundary nodes carried by the model from their
+  estimated start (docs/identify.md §6 measures it against the Kalman filter).
 """
 
 from __future__ import annotations
@@ -132,9 +132,6 @@ def write_scenario(
         f"train = {json.dumps(test_days)}",
         f"quantile = {quantile!r}",
         f"prediction_errors = {json.dumps(str(errors_path.resolve()))}",
-        "",
-        "[estimation]",
-        'mode = "kalman"',
     ]
     if idf is not None:
         lines += [
