@@ -450,3 +450,11 @@ def test_a_preset_scenario_file_keeps_the_presets_own_values(tmp_path: Path) -> 
     (folder / "s.toml").write_text('preset = "rmpc-ppp"\ndays = 1\n')
     cfg = load_config(folder / "s.toml")
     assert cfg.building == preset("rmpc-ppp").building and cfg.days == 1
+
+
+def test_plant_baseline_is_the_plants_own_control_on_energyplus_only() -> None:
+    cfg = preset("plant-baseline")
+    assert cfg.controller.kind == "plant" and not cfg.controller.reserve
+    assert cfg.plant.kind == "energyplus" and cfg.plant.resolved_actuation == "setpoint"
+    with pytest.raises(ConfigError, match="setpoint-actuated EnergyPlus"):
+        with_overrides(cfg, {"plant": {"kind": "rc", "actuation": "flow"}})

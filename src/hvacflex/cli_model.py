@@ -153,8 +153,12 @@ def identify_fit(
     ),
     train: str | None = typer.Option(None, "--train", help="YYYY-MM-DD..YYYY-MM-DD"),
     test: str | None = typer.Option(None, "--test", help="YYYY-MM-DD..YYYY-MM-DD"),
+    idf: Path | None = typer.Option(  # noqa: B008
+        None, "--idf", help="The EnergyPlus model the data came from: scenario.toml's plant."
+    ),
 ) -> None:
-    """Fit a grey-box RC model to trend data; write it, fit_report.csv and the parameters."""
+    """Fit a grey-box RC model to trend data; write it (a building file), fit_report.csv,
+    the parameters, the calibrated model-error box and scenario.toml."""
     import warnings
 
     from hvacflex.errors import HvacflexError
@@ -173,10 +177,12 @@ def identify_fit(
                 template=building,
                 train=train,
                 test=test,
+                idf=idf,
             )
     except HvacflexError as exc:
         raise exit_on_error(exc) from None
     typer.echo(outcome.report.to_string(index=False, float_format=lambda v: f"{v:.3f}"))
+    typer.echo(outcome.box.frame().to_string(index=False, float_format=lambda v: f"{v:.3f}"))
     if outcome.power is not None:
         typer.echo(outcome.power.to_string(index=False, float_format=lambda v: f"{v:.1f}"))
     from hvacflex.report.identify_plots import plot_identified_fit
@@ -188,6 +194,8 @@ def identify_fit(
         outcome.parameters_path,
         outcome.power_path,
         outcome.model_path.parent / "fit_predictions.csv",
+        outcome.model_path.parent / "box_report.csv",
+        outcome.scenario_path,
         figure,
     ):
         if path is not None:

@@ -88,3 +88,40 @@ def test_a_parameter_pushed_onto_its_bound_is_named_in_the_warnings() -> None:
         "B: c_mass_kj_per_k at its bound 1e+07",
     ]
     assert _bound_warnings(prior, low, high, ("A", "B")) == []
+
+
+def test_a_boundary_node_is_recovered_from_its_own_balance() -> None:
+    """A plenum that follows the node's forward-Euler balance exactly: the fitted node has
+    the capacitance, outdoor conductance, solar share and gain it was made with."""
+    from hvacflex.identify.fit import FitData, fit_boundary_nodes
+    from hvacflex.identify.greybox import GreyBoxParameters
+
+    rng = np.random.default_rng(4)
+    steps = 400
+    index = pd.date_range("2014-03-03", periods=steps, freq="30min", tz="Asia/Singapore")
+    zone = 24.0 + rng.normal(0, 1.0, (steps, 1))
+    outdoor, ghi = 28.0 + rng.normal(0, 2.0, steps), rng.uniform(0, 0.9, steps)
+    occupied = (rng.uniform(size=steps) > 0.5).astype(float)
+    c_kj, ua_zone, ua_out, solar, gain = 2000.0, 0.4, 0.1, 3.0, 0.5
+    plenum = np.empty(steps)
+    plenum[0] = 26.0
+    for k in range(steps - 1):
+        heat = ua_zone * (zone[k, 0] - plenum[k]) + ua_out * (outdoor[k] - plenum[k])
+        heat += solar * ghi[k] + gain * occupied[k]
+        plenum[k + 1] = plenum[k] + 1800.0 / c_kj * heat
+    u = np.column_stack([outdoor, ghi, occupied, np.ones(steps), np.zeros(steps), plenum])
+    data = FitData(index, ("room",), zone, u, boundaries=("Plenum",))
+    parameters = GreyBoxParameters(
+        np.zeros((1, 9)),
+        np.zeros((0, 2), dtype=np.int64),
+        np.zeros(0),
+        boundaries=1,
+        boundary_couplings=np.array([[0, 0]], dtype=np.int64),
+        boundary_ua_kw_per_k=np.array([ua_zone]),
+    )
+    (node,) = fit_boundary_nodes(parameters, data, (0, steps), (300, steps))
+    assert node.c_kj_per_k == pytest.approx(c_kj, rel=1e-6)
+    assert node.ua_out_kw_per_k == pytest.approx(ua_out, rel=1e-6)
+    assert node.solar_m2 == pytest.approx(solar, rel=1e-6)
+    assert node.occupied_gain_kw == pytest.approx(gain, rel=1e-6)
+    assert node.temp_degc == pytest.approx(plenum[300:].mean())

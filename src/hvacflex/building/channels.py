@@ -7,7 +7,8 @@ This module is the contract between the two.
 Order (fixed): ``[outdoor temperature, solar per surface orientation (in the order the
 building lists them), internal gains per zone (zone order), ground temperature (only if a
 construction touches ground), sky long-wave (only if an exterior surface sets a
-thermal emissivity), solar gain per angle-dependent window (window order)]``. The last two
+thermal emissivity), solar gain per angle-dependent window (window order), constant (only in
+a building identified from data: its fitted constant gains)]``. The last two
 were added for the BESTEST validation; buildings without them (office5, room1) keep exactly
 the original vector.
 
@@ -28,6 +29,8 @@ Units per kind:
   incidence angle (``Window.shgc_normal`` set), ``Window.solar_gain_w_per_m2`` of the beam
   and diffuse irradiance on its plane [W/m²]. Such a window uses this channel instead of
   the plane's ``solar`` channel.
+* ``constant``      — 1 at every period [-]: carries the fitted constant heat gains of an
+  identified building (:mod:`hvacflex.building.identified`); never uncertain.
 """
 
 from __future__ import annotations
@@ -36,7 +39,13 @@ from dataclasses import dataclass
 from typing import Literal
 
 ChannelKind = Literal[
-    "outdoor_temp", "solar", "internal_gain", "ground_temp", "sky_longwave", "window_solar_gain"
+    "outdoor_temp",
+    "solar",
+    "internal_gain",
+    "ground_temp",
+    "sky_longwave",
+    "window_solar_gain",
+    "constant",
 ]
 
 CHANNEL_UNITS: dict[str, str] = {
@@ -46,6 +55,7 @@ CHANNEL_UNITS: dict[str, str] = {
     "ground_temp": "degC",
     "sky_longwave": "W/m2",
     "window_solar_gain": "W/m2",
+    "constant": "1",
 }
 
 
@@ -98,3 +108,7 @@ def window_solar_gain_channel(window: str) -> DisturbanceChannel:
     return DisturbanceChannel(
         f"window_solar_gain_{window}_w_per_m2", "window_solar_gain", zone=window
     )
+
+
+def constant_channel() -> DisturbanceChannel:
+    return DisturbanceChannel("constant", "constant")

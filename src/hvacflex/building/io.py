@@ -15,6 +15,16 @@ from typing import Any, get_args, get_origin
 from pydantic import BaseModel, ValidationError
 from pydantic_core import ErrorDetails
 
+from hvacflex.building.identified import (
+    GAIN_CHANNEL_PEAK_W,
+    NOMINAL_FLOOR_AREA_M2,
+    NOMINAL_HEIGHT_M,
+    IdentifiedBoundary,
+    IdentifiedCoupling,
+    IdentifiedPower,
+    IdentifiedRC,
+    IdentifiedZone,
+)
 from hvacflex.building.model import (
     OUTSIDE,
     Building,
@@ -31,6 +41,7 @@ from hvacflex.building.schema import (
     BuildingSpec,
     ConstructionSpec,
     HvacSpec,
+    IdentifiedSpec,
     SurfaceSpec,
     WallSpec,
     WindowSpec,
@@ -203,6 +214,9 @@ def _unwrap(kind: Any) -> Any:
 
 def to_building(spec: BuildingSpec, *, source_path: Path | None = None) -> Building:
     """The domain :class:`Building` of a validated file."""
+    if spec.identified is not None:
+        return _identified_building(spec, spec.identified, source_path)
+    assert spec.gains is not None and spec.hvac is not None  # checked by the schema
     constructions = {name: _construction(name, c) for name, c in spec.constructions.items()}
     return Building(
         name=spec.name,
@@ -293,4 +307,80 @@ def _hvac(spec: HvacSpec, zone_names: tuple[str, ...]) -> HvacSystem:
         heating_efficiency=spec.heating_efficiency,
         supply_humidity_ratio_kg_per_kg=spec.supply_humidity_ratio_kg_per_kg,
         ventilation_flow_kg_s=per_zone(spec.ventilation_flow_kg_s or spec.flow_min_kg_s),
+    )
+
+
+def _identified_building(
+    spec: BuildingSpec, identified: IdentifiedSpec, source_path: Path | None
+) -> Building:
+    """An identified building (:mod:`hvacflex.building.identified`): zones of nominal size,
+    gains that make each zone's ``internal_gain`` channel the people schedule × 1 kW, and an
+    air system with the fitted supply temperature and flow ranges (its COP and fan terms are
+    not used: the power model is the fitted one)."""
+    names = spec.zone_names
+    zones = tuple(
+        IdentifiedZone(name=name, **identified.zones[name].model_dump()) for name in names
+    )
+    rc = IdentifiedRC(
+        zones=zones,
+        couplings=tuple(
+            IdentifiedCoupling(c.zones[0], c.zones[1], c.ua_kw_per_k) for c in identified.couplings
+        ),
+        boundaries=tuple(
+            IdentifiedBoundary(
+                name=b.name,
+                c_kj_per_k=b.c_kj_per_k,
+                ua_out_kw_per_k=b.ua_out_kw_per_k,
+                solar_m2=b.solar_m2,
+                occupied_gain_kw=b.occupied_gain_kw,
+                ua_zone_kw_per_k=tuple(b.ua_zone_kw_per_k.items()),
+                temp_degc=b.temp_degc,
+            )
+            for b in identified.boundaries
+        ),
+        supply_temp_degc=identified.supply_temp_degc,
+        power=(
+            None
+            if identified.power_model is None
+            else IdentifiedPower(**identified.power_model.model_dump())
+        ),
+        provenance=tuple(identified.provenance.items()),
+    )
+    return Building(
+        name=spec.name,
+        zones=tuple(
+            Zone(
+                name=z.name,
+                floor_area_m2=NOMINAL_FLOOR_AREA_M2,
+                height_m=NOMINAL_HEIGHT_M,
+                energyplus_zone=z.energyplus_zone,
+            )
+            for z in spec.zones
+        ),
+        walls=(),
+        windows=(),
+        constructions={},
+        gains=InternalGains(
+            occupancy_m2_per_person=NOMINAL_FLOOR_AREA_M2,
+            sensible_w_per_person=GAIN_CHANNEL_PEAK_W,
+            latent_w_per_person=0.0,
+            lighting_w_per_m2=0.0,
+            equipment_w_per_m2=0.0,
+        ),
+        hvac=HvacSystem(
+            supply_temp_degc=identified.supply_temp_degc,
+            flow_min_kg_s=tuple(z.flow_min_kg_s for z in zones),
+            flow_max_kg_s=tuple(z.flow_max_kg_s for z in zones),
+            ventilation_flow_kg_s=tuple(z.ventilation_flow_kg_s for z in zones),
+            outdoor_air_fraction=0.0,
+            cop=1.0,
+            fan_coeff_kw=0.0,
+            fan_exponent=1.0,
+            reserve_zones=names,
+        ),
+        description=spec.description,
+        latitude_deg=spec.latitude_deg,
+        longitude_deg=spec.longitude_deg,
+        source_path=source_path,
+        identified=rc,
     )

@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 import numpy.typing as npt
 
+from hvacflex.building.identified import IdentifiedRC
 from hvacflex.units import CP_AIR_J_PER_KG_K, RHO_AIR_KG_PER_M3
 
 OUTSIDE = "outside"
@@ -464,6 +465,8 @@ class Building:
     hvac : the air-handling system.
     latitude_deg, longitude_deg : site, if the file gives it (the weather file has it too).
     source_path : the file it came from (``None`` if built in code).
+    identified : the fitted grey-box network of a building identified from trend data
+        (:mod:`hvacflex.building.identified`; it then has no walls or windows), else None.
     """
 
     name: str
@@ -477,6 +480,7 @@ class Building:
     latitude_deg: float | None = None
     longitude_deg: float | None = None
     source_path: Path | None = field(default=None, compare=False)
+    identified: IdentifiedRC | None = None
 
     @property
     def zone_names(self) -> tuple[str, ...]:

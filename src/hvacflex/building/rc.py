@@ -53,6 +53,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from hvacflex.building.channels import (
     DisturbanceChannel,
+    constant_channel,
     ground_temp_channel,
     internal_gain_channel,
     outdoor_temp_channel,
@@ -60,6 +61,7 @@ from hvacflex.building.channels import (
     solar_channel,
     window_solar_gain_channel,
 )
+from hvacflex.building.identified import GAIN_CHANNEL_PEAK_W, IdentifiedRC
 from hvacflex.building.model import ADIABATIC, GROUND, OUTSIDE, Building, Wall, Window, Zone
 
 FloatArray = NDArray[np.float64]
@@ -174,7 +176,15 @@ def solar_channels_of(b: Building) -> tuple[DisturbanceChannel, ...]:
 
 def disturbance_channels(b: Building) -> tuple[DisturbanceChannel, ...]:
     """The building's disturbance vector: [T_out, solar per orientation, gains per zone,
-    ground temperature if a wall touches the ground] (see ``channels.py``)."""
+    ground temperature if a wall touches the ground] (see ``channels.py``); an identified
+    building's: [T_out, horizontal solar, gains per zone, constant]."""
+    if b.identified is not None:
+        return (
+            outdoor_temp_channel(),
+            solar_channel(0.0, 0.0),
+            *(internal_gain_channel(name) for name in b.zone_names),
+            constant_channel(),
+        )
     channels = [outdoor_temp_channel(), *solar_channels_of(b)]
     channels += [internal_gain_channel(name) for name in b.zone_names]
     if any(w.adjacent == GROUND for w in b.walls):
@@ -463,6 +473,8 @@ def build_network(b: Building) -> ThermalNetwork:
     -------
     The :class:`ThermalNetwork` (matrices in SI units, see its attributes).
     """
+    if b.identified is not None:
+        return _identified_network(b.identified, b.zone_names)
     net = _allocate_nodes(b)
     _add_walls(net, b)
     _add_windows(net, b)
@@ -499,3 +511,61 @@ def envelope_ua_w_per_k(b: Building) -> dict[str, float]:
         "infiltration": infiltration,
         "total": walls + ground + windows + infiltration,
     }
+
+
+def _identified_network(rc: IdentifiedRC, zone_names: tuple[str, ...]) -> ThermalNetwork:
+    """The network of an identified building (:mod:`hvacflex.building.identified`): nodes
+    ``[air (m), <zone>_mass (m), boundary nodes (nb)]``; channels as
+    :func:`disturbance_channels` gives them (outdoor, horizontal solar, gains, constant)."""
+    m, nb = len(rc.zones), len(rc.boundaries)
+    n = 2 * m + nb
+    channels = (
+        outdoor_temp_channel(),
+        solar_channel(0.0, 0.0),
+        *(internal_gain_channel(name) for name in zone_names),
+        constant_channel(),
+    )
+    kw = 1000.0  # kW (kJ/K) → W (J/K)
+    cap = np.zeros(n)
+    k = np.zeros((n, n))
+    f = np.zeros((n, len(channels)))
+    outdoor = np.zeros(n)
+
+    def couple(i: int, j: int, ua_kw_per_k: float) -> None:
+        k[i, j] += ua_kw_per_k * kw
+        k[j, i] += ua_kw_per_k * kw
+
+    gain_per_w = kw / GAIN_CHANNEL_PEAK_W  # W into the node per W of the channel, per kW
+    for i, zone in enumerate(rc.zones):
+        cap[i], cap[m + i] = zone.c_air_kj_per_k * kw, zone.c_mass_kj_per_k * kw
+        couple(i, m + i, zone.ua_air_mass_kw_per_k)
+        outdoor[i], outdoor[m + i] = zone.ua_out_kw_per_k * kw, zone.ua_mass_out_kw_per_k * kw
+        f[i, 1], f[m + i, 1] = zone.solar_air_m2, zone.solar_mass_m2
+        f[i, 2 + i] = zone.occupied_gain_kw * gain_per_w
+        f[i, -1] = zone.base_gain_kw * kw
+    index = {name: i for i, name in enumerate(zone_names)}
+    for coupling in rc.couplings:
+        couple(index[coupling.zone_a], index[coupling.zone_b], coupling.ua_kw_per_k)
+    for j, node in enumerate(rc.boundaries):
+        b = 2 * m + j
+        cap[b], outdoor[b], f[b, 1] = node.c_kj_per_k * kw, node.ua_out_kw_per_k * kw, node.solar_m2
+        for zone_name, ua in node.ua_zone_kw_per_k:
+            couple(index[zone_name], b, ua)
+        # the boundary's gain follows the schedule of the zones' gains (any one: the same)
+        f[b, 2] = node.occupied_gain_kw * gain_per_w
+    f[:, 0] = outdoor
+    k -= np.diag(k.sum(axis=1) + outdoor)
+    names = (*zone_names, *(f"{z}_mass" for z in zone_names), *(b.name for b in rc.boundaries))
+    return ThermalNetwork(
+        node_names=tuple(names),
+        zone_node_index=np.arange(m, dtype=np.intp),
+        channels=channels,
+        capacitance_j_per_k=frozen_array(cap),
+        conductance_w_per_k=frozen_array(k),
+        input_w=frozen_array(f),
+        outdoor_conductance_w_per_k=frozen_array(outdoor),
+        ground_conductance_w_per_k=frozen_array(np.zeros(n)),
+        solar_direct_loss_m2=frozen_array(np.zeros(len(channels))),
+        a_cont=frozen_array(k / cap[:, None]),
+        e_cont=frozen_array(f / cap[:, None]),
+    )

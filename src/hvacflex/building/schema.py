@@ -32,6 +32,21 @@ File layout (see ``buildings/office5.toml`` for a commented example)::
                          fan_coeff_kw, fan_exponent, reserve_zones?, heating_efficiency?,
                          supply_humidity_ratio_kg_per_kg?
 
+A building identified from trend data (``hvacflex identify fit``) has ``[[zones]]`` with
+``name`` and ``energyplus_zone`` only (no geometry), no walls, windows, ``[gains]`` or
+``[hvac]``, and instead::
+
+    [identified]         supply_temp_degc, provenance? = {data, train, test}
+    [identified.zones.Z] c_air_kj_per_k, c_mass_kj_per_k, ua_out_kw_per_k,
+                         ua_air_mass_kw_per_k, ua_mass_out_kw_per_k, solar_air_m2,
+                         solar_mass_m2, occupied_gain_kw, base_gain_kw, flow_min_kg_s,
+                         flow_max_kg_s, ventilation_flow_kg_s, mass_temp_degc
+                         (one table per zone Z)
+    [[identified.couplings]]  zones = [Z1, Z2], ua_kw_per_k
+    [[identified.boundaries]] name, c_kj_per_k, ua_out_kw_per_k, solar_m2,
+                              occupied_gain_kw, ua_zone_kw_per_k = {Z = …}, temp_degc
+    [identified.power_model]  base_kw, kw_per_kw_cooling, kw_per_k_outdoor
+
 The optional keys added for the BESTEST validation (infiltration, radiative split of gains,
 interior solar distribution, sky long-wave exchange) all default to the original model.
 """
@@ -111,9 +126,11 @@ class Spec(BaseModel):
 
 
 class ZoneSpec(Spec):
+    """``floor_area_m2`` and ``height_m`` are required unless the building is identified."""
+
     name: Annotated[Text, Field(pattern=ZONE_NAME_PATTERN), AfterValidator(_not_a_boundary)]
-    floor_area_m2: Positive
-    height_m: Positive
+    floor_area_m2: Positive | None = None
+    height_m: Positive | None = None
     capacitance_multiplier: Annotated[Number, Field(ge=1.0)] = 1.0
     infiltration_ach: NonNegative = 0.0
     internal_gain_radiative_fraction: Fraction = 0.0
@@ -238,6 +255,63 @@ class HvacSpec(Spec):
     supply_humidity_ratio_kg_per_kg: Annotated[Number, Field(gt=0.0, le=0.05)] | None = None
 
 
+class IdentifiedZoneSpec(Spec):
+    c_air_kj_per_k: Positive
+    c_mass_kj_per_k: Positive
+    ua_out_kw_per_k: NonNegative
+    ua_air_mass_kw_per_k: Positive
+    ua_mass_out_kw_per_k: NonNegative
+    solar_air_m2: NonNegative
+    solar_mass_m2: NonNegative
+    occupied_gain_kw: NonNegative
+    base_gain_kw: Number
+    flow_min_kg_s: NonNegative
+    flow_max_kg_s: Positive
+    ventilation_flow_kg_s: NonNegative
+    mass_temp_degc: Annotated[Number, Field(ge=-50.0, le=70.0)]
+
+    @model_validator(mode="after")
+    def _flows_ordered(self) -> Self:
+        if not self.flow_min_kg_s <= self.ventilation_flow_kg_s <= self.flow_max_kg_s:
+            raise rule_error(
+                "flows must satisfy flow_min_kg_s ≤ ventilation_flow_kg_s ≤ flow_max_kg_s",
+                "ventilation_flow_kg_s",
+                self.ventilation_flow_kg_s,
+                hint=f"the range is {self.flow_min_kg_s:g} … {self.flow_max_kg_s:g} kg/s",
+            )
+        return self
+
+
+class IdentifiedCouplingSpec(Spec):
+    zones: Annotated[list[Text], Field(min_length=2, max_length=2)]
+    ua_kw_per_k: NonNegative
+
+
+class IdentifiedBoundarySpec(Spec):
+    name: Text
+    c_kj_per_k: Positive
+    ua_out_kw_per_k: NonNegative
+    solar_m2: NonNegative
+    occupied_gain_kw: NonNegative
+    ua_zone_kw_per_k: dict[str, NonNegative]
+    temp_degc: Annotated[Number, Field(ge=-50.0, le=70.0)]
+
+
+class IdentifiedPowerSpec(Spec):
+    base_kw: Number
+    kw_per_kw_cooling: Number
+    kw_per_k_outdoor: Number
+
+
+class IdentifiedSpec(Spec):
+    supply_temp_degc: Annotated[Number, Field(lt=MAX_SUPPLY_TEMP_DEGC)]
+    provenance: dict[str, Annotated[str, Strict()]] = {}
+    zones: dict[str, IdentifiedZoneSpec]
+    couplings: list[IdentifiedCouplingSpec] = []
+    boundaries: list[IdentifiedBoundarySpec] = []
+    power_model: IdentifiedPowerSpec | None = None
+
+
 class BuildingSpec(Spec):
     """The whole file."""
 
@@ -249,8 +323,9 @@ class BuildingSpec(Spec):
     constructions: dict[str, ConstructionSpec] = {}
     walls: list[WallSpec] = []
     windows: list[WindowSpec] = []
-    gains: GainsSpec
-    hvac: HvacSpec
+    gains: GainsSpec | None = None
+    hvac: HvacSpec | None = None
+    identified: IdentifiedSpec | None = None
 
     @model_validator(mode="before")
     @classmethod
@@ -280,6 +355,10 @@ class BuildingSpec(Spec):
 
     @model_validator(mode="after")
     def _cross_checks(self) -> Self:
+        if self.identified is not None:
+            _check_identified(self, self.identified)
+            return self
+        _check_designed(self)
         _check_walls(self)
         _check_windows(self)
         _check_unique_names(self)
@@ -423,6 +502,7 @@ def _check_per_zone_keys(spec: BuildingSpec, key: str, table: dict[str, float]) 
 
 def _check_hvac(spec: BuildingSpec) -> None:
     hvac = spec.hvac
+    assert hvac is not None  # _check_designed ran first
     _check_per_zone_keys(spec, "flow_min_kg_s", hvac.flow_min_kg_s)
     _check_per_zone_keys(spec, "flow_max_kg_s", hvac.flow_max_kg_s)
     for name in spec.zone_names:
@@ -448,3 +528,44 @@ def _check_hvac(spec: BuildingSpec) -> None:
                 )
     for zone in hvac.reserve_zones or []:
         _check_zone_ref(spec, zone, "hvac.reserve_zones")
+
+
+def _check_designed(spec: BuildingSpec) -> None:
+    """A designed building needs its geometry, ``[gains]`` and ``[hvac]``."""
+    for i, zone in enumerate(spec.zones):
+        for key in ("floor_area_m2", "height_m"):
+            if getattr(zone, key) is None:
+                raise rule_error("missing required field", f"zones[{i}].{key}", hint="add it")
+    for key in ("gains", "hvac"):
+        if getattr(spec, key) is None:
+            raise rule_error(
+                "missing required field",
+                key,
+                hint=f"add [{key}] (or an [identified] table: hvacflex identify fit)",
+            )
+
+
+def _check_identified(spec: BuildingSpec, identified: IdentifiedSpec) -> None:
+    """An identified building: no envelope, gains or HVAC tables; one parameter table per
+    zone; couplings and boundaries naming its zones."""
+    for key in ("walls", "windows", "constructions", "gains", "hvac"):
+        if getattr(spec, key):
+            raise rule_error(
+                "an identified building has no envelope, gains or HVAC tables",
+                key,
+                hint="remove it: the [identified] table holds the fitted model",
+            )
+    names = spec.zone_names
+    if sorted(identified.zones) != sorted(names):
+        raise rule_error(
+            "the identified zones differ from [[zones]]",
+            "identified.zones",
+            sorted(identified.zones),
+            hint=f"give one [identified.zones.<name>] table per zone of {list(names)}",
+        )
+    for i, coupling in enumerate(identified.couplings):
+        for zone in coupling.zones:
+            _check_zone_ref(spec, zone, f"identified.couplings[{i}].zones")
+    for i, boundary in enumerate(identified.boundaries):
+        for zone in boundary.ua_zone_kw_per_k:
+            _check_zone_ref(spec, zone, f"identified.boundaries[{i}].ua_zone_kw_per_k")

@@ -110,6 +110,8 @@ def design_disturbance(b: Building) -> np.ndarray:
             d[j] = zone.floor_area_m2 * b.gains.peak_sensible_w_per_m2
         elif channel.kind == "ground_temp":
             d[j] = DESIGN_ZONE_TEMP_DEGC
+        elif channel.kind == "constant":
+            d[j] = 1.0
     return d
 
 

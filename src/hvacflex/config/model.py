@@ -22,7 +22,7 @@ from hvacflex.opt.options import (
     RobustMode,
 )
 
-ControllerKind = Literal["mpc", "thermostat", "trim-respond", "demand-limit", "gta-dr"]
+ControllerKind = Literal["mpc", "thermostat", "trim-respond", "demand-limit", "gta-dr", "plant"]
 BillingMode = Literal["horizon", "billing-period"]
 RealisationMode = Literal["zero", "uniform", "worst-upper", "worst-lower", "ar1"]
 ActivationMode = Literal["never", "always", "random", "stress", "file"]

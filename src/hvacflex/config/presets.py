@@ -102,6 +102,10 @@ PRESETS: dict[str, dict[str, Any]] = {
         "controller": {"kind": "gta-dr", **_RULE, "reserve": True},
         "reserve": PRODUCT_RESERVE,
     },
+    "plant-baseline": {
+        "controller": {"kind": "plant", "robust": "none", "reserve": False, **_BILLED},
+        "plant": {"kind": "energyplus", "actuation": "setpoint"},
+    },
     "rmpc-feedback": {"controller": {"robust": "feedback"}},
     "rmpc-feedback-ppp": {"controller": {"robust": "feedback", **_PPP}},
     "rmpc-output-feedback": {

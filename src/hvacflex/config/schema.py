@@ -201,7 +201,7 @@ class ControllerSpec(Spec):
 
     @model_validator(mode="after")
     def _thermostat_offers_no_reserve(self) -> Self:
-        if self.kind in ("thermostat", "trim-respond", "demand-limit") and self.reserve:
+        if self.kind in ("thermostat", "trim-respond", "demand-limit", "plant") and self.reserve:
             raise rule_error(
                 f"the {self.kind} baseline cannot offer reserve",
                 "reserve",
@@ -502,6 +502,21 @@ class ScenarioSpec(Spec):
                 calibrate.train,
                 hint=f"the run is {start:%Y-%m-%d %H:%M} … {end:%Y-%m-%d %H:%M}; train on "
                 "other days, so the box's coverage on the run is out of sample",
+            )
+        return self
+
+    @model_validator(mode="after")
+    def _plant_control_needs_a_setpoint_plant(self) -> Self:
+        plant = self.plant
+        if self.controller.kind == "plant" and (
+            plant.kind != "energyplus" or plant.actuation == "flow"
+        ):
+            raise rule_error(
+                "the plant's own control (controller kind 'plant') needs a setpoint-actuated "
+                "EnergyPlus plant",
+                "plant.kind",
+                plant.kind,
+                hint="set [plant] kind = 'energyplus' with actuation = 'setpoint'",
             )
         return self
 

@@ -71,6 +71,8 @@ class Action:
     supply_temp_degc : supply-air temperature set-point for the period [°C], handed to a
         flow-actuated plant that accepts one (``Actuation.supply_temp_degc``); ``None``: the
         plant's own (design) value.
+    released : True when the controller leaves the period to the plant's own control (the
+        ``plant-baseline``: a setpoint-actuated plant is told nothing, all-NaN setpoints).
     """
 
     flow_kg_s: FloatArray
@@ -87,6 +89,7 @@ class Action:
     event_plan: EventPlan | None = None
     predicted_event_worst_degc: FloatArray | None = None
     supply_temp_degc: float | None = None
+    released: bool = False
 
 
 class Controller(Protocol):

@@ -27,6 +27,7 @@ that still reaches the band at occupancy.
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -268,3 +269,44 @@ class ThermostatController(Controller):
         if self.optimal_start is not None and state.get("optimal_start") is not None:
             self.optimal_start.set_state(state["optimal_start"])
         self._precool = bool(state.get("precool", False))
+
+
+class PlantBaselineController(Controller):
+    """The plant's own control, no action from hvacflex (the ``plant-baseline`` preset): every
+    period is released to the plant (:attr:`Action.released`), which on EnergyPlus runs the
+    IDF's own schedules and thermostats. The recorded flow is zero (the plant reports what it
+    supplied) and the predictions are the linear model's free response, so the results have
+    the schema of every other run.
+    """
+
+    def __init__(self, model: LinearModel) -> None:
+        self._model = model
+
+    def act(
+        self,
+        x_degc: FloatArray,
+        forecast: Forecast,
+        *,
+        peak_floor_kw: float,
+        allowance_carry_steps: int = 0,
+        measured_zone_temp_degc: FloatArray | None = None,
+        plan: Any = None,
+    ) -> Action:
+        flow = np.zeros(self._model.b.shape[1])
+        action = unplanned_action(
+            self._model,
+            x_degc,
+            flow,
+            forecast.disturbances[0],
+            status="rule",
+            fallback=False,
+            solve_time_s=0.0,
+            plan_margin_k=0.0,
+        )
+        return replace(action, released=True)
+
+    def get_state(self) -> dict[str, Any]:
+        return {}
+
+    def set_state(self, state: dict[str, Any]) -> None:
+        return None

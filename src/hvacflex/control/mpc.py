@@ -5,7 +5,9 @@ This is the only place that turns a building and its forecast into an
 
 * dynamics ``x+ = A x + B u + E d + g`` from :func:`hvacflex.building.discretize.linearize`,
 * power ``P_k = p0_k + p_kᵀ u_k`` from :func:`hvacflex.building.hvac.affine_power_model` at the
-  forecast outdoor temperature and humidity and the zone temperature T₀,
+  forecast outdoor temperature and humidity and the zone temperature T₀ (a building
+  identified from data: its fitted power model,
+  :func:`hvacflex.building.identified.identified_affine_power`),
 * comfort bounds for ``C x_{k+1}``, the temperature at the end of period k: the tighter of
   the bands of periods k and k + 1, so that the instant occupancy starts (and ends) is
   inside the occupied band,
@@ -30,6 +32,7 @@ import numpy as np
 
 from hvacflex.building.discretize import LinearModel
 from hvacflex.building.hvac import affine_power_model, reserve_power_coeff
+from hvacflex.building.identified import identified_affine_power
 from hvacflex.building.model import Building
 from hvacflex.building.rc import build_network
 from hvacflex.config import ControllerConfig, Linearisation, ReserveConfig
@@ -253,20 +256,7 @@ class MPCController(Controller):
         y_min, y_max = comfort_bounds_at_period_ends(forecast, horizon)
         if extra_margin_k is not None:
             y_min, y_max = tightened_bounds(y_min, y_max, extra_margin_k)
-        p0, p = affine_power_model(
-            self._building.hvac,
-            d_hat[:, self._outdoor_index],
-            forecast.outdoor_humidity_ratio_kg_per_kg[:horizon],
-            self._temp_ref_degc,
-            flow_min_kg_s=u_min,
-        )
-        reserve_coeff = reserve_power_coeff(
-            self._building.hvac,
-            d_hat[:, self._outdoor_index],
-            forecast.outdoor_humidity_ratio_kg_per_kg[:horizon],
-            self._return_air_estimate_degc(x_degc, y_min),
-            self._curtailed_flow_estimate_kg_s(u_min),
-        )
+        p0, p, reserve_coeff = self._power_coefficients(x_degc, forecast, d_hat, u_min, y_min)
         reserve_price = forecast.reserve_price_sgd_per_mwh[:horizon]
         if not cfg.reserve:
             reserve_price = np.zeros_like(reserve_price)
@@ -312,6 +302,39 @@ class MPCController(Controller):
             il_event_recovery_steps=self._reserve.event_recovery_steps if events else 0,
             il_allowance_carry_steps=min(allowance_carry_steps, horizon) if events else 0,
         )
+
+    def _power_coefficients(
+        self,
+        x_degc: FloatArray,
+        forecast: Forecast,
+        d_hat: FloatArray,
+        u_min: FloatArray,
+        y_min: FloatArray,
+    ) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """The LP's power rows ``P_k = p0_k + p_kᵀ u_k`` ((N,), (N, m)) and the reserve's
+        power per kg/s (N, m), from the building's power model at the forecast."""
+        horizon = d_hat.shape[0]
+        identified = self._building.identified
+        if identified is not None:  # the power model fitted to the building's meter
+            p0, p = identified_affine_power(
+                identified, d_hat[:, self._outdoor_index], self._temp_ref_degc
+            )
+            return p0, p, p
+        p0, p = affine_power_model(
+            self._building.hvac,
+            d_hat[:, self._outdoor_index],
+            forecast.outdoor_humidity_ratio_kg_per_kg[:horizon],
+            self._temp_ref_degc,
+            flow_min_kg_s=u_min,
+        )
+        reserve_coeff = reserve_power_coeff(
+            self._building.hvac,
+            d_hat[:, self._outdoor_index],
+            forecast.outdoor_humidity_ratio_kg_per_kg[:horizon],
+            self._return_air_estimate_degc(x_degc, y_min),
+            self._curtailed_flow_estimate_kg_s(u_min),
+        )
+        return p0, p, reserve_coeff
 
     def _return_air_estimate_degc(self, x_degc: FloatArray, y_min: FloatArray) -> FloatArray:
         """(N, m) zone (return-air) temperatures at which the coil term of the reserve's

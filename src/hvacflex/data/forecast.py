@@ -727,6 +727,8 @@ def _disturbance_matrix(
         elif ch.kind == "internal_gain":
             d[:, i] = per_m2 * gain_areas_m2[gain_i]
             gain_i += 1
+        elif ch.kind == "constant":
+            d[:, i] = 1.0
         else:
             raise ConfigError("unknown channel kind", field=ch.name, value=ch.kind)
     return d

@@ -10,7 +10,8 @@ fitted zone's air node exchanging heat with each of them through a fitted conduc
 The fit minimises, with ``scipy.optimize.least_squares`` (trust-region reflective, bounds of
 :data:`BOUNDS`), the 24-h prediction errors — each training day simulated from its midnight
 state, estimated by the Kalman filter from the measurements before it — plus the one-step
-errors, plus weak priors (:data:`PRIOR_WEIGHT`) pulling each parameter toward
+errors, plus a penalty on estimated mass temperatures outside the measured range
+(:data:`MASS_BAND_K`), plus weak priors (:data:`PRIOR_WEIGHT`) pulling each parameter toward
 :data:`INITIAL` (log scale for the positive ones). The first day only warms the filter up.
 
 The evaluation (:func:`evaluate`) runs the filter over the whole file and reports, on the
@@ -30,6 +31,7 @@ import scipy.optimize
 
 from hvacflex.errors import InputError
 from hvacflex.identify.greybox import (
+    EXOGENOUS_INPUTS,
     ZONE_PARAMETERS,
     DiscreteModel,
     FloatArray,
@@ -39,7 +41,7 @@ from hvacflex.identify.greybox import (
     simulate_windows,
     time_constants_s,
 )
-from hvacflex.identify.model_file import PowerModel
+from hvacflex.identify.model_file import AirSystem, BoundaryNode, PowerModel
 from hvacflex.identify.trend import (
     GHI,
     HVAC_POWER,
@@ -59,6 +61,11 @@ MIN_TRAIN_DAYS = 3
 """Fewer training days than this are refused (besides the warm-up day)."""
 ONE_STEP_WEIGHT = 1.0
 """Weight of the one-step errors next to the 24-h errors in the fit."""
+MASS_BAND_K = 2.0
+"""The estimated mass temperatures should stay within the measured zone temperatures' range
+widened by this [K] (a physical prior: a slab is not colder or warmer than every room)."""
+MASS_BAND_WEIGHT = 1.0
+"""Weight of a mass temperature outside that band, per K, next to a 1-K prediction error."""
 PRIOR_WEIGHT = 0.02
 """Weight of the priors: a residual of this size per unit of log (or linear) deviation."""
 MAX_EVALUATIONS = 60
@@ -101,6 +108,20 @@ LINEAR_PRIOR_SCALE = {
     "base_gain_kw": 2.0,
 }
 """Linear parameters: the deviation from the prior that counts as one unit [their unit]."""
+VENTILATION_QUANTILE = 0.05
+"""The least occupied flow of a zone is this quantile of its training flows while occupied."""
+FLOWING_KG_S = 1e-3
+"""A period-mean supply flow above this counts as air supplied [kg/s]."""
+MAX_COIL_SUPPLY_TEMP_DEGC = 18.0
+"""A flow-weighted mean supply temperature of cooling air at or above this is no coil's
+(a cycling constant-volume unit) [°C]."""
+COIL_SUPPLY_QUANTILE = 0.05
+"""Then the coil's supply temperature is this quantile of the cooling periods' [–]."""
+COOLING_DIFFERENCE_K = 1.0
+"""Supply air this much colder than the zone counts as cooling air [K] (a constant-volume
+fan also moves air while its coil is off)."""
+BOUNDARY_MIN_RATE = 1e-6
+"""Lower bound of a boundary node's ``Δt / C`` in its fit [K per kJ]: a finite capacitance."""
 
 
 @dataclass(frozen=True)
@@ -243,15 +264,16 @@ def _day_starts(index: pd.DatetimeIndex, first: int, last: int) -> np.ndarray:
 
 
 def predictions(
-    model: DiscreteModel, data: FitData, starts: np.ndarray
+    model: DiscreteModel, data: FitData, starts: np.ndarray, states: FloatArray | None = None
 ) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """One-step and 24-h predictions on the days starting at ``starts``.
+    """One-step and 24-h predictions on the days starting at ``starts`` (``states``: the
+    filter's estimates (T, n), if already computed).
 
     Returns
     -------
     one_step : (D, 48, m), simulated : (D, 48, m), measured : (D, 48, m) [°C].
     """
-    states = filter_states(model, data.y, data.u)
+    states = filter_states(model, data.y, data.u) if states is None else states
     one_step_all = np.einsum("ij,tj->ti", model.c_mean, states) + data.u @ model.d_mean.T
     rows = starts[:, None] + np.arange(PERIODS_PER_DAY)[None, :]
     simulated = simulate_windows(model, states[starts], data.u[rows], PERIODS_PER_DAY)
@@ -267,15 +289,22 @@ def _residuals(
     prior: FloatArray,
     scale: FloatArray,
 ) -> FloatArray:
+    m = data.y.shape[1]
     try:
         model = discretize(_from_vector(theta, couplings, edges, len(data.boundaries)))
-        one_step, simulated, measured = predictions(model, data, starts)
+        states = filter_states(model, data.y, data.u)
+        one_step, simulated, measured = predictions(model, data, starts, states)
     except (np.linalg.LinAlgError, ValueError):
-        return np.full(2 * starts.size * PERIODS_PER_DAY * data.y.shape[1] + theta.size, 1e3)
+        return np.full(3 * starts.size * PERIODS_PER_DAY * m + theta.size, 1e3)
+    rows = (starts[:, None] + np.arange(PERIODS_PER_DAY)[None, :]).ravel()
+    mass = states[rows, m : 2 * m]
+    low, high = data.y.min() - MASS_BAND_K, data.y.max() + MASS_BAND_K
+    outside = np.maximum(mass - high, 0.0) + np.maximum(low - mass, 0.0)
     return np.concatenate(
         [
             (simulated - measured).ravel(),
             ONE_STEP_WEIGHT * (one_step - measured).ravel(),
+            MASS_BAND_WEIGHT * outside.ravel(),
             PRIOR_WEIGHT * (theta - prior) / scale,
         ]
     )
@@ -509,3 +538,123 @@ def prediction_frame(result: FitResult, data: FitData, test: tuple[int, int]) ->
         columns[f"predicted_1step_{zone}_degc"] = one_step[:, :, i].ravel()
         columns[f"predicted_24h_{zone}_degc"] = simulated[:, :, i].ravel()
     return pd.DataFrame(columns, index=data.index[rows])
+
+
+def air_system(
+    inputs: FitData, data: TrendData, train: tuple[int, int], mass_temp_degc: FloatArray
+) -> AirSystem:
+    """The supply air the training data show: the flow-weighted mean supply temperature of
+    every fitted zone while its air cools (supply at least :data:`COOLING_DIFFERENCE_K` below
+    the zone; one value, the model's ``T_s``), each zone's flow range and its
+    :data:`VENTILATION_QUANTILE` occupied flow; ``mass_temp_degc`` (m,) is passed through.
+
+    A constant-volume unit whose coil cycles within the period has a period-mean supply
+    temperature that is no coil's (fan-only minutes mixed in) and a flow that does not follow
+    its cooling: when that mean is not below :data:`MAX_COIL_SUPPLY_TEMP_DEGC`, ``T_s`` is the
+    :data:`COIL_SUPPLY_QUANTILE` quantile of the cooling periods' supply temperatures and the
+    flows are the equivalent flows ``Q / (c_p (T − T_s))`` that deliver the measured cooling.
+
+    Raises
+    ------
+    InputError
+        when no zone received air in the training periods.
+    """
+    first, end = train
+    flow = data.zone_series("supply_flow", inputs.zones)
+    supply = data.zone_series("supply_temp", inputs.zones)
+    assert flow is not None and supply is not None
+    flow, supply = flow[first:end], supply[first:end]
+    cooling = (flow > FLOWING_KG_S) & (inputs.y[first:end] - supply > COOLING_DIFFERENCE_K)
+    if not np.any(cooling):
+        raise InputError(
+            "no cooling supply air in the training periods",
+            source=data.source,
+            field="supply_flow",
+            hint="train on days when the HVAC ran",
+        )
+    weights = np.where(cooling, flow, 0.0)
+    supply_temp = float((weights * supply).sum() / weights.sum())
+    if supply_temp >= MAX_COIL_SUPPLY_TEMP_DEGC:  # cycling constant-volume coils
+        supply_temp = float(np.quantile(supply[cooling], COIL_SUPPLY_QUANTILE))
+        zone_temp = inputs.y[first:end]
+        delivered_kw = cooling_kw(inputs)[first:end]
+        per_kg_s_kw = CP_AIR_J_PER_KG_K * np.maximum(zone_temp - supply_temp, 1.0) / 1000.0
+        flow = np.clip(delivered_kw / per_kg_s_kw, 0.0, None)
+    occupied = data.column(OCCUPIED)[first:end] > 0
+    low = flow.min(axis=0)
+    high = np.maximum(flow.max(axis=0), low + FLOWING_KG_S)
+    vent = np.quantile(flow[occupied], VENTILATION_QUANTILE, axis=0) if occupied.any() else low
+    return AirSystem(
+        supply_temp_degc=supply_temp,
+        flow_min_kg_s=tuple(float(v) for v in low),
+        flow_max_kg_s=tuple(float(v) for v in high),
+        ventilation_flow_kg_s=tuple(float(v) for v in np.clip(vent, low, high)),
+        mass_temp_degc=tuple(float(v) for v in mass_temp_degc),
+    )
+
+
+def fit_boundary_nodes(
+    parameters: GreyBoxParameters,
+    inputs: FitData,
+    train: tuple[int, int],
+    test: tuple[int, int],
+) -> tuple[BoundaryNode, ...]:
+    """Each boundary as a node for the controller's model (it has no forecast of a measured
+    boundary temperature): ``C_b dTb/dt = Σ_i UA_ib (Ta_i − Tb) + UA_bo (To − Tb) + S_b G +
+    P_b occ`` with the fitted zone conductances ``UA_ib``, the other terms by non-negative
+    linear least squares of the measured period-to-period changes on the training periods
+    (``ΔTb = (Δt/C_b)·[…]``, forward Euler over 30 min); its start temperature is its mean
+    on the ``test`` periods."""
+    first, end = train
+    m = inputs.y.shape[1]
+    boundary_temp = inputs.u[first:end, len(EXOGENOUS_INPUTS) + m :]
+    outdoor, ghi, occ = (inputs.u[first:end, i] for i in range(3))
+    zone_temp = inputs.y[first:end]
+    nodes = []
+    for b in range(parameters.boundaries):
+        tb = boundary_temp[:, b]
+        exchange = np.zeros(len(tb))
+        for (i, k), ua in zip(
+            parameters.boundary_couplings, parameters.boundary_ua_kw_per_k, strict=True
+        ):
+            if k == b:
+                exchange += ua * (zone_temp[:, i] - tb)
+        regressors = np.column_stack([exchange, outdoor - tb, ghi, occ])[:-1]
+        change = np.diff(tb)
+        solution = scipy.optimize.lsq_linear(
+            regressors, change, bounds=([BOUNDARY_MIN_RATE, 0.0, 0.0, 0.0], np.inf)
+        )
+        rate, ua_out, solar, gain = (float(v) for v in solution.x)
+        dt_s = PERIOD_S_HOURS * 3600.0
+        nodes.append(
+            BoundaryNode(
+                c_kj_per_k=dt_s / rate,
+                ua_out_kw_per_k=ua_out / rate,
+                solar_m2=solar / rate,
+                occupied_gain_kw=gain / rate,
+                temp_degc=float(inputs.u[test[0] : test[1], len(EXOGENOUS_INPUTS) + m + b].mean()),
+            )
+        )
+    return tuple(nodes)
+
+
+def one_step_errors(
+    result: FitResult, data: FitData, periods: tuple[int, int]
+) -> tuple[pd.DatetimeIndex, FloatArray]:
+    """The filter's one-step prediction errors (predicted − measured) [K] on the whole days
+    of ``periods = (first, end)``: (index (T,), errors (T, m))."""
+    model = discretize(result.parameters)
+    states = filter_states(model, data.y, data.u)
+    predicted = states @ model.c_mean.T + data.u @ model.d_mean.T
+    starts = _day_starts(data.index, *periods)
+    rows = (starts[:, None] + np.arange(PERIODS_PER_DAY)[None, :]).ravel()
+    return data.index[rows], predicted[rows] - data.y[rows]
+
+
+def mean_mass_temps_degc(result: FitResult, data: FitData, periods: tuple[int, int]) -> FloatArray:
+    """(m,) the filter's mean mass-node temperature estimates over ``periods`` [°C]."""
+    model = discretize(result.parameters)
+    states = filter_states(model, data.y, data.u)
+    m = data.y.shape[1]
+    mean: FloatArray = states[periods[0] : periods[1], m : 2 * m].mean(axis=0)
+    return mean

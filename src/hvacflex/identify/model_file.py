@@ -1,10 +1,14 @@
-"""The identified-model file (``model.toml``) that ``hvacflex identify fit`` writes.
+"""The identified model (``model.toml``) that ``hvacflex identify fit`` writes: a building file.
 
-TOML, one table per zone with its fitted parameters (:data:`hvacflex.identify.greybox.
-ZONE_PARAMETERS`, units in the names), one per coupling and the power model; read back
-and validated by :func:`load_identified_model` (pydantic, unknown keys refused). Zone names
-are lower-case identifiers made from the data's names (:func:`identifier`); each zone keeps
-its data/IDF name in ``energyplus_zone`` (matched case-insensitively by the EnergyPlus plant).
+The file is a building file of :func:`hvacflex.building.io.load_building` (docs/building.md,
+``[identified]`` in :mod:`hvacflex.building.schema`): ``[[zones]]`` with lower-case identifier
+names made from the data's names (:func:`identifier`), each with its data/IDF name in
+``energyplus_zone`` (matched case-insensitively by the EnergyPlus plant), and the fitted
+network in ``[identified]``: per zone its parameters (:data:`hvacflex.identify.greybox.
+ZONE_PARAMETERS`, units in the names) and its supply-flow range, the couplings, the
+boundaries (unconditioned zones, as nodes), the supply temperature and the power model. So a
+scenario's ``building = "model.toml"`` controls the building it came from.
+:func:`load_identified_model` reads it back into the fit's arrays.
 """
 
 from __future__ import annotations
@@ -13,17 +17,13 @@ import json
 import re
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Annotated
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
+from hvacflex.building.identified import IdentifiedBoundary, IdentifiedPower
+from hvacflex.building.io import load_building
 from hvacflex.errors import ConfigError
 from hvacflex.identify.greybox import ZONE_PARAMETERS, GreyBoxParameters
-from hvacflex.tomlio import read_toml
-
-MODEL_KIND = "identified-rc"
-"""The ``kind`` key of an identified-model file."""
 
 
 def identifier(name: str) -> str:
@@ -32,14 +32,41 @@ def identifier(name: str) -> str:
     return text if text[:1].isalpha() else f"zone_{text}"
 
 
-@dataclass(frozen=True)
-class PowerModel:
-    """HVAC electricity [kW] ≈ ``base_kw + kw_per_kw_cooling · ΣQ + kw_per_k_outdoor · To``
-    (period means; Q delivered sensible cooling [kW], To outdoor temperature [°C])."""
+PowerModel = IdentifiedPower
+"""HVAC electricity ≈ ``base_kw + kw_per_kw_cooling · ΣQ + kw_per_k_outdoor · To`` [kW]."""
 
-    base_kw: float
-    kw_per_kw_cooling: float
-    kw_per_k_outdoor: float
+
+@dataclass(frozen=True)
+class BoundaryNode:
+    """An unconditioned zone's node as fitted after the zones (its couplings to the zones are
+    the fit's boundary conductances): ``c_kj_per_k`` [kJ/K], ``ua_out_kw_per_k`` [kW/K],
+    ``solar_m2`` [m²], ``occupied_gain_kw`` [kW], ``temp_degc`` its mean measured temperature
+    on the test days [°C]."""
+
+    c_kj_per_k: float
+    ua_out_kw_per_k: float
+    solar_m2: float
+    occupied_gain_kw: float
+    temp_degc: float
+
+
+@dataclass(frozen=True)
+class AirSystem:
+    """What the data say about the zones' supply air.
+
+    Attributes
+    ----------
+    supply_temp_degc : the supply temperature of the HVAC input [°C];
+    flow_min_kg_s, flow_max_kg_s, ventilation_flow_kg_s : (m,) the flow range per zone and
+    the least flow while occupied [kg/s]; mass_temp_degc : (m,) each mass node's mean
+    estimated temperature on the test days (where a controlled run starts it) [°C].
+    """
+
+    supply_temp_degc: float
+    flow_min_kg_s: tuple[float, ...]
+    flow_max_kg_s: tuple[float, ...]
+    ventilation_flow_kg_s: tuple[float, ...]
+    mass_temp_degc: tuple[float, ...]
 
 
 @dataclass(frozen=True)
@@ -51,7 +78,8 @@ class IdentifiedModel:
     name : a title; zones : (m,) lower-case identifiers; energyplus_zones : (m,) the data's
     names; parameters : the grey-box parameters; power : the power model or None (no meter in
     the data); provenance : where it came from (data file, train and test days); boundaries :
-    (nb,) the data's unconditioned zones whose measured temperatures are inputs.
+    (nb,) the data's unconditioned zones (inputs of the fit, nodes of the building);
+    air : supply temperature and flow ranges; boundary_nodes : (nb,) the boundaries' nodes.
     """
 
     name: str
@@ -60,53 +88,9 @@ class IdentifiedModel:
     parameters: GreyBoxParameters
     power: PowerModel | None
     provenance: dict[str, str]
+    air: AirSystem
     boundaries: tuple[str, ...] = ()
-
-
-class _Spec(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
-
-
-class _ZoneSpec(_Spec):
-    name: Annotated[str, Field(pattern=r"^[a-z][a-z0-9_]*$")]
-    energyplus_zone: Annotated[str, Field(min_length=1)]
-    c_air_kj_per_k: Annotated[float, Field(gt=0)]
-    c_mass_kj_per_k: Annotated[float, Field(gt=0)]
-    ua_out_kw_per_k: Annotated[float, Field(ge=0)]
-    ua_air_mass_kw_per_k: Annotated[float, Field(gt=0)]
-    ua_mass_out_kw_per_k: Annotated[float, Field(ge=0)]
-    solar_air_m2: Annotated[float, Field(ge=0)]
-    solar_mass_m2: Annotated[float, Field(ge=0)]
-    occupied_gain_kw: Annotated[float, Field(ge=0)]
-    base_gain_kw: float
-
-
-class _CouplingSpec(_Spec):
-    zones: Annotated[list[str], Field(min_length=2, max_length=2)]
-    ua_kw_per_k: Annotated[float, Field(ge=0)]
-
-
-class _BoundarySpec(_Spec):
-    zone: str
-    boundary: Annotated[str, Field(min_length=1)]
-    ua_kw_per_k: Annotated[float, Field(ge=0)]
-
-
-class _PowerSpec(_Spec):
-    base_kw: float
-    kw_per_kw_cooling: float
-    kw_per_k_outdoor: float
-
-
-class _FileSpec(_Spec):
-    kind: str = Field(pattern=f"^{MODEL_KIND}$")
-    name: str
-    provenance: dict[str, str] = {}
-    zones: Annotated[list[_ZoneSpec], Field(min_length=1)]
-    couplings: list[_CouplingSpec] = []
-    boundaries: list[str] = []
-    boundary_couplings: list[_BoundarySpec] = []
-    power_model: _PowerSpec | None = None
+    boundary_nodes: tuple[BoundaryNode, ...] = ()
 
 
 def _toml_value(value: object) -> str:
@@ -114,6 +98,9 @@ def _toml_value(value: object) -> str:
         return json.dumps(value)
     if isinstance(value, list):
         return "[" + ", ".join(_toml_value(v) for v in value) + "]"
+    if isinstance(value, dict):
+        pairs = (f"{json.dumps(k)} = {_toml_value(v)}" for k, v in value.items())
+        return "{" + ", ".join(pairs) + "}"
     return repr(float(value))  # type: ignore[arg-type]
 
 
@@ -122,101 +109,114 @@ def _table(lines: list[str], header: str, items: dict[str, object]) -> None:
 
 
 def write_identified_model(model: IdentifiedModel, path: str | Path) -> Path:
-    """Write ``model`` as TOML (module docstring); returns the path."""
+    """Write ``model`` as a building file (module docstring); returns the path."""
     path = Path(path)
-    lines = [f"kind = {_toml_value(MODEL_KIND)}", f"name = {_toml_value(model.name)}"]
-    lines.append(f"boundaries = {_toml_value(list(model.boundaries))}")
-    _table(lines, "[provenance]", dict(model.provenance))
+    lines = [f"name = {_toml_value(model.name)}"]
+    lines.append(f"description = {_toml_value('grey-box RC model identified from trend data')}")
+    for zone, energyplus in zip(model.zones, model.energyplus_zones, strict=True):
+        _table(lines, "[[zones]]", {"name": zone, "energyplus_zone": energyplus})
+    _table(lines, "[identified]", {"supply_temp_degc": model.air.supply_temp_degc})
+    _table(lines, "[identified.provenance]", dict(model.provenance))
     names = [n for n, _ in ZONE_PARAMETERS]
+    air = model.air
     for i, zone in enumerate(model.zones):
-        values = dict(zip(names, model.parameters.zone[i].tolist(), strict=True))
-        items: dict[str, object] = {"name": zone, "energyplus_zone": model.energyplus_zones[i]}
-        _table(lines, "[[zones]]", {**items, **values})
+        values: dict[str, object] = dict(zip(names, model.parameters.zone[i].tolist(), strict=True))
+        values["flow_min_kg_s"] = air.flow_min_kg_s[i]
+        values["flow_max_kg_s"] = air.flow_max_kg_s[i]
+        values["ventilation_flow_kg_s"] = air.ventilation_flow_kg_s[i]
+        values["mass_temp_degc"] = air.mass_temp_degc[i]
+        _table(lines, f"[identified.zones.{zone}]", values)
     for (i, j), ua in zip(
         model.parameters.couplings, model.parameters.coupling_ua_kw_per_k, strict=True
     ):
         _table(
             lines,
-            "[[couplings]]",
+            "[[identified.couplings]]",
             {"zones": [model.zones[i], model.zones[j]], "ua_kw_per_k": float(ua)},
         )
-    for (i, b), ua in zip(
-        model.parameters.boundary_couplings, model.parameters.boundary_ua_kw_per_k, strict=True
-    ):
+    for b, (name, node) in enumerate(zip(model.boundaries, model.boundary_nodes, strict=True)):
+        ua = {
+            model.zones[int(i)]: float(value)
+            for (i, k), value in zip(
+                model.parameters.boundary_couplings,
+                model.parameters.boundary_ua_kw_per_k,
+                strict=True,
+            )
+            if k == b
+        }
         _table(
             lines,
-            "[[boundary_couplings]]",
-            {"zone": model.zones[i], "boundary": model.boundaries[b], "ua_kw_per_k": float(ua)},
+            "[[identified.boundaries]]",
+            {"name": name, **vars(node), "ua_zone_kw_per_k": ua},
         )
     if model.power is not None:
-        _table(lines, "[power_model]", dict(vars(model.power)))
+        _table(lines, "[identified.power_model]", dict(vars(model.power)))
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text("\n".join(lines) + "\n", encoding="utf-8")
     return path
 
 
 def load_identified_model(path: str | Path) -> IdentifiedModel:
-    """Read and validate an identified-model file.
+    """Read an identified model (a building file with ``[identified]``) into the fit's
+    arrays.
 
     Raises
     ------
-    ConfigError
+    BuildingConfigError
         naming the file, the field and the value for anything invalid.
+    ConfigError
+        for a building file without an ``[identified]`` table.
     """
-    data = read_toml(path, what="identified model")
-    try:
-        spec = _FileSpec.model_validate(data)
-    except ValidationError as exc:
-        first = exc.errors()[0]
+    building = load_building(path)
+    rc = building.identified
+    if rc is None:
         raise ConfigError(
-            first["msg"],
+            "not an identified model",
             source=path,
-            field=".".join(str(p) for p in first["loc"]),
-            value=first.get("input"),
+            field="identified",
             hint="write the file with hvacflex identify fit",
-        ) from None
-    zones = tuple(z.name for z in spec.zones)
-    pairs = []
-    for c in spec.couplings:
-        for zone in c.zones:
-            if zone not in zones:
-                raise ConfigError(
-                    "unknown zone",
-                    source=path,
-                    field="couplings.zones",
-                    value=zone,
-                    hint=f"zones are {list(zones)}",
-                )
-        pairs.append((zones.index(c.zones[0]), zones.index(c.zones[1])))
-    edges = []
-    for e in spec.boundary_couplings:
-        if e.zone not in zones or e.boundary not in spec.boundaries:
-            raise ConfigError(
-                "unknown zone or boundary",
-                source=path,
-                field="boundary_couplings",
-                value=f"{e.zone}-{e.boundary}",
-                hint=f"zones are {list(zones)}, boundaries {spec.boundaries}",
-            )
-        edges.append((zones.index(e.zone), spec.boundaries.index(e.boundary)))
+        )
+    zones = building.zone_names
     names = [n for n, _ in ZONE_PARAMETERS]
+    edges, edge_ua = [], []
+    for b, node in enumerate(rc.boundaries):
+        for zone, ua in node.ua_zone_kw_per_k:
+            edges.append((zones.index(zone), b))
+            edge_ua.append(ua)
     parameters = GreyBoxParameters(
-        zone=np.array([[getattr(z, n) for n in names] for z in spec.zones], dtype=np.float64),
-        couplings=np.array(pairs, dtype=np.int64).reshape(-1, 2),
-        coupling_ua_kw_per_k=np.array([c.ua_kw_per_k for c in spec.couplings], dtype=np.float64),
-        boundaries=len(spec.boundaries),
+        zone=np.array([[getattr(z, n) for n in names] for z in rc.zones], dtype=np.float64),
+        couplings=np.array(
+            [(zones.index(c.zone_a), zones.index(c.zone_b)) for c in rc.couplings], dtype=np.int64
+        ).reshape(-1, 2),
+        coupling_ua_kw_per_k=np.array([c.ua_kw_per_k for c in rc.couplings], dtype=np.float64),
+        boundaries=len(rc.boundaries),
         boundary_couplings=np.array(edges, dtype=np.int64).reshape(-1, 2),
-        boundary_ua_kw_per_k=np.array(
-            [e.ua_kw_per_k for e in spec.boundary_couplings], dtype=np.float64
-        ),
+        boundary_ua_kw_per_k=np.array(edge_ua, dtype=np.float64),
     )
-    power = None if spec.power_model is None else PowerModel(**spec.power_model.model_dump())
     return IdentifiedModel(
-        name=spec.name,
+        name=building.name,
         zones=zones,
-        energyplus_zones=tuple(z.energyplus_zone for z in spec.zones),
+        energyplus_zones=tuple(z.energyplus_zone or z.name for z in building.zones),
         parameters=parameters,
-        power=power,
-        provenance=dict(spec.provenance),
-        boundaries=tuple(spec.boundaries),
+        power=rc.power,
+        provenance=dict(rc.provenance),
+        air=AirSystem(
+            supply_temp_degc=rc.supply_temp_degc,
+            flow_min_kg_s=tuple(z.flow_min_kg_s for z in rc.zones),
+            flow_max_kg_s=tuple(z.flow_max_kg_s for z in rc.zones),
+            ventilation_flow_kg_s=tuple(z.ventilation_flow_kg_s for z in rc.zones),
+            mass_temp_degc=tuple(z.mass_temp_degc for z in rc.zones),
+        ),
+        boundaries=tuple(node.name for node in rc.boundaries),
+        boundary_nodes=tuple(_node(node) for node in rc.boundaries),
+    )
+
+
+def _node(node: IdentifiedBoundary) -> BoundaryNode:
+    return BoundaryNode(
+        c_kj_per_k=node.c_kj_per_k,
+        ua_out_kw_per_k=node.ua_out_kw_per_k,
+        solar_m2=node.solar_m2,
+        occupied_gain_kw=node.occupied_gain_kw,
+        temp_degc=node.temp_degc,
     )

@@ -21,14 +21,30 @@ import pandas as pd
 
 from hvacflex.building.io import load_building
 from hvacflex.errors import InputError
+from hvacflex.identify.box import (
+    BOX_REPORT_FILE,
+    DEFAULT_QUANTILE,
+    ERRORS_FILE,
+    SCENARIO_FILE,
+    ModelErrorBox,
+    calibrate_model_error,
+    write_model_errors,
+    write_scenario,
+)
 from hvacflex.identify.fit import (
     PERIODS_PER_DAY,
+    WARMUP_DAYS,
+    FitData,
     FitResult,
+    air_system,
     evaluate,
     evaluate_power,
+    fit_boundary_nodes,
     fit_inputs,
     fit_model,
     fit_power_model,
+    mean_mass_temps_degc,
+    one_step_errors,
     prediction_frame,
 )
 from hvacflex.identify.greybox import ZONE_PARAMETERS
@@ -48,7 +64,8 @@ class IdentifyOutcome:
     model_path, report_path, parameters_path : the files; power_path : or None.
     report : the fit report (one row per zone); power : daily power check or None.
     fit : the fit; predictions : the test days' measured and predicted series
-    (:func:`~hvacflex.identify.fit.prediction_frame`, also ``fit_predictions.csv``).
+    (:func:`~hvacflex.identify.fit.prediction_frame`, also ``fit_predictions.csv``);
+    box : the calibrated model error; scenario_path : the scenario beside the model.
     """
 
     model_path: Path
@@ -59,6 +76,8 @@ class IdentifyOutcome:
     power: pd.DataFrame | None
     fit: FitResult
     predictions: pd.DataFrame
+    box: ModelErrorBox
+    scenario_path: Path
 
 
 def parse_days(text: str, index: pd.DatetimeIndex, option: str) -> tuple[int, int]:
@@ -199,9 +218,15 @@ def identify(
     template: str | Path | None = None,
     train: str | None = None,
     test: str | None = None,
+    idf: str | Path | None = None,
 ) -> IdentifyOutcome:
-    """Fit, evaluate and write (module docstring)."""
+    """Fit, evaluate and write (module docstring); ``idf``: the EnergyPlus model the data
+    came from, the plant of the scenario written beside the model."""
     out = Path(out)
+    if idf is not None and not Path(idf).is_file():
+        raise InputError(
+            "no such IDF", field="--idf", value=str(idf), hint="give the EnergyPlus model's path"
+        )
     data = read_trend(data_path)
     names, couples = zones_and_couplings(zones, adjacency, template)
     fitted = {n.lower() for n in names}
@@ -241,6 +266,8 @@ def identify(
         energyplus_zones=inputs.zones,
         parameters=fit.parameters,
         boundaries=inputs.boundaries,
+        boundary_nodes=fit_boundary_nodes(fit.parameters, inputs, train_range, test_range),
+        air=air_system(inputs, data, train_range, mean_mass_temps_degc(fit, inputs, test_range)),
         power=power,
         provenance={
             "data": str(data_path),
@@ -263,6 +290,47 @@ def identify(
         power_table.to_csv(power_path, index=False, float_format="%.4g")
     predictions = prediction_frame(fit, inputs, test_range)
     predictions.to_csv(out.parent / "fit_predictions.csv", float_format="%.4f")
-    return IdentifyOutcome(
-        model_path, report_path, parameters_path, power_path, report, power_table, fit, predictions
+    box, scenario_path = _box_and_scenario(
+        fit, inputs, ids, (train_range, test_range), out, f"{day[1]}..{last[1]}", idf
     )
+    return IdentifyOutcome(
+        model_path,
+        report_path,
+        parameters_path,
+        power_path,
+        report,
+        power_table,
+        fit,
+        predictions,
+        box,
+        scenario_path,
+    )
+
+
+def _box_and_scenario(
+    fit: FitResult,
+    inputs: FitData,
+    ids: tuple[str, ...],
+    ranges: tuple[tuple[int, int], tuple[int, int]],
+    model_path: Path,
+    test_days: str,
+    idf: str | Path | None,
+) -> tuple[ModelErrorBox, Path]:
+    """The calibrated model error, its files and the scenario (:mod:`hvacflex.identify.box`)."""
+    (train_first, train_end), test_range = ranges
+    index, test_errors = one_step_errors(fit, inputs, test_range)
+    warm = (train_first + WARMUP_DAYS * PERIODS_PER_DAY, train_end)
+    _, train_errors = one_step_errors(fit, inputs, warm)
+    box = calibrate_model_error(ids, test_errors, train_errors, DEFAULT_QUANTILE)
+    folder = model_path.parent
+    box.frame().to_csv(folder / BOX_REPORT_FILE, index=False, float_format="%.4g")
+    errors_path = write_model_errors(ids, index, test_errors, folder / ERRORS_FILE)
+    scenario = write_scenario(
+        folder / SCENARIO_FILE,
+        model_path,
+        errors_path,
+        test_days,
+        DEFAULT_QUANTILE,
+        None if idf is None else Path(idf),
+    )
+    return box, scenario

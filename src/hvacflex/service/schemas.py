@@ -45,6 +45,7 @@ PresetName = Literal[
     "trim-respond",
     "demand-limit",
     "gta-dr",
+    "plant-baseline",
     "rmpc-feedback",
     "rmpc-feedback-ppp",
     "rmpc-output-feedback",

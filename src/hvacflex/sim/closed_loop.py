@@ -41,6 +41,7 @@ import numpy as np
 import pandas as pd
 
 from hvacflex import results, state, version
+from hvacflex.building.identified import initial_node_temps_degc
 from hvacflex.config import ScenarioConfig
 from hvacflex.control.base import Controller, FloatArray
 from hvacflex.control.estimation import StepModel
@@ -225,6 +226,8 @@ class ClosedLoop:
         )
         """(m,) lowest flow [kg/s] when unoccupied and when occupied."""
         self.x = np.full(len(setup.model.node_names), cfg.initial_temp_degc)
+        if setup.building.identified is not None:  # hidden nodes at their estimated values
+            self.x = initial_node_temps_degc(setup.building.identified, cfg.initial_temp_degc)
         self.x = self._state_after(self.plant.reset(cfg.initial_temp_degc), None)
         self.sampler = DisturbanceSampler(
             cfg.realisation.mode, seed=cfg.seed, ar1_coefficient=cfg.realisation.ar1_coefficient
@@ -361,6 +364,8 @@ class ClosedLoop:
         minimum flow gets the band's upper bound, so the plant's loop does not cool it
         towards a temperature the plan expects it to drift to (docs/energyplus.md)."""
         action = decision.action
+        if action.released:  # the plant's own control: no setpoint from hvacflex
+            return Actuation(setpoint_degc=np.full(action.flow_kg_s.shape, np.nan))
         flow = action.flow_kg_s - action.reserve_flow_kg_s if curtailed else action.flow_kg_s
         if self.actuation == "flow":
             return Actuation(flow_kg_s=flow, supply_temp_degc=action.supply_temp_degc)

@@ -5,7 +5,8 @@ for the period) and the period's realised :class:`Disturbance` into an :class:`O
 (what the meters and sensors read at the end of the period). The closed loop talks to the
 plant only through :class:`Plant`; the first implementation is :class:`RCPlant`, hvacflex's
 exact nonlinear RC network (:class:`hvacflex.building.plant.NonlinearPlant`) with the exact
-HVAC power model (:func:`hvacflex.building.hvac.hvac_power_kw`).
+HVAC power model (:func:`hvacflex.building.hvac.hvac_power_kw`; a building identified from
+data: its fitted power model).
 
 A plant that can snapshot its state (``can_snapshot``) lets the closed loop compute the
 counterfactual of an IL activation (the same period with and without curtailment) by
@@ -23,6 +24,7 @@ import numpy as np
 import numpy.typing as npt
 
 from hvacflex.building.hvac import hvac_power_kw
+from hvacflex.building.identified import identified_power_kw
 from hvacflex.building.model import Building
 from hvacflex.building.plant import NonlinearPlant
 
@@ -190,13 +192,18 @@ class RCPlant:
         x_next = self.plant.step(self.x, flow, disturbance.d, dt_s)
         end = x_next[self._zones]
         mean = 0.5 * (start + end)
-        power = float(
-            hvac_power_kw(
-                self.building.hvac,
-                flow,
-                mean,
-                disturbance.outdoor_temp_degc,
-                disturbance.outdoor_humidity_ratio_kg_per_kg,
+        identified = self.building.identified
+        power = (
+            identified_power_kw(identified, flow, mean, disturbance.outdoor_temp_degc)
+            if identified is not None
+            else float(
+                hvac_power_kw(
+                    self.building.hvac,
+                    flow,
+                    mean,
+                    disturbance.outdoor_temp_degc,
+                    disturbance.outdoor_humidity_ratio_kg_per_kg,
+                )
             )
         )
         self.x = x_next

@@ -26,7 +26,11 @@ from hvacflex.building.model import Building
 from hvacflex.building.plant import NonlinearPlant
 from hvacflex.config import LINEARISATION_MARGIN_K, ScenarioConfig
 from hvacflex.control.base import Controller
-from hvacflex.control.baselines import OptimalStart, ThermostatController
+from hvacflex.control.baselines import (
+    OptimalStart,
+    PlantBaselineController,
+    ThermostatController,
+)
 from hvacflex.control.demand_limit import DemandLimitController
 from hvacflex.control.gta_dr import GtaDrController
 from hvacflex.control.mpc import MPCController
@@ -325,6 +329,8 @@ def make_rule_controller(setup: Setup) -> Controller:
         )
     if cfg.kind == "demand-limit":
         return DemandLimitController(model, hvac, setpoint, start, cfg.demand_limit_fraction)
+    if cfg.kind == "plant":
+        return PlantBaselineController(model)
     if cfg.kind == "gta-dr":
         reserve = config.reserve
         assert reserve.event_max_steps is not None  # the schema requires the event model

@@ -1,0 +1,194 @@
+"""An identified grey-box model as a building: its parameters and its power model.
+
+A building identified from trend data (``hvacflex identify fit``, docs/identify.md) has no
+walls or windows; its ``[identified]`` table holds the fitted RC network instead. Per zone
+``i`` an air node and one mass node, and per unconditioned zone of the data (a plenum) a
+boundary node (all temperatures [°C])::
+
+    C_a,i dTa_i/dt = UA_o,i (To − Ta_i) + UA_am,i (Tm_i − Ta_i) + Σ_j UA_ij (Ta_j − Ta_i)
+                     + Σ_b UA_ib (Tb_b − Ta_i) + S_a,i G + P_occ,i f(t) + P_0,i
+                     + ṁ_i c_p (T_s − Ta_i)
+    C_m,i dTm_i/dt = UA_am,i (Ta_i − Tm_i) + UA_mo,i (To − Tm_i) + S_m,i G
+    C_b dTb_b/dt   = Σ_i UA_ib (Ta_i − Tb_b) + UA_bo,b (To − Tb_b) + S_b G + P_occ,b f(t)
+
+``G`` is the global horizontal irradiance (the ``solar`` channel of azimuth 0, tilt 0),
+``f(t)`` the office schedule's people fraction (the zone's ``internal_gain`` channel carries
+:data:`GAIN_CHANNEL_PEAK_W` × f), the constant gains ``P_0`` enter through the ``constant``
+channel. The HVAC input is the supply air flow ``ṁ`` at the supply temperature ``T_s`` fitted
+from the data, so the delivered sensible cooling is ``Q = ṁ c_p (Ta − T_s)`` — the quantity
+the fit used — and the building runs through the same linearisation, plant and controller as
+a designed one. The HVAC electricity is the fitted affine model
+``P = base + a ΣQ + b To`` [kW] (:class:`IdentifiedPower`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from hvacflex.units import CP_AIR_J_PER_KG_K
+
+FloatArray = npt.NDArray[np.float64]
+
+GAIN_CHANNEL_PEAK_W = 1000.0
+"""An identified zone's ``internal_gain`` channel at a people fraction of 1 [W]: the zone's
+nominal floor area (1 m²) × 1 person/m² × this sensible gain per person."""
+NOMINAL_FLOOR_AREA_M2 = 1.0
+"""The floor area an identified zone carries (trend data give none): it only scales the
+``internal_gain`` channel (:data:`GAIN_CHANNEL_PEAK_W`)."""
+NOMINAL_HEIGHT_M = 1.0
+"""The height an identified zone carries (unused by its network)."""
+
+
+@dataclass(frozen=True)
+class IdentifiedZone:
+    """One fitted zone (units in the names; C in kJ/K, UA in kW/K, S in m², P in kW).
+
+    ``flow_min_kg_s`` / ``flow_max_kg_s`` bound the supply flow (the training data's range),
+    ``ventilation_flow_kg_s`` is the flow the zone's unit does not go below while occupied;
+    ``mass_temp_degc`` is the mass node's mean estimated temperature on the test days, where a
+    run starts it (a mass of weeks' time constant is not re-estimated within a day).
+    """
+
+    name: str
+    c_air_kj_per_k: float
+    c_mass_kj_per_k: float
+    ua_out_kw_per_k: float
+    ua_air_mass_kw_per_k: float
+    ua_mass_out_kw_per_k: float
+    solar_air_m2: float
+    solar_mass_m2: float
+    occupied_gain_kw: float
+    base_gain_kw: float
+    flow_min_kg_s: float
+    flow_max_kg_s: float
+    ventilation_flow_kg_s: float
+    mass_temp_degc: float
+
+
+@dataclass(frozen=True)
+class IdentifiedCoupling:
+    """Heat exchange ``ua_kw_per_k`` [kW/K] between the air nodes of two zones."""
+
+    zone_a: str
+    zone_b: str
+    ua_kw_per_k: float
+
+
+@dataclass(frozen=True)
+class IdentifiedBoundary:
+    """An unconditioned zone of the data (a plenum) as a node of the model.
+
+    Attributes
+    ----------
+    name : the data's (IDF's) name of the zone.
+    c_kj_per_k : its capacitance [kJ/K]; ua_out_kw_per_k : to the outdoor air [kW/K];
+    solar_m2 : share of the horizontal irradiance it absorbs [m²];
+    occupied_gain_kw : gain at a people fraction of 1 [kW] (e.g. lights in a return plenum);
+    ua_zone_kw_per_k : zone name → conductance to that zone's air node [kW/K];
+    temp_degc : its mean measured temperature on the test days (a run's start) [°C].
+    """
+
+    name: str
+    c_kj_per_k: float
+    ua_out_kw_per_k: float
+    solar_m2: float
+    occupied_gain_kw: float
+    ua_zone_kw_per_k: tuple[tuple[str, float], ...]
+    temp_degc: float
+
+
+@dataclass(frozen=True)
+class IdentifiedPower:
+    """HVAC electricity [kW] ≈ ``base_kw + kw_per_kw_cooling · ΣQ + kw_per_k_outdoor · To``
+    (period means; Q the delivered sensible cooling [kW], To the outdoor temperature [°C])."""
+
+    base_kw: float
+    kw_per_kw_cooling: float
+    kw_per_k_outdoor: float
+
+
+@dataclass(frozen=True)
+class IdentifiedRC:
+    """The ``[identified]`` table of a building file.
+
+    Attributes
+    ----------
+    zones : (m,) in the building's zone order; couplings : zone pairs; boundaries : nodes of
+    unconditioned zones; supply_temp_degc : the supply air temperature of the HVAC input [°C];
+    power : the HVAC electricity model, or None (no meter in the data: ideal loads);
+    provenance : where it came from (data file, train and test days).
+    """
+
+    zones: tuple[IdentifiedZone, ...]
+    couplings: tuple[IdentifiedCoupling, ...]
+    boundaries: tuple[IdentifiedBoundary, ...]
+    supply_temp_degc: float
+    power: IdentifiedPower | None
+    provenance: tuple[tuple[str, str], ...] = ()
+
+
+def cooling_kw(
+    flow_kg_s: npt.ArrayLike, zone_temp_degc: npt.ArrayLike, supply_temp_degc: float
+) -> FloatArray:
+    """(…, m) delivered sensible cooling ``ṁ c_p (Ta − T_s)`` [kW] of flows [kg/s] at zone
+    temperatures [°C]."""
+    flow = np.asarray(flow_kg_s, dtype=np.float64)
+    temp = np.asarray(zone_temp_degc, dtype=np.float64)
+    out: FloatArray = flow * CP_AIR_J_PER_KG_K * (temp - supply_temp_degc) / 1000.0
+    return out
+
+
+def identified_power_kw(
+    rc: IdentifiedRC,
+    flow_kg_s: npt.ArrayLike,
+    zone_temp_degc: npt.ArrayLike,
+    outdoor_temp_degc: float,
+) -> float:
+    """The power model's HVAC electricity [kW] for (m,) flows [kg/s] and zone temperatures
+    [°C] (0 without a power model)."""
+    if rc.power is None:
+        return 0.0
+    total = float(cooling_kw(flow_kg_s, zone_temp_degc, rc.supply_temp_degc).sum())
+    p = rc.power
+    return max(
+        p.base_kw + p.kw_per_kw_cooling * total + p.kw_per_k_outdoor * outdoor_temp_degc, 0.0
+    )
+
+
+def identified_affine_power(
+    rc: IdentifiedRC, outdoor_temp_degc: npt.ArrayLike, zone_temp_ref_degc: float
+) -> tuple[FloatArray, FloatArray]:
+    """The LP's ``P_k = p0_k + p_kᵀ u_k`` of the power model, the cooling taken at ``T₀``.
+
+    Parameters
+    ----------
+    outdoor_temp_degc : (N,) forecast outdoor temperature [°C].
+    zone_temp_ref_degc : T₀ [°C], where ``Q_i = ṁ_i c_p (T₀ − T_s)``.
+
+    Returns
+    -------
+    p0 : (N,) [kW]; p : (N, m) [kW per kg/s] (zeros without a power model).
+    """
+    outdoor = np.asarray(outdoor_temp_degc, dtype=np.float64)
+    m = len(rc.zones)
+    if rc.power is None:
+        return np.zeros(outdoor.shape[0]), np.zeros((outdoor.shape[0], m))
+    per_kg_s = rc.power.kw_per_kw_cooling * float(
+        cooling_kw(1.0, zone_temp_ref_degc, rc.supply_temp_degc)
+    )
+    p0: FloatArray = rc.power.base_kw + rc.power.kw_per_k_outdoor * outdoor
+    p: FloatArray = np.full((outdoor.shape[0], m), max(per_kg_s, 0.0))
+    return p0, p
+
+
+def initial_node_temps_degc(rc: IdentifiedRC, zone_temp_degc: float) -> FloatArray:
+    """(2m + nb,) a run's first state: the zones at ``zone_temp_degc`` [°C], the mass and
+    boundary nodes at their estimated temperatures (node order of the identified network)."""
+    return np.array(
+        [zone_temp_degc] * len(rc.zones)
+        + [z.mass_temp_degc for z in rc.zones]
+        + [b.temp_degc for b in rc.boundaries]
+    )

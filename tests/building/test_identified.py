@@ -1,0 +1,145 @@
+"""An identified building: its network is the fitted grey-box model, its power model the
+fitted one (checked against the fit's own discretisation and hand-computed values)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import hvacflex
+from hvacflex.building.discretize import linearize
+from hvacflex.building.identified import (
+    IdentifiedPower,
+    cooling_kw,
+    identified_affine_power,
+    identified_power_kw,
+    initial_node_temps_degc,
+)
+from hvacflex.building.io import building_from_dict, load_building
+from hvacflex.errors import BuildingConfigError
+from hvacflex.identify.greybox import GreyBoxParameters, discretize
+from hvacflex.identify.model_file import AirSystem, IdentifiedModel, write_identified_model
+from hvacflex.units import CP_AIR_J_PER_KG_K
+
+ZONES = np.array(
+    [
+        [800.0, 3.0e4, 0.05, 0.8, 0.03, 3.0, 6.0, 1.5, 0.4],
+        [1200.0, 6.0e4, 0.08, 1.2, 0.05, 5.0, 8.0, 2.5, -0.2],
+    ]
+)
+PARAMETERS = GreyBoxParameters(ZONES, np.array([[0, 1]], dtype=np.int64), np.array([0.3]))
+SUPPLY_TEMP_DEGC = 13.0
+POWER = IdentifiedPower(base_kw=1.2, kw_per_kw_cooling=0.35, kw_per_k_outdoor=0.04)
+
+
+@pytest.fixture
+def model_path(tmp_path: Path) -> Path:
+    model = IdentifiedModel(
+        name="two zones",
+        zones=("a", "b"),
+        energyplus_zones=("Zone A", "ZONE-B"),
+        parameters=PARAMETERS,
+        power=POWER,
+        provenance={},
+        air=AirSystem(SUPPLY_TEMP_DEGC, (0.0, 0.0), (0.5, 0.8), (0.0, 0.0), (24.0, 24.0)),
+    )
+    return write_identified_model(model, tmp_path / "model.toml")
+
+
+def test_the_linear_model_is_the_fitted_models_discretisation(model_path: Path) -> None:
+    building = load_building(model_path)
+    t0 = 24.0
+    linear = linearize(building, 1800.0, t0)  # at zero reference flow: the pure network
+    fitted = discretize(PARAMETERS)  # the fit's own (eigendecomposition) discretisation
+    np.testing.assert_allclose(linear.a, fitted.a, atol=1e-12)
+    # fit inputs [To, G kW/m², occ, 1, Q_a, Q_b]; building channels [To, G W/m², gain_a W,
+    # gain_b W (1 kW × people fraction), constant]; building input: flow at T0
+    np.testing.assert_allclose(linear.e[:, 0], fitted.b[:, 0], atol=1e-12)
+    np.testing.assert_allclose(linear.e[:, 1] * 1000.0, fitted.b[:, 1], atol=1e-12)
+    np.testing.assert_allclose((linear.e[:, 2] + linear.e[:, 3]) * 1000.0, fitted.b[:, 2])
+    np.testing.assert_allclose(linear.e[:, 4], fitted.b[:, 3], atol=1e-12)
+    per_kg_s = CP_AIR_J_PER_KG_K * (t0 - SUPPLY_TEMP_DEGC) / 1000.0  # kW of cooling
+    np.testing.assert_allclose(linear.b, fitted.b[:, 4:6] * per_kg_s, atol=1e-12)
+    assert np.all(linear.a >= -1e-12)  # Metzler network: the robust LP's condition
+
+
+def test_the_power_model_in_the_lp_matches_the_plants_at_the_reference(model_path: Path) -> None:
+    rc = load_building(model_path).identified
+    assert rc is not None and rc.power == POWER
+    flow = np.array([0.3, 0.5])
+    t0, outdoor = 24.5, 31.0
+    p0, p = identified_affine_power(rc, np.array([outdoor]), t0)
+    cooling = flow * CP_AIR_J_PER_KG_K * (t0 - SUPPLY_TEMP_DEGC) / 1000.0
+    by_hand = 1.2 + 0.35 * cooling.sum() + 0.04 * outdoor
+    assert p0[0] + p[0] @ flow == pytest.approx(by_hand, rel=1e-12)
+    assert identified_power_kw(rc, flow, np.full(2, t0), outdoor) == pytest.approx(by_hand)
+    np.testing.assert_allclose(cooling_kw(flow, np.full(2, t0), SUPPLY_TEMP_DEGC), cooling)
+
+
+def test_an_identified_building_refuses_walls_and_mismatched_zones() -> None:
+    base = {
+        "name": "x",
+        "zones": [{"name": "a"}],
+        "identified": {
+            "supply_temp_degc": 13.0,
+            "zones": {
+                "a": dict(
+                    zip(
+                        [
+                            "c_air_kj_per_k",
+                            "c_mass_kj_per_k",
+                            "ua_out_kw_per_k",
+                            "ua_air_mass_kw_per_k",
+                            "ua_mass_out_kw_per_k",
+                            "solar_air_m2",
+                            "solar_mass_m2",
+                            "occupied_gain_kw",
+                            "base_gain_kw",
+                        ],
+                        ZONES[0].tolist(),
+                        strict=True,
+                    ),
+                    flow_min_kg_s=0.0,
+                    flow_max_kg_s=0.5,
+                    ventilation_flow_kg_s=0.1,
+                    mass_temp_degc=24.0,
+                )
+            },
+        },
+    }
+    assert building_from_dict(base).identified is not None
+    renamed = {**base, "zones": [{"name": "b"}]}
+    with pytest.raises(BuildingConfigError, match="differ from"):
+        building_from_dict(renamed)
+    with pytest.raises(BuildingConfigError, match="no envelope"):
+        gains = {
+            "occupancy_m2_per_person": 10.0,
+            "sensible_w_per_person": 75.0,
+            "latent_w_per_person": 55.0,
+            "lighting_w_per_m2": 10.0,
+            "equipment_w_per_m2": 12.0,
+        }
+        building_from_dict({**base, "gains": gains})
+    designed = {"name": "y", "zones": [{"name": "a"}]}
+    with pytest.raises(BuildingConfigError) as caught:
+        building_from_dict(designed)
+    assert caught.value.field == "zones[0].floor_area_m2"
+
+
+def test_a_run_starts_the_hidden_nodes_at_their_estimated_temperatures(model_path: Path) -> None:
+    building = load_building(model_path)
+    rc = building.identified
+    assert rc is not None
+    # [air a, air b, mass a, mass b]: the zones at the run's start, the mass at the file's
+    np.testing.assert_array_equal(initial_node_temps_degc(rc, 26.0), [26.0, 26.0, 24.0, 24.0])
+    run = hvacflex.simulate(
+        "nmpc",
+        start="2014-03-03",
+        days=0.25,
+        building=str(model_path),
+        quiet=True,
+        out=model_path.parent / "run",
+    )
+    assert run.summary["fallback_count"] == 0 and run.frame["power_kw"].notna().all()
