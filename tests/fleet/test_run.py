@@ -13,7 +13,7 @@ import pytest
 
 from hvacflex.fleet.generate import generate_fleet, write_fleet
 from hvacflex.fleet.kpi import fleet_summary, load_fleet_results
-from hvacflex.fleet.run import CHECKPOINT_FILE, run_fleet
+from hvacflex.fleet.run import CHECKPOINT_FILE, bid_accepted, fleet_baseline_sees, run_fleet
 
 DAYS = 8 / 48  # 8 steps from 06:00: the morning pull-down meets the limit
 START = "2014-03-03 06:00"
@@ -148,3 +148,15 @@ def test_activation_is_settled_against_metered_fleet_power(
     assert per_building.tolist() == frame["il_activated"].tolist()
     assert "il_delivered_kw" in buildings
     assert result.summary["il_activated_steps"] == 2.0
+
+
+def test_fleet_baseline_check_by_hand() -> None:
+    # curtailed 90 kW, bid 10 kW: seen below a 100 kW baseline, not below 99 kW, unless the
+    # model runs 1 kW above the meter (then 89 + 10 ≤ 99)
+    assert fleet_baseline_sees(10.0, 90.0, 100.0, 0.0)
+    assert not fleet_baseline_sees(10.0, 90.0, 99.0, 0.0)
+    assert fleet_baseline_sees(10.0, 90.0, 99.0, 1.0)
+    assert not fleet_baseline_sees(10.0, 90.0, float("nan"), 0.0)  # no baseline: not seen
+    assert fleet_baseline_sees(10.0, 90.0, None, 0.0)  # unknown (first period): not checked
+    assert bid_accepted(10.0, 10.0) and not bid_accepted(9.99, 10.0)
+    assert not bid_accepted(1e-4, 0.0)  # round-off is no bid

@@ -39,7 +39,7 @@ from hvacflex.config import (
     ScenarioConfig,
 )
 from hvacflex.control.base import Action, FloatArray
-from hvacflex.control.mpc import MPCController
+from hvacflex.control.mpc import RESERVE_FLOW_TOLERANCE_KG_S, MPCController
 from hvacflex.data.forecast import Forecast
 from hvacflex.data.gains import DEFAULT_OFFICE_SCHEDULE, OfficeSchedule
 from hvacflex.fleet.schema import Fleet, FleetBuilding, fleet_from_dict
@@ -80,6 +80,24 @@ class FleetController(MPCController):
         super().__init__(*args, **kwargs)
         self.cap_now_kw = np.inf
         self.power_now: tuple[float, FloatArray] | None = None
+
+    def note_baseline_power(self, baseline_power_kw: float | None) -> None:
+        """Ignored: a fleet is settled on its aggregate meter, so the coordinator checks the
+        fleet's bid against the fleet's baseline (:func:`hvacflex.fleet.run.fleet_baseline_sees`)
+        instead of each building's offer against its own (which would drop the offers of
+        every building whose plan is not below its last metered power)."""
+        super().note_baseline_power(None)
+
+    def first_offer_kw(self, problem: RMPCProblem, plan: RMPCSolution) -> tuple[float, float]:
+        """(the offer q₀·r₀ [kW], the curtailed power P₀ − p₀·r₀ [kW]) of ``plan``'s first
+        period, its flows snapped onto the physical limits as :meth:`act` snaps them."""
+        low = np.asarray(problem.u_min, dtype=float)[0]
+        flow = np.clip(plan.u[0], low, self._flow_max)
+        reserve = np.clip(plan.r[0], 0.0, flow - low)
+        reserve[reserve < RESERVE_FLOW_TOLERANCE_KG_S] = 0.0
+        coeff = problem.power_coeff_kw_per_kg_s[0]
+        curtailed = float(plan.power_kw[0]) - float(coeff @ reserve)
+        return float(problem.reserve_kw_per_kg_s[0] @ reserve), curtailed
 
     def solver(self, problem: RMPCProblem) -> RMPCSolver:
         """The building's solver (built on first use, from a restored basis if any)."""
@@ -294,13 +312,14 @@ class BuildingAgent:
         flow: FloatArray = np.asarray(action.flow_kg_s - action.reserve_flow_kg_s, dtype=float)
         return flow
 
-    def staged_reserve_kw(self) -> float:
-        """The staged plan's reserve in its first period, p₀ᵀr₀ [kW] (the building's part
-        of the fleet's bid; 0 without an optimal plan)."""
-        staged = self._staged
-        if staged is None or staged.status is not SolveStatus.OPTIMAL:
-            return 0.0
-        return float(staged.reserve_kw[0])
+    def staged_offer_kw(self) -> tuple[float, float]:
+        """(the staged plan's first-period offer [kW], its curtailed power [kW]): the
+        building's part of the fleet's bid (:meth:`FleetController.first_offer_kw`); (0,
+        the planned power) without an optimal plan."""
+        staged, problem = self._staged, self._problem
+        if staged is None or problem is None or staged.status is not SolveStatus.OPTIMAL:
+            return 0.0, float("nan") if staged is None else float(staged.power_kw[0])
+        return self.controller.first_offer_kw(problem, staged)
 
     def _solve(self, price_kw: FloatArray, cap_kw: FloatArray | None = None) -> StepSolve:
         base = self._problem
@@ -448,9 +467,10 @@ class BuildingGroup:
         power, cost, lagrangian = self.finalize(price_sgd_per_mwh, cap_kw)
         return power, cost, lagrangian, self.cap_values()
 
-    def staged_reserve_kw(self) -> tuple[FloatArray]:
-        """((B,) the staged plans' first-period reserve [kW],) (the fleet's bid parts)."""
-        return (np.array([agent.staged_reserve_kw() for agent in self.agents]),)
+    def staged_offer_kw(self) -> tuple[FloatArray, FloatArray]:
+        """(B,) the staged plans' first-period offers and curtailed powers [kW]."""
+        parts = [agent.staged_offer_kw() for agent in self.agents]
+        return np.array([p[0] for p in parts]), np.array([p[1] for p in parts])
 
     def advance(self, activated: bool = False) -> dict[str, FloatArray]:
         """Step every plant (curtailed where ``activated`` and a reserve is offered); (B,)

@@ -42,12 +42,13 @@ from hvacflex import state
 from hvacflex.config import NEMS_MAX_INTERRUPTION_STEPS
 from hvacflex.constants import TIMEZONE
 from hvacflex.control.base import FloatArray
+from hvacflex.control.mpc import BASELINE_TOLERANCE_KW
 from hvacflex.errors import HvacflexError
 from hvacflex.fleet.agent import BuildingGroup, FleetSettings
 from hvacflex.fleet.bundle import coordinate_caps
 from hvacflex.fleet.coordinate import CoordinationOptions, CoordinationResult, coordinate
 from hvacflex.fleet.schema import load_fleet
-from hvacflex.settlement import settlement_columns
+from hvacflex.settlement import settlement_columns, start_baseline_kw
 from hvacflex.sim.activation import activation_schedule
 from hvacflex.sim.run_files import (
     check_checkpoint_code,
@@ -284,10 +285,9 @@ def run_fleet(
         while k < steps:
             try:
                 tick = time.perf_counter()
-                before = (bool(schedule[k - 1]), bool(flags[k - 1, ACTIVATED])) if k else None
-                scheduled = (bool(schedule[k]), before)
+                context = _context(k, schedule, flags, values, col, index, settings, min_bid_kw)
                 feeder_kw = planning_limit[k : k + horizon]
-                outcome = _fleet_step(groups, feeder_kw, options, price, scheduled, min_bid_kw)
+                outcome = _fleet_step(groups, feeder_kw, options, price, context)
             except HvacflexError:
                 raise
             except Exception as exc:  # a lost worker surfaces as comm/actor errors
@@ -541,37 +541,94 @@ class _StepOutcome:
     coordination_s: float
 
 
+@dataclass(frozen=True)
+class _StepContext:
+    """What one fleet step needs to know of the run so far.
+
+    Attributes
+    ----------
+    scheduled : the grid operator activates IL in this period.
+    before : (it did in the last period, the fleet was activated then); None at the start.
+    baseline_kw : the fleet's settlement baseline for an activation starting now [kW]
+        (NaN: none; None: unknown, not checked).
+    excess_kw : the fleet's planned power above its metered power last period (≥ 0) [kW].
+    min_bid_kw : the market's minimum bid [kW].
+    """
+
+    scheduled: bool
+    before: tuple[bool, bool] | None
+    baseline_kw: float | None
+    excess_kw: float
+    min_bid_kw: float
+
+
+def _context(
+    k: int,
+    schedule: Any,
+    flags: Any,
+    values: FloatArray,
+    col: dict[str, int],
+    index: pd.DatetimeIndex,
+    settings: FleetSettings,
+    min_bid_kw: float,
+) -> _StepContext:
+    """The :class:`_StepContext` of step ``k`` from the tables of the steps before."""
+    if k == 0:
+        return _StepContext(bool(schedule[0]), None, None, 0.0, min_bid_kw)
+    metered = values[:k, col["fleet_power_kw"]]
+    baseline = start_baseline_kw(
+        settings.il_events.il_baseline, metered, flags[:k, ACTIVATED], index[: k + 1]
+    )
+    excess = max(float(values[k - 1, col["planned_fleet_power_kw"]] - metered[-1]), 0.0)
+    before = (bool(schedule[k - 1]), bool(flags[k - 1, ACTIVATED]))
+    return _StepContext(bool(schedule[k]), before, baseline, excess, min_bid_kw)
+
+
+def fleet_baseline_sees(
+    bid_kw: float, curtailed_kw: float, baseline_kw: float | None, excess_kw: float
+) -> bool:
+    """Whether the fleet's meter would show its bid [kW] if an activation started now: the
+    fleet's curtailed power [kW] (less the model's excess over the metered power [kW]) plus
+    the bid stays at or below the fleet's baseline [kW] — the single building's rule
+    (``MPCController``) applied to the aggregate that is settled. No baseline (NaN):
+    nothing would be seen; unknown (None, the first period): not checked."""
+    if baseline_kw is None or bid_kw <= 0:
+        return True
+    if not np.isfinite(baseline_kw):
+        return False
+    return curtailed_kw - excess_kw + bid_kw <= baseline_kw + BASELINE_TOLERANCE_KW
+
+
 def _fleet_step(
     groups: Any,
     feeder_kw: FloatArray,
     options: CoordinationOptions,
     price: FloatArray,
-    scheduled: tuple[bool, tuple[bool, bool] | None],
-    min_bid_kw: float,
+    context: _StepContext,
 ) -> _StepOutcome:
     """Coordinate, bid, activate and advance one step.
 
-    ``scheduled`` = (the grid operator activates in this period, (it did in the last one,
-    the fleet was activated in the last one) or None at the first step). An activation
-    that starts in this period reaches the fleet only if its bid is accepted (Σ of the
-    staged first-period reserves ≥ the minimum bid); one going on keeps the fleet activated
-    as it was at its start."""
-    now, before = scheduled
-    continuing = now and before is not None and before[0]
+    The fleet bids Σ of the staged first-period offers when its meter would show them
+    (:func:`fleet_baseline_sees`); the bid is accepted at or above the minimum. An
+    activation that starts in this period reaches the fleet only if its bid is accepted;
+    one going on keeps the fleet activated as it was at its start (locked buildings keep
+    their locked power, :meth:`BuildingAgent.begin_step`)."""
+    before = context.before
+    continuing = context.scheduled and before is not None and before[0]
+    locked = continuing and before is not None and before[1]
     tick = time.perf_counter()
-    result, p_min = _coordinate_step(
-        groups, feeder_kw, options, price, continuing and before is not None and before[1]
-    )
+    result, p_min = _coordinate_step(groups, feeder_kw, options, price, locked)
     coordinated = time.perf_counter() - tick
-    bid = float(np.sum(groups.stacked("staged_reserve_kw")[0]))
-    accepted = bid_accepted(bid, min_bid_kw)
-    if continuing:
-        activated = before is not None and before[1]
-    else:
-        activated = now and accepted
+    offer, curtailed = groups.stacked("staged_offer_kw")
+    bid = float(np.sum(offer))
+    sees = fleet_baseline_sees(
+        bid, float(np.nansum(curtailed)), context.baseline_kw, context.excess_kw
+    )
+    accepted = sees and bid_accepted(bid, context.min_bid_kw)
+    activated = locked if continuing else context.scheduled and accepted
     rows = groups.broadcast("advance", activated)
     merged = {key_: np.concatenate([r[key_] for r in rows]) for key_ in rows[0]}
-    return _StepOutcome(result, p_min, merged, bid, activated, coordinated)
+    return _StepOutcome(result, p_min, merged, bid if sees else 0.0, activated, coordinated)
 
 
 def bid_accepted(bid_kw: float, min_bid_kw: float) -> bool:
