@@ -10,6 +10,7 @@ import pytest
 
 from hvacflex.building.hvac import hvac_power_kw
 from hvacflex.building.io import building_from_dict
+from hvacflex.fleet.agent import BuildingGroup, FleetSettings
 from hvacflex.fleet.generate import (
     DEFAULT_LIMIT_FRACTION,
     MIN_POWER_MARGIN,
@@ -19,7 +20,7 @@ from hvacflex.fleet.generate import (
     write_fleet,
 )
 from hvacflex.fleet.run import minimum_power_warning
-from hvacflex.fleet.schema import load_fleet
+from hvacflex.fleet.schema import fleet_from_dict, load_fleet
 
 
 def test_design_minimum_is_the_ventilation_flow_power() -> None:
@@ -61,3 +62,18 @@ def test_minimum_power_warning_only_below_the_minima(tmp_path: Path) -> None:
     assert warning is not None and "flagged infeasible" in warning and "1.0 kW" in warning
     doc["feeder_limit_kw"] = math.inf
     assert minimum_power_warning(write_fleet(doc, tmp_path / "inf.toml"), "2014-03-03", 1.0) is None
+
+
+@pytest.mark.slow
+def test_default_limit_covers_the_planned_minima_of_a_hot_day() -> None:
+    # 2014-03-05: the 20-building fleet's planned minimum powers peak at 14:30, above the old
+    # default (0.33 × design power = 635 kW); the controllers' own P_min over the day ahead
+    doc = generate_fleet(20, 17)
+    fleet = fleet_from_dict(doc)
+    group = BuildingGroup(doc, list(range(20)), FleetSettings.of(fleet, "2014-03-05", 1))
+    p_min, _, _ = group.begin_step()
+    peak_minimum = float(p_min.sum(axis=0).max())
+    assert peak_minimum > DEFAULT_LIMIT_FRACTION * sum(
+        design_power_kw(e["building"]) for e in doc["buildings"]
+    )
+    assert peak_minimum < doc["feeder_limit_kw"]
