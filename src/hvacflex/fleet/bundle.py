@@ -1,38 +1,39 @@
-r"""Feeder coordination by power caps: a flexibility envelope, then a trust-region bundle.
+r"""Feeder coordination by power caps: an envelope, then a bundle method (issue 31).
 
-The fleet step ``min Σ_b J_b(P_b) s.t. Σ_b P_b,k ≤ F_k`` is solved by **primal
-decomposition**: give every building a cap c_b,k on its plan's power and let
+The fleet step ``min Σ_b J_b(P_b) s.t. Σ_b P_b,k ≤ F_k`` over the periods k where the
+buildings' maximum powers could exceed F (elsewhere nothing couples them; where the minimum
+powers alone exceed F every building's cap is its minimum and the period is flagged). Every
+scheme ends with per-building caps that sum to F in those periods and one re-solve of every
+building inside its caps (``RMPCProblem.power_max_kw``), so the applied plans are feasible.
 
-.. math:: V_b(c_b) = \min \{ J_b(P_b) : P_b \le c_b \}
-
-be its optimal cost under it (its own LP, ``RMPCProblem.power_max_kw``). The fleet optimum
-is ``min Σ_b V_b(c_b) s.t. Σ_b c_b,k = F_k, P_min ≤ c ≤ P_max`` over the periods k where the
-buildings' maximum powers could exceed F (elsewhere the caps are inf; where the minimum
-powers alone exceed F the caps are the minima and the period is flagged). V_b is convex and
-piecewise linear in c_b, and the building's LP gives a subgradient with every solve: the
-marginal value μ_b ≥ 0 [SGD/kW] of its caps (the power column's reduced cost,
-``RMPCSolver.power_cap_values_sgd_per_kw``), so every solve yields a cut
-
-.. math:: V_b(c) \ge V_b(c^j) - μ_b^j \cdot (c - c^j).
-
-1. **Envelope** (``scheme = "envelope"``): every building solves without caps and reports
-   its plan and its range [P_min, P_max]; if the plans fit they are kept; otherwise the
-   aggregator shares F in proportion to each building's request above its minimum
+1. **Envelope** (``scheme = "envelope"``): every building solves without caps and reports its
+   plan and its range [P_min, P_max]; if the plans fit they are kept; otherwise F above the
+   minima is shared in proportion to each building's request above its minimum
    (:func:`hvacflex.fleet.coordinate.allocate_caps`) and each building re-plans once.
-2. **Bundle** (``scheme = "bundle"``, the default): from that allocation, a small master LP
-   over the caps (B × binding periods + B epigraph columns, one row per building and cut,
-   one per binding period) minimises the cuts' model of Σ_b V_b inside a trust region
-   |c − ĉ| ≤ Δ_k around the best allocation ĉ; every building re-solves at the master's
-   caps (warm, in parallel) and returns its cost and its new cut. A step that achieves at
-   least ``SERIOUS_STEP_SHARE`` of the predicted decrease is kept (ĉ moves, Δ ×2), otherwise
-   Δ halves. Every allocation sums to F, so the plans are feasible after any round.
+2. **Dual bundle** (``scheme = "bundle"``, the default): from the envelope, a trust-region
+   bundle method maximises the dual function ``L(π) = Σ_b min_P (J_b(P) + π·P) − π·F`` over
+   feeder prices π ≥ 0 [SGD/kW] (one building solve per round: every building re-solves at
+   the round's prices, warm, in parallel, and returns a plan — a column — and its Lagrangian
+   value), and recovers a primal plan by **Dantzig–Wolfe**: the restricted master
+   (:func:`solve_restricted_master`) picks the cheapest convex combination of each
+   building's plans that fits under F. The combined plan is feasible for the building's own
+   LP at the combined cost, so capping each building at its combined power and re-solving
+   costs at most the master's value. The dual model (:func:`solve_dual_model`) is maximised
+   inside a box |π − π̂| ≤ Δ; a step that achieves ≥ ``SERIOUS_STEP_SHARE`` of the predicted
+   ascent moves π̂ (Δ × ``TRUST_GROWTH``), otherwise Δ × ``TRUST_SHRINK``.
+3. **Cap-space bundle** (``scheme = "caps"``): primal decomposition — with
+   V_b(c) = min {J_b(P) : P ≤ c} convex and piecewise linear and the cap values
+   μ_b ≥ 0 [SGD/kW] of each solve as subgradients (``RMPCSolver.power_cap_values_sgd_per_kw``),
+   Kelley cuts ``V_b(c) ≥ V_b(cʲ) − μʲ·(c − cʲ)`` and a trust region |c − ĉ| ≤ Δ_k
+   (:func:`solve_master`). Kept for comparison: B × P cap dimensions against P prices make
+   it converge much more slowly (docs/fleet.md).
 
-Stop when (a) the certified gap ``(Σ V(ĉ) − L) / |Σ V(ĉ)|`` ≤ ``gap_tolerance``, with L the
-minimum of the cut model over the whole cap box (a lower bound of the fleet optimum),
-(b) the predicted decrease inside the trust region is below ``gap_tolerance`` × the cost,
-(c) the plans in the binding periods moved by less than ``plan_tolerance_kw`` per building
-since the last round, or (d) after ``max_iterations`` rounds. The master LPs are solved by
-:func:`hvacflex.opt.solve.solve_lp` (HiGHS stays behind :mod:`hvacflex.opt`).
+Stop (bundle) when (a) ``(master − bound) / |master|`` ≤ ``gap_tolerance`` with the bound
+the best Lagrangian value (a lower bound of the fleet optimum), (b) the model predicts less
+ascent than ``gap_tolerance`` × the cost, (c) no building's plan in a binding period moved
+more than ``plan_tolerance_kw`` since the last round, or (d) after ``max_iterations``
+rounds. The master LPs are solved by :func:`hvacflex.opt.solve.solve_lp` (HiGHS stays behind
+:mod:`hvacflex.opt`).
 """
 
 from __future__ import annotations
