@@ -1,4 +1,6 @@
-r"""Feeder coordination of one step: dual decomposition, then power caps.
+r"""Feeder coordination of one step: dual decomposition, then power caps (``scheme =
+"prices"``, issue 17), and the cap helpers every scheme shares (:func:`allocate_caps`,
+:func:`keep_or_cap`, :func:`project_caps`). The default scheme is :mod:`hvacflex.fleet.bundle`.
 
 The fleet's step problem is the buildings' LPs coupled by the feeder rows
 
