@@ -1,4 +1,4 @@
-"""Fleet scale: set-up, cold and warm step times, iterations and memory (issue 17).
+"""Fleet scale: set-up, cold and warm step times, iterations and memory (issues 17, 31).
 
 For each fleet size B (generated, seed 17, default feeder limit) and each worker count W,
 runs ``--steps`` steps from ``--start`` on a ``LocalCluster`` of W single-threaded workers
@@ -11,11 +11,17 @@ runs ``--steps`` steps from ``--start`` on a ``LocalCluster`` of W single-thread
   time is the measure of work; wall time depends on the load); the busiest worker's CPU and
   the coordinator's (this process: coordination, Dask client and scheduler) per warm step —
   on an idle machine a warm step cannot take less than the busiest worker's CPU time;
-* coordination iterations and cap-reallocation rounds per step;
+* coordination rounds per step (bundle rounds; price iterations for ``scheme = "prices"``)
+  and the warm step's CPU per building (the issue-31 target: ≤ 0.05 CPU-s);
 * the workers' resident memory after the run (memory per building = the slope between fleet
   sizes at the same W).
 
     python benchmarks/bench_fleet_scale.py --buildings 10 100 --workers 1 2 --steps 3
+
+Measured 2026-12-02 (issue 31, bundle scheme, ``--workers 0 --steps 4 --start "2014-03-03
+08:00"``, shared 2-core machine, load 16–23): warm step CPU 7.30 s for 10 buildings (20
+rounds per step), 19.61 s for 40 (15.5 rounds) → 0.73 and 0.49 CPU-s per building and warm
+dispatch; docs/fleet.md, "Scale".
 """
 
 from __future__ import annotations
@@ -106,17 +112,17 @@ def main() -> None:
     parser.add_argument("--workers", type=int, nargs="+", default=[1, 2])
     parser.add_argument("--steps", type=int, default=3)
     parser.add_argument("--start", default="2014-03-03 08:00")
-    parser.add_argument("--iterations", type=int, default=0, help="0 = the fleet's (10)")
+    parser.add_argument("--iterations", type=int, default=0, help="0 = the fleet's (30)")
     parser.add_argument("--cap-rounds", type=int, default=-1, help="-1 = the fleet's (4)")
     args = parser.parse_args()
     print(f"load average at start: {os.getloadavg()}", flush=True)
     header = (
         "| buildings | workers | set-up [s] | agents wall / CPU [s] | cold step [s] | "
         "warm step wall / CPU [s] | busiest worker / coordinator CPU [s] | iterations/step | "
-        "worker memory [MiB] |"
+        "worker memory [MiB] | warm CPU per building [s] |"
     )
     print(header)
-    print("|---|---|---|---|---|---|---|---|---|", flush=True)
+    print("|---|---|---|---|---|---|---|---|---|---|", flush=True)
     for buildings in args.buildings:
         for workers in args.workers:
             r = measure(
@@ -126,7 +132,8 @@ def main() -> None:
                 f"| {buildings} | {workers} | {r['setup_s']:.1f} | {r['agents_wall_s']:.1f} / "
                 f"{r['agents_cpu_s']:.1f} | {r['cold_s']:.2f} | {r['warm_s']:.2f} / "
                 f"{r['warm_cpu_s']:.2f} | {r['warm_group_cpu_max_s']:.2f} / "
-                f"{r['warm_coordinator_cpu_s']:.2f} | {r['iterations']:.1f} | {r['rss_mib']:.0f} |",
+                f"{r['warm_coordinator_cpu_s']:.2f} | {r['iterations']:.1f} | {r['rss_mib']:.0f} | "
+                f"{r['warm_cpu_s'] / buildings:.3f} |",
                 flush=True,
             )
             print(f"load average now: {os.getloadavg()}", flush=True)

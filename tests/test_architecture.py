@@ -205,7 +205,6 @@ WITHOUT_OWN_TEST_FILE: set[str] = {
     "hvacflex.fleet.centralised",
     "hvacflex.fleet.cli",
     "hvacflex.fleet.coordinate",
-    "hvacflex.fleet.generate",
     "hvacflex.fleet.report",
     "hvacflex.opt.feedback_result",
     "hvacflex.opt.feedback_solve",

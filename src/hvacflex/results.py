@@ -229,10 +229,13 @@ FLEET_FLOAT_UNITS: dict[str, str] = {
     "reserve_price_sgd_per_mwh": "SGD/MWh",
     "settled_reserve_kw": "kW",
     "discomfort_kelvin_hours": "K·h",
+    "il_baseline_power_kw": "kW",
+    "il_delivered_kw": "kW",
+    "il_shortfall_kw": "kW",
 }
 """A fleet run's per-step float columns, in file order → unit (``docs/fleet.md``)."""
 
-FLEET_FLAG_COLUMNS: tuple[str, ...] = ("bid_accepted", "feeder_infeasible")
+FLEET_FLAG_COLUMNS: tuple[str, ...] = ("bid_accepted", "feeder_infeasible", "il_activated")
 """A fleet run's boolean per-step columns, in file order (after the floats)."""
 
 FLEET_ITERATIONS_COLUMN = "coordination_iterations"

@@ -28,9 +28,13 @@ def fleet_frame(freq: str = "30min") -> pd.DataFrame:
         "reserve_price_sgd_per_mwh": np.full(4, 10.0),
         "coordination_gap": np.array([0.001, 0.002, 0.0, 0.0]),
         "step_time_s": np.array([1.0, 2.0, 3.0, 4.0]),
-        "discomfort_kelvin_hours": np.array([0.1, 0.0, 0.2, 0.0]),
+        "discomfort_kelvin_hours": np.array([0.1, 0.0, 0.2, 0.4]),
         "bid_accepted": np.array([True, False, True, False]),
         "feeder_infeasible": np.array([False, False, False, True]),
+        "il_activated": np.array([False, False, True, False]),
+        "il_baseline_power_kw": np.array([np.nan, np.nan, 200.0, np.nan]),
+        "il_delivered_kw": np.array([0.0, 0.0, 100.0, 0.0]),
+        "il_shortfall_kw": np.array([0.0, 0.0, 0.0, 0.0]),
         "coordination_iterations": np.array([3, 5, 1, 2]),
     }
     return pd.DataFrame(columns, index=index)[schema.fleet_columns()]
@@ -53,7 +57,16 @@ def test_fleet_summary_by_hand() -> None:
     assert out["coordination_iterations_mean"] == pytest.approx(2.75)
     assert out["coordination_iterations_max"] == 5.0
     assert out["coordination_gap_max"] == pytest.approx(0.002)
-    assert out["discomfort_kelvin_hours"] == pytest.approx(0.3)
+    assert out["discomfort_kelvin_hours"] == pytest.approx(0.7)
+    # without the flagged period 3 (and the unlimited period 2 for the limit)
+    assert out["discomfort_unflagged_kelvin_hours"] == pytest.approx(0.3)
+    assert out["max_planned_over_limit_unflagged_kw"] == pytest.approx(0.0)
+    assert out["max_realised_over_limit_unflagged_pct"] == pytest.approx(100.0 / 3.0)
+    # period 2 activated: 50 kW settled for 0.5 h, 100 kW delivered below its baseline
+    assert out["il_activated_steps"] == 1.0
+    assert out["il_offered_kwh"] == pytest.approx(25.0)
+    assert out["il_delivered_kwh"] == pytest.approx(50.0)
+    assert out["il_shortfall_kwh"] == pytest.approx(0.0)
     assert out["step_time_s_mean"] == pytest.approx(2.5)
     assert out["buildings"] == 2.0 and out["steps"] == 4.0
 

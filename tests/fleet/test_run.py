@@ -11,8 +11,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from hvacflex.fleet.generate import generate_fleet, write_fleet
 from hvacflex.fleet.kpi import fleet_summary, load_fleet_results
-from hvacflex.fleet.run import CHECKPOINT_FILE, run_fleet
+from hvacflex.fleet.run import CHECKPOINT_FILE, bid_accepted, fleet_baseline_sees, run_fleet
 
 DAYS = 8 / 48  # 8 steps from 06:00: the morning pull-down meets the limit
 START = "2014-03-03 06:00"
@@ -102,3 +103,60 @@ def test_worker_killed_mid_run_recovers(small_fleet: Path, tmp_path: Path) -> No
         )
     assert killed and result.recoveries >= 1
     _check(tmp_path / "run")
+
+
+@pytest.fixture(scope="module")
+def activated_fleet(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """Three buildings under a limit, any bid accepted, IL activated by the grid operator
+    at 12:00 and 12:30 (a file schedule)."""
+    folder = tmp_path_factory.mktemp("activated")
+    times = pd.date_range("2014-03-03 10:00", periods=6, freq="30min", tz="Asia/Singapore")
+    pd.DataFrame({"time": [t.isoformat() for t in times], "activated": [0, 0, 0, 0, 1, 1]}).to_csv(
+        folder / "activations.csv", index=False
+    )
+    doc = generate_fleet(3, 3, feeder_limit_kw=110.0, min_bid_mw=0.0)
+    doc["activation"] = {"mode": "file", "file": "activations.csv"}
+    return write_fleet(doc, folder / "fleet.toml")
+
+
+def test_activation_is_settled_against_metered_fleet_power(
+    activated_fleet: Path, tmp_path: Path
+) -> None:
+    result = run_fleet(activated_fleet, tmp_path, start="2014-03-03T10:00", days=6 / 48, workers=0)
+    frame = result.frame
+    accepted = bool(frame["bid_accepted"].iloc[4])
+    # an activation reaches the fleet only through an accepted bid of its first period
+    assert frame["il_activated"].tolist() == [False] * 4 + [accepted] * 2
+    assert accepted, "the fleet offered no reserve at 12:00: the test needs a bid"
+    assert frame["fleet_reserve_kw"].iloc[4] > 0
+    # the feeder guarantee holds during the event (locked buildings keep their power)
+    assert np.all(frame["planned_fleet_power_kw"] <= frame["feeder_limit_kw"] + 1e-3)
+    # pre-event baseline: the metered fleet power of 11:30, held over the event
+    power = frame["fleet_power_kw"].to_numpy()
+    baseline = frame["il_baseline_power_kw"].to_numpy()
+    np.testing.assert_allclose(baseline[4:], power[3])
+    assert np.all(np.isnan(baseline[:4]))
+    delivered = frame["il_delivered_kw"].to_numpy()
+    np.testing.assert_allclose(delivered[4:], np.maximum(power[3] - power[4:], 0))
+    settled = frame["settled_reserve_kw"].to_numpy()
+    np.testing.assert_allclose(
+        frame["il_shortfall_kw"].iloc[4:], np.maximum(settled[4:] - delivered[4:], 0)
+    )
+    # every building is settled too: its own rows carry the activation
+    buildings = pd.read_parquet(tmp_path / "buildings.parquet")
+    per_building = buildings.groupby(level=0)["il_activated"].all()
+    assert per_building.tolist() == frame["il_activated"].tolist()
+    assert "il_delivered_kw" in buildings
+    assert result.summary["il_activated_steps"] == 2.0
+
+
+def test_fleet_baseline_check_by_hand() -> None:
+    # curtailed 90 kW, bid 10 kW: seen below a 100 kW baseline, not below 99 kW, unless the
+    # model runs 1 kW above the meter (then 89 + 10 ≤ 99)
+    assert fleet_baseline_sees(10.0, 90.0, 100.0, 0.0)
+    assert not fleet_baseline_sees(10.0, 90.0, 99.0, 0.0)
+    assert fleet_baseline_sees(10.0, 90.0, 99.0, 1.0)
+    assert not fleet_baseline_sees(10.0, 90.0, float("nan"), 0.0)  # no baseline: not seen
+    assert fleet_baseline_sees(10.0, 90.0, None, 0.0)  # unknown (first period): not checked
+    assert bid_accepted(10.0, 10.0) and not bid_accepted(9.99, 10.0)
+    assert not bid_accepted(1e-4, 0.0)  # round-off is no bid

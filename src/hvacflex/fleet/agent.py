@@ -23,6 +23,7 @@ buildings; it is what runs as a Dask actor.
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import time
 from dataclasses import dataclass, field
@@ -38,12 +39,13 @@ from hvacflex.config import (
     ScenarioConfig,
 )
 from hvacflex.control.base import Action, FloatArray
-from hvacflex.control.mpc import MPCController
+from hvacflex.control.mpc import RESERVE_FLOW_TOLERANCE_KG_S, MPCController
 from hvacflex.data.forecast import Forecast
 from hvacflex.data.gains import DEFAULT_OFFICE_SCHEDULE, OfficeSchedule
 from hvacflex.fleet.schema import Fleet, FleetBuilding, fleet_from_dict
 from hvacflex.opt import RMPCProblem, RMPCSolution, RMPCSolver, SolveStatus
 from hvacflex.sim.closed_loop import ClosedLoop
+from hvacflex.sim.events import Role
 from hvacflex.sim.setup import Setup, prepare
 from hvacflex.sim.step import ControlStep
 from hvacflex.units import KWH_PER_MWH
@@ -78,6 +80,24 @@ class FleetController(MPCController):
         super().__init__(*args, **kwargs)
         self.cap_now_kw = np.inf
         self.power_now: tuple[float, FloatArray] | None = None
+
+    def note_baseline_power(self, baseline_power_kw: float | None) -> None:
+        """Ignored: a fleet is settled on its aggregate meter, so the coordinator checks the
+        fleet's bid against the fleet's baseline (:func:`hvacflex.fleet.run.fleet_baseline_sees`)
+        instead of each building's offer against its own (which would drop the offers of
+        every building whose plan is not below its last metered power)."""
+        super().note_baseline_power(None)
+
+    def first_offer_kw(self, problem: RMPCProblem, plan: RMPCSolution) -> tuple[float, float]:
+        """(the offer q₀·r₀ [kW], the curtailed power P₀ − p₀·r₀ [kW]) of ``plan``'s first
+        period, its flows snapped onto the physical limits as :meth:`act` snaps them."""
+        low = np.asarray(problem.u_min, dtype=float)[0]
+        flow = np.clip(plan.u[0], low, self._flow_max)
+        reserve = np.clip(plan.r[0], 0.0, flow - low)
+        reserve[reserve < RESERVE_FLOW_TOLERANCE_KG_S] = 0.0
+        coeff = problem.power_coeff_kw_per_kg_s[0]
+        curtailed = float(plan.power_kw[0]) - float(coeff @ reserve)
+        return float(problem.reserve_kw_per_kg_s[0] @ reserve), curtailed
 
     def solver(self, problem: RMPCProblem) -> RMPCSolver:
         """The building's solver (built on first use, from a restored basis if any)."""
@@ -181,8 +201,9 @@ def _schedule(hours: tuple[int, int]) -> OfficeSchedule:
 
 def building_setup(entry: FleetBuilding, index: int, settings: FleetSettings) -> Setup:
     """The single-building :class:`Setup` of one fleet building (its own seed), made by the
-    one set-up path :func:`hvacflex.sim.setup.prepare` (no IL activation: the fleet run
-    does not simulate activations)."""
+    one set-up path :func:`hvacflex.sim.setup.prepare`. Its activation schedule starts
+    all False: the fleet run sets each period's entry when the fleet's IL is activated
+    (:meth:`BuildingAgent.advance`)."""
     controller = ControllerConfig(
         robust=settings.robust,  # type: ignore[arg-type]
         reserve=settings.reserve,
@@ -245,6 +266,8 @@ class BuildingAgent:
         self._last: RMPCSolution | None = None
         self._last_price: FloatArray | None = None
         self._last_cap: FloatArray | float = np.inf
+        self.locked_power_kw: float | None = None
+        """This period's power fixed by a locked event plan [kW] (None: not locked)."""
 
     @property
     def problem(self) -> RMPCProblem:
@@ -253,8 +276,14 @@ class BuildingAgent:
         return self._problem
 
     # -- coordination --------------------------------------------------------------
-    def begin_step(self) -> tuple[FloatArray, FloatArray, FloatArray]:
-        """Build this step's problem; (P_min (N,), P_max (N,), energy price (N,))."""
+    def begin_step(self, continuing: bool = False) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """Build this step's problem; (P_min (N,), P_max (N,), energy price (N,)).
+
+        ``continuing``: an IL activation that started earlier goes on in this period. A
+        building then locked to its event plan (:class:`hvacflex.sim.events.EventTracker`)
+        will draw that plan's curtailed power whatever it is told, so its range in the
+        first period is that power alone: P_min₀ = P_max₀ = p0₀ + p₀·(u − r)ⱼ [kW], and
+        the coordinator gives it exactly that as its cap."""
         loop = self.loop
         forecast = self.setup.forecaster.forecast(
             loop.k, self.setup.config.controller.horizon_steps + 1
@@ -264,7 +293,33 @@ class BuildingAgent:
         )
         self._problem, self._last, self._last_price = problem, None, None
         p_min = power_bounds_kw(problem, problem.u_min)
-        return p_min, power_bounds_kw(problem), problem.energy_price_sgd_per_mwh.copy()
+        p_max = power_bounds_kw(problem)
+        locked = self._locked_flow_kg_s() if continuing else None
+        if locked is not None:
+            power = float(problem.power_offset_kw[0] + problem.power_coeff_kw_per_kg_s[0] @ locked)
+            p_min[0] = p_max[0] = power
+        self.locked_power_kw = None if locked is None else float(p_min[0])
+        return p_min, p_max, problem.energy_price_sgd_per_mwh.copy()
+
+    def _locked_flow_kg_s(self) -> FloatArray | None:
+        """(m,) the curtailed flows u − r [kg/s] the building's event plan fixes for this
+        period if an activation going on locks it, else None (probed on a copy of the
+        event tracker: the real one advances when the period is decided)."""
+        probe = copy.deepcopy(self.control.tracker)
+        if probe.role(True) is not Role.EVENT_LOCKED:
+            return None
+        action = probe.locked_action()
+        flow: FloatArray = np.asarray(action.flow_kg_s - action.reserve_flow_kg_s, dtype=float)
+        return flow
+
+    def staged_offer_kw(self) -> tuple[float, float]:
+        """(the staged plan's first-period offer [kW], its curtailed power [kW]): the
+        building's part of the fleet's bid (:meth:`FleetController.first_offer_kw`); (0,
+        the planned power) without an optimal plan."""
+        staged, problem = self._staged, self._problem
+        if staged is None or problem is None or staged.status is not SolveStatus.OPTIMAL:
+            return 0.0, float("nan") if staged is None else float(staged.power_kw[0])
+        return self.controller.first_offer_kw(problem, staged)
 
     def _solve(self, price_kw: FloatArray, cap_kw: FloatArray | None = None) -> StepSolve:
         base = self._problem
@@ -333,9 +388,11 @@ class BuildingAgent:
             return np.zeros(base.horizon)
         return self.controller.solver(base).power_cap_values_sgd_per_kw()
 
-    def advance(self) -> dict[str, float]:
-        """Apply the staged plan's first step to the plant; the step's row values."""
+    def advance(self, activated: bool = False) -> dict[str, float]:
+        """Apply the staged plan's first step to the plant (curtailed when the fleet's IL
+        is ``activated`` in this period); the step's row values."""
         k = self.loop.k
+        self.setup.activation[k] = activated
         plan, self._staged = self._staged, None
         self.loop.step(plan=plan)
         col = self.loop.recorder.column_index
@@ -378,9 +435,10 @@ class BuildingGroup:
         self.setup_s = (time.perf_counter() - tick, time.process_time() - cpu)
         """(wall, process CPU) time [s] this group took to build its agents."""
 
-    def begin_step(self) -> tuple[FloatArray, FloatArray, FloatArray]:
-        """(B, N) minimum and maximum power [kW] and (B, N) energy prices [SGD/MWh]."""
-        parts = [agent.begin_step() for agent in self.agents]
+    def begin_step(self, continuing: bool = False) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """(B, N) minimum and maximum power [kW] and (B, N) energy prices [SGD/MWh];
+        ``continuing`` as :meth:`BuildingAgent.begin_step`."""
+        parts = [agent.begin_step(continuing) for agent in self.agents]
         return (
             np.array([p[0] for p in parts]),
             np.array([p[1] for p in parts]),
@@ -409,9 +467,15 @@ class BuildingGroup:
         power, cost, lagrangian = self.finalize(price_sgd_per_mwh, cap_kw)
         return power, cost, lagrangian, self.cap_values()
 
-    def advance(self) -> dict[str, FloatArray]:
-        """Step every plant; (B,) arrays of the step's planned and realised power etc."""
-        rows = [agent.advance() for agent in self.agents]
+    def staged_offer_kw(self) -> tuple[FloatArray, FloatArray]:
+        """(B,) the staged plans' first-period offers and curtailed powers [kW]."""
+        parts = [agent.staged_offer_kw() for agent in self.agents]
+        return np.array([p[0] for p in parts]), np.array([p[1] for p in parts])
+
+    def advance(self, activated: bool = False) -> dict[str, FloatArray]:
+        """Step every plant (curtailed where ``activated`` and a reserve is offered); (B,)
+        arrays of the step's planned and realised power etc."""
+        rows = [agent.advance(activated) for agent in self.agents]
         return {key: np.array([r[key] for r in rows]) for key in rows[0]}
 
     def get_state(self) -> list[dict[str, Any]]:

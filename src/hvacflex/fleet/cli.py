@@ -17,6 +17,8 @@ if TYPE_CHECKING:
     from hvacflex.fleet.run import FleetStepProgress
 
 MAX_WORKERS = 256
+MAX_COMPARE_STEPS = 48 * 7
+"""Most steps ``fleet compare`` runs (a week)."""
 """Most LocalCluster workers ``fleet simulate`` starts."""
 
 
@@ -113,7 +115,7 @@ def simulate(
     """Simulate a fleet under its feeder limit with coordinated RMPC (results.parquet)."""
     from hvacflex.errors import HvacflexError
     from hvacflex.fleet.report import write_fleet_report
-    from hvacflex.fleet.run import run_fleet
+    from hvacflex.fleet.run import minimum_power_warning, run_fleet
     from hvacflex.fleet.schema import load_fleet
     from hvacflex.paths import check_output_dir
     from hvacflex.results import RESULTS_FILENAME
@@ -124,6 +126,9 @@ def simulate(
         check_output_dir(out, "--out")
         if scheduler is not None:
             check_scheduler(scheduler)
+        warning = minimum_power_warning(fleet, start, days)
+        if warning is not None:
+            typer.echo(f"warning: {warning}", err=True)
         with task_progress(True, "fleet", round(days * 48)) as update:
             watch.update = update
             result = run_fleet(
@@ -150,7 +155,8 @@ def simulate(
         f"max {s['max_realised_over_limit_pct']:.2f} %, "
         f"bid accepted {100 * s['bid_accepted_share']:.0f} %, "
         f"{s['coordination_iterations_mean']:.1f} iterations/step, "
-        f"{s['step_time_s_mean']:.2f} s/step"
+        f"{s['step_time_s_mean']:.2f} s/step, "
+        f"{int(s['feeder_infeasible_steps'])} periods flagged infeasible"
     )
 
 
@@ -195,3 +201,30 @@ class CoordinationWatch:
             f"tolerance {self.last.gap_tolerance:g}); raise [coordination] max_iterations or "
             "gap_tolerance in the fleet file"
         )
+
+
+@fleet_app.command("compare")
+def compare(
+    fleet: Path = typer.Option(..., "--fleet", help="Fleet TOML file."),  # noqa: B008
+    start: str = typer.Option(
+        DEFAULT_START,
+        "--start",
+        help=f"First period (Singapore local time), {ISO_START_FORMS}.",
+        callback=_check_start,
+    ),
+    steps: int = typer.Option(1, "--steps", min=1, max=MAX_COMPARE_STEPS, help="Steps."),
+    out: Path = typer.Option(..., "--out", help="Output folder (compare.csv)."),  # noqa: B008
+) -> None:
+    """Coordinated plans against the centralised LP from the same states (compare.csv)."""
+    from hvacflex.errors import HvacflexError
+    from hvacflex.fleet.compare import COMPARE_COLUMNS, COMPARE_FILE, compare_fleet
+    from hvacflex.paths import check_output_dir
+
+    try:
+        check_output_dir(out, "--out")
+        frame = compare_fleet(fleet, start, steps, out)
+    except HvacflexError as exc:
+        typer.echo(f"error: {exc}", err=True)
+        raise typer.Exit(2) from None
+    typer.echo(frame[list(COMPARE_COLUMNS)].to_string(index=False, float_format="{:.6g}".format))
+    typer.echo(f"{out / COMPARE_FILE}: {len(frame)} steps, largest gap {frame['gap'].max():.4g}")

@@ -1,4 +1,6 @@
-r"""Feeder coordination of one step: dual decomposition, then power caps.
+r"""Feeder coordination of one step: dual decomposition, then power caps (``scheme =
+"prices"``, issue 17), and the cap helpers every scheme shares (:func:`allocate_caps`,
+:func:`keep_or_cap`, :func:`project_caps`). The default scheme is :mod:`hvacflex.fleet.bundle`.
 
 The fleet's step problem is the buildings' LPs coupled by the feeder rows
 
@@ -70,6 +72,12 @@ class CoordinationOptions:
     """Cap-reallocation rounds after the caps are first allocated (0 = none)."""
     cap_step_share: float = 0.25
     """First reallocation move: this share of the mean headroom above P_min per building."""
+    scheme: str = "bundle"
+    """"bundle" (caps by a trust-region bundle, :mod:`hvacflex.fleet.bundle`), "envelope"
+    (one proportional cap allocation) or "prices" (this module's price iterations + cap
+    reallocation)."""
+    plan_tolerance_kw: float = 0.01
+    """Bundle: stop when no building's plan moved more than this in a binding period [kW]."""
 
 
 @dataclass(frozen=True)
@@ -230,7 +238,7 @@ def reallocate_caps(
     return best.caps_kw, best.power_kw, best.cost_sgd, rounds
 
 
-def _caps_for(
+def keep_or_cap(
     power: FloatArray,
     request: FloatArray,
     limit_kw: FloatArray,
@@ -317,7 +325,7 @@ def coordinate(
         last_sign = np.where(sign != 0, sign, last_sign)
         price = np.where(active, np.clip(price + step * over, 0.0, price_max), 0.0)
     request = np.mean(history[len(history) // 2 :], axis=0)
-    caps, capped = _caps_for(power, request, limit_kw, p_min, p_max, may_bind)
+    caps, capped = keep_or_cap(power, request, limit_kw, p_min, p_max, may_bind)
     final_power, final_cost, _ = finalize_all(price, caps)
     capped_cost, rounds = np.nan, 0
     if capped and cap_values_all is not None:

@@ -32,10 +32,20 @@ def is_fleet_results(results: pd.DataFrame) -> bool:
     return FLEET_MARKER_COLUMN in results.columns
 
 
+SETTLEMENT_KPI_COLUMNS = (
+    "il_activated",
+    "il_baseline_power_kw",
+    "il_delivered_kw",
+    "il_shortfall_kw",
+)
+"""Fleet settlement columns the :mod:`hvacflex.kpi` functions read under the same names."""
+
+
 def as_kpi_frame(results: pd.DataFrame) -> pd.DataFrame:
     """The fleet frame's :data:`KPI_COLUMNS` under their :mod:`hvacflex.kpi` names (same
     index), for the single-building KPI functions."""
-    return results[list(KPI_COLUMNS)].rename(columns=KPI_COLUMNS)
+    settled = [c for c in SETTLEMENT_KPI_COLUMNS if c in results.columns]
+    return results[[*KPI_COLUMNS, *settled]].rename(columns=KPI_COLUMNS)
 
 
 def fleet_summary(results: pd.DataFrame, buildings: pd.DataFrame | None = None) -> dict[str, float]:
@@ -67,9 +77,37 @@ def fleet_summary(results: pd.DataFrame, buildings: pd.DataFrame | None = None) 
         "coordination_gap_max": float(results["coordination_gap"].max()),
         "discomfort_kelvin_hours": float(results["discomfort_kelvin_hours"].sum()),
     }
+    out.update(_unflagged(results, planned, power, limit))
+    out.update(
+        {
+            "il_activated_steps": float(results.get("il_activated", pd.Series(dtype=bool)).sum()),
+            "il_offered_kwh": kpis.il_offered_kwh(fleet),
+            "il_delivered_kwh": kpis.il_delivered_metered_kwh(fleet),
+            "il_shortfall_kwh": kpis.il_shortfall_kwh(fleet),
+        }
+    )
     if "step_time_s" in results:
         out["step_time_s_mean"] = float(results["step_time_s"].mean())
     return out
+
+
+def _unflagged(
+    results: pd.DataFrame, planned: np.ndarray, power: np.ndarray, limit: np.ndarray
+) -> dict[str, float]:
+    """The limit and comfort KPIs over the periods not flagged feeder-infeasible."""
+    keep = np.isfinite(limit) & ~results["feeder_infeasible"].to_numpy(bool)
+    safe = np.where(keep, limit, 1.0)
+    comfort = results["discomfort_kelvin_hours"].to_numpy(float)
+    return {
+        "max_planned_over_limit_unflagged_kw": float(
+            np.max(np.where(keep, planned - limit, -np.inf), initial=-np.inf)
+        ),
+        "max_realised_over_limit_unflagged_pct": 100.0
+        * float(np.max(np.where(keep, (power - limit) / safe, -np.inf), initial=-np.inf)),
+        "discomfort_unflagged_kelvin_hours": float(
+            np.sum(comfort[~results["feeder_infeasible"].to_numpy(bool)])
+        ),
+    }
 
 
 def building_table(buildings: pd.DataFrame) -> pd.DataFrame:

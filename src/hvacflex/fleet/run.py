@@ -39,12 +39,17 @@ import pandas as pd
 from hvacflex import kpi as kpis
 from hvacflex import results as schema
 from hvacflex import state
+from hvacflex.config import NEMS_MAX_INTERRUPTION_STEPS
 from hvacflex.constants import TIMEZONE
 from hvacflex.control.base import FloatArray
+from hvacflex.control.mpc import BASELINE_TOLERANCE_KW
 from hvacflex.errors import HvacflexError
 from hvacflex.fleet.agent import BuildingGroup, FleetSettings
-from hvacflex.fleet.coordinate import CoordinationOptions, coordinate
+from hvacflex.fleet.bundle import coordinate_caps
+from hvacflex.fleet.coordinate import CoordinationOptions, CoordinationResult, coordinate
 from hvacflex.fleet.schema import load_fleet
+from hvacflex.settlement import settlement_columns, start_baseline_kw
+from hvacflex.sim.activation import activation_schedule
 from hvacflex.sim.run_files import (
     check_checkpoint_code,
     load_checkpoint,
@@ -77,6 +82,10 @@ class WorkerLostError(RuntimeError):
 
 
 FLOAT_COLUMNS = tuple(schema.FLEET_FLOAT_UNITS)
+ACTIVATED = schema.FLEET_FLAG_COLUMNS.index("il_activated")
+MIN_BID_FLOOR_KW = 1e-3
+"""A smaller aggregate reserve [kW] is no bid (solver round-off), whatever ``min_bid_mw``."""
+"""Index of the IL-activated flag in the flags table."""
 log = logging.getLogger(__name__)
 
 
@@ -258,12 +267,13 @@ def run_fleet(
         groups = _Groups(doc, settings, n, client)
         values, flags, iterations = _empty_tables(steps)
         col = {name: i for i, name in enumerate(FLOAT_COLUMNS)}
-        k, price = 0, np.zeros(horizon)
-        resumed_from: int | None = None
         checkpoint = _matching_checkpoint(checkpoint_path, key) if resume else None
-        if checkpoint is not None:
-            k, price = _restore(checkpoint, groups, values, flags, iterations)
-            resumed_from = k
+        k, price = (
+            (0, np.zeros(horizon))
+            if checkpoint is None
+            else (_restore(checkpoint, groups, values, flags, iterations))
+        )
+        resumed_from = None if checkpoint is None else k
 
         def snapshot() -> dict[str, Any]:
             return _snapshot(key, k, price, values, flags, iterations, groups)
@@ -271,15 +281,13 @@ def run_fleet(
         checkpoint = checkpoint or snapshot()
         recoveries = 0
         min_bid_kw = 1000.0 * fleet.spec.min_bid_mw
+        schedule = _activation_schedule(fleet, index)
         while k < steps:
             try:
                 tick = time.perf_counter()
-                result, p_min = _coordinate_step(
-                    groups, planning_limit[k : k + horizon], options, price
-                )
-                coordinated = time.perf_counter() - tick
-                rows = groups.broadcast("advance")
-                merged = {key_: np.concatenate([r[key_] for r in rows]) for key_ in rows[0]}
+                context = _context(k, schedule, flags, values, col, index, settings, min_bid_kw)
+                feeder_kw = planning_limit[k : k + horizon]
+                outcome = _fleet_step(groups, feeder_kw, options, price, context)
             except HvacflexError:
                 raise
             except Exception as exc:  # a lost worker surfaces as comm/actor errors
@@ -288,9 +296,8 @@ def run_fleet(
                     raise
                 k, price = _recover(exc, k, client, groups, checkpoint)
                 continue
-            flags[k] = _record_step(
-                values[k], col, merged, result, limit[k], p_min, min_bid_kw, coordinated
-            )
+            result = outcome.result
+            flags[k] = _record_step(values[k], col, outcome, limit[k], min_bid_kw)
             values[k, col["step_time_s"]] = time.perf_counter() - tick
             iterations[k] = result.iterations
             price = np.append(result.price_sgd_per_mwh[1:], result.price_sgd_per_mwh[-1])
@@ -307,7 +314,9 @@ def run_fleet(
         if cluster is not None:
             cluster.close()
 
-    frame = _results_frame(values, flags, iterations, index)
+    frame = settle_fleet(
+        _results_frame(values, flags, iterations, index), settings.il_events.il_baseline
+    )
     summary = _write_outputs(out, frame, long, fleet, key, recoveries)
     checkpoint_path.unlink(missing_ok=True)
     return FleetRunResult(out, frame, summary, recoveries, resumed_from)
@@ -355,11 +364,31 @@ def _feeder_timeline(
     return index, limit, limit * (1.0 - fleet.spec.feeder_margin)
 
 
+def minimum_power_warning(fleet_path: str | Path, start: str, days: float) -> str | None:
+    """A warning when the buildings' design minimum powers
+    (:func:`hvacflex.fleet.generate.design_min_power_kw`, occupied ventilation flows on the
+    design day) exceed the feeder limit somewhere in the run, else None."""
+    from hvacflex.fleet.generate import design_min_power_kw
+
+    fleet = load_fleet(fleet_path)
+    _, limit, _ = _feeder_timeline(fleet, start, days, 0)
+    minimum = sum(design_min_power_kw(b.building) for b in fleet.buildings)
+    lowest = float(np.min(limit))
+    if minimum <= lowest:
+        return None
+    return (
+        f"{fleet_path}: the buildings' minimum powers on the design day sum to "
+        f"{minimum:.1f} kW, above the feeder limit of {lowest:.1f} kW: periods where the "
+        "minima exceed it are flagged infeasible (every building at its minimum); raise "
+        "feeder_limit_kw (hvacflex fleet generate --feeder-limit-kw) to avoid them"
+    )
+
+
 def _empty_tables(steps: int) -> tuple[FloatArray, Any, Any]:
     """(float columns (steps, FLOAT_COLUMNS), flags bid_accepted/feeder_infeasible, iterations)."""
     return (
         np.full((steps, len(FLOAT_COLUMNS)), np.nan),
-        np.zeros((steps, 2), dtype=bool),
+        np.zeros((steps, len(schema.FLEET_FLAG_COLUMNS)), dtype=bool),
         np.zeros(steps, dtype=np.int64),
     )
 
@@ -373,6 +402,8 @@ def _coordination_options(fleet: Any) -> CoordinationOptions:
         cs.feasibility_tolerance,
         cs.step_sgd_per_mwh,
         cap_rounds=cs.cap_rounds,
+        scheme=cs.scheme,
+        plan_tolerance_kw=cs.plan_tolerance_kw,
     )
 
 
@@ -451,6 +482,26 @@ def _results_frame(
     return frame
 
 
+def settle_fleet(frame: pd.DataFrame, rule: str) -> pd.DataFrame:
+    """``frame`` with the fleet's IL settlement filled in: the metered fleet power
+    (``fleet_power_kw``) against the baseline ``rule`` in the activated periods, for the
+    settled bid (``settled_reserve_kw``) — :func:`hvacflex.settlement.settlement_columns`,
+    as for one building (``il_baseline_power_kw``, ``il_delivered_kw``, ``il_shortfall_kw``)."""
+    metered = pd.DataFrame(
+        {
+            "power_kw": frame["fleet_power_kw"].to_numpy(float),
+            "reserve_kw": frame["settled_reserve_kw"].to_numpy(float),
+            "il_activated": frame["il_activated"].to_numpy(bool),
+        },
+        index=frame.index,
+    )
+    settled = settlement_columns(metered, rule)
+    out = frame.copy()
+    for name in settled.columns:
+        out[name] = settled[name].to_numpy(float)
+    return out
+
+
 def _matching_checkpoint(path: Path, key: str) -> dict[str, Any] | None:
     """The checkpoint at ``path`` if it is of the same inputs (refused if of other code)."""
     if not path.is_file():
@@ -463,15 +514,156 @@ def _matching_checkpoint(path: Path, key: str) -> dict[str, Any] | None:
 
 
 def _coordinate_step(
-    groups: Any, feeder_kw: FloatArray, options: CoordinationOptions, price: FloatArray
+    groups: Any,
+    feeder_kw: FloatArray,
+    options: CoordinationOptions,
+    price: FloatArray,
+    continuing: bool = False,
 ) -> tuple[Any, FloatArray]:
-    """One step's coordination over all buildings: (its result, minimum powers (B, N))."""
+    """One step's coordination over all buildings: (its result, minimum powers (B, N)).
+    ``continuing``: an accepted IL activation goes on (locked buildings keep their power)."""
     groups.check_alive()
-    p_min, p_max, energy = groups.stacked("begin_step")
+    p_min, p_max, energy = groups.stacked("begin_step", continuing)
+    return coordinate_ranges(groups, (p_min, p_max, energy), feeder_kw, options, price), p_min
+
+
+@dataclass(frozen=True)
+class _StepOutcome:
+    """One fleet step: the coordination, the minimum powers (B, N) [kW], the buildings'
+    rows ((B,) arrays), the fleet's bid [kW], whether IL was activated, and the
+    coordination's wall time [s]."""
+
+    result: CoordinationResult
+    p_min: FloatArray
+    merged: dict[str, FloatArray]
+    bid_kw: float
+    activated: bool
+    coordination_s: float
+
+
+@dataclass(frozen=True)
+class _StepContext:
+    """What one fleet step needs to know of the run so far.
+
+    Attributes
+    ----------
+    scheduled : the grid operator activates IL in this period.
+    before : (it did in the last period, the fleet was activated then); None at the start.
+    baseline_kw : the fleet's settlement baseline for an activation starting now [kW]
+        (NaN: none; None: unknown, not checked).
+    excess_kw : the fleet's planned power above its metered power last period (≥ 0) [kW].
+    min_bid_kw : the market's minimum bid [kW].
+    """
+
+    scheduled: bool
+    before: tuple[bool, bool] | None
+    baseline_kw: float | None
+    excess_kw: float
+    min_bid_kw: float
+
+
+def _context(
+    k: int,
+    schedule: Any,
+    flags: Any,
+    values: FloatArray,
+    col: dict[str, int],
+    index: pd.DatetimeIndex,
+    settings: FleetSettings,
+    min_bid_kw: float,
+) -> _StepContext:
+    """The :class:`_StepContext` of step ``k`` from the tables of the steps before."""
+    if k == 0:
+        return _StepContext(bool(schedule[0]), None, None, 0.0, min_bid_kw)
+    metered = values[:k, col["fleet_power_kw"]]
+    baseline = start_baseline_kw(
+        settings.il_events.il_baseline, metered, flags[:k, ACTIVATED], index[: k + 1]
+    )
+    excess = max(float(values[k - 1, col["planned_fleet_power_kw"]] - metered[-1]), 0.0)
+    before = (bool(schedule[k - 1]), bool(flags[k - 1, ACTIVATED]))
+    return _StepContext(bool(schedule[k]), before, baseline, excess, min_bid_kw)
+
+
+def fleet_baseline_sees(
+    bid_kw: float, curtailed_kw: float, baseline_kw: float | None, excess_kw: float
+) -> bool:
+    """Whether the fleet's meter would show its bid [kW] if an activation started now: the
+    fleet's curtailed power [kW] (less the model's excess over the metered power [kW]) plus
+    the bid stays at or below the fleet's baseline [kW] — the single building's rule
+    (``MPCController``) applied to the aggregate that is settled. No baseline (NaN):
+    nothing would be seen; unknown (None, the first period): not checked."""
+    if baseline_kw is None or bid_kw <= 0:
+        return True
+    if not np.isfinite(baseline_kw):
+        return False
+    return curtailed_kw - excess_kw + bid_kw <= baseline_kw + BASELINE_TOLERANCE_KW
+
+
+def _fleet_step(
+    groups: Any,
+    feeder_kw: FloatArray,
+    options: CoordinationOptions,
+    price: FloatArray,
+    context: _StepContext,
+) -> _StepOutcome:
+    """Coordinate, bid, activate and advance one step.
+
+    The fleet bids Σ of the staged first-period offers when its meter would show them
+    (:func:`fleet_baseline_sees`); the bid is accepted at or above the minimum. An
+    activation that starts in this period reaches the fleet only if its bid is accepted;
+    one going on keeps the fleet activated as it was at its start (locked buildings keep
+    their locked power, :meth:`BuildingAgent.begin_step`)."""
+    before = context.before
+    continuing = context.scheduled and before is not None and before[0]
+    locked = continuing and before is not None and before[1]
+    tick = time.perf_counter()
+    result, p_min = _coordinate_step(groups, feeder_kw, options, price, locked)
+    coordinated = time.perf_counter() - tick
+    offer, curtailed = groups.stacked("staged_offer_kw")
+    bid = float(np.sum(offer))
+    sees = fleet_baseline_sees(
+        bid, float(np.nansum(curtailed)), context.baseline_kw, context.excess_kw
+    )
+    accepted = sees and bid_accepted(bid, context.min_bid_kw)
+    activated = locked if continuing else context.scheduled and accepted
+    rows = groups.broadcast("advance", activated)
+    merged = {key_: np.concatenate([r[key_] for r in rows]) for key_ in rows[0]}
+    return _StepOutcome(result, p_min, merged, bid if sees else 0.0, activated, coordinated)
+
+
+def bid_accepted(bid_kw: float, min_bid_kw: float) -> bool:
+    """Whether the fleet's bid [kW] clears the market's minimum [kW] (and is a bid at all:
+    at least ``MIN_BID_FLOOR_KW``)."""
+    return bid_kw >= max(min_bid_kw, MIN_BID_FLOOR_KW)
+
+
+def _activation_schedule(fleet: Any, index: pd.DatetimeIndex) -> Any:
+    """(steps,) bool: the periods the grid operator activates IL (the fleet file's
+    ``[activation]``, seeded by the fleet's seed; :mod:`hvacflex.sim.activation`)."""
+    spec = fleet.spec
+    config = spec.activation.config(None if fleet.source is None else fleet.source.parent)
+    duration = config.duration_steps or spec.reserve.event_max_steps or NEMS_MAX_INTERRUPTION_STEPS
+    return activation_schedule(config, index, seed=spec.seed, max_steps=duration)
+
+
+def coordinate_ranges(
+    groups: Any,
+    ranges: tuple[FloatArray, FloatArray, FloatArray],
+    feeder_kw: FloatArray,
+    options: CoordinationOptions,
+    price: FloatArray,
+) -> CoordinationResult:
+    """Coordinate the step the groups have begun, by ``options.scheme``.
+
+    ``ranges`` = (P_min, P_max (B, N) [kW], energy prices (B, N) [SGD/MWh]) from the groups'
+    ``begin_step``; ``feeder_kw`` (N,) the planning limit; ``price`` (N,) the previous
+    step's feeder prices, shifted (the price scheme starts from them).
+    """
+    p_min, p_max, energy = ranges
 
     def solve_all(lam: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
         power, cost, lagrangian = groups.stacked("solve", lam)
-        return power, cost, lagrangian
+        return np.clip(power, p_min, p_max), cost, lagrangian
 
     order = np.argsort(np.concatenate(groups.indices))
     values_after: list[FloatArray] = []  # the cap values after the last finalize_all
@@ -484,13 +676,26 @@ def _coordinate_step(
             np.concatenate([p[j] for p in parts])[order] for j in range(4)
         )
         values_after[:] = [values]
-        return power, cost, lagrangian
+        # a building locked to its event plan draws its locked power (P_min₀ = P_max₀)
+        return np.clip(power, p_min, p_max), cost, lagrangian
 
     def cap_values_all() -> FloatArray:
-        # reallocate_caps asks for the values right after a finalize_all: they came with it
+        # the schemes ask for the values right after a finalize_all: they came with it
         return values_after[0]
 
-    result = coordinate(
+    if options.scheme != "prices":
+        return coordinate_caps(
+            solve_all,
+            finalize_all,
+            cap_values_all,
+            feeder_kw,
+            p_min,
+            p_max,
+            DT_H,
+            options,
+            initial_price=price,
+        )
+    return coordinate(
         solve_all,
         finalize_all,
         feeder_kw,
@@ -502,7 +707,6 @@ def _coordinate_step(
         price,
         cap_values_all=cap_values_all,
     )
-    return result, p_min
 
 
 def _collect_buildings(
@@ -551,27 +755,26 @@ def _start_dask(scheduler: str | None, workers: int | None) -> tuple[Any, Any, A
 def _record_step(
     row: FloatArray,
     col: dict[str, int],
-    merged: dict[str, FloatArray],
-    result: Any,
+    outcome: _StepOutcome,
     limit_kw: float,
-    p_min: FloatArray,
     min_bid_kw: float,
-    coordination_time_s: float,
-) -> tuple[bool, bool]:
-    """Fill one results row from the buildings' rows; (bid accepted, feeder infeasible)."""
+) -> tuple[bool, bool, bool]:
+    """Fill one results row from the buildings' rows; the flags (bid accepted, feeder
+    infeasible, IL activated)."""
+    merged, result = outcome.merged, outcome.result
     reserve = float(np.sum(merged["reserve_kw"]))
-    accepted = reserve >= min_bid_kw and reserve > 0
+    accepted = bid_accepted(outcome.bid_kw, min_bid_kw)
     row[col["planned_fleet_power_kw"]] = float(np.sum(merged["planned_power_kw"]))
     row[col["fleet_power_kw"]] = float(np.sum(merged["power_kw"]))
     row[col["feeder_limit_kw"]] = limit_kw
     row[col["fleet_reserve_kw"]] = reserve
     row[col["settled_reserve_kw"]] = reserve if accepted else 0.0
-    row[col["fleet_min_power_kw"]] = float(p_min[:, 0].sum())
+    row[col["fleet_min_power_kw"]] = float(outcome.p_min[:, 0].sum())
     row[col["feeder_excess_kw"]] = float(result.excess_kw[0])
     row[col["feeder_price_sgd_per_mwh"]] = float(result.price_sgd_per_mwh[0])
     row[col["coordination_gap"]] = result.gap
-    row[col["coordination_time_s"]] = coordination_time_s
-    return accepted, bool(result.infeasible[0])
+    row[col["coordination_time_s"]] = outcome.coordination_s
+    return accepted, bool(result.infeasible[0]), outcome.activated
 
 
 def _write_outputs(

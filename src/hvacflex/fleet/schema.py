@@ -23,11 +23,16 @@ building file is (:func:`hvacflex.building.io.building_from_dict`)::
     peak_price_sgd_per_kw = 0.0
 
     [coordination]
-    max_iterations = 10
-    gap_tolerance = 0.002
+    max_iterations = 30             # bundle rounds (prices: price iterations)
+    gap_tolerance = 0.01
     feasibility_tolerance = 0.005
     step_sgd_per_mwh = 0.0          # 0 = automatic (mean energy price)
-    cap_rounds = 4                  # cap reallocation rounds by the caps' marginal values
+    cap_rounds = 4                  # prices scheme: cap reallocation rounds
+    scheme = "bundle"               # bundle | envelope | prices (docs/fleet.md)
+    plan_tolerance_kw = 0.01        # bundle: stop when plans move less than this
+
+    [activation]                    # when the grid operator activates IL (default never)
+    mode = "stress"                 # never | random | stress | file | always
 
     [[buildings]]
     name = "b000"
@@ -54,7 +59,7 @@ from pydantic import BaseModel, ConfigDict, Field, Strict, ValidationError, mode
 
 from hvacflex.building.io import building_from_dict
 from hvacflex.building.model import Building
-from hvacflex.config import ReserveConfig
+from hvacflex.config import ActivationConfig, ReserveConfig
 from hvacflex.config.presets import PRODUCT_RESERVE
 from hvacflex.config.schema import (
     INDOOR_TEMP_MAX_DEGC,
@@ -118,17 +123,50 @@ class ReserveSpec(_Spec):
         )
 
 
+class ActivationSpec(_Spec):
+    """When the grid operator activates the fleet's IL (:mod:`hvacflex.sim.activation`,
+    the scenario file's ``[activation]``); one schedule for the whole fleet, seeded by the
+    fleet's ``seed``. An activation reaches the buildings only when the fleet's bid of its
+    first period is accepted."""
+
+    mode: Literal["never", "random", "stress", "file", "always"] = "never"
+    events_per_year: Annotated[Finite, Field(ge=0.0)] = ActivationConfig.events_per_year
+    duration_steps: Annotated[int, Strict(), Field(ge=1, le=48)] | None = None
+    file: Text | None = None
+
+    @model_validator(mode="after")
+    def _file_mode_needs_a_file(self) -> Self:
+        if self.mode == "file" and not self.file:
+            raise ValueError("mode 'file' needs a file (a CSV with columns time, activated)")
+        return self
+
+    def config(self, base: Path | None = None) -> ActivationConfig:
+        """The :class:`ActivationConfig` of these settings; a relative ``file`` is read
+        relative to ``base`` (the fleet file's folder)."""
+        file = self.file
+        if file is not None and base is not None and not Path(file).is_absolute():
+            file = str(base / file)
+        return ActivationConfig(
+            mode=self.mode,
+            events_per_year=self.events_per_year,
+            duration_steps=self.duration_steps,
+            file=file,
+        )
+
+
 class PPPSpec(_Spec):
     peak_price_sgd_per_kw: Annotated[Finite, Field(ge=0.0)] = 0.0
     billing_mode: Literal["horizon", "billing-period"] = "horizon"
 
 
 class CoordinationSpec(_Spec):
-    max_iterations: Annotated[int, Strict(), Field(ge=1, le=1000)] = 10
-    gap_tolerance: Annotated[Finite, Field(gt=0.0)] = 0.002
+    max_iterations: Annotated[int, Strict(), Field(ge=1, le=1000)] = 30
+    gap_tolerance: Annotated[Finite, Field(gt=0.0)] = 0.01
     feasibility_tolerance: Annotated[Finite, Field(ge=0.0)] = 0.005
     step_sgd_per_mwh: Annotated[Finite, Field(ge=0.0)] = 0.0
     cap_rounds: Annotated[int, Strict(), Field(ge=0, le=100)] = 4
+    scheme: Literal["bundle", "envelope", "prices"] = "bundle"
+    plan_tolerance_kw: Annotated[Finite, Field(ge=0.0)] = 0.01
 
 
 class BuildingEntrySpec(_Spec):
@@ -165,6 +203,7 @@ class FleetSpec(_Spec):
     reserve: ReserveSpec = ReserveSpec()
     ppp: PPPSpec = PPPSpec()
     coordination: CoordinationSpec = CoordinationSpec()
+    activation: ActivationSpec = ActivationSpec()
     buildings: Annotated[list[BuildingEntrySpec], Field(min_length=1)]
 
     @model_validator(mode="after")
@@ -188,6 +227,7 @@ _HINTS = {
     "building": "a complete building description, as in a building TOML file",
     "occupied_hours": "[start, end] local hours, e.g. [8, 18]",
     "event_max_steps": "D in 30-min periods (4 = the NEMS 120-min rule), 0 = whole horizon",
+    "scheme": "bundle (default), envelope or prices",
     "event_allowance_k": "α [K] above the upper comfort bound during an event, e.g. 1.0",
 }
 

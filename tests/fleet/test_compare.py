@@ -1,0 +1,67 @@
+"""``fleet compare``: the coordinated plans against the centralised LP from the same states."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from typer.testing import CliRunner
+
+from hvacflex.cli import app
+from hvacflex.errors import InputError
+from hvacflex.fleet.compare import COMPARE_COLUMNS, COMPARE_FILE, compare_fleet
+from hvacflex.fleet.generate import generate_fleet, write_fleet
+
+
+@pytest.fixture(scope="module")
+def tight_fleet(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """Two buildings under a limit that binds from 08:00 (their minima stay below it)."""
+    doc = generate_fleet(2, 3, feeder_limit_kw=60.0)
+    doc["coordination"]["max_iterations"] = 25
+    return write_fleet(doc, tmp_path_factory.mktemp("compare") / "fleet.toml")
+
+
+def test_compare_two_steps_centralised_is_a_lower_bound(tight_fleet: Path, tmp_path: Path) -> None:
+    frame = compare_fleet(tight_fleet, "2014-03-03T08:00", 2, tmp_path)
+    written = pd.read_csv(tmp_path / COMPARE_FILE)
+    assert list(written.columns[: len(COMPARE_COLUMNS)]) == list(COMPARE_COLUMNS)
+    assert written["step"].tolist() == [0, 1]
+    np.testing.assert_allclose(
+        written["gap"], written["coordinated_sgd"] / written["centralised_sgd"] - 1.0
+    )
+    # the centralised LP is the optimum of the same problems: nothing coordinated beats it
+    assert np.all(frame["gap"] >= -1e-6)
+    assert np.all(frame["gap"] <= 0.02)
+    assert np.all(frame["coordinated_max_over_limit_kw"] <= 1e-3)
+
+
+def test_compare_cli_prints_the_table(tight_fleet: Path, tmp_path: Path) -> None:
+    out = tmp_path / "cmp"
+    done = CliRunner().invoke(
+        app,
+        [
+            "fleet",
+            "compare",
+            "--fleet",
+            str(tight_fleet),
+            "--start",
+            "2014-03-03T10:00",
+            "--out",
+            str(out),
+        ],
+    )
+    assert done.exit_code == 0, done.output
+    assert "coordinated_max_over_limit_kw" in done.output
+    assert (out / COMPARE_FILE).is_file()
+
+
+def test_compare_refuses_a_fleet_too_large(tmp_path: Path) -> None:
+    path = write_fleet(generate_fleet(21, 1, feeder_limit_kw=500.0), tmp_path / "big.toml")
+    with pytest.raises(InputError, match="too large"):
+        compare_fleet(path, "2014-03-03", 1, tmp_path)
+    done = CliRunner().invoke(
+        app, ["fleet", "compare", "--fleet", str(path), "--out", str(tmp_path / "o")]
+    )
+    assert done.exit_code == 2 and "at most 20 buildings" in done.output
