@@ -147,8 +147,8 @@ def test_step_columns_refuse_names_that_collide_or_are_empty() -> None:
 def test_fleet_columns_are_the_documented_ones_in_file_order() -> None:
     columns = schema.fleet_columns()
     assert columns[:2] == ["planned_fleet_power_kw", "fleet_power_kw"]
-    assert columns[-3:] == ["bid_accepted", "feeder_infeasible", "coordination_iterations"]
-    assert len(columns) == len(set(columns)) == 17
+    assert columns[-3:] == ["feeder_infeasible", "il_activated", "coordination_iterations"]
+    assert len(columns) == len(set(columns)) == 21
     fleet_doc = (Path(__file__).resolve().parents[1] / "docs" / "fleet.md").read_text()
     assert all(f"`{c}`" in fleet_doc for c in columns)
 
