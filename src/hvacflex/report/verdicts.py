@@ -138,15 +138,17 @@ def peak_price_lowers_peak(robust_peak_kw: float, ppp_peak_kw: float, basis: str
 
 
 def robust_keeps_comfort(
-    nominal_kelvin_hours: float, robust_kelvin_hours: float, basis: str
+    nominal_kelvin_hours: float, robust_kelvin_hours: float, basis: str, *, case: str = ""
 ) -> Verdict:
-    """NMPC violates comfort, RMPC almost never (:data:`ALMOST_NEVER_SHARE`)."""
+    """NMPC violates comfort, RMPC almost never (:data:`ALMOST_NEVER_SHARE`); ``case`` names
+    the disturbances (e.g. "hot corner") in the finding, so that two cases stay apart."""
     nominal_violates = nominal_kelvin_hours > COMFORT_TOLERANCE_KELVIN_HOURS
     robust_almost_never = robust_kelvin_hours <= max(
         COMFORT_TOLERANCE_KELVIN_HOURS, ALMOST_NEVER_SHARE * nominal_kelvin_hours
     )
     return Verdict(
-        finding="NMPC violates comfort under uncertainty, RMPC almost never",
+        finding="NMPC violates comfort under uncertainty, RMPC almost never"
+        + (f" ({case})" if case else ""),
         paper="NMPC violates (Fig. 5), RMPC keeps the band",
         ours=f"NMPC {nominal_kelvin_hours:.3g} K·h, RMPC {robust_kelvin_hours:.3g} K·h",
         verdict=HOLDS if nominal_violates and robust_almost_never else DOES_NOT_HOLD,
