@@ -25,6 +25,7 @@ from hvacflex.config import (
     preset,
 )
 from hvacflex.paths import resolve_building
+from hvacflex.report.run_report import REPORT_KPIS
 from hvacflex.reproduce_energyplus import ENERGYPLUS_SCENARIOS
 from hvacflex.reproduce_plan import (
     FEEDBACK_PREFIX,
@@ -546,20 +547,10 @@ def comfort_section(
 
 
 SHOWN_KPIS = (
-    "days",
-    "energy_kwh",
+    *REPORT_KPIS,
     "energy_cost_sgd",
     "reserve_revenue_sgd",
-    "peak_power_kw",
     "ppp_charge_sgd",
-    "net_cost_with_ppp_sgd",
-    "reserve_offered_mean_kw",
-    "il_events",
-    "il_delivered_ratio",
-    "discomfort_kelvin_hours",
-    "max_violation_k",
-    "violation_share",
-    "fallback_count",
     "planned_slack_share",
     "solve_time_mean_s",
 )

@@ -369,9 +369,9 @@ def run_report_sections(
             "Power and reserve",
             figures=[plot_run_power(shown, figure_dir / "power.png")],
             figure_captions=[
-                "Power drawn (blue) with the reserve band it offered to shed "
-                "(green) and the IL activations (red); below it the reserve "
-                "offered."
+                "Power drawn (blue) with its peak marked, the reserve band it offered to "
+                "shed (green) and the IL activations (red); below a run that offered "
+                "reserve, the reserve offered (a rule-based run gets no empty panel)."
             ],
         ),
         Section(
