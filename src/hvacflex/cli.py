@@ -562,7 +562,16 @@ def reproduce(
     quick: bool = typer.Option(
         False, "--quick", help="One week and 4 PPP values (a few minutes) instead of the year."
     ),
-    out: Path = typer.Option(Path("results/reproduce"), help="Output folder."),  # noqa: B008
+    energyplus: bool = typer.Option(
+        False,
+        "--energyplus",
+        help="Add the section on EnergyPlus office5: (a), (b), (c) and the thermostat for one "
+        "week beside the RC-plant week (needs the energyplus extra of hvacflex).",
+    ),
+    out: Path = typer.Option(  # noqa: B008
+        Path("results/reproduce"),
+        help="Output folder; every run is kept in OUT/runs/<run name> and updated in place.",
+    ),
     scheduler: str | None = typer.Option(
         None, help="dask.distributed scheduler address; default: a LocalCluster here."
     ),
@@ -585,7 +594,13 @@ def reproduce(
         if scheduler is not None:
             check_scheduler(scheduler)
         result = run_reproduction(
-            out, quick=quick, scheduler=scheduler, workers=workers, log=typer.echo, fresh=fresh
+            out,
+            quick=quick,
+            energyplus=energyplus,
+            scheduler=scheduler,
+            workers=workers,
+            log=typer.echo,
+            fresh=fresh,
         )
     except HvacflexError as exc:
         raise fail(exc) from None

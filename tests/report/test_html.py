@@ -92,15 +92,18 @@ def test_report_embeds_every_figure_and_parses_cleanly(
     # self-contained: no external resource, no script
     for tag, attrs in checker.tags:
         assert tag not in {"script", "link", "iframe"}
-        for name in ("src", "href"):
-            value = attrs.get(name)
-            assert value is None or value.startswith(("data:", "#"))
+        value = attrs.get("src")
+        assert value is None or value.startswith("data:")
+        href = attrs.get("href")  # links only: to this page or the CSV beside the report
+        assert href is None or href.startswith("#") or href.endswith(".csv")
+        assert href is None or "://" not in href
     assert "A &lt; B &amp; C" in text
     assert "<li>typical-year weather</li>" in text
     assert "peak_price_sgd_per_kw = 1.5" in text
     assert "<caption>Published values</caption>" in text
     assert "1,471.00" in text
-    assert "Data: fig2_prices.csv." in text
+    assert 'Data: <a href="../fig/fig2_prices.csv">fig2_prices.csv</a>.' in text
+    assert '<div class="table-scroll"><table class="hvacflex">' in text
     assert [t for t, a in checker.tags if t == "section"] == ["section"] * 3
 
 
@@ -111,3 +114,11 @@ def test_missing_or_non_png_figure_is_refused(tmp_path: Path) -> None:
     fake.write_text("not a png")
     with pytest.raises(InputError, match="not a PNG"):
         write_report(tmp_path, title="t", sections=[Section(title="s", figures=[fake])])
+
+
+def test_a_default_index_is_not_shown(tmp_path: Path) -> None:
+    table = pd.DataFrame({"controller": ["nmpc", "rmpc"], "rank": [1, 2]})
+    path = write_report(tmp_path, title="t", sections=[Section(title="s", tables=[table])])
+    text = path.read_text(encoding="utf-8")
+    assert "<th>controller</th><th>rank</th>" in text and "<th>0</th>" not in text
+    assert "<th>nmpc</th>" in text  # the first column became the row label

@@ -113,16 +113,67 @@ def test_plot_power_reserve(tmp_path: Path, scenarios: dict[str, pd.DataFrame]) 
     data = _assert_png_and_csv(path, tmp_path / "fig6.png")
     for label, results in scenarios.items():
         rows = data[data["scenario"] == label]
+        # each run on its own peak day: the calendar day of its largest power, 48 periods
+        peak_at = results["power_kw"].idxmax()
+        day = results[results.index.normalize() == peak_at.normalize()]
+        assert len(rows) == len(day) == 48
         assert rows["power_kw"].max() == pytest.approx(kpi.peak_power_kw(results))
-        assert rows["reserve_kw"].to_numpy() == pytest.approx(results["reserve_kw"].to_numpy())
+        assert rows.loc[rows["is_peak"], "power_kw"].to_list() == [results["power_kw"].max()]
+        assert rows["reserve_kw"].to_numpy() == pytest.approx(day["reserve_kw"].to_numpy())
         # the band runs from the served power down by the reserve offered
         upper = rows["reserve_band_upper_kw"].to_numpy()
         lower = rows["reserve_band_lower_kw"].to_numpy()
-        assert upper == pytest.approx(results["power_served_kw"].to_numpy())
-        assert upper - lower == pytest.approx(results["reserve_kw"].to_numpy())
-        offered = results["reserve_kw"].to_numpy() > 0
+        assert upper == pytest.approx(day["power_served_kw"].to_numpy())
+        assert upper - lower == pytest.approx(day["reserve_kw"].to_numpy())
+        offered = day["reserve_kw"].to_numpy() > 0
         assert offered.any() and (upper[offered] > lower[offered]).all()
         assert (upper[~offered] == lower[~offered]).all()
+    whole = plots.plot_power_reserve(scenarios, tmp_path / "whole.png", whole_period=True)
+    assert len(pd.read_csv(plots.csv_path(whole))) == sum(len(f) for f in scenarios.values())
+
+
+def test_a_run_without_reserve_gets_no_reserve_panel(tmp_path: Path, make_results: Factory) -> None:
+    with_reserve = make_results(seed=1)
+    rule_based = make_results(seed=2).assign(reserve_kw=0.0)
+    assert plots.offers_reserve(with_reserve) and not plots.offers_reserve(rule_based)
+    plots.plot_power_reserve({"mpc": with_reserve}, tmp_path / "one.png")
+    plots.plot_power_reserve({"mpc": with_reserve, "thermostat": rule_based}, tmp_path / "two.png")
+    from PIL import Image
+
+    heights = [Image.open(tmp_path / name).size[1] for name in ("one.png", "two.png")]
+    # the thermostat adds its power panel only: 3 panels, not 4 (a panel is 2.1 in at 150 dpi)
+    assert 0.8 * 2.1 * plots.DPI < heights[1] - heights[0] < 1.2 * 2.1 * plots.DPI
+
+
+def test_fig5_draws_at_most_five_lines_a_panel(tmp_path: Path, make_results: Factory) -> None:
+    zones = tuple(f"z{i}" for i in range(7))
+    results = make_results(zones=zones)
+    for i, zone in enumerate(zones):  # z6 warmest, z0 coolest
+        results[f"temp_end_{zone}_degc"] += 0.1 * i
+    assert plots.warmest_zones({"x": results}) == ["z2", "z3", "z4", "z5", "z6"]
+    from matplotlib.axes import Axes
+
+    drawn: list[int] = []
+    original = Axes.plot
+
+    def counting(self: Axes, *args: object, **kwargs: object) -> object:
+        drawn.append(id(self))
+        return original(self, *args, **kwargs)
+
+    Axes.plot = counting  # type: ignore[method-assign]
+    try:
+        plots.plot_temperatures({"x": results, "y": results}, tmp_path / "fig5.png")
+    finally:
+        Axes.plot = original  # type: ignore[method-assign]
+    per_panel = pd.Series(drawn).value_counts()
+    assert len(per_panel) == 4 and per_panel.max() <= plots.MAX_LINES_PER_PANEL
+
+
+def test_discomfort_labels_keep_small_values(tmp_path: Path) -> None:
+    assert plots.kelvin_hours_text(0.06) == "0.06"
+    assert plots.kelvin_hours_text(0.0) == "0"
+    assert plots.kelvin_hours_text(11.65) == "11.7"
+    assert plots.kelvin_hours_text(336.4) == "336"
 
 
 def test_power_reserve_band_without_served_power_hangs_from_the_plant_power(

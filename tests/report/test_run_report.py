@@ -188,3 +188,13 @@ def test_page_in_headless_chromium(chromium: Any, tmp_path: Path, make_results: 
     shots = os.environ.get("HVACFLEX_SCREENSHOT_DIR")
     page.screenshot(path=str(Path(shots or tmp_path) / "run_report.png"), full_page=True)
     page.close()
+
+
+def test_delivery_ratio_without_activations_is_no_number() -> None:
+    table = pd.DataFrame(
+        {"mpc": [0.0, 1.0, 336.0], "ev": [2.0, 0.75, 336.0]},
+        index=pd.Index(["il_events", "il_delivered_ratio", "steps"], name="kpi"),
+    )
+    shown = formatted_kpi_table(table, None)
+    assert shown.loc["il_delivered_ratio"].to_list() == ["–", "0.75"]
+    assert shown.loc["steps"].to_list() == ["336", "336"]  # counts whole, not 336.00

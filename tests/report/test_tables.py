@@ -149,3 +149,11 @@ def test_table1_models_refuses_no_model_and_repeated_labels() -> None:
     with pytest.raises(InputError, match="repeat") as info:
         tables.table1_models({"event": event, "whole-horizon": event})
     assert "(a)" in str(info.value)
+
+
+def test_integers_print_as_integers() -> None:
+    assert tables.format_value("rank", np.int64(3)) == "3"
+    assert tables.format_value("steps", 336) == "336"
+    assert tables.format_value("energy_kwh", 336.0) == "336.00"  # a float stays a float
+    table = pd.DataFrame({"rank": [1, 2], "cost_sgd": [1.5, 2.25]}, index=["a", "b"])
+    assert '<td class="num">1</td>' in tables.to_html(table)

@@ -6,7 +6,7 @@ import pandas as pd
 import pytest
 
 from hvacflex.report import text
-from hvacflex.reproduce import (
+from hvacflex.reproduce_report import (
     Plan,
     comfort_sentences,
     ppp_sentence,

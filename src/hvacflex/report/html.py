@@ -5,13 +5,17 @@
 :func:`hvacflex.report.tables.to_html`, configuration goes in ``<pre>`` blocks and text is
 escaped. The page loads nothing from elsewhere and needs no JavaScript, so it can be mailed or
 archived as one file. The CSV behind a figure (``<figure>.csv``, see
-:mod:`hvacflex.report.plots`) is named in its caption when it exists beside the PNG.
+:mod:`hvacflex.report.plots`) is linked from its caption when the page is written into a
+folder that holds it (``link_base``: the report's folder; the link is relative to it). Wide
+tables scroll sideways inside their own box; a table whose index is pandas' default 0…n shows
+no index column.
 """
 
 from __future__ import annotations
 
 import base64
 import html
+import os
 import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -41,6 +45,7 @@ table.hvacflex th, table.hvacflex td { border: 1px solid #ccc; padding: .25rem .
 table.hvacflex thead th { background: #f0f0f0; }
 table.hvacflex tbody th { text-align: left; font-weight: normal; background: #fafafa; }
 table.hvacflex td.num { text-align: right; font-variant-numeric: tabular-nums; }
+div.table-scroll { overflow-x: auto; max-width: 100%; }
 pre { background: #f6f6f6; padding: .8rem; overflow-x: auto; font-size: .85rem; }
 footer { margin-top: 3rem; font-size: .8rem; color: #777; }
 """
@@ -58,8 +63,11 @@ class Section:
     figures : PNG files to embed.
     tables : DataFrames to render (index as first column).
     code : preformatted text (e.g. the run configuration as TOML), or None.
-    figure_captions : captions for ``figures``, by position; default the file name.
+    figure_captions : captions for ``figures``, by position (what the figure shows); default
+        the file name.
     table_captions : captions for ``tables``, by position; default none.
+    links : (text, target) pairs shown as a list of links after the paragraphs: an anchor of
+        this page (``#…``) or a relative or absolute URL.
     """
 
     title: str
@@ -69,6 +77,7 @@ class Section:
     code: str | None = None
     figure_captions: list[str] = field(default_factory=list)
     table_captions: list[str] = field(default_factory=list)
+    links: list[tuple[str, str]] = field(default_factory=list)
 
 
 def png_data_uri(path: str | Path) -> str:
@@ -88,7 +97,8 @@ def png_data_uri(path: str | Path) -> str:
     return "data:image/png;base64," + base64.b64encode(data).decode("ascii")
 
 
-def _anchor(title: str, index: int) -> str:
+def section_anchor(title: str, index: int) -> str:
+    """The ``id`` of the ``index``-th (1-based) section titled ``title`` in a page."""
     slug = re.sub(r"[^a-z0-9]+", "-", title.lower()).strip("-")
     return f"s{index}-{slug}" if slug else f"s{index}"
 
@@ -101,42 +111,66 @@ def _paragraph_html(text: str) -> str:
     return f"<p>{html.escape(text.strip())}</p>"
 
 
-def _figure_html(path: Path, caption: str | None) -> str:
+def _figure_html(path: Path, caption: str | None, link_base: Path | None) -> str:
     text = caption if caption is not None else path.stem.replace("_", " ")
     csv = path.with_suffix(".csv")
-    data_note = f" Data: {csv.name}." if csv.is_file() else ""
+    data_note = ""
+    if link_base is not None and csv.is_file():
+        href = Path(os.path.relpath(csv.resolve(), link_base.resolve())).as_posix()
+        data_note = f' Data: <a href="{html.escape(href, quote=True)}">{html.escape(csv.name)}</a>.'
     return (
         f'<figure><img src="{png_data_uri(path)}" alt="{html.escape(text, quote=True)}">'
-        f"<figcaption>{html.escape(text)}{html.escape(data_note)}</figcaption></figure>"
+        f"<figcaption>{html.escape(text)}{data_note}</figcaption></figure>"
     )
 
 
-def _section_html(section: Section, anchor: str) -> str:
+def _shown_table(table: pd.DataFrame) -> pd.DataFrame:
+    """``table`` with its first column as index when its index is pandas' default 0…n."""
+    default = isinstance(table.index, pd.RangeIndex) and table.index.name is None
+    if default and len(table.columns) > 0:
+        return table.set_index(table.columns[0])
+    return table
+
+
+def _links_html(links: Sequence[tuple[str, str]]) -> str:
+    items = "".join(
+        f'<li><a href="{html.escape(target, quote=True)}">{html.escape(text)}</a></li>'
+        for text, target in links
+    )
+    return f"<ul>{items}</ul>"
+
+
+def _section_html(section: Section, anchor: str, link_base: Path | None) -> str:
     parts = [f'<section id="{anchor}">', f"<h2>{html.escape(section.title)}</h2>"]
     parts += [_paragraph_html(text) for text in section.paragraphs]
+    if section.links:
+        parts.append(_links_html(section.links))
     for i, figure in enumerate(section.figures):
         caption = section.figure_captions[i] if i < len(section.figure_captions) else None
-        parts.append(_figure_html(Path(figure), caption))
+        parts.append(_figure_html(Path(figure), caption, link_base))
     for i, table in enumerate(section.tables):
         caption = section.table_captions[i] if i < len(section.table_captions) else None
-        parts.append(to_html(table, caption=caption))
+        rendered = to_html(_shown_table(table), caption=caption)
+        parts.append(f'<div class="table-scroll">{rendered}</div>')
     if section.code is not None:
         parts.append(f"<pre><code>{html.escape(section.code)}</code></pre>")
     parts.append("</section>")
     return "\n".join(parts)
 
 
-def render_report(*, title: str, sections: Sequence[Section]) -> str:
-    """The report as one HTML5 document (see :func:`write_report`)."""
+def render_report(*, title: str, sections: Sequence[Section], link_base: Path | None = None) -> str:
+    """The report as one HTML5 document (see :func:`write_report`); figure captions link
+    their CSV relative to ``link_base`` (None: no links)."""
     from hvacflex import __version__
 
-    anchors = [_anchor(section.title, i + 1) for i, section in enumerate(sections)]
+    anchors = [section_anchor(section.title, i + 1) for i, section in enumerate(sections)]
     toc = "".join(
         f'<li><a href="#{anchor}">{html.escape(section.title)}</a></li>'
         for anchor, section in zip(anchors, sections, strict=True)
     )
     body = "\n".join(
-        _section_html(section, anchor) for anchor, section in zip(anchors, sections, strict=True)
+        _section_html(section, anchor, link_base)
+        for anchor, section in zip(anchors, sections, strict=True)
     )
     return (
         "<!DOCTYPE html>\n"
@@ -155,7 +189,8 @@ def write_report(out_dir: str | Path, *, title: str, sections: Sequence[Section]
     """Write ``report.html`` into ``out_dir`` (created if needed) and return its path.
 
     The file is self-contained: figures are embedded as base64 PNG data URIs, tables and
-    text are inline, styles are in a ``<style>`` element, and there is no script.
+    text are inline, styles are in a ``<style>`` element, and there is no script. Figure
+    captions link the CSV beside each figure, relative to ``out_dir``.
 
     Raises
     ------
@@ -164,5 +199,5 @@ def write_report(out_dir: str | Path, *, title: str, sections: Sequence[Section]
     """
     directory = Path(out_dir)
     directory.mkdir(parents=True, exist_ok=True)
-    document = render_report(title=title, sections=sections)
+    document = render_report(title=title, sections=sections, link_base=directory)
     return atomic_write_text(directory / REPORT_FILENAME, document)

@@ -49,16 +49,27 @@ def csv_path(png_path: str | Path) -> Path:
     return Path(png_path).with_suffix(".csv")
 
 
-def _new_figure(
-    rows: int, cols: int = 1, *, sharex: bool = True, sharey: bool = False
+def new_figure(
+    rows: int,
+    cols: int = 1,
+    *,
+    sharex: bool | str = True,
+    sharey: bool | str = False,
+    dpi: int = DPI,
+    panel_height_in: float = PANEL_HEIGHT_IN,
 ) -> tuple[Figure, list[Axes]]:
-    figure = Figure(figsize=(FIGURE_WIDTH_IN, max(PANEL_HEIGHT_IN * rows, 3.2)), dpi=DPI)
+    """A figure of ``rows`` × ``cols`` panels on the Agg canvas (no pyplot), its axes row by
+    row; :data:`FIGURE_WIDTH_IN` wide, ``panel_height_in`` [in] a row."""
+    figure = Figure(figsize=(FIGURE_WIDTH_IN, max(panel_height_in * rows, 3.2)), dpi=dpi)
     FigureCanvasAgg(figure)
-    grid = figure.subplots(rows, cols, sharex=sharex, sharey=sharey, squeeze=False)
+    grid = figure.subplots(rows, cols, sharex=sharex, sharey=sharey, squeeze=False)  # type: ignore[arg-type]
     return figure, [ax for row in grid for ax in row]
 
 
-def _save(figure: Figure, data: pd.DataFrame, path: str | Path, *, index: bool = False) -> Path:
+def save_figure(
+    figure: Figure, data: pd.DataFrame, path: str | Path, *, index: bool = False
+) -> Path:
+    """Write ``figure`` as PNG at ``path`` and ``data`` beside it (:func:`csv_path`)."""
     png = Path(path)
     png.parent.mkdir(parents=True, exist_ok=True)
     figure.tight_layout()
@@ -86,7 +97,7 @@ def _local_times(index: pd.Index) -> np.ndarray:
     return np.arange(len(index), dtype=float)
 
 
-def _period_edges(results: pd.DataFrame) -> np.ndarray:
+def period_edges(results: pd.DataFrame) -> np.ndarray:
     """(T+1,) period boundaries: the T period starts and the end of the last period."""
     starts = _local_times(results.index)
     if len(starts) == 0:
@@ -101,7 +112,8 @@ def _step(ax: Axes, edges: np.ndarray, values: np.ndarray, **kwargs: Any) -> Non
     ax.stairs(values, edges, baseline=None, **kwargs)
 
 
-def _format_time_axis(ax: Axes) -> None:
+def format_time_axis(ax: Axes) -> None:
+    """Concise date ticks on a time axis of local wall-clock datetimes."""
     import matplotlib.dates as mdates
 
     locator = mdates.AutoDateLocator()  # type: ignore[no-untyped-call]
@@ -137,8 +149,8 @@ def plot_prices(
     columns = ["energy_price_sgd_per_mwh", "reserve_price_sgd_per_mwh"]
     _require(prices, columns, "price frame")
     reserve_label = "reserve (IL) price" + (" — synthetic" if reserve_synthetic else "")
-    figure, (ax_energy, ax_reserve) = _new_figure(2)
-    edges = _period_edges(prices)
+    figure, (ax_energy, ax_reserve) = new_figure(2)
+    edges = period_edges(prices)
     _step(ax_energy, edges, prices[columns[0]].to_numpy(float), color="C0", label="USEP")
     _step(ax_reserve, edges, prices[columns[1]].to_numpy(float), color="C3", label=reserve_label)
     ax_energy.set_ylabel("energy price\n[SGD/MWh]")
@@ -147,7 +159,7 @@ def plot_prices(
     ax_reserve.legend(loc="upper left")
     ax_reserve.set_xlabel(_TIME_LABEL)
     if isinstance(prices.index, pd.DatetimeIndex):
-        _format_time_axis(ax_reserve)
+        format_time_axis(ax_reserve)
     figure.suptitle(
         title
         or "Energy price (NEMS USEP) and "
@@ -155,7 +167,7 @@ def plot_prices(
     )
     data = prices[columns].copy()
     data["reserve_price_synthetic"] = reserve_synthetic
-    return _save(figure, data.rename_axis("time"), path, index=True)
+    return save_figure(figure, data.rename_axis("time"), path, index=True)
 
 
 # ----------------------------------------------------------------------------- Fig. 5
@@ -200,7 +212,7 @@ def temperature_data(
     """
     rows = []
     for label, results in scenarios.items():
-        ends = _period_edges(results)[1:]
+        ends = period_edges(results)[1:]
         for zone in zones if zones is not None else kpi.zone_names(results):
             _require(results, [schema.TEMP_END.name(zone)], f"results of scenario {label!r}")
             part = pd.DataFrame({"scenario": label, "time_end": ends, "zone": zone})
@@ -223,6 +235,94 @@ def temperature_data(
     return pd.concat(rows, ignore_index=True)
 
 
+MAX_LINES_PER_PANEL = 5
+"""Most temperature lines a panel draws (issue 28: a 16-entry legend of overlapping lines is
+unreadable); a building with more zones shows its warmest ones."""
+
+
+def warmest_zones(
+    scenarios: Mapping[str, pd.DataFrame], count: int = MAX_LINES_PER_PANEL
+) -> list[str]:
+    """The ``count`` zones with the highest realised end-of-period temperature over all
+    ``scenarios`` (ties in zone order), in the zone order of the first frame."""
+    first = next(iter(scenarios.values()))
+    zones = kpi.zone_names(first)
+    hottest = {
+        zone: max(
+            float(np.nanmax(frame[schema.TEMP_END.name(zone)].to_numpy(float), initial=-np.inf))
+            for frame in scenarios.values()
+            if schema.TEMP_END.name(zone) in frame.columns
+        )
+        for zone in zones
+    }
+    chosen = set(sorted(zones, key=lambda z: -hottest[z])[:count])
+    return [zone for zone in zones if zone in chosen]
+
+
+def shade_comfort_band(ax: Axes, results: pd.DataFrame, zone: str) -> None:
+    """Shade ``zone``'s comfort band [°C] over the periods of ``results`` (nothing when the
+    results lack it)."""
+    lower_col, upper_col = schema.COMFORT_LOWER.name(zone), schema.COMFORT_UPPER.name(zone)
+    if lower_col not in results.columns or upper_col not in results.columns:
+        return
+    edges = period_edges(results)
+    lower = results[lower_col].to_numpy(float)
+    upper = results[upper_col].to_numpy(float)
+    ax.fill_between(
+        edges,
+        np.append(lower, lower[-1:]),
+        np.append(upper, upper[-1:]),
+        step="post",
+        color="C2",
+        alpha=0.15,
+        linewidth=0,
+        label="comfort band",
+    )
+
+
+def temperature_panel(ax: Axes, results: pd.DataFrame, zones: Sequence[str], title: str) -> None:
+    """One panel: the realised end-of-period temperature of each of ``zones`` (one colour a
+    zone, at most :data:`MAX_LINES_PER_PANEL`) over the first zone's shaded comfort band, IL
+    activations shaded grey."""
+    shade_activations(ax, results)
+    shade_comfort_band(ax, results, zones[0])
+    ends = period_edges(results)[1:]
+    for i, zone in enumerate(zones[:MAX_LINES_PER_PANEL]):
+        ax.plot(
+            ends,
+            results[schema.TEMP_END.name(zone)].to_numpy(float),
+            color=f"C{i % 10}",
+            linewidth=1.1,
+            label=zone,
+        )
+    ax.set_title(title, loc="left", fontsize="medium")
+    ax.set_ylabel("temperature\n[°C]")
+
+
+def _prediction_panel(
+    ax: Axes, results: pd.DataFrame, rows: pd.DataFrame, zone: str, series: Sequence[str]
+) -> None:
+    """One panel: ``zone``'s realised temperature and the plan's predictions (``series``)."""
+    shade_activations(ax, results)
+    shade_comfort_band(ax, results, zone)
+    ends = rows["time_end"].to_numpy()
+    for prefix in series:
+        values = rows[f"{prefix}_degc"].to_numpy(float)
+        if np.all(np.isnan(values)):
+            continue
+        ax.plot(
+            ends,
+            values,
+            linestyle=_TEMPERATURE_STYLES[prefix],
+            color="k" if prefix == "temp_end" else _PREDICTION_COLOURS[prefix],
+            linewidth=1.1,
+            label=TEMPERATURE_SERIES[prefix],
+        )
+
+
+_PREDICTION_COLOURS = {"temp_served": "C0", "temp_curtailed": "C1", "event_worst": "C3"}
+
+
 def plot_temperatures(
     scenarios: Mapping[str, pd.DataFrame],
     path: str | Path,
@@ -231,27 +331,23 @@ def plot_temperatures(
     title: str = "Served and curtailed zone temperatures",
     series: Sequence[str] = tuple(TEMPERATURE_SERIES),
 ) -> Path:
-    """Fig. 5: zone temperatures with the comfort band, one panel per scenario.
+    """Fig. 5: zone temperatures over the shaded comfort band, one row per scenario.
 
-    What is drawn per zone (one colour per zone) is what the results hold:
-
-    * ``temp_end_<zone>_degc`` (solid): the realised temperature at period end — the served
-      trajectory when IL was not activated, the curtailed one when it was (activated periods
-      are shaded);
-    * ``temp_served_<zone>_degc`` (dashed) and ``temp_curtailed_<zone>_degc`` (dotted), when
-      present: the plan's one-step prediction of the served (u) and curtailed (u − r)
-      temperature at period end — the paper's X^NC and X^C;
-    * ``event_worst_<zone>_degc`` (dash-dot), when present: the plan's worst end-of-period
-      temperature over its IL event set × the uncertainty box (``y_event_worst``);
-    * the comfort band (black steps) of the first zone drawn, and of any other zone whose
-      band differs from it.
+    Left panel: the realised end-of-period temperature of every zone drawn (one colour a
+    zone; at most :data:`MAX_LINES_PER_PANEL`, the warmest when there are more). Right panel,
+    for the warmest zone: the realised temperature (black) and the plan's one-step
+    predictions chosen by ``series`` — served (u, dashed), curtailed (u − r, dotted), the
+    worst end-of-period temperature over the plan's IL event set × the uncertainty box
+    (dash-dot; it may exceed the upper bound by the event allowance α). Periods with IL
+    activated are shaded grey. So no panel holds more than five lines.
 
     Parameters
     ----------
     scenarios : scenario label → results frame (select the displayed days, e.g. 2 days).
-    path : PNG file to write; the CSV (:func:`temperature_data`) goes next to it.
-    zones : zones to draw; default all zones of each frame.
-    series : prefixes of :data:`TEMPERATURE_SERIES` to draw (the CSV holds them all).
+    path : PNG file to write; the CSV (:func:`temperature_data`, every zone and series) goes
+        next to it.
+    zones : zones to draw; default the warmest :data:`MAX_LINES_PER_PANEL` of each frame.
+    series : prefixes of :data:`TEMPERATURE_SERIES` for the right panel.
 
     Returns
     -------
@@ -266,67 +362,42 @@ def plot_temperatures(
             hint=f"choose from {', '.join(TEMPERATURE_SERIES)}",
         )
     data = temperature_data(scenarios, zones)
-    figure, axes = _new_figure(len(scenarios), sharey=True)
-    for ax, (label, results) in zip(axes, scenarios.items(), strict=True):
-        part = data[data["scenario"] == label]
-        _shade_activation(ax, results)
-        first_band: np.ndarray | None = None
-        for i, (zone, rows) in enumerate(part.groupby("zone", sort=False)):
-            color = f"C{i % 10}"
-            ends = rows["time_end"].to_numpy()
-            for prefix in series:
-                name = TEMPERATURE_SERIES[prefix]
-                values = rows[f"{prefix}_degc"].to_numpy(float)
-                if np.all(np.isnan(values)):
-                    continue
-                ax.plot(
-                    ends,
-                    values,
-                    linestyle=_TEMPERATURE_STYLES[prefix],
-                    color=color,
-                    label=f"{zone} {name}",
-                )
-            band = rows[["comfort_lower_degc", "comfort_upper_degc"]].to_numpy(float)
-            if first_band is None or not np.allclose(band, first_band, equal_nan=True):
-                edges = _period_edges(results)
-                for k, bound in enumerate(("lower", "upper")):
-                    _step(
-                        ax,
-                        edges,
-                        band[:, k],
-                        color="k" if first_band is None else color,
-                        linewidth=1.0,
-                        label=None
-                        if bound == "upper"
-                        else "comfort band" + ("" if first_band is None else f" ({zone})"),
-                    )
-                first_band = band if first_band is None else first_band
-        ax.set_title(label, loc="left", fontsize="medium")
-        ax.set_ylabel("temperature\n[°C]")
-        if ax is axes[0]:
-            ax.legend(fontsize="x-small", loc="upper left", bbox_to_anchor=(1.01, 1.0))
-    axes[-1].set_xlabel(_TIME_LABEL)
-    if isinstance(next(iter(scenarios.values())).index, pd.DatetimeIndex):
-        _format_time_axis(axes[-1])
+    drawn = list(zones) if zones is not None else warmest_zones(scenarios)
+    detail = warmest_zones(scenarios, 1)[0] if zones is None else drawn[0]
+    figure, axes = new_figure(len(scenarios), 2, sharex="row", sharey=True)
+    for row, (label, results) in enumerate(scenarios.items()):
+        left, right = axes[2 * row], axes[2 * row + 1]
+        temperature_panel(left, results, drawn, f"{label}: realised, per zone")
+        rows = data[(data["scenario"] == label) & (data["zone"] == detail)]
+        _prediction_panel(right, results, rows, detail, series)
+        right.set_title(f"{label}: zone {detail}, realised and planned", loc="left",
+                        fontsize="medium")  # fmt: skip
+        if row == 0:
+            left.legend(fontsize="x-small", loc="upper left", ncols=2)
+            right.legend(fontsize="x-small", loc="upper left")
+    for ax in axes:
+        if isinstance(next(iter(scenarios.values())).index, pd.DatetimeIndex):
+            format_time_axis(ax)
+    for ax in axes[-2:]:
+        ax.set_xlabel(_TIME_LABEL)
     figure.suptitle(title)
-    return _save(figure, data, path)
+    return save_figure(figure, data, path)
 
 
-def _shade_activation(ax: Axes, results: pd.DataFrame) -> None:
+def shade_activations(ax: Axes, results: pd.DataFrame, *, color: str = "0.85") -> None:
+    """Shade the periods with IL activated (column ``il_activated``; nothing without it)."""
     if "il_activated" not in results.columns:
         return
-    edges = _period_edges(results)
+    edges = period_edges(results)
     active = results["il_activated"].to_numpy(bool)
-    labelled = False
-    for k in np.flatnonzero(active):
+    for i, k in enumerate(np.flatnonzero(active)):
         ax.axvspan(
             edges[k],
             edges[k + 1],
-            color="0.85",
+            color=color,
             linewidth=0,
-            label=None if labelled else "IL activated",
+            label=None if i else "IL activated",
         )
-        labelled = True
 
 
 # ----------------------------------------------------------------------------- Fig. 6
@@ -340,7 +411,8 @@ def power_reserve_data(scenarios: Mapping[str, pd.DataFrame]) -> pd.DataFrame:
     ``energy_price_sgd_per_mwh``; optional columns absent from the results are NaN. Then the
     reserve band [kW]: ``reserve_band_upper_kw`` (the served power, ``power_kw`` when the
     results lack it) and ``reserve_band_lower_kw`` = upper − ``reserve_kw`` (the power the
-    building would draw if the offered reserve were called).
+    building would draw if the offered reserve were called); ``is_peak``: the period of the
+    frame's largest ``power_kw``.
     """
     columns = [
         "power_kw",
@@ -360,8 +432,80 @@ def power_reserve_data(scenarios: Mapping[str, pd.DataFrame]) -> pd.DataFrame:
         upper = np.where(np.isnan(upper), part["power_kw"].to_numpy(float), upper)
         part["reserve_band_upper_kw"] = upper
         part["reserve_band_lower_kw"] = upper - part["reserve_kw"].to_numpy(float)
+        power = part["power_kw"].to_numpy(float)
+        part["is_peak"] = np.arange(len(part)) == (np.nanargmax(power) if len(part) else -1)
         parts.append(part)
     return pd.concat(parts, ignore_index=True)
+
+
+def peak_day(results: pd.DataFrame) -> pd.DataFrame:
+    """The rows of ``results`` on the calendar day (local) of its largest ``power_kw``."""
+    if not isinstance(results.index, pd.DatetimeIndex) or results.empty:
+        return results
+    day = pd.Timestamp(results.index[int(np.nanargmax(results["power_kw"].to_numpy(float)))])
+    start = day.normalize()
+    shown: pd.DataFrame = results[
+        (results.index >= start) & (results.index < start + pd.Timedelta(days=1))
+    ]
+    return shown
+
+
+def offers_reserve(results: pd.DataFrame) -> bool:
+    """True when the run offered reserve in some period (``reserve_kw`` > 0)."""
+    return "reserve_kw" in results.columns and bool((results["reserve_kw"] > 0).any())
+
+
+def power_panel(ax: Axes, results: pd.DataFrame, title: str, *, mark_peak: bool = True) -> None:
+    """One panel: the power drawn [kW] (steps), the reserve band it offered (served power
+    down by ``reserve_kw``, filled green) and the IL activations (shaded red); the period of
+    the largest power marked and labelled."""
+    edges = period_edges(results)
+    power = results["power_kw"].to_numpy(float)
+    if offers_reserve(results):
+        data = power_reserve_data({title: results})
+        ax.stairs(
+            data["reserve_band_upper_kw"].to_numpy(float),
+            edges,
+            baseline=data["reserve_band_lower_kw"].to_numpy(float),
+            fill=True,
+            color="C2",
+            alpha=0.35,
+            label="reserve band (served → curtailed)",
+        )
+    shade_activations(ax, results, color="mistyrose")
+    _step(ax, edges, power, color="C0", label="power drawn")
+    if mark_peak and len(power) and np.isfinite(power).any():
+        k = int(np.nanargmax(power))
+        middle = edges[k] + (edges[k + 1] - edges[k]) / 2
+        ax.plot([middle], [power[k]], "v", color="C3", label=f"peak {power[k]:.1f} kW")
+    ax.set_ylim(bottom=0.0)
+    ax.set_ylabel("power\n[kW]")
+    ax.set_title(title, loc="left", fontsize="medium")
+
+
+def reserve_panel(ax: Axes, results: pd.DataFrame, title: str) -> None:
+    """One panel: the reserve capacity offered [kW] (filled steps), IL activations shaded."""
+    edges = period_edges(results)
+    reserve = results["reserve_kw"].to_numpy(float)
+    shade_activations(ax, results, color="mistyrose")
+    ax.stairs(reserve, edges, fill=True, color="C2", alpha=0.6, label="reserve offered")
+    ax.set_ylim(bottom=0.0, top=max(1.0, 1.15 * float(np.nanmax(reserve, initial=0.0))))
+    ax.set_ylabel("reserve\n[kW]")
+    ax.set_title(title, loc="left", fontsize="medium")
+
+
+def _price_twin(ax: Axes, results: pd.DataFrame) -> None:
+    """The energy price [SGD/MWh] on a faint right axis of ``ax``."""
+    twin = ax.twinx()
+    _step(
+        twin,
+        period_edges(results),
+        results["energy_price_sgd_per_mwh"].to_numpy(float),
+        color="0.6",
+        linewidth=0.8,
+        label="energy price (right)",
+    )
+    twin.set_ylabel("USEP\n[SGD/MWh]", color="0.5")
 
 
 def plot_power_reserve(
@@ -369,78 +513,55 @@ def plot_power_reserve(
     path: str | Path,
     *,
     show_energy_price: bool = True,
-    title: str = "HVAC power and reserve capacity",
+    whole_period: bool = False,
+    title: str = "HVAC power on each run's peak day, and the reserve it offered",
 ) -> Path:
-    """Fig. 6: plant power and reserve capacity offered, one panel per scenario.
+    """Fig. 6: plant power and reserve capacity offered, per scenario.
 
-    Draws ``power_kw`` (the power actually drawn, steps), the reserve band (filled between the
-    served power and served − ``reserve_kw``: the capacity ``pᵀr`` offered, shown where it
-    would be shed from), ``reserve_kw`` itself (thin steps from zero) and, on a faint right
-    axis, the energy price, so that load shifting away from expensive periods is visible.
+    Each scenario gets a power panel (:func:`power_panel`: power drawn, reserve band, the
+    peak marked; the energy price on a faint right axis) and, when it offers reserve at all,
+    a reserve panel of its own (:func:`reserve_panel`). By default each scenario is drawn on
+    its own peak day (:func:`peak_day`), where the peak-power price acts.
 
     Parameters
     ----------
-    scenarios : scenario label → results frame (the displayed days).
-    path : PNG file to write; the CSV (:func:`power_reserve_data`) goes next to it.
+    scenarios : scenario label → results frame.
+    path : PNG file to write; the CSV (:func:`power_reserve_data` of the drawn days) goes
+        next to it.
     show_energy_price : draw the energy price on a secondary axis.
+    whole_period : draw every period of the frames instead of each one's peak day.
 
     Returns
     -------
     The PNG path.
     """
-    data = power_reserve_data(scenarios)
-    figure, axes = _new_figure(len(scenarios), sharey=True)
-    price_axes: list[Axes] = []
-    for ax, (label, results) in zip(axes, scenarios.items(), strict=True):
-        edges = _period_edges(results)
-        band = data[data["scenario"] == label]
-        ax.stairs(
-            band["reserve_band_upper_kw"].to_numpy(float),
-            edges,
-            baseline=band["reserve_band_lower_kw"].to_numpy(float),
-            fill=True,
-            color="C2",
-            alpha=0.4,
-            label="reserve band (served → curtailed)",
+    shown = {
+        label: (frame if whole_period else peak_day(frame)) for label, frame in scenarios.items()
+    }
+    panels = sum(1 + offers_reserve(frame) for frame in shown.values())
+    figure, axes = new_figure(panels, sharex=False, panel_height_in=2.1)
+    position = 0
+    for label, results in shown.items():
+        day = (
+            f" — peak day {results.index[0]:%a %d %b}"
+            if not whole_period and isinstance(results.index, pd.DatetimeIndex)
+            else ""
         )
-        _step(ax, edges, results["power_kw"].to_numpy(float), color="C0", label="power")
-        _step(
-            ax,
-            edges,
-            band["reserve_kw"].to_numpy(float),
-            color="C2",
-            linewidth=0.8,
-            label="reserve capacity",
-        )
-        handles, labels = ax.get_legend_handles_labels()
+        ax = axes[position]
+        power_panel(ax, results, f"{label}: power{day}")
         if show_energy_price and "energy_price_sgd_per_mwh" in results.columns:
-            twin = ax.twinx()
-            if price_axes:
-                twin.sharey(price_axes[0])
-            price_axes.append(twin)
-            _step(
-                twin,
-                edges,
-                results["energy_price_sgd_per_mwh"].to_numpy(float),
-                color="0.6",
-                linewidth=0.8,
-                label="energy price (right)",
-            )
-            twin.set_ylabel("USEP\n[SGD/MWh]", color="0.5")
-            twin_handles, twin_labels = twin.get_legend_handles_labels()
-            handles, labels = handles + twin_handles, labels + twin_labels
-        ax.set_title(label, loc="left", fontsize="medium")
-        ax.set_ylabel("power\n[kW]")
-        ax.set_ylim(bottom=0.0)
-        if ax is axes[0]:  # beside the panels, so that it hides no data
-            ax.legend(
-                handles, labels, fontsize="x-small", loc="upper left", bbox_to_anchor=(1.17, 1.0)
-            )
+            _price_twin(ax, results)
+        ax.legend(fontsize="x-small", loc="upper left")
+        position += 1
+        if offers_reserve(results):
+            reserve_panel(axes[position], results, f"{label}: reserve offered{day}")
+            position += 1
+    for ax in axes:
+        if isinstance(next(iter(shown.values())).index, pd.DatetimeIndex):
+            format_time_axis(ax)
     axes[-1].set_xlabel(_TIME_LABEL)
-    if isinstance(next(iter(scenarios.values())).index, pd.DatetimeIndex):
-        _format_time_axis(axes[-1])
     figure.suptitle(title)
-    return _save(figure, data, path)
+    return save_figure(figure, power_reserve_data(shown), path)
 
 
 # ----------------------------------------------------------------------------- Fig. 7
@@ -487,7 +608,7 @@ def plot_ppp_sweep(
     The PNG path; the CSV holds :func:`normalise_ppp_sweep`'s table.
     """
     data = normalise_ppp_sweep(sweep)
-    figure, (ax,) = _new_figure(1)
+    figure, (ax,) = new_figure(1)
     phi = data["peak_price_sgd_per_kw"].to_numpy(float)
     ax.plot(phi, data["normalised_total_cost_pct"], "o-", color="C3", label="normalised total cost")
     ax.plot(phi, data["normalised_peak_power_pct"], "s-", color="C0", label="normalised peak load")
@@ -498,7 +619,7 @@ def plot_ppp_sweep(
     ax.grid(True, which="both", alpha=0.3)
     ax.legend()
     figure.suptitle(title)
-    return _save(figure, data, path)
+    return save_figure(figure, data, path)
 
 
 # ----------------------------------------------------------------------------- beyond the paper
@@ -549,20 +670,38 @@ def plot_discomfort(
     """
     data = discomfort_data(scenarios)
     zones = [col for col in data.columns if col != "total"]
-    figure, (ax,) = _new_figure(1)
-    positions = np.arange(len(data))
-    bottom = np.zeros(len(data))
+    figure = Figure(figsize=(FIGURE_WIDTH_IN, max(1.6 + 0.42 * len(data), 3.2)), dpi=DPI)
+    FigureCanvasAgg(figure)
+    ax = figure.subplots()
+    positions = np.arange(len(data))[::-1]  # the first scenario on top
+    left = np.zeros(len(data))
     for i, zone in enumerate(zones):
         values = data[zone].to_numpy(float)
-        ax.bar(positions, values, bottom=bottom, color=f"C{i % 10}", label=str(zone))
-        bottom += values
-    for x, total in zip(positions, data["total"].to_numpy(float), strict=True):
-        ax.annotate(f"{total:.1f}", (x, total), ha="center", va="bottom", fontsize="small")
-    ax.set_xticks(positions, [str(label) for label in data.index])
-    ax.set_ylabel("discomfort [K·h]")
-    ax.legend(fontsize="small", title="zone")
+        ax.barh(positions, values, left=left, color=f"C{i % 10}", label=str(zone), height=0.6)
+        left += values
+    totals = data["total"].to_numpy(float)
+    for y, total in zip(positions, totals, strict=True):
+        ax.annotate(
+            f" {kelvin_hours_text(total)}", (total, y), ha="left", va="center", fontsize="small"
+        )
+    ax.set_yticks(positions, [str(label) for label in data.index])
+    ax.set_xlabel("discomfort [K·h] (time integral of the excursion outside the band)")
+    ax.set_xlim(0.0, max(1.0, 1.25 * float(np.nanmax(totals, initial=0.0))))
+    ax.grid(True, axis="x", alpha=0.3)
+    if len(zones) > 1:
+        ax.legend(fontsize="small", title="zone", loc="lower right")
     figure.suptitle(title)
-    return _save(figure, data, path, index=True)
+    return save_figure(figure, data, path, index=True)
+
+
+def kelvin_hours_text(value_kelvin_hours: float) -> str:
+    """A discomfort [K·h] for a bar label: ``"0"``, ``"0.06"``, ``"2.75"``, ``"11.7"``, ``"336"``
+    — three significant digits, so that 0.06 never reads "0.1"."""
+    if not np.isfinite(value_kelvin_hours):
+        return "–"
+    if value_kelvin_hours == 0.0:
+        return "0"
+    return f"{value_kelvin_hours:.3g}" if value_kelvin_hours < 100 else f"{value_kelvin_hours:,.0f}"
 
 
 ROBUSTNESS_COLUMNS = {
@@ -596,7 +735,8 @@ def plot_robustness_price(
         ``discomfort_kelvin_hours``, ``planned_slack_share`` as a 0–1 share, drawn in %),
         and optionally ``controller`` (e.g. "open-loop", "closed-loop"): one line per
         controller. Other columns are kept in the CSV.
-    path : PNG file to write; the CSV (the input sorted by level, stable) goes next to it.
+    path : PNG file to write; the CSV (the input sorted by level, stable, plus
+        ``uncertainty_level_pct`` = 100 × the level, the axis) goes next to it.
 
     Returns
     -------
@@ -608,13 +748,14 @@ def plot_robustness_price(
         _require(sweep, list(ROBUSTNESS_COST_COLUMNS), "robustness sweep")
     panels = {cost[0]: ROBUSTNESS_COST_COLUMNS[cost[0]], **ROBUSTNESS_COLUMNS}
     data = sweep.sort_values("uncertainty_level", kind="stable").reset_index(drop=True)
+    data["uncertainty_level_pct"] = 100.0 * data["uncertainty_level"].astype(float)
     groups = list(data.groupby("controller", sort=False)) if "controller" in data else [("", data)]
-    figure, axes = _new_figure(2, 2)
+    figure, axes = new_figure(2, 2)
     for ax, (col, label) in zip(axes, panels.items(), strict=True):
         scale = 100.0 if col == "planned_slack_share" else 1.0
         for i, (controller, rows) in enumerate(groups):
             ax.plot(
-                100.0 * rows["uncertainty_level"].to_numpy(float),
+                rows["uncertainty_level_pct"].to_numpy(float),
                 scale * rows[col].to_numpy(float),
                 "o-",
                 color=f"C{i % 10}",
@@ -625,6 +766,6 @@ def plot_robustness_price(
         if len(groups) > 1:
             ax.legend(fontsize="small")
     for ax in axes[2:]:
-        ax.set_xlabel("uncertainty level [% of nominal disturbance]")
+        ax.set_xlabel("uncertainty level σ [% of the heat gains]")
     figure.suptitle(title)
-    return _save(figure, data, path)
+    return save_figure(figure, data, path)

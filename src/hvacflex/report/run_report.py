@@ -18,18 +18,16 @@ from __future__ import annotations
 import json
 import tempfile
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from matplotlib.axes import Axes
-from matplotlib.backends.backend_agg import FigureCanvasAgg
-from matplotlib.figure import Figure
 
 from hvacflex import kpi
 from hvacflex import results as schema
 from hvacflex.errors import HvacflexError, InputError
+from hvacflex.report import plots
 from hvacflex.report.html import Section, render_report
 from hvacflex.report.tables import format_value
 from hvacflex.units import W_PER_KW
@@ -37,12 +35,6 @@ from hvacflex.version import atomic_write_text
 
 DPI = 110
 """Resolution of the embedded figures [dots per inch] (a page, not print)."""
-
-FIGURE_WIDTH_IN = 10.0
-"""Width of every figure [in]."""
-
-PANEL_HEIGHT_IN = 2.4
-"""Height of one panel [in]."""
 
 COST_COLUMNS = (
     "energy_cost_sgd",
@@ -79,12 +71,15 @@ class ReportRun:
     results : (T, ·) results frame (schema of :mod:`hvacflex.results`).
     floor_area_m2 : floor area of the run's building [m²]; None when it cannot be loaded.
     building : building named in the run's configuration ("" when unknown).
+    reserve_price_synthetic : the run's reserve price is hvacflex's synthetic one (its
+        configuration names no reserve price file).
     """
 
     name: str
     results: pd.DataFrame
     floor_area_m2: float | None
     building: str
+    reserve_price_synthetic: bool = True
 
 
 def _run_name(path: Path, taken: Sequence[str]) -> str:
@@ -97,14 +92,28 @@ def _run_name(path: Path, taken: Sequence[str]) -> str:
     return unique
 
 
+def _stored_config(path: Path) -> dict[str, object]:
+    """The configuration stored in the run's results metadata (``{}`` when unreadable)."""
+    file = path / schema.RESULTS_FILENAME if path.is_dir() else path
+    try:
+        config = json.loads(schema.read_metadata(file).get("config", "{}"))
+    except (HvacflexError, ValueError, OSError):
+        return {}
+    return config if isinstance(config, dict) else {}
+
+
+def _reserve_price_synthetic(config: dict[str, object]) -> bool:
+    data = config.get("data")
+    return not (isinstance(data, dict) and data.get("reserve_source"))
+
+
 def _building_of(path: Path) -> tuple[str, float | None]:
     """The building named in the run's configuration and its floor area [m²] (or None)."""
     from hvacflex.building.io import load_building
     from hvacflex.paths import resolve_building
 
-    file = path / schema.RESULTS_FILENAME if path.is_dir() else path
     try:
-        config = json.loads(schema.read_metadata(file).get("config", "{}"))
+        config = _stored_config(path)
         building = str(config.get("building", ""))
         if not building:
             return "", None
@@ -130,7 +139,8 @@ def load_runs(paths: Sequence[str | Path]) -> list[ReportRun]:
         results = schema.load_results(path)
         building, area_m2 = _building_of(path)
         name = _run_name(path, [run.name for run in runs])
-        runs.append(ReportRun(name, results, area_m2, building))
+        synthetic = _reserve_price_synthetic(_stored_config(path))
+        runs.append(ReportRun(name, results, area_m2, building, synthetic))
     return runs
 
 
@@ -206,8 +216,15 @@ def change_vs_baseline_pct(table: pd.DataFrame, baseline: str) -> pd.DataFrame:
     return pd.DataFrame(changes, index=table.index)
 
 
-COUNT_KPIS = ("il_events", "fallback_count")
-"""KPIs of :data:`REPORT_KPIS` that count things: shown as whole numbers."""
+COUNT_KPIS = (
+    "steps",
+    "il_events",
+    "il_curtailed_steps",
+    "il_activated_steps",
+    "il_beyond_model_steps",
+    "fallback_count",
+)
+"""KPIs (names of :func:`hvacflex.kpi.summary`) that count things: shown as whole numbers."""
 
 
 def _kpi_text(name: str, value: float) -> str:
@@ -217,12 +234,23 @@ def _kpi_text(name: str, value: float) -> str:
 
 
 def formatted_kpi_table(table: pd.DataFrame, changes: pd.DataFrame | None) -> pd.DataFrame:
-    """The KPI table as display text: values by their KPI's unit
-    (:func:`hvacflex.report.tables.format_value`; counts whole), changes as signed
+    """The KPI table (one row per KPI name, one column per run) as display text: values by
+    their KPI's unit (:func:`hvacflex.report.tables.format_value`; counts whole), a delivery
+    ratio without activations as "–" (nothing was delivered or missed), changes as signed
     percentages."""
+    no_events = (
+        table.loc["il_events"].fillna(0.0) == 0.0
+        if "il_events" in table.index
+        else pd.Series(False, index=table.columns)
+    )
     shown = pd.DataFrame(
         {
-            column: [_kpi_text(str(name), float(value)) for name, value in table[column].items()]
+            column: [
+                "–"
+                if name == "il_delivered_ratio" and bool(no_events[column])
+                else _kpi_text(str(name), float(value))
+                for name, value in table[column].items()
+            ]
             for column in table.columns
         },
         index=table.index,
@@ -234,138 +262,47 @@ def formatted_kpi_table(table: pd.DataFrame, changes: pd.DataFrame | None) -> pd
 
 
 # ----------------------------------------------------------------------------- figures
-
-
-def _figure(rows: int) -> tuple[Figure, list[Axes]]:
-    figure = Figure(figsize=(FIGURE_WIDTH_IN, max(PANEL_HEIGHT_IN * rows, 3.0)), dpi=DPI)
-    FigureCanvasAgg(figure)
-    grid = figure.subplots(rows, 1, sharex=False, squeeze=False)
-    return figure, [row[0] for row in grid]
-
-
-def _edges(results: pd.DataFrame) -> np.ndarray:
-    """(T+1,) local wall-clock period boundaries (the starts and the last period's end)."""
-    index = pd.DatetimeIndex(results.index)
-    local = index.tz_localize(None) if index.tz is not None else index
-    starts = local.to_numpy()
-    step = np.timedelta64(round(kpi.step_hours(results) * 3600), "s")
-    return np.append(starts, starts[-1] + step) if len(starts) else starts
-
-
-def _mark_activations(ax: Axes, results: pd.DataFrame, edges: np.ndarray) -> None:
-    if "il_activated" not in results.columns:
-        return
-    for i, k in enumerate(np.flatnonzero(results["il_activated"].to_numpy(bool))):
-        ax.axvspan(
-            edges[k],
-            edges[k + 1],
-            color="C3",
-            alpha=0.25,
-            linewidth=0,
-            label="IL activated" if i == 0 else None,
-        )
-
-
-def _save_png(figure: Figure, path: Path) -> Path:
-    figure.tight_layout()
-    figure.savefig(path, format="png")
-    return path
+# The panels are those of the reproduction's figures (:mod:`hvacflex.report.plots`), drawn
+# over each run's whole period.
 
 
 def plot_run_temperatures(runs: Sequence[ReportRun], path: Path) -> Path:
-    """Zone temperatures at period end [°C] over the comfort band (shaded, first zone's),
-    one panel per run; IL activations shaded red. Writes the PNG at ``path``."""
-    figure, axes = _figure(len(runs))
+    """Zone temperatures at period end [°C] over the shaded comfort band (the first zone's),
+    one panel per run (at most :data:`~hvacflex.report.plots.MAX_LINES_PER_PANEL` zones, the
+    warmest); IL activations shaded. Writes the PNG at ``path`` and its CSV beside it."""
+    figure, axes = plots.new_figure(len(runs), sharex=False, dpi=DPI)
     for ax, run in zip(axes, runs, strict=True):
-        frame = run.results
-        edges = _edges(frame)
-        zones = kpi.zone_names(frame)
-        lower = frame[schema.COMFORT_LOWER.name(zones[0])].to_numpy(float)
-        upper = frame[schema.COMFORT_UPPER.name(zones[0])].to_numpy(float)
-        ax.fill_between(
-            edges,
-            np.append(lower, lower[-1]),
-            np.append(upper, upper[-1]),
-            step="post",
-            color="C2",
-            alpha=0.18,
-            label="comfort band",
-        )
-        _mark_activations(ax, frame, edges)
-        for i, zone in enumerate(zones):
-            ax.plot(
-                edges[1:],
-                frame[schema.TEMP_END.name(zone)].to_numpy(float),
-                color=f"C{i % 10}",
-                linewidth=1.1,
-                label=zone,
-            )
-        ax.set_title(run.name, loc="left", fontsize="medium")
-        ax.set_ylabel("temperature [°C]")
+        zones = plots.warmest_zones({run.name: run.results})
+        plots.temperature_panel(ax, run.results, zones, run.name)
         ax.legend(fontsize="x-small", loc="upper left", bbox_to_anchor=(1.01, 1.0))
+        plots.format_time_axis(ax)
     axes[-1].set_xlabel("time (local)")
     figure.suptitle("Zone temperatures (period end) and the comfort band")
-    return _save_png(figure, path)
+    data = plots.temperature_data({run.name: run.results for run in runs})
+    return plots.save_figure(figure, data, path)
 
 
 def plot_run_power(runs: Sequence[ReportRun], path: Path) -> Path:
-    """Per run two panels: electric power [kW] with the reserve band (served power down to
-    served − reserve offered) and the IL activations marked, and the reserve offered [kW]."""
-    figure, axes = _figure(2 * len(runs))
-    for i, run in enumerate(runs):
-        ax_power, ax_reserve = axes[2 * i], axes[2 * i + 1]
-        frame = run.results
-        edges = _edges(frame)
-        power = frame["power_kw"].to_numpy(float)
-        reserve = frame["reserve_kw"].to_numpy(float)
-        served = (
-            frame["power_served_kw"].to_numpy(float)
-            if "power_served_kw" in frame.columns
-            else power
-        )
-        served = np.where(np.isnan(served), power, served)
-        ax_power.stairs(
-            served,
-            edges,
-            baseline=served - reserve,
-            fill=True,
-            color="C2",
-            alpha=0.35,
-            label="reserve band",
-        )
-        _mark_activations(ax_power, frame, edges)
-        ax_power.stairs(power, edges, baseline=None, color="C0", label="power drawn")
-        ax_power.set_ylim(bottom=0.0)
-        ax_power.set_ylabel("power [kW]")
-        ax_power.set_title(f"{run.name}: power", loc="left", fontsize="medium")
-        ax_reserve.stairs(reserve, edges, color="C2", fill=True, alpha=0.6, label="reserve offered")
-        _mark_activations(ax_reserve, frame, edges)
-        ax_reserve.set_ylim(bottom=0.0, top=max(1.0, 1.1 * float(np.nanmax(reserve, initial=0.0))))
-        ax_reserve.set_ylabel("reserve [kW]")
-        ax_reserve.set_title(f"{run.name}: reserve offered", loc="left", fontsize="medium")
-        for ax in (ax_power, ax_reserve):
-            ax.legend(fontsize="x-small", loc="upper left", bbox_to_anchor=(1.01, 1.0))
-    axes[-1].set_xlabel("time (local)")
-    figure.suptitle("HVAC power, reserve band and IL activations")
-    return _save_png(figure, path)
+    """Per run a power panel (power drawn [kW], the reserve band, IL activations, the peak
+    marked) and, for a run that offered reserve, a reserve panel of its own; a rule-based run
+    gets no empty reserve panel. Writes the PNG at ``path`` and its CSV beside it."""
+    return plots.plot_power_reserve(
+        {run.name: run.results for run in runs},
+        path,
+        whole_period=True,
+        show_energy_price=False,
+        title="HVAC power, reserve band and IL activations",
+    )
 
 
 def plot_run_prices(run: ReportRun, path: Path) -> Path:
     """Energy price (USEP) and reserve price [SGD/MWh] of one run, two panels."""
-    figure, (ax_energy, ax_reserve) = _figure(2)
-    frame = run.results
-    edges = _edges(frame)
-    ax_energy.stairs(
-        frame["energy_price_sgd_per_mwh"].to_numpy(float), edges, baseline=None, color="C0"
+    return plots.plot_prices(
+        run.results,
+        path,
+        reserve_synthetic=run.reserve_price_synthetic,
+        title=f"Prices of run {run.name}",
     )
-    ax_energy.set_ylabel("energy price\n[SGD/MWh]")
-    ax_reserve.stairs(
-        frame["reserve_price_sgd_per_mwh"].to_numpy(float), edges, baseline=None, color="C3"
-    )
-    ax_reserve.set_ylabel("reserve price\n[SGD/MWh]")
-    ax_reserve.set_xlabel("time (local)")
-    figure.suptitle(f"Prices of run {run.name}")
-    return _save_png(figure, path)
 
 
 # ----------------------------------------------------------------------------- page
@@ -432,9 +369,9 @@ def run_report_sections(
             "Power and reserve",
             figures=[plot_run_power(shown, figure_dir / "power.png")],
             figure_captions=[
-                "Power drawn (blue) with the reserve band it offered to shed "
-                "(green) and the IL activations (red); below it the reserve "
-                "offered."
+                "Power drawn (blue) with its peak marked, the reserve band it offered to "
+                "shed (green) and the IL activations (red); below a run that offered "
+                "reserve, the reserve offered (a rule-based run gets no empty panel)."
             ],
         ),
         Section(
@@ -487,7 +424,7 @@ def write_run_report(
     runs = load_runs(paths)
     base = load_runs([baseline])[0] if baseline is not None else None
     if base is not None and base.name in {run.name for run in runs}:
-        base = ReportRun(f"{base.name} (baseline)", base.results, base.floor_area_m2, base.building)
+        base = replace(base, name=f"{base.name} (baseline)")
     for run in [*runs, *([base] if base else [])]:
         if run.results.empty:
             raise InputError("run has no periods", source=run.name, hint="simulate it first")

@@ -168,12 +168,15 @@ COUNT_NAMES = ("steps", "fallback_count")
 def format_value(column: str, value: object) -> str:
     """Display text of one value by the unit in its name (a column or a KPI name).
 
-    NaN as "–"; counts (:data:`COUNT_NAMES`) whole; ``_pct`` signed with one decimal and
-    ``%``; ``_share`` (a fraction) in %; durations ``…_s`` and ``max_delta_vs_half_band`` to
-    four significant digits; other numbers with two decimals; anything else as ``str``.
+    NaN as "–"; integers and counts (:data:`COUNT_NAMES`) whole; ``_pct`` signed with one
+    decimal and ``%``; ``_share`` (a fraction) in %; durations ``…_s`` and
+    ``max_delta_vs_half_band`` to four significant digits; other numbers with two decimals;
+    anything else as ``str``.
     """
     if isinstance(value, bool):
         return str(value)
+    if isinstance(value, numbers.Integral):
+        return f"{int(value):,d}"
     if isinstance(value, numbers.Real):
         number = float(value)
         if math.isnan(number):

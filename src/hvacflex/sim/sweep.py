@@ -125,6 +125,7 @@ def run_sweep(
     on_done: JobCallback | None = None,
     fresh: bool = False,
     progress: bool = False,
+    out_dirs: Sequence[Path] | None = None,
 ) -> list[JobOutcome]:
     """Run ``jobs`` (from :func:`expand_grid`) on Dask and return their outcomes in order.
 
@@ -137,6 +138,8 @@ def run_sweep(
     on_done : called with each outcome as it finishes (progress per job).
     fresh : ignore finished results and checkpoints in the run folders (simulate again).
     progress : show a progress bar over the jobs (done/total, elapsed, ETA, failures).
+    out_dirs : the folder of each job, in the order of ``jobs`` (e.g. the stable names of
+        :mod:`hvacflex.reproduce`); None: ``run_dir(out_root, config)``.
     """
     from dask.distributed import Client, LocalCluster, as_completed
 
@@ -144,7 +147,18 @@ def run_sweep(
 
     quiet_dask_logs()
     root = Path(out_root)
-    dirs = [str(run_dir(root, cfg)) for _, cfg in jobs]
+    if out_dirs is not None and len(out_dirs) != len(jobs):
+        raise InputError(
+            "one folder per job is needed",
+            field="out_dirs",
+            value=len(out_dirs),
+            hint=f"give {len(jobs)} folders, one for each job",
+        )
+    dirs = (
+        [str(run_dir(root, cfg)) for _, cfg in jobs]
+        if out_dirs is None
+        else [str(folder) for folder in out_dirs]
+    )
     cluster = None
     if scheduler is None:
         cluster = LocalCluster(  # type: ignore[no-untyped-call]

@@ -1,0 +1,225 @@
+"""What ``hvacflex reproduce`` runs: the paper's scenarios and the baselines, the PPP and
+uncertainty sweeps, the hot-corner runs and — with ``--energyplus`` — the week on
+EnergyPlus (:mod:`hvacflex.reproduce_energyplus`), as a :class:`Plan` and its jobs (one
+(parameters, configuration) pair a closed-loop run), and the labels the report gives them.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from typing import Any
+
+from hvacflex.config import (
+    BASELINE_PRESETS,
+    DEFAULT_PEAK_PRICE_PAPER_SGD_PER_KW,
+    PAPER_FEEDBACK_SCENARIOS,
+    PAPER_MODEL_SCENARIOS,
+    PAPER_SCENARIOS,
+    ScenarioConfig,
+    preset,
+    scaled_uncertainty,
+)
+from hvacflex.reproduce_energyplus import energyplus_jobs
+
+ScenarioLabel = str
+
+PPP_VALUES_SGD_PER_KW: tuple[float, ...] = (
+    0.5,
+    1.0,
+    1.5,
+    2.0,
+    3.0,
+    5.0,
+    7.5,
+    10.0,
+    15.0,
+    20.0,
+    30.0,
+)
+QUICK_PPP_VALUES_SGD_PER_KW: tuple[float, ...] = (0.5, 1.5, 5.0, 30.0)
+UNCERTAINTY_LEVELS: tuple[float, ...] = (0.0, 0.05, 0.1, 0.2, 0.3, 0.5)
+QUICK_UNCERTAINTY_LEVELS: tuple[float, ...] = (0.0, 0.25, 0.5)
+
+TARIFF_PEAK_PRICE_SGD_PER_KW = DEFAULT_PEAK_PRICE_PAPER_SGD_PER_KW
+"""φ of the one tariff every comparison prices every run with [SGD/kW per month]: the
+paper's peak-power price, billed on each calendar month's peak whether or not the
+controller planned for it."""
+
+SCENARIO_LABELS: dict[str, str] = {
+    "a": "(a) NMPC",
+    "b": "(b) RMPC",
+    "c": "(c) RMPC + PPP",
+    "thermostat": "thermostat",
+} | {name: name for name in BASELINE_PRESETS}
+RULE_BASED_SCENARIOS: tuple[str, ...] = ("thermostat", *BASELINE_PRESETS)
+"""Scenario keys of the rule-based runs (the baselines "does it pay?" ranks against)."""
+WHOLE_HORIZON_PREFIX = "paper-"
+"""Key prefix of the scenarios run with the paper's whole-horizon reserve model."""
+SCENARIO_LABELS |= {
+    f"{WHOLE_HORIZON_PREFIX}{letter}": f"{SCENARIO_LABELS[letter]}, whole-horizon"
+    for letter in PAPER_MODEL_SCENARIOS
+}
+FEEDBACK_PREFIX = "feedback-"
+"""Key prefix of the robust scenarios run with affine disturbance feedback."""
+SCENARIO_LABELS |= {
+    f"{FEEDBACK_PREFIX}{letter}": f"{SCENARIO_LABELS[letter]}, affine feedback, whole-horizon"
+    for letter in PAPER_FEEDBACK_SCENARIOS
+}
+
+
+def model_names() -> dict[str, str]:
+    """Reserve model → its name in the report, with the product presets' D, α and R."""
+    reserve = preset(PAPER_SCENARIOS["a"]).reserve
+    return {
+        "event": f"the event model (D = {reserve.event_max_steps}, "
+        f"α = {reserve.event_allowance_k:g} K, R = {reserve.event_recovery_steps})",
+        "whole-horizon": "the paper's whole-horizon model",
+    }
+
+
+@dataclass(frozen=True)
+class Plan:
+    """What a reproduction runs: periods and sweep values.
+
+    ``energyplus`` adds the EnergyPlus section
+    (:mod:`hvacflex.reproduce_energyplus`): its scenarios over
+    ``energyplus_days`` from ``energyplus_start`` on EnergyPlus office5 (the generated IDF)
+    beside the same runs on the RC plant.
+    """
+
+    start: str
+    days: float
+    sweep_start: str
+    sweep_days: float
+    uncertainty_days: float
+    ppp_values: tuple[float, ...]
+    uncertainty_levels: tuple[float, ...]
+    with_feedback: bool
+    energyplus: bool = False
+    energyplus_start: str = "2014-03-03"
+    energyplus_days: float = 7.0
+
+    @classmethod
+    def full(cls, *, energyplus: bool = False) -> Plan:
+        return cls(
+            start="2014-01-01",
+            days=365.0,
+            sweep_start="2014-03-03",
+            sweep_days=28.0,
+            uncertainty_days=3.0,
+            ppp_values=PPP_VALUES_SGD_PER_KW,
+            uncertainty_levels=UNCERTAINTY_LEVELS,
+            with_feedback=True,
+            energyplus=energyplus,
+        )
+
+    @classmethod
+    def quick(cls, *, energyplus: bool = False) -> Plan:
+        return cls(
+            start="2014-03-03",
+            days=7.0,
+            sweep_start="2014-03-03",
+            sweep_days=7.0,
+            uncertainty_days=2.0,
+            ppp_values=QUICK_PPP_VALUES_SGD_PER_KW,
+            uncertainty_levels=QUICK_UNCERTAINTY_LEVELS,
+            with_feedback=False,
+            energyplus=energyplus,
+        )
+
+    @property
+    def energyplus_week_is_scenario_period(self) -> bool:
+        """True when the scenario runs cover the EnergyPlus week exactly (``--quick``): the
+        RC side of the EnergyPlus section is then those runs."""
+        return (self.start, self.days) == (self.energyplus_start, self.energyplus_days)
+
+
+def scenario_jobs(plan: Plan) -> list[tuple[dict[str, Any], ScenarioConfig]]:
+    """Scenarios (a), (b), (c) with each reserve model, (b) and (c) with affine feedback, the
+    thermostat and the strong baselines, over the plan's period (keys ``a``, ``paper-a``, …,
+    ``feedback-b``, ``feedback-c``, ``thermostat``, and the baselines' preset names)."""
+    whole_horizon = [
+        (f"{WHOLE_HORIZON_PREFIX}{letter}", name) for letter, name in PAPER_MODEL_SCENARIOS.items()
+    ]
+    feedback = [
+        (f"{FEEDBACK_PREFIX}{letter}", name) for letter, name in PAPER_FEEDBACK_SCENARIOS.items()
+    ]
+    jobs: list[tuple[dict[str, Any], ScenarioConfig]] = []
+    baselines = [(name, name) for name in RULE_BASED_SCENARIOS]
+    runs = [*PAPER_SCENARIOS.items(), *whole_horizon, *feedback, *baselines]
+    for letter, name in runs:
+        cfg = preset(name, start=plan.start, days=plan.days)
+        jobs.append(({"scenario": letter}, cfg))
+    return jobs
+
+
+def ppp_jobs(plan: Plan) -> list[tuple[dict[str, Any], ScenarioConfig]]:
+    """Scenario (c) with each peak-power price of the sweep."""
+    base = preset("rmpc-ppp", start=plan.sweep_start, days=plan.sweep_days)
+    return [
+        (
+            {"peak_price_sgd_per_kw": phi},
+            replace(
+                base,
+                name=f"ppp-{phi:g}",
+                controller=replace(base.controller, peak_price_sgd_per_kw=phi),
+            ),
+        )
+        for phi in plan.ppp_values
+    ]
+
+
+def uncertainty_jobs(plan: Plan) -> list[tuple[dict[str, Any], ScenarioConfig]]:
+    """NMPC and open-loop RMPC (and feedback RMPC) at each uncertainty level."""
+    controllers = ["nmpc", "rmpc"] + (["rmpc-feedback"] if plan.with_feedback else [])
+    jobs: list[tuple[dict[str, Any], ScenarioConfig]] = []
+    for controller in controllers:
+        for level in plan.uncertainty_levels:
+            cfg = scaled_uncertainty(
+                preset(controller, start=plan.sweep_start, days=plan.uncertainty_days), level
+            )
+            cfg = replace(cfg, name=f"{controller}-unc{round(100 * level)}")
+            jobs.append(({"controller": controller, "uncertainty_level": level}, cfg))
+    return jobs
+
+
+HOT_CORNER_LEVEL = 0.1
+"""Box half-width (fraction of heat gains) of the hot-corner comfort comparison."""
+
+
+def corner_jobs(plan: Plan) -> list[tuple[dict[str, Any], ScenarioConfig]]:
+    """NMPC and RMPC with every forecast error at the hot corner of a ±10 % box."""
+    jobs: list[tuple[dict[str, Any], ScenarioConfig]] = []
+    for controller in ("nmpc", "rmpc"):
+        cfg = scaled_uncertainty(
+            preset(controller, start=plan.sweep_start, days=plan.uncertainty_days),
+            HOT_CORNER_LEVEL,
+        )
+        cfg = replace(
+            cfg,
+            name=f"{controller}-hot-corner",
+            realisation=replace(cfg.realisation, mode="worst-upper"),
+        )
+        jobs.append(({"scenario": controller}, cfg))
+    return jobs
+
+
+JobGroups = dict[str, list[tuple[dict[str, Any], ScenarioConfig]]]
+
+
+def plan_groups(plan: Plan) -> JobGroups:
+    """The plan's jobs by report group (``scenarios``, ``ppp``, ``uncertainty``, ``corner``,
+    ``energyplus``), each a list of (parameters, configuration)."""
+    return {
+        "scenarios": scenario_jobs(plan),
+        "ppp": ppp_jobs(plan),
+        "uncertainty": uncertainty_jobs(plan),
+        "corner": corner_jobs(plan),
+        "energyplus": energyplus_jobs(
+            plan.energyplus_start,
+            plan.energyplus_days,
+            with_rc_week=not plan.energyplus_week_is_scenario_period,
+        )
+        if plan.energyplus
+        else [],
+    }

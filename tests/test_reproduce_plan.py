@@ -1,0 +1,48 @@
+"""The reproduction's plan: which runs, with which names, on which plant."""
+
+from __future__ import annotations
+
+from hvacflex.reproduce_energyplus import ENERGYPLUS_PREFIX, ENERGYPLUS_SCENARIOS, RC_WEEK_PREFIX
+from hvacflex.reproduce_plan import Plan, plan_groups
+
+
+def _names(groups: dict[str, list]) -> list[str]:  # type: ignore[type-arg]
+    return [cfg.name for jobs in groups.values() for _, cfg in jobs]
+
+
+def test_every_run_of_a_plan_has_its_own_name() -> None:
+    for plan in (
+        Plan.quick(),
+        Plan.full(),
+        Plan.quick(energyplus=True),
+        Plan.full(energyplus=True),
+    ):
+        names = _names(plan_groups(plan))
+        assert len(names) == len(set(names)), names
+
+
+def test_energyplus_runs_only_when_asked() -> None:
+    assert plan_groups(Plan.quick())["energyplus"] == []
+    jobs = plan_groups(Plan.quick(energyplus=True))["energyplus"]
+    assert [params["scenario"] for params, _ in jobs] == list(ENERGYPLUS_SCENARIOS)
+    for params, cfg in jobs:
+        assert params["plant"] == "energyplus" and cfg.name.startswith(ENERGYPLUS_PREFIX)
+        assert (cfg.plant.kind, cfg.plant.idf, cfg.plant.resolved_actuation) == (
+            "energyplus",
+            "generated",
+            "setpoint",
+        )
+        assert (cfg.start, cfg.days) == ("2014-03-03", 7.0)
+
+
+def test_the_quick_week_is_reused_and_the_full_year_gets_its_own_rc_week() -> None:
+    quick = Plan.quick(energyplus=True)
+    assert quick.energyplus_week_is_scenario_period
+    assert all(p["plant"] == "energyplus" for p, _ in plan_groups(quick)["energyplus"])
+    full = Plan.full(energyplus=True)
+    assert not full.energyplus_week_is_scenario_period
+    rc = [(p, cfg) for p, cfg in plan_groups(full)["energyplus"] if p["plant"] == "rc"]
+    assert [p["scenario"] for p, _ in rc] == list(ENERGYPLUS_SCENARIOS)
+    for _, cfg in rc:
+        assert cfg.name.startswith(RC_WEEK_PREFIX) and cfg.plant.kind == "rc"
+        assert (cfg.start, cfg.days) == (full.energyplus_start, full.energyplus_days)
