@@ -89,6 +89,20 @@ SCENARIO_LABELS |= {
 }
 
 
+STRESS_KEY = "stress-b"
+"""Key of scenario (b) (``rmpc``) run with ``[activation] mode = "stress"``: one activation
+every weekday in office hours, so that Table 1 shows the reserve delivered and settled."""
+SCENARIO_LABELS[STRESS_KEY] = "(b) RMPC, stress activations"
+
+
+def stress_config(name: str, *, start: str, days: float) -> ScenarioConfig:
+    """Preset ``name`` over the period with an activation every weekday (``stress``)."""
+    cfg = preset(name, start=start, days=days)
+    return replace(
+        cfg, name=f"{cfg.name}-stress", activation=replace(cfg.activation, mode="stress")
+    )
+
+
 def model_names() -> dict[str, str]:
     """Reserve model → its name in the report, with the product presets' D, α and R."""
     reserve = preset(PAPER_SCENARIOS["a"]).reserve
@@ -141,8 +155,9 @@ class Plan:
 
 def scenario_jobs(plan: Plan) -> list[tuple[dict[str, Any], ScenarioConfig]]:
     """Scenarios (a), (b), (c) with each reserve model, (b) and (c) with affine feedback, the
-    thermostat and the strong baselines, over the plan's period (keys ``a``, ``paper-a``, …,
-    ``feedback-b``, ``feedback-c``, ``thermostat``, and the baselines' preset names)."""
+    thermostat and the strong baselines, and (b) under stress activations, over the plan's
+    period (keys ``a``, ``paper-a``, …, ``feedback-b``, ``feedback-c``, ``thermostat``, the
+    baselines' preset names and :data:`STRESS_KEY`)."""
     whole_horizon = [
         (f"{WHOLE_HORIZON_PREFIX}{letter}", name) for letter, name in PAPER_MODEL_SCENARIOS.items()
     ]
@@ -155,6 +170,8 @@ def scenario_jobs(plan: Plan) -> list[tuple[dict[str, Any], ScenarioConfig]]:
     for letter, name in runs:
         cfg = preset(name, start=plan.start, days=plan.days)
         jobs.append(({"scenario": letter}, cfg))
+    stress = stress_config(PAPER_SCENARIOS["b"], start=plan.start, days=plan.days)
+    jobs.append(({"scenario": STRESS_KEY}, stress))
     return jobs
 
 
@@ -356,12 +373,14 @@ def build_sections(plan: Plan, by_group: dict[str, list[JobOutcome]], out: Path)
         for k in PAPER_FEEDBACK_SCENARIOS
         if f"{FEEDBACK_PREFIX}{k}" in scenario_frames
     }
+    stress = {k: f for k, f in scenario_frames.items() if k == STRESS_KEY}
     sections: list[Any] = []
     if any(k in RULE_BASED_SCENARIOS for k in scenario_frames):
-        sections.append(does_it_pay_section(plan, scenario_frames, out))
+        usual = {k: f for k, f in scenario_frames.items() if k not in stress}
+        sections.append(does_it_pay_section(plan, usual, out))
     if paper:
         sections.append(paper_figures_section(paper, figures))
-        sections.append(table1_section(plan, paper, whole, out, feedback=feedback))
+        sections.append(table1_section(plan, paper, whole, out, feedback=feedback, stress=stress))
     if scenario_frames:
         corner = _frames(by_group["corner"])
         sections.append(comfort_section(plan, scenario_frames, corner, out, figures))
@@ -459,14 +478,18 @@ def table1_section(
     out: Path,
     *,
     feedback: Mapping[str, pd.DataFrame] | None = None,
+    stress: Mapping[str, pd.DataFrame] | None = None,
 ) -> Any:
-    """Table 1 (average cost per month) for both reserve models, and beside the paper's.
+    """Table 1 (average cost per month) for both reserve models, and beside the paper's,
+    with the reserve's settlement (offered, delivered against the metered baseline,
+    shortfall, penalty, net revenue) in every row.
 
     ``paper`` holds the product presets' runs (event model), ``whole`` the ``paper-*``
     presets' (whole-horizon model), ``feedback`` the affine-feedback runs of (b) and (c)
     (whole-horizon model, rows after ``whole``'s in its block), each keyed by scenario
-    letter. Writes ``table1.csv`` (one block of rows per model, each with % against its own
-    (a)) and ``table1_vs_paper.csv`` (each model's rows beside the published ones).
+    letter; ``stress`` the run keyed :data:`STRESS_KEY` (last row of the event block).
+    Writes ``table1.csv`` (one block of rows per model, each with % against its own (a))
+    and ``table1_vs_paper.csv`` (each model's rows beside the published ones).
     """
     from hvacflex import kpi
     from hvacflex.report import tables
@@ -474,7 +497,8 @@ def table1_section(
 
     names = model_names()
     labelled = {
-        "event": {SCENARIO_LABELS[k]: f for k, f in sorted(paper.items())},
+        "event": {SCENARIO_LABELS[k]: f for k, f in sorted(paper.items())}
+        | {SCENARIO_LABELS[k]: f for k, f in (stress or {}).items()},
         "whole-horizon": {
             SCENARIO_LABELS[f"{WHOLE_HORIZON_PREFIX}{k}"]: f for k, f in sorted(whole.items())
         }
@@ -507,7 +531,13 @@ def table1_section(
             f"Simulated {plan.days:g} days from {plan.start}. Cost = energy bought at "
             "USEP; revenue = synthetic reserve price × reserve capacity offered; "
             "total = cost − revenue (the paper's definition; the PPP charge is "
-            "reported separately below).",
+            "reported separately below). Reserve settled as the market settles it: "
+            "il_offered_kwh is the capacity due in activated periods, "
+            "il_delivered_metered_kwh what the meter showed against the pre-event baseline, "
+            "il_shortfall_kwh the part not delivered, il_penalty_sgd its penalty "
+            "(included in total), il_net_revenue_sgd = revenue − penalty (per month). The "
+            "product presets are activated at random (a few events a year); the row "
+            f"'{SCENARIO_LABELS[STRESS_KEY]}' activates (b) every weekday in office hours.",
             f"Column reserve_model: event = {names['event']}, the product presets nmpc, "
             f"rmpc, rmpc-ppp; whole-horizon = {names['whole-horizon']}, the presets "
             "paper-nmpc, paper-rmpc, paper-rmpc-ppp, where the curtailed trajectory must stay "
