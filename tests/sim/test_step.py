@@ -177,7 +177,7 @@ class CommittingController(CountingController):
 
     def __init__(self) -> None:
         super().__init__()
-        self.noted = np.zeros((self.commit, ZONES))
+        self.noted = np.full((0, ZONES), np.nan)
 
     @property
     def commits_ahead(self) -> int:
@@ -208,6 +208,8 @@ def test_reserve_is_committed_g_periods_ahead_and_every_event_period_curtails() 
     config = preset("rmpc", start="2014-03-03", days=1.0)
     step = ControlStep(config, controller, ZONES)
     assert step.commit_ahead == 2
+    # told before any decision (a fleet builds its first problem before deciding)
+    np.testing.assert_array_equal(controller.noted, np.zeros((2, ZONES)))
     active = {4, 5, 6}  # a 3-period activation
     decisions = [_decide(step, k, active) for k in range(9)]
     kw = [d.action.reserve_kw for d in decisions]

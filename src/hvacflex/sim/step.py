@@ -164,6 +164,8 @@ class ControlStep:
         """(g, m) reserve flows committed for the next g periods, the coming one first."""
         self.committed_kw = np.zeros(self.commit_ahead)
         """(g,) reserve capacity committed (and paid) for the next g periods [kW]."""
+        if self.commit_ahead:  # a driver may build the first problem before deciding (fleet)
+            controller.note_commitments(self.committed_flow_kg_s)
 
     @property
     def takes_measurements(self) -> bool:
