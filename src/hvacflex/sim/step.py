@@ -256,7 +256,7 @@ class ControlStep:
         if k == self.period and self._before is not None:  # decide again from before it
             self.controller.set_state(self._before["controller"])
             self.tracker.set_state(self._before["events"])
-            self._set_commitments(self._before["commitments"])
+            self._set_commitments(self._before.get("commitments"))
         else:
             for j in range(self.period + 1, k):
                 self._skip(activated(j))
