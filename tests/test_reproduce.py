@@ -261,10 +261,11 @@ def test_second_run_reuses_cached_simulations(quick_report: Path) -> None:
     mtimes = {path: path.stat().st_mtime_ns for path in results}
     logs: list[str] = []
     again = reproduce(quick_report, quick=True, workers=1, log=logs.append)
-    assert again.complete and len(again.outcomes) == 25  # 21 + the four strong baselines
+    # 21 + the four strong baselines + (b) under stress activations
+    assert again.complete and len(again.outcomes) == 26
     assert all(o.cached for o in again.outcomes)
-    assert sum("ok (cached)" in line for line in logs) == 25
-    assert len(results) == 25 and {p: p.stat().st_mtime_ns for p in results} == mtimes
+    assert sum("ok (cached)" in line for line in logs) == 26
+    assert len(results) == 26 and {p: p.stat().st_mtime_ns for p in results} == mtimes
     assert {name: (quick_report / name).read_bytes() for name in outputs} == before
 
 
