@@ -236,8 +236,31 @@ def test_reserve_section_is_read_and_recorded(tmp_path: Path) -> None:
         "non_delivery_penalty_sgd_per_mwh": 1000.0,
         "non_delivery_forfeits_reserve_payment": True,
         "il_baseline": "pre-event",
+        "commit_ahead_periods": 2,
     }
     assert cfg.config_hash() != preset("paper-rmpc").config_hash()
+
+
+def test_commit_ahead_periods_is_read_and_must_fit_the_horizon(tmp_path: Path) -> None:
+    path = tmp_path / "commit.toml"
+    path.write_text('preset = "rmpc"\n[reserve]\ncommit_ahead_periods = 3\n')
+    assert load_config(path).reserve.commit_ahead_periods == 3
+    path.write_text(
+        'preset = "rmpc"\n[controller]\nhorizon_steps = 4\n[reserve]\ncommit_ahead_periods = 4\n'
+    )
+    with pytest.raises(ConfigError, match="commit_ahead_periods") as info:
+        load_config(path)
+    assert "0 … 3" in str(info.value)
+
+
+def test_product_presets_are_activated_at_random_and_rarely() -> None:
+    for name in ("nmpc", "rmpc", "rmpc-ppp", "rmpc-output-feedback", "gta-dr"):
+        activation = preset(name).activation
+        assert activation.mode == "random"
+        assert 0 < activation.events_per_year <= 12  # rare: a few a year
+        assert preset(name).reserve.commit_ahead_periods == 2
+    for name in ("paper-rmpc", "thermostat-25.5", "rmpc-feedback"):
+        assert preset(name).activation.mode == "never"
 
 
 @pytest.mark.parametrize(

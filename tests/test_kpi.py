@@ -361,6 +361,11 @@ def test_il_settlement_on_a_hand_made_event() -> None:
     energy = sum([10.0, 7.0, 9.0, 12.0, 10.0, 10.0]) * 100.0 * 0.5 / 1000
     assert kpi.net_cost_sgd(df) == pytest.approx(energy - revenue + 2.1)
     assert kpi.monthly_table(df)["il_penalty_sgd"].sum() == pytest.approx(2.1)
+    month = kpi.monthly_table(df).iloc[0]  # the settlement of Table 1, by hand as above
+    assert month["il_offered_kwh"] == pytest.approx(4.0)
+    assert month["il_delivered_metered_kwh"] == pytest.approx(2.0)
+    assert month["il_shortfall_kwh"] == pytest.approx(2.0)
+    assert month["il_net_revenue_sgd"] == pytest.approx(revenue - 2.1)
     assert kpi.reserve_offered_mean_kw(df) == pytest.approx(16.0 / 6)
     assert kpi.reserve_period_share(df) == pytest.approx(4 / 6)
 

@@ -18,6 +18,7 @@ from hvacflex.config import BASELINE_PRESETS, preset
 from hvacflex.reproduce import (
     RULE_BASED_SCENARIOS,
     SCENARIO_LABELS,
+    STRESS_KEY,
     TARIFF_PEAK_PRICE_SGD_PER_KW,
     Plan,
     plan_groups,
@@ -65,12 +66,16 @@ def test_the_quick_plan_runs_every_baseline_over_the_scenarios_period() -> None:
     for name in RULE_BASED_SCENARIOS:
         assert jobs[name].controller.kind != "mpc"
         assert (jobs[name].start, jobs[name].days) == (plan.start, plan.days)
+    # (b) runs beside the others with an activation every weekday
+    assert jobs[STRESS_KEY].activation.mode == "stress"
+    assert jobs[STRESS_KEY].controller == jobs["b"].controller
 
 
 def test_does_it_pay_ranks_every_scenario_under_one_tariff(quick_report: Path) -> None:
     table = pd.read_csv(quick_report / "does_it_pay.csv")
     kpis = pd.read_csv(quick_report / "kpi_scenarios.csv", index_col=0)
-    assert set(table["controller"]) == set(kpis.columns)
+    # every scenario but the stress case (another activation regime) is ranked
+    assert set(table["controller"]) == set(kpis.columns) - {SCENARIO_LABELS[STRESS_KEY]}
     assert list(table["rank"]) == list(range(1, len(table) + 1))
     assert table["tariff_cost_sgd_per_month"].is_monotonic_increasing
     reference = table["reference"].iloc[0]
@@ -168,7 +173,8 @@ def test_robust_costs_more_than_nominal(quick_report: Path) -> None:
 def test_table1_has_rows_for_both_reserve_models(quick_report: Path) -> None:
     table = pd.read_csv(quick_report / "table1.csv", index_col=0)
     models = table["reserve_model"]
-    assert models.to_list() == ["event"] * 3 + ["whole-horizon"] * 5
+    assert models.to_list() == ["event"] * 4 + ["whole-horizon"] * 5
+    assert table.index[3] == SCENARIO_LABELS[STRESS_KEY]
     feedback_rows = [label for label in table.index if "affine feedback" in label]
     assert feedback_rows == [
         "(b) RMPC, affine feedback, whole-horizon",
@@ -184,6 +190,15 @@ def test_table1_has_rows_for_both_reserve_models(quick_report: Path) -> None:
         for quantity in ("energy_cost_sgd", "reserve_revenue_sgd", "net_cost_sgd"):
             expected = kpis.loc[f"monthly_avg_{quantity}", label]
             assert table.loc[label, quantity] == pytest.approx(expected), (label, quantity)
+    # the reserve settled as the market settles it, in every row; the stress case is activated
+    for label in table.index:
+        row = table.loc[label]
+        assert row["il_net_revenue_sgd"] == pytest.approx(
+            row["reserve_revenue_sgd"] - row["il_penalty_sgd"]
+        )
+        assert row["il_shortfall_kwh"] <= row["il_offered_kwh"] + 1e-9
+    stress = table.loc[SCENARIO_LABELS[STRESS_KEY]]
+    assert stress["il_offered_kwh"] > 0.0 and stress["il_delivered_metered_kwh"] > 0.0
     versus = pd.read_csv(quick_report / "table1_vs_paper.csv", index_col=0)
     assert versus.loc["(b) RMPC, whole-horizon", "energy_cost_sgd (paper)"] == 1530.0
     assert versus.loc["(b) RMPC", "energy_cost_sgd (paper)"] == 1530.0
@@ -261,10 +276,11 @@ def test_second_run_reuses_cached_simulations(quick_report: Path) -> None:
     mtimes = {path: path.stat().st_mtime_ns for path in results}
     logs: list[str] = []
     again = reproduce(quick_report, quick=True, workers=1, log=logs.append)
-    assert again.complete and len(again.outcomes) == 25  # 21 + the four strong baselines
+    # 21 + the four strong baselines + (b) under stress activations
+    assert again.complete and len(again.outcomes) == 26
     assert all(o.cached for o in again.outcomes)
-    assert sum("ok (cached)" in line for line in logs) == 25
-    assert len(results) == 25 and {p: p.stat().st_mtime_ns for p in results} == mtimes
+    assert sum("ok (cached)" in line for line in logs) == 26
+    assert len(results) == 26 and {p: p.stat().st_mtime_ns for p in results} == mtimes
     assert {name: (quick_report / name).read_bytes() for name in outputs} == before
 
 

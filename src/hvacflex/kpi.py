@@ -381,8 +381,9 @@ def monthly_table(
     * ``days``: days of the month covered by the run (steps × Δt / 24),
     * ``month_fraction``: ``days`` / days in that calendar month (1.0 for a complete month),
     * ``energy_cost_sgd``, ``reserve_revenue_sgd``, ``il_penalty_sgd``, ``net_cost_sgd``,
-      ``energy_kwh``:
-      sums over the covered part of the month,
+      ``energy_kwh``, and the IL settlement of the activated periods: ``il_offered_kwh``,
+      ``il_delivered_metered_kwh``, ``il_shortfall_kwh`` and ``il_net_revenue_sgd``
+      (reserve revenue − penalty): sums over the covered part of the month,
     * ``peak_power_kw``, ``ppp_charge_sgd``: the month's peak and its PPP charge.
 
     Use :func:`monthly_average` for the "average per month" of Table 1.
@@ -391,6 +392,7 @@ def monthly_table(
     dt_h = step_hours(results)
     months = _month_index(index)
     power_kw = _values(results, "power_kw")
+    activated = _activated(results)
     frame = pd.DataFrame(
         {
             "days": np.full(len(results), dt_h / _HOURS_PER_DAY),
@@ -404,10 +406,14 @@ def monthly_table(
             / KWH_PER_MWH,
             "il_penalty_sgd": il_penalty_step_sgd(results),
             "energy_kwh": power_kw * dt_h,
+            "il_offered_kwh": np.where(activated, _values(results, "reserve_kw"), 0.0) * dt_h,
+            "il_delivered_metered_kwh": il_delivered_kw(results) * dt_h,
+            "il_shortfall_kwh": il_shortfall_kw(results) * dt_h,
         },
         index=months,
     )
     table = frame.groupby(level="month").sum()
+    table["il_net_revenue_sgd"] = table["reserve_revenue_sgd"] - table["il_penalty_sgd"]
     table["net_cost_sgd"] = (
         table["energy_cost_sgd"] - table["reserve_revenue_sgd"] + table["il_penalty_sgd"]
     )
@@ -423,11 +429,20 @@ def monthly_table(
         "il_penalty_sgd",
         "net_cost_sgd",
         "energy_kwh",
+        *MONTHLY_IL_COLUMNS,
         "peak_power_kw",
         "ppp_charge_sgd",
     ]
     return table[columns]
 
+
+MONTHLY_IL_COLUMNS = (
+    "il_offered_kwh",
+    "il_delivered_metered_kwh",
+    "il_shortfall_kwh",
+    "il_net_revenue_sgd",
+)
+"""The IL settlement columns of :func:`monthly_table` (activated periods; revenue − penalty)."""
 
 MONTHLY_SUM_COLUMNS = (
     "energy_cost_sgd",
@@ -435,6 +450,7 @@ MONTHLY_SUM_COLUMNS = (
     "il_penalty_sgd",
     "net_cost_sgd",
     "energy_kwh",
+    *MONTHLY_IL_COLUMNS,
 )
 """Columns of :func:`monthly_table` that are sums over the covered days (averaged per month)."""
 

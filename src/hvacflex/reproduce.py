@@ -38,6 +38,7 @@ from hvacflex.errors import InputError
 from hvacflex.reproduce_plan import (
     RULE_BASED_SCENARIOS,
     SCENARIO_LABELS,
+    STRESS_KEY,
     TARIFF_PEAK_PRICE_SGD_PER_KW,
     JobGroups,
     Plan,
@@ -52,6 +53,7 @@ from hvacflex.sim.sweep import JobOutcome, run_sweep
 __all__ = [
     "RULE_BASED_SCENARIOS",
     "SCENARIO_LABELS",
+    "STRESS_KEY",
     "TARIFF_PEAK_PRICE_SGD_PER_KW",
     "Plan",
     "Reproduction",

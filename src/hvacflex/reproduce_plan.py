@@ -67,6 +67,20 @@ SCENARIO_LABELS |= {
 }
 
 
+STRESS_KEY = "stress-b"
+"""Key of scenario (b) (``rmpc``) run with ``[activation] mode = "stress"``: one activation
+every weekday in office hours, so that Table 1 shows the reserve delivered and settled."""
+SCENARIO_LABELS[STRESS_KEY] = "(b) RMPC, stress activations"
+
+
+def stress_config(name: str, *, start: str, days: float) -> ScenarioConfig:
+    """Preset ``name`` over the period with an activation every weekday (``stress``)."""
+    cfg = preset(name, start=start, days=days)
+    return replace(
+        cfg, name=f"{cfg.name}-stress", activation=replace(cfg.activation, mode="stress")
+    )
+
+
 def model_names() -> dict[str, str]:
     """Reserve model → its name in the report, with the product presets' D, α and R."""
     reserve = preset(PAPER_SCENARIOS["a"]).reserve
@@ -136,8 +150,9 @@ class Plan:
 
 def scenario_jobs(plan: Plan) -> list[tuple[dict[str, Any], ScenarioConfig]]:
     """Scenarios (a), (b), (c) with each reserve model, (b) and (c) with affine feedback, the
-    thermostat and the strong baselines, over the plan's period (keys ``a``, ``paper-a``, …,
-    ``feedback-b``, ``feedback-c``, ``thermostat``, and the baselines' preset names)."""
+    thermostat and the strong baselines, and (b) under stress activations, over the plan's
+    period (keys ``a``, ``paper-a``, …, ``feedback-b``, ``feedback-c``, ``thermostat``, the
+    baselines' preset names and :data:`STRESS_KEY`)."""
     whole_horizon = [
         (f"{WHOLE_HORIZON_PREFIX}{letter}", name) for letter, name in PAPER_MODEL_SCENARIOS.items()
     ]
@@ -150,6 +165,8 @@ def scenario_jobs(plan: Plan) -> list[tuple[dict[str, Any], ScenarioConfig]]:
     for letter, name in runs:
         cfg = preset(name, start=plan.start, days=plan.days)
         jobs.append(({"scenario": letter}, cfg))
+    stress = stress_config(PAPER_SCENARIOS["b"], start=plan.start, days=plan.days)
+    jobs.append(({"scenario": STRESS_KEY}, stress))
     return jobs
 
 

@@ -163,10 +163,17 @@ def test_model_error_tightens_the_robust_plan_only(setup: Setup) -> None:
     np.testing.assert_array_equal(seen[2].y_max, seen[0].y_max)
 
 
+def _decided_now(setup: Setup) -> Setup:
+    """``setup`` with each period's offer decided at its start (no commitments ahead)."""
+    reserve = replace(setup.config.reserve, commit_ahead_periods=0)
+    return replace(setup, config=replace(setup.config, reserve=reserve))
+
+
 def test_no_reserve_is_offered_where_the_baseline_would_not_see_it(setup: Setup) -> None:
     """An air handler that was off before (metered baseline ≈ 0 kW): an activation now
     would show no reduction, so nothing is offered; with the baseline unknown or high the
     same plan offers reserve, declared at q·r ≤ p·r."""
+    setup = _decided_now(setup)
     cfg = setup.config.controller
     x = np.full(len(setup.model.node_names), 25.0)
     for k in range(20, 36):  # 10:00 … 17:30
@@ -186,3 +193,63 @@ def test_no_reserve_is_offered_where_the_baseline_would_not_see_it(setup: Setup)
     assert high.act(x, forecast, peak_floor_kw=0.0).reserve_kw == pytest.approx(offered.reserve_kw)
     problem = free.problem(x, forecast, 0.0)
     assert (problem.reserve_kw_per_kg_s <= problem.power_coeff_kw_per_kg_s).all()
+
+
+def test_commitments_are_fixed_in_the_plan(setup: Setup) -> None:
+    """g = 2: r_0, r_1 of the plan are the committed flows (column bounds), the period's
+    reserve flow is the commitment, and the plan offers step g ahead."""
+    g = setup.config.reserve.commit_ahead_periods
+    assert g == 2
+    cfg = setup.config.controller
+    x = np.full(len(setup.model.node_names), 25.0)
+    forecast = setup.forecaster.forecast(20, cfg.horizon_steps + 1)  # 10:00
+    controller = make_controller(setup)
+    assert isinstance(controller, MPCController) and controller.commits_ahead == g
+    committed = np.where(controller.reserve_mask, 0.05, 0.0)[None, :].repeat(g, axis=0)
+    controller.note_commitments(committed)
+    action = controller.act(x, forecast, peak_floor_kw=0.0)
+    plan = controller.last_plan
+    assert plan is not None and plan.status is SolveStatus.OPTIMAL
+    np.testing.assert_allclose(plan.r[:g], committed, atol=1e-9)
+    np.testing.assert_allclose(action.reserve_flow_kg_s, committed[0], atol=1e-9)
+    assert controller.problem(x, forecast, 0.0).fixed_reserve_steps == g
+    assert action.offer_ahead is not None
+    free = make_controller(setup)  # nothing committed: the same period plans r_0 = 0
+    free.act(x, forecast, peak_floor_kw=0.0)
+    assert free.last_plan is not None and not free.last_plan.r[:g].any()
+
+
+def test_offers_are_sized_to_what_every_covering_baseline_would_see(setup: Setup) -> None:
+    """The offer of step j is min(q_j·r_j, min_s B̂_s − (P̂_j − p_j·r_j)) over the starts s of
+    the activations covering j (D = 4): P̂_{s−1} for s ≥ 1 and the baseline now for s = 0,
+    computed here by hand on a made-up plan power."""
+    cfg = setup.config.controller
+    x = np.full(len(setup.model.node_names), 25.0)
+    forecast = setup.forecaster.forecast(20, cfg.horizon_steps + 1)
+    controller = make_controller(setup)
+    assert isinstance(controller, MPCController)
+    problem = controller.problem(x, forecast, 0.0)
+    j = 2
+    r = np.where(controller.reserve_mask, 0.1, 0.0)
+    shed_kw = float(problem.power_coeff_kw_per_kg_s[j] @ r)
+    offer_kw = float(problem.reserve_kw_per_kg_s[j] @ r)
+    assert 0 < offer_kw <= shed_kw
+    served = np.full(problem.horizon, 30.0)
+    controller.note_baseline_power(1e6)
+    # flat load: the whole shed is seen, the offer is q·r
+    assert controller._visible_offer_kw(problem, served, j, r) == pytest.approx(offer_kw)
+    # rising load: P̂_2 = 30 + shed − 1, lowest baseline P̂_0 = 30: 1 kW is seen
+    rising = served.copy()
+    rising[1], rising[2] = 30.5, 30.0 + shed_kw - 1.0
+    seen = controller._visible_offer_kw(problem, rising, j, r)
+    assert seen == pytest.approx(min(offer_kw, 1.0), abs=1e-5)
+    # the air handler off before (baseline now 0): an activation starting now covers j
+    controller.note_baseline_power(0.0)
+    assert controller._visible_offer_kw(problem, served, j, r) == 0.0
+    # … but not step 4 = D (its covering starts are 1 … 4)
+    assert controller._visible_offer_kw(problem, served, 4, r) == pytest.approx(
+        float(problem.reserve_kw_per_kg_s[4] @ r)
+    )
+    # unknown baseline now: only the plan's own baselines count
+    controller.note_baseline_power(None)
+    assert controller._visible_offer_kw(problem, served, j, r) == pytest.approx(offer_kw)

@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
+from hvacflex.opt import SolveStatus
 from hvacflex.opt.lp import LPBuilder, build_lp, sparse_matrix
 from hvacflex.opt.testing import random_problem
 
@@ -56,3 +58,31 @@ def test_layout_sizes() -> None:
     _, nominal = build_lp(nominal_problem, np.zeros((horizon, 2)))
     assert not nominal.has_curtailed
     assert nominal.num_rows == horizon * n + 2 * horizon * ny + 2 * horizon
+
+
+def test_committed_reserve_is_fixed_by_bounds_and_a_warm_solver_follows_it() -> None:
+    """``reserve_fixed_kg_s`` (g, m) fixes r_0 … r_{g−1} (column bounds: no new rows); a warm
+    solver re-solving with other commitments returns them too, with the cold optimum."""
+    from hvacflex.opt import make_solver, solve_rmpc
+
+    events = dict(il_event_max_steps=2, il_event_allowance_kelvin=1.0, il_event_recovery_steps=1)
+    free = random_problem(3, horizon=8, **events)
+    fixed = np.array([[0.2, 0.0], [0.05, 0.3]])
+    problem = random_problem(3, horizon=8, reserve_fixed_kg_s=fixed, **events)
+    assert problem.fixed_reserve_steps == 2 and free.fixed_reserve_steps == 0
+    margin = np.zeros((free.horizon, free.ny))
+    lp_free, _ = build_lp(free, margin)
+    lp_fixed, _ = build_lp(problem, margin)
+    assert lp_fixed.num_rows == lp_free.num_rows
+    assert (lp_fixed.col_lower != lp_free.col_lower).sum() == 3  # the nonzero fixed r
+    solution = solve_rmpc(problem)
+    assert solution.status is SolveStatus.OPTIMAL
+    np.testing.assert_allclose(solution.r[:2], fixed, atol=1e-9)
+    assert (solution.u[:2] - solution.r[:2] >= problem.u_min[:2] - 1e-9).all()
+    solver = make_solver(free)
+    solver.solve(free)
+    warm = solver.solve(problem)
+    np.testing.assert_allclose(warm.r[:2], fixed, atol=1e-9)
+    assert warm.objective_sgd == pytest.approx(solution.objective_sgd, rel=1e-7, abs=1e-7)
+    again = solver.solve(free)
+    assert again.objective_sgd <= warm.objective_sgd + 1e-9  # freeing r can only help

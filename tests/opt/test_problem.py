@@ -110,3 +110,15 @@ def test_problem_is_frozen() -> None:
     with pytest.raises(dataclasses.FrozenInstanceError):
         prob.dt_h = 1.0  # type: ignore[misc]
     assert isinstance(prob, RMPCProblem)
+
+
+def test_committed_reserve_that_cannot_be_shed_is_refused() -> None:
+    with pytest.raises(ProblemError, match="cannot be shed") as info:
+        random_problem(3, reserve_fixed_kg_s=np.array([[2.0, 0.0]]))  # room 1.4 kg/s
+    assert info.value.field == "reserve_fixed_kg_s"
+    with pytest.raises(ProblemError, match="reserve allowed: False"):
+        random_problem(
+            3, reserve_mask=np.array([True, False]), reserve_fixed_kg_s=np.array([[0.1, 0.1]])
+        )
+    with pytest.raises(ProblemError, match="wrong shape"):
+        random_problem(3, horizon=4, reserve_fixed_kg_s=np.zeros((4, 2)))  # g < N

@@ -51,6 +51,25 @@ def test_table1_monthly_averages_and_change_vs_first_scenario() -> None:
     assert table.loc["(b)", "months"] == 2.0
 
 
+def test_table1_reports_the_reserve_settlement_per_month() -> None:
+    two = _monthly([1000.0, 1200.0], [10.0, 12.0])
+    two["il_offered_kwh"] = [4.0, 6.0]
+    two["il_delivered_metered_kwh"] = [3.0, 6.0]
+    two["il_shortfall_kwh"] = [1.0, 0.0]
+    two["il_penalty_sgd"] = [4.55, 0.0]
+    two["il_net_revenue_sgd"] = two["reserve_revenue_sgd"] - two["il_penalty_sgd"]
+    table = tables.table1({"(a)": two})
+    assert list(table.columns[-7:-2]) == list(tables.TABLE1_IL_COLUMNS)
+    row = table.loc["(a)"]
+    assert row["il_offered_kwh"] == pytest.approx(5.0)  # per month of two
+    assert row["il_delivered_metered_kwh"] == pytest.approx(4.5)
+    assert row["il_shortfall_kwh"] == pytest.approx(0.5)
+    assert row["il_penalty_sgd"] == pytest.approx(2.275)
+    assert row["il_net_revenue_sgd"] == pytest.approx(11.0 - 2.275)
+    # tables without the settlement (older runs) keep the paper's columns only
+    assert "il_offered_kwh" not in tables.table1({"(a)": _monthly([1.0], [0.0])}).columns
+
+
 def test_table1_from_fabricated_runs(make_results: Factory) -> None:
     monthly = {
         "a": kpi.monthly_table(make_results(seed=1)),

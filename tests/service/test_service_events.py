@@ -26,7 +26,10 @@ def app(make_db_url: Callable[[str], str]) -> Iterator[tuple[TestClient, str, st
         operator_key = create_key(session, "operator")
     client = TestClient(application)
     op = {"X-API-Key": operator_key}
-    response = client.post("/v1/buildings", json=registration("e1"), headers=op)
+    # offers decided at each period's start (no commitment ahead), so that the first period
+    # measured already offers: these tests are about the event's lock and recovery
+    body = registration("e1", **{"reserve.commit_ahead_periods": 0})
+    response = client.post("/v1/buildings", json=body, headers=op)
     assert response.status_code == 201, response.text
     prices = {
         "start": f"{START}T08:00",

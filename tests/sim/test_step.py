@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -9,7 +10,7 @@ import pytest
 
 from hvacflex import state
 from hvacflex.config import preset
-from hvacflex.control.base import Action, Controller, EventPlan
+from hvacflex.control.base import Action, Controller, EventPlan, ReserveOffer
 from hvacflex.data.forecast import Forecast
 from hvacflex.sim.events import Role
 from hvacflex.sim.step import ConflictError, ControlStep, DecisionStatus
@@ -166,3 +167,81 @@ def test_the_state_is_data_and_resumes_identically() -> None:
         np.testing.assert_array_equal(got.applied_flow_kg_s, expected[k].applied_flow_kg_s)
     with pytest.raises(Exception, match="not the state of a control step"):
         resumed.set_state({"kind": "something else"})
+
+
+class CommittingController(CountingController):
+    """Commits g = 2 periods ahead like the MPC: plans with the noted commitments fixed,
+    offers 1 + (its call count) kW for the period g ahead."""
+
+    commit = 2
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.noted = np.full((0, ZONES), np.nan)
+
+    @property
+    def commits_ahead(self) -> int:
+        return self.commit
+
+    def note_commitments(self, reserve_flow_kg_s: np.ndarray) -> None:
+        self.noted = np.array(reserve_flow_kg_s, dtype=float)
+
+    def act(self, x_degc: np.ndarray, forecast: Forecast, **kw: Any) -> Action:
+        action = super().act(x_degc, forecast, **kw)
+        assert action.event_plan is not None
+        plan = action.event_plan
+        reserve = np.array(plan.reserve_flow_kg_s)
+        reserve[: self.commit] = self.noted  # the LP keeps the committed flows
+        offered = np.full(ZONES, 0.1 * self.calls)
+        reserve[self.commit] = offered
+        event = replace(plan, reserve_flow_kg_s=reserve)
+        return replace(
+            action,
+            reserve_flow_kg_s=reserve[0],
+            event_plan=event,
+            offer_ahead=ReserveOffer(flow_kg_s=offered, reserve_kw=1.0 + self.calls),
+        )
+
+
+def test_reserve_is_committed_g_periods_ahead_and_every_event_period_curtails() -> None:
+    controller = CommittingController()
+    config = preset("rmpc", start="2014-03-03", days=1.0)
+    step = ControlStep(config, controller, ZONES)
+    assert step.commit_ahead == 2
+    # told before any decision (a fleet builds its first problem before deciding)
+    np.testing.assert_array_equal(controller.noted, np.zeros((2, ZONES)))
+    active = {4, 5, 6}  # a 3-period activation
+    decisions = [_decide(step, k, active) for k in range(9)]
+    kw = [d.action.reserve_kw for d in decisions]
+    # nothing committed for the first g periods; then the offer of period k − 2 (its call
+    # count was k − 1): periods 2 … 5 were committed by fresh plans (calls 1 … 4)
+    assert kw[:6] == [0.0, 0.0, 2.0, 3.0, 4.0, 5.0]
+    # period 6 by the plan made as the event started (call 5); periods 7, 8 by the locked
+    # plan's steps 1 + g, 2 + g (2 kW each), not by a new decision
+    assert kw[6:] == [6.0, 2.0, 2.0]
+    roles = [d.role for d in decisions[4:7]]
+    assert roles == [Role.EVENT_START, Role.EVENT_LOCKED, Role.EVENT_LOCKED]
+    # every period of the activation curtails the flow committed for it
+    assert [d.outcome.curtailed for d in decisions[3:8]] == [False, True, True, True, False]
+    plan_flow = 1.0 + 5  # the locked plan was made at call 5
+    np.testing.assert_allclose(decisions[4].applied_flow_kg_s, plan_flow - 0.1 * 3)
+    np.testing.assert_allclose(decisions[5].applied_flow_kg_s, plan_flow - 0.1 * 4)
+    np.testing.assert_allclose(decisions[6].applied_flow_kg_s, plan_flow - 0.1 * 5)
+    # after the event the controller plans again (calls 6, 7) with the next g periods'
+    # commitments: those its own plans offered
+    assert controller.calls == 7
+    np.testing.assert_allclose(controller.noted[:, 0], [0.6, 0.7])
+
+
+def test_commitments_survive_the_state_round_trip() -> None:
+    controller = CommittingController()
+    config = preset("rmpc", start="2014-03-03", days=1.0)
+    step = ControlStep(config, controller, ZONES)
+    for k in range(3):
+        _decide(step, k, set())
+    saved = state.decode(state.encode(step.get_state()))
+    other = ControlStep(config, CommittingController(), ZONES)
+    other.set_state(saved)
+    np.testing.assert_array_equal(other.committed_kw, step.committed_kw)
+    np.testing.assert_array_equal(other.committed_flow_kg_s, step.committed_flow_kg_s)
+    assert [_decide(s, 3, set()).action.reserve_kw for s in (step, other)] == [3.0, 3.0]

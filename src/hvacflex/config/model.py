@@ -42,7 +42,15 @@ NEMS_MAX_INTERRUPTION_STEPS = 4
 provider may resume consumption. The product presets plan for events of up to this length."""
 
 DEFAULT_EVENTS_PER_YEAR = 4.0
-"""Rate of random IL activations [events per year]: contingencies are rare."""
+"""Rate of random IL activations [events per year]. NEMS activates interruptible load only
+after a contingency (the loss of a large generating unit drives the frequency down), which
+happens a few times a year; 4 a year is our assumption within that "rare" (docs/il_events.md),
+not a published statistic — a setting (``[activation] events_per_year``)."""
+
+DEFAULT_COMMIT_AHEAD_PERIODS = 2
+"""g: reserve for period k is committed at the start of period k − g [30-min periods]. NEMS
+offers can be revised until about 65 min before their period (gate closure), so an offer
+decided at the start of a period is firm for the period after next."""
 
 DEFAULT_NON_DELIVERY_PENALTY_SGD_PER_MWH = 4500.0
 """Penalty on reserve not delivered during an activation [SGD/MWh]: the NEMS energy price
@@ -130,6 +138,11 @@ class ReserveConfig:
     """How delivery is measured (:mod:`hvacflex.settlement`): against the metered power of
     the period before the activation (``"pre-event"``) or the mean of the same period on the
     last 5 similar days (``"similar-days"``)."""
+    commit_ahead_periods: int = DEFAULT_COMMIT_AHEAD_PERIODS
+    """g [periods]: the reserve of period k is committed g periods ahead and is then firm
+    (the controller plans with it fixed); 0 = decided at the period's start. Applies to the
+    event model with a controller that plans ahead (an MPC); the whole-horizon model (the
+    paper's) and the rule-based controllers decide each period's offer at its start."""
 
 
 @dataclass(frozen=True)

@@ -7,6 +7,9 @@ load **events** (at most one activation of up to D = 4 periods in the horizon, t
 it); the ``paper-*`` presets keep the paper's whole-horizon model (the curtailed trajectory
 inside the strict band for the whole horizon). See ``docs/il_events.md``.
 
+Product presets are activated at random (``[activation] mode = "random"``, a few events a
+year, seeded) and commit their reserve ``commit_ahead_periods`` = 2 periods ahead.
+
 Product presets bill the peak per billing period (``billing_mode = "billing-period"``: the
 MPC knows the month's peak so far); the ``paper-*`` and feedback presets keep the paper's
 per-horizon peak. The rule-based baselines are described in ``docs/baselines.md``.
@@ -57,6 +60,14 @@ PRODUCT_RESERVE: dict[str, Any] = {
 }
 """The ``[reserve]`` table of the product presets."""
 
+PRODUCT_ACTIVATION: dict[str, Any] = {"mode": "random"}
+"""The ``[activation]`` table of the product presets: random, rare activations at
+``events_per_year`` (:data:`~hvacflex.config.model.DEFAULT_EVENTS_PER_YEAR`, seeded), so every
+headline result is settled with the activations a provider meets; ``mode = "stress"`` for
+one every weekday."""
+
+_EVENTS: dict[str, Any] = {"reserve": PRODUCT_RESERVE, "activation": PRODUCT_ACTIVATION}
+
 _PPP: dict[str, Any] = {"peak_price_sgd_per_kw": DEFAULT_PEAK_PRICE_PAPER_SGD_PER_KW}
 
 _BILLED: dict[str, Any] = {"billing_mode": "billing-period"}
@@ -78,12 +89,9 @@ _RULE: dict[str, Any] = {
 }
 
 PRESETS: dict[str, dict[str, Any]] = {
-    "nmpc": {"controller": {"robust": "none", **_BILLED}, "reserve": PRODUCT_RESERVE},
-    "rmpc": {"controller": {"robust": "tightening", **_BILLED}, "reserve": PRODUCT_RESERVE},
-    "rmpc-ppp": {
-        "controller": {"robust": "tightening", **_PPP, **_BILLED},
-        "reserve": PRODUCT_RESERVE,
-    },
+    "nmpc": {"controller": {"robust": "none", **_BILLED}, **_EVENTS},
+    "rmpc": {"controller": {"robust": "tightening", **_BILLED}, **_EVENTS},
+    "rmpc-ppp": {"controller": {"robust": "tightening", **_PPP, **_BILLED}, **_EVENTS},
     "paper-nmpc": {"controller": {"robust": "none"}},
     "paper-rmpc": {"controller": {"robust": "tightening"}},
     "paper-rmpc-ppp": {"controller": {"robust": "tightening", **_PPP}},
@@ -100,7 +108,7 @@ PRESETS: dict[str, dict[str, Any]] = {
     "demand-limit": {"controller": {"kind": "demand-limit", **_RULE}},
     "gta-dr": {
         "controller": {"kind": "gta-dr", **_RULE, "reserve": True},
-        "reserve": PRODUCT_RESERVE,
+        **_EVENTS,
     },
     "plant-baseline": {
         "controller": {"kind": "plant", "robust": "none", "reserve": False, **_BILLED},
@@ -111,7 +119,7 @@ PRESETS: dict[str, dict[str, Any]] = {
     "rmpc-output-feedback": {
         "controller": {"robust": "tightening", "linearisation": "trajectory", **_BILLED},
         "estimation": {"mode": "kalman"},
-        "reserve": PRODUCT_RESERVE,
+        **_EVENTS,
     },
 }
 """Preset name → partial scenario document."""

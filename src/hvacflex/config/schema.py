@@ -17,7 +17,8 @@ File layout (every key optional)::
     [controller.feedback]  structure, memory_steps
     [reserve]      event_max_steps, event_allowance_k, event_recovery_steps,
                    non_delivery_penalty_sgd_per_mwh,
-                   non_delivery_forfeits_reserve_payment, il_baseline
+                   non_delivery_forfeits_reserve_payment, il_baseline,
+                   commit_ahead_periods
     [estimation]   mode, measurement_noise_k
     [uncertainty]  relative = {kind = fraction}, absolute = {kind = value},
                    calibrate = {train = "YYYY-MM-DD..YYYY-MM-DD", quantile, prediction_errors}
@@ -229,6 +230,9 @@ class ReserveSpec(Spec):
         ReserveConfig, "non_delivery_forfeits_reserve_payment"
     )
     il_baseline: ILBaseline = default(ReserveConfig, "il_baseline")
+    commit_ahead_periods: Annotated[NonNegativeInt, Field(le=MAX_HORIZON_STEPS)] = default(
+        ReserveConfig, "commit_ahead_periods"
+    )
 
 
 class EstimationSpec(Spec):
@@ -517,6 +521,19 @@ class ScenarioSpec(Spec):
                 "plant.kind",
                 plant.kind,
                 hint="set [plant] kind = 'energyplus' with actuation = 'setpoint'",
+            )
+        return self
+
+    @model_validator(mode="after")
+    def _commitments_inside_the_horizon(self) -> Self:
+        ahead, horizon = self.reserve.commit_ahead_periods, self.controller.horizon_steps
+        if ahead >= horizon:
+            raise rule_error(
+                f"reserve is committed {ahead} periods ahead, not inside the horizon of "
+                f"{horizon} periods",
+                "reserve.commit_ahead_periods",
+                ahead,
+                hint=f"use 0 … {horizon - 1} (NEMS: 2, offers firm ≈ 65 min ahead)",
             )
         return self
 

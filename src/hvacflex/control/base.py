@@ -16,6 +16,21 @@ FloatArray = npt.NDArray[np.float64]
 
 
 @dataclass(frozen=True)
+class ReserveOffer:
+    """Reserve offered for one future period (committed g periods ahead, docs/il_events.md).
+
+    Attributes
+    ----------
+    flow_kg_s : (m,) reserve flows r the building sheds if the period is activated [kg/s].
+    reserve_kw : the capacity offered (and paid) [kW]: at most the power that r surely sheds,
+        and no more than the settlement baseline would see.
+    """
+
+    flow_kg_s: FloatArray
+    reserve_kw: float
+
+
+@dataclass(frozen=True)
 class EventPlan:
     """The steps of a plan an interruptible-load event locks (made when the event starts).
 
@@ -28,7 +43,9 @@ class EventPlan:
     flow_kg_s : (L, m) served flows u_j [kg/s].
     reserve_flow_kg_s : (L, m) reserve flows r_j [kg/s] (0 ≤ r_j ≤ u_j − u_min).
     served_power_kw : (L,) the plan's served power p0_j + p_jᵀ u_j [kW].
-    reserve_kw : (L,) reserve capacity scheduled, p_jᵀ r_j [kW].
+    reserve_kw : (L,) reserve capacity scheduled, q_jᵀ r_j, no more than the baseline would
+        see [kW]; where reserve is committed ahead, step j's is the offer committed for it
+        (steps < g: committed before the plan was made).
     predicted_served_degc, predicted_curtailed_degc : (L, m) predicted zone temperatures at
         the end of period j, without and with the event (from the start) [°C].
     """
@@ -73,6 +90,8 @@ class Action:
         plant's own (design) value.
     released : True when the controller leaves the period to the plant's own control (the
         ``plant-baseline``: a setpoint-actuated plant is told nothing, all-NaN setpoints).
+    offer_ahead : the reserve offered for the period g periods from now
+        (:attr:`Controller.commits_ahead`); ``None``: nothing (no plan, or no commitments).
     """
 
     flow_kg_s: FloatArray
@@ -90,6 +109,7 @@ class Action:
     predicted_event_worst_degc: FloatArray | None = None
     supply_temp_degc: float | None = None
     released: bool = False
+    offer_ahead: ReserveOffer | None = None
 
 
 class Controller(Protocol):
@@ -147,6 +167,18 @@ class Controller(Protocol):
         against [kW] (:mod:`hvacflex.settlement`; NaN: none, e.g. the run's first period;
         None: unknown to the driver). A controller that offers reserve uses it to offer only
         what the baseline would see."""
+        return None
+
+    @property
+    def commits_ahead(self) -> int:
+        """g: the controller offers the reserve of a period g periods ahead
+        (``Action.offer_ahead``) and plans with the commitments of the next g periods fixed
+        (:meth:`note_commitments`); 0: each period's offer is decided at its start."""
+        return 0
+
+    def note_commitments(self, reserve_flow_kg_s: FloatArray) -> None:
+        """(g, m) reserve flows [kg/s] committed for the coming g periods (this one first),
+        which every plan from now on keeps (only a controller with :attr:`commits_ahead`)."""
         return None
 
     @property

@@ -36,7 +36,7 @@ from hvacflex.building.identified import identified_affine_power
 from hvacflex.building.model import Building
 from hvacflex.building.rc import build_network
 from hvacflex.config import ControllerConfig, Linearisation, ReserveConfig
-from hvacflex.control.base import Action, Controller, EventPlan, FloatArray
+from hvacflex.control.base import Action, Controller, EventPlan, FloatArray, ReserveOffer
 from hvacflex.control.baselines import ThermostatController, unplanned_action
 from hvacflex.control.estimation import (
     AppliedStep,
@@ -155,6 +155,12 @@ class MPCController(Controller):
         self._pending_basis: SolverBasis | None = None
         self._previous_plan: RMPCSolution | None = None
         self._baseline_kw: float | None = None
+        self._commit_ahead = (
+            self._reserve.commit_ahead_periods
+            if self._reserve.event_max_steps is not None and config.reserve
+            else 0
+        )
+        self._committed_kg_s = np.zeros((0, len(building.zone_names)))
         self._previous_planned_kw: float | None = None
         self._plan_age = 0
         self._estimator = KalmanEstimator(estimation) if estimation is not None else None
@@ -209,6 +215,27 @@ class MPCController(Controller):
         sigma = self._box.sigma(forecast.disturbances[:1], self._model.channels)[0]
         flow = np.asarray(flow_kg_s, dtype=float)
         self._estimator.applied(AppliedStep(self._model, flow, forecast.disturbances[0], sigma))
+
+    @property
+    def commits_ahead(self) -> int:
+        """g (``[reserve] commit_ahead_periods``) under the event model with reserve offered,
+        else 0 (the whole-horizon model decides each period's offer at its start)."""
+        return self._commit_ahead
+
+    def note_commitments(self, reserve_flow_kg_s: FloatArray) -> None:
+        self._committed_kg_s = np.array(reserve_flow_kg_s, dtype=float).reshape(
+            -1, len(self._flow_max)
+        )
+
+    def _fixed_reserve_kg_s(self, u_min: FloatArray) -> FloatArray | None:
+        """(g, m) committed reserve flows of the first g steps, clipped into the room
+        [0, u_max − u_min] of each step and the reserve mask (None: no commitments)."""
+        if not self._commit_ahead:
+            return None
+        committed = self._committed_kg_s[: self._commit_ahead]
+        room = np.maximum(self._flow_max - u_min[: committed.shape[0]], 0.0)
+        fixed: FloatArray = np.where(self._mask, np.clip(committed, 0.0, room), 0.0)
+        return fixed
 
     @property
     def reserve_mask(self) -> np.ndarray:
@@ -293,14 +320,8 @@ class MPCController(Controller):
                 if cfg.robust == "feedback"
                 else None
             ),
-            il_event_max_steps=(
-                min(self._reserve.event_max_steps, horizon)
-                if self._reserve.event_max_steps is not None
-                else None
-            ),
-            il_event_allowance_kelvin=self._reserve.event_allowance_k if events else 0.0,
-            il_event_recovery_steps=self._reserve.event_recovery_steps if events else 0,
-            il_allowance_carry_steps=min(allowance_carry_steps, horizon) if events else 0,
+            reserve_fixed_kg_s=self._fixed_reserve_kg_s(u_min),
+            **self._event_fields(horizon, allowance_carry_steps),
         )
 
     def _power_coefficients(
@@ -335,6 +356,18 @@ class MPCController(Controller):
             self._curtailed_flow_estimate_kg_s(u_min),
         )
         return p0, p, reserve_coeff
+
+    def _event_fields(self, horizon: int, allowance_carry_steps: int) -> dict[str, Any]:
+        """The ``il_*`` fields of the problem from the IL contract (none: whole horizon)."""
+        reserve = self._reserve
+        if reserve.event_max_steps is None:
+            return {"il_event_max_steps": None}
+        return {
+            "il_event_max_steps": min(reserve.event_max_steps, horizon),
+            "il_event_allowance_kelvin": reserve.event_allowance_k,
+            "il_event_recovery_steps": reserve.event_recovery_steps,
+            "il_allowance_carry_steps": min(allowance_carry_steps, horizon),
+        }
 
     def _return_air_estimate_degc(self, x_degc: FloatArray, y_min: FloatArray) -> FloatArray:
         """(N, m) zone (return-air) temperatures at which the coil term of the reserve's
@@ -475,12 +508,15 @@ class MPCController(Controller):
             flow = np.clip(solution.u[0], low, self._flow_max)
             reserve = np.clip(solution.r[0], 0.0, flow - low)
             reserve[reserve < RESERVE_FLOW_TOLERANCE_KG_S] = 0.0
-            if not self._baseline_sees(problem, 0, float(solution.power_kw[0]), reserve):
-                reserve = np.zeros_like(reserve)
+            served_kw = np.asarray(solution.power_kw, dtype=float)
+            offer_kw = float(problem.reserve_kw_per_kg_s[0] @ reserve)
+            if not self._commit_ahead:  # decided now: offer only what the baseline sees
+                offer_kw = self._visible_offer_kw(problem, served_kw, 0, reserve)
+                reserve = reserve if offer_kw > 0.0 else np.zeros_like(reserve)
             return Action(
                 flow_kg_s=flow,
                 reserve_flow_kg_s=reserve,
-                reserve_kw=float(problem.reserve_kw_per_kg_s[0] @ reserve),
+                reserve_kw=offer_kw,
                 planned_power_kw=float(solution.power_kw[0]),
                 status=solution.status.value,
                 fallback=False,
@@ -491,35 +527,76 @@ class MPCController(Controller):
                 predicted_curtailed_degc=c @ solution.x_curtailed[1],
                 event_plan=self._event_plan(problem, solution),
                 predicted_event_worst_degc=np.asarray(solution.y_event_worst[0], dtype=float),
+                offer_ahead=self._offer_ahead(problem, solution),
             )
         return self._fallback(x_degc, forecast, solution)
+
+    def _snapped_reserve_kg_s(
+        self, problem: RMPCProblem, solution: RMPCSolution, steps: int
+    ) -> tuple[FloatArray, FloatArray]:
+        """(steps, m) each: the plan's u and r of the first ``steps`` steps snapped onto the
+        physical limits (u_min ≤ u − r, u ≤ u_max; r below the solver tolerance is 0)."""
+        low = np.asarray(problem.u_min, dtype=float)[:steps]
+        flow = np.clip(solution.u[:steps], low, self._flow_max)
+        reserve = np.clip(solution.r[:steps], 0.0, flow - low)
+        reserve[reserve < RESERVE_FLOW_TOLERANCE_KG_S] = 0.0
+        return flow, reserve
+
+    def _offer_ahead(self, problem: RMPCProblem, solution: RMPCSolution) -> ReserveOffer | None:
+        """The offer committed now for the period g steps ahead: the plan's r_g, sized to what
+        the baseline would see (:meth:`_visible_offer_kw`); None without commitments."""
+        g = self._commit_ahead
+        if not g:
+            return None
+        _, reserve = self._snapped_reserve_kg_s(problem, solution, g + 1)
+        served_kw = np.asarray(solution.power_kw, dtype=float)
+        offer_kw = self._visible_offer_kw(problem, served_kw, g, reserve[g])
+        flow = reserve[g] if offer_kw > 0.0 else np.zeros_like(reserve[g])
+        return ReserveOffer(flow_kg_s=flow, reserve_kw=offer_kw)
 
     def note_baseline_power(self, baseline_power_kw: float | None) -> None:
         self._baseline_kw = baseline_power_kw
 
-    def _baseline_sees(
-        self, problem: RMPCProblem, j: int, served_power_kw: float, reserve_flow_kg_s: FloatArray
-    ) -> bool:
-        """Whether the offer q_j·r_j of step j would be seen by the settlement baseline B of
-        an activation starting now: the plan's curtailed power P_j − p_j·r_j (less the
-        model's excess over the metered power of the period before) plus the offer stays at
-        or below B (:func:`hvacflex.settlement.pre_event_baseline_kw`). No
-        baseline (NaN, the run's first period): nothing would be seen; an unknown one
-        (None): not checked."""
+    def _baseline_now_kw(self) -> float | None:
+        """The baseline of an activation starting now, on the affine model's scale [kW]: the
+        metered baseline B, or the plan made for the period before where that is known and
+        larger (the affine model runs above the metered power: the fan secant), so that the
+        curtailed power it is compared with is on the same scale. NaN: no baseline (the
+        run's first period); None: unknown to the driver."""
         baseline = self._baseline_kw
-        paper = self._reserve.event_max_steps is None  # the whole-horizon model: as published
-        if paper or baseline is None or not np.any(reserve_flow_kg_s > 0.0):
-            return True
-        if not np.isfinite(baseline):
-            return False
-        shed_kw = float(problem.power_coeff_kw_per_kg_s[j] @ reserve_flow_kg_s)
-        offer_kw = float(problem.reserve_kw_per_kg_s[j] @ reserve_flow_kg_s)
-        # the affine model runs above the metered power (fan secant): its excess over the
-        # baseline period's metered power, where the last plan is known, is taken off
+        if baseline is None or not np.isfinite(baseline):
+            return baseline
         previous = self._previous_planned_kw
-        excess_kw = max(previous - baseline, 0.0) if previous is not None else 0.0
-        curtailed_kw = served_power_kw - shed_kw - excess_kw
-        return curtailed_kw + offer_kw <= baseline + BASELINE_TOLERANCE_KW
+        return max(baseline, previous) if previous is not None else baseline
+
+    def _visible_offer_kw(
+        self, problem: RMPCProblem, served_kw: FloatArray, j: int, reserve_flow_kg_s: FloatArray
+    ) -> float:
+        """The capacity offered for step j with reserve flows r_j (m,) [kg/s]: q_j·r_j, but no
+        more than the settlement baseline would see of it [kW].
+
+        An activation covering step j starts at some s ∈ [j − D + 1, j] (s ≥ 0) and is settled
+        against the power of the period before s (``pre-event``): the plan's served power
+        P̂_{s−1} for s ≥ 1, and :meth:`_baseline_now_kw` for s = 0 (skipped where unknown).
+        The curtailed power P̂_j − p_j·r_j must show the offer below every such baseline, so
+        the offer is ``min(q_j·r_j, min_s B̂_s − (P̂_j − p_j·r_j))``, at least 0 (a period
+        whose air handler was off before, a rising morning load). ``served_kw`` (N,) is the
+        plan's P̂ [kW]. The whole-horizon model (the paper's) offers q_j·r_j unchecked."""
+        offer_kw = float(problem.reserve_kw_per_kg_s[j] @ reserve_flow_kg_s)
+        max_steps = self._reserve.event_max_steps
+        if max_steps is None or offer_kw <= 0.0:
+            return max(offer_kw, 0.0)
+        baselines = [float(served_kw[s - 1]) for s in range(max(1, j - max_steps + 1), j + 1)]
+        if j < max_steps:
+            now = self._baseline_now_kw()
+            if now is not None:
+                baselines.append(now if np.isfinite(now) else -np.inf)
+        if not baselines:
+            return offer_kw
+        shed_kw = float(problem.power_coeff_kw_per_kg_s[j] @ reserve_flow_kg_s)
+        curtailed_kw = float(served_kw[j]) - shed_kw
+        visible_kw = min(baselines) - curtailed_kw + BASELINE_TOLERANCE_KW
+        return offer_kw if visible_kw >= offer_kw else max(visible_kw, 0.0)
 
     def _event_plan(self, problem: RMPCProblem, solution: RMPCSolution) -> EventPlan | None:
         """The first D + R steps of an optimal plan, for an IL event starting now.
@@ -531,23 +608,28 @@ class MPCController(Controller):
         if reserve.event_max_steps is None:
             return None
         steps = min(reserve.event_max_steps + reserve.event_recovery_steps, solution.u.shape[0])
-        low = np.asarray(problem.u_min, dtype=float)[:steps]
-        flow = np.clip(solution.u[:steps], low, self._flow_max)
-        flow_reserve = np.clip(solution.r[:steps], 0.0, flow - low)
-        flow_reserve[flow_reserve < RESERVE_FLOW_TOLERANCE_KG_S] = 0.0
+        flow, flow_reserve = self._snapped_reserve_kg_s(problem, solution, steps)
         served_kw = np.asarray(solution.power_kw, dtype=float)
-        for j in range(min(reserve.event_max_steps, steps)):
-            if not self._baseline_sees(problem, j, float(served_kw[j]), flow_reserve[j]):
+        reserve_coeff = np.asarray(problem.reserve_kw_per_kg_s, dtype=float)[:steps]
+        offer_kw = np.einsum("km,km->k", reserve_coeff, flow_reserve)
+        # committed steps (< g) were offered before; the others are offered from this plan
+        checked = range(
+            self._commit_ahead, steps if self._commit_ahead else reserve.event_max_steps
+        )
+        for j in checked:
+            if j >= steps:
+                break
+            offer_kw[j] = self._visible_offer_kw(problem, served_kw, j, flow_reserve[j])
+            if offer_kw[j] <= 0.0:
                 flow_reserve[j] = 0.0
         coeff = np.asarray(problem.power_coeff_kw_per_kg_s, dtype=float)[:steps]
-        reserve_coeff = np.asarray(problem.reserve_kw_per_kg_s, dtype=float)[:steps]
         offset = np.asarray(problem.power_offset_kw, dtype=float)[:steps]
         c = self._model.c
         return EventPlan(
             flow_kg_s=flow,
             reserve_flow_kg_s=flow_reserve,
             served_power_kw=offset + np.einsum("km,km->k", coeff, flow),
-            reserve_kw=np.einsum("km,km->k", reserve_coeff, flow_reserve),
+            reserve_kw=offer_kw,
             predicted_served_degc=solution.x_served[1 : steps + 1] @ c.T,
             predicted_curtailed_degc=solution.x_curtailed[1 : steps + 1] @ c.T,
         )

@@ -68,6 +68,7 @@ __all__ = [
     "add_served_dynamics",
     "build_lp",
     "dynamics_rhs",
+    "reserve_bounds",
     "set_objective",
     "set_plan_costs",
     "sparse_matrix",
@@ -313,9 +314,23 @@ class PlanColumns:
         return self.has_reserve and not self.event_model
 
 
+def reserve_bounds(p: RMPCProblem, reserve_inputs: IntArray) -> tuple[FloatArray, FloatArray]:
+    """(N, m_r) bounds of r [kg/s]: [0, u_max − u_min], except the committed steps k < g,
+    where r_k is fixed at ``reserve_fixed_kg_s`` (clipped into the room; a bound, not a row,
+    so committing changes no structure)."""
+    upper = np.array((p.u_max - p.u_min)[:, reserve_inputs], dtype=float)
+    lower = np.zeros_like(upper)
+    fixed = np.asarray(p.reserve_fixed_kg_s, dtype=float)[:, reserve_inputs]
+    g = fixed.shape[0]
+    lower[:g] = np.minimum(fixed, upper[:g])
+    upper[:g] = lower[:g]
+    return lower, upper
+
+
 def add_plan_variables(lp: LPBuilder, p: RMPCProblem, *, power_column: bool) -> PlanColumns:
-    """States x, z [°C], flows u ∈ [u_min, u_max], reserve r ∈ [0, u_max − u_min] [kg/s],
-    slack 0 ≤ ε ≤ ε_max [K], power P [kW] (if ``power_column``), peak charge β ≥ φ·floor."""
+    """States x, z [°C], flows u ∈ [u_min, u_max], reserve r ∈ [0, u_max − u_min] (fixed at
+    the commitment on the first g steps, :func:`reserve_bounds`) [kg/s], slack 0 ≤ ε ≤ ε_max
+    [K], power P [kW] (if ``power_column``), peak charge β ≥ φ·floor."""
     horizon = p.horizon
     reserve_inputs = np.flatnonzero(np.asarray(p.reserve_mask, dtype=bool)).astype(np.int64)
     event_model = p.il_event_max_steps is not None
@@ -324,11 +339,9 @@ def add_plan_variables(lp: LPBuilder, p: RMPCProblem, *, power_column: bool) -> 
     if reserve_inputs.size and not event_model:
         z = lp.add_columns((horizon, p.n), time_indexed=True)
     u = lp.add_columns((horizon, p.m), lower=p.u_min, upper=p.u_max, time_indexed=True)
+    r_lower, r_upper = reserve_bounds(p, reserve_inputs)
     r = lp.add_columns(
-        (horizon, reserve_inputs.size),
-        lower=0.0,
-        upper=(p.u_max - p.u_min)[:, reserve_inputs],
-        time_indexed=True,
+        (horizon, reserve_inputs.size), lower=r_lower, upper=r_upper, time_indexed=True
     )
     slack_max = np.inf if p.slack_max_kelvin is None else p.slack_max_kelvin
     eps = lp.add_columns((horizon, p.ny), lower=0.0, upper=slack_max, time_indexed=True)

@@ -75,6 +75,9 @@ FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 BoolArray = NDArray[np.bool_]
 
+#: A committed reserve flow may exceed the room u_max − u_min by this much (round-off) [kg/s].
+FIXED_RESERVE_TOLERANCE_KG_S = 1e-9
+
 #: Elementwise tolerance for A ≥ 0 (the discretised RC network is Metzler up to round-off).
 SIGN_TOLERANCE = 1e-12
 
@@ -194,6 +197,10 @@ class RMPCProblem:
     il_allowance_carry_steps : c, 0 ≤ c ≤ N: outputs 1..c are the recovery from a real
         curtailment and get the decaying allowance α·min(1, (c − t + 1)/(R + 1)) under every
         pattern, the served plan included (event model only)
+    reserve_fixed_kg_s : (g, m), 0 ≤ g < N: the reserve flows r_0 … r_{g−1} already
+        committed to the market (offers are firm g periods ahead, docs/il_events.md) [kg/s];
+        the LP takes them as fixed (column bounds r_k = value); ≥ 0, 0 outside
+        ``reserve_mask``, ≤ u_max − u_min. None (or g = 0) = every r_k free
 
     After construction every array field is a read-only float array of its full shape
     (``d_sigma`` (N,nd), ``u_min``/``u_max`` (N,m), ``y_min``/``y_max`` (N,ny),
@@ -230,6 +237,7 @@ class RMPCProblem:
     il_event_recovery_steps: int = 0
     il_allowance_carry_steps: int = 0
     reserve_power_coeff_kw_per_kg_s: FloatArray | None = None
+    reserve_fixed_kg_s: FloatArray | None = None
     _structure: RMPCStructure = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -438,6 +446,40 @@ class RMPCProblem:
             carry_steps=self.il_allowance_carry_steps,
         )
         self._check_feedback()
+        self._check_fixed_reserve()
+
+    def _check_fixed_reserve(self) -> None:
+        """Normalise ``reserve_fixed_kg_s`` to a read-only (g, m) array (g = 0 for None) and
+        check that the LP can take it as r's bounds."""
+        horizon, m = self.horizon, self.m
+        fixed = self.reserve_fixed_kg_s
+        if fixed is None:
+            fixed = np.zeros((0, m))
+        shapes = tuple((g, m) for g in range(horizon))
+        array = _float_array("reserve_fixed_kg_s", fixed, shapes)
+        self._put("reserve_fixed_kg_s", array)
+        hint = "commit only reserve the zone can shed: 0 ≤ r ≤ u_max − u_min, 0 where masked"
+        self._check_nonnegative("reserve_fixed_kg_s", array, "committed reserve flows")
+        room = (self.u_max - self.u_min)[: array.shape[0]]
+        mask = np.asarray(self.reserve_mask, dtype=bool)
+        bad = (array > room + FIXED_RESERVE_TOLERANCE_KG_S) | ((array > 0) & ~mask)
+        if bad.any():
+            index = tuple(int(i) for i in np.argwhere(bad)[0])
+            raise ProblemError(
+                f"committed reserve flow {float(array[index])!r} kg/s at (step, input) "
+                f"{index} cannot be shed (room {float(room[index])!r} kg/s, reserve allowed: "
+                f"{bool(mask[index[1]])})",
+                source=_SOURCE,
+                field="reserve_fixed_kg_s",
+                hint=hint,
+            )
+
+    @property
+    def fixed_reserve_steps(self) -> int:
+        """g, the number of leading steps whose reserve is committed (fixed)."""
+        fixed = self.reserve_fixed_kg_s
+        assert fixed is not None  # set by __post_init__
+        return int(fixed.shape[0])
 
     def _check_feedback(self) -> None:
         if self.robust == "feedback" and np.isfinite(self.power_max_kw).any():

@@ -32,6 +32,17 @@ TABLE1_COLUMNS = (
 )
 """Columns of :func:`table1` and :data:`PAPER_TABLE1`, in display order."""
 
+TABLE1_IL_COLUMNS = (
+    "il_offered_kwh",
+    "il_delivered_metered_kwh",
+    "il_shortfall_kwh",
+    "il_penalty_sgd",
+    "il_net_revenue_sgd",
+)
+"""The reserve's settlement beside Table 1 [per month]: capacity due in activated periods,
+delivered against the metered baseline, shortfall, penalty, and net revenue (revenue −
+penalty). Not in the published table (the paper activates nothing)."""
+
 PAPER_TABLE1 = pd.DataFrame(
     {
         "energy_cost_sgd": [1471.0, 1530.0, 1565.0],
@@ -75,7 +86,8 @@ def table1(monthly: Mapping[str, pd.DataFrame]) -> pd.DataFrame:
     Returns
     -------
     DataFrame indexed by scenario (``scenario``) with :data:`TABLE1_COLUMNS` [SGD per month,
-    %] and ``months`` (month-equivalents averaged over) and ``days`` (days covered).
+    %], :data:`TABLE1_IL_COLUMNS` [kWh or SGD per month] where the tables have them, and
+    ``months`` (month-equivalents averaged over) and ``days`` (days covered).
     """
     if not monthly:
         raise InputError("table1 needs at least one scenario", field="monthly", value={})
@@ -90,11 +102,15 @@ def table1(monthly: Mapping[str, pd.DataFrame]) -> pd.DataFrame:
             row[quantity.replace("_sgd", "_change_pct")] = _change_pct(
                 value, float(reference[quantity])
             )
+        for quantity in TABLE1_IL_COLUMNS:
+            if quantity in average.index:
+                row[quantity] = float(average[quantity])
         row["months"] = float(average["months"])
         row["days"] = float(average["days"])
         rows[label] = row
     frame = pd.DataFrame.from_dict(rows, orient="index")
-    return frame[[*TABLE1_COLUMNS, "months", "days"]].rename_axis("scenario")
+    settled = [c for c in TABLE1_IL_COLUMNS if c in frame.columns]
+    return frame[[*TABLE1_COLUMNS, *settled, "months", "days"]].rename_axis("scenario")
 
 
 def side_by_side(ours: pd.DataFrame, paper: pd.DataFrame | None = None) -> pd.DataFrame:

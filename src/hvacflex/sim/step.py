@@ -14,7 +14,14 @@ rules:
    coordinator's, applied as the solver's);
 3. an event start locks the plan just made;
 4. the tracker settles the period (curtailed?, allowance, reference power) and the
-   controller is told the flow the plant will run.
+   controller is told the flow the plant will run;
+5. **market timing** (a controller with ``commits_ahead`` = g > 0, the MPC under the event
+   model): the reserve of period k was committed at k − g. The step keeps the commitments
+   of the next g periods (flows and kW), tells the controller (which plans with them fixed),
+   pays the period what was committed for it (``reserve_kw``), and commits the offer for
+   k + g: the fresh plan's ``Action.offer_ahead``, or, in a locked event period j, the
+   locked plan's step j + g (what the building will run anyway). Nothing planned (a
+   fallback, a skipped period) commits nothing.
 
 A period may be decided more than once (the service: a boundary plan, then the
 measurement; an activation during the period). With ``replannable=True`` each decision of a
@@ -29,13 +36,13 @@ from __future__ import annotations
 import enum
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
 
 from hvacflex.config import ScenarioConfig
-from hvacflex.control.base import Action, Controller, EventPlan, FloatArray
+from hvacflex.control.base import Action, Controller, EventPlan, FloatArray, ReserveOffer
 from hvacflex.control.estimation import StepModel
 from hvacflex.data.forecast import Forecast
 from hvacflex.errors import InputError
@@ -151,6 +158,14 @@ class ControlStep:
         self.period = -1
         """The latest period decided (−1: none)."""
         self._before: dict[str, Any] | None = None
+        self.commit_ahead = int(controller.commits_ahead)
+        """g: periods ahead that reserve is committed (0: decided at each period's start)."""
+        self.committed_flow_kg_s = np.zeros((self.commit_ahead, zones))
+        """(g, m) reserve flows committed for the next g periods, the coming one first."""
+        self.committed_kw = np.zeros(self.commit_ahead)
+        """(g,) reserve capacity committed (and paid) for the next g periods [kW]."""
+        if self.commit_ahead:  # a driver may build the first problem before deciding (fleet)
+            controller.note_commitments(self.committed_flow_kg_s)
 
     @property
     def takes_measurements(self) -> bool:
@@ -207,6 +222,7 @@ class ControlStep:
             )
         else:
             controller.note_baseline_power(baseline_power_kw)
+            controller.note_commitments(self.committed_flow_kg_s)
             action = controller.act(
                 x_degc,
                 forecast,
@@ -217,6 +233,7 @@ class ControlStep:
             )
         if role is Role.EVENT_START:
             tracker.lock(action.event_plan)
+        action = self._commit(action, locked_period=role is Role.EVENT_LOCKED)
         locked = None
         if tracker.locked is not None and role in (Role.EVENT_START, Role.EVENT_LOCKED):
             locked = (tracker.locked, tracker.plan_step)
@@ -239,6 +256,7 @@ class ControlStep:
         if k == self.period and self._before is not None:  # decide again from before it
             self.controller.set_state(self._before["controller"])
             self.tracker.set_state(self._before["events"])
+            self._set_commitments(self._before.get("commitments"))
         else:
             for j in range(self.period + 1, k):
                 self._skip(activated(j))
@@ -246,6 +264,7 @@ class ControlStep:
             self._before = {
                 "controller": self.controller.get_state(),
                 "events": self.tracker.get_state(),
+                "commitments": self._commitments(),
             }
         self.period = k
 
@@ -255,7 +274,32 @@ class ControlStep:
         action = tracker.locked_action() if role is Role.EVENT_LOCKED else _unplanned(self.zones)
         if role is Role.EVENT_START:
             tracker.lock(None)
+        action = self._commit(action, locked_period=role is Role.EVENT_LOCKED)
         tracker.finish(role, action)
+
+    def _commit(self, action: Action, *, locked_period: bool) -> Action:
+        """The period's action paid what was committed for it; the commitments moved on by
+        one period with the offer for k + g (see the module docstring, item 5)."""
+        g = self.commit_ahead
+        if not g:
+            return action
+        offer = action.offer_ahead
+        if locked_period:
+            plan, j = self.tracker.locked, self.tracker.plan_step
+            ahead = j + g
+            offer = None
+            if plan is not None and 0 <= ahead < plan.steps:
+                offer = ReserveOffer(
+                    flow_kg_s=np.asarray(plan.reserve_flow_kg_s[ahead], dtype=float),
+                    reserve_kw=float(plan.reserve_kw[ahead]),
+                )
+        committed_kw = float(self.committed_kw[0])
+        new_flow = np.zeros(self.zones) if offer is None else offer.flow_kg_s
+        new_kw = 0.0 if offer is None else offer.reserve_kw
+        self.committed_flow_kg_s = np.vstack([self.committed_flow_kg_s[1:], new_flow[None]])
+        self.committed_kw = np.append(self.committed_kw[1:], new_kw)
+        self.controller.note_commitments(self.committed_flow_kg_s)
+        return replace(action, reserve_kw=committed_kw)
 
     def restart_warm(self) -> None:
         """Continue as if resumed from :meth:`get_state` (see
@@ -272,7 +316,21 @@ class ControlStep:
             "before": self._before,
             "controller": self.controller.get_state(),
             "events": self.tracker.get_state(),
+            "commitments": self._commitments(),
         }
+
+    def _commitments(self) -> dict[str, Any]:
+        return {"flow_kg_s": self.committed_flow_kg_s.copy(), "kw": self.committed_kw.copy()}
+
+    def _set_commitments(self, state: dict[str, Any] | None) -> None:
+        g = self.commit_ahead
+        if state is None:
+            flow, kw = np.zeros((g, self.zones)), np.zeros(g)
+        else:
+            flow = np.asarray(state["flow_kg_s"], dtype=float).reshape(g, self.zones)
+            kw = np.asarray(state["kw"], dtype=float).reshape(g)
+        self.committed_flow_kg_s, self.committed_kw = flow.copy(), kw.copy()
+        self.controller.note_commitments(self.committed_flow_kg_s)
 
     def set_state(self, state: dict[str, Any]) -> None:
         """Restore :meth:`get_state`."""
@@ -287,6 +345,7 @@ class ControlStep:
         self._before = state["before"]
         self.controller.set_state(state["controller"])
         self.tracker.set_state(state["events"])
+        self._set_commitments(state.get("commitments"))
 
 
 def decision_status(role: Role, action: Action) -> DecisionStatus:
