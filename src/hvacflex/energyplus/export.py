@@ -28,6 +28,10 @@ What is mapped, and how
   written with c = 1000 J/(kg K) and ρ = C / 1000 (the product ρ c d is what matters). The
   outer layer of an exterior wall carries the wall's solar absorptance and thermal emissivity
   (0.9 where the file gives none).
+  A wall on an ``adiabatic`` plane is written mirrored about that plane (layers inside →
+  outside → inside): EnergyPlus's ``Adiabatic`` boundary sets the far face's temperature to
+  the inside face's rather than its heat flux to zero, so only a symmetric construction
+  keeps hvacflex's half slab (:func:`hvacflex.energyplus.envelope.wall_variant`).
 * **Internal gains**: ``People`` (people per m² = 1/``occupancy_m2_per_person``, activity =
   sensible + latent W per person, sensible fraction = sensible / total), ``Lights`` and
   ``ElectricEquipment`` (W/m²), all with the hvacflex office schedule
@@ -115,6 +119,10 @@ zones float freely: the free-float validation case)."""
 EXPORT_YEAR = 2014
 """Calendar year of the run period and the public holidays (the year of the market data)."""
 
+MAX_WARMUP_DAYS = 50
+"""EnergyPlus's limit on repeating the first day until the zones converge (its default 25
+is too few for office5's free-floating core, whose half slabs hold 225 MJ/K)."""
+
 TIMESTEPS_PER_HOUR = 6
 """Zone time steps per hour (10 min: three per 30-min control period)."""
 
@@ -194,7 +202,9 @@ def _simulation_objects(hvac: str) -> list[str]:
         idf_object("Version", ENERGYPLUS_VERSION),
         idf_object("SimulationControl", sizing, sizing, sizing, "No", "Yes", "No", 1),
         # MinimalShadowing: no self-shading, as hvacflex (and the placeholder geometry)
-        idf_object("Building", "hvacflex", 0.0, "City", 0.04, 0.4, "MinimalShadowing", 25, 6),
+        idf_object(
+            "Building", "hvacflex", 0.0, "City", 0.04, 0.4, "MinimalShadowing", MAX_WARMUP_DAYS, 6
+        ),
         idf_object("Timestep", TIMESTEPS_PER_HOUR),
         idf_object("GlobalGeometryRules", "UpperLeftCorner", "Counterclockwise", "Relative"),
         idf_object(
