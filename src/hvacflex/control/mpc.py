@@ -253,13 +253,7 @@ class MPCController(Controller):
         y_min, y_max = comfort_bounds_at_period_ends(forecast, horizon)
         if extra_margin_k is not None:
             y_min, y_max = tightened_bounds(y_min, y_max, extra_margin_k)
-        p0, p = affine_power_model(
-            self._building.hvac,
-            d_hat[:, self._outdoor_index],
-            forecast.outdoor_humidity_ratio_kg_per_kg[:horizon],
-            self._temp_ref_degc,
-            flow_min_kg_s=u_min,
-        )
+        p0, p = self._power_model(forecast, d_hat, u_min)
         reserve_coeff = reserve_power_coeff(
             self._building.hvac,
             d_hat[:, self._outdoor_index],
@@ -311,6 +305,23 @@ class MPCController(Controller):
             il_event_allowance_kelvin=self._reserve.event_allowance_k if events else 0.0,
             il_event_recovery_steps=self._reserve.event_recovery_steps if events else 0,
             il_allowance_carry_steps=min(allowance_carry_steps, horizon) if events else 0,
+        )
+
+    def _power_model(
+        self, forecast: Forecast, d_hat: np.ndarray, u_min: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """(p0 (N,) [kW], p (N, m) [kW per kg/s]) of the affine power model along the
+        forecast (outdoor air, its humidity, the occupants' latent gain) over the step's flow
+        range [u_min, u_max] (:func:`hvacflex.building.hvac.affine_power_model`)."""
+        horizon = len(d_hat)
+        latent = forecast.occupant_latent_w[:horizon]
+        return affine_power_model(
+            self._building.hvac,
+            d_hat[:, self._outdoor_index],
+            forecast.outdoor_humidity_ratio_kg_per_kg[:horizon],
+            self._temp_ref_degc,
+            latent_gain_w=latent if latent.size == horizon else 0.0,
+            flow_min_kg_s=u_min,
         )
 
     def _return_air_estimate_degc(self, x_degc: FloatArray, y_min: FloatArray) -> FloatArray:

@@ -502,6 +502,9 @@ def _vav_objects(b: Building) -> list[str]:
     system = f"{b.name} air handler"
     supply_max_m3_s = sum(h.flow_max_kg_s) / RHO_AIR_KG_PER_M3
     outdoor_m3_s = h.outdoor_air_fraction * supply_max_m3_s
+    outdoor_control = "ProportionalMinimum"
+    if h.outdoor_air_kg_s is not None:  # the ventilation need, whatever the supply flow
+        outdoor_m3_s, outdoor_control = h.outdoor_air_kg_s / RHO_AIR_KG_PER_M3, "FixedMinimum"
     objects = [
         _thermostat(),
         idf_object(
@@ -511,15 +514,14 @@ def _vav_objects(b: Building) -> list[str]:
             "ChilledWater", ALWAYS_ON, SUPPLY_AIR_TEMP, h.supply_temp_degc,
             "None", None, None, None, None, None,  # heating coil
             "None", None, None, None, None, None,  # preheat coil
-            outdoor_m3_s, outdoor_m3_s, "ProportionalMinimum", None,
+            outdoor_m3_s, outdoor_m3_s, outdoor_control, None,
             "NoEconomizer", "NoLockout", None, None, None, None,
             None, None, "DrawThrough", "VariableSpeedMotorPressureReset", "CycleOnAny", None,
             "None", None, None, "None", "None", "None", None, None, "None",
         ),
         idf_object("HVACTemplate:Plant:ChilledWaterLoop", "chilled water loop", None,
                    "Intermittent", "Default", None, None, None, "VariablePrimaryNoSecondary"),
-        idf_object("HVACTemplate:Plant:Chiller", "chiller", "ElectricReciprocatingChiller",
-                   "autosize", h.cop, "AirCooled", 1),
+        _chiller_object(b),
     ]  # fmt: skip
     for i, zone in enumerate(b.zones):
         objects.append(
@@ -528,11 +530,37 @@ def _vav_objects(b: Building) -> list[str]:
                 h.flow_max_kg_s[i] / RHO_AIR_KG_PER_M3, None, None, "Scheduled",
                 h.ventilation_flow_kg_s[i] / h.flow_max_kg_s[i], None,
                 _minimum_flow_schedule(zone.name), "Flow/Zone", 0.0, 0.0,
-                h.outdoor_air_fraction * h.ventilation_flow_kg_s[i] / RHO_AIR_KG_PER_M3,
-                "None",
+                _zone_outdoor_air_m3_s(b, i), "None",
             )
         )  # fmt: skip
     return objects
+
+
+def _zone_outdoor_air_m3_s(b: Building, i: int) -> float:
+    """Zone i's share of the outdoor air [m³/s] (sizing): by floor area of the ventilation
+    need, or f_oa × its ventilation flow."""
+    h = b.hvac
+    if h.outdoor_air_kg_s is not None:
+        share = b.zones[i].floor_area_m2 / sum(z.floor_area_m2 for z in b.zones)
+        return h.outdoor_air_kg_s * share / RHO_AIR_KG_PER_M3
+    return h.outdoor_air_fraction * h.ventilation_flow_kg_s[i] / RHO_AIR_KG_PER_M3
+
+
+def _chiller_object(b: Building) -> str:
+    """The template's air-cooled chiller: hvacflex's capacity, reference COP and minimum part
+    load (below it the chiller cycles, ``Minimum Unloading Ratio`` = ``Minimum Part Load
+    Ratio``: no false loading) where the building has a chiller model; else autosized with
+    EnergyPlus's defaults (false loading below 25 %)."""
+    h = b.hvac
+    if h.chiller is None:
+        return idf_object("HVACTemplate:Plant:Chiller", "chiller", "ElectricReciprocatingChiller",
+                          "autosize", h.cop, "AirCooled", 1)  # fmt: skip
+    c = h.chiller
+    return idf_object(
+        "HVACTemplate:Plant:Chiller", "chiller", "ElectricReciprocatingChiller",
+        c.capacity_kw * W_PER_KW, c.reference_cop, "AirCooled", 1, 1.0,
+        c.min_part_load_ratio, 1.0, 1.0, c.min_part_load_ratio,
+    )  # fmt: skip
 
 
 def _ideal_objects(b: Building) -> list[str]:
