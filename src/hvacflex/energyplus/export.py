@@ -47,11 +47,15 @@ What is mapped, and how
   chilled-water loop and an air-cooled electric chiller. Sized like the ``HvacSystem``: supply
   air at ``supply_temp_degc``; per-zone maximum flow ``flow_max_kg_s``; per-zone minimum flow
   as a schedule (``<zone> minimum flow fraction``: ventilation flow / max while occupied,
-  ``flow_min`` / max otherwise); outdoor air a fixed ``outdoor_air_fraction`` of the supply
-  (proportional minimum = maximum outdoor air = f_oa · Σ max flow, no economiser); the fan's
+  ``flow_min`` / max otherwise); outdoor air the ventilation need ``outdoor_air_kg_s`` as a
+  fixed minimum = maximum, or else a fixed ``outdoor_air_fraction`` of the supply
+  (proportional minimum = maximum outdoor air = f_oa · Σ max flow), no economiser; the fan's
   design pressure so that its design power equals κ_f (Σ ṁ_max)^n at 70 % total efficiency;
-  chiller COP = ``cop``. The air handler is available in the occupied hours of working days
-  and cycles on at night when a zone passes its set-point.
+  chiller COP = ``cop``, and where the building has a ``chiller`` model its capacity and its
+  minimum part load (also as the minimum unloading ratio: it cycles, no false loading; the
+  template writes the same DOE-2.1E curves as :mod:`hvacflex.building.chiller`), else
+  autosized with EnergyPlus's defaults. The air handler is available in the occupied hours
+  of working days and cycles on at night when a zone passes its set-point.
   ``"ideal"``: ``ZoneHVAC:IdealLoadsAirSystem`` per zone (through its template) supplying at
   ``supply_temp_degc`` and the supply humidity ratio of :mod:`hvacflex.building.hvac`, flow
   limited to ``flow_max_kg_s``, heating off, outdoor air f_oa × the ventilation flow.
@@ -79,9 +83,11 @@ What is approximated
   floor); hvacflex puts it on the air node unless ``interior_solar_fraction`` says otherwise
   (neither that nor ``solar_lost_fraction`` is exported).
 * HVAC: the fan's part-load curve is EnergyPlus's ``VariableSpeedMotorPressureReset`` (a
-  cubic), not the power law (Σṁ)^n; the chiller has EnergyPlus's part-load and
-  outdoor-temperature curves, pumps add their own power, whereas hvacflex's ``cop`` is a
-  constant for the whole plant. Flows in m³/s are mass flows over ρ = 1.2 kg/m³.
+  cubic; hvacflex uses the same curve where ``fan_part_load_coefficients`` says so, else the
+  power law (Σṁ)^n); the chiller has EnergyPlus's part-load and outdoor-temperature curves
+  (hvacflex's ``chiller`` model uses the same ones; without it a constant ``cop``); EnergyPlus
+  sizes its own chilled-water pump (office5: 1.78 kW, hvacflex 1.64 kW). Flows in m³/s are
+  mass flows over ρ = 1.2 kg/m³.
 """
 
 from __future__ import annotations
