@@ -17,6 +17,7 @@ from hvacflex.building.hvac import (
     saturation_humidity_ratio_kg_per_kg,
 )
 from hvacflex.building.model import Building, HvacSystem
+from hvacflex.units import H_FG_J_PER_KG
 
 
 def _hvac(**changes: object) -> HvacSystem:
@@ -152,3 +153,48 @@ def test_reserve_coefficient_is_a_lower_bound_of_the_exact_reduction() -> None:
     _, p = affine_power_model(hvac, [30.0], [0.018], 24.0)
     q = reserve_power_coeff(hvac, [30.0], [0.018], np.full((1, 2), 24.0), [0.5])
     assert (q < p).all()
+
+
+def test_outdoor_air_by_need_and_occupant_latent_by_hand() -> None:
+    """Outdoor air min(V, S) displaces return air; the recirculated share 1 − m_oa/S of the
+    occupants' latent gain reaches the coil."""
+    hvac = _hvac(outdoor_air_kg_s=0.6)
+    flow, t_zone, t_out, w_out, latent = (
+        np.array([0.8, 1.2]),
+        np.array([24.0, 26.0]),
+        32.0,
+        0.019,
+        5000.0,
+    )
+    power = hvac_power(hvac, flow, t_zone, t_out, w_out, latent_gain_w=latent)
+    t_return = (0.8 * 24.0 + 1.2 * 26.0) / 2.0
+    sensible = 1006.0 * (0.8 * 11.0 + 1.2 * 13.0 + 0.6 * (t_out - t_return))
+    assert float(power.coil_sensible_w) == pytest.approx(sensible)
+    moisture = 0.6 * H_FG_J_PER_KG * (w_out - 0.009)
+    assert float(power.coil_latent_w) == pytest.approx(
+        moisture + (1 - 0.6 / 2.0) * latent, rel=2e-3
+    )
+    # below the need the damper passes the whole supply; off, nothing reaches the coil
+    small = hvac_power(hvac, np.array([0.2, 0.2]), t_zone, t_out, w_out, latent_gain_w=latent)
+    assert float(small.coil_sensible_w) == pytest.approx(1006.0 * 0.4 * (t_out - 13.0))
+    off = hvac_power(hvac, np.zeros(2), t_zone, t_out, w_out, latent_gain_w=latent)
+    assert float(off.total_kw) == 0.0 and float(off.coil_latent_w) == 0.0
+
+
+def test_affine_model_with_chiller_fan_curve_and_need_is_exact_at_both_ends(
+    office5: Building,
+) -> None:
+    hvac = office5.hvac
+    assert hvac.chiller is not None and hvac.outdoor_air_kg_s is not None
+    t_out, w_out = np.array([26.0, 30.0, 33.0]), np.array([0.017, 0.019, 0.021])
+    latent = np.array([0.0, 3000.0, 7000.0])
+    for low in (np.asarray(hvac.ventilation_flow_kg_s), np.asarray(hvac.flow_min_kg_s)):
+        p0, p = affine_power_model(
+            hvac, t_out, w_out, 24.0, latent_gain_w=latent, flow_min_kg_s=np.tile(low, (3, 1))
+        )
+        for flows in (low, np.asarray(hvac.flow_max_kg_s)):
+            exact = hvac_power_kw(
+                hvac, np.tile(flows, (3, 1)), np.full((3, 5), 24.0), t_out, w_out,
+                latent_gain_w=latent if flows.sum() > 0 else 0.0,
+            )  # fmt: skip
+            np.testing.assert_allclose(p0 + p @ flows, exact, rtol=1e-9, atol=1e-9)

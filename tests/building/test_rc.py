@@ -136,3 +136,42 @@ def test_ground_channel_last_when_a_wall_touches_ground(tmp_path: Path) -> None:
     slab = net.node_names.index("b_slab")
     # no film on the ground side: conductance A / (R/2)
     assert net.input_w[slab, col] == pytest.approx(30.0 / 1.0)
+
+
+def test_a_partition_face_joins_the_radiant_star_of_the_zone_it_faces(tmp_path: Path) -> None:
+    """Zone b sees the partition ``ab`` only through that partition's far face; with explicit
+    long-wave exchange in b that face radiates to b's other surfaces (here an adiabatic slab),
+    so the reduced network links the partition node to the slab node directly; without it
+    (or without the star) they meet only through b's air. Heat is conserved either way."""
+    slab = """
+[[walls]]
+name = "b_slab"
+zone = "b"
+adjacent = "adiabatic"
+construction = "wall"
+area_m2 = 30.0
+"""
+    plain = MINIMAL_TOML.replace("[[windows]]", slab + "\n[[windows]]")
+    starred = plain.replace(
+        'name = "b"\nfloor_area_m2 = 30.0\nheight_m = 3.0',
+        'name = "b"\nfloor_area_m2 = 30.0\nheight_m = 3.0\ninterior_radiation_w_per_m2k = 5.1\n'
+        "internal_gain_radiative_fraction = 0.5",
+    )
+    assert starred != plain
+    nets = []
+    for name, text in (("plain", plain), ("starred", starred)):
+        folder = tmp_path / name
+        folder.mkdir()
+        nets.append(build_network(load_building(write_building(folder, text))))
+    for net, linked in zip(nets, (False, True), strict=True):
+        k = net.conductance_w_per_k
+        i, j = net.node_names.index("ab"), net.node_names.index("b_slab")
+        assert bool(k[i, j] > 1e-9) is linked
+        # steady state: every node balances, and the heat put in leaves to the outdoor air
+        d = np.array([30.0, 200.0, 500.0, 900.0])
+        x = net.steady_state_degc(d)
+        forcing = net.input_w @ d
+        assert np.allclose(k @ x + forcing, 0.0, atol=1e-6)
+        out_w = float(net.outdoor_conductance_w_per_k @ (x - d[0]))
+        absorbed_w = d[1] * (0.4 * 5.0 + 0.5 * 15.0) - d[1] * float(net.solar_direct_loss_m2[1])
+        assert out_w == pytest.approx(d[2] + d[3] + absorbed_w, rel=1e-9)

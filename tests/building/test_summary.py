@@ -82,9 +82,18 @@ def test_docs_figures_match_building_show(office5: Building) -> None:
 def test_office5_comments_match_its_values(office5: Building) -> None:
     assert office5.source_path is not None
     text = Path(office5.source_path).read_text(encoding="utf-8")
-    plant_kw_per_rt = [float(v) for v in re.findall(r"([\d.]+) kW/RT", text)]
-    assert plant_kw_per_rt[0] == round(KW_PER_TON_REFRIGERATION / office5.hvac.cop, 2)
-    assert len(plant_kw_per_rt) == 2 and plant_kw_per_rt[1] == 1.0  # "with the fan ≈ 1 kW/RT"
+    chiller = office5.hvac.chiller
+    assert chiller is not None
+    capacity = re.search(r"→ ([\d.]+) kW\s*#\s*\((\d+) RT, (\d+) W/m²\)", text)
+    assert capacity is not None
+    assert float(capacity.group(1)) == chiller.capacity_kw
+    assert int(capacity.group(2)) == round(chiller.capacity_kw / KW_PER_TON_REFRIGERATION)
+    assert int(capacity.group(3)) == round(chiller.capacity_kw * 1000 / office5.floor_area_m2)
+    # the pump: EnergyPlus's template pump scaled from its 292 kW chiller to this one
+    pump = re.search(r"draws ([\d.]+) kW per ([\d.]+) kW of chiller →\s*#?\s*([\d.]+) kW", text)
+    assert pump is not None
+    scaled = float(pump.group(1)) * chiller.capacity_kw / float(pump.group(2))
+    assert float(pump.group(3)) == chiller.pump_design_kw == round(scaled, 2)
     need = re.search(r"= ([\d,]+) L/s \(", text)
     assert need is not None
     assert float(need.group(1).replace(",", "")) == round(summarize(office5).ventilation_need_l_s)
@@ -98,7 +107,9 @@ def test_office5_comments_match_its_values(office5: Building) -> None:
 
 def test_ventilation_below_requirement_is_warned(office5: Building) -> None:
     assert ventilation_warning(summarize(office5)) is None
-    starved = replace(office5, hvac=replace(office5.hvac, outdoor_air_fraction=0.2))
+    starved = replace(
+        office5, hvac=replace(office5.hvac, outdoor_air_fraction=0.2, outdoor_air_kg_s=1.0)
+    )
     s = summarize(starved)
     assert s.outdoor_air_at_ventilation_flow_l_s < s.ventilation_need_l_s
     assert "WARNING: ventilation below requirement" in format_summary(s)

@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
+from hvacflex.building.io import load_building
 from hvacflex.energyplus import envelope
 
 
@@ -43,3 +46,21 @@ def test_surface_types_follow_the_tilt() -> None:
 def test_an_object_is_one_field_a_line_with_empty_defaults() -> None:
     text = envelope.idf_object("Zone", "north", None, 1.0 / 3.0)
     assert text.splitlines() == ["Zone,", "  north,", "  ,", "  0.3333333333;"]
+
+
+def test_a_wall_on_an_adiabatic_plane_is_written_mirrored(shipped_buildings_dir: Path) -> None:
+    """EnergyPlus's ``Adiabatic`` boundary gives the far face the inside face's temperature;
+    only a construction symmetric about the far face keeps hvacflex's half slab: the layers
+    inside → outside → inside, each one twice."""
+    office5 = load_building(shipped_buildings_dir / "office5.toml")
+    slab = next(w for w in office5.walls if w.adjacent == "adiabatic")
+    variant = envelope.wall_variant(slab)
+    name, count = slab.construction.name, len(slab.construction.layers)
+    layers = [f"{name} layer {i + 1}" for i in range(count)]
+    assert variant.material_names() == layers[::-1] + layers
+    text = "\n".join(envelope.construction_objects(office5) + envelope.surface_objects(office5))
+    assert f"Construction,\n  {variant.name},\n  " + ",\n  ".join(layers[::-1] + layers) in text
+    surface = text[text.index(f"BuildingSurface:Detailed,\n  {slab.name},") :]
+    assert surface.splitlines()[3].strip() == f"{variant.name},"
+    exterior = next(w for w in office5.walls if w.adjacent == "outside")
+    assert not envelope.wall_variant(exterior).mirrored

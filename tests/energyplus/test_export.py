@@ -161,7 +161,8 @@ def _material_resistance_and_heat(fields: list[str], kind: str) -> tuple[float, 
 def test_constructions_have_the_same_layers(
     shipped: tuple[Building, list[tuple[str, list[str]]]],
 ) -> None:
-    """Each surface's construction: layer by layer the hvacflex R = d/k and C = ρ c d."""
+    """Each surface's construction: layer by layer the hvacflex R = d/k and C = ρ c d (a wall
+    on an adiabatic plane: those layers mirrored about the plane)."""
     building, objects = shipped
     materials = {
         f[0]: _material_resistance_and_heat(f, k)
@@ -176,6 +177,8 @@ def test_constructions_have_the_same_layers(
         expected = [
             (la.r_value_m2k_per_w, la.capacitance_j_per_m2k) for la in wall.construction.layers
         ]
+        if wall.adjacent == "adiabatic":  # mirrored about the adiabatic plane (envelope.py)
+            expected = expected[::-1] + expected
         np.testing.assert_allclose(layers, expected, rtol=1e-9)
 
 
@@ -257,15 +260,23 @@ def test_vav_is_sized_like_the_hvac_system() -> None:
         assert float(zones[zone.name][3]) == pytest.approx(building.hvac.flow_max_kg_s[i] / 1.2)
     (system,) = by_class(objects, "HVACTemplate:System:VAV")
     assert float(system[11]) == building.hvac.supply_temp_degc
-    # proportional minimum outdoor air = maximum: a fixed share f_oa of the supply
+    # outdoor air: the ventilation need, a fixed minimum = maximum (no economiser)
+    assert building.hvac.outdoor_air_kg_s is not None
     assert float(system[24]) == float(system[25])
-    assert float(system[24]) / float(system[2]) == pytest.approx(building.hvac.outdoor_air_fraction)
+    assert float(system[24]) == pytest.approx(building.hvac.outdoor_air_kg_s / 1.2)
+    assert system[26] == "FixedMinimum"
     # the fan's design power is hvacflex's κ_f (Σ ṁ_max)^n at 70 % total efficiency
     power_w = float(system[2]) * float(system[5]) / float(system[4])
     flow = sum(building.hvac.flow_max_kg_s)
     assert power_w == pytest.approx(1000 * 0.03 * flow**2.5)
     (chiller,) = by_class(objects, "HVACTemplate:Plant:Chiller")
     assert float(chiller[3]) == building.hvac.cop
+    # hvacflex's chiller: its capacity; below its minimum part load it cycles (minimum part
+    # load ratio = minimum unloading ratio: no false loading)
+    model = building.hvac.chiller
+    assert model is not None
+    assert float(chiller[2]) == pytest.approx(1000 * model.capacity_kw)
+    assert float(chiller[7]) == float(chiller[10]) == model.min_part_load_ratio
 
 
 def test_ideal_loads_supply_at_the_buildings_temperature() -> None:

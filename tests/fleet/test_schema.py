@@ -22,6 +22,11 @@ def test_generate_is_heterogeneous_valid_and_seeded(tmp_path: Path) -> None:
     cops = {b.building.hvac.cop for b in fleet.buildings}
     areas = {round(sum(z.floor_area_m2 for z in b.building.zones)) for b in fleet.buildings}
     assert len(cops) > 1 and len(areas) > 1
+    # the chiller is sized to the floor like the air flows (office5: 180 kW for 1,296 m²)
+    for b in fleet.buildings:
+        chiller, area = b.building.hvac.chiller, b.building.floor_area_m2
+        assert chiller is not None
+        assert chiller.capacity_kw / area == pytest.approx(180.0 / 1296.0, rel=0.01)
     text = (tmp_path / "f.toml").read_text()
     for key in ("feeder_limit_kw", "min_bid_mw", "[reserve]", "[ppp]"):
         assert key in text

@@ -1,24 +1,33 @@
 """HVAC electric power (paper eq. 10): fan + cooling coil + heating coil, exact and affine.
 
-One VAV air-handling unit serves every zone with supply air at T_s; a fixed share f_oa of the
-supply air is outdoor air. With Σṁ the total supply flow [kg/s]::
+One VAV air-handling unit serves every zone with supply air at T_s. With S = Σṁ the total
+supply flow [kg/s], m_oa the outdoor air (a fixed share f_oa · S, or the ventilation need
+min(V_oa, S): :mod:`hvacflex.building.air_handler`) and T_ret = Σ ṁ_i T_r,i / S::
 
-    P_fan   = κ_f (Σṁ)^n                                              [kW]
-    Q_sens  = Σ_i ṁ_i c_p (T_mix,i − T_s),   T_mix,i = (1 − f_oa) T_r,i + f_oa T_out   [W]
-    Q_lat   = Σṁ f_oa h_fg (W_out − W_s)⁺ + (1 − f_oa) L                [W]
-    P_cool  = (Q_sens⁺ + Q_lat) / COP / 1000,   P_heat = Q_sens⁻ / η_heat / 1000
+    Q_sens  = c_p [Σ_i ṁ_i (T_r,i − T_s) + m_oa (T_out − T_ret)]              [W]
+    Q_lat   = m_oa h_fg (W_out − W_s)⁺ + (1 − m_oa / S) L                       [W]
+    P_cool  = plant(Q_sens⁺ + Q_lat, T_out),   P_heat = Q_sens⁻ / η_heat / 1000   [kW]
+    P_fan   = fan(S)                                                            [kW]
+
+``plant`` is Q / COP / 1000 (constant COP), or EnergyPlus's EIR chiller with part-load and
+outdoor-temperature curves (:mod:`hvacflex.building.chiller`) where the system has one; the
+fan is a power law or EnergyPlus's VAV part-load curve with its static-pressure floor.
 
 Latent load. The coil leaves the supply air saturated at T_s (W_s = W_sat(T_s), unless the
 file sets ``supply_humidity_ratio_kg_per_kg``). Assumption for the return air: at steady state
-the zones' moisture balance gives ṁ (W_return − W_s) = L / h_fg, with L the occupants' latent
-gain [W]; the recirculated share (1 − f_oa) of that moisture reaches the coil, the rest leaves
-with the relief air. L is an optional argument (default 0: return air at the supply humidity
-ratio, i.e. only the outdoor air's moisture is removed); it does not depend on the flows, so it
-enters p0 only.
+the zones' moisture balance gives S (W_return − W_s) = L / h_fg, with L the occupants' latent
+gain [W]; the recirculated share (1 − m_oa/S) of that moisture reaches the coil, the rest
+leaves with the relief air. L is an optional argument (default 0: return air at the supply
+humidity ratio, i.e. only the outdoor air's moisture is removed); the controller's affine
+model takes the term's secant over the step's flow range (it vanishes when the fan is off).
 
-Affine model for the controller (docs/model.md §1): coil terms are linear in ṁ at T_r = T_ref; the
-fan is replaced by the secant of κ_f S^n over [S_min, S_max] = [Σṁ_min, Σṁ_max], which lies
-above the convex curve on that interval (an upper bound, never negative).
+Affine model for the controller (docs/model.md §1): the coil heat is linear in ṁ at
+T_r = T_ref with the outdoor air replaced by its secant a + b S over the step's flow range
+[S_min, S_max] (a = 0, b = f_oa for the fixed share); the plant's power by its secant over
+the coil heat of that range (the chiller's power is concave: the secant lies below it); the
+fan by its secant over [S_min, S_max], above the convex curve (an upper bound, never
+negative); the occupants' latent term likewise. Every secant is exact at both ends; p_k
+changes every step (re-linearised along the forecast, as before).
 """
 
 from __future__ import annotations
@@ -29,6 +38,14 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from hvacflex.building.air_handler import (
+    fan_marginal_kw_per_kg_s,
+    fan_power_kw,
+    fan_secant_from,
+    outdoor_air_kg_s,
+    outdoor_air_secant,
+)
+from hvacflex.building.chiller import chiller_marginal_kw_per_w, chiller_power_kw, chiller_secant
 from hvacflex.building.model import HvacSystem
 from hvacflex.units import CP_AIR_J_PER_KG_K, H_FG_J_PER_KG, W_PER_KW
 
@@ -82,6 +99,18 @@ class HvacPower:
     coil_latent_w: FloatArray
 
 
+def plant_power_kw(
+    hvac: HvacSystem, coil_heat_w: ArrayLike, outdoor_temp_degc: ArrayLike
+) -> FloatArray:
+    """Cooling-plant electric power [kW] for coil heat Q ≥ 0 (...) [W] at the outdoor dry
+    bulb (...) [°C]: the chiller model where the system has one, else Q / COP."""
+    q = np.maximum(np.asarray(coil_heat_w, dtype=np.float64), 0.0)
+    if hvac.chiller is not None:
+        return chiller_power_kw(hvac.chiller, q, outdoor_temp_degc)
+    out: FloatArray = q / hvac.cop / W_PER_KW
+    return out
+
+
 def hvac_power(
     hvac: HvacSystem,
     flow_kg_s: ArrayLike,
@@ -110,18 +139,22 @@ def hvac_power(
     t_zone = np.asarray(zone_temp_degc, dtype=np.float64)
     t_out = np.asarray(outdoor_temp_degc, dtype=np.float64)
     w_out = np.asarray(outdoor_humidity_ratio_kg_per_kg, dtype=np.float64)
-    f_oa = hvac.outdoor_air_fraction
     total_flow = flow.sum(axis=-1)
+    running = total_flow > 0.0
+    safe_total = np.where(running, total_flow, 1.0)
+    zone_heat = (flow * t_zone).sum(axis=-1)
+    return_temp = np.where(running, zone_heat / safe_total, t_zone.mean(axis=-1))
+    outdoor_air = outdoor_air_kg_s(hvac, total_flow)
     coil_sensible = CP_AIR_J_PER_KG_K * (
-        (1.0 - f_oa) * (flow * t_zone).sum(axis=-1)
-        + total_flow * (f_oa * t_out - hvac.supply_temp_degc)
+        zone_heat - total_flow * hvac.supply_temp_degc + outdoor_air * (t_out - return_temp)
     )
+    recirculated = np.where(running, 1.0 - outdoor_air / safe_total, 0.0)
     w_supply = supply_humidity_ratio_kg_per_kg(hvac)
-    coil_latent = total_flow * f_oa * H_FG_J_PER_KG * np.maximum(w_out - w_supply, 0.0) + (
-        1.0 - f_oa
-    ) * np.asarray(latent_gain_w, dtype=np.float64)
-    fan = hvac.fan_coeff_kw * total_flow**hvac.fan_exponent
-    cooling = (np.maximum(coil_sensible, 0.0) + coil_latent) / hvac.cop / W_PER_KW
+    coil_latent = outdoor_air * H_FG_J_PER_KG * np.maximum(
+        w_out - w_supply, 0.0
+    ) + recirculated * np.asarray(latent_gain_w, dtype=np.float64)
+    fan = fan_power_kw(hvac, total_flow)
+    cooling = plant_power_kw(hvac, np.maximum(coil_sensible, 0.0) + coil_latent, t_out)
     heating = np.maximum(-coil_sensible, 0.0) / hvac.heating_efficiency / W_PER_KW
     return HvacPower(
         fan_kw=fan,
@@ -157,7 +190,7 @@ def hvac_power_kw(
 
 
 def fan_secant(hvac: HvacSystem) -> tuple[float, float]:
-    """Secant of κ_f S^n over [Σṁ_min, Σṁ_max]: (intercept [kW], slope [kW per kg/s]).
+    """Secant of P_fan over [Σṁ_min, Σṁ_max]: (intercept [kW], slope [kW per kg/s]).
 
     P_fan ≈ intercept + slope · S is exact at both ends and above the curve in between.
     """
@@ -165,28 +198,64 @@ def fan_secant(hvac: HvacSystem) -> tuple[float, float]:
     return float(intercept), float(slope)
 
 
-def fan_secant_from(
-    hvac: HvacSystem, total_flow_min_kg_s: ArrayLike
-) -> tuple[FloatArray, FloatArray]:
-    """Secant of κ_f S^n over [S_min, Σṁ_max] for each given S_min (vectorised).
+@dataclass(frozen=True)
+class CoilHeatModel:
+    """Coil heat affine in the zone flows per step, Q_k(u) = q0_k + q_k · u [W].
 
-    Parameters
+    Attributes
     ----------
-    total_flow_min_kg_s : (N,) or scalar lower end S_min of the flow range [kg/s].
-
-    Returns
-    -------
-    intercept [kW], slope [kW per kg/s], each shaped like ``total_flow_min_kg_s``.
+    constant_w : (N,) q0 [W]: outdoor air's fixed part and the occupants' recirculated latent.
+    cooling_w_per_kg_s : (N, m) q [W per kg/s] of cooling heat (sensible ≥ 0 + latent).
+    heating_kw_per_kg_s : (N, m) heating-coil power per kg/s where the supply heats [kW].
     """
-    s_min = np.asarray(total_flow_min_kg_s, dtype=np.float64)
-    s_max = float(sum(hvac.flow_max_kg_s))
-    kappa, n = hvac.fan_coeff_kw, hvac.fan_exponent
-    width = s_max - s_min
-    tangent = n * kappa * s_max ** (n - 1.0)
-    safe = np.where(width > 0.0, width, 1.0)
-    slope = np.where(width > 0.0, kappa * (s_max**n - s_min**n) / safe, tangent)
-    intercept: FloatArray = kappa * s_min**n - slope * s_min
-    return intercept, np.asarray(slope, dtype=np.float64)
+
+    constant_w: FloatArray
+    cooling_w_per_kg_s: FloatArray
+    heating_kw_per_kg_s: FloatArray
+
+
+def coil_heat_model(
+    hvac: HvacSystem,
+    t_out: FloatArray,
+    w_out: FloatArray,
+    zone_temp_degc: FloatArray,
+    total_flow_min_kg_s: FloatArray,
+    latent_gain_w: FloatArray,
+) -> CoilHeatModel:
+    """:class:`CoilHeatModel` with return air of zone i at ``zone_temp_degc`` (N, m), outdoor
+    air at (N,) ``t_out`` [°C], ``w_out`` [kg/kg], the outdoor-air secant over [S_min, S_max]
+    with (N,) S_min ``total_flow_min_kg_s`` [kg/s] and (N,) occupants' latent gain [W]."""
+    a, b = outdoor_air_secant(hvac, total_flow_min_kg_s)
+    mean_zone = zone_temp_degc.mean(axis=1)
+    sensible = CP_AIR_J_PER_KG_K * (
+        zone_temp_degc - hvac.supply_temp_degc + b[:, None] * (t_out[:, None] - zone_temp_degc)
+    )
+    moisture = H_FG_J_PER_KG * np.maximum(w_out - supply_humidity_ratio_kg_per_kg(hvac), 0.0)
+    # occupants' latent: the recirculated share (1 − m_oa/S) L, 0 when off, as its secant
+    low, high = total_flow_min_kg_s, sum(hvac.flow_max_kg_s)
+    share_low = np.where(
+        low > 0.0, 1.0 - outdoor_air_kg_s(hvac, low) / np.where(low > 0, low, 1.0), 0.0
+    )
+    share_high = 1.0 - outdoor_air_kg_s(hvac, high) / high
+    latent_slope = np.where(
+        high > low, (share_high - share_low) * latent_gain_w / np.maximum(high - low, 1e-12), 0.0
+    )
+    latent_constant = share_low * latent_gain_w - latent_slope * low
+    constant = CP_AIR_J_PER_KG_K * a * (t_out - mean_zone) + a * moisture + latent_constant
+    return CoilHeatModel(
+        constant_w=constant,
+        cooling_w_per_kg_s=np.maximum(sensible, 0.0) + (b * moisture + latent_slope)[:, None],
+        heating_kw_per_kg_s=np.maximum(-sensible, 0.0) / hvac.heating_efficiency / W_PER_KW,
+    )
+
+
+def _plant_secant(
+    hvac: HvacSystem, coil_low_w: FloatArray, coil_high_w: FloatArray, t_out: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """(intercept [kW], slope [kW per W]) of the plant's power over [Q_low, Q_high]."""
+    if hvac.chiller is None:
+        return np.zeros_like(t_out), np.full_like(t_out, 1.0 / hvac.cop / W_PER_KW)
+    return chiller_secant(hvac.chiller, coil_low_w, coil_high_w, t_out)
 
 
 def affine_power_model(
@@ -207,54 +276,39 @@ def affine_power_model(
     outdoor_humidity_ratio_kg_per_kg : (N,) forecast outdoor humidity ratio [kg/kg].
     zone_temp_ref_degc : scalar or (m,) zone temperature the coil term is evaluated at [°C]
         (the linearisation temperature T₀).
-    latent_gain_w : scalar or (N,) occupants' latent gain [W], enters p0 only.
+    latent_gain_w : scalar or (N,) occupants' latent gain [W] (its recirculated share).
     flow_min_kg_s : (N, m) lower flow bound of each step [kg/s] (e.g. ventilation while
-        occupied, the minimum otherwise); the fan secant of step k spans [Σ flow_min_k,
-        Σṁ_max], the flows the step can take. ``None``: ``hvac.flow_min_kg_s`` every step.
+        occupied, the minimum otherwise); the secants of step k span [flow_min_k, ṁ_max],
+        the flows the step can take. ``None``: ``hvac.flow_min_kg_s`` every step.
 
     Returns
     -------
-    p0_kw : (N,) [kW]; p_kw_per_kg_s : (N,m) [kW per kg/s]. Exact at T_r = T_ref whenever
-    Σu is Σṁ_min or Σṁ_max; above the exact power in between (fan secant).
+    p0_kw : (N,) [kW]; p_kw_per_kg_s : (N,m) [kW per kg/s]. At T_r = T_ref exact at both
+    ends of the flow range; in between the fan secant lies above the exact power and the
+    chiller's and the outdoor-air secants below it.
     """
     t_out = np.atleast_1d(np.asarray(outdoor_temp_degc, dtype=np.float64))
     w_out = np.atleast_1d(np.asarray(outdoor_humidity_ratio_kg_per_kg, dtype=np.float64))
     m = len(hvac.flow_min_kg_s)
     t_ref = np.broadcast_to(np.asarray(zone_temp_ref_degc, dtype=np.float64), (m,))
-    f_oa = hvac.outdoor_air_fraction
-    coil = _coil_kw_per_kg_s(hvac, t_out, w_out, np.broadcast_to(t_ref, (t_out.size, m)))
     if flow_min_kg_s is None:
-        low_total: FloatArray = np.full(t_out.shape, float(sum(hvac.flow_min_kg_s)))
+        low: FloatArray = np.broadcast_to(np.asarray(hvac.flow_min_kg_s), (t_out.size, m))
     else:
-        low_total = np.asarray(flow_min_kg_s, dtype=np.float64).reshape(-1, m).sum(axis=1)
-    intercept, slope = fan_secant_from(hvac, np.broadcast_to(low_total, t_out.shape))
-    p = coil + slope[:, None]
-    p0 = (
-        intercept
-        + (1.0 - f_oa)
-        * np.broadcast_to(np.asarray(latent_gain_w, dtype=np.float64), t_out.shape)
-        / hvac.cop
-        / W_PER_KW
+        low = np.asarray(flow_min_kg_s, dtype=np.float64).reshape(-1, m)
+        low = np.broadcast_to(low, (t_out.size, m))
+    latent = np.broadcast_to(np.asarray(latent_gain_w, dtype=np.float64), t_out.shape)
+    coil = coil_heat_model(
+        hvac, t_out, w_out, np.broadcast_to(t_ref, (t_out.size, m)), low.sum(axis=1), latent
     )
+    high = np.asarray(hvac.flow_max_kg_s, dtype=np.float64)
+    q_low = coil.constant_w + (coil.cooling_w_per_kg_s * low).sum(axis=1)
+    q_high = coil.constant_w + coil.cooling_w_per_kg_s @ high
+    plant_intercept, plant_slope = _plant_secant(hvac, q_low, q_high, t_out)
+    fan_intercept, fan_slope = fan_secant_from(hvac, low.sum(axis=1))
+    p = plant_slope[:, None] * coil.cooling_w_per_kg_s + coil.heating_kw_per_kg_s
+    p = p + fan_slope[:, None]
+    p0 = plant_intercept + plant_slope * coil.constant_w + fan_intercept
     return p0, p
-
-
-def _coil_kw_per_kg_s(
-    hvac: HvacSystem, t_out: FloatArray, w_out: FloatArray, zone_temp_degc: FloatArray
-) -> FloatArray:
-    """(N, m) coil electric power per kg/s of each zone's supply flow [kW per kg/s], with the
-    return air of zone i at ``zone_temp_degc`` (N, m) and outdoor air at (N,) t_out, w_out."""
-    f_oa = hvac.outdoor_air_fraction
-    # sensible coil heat per kg/s of each zone's flow [W per kg/s], (N, m)
-    sensible = CP_AIR_J_PER_KG_K * (
-        (1.0 - f_oa) * zone_temp_degc + f_oa * t_out[:, None] - hvac.supply_temp_degc
-    )
-    latent = f_oa * H_FG_J_PER_KG * np.maximum(w_out - supply_humidity_ratio_kg_per_kg(hvac), 0.0)
-    coil: FloatArray = (
-        (np.maximum(sensible, 0.0) + latent[:, None]) / hvac.cop
-        + np.maximum(-sensible, 0.0) / hvac.heating_efficiency
-    ) / W_PER_KW
-    return coil
 
 
 def reserve_power_coeff(
@@ -267,10 +321,12 @@ def reserve_power_coeff(
     """(N, m) power reduction per kg/s of flow shed that curtailment surely achieves [kW per
     kg/s]: a lower bound of the exact reduction P(u) − P(u − r) per unit of r.
 
-    The fan power κ S^n is convex in the total flow S, so shedding r from S gives at least
-    the tangent at the reduced flow, n κ (S − Σr)^(n−1) per kg/s (the LP's secant over the
-    whole range gives more); the coil's power per kg/s grows with the return-air temperature,
-    so it is taken at the coolest return air the curtailed period may see.
+    The fan power is convex in the total flow S, so shedding r from S gives at least the
+    tangent at the reduced flow (S − Σr) per kg/s; the coil's heat per kg/s grows with the
+    return-air temperature, so it is taken at the coolest return air the curtailed period may
+    see; outdoor air by ventilation need does not shrink with the flow (only a fixed share
+    does); the chiller's power is concave in its load, so each W of coil heat shed saves at
+    least its slope at the full-flow load.
 
     Parameters
     ----------
@@ -285,9 +341,25 @@ def reserve_power_coeff(
     m = len(hvac.flow_min_kg_s)
     zone = np.broadcast_to(np.asarray(zone_temp_degc, dtype=np.float64), (t_out.size, m))
     flow = np.maximum(np.asarray(total_flow_curtailed_kg_s, dtype=np.float64), 0.0)
-    kappa, n = hvac.fan_coeff_kw, hvac.fan_exponent
-    tangent = n * kappa * np.broadcast_to(flow, t_out.shape) ** (n - 1.0)
-    coeff: FloatArray = _coil_kw_per_kg_s(hvac, t_out, w_out, zone) + tangent[:, None]
+    flow = np.broadcast_to(flow, t_out.shape)
+    # the outdoor-air secant with S_min = S_max: the share shed with the flow (0 for the need)
+    coil = coil_heat_model(
+        hvac,
+        t_out,
+        w_out,
+        zone,
+        np.full(t_out.shape, sum(hvac.flow_max_kg_s)),
+        np.zeros_like(t_out),
+    )
+    if hvac.chiller is None:
+        plant_slope = np.full_like(t_out, 1.0 / hvac.cop / W_PER_KW)
+    else:
+        full_load = coil.constant_w + coil.cooling_w_per_kg_s @ np.asarray(hvac.flow_max_kg_s)
+        plant_slope = chiller_marginal_kw_per_w(hvac.chiller, full_load, t_out)
+    tangent = fan_marginal_kw_per_kg_s(hvac, flow)
+    coeff: FloatArray = (
+        plant_slope[:, None] * coil.cooling_w_per_kg_s + coil.heating_kw_per_kg_s + tangent[:, None]
+    )
     return coeff
 
 
@@ -361,7 +433,7 @@ def affine_power_error(
     error = affine - exact
     intercept, slope = fan_secant_from(hvac, float(low.sum()))
     total = flows.sum(axis=1)
-    fan_error = intercept + slope * total - hvac.fan_coeff_kw * total**hvac.fan_exponent
+    fan_error = intercept + slope * total - fan_power_kw(hvac, total)
     return AffinePowerError(
         max_abs_kw=float(np.max(np.abs(error))),
         max_rel=float(np.max(np.abs(error) / np.maximum(np.abs(exact), math.ulp(1.0)))),

@@ -15,6 +15,7 @@ from typing import Any, get_args, get_origin
 from pydantic import BaseModel, ValidationError
 from pydantic_core import ErrorDetails
 
+from hvacflex.building.chiller import ChillerPerformance
 from hvacflex.building.identified import (
     GAIN_CHANNEL_PEAK_W,
     NOMINAL_FLOOR_AREA_M2,
@@ -48,6 +49,7 @@ from hvacflex.building.schema import (
 )
 from hvacflex.errors import BuildingConfigError
 from hvacflex.tomlio import read_toml
+from hvacflex.units import RHO_AIR_KG_PER_M3
 
 FIELD_HINTS: dict[str, str] = {
     "zones": "add [[zones]]",
@@ -225,7 +227,7 @@ def to_building(spec: BuildingSpec, *, source_path: Path | None = None) -> Build
         windows=tuple(_window(window) for window in spec.windows),
         constructions=constructions,
         gains=InternalGains(**spec.gains.model_dump()),
-        hvac=_hvac(spec.hvac, spec.zone_names),
+        hvac=_hvac(spec.hvac, spec.zone_names, _design_people(spec), _floor_area_m2(spec)),
         description=spec.description,
         latitude_deg=spec.latitude_deg,
         longitude_deg=spec.longitude_deg,
@@ -290,11 +292,50 @@ def _window(spec: WindowSpec) -> Window:
     )
 
 
-def _hvac(spec: HvacSpec, zone_names: tuple[str, ...]) -> HvacSystem:
+def _floor_area_m2(spec: BuildingSpec) -> float:
+    """Floor area of a designed building [m²] (every zone gives it: checked by the schema)."""
+    return sum(zone.floor_area_m2 or 0.0 for zone in spec.zones)
+
+
+def _design_people(spec: BuildingSpec) -> float:
+    """Design occupants of a designed building (its gains are given: checked by the schema)."""
+    assert spec.gains is not None
+    return _floor_area_m2(spec) / spec.gains.occupancy_m2_per_person
+
+
+def outdoor_air_need_kg_s(
+    people: float, floor_area_m2: float, l_s_per_person: float, l_s_per_m2: float
+) -> float:
+    """Ventilation need of the breathing zone (ASHRAE 62.1 ventilation-rate procedure,
+    V = R_p · P + R_a · A) as a mass flow [kg/s] at ρ = RHO_AIR_KG_PER_M3.
+
+    Parameters
+    ----------
+    people : design occupancy P [-]; floor_area_m2 : A [m²];
+    l_s_per_person : R_p [L/s per person]; l_s_per_m2 : R_a [L/s per m²].
+    """
+    return (l_s_per_person * people + l_s_per_m2 * floor_area_m2) * RHO_AIR_KG_PER_M3 / 1000.0
+
+
+def _hvac(
+    spec: HvacSpec, zone_names: tuple[str, ...], people: float, floor_area_m2: float
+) -> HvacSystem:
     def per_zone(table: Mapping[str, float]) -> tuple[float, ...]:
         return tuple(table[name] for name in zone_names)
 
     reserve = zone_names if spec.reserve_zones is None else spec.reserve_zones
+    outdoor_air = None
+    if spec.outdoor_air_l_s_per_person is not None or spec.outdoor_air_l_s_per_m2 is not None:
+        outdoor_air = outdoor_air_need_kg_s(
+            people,
+            floor_area_m2,
+            spec.outdoor_air_l_s_per_person or 0.0,
+            spec.outdoor_air_l_s_per_m2 or 0.0,
+        )
+    chiller = None
+    if spec.chiller is not None:
+        chiller = ChillerPerformance(reference_cop=spec.cop, **spec.chiller.model_dump())
+    fan_curve = spec.fan_part_load_coefficients
     return HvacSystem(
         supply_temp_degc=spec.supply_temp_degc,
         flow_min_kg_s=per_zone(spec.flow_min_kg_s),
@@ -307,6 +348,11 @@ def _hvac(spec: HvacSpec, zone_names: tuple[str, ...]) -> HvacSystem:
         heating_efficiency=spec.heating_efficiency,
         supply_humidity_ratio_kg_per_kg=spec.supply_humidity_ratio_kg_per_kg,
         ventilation_flow_kg_s=per_zone(spec.ventilation_flow_kg_s or spec.flow_min_kg_s),
+        outdoor_air_kg_s=outdoor_air,
+        chiller=chiller,
+        fan_part_load_coefficients=(
+            None if fan_curve is None else (fan_curve[0], fan_curve[1], fan_curve[2], fan_curve[3])
+        ),
     )
 
 

@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 import numpy.typing as npt
 
+from hvacflex.building.chiller import ChillerPerformance
 from hvacflex.building.identified import IdentifiedRC
 from hvacflex.units import CP_AIR_J_PER_KG_K, RHO_AIR_KG_PER_M3
 
@@ -417,6 +418,14 @@ class HvacSystem:
     heating_efficiency : electric heating coil efficiency (coil heat / power) [-].
     supply_humidity_ratio_kg_per_kg : humidity ratio leaving the cooling coil [kg/kg];
         ``None``: saturated air at ``supply_temp_degc`` (see ``hvac.py``).
+    outdoor_air_kg_s : outdoor air by ventilation need [kg/s]: the air handler takes
+        min(this, Σṁ) of outdoor air whenever it runs; ``None``: the fixed share
+        ``outdoor_air_fraction`` of the supply.
+    chiller : part-load and outdoor-temperature model of the cooling plant
+        (:mod:`hvacflex.building.chiller`); ``None``: the constant ``cop``.
+    fan_part_load_coefficients : (c1, c2, c3, c4) of the fan's part-load curve,
+        P_fan = κ_f (Σṁ_max)^n · (c1 + c2 f + c3 f² + c4 f³), f = Σṁ / Σṁ_max, 0 when the fan
+        is off (Σṁ = 0); ``None``: the power law κ_f (Σṁ)^n.
     """
 
     supply_temp_degc: float
@@ -430,6 +439,9 @@ class HvacSystem:
     heating_efficiency: float = 1.0
     supply_humidity_ratio_kg_per_kg: float | None = None
     ventilation_flow_kg_s: tuple[float, ...] = ()
+    outdoor_air_kg_s: float | None = None
+    chiller: ChillerPerformance | None = None
+    fan_part_load_coefficients: tuple[float, float, float, float] | None = None
 
     def __post_init__(self) -> None:
         if not self.ventilation_flow_kg_s:

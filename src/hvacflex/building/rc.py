@@ -33,6 +33,10 @@ not ask for it get exactly the network above):
 * heat released on a massless inside surface (radiative internal gains, transmitted solar)
   splits like the absorbed solar outside: the share R_film/(R_film + r_n/2) reaches the
   innermost node, the rest the zone air (exact elimination of the surface node).
+  In a zone with explicit long-wave exchange (``Zone.interior_radiation_w_per_m2k``) every
+  face that zone sees — its own walls' inside faces and the far faces of partitions that
+  belong to the neighbouring zone — has such a surface node, joined to the zone air by its
+  film and to the zone's radiant star by h_r·A.
   Radiative internal gains (``Zone.internal_gain_radiative_fraction``) are spread over all
   opaque surfaces facing the zone (both faces of a partition count for their zones) by area;
   transmitted solar goes to the walls with an ``interior_solar_fraction``, a share
@@ -209,10 +213,14 @@ def _surface_share_to_node(film_w_per_m2k: float, link_r_m2k_per_w: float) -> fl
 
 
 def _zone_surfaces(
-    b: Building, zone: Zone, index: dict[str, int], surface_node: dict[str, int]
+    b: Building,
+    zone: Zone,
+    index: dict[str, int],
+    surface_node: dict[str, int],
+    far_surface_node: dict[str, int],
 ) -> list[tuple[int, float, float]]:
     """Opaque surfaces facing a zone as (node index, area [m²], share to the node); a wall
-    with an explicit (massless) inside-surface node takes all of it there."""
+    with an explicit (massless) surface node on that face takes all of it there."""
     surfaces = []
     for wall in b.walls:
         _, links = wall.construction.chain()
@@ -222,6 +230,8 @@ def _zone_surfaces(
         elif wall.zone == zone.name:
             film = wall.construction.inside_film_w_per_m2k
             surfaces.append((nodes[-1], wall.area_m2, _surface_share_to_node(film, links[-1])))
+        elif wall.adjacent == zone.name and wall.name in far_surface_node:
+            surfaces.append((far_surface_node[wall.name], wall.area_m2, 1.0))
         elif wall.adjacent == zone.name:
             far = wall.construction.outside_film_for(wall.adjacent)
             assert far is not None  # a zone-to-zone face always has a film
@@ -250,6 +260,7 @@ class _Assembly:
     index: dict[str, int]
     radiant: dict[str, Zone]
     surface_node: dict[str, int]
+    far_surface_node: dict[str, int]
     star_node: dict[str, int]
     k: FloatArray
     f: FloatArray
@@ -296,11 +307,15 @@ def _allocate_nodes(b: Building) -> _Assembly:
     # with explicit interior long-wave exchange
     radiant = {z.name: z for z in b.zones if z.interior_radiation_w_per_m2k is not None}
     surface_node: dict[str, int] = {}
+    far_surface_node: dict[str, int] = {}
     star_node: dict[str, int] = {}
     extra = n
     for wall in b.walls:
         if wall.zone in radiant:
             surface_node[wall.name] = extra
+            extra += 1
+        if wall.adjacent in radiant:
+            far_surface_node[wall.name] = extra
             extra += 1
     for name in radiant:
         star_node[name] = extra
@@ -315,6 +330,7 @@ def _allocate_nodes(b: Building) -> _Assembly:
         index={name: i for i, name in enumerate(names)},
         radiant=radiant,
         surface_node=surface_node,
+        far_surface_node=far_surface_node,
         star_node=star_node,
         k=np.zeros((extra, extra)),
         f=np.zeros((extra, nd)),
@@ -373,6 +389,16 @@ def _add_wall_far_side(
         ground_col = net.ground_col
         assert ground_col is not None
         net.to_boundary(nodes[0], ground_col, conductance, net.ground)
+    elif wall.name in net.far_surface_node:
+        # the partition's face in a zone with explicit long-wave exchange: a massless surface
+        # node between the outermost slice, that zone's air (film) and its radiant star
+        assert film is not None  # a zone-to-zone face always has a film
+        h_radiant = net.radiant[wall.adjacent].interior_radiation_w_per_m2k
+        assert h_radiant is not None
+        surface = net.far_surface_node[wall.name]
+        net.couple(nodes[0], surface, area / r_outer_half)
+        net.couple(surface, net.index[wall.adjacent], area * film)
+        net.couple(surface, net.star_node[wall.adjacent], area * h_radiant)
     elif wall.adjacent != ADIABATIC:
         net.couple(nodes[0], net.index[wall.adjacent], conductance)
 
@@ -438,7 +464,11 @@ def _add_zone_air(net: _Assembly, b: Building) -> None:
         if zone.infiltration_ach > 0:
             net.to_boundary(zone_node, net.outdoor_col, zone.infiltration_w_per_k, net.outdoor)
         radiative = zone.internal_gain_radiative_fraction
-        surfaces = _zone_surfaces(b, zone, net.index, net.surface_node) if radiative > 0 else []
+        surfaces = (
+            _zone_surfaces(b, zone, net.index, net.surface_node, net.far_surface_node)
+            if radiative > 0
+            else []
+        )
         if not surfaces:
             net.f[zone_node, col] += 1.0
             continue

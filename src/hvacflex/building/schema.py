@@ -30,7 +30,10 @@ File layout (see ``buildings/office5.toml`` for a commented example)::
     [hvac]               supply_temp_degc, flow_min_kg_s = {zone = …} or [one per zone],
                          flow_max_kg_s, ventilation_flow_kg_s?, outdoor_air_fraction, cop,
                          fan_coeff_kw, fan_exponent, reserve_zones?, heating_efficiency?,
-                         supply_humidity_ratio_kg_per_kg?
+                         supply_humidity_ratio_kg_per_kg?, outdoor_air_l_s_per_person?,
+                         outdoor_air_l_s_per_m2?, fan_part_load_coefficients?
+    [hvac.chiller]       capacity_kw, min_part_load_ratio?, condenser_fan_kw_per_kw?,
+                         pump_design_kw?  (absent: constant cop)
 
 A building identified from trend data (``hvacflex identify fit``) has ``[[zones]]`` with
 ``name`` and ``energyplus_zone`` only (no geometry), no walls, windows, ``[gains]`` or
@@ -253,6 +256,26 @@ class HvacSpec(Spec):
     reserve_zones: list[Annotated[str, Strict()]] | None = None
     heating_efficiency: Positive = 1.0
     supply_humidity_ratio_kg_per_kg: Annotated[Number, Field(gt=0.0, le=0.05)] | None = None
+    outdoor_air_l_s_per_person: NonNegative | None = None
+    outdoor_air_l_s_per_m2: NonNegative | None = None
+    fan_part_load_coefficients: (
+        Annotated[list[Number], Field(min_length=4, max_length=4)] | None
+    ) = None
+    chiller: ChillerSpec | None = None
+
+
+FanCurve = Annotated[list[Number], Field(min_length=4, max_length=4)]
+"""(c1, c2, c3, c4) of the fan's part-load curve (``hvacflex.building.air_handler``)."""
+
+
+class ChillerSpec(Spec):
+    """``[hvac.chiller]``: EnergyPlus's EIR chiller with its DOE-2.1E reciprocating curves
+    (:mod:`hvacflex.building.chiller`); the reference COP is ``[hvac] cop``."""
+
+    capacity_kw: Positive
+    min_part_load_ratio: Annotated[Number, Field(gt=0.0, le=1.0)] = 0.25
+    condenser_fan_kw_per_kw: NonNegative = 0.035
+    pump_design_kw: NonNegative = 0.0
 
 
 class IdentifiedZoneSpec(Spec):

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from hvacflex.building.air_handler import outdoor_air_kg_s
 from hvacflex.building.discretize import (
     DEFAULT_LINEARISATION_TEMP_DEGC,
     continuous_affine_model,
@@ -136,12 +137,15 @@ def summarize(
     per_kg_s = CP_AIR_J_PER_KG_K * (DESIGN_ZONE_TEMP_DEGC - hvac.supply_temp_degc)
     design_flow = np.maximum(zone_load_w / per_kg_s, 0.0)
     operating_flow = np.clip(design_flow, flow_min, flow_max)
+    people_latent_w = b.floor_area_m2 / b.gains.occupancy_m2_per_person
+    people_latent_w *= b.gains.latent_w_per_person
     power = hvac_power(
         hvac,
         operating_flow,
         np.full(len(b.zones), DESIGN_ZONE_TEMP_DEGC),
         DESIGN_OUTDOOR_TEMP_DEGC,
         DESIGN_OUTDOOR_HUMIDITY_RATIO_KG_PER_KG,
+        latent_gain_w=people_latent_w,
     )
     ua = envelope_ua_w_per_k(b)
     reserve = np.asarray(b.reserve_mask)
@@ -191,7 +195,7 @@ def summarize(
         flow_min_total_kg_s=float(flow_min.sum()),
         flow_max_total_kg_s=float(flow_max.sum()),
         outdoor_air_at_ventilation_flow_l_s=float(
-            hvac.outdoor_air_fraction * sum(hvac.ventilation_flow_kg_s) / RHO_AIR_KG_PER_M3 * 1000.0
+            outdoor_air_kg_s(hvac, sum(hvac.ventilation_flow_kg_s)) / RHO_AIR_KG_PER_M3 * 1000.0
         ),
         ventilation_need_l_s=people * VENTILATION_L_S_PER_PERSON
         + b.floor_area_m2 * VENTILATION_L_S_PER_M2,
@@ -297,7 +301,7 @@ def format_summary(s: BuildingSummary) -> str:
         f"  spectral radius of A: {s.spectral_radius:.6f} "
         f"({'stable' if s.spectral_radius < 1 else 'NOT stable'})",
         f"Affine power model at design conditions: max error {s.affine_power_max_abs_kw:.2f} kW "
-        f"({100 * s.affine_power_max_rel:.1f} %) over the occupied flow range (fan secant)",
+        f"({100 * s.affine_power_max_rel:.1f} %) over the occupied flow range (secants)",
     ]
     return "\n".join(lines)
 

@@ -333,7 +333,8 @@ class MPCController(Controller):
         y_min: FloatArray,
     ) -> tuple[FloatArray, FloatArray, FloatArray]:
         """The LP's power rows ``P_k = p0_k + p_kᵀ u_k`` ((N,), (N, m)) and the reserve's
-        power per kg/s (N, m), from the building's power model at the forecast."""
+        power per kg/s (N, m), from the building's power model at the forecast (outdoor air,
+        its humidity, the occupants' latent gain) over the step's flow range [u_min, u_max]."""
         horizon = d_hat.shape[0]
         identified = self._building.identified
         if identified is not None:  # the power model fitted to the building's meter
@@ -341,11 +342,13 @@ class MPCController(Controller):
                 identified, d_hat[:, self._outdoor_index], self._temp_ref_degc
             )
             return p0, p, p
+        latent = forecast.occupant_latent_w[:horizon]
         p0, p = affine_power_model(
             self._building.hvac,
             d_hat[:, self._outdoor_index],
             forecast.outdoor_humidity_ratio_kg_per_kg[:horizon],
             self._temp_ref_degc,
+            latent_gain_w=latent if latent.size == horizon else 0.0,
             flow_min_kg_s=u_min,
         )
         reserve_coeff = reserve_power_coeff(

@@ -48,6 +48,7 @@ from hvacflex.data.gains import (
     OfficeSchedule,
     comfort_bounds_degc,
     occupied_mask,
+    office_schedule,
     zone_internal_gains_w,
 )
 from hvacflex.data.market import (
@@ -123,6 +124,9 @@ class ExogenousSeries:
     occupied : (T,) bool, occupied comfort band in force.
     energy_price_extrapolated : (T,) bool, the price was copied from the nearest day with data
         (all False if not given).
+    occupant_latent_w : (T,) the occupants' latent gain, all zones together [W]: people (the
+        schedule's people fraction × floor area / m² per person) × latent W per person; it
+        loads the cooling coil, not the zone air (zeros if not given).
     """
 
     index: pd.DatetimeIndex
@@ -136,6 +140,7 @@ class ExogenousSeries:
     comfort_upper_degc: np.ndarray
     occupied: np.ndarray
     energy_price_extrapolated: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
+    occupant_latent_w: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     def channel_index(self, kind: str) -> list[int]:
         """Positions of the channels of one kind in ``disturbances``."""
@@ -162,6 +167,8 @@ class Exogenous(ExogenousSeries):
         t = len(self.index)
         if self.energy_price_extrapolated.size == 0 and t:
             object.__setattr__(self, "energy_price_extrapolated", np.zeros(t, dtype=bool))
+        if self.occupant_latent_w.size == 0 and t:
+            object.__setattr__(self, "occupant_latent_w", np.zeros(t))
         object.__setattr__(self, "channels", tuple(self.channels))
         shapes = {
             "energy_price_sgd_per_mwh": (t,),
@@ -170,6 +177,7 @@ class Exogenous(ExogenousSeries):
             "outdoor_humidity_ratio_kg_per_kg": (t,),
             "occupied": (t,),
             "energy_price_extrapolated": (t,),
+            "occupant_latent_w": (t,),
         }
         for name, shape in shapes.items():
             value = np.asarray(getattr(self, name))
@@ -425,6 +433,7 @@ class Forecaster:
             x.comfort_upper_degc[k:end],
             x.occupied[k:end],
             x.energy_price_extrapolated[k:end],
+            x.occupant_latent_w[k:end],
             step=k,
         )
 
@@ -587,7 +596,22 @@ def load_exogenous(
         comfort_upper_degc=upper,
         occupied=occupied_mask(index, schedule),
         energy_price_extrapolated=extrapolated,
+        occupant_latent_w=occupant_latent_w(index, sum(gain_areas), gains, schedule),
     )
+
+
+def occupant_latent_w(
+    index: pd.DatetimeIndex,
+    floor_area_m2: float,
+    gains: InternalGainDensities,
+    schedule: OfficeSchedule = DEFAULT_OFFICE_SCHEDULE,
+) -> np.ndarray:
+    """(T,) the occupants' latent gain on ``index`` [W]: the schedule's people fraction ×
+    ``floor_area_m2`` / ``occupancy_m2_per_person`` × ``latent_w_per_person``."""
+    people = floor_area_m2 / gains.occupancy_m2_per_person
+    fraction = office_schedule(index, schedule)["people_fraction"].to_numpy(dtype=float)
+    out: np.ndarray = people * gains.latent_w_per_person * fraction
+    return out
 
 
 def _run_index(

@@ -28,6 +28,10 @@ What is mapped, and how
   written with c = 1000 J/(kg K) and ρ = C / 1000 (the product ρ c d is what matters). The
   outer layer of an exterior wall carries the wall's solar absorptance and thermal emissivity
   (0.9 where the file gives none).
+  A wall on an ``adiabatic`` plane is written mirrored about that plane (layers inside →
+  outside → inside): EnergyPlus's ``Adiabatic`` boundary sets the far face's temperature to
+  the inside face's rather than its heat flux to zero, so only a symmetric construction
+  keeps hvacflex's half slab (:func:`hvacflex.energyplus.envelope.wall_variant`).
 * **Internal gains**: ``People`` (people per m² = 1/``occupancy_m2_per_person``, activity =
   sensible + latent W per person, sensible fraction = sensible / total), ``Lights`` and
   ``ElectricEquipment`` (W/m²), all with the hvacflex office schedule
@@ -43,11 +47,15 @@ What is mapped, and how
   chilled-water loop and an air-cooled electric chiller. Sized like the ``HvacSystem``: supply
   air at ``supply_temp_degc``; per-zone maximum flow ``flow_max_kg_s``; per-zone minimum flow
   as a schedule (``<zone> minimum flow fraction``: ventilation flow / max while occupied,
-  ``flow_min`` / max otherwise); outdoor air a fixed ``outdoor_air_fraction`` of the supply
-  (proportional minimum = maximum outdoor air = f_oa · Σ max flow, no economiser); the fan's
+  ``flow_min`` / max otherwise); outdoor air the ventilation need ``outdoor_air_kg_s`` as a
+  fixed minimum = maximum, or else a fixed ``outdoor_air_fraction`` of the supply
+  (proportional minimum = maximum outdoor air = f_oa · Σ max flow), no economiser; the fan's
   design pressure so that its design power equals κ_f (Σ ṁ_max)^n at 70 % total efficiency;
-  chiller COP = ``cop``. The air handler is available in the occupied hours of working days
-  and cycles on at night when a zone passes its set-point.
+  chiller COP = ``cop``, and where the building has a ``chiller`` model its capacity and its
+  minimum part load (also as the minimum unloading ratio: it cycles, no false loading; the
+  template writes the same DOE-2.1E curves as :mod:`hvacflex.building.chiller`), else
+  autosized with EnergyPlus's defaults. The air handler is available in the occupied hours
+  of working days and cycles on at night when a zone passes its set-point.
   ``"ideal"``: ``ZoneHVAC:IdealLoadsAirSystem`` per zone (through its template) supplying at
   ``supply_temp_degc`` and the supply humidity ratio of :mod:`hvacflex.building.hvac`, flow
   limited to ``flow_max_kg_s``, heating off, outdoor air f_oa × the ventilation flow.
@@ -75,9 +83,11 @@ What is approximated
   floor); hvacflex puts it on the air node unless ``interior_solar_fraction`` says otherwise
   (neither that nor ``solar_lost_fraction`` is exported).
 * HVAC: the fan's part-load curve is EnergyPlus's ``VariableSpeedMotorPressureReset`` (a
-  cubic), not the power law (Σṁ)^n; the chiller has EnergyPlus's part-load and
-  outdoor-temperature curves, pumps add their own power, whereas hvacflex's ``cop`` is a
-  constant for the whole plant. Flows in m³/s are mass flows over ρ = 1.2 kg/m³.
+  cubic; hvacflex uses the same curve where ``fan_part_load_coefficients`` says so, else the
+  power law (Σṁ)^n); the chiller has EnergyPlus's part-load and outdoor-temperature curves
+  (hvacflex's ``chiller`` model uses the same ones; without it a constant ``cop``); EnergyPlus
+  sizes its own chilled-water pump (office5: 1.78 kW, hvacflex 1.64 kW). Flows in m³/s are
+  mass flows over ρ = 1.2 kg/m³.
 """
 
 from __future__ import annotations
@@ -114,6 +124,10 @@ zones float freely: the free-float validation case)."""
 
 EXPORT_YEAR = 2014
 """Calendar year of the run period and the public holidays (the year of the market data)."""
+
+MAX_WARMUP_DAYS = 50
+"""EnergyPlus's limit on repeating the first day until the zones converge (its default 25
+is too few for office5's free-floating core, whose half slabs hold 225 MJ/K)."""
 
 TIMESTEPS_PER_HOUR = 6
 """Zone time steps per hour (10 min: three per 30-min control period)."""
@@ -194,7 +208,9 @@ def _simulation_objects(hvac: str) -> list[str]:
         idf_object("Version", ENERGYPLUS_VERSION),
         idf_object("SimulationControl", sizing, sizing, sizing, "No", "Yes", "No", 1),
         # MinimalShadowing: no self-shading, as hvacflex (and the placeholder geometry)
-        idf_object("Building", "hvacflex", 0.0, "City", 0.04, 0.4, "MinimalShadowing", 25, 6),
+        idf_object(
+            "Building", "hvacflex", 0.0, "City", 0.04, 0.4, "MinimalShadowing", MAX_WARMUP_DAYS, 6
+        ),
         idf_object("Timestep", TIMESTEPS_PER_HOUR),
         idf_object("GlobalGeometryRules", "UpperLeftCorner", "Counterclockwise", "Relative"),
         idf_object(
@@ -492,6 +508,9 @@ def _vav_objects(b: Building) -> list[str]:
     system = f"{b.name} air handler"
     supply_max_m3_s = sum(h.flow_max_kg_s) / RHO_AIR_KG_PER_M3
     outdoor_m3_s = h.outdoor_air_fraction * supply_max_m3_s
+    outdoor_control = "ProportionalMinimum"
+    if h.outdoor_air_kg_s is not None:  # the ventilation need, whatever the supply flow
+        outdoor_m3_s, outdoor_control = h.outdoor_air_kg_s / RHO_AIR_KG_PER_M3, "FixedMinimum"
     objects = [
         _thermostat(),
         idf_object(
@@ -501,15 +520,14 @@ def _vav_objects(b: Building) -> list[str]:
             "ChilledWater", ALWAYS_ON, SUPPLY_AIR_TEMP, h.supply_temp_degc,
             "None", None, None, None, None, None,  # heating coil
             "None", None, None, None, None, None,  # preheat coil
-            outdoor_m3_s, outdoor_m3_s, "ProportionalMinimum", None,
+            outdoor_m3_s, outdoor_m3_s, outdoor_control, None,
             "NoEconomizer", "NoLockout", None, None, None, None,
             None, None, "DrawThrough", "VariableSpeedMotorPressureReset", "CycleOnAny", None,
             "None", None, None, "None", "None", "None", None, None, "None",
         ),
         idf_object("HVACTemplate:Plant:ChilledWaterLoop", "chilled water loop", None,
                    "Intermittent", "Default", None, None, None, "VariablePrimaryNoSecondary"),
-        idf_object("HVACTemplate:Plant:Chiller", "chiller", "ElectricReciprocatingChiller",
-                   "autosize", h.cop, "AirCooled", 1),
+        _chiller_object(b),
     ]  # fmt: skip
     for i, zone in enumerate(b.zones):
         objects.append(
@@ -518,11 +536,37 @@ def _vav_objects(b: Building) -> list[str]:
                 h.flow_max_kg_s[i] / RHO_AIR_KG_PER_M3, None, None, "Scheduled",
                 h.ventilation_flow_kg_s[i] / h.flow_max_kg_s[i], None,
                 _minimum_flow_schedule(zone.name), "Flow/Zone", 0.0, 0.0,
-                h.outdoor_air_fraction * h.ventilation_flow_kg_s[i] / RHO_AIR_KG_PER_M3,
-                "None",
+                _zone_outdoor_air_m3_s(b, i), "None",
             )
         )  # fmt: skip
     return objects
+
+
+def _zone_outdoor_air_m3_s(b: Building, i: int) -> float:
+    """Zone i's share of the outdoor air [m³/s] (sizing): by floor area of the ventilation
+    need, or f_oa × its ventilation flow."""
+    h = b.hvac
+    if h.outdoor_air_kg_s is not None:
+        share = b.zones[i].floor_area_m2 / sum(z.floor_area_m2 for z in b.zones)
+        return h.outdoor_air_kg_s * share / RHO_AIR_KG_PER_M3
+    return h.outdoor_air_fraction * h.ventilation_flow_kg_s[i] / RHO_AIR_KG_PER_M3
+
+
+def _chiller_object(b: Building) -> str:
+    """The template's air-cooled chiller: hvacflex's capacity, reference COP and minimum part
+    load (below it the chiller cycles, ``Minimum Unloading Ratio`` = ``Minimum Part Load
+    Ratio``: no false loading) where the building has a chiller model; else autosized with
+    EnergyPlus's defaults (false loading below 25 %)."""
+    h = b.hvac
+    if h.chiller is None:
+        return idf_object("HVACTemplate:Plant:Chiller", "chiller", "ElectricReciprocatingChiller",
+                          "autosize", h.cop, "AirCooled", 1)  # fmt: skip
+    c = h.chiller
+    return idf_object(
+        "HVACTemplate:Plant:Chiller", "chiller", "ElectricReciprocatingChiller",
+        c.capacity_kw * W_PER_KW, c.reference_cop, "AirCooled", 1, 1.0,
+        c.min_part_load_ratio, 1.0, 1.0, c.min_part_load_ratio,
+    )  # fmt: skip
 
 
 def _ideal_objects(b: Building) -> list[str]:

@@ -1,11 +1,11 @@
 """Heterogeneous fleets from the shipped building templates, written as TOML.
 
 :func:`generate_fleet` draws, per building and from one seed: a floor-area scale (zone,
-wall and window areas and the air flows scale with it), an orientation (every azimuth
-rotated), a window-to-wall share of the façades, a light or heavy construction (exterior
-wall concrete and internal mass), the plant COP, the occupancy start hour (the office
-schedule shifts with it) and one of three comfort-band variants. Each description is
-validated by the building schema before it is written.
+wall and window areas, the air flows and a chiller's capacity and pump scale with it), an
+orientation (every azimuth rotated), a window-to-wall share of the façades, a light or heavy
+construction (exterior wall concrete and internal mass), the plant COP, the occupancy start
+hour (the office schedule shifts with it) and one of three comfort-band variants. Each
+description is validated by the building schema before it is written.
 """
 
 from __future__ import annotations
@@ -119,6 +119,11 @@ def _variant(template: dict[str, Any], rng: np.random.Generator, name: str) -> d
         if isinstance(hvac.get(key), dict):
             hvac[key] = {z: round(v * scale, 4) for z, v in hvac[key].items()}
     hvac["cop"] = cop
+    chiller = hvac.get("chiller")
+    if isinstance(chiller, dict):  # the plant is sized to the floor, like the air flows
+        for key in ("capacity_kw", "pump_design_kw"):
+            if key in chiller:
+                chiller[key] = round(chiller[key] * scale, 3)
     building_from_dict(raw, source=f"generated building {name}")
     return raw
 

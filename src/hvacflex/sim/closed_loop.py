@@ -285,7 +285,10 @@ class ClosedLoop:
         d_real = d_data + w_box
         w = (d_data - d_hat) + w_box
         disturbance = Disturbance(
-            d_real, float(d_real[self._outdoor]), float(exo.outdoor_humidity_ratio_kg_per_kg[k])
+            d_real,
+            float(d_real[self._outdoor]),
+            float(exo.outdoor_humidity_ratio_kg_per_kg[k]),
+            latent_gain_w=float(exo.occupant_latent_w[k]),
         )
         period = self._plant_period(decision, disturbance)
         step_model = self.control.step_model

@@ -84,6 +84,7 @@ class Disturbance:
         solar [W/m²], internal gains [W]; :mod:`hvacflex.building.channels`).
     outdoor_temp_degc : outdoor dry-bulb temperature [°C].
     outdoor_humidity_ratio_kg_per_kg : outdoor humidity ratio [kg/kg].
+    latent_gain_w : the occupants' latent gain, all zones [W] (a coil load, not in ``d``).
 
     A plant with its own weather (EnergyPlus reads the EPW) may ignore these.
     """
@@ -91,6 +92,7 @@ class Disturbance:
     d: FloatArray
     outdoor_temp_degc: float
     outdoor_humidity_ratio_kg_per_kg: float
+    latent_gain_w: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -203,6 +205,7 @@ class RCPlant:
                     mean,
                     disturbance.outdoor_temp_degc,
                     disturbance.outdoor_humidity_ratio_kg_per_kg,
+                    latent_gain_w=disturbance.latent_gain_w,
                 )
             )
         )

@@ -278,6 +278,7 @@ def rc_scheduled_flow_run(
         (temps[:-1] + temps[1:]) / 2,
         np.asarray(exo.outdoor_temp_degc)[:steps],
         np.asarray(exo.outdoor_humidity_ratio_kg_per_kg)[:steps],
+        latent_gain_w=np.asarray(exo.occupant_latent_w)[:steps],
     )
     per_period = pd.DataFrame(
         {
@@ -411,6 +412,7 @@ def rc_thermostat_run(
         (temps + ends) / 2,
         np.asarray(setup.exogenous.outdoor_temp_degc)[:steps],
         np.asarray(setup.exogenous.outdoor_humidity_ratio_kg_per_kg)[:steps],
+        latent_gain_w=np.asarray(setup.exogenous.occupant_latent_w)[:steps],
     )
     per_period = pd.DataFrame(
         {
