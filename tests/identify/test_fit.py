@@ -99,6 +99,9 @@ def test_the_power_model_recovers_the_metered_relation(trend: Path) -> None:
     assert power is not None
     assert power.kw_per_kw_cooling == pytest.approx(0.3, abs=1e-3)  # temps carry 0.02 K noise
     assert power.kw_per_k_outdoor == pytest.approx(0.05, abs=1e-3)
+    # the metered relation has no occupied terms: the fit finds none
+    assert power.occupied_kw == pytest.approx(0.0, abs=0.05)
+    assert power.kw_per_kg_s_k_outdoor_occupied == pytest.approx(0.0, abs=0.01)
     daily = evaluate_power(power, data, inputs, (5 * 48, 6 * 48))
     assert len(daily) == 1 and abs(daily["error_pct"].iloc[0]) < 0.5
 

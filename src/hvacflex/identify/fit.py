@@ -515,26 +515,54 @@ def evaluate(result: FitResult, data: FitData, test: tuple[int, int]) -> pd.Data
 
 
 def fit_power_model(data: TrendData, inputs: FitData, train: tuple[int, int]) -> PowerModel | None:
-    """Least-squares fit of HVAC electricity against delivered cooling and outdoor
-    temperature on the training periods (:class:`~hvacflex.identify.model_file.PowerModel`);
-    None when the data has no ``hvac_power_kw`` or it is 0 throughout the training."""
+    """Least-squares fit of HVAC electricity against delivered cooling, outdoor temperature,
+    the occupied share and the occupied outdoor-air term ``occ · Σṁ (To − Ta)`` on the
+    training periods (:class:`~hvacflex.identify.model_file.PowerModel`); None when the data
+    has no ``hvac_power_kw`` or it is 0 throughout the training."""
     first, end = train
     if not data.has(HVAC_POWER) or not np.any(data.column(HVAC_POWER)[first:end]):
         return None  # no meter, or nothing on it (ideal loads are not metered)
-    regressors = _power_regressors(inputs)[first:end]
+    regressors = _power_regressors(data, inputs)[first:end]
     coefficients, *_ = np.linalg.lstsq(regressors, data.column(HVAC_POWER)[first:end], rcond=None)
-    base, per_cooling, per_outdoor = (float(c) for c in coefficients)
-    return PowerModel(base_kw=base, kw_per_kw_cooling=per_cooling, kw_per_k_outdoor=per_outdoor)
+    base, per_cooling, per_outdoor, occupied, per_outdoor_air = (float(c) for c in coefficients)
+    return PowerModel(
+        base_kw=base,
+        kw_per_kw_cooling=per_cooling,
+        kw_per_k_outdoor=per_outdoor,
+        occupied_kw=occupied,
+        kw_per_kg_s_k_outdoor_occupied=per_outdoor_air,
+    )
 
 
-def _power_regressors(inputs: FitData) -> FloatArray:
-    return np.column_stack([np.ones(len(inputs.y)), cooling_kw(inputs).sum(axis=1), inputs.u[:, 0]])
+def _power_regressors(data: TrendData, inputs: FitData) -> FloatArray:
+    """(T, 5) ``[1, ΣQ [kW], To [°C], occ [–], occ · Σṁ (To − Ta) [kg/s·K]]``."""
+    flow = data.zone_series("supply_flow", inputs.zones)
+    assert flow is not None
+    outdoor, occupied = inputs.u[:, 0], inputs.u[:, 2]
+    outdoor_air = (flow * (outdoor[:, None] - inputs.y)).sum(axis=1)
+    return np.column_stack(
+        [
+            np.ones(len(inputs.y)),
+            cooling_kw(inputs).sum(axis=1),
+            outdoor,
+            occupied,
+            occupied * outdoor_air,
+        ]
+    )
 
 
-def power_kw(power: PowerModel, inputs: FitData) -> FloatArray:
+def power_kw(power: PowerModel, data: TrendData, inputs: FitData) -> FloatArray:
     """(T,) the power model's HVAC electricity [kW]."""
-    coefficients = np.array([power.base_kw, power.kw_per_kw_cooling, power.kw_per_k_outdoor])
-    result: FloatArray = _power_regressors(inputs) @ coefficients
+    coefficients = np.array(
+        [
+            power.base_kw,
+            power.kw_per_kw_cooling,
+            power.kw_per_k_outdoor,
+            power.occupied_kw,
+            power.kw_per_kg_s_k_outdoor_occupied,
+        ]
+    )
+    result: FloatArray = _power_regressors(data, inputs) @ coefficients
     return result
 
 
@@ -546,7 +574,7 @@ def evaluate_power(
     starts = _day_starts(inputs.index, *test)
     hours = PERIOD_S_HOURS
     measured = data.column(HVAC_POWER)
-    predicted = power_kw(power, inputs)
+    predicted = power_kw(power, data, inputs)
     rows = []
     for k in starts:
         day = slice(int(k), int(k) + PERIODS_PER_DAY)
