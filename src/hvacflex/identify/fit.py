@@ -15,9 +15,10 @@ errors, plus a penalty on estimated mass temperatures outside the measured range
 :data:`INITIAL` (log scale for the positive ones). The first day only warms the filter up.
 
 The evaluation (:func:`evaluate`) runs the filter over the whole file and reports, on the
-test days, per zone: ``rmse_1step_k`` (the filter's one-step predictions), ``rmse_24h_k``
-(24-h simulations from each midnight's estimated state) and ``bias_k`` (mean 24-h error,
-predicted − measured).
+test days, per zone: ``rmse_1step_k`` (the one-step predictor: the filter with a heat-gain
+state per zone, its noise levels tuned on the training days, :func:`tune_filter`),
+``rmse_24h_k`` (24-h simulations from each midnight's estimated state) and ``bias_k`` (mean
+24-h error, predicted − measured).
 """
 
 from __future__ import annotations
