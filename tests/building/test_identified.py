@@ -22,6 +22,7 @@ from hvacflex.building.io import building_from_dict, load_building
 from hvacflex.errors import BuildingConfigError
 from hvacflex.identify.greybox import GreyBoxParameters, discretize
 from hvacflex.identify.model_file import AirSystem, IdentifiedModel, write_identified_model
+from hvacflex.sim.plant import Actuation, Disturbance, RCPlant
 from hvacflex.units import CP_AIR_J_PER_KG_K
 
 ZONES = np.array(
@@ -167,3 +168,23 @@ def test_a_run_starts_the_hidden_nodes_at_their_estimated_temperatures(model_pat
         out=model_path.parent / "run",
     )
     assert run.summary["fallback_count"] == 0 and run.frame["power_kw"].notna().all()
+
+
+def test_the_rc_plant_meters_the_occupied_terms_from_the_gain_channel(model_path: Path) -> None:
+    building = load_building(model_path)
+    rc = building.identified
+    assert rc is not None
+    plant = RCPlant(building)
+    names = plant.plant.network.channel_names
+    outdoor, flow = 31.0, np.array([0.3, 0.5])
+    powers = []
+    for people in (0.0, 1.0):
+        d = np.array([outdoor if n.startswith("outdoor") else 0.0 for n in names])
+        d[[i for i, n in enumerate(names) if n.startswith("internal_gain")]] = 1000.0 * people
+        d[[i for i, n in enumerate(names) if n == "constant"]] = 1.0
+        plant.reset(25.0)
+        obs = plant.step(Actuation(flow_kg_s=flow), Disturbance(d, outdoor, 0.015), 1800.0)
+        expected = identified_power_kw(rc, flow, obs.zone_mean_temp_degc, outdoor, people)
+        assert obs.power_kw == pytest.approx(expected, rel=1e-9)
+        powers.append(obs.power_kw)
+    assert powers[1] > powers[0] + 0.7  # the occupied constant and outdoor air
