@@ -14,6 +14,7 @@ from hvacflex.building.identified import (
     IdentifiedPower,
     cooling_kw,
     identified_affine_power,
+    identified_occupied_share,
     identified_power_kw,
     initial_node_temps_degc,
 )
@@ -21,6 +22,7 @@ from hvacflex.building.io import building_from_dict, load_building
 from hvacflex.errors import BuildingConfigError
 from hvacflex.identify.greybox import GreyBoxParameters, discretize
 from hvacflex.identify.model_file import AirSystem, IdentifiedModel, write_identified_model
+from hvacflex.sim.plant import Actuation, Disturbance, RCPlant
 from hvacflex.units import CP_AIR_J_PER_KG_K
 
 ZONES = np.array(
@@ -31,7 +33,13 @@ ZONES = np.array(
 )
 PARAMETERS = GreyBoxParameters(ZONES, np.array([[0, 1]], dtype=np.int64), np.array([0.3]))
 SUPPLY_TEMP_DEGC = 13.0
-POWER = IdentifiedPower(base_kw=1.2, kw_per_kw_cooling=0.35, kw_per_k_outdoor=0.04)
+POWER = IdentifiedPower(
+    base_kw=1.2,
+    kw_per_kw_cooling=0.35,
+    kw_per_k_outdoor=0.04,
+    occupied_kw=0.7,
+    kw_per_kg_s_k_outdoor_occupied=0.15,
+)
 
 
 @pytest.fixture
@@ -76,6 +84,23 @@ def test_the_power_model_in_the_lp_matches_the_plants_at_the_reference(model_pat
     assert p0[0] + p[0] @ flow == pytest.approx(by_hand, rel=1e-12)
     assert identified_power_kw(rc, flow, np.full(2, t0), outdoor) == pytest.approx(by_hand)
     np.testing.assert_allclose(cooling_kw(flow, np.full(2, t0), SUPPLY_TEMP_DEGC), cooling)
+
+
+def test_the_occupied_outdoor_air_term_is_in_the_lp_and_the_plant(model_path: Path) -> None:
+    rc = load_building(model_path).identified
+    assert rc is not None
+    flow = np.array([0.3, 0.5])
+    t0, outdoor = 24.5, 31.0
+    p0, p = identified_affine_power(rc, np.array([outdoor, outdoor]), t0, np.array([0.0, 1.0]))
+    cooling = flow * CP_AIR_J_PER_KG_K * (t0 - SUPPLY_TEMP_DEGC) / 1000.0
+    vacant = 1.2 + 0.35 * cooling.sum() + 0.04 * outdoor
+    occupied = vacant + 0.7 + 0.15 * (flow * (outdoor - t0)).sum()
+    assert p0[0] + p[0] @ flow == pytest.approx(vacant, rel=1e-12)
+    assert p0[1] + p[1] @ flow == pytest.approx(occupied, rel=1e-12)
+    plant = identified_power_kw(rc, flow, np.full(2, t0), outdoor, occupied=1.0)
+    assert plant == pytest.approx(occupied)
+    channels = ("outdoor_temp_degc", "internal_gain_a_w", "internal_gain_b_w")
+    assert identified_occupied_share(channels, np.array([30.0, 500.0, 500.0])) == 0.5
 
 
 def test_an_identified_building_refuses_walls_and_mismatched_zones() -> None:
@@ -143,3 +168,23 @@ def test_a_run_starts_the_hidden_nodes_at_their_estimated_temperatures(model_pat
         out=model_path.parent / "run",
     )
     assert run.summary["fallback_count"] == 0 and run.frame["power_kw"].notna().all()
+
+
+def test_the_rc_plant_meters_the_occupied_terms_from_the_gain_channel(model_path: Path) -> None:
+    building = load_building(model_path)
+    rc = building.identified
+    assert rc is not None
+    plant = RCPlant(building)
+    names = plant.plant.network.channel_names
+    outdoor, flow = 31.0, np.array([0.3, 0.5])
+    powers = []
+    for people in (0.0, 1.0):
+        d = np.array([outdoor if n.startswith("outdoor") else 0.0 for n in names])
+        d[[i for i, n in enumerate(names) if n.startswith("internal_gain")]] = 1000.0 * people
+        d[[i for i, n in enumerate(names) if n == "constant"]] = 1.0
+        plant.reset(25.0)
+        obs = plant.step(Actuation(flow_kg_s=flow), Disturbance(d, outdoor, 0.015), 1800.0)
+        expected = identified_power_kw(rc, flow, obs.zone_mean_temp_degc, outdoor, people)
+        assert obs.power_kw == pytest.approx(expected, rel=1e-9)
+        powers.append(obs.power_kw)
+    assert powers[1] > powers[0] + 0.7  # the occupied constant and outdoor air

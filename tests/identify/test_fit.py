@@ -11,11 +11,19 @@ import pytest
 
 from hvacflex.errors import InputError
 from hvacflex.identify.fit import (
+    FitData,
     evaluate,
     evaluate_power,
     fit_inputs,
     fit_model,
     fit_power_model,
+    tune_filter,
+)
+from hvacflex.identify.greybox import (
+    FilterNoise,
+    GreyBoxParameters,
+    discretize,
+    one_step_predictions,
 )
 from hvacflex.identify.trend import read_trend, write_trend
 
@@ -45,6 +53,45 @@ def test_the_fit_predicts_a_model_of_its_own_structure(trend: Path) -> None:
     assert np.isfinite(result.standard_errors.zone[:, 0]).all()
 
 
+def test_the_filter_tuned_on_data_with_a_hidden_gain_carries_a_gain_state() -> None:
+    zone = np.array(
+        [
+            [800.0, 3.0e4, 0.05, 0.8, 0.03, 3.0, 6.0, 1.5, 0.4],
+            [1200.0, 6.0e4, 0.08, 1.2, 0.05, 5.0, 8.0, 2.5, 0.2],
+        ]
+    )
+    model = discretize(GreyBoxParameters(zone, np.array([[0, 1]]), np.array([0.3])))
+    rng = np.random.default_rng(4)
+    steps = 6 * 48
+    index = pd.date_range("2014-03-03", periods=steps, freq="30min", tz="Asia/Singapore")
+    u = np.column_stack(
+        [
+            28 + rng.normal(0, 1, steps),
+            rng.uniform(0, 0.8, steps),
+            rng.integers(0, 2, steps),
+            np.ones(steps),
+            rng.uniform(0, 3, (steps, 2)),
+        ]
+    )
+    hidden_kw = np.where((np.arange(steps) // 40) % 2 == 0, 1.0, -0.5)  # both zones
+    x, y = np.full(4, 25.0), np.empty((steps, 2))
+    for k in range(steps):
+        u_true = u[k].copy()
+        u_true[4:] -= hidden_kw[k]
+        y[k] = model.c_mean @ x + model.d_mean @ u_true
+        x = model.a @ x + model.b @ u_true
+    data = FitData(index=index, zones=ZONES, y=y, u=u)
+    starts = np.arange(1, 6) * 48
+    noise = tune_filter(model, data, starts)
+    assert noise.gain_kw > 0
+    rows = slice(48, steps)
+
+    def mse(n: FilterNoise) -> float:
+        return float(((one_step_predictions(model, y, u, n)[rows] - y[rows]) ** 2).mean())
+
+    assert mse(noise) < 0.5 * mse(FilterNoise())
+
+
 def test_the_power_model_recovers_the_metered_relation(trend: Path) -> None:
     data = read_trend(trend)
     inputs = fit_inputs(data, ZONES)
@@ -52,6 +99,9 @@ def test_the_power_model_recovers_the_metered_relation(trend: Path) -> None:
     assert power is not None
     assert power.kw_per_kw_cooling == pytest.approx(0.3, abs=1e-3)  # temps carry 0.02 K noise
     assert power.kw_per_k_outdoor == pytest.approx(0.05, abs=1e-3)
+    # the metered relation has no occupied terms: the fit finds none
+    assert power.occupied_kw == pytest.approx(0.0, abs=0.05)
+    assert power.kw_per_kg_s_k_outdoor_occupied == pytest.approx(0.0, abs=0.01)
     daily = evaluate_power(power, data, inputs, (5 * 48, 6 * 48))
     assert len(daily) == 1 and abs(daily["error_pct"].iloc[0]) < 0.5
 

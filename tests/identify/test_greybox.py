@@ -13,10 +13,12 @@ from hvacflex.identify.greybox import (
     PROCESS_STD_AIR_K,
     PROCESS_STD_MASS_K,
     ZONE_PARAMETERS,
+    FilterNoise,
     GreyBoxParameters,
     continuous_matrices,
     discretize,
     filter_states,
+    one_step_predictions,
     simulate_windows,
     time_constants_s,
 )
@@ -163,3 +165,43 @@ def test_a_boundary_zone_enters_the_balance_and_the_exponential() -> None:
     big[:n, :n], big[:n, n:] = a_c * DT_S, b_c * DT_S
     step = scipy.linalg.expm(big)
     np.testing.assert_allclose(model.b, step[:n, n:], atol=1e-12)
+
+
+def _driven_inputs(steps: int, seed: int) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    return np.column_stack(
+        [
+            30 + rng.normal(0, 1, steps),
+            rng.uniform(0, 0.8, steps),
+            rng.integers(0, 2, steps),
+            np.ones(steps),
+            rng.uniform(0, 3, (steps, 2)),
+        ]
+    )
+
+
+def test_without_a_gain_state_the_predictor_is_the_plain_filter() -> None:
+    model = discretize(_random_parameters(2, seed=5), DT_S)
+    u = _driven_inputs(200, seed=1)
+    y = 25.0 + np.random.default_rng(2).normal(0, 0.5, (200, 2))
+    states = filter_states(model, y, u)
+    plain = states @ model.c_mean.T + u @ model.d_mean.T
+    np.testing.assert_allclose(one_step_predictions(model, y, u, FilterNoise()), plain, atol=1e-9)
+
+
+def test_the_gain_state_learns_a_heat_gain_the_inputs_miss() -> None:
+    model = discretize(_random_parameters(2, seed=7), DT_S)
+    steps = 300
+    u = _driven_inputs(steps, seed=3)
+    hidden_kw = np.where(np.arange(steps) % 100 < 50, 1.5, -1.0)  # a step gain in zone 0
+    x, y = np.array([24.0, 25.0, 26.0, 26.0]), np.empty((steps, 2))
+    for k in range(steps):
+        u_true = u[k].copy()
+        u_true[4] -= hidden_kw[k]  # a gain is negative cooling
+        y[k] = model.c_mean @ x + model.d_mean @ u_true
+        x = model.a @ x + model.b @ u_true
+    plain = one_step_predictions(model, y, u, FilterNoise())
+    augmented = one_step_predictions(model, y, u, FilterNoise(gain_kw=0.5, gain_persistence=0.95))
+    rmse_plain = np.sqrt(((plain[50:, 0] - y[50:, 0]) ** 2).mean())
+    rmse_aug = np.sqrt(((augmented[50:, 0] - y[50:, 0]) ** 2).mean())
+    assert rmse_aug < 0.5 * rmse_plain

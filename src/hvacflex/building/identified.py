@@ -102,12 +102,18 @@ class IdentifiedBoundary:
 
 @dataclass(frozen=True)
 class IdentifiedPower:
-    """HVAC electricity [kW] ≈ ``base_kw + kw_per_kw_cooling · ΣQ + kw_per_k_outdoor · To``
-    (period means; Q the delivered sensible cooling [kW], To the outdoor temperature [°C])."""
+    """HVAC electricity [kW] ≈ ``base_kw + kw_per_kw_cooling · ΣQ + kw_per_k_outdoor · To
+    + occupied_kw · occ + kw_per_kg_s_k_outdoor_occupied · occ · Σṁ (To − Ta)``
+    (period means; Q the delivered sensible cooling [kW], To the outdoor temperature [°C],
+    occ the occupied share [–], ṁ the zone supply flows [kg/s], Ta the zone temperatures
+    [°C]: the last term is the outdoor air the air system mixes in while the building is
+    occupied, which a weekend without it does not draw)."""
 
     base_kw: float
     kw_per_kw_cooling: float
     kw_per_k_outdoor: float
+    occupied_kw: float = 0.0
+    kw_per_kg_s_k_outdoor_occupied: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -146,27 +152,49 @@ def identified_power_kw(
     flow_kg_s: npt.ArrayLike,
     zone_temp_degc: npt.ArrayLike,
     outdoor_temp_degc: float,
+    occupied: float = 0.0,
 ) -> float:
     """The power model's HVAC electricity [kW] for (m,) flows [kg/s] and zone temperatures
-    [°C] (0 without a power model)."""
+    [°C] at an occupied share ``occupied`` [–] (0 without a power model)."""
     if rc.power is None:
         return 0.0
     total = float(cooling_kw(flow_kg_s, zone_temp_degc, rc.supply_temp_degc).sum())
+    flow = np.asarray(flow_kg_s, dtype=np.float64)
+    outdoor_air = float((flow * (outdoor_temp_degc - np.asarray(zone_temp_degc))).sum())
     p = rc.power
     return max(
-        p.base_kw + p.kw_per_kw_cooling * total + p.kw_per_k_outdoor * outdoor_temp_degc, 0.0
+        p.base_kw
+        + p.kw_per_kw_cooling * total
+        + p.kw_per_k_outdoor * outdoor_temp_degc
+        + occupied * (p.occupied_kw + p.kw_per_kg_s_k_outdoor_occupied * outdoor_air),
+        0.0,
     )
 
 
+def identified_occupied_share(channel_names: tuple[str, ...], d: npt.ArrayLike) -> float:
+    """The occupied share [–] an identified building's disturbances ``d`` (nd,) carry: its
+    first ``internal_gain`` channel over :data:`GAIN_CHANNEL_PEAK_W` (0 without one)."""
+    values = np.asarray(d, dtype=np.float64)
+    for i, name in enumerate(channel_names):
+        if name.startswith("internal_gain"):
+            return float(np.clip(values[i] / GAIN_CHANNEL_PEAK_W, 0.0, 1.0))
+    return 0.0
+
+
 def identified_affine_power(
-    rc: IdentifiedRC, outdoor_temp_degc: npt.ArrayLike, zone_temp_ref_degc: float
+    rc: IdentifiedRC,
+    outdoor_temp_degc: npt.ArrayLike,
+    zone_temp_ref_degc: float,
+    occupied: npt.ArrayLike | None = None,
 ) -> tuple[FloatArray, FloatArray]:
-    """The LP's ``P_k = p0_k + p_kᵀ u_k`` of the power model, the cooling taken at ``T₀``.
+    """The LP's ``P_k = p0_k + p_kᵀ u_k`` of the power model, the cooling and the outdoor
+    air taken at ``T₀``.
 
     Parameters
     ----------
     outdoor_temp_degc : (N,) forecast outdoor temperature [°C].
     zone_temp_ref_degc : T₀ [°C], where ``Q_i = ṁ_i c_p (T₀ − T_s)``.
+    occupied : (N,) forecast occupied share [–] (None: 0).
 
     Returns
     -------
@@ -179,8 +207,12 @@ def identified_affine_power(
     per_kg_s = rc.power.kw_per_kw_cooling * float(
         cooling_kw(1.0, zone_temp_ref_degc, rc.supply_temp_degc)
     )
-    p0: FloatArray = rc.power.base_kw + rc.power.kw_per_k_outdoor * outdoor
-    p: FloatArray = np.full((outdoor.shape[0], m), max(per_kg_s, 0.0))
+    occ = np.zeros_like(outdoor) if occupied is None else np.asarray(occupied, dtype=np.float64)
+    power = rc.power
+    p0: FloatArray = power.base_kw + power.kw_per_k_outdoor * outdoor + power.occupied_kw * occ
+    outdoor_air_k = occ * (outdoor - zone_temp_ref_degc)
+    per_flow = per_kg_s + power.kw_per_kg_s_k_outdoor_occupied * outdoor_air_k
+    p: FloatArray = np.repeat(np.maximum(per_flow, 0.0)[:, None], m, axis=1)
     return p0, p
 
 

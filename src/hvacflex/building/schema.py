@@ -48,7 +48,8 @@ A building identified from trend data (``hvacflex identify fit``) has ``[[zones]
     [[identified.couplings]]  zones = [Z1, Z2], ua_kw_per_k
     [[identified.boundaries]] name, c_kj_per_k, ua_out_kw_per_k, solar_m2,
                               occupied_gain_kw, ua_zone_kw_per_k = {Z = …}, temp_degc
-    [identified.power_model]  base_kw, kw_per_kw_cooling, kw_per_k_outdoor
+    [identified.power_model]  base_kw, kw_per_kw_cooling, kw_per_k_outdoor[, occupied_kw,
+                              kw_per_kg_s_k_outdoor_occupied]
 
 The optional keys added for the BESTEST validation (infiltration, radiative split of gains,
 interior solar distribution, sky long-wave exchange) all default to the original model.
@@ -324,6 +325,8 @@ class IdentifiedPowerSpec(Spec):
     base_kw: Number
     kw_per_kw_cooling: Number
     kw_per_k_outdoor: Number
+    occupied_kw: Number = 0.0
+    kw_per_kg_s_k_outdoor_occupied: Number = 0.0
 
 
 class IdentifiedSpec(Spec):

@@ -339,7 +339,10 @@ class MPCController(Controller):
         identified = self._building.identified
         if identified is not None:  # the power model fitted to the building's meter
             p0, p = identified_affine_power(
-                identified, d_hat[:, self._outdoor_index], self._temp_ref_degc
+                identified,
+                d_hat[:, self._outdoor_index],
+                self._temp_ref_degc,
+                forecast.occupied[:horizon].astype(np.float64),
             )
             return p0, p, p
         latent = forecast.occupant_latent_w[:horizon]

@@ -15,15 +15,16 @@ errors, plus a penalty on estimated mass temperatures outside the measured range
 :data:`INITIAL` (log scale for the positive ones). The first day only warms the filter up.
 
 The evaluation (:func:`evaluate`) runs the filter over the whole file and reports, on the
-test days, per zone: ``rmse_1step_k`` (the filter's one-step predictions), ``rmse_24h_k``
-(24-h simulations from each midnight's estimated state) and ``bias_k`` (mean 24-h error,
-predicted − measured).
+test days, per zone: ``rmse_1step_k`` (the one-step predictor: the filter with a heat-gain
+state per zone, its noise levels tuned on the training days, :func:`tune_filter`),
+``rmse_24h_k`` (24-h simulations from each midnight's estimated state) and ``bias_k`` (mean
+24-h error, predicted − measured).
 """
 
 from __future__ import annotations
 
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import pandas as pd
@@ -34,10 +35,12 @@ from hvacflex.identify.greybox import (
     EXOGENOUS_INPUTS,
     ZONE_PARAMETERS,
     DiscreteModel,
+    FilterNoise,
     FloatArray,
     GreyBoxParameters,
     discretize,
     filter_states,
+    one_step_predictions,
     simulate_windows,
     time_constants_s,
 )
@@ -74,6 +77,12 @@ BOUND_TOLERANCE = 1e-4
 """A parameter within this share of its (log) range from a bound is reported at the bound."""
 TIME_CONSTANT_RANGE_S = (60.0, 28 * 86400.0)
 """Physically plausible time constants (a minute … four weeks) [s]; outside: a warning."""
+FILTER_AIR_K = (0.1, 0.3, 1.0)
+FILTER_MASS_K = (0.02, 0.1, 0.3)
+FILTER_GAIN_KW = (0.0, 0.1, 0.3, 1.0)
+FILTER_GAIN_PERSISTENCE = (0.5, 0.8, 0.9, 0.95)
+"""The one-step predictor's noise levels searched (:func:`tune_filter`): air and mass process
+noise [K], the unmeasured gain's noise [kW] and persistence [–]."""
 
 INITIAL: dict[str, float] = {
     "c_air_kj_per_k": 2.0e3,
@@ -264,17 +273,25 @@ def _day_starts(index: pd.DatetimeIndex, first: int, last: int) -> np.ndarray:
 
 
 def predictions(
-    model: DiscreteModel, data: FitData, starts: np.ndarray, states: FloatArray | None = None
+    model: DiscreteModel,
+    data: FitData,
+    starts: np.ndarray,
+    states: FloatArray | None = None,
+    noise: FilterNoise | None = None,
 ) -> tuple[FloatArray, FloatArray, FloatArray]:
     """One-step and 24-h predictions on the days starting at ``starts`` (``states``: the
-    filter's estimates (T, n), if already computed).
+    filter's estimates (T, n), if already computed; ``noise``: the one-step predictor's
+    levels, default the plain filter's).
 
     Returns
     -------
     one_step : (D, 48, m), simulated : (D, 48, m), measured : (D, 48, m) [°C].
     """
     states = filter_states(model, data.y, data.u) if states is None else states
-    one_step_all = np.einsum("ij,tj->ti", model.c_mean, states) + data.u @ model.d_mean.T
+    if noise is None:
+        one_step_all = np.einsum("ij,tj->ti", model.c_mean, states) + data.u @ model.d_mean.T
+    else:
+        one_step_all = one_step_predictions(model, data.y, data.u, noise)
     rows = starts[:, None] + np.arange(PERIODS_PER_DAY)[None, :]
     simulated = simulate_windows(model, states[starts], data.u[rows], PERIODS_PER_DAY)
     return one_step_all[rows], simulated, data.y[rows]
@@ -321,6 +338,7 @@ class FitResult:
         from the Jacobian at the optimum (NaN where not identifiable).
     converged : whether ``least_squares`` reported convergence; message : its message.
     warnings : (w,) non-physical or doubtful findings (also raised as warnings).
+    filter_noise : the one-step predictor's noise levels, tuned on the training days.
     """
 
     zones: tuple[str, ...]
@@ -329,6 +347,7 @@ class FitResult:
     converged: bool
     message: str
     warnings: tuple[str, ...]
+    filter_noise: FilterNoise = field(default_factory=FilterNoise)
 
 
 def _standard_errors(
@@ -448,7 +467,26 @@ def fit_model(data: FitData, couplings: list[tuple[int, int]], train: tuple[int,
         converged=bool(result.success),
         message=str(result.message),
         warnings=tuple(found),
+        filter_noise=tune_filter(discretize(parameters), window, starts),
     )
+
+
+def tune_filter(model: DiscreteModel, data: FitData, starts: np.ndarray) -> FilterNoise:
+    """The noise levels (grid of :data:`FILTER_AIR_K` … :data:`FILTER_GAIN_PERSISTENCE`) whose
+    one-step predictor has the least mean squared error over the zones on the days starting at
+    ``starts`` (the training days): the filter's covariances estimated from the data."""
+    rows = (starts[:, None] + np.arange(PERIODS_PER_DAY)[None, :]).ravel()
+    best, best_mse = FilterNoise(), np.inf
+    for air_k in FILTER_AIR_K:
+        for mass_k in FILTER_MASS_K:
+            for gain_kw in FILTER_GAIN_KW:
+                for rho in FILTER_GAIN_PERSISTENCE if gain_kw > 0 else (0.0,):
+                    noise = FilterNoise(air_k, mass_k, gain_kw, rho)
+                    predicted = one_step_predictions(model, data.y, data.u, noise)
+                    mse = float(((predicted[rows] - data.y[rows]) ** 2).mean())
+                    if mse < best_mse:
+                        best, best_mse = noise, mse
+    return best
 
 
 def evaluate(result: FitResult, data: FitData, test: tuple[int, int]) -> pd.DataFrame:
@@ -464,7 +502,7 @@ def evaluate(result: FitResult, data: FitData, test: tuple[int, int]) -> pd.Data
             "no whole test day", field="--test", hint="give at least one whole day to test on"
         )
     model = discretize(result.parameters)
-    one_step, simulated, measured = predictions(model, data, starts)
+    one_step, simulated, measured = predictions(model, data, starts, noise=result.filter_noise)
     error_1, error_24 = one_step - measured, simulated - measured
     return pd.DataFrame(
         {
@@ -478,26 +516,54 @@ def evaluate(result: FitResult, data: FitData, test: tuple[int, int]) -> pd.Data
 
 
 def fit_power_model(data: TrendData, inputs: FitData, train: tuple[int, int]) -> PowerModel | None:
-    """Least-squares fit of HVAC electricity against delivered cooling and outdoor
-    temperature on the training periods (:class:`~hvacflex.identify.model_file.PowerModel`);
-    None when the data has no ``hvac_power_kw`` or it is 0 throughout the training."""
+    """Least-squares fit of HVAC electricity against delivered cooling, outdoor temperature,
+    the occupied share and the occupied outdoor-air term ``occ · Σṁ (To − Ta)`` on the
+    training periods (:class:`~hvacflex.identify.model_file.PowerModel`); None when the data
+    has no ``hvac_power_kw`` or it is 0 throughout the training."""
     first, end = train
     if not data.has(HVAC_POWER) or not np.any(data.column(HVAC_POWER)[first:end]):
         return None  # no meter, or nothing on it (ideal loads are not metered)
-    regressors = _power_regressors(inputs)[first:end]
+    regressors = _power_regressors(data, inputs)[first:end]
     coefficients, *_ = np.linalg.lstsq(regressors, data.column(HVAC_POWER)[first:end], rcond=None)
-    base, per_cooling, per_outdoor = (float(c) for c in coefficients)
-    return PowerModel(base_kw=base, kw_per_kw_cooling=per_cooling, kw_per_k_outdoor=per_outdoor)
+    base, per_cooling, per_outdoor, occupied, per_outdoor_air = (float(c) for c in coefficients)
+    return PowerModel(
+        base_kw=base,
+        kw_per_kw_cooling=per_cooling,
+        kw_per_k_outdoor=per_outdoor,
+        occupied_kw=occupied,
+        kw_per_kg_s_k_outdoor_occupied=per_outdoor_air,
+    )
 
 
-def _power_regressors(inputs: FitData) -> FloatArray:
-    return np.column_stack([np.ones(len(inputs.y)), cooling_kw(inputs).sum(axis=1), inputs.u[:, 0]])
+def _power_regressors(data: TrendData, inputs: FitData) -> FloatArray:
+    """(T, 5) ``[1, ΣQ [kW], To [°C], occ [–], occ · Σṁ (To − Ta) [kg/s·K]]``."""
+    flow = data.zone_series("supply_flow", inputs.zones)
+    assert flow is not None
+    outdoor, occupied = inputs.u[:, 0], inputs.u[:, 2]
+    outdoor_air = (flow * (outdoor[:, None] - inputs.y)).sum(axis=1)
+    return np.column_stack(
+        [
+            np.ones(len(inputs.y)),
+            cooling_kw(inputs).sum(axis=1),
+            outdoor,
+            occupied,
+            occupied * outdoor_air,
+        ]
+    )
 
 
-def power_kw(power: PowerModel, inputs: FitData) -> FloatArray:
+def power_kw(power: PowerModel, data: TrendData, inputs: FitData) -> FloatArray:
     """(T,) the power model's HVAC electricity [kW]."""
-    coefficients = np.array([power.base_kw, power.kw_per_kw_cooling, power.kw_per_k_outdoor])
-    result: FloatArray = _power_regressors(inputs) @ coefficients
+    coefficients = np.array(
+        [
+            power.base_kw,
+            power.kw_per_kw_cooling,
+            power.kw_per_k_outdoor,
+            power.occupied_kw,
+            power.kw_per_kg_s_k_outdoor_occupied,
+        ]
+    )
+    result: FloatArray = _power_regressors(data, inputs) @ coefficients
     return result
 
 
@@ -509,7 +575,7 @@ def evaluate_power(
     starts = _day_starts(inputs.index, *test)
     hours = PERIOD_S_HOURS
     measured = data.column(HVAC_POWER)
-    predicted = power_kw(power, inputs)
+    predicted = power_kw(power, data, inputs)
     rows = []
     for k in starts:
         day = slice(int(k), int(k) + PERIODS_PER_DAY)
@@ -530,7 +596,7 @@ def prediction_frame(result: FitResult, data: FitData, test: tuple[int, int]) ->
     and ``predicted_24h_<zone>_degc`` (the data's zone names), index the period starts."""
     starts = _day_starts(data.index, *test)
     model = discretize(result.parameters)
-    one_step, simulated, measured = predictions(model, data, starts)
+    one_step, simulated, measured = predictions(model, data, starts, noise=result.filter_noise)
     rows = (starts[:, None] + np.arange(PERIODS_PER_DAY)[None, :]).ravel()
     columns: dict[str, FloatArray] = {}
     for i, zone in enumerate(result.zones):
@@ -641,11 +707,10 @@ def fit_boundary_nodes(
 def one_step_errors(
     result: FitResult, data: FitData, periods: tuple[int, int]
 ) -> tuple[pd.DatetimeIndex, FloatArray]:
-    """The filter's one-step prediction errors (predicted − measured) [K] on the whole days
-    of ``periods = (first, end)``: (index (T,), errors (T, m))."""
+    """The one-step predictor's errors (predicted − measured) [K] on the whole days of
+    ``periods = (first, end)``: (index (T,), errors (T, m))."""
     model = discretize(result.parameters)
-    states = filter_states(model, data.y, data.u)
-    predicted = states @ model.c_mean.T + data.u @ model.d_mean.T
+    predicted = one_step_predictions(model, data.y, data.u, result.filter_noise)
     starts = _day_starts(data.index, *periods)
     rows = (starts[:, None] + np.arange(PERIODS_PER_DAY)[None, :]).ravel()
     return data.index[rows], predicted[rows] - data.y[rows]

@@ -248,3 +248,61 @@ def time_constants_s(p: GreyBoxParameters) -> FloatArray:
     """(n,) the continuous model's time constants −1/λ [s], ascending."""
     eigenvalues = np.linalg.eigvals(continuous_matrices(p)[0])
     return np.sort(-1.0 / eigenvalues.real)
+
+
+@dataclass(frozen=True)
+class FilterNoise:
+    """Noise levels of the one-step predictor's Kalman filter (:func:`one_step_predictions`).
+
+    Attributes
+    ----------
+    air_k, mass_k : process noise on an air and a mass node per step [K].
+    gain_kw : process noise of each zone's unmeasured heat gain per step [kW] (0: no such
+        state, the plain filter of :func:`filter_states`).
+    gain_persistence : ``ρ`` of the gain's AR(1) ``d_{k+1} = ρ d_k + w`` [–], 0…1.
+    measurement_k : measurement noise of a period-mean zone temperature [K].
+    """
+
+    air_k: float = PROCESS_STD_AIR_K
+    mass_k: float = PROCESS_STD_MASS_K
+    gain_kw: float = 0.0
+    gain_persistence: float = 0.0
+    measurement_k: float = MEASUREMENT_STD_K
+
+
+def one_step_predictions(
+    model: DiscreteModel, y: FloatArray, u: FloatArray, noise: FilterNoise
+) -> FloatArray:
+    """One-step-ahead predictions of the period means by a steady-state Kalman filter on the
+    model augmented with an unmeasured heat gain ``d_i`` [kW] into each zone's air node
+    (``d_{k+1} = ρ d_k + w``: the slowly varying part of the balance the inputs miss).
+
+    Parameters
+    ----------
+    y : (T, m) measured period-mean zone temperatures [°C]; u : (T, nu) inputs.
+
+    Returns
+    -------
+    (T, m) ``ŷ_k`` from ``y_0 … y_{k−1}`` and ``u_k`` [°C] (``ŷ_0``: every node at ``y_0``).
+    """
+    m, n = y.shape[1], model.a.shape[0]
+    cooling = slice(len(EXOGENOUS_INPUTS), len(EXOGENOUS_INPUTS) + m)
+    a = np.block(
+        [
+            [model.a, -model.b[:, cooling]],
+            [np.zeros((m, n)), noise.gain_persistence * np.eye(m)],
+        ]
+    )
+    c = np.hstack([model.c_mean, -model.d_mean[:, cooling]])
+    q = np.r_[np.full(m, noise.air_k), np.full(n - m, noise.mass_k), np.full(m, noise.gain_kw)]
+    gain = _filter_gain(a, c, np.diag(q**2), np.eye(m) * noise.measurement_k**2)
+    b = np.vstack([model.b, np.zeros((m, u.shape[1]))])
+    closed = a - gain @ c
+    feed = u @ (b - gain @ model.d_mean).T + y @ gain.T
+    out = np.empty_like(y)
+    x = np.concatenate([y[0], y[0], np.zeros(m)])
+    for k in range(y.shape[0]):
+        out[k] = c @ x
+        x = closed @ x + feed[k]
+    result: FloatArray = out + u @ model.d_mean.T
+    return result

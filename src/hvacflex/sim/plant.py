@@ -24,7 +24,7 @@ import numpy as np
 import numpy.typing as npt
 
 from hvacflex.building.hvac import hvac_power_kw
-from hvacflex.building.identified import identified_power_kw
+from hvacflex.building.identified import identified_occupied_share, identified_power_kw
 from hvacflex.building.model import Building
 from hvacflex.building.plant import NonlinearPlant
 
@@ -196,7 +196,13 @@ class RCPlant:
         mean = 0.5 * (start + end)
         identified = self.building.identified
         power = (
-            identified_power_kw(identified, flow, mean, disturbance.outdoor_temp_degc)
+            identified_power_kw(
+                identified,
+                flow,
+                mean,
+                disturbance.outdoor_temp_degc,
+                identified_occupied_share(self.plant.network.channel_names, disturbance.d),
+            )
             if identified is not None
             else float(
                 hvac_power_kw(
