@@ -44,7 +44,7 @@ LAYERS: list[set[str]] = [
     {"identify"},
     {"validation"},
     {"report"},
-    {"reproduce"},
+    {"reproduce", "sensitivity", "robustness"},
     {"fleet", "service"},
     {"api"},
     {"cli", "cli_config", "cli_help", "cli_model"},
