@@ -228,8 +228,7 @@ def findings_table(runs: pd.DataFrame, by: Sequence[str]) -> pd.DataFrame:
     rows = []
     for key, group in runs.groupby(list(by), sort=True):
         summaries: dict[str, dict[str, float]] = {
-            str(row["scenario"]): {str(k): v for k, v in row.items()}
-            for _, row in group.iterrows()
+            str(row["scenario"]): {str(k): v for k, v in row.items()} for _, row in group.iterrows()
         }
         if not all(letter in summaries for letter in ("a", "b", "c")):
             continue
