@@ -577,13 +577,13 @@ def reproduce(
         False,
         "--sensitivity",
         help="Only the sweep of the synthetic reserve price's scale × correlation with USEP "
-        "for (a), (b), (c) (--quick: 3 × 2 points, one week), into OUT/sensitivity.",
+        "for (a), (b), (c) (--quick: 3 × 2 points over two days), into OUT/sensitivity.",
     ),
     seeds: bool = typer.Option(
         False,
         "--seeds",
         help="Only the findings' robustness: (a), (b), (c) over four representative weeks × "
-        "5 occupancy seeds (--quick: 2 seeds), into OUT/seeds.",
+        "5 occupancy seeds (--quick: two days of each week × 2 seeds), into OUT/seeds.",
     ),
 ) -> None:
     """Regenerate the paper's Fig. 2, 5, 6, 7 and Table 1 (+ comfort and robustness) as HTML.

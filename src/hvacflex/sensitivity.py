@@ -36,7 +36,7 @@ import pandas as pd
 from hvacflex.config import PAPER_SCENARIOS, ScenarioConfig, preset
 from hvacflex.data.market import RESERVE_PRICE_CORRELATION, RESERVE_PRICE_SCALE
 from hvacflex.results import load_results
-from hvacflex.robustness import REPRESENTATIVE_WEEKS, WEEK_DAYS, rises, runs_table
+from hvacflex.robustness import QUICK_DAYS, REPRESENTATIVE_WEEKS, WEEK_DAYS, rises, runs_table
 from hvacflex.sim.sweep import JobOutcome, run_sweep
 from hvacflex.version import atomic_write_text
 
@@ -87,12 +87,13 @@ class SensitivityGrid:
 
     @classmethod
     def quick(cls) -> SensitivityGrid:
-        """Three scales × two correlations over one week (the hottest season's)."""
+        """Three scales × two correlations over the first :data:`QUICK_DAYS` days of one
+        week (the hottest season's)."""
         return cls(
             tuple(f * RESERVE_PRICE_SCALE for f in QUICK_SCALE_FACTORS),
             QUICK_CORRELATIONS,
             (REPRESENTATIVE_WEEKS[1].start,),
-            WEEK_DAYS,
+            QUICK_DAYS,
         )
 
     def points(self) -> list[tuple[int, float, float]]:
