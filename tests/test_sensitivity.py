@@ -115,7 +115,8 @@ def test_tiny_sensitivity_grid_end_to_end(tiny_studies: Path) -> None:
     assert mean_price.iloc[-1] == pytest.approx(4 * mean_price.iloc[0], rel=1e-9)
     findings = pd.read_csv(folder / "sensitivity_findings.csv")
     assert len(findings) == len(TINY_GRID.points())
-    assert (folder / "sensitivity.png").stat().st_size > 0
+    assert (folder / "sensitivity_figure.png").stat().st_size > 0
+    assert len(pd.read_csv(folder / "sensitivity_figure.csv")) == len(points)
     assert (folder / "sensitivity.csv").exists() and (folder / "sensitivity_runs.csv").exists()
 
 
@@ -134,7 +135,17 @@ def test_tiny_seed_study_end_to_end(tiny_studies: Path) -> None:
     assert energy.nunique() == len(TINY_SEEDS.seeds)
     verdicts = pd.read_csv(folder / "seeds_verdicts.csv")
     assert list(verdicts["key"]) == list(FINDINGS) and (verdicts["of"] == 2).all()
-    assert (folder / "seeds_spread.png").stat().st_size > 0
+    assert (folder / "seeds_spread_figure.png").stat().st_size > 0
+    assert list(spread.columns) == [
+        "scenario",
+        "controller",
+        "kpi",
+        "n",
+        "mean",
+        "min",
+        "max",
+        "std",
+    ]
 
 
 def test_second_call_reuses_the_runs(tiny_studies: Path) -> None:

@@ -11,7 +11,7 @@ draw keeps the scenario's seed, so the spread is the occupants' alone), as Dask 
 * ``seeds_spread.csv`` — per scenario and KPI: mean, min, max, std over the week-seeds;
 * ``seeds_findings.csv`` — per week-seed: whether each of :data:`FINDINGS` holds;
 * ``seeds_verdicts.csv`` — per finding: in how many week-seeds it holds;
-* ``seeds_spread.png`` — the spread figure (:mod:`hvacflex.report.sensitivity_plots`).
+* ``seeds_spread_figure.png`` — the spread figure (:mod:`hvacflex.report.sensitivity_plots`).
 
 The findings are decided by :func:`finding_verdicts` from the KPIs of one (a), (b), (c) triple
 (run over the same days with the same seeds); :mod:`hvacflex.sensitivity` uses the revenue one.
@@ -319,7 +319,7 @@ def run_seed_study(
     ):
         atomic_write_text(out / name, table.to_csv(index=False))
     if len(runs):
-        plot_seed_spread(runs, out / "seeds_spread.png")
+        plot_seed_spread(runs, out / "seeds_spread_figure.png")
     for _, row in verdicts.iterrows():
         log(f"  {row['finding']}: holds in {row['holds']} of {row['of']} week-seeds")
     return SeedStudy(out, list(outcomes), spread, findings, verdicts, time.perf_counter() - started)

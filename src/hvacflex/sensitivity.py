@@ -18,7 +18,8 @@ cached by inputs and code, resumable), and writes:
   ``reserve_usep_pearson`` (the realised correlation of the simulated periods' prices);
 * ``sensitivity_findings.csv`` — per point: whether revenue rises in (b) and in (c) against (a)
   (:func:`hvacflex.robustness.rises`) and the paper's finding (both);
-* ``sensitivity.png`` — revenue share against scale, one line per correlation, per scenario.
+* ``sensitivity_figure.png`` — revenue share against scale, one line per correlation, per
+  scenario (its data in ``sensitivity_figure.csv``).
 """
 
 from __future__ import annotations
@@ -268,7 +269,7 @@ def run_sensitivity(
     ):
         atomic_write_text(out / name, table.to_csv(index=False))
     if len(points):
-        plot_reserve_sensitivity(points, out / "sensitivity.png")
+        plot_reserve_sensitivity(points, out / "sensitivity_figure.png")
     log(f"  {sentence}")
     return SensitivityStudy(
         out, list(outcomes), points, findings, sentence, time.perf_counter() - started
