@@ -365,9 +365,10 @@ def test_default_forecast_settings_keep_the_run_keys_of_earlier_versions() -> No
     earlier = cfg.to_dict()  # the payload before [forecast] and the new keys existed
     for key in ("name", "plant", "forecast"):
         earlier.pop(key)
-    for key in ("occupancy", "box_relative", "box_absolute"):
+    for key in ("occupancy", "occupancy_seed", "box_relative", "box_absolute"):
         earlier["realisation"].pop(key)
     earlier["uncertainty"].pop("calibrate")
+    earlier["data"].pop("reserve_price_correlation")
     digest = hashlib.sha256(json.dumps(earlier, sort_keys=True).encode()).hexdigest()[:12]
     assert cfg.config_hash() == digest
 
@@ -481,3 +482,17 @@ def test_plant_baseline_is_the_plants_own_control_on_energyplus_only() -> None:
     assert cfg.plant.kind == "energyplus" and cfg.plant.resolved_actuation == "setpoint"
     with pytest.raises(ConfigError, match="setpoint-actuated EnergyPlus"):
         with_overrides(cfg, {"plant": {"kind": "rc", "actuation": "flow"}})
+
+
+def test_reserve_correlation_and_occupancy_seed_defaults_keep_the_run_keys() -> None:
+    base = preset("rmpc")
+    explicit = with_overrides(base, {"data.reserve_price_correlation": 1.0})
+    assert explicit.config_hash() == base.config_hash()
+    assert base.realisation.occupancy_seed is None
+    changed = [
+        with_overrides(base, {"data.reserve_price_correlation": 0.5}),
+        with_overrides(base, {"realisation.occupancy_seed": 3}),
+    ]
+    assert len({base.config_hash(), *(c.config_hash() for c in changed)}) == 3
+    with pytest.raises(ConfigError, match="reserve_price_correlation"):
+        with_overrides(base, {"data.reserve_price_correlation": -0.1})

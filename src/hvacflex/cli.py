@@ -560,7 +560,10 @@ def sweep(
 @app.command()
 def reproduce(
     quick: bool = typer.Option(
-        False, "--quick", help="One week and 4 PPP values (a few minutes) instead of the year."
+        False,
+        "--quick",
+        help="One week and 4 PPP values (a few minutes) instead of the year; with "
+        "--sensitivity / --seeds their reduced grids.",
     ),
     energyplus: bool = typer.Option(
         False,
@@ -579,9 +582,22 @@ def reproduce(
         2, min=1, max=MAX_WORKERS, help="Local worker processes (without --scheduler)."
     ),
     fresh: bool = typer.Option(False, help="Ignore existing results and checkpoints."),
+    sensitivity: bool = typer.Option(
+        False,
+        "--sensitivity",
+        help="Only the sweep of the synthetic reserve price's scale × correlation with USEP "
+        "for (a), (b), (c) (--quick: 3 × 2 points over two days), into OUT/sensitivity.",
+    ),
+    seeds: bool = typer.Option(
+        False,
+        "--seeds",
+        help="Only the findings' robustness: (a), (b), (c) over four representative weeks × "
+        "5 occupancy seeds (--quick: two days of each week × 2 seeds), into OUT/seeds.",
+    ),
 ) -> None:
     """Regenerate the paper's Fig. 2, 5, 6, 7 and Table 1 (+ comfort and robustness) as HTML.
 
+    With --sensitivity and/or --seeds, run only those studies (CSV + PNG; docs/reproduction.md).
     Exits 1 when any run fails; the report is still written, marked incomplete at its top.
     """
     from hvacflex.errors import HvacflexError
@@ -593,6 +609,9 @@ def reproduce(
         check_output_dir(out, "--out")
         if scheduler is not None:
             check_scheduler(scheduler)
+        if sensitivity or seeds:
+            _reproduce_studies(out, quick, scheduler, workers, fresh, sensitivity, seeds)
+            return
         result = run_reproduction(
             out,
             quick=quick,
@@ -610,6 +629,50 @@ def reproduce(
             f"{result.report} is INCOMPLETE",
             err=True,
         )
+        raise typer.Exit(1)
+
+
+def _reproduce_studies(
+    out: Path,
+    quick: bool,
+    scheduler: str | None,
+    workers: int,
+    fresh: bool,
+    sensitivity: bool,
+    seeds: bool,
+) -> None:
+    """``reproduce --sensitivity`` / ``--seeds``: run the studies, print where their files
+    are and the machine time; exit 1 when a run failed (the tables hold the others)."""
+    from hvacflex.robustness import SeedPlan, run_seed_study
+    from hvacflex.sensitivity import SensitivityGrid, run_sensitivity
+
+    failed: list[str] = []
+    if sensitivity:
+        grid = SensitivityGrid.quick() if quick else SensitivityGrid.full()
+        study = run_sensitivity(
+            out / "sensitivity",
+            grid,
+            scheduler=scheduler,
+            workers=workers,
+            fresh=fresh,
+            log=typer.echo,
+        )
+        typer.echo(f"sensitivity: {study.out_dir} ({study.elapsed_s:.0f} s)")
+        failed += [f"{o.label}: {o.error}" for o in study.failed]
+    if seeds:
+        plan = SeedPlan.quick() if quick else SeedPlan.full()
+        seed_study = run_seed_study(
+            out / "seeds",
+            plan,
+            scheduler=scheduler,
+            workers=workers,
+            fresh=fresh,
+            log=typer.echo,
+        )
+        typer.echo(f"seeds: {seed_study.out_dir} ({seed_study.elapsed_s:.0f} s)")
+        failed += [f"{o.label}: {o.error}" for o in seed_study.failed]
+    if failed:
+        typer.echo(f"error: {len(failed)} runs failed:\n" + "\n".join(failed), err=True)
         raise typer.Exit(1)
 
 

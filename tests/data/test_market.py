@@ -11,7 +11,12 @@ import pytest
 from hvacflex.data.market import (
     ENERGY_PRICE_COLUMN,
     RESERVE_PRICE_COLUMN,
+    RESERVE_PRICE_CORRELATION,
+    RESERVE_PRICE_NOISE_SIGMA,
+    RESERVE_PRICE_REFERENCE_SGD_PER_MWH,
     RESERVE_PRICE_SCALE,
+    RESERVE_PRICE_SPIKE_GAIN,
+    RESERVE_PRICE_SPIKE_THRESHOLD_SGD_PER_MWH,
     load_reserve_prices,
     load_usep,
     synthetic_reserve_prices,
@@ -183,6 +188,58 @@ def test_synthetic_reserve_prices(usep_2014: pd.DataFrame) -> None:
     again = synthetic_reserve_prices(price.iloc[5000:5100], seed=7)
     assert np.array_equal(again.to_numpy(), reserve.iloc[5000:5100].to_numpy())
     assert not np.array_equal(synthetic_reserve_prices(price, seed=8), reserve)
+
+
+def _reserve_by_hand(price: pd.Series, seed: int, scale: float) -> np.ndarray:
+    """The documented formula at ρ = 1, written out independently of the module."""
+    local = price.index.tz_convert("Asia/Singapore")
+    out = np.empty(len(price))
+    for i, stamp in enumerate(local):
+        slot = stamp.hour * 2 + stamp.minute // 30
+        z = np.random.default_rng([seed, stamp.normalize().toordinal()]).standard_normal(48)[slot]
+        noise = np.exp(RESERVE_PRICE_NOISE_SIGMA * z - 0.5 * RESERVE_PRICE_NOISE_SIGMA**2)
+        c = float(price.iloc[i])
+        spike = 1.0 + RESERVE_PRICE_SPIKE_GAIN * max(
+            0.0, c / RESERVE_PRICE_SPIKE_THRESHOLD_SGD_PER_MWH - 1.0
+        )
+        out[i] = scale * (max(c, 0.0) / RESERVE_PRICE_REFERENCE_SGD_PER_MWH) * noise * spike
+    return out
+
+
+def test_reserve_price_correlation_default_is_the_calibrated_series(
+    usep_2014: pd.DataFrame,
+) -> None:
+    price = usep_2014[ENERGY_PRICE_COLUMN].iloc[:480]
+    default = synthetic_reserve_prices(price, seed=7)
+    explicit = synthetic_reserve_prices(price, seed=7, correlation=RESERVE_PRICE_CORRELATION)
+    assert RESERVE_PRICE_CORRELATION == 1.0
+    assert np.array_equal(default.to_numpy(), explicit.to_numpy())
+    np.testing.assert_allclose(default.to_numpy(), _reserve_by_hand(price, 7, RESERVE_PRICE_SCALE))
+
+
+def test_reserve_price_correlation_weights_the_usep_part(usep_2014: pd.DataFrame) -> None:
+    price = usep_2014[ENERGY_PRICE_COLUMN]
+    full = synthetic_reserve_prices(price, seed=7, correlation=1.0)
+    none = synthetic_reserve_prices(price, seed=7, correlation=0.0)
+    half = synthetic_reserve_prices(price, seed=7, correlation=0.5)
+    # ρ = 0: scale × the mean-one noise, whatever USEP does (also where USEP is 0)
+    noise = none.to_numpy() / RESERVE_PRICE_SCALE
+    assert abs(noise.mean() - 1.0) < 0.02 and (noise > 0).all()
+    assert abs(np.corrcoef(price, none)[0, 1]) < 0.05
+    # ρ = 0.5: the mean of the two drivers under the same noise
+    np.testing.assert_allclose(half.to_numpy(), 0.5 * (full.to_numpy() + none.to_numpy()))
+    pearson = [np.corrcoef(price, s)[0, 1] for s in (none, half, full)]
+    assert pearson[0] < pearson[1] < pearson[2]
+    assert half.attrs["correlation"] == 0.5
+
+
+@pytest.mark.parametrize("weight", [-0.1, 1.01, float("nan")])
+def test_reserve_price_correlation_outside_zero_one_is_refused(
+    usep_2014: pd.DataFrame, weight: float
+) -> None:
+    with pytest.raises(DataError, match=r"weight in \[0, 1\]") as info:
+        synthetic_reserve_prices(usep_2014[ENERGY_PRICE_COLUMN].iloc[:48], correlation=weight)
+    assert info.value.field == "correlation"
 
 
 @pytest.mark.parametrize(

@@ -21,7 +21,7 @@ from hvacflex.errors import ConfigError
 from hvacflex.paths import resolve_building
 from hvacflex.sim.closed_loop import run_simulation
 from hvacflex.sim.run_files import run_key
-from hvacflex.sim.setup import make_controller, prepare
+from hvacflex.sim.setup import Setup, make_controller, prepare
 
 
 def test_prepare_covers_the_run_and_its_last_horizon() -> None:
@@ -200,3 +200,28 @@ def test_a_baseline_run_resumed_from_its_checkpoint_is_identical(name: str, tmp_
     second = run_simulation(cfg, tmp_path / "split", progress=False, checkpoint_every=24)
     assert second.resumed_from_step == 50
     pd.testing.assert_frame_equal(whole, second.frame)
+
+
+def test_occupancy_seed_draws_the_occupants_alone() -> None:
+    def setup_with(**realisation: object) -> Setup:
+        return prepare(
+            preset(
+                "rmpc",
+                start="2014-03-03",
+                days=0.5,
+                realisation={"occupancy": "stochastic", "mode": "zero", **realisation},
+            )
+        )
+
+    default, other = setup_with(), setup_with(occupancy_seed=3)
+    same = setup_with(occupancy_seed=preset("rmpc").seed)
+    gains = list(np.atleast_1d(default.exogenous.channel_index("internal_gain")))
+    d_default, d_other = default.exogenous.disturbances, other.exogenous.disturbances
+    # unset = the scenario's seed; another seed moves the occupants and nothing else
+    np.testing.assert_array_equal(same.exogenous.disturbances, d_default)
+    assert not np.allclose(d_other[:, gains], d_default[:, gains])
+    rest = [i for i in range(d_default.shape[1]) if i not in gains]
+    np.testing.assert_array_equal(d_other[:, rest], d_default[:, rest])
+    np.testing.assert_array_equal(
+        other.exogenous.reserve_price_sgd_per_mwh, default.exogenous.reserve_price_sgd_per_mwh
+    )

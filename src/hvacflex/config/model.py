@@ -15,6 +15,7 @@ from typing import Any, Literal
 import pandas as pd
 
 from hvacflex.constants import AR1_COEFFICIENT, DEFAULT_START, HORIZON_STEPS, TIMEZONE
+from hvacflex.data.market import RESERVE_PRICE_CORRELATION
 from hvacflex.data.weather_forecast import WEATHER_TRAIN_DAYS
 from hvacflex.opt.options import (
     DEFAULT_COMFORT_PENALTY_SGD_PER_KELVIN_HOUR,
@@ -203,6 +204,8 @@ class RealisationConfig:
     mode: RealisationMode = "uniform"
     ar1_coefficient: float = AR1_COEFFICIENT
     occupancy: OccupancyMode = "schedule"
+    occupancy_seed: int | None = None
+    """Seed of the stochastic occupancy draws; ``None`` = the scenario's ``seed``."""
     box_relative: Mapping[str, float] | None = None
     box_absolute: Mapping[str, float] | None = None
 
@@ -251,6 +254,9 @@ class DataConfig:
     reserve_source: str | None = None
     reserve_price_scale: float | None = None
     """Scale of the synthetic reserve price; ``None`` = the calibrated default."""
+    reserve_price_correlation: float = RESERVE_PRICE_CORRELATION
+    """Weight ρ of the USEP-driven part of the synthetic reserve price (1 = the calibrated
+    series, 0 = independent of USEP; :func:`hvacflex.data.market.synthetic_reserve_prices`)."""
     price_gap_fill: PriceGapFill = "none"
     """Gaps in the price files: ``"none"`` (an error) or ``"previous-day"`` (copy the period)."""
     calendar: PriceCalendar = "data"
@@ -348,6 +354,8 @@ class ScenarioConfig:
             payload.pop("forecast")  # so do the default forecast, occupancy and box
         for table, key, empty in (
             ("realisation", "occupancy", "schedule"),
+            ("realisation", "occupancy_seed", None),
+            ("data", "reserve_price_correlation", RESERVE_PRICE_CORRELATION),
             ("realisation", "box_relative", None),
             ("realisation", "box_absolute", None),
             ("uncertainty", "calibrate", None),

@@ -22,11 +22,11 @@ File layout (every key optional)::
     [estimation]   mode, measurement_noise_k
     [uncertainty]  relative = {kind = fraction}, absolute = {kind = value},
                    calibrate = {train = "YYYY-MM-DD..YYYY-MM-DD", quantile, prediction_errors}
-    [realisation]  mode, ar1_coefficient, occupancy, box_relative, box_absolute
+    [realisation]  mode, ar1_coefficient, occupancy, occupancy_seed, box_relative, box_absolute
     [forecast]     weather, train_days
     [activation]   mode, events_per_year, duration_steps, file
     [data]         weather_file, usep_source, reserve_source, reserve_price_scale,
-                   price_gap_fill, calendar
+                   reserve_price_correlation, price_gap_fill, calendar
     [comfort]      occupied_degc = [lower, upper], unoccupied_degc = [lower, upper]
     [plant]        kind, idf, actuation, timesteps_per_hour
 """
@@ -295,6 +295,9 @@ class RealisationSpec(Spec):
     occupancy: OccupancyMode = default(RealisationConfig, "occupancy")
     """The internal gains the plant sees: ``schedule`` (the office schedule the controller
     forecasts) or ``stochastic`` (seeded occupants per zone)."""
+    occupancy_seed: NonNegativeInt | None = default(RealisationConfig, "occupancy_seed")
+    """Seed of the stochastic occupants alone (the other draws keep the scenario's ``seed``);
+    leave it out to use the scenario's ``seed``."""
     box_relative: dict[DisturbanceKind, NonNegative] | None = default(
         RealisationConfig, "box_relative"
     )
@@ -345,6 +348,13 @@ class DataSpec(Spec):
     """A reserve-price CSV; leave it out for the seeded synthetic reserve prices
     (docs/data.md)."""
     reserve_price_scale: Positive | None = default(DataConfig, "reserve_price_scale")
+    reserve_price_correlation: Annotated[Number, Field(ge=0.0, le=1.0)] = default(
+        DataConfig, "reserve_price_correlation"
+    )
+    """How much of the synthetic reserve price follows USEP, a weight in [0, 1]: 1 (the
+    default) is the calibrated series, which follows USEP and its spikes; 0 a price
+    independent of USEP at the same level (``reserve_price_scale`` × lognormal noise); in
+    between a mix. Ignored with ``reserve_source``."""
     price_gap_fill: PriceGapFill = default(DataConfig, "price_gap_fill")
     calendar: PriceCalendar = default(DataConfig, "calendar")
 

@@ -54,6 +54,7 @@ from hvacflex.data.gains import (
 from hvacflex.data.market import (
     PERIOD,
     PERIODS_PER_DAY,
+    RESERVE_PRICE_CORRELATION,
     RESERVE_PRICE_SCALE,
     FillMode,
     load_reserve_prices,
@@ -517,6 +518,7 @@ def load_exogenous(
     comfort: ComfortBand | None = None,
     seed: int = 2014,
     reserve_scale_sgd_per_mwh: float = RESERVE_PRICE_SCALE,
+    reserve_correlation: float = RESERVE_PRICE_CORRELATION,
     schedule: OfficeSchedule = DEFAULT_OFFICE_SCHEDULE,
     price_gap_fill: FillMode = "none",
     calendar: Calendar = "data",
@@ -539,6 +541,7 @@ def load_exogenous(
     comfort : occupied/unoccupied bands (default 23–26 / 20–30 °C).
     seed : seed of the synthetic reserve prices.
     reserve_scale_sgd_per_mwh : scale of the synthetic reserve prices.
+    reserve_correlation : weight ρ of their USEP-driven part (1: the calibrated series).
     schedule : office schedule for gains and occupancy.
     price_gap_fill : ``fill`` of :func:`~hvacflex.data.market.load_usep` for gaps in the
         price files: ``"none"`` (a gap is an error) or ``"previous-day"``.
@@ -576,6 +579,7 @@ def load_exogenous(
         reserve_scale_sgd_per_mwh,
         price_gap_fill,
         calendar,
+        reserve_correlation,
     )
     weather_path = Path(weather_file) if weather_file is not None else default_weather_file()
     weather, location = weather_on(index, weather_path)
@@ -689,6 +693,7 @@ def _reserve_prices(
     reserve_scale_sgd_per_mwh: float,
     price_gap_fill: FillMode,
     calendar: Calendar = "data",
+    reserve_correlation: float = RESERVE_PRICE_CORRELATION,
 ) -> tuple[np.ndarray, bool]:
     """(T,) reserve price on ``index`` [SGD/MWh] and whether it is the synthetic series
     (``reserve_source`` None) rather than the user's CSV files (on the days of the live
@@ -698,6 +703,7 @@ def _reserve_prices(
             pd.Series(energy_sgd_per_mwh, index=index),
             seed=seed,
             scale_sgd_per_mwh=reserve_scale_sgd_per_mwh,
+            correlation=reserve_correlation,
         )
         return reserve_series.to_numpy(), True
     reserve_series = load_reserve_prices(reserve_source, fill=price_gap_fill)

@@ -100,6 +100,11 @@ RESERVE_PRICE_NOISE_SIGMA = 0.35
 RESERVE_PRICE_SPIKE_THRESHOLD_SGD_PER_MWH = 300.0
 """USEP above which reserve prices are amplified (≈ the 2014 99th percentile) [SGD/MWh]."""
 
+RESERVE_PRICE_CORRELATION = 1.0
+"""Default weight ρ of the USEP-driven part of the synthetic reserve price (0 … 1): 1 is the
+calibrated series (the price follows USEP and its spikes), 0 a price independent of USEP
+(``scale`` × the noise); in between a mix (:func:`synthetic_reserve_prices`)."""
+
 RESERVE_PRICE_SPIKE_GAIN = 1.0
 """Extra amplification per multiple of the spike threshold: the factor is
 ``1 + gain · max(0, USEP/threshold − 1)``, so scarcity lifts reserve prices more than
@@ -496,18 +501,25 @@ def synthetic_reserve_prices(
     *,
     seed: int = 2014,
     scale_sgd_per_mwh: float = RESERVE_PRICE_SCALE,
+    correlation: float = RESERVE_PRICE_CORRELATION,
 ) -> pd.Series:
     """Seeded **synthetic** reserve (IL) prices correlated with the energy price.
 
     No public NEMS reserve-price history exists, so hvacflex generates one (docs/model.md §2)::
 
-        b_k = scale · (max(c_k, 0) / c_ref) · n_k · (1 + g · max(0, c_k / c_spike − 1))
+        b_k = scale · n_k · (ρ · f_k + (1 − ρ)),
+        f_k = (max(c_k, 0) / c_ref) · (1 + g · max(0, c_k / c_spike − 1))
 
     with ``c_k`` the USEP, ``c_ref`` = :data:`RESERVE_PRICE_REFERENCE_SGD_PER_MWH`,
     ``n_k`` mean-one lognormal noise (log-σ :data:`RESERVE_PRICE_NOISE_SIGMA`), spike
     threshold ``c_spike`` and gain ``g`` (:data:`RESERVE_PRICE_SPIKE_THRESHOLD_SGD_PER_MWH`,
     :data:`RESERVE_PRICE_SPIKE_GAIN`). With the default scale the typical price is 2–3 SGD/MWh
-    and USEP spikes lift it to a few tens. Zero or negative USEP gives zero.
+    and USEP spikes lift it to a few tens. The weight ``ρ`` (``correlation``) sets how much
+    of the price follows USEP: ρ = 1 (the default) is ``scale · f_k · n_k`` exactly, where zero
+    or negative USEP gives zero; ρ = 0 is ``scale · n_k``, independent of USEP (the same level
+    at the reference price, no spikes). ``f_k`` is 1 at ``c_ref``, so ``scale`` keeps its
+    meaning at every ρ; the Pearson correlation with USEP falls with ρ (the sensitivity sweep,
+    :mod:`hvacflex.sensitivity`, reports the realised value).
 
     The noise of each period is drawn from a generator seeded with ``(seed, date)``, so a
     period's price does not depend on which date range is requested.
@@ -518,11 +530,13 @@ def synthetic_reserve_prices(
     seed : random seed.
     scale_sgd_per_mwh : price at ``c_k = c_ref`` before noise [SGD/MWh]
         (default :data:`RESERVE_PRICE_SCALE`, calibrated on the simulator).
+    correlation : weight ρ ∈ [0, 1] of the USEP-driven part (default
+        :data:`RESERVE_PRICE_CORRELATION`: the calibrated series).
 
     Returns
     -------
     (T,) Series ``reserve_price_sgd_per_mwh`` [SGD/MWh] on the same index, with
-    ``.attrs["synthetic"] = True`` and the seed and scale in ``.attrs``.
+    ``.attrs["synthetic"] = True`` and the seed, scale and ρ in ``.attrs``.
     """
     if not np.isfinite(scale_sgd_per_mwh) or scale_sgd_per_mwh < 0:
         raise DataError(
@@ -530,6 +544,13 @@ def synthetic_reserve_prices(
             field="scale_sgd_per_mwh",
             value=scale_sgd_per_mwh,
             hint=f"the default is {RESERVE_PRICE_SCALE} SGD/MWh",
+        )
+    if not 0.0 <= correlation <= 1.0:  # also refuses NaN
+        raise DataError(
+            "reserve price correlation must be a weight in [0, 1]",
+            field="correlation",
+            value=correlation,
+            hint=f"1 follows USEP (the default, {RESERVE_PRICE_CORRELATION:g}), 0 ignores it",
         )
     index = energy_price.index
     if not isinstance(index, pd.DatetimeIndex):
@@ -556,8 +577,15 @@ def synthetic_reserve_prices(
     spike = 1.0 + RESERVE_PRICE_SPIKE_GAIN * np.maximum(
         0.0, price / RESERVE_PRICE_SPIKE_THRESHOLD_SGD_PER_MWH - 1.0
     )
-    out = pd.Series(
-        scale_sgd_per_mwh * base * noise * spike, index=index, name=RESERVE_PRICE_COLUMN
-    )
-    out.attrs = {"synthetic": True, "seed": seed, "scale_sgd_per_mwh": scale_sgd_per_mwh}
+    if correlation == 1.0:  # the calibrated series, bit for bit (same operation order)
+        values = scale_sgd_per_mwh * base * noise * spike
+    else:
+        values = scale_sgd_per_mwh * (correlation * base * spike + (1.0 - correlation)) * noise
+    out = pd.Series(values, index=index, name=RESERVE_PRICE_COLUMN)
+    out.attrs = {
+        "synthetic": True,
+        "seed": seed,
+        "scale_sgd_per_mwh": scale_sgd_per_mwh,
+        "correlation": correlation,
+    }
     return out

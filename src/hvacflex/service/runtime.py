@@ -78,6 +78,7 @@ ACCEPTED_SETTINGS = frozenset(
         "activation.events_per_year",
         "activation.duration_steps",
         "data.reserve_price_scale",
+        "data.reserve_price_correlation",
         "data.price_gap_fill",
         "data.calendar",
     }

@@ -155,6 +155,7 @@ def _load_exogenous(
         seed=config.seed if market_seed is None else market_seed,
         schedule=schedule,
         reserve_scale_sgd_per_mwh=scale,
+        reserve_correlation=data.reserve_price_correlation,
     )
 
 
@@ -162,16 +163,18 @@ def realised_exogenous(
     config: ScenarioConfig, building: Building, scheduled: Exogenous
 ) -> Exogenous:
     """What the plant sees: ``scheduled`` itself, or with ``[realisation] occupancy =
-    "stochastic"`` its internal gains drawn by the occupancy model (seed: the scenario's)."""
+    "stochastic"`` its internal gains drawn by the occupancy model (seed: ``[realisation]
+    occupancy_seed``, else the scenario's)."""
     if config.realisation.occupancy == "schedule":
         return scheduled
+    seed = config.realisation.occupancy_seed
     disturbances = stochastic_gain_disturbances(
         scheduled.disturbances,
         scheduled.channels,
         scheduled.index,
         [zone.floor_area_m2 for zone in building.zones],
         building.gains,
-        seed=config.seed,
+        seed=config.seed if seed is None else seed,
     )
     return replace(scheduled, disturbances=disturbances)
 
