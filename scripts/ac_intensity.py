@@ -48,9 +48,9 @@ def main() -> None:
             epw_path=weather, start=first, days=args.days, workdir=workdir,
         )  # fmt: skip
     hourly = run.hourly
-    energyplus_kwh = float(
-        (hourly["Electricity:HVAC [J]"] + hourly["Electricity:Plant [J]"]).sum()
-    ) / J_PER_KWH
+    energyplus_kwh = (
+        float((hourly["Electricity:HVAC [J]"] + hourly["Electricity:Plant [J]"]).sum()) / J_PER_KWH
+    )
     coil_columns = [c for c in hourly.columns if "Cooling Coil Total Cooling Rate" in c]
     energyplus_coil_kwh = float(hourly[coil_columns].sum().sum()) / 1000.0
     print(f"office5, {args.days} days from {first} (scaled to a year), floor {area_m2:,.0f} m²")
