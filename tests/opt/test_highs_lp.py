@@ -16,6 +16,7 @@ from hvacflex.opt.basis import BASIC, UPPER, SolverBasis
 from hvacflex.opt.highs_lp import (
     BASE_OPTIONS,
     DANTZIG_PRICING,
+    WARM_DUAL_FEASIBILITY_TOLERANCE,
     WARM_SCALE_STRATEGY,
     HighsSession,
     RunOutcome,
@@ -85,21 +86,29 @@ def test_options_are_base_options_and_per_run_scaling_and_method() -> None:
 
 
 def test_warm_pricing_applies_to_warm_runs_only() -> None:
-    pricing = "simplex_dual_edge_weight_strategy"
+    pricing, tolerance = "simplex_dual_edge_weight_strategy", "dual_feasibility_tolerance"
     devex = BASE_OPTIONS[pricing]
     assert devex != DANTZIG_PRICING
     session = _session(warm_pricing=DANTZIG_PRICING)
     highs = session.highs
+    cold_tolerance = highs.getOptionValue(tolerance)[1]
+    assert cold_tolerance > WARM_DUAL_FEASIBILITY_TOLERANCE
     assert highs.getOptionValue(pricing)[1] == devex  # before any run: the base options
     session.run(False)
     assert highs.getOptionValue(pricing)[1] == devex
     session.set_start(*OPTIMAL_BASIS)
     _, status = session.run(True)
     assert highs.getOptionValue(pricing)[1] == DANTZIG_PRICING
+    assert highs.getOptionValue(tolerance)[1] == WARM_DUAL_FEASIBILITY_TOLERANCE
     assert status is SolveStatus.OPTIMAL
     np.testing.assert_allclose(session.values(), OPTIMUM, atol=1e-9)
     session.run(False)
     assert highs.getOptionValue(pricing)[1] == devex
+    assert highs.getOptionValue(tolerance)[1] == cold_tolerance
+    # a caller's tighter tolerance holds on warm runs too
+    tight = _session(SessionOptions(feasibility_tolerance=1e-10), warm_pricing=DANTZIG_PRICING)
+    tight.run(True)
+    assert tight.highs.getOptionValue(tolerance)[1] == 1e-10
     # without it every run prices with the base options' Devex
     plain = _session()
     plain.run(True)
