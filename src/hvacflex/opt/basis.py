@@ -53,21 +53,6 @@ def rotation(lp: LinearProgram) -> tuple[IntArray, IntArray]:
     return col_map, row_map
 
 
-def held_shift(lp: LinearProgram) -> IntArray:
-    """Column map that shifts a primal solution by one time step: ``new = old[map]``.
-
-    Step k of every time-indexed column block takes the value of step k + 1 and step N − 1
-    keeps its own (the last step is held, not wrapped); the other columns keep theirs. The
-    shifted previous optimum is a guess of the next one (which event rows it nears).
-    """
-    col_map = np.arange(lp.num_cols)
-    for block in lp.time_cols:
-        if block.size:
-            shifted = np.concatenate([block[1:], block[-1:]], axis=0)
-            col_map[block.ravel()] = shifted.ravel()
-    return col_map
-
-
 def nonbasic_status(lower: FloatArray, upper: FloatArray) -> StatusArray:
     """Status of a nonbasic variable from its bounds alone: at the lower bound if finite,
     else at the upper bound if finite, else zero (free)."""

@@ -33,13 +33,12 @@ keep HiGHS's default scaling and presolve.
 IL event rows (``RMPCSolver(..., event_rows="lazy")``, the default): the event model's
 ≈ N²·ny/2 rows are mostly slack at the optimum, so HiGHS holds only the core rows plus the
 event rows that were nonbasic or near-active at the previous optimum (rotated by the event
-permutation), those that the previous optimum shifted by one step (last step held) nears or
-violates under the new bounds, and those of events starting at 0; after each run the
-activities of all event rows are one sparse product, every absent row violated by more than
-1e-7 K is added (HiGHS keeps its basis, new rows basic) and the LP re-solved warm until none
-is. The optimum is the full model's; bases are kept over all rows (absent rows basic), so
-checkpoints are interchangeable with ``event_rows="full"``. Warm runs of this solver use
-Dantzig pricing (cold runs Devex).
+permutation) and those of events starting at 0; after each run the activities of all event
+rows are one sparse product, every absent row violated by more than 1e-7 K is added (HiGHS
+keeps its basis, new rows basic) and the LP re-solved warm until none is. The optimum is the
+full model's; bases are kept over all rows (absent rows basic), so checkpoints are
+interchangeable with ``event_rows="full"``. Warm runs of this solver use Dantzig pricing
+(cold runs Devex).
 
 Failures are never silent: :class:`SolveStatus` says what happened, ``RMPCSolution.message``
 says it in words, and every plan array (u, r, P, R, ε, trajectories, costs) is NaN unless the
@@ -63,7 +62,6 @@ from hvacflex.opt.basis import (
     SolverBasis,
     StatusArray,
     bounded_start,
-    held_shift,
     nonbasic_status,
     optimal_statuses,
     rotation,
@@ -108,9 +106,6 @@ __all__ = [
 LAZY_VIOLATION_TOLERANCE_K = 1e-7
 #: Lazy event rows: rows with a slack up to this at the optimum stay in the next step's LP [K].
 LAZY_NEAR_ACTIVE_K = 1e-3
-#: Lazy event rows: rows that the previous optimum shifted by one step brings within this of
-#: their new bound (or violates) start the next step in the LP [K].
-LAZY_PREDICTED_K = 1e-3
 #: How the IL event rows enter the LP: all of them, or generated lazily.
 EventRowMode = Literal["full", "lazy"]
 
@@ -129,10 +124,9 @@ class RMPCSolver:
         other prices).
     event_rows : IL event model only: "full" passes every event row to HiGHS; "lazy" passes
         the rows that were nonbasic or near-active (slack ≤ :data:`LAZY_NEAR_ACTIVE_K`) at
-        the previous optimum (rotated), the rows the shifted previous optimum brings within
-        :data:`LAZY_PREDICTED_K` of their bound, and the rows of events starting at 0, then
-        adds every absent row violated by more than :data:`LAZY_VIOLATION_TOLERANCE_K` and
-        re-solves warm until there is none — the same optimum.
+        the previous optimum (rotated) and the rows of events starting at 0, then adds every
+        absent row violated by more than :data:`LAZY_VIOLATION_TOLERANCE_K` and re-solves
+        warm until there is none — the same optimum.
         Bases (:meth:`get_basis`) always cover every row (absent rows basic).
     feasibility_tolerance : HiGHS's primal and dual feasibility tolerances of every solve;
         None keeps HiGHS's 1e-7
@@ -187,8 +181,6 @@ class RMPCSolver:
         self._event_mode = event_rows
         self._build(problem)
         self._col_rotation, self._row_rotation = rotation(self._lp)
-        self._col_shift = held_shift(self._lp)
-        self._last_values: FloatArray | None = None  # primal optimum of the last solve
         self._last_problem: RMPCProblem | None = problem
         self._optimal = False  # the last solve ended optimal (its duals are meaningful)
 
@@ -403,7 +395,6 @@ class RMPCSolver:
             if not status.ok:
                 values = None
         self._optimal = values is not None and status is SolveStatus.OPTIMAL
-        self._last_values = values
         session.keep(self._optimal_basis(values) if values is not None else None)
         return self._solution(problem, delta, status, start, highs_time, iterations, warm, values)
 
@@ -411,21 +402,19 @@ class RMPCSolver:
         """Start HiGHS's next run from the stored basis (rotated by one step if the session
         :meth:`~hvacflex.opt.highs_lp.HighsSession.rotates`); whether HiGHS took it.
 
-        Lazy event rows: HiGHS then holds the rows nonbasic or near-active in that basis, the
-        rows the shifted last optimum nears (:meth:`_predicted_rows`) and the seed rows.
-        Nonbasic statuses that the current bounds do not allow (a bound that became infinite)
-        are replaced by the one the bounds imply.
+        Lazy event rows: HiGHS then holds the rows nonbasic or near-active in that basis and
+        the seed rows. Nonbasic statuses that the current bounds do not allow (a bound that
+        became infinite) are replaced by the one the bounds imply.
         """
         session = self._session
         col_status, row_status = session.start_statuses(
             (self._col_rotation, self._row_rotation), shift=shift
         )
-        if self._lazy:  # nonbasic, near-active (rotated) and predicted rows, and the seed
+        if self._lazy:  # nonbasic and near-active rows (rotated) and the seed
             near = self._near
             if session.rotates(shift):
                 near = near[self._row_rotation[self._num_core :] - self._num_core]
-            wanted = (row_status[self._num_core :] != BASIC) | near | self._seed
-            self._set_event_rows(wanted | self._predicted_rows(shift=session.rotates(shift)))
+            self._set_event_rows((row_status[self._num_core :] != BASIC) | near | self._seed)
         rows = self._model_rows
         start = bounded_start(
             col_status,
@@ -436,18 +425,6 @@ class RMPCSolver:
             self._row_nonbasic[rows],
         )
         return session.set_start(*start)
-
-    def _predicted_rows(self, *, shift: bool) -> BoolArray:
-        """(num_event_rows,) the event rows that the last optimum, shifted by one step if
-        ``shift`` (last step held, :func:`~hvacflex.opt.basis.held_shift`), brings within
-        :data:`LAZY_PREDICTED_K` of their current bound; none without a last optimum."""
-        values = self._last_values
-        if values is None:
-            return np.zeros(self._present.size, dtype=bool)
-        guess = values[self._col_shift] if shift else values
-        upper = self._lp.row_upper[self._num_core :]
-        predicted: BoolArray = self._event_matrix @ guess - upper >= -LAZY_PREDICTED_K
-        return predicted
 
     def _optimal_basis(self, values: FloatArray) -> tuple[StatusArray, StatusArray]:
         """Statuses of HiGHS's current (optimal) basis (see :func:`optimal_statuses`)."""
@@ -576,7 +553,6 @@ class RMPCSolver:
             if the basis belongs to another structure or HiGHS rejects it.
         """
         self._session.set_basis(basis, self.num_cols, self.num_rows)
-        self._last_values = None  # the given basis, not the last solve, is the start now
 
 
 WarmSolver = RMPCSolver | FeedbackSolver
