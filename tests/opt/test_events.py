@@ -13,7 +13,7 @@ import pytest
 
 from hvacflex.errors import ProblemError
 from hvacflex.opt import RMPCProblem, RMPCSolver, SolveStatus, solve_rmpc
-from hvacflex.opt.events import carry_allowance, event_rotation, event_rows
+from hvacflex.opt.events import carry_allowance, event_rotation, event_rows, violated_rows
 from hvacflex.opt.lp import build_lp
 from hvacflex.opt.options import RESERVE_TIE_BREAK_SGD_PER_KG_S_HOUR
 from hvacflex.opt.testing import random_problem
@@ -425,6 +425,14 @@ def test_lazy_event_rows_equal_the_full_model(max_steps: int, recovery: int, alp
         assert (b.y_event_worst - b.slack <= prob.y_max + alpha + 1e-6).all()
         fewer += lazy.num_model_rows < full.num_model_rows
     assert fewer == len(problems) >= 20
+
+
+def test_violated_rows_are_every_absent_row_over_the_tolerance() -> None:
+    violation = np.array([0.5, 2e-7, -1.0, 1e-8, 3.0, 0.2])
+    absent = np.array([True, True, True, True, False, True])
+    # row 4 is violated most but already in the LP; row 3 is within the tolerance
+    assert violated_rows(violation, absent, 1e-7).tolist() == [0, 1, 5]
+    assert violated_rows(violation, absent, 1.0).size == 0
 
 
 def test_lazy_basis_covers_every_row_and_resumes_a_full_solver() -> None:

@@ -15,6 +15,8 @@ from hvacflex.errors import ProblemError
 from hvacflex.opt.basis import BASIC, UPPER, SolverBasis
 from hvacflex.opt.highs_lp import (
     BASE_OPTIONS,
+    DANTZIG_PRICING,
+    WARM_DUAL_FEASIBILITY_TOLERANCE,
     WARM_SCALE_STRATEGY,
     HighsSession,
     RunOutcome,
@@ -34,10 +36,16 @@ OPTIMAL_BASIS = (np.array([BASIC, BASIC], dtype=np.int8), np.array([UPPER, UPPER
 
 
 def _session(
-    options: SessionOptions | None = None, *, source: str = "test", method: str | None = None
+    options: SessionOptions | None = None,
+    *,
+    source: str = "test",
+    method: str | None = None,
+    warm_pricing: int | None = None,
 ) -> HighsSession:
     """A session holding the hand-solved LP."""
-    session = HighsSession(source, "lp", options or SessionOptions(), method=method)
+    session = HighsSession(
+        source, "lp", options or SessionOptions(), method=method, warm_pricing=warm_pricing
+    )
     matrix = (
         MATRIX.indptr.astype(np.int32),
         MATRIX.indices.astype(np.int32),
@@ -75,6 +83,36 @@ def test_options_are_base_options_and_per_run_scaling_and_method() -> None:
     plain = _session()
     plain.run(True)
     assert plain.highs.getOptionValue("solver")[1] == "choose"
+
+
+def test_warm_pricing_applies_to_warm_runs_only() -> None:
+    pricing, tolerance = "simplex_dual_edge_weight_strategy", "dual_feasibility_tolerance"
+    devex = BASE_OPTIONS[pricing]
+    assert devex != DANTZIG_PRICING
+    session = _session(warm_pricing=DANTZIG_PRICING)
+    highs = session.highs
+    cold_tolerance = highs.getOptionValue(tolerance)[1]
+    assert cold_tolerance > WARM_DUAL_FEASIBILITY_TOLERANCE
+    assert highs.getOptionValue(pricing)[1] == devex  # before any run: the base options
+    session.run(False)
+    assert highs.getOptionValue(pricing)[1] == devex
+    session.set_start(*OPTIMAL_BASIS)
+    _, status = session.run(True)
+    assert highs.getOptionValue(pricing)[1] == DANTZIG_PRICING
+    assert highs.getOptionValue(tolerance)[1] == WARM_DUAL_FEASIBILITY_TOLERANCE
+    assert status is SolveStatus.OPTIMAL
+    np.testing.assert_allclose(session.values(), OPTIMUM, atol=1e-9)
+    session.run(False)
+    assert highs.getOptionValue(pricing)[1] == devex
+    assert highs.getOptionValue(tolerance)[1] == cold_tolerance
+    # a caller's tighter tolerance holds on warm runs too
+    tight = _session(SessionOptions(feasibility_tolerance=1e-10), warm_pricing=DANTZIG_PRICING)
+    tight.run(True)
+    assert tight.highs.getOptionValue(tolerance)[1] == 1e-10
+    # without it every run prices with the base options' Devex
+    plain = _session()
+    plain.run(True)
+    assert plain.highs.getOptionValue(pricing)[1] == devex
 
 
 def test_the_time_limit_is_re_armed_on_the_run_clock_before_every_run() -> None:

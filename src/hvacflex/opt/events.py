@@ -82,8 +82,8 @@ __all__ = [
     "event_row_bounds",
     "event_rows",
     "event_trajectory",
-    "most_violated_rows",
     "reserve_responses",
+    "violated_rows",
     "worst_event_output",
 ]
 
@@ -272,22 +272,16 @@ def event_rotation(rows: EventRows) -> IntArray:
     return perm
 
 
-def most_violated_rows(
-    rows: EventRows, violation: FloatArray, candidate: BoolArray, tolerance_k: float
-) -> IntArray:
-    """Event rows to add in lazy row generation: per (output t, zone, kind) the candidate row
-    with the largest ``violation`` (activity − upper bound [K], (num_rows,)) if it exceeds
-    ``tolerance_k``. ``candidate`` (num_rows,) marks the rows not in the LP yet. Sorted ids.
+def violated_rows(violation: FloatArray, candidate: BoolArray, tolerance_k: float) -> IntArray:
+    """Event rows to add in lazy row generation: every ``candidate`` row (not in the LP yet,
+    (num_rows,)) whose ``violation`` (activity − upper bound [K], (num_rows,)) exceeds
+    ``tolerance_k``. Sorted ids.
+
+    Adding every violated row rather than the most violated one per (output, zone, kind)
+    takes fewer re-solves (each re-solve re-factorises the basis): on office5's ``rmpc-ppp``
+    1.62 instead of 1.79 runs per step for 1 % more rows (docs/performance.md, issue 32).
     """
-    take = np.flatnonzero(candidate & (violation > tolerance_k))
-    if take.size == 0:
-        return take.astype(np.int64)
-    group = (rows.step[take] * 2 + rows.allowance[take]) * (int(rows.output.max()) + 1)
-    group = group + rows.output[take]
-    order = np.lexsort((-violation[take], group))
-    first = np.ones(order.size, dtype=bool)
-    first[1:] = group[order][1:] != group[order][:-1]
-    chosen: IntArray = np.sort(take[order[first]]).astype(np.int64)
+    chosen: IntArray = np.flatnonzero(candidate & (violation > tolerance_k)).astype(np.int64)
     return chosen
 
 

@@ -26,18 +26,19 @@ marks ``time_indexed``) start step k, and those of step 0 start step N − 1 (a 
 the number of basic variables, so HiGHS takes the basis as is). The basis is read after each
 optimal solve from HiGHS's basic-variable list and the primal values (every row of the LP is
 an equality or one-sided, so a nonbasic row's status follows from its bounds), which is much
-cheaper than ``getBasis``. HiGHS uses Devex dual pricing
-(:data:`~hvacflex.opt.highs_lp.BASE_OPTIONS`). Warm solves run without scaling; cold solves
+cheaper than ``getBasis``. HiGHS uses Devex dual pricing on cold runs and Dantzig on warm ones
+(:data:`~hvacflex.opt.highs_lp.DANTZIG_PRICING`). Warm solves run without scaling; cold solves
 keep HiGHS's default scaling and presolve.
 
 IL event rows (``RMPCSolver(..., event_rows="lazy")``, the default): the event model's
 ≈ N²·ny/2 rows are mostly slack at the optimum, so HiGHS holds only the core rows plus the
 event rows that were nonbasic or near-active at the previous optimum (rotated by the event
 permutation) and those of events starting at 0; after each run the activities of all event
-rows are one sparse product, the most violated absent row per (output, zone, kind) is added
-(HiGHS keeps its basis, new rows basic) and the LP re-solved warm until no absent row is
-violated by more than 1e-7 K. The optimum is the full model's; bases are kept over all rows
-(absent rows basic), so checkpoints are interchangeable with ``event_rows="full"``.
+rows are one sparse product, every absent row violated by more than 1e-7 K is added (HiGHS
+keeps its basis, new rows basic) and the LP re-solved warm until none is. The optimum is the
+full model's; bases are kept over all rows (absent rows basic), so checkpoints are
+interchangeable with ``event_rows="full"``. Warm runs of this solver use Dantzig pricing
+(cold runs Devex).
 
 Failures are never silent: :class:`SolveStatus` says what happened, ``RMPCSolution.message``
 says it in words, and every plan array (u, r, P, R, ε, trajectories, costs) is NaN unless the
@@ -65,9 +66,10 @@ from hvacflex.opt.basis import (
     optimal_statuses,
     rotation,
 )
-from hvacflex.opt.events import most_violated_rows, reserve_responses
+from hvacflex.opt.events import reserve_responses, violated_rows
 from hvacflex.opt.feedback_solve import DEFAULT_LP_METHOD, FeedbackSolver
 from hvacflex.opt.highs_lp import (
+    DANTZIG_PRICING,
     HIGHS_ERROR,
     HighsSession,
     LPResult,
@@ -122,9 +124,9 @@ class RMPCSolver:
         other prices).
     event_rows : IL event model only: "full" passes every event row to HiGHS; "lazy" passes
         the rows that were nonbasic or near-active (slack ≤ :data:`LAZY_NEAR_ACTIVE_K`) at
-        the previous optimum (rotated) plus the rows of events starting at 0, then adds the
-        most violated absent row per (output, zone, kind) and re-solves warm until no absent
-        row is violated by more than :data:`LAZY_VIOLATION_TOLERANCE_K` — the same optimum.
+        the previous optimum (rotated) and the rows of events starting at 0, then adds every
+        absent row violated by more than :data:`LAZY_VIOLATION_TOLERANCE_K` and re-solves
+        warm until there is none — the same optimum.
         Bases (:meth:`get_basis`) always cover every row (absent rows basic).
     feasibility_tolerance : HiGHS's primal and dual feasibility tolerances of every solve;
         None keeps HiGHS's 1e-7
@@ -147,7 +149,9 @@ class RMPCSolver:
     ) -> None:
         self._structure = problem.structure
         options = SessionOptions(time_limit_s, time_shift, feasibility_tolerance)
-        self._session = HighsSession("RMPCSolver", self._structure.fingerprint(), options)
+        self._session = HighsSession(
+            "RMPCSolver", self._structure.fingerprint(), options, warm_pricing=DANTZIG_PRICING
+        )
         if problem.robust == "feedback":
             raise ProblemError(
                 "RMPCSolver solves the open-loop problem only",
@@ -296,9 +300,7 @@ class RMPCSolver:
         upper = self._lp.row_upper[self._num_core :]
         while True:
             violation = self._event_matrix @ values - upper
-            add = most_violated_rows(
-                self._layout.events, violation, ~self._present, LAZY_VIOLATION_TOLERANCE_K
-            )
+            add = violated_rows(violation, ~self._present, LAZY_VIOLATION_TOLERANCE_K)
             if add.size == 0:
                 self._near = violation >= -LAZY_NEAR_ACTIVE_K
                 return highs_time, iterations, status, values
@@ -408,10 +410,10 @@ class RMPCSolver:
         col_status, row_status = session.start_statuses(
             (self._col_rotation, self._row_rotation), shift=shift
         )
-        near = self._near
-        if session.rotates(shift):
-            near = near[self._row_rotation[self._num_core :] - self._num_core]
         if self._lazy:  # nonbasic and near-active rows (rotated) and the seed
+            near = self._near
+            if session.rotates(shift):
+                near = near[self._row_rotation[self._num_core :] - self._num_core]
             self._set_event_rows((row_status[self._num_core :] != BASIC) | near | self._seed)
         rows = self._model_rows
         start = bounded_start(
