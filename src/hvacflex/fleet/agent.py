@@ -411,6 +411,13 @@ class BuildingAgent:
     def set_state(self, state: dict[str, Any]) -> None:
         self.loop.set_state(state)
 
+    def restart_warm(self) -> None:
+        """Drop the solver and keep its basis, as :meth:`set_state` leaves it: after a
+        checkpoint the run goes on as a run resumed from it does (a HiGHS handle restarted
+        from a basis may settle on another of an LP's optimal vertices than one that kept
+        its factorisation, and the coordination amplifies it)."""
+        self.control.restart_warm()
+
     def frame(self) -> pd.DataFrame:
         return self.loop.frame()
 
@@ -485,6 +492,12 @@ class BuildingGroup:
         for agent, state in zip(self.agents, states, strict=True):
             agent.set_state(state)
         return len(states)
+
+    def restart_warm(self) -> int:
+        """:meth:`BuildingAgent.restart_warm` on every agent; how many."""
+        for agent in self.agents:
+            agent.restart_warm()
+        return len(self.agents)
 
     def frames(self) -> list[pd.DataFrame]:
         return [agent.frame() for agent in self.agents]

@@ -203,6 +203,14 @@ class _Groups:
     def set_states(self, states: list[dict[str, Any]]) -> None:
         self.call("set_state", [[states[i] for i in idx] for idx in self.indices])
 
+    def checkpoint_states(self) -> list[dict[str, Any]]:
+        """:meth:`get_states`, then every building's solver restarted from its basis as a
+        restore by :meth:`set_states` restarts it, so that the run goes on from here as a
+        run resumed from this checkpoint does, bit for bit."""
+        states = self.get_states()
+        self.broadcast("restart_warm")
+        return states
+
 
 def fleet_key(fleet_path: Path, start: str, days: float) -> str:
     """Identity of a fleet run's inputs: the fleet file's bytes and the period."""
@@ -433,7 +441,7 @@ def _snapshot(
         "values": values[:k].copy(),
         "flags": flags[:k].copy(),
         "iterations": iterations[:k].copy(),
-        "buildings": groups.get_states(),
+        "buildings": groups.checkpoint_states(),
     }
 
 
