@@ -78,7 +78,8 @@ def save_figure(
     return png
 
 
-def _require(frame: pd.DataFrame, columns: Sequence[str], what: str) -> None:
+def require_columns(frame: pd.DataFrame, columns: Sequence[str], what: str) -> None:
+    """Refuse ``frame`` (named ``what`` in the error) when it lacks any of ``columns``."""
     missing = [col for col in columns if col not in frame.columns]
     if missing:
         raise DataError(
@@ -147,7 +148,7 @@ def plot_prices(
     ``reserve_price_sgd_per_mwh``, ``reserve_price_synthetic``.
     """
     columns = ["energy_price_sgd_per_mwh", "reserve_price_sgd_per_mwh"]
-    _require(prices, columns, "price frame")
+    require_columns(prices, columns, "price frame")
     reserve_label = "reserve (IL) price" + (" — synthetic" if reserve_synthetic else "")
     figure, (ax_energy, ax_reserve) = new_figure(2)
     edges = period_edges(prices)
@@ -214,7 +215,7 @@ def temperature_data(
     for label, results in scenarios.items():
         ends = period_edges(results)[1:]
         for zone in zones if zones is not None else kpi.zone_names(results):
-            _require(results, [schema.TEMP_END.name(zone)], f"results of scenario {label!r}")
+            require_columns(results, [schema.TEMP_END.name(zone)], f"results of scenario {label!r}")
             part = pd.DataFrame({"scenario": label, "time_end": ends, "zone": zone})
             for prefix in TEMPERATURE_SERIES:
                 col = _TEMPERATURE_COLUMNS[prefix].name(zone)
@@ -424,7 +425,7 @@ def power_reserve_data(scenarios: Mapping[str, pd.DataFrame]) -> pd.DataFrame:
     ]
     parts = []
     for label, results in scenarios.items():
-        _require(results, ["power_kw", "reserve_kw"], f"results of scenario {label!r}")
+        require_columns(results, ["power_kw", "reserve_kw"], f"results of scenario {label!r}")
         part = pd.DataFrame({"scenario": label, "time": _local_times(results.index)})
         for col in columns:
             part[col] = results[col].to_numpy() if col in results.columns else np.nan
@@ -583,7 +584,7 @@ def normalise_ppp_sweep(sweep: pd.DataFrame) -> pd.DataFrame:
     The input columns (extra ones kept) plus the two normalised ones [%].
     """
     columns = ["peak_price_sgd_per_kw", "total_cost_sgd", "peak_power_kw"]
-    _require(sweep, columns, "PPP sweep")
+    require_columns(sweep, columns, "PPP sweep")
     data = sweep.sort_values("peak_price_sgd_per_kw").reset_index(drop=True)
     data["normalised_total_cost_pct"] = (
         100.0 * data["total_cost_sgd"] / data["total_cost_sgd"].max()
@@ -743,9 +744,11 @@ def plot_robustness_price(
     The PNG path.
     """
     cost = [col for col in ROBUSTNESS_COST_COLUMNS if col in sweep.columns]
-    _require(sweep, ["uncertainty_level", *cost[:1], *ROBUSTNESS_COLUMNS], "robustness sweep")
+    require_columns(
+        sweep, ["uncertainty_level", *cost[:1], *ROBUSTNESS_COLUMNS], "robustness sweep"
+    )
     if not cost:
-        _require(sweep, list(ROBUSTNESS_COST_COLUMNS), "robustness sweep")
+        require_columns(sweep, list(ROBUSTNESS_COST_COLUMNS), "robustness sweep")
     panels = {cost[0]: ROBUSTNESS_COST_COLUMNS[cost[0]], **ROBUSTNESS_COLUMNS}
     data = sweep.sort_values("uncertainty_level", kind="stable").reset_index(drop=True)
     data["uncertainty_level_pct"] = 100.0 * data["uncertainty_level"].astype(float)

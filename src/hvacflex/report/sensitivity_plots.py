@@ -15,8 +15,7 @@ from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from hvacflex.errors import DataError
-from hvacflex.report.plots import DPI, FIGURE_WIDTH_IN, csv_path
+from hvacflex.report.plots import DPI, FIGURE_WIDTH_IN, csv_path, require_columns
 
 PANEL_HEIGHT_IN = 3.4
 """Height of the one row of panels [in]."""
@@ -40,17 +39,6 @@ def _panels(count: int, *, sharey: bool) -> tuple[Figure, list[Axes]]:
     return figure, list(grid[0])
 
 
-def _require(frame: pd.DataFrame, columns: Sequence[str], what: str) -> None:
-    missing = [col for col in columns if col not in frame.columns]
-    if missing:
-        raise DataError(
-            f"{what} lacks required columns",
-            source=what,
-            field=", ".join(missing),
-            hint=f"columns present: {', '.join(map(str, frame.columns))}",
-        )
-
-
 def _save(figure: Figure, data: pd.DataFrame, path: str | Path) -> Path:
     png = Path(path)
     png.parent.mkdir(parents=True, exist_ok=True)
@@ -70,7 +58,7 @@ def plot_reserve_sensitivity(points: pd.DataFrame, path: str | Path) -> Path:
         [SGD/MWh], ``reserve_price_correlation`` [—] and ``revenue_share`` [fraction].
     path : the PNG to write.
     """
-    _require(
+    require_columns(
         points,
         ("scenario", "reserve_price_scale", "reserve_price_correlation", "revenue_share"),
         "sensitivity points",
@@ -109,7 +97,7 @@ def plot_seed_spread(
     runs : one row per run with ``scenario`` and the ``panels``' KPI columns (units in names).
     path : the PNG to write.
     """
-    _require(runs, ("scenario", *(key for key, _ in panels)), "seed runs")
+    require_columns(runs, ("scenario", *(key for key, _ in panels)), "seed runs")
     letters = [s for s in SCENARIO_ORDER if s in set(runs["scenario"])]
     figure, axes = _panels(len(panels), sharey=False)
     for ax, (key, label) in zip(axes, panels, strict=True):
