@@ -56,8 +56,8 @@ def test_reproduce_exits_1_and_marks_the_report_incomplete(
             reproduce_mod.corner_jobs,
         )
     )
-    assert total == 25  # (a)–(c) under both reserve models, (b), (c) with feedback, thermostat,
-    # the 4 strong baselines, 4 PPP, 6 robustness, 2 hot corner
+    assert total == 26  # (a)–(c) under both reserve models, (b), (c) with feedback, thermostat,
+    # the 4 strong baselines, (b) under stress activations, 4 PPP, 6 robustness, 2 hot corner
     result = CliRunner().invoke(app, ["reproduce", "--quick", "--out", str(tmp_path)])
     assert result.exit_code == 1, result.output
     assert f"{total} of {total} runs failed" in result.output and "INCOMPLETE" in result.output

@@ -18,7 +18,7 @@ from hvacflex.fleet.generate import generate_fleet, write_fleet
 @pytest.fixture(scope="module")
 def tight_fleet(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """Two buildings under a limit that binds from 08:00 (their minima stay below it)."""
-    doc = generate_fleet(2, 3, feeder_limit_kw=60.0)
+    doc = generate_fleet(2, 3, feeder_limit_kw=75.0)
     doc["coordination"]["max_iterations"] = 25
     return write_fleet(doc, tmp_path_factory.mktemp("compare") / "fleet.toml")
 

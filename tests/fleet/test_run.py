@@ -123,14 +123,18 @@ def test_worker_killed_mid_run_recovers(small_fleet: Path, tmp_path: Path) -> No
 
 @pytest.fixture(scope="module")
 def activated_fleet(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """Three buildings under a limit, any bid accepted, IL activated by the grid operator
+    """Three buildings under a limit that does not bind (a fleet at a binding limit has no
+    room to curtail, docs/fleet.md), the reserve priced at 200 × the USEP-correlated synthetic
+    scale unit (the power model of issue 24 sheds ≈ 2.5× less per kg/s, so the calibrated
+    scale offers nothing this morning), any bid accepted, IL activated by the grid operator
     at 12:00 and 12:30 (a file schedule)."""
     folder = tmp_path_factory.mktemp("activated")
     times = pd.date_range("2014-03-03 10:00", periods=6, freq="30min", tz="Asia/Singapore")
     pd.DataFrame({"time": [t.isoformat() for t in times], "activated": [0, 0, 0, 0, 1, 1]}).to_csv(
         folder / "activations.csv", index=False
     )
-    doc = generate_fleet(3, 3, feeder_limit_kw=110.0, min_bid_mw=0.0)
+    doc = generate_fleet(3, 3, feeder_limit_kw=200.0, min_bid_mw=0.0)
+    doc["reserve_price_scale"] = 200.0
     doc["activation"] = {"mode": "file", "file": "activations.csv"}
     return write_fleet(doc, folder / "fleet.toml")
 

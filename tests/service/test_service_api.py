@@ -204,18 +204,23 @@ def test_prices_change_the_plan(service: Service) -> None:
 
 
 def test_activation_changes_the_plan_at_once(service: Service) -> None:
-    # a plan with reserve: price the reserve high over the horizon
+    # offers decided at each period's start (no commitment ahead), so that the first period
+    # measured already offers; and a plan with reserve: price the reserve high
+    body = registration("c1", **{"reserve.commit_ahead_periods": 0})
+    registered = service.client.post("/v1/buildings", json=body, headers=service.op())
+    assert registered.status_code == 201, registered.text
+    service.keys["c1"] = registered.json()["payload"]["key"]
     prices = {
         "start": f"{START}T08:00",
         "energy_price_sgd_per_mwh": [100.0] * 48,
         "reserve_price_sgd_per_mwh": [3000.0] * 48,
     }
     service.client.post("/v1/signals/prices", json=prices, headers=service.op())
-    plan = _measure(service, "b1", f"{START}T10:00", temp=24.5).json()["payload"]
+    plan = _measure(service, "c1", f"{START}T10:00", temp=24.5).json()["payload"]
     assert plan["reserve_kw"] > 0, plan
     start = service.client.post(
         "/v1/activations",
-        json={"event": "start", "time": f"{START}T10:05", "building_ids": ["b1"]},
+        json={"event": "start", "time": f"{START}T10:05", "building_ids": ["c1"]},
         headers=service.op(),
     )
     assert start.status_code == 200, start.text
@@ -223,11 +228,11 @@ def test_activation_changes_the_plan_at_once(service: Service) -> None:
     assert changed["il_activated"] and changed["revision"] == plan["revision"] + 1
     curtailed = [u - r for u, r in zip(plan["flow_kg_s"], plan["reserve_flow_kg_s"], strict=True)]
     assert changed["applied_flow_kg_s"] == pytest.approx(curtailed)
-    read = service.client.get("/v1/buildings/b1/plan", headers=service.headers(service.keys["b1"]))
+    read = service.client.get("/v1/buildings/c1/plan", headers=service.headers(service.keys["c1"]))
     assert read.json()["payload"]["il_activated"]
     end = service.client.post(
         "/v1/activations",
-        json={"event": "end", "time": f"{START}T10:20", "building_ids": ["b1"]},
+        json={"event": "end", "time": f"{START}T10:20", "building_ids": ["c1"]},
         headers=service.op(),
     )
     (restored,) = end.json()["payload"]["plans"]

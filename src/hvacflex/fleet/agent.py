@@ -35,6 +35,7 @@ import pandas as pd
 from hvacflex.config import (
     ComfortConfig,
     ControllerConfig,
+    DataConfig,
     ReserveConfig,
     ScenarioConfig,
 )
@@ -165,6 +166,8 @@ class FleetSettings:
     billing_mode: str
     il_events: ReserveConfig = field(default_factory=ReserveConfig)
     """The IL contract (event model D, α, R) every building plans for."""
+    reserve_price_scale: float | None = None
+    """Scale of the synthetic reserve price (None: the shipped calibration)."""
 
     @staticmethod
     def of(fleet: Fleet, start: str, days: float) -> FleetSettings:
@@ -179,6 +182,7 @@ class FleetSettings:
             peak_price_sgd_per_kw=s.ppp.peak_price_sgd_per_kw,
             billing_mode=s.ppp.billing_mode,
             il_events=s.reserve.config(),
+            reserve_price_scale=s.reserve_price_scale,
         )
 
 
@@ -223,6 +227,7 @@ def building_setup(entry: FleetBuilding, index: int, settings: FleetSettings) ->
         controller=controller,
         reserve=settings.il_events,
         comfort=comfort,
+        data=DataConfig(reserve_price_scale=settings.reserve_price_scale),
     )
     return prepare(
         config,

@@ -198,6 +198,9 @@ class FleetSpec(_Spec):
     feeder_limit_csv: str | None = None
     feeder_margin: Annotated[Finite, Field(ge=0.0, lt=0.5)] = 0.0
     min_bid_mw: Annotated[Finite, Field(ge=0.0)] = 0.1
+    reserve_price_scale: Annotated[Finite, Field(gt=0.0)] | None = None
+    """Scale of the synthetic reserve price every building sees (the scenario key
+    ``[data] reserve_price_scale``; None: the shipped calibration)."""
     robust: Literal["tightening", "none"] = "tightening"
     horizon_steps: Annotated[int, Strict(), Field(ge=2, le=336)] = 48
     reserve: ReserveSpec = ReserveSpec()
