@@ -51,27 +51,37 @@ def make_db_url(
         drop_postgres_database(base, url)
 
 
-@pytest.fixture(scope="module")
-def service(make_db_url: Callable[[str], str]) -> Iterator[Service]:
-    """An app with two registered buildings, ``b1`` and ``b2`` (one day each)."""
-    db_url = make_db_url("service")
+def _service(db_url: str, registrations: list[dict[str, Any]]) -> Iterator[Service]:
+    """An app on ``db_url`` with the buildings of ``registrations`` registered."""
     app = create_app(db_url)
     with app.state.sessions() as session, session.begin():
         operator_key = create_key(session, "operator")
     client = TestClient(app)
     keys: dict[str, str] = {}
     nodes: list[str] = []
-    for building_id in ("b1", "b2"):
-        response = client.post(
-            "/v1/buildings", json=registration(building_id), headers={"X-API-Key": operator_key}
-        )
+    for body in registrations:
+        response = client.post("/v1/buildings", json=body, headers={"X-API-Key": operator_key})
         assert response.status_code == 201, response.text
-        keys[building_id] = response.json()["payload"]["key"]
+        keys[body["building_id"]] = response.json()["payload"]["key"]
         nodes = response.json()["payload"]["nodes"]
     yield Service(client, operator_key, keys, nodes, db_url)
     client.close()
     app.state.planner.shutdown()
     app.state.engine.dispose()
+
+
+@pytest.fixture(scope="module")
+def service(make_db_url: Callable[[str], str]) -> Iterator[Service]:
+    """An app with two registered buildings, ``b1`` and ``b2`` (one day each)."""
+    yield from _service(make_db_url("service"), [registration("b1"), registration("b2")])
+
+
+@pytest.fixture(scope="module")
+def offering_service(make_db_url: Callable[[str], str]) -> Iterator[Service]:
+    """An app with one building, ``c1``, whose offers are decided at each period's start
+    (``reserve.commit_ahead_periods = 0``), so that the first period measured already offers."""
+    body = registration("c1", **{"reserve.commit_ahead_periods": 0})
+    yield from _service(make_db_url("offering"), [body])
 
 
 @pytest.fixture

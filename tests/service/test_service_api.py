@@ -203,13 +203,9 @@ def test_prices_change_the_plan(service: Service) -> None:
     service.client.post("/v1/signals/prices", json=reset, headers=service.op())
 
 
-def test_activation_changes_the_plan_at_once(service: Service) -> None:
-    # offers decided at each period's start (no commitment ahead), so that the first period
-    # measured already offers; and a plan with reserve: price the reserve high
-    body = registration("c1", **{"reserve.commit_ahead_periods": 0})
-    registered = service.client.post("/v1/buildings", json=body, headers=service.op())
-    assert registered.status_code == 201, registered.text
-    service.keys["c1"] = registered.json()["payload"]["key"]
+def test_activation_changes_the_plan_at_once(offering_service: Service) -> None:
+    service = offering_service
+    # a plan with reserve: price the reserve high over the horizon
     prices = {
         "start": f"{START}T08:00",
         "energy_price_sgd_per_mwh": [100.0] * 48,
