@@ -646,31 +646,19 @@ def _reproduce_studies(
     from hvacflex.robustness import SeedPlan, run_seed_study
     from hvacflex.sensitivity import SensitivityGrid, run_sensitivity
 
-    failed: list[str] = []
+    studies: list[tuple[str, Any, Any]] = []
     if sensitivity:
         grid = SensitivityGrid.quick() if quick else SensitivityGrid.full()
-        study = run_sensitivity(
-            out / "sensitivity",
-            grid,
-            scheduler=scheduler,
-            workers=workers,
-            fresh=fresh,
-            log=typer.echo,
-        )
-        typer.echo(f"sensitivity: {study.out_dir} ({study.elapsed_s:.0f} s)")
-        failed += [f"{o.label}: {o.error}" for o in study.failed]
+        studies.append(("sensitivity", run_sensitivity, grid))
     if seeds:
-        plan = SeedPlan.quick() if quick else SeedPlan.full()
-        seed_study = run_seed_study(
-            out / "seeds",
-            plan,
-            scheduler=scheduler,
-            workers=workers,
-            fresh=fresh,
-            log=typer.echo,
+        studies.append(("seeds", run_seed_study, SeedPlan.quick() if quick else SeedPlan.full()))
+    failed: list[str] = []
+    for name, run_study, plan in studies:
+        study = run_study(
+            out / name, plan, scheduler=scheduler, workers=workers, fresh=fresh, log=typer.echo
         )
-        typer.echo(f"seeds: {seed_study.out_dir} ({seed_study.elapsed_s:.0f} s)")
-        failed += [f"{o.label}: {o.error}" for o in seed_study.failed]
+        typer.echo(f"{name}: {study.out_dir} ({study.elapsed_s:.0f} s)")
+        failed += [f"{o.label}: {o.error}" for o in study.failed]
     if failed:
         typer.echo(f"error: {len(failed)} runs failed:\n" + "\n".join(failed), err=True)
         raise typer.Exit(1)
