@@ -14,6 +14,9 @@ from hvacflex import kpi
 from hvacflex.reproduce_energyplus import (
     COMPARISON_COLUMNS,
     COMPARISON_CSV,
+    PLANTS,
+    TABLE1_CSV,
+    display_week,
     energyplus_section,
     plant_comparison,
     tracking_rmse_k,
@@ -69,6 +72,22 @@ def test_the_section_writes_its_table_and_figure(make_results: Factory, tmp_path
     assert len(table) == 6 and set(table["scenario"]) == {"(a) NMPC", "(b) RMPC", "(c) RMPC + PPP"}
     week = pd.read_csv(figures / "energyplus_week.csv")
     assert set(week["plant"]) == {"rc", "energyplus"} and len(week) == 6 * len(rc["a"])
+    monthly = pd.read_csv(tmp_path / TABLE1_CSV, index_col=["plant", "scenario"])
+    assert list(monthly.index.get_level_values("plant").unique()) == [
+        PLANTS["rc"],
+        PLANTS["energyplus"],
+    ]
+    assert monthly.loc[(PLANTS["rc"], "(a) NMPC"), "energy_cost_change_pct"] == 0.0
     verdict_table = section.tables[0]
     assert "EnergyPlus office5" in verdict_table["basis"].iloc[0]
     assert len(verdict_table) == 4  # robustness premium, comfort, PPP cost, PPP peak
+
+
+def test_a_year_is_drawn_over_its_march_week_and_a_week_whole(make_results: Factory) -> None:
+    week = make_results(seed=1)
+    assert display_week(week) is week
+    index = pd.date_range("2014-01-01", periods=48 * 90, freq="30min", tz=week.index.tz)
+    long = pd.DataFrame({"power_kw": np.arange(len(index), dtype=float)}, index=index)
+    shown = display_week(long)
+    assert len(shown) == 7 * 48
+    assert shown.index[0] == pd.Timestamp("2014-03-03", tz=week.index.tz)

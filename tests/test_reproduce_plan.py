@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 from hvacflex.reproduce_energyplus import ENERGYPLUS_PREFIX, ENERGYPLUS_SCENARIOS, RC_WEEK_PREFIX
 from hvacflex.reproduce_plan import Plan, plan_groups
 
@@ -35,14 +37,20 @@ def test_energyplus_runs_only_when_asked() -> None:
         assert (cfg.start, cfg.days) == ("2014-03-03", 7.0)
 
 
-def test_the_quick_week_is_reused_and_the_full_year_gets_its_own_rc_week() -> None:
-    quick = Plan.quick(energyplus=True)
-    assert quick.energyplus_week_is_scenario_period
-    assert all(p["plant"] == "energyplus" for p, _ in plan_groups(quick)["energyplus"])
+def test_the_scenario_runs_are_reused_when_they_cover_the_energyplus_period() -> None:
+    """--quick: the week; the full run: the year on EnergyPlus too (issue 33)."""
+    for plan in (Plan.quick(energyplus=True), Plan.full(energyplus=True)):
+        assert plan.energyplus_week_is_scenario_period
+        assert all(p["plant"] == "energyplus" for p, _ in plan_groups(plan)["energyplus"])
     full = Plan.full(energyplus=True)
-    assert not full.energyplus_week_is_scenario_period
-    rc = [(p, cfg) for p, cfg in plan_groups(full)["energyplus"] if p["plant"] == "rc"]
+    assert (full.energyplus_start, full.energyplus_days) == ("2014-01-01", 365.0)
+
+
+def test_another_energyplus_period_gets_its_own_rc_runs() -> None:
+    plan = replace(Plan.full(energyplus=True), energyplus_start="2014-03-03", energyplus_days=7.0)
+    assert not plan.energyplus_week_is_scenario_period
+    rc = [(p, cfg) for p, cfg in plan_groups(plan)["energyplus"] if p["plant"] == "rc"]
     assert [p["scenario"] for p, _ in rc] == list(ENERGYPLUS_SCENARIOS)
     for _, cfg in rc:
         assert cfg.name.startswith(RC_WEEK_PREFIX) and cfg.plant.kind == "rc"
-        assert (cfg.start, cfg.days) == (full.energyplus_start, full.energyplus_days)
+        assert (cfg.start, cfg.days) == (plan.energyplus_start, plan.energyplus_days)

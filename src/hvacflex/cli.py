@@ -568,8 +568,9 @@ def reproduce(
     energyplus: bool = typer.Option(
         False,
         "--energyplus",
-        help="Add the section on EnergyPlus office5: (a), (b), (c) and the thermostat for one "
-        "week beside the RC-plant week (needs the energyplus extra of hvacflex).",
+        help="Add the section on EnergyPlus office5: (a), (b), (c) and the thermostat over the "
+        "year (--quick: the week) beside the same runs on the RC plant (needs the energyplus "
+        "extra of hvacflex).",
     ),
     out: Path = typer.Option(  # noqa: B008
         Path("results/reproduce"),

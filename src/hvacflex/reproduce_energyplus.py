@@ -1,7 +1,8 @@
 """The reproduction on EnergyPlus (``hvacflex reproduce --energyplus``): (a) NMPC, (b) RMPC,
-(c) RMPC + PPP and the 24 °C thermostat for one week on EnergyPlus office5 — the building's
-own IDF export (``[plant] kind = "energyplus"``, ``idf = "generated"``, setpoint actuation,
-the product presets' IL event model) — side by side with the same week on hvacflex's RC plant.
+(c) RMPC + PPP and the 24 °C thermostat on EnergyPlus office5 (the year; ``--quick``: one
+week) — the building's own IDF export (``[plant] kind = "energyplus"``, ``idf =
+"generated"``, setpoint actuation, the product presets' IL event model) — side by side with
+the same period on hvacflex's RC plant.
 
 EnergyPlus is the judge here: the controllers plan with hvacflex's RC model and never see
 EnergyPlus's, so cost, peak and comfort on that plant are graded by an engine the controller
@@ -41,6 +42,9 @@ PLANTS = {"rc": "RC plant (hvacflex)", "energyplus": "EnergyPlus 25.2"}
 
 COMPARISON_CSV = "energyplus_vs_rc.csv"
 """The comparison table's file in the reproduction's output folder."""
+
+TABLE1_CSV = "table1_energyplus.csv"
+"""Table 1 of the runs on each plant (:func:`plant_table1`) in the output folder."""
 
 COMPARISON_COLUMNS: tuple[str, ...] = (
     "scenario",
@@ -149,6 +153,22 @@ def plant_comparison(
     return pd.DataFrame(rows, columns=list(COMPARISON_COLUMNS))
 
 
+def plant_table1(runs: Mapping[tuple[str, str], pd.DataFrame]) -> pd.DataFrame:
+    """Table 1 (:func:`hvacflex.report.tables.table1`: averages per month, % against the
+    plant's first scenario) of each plant's runs, one block per plant (index ``plant``,
+    ``scenario``). ``runs``: (scenario label, plant kind) → results frame."""
+    from hvacflex.report import tables
+
+    by_plant: dict[str, dict[str, pd.DataFrame]] = {}
+    for (label, plant), frame in runs.items():
+        by_plant.setdefault(PLANTS.get(plant, plant), {})[label] = kpi.monthly_table(frame)
+    blocks = [
+        tables.table1(monthly).assign(plant=plant).set_index("plant", append=True)
+        for plant, monthly in by_plant.items()
+    ]
+    return pd.concat(blocks).reorder_levels(["plant", "scenario"])
+
+
 def mean_zone_temp_degc(results: pd.DataFrame) -> np.ndarray:
     """(T,) the mean over zones of the realised end-of-period temperature [°C]."""
     zones = kpi.zone_names(results)
@@ -157,15 +177,41 @@ def mean_zone_temp_degc(results: pd.DataFrame) -> np.ndarray:
     )
 
 
+DISPLAY_WEEK_START = "2014-03-03"
+"""First day of the week :func:`plot_plant_week` draws when a run is longer than
+:data:`DISPLAY_MAX_DAYS` (the EnergyPlus week of ``--quick``)."""
+
+DISPLAY_MAX_DAYS = 14.0
+"""Longest run drawn whole by :func:`plot_plant_week` [days]; a longer one (the year) is
+drawn over the week from :data:`DISPLAY_WEEK_START`, its tables cover it all."""
+
+
+def display_week(frame: pd.DataFrame) -> pd.DataFrame:
+    """``frame`` itself when it spans at most :data:`DISPLAY_MAX_DAYS`, else its seven days
+    from :data:`DISPLAY_WEEK_START` (its first seven when that day is outside it)."""
+    index = pd.DatetimeIndex(frame.index)
+    if len(index) == 0 or index[-1] - index[0] <= pd.Timedelta(days=DISPLAY_MAX_DAYS):
+        return frame
+    start = pd.Timestamp(DISPLAY_WEEK_START, tz=index.tz)
+    if not index[0] <= start <= index[-1]:
+        start = index[0]
+    return frame[(index >= start) & (index < start + pd.Timedelta(days=7))]
+
+
 def plot_plant_week(
     runs: Mapping[str, Mapping[str, pd.DataFrame]], path: Path, *, title: str
 ) -> Path:
     """Per scenario a row of two panels: HVAC power [kW] on each plant, and the mean zone
     temperature [°C] on each plant over the comfort band (shaded; the first zone's, from the
-    RC run), two lines a panel. ``runs``: scenario label → plant kind → results frame.
-    Writes the PNG and its CSV (``scenario``, ``plant``, ``time``, ``power_kw``,
-    ``mean_zone_temp_degc``)."""
+    RC run), two lines a panel, over :func:`display_week` of each run. ``runs``: scenario
+    label → plant kind → results frame. Writes the PNG and its CSV (``scenario``, ``plant``,
+    ``time``, ``power_kw``, ``mean_zone_temp_degc``)."""
     from hvacflex.report import plots
+
+    runs = {
+        label: {plant: display_week(frame) for plant, frame in by_plant.items()}
+        for label, by_plant in runs.items()
+    }
 
     figure, axes = plots.new_figure(len(runs), 2, sharex=True, panel_height_in=2.2)
     colours = {"rc": "C0", "energyplus": "C3"}
@@ -240,16 +286,17 @@ def energyplus_section(
     out: Path,
     figures: Path,
 ) -> Any:
-    """The report's section on EnergyPlus office5; writes :data:`COMPARISON_CSV` and
+    """The report's section on EnergyPlus office5; writes :data:`COMPARISON_CSV`,
+    :data:`TABLE1_CSV` (Table 1, monthly averages, of the runs on each plant) and
     ``figures/energyplus_week.png`` (+ CSV).
 
     Parameters
     ----------
     eplus, rc : scenario key (:data:`ENERGYPLUS_SCENARIOS`) → results of the EnergyPlus and
-        the RC-plant run of the same week.
+        the RC-plant run of the same period.
     labels : scenario key → its label in the report.
     peak_price_sgd_per_kw : φ of the one tariff [SGD/kW].
-    period : the week in words (e.g. "7 days from 2014-03-03").
+    period : the period in words (e.g. "7 days from 2014-03-03").
     """
     from hvacflex.report.html import Section
 
@@ -262,6 +309,8 @@ def energyplus_section(
     }
     table = plant_comparison(runs, peak_price_sgd_per_kw)
     table.to_csv(out / COMPARISON_CSV, index=False)
+    monthly = plant_table1(runs)
+    monthly.to_csv(out / TABLE1_CSV)
     by_scenario: dict[str, dict[str, pd.DataFrame]] = {}
     for (label, plant), frame in runs.items():
         by_scenario.setdefault(label, {})[plant] = frame
@@ -273,7 +322,7 @@ def energyplus_section(
     basis = f"EnergyPlus office5 (generated IDF, setpoint actuation), {period}, not scaled"
     verdict_table = _verdicts({key: eplus[key] for key in keys}, basis)
     return Section(
-        title="On EnergyPlus — the same week graded by an independent engine",
+        title="On EnergyPlus — the same controllers graded by an independent engine",
         paragraphs=[
             f"(a), (b), (c) and the 24 °C thermostat over {period} on EnergyPlus 25.2 running "
             "office5's own IDF export (VAV air loop with a chiller; hvacflex building "
@@ -285,20 +334,24 @@ def energyplus_section(
             "Electricity:Plant, the facility energy ElectricityPurchased:Facility. "
             f"tariff_cost_sgd prices every run alike: energy + φ = {peak_price_sgd_per_kw:g} "
             "SGD/kW × the billed peak + IL penalties − reserve revenue (synthetic price), over "
-            "the week. tracking_rmse_k: RMS of the realised minus the planned end-of-period "
+            "the period. tracking_rmse_k: RMS of the realised minus the planned end-of-period "
             "zone temperature.",
             "The verdicts below repeat the paper's findings on the EnergyPlus runs; they are "
             "graded by EnergyPlus, not by hvacflex's model.",
         ],
         figures=[figure],
         figure_captions=[
-            "Left: HVAC electric power of each run on each plant over the week; right: the "
+            "Left: HVAC electric power of each run on each plant over a week of the period; "
+            "right: the "
             "mean zone temperature over the shaded comfort band. Where the lines part, the RC "
             "plant and EnergyPlus disagree about the same controller's building."
         ],
-        tables=[verdict_table, table],
+        tables=[verdict_table, monthly, table],
         table_captions=[
             f"The paper's findings on EnergyPlus ({period}; the paper: the year 2014)",
-            f"RC plant and EnergyPlus, {period}, totals over the week (not scaled)",
+            f"Table 1 on each plant: average per month, {period} (energy, billed peak at the "
+            "one tariff, reserve offered / delivered against the metered baseline / "
+            "shortfall, revenue, penalties, net; % against (a) on the same plant)",
+            f"RC plant and EnergyPlus, {period}, totals over the period (not scaled)",
         ],
     )

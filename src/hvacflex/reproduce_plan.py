@@ -125,6 +125,8 @@ class Plan:
             uncertainty_levels=UNCERTAINTY_LEVELS,
             with_feedback=True,
             energyplus=energyplus,
+            energyplus_start="2014-01-01",
+            energyplus_days=365.0,
         )
 
     @classmethod
