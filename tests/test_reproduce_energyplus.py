@@ -80,7 +80,10 @@ def test_the_section_writes_its_table_and_figure(make_results: Factory, tmp_path
     assert monthly.loc[(PLANTS["rc"], "(a) NMPC"), "energy_cost_change_pct"] == 0.0
     verdict_table = section.tables[0]
     assert "EnergyPlus office5" in verdict_table["basis"].iloc[0]
-    assert len(verdict_table) == 4  # robustness premium, comfort, PPP cost, PPP peak
+    # robustness premium, comfort, PPP cost, PPP peak, reserve revenue
+    assert len(verdict_table) == 5
+    revenue = [f for f in verdict_table.index if f.startswith("Reserve revenue rises")]
+    assert len(revenue) == 1
 
 
 def test_a_year_is_drawn_over_its_march_week_and_a_week_whole(make_results: Factory) -> None:

@@ -273,6 +273,15 @@ def _verdicts(eplus: Mapping[str, pd.DataFrame], basis: str) -> pd.DataFrame:
             verdicts.peak_price_costs_more(b["energy_cost_sgd"], c["energy_cost_sgd"], basis)
         )
         found.append(verdicts.peak_price_lowers_peak(b["peak_power_kw"], c["peak_power_kw"], basis))
+    if {"a", "b", "c"} <= summary.keys():
+        found.append(
+            verdicts.reserve_revenue_rises(
+                summary["a"]["reserve_revenue_sgd"],
+                summary["b"]["reserve_revenue_sgd"],
+                summary["c"]["reserve_revenue_sgd"],
+                basis,
+            )
+        )
     return verdicts.verdict_table(found)
 
 
