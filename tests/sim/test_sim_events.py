@@ -340,8 +340,8 @@ def test_two_stress_days_are_settled_against_metered_power(tmp_path: Path) -> No
 @pytest.mark.slow
 def test_stress_week_is_settled_against_metered_power(tmp_path: Path) -> None:
     """Issue 25's done-when case: ``rmpc``, 5 days from 2014-03-03, stress activations.
-    Measured (docs/il_events.md): 13 activated periods, metered 25× the offer; offered in
-    office hours 15.3 kWh (the issue's 36 kWh is not reached)."""
+    Measured (docs/il_events.md, scale 48.5 SGD/MWh): 13 activated periods, metered 14× the
+    offer; offered in office hours 26.1 kWh (the issue's 36 kWh is not reached)."""
     cfg = with_overrides(preset("rmpc", start=START, days=5.0), {"activation.mode": "stress"})
     result = run_simulation(cfg, tmp_path, progress=False)
     frame, summary = result.frame, result.summary
