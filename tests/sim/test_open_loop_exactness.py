@@ -4,7 +4,11 @@ The closed loop of the product ``rmpc`` preset on office5 (IL event model, fixed
 linearisation) is recorded, and each step's LP is solved twice: by one warm-started
 :class:`RMPCSolver` over the whole sequence (time-shifted basis, lazy event rows — the path
 the controller takes) and by a fresh cold solver holding every event row. HiGHS's objectives
-(tie-break included) must agree to 1e-9 relative. The default suite checks 12 steps; the
+(tie-break included) must agree to 1e-8 relative: each solve stops at a basis that is primal
+and dual feasible to the solver's 1e-9 tolerances, so two solves from different starting
+bases may differ by a few times 1e-9 (step 1 of this day did, 2.3e-9, once the reserve price
+was recalibrated to 48.5 SGD/MWh and reserve entered the optimum); a wrong warm start shows
+as 1e-6 or more. The default suite checks 12 steps; the
 slow suite a recorded week (336 steps, ``-m slow``).
 """
 
@@ -18,7 +22,7 @@ from hvacflex.opt.problem import RMPCProblem
 from hvacflex.opt.solve import RMPCSolver, SolveStatus
 from hvacflex.sim.recording import recorded_problems
 
-RELATIVE_TOLERANCE = 1e-9
+RELATIVE_TOLERANCE = 1e-8
 
 
 def _relative_differences(problems: list[RMPCProblem]) -> list[float]:
