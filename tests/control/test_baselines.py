@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from hvacflex.config import preset
+from hvacflex.control.base import PeriodInputs
 from hvacflex.control.baselines import (
     REACHED_TOLERANCE_K,
     OptimalStart,
@@ -92,8 +93,8 @@ def test_optimal_start_thermostat_precools_to_the_setpoint_the_plain_one_does_no
     early = ThermostatController(model, hvac, 25.5, OptimalStart(initial_steps=2))
     x = np.full(len(model.node_names), 28.0)
     forecast = _forecast(setup, OCCUPANCY_STEP - 1)
-    plain_action = plain.act(x, forecast, peak_floor_kw=0.0)
-    early_action = early.act(x, forecast, peak_floor_kw=0.0)
+    plain_action = plain.act(PeriodInputs(x, forecast, 0.0))
+    early_action = early.act(PeriodInputs(x, forecast, 0.0))
     assert early.precooling and not plain.precooling
     assert np.all(early_action.flow_kg_s > plain_action.flow_kg_s)
     # the dead-beat rule aims at 25.5 °C unless the flow limit binds
