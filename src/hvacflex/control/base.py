@@ -111,6 +111,12 @@ class Action:
     released: bool = False
     offer_ahead: ReserveOffer | None = None
 
+    def applied_flow_kg_s(self, *, curtailed: bool) -> FloatArray:
+        """(m,) the flow the plant runs [kg/s]: u₀ − r₀ when the period is curtailed (IL
+        activated), else u₀."""
+        flow = self.flow_kg_s - self.reserve_flow_kg_s if curtailed else self.flow_kg_s
+        return np.asarray(flow, dtype=float)
+
 
 @dataclass(frozen=True)
 class PeriodInputs:

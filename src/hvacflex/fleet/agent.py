@@ -297,8 +297,7 @@ class BuildingAgent:
         if probe.role(True) is not Role.EVENT_LOCKED:
             return None
         action = probe.locked_action()
-        flow: FloatArray = np.asarray(action.flow_kg_s - action.reserve_flow_kg_s, dtype=float)
-        return flow
+        return action.applied_flow_kg_s(curtailed=True)
 
     def staged_offer_kw(self) -> tuple[float, float]:
         """(the staged plan's first-period offer [kW], its curtailed power [kW]): the

@@ -259,8 +259,7 @@ class RemoteControl:
             allowance_k=float(answer["il_allowance_k"]),
             reference_power_kw=_none_nan(answer["il_reference_power_kw"]),
         )
-        curtailed = action.flow_kg_s - action.reserve_flow_kg_s
-        applied = curtailed if outcome.curtailed else action.flow_kg_s
+        applied = action.applied_flow_kg_s(curtailed=outcome.curtailed)
         status = decision_status(role, action)
         return Decision(action, status, role, outcome, applied, None, None)
 

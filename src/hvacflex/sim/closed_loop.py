@@ -365,7 +365,7 @@ class ClosedLoop:
         action = decision.action
         if action.released:  # the plant's own control: no setpoint from hvacflex
             return Actuation(setpoint_degc=np.full(action.flow_kg_s.shape, np.nan))
-        flow = action.flow_kg_s - action.reserve_flow_kg_s if curtailed else action.flow_kg_s
+        flow = action.applied_flow_kg_s(curtailed=curtailed)
         if self.actuation == "flow":
             return Actuation(flow_kg_s=flow, supply_temp_degc=action.supply_temp_degc)
         k, exo = self.k, self.setup.exogenous

@@ -218,11 +218,8 @@ class ControlStep:
         role = tracker.role(activated(k))
         if role is Role.EVENT_LOCKED:
             action = tracker.locked_action()
-            controller.hold(
-                inputs.forecast,
-                action.flow_kg_s - action.reserve_flow_kg_s,
-                inputs.measured_zone_temp_degc,
-            )
+            locked_flow = action.applied_flow_kg_s(curtailed=True)
+            controller.hold(inputs.forecast, locked_flow, inputs.measured_zone_temp_degc)
         else:
             controller.note_baseline_power(baseline_power_kw)
             controller.note_commitments(self.committed_flow_kg_s)
@@ -234,8 +231,7 @@ class ControlStep:
         if tracker.locked is not None and role in (Role.EVENT_START, Role.EVENT_LOCKED):
             locked = (tracker.locked, tracker.plan_step)
         outcome = tracker.finish(role, action)
-        applied = action.flow_kg_s - action.reserve_flow_kg_s if outcome.curtailed else None
-        applied_flow = np.asarray(action.flow_kg_s if applied is None else applied, dtype=float)
+        applied_flow = action.applied_flow_kg_s(curtailed=outcome.curtailed)
         controller.note_applied_flow(applied_flow)
         status = decision_status(role, action)
         made = controller.last_plan if status is DecisionStatus.PLANNED else None
