@@ -262,7 +262,7 @@ class MPCController(Controller):
     ) -> RMPCProblem:
         """The RMPC problem for the period starting now.
 
-        ``allowance_carry_steps``: see :meth:`hvacflex.control.base.Controller.act` (ignored
+        ``allowance_carry_steps``: see :class:`hvacflex.control.base.PeriodInputs` (ignored
         under the whole-horizon model). ``step_model`` replaces the dynamics (a, b, e, g) of
         the fixed model (trajectory linearisation); ``offset_k`` (m,) [K per step] is added to
         the zone nodes' affine term (the filter's offset estimate); ``extra_margin_k`` (N, m)
