@@ -204,7 +204,6 @@ WITHOUT_OWN_TEST_FILE: set[str] = {
     "hvacflex.config.model",
     "hvacflex.config.presets",
     "hvacflex.config.schema",
-    "hvacflex.control.base",
     "hvacflex.control.mpc",
     "hvacflex.control.prediction_error",
     "hvacflex.control.trajectory",

@@ -6,10 +6,12 @@ import numpy as np
 import pytest
 
 from hvacflex.config import preset
+from hvacflex.control.base import PeriodInputs
 from hvacflex.control.baselines import (
     REACHED_TOLERANCE_K,
     OptimalStart,
     ThermostatController,
+    rule_action,
 )
 from hvacflex.data.forecast import Forecast
 from hvacflex.sim.setup import Setup, prepare
@@ -92,8 +94,8 @@ def test_optimal_start_thermostat_precools_to_the_setpoint_the_plain_one_does_no
     early = ThermostatController(model, hvac, 25.5, OptimalStart(initial_steps=2))
     x = np.full(len(model.node_names), 28.0)
     forecast = _forecast(setup, OCCUPANCY_STEP - 1)
-    plain_action = plain.act(x, forecast, peak_floor_kw=0.0)
-    early_action = early.act(x, forecast, peak_floor_kw=0.0)
+    plain_action = plain.act(PeriodInputs(x, forecast, 0.0))
+    early_action = early.act(PeriodInputs(x, forecast, 0.0))
     assert early.precooling and not plain.precooling
     assert np.all(early_action.flow_kg_s > plain_action.flow_kg_s)
     # the dead-beat rule aims at 25.5 °C unless the flow limit binds
@@ -112,3 +114,18 @@ def test_thermostat_state_round_trips_the_learned_lead(setup: Setup) -> None:
     assert second.optimal_start is not None and second.optimal_start.lead_steps == 3
     # a thermostat without an optimal start keeps reading its old (empty) state
     ThermostatController(model, hvac).set_state({})
+
+
+def test_a_rule_action_offers_nothing_and_predicts_one_step_on_the_model(setup: Setup) -> None:
+    model = setup.model
+    x = np.linspace(24.0, 27.0, model.a.shape[0])
+    flow = np.linspace(0.2, 0.6, model.b.shape[1])
+    d_now = setup.forecaster.forecast(20, 9).disturbances[0]
+    action = rule_action(model, x, flow, d_now)
+    predicted = model.c @ (model.a @ x + model.b @ flow + model.e @ d_now + model.g)
+    np.testing.assert_allclose(action.predicted_served_degc, predicted, rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(action.predicted_curtailed_degc, action.predicted_served_degc)
+    np.testing.assert_array_equal(action.reserve_flow_kg_s, np.zeros_like(flow))
+    assert (action.status, action.fallback, action.reserve_kw) == ("rule", False, 0.0)
+    assert (action.planned_slack_max_k, action.delta_max_k, action.solve_time_s) == (0.0,) * 3
+    assert np.isnan(action.planned_power_kw)

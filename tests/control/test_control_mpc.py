@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from hvacflex.config import preset, with_overrides
+from hvacflex.control.base import PeriodInputs
 from hvacflex.control.baselines import ThermostatController, unplanned_action
 from hvacflex.control.mpc import MPCController, model_error_margins
 from hvacflex.errors import ConfigError
@@ -65,12 +66,12 @@ def test_failed_solve_without_previous_plan_falls_back_to_the_thermostat(setup: 
     k = 20  # an occupied period
     forecast = setup.forecaster.forecast(k, setup.config.controller.horizon_steps + 1)
     x = np.full(setup.model.a.shape[0], 25.5)
-    action = controller.act(x, forecast, peak_floor_kw=0.0)
+    action = controller.act(PeriodInputs(x, forecast, 0.0))
 
     thermostat = ThermostatController(
         setup.model, setup.building.hvac, setup.config.controller.thermostat_setpoint_degc
     )
-    rule = thermostat.act(x, forecast, peak_floor_kw=0.0)
+    rule = thermostat.act(PeriodInputs(x, forecast, 0.0))
     assert action.fallback and not rule.fallback
     assert action.status == "time_limit" and rule.status == "rule"
     np.testing.assert_array_equal(action.flow_kg_s, rule.flow_kg_s)
@@ -102,7 +103,7 @@ def test_the_reserve_contract_reaches_the_problem_and_the_event_plan(setup: Setu
     assert problem.il_event_allowance_kelvin == reserve.event_allowance_k
     assert problem.il_event_recovery_steps == reserve.event_recovery_steps
     assert problem.il_allowance_carry_steps == 2
-    action = controller.act(x, forecast, peak_floor_kw=0.0)
+    action = controller.act(PeriodInputs(x, forecast, 0.0))
     plan = action.event_plan
     assert plan is not None and plan.steps == 4 + reserve.event_recovery_steps
     np.testing.assert_allclose(plan.flow_kg_s[0], action.flow_kg_s)
@@ -114,7 +115,7 @@ def test_the_reserve_contract_reaches_the_problem_and_the_event_plan(setup: Setu
     assert isinstance(whole, MPCController)
     problem = whole.problem(x, forecast, 0.0, allowance_carry_steps=2)
     assert problem.il_event_max_steps is None and problem.il_allowance_carry_steps == 0
-    assert whole.act(x, forecast, peak_floor_kw=0.0).event_plan is None
+    assert whole.act(PeriodInputs(x, forecast, 0.0)).event_plan is None
 
 
 def test_model_error_margin_accumulates_the_zone_error_by_hand(setup: Setup) -> None:
@@ -148,7 +149,7 @@ def test_model_error_tightens_the_robust_plan_only(setup: Setup) -> None:
     for controller in (base, tightened):
         controller.observe_problems(seen.append)
         x = np.full(setup.model.a.shape[0], 25.0)
-        controller.act(x, setup.forecaster.forecast(20, 49), peak_floor_kw=0.0)
+        controller.act(PeriodInputs(x, setup.forecaster.forecast(20, 49), 0.0))
     assert (seen[1].y_max <= seen[0].y_max + 1e-12).all()
     assert (seen[1].y_max < seen[0].y_max - 0.1).any()
     nominal = replace(setup.config.controller, robust="none")
@@ -158,7 +159,7 @@ def test_model_error_tightens_the_robust_plan_only(setup: Setup) -> None:
     )  # fmt: skip
     ignored.observe_problems(seen.append)
     ignored.act(
-        np.full(setup.model.a.shape[0], 25.0), setup.forecaster.forecast(20, 49), peak_floor_kw=0.0
+        PeriodInputs(np.full(setup.model.a.shape[0], 25.0), setup.forecaster.forecast(20, 49), 0.0)
     )
     np.testing.assert_array_equal(seen[2].y_max, seen[0].y_max)
 
@@ -188,7 +189,7 @@ def test_no_reserve_is_offered_where_the_baseline_would_not_see_it() -> None:
     for k in range(20, 36):  # 10:00 … 17:30
         forecast = setup.forecaster.forecast(k, cfg.horizon_steps + 1)
         free = make_controller(setup)
-        offered = free.act(x, forecast, peak_floor_kw=0.0)
+        offered = free.act(PeriodInputs(x, forecast, 0.0))
         if offered.reserve_kw > 0:
             break
     else:
@@ -196,10 +197,10 @@ def test_no_reserve_is_offered_where_the_baseline_would_not_see_it() -> None:
     assert isinstance(free, MPCController)
     blind = make_controller(setup)
     blind.note_baseline_power(0.0)
-    assert blind.act(x, forecast, peak_floor_kw=0.0).reserve_kw == 0.0
+    assert blind.act(PeriodInputs(x, forecast, 0.0)).reserve_kw == 0.0
     high = make_controller(setup)
     high.note_baseline_power(1e6)
-    assert high.act(x, forecast, peak_floor_kw=0.0).reserve_kw == pytest.approx(offered.reserve_kw)
+    assert high.act(PeriodInputs(x, forecast, 0.0)).reserve_kw == pytest.approx(offered.reserve_kw)
     problem = free.problem(x, forecast, 0.0)
     assert (problem.reserve_kw_per_kg_s <= problem.power_coeff_kw_per_kg_s).all()
 
@@ -216,7 +217,7 @@ def test_commitments_are_fixed_in_the_plan(setup: Setup) -> None:
     assert isinstance(controller, MPCController) and controller.commits_ahead == g
     committed = np.where(controller.reserve_mask, 0.05, 0.0)[None, :].repeat(g, axis=0)
     controller.note_commitments(committed)
-    action = controller.act(x, forecast, peak_floor_kw=0.0)
+    action = controller.act(PeriodInputs(x, forecast, 0.0))
     plan = controller.last_plan
     assert plan is not None and plan.status is SolveStatus.OPTIMAL
     np.testing.assert_allclose(plan.r[:g], committed, atol=1e-9)
@@ -224,7 +225,7 @@ def test_commitments_are_fixed_in_the_plan(setup: Setup) -> None:
     assert controller.problem(x, forecast, 0.0).fixed_reserve_steps == g
     assert action.offer_ahead is not None
     free = make_controller(setup)  # nothing committed: the same period plans r_0 = 0
-    free.act(x, forecast, peak_floor_kw=0.0)
+    free.act(PeriodInputs(x, forecast, 0.0))
     assert free.last_plan is not None
     np.testing.assert_allclose(free.last_plan.r[:g], 0.0, atol=1e-9)  # to the dual tolerance
 

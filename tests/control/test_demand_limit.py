@@ -9,6 +9,7 @@ import pytest
 
 from hvacflex.building.hvac import hvac_power_kw
 from hvacflex.config import preset
+from hvacflex.control.base import PeriodInputs
 from hvacflex.control.demand_limit import (
     UPPER_MARGIN_K,
     DemandLimitController,
@@ -44,10 +45,10 @@ def test_no_target_before_a_day_has_passed_then_the_fraction_of_yesterdays_peak(
     assert controller.target_kw(peak_floor_kw=12.0) == math.inf
     x = np.full(len(setup.model.node_names), 26.0)
     for k in (AFTERNOON_STEP, AFTERNOON_STEP + 1):  # day 1
-        controller.act(x, setup.forecaster.forecast(k, 9), peak_floor_kw=0.0)
+        controller.act(PeriodInputs(x, setup.forecaster.forecast(k, 9), 0.0))
     yesterday_kw = controller._day_peak_kw
     assert yesterday_kw > 0
-    controller.act(x, setup.forecaster.forecast(48, 9), peak_floor_kw=0.0)  # day 2 starts
+    controller.act(PeriodInputs(x, setup.forecaster.forecast(48, 9), 0.0))  # day 2 starts
     assert controller.reference_kw == pytest.approx(yesterday_kw)
     assert controller.target_kw(0.0) == pytest.approx(0.8 * yesterday_kw)
     # the peak already billed this month is never limited
@@ -80,7 +81,7 @@ def test_state_round_trips(setup: Setup) -> None:
     first = _controller(setup)
     x = np.full(len(setup.model.node_names), 26.0)
     for k in (AFTERNOON_STEP, 48):
-        first.act(x, setup.forecaster.forecast(k, 9), peak_floor_kw=0.0)
+        first.act(PeriodInputs(x, setup.forecaster.forecast(k, 9), 0.0))
     second = _controller(setup)
     second.set_state(first.get_state())
     assert second.reference_kw == first.reference_kw

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from hvacflex.config import preset
+from hvacflex.control.base import PeriodInputs
 from hvacflex.control.gta_dr import GtaDrController
 from hvacflex.sim.setup import Setup, make_controller, prepare
 
@@ -41,10 +42,10 @@ def test_the_preset_builds_the_controller_with_the_event_allowance(setup: Setup)
 def test_the_offer_is_a_fixed_share_of_the_predicted_load(setup: Setup) -> None:
     x = np.full(len(setup.model.node_names), 25.5)
     forecast = setup.forecaster.forecast(AFTERNOON_STEP, 9)
-    action = _controller(setup, share=0.25).act(x, forecast, peak_floor_kw=0.0)
+    action = _controller(setup, share=0.25).act(PeriodInputs(x, forecast, 0.0))
     assert action.planned_power_kw > 0
     assert action.reserve_kw == pytest.approx(0.25 * action.planned_power_kw)
-    assert _controller(setup, share=0.0).act(x, forecast, peak_floor_kw=0.0).reserve_kw == 0.0
+    assert _controller(setup, share=0.0).act(PeriodInputs(x, forecast, 0.0)).reserve_kw == 0.0
 
 
 def test_the_reserve_is_the_flow_cut_of_the_raised_setpoint(setup: Setup) -> None:

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from hvacflex.config import preset, with_overrides
+from hvacflex.control.base import PeriodInputs
 from hvacflex.control.trim_respond import (
     RESPOND_FRACTION,
     SAT_MAX_DEGC,
@@ -63,7 +64,7 @@ def test_flows_follow_the_loops_and_the_rc_plant_gets_no_supply_temperature(
     assert isinstance(controller, TrimRespondController) and not controller.reset_supply_temp
     hvac = setup.building.hvac
     x = np.full(len(setup.model.node_names), 27.0)
-    action = controller.act(x, setup.forecaster.forecast(AFTERNOON_STEP, 9), peak_floor_kw=0.0)
+    action = controller.act(PeriodInputs(x, setup.forecaster.forecast(AFTERNOON_STEP, 9), 0.0))
     low, high = hvac.flow_min_at([True])[0], np.asarray(hvac.flow_max_kg_s)
     assert np.allclose(action.flow_kg_s, low + controller.loop_fraction * (high - low))
     assert np.all(action.flow_kg_s > low)
@@ -75,7 +76,7 @@ def test_a_plant_that_takes_a_supply_temperature_gets_the_reset(setup: Setup) ->
     controller = make_controller(prepare(config))
     assert isinstance(controller, TrimRespondController) and controller.reset_supply_temp
     x = np.full(len(setup.model.node_names), 27.0)
-    action = controller.act(x, setup.forecaster.forecast(AFTERNOON_STEP, 9), peak_floor_kw=0.0)
+    action = controller.act(PeriodInputs(x, setup.forecaster.forecast(AFTERNOON_STEP, 9), 0.0))
     assert action.supply_temp_degc == controller.supply_temp_degc
 
 

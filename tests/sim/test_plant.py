@@ -10,7 +10,7 @@ import pytest
 from hvacflex.building.hvac import hvac_power_kw
 from hvacflex.building.plant import NonlinearPlant
 from hvacflex.config import preset, with_overrides
-from hvacflex.control.base import Action, Controller
+from hvacflex.control.base import Action, Controller, PeriodInputs
 from hvacflex.sim.closed_loop import ClosedLoop
 from hvacflex.sim.plant import Actuation, Disturbance, Observation, Plant, RCPlant
 from hvacflex.sim.setup import prepare
@@ -105,7 +105,7 @@ class HalfFlowOffering(Controller):
     def __init__(self, flow_max_kg_s: np.ndarray) -> None:
         self.flow = 0.5 * np.asarray(flow_max_kg_s, dtype=float)
 
-    def act(self, x_degc: Any, forecast: Any, **_: Any) -> Action:  # type: ignore[override]
+    def act(self, inputs: PeriodInputs) -> Action:
         zones = len(self.flow)
         return Action(
             flow_kg_s=self.flow, reserve_flow_kg_s=0.25 * self.flow, reserve_kw=1.0,

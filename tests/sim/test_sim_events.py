@@ -11,8 +11,7 @@ import pytest
 
 from hvacflex import state as hvacflex_state
 from hvacflex.config import preset, with_overrides
-from hvacflex.control.base import Action, Controller, EventPlan
-from hvacflex.data.forecast import Forecast
+from hvacflex.control.base import Action, Controller, EventPlan, PeriodInputs
 from hvacflex.sim.closed_loop import ClosedLoop, run_simulation
 from hvacflex.sim.events import EventTracker, Role
 from hvacflex.sim.run_files import CONFIG_FILE
@@ -136,14 +135,10 @@ class StubPlanner(Controller):
     def __init__(self, flow_max: np.ndarray, steps: int) -> None:
         self.flow_max, self.steps, self.calls, self.carries = flow_max, steps, 0, []
 
-    def act(
-        self, x: np.ndarray, forecast: Forecast, *, peak_floor_kw: float,
-        allowance_carry_steps: int = 0, measured_zone_temp_degc: np.ndarray | None = None,
-        plan: Any = None,
-    ) -> Action:  # fmt: skip
+    def act(self, inputs: PeriodInputs) -> Action:
         self.calls += 1
-        self.carries.append(allowance_carry_steps)
-        level = 0.4 + 0.02 * (float(np.mean(x)) - 25.0)
+        self.carries.append(inputs.allowance_carry_steps)
+        level = 0.4 + 0.02 * (float(np.mean(inputs.x_degc)) - 25.0)
         ramp = 1.0 + 0.05 * np.arange(self.steps)[:, None]
         flow = np.clip(level * ramp * self.flow_max, 0.0, self.flow_max)
         plan = EventPlan(

@@ -10,7 +10,7 @@ import pytest
 
 from hvacflex import state
 from hvacflex.config import preset
-from hvacflex.control.base import Action, Controller, EventPlan, ReserveOffer
+from hvacflex.control.base import Action, Controller, EventPlan, PeriodInputs, ReserveOffer
 from hvacflex.data.forecast import Forecast
 from hvacflex.sim.events import Role
 from hvacflex.sim.step import ConflictError, ControlStep, DecisionStatus
@@ -26,20 +26,11 @@ class CountingController(Controller):
         self.calls = 0
         self.holds: list[np.ndarray] = []
         self.applied: list[np.ndarray] = []
-        self.measured: list[Any] = []
+        self.inputs: list[PeriodInputs] = []
 
-    def act(
-        self,
-        x_degc: np.ndarray,
-        forecast: Forecast,
-        *,
-        peak_floor_kw: float,
-        allowance_carry_steps: int = 0,
-        measured_zone_temp_degc: np.ndarray | None = None,
-        plan: Any = None,
-    ) -> Action:
+    def act(self, inputs: PeriodInputs) -> Action:
         self.calls += 1
-        self.measured.append(measured_zone_temp_degc)
+        self.inputs.append(inputs)
         flow = np.full((STEPS, ZONES), 1.0 + self.calls)
         event = EventPlan(
             flow_kg_s=flow,
@@ -85,15 +76,14 @@ def _step(replannable: bool = False) -> tuple[ControlStep, CountingController]:
     return ControlStep(config, controller, ZONES, replannable=replannable), controller
 
 
-def _decide(step: ControlStep, k: int, active: set[int], **kw: Any) -> Any:
-    return step.decide(
-        k,
+def _decide(step: ControlStep, k: int, active: set[int], measured: np.ndarray | None = None) -> Any:
+    inputs = PeriodInputs(
         np.full(3, 25.0),
         None,  # type: ignore[arg-type]  # the counting controller never reads it
         peak_floor_kw=0.0,
-        activated=lambda j: j in active,
-        **kw,
+        measured_zone_temp_degc=measured,
     )
+    return step.decide(k, inputs, activated=lambda j: j in active)
 
 
 def test_an_event_locks_the_start_plan_holds_and_curtails_then_resumes() -> None:
@@ -129,8 +119,19 @@ def test_an_event_locks_the_start_plan_holds_and_curtails_then_resumes() -> None
 def test_measurements_reach_the_controller() -> None:
     step, controller = _step()
     reading = np.array([24.0, 26.0])
-    _decide(step, 0, set(), measured_zone_temp_degc=reading)
-    np.testing.assert_array_equal(controller.measured[0], reading)
+    _decide(step, 0, set(), measured=reading)
+    np.testing.assert_array_equal(controller.inputs[0].measured_zone_temp_degc, reading)
+
+
+def test_the_controller_gets_the_trackers_recovery_allowance_not_the_callers() -> None:
+    step, controller = _step()
+    active = {1, 2}  # a curtailed event of 2 periods; then the recovery of R = 2 periods
+    for k in range(6):
+        bogus = PeriodInputs(np.full(3, 25.0), None, 0.0, allowance_carry_steps=99)  # type: ignore[arg-type]
+        step.decide(k, bogus, activated=lambda j: j in active)
+    # period 2 is locked (no act); period 3 plans with both recovery periods ahead, 4 with one
+    asked = [inputs.allowance_carry_steps for inputs in controller.inputs]
+    assert asked == [0, 0, 2, 1, 0]
 
 
 def test_a_replannable_step_decides_a_period_again_from_before_it() -> None:
@@ -186,8 +187,8 @@ class CommittingController(CountingController):
     def note_commitments(self, reserve_flow_kg_s: np.ndarray) -> None:
         self.noted = np.array(reserve_flow_kg_s, dtype=float)
 
-    def act(self, x_degc: np.ndarray, forecast: Forecast, **kw: Any) -> Action:
-        action = super().act(x_degc, forecast, **kw)
+    def act(self, inputs: PeriodInputs) -> Action:
+        action = super().act(inputs)
         assert action.event_plan is not None
         plan = action.event_plan
         reserve = np.array(plan.reserve_flow_kg_s)

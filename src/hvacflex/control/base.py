@@ -111,6 +111,43 @@ class Action:
     released: bool = False
     offer_ahead: ReserveOffer | None = None
 
+    def applied_flow_kg_s(self, *, curtailed: bool) -> FloatArray:
+        """(m,) the flow the plant runs [kg/s]: u₀ − r₀ when the period is curtailed (IL
+        activated), else u₀."""
+        flow = self.flow_kg_s - self.reserve_flow_kg_s if curtailed else self.flow_kg_s
+        return np.asarray(flow, dtype=float)
+
+
+@dataclass(frozen=True)
+class PeriodInputs:
+    """What a controller gets to decide the period starting now (:meth:`Controller.act`).
+
+    Built by the driver of the period (:meth:`hvacflex.sim.step.ControlStep.decide`, which
+    sets :attr:`allowance_carry_steps` from its IL event tracker) and passed unchanged to
+    the controller.
+
+    Attributes
+    ----------
+    x_degc : (n,) node temperatures now [°C] (the plant's state, or the building's report).
+    forecast : prices, φ, disturbances and comfort bounds over the horizon from now.
+    peak_floor_kw : the peak already incurred in this billing period [kW] (billing-period
+        PPP; 0 at a billing period's start).
+    allowance_carry_steps : periods from now that still belong to the recovery of an IL
+        event that just ended: their end temperatures may use the event allowance α (0:
+        none).
+    measured_zone_temp_degc : (m,) zone-air readings [°C] for a controller with a filter
+        (:attr:`Controller.takes_measurements`); None: not measured.
+    plan : a plan of this period decided elsewhere (the fleet coordinator's
+        ``RMPCSolution``) to apply instead of solving; controllers that do not plan ignore it.
+    """
+
+    x_degc: FloatArray
+    forecast: Forecast
+    peak_floor_kw: float
+    allowance_carry_steps: int = 0
+    measured_zone_temp_degc: FloatArray | None = None
+    plan: Any = None
+
 
 class Controller(Protocol):
     """A controller the closed loop, the service and the fleet drive through one
@@ -124,29 +161,9 @@ class Controller(Protocol):
     takes_measurements: bool = False
     """True when :meth:`act` and :meth:`hold` need ``measured_zone_temp_degc`` (a filter)."""
 
-    def act(
-        self,
-        x_degc: FloatArray,
-        forecast: Forecast,
-        *,
-        peak_floor_kw: float,
-        allowance_carry_steps: int = 0,
-        measured_zone_temp_degc: FloatArray | None = None,
-        plan: Any = None,
-    ) -> Action:
-        """Decide the action for the period starting now.
-
-        Parameters
-        ----------
-        x_degc : (n,) measured node temperatures [°C].
-        forecast : prices, φ, disturbances and comfort bounds over the horizon from now.
-        peak_floor_kw : peak already incurred in this billing period [kW] (billing-period PPP).
-        allowance_carry_steps : periods from now that still belong to the recovery of an IL
-            event that just ended: their end temperatures may use the event allowance α.
-        measured_zone_temp_degc : (m,) zone-air readings [°C] (controllers with a filter).
-        plan : a plan decided elsewhere (the fleet coordinator's) to apply instead of solving;
-            controllers that do not plan ignore it.
-        """
+    def act(self, inputs: PeriodInputs) -> Action:
+        """Decide the action for the period starting now from what the period's
+        :class:`PeriodInputs` hold."""
         ...
 
     def hold(

@@ -34,7 +34,7 @@ import numpy as np
 
 from hvacflex.building.discretize import LinearModel
 from hvacflex.building.model import HvacSystem
-from hvacflex.control.base import Action, Controller, FloatArray
+from hvacflex.control.base import Action, Controller, FloatArray, PeriodInputs
 from hvacflex.data.forecast import Forecast
 
 UNOCCUPIED_MARGIN_K = 1.0
@@ -154,6 +154,24 @@ def unplanned_action(
     )
 
 
+def rule_action(
+    model: LinearModel, x_degc: FloatArray, flow_kg_s: FloatArray, d_now: FloatArray
+) -> Action:
+    """The action of a rule-based controller: :func:`unplanned_action` of the flows (m,)
+    [kg/s] from the state ``x_degc`` (n,) [°C] under the disturbances ``d_now`` (nd,), with
+    status ``"rule"``, no fallback, no solve time and no slack or margin."""
+    return unplanned_action(
+        model,
+        x_degc,
+        flow_kg_s,
+        d_now,
+        status="rule",
+        fallback=False,
+        solve_time_s=0.0,
+        plan_margin_k=0.0,
+    )
+
+
 class ThermostatController(Controller):
     """Dead-beat thermostat on the linear model (see the module docstring).
 
@@ -239,26 +257,11 @@ class ThermostatController(Controller):
             x_degc, forecast.disturbances[0], self.target_degc(forecast), occupied
         )
 
-    def act(
-        self,
-        x_degc: FloatArray,
-        forecast: Forecast,
-        *,
-        peak_floor_kw: float,
-        allowance_carry_steps: int = 0,
-        measured_zone_temp_degc: FloatArray | None = None,
-        plan: Any = None,
-    ) -> Action:
+    def act(self, inputs: PeriodInputs) -> Action:
+        x_degc, forecast = inputs.x_degc, inputs.forecast
         self.observe(x_degc, forecast)
-        return unplanned_action(
-            self._model,
-            x_degc,
-            self.flows_now(x_degc, forecast),
-            forecast.disturbances[0],
-            status="rule",
-            fallback=False,
-            solve_time_s=0.0,
-            plan_margin_k=0.0,
+        return rule_action(
+            self._model, x_degc, self.flows_now(x_degc, forecast), forecast.disturbances[0]
         )
 
     def get_state(self) -> dict[str, Any]:
@@ -282,27 +285,9 @@ class PlantBaselineController(Controller):
     def __init__(self, model: LinearModel) -> None:
         self._model = model
 
-    def act(
-        self,
-        x_degc: FloatArray,
-        forecast: Forecast,
-        *,
-        peak_floor_kw: float,
-        allowance_carry_steps: int = 0,
-        measured_zone_temp_degc: FloatArray | None = None,
-        plan: Any = None,
-    ) -> Action:
+    def act(self, inputs: PeriodInputs) -> Action:
         flow = np.zeros(self._model.b.shape[1])
-        action = unplanned_action(
-            self._model,
-            x_degc,
-            flow,
-            forecast.disturbances[0],
-            status="rule",
-            fallback=False,
-            solve_time_s=0.0,
-            plan_margin_k=0.0,
-        )
+        action = rule_action(self._model, inputs.x_degc, flow, inputs.forecast.disturbances[0])
         return replace(action, released=True)
 
     def get_state(self) -> dict[str, Any]:

@@ -31,8 +31,8 @@ import numpy as np
 from hvacflex.building.discretize import LinearModel
 from hvacflex.building.hvac import hvac_power_kw
 from hvacflex.building.model import HvacSystem
-from hvacflex.control.base import Action, FloatArray
-from hvacflex.control.baselines import OptimalStart, ThermostatController, unplanned_action
+from hvacflex.control.base import Action, FloatArray, PeriodInputs
+from hvacflex.control.baselines import OptimalStart, ThermostatController, rule_action
 from hvacflex.data.forecast import Forecast
 
 SETPOINT_STEP_K = 0.25
@@ -136,33 +136,16 @@ class DemandLimitController(ThermostatController):
                 break
         return flow, raise_k
 
-    def act(
-        self,
-        x_degc: FloatArray,
-        forecast: Forecast,
-        *,
-        peak_floor_kw: float,
-        allowance_carry_steps: int = 0,
-        measured_zone_temp_degc: FloatArray | None = None,
-        plan: Any = None,
-    ) -> Action:
+    def act(self, inputs: PeriodInputs) -> Action:
+        x_degc, forecast = inputs.x_degc, inputs.forecast
         self.observe(x_degc, forecast)
         self._roll_day(forecast)
         unlimited = self._power_kw(x_degc, self.flows_now(x_degc, forecast), forecast)
         self._day_peak_kw = float(np.nanmax([self._day_peak_kw, unlimited]))
         flow, self.last_raise_k = self.limited_flows(
-            x_degc, forecast, self.target_kw(peak_floor_kw)
+            x_degc, forecast, self.target_kw(inputs.peak_floor_kw)
         )
-        return unplanned_action(
-            self.model,
-            x_degc,
-            flow,
-            forecast.disturbances[0],
-            status="rule",
-            fallback=False,
-            solve_time_s=0.0,
-            plan_margin_k=0.0,
-        )
+        return rule_action(self.model, x_degc, flow, forecast.disturbances[0])
 
     def get_state(self) -> dict[str, Any]:
         return super().get_state() | {

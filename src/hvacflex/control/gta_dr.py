@@ -25,13 +25,11 @@ in the recovery periods ``r = 0``.
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 
 from hvacflex.building.discretize import LinearModel
 from hvacflex.building.model import HvacSystem
-from hvacflex.control.base import Action, EventPlan, FloatArray
+from hvacflex.control.base import Action, EventPlan, FloatArray, PeriodInputs
 from hvacflex.control.baselines import UNOCCUPIED_MARGIN_K, OptimalStart, ThermostatController
 from hvacflex.control.demand_limit import predicted_power_kw
 from hvacflex.data.forecast import Forecast
@@ -119,16 +117,8 @@ class GtaDrController(ThermostatController):
             x_served, x_cut = next_served, next_cut
         return EventPlan(flow, reserve, served_kw, reserve_kw, served_degc, curtailed_degc)
 
-    def act(
-        self,
-        x_degc: FloatArray,
-        forecast: Forecast,
-        *,
-        peak_floor_kw: float,
-        allowance_carry_steps: int = 0,
-        measured_zone_temp_degc: FloatArray | None = None,
-        plan: Any = None,
-    ) -> Action:
+    def act(self, inputs: PeriodInputs) -> Action:
+        x_degc, forecast = inputs.x_degc, inputs.forecast
         self.observe(x_degc, forecast)
         event = self.event_plan(x_degc, forecast)
         return Action(

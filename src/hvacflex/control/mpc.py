@@ -36,7 +36,14 @@ from hvacflex.building.identified import identified_affine_power
 from hvacflex.building.model import Building
 from hvacflex.building.rc import build_network
 from hvacflex.config import ControllerConfig, Linearisation, ReserveConfig
-from hvacflex.control.base import Action, Controller, EventPlan, FloatArray, ReserveOffer
+from hvacflex.control.base import (
+    Action,
+    Controller,
+    EventPlan,
+    FloatArray,
+    PeriodInputs,
+    ReserveOffer,
+)
 from hvacflex.control.baselines import ThermostatController, unplanned_action
 from hvacflex.control.estimation import (
     AppliedStep,
@@ -255,7 +262,7 @@ class MPCController(Controller):
     ) -> RMPCProblem:
         """The RMPC problem for the period starting now.
 
-        ``allowance_carry_steps``: see :meth:`hvacflex.control.base.Controller.act` (ignored
+        ``allowance_carry_steps``: see :class:`hvacflex.control.base.PeriodInputs` (ignored
         under the whole-horizon model). ``step_model`` replaces the dynamics (a, b, e, g) of
         the fixed model (trajectory linearisation); ``offset_k`` (m,) [K per step] is added to
         the zone nodes' affine term (the filter's offset estimate); ``extra_margin_k`` (N, m)
@@ -405,20 +412,13 @@ class MPCController(Controller):
         estimate: FloatArray = np.maximum(shifted, low)
         return estimate
 
-    def act(
-        self,
-        x_degc: FloatArray,
-        forecast: Forecast,
-        *,
-        peak_floor_kw: float,
-        allowance_carry_steps: int = 0,
-        measured_zone_temp_degc: FloatArray | None = None,
-        plan: RMPCSolution | None = None,
-    ) -> Action:
-        """Decide the period's action from the plant state ``x_degc`` (n,) (full state) or,
-        with a filter, from the measured zone temperatures (m,) [°C] alone; ``plan``: a
-        solution of this period's problem decided elsewhere (the fleet coordinator's), applied
-        as if the solver had returned it."""
+    def act(self, inputs: PeriodInputs) -> Action:
+        """Decide the period's action from the plant state ``inputs.x_degc`` (n,) (full
+        state) or, with a filter, from the measured zone temperatures (m,) [°C] alone;
+        ``inputs.plan``: an ``RMPCSolution`` of this period's problem decided elsewhere (the
+        fleet coordinator's), applied as if the solver had returned it."""
+        x_degc, forecast = inputs.x_degc, inputs.forecast
+        measured_zone_temp_degc = inputs.measured_zone_temp_degc
         offset = extra = None
         if self._estimator is not None:
             if measured_zone_temp_degc is None:
@@ -456,8 +456,8 @@ class MPCController(Controller):
         problem = self.problem(
             x_degc,
             forecast,
-            peak_floor_kw,
-            allowance_carry_steps,
+            inputs.peak_floor_kw,
+            inputs.allowance_carry_steps,
             step_model=step_model,
             offset_k=offset,
             extra_margin_k=extra,
@@ -467,7 +467,7 @@ class MPCController(Controller):
         if self._solver is not None and step_model is not self._solver_model:
             self._carry_basis_to(problem)
         self._solver_model = step_model
-        action = self._decide(problem, x_degc, forecast, plan)
+        action = self._decide(problem, x_degc, forecast, inputs.plan)
         self._step_model, self._held = step_model, False
         if self._estimator is not None:
             self._estimator.applied(

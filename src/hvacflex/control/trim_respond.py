@@ -39,12 +39,12 @@ import numpy as np
 
 from hvacflex.building.discretize import LinearModel
 from hvacflex.building.model import HvacSystem
-from hvacflex.control.base import Action, Controller, FloatArray
+from hvacflex.control.base import Action, Controller, FloatArray, PeriodInputs
 from hvacflex.control.baselines import (
     UNOCCUPIED_MARGIN_K,
     OptimalStart,
     first_occupied_band,
-    unplanned_action,
+    rule_action,
 )
 from hvacflex.data.forecast import Forecast
 
@@ -142,16 +142,8 @@ class TrimRespondController(Controller):
                 np.clip(self.supply_temp_degc + SAT_TRIM_K - drop_k, SAT_MIN_DEGC, SAT_MAX_DEGC)
             )
 
-    def act(
-        self,
-        x_degc: FloatArray,
-        forecast: Forecast,
-        *,
-        peak_floor_kw: float,
-        allowance_carry_steps: int = 0,
-        measured_zone_temp_degc: FloatArray | None = None,
-        plan: Any = None,
-    ) -> Action:
+    def act(self, inputs: PeriodInputs) -> Action:
+        x_degc, forecast = inputs.x_degc, inputs.forecast
         zone_temp = self._model.c @ x_degc
         precool = False
         if self.optimal_start is not None:
@@ -159,16 +151,7 @@ class TrimRespondController(Controller):
         self.update(zone_temp, self.zone_setpoint_degc(forecast, precool))
         low = self._hvac.flow_min_at([bool(forecast.occupied[0]) or precool])[0]
         flow = low + self.loop_fraction * np.maximum(self._flow_max - low, 0.0)
-        action = unplanned_action(
-            self._model,
-            x_degc,
-            flow,
-            forecast.disturbances[0],
-            status="rule",
-            fallback=False,
-            solve_time_s=0.0,
-            plan_margin_k=0.0,
-        )
+        action = rule_action(self._model, x_degc, flow, forecast.disturbances[0])
         if not self.reset_supply_temp:
             return action
         return replace(action, supply_temp_degc=self.supply_temp_degc)

@@ -39,9 +39,8 @@ from hvacflex.config import (
     ReserveConfig,
     ScenarioConfig,
 )
-from hvacflex.control.base import Action, FloatArray
+from hvacflex.control.base import Action, FloatArray, PeriodInputs
 from hvacflex.control.mpc import RESERVE_FLOW_TOLERANCE_KG_S, MPCController
-from hvacflex.data.forecast import Forecast
 from hvacflex.data.gains import DEFAULT_OFFICE_SCHEDULE, OfficeSchedule
 from hvacflex.fleet.schema import Fleet, FleetBuilding, fleet_from_dict
 from hvacflex.opt import RMPCProblem, RMPCSolution, RMPCSolver, SolveStatus
@@ -112,28 +111,12 @@ class FleetController(MPCController):
         assert isinstance(self._solver, RMPCSolver)
         return self._solver
 
-    def act(
-        self,
-        x_degc: FloatArray,
-        forecast: Forecast,
-        *,
-        peak_floor_kw: float,
-        allowance_carry_steps: int = 0,
-        measured_zone_temp_degc: FloatArray | None = None,
-        plan: RMPCSolution | None = None,
-    ) -> Action:
-        action = super().act(
-            x_degc,
-            forecast,
-            peak_floor_kw=peak_floor_kw,
-            allowance_carry_steps=allowance_carry_steps,
-            measured_zone_temp_degc=measured_zone_temp_degc,
-            plan=plan,
-        )
+    def act(self, inputs: PeriodInputs) -> Action:
+        action = super().act(inputs)
         if self.power_now is None or not np.isfinite(self.cap_now_kw):
             return action
         p0, p = self.power_now
-        low = self._building.hvac.flow_min_at(forecast.occupied[:1])[0]
+        low = self._building.hvac.flow_min_at(inputs.forecast.occupied[:1])[0]
         power = p0 + float(p @ action.flow_kg_s)
         if power <= self.cap_now_kw + CAP_TOLERANCE_KW:
             return action
@@ -314,8 +297,7 @@ class BuildingAgent:
         if probe.role(True) is not Role.EVENT_LOCKED:
             return None
         action = probe.locked_action()
-        flow: FloatArray = np.asarray(action.flow_kg_s - action.reserve_flow_kg_s, dtype=float)
-        return flow
+        return action.applied_flow_kg_s(curtailed=True)
 
     def staged_offer_kw(self) -> tuple[float, float]:
         """(the staged plan's first-period offer [kW], its curtailed power [kW]): the

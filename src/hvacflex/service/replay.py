@@ -29,8 +29,7 @@ from typing import Any
 import numpy as np
 
 from hvacflex.config import ScenarioConfig, preset
-from hvacflex.control.base import Action, FloatArray
-from hvacflex.data.forecast import Forecast
+from hvacflex.control.base import Action, FloatArray, PeriodInputs
 from hvacflex.errors import HvacflexError, InputError
 from hvacflex.paths import resolve_building
 from hvacflex.results import RESULTS_FILENAME
@@ -233,18 +232,15 @@ class RemoteControl:
     def decide(
         self,
         k: int,
-        x_degc: FloatArray,
-        forecast: Forecast,
+        inputs: PeriodInputs,
         *,
-        peak_floor_kw: float,
         activated: Callable[[int], bool],
-        measured_zone_temp_degc: FloatArray | None = None,
-        plan: Any = None,
         baseline_power_kw: float | None = None,
     ) -> Decision:
-        """Post period ``k``'s activation change and measurement; the service's decision
-        (its peak floor, recovery allowance and settlement baseline are its own)."""
-        time = forecast.index[0].isoformat()
+        """Post period ``k``'s activation change and measurement (``inputs.x_degc``); the
+        service's decision (its forecast, peak floor, recovery allowance and settlement
+        baseline are its own)."""
+        time = inputs.forecast.index[0].isoformat()
         if activated(k) != self.active:
             self.active = activated(k)
             body = {
@@ -253,7 +249,7 @@ class RemoteControl:
                 "building_ids": [self.remote.building_id],
             }
             self.operator.call("POST", "/v1/activations", body)
-        answer = self.remote.exchange(x_degc, time)
+        answer = self.remote.exchange(inputs.x_degc, time)
         action = action_from_plan(answer)
         role = Role(answer["il_role"])
         outcome = PeriodOutcome(
@@ -263,8 +259,7 @@ class RemoteControl:
             allowance_k=float(answer["il_allowance_k"]),
             reference_power_kw=_none_nan(answer["il_reference_power_kw"]),
         )
-        curtailed = action.flow_kg_s - action.reserve_flow_kg_s
-        applied = curtailed if outcome.curtailed else action.flow_kg_s
+        applied = action.applied_flow_kg_s(curtailed=outcome.curtailed)
         status = decision_status(role, action)
         return Decision(action, status, role, outcome, applied, None, None)
 

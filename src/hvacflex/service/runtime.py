@@ -39,7 +39,7 @@ from hvacflex import state
 from hvacflex.building.io import building_from_dict
 from hvacflex.building.model import Building
 from hvacflex.config import ScenarioConfig, preset, with_overrides
-from hvacflex.control.base import Controller
+from hvacflex.control.base import Controller, PeriodInputs
 from hvacflex.data.signals import OperatorSignals, effective_peak_price
 from hvacflex.errors import InputError
 from hvacflex.paths import resolve_building
@@ -485,11 +485,8 @@ class Runtime:
         measured = setup.model.c @ x_degc if control.takes_measurements else None
         decision = control.decide(
             k,
-            x_degc,
-            forecast,
-            peak_floor_kw=floor,
+            PeriodInputs(x_degc, forecast, floor, measured_zone_temp_degc=measured),
             activated=activated,
-            measured_zone_temp_degc=measured,
             baseline_power_kw=self._previous_power_kw(session, runtime, k),
         )
         payload = self._payload(runtime, k, decision, decision.plan, forecast.index)

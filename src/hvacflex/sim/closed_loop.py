@@ -43,7 +43,7 @@ import pandas as pd
 from hvacflex import results, state, version
 from hvacflex.building.identified import initial_node_temps_degc
 from hvacflex.config import ScenarioConfig
-from hvacflex.control.base import Controller, FloatArray
+from hvacflex.control.base import Controller, FloatArray, PeriodInputs
 from hvacflex.control.estimation import StepModel
 from hvacflex.data.forecast import Forecast
 from hvacflex.data.signals import OperatorSignals, effective_peak_price
@@ -156,13 +156,9 @@ class Control(Protocol):
     def decide(
         self,
         k: int,
-        x_degc: FloatArray,
-        forecast: Forecast,
+        inputs: PeriodInputs,
         *,
-        peak_floor_kw: float,
         activated: Callable[[int], bool],
-        measured_zone_temp_degc: FloatArray | None = None,
-        plan: Any = None,
         baseline_power_kw: float | None = None,
     ) -> Decision: ...
 
@@ -264,15 +260,15 @@ class ClosedLoop:
         forecast = self.signals.apply(
             setup.forecaster.forecast(k, setup.config.controller.horizon_steps + 1)
         )
-        decision = self.control.decide(
-            k,
+        inputs = PeriodInputs(
             self.x,
             forecast,
-            peak_floor_kw=self.month_peak_kw,
-            activated=self._activated,
+            self.month_peak_kw,
             measured_zone_temp_degc=self.sensors.read(self.x),
             plan=plan,
-            baseline_power_kw=self._start_baseline_kw(k),
+        )
+        decision = self.control.decide(
+            k, inputs, activated=self._activated, baseline_power_kw=self._start_baseline_kw(k)
         )
         t1 = time.perf_counter()
 
@@ -369,7 +365,7 @@ class ClosedLoop:
         action = decision.action
         if action.released:  # the plant's own control: no setpoint from hvacflex
             return Actuation(setpoint_degc=np.full(action.flow_kg_s.shape, np.nan))
-        flow = action.flow_kg_s - action.reserve_flow_kg_s if curtailed else action.flow_kg_s
+        flow = action.applied_flow_kg_s(curtailed=curtailed)
         if self.actuation == "flow":
             return Actuation(flow_kg_s=flow, supply_temp_degc=action.supply_temp_degc)
         k, exo = self.k, self.setup.exogenous

@@ -42,9 +42,15 @@ from typing import Any
 import numpy as np
 
 from hvacflex.config import ScenarioConfig
-from hvacflex.control.base import Action, Controller, EventPlan, FloatArray, ReserveOffer
+from hvacflex.control.base import (
+    Action,
+    Controller,
+    EventPlan,
+    FloatArray,
+    PeriodInputs,
+    ReserveOffer,
+)
 from hvacflex.control.estimation import StepModel
-from hvacflex.data.forecast import Forecast
 from hvacflex.errors import InputError
 from hvacflex.sim.events import EventTracker, PeriodOutcome, Role
 
@@ -185,13 +191,9 @@ class ControlStep:
     def decide(
         self,
         k: int,
-        x_degc: FloatArray,
-        forecast: Forecast,
+        inputs: PeriodInputs,
         *,
-        peak_floor_kw: float,
         activated: Callable[[int], bool],
-        measured_zone_temp_degc: FloatArray | None = None,
-        plan: Any = None,
         baseline_power_kw: float | None = None,
     ) -> Decision:
         """Decide period ``k``.
@@ -199,12 +201,11 @@ class ControlStep:
         Parameters
         ----------
         k : the period (steps from the scenario's start).
-        x_degc : (n,) node temperatures [°C] (the plant's state, or the building's report).
-        forecast : the controller's view of the horizon from ``k``, signals applied.
-        peak_floor_kw : the peak already incurred in this billing period [kW].
+        inputs : what the controller gets (node temperatures, the forecast from ``k`` with
+            signals applied, the peak floor, zone-air readings for a controller with a
+            filter, a plan decided elsewhere); its ``allowance_carry_steps`` is the step's
+            own (the event tracker's), whatever the caller put there.
         activated : whether IL is activated in period j.
-        measured_zone_temp_degc : (m,) zone-air readings [°C] for a controller with a filter.
-        plan : a plan of this period decided elsewhere (the fleet coordinator's).
         baseline_power_kw : the metered baseline an activation starting at ``k`` would be
             settled against [kW] (NaN: none; None: unknown), told to the controller.
 
@@ -217,20 +218,12 @@ class ControlStep:
         role = tracker.role(activated(k))
         if role is Role.EVENT_LOCKED:
             action = tracker.locked_action()
-            controller.hold(
-                forecast, action.flow_kg_s - action.reserve_flow_kg_s, measured_zone_temp_degc
-            )
+            locked_flow = action.applied_flow_kg_s(curtailed=True)
+            controller.hold(inputs.forecast, locked_flow, inputs.measured_zone_temp_degc)
         else:
             controller.note_baseline_power(baseline_power_kw)
             controller.note_commitments(self.committed_flow_kg_s)
-            action = controller.act(
-                x_degc,
-                forecast,
-                peak_floor_kw=peak_floor_kw,
-                allowance_carry_steps=tracker.carry_steps,
-                measured_zone_temp_degc=measured_zone_temp_degc,
-                plan=plan,
-            )
+            action = controller.act(replace(inputs, allowance_carry_steps=tracker.carry_steps))
         if role is Role.EVENT_START:
             tracker.lock(action.event_plan)
         action = self._commit(action, locked_period=role is Role.EVENT_LOCKED)
@@ -238,8 +231,7 @@ class ControlStep:
         if tracker.locked is not None and role in (Role.EVENT_START, Role.EVENT_LOCKED):
             locked = (tracker.locked, tracker.plan_step)
         outcome = tracker.finish(role, action)
-        applied = action.flow_kg_s - action.reserve_flow_kg_s if outcome.curtailed else None
-        applied_flow = np.asarray(action.flow_kg_s if applied is None else applied, dtype=float)
+        applied_flow = action.applied_flow_kg_s(curtailed=outcome.curtailed)
         controller.note_applied_flow(applied_flow)
         status = decision_status(role, action)
         made = controller.last_plan if status is DecisionStatus.PLANNED else None
