@@ -395,6 +395,19 @@ def test_bad_forecast_tables_name_the_field(tmp_path: Path, text: str, field: st
         load_config(path)
 
 
+@pytest.mark.parametrize("key", ["reserve_price_scale = 30.0", "reserve_price_correlation = 1.0"])
+def test_synthetic_price_keys_are_refused_beside_real_reserve_prices(
+    tmp_path: Path, key: str
+) -> None:
+    """A key that shapes the synthetic price would be silently ignored with real prices."""
+    path = tmp_path / "real.toml"
+    path.write_text(f'[data]\nreserve_source = "il.csv"\n{key}\n')
+    with pytest.raises(ConfigError, match=r"data\.reserve_price_\w+.*reserve_source gives"):
+        load_config(path)
+    path.write_text('[data]\nreserve_source = "il.csv"\n')
+    assert load_config(path).data.reserve_source is not None
+
+
 def test_il_baseline_is_a_reserve_setting(tmp_path: Path) -> None:
     path = tmp_path / "baseline.toml"
     path.write_text('preset = "rmpc"\n[reserve]\nil_baseline = "similar-days"\n')

@@ -66,7 +66,7 @@ UNIT_OF_KEY: dict[str, str] = {
     "box_absolute": "channel unit",
     "quantile": "fraction",
     "ar1_coefficient": "—",
-    "reserve_price_scale": "factor",
+    "reserve_price_scale": "SGD/MWh",
 }
 """Units of the keys whose name does not end in one (``—``: a pure number)."""
 

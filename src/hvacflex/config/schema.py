@@ -354,9 +354,24 @@ class DataSpec(Spec):
     """How much of the synthetic reserve price follows USEP, a weight in [0, 1]: 1 (the
     default) is the calibrated series, which follows USEP and its spikes; 0 a price
     independent of USEP at the same level (``reserve_price_scale`` × lognormal noise); in
-    between a mix. Ignored with ``reserve_source``."""
+    between a mix. Only for the synthetic price: refused with ``reserve_source``."""
     price_gap_fill: PriceGapFill = default(DataConfig, "price_gap_fill")
     calendar: PriceCalendar = default(DataConfig, "calendar")
+
+    @model_validator(mode="after")
+    def _synthetic_keys_need_the_synthetic_price(self) -> Self:
+        if self.reserve_source is None:
+            return self
+        for name in ("reserve_price_scale", "reserve_price_correlation"):
+            if name in self.model_fields_set:
+                raise rule_error(
+                    f"{name} shapes the synthetic reserve price, but reserve_source gives the "
+                    "prices",
+                    name,
+                    getattr(self, name),
+                    hint=f"remove {name}, or remove reserve_source to use the synthetic price",
+                )
+        return self
 
 
 def _ordered(band: tuple[float, float]) -> tuple[float, float]:
