@@ -303,3 +303,11 @@ def test_an_edited_file_is_read_again(tmp_path: Path) -> None:
     rows[0] = '"USEP","01 Jan 2014","1","55.5","5001.5"'
     _write(tmp_path, [OLD_HEADER, *rows])
     assert load_usep(path)[ENERGY_PRICE_COLUMN].iloc[0] == 55.5
+
+
+def test_the_documented_scale_is_the_frozen_one() -> None:
+    """The scenario reference states the calibrated default; it must be the frozen value."""
+    from hvacflex.config import reference
+
+    text = reference.reference_markdown()
+    assert f"the calibrated default, {RESERVE_PRICE_SCALE:g} SGD/MWh" in text

@@ -254,8 +254,8 @@ class DataConfig:
     reserve_source: str | None = None
     reserve_price_scale: float | None = None
     """Scale of the synthetic reserve price [SGD/MWh] (its level where USEP is the 2014 mean,
-    before noise); ``None`` = the calibrated default
-    (:data:`hvacflex.data.market.RESERVE_PRICE_SCALE`)."""
+    before noise); ``None`` = the calibrated default, 48.5 SGD/MWh
+    (:data:`hvacflex.data.market.RESERVE_PRICE_SCALE`, docs/data.md)."""
     reserve_price_correlation: float = RESERVE_PRICE_CORRELATION
     """Weight ρ of the USEP-driven part of the synthetic reserve price (1 = the calibrated
     series, 0 = independent of USEP; :func:`hvacflex.data.market.synthetic_reserve_prices`)."""
