@@ -112,11 +112,13 @@ __all__ = [
     "config_from_dict",
     "differing_settings",
     "load_config",
+    "paths_from_folder",
     "preset",
     "resolve_key",
     "resolve_scenario",
     "scaled_uncertainty",
     "scenario_error",
+    "scenario_error_of",
     "with_overrides",
 ]
 
@@ -218,7 +220,7 @@ def load_config(path: str | Path) -> ScenarioConfig:
                 hint=f"use one of {list(PRESET_NAMES)}",
             )
         base = {"name": base_name, **PRESETS[base_name]}
-    merged = _deep_merge(base, _paths_from_folder(raw, path.parent))
+    merged = _deep_merge(base, paths_from_folder(raw, path.parent))
     merged.setdefault("name", path.stem)
     return _validate(merged, source=path)
 
@@ -232,9 +234,11 @@ SCENARIO_PATH_KEYS: tuple[tuple[str, str], ...] = (
 """(table, key) of the scenario file's keys that name a file or folder."""
 
 
-def _paths_from_folder(raw: Mapping[str, Any], folder: Path) -> dict[str, Any]:
+def paths_from_folder(raw: Mapping[str, Any], folder: Path) -> dict[str, Any]:
     """The parsed scenario with the relative paths it writes taken from ``folder`` (the
-    scenario file's), not from the working directory.
+    scenario file's), not from the working directory. A fleet file, which carries the
+    scenario's ``[data]`` and ``[activation]`` tables, is resolved by the same function
+    (:func:`hvacflex.fleet.schema.load_fleet`).
 
     ``building`` is a path when it has a folder or ends in ``.toml`` (else a shipped name such
     as ``office5``); the keys of :data:`SCENARIO_PATH_KEYS` are always paths. Values that are
@@ -381,6 +385,18 @@ def scenario_error(exc: ValidationError, source: str | Path) -> ConfigError:
     """
     errors = exc.errors(include_url=False)
     error: ErrorDetails = next((e for e in errors if e["type"] == "extra_forbidden"), errors[0])
+    return scenario_error_of(error, source)
+
+
+def scenario_error_of(
+    error: ErrorDetails, source: str | Path, *, kind: type[ConfigError] = ConfigError
+) -> ConfigError:
+    """One problem of a ``ValidationError`` of the scenario schema as a ``kind`` error.
+
+    ``error["loc"]`` is read as a path from the scenario file's top (``data.calendar``): a
+    file that carries one of its tables under the same name (a fleet file's ``[data]``)
+    reports that table's problems with the scenario file's messages and hints.
+    """
     ctx: dict[str, Any] = dict(error.get("ctx") or {})
     loc = tuple(str(part) for part in error["loc"] if part != "[key]")
     value: object = error["input"]
@@ -401,7 +417,7 @@ def scenario_error(exc: ValidationError, source: str | Path) -> ConfigError:
             message = f"{('lower', 'upper')[int(loc[-1])]} bound {message}"
             loc = loc[:-1]
         hint = _RANGE_HINTS.get(loc[-1]) if loc and error["type"] in _RANGES else hint
-    return ConfigError(message, source=source, field=".".join(loc), value=value, hint=hint)
+    return kind(message, source=source, field=".".join(loc), value=value, hint=hint)
 
 
 def _unknown_key_hint(loc: tuple[str, ...]) -> str | None:
