@@ -9,6 +9,7 @@ from typer.testing import CliRunner
 from hvacflex.cli import app
 from hvacflex.fleet.cli import CoordinationWatch
 from hvacflex.fleet.coordinate import CoordinationOptions
+from hvacflex.fleet.generate import generate_fleet, write_fleet
 from hvacflex.fleet.run import FleetStepProgress, step_progress
 from hvacflex.sim.progress import task_progress
 
@@ -65,6 +66,31 @@ def test_bad_fleet_file_exit_2(tmp_path: Path) -> None:
     )
     assert done.exit_code == 2
     assert "bad.toml" in done.output and "buildings" in done.output
+
+
+@pytest.mark.parametrize(
+    ("key", "value", "expected"),
+    [
+        ("reserve_price_scale", 200.0, "moved to [data] reserve_price_scale"),
+        ("data", {"reserve_price_correlation": 2.0}, "data.reserve_price_correlation"),
+        ("data", {"reserve_source": "r.csv", "reserve_price_scale": 9.0}, "reserve_source"),
+    ],
+)
+@pytest.mark.parametrize("command", ["simulate", "compare"])
+def test_bad_fleet_data_exit_2_without_traceback(
+    tmp_path: Path, command: str, key: str, value: object, expected: str
+) -> None:
+    doc = generate_fleet(1, 1)
+    doc[key] = value
+    path = write_fleet(doc, tmp_path / "old.toml")
+    done = CliRunner().invoke(
+        app,
+        ["fleet", command, "--fleet", str(path), "--out", str(tmp_path / "o")]
+        + (["--workers", "0"] if command == "simulate" else []),
+    )
+    assert done.exit_code == 2, done.output
+    assert "Traceback" not in done.output
+    assert "old.toml" in done.output and expected in done.output
 
 
 def _step(done: int, iterations: int, gap: float) -> FleetStepProgress:

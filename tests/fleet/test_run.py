@@ -11,6 +11,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from hvacflex.data.market import synthetic_reserve_prices
 from hvacflex.fleet.generate import generate_fleet, write_fleet
 from hvacflex.fleet.kpi import fleet_summary, load_fleet_results
 from hvacflex.fleet.run import CHECKPOINT_FILE, bid_accepted, fleet_baseline_sees, run_fleet
@@ -124,17 +125,17 @@ def test_worker_killed_mid_run_recovers(small_fleet: Path, tmp_path: Path) -> No
 @pytest.fixture(scope="module")
 def activated_fleet(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """Three buildings under a limit that does not bind (a fleet at a binding limit has no
-    room to curtail, docs/fleet.md), the reserve priced at 200 × the USEP-correlated synthetic
-    scale unit (the power model of issue 24 sheds ≈ 2.5× less per kg/s, so the calibrated
-    scale offers nothing this morning), any bid accepted, IL activated by the grid operator
-    at 12:00 and 12:30 (a file schedule)."""
+    room to curtail, docs/fleet.md), the synthetic reserve price at the fleet file's
+    ``[data] reserve_price_scale = 200`` SGD/MWh (the calibrated 48.5 also sells at 12:00
+    today; the scale is checked in the prices the run records), any bid accepted, IL
+    activated by the grid operator at 12:00 and 12:30 (a file schedule)."""
     folder = tmp_path_factory.mktemp("activated")
     times = pd.date_range("2014-03-03 10:00", periods=6, freq="30min", tz="Asia/Singapore")
     pd.DataFrame({"time": [t.isoformat() for t in times], "activated": [0, 0, 0, 0, 1, 1]}).to_csv(
         folder / "activations.csv", index=False
     )
     doc = generate_fleet(3, 3, feeder_limit_kw=200.0, min_bid_mw=0.0)
-    doc["reserve_price_scale"] = 200.0
+    doc["data"] = {"reserve_price_scale": 200.0}
     doc["activation"] = {"mode": "file", "file": "activations.csv"}
     return write_fleet(doc, folder / "fleet.toml")
 
@@ -168,6 +169,11 @@ def test_activation_is_settled_against_metered_fleet_power(
     assert per_building.tolist() == frame["il_activated"].tolist()
     assert "il_delivered_kw" in buildings
     assert result.summary["il_activated_steps"] == 2.0
+    # the fleet file's [data] reserve_price_scale prices the reserve of the one market
+    synthetic = synthetic_reserve_prices(
+        frame["energy_price_sgd_per_mwh"], seed=3, scale_sgd_per_mwh=200.0
+    )
+    np.testing.assert_allclose(frame["reserve_price_sgd_per_mwh"], synthetic.to_numpy())
 
 
 def test_fleet_baseline_check_by_hand() -> None:

@@ -1,16 +1,22 @@
 from __future__ import annotations
 
+import shutil
 import tomllib
 from pathlib import Path
 
+import numpy as np
+import pandas as pd
 import pytest
 
+from hvacflex.config import DataConfig
 from hvacflex.config.presets import PRODUCT_RESERVE
+from hvacflex.data.forecast import default_weather_file
+from hvacflex.data.market import synthetic_reserve_prices
 from hvacflex.errors import BuildingConfigError
-from hvacflex.fleet.agent import BuildingAgent, FleetSettings
+from hvacflex.fleet.agent import BuildingAgent, FleetSettings, building_setup
 from hvacflex.fleet.generate import generate_fleet, to_toml, write_fleet
 from hvacflex.fleet.schema import FleetConfigError, load_fleet
-from hvacflex.paths import resources_dir
+from hvacflex.paths import data_dir, resources_dir
 
 
 def test_generate_is_heterogeneous_valid_and_seeded(tmp_path: Path) -> None:
@@ -122,3 +128,100 @@ def test_generate_caps_the_number_of_buildings() -> None:
 
     with pytest.raises(ConfigError, match=r"field 'buildings'.*1 … 1000"):
         generate_fleet(MAX_FLEET_BUILDINGS + 1, 1)
+
+
+def _data_folder(folder: Path) -> tuple[Path, Path]:
+    """A copy of the shipped weather file and of the March 2014 USEP file under
+    ``folder/inputs``: (EPW file, USEP folder)."""
+    inputs = folder / "inputs" / "usep"
+    inputs.mkdir(parents=True)
+    weather = folder / "inputs" / "site.epw"
+    shutil.copyfile(default_weather_file(), weather)
+    shutil.copyfile(data_dir() / "nems_usep_2014" / "USEP_Mar-2014.csv", inputs / "march.csv")
+    return weather, inputs
+
+
+def test_data_table_reaches_every_building_with_paths_from_the_fleet_folder(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    weather, usep = _data_folder(tmp_path / "site")
+    doc = generate_fleet(2, 1)
+    doc["data"] = {
+        "weather_file": "inputs/site.epw",
+        "usep_source": "inputs/usep",
+        "reserve_price_scale": 150.0,
+        "reserve_price_correlation": 0.5,
+        "price_gap_fill": "previous-day",
+    }
+    path = write_fleet(doc, tmp_path / "site" / "fleet.toml")
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    monkeypatch.chdir(elsewhere)  # relative paths are the fleet file's, not the cwd's
+    fleet = load_fleet(Path("..") / "site" / "fleet.toml")
+    expected = DataConfig(
+        weather_file=str(Path("..") / "site" / "inputs" / "site.epw"),
+        usep_source=str(Path("..") / "site" / "inputs" / "usep"),
+        reserve_price_scale=150.0,
+        reserve_price_correlation=0.5,
+        price_gap_fill="previous-day",
+    )
+    assert fleet.data == expected
+    assert Path(fleet.data.weather_file or "").resolve() == weather.resolve()
+    assert Path(fleet.data.usep_source or "").resolve() == usep.resolve()
+    settings = FleetSettings.of(fleet, "2014-03-03", 1)
+    assert settings.data == expected
+    prices = []
+    for i, entry in enumerate(fleet.buildings):
+        setup = building_setup(entry, i, settings)  # reads the copied files: paths resolve
+        assert setup.config.data == expected
+        exo = setup.exogenous
+        # the [data] scale and ρ shape the price every building sees (one market)
+        energy = pd.Series(exo.energy_price_sgd_per_mwh, index=exo.index)
+        synthetic = synthetic_reserve_prices(
+            energy, seed=fleet.spec.seed, scale_sgd_per_mwh=150.0, correlation=0.5
+        )
+        np.testing.assert_allclose(exo.reserve_price_sgd_per_mwh, synthetic.to_numpy())
+        prices.append(exo.reserve_price_sgd_per_mwh)
+    np.testing.assert_array_equal(prices[0], prices[1])
+    assert path.is_file()
+
+
+def test_data_defaults_to_the_shipped_data(tmp_path: Path) -> None:
+    fleet = load_fleet(write_fleet(generate_fleet(1, 1), tmp_path / "f.toml"))
+    assert fleet.data == DataConfig()
+    assert FleetSettings.of(fleet, "2014-03-03", 1).data == DataConfig()
+
+
+def test_bad_data_value_names_the_data_field(tmp_path: Path) -> None:
+    doc = generate_fleet(1, 1)
+    doc["data"] = {"reserve_price_correlation": 2.0}
+    path = write_fleet(doc, tmp_path / "f.toml")
+    with pytest.raises(FleetConfigError) as caught:
+        load_fleet(path)
+    assert caught.value.field == "data.reserve_price_correlation"
+    assert caught.value.value == 2.0
+    assert caught.value.source == str(path)
+    doc["data"] = {"reserve_price_scal": 2.0}  # a misspelt key: the table's valid keys
+    with pytest.raises(FleetConfigError, match=r"data\.reserve_price_scal.*unknown key.*calendar"):
+        load_fleet(write_fleet(doc, tmp_path / "g.toml"))
+
+
+def test_reserve_source_refuses_the_synthetic_price_keys(tmp_path: Path) -> None:
+    doc = generate_fleet(1, 1)
+    doc["data"] = {"reserve_source": "reserve.csv", "reserve_price_scale": 30.0}
+    with pytest.raises(FleetConfigError) as caught:
+        load_fleet(write_fleet(doc, tmp_path / "f.toml"))
+    assert caught.value.field == "data.reserve_price_scale"
+    assert caught.value.value == 30.0
+    assert "reserve_source" in str(caught.value)
+
+
+def test_old_top_level_reserve_price_scale_is_refused_with_the_fix(tmp_path: Path) -> None:
+    doc = generate_fleet(1, 1)
+    doc["reserve_price_scale"] = 200.0
+    path = write_fleet(doc, tmp_path / "f.toml")
+    with pytest.raises(FleetConfigError) as caught:
+        load_fleet(path)
+    assert caught.value.field == "reserve_price_scale"
+    assert caught.value.value == 200.0
+    assert "moved to [data] reserve_price_scale" in str(caught.value)

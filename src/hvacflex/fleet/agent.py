@@ -137,7 +137,7 @@ class FleetController(MPCController):
 
 @dataclass(frozen=True)
 class FleetSettings:
-    """What every agent of a run shares: the period and the controller settings."""
+    """What every agent of a run shares: the period, the controller settings and the data."""
 
     start: str
     days: float
@@ -149,8 +149,9 @@ class FleetSettings:
     billing_mode: str
     il_events: ReserveConfig = field(default_factory=ReserveConfig)
     """The IL contract (event model D, α, R) every building plans for."""
-    reserve_price_scale: float | None = None
-    """Scale of the synthetic reserve price (None: the shipped calibration)."""
+    data: DataConfig = field(default_factory=DataConfig)
+    """The fleet file's ``[data]``: the weather and market data (one market) every building
+    sees, paths resolved."""
 
     @staticmethod
     def of(fleet: Fleet, start: str, days: float) -> FleetSettings:
@@ -165,7 +166,7 @@ class FleetSettings:
             peak_price_sgd_per_kw=s.ppp.peak_price_sgd_per_kw,
             billing_mode=s.ppp.billing_mode,
             il_events=s.reserve.config(),
-            reserve_price_scale=s.reserve_price_scale,
+            data=fleet.data,
         )
 
 
@@ -210,7 +211,7 @@ def building_setup(entry: FleetBuilding, index: int, settings: FleetSettings) ->
         controller=controller,
         reserve=settings.il_events,
         comfort=comfort,
-        data=DataConfig(reserve_price_scale=settings.reserve_price_scale),
+        data=settings.data,
     )
     return prepare(
         config,

@@ -34,6 +34,10 @@ building file is (:func:`hvacflex.building.io.building_from_dict`)::
     [activation]                    # when the grid operator activates IL (default never)
     mode = "stress"                 # never | random | stress | file | always
 
+    [data]                          # the market and weather every building shares: the
+    reserve_price_scale = 200.0     # scenario file's [data] table (hvacflex.config DataSpec)
+    weather_file = "site.epw"       # relative paths: from the fleet file's folder
+
     [[buildings]]
     name = "b000"
     template = "office5"
@@ -59,13 +63,21 @@ from pydantic import BaseModel, ConfigDict, Field, Strict, ValidationError, mode
 
 from hvacflex.building.io import building_from_dict
 from hvacflex.building.model import Building
-from hvacflex.config import ActivationConfig, ReserveConfig
+from hvacflex.config import (
+    ActivationConfig,
+    DataConfig,
+    ReserveConfig,
+    paths_from_folder,
+    scenario_error_of,
+)
 from hvacflex.config.presets import PRODUCT_RESERVE
 from hvacflex.config.schema import (
     INDOOR_TEMP_MAX_DEGC,
     INDOOR_TEMP_MIN_DEGC,
     INITIAL_TEMP_MAX_DEGC,
     INITIAL_TEMP_MIN_DEGC,
+    DataSpec,
+    to_domain,
 )
 from hvacflex.errors import ConfigError, DataError
 from hvacflex.tomlio import read_toml
@@ -198,15 +210,15 @@ class FleetSpec(_Spec):
     feeder_limit_csv: str | None = None
     feeder_margin: Annotated[Finite, Field(ge=0.0, lt=0.5)] = 0.0
     min_bid_mw: Annotated[Finite, Field(ge=0.0)] = 0.1
-    reserve_price_scale: Annotated[Finite, Field(gt=0.0)] | None = None
-    """Scale of the synthetic reserve price every building sees (the scenario key
-    ``[data] reserve_price_scale``; None: the shipped calibration)."""
     robust: Literal["tightening", "none"] = "tightening"
     horizon_steps: Annotated[int, Strict(), Field(ge=2, le=336)] = 48
     reserve: ReserveSpec = ReserveSpec()
     ppp: PPPSpec = PPPSpec()
     coordination: CoordinationSpec = CoordinationSpec()
     activation: ActivationSpec = ActivationSpec()
+    data: DataSpec = DataSpec()
+    """The weather and market data every building sees (one market, one weather): the
+    scenario file's ``[data]`` table, validated by its schema."""
     buildings: Annotated[list[BuildingEntrySpec], Field(min_length=1)]
 
     @model_validator(mode="after")
@@ -235,10 +247,31 @@ _HINTS = {
 }
 
 
+MOVED_KEYS: dict[str, str] = {
+    "reserve_price_scale": "data.reserve_price_scale",
+}
+"""Top-level keys of older fleet files and the key of the ``[data]`` table that replaced
+them (refused with the fix)."""
+
+
 def _fleet_error(exc: ValidationError, source: Path | str) -> FleetConfigError:
     errors = exc.errors(include_url=False)
     error = next((e for e in errors if e["type"] == "extra_forbidden"), errors[0])
     loc = tuple(error["loc"])
+    if loc and loc[0] == "data":  # the scenario file's table: its messages and hints
+        problem = scenario_error_of(error, source, kind=FleetConfigError)
+        assert isinstance(problem, FleetConfigError)
+        return problem
+    if error["type"] == "extra_forbidden" and len(loc) == 1 and loc[0] in MOVED_KEYS:
+        table, key = MOVED_KEYS[str(loc[0])].split(".")
+        return FleetConfigError(
+            f"this key moved to [{table}] {key}",
+            source=source,
+            field=str(loc[0]),
+            value=error["input"],
+            hint=f"write it in the fleet file's [{table}] table: [{table}] {key} = "
+            f"{error['input']!r} (docs/fleet.md)",
+        )
     field = ""
     for part in loc:
         field += f"[{part}]" if isinstance(part, int) else (f".{part}" if field else str(part))
@@ -285,6 +318,14 @@ class Fleet:
     def name(self) -> str:
         return self.spec.name
 
+    @property
+    def data(self) -> DataConfig:
+        """The ``[data]`` table as the scenario's :class:`DataConfig` (the same conversion
+        as a scenario file's); relative paths are from the fleet file's folder when it was
+        read by :func:`load_fleet`."""
+        data: DataConfig = to_domain(self.spec.data)
+        return data
+
     def limit_series_kw(self, index: pd.DatetimeIndex) -> np.ndarray:
         """(T,) feeder limit [kW] for each period start of ``index`` (inf = no limit).
 
@@ -327,7 +368,9 @@ class Fleet:
 
 
 def fleet_from_dict(data: dict[str, Any], *, source: Path | str = "<dict>") -> Fleet:
-    """Validate a parsed fleet document; each building through the building schema."""
+    """Validate a parsed fleet document; each building through the building schema.
+
+    Paths are taken as they are (:func:`load_fleet` resolves a file's relative paths)."""
     try:
         spec = FleetSpec.model_validate(data)
     except ValidationError as exc:
@@ -357,6 +400,11 @@ def load_fleet(path: str | Path) -> Fleet:
     FleetConfigError, BuildingConfigError
         Naming the file, the field (``buildings[3].building.zones[0].floor_area_m2``), the
         value and a hint.
+
+    Relative paths of the ``[data]`` and ``[activation]`` tables are taken from the file's
+    folder, by the function that resolves a scenario file's
+    (:func:`hvacflex.config.paths_from_folder`).
     """
     source = Path(path)
-    return fleet_from_dict(read_toml(source, what="fleet", error=FleetConfigError), source=source)
+    raw = read_toml(source, what="fleet", error=FleetConfigError)
+    return fleet_from_dict(paths_from_folder(raw, source.parent), source=source)
