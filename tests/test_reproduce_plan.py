@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import replace
 
 from hvacflex.reproduce_energyplus import ENERGYPLUS_PREFIX, ENERGYPLUS_SCENARIOS, RC_WEEK_PREFIX
-from hvacflex.reproduce_plan import Plan, plan_groups
+from hvacflex.reproduce_plan import REALISTIC_GROUPS, Plan, plan_groups
 
 
 def _names(groups: dict[str, list]) -> list[str]:  # type: ignore[type-arg]
@@ -54,3 +54,20 @@ def test_another_energyplus_period_gets_its_own_rc_runs() -> None:
     for _, cfg in rc:
         assert cfg.name.startswith(RC_WEEK_PREFIX) and cfg.plant.kind == "rc"
         assert (cfg.start, cfg.days) == (plan.energyplus_start, plan.energyplus_days)
+
+
+def test_the_full_run_uses_the_realistic_forecast_where_it_measures_the_findings() -> None:
+    """Issue 33 item 1: the year's scenarios, Fig. 7 and the EnergyPlus runs see errors the
+    controller does not know; the robustness sweep and the hot corner keep their boxes; the
+    quick run keeps the presets' defaults."""
+    groups = plan_groups(Plan.full(energyplus=True))
+    for group, jobs in groups.items():
+        realistic = group in REALISTIC_GROUPS
+        assert jobs, group
+        for _, cfg in jobs:
+            assert (cfg.forecast.weather == "statistical") is realistic, (group, cfg.name)
+            assert (cfg.realisation.occupancy == "stochastic") is realistic, (group, cfg.name)
+            if realistic:
+                assert cfg.realisation.mode == "zero"
+    quick = plan_groups(Plan.quick(energyplus=True))
+    assert all(cfg.forecast.weather == "perfect" for jobs in quick.values() for _, cfg in jobs)

@@ -86,11 +86,12 @@ def display_days(frame: pd.DataFrame, days: int = 2) -> tuple[pd.Timestamp, pd.T
 def basis_text(plan: Plan) -> str:
     """What the scenario runs' numbers rest on, for every table that compares with the
     paper (issue 28: a week scaled to a month is not the paper's year)."""
+    forecast = "; statistical weather forecast, stochastic occupancy" if plan.realistic else ""
     if plan.days >= DAYS_PER_YEAR:
-        return f"RC plant, {plan.days:g} days from {plan.start}, monthly averages"
+        return f"RC plant, {plan.days:g} days from {plan.start}, monthly averages{forecast}"
     return (
         f"RC plant, {plan.days:g} days from {plan.start} scaled to a month — not the "
-        "paper's year 2014"
+        f"paper's year 2014{forecast}"
     )
 
 
