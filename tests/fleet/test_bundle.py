@@ -16,7 +16,7 @@ from hvacflex.fleet.bundle import (
     solve_dual_model,
     solve_restricted_master,
 )
-from hvacflex.fleet.coordinate import CoordinationOptions
+from hvacflex.fleet.coordinate import CoordinationOptions, CoordinationResult
 
 DT_H = 0.5
 
@@ -58,6 +58,19 @@ class ToyFleet:
     def cap_values_all(self) -> np.ndarray:
         return self.values
 
+    def coordinate(self, limit: np.ndarray, options: CoordinationOptions) -> CoordinationResult:
+        """:func:`coordinate_caps` of this fleet under the feeder ``limit`` (N,) [kW]."""
+        return coordinate_caps(
+            self.solve_all,
+            self.finalize_all,
+            self.cap_values_all,
+            limit,
+            self.lo,
+            self.hi,
+            DT_H,
+            options,
+        )
+
     def optimum(self, limit: np.ndarray) -> float:
         """The fleet optimum by linprog: columns P (B·N) and shortfalls s ≥ d − P (B·N)."""
         n = self.lo.size
@@ -82,40 +95,21 @@ def test_dual_bundle_reaches_the_fleet_optimum_and_respects_the_limit(seed: int)
     fleet = ToyFleet(seed)
     limit = 0.6 * fleet.d.sum(axis=0)  # binds in every period
     options = CoordinationOptions(max_iterations=40, gap_tolerance=1e-4, scheme="bundle")
-    result = coordinate_caps(
-        fleet.solve_all,
-        fleet.finalize_all,
-        fleet.cap_values_all,
-        limit,
-        fleet.lo,
-        fleet.hi,
-        DT_H,
-        options,
-    )
+    result = fleet.coordinate(limit, options)
     optimum = fleet.optimum(limit)
     total = float(result.cost_sgd.sum())
     assert total == pytest.approx(optimum, rel=1e-3)
     assert np.all(result.power_kw.sum(axis=0) <= limit + 1e-9)
     assert result.lower_bound_sgd <= optimum + 1e-6  # a true lower bound
-    envelope = coordinate_caps(
-        fleet.solve_all,
-        fleet.finalize_all,
-        fleet.cap_values_all,
-        limit,
-        fleet.lo,
-        fleet.hi,
-        DT_H,
-        replace(options, scheme="envelope"),
-    )
+    envelope = fleet.coordinate(limit, replace(options, scheme="envelope"))
     assert total <= float(envelope.cost_sgd.sum()) + 1e-9
 
 
 def test_cap_space_bundle_never_worse_than_the_envelope() -> None:
     fleet = ToyFleet(5)
     limit = 0.6 * fleet.d.sum(axis=0)
-    args = (fleet.solve_all, fleet.finalize_all, fleet.cap_values_all, limit, fleet.lo, fleet.hi)
-    caps = coordinate_caps(*args, DT_H, CoordinationOptions(max_iterations=20, scheme="caps"))
-    envelope = coordinate_caps(*args, DT_H, CoordinationOptions(scheme="envelope"))
+    caps = fleet.coordinate(limit, CoordinationOptions(max_iterations=20, scheme="caps"))
+    envelope = fleet.coordinate(limit, CoordinationOptions(scheme="envelope"))
     assert caps.cost_sgd.sum() <= envelope.cost_sgd.sum() + 1e-9
     assert caps.cost_sgd.sum() >= fleet.optimum(limit) - 1e-6
     assert np.all(caps.power_kw.sum(axis=0) <= limit + 1e-9)
@@ -124,16 +118,7 @@ def test_cap_space_bundle_never_worse_than_the_envelope() -> None:
 def test_free_plans_that_fit_are_kept_after_one_solve() -> None:
     fleet = ToyFleet(3)
     limit = 2.0 * fleet.hi.sum(axis=0)
-    result = coordinate_caps(
-        fleet.solve_all,
-        fleet.finalize_all,
-        fleet.cap_values_all,
-        limit,
-        fleet.lo,
-        fleet.hi,
-        DT_H,
-        CoordinationOptions(),
-    )
+    result = fleet.coordinate(limit, CoordinationOptions())
     assert not result.capped and result.iterations == 0
     assert result.cost_sgd.sum() == pytest.approx(fleet.optimum(limit))
     assert fleet.solves == 2  # the free solve and its staging
@@ -143,16 +128,7 @@ def test_infeasible_periods_put_every_building_at_its_minimum() -> None:
     fleet = ToyFleet(4)
     limit = 0.6 * fleet.d.sum(axis=0)
     limit[2] = 0.5 * fleet.lo[:, 2].sum()  # the minima alone exceed it
-    result = coordinate_caps(
-        fleet.solve_all,
-        fleet.finalize_all,
-        fleet.cap_values_all,
-        limit,
-        fleet.lo,
-        fleet.hi,
-        DT_H,
-        CoordinationOptions(max_iterations=30),
-    )
+    result = fleet.coordinate(limit, CoordinationOptions(max_iterations=30))
     assert result.infeasible[2] and result.infeasible.sum() == 1
     assert result.excess_kw[2] == pytest.approx(fleet.lo[:, 2].sum() - limit[2])
     np.testing.assert_allclose(result.power_kw[:, 2], fleet.lo[:, 2], atol=1e-6)
