@@ -1,3 +1,4 @@
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -9,6 +10,7 @@ from hvacflex.sim.sweep import (
     outcomes_table,
     parse_param,
     quiet_dask_logs,
+    relative_cost,
     run_sweep,
 )
 
@@ -53,6 +55,19 @@ def test_a_failing_job_does_not_lose_the_others(
     # --fresh simulates again
     fresh = run_sweep(jobs[:1], tmp_path, n_workers=1, fresh=True)
     assert fresh[0].ok and not fresh[0].cached
+
+
+def test_longest_jobs_start_first(tmp_path: Path) -> None:
+    week = preset("rmpc", days=7.0)
+    assert relative_cost(preset("rmpc-feedback", days=7.0)) > relative_cost(week)
+    assert relative_cost(preset("rmpc", days=365.0)) > relative_cost(week)
+    short = preset("thermostat", start="2014-03-03", days=0.25)
+    jobs = [({"days": 0.25}, short), ({"days": 0.5}, replace(short, days=0.5))]
+    done: list[dict[str, float]] = []
+    outcomes = run_sweep(jobs, tmp_path, n_workers=1, on_done=lambda o: done.append(o.params))
+    assert done == [{"days": 0.5}, {"days": 0.25}]  # one worker: the longer one ran first
+    assert [o.params for o in outcomes] == [{"days": 0.25}, {"days": 0.5}]  # order of jobs
+    assert [o.summary["steps"] for o in outcomes if o.summary] == [12, 24]
 
 
 def test_quiet_dask_logs_here_and_for_the_workers() -> None:
