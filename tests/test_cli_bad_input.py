@@ -17,6 +17,7 @@ from typer.testing import CliRunner
 
 from hvacflex.cli import app
 from hvacflex.config import preset
+from hvacflex.fleet.generate import generate_fleet, write_fleet
 
 SCENARIOS = {
     "huge_horizon.toml": "days = 0.5\n[controller]\nhorizon_steps = 100000000\n",
@@ -31,7 +32,7 @@ SCENARIOS = {
 """Scenario files of the cases, written into the test's folder."""
 
 SIM = ["simulate", "-q", "--days", "0.5"]
-FLEET_SIM = ["fleet", "simulate", "--fleet", "{tmp}/fleet.toml", "--out", "{tmp}/fr"]
+FLEET_SIM = ["fleet", "simulate", "--fleet", "{tmp}/valid_fleet.toml", "--out", "{tmp}/fr"]
 
 CASES: list[tuple[str, list[str], list[str]]] = [
     # output paths: a file in the way, a folder inside a file, a virtual file system
@@ -110,7 +111,8 @@ CASES: list[tuple[str, list[str], list[str]]] = [
     # files
     ("config-missing", [*SIM, "--config", "{tmp}/none.toml"], ["none.toml", "not found"]),
     ("config-folder", [*SIM, "--config", "{folder}"], ["{folder}"]),
-    ("fleet-missing", [*FLEET_SIM, "--days", "0.5"], ["fleet.toml", "not found"]),
+    ("fleet-missing", ["fleet", "simulate", "--fleet", "{tmp}/fleet.toml", "--out", "{tmp}/fr",
+                       "--days", "0.5"], ["fleet.toml", "not found"]),
     ("building-file-missing", ["data", "show", "--building-file", "{tmp}/none.toml"],
      ["building", "none.toml"]),
 ]  # fmt: skip
@@ -118,12 +120,14 @@ CASES: list[tuple[str, list[str], list[str]]] = [
 
 @pytest.fixture
 def workdir(tmp_path: Path) -> Path:
-    """A folder with a plain file, a folder, the cases' scenario files and a run folder of
-    the thermostat scenario (only its config.json: the check reads nothing else)."""
+    """A folder with a plain file, a folder, the cases' scenario files, a valid fleet file
+    and a run folder of the thermostat scenario (only its config.json: the check reads
+    nothing else)."""
     (tmp_path / "a_file").write_text("not a folder\n")
     (tmp_path / "a_folder").mkdir()
     for name, text in SCENARIOS.items():
         (tmp_path / name).write_text(text)
+    write_fleet(generate_fleet(2, 1), tmp_path / "valid_fleet.toml")
     run = tmp_path / "thermostat_run"
     run.mkdir()
     stored = preset("thermostat", days=0.5).to_dict()
@@ -160,3 +164,13 @@ def test_no_case_leaves_results_behind(workdir: Path, monkeypatch: pytest.Monkey
     assert not list(workdir.rglob("summary.json"))
     stored = json.loads((workdir / "thermostat_run" / "config.json").read_text())
     assert stored["controller"]["kind"] == "thermostat"  # the other run was left alone
+
+
+def test_a_bad_fleet_file_is_said_before_the_output_folder_is_made(
+    workdir: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.chdir(workdir)
+    args = ["fleet", "simulate", "--fleet", "none.toml", "--out", "new_out", "--days", "1"]
+    result = CliRunner().invoke(app, args)
+    assert result.exit_code == 2 and "none.toml" in result.output, result.output
+    assert not (workdir / "new_out").exists()

@@ -249,7 +249,8 @@ def plot_plant_week(
     for ax in axes[-2:]:
         plots.format_time_axis(ax)
         ax.set_xlabel("time (local)")
-    figure.suptitle(title)
+    shown = pd.Timestamp(parts[0]["time"].iloc[0]) if parts else None
+    figure.suptitle(title if shown is None else f"{title}; the week from {shown:%Y-%m-%d} shown")
     return plots.save_figure(figure, pd.concat(parts, ignore_index=True), path)
 
 

@@ -293,7 +293,9 @@ def _read_epw_cached(
         text = path.read_text(encoding="latin-1")
     except FileNotFoundError:
         raise DataError(
-            "weather file not found", source=path, hint="give the path to an .epw file"
+            "weather file not found",
+            source=path,
+            hint="give the path to an .epw file ([data] weather_file in a scenario file)",
         ) from None
     except IsADirectoryError:
         raise DataError(

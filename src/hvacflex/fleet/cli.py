@@ -123,6 +123,7 @@ def simulate(
 
     watch = CoordinationWatch()
     try:
+        min_bid_mw = load_fleet(fleet).spec.min_bid_mw  # a bad file is said before --out is made
         check_output_dir(out, "--out")
         if scheduler is not None:
             check_scheduler(scheduler)
@@ -141,7 +142,7 @@ def simulate(
                 resume=not fresh,
                 progress=watch,
             )
-        write_fleet_report(out, load_fleet(fleet).spec.min_bid_mw)
+        write_fleet_report(out, min_bid_mw)
     except HvacflexError as exc:
         typer.echo(f"error: {exc}", err=True)
         raise typer.Exit(2) from None
