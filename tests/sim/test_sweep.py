@@ -61,6 +61,7 @@ def test_longest_jobs_start_first(tmp_path: Path) -> None:
     week = preset("rmpc", days=7.0)
     assert relative_cost(preset("rmpc-feedback", days=7.0)) > relative_cost(week)
     assert relative_cost(preset("rmpc", days=365.0)) > relative_cost(week)
+    assert relative_cost(preset("thermostat", days=28.0)) < relative_cost(week)
     short = preset("thermostat", start="2014-03-03", days=0.25)
     jobs = [({"days": 0.25}, short), ({"days": 0.5}, replace(short, days=0.5))]
     done: list[dict[str, float]] = []
