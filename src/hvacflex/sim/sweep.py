@@ -140,6 +140,28 @@ def quiet_dask_logs() -> None:
     logging.getLogger("distributed").setLevel(DASK_LOG_LEVEL.upper())
 
 
+def _submit_longest_first(
+    client: Any, jobs: Sequence[tuple[dict[str, Any], ScenarioConfig]], dirs: list[str], fresh: bool
+) -> tuple[list[Any], dict[str, int]]:
+    """Submit every job longest first (:func:`relative_cost`): in that order and with that
+    priority, so neither a worker that takes the first task early nor the scheduler's FIFO
+    reorders them. The futures, and each future's key → the job's position in ``jobs``."""
+    order = sorted(range(len(jobs)), key=lambda i: -relative_cost(jobs[i][1]))
+    futures = [
+        client.submit(
+            _run_job,
+            jobs[i][1],
+            dirs[i],
+            fresh,
+            pure=False,
+            key=f"hvacflex-{i}-{jobs[i][1].config_hash()}",
+            priority=relative_cost(jobs[i][1]),
+        )
+        for i in order
+    ]
+    return futures, {future.key: i for i, future in zip(order, futures, strict=True)}
+
+
 def run_sweep(
     jobs: Sequence[tuple[dict[str, Any], ScenarioConfig]],
     out_root: str | Path,
@@ -198,22 +220,7 @@ def run_sweep(
         client = Client(scheduler)  # type: ignore[no-untyped-call]
     outcomes: dict[int, JobOutcome] = {}
     try:
-        # longest first: submitted in that order and with that priority, so neither a
-        # worker that takes the first task early nor the scheduler's FIFO reorders them
-        order = sorted(range(len(jobs)), key=lambda i: -relative_cost(jobs[i][1]))
-        futures = [
-            client.submit(
-                _run_job,
-                jobs[i][1],
-                dirs[i],
-                fresh,
-                pure=False,
-                key=f"hvacflex-{i}-{jobs[i][1].config_hash()}",
-                priority=relative_cost(jobs[i][1]),
-            )
-            for i in order
-        ]
-        position = {future.key: i for i, future in zip(order, futures, strict=True)}
+        futures, position = _submit_longest_first(client, jobs, dirs, fresh)
         failed = 0
         with task_progress(progress, "sweep", len(jobs)) as update:
             for future in as_completed(futures):  # type: ignore[no-untyped-call]
