@@ -146,7 +146,8 @@ def _submit_longest_first(
     """Submit every job longest first (:func:`relative_cost`): in that order and with that
     priority, so neither a worker that takes the first task early nor the scheduler's FIFO
     reorders them. The futures, and each future's key → the job's position in ``jobs``."""
-    order = sorted(range(len(jobs)), key=lambda i: -relative_cost(jobs[i][1]))
+    costs = [relative_cost(cfg) for _, cfg in jobs]
+    order = sorted(range(len(jobs)), key=lambda i: -costs[i])
     futures = [
         client.submit(
             _run_job,
@@ -155,7 +156,7 @@ def _submit_longest_first(
             fresh,
             pure=False,
             key=f"hvacflex-{i}-{jobs[i][1].config_hash()}",
-            priority=relative_cost(jobs[i][1]),
+            priority=costs[i],
         )
         for i in order
     ]
