@@ -69,6 +69,27 @@ def test_reproduce_exits_1_and_marks_the_report_incomplete(
     assert "<title>hvacflex — reproduction of Hanif et al. (2016) (INCOMPLETE)</title>" in report
 
 
+def test_reproduce_no_feedback_runs_no_affine_feedback_job(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import hvacflex.reproduce as reproduce_mod
+
+    submitted: list[str] = []
+
+    def _recording_sweep(
+        jobs: Sequence[tuple[dict[str, Any], ScenarioConfig]], out_root: str | Path, **kw: Any
+    ) -> list[JobOutcome]:
+        submitted.extend(cfg.name for _, cfg in jobs)
+        return _failing_sweep(jobs, out_root, **kw)
+
+    monkeypatch.setattr(reproduce_mod, "run_sweep", _recording_sweep)
+    args = ["reproduce", "--quick", "--no-feedback", "--out", str(tmp_path)]
+    result = CliRunner().invoke(app, args)
+    assert result.exit_code == 1, result.output
+    assert "24 of 24 runs failed" in result.output  # the 26 above less (b), (c) with feedback
+    assert len(submitted) == 24 and not [name for name in submitted if "feedback" in name]
+
+
 def test_sweep_exits_1_when_a_run_fails(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     import hvacflex.sim.sweep as sweep_mod
 

@@ -572,6 +572,13 @@ def reproduce(
         "year (--quick: the week) beside the same runs on the RC plant (needs the energyplus "
         "extra of hvacflex).",
     ),
+    feedback: bool = typer.Option(
+        True,
+        "--feedback/--no-feedback",
+        help="Run (b) and (c) with affine disturbance feedback too; --no-feedback leaves them "
+        "(and the feedback RMPC of the uncertainty sweep) out: in the full run they are about "
+        "2/3 of its CPU time.",
+    ),
     out: Path = typer.Option(  # noqa: B008
         Path("results/reproduce"),
         help="Output folder; every run is kept in OUT/runs/<run name> and updated in place.",
@@ -617,6 +624,7 @@ def reproduce(
             out,
             quick=quick,
             energyplus=energyplus,
+            feedback=feedback,
             scheduler=scheduler,
             workers=workers,
             log=typer.echo,

@@ -193,6 +193,7 @@ def reproduce(
     *,
     quick: bool = False,
     energyplus: bool = False,
+    feedback: bool = True,
     scheduler: str | None = None,
     workers: int = 2,
     log: Callable[[str], None] = print,
@@ -201,6 +202,7 @@ def reproduce(
     """Run everything and write the report (also when runs fail: marked incomplete).
 
     ``energyplus`` adds the section on EnergyPlus office5 (needs the ``energyplus`` extra);
+    ``feedback=False`` leaves out the runs with affine disturbance feedback;
     ``fresh`` ignores finished results and checkpoints and simulates every run again.
 
     Raises
@@ -217,7 +219,7 @@ def reproduce(
         engine_dir()  # a missing extra is said before an hour of runs
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    plan = (Plan.quick if quick else Plan.full)(energyplus=energyplus)
+    plan = (Plan.quick if quick else Plan.full)(energyplus=energyplus, feedback=feedback)
     by_group = run_groups(
         plan_groups(plan), out, scheduler=scheduler, workers=workers, log=log, fresh=fresh
     )

@@ -388,6 +388,15 @@ def paper_figures_section(paper: Mapping[str, pd.DataFrame], figures: Path) -> A
     )
 
 
+def _feedback_rows_text(plan: Plan) -> str:
+    if not plan.feedback_scenarios:
+        return " (the affine-feedback runs were left out: --no-feedback)"
+    return (
+        ", and rmpc-feedback, rmpc-feedback-ppp (affine disturbance feedback, zone-local; "
+        "the feedback LP plans for the whole-horizon model only)"
+    )
+
+
 def table1_section(
     plan: Plan,
     paper: Mapping[str, pd.DataFrame],
@@ -458,11 +467,9 @@ def table1_section(
             f"Column reserve_model: event = {names['event']}, the product presets nmpc, "
             f"rmpc, rmpc-ppp; whole-horizon = {names['whole-horizon']}, the presets "
             "paper-nmpc, paper-rmpc, paper-rmpc-ppp, where the curtailed trajectory must stay "
-            "inside the strict band for the whole horizon, and rmpc-feedback, "
-            "rmpc-feedback-ppp (affine disturbance feedback, zone-local; the feedback LP plans "
-            "for the whole-horizon model only). Each model's % changes are against "
-            "its own (a). The second table sets each model's rows beside the published "
-            "Table 1.",
+            f"inside the strict band for the whole horizon{_feedback_rows_text(plan)}. Each "
+            "model's % changes are against its own (a). The second table sets each model's "
+            "rows beside the published Table 1.",
             " ".join(scenario_sentences(paper_summaries)),
             " ".join(revenue_sentences(revenue)),
         ],
