@@ -575,9 +575,9 @@ def reproduce(
     feedback: bool = typer.Option(
         True,
         "--feedback/--no-feedback",
-        help="Run (b) and (c) with affine disturbance feedback too; --no-feedback leaves them "
-        "(and the feedback RMPC of the uncertainty sweep) out: in the full run they are about "
-        "2/3 of its CPU time.",
+        help="Run (b) and (c) with affine disturbance feedback over the period too; "
+        "--no-feedback leaves these two runs out (in the full run they are about 2/3 of its "
+        "CPU time; the robustness sweep keeps its short feedback runs).",
     ),
     out: Path = typer.Option(  # noqa: B008
         Path("results/reproduce"),

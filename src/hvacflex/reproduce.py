@@ -202,7 +202,7 @@ def reproduce(
     """Run everything and write the report (also when runs fail: marked incomplete).
 
     ``energyplus`` adds the section on EnergyPlus office5 (needs the ``energyplus`` extra);
-    ``feedback=False`` leaves out the runs with affine disturbance feedback;
+    ``feedback=False`` leaves out (b) and (c) with affine feedback over the period;
     ``fresh`` ignores finished results and checkpoints and simulates every run again.
 
     Raises

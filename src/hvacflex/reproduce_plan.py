@@ -134,7 +134,8 @@ class Plan:
 
     @classmethod
     def full(cls, *, energyplus: bool = False, feedback: bool = True) -> Plan:
-        """The year; ``feedback=False`` leaves out the affine-feedback years and sweep."""
+        """The year; ``feedback=False`` leaves out the two affine-feedback years (the
+        robustness sweep's 3-day feedback runs stay)."""
         return cls(
             start="2014-01-01",
             days=365.0,
@@ -143,7 +144,7 @@ class Plan:
             uncertainty_days=3.0,
             ppp_values=PPP_VALUES_SGD_PER_KW,
             uncertainty_levels=UNCERTAINTY_LEVELS,
-            with_feedback=feedback,
+            with_feedback=True,
             energyplus=energyplus,
             energyplus_start="2014-01-01",
             energyplus_days=365.0,
