@@ -58,10 +58,15 @@ def test_limit_and_min_bid_written_as_top_level_keys(tmp_path: Path) -> None:
 def test_minimum_power_warning_only_below_the_minima(tmp_path: Path) -> None:
     doc = generate_fleet(2, 1, feeder_limit_kw=1.0)
     low = write_fleet(doc, tmp_path / "low.toml")
-    warning = minimum_power_warning(low, "2014-03-03", 1.0)
+    warning = minimum_power_warning(load_fleet(low), "2014-03-03", 1.0)
     assert warning is not None and "flagged infeasible" in warning and "1.0 kW" in warning
     doc["feeder_limit_kw"] = math.inf
-    assert minimum_power_warning(write_fleet(doc, tmp_path / "inf.toml"), "2014-03-03", 1.0) is None
+    assert (
+        minimum_power_warning(
+            load_fleet(write_fleet(doc, tmp_path / "inf.toml")), "2014-03-03", 1.0
+        )
+        is None
+    )
 
 
 @pytest.mark.slow

@@ -225,3 +225,26 @@ def test_old_top_level_reserve_price_scale_is_refused_with_the_fix(tmp_path: Pat
     assert caught.value.field == "reserve_price_scale"
     assert caught.value.value == 200.0
     assert "moved to [data] reserve_price_scale" in str(caught.value)
+
+
+def test_the_run_key_follows_every_file_the_fleet_names(tmp_path: Path) -> None:
+    from hvacflex.fleet.run import fleet_key
+
+    doc = generate_fleet(1, 1)
+    del doc["feeder_limit_kw"]
+    doc["feeder_limit_csv"] = "limit.csv"
+    doc["activation"] = {"mode": "file", "file": "events.csv"}
+    path = write_fleet(doc, tmp_path / "f.toml")
+    limit, events = tmp_path / "limit.csv", tmp_path / "events.csv"
+    limit.write_text("time,feeder_limit_kw\n2014-03-03 00:00,100\n")
+    events.write_text("time,activated\n2014-03-03 10:00,1\n")
+    fleet = load_fleet(path)
+    assert fleet.feeder_limit_path == limit and fleet.activation.file == str(events)
+    key = fleet_key(fleet, path, "2014-03-03", 1.0)
+    assert fleet_key(fleet, path, "2014-03-03", 1.0) == key
+    assert fleet_key(fleet, path, "2014-03-03", 2.0) != key
+    limit.write_text("time,feeder_limit_kw\n2014-03-03 00:00,90\n")
+    edited_limit = fleet_key(fleet, path, "2014-03-03", 1.0)
+    assert edited_limit != key
+    events.write_text("time,activated\n2014-03-03 11:00,1\n")
+    assert fleet_key(fleet, path, "2014-03-03", 1.0) not in (key, edited_limit)

@@ -123,11 +123,11 @@ def simulate(
 
     watch = CoordinationWatch()
     try:
-        min_bid_mw = load_fleet(fleet).spec.min_bid_mw  # a bad file is said before --out is made
+        loaded = load_fleet(fleet)  # a bad file is said before --out is made
         check_output_dir(out, "--out")
         if scheduler is not None:
             check_scheduler(scheduler)
-        warning = minimum_power_warning(fleet, start, days)
+        warning = minimum_power_warning(loaded, start, days)
         if warning is not None:
             typer.echo(f"warning: {warning}", err=True)
         with task_progress(True, "fleet", round(days * 48)) as update:
@@ -142,7 +142,7 @@ def simulate(
                 resume=not fresh,
                 progress=watch,
             )
-        write_fleet_report(out, min_bid_mw)
+        write_fleet_report(out, loaded.spec.min_bid_mw)
     except HvacflexError as exc:
         typer.echo(f"error: {exc}", err=True)
         raise typer.Exit(2) from None

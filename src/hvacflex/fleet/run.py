@@ -47,13 +47,15 @@ from hvacflex.errors import HvacflexError
 from hvacflex.fleet.agent import BuildingGroup, FleetSettings
 from hvacflex.fleet.bundle import coordinate_caps
 from hvacflex.fleet.coordinate import CoordinationOptions, CoordinationResult, coordinate
-from hvacflex.fleet.schema import load_fleet
+from hvacflex.fleet.schema import Fleet, load_fleet
 from hvacflex.settlement import settlement_columns, start_baseline_kw
 from hvacflex.sim.activation import activation_schedule
 from hvacflex.sim.run_files import (
     check_checkpoint_code,
+    input_files,
     load_checkpoint,
     refuse_old_checkpoint,
+    update_with_files,
 )
 from hvacflex.tomlio import read_toml
 from hvacflex.units import SECONDS_PER_HOUR, STEP_30MIN_S
@@ -212,10 +214,16 @@ class _Groups:
         return states
 
 
-def fleet_key(fleet_path: Path, start: str, days: float) -> str:
-    """Identity of a fleet run's inputs: the fleet file's bytes and the period."""
+def fleet_key(fleet: Fleet, fleet_path: Path, start: str, days: float) -> str:
+    """Identity of a fleet run's inputs: the fleet file's bytes, the period, and the bytes of
+    the files it names (``[data]``, ``[activation]``, ``feeder_limit_csv``), so that editing
+    one of them does not resume a checkpoint made with the old one."""
     digest = hashlib.sha256(fleet_path.read_bytes())
     digest.update(f"{start}|{days}".encode())
+    files = input_files(fleet.data, fleet.activation)
+    if fleet.feeder_limit_path is not None:
+        files.append(fleet.feeder_limit_path)
+    update_with_files(digest, files)
     return digest.hexdigest()[:16]
 
 
@@ -265,7 +273,7 @@ def run_fleet(
     index, limit, planning_limit = _feeder_timeline(fleet, start, days, horizon)
     steps = len(index)
     options = _coordination_options(fleet)
-    key = fleet_key(path, start, days)
+    key = fleet_key(fleet, path, start, days)
     checkpoint_path = out / CHECKPOINT_FILE
     _write_config(out, path, start, days, key)
 
@@ -372,20 +380,19 @@ def _feeder_timeline(
     return index, limit, limit * (1.0 - fleet.spec.feeder_margin)
 
 
-def minimum_power_warning(fleet_path: str | Path, start: str, days: float) -> str | None:
+def minimum_power_warning(fleet: Fleet, start: str, days: float) -> str | None:
     """A warning when the buildings' design minimum powers
     (:func:`hvacflex.fleet.generate.design_min_power_kw`, occupied ventilation flows on the
     design day) exceed the feeder limit somewhere in the run, else None."""
     from hvacflex.fleet.generate import design_min_power_kw
 
-    fleet = load_fleet(fleet_path)
     _, limit, _ = _feeder_timeline(fleet, start, days, 0)
     minimum = sum(design_min_power_kw(b.building) for b in fleet.buildings)
     lowest = float(np.min(limit))
     if minimum <= lowest:
         return None
     return (
-        f"{fleet_path}: the buildings' minimum powers on the design day sum to "
+        f"{fleet.source or fleet.name}: the buildings' minimum powers on the design day sum to "
         f"{minimum:.1f} kW, above the feeder limit of {lowest:.1f} kW: periods where the "
         "minima exceed it are flagged infeasible (every building at its minimum); raise "
         "feeder_limit_kw (hvacflex fleet generate --feeder-limit-kw) to avoid them"
@@ -649,7 +656,7 @@ def _activation_schedule(fleet: Any, index: pd.DatetimeIndex) -> Any:
     """(steps,) bool: the periods the grid operator activates IL (the fleet file's
     ``[activation]``, seeded by the fleet's seed; :mod:`hvacflex.sim.activation`)."""
     spec = fleet.spec
-    config = spec.activation.config(None if fleet.source is None else fleet.source.parent)
+    config = fleet.activation
     duration = config.duration_steps or spec.reserve.event_max_steps or NEMS_MAX_INTERRUPTION_STEPS
     return activation_schedule(config, index, seed=spec.seed, max_steps=duration)
 

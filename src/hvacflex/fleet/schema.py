@@ -326,6 +326,22 @@ class Fleet:
         data: DataConfig = to_domain(self.spec.data)
         return data
 
+    @property
+    def feeder_limit_path(self) -> Path | None:
+        """The ``feeder_limit_csv`` file (relative to the fleet file's folder), or None."""
+        if self.spec.feeder_limit_csv is None:
+            return None
+        path = Path(self.spec.feeder_limit_csv)
+        if not path.is_absolute() and self.source is not None:
+            path = self.source.parent / path
+        return path
+
+    @property
+    def activation(self) -> ActivationConfig:
+        """The ``[activation]`` table as the scenario's :class:`ActivationConfig` (a relative
+        ``file`` from the fleet file's folder)."""
+        return self.spec.activation.config(None if self.source is None else self.source.parent)
+
     def limit_series_kw(self, index: pd.DatetimeIndex) -> np.ndarray:
         """(T,) feeder limit [kW] for each period start of ``index`` (inf = no limit).
 
@@ -336,10 +352,8 @@ class Fleet:
         """
         if self.spec.feeder_limit_kw is not None:
             return np.full(len(index), float(self.spec.feeder_limit_kw))
-        assert self.spec.feeder_limit_csv is not None
-        path = Path(self.spec.feeder_limit_csv)
-        if not path.is_absolute() and self.source is not None:
-            path = self.source.parent / path
+        path = self.feeder_limit_path
+        assert path is not None
         try:
             frame = pd.read_csv(path)
             times = pd.DatetimeIndex(pd.to_datetime(frame["time"]))

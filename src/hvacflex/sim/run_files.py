@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
@@ -20,6 +21,8 @@ from hvacflex.building.io import load_building
 from hvacflex.building.model import Building
 from hvacflex.config import (
     LINEARISATION_MARGIN_K,
+    ActivationConfig,
+    DataConfig,
     ScenarioConfig,
     config_from_dict,
     differing_settings,
@@ -44,22 +47,34 @@ def run_key(config: ScenarioConfig) -> str:
     contents enter the key. The shipped default data is fixed and stays out of it.
     """
     digest = hashlib.sha256(config.config_hash().encode())
-    files = [resolve_building(config.building)]
-    for name in ("weather_file", "usep_source", "reserve_source"):
-        value = getattr(config.data, name)
-        if value is not None:
-            path = Path(value)
-            files += sorted(path.glob("*")) if path.is_dir() else [path]
-    if config.activation.mode == "file" and config.activation.file is not None:
-        files.append(Path(config.activation.file))
+    files = [resolve_building(config.building), *input_files(config.data, config.activation)]
     calibrate = config.uncertainty.calibrate
     if calibrate is not None and calibrate.prediction_errors is not None:
         files.append(Path(calibrate.prediction_errors))  # the training run sizes the box
+    update_with_files(digest, files)
+    return digest.hexdigest()[:16]
+
+
+def input_files(data: DataConfig, activation: ActivationConfig) -> list[Path]:
+    """The files named by a ``[data]`` and an ``[activation]`` table (a folder: its files),
+    whose contents enter a run's key; the shipped default data stays out of it."""
+    files: list[Path] = []
+    for name in ("weather_file", "usep_source", "reserve_source"):
+        value = getattr(data, name)
+        if value is not None:
+            path = Path(value)
+            files += sorted(path.glob("*")) if path.is_dir() else [path]
+    if activation.mode == "file" and activation.file is not None:
+        files.append(Path(activation.file))
+    return files
+
+
+def update_with_files(digest: Any, files: Iterable[Path]) -> None:
+    """Feed each file's name and bytes (a missing file: its name only) to a hashlib digest."""
     for path in files:
         digest.update(str(path.name).encode())
         if path.is_file():
             digest.update(path.read_bytes())
-    return digest.hexdigest()[:16]
 
 
 def run_metadata(config: ScenarioConfig) -> dict[str, str]:
