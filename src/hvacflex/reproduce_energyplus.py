@@ -254,38 +254,6 @@ def plot_plant_week(
     return plots.save_figure(figure, pd.concat(parts, ignore_index=True), path)
 
 
-def _verdicts(eplus: Mapping[str, pd.DataFrame], basis: str) -> pd.DataFrame:
-    """The paper's findings judged on the EnergyPlus runs (scenario key → frame)."""
-    from hvacflex.report import verdicts
-
-    summary = {key: kpi.summary(frame) for key, frame in eplus.items()}
-    found: list[verdicts.Verdict] = []
-    if "a" in summary and "b" in summary:
-        a, b = summary["a"], summary["b"]
-        found.append(verdicts.robustness_premium(a["energy_cost_sgd"], b["energy_cost_sgd"], basis))
-        found.append(
-            verdicts.robust_keeps_comfort(
-                a["discomfort_kelvin_hours"], b["discomfort_kelvin_hours"], basis
-            )
-        )
-    if "b" in summary and "c" in summary:
-        b, c = summary["b"], summary["c"]
-        found.append(
-            verdicts.peak_price_costs_more(b["energy_cost_sgd"], c["energy_cost_sgd"], basis)
-        )
-        found.append(verdicts.peak_price_lowers_peak(b["peak_power_kw"], c["peak_power_kw"], basis))
-    if {"a", "b", "c"} <= summary.keys():
-        found.append(
-            verdicts.reserve_revenue_rises(
-                summary["a"]["reserve_revenue_sgd"],
-                summary["b"]["reserve_revenue_sgd"],
-                summary["c"]["reserve_revenue_sgd"],
-                basis,
-            )
-        )
-    return verdicts.verdict_table(found)
-
-
 def energyplus_section(
     eplus: Mapping[str, pd.DataFrame],
     rc: Mapping[str, pd.DataFrame],
@@ -308,6 +276,7 @@ def energyplus_section(
     peak_price_sgd_per_kw : φ of the one tariff [SGD/kW].
     period : the period in words (e.g. "7 days from 2014-03-03").
     """
+    from hvacflex.report import verdicts
     from hvacflex.report.html import Section
 
     keys = [key for key in ENERGYPLUS_SCENARIOS if key in eplus]
@@ -330,7 +299,9 @@ def energyplus_section(
         title=f"The same controllers on hvacflex's RC plant and on EnergyPlus ({period})",
     )
     basis = f"EnergyPlus office5 (generated IDF, setpoint actuation), {period}, not scaled"
-    verdict_table = _verdicts({key: eplus[key] for key in keys}, basis)
+    verdict_table = verdicts.verdict_table(
+        verdicts.scenario_verdicts({key: kpi.summary(eplus[key]) for key in keys}, basis)
+    )
     return Section(
         title="On EnergyPlus — the same controllers graded by an independent engine",
         paragraphs=[

@@ -25,7 +25,7 @@ are answered from the "does it pay?" table (:mod:`hvacflex.report.does_it_pay`) 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import pandas as pd
@@ -241,6 +241,46 @@ def reserve_share(
         verdict=NOT_COMPARABLE,
         basis=basis,
     )
+
+
+def scenario_verdicts(
+    summaries: Mapping[str, Mapping[str, float]],
+    basis: str,
+    *,
+    comfort_basis: str | None = None,
+    comfort_case: str = "",
+    revenue_basis: str | None = None,
+) -> list[Verdict]:
+    """The findings judged on scenarios (a), (b), (c) — key ``a``/``b``/``c`` →
+    :func:`hvacflex.kpi.summary` of its run — for those whose runs are there, in the order
+    robustness premium, (c) costs more, (c)'s lower peak, comfort, reserve revenue; the comfort
+    and revenue verdicts state ``comfort_basis`` / ``revenue_basis`` (default ``basis``)."""
+    a, b, c = (summaries.get(key) for key in ("a", "b", "c"))
+    found: list[Verdict] = []
+    if a is not None and b is not None:
+        found.append(robustness_premium(a["energy_cost_sgd"], b["energy_cost_sgd"], basis))
+    if b is not None and c is not None:
+        found.append(peak_price_costs_more(b["energy_cost_sgd"], c["energy_cost_sgd"], basis))
+        found.append(peak_price_lowers_peak(b["peak_power_kw"], c["peak_power_kw"], basis))
+    if a is not None and b is not None:
+        found.append(
+            robust_keeps_comfort(
+                a["discomfort_kelvin_hours"],
+                b["discomfort_kelvin_hours"],
+                comfort_basis or basis,
+                case=comfort_case,
+            )
+        )
+    if a is not None and b is not None and c is not None:
+        found.append(
+            reserve_revenue_rises(
+                a["reserve_revenue_sgd"],
+                b["reserve_revenue_sgd"],
+                c["reserve_revenue_sgd"],
+                revenue_basis or basis,
+            )
+        )
+    return found
 
 
 VERDICT_COLUMNS = ("finding", "verdict", "paper", "ours", "basis")
