@@ -576,8 +576,8 @@ def reproduce(
         True,
         "--feedback/--no-feedback",
         help="Run (b) and (c) with affine disturbance feedback over the period too; "
-        "--no-feedback leaves these two runs out (in the full run they are about 2/3 of its "
-        "CPU time; the robustness sweep keeps its short feedback runs).",
+        "--no-feedback leaves these two runs out (the full run's longest: each takes several "
+        "times an open-loop year; the robustness sweep keeps its short feedback runs).",
     ),
     out: Path = typer.Option(  # noqa: B008
         Path("results/reproduce"),

@@ -130,7 +130,7 @@ class Plan:
     """Apply :data:`REALISTIC_FORECAST` to the :data:`REALISTIC_GROUPS` (the full run)."""
     feedback_scenarios: bool = True
     """Run (b) and (c) with affine feedback over the period (``feedback-*``); in the full
-    run these two years take about 2/3 of its CPU time."""
+    run these two years are the longest runs (several times an open-loop year each)."""
 
     @classmethod
     def full(cls, *, energyplus: bool = False, feedback: bool = True) -> Plan:
