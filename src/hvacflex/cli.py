@@ -568,9 +568,9 @@ def reproduce(
     energyplus: bool = typer.Option(
         False,
         "--energyplus",
-        help="Add the section on EnergyPlus office5: (a), (b), (c) and the thermostat over the "
-        "year (--quick: the week) beside the same runs on the RC plant (needs the energyplus "
-        "extra of hvacflex).",
+        help="Add the section on EnergyPlus office5: (a), (b), (c), the 24 °C thermostat and "
+        "thermostat-25.5 over the year (--quick: the week) beside the same runs on the RC "
+        "plant (needs the energyplus extra of hvacflex).",
     ),
     feedback: bool = typer.Option(
         True,

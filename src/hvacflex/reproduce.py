@@ -11,8 +11,8 @@ One call runs, as Dask jobs (see :mod:`hvacflex.sim.sweep`; the plan is
 * the PPP sweep 0.5–30 SGD/kW on scenario (c) — Fig. 7;
 * the uncertainty sweep 0–50 % of the heat gains for open-loop RMPC (and the affine-feedback
   RMPC) next to NMPC — the price of robustness — and the hot-corner runs;
-* with ``--energyplus``, (a), (b), (c) and the thermostat for one week on EnergyPlus office5
-  beside the RC-plant week (:mod:`hvacflex.reproduce_energyplus`);
+* with ``--energyplus``, (a), (b), (c) and the two thermostats over the period on EnergyPlus
+  office5 beside the RC plant (:mod:`hvacflex.reproduce_energyplus`);
 
 then writes the report (:mod:`hvacflex.reproduce_report`: the verdict first), its PNGs, the
 CSV behind every figure and table, and one self-contained ``report.html``.

@@ -1,8 +1,9 @@
 """The reproduction on EnergyPlus (``hvacflex reproduce --energyplus``): (a) NMPC, (b) RMPC,
-(c) RMPC + PPP and the 24 °C thermostat on EnergyPlus office5 (the year; ``--quick``: one
-week) — the building's own IDF export (``[plant] kind = "energyplus"``, ``idf =
-"generated"``, setpoint actuation, the product presets' IL event model) — side by side with
-the same period on hvacflex's RC plant.
+(c) RMPC + PPP, the 24 °C thermostat and ``thermostat-25.5`` (the strongest rule-based
+baseline without reserve) on EnergyPlus office5 (the year; ``--quick``: one week) — the
+building's own IDF export (``[plant] kind = "energyplus"``, ``idf = "generated"``, setpoint
+actuation, the product presets' IL event model) — side by side with the same period on
+hvacflex's RC plant.
 
 EnergyPlus is the judge here: the controllers plan with hvacflex's RC model and never see
 EnergyPlus's, so cost, peak and comfort on that plant are graded by an engine the controller
@@ -27,8 +28,9 @@ from hvacflex import results as schema
 from hvacflex.config import PAPER_SCENARIOS, ScenarioConfig, preset
 from hvacflex.config.model import PlantConfig
 
-ENERGYPLUS_SCENARIOS: tuple[str, ...] = ("a", "b", "c", "thermostat")
-"""Scenario keys run on EnergyPlus office5: (a), (b), (c) and the 24 °C thermostat."""
+ENERGYPLUS_SCENARIOS: tuple[str, ...] = ("a", "b", "c", "thermostat", "thermostat-25.5")
+"""Scenario keys run on EnergyPlus office5: (a), (b), (c), the 24 °C thermostat and
+``thermostat-25.5`` (25.5 °C with optimal start)."""
 
 ENERGYPLUS_PREFIX = "energyplus-"
 """Run-name prefix of the runs on EnergyPlus (``energyplus-rmpc``, …)."""
@@ -305,7 +307,8 @@ def energyplus_section(
     return Section(
         title="On EnergyPlus — the same controllers graded by an independent engine",
         paragraphs=[
-            f"(a), (b), (c) and the 24 °C thermostat over {period} on EnergyPlus 25.2 running "
+            f"(a), (b), (c), the 24 °C thermostat and thermostat-25.5 over {period} on EnergyPlus "
+            "25.2 running "
             "office5's own IDF export (VAV air loop with a chiller; hvacflex building "
             "export-idf office5), beside the same runs on hvacflex's RC plant. The controllers "
             "plan with hvacflex's RC model and send zone cooling setpoints (the planned "
