@@ -49,6 +49,10 @@ SATURATION_SHARE = 2.0 / 3.0
 """Share of the sweep's whole peak reduction that must be reached at φ ≤
 :data:`SATURATION_PRICE_SGD_PER_KW` for the reduction to count as saturating."""
 
+MIN_PEAK_REDUCTION_SHARE = 0.02
+"""A sweep whose peak falls by less than this share of its lowest-φ peak over the whole
+sweep has no reduction to saturate (0.1 kW of 52 kW reached "2,400 %" by φ = 5 otherwise)."""
+
 ALMOST_NEVER_SHARE = 0.1
 """RMPC "almost never" violates comfort: its discomfort is within the tolerance or at most
 this share of NMPC's."""
@@ -187,7 +191,8 @@ def peak_reduction_saturates(
 ) -> Verdict:
     """The peak reduction saturates beyond :data:`SATURATION_PRICE_SGD_PER_KW`: at least
     :data:`SATURATION_SHARE` of the reduction from the lowest to the highest φ is reached at
-    φ ≤ that price. Not comparable when the sweep does not straddle it.
+    φ ≤ that price; does not hold when the sweep lowers the peak by no more than
+    :data:`MIN_PEAK_REDUCTION_SHARE`. Not comparable when the sweep does not straddle it.
 
     Parameters
     ----------
@@ -202,7 +207,7 @@ def peak_reduction_saturates(
         return Verdict(finding, paper, ours, NOT_COMPARABLE, basis)
     total_kw = float(sweep.iloc[0] - sweep.iloc[-1])
     at_knee_kw = float(sweep.iloc[0] - sweep[sweep.index <= SATURATION_PRICE_SGD_PER_KW].min())
-    if total_kw <= 0:
+    if total_kw <= MIN_PEAK_REDUCTION_SHARE * float(sweep.iloc[0]):
         ours = f"no reduction over the sweep ({sweep.iloc[0]:.1f} → {sweep.iloc[-1]:.1f} kW)"
         return Verdict(finding, paper, ours, DOES_NOT_HOLD, basis)
     share = at_knee_kw / total_kw
