@@ -18,7 +18,7 @@ import pandas as pd
 
 from hvacflex import kpi
 from hvacflex.config import with_overrides
-from hvacflex.config.model import PlantConfig
+from hvacflex.reproduce_energyplus import on_energyplus
 from hvacflex.reproduce_plan import REALISTIC_FORECAST, Plan, ppp_jobs
 from hvacflex.results import load_results
 from hvacflex.sim.sweep import run_sweep
@@ -29,17 +29,7 @@ def main() -> None:
     values = tuple(float(v) for v in sys.argv[2:]) or (0.5, 1.5, 5.0, 15.0, 30.0)
     plan = replace(Plan.full(), ppp_values=values)
     jobs = [
-        (
-            params,
-            with_overrides(
-                replace(
-                    cfg,
-                    name=f"energyplus-{cfg.name}",
-                    plant=PlantConfig(kind="energyplus", idf="generated"),
-                ),
-                REALISTIC_FORECAST,
-            ),
-        )
+        (params, with_overrides(on_energyplus(cfg), REALISTIC_FORECAST))
         for params, cfg in ppp_jobs(plan)
     ]
     t0 = time.time()

@@ -16,10 +16,8 @@ import argparse
 import time
 from pathlib import Path
 
-from hvacflex.report.html import write_report
-from hvacflex.reproduce import run_groups
+from hvacflex.reproduce import run_and_report
 from hvacflex.reproduce_plan import Plan, plan_groups
-from hvacflex.reproduce_report import build_sections
 
 
 def main() -> None:
@@ -36,19 +34,10 @@ def main() -> None:
     if unknown:
         parser.error(f"--skip: no run named {', '.join(unknown)}; runs: {', '.join(sorted(names))}")
     groups = {g: [(p, c) for p, c in jobs if c.name not in args.skip] for g, jobs in groups.items()}
-    args.out.mkdir(parents=True, exist_ok=True)
     t0 = time.time()
-    by_group = run_groups(groups, args.out, workers=args.workers)
-    t1 = time.time()
-    failed = [o.label for jobs in by_group.values() for o in jobs if not o.ok]
-    path = write_report(
-        args.out,
-        title="hvacflex — reproduction of Hanif et al. (2016)"
-        + (f" (less {', '.join(args.skip)})" if args.skip else ""),
-        sections=build_sections(plan, by_group, args.out),
-    )
-    print(f"runs: {t1 - t0:.0f} s wall; report: {time.time() - t1:.0f} s; failed: {failed}")
-    print(f"report: {path}")
+    result = run_and_report(plan, groups, args.out, workers=args.workers)
+    failed = [o.label for o in result.outcomes if not o.ok]
+    print(f"{time.time() - t0:.0f} s wall (runs and report); failed: {failed}")
 
 
 if __name__ == "__main__":

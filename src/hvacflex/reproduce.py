@@ -210,19 +210,35 @@ def reproduce(
     InputError
         With ``energyplus`` when the extra is not installed (before any run).
     """
-    from hvacflex.report.html import write_report
-    from hvacflex.reproduce_report import build_sections, incomplete_section
-
     if energyplus:
         from hvacflex.energyplus.api import engine_dir
 
         engine_dir()  # a missing extra is said before an hour of runs
+    plan = (Plan.quick if quick else Plan.full)(energyplus=energyplus, feedback=feedback)
+    return run_and_report(
+        plan, plan_groups(plan), out_dir, scheduler=scheduler, workers=workers, log=log, fresh=fresh
+    )
+
+
+def run_and_report(
+    plan: Plan,
+    groups: JobGroups,
+    out_dir: str | Path,
+    *,
+    scheduler: str | None = None,
+    workers: int = 2,
+    log: Callable[[str], None] = print,
+    fresh: bool = False,
+) -> Reproduction:
+    """Run ``groups`` (the plan's, or a part of them) in their stable folders
+    (:func:`run_groups`) and write the report on ``plan`` from their outcomes, marked
+    incomplete when a run failed."""
+    from hvacflex.report.html import write_report
+    from hvacflex.reproduce_report import build_sections, incomplete_section
+
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    plan = (Plan.quick if quick else Plan.full)(energyplus=energyplus, feedback=feedback)
-    by_group = run_groups(
-        plan_groups(plan), out, scheduler=scheduler, workers=workers, log=log, fresh=fresh
-    )
+    by_group = run_groups(groups, out, scheduler=scheduler, workers=workers, log=log, fresh=fresh)
     outcomes = [o for group in by_group.values() for o in group]
     failed = [o for o in outcomes if not o.ok]
     sections = build_sections(plan, by_group, out)

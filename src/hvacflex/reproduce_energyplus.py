@@ -74,6 +74,16 @@ def scenario_preset(key: str) -> str:
     return PAPER_SCENARIOS.get(key, key)
 
 
+def on_energyplus(cfg: ScenarioConfig) -> ScenarioConfig:
+    """``cfg`` on EnergyPlus office5 (the generated IDF, setpoint actuation), named
+    ``energyplus-<name>``: how the reproduction moves a run to EnergyPlus."""
+    return replace(
+        cfg,
+        name=f"{ENERGYPLUS_PREFIX}{cfg.name}",
+        plant=PlantConfig(kind="energyplus", idf="generated"),
+    )
+
+
 def energyplus_jobs(start: str, days: float, *, with_rc_week: bool) -> Jobs:
     """:data:`ENERGYPLUS_SCENARIOS` on EnergyPlus office5 over ``days`` from ``start``
     (names ``energyplus-<preset>``, parameters ``scenario`` and ``plant``) and, with
@@ -83,12 +93,7 @@ def energyplus_jobs(start: str, days: float, *, with_rc_week: bool) -> Jobs:
     for key in ENERGYPLUS_SCENARIOS:
         name = scenario_preset(key)
         cfg = preset(name, start=start, days=days)
-        eplus = replace(
-            cfg,
-            name=f"{ENERGYPLUS_PREFIX}{name}",
-            plant=PlantConfig(kind="energyplus", idf="generated"),
-        )
-        jobs.append(({"scenario": key, "plant": "energyplus"}, eplus))
+        jobs.append(({"scenario": key, "plant": "energyplus"}, on_energyplus(cfg)))
         if with_rc_week:
             rc = replace(cfg, name=f"{RC_WEEK_PREFIX}{name}")
             jobs.append(({"scenario": key, "plant": "rc"}, rc))
