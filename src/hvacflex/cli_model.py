@@ -156,6 +156,12 @@ def identify_fit(
     idf: Path | None = typer.Option(  # noqa: B008
         None, "--idf", help="The EnergyPlus model the data came from: scenario.toml's plant."
     ),
+    weather: Path | None = typer.Option(  # noqa: B008
+        None,
+        "--weather",
+        help="EPW of the site: where the walls' irradiance is computed, scenario.toml's "
+        "weather (default: the shipped Singapore TMYx).",
+    ),
 ) -> None:
     """Fit a grey-box RC model to trend data; write it (a building file), fit_report.csv,
     the parameters, the calibrated model-error box and scenario.toml."""
@@ -178,6 +184,7 @@ def identify_fit(
                 train=train,
                 test=test,
                 idf=idf,
+                weather=weather,
             )
     except HvacflexError as exc:
         raise exit_on_error(exc) from None

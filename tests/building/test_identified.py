@@ -19,6 +19,7 @@ from hvacflex.building.identified import (
     initial_node_temps_degc,
 )
 from hvacflex.building.io import building_from_dict, load_building
+from hvacflex.building.rc import disturbance_channels as building_channels
 from hvacflex.errors import BuildingConfigError
 from hvacflex.identify.greybox import GreyBoxParameters, discretize
 from hvacflex.identify.model_file import AirSystem, IdentifiedModel, write_identified_model
@@ -27,8 +28,8 @@ from hvacflex.units import CP_AIR_J_PER_KG_K
 
 ZONES = np.array(
     [
-        [800.0, 3.0e4, 0.05, 0.8, 0.03, 3.0, 6.0, 1.5, 0.4],
-        [1200.0, 6.0e4, 0.08, 1.2, 0.05, 5.0, 8.0, 2.5, -0.2],
+        [800.0, 3.0e4, 0.05, 0.8, 0.03, 3.0, 6.0, 0.0, 2.0, 0.5, 0.0, 1.5, 0.4],
+        [1200.0, 6.0e4, 0.08, 1.2, 0.05, 5.0, 8.0, 1.0, 0.0, 0.0, 3.0, 2.5, -0.2],
     ]
 )
 PARAMETERS = GreyBoxParameters(ZONES, np.array([[0, 1]], dtype=np.int64), np.array([0.3]))
@@ -62,14 +63,19 @@ def test_the_linear_model_is_the_fitted_models_discretisation(model_path: Path) 
     linear = linearize(building, 1800.0, t0)  # at zero reference flow: the pure network
     fitted = discretize(PARAMETERS)  # the fit's own (eigendecomposition) discretisation
     np.testing.assert_allclose(linear.a, fitted.a, atol=1e-12)
-    # fit inputs [To, G kW/m², occ, 1, Q_a, Q_b]; building channels [To, G W/m², gain_a W,
-    # gain_b W (1 kW × people fraction), constant]; building input: flow at T0
+    # fit inputs [To, G kW/m², occ, 1, walls N E S W kW/m², Q_a, Q_b]; building channels
+    # [To, G W/m², walls N E S W W/m², gain_a W, gain_b W (1 kW × people fraction),
+    # constant]; building input: flow at T0
+    assert [c.name for c in building_channels(building)][2:6] == [
+        f"solar_az{azimuth:g}_tilt90_w_per_m2" for azimuth in (0, 90, 180, 270)
+    ]
     np.testing.assert_allclose(linear.e[:, 0], fitted.b[:, 0], atol=1e-12)
     np.testing.assert_allclose(linear.e[:, 1] * 1000.0, fitted.b[:, 1], atol=1e-12)
-    np.testing.assert_allclose((linear.e[:, 2] + linear.e[:, 3]) * 1000.0, fitted.b[:, 2])
-    np.testing.assert_allclose(linear.e[:, 4], fitted.b[:, 3], atol=1e-12)
+    np.testing.assert_allclose(linear.e[:, 2:6] * 1000.0, fitted.b[:, 4:8], atol=1e-12)
+    np.testing.assert_allclose((linear.e[:, 6] + linear.e[:, 7]) * 1000.0, fitted.b[:, 2])
+    np.testing.assert_allclose(linear.e[:, 8], fitted.b[:, 3], atol=1e-12)
     per_kg_s = CP_AIR_J_PER_KG_K * (t0 - SUPPLY_TEMP_DEGC) / 1000.0  # kW of cooling
-    np.testing.assert_allclose(linear.b, fitted.b[:, 4:6] * per_kg_s, atol=1e-12)
+    np.testing.assert_allclose(linear.b, fitted.b[:, 8:10] * per_kg_s, atol=1e-12)
     assert np.all(linear.a >= -1e-12)  # Metzler network: the robust LP's condition
 
 
@@ -123,7 +129,7 @@ def test_an_identified_building_refuses_walls_and_mismatched_zones() -> None:
                             "occupied_gain_kw",
                             "base_gain_kw",
                         ],
-                        ZONES[0].tolist(),
+                        np.delete(ZONES[0], [7, 8, 9, 10]).tolist(),  # a file without walls
                         strict=True,
                     ),
                     flow_min_kg_s=0.0,
@@ -134,7 +140,9 @@ def test_an_identified_building_refuses_walls_and_mismatched_zones() -> None:
             },
         },
     }
-    assert building_from_dict(base).identified is not None
+    identified = building_from_dict(base).identified
+    assert identified is not None
+    assert identified.zones[0].wall_solar_m2() == (0.0, 0.0, 0.0, 0.0)  # written before walls
     renamed = {**base, "zones": [{"name": "b"}]}
     with pytest.raises(BuildingConfigError, match="differ from"):
         building_from_dict(renamed)

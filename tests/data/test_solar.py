@@ -14,6 +14,7 @@ from hvacflex.data.solar import (
     ALBEDO,
     CIRCUMSOLAR_MIN_COS_ZENITH,
     SUBSAMPLES_PER_PERIOD,
+    decompose_ghi,
     period_sun,
     surface_irradiance_components,
     surface_irradiance_w_per_m2,
@@ -199,3 +200,29 @@ def test_facades_agree_with_energyplus_incident_solar(shared_data_dir: Path) -> 
     assert maxima.between(0.85, 1.15).all(), table
     walls = table.loc[["north", "east", "south", "west"]]
     assert (walls[["hvacflex_max_w_per_m2", "energyplus_max_w_per_m2"]] <= 1100.0).all().all()
+
+
+def test_the_ghi_decomposition_closes_and_is_erbs_at_midday(
+    year_2014: tuple[pd.DataFrame, EpwLocation],
+) -> None:
+    """The decomposition gives back its GHI (DHI + beam on the horizontal, the period-mean
+    geometry), 0 at night, and at midday (the midpoint sun is the period's) pvlib's Erbs."""
+    import pvlib
+
+    weather, site = year_2014
+    days = weather.loc["2014-03-03":"2014-03-09"]
+    ghi = days["ghi_w_per_m2"].to_numpy()
+    dni, dhi = decompose_ghi(pd.DatetimeIndex(days.index), ghi, site)
+    sun = period_sun(pd.DatetimeIndex(days.index), pd.Timedelta(minutes=30), site)
+    up = sun.sunlit_fraction > 0
+    beam = np.where(up, dni / np.where(up, sun.sunlit_fraction, 1.0), 0.0) * sun.mean_cos_zenith
+    np.testing.assert_allclose((dhi + beam)[ghi > 0], ghi[ghi > 0], rtol=1e-9)
+    assert (dni[~up] == 0).all() and (dhi[~up] == 0).all()
+    assert (dhi >= 0).all() and (dhi <= ghi + 1e-9).all() and (dni >= 0).all()
+    noon = (days.index.hour >= 11) & (days.index.hour < 14) & (ghi > 50)
+    middle = days.index[noon] + pd.Timedelta(minutes=15)
+    zenith = pvlib.solarposition.get_solarposition(middle, site.latitude_deg, site.longitude_deg)[
+        "apparent_zenith"
+    ]
+    reference = pvlib.irradiance.erbs(ghi[noon], zenith.to_numpy(), middle.day_of_year.to_numpy())
+    np.testing.assert_allclose(dhi[noon], reference["dhi"], rtol=0.02)

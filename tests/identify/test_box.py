@@ -45,10 +45,12 @@ def test_the_scenario_reads_the_model_and_the_errors_back(tmp_path: Path) -> Non
     model = tmp_path / "model.toml"
     model.write_text("", encoding="utf-8")
     idf = tmp_path / "plant.idf"
+    weather = tmp_path / "site.epw"
     scenario = write_scenario(
-        tmp_path / "scenario.toml", model, path, "2014-03-18..2014-03-19", 0.95, idf
+        tmp_path / "scenario.toml", model, path, "2014-03-18..2014-03-19", 0.95, idf, weather
     )
     config = load_config(scenario)
+    assert config.data.weather_file == str(weather.resolve())  # the site the fit used
     assert Path(config.building) == model.resolve()
     calibrate = config.uncertainty.calibrate
     assert calibrate is not None and calibrate.quantile == 0.95

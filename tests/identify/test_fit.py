@@ -9,6 +9,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from hvacflex.data.weather import EpwLocation
 from hvacflex.errors import InputError
 from hvacflex.identify.fit import (
     FitData,
@@ -20,6 +21,8 @@ from hvacflex.identify.fit import (
     tune_filter,
 )
 from hvacflex.identify.greybox import (
+    EXOGENOUS_INPUTS,
+    ZONE_PARAMETERS,
     FilterNoise,
     GreyBoxParameters,
     discretize,
@@ -28,6 +31,8 @@ from hvacflex.identify.greybox import (
 from hvacflex.identify.trend import read_trend, write_trend
 
 ZONES = ("Room-A", "ROOM_b")
+SITE = EpwLocation(1.37, 103.98, 8.0, 15.0, "Singapore Changi")
+COOLING = len(EXOGENOUS_INPUTS)
 
 
 @pytest.fixture(scope="module")
@@ -41,7 +46,7 @@ def trend(
 
 def test_the_fit_predicts_a_model_of_its_own_structure(trend: Path) -> None:
     data = read_trend(trend)
-    inputs = fit_inputs(data, ("room-a", "room_B"))  # any case
+    inputs = fit_inputs(data, ("room-a", "room_B"), SITE)  # any case
     assert inputs.zones == ZONES
     result = fit_model(inputs, [(0, 1)], (0, 5 * 48))
     report = evaluate(result, inputs, (5 * 48, 6 * 48))
@@ -49,6 +54,10 @@ def test_the_fit_predicts_a_model_of_its_own_structure(trend: Path) -> None:
     assert (report["rmse_24h_k"] < 0.15).all(), report
     assert (report["rmse_1step_k"] < 0.1).all(), report
     assert (report["bias_k"].abs() < 0.1).all()
+    # the morning and afternoon walls are told apart from the horizontal (near the equator
+    # the north and south walls see mostly diffuse light: less well determined)
+    assert result.parameters.value("solar_wall_east_m2") == pytest.approx([4.0, 0.0], abs=0.2)
+    assert result.parameters.value("solar_wall_west_m2") == pytest.approx([0.0, 3.0], abs=0.2)
     # the standard errors exist and are finite for the well-identified capacitances
     assert np.isfinite(result.standard_errors.zone[:, 0]).all()
 
@@ -56,8 +65,8 @@ def test_the_fit_predicts_a_model_of_its_own_structure(trend: Path) -> None:
 def test_the_filter_tuned_on_data_with_a_hidden_gain_carries_a_gain_state() -> None:
     zone = np.array(
         [
-            [800.0, 3.0e4, 0.05, 0.8, 0.03, 3.0, 6.0, 1.5, 0.4],
-            [1200.0, 6.0e4, 0.08, 1.2, 0.05, 5.0, 8.0, 2.5, 0.2],
+            [800.0, 3.0e4, 0.05, 0.8, 0.03, 3.0, 6.0, 0.0, 2.0, 0.0, 1.0, 1.5, 0.4],
+            [1200.0, 6.0e4, 0.08, 1.2, 0.05, 5.0, 8.0, 1.0, 0.0, 2.0, 0.0, 2.5, 0.2],
         ]
     )
     model = discretize(GreyBoxParameters(zone, np.array([[0, 1]]), np.array([0.3])))
@@ -70,6 +79,7 @@ def test_the_filter_tuned_on_data_with_a_hidden_gain_carries_a_gain_state() -> N
             rng.uniform(0, 0.8, steps),
             rng.integers(0, 2, steps),
             np.ones(steps),
+            rng.uniform(0, 0.5, (steps, 4)),  # the walls
             rng.uniform(0, 3, (steps, 2)),
         ]
     )
@@ -77,7 +87,7 @@ def test_the_filter_tuned_on_data_with_a_hidden_gain_carries_a_gain_state() -> N
     x, y = np.full(4, 25.0), np.empty((steps, 2))
     for k in range(steps):
         u_true = u[k].copy()
-        u_true[4:] -= hidden_kw[k]
+        u_true[COOLING:] -= hidden_kw[k]
         y[k] = model.c_mean @ x + model.d_mean @ u_true
         x = model.a @ x + model.b @ u_true
     data = FitData(index=index, zones=ZONES, y=y, u=u)
@@ -94,7 +104,7 @@ def test_the_filter_tuned_on_data_with_a_hidden_gain_carries_a_gain_state() -> N
 
 def test_the_power_model_recovers_the_metered_relation(trend: Path) -> None:
     data = read_trend(trend)
-    inputs = fit_inputs(data, ZONES)
+    inputs = fit_inputs(data, ZONES, SITE)
     power = fit_power_model(data, inputs, (0, 5 * 48))
     assert power is not None
     assert power.kw_per_kw_cooling == pytest.approx(0.3, abs=1e-3)  # temps carry 0.02 K noise
@@ -107,7 +117,7 @@ def test_the_power_model_recovers_the_metered_relation(trend: Path) -> None:
 
 
 def test_too_few_days_are_refused(trend: Path) -> None:
-    inputs = fit_inputs(read_trend(trend), ZONES)
+    inputs = fit_inputs(read_trend(trend), ZONES, SITE)
     with pytest.raises(InputError, match="too few days to fit"):
         fit_model(inputs, [], (0, 3 * 48))
 
@@ -117,14 +127,14 @@ def test_a_zone_the_data_lacks_or_without_supply_air_is_refused(
 ) -> None:
     data = read_trend(trend)
     with pytest.raises(InputError, match="no such zone") as caught:
-        fit_inputs(data, ("Room-A", "attic"))
+        fit_inputs(data, ("Room-A", "attic"), SITE)
     assert caught.value.value == "attic"
     frame = synthetic_trend(days=1).drop(
         columns=["supply_flow_ROOM_b_kg_s", "supply_temp_ROOM_b_degc"]
     )
     path = write_trend(frame, tmp_path / "setpoint_only.csv")
     with pytest.raises(InputError, match="supply flow and supply temperature"):
-        fit_inputs(read_trend(path), ZONES)
+        fit_inputs(read_trend(path), ZONES, SITE)
 
 
 def test_a_parameter_pushed_onto_its_bound_is_named_in_the_warnings() -> None:
@@ -132,7 +142,8 @@ def test_a_parameter_pushed_onto_its_bound_is_named_in_the_warnings() -> None:
 
     prior, low, high, _ = _initial_and_bounds(2, 1)
     theta = prior.copy()
-    theta[0], theta[9 + 1] = low[0], high[9 + 1]  # zone A's c_air, zone B's c_mass
+    k = len(ZONE_PARAMETERS)
+    theta[0], theta[k + 1] = low[0], high[k + 1]  # zone A's c_air, zone B's c_mass
     assert _bound_warnings(theta, low, high, ("A", "B")) == [
         "A: c_air_kj_per_k at its bound 10",
         "B: c_mass_kj_per_k at its bound 1e+07",
@@ -159,10 +170,11 @@ def test_a_boundary_node_is_recovered_from_its_own_balance() -> None:
         heat = ua_zone * (zone[k, 0] - plenum[k]) + ua_out * (outdoor[k] - plenum[k])
         heat += solar * ghi[k] + gain * occupied[k]
         plenum[k + 1] = plenum[k] + 1800.0 / c_kj * heat
-    u = np.column_stack([outdoor, ghi, occupied, np.ones(steps), np.zeros(steps), plenum])
+    walls = np.zeros((steps, 4))
+    u = np.column_stack([outdoor, ghi, occupied, np.ones(steps), walls, np.zeros(steps), plenum])
     data = FitData(index, ("room",), zone, u, boundaries=("Plenum",))
     parameters = GreyBoxParameters(
-        np.zeros((1, 9)),
+        np.zeros((1, len(ZONE_PARAMETERS))),
         np.zeros((0, 2), dtype=np.int64),
         np.zeros(0),
         boundaries=1,

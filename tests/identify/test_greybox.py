@@ -8,7 +8,9 @@ import itertools
 import numpy as np
 import scipy.linalg
 
+from hvacflex.building.identified import WALL_ORIENTATIONS
 from hvacflex.identify.greybox import (
+    EXOGENOUS_INPUTS,
     MEASUREMENT_STD_K,
     PROCESS_STD_AIR_K,
     PROCESS_STD_MASS_K,
@@ -24,6 +26,13 @@ from hvacflex.identify.greybox import (
 )
 
 DT_S = 1800.0
+COOLING = len(EXOGENOUS_INPUTS)
+"""Where the cooling inputs start in ``u``."""
+
+
+def _wall_shares(p: GreyBoxParameters) -> np.ndarray:
+    """(m, 4) each zone's wall solar shares [m²]."""
+    return np.column_stack([p.value(f"solar_wall_{o}_m2") for o, _ in WALL_ORIENTATIONS])
 
 
 def _random_parameters(m: int, seed: int) -> GreyBoxParameters:
@@ -37,6 +46,7 @@ def _random_parameters(m: int, seed: int) -> GreyBoxParameters:
             rng.uniform(0.01, 0.5, m),
             rng.uniform(0, 10, m),
             rng.uniform(0, 10, m),
+            rng.uniform(0, 4, (m, 4)),  # the wall shares
             rng.uniform(0, 3, m),
             rng.uniform(-1, 1, m),
         ]
@@ -75,10 +85,10 @@ def test_kalman_gain_equals_scipys_riccati_solution() -> None:
 def test_one_zone_with_a_stiff_mass_follows_the_rc_step_response() -> None:
     """Air node alone (mass coupling tiny, mass huge): T(t) = To + (T0 − To)·exp(−t UA/C)."""
     c_air, ua = 3000.0, 0.2
-    zone = np.array([[c_air, 1e7, ua, 1e-7, 1e-7, 0.0, 0.0, 0.0, 0.0]])
+    zone = np.array([[c_air, 1e7, ua, 1e-7, 1e-7] + [0.0] * 8])
     p = GreyBoxParameters(zone, np.zeros((0, 2), dtype=np.int64), np.zeros(0))
     model = discretize(p, DT_S)
-    u = np.array([[30.0, 0.0, 0.0, 1.0, 0.0]] * 4)
+    u = np.array([[30.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0]] * 4)
     x0 = np.array([[20.0, 20.0]])
     means = simulate_windows(model, x0, u[None], 4)[0, :, 0]
     tau = c_air / ua
@@ -91,15 +101,17 @@ def test_one_zone_with_a_stiff_mass_follows_the_rc_step_response() -> None:
 def test_steady_state_balances_heat_in_and_out() -> None:
     p = _random_parameters(3, seed=7)
     a_c, b_c = continuous_matrices(p)
-    u = np.r_[31.0, 0.6, 1.0, 1.0, 2.0, 1.5, 0.5]
+    walls = np.array([0.1, 0.4, 0.2, 0.3])
+    u = np.r_[31.0, 0.6, 1.0, 1.0, walls, 2.0, 1.5, 0.5]
     x = np.linalg.solve(a_c, -b_c @ u)
     ua_o, ua_mo = p.value("ua_out_kw_per_k"), p.value("ua_mass_out_kw_per_k")
     lost_kw = (ua_o * (x[:3] - 31.0) + ua_mo * (x[3:] - 31.0)).sum()
     gains_kw = (
         0.6 * (p.value("solar_air_m2") + p.value("solar_mass_m2"))
+        + _wall_shares(p) @ walls
         + p.value("occupied_gain_kw")
         + p.value("base_gain_kw")
-    ).sum() - u[4:].sum()
+    ).sum() - u[COOLING:].sum()
     assert abs(lost_kw - gains_kw) < 1e-9
 
 
@@ -114,6 +126,7 @@ def test_the_filter_converges_to_the_true_state_of_its_own_model() -> None:
             rng.uniform(0, 0.8, steps),
             rng.integers(0, 2, steps),
             np.ones(steps),
+            rng.uniform(0, 0.5, (steps, 4)),  # the walls
             rng.uniform(0, 3, (steps, 2)),
         ]
     )
@@ -147,14 +160,16 @@ def test_a_boundary_zone_enters_the_balance_and_the_exponential() -> None:
         boundary_ua_kw_per_k=np.array([0.4, 0.1]),
     )
     a_c, b_c = continuous_matrices(p)
-    assert b_c.shape == (4, 4 + 2 + 1)
-    u = np.r_[30.0, 0.5, 1.0, 1.0, 2.0, 1.0, 27.0]
+    assert b_c.shape == (4, COOLING + 2 + 1)
+    walls = np.array([0.3, 0.0, 0.2, 0.1])
+    u = np.r_[30.0, 0.5, 1.0, 1.0, walls, 2.0, 1.0, 27.0]
     x = np.linalg.solve(a_c, -b_c @ u)
     ua_o, ua_mo = p.value("ua_out_kw_per_k"), p.value("ua_mass_out_kw_per_k")
     lost_kw = (ua_o * (x[:2] - 30.0) + ua_mo * (x[2:] - 30.0)).sum()
     lost_kw += (np.array([0.4, 0.1]) * (x[:2] - 27.0)).sum()
     gains_kw = (
         0.5 * (p.value("solar_air_m2") + p.value("solar_mass_m2"))
+        + _wall_shares(p) @ walls
         + p.value("occupied_gain_kw")
         + p.value("base_gain_kw")
     ).sum() - 3.0
@@ -175,6 +190,7 @@ def _driven_inputs(steps: int, seed: int) -> np.ndarray:
             rng.uniform(0, 0.8, steps),
             rng.integers(0, 2, steps),
             np.ones(steps),
+            rng.uniform(0, 0.5, (steps, 4)),  # the walls
             rng.uniform(0, 3, (steps, 2)),
         ]
     )
@@ -197,7 +213,7 @@ def test_the_gain_state_learns_a_heat_gain_the_inputs_miss() -> None:
     x, y = np.array([24.0, 25.0, 26.0, 26.0]), np.empty((steps, 2))
     for k in range(steps):
         u_true = u[k].copy()
-        u_true[4] -= hidden_kw[k]  # a gain is negative cooling
+        u_true[COOLING] -= hidden_kw[k]  # a gain is negative cooling
         y[k] = model.c_mean @ x + model.d_mean @ u_true
         x = model.a @ x + model.b @ u_true
     plain = one_step_predictions(model, y, u, FilterNoise())

@@ -12,6 +12,7 @@ from typer.testing import CliRunner
 
 from hvacflex.cli import app
 from hvacflex.errors import InputError
+from hvacflex.identify.greybox import ZONE_PARAMETERS
 from hvacflex.identify.model_file import load_identified_model
 from hvacflex.identify.trend import write_trend
 from hvacflex.identify.workflow import identify, parse_days, zones_and_couplings
@@ -45,7 +46,8 @@ def test_fit_writes_a_model_and_a_report_beside_it(trend: Path, tmp_path: Path) 
     assert model.boundaries == ("Attic",)  # temperature only: a boundary of both zones
     assert model.provenance["test"] == "2014-03-08..2014-03-08"
     parameters = pd.read_csv(outcome.parameters_path)
-    assert {"value", "std_error"} <= set(parameters.columns) and len(parameters) == 2 * 9 + 1 + 2
+    assert {"value", "std_error"} <= set(parameters.columns)
+    assert len(parameters) == 2 * len(ZONE_PARAMETERS) + 1 + 2
 
 
 def test_day_ranges_include_both_ends() -> None:
@@ -90,6 +92,17 @@ def test_the_cli_exits_2_on_a_gap_and_names_the_line(trend: Path, tmp_path: Path
     assert result.exit_code == 2
     assert "gapped.csv:12" in result.output and "gap in the time index" in result.output
     assert "Traceback" not in result.output
+
+
+def test_the_cli_exits_2_on_a_missing_weather_file_before_fitting(
+    trend: Path, tmp_path: Path
+) -> None:
+    out = tmp_path / "fit" / "m.toml"
+    arguments = ["identify", "fit", "--data", str(trend), "--zones", "Room-A", "--out", str(out)]
+    result = CliRunner().invoke(app, [*arguments, "--weather", str(tmp_path / "nope.epw")])
+    assert result.exit_code == 2
+    assert "--weather" in result.output and "nope.epw" in result.output
+    assert "Traceback" not in result.output and not out.parent.exists()
 
 
 def test_the_cli_fit_writes_the_figure_and_the_series(trend: Path, tmp_path: Path) -> None:

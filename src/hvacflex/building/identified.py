@@ -6,12 +6,15 @@ walls or windows; its ``[identified]`` table holds the fitted RC network instead
 boundary node (all temperatures [°C])::
 
     C_a,i dTa_i/dt = UA_o,i (To − Ta_i) + UA_am,i (Tm_i − Ta_i) + Σ_j UA_ij (Ta_j − Ta_i)
-                     + Σ_b UA_ib (Tb_b − Ta_i) + S_a,i G + P_occ,i f(t) + P_0,i
+                     + Σ_b UA_ib (Tb_b − Ta_i) + S_a,i G + Σ_o S_o,i I_o + P_occ,i f(t) + P_0,i
                      + ṁ_i c_p (T_s − Ta_i)
     C_m,i dTm_i/dt = UA_am,i (Ta_i − Tm_i) + UA_mo,i (To − Tm_i) + S_m,i G
     C_b dTb_b/dt   = Σ_i UA_ib (Ta_i − Tb_b) + UA_bo,b (To − Tb_b) + S_b G + P_occ,b f(t)
 
 ``G`` is the global horizontal irradiance (the ``solar`` channel of azimuth 0, tilt 0),
+``I_o`` the irradiance on a wall facing ``o`` of :data:`WALL_ORIENTATIONS` (the ``solar``
+channels of tilt 90: a zone's windows face some of them, and the east zone's morning sun is
+not the horizontal's noon),
 ``f(t)`` the office schedule's people fraction (the zone's ``internal_gain`` channel carries
 :data:`GAIN_CHANNEL_PEAK_W` × f), the constant gains ``P_0`` enter through the ``constant``
 channel. The HVAC input is the supply air flow ``ṁ`` at the supply temperature ``T_s`` fitted
@@ -32,6 +35,10 @@ from hvacflex.units import CP_AIR_J_PER_KG_K
 
 FloatArray = npt.NDArray[np.float64]
 
+WALL_ORIENTATIONS = (("north", 0.0), ("east", 90.0), ("south", 180.0), ("west", 270.0))
+"""The vertical planes whose irradiance enters an identified zone's air node: (name, azimuth
+clockwise from north [°]). A building need not face north: the fit finds each zone's share
+of each (``solar_wall_<name>_m2``)."""
 GAIN_CHANNEL_PEAK_W = 1000.0
 """An identified zone's ``internal_gain`` channel at a people fraction of 1 [W]: the zone's
 nominal floor area (1 m²) × 1 person/m² × this sensible gain per person."""
@@ -49,7 +56,9 @@ class IdentifiedZone:
     ``flow_min_kg_s`` / ``flow_max_kg_s`` bound the supply flow (the training data's range),
     ``ventilation_flow_kg_s`` is the flow the zone's unit does not go below while occupied;
     ``mass_temp_degc`` is the mass node's mean estimated temperature on the test days, where a
-    run starts it (a mass of weeks' time constant is not re-estimated within a day).
+    run starts it (a mass of weeks' time constant is not re-estimated within a day);
+    ``solar_wall_<o>_m2`` its share of the irradiance on a wall facing ``o`` of
+    :data:`WALL_ORIENTATIONS` (0 in files written before the walls were fitted).
     """
 
     name: str
@@ -66,6 +75,14 @@ class IdentifiedZone:
     flow_max_kg_s: float
     ventilation_flow_kg_s: float
     mass_temp_degc: float
+    solar_wall_north_m2: float = 0.0
+    solar_wall_east_m2: float = 0.0
+    solar_wall_south_m2: float = 0.0
+    solar_wall_west_m2: float = 0.0
+
+    def wall_solar_m2(self) -> tuple[float, ...]:
+        """The wall shares in :data:`WALL_ORIENTATIONS` order [m²]."""
+        return tuple(float(getattr(self, f"solar_wall_{o}_m2")) for o, _ in WALL_ORIENTATIONS)
 
 
 @dataclass(frozen=True)

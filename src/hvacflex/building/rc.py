@@ -65,7 +65,7 @@ from hvacflex.building.channels import (
     solar_channel,
     window_solar_gain_channel,
 )
-from hvacflex.building.identified import GAIN_CHANNEL_PEAK_W, IdentifiedRC
+from hvacflex.building.identified import GAIN_CHANNEL_PEAK_W, WALL_ORIENTATIONS, IdentifiedRC
 from hvacflex.building.model import ADIABATIC, GROUND, OUTSIDE, Building, Wall, Window, Zone
 
 FloatArray = NDArray[np.float64]
@@ -181,14 +181,9 @@ def solar_channels_of(b: Building) -> tuple[DisturbanceChannel, ...]:
 def disturbance_channels(b: Building) -> tuple[DisturbanceChannel, ...]:
     """The building's disturbance vector: [T_out, solar per orientation, gains per zone,
     ground temperature if a wall touches the ground] (see ``channels.py``); an identified
-    building's: [T_out, horizontal solar, gains per zone, constant]."""
+    building's: :func:`identified_channels`."""
     if b.identified is not None:
-        return (
-            outdoor_temp_channel(),
-            solar_channel(0.0, 0.0),
-            *(internal_gain_channel(name) for name in b.zone_names),
-            constant_channel(),
-        )
+        return identified_channels(b.zone_names)
     channels = [outdoor_temp_channel(), *solar_channels_of(b)]
     channels += [internal_gain_channel(name) for name in b.zone_names]
     if any(w.adjacent == GROUND for w in b.walls):
@@ -197,6 +192,19 @@ def disturbance_channels(b: Building) -> tuple[DisturbanceChannel, ...]:
         channels.append(sky_longwave_channel())
     channels += [window_solar_gain_channel(w.name) for w in b.windows if w.shgc_normal is not None]
     return tuple(channels)
+
+
+def identified_channels(zone_names: tuple[str, ...]) -> tuple[DisturbanceChannel, ...]:
+    """An identified building's disturbance vector: [T_out, horizontal solar, solar on the
+    walls of :data:`~hvacflex.building.identified.WALL_ORIENTATIONS`, gains per zone,
+    constant]."""
+    return (
+        outdoor_temp_channel(),
+        solar_channel(0.0, 0.0),
+        *(solar_channel(azimuth, 90.0) for _, azimuth in WALL_ORIENTATIONS),
+        *(internal_gain_channel(name) for name in zone_names),
+        constant_channel(),
+    )
 
 
 def has_sky_exchange(b: Building) -> bool:
@@ -546,15 +554,12 @@ def envelope_ua_w_per_k(b: Building) -> dict[str, float]:
 def _identified_network(rc: IdentifiedRC, zone_names: tuple[str, ...]) -> ThermalNetwork:
     """The network of an identified building (:mod:`hvacflex.building.identified`): nodes
     ``[air (m), <zone>_mass (m), boundary nodes (nb)]``; channels as
-    :func:`disturbance_channels` gives them (outdoor, horizontal solar, gains, constant)."""
+    :func:`identified_channels`."""
     m, nb = len(rc.zones), len(rc.boundaries)
     n = 2 * m + nb
-    channels = (
-        outdoor_temp_channel(),
-        solar_channel(0.0, 0.0),
-        *(internal_gain_channel(name) for name in zone_names),
-        constant_channel(),
-    )
+    channels = identified_channels(zone_names)
+    walls = len(WALL_ORIENTATIONS)
+    gains = 2 + walls  # the first internal_gain channel
     kw = 1000.0  # kW (kJ/K) → W (J/K)
     cap = np.zeros(n)
     k = np.zeros((n, n))
@@ -571,7 +576,8 @@ def _identified_network(rc: IdentifiedRC, zone_names: tuple[str, ...]) -> Therma
         couple(i, m + i, zone.ua_air_mass_kw_per_k)
         outdoor[i], outdoor[m + i] = zone.ua_out_kw_per_k * kw, zone.ua_mass_out_kw_per_k * kw
         f[i, 1], f[m + i, 1] = zone.solar_air_m2, zone.solar_mass_m2
-        f[i, 2 + i] = zone.occupied_gain_kw * gain_per_w
+        f[i, 2:gains] = zone.wall_solar_m2()
+        f[i, gains + i] = zone.occupied_gain_kw * gain_per_w
         f[i, -1] = zone.base_gain_kw * kw
     index = {name: i for i, name in enumerate(zone_names)}
     for coupling in rc.couplings:
@@ -582,7 +588,7 @@ def _identified_network(rc: IdentifiedRC, zone_names: tuple[str, ...]) -> Therma
         for zone_name, ua in node.ua_zone_kw_per_k:
             couple(index[zone_name], b, ua)
         # the boundary's gain follows the schedule of the zones' gains (any one: the same)
-        f[b, 2] = node.occupied_gain_kw * gain_per_w
+        f[b, gains] = node.occupied_gain_kw * gain_per_w
     f[:, 0] = outdoor
     k -= np.diag(k.sum(axis=1) + outdoor)
     names = (*zone_names, *(f"{z}_mass" for z in zone_names), *(b.name for b in rc.boundaries))

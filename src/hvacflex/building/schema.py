@@ -43,8 +43,8 @@ A building identified from trend data (``hvacflex identify fit``) has ``[[zones]
     [identified.zones.Z] c_air_kj_per_k, c_mass_kj_per_k, ua_out_kw_per_k,
                          ua_air_mass_kw_per_k, ua_mass_out_kw_per_k, solar_air_m2,
                          solar_mass_m2, occupied_gain_kw, base_gain_kw, flow_min_kg_s,
-                         flow_max_kg_s, ventilation_flow_kg_s, mass_temp_degc
-                         (one table per zone Z)
+                         flow_max_kg_s, ventilation_flow_kg_s, mass_temp_degc,
+                         solar_wall_{north,east,south,west}_m2? (one table per zone Z)
     [[identified.couplings]]  zones = [Z1, Z2], ua_kw_per_k
     [[identified.boundaries]] name, c_kj_per_k, ua_out_kw_per_k, solar_m2,
                               occupied_gain_kw, ua_zone_kw_per_k = {Z = …}, temp_degc
@@ -293,6 +293,10 @@ class IdentifiedZoneSpec(Spec):
     flow_max_kg_s: Positive
     ventilation_flow_kg_s: NonNegative
     mass_temp_degc: Annotated[Number, Field(ge=-50.0, le=70.0)]
+    solar_wall_north_m2: NonNegative = 0.0
+    solar_wall_east_m2: NonNegative = 0.0
+    solar_wall_south_m2: NonNegative = 0.0
+    solar_wall_west_m2: NonNegative = 0.0
 
     @model_validator(mode="after")
     def _flows_ordered(self) -> Self:

@@ -163,7 +163,7 @@ def period_sun(
         azimuth,
         lit.mean(axis=1),
         np.where(lit, np.cos(np.radians(zenith)), 0.0).mean(axis=1),
-        pvlib.irradiance.get_extra_radiation(middle).to_numpy(dtype=float),
+        np.asarray(pvlib.irradiance.get_extra_radiation(middle.day_of_year.to_numpy()), float),
     )
     for array in arrays:
         array.flags.writeable = False
@@ -331,3 +331,39 @@ def surface_irradiance_w_per_m2(
         for az, tilt in surfaces
     }
     return pd.DataFrame(out, index=weather.index)
+
+
+def decompose_ghi(
+    index: pd.DatetimeIndex, ghi_w_per_m2: np.ndarray, site: SolarSite
+) -> tuple[np.ndarray, np.ndarray]:
+    """DNI and DHI [W/m², period means] of a GHI series alone, by the Erbs et al. (1982)
+    correlation (``pvlib.irradiance.erbs``) on each period's sunlit part: the sunlit mean
+    ``G / f`` at the zenith whose cosine is the sunlit-time mean ``mean(L cos θz) / f``.
+
+    Parameters
+    ----------
+    index : (T,) tz-aware period starts; ghi_w_per_m2 : (T,) period-mean GHI [W/m²].
+    site : the site.
+
+    Returns
+    -------
+    dni, dhi : (T,) period means, zero-sun time included, so that ``DHI + (DNI / f) ·
+    mean(L cos θz) = GHI`` wherever the sun is up (0 where it is not).
+    """
+    import pvlib
+
+    sun = _sun_of(index, site)
+    fraction = sun.sunlit_fraction
+    up = (fraction > 0.0) & (sun.mean_cos_zenith > 0.0)
+    safe = np.where(up, fraction, 1.0)
+    cos_zenith = np.where(up, sun.mean_cos_zenith / safe, 1.0)
+    ghi_sunlit = np.where(up, np.asarray(ghi_w_per_m2, dtype=float) / safe, 0.0)
+    day_of_year = (index + (index[1] - index[0]) / 2).day_of_year.to_numpy()  # at the middle
+    parts = pvlib.irradiance.erbs(
+        ghi_sunlit, np.degrees(np.arccos(np.clip(cos_zenith, 0.0, 1.0))), day_of_year
+    )
+    dhi_sunlit = np.clip(np.asarray(parts["dhi"], dtype=float), 0.0, ghi_sunlit)
+    dni_sunlit = (ghi_sunlit - dhi_sunlit) / np.maximum(cos_zenith, CIRCUMSOLAR_MIN_COS_ZENITH)
+    dni: np.ndarray = np.where(up, dni_sunlit * fraction, 0.0)
+    dhi: np.ndarray = np.where(up, dhi_sunlit * fraction, 0.0)
+    return dni, dhi

@@ -121,8 +121,10 @@ def write_scenario(
     test_days: str,
     quantile: float,
     idf: Path | None = None,
+    weather: Path | None = None,
 ) -> Path:
-    """``scenario.toml`` (module docstring); paths written absolute."""
+    """``scenario.toml`` (module docstring); paths written absolute; ``weather``: the EPW the
+    fit took its site from (``[data] weather_file``; None: the scenario's default)."""
     lines = [
         'preset = "rmpc"',
         f"name = {json.dumps(model_path.parent.name or 'identified')}",
@@ -133,6 +135,8 @@ def write_scenario(
         f"quantile = {quantile!r}",
         f"prediction_errors = {json.dumps(str(errors_path.resolve()))}",
     ]
+    if weather is not None:
+        lines += ["", "[data]", f"weather_file = {json.dumps(str(Path(weather).resolve()))}"]
     if idf is not None:
         lines += [
             "",

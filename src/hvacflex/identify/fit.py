@@ -30,6 +30,8 @@ import numpy as np
 import pandas as pd
 import scipy.optimize
 
+from hvacflex.building.identified import WALL_ORIENTATIONS
+from hvacflex.data.solar import SolarSite, decompose_ghi, surface_irradiance_w_per_m2
 from hvacflex.errors import InputError
 from hvacflex.identify.greybox import (
     EXOGENOUS_INPUTS,
@@ -46,6 +48,8 @@ from hvacflex.identify.greybox import (
 )
 from hvacflex.identify.model_file import AirSystem, BoundaryNode, PowerModel
 from hvacflex.identify.trend import (
+    DHI,
+    DNI,
     GHI,
     HVAC_POWER,
     OCCUPIED,
@@ -92,6 +96,7 @@ INITIAL: dict[str, float] = {
     "ua_mass_out_kw_per_k": 0.05,
     "solar_air_m2": 2.0,
     "solar_mass_m2": 2.0,
+    **{f"solar_wall_{name}_m2": 0.5 for name, _ in WALL_ORIENTATIONS},
     "occupied_gain_kw": 1.0,
     "base_gain_kw": 0.5,
     "ua_kw_per_k": 0.05,
@@ -105,6 +110,7 @@ BOUNDS: dict[str, tuple[float, float]] = {
     "ua_mass_out_kw_per_k": (1.0e-4, 50.0),
     "solar_air_m2": (0.0, 200.0),
     "solar_mass_m2": (0.0, 200.0),
+    **{f"solar_wall_{name}_m2": (0.0, 200.0) for name, _ in WALL_ORIENTATIONS},
     "occupied_gain_kw": (0.0, 100.0),
     "base_gain_kw": (-50.0, 50.0),
     "ua_kw_per_k": (1.0e-4, 20.0),
@@ -113,6 +119,7 @@ BOUNDS: dict[str, tuple[float, float]] = {
 LINEAR_PRIOR_SCALE = {
     "solar_air_m2": 10.0,
     "solar_mass_m2": 10.0,
+    **{f"solar_wall_{name}_m2": 10.0 for name, _ in WALL_ORIENTATIONS},
     "occupied_gain_kw": 2.0,
     "base_gain_kw": 2.0,
 }
@@ -140,7 +147,8 @@ class FitData:
     Attributes
     ----------
     index : (T,) period starts; zones : (m,) the data's zone names.
-    y : (T, m) measured zone temperatures [°C]; u : (T, 4 + m + nb) the model's inputs.
+    y : (T, m) measured zone temperatures [°C]; u : (T, 8 + m + nb) the model's inputs
+    (:data:`~hvacflex.identify.greybox.EXOGENOUS_INPUTS`, the cooling, the boundaries).
     boundaries : (nb,) the data's unconditioned zones whose temperatures are inputs.
     """
 
@@ -151,10 +159,33 @@ class FitData:
     boundaries: tuple[str, ...] = ()
 
 
+def wall_irradiance_kw_per_m2(
+    index: pd.DatetimeIndex,
+    ghi_w_per_m2: FloatArray,
+    site: SolarSite,
+    dni_w_per_m2: FloatArray | None = None,
+    dhi_w_per_m2: FloatArray | None = None,
+) -> FloatArray:
+    """(T, 4) irradiance on vertical planes facing :data:`WALL_ORIENTATIONS` [kW/m²], period
+    means, by the transposition the controller's forecasts use
+    (:func:`hvacflex.data.solar.surface_irradiance_w_per_m2`) at ``site``, from (T,) GHI, DNI
+    and DHI [W/m²] on the tz-aware period starts ``index`` — or, without DNI and DHI, from
+    the GHI's Erbs decomposition (:func:`hvacflex.data.solar.decompose_ghi`)."""
+    if dni_w_per_m2 is None or dhi_w_per_m2 is None:
+        dni_w_per_m2, dhi_w_per_m2 = decompose_ghi(index, ghi_w_per_m2, site)
+    weather = pd.DataFrame(
+        {"ghi_w_per_m2": ghi_w_per_m2, "dni_w_per_m2": dni_w_per_m2, "dhi_w_per_m2": dhi_w_per_m2},
+        index=index,
+    )
+    walls = [(azimuth, 90.0) for _, azimuth in WALL_ORIENTATIONS]
+    return surface_irradiance_w_per_m2(weather, site, walls).to_numpy(dtype=np.float64) / 1000.0
+
+
 def fit_inputs(
-    data: TrendData, zones: tuple[str, ...], boundaries: tuple[str, ...] = ()
+    data: TrendData, zones: tuple[str, ...], site: SolarSite, boundaries: tuple[str, ...] = ()
 ) -> FitData:
-    """The model's inputs and outputs for ``zones`` (the data's spelling, any case).
+    """The model's inputs and outputs for ``zones`` (the data's spelling, any case) at
+    ``site`` (where the wall irradiances are computed, :func:`wall_irradiance_kw_per_m2`).
 
     Raises
     ------
@@ -194,6 +225,13 @@ def fit_inputs(
             data.column(GHI) / 1000.0,
             data.column(OCCUPIED),
             np.ones(len(y)),
+            wall_irradiance_kw_per_m2(
+                data.index,
+                data.column(GHI),
+                site,
+                data.column(DNI) if data.has(DNI) and data.has(DHI) else None,
+                data.column(DHI) if data.has(DNI) and data.has(DHI) else None,
+            ),
             cooling_kw,
             data.frame[[zone_column("temp", b) for b in boundaries]].to_numpy(dtype=np.float64),
         ]
@@ -203,8 +241,8 @@ def fit_inputs(
 
 def cooling_kw(data: FitData) -> FloatArray:
     """(T, m) the delivered sensible cooling input [kW]."""
-    m = data.y.shape[1]
-    return data.u[:, 4 : 4 + m]
+    m, first = data.y.shape[1], len(EXOGENOUS_INPUTS)
+    return data.u[:, first : first + m]
 
 
 # ---- parameter vector ------------------------------------------------------------------

@@ -25,12 +25,22 @@ from dataclasses import dataclass, field
 import numpy as np
 import numpy.typing as npt
 
+from hvacflex.building.identified import WALL_ORIENTATIONS
+
 FloatArray = npt.NDArray[np.float64]
 
 PERIOD_S = 1800.0
 """The model's step [s]."""
-EXOGENOUS_INPUTS = ("outdoor_temp_degc", "ghi_kw_per_m2", "occupied", "constant")
+EXOGENOUS_INPUTS = (
+    "outdoor_temp_degc",
+    "ghi_kw_per_m2",
+    "occupied",
+    "constant",
+    *(f"wall_{name}_kw_per_m2" for name, _ in WALL_ORIENTATIONS),
+)
 """The inputs before the per-zone cooling, in order."""
+WALL_INPUTS = slice(4, 4 + len(WALL_ORIENTATIONS))
+"""Where the vertical irradiances sit among :data:`EXOGENOUS_INPUTS`."""
 PROCESS_STD_AIR_K = 0.1
 """Kalman filter: process noise on an air node per step [K]."""
 PROCESS_STD_MASS_K = 0.02
@@ -45,6 +55,7 @@ ZONE_PARAMETERS = (
     ("ua_mass_out_kw_per_k", "log"),
     ("solar_air_m2", "linear"),
     ("solar_mass_m2", "linear"),
+    *((f"solar_wall_{name}_m2", "linear") for name, _ in WALL_ORIENTATIONS),
     ("occupied_gain_kw", "linear"),
     ("base_gain_kw", "linear"),
 )
@@ -117,6 +128,8 @@ def _symmetric_parts(p: GreyBoxParameters) -> tuple[FloatArray, FloatArray, Floa
     h[:, 0] = to_outdoor
     h[air, 1] = p.value("solar_air_m2")
     h[mass, 1] = p.value("solar_mass_m2")
+    for column, (name, _) in enumerate(WALL_ORIENTATIONS, start=WALL_INPUTS.start):
+        h[air, column] = p.value(f"solar_wall_{name}_m2")
     h[air, 2] = p.value("occupied_gain_kw")
     h[air, 3] = p.value("base_gain_kw")
     h[air, len(EXOGENOUS_INPUTS) + air] = -1.0

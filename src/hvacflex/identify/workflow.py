@@ -20,6 +20,8 @@ import numpy as np
 import pandas as pd
 
 from hvacflex.building.io import load_building
+from hvacflex.data.forecast import default_weather_file
+from hvacflex.data.weather import EpwLocation, read_epw
 from hvacflex.errors import InputError
 from hvacflex.identify.box import (
     BOX_REPORT_FILE,
@@ -78,6 +80,19 @@ class IdentifyOutcome:
     predictions: pd.DataFrame
     box: ModelErrorBox
     scenario_path: Path
+
+
+def site_of(weather: str | Path | None) -> EpwLocation:
+    """The site of the data (where the wall irradiances are computed): the location of the
+    EPW ``weather``, default the shipped weather file's (Singapore)."""
+    if weather is not None and not Path(weather).is_file():
+        raise InputError(
+            "no such weather file",
+            field="--weather",
+            value=str(weather),
+            hint="give the site's EPW, or leave --weather out for the shipped Singapore one",
+        )
+    return read_epw(default_weather_file() if weather is None else weather)[1]
 
 
 def parse_days(text: str, index: pd.DatetimeIndex, option: str) -> tuple[int, int]:
@@ -219,9 +234,11 @@ def identify(
     train: str | None = None,
     test: str | None = None,
     idf: str | Path | None = None,
+    weather: str | Path | None = None,
 ) -> IdentifyOutcome:
     """Fit, evaluate and write (module docstring); ``idf``: the EnergyPlus model the data
-    came from, the plant of the scenario written beside the model."""
+    came from, the plant of the scenario written beside the model; ``weather``: an EPW of the
+    site (where the wall irradiances are computed; default the shipped Singapore file's)."""
     out = Path(out)
     if idf is not None and not Path(idf).is_file():
         raise InputError(
@@ -235,7 +252,7 @@ def identify(
         for z in data.zones
         if z.lower() not in fitted and not data.has(zone_column("supply_flow", z))
     )
-    inputs = fit_inputs(data, names, boundaries)
+    inputs = fit_inputs(data, names, site_of(weather), boundaries)
     if (train is None) != (test is None):
         raise InputError("give both --train and --test, or neither", field="--train")
     if train is None or test is None:
@@ -291,7 +308,7 @@ def identify(
     predictions = prediction_frame(fit, inputs, test_range)
     predictions.to_csv(out.parent / "fit_predictions.csv", float_format="%.4f")
     box, scenario_path = _box_and_scenario(
-        fit, inputs, ids, (train_range, test_range), out, f"{day[1]}..{last[1]}", idf
+        fit, inputs, ids, (train_range, test_range), out, f"{day[1]}..{last[1]}", (idf, weather)
     )
     return IdentifyOutcome(
         model_path,
@@ -314,9 +331,12 @@ def _box_and_scenario(
     ranges: tuple[tuple[int, int], tuple[int, int]],
     model_path: Path,
     test_days: str,
-    idf: str | Path | None,
+    files: tuple[str | Path | None, str | Path | None],
 ) -> tuple[ModelErrorBox, Path]:
-    """The calibrated model error, its files and the scenario (:mod:`hvacflex.identify.box`)."""
+    """The calibrated model error, its files and the scenario (:mod:`hvacflex.identify.box`);
+    ``files``: the IDF (the scenario's plant) and the EPW (its weather), each None if not
+    given."""
+    idf, weather = files
     (train_first, train_end), test_range = ranges
     index, test_errors = one_step_errors(fit, inputs, test_range)
     warm = (train_first + WARMUP_DAYS * PERIODS_PER_DAY, train_end)
@@ -332,5 +352,6 @@ def _box_and_scenario(
         test_days,
         DEFAULT_QUANTILE,
         None if idf is None else Path(idf),
+        None if weather is None else Path(weather),
     )
     return box, scenario
