@@ -219,6 +219,7 @@ FLEET_FLOAT_UNITS: dict[str, str] = {
     "fleet_power_kw": "kW",
     "feeder_limit_kw": "kW",
     "fleet_reserve_kw": "kW",
+    "fleet_bid_kw": "kW",
     "fleet_min_power_kw": "kW",
     "feeder_excess_kw": "kW",
     "feeder_price_sgd_per_mwh": "SGD/MWh",

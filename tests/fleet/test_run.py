@@ -36,10 +36,12 @@ def _check(out: Path) -> pd.DataFrame:
         assert column in frame
     assert len(frame) == 8
     assert np.all(frame["planned_fleet_power_kw"] <= frame["feeder_limit_kw"] + 1e-6)
-    # the bid is settled against the minimum: nothing paid below it
-    below = frame["fleet_reserve_kw"] < 100.0
+    # the bid is settled against the minimum: nothing paid below it, the bid itself above it
+    below = frame["fleet_bid_kw"] < 100.0
     assert not frame.loc[below, "bid_accepted"].any()
     assert np.all(frame.loc[below, "settled_reserve_kw"] == 0.0)
+    accepted = frame["bid_accepted"]
+    assert np.all(frame.loc[accepted, "settled_reserve_kw"] == frame.loc[accepted, "fleet_bid_kw"])
     buildings = pd.read_parquet(out / "buildings.parquet")
     assert buildings["building"].nunique() == 3
     assert not (out / CHECKPOINT_FILE).exists()
@@ -150,6 +152,8 @@ def test_activation_is_settled_against_metered_fleet_power(
     assert frame["il_activated"].tolist() == [False] * 4 + [accepted] * 2
     assert accepted, "the fleet offered no reserve at 12:00: the test needs a bid"
     assert frame["fleet_reserve_kw"].iloc[4] > 0
+    # the fleet sells, is paid for and settled on its bid (checked on the fleet's meter)
+    assert frame["settled_reserve_kw"].iloc[4] == frame["fleet_bid_kw"].iloc[4] > 0
     # the feeder guarantee holds during the event (locked buildings keep their power)
     assert np.all(frame["planned_fleet_power_kw"] <= frame["feeder_limit_kw"] + 1e-3)
     # pre-event baseline: the metered fleet power of 11:30, held over the event

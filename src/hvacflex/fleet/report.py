@@ -33,7 +33,8 @@ def write_fleet_report(run_dir: str | Path, min_bid_mw: float | None = None) -> 
     fig.savefig(figures[-1], dpi=90)
     plt.close(fig)
     fig, ax = plt.subplots(figsize=(10, 3.0))
-    ax.step(results.index, results["fleet_reserve_kw"], where="post", label="aggregate bid")
+    ax.step(results.index, results["fleet_bid_kw"], where="post", label="the fleet's bid")
+    ax.step(results.index, results["fleet_reserve_kw"], where="post", label="Σ buildings' offers")
     ax.step(results.index, results["settled_reserve_kw"], where="post", label="settled")
     if min_bid_mw is not None:
         ax.axhline(1000 * min_bid_mw, color="k", ls=":", label="minimum bid")

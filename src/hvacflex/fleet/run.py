@@ -783,7 +783,8 @@ def _record_step(
     row[col["fleet_power_kw"]] = float(np.sum(merged["power_kw"]))
     row[col["feeder_limit_kw"]] = limit_kw
     row[col["fleet_reserve_kw"]] = reserve
-    row[col["settled_reserve_kw"]] = reserve if accepted else 0.0
+    row[col["fleet_bid_kw"]] = outcome.bid_kw
+    row[col["settled_reserve_kw"]] = outcome.bid_kw if accepted else 0.0
     row[col["fleet_min_power_kw"]] = float(outcome.p_min[:, 0].sum())
     row[col["feeder_excess_kw"]] = float(result.excess_kw[0])
     row[col["feeder_price_sgd_per_mwh"]] = float(result.price_sgd_per_mwh[0])
