@@ -219,19 +219,15 @@ def fit_inputs(
     supply = data.zone_series("supply_temp", names)
     assert y is not None and flow is not None and supply is not None
     cooling_kw = flow * CP_AIR_J_PER_KG_K * (y - supply) / 1000.0
+    measured = data.has(DNI) and data.has(DHI)
+    split = (data.column(DNI), data.column(DHI)) if measured else (None, None)
     u = np.column_stack(
         [
             data.column(OUTDOOR_TEMP),
             data.column(GHI) / 1000.0,
             data.column(OCCUPIED),
             np.ones(len(y)),
-            wall_irradiance_kw_per_m2(
-                data.index,
-                data.column(GHI),
-                site,
-                data.column(DNI) if data.has(DNI) and data.has(DHI) else None,
-                data.column(DHI) if data.has(DNI) and data.has(DHI) else None,
-            ),
+            wall_irradiance_kw_per_m2(data.index, data.column(GHI), site, *split),
             cooling_kw,
             data.frame[[zone_column("temp", b) for b in boundaries]].to_numpy(dtype=np.float64),
         ]

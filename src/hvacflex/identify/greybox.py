@@ -1,13 +1,15 @@
 """The grey-box RC model that ``hvacflex identify fit`` fits, on arrays.
 
 Per zone ``i`` an air node ``Ta_i`` and one mass node ``Tm_i`` (state ``x = [Ta (m), Tm (m)]``
-[°C]); inputs per 30-min period ``u = [To, G, occ, 1, Q (m), Tb (nb)]`` (outdoor temperature
-[°C], global horizontal irradiance [kW/m²], occupied share [–], a constant, delivered sensible
+[°C]); inputs per 30-min period ``u = [To, G, occ, 1, I (4), Q (m), Tb (nb)]`` (outdoor
+temperature [°C], global horizontal irradiance [kW/m²], occupied share [–], a constant, the
+irradiance on vertical planes facing north, east, south and west [kW/m²], delivered sensible
 cooling per zone [kW], measured temperatures of unconditioned zones [°C]), held over the
 period:
 
     C_a,i dTa_i/dt = UA_o,i (To − Ta_i) + UA_am,i (Tm_i − Ta_i) + Σ_j UA_ij (Ta_j − Ta_i)
-                     + Σ_b UA_ib (Tb_b − Ta_i) + S_a,i G + P_occ,i occ + P_0,i − Q_i
+                     + Σ_b UA_ib (Tb_b − Ta_i) + S_a,i G + Σ_o S_o,i I_o + P_occ,i occ
+                     + P_0,i − Q_i
     C_m,i dTm_i/dt = UA_am,i (Ta_i − Tm_i) + UA_mo,i (To − Tm_i) + S_m,i G
 
 with ``C`` [kJ/K], ``UA`` [kW/K], ``S`` [m²] (kW per kW/m²), ``P`` [kW]. The measured zone
@@ -76,7 +78,7 @@ class GreyBoxParameters:
     couplings : (p, 2) zone index pairs (i < j) that exchange heat.
     coupling_ua_kw_per_k : (p,) their conductances [kW/K].
     boundaries : nb, the measured boundary temperatures (unconditioned zones) among the
-        inputs, after the cooling: ``u = [To, G, occ, 1, Q (m), Tb (nb)]``.
+        inputs, after the cooling: ``u = [To, G, occ, 1, I (4), Q (m), Tb (nb)]``.
     boundary_couplings : (q, 2) (zone index, boundary index) pairs that exchange heat.
     boundary_ua_kw_per_k : (q,) their conductances [kW/K].
     """
@@ -105,7 +107,7 @@ def _symmetric_parts(p: GreyBoxParameters) -> tuple[FloatArray, FloatArray, Floa
 
     Returns
     -------
-    k : (2m, 2m) conductance matrix [kW/K]; h : (2m, 4 + m) input gains [kW per input unit];
+    k : (2m, 2m) conductance matrix [kW/K]; h : (2m, 8 + m + nb) input gains [kW per input unit];
     capacitance : (2m,) [kJ/K].
     """
     m = p.zones
@@ -141,7 +143,7 @@ def continuous_matrices(p: GreyBoxParameters) -> tuple[FloatArray, FloatArray]:
 
     Returns
     -------
-    a : (2m, 2m) [1/s]; b : (2m, 4 + m) [K/s per input unit].
+    a : (2m, 2m) [1/s]; b : (2m, 8 + m + nb) [K/s per input unit].
     """
     k, h, capacitance = _symmetric_parts(p)
     return k / capacitance[:, None], h / capacitance[:, None]
