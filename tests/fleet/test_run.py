@@ -190,3 +190,22 @@ def test_fleet_baseline_check_by_hand() -> None:
     assert fleet_baseline_sees(10.0, 90.0, None, 0.0)  # unknown (first period): not checked
     assert bid_accepted(10.0, 10.0) and not bid_accepted(9.99, 10.0)
     assert not bid_accepted(1e-4, 0.0)  # round-off is no bid
+
+
+def test_a_fleet_read_by_the_caller_is_not_read_again(
+    small_fleet: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``fleet simulate`` reads its file once: ``run_fleet`` takes what the CLI loaded."""
+    import hvacflex.fleet.schema as fleet_schema
+
+    loaded = fleet_schema.load_fleet_document(small_fleet)
+    assert loaded[1] == fleet_schema.read_toml(small_fleet, what="fleet")  # paths as written
+
+    def no_second_read(*args: Any, **kwargs: Any) -> Any:
+        raise AssertionError("the fleet file was read again")
+
+    monkeypatch.setattr(fleet_schema, "read_toml", no_second_read)
+    result = run_fleet(
+        small_fleet, tmp_path, start=START, days=1 / 48, workers=0, resume=False, loaded=loaded
+    )
+    assert len(result.frame) == 1

@@ -116,14 +116,14 @@ def simulate(
     from hvacflex.errors import HvacflexError
     from hvacflex.fleet.report import write_fleet_report
     from hvacflex.fleet.run import minimum_power_warning, run_fleet
-    from hvacflex.fleet.schema import load_fleet
+    from hvacflex.fleet.schema import load_fleet_document
     from hvacflex.paths import check_output_dir
     from hvacflex.results import RESULTS_FILENAME
     from hvacflex.sim.sweep import check_scheduler
 
     watch = CoordinationWatch()
     try:
-        loaded = load_fleet(fleet)  # a bad file is said before --out is made
+        loaded, document = load_fleet_document(fleet)  # a bad file is said before --out is made
         check_output_dir(out, "--out")
         if scheduler is not None:
             check_scheduler(scheduler)
@@ -141,6 +141,7 @@ def simulate(
                 workers=workers,
                 resume=not fresh,
                 progress=watch,
+                loaded=(loaded, document),
             )
         write_fleet_report(out, loaded.spec.min_bid_mw)
     except HvacflexError as exc:

@@ -47,7 +47,7 @@ from hvacflex.errors import HvacflexError
 from hvacflex.fleet.agent import BuildingGroup, FleetSettings
 from hvacflex.fleet.bundle import coordinate_caps
 from hvacflex.fleet.coordinate import CoordinationOptions, CoordinationResult, coordinate
-from hvacflex.fleet.schema import Fleet, load_fleet
+from hvacflex.fleet.schema import Fleet, load_fleet_document
 from hvacflex.settlement import settlement_columns, start_baseline_kw
 from hvacflex.sim.activation import activation_schedule
 from hvacflex.sim.run_files import (
@@ -57,7 +57,6 @@ from hvacflex.sim.run_files import (
     refuse_old_checkpoint,
     update_with_files,
 )
-from hvacflex.tomlio import read_toml
 from hvacflex.units import SECONDS_PER_HOUR, STEP_30MIN_S
 from hvacflex.version import atomic_write_text, code_version
 
@@ -249,6 +248,7 @@ def run_fleet(
     resume: bool = True,
     progress: Callable[[FleetStepProgress], None] | None = None,
     on_step: Callable[[int, Any], None] | None = None,
+    loaded: tuple[Fleet, dict[str, Any]] | None = None,
 ) -> FleetRunResult:
     """Simulate a fleet (see the module docstring).
 
@@ -263,10 +263,10 @@ def run_fleet(
     resume : resume from a checkpoint of the same inputs and code.
     progress : called after each step with its :class:`FleetStepProgress`.
     on_step : called with (steps done, the run's group handle) after each step (tests).
+    loaded : (fleet, document) of ``fleet_path`` as ``load_fleet_document`` read it, or None.
     """
     path = Path(fleet_path)
-    fleet = load_fleet(path)
-    doc = read_toml(path, what="fleet")
+    fleet, doc = load_fleet_document(path) if loaded is None else loaded
     out = _run_dir(out_dir, resume)
     settings = FleetSettings.of(fleet, start, days)
     horizon = settings.horizon_steps

@@ -52,6 +52,7 @@ Unknown keys are errors; every error names the file, the field, the value and a 
 
 from __future__ import annotations
 
+import copy
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -419,6 +420,13 @@ def load_fleet(path: str | Path) -> Fleet:
     folder, by the function that resolves a scenario file's
     (:func:`hvacflex.config.paths_from_folder`).
     """
+    return load_fleet_document(path)[0]
+
+
+def load_fleet_document(path: str | Path) -> tuple[Fleet, dict[str, Any]]:
+    """:func:`load_fleet` and the file's document as read (relative paths as written: what
+    a run ships to its workers), from one read of the file."""
     source = Path(path)
     raw = read_toml(source, what="fleet", error=FleetConfigError)
-    return fleet_from_dict(paths_from_folder(raw, source.parent), source=source)
+    document = copy.deepcopy(raw)  # the validation must not reach into what is shipped
+    return fleet_from_dict(paths_from_folder(raw, source.parent), source=source), document
