@@ -122,7 +122,9 @@ class Plan:
     uncertainty_days: float
     ppp_values: tuple[float, ...]
     uncertainty_levels: tuple[float, ...]
-    with_feedback: bool
+    robustness_feedback: bool
+    """Run the robustness sweep's affine-feedback RMPC beside NMPC and RMPC (its 3-day runs;
+    not :attr:`feedback_scenarios`, the feedback years)."""
     energyplus: bool = False
     energyplus_start: str = "2014-03-03"
     energyplus_days: float = 7.0
@@ -144,7 +146,7 @@ class Plan:
             uncertainty_days=3.0,
             ppp_values=PPP_VALUES_SGD_PER_KW,
             uncertainty_levels=UNCERTAINTY_LEVELS,
-            with_feedback=True,
+            robustness_feedback=True,
             energyplus=energyplus,
             energyplus_start="2014-01-01",
             energyplus_days=365.0,
@@ -163,7 +165,7 @@ class Plan:
             uncertainty_days=2.0,
             ppp_values=QUICK_PPP_VALUES_SGD_PER_KW,
             uncertainty_levels=QUICK_UNCERTAINTY_LEVELS,
-            with_feedback=False,
+            robustness_feedback=False,
             energyplus=energyplus,
             feedback_scenarios=feedback,
         )
@@ -217,7 +219,7 @@ def ppp_jobs(plan: Plan) -> list[tuple[dict[str, Any], ScenarioConfig]]:
 
 def uncertainty_jobs(plan: Plan) -> list[tuple[dict[str, Any], ScenarioConfig]]:
     """NMPC and open-loop RMPC (and feedback RMPC) at each uncertainty level."""
-    controllers = ["nmpc", "rmpc"] + (["rmpc-feedback"] if plan.with_feedback else [])
+    controllers = ["nmpc", "rmpc"] + (["rmpc-feedback"] if plan.robustness_feedback else [])
     jobs: list[tuple[dict[str, Any], ScenarioConfig]] = []
     for controller in controllers:
         for level in plan.uncertainty_levels:
