@@ -558,8 +558,8 @@ def _identified_network(rc: IdentifiedRC, zone_names: tuple[str, ...]) -> Therma
     m, nb = len(rc.zones), len(rc.boundaries)
     n = 2 * m + nb
     channels = identified_channels(zone_names)
-    walls = len(WALL_ORIENTATIONS)
-    gains = 2 + walls  # the first internal_gain channel
+    walls = [i for i, ch in enumerate(channels) if ch.kind == "solar" and ch.tilt_deg == 90.0]
+    gains = next(i for i, ch in enumerate(channels) if ch.kind == "internal_gain")
     kw = 1000.0  # kW (kJ/K) → W (J/K)
     cap = np.zeros(n)
     k = np.zeros((n, n))
@@ -576,7 +576,7 @@ def _identified_network(rc: IdentifiedRC, zone_names: tuple[str, ...]) -> Therma
         couple(i, m + i, zone.ua_air_mass_kw_per_k)
         outdoor[i], outdoor[m + i] = zone.ua_out_kw_per_k * kw, zone.ua_mass_out_kw_per_k * kw
         f[i, 1], f[m + i, 1] = zone.solar_air_m2, zone.solar_mass_m2
-        f[i, 2:gains] = zone.wall_solar_m2()
+        f[i, walls] = zone.wall_solar_m2()
         f[i, gains + i] = zone.occupied_gain_kw * gain_per_w
         f[i, -1] = zone.base_gain_kw * kw
     index = {name: i for i, name in enumerate(zone_names)}

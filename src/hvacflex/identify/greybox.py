@@ -33,15 +33,13 @@ FloatArray = npt.NDArray[np.float64]
 
 PERIOD_S = 1800.0
 """The model's step [s]."""
+_WEATHER_AND_SCHEDULE = ("outdoor_temp_degc", "ghi_kw_per_m2", "occupied", "constant")
 EXOGENOUS_INPUTS = (
-    "outdoor_temp_degc",
-    "ghi_kw_per_m2",
-    "occupied",
-    "constant",
+    *_WEATHER_AND_SCHEDULE,
     *(f"wall_{name}_kw_per_m2" for name, _ in WALL_ORIENTATIONS),
 )
 """The inputs before the per-zone cooling, in order."""
-WALL_INPUTS = slice(4, 4 + len(WALL_ORIENTATIONS))
+WALL_INPUTS = slice(len(_WEATHER_AND_SCHEDULE), len(EXOGENOUS_INPUTS))
 """Where the vertical irradiances sit among :data:`EXOGENOUS_INPUTS`."""
 PROCESS_STD_AIR_K = 0.1
 """Kalman filter: process noise on an air node per step [K]."""

@@ -275,8 +275,6 @@ def identify(
         for zone in inputs.zones
     ]
     power = fit_power_model(data, inputs, train_range)
-    day = [inputs.index[r[0]].date().isoformat() for r in (train_range, test_range)]
-    last = [inputs.index[r[1] - 1].date().isoformat() for r in (train_range, test_range)]
     model = IdentifiedModel(
         name=f"identified from {Path(data_path).name}",
         zones=ids,
@@ -288,8 +286,8 @@ def identify(
         power=power,
         provenance={
             "data": str(data_path),
-            "train": f"{day[0]}..{last[0]}",
-            "test": f"{day[1]}..{last[1]}",
+            "train": _days_text(inputs.index, train_range),
+            "test": _days_text(inputs.index, test_range),
         },
     )
     out.parent.mkdir(parents=True, exist_ok=True)
@@ -308,7 +306,7 @@ def identify(
     predictions = prediction_frame(fit, inputs, test_range)
     predictions.to_csv(out.parent / "fit_predictions.csv", float_format="%.4f")
     box, scenario_path = _box_and_scenario(
-        fit, inputs, ids, (train_range, test_range), out, f"{day[1]}..{last[1]}", (idf, weather)
+        fit, inputs, ids, (train_range, test_range), out, idf=idf, weather=weather
     )
     return IdentifyOutcome(
         model_path,
@@ -324,19 +322,25 @@ def identify(
     )
 
 
+def _days_text(index: pd.DatetimeIndex, periods: tuple[int, int]) -> str:
+    """``"YYYY-MM-DD..YYYY-MM-DD"``: the first and last day of the periods ``(first, end)``
+    (the form :func:`parse_days` reads)."""
+    first, end = periods
+    return f"{index[first].date().isoformat()}..{index[end - 1].date().isoformat()}"
+
+
 def _box_and_scenario(
     fit: FitResult,
     inputs: FitData,
     ids: tuple[str, ...],
     ranges: tuple[tuple[int, int], tuple[int, int]],
     model_path: Path,
-    test_days: str,
-    files: tuple[str | Path | None, str | Path | None],
+    *,
+    idf: str | Path | None,
+    weather: str | Path | None,
 ) -> tuple[ModelErrorBox, Path]:
     """The calibrated model error, its files and the scenario (:mod:`hvacflex.identify.box`);
-    ``files``: the IDF (the scenario's plant) and the EPW (its weather), each None if not
-    given."""
-    idf, weather = files
+    ``idf`` the scenario's plant and ``weather`` its EPW, each None if not given."""
     (train_first, train_end), test_range = ranges
     index, test_errors = one_step_errors(fit, inputs, test_range)
     warm = (train_first + WARMUP_DAYS * PERIODS_PER_DAY, train_end)
@@ -349,7 +353,7 @@ def _box_and_scenario(
         folder / SCENARIO_FILE,
         model_path,
         errors_path,
-        test_days,
+        _days_text(inputs.index, test_range),
         DEFAULT_QUANTILE,
         None if idf is None else Path(idf),
         None if weather is None else Path(weather),
