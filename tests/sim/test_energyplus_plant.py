@@ -364,3 +364,19 @@ def test_generated_idf_without_the_export_is_a_clear_error(
     monkeypatch.setitem(sys.modules, "hvacflex.energyplus.export", None)  # as if absent
     with pytest.raises(ConfigError, match="cannot generate an IDF"):
         make_plant(PlantConfig(kind="energyplus"), office5, start=START, steps=STEPS)
+
+
+def test_boundary_zones_are_read_beside_the_controlled_ones(
+    baseline: list[Observation],
+) -> None:
+    with_plenum = _day(_setpoints(), boundary_zone_names=("plenum-1",))
+    assert all(o.boundary_temp_degc is None for o in baseline)
+    plenum = np.array([o.boundary_temp_degc for o in with_plenum])
+    assert plenum.shape == (STEPS, 1) and np.all((plenum > 15.0) & (plenum < 40.0))
+    # reading a zone changes nothing of the run; the plenum is not one of the zones
+    np.testing.assert_array_equal(_temps(with_plenum), _temps(baseline))
+    assert np.abs(plenum - _temps(baseline)).min(axis=1).max() > 0.1
+    with pytest.raises(InputError, match=r"no such zone.*'attic'"):
+        EnergyPlusPlant.from_file(
+            IDF, ZONES, boundary_zone_names=("attic",), start=START, steps=STEPS, epw_path=EPW
+        )

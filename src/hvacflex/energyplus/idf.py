@@ -201,9 +201,14 @@ def zone_names(objects: tuple[IdfObject, ...]) -> tuple[str, ...]:
 
 
 def match_zones(
-    wanted: tuple[str, ...], available: tuple[str, ...], source: str | Path, field: str
+    wanted: tuple[str, ...],
+    available: tuple[str, ...],
+    source: str | Path,
+    field: str,
+    where: str = "the building's energyplus_zone",
 ) -> tuple[str, ...]:
-    """The IDF's spelling of each zone name in ``wanted``, matched case-insensitively.
+    """The IDF's spelling of each zone name in ``wanted``, matched case-insensitively
+    (``where``: what the error's hint tells the user to correct).
 
     Raises
     ------
@@ -218,8 +223,7 @@ def match_zones(
                 source=source,
                 field=field,
                 value=name,
-                hint=f"its zones are {list(available)}; name one (case does not matter) in "
-                "the building's energyplus_zone",
+                hint=f"its zones are {list(available)}; name one (case does not matter) in {where}",
             )
     return tuple(lookup[name.lower()] for name in wanted)
 

@@ -18,8 +18,8 @@ Files written beside ``model.toml``:
 * ``scenario.toml`` — ``preset = "rmpc"``, ``building`` the model, the calibrated box on the
   test days, and with an IDF the ``[plant]`` that controls the building the data came from
   (``kind = "energyplus"``, ``actuation = "setpoint"``). The estimation is the default: the
-  measured zone air temperatures, the mass and boundary nodes carried by the model from their
-  estimated start (docs/identify.md §6 measures it against the Kalman filter).
+  measured zone air and boundary (plenum) temperatures, the mass nodes carried by the model
+  from their estimated start (docs/identify.md §6 measures it against the Kalman filter).
 """
 
 from __future__ import annotations

@@ -215,6 +215,12 @@ class ClosedLoop:
         self.steps = cfg.steps
         self.k = 0
         self._zone_rows = setup.model.c.argmax(axis=1)
+        identified = setup.building.identified
+        nodes = setup.model.node_names
+        self._boundary_rows = np.array(
+            [nodes.index(b.name) for b in identified.boundaries] if identified else [], dtype=int
+        )
+        """(nb,) the model's boundary nodes (an identified model's plenums), node order."""
         hvac = setup.building.hvac
         self._flow_min_kg_s = (
             hvac.flow_min_at(np.array([False]))[0],
@@ -380,7 +386,8 @@ class ClosedLoop:
         """The node temperatures (n,) [°C] after the period: the plant's own where it shows
         them; else the controller's model predicts the other nodes from the state before,
         the flows the plant reports and the realised disturbance, and the zone readings
-        replace its zone nodes (an open-loop observer of the hidden wall temperatures)."""
+        replace its zone nodes, the plant's boundary readings (a plenum) its boundary nodes
+        (an open-loop observer of the hidden wall and mass temperatures)."""
         if observation.node_temp_degc is not None:
             return np.asarray(observation.node_temp_degc, dtype=float)
         model = self.setup.model
@@ -389,6 +396,8 @@ class ClosedLoop:
             flow = np.asarray(observation.supply_flow_kg_s, dtype=float)
             x = model.a @ x + model.b @ flow + model.e @ disturbance.d + model.g
         x[self._zone_rows] = observation.zone_temp_degc
+        if observation.boundary_temp_degc is not None and self._boundary_rows.size:
+            x[self._boundary_rows] = observation.boundary_temp_degc
         return np.asarray(x, dtype=float)
 
     def _record_event(self, k: int, decision: Decision) -> None:

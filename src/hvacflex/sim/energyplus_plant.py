@@ -24,7 +24,8 @@ Observations per period: zone mean air temperature at the end and mean over the 
 supply mass flow (the zone inlet nodes, period mean), outdoor dry bulb (mean),
 ``power_kw`` = (Electricity:HVAC + Electricity:Plant) period mean [kW] (a meter EnergyPlus
 does not have, because nothing is on it, counts 0) and ``facility_power_kw`` =
-ElectricityPurchased:Facility period mean [kW] (NaN when absent).
+ElectricityPurchased:Facility period mean [kW] (NaN when absent), and the air temperature at
+the end of the period of each ``boundary_zone_names`` zone (an identified model's plenum).
 
 An IDF with ``HVACTemplate:*`` objects is expanded by EnergyPlus's ExpandObjects when the plant
 is built, so that its zones' equipment and thermostats can be found.
@@ -104,6 +105,9 @@ class EnergyPlusPlant:
         actuation gives none (``make_plant``: the building's ``hvac.supply_temp_degc``);
         required in flow mode, unused in setpoint mode.
     work_dir : folder for EnergyPlus's files (None: a temporary folder per run).
+    boundary_zone_names : (nb,) unconditioned IDF zones (case-insensitive) whose air
+        temperatures each :class:`~hvacflex.sim.plant.Observation` carries as
+        ``boundary_temp_degc`` (an identified model's boundary nodes: a BMS measures them).
     extra_variables : (ne,) further output variables read every period; their period means
         are :attr:`extra_mean` after each :meth:`reset` / :meth:`step` (the trend collection
         of ``hvacflex identify collect`` reads supply temperatures, solar and occupancy so).
@@ -133,6 +137,7 @@ class EnergyPlusPlant:
         singapore_site: bool = True,
         supply_temp_degc: float | None = None,
         work_dir: Path | None = None,
+        boundary_zone_names: tuple[str, ...] = (),
         extra_variables: tuple[Variable, ...] = (),
     ) -> None:
         if actuation not in ("setpoint", "flow"):
@@ -180,6 +185,13 @@ class EnergyPlusPlant:
                 value=doubled[0],
                 hint="map each hvacflex zone to its own IDF zone",
             )
+        self.boundary_zone_names = match_zones(
+            tuple(boundary_zone_names),
+            prepared.zone_names,
+            source,
+            "identified.boundaries",
+            "the model's [[identified.boundaries]] names (fit on data of this IDF)",
+        )
         self.epw_path = Path(epw_path)
         check_weather_covers(self.epw_path, first_day, last_day)
         self._skip_periods = int((naive - first_day) / pd.Timedelta(seconds=PERIOD_S))
@@ -226,6 +238,8 @@ class EnergyPlusPlant:
             actuators = [Actuator("Ideal Loads Air System", "Air Mass Flow Rate", n) for n in names]
             actuators += [Actuator("Ideal Loads Air System", "Air Temperature", n) for n in names]
         self._m = m
+        self._boundary_start = len(variables)
+        variables += [Variable("Zone Mean Air Temperature", z) for z in self.boundary_zone_names]
         self._extra_start = len(variables)
         variables += list(self._extra_variables)
         return CoSimSpec(
@@ -349,6 +363,11 @@ class EnergyPlusPlant:
             power_kw=float(hvac_j / PERIOD_S / 1000.0),
             facility_power_kw=float(reading.meters_j[len(HVAC_METERS)] / PERIOD_S / 1000.0),
             outdoor_temp_degc=float(reading.variables_mean[self._outdoor]),
+            boundary_temp_degc=(
+                reading.variables_end[self._boundary_start : self._extra_start].copy()
+                if self.boundary_zone_names
+                else None
+            ),
         )
 
     def get_state(self) -> dict[str, Any]:

@@ -109,6 +109,9 @@ class Observation:
     power_kw : mean HVAC electric power over the period (fans + cooling plant) [kW].
     facility_power_kw : mean whole-facility electric power [kW] (NaN where not metered).
     outdoor_temp_degc : mean outdoor dry-bulb temperature over the period [°C].
+    boundary_temp_degc : (nb,) air temperature at the end of the period of the unconditioned
+        zones the controller's model carries as boundary nodes (an identified model's plenum)
+        [°C], or None where the plant does not read them.
     """
 
     zone_temp_degc: FloatArray
@@ -118,6 +121,7 @@ class Observation:
     power_kw: float
     facility_power_kw: float
     outdoor_temp_degc: float
+    boundary_temp_degc: FloatArray | None = None
 
 
 @runtime_checkable

@@ -105,6 +105,8 @@ def make_plant(
         text, source = read_idf(config.idf), config.idf
     zones = tuple(building.zone_names)
     idf_zones = tuple(z.energyplus_zone or z.name for z in building.zones)
+    identified = building.identified
+    boundaries = tuple(b.name for b in identified.boundaries) if identified is not None else ()
     return EnergyPlusPlant(
         text,
         source,
@@ -117,6 +119,7 @@ def make_plant(
         timesteps_per_hour=config.timesteps_per_hour,
         supply_temp_degc=building.hvac.supply_temp_degc,
         work_dir=work_dir,
+        boundary_zone_names=boundaries,
     )
 
 
