@@ -115,3 +115,37 @@ def fabricate_results(
 def make_results() -> Callable[..., pd.DataFrame]:
     """The :func:`fabricate_results` factory."""
     return fabricate_results
+
+
+@pytest.fixture(scope="session")
+def identified_model() -> Any:
+    """A two-zone identified model with a plenum boundary node (the model-file format's and the
+    closed loop's tests)."""
+    from hvacflex.identify.greybox import GreyBoxParameters
+    from hvacflex.identify.model_file import AirSystem, BoundaryNode, IdentifiedModel, PowerModel
+
+    zone = np.array(
+        [
+            [800.0, 3.0e4, 0.05, 0.8, 0.03, 3.0, 6.0, 0.0, 2.0, 0.5, 0.0, 1.5, 0.4],
+            [1200.0, 6.0e4, 0.08, 1.2, 0.05, 5.0, 8.0, 1.0, 0.0, 0.0, 3.0, 2.5, -0.2],
+        ]
+    )
+    parameters = GreyBoxParameters(
+        zone,
+        np.array([[0, 1]], dtype=np.int64),
+        np.array([0.3]),
+        boundaries=1,
+        boundary_couplings=np.array([[0, 0], [1, 0]], dtype=np.int64),
+        boundary_ua_kw_per_k=np.array([0.5, 0.25]),
+    )
+    return IdentifiedModel(
+        name="identified from trend.csv",
+        zones=("space1_1", "space2_1"),
+        energyplus_zones=("SPACE1-1", "Space2-1"),
+        parameters=parameters,
+        power=PowerModel(base_kw=1.0, kw_per_kw_cooling=0.3, kw_per_k_outdoor=0.05),
+        provenance={"data": "trend.csv", "train": "2014-03-03..2014-03-17"},
+        air=AirSystem(13.5, (0.0, 0.05), (0.6, 0.9), (0.1, 0.2), (22.5, 23.0)),
+        boundaries=("PLENUM-1",),
+        boundary_nodes=(BoundaryNode(300.0, 0.02, 1.5, 0.4, 25.5),),
+    )

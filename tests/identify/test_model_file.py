@@ -10,48 +10,18 @@ import pytest
 from hvacflex.building.io import load_building
 from hvacflex.building.rc import build_network
 from hvacflex.errors import ConfigError
-from hvacflex.identify.greybox import GreyBoxParameters
 from hvacflex.identify.model_file import (
-    AirSystem,
-    BoundaryNode,
     IdentifiedModel,
-    PowerModel,
     identifier,
     load_identified_model,
     write_identified_model,
 )
 
 
-def _model() -> IdentifiedModel:
-    zone = np.array(
-        [
-            [800.0, 3.0e4, 0.05, 0.8, 0.03, 3.0, 6.0, 0.0, 2.0, 0.5, 0.0, 1.5, 0.4],
-            [1200.0, 6.0e4, 0.08, 1.2, 0.05, 5.0, 8.0, 1.0, 0.0, 0.0, 3.0, 2.5, -0.2],
-        ]
-    )
-    parameters = GreyBoxParameters(
-        zone,
-        np.array([[0, 1]], dtype=np.int64),
-        np.array([0.3]),
-        boundaries=1,
-        boundary_couplings=np.array([[0, 0], [1, 0]], dtype=np.int64),
-        boundary_ua_kw_per_k=np.array([0.5, 0.25]),
-    )
-    return IdentifiedModel(
-        name="identified from trend.csv",
-        zones=("space1_1", "space2_1"),
-        energyplus_zones=("SPACE1-1", "Space2-1"),
-        parameters=parameters,
-        power=PowerModel(base_kw=1.0, kw_per_kw_cooling=0.3, kw_per_k_outdoor=0.05),
-        provenance={"data": "trend.csv", "train": "2014-03-03..2014-03-17"},
-        air=AirSystem(13.5, (0.0, 0.05), (0.6, 0.9), (0.1, 0.2), (22.5, 23.0)),
-        boundaries=("PLENUM-1",),
-        boundary_nodes=(BoundaryNode(300.0, 0.02, 1.5, 0.4, 25.5),),
-    )
-
-
-def test_a_written_model_reads_back_equal(tmp_path: Path) -> None:
-    model = _model()
+def test_a_written_model_reads_back_equal(
+    identified_model: IdentifiedModel, tmp_path: Path
+) -> None:
+    model = identified_model
     loaded = load_identified_model(write_identified_model(model, tmp_path / "model.toml"))
     assert loaded.zones == model.zones and loaded.energyplus_zones == model.energyplus_zones
     np.testing.assert_array_equal(loaded.parameters.zone, model.parameters.zone)
@@ -67,8 +37,10 @@ def test_a_written_model_reads_back_equal(tmp_path: Path) -> None:
     assert loaded.air == model.air and loaded.boundary_nodes == model.boundary_nodes
 
 
-def test_the_model_is_a_building_file_with_the_fitted_network(tmp_path: Path) -> None:
-    model = _model()
+def test_the_model_is_a_building_file_with_the_fitted_network(
+    identified_model: IdentifiedModel, tmp_path: Path
+) -> None:
+    model = identified_model
     building = load_building(write_identified_model(model, tmp_path / "model.toml"))
     assert building.zone_names == ("space1_1", "space2_1")
     assert [z.energyplus_zone for z in building.zones] == ["SPACE1-1", "Space2-1"]
@@ -88,8 +60,10 @@ def test_zone_names_become_lower_case_identifiers() -> None:
     assert identifier("1st floor") == "zone_1st_floor"
 
 
-def test_a_negative_capacitance_is_refused_naming_the_field(tmp_path: Path) -> None:
-    path = write_identified_model(_model(), tmp_path / "model.toml")
+def test_a_negative_capacitance_is_refused_naming_the_field(
+    identified_model: IdentifiedModel, tmp_path: Path
+) -> None:
+    path = write_identified_model(identified_model, tmp_path / "model.toml")
     text = path.read_text(encoding="utf-8").replace(
         "c_air_kj_per_k = 800.0", "c_air_kj_per_k = -8.0"
     )
@@ -100,8 +74,10 @@ def test_a_negative_capacitance_is_refused_naming_the_field(tmp_path: Path) -> N
     assert caught.value.value == -8.0
 
 
-def test_a_coupling_to_an_unknown_zone_is_refused(tmp_path: Path) -> None:
-    path = write_identified_model(_model(), tmp_path / "model.toml")
+def test_a_coupling_to_an_unknown_zone_is_refused(
+    identified_model: IdentifiedModel, tmp_path: Path
+) -> None:
+    path = write_identified_model(identified_model, tmp_path / "model.toml")
     text = path.read_text(encoding="utf-8").replace('["space1_1", "space2_1"]', '["space1_1", "x"]')
     path.write_text(text, encoding="utf-8")
     with pytest.raises(ConfigError, match="unknown zone"):

@@ -13,14 +13,7 @@ from hvacflex.building.hvac import hvac_power_kw
 from hvacflex.building.plant import NonlinearPlant
 from hvacflex.config import preset, with_overrides
 from hvacflex.control.base import Action, Controller, PeriodInputs
-from hvacflex.identify.greybox import GreyBoxParameters
-from hvacflex.identify.model_file import (
-    AirSystem,
-    BoundaryNode,
-    IdentifiedModel,
-    PowerModel,
-    write_identified_model,
-)
+from hvacflex.identify.model_file import IdentifiedModel, write_identified_model
 from hvacflex.sim.closed_loop import ClosedLoop
 from hvacflex.sim.plant import Actuation, Disturbance, Observation, Plant, RCPlant
 from hvacflex.sim.setup import prepare
@@ -161,33 +154,8 @@ class PlenumPlant(ZoneOnlyPlant):
         return replace(observed, boundary_temp_degc=np.array([self.plenum_degc]))
 
 
-def _identified_setup(tmp_path: Path):  # type: ignore[no-untyped-def]
-    """A two-zone identified model with a plenum boundary node, on a 2-hour run."""
-    zone = np.array(
-        [
-            [800.0, 3.0e4, 0.05, 0.8, 0.03, 3.0, 6.0, 0.0, 2.0, 0.5, 0.0, 1.5, 0.4],
-            [1200.0, 6.0e4, 0.08, 1.2, 0.05, 5.0, 8.0, 1.0, 0.0, 0.0, 3.0, 2.5, -0.2],
-        ]
-    )
-    parameters = GreyBoxParameters(
-        zone,
-        np.array([[0, 1]], dtype=np.int64),
-        np.array([0.3]),
-        boundaries=1,
-        boundary_couplings=np.array([[0, 0], [1, 0]], dtype=np.int64),
-        boundary_ua_kw_per_k=np.array([0.5, 0.25]),
-    )
-    model = IdentifiedModel(
-        name="two zones and a plenum",
-        zones=("space1_1", "space2_1"),
-        energyplus_zones=("SPACE1-1", "SPACE2-1"),
-        parameters=parameters,
-        power=PowerModel(base_kw=1.0, kw_per_kw_cooling=0.3, kw_per_k_outdoor=0.05),
-        provenance={},
-        air=AirSystem(13.5, (0.0, 0.05), (0.6, 0.9), (0.1, 0.2), (22.5, 23.0)),
-        boundaries=("PLENUM-1",),
-        boundary_nodes=(BoundaryNode(300.0, 0.02, 1.5, 0.4, 25.5),),
-    )
+def _identified_setup(model: IdentifiedModel, tmp_path: Path):  # type: ignore[no-untyped-def]
+    """The two-zone identified model with a plenum boundary node, on a 2-hour run."""
     path = write_identified_model(model, tmp_path / "model.toml")
     cfg = with_overrides(
         preset("nmpc", start=f"{START}T10:00", days=2 / 24), {"building": str(path)}
@@ -195,8 +163,10 @@ def _identified_setup(tmp_path: Path):  # type: ignore[no-untyped-def]
     return prepare(cfg)
 
 
-def test_the_observer_takes_the_plants_boundary_readings(tmp_path: Path) -> None:
-    setup = _identified_setup(tmp_path)
+def test_the_observer_takes_the_plants_boundary_readings(
+    identified_model: IdentifiedModel, tmp_path: Path
+) -> None:
+    setup = _identified_setup(identified_model, tmp_path)
     plenum = setup.model.node_names.index("PLENUM-1")
     controller = HalfFlowOffering(setup.building.hvac.flow_max_kg_s)
     # a plant that reads the plenum: the state carries its reading after every period
