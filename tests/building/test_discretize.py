@@ -11,7 +11,12 @@ import pytest
 from building_fixtures import write_building
 from scipy.integrate import solve_ivp
 
-from hvacflex.building.discretize import continuous_affine_model, linearize, zoh
+from hvacflex.building.discretize import (
+    continuous_affine_model,
+    delivered_flow_kg_s,
+    linearize,
+    zoh,
+)
 from hvacflex.building.io import load_building
 from hvacflex.building.model import Building
 from hvacflex.building.plant import NonlinearPlant
@@ -178,3 +183,29 @@ def test_steady_state_of_linear_model_is_a_fixed_point(room1: Building) -> None:
     u = np.asarray(room1.hvac.flow_max_kg_s)
     x = lm.steady_state(u, d)
     np.testing.assert_allclose(lm.step(x, u, d), x, atol=1e-9)
+
+
+@pytest.mark.parametrize("inlet_temp_degc", [13.0, 20.0, 29.0])
+def test_delivered_flow_reproduces_the_metered_cooling(
+    room1: Building, inlet_temp_degc: float
+) -> None:
+    """The model input for metered air: its linearised HVAC term equals ṁ c_p (T_in − Ta)."""
+    net = build_network(room1)
+    lm = linearize(room1, linearisation_temp_degc=23.0, network=net)
+    zones = net.zone_node_index
+    m = len(zones)
+    rng = np.random.default_rng(3)
+    zone_temp = 22.0 + 8.0 * rng.uniform(size=m)
+    flow = rng.uniform(0.1, 0.4, size=m)
+    inlet = np.full(m, inlet_temp_degc)
+    u = delivered_flow_kg_s(lm, room1.hvac.supply_temp_degc, flow, zone_temp, inlet)
+    a, b, _, g = continuous_affine_model(room1, net, lm.flow_ref_kg_s, lm.linearisation_temp_degc)
+    x = np.full(net.n_nodes, 25.0)
+    x[zones] = zone_temp
+    hvac_term = (a - net.a_cont) @ x + b @ u + g  # the model's air-system heat [K/s]
+    metered = flow * CP_AIR_J_PER_KG_K * (inlet - zone_temp) / net.capacitance_j_per_k[zones]
+    np.testing.assert_allclose(hvac_term[zones], metered, rtol=1e-12, atol=1e-15)
+    at_reference = delivered_flow_kg_s(  # air at T_s into zones at T₀: the flow itself
+        lm, room1.hvac.supply_temp_degc, flow, lm.linearisation_temp_degc, np.full(m, 13.0)
+    )
+    np.testing.assert_allclose(at_reference, flow, rtol=1e-12)

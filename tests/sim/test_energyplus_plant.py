@@ -87,6 +87,18 @@ def test_observations_are_physical(baseline: list[Observation]) -> None:
     assert 22.0 < outdoor.min() < outdoor.max() < 36.0  # Singapore, not Chicago
 
 
+def test_supply_air_is_cold_while_the_coil_runs_and_fan_only_air_out_of_hours(
+    baseline: list[Observation],
+) -> None:
+    """The IDF's coil is available 06:00-20:00 (its deck at 16 °C); out of hours the fans
+    run with the coil off, so the minimum flow brings mixed air warmer than the zones."""
+    supply = np.array([o.supply_temp_degc for o in baseline])
+    assert supply.shape == (STEPS, 5)
+    np.testing.assert_allclose(supply[list(OCCUPIED)], 16.0, atol=0.1)
+    night = slice(0, OCCUPIED.start)
+    assert np.all(supply[night] > _temps(baseline)[night] + 0.5)
+
+
 SETPOINT_TRACKED_K = 0.1
 """A zone counts as cooling-limited when no more than this below its cooling setpoint [K]."""
 

@@ -9,6 +9,7 @@ from typing import Any
 import numpy as np
 import pytest
 
+from hvacflex.building.discretize import delivered_flow_kg_s
 from hvacflex.building.hvac import hvac_power_kw
 from hvacflex.building.plant import NonlinearPlant
 from hvacflex.config import preset, with_overrides
@@ -179,3 +180,33 @@ def test_the_observer_takes_the_plants_boundary_readings(
     assert loop.x[plenum] == 25.5
     loop.step()
     assert loop.x[plenum] != PlenumPlant.plenum_degc and 20.0 < loop.x[plenum] < 35.0
+
+
+class FanOnlyPlant(ZoneOnlyPlant):
+    """ZoneOnlyPlant whose air arrives at the zone temperature (a coil off: fan-only air)."""
+
+    def _observe(self, flow: np.ndarray) -> Observation:
+        observed = super()._observe(flow)
+        return replace(observed, supply_temp_degc=self.temps.copy())
+
+
+def test_the_observer_steps_the_hidden_nodes_with_the_delivered_cooling(setup) -> None:  # type: ignore[no-untyped-def]
+    controller = HalfFlowOffering(setup.building.hvac.flow_max_kg_s)
+    metered = ClosedLoop(setup, controller, plant=ZoneOnlyPlant(setup.zone_names))
+    fan_only = ClosedLoop(setup, controller, plant=FanOnlyPlant(setup.zone_names))
+    x0 = metered.x.copy()
+    np.testing.assert_array_equal(fan_only.x, x0)
+    metered.step()
+    fan_only.step()
+    zones = metered._zone_rows
+    np.testing.assert_array_equal(fan_only.x[zones], metered.x[zones])  # the readings
+    # the same period, only the air system's input differs: fan-only air delivers no cooling
+    flow = np.asarray(metered.plant.flows[0])  # type: ignore[attr-defined]
+    zone_temp = metered.plant.temps  # type: ignore[attr-defined]
+    u = delivered_flow_kg_s(
+        setup.model, setup.building.hvac.supply_temp_degc, flow, zone_temp, zone_temp
+    )
+    hidden = np.setdiff1d(np.arange(len(x0)), zones)
+    expected = (setup.model.b @ (u - flow))[hidden]
+    np.testing.assert_allclose(fan_only.x[hidden] - metered.x[hidden], expected, atol=1e-12)
+    assert np.all(expected >= 0.0) and expected.max() > 0.01  # warmer: no cooling delivered

@@ -83,6 +83,38 @@ class LinearModel:
         return np.asarray(solution, dtype=np.float64)
 
 
+def delivered_flow_kg_s(
+    model: LinearModel,
+    supply_temp_degc: float,
+    flow_kg_s: ArrayLike,
+    zone_temp_degc: ArrayLike,
+    inlet_temp_degc: ArrayLike,
+) -> FloatArray:
+    """(m,) the model input [kg/s] whose linearised HVAC term delivers what was metered.
+
+    The model's zone heat from the air system is ``c_p (T_s − T₀) u − ṁ₀ c_p (Ta − T₀)``
+    (linearised about ṁ₀ and T₀, :func:`continuous_affine_model`); the air that came in
+    delivered ``ṁ c_p (T_in − Ta)``. Equal when
+    ``u = (ṁ (T_in − Ta) + ṁ₀ (Ta − T₀)) / (T_s − T₀)`` — the flow itself where the supply
+    air was at the model's T_s, less (or below 0) where it was warmer (a coil off out of
+    hours: fan-only air).
+
+    Parameters
+    ----------
+    model : the linearised model (ṁ₀, T₀); supply_temp_degc : its T_s [°C].
+    flow_kg_s, zone_temp_degc, inlet_temp_degc : (m,) period means of the supply flow
+        [kg/s], the zone air and the supply air temperatures [°C].
+    """
+    flow = np.asarray(flow_kg_s, dtype=np.float64)
+    zone = np.asarray(zone_temp_degc, dtype=np.float64)
+    inlet = np.asarray(inlet_temp_degc, dtype=np.float64)
+    t0 = model.linearisation_temp_degc
+    out: FloatArray = (flow * (inlet - zone) + model.flow_ref_kg_s * (zone - t0)) / (
+        supply_temp_degc - t0
+    )
+    return out
+
+
 def zoh(a_cont: ArrayLike, inputs_cont: ArrayLike, dt_s: float) -> tuple[FloatArray, FloatArray]:
     """Zero-order-hold discretisation through one matrix exponential.
 

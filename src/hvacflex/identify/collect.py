@@ -32,7 +32,7 @@ import numpy as np
 import pandas as pd
 
 from hvacflex.constants import TIMEZONE
-from hvacflex.energyplus.hvac import has_thermostat, zone_inlet_nodes
+from hvacflex.energyplus.hvac import has_thermostat
 from hvacflex.energyplus.idf import IdfObject, match_zones, objects_of, parse_idf, read_idf
 from hvacflex.energyplus.idf import zone_names as idf_zone_names
 from hvacflex.energyplus.runner import Variable, expand_hvac_templates
@@ -54,8 +54,6 @@ PRBS_HOLD_PERIODS = (2, 8)
 STEP_HOLD_PERIODS = 6
 """Hold of each ``steps`` level [30-min periods] (3 h)."""
 PERIODS_PER_DAY = 48
-FLOW_EPSILON_KG_S = 1e-6
-"""Below this total inlet flow the supply temperature is the plain mean of the inlet nodes."""
 
 
 def excitation_setpoints_degc(
@@ -99,7 +97,6 @@ class _Layout:
 
     controlled: tuple[str, ...]
     boundary: tuple[str, ...]
-    node_slices: tuple[tuple[slice, slice], ...]
     boundary_start: int
     solar_start: int
     people_start: int
@@ -120,16 +117,8 @@ def _people_zones(objects: tuple[IdfObject, ...], zones: tuple[str, ...]) -> tup
     return tuple(z for z in zones if z.lower() in named)
 
 
-def _layout(objects: tuple[IdfObject, ...], controlled: tuple[str, ...], source: str) -> _Layout:
+def _layout(objects: tuple[IdfObject, ...], controlled: tuple[str, ...]) -> _Layout:
     variables: list[Variable] = []
-    slices = []
-    for zone in controlled:
-        nodes = zone_inlet_nodes(objects, zone, source)
-        temps = slice(len(variables), len(variables) + len(nodes))
-        variables += [Variable("System Node Temperature", n) for n in nodes]
-        flows = slice(len(variables), len(variables) + len(nodes))
-        variables += [Variable("System Node Mass Flow Rate", n) for n in nodes]
-        slices.append((temps, flows))
     wanted = {z.lower() for z in controlled}
     boundary = tuple(z for z in idf_zone_names(objects) if z.lower() not in wanted)
     boundary_start = len(variables)
@@ -146,7 +135,6 @@ def _layout(objects: tuple[IdfObject, ...], controlled: tuple[str, ...], source:
     return _Layout(
         controlled=controlled,
         boundary=boundary,
-        node_slices=tuple(slices),
         boundary_start=boundary_start,
         solar_start=solar_start,
         people_start=people_start,
@@ -160,19 +148,11 @@ def _trend_row(plant_obs: object, extra: FloatArray, layout: _Layout) -> dict[st
 
     assert isinstance(plant_obs, Observation)
     row: dict[str, float] = {}
-    assert plant_obs.zone_mean_temp_degc is not None
+    assert plant_obs.zone_mean_temp_degc is not None and plant_obs.supply_temp_degc is not None
     for i, zone in enumerate(layout.controlled):
-        temps, flows = layout.node_slices[i]
-        node_flow, node_temp = extra[flows], extra[temps]
-        total = float(node_flow.sum())
-        supply = (
-            float(node_flow @ node_temp / total)
-            if total > FLOW_EPSILON_KG_S
-            else float(node_temp.mean())
-        )
         row[zone_column("temp", zone)] = float(plant_obs.zone_mean_temp_degc[i])
-        row[zone_column("supply_flow", zone)] = total
-        row[zone_column("supply_temp", zone)] = supply
+        row[zone_column("supply_flow", zone)] = float(plant_obs.supply_flow_kg_s[i])
+        row[zone_column("supply_temp", zone)] = float(plant_obs.supply_temp_degc[i])
     for j, zone in enumerate(layout.boundary):
         row[zone_column("temp", zone)] = float(extra[layout.boundary_start + j])
     dni, dhi, altitude_deg = extra[layout.solar_start : layout.solar_start + 3]
@@ -237,7 +217,7 @@ def collect_trend(
         raise InputError(
             "no zone to collect", source=source, field="--zones", hint="name the IDF's zones"
         )
-    layout = _layout(objects, controlled, source)
+    layout = _layout(objects, controlled)
     if layout.people_count == 0:
         warnings.warn(
             f"{source}: no People object in the collected zones; occupied is 0 throughout",

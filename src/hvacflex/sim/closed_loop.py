@@ -41,6 +41,7 @@ import numpy as np
 import pandas as pd
 
 from hvacflex import results, state, version
+from hvacflex.building.discretize import delivered_flow_kg_s
 from hvacflex.building.identified import initial_node_temps_degc
 from hvacflex.config import ScenarioConfig
 from hvacflex.control.base import Controller, FloatArray, PeriodInputs
@@ -394,6 +395,14 @@ class ClosedLoop:
         x = self.x.copy()
         if disturbance is not None:
             flow = np.asarray(observation.supply_flow_kg_s, dtype=float)
+            if observation.supply_temp_degc is not None:  # the cooling the air delivered
+                flow = delivered_flow_kg_s(
+                    model,
+                    self.setup.building.hvac.supply_temp_degc,
+                    flow,
+                    observation.zone_mean_temp_degc,
+                    observation.supply_temp_degc,
+                )
             x = model.a @ x + model.b @ flow + model.e @ disturbance.d + model.g
         x[self._zone_rows] = observation.zone_temp_degc
         if observation.boundary_temp_degc is not None and self._boundary_rows.size:

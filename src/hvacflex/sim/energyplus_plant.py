@@ -21,7 +21,9 @@ Actuation (docs/energyplus.md):
   loads is refused.
 
 Observations per period: zone mean air temperature at the end and mean over the period,
-supply mass flow (the zone inlet nodes, period mean), outdoor dry bulb (mean),
+supply mass flow (the zone inlet nodes, period mean, summed) and supply air temperature (the
+inlet node temperatures' period means, flow-weighted; their plain mean when no air flows),
+outdoor dry bulb (mean),
 ``power_kw`` = (Electricity:HVAC + Electricity:Plant) period mean [kW] (a meter EnergyPlus
 does not have, because nothing is on it, counts 0) and ``facility_power_kw`` =
 ElectricityPurchased:Facility period mean [kW] (NaN when absent), and the air temperature at
@@ -84,6 +86,8 @@ HVAC_METERS = ("Electricity:HVAC", "Electricity:Plant")
 """Meters whose sum is the plant's ``power_kw`` (fans, pumps, chiller)."""
 FACILITY_METER = "ElectricityPurchased:Facility"
 """The whole-facility meter (``Electricity:Facility`` has no API handle in 25.2)."""
+FLOW_EPSILON_KG_S = 1e-6
+"""Below this total inlet flow a zone's supply temperature is the plain mean of its inlets."""
 
 
 class EnergyPlusPlant:
@@ -222,11 +226,18 @@ class EnergyPlusPlant:
     ) -> CoSimSpec:
         m = len(self.zone_names)
         variables = [Variable("Zone Mean Air Temperature", z) for z in self.idf_zone_names]
-        self._inlets: list[list[int]] = []
+        self._inlets: list[tuple[list[int], list[int]]] = []  # (flows, temperatures)
         for zone in self.idf_zone_names:
             nodes = zone_inlet_nodes(objects, zone, self.source)
-            self._inlets.append(list(range(len(variables), len(variables) + len(nodes))))
+            first = len(variables)
+            self._inlets.append(
+                (
+                    list(range(first, first + len(nodes))),
+                    list(range(first + len(nodes), first + 2 * len(nodes))),
+                )
+            )
             variables += [Variable("System Node Mass Flow Rate", n) for n in nodes]
+            variables += [Variable("System Node Temperature", n) for n in nodes]
         self._outdoor = len(variables)
         variables.append(Variable("Site Outdoor Air Drybulb Temperature", "Environment"))
         actuators: list[Actuator] = []
@@ -353,13 +364,14 @@ class EnergyPlusPlant:
     def _observation(self, reading: PeriodReading) -> Observation:
         m = self._m
         self.extra_mean = reading.variables_mean[self._extra_start :].copy()
-        flow = np.array([reading.variables_mean[idx].sum() for idx in self._inlets])
+        flow, supply = inlet_flow_and_temp(reading.variables_mean, self._inlets)
         hvac_j = np.nan_to_num(reading.meters_j[: len(HVAC_METERS)], nan=0.0).sum()
         return Observation(
             zone_temp_degc=reading.variables_end[:m].copy(),
             zone_mean_temp_degc=reading.variables_mean[:m].copy(),
             node_temp_degc=None,
             supply_flow_kg_s=flow,
+            supply_temp_degc=supply,
             power_kw=float(hvac_j / PERIOD_S / 1000.0),
             facility_power_kw=float(reading.meters_j[len(HVAC_METERS)] / PERIOD_S / 1000.0),
             outdoor_temp_degc=float(reading.variables_mean[self._outdoor]),
@@ -394,3 +406,31 @@ class EnergyPlusPlant:
             self.close()
         except Exception:  # pragma: no cover - interpreter shutdown
             pass
+
+
+def inlet_flow_and_temp(
+    means: FloatArray, inlets: list[tuple[list[int], list[int]]]
+) -> tuple[FloatArray, FloatArray]:
+    """Per zone, the supply flow [kg/s] (its inlet nodes' mean flows summed) and supply
+    temperature [°C] (their mean temperatures weighted by those flows; the plain mean when
+    less than :data:`FLOW_EPSILON_KG_S` flows), from the period means of the read variables.
+
+    Parameters
+    ----------
+    means : (nv,) period means of the plant's variables.
+    inlets : per zone, the indices of its inlet nodes' flows and temperatures in ``means``.
+
+    Returns
+    -------
+    flow (m,) [kg/s], supply temperature (m,) [°C].
+    """
+    flow = np.array([means[flows].sum() for flows, _ in inlets])
+    supply = np.array(
+        [
+            means[flows] @ means[temps] / total
+            if total > FLOW_EPSILON_KG_S
+            else means[temps].mean()
+            for (flows, temps), total in zip(inlets, flow, strict=True)
+        ]
+    )
+    return flow, supply

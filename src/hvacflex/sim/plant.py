@@ -112,6 +112,10 @@ class Observation:
     boundary_temp_degc : (nb,) air temperature at the end of the period of the unconditioned
         zones the controller's model carries as boundary nodes (an identified model's plenum)
         [°C], or None where the plant does not read them.
+    supply_temp_degc : (m,) mean supply air temperature at the zone inlets over the period
+        (flow-weighted) [°C], or None where the plant's supply air is the model's own
+        (the RC plants); with it the observer feeds the model the cooling delivered, not
+        the flow (``closed_loop``: a coil off out of hours delivers none).
     """
 
     zone_temp_degc: FloatArray
@@ -122,6 +126,7 @@ class Observation:
     facility_power_kw: float
     outdoor_temp_degc: float
     boundary_temp_degc: FloatArray | None = None
+    supply_temp_degc: FloatArray | None = None
 
 
 @runtime_checkable
