@@ -209,3 +209,16 @@ def test_delivered_flow_reproduces_the_metered_cooling(
         lm, room1.hvac.supply_temp_degc, flow, lm.linearisation_temp_degc, np.full(m, 13.0)
     )
     np.testing.assert_allclose(at_reference, flow, rtol=1e-12)
+    no_air = delivered_flow_kg_s(  # no flow, no inlet reading: nothing delivered
+        lm, room1.hvac.supply_temp_degc, np.zeros(m), zone_temp, np.full(m, np.nan)
+    )
+    assert np.all(np.isfinite(no_air))
+    np.testing.assert_allclose(
+        b @ no_air,
+        (
+            b
+            @ delivered_flow_kg_s(
+                lm, room1.hvac.supply_temp_degc, np.zeros(m), zone_temp, zone_temp
+            )
+        ),
+    )

@@ -20,7 +20,11 @@ from hvacflex.building.io import load_building
 from hvacflex.config.model import PlantConfig
 from hvacflex.errors import ConfigError, DataError, InputError
 from hvacflex.paths import resolve_building, resources_dir
-from hvacflex.sim.energyplus_plant import SETPOINT_DEADBAND_K, EnergyPlusPlant
+from hvacflex.sim.energyplus_plant import (
+    SETPOINT_DEADBAND_K,
+    EnergyPlusPlant,
+    inlet_flow_and_temp,
+)
 from hvacflex.sim.plant import Actuation, Disturbance, Observation, Plant, RCPlant
 from hvacflex.sim.plants import make_plant
 
@@ -392,3 +396,12 @@ def test_boundary_zones_are_read_beside_the_controlled_ones(
         EnergyPlusPlant.from_file(
             IDF, ZONES, boundary_zone_names=("attic",), start=START, steps=STEPS, epw_path=EPW
         )
+
+
+def test_inlet_flow_and_temp_weights_nodes_by_flow() -> None:
+    means = np.array([0.1, 0.3, 14.0, 18.0, 0.0, 0.0, 26.0, 28.0, 5.0])
+    inlets = [([0, 1], [2, 3]), ([4, 5], [6, 7]), ([], [])]
+    flow, supply = inlet_flow_and_temp(means, inlets)
+    np.testing.assert_allclose(flow, [0.4, 0.0, 0.0])
+    np.testing.assert_allclose(supply[:2], [17.0, 27.0])  # flow-weighted; no flow: plain mean
+    assert np.isnan(supply[2])  # a zone without an inlet has no supply air reading

@@ -182,17 +182,24 @@ def test_the_observer_takes_the_plants_boundary_readings(
     assert loop.x[plenum] != PlenumPlant.plenum_degc and 20.0 < loop.x[plenum] < 35.0
 
 
-class FanOnlyPlant(ZoneOnlyPlant):
-    """ZoneOnlyPlant whose air arrives at the zone temperature (a coil off: fan-only air)."""
+class MeanBelowEndPlant(ZoneOnlyPlant):
+    """ZoneOnlyPlant whose period-mean zone temperatures lie 0.5 K below the end ones."""
+
+    def _observe(self, flow: np.ndarray) -> Observation:
+        return replace(super()._observe(flow), zone_mean_temp_degc=self.temps - 0.5)
+
+
+class FanOnlyPlant(MeanBelowEndPlant):
+    """... whose air arrives at the zone's mean temperature (a coil off: fan-only air)."""
 
     def _observe(self, flow: np.ndarray) -> Observation:
         observed = super()._observe(flow)
-        return replace(observed, supply_temp_degc=self.temps.copy())
+        return replace(observed, supply_temp_degc=observed.zone_mean_temp_degc.copy())
 
 
 def test_the_observer_steps_the_hidden_nodes_with_the_delivered_cooling(setup) -> None:  # type: ignore[no-untyped-def]
     controller = HalfFlowOffering(setup.building.hvac.flow_max_kg_s)
-    metered = ClosedLoop(setup, controller, plant=ZoneOnlyPlant(setup.zone_names))
+    metered = ClosedLoop(setup, controller, plant=MeanBelowEndPlant(setup.zone_names))
     fan_only = ClosedLoop(setup, controller, plant=FanOnlyPlant(setup.zone_names))
     x0 = metered.x.copy()
     np.testing.assert_array_equal(fan_only.x, x0)
@@ -202,9 +209,9 @@ def test_the_observer_steps_the_hidden_nodes_with_the_delivered_cooling(setup) -
     np.testing.assert_array_equal(fan_only.x[zones], metered.x[zones])  # the readings
     # the same period, only the air system's input differs: fan-only air delivers no cooling
     flow = np.asarray(metered.plant.flows[0])  # type: ignore[attr-defined]
-    zone_temp = metered.plant.temps  # type: ignore[attr-defined]
+    mean_temp = metered.plant.temps - 0.5  # type: ignore[attr-defined]
     u = delivered_flow_kg_s(
-        setup.model, setup.building.hvac.supply_temp_degc, flow, zone_temp, zone_temp
+        setup.model, setup.building.hvac.supply_temp_degc, flow, mean_temp, mean_temp
     )
     hidden = np.setdiff1d(np.arange(len(x0)), zones)
     expected = (setup.model.b @ (u - flow))[hidden]

@@ -103,15 +103,17 @@ def delivered_flow_kg_s(
     ----------
     model : the linearised model (ṁ₀, T₀); supply_temp_degc : its T_s [°C].
     flow_kg_s, zone_temp_degc, inlet_temp_degc : (m,) period means of the supply flow
-        [kg/s], the zone air and the supply air temperatures [°C].
+        [kg/s], the zone air and the supply air temperatures [°C] (the inlet's is not read
+        where no air flows: NaN there is taken as no delivery).
     """
     flow = np.asarray(flow_kg_s, dtype=np.float64)
     zone = np.asarray(zone_temp_degc, dtype=np.float64)
     inlet = np.asarray(inlet_temp_degc, dtype=np.float64)
     t0 = model.linearisation_temp_degc
-    out: FloatArray = (flow * (inlet - zone) + model.flow_ref_kg_s * (zone - t0)) / (
-        supply_temp_degc - t0
-    )
+    if not np.all(t0 > supply_temp_degc):
+        raise ValueError(f"T_s {supply_temp_degc} °C must be below the linearisation's T₀ {t0}")
+    metered = np.where(flow > 0.0, flow * (inlet - zone), 0.0)  # no air: no inlet reading
+    out: FloatArray = (metered + model.flow_ref_kg_s * (zone - t0)) / (supply_temp_degc - t0)
     return out
 
 

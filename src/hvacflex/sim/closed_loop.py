@@ -386,7 +386,8 @@ class ClosedLoop:
     def _state_after(self, observation: Observation, disturbance: Disturbance | None) -> FloatArray:
         """The node temperatures (n,) [°C] after the period: the plant's own where it shows
         them; else the controller's model predicts the other nodes from the state before,
-        the flows the plant reports and the realised disturbance, and the zone readings
+        the air system's input the plant reports (the delivered cooling where it reads the
+        supply air temperature, else the flows) and the realised disturbance, and the zone readings
         replace its zone nodes, the plant's boundary readings (a plenum) its boundary nodes
         (an open-loop observer of the hidden wall and mass temperatures)."""
         if observation.node_temp_degc is not None:

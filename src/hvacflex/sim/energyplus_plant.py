@@ -412,8 +412,10 @@ def inlet_flow_and_temp(
     means: FloatArray, inlets: list[tuple[list[int], list[int]]]
 ) -> tuple[FloatArray, FloatArray]:
     """Per zone, the supply flow [kg/s] (its inlet nodes' mean flows summed) and supply
-    temperature [°C] (their mean temperatures weighted by those flows; the plain mean when
-    less than :data:`FLOW_EPSILON_KG_S` flows), from the period means of the read variables.
+    temperature [°C] (each node's period-mean temperature weighted by its period-mean flow;
+    their plain mean when less than :data:`FLOW_EPSILON_KG_S` flows; NaN for a zone without an
+    inlet node), from the period means of the read variables. (Per node, the mean temperature
+    stands for the flow-weighted one: exact while the flow is steady within the period.)
 
     Parameters
     ----------
@@ -429,7 +431,7 @@ def inlet_flow_and_temp(
         [
             means[flows] @ means[temps] / total
             if total > FLOW_EPSILON_KG_S
-            else means[temps].mean()
+            else (means[temps].mean() if temps else np.nan)
             for (flows, temps), total in zip(inlets, flow, strict=True)
         ]
     )

@@ -113,7 +113,8 @@ class Observation:
         zones the controller's model carries as boundary nodes (an identified model's plenum)
         [°C], or None where the plant does not read them.
     supply_temp_degc : (m,) mean supply air temperature at the zone inlets over the period
-        (flow-weighted) [°C], or None where the plant's supply air is the model's own
+        (weighted across a zone's inlets by their flows) [°C], or None where the plant's
+        supply air is the model's own
         (the RC plants); with it the observer feeds the model the cooling delivered, not
         the flow (``closed_loop``: a coil off out of hours delivers none).
     """
