@@ -75,7 +75,7 @@ MASS_BAND_WEIGHT = 1.0
 """Weight of a mass temperature outside that band, per K, next to a 1-K prediction error."""
 PRIOR_WEIGHT = 0.02
 """Weight of the priors: a residual of this size per unit of log (or linear) deviation."""
-MAX_EVALUATIONS = 60
+MAX_EVALUATIONS = 200
 """Most residual evaluations per fit (``least_squares``'s ``max_nfev``)."""
 BOUND_TOLERANCE = 1e-4
 """A parameter within this share of its (log) range from a bound is reported at the bound."""
