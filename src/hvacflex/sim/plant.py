@@ -114,9 +114,9 @@ class Observation:
         [°C], or None where the plant does not read them.
     supply_temp_degc : (m,) mean supply air temperature at the zone inlets over the period
         (weighted across a zone's inlets by their flows) [°C], or None where the plant's
-        supply air is the model's own
-        (the RC plants); with it the observer feeds the model the cooling delivered, not
-        the flow (``closed_loop``: a coil off out of hours delivers none).
+        supply air is the model's own (the RC plants); with it the observer feeds the model
+        the cooling delivered, not the flow (``closed_loop``: a coil off out of hours
+        delivers none).
     """
 
     zone_temp_degc: FloatArray
