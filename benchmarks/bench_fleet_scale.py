@@ -11,12 +11,17 @@ runs ``--steps`` steps from ``--start`` on a ``LocalCluster`` of W single-thread
   time is the measure of work; wall time depends on the load); the busiest worker's CPU and
   the coordinator's (this process: coordination, Dask client and scheduler) per warm step —
   on an idle machine a warm step cannot take less than the busiest worker's CPU time;
-* coordination rounds per step (bundle rounds; price iterations for ``scheme = "prices"``)
-  and the warm step's CPU per building (the issue-31 target: ≤ 0.05 CPU-s);
+* coordination rounds per step (bundle rounds; price iterations for ``scheme = "prices"``),
+  the largest certified gap of a step (``coordination_gap``: the issue-31 targets hold at
+  gap ≤ 2 %) and the warm step's CPU per building (the issue-31 target: ≤ 0.05 CPU-s);
 * the workers' resident memory after the run (memory per building = the slope between fleet
   sizes at the same W).
 
     python benchmarks/bench_fleet_scale.py --buildings 10 100 --workers 1 2 --steps 3
+
+Measured 2026-12-03 (``--buildings 10 40 100 1000 --workers 0 --steps 3``, idle machine):
+0.082 / 0.047 / 0.046 / 0.046 CPU-s per building and warm dispatch, 1,000 buildings 46.4
+CPU-s per warm dispatch at a largest gap of 0.06 %; docs/fleet.md, "Scale".
 
 Measured 2026-12-02 (issue 31, bundle scheme, ``--workers 0 --steps 4 --start "2014-03-03
 08:00"``, shared 2-core machine, load 16–23): warm step CPU 7.30 s for 10 buildings (20
@@ -102,6 +107,7 @@ def measure(
         "warm_group_cpu_max_s": float(np.mean(group_cpu.max(axis=1))) if steps > 1 else np.nan,
         "warm_coordinator_cpu_s": float(np.mean(np.diff(coordinator_cpu))) if steps > 1 else np.nan,
         "iterations": float(frame["coordination_iterations"].mean()),
+        "max_gap": float(np.nanmax(frame["coordination_gap"].to_numpy(float), initial=0.0)),
         "rss_mib": sum(memory) / MIB,
     }
 
@@ -119,10 +125,10 @@ def main() -> None:
     header = (
         "| buildings | workers | set-up [s] | agents wall / CPU [s] | cold step [s] | "
         "warm step wall / CPU [s] | busiest worker / coordinator CPU [s] | iterations/step | "
-        "worker memory [MiB] | warm CPU per building [s] |"
+        "largest gap | worker memory [MiB] | warm CPU per building [s] |"
     )
     print(header)
-    print("|---|---|---|---|---|---|---|---|---|---|", flush=True)
+    print("|---|---|---|---|---|---|---|---|---|---|---|", flush=True)
     for buildings in args.buildings:
         for workers in args.workers:
             r = measure(
@@ -132,7 +138,8 @@ def main() -> None:
                 f"| {buildings} | {workers} | {r['setup_s']:.1f} | {r['agents_wall_s']:.1f} / "
                 f"{r['agents_cpu_s']:.1f} | {r['cold_s']:.2f} | {r['warm_s']:.2f} / "
                 f"{r['warm_cpu_s']:.2f} | {r['warm_group_cpu_max_s']:.2f} / "
-                f"{r['warm_coordinator_cpu_s']:.2f} | {r['iterations']:.1f} | {r['rss_mib']:.0f} | "
+                f"{r['warm_coordinator_cpu_s']:.2f} | {r['iterations']:.1f} | {r['max_gap']:.2%} | "
+                f"{r['rss_mib']:.0f} | "
                 f"{r['warm_cpu_s'] / buildings:.3f} |",
                 flush=True,
             )

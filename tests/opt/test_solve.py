@@ -395,6 +395,28 @@ def test_rotated_basis_restarts_a_shifted_sequence_cheaply() -> None:
     assert totals[True] < totals[False]
 
 
+def test_same_step_resolve_keeps_the_basis_unrotated() -> None:
+    """A re-solve of the step just solved (``same_step``, as the fleet coordinator's rounds)
+    goes on from HiGHS's optimal basis: no iteration for the same problem, and a price change
+    gives the cold optimum; the next step's first solve is rotated as usual."""
+    problems = _shifted_problems(10, 3, horizon=24)
+    solver = RMPCSolver(problems[0])
+    solver.solve(problems[0])
+    first = solver.solve(problems[1])
+    again = solver.solve(problems[1], same_step=True)
+    assert again.warm_start and again.simplex_iterations == 0
+    assert again.objective_sgd == pytest.approx(first.objective_sgd, abs=1e-9)
+    rotated = solver.solve(problems[1])  # without same_step: the basis one step on
+    assert rotated.simplex_iterations > 0
+    priced = dataclasses.replace(
+        problems[1], energy_price_sgd_per_mwh=problems[1].energy_price_sgd_per_mwh + 40.0
+    )
+    resolved = solver.solve(priced, same_step=True)
+    assert resolved.objective_sgd == pytest.approx(solve_rmpc(priced).objective_sgd, abs=1e-7)
+    nxt = solver.solve(problems[2])
+    assert nxt.objective_sgd == pytest.approx(solve_rmpc(problems[2]).objective_sgd, abs=1e-7)
+
+
 def test_set_basis_refuses_a_non_basis() -> None:
     problems = _shifted_problems(8, 2)
     solver = RMPCSolver(problems[0])

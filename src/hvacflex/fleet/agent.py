@@ -69,10 +69,11 @@ def power_bounds_kw(problem: RMPCProblem, u_max: FloatArray | None = None) -> Fl
 class FleetController(MPCController):
     """The building's MPC, driven by the fleet coordinator.
 
-    One warm-started solver without time shift (the same step is re-solved at several
-    prices). :meth:`act` applies the coordinator's plan (passed in as ``plan``) through
-    :meth:`MPCController.act` (its fallbacks included) and then enforces the step's power
-    cap on whatever it returns:
+    One warm-started solver: the first solve of a step starts from the previous step's
+    basis rotated by one step, the step's re-solves at other prices or caps
+    (``same_step``) from the basis HiGHS holds. :meth:`act` applies the coordinator's plan
+    (passed in as ``plan``) through :meth:`MPCController.act` (its fallbacks included) and
+    then enforces the step's power cap on whatever it returns:
     flows above the cap are scaled towards the lower bounds until the affine power meets it.
     """
 
@@ -102,9 +103,7 @@ class FleetController(MPCController):
     def solver(self, problem: RMPCProblem) -> RMPCSolver:
         """The building's solver (built on first use, from a restored basis if any)."""
         if self._solver is None:
-            self._solver = RMPCSolver(
-                problem, time_limit_s=self._config.time_limit_s, time_shift=False
-            )
+            self._solver = RMPCSolver(problem, time_limit_s=self._config.time_limit_s)
             if self._pending_basis is not None:
                 self._solver.set_basis(self._pending_basis)
                 self._pending_basis = None
@@ -315,7 +314,7 @@ class BuildingAgent:
         problem = base.with_price_and_cap(
             base.energy_price_sgd_per_mwh + price_kw, np.inf if cap_kw is None else cap_kw
         )
-        solution = self.controller.solver(problem).solve(problem)
+        solution = self.controller.solver(problem).solve(problem, same_step=self._last is not None)
         self._last, self._last_price = solution, price_kw.copy()
         self._last_cap = np.inf if cap_kw is None else np.asarray(cap_kw, dtype=float).copy()
         if solution.status is not SolveStatus.OPTIMAL:

@@ -119,9 +119,9 @@ class RMPCSolver:
     time_limit_s : wall-clock limit per solve [s] (each :meth:`solve`, not cumulative);
         None = no limit
     time_shift : each problem is the previous one a step later (receding horizon): start
-        from the previous optimal basis rotated by one step (see the module docstring).
-        False: start from the previous basis as is (e.g. re-solving one step's problem with
-        other prices).
+        from the previous optimal basis rotated by one step (see the module docstring), except
+        for a solve marked ``same_step`` (:meth:`solve`). False: start from the previous basis
+        as is.
     event_rows : IL event model only: "full" passes every event row to HiGHS; "lazy" passes
         the rows that were nonbasic or near-active (slack ≤ :data:`LAZY_NEAR_ACTIVE_K`) at
         the previous optimum (rotated) and the rows of events starting at 0, then adds every
@@ -364,8 +364,13 @@ class RMPCSolver:
         self._bounds_changed()
 
     # ------------------------------------------------------------------ solve
-    def solve(self, problem: RMPCProblem) -> RMPCSolution:
+    def solve(self, problem: RMPCProblem, *, same_step: bool = False) -> RMPCSolution:
         """Solve ``problem`` (same structure as the solver's), warm-started when possible.
+
+        ``same_step``: ``problem`` is the previous solve's step again (other prices or power
+        caps, as a fleet coordinator re-solves it): HiGHS goes on from the basis it holds,
+        not rotated, whatever ``time_shift`` says. The first solve of every step is not
+        ``same_step``.
 
         Raises
         ------
@@ -382,8 +387,9 @@ class RMPCSolver:
             self._update(problem, delta)
             self._last_problem = problem
         session = self._session
-        if session.basis is not None and (session.time_shift or session.basis_given):
-            self._start_from()
+        shift = not same_step
+        if session.basis is not None and ((session.time_shift and shift) or session.basis_given):
+            self._start_from(shift=shift)
         status, highs_time, iterations, warm = session.run_with_retries(
             session.has_basis, lambda: self._start_from(shift=False)
         )
