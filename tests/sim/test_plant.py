@@ -217,3 +217,22 @@ def test_the_observer_steps_the_hidden_nodes_with_the_delivered_cooling(setup) -
     expected = (setup.model.b @ (u - flow))[hidden]
     np.testing.assert_allclose(fan_only.x[hidden] - metered.x[hidden], expected, atol=1e-12)
     assert np.all(expected >= 0.0) and expected.max() > 0.01  # warmer: no cooling delivered
+
+
+def test_the_filter_predicts_with_the_delivered_cooling() -> None:
+    """With a Kalman filter the controller's next prediction takes the same input as the
+    observer: the cooling the air delivered, not the decided flow (fan-only air: less)."""
+    cfg = with_overrides(
+        preset("nmpc", start=f"{START}T10:00", days=1 / 24), {"estimation.mode": "kalman"}
+    )
+    setup = prepare(cfg)
+    loop = ClosedLoop(setup, plant=FanOnlyPlant(setup.zone_names))
+    loop.step()
+    estimator = loop.control.controller._estimator  # type: ignore[attr-defined]
+    flow = np.asarray(loop.plant.flows[0])  # type: ignore[attr-defined]
+    mean_temp = loop.plant.temps - 0.5  # type: ignore[attr-defined]
+    u = delivered_flow_kg_s(
+        setup.model, setup.building.hvac.supply_temp_degc, flow, mean_temp, mean_temp
+    )
+    np.testing.assert_allclose(estimator.last.flow_kg_s, u, atol=1e-12)
+    assert np.all(u < flow - 1e-3)  # fan-only air: the decided flow would overstate it

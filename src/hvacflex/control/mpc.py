@@ -199,8 +199,10 @@ class MPCController(Controller):
         return self._step_model
 
     def note_applied_flow(self, flow_kg_s: FloatArray) -> None:
-        """The flow the plant actually ran this period (u − r under IL activation), for the
-        filter's next prediction; no-op without a filter."""
+        """The flow the plant actually ran this period (u − r under IL activation), or where
+        the plant reads its supply air the cooling the air delivered as a flow
+        (:meth:`hvacflex.sim.step.ControlStep.note_delivered_flow`), for the filter's next
+        prediction; no-op without a filter."""
         if self._estimator is not None and self._estimator.last is not None:
             last = self._estimator.last
             self._estimator.applied(replace(last, flow_kg_s=np.asarray(flow_kg_s, dtype=float)))

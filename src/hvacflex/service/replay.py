@@ -263,6 +263,9 @@ class RemoteControl:
         status = decision_status(role, action)
         return Decision(action, status, role, outcome, applied, None, None)
 
+    def note_delivered_flow(self, flow_kg_s: FloatArray) -> None:
+        return None  # the service's controller filters what it is told
+
     def restart_warm(self) -> None:
         return None  # the service keeps the controller
 

@@ -163,6 +163,8 @@ class Control(Protocol):
         baseline_power_kw: float | None = None,
     ) -> Decision: ...
 
+    def note_delivered_flow(self, flow_kg_s: FloatArray) -> None: ...
+
     def restart_warm(self) -> None: ...
 
     def get_state(self) -> dict[str, Any]: ...
@@ -294,6 +296,9 @@ class ClosedLoop:
             latent_gain_w=float(exo.occupant_latent_w[k]),
         )
         period = self._plant_period(decision, disturbance)
+        if period.applied.supply_temp_degc is not None and period.applied.node_temp_degc is None:
+            # the filter predicts with what the air delivered, as the observer does
+            self.control.note_delivered_flow(self._delivered_input(period.applied))
         step_model = self.control.step_model
         error_k = self.sensors.prediction_error_k(
             setup.model if step_model is None else step_model,
@@ -395,20 +400,27 @@ class ClosedLoop:
         model = self.setup.model
         x = self.x.copy()
         if disturbance is not None:
-            flow = np.asarray(observation.supply_flow_kg_s, dtype=float)
-            if observation.supply_temp_degc is not None:  # the cooling the air delivered
-                flow = delivered_flow_kg_s(
-                    model,
-                    self.setup.building.hvac.supply_temp_degc,
-                    flow,
-                    observation.zone_mean_temp_degc,
-                    observation.supply_temp_degc,
-                )
+            flow = self._delivered_input(observation)
             x = model.a @ x + model.b @ flow + model.e @ disturbance.d + model.g
         x[self._zone_rows] = observation.zone_temp_degc
         if observation.boundary_temp_degc is not None and self._boundary_rows.size:
             x[self._boundary_rows] = observation.boundary_temp_degc
         return np.asarray(x, dtype=float)
+
+    def _delivered_input(self, observation: Observation) -> FloatArray:
+        """(m,) the air system's input over the period as the model takes it [kg/s]: the
+        cooling the air delivered (``delivered_flow_kg_s``) where the plant reads the supply
+        air temperature, else the metered flows."""
+        flow = np.asarray(observation.supply_flow_kg_s, dtype=float)
+        if observation.supply_temp_degc is None:
+            return flow
+        return delivered_flow_kg_s(
+            self.setup.model,
+            self.setup.building.hvac.supply_temp_degc,
+            flow,
+            observation.zone_mean_temp_degc,
+            observation.supply_temp_degc,
+        )
 
     def _record_event(self, k: int, decision: Decision) -> None:
         rec, col = self.recorder, self.recorder.column_index

@@ -293,6 +293,12 @@ class ControlStep:
         self.controller.note_commitments(self.committed_flow_kg_s)
         return replace(action, reserve_kw=committed_kw)
 
+    def note_delivered_flow(self, flow_kg_s: FloatArray) -> None:
+        """The plant's report of the period just run: the air system's input (m,) [kg/s] as
+        the model takes it (the cooling the air delivered as a flow at the model's supply
+        temperature), for the controller's filter in place of the decided flow."""
+        self.controller.note_applied_flow(flow_kg_s)
+
     def restart_warm(self) -> None:
         """Continue as if resumed from :meth:`get_state` (see
         :meth:`hvacflex.control.base.Controller.restart_warm`)."""
