@@ -207,6 +207,7 @@ WITHOUT_OWN_TEST_FILE: set[str] = {
     "hvacflex.control.mpc",
     "hvacflex.control.prediction_error",
     "hvacflex.control.trajectory",
+    "hvacflex.fleet.agent",
     "hvacflex.fleet.centralised",
     "hvacflex.fleet.cli",
     "hvacflex.fleet.coordinate",

@@ -42,9 +42,8 @@ from hvacflex.config import (
 from hvacflex.control.base import Action, FloatArray, PeriodInputs
 from hvacflex.control.mpc import RESERVE_FLOW_TOLERANCE_KG_S, MPCController
 from hvacflex.data.gains import DEFAULT_OFFICE_SCHEDULE, OfficeSchedule
-from hvacflex.errors import ProblemError
 from hvacflex.fleet.schema import Fleet, FleetBuilding, fleet_from_dict
-from hvacflex.opt import RMPCProblem, RMPCSolution, RMPCSolver, SolverBasis, SolveStatus
+from hvacflex.opt import RMPCProblem, RMPCSolution, RMPCSolver, SolveStatus
 from hvacflex.sim.closed_loop import ClosedLoop
 from hvacflex.sim.events import Role
 from hvacflex.sim.setup import Setup, prepare
@@ -110,28 +109,6 @@ class FleetController(MPCController):
                 self._pending_basis = None
         assert isinstance(self._solver, RMPCSolver)
         return self._solver
-
-    @property
-    def starts_cold(self) -> bool:
-        """No solver and no basis restored from a checkpoint: the next solve would be cold."""
-        return self._solver is None and self._pending_basis is None
-
-    def basis(self) -> SolverBasis | None:
-        """The solver's basis after its last optimal solve (None without one)."""
-        return None if self._solver is None else self._solver.get_basis()
-
-    def seed_basis(self, problem: RMPCProblem, basis: SolverBasis) -> bool:
-        """Start the next solve of ``problem`` from another building's optimal basis of the
-        same step (:meth:`BuildingGroup.solve`); whether it was taken (not when the LPs'
-        sizes differ: the solve then starts cold)."""
-        solver = self.solver(problem)
-        try:
-            solver.set_basis(
-                dataclasses.replace(basis, fingerprint=problem.structure.fingerprint())
-            )
-        except ProblemError:
-            return False
-        return True
 
     def act(self, inputs: PeriodInputs) -> Action:
         action = super().act(inputs)
@@ -259,8 +236,6 @@ class BuildingAgent:
 
     def __init__(self, entry: FleetBuilding, index: int, settings: FleetSettings) -> None:
         self.name = entry.name
-        self.index = index
-        """The building's position in the fleet."""
         self.setup = building_setup(entry, index, settings)
         cfg = self.setup.config.controller
         self.controller = FleetController(
@@ -281,8 +256,6 @@ class BuildingAgent:
         self._last_cap: FloatArray | float = np.inf
         self.locked_power_kw: float | None = None
         """This period's power fixed by a locked event plan [kW] (None: not locked)."""
-        self._seeded = False
-        """The next solve starts from a template building's basis of this step (unrotated)."""
 
     @property
     def problem(self) -> RMPCProblem:
@@ -341,9 +314,7 @@ class BuildingAgent:
         problem = base.with_price_and_cap(
             base.energy_price_sgd_per_mwh + price_kw, np.inf if cap_kw is None else cap_kw
         )
-        same_step = self._last is not None or self._seeded
-        solution = self.controller.solver(problem).solve(problem, same_step=same_step)
-        self._seeded = False
+        solution = self.controller.solver(problem).solve(problem, same_step=self._last is not None)
         self._last, self._last_price = solution, price_kw.copy()
         self._last_cap = np.inf if cap_kw is None else np.asarray(cap_kw, dtype=float).copy()
         if solution.status is not SolveStatus.OPTIMAL:
@@ -393,13 +364,6 @@ class BuildingAgent:
             base.power_coeff_kw_per_kg_s[0].copy(),
         )
         return result
-
-    def seed_from(self, template: BuildingAgent) -> None:
-        """Start this step's first solve from ``template``'s optimal basis of the same step
-        (the run's first step, when this building has no basis of its own)."""
-        basis = template.controller.basis()
-        if basis is not None:
-            self._seeded = self.controller.seed_basis(self.problem, basis)
 
     def cap_values(self) -> FloatArray:
         """(N,) marginal value of this building's caps at its last solve [SGD/kW] (zeros
@@ -462,8 +426,6 @@ class BuildingGroup:
         fleet = fleet_from_dict(fleet_doc, source="fleet")
         self.indices = list(indices)
         self.agents = [BuildingAgent(fleet.buildings[i], i, settings) for i in self.indices]
-        self._template = (fleet.buildings[0], settings)
-        """What builds the fleet's first building, whose basis seeds the first solves."""
         self.setup_s = (time.perf_counter() - tick, time.process_time() - cpu)
         """(wall, process CPU) time [s] this group took to build its agents."""
 
@@ -479,31 +441,7 @@ class BuildingGroup:
 
     def solve(self, price_sgd_per_mwh: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
         """(B, N) plan powers [kW], (B,) costs and Lagrangian objectives [SGD] at price (N,)."""
-        self._seed_first_solves(price_sgd_per_mwh)
         return _stack([agent.solve(price_sgd_per_mwh) for agent in self.agents])
-
-    def _seed_first_solves(self, price_sgd_per_mwh: FloatArray) -> None:
-        """Warm bases from a template building for the run's first step.
-
-        A fresh run's buildings have no basis, and a cold solve costs ≈ 1,260 simplex
-        iterations (docs/performance.md). Instead the fleet's first building solves the
-        step cold at this price. It is this group's agent, or a throw-away copy where
-        another group holds it, so every group seeds from the same basis and the results
-        do not depend on how buildings are grouped. Every other building without a basis
-        starts from that basis. Buildings whose LP has another size start cold.
-        """
-        fresh = [a for a in self.agents if a.loop.k == 0 and a.controller.starts_cold]
-        if not [a for a in fresh if a.index != 0]:
-            return
-        template = next((a for a in self.agents if a.index == 0), None)
-        if template is None:
-            template = BuildingAgent(self._template[0], 0, self._template[1])
-            template.begin_step()
-        if template.controller.starts_cold:
-            template.solve(price_sgd_per_mwh)
-        for agent in fresh:
-            if agent is not template:
-                agent.seed_from(template)
 
     def finalize(
         self, price_sgd_per_mwh: FloatArray, cap_kw: FloatArray
