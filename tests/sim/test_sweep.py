@@ -6,6 +6,7 @@ import pytest
 from hvacflex.config import preset
 from hvacflex.errors import ConfigError
 from hvacflex.sim.sweep import (
+    close_dask,
     expand_grid,
     outcomes_table,
     parse_param,
@@ -79,3 +80,29 @@ def test_quiet_dask_logs_here_and_for_the_workers() -> None:
     quiet_dask_logs()
     assert logging.getLogger("distributed").getEffectiveLevel() == logging.ERROR
     assert dask.config.get("logging.distributed") == "error"
+
+
+class _Recorder:
+    """A stand-in Dask client or cluster that records the calls made to it."""
+
+    def __init__(self, calls: list[str], name: str, fail_run: bool = False) -> None:
+        self.calls, self.name, self.fail_run = calls, name, fail_run
+
+    def run(self, function: object) -> None:
+        self.calls.append(f"{self.name}.run")
+        if self.fail_run:
+            raise OSError("worker gone")
+
+    def close(self) -> None:
+        self.calls.append(f"{self.name}.close")
+
+
+@pytest.mark.parametrize("fail_run", [False, True])
+def test_close_dask_silences_owned_workers_first_and_always_closes(fail_run: bool) -> None:
+    calls: list[str] = []
+    client = _Recorder(calls, "client", fail_run)
+    close_dask(client, _Recorder(calls, "cluster"))
+    assert calls == ["client.run", "client.close", "cluster.close"]
+    calls.clear()
+    close_dask(client, None)  # a cluster hvacflex did not start: its workers are left alone
+    assert calls == ["client.close"]

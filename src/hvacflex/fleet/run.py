@@ -57,6 +57,7 @@ from hvacflex.sim.run_files import (
     refuse_old_checkpoint,
     update_with_files,
 )
+from hvacflex.sim.sweep import close_dask
 from hvacflex.units import SECONDS_PER_HOUR, STEP_30MIN_S
 from hvacflex.version import atomic_write_text, code_version
 
@@ -326,9 +327,7 @@ def run_fleet(
         long = _collect_buildings(groups, fleet, values, col)
     finally:
         if own_client is not None:
-            own_client.close()
-        if cluster is not None:
-            cluster.close()
+            close_dask(own_client, cluster)
 
     frame = settle_fleet(
         _results_frame(values, flags, iterations, index), settings.il_events.il_baseline

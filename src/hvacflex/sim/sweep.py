@@ -11,6 +11,7 @@ error; the others still finish and are gathered into one table.
 from __future__ import annotations
 
 import itertools
+import logging
 import traceback
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
@@ -129,15 +130,40 @@ DASK_LOG_LEVEL = "error"
 hvacflex recovers from, long GC pauses) are not the user's business; errors still show."""
 
 
+log = logging.getLogger(__name__)
+
+
 def quiet_dask_logs() -> None:
     """Set Dask's ``distributed`` loggers to :data:`DASK_LOG_LEVEL`, here and (through the
     configuration a ``LocalCluster`` hands its workers) in the worker processes."""
-    import logging
-
     import dask
 
     dask.config.set({"logging": {"distributed": DASK_LOG_LEVEL}})
     logging.getLogger("distributed").setLevel(DASK_LOG_LEVEL.upper())
+
+
+def _silence_distributed() -> None:
+    """In a worker process: Dask's ``distributed`` loggers to critical (the cluster closes)."""
+    logging.getLogger("distributed").setLevel(logging.CRITICAL)
+
+
+def close_dask(client: Any, cluster: Any | None) -> None:
+    """Close ``client`` and, if hvacflex started it, ``cluster``.
+
+    A worker whose heartbeat is in flight while the scheduler stops logs "Failed to
+    communicate with scheduler during heartbeat", with tracebacks, at ERROR level. This
+    happens on loaded machines, after every job has finished. So the workers of a cluster
+    hvacflex owns are silenced first.
+    """
+    try:
+        if cluster is not None:
+            client.run(_silence_distributed)
+    except Exception:  # a worker already gone: nothing left to silence
+        log.debug("could not silence the workers' logs before closing", exc_info=True)
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
 
 
 def _submit_longest_first(
@@ -249,9 +275,7 @@ def run_sweep(
                 if on_done is not None:
                     on_done(outcome)
     finally:
-        client.close()  # type: ignore[no-untyped-call]
-        if cluster is not None:
-            cluster.close()
+        close_dask(client, cluster)
     return [outcomes[i] for i in range(len(jobs))]
 
 
