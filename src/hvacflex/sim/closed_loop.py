@@ -296,8 +296,13 @@ class ClosedLoop:
             latent_gain_w=float(exo.occupant_latent_w[k]),
         )
         period = self._plant_period(decision, disturbance)
-        if period.applied.supply_temp_degc is not None and period.applied.node_temp_degc is None:
-            # the filter predicts with what the air delivered, as the observer does
+        if (
+            period.applied.supply_temp_degc is not None
+            and period.applied.node_temp_degc is None
+            and setup.config.controller.linearisation == "fixed"
+        ):
+            # the filter predicts with what the air delivered, as the observer does (its input
+            # is the fixed model's; a re-linearised step model has another operating point)
             self.control.note_delivered_flow(self._delivered_input(period.applied))
         step_model = self.control.step_model
         error_k = self.sensors.prediction_error_k(
