@@ -180,6 +180,9 @@ class _PlantPeriod:
     served_power_kw: float
     curtailed_power_kw: float
     x_next_degc: FloatArray
+    input_kg_s: FloatArray
+    """(m,) the air system's input over the period as the model takes it [kg/s]
+    (:meth:`ClosedLoop._delivered_input`)."""
 
 
 class ClosedLoop:
@@ -233,7 +236,7 @@ class ClosedLoop:
         self.x = np.full(len(setup.model.node_names), cfg.initial_temp_degc)
         if setup.building.identified is not None:  # hidden nodes at their estimated values
             self.x = initial_node_temps_degc(setup.building.identified, cfg.initial_temp_degc)
-        self.x = self._state_after(self.plant.reset(cfg.initial_temp_degc), None)
+        self.x = self._state_after(self.plant.reset(cfg.initial_temp_degc), None, None)
         self.sampler = DisturbanceSampler(
             cfg.realisation.mode, seed=cfg.seed, ar1_coefficient=cfg.realisation.ar1_coefficient
         )
@@ -303,7 +306,7 @@ class ClosedLoop:
         ):
             # the filter predicts with what the air delivered, as the observer does (its input
             # is the fixed model's; a re-linearised step model has another operating point)
-            self.control.note_delivered_flow(self._delivered_input(period.applied))
+            self.control.note_delivered_flow(period.input_kg_s)
         step_model = self.control.step_model
         error_k = self.sensors.prediction_error_k(
             setup.model if step_model is None else step_model,
@@ -355,8 +358,9 @@ class ClosedLoop:
             nan = float("nan")
             served_kw = applied.power_kw if not curtailed else nan
             curtailed_kw = applied.power_kw if curtailed or not offered else nan
-            x_next = self._state_after(applied, disturbance)
-            return _PlantPeriod(applied, served_kw, curtailed_kw, x_next)
+            flow = self._delivered_input(applied)
+            x_next = self._state_after(applied, disturbance, flow)
+            return _PlantPeriod(applied, served_kw, curtailed_kw, x_next, flow)
         before = plant.get_state()
         served = plant.step(served_act, disturbance, dt_s)
         if offered:
@@ -368,8 +372,9 @@ class ClosedLoop:
         else:  # no reserve offered: activation changes nothing
             cut = served
         applied = cut if curtailed else served
-        x_next = self._state_after(applied, disturbance)
-        return _PlantPeriod(applied, served.power_kw, cut.power_kw, x_next)
+        flow = self._delivered_input(applied)
+        x_next = self._state_after(applied, disturbance, flow)
+        return _PlantPeriod(applied, served.power_kw, cut.power_kw, x_next, flow)
 
     def _actuation(self, decision: Decision, *, curtailed: bool) -> Actuation:
         """What the plant is told: the flows (u, or u − r when curtailed) with the action's
@@ -393,20 +398,25 @@ class ClosedLoop:
         idle = flow <= self._flow_min_kg_s[int(exo.occupied[k])] + SETPOINT_IDLE_FLOW_KG_S
         return Actuation(setpoint_degc=np.where(idle, upper, setpoint))
 
-    def _state_after(self, observation: Observation, disturbance: Disturbance | None) -> FloatArray:
+    def _state_after(
+        self,
+        observation: Observation,
+        disturbance: Disturbance | None,
+        flow_kg_s: FloatArray | None,
+    ) -> FloatArray:
         """The node temperatures (n,) [°C] after the period: the plant's own where it shows
         them; else the controller's model predicts the other nodes from the state before,
         the air system's input the plant reports (the delivered cooling where it reads the
         supply air temperature, else the flows) and the realised disturbance, and the zone readings
         replace its zone nodes, the plant's boundary readings (a plenum) its boundary nodes
-        (an open-loop observer of the hidden wall and mass temperatures)."""
+        (an open-loop observer of the hidden wall and mass temperatures). ``flow_kg_s``: that
+        input (m,) [kg/s] (:meth:`_delivered_input`), None at the reset."""
         if observation.node_temp_degc is not None:
             return np.asarray(observation.node_temp_degc, dtype=float)
         model = self.setup.model
         x = self.x.copy()
-        if disturbance is not None:
-            flow = self._delivered_input(observation)
-            x = model.a @ x + model.b @ flow + model.e @ disturbance.d + model.g
+        if disturbance is not None and flow_kg_s is not None:
+            x = model.a @ x + model.b @ flow_kg_s + model.e @ disturbance.d + model.g
         x[self._zone_rows] = observation.zone_temp_degc
         if observation.boundary_temp_degc is not None and self._boundary_rows.size:
             x[self._boundary_rows] = observation.boundary_temp_degc
