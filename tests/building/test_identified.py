@@ -12,11 +12,11 @@ import hvacflex
 from hvacflex.building.discretize import linearize
 from hvacflex.building.identified import (
     IdentifiedPower,
-    cooling_kw,
     identified_affine_power,
     identified_occupied_share,
     identified_power_kw,
     initial_node_temps_degc,
+    sensible_cooling_kw,
 )
 from hvacflex.building.io import building_from_dict, load_building
 from hvacflex.building.rc import disturbance_channels as building_channels
@@ -89,7 +89,7 @@ def test_the_power_model_in_the_lp_matches_the_plants_at_the_reference(model_pat
     by_hand = 1.2 + 0.35 * cooling.sum() + 0.04 * outdoor
     assert p0[0] + p[0] @ flow == pytest.approx(by_hand, rel=1e-12)
     assert identified_power_kw(rc, flow, np.full(2, t0), outdoor) == pytest.approx(by_hand)
-    np.testing.assert_allclose(cooling_kw(flow, np.full(2, t0), SUPPLY_TEMP_DEGC), cooling)
+    np.testing.assert_allclose(sensible_cooling_kw(flow, np.full(2, t0), SUPPLY_TEMP_DEGC), cooling)
 
 
 def test_the_occupied_outdoor_air_term_is_in_the_lp_and_the_plant(model_path: Path) -> None:

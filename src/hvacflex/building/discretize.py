@@ -26,10 +26,11 @@ import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
 from hvacflex.building.channels import DisturbanceChannel
+from hvacflex.building.identified import sensible_cooling_kw
 from hvacflex.building.model import Building
 from hvacflex.building.rc import ThermalNetwork, build_network, frozen_array
 from hvacflex.errors import BuildingConfigError
-from hvacflex.units import CP_AIR_J_PER_KG_K, STEP_30MIN_S
+from hvacflex.units import CP_AIR_J_PER_KG_K, STEP_30MIN_S, W_PER_KW
 
 FloatArray = NDArray[np.float64]
 
@@ -112,8 +113,10 @@ def delivered_flow_kg_s(
     t0 = model.linearisation_temp_degc
     if not np.all(t0 > supply_temp_degc):
         raise ValueError(f"T_s {supply_temp_degc} °C must be below the linearisation's T₀ {t0}")
-    metered = np.where(flow > 0.0, flow * (inlet - zone), 0.0)  # no air: no inlet reading
-    out: FloatArray = (metered + model.flow_ref_kg_s * (zone - t0)) / (supply_temp_degc - t0)
+    # no air: no inlet reading; the metered cooling in K·kg/s
+    cooling = np.where(flow > 0.0, sensible_cooling_kw(flow, zone, inlet), 0.0)
+    metered = cooling * W_PER_KW / CP_AIR_J_PER_KG_K
+    out: FloatArray = (model.flow_ref_kg_s * (zone - t0) - metered) / (supply_temp_degc - t0)
     return out
 
 

@@ -31,7 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from hvacflex.units import CP_AIR_J_PER_KG_K
+from hvacflex.units import CP_AIR_J_PER_KG_K, W_PER_KW
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -153,14 +153,17 @@ class IdentifiedRC:
     provenance: tuple[tuple[str, str], ...] = ()
 
 
-def cooling_kw(
-    flow_kg_s: npt.ArrayLike, zone_temp_degc: npt.ArrayLike, supply_temp_degc: float
+def sensible_cooling_kw(
+    flow_kg_s: npt.ArrayLike, zone_temp_degc: npt.ArrayLike, supply_temp_degc: npt.ArrayLike
 ) -> FloatArray:
-    """(…, m) delivered sensible cooling ``ṁ c_p (Ta − T_s)`` [kW] of flows [kg/s] at zone
-    temperatures [°C]."""
+    """(…, m) the sensible cooling ``ṁ c_p (Ta − T_s)`` [kW] supply air delivers: flows
+    [kg/s] into zones at ``Ta`` [°C], supplied at ``T_s`` [°C] (broadcast). The one home of
+    this formula: the fit's cooling input, the power model and the observer's delivered
+    input take it from here."""
     flow = np.asarray(flow_kg_s, dtype=np.float64)
     temp = np.asarray(zone_temp_degc, dtype=np.float64)
-    out: FloatArray = flow * CP_AIR_J_PER_KG_K * (temp - supply_temp_degc) / 1000.0
+    supply = np.asarray(supply_temp_degc, dtype=np.float64)
+    out: FloatArray = flow * CP_AIR_J_PER_KG_K * (temp - supply) / W_PER_KW
     return out
 
 
@@ -175,7 +178,7 @@ def identified_power_kw(
     [°C] at an occupied share ``occupied`` [–] (0 without a power model)."""
     if rc.power is None:
         return 0.0
-    total = float(cooling_kw(flow_kg_s, zone_temp_degc, rc.supply_temp_degc).sum())
+    total = float(sensible_cooling_kw(flow_kg_s, zone_temp_degc, rc.supply_temp_degc).sum())
     flow = np.asarray(flow_kg_s, dtype=np.float64)
     outdoor_air = float((flow * (outdoor_temp_degc - np.asarray(zone_temp_degc))).sum())
     p = rc.power
@@ -222,7 +225,7 @@ def identified_affine_power(
     if rc.power is None:
         return np.zeros(outdoor.shape[0]), np.zeros((outdoor.shape[0], m))
     per_kg_s = rc.power.kw_per_kw_cooling * float(
-        cooling_kw(1.0, zone_temp_ref_degc, rc.supply_temp_degc)
+        sensible_cooling_kw(1.0, zone_temp_ref_degc, rc.supply_temp_degc)
     )
     occ = np.zeros_like(outdoor) if occupied is None else np.asarray(occupied, dtype=np.float64)
     power = rc.power

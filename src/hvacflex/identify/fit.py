@@ -30,7 +30,7 @@ import numpy as np
 import pandas as pd
 import scipy.optimize
 
-from hvacflex.building.identified import WALL_ORIENTATIONS
+from hvacflex.building.identified import WALL_ORIENTATIONS, sensible_cooling_kw
 from hvacflex.data.solar import SolarSite, decompose_ghi, surface_irradiance_w_per_m2
 from hvacflex.errors import InputError
 from hvacflex.identify.greybox import (
@@ -57,7 +57,6 @@ from hvacflex.identify.trend import (
     TrendData,
     zone_column,
 )
-from hvacflex.units import CP_AIR_J_PER_KG_K
 
 PERIODS_PER_DAY = 48
 PERIOD_S_HOURS = 0.5
@@ -218,7 +217,6 @@ def fit_inputs(
     flow = data.zone_series("supply_flow", names)
     supply = data.zone_series("supply_temp", names)
     assert y is not None and flow is not None and supply is not None
-    cooling_kw = flow * CP_AIR_J_PER_KG_K * (y - supply) / 1000.0
     measured = data.has(DNI) and data.has(DHI)
     split = (data.column(DNI), data.column(DHI)) if measured else (None, None)
     u = np.column_stack(
@@ -228,7 +226,7 @@ def fit_inputs(
             data.column(OCCUPIED),
             np.ones(len(y)),
             wall_irradiance_kw_per_m2(data.index, data.column(GHI), site, *split),
-            cooling_kw,
+            sensible_cooling_kw(flow, y, supply),
             data.frame[[zone_column("temp", b) for b in boundaries]].to_numpy(dtype=np.float64),
         ]
     )
@@ -678,7 +676,8 @@ def air_system(
         supply_temp = float(np.quantile(supply[cooling], COIL_SUPPLY_QUANTILE))
         zone_temp = inputs.y[first:end]
         delivered_kw = cooling_kw(inputs)[first:end]
-        per_kg_s_kw = CP_AIR_J_PER_KG_K * np.maximum(zone_temp - supply_temp, 1.0) / 1000.0
+        warmer = np.maximum(zone_temp, supply_temp + 1.0)  # at least 1 K above the coil
+        per_kg_s_kw = sensible_cooling_kw(1.0, warmer, supply_temp)
         flow = np.clip(delivered_kw / per_kg_s_kw, 0.0, None)
     occupied = data.column(OCCUPIED)[first:end] > 0
     low = flow.min(axis=0)
