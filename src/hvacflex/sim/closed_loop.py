@@ -308,6 +308,8 @@ class ClosedLoop:
             # is the fixed model's; a re-linearised step model has another operating point)
             self.control.note_delivered_flow(period.input_kg_s)
         step_model = self.control.step_model
+        # graded with the decided input, not the delivered one: the error between plan and
+        # plant, which a box calibrated from it must cover (docs/estimation.md section 4)
         error_k = self.sensors.prediction_error_k(
             setup.model if step_model is None else step_model,
             self.x,
