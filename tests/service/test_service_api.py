@@ -148,6 +148,8 @@ def test_measurement_plans_and_is_idempotent(service: Service) -> None:
         ({"time": "2015-06-01T00:00"}, "time"),
         ({"node_temperatures_degc": [25.0]}, "node_temperatures_degc"),
         ({"previous_power_kw": -1.0}, "previous_power_kw"),
+        ({"previous_delivered_flow_kg_s": [0.5]}, "previous_delivered_flow_kg_s"),
+        ({"previous_delivered_flow_kg_s": [0.5, 1e6, 0.5, 0.5, 0.5]}, "delivered_flow_kg_s[1]"),
         ({"extra": 1}, "extra"),
     ],
 )

@@ -7,6 +7,7 @@ import subprocess
 import threading
 import time
 from collections.abc import Callable, Iterator
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -18,9 +19,18 @@ from service_fixtures import SERVE, START, Server, free_port, operator_key_for, 
 from hvacflex.config import preset, with_overrides
 from hvacflex.errors import InputError
 from hvacflex.results import RESULTS_FILENAME as RESULTS_FILE
-from hvacflex.service.replay import ServiceError, replay
-from hvacflex.sim.closed_loop import run_simulation
+from hvacflex.service.replay import (
+    Client,
+    RemoteControl,
+    RemoteController,
+    ServiceError,
+    registration,
+    replay,
+)
+from hvacflex.sim.closed_loop import ClosedLoop, run_simulation
+from hvacflex.sim.plant import Actuation, Disturbance, Observation, RCPlant
 from hvacflex.sim.run_files import read_results
+from hvacflex.sim.setup import prepare
 
 DAYS = 1.0
 KILL_AFTER_PLANS = 34
@@ -165,3 +175,57 @@ def _building_key(server: Server) -> str:
         timeout=120,
     )
     return out.stdout.strip().splitlines()[-1]
+
+
+class CoilAtLimitPlant(RCPlant):
+    """The RC network, read as an outside emulator reads it: zone air only, and supply air
+    1.5 K warmer than the model's (a coil at its limit), so the air delivers less cooling
+    than the decided flow at the model's supply temperature."""
+
+    def __init__(self, building: Any) -> None:
+        super().__init__(building)
+        self.supply_temp_degc = float(building.hvac.supply_temp_degc) + 1.5
+
+    def step(self, actuation: Actuation, disturbance: Disturbance, dt_s: float) -> Observation:
+        observed = super().step(actuation, disturbance, dt_s)
+        supply = np.full(len(observed.zone_temp_degc), self.supply_temp_degc)
+        return replace(observed, node_temp_degc=None, supply_temp_degc=supply)
+
+
+def test_replay_equals_simulate_with_a_filter_on_a_plant_whose_air_delivers_otherwise(
+    make_db_url: Callable[[str], str],
+) -> None:
+    """The Kalman filter predicts with the delivered cooling (``ClosedLoop._delivered_input``);
+    in the service it arrives with the next measurement (``previous_delivered_flow_kg_s``)."""
+    config = with_overrides(
+        preset("nmpc", start=f"{START}T09:00", days=0.125), {"estimation.mode": "kalman"}
+    )
+    setup = prepare(config)
+    local = ClosedLoop(setup, plant=CoilAtLimitPlant(setup.building))
+    while local.k < local.steps:
+        local.step()
+    server = Server(make_db_url("coil"), free_port())
+    server.start()
+    try:
+        operator = Client(server.url, operator_key_for(server.db_url))
+        key = str(operator.call("POST", "/v1/buildings", registration(config, "coil"))["key"])
+        remote = RemoteController(Client(server.url, key), "coil")
+        control = RemoteControl(remote, operator, setup.model.c.argmax(axis=1))
+        plant = CoilAtLimitPlant(setup.building)
+        played = ClosedLoop(prepare(config), plant=plant, control=control)
+        posted: list[Any] = []
+        while played.k < played.steps:
+            remote.previous_power_kw = (
+                None if played.k == 0 else float(played.frame()["power_kw"].iloc[-1])
+            )
+            posted.append(control.delivered_flow_kg_s)
+            played.step()
+    finally:
+        server.stop()
+    assert posted[0] is None and all(flow is not None for flow in posted[1:])
+    decided = local.frame()[[f"flow_{z}_kg_s" for z in setup.zone_names]].to_numpy()
+    assert np.all(np.asarray(posted[1:]) < decided[:-1] - 1e-3)  # less than decided
+    pd.testing.assert_frame_equal(
+        _comparable(played.frame()), _comparable(local.frame()), check_exact=False, rtol=1e-9,
+        atol=1e-9,
+    )  # fmt: skip

@@ -144,6 +144,43 @@ def test_a_replannable_step_decides_a_period_again_from_before_it() -> None:
         _decide(step, -1, set())
 
 
+class FilteringController(CountingController):
+    """... whose state holds the last flow it was told (a filter's last step)."""
+
+    def get_state(self) -> dict[str, Any]:
+        return {"calls": self.calls, "applied": list(self.applied)}
+
+    def set_state(self, state: dict[str, Any]) -> None:
+        self.calls = int(state["calls"])
+        self.applied = list(state["applied"])
+
+
+def test_a_delivered_flow_posted_with_the_next_period_reaches_the_filter_of_its_step() -> None:
+    """The service's path (the flow arrives with k's measurement) tells the controller what
+    the closed loop's (``note_delivered_flow`` after k − 1) does, and is kept for k again."""
+    controller = FilteringController()
+    config = preset("rmpc", start="2014-03-03", days=1.0)  # fixed linearisation
+    step = ControlStep(config, controller, ZONES, replannable=True)
+    delivered = np.array([0.3, 0.4])
+    inputs = PeriodInputs(np.full(3, 25.0), None, 0.0)  # type: ignore[arg-type]
+    step.decide(0, inputs, activated=lambda j: False)
+    step.decide(1, inputs, activated=lambda j: False, previous_delivered_flow_kg_s=delivered)
+    # period 0's decided flow, then the delivered one replacing it, then period 1's
+    np.testing.assert_array_equal(controller.applied[-2], delivered)
+    told = len(controller.applied)
+    step.decide(1, inputs, activated=lambda j: False)  # decided again: restored with it
+    assert len(controller.applied) == told
+    np.testing.assert_array_equal(controller.applied[-2], delivered)
+    # a period skipped: the flow is not the controller's last step's, and is dropped
+    step.decide(3, inputs, activated=lambda j: False, previous_delivered_flow_kg_s=delivered + 1)
+    assert not any(np.array_equal(flow, delivered + 1) for flow in controller.applied)
+    # a re-linearised controller's filter has another operating point: not told
+    trajectory = ControlStep(preset("rmpc-output-feedback"), FilteringController(), ZONES)
+    trajectory.decide(0, inputs, activated=lambda j: False)
+    trajectory.decide(1, inputs, activated=lambda j: False, previous_delivered_flow_kg_s=delivered)
+    assert not any(np.array_equal(f, delivered) for f in trajectory.controller.applied)  # type: ignore[attr-defined]
+
+
 def test_periods_nobody_decided_advance_the_event_bookkeeping() -> None:
     step, controller = _step()
     _decide(step, 0, {1, 2})

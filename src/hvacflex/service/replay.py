@@ -191,13 +191,19 @@ class RemoteController:
         self.previous_power_kw: float | None = None
         self.plans: list[dict[str, Any]] = []
 
-    def exchange(self, x_degc: FloatArray, time: str) -> dict[str, Any]:
-        """Post the measurement of the period starting at ``time``; the service's plan."""
-        body = {
+    def exchange(
+        self, x_degc: FloatArray, time: str, delivered_flow_kg_s: FloatArray | None = None
+    ) -> dict[str, Any]:
+        """Post the measurement of the period starting at ``time`` (and the air system's
+        delivered input (m,) [kg/s] of the period before, where the plant reports one); the
+        service's plan."""
+        body: dict[str, Any] = {
             "time": time,
             "node_temperatures_degc": [float(v) for v in x_degc],
             "previous_power_kw": self.previous_power_kw,
         }
+        if delivered_flow_kg_s is not None:
+            body["previous_delivered_flow_kg_s"] = [float(v) for v in delivered_flow_kg_s]
         path = f"/v1/buildings/{self.building_id}/measurements?wait_s={MAX_WAIT_S:g}"
         status, plan = self.client.call_status("POST", path, body)
         plan = dict(plan)
@@ -221,13 +227,21 @@ class RemoteControl:
     IL outcome (the rules run only in the service's :class:`~hvacflex.sim.step.ControlStep`).
     """
 
-    takes_measurements = False
+    takes_measurements = True
+    """The closed loop reads the zone air for the service (its sensors do so only for a
+    controller with a filter, ``estimation.mode = "kalman"``); the reading is posted in the
+    zone rows of the node temperatures, where the service's filter reads it."""
     step_model = None
 
-    def __init__(self, remote: RemoteController, operator: Client) -> None:
+    def __init__(self, remote: RemoteController, operator: Client, zone_rows: FloatArray) -> None:
         self.remote = remote
         self.operator = operator
+        self.zone_rows = np.asarray(zone_rows, dtype=int)
+        """(m,) the zone nodes' positions in the state (the model's C)."""
         self.active = False
+        self.delivered_flow_kg_s: FloatArray | None = None
+        """(m,) the plant's delivered input of the period just run [kg/s], posted with the
+        next measurement (None: the plant reports none)."""
 
     def decide(
         self,
@@ -249,7 +263,11 @@ class RemoteControl:
                 "building_ids": [self.remote.building_id],
             }
             self.operator.call("POST", "/v1/activations", body)
-        answer = self.remote.exchange(inputs.x_degc, time)
+        x = np.array(inputs.x_degc, dtype=float)
+        if inputs.measured_zone_temp_degc is not None:
+            x[self.zone_rows] = inputs.measured_zone_temp_degc
+        answer = self.remote.exchange(x, time, self.delivered_flow_kg_s)
+        self.delivered_flow_kg_s = None
         action = action_from_plan(answer)
         role = Role(answer["il_role"])
         outcome = PeriodOutcome(
@@ -264,16 +282,20 @@ class RemoteControl:
         return Decision(action, status, role, outcome, applied, None, None)
 
     def note_delivered_flow(self, flow_kg_s: FloatArray) -> None:
-        return None  # the service's controller filters what it is told
+        """Keep the plant's report for the next measurement: the service's control step
+        takes it there (``previous_delivered_flow_kg_s``)."""
+        self.delivered_flow_kg_s = np.asarray(flow_kg_s, dtype=float)
 
     def restart_warm(self) -> None:
         return None  # the service keeps the controller
 
     def get_state(self) -> dict[str, Any]:
-        return {"active": self.active}
+        return {"active": self.active, "delivered_flow_kg_s": self.delivered_flow_kg_s}
 
     def set_state(self, state: dict[str, Any]) -> None:
         self.active = bool(state["active"])
+        flow = state.get("delivered_flow_kg_s")
+        self.delivered_flow_kg_s = None if flow is None else np.asarray(flow, dtype=float)
 
 
 def registration(config: ScenarioConfig, building_id: str) -> dict[str, Any]:
@@ -356,7 +378,9 @@ def replay(
         )
         building_key = str(registered["key"])
     remote = RemoteController(Client(url, building_key), building_id, on_plan)
-    loop = ClosedLoop(prepare(config), control=RemoteControl(remote, Client(url, operator_key)))
+    setup = prepare(config)
+    control = RemoteControl(remote, Client(url, operator_key), setup.model.c.argmax(axis=1))
+    loop = ClosedLoop(setup, control=control)
     column = loop.recorder.column_index["power_kw"]
     last = loop.steps if stop_after_steps is None else min(loop.steps, stop_after_steps)
     while loop.k < last:

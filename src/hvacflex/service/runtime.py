@@ -465,11 +465,13 @@ class Runtime:
         x_degc: np.ndarray,
         trigger: str,
         revision: int | None = None,
+        delivered_flow_kg_s: np.ndarray | None = None,
     ) -> dict[str, Any]:
         """Plan period k from the node temperatures ``x_degc`` (n,) [°C] under the IL event
         model (:class:`~hvacflex.sim.step.ControlStep`) and store the plan (the
         caller commits) as ``revision`` (default: the period's next); the controller's and
-        the event state are stored with it.
+        the event state are stored with it. ``delivered_flow_kg_s``: the measurement's
+        report of period k − 1's delivered input (m,) [kg/s], if any.
 
         Raises
         ------
@@ -488,6 +490,7 @@ class Runtime:
             PeriodInputs(x_degc, forecast, floor, measured_zone_temp_degc=measured),
             activated=activated,
             baseline_power_kw=self._previous_power_kw(session, runtime, k),
+            previous_delivered_flow_kg_s=delivered_flow_kg_s,
         )
         payload = self._payload(runtime, k, decision, decision.plan, forecast.index)
         payload["peak_price_sgd_per_kw"] = effective_peak_price(
@@ -616,10 +619,22 @@ class Runtime:
                 field=f"node_temperatures_degc[{bad[0]}]",
                 value=float(x[bad[0]]),
             )
-        k = runtime.period_of(body.time, "time")
-        canonical = json.dumps(
-            {"period": k, "x": x.tolist(), "previous_power_kw": body.previous_power_kw}
-        )
+        record: dict[str, Any] = {
+            "period": runtime.period_of(body.time, "time"),
+            "x": x.tolist(),
+            "previous_power_kw": body.previous_power_kw,
+        }
+        if body.previous_delivered_flow_kg_s is not None:
+            m = len(runtime.setup.zone_names)
+            if len(body.previous_delivered_flow_kg_s) != m:
+                raise InputError(
+                    f"expected {m} delivered flows (zones {list(runtime.setup.zone_names)})",
+                    field="previous_delivered_flow_kg_s",
+                    value=len(body.previous_delivered_flow_kg_s),
+                )
+            record["delivered_flow_kg_s"] = list(body.previous_delivered_flow_kg_s)
+        k = int(record["period"])
+        canonical = json.dumps(record)  # a key only when reported: older digests stand
         digest = hashlib.sha256(canonical.encode()).hexdigest()
         with runtime.store_lock, self.sessions() as session, session.begin():
             existing = session.scalars(
@@ -681,9 +696,14 @@ class Runtime:
                     Measurement.building_id == building_id, Measurement.period == k
                 )
             ).one()
-            x = np.asarray(json.loads(row.body_json)["x"], dtype=float)
+            record = json.loads(row.body_json)
+            x = np.asarray(record["x"], dtype=float)
+            flow = record.get("delivered_flow_kg_s")
+            delivered = None if flow is None else np.asarray(flow, dtype=float)
             try:
-                return self.plan(session, runtime, k, x, "measurement", revision=revision)
+                return self.plan(
+                    session, runtime, k, x, "measurement", revision, delivered_flow_kg_s=delivered
+                )
             except BaseException:
                 self.evict(building_id)
                 raise

@@ -86,6 +86,9 @@ ReservePrice = Annotated[float, Field(ge=0.0, le=ENERGY_PRICE_LIMIT_SGD_PER_MWH)
 OUTDOOR_TEMP_MIN_DEGC, OUTDOOR_TEMP_MAX_DEGC = -50.0, 60.0
 """Range of a posted outdoor-temperature forecast [°C]."""
 OutdoorTemp = Annotated[float, Field(ge=OUTDOOR_TEMP_MIN_DEGC, le=OUTDOOR_TEMP_MAX_DEGC)]
+FLOW_LIMIT_KG_S = 10_000.0
+"""|delivered air flow| a measurement may report per zone [kg/s]."""
+DeliveredFlow = Annotated[float, Field(ge=-FLOW_LIMIT_KG_S, le=FLOW_LIMIT_KG_S)]
 
 
 class Envelope(BaseModel, Generic[T]):
@@ -167,6 +170,18 @@ class MeasurementIn(BaseModel):
     )
     previous_power_kw: float | None = Field(
         default=None, ge=0.0, le=POWER_MAX_KW, description="Mean power of the previous period [kW]."
+    )
+    previous_delivered_flow_kg_s: list[DeliveredFlow] | None = Field(
+        default=None,
+        min_length=1,
+        max_length=10_000,
+        description=(
+            "(m,) what the supply air delivered to each zone in the previous period, as the"
+            " model's input [kg/s]: the sensible cooling ṁ c_p (T_zone − T_supply,measured)"
+            " divided by c_p (T_zone − T_supply,model). A controller with a zone-air filter"
+            " (estimator = kalman, fixed linearisation) predicts with it instead of the flow it"
+            " decided; ignored otherwise."
+        ),
     )
 
 

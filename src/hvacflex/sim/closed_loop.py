@@ -299,13 +299,8 @@ class ClosedLoop:
             latent_gain_w=float(exo.occupant_latent_w[k]),
         )
         period = self._plant_period(decision, disturbance)
-        if (
-            period.applied.supply_temp_degc is not None
-            and period.applied.node_temp_degc is None
-            and setup.config.controller.linearisation == "fixed"
-        ):
-            # the filter predicts with what the air delivered, as the observer does (its input
-            # is the fixed model's; a re-linearised step model has another operating point)
+        if period.applied.supply_temp_degc is not None and period.applied.node_temp_degc is None:
+            # the filter predicts with what the air delivered, as the observer does
             self.control.note_delivered_flow(period.input_kg_s)
         step_model = self.control.step_model
         # graded with the decided input, not the delivered one: the error between plan and

@@ -161,6 +161,9 @@ class ControlStep:
         self.tracker = event_tracker(config)
         self.zones = zones
         self.replannable = replannable
+        self.filter_takes_delivered = config.controller.linearisation == "fixed"
+        """Whether :meth:`note_delivered_flow` reaches the controller's filter: its input is
+        the fixed model's; a re-linearised step model has another operating point."""
         self.period = -1
         """The latest period decided (−1: none)."""
         self._before: dict[str, Any] | None = None
@@ -195,6 +198,7 @@ class ControlStep:
         *,
         activated: Callable[[int], bool],
         baseline_power_kw: float | None = None,
+        previous_delivered_flow_kg_s: FloatArray | None = None,
     ) -> Decision:
         """Decide period ``k``.
 
@@ -208,12 +212,17 @@ class ControlStep:
         activated : whether IL is activated in period j.
         baseline_power_kw : the metered baseline an activation starting at ``k`` would be
             settled against [kW] (NaN: none; None: unknown), told to the controller.
+        previous_delivered_flow_kg_s : the plant's report of period k − 1
+            (:meth:`note_delivered_flow`), where the caller has it with k's measurement
+            rather than after k − 1 (the service); taken only when k − 1 is the latest
+            decided period (a skipped period's plant input is not the filter's last step),
+            and kept for a decision of k again.
 
         Raises
         ------
         ConflictError : ``k`` is before the latest decided period.
         """
-        self._start_period(k, activated)
+        self._start_period(k, activated, previous_delivered_flow_kg_s)
         controller, tracker = self.controller, self.tracker
         role = tracker.role(activated(k))
         if role is Role.EVENT_LOCKED:
@@ -237,7 +246,9 @@ class ControlStep:
         made = controller.last_plan if status is DecisionStatus.PLANNED else None
         return Decision(action, status, role, outcome, applied_flow, made, locked)
 
-    def _start_period(self, k: int, activated: Callable[[int], bool]) -> None:
+    def _start_period(
+        self, k: int, activated: Callable[[int], bool], delivered_flow_kg_s: FloatArray | None
+    ) -> None:
         if k < self.period:
             raise ConflictError(
                 f"period {k} is before the building's latest planned period {self.period}",
@@ -245,13 +256,16 @@ class ControlStep:
                 value=k,
                 hint="plans go forward: post the measurement of the current period",
             )
-        if k == self.period and self._before is not None:  # decide again from before it
-            self.controller.set_state(self._before["controller"])
-            self.tracker.set_state(self._before["events"])
-            self._set_commitments(self._before.get("commitments"))
+        before = self._before if k == self.period else None
+        if before is not None:  # decide again from before it
+            self.controller.set_state(before["controller"])
+            self.tracker.set_state(before["events"])
+            self._set_commitments(before.get("commitments"))
         else:
             for j in range(self.period + 1, k):
                 self._skip(activated(j))
+        if delivered_flow_kg_s is not None and (before is not None or k == self.period + 1):
+            self.note_delivered_flow(delivered_flow_kg_s)
         if self.replannable:
             self._before = {
                 "controller": self.controller.get_state(),
@@ -296,8 +310,10 @@ class ControlStep:
     def note_delivered_flow(self, flow_kg_s: FloatArray) -> None:
         """The plant's report of the period just run: the air system's input (m,) [kg/s] as
         the model takes it (the cooling the air delivered as a flow at the model's supply
-        temperature), for the controller's filter in place of the decided flow."""
-        self.controller.note_applied_flow(flow_kg_s)
+        temperature), for the controller's filter in place of the decided flow (under the
+        fixed linearisation only: :attr:`filter_takes_delivered`)."""
+        if self.filter_takes_delivered:
+            self.controller.note_applied_flow(flow_kg_s)
 
     def restart_warm(self) -> None:
         """Continue as if resumed from :meth:`get_state` (see
