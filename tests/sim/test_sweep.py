@@ -88,7 +88,8 @@ class _Recorder:
     def __init__(self, calls: list[str], name: str, fail_run: bool = False) -> None:
         self.calls, self.name, self.fail_run = calls, name, fail_run
 
-    def run(self, function: object) -> None:
+    def run(self, function: object, callback_timeout: float | None = None) -> None:
+        assert callback_timeout is not None and 0 < callback_timeout <= 30  # never waits forever
         self.calls.append(f"{self.name}.run")
         if self.fail_run:
             raise OSError("worker gone")
@@ -106,3 +107,22 @@ def test_close_dask_silences_owned_workers_first_and_always_closes(fail_run: boo
     calls.clear()
     close_dask(client, None)  # a cluster hvacflex did not start: its workers are left alone
     assert calls == ["client.close"]
+
+
+def test_close_dask_silences_the_workers_of_a_real_cluster() -> None:
+    """The bounded wait goes to Dask (``Client.sync``), not to the silencing function: a
+    keyword Dask did not take would reach the function, fail and leave the workers loud."""
+    import logging
+
+    from distributed import Client, LocalCluster
+
+    distributed_log = logging.getLogger("distributed")
+    level = distributed_log.level
+    cluster = LocalCluster(
+        n_workers=1, threads_per_worker=1, processes=False, dashboard_address=None
+    )
+    try:
+        close_dask(Client(cluster), cluster)  # in-process worker: its loggers are these
+        assert distributed_log.level == logging.CRITICAL
+    finally:
+        distributed_log.setLevel(level)

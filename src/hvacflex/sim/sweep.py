@@ -142,6 +142,11 @@ def quiet_dask_logs() -> None:
     logging.getLogger("distributed").setLevel(DASK_LOG_LEVEL.upper())
 
 
+SILENCE_WORKERS_TIMEOUT_S = 10.0
+"""How long :func:`close_dask` waits for the workers to silence their logs [s] (a worker
+stuck in a long GC pause or gone half-way must not hang the end of a finished run)."""
+
+
 def _silence_distributed() -> None:
     """In a worker process: Dask's ``distributed`` loggers to critical (the cluster closes)."""
     logging.getLogger("distributed").setLevel(logging.CRITICAL)
@@ -153,12 +158,13 @@ def close_dask(client: Any, cluster: Any | None) -> None:
     A worker whose heartbeat is in flight while the scheduler stops logs "Failed to
     communicate with scheduler during heartbeat", with tracebacks, at ERROR level. This
     happens on loaded machines, after every job has finished. So the workers of a cluster
-    hvacflex owns are silenced first.
+    hvacflex owns are silenced first, waiting at most :data:`SILENCE_WORKERS_TIMEOUT_S`.
     """
     try:
         if cluster is not None:
-            client.run(_silence_distributed)
-    except Exception:  # a worker already gone: nothing left to silence
+            # ``callback_timeout`` bounds the wait of Dask's synchronous call (Client.sync)
+            client.run(_silence_distributed, callback_timeout=SILENCE_WORKERS_TIMEOUT_S)
+    except Exception:  # a worker gone or too slow to answer: closing goes on regardless
         log.debug("could not silence the workers' logs before closing", exc_info=True)
     finally:
         client.close()
