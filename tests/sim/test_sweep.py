@@ -126,3 +126,29 @@ def test_close_dask_silences_the_workers_of_a_real_cluster() -> None:
         assert distributed_log.level == logging.CRITICAL
     finally:
         distributed_log.setLevel(level)
+
+
+def test_start_local_dask_closes_its_cluster_when_the_client_fails(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    import dask.distributed
+
+    from hvacflex.sim.sweep import start_local_dask
+
+    closed: list[bool] = []
+
+    class _Cluster:
+        def __init__(self, **kwargs: object) -> None:
+            assert kwargs["threads_per_worker"] == 1 and kwargs["processes"] is True
+
+        def close(self) -> None:
+            closed.append(True)
+
+    def _refuse(cluster: object) -> None:
+        raise OSError("scheduler unreachable")
+
+    monkeypatch.setattr(dask.distributed, "LocalCluster", _Cluster)
+    monkeypatch.setattr(dask.distributed, "Client", _refuse)
+    with pytest.raises(OSError, match="unreachable"):
+        start_local_dask(2)
+    assert closed == [True]  # no worker processes left behind

@@ -749,15 +749,12 @@ def _start_dask(scheduler: str | None, workers: int | None) -> tuple[Any, Any, A
         return None, None, None
     import dask.distributed
 
-    from hvacflex.sim.sweep import quiet_dask_logs
+    from hvacflex.sim.sweep import quiet_dask_logs, start_local_dask
 
     distributed: Any = dask.distributed  # untyped package
     quiet_dask_logs()
     if scheduler is None:
-        cluster = distributed.LocalCluster(
-            n_workers=workers or 1, threads_per_worker=1, processes=True, dashboard_address=None
-        )
-        client = distributed.Client(cluster)
+        cluster, client = start_local_dask(workers or 1)
         return cluster, client, client
     existing = _existing_client(scheduler)
     if existing is not None:

@@ -152,6 +152,23 @@ def _silence_distributed() -> None:
     logging.getLogger("distributed").setLevel(logging.CRITICAL)
 
 
+def start_local_dask(n_workers: int) -> tuple[Any, Any]:
+    """(cluster, client): a ``LocalCluster`` of ``n_workers`` single-threaded worker
+    processes on this machine and a client of it (no dashboard: nothing shows it). The
+    cluster is closed again if the client cannot connect, so no worker processes are left
+    behind."""
+    from dask.distributed import Client, LocalCluster
+
+    cluster = LocalCluster(  # type: ignore[no-untyped-call]
+        n_workers=n_workers, threads_per_worker=1, processes=True, dashboard_address=None
+    )
+    try:
+        return cluster, Client(cluster)  # type: ignore[no-untyped-call]
+    except BaseException:
+        cluster.close()
+        raise
+
+
 def close_dask(client: Any, cluster: Any | None) -> None:
     """Close ``client`` and, if hvacflex started it, ``cluster``.
 
@@ -222,7 +239,7 @@ def run_sweep(
 
     Jobs start longest first (:func:`relative_cost`); the outcomes keep the order of ``jobs``.
     """
-    from dask.distributed import Client, LocalCluster, as_completed
+    from dask.distributed import Client, as_completed
 
     from hvacflex.sim.progress import task_progress
 
@@ -242,13 +259,7 @@ def run_sweep(
     )
     cluster = None
     if scheduler is None:
-        cluster = LocalCluster(  # type: ignore[no-untyped-call]
-            n_workers=n_workers,
-            threads_per_worker=1,
-            processes=True,
-            dashboard_address=":0",  # a free port: never clashes with a running cluster
-        )
-        client = Client(cluster)  # type: ignore[no-untyped-call]
+        cluster, client = start_local_dask(n_workers)
     else:
         client = Client(scheduler)  # type: ignore[no-untyped-call]
     outcomes: dict[int, JobOutcome] = {}
