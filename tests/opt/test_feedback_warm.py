@@ -9,6 +9,7 @@ reach the same objective to 1e-9 relative.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 from typing import Any
 
@@ -100,6 +101,32 @@ def test_warm_equals_cold_on_receding_sequences(seed: int, structure: str, phi: 
 @pytest.mark.parametrize("time_shift", [True, False])
 def test_warm_equals_cold_without_time_shift(time_shift: bool) -> None:
     _assert_same_optima(_receding(0, "zone-local", 1.5), time_shift=time_shift)
+
+
+def test_same_step_resolve_keeps_the_basis_unrotated() -> None:
+    """A re-solve of the step just solved (``same_step``, as a fleet coordinator's rounds)
+    starts from the optimal basis as it is: no iteration for the same problem, and a price
+    change gives the cold optimum; the next step's first solve is rotated as usual."""
+    problems = _receding(0, "zone-local", 1.5)
+    solver = FeedbackSolver(problems[0])
+    cold = FeedbackSolver(problems[0], warm_start=False)
+    solver.solve(problems[0])
+    first = solver.solve(problems[1])
+    again = solver.solve(problems[1], same_step=True)
+    assert again.warm_start and again.simplex_iterations == 0
+    assert again.objective_sgd == pytest.approx(first.objective_sgd, rel=OBJECTIVE_REL_TOL)
+    rotated = solver.solve(problems[1])  # without same_step: the basis one step on
+    assert rotated.simplex_iterations > 0
+    priced = dataclasses.replace(
+        problems[1], energy_price_sgd_per_mwh=problems[1].energy_price_sgd_per_mwh + 40.0
+    )
+    resolved = solver.solve(priced, same_step=True)
+    expected = cold.solve(priced).objective_sgd
+    assert resolved.objective_sgd == pytest.approx(expected, rel=OBJECTIVE_REL_TOL)
+    following = solver.solve(problems[2])
+    expected = cold.solve(problems[2]).objective_sgd
+    assert following.warm_start
+    assert following.objective_sgd == pytest.approx(expected, rel=OBJECTIVE_REL_TOL)
 
 
 def test_phi_support_change_rebuilds_the_layout() -> None:

@@ -210,8 +210,13 @@ class FeedbackSolver:
             differences.append("feedback")
         self._session.check_same_structure(differences)
 
-    def solve(self, problem: RMPCProblem) -> RMPCSolution:
+    def solve(self, problem: RMPCProblem, *, same_step: bool = False) -> RMPCSolution:
         """Solve ``problem`` (same structure and feedback options as the solver's).
+
+        ``same_step``: ``problem`` is the previous solve's step again (other prices or power
+        caps): the previous basis is taken as it is, not rotated, whatever ``time_shift``
+        says (as :meth:`hvacflex.opt.RMPCSolver.solve`). The first solve of every step is not
+        ``same_step``.
 
         Raises
         ------
@@ -247,7 +252,9 @@ class FeedbackSolver:
                 False,
             )
         else:
-            status, values, message, highs_time, iterations, warm = self._run_with_retries(lp)
+            status, values, message, highs_time, iterations, warm = self._run_with_retries(
+                lp, shift=not same_step
+            )
         return self._solution(
             problem,
             lp,
@@ -257,15 +264,16 @@ class FeedbackSolver:
         )
 
     def _run_with_retries(
-        self, lp: LinearProgram
+        self, lp: LinearProgram, *, shift: bool
     ) -> tuple[SolveStatus, FloatArray, str, float, int, bool]:
-        """Run from the rotated previous basis, through the session's retry ladder (unrotated,
-        then cold); keep the optimal basis for the next solve, or this solve's start if it
-        failed (the next step rotates it once more). Returns status, values (NaN unless
-        optimal), message, HiGHS time [s], iterations and whether it ran warm."""
+        """Run from the previous basis (rotated if ``shift``), through the session's retry
+        ladder (unrotated, then cold); keep the optimal basis for the next solve, or this
+        solve's start if it failed (the next step rotates it once more). Returns status,
+        values (NaN unless optimal), message, HiGHS time [s], iterations and whether it ran
+        warm."""
         session = self._session
         status, highs_time, iterations, warm = session.run_with_retries(
-            self._start_from(lp), lambda: self._start_from(lp, shift=False)
+            self._start_from(lp, shift=shift), lambda: self._start_from(lp, shift=False)
         )
         message = (
             f"HiGHS: {session.model_status_text()} ({iterations} simplex "
