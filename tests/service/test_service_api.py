@@ -11,7 +11,8 @@ from service_fixtures import START, Service, registration
 from sqlalchemy import inspect
 from sqlalchemy.engine import make_url
 
-from hvacflex.service.app import MAX_BODY_BYTES, create_app
+from hvacflex.service.app import create_app
+from hvacflex.service.http import MAX_BODY_BYTES
 
 
 def _measure(service: Service, building_id: str, time: str, temp: float = 25.0) -> Any:

@@ -5,30 +5,24 @@ Roles (see :mod:`.keys`): ``operator`` registers buildings, posts prices, the pe
 price, the feeder limit, IL activations and the clock, and reads every plan and the
 aggregate bid; ``building`` posts its own measurements and reads its own plan. A building key
 gets 403 on any other building. Every mutating request is written to the ``audit`` table
-(who, when, what) before its response is sent.
+(who, when, what) before its response is sent. The envelope, that middleware, the error
+handlers and the key checks are in :mod:`.http`.
 """
 
 import contextlib
 import functools
-import hashlib
 import json
 import threading
-from collections.abc import AsyncIterator, Awaitable, Callable, MutableMapping
-from pathlib import Path
+from collections.abc import AsyncIterator, Callable
 from typing import Annotated, Any
 
 import pandas as pd
-from fastapi import Depends, FastAPI, HTTPException, Query, Request
-from fastapi.exceptions import RequestValidationError
+from fastapi import Depends, FastAPI, HTTPException, Query
 from fastapi.responses import JSONResponse, PlainTextResponse
-from fastapi.security import APIKeyHeader
 from sqlalchemy import select
-from sqlalchemy.orm import Session, sessionmaker
-from starlette.exceptions import HTTPException as StarletteHTTPException
-from starlette.routing import Match
 
 from hvacflex import __version__
-from hvacflex.errors import HvacflexError, InputError
+from hvacflex.errors import InputError
 from hvacflex.service.dashboard import add_page_routes
 from hvacflex.service.db import (
     DEFAULT_DB_URL,
@@ -39,7 +33,16 @@ from hvacflex.service.db import (
     open_database,
     session_factory,
 )
-from hvacflex.service.keys import KeyVerifier, Principal, RateLimitedError, create_key
+from hvacflex.service.http import (
+    COMMON_ERRORS,
+    ERRORS,
+    JSON_ERRORS,
+    Auth,
+    BodyLimitAndAudit,
+    add_error_handlers,
+    roles,
+)
+from hvacflex.service.keys import Principal, create_key
 from hvacflex.service.operations import (
     DEFAULT_STALE_AFTER_S,
     PROMETHEUS_CONTENT_TYPE,
@@ -60,7 +63,6 @@ from hvacflex.service.schemas import (
     BuildingInfo,
     ClockIn,
     Envelope,
-    ErrorEnvelope,
     FeederLimitIn,
     Health,
     MeasurementIn,
@@ -75,109 +77,6 @@ from hvacflex.service.schemas import (
     Stored,
     WeatherIn,
 )
-from hvacflex.sim.step import ConflictError
-
-MAX_BODY_BYTES = 1 << 20
-"""Largest request body accepted (1 MiB); larger ones get 413."""
-AUDIT_BODY_HEAD = 2000
-"""Characters of a mutating request's body kept in the audit table."""
-API_KEY_HEADER = "X-API-Key"
-
-Scope = MutableMapping[str, Any]
-Message = MutableMapping[str, Any]
-Receive = Callable[[], Awaitable[Message]]
-Send = Callable[[Message], Awaitable[None]]
-ASGIApp = Callable[[Scope, Receive, Send], Awaitable[None]]
-
-_COMMON_ERRORS: dict[int | str, dict[str, Any]] = {
-    code: {"model": ErrorEnvelope, "description": text}
-    for code, text in (
-        (400, "The body is not JSON, or not UTF-8"),
-        (404, "No such route, building or plan"),
-        (405, "Method not allowed; the Allow header lists the route's methods"),
-        (413, "Body too large"),
-        (422, "Invalid input; the message names the field"),
-    )
-}
-"""Errors any route may answer (every one in the envelope)."""
-_ERRORS: dict[int | str, dict[str, Any]] = {
-    **_COMMON_ERRORS,
-    **{
-        code: {"model": ErrorEnvelope, "description": text}
-        for code, text in (
-            (401, "No key, or an unknown or revoked key"),
-            (403, "The key's role or building does not allow this"),
-            (409, "Conflicts with what is stored"),
-            (429, "Too many attempts with unknown keys; see Retry-After"),
-        )
-    },
-}
-"""The errors of a route that needs a key."""
-_JSON_ERRORS: dict[int | str, dict[str, Any]] = {
-    code: {
-        "description": spec["description"],
-        "content": {"application/json": {"schema": {"$ref": "#/components/schemas/ErrorEnvelope"}}},
-    }
-    for code, spec in _COMMON_ERRORS.items()
-}
-"""The common errors of a route whose own answer is not JSON (``/v1/metrics``)."""
-PACKAGE_DIR = Path(__file__).resolve().parents[1]
-"""The installed package, named in no message (errors name shipped files by name only)."""
-
-
-def _envelope(status: int, message: str, payload: Any = None) -> JSONResponse:
-    return JSONResponse({"status": status, "message": message, "payload": payload}, status)
-
-
-class BodyLimitAndAudit:
-    """ASGI middleware: refuse bodies over ``MAX_BODY_BYTES`` (413) and write an audit row
-    for every mutating request before its response starts."""
-
-    def __init__(self, app: ASGIApp, sessions: sessionmaker[Session]) -> None:
-        self.app = app
-        self.sessions = sessions
-
-    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
-        if scope["type"] != "http":
-            await self.app(scope, receive, send)
-            return
-        headers = dict(scope.get("headers") or [])
-        length = headers.get(b"content-length")
-        if length is not None and (not length.isdigit() or int(length) > MAX_BODY_BYTES):
-            await _envelope(413, f"body larger than {MAX_BODY_BYTES} bytes")(scope, receive, send)
-            return
-        mutating = scope["method"] in ("POST", "PUT", "PATCH", "DELETE")
-        body = bytearray()
-
-        async def limited_receive() -> Message:
-            message = await receive()
-            if message["type"] == "http.request":
-                body.extend(message.get("body", b""))
-                if len(body) > MAX_BODY_BYTES:
-                    raise HTTPException(413, f"body larger than {MAX_BODY_BYTES} bytes")
-            return message
-
-        async def audited_send(message: Message) -> None:
-            if mutating and message["type"] == "http.response.start":
-                self._audit(scope, bytes(body), int(message["status"]))
-            await send(message)
-
-        await self.app(scope, limited_receive, audited_send)
-
-    def _audit(self, scope: Scope, body: bytes, status: int) -> None:
-        principal = scope.get("state", {}).get("principal")
-        with self.sessions() as session, session.begin():
-            session.add(
-                AuditEntry(
-                    key_id=principal.key_id if principal else None,
-                    role=principal.role if principal else None,
-                    method=scope["method"],
-                    path=str(scope["path"])[:512],
-                    status_code=status,
-                    body_sha256=hashlib.sha256(body).hexdigest(),
-                    body_head=body[:AUDIT_BODY_HEAD].decode("utf-8", "replace"),
-                )
-            )
 
 
 def start_wall_clock(planner: Planner, poll_s: float = 10.0) -> threading.Event:
@@ -234,7 +133,7 @@ def create_app(
         openapi_url="/v1/openapi.json",
         docs_url=None,  # /v1/docs is the self-hosted page of hvacflex.service.dashboard
         redoc_url=None,
-        responses=_COMMON_ERRORS,
+        responses=COMMON_ERRORS,
         lifespan=_stop_on_shutdown(planner),
     )
     app.state.sessions = sessions
@@ -245,8 +144,8 @@ def create_app(
     app.state.request_metrics = RequestMetrics()
     if wall_clock:
         app.state.wall_clock_stop = start_wall_clock(planner)
-    _error_handlers(app)
-    auth = _Auth(sessions)
+    add_error_handlers(app)
+    auth = Auth(sessions)
     _service_routes(app, runtime)
     _building_routes(app, planner, auth)
     _plan_routes(app, planner, auth)
@@ -272,139 +171,6 @@ def _stop_on_shutdown(planner: Planner) -> Callable[[FastAPI], Any]:
     return lifespan
 
 
-def allowed_methods(app: FastAPI, scope: Scope) -> list[str]:
-    """The methods of every route whose path matches the request's (for ``Allow``)."""
-    methods: set[str] = set()
-    for route in app.router.routes:
-        match, _ = route.matches({**scope, "method": "GET"})
-        if match is not Match.NONE:
-            methods |= set(getattr(route, "methods", None) or ())
-    return sorted(methods)
-
-
-def field_name(location: Any) -> str:
-    """A pydantic error location as the field a client wrote: ``("body", "prices", 0)`` →
-    ``prices[0]``; a query or path parameter keeps its kind (``query.period``)."""
-    parts = list(location)
-    if parts[:1] == ["body"] and len(parts) > 1:
-        parts = parts[1:]
-    name = ""
-    for part in parts:
-        name += f"[{part}]" if isinstance(part, int) else (f".{part}" if name else str(part))
-    return name or "body"
-
-
-def public_message(exc: HvacflexError) -> str:
-    """The error's message without server paths: a file is named by its name alone."""
-    text = str(exc)
-    source = getattr(exc, "source", None)
-    if source and ("/" in source or "\\" in source):
-        text = text.replace(source, Path(source).name)
-    return text.replace(str(PACKAGE_DIR), "hvacflex")
-
-
-def _error_handlers(app: FastAPI) -> None:
-    """Every error in the envelope; the project's input errors as 4xx naming the field."""
-
-    @app.exception_handler(StarletteHTTPException)
-    async def _http_error(request: Request, exc: StarletteHTTPException) -> JSONResponse:
-        message = str(exc.detail)
-        if exc.status_code == 400:
-            message = "the body is not valid JSON in UTF-8"
-        response = _envelope(exc.status_code, message)
-        if exc.headers:
-            response.headers.update(exc.headers)
-        if exc.status_code == 405:
-            response.headers["Allow"] = ", ".join(allowed_methods(app, request.scope))
-        return response
-
-    @app.exception_handler(RequestValidationError)
-    async def _validation_error(_request: Request, exc: RequestValidationError) -> JSONResponse:
-        errors = [
-            {"field": field_name(e.get("loc", ())), "message": str(e.get("msg"))}
-            for e in exc.errors()
-        ]
-        if any(e.get("type") == "json_invalid" for e in exc.errors()):
-            return _envelope(400, "the body is not valid JSON", errors)
-        first = errors[0] if errors else {"field": "body", "message": "invalid"}
-        more = f" (and {len(errors) - 1} more)" if len(errors) > 1 else ""
-        return _envelope(422, f"field '{first['field']}': {first['message']}{more}", errors)
-
-    @app.exception_handler(RateLimitedError)
-    async def _rate_limited(_request: Request, exc: RateLimitedError) -> JSONResponse:
-        response = _envelope(429, str(exc))
-        response.headers["Retry-After"] = str(max(1, round(exc.retry_after_s + 0.5)))
-        return response
-
-    @app.exception_handler(HvacflexError)
-    async def _input_error(_request: Request, exc: HvacflexError) -> JSONResponse:
-        status = (
-            409
-            if isinstance(exc, ConflictError)
-            else 404
-            if isinstance(exc, NotFoundError)
-            else 422
-        )
-        field = exc.field if isinstance(exc, InputError) else None
-        message = public_message(exc)
-        return _envelope(status, message, [{"field": field, "message": message}] if field else None)
-
-    @app.exception_handler(Exception)
-    async def _server_error(_request: Request, exc: Exception) -> JSONResponse:
-        return _envelope(500, f"internal error ({type(exc).__name__})")
-
-
-_API_KEY = APIKeyHeader(name=API_KEY_HEADER, auto_error=False)
-
-
-class _Auth:
-    """The key checks, as FastAPI dependencies."""
-
-    def __init__(self, sessions: sessionmaker[Session]) -> None:
-        self.sessions = sessions
-        self.verifier = KeyVerifier()
-
-    def principal(
-        self, request: Request, key: Annotated[str | None, Depends(_API_KEY)]
-    ) -> Principal:
-        if not key:
-            raise HTTPException(401, f"missing {API_KEY_HEADER} header")
-        client = request.client.host if request.client else "-"
-        with self.sessions() as session:
-            who = self.verifier.verify(session, key, client)
-        if who is None:
-            raise HTTPException(401, "unknown or revoked key")
-        request.state.principal = who
-        return who
-
-
-def _roles(auth: _Auth) -> tuple[Any, Any, Any]:
-    """The dependencies operator, building reader and building writer."""
-
-    def operator(who: Annotated[Principal, Depends(auth.principal)]) -> Principal:
-        if who.role != "operator":
-            raise HTTPException(403, "this route needs an operator key")
-        return who
-
-    def building_reader(
-        building_id: str, who: Annotated[Principal, Depends(auth.principal)]
-    ) -> Principal:
-        if who.role == "building" and who.building_id != building_id:
-            raise HTTPException(403, "a building key reads only its own building")
-        return who
-
-    def building_writer(
-        building_id: str, who: Annotated[Principal, Depends(auth.principal)]
-    ) -> Principal:
-        if who.role != "building":
-            raise HTTPException(403, "measurements are posted with the building's own key")
-        if who.building_id != building_id:
-            raise HTTPException(403, "a building key writes only its own building")
-        return who
-
-    return operator, building_reader, building_writer
-
-
 def _service_routes(app: FastAPI, runtime: Runtime) -> None:
     """Health and metrics: no key needed."""
     sessions, engine = runtime.sessions, app.state.engine
@@ -423,7 +189,7 @@ def _service_routes(app: FastAPI, runtime: Runtime) -> None:
         response_class=PlainTextResponse,
         responses={
             200: {"content": {"text/plain": {"schema": {"type": "string"}}}},
-            **_JSON_ERRORS,
+            **JSON_ERRORS,
         },
     )
     def metrics() -> PlainTextResponse:
@@ -434,14 +200,14 @@ def _service_routes(app: FastAPI, runtime: Runtime) -> None:
         return PlainTextResponse(text, media_type=PROMETHEUS_CONTENT_TYPE)
 
 
-def _building_routes(app: FastAPI, planner: Planner, auth: _Auth) -> None:
+def _building_routes(app: FastAPI, planner: Planner, auth: Auth) -> None:
     """Registration, the buildings and every building's latest plan."""
     runtime = planner.runtime
     sessions = runtime.sessions
-    operator, building_reader, _building_writer = _roles(auth)
+    operator, building_reader, _building_writer = roles(auth)
     Operator = Annotated[Principal, Depends(operator)]
 
-    @app.post("/v1/buildings", tags=["operator"], responses=_ERRORS, status_code=201)
+    @app.post("/v1/buildings", tags=["operator"], responses=ERRORS, status_code=201)
     def register(body: RegisterBuilding, who: Operator) -> Envelope[Registered]:
         """Register a building from its description and scenario settings (content only);
         the response carries the building's key, shown this once."""
@@ -464,14 +230,14 @@ def _building_routes(app: FastAPI, planner: Planner, auth: _Auth) -> None:
             scenario=body.scenario.model_dump(),
         )
 
-    @app.get("/v1/buildings", tags=["operator"], responses=_ERRORS)
+    @app.get("/v1/buildings", tags=["operator"], responses=ERRORS)
     def list_buildings(_who: Operator) -> Envelope[list[str]]:
         """Every registered building."""
         with sessions() as session:
             ids = runtime.building_ids(session)
         return Envelope(status=200, message=f"{len(ids)} buildings", payload=ids)
 
-    @app.get("/v1/buildings/{building_id}", tags=["building"], responses=_ERRORS)
+    @app.get("/v1/buildings/{building_id}", tags=["building"], responses=ERRORS)
     def get_building(
         building_id: str, _who: Annotated[Principal, Depends(building_reader)]
     ) -> Envelope[BuildingInfo]:
@@ -493,7 +259,7 @@ def _building_routes(app: FastAPI, planner: Planner, auth: _Auth) -> None:
         )
         return Envelope(status=200, message="ok", payload=info)
 
-    @app.get("/v1/plans", tags=["operator"], responses=_ERRORS)
+    @app.get("/v1/plans", tags=["operator"], responses=ERRORS)
     def all_plans(_who: Operator) -> Envelope[PlanList]:
         """Every building's latest plan."""
         with sessions() as session:
@@ -502,12 +268,12 @@ def _building_routes(app: FastAPI, planner: Planner, auth: _Auth) -> None:
         return Envelope(status=200, message=f"{len(out)} plans", payload=PlanList(plans=out))
 
 
-def _plan_routes(app: FastAPI, planner: Planner, auth: _Auth) -> None:
+def _plan_routes(app: FastAPI, planner: Planner, auth: Auth) -> None:
     """A building's measurements (acknowledged, planned off the request path) and its
     latest plan (read at once)."""
     runtime = planner.runtime
     sessions = runtime.sessions
-    _operator, building_reader, building_writer = _roles(auth)
+    _operator, building_reader, building_writer = roles(auth)
 
     @app.post(
         "/v1/buildings/{building_id}/measurements",
@@ -517,7 +283,7 @@ def _plan_routes(app: FastAPI, planner: Planner, auth: _Auth) -> None:
                 "model": Envelope[PlanAck],
                 "description": "Stored; its plan (this revision) is being made",
             },
-            **_ERRORS,
+            **ERRORS,
         },
     )
     def post_measurement(
@@ -543,7 +309,7 @@ def _plan_routes(app: FastAPI, planner: Planner, auth: _Auth) -> None:
         message = "planned" if ack.new else "measurement already stored; stored plan"
         return Envelope(status=200, message=message, payload=Plan(**plan))
 
-    @app.get("/v1/buildings/{building_id}/plan", tags=["building"], responses=_ERRORS)
+    @app.get("/v1/buildings/{building_id}/plan", tags=["building"], responses=ERRORS)
     def get_plan(
         building_id: str,
         _who: Annotated[Principal, Depends(building_reader)],
@@ -562,12 +328,12 @@ def _plan_routes(app: FastAPI, planner: Planner, auth: _Auth) -> None:
         return Envelope(status=200, message="ok", payload=Plan(**plan))
 
 
-def _measurement_routes(app: FastAPI, runtime: Runtime, auth: _Auth) -> None:
+def _measurement_routes(app: FastAPI, runtime: Runtime, auth: Auth) -> None:
     """The stored measurements (what a building metered), for the operator or the building."""
     sessions = runtime.sessions
-    building_reader = _roles(auth)[1]
+    building_reader = roles(auth)[1]
 
-    @app.get("/v1/buildings/{building_id}/measurements", tags=["building"], responses=_ERRORS)
+    @app.get("/v1/buildings/{building_id}/measurements", tags=["building"], responses=ERRORS)
     def get_measurements(
         building_id: str,
         _who: Annotated[Principal, Depends(building_reader)],
@@ -606,13 +372,13 @@ def _store_signal(sessions: Any, kind: str, body: dict[str, Any]) -> Stored:
         return Stored(id=row.id, kind=kind)
 
 
-def _forecast_signal_routes(app: FastAPI, planner: Planner, auth: _Auth) -> None:
+def _forecast_signal_routes(app: FastAPI, planner: Planner, auth: Auth) -> None:
     """Prices and the outdoor-temperature forecast: laid over the buildings' forecasts."""
     runtime = planner.runtime
     sessions = runtime.sessions
-    Operator = Annotated[Principal, Depends(_roles(auth)[0])]
+    Operator = Annotated[Principal, Depends(roles(auth)[0])]
 
-    @app.post("/v1/signals/prices", tags=["operator"], responses=_ERRORS)
+    @app.post("/v1/signals/prices", tags=["operator"], responses=ERRORS)
     def post_prices(body: PricesIn, _who: Operator) -> Envelope[Stored]:
         """Energy (and reserve) prices of consecutive periods from ``start``; they replace
         the shipped prices in every building's forecast from the next plan on."""
@@ -638,7 +404,7 @@ def _forecast_signal_routes(app: FastAPI, planner: Planner, auth: _Auth) -> None
         )
         return Envelope(status=200, message="stored", payload=stored)
 
-    @app.post("/v1/signals/weather", tags=["operator"], responses=_ERRORS)
+    @app.post("/v1/signals/weather", tags=["operator"], responses=ERRORS)
     def post_weather(body: WeatherIn, _who: Operator) -> Envelope[Stored]:
         """An outdoor-temperature forecast [°C] of consecutive periods from ``start``; it
         replaces the typical-year outdoor temperature in every building's forecast there."""
@@ -657,25 +423,25 @@ def _forecast_signal_routes(app: FastAPI, planner: Planner, auth: _Auth) -> None
         return Envelope(status=200, message="stored", payload=stored)
 
 
-def _signal_routes(app: FastAPI, planner: Planner, auth: _Auth) -> None:
+def _signal_routes(app: FastAPI, planner: Planner, auth: Auth) -> None:
     """The peak-power price, the feeder limit, activations and the clock."""
     runtime = planner.runtime
     sessions = runtime.sessions
-    Operator = Annotated[Principal, Depends(_roles(auth)[0])]
+    Operator = Annotated[Principal, Depends(roles(auth)[0])]
 
-    @app.post("/v1/signals/peak-price", tags=["operator"], responses=_ERRORS)
+    @app.post("/v1/signals/peak-price", tags=["operator"], responses=ERRORS)
     def post_peak_price(body: PeakPriceIn, _who: Operator) -> Envelope[Stored]:
         """The peak-power price φ [SGD/kW] every building plans with from now on."""
         stored = _store_signal(sessions, "peak_price", body.model_dump())
         return Envelope(status=200, message="stored", payload=stored)
 
-    @app.post("/v1/signals/feeder-limit", tags=["operator"], responses=_ERRORS)
+    @app.post("/v1/signals/feeder-limit", tags=["operator"], responses=ERRORS)
     def post_feeder_limit(body: FeederLimitIn, _who: Operator) -> Envelope[Stored]:
         """The feeder limit [kW] the aggregate bid is checked against."""
         stored = _store_signal(sessions, "feeder_limit", body.model_dump())
         return Envelope(status=200, message="stored", payload=stored)
 
-    @app.post("/v1/activations", tags=["operator"], responses=_ERRORS)
+    @app.post("/v1/activations", tags=["operator"], responses=ERRORS)
     def post_activation(body: ActivationIn, _who: Operator) -> Envelope[PlanList]:
         """IL activation start or end; the affected buildings' current plans change at once
         (the plans re-issued are returned)."""
@@ -703,7 +469,7 @@ def _signal_routes(app: FastAPI, planner: Planner, auth: _Auth) -> None:
             status=200, message=f"{body.event}: {len(plans)} plans changed", payload=payload
         )
 
-    @app.post("/v1/clock", tags=["operator"], responses=_ERRORS)
+    @app.post("/v1/clock", tags=["operator"], responses=ERRORS)
     def post_clock(body: ClockIn, _who: Operator) -> Envelope[PlanList]:
         """Advance the service clock; each building without a plan for the period that now
         starts is planned on its latest measurement (the 30-min boundary trigger)."""
@@ -720,12 +486,12 @@ def _signal_routes(app: FastAPI, planner: Planner, auth: _Auth) -> None:
         return Envelope(status=200, message=f"{len(plans)} plans made", payload=payload)
 
 
-def _operator_routes(app: FastAPI, runtime: Runtime, auth: _Auth) -> None:
+def _operator_routes(app: FastAPI, runtime: Runtime, auth: Auth) -> None:
     """The aggregate bid and the audit trail."""
     sessions = runtime.sessions
-    Operator = Annotated[Principal, Depends(_roles(auth)[0])]
+    Operator = Annotated[Principal, Depends(roles(auth)[0])]
 
-    @app.get("/v1/bid", tags=["operator"], responses=_ERRORS)
+    @app.get("/v1/bid", tags=["operator"], responses=ERRORS)
     def aggregate_bid(_who: Operator) -> Envelope[Bid]:
         """The sum over every building's latest plan: reserve offered and planned power per
         period start, and whether the planned power exceeds the feeder limit. A stale
@@ -773,7 +539,7 @@ def _operator_routes(app: FastAPI, runtime: Runtime, auth: _Auth) -> None:
         message = f"{len(members)} buildings" + (f", {len(stale)} stale left out" if stale else "")
         return Envelope(status=200, message=message, payload=bid)
 
-    @app.get("/v1/activations", tags=["operator"], responses=_ERRORS)
+    @app.get("/v1/activations", tags=["operator"], responses=ERRORS)
     def activations(
         _who: Operator, limit: Annotated[int, Query(ge=1, le=1000)] = 100
     ) -> Envelope[list[ActivationRecord]]:
@@ -792,7 +558,7 @@ def _operator_routes(app: FastAPI, runtime: Runtime, auth: _Auth) -> None:
             ]
         return Envelope(status=200, message=f"{len(records)} activations", payload=records)
 
-    @app.get("/v1/audit", tags=["operator"], responses=_ERRORS)
+    @app.get("/v1/audit", tags=["operator"], responses=ERRORS)
     def audit(
         _who: Operator, limit: Annotated[int, Query(ge=1, le=1000)] = 100
     ) -> Envelope[list[AuditRecord]]:

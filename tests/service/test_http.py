@@ -1,0 +1,130 @@
+"""The service's HTTP plumbing on a bare app: the envelope, the error handlers, the body
+limit and the audit (the routes' own behaviour is tested through the whole service in
+``test_service_api.py``)."""
+
+from pathlib import Path
+
+import pytest
+from fastapi import FastAPI
+from fastapi.testclient import TestClient
+from pydantic import BaseModel
+from sqlalchemy import select
+from sqlalchemy.orm import Session, sessionmaker
+
+from hvacflex.errors import InputError
+from hvacflex.service.db import AuditEntry, open_database, session_factory
+from hvacflex.service.http import (
+    MAX_BODY_BYTES,
+    PACKAGE_DIR,
+    BodyLimitAndAudit,
+    add_error_handlers,
+    field_name,
+    public_message,
+)
+from hvacflex.service.keys import RateLimitedError
+from hvacflex.service.runtime import NotFoundError
+from hvacflex.sim.step import ConflictError
+
+
+class _Body(BaseModel):
+    prices: list[float]
+
+
+def _app(tmp_path: Path) -> tuple[TestClient, sessionmaker[Session]]:
+    app = FastAPI()
+    add_error_handlers(app)
+    errors: dict[str, Exception] = {
+        "input": InputError("must be > 0", field="power_kw", value=-1.0),
+        "conflict": ConflictError("another measurement is stored for this period"),
+        "missing": NotFoundError("no building 'b9'"),
+        "limited": RateLimitedError(2.2),
+        "bug": KeyError("secret detail"),
+    }
+
+    @app.get("/raise/{kind}")
+    def raise_(kind: str) -> None:
+        raise errors[kind]
+
+    @app.post("/echo")
+    def echo(body: _Body) -> dict[str, int]:
+        return {"n": len(body.prices)}
+
+    sessions = session_factory(open_database(f"sqlite:///{tmp_path / 'http.db'}"))
+    app.add_middleware(BodyLimitAndAudit, sessions=sessions)
+    return TestClient(app, raise_server_exceptions=False), sessions
+
+
+@pytest.mark.parametrize(
+    ("location", "name"),
+    [
+        (("body", "prices", 0), "prices[0]"),
+        (("body", "zones", 2, "temp_degc"), "zones[2].temp_degc"),
+        (("query", "period"), "query.period"),
+        (("body",), "body"),
+        ((), "body"),
+    ],
+)
+def test_field_name_is_the_field_a_client_wrote(location: tuple[object, ...], name: str) -> None:
+    assert field_name(location) == name
+
+
+def test_public_message_names_files_without_server_paths() -> None:
+    error = InputError("cannot read", source="/srv/hvacflex/data/b1/building.toml", field="zones")
+    assert public_message(error).startswith("building.toml: field 'zones': cannot read")
+    shipped = InputError(f"not found in {PACKAGE_DIR}/resources/buildings")
+    assert str(PACKAGE_DIR) not in public_message(shipped)
+    assert "hvacflex/resources/buildings" in public_message(shipped)
+
+
+def test_every_error_is_an_envelope_with_its_status(tmp_path: Path) -> None:
+    client, _ = _app(tmp_path)
+    answers = {kind: client.get(f"/raise/{kind}") for kind in ("input", "conflict", "missing")}
+    assert {kind: r.status_code for kind, r in answers.items()} == {
+        "input": 422,
+        "conflict": 409,
+        "missing": 404,
+    }
+    named = answers["input"].json()
+    assert named["status"] == 422 and named["payload"] == [
+        {"field": "power_kw", "message": named["message"]}
+    ]
+    limited = client.get("/raise/limited")
+    assert limited.status_code == 429 and limited.headers["Retry-After"] == "3"
+    bug = client.get("/raise/bug")
+    assert bug.status_code == 500 and bug.json()["message"] == "internal error (KeyError)"
+    assert "secret" not in bug.text  # nothing of a server error's detail leaks
+
+
+def test_validation_errors_name_the_field_and_bad_json_is_400(tmp_path: Path) -> None:
+    client, _ = _app(tmp_path)
+    invalid = client.post("/echo", json={"prices": [1.0, "x"]})
+    assert invalid.status_code == 422
+    assert invalid.json()["message"].startswith("field 'prices[1]':")
+    broken = client.post(
+        "/echo", content=b"{not json", headers={"content-type": "application/json"}
+    )
+    assert broken.status_code == 400 and broken.json()["status"] == 400
+
+
+def test_a_wrong_method_is_405_with_the_allowed_ones(tmp_path: Path) -> None:
+    client, _ = _app(tmp_path)
+    answer = client.get("/echo")
+    assert answer.status_code == 405
+    assert answer.headers["Allow"] == "POST"
+    assert answer.json()["status"] == 405
+
+
+def test_bodies_over_the_limit_are_refused_and_mutations_audited(tmp_path: Path) -> None:
+    client, sessions = _app(tmp_path)
+    too_big = client.post(
+        "/echo",
+        content=b" " * (MAX_BODY_BYTES + 1),
+        headers={"content-type": "application/json"},
+    )
+    assert too_big.status_code == 413 and too_big.json()["status"] == 413
+    assert client.post("/echo", json={"prices": [1.0, 2.0]}).json() == {"n": 2}
+    client.get("/raise/input")  # a read: not audited
+    with sessions() as session:
+        rows = session.scalars(select(AuditEntry).order_by(AuditEntry.id)).all()
+    assert [(r.method, r.path, r.status_code) for r in rows] == [("POST", "/echo", 200)]
+    assert rows[0].body_head == '{"prices":[1.0,2.0]}'
