@@ -14,7 +14,9 @@ draw keeps the scenario's seed, so the spread is the occupants' alone), as Dask 
 * ``seeds_spread_figure.png`` — the spread figure (:mod:`hvacflex.report.sensitivity_plots`).
 
 The findings are decided by :func:`finding_verdicts` from the KPIs of one (a), (b), (c) triple
-(run over the same days with the same seeds); :mod:`hvacflex.sensitivity` uses the revenue one.
+(run over the same days with the same seeds), by the same rules as the reproduction's report
+(:func:`hvacflex.report.verdicts.scenario_verdicts`); :mod:`hvacflex.sensitivity` uses the
+revenue rule (:func:`hvacflex.report.text.rises`).
 """
 
 from __future__ import annotations
@@ -29,7 +31,7 @@ from typing import Any
 import pandas as pd
 
 from hvacflex.config import PAPER_SCENARIOS, ScenarioConfig, preset
-from hvacflex.report.text import SAME_RELATIVE, keeps_comfort
+from hvacflex.report.verdicts import HOLDS, scenario_verdicts
 from hvacflex.sim.sweep import JobOutcome, run_sweep
 from hvacflex.version import atomic_write_text
 
@@ -89,9 +91,6 @@ QUICK_DAYS = 2.0
 """Days per week of ``--quick`` (its Monday and Tuesday): a check of the tools end to end that
 fits a shared machine, not a measurement of the findings."""
 
-MUCH_LOWER_PEAK_FRACTION = 0.10
-"""(c)'s peak counts as "much lower" than (b)'s when it is at least this fraction below it."""
-
 SPREAD_KPIS: tuple[str, ...] = (
     "energy_cost_sgd",
     "reserve_revenue_sgd",
@@ -106,47 +105,34 @@ SPREAD_KPIS: tuple[str, ...] = (
 """KPIs (:func:`hvacflex.kpi.summary` keys) whose spread the study reports."""
 
 FINDINGS: dict[str, str] = {
-    "b_costs_more_than_a": "(b) costs more than (a)",
-    "c_costs_more_than_b_much_lower_peak": "(c) costs more than (b) with a much lower peak",
-    "revenue_rises_in_b_and_c": "reserve revenue rises in (b) and (c)",
-    "rmpc_keeps_comfort_where_nmpc_does_not": "RMPC keeps comfort where NMPC does not",
+    "robustness_premium": "Robustness costs a few per cent: (b) RMPC costs more than (a) NMPC",
+    "ppp_costs_more": "The peak-power price costs energy: (c) costs more than (b)",
+    "ppp_lowers_peak": "The peak-power price lowers the peak: (c) below (b)",
+    "robust_keeps_comfort": "NMPC violates comfort under uncertainty, RMPC almost never",
+    "revenue_rises": "Reserve revenue rises in (b) and (c) against (a)",
 }
-"""The paper's findings: key → the sentence."""
-
-
-def rises(value: float, reference: float) -> bool:
-    """True when ``value`` exceeds ``reference`` by more than :data:`SAME_RELATIVE` of it
-    (a strictly positive value against a zero reference rises)."""
-    return value - reference > SAME_RELATIVE * abs(reference)
+"""The paper's findings judged on one (a), (b), (c) triple: the key of each verdict of
+:func:`hvacflex.report.verdicts.scenario_verdicts` → its sentence, in that order."""
 
 
 def finding_verdicts(summaries: Mapping[str, Mapping[str, float]]) -> dict[str, bool]:
-    """Whether each of :data:`FINDINGS` holds for one (a), (b), (c) triple.
+    """Whether each of :data:`FINDINGS` holds for one (a), (b), (c) triple, by the rules of
+    the reproduction's report (:func:`hvacflex.report.verdicts.scenario_verdicts`: one set of
+    rules for the same findings).
 
     Parameters
     ----------
     summaries : scenario letter (``"a"``, ``"b"``, ``"c"``) → :func:`hvacflex.kpi.summary`
-        of its run (``net_cost_sgd``, ``reserve_revenue_sgd`` [SGD], ``peak_power_kw`` [kW],
-        ``discomfort_kelvin_hours`` [K·h]), all over the same period.
+        of its run (``energy_cost_sgd``, ``reserve_revenue_sgd`` [SGD], ``peak_power_kw``
+        [kW], ``discomfort_kelvin_hours`` [K·h]), all over the same period.
 
     Returns
     -------
-    finding key → holds. Costs are net (energy − reserve revenue + IL penalty, the paper's
-    Table 1 "Total", PPP excluded); "much lower" is :data:`MUCH_LOWER_PEAK_FRACTION`; comfort is
-    kept up to :data:`hvacflex.report.text.COMFORT_TOLERANCE_KELVIN_HOURS`.
+    finding key → holds. A finding that is not comparable (revenue when (a) earns none)
+    does not hold.
     """
-    a, b, c = (summaries[letter] for letter in ("a", "b", "c"))
-    peak_limit_kw = (1.0 - MUCH_LOWER_PEAK_FRACTION) * b["peak_power_kw"]
-    return {
-        "b_costs_more_than_a": rises(b["net_cost_sgd"], a["net_cost_sgd"]),
-        "c_costs_more_than_b_much_lower_peak": rises(c["net_cost_sgd"], b["net_cost_sgd"])
-        and c["peak_power_kw"] <= peak_limit_kw,
-        "revenue_rises_in_b_and_c": rises(b["reserve_revenue_sgd"], a["reserve_revenue_sgd"])
-        and rises(c["reserve_revenue_sgd"], a["reserve_revenue_sgd"]),
-        "rmpc_keeps_comfort_where_nmpc_does_not": keeps_comfort(b["discomfort_kelvin_hours"])
-        and keeps_comfort(c["discomfort_kelvin_hours"])
-        and not keeps_comfort(a["discomfort_kelvin_hours"]),
-    }
+    found = scenario_verdicts(summaries, basis="seed study")
+    return {v.key: v.verdict == HOLDS for v in found}
 
 
 @dataclass(frozen=True)

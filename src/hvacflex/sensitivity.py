@@ -17,7 +17,8 @@ cached by inputs and code, resumable), and writes:
   ``reserve_offered_mean_kw``, ``reserve_price_mean_sgd_per_mwh`` and
   ``reserve_usep_pearson`` (the realised correlation of the simulated periods' prices);
 * ``sensitivity_findings.csv`` — per point: whether revenue rises in (b) and in (c) against (a)
-  (:func:`hvacflex.robustness.rises`) and the paper's finding (both);
+  (:func:`hvacflex.report.text.rises`, the rule of the report's verdict) and the paper's
+  finding (both);
 * ``sensitivity_figure.png`` — revenue share against scale, one line per correlation, per
   scenario (its data in ``sensitivity_figure.csv``).
 """
@@ -36,8 +37,9 @@ import pandas as pd
 
 from hvacflex.config import PAPER_SCENARIOS, ScenarioConfig, preset
 from hvacflex.data.market import RESERVE_PRICE_CORRELATION, RESERVE_PRICE_SCALE
+from hvacflex.report.text import rises
 from hvacflex.results import load_results
-from hvacflex.robustness import QUICK_DAYS, REPRESENTATIVE_WEEKS, WEEK_DAYS, rises, runs_table
+from hvacflex.robustness import QUICK_DAYS, REPRESENTATIVE_WEEKS, WEEK_DAYS, runs_table
 from hvacflex.sim.sweep import JobOutcome, run_sweep
 from hvacflex.version import atomic_write_text
 

@@ -41,6 +41,8 @@ def test_reserve_revenue_rises_or_is_not_comparable() -> None:
     assert "(b) -21.4 %" in fell.ours and "(c) -49.8 %" in fell.ours
     assert "(b) +1.8 %" in fell.paper and "(c) +12.1 %" in fell.paper  # Table 1's values
     assert v.reserve_revenue_rises(1.0, 1.1, 1.2, BASIS).verdict == v.HOLDS
+    # a rise within the 0.1 % of noise (report.text.SAME_RELATIVE) is no rise
+    assert v.reserve_revenue_rises(1.0, 1.0005, 1.2, BASIS).verdict == v.DOES_NOT_HOLD
     assert v.reserve_revenue_rises(0.0, 1.0, 1.0, BASIS).verdict == v.NOT_COMPARABLE
 
 
@@ -72,7 +74,7 @@ def test_verdict_table_and_unknown_verdicts() -> None:
     assert list(table.columns) == list(v.VERDICT_COLUMNS[1:]) and table.index.name == "finding"
     assert list(table["verdict"]) == [v.HOLDS, v.NOT_COMPARABLE]
     with pytest.raises(InputError, match="unknown verdict"):
-        v.Verdict("f", "p", "o", "maybe", BASIS)
+        v.Verdict("f", "p", "o", "maybe", BASIS, key="f")
 
 
 def _pay_table() -> pd.DataFrame:

@@ -23,6 +23,12 @@ def _relative_change(new: float, old: float) -> float:
     return (new - old) / abs(old) if old != 0 else math.nan
 
 
+def rises(value: float, reference: float) -> bool:
+    """True when ``value`` exceeds ``reference`` by more than :data:`SAME_RELATIVE` of it
+    (a strictly positive value against a zero reference rises)."""
+    return value - reference > SAME_RELATIVE * abs(reference)
+
+
 def keeps_comfort(discomfort_kelvin_hours: float) -> bool:
     """True when the discomfort is within :data:`COMFORT_TOLERANCE_KELVIN_HOURS`."""
     return discomfort_kelvin_hours <= COMFORT_TOLERANCE_KELVIN_HOURS

@@ -26,12 +26,12 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import pandas as pd
 
 from hvacflex.errors import InputError
-from hvacflex.report.text import COMFORT_TOLERANCE_KELVIN_HOURS, SAME_RELATIVE
+from hvacflex.report.text import COMFORT_TOLERANCE_KELVIN_HOURS, SAME_RELATIVE, rises
 
 HOLDS = "holds"
 DOES_NOT_HOLD = "does not hold"
@@ -75,6 +75,8 @@ class Verdict:
     ours : our number(s).
     verdict : one of :data:`VERDICTS`.
     basis : what our numbers were graded on (plant, period, scaling).
+    key : the finding's identifier (keyword only), e.g. ``"robustness_premium"``: the column
+        of the seed study's per-week-seed table (:mod:`hvacflex.robustness`).
     """
 
     finding: str
@@ -82,6 +84,7 @@ class Verdict:
     ours: str
     verdict: str
     basis: str
+    key: str = field(kw_only=True)
 
     def __post_init__(self) -> None:
         if self.verdict not in VERDICTS:
@@ -114,6 +117,7 @@ def robustness_premium(nominal_cost_sgd: float, robust_cost_sgd: float, basis: s
         ours=f"{change:+.1f} % energy cost ({nominal_cost_sgd:,.2f} → {robust_cost_sgd:,.2f} SGD)",
         verdict=HOLDS if holds else DOES_NOT_HOLD,
         basis=basis,
+        key="robustness_premium",
     )
 
 
@@ -126,6 +130,7 @@ def peak_price_costs_more(robust_cost_sgd: float, ppp_cost_sgd: float, basis: st
         ours=f"{change:+.1f} % energy cost ({robust_cost_sgd:,.2f} → {ppp_cost_sgd:,.2f} SGD)",
         verdict=HOLDS if change >= 100.0 * SAME_RELATIVE else DOES_NOT_HOLD,
         basis=basis,
+        key="ppp_costs_more",
     )
 
 
@@ -138,6 +143,7 @@ def peak_price_lowers_peak(robust_peak_kw: float, ppp_peak_kw: float, basis: str
         ours=f"{change:+.1f} % ({robust_peak_kw:.1f} → {ppp_peak_kw:.1f} kW)",
         verdict=HOLDS if change <= -100.0 * SAME_RELATIVE else DOES_NOT_HOLD,
         basis=basis,
+        key="ppp_lowers_peak",
     )
 
 
@@ -157,13 +163,16 @@ def robust_keeps_comfort(
         ours=f"NMPC {nominal_kelvin_hours:.3g} K·h, RMPC {robust_kelvin_hours:.3g} K·h",
         verdict=HOLDS if nominal_violates and robust_almost_never else DOES_NOT_HOLD,
         basis=basis,
+        key="robust_keeps_comfort",
     )
 
 
 def reserve_revenue_rises(
     nominal_sgd: float, robust_sgd: float, ppp_sgd: float, basis: str
 ) -> Verdict:
-    """Reserve revenue rises in (b) and (c) against (a); not comparable when (a) earns none."""
+    """Reserve revenue rises in (b) and (c) against (a) (each by more than
+    :data:`~hvacflex.report.text.SAME_RELATIVE`, :func:`~hvacflex.report.text.rises`); not
+    comparable when (a) earns none."""
     paper = PAPER_MONTHLY_RESERVE_REVENUE_SGD
     paper_text = (
         f"(b) {_change_pct(paper['b'], paper['a']):+.1f} %, "
@@ -177,13 +186,16 @@ def reserve_revenue_rises(
             f"(a) earns no reserve revenue ((b) {robust_sgd:,.2f}, (c) {ppp_sgd:,.2f} SGD)",
             NOT_COMPARABLE,
             basis,
+            key="revenue_rises",
         )
     ours = (
         f"(b) {_change_pct(robust_sgd, nominal_sgd):+.1f} %, "
         f"(c) {_change_pct(ppp_sgd, nominal_sgd):+.1f} % ((a) {nominal_sgd:,.2f} SGD)"
     )
-    rises = robust_sgd > nominal_sgd and ppp_sgd > nominal_sgd
-    return Verdict(finding, paper_text, ours, HOLDS if rises else DOES_NOT_HOLD, basis)
+    both = rises(robust_sgd, nominal_sgd) and rises(ppp_sgd, nominal_sgd)
+    return Verdict(
+        finding, paper_text, ours, HOLDS if both else DOES_NOT_HOLD, basis, key="revenue_rises"
+    )
 
 
 def peak_reduction_saturates(
@@ -204,19 +216,24 @@ def peak_reduction_saturates(
     low, high = float(sweep.index[0]), float(sweep.index[-1])
     if not low < SATURATION_PRICE_SGD_PER_KW < high:
         ours = f"sweep φ {low:g}–{high:g} SGD/kW does not straddle it"
-        return Verdict(finding, paper, ours, NOT_COMPARABLE, basis)
+        return Verdict(finding, paper, ours, NOT_COMPARABLE, basis, key="peak_reduction_saturates")
     total_kw = float(sweep.iloc[0] - sweep.iloc[-1])
     at_knee_kw = float(sweep.iloc[0] - sweep[sweep.index <= SATURATION_PRICE_SGD_PER_KW].min())
     if total_kw <= MIN_PEAK_REDUCTION_SHARE * float(sweep.iloc[0]):
         ours = f"no reduction over the sweep ({sweep.iloc[0]:.1f} → {sweep.iloc[-1]:.1f} kW)"
-        return Verdict(finding, paper, ours, DOES_NOT_HOLD, basis)
+        return Verdict(finding, paper, ours, DOES_NOT_HOLD, basis, key="peak_reduction_saturates")
     share = at_knee_kw / total_kw
     ours = (
         f"{100 * share:.0f} % of the {total_kw:.1f} kW reduction (φ {low:g} → {high:g}) "
         f"reached by φ = {SATURATION_PRICE_SGD_PER_KW:g}"
     )
     return Verdict(
-        finding, paper, ours, HOLDS if share >= SATURATION_SHARE else DOES_NOT_HOLD, basis
+        finding,
+        paper,
+        ours,
+        HOLDS if share >= SATURATION_SHARE else DOES_NOT_HOLD,
+        basis,
+        key="peak_reduction_saturates",
     )
 
 
@@ -229,6 +246,7 @@ def cost_level(nominal_monthly_cost_sgd: float, basis: str) -> Verdict:
         "unpublished)",
         verdict=NOT_COMPARABLE,
         basis=basis,
+        key="cost_level",
     )
 
 
@@ -245,6 +263,7 @@ def reserve_share(
         ours=f"{100 * share:.2f} % (the SYNTHETIC reserve price was calibrated to this)",
         verdict=NOT_COMPARABLE,
         basis=basis,
+        key="reserve_share",
     )
 
 
