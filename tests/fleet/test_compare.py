@@ -11,7 +11,12 @@ from typer.testing import CliRunner
 
 from hvacflex.cli import app
 from hvacflex.errors import InputError
-from hvacflex.fleet.compare import COMPARE_COLUMNS, COMPARE_FILE, compare_fleet
+from hvacflex.fleet.compare import (
+    COMPARE_COLUMNS,
+    COMPARE_FILE,
+    compare_fleet,
+    reference_limit_kw,
+)
 from hvacflex.fleet.generate import generate_fleet, write_fleet
 
 
@@ -34,6 +39,24 @@ def test_compare_two_steps_centralised_is_a_lower_bound(tight_fleet: Path, tmp_p
     # the centralised LP is the optimum of the same problems: nothing coordinated beats it
     assert np.all(frame["gap"] >= -1e-6)
     assert np.all(frame["gap"] <= 0.02)
+    assert np.all(frame["coordinated_max_over_limit_kw"] <= 1e-3)
+
+
+def test_the_reference_is_held_to_the_minimum_power_where_the_limit_is_below_it() -> None:
+    p_min = np.array([[20.0, 35.0, 10.0], [15.0, 30.0, 5.0]])  # Σ = 35, 65, 15 kW
+    limit = np.array([50.0, 60.0, np.inf])
+    np.testing.assert_array_equal(reference_limit_kw(limit, p_min), [50.0, 65.0, np.inf])
+
+
+def test_compare_under_a_limit_below_the_fleets_minimum_power(tmp_path: Path) -> None:
+    """At 60 kW two buildings' minimum powers alone exceed the limit from 10:00: the
+    coordination runs them at their minimum there (and pays comfort slack); the centralised
+    LP, held to the same minimum in those periods, still has the optimum to compare with
+    (it was infeasible, NaN, with the limit as a hard row)."""
+    path = write_fleet(generate_fleet(2, 3, feeder_limit_kw=60.0), tmp_path / "fleet.toml")
+    frame = compare_fleet(path, "2014-03-03T10:00", 1, tmp_path / "out")
+    assert np.isfinite(frame["centralised_sgd"]).all()
+    assert np.all(frame["gap"] >= -1e-6) and np.all(frame["gap"] <= 0.02)
     assert np.all(frame["coordinated_max_over_limit_kw"] <= 1e-3)
 
 

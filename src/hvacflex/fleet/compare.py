@@ -3,7 +3,8 @@
 From the fleet's initial states at ``start``, every step builds each building's problem
 once (:meth:`BuildingAgent.begin_step`), solves the **centralised LP** of the whole fleet
 (:func:`hvacflex.fleet.centralised.solve_centralised`, the buildings' LPs stacked with the
-feeder rows) and the **coordinated** scheme of the fleet file (``[coordination] scheme``,
+feeder rows, each raised to the buildings' summed minimum power where that alone exceeds the
+limit: :func:`reference_limit_kw`) and the **coordinated** scheme of the fleet file (``[coordination] scheme``,
 :func:`hvacflex.fleet.run.coordinate_ranges`) from those same problems and the same planning
 limit, then applies the coordinated plan's first step to every plant, so that the next
 step starts from the states a fleet run would have. The buildings run in this process (the
@@ -61,6 +62,16 @@ def max_over_limit_kw(result: CoordinationResult, limit_kw: FloatArray) -> float
     return float(max(np.max(over[feasible], initial=0.0), 0.0))
 
 
+def reference_limit_kw(limit_kw: FloatArray, p_min_kw: FloatArray) -> FloatArray:
+    """(N,) the feeder rows of the centralised LP [kW]: the limit, raised to the buildings'
+    summed minimum power Σ_b P_min,b,k (``p_min_kw`` (B, N)) in the periods where that alone
+    exceeds it — where the coordination flags the period infeasible and runs every building
+    at its minimum (:func:`hvacflex.fleet.coordinate.coordinate`), so that both solve the
+    same problem and the centralised LP has a solution to compare with."""
+    floor: FloatArray = np.maximum(limit_kw, np.asarray(p_min_kw).sum(axis=0))
+    return floor
+
+
 def _check_size(buildings: int, path: Path) -> None:
     if buildings > MAX_COMPARE_BUILDINGS:
         raise InputError(
@@ -100,7 +111,7 @@ def compare_fleet(
         limit = planning[k : k + horizon]
         p_min, p_max, energy = groups.stacked("begin_step")
         tick = time.perf_counter()
-        central = solve_centralised([a.problem for a in agents], limit)
+        central = solve_centralised([a.problem for a in agents], reference_limit_kw(limit, p_min))
         central_s = time.perf_counter() - tick
         tick = time.perf_counter()
         result = coordinate_ranges(groups, (p_min, p_max, energy), limit, options, price)
