@@ -4,11 +4,12 @@ From the fleet's initial states at ``start``, every step builds each building's 
 once (:meth:`BuildingAgent.begin_step`), solves the **centralised LP** of the whole fleet
 (:func:`hvacflex.fleet.centralised.solve_centralised`, the buildings' LPs stacked with the
 feeder rows, each raised to the buildings' summed minimum power where that alone exceeds the
-limit: :func:`reference_limit_kw`) and the **coordinated** scheme of the fleet file (``[coordination] scheme``,
-:func:`hvacflex.fleet.run.coordinate_ranges`) from those same problems and the same planning
-limit, then applies the coordinated plan's first step to every plant, so that the next
-step starts from the states a fleet run would have. The buildings run in this process (the
-centralised LP needs every problem in one place; practical for ≤ 10 buildings).
+limit: :func:`reference_limit_kw`) and the **coordinated** scheme of the fleet file
+(``[coordination] scheme``, :func:`hvacflex.fleet.run.coordinate_ranges`) from those same
+problems and the same planning limit, then applies the coordinated plan's first step to every
+plant, so that the next step starts from the states a fleet run would have. The buildings run
+in this process (the centralised LP needs every problem in one place; practical for ≤ 10
+buildings).
 
 ``compare.csv`` columns: ``step`` (0 = the start), ``centralised_sgd`` and
 ``coordinated_sgd`` (the step's horizon objective: Σ over buildings [SGD]), ``gap``
