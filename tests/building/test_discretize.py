@@ -198,7 +198,8 @@ def test_delivered_flow_reproduces_the_metered_cooling(
     zone_temp = 22.0 + 8.0 * rng.uniform(size=m)
     flow = rng.uniform(0.1, 0.4, size=m)
     inlet = np.full(m, inlet_temp_degc)
-    u = delivered_flow_kg_s(lm, room1.hvac.supply_temp_degc, flow, zone_temp, inlet)
+    assert lm.supply_temp_degc == room1.hvac.supply_temp_degc  # the model carries its T_s
+    u = delivered_flow_kg_s(lm, flow, zone_temp, inlet)
     a, b, _, g = continuous_affine_model(room1, net, lm.flow_ref_kg_s, lm.linearisation_temp_degc)
     x = np.full(net.n_nodes, 25.0)
     x[zones] = zone_temp
@@ -206,19 +207,14 @@ def test_delivered_flow_reproduces_the_metered_cooling(
     metered = flow * CP_AIR_J_PER_KG_K * (inlet - zone_temp) / net.capacitance_j_per_k[zones]
     np.testing.assert_allclose(hvac_term[zones], metered, rtol=1e-12, atol=1e-15)
     at_reference = delivered_flow_kg_s(  # air at T_s into zones at T₀: the flow itself
-        lm, room1.hvac.supply_temp_degc, flow, lm.linearisation_temp_degc, np.full(m, 13.0)
+        lm, flow, lm.linearisation_temp_degc, np.full(m, lm.supply_temp_degc)
     )
     np.testing.assert_allclose(at_reference, flow, rtol=1e-12)
     no_air = delivered_flow_kg_s(  # no flow, no inlet reading: nothing delivered
-        lm, room1.hvac.supply_temp_degc, np.zeros(m), zone_temp, np.full(m, np.nan)
+        lm, np.zeros(m), zone_temp, np.full(m, np.nan)
     )
     assert np.all(np.isfinite(no_air))
     np.testing.assert_allclose(
         b @ no_air,
-        (
-            b
-            @ delivered_flow_kg_s(
-                lm, room1.hvac.supply_temp_degc, np.zeros(m), zone_temp, zone_temp
-            )
-        ),
+        (b @ delivered_flow_kg_s(lm, np.zeros(m), zone_temp, zone_temp)),
     )

@@ -210,9 +210,7 @@ def test_the_observer_steps_the_hidden_nodes_with_the_delivered_cooling(setup) -
     # the same period, only the air system's input differs: fan-only air delivers no cooling
     flow = np.asarray(metered.plant.flows[0])  # type: ignore[attr-defined]
     mean_temp = metered.plant.temps - 0.5  # type: ignore[attr-defined]
-    u = delivered_flow_kg_s(
-        setup.model, setup.building.hvac.supply_temp_degc, flow, mean_temp, mean_temp
-    )
+    u = delivered_flow_kg_s(setup.model, flow, mean_temp, mean_temp)
     hidden = np.setdiff1d(np.arange(len(x0)), zones)
     expected = (setup.model.b @ (u - flow))[hidden]
     np.testing.assert_allclose(fan_only.x[hidden] - metered.x[hidden], expected, atol=1e-12)
@@ -231,8 +229,6 @@ def test_the_filter_predicts_with_the_delivered_cooling() -> None:
     estimator = loop.control.controller._estimator  # type: ignore[attr-defined]
     flow = np.asarray(loop.plant.flows[0])  # type: ignore[attr-defined]
     mean_temp = loop.plant.temps - 0.5  # type: ignore[attr-defined]
-    u = delivered_flow_kg_s(
-        setup.model, setup.building.hvac.supply_temp_degc, flow, mean_temp, mean_temp
-    )
+    u = delivered_flow_kg_s(setup.model, flow, mean_temp, mean_temp)
     np.testing.assert_allclose(estimator.last.flow_kg_s, u, atol=1e-12)
     assert np.all(u < flow - 1e-3)  # fan-only air: the decided flow would overstate it

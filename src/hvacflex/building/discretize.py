@@ -53,6 +53,8 @@ class LinearModel:
     node_names : (n,), zone_names : (m,), channels : (nd,) as in the network.
     flow_ref_kg_s : (m,) reference flow ṁ₀ of the linearisation [kg/s].
     linearisation_temp_degc : (m,) reference zone temperature T₀ [°C].
+    supply_temp_degc : the supply-air temperature T_s the input u is delivered at [°C]
+        (below every T₀).
     """
 
     a: FloatArray
@@ -66,6 +68,7 @@ class LinearModel:
     channels: tuple[DisturbanceChannel, ...]
     flow_ref_kg_s: FloatArray
     linearisation_temp_degc: FloatArray
+    supply_temp_degc: float
 
     def step(self, x: ArrayLike, u: ArrayLike, d: ArrayLike) -> FloatArray:
         """One step: (n,), (m,), (nd,) → (n,) [°C]."""
@@ -86,7 +89,6 @@ class LinearModel:
 
 def delivered_flow_kg_s(
     model: LinearModel,
-    supply_temp_degc: float,
     flow_kg_s: ArrayLike,
     zone_temp_degc: ArrayLike,
     inlet_temp_degc: ArrayLike,
@@ -102,7 +104,7 @@ def delivered_flow_kg_s(
 
     Parameters
     ----------
-    model : the linearised model (ṁ₀, T₀); supply_temp_degc : its T_s [°C].
+    model : the linearised model (ṁ₀, T₀, T_s).
     flow_kg_s, zone_temp_degc, inlet_temp_degc : (m,) period means of the supply flow
         [kg/s], the zone air and the supply air temperatures [°C] (the inlet's is not read
         where no air flows: NaN there is taken as no delivery).
@@ -111,12 +113,10 @@ def delivered_flow_kg_s(
     zone = np.asarray(zone_temp_degc, dtype=np.float64)
     inlet = np.asarray(inlet_temp_degc, dtype=np.float64)
     t0 = model.linearisation_temp_degc
-    if not np.all(t0 > supply_temp_degc):
-        raise ValueError(f"T_s {supply_temp_degc} °C must be below the linearisation's T₀ {t0}")
     # no air: no inlet reading; the metered cooling in K·kg/s
     cooling = np.where(flow > 0.0, sensible_cooling_kw(flow, zone, inlet), 0.0)
     metered = cooling * W_PER_KW / CP_AIR_J_PER_KG_K
-    out: FloatArray = (model.flow_ref_kg_s * (zone - t0) - metered) / (supply_temp_degc - t0)
+    out: FloatArray = (model.flow_ref_kg_s * (zone - t0) - metered) / (model.supply_temp_degc - t0)
     return out
 
 
@@ -231,6 +231,7 @@ def linearize(
         **_model_fields(b, net, dt_s, (a_d, b_d, e_d, g_d)),
         flow_ref_kg_s=frozen_array(flow_ref),
         linearisation_temp_degc=frozen_array(temp_ref),
+        supply_temp_degc=float(b.hvac.supply_temp_degc),
     )
 
 

@@ -428,7 +428,6 @@ class ClosedLoop:
             return flow
         return delivered_flow_kg_s(
             self.setup.model,
-            self.setup.building.hvac.supply_temp_degc,
             flow,
             observation.zone_mean_temp_degc,
             observation.supply_temp_degc,
