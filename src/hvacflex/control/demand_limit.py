@@ -52,13 +52,21 @@ def predicted_power_kw(
     zone_end_degc: FloatArray,
     outdoor_temp_degc: float,
     outdoor_humidity_ratio_kg_per_kg: float,
+    latent_gain_w: float = 0.0,
 ) -> float:
     """HVAC power [kW] of flows (m,) [kg/s] over a period whose zone temperatures (m,) [°C]
     go from ``zone_start_degc`` to ``zone_end_degc`` (the plant's model at the mean zone
-    temperature, latent gains left out)."""
+    temperature; the occupants' latent gain [W], all zones, left out by default)."""
     mean = 0.5 * (np.asarray(zone_start_degc) + np.asarray(zone_end_degc))
     return float(
-        hvac_power_kw(hvac, flow_kg_s, mean, outdoor_temp_degc, outdoor_humidity_ratio_kg_per_kg)
+        hvac_power_kw(
+            hvac,
+            flow_kg_s,
+            mean,
+            outdoor_temp_degc,
+            outdoor_humidity_ratio_kg_per_kg,
+            latent_gain_w=latent_gain_w,
+        )
     )
 
 

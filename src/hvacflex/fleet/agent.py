@@ -26,6 +26,7 @@ from __future__ import annotations
 import copy
 import dataclasses
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -40,6 +41,7 @@ from hvacflex.config import (
     ScenarioConfig,
 )
 from hvacflex.control.base import Action, FloatArray, PeriodInputs
+from hvacflex.control.demand_limit import predicted_power_kw
 from hvacflex.control.mpc import RESERVE_FLOW_TOLERANCE_KG_S, MPCController
 from hvacflex.data.gains import DEFAULT_OFFICE_SCHEDULE, OfficeSchedule
 from hvacflex.fleet.schema import Fleet, FleetBuilding, fleet_from_dict
@@ -66,6 +68,25 @@ def power_bounds_kw(problem: RMPCProblem, u_max: FloatArray | None = None) -> Fl
     return bound
 
 
+CAP_BISECTION_STEPS = 30
+"""Bisection steps of the cap's flow scaling by the predicted power (θ to 1e-9)."""
+
+
+def _largest_within(power_kw: Callable[[float], float], cap_kw: float, upper: float) -> float:
+    """The largest θ in [0, ``upper``] with ``power_kw(θ) ≤ cap_kw`` for a power that rises
+    with θ (0 where even θ = 0 is above it: every flow at its lower bound), by bisection."""
+    if power_kw(0.0) > cap_kw:
+        return 0.0
+    within, above = 0.0, upper
+    for _ in range(CAP_BISECTION_STEPS):
+        middle = 0.5 * (within + above)
+        if power_kw(middle) <= cap_kw:
+            within = middle
+        else:
+            above = middle
+    return within
+
+
 class FleetController(MPCController):
     """The building's MPC, driven by the fleet coordinator.
 
@@ -73,8 +94,12 @@ class FleetController(MPCController):
     basis rotated by one step, the step's re-solves at other prices or caps
     (``same_step``) from the basis HiGHS holds. :meth:`act` applies the coordinator's plan
     (passed in as ``plan``) through :meth:`MPCController.act` (its fallbacks included) and
-    then enforces the step's power cap on whatever it returns:
-    flows above the cap are scaled towards the lower bounds until the affine power meets it.
+    then enforces the step's power cap on whatever it returns: flows above the cap are
+    scaled towards the lower bounds until both the LP's affine power and the power the plant's
+    model predicts for the period (:func:`hvacflex.control.demand_limit.predicted_power_kw`
+    from the state now and the forecast, the occupants' latent gain included) meet it. The
+    affine power is a secant: at small and changing flows (outdoor air, the part-load
+    chiller) it lies below the plant's power, which is what the feeder meters.
     """
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
@@ -110,18 +135,47 @@ class FleetController(MPCController):
         assert isinstance(self._solver, RMPCSolver)
         return self._solver
 
+    def predicted_power_kw(self, inputs: PeriodInputs, flow_kg_s: FloatArray) -> float:
+        """The HVAC power [kW] the flows (m,) [kg/s] draw over the period starting now, by
+        the plant's power model at the period's mean zone temperatures (the linear model
+        stepped from ``inputs.x_degc``) and the forecast's outdoor air and latent gain."""
+        model, forecast = self._model, inputs.forecast
+        end = model.c @ model.step(inputs.x_degc, flow_kg_s, forecast.disturbances[0])
+        latent = forecast.occupant_latent_w
+        return predicted_power_kw(
+            self._building.hvac,
+            flow_kg_s,
+            model.c @ inputs.x_degc,
+            end,
+            float(forecast.outdoor_temp_degc[0]),
+            float(forecast.outdoor_humidity_ratio_kg_per_kg[0]),
+            latent_gain_w=float(latent[0]) if latent.size else 0.0,
+        )
+
     def act(self, inputs: PeriodInputs) -> Action:
         action = super().act(inputs)
         if self.power_now is None or not np.isfinite(self.cap_now_kw):
             return action
         p0, p = self.power_now
+        cap = self.cap_now_kw + CAP_TOLERANCE_KW
         low = self._building.hvac.flow_min_at(inputs.forecast.occupied[:1])[0]
-        power = p0 + float(p @ action.flow_kg_s)
-        if power <= self.cap_now_kw + CAP_TOLERANCE_KW:
+        high = action.flow_kg_s
+
+        def predicted(theta: float) -> float:
+            return self.predicted_power_kw(inputs, low + theta * (high - low))
+
+        affine_kw = p0 + float(p @ high)
+        if affine_kw <= cap and predicted(1.0) <= cap:
             return action
-        span = float(p @ (action.flow_kg_s - low))
-        theta = 0.0 if span <= 0 else float(np.clip((self.cap_now_kw - p0 - p @ low) / span, 0, 1))
-        flow = low + theta * (action.flow_kg_s - low)
+        span = float(p @ (high - low))
+        theta = 1.0  # the affine power's largest θ, then the predicted power's within it
+        if affine_kw > cap:
+            theta = (
+                0.0 if span <= 0 else float(np.clip((self.cap_now_kw - p0 - p @ low) / span, 0, 1))
+            )
+        if predicted(theta) > cap:
+            theta = _largest_within(predicted, cap, theta)
+        flow = low + theta * (high - low)
         reserve = np.clip(action.reserve_flow_kg_s, 0.0, flow - low)
         return dataclasses.replace(
             action,

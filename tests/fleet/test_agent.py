@@ -1,0 +1,45 @@
+"""A fleet building's controller under its power cap: what the feeder meters stays within it."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from hvacflex.fleet.agent import BuildingAgent, FleetSettings, _largest_within
+from hvacflex.fleet.generate import generate_fleet
+from hvacflex.fleet.schema import fleet_from_dict
+
+
+def _first_period(start: str, capped: bool) -> tuple[float, dict[str, float]]:
+    """One building (seed 3) decides its first period uncapped; ``capped``: its power cap
+    is then set to the plan's own affine power. (The plan's power [kW], the period's row.)"""
+    fleet = fleet_from_dict(generate_fleet(1, 3, feeder_limit_kw=float("inf")))
+    agent = BuildingAgent(fleet.buildings[0], 0, FleetSettings.of(fleet, start, 1 / 24))
+    agent.begin_step()
+    horizon = fleet.spec.horizon_steps
+    plan_kw = float(agent.finalize(np.zeros(horizon), np.full(horizon, np.inf)).power_kw[0])
+    if capped:
+        agent.controller.cap_now_kw = plan_kw
+    return plan_kw, agent.advance()
+
+
+def test_the_cap_holds_the_metered_power_where_the_affine_power_under_predicts_it() -> None:
+    """At 02:00 the plan pre-cools at small flows, where the LP's secant of the outdoor air
+    and the part-load chiller lies far below the plant's power: a cap at the plan's own
+    affine power would let the meter read three times that. The cap scales the flows until
+    the plant's model predicts the cap, and the meter reads within it."""
+    plan_kw, free = _first_period("2014-03-03T02:00", capped=False)
+    _, capped = _first_period("2014-03-03T02:00", capped=True)
+    assert free["power_kw"] > 2.0 * plan_kw  # the affine power under-predicts
+    assert free["fallback"] == 0.0 and capped["fallback"] == 1.0  # the cap acted
+    assert capped["power_kw"] <= 1.02 * plan_kw
+    assert capped["power_kw"] >= 0.9 * plan_kw  # scaled to the cap, not to the minimum
+
+
+def test_largest_within_bisects_a_rising_power() -> None:
+    def power(theta: float) -> float:
+        return 10.0 + 20.0 * theta**2
+
+    assert _largest_within(power, 15.0, 1.0) == pytest.approx(0.5, abs=1e-8)
+    assert _largest_within(power, 15.0, 0.3) == pytest.approx(0.3, abs=1e-8)  # upper bound
+    assert _largest_within(power, 5.0, 1.0) == 0.0  # even the lower bounds are above it
