@@ -40,8 +40,7 @@ from hvacflex.fleet.run import (
     _Groups,
     coordinate_ranges,
 )
-from hvacflex.fleet.schema import load_fleet
-from hvacflex.tomlio import read_toml
+from hvacflex.fleet.schema import load_fleet_document
 
 COMPARE_FILE = "compare.csv"
 COMPARE_COLUMNS = (
@@ -97,14 +96,14 @@ def compare_fleet(
     out_dir : folder for ``compare.csv`` (made).
     """
     path = Path(fleet_path)
-    fleet = load_fleet(path)
+    fleet, document = load_fleet_document(path)
     _check_size(len(fleet.buildings), path)
     days = steps * DT_H / 24.0
     settings = FleetSettings.of(fleet, start, days)
     horizon = settings.horizon_steps
     index, _, planning = _feeder_timeline(fleet, start, days, horizon)
     options = _coordination_options(fleet)
-    groups = _Groups(read_toml(path, what="fleet"), settings, len(fleet.buildings), None)
+    groups = _Groups(document, settings, len(fleet.buildings), None)
     agents = groups.groups[0].agents
     rows: list[dict[str, Any]] = []
     price = np.zeros(horizon)
