@@ -17,8 +17,9 @@ cached by inputs and code, resumable), and writes:
   ``reserve_offered_mean_kw``, ``reserve_price_mean_sgd_per_mwh`` and
   ``reserve_usep_pearson`` (the realised correlation of the simulated periods' prices);
 * ``sensitivity_findings.csv`` — per point: whether revenue rises in (b) and in (c) against (a)
-  (:func:`hvacflex.report.text.rises`, the rule of the report's verdict) and the paper's
-  finding (both);
+  (:func:`hvacflex.report.text.rises`, the report's rule, which there also calls a point
+  where (a) earns nothing "not comparable"; here a revenue above nothing rises) and the
+  paper's finding (both);
 * ``sensitivity_figure.png`` — revenue share against scale, one line per correlation, per
   scenario (its data in ``sensitivity_figure.csv``).
 """

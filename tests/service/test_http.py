@@ -126,5 +126,9 @@ def test_bodies_over_the_limit_are_refused_and_mutations_audited(tmp_path: Path)
     client.get("/raise/input")  # a read: not audited
     with sessions() as session:
         rows = session.scalars(select(AuditEntry).order_by(AuditEntry.id)).all()
-    assert [(r.method, r.path, r.status_code) for r in rows] == [("POST", "/echo", 200)]
-    assert rows[0].body_head == '{"prices":[1.0,2.0]}'
+    assert [(r.method, r.path, r.status_code) for r in rows] == [
+        ("POST", "/echo", 413),  # refused unread, audited all the same
+        ("POST", "/echo", 200),
+    ]
+    assert rows[0].body_head == "" and rows[0].key_id is None
+    assert rows[1].body_head == '{"prices":[1.0,2.0]}'

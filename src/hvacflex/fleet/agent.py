@@ -74,7 +74,11 @@ CAP_BISECTION_STEPS = 30
 
 def _largest_within(power_kw: Callable[[float], float], cap_kw: float, upper: float) -> float:
     """The largest θ in [0, ``upper``] with ``power_kw(θ) ≤ cap_kw`` for a power that rises
-    with θ (0 where even θ = 0 is above it: every flow at its lower bound), by bisection."""
+    with θ (0 where even θ = 0 is above it: every flow at its lower bound), by bisection.
+
+    More flow draws more power in cooling (fan, coil, chiller), so the assumption holds for
+    the cooling-only buildings fleets are made of; where it did not (a heating coil's power
+    falls with flow) the θ returned would still meet the cap wherever it is not 0."""
     if power_kw(0.0) > cap_kw:
         return 0.0
     within, above = 0.0, upper
@@ -154,7 +158,9 @@ class FleetController(MPCController):
 
     def act(self, inputs: PeriodInputs) -> Action:
         action = super().act(inputs)
-        if self.power_now is None or not np.isfinite(self.cap_now_kw):
+        if np.isnan(self.cap_now_kw):
+            raise ValueError("the coordinator gave this building a NaN power cap")
+        if self.power_now is None or self.cap_now_kw == np.inf:
             return action
         p0, p = self.power_now
         cap = self.cap_now_kw + CAP_TOLERANCE_KW
@@ -164,17 +170,16 @@ class FleetController(MPCController):
         def predicted(theta: float) -> float:
             return self.predicted_power_kw(inputs, low + theta * (high - low))
 
-        affine_kw = p0 + float(p @ high)
-        if affine_kw <= cap and predicted(1.0) <= cap:
-            return action
-        span = float(p @ (high - low))
         theta = 1.0  # the affine power's largest θ, then the predicted power's within it
-        if affine_kw > cap:
+        if p0 + float(p @ high) > cap:
+            span = float(p @ (high - low))
             theta = (
                 0.0 if span <= 0 else float(np.clip((self.cap_now_kw - p0 - p @ low) / span, 0, 1))
             )
         if predicted(theta) > cap:
             theta = _largest_within(predicted, cap, theta)
+        elif theta == 1.0:  # both within the cap: the action as decided
+            return action
         flow = low + theta * (high - low)
         reserve = np.clip(action.reserve_flow_kg_s, 0.0, flow - low)
         return dataclasses.replace(

@@ -77,7 +77,8 @@ def envelope(status: int, message: str, payload: Any = None) -> JSONResponse:
 
 class BodyLimitAndAudit:
     """ASGI middleware: refuse bodies over ``MAX_BODY_BYTES`` (413) and write an audit row
-    for every mutating request before its response starts."""
+    for every mutating request before its response starts (a body refused by its
+    ``Content-Length`` is not read: its row has no key, and the empty body's digest)."""
 
     def __init__(self, app: ASGIApp, sessions: sessionmaker[Session]) -> None:
         self.app = app
@@ -89,10 +90,12 @@ class BodyLimitAndAudit:
             return
         headers = dict(scope.get("headers") or [])
         length = headers.get(b"content-length")
+        mutating = scope["method"] in ("POST", "PUT", "PATCH", "DELETE")
         if length is not None and (not length.isdigit() or int(length) > MAX_BODY_BYTES):
+            if mutating:  # refused unread: audited with the empty body's digest
+                self._audit(scope, b"", 413)
             await envelope(413, f"body larger than {MAX_BODY_BYTES} bytes")(scope, receive, send)
             return
-        mutating = scope["method"] in ("POST", "PUT", "PATCH", "DELETE")
         body = bytearray()
 
         async def limited_receive() -> Message:
