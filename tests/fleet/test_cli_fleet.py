@@ -117,3 +117,18 @@ def test_coordination_watch_warns_once_and_sums_up(capsys: pytest.CaptureFixture
     assert err.count("warning:") == 1 and "step 1: coordination stopped at its iteration" in err
     assert watch.at_limit == 3 and watch.worst_gap == 0.5
     assert "in 3 of 4 steps (largest gap 0.5, tolerance 0.002)" in watch.summary()
+
+
+def test_simulate_prints_the_guarantee_outside_the_flagged_periods(tmp_path: Path) -> None:
+    """Under 60 kW two buildings' minimum powers alone exceed the limit from 08:00: the
+    closing line says how many periods were flagged and how far the others went over it
+    (what the feeder guarantee is judged on)."""
+    fleet = tmp_path / "fleet.toml"
+    generate = ["fleet", "generate", "--buildings", "2", "--seed", "3", "--out", str(fleet)]
+    done = CliRunner().invoke(app, [*generate, "--feeder-limit-kw", "60"])
+    assert done.exit_code == 0, done.output
+    simulate = ["fleet", "simulate", "--fleet", str(fleet), "--start", "2014-03-03T07:00"]
+    options = ["--days", "0.0625", "--workers", "0", "--out", str(tmp_path / "run")]
+    done = CliRunner().invoke(app, [*simulate, *options])
+    assert done.exit_code == 0, done.output
+    assert "1 periods flagged infeasible (outside them: planned over limit max" in done.output
