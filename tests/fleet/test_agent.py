@@ -2,9 +2,14 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
+from hvacflex.control.base import PeriodInputs
+from hvacflex.control.baselines import rule_action
+from hvacflex.control.mpc import MPCController
 from hvacflex.fleet.agent import BuildingAgent, FleetSettings, _largest_within
 from hvacflex.fleet.generate import generate_fleet
 from hvacflex.fleet.schema import fleet_from_dict
@@ -43,3 +48,37 @@ def test_largest_within_bisects_a_rising_power() -> None:
     assert _largest_within(power, 15.0, 1.0) == pytest.approx(0.5, abs=1e-8)
     assert _largest_within(power, 15.0, 0.3) == pytest.approx(0.3, abs=1e-8)  # upper bound
     assert _largest_within(power, 5.0, 1.0) == 0.0  # even the lower bounds are above it
+
+
+def test_a_capped_offer_is_priced_at_the_reserve_coefficient(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Where the cap cuts the flows, the reserve left (r clipped to u − u_min) is offered at
+    q·r, the capacity the offer is priced at, never more than the offer decided."""
+    fleet = fleet_from_dict(generate_fleet(1, 3, feeder_limit_kw=float("inf")))
+    agent = BuildingAgent(fleet.buildings[0], 0, FleetSettings.of(fleet, "2014-03-03T11:00", 1))
+    agent.begin_step()
+    horizon = fleet.spec.horizon_steps
+    agent.finalize(np.zeros(horizon), np.full(horizon, np.inf))
+    controller = agent.controller
+    p0, p, q = controller.power_now  # type: ignore[misc]
+    low = agent.setup.building.hvac.flow_min_at(np.array([True]))[0]
+    flow = low + 0.6 * (np.asarray(agent.setup.building.hvac.flow_max_kg_s) - low)
+    reserve = 0.5 * (flow - low)
+    inputs = PeriodInputs(
+        x_degc=agent.loop.x.copy(),
+        forecast=agent.setup.forecaster.forecast(0, horizon + 1),
+        peak_floor_kw=0.0,
+    )
+    ruled = rule_action(agent.setup.model, inputs.x_degc, flow, inputs.forecast.disturbances[0])
+    decided = dataclasses.replace(ruled, reserve_flow_kg_s=reserve, reserve_kw=float(q @ reserve))
+    monkeypatch.setattr(MPCController, "act", lambda self, inputs: decided)
+    controller.cap_now_kw = p0 + float(p @ (low + 0.2 * (flow - low)))  # cuts below u − r
+    capped = controller.act(inputs)
+    assert capped.fallback and np.all(capped.flow_kg_s <= flow)
+    left = np.clip(reserve, 0.0, capped.flow_kg_s - low)
+    assert np.all(capped.reserve_flow_kg_s == left) and left.sum() < reserve.sum()
+    assert capped.reserve_kw == pytest.approx(float(q @ left), rel=1e-12)
+    assert np.all(q <= p + 1e-12)  # q is the lower bound: p would overstate the offer
+    controller.cap_now_kw = np.inf
+    assert controller.act(inputs) is decided  # no cap: the action as decided

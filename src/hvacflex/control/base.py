@@ -71,7 +71,8 @@ class Action:
     flow_kg_s : (m,) supply air flow per zone when IL is not activated, u₀ [kg/s].
     reserve_flow_kg_s : (m,) flow reduction offered as IL reserve, r₀ [kg/s]; the plant runs
         u₀ − r₀ when activated.
-    reserve_kw : reserve capacity offered, p₀ᵀ r₀ [kW] (what the reserve price pays for).
+    reserve_kw : reserve capacity offered, q₀ᵀ r₀ [kW] (what the reserve price pays for; q the
+        problem's ``reserve_kw_per_kg_s``, p where it has none).
     planned_power_kw : the plan's first-step power p0₀ + p₀ᵀ u₀ [kW] (NaN without a plan).
     status : solver outcome (``"optimal"``, ``"infeasible"``, …, or ``"rule"`` for baselines).
     fallback : True when the plan could not be used and a safe rule decided instead.

@@ -109,7 +109,9 @@ class FleetController(MPCController):
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
         self.cap_now_kw = np.inf
-        self.power_now: tuple[float, FloatArray] | None = None
+        self.power_now: tuple[float, FloatArray, FloatArray] | None = None
+        """The step's first period as the LP sees it: (P₀ [kW], p (m,) [kW per kg/s], q (m,)
+        the reserve capacity per kg/s of reserve flow [kW per kg/s]); None before a step."""
 
     def note_baseline_power(self, baseline_power_kw: float | None) -> None:
         """Ignored: a fleet is settled on its aggregate meter, so the coordinator checks the
@@ -162,7 +164,7 @@ class FleetController(MPCController):
             raise ValueError("the coordinator gave this building a NaN power cap")
         if self.power_now is None or self.cap_now_kw == np.inf:
             return action
-        p0, p = self.power_now
+        p0, p, q = self.power_now
         cap = self.cap_now_kw + CAP_TOLERANCE_KW
         low = self._building.hvac.flow_min_at(inputs.forecast.occupied[:1])[0]
         high = action.flow_kg_s
@@ -186,7 +188,7 @@ class FleetController(MPCController):
             action,
             flow_kg_s=flow,
             reserve_flow_kg_s=reserve,
-            reserve_kw=float(p @ reserve),
+            reserve_kw=min(action.reserve_kw, float(q @ reserve)),  # priced at q, as offered
             planned_power_kw=p0 + float(p @ flow),
             fallback=True,
             status=f"{action.status}+capped",
@@ -421,6 +423,7 @@ class BuildingAgent:
         self.controller.power_now = (
             float(base.power_offset_kw[0]),
             base.power_coeff_kw_per_kg_s[0].copy(),
+            base.reserve_kw_per_kg_s[0].copy(),
         )
         return result
 
