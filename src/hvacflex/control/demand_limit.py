@@ -70,6 +70,32 @@ def predicted_power_kw(
     )
 
 
+def forecast_period_power_kw(
+    model: LinearModel,
+    hvac: HvacSystem,
+    x_degc: FloatArray,
+    flow_kg_s: FloatArray,
+    forecast: Forecast,
+    *,
+    latent: bool = False,
+) -> float:
+    """HVAC power [kW] of flows (m,) [kg/s] over the period starting now: the linear model
+    stepped from ``x_degc`` (n,) [°C] under the forecast's first disturbances, then
+    :func:`predicted_power_kw` with its outdoor air and, if ``latent``, the occupants'
+    latent gain."""
+    end = model.c @ model.step(x_degc, flow_kg_s, forecast.disturbances[0])
+    gain = forecast.occupant_latent_w
+    return predicted_power_kw(
+        hvac,
+        flow_kg_s,
+        model.c @ x_degc,
+        end,
+        float(forecast.outdoor_temp_degc[0]),
+        float(forecast.outdoor_humidity_ratio_kg_per_kg[0]),
+        latent_gain_w=float(gain[0]) if latent and gain.size else 0.0,
+    )
+
+
 class DemandLimitController(ThermostatController):
     """Thermostat with set-point raises that hold a peak target (module docstring).
 
@@ -112,16 +138,7 @@ class DemandLimitController(ThermostatController):
         self._day = day
 
     def _power_kw(self, x_degc: FloatArray, flow: FloatArray, forecast: Forecast) -> float:
-        model = self.model
-        end = model.c @ model.step(x_degc, flow, forecast.disturbances[0])
-        return predicted_power_kw(
-            self.hvac,
-            flow,
-            model.c @ x_degc,
-            end,
-            float(forecast.outdoor_temp_degc[0]),
-            float(forecast.outdoor_humidity_ratio_kg_per_kg[0]),
-        )
+        return forecast_period_power_kw(self.model, self.hvac, x_degc, flow, forecast)
 
     def limited_flows(
         self, x_degc: FloatArray, forecast: Forecast, target_kw: float

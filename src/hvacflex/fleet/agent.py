@@ -41,7 +41,7 @@ from hvacflex.config import (
     ScenarioConfig,
 )
 from hvacflex.control.base import Action, FloatArray, PeriodInputs
-from hvacflex.control.demand_limit import predicted_power_kw
+from hvacflex.control.demand_limit import forecast_period_power_kw
 from hvacflex.control.mpc import RESERVE_FLOW_TOLERANCE_KG_S, MPCController
 from hvacflex.data.gains import DEFAULT_OFFICE_SCHEDULE, OfficeSchedule
 from hvacflex.fleet.schema import Fleet, FleetBuilding, fleet_from_dict
@@ -100,7 +100,7 @@ class FleetController(MPCController):
     (passed in as ``plan``) through :meth:`MPCController.act` (its fallbacks included) and
     then enforces the step's power cap on whatever it returns: flows above the cap are
     scaled towards the lower bounds until both the LP's affine power and the power the plant's
-    model predicts for the period (:func:`hvacflex.control.demand_limit.predicted_power_kw`
+    model predicts for the period (:func:`hvacflex.control.demand_limit.forecast_period_power_kw`
     from the state now and the forecast, the occupants' latent gain included) meet it. The
     affine power is a secant: at small and changing flows (outdoor air, the part-load
     chiller) it lies below the plant's power, which is what the feeder meters.
@@ -145,17 +145,13 @@ class FleetController(MPCController):
         """The HVAC power [kW] the flows (m,) [kg/s] draw over the period starting now, by
         the plant's power model at the period's mean zone temperatures (the linear model
         stepped from ``inputs.x_degc``) and the forecast's outdoor air and latent gain."""
-        model, forecast = self._model, inputs.forecast
-        end = model.c @ model.step(inputs.x_degc, flow_kg_s, forecast.disturbances[0])
-        latent = forecast.occupant_latent_w
-        return predicted_power_kw(
+        return forecast_period_power_kw(
+            self._model,
             self._building.hvac,
+            inputs.x_degc,
             flow_kg_s,
-            model.c @ inputs.x_degc,
-            end,
-            float(forecast.outdoor_temp_degc[0]),
-            float(forecast.outdoor_humidity_ratio_kg_per_kg[0]),
-            latent_gain_w=float(latent[0]) if latent.size else 0.0,
+            inputs.forecast,
+            latent=True,
         )
 
     def act(self, inputs: PeriodInputs) -> Action:

@@ -35,28 +35,28 @@ Receive = Callable[[], Awaitable[Message]]
 Send = Callable[[Message], Awaitable[None]]
 ASGIApp = Callable[[Scope, Receive, Send], Awaitable[None]]
 
-COMMON_ERRORS: dict[int | str, dict[str, Any]] = {
-    code: {"model": ErrorEnvelope, "description": text}
-    for code, text in (
-        (400, "The body is not JSON, or not UTF-8"),
-        (404, "No such route, building or plan"),
-        (405, "Method not allowed; the Allow header lists the route's methods"),
-        (413, "Body too large"),
-        (422, "Invalid input; the message names the field"),
-    )
-}
+
+def _enveloped(*answers: tuple[int, str]) -> dict[int | str, dict[str, Any]]:
+    """OpenAPI responses: each (status, description) answered in the :class:`ErrorEnvelope`."""
+    return {code: {"model": ErrorEnvelope, "description": text} for code, text in answers}
+
+
+COMMON_ERRORS = _enveloped(
+    (400, "The body is not JSON, or not UTF-8"),
+    (404, "No such route, building or plan"),
+    (405, "Method not allowed; the Allow header lists the route's methods"),
+    (413, "Body too large"),
+    (422, "Invalid input; the message names the field"),
+)
 """Errors any route may answer (every one in the envelope)."""
-ERRORS: dict[int | str, dict[str, Any]] = {
+ERRORS = {
     **COMMON_ERRORS,
-    **{
-        code: {"model": ErrorEnvelope, "description": text}
-        for code, text in (
-            (401, "No key, or an unknown or revoked key"),
-            (403, "The key's role or building does not allow this"),
-            (409, "Conflicts with what is stored"),
-            (429, "Too many attempts with unknown keys; see Retry-After"),
-        )
-    },
+    **_enveloped(
+        (401, "No key, or an unknown or revoked key"),
+        (403, "The key's role or building does not allow this"),
+        (409, "Conflicts with what is stored"),
+        (429, "Too many attempts with unknown keys; see Retry-After"),
+    ),
 }
 """The errors of a route that needs a key."""
 JSON_ERRORS: dict[int | str, dict[str, Any]] = {
