@@ -21,5 +21,8 @@ W_PER_KW = 1000.0
 KWH_PER_MWH = 1000.0
 KELVIN_OFFSET = 273.15
 
+STEFAN_BOLTZMANN_W_PER_M2K4 = 5.670374419e-8
+"""Stefan–Boltzmann constant σ [W/(m²K⁴)] (CODATA 2018, exact)."""
+
 STEP_30MIN_S = 1800.0
 """The NEMS dispatch period and hvacflex's default control step [s]."""

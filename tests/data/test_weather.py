@@ -221,6 +221,7 @@ def _set_field(lines: list[str], row: int, index: int, value: str) -> None:
         (13, "-10", "ghi_w_per_m2", "outside the physical range 0…1500 Wh/m²"),
         (14, "9999", "dni_w_per_m2", r"missing-value code \(≥ 9999\)"),
         (15, "5000", "dhi_w_per_m2", "outside the physical range"),
+        (12, "-5", "sky_infrared_w_per_m2", "outside the physical range 0…1500 Wh/m²"),
         (21, "1e308", "wind_speed_m_s", "missing-value code"),
         (21, "60", "wind_speed_m_s", "outside the physical range 0…40 m/s"),
         (3, "25", "hour", "outside the physical range 1…24"),

@@ -61,7 +61,7 @@ def test_two_weeks_of_case_600_are_plausible(
     shipped_buildings_dir: Path, bestest_dir: Path
 ) -> None:
     b = load_building(shipped_buildings_dir / "bestest600.toml")
-    d = bt.bestest_disturbances(b, build_network(b), bestest_dir / bt.EPW_NAME)
+    d = bt.bestest_disturbances(build_network(b), bestest_dir / bt.EPW_NAME)
     assert d.shape == (17520, len(build_network(b).channels))
     january = d.iloc[: 14 * 48]
     loads = bt.run_case("600", b, january).hourly

@@ -28,7 +28,9 @@ Units per kind:
 * ``window_solar_gain`` — solar heat gain per m² of one window whose SHGC depends on the
   incidence angle (``Window.shgc_normal`` set), ``Window.solar_gain_w_per_m2`` of the beam
   and diffuse irradiance on its plane [W/m²]. Such a window uses this channel instead of
-  the plane's ``solar`` channel.
+  the plane's ``solar`` channel; the channel carries the window (its plane and optics), so
+  the data layer fills it from the weather alone. An uncertainty box treats it as ``solar``
+  (:attr:`DisturbanceChannel.box_kind`).
 * ``constant``      — 1 at every period [-]: carries the fitted constant heat gains of an
   identified building (:mod:`hvacflex.building.identified`); never uncertain.
 """
@@ -36,7 +38,10 @@ Units per kind:
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
+
+if TYPE_CHECKING:
+    from hvacflex.building.model import Window
 
 ChannelKind = Literal[
     "outdoor_temp",
@@ -70,6 +75,7 @@ class DisturbanceChannel:
     kind : what it is (see the module docstring for units).
     azimuth_deg, tilt_deg : orientation of the irradiated plane (``solar`` only).
     zone : zone name (``internal_gain``) or window name (``window_solar_gain``).
+    window : the window (``window_solar_gain`` only): its plane and angle-dependent SHGC.
     """
 
     name: str
@@ -77,10 +83,17 @@ class DisturbanceChannel:
     azimuth_deg: float | None = None
     tilt_deg: float | None = None
     zone: str | None = None
+    window: Window | None = None
 
     @property
     def unit(self) -> str:
         return CHANNEL_UNITS[self.kind]
+
+    @property
+    def box_kind(self) -> str:
+        """The kind an uncertainty box sizes this channel by: a window's solar gain is
+        ``solar``, every other channel its own kind."""
+        return "solar" if self.kind == "window_solar_gain" else self.kind
 
 
 def outdoor_temp_channel() -> DisturbanceChannel:
@@ -104,9 +117,12 @@ def sky_longwave_channel() -> DisturbanceChannel:
     return DisturbanceChannel("sky_longwave_w_per_m2", "sky_longwave")
 
 
-def window_solar_gain_channel(window: str) -> DisturbanceChannel:
+def window_solar_gain_channel(window: Window) -> DisturbanceChannel:
     return DisturbanceChannel(
-        f"window_solar_gain_{window}_w_per_m2", "window_solar_gain", zone=window
+        f"window_solar_gain_{window.name}_w_per_m2",
+        "window_solar_gain",
+        zone=window.name,
+        window=window,
     )
 
 

@@ -190,7 +190,7 @@ def disturbance_channels(b: Building) -> tuple[DisturbanceChannel, ...]:
         channels.append(ground_temp_channel())
     if has_sky_exchange(b):
         channels.append(sky_longwave_channel())
-    channels += [window_solar_gain_channel(w.name) for w in b.windows if w.shgc_normal is not None]
+    channels += [window_solar_gain_channel(w) for w in b.windows if w.shgc_normal is not None]
     return tuple(channels)
 
 

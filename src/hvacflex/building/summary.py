@@ -106,6 +106,10 @@ def design_disturbance(b: Building) -> np.ndarray:
         elif channel.kind == "solar":
             vertical = channel.tilt_deg is not None and channel.tilt_deg > 0
             d[j] = DESIGN_SOLAR_VERTICAL_W_PER_M2 if vertical else DESIGN_SOLAR_HORIZONTAL_W_PER_M2
+        elif channel.kind == "window_solar_gain" and channel.window is not None:
+            window = channel.window
+            shgc = window.shgc_normal if window.shgc_normal is not None else window.shgc
+            d[j] = shgc * DESIGN_SOLAR_VERTICAL_W_PER_M2
         elif channel.kind == "internal_gain":
             zone = b.zones[b.zone_index(str(channel.zone))]
             d[j] = zone.floor_area_m2 * b.gains.peak_sensible_w_per_m2

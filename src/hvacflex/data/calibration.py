@@ -160,7 +160,7 @@ def calibrate_box(
     absolute: dict[str, float] = {}
     for i, ch in enumerate(channels):
         e, d_hat = np.abs(errors[:, i]), np.abs(forecasts[:, i])
-        if ch.kind in RELATIVE_KINDS:
+        if ch.box_kind in RELATIVE_KINDS:
             peak = d_hat.max() if d_hat.size else 0.0
             high = (d_hat > 0) & (d_hat >= LOW_FORECAST_FRACTION * peak)
             absolute[ch.name] = _quantile(e[~high], quantile)

@@ -61,7 +61,6 @@ from hvacflex.data.market import (
     load_usep,
     synthetic_reserve_prices,
 )
-from hvacflex.data.solar import surface_irradiance_w_per_m2
 from hvacflex.data.uncertainty import (
     AR1_COEFFICIENT,
     DEFAULT_UNCERTAINTY,
@@ -69,6 +68,7 @@ from hvacflex.data.uncertainty import (
     check_ar1_coefficient,
 )
 from hvacflex.data.weather import EpwLocation, weather_on
+from hvacflex.data.weather_channels import HEAT_GAIN_KINDS, weather_channel_values
 from hvacflex.data.weather_forecast import StatisticalWeather, period_of_day
 from hvacflex.errors import ConfigError, DataError
 from hvacflex.paths import DATA_DIR_ENV, data_dir
@@ -312,7 +312,7 @@ class Forecaster:
         self._channels = x.channels
         self._rel, self._abs = error_box.coefficients(x.channels)
         self._nonnegative = np.array(
-            [ch.kind in ("solar", "internal_gain") for ch in x.channels], dtype=bool
+            [ch.kind in (*HEAT_GAIN_KINDS, "internal_gain") for ch in x.channels], dtype=bool
         )
         self._init_realistic(weather, expected_disturbances)
 
@@ -583,7 +583,9 @@ def load_exogenous(
     )
     weather_path = Path(weather_file) if weather_file is not None else default_weather_file()
     weather, location = weather_on(index, weather_path)
-    d = _disturbance_matrix(channels, index, weather, location, gains, gain_areas, schedule)
+    d = _disturbance_matrix(
+        channels, index, weather, location, gains, gain_areas, schedule, weather_path
+    )
     band = comfort or ComfortBand()
     lower, upper = comfort_bounds_degc(
         index, n_zones, band.occupied_degc, band.unoccupied_degc, schedule
@@ -726,15 +728,12 @@ def _disturbance_matrix(
     gains: InternalGainDensities,
     gain_areas_m2: Sequence[float],
     schedule: OfficeSchedule,
+    weather_path: Path,
 ) -> np.ndarray:
     """(T, nd) disturbances d in ``channels`` order and units, from the weather on ``index``
-    and the office schedule's internal gains."""
-    surfaces = [
-        (float(ch.azimuth_deg or 0.0), float(ch.tilt_deg if ch.tilt_deg is not None else 90.0))
-        for ch in channels
-        if ch.kind == "solar"
-    ]
-    solar = surface_irradiance_w_per_m2(weather, location, surfaces).to_numpy()
+    (:func:`~hvacflex.data.weather_channels.weather_channel_values`) and the office
+    schedule's internal gains."""
+    values = weather_channel_values(channels, weather, location, source=weather_path)
     per_m2 = zone_internal_gains_w(
         index,
         1.0,
@@ -745,15 +744,10 @@ def _disturbance_matrix(
         schedule,
     )
     d = np.empty((len(index), len(channels)))
-    solar_i = gain_i = 0
+    gain_i = 0
     for i, ch in enumerate(channels):
-        if ch.kind == "outdoor_temp":
-            d[:, i] = weather["outdoor_temp_degc"].to_numpy()
-        elif ch.kind == "ground_temp":
-            d[:, i] = weather["ground_temp_degc"].to_numpy()
-        elif ch.kind == "solar":
-            d[:, i] = solar[:, solar_i]
-            solar_i += 1
+        if i in values:
+            d[:, i] = values[i]
         elif ch.kind == "internal_gain":
             d[:, i] = per_m2 * gain_areas_m2[gain_i]
             gain_i += 1

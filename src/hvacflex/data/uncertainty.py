@@ -83,6 +83,12 @@ def _frozen_mapping(
     return MappingProxyType(checked)
 
 
+def _by_kind(values: Mapping[str, float], channel: DisturbanceChannel) -> float:
+    """The value for ``channel``'s kind, else for its box kind (a window's solar gain is
+    ``solar``), else 0."""
+    return values.get(channel.kind, values.get(channel.box_kind, 0.0))
+
+
 @dataclass(frozen=True)
 class UncertaintyBox:
     """Half-widths σ of the disturbance box, per channel kind.
@@ -111,8 +117,8 @@ class UncertaintyBox:
 
     def coefficients(self, channels: Sequence[DisturbanceChannel]) -> tuple[np.ndarray, np.ndarray]:
         """Per-channel (relative (nd,), absolute (nd,)) coefficients, for precomputation."""
-        relative = np.array([self.relative.get(ch.kind, 0.0) for ch in channels], dtype=float)
-        absolute = np.array([self.absolute.get(ch.kind, 0.0) for ch in channels], dtype=float)
+        relative = np.array([_by_kind(self.relative, ch) for ch in channels], dtype=float)
+        absolute = np.array([_by_kind(self.absolute, ch) for ch in channels], dtype=float)
         for i, ch in enumerate(channels):
             if ch.name in self.channel_relative or ch.name in self.channel_absolute:
                 relative[i] = self.channel_relative.get(ch.name, 0.0)

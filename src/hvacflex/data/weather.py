@@ -23,6 +23,8 @@ Resampling to 30-min periods ``[t, t+30 min)`` (:func:`weather_30min`)
   below the horizon, and the DNI of a sunrise hour is the DNI while the sun is up, not
   twice the hour's mean. Where the sun is below the horizon over a whole hour its values
   are split equally.
+* The sky's horizontal infrared (an hour mean, like the irradiances) applies to both halves
+  of its hour.
 * Humidity ratio follows from the period's dew point and pressure.
 
 EPW files hold a typical year assembled from different years; :func:`weather_30min` maps the
@@ -75,6 +77,8 @@ class EpwField:
     minimum, maximum : physical range (inclusive) [unit].
     missing : the EPW "missing" code: a value ≥ it means "no data" (None: the field has
         none).
+    required : a missing value is an error (True) or NaN in the frame (False: a field only
+        some buildings need, checked where it is used).
     """
 
     index: int
@@ -84,6 +88,7 @@ class EpwField:
     minimum: float
     maximum: float
     missing: float | None
+    required: bool = True
 
 
 IRRADIANCE_MAX_WH_PER_M2 = 1500.0
@@ -103,6 +108,16 @@ EPW_FIELDS: tuple[EpwField, ...] = (
     EpwField(7, "dewpoint_degc", "Dew Point Temperature", "°C", -70.0, 70.0, 99.9),
     EpwField(8, "relative_humidity_percent", "Relative Humidity", "%", 0.0, 110.0, 999.0),
     EpwField(9, "pressure_pa", "Atmospheric Station Pressure", "Pa", 31000.0, 120000.0, 999999.0),
+    EpwField(
+        12,
+        "sky_infrared_w_per_m2",
+        "Horizontal Infrared Radiation Intensity",
+        "Wh/m²",
+        0.0,
+        IRRADIANCE_MAX_WH_PER_M2,
+        9999.0,
+        required=False,
+    ),
     EpwField(
         13,
         "ghi_w_per_m2",
@@ -132,7 +147,9 @@ EPW_FIELDS: tuple[EpwField, ...] = (
     ),
     EpwField(21, "wind_speed_m_s", "Wind Speed", "m/s", 0.0, 40.0, 999.0),
 )
-"""The fields hvacflex reads, with the physical range every value must lie in."""
+"""The fields hvacflex reads, with the physical range every value must lie in. The sky's
+infrared (field 13) is read only where a file has it: only a building whose exterior surfaces
+set a thermal emissivity (the ``sky_longwave`` channel) needs it."""
 
 TIMEZONE_RANGE_H = (-12.0, 14.0)
 """Valid offsets of local standard time from UTC [h] (the EPW dictionary says −12…+12; real
@@ -476,10 +493,13 @@ def _numeric_field(
     """Field ``spec`` of every row as floats, checked against its range and missing code."""
     texts = pd.Series([r[spec.index] for r in rows], dtype=object).str.strip()
     array = pd.to_numeric(texts, errors="coerce").to_numpy(dtype=float)
+    if not spec.required:
+        assert spec.missing is not None
+        array[~np.isfinite(array) | (array >= spec.missing)] = np.nan
     where = f"{spec.column} ({spec.name}, field {spec.index + 1})"
     checks: list[tuple[np.ndarray, str, str]] = [
         (
-            ~np.isfinite(array),
+            ~np.isfinite(array) & spec.required,
             "missing or non-numeric EPW field",
             "hvacflex needs dry bulb, dew point, RH, pressure, GHI, DNI, DHI and wind in every "
             "row; fill the gaps (e.g. with the Elements or a weather converter)",
@@ -495,7 +515,7 @@ def _numeric_field(
         )
     checks.append(
         (
-            (array < spec.minimum) | (array > spec.maximum),
+            np.isfinite(array) & ((array < spec.minimum) | (array > spec.maximum)),
             f"outside the physical range {spec.minimum:g}…{spec.maximum:g} {spec.unit}",
             "the file looks damaged; re-download it",
         )
@@ -529,7 +549,9 @@ def read_epw(path: str | Path) -> tuple[pd.DataFrame, EpwLocation]:
         ``month``, ``day``, ``hour`` (1…24, the row covers [hour−1, hour) local standard time),
         ``outdoor_temp_degc`` [°C], ``dewpoint_degc`` [°C], ``relative_humidity_percent``
         [%], ``pressure_pa`` [Pa], ``ghi_w_per_m2``, ``dni_w_per_m2``, ``dhi_w_per_m2``
-        (hour means [W/m²]) and ``wind_speed_m_s`` [m/s]. A 29 February is dropped.
+        (hour means [W/m²]), ``sky_infrared_w_per_m2`` (the sky's horizontal infrared, hour
+        means [W/m²]; NaN where the file has none) and ``wind_speed_m_s`` [m/s]. A 29
+        February is dropped.
     location : :class:`EpwLocation`.
 
     Raises
@@ -628,6 +650,7 @@ def weather_30min(
     DataFrame on the period starts of ``year`` (tz-aware, 30 min) with ``outdoor_temp_degc``
     [°C], ``dewpoint_degc`` [°C], ``relative_humidity_percent`` [%], ``pressure_pa`` [Pa],
     ``ghi_w_per_m2``, ``dni_w_per_m2``, ``dhi_w_per_m2`` [W/m², period means],
+    ``sky_infrared_w_per_m2`` [W/m², the hour's mean; NaN where the file has none],
     ``wind_speed_m_s`` [m/s], ``humidity_ratio_kg_per_kg`` [kg/kg] and ``ground_temp_degc``
     [°C] (the file's monthly ground temperatures interpolated between mid-months; the
     annual-mean dry bulb if the file has none).
@@ -658,6 +681,7 @@ def weather_30min(
     for column in _IRRADIANCE_COLUMNS:
         share = np.where(second_half, second_share[column], first_share[column])
         out[column] = epw[column].to_numpy(dtype=float)[bucket] * share
+    out["sky_infrared_w_per_m2"] = epw["sky_infrared_w_per_m2"].to_numpy(dtype=float)[bucket]
     out["humidity_ratio_kg_per_kg"] = humidity_ratio_kg_per_kg(
         out["dewpoint_degc"], out["pressure_pa"]
     )

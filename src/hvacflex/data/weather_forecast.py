@@ -5,9 +5,9 @@ forecast it could make itself, from the weather it has seen:
 
 Model
 -----
-For each weather series ``v`` (outdoor and ground temperature, the solar channels, outdoor
-humidity), fitted on *training* periods that are not forecast (by default the 28 days
-before the run, :data:`WEATHER_TRAIN_DAYS`):
+For each weather series ``v`` (outdoor and ground temperature, the solar channels, the sky's
+long-wave loss, outdoor humidity), fitted on *training* periods that are not forecast (by
+default the 28 days before the run, :data:`WEATHER_TRAIN_DAYS`):
 
 * climatology ``c(p)``: the mean of ``v`` over the training days for each of the 48
   periods of the day ``p``;
@@ -38,8 +38,12 @@ import pandas as pd
 from hvacflex.building.channels import DisturbanceChannel
 from hvacflex.constants import TIMEZONE
 from hvacflex.data.market import PERIOD, PERIODS_PER_DAY
-from hvacflex.data.solar import surface_irradiance_w_per_m2
 from hvacflex.data.weather import weather_on
+from hvacflex.data.weather_channels import (
+    HEAT_GAIN_KINDS,
+    WEATHER_CHANNEL_KINDS,
+    weather_channel_values,
+)
 from hvacflex.errors import ConfigError, DataError
 
 PERIODS_OF_DAY = 48
@@ -48,9 +52,9 @@ PERIODS_OF_DAY = 48
 MAX_AR1_COEFFICIENT = 0.999
 """Largest AR(1) coefficient of the anomaly (keeps the forecast mean-reverting)."""
 
-WEATHER_KINDS = ("outdoor_temp", "ground_temp", "solar")
+WEATHER_KINDS = WEATHER_CHANNEL_KINDS
 """Channel kinds that are weather (forecast by :class:`StatisticalWeather`); the others
-(``internal_gain``) come from the schedule."""
+(``internal_gain``, ``constant``) come from the schedule."""
 
 WEATHER_TRAIN_DAYS = 28
 """Default training window of the statistical weather forecaster: the days before the run."""
@@ -204,22 +208,9 @@ def weather_series(
     """
     channels = tuple(channels)
     weather, location = weather_on(index, Path(weather_file))
-    surfaces = [
-        (float(ch.azimuth_deg or 0.0), float(ch.tilt_deg if ch.tilt_deg is not None else 90.0))
-        for ch in channels
-        if ch.kind == "solar"
-    ]
-    solar = surface_irradiance_w_per_m2(weather, location, surfaces).to_numpy()
-    columns, parts, solar_i = [], [], 0
-    for i, ch in enumerate(channels):
-        if ch.kind == "solar":
-            parts.append(solar[:, solar_i])
-            solar_i += 1
-        elif ch.kind in WEATHER_KINDS:
-            parts.append(weather[f"{ch.kind}_degc"].to_numpy())
-        else:
-            continue
-        columns.append(i)
+    values = weather_channel_values(channels, weather, location, source=weather_file)
+    columns = sorted(values)
+    parts = [values[i] for i in columns]
     parts.append(weather["humidity_ratio_kg_per_kg"].to_numpy())
     return np.column_stack(parts), tuple(columns)
 
@@ -258,6 +249,6 @@ def fit_weather_forecaster(
         end=first - PERIOD, periods=train_days * PERIODS_PER_DAY, freq=PERIOD, name="time"
     )
     values, columns = weather_series(channels, index, Path(weather_file))
-    nonnegative = np.array([channels[i].kind == "solar" for i in columns] + [False])
+    nonnegative = np.array([channels[i].kind in HEAT_GAIN_KINDS for i in columns] + [False])
     model = fit_climatology_ar1(values, period_of_day(index), nonnegative)
     return StatisticalWeather(model, columns, values[-1].copy(), index[0], index[-1])

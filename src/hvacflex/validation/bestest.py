@@ -36,9 +36,8 @@ from numpy.typing import NDArray
 from hvacflex.building.io import load_building
 from hvacflex.building.model import Building
 from hvacflex.building.rc import ThermalNetwork, build_network
-from hvacflex.data.solar import surface_irradiance_components, surface_irradiance_w_per_m2
-from hvacflex.data.weather import EpwLocation, read_epw, weather_30min
-from hvacflex.units import KELVIN_OFFSET
+from hvacflex.data.weather import read_epw, weather_30min
+from hvacflex.data.weather_channels import weather_channel_values
 from hvacflex.validation.ideal_loads import simulate_zone_loads
 
 FloatArray = NDArray[np.float64]
@@ -55,9 +54,6 @@ HEATING_SETPOINT_DEGC = 20.0
 COOLING_SETPOINT_DEGC = 27.0
 INTERNAL_GAIN_W = 200.0
 """Constant sensible internal gain (its radiative share is in the building file) [W]."""
-STEFAN_BOLTZMANN_W_PER_M2K4 = 5.670374419e-8
-EPW_HORIZONTAL_IR_FIELD = 12
-"""0-based field of the EPW row holding the horizontal infrared sky radiation [Wh/m²]."""
 WINTER_DAY = (1, 4)
 SUMMER_DAY = (7, 27)
 """(month, day) of the hourly free-float plots: Standard 140's Jan 4 and Jul 27 (neither
@@ -172,95 +168,29 @@ class BestestResult:
         return int(self.table["in_range"].sum())
 
 
-def horizontal_infrared_w_per_m2(epw_path: Path) -> FloatArray:
-    """(8760,) horizontal infrared radiation from the sky, EPW field 12 [W/m², hour means].
-
-    A 29 February, if the file has one, is dropped (as :func:`read_epw` does).
-    """
-    rows = Path(epw_path).read_text(encoding="latin-1").splitlines()[8:]
-    values = []
-    for row in rows:
-        fields = row.split(",")
-        if len(fields) <= EPW_HORIZONTAL_IR_FIELD:
-            continue
-        if fields[1].strip() == "2" and fields[2].strip() == "29":
-            continue
-        values.append(float(fields[EPW_HORIZONTAL_IR_FIELD]))
-    return np.asarray(values, dtype=np.float64)
-
-
-def sky_longwave_w_per_m2(outdoor_temp_degc: FloatArray, sky_ir_w_per_m2: FloatArray) -> FloatArray:
-    """Net long-wave loss of a horizontal black body at air temperature, σT⁴ − L↓ [W/m²].
-
-    Parameters
-    ----------
-    outdoor_temp_degc : (T,) dry bulb [°C].
-    sky_ir_w_per_m2 : (T,) downwelling sky long-wave radiation on a horizontal plane [W/m²].
-    """
-    emitted = STEFAN_BOLTZMANN_W_PER_M2K4 * (np.asarray(outdoor_temp_degc) + KELVIN_OFFSET) ** 4
-    result: FloatArray = emitted - np.asarray(sky_ir_w_per_m2, dtype=np.float64)
-    return result
-
-
-def plane_irradiance_components(
-    weather: pd.DataFrame, location: EpwLocation, azimuth_deg: float, tilt_deg: float
-) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """Beam and diffuse (sky + ground) irradiance on a plane and the beam's incidence angle,
-    from :func:`hvacflex.data.solar.surface_irradiance_components` (their sum equals
-    :func:`hvacflex.data.solar.surface_irradiance_w_per_m2`).
-
-    Returns
-    -------
-    beam_w_per_m2, diffuse_w_per_m2, incidence_deg : (T,) each.
-    """
-    parts = surface_irradiance_components(weather, location, azimuth_deg, tilt_deg)
-    return parts.beam_w_per_m2, parts.diffuse_w_per_m2, parts.incidence_deg
-
-
-def bestest_disturbances(building: Building, net: ThermalNetwork, epw_path: Path) -> pd.DataFrame:
+def bestest_disturbances(net: ThermalNetwork, epw_path: Path) -> pd.DataFrame:
     """Disturbances of a BESTEST building on 30-min periods of the Denver year.
 
     Parameters
     ----------
-    building : the building (its windows' angular SHGC).
-    net : its network (its channels fix the columns).
+    net : the building's network (its channels fix the columns; a window channel carries
+        the window's angular SHGC).
     epw_path : the Denver TMY3 EPW.
 
     Returns
     -------
     (17520, nd) DataFrame on 30-min period starts (``Etc/GMT+7``), one column per channel
-    (channel names, ``channels.py`` units).
+    (channel names, ``channels.py`` units): the weather's channels from
+    :func:`hvacflex.data.weather_channels.weather_channel_values`, the internal gain the
+    constant :data:`INTERNAL_GAIN_W`.
     """
     epw, location = read_epw(epw_path)
     weather = weather_30min(epw, location, YEAR, tz=TIMEZONE)
-    surfaces = [
-        (float(ch.azimuth_deg or 0.0), float(ch.tilt_deg or 0.0))
-        for ch in net.channels
-        if ch.kind == "solar"
-    ]
-    solar = surface_irradiance_w_per_m2(weather, location, surfaces)
-    sky_ir = horizontal_infrared_w_per_m2(epw_path)
-    hour_of_period = np.arange(len(weather)) // 2
-    columns: dict[str, FloatArray] = {}
-    for ch in net.channels:
-        if ch.kind == "outdoor_temp":
-            columns[ch.name] = weather["outdoor_temp_degc"].to_numpy(dtype=float)
-        elif ch.kind == "solar":
-            columns[ch.name] = solar[ch.name].to_numpy(dtype=float)
-        elif ch.kind == "internal_gain":
-            columns[ch.name] = np.full(len(weather), INTERNAL_GAIN_W)
-        elif ch.kind == "ground_temp":
-            columns[ch.name] = weather["ground_temp_degc"].to_numpy(dtype=float)
-        elif ch.kind == "window_solar_gain":
-            window = next(w for w in building.windows if w.name == ch.zone)
-            beam, diffuse, incidence = plane_irradiance_components(
-                weather, location, window.azimuth_deg, window.tilt_deg
-            )
-            columns[ch.name] = window.solar_gain_w_per_m2(beam, diffuse, incidence)
-        else:
-            columns[ch.name] = sky_longwave_w_per_m2(
-                weather["outdoor_temp_degc"].to_numpy(dtype=float), sky_ir[hour_of_period]
-            )
+    values = weather_channel_values(net.channels, weather, location, source=epw_path)
+    columns = {
+        ch.name: values[i] if i in values else np.full(len(weather), INTERNAL_GAIN_W)
+        for i, ch in enumerate(net.channels)
+    }
     return pd.DataFrame(columns, index=weather.index)
 
 
@@ -395,9 +325,7 @@ def run_bestest(
         if name not in buildings:
             say(f"weather and solar for {name}")
             buildings[name] = load_building(buildings_dir / f"{name}.toml")
-            disturbances[name] = bestest_disturbances(
-                buildings[name], build_network(buildings[name]), epw_path
-            )
+            disturbances[name] = bestest_disturbances(build_network(buildings[name]), epw_path)
         say(f"case {case}")
         cases[case] = run_case(case, buildings[name], disturbances[name], dt_s=dt_s)
         values.update(cases[case].quantities())
