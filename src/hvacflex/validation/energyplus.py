@@ -379,10 +379,10 @@ class ConditionedComparison:
 
 
 def rc_thermostat_run(
-    first: date, days: int, building: str = "office5"
+    first: date, days: int, building: str | Building = "office5"
 ) -> tuple[Building, pd.DataFrame, pd.DataFrame]:
-    """hvacflex's ``thermostat`` preset on ``building`` (a shipped name or a TOML path) from
-    ``first`` with no realised forecast error: hourly
+    """hvacflex's ``thermostat`` preset on ``building`` (a shipped name, a TOML path or the
+    building itself) from ``first`` with no realised forecast error: hourly
     zone air (trapezoid over the recorded instants), per-period coil heat [W] (sensible ≥ 0 +
     latent) and HVAC electricity [kW] (the loop's ``power_kw``, and recomputed here)."""
     from hvacflex.config import preset
@@ -394,10 +394,10 @@ def rc_thermostat_run(
         "thermostat",
         start=first.isoformat(),
         days=days,
-        building=building,
+        building=building if isinstance(building, str) else building.name,
         **{"realisation.mode": "zero"},
     )
-    loop = ClosedLoop(prepare(config))
+    loop = ClosedLoop(prepare(config, None if isinstance(building, str) else building))
     while loop.k < loop.steps:
         loop.step()
     frame, setup = loop.frame(), loop.setup
@@ -434,20 +434,21 @@ def thermostat_comparison(
     days: int = 7,
     spinup_days: int = 7,
     workdir: Path,
-    building_name: str = "office5",
+    building: str | Building = "office5",
 ) -> ConditionedComparison:
-    """``building_name`` (office5 or office15) under the 24 °C thermostat, hvacflex
+    """``building`` (office5 or office15, by name, or a variant of them) under the 24 °C
+    thermostat, hvacflex
     (``thermostat`` preset on the RC plant) against EnergyPlus (the ``vav`` export, whose
     thermostat follows the same rule: 24 °C while occupied, 29 °C otherwise), same weather
     and gains, ``spinup_days`` discarded."""
     first = start - timedelta(days=spinup_days)
-    building, rc_hourly, per_period = rc_thermostat_run(first, days + spinup_days, building_name)
+    simulated, rc_hourly, per_period = rc_thermostat_run(first, days + spinup_days, building)
     weather = data_dir() / "weather" / DEFAULT_WEATHER_FILE
     run = run_energyplus(
-        export_idf(building, hvac="vav", epw_path=weather),
+        export_idf(simulated, hvac="vav", epw_path=weather),
         epw_path=weather, start=first, days=days + spinup_days, workdir=workdir,
     )  # fmt: skip
-    return _conditioned_comparison(building, rc_hourly, per_period, run, start)
+    return _conditioned_comparison(simulated, rc_hourly, per_period, run, start)
 
 
 FIXED_FLOW_COOLING_SETPOINT_DEGC = 55.0
@@ -648,7 +649,7 @@ def run_energyplus_validation(
                     days=days,
                     spinup_days=spinup_days,
                     workdir=workdir_case,
-                    building_name=building.name,
+                    building=building,
                 )
             tables.append(conditioned.table.assign(case=case, start=label))
             series.append(conditioned.hourly.assign(case=case, start=label))
