@@ -96,3 +96,27 @@ def test_openadr_vtn_runs_bounded_and_prints_the_clock_offset(tmp_path: Path) ->
     assert lines[-1] == "stopped after 1 s; 0 VEN registrations"
     live = _run("openadr_vtn.py", tmp_path, "--port", str(port), "--duration-s", "1", "--live")
     assert any(line.endswith("; pass --clock-offset '0min'") for line in live.splitlines())
+
+
+def test_the_validation_variant_of_office5_is_office5_with_the_sky_and_angular_windows() -> None:
+    """``examples/office5_sky_angular.toml`` (docs/validation.md) differs from office5 only in
+    the façades' and windows' emissivity and the windows' SHGC, so EnergyPlus sees office5."""
+    from dataclasses import replace
+
+    from hvacflex.building.io import load_building
+    from hvacflex.building.rc import build_network
+    from hvacflex.paths import resolve_building
+
+    variant = load_building(EXAMPLES / "office5_sky_angular.toml")
+    shipped = load_building(resolve_building("office5"))
+    kinds = [ch.kind for ch in build_network(variant).channels]
+    assert kinds.count("sky_longwave") == 1 and kinds.count("window_solar_gain") == 4
+    undone = replace(
+        variant,
+        walls=tuple(replace(w, thermal_emissivity=None) for w in variant.walls),
+        windows=tuple(
+            replace(w, thermal_emissivity=None, shgc=0.35, shgc_normal=None)
+            for w in variant.windows
+        ),
+    )
+    assert undone == shipped
