@@ -116,3 +116,29 @@ def test_the_baseline_of_an_activation_starting_now_uses_only_the_history() -> N
     expected = np.mean([now - 48 * d for d in (1, 2, 3)])
     similar = settlement.start_baseline_kw("similar-days", power, activated, index)
     assert similar == pytest.approx(expected)
+
+
+def test_the_coming_periods_similar_days_baselines_are_known_before_they_start() -> None:
+    # Mon 2014-03-03 00:00 … Wed 23:30 of history, then the 3 coming periods Thu 00:00–01:00
+    index = pd.date_range("2014-03-03 00:00", periods=3 * 48 + 3, freq="30min", tz=TZ)
+    power = np.arange(3 * 48, dtype=float)
+    activated = np.zeros(3 * 48, dtype=bool)
+    activated[2 * 48 + 1] = True  # Wednesday 00:30 was activated: not a similar day's reading
+    ahead = settlement.ahead_baselines_kw("similar-days", power, activated, index)
+    assert ahead is not None
+    np.testing.assert_allclose(
+        ahead, [np.mean([0, 48, 96]), np.mean([1, 49]), np.mean([2, 50, 98])]
+    )
+    # whenever an activation covering Thursday 00:30 starts, the settlement sees the same
+    history = np.append(power, [np.nan, np.nan])
+    for start in (3 * 48, 3 * 48 + 1):
+        covering = np.append(activated, [True, True]) & (np.arange(len(history)) >= start)
+        covering[: 3 * 48] = activated
+        settled = settlement.similar_days_baseline_kw(history, covering, index[:-1])
+        assert settled[3 * 48 + 1] == pytest.approx(ahead[1])
+    # the pre-event rule fixes nothing ahead; with no similar day yet: NaN
+    assert settlement.ahead_baselines_kw("pre-event", power, activated, index) is None
+    first_day = settlement.ahead_baselines_kw(
+        "similar-days", power[:10], activated[:10], index[:12]
+    )
+    assert first_day is not None and np.isnan(first_day).all()

@@ -110,22 +110,58 @@ def similar_days_baseline_kw(
     power = np.asarray(power_kw, dtype=float)
     active = np.asarray(activated, dtype=bool)
     baseline = pre_event_baseline_kw(power, active)
+    similar = _similar_days_mean_kw(power, active, index, np.flatnonzero(active), days)
+    return np.where(np.isfinite(similar), similar, baseline)
+
+
+def _similar_days_mean_kw(
+    power: FloatArray,
+    active: BoolArray,
+    index: pd.DatetimeIndex,
+    periods: npt.NDArray[np.int64],
+    days: int,
+) -> FloatArray:
+    """(T,) for each of ``periods``: the mean metered power of the same period of the day on
+    the last ``days`` earlier days of the same kind on which it was not activated (NaN with
+    none); NaN in every other period."""
+    out = np.full(len(power), np.nan)
     local = index.tz_localize(None) if index.tz is not None else index
     day = np.asarray(local.normalize().asi8)
     time_of_day = np.asarray(local.asi8) - day
     weekend = np.asarray(local.day_of_week >= 5)
-    for k in np.flatnonzero(active).tolist():
-        same = (
-            (time_of_day == time_of_day[k])
-            & (weekend == weekend[k])
-            & (day < day[k])
-            & ~active
-            & np.isfinite(power)
-        )
+    usable = ~active & np.isfinite(power)
+    for k in periods.tolist():
+        same = (time_of_day == time_of_day[k]) & (weekend == weekend[k]) & (day < day[k]) & usable
         earlier = np.flatnonzero(same)[-days:]
         if earlier.size:
-            baseline[k] = float(np.mean(power[earlier]))
-    return baseline
+            out[k] = float(np.mean(power[earlier]))
+    return out
+
+
+def similar_days_ahead_kw(
+    power_kw: FloatArray, activated: BoolArray, index: pd.DatetimeIndex, days: int = SIMILAR_DAYS
+) -> FloatArray:
+    """The ``similar-days`` baseline of the coming periods, from the history before them.
+
+    Parameters
+    ----------
+    power_kw, activated : (k,) the metered power [kW] and activations of the periods so far.
+    index : (k + J,) their period starts and those of the J coming periods (tz-aware).
+    days : how many similar days to average.
+
+    Returns
+    -------
+    (J,) the baseline an activation covering period k + j would be settled against [kW],
+    whenever it started (the rule does not depend on the start); NaN where the history holds
+    no similar day (the settlement then falls back to the pre-event baseline). Periods of the
+    day already past today are known from earlier days only, as in the settlement.
+    """
+    k = len(power_kw)
+    coming = len(index) - k
+    power = np.append(np.asarray(power_kw, dtype=float), np.full(coming, np.nan))
+    active = np.append(np.asarray(activated, dtype=bool), np.ones(coming, dtype=bool))
+    periods = np.arange(k, k + coming, dtype=np.int64)
+    return _similar_days_mean_kw(power, active, index, periods, days)[k:]
 
 
 def baseline_power_kw(
@@ -175,6 +211,28 @@ def start_baseline_kw(
     active = np.append(np.asarray(activated[first:], dtype=bool), True)
     baseline = baseline_power_kw(rule, power, active, index[first : k + 1])
     return float(baseline[-1])
+
+
+def ahead_baselines_kw(
+    rule: str, power_kw: FloatArray, activated: BoolArray, index: pd.DatetimeIndex
+) -> FloatArray | None:
+    """The baselines of the coming periods where the rule fixes them before the activation
+    starts: ``similar-days`` (:func:`similar_days_ahead_kw` over the last
+    :data:`SIMILAR_DAYS_LOOKBACK_DAYS` days), None under ``pre-event`` (there the baseline
+    depends on when the activation starts). ``power_kw``, ``activated`` (k,) the history;
+    ``index`` (k + J,) its period starts and those of the J coming periods."""
+    if rule != "similar-days":
+        return None
+    k = len(power_kw)
+    if k == 0:
+        return np.full(len(index), np.nan)
+    periods_per_day = max(round(pd.Timedelta(days=1) / (index[1] - index[0])), 1)
+    first = max(0, k - SIMILAR_DAYS_LOOKBACK_DAYS * periods_per_day)
+    return similar_days_ahead_kw(
+        np.asarray(power_kw[first:], dtype=float),
+        np.asarray(activated[first:], dtype=bool),
+        index[first:],
+    )
 
 
 def delivered_kw(baseline_kw: FloatArray, power_kw: FloatArray, activated: BoolArray) -> FloatArray:

@@ -264,3 +264,34 @@ def test_offers_are_sized_to_what_every_covering_baseline_would_see(setup: Setup
     # unknown baseline now: only the plan's own baselines count
     controller.note_baseline_power(None)
     assert controller._visible_offer_kw(problem, served, j, r) == pytest.approx(offer_kw)
+
+
+def test_under_similar_days_offers_are_sized_to_the_similar_days_baseline(setup: Setup) -> None:
+    """With the driver's similar-days baselines for the coming periods the offer of step j
+    is min(q_j·r_j, B_j − (P̂_j − p_j·r_j)), whatever the plan's earlier powers; where B_j is
+    unknown (no similar day yet) the pre-event baselines apply, as in the settlement."""
+    cfg = setup.config.controller
+    x = np.full(len(setup.model.node_names), 25.0)
+    forecast = setup.forecaster.forecast(20, cfg.horizon_steps + 1)
+    controller = make_controller(setup)
+    assert isinstance(controller, MPCController)
+    problem = controller.problem(x, forecast, 0.0)
+    j = 2
+    r = np.where(controller.reserve_mask, 0.1, 0.0)
+    shed_kw = float(problem.power_coeff_kw_per_kg_s[j] @ r)
+    offer_kw = float(problem.reserve_kw_per_kg_s[j] @ r)
+    rising = np.full(problem.horizon, 20.0)  # the plan's earlier powers see nothing …
+    rising[j] = 30.0
+    controller.note_baseline_power(0.0)
+    assert controller._visible_offer_kw(problem, rising, j, r) == 0.0
+    # … the similar days' 30.5 kW at step j show 0.5 kW + the shed below it
+    controller.note_baseline_power(0.0, np.array([np.nan, np.nan, 30.5]))
+    seen = controller._visible_offer_kw(problem, rising, j, r)
+    assert seen == pytest.approx(min(offer_kw, 0.5 + shed_kw), abs=1e-5)
+    # a low similar-days baseline hides an offer the plan's flat load would show
+    flat = np.full(problem.horizon, 30.0)
+    controller.note_baseline_power(1e6, np.array([np.nan, np.nan, 25.0]))
+    assert controller._visible_offer_kw(problem, flat, j, r) == 0.0
+    # no similar day for step j: the pre-event baselines (flat load: all of q·r is seen)
+    controller.note_baseline_power(1e6, np.array([25.0, 25.0, np.nan]))
+    assert controller._visible_offer_kw(problem, flat, j, r) == pytest.approx(offer_kw)

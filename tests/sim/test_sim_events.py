@@ -349,3 +349,41 @@ def test_stress_week_is_settled_against_metered_power(tmp_path: Path) -> None:
     assert summary["il_offered_kwh"] > 0.0 and frame["il_curtailed"].any()
     assert _office_offered_kwh(frame) >= 10.0  # offers are made, not given up
     assert summary["il_delivered_counterfactual_kwh"] >= 0.95 * summary["il_offered_kwh"]
+
+
+class _BaselineRecorder(StubPlanner):
+    """The stub planner, recording the baselines the loop tells it."""
+
+    def __init__(self, flow_max: np.ndarray, steps: int) -> None:
+        super().__init__(flow_max, steps)
+        self.ahead: list[np.ndarray | None] = []
+
+    def note_baseline_power(
+        self, baseline_power_kw: float | None, ahead_kw: np.ndarray | None = None
+    ) -> None:
+        self.ahead.append(None if ahead_kw is None else np.array(ahead_kw))
+
+
+@pytest.mark.parametrize("rule", ["pre-event", "similar-days"])
+def test_the_loop_tells_the_controller_the_coming_similar_days_baselines(rule: str) -> None:
+    """Under similar-days the controller learns the baseline of periods k … k + g before
+    they start (what the settlement will use, from earlier weekdays' metered power): NaN on
+    the run's first day, Monday's power on Tuesday; under pre-event nothing."""
+    cfg = with_overrides(
+        preset("nmpc", start=START, days=1.125),
+        {"activation.mode": "never", "reserve.il_baseline": rule},
+    )
+    setup = prepare(cfg)
+    recorder = _BaselineRecorder(np.asarray(setup.building.hvac.flow_max_kg_s), 6)
+    loop = ClosedLoop(setup, recorder)
+    while loop.k < loop.steps:
+        loop.step()
+    if rule == "pre-event":
+        assert all(ahead is None for ahead in recorder.ahead)
+        return
+    g = cfg.reserve.commit_ahead_periods
+    power = loop.frame()["power_kw"].to_numpy()
+    assert all(a is not None and len(a) == g + 1 for a in recorder.ahead)
+    assert all(np.isnan(a).all() for a in recorder.ahead[: 48 - g])  # type: ignore[arg-type]
+    for k in range(48, loop.steps):
+        np.testing.assert_allclose(recorder.ahead[k], power[k - 48 : k - 48 + g + 1])

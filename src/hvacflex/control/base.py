@@ -180,11 +180,16 @@ class Controller(Protocol):
         """The flow (m,) [kg/s] the plant ran this period (u − r when curtailed)."""
         return None
 
-    def note_baseline_power(self, baseline_power_kw: float | None) -> None:
+    def note_baseline_power(
+        self, baseline_power_kw: float | None, ahead_kw: FloatArray | None = None
+    ) -> None:
         """The metered baseline an activation starting in the coming period would be settled
         against [kW] (:mod:`hvacflex.settlement`; NaN: none, e.g. the run's first period;
-        None: unknown to the driver). A controller that offers reserve uses it to offer only
-        what the baseline would see."""
+        None: unknown to the driver), and ``ahead_kw`` (J,) the baselines of the coming
+        periods k … k + J − 1 where the rule fixes them whenever the activation starts
+        (``similar-days``; NaN: no similar day yet; None: the ``pre-event`` rule or unknown).
+        A controller that offers reserve uses them to offer only what the baseline would
+        see."""
         return None
 
     @property

@@ -162,6 +162,7 @@ class MPCController(Controller):
         self._pending_basis: SolverBasis | None = None
         self._previous_plan: RMPCSolution | None = None
         self._baseline_kw: float | None = None
+        self._baseline_ahead_kw: FloatArray | None = None
         self._commit_ahead = (
             self._reserve.commit_ahead_periods
             if self._reserve.event_max_steps is not None and config.reserve
@@ -562,8 +563,11 @@ class MPCController(Controller):
         flow = reserve[g] if offer_kw > 0.0 else np.zeros_like(reserve[g])
         return ReserveOffer(flow_kg_s=flow, reserve_kw=offer_kw)
 
-    def note_baseline_power(self, baseline_power_kw: float | None) -> None:
+    def note_baseline_power(
+        self, baseline_power_kw: float | None, ahead_kw: FloatArray | None = None
+    ) -> None:
         self._baseline_kw = baseline_power_kw
+        self._baseline_ahead_kw = None if ahead_kw is None else np.asarray(ahead_kw, dtype=float)
 
     def _baseline_now_kw(self) -> float | None:
         """The baseline of an activation starting now, on the affine model's scale [kW]: the
@@ -586,6 +590,9 @@ class MPCController(Controller):
         An activation covering step j starts at some s ∈ [j − D + 1, j] (s ≥ 0) and is settled
         against the power of the period before s (``pre-event``): the plan's served power
         P̂_{s−1} for s ≥ 1, and :meth:`_baseline_now_kw` for s = 0 (skipped where unknown).
+        Under ``similar-days`` the baseline of step j is the driver's (the metered power of
+        earlier similar days, whenever the activation starts), and the pre-event ones apply
+        only where it has none (no similar day yet, as in the settlement).
         The curtailed power P̂_j − p_j·r_j must show the offer below every such baseline, so
         the offer is ``min(q_j·r_j, min_s B̂_s − (P̂_j − p_j·r_j))``, at least 0 (a period
         whose air handler was off before, a rising morning load). ``served_kw`` (N,) is the
@@ -594,11 +601,15 @@ class MPCController(Controller):
         max_steps = self._reserve.event_max_steps
         if max_steps is None or offer_kw <= 0.0:
             return max(offer_kw, 0.0)
-        baselines = [float(served_kw[s - 1]) for s in range(max(1, j - max_steps + 1), j + 1)]
-        if j < max_steps:
-            now = self._baseline_now_kw()
-            if now is not None:
-                baselines.append(now if np.isfinite(now) else -np.inf)
+        ahead = self._baseline_ahead_kw
+        if ahead is not None and j < len(ahead) and np.isfinite(ahead[j]):
+            baselines = [float(ahead[j])]
+        else:
+            baselines = [float(served_kw[s - 1]) for s in range(max(1, j - max_steps + 1), j + 1)]
+            if j < max_steps:
+                now = self._baseline_now_kw()
+                if now is not None:
+                    baselines.append(now if np.isfinite(now) else -np.inf)
         if not baselines:
             return offer_kw
         shed_kw = float(problem.power_coeff_kw_per_kg_s[j] @ reserve_flow_kg_s)

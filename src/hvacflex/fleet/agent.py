@@ -113,7 +113,9 @@ class FleetController(MPCController):
         """The step's first period as the LP sees it: (P₀ [kW], p (m,) [kW per kg/s], q (m,)
         the reserve capacity per kg/s of reserve flow [kW per kg/s]); None before a step."""
 
-    def note_baseline_power(self, baseline_power_kw: float | None) -> None:
+    def note_baseline_power(
+        self, baseline_power_kw: float | None, ahead_kw: FloatArray | None = None
+    ) -> None:
         """Ignored: a fleet is settled on its aggregate meter, so the coordinator checks the
         fleet's bid against the fleet's baseline (:func:`hvacflex.fleet.run.fleet_baseline_sees`)
         instead of each building's offer against its own (which would drop the offers of

@@ -250,10 +250,11 @@ class RemoteControl:
         *,
         activated: Callable[[int], bool],
         baseline_power_kw: float | None = None,
+        baseline_ahead_kw: FloatArray | None = None,
     ) -> Decision:
         """Post period ``k``'s activation change and measurement (``inputs.x_degc``); the
         service's decision (its forecast, peak floor, recovery allowance and settlement
-        baseline are its own)."""
+        baselines are its own)."""
         time = inputs.forecast.index[0].isoformat()
         if activated(k) != self.active:
             self.active = activated(k)

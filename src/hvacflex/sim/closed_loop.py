@@ -51,7 +51,12 @@ from hvacflex.data.signals import OperatorSignals, effective_peak_price
 from hvacflex.data.uncertainty import DisturbanceSampler
 from hvacflex.errors import ConfigError, HvacflexError
 from hvacflex.paths import check_output_dir
-from hvacflex.settlement import SETTLEMENT_COLUMNS, settlement_columns, start_baseline_kw
+from hvacflex.settlement import (
+    SETTLEMENT_COLUMNS,
+    ahead_baselines_kw,
+    settlement_columns,
+    start_baseline_kw,
+)
 from hvacflex.sim.measurement import Sensors
 from hvacflex.sim.plant import Actuation, Disturbance, Observation, Plant
 from hvacflex.sim.plants import plant_summary, scenario_plant
@@ -161,6 +166,7 @@ class Control(Protocol):
         *,
         activated: Callable[[int], bool],
         baseline_power_kw: float | None = None,
+        baseline_ahead_kw: FloatArray | None = None,
     ) -> Decision: ...
 
     def note_delivered_flow(self, flow_kg_s: FloatArray) -> None: ...
@@ -280,7 +286,11 @@ class ClosedLoop:
             plan=plan,
         )
         decision = self.control.decide(
-            k, inputs, activated=self._activated, baseline_power_kw=self._start_baseline_kw(k)
+            k,
+            inputs,
+            activated=self._activated,
+            baseline_power_kw=self._start_baseline_kw(k),
+            baseline_ahead_kw=self._ahead_baselines_kw(k),
         )
         t1 = time.perf_counter()
 
@@ -340,6 +350,17 @@ class ClosedLoop:
             activated,
             self.setup.exogenous.index[: k + 1],
         )
+
+    def _ahead_baselines_kw(self, k: int) -> FloatArray | None:
+        """The ``similar-days`` baselines of periods k … k + g (g the periods an offer is
+        committed ahead) from the metered power so far; None under ``pre-event``."""
+        reserve = self.setup.config.reserve
+        if reserve.il_baseline != "similar-days":
+            return None
+        power = self.recorder.values[:k, self.recorder.column_index["power_kw"]]
+        activated = self.recorder.flags["il_activated"][:k]
+        index = self.setup.exogenous.index[: k + reserve.commit_ahead_periods + 1]
+        return ahead_baselines_kw(reserve.il_baseline, power, activated, index)
 
     def _plant_period(self, decision: Decision, disturbance: Disturbance) -> _PlantPeriod:
         """Run the period on the plant: the served and the curtailed step where the plant can

@@ -199,6 +199,7 @@ class ControlStep:
         activated: Callable[[int], bool],
         baseline_power_kw: float | None = None,
         previous_delivered_flow_kg_s: FloatArray | None = None,
+        baseline_ahead_kw: FloatArray | None = None,
     ) -> Decision:
         """Decide period ``k``.
 
@@ -212,6 +213,10 @@ class ControlStep:
         activated : whether IL is activated in period j.
         baseline_power_kw : the metered baseline an activation starting at ``k`` would be
             settled against [kW] (NaN: none; None: unknown), told to the controller.
+        baseline_ahead_kw : (J,) the baselines of periods k … k + J − 1 where the rule fixes
+            them whenever an activation starts (``similar-days``,
+            :func:`hvacflex.settlement.ahead_baselines_kw`; None otherwise), told to the
+            controller.
         previous_delivered_flow_kg_s : the plant's report of period k − 1
             (:meth:`note_delivered_flow`), where the caller has it with k's measurement
             rather than after k − 1 (the service); taken only when k − 1 is the latest
@@ -230,7 +235,7 @@ class ControlStep:
             locked_flow = action.applied_flow_kg_s(curtailed=True)
             controller.hold(inputs.forecast, locked_flow, inputs.measured_zone_temp_degc)
         else:
-            controller.note_baseline_power(baseline_power_kw)
+            controller.note_baseline_power(baseline_power_kw, baseline_ahead_kw)
             controller.note_commitments(self.committed_flow_kg_s)
             action = controller.act(replace(inputs, allowance_carry_steps=tracker.carry_steps))
         if role is Role.EVENT_START:
