@@ -67,6 +67,7 @@ def test_migrations_are_packaged() -> None:
         ({"reserve_source": "x.csv"}, "scenario.settings.reserve_source"),
         ({"activation.file": "a.csv"}, "scenario.settings.activation.file"),
         ({"activation.mode": "file"}, "scenario.settings.activation.mode"),
+        ({"reserve.il_baseline": "similar-days"}, "scenario.settings.reserve.il_baseline"),
         ({"building": "/tmp/b.toml"}, "scenario.settings.building"),
         ({"plant.idf": "/etc/passwd"}, "scenario.settings.plant.idf"),
         ({"plant.kind": "energyplus"}, "scenario.settings.plant.kind"),

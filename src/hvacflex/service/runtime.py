@@ -171,6 +171,14 @@ def scenario_config(settings: ScenarioSettings, building_id: str) -> ScenarioCon
                 field=f"scenario.settings.{key}",
                 value=value,
             )
+        if path == "reserve.il_baseline" and value != "pre-event":
+            raise InputError(
+                "the service settles IL against the pre-event baseline only (the metered "
+                "power a building posts for the period before), and sizes its offers to it",
+                field=f"scenario.settings.{key}",
+                value=value,
+                hint='leave it out or set "pre-event"',
+            )
         overrides[path] = value
     overrides.update(start=settings.start, days=settings.days, building=building_id)
     overrides["name"] = building_id
