@@ -190,8 +190,16 @@ def baseline_power_kw(
 
 
 SIMILAR_DAYS_LOOKBACK_DAYS = 7 * SIMILAR_DAYS
-"""Days of history :func:`start_baseline_kw` searches for similar days (5 weekends span
-five weeks)."""
+"""Days of history :func:`start_baseline_kw` and :func:`ahead_baselines_kw` search for
+similar days (5 weekends span five weeks). The settlement searches the whole run; the two
+differ only where more than 20 of the 25 weekdays (5 of 10 weekend days) in the window had
+the same period activated."""
+
+
+def _lookback_start(k: int, index: pd.DatetimeIndex) -> int:
+    """The first period of the history searched for similar days before period k."""
+    periods_per_day = max(round(pd.Timedelta(days=1) / (index[1] - index[0])), 1)
+    return max(0, k - SIMILAR_DAYS_LOOKBACK_DAYS * periods_per_day)
 
 
 def start_baseline_kw(
@@ -205,8 +213,7 @@ def start_baseline_kw(
         return float("nan")
     if rule == "pre-event":
         return float(power_kw[-1])
-    periods_per_day = max(round(pd.Timedelta(days=1) / (index[1] - index[0])), 1)
-    first = max(0, k - SIMILAR_DAYS_LOOKBACK_DAYS * periods_per_day)
+    first = _lookback_start(k, index)
     power = np.append(np.asarray(power_kw[first:], dtype=float), np.nan)
     active = np.append(np.asarray(activated[first:], dtype=bool), True)
     baseline = baseline_power_kw(rule, power, active, index[first : k + 1])
@@ -226,8 +233,7 @@ def ahead_baselines_kw(
     k = len(power_kw)
     if k == 0:
         return np.full(len(index), np.nan)
-    periods_per_day = max(round(pd.Timedelta(days=1) / (index[1] - index[0])), 1)
-    first = max(0, k - SIMILAR_DAYS_LOOKBACK_DAYS * periods_per_day)
+    first = _lookback_start(k, index)
     return similar_days_ahead_kw(
         np.asarray(power_kw[first:], dtype=float),
         np.asarray(activated[first:], dtype=bool),

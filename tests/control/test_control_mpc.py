@@ -295,3 +295,7 @@ def test_under_similar_days_offers_are_sized_to_the_similar_days_baseline(setup:
     # no similar day for step j: the pre-event baselines (flat load: all of q·r is seen)
     controller.note_baseline_power(1e6, np.array([25.0, 25.0, np.nan]))
     assert controller._visible_offer_kw(problem, flat, j, r) == pytest.approx(offer_kw)
+    # the event plan's later steps (D + R = 6) are sized to theirs too
+    controller.note_baseline_power(1e6, np.array([1e6, 1e6, 1e6, 1e6, 25.0, 1e6]))
+    assert controller._visible_offer_kw(problem, flat, 4, r) == 0.0
+    assert controller._visible_offer_kw(problem, flat, 5, r) > 0.0

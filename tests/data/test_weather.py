@@ -221,7 +221,6 @@ def _set_field(lines: list[str], row: int, index: int, value: str) -> None:
         (13, "-10", "ghi_w_per_m2", "outside the physical range 0…1500 Wh/m²"),
         (14, "9999", "dni_w_per_m2", r"missing-value code \(≥ 9999\)"),
         (15, "5000", "dhi_w_per_m2", "outside the physical range"),
-        (12, "-5", "sky_infrared_w_per_m2", "outside the physical range 0…1500 Wh/m²"),
         (21, "1e308", "wind_speed_m_s", "missing-value code"),
         (21, "60", "wind_speed_m_s", "outside the physical range 0…40 m/s"),
         (3, "25", "hour", "outside the physical range 1…24"),
@@ -459,3 +458,18 @@ def test_night_hours_of_the_shipped_files_have_no_irradiance(shared_data_dir: Pa
         assert (hourly.loc[night, ["ghi_w_per_m2", "dni_w_per_m2"]].to_numpy() == 0).all()
         assert (hourly["dewpoint_degc"] <= hourly["outdoor_temp_degc"]).all()
         assert (hourly["dhi_w_per_m2"] <= hourly["ghi_w_per_m2"]).all()
+
+
+@pytest.mark.parametrize("value", ["9999", "", "-5", "2000"])
+def test_a_bad_sky_infrared_is_nan_not_an_error(
+    tmp_path: Path, shared_data_dir: Path, value: str
+) -> None:
+    """Field 13 is optional: only a building with emissive exterior surfaces needs it
+    (``tests/data/test_weather_channels.py``), so a bad value is NaN, the rest of the row is
+    read."""
+    lines = _epw_lines(shared_data_dir)
+    _set_field(lines, 5, 12, value)
+    frame, _ = read_epw(_write(tmp_path, lines))
+    sky = frame["sky_infrared_w_per_m2"].to_numpy()
+    assert np.isnan(sky[5]) and np.isfinite(np.delete(sky, 5)).all()
+    assert np.isfinite(frame["outdoor_temp_degc"]).all()

@@ -11,6 +11,7 @@ from service_fixtures import START, Service, registration
 from sqlalchemy import inspect
 from sqlalchemy.engine import make_url
 
+from hvacflex.paths import resolve_building
 from hvacflex.service.app import create_app
 from hvacflex.service.http import MAX_BODY_BYTES
 
@@ -338,3 +339,43 @@ def test_wall_clock_runs_the_boundary_trigger() -> None:
     stop.set()
     assert len(probe.times) >= 1
     assert probe.times[0].minute in (0, 30) and probe.times[0].second == 0
+
+
+def test_a_building_stored_with_a_similar_days_baseline_still_loads(
+    make_db_url: Callable[[str], str],
+) -> None:
+    """New registrations with ``reserve.il_baseline = "similar-days"`` are refused, but a
+    building stored with it before that rule keeps loading after a restart."""
+    import json
+
+    from fastapi.testclient import TestClient
+
+    from hvacflex.service.db import BuildingRow
+    from hvacflex.service.keys import create_key
+    from hvacflex.service.schemas import ScenarioSettings
+    from hvacflex.tomlio import read_toml
+
+    url = make_db_url("stored_similar_days")
+    app = create_app(url)
+    body = registration("old", **{"reserve.il_baseline": "similar-days"})
+    with app.state.sessions() as session, session.begin():
+        operator_key = create_key(session, "operator")
+        session.add(
+            BuildingRow(
+                building_id="old",
+                description_json=json.dumps(read_toml(resolve_building("office5"), what="b")),
+                scenario_json=ScenarioSettings.model_validate(body["scenario"]).model_dump_json(),
+                created_by="operator",
+            )
+        )
+    app.state.planner.shutdown()
+    app.state.engine.dispose()
+    restarted = create_app(url)
+    with TestClient(restarted) as client:
+        headers = {"X-API-Key": operator_key}
+        assert client.get("/v1/buildings/old", headers=headers).status_code == 200
+        refused = client.post("/v1/buildings", json={**body, "building_id": "new"}, headers=headers)
+        assert refused.status_code == 422
+        assert "reserve.il_baseline" in refused.json()["message"]
+    restarted.state.planner.shutdown()
+    restarted.state.engine.dispose()

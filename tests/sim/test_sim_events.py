@@ -381,9 +381,11 @@ def test_the_loop_tells_the_controller_the_coming_similar_days_baselines(rule: s
     if rule == "pre-event":
         assert all(ahead is None for ahead in recorder.ahead)
         return
-    g = cfg.reserve.commit_ahead_periods
+    # every step a plan sizes an offer for: the committed g = 2 and the event plan's D + R = 6
+    steps = cfg.reserve.ahead_offer_steps
+    assert steps == 6
     power = loop.frame()["power_kw"].to_numpy()
-    assert all(a is not None and len(a) == g + 1 for a in recorder.ahead)
-    assert all(np.isnan(a).all() for a in recorder.ahead[: 48 - g])  # type: ignore[arg-type]
+    assert all(a is not None and len(a) == steps for a in recorder.ahead)
+    assert all(np.isnan(a).all() for a in recorder.ahead[: 48 - steps])  # type: ignore[arg-type]
     for k in range(48, loop.steps):
-        np.testing.assert_allclose(recorder.ahead[k], power[k - 48 : k - 48 + g + 1])
+        np.testing.assert_allclose(recorder.ahead[k], power[k - 48 : k - 48 + steps])

@@ -22,7 +22,7 @@ Units per kind:
 * ``ground_temp``   — ground temperature below the slab [°C]
 * ``sky_longwave``  — net long-wave loss of a horizontal black surface at outdoor air
   temperature to the sky, ``σ (T_out + 273.15)⁴ − L↓`` with ``L↓`` the downwelling
-  (horizontal infrared) sky radiation, e.g. EPW field 12 [W/m², ≥ 0 in practice]. A surface
+  (horizontal infrared) sky radiation, EPW field 13 [W/m², ≥ 0 in practice]. A surface
   of emissivity ε and tilt β loses ``ε (1 + cos β)/2`` times it (the part of its view that
   is ground is taken at air temperature).
 * ``window_solar_gain`` — solar heat gain per m² of one window whose SHGC depends on the

@@ -29,7 +29,7 @@ RealisationMode = Literal["zero", "uniform", "worst-upper", "worst-lower", "ar1"
 ActivationMode = Literal["never", "always", "random", "stress", "file"]
 PriceGapFill = Literal["none", "previous-day"]
 PriceCalendar = Literal["data", "live"]
-DisturbanceKind = Literal["outdoor_temp", "solar", "internal_gain", "ground_temp"]
+DisturbanceKind = Literal["outdoor_temp", "solar", "internal_gain", "ground_temp", "sky_longwave"]
 Linearisation = Literal["fixed", "trajectory"]
 EstimationMode = Literal["full-state", "kalman"]
 PlantKind = Literal["rc", "energyplus"]
@@ -144,6 +144,13 @@ class ReserveConfig:
     (the controller plans with it fixed); 0 = decided at the period's start. Applies to the
     event model with a controller that plans ahead (an MPC); the whole-horizon model (the
     paper's) and the rule-based controllers decide each period's offer at its start."""
+
+    @property
+    def ahead_offer_steps(self) -> int:
+        """J: the steps 0 … J − 1 of a plan for which an offer is sized — the committed one
+        g and, under the event model, the event plan's D + R periods."""
+        event = 0 if self.event_max_steps is None else self.event_max_steps
+        return max(self.commit_ahead_periods, event + self.event_recovery_steps - 1) + 1
 
 
 @dataclass(frozen=True)

@@ -274,11 +274,12 @@ class CalibrationSpec(Spec):
 class UncertaintySpec(Spec):
     relative: dict[DisturbanceKind, NonNegative] = default(UncertaintyConfig, "relative")
     """Half-widths of the forecast-error box as a fraction of the forecast, per disturbance kind
-    (``solar = 0.05`` is ±5 %)."""
+    (``solar = 0.05`` is ±5 %; ``solar`` also sizes an angle-dependent window's gain)."""
     absolute: dict[DisturbanceKind, NonNegative] = default(UncertaintyConfig, "absolute")
     """Half-widths of the forecast-error box in the channel's unit, per disturbance kind (K for
-    ``outdoor_temp`` and ``ground_temp``, W/m² for ``solar``, W for ``internal_gain``); added to
-    ``relative``."""
+    ``outdoor_temp`` and ``ground_temp``, W/m² for ``solar`` and ``sky_longwave`` (the sky's
+    long-wave loss, in a building with emissive exterior surfaces), W for ``internal_gain``);
+    added to ``relative``."""
     calibrate: CalibrationSpec | None = None
 
 

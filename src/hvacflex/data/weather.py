@@ -77,8 +77,8 @@ class EpwField:
     minimum, maximum : physical range (inclusive) [unit].
     missing : the EPW "missing" code: a value ≥ it means "no data" (None: the field has
         none).
-    required : a missing value is an error (True) or NaN in the frame (False: a field only
-        some buildings need, checked where it is used).
+    required : a missing or out-of-range value is an error (True), or NaN in the frame
+        (False: a field only some buildings need, refused where it is used).
     """
 
     index: int
@@ -148,8 +148,9 @@ EPW_FIELDS: tuple[EpwField, ...] = (
     EpwField(21, "wind_speed_m_s", "Wind Speed", "m/s", 0.0, 40.0, 999.0),
 )
 """The fields hvacflex reads, with the physical range every value must lie in. The sky's
-infrared (field 13) is read only where a file has it: only a building whose exterior surfaces
-set a thermal emissivity (the ``sky_longwave`` channel) needs it."""
+infrared (field 13) is optional: a missing, non-numeric or out-of-range value is NaN, refused
+only for a building that needs it (exterior surfaces with a thermal emissivity: the
+``sky_longwave`` channel, :mod:`hvacflex.data.weather_channels`)."""
 
 TIMEZONE_RANGE_H = (-12.0, 14.0)
 """Valid offsets of local standard time from UTC [h] (the EPW dictionary says −12…+12; real
@@ -495,11 +496,14 @@ def _numeric_field(
     array = pd.to_numeric(texts, errors="coerce").to_numpy(dtype=float)
     if not spec.required:
         assert spec.missing is not None
-        array[~np.isfinite(array) | (array >= spec.missing)] = np.nan
+        array = array.copy()  # to_numpy may return a read-only view
+        bad = ~np.isfinite(array) | (array >= spec.missing)
+        array[bad | (array < spec.minimum) | (array > spec.maximum)] = np.nan
+        return array
     where = f"{spec.column} ({spec.name}, field {spec.index + 1})"
     checks: list[tuple[np.ndarray, str, str]] = [
         (
-            ~np.isfinite(array) & spec.required,
+            ~np.isfinite(array),
             "missing or non-numeric EPW field",
             "hvacflex needs dry bulb, dew point, RH, pressure, GHI, DNI, DHI and wind in every "
             "row; fill the gaps (e.g. with the Elements or a weather converter)",
@@ -515,7 +519,7 @@ def _numeric_field(
         )
     checks.append(
         (
-            np.isfinite(array) & ((array < spec.minimum) | (array > spec.maximum)),
+            (array < spec.minimum) | (array > spec.maximum),
             f"outside the physical range {spec.minimum:g}…{spec.maximum:g} {spec.unit}",
             "the file looks damaged; re-download it",
         )

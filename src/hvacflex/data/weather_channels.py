@@ -126,10 +126,9 @@ def _sky_infrared(weather: pd.DataFrame, source: str | Path) -> np.ndarray:
         first = weather.index[int(np.flatnonzero(missing)[0])]
         raise DataError(
             f"the weather file has no sky infrared for {int(missing.sum())} period(s), first "
-            f"{first}",
+            f"{first} (missing, non-numeric or outside 0…1500 Wh/m² in the file)",
             source=source,
             field="Horizontal Infrared Radiation Intensity (field 13)",
-            value=9999,
             hint="the building's exterior surfaces set a thermal_emissivity, so hvacflex needs "
             "the sky's long-wave radiation: use a weather file that has it, or drop "
             "thermal_emissivity from the building",

@@ -352,14 +352,16 @@ class ClosedLoop:
         )
 
     def _ahead_baselines_kw(self, k: int) -> FloatArray | None:
-        """The ``similar-days`` baselines of periods k … k + g (g the periods an offer is
-        committed ahead) from the metered power so far; None under ``pre-event``."""
+        """The ``similar-days`` baselines of periods k … k + J − 1 from the metered power so
+        far, J covering every step a plan sizes an offer for: the committed one g and the
+        event plan's D + R (:attr:`ReserveConfig.ahead_offer_steps`); None under
+        ``pre-event``."""
         reserve = self.setup.config.reserve
         if reserve.il_baseline != "similar-days":
             return None
         power = self.recorder.values[:k, self.recorder.column_index["power_kw"]]
         activated = self.recorder.flags["il_activated"][:k]
-        index = self.setup.exogenous.index[: k + reserve.commit_ahead_periods + 1]
+        index = self.setup.exogenous.index[: k + reserve.ahead_offer_steps]
         return ahead_baselines_kw(reserve.il_baseline, power, activated, index)
 
     def _plant_period(self, decision: Decision, disturbance: Disturbance) -> _PlantPeriod:

@@ -12,7 +12,7 @@ Procedure
   interpolated, irradiance hour totals kept. Irradiance on every orientation including the
   roof with :mod:`hvacflex.data.solar` (Hay–Davies on period-integrated sun geometry),
   ground reflectance 0.2. Sky long-wave
-  ``σ T_out⁴ − L↓`` with ``L↓`` the EPW horizontal infrared radiation (field 12, held over
+  ``σ T_out⁴ − L↓`` with ``L↓`` the EPW horizontal infrared radiation (field 13, held over
   its hour). Internal gain 200 W constant.
 * Time stepping: exact ZOH of the linear network at ``DT_S`` = 10 min, the 30-min
   disturbances held (:mod:`hvacflex.validation.ideal_loads`). One year of warm-up
