@@ -54,7 +54,7 @@ LAYERS: list[set[str]] = [
     },
     {"fleet", "service"},
     {"api"},
-    {"cli", "cli_config", "cli_help", "cli_model"},
+    {"cli", "cli_config", "cli_help", "cli_model", "cli_serve"},
     {"__main__"},
 ]
 """Bottom to top: a part may import its own layer's modules and the layers below it only."""

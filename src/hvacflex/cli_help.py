@@ -1,9 +1,11 @@
-"""How the ``hvacflex`` command line describes its options: the shared help texts and
-click's names of value types (TEXT, INTEGER, PATH) in ``--help``."""
+"""What the ``hvacflex`` command groups share: the help texts, click's names of value types
+(TEXT, INTEGER, PATH) in ``--help``, the exit on a bad input, the ``--days`` check, the
+scenario from a preset or file, and the line printed after a run."""
 
 from __future__ import annotations
 
 import re
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import typer
@@ -13,6 +15,7 @@ from hvacflex.constants import DEFAULT_START
 from hvacflex.dates import ISO_START_FORMS, START_EXAMPLE
 
 if TYPE_CHECKING:
+    from hvacflex.config import ScenarioConfig
     from hvacflex.errors import HvacflexError
 
 PRESET_HELP = (
@@ -77,3 +80,56 @@ def exit_on_error(exc: Exception) -> typer.Exit:
     """Print ``exc`` as an error line and return the exit of code 2 to raise."""
     typer.echo(f"error: {exc}", err=True)
     return typer.Exit(2)
+
+
+def check_days(value: float | None) -> float | None:
+    """Callback of ``--days``: a finite, positive whole number of 30-min periods, ≤ ten years
+    (:func:`hvacflex.config.schema.whole_periods_problem`, the scenario file's rule).
+
+    Raises ``typer.BadParameter`` (exit code 2, the message names ``--days``).
+    """
+    from hvacflex.config.schema import whole_periods_problem
+
+    if value is None:
+        return None
+    problem = whole_periods_problem(value)
+    if problem is None:
+        return value
+    raise typer.BadParameter(f"{problem} (got {value!r}); e.g. --days 0.5, --days 7 or --days 365")
+
+
+def scenario_config(
+    scenario: str | None,
+    config: Path | None,
+    start: str | None,
+    days: float | None,
+    price_gap_fill: str | None = None,
+) -> ScenarioConfig:
+    """A ScenarioConfig from a preset name or a TOML file, with --start/--days and
+    --price-gap-fill applied (as overrides of ``start``, ``days``, ``data.price_gap_fill``).
+
+    The options given become the overrides of :func:`hvacflex.config.resolve_scenario`, the
+    one path ``hvacflex.simulate`` takes too."""
+    from hvacflex.config import resolve_scenario
+
+    given = {"start": start, "days": days, "price_gap_fill": price_gap_fill}
+    overrides = {key: value for key, value in given.items() if value is not None}
+    return resolve_scenario(config if config is not None else scenario or "rmpc", overrides)
+
+
+def run_summary_line(name: str, s: dict[str, float], results_path: Path) -> str:
+    """The one line printed after ``simulate``; names the fallback steps when there were any."""
+    line = (
+        f"{name}: {s['days']:.1f} days, energy {s['energy_kwh']:.0f} kWh, "
+        f"cost {s['energy_cost_sgd']:.2f} SGD, reserve revenue {s['reserve_revenue_sgd']:.2f} "
+        f"SGD, peak {s['peak_power_kw']:.1f} kW, discomfort "
+        f"{s['discomfort_kelvin_hours']:.2f} K·h"
+    )
+    fallbacks = int(s.get("fallback_count", 0.0))
+    if fallbacks > 0:
+        steps = int(s.get("steps", 0.0))
+        line += (
+            f", {fallbacks} fallback step{'s' if fallbacks != 1 else ''} of {steps} "
+            "(the solver gave no plan; see the fallback column)"
+        )
+    return f"{line} → {results_path}"
