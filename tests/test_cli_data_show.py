@@ -88,3 +88,22 @@ def test_data_show_csv_of_the_shipped_year_has_no_wall_above_1100(tmp_path: Path
     walls = [c for c in frame.columns if c.startswith("solar_") and "_tilt90_" in c]
     assert len(frame) == 17_520 and len(walls) == 4
     assert frame[walls].to_numpy().max() <= 1100.0
+
+
+def test_long_channel_names_keep_the_columns_aligned() -> None:
+    """An angle-dependent window's channel name is longer than the default label column:
+    every row's statistics start in the same column."""
+    from pathlib import Path
+
+    from typer.testing import CliRunner
+
+    from hvacflex.cli import app
+
+    example = Path(__file__).resolve().parents[1] / "examples" / "office5_sky_angular.toml"
+    result = CliRunner().invoke(
+        app, ["data", "show", "--building-file", str(example), "--days", "1"]
+    )
+    assert result.exit_code == 0, result.output
+    rows = [line for line in result.output.splitlines() if " mean " in line]
+    assert any(line.startswith("window_solar_gain_") for line in rows)
+    assert len({line.index(" mean ") for line in rows}) == 1

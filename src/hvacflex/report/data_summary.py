@@ -90,22 +90,25 @@ def exogenous_summary_text(
     n = steps
     energy = exo.energy_price_sgd_per_mwh[:n]
     reserve = exo.reserve_price_sgd_per_mwh[:n]
+    width = max([33] + [len(ch.name) for ch in exo.channels])  # the label column
+
+    def row(label: str, values: np.ndarray, unit: str = "") -> str:
+        return f"{label:<{width}} {_stats(values)}" + (f"  [{unit}]" if unit else "")
+
+    source = "SYNTHETIC" if exo.reserve_price_synthetic else "user data"
     out = [
         f"Exogenous data {exo.index[0]:%Y-%m-%d %H:%M} … {exo.index[n - 1]:%Y-%m-%d %H:%M} SGT "
         f"({days} days, {n} periods), building '{building_name}'",
         "",
-        f"energy price USEP [SGD/MWh]      {_stats(energy)}",
+        row("energy price USEP [SGD/MWh]", energy),
         f"  zero periods {int(np.sum(energy == 0))}, negative {int(np.sum(energy < 0))}, "
         f"copied from nearest day with data {int(exo.energy_price_extrapolated[:n].sum())}",
-        f"reserve price [SGD/MWh] {'SYNTHETIC' if exo.reserve_price_synthetic else 'user data'}"
-        f" {_stats(reserve)}",
+        row(f"reserve price [SGD/MWh] {source}", reserve),
     ]
     for i, ch in enumerate(exo.channels):
-        column = exo.disturbances[:n, i]
-        out.append(f"{ch.name:<33} {_stats(column)}  [{ch.unit}]")
+        out.append(row(ch.name, exo.disturbances[:n, i], ch.unit))
     out.append(
-        "outdoor humidity ratio [g/kg]     "
-        + _stats(exo.outdoor_humidity_ratio_kg_per_kg[:n] * 1000.0)
+        row("outdoor humidity ratio [g/kg]", exo.outdoor_humidity_ratio_kg_per_kg[:n] * 1000.0)
     )
     out.append(
         f"occupied periods {int(exo.occupied[:n].sum())} of {n}; comfort band occupied "
