@@ -237,6 +237,7 @@ def test_reserve_section_is_read_and_recorded(tmp_path: Path) -> None:
         "non_delivery_forfeits_reserve_payment": True,
         "il_baseline": "pre-event",
         "commit_ahead_periods": 2,
+        "meter_calibrated_offers": True,
     }
     assert cfg.config_hash() != preset("paper-rmpc").config_hash()
 

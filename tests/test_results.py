@@ -82,6 +82,7 @@ def test_step_columns_of_one_zone_and_channel_written_out() -> None:
         "power_curtailed_kw",
         "planned_power_kw",
         "reserve_kw",
+        "offer_meter_ratio",
         "solve_time_s",
         "planned_slack_max_k",
         "delta_max_k",
@@ -198,7 +199,7 @@ def test_parser_names_a_column_of_two_zones() -> None:
 
 def test_every_column_builder_has_the_unit_its_name_says() -> None:
     for column, unit in (schema.STEP_SCALAR_UNITS | schema.FLEET_FLOAT_UNITS).items():
-        if column == "coordination_gap":  # a relative gap
+        if column in ("coordination_gap", "offer_meter_ratio"):  # dimensionless ratios
             assert unit == schema.NO_UNIT
         else:
             assert unit == _unit_from_suffix(column), column

@@ -67,6 +67,13 @@ META_FLEET = "fleet"
 
 # ----------------------------------------------------------------------------- columns
 
+FLAG_UNIT = "bool"
+"""Unit of a flag column."""
+
+NO_UNIT = ""
+"""Unit of a column without one (text, counts, ratios)."""
+
+
 STEP_SCALAR_UNITS: dict[str, str] = {
     "energy_price_sgd_per_mwh": "SGD/MWh",
     "reserve_price_sgd_per_mwh": "SGD/MWh",
@@ -77,6 +84,7 @@ STEP_SCALAR_UNITS: dict[str, str] = {
     "power_curtailed_kw": "kW",
     "planned_power_kw": "kW",
     "reserve_kw": "kW",
+    "offer_meter_ratio": NO_UNIT,
     "solve_time_s": "s",
     "planned_slack_max_k": "K",
     "delta_max_k": "K",
@@ -101,12 +109,6 @@ FLAG_COLUMNS: tuple[str, ...] = (
 
 STATUS_COLUMN = "solve_status"
 """Text column: the solver outcome of the step (the last column)."""
-
-FLAG_UNIT = "bool"
-"""Unit of a flag column."""
-
-NO_UNIT = ""
-"""Unit of a column without one (text, counts, ratios)."""
 
 
 @dataclass(frozen=True)

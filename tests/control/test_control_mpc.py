@@ -299,3 +299,35 @@ def test_under_similar_days_offers_are_sized_to_the_similar_days_baseline(setup:
     controller.note_baseline_power(1e6, np.array([1e6, 1e6, 1e6, 1e6, 25.0, 1e6]))
     assert controller._visible_offer_kw(problem, flat, 4, r) == 0.0
     assert controller._visible_offer_kw(problem, flat, 5, r) > 0.0
+
+
+def test_offers_are_scaled_by_the_meter_s_response(setup: Setup) -> None:
+    """ρ = 0.5 (the meter moves half of what the plan moves): the reserve coefficient the LP
+    prices is halved, and so is every offer, the part the baseline sees included; ρ = 1 is
+    the model's own scale, bit for bit."""
+    cfg = setup.config.controller
+    x = np.full(len(setup.model.node_names), 25.0)
+    forecast = setup.forecaster.forecast(20, cfg.horizon_steps + 1)
+    controller = make_controller(setup)
+    assert isinstance(controller, MPCController)
+    own = controller.problem(x, forecast, 0.0)
+    assert controller.note_meter_response(0.5) == 0.5
+    halved = controller.problem(x, forecast, 0.0)
+    np.testing.assert_allclose(halved.reserve_kw_per_kg_s, 0.5 * own.reserve_kw_per_kg_s)
+    np.testing.assert_array_equal(halved.power_coeff_kw_per_kg_s, own.power_coeff_kw_per_kg_s)
+    j = 2
+    r = np.where(controller.reserve_mask, 0.1, 0.0)
+    shed_kw = float(own.power_coeff_kw_per_kg_s[j] @ r)
+    offer_kw = float(own.reserve_kw_per_kg_s[j] @ r)
+    controller.note_baseline_power(1e6)
+    served = np.full(own.horizon, 30.0)
+    assert controller._visible_offer_kw(halved, served, j, r) == pytest.approx(0.5 * offer_kw)
+    # a rising load leaves 1 kW of the plan's shed visible: 0.5 kW on the meter
+    rising = served.copy()
+    rising[1], rising[2] = 30.5, 30.0 + shed_kw - 1.0
+    seen = controller._visible_offer_kw(halved, rising, j, r)
+    assert seen == pytest.approx(min(0.5 * offer_kw, 0.5), abs=1e-5)
+    controller.note_meter_response(1.0)
+    np.testing.assert_array_equal(
+        controller.problem(x, forecast, 0.0).reserve_kw_per_kg_s, own.reserve_kw_per_kg_s
+    )

@@ -2,14 +2,16 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
+from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
 import pytest
 
 from hvacflex import state
-from hvacflex.config import preset
+from hvacflex.config import preset, with_overrides
 from hvacflex.control.base import Action, Controller, EventPlan, PeriodInputs, ReserveOffer
 from hvacflex.data.forecast import Forecast
 from hvacflex.sim.events import Role
@@ -17,6 +19,11 @@ from hvacflex.sim.step import ConflictError, ControlStep, DecisionStatus
 
 ZONES = 2
 STEPS = 6  # D + R of the product presets: 4 + 2
+
+
+OCCUPIED = SimpleNamespace(occupied=np.ones(1, dtype=bool))
+"""A stand-in forecast: the step reads only whether the period is occupied (the meter
+history's rows, :mod:`hvacflex.control.meter_response`)."""
 
 
 class CountingController(Controller):
@@ -79,7 +86,7 @@ def _step(replannable: bool = False) -> tuple[ControlStep, CountingController]:
 def _decide(step: ControlStep, k: int, active: set[int], measured: np.ndarray | None = None) -> Any:
     inputs = PeriodInputs(
         np.full(3, 25.0),
-        None,  # type: ignore[arg-type]  # the counting controller never reads it
+        OCCUPIED,  # type: ignore[arg-type]  # the counting controller never reads it
         peak_floor_kw=0.0,
         measured_zone_temp_degc=measured,
     )
@@ -127,7 +134,7 @@ def test_the_controller_gets_the_trackers_recovery_allowance_not_the_callers() -
     step, controller = _step()
     active = {1, 2}  # a curtailed event of 2 periods; then the recovery of R = 2 periods
     for k in range(6):
-        bogus = PeriodInputs(np.full(3, 25.0), None, 0.0, allowance_carry_steps=99)  # type: ignore[arg-type]
+        bogus = PeriodInputs(np.full(3, 25.0), OCCUPIED, 0.0, allowance_carry_steps=99)  # type: ignore[arg-type]
         step.decide(k, bogus, activated=lambda j: j in active)
     # period 2 is locked (no act); period 3 plans with both recovery periods ahead, 4 with one
     asked = [inputs.allowance_carry_steps for inputs in controller.inputs]
@@ -162,7 +169,7 @@ def test_a_delivered_flow_posted_with_the_next_period_reaches_the_filter_of_its_
     config = preset("rmpc", start="2014-03-03", days=1.0)  # fixed linearisation
     step = ControlStep(config, controller, ZONES, replannable=True)
     delivered = np.array([0.3, 0.4])
-    inputs = PeriodInputs(np.full(3, 25.0), None, 0.0)  # type: ignore[arg-type]
+    inputs = PeriodInputs(np.full(3, 25.0), OCCUPIED, 0.0)  # type: ignore[arg-type]
     step.decide(0, inputs, activated=lambda j: False)
     step.decide(1, inputs, activated=lambda j: False, previous_delivered_flow_kg_s=delivered)
     # period 0's decided flow, then the delivered one replacing it, then period 1's
@@ -283,3 +290,63 @@ def test_commitments_survive_the_state_round_trip() -> None:
     np.testing.assert_array_equal(other.committed_kw, step.committed_kw)
     np.testing.assert_array_equal(other.committed_flow_kg_s, step.committed_flow_kg_s)
     assert [_decide(s, 3, set()).action.reserve_kw for s in (step, other)] == [3.0, 3.0]
+
+
+class MeteredController(CountingController):
+    """... whose plan's power moves from period to period, and which keeps the meter ratios
+    it is told."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.ratios: list[float] = []
+
+    def act(self, inputs: PeriodInputs) -> Action:
+        action = super().act(inputs)
+        return replace(action, planned_power_kw=planned_kw(self.calls))
+
+    def note_meter_response(self, ratio: float) -> float:
+        self.ratios.append(ratio)
+        return ratio
+
+
+def planned_kw(call: int) -> float:
+    """The plan's power of the controller's ``call``-th decision [kW]."""
+    return 20.0 + 4.0 * math.sin(call / 2.0) + (call % 3)
+
+
+def test_the_meter_s_response_to_the_plan_reaches_the_controller() -> None:
+    """The meter moves 0.6 kW per kW of the plan (2 kW below it besides): once enough served
+    periods were metered the controller is told ρ = 0.6, and the decision carries it. The
+    periods of an event (curtailed; locked, planned by nobody) are no evidence: their meter
+    reads 5 kW less, which leaves ρ unchanged. A replannable step restores the history."""
+    controller = MeteredController()
+    config = preset("rmpc", start="2014-03-03", days=1.0)  # event model, calibrated offers
+    step = ControlStep(config, controller, ZONES, replannable=True)
+    active = {30, 31, 32}
+    meter_kw: list[float] = []
+    decisions = []
+    for k in range(40):
+        inputs = PeriodInputs(np.full(3, 25.0), OCCUPIED, 0.0)  # type: ignore[arg-type]
+        previous = meter_kw[-1] if meter_kw else None
+        decision = step.decide(
+            k, inputs, activated=lambda j: j in active, previous_power_kw=previous
+        )
+        if k == 35:  # decided again from before it: the same history, the same ρ
+            again = step.decide(
+                k, inputs, activated=lambda j: j in active, previous_power_kw=previous
+            )
+            assert again.meter_ratio == decision.meter_ratio
+        decisions.append(decision)
+        plan = decision.action.planned_power_kw
+        meter_kw.append(2.0 + 0.6 * plan - (5.0 if decision.outcome.curtailed else 0.0))
+    assert controller.ratios[0] == 1.0  # no history yet: the model's own scale
+    assert decisions[29].meter_ratio == pytest.approx(0.6)
+    assert decisions[39].meter_ratio == pytest.approx(0.6)
+    assert math.isnan(decisions[31].meter_ratio)  # locked: no decision, nothing scaled
+    off = ControlStep(
+        with_overrides(config, {"reserve.meter_calibrated_offers": False}),
+        MeteredController(),
+        ZONES,
+    )
+    inputs = PeriodInputs(np.full(3, 25.0), OCCUPIED, 0.0)  # type: ignore[arg-type]
+    assert math.isnan(off.decide(0, inputs, activated=lambda j: False).meter_ratio)

@@ -144,6 +144,12 @@ class ReserveConfig:
     (the controller plans with it fixed); 0 = decided at the period's start. Applies to the
     event model with a controller that plans ahead (an MPC); the whole-horizon model (the
     paper's) and the rule-based controllers decide each period's offer at its start."""
+    meter_calibrated_offers: bool = True
+    """Whether the event model's offers are scaled by how the meter answers the plan's power
+    changes (:mod:`hvacflex.control.meter_response`: ρ ∈ [0, 1] from the building's recent
+    occupied periods), so that the capacity offered is what the metered settlement will see;
+    False: offers on the power model's own scale. The whole-horizon model (the paper's)
+    never scales."""
 
     @property
     def ahead_offer_steps(self) -> int:

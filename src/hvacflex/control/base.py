@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Protocol
@@ -191,6 +192,13 @@ class Controller(Protocol):
         A controller that offers reserve uses them to offer only what the baseline would
         see."""
         return None
+
+    def note_meter_response(self, ratio: float) -> float:
+        """ρ ∈ [0, 1]: how much the metered power has moved per kW the plan's power moved in
+        the building's recent periods (:mod:`hvacflex.control.meter_response`); a controller
+        that offers reserve scales its offers by it, so that they are sized on the meter's
+        scale. Returns the ratio the coming decision's offers are sized with (NaN: none)."""
+        return math.nan
 
     @property
     def commits_ahead(self) -> int:

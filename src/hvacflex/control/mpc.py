@@ -163,6 +163,7 @@ class MPCController(Controller):
         self._previous_plan: RMPCSolution | None = None
         self._baseline_kw: float | None = None
         self._baseline_ahead_kw: FloatArray | None = None
+        self._meter_ratio = 1.0
         self._commit_ahead = (
             self._reserve.commit_ahead_periods
             if self._reserve.event_max_steps is not None and config.reserve
@@ -314,7 +315,9 @@ class MPCController(Controller):
             peak_floor_kw=floor,
             power_offset_kw=p0,
             power_coeff_kw_per_kg_s=p,
-            reserve_power_coeff_kw_per_kg_s=np.minimum(reserve_coeff, p) if events else None,
+            reserve_power_coeff_kw_per_kg_s=(
+                self._meter_ratio * np.minimum(reserve_coeff, p) if events else None
+            ),
             u_min=u_min,
             u_max=self._flow_max,
             y_min=y_min,
@@ -569,6 +572,10 @@ class MPCController(Controller):
         self._baseline_kw = baseline_power_kw
         self._baseline_ahead_kw = None if ahead_kw is None else np.asarray(ahead_kw, dtype=float)
 
+    def note_meter_response(self, ratio: float) -> float:
+        self._meter_ratio = float(ratio)
+        return self._meter_ratio
+
     def _baseline_now_kw(self) -> float | None:
         """The baseline of an activation starting now, on the affine model's scale [kW]: the
         metered baseline B, or the plan made for the period before where that is known and
@@ -594,9 +601,12 @@ class MPCController(Controller):
         earlier similar days, whenever the activation starts), and the pre-event ones apply
         only where it has none (no similar day yet, as in the settlement).
         The curtailed power P̂_j − p_j·r_j must show the offer below every such baseline, so
-        the offer is ``min(q_j·r_j, min_s B̂_s − (P̂_j − p_j·r_j))``, at least 0 (a period
-        whose air handler was off before, a rising morning load). ``served_kw`` (N,) is the
-        plan's P̂ [kW]. The whole-horizon model (the paper's) offers q_j·r_j unchecked."""
+        the offer is ``min(q_j·r_j, ρ·(min_s B̂_s − (P̂_j − p_j·r_j)))``, at least 0 (a period
+        whose air handler was off before, a rising morning load), where ρ ∈ [0, 1] is the
+        meter's response to the plan's power (:meth:`note_meter_response`; the problem's q
+        carries it too): a change of the plan's power shows as ρ times it on the meter.
+        ``served_kw`` (N,) is the plan's P̂ [kW]. The whole-horizon model (the paper's)
+        offers q_j·r_j unchecked."""
         offer_kw = float(problem.reserve_kw_per_kg_s[j] @ reserve_flow_kg_s)
         max_steps = self._reserve.event_max_steps
         if max_steps is None or offer_kw <= 0.0:
@@ -614,7 +624,7 @@ class MPCController(Controller):
             return offer_kw
         shed_kw = float(problem.power_coeff_kw_per_kg_s[j] @ reserve_flow_kg_s)
         curtailed_kw = float(served_kw[j]) - shed_kw
-        visible_kw = min(baselines) - curtailed_kw + BASELINE_TOLERANCE_KW
+        visible_kw = self._meter_ratio * (min(baselines) - curtailed_kw) + BASELINE_TOLERANCE_KW
         return offer_kw if visible_kw >= offer_kw else max(visible_kw, 0.0)
 
     def _event_plan(self, problem: RMPCProblem, solution: RMPCSolution) -> EventPlan | None:

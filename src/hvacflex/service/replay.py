@@ -251,10 +251,11 @@ class RemoteControl:
         activated: Callable[[int], bool],
         baseline_power_kw: float | None = None,
         baseline_ahead_kw: FloatArray | None = None,
+        previous_power_kw: float | None = None,
     ) -> Decision:
         """Post period ``k``'s activation change and measurement (``inputs.x_degc``); the
-        service's decision (its forecast, peak floor, recovery allowance and settlement
-        baselines are its own)."""
+        service's decision (its forecast, peak floor, recovery allowance, settlement
+        baselines and meter history are its own)."""
         time = inputs.forecast.index[0].isoformat()
         if activated(k) != self.active:
             self.active = activated(k)
@@ -280,7 +281,8 @@ class RemoteControl:
         )
         applied = action.applied_flow_kg_s(curtailed=outcome.curtailed)
         status = decision_status(role, action)
-        return Decision(action, status, role, outcome, applied, None, None)
+        meter_ratio = _none_nan(answer.get("offer_meter_ratio"))
+        return Decision(action, status, role, outcome, applied, None, None, meter_ratio)
 
     def note_delivered_flow(self, flow_kg_s: FloatArray) -> None:
         """Keep the plant's report for the next measurement: the service's control step

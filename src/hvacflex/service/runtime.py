@@ -494,12 +494,14 @@ class Runtime:
         activated = self.activity(session, runtime)
         control = runtime.control
         measured = setup.model.c @ x_degc if control.takes_measurements else None
+        previous_power_kw = self._previous_power_kw(session, runtime, k)
         decision = control.decide(
             k,
             PeriodInputs(x_degc, forecast, floor, measured_zone_temp_degc=measured),
             activated=activated,
-            baseline_power_kw=self._previous_power_kw(session, runtime, k),
+            baseline_power_kw=previous_power_kw,
             previous_delivered_flow_kg_s=delivered_flow_kg_s,
+            previous_power_kw=previous_power_kw,
         )
         payload = self._payload(runtime, k, decision, decision.plan, forecast.index)
         payload["peak_price_sgd_per_kw"] = effective_peak_price(
@@ -540,6 +542,7 @@ class Runtime:
             "flow_kg_s": [float(v) for v in action.flow_kg_s],
             "reserve_flow_kg_s": [float(v) for v in action.reserve_flow_kg_s],
             "reserve_kw": float(action.reserve_kw),
+            "offer_meter_ratio": finite(decision.meter_ratio),
             "planned_power_kw": finite(action.planned_power_kw),
             "solve_time_s": float(action.solve_time_s),
             "planned_slack_max_k": finite(action.planned_slack_max_k),

@@ -262,6 +262,11 @@ class Plan(BaseModel):
     reserve_flow_kg_s: list[float]
     applied_flow_kg_s: list[float]
     reserve_kw: float
+    offer_meter_ratio: float | None = Field(
+        default=None,
+        description="ρ ∈ [0, 1]: the meter's response to the plan's power that the offers "
+        "were sized with (None: not scaled; docs/il_events.md).",
+    )
     planned_power_kw: float | None
     solve_time_s: float
     planned_slack_max_k: float | None

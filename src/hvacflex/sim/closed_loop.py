@@ -167,6 +167,7 @@ class Control(Protocol):
         activated: Callable[[int], bool],
         baseline_power_kw: float | None = None,
         baseline_ahead_kw: FloatArray | None = None,
+        previous_power_kw: float | None = None,
     ) -> Decision: ...
 
     def note_delivered_flow(self, flow_kg_s: FloatArray) -> None: ...
@@ -291,6 +292,7 @@ class ClosedLoop:
             activated=self._activated,
             baseline_power_kw=self._start_baseline_kw(k),
             baseline_ahead_kw=self._ahead_baselines_kw(k),
+            previous_power_kw=self._previous_power_kw(k),
         )
         t1 = time.perf_counter()
 
@@ -335,6 +337,12 @@ class ClosedLoop:
         self.timing_s["controller"] += t1 - t0
         self.timing_s["plant"] += t2 - t1
         self.timing_s["record"] += t3 - t2
+
+    def _previous_power_kw(self, k: int) -> float | None:
+        """The metered power of period k − 1 [kW] (None at k = 0)."""
+        if k == 0:
+            return None
+        return float(self.recorder.values[k - 1, self.recorder.column_index["power_kw"]])
 
     def _start_baseline_kw(self, k: int) -> float | None:
         """The baseline an activation starting at ``k`` would be settled against [kW] (the
@@ -496,6 +504,7 @@ class ClosedLoop:
         row[col["power_curtailed_kw"]] = period.curtailed_power_kw
         row[col["planned_power_kw"]] = action.planned_power_kw
         row[col["reserve_kw"]] = action.reserve_kw
+        row[col["offer_meter_ratio"]] = decision.meter_ratio
         row[col["solve_time_s"]] = action.solve_time_s
         row[col["planned_slack_max_k"]] = action.planned_slack_max_k
         row[col["delta_max_k"]] = action.delta_max_k

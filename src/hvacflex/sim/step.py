@@ -51,6 +51,7 @@ from hvacflex.control.base import (
     ReserveOffer,
 )
 from hvacflex.control.estimation import StepModel
+from hvacflex.control.meter_response import MeterHistory
 from hvacflex.errors import InputError
 from hvacflex.sim.events import EventTracker, PeriodOutcome, Role
 
@@ -92,6 +93,8 @@ class Decision:
         (a rule, a fallback, a locked period).
     locked : the locked event plan and the period's index in it when the period belongs to
         it (an event's start or continuation), else None.
+    meter_ratio : ρ, the meter's response the period's offers were sized with
+        (:mod:`hvacflex.control.meter_response`); NaN where none was applied.
     """
 
     action: Action
@@ -101,6 +104,7 @@ class Decision:
     applied_flow_kg_s: FloatArray
     plan: Any
     locked: tuple[EventPlan, int] | None
+    meter_ratio: float = math.nan
 
     @property
     def allowance_k(self) -> float:
@@ -166,6 +170,18 @@ class ControlStep:
         the fixed model's; a re-linearised step model has another operating point."""
         self.period = -1
         """The latest period decided (−1: none)."""
+        reserve = config.reserve
+        self.meter_lag = (
+            reserve.event_max_steps
+            if reserve.event_max_steps is not None and reserve.meter_calibrated_offers
+            else 0
+        )
+        """L: the lags over which the meter's response is measured (the event model's D;
+        0: offers are not scaled, the whole-horizon model or ``meter_calibrated_offers``
+        off)."""
+        self.meter = MeterHistory()
+        """The plan's and the meter's power of the recent periods
+        (:mod:`hvacflex.control.meter_response`)."""
         self._before: dict[str, Any] | None = None
         self.commit_ahead = int(controller.commits_ahead)
         """g: periods ahead that reserve is committed (0: decided at each period's start)."""
@@ -200,6 +216,7 @@ class ControlStep:
         baseline_power_kw: float | None = None,
         previous_delivered_flow_kg_s: FloatArray | None = None,
         baseline_ahead_kw: FloatArray | None = None,
+        previous_power_kw: float | None = None,
     ) -> Decision:
         """Decide period ``k``.
 
@@ -222,6 +239,9 @@ class ControlStep:
             rather than after k − 1 (the service); taken only when k − 1 is the latest
             decided period (a skipped period's plant input is not the filter's last step),
             and kept for a decision of k again.
+        previous_power_kw : the metered power of period k − 1 [kW] (None: not read), for the
+            meter's response to the plan (:attr:`meter`), which scales the controller's
+            offers under the event model.
 
         Raises
         ------
@@ -229,7 +249,9 @@ class ControlStep:
         """
         self._start_period(k, activated, previous_delivered_flow_kg_s)
         controller, tracker = self.controller, self.tracker
+        self.meter.advance(k, previous_power_kw)
         role = tracker.role(activated(k))
+        meter_ratio = math.nan
         if role is Role.EVENT_LOCKED:
             action = tracker.locked_action()
             locked_flow = action.applied_flow_kg_s(curtailed=True)
@@ -237,6 +259,8 @@ class ControlStep:
         else:
             controller.note_baseline_power(baseline_power_kw, baseline_ahead_kw)
             controller.note_commitments(self.committed_flow_kg_s)
+            if self.meter_lag:
+                meter_ratio = controller.note_meter_response(self.meter.ratio(self.meter_lag))
             action = controller.act(replace(inputs, allowance_carry_steps=tracker.carry_steps))
         if role is Role.EVENT_START:
             tracker.lock(action.event_plan)
@@ -248,8 +272,14 @@ class ControlStep:
         applied_flow = action.applied_flow_kg_s(curtailed=outcome.curtailed)
         controller.note_applied_flow(applied_flow)
         status = decision_status(role, action)
+        usable = (
+            status is DecisionStatus.PLANNED
+            and not outcome.curtailed
+            and bool(inputs.forecast.occupied[0])
+        )
+        self.meter.open(k, action.planned_power_kw if usable else math.nan)
         made = controller.last_plan if status is DecisionStatus.PLANNED else None
-        return Decision(action, status, role, outcome, applied_flow, made, locked)
+        return Decision(action, status, role, outcome, applied_flow, made, locked, meter_ratio)
 
     def _start_period(
         self, k: int, activated: Callable[[int], bool], delivered_flow_kg_s: FloatArray | None
@@ -266,6 +296,7 @@ class ControlStep:
             self.controller.set_state(before["controller"])
             self.tracker.set_state(before["events"])
             self._set_commitments(before.get("commitments"))
+            self._set_meter(before.get("meter"))
         else:
             for j in range(self.period + 1, k):
                 self._skip(activated(j))
@@ -276,6 +307,7 @@ class ControlStep:
                 "controller": self.controller.get_state(),
                 "events": self.tracker.get_state(),
                 "commitments": self._commitments(),
+                "meter": self.meter.get_state(),
             }
         self.period = k
 
@@ -336,7 +368,14 @@ class ControlStep:
             "controller": self.controller.get_state(),
             "events": self.tracker.get_state(),
             "commitments": self._commitments(),
+            "meter": self.meter.get_state(),
         }
+
+    def _set_meter(self, state: dict[str, Any] | None) -> None:
+        """Restore the meter history (a state from before it was kept: an empty one)."""
+        self.meter = MeterHistory()
+        if state is not None:
+            self.meter.set_state(state)
 
     def _commitments(self) -> dict[str, Any]:
         return {"flow_kg_s": self.committed_flow_kg_s.copy(), "kw": self.committed_kw.copy()}
@@ -365,6 +404,7 @@ class ControlStep:
         self.controller.set_state(state["controller"])
         self.tracker.set_state(state["events"])
         self._set_commitments(state.get("commitments"))
+        self._set_meter(state.get("meter"))
 
 
 def decision_status(role: Role, action: Action) -> DecisionStatus:

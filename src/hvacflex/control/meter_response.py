@@ -1,0 +1,129 @@
+"""How the meter answers the plan: the ratio that puts reserve offers on the metered scale.
+
+An offer is sized on the controller's power model (docs/il_events.md, "Offers that can be
+delivered"): the plan's curtailed power must lie below every baseline an activation could be
+settled against by the offer. The market settles against the meter, and a power model whose
+power moves more than the meter's sheds on the meter only part of what its plan says — an
+identified model fitted on other weeks (docs/identify.md §6.1: in April the 5ZoneAirCooled
+meter moves 0.5–0.6 kW for each kW the March-fitted plan moves), or a setpoint-actuated
+plant whose own loops track part of a planned change.
+
+That part is measured in normal operation, every period, without waiting for activations
+(which are rare, and an estimate from them alone falls to zero after one bad event and stays
+there): the least-squares slope through the origin of the metered power's change against the
+plan's,
+
+    ρ = Σ ΔP̂ ΔM / Σ ΔP̂²,   ΔP̂ = P̂_k − P̂_{k−L},  ΔM = M_k − M_{k−L},  L = 1 … D,
+
+over the pairs of *usable* periods (occupied, served — not curtailed —, decided by a fresh
+plan, the meter read) among the last :data:`WINDOW_PERIODS`; P̂_k is the plan's own power for
+period k (``Action.planned_power_kw``), M_k the metered power. Differences, not levels: a
+delivery is the meter's change from the baseline period to the event's, and the plan's offset
+from the meter (the fan secant, a fitted intercept) cancels in them. ρ is clipped to [0, 1]
+(an offer is never scaled above the model's lower bound q·r) and is 1 — the model's own
+scale — while fewer than :data:`MIN_PAIRS` pairs exist or the plan's changes are below
+:data:`MIN_RMS_CHANGE_KW` (nothing to learn from).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from hvacflex.control.base import FloatArray
+
+WINDOW_PERIODS = 240
+"""Periods of history the ratio is taken over (5 days of 30-min periods) [periods]."""
+MIN_PAIRS = 16
+"""Fewest pairs of usable periods before the ratio departs from 1."""
+MIN_RMS_CHANGE_KW = 0.1
+"""Smallest root-mean-square change of the plan's power over the pairs [kW]."""
+
+
+def meter_response_ratio(
+    planned_kw: FloatArray,
+    metered_kw: FloatArray,
+    max_lag: int,
+    *,
+    min_pairs: int = MIN_PAIRS,
+    min_rms_change_kw: float = MIN_RMS_CHANGE_KW,
+) -> float:
+    """ρ in [0, 1] from consecutive periods' plan and meter (T,) each [kW], NaN where a period
+    is not usable, over lags 1 … ``max_lag`` (see the module docstring); 1 without evidence."""
+    planned = np.asarray(planned_kw, dtype=float)
+    metered = np.asarray(metered_kw, dtype=float)
+    cross = square = 0.0
+    pairs = 0
+    for lag in range(1, max(max_lag, 1) + 1):
+        if lag >= planned.size:
+            break
+        d_plan = planned[lag:] - planned[:-lag]
+        d_meter = metered[lag:] - metered[:-lag]
+        ok = np.isfinite(d_plan) & np.isfinite(d_meter)
+        cross += float(d_plan[ok] @ d_meter[ok])
+        square += float(d_plan[ok] @ d_plan[ok])
+        pairs += int(ok.sum())
+    if pairs < min_pairs or square < pairs * min_rms_change_kw**2:
+        return 1.0
+    return float(np.clip(cross / square, 0.0, 1.0))
+
+
+class MeterHistory:
+    """The plan's and the meter's power of a building's recent periods, one row a period.
+
+    A period's planned power is known when it is decided (:meth:`open`), its metered power
+    when the next period is (:meth:`advance`, with the power the building posts); periods
+    nobody decided, or whose meter was not read, are NaN rows, so lags stay lags in time.
+    """
+
+    def __init__(self, window_periods: int = WINDOW_PERIODS) -> None:
+        self.window_periods = window_periods
+        self.planned_kw = np.zeros(0)
+        self.metered_kw = np.zeros(0)
+        self.open_period = -1
+        """The latest period decided, whose meter is not read yet (−1: none)."""
+        self.open_planned_kw = math.nan
+        """Its planned power [kW] (NaN: not usable)."""
+
+    def open(self, period: int, planned_kw: float) -> None:
+        """Period ``period`` was decided; ``planned_kw``: the plan's power for it [kW], NaN
+        where the period does not count (unoccupied, curtailed, no fresh plan)."""
+        self.open_period, self.open_planned_kw = period, float(planned_kw)
+
+    def advance(self, period: int, previous_power_kw: float | None) -> None:
+        """Period ``period`` starts: the open period's row is closed with the metered power of
+        period − 1 (None or NaN: not read; it is that row's only where the open period is
+        period − 1), and every period between them gets a NaN row."""
+        last = self.open_period
+        if last < 0 or period <= last:
+            return
+        metered = math.nan if previous_power_kw is None else float(previous_power_kw)
+        rows_planned = [self.open_planned_kw if last == period - 1 else math.nan]
+        rows_metered = [metered if last == period - 1 else math.nan]
+        gap = min(period - 1 - last, self.window_periods)
+        rows_planned += [math.nan] * gap
+        rows_metered += [math.nan] * gap
+        keep = self.window_periods
+        self.planned_kw = np.append(self.planned_kw, rows_planned)[-keep:]
+        self.metered_kw = np.append(self.metered_kw, rows_metered)[-keep:]
+        self.open_period, self.open_planned_kw = -1, math.nan
+
+    def ratio(self, max_lag: int) -> float:
+        """:func:`meter_response_ratio` of the history."""
+        return meter_response_ratio(self.planned_kw, self.metered_kw, max_lag)
+
+    def get_state(self) -> dict[str, Any]:
+        return {
+            "planned_kw": self.planned_kw.copy(),
+            "metered_kw": self.metered_kw.copy(),
+            "open_period": self.open_period,
+            "open_planned_kw": self.open_planned_kw,
+        }
+
+    def set_state(self, state: dict[str, Any]) -> None:
+        self.planned_kw = np.asarray(state["planned_kw"], dtype=float).copy()
+        self.metered_kw = np.asarray(state["metered_kw"], dtype=float).copy()
+        self.open_period = int(state["open_period"])
+        self.open_planned_kw = float(state["open_planned_kw"])

@@ -1,0 +1,114 @@
+"""The meter's response to the plan (ρ), and the history it is measured on."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from hvacflex.control.meter_response import (
+    MIN_PAIRS,
+    WINDOW_PERIODS,
+    MeterHistory,
+    meter_response_ratio,
+)
+from hvacflex.state import decode, encode
+
+
+def _day_plan(periods: int = 40, seed: int = 1) -> np.ndarray:
+    """A plan's power that moves from period to period [kW]."""
+    rng = np.random.default_rng(seed)
+    return 20.0 + 5.0 * np.sin(np.arange(periods) / 3.0) + rng.normal(0.0, 1.0, periods)
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    slope=st.floats(0.0, 1.0),
+    offset_kw=st.floats(-10.0, 10.0),
+    lag=st.integers(1, 6),
+)
+def test_an_exact_affine_meter_gives_its_slope(slope: float, offset_kw: float, lag: int) -> None:
+    """meter = a + b·plan: the offset cancels in the changes, ρ = b (for b in [0, 1])."""
+    plan = _day_plan()
+    assert meter_response_ratio(plan, offset_kw + slope * plan, lag) == pytest.approx(
+        slope, abs=1e-9
+    )
+
+
+def test_the_slope_is_computed_by_hand_over_lags_one_and_two() -> None:
+    """ρ = Σ ΔP̂ ΔM / Σ ΔP̂² over the pairs at lags 1 and 2, NaN periods left out."""
+    plan = np.array([10.0, 12.0, 11.0, math.nan, 15.0, 14.0] * 4)
+    meter = np.array([9.0, 10.0, 10.5, 8.0, 11.0, 11.0] * 4)
+    cross = square = 0.0
+    for lag in (1, 2):
+        for k in range(lag, plan.size):
+            dp, dm = plan[k] - plan[k - lag], meter[k] - meter[k - lag]
+            if np.isfinite(dp) and np.isfinite(dm):
+                cross, square = cross + dp * dm, square + dp * dp
+    assert 0.0 < cross / square < 1.0
+    assert meter_response_ratio(plan, meter, 2, min_pairs=4) == pytest.approx(cross / square)
+
+
+def test_without_evidence_the_model_s_own_scale() -> None:
+    plan = _day_plan()
+    half = 0.5 * plan
+    # too few pairs: the last few periods only
+    few = MIN_PAIRS // 2
+    assert meter_response_ratio(plan[:few], half[:few], 1) == 1.0
+    # a flat plan says nothing about the response
+    flat = np.full(40, 20.0)
+    assert meter_response_ratio(flat, half, 4) == 1.0
+    # unusable periods (NaN) are no evidence either
+    assert meter_response_ratio(np.full(40, math.nan), half, 4) == 1.0
+    assert meter_response_ratio(plan, half, 4) == pytest.approx(0.5)
+
+
+def test_the_ratio_is_clipped_to_the_model_s_lower_bound_and_zero() -> None:
+    plan = _day_plan()
+    assert meter_response_ratio(plan, 1.5 * plan, 4) == 1.0  # never above q·r
+    assert meter_response_ratio(plan, -0.5 * plan, 4) == 0.0  # a meter that moves against it
+
+
+def test_rows_follow_time_with_gaps_for_periods_nobody_decided_or_metered() -> None:
+    history = MeterHistory(window_periods=6)
+    history.advance(0, None)  # nothing open yet: nothing recorded
+    history.open(0, 10.0)
+    history.advance(1, 9.0)
+    history.open(1, math.nan)  # not usable (curtailed, unoccupied, no plan)
+    history.advance(2, 8.0)
+    history.open(2, 12.0)
+    history.advance(5, 7.0)  # 3 and 4 skipped: period 2's meter was never read, no pair
+    np.testing.assert_array_equal(
+        history.planned_kw, [10.0, math.nan, math.nan, math.nan, math.nan]
+    )
+    np.testing.assert_array_equal(history.metered_kw, [9.0, 8.0, math.nan, math.nan, math.nan])
+    history.open(5, 11.0)
+    history.advance(6, 10.0)
+    history.open(6, 13.0)
+    history.advance(7, None)  # the meter of 6 not read
+    assert history.planned_kw.size == 6  # the window
+    np.testing.assert_array_equal(history.planned_kw[-2:], [11.0, 13.0])
+    np.testing.assert_array_equal(history.metered_kw[-2:], [10.0, math.nan])
+    history.open(7, 1.0)
+    history.advance(7 + 3 * WINDOW_PERIODS, 1.0)  # a long gap: bounded by the window
+    assert np.isnan(history.planned_kw).all() and history.planned_kw.size == 6
+
+
+def test_a_history_resumes_identically_from_its_state() -> None:
+    history = MeterHistory()
+    plan = _day_plan(60)
+    for k, power in enumerate(plan):
+        history.advance(k, None if k == 0 else 3.0 + 0.6 * plan[k - 1])
+        history.open(k, float(power))
+    resumed = MeterHistory()
+    resumed.set_state(decode(encode(history.get_state())))
+    for k in (60, 61):
+        for h in (history, resumed):
+            h.advance(k, 3.0 + 0.6 * h.open_planned_kw)
+            h.open(k, float(plan[k - 60]))
+    np.testing.assert_array_equal(resumed.planned_kw, history.planned_kw)
+    np.testing.assert_array_equal(resumed.metered_kw, history.metered_kw)
+    assert resumed.ratio(4) == history.ratio(4) == pytest.approx(0.6)
