@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import replace
 
 import numpy as np
@@ -230,16 +231,25 @@ def test_commitments_are_fixed_in_the_plan(setup: Setup) -> None:
     np.testing.assert_allclose(free.last_plan.r[:g], 0.0, atol=1e-9)  # to the dual tolerance
 
 
+def _offer_case(setup: Setup) -> tuple[MPCController, RMPCProblem, Callable[[], RMPCProblem]]:
+    """A controller at 10:00 on the first day, its problem from 25 °C, and a function that
+    builds the problem again (after the controller was told something)."""
+    x = np.full(len(setup.model.node_names), 25.0)
+    forecast = setup.forecaster.forecast(20, setup.config.controller.horizon_steps + 1)
+    controller = make_controller(setup)
+    assert isinstance(controller, MPCController)
+
+    def rebuild() -> RMPCProblem:
+        return controller.problem(x, forecast, 0.0)
+
+    return controller, rebuild(), rebuild
+
+
 def test_offers_are_sized_to_what_every_covering_baseline_would_see(setup: Setup) -> None:
     """The offer of step j is min(q_j·r_j, min_s B̂_s − (P̂_j − p_j·r_j)) over the starts s of
     the activations covering j (D = 4): P̂_{s−1} for s ≥ 1 and the baseline now for s = 0,
     computed here by hand on a made-up plan power."""
-    cfg = setup.config.controller
-    x = np.full(len(setup.model.node_names), 25.0)
-    forecast = setup.forecaster.forecast(20, cfg.horizon_steps + 1)
-    controller = make_controller(setup)
-    assert isinstance(controller, MPCController)
-    problem = controller.problem(x, forecast, 0.0)
+    controller, problem, _ = _offer_case(setup)
     j = 2
     r = np.where(controller.reserve_mask, 0.1, 0.0)
     shed_kw = float(problem.power_coeff_kw_per_kg_s[j] @ r)
@@ -270,12 +280,7 @@ def test_under_similar_days_offers_are_sized_to_the_similar_days_baseline(setup:
     """With the driver's similar-days baselines for the coming periods the offer of step j
     is min(q_j·r_j, B_j − (P̂_j − p_j·r_j)), whatever the plan's earlier powers; where B_j is
     unknown (no similar day yet) the pre-event baselines apply, as in the settlement."""
-    cfg = setup.config.controller
-    x = np.full(len(setup.model.node_names), 25.0)
-    forecast = setup.forecaster.forecast(20, cfg.horizon_steps + 1)
-    controller = make_controller(setup)
-    assert isinstance(controller, MPCController)
-    problem = controller.problem(x, forecast, 0.0)
+    controller, problem, _ = _offer_case(setup)
     j = 2
     r = np.where(controller.reserve_mask, 0.1, 0.0)
     shed_kw = float(problem.power_coeff_kw_per_kg_s[j] @ r)
@@ -305,14 +310,9 @@ def test_offers_are_scaled_by_the_meter_s_response(setup: Setup) -> None:
     """ρ = 0.5 (the meter moves half of what the plan moves): the reserve coefficient the LP
     prices is halved, and so is every offer, the part the baseline sees included; ρ = 1 is
     the model's own scale, bit for bit."""
-    cfg = setup.config.controller
-    x = np.full(len(setup.model.node_names), 25.0)
-    forecast = setup.forecaster.forecast(20, cfg.horizon_steps + 1)
-    controller = make_controller(setup)
-    assert isinstance(controller, MPCController)
-    own = controller.problem(x, forecast, 0.0)
+    controller, own, rebuild = _offer_case(setup)
     assert controller.note_meter_response(0.5) == 0.5
-    halved = controller.problem(x, forecast, 0.0)
+    halved = rebuild()
     np.testing.assert_allclose(halved.reserve_kw_per_kg_s, 0.5 * own.reserve_kw_per_kg_s)
     np.testing.assert_array_equal(halved.power_coeff_kw_per_kg_s, own.power_coeff_kw_per_kg_s)
     j = 2
@@ -328,6 +328,4 @@ def test_offers_are_scaled_by_the_meter_s_response(setup: Setup) -> None:
     seen = controller._visible_offer_kw(halved, rising, j, r)
     assert seen == pytest.approx(min(0.5 * offer_kw, 0.5), abs=1e-5)
     controller.note_meter_response(1.0)
-    np.testing.assert_array_equal(
-        controller.problem(x, forecast, 0.0).reserve_kw_per_kg_s, own.reserve_kw_per_kg_s
-    )
+    np.testing.assert_array_equal(rebuild().reserve_kw_per_kg_s, own.reserve_kw_per_kg_s)
