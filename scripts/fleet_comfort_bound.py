@@ -2,16 +2,18 @@
 
 Issue 31's 8-building case asks for ≤ 1 K·h of discomfort per building-day outside the
 feeder-infeasible periods under a limit at 80 % of the fleet's unlimited peak. This script
-bounds what any coordination could achieve there: from the fleet's initial states at
-``--start`` 00:00 it stacks every building's open-loop LP over one 24-h horizon (the
-centralised LP of ``hvacflex fleet compare``, :func:`hvacflex.fleet.centralised.centralised_lp`)
-with **perfect foresight**, **no robust margin**, **no reserve**, energy and peak free, and
-the comfort slack as the only cost, under the planning limit (raised to the buildings' summed
-minimum power where that alone exceeds it, as the coordination flags). The optimum is the
-least end-of-period comfort violation Σ ε·Δt [K·h] the buildings' linear models allow; a
-closed loop, which re-plans with forecasts and robust margins, can only do worse on the same
-model. (The LP's power is the affine secant the controllers plan with; docs/fleet.md says
-where it lies above or below the plant.) Markdown to stdout:
+bounds what any coordination could achieve there on the controllers' own model: from the
+fleet's initial states at ``--start`` 00:00 it stacks every building's open-loop LP over one
+24-h horizon (the centralised LP of ``hvacflex fleet compare``,
+:func:`hvacflex.fleet.centralised.centralised_lp`) with **perfect foresight**, **no robust
+margin**, **no reserve**, energy and peak free, and the comfort slack as the only cost,
+under the planning limit (raised to the buildings' summed minimum power where that alone
+exceeds it, as the coordination flags). The optimum is the least end-of-period comfort
+violation Σ ε·Δt [K·h] the buildings' linear models allow; a closed loop, which re-plans
+with forecasts and robust margins, can only do worse on the same model. It is the model's
+limit, not a bound on the plant: the LP's power is the affine secant the controllers plan
+with (docs/fleet.md says where it lies above or below the plant).
+Markdown to stdout:
 
     python scripts/fleet_comfort_bound.py [--buildings 8] [--seed 3] [--fraction 0.8]
         [--peak-kw 354.11] [--start 2014-03-03]

@@ -311,7 +311,7 @@ def test_offers_are_scaled_by_the_meter_s_response(setup: Setup) -> None:
     prices is halved, and so is every offer, the part the baseline sees included; ρ = 1 is
     the model's own scale, bit for bit."""
     controller, own, rebuild = _offer_case(setup)
-    assert controller.note_meter_response(0.5) == 0.5
+    controller.note_meter_response(0.5)
     halved = rebuild()
     np.testing.assert_allclose(halved.reserve_kw_per_kg_s, 0.5 * own.reserve_kw_per_kg_s)
     np.testing.assert_array_equal(halved.power_coeff_kw_per_kg_s, own.power_coeff_kw_per_kg_s)
@@ -327,5 +327,14 @@ def test_offers_are_scaled_by_the_meter_s_response(setup: Setup) -> None:
     rising[1], rising[2] = 30.5, 30.0 + shed_kw - 1.0
     seen = controller._visible_offer_kw(halved, rising, j, r)
     assert seen == pytest.approx(min(0.5 * offer_kw, 0.5), abs=1e-5)
+    # a metered baseline (similar days) is a level, not a change of the plan's: the meter
+    # sheds ρ·p·r below the plan's served level, so B = P̂_j − 0.8·shed sees nothing …
+    nan = np.nan
+    controller.note_baseline_power(1e6, np.array([nan, nan, served[j] - 0.8 * shed_kw]))
+    assert controller._visible_offer_kw(halved, served, j, r) == 0.0
+    # … and B = P̂_j − 0.3·shed sees (0.5 − 0.3)·shed
+    controller.note_baseline_power(1e6, np.array([nan, nan, served[j] - 0.3 * shed_kw]))
+    seen = controller._visible_offer_kw(halved, served, j, r)
+    assert seen == pytest.approx(min(0.5 * offer_kw, 0.2 * shed_kw), abs=1e-5)
     controller.note_meter_response(1.0)
     np.testing.assert_array_equal(rebuild().reserve_kw_per_kg_s, own.reserve_kw_per_kg_s)

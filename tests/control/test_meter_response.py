@@ -95,6 +95,17 @@ def test_rows_follow_time_with_gaps_for_periods_nobody_decided_or_metered() -> N
     history.open(7, 1.0)
     history.advance(7 + 3 * WINDOW_PERIODS, 1.0)  # a long gap: bounded by the window
     assert np.isnan(history.planned_kw).all() and history.planned_kw.size == 6
+    # a period started but never decided (its decision failed): its row is NaN, and the
+    # next decided period's row lands in its own place
+    history = MeterHistory(window_periods=6)
+    history.advance(0, None)
+    history.open(0, 10.0)
+    history.advance(1, 9.0)  # period 1 starts, nothing is opened for it
+    history.advance(2, 8.0)
+    history.open(2, 12.0)
+    history.advance(3, 11.0)
+    np.testing.assert_array_equal(history.planned_kw, [10.0, math.nan, 12.0])
+    np.testing.assert_array_equal(history.metered_kw, [9.0, math.nan, 11.0])
 
 
 def test_a_history_resumes_identically_from_its_state() -> None:

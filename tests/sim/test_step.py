@@ -293,20 +293,31 @@ def test_commitments_survive_the_state_round_trip() -> None:
 
 
 class MeteredController(CountingController):
-    """... whose plan's power moves from period to period, and which keeps the meter ratios
-    it is told."""
+    """... whose plan's power moves from period to period, which keeps the meter ratios it is
+    told, and whose offers (the one committed g ahead, the event plan's) say the ρ they were
+    sized with."""
 
     def __init__(self) -> None:
         super().__init__()
         self.ratios: list[float] = []
 
+    @property
+    def commits_ahead(self) -> int:
+        return 2
+
     def act(self, inputs: PeriodInputs) -> Action:
         action = super().act(inputs)
-        return replace(action, planned_power_kw=planned_kw(self.calls))
+        ratio = self.ratios[-1] if self.ratios else math.nan
+        assert action.event_plan is not None
+        return replace(
+            action,
+            planned_power_kw=planned_kw(self.calls),
+            offer_ahead=ReserveOffer(np.zeros(ZONES), 1.0, meter_ratio=ratio),
+            event_plan=replace(action.event_plan, meter_ratio=ratio),
+        )
 
-    def note_meter_response(self, ratio: float) -> float:
+    def note_meter_response(self, ratio: float) -> None:
         self.ratios.append(ratio)
-        return ratio
 
 
 def planned_kw(call: int) -> float:
@@ -316,37 +327,47 @@ def planned_kw(call: int) -> float:
 
 def test_the_meter_s_response_to_the_plan_reaches_the_controller() -> None:
     """The meter moves 0.6 kW per kW of the plan (2 kW below it besides): once enough served
-    periods were metered the controller is told ρ = 0.6, and the decision carries it. The
-    periods of an event (curtailed; locked, planned by nobody) are no evidence: their meter
-    reads 5 kW less, which leaves ρ unchanged. A replannable step restores the history."""
+    periods were metered the controller is told ρ = 0.6. The periods of an event and its
+    recovery (curtailed, locked, widened band) are no evidence: their meter reads 5 kW less,
+    which leaves ρ unchanged. Each period's ``offer_meter_ratio`` is the ρ its paid offer was
+    sized with: the decision g = 2 periods before, or the locked plan's. A replannable step
+    restores the history."""
     controller = MeteredController()
     config = preset("rmpc", start="2014-03-03", days=1.0)  # event model, calibrated offers
     step = ControlStep(config, controller, ZONES, replannable=True)
-    active = {30, 31, 32}
+    assert step.commit_ahead == 2
+    active = {30, 31, 32}  # an event of D − 1 periods, then R = 2 recovery periods
+    inputs = PeriodInputs(np.full(3, 25.0), OCCUPIED, 0.0)  # type: ignore[arg-type]
     meter_kw: list[float] = []
+    told: dict[int, float] = {}
     decisions = []
-    for k in range(40):
-        inputs = PeriodInputs(np.full(3, 25.0), OCCUPIED, 0.0)  # type: ignore[arg-type]
+    for k in range(45):
         previous = meter_kw[-1] if meter_kw else None
+        asked = len(controller.ratios)
         decision = step.decide(
             k, inputs, activated=lambda j: j in active, previous_power_kw=previous
         )
-        if k == 35:  # decided again from before it: the same history, the same ρ
-            again = step.decide(
-                k, inputs, activated=lambda j: j in active, previous_power_kw=previous
-            )
-            assert again.meter_ratio == decision.meter_ratio
+        if len(controller.ratios) > asked:
+            told[k] = controller.ratios[-1]
+        if k == 40:  # decided again from before it: the same history, the same ρ
+            step.decide(k, inputs, activated=lambda j: j in active, previous_power_kw=previous)
+            assert controller.ratios[-1] == told[k]
         decisions.append(decision)
         plan = decision.action.planned_power_kw
         meter_kw.append(2.0 + 0.6 * plan - (5.0 if decision.outcome.curtailed else 0.0))
-    assert controller.ratios[0] == 1.0  # no history yet: the model's own scale
-    assert decisions[29].meter_ratio == pytest.approx(0.6)
-    assert decisions[39].meter_ratio == pytest.approx(0.6)
-    assert math.isnan(decisions[31].meter_ratio)  # locked: no decision, nothing scaled
+    assert told[0] == 1.0  # no history yet: the model's own scale
+    assert told[29] == pytest.approx(0.6)
+    assert 31 not in told and 32 not in told  # locked: nobody decides
+    assert told[44] == pytest.approx(0.6)  # the event's meter left out
+    ratio = [d.action.offer_meter_ratio for d in decisions]
+    assert math.isnan(ratio[0]) and math.isnan(ratio[1])  # nothing committed before the run
+    assert ratio[29] == told[27]
+    assert ratio[33] == told[30]  # committed at 31 from the plan locked at 30
     off = ControlStep(
         with_overrides(config, {"reserve.meter_calibrated_offers": False}),
         MeteredController(),
         ZONES,
     )
-    inputs = PeriodInputs(np.full(3, 25.0), OCCUPIED, 0.0)  # type: ignore[arg-type]
-    assert math.isnan(off.decide(0, inputs, activated=lambda j: False).meter_ratio)
+    for k in range(4):
+        action = off.decide(k, inputs, activated=lambda j: False, previous_power_kw=20.0).action
+        assert math.isnan(action.offer_meter_ratio)

@@ -25,10 +25,13 @@ class ReserveOffer:
     flow_kg_s : (m,) reserve flows r the building sheds if the period is activated [kg/s].
     reserve_kw : the capacity offered (and paid) [kW]: at most the power that r surely sheds,
         and no more than the settlement baseline would see.
+    meter_ratio : ρ, the meter's response to the plan the offer was sized with
+        (:mod:`hvacflex.control.meter_response`); NaN: not scaled.
     """
 
     flow_kg_s: FloatArray
     reserve_kw: float
+    meter_ratio: float = math.nan
 
 
 @dataclass(frozen=True)
@@ -49,6 +52,7 @@ class EventPlan:
         (steps < g: committed before the plan was made).
     predicted_served_degc, predicted_curtailed_degc : (L, m) predicted zone temperatures at
         the end of period j, without and with the event (from the start) [°C].
+    meter_ratio : ρ the plan's offers were sized with (NaN: not scaled).
     """
 
     flow_kg_s: FloatArray
@@ -57,6 +61,7 @@ class EventPlan:
     reserve_kw: FloatArray
     predicted_served_degc: FloatArray
     predicted_curtailed_degc: FloatArray
+    meter_ratio: float = math.nan
 
     @property
     def steps(self) -> int:
@@ -94,6 +99,9 @@ class Action:
         ``plant-baseline``: a setpoint-actuated plant is told nothing, all-NaN setpoints).
     offer_ahead : the reserve offered for the period g periods from now
         (:attr:`Controller.commits_ahead`); ``None``: nothing (no plan, or no commitments).
+    offer_meter_ratio : ρ, the meter's response to the plan that ``reserve_kw`` was sized
+        with (:mod:`hvacflex.control.meter_response`; under commitments, the ρ of the
+        decision that committed it); NaN: not scaled.
     """
 
     flow_kg_s: FloatArray
@@ -112,6 +120,7 @@ class Action:
     supply_temp_degc: float | None = None
     released: bool = False
     offer_ahead: ReserveOffer | None = None
+    offer_meter_ratio: float = math.nan
 
     def applied_flow_kg_s(self, *, curtailed: bool) -> FloatArray:
         """(m,) the flow the plant runs [kg/s]: u₀ − r₀ when the period is curtailed (IL
@@ -193,12 +202,12 @@ class Controller(Protocol):
         see."""
         return None
 
-    def note_meter_response(self, ratio: float) -> float:
+    def note_meter_response(self, ratio: float) -> None:
         """ρ ∈ [0, 1]: how much the metered power has moved per kW the plan's power moved in
         the building's recent periods (:mod:`hvacflex.control.meter_response`); a controller
         that offers reserve scales its offers by it, so that they are sized on the meter's
-        scale. Returns the ratio the coming decision's offers are sized with (NaN: none)."""
-        return math.nan
+        scale, and says so in ``Action.offer_meter_ratio`` and its offers' ``meter_ratio``."""
+        return None
 
     @property
     def commits_ahead(self) -> int:

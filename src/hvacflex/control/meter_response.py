@@ -45,18 +45,19 @@ MIN_RMS_CHANGE_KW = 0.1
 def meter_response_ratio(
     planned_kw: FloatArray,
     metered_kw: FloatArray,
-    max_lag: int,
+    max_lag_steps: int,
     *,
     min_pairs: int = MIN_PAIRS,
     min_rms_change_kw: float = MIN_RMS_CHANGE_KW,
 ) -> float:
     """ρ in [0, 1] from consecutive periods' plan and meter (T,) each [kW], NaN where a period
-    is not usable, over lags 1 … ``max_lag`` (see the module docstring); 1 without evidence."""
+    is not usable, over lags 1 … ``max_lag_steps`` (see the module docstring); 1 without
+    evidence."""
     planned = np.asarray(planned_kw, dtype=float)
     metered = np.asarray(metered_kw, dtype=float)
     cross = square = 0.0
     pairs = 0
-    for lag in range(1, max(max_lag, 1) + 1):
+    for lag in range(1, max(max_lag_steps, 1) + 1):
         if lag >= planned.size:
             break
         d_plan = planned[lag:] - planned[:-lag]
@@ -82,6 +83,8 @@ class MeterHistory:
         self.window_periods = window_periods
         self.planned_kw = np.zeros(0)
         self.metered_kw = np.zeros(0)
+        self.next_period = -1
+        """The first period without a row (−1: none started yet)."""
         self.open_period = -1
         """The latest period decided, whose meter is not read yet (−1: none)."""
         self.open_planned_kw = math.nan
@@ -93,31 +96,35 @@ class MeterHistory:
         self.open_period, self.open_planned_kw = period, float(planned_kw)
 
     def advance(self, period: int, previous_power_kw: float | None) -> None:
-        """Period ``period`` starts: the open period's row is closed with the metered power of
-        period − 1 (None or NaN: not read; it is that row's only where the open period is
-        period − 1), and every period between them gets a NaN row."""
-        last = self.open_period
-        if last < 0 or period <= last:
+        """Period ``period`` starts: every period from :attr:`next_period` to period − 1 gets
+        its row — the open period's planned power with ``previous_power_kw``, the metered
+        power of period − 1 [kW] (None or NaN: not read), where it is period − 1; NaN rows
+        for the others (nobody decided them, or their meter was not read)."""
+        first = period if self.next_period < 0 else self.next_period
+        count = min(period - first, self.window_periods)
+        if count <= 0:  # the first period, or one that has its rows already
+            self.next_period = max(self.next_period, period)
             return
-        metered = math.nan if previous_power_kw is None else float(previous_power_kw)
-        rows_planned = [self.open_planned_kw if last == period - 1 else math.nan]
-        rows_metered = [metered if last == period - 1 else math.nan]
-        gap = min(period - 1 - last, self.window_periods)
-        rows_planned += [math.nan] * gap
-        rows_metered += [math.nan] * gap
+        planned = np.full(count, math.nan)
+        metered = np.full(count, math.nan)
+        if self.open_period == period - 1:
+            planned[-1] = self.open_planned_kw
+            metered[-1] = math.nan if previous_power_kw is None else float(previous_power_kw)
         keep = self.window_periods
-        self.planned_kw = np.append(self.planned_kw, rows_planned)[-keep:]
-        self.metered_kw = np.append(self.metered_kw, rows_metered)[-keep:]
+        self.planned_kw = np.concatenate([self.planned_kw, planned])[-keep:]
+        self.metered_kw = np.concatenate([self.metered_kw, metered])[-keep:]
+        self.next_period = period
         self.open_period, self.open_planned_kw = -1, math.nan
 
-    def ratio(self, max_lag: int) -> float:
+    def ratio(self, max_lag_steps: int) -> float:
         """:func:`meter_response_ratio` of the history."""
-        return meter_response_ratio(self.planned_kw, self.metered_kw, max_lag)
+        return meter_response_ratio(self.planned_kw, self.metered_kw, max_lag_steps)
 
     def get_state(self) -> dict[str, Any]:
         return {
             "planned_kw": self.planned_kw.copy(),
             "metered_kw": self.metered_kw.copy(),
+            "next_period": self.next_period,
             "open_period": self.open_period,
             "open_planned_kw": self.open_planned_kw,
         }
@@ -125,5 +132,6 @@ class MeterHistory:
     def set_state(self, state: dict[str, Any]) -> None:
         self.planned_kw = np.asarray(state["planned_kw"], dtype=float).copy()
         self.metered_kw = np.asarray(state["metered_kw"], dtype=float).copy()
+        self.next_period = int(state["next_period"])
         self.open_period = int(state["open_period"])
         self.open_planned_kw = float(state["open_planned_kw"])

@@ -24,6 +24,7 @@ offers no reserve, and says so in the :class:`~hvacflex.control.base.Action`.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import replace
 from typing import Any
@@ -163,7 +164,8 @@ class MPCController(Controller):
         self._previous_plan: RMPCSolution | None = None
         self._baseline_kw: float | None = None
         self._baseline_ahead_kw: FloatArray | None = None
-        self._meter_ratio = 1.0
+        self._meter_ratio = math.nan
+        """ρ told by the control step (NaN: never told, offers on the model's own scale)."""
         self._commit_ahead = (
             self._reserve.commit_ahead_periods
             if self._reserve.event_max_steps is not None and config.reserve
@@ -316,7 +318,7 @@ class MPCController(Controller):
             power_offset_kw=p0,
             power_coeff_kw_per_kg_s=p,
             reserve_power_coeff_kw_per_kg_s=(
-                self._meter_ratio * np.minimum(reserve_coeff, p) if events else None
+                self._offer_scale * np.minimum(reserve_coeff, p) if events else None
             ),
             u_min=u_min,
             u_max=self._flow_max,
@@ -540,6 +542,7 @@ class MPCController(Controller):
                 event_plan=self._event_plan(problem, solution),
                 predicted_event_worst_degc=np.asarray(solution.y_event_worst[0], dtype=float),
                 offer_ahead=self._offer_ahead(problem, solution),
+                offer_meter_ratio=self._meter_ratio,
             )
         return self._fallback(x_degc, forecast, solution)
 
@@ -564,7 +567,7 @@ class MPCController(Controller):
         served_kw = np.asarray(solution.power_kw, dtype=float)
         offer_kw = self._visible_offer_kw(problem, served_kw, g, reserve[g])
         flow = reserve[g] if offer_kw > 0.0 else np.zeros_like(reserve[g])
-        return ReserveOffer(flow_kg_s=flow, reserve_kw=offer_kw)
+        return ReserveOffer(flow_kg_s=flow, reserve_kw=offer_kw, meter_ratio=self._meter_ratio)
 
     def note_baseline_power(
         self, baseline_power_kw: float | None, ahead_kw: FloatArray | None = None
@@ -572,21 +575,30 @@ class MPCController(Controller):
         self._baseline_kw = baseline_power_kw
         self._baseline_ahead_kw = None if ahead_kw is None else np.asarray(ahead_kw, dtype=float)
 
-    def note_meter_response(self, ratio: float) -> float:
+    def note_meter_response(self, ratio: float) -> None:
         self._meter_ratio = float(ratio)
-        return self._meter_ratio
 
-    def _baseline_now_kw(self) -> float | None:
-        """The baseline of an activation starting now, on the affine model's scale [kW]: the
-        metered baseline B, or the plan made for the period before where that is known and
-        larger (the affine model runs above the metered power: the fan secant), so that the
-        curtailed power it is compared with is on the same scale. NaN: no baseline (the
-        run's first period); None: unknown to the driver."""
+    @property
+    def _offer_scale(self) -> float:
+        """ρ, or 1 where the control step told none."""
+        return 1.0 if math.isnan(self._meter_ratio) else self._meter_ratio
+
+    def _baseline_now(self) -> tuple[str, float] | None:
+        """The baseline of an activation starting now: ``("planned", P̂)``, the plan made for
+        the period before, where that is known and at least the metered B (the affine model
+        runs above the metered power: the fan secant, so the plan's own power is the
+        baseline on the scale of the curtailed power it is compared with); else
+        ``("metered", B)`` (−inf where B is NaN, the run's first period: nothing is seen);
+        None: unknown to the driver (that start is skipped)."""
         baseline = self._baseline_kw
-        if baseline is None or not np.isfinite(baseline):
-            return baseline
+        if baseline is None:
+            return None
+        if not np.isfinite(baseline):
+            return ("metered", -np.inf)
         previous = self._previous_planned_kw
-        return max(baseline, previous) if previous is not None else baseline
+        if previous is not None and previous >= baseline:
+            return ("planned", previous)
+        return ("metered", baseline)
 
     def _visible_offer_kw(
         self, problem: RMPCProblem, served_kw: FloatArray, j: int, reserve_flow_kg_s: FloatArray
@@ -596,35 +608,47 @@ class MPCController(Controller):
 
         An activation covering step j starts at some s ∈ [j − D + 1, j] (s ≥ 0) and is settled
         against the power of the period before s (``pre-event``): the plan's served power
-        P̂_{s−1} for s ≥ 1, and :meth:`_baseline_now_kw` for s = 0 (skipped where unknown).
+        P̂_{s−1} for s ≥ 1, and :meth:`_baseline_now` for s = 0 (skipped where unknown).
         Under ``similar-days`` the baseline of step j is the driver's (the metered power of
         earlier similar days, whenever the activation starts), and the pre-event ones apply
         only where it has none (no similar day yet, as in the settlement).
-        The curtailed power P̂_j − p_j·r_j must show the offer below every such baseline, so
-        the offer is ``min(q_j·r_j, ρ·(min_s B̂_s − (P̂_j − p_j·r_j)))``, at least 0 (a period
-        whose air handler was off before, a rising morning load), where ρ ∈ [0, 1] is the
-        meter's response to the plan's power (:meth:`note_meter_response`; the problem's q
-        carries it too): a change of the plan's power shows as ρ times it on the meter.
-        ``served_kw`` (N,) is the plan's P̂ [kW]. The whole-horizon model (the paper's)
-        offers q_j·r_j unchecked."""
+        The curtailed power must show the offer below every such baseline, so the offer is
+        ``min(q_j·r_j, min_s gap_s + ρ·p_j·r_j)`` [kW], at least 0 (a period whose air handler was
+        off before, a rising morning load), where ρ ∈ [0, 1] is the meter's response to the
+        plan's power (:meth:`note_meter_response`; the problem's q carries it too): a change
+        of the plan's power shows as ρ times it on the meter, so the gap to a baseline of the
+        plan's own is ρ·(P̂_{s−1} − P̂_j), and to a metered baseline B (its level against the
+        plan's level, as without ρ) B − P̂_j. ``served_kw`` (N,) is the plan's P̂ [kW]. The
+        whole-horizon model (the paper's) offers q_j·r_j unchecked."""
         offer_kw = float(problem.reserve_kw_per_kg_s[j] @ reserve_flow_kg_s)
         max_steps = self._reserve.event_max_steps
         if max_steps is None or offer_kw <= 0.0:
             return max(offer_kw, 0.0)
         ahead = self._baseline_ahead_kw
+        planned: list[float] = []  # the plan's own powers P̂_{s−1}: model against model
+        metered: list[float] = []  # the meter's: level against the model's level
         if ahead is not None and j < len(ahead) and np.isfinite(ahead[j]):
-            baselines = [float(ahead[j])]
+            metered.append(float(ahead[j]))
         else:
-            baselines = [float(served_kw[s - 1]) for s in range(max(1, j - max_steps + 1), j + 1)]
+            planned = [float(served_kw[s - 1]) for s in range(max(1, j - max_steps + 1), j + 1)]
             if j < max_steps:
-                now = self._baseline_now_kw()
+                now = self._baseline_now()
                 if now is not None:
-                    baselines.append(now if np.isfinite(now) else -np.inf)
-        if not baselines:
+                    kind, value = now
+                    (planned if kind == "planned" else metered).append(value)
+        if not planned and not metered:
             return offer_kw
+        scale = self._offer_scale
         shed_kw = float(problem.power_coeff_kw_per_kg_s[j] @ reserve_flow_kg_s)
-        curtailed_kw = float(served_kw[j]) - shed_kw
-        visible_kw = self._meter_ratio * (min(baselines) - curtailed_kw) + BASELINE_TOLERANCE_KW
+        curtailed_kw = float(served_kw[j]) - shed_kw  # the plan's
+        metered_curtailed_kw = float(served_kw[j]) - scale * shed_kw  # the meter's, ρ of it
+        visible_kw = (
+            min(
+                [scale * (b - curtailed_kw) for b in planned]
+                + [b - metered_curtailed_kw for b in metered]
+            )
+            + BASELINE_TOLERANCE_KW
+        )
         return offer_kw if visible_kw >= offer_kw else max(visible_kw, 0.0)
 
     def _event_plan(self, problem: RMPCProblem, solution: RMPCSolution) -> EventPlan | None:
@@ -661,6 +685,7 @@ class MPCController(Controller):
             reserve_kw=offer_kw,
             predicted_served_degc=solution.x_served[1 : steps + 1] @ c.T,
             predicted_curtailed_degc=solution.x_curtailed[1 : steps + 1] @ c.T,
+            meter_ratio=self._meter_ratio,
         )
 
     def _fallback(self, x_degc: FloatArray, forecast: Forecast, failed: RMPCSolution) -> Action:

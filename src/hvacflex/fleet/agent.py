@@ -25,7 +25,6 @@ from __future__ import annotations
 
 import copy
 import dataclasses
-import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -123,12 +122,11 @@ class FleetController(MPCController):
         every building whose plan is not below its last metered power)."""
         super().note_baseline_power(None)
 
-    def note_meter_response(self, ratio: float) -> float:
+    def note_meter_response(self, ratio: float) -> None:
         """Ignored, as the baselines are: the coordinator builds a step's problems before the
         period is decided and checks the fleet's bid on the fleet's meter, so each
-        building's offers stay on its power model's scale (NaN: none applied)."""
-        super().note_meter_response(1.0)
-        return math.nan
+        building's offers stay on its power model's scale (``offer_meter_ratio`` NaN)."""
+        return None
 
     def first_offer_kw(self, problem: RMPCProblem, plan: RMPCSolution) -> tuple[float, float]:
         """(the offer q₀·r₀ [kW], the curtailed power P₀ − p₀·r₀ [kW]) of ``plan``'s first

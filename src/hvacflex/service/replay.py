@@ -169,6 +169,7 @@ def action_from_plan(plan: dict[str, Any]) -> Action:
         predicted_event_worst_degc=None
         if plan.get("predicted_event_worst_degc") is None
         else _nan(plan["predicted_event_worst_degc"]),
+        offer_meter_ratio=_none_nan(plan.get("offer_meter_ratio")),
     )
 
 
@@ -281,8 +282,7 @@ class RemoteControl:
         )
         applied = action.applied_flow_kg_s(curtailed=outcome.curtailed)
         status = decision_status(role, action)
-        meter_ratio = _none_nan(answer.get("offer_meter_ratio"))
-        return Decision(action, status, role, outcome, applied, None, None, meter_ratio)
+        return Decision(action, status, role, outcome, applied, None, None)
 
     def note_delivered_flow(self, flow_kg_s: FloatArray) -> None:
         """Keep the plant's report for the next measurement: the service's control step

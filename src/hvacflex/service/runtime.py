@@ -542,7 +542,7 @@ class Runtime:
             "flow_kg_s": [float(v) for v in action.flow_kg_s],
             "reserve_flow_kg_s": [float(v) for v in action.reserve_flow_kg_s],
             "reserve_kw": float(action.reserve_kw),
-            "offer_meter_ratio": finite(decision.meter_ratio),
+            "offer_meter_ratio": finite(action.offer_meter_ratio),
             "planned_power_kw": finite(action.planned_power_kw),
             "solve_time_s": float(action.solve_time_s),
             "planned_slack_max_k": finite(action.planned_slack_max_k),

@@ -264,8 +264,9 @@ class Plan(BaseModel):
     reserve_kw: float
     offer_meter_ratio: float | None = Field(
         default=None,
-        description="ρ ∈ [0, 1]: the meter's response to the plan's power that the offers "
-        "were sized with (None: not scaled; docs/il_events.md).",
+        description="ρ ∈ [0, 1]: the meter's response to the plan's power that this period's "
+        "reserve_kw was sized with (under commitments, by the decision that committed it; "
+        "None: not scaled; docs/il_events.md).",
     )
     planned_power_kw: float | None
     solve_time_s: float

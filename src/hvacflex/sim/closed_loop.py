@@ -504,7 +504,7 @@ class ClosedLoop:
         row[col["power_curtailed_kw"]] = period.curtailed_power_kw
         row[col["planned_power_kw"]] = action.planned_power_kw
         row[col["reserve_kw"]] = action.reserve_kw
-        row[col["offer_meter_ratio"]] = decision.meter_ratio
+        row[col["offer_meter_ratio"]] = action.offer_meter_ratio
         row[col["solve_time_s"]] = action.solve_time_s
         row[col["planned_slack_max_k"]] = action.planned_slack_max_k
         row[col["delta_max_k"]] = action.delta_max_k

@@ -138,6 +138,7 @@ class EventTracker:
             delta_max_k=nan,
             predicted_served_degc=plan.predicted_served_degc[j],
             predicted_curtailed_degc=plan.predicted_curtailed_degc[j],
+            offer_meter_ratio=plan.meter_ratio,
         )
 
     def finish(self, role: Role, action: Action) -> PeriodOutcome:

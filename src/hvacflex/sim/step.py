@@ -22,6 +22,11 @@ rules:
    k + g: the fresh plan's ``Action.offer_ahead``, or, in a locked event period j, the
    locked plan's step j + g (what the building will run anyway). Nothing planned (a
    fallback, a skipped period) commits nothing.
+6. **the meter's response** (the event model with reserve offered, ``[reserve]
+   meter_calibrated_offers``): the step keeps the plan's and the meter's power of the recent
+   periods (:attr:`ControlStep.meter`, the meter of k − 1 arriving with k) and tells the
+   controller ρ before it decides (:mod:`hvacflex.control.meter_response`); the period's
+   ``Action.offer_meter_ratio`` is the ρ its paid ``reserve_kw`` was sized with.
 
 A period may be decided more than once (the service: a boundary plan, then the
 measurement; an activation during the period). With ``replannable=True`` each decision of a
@@ -93,8 +98,6 @@ class Decision:
         (a rule, a fallback, a locked period).
     locked : the locked event plan and the period's index in it when the period belongs to
         it (an event's start or continuation), else None.
-    meter_ratio : ρ, the meter's response the period's offers were sized with
-        (:mod:`hvacflex.control.meter_response`); NaN where none was applied.
     """
 
     action: Action
@@ -104,7 +107,6 @@ class Decision:
     applied_flow_kg_s: FloatArray
     plan: Any
     locked: tuple[EventPlan, int] | None
-    meter_ratio: float = math.nan
 
     @property
     def allowance_k(self) -> float:
@@ -171,14 +173,15 @@ class ControlStep:
         self.period = -1
         """The latest period decided (−1: none)."""
         reserve = config.reserve
-        self.meter_lag = (
-            reserve.event_max_steps
-            if reserve.event_max_steps is not None and reserve.meter_calibrated_offers
-            else 0
+        calibrated = (
+            reserve.event_max_steps is not None
+            and reserve.meter_calibrated_offers
+            and config.controller.reserve
         )
-        """L: the lags over which the meter's response is measured (the event model's D;
-        0: offers are not scaled, the whole-horizon model or ``meter_calibrated_offers``
-        off)."""
+        self.meter_max_lag_steps = reserve.event_max_steps if calibrated else 0
+        """D: the meter's response is measured over lags 1 … D [periods] (the event model's
+        longest event); 0: offers are not scaled (no reserve offered, the whole-horizon
+        model, or ``meter_calibrated_offers`` off)."""
         self.meter = MeterHistory()
         """The plan's and the meter's power of the recent periods
         (:mod:`hvacflex.control.meter_response`)."""
@@ -189,6 +192,8 @@ class ControlStep:
         """(g, m) reserve flows committed for the next g periods, the coming one first."""
         self.committed_kw = np.zeros(self.commit_ahead)
         """(g,) reserve capacity committed (and paid) for the next g periods [kW]."""
+        self.committed_meter_ratio = np.full(self.commit_ahead, math.nan)
+        """(g,) ρ each commitment was sized with (NaN: not scaled)."""
         if self.commit_ahead:  # a driver may build the first problem before deciding (fleet)
             controller.note_commitments(self.committed_flow_kg_s)
 
@@ -251,7 +256,6 @@ class ControlStep:
         controller, tracker = self.controller, self.tracker
         self.meter.advance(k, previous_power_kw)
         role = tracker.role(activated(k))
-        meter_ratio = math.nan
         if role is Role.EVENT_LOCKED:
             action = tracker.locked_action()
             locked_flow = action.applied_flow_kg_s(curtailed=True)
@@ -259,8 +263,8 @@ class ControlStep:
         else:
             controller.note_baseline_power(baseline_power_kw, baseline_ahead_kw)
             controller.note_commitments(self.committed_flow_kg_s)
-            if self.meter_lag:
-                meter_ratio = controller.note_meter_response(self.meter.ratio(self.meter_lag))
+            if self.meter_max_lag_steps:
+                controller.note_meter_response(self.meter.ratio(self.meter_max_lag_steps))
             action = controller.act(replace(inputs, allowance_carry_steps=tracker.carry_steps))
         if role is Role.EVENT_START:
             tracker.lock(action.event_plan)
@@ -272,14 +276,15 @@ class ControlStep:
         applied_flow = action.applied_flow_kg_s(curtailed=outcome.curtailed)
         controller.note_applied_flow(applied_flow)
         status = decision_status(role, action)
-        usable = (
+        usable = (  # an occupied period served by a fresh plan, outside events and recoveries
             status is DecisionStatus.PLANNED
             and not outcome.curtailed
+            and not outcome.event_window
             and bool(inputs.forecast.occupied[0])
         )
         self.meter.open(k, action.planned_power_kw if usable else math.nan)
         made = controller.last_plan if status is DecisionStatus.PLANNED else None
-        return Decision(action, status, role, outcome, applied_flow, made, locked, meter_ratio)
+        return Decision(action, status, role, outcome, applied_flow, made, locked)
 
     def _start_period(
         self, k: int, activated: Callable[[int], bool], delivered_flow_kg_s: FloatArray | None
@@ -335,14 +340,18 @@ class ControlStep:
                 offer = ReserveOffer(
                     flow_kg_s=np.asarray(plan.reserve_flow_kg_s[ahead], dtype=float),
                     reserve_kw=float(plan.reserve_kw[ahead]),
+                    meter_ratio=plan.meter_ratio,
                 )
         committed_kw = float(self.committed_kw[0])
+        committed_ratio = float(self.committed_meter_ratio[0])
         new_flow = np.zeros(self.zones) if offer is None else offer.flow_kg_s
         new_kw = 0.0 if offer is None else offer.reserve_kw
+        new_ratio = math.nan if offer is None else offer.meter_ratio
         self.committed_flow_kg_s = np.vstack([self.committed_flow_kg_s[1:], new_flow[None]])
         self.committed_kw = np.append(self.committed_kw[1:], new_kw)
+        self.committed_meter_ratio = np.append(self.committed_meter_ratio[1:], new_ratio)
         self.controller.note_commitments(self.committed_flow_kg_s)
-        return replace(action, reserve_kw=committed_kw)
+        return replace(action, reserve_kw=committed_kw, offer_meter_ratio=committed_ratio)
 
     def note_delivered_flow(self, flow_kg_s: FloatArray) -> None:
         """The plant's report of the period just run: the air system's input (m,) [kg/s] as
@@ -378,16 +387,24 @@ class ControlStep:
             self.meter.set_state(state)
 
     def _commitments(self) -> dict[str, Any]:
-        return {"flow_kg_s": self.committed_flow_kg_s.copy(), "kw": self.committed_kw.copy()}
+        return {
+            "flow_kg_s": self.committed_flow_kg_s.copy(),
+            "kw": self.committed_kw.copy(),
+            "meter_ratio": self.committed_meter_ratio.copy(),
+        }
 
     def _set_commitments(self, state: dict[str, Any] | None) -> None:
         g = self.commit_ahead
+        ratio = np.full(g, math.nan)
         if state is None:
             flow, kw = np.zeros((g, self.zones)), np.zeros(g)
         else:
             flow = np.asarray(state["flow_kg_s"], dtype=float).reshape(g, self.zones)
             kw = np.asarray(state["kw"], dtype=float).reshape(g)
+            if state.get("meter_ratio") is not None:  # kept since 2026-12-05
+                ratio = np.asarray(state["meter_ratio"], dtype=float).reshape(g)
         self.committed_flow_kg_s, self.committed_kw = flow.copy(), kw.copy()
+        self.committed_meter_ratio = ratio.copy()
         self.controller.note_commitments(self.committed_flow_kg_s)
 
     def set_state(self, state: dict[str, Any]) -> None:
