@@ -379,3 +379,31 @@ def test_a_building_stored_with_a_similar_days_baseline_still_loads(
         assert "reserve.il_baseline" in refused.json()["message"]
     restarted.state.planner.shutdown()
     restarted.state.engine.dispose()
+
+
+def test_offers_are_scaled_by_the_meter_the_building_posts(service: Service) -> None:
+    """A building whose posted meter moves 0.5 kW per kW of its plans: once a few occupied
+    periods were planned and metered, the service sizes its offers with ρ = 0.5 (the history
+    lives in the stored control-step state); the plan says so in ``offer_meter_ratio``, the
+    ρ of the offer committed for the period."""
+    response = service.client.post("/v1/buildings", json=registration("rho"), headers=service.op())
+    key = response.json()["payload"]["key"]
+    planned: float | None = None
+    ratios = []
+    for step in range(16):  # 08:00 … 15:30
+        hour, minute = divmod(8 * 60 + 30 * step, 60)
+        body = {
+            "time": f"{START}T{hour:02d}:{minute:02d}",
+            "node_temperatures_degc": [25.0] * len(service.nodes),
+            "previous_power_kw": None if planned is None else 5.0 + 0.5 * planned,
+        }
+        measured = service.client.post(
+            "/v1/buildings/rho/measurements?wait_s=10", json=body, headers={"X-API-Key": key}
+        )
+        assert measured.status_code == 200, measured.text
+        payload = measured.json()["payload"]
+        planned = payload["planned_power_kw"]
+        ratios.append(payload["offer_meter_ratio"])
+    assert ratios[0] is None  # nothing committed for the first period planned
+    assert ratios[2] == 1.0  # committed at 08:00, before any meter was read
+    assert ratios[-1] == pytest.approx(0.5)
