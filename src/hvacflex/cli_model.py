@@ -9,6 +9,7 @@ from pathlib import Path
 import typer
 
 from hvacflex.cli_help import exit_on_error, fail
+from hvacflex.constants import MAX_VALIDATION_SPINUP_DAYS, VALIDATION_SPINUP_DAYS
 
 validate_app = typer.Typer(help="Validate the building model.", no_args_is_help=True)
 
@@ -48,7 +49,11 @@ def validate_energyplus(
     ),
     days: int = typer.Option(7, "--days", min=1, max=31, help="Days compared per start."),
     spinup_days: int = typer.Option(
-        7, "--spinup-days", min=0, max=31, help="Days simulated before and discarded."
+        VALIDATION_SPINUP_DAYS,
+        "--spinup-days",
+        min=0,
+        max=MAX_VALIDATION_SPINUP_DAYS,
+        help="Days simulated before and discarded (office5 needs ≈ 42 to forget its start).",
     ),
     out: Path = typer.Option(  # noqa: B008
         Path("energyplus_validation"), "--out", help="Folder for the CSV tables and figures."

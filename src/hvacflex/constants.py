@@ -27,3 +27,14 @@ DEFAULT_START = "2014-01-01"
 MAX_HORIZON_STEPS = 336
 """Longest MPC prediction horizon accepted anywhere: 336 steps of 30 min, one week (the
 service's cap, ``hvacflex.service.runtime.MAX_HORIZON_STEPS``)."""
+
+VALIDATION_SPINUP_DAYS = 42
+"""Days both models run before a validation window against EnergyPlus, discarded [d]
+(``hvacflex validate energyplus --spinup-days``). office5's slowest time constant is ≈ 9.3
+days (the core: 225 MJ/K of slab against 531 W/K of partitions), so 42 days leave ≈ 1 % of
+any start error; with 7 days 25–47 % of it was still in the compared week (the core's
++2.7 K March bias was +3.5 K of hvacflex's warm start less 1.1 K of EnergyPlus's;
+docs/validation.md). Results stop moving between 42 and 56 days."""
+
+MAX_VALIDATION_SPINUP_DAYS = 120
+"""Longest spin-up ``hvacflex validate energyplus`` accepts [d]."""

@@ -7,13 +7,15 @@ hourly report variables back from ``eplusout.eso`` (:func:`read_eso`).
 :func:`free_float_comparison` is the first check of hvacflex's building model against
 EnergyPlus: the same building (:func:`hvacflex.energyplus.export.export_idf` with
 ``hvac="none"``), the same weather file and the same internal-gain schedules, no HVAC, both
-started ``spinup_days`` before the compared window (EnergyPlus also repeats its first day until
-it converges). Compared are hourly means of zone air temperature: EnergyPlus reports the mean
-of its 10-min zone time steps over each hour; hvacflex's exact 30-min steps give the
-temperature at the period ends, and the hourly mean is the trapezoid over the three instants
-``h, h+½, h+1``. Both sides run on the calendar of :data:`EXPORT_YEAR` (its weekdays and public
-holidays). The grades (RMSE, bias, largest deviation per zone) are the differences between
-two models; neither is a measurement.
+started ``spinup_days`` (default :data:`hvacflex.constants.VALIDATION_SPINUP_DAYS`) before
+the compared window — hvacflex from the steady state of its first week's mean disturbances,
+EnergyPlus after repeating its first day until it converges — so that neither start is left
+in the compared window. Compared are hourly means of zone air temperature: EnergyPlus
+reports the mean of its 10-min zone time steps over each hour; hvacflex's exact 30-min steps
+give the temperature at the period ends, and the hourly mean is the trapezoid over the three
+instants ``h, h+½, h+1``. Both sides run on the calendar of :data:`EXPORT_YEAR` (its weekdays
+and public holidays). The grades (RMSE, bias, largest deviation per zone) are the differences
+between two models; neither is a measurement.
 """
 
 from __future__ import annotations
@@ -32,7 +34,7 @@ import pandas as pd
 from hvacflex.building.hvac import hvac_power
 from hvacflex.building.model import Building
 from hvacflex.building.plant import NonlinearPlant
-from hvacflex.constants import TIMEZONE
+from hvacflex.constants import TIMEZONE, VALIDATION_SPINUP_DAYS
 from hvacflex.data.forecast import DEFAULT_WEATHER_FILE, load_exogenous
 from hvacflex.data.gains import occupied_mask
 from hvacflex.energyplus.envelope import idf_object
@@ -53,6 +55,9 @@ MODEL_FILE = "model.idf"
 """Name of the IDF written into the run folder."""
 
 PERIODS_PER_HOUR = 2
+START_MEAN_DAYS = 7
+"""hvacflex's start: the steady state of the mean disturbances of the first this many days
+(a whole week, weekend included: a working day alone starts the building too warm)."""
 ZONE_AIR_VARIABLE = "Zone Mean Air Temperature"
 
 
@@ -265,7 +270,8 @@ def rc_scheduled_flow_run(
     flows = np.zeros((steps, len(building.zones)))
     if ventilate:
         flows = building.hvac.flow_min_at(np.asarray(exo.occupied)[:steps])
-    x = plant.network.steady_state_degc(d[: 24 * PERIODS_PER_HOUR].mean(axis=0))
+    start_mean = d[: START_MEAN_DAYS * 24 * PERIODS_PER_HOUR].mean(axis=0)
+    x = plant.network.steady_state_degc(start_mean)
     zone_index = np.asarray(plant.network.zone_node_index)
     instants = [x[zone_index]]
     for k in range(steps):
@@ -304,7 +310,7 @@ def free_float_comparison(
     *,
     start: date = date(EXPORT_YEAR, 3, 3),
     days: int = 7,
-    spinup_days: int = 7,
+    spinup_days: int = VALIDATION_SPINUP_DAYS,
     epw_path: Path | None = None,
     workdir: Path,
 ) -> FreeFloatComparison:
@@ -432,7 +438,7 @@ def thermostat_comparison(
     *,
     start: date = date(EXPORT_YEAR, 3, 3),
     days: int = 7,
-    spinup_days: int = 7,
+    spinup_days: int = VALIDATION_SPINUP_DAYS,
     workdir: Path,
     building: str | Building = "office5",
 ) -> ConditionedComparison:
@@ -490,7 +496,7 @@ def fixed_flow_comparison(
     *,
     start: date = date(EXPORT_YEAR, 3, 3),
     days: int = 7,
-    spinup_days: int = 7,
+    spinup_days: int = VALIDATION_SPINUP_DAYS,
     workdir: Path,
 ) -> ConditionedComparison:
     """Fixed (scheduled) supply flows: each zone gets its ventilation flow while occupied and
