@@ -14,7 +14,7 @@ import pytest
 from hvacflex.data.market import synthetic_reserve_prices
 from hvacflex.fleet.generate import generate_fleet, write_fleet
 from hvacflex.fleet.kpi import fleet_summary, load_fleet_results
-from hvacflex.fleet.run import CHECKPOINT_FILE, bid_accepted, fleet_baseline_sees, run_fleet
+from hvacflex.fleet.run import CHECKPOINT_FILE, run_fleet
 
 DAYS = 8 / 48  # 8 steps from 06:00: the morning pull-down meets the limit
 START = "2014-03-03 06:00"
@@ -178,18 +178,6 @@ def test_activation_is_settled_against_metered_fleet_power(
         frame["energy_price_sgd_per_mwh"], seed=3, scale_sgd_per_mwh=200.0
     )
     np.testing.assert_allclose(frame["reserve_price_sgd_per_mwh"], synthetic.to_numpy())
-
-
-def test_fleet_baseline_check_by_hand() -> None:
-    # curtailed 90 kW, bid 10 kW: seen below a 100 kW baseline, not below 99 kW, unless the
-    # model runs 1 kW above the meter (then 89 + 10 ≤ 99)
-    assert fleet_baseline_sees(10.0, 90.0, 100.0, 0.0)
-    assert not fleet_baseline_sees(10.0, 90.0, 99.0, 0.0)
-    assert fleet_baseline_sees(10.0, 90.0, 99.0, 1.0)
-    assert not fleet_baseline_sees(10.0, 90.0, float("nan"), 0.0)  # no baseline: not seen
-    assert fleet_baseline_sees(10.0, 90.0, None, 0.0)  # unknown (first period): not checked
-    assert bid_accepted(10.0, 10.0) and not bid_accepted(9.99, 10.0)
-    assert not bid_accepted(1e-4, 0.0)  # round-off is no bid
 
 
 def test_a_fleet_read_by_the_caller_is_not_read_again(

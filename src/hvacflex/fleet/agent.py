@@ -117,9 +117,10 @@ class FleetController(MPCController):
         self, baseline_power_kw: float | None, ahead_kw: FloatArray | None = None
     ) -> None:
         """Ignored: a fleet is settled on its aggregate meter, so the coordinator checks the
-        fleet's bid against the fleet's baseline (:func:`hvacflex.fleet.run.fleet_baseline_sees`)
-        instead of each building's offer against its own (which would drop the offers of
-        every building whose plan is not below its last metered power)."""
+        fleet's bid against the fleet's baseline
+        (:func:`hvacflex.fleet.bidding.fleet_baseline_sees`) instead of each building's offer
+        against its own (which would drop the offers of every building whose plan is not
+        below its last metered power)."""
         super().note_baseline_power(None)
 
     def note_meter_response(self, ratio: float) -> None:

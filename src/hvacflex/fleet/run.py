@@ -39,17 +39,20 @@ import pandas as pd
 from hvacflex import kpi as kpis
 from hvacflex import results as schema
 from hvacflex import state
-from hvacflex.config import NEMS_MAX_INTERRUPTION_STEPS
 from hvacflex.constants import TIMEZONE
 from hvacflex.control.base import FloatArray
-from hvacflex.control.mpc import BASELINE_TOLERANCE_KW
 from hvacflex.errors import HvacflexError
 from hvacflex.fleet.agent import BuildingGroup, FleetSettings
+from hvacflex.fleet.bidding import (
+    bid_accepted,
+    fleet_activation_schedule,
+    fleet_baseline_sees,
+    settle_fleet,
+)
 from hvacflex.fleet.bundle import coordinate_caps
 from hvacflex.fleet.coordinate import CoordinationOptions, CoordinationResult, coordinate
 from hvacflex.fleet.schema import Fleet, load_fleet_document
-from hvacflex.settlement import settlement_columns, start_baseline_kw
-from hvacflex.sim.activation import activation_schedule
+from hvacflex.settlement import start_baseline_kw
 from hvacflex.sim.run_files import (
     check_checkpoint_code,
     input_files,
@@ -85,7 +88,6 @@ class WorkerLostError(RuntimeError):
 
 FLOAT_COLUMNS = tuple(schema.FLEET_FLOAT_UNITS)
 ACTIVATED = schema.FLEET_FLAG_COLUMNS.index("il_activated")
-MIN_BID_FLOOR_KW = 1e-3
 """A smaller aggregate reserve [kW] is no bid (solver round-off), whatever ``min_bid_mw``."""
 """Index of the IL-activated flag in the flags table."""
 log = logging.getLogger(__name__)
@@ -298,7 +300,7 @@ def run_fleet(
         checkpoint = checkpoint or snapshot()
         recoveries = 0
         min_bid_kw = 1000.0 * fleet.spec.min_bid_mw
-        schedule = _activation_schedule(fleet, index)
+        schedule = fleet_activation_schedule(fleet, index)
         while k < steps:
             try:
                 tick = time.perf_counter()
@@ -496,26 +498,6 @@ def _results_frame(
     return frame
 
 
-def settle_fleet(frame: pd.DataFrame, rule: str) -> pd.DataFrame:
-    """``frame`` with the fleet's IL settlement filled in: the metered fleet power
-    (``fleet_power_kw``) against the baseline ``rule`` in the activated periods, for the
-    settled bid (``settled_reserve_kw``) — :func:`hvacflex.settlement.settlement_columns`,
-    as for one building (``il_baseline_power_kw``, ``il_delivered_kw``, ``il_shortfall_kw``)."""
-    metered = pd.DataFrame(
-        {
-            "power_kw": frame["fleet_power_kw"].to_numpy(float),
-            "reserve_kw": frame["settled_reserve_kw"].to_numpy(float),
-            "il_activated": frame["il_activated"].to_numpy(bool),
-        },
-        index=frame.index,
-    )
-    settled = settlement_columns(metered, rule)
-    out = frame.copy()
-    for name in settled.columns:
-        out[name] = settled[name].to_numpy(float)
-    return out
-
-
 def _matching_checkpoint(path: Path, key: str) -> dict[str, Any] | None:
     """The checkpoint at ``path`` if it is of the same inputs (refused if of other code)."""
     if not path.is_file():
@@ -598,21 +580,6 @@ def _context(
     return _StepContext(bool(schedule[k]), before, baseline, excess, min_bid_kw)
 
 
-def fleet_baseline_sees(
-    bid_kw: float, curtailed_kw: float, baseline_kw: float | None, excess_kw: float
-) -> bool:
-    """Whether the fleet's meter would show its bid [kW] if an activation started now: the
-    fleet's curtailed power [kW] (less the model's excess over the metered power [kW]) plus
-    the bid stays at or below the fleet's baseline [kW] — the single building's rule
-    (``MPCController``) applied to the aggregate that is settled. No baseline (NaN):
-    nothing would be seen; unknown (None, the first period): not checked."""
-    if baseline_kw is None or bid_kw <= 0:
-        return True
-    if not np.isfinite(baseline_kw):
-        return False
-    return curtailed_kw - excess_kw + bid_kw <= baseline_kw + BASELINE_TOLERANCE_KW
-
-
 def _fleet_step(
     groups: Any,
     feeder_kw: FloatArray,
@@ -643,21 +610,6 @@ def _fleet_step(
     rows = groups.broadcast("advance", activated)
     merged = {key_: np.concatenate([r[key_] for r in rows]) for key_ in rows[0]}
     return _StepOutcome(result, p_min, merged, bid if sees else 0.0, activated, coordinated)
-
-
-def bid_accepted(bid_kw: float, min_bid_kw: float) -> bool:
-    """Whether the fleet's bid [kW] clears the market's minimum [kW] (and is a bid at all:
-    at least ``MIN_BID_FLOOR_KW``)."""
-    return bid_kw >= max(min_bid_kw, MIN_BID_FLOOR_KW)
-
-
-def _activation_schedule(fleet: Any, index: pd.DatetimeIndex) -> Any:
-    """(steps,) bool: the periods the grid operator activates IL (the fleet file's
-    ``[activation]``, seeded by the fleet's seed; :mod:`hvacflex.sim.activation`)."""
-    spec = fleet.spec
-    config = fleet.activation
-    duration = config.duration_steps or spec.reserve.event_max_steps or NEMS_MAX_INTERRUPTION_STEPS
-    return activation_schedule(config, index, seed=spec.seed, max_steps=duration)
 
 
 def coordinate_ranges(
