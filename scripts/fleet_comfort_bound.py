@@ -35,8 +35,6 @@ from hvacflex.fleet.compare import reference_limit_kw
 from hvacflex.fleet.generate import generate_fleet
 from hvacflex.fleet.schema import fleet_from_dict
 from hvacflex.opt import RMPCProblem
-from hvacflex.opt import robust as robust_mod
-from hvacflex.opt.lp import build_lp
 from hvacflex.opt.solve import solve_lp
 
 
@@ -75,19 +73,13 @@ def main() -> None:
     planning = np.full(horizon, limit_kw * (1.0 - fleet.spec.feeder_margin))
     limit = reference_limit_kw(planning, p_min)
     flagged = limit > planning
-    cost, matrix, lower, upper, col_lo, col_hi, _ = centralised_lp(problems, limit)
+    cost, matrix, lower, upper, col_lo, col_hi, _, layouts = centralised_lp(problems, limit)
     result = solve_lp(cost, matrix, lower, upper, col_lo, col_hi)
     assert result.status.ok, result.status
-    offset = 0
-    per_building = []
-    for problem in problems:  # the slack columns, in centralised_lp's stacking order
-        responses = robust_mod.impulse_responses(
-            problem.a_matrix, problem.e_matrix, problem.c_matrix, horizon
-        )
-        lp, layout = build_lp(problem, np.zeros((horizon, problem.ny)), responses=responses)
-        eps = result.x[np.asarray(layout.plan.eps) + offset]  # (N, ny) [K]
-        per_building.append(eps.sum(axis=1) * problem.dt_h)  # (N,) [K·h]
-        offset += lp.num_cols
+    per_building = [  # (N,) [K·h]: the slack ε (N, ny) [K] summed over zones, times Δt
+        result.x[np.asarray(layout.plan.eps) + first].sum(axis=1) * problem.dt_h
+        for problem, (first, layout) in zip(problems, layouts, strict=True)
+    ]
     kh = np.array(per_building)  # (B, N)
     outside = kh[:, ~flagged].sum(axis=1)
     print(

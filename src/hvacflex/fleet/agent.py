@@ -123,12 +123,6 @@ class FleetController(MPCController):
         below its last metered power)."""
         super().note_baseline_power(None)
 
-    def note_meter_response(self, ratio: float) -> None:
-        """Ignored, as the baselines are: the coordinator builds a step's problems before the
-        period is decided and checks the fleet's bid on the fleet's meter, so each
-        building's offers stay on its power model's scale (``offer_meter_ratio`` NaN)."""
-        return None
-
     def first_offer_kw(self, problem: RMPCProblem, plan: RMPCSolution) -> tuple[float, float]:
         """(the offer q₀·r₀ [kW], the curtailed power P₀ − p₀·r₀ [kW]) of ``plan``'s first
         period, its flows snapped onto the physical limits as :meth:`act` snaps them."""

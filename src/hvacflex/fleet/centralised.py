@@ -32,9 +32,11 @@ class CentralisedResult:
 
 
 def centralised_lp(problems: Sequence[RMPCProblem], limit_kw: FloatArray) -> tuple[Any, ...]:
-    """The stacked LP: cost, A (CSR), row bounds, column bounds, and each building's power
-    columns (N,) in the stacked numbering."""
+    """The stacked LP: cost, A (CSR), row bounds, column bounds, each building's power
+    columns (N,) in the stacked numbering, and each building's (first column, layout) for
+    reading any other of its columns from a solution."""
     costs, blocks, row_lo, row_hi, col_lo, col_hi, power_cols = [], [], [], [], [], [], []
+    layouts: list[tuple[int, Any]] = []
     offset = 0
     for problem in problems:
         responses = robust_mod.impulse_responses(
@@ -55,6 +57,7 @@ def centralised_lp(problems: Sequence[RMPCProblem], limit_kw: FloatArray) -> tup
         col_lo.append(lp.col_lower)
         col_hi.append(lp.col_upper)
         power_cols.append(np.asarray(layout.plan.power, dtype=np.int64) + offset)
+        layouts.append((offset, layout))
         offset += lp.num_cols
     horizon = problems[0].horizon
     coupling = sparse.lil_matrix((horizon, offset))
@@ -73,12 +76,13 @@ def centralised_lp(problems: Sequence[RMPCProblem], limit_kw: FloatArray) -> tup
         np.concatenate(col_lo),
         np.concatenate(col_hi),
         power_cols,
+        layouts,
     )
 
 
 def solve_centralised(problems: Sequence[RMPCProblem], limit_kw: FloatArray) -> CentralisedResult:
     """Solve the fleet step's centralised LP (see the module docstring)."""
-    cost, matrix, lower, upper, col_lo, col_hi, power_cols = centralised_lp(problems, limit_kw)
+    cost, matrix, lower, upper, col_lo, col_hi, power_cols, _ = centralised_lp(problems, limit_kw)
     result = solve_lp(cost, matrix, lower, upper, col_lo, col_hi)
     if not result.status.ok:
         nan = np.full((len(problems), problems[0].horizon), np.nan)

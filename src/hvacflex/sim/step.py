@@ -254,7 +254,8 @@ class ControlStep:
         """
         self._start_period(k, activated, previous_delivered_flow_kg_s)
         controller, tracker = self.controller, self.tracker
-        self.meter.advance(k, previous_power_kw)
+        if self.meter_max_lag_steps:
+            self.meter.advance(k, previous_power_kw)
         role = tracker.role(activated(k))
         if role is Role.EVENT_LOCKED:
             action = tracker.locked_action()
@@ -276,13 +277,14 @@ class ControlStep:
         applied_flow = action.applied_flow_kg_s(curtailed=outcome.curtailed)
         controller.note_applied_flow(applied_flow)
         status = decision_status(role, action)
-        usable = (  # an occupied period served by a fresh plan, outside events and recoveries
-            status is DecisionStatus.PLANNED
-            and not outcome.curtailed
-            and not outcome.event_window
-            and bool(inputs.forecast.occupied[0])
-        )
-        self.meter.open(k, action.planned_power_kw if usable else math.nan)
+        if self.meter_max_lag_steps:
+            usable = (  # occupied, served by a fresh plan, outside events and recoveries
+                status is DecisionStatus.PLANNED
+                and not outcome.curtailed
+                and not outcome.event_window
+                and bool(inputs.forecast.occupied[0])
+            )
+            self.meter.open(k, action.planned_power_kw if usable else math.nan)
         made = controller.last_plan if status is DecisionStatus.PLANNED else None
         return Decision(action, status, role, outcome, applied_flow, made, locked)
 
