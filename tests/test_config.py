@@ -238,6 +238,7 @@ def test_reserve_section_is_read_and_recorded(tmp_path: Path) -> None:
         "il_baseline": "pre-event",
         "commit_ahead_periods": 2,
         "meter_calibrated_offers": True,
+        "plan_visible_offers": True,
     }
     assert cfg.config_hash() != preset("paper-rmpc").config_hash()
 

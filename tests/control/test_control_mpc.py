@@ -338,3 +338,32 @@ def test_offers_are_scaled_by_the_meter_s_response(setup: Setup) -> None:
     assert seen == pytest.approx(min(0.5 * offer_kw, 0.2 * shed_kw), abs=1e-5)
     controller.note_meter_response(1.0)
     np.testing.assert_array_equal(rebuild().reserve_kw_per_kg_s, own.reserve_kw_per_kg_s)
+
+
+def test_the_plan_is_paid_for_what_the_told_baselines_see(setup: Setup) -> None:
+    """The problem carries the baselines the driver told (``plan_visible_offers``): the one
+    of an activation starting now for steps < D, a similar-days baseline in place of the
+    pre-event ones, ρ; after a plan, the steps at which no shed could have been seen are
+    left out; with the setting off the LP is paid q·r."""
+    controller, problem, rebuild = _offer_case(setup)
+    assert problem.offer_baselines is not None
+    assert np.isnan(problem.offer_baselines.fixed_baseline_kw).all()  # nothing told yet
+    assert problem.offer_baselines.offer_steps.all()  # no plan yet: every step
+    controller.note_meter_response(0.7)
+    controller.note_baseline_power(12.0, np.array([np.nan, 40.0]))
+    baselines = rebuild().offer_baselines
+    assert baselines is not None and baselines.meter_ratio == 0.7
+    max_steps = setup.config.reserve.event_max_steps
+    assert max_steps == 4
+    np.testing.assert_array_equal(baselines.fixed_baseline_kw[:5], [12.0, 40.0, 12.0, 12.0, np.nan])
+    assert not baselines.fixed_on_plan_scale.any()  # no plan for the period before: metered
+    np.testing.assert_array_equal(baselines.planned_baselines[:3], [True, False, True])
+    x = np.full(len(setup.model.node_names), 25.0)
+    controller.note_baseline_power(0.0)  # the air handler was off: the start-up is not paid
+    controller.act(PeriodInputs(x, setup.forecaster.forecast(20, 49), 0.0))
+    left_out = rebuild().offer_baselines
+    assert left_out is not None and not left_out.offer_steps.all()
+    off = replace(setup.config.reserve, plan_visible_offers=False)
+    plain = make_controller(replace(setup, config=replace(setup.config, reserve=off)))
+    assert isinstance(plain, MPCController)
+    assert plain.problem(x, setup.forecaster.forecast(20, 49), 0.0).offer_baselines is None

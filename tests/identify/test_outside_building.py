@@ -78,28 +78,33 @@ def test_offers_scaled_to_the_meter_are_delivered_against_it(
     """Stress activations (one every weekday) in the week from 2014-04-01, settled against
     EnergyPlus's meter: the March-fitted power model moves about twice as much as April's
     meter, so offers on the model's scale are delivered 64 % (capped at the offer, period by
-    period), offers scaled by the meter's response (``[reserve] meter_calibrated_offers``,
-    the default) 89 % when measured, with a tenth of the shortfall."""
+    period), offers scaled by the meter's response (``[reserve] meter_calibrated_offers``)
+    89 % when measured, with a tenth of the shortfall — both with the plan paid q·r
+    (``plan_visible_offers`` off), to isolate the scaling. The defaults (both on): 82 %,
+    one period of EnergyPlus's scatter around the slope (docs/il_events.md), still a
+    seventh of the unscaled shortfall."""
     _, model = fitted
     scenario = (model.parent / "scenario.toml").read_text()
     results = {}
-    for calibrated in (True, False):
-        config = tmp_path / f"stress_{calibrated}.toml"
-        config.write_text(
-            scenario
-            + '\n[activation]\nmode = "stress"\n'
-            + f"[reserve]\nmeter_calibrated_offers = {str(calibrated).lower()}\n"
-        )
-        results[calibrated] = _week(config, tmp_path / f"stress_{calibrated}")
+    for name, reserve in (
+        ("scaled", "meter_calibrated_offers = true\nplan_visible_offers = false\n"),
+        ("model", "meter_calibrated_offers = false\nplan_visible_offers = false\n"),
+        ("default", ""),
+    ):
+        config = tmp_path / f"stress_{name}.toml"
+        config.write_text(scenario + '\n[activation]\nmode = "stress"\n' + f"[reserve]\n{reserve}")
+        results[name] = _week(config, tmp_path / f"stress_{name}")
     capped = {}
-    for calibrated, (summary, frame) in results.items():
+    for name, (summary, frame) in results.items():
         activated = frame["il_activated"].to_numpy()
         delivered = np.minimum(frame["il_delivered_kw"], frame["reserve_kw"]).to_numpy()
-        capped[calibrated] = delivered[activated].sum() * 0.5 / summary["il_offered_kwh"]
+        capped[name] = delivered[activated].sum() * 0.5 / summary["il_offered_kwh"]
         assert summary["il_offered_kwh"] > 0.5  # offers made and activated
-    calibrated_summary, calibrated_frame = results[True]
+    calibrated_summary, calibrated_frame = results["scaled"]
     ratio = calibrated_frame["offer_meter_ratio"].dropna()
     assert 0.3 < ratio.iloc[-1] < 0.8  # the meter moves about half as much as the plan
-    assert capped[True] >= 0.85
-    assert capped[False] < capped[True]
-    assert calibrated_summary["il_shortfall_kwh"] < 0.5 * results[False][0]["il_shortfall_kwh"]
+    assert capped["scaled"] >= 0.85
+    assert capped["model"] < min(capped["scaled"], capped["default"])
+    unscaled_shortfall_kwh = results["model"][0]["il_shortfall_kwh"]
+    assert calibrated_summary["il_shortfall_kwh"] < 0.5 * unscaled_shortfall_kwh
+    assert results["default"][0]["il_shortfall_kwh"] < 0.5 * unscaled_shortfall_kwh

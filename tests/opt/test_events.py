@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from hvacflex.errors import ProblemError
-from hvacflex.opt import RMPCProblem, RMPCSolver, SolveStatus, solve_rmpc
+from hvacflex.opt import OfferBaselines, RMPCProblem, RMPCSolver, SolveStatus, solve_rmpc
 from hvacflex.opt.events import carry_allowance, event_rotation, event_rows, violated_rows
 from hvacflex.opt.lp import build_lp
 from hvacflex.opt.options import RESERVE_TIE_BREAK_SGD_PER_KG_S_HOUR
@@ -73,9 +73,12 @@ def _brute_force(prob: RMPCProblem) -> float:
     power = [
         prob.power_offset_kw[k] + prob.power_coeff_kw_per_kg_s[k] @ u[k] for k in range(horizon)
     ]
-    reserve = [prob.power_coeff_kw_per_kg_s[k] @ r[k] for k in range(horizon)]
+    reserve = _paid_reserve(prob, r, power)
     cons: list[Any] = [r >= 0, eps >= 0, u <= prob.u_max, u - r >= prob.u_min]
     cons += [r[:, i] == 0 for i in range(m) if not mask[i]]
+    committed = prob.fixed_reserve_steps
+    if committed:
+        cons.append(r[:committed] == prob.reserve_fixed_kg_s)
     cons += [beta >= prob.phi[k] * power[k] for k in range(horizon)]
     cons.append(beta >= prob.phi[0] * prob.peak_floor_kw)
     if prob.slack_max_kelvin is not None:
@@ -107,6 +110,35 @@ def _brute_force(prob: RMPCProblem) -> float:
     model.solve(solver=cp.HIGHS)
     assert model.status == cp.OPTIMAL, model.status
     return float(model.value)
+
+
+def _paid_reserve(prob: RMPCProblem, r: Any, power: list[Any]) -> list[Any]:
+    """The capacity each step is paid for: q_k·r_k, or with offer baselines what they see of
+    it, min(q_k·r_k, every baseline's gap + ρ p_k·r_k), written out per baseline (CVXPY's
+    concave ``minimum``), 0 where the step may not be paid (committed, nothing seen, left
+    out of ``offer_steps``)."""
+    q = prob.reserve_kw_per_kg_s
+    baselines = prob.offer_baselines
+    if baselines is None:
+        return [q[k] @ r[k] for k in range(prob.horizon)]
+    rho, tol = baselines.meter_ratio, baselines.tolerance_kw
+    paid: list[Any] = []
+    for k in range(prob.horizon):
+        fixed = baselines.fixed_baseline_kw[k]
+        if k < prob.fixed_reserve_steps or not baselines.offer_steps[k] or fixed == -np.inf:
+            paid.append(0.0)
+            continue
+        shed = rho * (prob.power_coeff_kw_per_kg_s[k] @ r[k])
+        terms = [q[k] @ r[k]]
+        if not np.isnan(fixed):
+            level = rho if baselines.fixed_on_plan_scale[k] else 1.0
+            terms.append(level * (fixed - power[k]) + shed + tol)
+        if baselines.planned_baselines[k]:
+            assert prob.il_event_max_steps is not None
+            for lag in range(1, min(prob.il_event_max_steps, k) + 1):
+                terms.append(rho * (power[k - lag] - power[k]) + shed + tol)
+        paid.append(cp.minimum(*terms) if len(terms) > 1 else terms[0])
+    return paid
 
 
 def _outputs(
@@ -461,3 +493,158 @@ def test_recovery_allowance_decays_to_the_strict_band() -> None:
     np.testing.assert_allclose(carry_allowance(4, 1, 1.5, 2, 2)[:, 0], [1.0, 0.5, 0.0, 0.0])
     np.testing.assert_allclose(carry_allowance(4, 1, 1.5, 1, 2)[:, 0], [0.5, 0.0, 0.0, 0.0])
     assert not carry_allowance(4, 2, 1.5, 0, 2).any()
+
+
+# ------------------------------------------------- offers paid for what the baselines see
+
+
+def test_seen_offers_by_hand() -> None:
+    """ρ = 0.5, D = 2, the plan's power 10, 12, 11, 15 kW, a shed of 1 kW each step."""
+    baselines = OfferBaselines(
+        meter_ratio=0.5,
+        fixed_baseline_kw=np.array([20.0, np.nan, np.nan, 14.0]),
+        fixed_on_plan_scale=np.array([True, False, False, False]),
+        planned_baselines=np.array([True, True, True, True]),
+    )
+    seen = baselines.seen_kw(
+        np.array([10.0, 12.0, 11.0, 15.0]), np.ones(4), np.array([5.0, 5.0, 5.0, 0.2]), 2
+    )
+    # 0: the plan's own baseline, ρ·(20 − 10) + ρ·1 = 5.5 ≥ the offer 5
+    # 1: after 10 kW, ρ·(10 − 12) + 0.5 = −0.5 (a rise the shed does not cover)
+    # 2: min(ρ·(12 − 11), ρ·(10 − 11)) + 0.5 = 0
+    # 3: metered 14 − 15 + 0.5 = −0.5; ρ·(11 − 15) + 0.5 = −1.5; ρ·(12 − 15) + 0.5 = −1
+    np.testing.assert_allclose(seen, [5.0, -0.5, 0.0, -1.5])
+
+
+@pytest.mark.parametrize(
+    ("fields", "field"),
+    [
+        ({"meter_ratio": 1.5}, "offer_baselines.meter_ratio"),
+        ({"fixed_baseline_kw": np.array([1.0, np.inf])}, "offer_baselines.fixed_baseline_kw"),
+        ({"planned_baselines": np.ones(3, dtype=bool)}, "offer_baselines.planned_baselines"),
+    ],
+)
+def test_offer_baselines_are_validated(fields: dict[str, Any], field: str) -> None:
+    values: dict[str, Any] = dict(
+        meter_ratio=1.0,
+        fixed_baseline_kw=np.full(2, np.nan),
+        fixed_on_plan_scale=np.zeros(2, dtype=bool),
+        planned_baselines=np.ones(2, dtype=bool),
+    )
+    values.update(fields)
+    with pytest.raises(ProblemError) as caught:
+        OfferBaselines(**values)
+    assert caught.value.field == field
+
+
+def test_offer_baselines_need_the_event_model_and_the_horizon() -> None:
+    baselines = _random_baselines(np.random.default_rng(0), 8)
+    with pytest.raises(ProblemError, match="event model"):
+        random_problem(0, horizon=8, offer_baselines=baselines)
+    with pytest.raises(ProblemError, match="cover 8 steps"):
+        random_problem(0, horizon=6, il_event_max_steps=2, offer_baselines=baselines)
+
+
+def _random_baselines(rng: np.random.Generator, horizon: int) -> OfferBaselines:
+    """Baselines of every kind: the plan's own, metered, none, nothing seen; some steps left
+    out; some covered by a similar-days baseline."""
+    fixed = rng.uniform(0.0, 6.0, horizon)
+    kind = rng.integers(0, 4, horizon)
+    fixed[kind == 2] = np.nan
+    fixed[kind == 3] = -np.inf
+    return OfferBaselines(
+        meter_ratio=float(rng.choice([1.0, float(rng.uniform(0.3, 1.0))])),
+        fixed_baseline_kw=fixed,
+        fixed_on_plan_scale=(kind == 0),
+        planned_baselines=rng.random(horizon) < 0.8,
+        offer_steps=rng.random(horizon) < 0.85,
+    )
+
+
+def _baseline_problem(seed: int) -> RMPCProblem:
+    rng = np.random.default_rng(500 + seed)
+    base = _event_problem(seed)
+    fixed_steps = int(rng.integers(0, 3))
+    return dataclasses.replace(
+        base,
+        offer_baselines=_random_baselines(rng, base.horizon),
+        reserve_fixed_kg_s=np.full((min(fixed_steps, base.horizon - 1), base.m), 0.05),
+    )
+
+
+def test_baseline_cases_offer_and_bind() -> None:
+    """The comparison below is not vacuous: some cases are paid for offers, and in most the
+    baselines see less than q·r somewhere."""
+    paid = bound = 0
+    for seed in range(10):
+        prob = _baseline_problem(seed)
+        sol = solve_rmpc(prob)
+        offered = np.einsum("km,km->k", prob.reserve_kw_per_kg_s, sol.r)
+        paid += bool((sol.reserve_kw > 1e-6).any())
+        bound += bool((offered - sol.reserve_kw > 1e-6).any())
+    assert paid >= 3 and bound >= 6
+
+
+@pytest.mark.parametrize("seed", range(10))
+def test_offers_paid_for_what_the_baselines_see_equal_the_brute_force(seed: int) -> None:
+    """The LP's offer columns and rows (R, the unseen rise σ) against the definition written
+    out with CVXPY's concave minimum: the same optimum, and R_k = max(0, what is seen)."""
+    prob = _baseline_problem(seed)
+    solver = RMPCSolver(prob)
+    sol = solver.solve(prob)
+    assert sol.status is SolveStatus.OPTIMAL, sol.message
+    assert solver.highs_objective_sgd() == pytest.approx(_brute_force(prob), rel=REL_TOL, abs=1e-7)
+    baselines = prob.offer_baselines
+    assert baselines is not None and prob.il_event_max_steps is not None
+    seen = baselines.seen_kw(
+        sol.power_kw,
+        np.einsum("km,km->k", prob.power_coeff_kw_per_kg_s, sol.r),
+        np.einsum("km,km->k", prob.reserve_kw_per_kg_s, sol.r),
+        prob.il_event_max_steps,
+    )
+    paid = baselines.offer_steps & ~np.isneginf(baselines.fixed_baseline_kw)
+    paid[: prob.fixed_reserve_steps] = False
+    np.testing.assert_allclose(
+        sol.reserve_kw, np.where(paid, np.maximum(seen, 0.0), 0.0), atol=1e-6
+    )
+    assert sol.reserve_revenue_sgd == pytest.approx(
+        prob.dt_h * prob.reserve_price_sgd_per_mwh @ sol.reserve_kw / 1000.0
+    )
+
+
+def test_baselines_that_see_everything_change_nothing() -> None:
+    """No baseline binds (none fixed, none planned): the optimum is the q·r model's."""
+    prob = _event_problem(3)
+    horizon = prob.horizon
+    free = OfferBaselines(
+        meter_ratio=1.0,
+        fixed_baseline_kw=np.full(horizon, np.nan),
+        fixed_on_plan_scale=np.zeros(horizon, dtype=bool),
+        planned_baselines=np.zeros(horizon, dtype=bool),
+    )
+    plain, visible = solve_rmpc(prob), solve_rmpc(dataclasses.replace(prob, offer_baselines=free))
+    assert plain.reserve_kw.sum() > 1e-3  # not vacuous
+    assert visible.objective_sgd == pytest.approx(plain.objective_sgd, rel=1e-9, abs=1e-9)
+    np.testing.assert_allclose(visible.reserve_kw, plain.reserve_kw, atol=1e-6)
+
+
+@pytest.mark.parametrize("mode", ["full", "lazy"])
+def test_warm_started_solver_with_offer_baselines_equals_cold_solves(mode: str) -> None:
+    """The offer columns and rows are time-indexed: the rotated basis stays valid."""
+    rng = np.random.default_rng(11)
+    problems = [
+        dataclasses.replace(prob, offer_baselines=_random_baselines(rng, prob.horizon))
+        for prob in _shifted_problems(
+            8, il_event_max_steps=2, il_event_recovery_steps=1, il_event_allowance_kelvin=0.5
+        )
+    ]
+    solver = RMPCSolver(problems[0], event_rows=mode)  # type: ignore[arg-type]
+    for index, prob in enumerate(problems):
+        warm, cold = solver.solve(prob), solve_rmpc(prob)
+        assert warm.status is cold.status is SolveStatus.OPTIMAL
+        assert warm.warm_start is (index > 0)
+        assert warm.objective_sgd == pytest.approx(cold.objective_sgd, abs=1e-7)
+    assert (
+        problems[0].structure.fingerprint()
+        != dataclasses.replace(problems[0], offer_baselines=None).structure.fingerprint()
+    )

@@ -148,10 +148,13 @@ MEASURED_POWER_KW = 42.0
 PRICES_SGD_PER_KWH = [0.10, 0.25, 0.40, 0.15]
 PHI_SGD_PER_KW = 3.5
 E2E_T0 = pd.Timestamp("2014-03-03T15:30+08:00")
-"""The first period the VTN signals (office5 under rmpc offers reserve 15:30–17:30)."""
+"""The first period the VTN signals (office5 under rmpc offers reserve 17:00–18:30)."""
 
 
-def _events(real0: datetime) -> list[dict[str, Any]]:
+def _events(real0: datetime, dispatch_after: int = 1) -> list[dict[str, Any]]:
+    """Price and demand-charge events from ``real0``, a two-period dispatch of b1
+    ``dispatch_after`` periods later, and a SIMPLE event two days ahead."""
+
     def intervals(start: datetime, payloads: list[float]) -> list[dict[str, Any]]:
         return [
             {"dtstart": start + j * HALF_HOUR, "duration": HALF_HOUR, "signal_payload": p}
@@ -174,7 +177,7 @@ def _events(real0: datetime) -> list[dict[str, Any]]:
         {
             "signal_name": "LOAD_DISPATCH",
             "signal_type": "delta",
-            "intervals": intervals(real0 + HALF_HOUR, [5.0, 5.0]),
+            "intervals": intervals(real0 + dispatch_after * HALF_HOUR, [5.0, 5.0]),
             "targets": [{"resource_id": "b1"}],
         },
         {  # two days ahead: beyond the plan's horizon, so no reserve offered → optOut
@@ -277,12 +280,14 @@ def test_a_vtn_drives_a_building_through_the_ven(
     operator_key, operator, first = site.operator_key, site.operator, site.first
     measure = site.measure
     reserve = dict(zip(first["horizon_time"], first["horizon_reserve_kw"], strict=False))
-    assert reserve["2014-03-03T16:00:00+08:00"] > 0 and reserve["2014-03-03T16:30:00+08:00"] > 0
+    # the first plan (15:00) offers at 17:00 and 17:30, which the VTN dispatches (measured:
+    # since the plan is paid only for what the baselines see, not at 16:00–16:30)
+    assert reserve["2014-03-03T17:00:00+08:00"] > 0 and reserve["2014-03-03T17:30:00+08:00"] > 0
 
     real0 = _next_half_hour()
     offset = E2E_T0 - pd.Timestamp(real0)
     files = TlsFiles.make(tmp_path) if tls else None
-    vtn = LoopbackVtn(free_port(), _events(real0), files, run_for_s=150.0)
+    vtn = LoopbackVtn(free_port(), _events(real0, dispatch_after=3), files, run_for_s=150.0)
     vtn.start()
     ven, log = site.start_ven(vtn, offset, files, tmp_path / "ven.db")
     wanted = ("b1.metered_power_kw", "b1.planned_power_kw", "b1.reserve_offer_kw")
@@ -331,19 +336,19 @@ def test_a_vtn_drives_a_building_through_the_ven(
     ):
         assert posted.count((path, 200)) == count, posted
 
-    # the next plan uses the prices and φ; the dispatch activates 16:00, ends at 17:00
+    # the next plan uses the prices and φ; the dispatch activates 17:00, ends at 18:00
     second = measure("2014-03-03T15:30+08:00", 40.0)
     assert second["peak_price_sgd_per_kw"] == PHI_SGD_PER_KW
     assert first["peak_price_sgd_per_kw"] != PHI_SGD_PER_KW
     posted_prices = [1000.0 * p for p in PRICES_SGD_PER_KWH]
     assert second["horizon_energy_price_sgd_per_mwh"][:4] == pytest.approx(posted_prices)
     assert first["horizon_energy_price_sgd_per_mwh"][1:5] != pytest.approx(posted_prices)
-    during = operator.call("POST", "/v1/clock", {"time": "2014-03-03T16:00+08:00"})["plans"]
+    during = operator.call("POST", "/v1/clock", {"time": "2014-03-03T17:00+08:00"})["plans"]
     assert [(p["period"], p["il_activated"], p["il_role"]) for p in during] == [
-        (32, True, "event-start")
+        (34, True, "event-start")
     ]
-    after = operator.call("POST", "/v1/clock", {"time": "2014-03-03T17:00+08:00"})["plans"]
-    assert [(p["period"], p["il_activated"]) for p in after] == [(34, False)]
+    after = operator.call("POST", "/v1/clock", {"time": "2014-03-03T18:00+08:00"})["plans"]
+    assert [(p["period"], p["il_activated"]) for p in after] == [(36, False)]
 
 
 def test_a_vtn_that_goes_away_and_comes_back_re_registers_the_ven(

@@ -335,20 +335,24 @@ def test_two_stress_days_are_settled_against_metered_power(tmp_path: Path) -> No
     _check_stress_settlement(result.frame, result.summary)
 
 
-@pytest.mark.slow
-def test_stress_week_is_settled_against_metered_power(tmp_path: Path) -> None:
-    """Issue 25's done-when case: ``rmpc``, 5 days from 2014-03-03, stress activations.
-    Measured (docs/il_events.md, scale 48.5 SGD/MWh): 13 activated periods, metered 14× the
-    offer, 0.43 kWh short of it in two periods (capped at the offer period by period: 89 %);
-    offered in office hours 26.1 kWh (the issue's 36 kWh is not reached)."""
+def test_stress_week_meets_issue_25s_done_when(tmp_path: Path) -> None:
+    """Issue 25's done-when case: ``rmpc``, 5 days from 2014-03-03, stress activations, on
+    the RC plant. Measured (docs/il_events.md, 2026-12-05): 13 activated periods, offered in
+    them 4.44 kWh, delivered capped at the offer 98 % (0.07 kWh short in one period), the
+    plant's counterfactual 138 %, offered in weekday office hours 37.5 kWh (≥ 36); with the
+    plan paid q·r and the offers cut afterwards (``plan_visible_offers`` off) 25.5 kWh and
+    90 %."""
     cfg = with_overrides(preset("rmpc", start=START, days=5.0), {"activation.mode": "stress"})
     result = run_simulation(cfg, tmp_path, progress=False)
     frame, summary = result.frame, result.summary
     assert frame["il_activated"].sum() >= 4
     _check_stress_settlement(frame, summary)
     assert summary["il_offered_kwh"] > 0.0 and frame["il_curtailed"].any()
-    assert _office_offered_kwh(frame) >= 10.0  # offers are made, not given up
-    assert summary["il_delivered_counterfactual_kwh"] >= 0.95 * summary["il_offered_kwh"]
+    activated = frame["il_activated"].to_numpy(bool)
+    capped = np.minimum(frame["il_delivered_kw"], frame["reserve_kw"]).to_numpy()[activated]
+    assert capped.sum() * 0.5 >= 0.95 * summary["il_offered_kwh"]
+    assert summary["il_delivered_counterfactual_kwh"] >= 0.98 * summary["il_offered_kwh"]
+    assert _office_offered_kwh(frame) >= 36.0
 
 
 class _BaselineRecorder(StubPlanner):

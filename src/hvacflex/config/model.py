@@ -150,6 +150,11 @@ class ReserveConfig:
     occupied periods), so that the capacity offered is what the metered settlement will see;
     False: offers on the power model's own scale. The whole-horizon model (the paper's)
     never scales."""
+    plan_visible_offers: bool = True
+    """Whether the event model's plan is paid only for the part of each offer that the
+    settlement baselines will see (:func:`hvacflex.opt.lp.add_visible_offers`), so that it
+    shapes its load to be seen where that pays; False: the plan is paid q·r and the offers
+    are cut to what is seen afterwards. The offers are sized to the baselines either way."""
 
     @property
     def ahead_offer_steps(self) -> int:

@@ -18,7 +18,8 @@ File layout (every key optional)::
     [reserve]      event_max_steps, event_allowance_k, event_recovery_steps,
                    non_delivery_penalty_sgd_per_mwh,
                    non_delivery_forfeits_reserve_payment, il_baseline,
-                   commit_ahead_periods, meter_calibrated_offers
+                   commit_ahead_periods, meter_calibrated_offers,
+                   plan_visible_offers
     [estimation]   mode, measurement_noise_k
     [uncertainty]  relative = {kind = fraction}, absolute = {kind = value},
                    calibrate = {train = "YYYY-MM-DD..YYYY-MM-DD", quantile, prediction_errors}
@@ -234,6 +235,7 @@ class ReserveSpec(Spec):
         ReserveConfig, "commit_ahead_periods"
     )
     meter_calibrated_offers: bool = default(ReserveConfig, "meter_calibrated_offers")
+    plan_visible_offers: bool = default(ReserveConfig, "plan_visible_offers")
 
 
 class EstimationSpec(Spec):

@@ -60,6 +60,7 @@ from hvacflex.data.uncertainty import UncertaintyBox
 from hvacflex.errors import ConfigError, ProblemError
 from hvacflex.opt import (
     FeedbackOptions,
+    OfferBaselines,
     RMPCProblem,
     RMPCSolution,
     SolverBasis,
@@ -67,6 +68,7 @@ from hvacflex.opt import (
     WarmSolver,
     make_solver,
 )
+from hvacflex.opt.problem import BoolArray
 from hvacflex.opt.robust import comfort_margins
 from hvacflex.units import SECONDS_PER_HOUR
 
@@ -173,6 +175,8 @@ class MPCController(Controller):
         )
         self._committed_kg_s = np.zeros((0, len(building.zone_names)))
         self._previous_planned_kw: float | None = None
+        self._plan_seen_kw: FloatArray | None = None
+        """What the last optimal plan's baselines saw of its offers (:meth:`_seen_kw`)."""
         self._plan_age = 0
         self._estimator = KalmanEstimator(estimation) if estimation is not None else None
         self._network = build_network(building) if linearisation == "trajectory" else None
@@ -336,8 +340,62 @@ class MPCController(Controller):
                 else None
             ),
             reserve_fixed_kg_s=self._fixed_reserve_kg_s(u_min),
+            offer_baselines=(
+                self._offer_baselines(horizon, self._seen_steps(horizon))
+                if events and cfg.reserve and self._reserve.plan_visible_offers
+                else None
+            ),
             **self._event_fields(horizon, allowance_carry_steps),
         )
+
+    def _offer_baselines(
+        self, horizon: int, offer_steps: BoolArray | None = None
+    ) -> OfferBaselines:
+        """The settlement baselines of the horizon's offers (event model), as the driver told
+        them (:meth:`note_baseline_power`): its similar-days baseline where it has one, else
+        the plan's own powers P̂_{s−1} and, for the starts s = 0, :meth:`_baseline_now`. The
+        LP pays only what they see at ``offer_steps`` (``[reserve] plan_visible_offers``)
+        and :meth:`_visible_offer_kw` sizes the offers to them."""
+        reserve = self._reserve
+        assert reserve.event_max_steps is not None
+        fixed = np.full(horizon, np.nan)
+        on_plan = np.zeros(horizon, dtype=bool)
+        planned = np.ones(horizon, dtype=bool)
+        ahead = self._baseline_ahead_kw
+        known = 0 if ahead is None else min(len(ahead), horizon)
+        if ahead is not None:
+            similar = np.isfinite(ahead[:known])
+            fixed[:known][similar] = ahead[:known][similar]
+            planned[:known][similar] = False
+        now = self._baseline_now()
+        if now is not None:
+            kind, value = now
+            starts_now = np.arange(horizon) < reserve.event_max_steps
+            starts_now &= planned  # a similar-days baseline replaces the pre-event ones
+            fixed[starts_now] = value
+            on_plan[starts_now] = kind == "planned"
+        return OfferBaselines(
+            meter_ratio=self._offer_scale,
+            fixed_baseline_kw=fixed,
+            fixed_on_plan_scale=on_plan,
+            planned_baselines=planned,
+            offer_steps=offer_steps,
+            tolerance_kw=BASELINE_TOLERANCE_KW,
+        )
+
+    def _seen_steps(self, horizon: int) -> BoolArray | None:
+        """(N,) bool: the steps at which the last plan could have shown an offer — shedding
+        all it could (u − u_min) would have reached every baseline (:meth:`_seen_kw` ≥ 0,
+        moved to this step, its last step repeated); None (every step) without such a plan.
+        The others — an air handler off before, a start-up steeper than any shed — are not
+        paid at all, rather than charged for a rise no offer could show."""
+        seen = self._plan_seen_kw
+        if seen is None:
+            return None
+        shift = self._plan_age + 1
+        moved = np.concatenate([seen[shift:], np.repeat(seen[-1:], min(shift, seen.size))])
+        steps: BoolArray = moved[:horizon] >= 0.0
+        return steps
 
     def _power_coefficients(
         self,
@@ -515,6 +573,7 @@ class MPCController(Controller):
         solution = plan if plan is not None else self._solver.solve(problem)
         if solution.status is SolveStatus.OPTIMAL:
             self._previous_plan, self._plan_age = solution, 0
+            self._plan_seen_kw = self._seen_kw(problem, solution)
             c = self._model.c
             # the LP's solution satisfies its bounds to the solver tolerance (~1e-9): snap
             # the applied flows onto the physical limits
@@ -545,6 +604,22 @@ class MPCController(Controller):
                 offer_meter_ratio=self._meter_ratio,
             )
         return self._fallback(x_degc, forecast, solution)
+
+    def _seen_kw(self, problem: RMPCProblem, solution: RMPCSolution) -> FloatArray | None:
+        """(N,) how far below every baseline of the problem's offer baselines the plan's
+        power would fall if each step shed all it could, u − u_min on the reserve zones
+        [kW]: negative where no offer could be seen (None without offer baselines)."""
+        baselines = problem.offer_baselines
+        max_steps = self._reserve.event_max_steps
+        if baselines is None or max_steps is None:
+            return None
+        room = np.where(self._mask, np.maximum(solution.u - problem.u_min, 0.0), 0.0)
+        return baselines.seen_kw(
+            solution.power_kw,
+            np.einsum("km,km->k", problem.power_coeff_kw_per_kg_s, room),
+            np.full(problem.horizon, np.inf),
+            min(max_steps, problem.horizon),
+        )
 
     def _snapped_reserve_kg_s(
         self, problem: RMPCProblem, solution: RMPCSolution, steps: int
@@ -604,52 +679,34 @@ class MPCController(Controller):
         self, problem: RMPCProblem, served_kw: FloatArray, j: int, reserve_flow_kg_s: FloatArray
     ) -> float:
         """The capacity offered for step j with reserve flows r_j (m,) [kg/s]: q_j·r_j, but no
-        more than the settlement baseline would see of it [kW].
+        more than the settlement baselines would see of it [kW], at least 0.
 
         An activation covering step j starts at some s ∈ [j − D + 1, j] (s ≥ 0) and is settled
         against the power of the period before s (``pre-event``): the plan's served power
         P̂_{s−1} for s ≥ 1, and :meth:`_baseline_now` for s = 0 (skipped where unknown).
         Under ``similar-days`` the baseline of step j is the driver's (the metered power of
         earlier similar days, whenever the activation starts), and the pre-event ones apply
-        only where it has none (no similar day yet, as in the settlement).
-        The curtailed power must show the offer below every such baseline, so the offer is
-        ``min(q_j·r_j, min_s gap_s + ρ·p_j·r_j)`` [kW], at least 0 (a period whose air handler was
-        off before, a rising morning load), where ρ ∈ [0, 1] is the meter's response to the
-        plan's power (:meth:`note_meter_response`; the problem's q carries it too): a change
-        of the plan's power shows as ρ times it on the meter, so the gap to a baseline of the
-        plan's own is ρ·(P̂_{s−1} − P̂_j), and to a metered baseline B (its level against the
-        plan's level, as without ρ) B − P̂_j. ``served_kw`` (N,) is the plan's P̂ [kW]. The
-        whole-horizon model (the paper's) offers q_j·r_j unchecked."""
+        only where it has none (no similar day yet, as in the settlement). The curtailed
+        power must show the offer below every such baseline
+        (:meth:`~hvacflex.opt.problem.OfferBaselines.seen_kw` of :meth:`_offer_baselines`):
+        a period whose air handler was off before, a rising morning load, show less. ρ ∈
+        [0, 1] is the meter's response to the plan's power (:meth:`note_meter_response`;
+        the problem's q carries it too): a change of the plan's power shows as ρ times it
+        on the meter, so the gap to a baseline of the plan's own is ρ·(P̂_{s−1} − P̂_j), and
+        to a metered baseline B (its level against the plan's level, as without ρ) B − P̂_j.
+        ``served_kw`` (N,) is the plan's P̂ [kW]. The whole-horizon model (the paper's)
+        offers q_j·r_j unchecked."""
         offer_kw = float(problem.reserve_kw_per_kg_s[j] @ reserve_flow_kg_s)
         max_steps = self._reserve.event_max_steps
         if max_steps is None or offer_kw <= 0.0:
             return max(offer_kw, 0.0)
-        ahead = self._baseline_ahead_kw
-        planned: list[float] = []  # the plan's own powers P̂_{s−1}: model against model
-        metered: list[float] = []  # the meter's: level against the model's level
-        if ahead is not None and j < len(ahead) and np.isfinite(ahead[j]):
-            metered.append(float(ahead[j]))
-        else:
-            planned = [float(served_kw[s - 1]) for s in range(max(1, j - max_steps + 1), j + 1)]
-            if j < max_steps:
-                now = self._baseline_now()
-                if now is not None:
-                    kind, value = now
-                    (planned if kind == "planned" else metered).append(value)
-        if not planned and not metered:
-            return offer_kw
-        scale = self._offer_scale
-        shed_kw = float(problem.power_coeff_kw_per_kg_s[j] @ reserve_flow_kg_s)
-        curtailed_kw = float(served_kw[j]) - shed_kw  # the plan's
-        metered_curtailed_kw = float(served_kw[j]) - scale * shed_kw  # the meter's, ρ of it
-        visible_kw = (
-            min(
-                [scale * (b - curtailed_kw) for b in planned]
-                + [b - metered_curtailed_kw for b in metered]
-            )
-            + BASELINE_TOLERANCE_KW
-        )
-        return offer_kw if visible_kw >= offer_kw else max(visible_kw, 0.0)
+        baselines = self._offer_baselines(problem.horizon)
+        shed_kw = np.zeros(problem.horizon)
+        shed_kw[j] = problem.power_coeff_kw_per_kg_s[j] @ reserve_flow_kg_s
+        offers_kw = np.zeros(problem.horizon)
+        offers_kw[j] = offer_kw
+        seen = baselines.seen_kw(served_kw, shed_kw, offers_kw, min(max_steps, problem.horizon))
+        return max(float(seen[j]), 0.0)
 
     def _event_plan(self, problem: RMPCProblem, solution: RMPCSolution) -> EventPlan | None:
         """The first D + R steps of an optimal plan, for an IL event starting now.
@@ -712,6 +769,7 @@ class MPCController(Controller):
         return {
             "basis": self._solver.get_basis() if self._solver is not None else self._pending_basis,
             "previous_plan": self._previous_plan,
+            "plan_seen_kw": self._plan_seen_kw,
             "plan_age": self._plan_age,
             "estimator": self._estimator.get_state() if self._estimator is not None else None,
             "step_model": self._step_model,
@@ -734,6 +792,7 @@ class MPCController(Controller):
         else:
             self._pending_basis = basis
         self._previous_plan = state["previous_plan"]
+        self._plan_seen_kw = state.get("plan_seen_kw")
         self._plan_age = state["plan_age"]
         if self._estimator is not None and state.get("estimator") is not None:
             self._estimator.set_state(state["estimator"])

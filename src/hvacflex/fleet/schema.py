@@ -128,15 +128,16 @@ class ReserveSpec(_Spec):
 
     def config(self) -> ReserveConfig:
         """The single-building :class:`ReserveConfig` of these settings. Offers stay on each
-        building's power model (``meter_calibrated_offers`` off): a fleet is settled on its
-        aggregate meter, and the coordinator checks the fleet's bid against the fleet's
-        baseline (:func:`hvacflex.fleet.bidding.fleet_baseline_sees`)."""
+        building's power model (``meter_calibrated_offers`` and ``plan_visible_offers`` off):
+        a fleet is settled on its aggregate meter, and the coordinator checks the fleet's bid
+        against the fleet's baseline (:func:`hvacflex.fleet.bidding.fleet_baseline_sees`)."""
         events = self.event_max_steps > 0
         return ReserveConfig(
             event_max_steps=self.event_max_steps if events else None,
             event_allowance_k=self.event_allowance_k if events else 0.0,
             event_recovery_steps=self.event_recovery_steps if events else 0,
             meter_calibrated_offers=False,
+            plan_visible_offers=False,
         )
 
 

@@ -26,13 +26,14 @@ Modules, each importing only those above it:
 
 from hvacflex.opt.basis import SolverBasis
 from hvacflex.opt.options import FeedbackOptions
-from hvacflex.opt.problem import RMPCProblem
+from hvacflex.opt.problem import OfferBaselines, RMPCProblem
 from hvacflex.opt.solution import RMPCSolution, SolveStatus
 from hvacflex.opt.solve import FeedbackSolver, RMPCSolver, WarmSolver, make_solver, solve_rmpc
 
 __all__ = [
     "FeedbackOptions",
     "FeedbackSolver",
+    "OfferBaselines",
     "RMPCProblem",
     "RMPCSolution",
     "RMPCSolver",

@@ -66,6 +66,7 @@ __all__ = [
     "add_plan_variables",
     "add_power_definition",
     "add_served_dynamics",
+    "add_visible_offers",
     "build_lp",
     "dynamics_rhs",
     "reserve_bounds",
@@ -538,6 +539,78 @@ def add_il_event_comfort(
     return index, rows
 
 
+def add_visible_offers(lp: LPBuilder, p: RMPCProblem, v: PlanColumns) -> IntArray:
+    """Offered capacity R_k ≥ 0 [kW] paid only for what the settlement baselines see
+    (``p.offer_baselines``, :class:`~hvacflex.opt.problem.OfferBaselines`; none: (0,)).
+
+    With ρ the meter ratio, p_k·r_k the plan's shed and P the plan's power (N columns, the
+    reserve revenue moves from r onto them; R_k fixed at 0 on the committed steps k < g,
+    whose offers were sold before, and where nothing can be seen):
+
+    * ``R_k − q_k·r_k ≤ 0`` (N rows; q already carries ρ);
+    * the baseline the plan does not decide, B_k: ``R_k + ρ P_k − ρ p_k·r_k ≤ ρ B_k`` on the
+      plan's scale, ``R_k + P_k − ρ p_k·r_k ≤ B_k`` metered (N rows; free where none);
+    * the plan's own baselines, the power of the period before each start s = k − l + 1 ≥ 1
+      of an activation covering k: ``R_k − ρ P_{k−l} + ρ P_k − ρ p_k·r_k ≤ 0``, l = 1 … D
+      ((N, D) rows; free where l > k or a similar-days baseline replaces them).
+
+    Every baseline gets ``tolerance_kw``. ρ, p and q vary from step to step (varying
+    coefficients); the rows' structure depends on N and D only.
+    """
+    baselines = p.offer_baselines
+    horizon = p.horizon
+    if baselines is None or not v.has_reserve or not v.event_model:
+        return np.zeros(0, dtype=np.int64)
+    assert p.il_event_max_steps is not None  # checked by RMPCProblem
+    max_steps = p.il_event_max_steps
+    rho = baselines.meter_ratio
+    tolerance = baselines.tolerance_kw
+    fixed = baselines.fixed_baseline_kw
+    paid = np.array(baselines.offer_steps, dtype=bool)
+    paid[: p.fixed_reserve_steps] = False
+    paid[np.isneginf(fixed)] = False
+    offered = lp.add_columns(
+        (horizon,), lower=0.0, upper=np.where(paid, np.inf, 0.0), time_indexed=True
+    )
+    shed = rho * p.power_coeff_kw_per_kg_s[:, v.reserve_inputs]  # (N, m_r)
+
+    cap = lp.add_rows((horizon,), upper=0.0, time_indexed=True)
+    lp.add_coefficients(cap, offered, 1.0)
+    lp.add_varying_coefficients(cap[:, None], v.r, -p.reserve_kw_per_kg_s[:, v.reserve_inputs])
+
+    on_plan = baselines.fixed_on_plan_scale
+    level = np.where(on_plan, rho, 1.0)
+    usable = np.isfinite(fixed) & paid
+    bound = np.full(horizon, np.inf)
+    bound[usable] = (level * np.where(usable, fixed, 0.0))[usable] + tolerance
+    unseen = lp.add_columns(
+        (horizon,), lower=0.0, upper=np.where(paid, np.inf, 0.0), time_indexed=True
+    )
+    own = lp.add_rows((horizon,), upper=bound, time_indexed=True)
+    lp.add_coefficients(own, offered, 1.0)
+    lp.add_coefficients(own, unseen, -1.0)
+    lp.add_varying_coefficients(own, v.power, level)
+    lp.add_varying_coefficients(own[:, None], v.r, -shed)
+
+    lag = np.arange(1, max_steps + 1)
+    step = np.arange(horizon)
+    active = (lag[None, :] <= step[:, None]) & (baselines.planned_baselines & paid)[:, None]
+    rows = lp.add_rows(
+        (horizon, max_steps), upper=np.where(active, tolerance, np.inf), time_indexed=True
+    )
+    lp.add_coefficients(rows, offered[:, None], 1.0)
+    lp.add_coefficients(rows, unseen[:, None], -1.0)
+    lp.add_varying_coefficients(rows, v.power[:, None], np.full((horizon, max_steps), rho))
+    lp.add_varying_coefficients(rows[:, :, None], v.r[:, None, :], -shed[:, None, :])
+    k, l_index = np.nonzero(lag[None, :] <= step[:, None])
+    lp.add_varying_coefficients(rows[k, l_index], v.power[k - lag[l_index]], -rho)
+    # the revenue is paid on R, not on q·r (r keeps its tie-break)
+    lp.set_cost(v.r, p.dt_h * RESERVE_TIE_BREAK_SGD_PER_KG_S_HOUR)
+    lp.set_cost(offered, -p.dt_h * p.reserve_price_sgd_per_mwh / KWH_PER_MWH)
+    lp.set_cost(unseen, p.dt_h * p.reserve_price_sgd_per_mwh / KWH_PER_MWH)
+    return offered
+
+
 def set_objective(lp: LPBuilder, p: RMPCProblem, v: PlanColumns) -> None:
     """Energy cost Δt·c_k·P_k on P plus the shared plan costs (:func:`set_plan_costs`) [SGD]."""
     set_plan_costs(lp, p, v)
@@ -557,6 +630,7 @@ class LPLayout:
     num_rows: int
     event_rows: IntArray
     events: EventRows
+    offered: IntArray  # (N,) R_k of add_visible_offers, or (0,)
 
     @property
     def has_curtailed(self) -> bool:
@@ -585,11 +659,13 @@ def build_lp(
     add_flow_and_reserve_bounds(lp, p, v)
     add_power_definition(lp, p, v)
     add_peak_epigraph(lp, p, v)
+    set_objective(lp, p, v)
+    offered = add_visible_offers(lp, p, v)
     event_index, events = add_il_event_comfort(lp, p, v, margin_k)
     if p.robust == "dual":
         if responses is None:
             responses = impulse_responses(p.a_matrix, p.e_matrix, p.c_matrix, p.horizon)
         add_dual_robust_rows(lp, p, comfort_rows, responses)
-    set_objective(lp, p, v)
     program = lp.finish()
-    return program, LPLayout(v, program.num_cols, program.num_rows, event_index, events)
+    layout = LPLayout(v, program.num_cols, program.num_rows, event_index, events, offered)
+    return program, layout

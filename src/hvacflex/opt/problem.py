@@ -155,6 +155,112 @@ def _matrix_shape(
 
 
 @dataclass(frozen=True, eq=False, kw_only=True)
+class OfferBaselines:
+    """The settlement baselines that each step's reserve offer is measured against.
+
+    An activation covering step k starts at some s ∈ [k − D + 1, k] and is settled against
+    the power of the period before s (docs/il_events.md, "Offers that can be delivered").
+    For s ≥ 1 that is the plan's own power P_{s−1}, which the LP decides; for s = 0, or
+    under a similar-days rule, a baseline the plan does not decide. The LP pays the reserve
+    of step k for ``R_k = min(q_k·r_k, what every such baseline sees)`` only
+    (:func:`hvacflex.opt.lp.add_visible_offers`), so the plan may shape its load to be
+    seen, at the cost of the energy that takes.
+
+    Parameters
+    ----------
+    meter_ratio : ρ ∈ [0, 1], the meter's change per kW of the plan's change
+        (:mod:`hvacflex.control.meter_response`; 1 = the plan's own scale)
+    fixed_baseline_kw : (N,) the baseline of step k that the plan does not decide [kW]: on
+        the plan's scale (``fixed_on_plan_scale``: the plan made for the period before,
+        compared as a change, ρ·(B − P_k + p_k·r_k)) or metered (a level against the plan's
+        level, B − P_k + ρ·p_k·r_k); NaN = none, −inf = nothing can be seen (R_k = 0)
+    fixed_on_plan_scale : (N,) bool, see ``fixed_baseline_kw``
+    planned_baselines : (N,) bool, whether the plan's powers P_{s−1} of the starts
+        s ∈ [max(1, k − D + 1), k] are baselines of step k (False where a similar-days
+        baseline replaces them)
+    offer_steps : (N,) bool, the steps that may be paid at all: elsewhere R_k = 0 and the
+        baselines do not enter the LP (the controller leaves out the steps whose load the
+        previous plan could not show, e.g. the morning start-up; default every step)
+    tolerance_kw : added to every baseline [kW] (round-off)
+    """
+
+    meter_ratio: float
+    fixed_baseline_kw: FloatArray
+    fixed_on_plan_scale: BoolArray
+    planned_baselines: BoolArray
+    offer_steps: BoolArray | None = None
+    tolerance_kw: float = 0.0
+
+    def __post_init__(self) -> None:
+        ratio = float(self.meter_ratio)
+        if not 0.0 <= ratio <= 1.0:
+            raise ProblemError(
+                "the meter ratio ρ must lie in [0, 1]",
+                source=_SOURCE,
+                field="offer_baselines.meter_ratio",
+                value=ratio,
+                hint="pass the clipped slope of hvacflex.control.meter_response",
+            )
+        fixed = np.array(self.fixed_baseline_kw, dtype=float)
+        horizon = fixed.size
+        shapes = ((horizon,),)
+        if fixed.ndim != 1 or np.isposinf(fixed).any():
+            raise ProblemError(
+                "fixed baselines must be a 1-D series of finite values, NaN or −inf",
+                source=_SOURCE,
+                field="offer_baselines.fixed_baseline_kw",
+                hint="NaN where step k has no such baseline, −inf where nothing is seen",
+            )
+        if self.offer_steps is None:
+            object.__setattr__(self, "offer_steps", np.ones(horizon, dtype=bool))
+        for name in ("fixed_on_plan_scale", "planned_baselines", "offer_steps"):
+            flags = np.array(getattr(self, name), dtype=bool)
+            if flags.shape not in shapes:
+                raise ProblemError(
+                    f"{name} has shape {flags.shape}, expected {(horizon,)}",
+                    source=_SOURCE,
+                    field=f"offer_baselines.{name}",
+                    hint="one flag per step",
+                )
+            flags.setflags(write=False)
+            object.__setattr__(self, name, flags)
+        fixed.setflags(write=False)
+        object.__setattr__(self, "fixed_baseline_kw", fixed)
+        object.__setattr__(self, "meter_ratio", ratio)
+
+    @property
+    def horizon(self) -> int:
+        """N, the number of steps."""
+        return int(self.fixed_baseline_kw.size)
+
+    def seen_kw(
+        self, power_kw: FloatArray, shed_kw: FloatArray, offer_kw: FloatArray, max_steps: int
+    ) -> FloatArray:
+        """(N,) what the baselines see of each step's offer, ``min(offer, every baseline's
+        gap + ρ·shed)`` [kW] — negative where even the shed does not reach the lowest
+        baseline (the rows of :func:`hvacflex.opt.lp.add_visible_offers` at a plan).
+
+        ``power_kw`` (N,) the plan's served power P̂, ``shed_kw`` (N,) its p_k·r_k, ``offer_kw``
+        (N,) q_k·r_k (already on the meter's scale), D = ``max_steps``.
+        """
+        rho = self.meter_ratio
+        power = np.asarray(power_kw, dtype=float)
+        shed = rho * np.asarray(shed_kw, dtype=float)  # what the meter shows of the shed
+        gaps = np.full(power.shape, np.inf)
+        fixed = self.fixed_baseline_kw
+        known = ~np.isnan(fixed)
+        level = np.where(self.fixed_on_plan_scale, rho, 1.0)
+        with np.errstate(invalid="ignore"):  # −inf baselines: nothing is seen
+            gaps[known] = (level * (fixed - power) + shed)[known]
+        for lag in range(1, max_steps + 1):
+            steps = np.flatnonzero(self.planned_baselines[lag:]) + lag
+            own = rho * (power[steps - lag] - power[steps]) + shed[steps]
+            gaps[steps] = np.minimum(gaps[steps], own)
+        seen: FloatArray = np.minimum(np.asarray(offer_kw, dtype=float), gaps + self.tolerance_kw)
+        return seen
+
+
+@dataclass(frozen=True, eq=False, kw_only=True)
 class RMPCProblem:
     """One robust MPC problem on plain arrays (docs/model.md §3); validated on construction.
 
@@ -201,6 +307,10 @@ class RMPCProblem:
         committed to the market (offers are firm g periods ahead, docs/il_events.md) [kg/s];
         the LP takes them as fixed (column bounds r_k = value); ≥ 0, 0 outside
         ``reserve_mask``, ≤ u_max − u_min. None (or g = 0) = every r_k free
+    offer_baselines : :class:`OfferBaselines`, the settlement baselines each step's offer is
+        measured against (event model, open loop only): the LP then pays the reserve only
+        for what those baselines would see of it (:func:`hvacflex.opt.lp.add_visible_offers`).
+        None = the reserve is paid at q_k·r_k
 
     After construction every array field is a read-only float array of its full shape
     (``d_sigma`` (N,nd), ``u_min``/``u_max`` (N,m), ``y_min``/``y_max`` (N,ny),
@@ -238,6 +348,7 @@ class RMPCProblem:
     il_allowance_carry_steps: int = 0
     reserve_power_coeff_kw_per_kg_s: FloatArray | None = None
     reserve_fixed_kg_s: FloatArray | None = None
+    offer_baselines: OfferBaselines | None = None
     _structure: RMPCStructure = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -258,6 +369,7 @@ class RMPCProblem:
                 robust=self.robust,
                 il_event_max_steps=self.il_event_max_steps,
                 il_event_recovery_steps=self.il_event_recovery_steps,
+                visible_offers=self.offer_baselines is not None,
             ),
         )
 
@@ -447,6 +559,27 @@ class RMPCProblem:
         )
         self._check_feedback()
         self._check_fixed_reserve()
+        self._check_offer_baselines()
+
+    def _check_offer_baselines(self) -> None:
+        """Offer baselines need the open-loop event model and one entry per step."""
+        baselines = self.offer_baselines
+        if baselines is None:
+            return
+        if self.il_event_max_steps is None or self.robust == "feedback":
+            raise ProblemError(
+                "offer baselines need the IL event model and the open-loop LP",
+                source=_SOURCE,
+                field="offer_baselines",
+                hint="set il_event_max_steps (and not robust='feedback'), or pass None",
+            )
+        if baselines.horizon != self.horizon:
+            raise ProblemError(
+                f"offer baselines cover {baselines.horizon} steps, the horizon is {self.horizon}",
+                source=_SOURCE,
+                field="offer_baselines",
+                hint="one fixed baseline and one planned-baseline flag per step",
+            )
 
     def _check_fixed_reserve(self) -> None:
         """Normalise ``reserve_fixed_kg_s`` to a read-only (g, m) array (g = 0 for None) and
@@ -666,6 +799,7 @@ class RMPCStructure:
     robust: str
     il_event_max_steps: int | None = None  # D; None = whole-horizon model
     il_event_recovery_steps: int = 0  # R (α and c enter row bounds only)
+    visible_offers: bool = False  # offer columns and rows (add_visible_offers)
 
     def differences(self, other: RMPCStructure) -> list[str]:
         """Names of the fields in which ``other`` differs from this structure."""
@@ -675,7 +809,7 @@ class RMPCStructure:
                 names.append(name)
         if self.horizon != other.horizon:
             names.append("horizon")
-        for name in ("robust", "il_event_max_steps", "il_event_recovery_steps"):
+        for name in ("robust", "il_event_max_steps", "il_event_recovery_steps", "visible_offers"):
             if getattr(self, name) != getattr(other, name):
                 names.append(name)
         return names
@@ -690,4 +824,6 @@ class RMPCStructure:
         digest.update(f"{self.horizon}|{self.robust}".encode())
         if self.il_event_max_steps is not None:
             digest.update(f"|D={self.il_event_max_steps}|R={self.il_event_recovery_steps}".encode())
+        if self.visible_offers:
+            digest.update(b"|visible-offers")
         return digest.hexdigest()

@@ -16,7 +16,7 @@ import numpy as np
 from hvacflex.opt.events import event_trajectory, reserve_responses, worst_event_output
 from hvacflex.opt.lp import PlanColumns
 from hvacflex.opt.options import RESERVE_TIE_BREAK_SGD_PER_KG_S_HOUR
-from hvacflex.opt.problem import FloatArray, RMPCProblem
+from hvacflex.opt.problem import FloatArray, IntArray, RMPCProblem
 from hvacflex.units import KWH_PER_MWH
 
 __all__ = [
@@ -54,7 +54,8 @@ class RMPCSolution:
     objective_sgd : energy_cost − reserve_revenue + comfort_penalty + peak_charge [SGD]
         (the reserve tie-break ``tie_break_sgd`` is excluded)
     u, r : (N, m) planned flows and reserve flows [kg/s] (r = 0 on masked inputs)
-    power_kw : (N,) P_k = p0_k + p_k·u_k [kW];  reserve_kw : (N,) R_k = q_k·r_k [kW]
+    power_kw : (N,) P_k = p0_k + p_k·u_k [kW];  reserve_kw : (N,) R_k = q_k·r_k [kW], or
+        the visible offers where the problem has ``offer_baselines``
     peak_kw : max_k P_k [kW];  peak_charge_sgd : β [SGD]
     slack : (N, ny) ε_k for outputs at steps 1..N [K];  delta : (N, ny) robust margins δ_k [K]
         (zero for robust="none"; for robust="dual" the equivalent tightening, for reference)
@@ -154,8 +155,9 @@ def failed_solution(
 
 @dataclass(frozen=True, eq=False)
 class Plan:
-    """A plan read from an LP solution: u, r (N, m) [kg/s], slack (N, ny) [K], β [SGD] and
-    the nominal trajectories (N+1, n) [°C]."""
+    """A plan read from an LP solution: u, r (N, m) [kg/s], slack (N, ny) [K], β [SGD], the
+    nominal trajectories (N+1, n) [°C] and, where the LP paid only the offers its baselines
+    see (:func:`hvacflex.opt.lp.add_visible_offers`), those offers (N,) [kW]."""
 
     u: FloatArray
     r: FloatArray
@@ -163,10 +165,17 @@ class Plan:
     peak_charge_sgd: float
     x_served: FloatArray
     x_curtailed: FloatArray
+    offered_kw: FloatArray | None = None
 
 
-def plan_from_values(problem: RMPCProblem, plan: PlanColumns, values: FloatArray) -> Plan:
-    """The plan in the primal ``values`` of an LP with the plan columns ``plan``."""
+def plan_from_values(
+    problem: RMPCProblem,
+    plan: PlanColumns,
+    values: FloatArray,
+    offered: IntArray | None = None,
+) -> Plan:
+    """The plan in the primal ``values`` of an LP with the plan columns ``plan`` (and the
+    offer columns ``offered`` (N,), if it has them)."""
     r = np.zeros((problem.horizon, problem.m))
     r[:, plan.reserve_inputs] = np.maximum(values[plan.r], 0.0)
     x_served = np.vstack([problem.x0, values[plan.x]])
@@ -189,6 +198,9 @@ def plan_from_values(problem: RMPCProblem, plan: PlanColumns, values: FloatArray
         peak_charge_sgd=float(values[plan.beta]),
         x_served=x_served,
         x_curtailed=x_curtailed,
+        offered_kw=(
+            None if offered is None or offered.size == 0 else np.maximum(values[offered], 0.0)
+        ),
     )
 
 
@@ -229,7 +241,11 @@ def plan_solution(
     p = problem.power_coeff_kw_per_kg_s
     u, r, slack, peak_charge_sgd = plan.u, plan.r, plan.slack, plan.peak_charge_sgd
     power = problem.power_offset_kw + np.einsum("km,km->k", p, u)
-    reserve = np.einsum("km,km->k", problem.reserve_kw_per_kg_s, r)
+    reserve = (
+        np.einsum("km,km->k", problem.reserve_kw_per_kg_s, r)
+        if plan.offered_kw is None
+        else plan.offered_kw
+    )
     energy = float(dt * problem.energy_price_sgd_per_mwh @ power / KWH_PER_MWH)
     revenue = float(dt * problem.reserve_price_sgd_per_mwh @ reserve / KWH_PER_MWH)
     comfort = float(problem.comfort_penalty_sgd_per_kelvin_hour * dt * slack.sum())

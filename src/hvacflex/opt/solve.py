@@ -504,7 +504,7 @@ class RMPCSolver:
             problem,
             status=status,
             message=message,
-            plan=plan_from_values(problem, self._layout.plan, values),
+            plan=plan_from_values(problem, self._layout.plan, values, self._layout.offered),
             delta=delta,
             start=start,
             highs_time_s=highs_time,
