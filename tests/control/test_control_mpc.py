@@ -367,3 +367,48 @@ def test_the_plan_is_paid_for_what_the_told_baselines_see(setup: Setup) -> None:
     plain = make_controller(replace(setup, config=replace(setup.config, reserve=off)))
     assert isinstance(plain, MPCController)
     assert plain.problem(x, setup.forecaster.forecast(20, 49), 0.0).offer_baselines is None
+
+
+def test_the_paid_steps_move_with_every_period_since_the_plan(setup: Setup) -> None:
+    """The steps a plan could show offers at are moved by the periods since that plan —
+    the ones held under a locked event included — its last step repeated."""
+    controller, _, _ = _offer_case(setup)
+    x = np.full(len(setup.model.node_names), 25.0)
+    forecast = setup.forecaster.forecast(20, 49)
+    controller.act(PeriodInputs(x, forecast, 0.0))
+    seen = controller._plan_seen_kw
+    assert seen is not None and (seen < 0).any() and (seen >= 0).any()
+    horizon = seen.size
+    steps = controller._seen_steps(horizon)
+    assert steps is not None
+    np.testing.assert_array_equal(steps, seen >= 0)  # the same period: not moved
+    for held in (1, 2):
+        controller.hold(forecast, np.zeros(len(x)))
+        steps = controller._seen_steps(horizon)
+        assert steps is not None
+        expected = np.concatenate([seen[held:], np.repeat(seen[-1:], held)]) >= 0
+        np.testing.assert_array_equal(steps, expected)
+
+
+def test_planned_flows_within_round_off_of_a_limit_are_the_limit(setup: Setup) -> None:
+    """A flow 1e-13 kg/s above an unoccupied zero would start the fan: it is snapped."""
+    controller, problem, _ = _offer_case(setup)
+    low = np.asarray(problem.u_min, dtype=float)
+    u = np.array(low, copy=True)
+    u[0] += 3.5e-13
+    u[1] = controller._flow_max - 1e-12
+    failed = failed_solution(
+        problem,
+        status=SolveStatus.TIME_LIMIT,
+        message="a plan made up for the test",
+        delta=np.zeros((problem.horizon, problem.ny)),
+        start=time.perf_counter(),
+        highs_time_s=0.0,
+        simplex_iterations=0,
+        warm_start=False,
+    )
+    plan = replace(failed, u=u, r=np.zeros_like(u))
+    flow, reserve = controller._snapped_reserve_kg_s(problem, plan, 2)
+    np.testing.assert_array_equal(flow[0], low[0])
+    np.testing.assert_array_equal(flow[1], controller._flow_max)
+    assert (reserve == 0.0).all()

@@ -339,7 +339,7 @@ def test_stress_week_meets_issue_25s_done_when(tmp_path: Path) -> None:
     """Issue 25's done-when case: ``rmpc``, 5 days from 2014-03-03, stress activations, on
     the RC plant. Measured (docs/il_events.md, 2026-12-05): 13 activated periods, offered in
     them 4.44 kWh, delivered capped at the offer 98 % (0.07 kWh short in one period), the
-    plant's counterfactual 138 %, offered in weekday office hours 37.5 kWh (≥ 36); with the
+    plant's counterfactual 138 %, offered in weekday office hours 36.8 kWh (≥ 36); with the
     plan paid q·r and the offers cut afterwards (``plan_visible_offers`` off) 25.5 kWh and
     90 %."""
     cfg = with_overrides(preset("rmpc", start=START, days=5.0), {"activation.mode": "stress"})

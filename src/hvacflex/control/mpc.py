@@ -93,6 +93,9 @@ def comfort_bounds_at_period_ends(
 
 
 RESERVE_FLOW_TOLERANCE_KG_S = 1e-6
+FLOW_SNAP_TOLERANCE_KG_S = 1e-9
+"""A planned flow this close to a limit is the limit (the LP's round-off; a flow of 1e-13
+kg/s above an unoccupied zero would start the fan)."""
 """Reserve flows below this are zero up to the solver's tolerance and are not offered."""
 
 BASELINE_TOLERANCE_KW = 1e-6
@@ -176,7 +179,9 @@ class MPCController(Controller):
         self._committed_kg_s = np.zeros((0, len(building.zone_names)))
         self._previous_planned_kw: float | None = None
         self._plan_seen_kw: FloatArray | None = None
-        """What the last optimal plan's baselines saw of its offers (:meth:`_seen_kw`)."""
+        """What the last optimal plan's baselines could see (:meth:`_seen_kw`)."""
+        self._periods_since_plan = 0
+        """Periods begun since the last optimal plan was made (decided or held)."""
         self._plan_age = 0
         self._estimator = KalmanEstimator(estimation) if estimation is not None else None
         self._network = build_network(building) if linearisation == "trajectory" else None
@@ -226,6 +231,7 @@ class MPCController(Controller):
         period, with the fixed model (the last plan is stale: the next :meth:`act` does not
         re-linearise about it)."""
         self._step_model, self._held = self._model, True
+        self._periods_since_plan += 1
         if self._estimator is None or measured_zone_temp_degc is None:
             return
         self._estimator.estimate(measured_zone_temp_degc, self._model)
@@ -392,7 +398,7 @@ class MPCController(Controller):
         seen = self._plan_seen_kw
         if seen is None:
             return None
-        shift = self._plan_age + 1
+        shift = self._periods_since_plan
         moved = np.concatenate([seen[shift:], np.repeat(seen[-1:], min(shift, seen.size))])
         steps: BoolArray = moved[:horizon] >= 0.0
         return steps
@@ -485,6 +491,7 @@ class MPCController(Controller):
         fleet coordinator's), applied as if the solver had returned it."""
         x_degc, forecast = inputs.x_degc, inputs.forecast
         measured_zone_temp_degc = inputs.measured_zone_temp_degc
+        self._periods_since_plan += 1
         offset = extra = None
         if self._estimator is not None:
             if measured_zone_temp_degc is None:
@@ -574,13 +581,12 @@ class MPCController(Controller):
         if solution.status is SolveStatus.OPTIMAL:
             self._previous_plan, self._plan_age = solution, 0
             self._plan_seen_kw = self._seen_kw(problem, solution)
+            self._periods_since_plan = 0
             c = self._model.c
             # the LP's solution satisfies its bounds to the solver tolerance (~1e-9): snap
             # the applied flows onto the physical limits
-            low = np.asarray(problem.u_min, dtype=float)[0]  # (N, m) after validation
-            flow = np.clip(solution.u[0], low, self._flow_max)
-            reserve = np.clip(solution.r[0], 0.0, flow - low)
-            reserve[reserve < RESERVE_FLOW_TOLERANCE_KG_S] = 0.0
+            flow_all, reserve_all = self._snapped_reserve_kg_s(problem, solution, 1)
+            flow, reserve = flow_all[0], reserve_all[0]
             served_kw = np.asarray(solution.power_kw, dtype=float)
             offer_kw = float(problem.reserve_kw_per_kg_s[0] @ reserve)
             if not self._commit_ahead:  # decided now: offer only what the baseline sees
@@ -625,9 +631,13 @@ class MPCController(Controller):
         self, problem: RMPCProblem, solution: RMPCSolution, steps: int
     ) -> tuple[FloatArray, FloatArray]:
         """(steps, m) each: the plan's u and r of the first ``steps`` steps snapped onto the
-        physical limits (u_min ≤ u − r, u ≤ u_max; r below the solver tolerance is 0)."""
+        physical limits (u_min ≤ u − r, u ≤ u_max; u within ``FLOW_SNAP_TOLERANCE_KG_S`` of a
+        limit is the limit; r below the solver tolerance is 0)."""
         low = np.asarray(problem.u_min, dtype=float)[:steps]
-        flow = np.clip(solution.u[:steps], low, self._flow_max)
+        high = np.broadcast_to(self._flow_max, low.shape)
+        flow = np.clip(solution.u[:steps], low, high)
+        flow = np.where(flow - low < FLOW_SNAP_TOLERANCE_KG_S, low, flow)
+        flow = np.where(high - flow < FLOW_SNAP_TOLERANCE_KG_S, high, flow)
         reserve = np.clip(solution.r[:steps], 0.0, flow - low)
         reserve[reserve < RESERVE_FLOW_TOLERANCE_KG_S] = 0.0
         return flow, reserve
@@ -770,6 +780,7 @@ class MPCController(Controller):
             "basis": self._solver.get_basis() if self._solver is not None else self._pending_basis,
             "previous_plan": self._previous_plan,
             "plan_seen_kw": self._plan_seen_kw,
+            "periods_since_plan": self._periods_since_plan,
             "plan_age": self._plan_age,
             "estimator": self._estimator.get_state() if self._estimator is not None else None,
             "step_model": self._step_model,
@@ -794,6 +805,7 @@ class MPCController(Controller):
         self._previous_plan = state["previous_plan"]
         self._plan_seen_kw = state.get("plan_seen_kw")
         self._plan_age = state["plan_age"]
+        self._periods_since_plan = int(state.get("periods_since_plan", self._plan_age))
         if self._estimator is not None and state.get("estimator") is not None:
             self._estimator.set_state(state["estimator"])
         self._step_model = state.get("step_model", self._model)

@@ -42,7 +42,7 @@ from hvacflex.config import (
 )
 from hvacflex.control.base import Action, FloatArray, PeriodInputs
 from hvacflex.control.demand_limit import forecast_period_power_kw
-from hvacflex.control.mpc import RESERVE_FLOW_TOLERANCE_KG_S, MPCController
+from hvacflex.control.mpc import MPCController
 from hvacflex.data.gains import DEFAULT_OFFICE_SCHEDULE, OfficeSchedule
 from hvacflex.fleet.schema import Fleet, FleetBuilding, fleet_from_dict
 from hvacflex.opt import RMPCProblem, RMPCSolution, RMPCSolver, SolveStatus
@@ -126,10 +126,7 @@ class FleetController(MPCController):
     def first_offer_kw(self, problem: RMPCProblem, plan: RMPCSolution) -> tuple[float, float]:
         """(the offer q₀·r₀ [kW], the curtailed power P₀ − p₀·r₀ [kW]) of ``plan``'s first
         period, its flows snapped onto the physical limits as :meth:`act` snaps them."""
-        low = np.asarray(problem.u_min, dtype=float)[0]
-        flow = np.clip(plan.u[0], low, self._flow_max)
-        reserve = np.clip(plan.r[0], 0.0, flow - low)
-        reserve[reserve < RESERVE_FLOW_TOLERANCE_KG_S] = 0.0
+        reserve = self._snapped_reserve_kg_s(problem, plan, 1)[1][0]
         coeff = problem.power_coeff_kw_per_kg_s[0]
         curtailed = float(plan.power_kw[0]) - float(coeff @ reserve)
         return float(problem.reserve_kw_per_kg_s[0] @ reserve), curtailed

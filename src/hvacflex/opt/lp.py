@@ -46,7 +46,10 @@ from hvacflex.opt.events import (
     event_rows,
     reserve_responses,
 )
-from hvacflex.opt.options import RESERVE_TIE_BREAK_SGD_PER_KG_S_HOUR
+from hvacflex.opt.options import (
+    RESERVE_TIE_BREAK_SGD_PER_KG_S_HOUR,
+    UNSEEN_TIE_BREAK_SGD_PER_KW_HOUR,
+)
 from hvacflex.opt.problem import FloatArray, IntArray, RMPCProblem
 from hvacflex.opt.robust import dual_row_entries, impulse_responses
 from hvacflex.units import KWH_PER_MWH
@@ -539,7 +542,7 @@ def add_il_event_comfort(
     return index, rows
 
 
-def add_visible_offers(lp: LPBuilder, p: RMPCProblem, v: PlanColumns) -> IntArray:
+def add_visible_offers(lp: LPBuilder, p: RMPCProblem, v: PlanColumns) -> tuple[IntArray, IntArray]:
     """Offered capacity R_k ≥ 0 [kW] paid only for what the settlement baselines see
     (``p.offer_baselines``, :class:`~hvacflex.opt.problem.OfferBaselines`; none: (0,)).
 
@@ -555,12 +558,15 @@ def add_visible_offers(lp: LPBuilder, p: RMPCProblem, v: PlanColumns) -> IntArra
       ((N, D) rows; free where l > k or a similar-days baseline replaces them).
 
     Every baseline gets ``tolerance_kw``. ρ, p and q vary from step to step (varying
-    coefficients); the rows' structure depends on N and D only.
+    coefficients); the rows' structure depends on N and D only. σ costs the reserve price
+    plus :data:`~hvacflex.opt.options.UNSEEN_TIE_BREAK_SGD_PER_KW_HOUR`, so R − σ is the
+    paid capacity and σ is the unseen rise alone. A step whose q_k is 0 (ρ = 0) is not paid.
+    Returns the columns of R and σ ((N,) each; (0,) without baselines).
     """
     baselines = p.offer_baselines
     horizon = p.horizon
     if baselines is None or not v.has_reserve or not v.event_model:
-        return np.zeros(0, dtype=np.int64)
+        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
     assert p.il_event_max_steps is not None  # checked by RMPCProblem
     max_steps = p.il_event_max_steps
     rho = baselines.meter_ratio
@@ -569,6 +575,7 @@ def add_visible_offers(lp: LPBuilder, p: RMPCProblem, v: PlanColumns) -> IntArra
     paid = np.array(baselines.offer_steps, dtype=bool)
     paid[: p.fixed_reserve_steps] = False
     paid[np.isneginf(fixed)] = False
+    paid &= (p.reserve_kw_per_kg_s[:, v.reserve_inputs] > 0.0).any(axis=1)
     offered = lp.add_columns(
         (horizon,), lower=0.0, upper=np.where(paid, np.inf, 0.0), time_indexed=True
     )
@@ -607,8 +614,11 @@ def add_visible_offers(lp: LPBuilder, p: RMPCProblem, v: PlanColumns) -> IntArra
     # the revenue is paid on R, not on q·r (r keeps its tie-break)
     lp.set_cost(v.r, p.dt_h * RESERVE_TIE_BREAK_SGD_PER_KG_S_HOUR)
     lp.set_cost(offered, -p.dt_h * p.reserve_price_sgd_per_mwh / KWH_PER_MWH)
-    lp.set_cost(unseen, p.dt_h * p.reserve_price_sgd_per_mwh / KWH_PER_MWH)
-    return offered
+    lp.set_cost(
+        unseen,
+        p.dt_h * (p.reserve_price_sgd_per_mwh / KWH_PER_MWH + UNSEEN_TIE_BREAK_SGD_PER_KW_HOUR),
+    )
+    return offered, unseen
 
 
 def set_objective(lp: LPBuilder, p: RMPCProblem, v: PlanColumns) -> None:
@@ -631,6 +641,7 @@ class LPLayout:
     event_rows: IntArray
     events: EventRows
     offered: IntArray  # (N,) R_k of add_visible_offers, or (0,)
+    unseen: IntArray  # (N,) σ_k of add_visible_offers, or (0,)
 
     @property
     def has_curtailed(self) -> bool:
@@ -660,12 +671,12 @@ def build_lp(
     add_power_definition(lp, p, v)
     add_peak_epigraph(lp, p, v)
     set_objective(lp, p, v)
-    offered = add_visible_offers(lp, p, v)
+    offered, unseen = add_visible_offers(lp, p, v)
     event_index, events = add_il_event_comfort(lp, p, v, margin_k)
     if p.robust == "dual":
         if responses is None:
             responses = impulse_responses(p.a_matrix, p.e_matrix, p.c_matrix, p.horizon)
         add_dual_robust_rows(lp, p, comfort_rows, responses)
     program = lp.finish()
-    layout = LPLayout(v, program.num_cols, program.num_rows, event_index, events, offered)
+    layout = LPLayout(v, program.num_cols, program.num_rows, event_index, events, offered, unseen)
     return program, layout

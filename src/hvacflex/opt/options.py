@@ -29,6 +29,11 @@ RESERVE_TIE_BREAK_SGD_PER_KG_S_HOUR = 1e-5
 """Cost per kg/s of reserve flow per hour that breaks the b = 0 tie towards r = 0
 [SGD/(kg/s·h)]; excluded from the reported objective."""
 
+UNSEEN_TIE_BREAK_SGD_PER_KW_HOUR = 1e-6
+"""Cost per kW of the unseen rise σ per hour on top of the reserve price, so that the paid
+capacity R and σ are not raised together at no cost (:func:`hvacflex.opt.lp.add_visible_offers`)
+[SGD/(kW·h)]."""
+
 _FEEDBACK_SOURCE = "RMPCProblem.feedback"
 
 

@@ -172,10 +172,12 @@ def plan_from_values(
     problem: RMPCProblem,
     plan: PlanColumns,
     values: FloatArray,
-    offered: IntArray | None = None,
+    offer_columns: tuple[IntArray, IntArray] | None = None,
 ) -> Plan:
     """The plan in the primal ``values`` of an LP with the plan columns ``plan`` (and the
-    offer columns ``offered`` (N,), if it has them)."""
+    columns (R, σ) of :func:`~hvacflex.opt.lp.add_visible_offers`, if it has them: the
+    offers are then max(0, R − σ), and on the committed steps k < g, which were sold
+    before, q_k·r_k)."""
     r = np.zeros((problem.horizon, problem.m))
     r[:, plan.reserve_inputs] = np.maximum(values[plan.r], 0.0)
     x_served = np.vstack([problem.x0, values[plan.x]])
@@ -198,10 +200,23 @@ def plan_from_values(
         peak_charge_sgd=float(values[plan.beta]),
         x_served=x_served,
         x_curtailed=x_curtailed,
-        offered_kw=(
-            None if offered is None or offered.size == 0 else np.maximum(values[offered], 0.0)
-        ),
+        offered_kw=_offered_kw(problem, r, values, offer_columns),
     )
+
+
+def _offered_kw(
+    problem: RMPCProblem,
+    r: FloatArray,
+    values: FloatArray,
+    offer_columns: tuple[IntArray, IntArray] | None,
+) -> FloatArray | None:
+    if offer_columns is None or offer_columns[0].size == 0:
+        return None
+    offered, unseen = offer_columns
+    paid: FloatArray = np.maximum(values[offered] - values[unseen], 0.0)
+    g = problem.fixed_reserve_steps
+    paid[:g] = np.einsum("km,km->k", problem.reserve_kw_per_kg_s[:g], r[:g])
+    return paid
 
 
 def plan_solution(

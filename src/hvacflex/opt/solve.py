@@ -504,7 +504,12 @@ class RMPCSolver:
             problem,
             status=status,
             message=message,
-            plan=plan_from_values(problem, self._layout.plan, values, self._layout.offered),
+            plan=plan_from_values(
+                problem,
+                self._layout.plan,
+                values,
+                (self._layout.offered, self._layout.unseen),
+            ),
             delta=delta,
             start=start,
             highs_time_s=highs_time,
