@@ -44,20 +44,25 @@ def test_unplanned_action_predicts_one_step_on_the_model_by_hand(setup: Setup) -
     assert np.isnan(action.planned_power_kw)
 
 
+def _timed_out(problem: RMPCProblem) -> RMPCSolution:
+    """A solve of ``problem`` that timed out without a plan."""
+    return failed_solution(
+        problem,
+        status=SolveStatus.TIME_LIMIT,
+        message="time limit",
+        delta=np.zeros((problem.horizon, problem.ny)),
+        start=time.perf_counter(),
+        highs_time_s=0.0,
+        simplex_iterations=0,
+        warm_start=False,
+    )
+
+
 class _FailingSolver:
     """Stands in for the LP solver: every solve reports a time-out without a plan."""
 
     def solve(self, problem: RMPCProblem) -> RMPCSolution:
-        return failed_solution(
-            problem,
-            status=SolveStatus.TIME_LIMIT,
-            message="time limit",
-            delta=np.zeros((problem.horizon, problem.ny)),
-            start=time.perf_counter(),
-            highs_time_s=0.0,
-            simplex_iterations=0,
-            warm_start=False,
-        )
+        return _timed_out(problem)
 
 
 def test_failed_solve_without_previous_plan_falls_back_to_the_thermostat(setup: Setup) -> None:
@@ -397,17 +402,7 @@ def test_planned_flows_within_round_off_of_a_limit_are_the_limit(setup: Setup) -
     u = np.array(low, copy=True)
     u[0] += 3.5e-13
     u[1] = controller._flow_max - 1e-12
-    failed = failed_solution(
-        problem,
-        status=SolveStatus.TIME_LIMIT,
-        message="a plan made up for the test",
-        delta=np.zeros((problem.horizon, problem.ny)),
-        start=time.perf_counter(),
-        highs_time_s=0.0,
-        simplex_iterations=0,
-        warm_start=False,
-    )
-    plan = replace(failed, u=u, r=np.zeros_like(u))
+    plan = replace(_timed_out(problem), u=u, r=np.zeros_like(u))  # a made-up plan
     flow, reserve = controller._snapped_reserve_kg_s(problem, plan, 2)
     np.testing.assert_array_equal(flow[0], low[0])
     np.testing.assert_array_equal(flow[1], controller._flow_max)
