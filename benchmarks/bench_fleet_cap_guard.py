@@ -14,11 +14,13 @@ p90) in µs and the machine's load.
 from __future__ import annotations
 
 import argparse
-import os
-import platform
 
 import numpy as np
-from bench_loop_parts import per_call_us  # beside this script: on sys.path when run
+from bench_loop_parts import (  # beside this script: on sys.path when run
+    machine_line,
+    per_call_us,
+    print_us_rows,
+)
 
 from hvacflex.control.base import PeriodInputs
 from hvacflex.fleet.agent import BuildingAgent, FleetSettings
@@ -58,16 +60,12 @@ def main() -> None:
             lambda i: act(plan_kw), args.calls
         ),
     }
-    load = ", ".join(f"{x:.1f}" for x in os.getloadavg())
     print(
-        f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
-        f"load {load}; plan {plan_kw:.2f} kW, predicted "
-        f"{controller.predicted_power_kw(inputs, flow):.2f} kW"
+        machine_line(
+            f"plan {plan_kw:.2f} kW, predicted {controller.predicted_power_kw(inputs, flow):.2f} kW"
+        )
     )
-    width = max(len(name) for name in rows)
-    print(f"{'':{width}}  median µs     p90 µs")
-    for name, (median, p90) in rows.items():
-        print(f"{name:{width}}  {median:9.1f}  {p90:9.1f}")
+    print_us_rows(rows)
 
 
 if __name__ == "__main__":

@@ -31,6 +31,21 @@ def per_call_us(call: Callable[[int], object], calls: int) -> tuple[float, float
     return float(np.median(times_us)), float(np.percentile(times_us, 90.0))
 
 
+def machine_line(detail: str = "") -> str:
+    """The machine, its cores and load average (what every benchmark prints first)."""
+    load = ", ".join(f"{x:.1f}" for x in os.getloadavg())
+    line = f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
+    return line + f"load {load}" + (f"; {detail}" if detail else "")
+
+
+def print_us_rows(rows: dict[str, tuple[float, float]]) -> None:
+    """Rows of (median, p90) [µs] under a header, names padded to one width."""
+    width = max(len(name) for name in rows)
+    print(f"{'':{width}}  median µs     p90 µs")
+    for name, (median, p90) in rows.items():
+        print(f"{name:{width}}  {median:9.1f}  {p90:9.1f}")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--calls", type=int, default=2000)
@@ -55,11 +70,7 @@ def main() -> None:
             lambda i: setup.forecaster.forecast(i % steps, horizon), args.calls
         ),
     }
-    load = ", ".join(f"{x:.1f}" for x in os.getloadavg())
-    print(
-        f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
-        f"load {load}; {args.calls} calls each"
-    )
+    print(machine_line(f"{args.calls} calls each"))
     print("| part | median [µs] | p90 [µs] |")
     print("|---|---:|---:|")
     for name, (median, p90) in rows.items():

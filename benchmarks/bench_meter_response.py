@@ -14,11 +14,13 @@ and the machine's load.
 from __future__ import annotations
 
 import argparse
-import os
-import platform
 
 import numpy as np
-from bench_loop_parts import per_call_us  # beside this script: on sys.path when run
+from bench_loop_parts import (  # beside this script: on sys.path when run
+    machine_line,
+    per_call_us,
+    print_us_rows,
+)
 
 from hvacflex.config import preset, with_overrides
 from hvacflex.control.meter_response import WINDOW_PERIODS, MeterHistory
@@ -72,15 +74,8 @@ def main() -> None:
             {"reserve.meter_calibrated_offers": False}, args.periods
         ),
     }
-    load = ", ".join(f"{x:.1f}" for x in os.getloadavg())
-    print(
-        f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
-        f"load {load}; ρ of the full window {ratio:.3f}"
-    )
-    width = max(len(name) for name in rows)
-    print(f"{'':{width}}  median µs     p90 µs")
-    for name, (median, p90) in rows.items():
-        print(f"{name:{width}}  {median:9.1f}  {p90:9.1f}")
+    print(machine_line(f"ρ of the full window {ratio:.3f}"))
+    print_us_rows(rows)
 
 
 if __name__ == "__main__":

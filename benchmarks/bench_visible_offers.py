@@ -13,10 +13,9 @@ times (median, p90) in ms, their ratio and the machine's load.
 from __future__ import annotations
 
 import argparse
-import os
-import platform
 
-from bench_meter_response import warm_period_us  # beside this script: on sys.path when run
+from bench_loop_parts import machine_line  # beside this script: on sys.path when run
+from bench_meter_response import warm_period_us
 
 
 def main() -> None:
@@ -29,11 +28,7 @@ def main() -> None:
         for visible in (True, False):
             overrides = {"reserve.plan_visible_offers": visible, "activation.mode": "stress"}
             times[visible].append(warm_period_us(overrides, args.periods))
-    load = ", ".join(f"{x:.1f}" for x in os.getloadavg())
-    print(
-        f"machine: {platform.processor() or platform.machine()}, "
-        f"{os.cpu_count()} cores, load {load}"
-    )
+    print(machine_line())
     print(f"{'warm rmpc period':32}  median ms   p90 ms")
     for visible, label in (
         (True, "plan paid what is seen (default)"),

@@ -93,10 +93,11 @@ def comfort_bounds_at_period_ends(
 
 
 RESERVE_FLOW_TOLERANCE_KG_S = 1e-6
+"""Reserve flows below this are zero up to the solver's tolerance and are not offered."""
+
 FLOW_SNAP_TOLERANCE_KG_S = 1e-9
 """A planned flow this close to a limit is the limit (the LP's round-off; a flow of 1e-13
 kg/s above an unoccupied zero would start the fan)."""
-"""Reserve flows below this are zero up to the solver's tolerance and are not offered."""
 
 BASELINE_TOLERANCE_KW = 1e-6
 """An offer that exceeds what the baseline would see by no more than this is kept [kW]."""
@@ -361,7 +362,7 @@ class MPCController(Controller):
         them (:meth:`note_baseline_power`): its similar-days baseline where it has one, else
         the plan's own powers P̂_{s−1} and, for the starts s = 0, :meth:`_baseline_now`. The
         LP pays only what they see at ``offer_steps`` (``[reserve] plan_visible_offers``)
-        and :meth:`_visible_offer_kw` sizes the offers to them."""
+        and :meth:`_visible_offers_kw` sizes the offers to them."""
         reserve = self._reserve
         assert reserve.event_max_steps is not None
         fixed = np.full(horizon, np.nan)
@@ -584,13 +585,13 @@ class MPCController(Controller):
             self._periods_since_plan = 0
             c = self._model.c
             # the LP's solution satisfies its bounds to the solver tolerance (~1e-9): snap
-            # the applied flows onto the physical limits
-            flow_all, reserve_all = self._snapped_reserve_kg_s(problem, solution, 1)
-            flow, reserve = flow_all[0], reserve_all[0]
-            served_kw = np.asarray(solution.power_kw, dtype=float)
+            # the flows of every step an offer is sized for onto the physical limits, once
+            flows, reserves = self._snapped_reserve_kg_s(problem, solution, self._offer_steps)
+            visible_kw = self._visible_offers_kw(problem, solution.power_kw, reserves)
+            flow, reserve = flows[0], reserves[0]
             offer_kw = float(problem.reserve_kw_per_kg_s[0] @ reserve)
             if not self._commit_ahead:  # decided now: offer only what the baseline sees
-                offer_kw = self._visible_offer_kw(problem, served_kw, 0, reserve)
+                offer_kw = float(visible_kw[0])
                 reserve = reserve if offer_kw > 0.0 else np.zeros_like(reserve)
             return Action(
                 flow_kg_s=flow,
@@ -604,9 +605,9 @@ class MPCController(Controller):
                 delta_max_k=float(np.max(solution.delta, initial=0.0)),
                 predicted_served_degc=c @ solution.x_served[1],
                 predicted_curtailed_degc=c @ solution.x_curtailed[1],
-                event_plan=self._event_plan(problem, solution),
+                event_plan=self._event_plan(problem, solution, flows, reserves, visible_kw),
                 predicted_event_worst_degc=np.asarray(solution.y_event_worst[0], dtype=float),
-                offer_ahead=self._offer_ahead(problem, solution),
+                offer_ahead=self._offer_ahead(reserves, visible_kw),
                 offer_meter_ratio=self._meter_ratio,
             )
         return self._fallback(x_degc, forecast, solution)
@@ -642,16 +643,23 @@ class MPCController(Controller):
         reserve[reserve < RESERVE_FLOW_TOLERANCE_KG_S] = 0.0
         return flow, reserve
 
-    def _offer_ahead(self, problem: RMPCProblem, solution: RMPCSolution) -> ReserveOffer | None:
-        """The offer committed now for the period g steps ahead: the plan's r_g, sized to what
-        the baseline would see (:meth:`_visible_offer_kw`); None without commitments."""
+    @property
+    def _offer_steps(self) -> int:
+        """J: the plan's steps 0 … J − 1 an offer may be sized for — now (g = 0), the
+        committed one g and, under the event model, the event plan's D + R."""
+        events = self._reserve.event_max_steps
+        event_steps = 1 if events is None else events + self._reserve.event_recovery_steps
+        return min(max(self._commit_ahead + 1, event_steps), self._config.horizon_steps)
+
+    def _offer_ahead(self, reserves: FloatArray, visible_kw: FloatArray) -> ReserveOffer | None:
+        """The offer committed now for the period g steps ahead: the plan's snapped r_g
+        (``reserves`` (J, m)), sized to what the baseline would see (``visible_kw`` (J,),
+        :meth:`_visible_offers_kw`); None without commitments."""
         g = self._commit_ahead
         if not g:
             return None
-        _, reserve = self._snapped_reserve_kg_s(problem, solution, g + 1)
-        served_kw = np.asarray(solution.power_kw, dtype=float)
-        offer_kw = self._visible_offer_kw(problem, served_kw, g, reserve[g])
-        flow = reserve[g] if offer_kw > 0.0 else np.zeros_like(reserve[g])
+        offer_kw = float(visible_kw[g])
+        flow = reserves[g] if offer_kw > 0.0 else np.zeros_like(reserves[g])
         return ReserveOffer(flow_kg_s=flow, reserve_kw=offer_kw, meter_ratio=self._meter_ratio)
 
     def note_baseline_power(
@@ -685,11 +693,12 @@ class MPCController(Controller):
             return ("planned", previous)
         return ("metered", baseline)
 
-    def _visible_offer_kw(
-        self, problem: RMPCProblem, served_kw: FloatArray, j: int, reserve_flow_kg_s: FloatArray
-    ) -> float:
-        """The capacity offered for step j with reserve flows r_j (m,) [kg/s]: q_j·r_j, but no
-        more than the settlement baselines would see of it [kW], at least 0.
+    def _visible_offers_kw(
+        self, problem: RMPCProblem, served_kw: FloatArray, reserve_flow_kg_s: FloatArray
+    ) -> FloatArray:
+        """(J,) the capacity offered for each step j < J with reserve flows r_j
+        (``reserve_flow_kg_s`` (J, m)) [kg/s]: q_j·r_j, but no more than the settlement
+        baselines would see of it [kW], at least 0.
 
         An activation covering step j starts at some s ∈ [j − D + 1, j] (s ≥ 0) and is settled
         against the power of the period before s (``pre-event``): the plan's served power
@@ -706,42 +715,60 @@ class MPCController(Controller):
         to a metered baseline B (its level against the plan's level, as without ρ) B − P̂_j.
         ``served_kw`` (N,) is the plan's P̂ [kW]. The whole-horizon model (the paper's)
         offers q_j·r_j unchecked."""
-        offer_kw = float(problem.reserve_kw_per_kg_s[j] @ reserve_flow_kg_s)
+        served = np.asarray(served_kw, dtype=float)
+        steps = reserve_flow_kg_s.shape[0]
+        offer_kw = np.einsum("km,km->k", problem.reserve_kw_per_kg_s[:steps], reserve_flow_kg_s)
         max_steps = self._reserve.event_max_steps
-        if max_steps is None or offer_kw <= 0.0:
-            return max(offer_kw, 0.0)
-        baselines = self._offer_baselines(problem.horizon)
-        shed_kw = np.zeros(problem.horizon)
-        shed_kw[j] = problem.power_coeff_kw_per_kg_s[j] @ reserve_flow_kg_s
-        offers_kw = np.zeros(problem.horizon)
-        offers_kw[j] = offer_kw
-        seen = baselines.seen_kw(served_kw, shed_kw, offers_kw, min(max_steps, problem.horizon))
-        return max(float(seen[j]), 0.0)
+        if max_steps is None:
+            visible: FloatArray = np.maximum(offer_kw, 0.0)
+            return visible
+        horizon = problem.horizon
+        shed_kw = np.zeros(horizon)
+        shed_kw[:steps] = np.einsum(
+            "km,km->k", problem.power_coeff_kw_per_kg_s[:steps], reserve_flow_kg_s
+        )
+        offers_kw = np.zeros(horizon)
+        offers_kw[:steps] = offer_kw
+        seen = self._offer_baselines(horizon).seen_kw(
+            served, shed_kw, offers_kw, min(max_steps, horizon)
+        )
+        visible = np.maximum(seen[:steps], 0.0)
+        return visible
 
-    def _event_plan(self, problem: RMPCProblem, solution: RMPCSolution) -> EventPlan | None:
-        """The first D + R steps of an optimal plan, for an IL event starting now.
+    def _visible_offer_kw(
+        self, problem: RMPCProblem, served_kw: FloatArray, j: int, reserve_flow_kg_s: FloatArray
+    ) -> float:
+        """Step j's offer with reserve flows r_j (m,) [kg/s]: :meth:`_visible_offers_kw` of one
+        step [kW]."""
+        flows = np.zeros((j + 1, reserve_flow_kg_s.size))
+        flows[j] = reserve_flow_kg_s
+        return float(self._visible_offers_kw(problem, served_kw, flows)[j])
 
-        Flows are snapped onto the physical limits as the first step's are. ``None`` under the
-        whole-horizon model (an activation then curtails each period's fresh plan).
+    def _event_plan(
+        self,
+        problem: RMPCProblem,
+        solution: RMPCSolution,
+        flows: FloatArray,
+        reserves: FloatArray,
+        visible_kw: FloatArray,
+    ) -> EventPlan | None:
+        """The first D + R steps of an optimal plan, for an IL event starting now, from its
+        snapped flows and reserve flows (J, m) and their visible offers (J,)
+        (:meth:`_visible_offers_kw`). ``None`` under the whole-horizon model (an activation
+        then curtails each period's fresh plan).
         """
         reserve = self._reserve
         if reserve.event_max_steps is None:
             return None
         steps = min(reserve.event_max_steps + reserve.event_recovery_steps, solution.u.shape[0])
-        flow, flow_reserve = self._snapped_reserve_kg_s(problem, solution, steps)
-        served_kw = np.asarray(solution.power_kw, dtype=float)
+        flow, flow_reserve = flows[:steps], reserves[:steps].copy()
         reserve_coeff = np.asarray(problem.reserve_kw_per_kg_s, dtype=float)[:steps]
         offer_kw = np.einsum("km,km->k", reserve_coeff, flow_reserve)
         # committed steps (< g) were offered before; the others are offered from this plan
-        checked = range(
-            self._commit_ahead, steps if self._commit_ahead else reserve.event_max_steps
-        )
-        for j in checked:
-            if j >= steps:
-                break
-            offer_kw[j] = self._visible_offer_kw(problem, served_kw, j, flow_reserve[j])
-            if offer_kw[j] <= 0.0:
-                flow_reserve[j] = 0.0
+        end = steps if self._commit_ahead else min(reserve.event_max_steps, steps)
+        checked = slice(self._commit_ahead, end)
+        offer_kw[checked] = visible_kw[checked]
+        flow_reserve[checked][visible_kw[checked] <= 0.0] = 0.0
         coeff = np.asarray(problem.power_coeff_kw_per_kg_s, dtype=float)[:steps]
         offset = np.asarray(problem.power_offset_kw, dtype=float)[:steps]
         c = self._model.c
