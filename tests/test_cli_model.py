@@ -26,6 +26,7 @@ def test_the_model_groups_list_their_commands(group: str, commands: tuple[str, .
         (["--start", "03/03/2014"], "--start"),
         (["--days", "0"], "--days"),
         (["nosuchbuilding"], "nosuchbuilding"),
+        (["--surfaces", "tarp"], "--surfaces"),
     ],
 )
 def test_validate_energyplus_refuses_bad_input_before_any_run(

@@ -202,6 +202,11 @@ def building_export_idf(
         "vav", help="HVAC: vav (air loop + chiller), ideal (ideal loads) or none (free float)."
     ),
     weather: Path | None = typer.Option(None, help="EPW for the site (default: Singapore TMYx)."),  # noqa: B008
+    surfaces: str = typer.Option(
+        "energyplus",
+        help="Surface heat transfer: energyplus (its own convection, long-wave and rain) or "
+        "hvacflex (the building's constant films; docs/validation.md).",
+    ),
 ) -> None:
     """Write an EnergyPlus 25.2 model (IDF) of a building; run it with `energyplus -x`."""
     from hvacflex.building.io import load_building
@@ -211,7 +216,12 @@ def building_export_idf(
     from hvacflex.version import atomic_write_text
 
     try:
-        text = export_idf(load_building(resolve_building(building)), hvac=hvac, epw_path=weather)
+        text = export_idf(
+            load_building(resolve_building(building)),
+            hvac=hvac,
+            epw_path=weather,
+            surfaces=surfaces,
+        )
     except HvacflexError as exc:
         typer.echo(f"error: {exc}", err=True)
         raise typer.Exit(2) from None

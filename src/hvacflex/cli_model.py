@@ -58,6 +58,13 @@ def validate_energyplus(
     out: Path = typer.Option(  # noqa: B008
         Path("energyplus_validation"), "--out", help="Folder for the CSV tables and figures."
     ),
+    surfaces: str = typer.Option(
+        "energyplus",
+        "--surfaces",
+        help="EnergyPlus's surface heat transfer: energyplus (its own convection, long-wave and "
+        "rain: the model check) or hvacflex (the building's constant films: the "
+        "implementation check).",
+    ),
 ) -> None:
     """hvacflex's RC plant against EnergyPlus on the building's IDF export: free-float, and
     for office5 and office15 fixed-flow and thermostat (zone air RMSE, cooling energy, HVAC
@@ -65,6 +72,7 @@ def validate_energyplus(
     from datetime import date
 
     from hvacflex.building.io import load_building
+    from hvacflex.energyplus.export import SURFACE_MODELS
     from hvacflex.errors import HvacflexError, InputError
     from hvacflex.paths import resolve_building
     from hvacflex.report.tables import to_markdown
@@ -83,6 +91,13 @@ def validate_energyplus(
                 ) from None
         if out.exists() and not out.is_dir():
             raise InputError("is a file, not a folder", field="--out", value=str(out))
+        if surfaces not in SURFACE_MODELS:
+            raise InputError(
+                "unknown surface model",
+                field="--surfaces",
+                value=surfaces,
+                hint=f"choose one of {', '.join(SURFACE_MODELS)}",
+            )
         model = load_building(resolve_building(building))
         with task_progress(True, "energyplus", stage_count(model, starts)) as bar:
             result = run_energyplus_validation(
@@ -91,6 +106,7 @@ def validate_energyplus(
                 days=days,
                 spinup_days=spinup_days,
                 workdir=out,
+                surfaces=surfaces,
                 progress=bar.stage,
             )
         paths = write_energyplus_outputs(result, out)

@@ -299,6 +299,58 @@ def test_bad_hvac_kind_and_homeless_window_are_input_errors() -> None:
         export_idf(dataclasses.replace(building, walls=walls))
 
 
+def test_hvacflex_surfaces_are_the_buildings_films_without_long_wave_or_rain() -> None:
+    """``surfaces="hvacflex"``: every surface gets the building's films as fixed convection
+    coefficients (outside: the film less the long-wave a face keeps), every face that
+    hvacflex gives no long-wave exchange an emissivity of ~0, and the rain indicators off;
+    the default export has none of it."""
+    building = load_building(resolve_building("office5"))
+    default = parse_idf(export_idf(building))
+    objects = parse_idf(export_idf(building, surfaces="hvacflex"))
+    assert not by_class(default, "SurfaceProperty:ConvectionCoefficients")
+    assert by_class(default, "RunPeriod")[0][-2:] == ["Yes", "Yes"]
+    assert by_class(objects, "RunPeriod")[0][-2:] == ["No", "No"]
+    films = {f[0]: f[1:] for f in by_class(objects, "SurfaceProperty:ConvectionCoefficients")}
+    surfaces = {f[0]: f for f in by_class(objects, "BuildingSurface:Detailed")}
+    windows = {f[0] for f in by_class(objects, "FenestrationSurface:Detailed")}
+    assert set(films) == set(surfaces) | windows
+    inside = 1.0 / 0.13  # office5's constructions keep the default combined film
+    for name, fields in films.items():
+        assert fields[:2] == ["Inside", "Value"], name
+        assert float(fields[2]) == pytest.approx(inside), name
+        outdoors = name in windows or surfaces[name][5] == "Outdoors"
+        assert (len(fields) > 5) == outdoors, name
+    sigma_t3 = 5.670374419e-8 * 298.15**3
+    assert float(films["north_facade"][7]) == pytest.approx(25.0)
+    assert float(films["north_glazing"][7]) == pytest.approx(25.0 - 4 * 0.84 * sigma_t3)
+    emissivities = [float(f[6]) for f in by_class(objects, "Material")]
+    assert emissivities and max(emissivities) == pytest.approx(1e-4)
+    with pytest.raises(InputError, match="surfaces"):
+        export_idf(building, surfaces="tarp")
+
+
+def test_hvacflex_surfaces_keep_the_sky_where_the_building_models_it() -> None:
+    """A façade with ``thermal_emissivity`` keeps it (hvacflex's sky term), and its outside
+    coefficient is the film less the linearised long-wave 4 ε σ T³."""
+    shipped = load_building(resolve_building("office5"))
+    building = dataclasses.replace(
+        shipped,
+        walls=tuple(
+            dataclasses.replace(w, thermal_emissivity=0.9) if w.adjacent == OUTSIDE else w
+            for w in shipped.walls
+        ),
+    )
+    objects = parse_idf(export_idf(building, surfaces="hvacflex"))
+    films = {f[0]: f[1:] for f in by_class(objects, "SurfaceProperty:ConvectionCoefficients")}
+    sigma_t3 = 5.670374419e-8 * 298.15**3
+    assert float(films["south_facade"][7]) == pytest.approx(25.0 - 4 * 0.9 * sigma_t3)
+    materials = {f[0]: f for f in by_class(objects, "Material")}
+    constructions = {f[0]: f[1:] for f in by_class(objects, "Construction")}
+    surfaces = {f[0]: f for f in by_class(objects, "BuildingSurface:Detailed")}
+    outer = materials[constructions[surfaces["south_facade"][2]][0]]
+    assert float(outer[6]) == pytest.approx(0.9)
+
+
 def test_cli_writes_the_idf_and_rejects_bad_input(tmp_path: Path) -> None:
     runner = CliRunner()
     out = tmp_path / "office5.idf"
@@ -313,6 +365,16 @@ def test_cli_writes_the_idf_and_rejects_bad_input(tmp_path: Path) -> None:
     assert bad.exit_code == 2
     assert "unknown HVAC kind" in bad.output
     assert "Traceback" not in bad.output
+    films = runner.invoke(
+        app, ["building", "export-idf", "office5", "--out", str(out), "--surfaces", "hvacflex"]
+    )
+    assert films.exit_code == 0, films.output
+    assert by_class(parse_idf(out.read_text()), "SurfaceProperty:ConvectionCoefficients")
+    bad = runner.invoke(
+        app, ["building", "export-idf", "office5", "--out", str(out), "--surfaces", "x"]
+    )
+    assert bad.exit_code == 2
+    assert "unknown surface model" in bad.output and "Traceback" not in bad.output
     missing = runner.invoke(
         app, ["building", "export-idf", "office5", "--out", str(tmp_path / "no" / "x.idf")]
     )

@@ -15,6 +15,7 @@ import numpy as np
 
 from hvacflex.building.model import (
     ADIABATIC,
+    DEFAULT_INSIDE_FILM_W_PER_M2K,
     GROUND,
     OUTSIDE,
     Building,
@@ -24,6 +25,7 @@ from hvacflex.building.model import (
     Window,
 )
 from hvacflex.errors import InputError
+from hvacflex.units import STEFAN_BOLTZMANN_W_PER_M2K4
 
 DEFAULT_THERMAL_ABSORPTANCE = 0.9
 """Long-wave emissivity of a surface whose wall gives none [-] (EnergyPlus's default)."""
@@ -39,6 +41,19 @@ MIN_SPECIFIC_HEAT_J_PER_KGK = 100.0
 
 REFERENCE_SPECIFIC_HEAT_J_PER_KGK = 1000.0
 """Specific heat written for a layer given as a heat capacity only [J/(kg K)]."""
+
+NO_LONGWAVE_ABSORPTANCE = 1e-4
+"""Thermal absorptance written where hvacflex's films stand in for EnergyPlus's long-wave
+exchange (``films=True``): EnergyPlus needs one above 0, and at 1e-4 a face exchanges
+< 0.1 % of what it does at 0.9."""
+
+SIMPLE_GLAZING_EMISSIVITY = 0.84
+"""Long-wave emissivity of both faces of EnergyPlus's ``WindowMaterial:SimpleGlazingSystem``
+[-] (fixed by EnergyPlus; no input changes it)."""
+
+FILM_REFERENCE_TEMP_K = 298.15
+"""Temperature at which a combined film is split into its convective and linearised
+long-wave parts, 4 ε σ T³ [K] (25 °C)."""
 
 Vertex = tuple[float, float, float]
 
@@ -108,7 +123,7 @@ class ConstructionVariant:
         return names[::-1] if self.reversed else names
 
 
-def wall_variant(wall: Wall) -> ConstructionVariant:
+def wall_variant(wall: Wall, *, films: bool = False) -> ConstructionVariant:
     """The construction of ``wall`` with its outside face's absorptances where it faces out.
 
     A wall on an adiabatic plane (hvacflex: no heat crosses the far face) is written mirrored
@@ -119,6 +134,9 @@ def wall_variant(wall: Wall) -> ConstructionVariant:
     the inside face gave it). With the symmetric construction both faces see the same
     temperature and carry the same flux, so the mid-plane is adiabatic and the zone sees
     exactly the half construction hvacflex describes.
+
+    With ``films`` (hvacflex's surface coefficients, :func:`film_objects`) an outside face
+    exchanges long-wave only where the building says it does (``thermal_emissivity``).
     """
     if wall.adjacent == ADIABATIC:
         return ConstructionVariant(wall.construction, mirrored=True)
@@ -127,6 +145,8 @@ def wall_variant(wall: Wall) -> ConstructionVariant:
     emissivity = (
         wall.thermal_emissivity
         if wall.thermal_emissivity is not None
+        else NO_LONGWAVE_ABSORPTANCE
+        if films
         else DEFAULT_THERMAL_ABSORPTANCE
     )
     return ConstructionVariant(wall.construction, wall.solar_absorptance, emissivity)
@@ -148,10 +168,10 @@ def _material(name: str, layer: Layer, solar: float | None, thermal: float | Non
     )  # fmt: skip
 
 
-def _variants(b: Building) -> list[ConstructionVariant]:
+def _variants(b: Building, films: bool) -> list[ConstructionVariant]:
     found: dict[str, ConstructionVariant] = {}
     for wall in b.walls:
-        variant = wall_variant(wall)
+        variant = wall_variant(wall, films=films)
         found.setdefault(variant.name, variant)
         if wall.adjacent not in (OUTSIDE, GROUND, ADIABATIC):
             mirror = ConstructionVariant(wall.construction, reversed=True)
@@ -168,10 +188,13 @@ def _window_shgc(window: Window) -> float:
     return window.shgc_normal if window.shgc_normal is not None else window.shgc
 
 
-def construction_objects(b: Building) -> list[str]:
+def construction_objects(b: Building, *, films: bool = False) -> list[str]:
+    """Materials, constructions and window glazings of ``b``; with ``films`` every face not
+    facing the outdoors exchanges no long-wave (:data:`NO_LONGWAVE_ABSORPTANCE`)."""
+    inner = NO_LONGWAVE_ABSORPTANCE if films else None
     objects: list[str] = []
     materials: dict[str, str] = {}
-    for variant in _variants(b):
+    for variant in _variants(b, films):
         names = variant.material_names()
         layers = variant.construction.layers
         for i, layer in enumerate(layers):
@@ -183,7 +206,7 @@ def construction_objects(b: Building) -> list[str]:
                 materials[name] = _material(
                     name, layer,
                     variant.solar_absorptance if outer else None,
-                    variant.thermal_absorptance if outer else None,
+                    variant.thermal_absorptance if outer else inner,
                 )  # fmt: skip
         objects.append(idf_object("Construction", variant.name, *names))
     glazing: dict[str, Window] = {}
@@ -358,7 +381,9 @@ def placed_orientations(b: Building) -> dict[str, tuple[float, float]]:
     return placed
 
 
-def surface_objects(b: Building) -> list[str]:
+def surface_objects(b: Building, *, films: bool = False) -> list[str]:
+    """Walls (with their mirrors across partitions) and windows of ``b`` as placeholder
+    rectangles; with ``films`` each surface is followed by its :func:`film_objects`."""
     hosts = hosted_windows(b)
     orientation = placed_orientations(b)
     heights = {z.name: z.height_m for z in b.zones}
@@ -379,16 +404,65 @@ def surface_objects(b: Building) -> list[str]:
             corners = rectangle(gross_m2, azimuth_deg, tilt_deg, heights[wall.zone],
                                 (x_m, 0.0, 0.0))  # fmt: skip
             x_m += max(abs(c[0] - x_m) for c in corners) + SURFACE_GAP_M
+            variant = wall_variant(wall, films=films)
             objects.append(
-                _surface(name, surface_type(tilt_deg, wall.is_exterior),
-                         wall_variant(wall).name, wall.zone, _boundary(wall), wall.is_exterior,
-                         corners)
+                _surface(name, surface_type(tilt_deg, wall.is_exterior), variant.name,
+                         wall.zone, _boundary(wall), wall.is_exterior, corners)
             )  # fmt: skip
+            if films:
+                objects.append(_wall_films(name, wall, variant))
             if window is not None:
                 objects.append(_window(window, name, _scaled(corners, window.area_m2 / gross_m2)))
+                if films:
+                    objects.append(_window_films(window))
             if _boundary(wall)[0] == "Surface":
                 objects.append(_mirror(wall, tilt_deg, corners))
+                if films:
+                    objects.append(_films(mirror_name(wall), inside=_inside_film(wall)))
     return objects
+
+
+# ---- hvacflex's surface coefficients ------------------------------------------------------
+
+
+def longwave_coefficient_w_per_m2k(emissivity: float) -> float:
+    """Linearised long-wave coefficient 4 ε σ T³ at :data:`FILM_REFERENCE_TEMP_K` [W/(m²K)]."""
+    return 4.0 * emissivity * STEFAN_BOLTZMANN_W_PER_M2K4 * FILM_REFERENCE_TEMP_K**3
+
+
+def _films(name: str, *, inside: float, outside: float | None = None) -> str:
+    fields: list[object] = [name, "Inside", "Value", inside, None, None]
+    if outside is not None:
+        fields += ["Outside", "Value", outside, None, None]
+    return idf_object("SurfaceProperty:ConvectionCoefficients", *fields)
+
+
+def _inside_film(wall: Wall) -> float:
+    return wall.construction.inside_film_w_per_m2k
+
+
+def _wall_films(name: str, wall: Wall, variant: ConstructionVariant) -> str:
+    """hvacflex's combined films as EnergyPlus convection coefficients. Inside, the combined
+    film is all convection (no face inside exchanges long-wave). Outside, where the face
+    still exchanges long-wave with sky and ground (the building gives ``thermal_emissivity``,
+    which hvacflex's sky term models), the film less its linearised long-wave part."""
+    outside = None
+    if wall.adjacent == OUTSIDE:
+        film = wall.construction.outside_film_for(OUTSIDE)
+        assert film is not None  # an outdoor face always has a film
+        outside = film
+        if wall.thermal_emissivity is not None and variant.thermal_absorptance is not None:
+            outside -= longwave_coefficient_w_per_m2k(variant.thermal_absorptance)
+    return _films(name, inside=_inside_film(wall), outside=outside)
+
+
+def _window_films(window: Window) -> str:
+    """A window's films: inside hvacflex's default inside film (its U-value's), outside its
+    outside film less the long-wave EnergyPlus's glazing keeps (ε 0.84, to sky and ground)."""
+    outside = window.outside_film_w_per_m2k - longwave_coefficient_w_per_m2k(
+        SIMPLE_GLAZING_EMISSIVITY
+    )
+    return _films(window.name, inside=DEFAULT_INSIDE_FILM_W_PER_M2K, outside=outside)
 
 
 def _window(window: Window, host: str, corners: Sequence[Vertex]) -> str:

@@ -118,6 +118,18 @@ from hvacflex.units import RHO_AIR_KG_PER_M3, W_PER_KW
 ENERGYPLUS_VERSION = "25.2"
 """The EnergyPlus input syntax written (``Version`` object)."""
 
+SURFACE_MODELS = ("energyplus", "hvacflex")
+"""``--surfaces`` choices: how the exported surfaces exchange heat with the air and each other.
+``"energyplus"`` (default): EnergyPlus's own convection algorithms (TARP inside, DOE-2
+outside), explicit long-wave exchange inside and with the sky, and wet façades in the
+weather file's rain — the independent model. ``"hvacflex"``: the building's own constant
+combined films as convection coefficients, no long-wave exchange where hvacflex models none
+(every face of an opaque layer at :data:`~hvacflex.energyplus.envelope.NO_LONGWAVE_ABSORPTANCE`
+unless the wall gives ``thermal_emissivity``), rain and snow ignored — EnergyPlus solving
+hvacflex's equations with its own conduction, solar and zone heat balance (a verification of
+the implementation, not of the film model; what stays EnergyPlus's: the windows' angular
+solar and their long-wave to the sky, ε 0.84)."""
+
 HVAC_KINDS = ("vav", "ideal", "none")
 """``--hvac`` choices: a VAV air loop with a chiller, ideal loads per zone, or no HVAC (the
 zones float freely: the free-float validation case)."""
@@ -149,7 +161,13 @@ SEA_LEVEL_PRESSURE_PA = 101325.0
 """Standard atmosphere at sea level [Pa]."""
 
 
-def export_idf(building: Building, *, hvac: str = "vav", epw_path: Path | None = None) -> str:
+def export_idf(
+    building: Building,
+    *,
+    hvac: str = "vav",
+    epw_path: Path | None = None,
+    surfaces: str = "energyplus",
+) -> str:
     """The EnergyPlus 25.2 model of ``building`` (see the module docstring for the mapping).
 
     Parameters
@@ -159,6 +177,8 @@ def export_idf(building: Building, *, hvac: str = "vav", epw_path: Path | None =
         ``"ideal"`` (ideal loads per zone) or ``"none"`` (free-floating zones).
     epw_path : weather file for the site and design days (default: the shipped TMYx
         Singapore Changi EPW).
+    surfaces : ``"energyplus"`` (EnergyPlus's own surface heat transfer and rain) or
+        ``"hvacflex"`` (the building's constant films; :data:`SURFACE_MODELS`).
 
     Returns
     -------
@@ -167,8 +187,8 @@ def export_idf(building: Building, *, hvac: str = "vav", epw_path: Path | None =
     Raises
     ------
     InputError
-        an unknown ``hvac`` kind, or a window without an exterior wall of its zone facing
-        the same way.
+        an unknown ``hvac`` kind or ``surfaces`` model, or a window without an exterior wall
+        of its zone facing the same way.
     DataError
         an unreadable or malformed weather file.
     """
@@ -179,6 +199,14 @@ def export_idf(building: Building, *, hvac: str = "vav", epw_path: Path | None =
             value=hvac,
             hint=f"choose one of {', '.join(HVAC_KINDS)}",
         )
+    if surfaces not in SURFACE_MODELS:
+        raise InputError(
+            "unknown surface model",
+            field="surfaces",
+            value=surfaces,
+            hint=f"choose one of {', '.join(SURFACE_MODELS)}",
+        )
+    films = surfaces == "hvacflex"
     weather = (
         Path(epw_path) if epw_path is not None else data_dir() / "weather" / DEFAULT_WEATHER_FILE
     )
@@ -186,12 +214,12 @@ def export_idf(building: Building, *, hvac: str = "vav", epw_path: Path | None =
     parts = [
         f"! {building.name}: exported by hvacflex for EnergyPlus {ENERGYPLUS_VERSION}",
         f"! weather for site and design days: {weather.name}",
-        *_simulation_objects(hvac),
+        *_simulation_objects(hvac, rain=not films),
         *_site_objects(weather, location),
         *_schedule_objects(building, DEFAULT_OFFICE_SCHEDULE),
-        *construction_objects(building),
+        *construction_objects(building, films=films),
         *zone_objects(building),
-        *surface_objects(building),
+        *surface_objects(building, films=films),
         *_gain_objects(building),
         *_HVAC_WRITERS[hvac](building),
         *_output_objects(hvac),
@@ -202,7 +230,8 @@ def export_idf(building: Building, *, hvac: str = "vav", epw_path: Path | None =
 # ---- simulation, site, calendar -----------------------------------------------------------
 
 
-def _simulation_objects(hvac: str) -> list[str]:
+def _simulation_objects(hvac: str, *, rain: bool = True) -> list[str]:
+    wet = "Yes" if rain else "No"
     sizing = "Yes" if hvac == "vav" else "No"
     return [
         idf_object("Version", ENERGYPLUS_VERSION),
@@ -226,8 +255,8 @@ def _simulation_objects(hvac: str) -> list[str]:
             "No",
             "No",
             "No",
-            "Yes",
-            "Yes",
+            wet,
+            wet,
         ),
         *_special_days(DEFAULT_OFFICE_SCHEDULE, EXPORT_YEAR),
     ]

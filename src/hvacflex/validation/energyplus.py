@@ -85,21 +85,26 @@ def with_run_period(idf_text: str, start: date, days: int) -> str:
     """``idf_text`` with its ``RunPeriod`` replaced by ``days`` days from ``start``.
 
     The weekday of the start day comes from the calendar; the weather file's holidays and
-    daylight saving are ignored (the export's ``RunPeriodControl:SpecialDays`` stay).
+    daylight saving are ignored (the export's ``RunPeriodControl:SpecialDays`` stay); the
+    replaced period's use of the weather file's rain and snow indicators is kept (EnergyPlus's
+    default, ``Yes``, where it gives none).
     """
-    end = start + timedelta(days=days - 1)
-    period = idf_object(
-        "RunPeriod", f"{start.isoformat()} + {days} d", start.month, start.day, start.year,
-        end.month, end.day, end.year, start.strftime("%A"), "No", "No", "No", "Yes", "Yes",
-    )  # fmt: skip
-    text, count = re.subn(r"^RunPeriod,.*?;", period, idf_text, count=1, flags=re.S | re.M)
-    if count != 1:
+    found = re.search(r"^RunPeriod,.*?;", idf_text, flags=re.S | re.M)
+    if found is None:
         raise DataError(
             "the IDF has no RunPeriod object to replace",
             field="RunPeriod",
             hint="export the building with hvacflex.energyplus.export.export_idf",
         )
-    return text
+    fields = [f.split("!")[0].strip() for f in found.group(0).rstrip(";").split(",")]
+    rain, snow = [*fields[12:14], "Yes", "Yes"][:2]
+    end = start + timedelta(days=days - 1)
+    period = idf_object(
+        "RunPeriod", f"{start.isoformat()} + {days} d", start.month, start.day, start.year,
+        end.month, end.day, end.year, start.strftime("%A"), "No", "No", "No",
+        rain or "Yes", snow or "Yes",
+    )  # fmt: skip
+    return idf_text[: found.start()] + period + idf_text[found.end() :]
 
 
 @dataclass(frozen=True)
@@ -313,6 +318,7 @@ def free_float_comparison(
     spinup_days: int = VALIDATION_SPINUP_DAYS,
     epw_path: Path | None = None,
     workdir: Path,
+    surfaces: str = "energyplus",
 ) -> FreeFloatComparison:
     """Free-floating zone air temperature, hvacflex's RC plant against EnergyPlus.
 
@@ -323,6 +329,8 @@ def free_float_comparison(
     spinup_days : days simulated before ``start`` by both and discarded.
     epw_path : weather (default: the shipped TMYx Singapore Changi file).
     workdir : folder for EnergyPlus's files.
+    surfaces : the export's surface heat transfer
+        (:data:`hvacflex.energyplus.export.SURFACE_MODELS`).
     """
     if start.year != EXPORT_YEAR:
         raise ConfigError(
@@ -334,7 +342,7 @@ def free_float_comparison(
     weather = epw_path if epw_path is not None else data_dir() / "weather" / DEFAULT_WEATHER_FILE
     first = start - timedelta(days=spinup_days)
     run = run_energyplus(
-        export_idf(building, hvac="none", epw_path=weather),
+        export_idf(building, hvac="none", epw_path=weather, surfaces=surfaces),
         epw_path=weather, start=first, days=days + spinup_days, workdir=workdir,
     )  # fmt: skip
     window = pd.Timestamp(start).tz_localize(TIMEZONE)
@@ -441,6 +449,7 @@ def thermostat_comparison(
     spinup_days: int = VALIDATION_SPINUP_DAYS,
     workdir: Path,
     building: str | Building = "office5",
+    surfaces: str = "energyplus",
 ) -> ConditionedComparison:
     """``building`` (office5 or office15, by name, or a variant of them) under the 24 °C
     thermostat, hvacflex
@@ -451,7 +460,7 @@ def thermostat_comparison(
     simulated, rc_hourly, per_period = rc_thermostat_run(first, days + spinup_days, building)
     weather = data_dir() / "weather" / DEFAULT_WEATHER_FILE
     run = run_energyplus(
-        export_idf(simulated, hvac="vav", epw_path=weather),
+        export_idf(simulated, hvac="vav", epw_path=weather, surfaces=surfaces),
         epw_path=weather, start=first, days=days + spinup_days, workdir=workdir,
     )  # fmt: skip
     return _conditioned_comparison(simulated, rc_hourly, per_period, run, start)
@@ -498,6 +507,7 @@ def fixed_flow_comparison(
     days: int = 7,
     spinup_days: int = VALIDATION_SPINUP_DAYS,
     workdir: Path,
+    surfaces: str = "energyplus",
 ) -> ConditionedComparison:
     """Fixed (scheduled) supply flows: each zone gets its ventilation flow while occupied and
     ``flow_min`` otherwise, at the supply temperature, in both models. hvacflex: the RC plant
@@ -512,7 +522,8 @@ def fixed_flow_comparison(
         epw_path=weather, ventilate=True,
     )  # fmt: skip
     idf = with_cooling_setpoint(
-        export_idf(building, hvac="vav", epw_path=weather), FIXED_FLOW_COOLING_SETPOINT_DEGC
+        export_idf(building, hvac="vav", epw_path=weather, surfaces=surfaces),
+        FIXED_FLOW_COOLING_SETPOINT_DEGC,
     )
     idf += "\n" + idf_object("Output:Variable", "*", "System Node Mass Flow Rate", "Hourly")
     run = run_energyplus(
@@ -621,12 +632,13 @@ def run_energyplus_validation(
     days: int,
     spinup_days: int,
     workdir: Path,
+    surfaces: str = "energyplus",
     progress: Callable[[str], None] = lambda message: None,
 ) -> EnergyPlusValidation:
     """Run the cases for every start: the ``free-float`` case (the export with
     ``hvac="none"``) for any building, and for office5 and office15 the ``fixed-flow`` and
     ``thermostat`` cases (the ``vav`` export); ``days`` compared after ``spinup_days``;
-    EnergyPlus's files in ``workdir``."""
+    EnergyPlus's files in ``workdir``; every export with the ``surfaces`` model."""
     tables, series, energies = [], [], []
     for start in starts:
         label = start.isoformat()
@@ -637,6 +649,7 @@ def run_energyplus_validation(
             days=days,
             spinup_days=spinup_days,
             workdir=workdir / f"energyplus_{label}",
+            surfaces=surfaces,
         )
         tables.append(result.table.assign(case="free-float", start=label))
         series.append(result.hourly.assign(case="free-float", start=label))
@@ -647,7 +660,12 @@ def run_energyplus_validation(
             workdir_case = workdir / f"energyplus_{case}_{label}"
             if case == "fixed-flow":
                 conditioned = fixed_flow_comparison(
-                    building, start=start, days=days, spinup_days=spinup_days, workdir=workdir_case
+                    building,
+                    start=start,
+                    days=days,
+                    spinup_days=spinup_days,
+                    workdir=workdir_case,
+                    surfaces=surfaces,
                 )
             else:
                 conditioned = thermostat_comparison(
@@ -656,6 +674,7 @@ def run_energyplus_validation(
                     spinup_days=spinup_days,
                     workdir=workdir_case,
                     building=building,
+                    surfaces=surfaces,
                 )
             tables.append(conditioned.table.assign(case=case, start=label))
             series.append(conditioned.hourly.assign(case=case, start=label))
