@@ -76,9 +76,11 @@ What is approximated
   of the right area, azimuth and tilt (walls as tall as the zone), placed side by side;
   ``MinimalShadowing`` (no self-shading, as hvacflex) makes their positions irrelevant to the
   solar gains. Interior long-wave exchange then uses EnergyPlus's area-weighted view factors.
-* Surface heat transfer: EnergyPlus's own convection algorithms (TARP inside, DOE-2 outside)
-  and explicit long-wave radiation replace hvacflex's constant combined film coefficients
-  (``inside_film_w_per_m2k``, ``outside_film_w_per_m2k``) and its optional sky term.
+* Surface heat transfer: EnergyPlus's own convection algorithms (TARP inside, DOE-2 outside,
+  the wind at the placeholder surfaces' 0–3.6 m above ground), explicit long-wave radiation and
+  wet façades in the weather file's rain replace hvacflex's constant combined film
+  coefficients (``inside_film_w_per_m2k``, ``outside_film_w_per_m2k``) and its optional sky
+  term; ``surfaces="hvacflex"`` writes those films instead (:data:`SURFACE_MODELS`).
 * Solar: EnergyPlus distributes the transmitted solar over the zone's surfaces (beam on the
   floor); hvacflex puts it on the air node unless ``interior_solar_fraction`` says otherwise
   (neither that nor ``solar_lost_fraction`` is exported).
