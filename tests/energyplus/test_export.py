@@ -351,6 +351,34 @@ def test_hvacflex_surfaces_keep_the_sky_where_the_building_models_it() -> None:
     assert float(outer[6]) == pytest.approx(0.9)
 
 
+def test_hvacflex_surfaces_refuse_what_films_cannot_say() -> None:
+    """A radiant star or radiative gains (BESTEST) need long-wave inside, and an outside film
+    below its long-wave part leaves no convection: both refused, naming the field; a
+    partition's far face gets its far-side film."""
+    with pytest.raises(InputError, match=r"zones\.zone"):
+        export_idf(load_building(resolve_building("bestest600")), surfaces="hvacflex")
+    office5 = load_building(resolve_building("office5"))
+    still = dataclasses.replace(
+        office5, windows=tuple(dataclasses.replace(w, outside_film_w_per_m2k=4.0)
+                               for w in office5.windows)
+    )  # fmt: skip
+    with pytest.raises(InputError, match=r"windows\.north_glazing"):
+        export_idf(still, surfaces="hvacflex")
+    partitions = tuple(
+        dataclasses.replace(
+            w, construction=dataclasses.replace(w.construction, outside_film_w_per_m2k=3.0)
+        )
+        if w.name.endswith("_partition")
+        else w
+        for w in office5.walls
+    )
+    objects = parse_idf(export_idf(dataclasses.replace(office5, walls=partitions),
+                                   surfaces="hvacflex"))  # fmt: skip
+    films = {f[0]: f[1:] for f in by_class(objects, "SurfaceProperty:ConvectionCoefficients")}
+    assert float(films["north_core_partition reverse"][2]) == pytest.approx(3.0)
+    assert float(films["north_core_partition"][2]) == pytest.approx(1.0 / 0.13)
+
+
 def test_cli_writes_the_idf_and_rejects_bad_input(tmp_path: Path) -> None:
     runner = CliRunner()
     out = tmp_path / "office5.idf"

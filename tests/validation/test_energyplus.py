@@ -70,6 +70,13 @@ def test_with_run_period_keeps_the_rain_indicators() -> None:
         block = ev.with_run_period(text, date(2014, 5, 5), 7)
         fields = [f.strip() for f in block[block.index("RunPeriod,") :].split(";")[0].split(",")]
         assert fields[-2:] == [wet, wet]
+    commented = (
+        "RunPeriod,\n  year,  !- Name\n  1,  !- Begin Month\n  1,  !- Begin Day, of month\n"
+        "  2014,\n  12,\n  31,\n  2014,\n  Wednesday,\n  No,\n  No,\n  No,\n"
+        "  No,  !- Use Weather File Rain Indicators\n  No;  !- Use Weather File Snow Indicators\n"
+    )
+    block = ev.with_run_period(commented, date(2014, 5, 5), 7)
+    assert [f.strip() for f in block.split(";")[0].split(",")][-2:] == ["No", "No"]
 
 
 def test_comparison_table_on_hand_made_series() -> None:

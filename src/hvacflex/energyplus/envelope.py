@@ -135,7 +135,7 @@ def wall_variant(wall: Wall, *, films: bool = False) -> ConstructionVariant:
     temperature and carry the same flux, so the mid-plane is adiabatic and the zone sees
     exactly the half construction hvacflex describes.
 
-    With ``films`` (hvacflex's surface coefficients, :func:`film_objects`) an outside face
+    With ``films`` (hvacflex's surface coefficients, :func:`check_films`) an outside face
     exchanges long-wave only where the building says it does (``thermal_emissivity``).
     """
     if wall.adjacent == ADIABATIC:
@@ -383,7 +383,8 @@ def placed_orientations(b: Building) -> dict[str, tuple[float, float]]:
 
 def surface_objects(b: Building, *, films: bool = False) -> list[str]:
     """Walls (with their mirrors across partitions) and windows of ``b`` as placeholder
-    rectangles; with ``films`` each surface is followed by its :func:`film_objects`."""
+    rectangles; with ``films`` each surface is followed by its convection coefficients
+    (hvacflex's films, :func:`check_films`)."""
     hosts = hosted_windows(b)
     orientation = placed_orientations(b)
     heights = {z.name: z.height_m for z in b.zones}
@@ -410,7 +411,7 @@ def surface_objects(b: Building, *, films: bool = False) -> list[str]:
                          wall.zone, _boundary(wall), wall.is_exterior, corners)
             )  # fmt: skip
             if films:
-                objects.append(_wall_films(name, wall, variant))
+                objects.append(_wall_films(name, wall))
             if window is not None:
                 objects.append(_window(window, name, _scaled(corners, window.area_m2 / gross_m2)))
                 if films:
@@ -418,11 +419,53 @@ def surface_objects(b: Building, *, films: bool = False) -> list[str]:
             if _boundary(wall)[0] == "Surface":
                 objects.append(_mirror(wall, tilt_deg, corners))
                 if films:
-                    objects.append(_films(mirror_name(wall), inside=_inside_film(wall)))
+                    far = wall.construction.outside_film_for(wall.adjacent)
+                    assert far is not None  # a partition's far face has a film
+                    objects.append(_films(mirror_name(wall), inside=far))
     return objects
 
 
 # ---- hvacflex's surface coefficients ------------------------------------------------------
+
+
+MIN_CONVECTION_W_PER_M2K = 0.1
+"""EnergyPlus's lowest accepted convection coefficient (``HeatBalanceAlgorithm`` default)."""
+
+
+def check_films(b: Building) -> None:
+    """Refuse a building whose films EnergyPlus cannot be given as convection coefficients.
+
+    ``surfaces="hvacflex"`` writes every face's combined film as its convection coefficient
+    and switches long-wave off where hvacflex has none. That is hvacflex's model only for
+    zones with combined films and all-convective gains: a zone with an interior radiant star
+    (``interior_radiation_w_per_m2k``) or radiative gains would need long-wave inside (with
+    it off, EnergyPlus puts the radiant gains on the windows alone), and an outside film
+    below its long-wave part cannot be split.
+
+    Raises
+    ------
+    InputError
+        naming the zone or surface.
+    """
+    for zone in b.zones:
+        if zone.interior_radiation_w_per_m2k is not None or zone.internal_gain_radiative_fraction:
+            raise InputError(
+                "surfaces='hvacflex' needs combined films and convective gains",
+                field=f"zones.{zone.name}",
+                value=(zone.interior_radiation_w_per_m2k, zone.internal_gain_radiative_fraction),
+                hint="compare this building with surfaces='energyplus' (EnergyPlus models "
+                "interior long-wave itself)",
+            )
+    outdoor = [(f"walls.{w.name}", _outside_film(w)) for w in b.walls if w.adjacent == OUTSIDE]
+    outdoor += [(f"windows.{w.name}", _window_outside_film(w)) for w in b.windows]
+    for field, coefficient in outdoor:
+        if coefficient < MIN_CONVECTION_W_PER_M2K:
+            raise InputError(
+                "outside film below its long-wave part: no convection coefficient is left",
+                field=field,
+                value=round(coefficient, 3),
+                hint="raise outside_film_w_per_m2k, or compare with surfaces='energyplus'",
+            )
 
 
 def longwave_coefficient_w_per_m2k(emissivity: float) -> float:
@@ -441,28 +484,33 @@ def _inside_film(wall: Wall) -> float:
     return wall.construction.inside_film_w_per_m2k
 
 
-def _wall_films(name: str, wall: Wall, variant: ConstructionVariant) -> str:
+def _wall_films(name: str, wall: Wall) -> str:
     """hvacflex's combined films as EnergyPlus convection coefficients. Inside, the combined
     film is all convection (no face inside exchanges long-wave). Outside, where the face
     still exchanges long-wave with sky and ground (the building gives ``thermal_emissivity``,
     which hvacflex's sky term models), the film less its linearised long-wave part."""
-    outside = None
-    if wall.adjacent == OUTSIDE:
-        film = wall.construction.outside_film_for(OUTSIDE)
-        assert film is not None  # an outdoor face always has a film
-        outside = film
-        if wall.thermal_emissivity is not None and variant.thermal_absorptance is not None:
-            outside -= longwave_coefficient_w_per_m2k(variant.thermal_absorptance)
+    outside = _outside_film(wall) if wall.adjacent == OUTSIDE else None
     return _films(name, inside=_inside_film(wall), outside=outside)
+
+
+def _outside_film(wall: Wall) -> float:
+    film = wall.construction.outside_film_for(OUTSIDE)
+    assert film is not None  # an outdoor face always has a film
+    if wall.thermal_emissivity is None:
+        return film
+    return film - longwave_coefficient_w_per_m2k(wall.thermal_emissivity)
 
 
 def _window_films(window: Window) -> str:
     """A window's films: inside hvacflex's default inside film (its U-value's), outside its
     outside film less the long-wave EnergyPlus's glazing keeps (ε 0.84, to sky and ground)."""
-    outside = window.outside_film_w_per_m2k - longwave_coefficient_w_per_m2k(
-        SIMPLE_GLAZING_EMISSIVITY
+    return _films(
+        window.name, inside=DEFAULT_INSIDE_FILM_W_PER_M2K, outside=_window_outside_film(window)
     )
-    return _films(window.name, inside=DEFAULT_INSIDE_FILM_W_PER_M2K, outside=outside)
+
+
+def _window_outside_film(window: Window) -> float:
+    return window.outside_film_w_per_m2k - longwave_coefficient_w_per_m2k(SIMPLE_GLAZING_EMISSIVITY)
 
 
 def _window(window: Window, host: str, corners: Sequence[Vertex]) -> str:

@@ -108,6 +108,7 @@ from hvacflex.data.forecast import DEFAULT_WEATHER_FILE
 from hvacflex.data.gains import DEFAULT_OFFICE_SCHEDULE, ComfortBand, OfficeSchedule
 from hvacflex.data.weather import EpwLocation, read_epw
 from hvacflex.energyplus.envelope import (
+    check_films,
     construction_objects,
     idf_object,
     surface_objects,
@@ -130,7 +131,9 @@ combined films as convection coefficients, no long-wave exchange where hvacflex 
 unless the wall gives ``thermal_emissivity``), rain and snow ignored — EnergyPlus solving
 hvacflex's equations with its own conduction, solar and zone heat balance (a verification of
 the implementation, not of the film model; what stays EnergyPlus's: the windows' angular
-solar and their long-wave to the sky, ε 0.84)."""
+solar and their long-wave to the sky, ε 0.84; a window's inside film is hvacflex's default,
+7.69 W/m²K). Only for buildings with combined films and convective gains
+(:func:`~hvacflex.energyplus.envelope.check_films`)."""
 
 HVAC_KINDS = ("vav", "ideal", "none")
 """``--hvac`` choices: a VAV air loop with a chiller, ideal loads per zone, or no HVAC (the
@@ -209,6 +212,8 @@ def export_idf(
             hint=f"choose one of {', '.join(SURFACE_MODELS)}",
         )
     films = surfaces == "hvacflex"
+    if films:
+        check_films(building)
     weather = (
         Path(epw_path) if epw_path is not None else data_dir() / "weather" / DEFAULT_WEATHER_FILE
     )

@@ -96,7 +96,8 @@ def with_run_period(idf_text: str, start: date, days: int) -> str:
             field="RunPeriod",
             hint="export the building with hvacflex.energyplus.export.export_idf",
         )
-    fields = [f.split("!")[0].strip() for f in found.group(0).rstrip(";").split(",")]
+    body = re.sub(r"!.*$", "", found.group(0), flags=re.M)  # IDF comments hold commas too
+    fields = [f.strip() for f in body.strip().rstrip(";").split(",")]
     rain, snow = [*fields[12:14], "Yes", "Yes"][:2]
     end = start + timedelta(days=days - 1)
     period = idf_object(
