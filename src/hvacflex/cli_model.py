@@ -72,7 +72,7 @@ def validate_energyplus(
     from datetime import date
 
     from hvacflex.building.io import load_building
-    from hvacflex.energyplus.export import SURFACE_MODELS
+    from hvacflex.energyplus.export import SURFACE_MODELS, check_choice
     from hvacflex.errors import HvacflexError, InputError
     from hvacflex.paths import resolve_building
     from hvacflex.report.tables import to_markdown
@@ -91,13 +91,7 @@ def validate_energyplus(
                 ) from None
         if out.exists() and not out.is_dir():
             raise InputError("is a file, not a folder", field="--out", value=str(out))
-        if surfaces not in SURFACE_MODELS:
-            raise InputError(
-                "unknown surface model",
-                field="--surfaces",
-                value=surfaces,
-                hint=f"choose one of {', '.join(SURFACE_MODELS)}",
-            )
+        check_choice(surfaces, SURFACE_MODELS, what="surface model", field="--surfaces")
         model = load_building(resolve_building(building))
         with task_progress(True, "energyplus", stage_count(model, starts)) as bar:
             result = run_energyplus_validation(

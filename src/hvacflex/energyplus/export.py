@@ -166,6 +166,20 @@ SEA_LEVEL_PRESSURE_PA = 101325.0
 """Standard atmosphere at sea level [Pa]."""
 
 
+def check_choice(value: str, choices: Sequence[str], *, what: str, field: str) -> None:
+    """Refuse ``value`` unless it is one of ``choices``: ``unknown <what>``, naming ``field``.
+
+    Raises
+    ------
+    InputError
+        with the choices as the hint.
+    """
+    if value not in choices:
+        raise InputError(
+            f"unknown {what}", field=field, value=value, hint=f"choose one of {', '.join(choices)}"
+        )
+
+
 def export_idf(
     building: Building,
     *,
@@ -197,20 +211,8 @@ def export_idf(
     DataError
         an unreadable or malformed weather file.
     """
-    if hvac not in HVAC_KINDS:
-        raise InputError(
-            "unknown HVAC kind",
-            field="hvac",
-            value=hvac,
-            hint=f"choose one of {', '.join(HVAC_KINDS)}",
-        )
-    if surfaces not in SURFACE_MODELS:
-        raise InputError(
-            "unknown surface model",
-            field="surfaces",
-            value=surfaces,
-            hint=f"choose one of {', '.join(SURFACE_MODELS)}",
-        )
+    check_choice(hvac, HVAC_KINDS, what="HVAC kind", field="hvac")
+    check_choice(surfaces, SURFACE_MODELS, what="surface model", field="surfaces")
     films = surfaces == "hvacflex"
     if films:
         check_films(building)
