@@ -87,6 +87,33 @@ def test_failed_solve_without_previous_plan_falls_back_to_the_thermostat(setup: 
     assert rule.planned_slack_max_k == 0.0 and rule.delta_max_k == 0.0
 
 
+def test_fallback_after_held_periods_takes_the_plans_step_for_this_period(
+    setup: Setup,
+) -> None:
+    """A plan made at k, two periods held by an IL event (k+1, k+2), then a failed solve at
+    k+3: the fallback runs the plan's step 3, not step 1 (it counted fallbacks only, until
+    2026-12-05), and a second failure at k+4 its step 4."""
+    controller = make_controller(setup)
+    assert isinstance(controller, MPCController)
+    steps = setup.config.controller.horizon_steps + 1
+    k = 18
+    x = np.full(setup.model.a.shape[0], 25.0)
+    controller.act(PeriodInputs(x, setup.forecaster.forecast(k, steps), 0.0))
+    plan = controller.last_plan
+    assert plan is not None
+    for held in (k + 1, k + 2):
+        controller.hold(setup.forecaster.forecast(held, steps), plan.u[held - k])
+    controller._solver = _FailingSolver()  # type: ignore[assignment]
+    for j in (3, 4):
+        forecast = setup.forecaster.forecast(k + j, steps)
+        action = controller.act(PeriodInputs(x, forecast, 0.0))
+        low = setup.building.hvac.flow_min_at(forecast.occupied[:1])[0]
+        expected = np.clip(plan.u[j], low, setup.building.hvac.flow_max_kg_s)
+        assert action.fallback
+        np.testing.assert_array_equal(action.flow_kg_s, expected)
+    assert not np.allclose(plan.u[3], plan.u[1])  # the test tells the two apart
+
+
 def test_short_forecast_names_the_horizon_setting(setup: Setup) -> None:
     controller = make_controller(setup)
     assert isinstance(controller, MPCController)

@@ -184,6 +184,7 @@ class MPCController(Controller):
         self._periods_since_plan = 0
         """Periods begun since the last optimal plan was made (decided or held)."""
         self._plan_age = 0
+        """Fallbacks since the last optimal plan (0: the plan is this period's own)."""
         self._estimator = KalmanEstimator(estimation) if estimation is not None else None
         self._network = build_network(building) if linearisation == "trajectory" else None
         self._step_model: StepModel = model
@@ -783,12 +784,15 @@ class MPCController(Controller):
         )
 
     def _fallback(self, x_degc: FloatArray, forecast: Forecast, failed: RMPCSolution) -> Action:
-        """Previous plan shifted by one step if it reaches this far, else the thermostat."""
+        """The last plan's step for this period if it reaches this far (shifted by every
+        period begun since it was made, held IL-event periods included), else the
+        thermostat."""
         self._plan_age += 1
         plan = self._previous_plan
-        if plan is not None and self._plan_age < plan.u.shape[0]:
+        shift = self._periods_since_plan
+        if plan is not None and shift < plan.u.shape[0]:
             low = self._building.hvac.flow_min_at(forecast.occupied[:1])[0]
-            flow = np.clip(plan.u[self._plan_age], low, self._flow_max)
+            flow = np.clip(plan.u[shift], low, self._flow_max)
         else:
             flow = self._thermostat.flows_now(x_degc, forecast)
         return unplanned_action(
