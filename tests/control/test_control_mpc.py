@@ -277,6 +277,20 @@ def _offer_case(setup: Setup) -> tuple[MPCController, RMPCProblem, Callable[[], 
     return controller, rebuild(), rebuild
 
 
+def _visible_offer_kw(
+    controller: MPCController,
+    problem: RMPCProblem,
+    served_kw: np.ndarray,
+    j: int,
+    reserve_flow_kg_s: np.ndarray,
+) -> float:
+    """Step j's offer with reserve flows r_j (m,) [kg/s]: the controller's
+    ``_visible_offers_kw`` of that one step [kW]."""
+    flows = np.zeros((j + 1, reserve_flow_kg_s.size))
+    flows[j] = reserve_flow_kg_s
+    return float(controller._visible_offers_kw(problem, served_kw, flows)[j])
+
+
 def test_offers_are_sized_to_what_every_covering_baseline_would_see(setup: Setup) -> None:
     """The offer of step j is min(q_j·r_j, min_s B̂_s − (P̂_j − p_j·r_j)) over the starts s of
     the activations covering j (D = 4): P̂_{s−1} for s ≥ 1 and the baseline now for s = 0,
@@ -290,22 +304,22 @@ def test_offers_are_sized_to_what_every_covering_baseline_would_see(setup: Setup
     served = np.full(problem.horizon, 30.0)
     controller.note_baseline_power(1e6)
     # flat load: the whole shed is seen, the offer is q·r
-    assert controller._visible_offer_kw(problem, served, j, r) == pytest.approx(offer_kw)
+    assert _visible_offer_kw(controller, problem, served, j, r) == pytest.approx(offer_kw)
     # rising load: P̂_2 = 30 + shed − 1, lowest baseline P̂_0 = 30: 1 kW is seen
     rising = served.copy()
     rising[1], rising[2] = 30.5, 30.0 + shed_kw - 1.0
-    seen = controller._visible_offer_kw(problem, rising, j, r)
+    seen = _visible_offer_kw(controller, problem, rising, j, r)
     assert seen == pytest.approx(min(offer_kw, 1.0), abs=1e-5)
     # the air handler off before (baseline now 0): an activation starting now covers j
     controller.note_baseline_power(0.0)
-    assert controller._visible_offer_kw(problem, served, j, r) == 0.0
+    assert _visible_offer_kw(controller, problem, served, j, r) == 0.0
     # … but not step 4 = D (its covering starts are 1 … 4)
-    assert controller._visible_offer_kw(problem, served, 4, r) == pytest.approx(
+    assert _visible_offer_kw(controller, problem, served, 4, r) == pytest.approx(
         float(problem.reserve_kw_per_kg_s[4] @ r)
     )
     # unknown baseline now: only the plan's own baselines count
     controller.note_baseline_power(None)
-    assert controller._visible_offer_kw(problem, served, j, r) == pytest.approx(offer_kw)
+    assert _visible_offer_kw(controller, problem, served, j, r) == pytest.approx(offer_kw)
 
 
 def test_under_similar_days_offers_are_sized_to_the_similar_days_baseline(setup: Setup) -> None:
@@ -320,22 +334,22 @@ def test_under_similar_days_offers_are_sized_to_the_similar_days_baseline(setup:
     rising = np.full(problem.horizon, 20.0)  # the plan's earlier powers see nothing …
     rising[j] = 30.0
     controller.note_baseline_power(0.0)
-    assert controller._visible_offer_kw(problem, rising, j, r) == 0.0
+    assert _visible_offer_kw(controller, problem, rising, j, r) == 0.0
     # … the similar days' 30.5 kW at step j show 0.5 kW + the shed below it
     controller.note_baseline_power(0.0, np.array([np.nan, np.nan, 30.5]))
-    seen = controller._visible_offer_kw(problem, rising, j, r)
+    seen = _visible_offer_kw(controller, problem, rising, j, r)
     assert seen == pytest.approx(min(offer_kw, 0.5 + shed_kw), abs=1e-5)
     # a low similar-days baseline hides an offer the plan's flat load would show
     flat = np.full(problem.horizon, 30.0)
     controller.note_baseline_power(1e6, np.array([np.nan, np.nan, 25.0]))
-    assert controller._visible_offer_kw(problem, flat, j, r) == 0.0
+    assert _visible_offer_kw(controller, problem, flat, j, r) == 0.0
     # no similar day for step j: the pre-event baselines (flat load: all of q·r is seen)
     controller.note_baseline_power(1e6, np.array([25.0, 25.0, np.nan]))
-    assert controller._visible_offer_kw(problem, flat, j, r) == pytest.approx(offer_kw)
+    assert _visible_offer_kw(controller, problem, flat, j, r) == pytest.approx(offer_kw)
     # the event plan's later steps (D + R = 6) are sized to theirs too
     controller.note_baseline_power(1e6, np.array([1e6, 1e6, 1e6, 1e6, 25.0, 1e6]))
-    assert controller._visible_offer_kw(problem, flat, 4, r) == 0.0
-    assert controller._visible_offer_kw(problem, flat, 5, r) > 0.0
+    assert _visible_offer_kw(controller, problem, flat, 4, r) == 0.0
+    assert _visible_offer_kw(controller, problem, flat, 5, r) > 0.0
 
 
 def test_offers_are_scaled_by_the_meter_s_response(setup: Setup) -> None:
@@ -353,20 +367,20 @@ def test_offers_are_scaled_by_the_meter_s_response(setup: Setup) -> None:
     offer_kw = float(own.reserve_kw_per_kg_s[j] @ r)
     controller.note_baseline_power(1e6)
     served = np.full(own.horizon, 30.0)
-    assert controller._visible_offer_kw(halved, served, j, r) == pytest.approx(0.5 * offer_kw)
+    assert _visible_offer_kw(controller, halved, served, j, r) == pytest.approx(0.5 * offer_kw)
     # a rising load leaves 1 kW of the plan's shed visible: 0.5 kW on the meter
     rising = served.copy()
     rising[1], rising[2] = 30.5, 30.0 + shed_kw - 1.0
-    seen = controller._visible_offer_kw(halved, rising, j, r)
+    seen = _visible_offer_kw(controller, halved, rising, j, r)
     assert seen == pytest.approx(min(0.5 * offer_kw, 0.5), abs=1e-5)
     # a metered baseline (similar days) is a level, not a change of the plan's: the meter
     # sheds ρ·p·r below the plan's served level, so B = P̂_j − 0.8·shed sees nothing …
     nan = np.nan
     controller.note_baseline_power(1e6, np.array([nan, nan, served[j] - 0.8 * shed_kw]))
-    assert controller._visible_offer_kw(halved, served, j, r) == 0.0
+    assert _visible_offer_kw(controller, halved, served, j, r) == 0.0
     # … and B = P̂_j − 0.3·shed sees (0.5 − 0.3)·shed
     controller.note_baseline_power(1e6, np.array([nan, nan, served[j] - 0.3 * shed_kw]))
-    seen = controller._visible_offer_kw(halved, served, j, r)
+    seen = _visible_offer_kw(controller, halved, served, j, r)
     assert seen == pytest.approx(min(0.5 * offer_kw, 0.2 * shed_kw), abs=1e-5)
     controller.note_meter_response(1.0)
     np.testing.assert_array_equal(rebuild().reserve_kw_per_kg_s, own.reserve_kw_per_kg_s)

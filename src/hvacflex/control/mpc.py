@@ -736,15 +736,6 @@ class MPCController(Controller):
         visible = np.maximum(seen[:steps], 0.0)
         return visible
 
-    def _visible_offer_kw(
-        self, problem: RMPCProblem, served_kw: FloatArray, j: int, reserve_flow_kg_s: FloatArray
-    ) -> float:
-        """Step j's offer with reserve flows r_j (m,) [kg/s]: :meth:`_visible_offers_kw` of one
-        step [kW]."""
-        flows = np.zeros((j + 1, reserve_flow_kg_s.size))
-        flows[j] = reserve_flow_kg_s
-        return float(self._visible_offers_kw(problem, served_kw, flows)[j])
-
     def _event_plan(
         self,
         problem: RMPCProblem,

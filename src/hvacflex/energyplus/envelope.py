@@ -142,13 +142,9 @@ def wall_variant(wall: Wall, *, films: bool = False) -> ConstructionVariant:
         return ConstructionVariant(wall.construction, mirrored=True)
     if not wall.is_exterior:
         return ConstructionVariant(wall.construction)
-    emissivity = (
-        wall.thermal_emissivity
-        if wall.thermal_emissivity is not None
-        else NO_LONGWAVE_ABSORPTANCE
-        if films
-        else DEFAULT_THERMAL_ABSORPTANCE
-    )
+    emissivity = wall.thermal_emissivity
+    if emissivity is None:
+        emissivity = NO_LONGWAVE_ABSORPTANCE if films else DEFAULT_THERMAL_ABSORPTANCE
     return ConstructionVariant(wall.construction, wall.solar_absorptance, emissivity)
 
 
