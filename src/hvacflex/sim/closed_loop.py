@@ -45,18 +45,13 @@ from hvacflex.building.discretize import delivered_flow_kg_s
 from hvacflex.building.identified import initial_node_temps_degc
 from hvacflex.config import ScenarioConfig
 from hvacflex.control.base import Controller, FloatArray, PeriodInputs
-from hvacflex.control.estimation import StepModel
 from hvacflex.data.forecast import Forecast
 from hvacflex.data.signals import OperatorSignals, effective_peak_price
 from hvacflex.data.uncertainty import DisturbanceSampler
 from hvacflex.errors import ConfigError, HvacflexError
 from hvacflex.paths import check_output_dir
-from hvacflex.settlement import (
-    SETTLEMENT_COLUMNS,
-    ahead_baselines_kw,
-    settlement_columns,
-    start_baseline_kw,
-)
+from hvacflex.settlement import SETTLEMENT_COLUMNS, settlement_columns
+from hvacflex.sim.history import PeriodHistory, period_inputs
 from hvacflex.sim.measurement import Sensors
 from hvacflex.sim.plant import Actuation, Disturbance, Observation, Plant
 from hvacflex.sim.plants import plant_summary, scenario_plant
@@ -156,21 +151,9 @@ class Control(Protocol):
     @property
     def takes_measurements(self) -> bool: ...
 
-    @property
-    def step_model(self) -> StepModel | None: ...
-
     def decide(
-        self,
-        k: int,
-        inputs: PeriodInputs,
-        *,
-        activated: Callable[[int], bool],
-        baseline_power_kw: float | None = None,
-        baseline_ahead_kw: FloatArray | None = None,
-        previous_power_kw: float | None = None,
+        self, k: int, inputs: PeriodInputs, *, activated: Callable[[int], bool]
     ) -> Decision: ...
-
-    def note_delivered_flow(self, flow_kg_s: FloatArray) -> None: ...
 
     def restart_warm(self) -> None: ...
 
@@ -247,8 +230,8 @@ class ClosedLoop:
         self.sampler = DisturbanceSampler(
             cfg.realisation.mode, seed=cfg.seed, ar1_coefficient=cfg.realisation.ar1_coefficient
         )
-        self.month_peak_kw = 0.0
-        self.month = -1
+        self.history = PeriodHistory.empty(setup.exogenous.index, self.steps)
+        """The metered periods so far (:mod:`hvacflex.sim.history`)."""
         channel_names = tuple(ch.name for ch in setup.model.channels)
         self.recorder = _Recorder(self.steps, setup.zone_names, channel_names)
         self._outdoor = next(
@@ -266,34 +249,29 @@ class ClosedLoop:
         return bool(self.setup.activation[j])
 
     # -- one period -------------------------------------------------------------------
+    def inputs(self, plan: Any = None) -> PeriodInputs:
+        """The driver's inputs of period ``k`` (:func:`hvacflex.sim.history.period_inputs`);
+        the sensors are read here (their noise draws advance)."""
+        return period_inputs(
+            self.k,
+            self.history,
+            self.setup.forecaster,
+            self.signals,
+            self.setup.config,
+            x_degc=self.x,
+            measured_zone_temp_degc=self.sensors.read(self.x),
+            plan=plan,
+        )
+
     def step(self, plan: Any = None) -> None:
         """Simulate period ``k`` and advance; ``plan``: this period's plan decided elsewhere
         (a fleet coordinator's), applied as the controller's."""
         setup, k = self.setup, self.k
         exo = setup.exogenous
-        month = exo.index[k].month
-        if month != self.month:
-            self.month, self.month_peak_kw = month, 0.0
         t0 = time.perf_counter()
-        # one period beyond the horizon: the band at the end of the last planned period
-        forecast = self.signals.apply(
-            setup.forecaster.forecast(k, setup.config.controller.horizon_steps + 1)
-        )
-        inputs = PeriodInputs(
-            self.x,
-            forecast,
-            self.month_peak_kw,
-            measured_zone_temp_degc=self.sensors.read(self.x),
-            plan=plan,
-        )
-        decision = self.control.decide(
-            k,
-            inputs,
-            activated=self._activated,
-            baseline_power_kw=self._start_baseline_kw(k),
-            baseline_ahead_kw=self._ahead_baselines_kw(k),
-            previous_power_kw=self._previous_power_kw(k),
-        )
+        inputs = self.inputs(plan)
+        forecast = inputs.forecast
+        decision = self.control.decide(k, inputs, activated=self._activated)
         t1 = time.perf_counter()
 
         # the plant sees the data plus a draw in the sampling box; the results record the
@@ -311,10 +289,11 @@ class ClosedLoop:
             latent_gain_w=float(exo.occupant_latent_w[k]),
         )
         period = self._plant_period(decision, disturbance)
+        delivered = None
         if period.applied.supply_temp_degc is not None and period.applied.node_temp_degc is None:
             # the filter predicts with what the air delivered, as the observer does
-            self.control.note_delivered_flow(period.input_kg_s)
-        step_model = self.control.step_model
+            delivered = period.input_kg_s
+        step_model = decision.action.step_model
         # graded with the decided input, not the delivered one: the error between plan and
         # plant, which a box calibrated from it must cover (docs/estimation.md section 4)
         error_k = self.sensors.prediction_error_k(
@@ -330,47 +309,13 @@ class ClosedLoop:
         self._record(k, decision, forecast, d_hat, w, period)
         self.recorder.values[k, self.recorder.zone_index[results.PREDICTION_ERROR]] = error_k
         self._record_event(k, decision)
-        self.month_peak_kw = max(self.month_peak_kw, power)
+        self.history.record(k, power, self._activated(k), delivered)
         self.x = period.x_next_degc
         self.k += 1
         t3 = time.perf_counter()
         self.timing_s["controller"] += t1 - t0
         self.timing_s["plant"] += t2 - t1
         self.timing_s["record"] += t3 - t2
-
-    def _previous_power_kw(self, k: int) -> float | None:
-        """The metered power of period k − 1 [kW] (None at k = 0)."""
-        if k == 0:
-            return None
-        return float(self.recorder.values[k - 1, self.recorder.column_index["power_kw"]])
-
-    def _start_baseline_kw(self, k: int) -> float | None:
-        """The baseline an activation starting at ``k`` would be settled against [kW] (the
-        scenario's ``il_baseline`` rule over the metered power so far; None at k = 0, where
-        there is no metered period yet, as a building that posts no previous power)."""
-        if k == 0:
-            return None
-        power = self.recorder.values[:k, self.recorder.column_index["power_kw"]]
-        activated = self.recorder.flags["il_activated"][:k]
-        return start_baseline_kw(
-            self.setup.config.reserve.il_baseline,
-            power,
-            activated,
-            self.setup.exogenous.index[: k + 1],
-        )
-
-    def _ahead_baselines_kw(self, k: int) -> FloatArray | None:
-        """The ``similar-days`` baselines of periods k … k + J − 1 from the metered power so
-        far, J covering every step a plan sizes an offer for: the committed one g and the
-        event plan's D + R (:attr:`ReserveConfig.ahead_offer_steps`); None under
-        ``pre-event``."""
-        reserve = self.setup.config.reserve
-        if reserve.il_baseline != "similar-days":
-            return None
-        power = self.recorder.values[:k, self.recorder.column_index["power_kw"]]
-        activated = self.recorder.flags["il_activated"][:k]
-        index = self.setup.exogenous.index[: k + reserve.ahead_offer_steps]
-        return ahead_baselines_kw(reserve.il_baseline, power, activated, index)
 
     def _plant_period(self, decision: Decision, disturbance: Disturbance) -> _PlantPeriod:
         """Run the period on the plant: the served and the curtailed step where the plant can
@@ -536,8 +481,7 @@ class ClosedLoop:
             "k": self.k,
             "x": self.x.copy(),
             "plant": self.plant.get_state(),
-            "month": self.month,
-            "month_peak_kw": self.month_peak_kw,
+            "history": self.history.get_state(),
             "sampler": self.sampler.get_state(),
             "sensors": self.sensors.get_state(),
             "control": self.control.get_state(),
@@ -556,7 +500,7 @@ class ClosedLoop:
         k = state["k"]
         self.k, self.x = k, np.asarray(state["x"], dtype=float).copy()
         self.plant.set_state(state["plant"])  # an emulator replays its recorded actuations
-        self.month, self.month_peak_kw = state["month"], state["month_peak_kw"]
+        self.history.set_state(state["history"])
         self.sampler.set_state(state["sampler"])
         self.sensors.set_state(state["sensors"])
         self.control.set_state(state["control"])
