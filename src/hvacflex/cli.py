@@ -366,7 +366,7 @@ def simulate(
 
     from hvacflex.errors import HvacflexError
     from hvacflex.paths import check_output_dir
-    from hvacflex.sim.closed_loop import run_simulation
+    from hvacflex.sim.closed_loop import RunInterrupted, run_simulation
     from hvacflex.sim.run_files import check_linearisation, check_out_dir
 
     console = Console()
@@ -376,7 +376,12 @@ def simulate(
         check_output_dir(out, "--out")
         check_out_dir(out, cfg, fresh)
         result = run_simulation(
-            cfg, out, progress=not quiet, resume=not fresh, checkpoint_every=checkpoint_every
+            cfg,
+            out,
+            progress=not quiet,
+            resume=not fresh,
+            checkpoint_every=checkpoint_every,
+            on_resume=lambda k: console.print(f"resumed from period {k}"),
         )
         if not no_report:
             from hvacflex.report.run_report import report_for_run_dir
@@ -384,10 +389,11 @@ def simulate(
             report_for_run_dir(result.out_dir)
     except HvacflexError as exc:
         raise fail(exc) from None
+    except RunInterrupted as stopped:
+        console.print(stopped.message(), soft_wrap=True, markup=False, highlight=False)
+        raise typer.Exit(130) from None
     if result.cached:
         console.print(f"re-used finished results in {result.out_dir}")
-    elif result.resumed_from_step is not None:
-        console.print(f"resumed from step {result.resumed_from_step}")
     summary = _run_summary_line(run_label(cfg), result.summary, result.results_path)
     console.print(summary, soft_wrap=True, markup=False, highlight=False)
 

@@ -28,6 +28,9 @@ def test_the_peak_floor_is_the_month_s_metered_peak_so_far_by_hand() -> None:
     assert history.peak_floor_kw(3) == 9.0
     assert history.peak_floor_kw(4) == 0.0  # 00:00 on 1 February: a new month
     assert history.peak_floor_kw(6) == 3.0
+    history.opening_peak_kw = 8.5  # the bill started before the run: January's only
+    assert history.peak_floor_kw(0) == 8.5 and history.peak_floor_kw(3) == 9.0
+    assert history.peak_floor_kw(6) == 3.0
     assert history.previous_power_kw(4) is None  # not metered: unknown
     assert history.start_baseline_kw(4, "pre-event") is None
     assert history.start_baseline_kw(6, "pre-event") == 2.0

@@ -13,7 +13,6 @@ import pytest
 from hvacflex import state
 from hvacflex.config import preset, with_overrides
 from hvacflex.control.base import Action, Controller, EventPlan, PeriodInputs, ReserveOffer
-from hvacflex.data.forecast import Forecast
 from hvacflex.sim.events import Role
 from hvacflex.sim.step import ConflictError, ControlStep, DecisionStatus
 

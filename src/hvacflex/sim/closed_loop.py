@@ -20,12 +20,14 @@ each period (served: u, curtailed: u − r) so the power with and without activa
 the applied one is chosen by the activation schedule. On one that cannot (an external
 emulator) only the applied step is run and the counterfactual columns are NaN.
 
-A run checkpoints every ``checkpoint_every`` steps and on interruption (Ctrl-C), in the
-data-only format of :mod:`hvacflex.state`: the plant state, the step index, the sampler's
-and sensors' RNG states, the control step's state (LP basis, previous plan, filter, IL
-events) and the rows so far. Started again with the same
-configuration, it resumes from the checkpoint and ends with results identical to an
-uninterrupted run.
+A run checkpoints every ``checkpoint_every`` steps (its restart points: the solver restarts
+there from its stored basis, interrupted or not), in the data-only format of
+:mod:`hvacflex.state`: the plant state, the step index, the sampler's and sensors' RNG
+states, the control step's state (LP basis, previous plan, filter, IL events, commitments,
+meter history), the period history and the rows so far. Interrupted (Ctrl-C), it keeps the
+last restart point; started again with the same configuration, it resumes from there,
+replays the periods after it, and ends with results identical to an uninterrupted run, bit
+for bit.
 """
 
 from __future__ import annotations
@@ -44,7 +46,7 @@ from hvacflex import results, state, version
 from hvacflex.building.discretize import delivered_flow_kg_s
 from hvacflex.building.identified import initial_node_temps_degc
 from hvacflex.config import ScenarioConfig
-from hvacflex.control.base import Controller, FloatArray, PeriodInputs
+from hvacflex.control.base import Controller, FloatArray, PeriodInputs, WarmRestart
 from hvacflex.data.forecast import Forecast
 from hvacflex.data.signals import OperatorSignals, effective_peak_price
 from hvacflex.data.uncertainty import DisturbanceSampler
@@ -244,6 +246,14 @@ class ClosedLoop:
     def controller(self) -> Controller | None:
         """The controller the control step drives (None for a stand-in control)."""
         return self.control.controller if isinstance(self.control, ControlStep) else None
+
+    @property
+    def resumable_anywhere(self) -> bool:
+        """True when a checkpoint written at any period resumes bit for bit: the control
+        keeps no live solver state (a rule-based controller); an MPC resumes bit for bit
+        from its restart points only (:func:`run_simulation`)."""
+        controller = self.controller
+        return controller is not None and not isinstance(controller, WarmRestart)
 
     def _activated(self, j: int) -> bool:
         return bool(self.setup.activation[j])
@@ -529,6 +539,30 @@ class ClosedLoop:
         return frame
 
 
+class RunInterrupted(KeyboardInterrupt):
+    """A run stopped by Ctrl-C (or SIGTERM turned into it): where it was, and the period its
+    checkpoint resumes from (None: no restart point yet, the run starts again from its first
+    period)."""
+
+    def __init__(self, period: int, checkpoint_period: int | None, out_dir: Path) -> None:
+        super().__init__(period)
+        self.period = period
+        self.checkpoint_period = checkpoint_period
+        self.out_dir = out_dir
+
+    def message(self) -> str:
+        """What the user reads: where the run stopped, its checkpoint, how to resume."""
+        if self.checkpoint_period is None:
+            kept = "no checkpoint yet (the first is written at the first restart point)"
+        else:
+            kept = f"checkpoint at period {self.checkpoint_period} in {self.out_dir}"
+        return (
+            f"interrupted at period {self.period}: {kept}; run the same command again to "
+            "resume (the periods after the checkpoint are replayed, so the results equal an "
+            "uninterrupted run's bit for bit)"
+        )
+
+
 def run_simulation(
     config: ScenarioConfig,
     out_dir: str | Path,
@@ -538,8 +572,18 @@ def run_simulation(
     resume: bool = True,
     stop_after_steps: int | None = None,
     on_step: ProgressCallback | None = None,
+    on_resume: Callable[[int], None] | None = None,
 ) -> RunResult:
     """Run (or resume, or re-use) a closed-loop simulation and write its results.
+
+    Checkpoints are written every ``checkpoint_every`` steps: the **restart points**, where
+    the controller restarts its solver from the stored basis (:meth:`ClosedLoop.
+    save_checkpoint`) whether or not the run is ever resumed. An interrupted or stopped run
+    keeps the last restart point as its checkpoint (its periods after it are replayed on
+    resume), so a resumed run equals the uninterrupted one bit for bit: restarting the
+    solver at the interruption instead would let HiGHS settle on other optimal vertices
+    than the run that kept its factorisation. A controller without live solver state (a
+    rule) checkpoints where it stops (:attr:`ClosedLoop.resumable_anywhere`).
 
     Parameters
     ----------
@@ -547,13 +591,18 @@ def run_simulation(
     out_dir : folder for ``results.parquet``, ``summary.json``, ``config.json`` and the
         checkpoint.
     progress : show a progress bar (steps/s, ETA).
-    checkpoint_every : steps between checkpoints.
+    checkpoint_every : steps between checkpoints (restart points).
     resume : resume from a checkpoint of the same configuration, and re-use finished results
         of the same inputs (:func:`run_key`) and code (:func:`hvacflex.version.code_version`).
         A checkpoint of the same configuration written by other code is refused.
-    stop_after_steps : stop (after checkpointing) once this many steps are done, as an
-        interruption would; the run is then resumable. For tests and batch schedulers.
-    on_step : called with (steps done, total steps) after each step.
+    stop_after_steps : stop once this many steps are done, as an interruption would; the run
+        is then resumable from its last restart point. For tests and batch schedulers.
+    on_step : called with (steps done, total steps) after each step (and its checkpoint).
+    on_resume : called with the period the run resumes from, before its first step.
+
+    Raises
+    ------
+    RunInterrupted : Ctrl-C; the checkpoint is the last restart point.
     """
     from hvacflex.kpi import summary as kpi_summary
 
@@ -569,12 +618,16 @@ def run_simulation(
         if cached is not None:
             return cached
     stored_state = _matching_checkpoint(checkpoint_path, config) if resume else None
+    if not resume:
+        checkpoint_path.unlink(missing_ok=True)  # a fresh run's restart points are its own
     loop = ClosedLoop(prepare(config))
     try:
         resumed_from: int | None = None
         if stored_state is not None:
             loop.set_state(stored_state)
             resumed_from = loop.k
+            if on_resume is not None:
+                on_resume(resumed_from)
         atomic_write_text(out / CONFIG_FILE, json.dumps(config.to_dict(), indent=2))
         last = loop.steps if stop_after_steps is None else min(loop.steps, stop_after_steps)
         try:
@@ -582,22 +635,32 @@ def run_simulation(
                 while loop.k < last:
                     loop.step()
                     advance()
-                    if on_step is not None:
-                        on_step(loop.k, loop.steps)
                     if loop.k % checkpoint_every == 0 and loop.k < loop.steps:
                         loop.save_checkpoint(checkpoint_path)
-        except BaseException:
-            loop.save_checkpoint(checkpoint_path)
-            raise
+                    if on_step is not None:
+                        on_step(loop.k, loop.steps)
+        except KeyboardInterrupt as exc:
+            if loop.resumable_anywhere:
+                loop.save_checkpoint(checkpoint_path)
+            kept = _checkpoint_period(checkpoint_path)
+            raise RunInterrupted(loop.k, kept, out) from exc
     finally:
         close = getattr(loop.plant, "close", None)
         if close is not None:  # an emulator's run ends with the loop
             close()
     if loop.k < loop.steps:
-        loop.save_checkpoint(checkpoint_path)
+        if loop.resumable_anywhere:
+            loop.save_checkpoint(checkpoint_path)
         frame = loop.frame()
         return RunResult(out, frame, kpi_summary(frame), resumed_from_step=resumed_from)
     return _finish(loop, out, config, resumed_from)
+
+
+def _checkpoint_period(path: Path) -> int | None:
+    """The period the checkpoint at ``path`` resumes from (None: none)."""
+    if not path.is_file():
+        return None
+    return int(load_checkpoint(path)["k"])
 
 
 def _cached_result(out: Path, config: ScenarioConfig) -> RunResult | None:

@@ -45,6 +45,8 @@ class PeriodHistory:
     delivered_flow_kg_s : (m,) the plant's report of :attr:`delivered_period`: the air
         system's input as the model takes it [kg/s]; None where the plant reports none.
     delivered_period : the period :attr:`delivered_flow_kg_s` belongs to (−1: none).
+    opening_peak_kw : the peak the first period's month had reached before the history's
+        first period [kW] (a bill that started before the run; 0: none).
     """
 
     index: pd.DatetimeIndex
@@ -52,6 +54,7 @@ class PeriodHistory:
     activated: BoolArray
     delivered_flow_kg_s: FloatArray | None = None
     delivered_period: int = -1
+    opening_peak_kw: float = 0.0
     _month: npt.NDArray[np.int64] = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -90,12 +93,14 @@ class PeriodHistory:
 
     def peak_floor_kw(self, k: int) -> float:
         """The largest metered power of the periods before ``k`` in k's calendar month [kW]
-        (0 at a month's first period): the peak the month's bill already holds."""
+        (0 at a month's first period; at least :attr:`opening_peak_kw` in the first
+        period's month): the peak the month's bill already holds."""
         month = self._month
         first = int(np.searchsorted(month[:k], month[k], side="left"))
         metered = self.power_kw[first:k]
         metered = metered[np.isfinite(metered)]
-        return max(0.0, float(metered.max(initial=0.0)))
+        opening = self.opening_peak_kw if first == 0 else 0.0
+        return max(opening, float(metered.max(initial=0.0)))
 
     def start_baseline_kw(self, k: int, rule: str) -> float | None:
         """The baseline an activation starting at ``k`` would be settled against under
@@ -125,6 +130,7 @@ class PeriodHistory:
             "activated": self.activated.copy(),
             "delivered_flow_kg_s": self.delivered_flow_kg_s,
             "delivered_period": self.delivered_period,
+            "opening_peak_kw": self.opening_peak_kw,
         }
 
     def set_state(self, state: dict[str, Any]) -> None:
@@ -133,6 +139,7 @@ class PeriodHistory:
         delivered = state["delivered_flow_kg_s"]
         self.delivered_flow_kg_s = None if delivered is None else np.asarray(delivered, float)
         self.delivered_period = int(state["delivered_period"])
+        self.opening_peak_kw = float(state["opening_peak_kw"])
 
 
 def period_inputs(

@@ -3,8 +3,8 @@
 Every driver — the closed loop (:mod:`hvacflex.sim.closed_loop`), the live service
 (:mod:`hvacflex.service.runtime`) and a fleet's building agents (:mod:`hvacflex.fleet.agent`) —
 decides a period through :meth:`ControlStep.decide`, which owns the controller, the IL event
-tracker (:class:`hvacflex.sim.events.EventTracker`, ``docs/il_events.md``) and the hold/lock
-rules:
+tracker (:class:`hvacflex.sim.events.EventTracker`, ``docs/il_events.md``), the lock rules
+and the plan's side of the history (commitments, ρ, the filter's input):
 
 1. the period's IL role from the activation signal (served, curtail the fresh plan, an event
    starts, an event continues, beyond the model);
@@ -22,8 +22,7 @@ rules:
 5. **market timing** (a controller with ``commits_ahead`` = g > 0, the MPC under the event
    model): the reserve of period k was committed at k − g. The step keeps the commitments
    of the next g periods (flows and kW), hands them to the controller (which plans with them
-   fixed),
-   pays the period what was committed for it (``reserve_kw``), and commits the offer for
+   fixed), pays the period what was committed for it (``reserve_kw``), and commits the offer for
    k + g: the fresh plan's ``Action.offer_ahead``, or, in a locked event period j, the
    locked plan's step j + g (what the building will run anyway). Nothing planned (a
    fallback, a skipped period) commits nothing.
