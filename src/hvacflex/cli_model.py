@@ -177,6 +177,12 @@ def identify_fit(
         help="EPW of the site: where the walls' irradiance is computed, scenario.toml's "
         "weather (default: the shipped Singapore TMYx).",
     ),
+    floor_area: str | None = typer.Option(
+        None,
+        "--floor-area",
+        help="The fitted zones' floor areas, \"Z1=M2,Z2=M2\" (default: the --idf's zone "
+        "floors, else the --template's zones; without any, per-m² figures are not available).",
+    ),
 ) -> None:
     """Fit a grey-box RC model to trend data; write it (a building file), fit_report.csv,
     the parameters, the calibrated model-error box and scenario.toml."""
@@ -200,6 +206,7 @@ def identify_fit(
                 test=test,
                 idf=idf,
                 weather=weather,
+                floor_areas=floor_area,
             )
     except HvacflexError as exc:
         raise exit_on_error(exc) from None

@@ -11,6 +11,7 @@ import pytest
 import hvacflex
 from hvacflex.building.discretize import linearize
 from hvacflex.building.identified import (
+    GAIN_CHANNEL_PEAK_W,
     IdentifiedPower,
     identified_affine_power,
     identified_occupied_share,
@@ -196,3 +197,44 @@ def test_the_rc_plant_meters_the_occupied_terms_from_the_gain_channel(model_path
         assert obs.power_kw == pytest.approx(expected, rel=1e-9)
         powers.append(obs.power_kw)
     assert powers[1] > powers[0] + 0.7  # the occupied constant and outdoor air
+
+
+def test_real_floor_areas_leave_the_gain_channel_at_1_kw_per_zone(tmp_path: Path) -> None:
+    """The file's floor areas are the building's (per-m² KPIs) and not the gain channel's
+    scale: the scheduled internal-gain channel is the people fraction × 1 kW either way."""
+    from hvacflex.data.forecast import load_exogenous
+
+    model = IdentifiedModel(
+        name="two zones",
+        zones=("a", "b"),
+        energyplus_zones=("Zone A", "ZONE-B"),
+        parameters=PARAMETERS,
+        power=POWER,
+        provenance={},
+        air=AirSystem(SUPPLY_TEMP_DEGC, (0.0, 0.0), (0.5, 0.8), (0.0, 0.0), (24.0, 24.0)),
+        floor_areas_m2=(120.0, 45.0),
+    )
+    building = load_building(write_identified_model(model, tmp_path / "model.toml"))
+    assert building.floor_area_m2 == pytest.approx(165.0)
+    assert building.gain_floor_areas_m2 == (1.0, 1.0)
+    channels = building_channels(building)
+    exo = load_exogenous(
+        channels, building.gain_floor_areas_m2, building.gains, start="2014-03-04", steps=48
+    )
+    gains = np.asarray(exo.disturbances)[
+        :48, [i for i, c in enumerate(channels) if c.kind == "internal_gain"]
+    ]
+    # the people fraction (its peak below 1) × 1 kW, not × 120 or 45 m²
+    assert 0.5 * GAIN_CHANNEL_PEAK_W < gains.max() <= GAIN_CHANNEL_PEAK_W
+    assert gains.min() >= 0.0
+
+
+def test_an_identified_zone_refuses_a_height() -> None:
+    base = {
+        "name": "x",
+        "zones": [{"name": "a", "height_m": 3.0}],
+        "identified": {"supply_temp_degc": 13.0, "zones": {}},
+    }
+    with pytest.raises(BuildingConfigError) as caught:
+        building_from_dict(base)
+    assert caught.value.field == "zones[0].height_m"

@@ -15,7 +15,14 @@ from hvacflex.errors import InputError
 from hvacflex.identify.greybox import ZONE_PARAMETERS
 from hvacflex.identify.model_file import load_identified_model
 from hvacflex.identify.trend import write_trend
-from hvacflex.identify.workflow import identify, parse_days, zones_and_couplings
+from hvacflex.identify.workflow import (
+    identify,
+    parse_days,
+    parse_floor_areas,
+    zone_floor_areas_m2,
+    zones_and_couplings,
+)
+from hvacflex.paths import resolve_building, resources_dir
 
 
 @pytest.fixture(scope="module")
@@ -35,6 +42,7 @@ def test_fit_writes_a_model_and_a_report_beside_it(trend: Path, tmp_path: Path) 
         zones="Room-A,ROOM_b",
         train="2014-03-03..2014-03-07",
         test="2014-03-08..2014-03-08",
+        floor_areas="room_b=45,Room-A=30.5",
     )
     report = pd.read_csv(out.parent / "fit_report.csv")
     assert list(report["zone"]) == ["room_a", "room_b"]
@@ -45,6 +53,7 @@ def test_fit_writes_a_model_and_a_report_beside_it(trend: Path, tmp_path: Path) 
     assert model.zones == ("room_a", "room_b") and model.power is not None
     assert model.boundaries == ("Attic",)  # temperature only: a boundary of both zones
     assert model.provenance["test"] == "2014-03-08..2014-03-08"
+    assert model.floor_areas_m2 == (30.5, 45.0)  # the zones' order; the attic carries none
     parameters = pd.read_csv(outcome.parameters_path)
     assert {"value", "std_error"} <= set(parameters.columns)
     assert len(parameters) == 2 * len(ZONE_PARAMETERS) + 1 + 2
@@ -207,3 +216,37 @@ def test_collect_fit_and_load_packaged_dx_units_with_an_unconditioned_zone(
     assert np.all(linearize(building).a >= -1e-12)
     assert outcome.report["rmse_24h_k"].notna().all() and len(outcome.box.zones) == 2
     assert outcome.scenario_path.is_file()
+
+
+def test_floor_areas_come_from_the_option_the_idf_or_the_template() -> None:
+    five = ("SPACE1-1", "space5-1")
+    idf = resources_dir() / "energyplus" / "5ZoneAirCooled.idf"
+    given = zone_floor_areas_m2(five, "space1-1=10,SPACE5-1=20", idf, None)
+    assert given == (10.0, 20.0)  # the option wins over the IDF
+    from_idf = zone_floor_areas_m2(five, None, idf, None)
+    assert from_idf == pytest.approx((99.16, 182.49), abs=0.01)
+    office5 = resolve_building("office5")
+    zones, _ = zones_and_couplings(None, None, office5)
+    from_template = zone_floor_areas_m2(zones, None, None, office5)
+    assert from_template is not None and all(a > 0 for a in from_template)
+    assert zone_floor_areas_m2(five, None, None, None) is None  # unknown: none written
+
+
+def test_a_bad_floor_area_is_refused_naming_the_item_and_the_fix() -> None:
+    with pytest.raises(InputError) as caught:
+        parse_floor_areas("A=10,B=-3", ("A", "B"))
+    assert caught.value.value == "B=-3" and "ZONE=M2" in str(caught.value)
+    with pytest.raises(InputError, match="not a fitted zone"):
+        parse_floor_areas("A=10,C=3", ("A", "B"))
+    with pytest.raises(InputError, match="has no floor area") as caught:
+        parse_floor_areas("A=10", ("A", "B"))
+    assert caught.value.value == "B"
+
+
+def test_the_cli_exits_2_on_a_bad_floor_area_before_fitting(trend: Path, tmp_path: Path) -> None:
+    out = tmp_path / "fit" / "m.toml"
+    arguments = ["identify", "fit", "--data", str(trend), "--zones", "Room-A", "--out", str(out)]
+    result = CliRunner().invoke(app, [*arguments, "--floor-area", "Room-A=lots"])
+    assert result.exit_code == 2
+    assert "--floor-area" in result.output and "Room-A=lots" in result.output
+    assert "Traceback" not in result.output and not out.parent.exists()

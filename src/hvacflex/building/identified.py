@@ -40,11 +40,13 @@ WALL_ORIENTATIONS = (("north", 0.0), ("east", 90.0), ("south", 180.0), ("west", 
 clockwise from north [°]). A building need not face north: the fit finds each zone's share
 of each (``solar_wall_<name>_m2``)."""
 GAIN_CHANNEL_PEAK_W = 1000.0
-"""An identified zone's ``internal_gain`` channel at a people fraction of 1 [W]: the zone's
-nominal floor area (1 m²) × 1 person/m² × this sensible gain per person."""
+"""An identified zone's ``internal_gain`` channel at a people fraction of 1 [W]: the gain
+channel's nominal floor area (:data:`NOMINAL_FLOOR_AREA_M2`) × 1 person/m² × this sensible
+gain per person."""
 NOMINAL_FLOOR_AREA_M2 = 1.0
-"""The floor area an identified zone carries (trend data give none): it only scales the
-``internal_gain`` channel (:data:`GAIN_CHANNEL_PEAK_W`)."""
+"""The floor area that scales an identified zone's ``internal_gain`` channel
+(:data:`GAIN_CHANNEL_PEAK_W`; ``Building.gain_floor_areas_m2``) — not its floor area, which
+is the model file's ``floor_area_m2`` (NaN when the file gives none)."""
 NOMINAL_HEIGHT_M = 1.0
 """The height an identified zone carries (unused by its network)."""
 

@@ -8,6 +8,7 @@ that names the file, the field path (``walls[3].area_m2``), the value and a hint
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, get_args, get_origin
@@ -359,8 +360,10 @@ def _hvac(
 def _identified_building(
     spec: BuildingSpec, identified: IdentifiedSpec, source_path: Path | None
 ) -> Building:
-    """An identified building (:mod:`hvacflex.building.identified`): zones of nominal size,
-    gains that make each zone's ``internal_gain`` channel the people schedule × 1 kW, and an
+    """An identified building (:mod:`hvacflex.building.identified`): zones with the file's
+    floor areas (NaN where it gives none: per-m² figures are then not available) and nominal
+    height, gains that make each zone's ``internal_gain`` channel the people schedule × 1 kW
+    (over :data:`NOMINAL_FLOOR_AREA_M2`, ``Building.gain_floor_areas_m2``), and an
     air system with the fitted supply temperature and flow ranges (its COP and fan terms are
     not used: the power model is the fitted one)."""
     names = spec.zone_names
@@ -397,7 +400,7 @@ def _identified_building(
         zones=tuple(
             Zone(
                 name=z.name,
-                floor_area_m2=NOMINAL_FLOOR_AREA_M2,
+                floor_area_m2=math.nan if z.floor_area_m2 is None else z.floor_area_m2,
                 height_m=NOMINAL_HEIGHT_M,
                 energyplus_zone=z.energyplus_zone,
             )

@@ -36,7 +36,8 @@ File layout (see ``buildings/office5.toml`` for a commented example)::
                          pump_design_kw?  (absent: constant cop)
 
 A building identified from trend data (``hvacflex identify fit``) has ``[[zones]]`` with
-``name`` and ``energyplus_zone`` only (no geometry), no walls, windows, ``[gains]`` or
+``name``, ``energyplus_zone`` and ``floor_area_m2`` (every zone's, or none: then the areas are
+unknown and ``Building.floor_area_m2`` is NaN) only, no walls, windows, ``[gains]`` or
 ``[hvac]``, and instead::
 
     [identified]         supply_temp_degc, provenance? = {data, train, test}
@@ -575,6 +576,28 @@ def _check_designed(spec: BuildingSpec) -> None:
             )
 
 
+def _check_identified_areas(spec: BuildingSpec) -> None:
+    """An identified building's zones carry a ``floor_area_m2`` each or none (a model whose
+    areas are unknown); never a ``height_m`` (its network has no volume)."""
+    given = [zone.floor_area_m2 is not None for zone in spec.zones]
+    if any(given) and not all(given):
+        i = given.index(False)
+        raise rule_error(
+            "missing floor area: give every zone's floor_area_m2 or none",
+            f"zones[{i}].floor_area_m2",
+            hint="add the zone's floor area [m²] (the IDF's zone floor, or the building's "
+            "plans), or remove the others' (per-m² figures are then not available)",
+        )
+    for i, zone in enumerate(spec.zones):
+        if zone.height_m is not None:
+            raise rule_error(
+                "an identified zone has no height",
+                f"zones[{i}].height_m",
+                zone.height_m,
+                hint="remove it: the fitted capacitances hold the zone's air",
+            )
+
+
 def _check_identified(spec: BuildingSpec, identified: IdentifiedSpec) -> None:
     """An identified building: no envelope, gains or HVAC tables; one parameter table per
     zone; couplings and boundaries naming its zones."""
@@ -586,6 +609,7 @@ def _check_identified(spec: BuildingSpec, identified: IdentifiedSpec) -> None:
                 hint="remove it: the [identified] table holds the fitted model",
             )
     names = spec.zone_names
+    _check_identified_areas(spec)
     if sorted(identified.zones) != sorted(names):
         raise rule_error(
             "the identified zones differ from [[zones]]",

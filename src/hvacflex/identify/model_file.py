@@ -3,7 +3,8 @@
 The file is a building file of :func:`hvacflex.building.io.load_building` (docs/building.md,
 ``[identified]`` in :mod:`hvacflex.building.schema`): ``[[zones]]`` with lower-case identifier
 names made from the data's names (:func:`identifier`), each with its data/IDF name in
-``energyplus_zone`` (matched case-insensitively by the EnergyPlus plant), and the fitted
+``energyplus_zone`` (matched case-insensitively by the EnergyPlus plant) and, when known,
+its ``floor_area_m2`` (conditioned zones only: a boundary carries none), and the fitted
 network in ``[identified]``: per zone its parameters (:data:`hvacflex.identify.greybox.
 ZONE_PARAMETERS`, units in the names) and its supply-flow range, the couplings, the
 boundaries (unconditioned zones, as nodes), the supply temperature and the power model. So a
@@ -79,7 +80,9 @@ class IdentifiedModel:
     names; parameters : the grey-box parameters; power : the power model or None (no meter in
     the data); provenance : where it came from (data file, train and test days); boundaries :
     (nb,) the data's unconditioned zones (inputs of the fit, nodes of the building);
-    air : supply temperature and flow ranges; boundary_nodes : (nb,) the boundaries' nodes.
+    air : supply temperature and flow ranges; boundary_nodes : (nb,) the boundaries' nodes;
+    floor_areas_m2 : (m,) each zone's floor area [m²], or None when unknown (the file then
+    gives none: per-m² figures are not available).
     """
 
     name: str
@@ -91,6 +94,7 @@ class IdentifiedModel:
     air: AirSystem
     boundaries: tuple[str, ...] = ()
     boundary_nodes: tuple[BoundaryNode, ...] = ()
+    floor_areas_m2: tuple[float, ...] | None = None
 
 
 def _toml_value(value: object) -> str:
@@ -113,8 +117,11 @@ def write_identified_model(model: IdentifiedModel, path: str | Path) -> Path:
     path = Path(path)
     lines = [f"name = {_toml_value(model.name)}"]
     lines.append(f"description = {_toml_value('grey-box RC model identified from trend data')}")
-    for zone, energyplus in zip(model.zones, model.energyplus_zones, strict=True):
-        _table(lines, "[[zones]]", {"name": zone, "energyplus_zone": energyplus})
+    for i, (zone, energyplus) in enumerate(zip(model.zones, model.energyplus_zones, strict=True)):
+        entry: dict[str, object] = {"name": zone, "energyplus_zone": energyplus}
+        if model.floor_areas_m2 is not None:
+            entry["floor_area_m2"] = model.floor_areas_m2[i]
+        _table(lines, "[[zones]]", entry)
     _table(lines, "[identified]", {"supply_temp_degc": model.air.supply_temp_degc})
     _table(lines, "[identified.provenance]", dict(model.provenance))
     names = [n for n, _ in ZONE_PARAMETERS]
@@ -209,6 +216,11 @@ def load_identified_model(path: str | Path) -> IdentifiedModel:
         ),
         boundaries=tuple(node.name for node in rc.boundaries),
         boundary_nodes=tuple(_node(node) for node in rc.boundaries),
+        floor_areas_m2=(
+            tuple(z.floor_area_m2 for z in building.zones)
+            if np.isfinite(building.floor_area_m2)
+            else None
+        ),
     )
 
 

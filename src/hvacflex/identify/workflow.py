@@ -50,6 +50,7 @@ from hvacflex.identify.fit import (
     prediction_frame,
 )
 from hvacflex.identify.greybox import ZONE_PARAMETERS
+from hvacflex.identify.idf_geometry import idf_floor_areas_m2
 from hvacflex.identify.model_file import IdentifiedModel, identifier, write_identified_model
 from hvacflex.identify.trend import read_trend, zone_column
 
@@ -171,6 +172,63 @@ def zones_and_couplings(
     return names, couples
 
 
+def parse_floor_areas(text: str, zones: tuple[str, ...]) -> tuple[float, ...]:
+    """``"Z1=120.5,Z2=40"`` → (m,) the floor area [m²] of each of ``zones`` (the data's
+    names, any case), every zone named once.
+
+    Raises
+    ------
+    InputError
+        naming the item that is not ``ZONE=M2`` with a positive number, a zone not fitted or
+        one left out.
+    """
+    lookup = {z.lower(): z for z in zones}
+    areas: dict[str, float] = {}
+    for item in (i.strip() for i in text.split(",") if i.strip()):
+        name, _, number = item.rpartition("=")
+        try:
+            area = float(number)
+        except ValueError:
+            area = float("nan")
+        if name.strip().lower() not in lookup or not area > 0 or not np.isfinite(area):
+            raise InputError(
+                "not a fitted zone's floor area",
+                field="--floor-area",
+                value=item,
+                hint=f"write ZONE=M2 (a positive number of m²) for each of {list(zones)}",
+            )
+        areas[name.strip().lower()] = area
+    missing = [z for z in zones if z.lower() not in areas]
+    if missing:
+        raise InputError(
+            "a fitted zone has no floor area",
+            field="--floor-area",
+            value=missing[0],
+            hint=f"give every fitted zone's area: {','.join(f'{z}=M2' for z in zones)}",
+        )
+    return tuple(areas[z.lower()] for z in zones)
+
+
+def zone_floor_areas_m2(
+    zones: tuple[str, ...],
+    floor_areas: str | None,
+    idf: str | Path | None,
+    template: str | Path | None,
+) -> tuple[float, ...] | None:
+    """(m,) the fitted zones' floor areas [m²]: ``--floor-area`` where given, else the IDF's
+    zones' floors, else the template building's zones', else None (unknown: the model file
+    gives none and per-m² figures are not available)."""
+    if floor_areas is not None:
+        return parse_floor_areas(floor_areas, zones)
+    if idf is not None:
+        return idf_floor_areas_m2(idf, zones)
+    if template is not None:
+        building = load_building(template)
+        by_data_name = {(z.energyplus_zone or z.name).lower(): z for z in building.zones}
+        return tuple(by_data_name[z.lower()].floor_area_m2 for z in zones)
+    return None
+
+
 def _pairs(zones: tuple[str, ...], couples: list[tuple[str, str]] | None) -> list[tuple[int, int]]:
     if couples is None:
         return list(itertools.combinations(range(len(zones)), 2))
@@ -235,10 +293,13 @@ def identify(
     test: str | None = None,
     idf: str | Path | None = None,
     weather: str | Path | None = None,
+    floor_areas: str | None = None,
 ) -> IdentifyOutcome:
     """Fit, evaluate and write (module docstring); ``idf``: the EnergyPlus model the data
-    came from, the plant of the scenario written beside the model; ``weather``: an EPW of the
-    site (where the wall irradiances are computed; default the shipped Singapore file's)."""
+    came from, the plant of the scenario written beside the model and where the zones' floor
+    areas come from; ``weather``: an EPW of the site (where the wall irradiances are
+    computed; default the shipped Singapore file's); ``floor_areas``: ``"Z1=M2,…"``, the
+    fitted zones' floor areas (:func:`zone_floor_areas_m2`)."""
     out = Path(out)
     if idf is not None and not Path(idf).is_file():
         raise InputError(
@@ -253,6 +314,7 @@ def identify(
         if z.lower() not in fitted and not data.has(zone_column("supply_flow", z))
     )
     inputs = fit_inputs(data, names, site_of(weather), boundaries)
+    areas_m2 = zone_floor_areas_m2(inputs.zones, floor_areas, idf, template)
     if (train is None) != (test is None):
         raise InputError("give both --train and --test, or neither", field="--train")
     if train is None or test is None:
@@ -261,19 +323,8 @@ def identify(
         train_range = parse_days(train, inputs.index, "--train")
         test_range = parse_days(test, inputs.index, "--test")
     fit = fit_model(inputs, _pairs(inputs.zones, couples), train_range)
-    report = evaluate(fit, inputs, test_range)
     ids = tuple(identifier(z) for z in inputs.zones)
-    report.insert(1, "energyplus_zone", list(inputs.zones))
-    report["zone"] = list(ids)
-    report["converged"] = fit.converged
-    report["warnings"] = [
-        "; ".join(
-            w
-            for w in fit.warnings
-            if w.startswith(f"{zone}:") or not any(w.startswith(f"{z}:") for z in inputs.zones)
-        )
-        for zone in inputs.zones
-    ]
+    report = _fit_report(fit, inputs, test_range)
     power = fit_power_model(data, inputs, train_range)
     model = IdentifiedModel(
         name=f"identified from {Path(data_path).name}",
@@ -284,6 +335,7 @@ def identify(
         boundary_nodes=fit_boundary_nodes(fit.parameters, inputs, train_range, test_range),
         air=air_system(inputs, data, train_range, mean_mass_temps_degc(fit, inputs, test_range)),
         power=power,
+        floor_areas_m2=areas_m2,
         provenance={
             "data": str(data_path),
             "train": _days_text(inputs.index, train_range),
@@ -320,6 +372,24 @@ def identify(
         box,
         scenario_path,
     )
+
+
+def _fit_report(fit: FitResult, inputs: FitData, test_range: tuple[int, int]) -> pd.DataFrame:
+    """``fit_report.csv``: :func:`~hvacflex.identify.fit.evaluate`'s rows with the zones'
+    identifiers, their data names, ``converged`` and each zone's ``warnings``."""
+    report = evaluate(fit, inputs, test_range)
+    report.insert(1, "energyplus_zone", list(inputs.zones))
+    report["zone"] = [identifier(z) for z in inputs.zones]
+    report["converged"] = fit.converged
+    report["warnings"] = [
+        "; ".join(
+            w
+            for w in fit.warnings
+            if w.startswith(f"{zone}:") or not any(w.startswith(f"{z}:") for z in inputs.zones)
+        )
+        for zone in inputs.zones
+    ]
+    return report
 
 
 def _days_text(index: pd.DatetimeIndex, periods: tuple[int, int]) -> str:
