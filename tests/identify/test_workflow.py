@@ -55,8 +55,24 @@ def test_fit_writes_a_model_and_a_report_beside_it(trend: Path, tmp_path: Path) 
     assert model.provenance["test"] == "2014-03-08..2014-03-08"
     assert model.floor_areas_m2 == (30.5, 45.0)  # the zones' order; the attic carries none
     parameters = pd.read_csv(outcome.parameters_path)
-    assert {"value", "std_error"} <= set(parameters.columns)
+    assert {"value", "std_error", "at_bound", "prior"} <= set(parameters.columns)
+    assert parameters["at_bound"].dtype == bool
     assert len(parameters) == 2 * len(ZONE_PARAMETERS) + 1 + 2
+    # with the floor areas the bounds scale: 30.5 m² bounds Room-A's mass at 30.5 × 2000 kJ/K
+    mass = parameters[
+        (parameters["zone"] == "room_a") & (parameters["parameter"] == "c_mass_kj_per_k")
+    ]
+    assert mass["value"].iloc[0] <= 30.5 * 2000.0
+    checks = pd.read_csv(out.parent / "checks.csv", keep_default_na=False)
+    assert list(checks.columns) == ["check", "zone", "parameter", "status", "detail"]
+    assert set(checks["status"]) <= {"ok", "warning"}
+    # every parameter at a bound has a warning row naming it
+    at_bound = parameters[parameters["at_bound"]]
+    warned = checks[(checks["check"] == "bound") & (checks["status"] == "warning")]
+    assert set(zip(at_bound["zone"], at_bound["parameter"], strict=True)) <= set(
+        zip(warned["zone"], warned["parameter"], strict=True)
+    )
+    assert any(line.startswith("facade_solar room_a") for line in outcome.failed_checks)
 
 
 def test_day_ranges_include_both_ends() -> None:
@@ -114,7 +130,11 @@ def test_the_cli_exits_2_on_a_missing_weather_file_before_fitting(
     assert "Traceback" not in result.output and not out.parent.exists()
 
 
-def test_the_cli_fit_writes_the_figure_and_the_series(trend: Path, tmp_path: Path) -> None:
+def test_the_cli_fit_writes_the_figure_and_the_series_and_strict_exits_2(
+    trend: Path, tmp_path: Path
+) -> None:
+    """Without floor areas or façades the checks warn (magnitudes and façades not checked):
+    the files are written all the same, the warnings said, and --strict exits 2."""
     out = tmp_path / "cli" / "model.toml"
     result = CliRunner().invoke(
         app,
@@ -131,9 +151,13 @@ def test_the_cli_fit_writes_the_figure_and_the_series(trend: Path, tmp_path: Pat
             "2014-03-08..2014-03-08",
             "--out",
             str(out),
+            "--strict",
         ],
     )
-    assert result.exit_code == 0, result.output
+    assert result.exit_code == 2, result.output
+    assert "plausibility checks:" in result.output and "--strict" in result.output
+    assert "magnitude_per_m2 room_a: floor area unknown" in result.output
+    assert "Traceback" not in result.output
     series = pd.read_csv(out.parent / "fit_predictions.csv", index_col=0)
     assert len(series) == 48 and "predicted_24h_Room-A_degc" in series.columns
     assert (out.parent / "fit.png").stat().st_size > 10_000

@@ -33,6 +33,13 @@ from hvacflex.identify.box import (
     write_model_errors,
     write_scenario,
 )
+from hvacflex.identify.checks import (
+    CHECKS_FILE,
+    FitContext,
+    parameter_rows,
+    plausibility_checks,
+    warning_lines,
+)
 from hvacflex.identify.fit import (
     PERIODS_PER_DAY,
     WARMUP_DAYS,
@@ -49,9 +56,9 @@ from hvacflex.identify.fit import (
     one_step_errors,
     prediction_frame,
 )
-from hvacflex.identify.greybox import ZONE_PARAMETERS
-from hvacflex.identify.idf_geometry import idf_floor_areas_m2
+from hvacflex.identify.idf_geometry import idf_floor_areas_m2, idf_zone_geometry
 from hvacflex.identify.model_file import IdentifiedModel, identifier, write_identified_model
+from hvacflex.identify.physics import ZonePhysics, zone_physics
 from hvacflex.identify.trend import read_trend, zone_column
 
 DEFAULT_TEST_DAYS = 7
@@ -68,7 +75,8 @@ class IdentifyOutcome:
     report : the fit report (one row per zone); power : daily power check or None.
     fit : the fit; predictions : the test days' measured and predicted series
     (:func:`~hvacflex.identify.fit.prediction_frame`, also ``fit_predictions.csv``);
-    box : the calibrated model error; scenario_path : the scenario beside the model.
+    box : the calibrated model error; scenario_path : the scenario beside the model;
+    checks : the plausibility checks (:mod:`hvacflex.identify.checks`), also ``checks_path``.
     """
 
     model_path: Path
@@ -81,6 +89,13 @@ class IdentifyOutcome:
     predictions: pd.DataFrame
     box: ModelErrorBox
     scenario_path: Path
+    checks: pd.DataFrame
+    checks_path: Path
+
+    @property
+    def failed_checks(self) -> list[str]:
+        """Each failed check as a line (``check zone parameter: detail``)."""
+        return warning_lines(self.checks)
 
 
 def site_of(weather: str | Path | None) -> EpwLocation:
@@ -237,49 +252,45 @@ def _pairs(zones: tuple[str, ...], couples: list[tuple[str, str]] | None) -> lis
     return [(int(i), int(j)) for i, j in sorted(found) if i != j]
 
 
-def _parameters_table(
-    fit: FitResult, zones: tuple[str, ...], boundaries: tuple[str, ...]
-) -> pd.DataFrame:
-    rows = []
-    for i, zone in enumerate(zones):
-        for j, (name, _) in enumerate(ZONE_PARAMETERS):
-            rows.append(
-                {
-                    "zone": zone,
-                    "parameter": name,
-                    "value": fit.parameters.zone[i, j],
-                    "std_error": fit.standard_errors.zone[i, j],
-                }
-            )
-    for (i, j), ua, se in zip(
-        fit.parameters.couplings,
-        fit.parameters.coupling_ua_kw_per_k,
-        fit.standard_errors.coupling_ua_kw_per_k,
-        strict=True,
-    ):
-        rows.append(
-            {
-                "zone": f"{zones[i]}-{zones[j]}",
-                "parameter": "ua_kw_per_k",
-                "value": ua,
-                "std_error": se,
-            }
+def _parameters_table(fit: FitResult, context: FitContext) -> pd.DataFrame:
+    """``fit_parameters.csv``: ``zone``, ``parameter``, ``value``, ``std_error``, ``at_bound``
+    (``true``/``false``: a free parameter the optimiser left on a bound) and ``prior`` (the
+    prior's centre; a parameter fixed by physics has bounds, prior and value equal and
+    standard error 0)."""
+    assert fit.at_bound is not None and fit.prior is not None
+    rows = [
+        {
+            "zone": label,
+            "parameter": name,
+            "value": value,
+            "std_error": error[3],
+            "at_bound": "true" if flag[3] > 0 else "false",
+            "prior": prior[3],
+        }
+        for (label, name, _, value), error, flag, prior in zip(
+            parameter_rows(fit.parameters, context),
+            parameter_rows(fit.standard_errors, context),
+            parameter_rows(fit.at_bound, context),
+            parameter_rows(fit.prior, context),
+            strict=True,
         )
-    for (i, b), ua, se in zip(
-        fit.parameters.boundary_couplings,
-        fit.parameters.boundary_ua_kw_per_k,
-        fit.standard_errors.boundary_ua_kw_per_k,
-        strict=True,
-    ):
-        rows.append(
-            {
-                "zone": f"{zones[i]}-{boundaries[b]}",
-                "parameter": "ua_kw_per_k",
-                "value": ua,
-                "std_error": se,
-            }
-        )
+    ]
     return pd.DataFrame(rows)
+
+
+def zone_physics_of(
+    zones: tuple[str, ...], areas_m2: tuple[float, ...] | None, idf: str | Path | None
+) -> tuple[ZonePhysics, ...]:
+    """(m,) what is known of each fitted zone (the data's names): its floor area and, with
+    an IDF, its façades (:func:`~hvacflex.identify.physics.zone_physics`)."""
+    geometry = None if idf is None else idf_zone_geometry(idf)
+    return tuple(
+        zone_physics(
+            None if geometry is None else geometry.get(zone.lower()),
+            None if areas_m2 is None else areas_m2[i],
+        )
+        for i, zone in enumerate(zones)
+    )
 
 
 def identify(
@@ -295,11 +306,11 @@ def identify(
     weather: str | Path | None = None,
     floor_areas: str | None = None,
 ) -> IdentifyOutcome:
-    """Fit, evaluate and write (module docstring); ``idf``: the EnergyPlus model the data
-    came from, the plant of the scenario written beside the model and where the zones' floor
-    areas come from; ``weather``: an EPW of the site (where the wall irradiances are
-    computed; default the shipped Singapore file's); ``floor_areas``: ``"Z1=M2,…"``, the
-    fitted zones' floor areas (:func:`zone_floor_areas_m2`)."""
+    """Fit, evaluate, check and write (module docstring); ``idf``: the EnergyPlus model the
+    data came from, the plant of the scenario written beside the model and where the zones'
+    floor areas and façades come from; ``weather``: an EPW of the site (where the wall
+    irradiances are computed; default the shipped Singapore file's); ``floor_areas``:
+    ``"Z1=M2,…"``, the fitted zones' floor areas (:func:`zone_floor_areas_m2`)."""
     out = Path(out)
     if idf is not None and not Path(idf).is_file():
         raise InputError(
@@ -315,16 +326,10 @@ def identify(
     )
     inputs = fit_inputs(data, names, site_of(weather), boundaries)
     areas_m2 = zone_floor_areas_m2(inputs.zones, floor_areas, idf, template)
-    if (train is None) != (test is None):
-        raise InputError("give both --train and --test, or neither", field="--train")
-    if train is None or test is None:
-        train_range, test_range = _default_ranges(inputs.index)
-    else:
-        train_range = parse_days(train, inputs.index, "--train")
-        test_range = parse_days(test, inputs.index, "--test")
-    fit = fit_model(inputs, _pairs(inputs.zones, couples), train_range)
+    physics = zone_physics_of(inputs.zones, areas_m2, idf)
+    train_range, test_range = _ranges(inputs.index, train, test)
+    fit = fit_model(inputs, _pairs(inputs.zones, couples), train_range, physics)
     ids = tuple(identifier(z) for z in inputs.zones)
-    report = _fit_report(fit, inputs, test_range)
     power = fit_power_model(data, inputs, train_range)
     model = IdentifiedModel(
         name=f"identified from {Path(data_path).name}",
@@ -342,14 +347,15 @@ def identify(
             "test": _days_text(inputs.index, test_range),
         },
     )
+    context = FitContext(ids, physics, inputs.boundaries, model.boundary_nodes)
+    checks = plausibility_checks(fit, context)
+    report = _fit_report(fit, inputs, test_range, checks)
     out.parent.mkdir(parents=True, exist_ok=True)
     model_path = write_identified_model(model, out)
-    report_path = out.parent / "fit_report.csv"
-    report.to_csv(report_path, index=False, float_format="%.4g")
+    report.to_csv(out.parent / "fit_report.csv", index=False, float_format="%.4g")
     parameters_path = out.parent / "fit_parameters.csv"
-    _parameters_table(fit, ids, inputs.boundaries).to_csv(
-        parameters_path, index=False, float_format="%.5g"
-    )
+    _parameters_table(fit, context).to_csv(parameters_path, index=False, float_format="%.5g")
+    checks.to_csv(out.parent / CHECKS_FILE, index=False)
     power_table = None if power is None else evaluate_power(power, data, inputs, test_range)
     power_path = None
     if power_table is not None:
@@ -362,7 +368,7 @@ def identify(
     )
     return IdentifyOutcome(
         model_path,
-        report_path,
+        out.parent / "fit_report.csv",
         parameters_path,
         power_path,
         report,
@@ -371,23 +377,50 @@ def identify(
         predictions,
         box,
         scenario_path,
+        checks=checks,
+        checks_path=out.parent / CHECKS_FILE,
     )
 
 
-def _fit_report(fit: FitResult, inputs: FitData, test_range: tuple[int, int]) -> pd.DataFrame:
+def _ranges(
+    index: pd.DatetimeIndex, train: str | None, test: str | None
+) -> tuple[tuple[int, int], tuple[int, int]]:
+    """The training and test periods of ``--train`` and ``--test`` (both or neither)."""
+    if (train is None) != (test is None):
+        raise InputError("give both --train and --test, or neither", field="--train")
+    if train is None or test is None:
+        return _default_ranges(index)
+    return parse_days(train, index, "--train"), parse_days(test, index, "--test")
+
+
+def _fit_report(
+    fit: FitResult, inputs: FitData, test_range: tuple[int, int], checks: pd.DataFrame
+) -> pd.DataFrame:
     """``fit_report.csv``: :func:`~hvacflex.identify.fit.evaluate`'s rows with the zones'
-    identifiers, their data names, ``converged`` and each zone's ``warnings``."""
+    identifiers, their data names, ``converged`` and each zone's ``warnings``: the fit's and
+    the failed plausibility checks naming the zone (or one of its couplings) or the whole fit."""
     report = evaluate(fit, inputs, test_range)
     report.insert(1, "energyplus_zone", list(inputs.zones))
-    report["zone"] = [identifier(z) for z in inputs.zones]
+    ids = [identifier(z) for z in inputs.zones]
+    report["zone"] = ids
     report["converged"] = fit.converged
+    failed = checks[checks["status"] == "warning"]
+    lines = warning_lines(failed)
+    labels = list(failed["zone"])
     report["warnings"] = [
         "; ".join(
-            w
-            for w in fit.warnings
-            if w.startswith(f"{zone}:") or not any(w.startswith(f"{z}:") for z in inputs.zones)
+            [
+                w
+                for w in fit.warnings
+                if w.startswith(f"{zone}:") or not any(w.startswith(f"{z}:") for z in inputs.zones)
+            ]
+            + [
+                line
+                for line, label in zip(lines, labels, strict=True)
+                if label == ident or label.startswith(f"{ident}-") or not label
+            ]
         )
-        for zone in inputs.zones
+        for zone, ident in zip(inputs.zones, ids, strict=True)
     ]
     return report
 
