@@ -231,6 +231,7 @@ def to_building(spec: BuildingSpec, *, source_path: Path | None = None) -> Build
         hvac=_hvac(spec.hvac, spec.zone_names, _design_people(spec), _floor_area_m2(spec)),
         description=spec.description,
         latitude_deg=spec.latitude_deg,
+        height_above_ground_m=spec.height_above_ground_m,
         longitude_deg=spec.longitude_deg,
         source_path=source_path,
     )
@@ -429,6 +430,7 @@ def _identified_building(
         ),
         description=spec.description,
         latitude_deg=spec.latitude_deg,
+        height_above_ground_m=spec.height_above_ground_m,
         longitude_deg=spec.longitude_deg,
         source_path=source_path,
         identified=rc,

@@ -479,6 +479,9 @@ class Building:
     source_path : the file it came from (``None`` if built in code).
     identified : the fitted grey-box network of a building identified from trend data
         (:mod:`hvacflex.building.identified`; it then has no walls or windows), else None.
+    height_above_ground_m : the floor's height above ground [m] (default 0: on the ground);
+        the IDF export places the surfaces there, so EnergyPlus's wind speed and outside
+        films are those of that height (hvacflex's own films are the constructions').
     """
 
     name: str
@@ -493,6 +496,7 @@ class Building:
     longitude_deg: float | None = None
     source_path: Path | None = field(default=None, compare=False)
     identified: IdentifiedRC | None = None
+    height_above_ground_m: float = 0.0
 
     @property
     def zone_names(self) -> tuple[str, ...]:

@@ -9,7 +9,9 @@ of :mod:`hvacflex.building.model` and a ``ValidationError`` into a ``BuildingCon
 
 File layout (see ``buildings/office5.toml`` for a commented example)::
 
-    name, description, latitude_deg?, longitude_deg?
+    name, description, latitude_deg?, longitude_deg?, height_above_ground_m? (the floor's
+    height above ground [m], default 0: a floor on the ground; the IDF export places its
+    surfaces there)
     [[zones]]            name, floor_area_m2, height_m, capacitance_multiplier?,
                          infiltration_ach?, internal_gain_radiative_fraction?,
                          solar_lost_fraction?, interior_radiation_w_per_m2k?,
@@ -350,6 +352,7 @@ class BuildingSpec(Spec):
     description: Annotated[str, Strict()] = ""
     latitude_deg: Annotated[Number, Field(ge=-90.0, le=90.0)] | None = None
     longitude_deg: Annotated[Number, Field(ge=-180.0, le=180.0)] | None = None
+    height_above_ground_m: Annotated[Number, Field(ge=0.0, le=1000.0)] = 0.0
     zones: Annotated[list[ZoneSpec], Field(min_length=1)]
     constructions: dict[str, ConstructionSpec] = {}
     walls: list[WallSpec] = []

@@ -73,11 +73,13 @@ What is mapped, and how
 What is approximated
 --------------------
 * Geometry: hvacflex has areas and orientations, no coordinates. Each surface is a rectangle
-  of the right area, azimuth and tilt (walls as tall as the zone), placed side by side;
+  of the right area, azimuth and tilt (walls as tall as the zone), placed side by side, their
+  lower edges at the building's ``height_above_ground_m`` (default 0);
   ``MinimalShadowing`` (no self-shading, as hvacflex) makes their positions irrelevant to the
   solar gains. Interior long-wave exchange then uses EnergyPlus's area-weighted view factors.
 * Surface heat transfer: EnergyPlus's own convection algorithms (TARP inside, DOE-2 outside,
-  the wind at the placeholder surfaces' 0–3.6 m above ground), explicit long-wave radiation and
+  the wind at the surfaces' centroids, ``height_above_ground_m`` plus half a wall: office5's
+  18 m, a mid-rise floor), explicit long-wave radiation and
   wet façades in the weather file's rain replace hvacflex's constant combined film
   coefficients (``inside_film_w_per_m2k``, ``outside_film_w_per_m2k``) and its optional sky
   term; ``surfaces="hvacflex"`` writes those films instead (:data:`SURFACE_MODELS`).
