@@ -149,6 +149,16 @@ def test_surfaces_stand_at_the_buildings_height_above_ground(
         assert base == 18.0
 
 
+def test_hvacflex_films_see_the_station_air_at_any_height() -> None:
+    """With hvacflex's films the export switches EnergyPlus's air-temperature lapse off (the
+    implementation check keeps hvacflex's station temperature on an 18-m floor); with
+    EnergyPlus's own surfaces its defaults stay."""
+    office5 = load_building(resolve_building("office5"))
+    films = by_class(parse_idf(export_idf(office5, surfaces="hvacflex")), "Site:HeightVariation")
+    assert len(films) == 1 and float(films[0][2]) == 0.0
+    assert by_class(parse_idf(export_idf(office5)), "Site:HeightVariation") == []
+
+
 def test_a_negative_height_above_ground_is_refused_naming_the_field(tmp_path: Path) -> None:
     text = resolve_building("room1").read_text(encoding="utf-8")
     path = tmp_path / "sunk.toml"

@@ -90,3 +90,13 @@ def test_a_zone_without_floor_is_refused_with_the_fix(tmp_path: Path) -> None:
     with pytest.raises(InputError, match="no floor area") as caught:
         idf_floor_areas_m2(idf, ("void",))
     assert "--floor-area" in str(caught.value)
+
+
+def test_shared_surfaces_name_the_zone_on_the_other_side() -> None:
+    geometry = idf_zone_geometry(FIVE_ZONE)
+    space1 = dict(geometry["space1-1"].shared_m2)
+    # SPACE1-1 touches SPACE2-1, SPACE4-1 and the core, and the plenum above; not SPACE3-1
+    assert set(space1) == {"space2-1", "space4-1", "space5-1", "plenum-1"}
+    assert space1["plenum-1"] == pytest.approx(geometry["space1-1"].floor_area_m2)
+    # seen from either side the shared wall has one area
+    assert dict(geometry["space2-1"].shared_m2)["space1-1"] == pytest.approx(space1["space2-1"])

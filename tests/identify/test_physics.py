@@ -12,6 +12,7 @@ from hvacflex.identify.physics import (
     BOUNDS_PER_M2,
     OPAQUE_SOLAR_SHARE,
     ZonePhysics,
+    coupling_bounds,
     zone_bounds,
     zone_physics,
     zone_priors,
@@ -66,3 +67,9 @@ def test_priors_lie_inside_the_bounds() -> None:
     for name, value in priors.items():
         assert bounds[name][0] <= value <= bounds[name][1], name
     assert priors["c_air_kj_per_k"] == pytest.approx(1000.0)  # 10 kJ/(K m²) × 100 m²
+
+
+def test_a_coupling_is_bounded_by_the_shared_area() -> None:
+    low, high, prior = coupling_bounds(20.0)  # 20 m² of partition
+    assert (low, high) == pytest.approx((20.0 * 0.2e-3, 20.0 * 6.0e-3))
+    assert low < prior < high

@@ -274,3 +274,17 @@ def test_the_cli_exits_2_on_a_bad_floor_area_before_fitting(trend: Path, tmp_pat
     assert result.exit_code == 2
     assert "--floor-area" in result.output and "Room-A=lots" in result.output
     assert "Traceback" not in result.output and not out.parent.exists()
+
+
+def test_with_an_idf_the_zones_sharing_a_surface_couple_bounded_by_its_area() -> None:
+    from hvacflex.identify.workflow import idf_couplings
+
+    idf = resources_dir() / "energyplus" / "5ZoneAirCooled.idf"
+    zones = ("SPACE1-1", "SPACE2-1", "SPACE3-1", "SPACE5-1")
+    pairs, physics = idf_couplings(zones, ("PLENUM-1",), idf, None)
+    # SPACE1-1 and SPACE3-1 face each other across the core: they do not couple
+    assert pairs == [(0, 1), (0, 3), (1, 2), (1, 3), (2, 3)]
+    assert physics is not None and len(physics) == len(pairs) + len(zones)
+    assert all(p is not None and p[0] < p[2] < p[1] for p in physics)
+    given, _ = idf_couplings(zones, ("PLENUM-1",), idf, [("SPACE1-1", "SPACE3-1")])
+    assert given == [(0, 2)]  # --adjacency wins; that pair shares nothing: generic bounds

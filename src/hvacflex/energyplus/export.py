@@ -131,7 +131,8 @@ weather file's rain — the independent model. ``"hvacflex"``: the building's ow
 combined films as convection coefficients, no long-wave exchange where hvacflex models none
 (every face of an opaque layer at :data:`~hvacflex.energyplus.envelope.NO_LONGWAVE_ABSORPTANCE`
 unless the wall gives ``thermal_emissivity``), rain and snow ignored — EnergyPlus solving
-hvacflex's equations with its own conduction, solar and zone heat balance (a verification of
+hvacflex's equations with its own conduction, solar and zone heat balance, the station's air
+temperature at every height (:data:`STATION_AIR_HEIGHT_VARIATION`) (a verification of
 the implementation, not of the film model; what stays EnergyPlus's: the windows' angular
 solar and their long-wave to the sky, ε 0.84; a window's inside film is hvacflex's default,
 7.69 W/m²K). Only for buildings with combined films and convective gains
@@ -227,6 +228,7 @@ def export_idf(
         f"! weather for site and design days: {weather.name}",
         *_simulation_objects(hvac, rain=not films),
         *_site_objects(weather, location),
+        *_height_objects(films),
         *_schedule_objects(building, DEFAULT_OFFICE_SCHEDULE),
         *construction_objects(building, films=films),
         *zone_objects(building),
@@ -363,6 +365,19 @@ def _design_conditions_from_data(epw_path: Path) -> DesignConditions:
         heating_dry_bulb_degc=float(np.percentile(temp, 0.4)),
         source="data",
     )
+
+
+STATION_AIR_HEIGHT_VARIATION = (0.22, 370.0, 0.0)
+"""``Site:HeightVariation`` of ``surfaces="hvacflex"``: EnergyPlus's default wind profile
+(exponent 0.22, boundary layer 370 m) and **no** air-temperature lapse (its default
+0.0065 K/m), so every surface sees the weather station's air temperature at any height, as
+hvacflex's films do."""
+
+
+def _height_objects(films: bool) -> list[str]:
+    """With hvacflex's films, :data:`STATION_AIR_HEIGHT_VARIATION`; else none (EnergyPlus's
+    defaults: the air 0.0065 K/m cooler and the wind faster with the surfaces' height)."""
+    return [idf_object("Site:HeightVariation", *STATION_AIR_HEIGHT_VARIATION)] if films else []
 
 
 def _site_objects(epw_path: Path, location: EpwLocation) -> list[str]:

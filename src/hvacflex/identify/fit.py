@@ -136,6 +136,9 @@ COIL_SUPPLY_QUANTILE = 0.05
 COOLING_DIFFERENCE_K = 1.0
 """Supply air this much colder than the zone counts as cooling air [K] (a constant-volume
 fan also moves air while its coil is off)."""
+CouplingPhysics = tuple[tuple[float, float, float] | None, ...] | None
+"""Per coupling (zone pairs, then zone–boundary pairs) its (low, high, prior) [kW/K], or None:
+the generic bounds."""
 BOUNDARY_MIN_RATE = 1e-6
 """Lower bound of a boundary node's ``Δt / C`` in its fit [K per kJ]: a finite capacitance."""
 
@@ -287,12 +290,17 @@ def _zones_of(theta: FloatArray, pairs: int) -> int:
 
 
 def _initial_and_bounds(
-    m: int, pairs: int, physics: tuple[ZonePhysics, ...] | None = None
+    m: int,
+    pairs: int,
+    physics: tuple[ZonePhysics, ...] | None = None,
+    coupling_physics: CouplingPhysics = None,
 ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
     """The prior (= start), lower and upper bounds (in the optimiser's log/linear space) and
     the priors' scales of every parameter: per zone from its ``physics``
-    (:func:`~hvacflex.identify.physics.zone_bounds`, ``zone_priors``) where given, else the
-    generic :data:`INITIAL` and :data:`BOUNDS`. A parameter with equal bounds is fixed."""
+    (:func:`~hvacflex.identify.physics.zone_bounds`, ``zone_priors``) where given, per
+    coupling (zone pairs, then zone–boundary edges) its ``(low, high, prior)`` where given,
+    else the generic :data:`INITIAL` and :data:`BOUNDS`. A parameter with equal bounds is
+    fixed."""
     names = _names(m, pairs)
     zone_physics = physics if physics is not None else tuple(ZonePhysics() for _ in range(m))
     k = len(ZONE_PARAMETERS)
@@ -303,6 +311,9 @@ def _initial_and_bounds(
             prior = zone_priors(zone_physics[position // k], INITIAL, bounds)[name]
         else:
             bounds, prior = BOUNDS, INITIAL[name]
+            known = None if coupling_physics is None else coupling_physics[position - m * k]
+            if known is not None:
+                bounds, prior = {name: (known[0], known[1])}, known[2]
         initial.append(prior)
         low.append(bounds[name][0])
         high.append(bounds[name][1])
@@ -486,11 +497,14 @@ def fit_model(
     couplings: list[tuple[int, int]],
     train: tuple[int, int],
     physics: tuple[ZonePhysics, ...] | None = None,
+    coupling_physics: CouplingPhysics = None,
 ) -> FitResult:
     """Fit the grey-box model on the periods ``train = (first, end)`` (module docstring);
     every fitted zone may exchange heat with every boundary of ``data``; ``physics`` (m,):
     what is known of each zone (floor area, façades: :mod:`hvacflex.identify.physics`),
-    which bounds its parameters and centres their priors.
+    which bounds its parameters and centres their priors; ``coupling_physics``: per coupling
+    (``couplings``, then every zone–boundary pair) its ``(low, high, prior)`` [kW/K] or None
+    (:func:`~hvacflex.identify.physics.coupling_bounds`).
 
     Raises
     ------
@@ -509,7 +523,9 @@ def fit_model(
     pairs = np.array(couplings, dtype=np.int64).reshape(-1, 2)
     m, nb = data.y.shape[1], len(data.boundaries)
     edges = np.array([(i, b) for i in range(m) for b in range(nb)], dtype=np.int64).reshape(-1, 2)
-    prior, low, high, scale = _initial_and_bounds(m, len(pairs) + len(edges), physics)
+    prior, low, high, scale = _initial_and_bounds(
+        m, len(pairs) + len(edges), physics, coupling_physics
+    )
     free = high > low
     window = FitData(data.index[:end], data.zones, data.y[:end], data.u[:end], data.boundaries)
 

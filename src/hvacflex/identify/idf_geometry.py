@@ -7,6 +7,8 @@
   ``BuildingSurface:Detailed``, ``Floor:Detailed``, ``Floor:Adiabatic``,
   ``Floor:GroundContact``, ``Floor:Interzone``), as EnergyPlus's zone summary reports it (one
   zone, its ``Multiplier`` not applied);
+* which zones share surfaces, and their areas [m²] (``Outside Boundary Condition`` Surface or
+  Zone of ``BuildingSurface:Detailed``): the couplings of the fit and their bounds;
 * each zone's **exterior windows and walls**: area [m²], azimuth of the outward normal
   clockwise from true north [°] and tilt from horizontal [°]
   (``FenestrationSurface:Detailed`` and ``Window`` on a base surface with ``Outdoors`` as its
@@ -58,13 +60,17 @@ class ZoneGeometry:
     Attributes
     ----------
     name : the IDF's spelling; floor_area_m2 : its floor area [m²] (0 without floors);
-    windows : its exterior windows; walls : its exterior walls (gross, windows included).
+    windows : its exterior windows; walls : its exterior walls (gross, windows included);
+    shared_m2 : (other zone's lower-case name, area [m²]) of the surfaces it shares with
+    another zone (walls, floors, ceilings whose outside is a surface of that zone), summed
+    per zone.
     """
 
     name: str
     floor_area_m2: float
     windows: tuple[Aperture, ...] = ()
     walls: tuple[Aperture, ...] = ()
+    shared_m2: tuple[tuple[str, float], ...] = ()
 
 
 def _number(text: str, default: float | None = None) -> float | None:
@@ -194,6 +200,26 @@ def _exterior_walls(
     return found
 
 
+def _shared_areas(
+    objects: tuple[IdfObject, ...], source: str | Path
+) -> dict[str, dict[str, float]]:
+    """zone → other zone → area [m²] of the ``BuildingSurface:Detailed`` surfaces whose
+    outside boundary is a surface of (or the) other zone, seen from the zone (lower case)."""
+    polygons = [o for o in objects if o.is_a("BuildingSurface:Detailed")]
+    zone_of = {o.field(0).lower(): o.field(3).lower() for o in polygons}
+    shared: dict[str, dict[str, float]] = {}
+    for obj in polygons:
+        boundary, other = obj.field(5).lower(), obj.field(6).lower()
+        far = zone_of.get(other) if boundary == "surface" else other if boundary == "zone" else None
+        zone = obj.field(3).lower()
+        if far is None or far == zone:
+            continue
+        area = aperture_of(_vertices(obj, 10, source), 0.0).area_m2
+        shared.setdefault(zone, {})
+        shared[zone][far] = shared[zone].get(far, 0.0) + area
+    return shared
+
+
 def _windows(
     objects: tuple[IdfObject, ...],
     bases: dict[str, tuple[str, Aperture]],
@@ -246,6 +272,7 @@ def idf_zone_geometry(path: str | Path) -> dict[str, ZoneGeometry]:
     floors = _floor_areas(objects, path)
     bases = _exterior_walls(objects, rules, path)
     windows = _windows(objects, bases, rules, path)
+    shared = _shared_areas(objects, path)
     zones = {}
     for zone in objects_of(objects, "Zone"):
         name = zone.field(0)
@@ -260,6 +287,7 @@ def idf_zone_geometry(path: str | Path) -> dict[str, ZoneGeometry]:
                 for z, a in bases.values()
                 if z.lower() == key and a.tilt_deg >= HORIZONTAL_TILT_DEG
             ),
+            shared_m2=tuple(sorted(shared.get(key, {}).items())),
         )
     return zones
 

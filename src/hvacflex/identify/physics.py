@@ -15,7 +15,9 @@ zone does not face is fixed at 0, and a zone with no exterior surface at all (a 
 plenum) gets no sun (its horizontal apertures are fixed at 0 too). Without the floor area the
 generic bounds of :data:`hvacflex.identify.fit.BOUNDS` apply; without the façades the wall
 apertures are free on every façade. The typical ranges (:data:`TYPICAL_PER_M2`) are the
-checks' (:mod:`hvacflex.identify.checks`), narrower than the bounds.
+checks' (:mod:`hvacflex.identify.checks`), narrower than the bounds. Where the IDF says which
+zones share surfaces, only those couple, each coupling (and each zone's to a boundary)
+bounded by the shared area × :data:`PARTITION_U_W_PER_M2K` (:func:`coupling_bounds`).
 
 Sources of the per-m² figures: air 1.2 kJ/(m³K) × 2.4–4 m of height, with furniture and
 light surfaces up to ×10 (``c_air``); a concrete slab 0.1–0.3 m at 2,000 kg/m³ × 0.9 kJ/(kg K)
@@ -67,6 +69,13 @@ TYPICAL_PER_M2: dict[str, tuple[float, float]] = {
     "base_gain_kw": (0.0, 0.03),
 }
 """The range the magnitude check calls plausible, per m² of floor."""
+PARTITION_U_W_PER_M2K = (0.2, 6.0)
+"""Bounds of a coupling's conductance per m² of the surfaces two zones share [W/(m²K)]: an
+insulated partition with its films … a light one with doors and leaks (a return-air ceiling
+of acoustic tiles is ≈ 2–5)."""
+PARTITION_U_PRIOR_W_PER_M2K = 1.5
+"""A coupling's prior per m² of shared surface: a stud partition or a tiled ceiling with
+films [W/(m²K)]."""
 SOLAR_PRIOR_SHARE = 0.3
 """A solar aperture's prior: this share of its bound (a window's SHGC × frame share) [–]."""
 
@@ -155,3 +164,11 @@ def zone_priors(
     return {
         name: min(max(value, bounds[name][0]), bounds[name][1]) for name, value in priors.items()
     }
+
+
+def coupling_bounds(shared_m2: float) -> tuple[float, float, float]:
+    """(low, high, prior) of a coupling's conductance [kW/K] between two zones (or a zone and
+    a boundary) sharing ``shared_m2`` [m²] of surface (:data:`PARTITION_U_W_PER_M2K`)."""
+    low, high = PARTITION_U_W_PER_M2K
+    kw = shared_m2 / 1000.0
+    return low * kw, high * kw, PARTITION_U_PRIOR_W_PER_M2K * kw

@@ -4,7 +4,9 @@
 Which zones and which couplings: ``--template BUILDING`` takes the building file's zones
 (their ``energyplus_zone``, else their name, is the data's zone) and couples the zones its
 walls join; ``--zones Z1,Z2`` names the data's zones, and ``--adjacency "Z1-Z2,…"`` the
-couplings (without it every pair may couple and the fit decides). The data's zones with a
+couplings (without it, with ``--idf`` the zones that share a surface in the IDF couple, each
+coupling bounded by the shared area; without either every pair may couple and the fit
+decides). The data's zones with a
 temperature only (no supply air: a plenum, an attic) are boundaries of every fitted zone.
 Days: ``--train A..B`` and ``--test C..D`` (``YYYY-MM-DD``, both ends included); by default the last
 :data:`DEFAULT_TEST_DAYS` whole days are the test and the days before them the training.
@@ -43,6 +45,7 @@ from hvacflex.identify.checks import (
 from hvacflex.identify.fit import (
     PERIODS_PER_DAY,
     WARMUP_DAYS,
+    CouplingPhysics,
     FitData,
     FitResult,
     air_system,
@@ -58,7 +61,7 @@ from hvacflex.identify.fit import (
 )
 from hvacflex.identify.idf_geometry import idf_floor_areas_m2, idf_zone_geometry
 from hvacflex.identify.model_file import IdentifiedModel, identifier, write_identified_model
-from hvacflex.identify.physics import ZonePhysics, zone_physics
+from hvacflex.identify.physics import ZonePhysics, coupling_bounds, zone_physics
 from hvacflex.identify.trend import read_trend, zone_column
 
 DEFAULT_TEST_DAYS = 7
@@ -278,6 +281,38 @@ def _parameters_table(fit: FitResult, context: FitContext) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
+def idf_couplings(
+    zones: tuple[str, ...],
+    boundaries: tuple[str, ...],
+    idf: str | Path,
+    couples: list[tuple[str, str]] | None,
+) -> tuple[list[tuple[int, int]], CouplingPhysics]:
+    """The couplings and their physics from the IDF: without ``--adjacency`` (``couples``
+    None) the fitted zones that share a surface couple; each coupling, and each zone's to a
+    boundary, bounded by its shared area (:func:`~hvacflex.identify.physics.coupling_bounds`;
+    generic where they share none)."""
+    geometry = idf_zone_geometry(idf)
+    shared = {
+        zone.lower(): dict(geometry[zone.lower()].shared_m2) if zone.lower() in geometry else {}
+        for zone in zones
+    }
+    if couples is None:
+        pairs = [
+            (i, j)
+            for i, j in itertools.combinations(range(len(zones)), 2)
+            if shared[zones[i].lower()].get(zones[j].lower(), 0.0) > 0.0
+        ]
+    else:
+        pairs = _pairs(zones, couples)
+    edges = [(i, b) for i in range(len(zones)) for b in range(len(boundaries))]
+    ends = [(zones[i], zones[j]) for i, j in pairs] + [(zones[i], boundaries[b]) for i, b in edges]
+    physics = tuple(
+        coupling_bounds(area) if (area := shared[a.lower()].get(b.lower(), 0.0)) > 0 else None
+        for a, b in ends
+    )
+    return pairs, physics
+
+
 def zone_physics_of(
     zones: tuple[str, ...], areas_m2: tuple[float, ...] | None, idf: str | Path | None
 ) -> tuple[ZonePhysics, ...]:
@@ -328,7 +363,10 @@ def identify(
     areas_m2 = zone_floor_areas_m2(inputs.zones, floor_areas, idf, template)
     physics = zone_physics_of(inputs.zones, areas_m2, idf)
     train_range, test_range = _ranges(inputs.index, train, test)
-    fit = fit_model(inputs, _pairs(inputs.zones, couples), train_range, physics)
+    pairs, coupling_physics = _pairs(inputs.zones, couples), None
+    if idf is not None:
+        pairs, coupling_physics = idf_couplings(inputs.zones, inputs.boundaries, idf, couples)
+    fit = fit_model(inputs, pairs, train_range, physics, coupling_physics)
     ids = tuple(identifier(z) for z in inputs.zones)
     power = fit_power_model(data, inputs, train_range)
     model = IdentifiedModel(
