@@ -130,7 +130,10 @@ def identify_collect(
         None, "--weather", help="EPW file (default: the shipped Singapore TMYx)."
     ),
     excitation: str = typer.Option(
-        "prbs", "--excitation", help="Setpoint excitation: prbs, steps or none."
+        "range",
+        "--excitation",
+        help="Setpoint excitation: range (the operating range: PRBS in office hours, "
+        "float-ups and pull-downs outside), prbs, steps or none.",
     ),
     zones: str | None = typer.Option(
         None, "--zones", help="IDF zones, comma-separated (default: every zone with a thermostat)."
