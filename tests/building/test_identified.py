@@ -13,6 +13,7 @@ from hvacflex.building.discretize import linearize
 from hvacflex.building.identified import (
     GAIN_CHANNEL_PEAK_W,
     IdentifiedPower,
+    IdentifiedValidity,
     identified_affine_power,
     identified_occupied_share,
     identified_power_kw,
@@ -238,3 +239,11 @@ def test_an_identified_zone_refuses_a_height() -> None:
     with pytest.raises(BuildingConfigError) as caught:
         building_from_dict(base)
     assert caught.value.field == "zones[0].height_m"
+
+
+def test_a_period_outside_the_validity_range_is_flagged() -> None:
+    validity = IdentifiedValidity((23.0, 22.5), (27.0, 28.0), 24.0, 33.0)
+    zone = [[25.0, 25.0], [27.5, 25.0], [25.0, 25.0], [25.0, 22.0]]
+    outdoor = [30.0, 30.0, 34.0, 30.0]
+    # period 1: zone a above its 27 °C; 2: the outdoor air above 33 °C; 3: zone b below 22.5
+    assert validity.outside(zone, outdoor).tolist() == [False, True, True, True]

@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from hvacflex.building.identified import IdentifiedValidity
 from hvacflex.identify.checks import (
     CHECK_COLUMNS,
     FitContext,
@@ -137,3 +138,14 @@ def test_a_fit_that_did_not_converge_fails_a_check(converged: bool) -> None:
     fit = FitResult(**{**vars(fit), "converged": converged, "message": "max evaluations"})
     rows = failed(plausibility_checks(fit, _context()))
     assert ("convergence" in set(rows["check"])) is not converged
+
+
+def test_a_zone_never_trained_near_the_float_bound_is_a_warning() -> None:
+    fit = _fit(_params([_zone(), _zone()], 0.05), {})
+    validity = IdentifiedValidity((23.0, 23.0), (25.6, 29.4), 24.0, 33.0)
+    context = FitContext(("a", "b"), (ZonePhysics(100.0), ZonePhysics(100.0)), validity=validity)
+    checks = plausibility_checks(fit, context)
+    rows = checks[checks["check"] == "validity_range"]
+    # zone a reached 25.6 °C only: more than 2 K below the 30 °C the controller floats to
+    assert dict(zip(rows["zone"], rows["status"], strict=True)) == {"a": "warning", "b": "ok"}
+    assert "--excitation range" in rows["detail"].iloc[0]

@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from hvacflex.building.identified import IdentifiedValidity
 from hvacflex.building.io import load_building
 from hvacflex.building.rc import build_network
 from hvacflex.errors import BuildingConfigError, ConfigError
@@ -118,3 +119,21 @@ def test_a_floor_area_on_some_zones_only_is_refused_naming_the_zone(
     with pytest.raises(BuildingConfigError) as caught:
         load_building(path)
     assert caught.value.field == "zones[1].floor_area_m2"
+
+
+def test_the_validity_range_is_written_and_read_back(
+    identified_model: IdentifiedModel, tmp_path: Path
+) -> None:
+    validity = IdentifiedValidity((23.1, 22.8), (29.5, 30.2), 24.0, 33.5)
+    path = write_identified_model(replace(identified_model, validity=validity), tmp_path / "m.toml")
+    assert "[identified.validity]" in path.read_text(encoding="utf-8")
+    assert load_identified_model(path).validity == validity
+    rc = load_building(path).identified
+    assert rc is not None and rc.validity == validity
+    text = path.read_text(encoding="utf-8").replace(
+        "outdoor_temp_min_degc = 24.0", "outdoor_temp_min_degc = 40.0"
+    )
+    path.write_text(text, encoding="utf-8")
+    with pytest.raises(BuildingConfigError) as caught:
+        load_building(path)
+    assert caught.value.field == "identified.validity.outdoor_temp_min_degc"

@@ -54,6 +54,13 @@ def test_fit_writes_a_model_and_a_report_beside_it(trend: Path, tmp_path: Path) 
     assert model.boundaries == ("Attic",)  # temperature only: a boundary of both zones
     assert model.provenance["test"] == "2014-03-08..2014-03-08"
     assert model.floor_areas_m2 == (30.5, 45.0)  # the zones' order; the attic carries none
+    trend_frame = pd.read_csv(trend, index_col=0, parse_dates=True)
+    trained = trend_frame.loc[:"2014-03-07", "temp_Room-A_degc"]
+    assert model.validity is not None
+    assert model.validity.zone_temp_max_degc[0] == pytest.approx(trained.max())
+    assert model.validity.outdoor_temp_min_degc == pytest.approx(
+        trend_frame.loc[:"2014-03-07", "outdoor_temp_degc"].min()
+    )
     parameters = pd.read_csv(outcome.parameters_path)
     assert {"value", "std_error", "at_bound", "prior"} <= set(parameters.columns)
     assert parameters["at_bound"].dtype == bool

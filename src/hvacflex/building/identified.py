@@ -136,6 +136,41 @@ class IdentifiedPower:
 
 
 @dataclass(frozen=True)
+class IdentifiedValidity:
+    """The range the training data covered — where the fitted model is an interpolation.
+
+    Attributes
+    ----------
+    zone_temp_min_degc, zone_temp_max_degc : (m,) each zone's lowest and highest measured air
+    temperature on the training days [°C] (zone order); outdoor_temp_min_degc,
+    outdoor_temp_max_degc : the outdoor air's [°C]. (The supply flows' range is each zone's
+    ``flow_min_kg_s`` … ``flow_max_kg_s``.)
+    """
+
+    zone_temp_min_degc: tuple[float, ...]
+    zone_temp_max_degc: tuple[float, ...]
+    outdoor_temp_min_degc: float
+    outdoor_temp_max_degc: float
+
+    def outside(
+        self, zone_temp_degc: npt.ArrayLike, outdoor_temp_degc: npt.ArrayLike
+    ) -> npt.NDArray[np.bool_]:
+        """(T,) whether each period lies outside the range: a zone temperature (T, m) [°C] or
+        the outdoor temperature (T,) [°C] beyond what the training data saw."""
+        temp = np.atleast_2d(np.asarray(zone_temp_degc, dtype=np.float64))
+        outdoor = np.atleast_1d(np.asarray(outdoor_temp_degc, dtype=np.float64))
+        zone = (temp < np.asarray(self.zone_temp_min_degc)) | (
+            temp > np.asarray(self.zone_temp_max_degc)
+        )
+        out: npt.NDArray[np.bool_] = (
+            zone.any(axis=1)
+            | (outdoor < self.outdoor_temp_min_degc)
+            | (outdoor > self.outdoor_temp_max_degc)
+        )
+        return out
+
+
+@dataclass(frozen=True)
 class IdentifiedRC:
     """The ``[identified]`` table of a building file.
 
@@ -144,7 +179,8 @@ class IdentifiedRC:
     zones : (m,) in the building's zone order; couplings : zone pairs; boundaries : nodes of
     unconditioned zones; supply_temp_degc : the supply air temperature of the HVAC input [°C];
     power : the HVAC electricity model, or None (no meter in the data: ideal loads);
-    provenance : where it came from (data file, train and test days).
+    provenance : where it came from (data file, train and test days);
+    validity : the training data's range, or None (files written before it was recorded).
     """
 
     zones: tuple[IdentifiedZone, ...]
@@ -153,6 +189,7 @@ class IdentifiedRC:
     supply_temp_degc: float
     power: IdentifiedPower | None
     provenance: tuple[tuple[str, str], ...] = ()
+    validity: IdentifiedValidity | None = None
 
 
 def sensible_cooling_kw(

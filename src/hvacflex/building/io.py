@@ -25,6 +25,7 @@ from hvacflex.building.identified import (
     IdentifiedCoupling,
     IdentifiedPower,
     IdentifiedRC,
+    IdentifiedValidity,
     IdentifiedZone,
 )
 from hvacflex.building.model import (
@@ -395,6 +396,16 @@ def _identified_building(
             else IdentifiedPower(**identified.power_model.model_dump())
         ),
         provenance=tuple(identified.provenance.items()),
+        validity=(
+            None
+            if identified.validity is None
+            else IdentifiedValidity(
+                zone_temp_min_degc=tuple(identified.validity.zone_temp_min_degc[n] for n in names),
+                zone_temp_max_degc=tuple(identified.validity.zone_temp_max_degc[n] for n in names),
+                outdoor_temp_min_degc=identified.validity.outdoor_temp_min_degc,
+                outdoor_temp_max_degc=identified.validity.outdoor_temp_max_degc,
+            )
+        ),
     )
     return Building(
         name=spec.name,

@@ -53,6 +53,9 @@ unknown and ``Building.floor_area_m2`` is NaN) only, no walls, windows, ``[gains
                               occupied_gain_kw, ua_zone_kw_per_k = {Z = …}, temp_degc
     [identified.power_model]  base_kw, kw_per_kw_cooling, kw_per_k_outdoor[, occupied_kw,
                               kw_per_kg_s_k_outdoor_occupied]
+    [identified.validity]     zone_temp_min_degc = {Z = …}, zone_temp_max_degc = {Z = …},
+                              outdoor_temp_min_degc, outdoor_temp_max_degc (optional: the
+                              training data's range)
 
 The optional keys added for the BESTEST validation (infiltration, radiative split of gains,
 interior solar distribution, sky long-wave exchange) all default to the original model.
@@ -336,6 +339,15 @@ class IdentifiedPowerSpec(Spec):
     kw_per_kg_s_k_outdoor_occupied: Number = 0.0
 
 
+class IdentifiedValiditySpec(Spec):
+    """The training data's range: per zone its air temperatures, and the outdoor air."""
+
+    zone_temp_min_degc: dict[str, Annotated[Number, Field(ge=-50.0, le=70.0)]]
+    zone_temp_max_degc: dict[str, Annotated[Number, Field(ge=-50.0, le=70.0)]]
+    outdoor_temp_min_degc: Annotated[Number, Field(ge=-50.0, le=70.0)]
+    outdoor_temp_max_degc: Annotated[Number, Field(ge=-50.0, le=70.0)]
+
+
 class IdentifiedSpec(Spec):
     supply_temp_degc: Annotated[Number, Field(lt=MAX_SUPPLY_TEMP_DEGC)]
     provenance: dict[str, Annotated[str, Strict()]] = {}
@@ -343,6 +355,7 @@ class IdentifiedSpec(Spec):
     couplings: list[IdentifiedCouplingSpec] = []
     boundaries: list[IdentifiedBoundarySpec] = []
     power_model: IdentifiedPowerSpec | None = None
+    validity: IdentifiedValiditySpec | None = None
 
 
 class BuildingSpec(Spec):
@@ -601,6 +614,35 @@ def _check_identified_areas(spec: BuildingSpec) -> None:
             )
 
 
+def _check_validity(spec: BuildingSpec, validity: IdentifiedValiditySpec) -> None:
+    """Every zone has its range, each range's minimum at most its maximum."""
+    for key in ("zone_temp_min_degc", "zone_temp_max_degc"):
+        table = getattr(validity, key)
+        for name in table:
+            _check_zone_ref(spec, name, f"identified.validity.{key}.{name}")
+        for name in spec.zone_names:
+            if name not in table:
+                raise rule_error(
+                    "missing required field", f"identified.validity.{key}.{name}", hint="add it"
+                )
+    for name in spec.zone_names:
+        low, high = validity.zone_temp_min_degc[name], validity.zone_temp_max_degc[name]
+        if low > high:
+            raise rule_error(
+                f"exceeds the maximum {high:g} °C",
+                f"identified.validity.zone_temp_min_degc.{name}",
+                low,
+                hint="the minimum must be ≤ the maximum",
+            )
+    if validity.outdoor_temp_min_degc > validity.outdoor_temp_max_degc:
+        raise rule_error(
+            f"exceeds the maximum {validity.outdoor_temp_max_degc:g} °C",
+            "identified.validity.outdoor_temp_min_degc",
+            validity.outdoor_temp_min_degc,
+            hint="the minimum must be ≤ the maximum",
+        )
+
+
 def _check_identified(spec: BuildingSpec, identified: IdentifiedSpec) -> None:
     """An identified building: no envelope, gains or HVAC tables; one parameter table per
     zone; couplings and boundaries naming its zones."""
@@ -626,3 +668,5 @@ def _check_identified(spec: BuildingSpec, identified: IdentifiedSpec) -> None:
     for i, boundary in enumerate(identified.boundaries):
         for zone in boundary.ua_zone_kw_per_k:
             _check_zone_ref(spec, zone, f"identified.boundaries[{i}].ua_zone_kw_per_k")
+    if identified.validity is not None:
+        _check_validity(spec, identified.validity)

@@ -18,6 +18,9 @@ One row per finding: ``check``, ``zone`` (a zone's identifier, a coupled pair
 * ``identifiability`` — a free parameter whose standard error exceeds its value (log
   parameters) or :data:`LINEAR_IDENTIFIABLE_SHARE` of its prior scale and its value (linear
   ones): the data do not determine it; the prior holds it.
+* ``validity_range`` — the training data's zone temperatures should reach within
+  :data:`FLOAT_MARGIN_K` of the unoccupied bound a controller floats the zones to; else a
+  warning per zone (the model would extrapolate).
 * ``time_constants`` and ``convergence`` — the fit's own warnings, one row each.
 
 A fit with a warning row says so on the console and in ``fit_report.csv``'s ``warnings``;
@@ -31,7 +34,8 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from hvacflex.building.identified import WALL_ORIENTATIONS
+from hvacflex.building.identified import WALL_ORIENTATIONS, IdentifiedValidity
+from hvacflex.data.gains import ComfortBand
 from hvacflex.identify.fit import LINEAR_PRIOR_SCALE, FitResult
 from hvacflex.identify.greybox import ZONE_PARAMETERS, GreyBoxParameters
 from hvacflex.identify.model_file import BoundaryNode
@@ -45,6 +49,10 @@ LINEAR_IDENTIFIABLE_SHARE = 0.05
 this share of its prior scale (0.5 m² for an aperture, 0.1 kW for a gain)."""
 SOLAR_FITTED_M2 = 0.05
 """A wall aperture above this counts as sun fitted on that façade [m²]."""
+UNOCCUPIED_UPPER_DEGC = ComfortBand().unoccupied_degc[1]
+"""The unoccupied comfort band's upper bound a controller floats the zones to (30 °C) [°C]."""
+FLOAT_MARGIN_K = 2.0
+"""A zone's training data should reach within this of that bound [K]."""
 BOUNDARY_OUTDOOR_MIN_KW_PER_K = 1e-6
 """A boundary node's outdoor conductance at or below this sits on its bound 0 [kW/K]."""
 
@@ -52,12 +60,14 @@ BOUNDARY_OUTDOOR_MIN_KW_PER_K = 1e-6
 @dataclass(frozen=True)
 class FitContext:
     """What the checks look at besides the fit: ``zones`` (m,) identifiers,
-    ``boundaries`` (nb,) names and their nodes, ``physics`` (m,) per zone."""
+    ``boundaries`` (nb,) names and their nodes, ``physics`` (m,) per zone, ``validity`` the
+    training data's range."""
 
     zones: tuple[str, ...]
     physics: tuple[ZonePhysics, ...]
     boundaries: tuple[str, ...] = ()
     boundary_nodes: tuple[BoundaryNode, ...] = ()
+    validity: IdentifiedValidity | None = None
 
 
 def _row(check: str, zone: str, parameter: str, status: str, detail: str) -> dict[str, str]:
@@ -270,6 +280,34 @@ def identifiability_checks(fit: FitResult, context: FitContext) -> list[dict[str
     return rows
 
 
+def validity_checks(context: FitContext) -> list[dict[str, str]]:
+    """``validity_range`` rows: a zone whose training data never came within
+    :data:`FLOAT_MARGIN_K` of the unoccupied comfort bound (:data:`UNOCCUPIED_UPPER_DEGC`) is a
+    warning — the controller will float it there, outside what the model saw."""
+    if context.validity is None:
+        return []
+    rows = []
+    for zone, high in zip(context.zones, context.validity.zone_temp_max_degc, strict=True):
+        short = high < UNOCCUPIED_UPPER_DEGC - FLOAT_MARGIN_K
+        rows.append(
+            _row(
+                "validity_range",
+                zone,
+                "",
+                WARNING if short else OK,
+                f"trained up to {high:.1f} °C"
+                + (
+                    f": a controller floats it to {UNOCCUPIED_UPPER_DEGC:g} °C, outside the "
+                    "data; collect with the float-ups of the default excitation (identify "
+                    "collect --excitation range) or trend data with night set-backs"
+                    if short
+                    else f", within {FLOAT_MARGIN_K:g} K of the {UNOCCUPIED_UPPER_DEGC:g} °C bound"
+                ),
+            )
+        )
+    return rows
+
+
 def fit_checks(fit: FitResult) -> list[dict[str, str]]:
     """``time_constants`` and ``convergence`` rows from the fit's own warnings."""
     taus = [w for w in fit.warnings if w.startswith("time constants")]
@@ -299,6 +337,7 @@ def plausibility_checks(fit: FitResult, context: FitContext) -> pd.DataFrame:
         + magnitude_checks(fit, context)
         + facade_checks(fit, context)
         + identifiability_checks(fit, context)
+        + validity_checks(context)
         + fit_checks(fit)
     )
     return pd.DataFrame(rows, columns=list(CHECK_COLUMNS))

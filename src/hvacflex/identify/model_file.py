@@ -7,7 +7,8 @@ names made from the data's names (:func:`identifier`), each with its data/IDF na
 its ``floor_area_m2`` (conditioned zones only: a boundary carries none), and the fitted
 network in ``[identified]``: per zone its parameters (:data:`hvacflex.identify.greybox.
 ZONE_PARAMETERS`, units in the names) and its supply-flow range, the couplings, the
-boundaries (unconditioned zones, as nodes), the supply temperature and the power model. So a
+boundaries (unconditioned zones, as nodes), the supply temperature, the power model and the
+training data's range (``[identified.validity]``: zone and outdoor temperatures). So a
 scenario's ``building = "model.toml"`` controls the building it came from.
 :func:`load_identified_model` reads it back into the fit's arrays.
 """
@@ -21,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from hvacflex.building.identified import IdentifiedBoundary, IdentifiedPower
+from hvacflex.building.identified import IdentifiedBoundary, IdentifiedPower, IdentifiedValidity
 from hvacflex.building.io import load_building
 from hvacflex.errors import ConfigError
 from hvacflex.identify.greybox import ZONE_PARAMETERS, GreyBoxParameters
@@ -82,7 +83,8 @@ class IdentifiedModel:
     (nb,) the data's unconditioned zones (inputs of the fit, nodes of the building);
     air : supply temperature and flow ranges; boundary_nodes : (nb,) the boundaries' nodes;
     floor_areas_m2 : (m,) each zone's floor area [m²], or None when unknown (the file then
-    gives none: per-m² figures are not available).
+    gives none: per-m² figures are not available); validity : the training data's range
+    (``[identified.validity]``), or None.
     """
 
     name: str
@@ -95,6 +97,7 @@ class IdentifiedModel:
     boundaries: tuple[str, ...] = ()
     boundary_nodes: tuple[BoundaryNode, ...] = ()
     floor_areas_m2: tuple[float, ...] | None = None
+    validity: IdentifiedValidity | None = None
 
 
 def _toml_value(value: object) -> str:
@@ -158,6 +161,18 @@ def write_identified_model(model: IdentifiedModel, path: str | Path) -> Path:
         )
     if model.power is not None:
         _table(lines, "[identified.power_model]", dict(vars(model.power)))
+    if model.validity is not None:
+        v = model.validity
+        _table(
+            lines,
+            "[identified.validity]",
+            {
+                "zone_temp_min_degc": dict(zip(model.zones, v.zone_temp_min_degc, strict=True)),
+                "zone_temp_max_degc": dict(zip(model.zones, v.zone_temp_max_degc, strict=True)),
+                "outdoor_temp_min_degc": v.outdoor_temp_min_degc,
+                "outdoor_temp_max_degc": v.outdoor_temp_max_degc,
+            },
+        )
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text("\n".join(lines) + "\n", encoding="utf-8")
     return path
@@ -221,6 +236,7 @@ def load_identified_model(path: str | Path) -> IdentifiedModel:
             if np.isfinite(building.floor_area_m2)
             else None
         ),
+        validity=rc.validity,
     )
 
 

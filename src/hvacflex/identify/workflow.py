@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from hvacflex.building.identified import IdentifiedValidity
 from hvacflex.building.io import load_building
 from hvacflex.data.forecast import default_weather_file
 from hvacflex.data.weather import EpwLocation, read_epw
@@ -379,13 +380,14 @@ def identify(
         air=air_system(inputs, data, train_range, mean_mass_temps_degc(fit, inputs, test_range)),
         power=power,
         floor_areas_m2=areas_m2,
+        validity=validity_range(inputs, train_range),
         provenance={
             "data": str(data_path),
             "train": _days_text(inputs.index, train_range),
             "test": _days_text(inputs.index, test_range),
         },
     )
-    context = FitContext(ids, physics, inputs.boundaries, model.boundary_nodes)
+    context = FitContext(ids, physics, inputs.boundaries, model.boundary_nodes, model.validity)
     checks = plausibility_checks(fit, context)
     report = _fit_report(fit, inputs, test_range, checks)
     out.parent.mkdir(parents=True, exist_ok=True)
@@ -417,6 +419,19 @@ def identify(
         scenario_path,
         checks=checks,
         checks_path=out.parent / CHECKS_FILE,
+    )
+
+
+def validity_range(inputs: FitData, train: tuple[int, int]) -> IdentifiedValidity:
+    """The training periods' range (``[identified.validity]``): each zone's lowest and highest
+    air temperature and the outdoor air's [°C]."""
+    first, end = train
+    zone_temp, outdoor = inputs.y[first:end], inputs.u[first:end, 0]
+    return IdentifiedValidity(
+        zone_temp_min_degc=tuple(float(v) for v in zone_temp.min(axis=0)),
+        zone_temp_max_degc=tuple(float(v) for v in zone_temp.max(axis=0)),
+        outdoor_temp_min_degc=float(outdoor.min()),
+        outdoor_temp_max_degc=float(outdoor.max()),
     )
 
 
