@@ -350,7 +350,9 @@ def failed(checks: pd.DataFrame) -> pd.DataFrame:
 
 def warning_lines(checks: pd.DataFrame) -> list[str]:
     """``"<check> <zone> <parameter>: <detail>"`` for each warning row."""
+    rows = failed(checks)[list(CHECK_COLUMNS)].astype(str).to_dict("records")
     return [
-        " ".join(part for part in (row.check, row.zone, row.parameter) if part) + f": {row.detail}"
-        for row in failed(checks).itertuples()
+        " ".join(part for part in (row["check"], row["zone"], row["parameter"]) if part)
+        + f": {row['detail']}"
+        for row in rows
     ]
