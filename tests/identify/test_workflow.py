@@ -65,11 +65,11 @@ def test_fit_writes_a_model_and_a_report_beside_it(trend: Path, tmp_path: Path) 
     assert {"value", "std_error", "at_bound", "prior"} <= set(parameters.columns)
     assert parameters["at_bound"].dtype == bool
     assert len(parameters) == 2 * len(ZONE_PARAMETERS) + 1 + 2
-    # with the floor areas the bounds scale: 30.5 m² bounds Room-A's mass at 30.5 × 2000 kJ/K
+    # with the floor areas the priors scale: 150 kJ/(K m²) of mass over Room-A's 30.5 m²
     mass = parameters[
         (parameters["zone"] == "room_a") & (parameters["parameter"] == "c_mass_kj_per_k")
     ]
-    assert mass["value"].iloc[0] <= 30.5 * 2000.0
+    assert mass["prior"].iloc[0] == pytest.approx(150.0 * 30.5, rel=1e-4)
     checks = pd.read_csv(out.parent / "checks.csv", keep_default_na=False)
     assert list(checks.columns) == ["check", "zone", "parameter", "status", "detail"]
     assert set(checks["status"]) <= {"ok", "warning"}
