@@ -284,14 +284,30 @@ def test_the_cli_exits_2_on_a_bad_floor_area_before_fitting(trend: Path, tmp_pat
 
 
 def test_with_an_idf_the_zones_sharing_a_surface_couple_bounded_by_its_area() -> None:
-    from hvacflex.identify.workflow import idf_couplings
+    from hvacflex.identify.workflow import described_geometry, geometry_couplings
 
-    idf = resources_dir() / "energyplus" / "5ZoneAirCooled.idf"
+    geometry = described_geometry(resources_dir() / "energyplus" / "5ZoneAirCooled.idf", None)
+    assert geometry is not None
     zones = ("SPACE1-1", "SPACE2-1", "SPACE3-1", "SPACE5-1")
-    pairs, physics = idf_couplings(zones, ("PLENUM-1",), idf, None)
+    pairs, physics = geometry_couplings(zones, ("PLENUM-1",), geometry, None)
     # SPACE1-1 and SPACE3-1 face each other across the core: they do not couple
     assert pairs == [(0, 1), (0, 3), (1, 2), (1, 3), (2, 3)]
     assert physics is not None and len(physics) == len(pairs) + len(zones)
     assert all(p is not None and p[0] < p[2] < p[1] for p in physics)
-    given, _ = idf_couplings(zones, ("PLENUM-1",), idf, [("SPACE1-1", "SPACE3-1")])
+    given, _ = geometry_couplings(zones, ("PLENUM-1",), geometry, [("SPACE1-1", "SPACE3-1")])
     assert given == [(0, 2)]  # --adjacency wins; that pair shares nothing: generic bounds
+
+
+def test_a_template_describes_the_zones_facades_and_partitions() -> None:
+    """office5 as the user's description (``--template``): its north zone's windows face
+    north only, the core has none, and north and core share a partition."""
+    from hvacflex.identify.workflow import described_geometry, zone_physics_of
+
+    geometry = described_geometry(None, resolve_building("office5"))
+    assert geometry is not None
+    north, core = zone_physics_of(("north", "core"), (141.75, 729.0), geometry)
+    assert north.wall_solar_max_m2 is not None and north.wall_solar_max_m2[0] > 0.0
+    assert north.wall_solar_max_m2[1:] == (0.0, 0.0, 0.0)  # east, south, west: fixed at 0
+    assert core.wall_solar_max_m2 == (0.0, 0.0, 0.0, 0.0)
+    assert dict(geometry["north"].shared_m2)["core"] > 0.0
+    assert described_geometry(None, None) is None

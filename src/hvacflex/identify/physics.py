@@ -32,6 +32,7 @@ import math
 from dataclasses import dataclass
 
 from hvacflex.building.identified import WALL_ORIENTATIONS
+from hvacflex.building.model import OUTSIDE, Building
 from hvacflex.identify.idf_geometry import Aperture, ZoneGeometry
 
 OPAQUE_SOLAR_SHARE = 0.05
@@ -172,3 +173,36 @@ def coupling_bounds(shared_m2: float) -> tuple[float, float, float]:
     low, high = PARTITION_U_W_PER_M2K
     kw = shared_m2 / 1000.0
     return low * kw, high * kw, PARTITION_U_PRIOR_W_PER_M2K * kw
+
+
+def building_zone_geometry(building: Building) -> dict[str, ZoneGeometry]:
+    """A designed building's zones (``--template``: the user's description) as the fit sees
+    an IDF's, by the data's lower-case name (``energyplus_zone``, else the zone's name): floor
+    area, exterior windows and walls (area, azimuth, tilt) and the partitions' areas."""
+    data_name = {z.name: (z.energyplus_zone or z.name).lower() for z in building.zones}
+    zones = {}
+    for zone in building.zones:
+        shared: dict[str, float] = {}
+        for wall in building.walls:
+            if wall.zone == zone.name and wall.adjacent in data_name:
+                far = data_name[wall.adjacent]
+                shared[far] = shared.get(far, 0.0) + wall.area_m2
+            elif wall.adjacent == zone.name and wall.zone in data_name:
+                far = data_name[wall.zone]
+                shared[far] = shared.get(far, 0.0) + wall.area_m2
+        zones[data_name[zone.name]] = ZoneGeometry(
+            name=zone.energyplus_zone or zone.name,
+            floor_area_m2=zone.floor_area_m2,
+            windows=tuple(
+                Aperture(w.area_m2, w.azimuth_deg, w.tilt_deg)
+                for w in building.windows
+                if w.zone == zone.name
+            ),
+            walls=tuple(
+                Aperture(w.area_m2, w.azimuth_deg, w.tilt_deg)
+                for w in building.walls
+                if w.zone == zone.name and w.adjacent == OUTSIDE and w.tilt_deg >= 60.0
+            ),
+            shared_m2=tuple(sorted(shared.items())),
+        )
+    return zones

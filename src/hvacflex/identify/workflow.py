@@ -60,9 +60,14 @@ from hvacflex.identify.fit import (
     one_step_errors,
     prediction_frame,
 )
-from hvacflex.identify.idf_geometry import idf_floor_areas_m2, idf_zone_geometry
+from hvacflex.identify.idf_geometry import ZoneGeometry, idf_floor_areas_m2, idf_zone_geometry
 from hvacflex.identify.model_file import IdentifiedModel, identifier, write_identified_model
-from hvacflex.identify.physics import ZonePhysics, coupling_bounds, zone_physics
+from hvacflex.identify.physics import (
+    ZonePhysics,
+    building_zone_geometry,
+    coupling_bounds,
+    zone_physics,
+)
 from hvacflex.identify.trend import read_trend, zone_column
 
 DEFAULT_TEST_DAYS = 7
@@ -282,17 +287,30 @@ def _parameters_table(fit: FitResult, context: FitContext) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def idf_couplings(
+def described_geometry(
+    idf: str | Path | None, template: str | Path | None
+) -> dict[str, ZoneGeometry] | None:
+    """The zones' geometry by lower-case data name: the IDF's where given
+    (:func:`~hvacflex.identify.idf_geometry.idf_zone_geometry`), else the template building's
+    (:func:`~hvacflex.identify.physics.building_zone_geometry`: the user's description), else
+    None (façades and shared surfaces unknown)."""
+    if idf is not None:
+        return idf_zone_geometry(idf)
+    if template is not None:
+        return building_zone_geometry(load_building(template))
+    return None
+
+
+def geometry_couplings(
     zones: tuple[str, ...],
     boundaries: tuple[str, ...],
-    idf: str | Path,
+    geometry: dict[str, ZoneGeometry],
     couples: list[tuple[str, str]] | None,
 ) -> tuple[list[tuple[int, int]], CouplingPhysics]:
-    """The couplings and their physics from the IDF: without ``--adjacency`` (``couples``
-    None) the fitted zones that share a surface couple; each coupling, and each zone's to a
-    boundary, bounded by its shared area (:func:`~hvacflex.identify.physics.coupling_bounds`;
-    generic where they share none)."""
-    geometry = idf_zone_geometry(idf)
+    """The couplings and their physics from the zones' geometry (an IDF's or a template's):
+    without ``--adjacency`` (``couples`` None) the fitted zones that share a surface couple;
+    each coupling, and each zone's to a boundary, bounded by its shared area
+    (:func:`~hvacflex.identify.physics.coupling_bounds`; generic where they share none)."""
     shared = {
         zone.lower(): dict(geometry[zone.lower()].shared_m2) if zone.lower() in geometry else {}
         for zone in zones
@@ -315,11 +333,13 @@ def idf_couplings(
 
 
 def zone_physics_of(
-    zones: tuple[str, ...], areas_m2: tuple[float, ...] | None, idf: str | Path | None
+    zones: tuple[str, ...],
+    areas_m2: tuple[float, ...] | None,
+    geometry: dict[str, ZoneGeometry] | None,
 ) -> tuple[ZonePhysics, ...]:
-    """(m,) what is known of each fitted zone (the data's names): its floor area and, with
-    an IDF, its façades (:func:`~hvacflex.identify.physics.zone_physics`)."""
-    geometry = None if idf is None else idf_zone_geometry(idf)
+    """(m,) what is known of each fitted zone (the data's names): its floor area and its
+    façades from ``geometry`` (:func:`described_geometry`;
+    :func:`~hvacflex.identify.physics.zone_physics`)."""
     return tuple(
         zone_physics(
             None if geometry is None else geometry.get(zone.lower()),
@@ -362,11 +382,14 @@ def identify(
     )
     inputs = fit_inputs(data, names, site_of(weather), boundaries)
     areas_m2 = zone_floor_areas_m2(inputs.zones, floor_areas, idf, template)
-    physics = zone_physics_of(inputs.zones, areas_m2, idf)
+    geometry = described_geometry(idf, template)
+    physics = zone_physics_of(inputs.zones, areas_m2, geometry)
     train_range, test_range = _ranges(inputs.index, train, test)
     pairs, coupling_physics = _pairs(inputs.zones, couples), None
-    if idf is not None:
-        pairs, coupling_physics = idf_couplings(inputs.zones, inputs.boundaries, idf, couples)
+    if geometry is not None:
+        pairs, coupling_physics = geometry_couplings(
+            inputs.zones, inputs.boundaries, geometry, couples
+        )
     fit = fit_model(inputs, pairs, train_range, physics, coupling_physics)
     ids = tuple(identifier(z) for z in inputs.zones)
     power = fit_power_model(data, inputs, train_range)
