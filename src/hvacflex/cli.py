@@ -133,7 +133,7 @@ def data_show(
         model = linearize(b)
         exo = load_exogenous(
             model.channels,
-            [z.floor_area_m2 for z in b.zones],
+            b.gain_floor_areas_m2,
             b.gains,
             start=start,
             steps=steps,

@@ -730,11 +730,55 @@ def il_summary(results: pd.DataFrame) -> dict[str, float]:
 
 def prediction_error_summary(results: pd.DataFrame) -> dict[str, float]:
     """``prediction_error_rms_k``, ``_max_k`` [K]: RMS and largest |e| over steps and zones of
-    the one-step prediction errors ``prediction_error_<zone>_k`` (NaN left out); or {}."""
+    the one-step prediction errors ``prediction_error_<zone>_k`` (NaN left out), and
+    ``prediction_error_rms_occupied_k`` / ``_unoccupied_k``
+    (:func:`prediction_error_rms_by_occupancy_k`); or {}."""
     names = schema.PREDICTION_ERROR.names(zone_names(results))
     if not all(name in results.columns for name in names):
         return {}
     values = np.abs(results[names].to_numpy(dtype=float)).ravel()
     values = values[np.isfinite(values)] if np.isfinite(values).any() else np.array([np.nan])
     rms = float(np.sqrt(np.mean(values**2)))
-    return {"prediction_error_rms_k": rms, "prediction_error_max_k": float(np.max(values))}
+    return {
+        "prediction_error_rms_k": rms,
+        "prediction_error_max_k": float(np.max(values)),
+        **prediction_error_rms_by_occupancy_k(results),
+    }
+
+
+PREDICTION_BAND_TOLERANCE_K = 1e-6
+"""A band this much wider than a zone's narrowest of the run is still its occupied band [K]."""
+
+
+def _occupied_band_periods(results: pd.DataFrame) -> np.ndarray:
+    """(T, m) bool: the periods in which each zone's comfort band is its narrowest of the run
+    (its occupied band: the schedule's occupied periods); a band that never changes counts
+    as occupied throughout."""
+    columns = []
+    for zone in zone_names(results):
+        width = _values(results, schema.COMFORT_UPPER.name(zone)) - _values(
+            results, schema.COMFORT_LOWER.name(zone)
+        )
+        finite = np.isfinite(width)
+        narrowest = float(np.min(width[finite])) if finite.any() else np.nan
+        columns.append(finite & (width <= narrowest + PREDICTION_BAND_TOLERANCE_K))
+    return np.column_stack(columns) if columns else np.zeros((len(results), 0), dtype=bool)
+
+
+def prediction_error_rms_by_occupancy_k(results: pd.DataFrame) -> dict[str, float]:
+    """``prediction_error_rms_occupied_k`` and ``prediction_error_rms_unoccupied_k`` [K]: the
+    RMS of the one-step prediction errors ``prediction_error_<zone>_k`` over every zone and
+    every occupied (unoccupied) period — occupied: the zone's comfort band in force is its
+    occupied (narrowest) band of the run — NaN left out; NaN when the class has no finite
+    error; {} without the error columns."""
+    names = schema.PREDICTION_ERROR.names(zone_names(results))
+    if not all(name in results.columns for name in names):
+        return {}
+    errors = results[names].to_numpy(dtype=float)
+    occupied = _occupied_band_periods(results)
+    out = {}
+    for key, mask in (("occupied", occupied), ("unoccupied", ~occupied)):
+        chosen = errors[mask & np.isfinite(errors)]
+        rms = float(np.sqrt(np.mean(chosen**2))) if chosen.size else float("nan")
+        out[f"prediction_error_rms_{key}_k"] = rms
+    return out
