@@ -443,3 +443,11 @@ def test_prediction_error_rms_of_an_empty_class_is_nan_and_without_errors_absent
     assert split["prediction_error_rms_occupied_k"] == pytest.approx(0.3)
     assert np.isnan(split["prediction_error_rms_unoccupied_k"])
     assert kpi.prediction_error_rms_by_occupancy_k(results_frame(3)) == {}
+
+
+def test_model_extrapolation_steps_counts_the_flagged_periods_by_hand() -> None:
+    from hvacflex.kpi import model_extrapolation_steps
+
+    frame = pd.DataFrame({"model_extrapolation": [False, True, True, False, True]})
+    assert model_extrapolation_steps(frame) == 3
+    assert model_extrapolation_steps(frame.drop(columns="model_extrapolation")) == 0

@@ -247,3 +247,38 @@ def test_a_period_outside_the_validity_range_is_flagged() -> None:
     outdoor = [30.0, 30.0, 34.0, 30.0]
     # period 1: zone a above its 27 °C; 2: the outdoor air above 33 °C; 3: zone b below 22.5
     assert validity.outside(zone, outdoor).tolist() == [False, True, True, True]
+
+
+def test_a_run_on_a_model_with_a_validity_range_plans_inside_it_and_counts_the_rest(
+    tmp_path: Path,
+) -> None:
+    """The MPC on an identified model trained only up to 25.5 °C does not float its zones
+    to the unoccupied 30 °C bound; periods whose forecast outdoor air lies outside the
+    trained range are counted (``model_extrapolation_steps``)."""
+    from hvacflex.config import preset, with_overrides
+    from hvacflex.sim.closed_loop import run_simulation
+
+    model = IdentifiedModel(
+        name="two zones",
+        zones=("a", "b"),
+        energyplus_zones=("Zone A", "ZONE-B"),
+        parameters=PARAMETERS,
+        power=POWER,
+        provenance={},
+        air=AirSystem(SUPPLY_TEMP_DEGC, (0.0, 0.0), (0.5, 0.8), (0.0, 0.0), (24.0, 24.0)),
+        validity=IdentifiedValidity((20.0, 20.0), (25.5, 25.5), 26.0, 29.0),
+    )
+    path = write_identified_model(model, tmp_path / "model.toml")
+    cfg = with_overrides(
+        preset("nmpc", start="2014-03-03", days=1.0),
+        {"building": str(path), "controller.reserve": False, "activation.mode": "never"},
+    )
+    frame = run_simulation(cfg, tmp_path / "run", progress=False).frame
+    served = frame[[c for c in frame.columns if c.startswith("temp_served_")]].to_numpy()
+    assert served.max() <= 25.5 + 0.05  # the LP's soft bound, to the comfort slack's pennies
+    outdoor = frame["d_outdoor_temp_degc"].to_numpy()
+    outside = (outdoor < 26.0) | (outdoor > 29.0)
+    assert outside.any()
+    from hvacflex.kpi import summary as kpi_summary
+
+    assert kpi_summary(frame)["model_extrapolation_steps"] >= outside.sum()

@@ -46,7 +46,7 @@ from hvacflex import results, state, version
 from hvacflex.building.discretize import delivered_flow_kg_s
 from hvacflex.building.identified import initial_node_temps_degc
 from hvacflex.config import ScenarioConfig
-from hvacflex.control.base import Controller, FloatArray, PeriodInputs, WarmRestart
+from hvacflex.control.base import Action, Controller, FloatArray, PeriodInputs, WarmRestart
 from hvacflex.data.forecast import Forecast
 from hvacflex.data.signals import OperatorSignals, effective_peak_price
 from hvacflex.data.uncertainty import DisturbanceSampler
@@ -479,7 +479,19 @@ class ClosedLoop:
         row[first_d : first_d + nd] = d_hat
         row[first_d + nd : first_d + 2 * nd] = w
         rec.flags["fallback"][k] = action.fallback
+        rec.flags["model_extrapolation"][k] = self._extrapolating(action, d_hat)
         rec.status[k] = action.status
+
+    def _extrapolating(self, action: Action, d_hat: FloatArray) -> bool:
+        """Whether the period was planned outside an identified model's validity range: a
+        zone's planned end temperature or the forecast outdoor temperature beyond what its
+        training data saw (False without a range)."""
+        identified = self.setup.building.identified
+        validity = None if identified is None else identified.validity
+        if validity is None or not np.isfinite(action.predicted_served_degc).all():
+            return False
+        outdoor = float(d_hat[self._outdoor])
+        return bool(validity.outside(action.predicted_served_degc[None, :], outdoor)[0])
 
     # -- checkpoints ------------------------------------------------------------------
     def get_state(self) -> dict[str, Any]:
