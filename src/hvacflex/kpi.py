@@ -679,8 +679,9 @@ def summary(results: pd.DataFrame, peak_price_sgd_per_kw: float | None = None) -
     ``max_violation_<zone>_k``, ``violation_share``, the IL keys of :func:`il_summary`,
     ``fallback_count``, ``model_extrapolation_steps``, ``planned_slack_share``,
     ``max_delta_vs_half_band``, ``solve_time_mean_s``, ``solve_time_p95_s``,
-    ``solve_time_max_s``, ``prediction_error_*`` (:func:`prediction_error_summary`). Monthly averages are omitted when the index is not a
-    ``DatetimeIndex``, as are ``ppp_charge_sgd`` and ``net_cost_with_ppp_sgd``.
+    ``solve_time_max_s``, ``prediction_error_*`` (:func:`prediction_error_summary`). Monthly
+    averages are omitted when the index is not a ``DatetimeIndex``, as are ``ppp_charge_sgd``
+    and ``net_cost_with_ppp_sgd``.
     """
     out: dict[str, float] = {
         "steps": float(len(results)),
