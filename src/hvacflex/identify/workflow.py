@@ -12,6 +12,7 @@ Days: ``--train A..B`` and ``--test C..D`` (``YYYY-MM-DD``, both ends included);
 
 from __future__ import annotations
 
+import datetime
 import itertools
 from dataclasses import dataclass
 from pathlib import Path
@@ -23,6 +24,7 @@ from hvacflex.building.io import load_building
 from hvacflex.data.forecast import default_weather_file
 from hvacflex.data.weather import EpwLocation, read_epw
 from hvacflex.errors import InputError
+from hvacflex.paths import check_output_file
 from hvacflex.identify.box import (
     BOX_REPORT_FILE,
     DEFAULT_QUANTILE,
@@ -95,8 +97,13 @@ def site_of(weather: str | Path | None) -> EpwLocation:
     return read_epw(default_weather_file() if weather is None else weather)[1]
 
 
-def parse_days(text: str, index: pd.DatetimeIndex, option: str) -> tuple[int, int]:
-    """``"YYYY-MM-DD..YYYY-MM-DD"`` → (first, end) period positions (both days included)."""
+def day_range(text: str, option: str) -> tuple[datetime.date, datetime.date]:
+    """``"YYYY-MM-DD..YYYY-MM-DD"`` → its first and last day (both included).
+
+    Raises
+    ------
+    InputError : not two days joined by ``..``, naming ``option``.
+    """
     parts = text.split("..")
     try:
         if len(parts) != 2:
@@ -106,6 +113,35 @@ def parse_days(text: str, index: pd.DatetimeIndex, option: str) -> tuple[int, in
         raise InputError(
             "not a day range", field=option, value=text, hint="write YYYY-MM-DD..YYYY-MM-DD"
         ) from None
+    return first, last
+
+
+def check_train_test(train: str | None, test: str | None) -> None:
+    """Refuse ``--train`` without ``--test`` (or the reverse) and day ranges that share a
+    day: the test days must be days the fit never saw.
+
+    Raises
+    ------
+    InputError : naming both ranges.
+    """
+    if (train is None) != (test is None):
+        raise InputError("give both --train and --test, or neither", field="--train")
+    if train is None or test is None:
+        return
+    train_first, train_last = day_range(train, "--train")
+    test_first, test_last = day_range(test, "--test")
+    if train_first <= test_last and test_first <= train_last:
+        raise InputError(
+            f"the test days overlap the training days (--train {train}, --test {test})",
+            field="--test",
+            value=test,
+            hint="give --test days outside --train, e.g. the days after the training days",
+        )
+
+
+def parse_days(text: str, index: pd.DatetimeIndex, option: str) -> tuple[int, int]:
+    """``"YYYY-MM-DD..YYYY-MM-DD"`` → (first, end) period positions (both days included)."""
+    first, last = day_range(text, option)
     days = np.array([t.date() for t in index])
     inside = np.flatnonzero((days >= first) & (days <= last))
     if last < first or inside.size == 0:
@@ -240,6 +276,7 @@ def identify(
     came from, the plant of the scenario written beside the model; ``weather``: an EPW of the
     site (where the wall irradiances are computed; default the shipped Singapore file's)."""
     out = Path(out)
+    check_train_test(train, test)
     if idf is not None and not Path(idf).is_file():
         raise InputError(
             "no such IDF", field="--idf", value=str(idf), hint="give the EnergyPlus model's path"
@@ -253,13 +290,12 @@ def identify(
         if z.lower() not in fitted and not data.has(zone_column("supply_flow", z))
     )
     inputs = fit_inputs(data, names, site_of(weather), boundaries)
-    if (train is None) != (test is None):
-        raise InputError("give both --train and --test, or neither", field="--train")
     if train is None or test is None:
         train_range, test_range = _default_ranges(inputs.index)
     else:
         train_range = parse_days(train, inputs.index, "--train")
         test_range = parse_days(test, inputs.index, "--test")
+    check_output_file(out, "--out")  # after the inputs are checked, before the fit
     fit = fit_model(inputs, _pairs(inputs.zones, couples), train_range)
     report = evaluate(fit, inputs, test_range)
     ids = tuple(identifier(z) for z in inputs.zones)
