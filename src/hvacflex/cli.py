@@ -89,9 +89,7 @@ def _check_finite(value: float | None) -> float | None:
 
 def _peak_price_option(help_text: str) -> Any:
     """``--peak-price`` [SGD/kW]: a finite number ≥ 0 (``kpi`` and ``report`` alike)."""
-    return typer.Option(
-        None, "--peak-price", min=0.0, callback=_check_finite, help=help_text
-    )
+    return typer.Option(None, "--peak-price", min=0.0, callback=_check_finite, help=help_text)
 
 
 DATA_SHOW_MAX_DAYS = 366

@@ -24,7 +24,6 @@ from hvacflex.building.io import load_building
 from hvacflex.data.forecast import default_weather_file
 from hvacflex.data.weather import EpwLocation, read_epw
 from hvacflex.errors import InputError
-from hvacflex.paths import check_output_file
 from hvacflex.identify.box import (
     BOX_REPORT_FILE,
     DEFAULT_QUANTILE,
@@ -54,6 +53,7 @@ from hvacflex.identify.fit import (
 from hvacflex.identify.greybox import ZONE_PARAMETERS
 from hvacflex.identify.model_file import IdentifiedModel, identifier, write_identified_model
 from hvacflex.identify.trend import read_trend, zone_column
+from hvacflex.paths import check_output_file
 
 DEFAULT_TEST_DAYS = 7
 """Test days at the end of the data when ``--test`` is not given."""
