@@ -55,6 +55,15 @@ def serve(
     ssl_keyfile: Path | None = typer.Option(  # noqa: B008
         None, help="TLS: the certificate's private key, PEM."
     ),
+    ssl_min_version: str = typer.Option(
+        "1.2", "--ssl-min-version", help="TLS: the oldest TLS version accepted, 1.2 or 1.3."
+    ),
+    insecure_http: bool = typer.Option(
+        False,
+        "--insecure-http",
+        help="Allow plain HTTP on an address other than loopback (API keys travel in clear): "
+        "only behind a TLS-terminating proxy.",
+    ),
     stale_after_s: float = typer.Option(
         3600.0,
         help="A building with no measurement for this many seconds is stale: its plan "
@@ -69,15 +78,14 @@ def serve(
         return
     import sys
 
-    import uvicorn
-
     from hvacflex.errors import HvacflexError, InputError
     from hvacflex.service.app import create_app
     from hvacflex.service.operations import (
         check_listen_address,
+        check_plain_http,
         check_tls,
-        json_log_config,
         service_url,
+        tls_minimum_version,
     )
 
     levels = ("debug", "info", "warning", "error")
@@ -96,7 +104,9 @@ def serve(
                 value=stale_after_s,
             )
         tls = check_tls(ssl_certfile, ssl_keyfile)
+        minimum_tls = tls_minimum_version(ssl_min_version)
         check_listen_address(host, port)
+        check_plain_http(host, tls, insecure_http)
         service = create_app(
             _serve_db(ctx, db), wall_clock=wall_clock, stale_after_s=stale_after_s, live=live
         )
@@ -105,15 +115,51 @@ def serve(
     mode = "; live mode: real dates" if live else ""
     typer.echo(f"hvacflex service on {service_url(host, port, tls)} (API under /v1){mode}")
     sys.stdout.flush()  # the URL reaches a pipe (a supervisor, a test) before the first request
-    uvicorn.run(
+    _run_server(
+        service,
+        host,
+        port,
+        (ssl_certfile, ssl_keyfile) if tls else None,
+        minimum_tls,
+        log_level,
+    )
+
+
+def _run_server(
+    service: Any,
+    host: str,
+    port: int,
+    tls_files: tuple[Path | None, Path | None] | None,
+    minimum_tls: Any,
+    log_level: str,
+) -> None:
+    """Serve ``service`` with uvicorn until stopped; over TLS (certificate, key) no older
+    than ``minimum_tls`` (an :class:`ssl.TLSVersion`). A server that could not start exits
+    3, as ``uvicorn.run`` does."""
+    import uvicorn
+
+    from hvacflex.service.operations import json_log_config
+
+    certfile, keyfile = tls_files if tls_files is not None else (None, None)
+    config = uvicorn.Config(
         service,
         host=host,
         port=port,
-        ssl_certfile=str(ssl_certfile) if tls else None,
-        ssl_keyfile=str(ssl_keyfile) if tls else None,
+        ssl_certfile=None if certfile is None else str(certfile),
+        ssl_keyfile=None if keyfile is None else str(keyfile),
         log_config=json_log_config(log_level.upper()),
         access_log=False,
     )
+    config.load()  # builds the server's SSL context: hardened here, before it serves
+    if config.ssl is not None:
+        config.ssl.minimum_version = minimum_tls
+    server = uvicorn.Server(config)
+    try:
+        server.run()
+    except KeyboardInterrupt:
+        pass
+    if not server.started:
+        raise typer.Exit(3)
 
 
 def _key_sessions(ctx: typer.Context, db: str | None) -> Any:
