@@ -70,6 +70,14 @@ def serve(
         "is left out of the aggregate bid.",
     ),
     log_level: str = typer.Option("info", help="JSON log level: debug, info, warning, error."),
+    register_limit: str = typer.Option(
+        "10/3600",
+        "--register-limit",
+        help="Each key's budget of POST /v1/buildings: N/SECONDS (N requests per SECONDS).",
+    ),
+    clock_limit: str = typer.Option(
+        "1/10", "--clock-limit", help="Each key's budget of POST /v1/clock: N/SECONDS."
+    ),
 ) -> None:
     """Run the HTTP service (API under /v1, OpenAPI at /v1/openapi.json); prints its URL
     and logs one JSON line per request on standard error."""
@@ -78,8 +86,9 @@ def serve(
         return
     import sys
 
-    from hvacflex.errors import HvacflexError, InputError
+    from hvacflex.errors import HvacflexError
     from hvacflex.service.app import create_app
+    from hvacflex.service.keys import CLOCK_ROUTE, REGISTER_ROUTE, parse_route_limit
     from hvacflex.service.operations import (
         check_listen_address,
         check_plain_http,
@@ -88,27 +97,22 @@ def serve(
         tls_minimum_version,
     )
 
-    levels = ("debug", "info", "warning", "error")
     try:
-        if log_level.lower() not in levels:
-            raise InputError(
-                "unknown level",
-                field="--log-level",
-                value=log_level,
-                hint=f"use one of {', '.join(levels)}",
-            )
-        if not math.isfinite(stale_after_s) or stale_after_s <= 0:
-            raise InputError(
-                "must be a finite number of seconds > 0",
-                field="--stale-after-s",
-                value=stale_after_s,
-            )
+        _check_log_and_staleness(log_level, stale_after_s)
+        route_limits = {
+            REGISTER_ROUTE: parse_route_limit(register_limit, "--register-limit"),
+            CLOCK_ROUTE: parse_route_limit(clock_limit, "--clock-limit"),
+        }
         tls = check_tls(ssl_certfile, ssl_keyfile)
         minimum_tls = tls_minimum_version(ssl_min_version)
         check_listen_address(host, port)
         check_plain_http(host, tls, insecure_http)
         service = create_app(
-            _serve_db(ctx, db), wall_clock=wall_clock, stale_after_s=stale_after_s, live=live
+            _serve_db(ctx, db),
+            wall_clock=wall_clock,
+            stale_after_s=stale_after_s,
+            live=live,
+            route_limits=route_limits,
         )
     except HvacflexError as exc:
         raise exit_on_error(exc) from None
@@ -123,6 +127,31 @@ def serve(
         minimum_tls,
         log_level,
     )
+
+
+def _check_log_and_staleness(log_level: str, stale_after_s: float) -> None:
+    """Refuse an unknown ``--log-level`` or a ``--stale-after-s`` that is not > 0 s.
+
+    Raises
+    ------
+    InputError : naming the option.
+    """
+    from hvacflex.errors import InputError
+
+    levels = ("debug", "info", "warning", "error")
+    if log_level.lower() not in levels:
+        raise InputError(
+            "unknown level",
+            field="--log-level",
+            value=log_level,
+            hint=f"use one of {', '.join(levels)}",
+        )
+    if not math.isfinite(stale_after_s) or stale_after_s <= 0:
+        raise InputError(
+            "must be a finite number of seconds > 0",
+            field="--stale-after-s",
+            value=stale_after_s,
+        )
 
 
 def _run_server(

@@ -44,10 +44,12 @@ def _bad_input_cases(tmp: Path) -> list[tuple[list[str], str]]:
         (["serve", "--host", "0.0.0.0"], "--insecure-http"),
         (["serve", "--host", "0.0.0.0", "--port", "8443"], "--ssl-certfile"),
         (["serve", "--ssl-min-version", "1.1"], "--ssl-min-version"),
+        (["serve", "--clock-limit", "0/10"], "--clock-limit"),
+        (["serve", "--register-limit", "ten/3600"], "--register-limit"),
     ]
 
 
-@pytest.mark.parametrize("case", range(18))
+@pytest.mark.parametrize("case", range(20))
 def test_bad_input_exits_2_with_a_message(tmp_path: Path, case: int) -> None:
     args, expected = _bad_input_cases(tmp_path)[case]
     result = RUNNER.invoke(cli, args, env={"HVACFLEX_KEY": ""})

@@ -59,7 +59,7 @@ ERRORS = {
         (401, "No key, or an unknown or revoked key"),
         (403, "The key's role or building does not allow this"),
         (409, "Conflicts with what is stored"),
-        (429, "Too many attempts with unknown keys; see Retry-After"),
+        (429, "Too many failed key attempts, or the key's budget on the route; see Retry-After"),
     ),
 }
 """The errors of a route that needs a key."""
