@@ -28,7 +28,7 @@ from hvacflex.sim.step import ConflictError
 MAX_BODY_BYTES = 1 << 20
 """Largest request body accepted (1 MiB); larger ones get 413."""
 AUDIT_BODY_HEAD = 2000
-"""Characters of a mutating request's body kept in the audit table."""
+"""Bytes of a mutating request's body kept in the audit table (as text: :func:`bytes_as_text`)."""
 API_KEY_HEADER = "X-API-Key"
 LOG = logging.getLogger("hvacflex.service")
 
