@@ -220,7 +220,6 @@ WITHOUT_OWN_TEST_FILE: set[str] = {
     "hvacflex.report.notes",
     "hvacflex.report.validation_plots",
     "hvacflex.service.app",
-    "hvacflex.service.db",
     "hvacflex.service.keys",
     "hvacflex.service.replay",
     "hvacflex.service.runtime",

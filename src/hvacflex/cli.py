@@ -87,6 +87,11 @@ def _check_finite(value: float | None) -> float | None:
     return value
 
 
+def _peak_price_option(help_text: str) -> Any:
+    """``--peak-price`` [SGD/kW]: a finite number ≥ 0 (``kpi`` and ``report`` alike)."""
+    return typer.Option(None, "--peak-price", min=0.0, callback=_check_finite, help=help_text)
+
+
 DATA_SHOW_MAX_DAYS = 366
 """Longest span ``data show`` summarises [days]: the shipped prices cover one year."""
 
@@ -256,13 +261,9 @@ def kpi(
         metavar="RUN",
         help="Run directories (holding results.parquet) or results Parquet files.",
     ),
-    peak_price_sgd_per_kw: float | None = typer.Option(
-        None,
-        "--peak-price",
-        min=0.0,
-        callback=_check_finite,
-        help="Price the PPP charge of every run at this φ [SGD/kW] "
-        "(default: each run's peak_price_sgd_per_kw column).",
+    peak_price_sgd_per_kw: float | None = _peak_price_option(
+        "Price the PPP charge of every run at this φ [SGD/kW] "
+        "(default: each run's peak_price_sgd_per_kw column)."
     ),
     csv: Path | None = typer.Option(None, help="Also write the table to this CSV file."),  # noqa: B008
 ) -> None:
@@ -419,19 +420,19 @@ def report(
     baseline: Path | None = typer.Option(  # noqa: B008
         None, help="A run to compare against (shown too; Δ columns in the KPI table)."
     ),
-    peak_price_sgd_per_kw: float | None = typer.Option(
-        None,
-        "--peak-price",
-        help="φ of the one tariff every run is billed at [SGD/kW] (default: the largest "
-        "any run recorded).",
+    peak_price_sgd_per_kw: float | None = _peak_price_option(
+        "φ of the one tariff every run is billed at [SGD/kW] (default: the largest "
+        "any run recorded)."
     ),
 ) -> None:
     """Write one self-contained HTML page for runs: temperatures, power and reserve, prices,
     the cost under one tariff and the KPIs (per run, per m², against a baseline)."""
     from hvacflex.errors import HvacflexError
+    from hvacflex.paths import check_output_file
     from hvacflex.report.run_report import write_run_report
 
     try:
+        check_output_file(out, "--out")
         path = write_run_report(
             runs, out, baseline=baseline, peak_price_sgd_per_kw=peak_price_sgd_per_kw
         )

@@ -145,11 +145,12 @@ def identify_collect(
     from hvacflex.errors import HvacflexError
     from hvacflex.identify.collect import collect_trend
     from hvacflex.identify.trend import write_trend
-    from hvacflex.paths import data_dir
+    from hvacflex.paths import check_output_file, data_dir
 
     epw = weather if weather is not None else data_dir() / "weather" / DEFAULT_WEATHER_FILE
     names = None if zones is None else tuple(z.strip() for z in zones.split(",") if z.strip())
     try:
+        check_output_file(out, "--out")  # before EnergyPlus runs
         frame = collect_trend(
             idf, start=start, days=days, epw_path=epw, excitation=excitation, zones=names, seed=seed
         )

@@ -137,6 +137,19 @@ def test_the_cli_exits_2_on_a_missing_weather_file_before_fitting(
     assert "Traceback" not in result.output and not out.parent.exists()
 
 
+def test_the_cli_exits_2_on_an_output_under_a_file_before_fitting(
+    trend: Path, tmp_path: Path
+) -> None:
+    blocker = tmp_path / "afile"
+    blocker.write_text("a file, not a folder\n")
+    days = ["--train", "2014-03-03..2014-03-07", "--test", "2014-03-08..2014-03-08"]
+    arguments = ["identify", "fit", "--data", str(trend), "--zones", "Room-A", *days]
+    result = CliRunner().invoke(app, [*arguments, "--out", str(blocker / "m.toml")])
+    assert result.exit_code == 2, result.output
+    assert isinstance(result.exception, SystemExit)
+    assert "'--out'" in result.output and "inside" in result.output and "afile" in result.output
+
+
 def test_the_cli_fit_writes_the_figure_and_the_series_and_strict_exits_2(
     trend: Path, tmp_path: Path
 ) -> None:

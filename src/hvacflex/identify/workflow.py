@@ -14,6 +14,7 @@ Days: ``--train A..B`` and ``--test C..D`` (``YYYY-MM-DD``, both ends included);
 
 from __future__ import annotations
 
+import datetime
 import itertools
 from dataclasses import dataclass
 from pathlib import Path
@@ -69,6 +70,7 @@ from hvacflex.identify.physics import (
     zone_physics,
 )
 from hvacflex.identify.trend import read_trend, zone_column
+from hvacflex.paths import check_output_file
 
 DEFAULT_TEST_DAYS = 7
 """Test days at the end of the data when ``--test`` is not given."""
@@ -120,8 +122,13 @@ def site_of(weather: str | Path | None) -> EpwLocation:
     return read_epw(default_weather_file() if weather is None else weather)[1]
 
 
-def parse_days(text: str, index: pd.DatetimeIndex, option: str) -> tuple[int, int]:
-    """``"YYYY-MM-DD..YYYY-MM-DD"`` → (first, end) period positions (both days included)."""
+def day_range(text: str, option: str) -> tuple[datetime.date, datetime.date]:
+    """``"YYYY-MM-DD..YYYY-MM-DD"`` → its first and last day (both included).
+
+    Raises
+    ------
+    InputError : not two days joined by ``..``, naming ``option``.
+    """
     parts = text.split("..")
     try:
         if len(parts) != 2:
@@ -131,6 +138,35 @@ def parse_days(text: str, index: pd.DatetimeIndex, option: str) -> tuple[int, in
         raise InputError(
             "not a day range", field=option, value=text, hint="write YYYY-MM-DD..YYYY-MM-DD"
         ) from None
+    return first, last
+
+
+def check_train_test(train: str | None, test: str | None) -> None:
+    """Refuse ``--train`` without ``--test`` (or the reverse) and day ranges that share a
+    day: the test days must be days the fit never saw.
+
+    Raises
+    ------
+    InputError : naming both ranges.
+    """
+    if (train is None) != (test is None):
+        raise InputError("give both --train and --test, or neither", field="--train")
+    if train is None or test is None:
+        return
+    train_first, train_last = day_range(train, "--train")
+    test_first, test_last = day_range(test, "--test")
+    if train_first <= test_last and test_first <= train_last:
+        raise InputError(
+            f"the test days overlap the training days (--train {train}, --test {test})",
+            field="--test",
+            value=test,
+            hint="give --test days outside --train, e.g. the days after the training days",
+        )
+
+
+def parse_days(text: str, index: pd.DatetimeIndex, option: str) -> tuple[int, int]:
+    """``"YYYY-MM-DD..YYYY-MM-DD"`` → (first, end) period positions (both days included)."""
+    first, last = day_range(text, option)
     days = np.array([t.date() for t in index])
     inside = np.flatnonzero((days >= first) & (days <= last))
     if last < first or inside.size == 0:
@@ -368,6 +404,7 @@ def identify(
     irradiances are computed; default the shipped Singapore file's); ``floor_areas``:
     ``"Z1=M2,…"``, the fitted zones' floor areas (:func:`zone_floor_areas_m2`)."""
     out = Path(out)
+    check_train_test(train, test)
     if idf is not None and not Path(idf).is_file():
         raise InputError(
             "no such IDF", field="--idf", value=str(idf), hint="give the EnergyPlus model's path"
@@ -385,6 +422,7 @@ def identify(
     geometry = described_geometry(idf, template)
     physics = zone_physics_of(inputs.zones, areas_m2, geometry)
     train_range, test_range = _ranges(inputs.index, train, test)
+    check_output_file(out, "--out")  # after the inputs are checked, before the fit
     pairs, coupling_physics = _pairs(inputs.zones, couples), None
     if geometry is not None:
         pairs, coupling_physics = geometry_couplings(
