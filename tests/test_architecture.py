@@ -7,6 +7,7 @@ Imports are read from the source (``ast``), counting imports inside functions an
 from __future__ import annotations
 
 import ast
+import re
 import warnings
 from pathlib import Path
 
@@ -400,3 +401,41 @@ def test_no_module_reaches_into_another_objects_private_attributes() -> None:
         for access in _foreign_private_accesses(name, path)
     ]
     assert reached == []
+
+
+TIME_HOME = PACKAGE / "constants.py"
+"""The one home of the market period and time zone (``PERIOD_S``, ``PERIOD``, ``PERIOD_FREQ``,
+``PERIODS_PER_DAY``, ``TIMEZONE``)."""
+
+TIME_LITERALS = re.compile(
+    r"(=\s*1800(\.0)?(?![\d.])|=\s*48(?![\d.])|Timedelta\(minutes=30\)|\"30min\"|\"Asia/Singapore\")"
+)
+"""A literal definition of the period (1800 s, 48 a day, 30 min) or of the time zone."""
+
+
+def test_the_period_and_the_time_zone_have_one_home() -> None:
+    """Every module reads the period and the time zone from :mod:`hvacflex.constants`;
+    a literal one elsewhere is a second home."""
+    found = [
+        f"{path.relative_to(SRC)}:{number}: {line.strip()}"
+        for path in sorted(PACKAGE.rglob("*.py"))
+        if path != TIME_HOME
+        for number, line in _code_lines(path)
+        if TIME_LITERALS.search(line)
+    ]
+    assert found == []
+
+
+def _code_lines(path: Path) -> list[tuple[int, str]]:
+    """(number, text) of a module's lines outside docstrings and comments."""
+    text = path.read_text(encoding="utf-8")
+    prose: set[int] = set()
+    for node in ast.walk(ast.parse(text)):
+        if isinstance(node, ast.Expr) and isinstance(node.value, ast.Constant):
+            if isinstance(node.value.value, str):
+                prose.update(range(node.lineno, (node.end_lineno or node.lineno) + 1))
+    return [
+        (number, line)
+        for number, line in enumerate(text.splitlines(), 1)
+        if number not in prose and not line.lstrip().startswith("#")
+    ]

@@ -26,7 +26,7 @@ from hvacflex.cli_help import run_summary_line as _run_summary_line
 from hvacflex.cli_help import scenario_config as _scenario_config
 from hvacflex.cli_model import identify_app, validate_app
 from hvacflex.cli_serve import serve_app
-from hvacflex.constants import DEFAULT_START, RUN_DIR
+from hvacflex.constants import DEFAULT_START, PERIODS_PER_DAY, RUN_DIR
 from hvacflex.dates import ISO_START_FORMS, START_EXAMPLE
 
 if TYPE_CHECKING:
@@ -325,8 +325,6 @@ PRICE_GAP_FILL_HELP = (
 )
 """Help of ``--price-gap-fill`` (``simulate`` and ``sweep``)."""
 
-PERIODS_PER_DAY = 48
-"""30-min control periods per day."""
 
 MAX_WORKERS = 256
 """Most local worker processes ``sweep`` and ``reproduce`` start."""

@@ -7,15 +7,32 @@ scenario configuration) can take its defaults from here instead of from each oth
 
 from __future__ import annotations
 
+import pandas as pd
+
 TIMEZONE = "Asia/Singapore"
-"""Time zone of every time index: the NEMS market, the weather and the occupancy schedules."""
+"""Time zone of every time index: the NEMS market, the weather and the occupancy schedules
+(the one home of the market's time zone: every module reads it from here)."""
+
+PERIOD_S = 1800.0
+"""The market period, every control step and every row of the data [s]: NEMS dispatches and
+prices in 30-min periods (the one home of the period: every module reads it from here; a
+scenario's ``dt_s`` must equal it)."""
+
+PERIOD = pd.Timedelta(seconds=PERIOD_S)
+""":data:`PERIOD_S` as a time step of an index."""
+
+PERIOD_FREQ = "30min"
+""":data:`PERIOD_S` as a pandas frequency (``date_range``, ``floor``)."""
+
+PERIODS_PER_DAY = round(24 * 3600 / PERIOD_S)
+"""Periods in a day (48)."""
 
 RUN_DIR = "results/run"
 """Folder a closed-loop run writes to when none is given (``hvacflex simulate --out`` and
 ``hvacflex.simulate(out=...)``), relative to the working directory."""
 
-HORIZON_STEPS = 48
-"""Default MPC prediction horizon: 48 steps of 30 min, one day."""
+HORIZON_STEPS = PERIODS_PER_DAY
+"""Default MPC prediction horizon: one day of 30-min steps (48)."""
 
 AR1_COEFFICIENT = 0.9
 """Default lag-one autocorrelation of AR(1) disturbance errors per 30-min step [-]
@@ -24,9 +41,9 @@ AR1_COEFFICIENT = 0.9
 DEFAULT_START = "2014-01-01"
 """First day of a run when none is given (every command and the scenario file) [local date]."""
 
-MAX_HORIZON_STEPS = 336
+MAX_HORIZON_STEPS = 7 * PERIODS_PER_DAY
 """Longest MPC prediction horizon accepted anywhere: 336 steps of 30 min, one week (the
-service's cap, ``hvacflex.service.runtime.MAX_HORIZON_STEPS``)."""
+service's cap too)."""
 
 VALIDATION_SPINUP_DAYS = 42
 """Days both models run before a validation window against EnergyPlus, discarded [d]

@@ -23,6 +23,3 @@ KELVIN_OFFSET = 273.15
 
 STEFAN_BOLTZMANN_W_PER_M2K4 = 5.670374419e-8
 """Stefan–Boltzmann constant σ [W/(m²K⁴)] (CODATA 2018, exact)."""
-
-STEP_30MIN_S = 1800.0
-"""The NEMS dispatch period and hvacflex's default control step [s]."""

@@ -29,8 +29,9 @@ from hvacflex.building.channels import DisturbanceChannel
 from hvacflex.building.identified import sensible_cooling_kw
 from hvacflex.building.model import Building
 from hvacflex.building.rc import ThermalNetwork, build_network, frozen_array
+from hvacflex.constants import PERIOD_S
 from hvacflex.errors import BuildingConfigError
-from hvacflex.units import CP_AIR_J_PER_KG_K, STEP_30MIN_S, W_PER_KW
+from hvacflex.units import CP_AIR_J_PER_KG_K, W_PER_KW
 
 FloatArray = NDArray[np.float64]
 
@@ -193,7 +194,7 @@ def _check_dt(b: Building, dt_s: float) -> None:
 
 def linearize(
     b: Building,
-    dt_s: float = STEP_30MIN_S,
+    dt_s: float = PERIOD_S,
     linearisation_temp_degc: float = DEFAULT_LINEARISATION_TEMP_DEGC,
     *,
     network: ThermalNetwork | None = None,

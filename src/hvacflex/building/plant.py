@@ -24,8 +24,9 @@ from numpy.typing import ArrayLike, NDArray
 
 from hvacflex.building.model import Building
 from hvacflex.building.rc import ThermalNetwork, build_network
+from hvacflex.constants import PERIOD_S
 from hvacflex.errors import InputError
-from hvacflex.units import CP_AIR_J_PER_KG_K, STEP_30MIN_S
+from hvacflex.units import CP_AIR_J_PER_KG_K
 
 FloatArray = NDArray[np.float64]
 
@@ -133,7 +134,7 @@ class NonlinearPlant:
         x_degc: ArrayLike,
         flow_kg_s: ArrayLike,
         d: ArrayLike,
-        dt_s: float = STEP_30MIN_S,
+        dt_s: float = PERIOD_S,
     ) -> FloatArray:
         """Advance the exact dynamics over one step with flows and disturbances held.
 

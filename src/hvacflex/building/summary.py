@@ -22,11 +22,11 @@ from hvacflex.building.discretize import (
 from hvacflex.building.hvac import affine_power_error, hvac_power
 from hvacflex.building.model import Building
 from hvacflex.building.rc import build_network, envelope_ua_w_per_k
+from hvacflex.constants import PERIOD_S
 from hvacflex.units import (
     CP_AIR_J_PER_KG_K,
     RHO_AIR_KG_PER_M3,
     SECONDS_PER_HOUR,
-    STEP_30MIN_S,
     W_PER_KW,
 )
 
@@ -122,7 +122,7 @@ def design_disturbance(b: Building) -> np.ndarray:
 
 def summarize(
     b: Building,
-    dt_s: float = STEP_30MIN_S,
+    dt_s: float = PERIOD_S,
     linearisation_temp_degc: float = DEFAULT_LINEARISATION_TEMP_DEGC,
 ) -> BuildingSummary:
     """Compute the summary of a building (see :class:`BuildingSummary`)."""

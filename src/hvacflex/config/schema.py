@@ -79,11 +79,10 @@ from hvacflex.config.model import (
     UncertaintyConfig,
     WeatherForecastMode,
 )
-from hvacflex.constants import MAX_HORIZON_STEPS
+from hvacflex.constants import MAX_HORIZON_STEPS, PERIOD_S, PERIODS_PER_DAY
 from hvacflex.dates import START_EXAMPLE, StartDateError, normalise_start
 from hvacflex.energyplus.idf import VALID_TIMESTEPS_PER_HOUR
 from hvacflex.opt.options import FeedbackStructure, RobustMode
-from hvacflex.units import STEP_30MIN_S
 
 Number = Annotated[float, Strict(), AllowInfNan(False)]
 """A finite TOML number (integer or float; booleans and strings refused)."""
@@ -106,8 +105,6 @@ INITIAL_TEMP_MAX_DEGC = 60.0
 cold winter to a closed one in the sun); outside it the state is physically impossible."""
 MAX_DAYS = 3660.0
 """Longest run [days] (ten years)."""
-PERIODS_PER_DAY = 48
-"""30-min control periods per day."""
 Band = tuple[IndoorTemp, IndoorTemp]
 """A comfort band ``[lower, upper]`` [°C]."""
 
@@ -479,14 +476,13 @@ def _whole_periods(days: float) -> float:
 
 
 def _half_hourly(dt_s: float) -> float:
-    """Only :data:`STEP_30MIN_S` (the 30-min period of the data)."""
-    if dt_s != STEP_30MIN_S:
+    """Only :data:`PERIOD_S` (the 30-min period of the data)."""
+    if dt_s != PERIOD_S:
         raise rule_error(
             "the control step must be the 30-min period of the data",
             "",
             dt_s,
-            hint=f"use dt_s = {STEP_30MIN_S:g} (prices, weather, forecasts and KPIs are "
-            "half-hourly)",
+            hint=f"use dt_s = {PERIOD_S:g} (prices, weather, forecasts and KPIs are half-hourly)",
         )
     return dt_s
 

@@ -34,11 +34,8 @@ from typing import Literal
 import numpy as np
 import pandas as pd
 
-from hvacflex.constants import TIMEZONE
+from hvacflex.constants import PERIOD, PERIODS_PER_DAY, TIMEZONE
 from hvacflex.errors import DataError
-
-PERIODS_PER_DAY = 48
-PERIOD = pd.Timedelta(minutes=30)
 
 ENERGY_PRICE_COLUMN = "energy_price_sgd_per_mwh"
 SYSTEM_DEMAND_COLUMN = "system_demand_mw"

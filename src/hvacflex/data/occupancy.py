@@ -31,7 +31,7 @@ import numpy as np
 import pandas as pd
 
 from hvacflex.building.channels import DisturbanceChannel
-from hvacflex.constants import TIMEZONE
+from hvacflex.constants import PERIOD, PERIODS_PER_DAY, TIMEZONE
 from hvacflex.data.forecast import InternalGainDensities
 from hvacflex.data.gains import DEFAULT_OFFICE_SCHEDULE, OfficeSchedule, office_schedule
 from hvacflex.errors import ConfigError
@@ -46,8 +46,6 @@ PLUG_LOAD_SD = 0.1
 """Standard deviation of the daily plug-load factor."""
 PLUG_MIN, PLUG_MAX = 1.0 - 3 * PLUG_LOAD_SD, 1.0 + 3 * PLUG_LOAD_SD
 """Range of the daily plug-load factor."""
-
-_PERIOD = pd.Timedelta(minutes=30)
 
 
 def stochastic_zone_gains_w(
@@ -86,10 +84,12 @@ def stochastic_zone_gains_w(
     local = index.tz_convert(TIMEZONE)
     first_day = local[0].normalize()
     days_index = pd.date_range(
-        first_day, local[-1].normalize() + pd.Timedelta(days=1), freq=_PERIOD, inclusive="left"
+        first_day, local[-1].normalize() + pd.Timedelta(days=1), freq=PERIOD, inclusive="left"
     )
     shifted = {
-        s: office_schedule(days_index + s * _PERIOD, schedule).to_numpy().reshape(-1, 48, 3)
+        s: office_schedule(days_index + s * PERIOD, schedule)
+        .to_numpy()
+        .reshape(-1, PERIODS_PER_DAY, 3)
         for s in range(-MAX_SHIFT_STEPS, MAX_SHIFT_STEPS + 1)
     }
     head_count = max(round(floor_area_m2 / occupancy_m2_per_person), 0)
@@ -107,7 +107,7 @@ def stochastic_zone_gains_w(
             + floor_area_m2 * lighting_w_per_m2 * fractions[:, 1]
             + floor_area_m2 * equipment_w_per_m2 * plug * fractions[:, 2]
         )
-    position = np.asarray((local - first_day) // _PERIOD)
+    position = np.asarray((local - first_day) // PERIOD)
     gains: np.ndarray = day_gains.ravel()[position]
     return gains
 

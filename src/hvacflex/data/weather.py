@@ -42,7 +42,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from hvacflex.constants import TIMEZONE
+from hvacflex.constants import PERIOD, PERIOD_FREQ, TIMEZONE
 from hvacflex.data.solar import period_sun
 from hvacflex.errors import DataError
 from hvacflex.units import KELVIN_OFFSET
@@ -631,7 +631,7 @@ def year_index(year: int, tz: str = TIMEZONE) -> pd.DatetimeIndex:
     return pd.date_range(
         pd.Timestamp(year=year, month=1, day=1, tz=tz),
         pd.Timestamp(year=year + 1, month=1, day=1, tz=tz),
-        freq="30min",
+        freq=PERIOD_FREQ,
         inclusive="left",
         name="time",
     )
@@ -710,7 +710,7 @@ def _half_hour_shares(
         column → (T,) array; the two halves' factors average to 1.
     """
     hours, inverse = np.unique(hour_start_utc.as_unit("ns").asi8, return_inverse=True)
-    half = pd.Timedelta(minutes=30)
+    half = PERIOD
     starts = pd.DatetimeIndex(hours, tz="UTC")
     suns = (period_sun(starts, half, location), period_sun(starts + half, half, location))
     result: tuple[dict[str, np.ndarray], dict[str, np.ndarray]] = ({}, {})

@@ -36,8 +36,7 @@ import numpy as np
 import pandas as pd
 
 from hvacflex.building.channels import DisturbanceChannel
-from hvacflex.constants import TIMEZONE
-from hvacflex.data.market import PERIOD, PERIODS_PER_DAY
+from hvacflex.constants import PERIOD, PERIODS_PER_DAY, TIMEZONE
 from hvacflex.data.weather import weather_on
 from hvacflex.data.weather_channels import (
     HEAT_GAIN_KINDS,
@@ -45,9 +44,6 @@ from hvacflex.data.weather_channels import (
     weather_channel_values,
 )
 from hvacflex.errors import ConfigError, DataError
-
-PERIODS_OF_DAY = 48
-"""30-min periods per day."""
 
 MAX_AR1_COEFFICIENT = 0.999
 """Largest AR(1) coefficient of the anomaly (keeps the forecast mean-reverting)."""
@@ -84,7 +80,7 @@ class ClimatologyAR1:
 
     def __post_init__(self) -> None:
         c = self.ar1_coefficient.shape[0]
-        if self.climatology.shape != (PERIODS_OF_DAY, c) or self.nonnegative.shape != (c,):
+        if self.climatology.shape != (PERIODS_PER_DAY, c) or self.nonnegative.shape != (c,):
             raise DataError(
                 "climatology, coefficients and flags disagree",
                 source="ClimatologyAR1",
@@ -96,7 +92,7 @@ class ClimatologyAR1:
     def anomaly(self, value: np.ndarray, period: int) -> np.ndarray:
         """(c,) anomaly ``v − c(p)`` of the values (c,) of one period of the day ``p``."""
         result: np.ndarray = (
-            np.asarray(value, dtype=float) - self.climatology[period % PERIODS_OF_DAY]
+            np.asarray(value, dtype=float) - self.climatology[period % PERIODS_PER_DAY]
         )
         return result
 
@@ -115,7 +111,7 @@ class ClimatologyAR1:
         """
         anomaly = self.anomaly(last_value, last_period)
         leads = np.arange(1, len(periods) + 1)[:, None]
-        climatology = self.climatology[np.asarray(periods) % PERIODS_OF_DAY]
+        climatology = self.climatology[np.asarray(periods) % PERIODS_PER_DAY]
         forecast = climatology + self.ar1_coefficient**leads * anomaly
         forecast[:, self.nonnegative] = np.maximum(forecast[:, self.nonnegative], 0.0)
         result: np.ndarray = forecast
@@ -152,7 +148,7 @@ def fit_climatology_ar1(
             value=values.shape,
         )
     frame = pd.DataFrame(values).groupby(periods).mean()
-    if len(frame) != PERIODS_OF_DAY:
+    if len(frame) != PERIODS_PER_DAY:
         raise DataError(
             "training weather must cover every 30-min period of the day",
             source="fit_climatology_ar1",

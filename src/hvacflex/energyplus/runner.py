@@ -49,8 +49,6 @@ from hvacflex.errors import InputError
 
 FloatArray = npt.NDArray[np.float64]
 
-PERIOD_S = 1800.0
-"""Length of one co-simulation period [s] (the 30-min control step)."""
 
 ERR_LINES_QUOTED = 12
 """At most this many lines of ``eplusout.err`` go into an :class:`EnergyPlusError`."""

@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING
 
 import typer
 
-from hvacflex.constants import DEFAULT_START
+from hvacflex.constants import DEFAULT_START, PERIODS_PER_DAY
 from hvacflex.dates import ISO_START_FORMS, START_EXAMPLE, StartDateError, normalise_start
 from hvacflex.fleet.generate import MAX_FLEET_BUILDINGS
 from hvacflex.sim.progress import task_progress
@@ -17,7 +17,7 @@ if TYPE_CHECKING:
     from hvacflex.fleet.run import FleetStepProgress
 
 MAX_WORKERS = 256
-MAX_COMPARE_STEPS = 48 * 7
+MAX_COMPARE_STEPS = 7 * PERIODS_PER_DAY
 """Most steps ``fleet compare`` runs (a week)."""
 """Most LocalCluster workers ``fleet simulate`` starts."""
 

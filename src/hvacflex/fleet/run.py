@@ -39,7 +39,7 @@ import pandas as pd
 from hvacflex import kpi as kpis
 from hvacflex import results as schema
 from hvacflex import state
-from hvacflex.constants import TIMEZONE
+from hvacflex.constants import PERIOD, PERIOD_S, TIMEZONE
 from hvacflex.control.base import FloatArray
 from hvacflex.errors import HvacflexError
 from hvacflex.fleet.agent import BuildingGroup, FleetSettings
@@ -61,14 +61,14 @@ from hvacflex.sim.run_files import (
     update_with_files,
 )
 from hvacflex.sim.sweep import close_dask
-from hvacflex.units import SECONDS_PER_HOUR, STEP_30MIN_S
+from hvacflex.units import SECONDS_PER_HOUR
 from hvacflex.version import atomic_write_text, code_version
 
 CHECKPOINT_FILE = "checkpoint.npz"
 SUMMARY_FILE = "summary.json"
-STEP = pd.Timedelta(seconds=STEP_30MIN_S)
+STEP = PERIOD
 """The fleet's control step (the building agents' ``dt_s``)."""
-DT_H = STEP_30MIN_S / SECONDS_PER_HOUR
+DT_H = PERIOD_S / SECONDS_PER_HOUR
 """The control step [h], for the coordination's energy terms."""
 DEFAULT_CHECKPOINT_EVERY = 12
 MAX_RECOVERIES = 3

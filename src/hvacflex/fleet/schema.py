@@ -80,6 +80,7 @@ from hvacflex.config.schema import (
     DataSpec,
     to_domain,
 )
+from hvacflex.constants import HORIZON_STEPS, MAX_HORIZON_STEPS, PERIODS_PER_DAY, TIMEZONE
 from hvacflex.errors import ConfigError, DataError
 from hvacflex.tomlio import read_toml
 
@@ -107,15 +108,15 @@ class ReserveSpec(_Spec):
     """
 
     enabled: bool = True
-    event_max_steps: Annotated[int, Strict(), Field(ge=0, le=48)] = PRODUCT_RESERVE[
+    event_max_steps: Annotated[int, Strict(), Field(ge=0, le=PERIODS_PER_DAY)] = PRODUCT_RESERVE[
         "event_max_steps"
     ]
     event_allowance_k: Annotated[Finite, Field(ge=0.0, le=5.0)] = PRODUCT_RESERVE[
         "event_allowance_k"
     ]
-    event_recovery_steps: Annotated[int, Strict(), Field(ge=0, le=48)] = PRODUCT_RESERVE[
-        "event_recovery_steps"
-    ]
+    event_recovery_steps: Annotated[int, Strict(), Field(ge=0, le=PERIODS_PER_DAY)] = (
+        PRODUCT_RESERVE["event_recovery_steps"]
+    )
 
     @model_validator(mode="after")
     def _whole_horizon(self) -> Self:
@@ -149,7 +150,7 @@ class ActivationSpec(_Spec):
 
     mode: Literal["never", "random", "stress", "file", "always"] = "never"
     events_per_year: Annotated[Finite, Field(ge=0.0)] = ActivationConfig.events_per_year
-    duration_steps: Annotated[int, Strict(), Field(ge=1, le=48)] | None = None
+    duration_steps: Annotated[int, Strict(), Field(ge=1, le=PERIODS_PER_DAY)] | None = None
     file: Text | None = None
 
     @model_validator(mode="after")
@@ -217,7 +218,7 @@ class FleetSpec(_Spec):
     feeder_margin: Annotated[Finite, Field(ge=0.0, lt=0.5)] = 0.0
     min_bid_mw: Annotated[Finite, Field(ge=0.0)] = 0.1
     robust: Literal["tightening", "none"] = "tightening"
-    horizon_steps: Annotated[int, Strict(), Field(ge=2, le=336)] = 48
+    horizon_steps: Annotated[int, Strict(), Field(ge=2, le=MAX_HORIZON_STEPS)] = HORIZON_STEPS
     reserve: ReserveSpec = ReserveSpec()
     ppp: PPPSpec = PPPSpec()
     coordination: CoordinationSpec = CoordinationSpec()
@@ -364,7 +365,7 @@ class Fleet:
             frame = pd.read_csv(path)
             times = pd.DatetimeIndex(pd.to_datetime(frame["time"]))
             if times.tz is None:
-                times = times.tz_localize("Asia/Singapore")
+                times = times.tz_localize(TIMEZONE)
             series = pd.Series(frame["feeder_limit_kw"].to_numpy(float), index=times)
         except (OSError, KeyError, ValueError) as exc:
             raise DataError(

@@ -39,7 +39,7 @@ from typing import Literal
 import numpy as np
 import pandas as pd
 
-from hvacflex.constants import TIMEZONE
+from hvacflex.constants import PERIOD_FREQ, PERIODS_PER_DAY, TIMEZONE
 from hvacflex.data.gains import occupied_mask
 from hvacflex.energyplus.hvac import has_thermostat
 from hvacflex.energyplus.idf import IdfObject, match_zones, objects_of, parse_idf, read_idf
@@ -70,7 +70,6 @@ RANGE_FLOAT_PERIODS = (8, 32)
 """Shortest and longest float-up [30-min periods] (4…16 h)."""
 RANGE_PULL_DOWN_PERIODS = (4, 12)
 """Shortest and longest pull-down between float-ups [30-min periods] (2…6 h)."""
-PERIODS_PER_DAY = 48
 
 
 def excitation_setpoints_degc(
@@ -272,7 +271,7 @@ def collect_trend(
         )
     steps = days * PERIODS_PER_DAY
     begin = first.tz_localize(TIMEZONE) if first.tzinfo is None else first
-    occupied = occupied_mask(pd.date_range(begin, periods=steps, freq="30min"))
+    occupied = occupied_mask(pd.date_range(begin, periods=steps, freq=PERIOD_FREQ))
     setpoints = excitation_setpoints_degc(excitation, steps, len(controlled), seed, occupied)
     plant = EnergyPlusPlant(
         text,
@@ -287,7 +286,7 @@ def collect_trend(
         extra_variables=layout.variables,
     )
     rows = []
-    index = pd.date_range(plant.start, periods=steps, freq="30min")
+    index = pd.date_range(plant.start, periods=steps, freq=PERIOD_FREQ)
     no_disturbance = Disturbance(  # EnergyPlus reads its own weather
         d=np.zeros(0), outdoor_temp_degc=np.nan, outdoor_humidity_ratio_kg_per_kg=np.nan
     )

@@ -31,6 +31,7 @@ import pandas as pd
 import scipy.optimize
 
 from hvacflex.building.identified import WALL_ORIENTATIONS, sensible_cooling_kw
+from hvacflex.constants import PERIODS_PER_DAY
 from hvacflex.data.solar import SolarSite, decompose_ghi, surface_irradiance_w_per_m2
 from hvacflex.errors import InputError
 from hvacflex.identify.greybox import (
@@ -59,7 +60,6 @@ from hvacflex.identify.trend import (
     zone_column,
 )
 
-PERIODS_PER_DAY = 48
 PERIOD_S_HOURS = 0.5
 """One period in hours (kW → kWh)."""
 WARMUP_DAYS = 1

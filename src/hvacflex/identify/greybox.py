@@ -28,11 +28,10 @@ import numpy as np
 import numpy.typing as npt
 
 from hvacflex.building.identified import WALL_ORIENTATIONS
+from hvacflex.constants import PERIOD_S
 
 FloatArray = npt.NDArray[np.float64]
 
-PERIOD_S = 1800.0
-"""The model's step [s]."""
 _WEATHER_AND_SCHEDULE = ("outdoor_temp_degc", "ghi_kw_per_m2", "occupied", "constant")
 EXOGENOUS_INPUTS = (
     *_WEATHER_AND_SCHEDULE,

@@ -28,13 +28,11 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
-from hvacflex.constants import TIMEZONE
+from hvacflex.constants import PERIOD, TIMEZONE
 from hvacflex.errors import InputError
 
 FloatArray = npt.NDArray[np.float64]
 
-PERIOD_S = 1800.0
-"""The fit's step: trend data is resampled to 30-min means [s]."""
 
 TIME_COLUMN = "time"
 OUTDOOR_TEMP = "outdoor_temp_degc"
@@ -193,7 +191,7 @@ def _check_time_order(index: pd.DatetimeIndex, source: str) -> pd.Timedelta:
                 hint=f"fill the missing rows from {index[i] + step} (the fit needs a regular "
                 "index), or cut the file at the gap",
             )
-    period = pd.Timedelta(seconds=PERIOD_S)
+    period = PERIOD
     if step > period or period % step != pd.Timedelta(0):
         raise InputError(
             "the time step must divide 30 min",
@@ -254,7 +252,7 @@ def _check_zone_columns(zones: dict[str, set[str]], source: str) -> None:
 
 
 def _resample(frame: pd.DataFrame, step: pd.Timedelta, source: str) -> pd.DataFrame:
-    period = pd.Timedelta(seconds=PERIOD_S)
+    period = PERIOD
     if step == period:
         return frame
     per_period = int(period / step)

@@ -22,6 +22,7 @@ from fastapi.responses import JSONResponse, PlainTextResponse
 from sqlalchemy import select
 
 from hvacflex import __version__
+from hvacflex.constants import PERIOD, PERIOD_FREQ, PERIODS_PER_DAY, TIMEZONE
 from hvacflex.errors import InputError
 from hvacflex.service.dashboard import add_page_routes
 from hvacflex.service.db import (
@@ -94,7 +95,7 @@ def start_wall_clock(planner: Planner, poll_s: float = 10.0) -> threading.Event:
     def tick() -> None:
         last: pd.Timestamp | None = None
         while not stop.wait(poll_s):
-            now = pd.Timestamp.now(tz="Asia/Singapore").floor("30min")
+            now = pd.Timestamp.now(tz=TIMEZONE).floor(PERIOD_FREQ)
             if now != last:
                 last = now
                 planner.boundary(now.to_pydatetime())
@@ -349,7 +350,7 @@ def _measurement_routes(app: FastAPI, runtime: Runtime, auth: Auth) -> None:
     def get_measurements(
         building_id: str,
         _who: Annotated[Principal, Depends(building_reader)],
-        limit: Annotated[int, Query(ge=1, le=1000)] = 48,
+        limit: Annotated[int, Query(ge=1, le=1000)] = PERIODS_PER_DAY,
     ) -> Envelope[list[MeasurementRecord]]:
         """The building's latest measurements, newest first: period, time and the power it
         metered in the period before (what an OpenADR VEN reports as telemetry)."""
@@ -395,12 +396,12 @@ def _forecast_signal_routes(app: FastAPI, planner: Planner, auth: Auth) -> None:
         """Energy (and reserve) prices of consecutive periods from ``start``; they replace
         the shipped prices in every building's forecast from the next plan on."""
         start = to_local(body.start)
-        if start != start.floor("30min"):
+        if start != start.floor(PERIOD_FREQ):
             raise InputError("must be a 30-min period start", field="start", value=str(start))
         check_plannable(start, "start", runtime.live)
         last = len(body.energy_price_sgd_per_mwh) - 1
         check_plannable(
-            start + last * pd.Timedelta(minutes=30),
+            start + last * PERIOD,
             f"energy_price_sgd_per_mwh[{last}]",
             runtime.live,
         )
@@ -421,7 +422,7 @@ def _forecast_signal_routes(app: FastAPI, planner: Planner, auth: Auth) -> None:
         """An outdoor-temperature forecast [°C] of consecutive periods from ``start``; it
         replaces the typical-year outdoor temperature in every building's forecast there."""
         start = to_local(body.start)
-        if start != start.floor("30min"):
+        if start != start.floor(PERIOD_FREQ):
             raise InputError("must be a 30-min period start", field="start", value=str(start))
         check_plannable(start, "start", runtime.live)
         stored = _store_signal(

@@ -33,12 +33,9 @@ from typing import Any
 
 import pandas as pd
 
+from hvacflex.constants import PERIOD, TIMEZONE
 from hvacflex.errors import HvacflexError
 
-PERIOD = pd.Timedelta(minutes=30)
-"""The service's period; event intervals must start and end on its boundaries."""
-TIMEZONE = "Asia/Singapore"
-"""Service time."""
 KWH_PER_MWH = 1000.0
 RESERVE_OFFER_MIN_KW = 1e-3
 """Smallest planned reserve [kW] that counts as an offer for a period."""

@@ -31,6 +31,7 @@ import pandas as pd
 from sqlalchemy import select
 from sqlalchemy.engine import Engine
 
+from hvacflex.constants import PERIOD, TIMEZONE
 from hvacflex.service.db import (
     OpenAdrEvent,
     OpenAdrSettlement,
@@ -42,8 +43,6 @@ from hvacflex.settlement import delivered_kw, pre_event_baseline_kw, shortfall_k
 
 DEFAULT_VEN_DB_URL = "sqlite:///hvacflex-ven.db"
 """The VEN's record by default: an SQLite file in the working folder."""
-PERIOD = pd.Timedelta(minutes=30)
-TIMEZONE = "Asia/Singapore"
 
 
 @dataclass(frozen=True)

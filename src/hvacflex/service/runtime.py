@@ -39,6 +39,7 @@ from hvacflex import state
 from hvacflex.building.io import building_from_dict
 from hvacflex.building.model import Building
 from hvacflex.config import ScenarioConfig, preset, with_overrides
+from hvacflex.constants import MAX_HORIZON_STEPS, PERIOD, TIMEZONE
 from hvacflex.control.base import Controller
 from hvacflex.data.signals import OperatorSignals, effective_peak_price
 from hvacflex.errors import InputError
@@ -62,9 +63,6 @@ from hvacflex.service.schemas import (
 from hvacflex.sim.history import PeriodHistory, period_inputs
 from hvacflex.sim.setup import Setup, make_controller, prepare
 from hvacflex.sim.step import ConflictError, ControlStep, Decision
-
-TIMEZONE = "Asia/Singapore"
-PERIOD = pd.Timedelta(minutes=30)
 
 ACCEPTED_TABLES = ("controller", "reserve", "estimation", "realisation", "forecast", "comfort")
 """Tables of the scenario whose every setting a registration may give: they shape the
@@ -108,8 +106,6 @@ def accepted_setting(path: str) -> bool:
 CALENDAR_SETTING = "data.calendar"
 """The scenario setting of the live calendar (:mod:`hvacflex.data.calendar`)."""
 
-MAX_HORIZON_STEPS = 336
-"""Longest MPC horizon a registered building may ask for (one week of periods)."""
 MAX_TIME_LIMIT_S = 60.0
 """Largest solver time limit per plan [s] (a plan answers an HTTP request)."""
 

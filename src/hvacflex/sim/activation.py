@@ -25,6 +25,7 @@ import numpy.typing as npt
 import pandas as pd
 
 from hvacflex.config import NEMS_MAX_INTERRUPTION_STEPS, ActivationConfig
+from hvacflex.constants import PERIOD_FREQ
 from hvacflex.errors import DataError
 from hvacflex.units import SECONDS_PER_HOUR
 
@@ -190,7 +191,7 @@ def read_activation_file(path: Path, index: pd.DatetimeIndex) -> BoolArray:
         raise DataError("activation file has no data rows", source=path, hint=_COLUMNS_HINT)
     lines = np.arange(2, len(frame) + 2)
     times = _parse_times(path, frame["time"].str.strip(), lines, index)
-    off_grid = np.asarray(times != times.floor("30min"))
+    off_grid = np.asarray(times != times.floor(PERIOD_FREQ))
     if off_grid.any():
         row = int(np.flatnonzero(off_grid)[0])
         raise DataError(

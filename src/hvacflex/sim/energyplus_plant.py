@@ -47,6 +47,7 @@ from typing import Any, Literal
 import numpy as np
 import pandas as pd
 
+from hvacflex.constants import PERIOD_S
 from hvacflex.energyplus.hvac import (
     availability_schedules,
     has_thermostat,
@@ -63,7 +64,6 @@ from hvacflex.energyplus.idf import (
     read_idf,
 )
 from hvacflex.energyplus.runner import (
-    PERIOD_S,
     Actuator,
     CoSimSpec,
     CoSimulation,

@@ -36,6 +36,7 @@ from numpy.typing import NDArray
 from hvacflex.building.io import load_building
 from hvacflex.building.model import Building
 from hvacflex.building.rc import ThermalNetwork, build_network
+from hvacflex.constants import PERIOD_S
 from hvacflex.data.weather import read_epw, weather_30min
 from hvacflex.data.weather_channels import weather_channel_values
 from hvacflex.validation.ideal_loads import simulate_zone_loads
@@ -208,9 +209,9 @@ def run_case(
     """
     free_float = case.endswith("FF")
     net = build_network(building)
-    substeps = round(1800.0 / dt_s)
-    if substeps < 1 or abs(substeps * dt_s - 1800.0) > 1e-9:
-        raise ValueError(f"dt_s must divide 1800 s, got {dt_s}")
+    substeps = round(PERIOD_S / dt_s)
+    if substeps < 1 or abs(substeps * dt_s - PERIOD_S) > 1e-9:
+        raise ValueError(f"dt_s must divide {PERIOD_S:g} s, got {dt_s}")
     d = np.repeat(disturbances_30min.to_numpy(dtype=float), substeps, axis=0)
     setpoints: dict[str, float | None] = {
         "heating_setpoint_degc": None if free_float else HEATING_SETPOINT_DEGC,
