@@ -282,7 +282,12 @@ def main() -> None:
         action="store_false",
         help="skip (1b), the warm start from the unrotated basis",
     )
+    parser.add_argument(
+        "--quick", action="store_true", help="smoke run at the smallest size (the test suite's)"
+    )
     args = parser.parse_args()
+    if args.quick:
+        args.steps, args.cold_steps, args.cvxpy_steps = 4, 2, 2
 
     model = building_model(args.building) if args.building else synthetic_office(args.seed)
     series = exogenous_series(model, args.steps + HORIZON, args.seed)
@@ -383,6 +388,12 @@ def main() -> None:
     )
     if max(cvx_gap) > CVXPY_REL_TOL:
         raise RuntimeError(f"CVXPY and hvacflex disagree on the optimum ({max(cvx_gap):.1e})")
+    if statuses.count("optimal") != len(statuses):
+        raise RuntimeError(f"{len(statuses) - statuses.count('optimal')} warm solves not optimal")
+    print(
+        f"checks passed: every warm solve optimal, cold = warm on {len(cold)} steps, "
+        f"CVXPY = warm on {len(cvx)} steps"
+    )
 
 
 if __name__ == "__main__":
