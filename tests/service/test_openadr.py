@@ -4,13 +4,14 @@ mutual TLS, on the 2014 calendar by a clock offset and on a live service at real
 
 from __future__ import annotations
 
+import asyncio
 import os
 import subprocess
 import sys
 import tempfile
 import time
 from dataclasses import dataclass
-from datetime import datetime, timedelta
+from datetime import UTC, datetime, timedelta
 from pathlib import Path
 from typing import Any
 
@@ -399,9 +400,18 @@ def _dispatch(event_id: str, modification: int, status: str = "far") -> dict[str
 
 def _posted(service: RecordingService) -> list[tuple[str, str]]:
     """The activation starts and ends posted since the last call (event, HH:MM)."""
-    out = [(r[2]["event"], r[2]["time"][11:16]) for r in service.requests if r[0] == "POST"]
+    out = [
+        (r[2]["event"], r[2]["time"][11:16])
+        for r in service.requests
+        if r[0] == "POST" and r[1] == "/v1/activations"
+    ]
     service.requests.clear()
     return out
+
+
+def _refusals(service: RecordingService) -> list[dict[str, Any]]:
+    """The refused dispatches posted (bodies of ``POST /v1/activations/refused``)."""
+    return [r[2] for r in service.requests if r[:2] == ("POST", "/v1/activations/refused")]
 
 
 def test_a_cancelled_or_modified_dispatch_ends_what_it_activated(tmp_path: Path) -> None:
@@ -431,10 +441,19 @@ def test_a_cancelled_or_modified_dispatch_ends_what_it_activated(tmp_path: Path)
         ("09:30", "10:00"),
         ("10:00", "10:30"),
     ]
-    # cancelled after it ended: nothing to undo; a dispatch entirely past is opted out
+    # cancelled after it ended: nothing to undo; a dispatch entirely past is opted out,
+    # and the service records why
     now["t"] = T0 + 4 * HALF_HOUR
     assert ven.handle_event(_dispatch("d1", 4, "cancelled")) == OPT_IN
     assert ven.handle_event(_dispatch("d1", 5)) == OPT_OUT
+    assert _refusals(service) == [
+        {
+            "time": "2014-03-03T09:30:00+08:00",
+            "building_ids": ["b1"],
+            "reason": "every dispatched period is over",
+            "event_id": "d1",
+        }
+    ]
     assert _posted(service) == []
 
 
@@ -595,3 +614,142 @@ def test_a_live_service_at_real_times_and_a_restarted_ven_that_keeps_its_dispatc
     assert plan["horizon_energy_price_sgd_per_mwh"][0] == pytest.approx(
         1000.0 * PRICES_SGD_PER_KWH[1]
     )
+
+
+# -- dispatches refused, the record's default place, reports -------------------------------
+def test_a_dispatch_without_offered_reserve_is_refused_with_the_reason_at_the_service(
+    tmp_path: Path,
+) -> None:
+    """b1 offers 09:30 only, b2 both periods: b2 is activated, b1 refused (a partial offer),
+    and the service gets the refusal with the periods b1 lacked."""
+
+    class TwoPlans(RecordingService):
+        def call(self, method: str, path: str, body: Any = None) -> Any:
+            if method == "GET" and path == "/v1/buildings/b1/plan":
+                return make_plan([1.0, 0.0])
+            return super().call(method, path, body)
+
+    service = TwoPlans(make_plan([1.0, 1.0]))
+    ven = make_ven(service, tmp_path, buildings=("b1", "b2"))
+    assert ven.handle_event(_dispatch("d1", 0)) == OPT_IN
+    (refusal,) = _refusals(service)
+    assert refusal["building_ids"] == ["b1"] and refusal["event_id"] == "d1"
+    assert "b1 not activated" in refusal["reason"] and "10:00" in refusal["reason"]
+    assert _posted(service) == [("start", "09:30"), ("end", "10:30")]  # b2's activation
+    # no building offers: opted out, nothing activated, every refused building recorded
+    service.plan = make_plan([0.0, 0.0])
+    assert ven.handle_event(_dispatch("d2", 0)) == OPT_OUT
+    assert [r["building_ids"] for r in _refusals(service)] == [["b1", "b2"]]
+    assert _posted(service) == []
+
+
+def test_a_refusal_the_service_cannot_take_leaves_the_opt(tmp_path: Path) -> None:
+    class Refusing(RecordingService):
+        def call(self, method: str, path: str, body: Any = None) -> Any:
+            if path == "/v1/activations/refused":
+                raise InputError("no such building", field="building_ids[0]")
+            return super().call(method, path, body)
+
+    service = Refusing(make_plan([0.0, 0.0]))
+    assert make_ven(service, tmp_path).handle_event(_dispatch("d1", 0)) == OPT_OUT
+
+
+def test_the_record_defaults_to_the_user_data_folder(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv("XDG_DATA_HOME", str(tmp_path / "data"))
+    monkeypatch.chdir(tmp_path)
+    config = VenConfig("http://127.0.0.1:9", "site-1", "http://127.0.0.1:8000", "key")
+    assert config.db_url is None
+    expected = tmp_path / "data" / "hvacflex" / "openadr-ven.db"
+    assert config.record_url() == f"sqlite:///{expected}"
+    assert expected.parent.is_dir() and not list(tmp_path.glob("*.db"))  # not the cwd
+    ven = make_ven(RecordingService(make_plan([1.0])), tmp_path)  # an explicit --db is kept
+    assert str(ven.store.engine.url) == f"sqlite:///{tmp_path / 'ven.db'}"
+    (tmp_path / "blocked").write_text("a file where the folder should be")
+    monkeypatch.setenv("XDG_DATA_HOME", str(tmp_path / "blocked"))
+    with pytest.raises(InputError) as raised:
+        config.record_url()
+    assert raised.value.field == "--db"
+
+
+class _FakeClient:
+    """What :class:`ReportSender` reads of an openleadr client: the VTN's report requests,
+    the VEN's reports, the read callbacks and the queue of reports to send."""
+
+    def __init__(self, readings: dict[str, list[tuple[datetime, float]]]) -> None:
+        from openleadr import objects
+
+        self.readings = readings
+        self.report_requests = [
+            {
+                "report_request_id": "rq-t",
+                "report_specifier_id": "hvacflex-telemetry",
+                "granularity": timedelta(seconds=10),
+                "report_back_duration": timedelta(seconds=10),
+                "r_ids": ["b1.metered_power_kw", "b1.planned_power_kw"],
+            },
+            {
+                "report_request_id": "rq-f",
+                "report_specifier_id": "hvacflex-forecast",
+                "granularity": timedelta(seconds=10),
+                "report_back_duration": timedelta(seconds=10),
+                "r_ids": ["b1.planned_power_kw"],
+            },
+        ]
+        self.reports = [
+            objects.Report(report_specifier_id=s, report_name="METADATA_TELEMETRY_USAGE")
+            for s in ("hvacflex-telemetry", "hvacflex-forecast")
+        ]
+
+        async def read(r_id: str) -> list[tuple[datetime, float]]:
+            return list(self.readings.get(r_id, []))
+
+        self.report_callbacks = {
+            ("hvacflex-telemetry", "b1.metered_power_kw"): lambda: read("b1.metered_power_kw"),
+            ("hvacflex-forecast", "b1.planned_power_kw"): lambda: read("b1.planned_power_kw"),
+        }
+        self.pending_reports: asyncio.Queue[Any] = asyncio.Queue()
+
+    def sent(self) -> list[tuple[str, list[tuple[str, float]]]]:
+        """The reports queued since the last call: (request, [(r_id, value)])."""
+        out = []
+        while not self.pending_reports.empty():
+            report = self.pending_reports.get_nowait()
+            values = [(i.report_payload.r_id, i.report_payload.value) for i in report.intervals]
+            out.append((report.report_request_id, values))
+        return out
+
+
+def test_reports_only_with_data_once_per_agreed_interval_and_a_plan_once() -> None:
+    from hvacflex.service.openadr import ReportSender, agreed_interval
+
+    assert agreed_interval(timedelta(seconds=10), timedelta(minutes=1)) == timedelta(minutes=1)
+    assert agreed_interval(None, None) == timedelta(minutes=30)
+    t = datetime(2026, 12, 1, 12, 0, tzinfo=UTC)
+    client = _FakeClient({})
+    now = {"s": 0.0}
+    sender = ReportSender(client, {"b1.planned_power_kw"}, clock=lambda: now["s"])
+
+    def sample(second: float) -> list[tuple[str, list[tuple[str, float]]]]:
+        now["s"] = second
+        for request in ("rq-t", "rq-f"):
+            asyncio.run(sender.update_report(request))
+        return client.sent()
+
+    assert sample(0.0) == []  # no measurement, no plan: no report at all
+    client.readings["b1.metered_power_kw"] = [(t, 42.0)]
+    client.readings["b1.planned_power_kw"] = [(t, 40.0), (t + HALF_HOUR, 41.0)]
+    # the rID the VTN lists under the telemetry request without a callback there is skipped
+    assert sample(10.0) == [
+        ("rq-t", [("b1.metered_power_kw", 42.0)]),
+        ("rq-f", [("b1.planned_power_kw", 40.0), ("b1.planned_power_kw", 41.0)]),
+    ]
+    assert sample(12.0) == []  # a second sample within the interval (a duplicate job)
+    assert sample(20.0) == [("rq-t", [("b1.metered_power_kw", 42.0)])]  # the plan is unchanged
+    client.readings["b1.planned_power_kw"] = [(t + HALF_HOUR, 39.5), (t + 2 * HALF_HOUR, 41.0)]
+    assert sample(30.0) == [
+        ("rq-t", [("b1.metered_power_kw", 42.0)]),
+        ("rq-f", [("b1.planned_power_kw", 39.5), ("b1.planned_power_kw", 41.0)]),
+    ]
+    assert sender.reports_sent == 5
