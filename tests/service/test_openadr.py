@@ -144,6 +144,35 @@ def test_the_command_exits_2_naming_the_option(
     assert "Traceback" not in done.stderr
 
 
+def test_without_db_the_record_lies_in_the_user_data_folder_not_the_working_one(
+    tmp_path: Path,
+) -> None:
+    data = tmp_path / "xdg"
+    done = subprocess.run(
+        [
+            *SERVE,
+            "openadr-ven",
+            "--vtn-url",
+            f"http://127.0.0.1:{free_port()}/OpenADR2/Simple/2.0b",
+            "--ven-name",
+            "v",
+            "--url",
+            f"http://127.0.0.1:{free_port()}",
+            "--building",
+            "b1",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        cwd=tmp_path,
+        env={**os.environ, "HVACFLEX_KEY": "hvf_0_x", "XDG_DATA_HOME": str(data)},
+    )
+    assert done.returncode == 2, done.stderr  # no VTN there
+    record = data / "hvacflex" / "openadr-ven.db"
+    assert f"record sqlite:///{record}" in done.stderr
+    assert record.is_file() and not list(tmp_path.glob("*.db"))
+
+
 # -- end to end --------------------------------------------------------------------------
 MEASURED_POWER_KW = 42.0
 PRICES_SGD_PER_KWH = [0.10, 0.25, 0.40, 0.15]
@@ -334,8 +363,15 @@ def test_a_vtn_drives_a_building_through_the_ven(
         ("/v1/signals/prices", 1),
         ("/v1/signals/peak-price", 1),
         ("/v1/activations", 2),
+        ("/v1/activations/refused", 1),
     ):
         assert posted.count((path, 200)) == count, posted
+    # the dispatch with offered reserve reached the service as activations; the one beyond
+    # the horizon (no offer) was refused with its reason in the audit
+    mine = [a for a in audit if a["key_id"] == key_id]
+    assert [a["action"] for a in mine].count("activation") == 2
+    (refused,) = [a for a in mine if a["action"] == "activation_refused"]
+    assert "b1 not activated" in refused["body_head"] and simple_id in refused["body_head"]
 
     # the next plan uses the prices and φ; the dispatch activates 17:00, ends at 18:00
     second = measure("2014-03-03T15:30+08:00", 40.0)
@@ -350,6 +386,86 @@ def test_a_vtn_drives_a_building_through_the_ven(
     ]
     after = operator.call("POST", "/v1/clock", {"time": "2014-03-03T18:00+08:00"})["plans"]
     assert [(p["period"], p["il_activated"]) for p in after] == [(36, False)]
+
+
+class _TimedVtn(LoopbackVtn):
+    """The loopback VTN, noting when each report of each rID arrived (monotonic s) and how
+    many values it carried."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self.arrivals: list[tuple[float, str, int]] = []
+
+    def on_register_report(self, report: dict[str, Any]) -> list[tuple[str, Any, timedelta]]:
+        requests = []
+        for r_id, store, sampling in super().on_register_report(report):
+
+            def timed(
+                values: list[tuple[Any, float]], r_id: str = r_id, store: Any = store
+            ) -> None:
+                self.arrivals.append((time.monotonic(), r_id, len(values)))
+                store(values)
+
+            requests.append((r_id, timed, sampling))
+        return requests
+
+    def reports_of(self, r_id: str, since: float = 0.0) -> list[tuple[float, int]]:
+        return [(t, n) for t, r, n in list(self.arrivals) if r == r_id and t >= since]
+
+
+def test_reports_wait_for_data_and_come_at_the_agreed_interval(
+    server_factory: Any, tmp_path: Path
+) -> None:
+    """Before the building has a measurement and a plan the VEN sends no report (an empty
+    one crashed the VTN); then metered power once per agreed interval (the VTN asks for
+    1 s) and each plan's horizon once, not again at every sample."""
+    server = server_factory()
+    server.start()
+    operator_key = operator_key_for(server.db_url)
+    registered = Client(server.url, operator_key).call(
+        "POST", "/v1/buildings", registration("b1", days=2.0)
+    )
+    site = _Site(
+        server.url,
+        operator_key,
+        Client(server.url, operator_key),
+        Client(server.url, registered["key"]),
+        len(registered["nodes"]),
+        {},
+    )
+    real0 = _next_half_hour()
+    vtn = _TimedVtn(free_port(), [], run_for_s=150.0)
+    vtn.start()
+    ven, log = site.start_ven(vtn, E2E_T0 - pd.Timestamp(real0), None, tmp_path / "ven.db")
+    wanted = ("b1.metered_power_kw", "b1.planned_power_kw", "b1.reserve_offer_kw")
+    try:
+        _wait(lambda: all(r in vtn.descriptions for r in wanted), 90, "the reports", log)
+        time.sleep(4.0)  # four agreed intervals without data
+        assert vtn.arrivals == []
+        first = site.measure("2014-03-03T15:00+08:00", MEASURED_POWER_KW)
+        since = time.monotonic()
+        _wait(lambda: len(vtn.reports_of(wanted[0], since)) >= 6, 30, "six reports", log)
+        window_s = time.monotonic() - since
+        second = site.measure("2014-03-03T15:30+08:00", 40.0)  # a new plan: sent once more
+        _wait(lambda: len(vtn.reports_of(wanted[1], since)) >= 2, 30, "the new plan", log)
+        time.sleep(2.0)
+        assert ven.poll() is None
+    finally:
+        ven.terminate()
+        ven.wait(timeout=30)
+        vtn.stop()
+    # one metered value per report, at most one report per agreed interval (1 s) from the
+    # first measurement to the end (arrival times bunch under load, so the count is checked)
+    metered = vtn.reports_of(wanted[0], since)
+    assert all(n == 1 for _, n in metered)
+    span_s = metered[-1][0] - since
+    assert 6 <= len(metered) <= span_s + 2, (len(metered), span_s, window_s)
+    for r_id in wanted[1:]:  # each plan's horizon once: two plans, two reports
+        counts = [n for _, n in vtn.reports_of(r_id, since)]
+        assert len(counts) == 2, counts
+        assert counts[0] == len(first["horizon_time"])
+        assert 0 < counts[1] <= len(second["horizon_time"])
+    assert "Traceback" not in _logged(log)
 
 
 def test_a_vtn_that_goes_away_and_comes_back_re_registers_the_ven(
