@@ -869,3 +869,10 @@ def test_reports_only_with_data_once_per_agreed_interval_and_a_plan_once() -> No
         ("rq-f", [("b1.planned_power_kw", 39.5), ("b1.planned_power_kw", 41.0)]),
     ]
     assert sender.reports_sent == 5
+    # re-registered: the VTN asks for the telemetry again; the old request is dropped
+    client.report_requests.append({**client.report_requests[0], "report_request_id": "rq-t2"})
+    now["s"] = 40.0
+    for request in ("rq-t", "rq-t2"):
+        asyncio.run(sender.update_report(request))
+    assert client.sent() == [("rq-t2", [("b1.metered_power_kw", 42.0)])]
+    assert [r["report_request_id"] for r in client.report_requests] == ["rq-f", "rq-t2"]

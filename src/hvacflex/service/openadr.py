@@ -498,7 +498,8 @@ class ReportSender:
     ``update_report``, which openleadr's scheduler calls at each sample).
 
     Per report request: at most one report per :func:`agreed_interval`; no report without
-    data; of the ``projected`` rIDs (the plan's horizon) only the (time, value) pairs that
+    data; only the newest request of a report (after a re-registration); of the
+    ``projected`` rIDs (the plan's horizon) only the (time, value) pairs that
     differ from those last sent for the request, so an unchanged plan is not sent again.
     ``clock`` is monotonic seconds.
     """
@@ -523,7 +524,7 @@ class ReportSender:
             (r for r in client.report_requests if r["report_request_id"] == report_request_id),
             None,
         )
-        if request is None:
+        if request is None or self._superseded(request):
             return
         interval = agreed_interval(request["granularity"], request["report_back_duration"])
         now = self.clock()
@@ -555,6 +556,20 @@ class ReportSender:
                 dtstart=min(i.dtstart for i in intervals),
             )
         )
+
+    def _superseded(self, request: dict[str, Any]) -> bool:
+        """Whether a later request asks for the same report (the VTN's request after a
+        re-registration, which openleadr adds beside the old one and its job): the old one
+        is then dropped, so the report does not go out twice per interval."""
+        requests = self.client.report_requests
+        later = requests[requests.index(request) + 1 :]
+        if not any(r["report_specifier_id"] == request["report_specifier_id"] for r in later):
+            return False
+        if request.get("job") is not None:
+            request["job"].remove()
+        requests.remove(request)
+        logger.info("report request %s superseded", request["report_request_id"])
+        return True
 
     def new_values(
         self, request_id: str, r_id: str, values: list[tuple[datetime, float]]
