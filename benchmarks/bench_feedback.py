@@ -44,6 +44,8 @@ from hvacflex.config import preset
 from hvacflex.opt import FeedbackSolver, RMPCProblem, RMPCSolver, feedback_solve
 from hvacflex.sim.recording import recorded_problems
 
+WARM_COLD_REL_TOL = 1e-6  # warm and cold feedback optima must agree to this (relative)
+
 
 def record(name: str, start: str, steps: int) -> list[RMPCProblem]:
     """The problems the controller of preset ``name`` solved in a closed loop of ``steps``."""
@@ -123,7 +125,12 @@ def main() -> None:
     parser.add_argument("--start", default="2014-03-03")
     parser.add_argument("--steps", type=int, default=48)
     parser.add_argument("--cold-every", type=int, default=4)
+    parser.add_argument(
+        "--quick", action="store_true", help="smoke run at the smallest size (the test suite's)"
+    )
     args = parser.parse_args()
+    if args.quick:
+        args.steps, args.cold_every = 2, 1
     feedback = record("rmpc-feedback", args.start, args.steps)
     open_loop = record("rmpc", args.start, args.steps)
     whole_horizon = [dataclasses.replace(p, robust="tightening", feedback=None) for p in feedback]
@@ -165,10 +172,13 @@ def main() -> None:
         f"{median['feedback cold (rebuild each step)'] / fb:.0f}x"
     )
     print(f"warm vs cold objective, worst relative difference: {worst:.1e}")
+    if not worst <= WARM_COLD_REL_TOL:
+        raise RuntimeError(f"warm and cold feedback solves disagree ({worst:.1e})")
     split = warm_split(feedback)
     print("CPU split of a feedback warm step, mean over steps 1.. [ms]:")
     for part, value in split.items():
         print(f"  {part:<36} {value:7.1f}")
+    print(f"checks passed: every solve optimal, feedback warm = cold ({worst:.1e})")
 
 
 if __name__ == "__main__":

@@ -31,7 +31,12 @@ from hvacflex.fleet.schema import fleet_from_dict
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--calls", type=int, default=300)
+    parser.add_argument(
+        "--quick", action="store_true", help="smoke run at the smallest size (the test suite's)"
+    )
     args = parser.parse_args()
+    if args.quick:
+        args.calls = 3
     fleet = fleet_from_dict(generate_fleet(1, 3, feeder_limit_kw=float("inf")))
     agent = BuildingAgent(fleet.buildings[0], 0, FleetSettings.of(fleet, "2014-03-03T02:00", 1))
     agent.begin_step()
@@ -66,6 +71,10 @@ def main() -> None:
         )
     )
     print_us_rows(rows)
+    predicted_kw = controller.predicted_power_kw(inputs, flow)
+    if not (np.isfinite(plan_kw) and np.isfinite(predicted_kw) and plan_kw > 0.0):
+        raise RuntimeError(f"plan {plan_kw} kW, predicted {predicted_kw} kW: not a plan")
+    print("checks passed: a finite plan and prediction, act with and without a cap")
 
 
 if __name__ == "__main__":

@@ -49,7 +49,12 @@ def print_us_rows(rows: dict[str, tuple[float, float]]) -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--calls", type=int, default=2000)
+    parser.add_argument(
+        "--quick", action="store_true", help="smoke run at the smallest size (the test suite's)"
+    )
     args = parser.parse_args()
+    if args.quick:
+        args.calls = 5
     setup = prepare(preset("rmpc", start="2014-03-17", days=7))
     plant, building = setup.plant, setup.building
     low = np.asarray(building.hvac.flow_min_kg_s)
@@ -75,6 +80,9 @@ def main() -> None:
     print("|---|---:|---:|")
     for name, (median, p90) in rows.items():
         print(f"| {name} | {median:.1f} | {p90:.1f} |")
+    if not np.isfinite(np.asarray(state["x"], dtype=float)).all():
+        raise RuntimeError("the plant's state is not finite after the steps")
+    print(f"checks passed: the plant's state finite after {args.calls} steps")
 
 
 if __name__ == "__main__":

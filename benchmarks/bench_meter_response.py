@@ -53,7 +53,12 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--calls", type=int, default=2000)
     parser.add_argument("--periods", type=int, default=96)
+    parser.add_argument(
+        "--quick", action="store_true", help="smoke run at the smallest size (the test suite's)"
+    )
     args = parser.parse_args()
+    if args.quick:
+        args.calls, args.periods = 5, 2
     history = _full_history()
     ratio = history.ratio(4)
 
@@ -76,6 +81,9 @@ def main() -> None:
     }
     print(machine_line(f"ρ of the full window {ratio:.3f}"))
     print_us_rows(rows)
+    if not 0.0 <= ratio <= 1.0:
+        raise RuntimeError(f"ρ = {ratio} outside [0, 1]")
+    print("checks passed: ρ of the full window in [0, 1], both closed loops ran")
 
 
 if __name__ == "__main__":

@@ -124,6 +124,7 @@ def percentile(values: list[float], q: float) -> float:
     return ordered[min(len(ordered) - 1, round(q * (len(ordered) - 1)))]
 
 
+WARM_COLD_REL_TOL = 1e-6  # a warm and a cold solve must reach the same optimum (relative)
 PARTS = ("coefficients", "push", "basis", "run()", "lazy rounds", "read", "plan")
 
 
@@ -148,7 +149,12 @@ def main() -> None:
     parser.add_argument(
         "--clock", choices=("cpu", "wall"), default="cpu", help="CPU time: the machine is shared"
     )
+    parser.add_argument(
+        "--quick", action="store_true", help="smoke run at the smallest size (the test suite's)"
+    )
     args = parser.parse_args()
+    if args.quick:
+        args.steps, args.cold = 3, True
     config = preset(args.scenario, start=args.start, days=args.steps // 48 + 2)
     problems = recorded_problems(config, args.steps)
     global clock
@@ -190,8 +196,11 @@ def main() -> None:
     print("\nslowest steps: (step ms, iterations, lazy rounds, event rows added/removed)")
     for step in sorted(steps, reverse=True)[:8]:
         print(f"  {step[0]:.1f} ms, {step[1]} it, {step[2]} rounds, {step[3]:+d} rows")
+    checked = "every warm solve optimal"
     if args.cold:
         cold_table(problems, objectives, [s[0] for s in steps])
+        checked += ", warm = cold (lazy and every row)"
+    print(f"checks passed: {checked}")
 
 
 def cold_table(
@@ -211,6 +220,8 @@ def cold_table(
             reference = cold.highs_objective_sgd()
             difference = abs(warm - reference) / max(1.0, abs(reference))
             worst[mode] = max(worst[mode], difference)
+            if difference > WARM_COLD_REL_TOL:
+                raise RuntimeError(f"warm and cold ({mode}) disagree ({difference:.1e})")
     warm_median = statistics.median(warm_ms)
     print("\n| solve | median [ms] | p90 [ms] | / warm (medians) | max rel. objective diff |")
     print("|---|---:|---:|---:|---:|")

@@ -99,7 +99,13 @@ def main() -> None:
     parser.add_argument("--buildings", type=int, default=4)
     parser.add_argument("--periods", type=int, default=12)
     parser.add_argument("--seed", type=int, default=29)
+    parser.add_argument(
+        "--quick", action="store_true", help="smoke run at the smallest size (the test suite's)"
+    )
     args = parser.parse_args()
+    if args.quick:
+        args.kills, args.buildings, args.periods = 1, 1, 2
+    lost_total = 0
     rng = random.Random(args.seed)
     for kind in args.databases:
         totals = [0, 0, 0]
@@ -118,6 +124,10 @@ def main() -> None:
             totals = [t + v for t, v in zip(totals, row, strict=True)]
             print(f"{kind} kill {i}: acknowledged {row[0]}, unplanned {row[1]}, lost {row[2]}")
         print(f"{kind} total: acknowledged {totals[0]}, unplanned {totals[1]}, lost {totals[2]}")
+        lost_total += totals[2]
+    if lost_total:
+        raise SystemExit(f"{lost_total} acknowledged measurements lost")
+    print("checks passed: no acknowledged measurement lost")
 
 
 if __name__ == "__main__":

@@ -341,12 +341,20 @@ def main() -> None:
         "--period-s", type=float, default=10.0, help="wall-clock seconds per period (--duration-s)"
     )
     parser.add_argument("--json", type=Path, default=None, help="write the figures here too")
+    parser.add_argument(
+        "--quick", action="store_true", help="smoke run at the smallest size (the test suite's)"
+    )
     args = parser.parse_args()
+    if args.quick:
+        args.buildings, args.readers, args.rounds, args.idle_s = 1, 2, 1, 0.5
     figures = run(args)
     text = json.dumps(figures, indent=2)
     print(text)
     if args.json is not None:
         args.json.write_text(text + "\n")
+    if not figures["complete"] or figures["read_errors"]:
+        raise SystemExit("not every round planned, or reads failed")
+    print("checks passed: every round planned, no read failed")
 
 
 if __name__ == "__main__":

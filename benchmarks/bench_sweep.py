@@ -1,6 +1,6 @@
 """Fig. 7's PPP sweep on Dask with 1 and with 2 local workers: wall time and speed-up.
 
-    python benchmarks/bench_sweep.py [--days 2] [--values 0.5,1.5,5,30]
+    python benchmarks/bench_sweep.py [--days 2] [--values 0.5,1.5,5,30] [--workers 1 2]
 
 Each configuration runs in a fresh temporary folder, so nothing is re-used from a cache.
 Prints a table; record it in docs/performance.md with the machine it ran on.
@@ -23,13 +23,19 @@ def main() -> None:
     parser.add_argument("--days", type=float, default=2.0)
     parser.add_argument("--start", default="2014-03-03")
     parser.add_argument("--values", default="0.5,1.5,5,30")
+    parser.add_argument("--workers", type=int, nargs="+", default=[1, 2])
+    parser.add_argument(
+        "--quick", action="store_true", help="smoke run at the smallest size (the test suite's)"
+    )
     args = parser.parse_args()
+    if args.quick:
+        args.days, args.values, args.workers = 0.25, "1.5,5", [2]
     values = [float(v) for v in args.values.split(",")]
     jobs = expand_grid(
         preset("rmpc-ppp", start=args.start, days=args.days), {"peak_price_sgd_per_kw": values}
     )
     timings = {}
-    for workers in (1, 2):
+    for workers in args.workers:
         with tempfile.TemporaryDirectory() as out:
             t0 = time.perf_counter()
             outcomes = run_sweep(jobs, out, n_workers=workers)
@@ -43,7 +49,9 @@ def main() -> None:
     print("| workers | wall [s] | speed-up |")
     print("|---:|---:|---:|")
     for workers, seconds in timings.items():
-        print(f"| {workers} | {seconds:.1f} | {timings[1] / seconds:.2f}× |")
+        speed_up = f"{timings[1] / seconds:.2f}×" if 1 in timings else "–"
+        print(f"| {workers} | {seconds:.1f} | {speed_up} |")
+    print(f"checks passed: every job of {len(jobs)} ran on {args.workers} workers")
 
 
 if __name__ == "__main__":

@@ -3,6 +3,7 @@ paths checked before any work (a file in the way, a folder that cannot be made).
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 import pytest
@@ -17,6 +18,7 @@ from hvacflex.paths import (
     data_dir,
     resolve_building,
     resources_dir,
+    user_data_dir,
 )
 
 
@@ -84,3 +86,14 @@ def test_an_output_file_must_not_be_a_folder_nor_under_a_file(tmp_path: Path) ->
     target = tmp_path / "new" / "x.csv"
     assert check_output_file(target, "--csv") == target and target.parent.is_dir()
     assert not target.exists()
+
+
+def test_the_user_data_folder_follows_xdg(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(sys, "platform", "linux")
+    monkeypatch.setenv("XDG_DATA_HOME", str(tmp_path))
+    assert user_data_dir() == tmp_path / "hvacflex"
+    monkeypatch.setenv("XDG_DATA_HOME", "relative/path")  # ignored, as XDG asks
+    assert user_data_dir() == Path.home() / ".local" / "share" / "hvacflex"
+    monkeypatch.delenv("XDG_DATA_HOME")
+    assert user_data_dir() == Path.home() / ".local" / "share" / "hvacflex"
+    assert not (tmp_path / "hvacflex").exists()  # named, not created

@@ -323,11 +323,13 @@ def serve_openadr_ven(
     stop_after_s: float | None = typer.Option(
         None, help="Stop after this many seconds (else at SIGINT/SIGTERM)."
     ),
-    db: str = typer.Option(
-        "sqlite:///hvacflex-ven.db",
+    db: str | None = typer.Option(
+        None,
         "--db",
         help="The VEN's record (answers, activations, settlement): sqlite:///FILE or "
-        "postgresql+psycopg://USER@HOST/DB; kept across restarts.",
+        "postgresql+psycopg://USER@HOST/DB; kept across restarts. Default: openadr-ven.db "
+        "in the user data folder ($XDG_DATA_HOME/hvacflex, else ~/.local/share/hvacflex).",
+        show_default=False,
     ),
 ) -> None:
     """OpenADR 2.0b VEN: VTN events become the service's prices, φ and IL activations; it
@@ -335,6 +337,7 @@ def serve_openadr_ven(
     it accepted on metered power (docs/service.md)."""
     import asyncio
     import logging
+    from dataclasses import replace
 
     from hvacflex.errors import HvacflexError
     from hvacflex.service.openadr import VenConfig, parse_clock_offset, run_ven
@@ -354,8 +357,13 @@ def serve_openadr_ven(
             vtn_fingerprint=vtn_fingerprint,
             db_url=db,
         )
+        if config.db_url is None:
+            config = replace(config, db_url=config.record_url())
         logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(message)s")
-        typer.echo(f"hvacflex VEN {ven_name} → {vtn_url}; service {url}", err=True)
+        typer.echo(
+            f"hvacflex VEN {ven_name} → {vtn_url}; service {url}; record {config.db_url}",
+            err=True,
+        )
         asyncio.run(run_ven(config, stop_after_s=stop_after_s))
     except HvacflexError as exc:
         raise exit_on_error(exc) from None

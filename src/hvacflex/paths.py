@@ -4,12 +4,14 @@ Both ship inside the package (:mod:`hvacflex.resources`, read through
 :mod:`importlib.resources`), so an installed hvacflex needs nothing beside it.
 ``HVACFLEX_DATA_DIR`` points at another data folder (the same layout: ``nems_usep_2014/``,
 ``weather/``, ``bestest/``) and ``HVACFLEX_BUILDINGS_DIR`` at another folder of building
-TOMLs.
+TOMLs. What hvacflex keeps for a user between runs (the OpenADR VEN's record) lies in the
+user data folder, :func:`user_data_dir`.
 """
 
 from __future__ import annotations
 
 import os
+import sys
 import tempfile
 from importlib.resources import files
 from pathlib import Path
@@ -18,6 +20,8 @@ from hvacflex.errors import DataError, InputError
 
 DATA_DIR_ENV = "HVACFLEX_DATA_DIR"
 BUILDINGS_DIR_ENV = "HVACFLEX_BUILDINGS_DIR"
+XDG_DATA_HOME_ENV = "XDG_DATA_HOME"
+APP_FOLDER = "hvacflex"
 
 
 def resources_dir() -> Path:
@@ -68,6 +72,21 @@ def resolve_building(name_or_path: str | Path) -> Path:
         value=str(name_or_path),
         hint=f"give a path to a TOML file or one of the shipped names {available}",
     )
+
+
+def user_data_dir() -> Path:
+    """The user's hvacflex data folder (as platformdirs' ``user_data_dir``; not created here):
+    ``$XDG_DATA_HOME/hvacflex``, else ``~/.local/share/hvacflex`` (Linux and other Unix);
+    ``~/Library/Application Support/hvacflex`` (macOS); ``%LOCALAPPDATA%\\hvacflex`` (Windows).
+    A relative ``XDG_DATA_HOME`` is ignored, as the XDG specification asks."""
+    if sys.platform == "win32":
+        base = os.environ.get("LOCALAPPDATA") or str(Path.home() / "AppData" / "Local")
+        return Path(base) / APP_FOLDER
+    if sys.platform == "darwin":
+        return Path.home() / "Library" / "Application Support" / APP_FOLDER
+    xdg = os.environ.get(XDG_DATA_HOME_ENV, "")
+    base_dir = Path(xdg) if xdg and Path(xdg).is_absolute() else Path.home() / ".local" / "share"
+    return base_dir / APP_FOLDER
 
 
 def repo_root() -> Path:

@@ -4,13 +4,14 @@ mutual TLS, on the 2014 calendar by a clock offset and on a live service at real
 
 from __future__ import annotations
 
+import asyncio
 import os
 import subprocess
 import sys
 import tempfile
 import time
 from dataclasses import dataclass
-from datetime import datetime, timedelta
+from datetime import UTC, datetime, timedelta
 from pathlib import Path
 from typing import Any
 
@@ -141,6 +142,35 @@ def test_the_command_exits_2_naming_the_option(
     error = done.stderr.strip().splitlines()[-1]
     assert error.startswith(f"error: field '{field}'") and reason in error, error
     assert "Traceback" not in done.stderr
+
+
+def test_without_db_the_record_lies_in_the_user_data_folder_not_the_working_one(
+    tmp_path: Path,
+) -> None:
+    data = tmp_path / "xdg"
+    done = subprocess.run(
+        [
+            *SERVE,
+            "openadr-ven",
+            "--vtn-url",
+            f"http://127.0.0.1:{free_port()}/OpenADR2/Simple/2.0b",
+            "--ven-name",
+            "v",
+            "--url",
+            f"http://127.0.0.1:{free_port()}",
+            "--building",
+            "b1",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        cwd=tmp_path,
+        env={**os.environ, "HVACFLEX_KEY": "hvf_0_x", "XDG_DATA_HOME": str(data)},
+    )
+    assert done.returncode == 2, done.stderr  # no VTN there
+    record = data / "hvacflex" / "openadr-ven.db"
+    assert f"record sqlite:///{record}" in done.stderr
+    assert record.is_file() and not list(tmp_path.glob("*.db"))
 
 
 # -- end to end --------------------------------------------------------------------------
@@ -333,8 +363,15 @@ def test_a_vtn_drives_a_building_through_the_ven(
         ("/v1/signals/prices", 1),
         ("/v1/signals/peak-price", 1),
         ("/v1/activations", 2),
+        ("/v1/activations/refused", 1),
     ):
         assert posted.count((path, 200)) == count, posted
+    # the dispatch with offered reserve reached the service as activations; the one beyond
+    # the horizon (no offer) was refused with its reason in the audit
+    mine = [a for a in audit if a["key_id"] == key_id]
+    assert [a["action"] for a in mine].count("activation") == 2
+    (refused,) = [a for a in mine if a["action"] == "activation_refused"]
+    assert "b1 not activated" in refused["body_head"] and simple_id in refused["body_head"]
 
     # the next plan uses the prices and φ; the dispatch activates 17:00, ends at 18:00
     second = measure("2014-03-03T15:30+08:00", 40.0)
@@ -349,6 +386,86 @@ def test_a_vtn_drives_a_building_through_the_ven(
     ]
     after = operator.call("POST", "/v1/clock", {"time": "2014-03-03T18:00+08:00"})["plans"]
     assert [(p["period"], p["il_activated"]) for p in after] == [(36, False)]
+
+
+class _TimedVtn(LoopbackVtn):
+    """The loopback VTN, noting when each report of each rID arrived (monotonic s) and how
+    many values it carried."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self.arrivals: list[tuple[float, str, int]] = []
+
+    def on_register_report(self, report: dict[str, Any]) -> list[tuple[str, Any, timedelta]]:
+        requests = []
+        for r_id, store, sampling in super().on_register_report(report):
+
+            def timed(
+                values: list[tuple[Any, float]], r_id: str = r_id, store: Any = store
+            ) -> None:
+                self.arrivals.append((time.monotonic(), r_id, len(values)))
+                store(values)
+
+            requests.append((r_id, timed, sampling))
+        return requests
+
+    def reports_of(self, r_id: str, since: float = 0.0) -> list[tuple[float, int]]:
+        return [(t, n) for t, r, n in list(self.arrivals) if r == r_id and t >= since]
+
+
+def test_reports_wait_for_data_and_come_at_the_agreed_interval(
+    server_factory: Any, tmp_path: Path
+) -> None:
+    """Before the building has a measurement and a plan the VEN sends no report (an empty
+    one crashed the VTN); then metered power once per agreed interval (the VTN asks for
+    1 s) and each plan's horizon once, not again at every sample."""
+    server = server_factory()
+    server.start()
+    operator_key = operator_key_for(server.db_url)
+    registered = Client(server.url, operator_key).call(
+        "POST", "/v1/buildings", registration("b1", days=2.0)
+    )
+    site = _Site(
+        server.url,
+        operator_key,
+        Client(server.url, operator_key),
+        Client(server.url, registered["key"]),
+        len(registered["nodes"]),
+        {},
+    )
+    real0 = _next_half_hour()
+    vtn = _TimedVtn(free_port(), [], run_for_s=150.0)
+    vtn.start()
+    ven, log = site.start_ven(vtn, E2E_T0 - pd.Timestamp(real0), None, tmp_path / "ven.db")
+    wanted = ("b1.metered_power_kw", "b1.planned_power_kw", "b1.reserve_offer_kw")
+    try:
+        _wait(lambda: all(r in vtn.descriptions for r in wanted), 90, "the reports", log)
+        time.sleep(4.0)  # four agreed intervals without data
+        assert vtn.arrivals == []
+        first = site.measure("2014-03-03T15:00+08:00", MEASURED_POWER_KW)
+        since = time.monotonic()
+        _wait(lambda: len(vtn.reports_of(wanted[0], since)) >= 6, 30, "six reports", log)
+        window_s = time.monotonic() - since
+        second = site.measure("2014-03-03T15:30+08:00", 40.0)  # a new plan: sent once more
+        _wait(lambda: len(vtn.reports_of(wanted[1], since)) >= 2, 30, "the new plan", log)
+        time.sleep(2.0)
+        assert ven.poll() is None
+    finally:
+        ven.terminate()
+        ven.wait(timeout=30)
+        vtn.stop()
+    # one metered value per report, at most one report per agreed interval (1 s) from the
+    # first measurement to the end (arrival times bunch under load, so the count is checked)
+    metered = vtn.reports_of(wanted[0], since)
+    assert all(n == 1 for _, n in metered)
+    span_s = metered[-1][0] - since
+    assert 6 <= len(metered) <= span_s + 2, (len(metered), span_s, window_s)
+    for r_id in wanted[1:]:  # each plan's horizon once: two plans, two reports
+        counts = [n for _, n in vtn.reports_of(r_id, since)]
+        assert len(counts) == 2, counts
+        assert counts[0] == len(first["horizon_time"])
+        assert 0 < counts[1] <= len(second["horizon_time"])
+    assert "Traceback" not in _logged(log)
 
 
 def test_a_vtn_that_goes_away_and_comes_back_re_registers_the_ven(
@@ -399,9 +516,18 @@ def _dispatch(event_id: str, modification: int, status: str = "far") -> dict[str
 
 def _posted(service: RecordingService) -> list[tuple[str, str]]:
     """The activation starts and ends posted since the last call (event, HH:MM)."""
-    out = [(r[2]["event"], r[2]["time"][11:16]) for r in service.requests if r[0] == "POST"]
+    out = [
+        (r[2]["event"], r[2]["time"][11:16])
+        for r in service.requests
+        if r[0] == "POST" and r[1] == "/v1/activations"
+    ]
     service.requests.clear()
     return out
+
+
+def _refusals(service: RecordingService) -> list[dict[str, Any]]:
+    """The refused dispatches posted (bodies of ``POST /v1/activations/refused``)."""
+    return [r[2] for r in service.requests if r[:2] == ("POST", "/v1/activations/refused")]
 
 
 def test_a_cancelled_or_modified_dispatch_ends_what_it_activated(tmp_path: Path) -> None:
@@ -431,10 +557,19 @@ def test_a_cancelled_or_modified_dispatch_ends_what_it_activated(tmp_path: Path)
         ("09:30", "10:00"),
         ("10:00", "10:30"),
     ]
-    # cancelled after it ended: nothing to undo; a dispatch entirely past is opted out
+    # cancelled after it ended: nothing to undo; a dispatch entirely past is opted out,
+    # and the service records why
     now["t"] = T0 + 4 * HALF_HOUR
     assert ven.handle_event(_dispatch("d1", 4, "cancelled")) == OPT_IN
     assert ven.handle_event(_dispatch("d1", 5)) == OPT_OUT
+    assert _refusals(service) == [
+        {
+            "time": "2014-03-03T09:30:00+08:00",
+            "building_ids": ["b1"],
+            "reason": "every dispatched period is over",
+            "event_id": "d1",
+        }
+    ]
     assert _posted(service) == []
 
 
@@ -595,3 +730,149 @@ def test_a_live_service_at_real_times_and_a_restarted_ven_that_keeps_its_dispatc
     assert plan["horizon_energy_price_sgd_per_mwh"][0] == pytest.approx(
         1000.0 * PRICES_SGD_PER_KWH[1]
     )
+
+
+# -- dispatches refused, the record's default place, reports -------------------------------
+def test_a_dispatch_without_offered_reserve_is_refused_with_the_reason_at_the_service(
+    tmp_path: Path,
+) -> None:
+    """b1 offers 09:30 only, b2 both periods: b2 is activated, b1 refused (a partial offer),
+    and the service gets the refusal with the periods b1 lacked."""
+
+    class TwoPlans(RecordingService):
+        def call(self, method: str, path: str, body: Any = None) -> Any:
+            if method == "GET" and path == "/v1/buildings/b1/plan":
+                return make_plan([1.0, 0.0])
+            return super().call(method, path, body)
+
+    service = TwoPlans(make_plan([1.0, 1.0]))
+    ven = make_ven(service, tmp_path, buildings=("b1", "b2"))
+    assert ven.handle_event(_dispatch("d1", 0)) == OPT_IN
+    (refusal,) = _refusals(service)
+    assert refusal["building_ids"] == ["b1"] and refusal["event_id"] == "d1"
+    assert "b1 not activated" in refusal["reason"] and "10:00" in refusal["reason"]
+    assert _posted(service) == [("start", "09:30"), ("end", "10:30")]  # b2's activation
+    # no building offers: opted out, nothing activated, every refused building recorded
+    service.plan = make_plan([0.0, 0.0])
+    assert ven.handle_event(_dispatch("d2", 0)) == OPT_OUT
+    assert [r["building_ids"] for r in _refusals(service)] == [["b1", "b2"]]
+    assert _posted(service) == []
+
+
+def test_a_refusal_the_service_cannot_take_leaves_the_opt(tmp_path: Path) -> None:
+    class Refusing(RecordingService):
+        def call(self, method: str, path: str, body: Any = None) -> Any:
+            if path == "/v1/activations/refused":
+                raise InputError("no such building", field="building_ids[0]")
+            return super().call(method, path, body)
+
+    service = Refusing(make_plan([0.0, 0.0]))
+    assert make_ven(service, tmp_path).handle_event(_dispatch("d1", 0)) == OPT_OUT
+
+
+def test_the_record_defaults_to_the_user_data_folder(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv("XDG_DATA_HOME", str(tmp_path / "data"))
+    monkeypatch.chdir(tmp_path)
+    config = VenConfig("http://127.0.0.1:9", "site-1", "http://127.0.0.1:8000", "key")
+    assert config.db_url is None
+    expected = tmp_path / "data" / "hvacflex" / "openadr-ven.db"
+    assert config.record_url() == f"sqlite:///{expected}"
+    assert expected.parent.is_dir() and not list(tmp_path.glob("*.db"))  # not the cwd
+    ven = make_ven(RecordingService(make_plan([1.0])), tmp_path)  # an explicit --db is kept
+    assert str(ven.store.engine.url) == f"sqlite:///{tmp_path / 'ven.db'}"
+    (tmp_path / "blocked").write_text("a file where the folder should be")
+    monkeypatch.setenv("XDG_DATA_HOME", str(tmp_path / "blocked"))
+    with pytest.raises(InputError) as raised:
+        config.record_url()
+    assert raised.value.field == "--db"
+
+
+class _FakeClient:
+    """What :class:`ReportSender` reads of an openleadr client: the VTN's report requests,
+    the VEN's reports, the read callbacks and the queue of reports to send."""
+
+    def __init__(self, readings: dict[str, list[tuple[datetime, float]]]) -> None:
+        from openleadr import objects
+
+        self.readings = readings
+        self.report_requests = [
+            {
+                "report_request_id": "rq-t",
+                "report_specifier_id": "hvacflex-telemetry",
+                "granularity": timedelta(seconds=10),
+                "report_back_duration": timedelta(seconds=10),
+                "r_ids": ["b1.metered_power_kw", "b1.planned_power_kw"],
+            },
+            {
+                "report_request_id": "rq-f",
+                "report_specifier_id": "hvacflex-forecast",
+                "granularity": timedelta(seconds=10),
+                "report_back_duration": timedelta(seconds=10),
+                "r_ids": ["b1.planned_power_kw"],
+            },
+        ]
+        self.reports = [
+            objects.Report(report_specifier_id=s, report_name="METADATA_TELEMETRY_USAGE")
+            for s in ("hvacflex-telemetry", "hvacflex-forecast")
+        ]
+
+        async def read(r_id: str) -> list[tuple[datetime, float]]:
+            return list(self.readings.get(r_id, []))
+
+        self.report_callbacks = {
+            ("hvacflex-telemetry", "b1.metered_power_kw"): lambda: read("b1.metered_power_kw"),
+            ("hvacflex-forecast", "b1.planned_power_kw"): lambda: read("b1.planned_power_kw"),
+        }
+        self.pending_reports: asyncio.Queue[Any] = asyncio.Queue()
+
+    def sent(self) -> list[tuple[str, list[tuple[str, float]]]]:
+        """The reports queued since the last call: (request, [(r_id, value)])."""
+        out = []
+        while not self.pending_reports.empty():
+            report = self.pending_reports.get_nowait()
+            values = [(i.report_payload.r_id, i.report_payload.value) for i in report.intervals]
+            out.append((report.report_request_id, values))
+        return out
+
+
+def test_reports_only_with_data_once_per_agreed_interval_and_a_plan_once() -> None:
+    from hvacflex.service.openadr import ReportSender, agreed_interval
+
+    assert agreed_interval(timedelta(seconds=10), timedelta(minutes=1)) == timedelta(minutes=1)
+    assert agreed_interval(None, None) == timedelta(minutes=30)
+    t = datetime(2026, 12, 1, 12, 0, tzinfo=UTC)
+    client = _FakeClient({})
+    now = {"s": 0.0}
+    sender = ReportSender(client, {"b1.planned_power_kw"}, clock=lambda: now["s"])
+
+    def sample(second: float) -> list[tuple[str, list[tuple[str, float]]]]:
+        now["s"] = second
+        for request in ("rq-t", "rq-f"):
+            asyncio.run(sender.update_report(request))
+        return client.sent()
+
+    assert sample(0.0) == []  # no measurement, no plan: no report at all
+    client.readings["b1.metered_power_kw"] = [(t, 42.0)]
+    client.readings["b1.planned_power_kw"] = [(t, 40.0), (t + HALF_HOUR, 41.0)]
+    # the rID the VTN lists under the telemetry request without a callback there is skipped
+    assert sample(10.0) == [
+        ("rq-t", [("b1.metered_power_kw", 42.0)]),
+        ("rq-f", [("b1.planned_power_kw", 40.0), ("b1.planned_power_kw", 41.0)]),
+    ]
+    assert sample(12.0) == []  # a second sample within the interval (a duplicate job)
+    assert sample(20.0) == [("rq-t", [("b1.metered_power_kw", 42.0)])]  # the plan is unchanged
+    client.readings["b1.planned_power_kw"] = [(t + HALF_HOUR, 39.5), (t + 2 * HALF_HOUR, 41.0)]
+    assert sample(30.0) == [
+        ("rq-t", [("b1.metered_power_kw", 42.0)]),
+        ("rq-f", [("b1.planned_power_kw", 39.5), ("b1.planned_power_kw", 41.0)]),
+    ]
+    assert sender.reports_sent == 5
+    # re-registered: the VTN asks for the telemetry again; the old request is dropped
+    client.report_requests.append({**client.report_requests[0], "report_request_id": "rq-t2"})
+    now["s"] = 40.0
+    for request in ("rq-t", "rq-t2"):
+        asyncio.run(sender.update_report(request))
+    assert client.sent() == [("rq-t2", [("b1.metered_power_kw", 42.0)])]
+    assert [r["report_request_id"] for r in client.report_requests] == ["rq-f", "rq-t2"]

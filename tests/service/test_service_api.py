@@ -319,6 +319,47 @@ def test_every_mutating_request_is_audited(service: Service) -> None:
     assert {"operator", "building"} <= roles
 
 
+def test_a_refused_dispatch_is_recorded_and_audited_with_its_reason(service: Service) -> None:
+    body = {
+        "time": "2014-03-03T17:00+08:00",
+        "building_ids": ["b1"],
+        "reason": "b1 not activated (no reserve offered at 17:00)",
+        "event_id": "d1",
+    }
+    answer = service.client.post("/v1/activations/refused", json=body, headers=service.op())
+    assert answer.status_code == 200, answer.json()
+    assert answer.json()["payload"]["kind"] == "activation_refused"
+    unknown = {**body, "building_ids": ["nope"]}
+    missing = service.client.post("/v1/activations/refused", json=unknown, headers=service.op())
+    assert missing.status_code == 404 and missing.json()["message"].startswith("field")
+    activation = {"event": "end", "time": "2014-03-03T18:00+08:00", "building_ids": ["b1"]}
+    assert service.client.post("/v1/activations", json=activation, headers=service.op()).is_success
+    records = service.client.get("/v1/audit?limit=3", headers=service.op()).json()["payload"]
+    assert [(r["action"], r["status_code"]) for r in records] == [
+        ("activation", 200),
+        ("activation_refused", 404),
+        ("activation_refused", 200),
+    ]
+    assert "no reserve offered at 17:00" in records[2]["body_head"]
+
+
+@pytest.mark.parametrize(
+    ("method", "path", "action"),
+    [
+        ("POST", "/v1/activations", "activation"),
+        ("POST", "/v1/activations/refused", "activation_refused"),
+        ("POST", "/v1/buildings/b1/measurements", "measurement"),
+        ("POST", "/v1/buildings", "registration"),
+        ("POST", "/v1/buildings/b1/plan", None),
+        ("GET", "/v1/activations", None),
+    ],
+)
+def test_audit_actions_name_the_routes(method: str, path: str, action: str | None) -> None:
+    from hvacflex.service.app import audit_action
+
+    assert audit_action(method, path) == action
+
+
 def test_wall_clock_runs_the_boundary_trigger() -> None:
     from hvacflex.service.app import start_wall_clock
 

@@ -22,6 +22,7 @@ ROUTES: list[tuple[str, str, set[str]]] = [
     ("POST", "/v1/signals/feeder-limit", {"operator"}),
     ("POST", "/v1/activations", {"operator"}),
     ("GET", "/v1/activations", {"operator"}),
+    ("POST", "/v1/activations/refused", {"operator"}),
     ("POST", "/v1/clock", {"operator"}),
     ("GET", "/v1/bid", {"operator"}),
     ("GET", "/v1/audit", {"operator"}),
@@ -43,6 +44,7 @@ def _body(service: Service, method: str, path: str) -> dict[str, Any] | None:
         "/v1/signals/peak-price": {"peak_price_sgd_per_kw": 0.0},
         "/v1/signals/feeder-limit": {"limit_kw": 1e6},
         "/v1/activations": {"event": "end", "time": START},
+        "/v1/activations/refused": {"time": START, "building_ids": ["b1"], "reason": "none"},
         "/v1/clock": {"time": START},
     }
     return bodies[path]

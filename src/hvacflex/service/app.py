@@ -12,6 +12,7 @@ handlers and the key checks are in :mod:`.http`.
 import contextlib
 import functools
 import json
+import re
 import threading
 from collections.abc import AsyncIterator, Callable
 from typing import Annotated, Any
@@ -65,6 +66,7 @@ from hvacflex.service.schemas import (
     MAX_WAIT_S,
     ActivationIn,
     ActivationRecord,
+    ActivationRefusedIn,
     AuditRecord,
     Bid,
     BidBuilding,
@@ -482,6 +484,20 @@ def _signal_routes(app: FastAPI, planner: Planner, auth: Auth) -> None:
             status=200, message=f"{body.event}: {len(plans)} plans changed", payload=payload
         )
 
+    @app.post("/v1/activations/refused", tags=["operator"], responses=ERRORS)
+    def post_activation_refused(body: ActivationRefusedIn, _who: Operator) -> Envelope[Stored]:
+        """A dispatch refused (no plan changes): the buildings, the time and the reason go
+        on the record (signal ``activation_refused``) and into the audit."""
+        with sessions() as session:
+            known = set(runtime.building_ids(session))
+        for i, building_id in enumerate(body.building_ids):
+            if building_id not in known:
+                raise NotFoundError(
+                    "no such building", field=f"building_ids[{i}]", value=building_id
+                )
+        stored = _store_signal(sessions, "activation_refused", body.model_dump(mode="json"))
+        return Envelope(status=200, message="activation refused: recorded", payload=stored)
+
     @app.post("/v1/clock", tags=["operator"], responses=ERRORS)
     def post_clock(body: ClockIn, who: Operator) -> Envelope[PlanList]:
         """Advance the service clock; each building without a plan for the period that now
@@ -588,10 +604,37 @@ def _operator_routes(app: FastAPI, runtime: Runtime, auth: Auth) -> None:
                     path=r.path,
                     status_code=r.status_code,
                     body_sha256=r.body_sha256,
+                    action=audit_action(r.method, r.path),
+                    body_head=r.body_head,
                 )
                 for r in rows
             ]
         return Envelope(status=200, message=f"{len(records)} records", payload=records)
+
+
+AUDIT_ACTIONS: tuple[tuple[str, re.Pattern[str], str], ...] = tuple(
+    (method, re.compile(pattern), action)
+    for method, pattern, action in (
+        ("POST", r"/v1/buildings", "registration"),
+        ("POST", r"/v1/buildings/[^/]+/measurements", "measurement"),
+        ("POST", r"/v1/signals/prices", "prices"),
+        ("POST", r"/v1/signals/weather", "weather"),
+        ("POST", r"/v1/signals/peak-price", "peak_price"),
+        ("POST", r"/v1/signals/feeder-limit", "feeder_limit"),
+        ("POST", r"/v1/activations", "activation"),
+        ("POST", r"/v1/activations/refused", "activation_refused"),
+        ("POST", r"/v1/clock", "clock"),
+    )
+)
+"""(method, path pattern, action) of the mutating routes, as the audit names them."""
+
+
+def audit_action(method: str, path: str) -> str | None:
+    """The action an audited request was (:data:`AUDIT_ACTIONS`), None if none matches."""
+    for known_method, pattern, action in AUDIT_ACTIONS:
+        if method == known_method and pattern.fullmatch(path):
+            return action
+    return None
 
 
 @functools.cache

@@ -16,7 +16,10 @@ least one of its target buildings offered reserve (``horizon_reserve_kw`` of its
 activated. A building whose offer covers only some of the periods (a partial offer) is not
 activated at all: an IL event of the service is one contiguous curtailment of the locked
 plan, and a 2.0b opt covers a whole event, so the VEN cannot accept part of one. When no
-target building offered the whole dispatch, the VEN opts out and nothing is posted.
+target building offered the whole dispatch, the VEN opts out and posts no activation. Every
+building a dispatch is refused for (no offer, a partial offer, a dispatch already over) goes
+to the service with the reason (``POST /v1/activations/refused``, audited as
+``activation_refused``); an accepted one is audited as ``activation``.
 
 Reports (openleadr's VTN requests ``TELEMETRY_USAGE`` reports only, so all three are of that
 name, told apart by report specifier, reading type and report type; per building, its id is
@@ -31,6 +34,13 @@ the resource id):
   ``EiOpt`` availability schedule says only *when* a resource is available, not how many kW,
   and openleadr's VTN does not serve ``EiOpt``. A projected capacity report carries kW per
   period, is standard 2.0b and reaches any VTN that takes telemetry reports.
+
+Reports go out at the interval the VTN asked for, and only with data
+(:class:`ReportSender`): at most one report per report request and agreed interval (the
+larger of its sampling interval and report-back duration); none while the building has no
+measurement or plan (an empty report crashes openleadr's VTN); the metered power once per
+interval, and a plan's horizon only when it differs from the one last sent for that request
+(a new plan), not the whole horizon again at every sample.
 """
 
 from __future__ import annotations
@@ -39,6 +49,7 @@ import asyncio
 import logging
 import math
 import signal
+import time
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from datetime import UTC, datetime, timedelta
@@ -69,12 +80,12 @@ from hvacflex.service.openadr_mapping import (
     to_vtn_time,
 )
 from hvacflex.service.openadr_store import (
-    DEFAULT_VEN_DB_URL,
     ActivationRun,
     EventRecord,
     SettledPeriod,
     VenStore,
     building_periods,
+    default_ven_db_url,
     settle_building,
 )
 from hvacflex.service.replay import Client, check_service_url
@@ -91,6 +102,11 @@ REPORT_DURATION = timedelta(hours=24)
 """The data a report can cover (openleadr's report ``duration``)."""
 SAMPLING_MIN, SAMPLING_MAX = timedelta(seconds=1), timedelta(minutes=30)
 """Sampling intervals the VEN accepts from the VTN's report requests."""
+REFUSAL_REASON_MAX_CHARS = 1000
+"""The longest reason the service records for a refused dispatch."""
+SAME_INTERVAL_SHARE = 0.5
+"""A report request sampled again within this share of its agreed interval of the last
+report sent (a scheduler's duplicate, a second job after re-registration) sends nothing."""
 
 
 @dataclass(frozen=True)
@@ -101,7 +117,9 @@ class VenConfig:
     ``cert``/``key``: the VEN's certificate and key (PEM) for mutual TLS and signed
     messages; ``ca``: the CA that signed the VTN's certificate (needed with ``cert``).
     ``vtn_fingerprint``: the VTN's certificate fingerprint, to check its signatures.
-    ``db_url``: the database of the VEN's record (its answers, activations, settlement).
+    ``db_url``: the database of the VEN's record (its answers, activations, settlement);
+    None: an SQLite file in the user data folder (:func:`~hvacflex.service.openadr_store.
+    default_ven_db_url`), never the folder the VEN is started from.
     """
 
     vtn_url: str
@@ -114,8 +132,12 @@ class VenConfig:
     key: Path | None = None
     ca: Path | None = None
     vtn_fingerprint: str | None = None
-    db_url: str = DEFAULT_VEN_DB_URL
-    """The VEN's record (:mod:`~hvacflex.service.openadr_store`)."""
+    db_url: str | None = None
+    """The VEN's record (:mod:`~hvacflex.service.openadr_store`); None: the default file."""
+
+    def record_url(self) -> str:
+        """``db_url``, or the default file in the user data folder (created there)."""
+        return self.db_url or default_ven_db_url()
 
     def __post_init__(self) -> None:
         check_service_url(self.service_url)
@@ -200,7 +222,7 @@ class OpenAdrVen:
         self.config = config
         self.service = service or Client(config.service_url, config.operator_key)
         self.clock = clock
-        self.store = store or VenStore.open(config.db_url, config.ven_name)
+        self.store = store or VenStore.open(config.record_url(), config.ven_name)
 
     # -- events --------------------------------------------------------------------------
     async def on_event(self, event: dict[str, Any]) -> str:
@@ -289,23 +311,28 @@ class OpenAdrVen:
         """Activate the buildings that offered every dispatched period from now on (a run
         already under way starts now; periods past are not asked of the plan)."""
         now = self._now()
-        periods = [t for t in periods if t >= now]
-        if not periods:
-            raise EventRefused("every dispatched period is over")
         targets = event_buildings(event, self.config.building_ids)
+        ahead = [t for t in periods if t >= now]
+        if not ahead:
+            why = "every dispatched period is over"
+            self._record_refusal(event, list(targets), periods[0] if periods else now, why)
+            raise EventRefused(why)
+        periods = ahead
         plans = {b: self._latest_plan(b) for b in targets}
         decision = decide_dispatch(periods, plans)
         for building_id, reason in decision.refused.items():
             logger.warning("dispatch: %s not activated (%s)", building_id, reason)
         reason = "; ".join(f"{b} not activated ({r})" for b, r in decision.refused.items())
+        if decision.refused:
+            self._record_refusal(event, list(decision.refused), periods[0], reason)
         if not decision.activated:
             return SignalOutcome(OPT_OUT, reason=reason)
         runs = tuple(ActivationRun(a, b, decision.activated) for a, b in activation_runs(periods))
         for run in runs:
-            for kind, time in (("start", run.start), ("end", run.end)):
+            for kind, at in (("start", run.start), ("end", run.end)):
                 body = {
                     "event": kind,
-                    "time": time.isoformat(),
+                    "time": at.isoformat(),
                     "building_ids": list(decision.activated),
                 }
                 self.service.call("POST", "/v1/activations", body)
@@ -320,6 +347,26 @@ class OpenAdrVen:
             for b in decision.activated
         }
         return SignalOutcome(OPT_IN, runs, offers, reason)
+
+    def _record_refusal(
+        self, event: dict[str, Any], building_ids: list[str], start: pd.Timestamp, reason: str
+    ) -> None:
+        """Tell the service which buildings a dispatch was refused for and why
+        (``POST /v1/activations/refused``: its record and audit, ``activation_refused``);
+        a service that refuses or cannot be reached is logged, the opt stands."""
+        if not building_ids:
+            return
+        descriptor = event.get("event_descriptor") or {}
+        body = {
+            "time": start.isoformat(),
+            "building_ids": sorted(building_ids),
+            "reason": reason[:REFUSAL_REASON_MAX_CHARS],
+            "event_id": str(descriptor.get("event_id"))[:128],
+        }
+        try:
+            self.service.call("POST", "/v1/activations/refused", body)
+        except HvacflexError as exc:
+            logger.warning("dispatch refusal not recorded (the service: %s)", exc)
 
     def _undo_activations(self, event_id: str, known: EventRecord | None) -> EventRecord:
         """End the activations an earlier version of the event posted that have not ended
@@ -437,6 +484,106 @@ class OpenAdrVen:
             return []
 
 
+def agreed_interval(granularity: timedelta | None, report_back: timedelta | None) -> timedelta:
+    """The interval a report request is answered at: the larger of the VTN's sampling
+    interval (granularity) and report-back duration (either may be absent; neither: one
+    period). The VEN's data change once a period, so sampling finer than it reports adds
+    nothing."""
+    given = [d for d in (granularity, report_back) if d is not None and d > timedelta(0)]
+    return max(given) if given else PERIOD.to_pytimedelta()
+
+
+class ReportSender:
+    """Answers the VTN's report requests for an openleadr client (replacing its
+    ``update_report``, which openleadr's scheduler calls at each sample).
+
+    Per report request: at most one report per :func:`agreed_interval`; no report without
+    data; only the newest request of a report (after a re-registration); of the
+    ``projected`` rIDs (the plan's horizon) only the (time, value) pairs that
+    differ from those last sent for the request, so an unchanged plan is not sent again.
+    ``clock`` is monotonic seconds.
+    """
+
+    def __init__(
+        self, client: Any, projected: set[str], clock: Callable[[], float] = time.monotonic
+    ) -> None:
+        self.client = client
+        self.projected = projected
+        self.clock = clock
+        self.last_sent_s: dict[str, float] = {}
+        self.sent: dict[tuple[str, str], dict[datetime, float]] = {}
+        self.reports_sent = 0
+
+    async def update_report(self, report_request_id: str) -> None:
+        """Sample the request's rIDs and queue one report if the interval has passed since
+        the last one and some value is new."""
+        from openleadr import objects
+
+        client = self.client
+        request = next(
+            (r for r in client.report_requests if r["report_request_id"] == report_request_id),
+            None,
+        )
+        if request is None or self._superseded(request):
+            return
+        interval = agreed_interval(request["granularity"], request["report_back_duration"])
+        now = self.clock()
+        last = self.last_sent_s.get(report_request_id)
+        if last is not None and now - last < SAME_INTERVAL_SHARE * interval.total_seconds():
+            return
+        specifier = request["report_specifier_id"]
+        report = next((r for r in client.reports if r.report_specifier_id == specifier), None)
+        if report is None:
+            return
+        intervals = []
+        for r_id in request["r_ids"]:
+            read = client.report_callbacks.get((specifier, r_id))
+            if read is None:  # openleadr's VTN lists every rID under every request
+                continue
+            for dt, value in self.new_values(report_request_id, r_id, await read()):
+                payload = objects.ReportPayload(r_id=r_id, value=value)
+                intervals.append(objects.ReportInterval(dtstart=dt, report_payload=payload))
+        if not intervals:
+            return  # no report without data
+        self.last_sent_s[report_request_id] = now
+        self.reports_sent += 1
+        await client.pending_reports.put(
+            objects.Report(
+                report_request_id=report_request_id,
+                report_specifier_id=specifier,
+                report_name=str(report.report_name).replace("METADATA_", ""),
+                intervals=intervals,
+                dtstart=min(i.dtstart for i in intervals),
+            )
+        )
+
+    def _superseded(self, request: dict[str, Any]) -> bool:
+        """Whether a later request asks for the same report (the VTN's request after a
+        re-registration, which openleadr adds beside the old one and its job): the old one
+        is then dropped, so the report does not go out twice per interval."""
+        requests = self.client.report_requests
+        later = requests[requests.index(request) + 1 :]
+        if not any(r["report_specifier_id"] == request["report_specifier_id"] for r in later):
+            return False
+        if request.get("job") is not None:
+            request["job"].remove()
+        requests.remove(request)
+        logger.info("report request %s superseded", request["report_request_id"])
+        return True
+
+    def new_values(
+        self, request_id: str, r_id: str, values: list[tuple[datetime, float]]
+    ) -> list[tuple[datetime, float]]:
+        """The values to send now: all of a direct reading; of a projected rID those that
+        differ from what this request last sent (which they then replace)."""
+        if r_id not in self.projected:
+            return list(values)
+        sent = self.sent.setdefault((request_id, r_id), {})
+        fresh = [(dt, value) for dt, value in values if sent.get(dt) != value]
+        sent.update(fresh)
+        return fresh
+
+
 def openadr_client(ven: OpenAdrVen) -> Any:
     """The openleadr ``OpenADRClient`` of ``ven``: its event handlers and, per building, the
     telemetry and forecast reports (module docstring).
@@ -466,6 +613,7 @@ def openadr_client(ven: OpenAdrVen) -> Any:
     client.add_handler("on_event", ven.on_event)
     client.add_handler("on_update_event", ven.on_event)
     rate = objects.SamplingRate(min_period=SAMPLING_MIN, max_period=SAMPLING_MAX, on_change=False)
+    projected: set[str] = set()
     for building_id in config.building_ids:
         reports = (
             (
@@ -508,6 +656,10 @@ def openadr_client(ven: OpenAdrVen) -> Any:
                 report_duration=REPORT_DURATION,
                 sampling_rate=rate,
             )
+            if specifier == FORECAST_REPORT:
+                projected.add(f"{building_id}.{what}")
+    sender = ReportSender(client, projected)
+    client.update_report = sender.update_report  # openleadr's scheduler calls it per sample
     return client
 
 
@@ -521,7 +673,7 @@ async def run_ven(config: VenConfig, *, stop_after_s: float | None = None) -> No
     """
     if stop_after_s is not None and not (math.isfinite(stop_after_s) and stop_after_s > 0):
         raise InputError("must be > 0 s", field="--stop-after-s", value=stop_after_s)
-    store = VenStore.open(config.db_url, config.ven_name)
+    store = VenStore.open(config.record_url(), config.ven_name)
     service = Client(config.service_url, config.operator_key)
     if not config.building_ids:
         config = replace(config, building_ids=tuple(service.call("GET", "/v1/buildings")))

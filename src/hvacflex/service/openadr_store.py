@@ -1,8 +1,8 @@
 """The VEN's record: the OpenADR events it answered, what it activated, and the settlement.
 
 ``serve openadr-ven`` keeps its record in a database of the service's layer
-(:mod:`hvacflex.service.db`, the same Alembic migrations; ``--db``, default
-:data:`DEFAULT_VEN_DB_URL`), so a restarted VEN
+(:mod:`hvacflex.service.db`, the same Alembic migrations; ``--db``, default an SQLite file
+in the user data folder, :func:`default_ven_db_url`), so a restarted VEN
 
 * answers an event it already answered (the same event id and modification number, which a
   VTN sends again to a VEN that registers anew) with the opt it gave, posting nothing again;
@@ -32,6 +32,7 @@ from sqlalchemy import select
 from sqlalchemy.engine import Engine
 
 from hvacflex.constants import PERIOD, TIMEZONE
+from hvacflex.paths import check_output_dir, user_data_dir
 from hvacflex.service.db import (
     OpenAdrEvent,
     OpenAdrSettlement,
@@ -41,8 +42,20 @@ from hvacflex.service.db import (
 )
 from hvacflex.settlement import delivered_kw, pre_event_baseline_kw, shortfall_kw
 
-DEFAULT_VEN_DB_URL = "sqlite:///hvacflex-ven.db"
-"""The VEN's record by default: an SQLite file in the working folder."""
+VEN_DB_FILENAME = "openadr-ven.db"
+"""The VEN's record by default: this SQLite file in the user data folder
+(:func:`hvacflex.paths.user_data_dir`), whichever folder the VEN is started from."""
+
+
+def default_ven_db_url() -> str:
+    """``sqlite:///<user data folder>/openadr-ven.db``, the folder created if missing.
+
+    Raises
+    ------
+    InputError : the folder cannot be created or written (field ``--db``).
+    """
+    folder = check_output_dir(user_data_dir(), "--db")
+    return f"sqlite:///{folder / VEN_DB_FILENAME}"
 
 
 @dataclass(frozen=True)

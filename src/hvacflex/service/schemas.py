@@ -223,6 +223,17 @@ class ActivationIn(BaseModel):
     building_ids: list[str] | None = Field(default=None, max_length=10_000)
 
 
+class ActivationRefusedIn(BaseModel):
+    """A dispatch the site refused (e.g. the OpenADR VEN's opt-out): the buildings it was
+    for, when it would have started and why; kept on the record and in the audit."""
+
+    model_config = _STRICT
+    time: IsoTime
+    building_ids: list[str] = Field(min_length=1, max_length=10_000)
+    reason: str = Field(min_length=1, max_length=1000)
+    event_id: str | None = Field(default=None, max_length=128)
+
+
 class ClockIn(BaseModel):
     """The service clock (an accelerated or replayed clock): periods that start at or before
     it are planned on the latest measurement of buildings that sent none for them."""
@@ -364,3 +375,11 @@ class AuditRecord(BaseModel):
     path: str
     status_code: int
     body_sha256: str
+    action: str | None = Field(
+        default=None,
+        description="What the request did (activation, activation_refused, prices, "
+        "measurement, …; see docs/service.md), None for a path the service does not know.",
+    )
+    body_head: str = Field(
+        default="", description="The request body's first characters, as stored."
+    )
