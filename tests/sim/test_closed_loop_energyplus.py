@@ -74,15 +74,20 @@ def test_energyplus_tracks_the_planned_temperatures_and_meters_the_facility(day)
     assert frame["power_kw"][occupied].min() > frame["power_kw"][~occupied].min()
 
 
-def test_an_interrupted_run_resumes_by_replay_to_the_same_results(day) -> None:  # type: ignore[no-untyped-def]
+@pytest.mark.parametrize(("stop", "restart"), [(15, 10), (27, 20)])
+def test_an_interrupted_run_resumes_by_replay_to_the_same_results(day, stop, restart) -> None:  # type: ignore[no-untyped-def]
+    """Stopped between two restart points, the run resumes from the last one: EnergyPlus
+    replays the actuations recorded up to it, the periods after it are decided again, and
+    the results equal the uninterrupted run's bit for bit."""
     folder, whole, _ = day
     config = load_config(folder / "scenario.toml")
     split = {"progress": False, "checkpoint_every": 10}
-    partial = run_simulation(config, folder / "split", stop_after_steps=20, **split)  # type: ignore[arg-type]
-    assert partial.resumed_from_step is None and len(partial.frame) == 20
-    resumed = run_simulation(config, folder / "split", **split)  # type: ignore[arg-type]
-    assert resumed.resumed_from_step == 20
-    frame, _ = read_results(folder / "split" / "results.parquet")
+    out = folder / f"split-{stop}"
+    partial = run_simulation(config, out, stop_after_steps=stop, **split)  # type: ignore[arg-type]
+    assert partial.resumed_from_step is None and len(partial.frame) == stop
+    resumed = run_simulation(config, out, **split)  # type: ignore[arg-type]
+    assert resumed.resumed_from_step == restart
+    frame, _ = read_results(out / "results.parquet")
     columns = [c for c in whole.columns if c != "solve_time_s"]
     pd.testing.assert_frame_equal(
         frame[columns], whole[columns], check_freq=False, check_exact=True
