@@ -317,7 +317,9 @@ def test_plant_table_defaults_to_rc_and_keeps_the_run_key(tmp_path: Path) -> Non
     path = tmp_path / "eplus.toml"
     path.write_text('[plant]\nkind = "energyplus"\nidf = "model.idf"\n')
     config = load_config(path)
-    assert config.plant.idf == "model.idf" and config.plant.timesteps_per_hour == 6
+    # taken from the scenario file's folder, like the other paths it names
+    assert config.plant.idf == str(tmp_path / "model.idf")
+    assert config.plant.timesteps_per_hour == 6
     assert config.plant.resolved_actuation == "setpoint"
     assert config.config_hash() != default.config_hash()
 

@@ -122,7 +122,12 @@ identify_app = typer.Typer(
 
 @identify_app.command("collect")
 def identify_collect(
-    idf: Path = typer.Option(..., "--idf", help="The EnergyPlus 25.2 model."),  # noqa: B008
+    idf: Path = typer.Option(  # noqa: B008
+        ...,
+        "--idf",
+        help="The EnergyPlus 25.2 model: a path, or a shipped model's name (5ZoneAirCooled, "
+        "packaged_shops).",
+    ),
     start: str = typer.Option(..., "--start", help="First day, YYYY-MM-DD."),
     days: int = typer.Option(..., "--days", min=1, max=366, help="Number of days."),
     out: Path = typer.Option(..., "--out", help="The trend CSV to write."),  # noqa: B008
@@ -169,7 +174,10 @@ def identify_fit(
     train: str | None = typer.Option(None, "--train", help="YYYY-MM-DD..YYYY-MM-DD"),
     test: str | None = typer.Option(None, "--test", help="YYYY-MM-DD..YYYY-MM-DD"),
     idf: Path | None = typer.Option(  # noqa: B008
-        None, "--idf", help="The EnergyPlus model the data came from: scenario.toml's plant."
+        None,
+        "--idf",
+        help="The EnergyPlus model the data came from (a path or a shipped model's name): "
+        "the plant of scenario.toml and baseline.toml.",
     ),
     weather: Path | None = typer.Option(  # noqa: B008
         None,
@@ -179,16 +187,21 @@ def identify_fit(
     ),
 ) -> None:
     """Fit a grey-box RC model to trend data; write it (a building file), fit_report.csv,
-    the parameters, the calibrated model-error box and scenario.toml."""
+    the parameters, the calibrated model-error box, scenario.toml and (with --idf)
+    baseline.toml."""
     import warnings
 
     from hvacflex.errors import HvacflexError
-    from hvacflex.identify.workflow import identify
+    from hvacflex.identify.workflow import FIT_STAGES, identify
     from hvacflex.paths import resolve_building
+    from hvacflex.sim.progress import task_progress
 
     try:
         building = None if template is None else resolve_building(template)
-        with warnings.catch_warnings():
+        with (
+            warnings.catch_warnings(),
+            task_progress(True, "identify fit", len(FIT_STAGES)) as bar,
+        ):
             warnings.simplefilter("ignore")  # they are in the fit report's warnings column
             outcome = identify(
                 data,
@@ -200,6 +213,7 @@ def identify_fit(
                 test=test,
                 idf=idf,
                 weather=weather,
+                progress=bar.stage,
             )
     except HvacflexError as exc:
         raise exit_on_error(exc) from None
@@ -218,6 +232,7 @@ def identify_fit(
         outcome.model_path.parent / "fit_predictions.csv",
         outcome.model_path.parent / "box_report.csv",
         outcome.scenario_path,
+        outcome.baseline_path,
         figure,
     ):
         if path is not None:

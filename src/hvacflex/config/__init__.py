@@ -200,7 +200,9 @@ def load_config(path: str | Path) -> ScenarioConfig:
     """Load a scenario TOML file (optionally starting from ``preset = "..."``).
 
     Relative paths in the file (``building``, ``data.weather_file``, ``data.usep_source``,
-    ``data.reserve_source``, ``activation.file``) are relative to the file's folder.
+    ``data.reserve_source``, ``activation.file``, ``plant.idf``,
+    ``uncertainty.calibrate.prediction_errors``) are relative to the file's folder
+    (:func:`paths_from_folder`).
 
     Raises
     ------
@@ -241,8 +243,10 @@ def paths_from_folder(raw: Mapping[str, Any], folder: Path) -> dict[str, Any]:
     (:func:`hvacflex.fleet.schema.load_fleet`).
 
     ``building`` is a path when it has a folder or ends in ``.toml`` (else a shipped name such
-    as ``office5``); the keys of :data:`SCENARIO_PATH_KEYS` are always paths. Values that are
-    not strings are left for the schema to refuse.
+    as ``office5``), ``plant.idf`` when it has a folder or ends in ``.idf`` (else
+    ``generated`` or a shipped model such as ``5ZoneAirCooled``); the keys of
+    :data:`SCENARIO_PATH_KEYS` and ``uncertainty.calibrate.prediction_errors`` are always
+    paths. Values that are not strings are left for the schema to refuse.
     """
 
     def from_folder(value: str) -> str:
@@ -250,6 +254,19 @@ def paths_from_folder(raw: Mapping[str, Any], folder: Path) -> dict[str, Any]:
         return str(candidate if candidate.is_absolute() else folder / candidate)
 
     out = dict(raw)
+    plant = raw.get("plant")
+    if isinstance(plant, Mapping) and isinstance(plant.get("idf"), str):
+        idf = plant["idf"]
+        if idf.lower().endswith(".idf") or "/" in idf:  # else "generated" or a shipped name
+            out["plant"] = {**plant, "idf": from_folder(idf)}
+    uncertainty = raw.get("uncertainty")
+    calibrate = uncertainty.get("calibrate") if isinstance(uncertainty, Mapping) else None
+    if isinstance(calibrate, Mapping) and isinstance(calibrate.get("prediction_errors"), str):
+        errors = from_folder(calibrate["prediction_errors"])
+        out["uncertainty"] = {
+            **uncertainty,
+            "calibrate": {**calibrate, "prediction_errors": errors},
+        }
     building = raw.get("building")
     if isinstance(building, str) and (Path(building).suffix == ".toml" or "/" in building):
         out["building"] = from_folder(building)

@@ -39,6 +39,7 @@ from hvacflex.energyplus.runner import Variable, expand_hvac_templates
 from hvacflex.errors import InputError
 from hvacflex.identify import trend
 from hvacflex.identify.trend import FloatArray, zone_column
+from hvacflex.paths import resolve_idf
 from hvacflex.sim.energyplus_plant import EnergyPlusPlant
 from hvacflex.sim.plant import Actuation, Disturbance
 
@@ -195,7 +196,8 @@ def collect_trend(
     -------
     (days · 48, columns) the trend frame of :mod:`hvacflex.identify.trend` (period starts).
     """
-    source = str(idf_path)
+    idf_file = resolve_idf(idf_path, "--idf")
+    source = str(idf_file)
     try:
         first = pd.Timestamp(start)
     except ValueError:
@@ -204,7 +206,7 @@ def collect_trend(
         ) from None
     if days < 1:
         raise InputError("needs at least one day", field="--days", value=days)
-    text = read_idf(idf_path)
+    text = read_idf(idf_file)
     objects = parse_idf(text, source)
     if any(o.class_name.lower().startswith("hvactemplate:") for o in objects):
         objects = parse_idf(expand_hvac_templates(text, source), source)

@@ -13,6 +13,7 @@ Days: ``--train A..B`` and ``--test C..D`` (``YYYY-MM-DD``, both ends included);
 from __future__ import annotations
 
 import itertools
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -24,12 +25,14 @@ from hvacflex.data.forecast import default_weather_file
 from hvacflex.data.weather import EpwLocation, read_epw
 from hvacflex.errors import InputError
 from hvacflex.identify.box import (
+    BASELINE_FILE,
     BOX_REPORT_FILE,
     DEFAULT_QUANTILE,
     ERRORS_FILE,
     SCENARIO_FILE,
     ModelErrorBox,
     calibrate_model_error,
+    write_baseline_scenario,
     write_model_errors,
     write_scenario,
 )
@@ -52,6 +55,16 @@ from hvacflex.identify.fit import (
 from hvacflex.identify.greybox import ZONE_PARAMETERS
 from hvacflex.identify.model_file import IdentifiedModel, identifier, write_identified_model
 from hvacflex.identify.trend import read_trend, zone_column
+from hvacflex.paths import resolve_idf
+
+FIT_STAGES = (
+    "reading the trend data",
+    "fitting the zones on the training days",
+    "evaluating on the test days",
+    "fitting the power model",
+    "calibrating the model error",
+)
+"""The stages :func:`identify` reports to its ``progress`` callback, in order."""
 
 DEFAULT_TEST_DAYS = 7
 """Test days at the end of the data when ``--test`` is not given."""
@@ -67,7 +80,8 @@ class IdentifyOutcome:
     report : the fit report (one row per zone); power : daily power check or None.
     fit : the fit; predictions : the test days' measured and predicted series
     (:func:`~hvacflex.identify.fit.prediction_frame`, also ``fit_predictions.csv``);
-    box : the calibrated model error; scenario_path : the scenario beside the model.
+    box : the calibrated model error; scenario_path : the scenario beside the model;
+    baseline_path : the building's own control on the same plant (with an IDF; else None).
     """
 
     model_path: Path
@@ -80,6 +94,7 @@ class IdentifyOutcome:
     predictions: pd.DataFrame
     box: ModelErrorBox
     scenario_path: Path
+    baseline_path: Path | None = None
 
 
 def site_of(weather: str | Path | None) -> EpwLocation:
@@ -235,15 +250,17 @@ def identify(
     test: str | None = None,
     idf: str | Path | None = None,
     weather: str | Path | None = None,
+    progress: Callable[[str], None] | None = None,
 ) -> IdentifyOutcome:
     """Fit, evaluate and write (module docstring); ``idf``: the EnergyPlus model the data
-    came from, the plant of the scenario written beside the model; ``weather``: an EPW of the
-    site (where the wall irradiances are computed; default the shipped Singapore file's)."""
+    came from (a path or a shipped model's name), the plant of the scenarios written beside
+    the model; ``weather``: an EPW of the site (where the wall irradiances are computed;
+    default the shipped Singapore file's); ``progress``: called with each stage's name as it
+    starts (:data:`FIT_STAGES`, in that order)."""
+    say = progress if progress is not None else (lambda _: None)
     out = Path(out)
-    if idf is not None and not Path(idf).is_file():
-        raise InputError(
-            "no such IDF", field="--idf", value=str(idf), hint="give the EnergyPlus model's path"
-        )
+    idf_file = None if idf is None else resolve_idf(idf, "--idf")
+    say(FIT_STAGES[0])
     data = read_trend(data_path)
     names, couples = zones_and_couplings(zones, adjacency, template)
     fitted = {n.lower() for n in names}
@@ -260,7 +277,9 @@ def identify(
     else:
         train_range = parse_days(train, inputs.index, "--train")
         test_range = parse_days(test, inputs.index, "--test")
+    say(FIT_STAGES[1])
     fit = fit_model(inputs, _pairs(inputs.zones, couples), train_range)
+    say(FIT_STAGES[2])
     report = evaluate(fit, inputs, test_range)
     ids = tuple(identifier(z) for z in inputs.zones)
     report.insert(1, "energyplus_zone", list(inputs.zones))
@@ -274,6 +293,7 @@ def identify(
         )
         for zone in inputs.zones
     ]
+    say(FIT_STAGES[3])
     power = fit_power_model(data, inputs, train_range)
     model = IdentifiedModel(
         name=f"identified from {Path(data_path).name}",
@@ -305,9 +325,18 @@ def identify(
         power_table.to_csv(power_path, index=False, float_format="%.4g")
     predictions = prediction_frame(fit, inputs, test_range)
     predictions.to_csv(out.parent / "fit_predictions.csv", float_format="%.4f")
+    say(FIT_STAGES[4])
     box, scenario_path = _box_and_scenario(
-        fit, inputs, ids, (train_range, test_range), out, idf=idf, weather=weather
+        fit, inputs, ids, (train_range, test_range), out, idf=idf_file, weather=weather
     )
+    baseline_path = None
+    if idf_file is not None:
+        baseline_path = write_baseline_scenario(
+            out.parent / BASELINE_FILE,
+            model_path,
+            idf_file,
+            None if weather is None else Path(weather),
+        )
     return IdentifyOutcome(
         model_path,
         report_path,
@@ -319,6 +348,7 @@ def identify(
         predictions,
         box,
         scenario_path,
+        baseline_path,
     )
 
 
