@@ -132,5 +132,9 @@ def test_run_label_names_scenario_building_and_dates() -> None:
     from hvacflex.config import preset
 
     label = run_label(preset("thermostat", start="2014-03-04T08:00", days=0.5))
-    assert label == "scenario thermostat, building office5, 2014-03-04T08:00 to 2014-03-04T20:00"
+    assert label == (
+        "scenario thermostat, building office5, plant rc, 2014-03-04T08:00 to 2014-03-04T20:00"
+    )
+    on_energyplus = run_label(preset("plant-baseline", days=1))
+    assert ", plant energyplus (generated IDF), " in on_energyplus
     assert run_label(preset("rmpc", days=2)).endswith("2014-01-01 to 2014-01-03")

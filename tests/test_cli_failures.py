@@ -198,7 +198,8 @@ def test_no_highs_banner_on_the_command_output(tmp_path: Path) -> None:
     done = subprocess.run(args, capture_output=True, text=True, timeout=300, env=os.environ.copy())
     assert done.returncode == 0, done.stderr
     # the command ran and solved LPs; its summary line names the scenario, building and dates
-    assert f"scenario rmpc-ppp, building office5, {START} to {START}T06:00:" in done.stdout
+    label = f"scenario rmpc-ppp, building office5, plant rc, {START} to {START}T06:00:"
+    assert label in done.stdout
     assert "HiGHS" not in done.stdout + done.stderr
 
 

@@ -392,16 +392,29 @@ def simulate(
     console.print(summary, soft_wrap=True, markup=False, highlight=False)
 
 
+def console_line(text: str) -> None:
+    """Print a line of plain text on rich's shared console: above a progress bar while one
+    is live (so bar and lines stay apart), at once otherwise (also when piped)."""
+    from rich import get_console
+
+    get_console().print(text, markup=False, highlight=False, soft_wrap=True)
+
+
 def run_label(cfg: ScenarioConfig) -> str:
-    """What ran: ``"scenario rmpc, building office5, 2014-03-04 to 2014-03-04T12:00"`` (the
-    first period's start and the last period's end, Singapore local time)."""
+    """What ran: ``"scenario rmpc, building office5, plant rc, 2014-03-04 to
+    2014-03-04T12:00"`` (the plant graded on: ``rc``, or ``energyplus`` with its IDF; the first
+    period's start and the last period's end, Singapore local time)."""
     import pandas as pd
 
     from hvacflex.dates import normalise_start
 
     end = cfg.start_timestamp + pd.Timedelta(seconds=cfg.steps * cfg.dt_s)
     end_text = normalise_start(end.strftime("%Y-%m-%dT%H:%M"))
-    return f"scenario {cfg.name}, building {cfg.building}, {cfg.start} to {end_text}"
+    plant = cfg.plant.kind
+    if plant == "energyplus":
+        idf = cfg.plant.idf
+        plant += f" ({'generated IDF' if idf == 'generated' else Path(idf).name})"
+    return f"scenario {cfg.name}, building {cfg.building}, plant {plant}, {cfg.start} to {end_text}"
 
 
 @app.command()
@@ -462,7 +475,7 @@ def sweep(
 
     Exits 1 when any run fails (the table still lists every run, with its error).
     """
-    from rich.console import Console
+    from rich import get_console
     from rich.markup import escape
 
     from hvacflex.errors import HvacflexError
@@ -477,7 +490,7 @@ def sweep(
     )
     from hvacflex.version import atomic_write_text
 
-    console = Console()
+    console = get_console()  # the progress bar's: its lines print above the bar
     try:
         cfg = _scenario_config(scenario, config, start, days, price_gap_fill)
         grid = dict(parse_param(p) for p in param)
@@ -587,7 +600,7 @@ def reproduce(
             feedback=feedback,
             scheduler=scheduler,
             workers=workers,
-            log=typer.echo,
+            log=console_line,
             fresh=fresh,
         )
     except HvacflexError as exc:
