@@ -414,7 +414,7 @@ def _valid_timesteps(value: int) -> int:
 class PlantSpec(Spec):
     kind: PlantKind = default(PlantConfig, "kind")
     """What the controller is graded on: ``rc`` (hvacflex's own nonlinear RC network) or
-    ``energyplus`` (an EnergyPlus 25.2 model, needs ``hvacflex[energyplus]``;
+    ``energyplus`` (an EnergyPlus 25.2 model, needs the ``energyplus`` extra;
     docs/energyplus.md)."""
     idf: Annotated[Text, Field(min_length=1)] = default(PlantConfig, "idf")
     """The EnergyPlus model: ``generated`` (the building's own IDF export), a shipped model's
