@@ -6,6 +6,7 @@ import pytest
 from hvacflex.config import preset
 from hvacflex.errors import ConfigError
 from hvacflex.sim.sweep import (
+    DASHBOARD_ADDRESS,
     SweepClock,
     close_dask,
     expand_grid,
