@@ -64,12 +64,18 @@ def test_price_gap_fill_option_overrides_the_scenario_setting(tmp_path: Path) ->
     assert "price_gap_fill" in result.output and "previous-day" in result.output
 
 
-def test_simulate_help_names_every_preset() -> None:
-    from hvacflex.cli import PRESET_HELP
+def test_simulate_help_names_every_preset_in_full_at_80_columns() -> None:
     from hvacflex.config import PRESET_NAMES
 
-    listed = {name.strip(" .") for name in PRESET_HELP.removeprefix("Preset:").split(",")}
-    assert listed == set(PRESET_NAMES)
+    for command in ("simulate", "sweep"):
+        result = CliRunner().invoke(app, [command, "--help"], env={"COLUMNS": "80"})
+        assert result.exit_code == 0
+        lines = result.output.splitlines()
+        assert max(len(line) for line in lines) <= 80, command
+        presets = lines[next(i for i, t in enumerate(lines) if "Presets (--scenario" in t) + 1 :]
+        assert {word for line in presets for word in line.split()} == set(PRESET_NAMES)
+        assert "[default: rmpc" in result.output  # rmpc or rmpc-ppp
+        assert "Default: the scenario's days (7 unless" in " ".join(result.output.split())
 
 
 def test_version_option_prints_the_version() -> None:

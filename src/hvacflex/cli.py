@@ -16,6 +16,8 @@ import typer.core
 
 from hvacflex.cli_config import config_app
 from hvacflex.cli_help import (
+    DAYS_HELP,
+    PRESET_EPILOG,
     PRESET_HELP,
     START_HELP,
     fail,
@@ -35,6 +37,7 @@ if TYPE_CHECKING:
 use_readable_metavars()
 
 app = typer.Typer(
+    rich_markup_mode=None,
     name="hvacflex",
     help="Robust predictive control of building HVAC in electricity markets.",
     no_args_is_help=True,
@@ -90,7 +93,9 @@ def _check_finite(value: float | None) -> float | None:
 DATA_SHOW_MAX_DAYS = 366
 """Longest span ``data show`` summarises [days]: the shipped prices cover one year."""
 
-data_app = typer.Typer(help="Inspect prices, weather, gains and the uncertainty box.")
+data_app = typer.Typer(
+    rich_markup_mode=None, help="Inspect prices, weather, gains and the uncertainty box."
+)
 app.add_typer(data_app, name="data")
 
 
@@ -164,7 +169,9 @@ def _fleet_group() -> typer.Typer:
 
 app.add_typer(_fleet_group(), name="fleet")
 
-building_app = typer.Typer(help="Inspect building descriptions.", no_args_is_help=True)
+building_app = typer.Typer(
+    rich_markup_mode=None, help="Inspect building descriptions.", no_args_is_help=True
+)
 app.add_typer(building_app, name="building")
 
 
@@ -331,7 +338,7 @@ MAX_WORKERS = 256
 """Most local worker processes ``sweep`` and ``reproduce`` start."""
 
 
-@app.command()
+@app.command(epilog=PRESET_EPILOG)
 def simulate(
     scenario: str = typer.Option(
         "rmpc",
@@ -339,9 +346,7 @@ def simulate(
     ),
     config: Path | None = typer.Option(None, help="Scenario TOML file (overrides --scenario)."),  # noqa: B008
     start: str | None = typer.Option(None, help=START_HELP, callback=_check_start),
-    days: float | None = typer.Option(
-        None, help="Number of days to simulate.", callback=_check_days
-    ),
+    days: float | None = typer.Option(None, help=DAYS_HELP, callback=_check_days),
     price_gap_fill: str | None = typer.Option(
         None,
         "--price-gap-fill",
@@ -448,15 +453,19 @@ def report(
     typer.echo(f"report → {path}")
 
 
-@app.command()
+@app.command(epilog=PRESET_EPILOG)
 def sweep(
     param: list[str] = typer.Option(  # noqa: B008
         ..., help="NAME=V1,V2,... (repeatable; the grid is their product)."
     ),
-    scenario: str = typer.Option("rmpc-ppp", help="Preset the sweep starts from."),
+    scenario: str = typer.Option(
+        "rmpc-ppp", help="The preset the sweep starts from (the presets are listed below)."
+    ),
     config: Path | None = typer.Option(None, help="Scenario TOML file (overrides --scenario)."),  # noqa: B008
     start: str | None = typer.Option(None, help=START_HELP, callback=_check_start),
-    days: float | None = typer.Option(None, help="Number of days per run.", callback=_check_days),
+    days: float | None = typer.Option(
+        None, help=DAYS_HELP.replace("to simulate", "per run"), callback=_check_days
+    ),
     price_gap_fill: str | None = typer.Option(
         None,
         "--price-gap-fill",

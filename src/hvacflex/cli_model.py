@@ -11,7 +11,9 @@ import typer
 from hvacflex.cli_help import exit_on_error, fail
 from hvacflex.constants import MAX_VALIDATION_SPINUP_DAYS, VALIDATION_SPINUP_DAYS
 
-validate_app = typer.Typer(help="Validate the building model.", no_args_is_help=True)
+validate_app = typer.Typer(
+    rich_markup_mode=None, help="Validate the building model.", no_args_is_help=True
+)
 
 
 @validate_app.command("bestest")
@@ -115,6 +117,7 @@ def validate_energyplus(
 
 
 identify_app = typer.Typer(
+    rich_markup_mode=None,
     help="Identify a controller model from measured trend data (docs/identify.md).",
     no_args_is_help=True,
 )
