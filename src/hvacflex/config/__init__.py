@@ -71,7 +71,7 @@ from hvacflex.config.presets import (
 )
 from hvacflex.config.schema import RENAMED_KEYS, RULE_ERROR, ScenarioSpec, to_domain
 from hvacflex.constants import MAX_HORIZON_STEPS
-from hvacflex.errors import ConfigError
+from hvacflex.errors import ConfigError, did_you_mean
 from hvacflex.opt.options import (
     DEFAULT_COMFORT_PENALTY_SGD_PER_KELVIN_HOUR,
     FeedbackStructure,
@@ -190,7 +190,7 @@ def preset(name: str, **overrides: Any) -> ScenarioConfig:
             "unknown scenario preset",
             field="scenario",
             value=name,
-            hint=f"use one of {list(PRESET_NAMES)}",
+            hint=did_you_mean(name, PRESET_NAMES, f"use one of {list(PRESET_NAMES)}"),
         )
     cfg = _validate({"name": name, **PRESETS[name]}, source="preset")
     return with_overrides(cfg, overrides) if overrides else cfg
@@ -219,7 +219,7 @@ def load_config(path: str | Path) -> ScenarioConfig:
                 source=path,
                 field="preset",
                 value=base_name,
-                hint=f"use one of {list(PRESET_NAMES)}",
+                hint=did_you_mean(base_name, PRESET_NAMES, f"use one of {list(PRESET_NAMES)}"),
             )
         base = {"name": base_name, **PRESETS[base_name]}
     merged = _deep_merge(base, paths_from_folder(raw, path.parent))
@@ -447,7 +447,8 @@ def _unknown_key_hint(loc: tuple[str, ...]) -> str | None:
         if not (isinstance(annotation, type) and issubclass(annotation, BaseModel)):
             return None  # inside a table of disturbance kinds
         model = annotation
-    return f"valid keys here: {sorted(model.model_fields)}"
+    valid = sorted(model.model_fields)
+    return did_you_mean(loc[-1], valid, f"valid keys here: {valid}")
 
 
 def _leaf_paths(obj: Any, prefix: tuple[str, ...] = ()) -> list[tuple[str, ...]]:
@@ -490,7 +491,9 @@ def resolve_key(key: str) -> tuple[str, ...]:
     raise ConfigError(
         "unknown or ambiguous setting" if matches else "unknown setting",
         field=key,
-        hint=f"valid settings: {', '.join(valid)}",
+        hint=did_you_mean(
+            key, [*valid, *(p[-1] for p in leaves)], f"valid settings: {', '.join(valid)}"
+        ),
     )
 
 
