@@ -646,7 +646,7 @@ def _reproduce_studies(
     failed: list[str] = []
     for name, run_study, plan in studies:
         study = run_study(
-            out / name, plan, scheduler=scheduler, workers=workers, fresh=fresh, log=typer.echo
+            out / name, plan, scheduler=scheduler, workers=workers, fresh=fresh, log=console_line
         )
         typer.echo(f"{name}: {study.out_dir} ({study.elapsed_s:.0f} s)")
         failed += [f"{o.label}: {o.error}" for o in study.failed]

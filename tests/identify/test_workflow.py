@@ -15,7 +15,7 @@ from hvacflex.errors import InputError
 from hvacflex.identify.greybox import ZONE_PARAMETERS
 from hvacflex.identify.model_file import load_identified_model
 from hvacflex.identify.trend import write_trend
-from hvacflex.identify.workflow import identify, parse_days, zones_and_couplings
+from hvacflex.identify.workflow import FIT_STAGES, identify, parse_days, zones_and_couplings
 
 
 @pytest.fixture(scope="module")
@@ -129,6 +129,10 @@ def test_the_cli_fit_writes_the_figure_and_the_series(trend: Path, tmp_path: Pat
     assert len(series) == 48 and "predicted_24h_Room-A_degc" in series.columns
     assert (out.parent / "fit.png").stat().st_size > 10_000
     assert "rmse_24h_k" in result.output
+    # it speaks while it works: a line per stage when the output is not a terminal
+    for i, stage in enumerate(FIT_STAGES, 1):
+        assert f"identify fit: [{i}/{len(FIT_STAGES)}] {stage} (elapsed " in result.output
+    assert not (out.parent / "baseline.toml").exists()  # no IDF: no plant to run its own control
 
 
 def test_collect_and_fit_run_on_another_building_with_ideal_loads(tmp_path: Path) -> None:

@@ -280,19 +280,8 @@ def identify(
     say(FIT_STAGES[1])
     fit = fit_model(inputs, _pairs(inputs.zones, couples), train_range)
     say(FIT_STAGES[2])
-    report = evaluate(fit, inputs, test_range)
-    ids = tuple(identifier(z) for z in inputs.zones)
-    report.insert(1, "energyplus_zone", list(inputs.zones))
-    report["zone"] = list(ids)
-    report["converged"] = fit.converged
-    report["warnings"] = [
-        "; ".join(
-            w
-            for w in fit.warnings
-            if w.startswith(f"{zone}:") or not any(w.startswith(f"{z}:") for z in inputs.zones)
-        )
-        for zone in inputs.zones
-    ]
+    report = fit_report(fit, inputs, test_range)
+    ids = tuple(report["zone"])
     say(FIT_STAGES[3])
     power = fit_power_model(data, inputs, train_range)
     model = IdentifiedModel(
@@ -350,6 +339,25 @@ def identify(
         scenario_path,
         baseline_path,
     )
+
+
+def fit_report(fit: FitResult, inputs: FitData, test: tuple[int, int]) -> pd.DataFrame:
+    """The fit report (``fit_report.csv``): one row per zone, its test-day errors
+    (:func:`~hvacflex.identify.fit.evaluate`), its model name and data name
+    (``energyplus_zone``), whether the fit converged, and the fit's warnings about it."""
+    report = evaluate(fit, inputs, test)
+    report.insert(1, "energyplus_zone", list(inputs.zones))
+    report["zone"] = [identifier(z) for z in inputs.zones]
+    report["converged"] = fit.converged
+    report["warnings"] = [
+        "; ".join(
+            w
+            for w in fit.warnings
+            if w.startswith(f"{zone}:") or not any(w.startswith(f"{z}:") for z in inputs.zones)
+        )
+        for zone in inputs.zones
+    ]
+    return report
 
 
 def _days_text(index: pd.DatetimeIndex, periods: tuple[int, int]) -> str:
