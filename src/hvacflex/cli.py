@@ -415,8 +415,8 @@ def run_label(cfg: ScenarioConfig) -> str:
 
     end = cfg.start_timestamp + pd.Timedelta(seconds=cfg.steps * cfg.dt_s)
     end_text = normalise_start(end.strftime("%Y-%m-%dT%H:%M"))
-    plant = cfg.plant.kind
-    if plant == "energyplus":
+    plant: str = cfg.plant.kind
+    if cfg.plant.kind == "energyplus":
         idf = cfg.plant.idf
         plant += f" ({'generated IDF' if idf == 'generated' else Path(idf).name})"
     return f"scenario {cfg.name}, building {cfg.building}, plant {plant}, {cfg.start} to {end_text}"

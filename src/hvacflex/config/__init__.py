@@ -261,7 +261,11 @@ def paths_from_folder(raw: Mapping[str, Any], folder: Path) -> dict[str, Any]:
             out["plant"] = {**plant, "idf": from_folder(idf)}
     uncertainty = raw.get("uncertainty")
     calibrate = uncertainty.get("calibrate") if isinstance(uncertainty, Mapping) else None
-    if isinstance(calibrate, Mapping) and isinstance(calibrate.get("prediction_errors"), str):
+    if (
+        isinstance(uncertainty, Mapping)
+        and isinstance(calibrate, Mapping)
+        and isinstance(calibrate.get("prediction_errors"), str)
+    ):
         errors = from_folder(calibrate["prediction_errors"])
         out["uncertainty"] = {
             **uncertainty,
