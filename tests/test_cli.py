@@ -1,3 +1,4 @@
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -144,3 +145,25 @@ def test_run_label_names_scenario_building_and_dates() -> None:
     on_energyplus = run_label(preset("plant-baseline", days=1))
     assert ", plant energyplus (generated IDF), " in on_energyplus
     assert run_label(preset("rmpc", days=2)).endswith("2014-01-01 to 2014-01-03")
+
+
+def test_reproduce_prints_its_run_lines_and_ends_with_the_verdict(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The command hands ``reproduce`` a printer that works piped (CliRunner's output is no
+    terminal): every line the reproduction logs reaches the output, the verdict last."""
+    import hvacflex.reproduce
+    from hvacflex.reproduce import Reproduction
+
+    def fake(out: Path, *, log: Callable[[str], None], **_: object) -> Reproduction:
+        log("  [1/1] rmpc ok · elapsed 0:01 · ETA 0:00")
+        log(f"report: {out / 'report.html'}")
+        log("verdict: of the paper's findings tested here, 1 holds.")
+        return Reproduction(report=out / "report.html", outcomes=[])
+
+    monkeypatch.setattr(hvacflex.reproduce, "reproduce", fake)
+    result = CliRunner().invoke(app, ["reproduce", "--quick", "--out", str(tmp_path / "r")])
+    assert result.exit_code == 0, result.output
+    lines = result.output.splitlines()
+    assert lines[0] == "  [1/1] rmpc ok · elapsed 0:01 · ETA 0:00"
+    assert lines[-1] == "verdict: of the paper's findings tested here, 1 holds."

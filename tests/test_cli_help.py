@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+from typing import Any
+
+import typer
 from typer.testing import CliRunner
 
 from hvacflex.cli import app
@@ -37,3 +40,21 @@ def test_help_shows_click_type_names_not_typers() -> None:
     assert result.exit_code == 0
     assert "INTEGER" in result.output or "FLOAT" in result.output
     assert "<str>" not in result.output and "<bool>" not in result.output
+
+
+def _command_paths(command: Any, path: list[str]) -> list[list[str]]:
+    paths = [path]
+    if hasattr(command, "commands"):  # a group (typer's own click)
+        for name, sub in command.commands.items():
+            paths += _command_paths(sub, [*path, name])
+    return paths
+
+
+def test_every_help_fits_80_columns() -> None:
+    paths = _command_paths(typer.main.get_command(app), [])
+    assert len(paths) > 30 and ["identify", "fit"] in paths
+    for path in paths:
+        result = CliRunner().invoke(app, [*path, "--help"], env={"COLUMNS": "80"})
+        assert result.exit_code == 0, path
+        too_long = [line for line in result.output.splitlines() if len(line) > 80]
+        assert too_long == [], path
