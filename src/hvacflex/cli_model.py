@@ -217,6 +217,7 @@ def identify_fit(
                 idf=idf,
                 weather=weather,
                 progress=bar.stage,
+                heartbeat=bar.beat,
             )
     except HvacflexError as exc:
         raise exit_on_error(exc) from None

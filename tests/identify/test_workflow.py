@@ -29,13 +29,19 @@ def trend(
 
 def test_fit_writes_a_model_and_a_report_beside_it(trend: Path, tmp_path: Path) -> None:
     out = tmp_path / "fitted" / "model.toml"
+    stages: list[str] = []
+    beats: list[str] = []
     outcome = identify(
         trend,
         out,
         zones="Room-A,ROOM_b",
         train="2014-03-03..2014-03-07",
         test="2014-03-08..2014-03-08",
+        progress=stages.append,
+        heartbeat=beats.append,
     )
+    assert stages == list(FIT_STAGES)  # each stage said as it starts, in order
+    assert len(beats) > 10 and beats[:2] == ["1 model evaluation", "2 model evaluations"]
     report = pd.read_csv(out.parent / "fit_report.csv")
     assert list(report["zone"]) == ["room_a", "room_b"]
     assert list(report["energyplus_zone"]) == ["Room-A", "ROOM_b"]

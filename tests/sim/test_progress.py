@@ -76,3 +76,22 @@ def test_stages_speak_when_the_output_is_not_a_terminal(
     with task_progress(False, "quiet", 2) as off:
         off.note("plain")
     assert capsys.readouterr().out == "plain\n"
+
+
+def test_heartbeats_print_at_most_every_heartbeat_s_when_piped(
+    capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import hvacflex.sim.progress as progress
+
+    now = [0.0]
+    monkeypatch.setattr(progress.time, "perf_counter", lambda: now[0])
+    with task_progress(True, "identify fit", 1) as bar:
+        for second in (1.0, 5.0, 10.0, 12.0, 21.0):
+            now[0] = second
+            bar.beat(f"{int(second)} model evaluations")
+        assert bar._progress.tasks[0].fields["info"] == "21 model evaluations"
+    lines = [line for line in capsys.readouterr().out.splitlines() if "evaluations (" in line]
+    assert lines == [
+        "identify fit: 10 model evaluations (elapsed 0:10)",
+        "identify fit: 21 model evaluations (elapsed 0:21)",
+    ]

@@ -24,7 +24,9 @@ state per zone, its noise levels tuned on the training days, :func:`tune_filter`
 from __future__ import annotations
 
 import warnings
+from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -453,9 +455,16 @@ def _bound_warnings(
     return found
 
 
-def fit_model(data: FitData, couplings: list[tuple[int, int]], train: tuple[int, int]) -> FitResult:
+def fit_model(
+    data: FitData,
+    couplings: list[tuple[int, int]],
+    train: tuple[int, int],
+    on_evaluation: Callable[[], None] | None = None,
+) -> FitResult:
     """Fit the grey-box model on the periods ``train = (first, end)`` (module docstring);
-    every fitted zone may exchange heat with every boundary of ``data``.
+    every fitted zone may exchange heat with every boundary of ``data``. ``on_evaluation``
+    is called after each evaluation of the model's residuals (the optimiser's and its
+    finite-difference Jacobian's: a heartbeat of the long fit).
 
     Raises
     ------
@@ -476,8 +485,15 @@ def fit_model(data: FitData, couplings: list[tuple[int, int]], train: tuple[int,
     edges = np.array([(i, b) for i in range(m) for b in range(nb)], dtype=np.int64).reshape(-1, 2)
     prior, low, high, scale = _initial_and_bounds(m, len(pairs) + len(edges))
     window = FitData(data.index[:end], data.zones, data.y[:end], data.u[:end], data.boundaries)
+
+    def residuals(theta: FloatArray, *args: Any) -> FloatArray:
+        out = _residuals(theta, *args)
+        if on_evaluation is not None:
+            on_evaluation()
+        return out
+
     result = scipy.optimize.least_squares(
-        _residuals,
+        residuals,
         prior,
         bounds=(low, high),
         args=(pairs, edges, window, starts, prior, scale),

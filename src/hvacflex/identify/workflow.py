@@ -251,12 +251,14 @@ def identify(
     idf: str | Path | None = None,
     weather: str | Path | None = None,
     progress: Callable[[str], None] | None = None,
+    heartbeat: Callable[[str], None] | None = None,
 ) -> IdentifyOutcome:
     """Fit, evaluate and write (module docstring); ``idf``: the EnergyPlus model the data
     came from (a path or a shipped model's name), the plant of the scenarios written beside
     the model; ``weather``: an EPW of the site (where the wall irradiances are computed;
     default the shipped Singapore file's); ``progress``: called with each stage's name as it
-    starts (:data:`FIT_STAGES`, in that order)."""
+    starts (:data:`FIT_STAGES`, in that order); ``heartbeat``: called during the long fit
+    with the count of model evaluations so far (``"1,200 model evaluations"``)."""
     say = progress if progress is not None else (lambda _: None)
     out = Path(out)
     idf_file = None if idf is None else resolve_idf(idf, "--idf")
@@ -278,7 +280,7 @@ def identify(
         train_range = parse_days(train, inputs.index, "--train")
         test_range = parse_days(test, inputs.index, "--test")
     say(FIT_STAGES[1])
-    fit = fit_model(inputs, _pairs(inputs.zones, couples), train_range)
+    fit = fit_model(inputs, _pairs(inputs.zones, couples), train_range, _counter(heartbeat))
     say(FIT_STAGES[2])
     report = fit_report(fit, inputs, test_range)
     ids = tuple(report["zone"])
@@ -339,6 +341,20 @@ def identify(
         scenario_path,
         baseline_path,
     )
+
+
+def _counter(heartbeat: Callable[[str], None] | None) -> Callable[[], None] | None:
+    """An ``on_evaluation`` callback that tells ``heartbeat`` the evaluations so far."""
+    if heartbeat is None:
+        return None
+    count = 0
+
+    def evaluated() -> None:
+        nonlocal count
+        count += 1
+        heartbeat(f"{count:,} model evaluation{'' if count == 1 else 's'}")
+
+    return evaluated
 
 
 def fit_report(fit: FitResult, inputs: FitData, test: tuple[int, int]) -> pd.DataFrame:

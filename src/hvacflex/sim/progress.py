@@ -60,6 +60,11 @@ def clock_text(seconds: float) -> str:
     return f"{hours}:{minutes:02d}:{secs:02d}" if hours else f"{minutes}:{secs:02d}"
 
 
+HEARTBEAT_S = 10.0
+"""Least time between two lines of :meth:`task_progress.beat` on output that is not a
+terminal [s] (a line per model evaluation would flood a log)."""
+
+
 class task_progress:
     """A rich progress bar for work of ``total`` units (runs, fleet steps): description,
     bar, done/total, elapsed time, ETA and a free text (``info``); nothing when disabled.
@@ -75,6 +80,7 @@ class task_progress:
         self.description, self.total, self.completed = description, total, completed
         self._stages = 0
         self._t0 = time.perf_counter()
+        self._last_beat = self._t0
 
     @property
     def elapsed_s(self) -> float:
@@ -87,7 +93,7 @@ class task_progress:
         return self.enabled and bool(self._progress.console.is_terminal)
 
     def __enter__(self) -> task_progress:
-        self._t0 = time.perf_counter()
+        self._t0 = self._last_beat = time.perf_counter()
         if self.enabled:
             from rich.progress import (
                 BarColumn,
@@ -132,6 +138,16 @@ class task_progress:
                 f"{self.description}: [{self._stages}/{self.total}] {message} "
                 f"(elapsed {clock_text(self.elapsed_s)})"
             )
+
+    def beat(self, text: str) -> None:
+        """Progress inside the running stage: the bar's free text; when the output is not a
+        terminal, a line at most every :data:`HEARTBEAT_S` seconds."""
+        if self.enabled:
+            self._progress.update(self._task, info=text)
+        now = time.perf_counter()
+        if not self.live and now - self._last_beat >= HEARTBEAT_S:
+            self._last_beat = now
+            self.note(f"{self.description}: {text} (elapsed {clock_text(self.elapsed_s)})")
 
     def note(self, text: str) -> None:
         """A line of its own: above the bar (which keeps its place), or plainly on stdout
