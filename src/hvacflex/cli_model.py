@@ -151,13 +151,27 @@ def identify_collect(
     from hvacflex.identify.collect import collect_trend
     from hvacflex.identify.trend import write_trend
     from hvacflex.paths import data_dir
+    from hvacflex.sim.progress import task_progress
 
     epw = weather if weather is not None else data_dir() / "weather" / DEFAULT_WEATHER_FILE
     names = None if zones is None else tuple(z.strip() for z in zones.split(",") if z.strip())
     try:
-        frame = collect_trend(
-            idf, start=start, days=days, epw_path=epw, excitation=excitation, zones=names, seed=seed
-        )
+        with task_progress(True, "identify collect", days) as bar:
+
+            def day_done() -> None:
+                bar()
+                bar.beat(f"day {bar.completed} of {days}")
+
+            frame = collect_trend(
+                idf,
+                start=start,
+                days=days,
+                epw_path=epw,
+                excitation=excitation,
+                zones=names,
+                seed=seed,
+                on_day=day_done,
+            )
     except HvacflexError as exc:
         raise exit_on_error(exc) from None
     typer.echo(f"wrote {write_trend(frame, out)} ({len(frame)} periods)")

@@ -24,6 +24,7 @@ facility electricity as the plant meters them.
 from __future__ import annotations
 
 import warnings
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Literal
@@ -178,8 +179,10 @@ def collect_trend(
     zones: tuple[str, ...] | None = None,
     seed: int = 0,
     timesteps_per_hour: int = 6,
+    on_day: Callable[[], None] | None = None,
 ) -> pd.DataFrame:
-    """Run the IDF under its own control plus the excitation and return the trend frame.
+    """Run the IDF under its own control plus the excitation and return the trend frame;
+    ``on_day`` is called as each day of the run is collected (progress).
 
     Parameters
     ----------
@@ -254,6 +257,8 @@ def collect_trend(
                 for i, zone in enumerate(controlled):
                     row[zone_column("setpoint", zone)] = float(setpoints[k, i])
             rows.append(row)
+            if on_day is not None and (k + 1) % PERIODS_PER_DAY == 0:
+                on_day()
     finally:
         plant.close()
     return pd.DataFrame(rows, index=index)
