@@ -74,8 +74,10 @@ def test_stages_speak_when_the_output_is_not_a_terminal(
         bar.stage("fitting")
     assert "identify fit: [2/2] fitting (elapsed 0:00)" in capsys.readouterr().out
     with task_progress(False, "quiet", 2) as off:
+        off.stage("silent")
+        off.beat("silent too")
         off.note("plain")
-    assert capsys.readouterr().out == "plain\n"
+    assert capsys.readouterr().out == "plain\n"  # quiet: no stage or heartbeat lines
 
 
 def test_heartbeats_print_at_most_every_heartbeat_s_when_piped(

@@ -72,7 +72,8 @@ class task_progress:
     ``with task_progress(True, "sweep", 12) as update: update(completed=3, info="…")``;
     ``update.note(text)`` prints a line above the bar, ``update.warn(text)`` a warning there
     (both plainly when the bar is off). When the output is not a terminal (piped, logged)
-    the bar cannot redraw, so each stage also prints a line with the elapsed time.
+    the bar cannot redraw, so each stage also prints a line with the elapsed time (a disabled
+    bar prints nothing but its notes and warnings).
     """
 
     def __init__(self, enabled: bool, description: str, total: int, completed: int = 0) -> None:
@@ -133,7 +134,7 @@ class task_progress:
         ``message`` names the one running (a ``progress`` callback of the validations)."""
         self._stages += 1
         self(completed=self._stages - 1, info=message)
-        if not self.live:
+        if self.enabled and not self.live:
             self.note(
                 f"{self.description}: [{self._stages}/{self.total}] {message} "
                 f"(elapsed {clock_text(self.elapsed_s)})"
@@ -141,11 +142,11 @@ class task_progress:
 
     def beat(self, text: str) -> None:
         """Progress inside the running stage: the bar's free text; when the output is not a
-        terminal, a line at most every :data:`HEARTBEAT_S` seconds."""
+        terminal, a line at most every :data:`HEARTBEAT_S` seconds (nothing when disabled)."""
         if self.enabled:
             self._progress.update(self._task, info=text)
         now = time.perf_counter()
-        if not self.live and now - self._last_beat >= HEARTBEAT_S:
+        if self.enabled and not self.live and now - self._last_beat >= HEARTBEAT_S:
             self._last_beat = now
             self.note(f"{self.description}: {text} (elapsed {clock_text(self.elapsed_s)})")
 
