@@ -320,14 +320,7 @@ def identify(
     box, scenario_path = _box_and_scenario(
         fit, inputs, ids, (train_range, test_range), out, idf=idf_file, weather=weather
     )
-    baseline_path = None
-    if idf_file is not None:
-        baseline_path = write_baseline_scenario(
-            out.parent / BASELINE_FILE,
-            model_path,
-            idf_file,
-            None if weather is None else Path(weather),
-        )
+    baseline_path = _baseline(model_path, idf_file, weather)
     return IdentifyOutcome(
         model_path,
         report_path,
@@ -341,6 +334,15 @@ def identify(
         scenario_path,
         baseline_path,
     )
+
+
+def _baseline(model_path: Path, idf: Path | None, weather: str | Path | None) -> Path | None:
+    """``baseline.toml`` beside the model (:func:`~hvacflex.identify.box.
+    write_baseline_scenario`) when the data came from an IDF, else None."""
+    if idf is None:
+        return None
+    site = None if weather is None else Path(weather)
+    return write_baseline_scenario(model_path.parent / BASELINE_FILE, model_path, idf, site)
 
 
 def _counter(heartbeat: Callable[[str], None] | None) -> Callable[[], None] | None:
