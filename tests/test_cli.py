@@ -1,3 +1,4 @@
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -64,12 +65,18 @@ def test_price_gap_fill_option_overrides_the_scenario_setting(tmp_path: Path) ->
     assert "price_gap_fill" in result.output and "previous-day" in result.output
 
 
-def test_simulate_help_names_every_preset() -> None:
-    from hvacflex.cli import PRESET_HELP
+def test_simulate_help_names_every_preset_in_full_at_80_columns() -> None:
     from hvacflex.config import PRESET_NAMES
 
-    listed = {name.strip(" .") for name in PRESET_HELP.removeprefix("Preset:").split(",")}
-    assert listed == set(PRESET_NAMES)
+    for command in ("simulate", "sweep"):
+        result = CliRunner().invoke(app, [command, "--help"], env={"COLUMNS": "80"})
+        assert result.exit_code == 0
+        lines = result.output.splitlines()
+        assert max(len(line) for line in lines) <= 80, command
+        presets = lines[next(i for i, t in enumerate(lines) if "Presets (--scenario" in t) + 1 :]
+        assert {word for line in presets for word in line.split()} == set(PRESET_NAMES)
+        assert "[default: rmpc" in result.output  # rmpc or rmpc-ppp
+        assert "Default: the scenario's days (7 unless" in " ".join(result.output.split())
 
 
 def test_version_option_prints_the_version() -> None:
@@ -132,5 +139,31 @@ def test_run_label_names_scenario_building_and_dates() -> None:
     from hvacflex.config import preset
 
     label = run_label(preset("thermostat", start="2014-03-04T08:00", days=0.5))
-    assert label == "scenario thermostat, building office5, 2014-03-04T08:00 to 2014-03-04T20:00"
+    assert label == (
+        "scenario thermostat, building office5, plant rc, 2014-03-04T08:00 to 2014-03-04T20:00"
+    )
+    on_energyplus = run_label(preset("plant-baseline", days=1))
+    assert ", plant energyplus (generated IDF), " in on_energyplus
     assert run_label(preset("rmpc", days=2)).endswith("2014-01-01 to 2014-01-03")
+
+
+def test_reproduce_prints_its_run_lines_and_ends_with_the_verdict(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The command hands ``reproduce`` a printer that works piped (CliRunner's output is no
+    terminal): every line the reproduction logs reaches the output, the verdict last."""
+    import hvacflex.reproduce
+    from hvacflex.reproduce import Reproduction
+
+    def fake(out: Path, *, log: Callable[[str], None], **_: object) -> Reproduction:
+        log("  [1/1] rmpc ok · elapsed 0:01 · ETA 0:00")
+        log(f"report: {out / 'report.html'}")
+        log("verdict: of the paper's findings tested here, 1 holds.")
+        return Reproduction(report=out / "report.html", outcomes=[])
+
+    monkeypatch.setattr(hvacflex.reproduce, "reproduce", fake)
+    result = CliRunner().invoke(app, ["reproduce", "--quick", "--out", str(tmp_path / "r")])
+    assert result.exit_code == 0, result.output
+    lines = result.output.splitlines()
+    assert lines[0] == "  [1/1] rmpc ok · elapsed 0:01 · ETA 0:00"
+    assert lines[-1] == "verdict: of the paper's findings tested here, 1 holds."

@@ -2,17 +2,33 @@
 
 from __future__ import annotations
 
+from typing import Any
+
+import typer
 from typer.testing import CliRunner
 
 from hvacflex.cli import app
-from hvacflex.cli_help import PRESET_HELP, START_HELP
+from hvacflex.cli_help import DAYS_HELP, PRESETS_LISTED, START_HELP, preset_epilog
 from hvacflex.config import PRESET_NAMES
 from hvacflex.constants import DEFAULT_START
 
 
 def test_the_preset_help_names_every_preset() -> None:
-    named = {name.strip(" .") for name in PRESET_HELP.split(":", 1)[1].split(",")}
-    assert named == set(PRESET_NAMES)
+    assert set(PRESETS_LISTED) == set(PRESET_NAMES) and len(PRESETS_LISTED) == len(PRESET_NAMES)
+
+
+def test_the_preset_epilog_fits_the_width_and_is_not_rewrapped() -> None:
+    epilog = preset_epilog(("a-long-name", "b", "c-d"), width=30)
+    assert epilog.startswith("\b\n")  # click keeps the lines as they are
+    rows = epilog.splitlines()[2:]
+    assert rows == ["  a-long-name  b", "  c-d"]
+    assert all(len(row) + 2 <= 30 for row in rows)  # with click's indent of an epilog
+
+
+def test_the_days_help_gives_the_scenarios_default() -> None:
+    from hvacflex.config import ScenarioConfig
+
+    assert f"({ScenarioConfig().days:g} unless" in DAYS_HELP
 
 
 def test_the_start_help_gives_the_default_start() -> None:
@@ -24,3 +40,21 @@ def test_help_shows_click_type_names_not_typers() -> None:
     assert result.exit_code == 0
     assert "INTEGER" in result.output or "FLOAT" in result.output
     assert "<str>" not in result.output and "<bool>" not in result.output
+
+
+def _command_paths(command: Any, path: list[str]) -> list[list[str]]:
+    paths = [path]
+    if hasattr(command, "commands"):  # a group (typer's own click)
+        for name, sub in command.commands.items():
+            paths += _command_paths(sub, [*path, name])
+    return paths
+
+
+def test_every_help_fits_80_columns() -> None:
+    paths = _command_paths(typer.main.get_command(app), [])
+    assert len(paths) > 30 and ["identify", "fit"] in paths
+    for path in paths:
+        result = CliRunner().invoke(app, [*path, "--help"], env={"COLUMNS": "80"})
+        assert result.exit_code == 0, path
+        too_long = [line for line in result.output.splitlines() if len(line) > 80]
+        assert too_long == [], path

@@ -14,6 +14,7 @@ from hvacflex.config import (
     ScenarioConfig,
     load_config,
     preset,
+    resolve_key,
     resolve_scenario,
     scaled_uncertainty,
     with_overrides,
@@ -317,7 +318,9 @@ def test_plant_table_defaults_to_rc_and_keeps_the_run_key(tmp_path: Path) -> Non
     path = tmp_path / "eplus.toml"
     path.write_text('[plant]\nkind = "energyplus"\nidf = "model.idf"\n')
     config = load_config(path)
-    assert config.plant.idf == "model.idf" and config.plant.timesteps_per_hour == 6
+    # taken from the scenario file's folder, like the other paths it names
+    assert config.plant.idf == str(tmp_path / "model.idf")
+    assert config.plant.timesteps_per_hour == 6
     assert config.plant.resolved_actuation == "setpoint"
     assert config.config_hash() != default.config_hash()
 
@@ -511,3 +514,38 @@ def test_reserve_correlation_and_occupancy_seed_defaults_keep_the_run_keys() -> 
     assert len({base.config_hash(), *(c.config_hash() for c in changed)}) == 3
     with pytest.raises(ConfigError, match="reserve_price_correlation"):
         with_overrides(base, {"data.reserve_price_correlation": -0.1})
+
+
+@pytest.mark.parametrize(
+    ("text", "field", "suggested"),
+    [
+        ('preset = "rmpc-pp"\n', "preset", "rmpc-ppp"),
+        ('[controler]\nrobust = "none"\n', "controler", "controller"),
+        (
+            "[controller]\npeak_price_sgd_per_k = 2\n",
+            "controller.peak_price_sgd_per_k",
+            "peak_price_sgd_per_kw",
+        ),
+    ],
+)
+def test_a_misspelt_preset_or_key_gets_a_did_you_mean(
+    tmp_path: Path, text: str, field: str, suggested: str
+) -> None:
+    path = tmp_path / "typo.toml"
+    path.write_text(text, encoding="utf-8")
+    with pytest.raises(ConfigError) as refused:
+        load_config(path)
+    assert refused.value.field == field
+    assert (refused.value.hint or "").startswith(f"did you mean {suggested!r}? ")
+
+
+def test_an_unknown_preset_name_gets_a_did_you_mean_on_the_command_line() -> None:
+    from typer.testing import CliRunner
+
+    from hvacflex.cli import app
+
+    result = CliRunner().invoke(app, ["simulate", "--scenario", "rmcp"], env={"COLUMNS": "80"})
+    assert result.exit_code == 2 and "Did you mean 'rmpc'?" in result.output
+    assert "Traceback" not in result.output
+    with pytest.raises(ConfigError, match="Did you mean 'peak_price_sgd_per_kw'"):
+        resolve_key("peak_price_sgd_per_k")

@@ -62,3 +62,12 @@ def test_every_input_error_is_a_value_error_and_an_hvacflex_error(
     with pytest.raises(HvacflexError):
         raise kind("bad")
     assert issubclass(kind, ValueError) and issubclass(kind, InputError)
+
+
+def test_did_you_mean_suggests_the_closest_valid_name_only_when_close() -> None:
+    from hvacflex.errors import did_you_mean
+
+    names = ["rmpc", "rmpc-ppp", "nmpc", "thermostat-25.5"]
+    assert did_you_mean("rmpc-pp", names, "use one of …") == "did you mean 'rmpc-ppp'? Use one of …"
+    assert did_you_mean("thermostat25.5", names, "x") == "did you mean 'thermostat-25.5'? X"
+    assert did_you_mean("zzzz", names, "use one of …") == "use one of …"

@@ -97,3 +97,21 @@ def test_the_user_data_folder_follows_xdg(tmp_path: Path, monkeypatch: pytest.Mo
     monkeypatch.delenv("XDG_DATA_HOME")
     assert user_data_dir() == Path.home() / ".local" / "share" / "hvacflex"
     assert not (tmp_path / "hvacflex").exists()  # named, not created
+
+
+def test_an_idf_is_a_path_or_a_shipped_models_name(tmp_path: Path) -> None:
+    from hvacflex.paths import energyplus_models_dir, resolve_idf, shipped_idf_name
+
+    shipped = energyplus_models_dir() / "5ZoneAirCooled.idf"
+    assert shipped.is_file()
+    for name in ("5ZoneAirCooled", "5ZoneAirCooled.idf", "5zoneaircooled", "x/5ZoneAirCooled.idf"):
+        assert resolve_idf(name) == shipped, name
+    own = tmp_path / "5ZoneAirCooled.idf"
+    own.write_text("Version, 25.2;\n", encoding="utf-8")
+    assert resolve_idf(own) == own  # a file that exists wins over the shipped one
+    assert shipped_idf_name(shipped) == "5ZoneAirCooled" and shipped_idf_name(own) is None
+    with pytest.raises(InputError) as refused:
+        resolve_idf(tmp_path / "nope.idf", "--idf")
+    message = str(refused.value)
+    assert "--idf" in message and "nope.idf" in message
+    assert "5ZoneAirCooled" in message and "packaged_shops" in message  # the shipped names

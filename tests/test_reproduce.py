@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 import shutil
 import subprocess
 from dataclasses import replace
@@ -26,6 +27,7 @@ from hvacflex.reproduce import (
     run_folder,
     run_groups,
     scenario_jobs,
+    verdict_lines,
 )
 from hvacflex.results import load_results
 from hvacflex.sim.closed_loop import run_simulation
@@ -280,6 +282,12 @@ def test_second_run_reuses_cached_simulations(quick_report: Path) -> None:
     assert again.complete and len(again.outcomes) == 26
     assert all(o.cached for o in again.outcomes)
     assert sum("ok (cached)" in line for line in logs) == 26
+    # the console ends with the verdict: the count, the two answers, one line per finding
+    verdicts = pd.read_csv(quick_report / "verdicts.csv")
+    closing = [line for line in logs if line.startswith("verdict: ")]
+    assert logs[-len(closing) :] == closing and len(closing) >= len(verdicts) + 2
+    assert "of the paper's findings tested here" in closing[0]
+    assert any(line.startswith("verdict: Does peak shaving pay?") for line in closing)
     assert len(results) == 26 and {p: p.stat().st_mtime_ns for p in results} == mtimes
     assert {name: (quick_report / name).read_bytes() for name in outputs} == before
 
@@ -351,4 +359,39 @@ def test_an_interrupted_reproduction_resumes_and_updates_in_place(tmp_path: Path
     assert len(columns) > 10
     pd.testing.assert_frame_equal(resumed[columns], whole[columns])
     assert any("replacing" in line and "demand-limit" in line for line in logs), logs
+    # a line per finished run, with the elapsed time and an ETA (none left after the last)
+    done = [line for line in logs if re.match(r"  \[\d/3\] ", line)]
+    assert len(done) == 3 and all(" · elapsed " in line for line in done)
+    assert done[-1].endswith("· ETA 0:00")
     assert len(load_results(run_folder(out, stale))) == 48  # the 1-day run, not the old 12 h
+
+
+def test_verdict_lines_close_the_console_one_finding_a_line() -> None:
+    from hvacflex.report.html import Section
+
+    table = pd.DataFrame(
+        {
+            "paper": ["+4.0 %", "+2.2 %"],
+            "ours": ["+1.3 %", "−0.4 %"],
+            "verdict": ["holds", "does not hold"],
+            "basis": ["RC plant", "RC plant"],
+        },
+        index=pd.Index(["(b) costs a few % more than (a)", "(c) costs more than (b)"]),
+    )
+    section = Section(
+        title="Verdict",
+        paragraphs=[
+            "Verdict: of the paper's findings tested here, 1 holds, 1 does not hold, 0 not "
+            "comparable. Each row gives the paper's number, ours and what ours rest on.",
+            "Does peak shaving pay? No: under one tariff (c) costs more.",
+        ],
+        tables=[table],
+    )
+    lines = verdict_lines([Section(title="Does it pay?"), section])
+    assert lines == [
+        "verdict: of the paper's findings tested here, 1 holds, 1 does not hold, 0 not comparable.",
+        "verdict: Does peak shaving pay? No: under one tariff (c) costs more.",
+        "verdict: holds: (b) costs a few % more than (a) (paper +4.0 %; ours +1.3 %)",
+        "verdict: does not hold: (c) costs more than (b) (paper +2.2 %; ours −0.4 %)",
+    ]
+    assert verdict_lines([Section(title="Incomplete")]) == []

@@ -16,6 +16,8 @@ import typer.core
 
 from hvacflex.cli_config import config_app
 from hvacflex.cli_help import (
+    DAYS_HELP,
+    PRESET_EPILOG,
     PRESET_HELP,
     START_HELP,
     fail,
@@ -35,6 +37,7 @@ if TYPE_CHECKING:
 use_readable_metavars()
 
 app = typer.Typer(
+    rich_markup_mode=None,
     name="hvacflex",
     help="Robust predictive control of building HVAC in electricity markets.",
     no_args_is_help=True,
@@ -95,7 +98,9 @@ def _peak_price_option(help_text: str) -> Any:
 DATA_SHOW_MAX_DAYS = 366
 """Longest span ``data show`` summarises [days]: the shipped prices cover one year."""
 
-data_app = typer.Typer(help="Inspect prices, weather, gains and the uncertainty box.")
+data_app = typer.Typer(
+    rich_markup_mode=None, help="Inspect prices, weather, gains and the uncertainty box."
+)
 app.add_typer(data_app, name="data")
 
 
@@ -169,7 +174,9 @@ def _fleet_group() -> typer.Typer:
 
 app.add_typer(_fleet_group(), name="fleet")
 
-building_app = typer.Typer(help="Inspect building descriptions.", no_args_is_help=True)
+building_app = typer.Typer(
+    rich_markup_mode=None, help="Inspect building descriptions.", no_args_is_help=True
+)
 app.add_typer(building_app, name="building")
 
 
@@ -330,7 +337,7 @@ MAX_WORKERS = 256
 """Most local worker processes ``sweep`` and ``reproduce`` start."""
 
 
-@app.command()
+@app.command(epilog=PRESET_EPILOG)
 def simulate(
     scenario: str = typer.Option(
         "rmpc",
@@ -338,9 +345,7 @@ def simulate(
     ),
     config: Path | None = typer.Option(None, help="Scenario TOML file (overrides --scenario)."),  # noqa: B008
     start: str | None = typer.Option(None, help=START_HELP, callback=_check_start),
-    days: float | None = typer.Option(
-        None, help="Number of days to simulate.", callback=_check_days
-    ),
+    days: float | None = typer.Option(None, help=DAYS_HELP, callback=_check_days),
     price_gap_fill: str | None = typer.Option(
         None,
         "--price-gap-fill",
@@ -397,16 +402,29 @@ def simulate(
     console.print(summary, soft_wrap=True, markup=False, highlight=False)
 
 
+def console_line(text: str) -> None:
+    """Print a line of plain text on rich's shared console: above a progress bar while one
+    is live (so bar and lines stay apart), at once otherwise (also when piped)."""
+    from rich import get_console
+
+    get_console().print(text, markup=False, highlight=False, soft_wrap=True)
+
+
 def run_label(cfg: ScenarioConfig) -> str:
-    """What ran: ``"scenario rmpc, building office5, 2014-03-04 to 2014-03-04T12:00"`` (the
-    first period's start and the last period's end, Singapore local time)."""
+    """What ran: ``"scenario rmpc, building office5, plant rc, 2014-03-04 to
+    2014-03-04T12:00"`` (the plant graded on: ``rc``, or ``energyplus`` with its IDF; the first
+    period's start and the last period's end, Singapore local time)."""
     import pandas as pd
 
     from hvacflex.dates import normalise_start
 
     end = cfg.start_timestamp + pd.Timedelta(seconds=cfg.steps * cfg.dt_s)
     end_text = normalise_start(end.strftime("%Y-%m-%dT%H:%M"))
-    return f"scenario {cfg.name}, building {cfg.building}, {cfg.start} to {end_text}"
+    plant: str = cfg.plant.kind
+    if cfg.plant.kind == "energyplus":
+        idf = cfg.plant.idf
+        plant += f" ({'generated IDF' if idf == 'generated' else Path(idf).name})"
+    return f"scenario {cfg.name}, building {cfg.building}, plant {plant}, {cfg.start} to {end_text}"
 
 
 @app.command()
@@ -440,15 +458,19 @@ def report(
     typer.echo(f"report → {path}")
 
 
-@app.command()
+@app.command(epilog=PRESET_EPILOG)
 def sweep(
     param: list[str] = typer.Option(  # noqa: B008
         ..., help="NAME=V1,V2,... (repeatable; the grid is their product)."
     ),
-    scenario: str = typer.Option("rmpc-ppp", help="Preset the sweep starts from."),
+    scenario: str = typer.Option(
+        "rmpc-ppp", help="The preset the sweep starts from (the presets are listed below)."
+    ),
     config: Path | None = typer.Option(None, help="Scenario TOML file (overrides --scenario)."),  # noqa: B008
     start: str | None = typer.Option(None, help=START_HELP, callback=_check_start),
-    days: float | None = typer.Option(None, help="Number of days per run.", callback=_check_days),
+    days: float | None = typer.Option(
+        None, help=DAYS_HELP.replace("to simulate", "per run"), callback=_check_days
+    ),
     price_gap_fill: str | None = typer.Option(
         None,
         "--price-gap-fill",
@@ -467,7 +489,7 @@ def sweep(
 
     Exits 1 when any run fails (the table still lists every run, with its error).
     """
-    from rich.console import Console
+    from rich import get_console
     from rich.markup import escape
 
     from hvacflex.errors import HvacflexError
@@ -482,7 +504,7 @@ def sweep(
     )
     from hvacflex.version import atomic_write_text
 
-    console = Console()
+    console = get_console()  # the progress bar's: its lines print above the bar
     try:
         cfg = _scenario_config(scenario, config, start, days, price_gap_fill)
         grid = dict(parse_param(p) for p in param)
@@ -592,7 +614,7 @@ def reproduce(
             feedback=feedback,
             scheduler=scheduler,
             workers=workers,
-            log=typer.echo,
+            log=console_line,
             fresh=fresh,
         )
     except HvacflexError as exc:
@@ -629,7 +651,7 @@ def _reproduce_studies(
     failed: list[str] = []
     for name, run_study, plan in studies:
         study = run_study(
-            out / name, plan, scheduler=scheduler, workers=workers, fresh=fresh, log=typer.echo
+            out / name, plan, scheduler=scheduler, workers=workers, fresh=fresh, log=console_line
         )
         typer.echo(f"{name}: {study.out_dir} ({study.elapsed_s:.0f} s)")
         failed += [f"{o.label}: {o.error}" for o in study.failed]

@@ -10,7 +10,9 @@ import typer
 
 from hvacflex.cli_help import fail
 
-config_app = typer.Typer(help="The scenario file's tables and keys.", no_args_is_help=True)
+config_app = typer.Typer(
+    rich_markup_mode=None, help="The scenario file's tables and keys.", no_args_is_help=True
+)
 
 REFERENCE_FILE = "docs/scenario_reference.md"
 """Where the repository keeps the reference (``tests/config/test_reference.py`` checks it)."""

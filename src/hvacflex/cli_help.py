@@ -11,20 +11,64 @@ from typing import TYPE_CHECKING, Any
 import typer
 import typer.core
 
-from hvacflex.constants import DEFAULT_START
+from hvacflex.constants import DEFAULT_DAYS, DEFAULT_START
 from hvacflex.dates import ISO_START_FORMS, START_EXAMPLE
 
 if TYPE_CHECKING:
     from hvacflex.config import ScenarioConfig
     from hvacflex.errors import HvacflexError
 
-PRESET_HELP = (
-    "Preset: nmpc, rmpc, rmpc-ppp, nmpc-no-reserve, thermostat, thermostat-25.5, "
-    "trim-respond, demand-limit, gta-dr, plant-baseline, rmpc-feedback, rmpc-feedback-ppp, "
-    "rmpc-output-feedback, paper-nmpc, paper-rmpc, paper-rmpc-ppp."
+PRESETS_LISTED: tuple[str, ...] = (
+    "nmpc",
+    "rmpc",
+    "rmpc-ppp",
+    "nmpc-no-reserve",
+    "thermostat",
+    "thermostat-25.5",
+    "trim-respond",
+    "demand-limit",
+    "gta-dr",
+    "plant-baseline",
+    "rmpc-feedback",
+    "rmpc-feedback-ppp",
+    "rmpc-output-feedback",
+    "paper-nmpc",
+    "paper-rmpc",
+    "paper-rmpc-ppp",
 )
 """The presets, spelled out so that ``--help`` need not import the configuration
-(``tests/test_cli.py`` checks it against ``hvacflex.config.PRESET_NAMES``)."""
+(``tests/test_cli_help.py`` checks them against ``hvacflex.config.PRESET_NAMES``)."""
+
+PRESET_HELP = "A preset (the presets are listed below the options)."
+"""Help of ``--scenario``; the names follow the options in full (:data:`PRESET_EPILOG`)."""
+
+HELP_WIDTH = 80
+"""The terminal width ``--help`` is laid out for (every line fits; click wraps the rest)."""
+
+
+def preset_epilog(names: tuple[str, ...] = PRESETS_LISTED, width: int = HELP_WIDTH) -> str:
+    """The presets in full, in aligned columns that fit ``width`` with click's 2-space
+    indent of an epilog; ``\\b`` keeps click from rewrapping (and splitting names at their
+    hyphens)."""
+    cell = max(len(n) for n in names) + 2
+    per_row = max(1, (width - 4) // cell)
+    rows = [
+        "  " + "".join(n.ljust(cell) for n in names[i : i + per_row]).rstrip()
+        for i in range(0, len(names), per_row)
+    ]
+    return "\b\nPresets (--scenario NAME; docs/baselines.md, docs/quickstart.md):\n" + "\n".join(
+        rows
+    )
+
+
+PRESET_EPILOG = preset_epilog()
+"""What follows the options of a command with ``--scenario``: every preset's name."""
+
+DAYS_HELP = (
+    f"Number of days to simulate. Default: the scenario's days ({DEFAULT_DAYS:g} unless the "
+    "scenario file sets them)."
+)
+"""Help of ``--days`` where the scenario supplies the default (``simulate``, ``sweep``)."""
 
 START_HELP = (
     f"First day (Singapore local time), {ISO_START_FORMS}, e.g. {START_EXAMPLE}. "

@@ -5,13 +5,16 @@ imports what it needs inside its body, so ``hvacflex --help`` stays fast."""
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import typer
 
 from hvacflex.cli_help import exit_on_error, fail
 from hvacflex.constants import MAX_VALIDATION_SPINUP_DAYS, VALIDATION_SPINUP_DAYS
 
-validate_app = typer.Typer(help="Validate the building model.", no_args_is_help=True)
+validate_app = typer.Typer(
+    rich_markup_mode=None, help="Validate the building model.", no_args_is_help=True
+)
 
 
 @validate_app.command("bestest")
@@ -115,6 +118,7 @@ def validate_energyplus(
 
 
 identify_app = typer.Typer(
+    rich_markup_mode=None,
     help="Identify a controller model from measured trend data (docs/identify.md).",
     no_args_is_help=True,
 )
@@ -122,7 +126,12 @@ identify_app = typer.Typer(
 
 @identify_app.command("collect")
 def identify_collect(
-    idf: Path = typer.Option(..., "--idf", help="The EnergyPlus 25.2 model."),  # noqa: B008
+    idf: Path = typer.Option(  # noqa: B008
+        ...,
+        "--idf",
+        help="The EnergyPlus 25.2 model: a path, or a shipped model's name (5ZoneAirCooled, "
+        "packaged_shops).",
+    ),
     start: str = typer.Option(..., "--start", help="First day, YYYY-MM-DD."),
     days: int = typer.Option(..., "--days", min=1, max=366, help="Number of days."),
     out: Path = typer.Option(..., "--out", help="The trend CSV to write."),  # noqa: B008
@@ -146,14 +155,28 @@ def identify_collect(
     from hvacflex.identify.collect import collect_trend
     from hvacflex.identify.trend import write_trend
     from hvacflex.paths import check_output_file, data_dir
+    from hvacflex.sim.progress import task_progress
 
     epw = weather if weather is not None else data_dir() / "weather" / DEFAULT_WEATHER_FILE
     names = None if zones is None else tuple(z.strip() for z in zones.split(",") if z.strip())
     try:
         check_output_file(out, "--out")  # before EnergyPlus runs
-        frame = collect_trend(
-            idf, start=start, days=days, epw_path=epw, excitation=excitation, zones=names, seed=seed
-        )
+        with task_progress(True, "identify collect", days) as bar:
+
+            def day_done() -> None:
+                bar()
+                bar.beat(f"day {bar.completed} of {days}")
+
+            frame = collect_trend(
+                idf,
+                start=start,
+                days=days,
+                epw_path=epw,
+                excitation=excitation,
+                zones=names,
+                seed=seed,
+                on_day=day_done,
+            )
     except HvacflexError as exc:
         raise exit_on_error(exc) from None
     typer.echo(f"wrote {write_trend(frame, out)} ({len(frame)} periods)")
@@ -173,7 +196,10 @@ def identify_fit(
     train: str | None = typer.Option(None, "--train", help="YYYY-MM-DD..YYYY-MM-DD"),
     test: str | None = typer.Option(None, "--test", help="YYYY-MM-DD..YYYY-MM-DD"),
     idf: Path | None = typer.Option(  # noqa: B008
-        None, "--idf", help="The EnergyPlus model the data came from: scenario.toml's plant."
+        None,
+        "--idf",
+        help="The EnergyPlus model the data came from (a path or a shipped model's name): "
+        "the plant of scenario.toml and baseline.toml.",
     ),
     weather: Path | None = typer.Option(  # noqa: B008
         None,
@@ -192,16 +218,21 @@ def identify_fit(
     ),
 ) -> None:
     """Fit a grey-box RC model to trend data; write it (a building file), fit_report.csv,
-    the parameters, the calibrated model-error box and scenario.toml."""
+    the parameters, the calibrated model-error box, scenario.toml and (with --idf)
+    baseline.toml."""
     import warnings
 
     from hvacflex.errors import HvacflexError
-    from hvacflex.identify.workflow import identify
+    from hvacflex.identify.workflow import FIT_STAGES, identify
     from hvacflex.paths import resolve_building
+    from hvacflex.sim.progress import task_progress
 
     try:
         building = None if template is None else resolve_building(template)
-        with warnings.catch_warnings():
+        with (
+            warnings.catch_warnings(),
+            task_progress(True, "identify fit", len(FIT_STAGES)) as bar,
+        ):
             warnings.simplefilter("ignore")  # they are in the fit report's warnings column
             outcome = identify(
                 data,
@@ -214,9 +245,30 @@ def identify_fit(
                 idf=idf,
                 weather=weather,
                 floor_areas=floor_area,
+                progress=bar.stage,
+                heartbeat=bar.beat,
             )
     except HvacflexError as exc:
         raise exit_on_error(exc) from None
+    _print_fit(outcome)
+    failed = outcome.failed_checks
+    if not failed:
+        typer.echo("plausibility checks: all ok")
+        return
+    typer.echo(f"plausibility checks: {len(failed)} failed ({outcome.checks_path}):", err=True)
+    for line in failed:
+        typer.echo(f"  {line}", err=True)
+    if strict:
+        typer.echo(
+            "error: --strict: the fitted model fails the checks above; fix the data or the "
+            "zones' description (--idf, --floor-area), or leave --strict out to keep it",
+            err=True,
+        )
+        raise typer.Exit(2)
+
+
+def _print_fit(outcome: Any) -> None:
+    """The fit's tables (report, box, power) and the files ``identify fit`` wrote."""
     shown = outcome.report.drop(columns=["warnings"])  # they are the checks printed below
     typer.echo(shown.to_string(index=False, float_format=lambda v: f"{v:.3f}"))
     typer.echo(outcome.box.frame().to_string(index=False, float_format=lambda v: f"{v:.3f}"))
@@ -234,21 +286,8 @@ def identify_fit(
         outcome.model_path.parent / "fit_predictions.csv",
         outcome.model_path.parent / "box_report.csv",
         outcome.scenario_path,
+        outcome.baseline_path,
         figure,
     ):
         if path is not None:
             typer.echo(f"wrote {path}")
-    failed = outcome.failed_checks
-    if not failed:
-        typer.echo("plausibility checks: all ok")
-        return
-    typer.echo(f"plausibility checks: {len(failed)} failed ({outcome.checks_path}):", err=True)
-    for line in failed:
-        typer.echo(f"  {line}", err=True)
-    if strict:
-        typer.echo(
-            "error: --strict: the fitted model fails the checks above; fix the data or the "
-            "zones' description (--idf, --floor-area), or leave --strict out to keep it",
-            err=True,
-        )
-        raise typer.Exit(2)

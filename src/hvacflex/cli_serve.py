@@ -11,10 +11,13 @@ import typer
 from hvacflex.cli_help import check_days, exit_on_error, run_summary_line, scenario_config
 
 serve_app = typer.Typer(
+    rich_markup_mode=None,
     help="The live service: `hvacflex serve` runs it; `key` manages its keys; `replay` uses it.",
     invoke_without_command=True,
 )
-serve_key_app = typer.Typer(help="API keys of the service.", no_args_is_help=True)
+serve_key_app = typer.Typer(
+    rich_markup_mode=None, help="API keys of the service.", no_args_is_help=True
+)
 serve_app.add_typer(serve_key_app, name="key")
 
 DB_ENV = "HVACFLEX_DB"

@@ -41,6 +41,9 @@ AR1_COEFFICIENT = 0.9
 DEFAULT_START = "2014-01-01"
 """First day of a run when none is given (every command and the scenario file) [local date]."""
 
+DEFAULT_DAYS = 7.0
+"""Days a scenario simulates unless it says otherwise (``days``)."""
+
 MAX_HORIZON_STEPS = 7 * PERIODS_PER_DAY
 """Longest MPC prediction horizon accepted anywhere: 336 steps of 30 min, one week (the
 service's cap too)."""

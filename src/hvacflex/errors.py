@@ -6,6 +6,8 @@ value) and *how to fix it*. Catch :class:`HvacflexError` to handle all of them.
 
 from __future__ import annotations
 
+import difflib
+from collections.abc import Iterable
 from pathlib import Path
 
 
@@ -77,3 +79,15 @@ class ProblemError(InputError):
 class StoredStateError(InputError):
     """A file hvacflex wrote earlier (results, summary, checkpoint) is unreadable, or comes
     from other code and cannot be re-used."""
+
+
+SUGGESTION_CUTOFF = 0.6
+"""How alike (difflib's ratio, 0…1) a valid name must be to a mistyped one to be suggested."""
+
+
+def did_you_mean(value: object, choices: Iterable[str], then: str) -> str:
+    """A hint: ``"did you mean 'rmpc-ppp'? Use one of […]"`` — the valid name closest to
+    ``value`` (difflib), then ``then``; ``then`` alone when no name is close
+    (:data:`SUGGESTION_CUTOFF`)."""
+    close = difflib.get_close_matches(str(value), list(choices), n=1, cutoff=SUGGESTION_CUTOFF)
+    return f"did you mean {close[0]!r}? {then[:1].upper()}{then[1:]}" if close else then

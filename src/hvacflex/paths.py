@@ -89,6 +89,50 @@ def user_data_dir() -> Path:
     return base_dir / APP_FOLDER
 
 
+def energyplus_models_dir() -> Path:
+    """Folder of the shipped EnergyPlus models (``5ZoneAirCooled.idf``, ``packaged_shops.idf``)."""
+    return resources_dir() / "energyplus"
+
+
+def shipped_idf_names() -> list[str]:
+    """The names of the shipped EnergyPlus models, without ``.idf``."""
+    return sorted(p.stem for p in energyplus_models_dir().glob("*.idf"))
+
+
+def resolve_idf(name_or_path: str | Path, field: str = "plant.idf") -> Path:
+    """An IDF file path: an existing path as is, else a shipped model's name such as
+    ``5ZoneAirCooled`` (with or without ``.idf``; the file's own name when a path is given).
+
+    Raises
+    ------
+    InputError
+        naming ``field`` and the value, listing the shipped names, when neither exists.
+    """
+    path = Path(name_or_path).expanduser()
+    if path.is_file():
+        return path
+    stem = path.name[: -len(".idf")] if path.name.lower().endswith(".idf") else path.name
+    shipped = {name.lower(): name for name in shipped_idf_names()}
+    if stem.lower() in shipped and not path.is_dir():
+        return energyplus_models_dir() / f"{shipped[stem.lower()]}.idf"
+    raise InputError(
+        "IDF path is a folder" if path.is_dir() else "IDF file not found",
+        field=field,
+        value=str(name_or_path),
+        hint="give the path to an EnergyPlus 25.2 .idf file or one of the shipped models "
+        f"{shipped_idf_names()}" + (", or idf = 'generated'" if field == "plant.idf" else ""),
+    )
+
+
+def shipped_idf_name(path: str | Path) -> str | None:
+    """The shipped model's name when ``path`` is a shipped IDF (else None)."""
+    resolved = Path(path).resolve()
+    for name in shipped_idf_names():
+        if (energyplus_models_dir() / f"{name}.idf").resolve() == resolved:
+            return name
+    return None
+
+
 def repo_root() -> Path:
     """The repository root of a source checkout (``src/hvacflex/..``); may not exist."""
     return Path(__file__).resolve().parents[2]

@@ -48,7 +48,8 @@ from hvacflex.reproduce_plan import (
     scenario_jobs,
     uncertainty_jobs,
 )
-from hvacflex.sim.sweep import JobOutcome, run_sweep
+from hvacflex.sim.progress import clock_text
+from hvacflex.sim.sweep import JobOutcome, SweepClock, relative_cost, run_sweep
 
 __all__ = [
     "RULE_BASED_SCENARIOS",
@@ -66,6 +67,7 @@ __all__ = [
     "run_groups",
     "scenario_jobs",
     "uncertainty_jobs",
+    "verdict_lines",
 ]
 
 
@@ -159,6 +161,10 @@ def run_groups(
     all_jobs = [job for jobs in groups.values() for job in jobs]
     folders = prepare_run_folders(out_dir, all_jobs, log)
     log(f"running {len(all_jobs)} closed-loop simulations on Dask ({workers} workers)…")
+    cost = {
+        str(folder): relative_cost(cfg) for folder, (_, cfg) in zip(folders, all_jobs, strict=True)
+    }
+    clock = SweepClock(list(cost.values()))
     done = 0
 
     def progress(outcome: JobOutcome) -> None:
@@ -168,7 +174,12 @@ def run_groups(
             state = "ok (cached)" if outcome.cached else "ok"
         else:
             state = f"FAILED: {outcome.error}"
-        log(f"  [{done}/{len(all_jobs)}] {outcome.label} {state}")
+        elapsed_s, eta_s = clock.finished(cost[outcome.out_dir], outcome.cached)
+        eta = "?" if eta_s is None else clock_text(eta_s)
+        log(
+            f"  [{done}/{len(all_jobs)}] {outcome.label} {state} · elapsed "
+            f"{clock_text(elapsed_s)} · ETA {eta}"
+        )
 
     outcomes = run_sweep(
         all_jobs,
@@ -251,4 +262,35 @@ def run_and_report(
         log(f"report (INCOMPLETE, {len(failed)} of {len(outcomes)} runs failed): {path}")
     else:
         log(f"report: {path}")
+    for line in verdict_lines(sections):
+        log(line)
     return Reproduction(report=path, outcomes=outcomes)
+
+
+VERDICT_PREFIX = "verdict: "
+"""What each of the console's closing lines starts with (:func:`verdict_lines`)."""
+
+
+def verdict_lines(sections: Sequence[Any]) -> list[str]:
+    """The report's verdict for the console, one line each, every line starting
+    :data:`VERDICT_PREFIX`: the count of the paper's findings that hold, the answers to "does
+    peak shaving pay?" and "does selling reserve work?", then one line per finding (its
+    verdict, the paper's number and ours). From the report's "Verdict" section (its
+    paragraphs and table, :func:`hvacflex.reproduce_report.verdict_section`); none when the
+    report has none (runs failed before it could be judged)."""
+    section = next((s for s in sections if getattr(s, "title", None) == "Verdict"), None)
+    if section is None:
+        return []
+    lines = []
+    for paragraph in section.paragraphs:
+        text = " ".join(paragraph.split())
+        if text.lower().startswith("verdict:"):
+            text = text[len("verdict:") :].strip().split(". ")[0].rstrip(".") + "."
+        lines.append(VERDICT_PREFIX + text)
+    for table in section.tables[:1]:
+        for finding, row in table.iterrows():
+            lines.append(
+                f"{VERDICT_PREFIX}{row['verdict']}: {finding} (paper {row['paper']}; ours "
+                f"{row['ours']})"
+            )
+    return lines

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from hvacflex.building.discretize import continuous_affine_model
+from hvacflex.building.io import load_building
 from hvacflex.building.model import Building
 from hvacflex.building.rc import build_network
 from hvacflex.building.summary import format_summary, summarize, ventilation_warning
@@ -126,3 +127,27 @@ def test_cli_building_show_prints_the_comfort_band() -> None:
     lower, upper = ScenarioConfig().comfort.occupied_degc
     assert f"Comfort band (default scenario): {lower:g}–{upper:g} °C occupied" in result.output
     assert "WARNING" not in result.output
+
+
+def test_building_show_flags_a_zone_whose_design_load_needs_more_than_its_maximum_flow(
+    tmp_path: Path,
+) -> None:
+    from typer.testing import CliRunner
+
+    from hvacflex.cli import app
+    from hvacflex.paths import resolve_building
+
+    shipped = resolve_building("room1").read_text(encoding="utf-8")
+    assert "flow_max_kg_s = { room = 1.4 }" in shipped
+    small = tmp_path / "small_room.toml"
+    small.write_text(shipped.replace("{ room = 1.4 }", "{ room = 0.6 }"), encoding="utf-8")
+    room = summarize(load_building(small)).zones[0]
+    # the design load at 24 °C in the zone, over c_p (24 °C − supply), is more than 0.6 kg/s
+    assert room.design_flow_kg_s == pytest.approx(room.design_load_kw * 1000 / (1006 * 11), 0.05)
+    assert room.design_flow_kg_s > room.flow_max_kg_s == 0.6
+    result = CliRunner().invoke(app, ["building", "show", str(small)], env={"COLUMNS": "120"})
+    assert result.exit_code == 0, result.output
+    warning = f"WARNING: zone 'room' is under-sized: its design load {room.design_load_kw:.1f} kW"
+    assert warning in result.output and "maximum flow is 0.60 kg/s" in result.output
+    as_shipped = CliRunner().invoke(app, ["building", "show", "room1"])
+    assert "under-sized" not in as_shipped.output

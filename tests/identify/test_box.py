@@ -7,13 +7,16 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+import pytest
 
 from hvacflex.config import load_config
 from hvacflex.identify.box import (
     calibrate_model_error,
+    write_baseline_scenario,
     write_model_errors,
     write_scenario,
 )
+from hvacflex.paths import resolve_idf, resources_dir
 from hvacflex.results import PREDICTION_ERROR, read_results
 
 
@@ -36,24 +39,49 @@ def test_the_margin_is_the_next_higher_sample_at_the_quantile() -> None:
     ]
 
 
-def test_the_scenario_reads_the_model_and_the_errors_back(tmp_path: Path) -> None:
+def test_the_scenario_reads_the_model_and_the_errors_back(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     index = pd.date_range("2014-03-18", periods=96, freq="30min", tz="Asia/Singapore")
     errors = np.random.default_rng(1).normal(0, 0.2, (96, 2))
-    path = write_model_errors(("a", "b"), index, errors, tmp_path / "model_errors.parquet")
+    fitted = tmp_path / "fitted"
+    fitted.mkdir()
+    path = write_model_errors(("a", "b"), index, errors, fitted / "model_errors.parquet")
     frame, _ = read_results(path)
     np.testing.assert_array_equal(frame[PREDICTION_ERROR.name("b")].to_numpy(), errors[:, 1])
-    model = tmp_path / "model.toml"
+    model = fitted / "model.toml"
     model.write_text("", encoding="utf-8")
     idf = tmp_path / "plant.idf"
     weather = tmp_path / "site.epw"
     scenario = write_scenario(
-        tmp_path / "scenario.toml", model, path, "2014-03-18..2014-03-19", 0.95, idf, weather
+        fitted / "scenario.toml", model, path, "2014-03-18..2014-03-19", 0.95, idf, weather
     )
+    text = scenario.read_text(encoding="utf-8")
+    # relative to the scenario's folder: the folder can move, the run starts anywhere
+    assert str(tmp_path) not in text
+    assert 'building = "model.toml"' in text and 'idf = "../plant.idf"' in text
+    monkeypatch.chdir(tmp_path.parent)
     config = load_config(scenario)
-    assert config.data.weather_file == str(weather.resolve())  # the site the fit used
-    assert Path(config.building) == model.resolve()
+    assert Path(config.data.weather_file).resolve() == weather.resolve()  # the fit's site
+    assert Path(config.building).resolve() == model.resolve()
     calibrate = config.uncertainty.calibrate
     assert calibrate is not None and calibrate.quantile == 0.95
-    assert calibrate.prediction_errors == str(path.resolve())
+    assert calibrate.prediction_errors is not None
+    assert Path(calibrate.prediction_errors).resolve() == path.resolve()
+    assert Path(config.plant.idf).resolve() == idf.resolve()
     assert config.plant.kind == "energyplus" and config.plant.actuation == "setpoint"
     assert config.controller.robust == "tightening" and config.estimation.mode == "full-state"
+
+
+def test_the_baseline_runs_the_buildings_own_control_on_the_same_plant(tmp_path: Path) -> None:
+    model = tmp_path / "model.toml"
+    model.write_text("", encoding="utf-8")
+    shipped = resources_dir() / "energyplus" / "5ZoneAirCooled.idf"
+    baseline = write_baseline_scenario(tmp_path / "baseline.toml", model, shipped)
+    text = baseline.read_text(encoding="utf-8")
+    assert 'idf = "5ZoneAirCooled"' in text  # a shipped model by its name, not its path
+    config = load_config(baseline)
+    assert config.controller.kind == "plant" and config.plant.kind == "energyplus"
+    assert config.plant.idf == "5ZoneAirCooled" and config.plant.resolved_actuation == "setpoint"
+    assert resolve_idf(config.plant.idf) == shipped
+    assert Path(config.building).resolve() == model.resolve()

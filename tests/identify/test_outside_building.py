@@ -15,6 +15,7 @@ import pytest
 from typer.testing import CliRunner
 
 from hvacflex.cli import app
+from hvacflex.config import load_config
 from hvacflex.paths import resources_dir
 
 ZONES = "SPACE1-1,SPACE2-1,SPACE3-1,SPACE4-1,SPACE5-1"
@@ -55,11 +56,9 @@ def test_rmpc_on_the_identified_model_beats_the_idf_s_own_control(
     """rmpc costs ≥ 5 % less than plant-baseline in the week from 2014-04-01 (7.4 % when
     measured), within the baseline's discomfort + 0.5 K·h per zone, without a fallback."""
     idf, model = fitted
-    baseline = tmp_path / "baseline.toml"
-    baseline.write_text(
-        f'preset = "plant-baseline"\nbuilding = "{model}"\n'
-        f'[plant]\nkind = "energyplus"\nidf = "{idf}"\nactuation = "setpoint"\n'
-    )
+    baseline = model.parent / "baseline.toml"  # written by fit: the IDF's own control
+    assert 'idf = "../5ZoneAirCooled.idf"' in baseline.read_text()  # relative to its folder
+    assert load_config(baseline).plant.idf == str(model.parent / ".." / idf.name)
     summaries = {}
     for name, config in (("rmpc", model.parent / "scenario.toml"), ("plant", baseline)):
         summaries[name], _ = _week(config, tmp_path / "runs" / name)
@@ -91,7 +90,7 @@ def test_offers_scaled_to_the_meter_are_delivered_against_it(
         ("model", "meter_calibrated_offers = false\nplan_visible_offers = false\n"),
         ("default", ""),
     ):
-        config = tmp_path / f"stress_{name}.toml"
+        config = model.parent / f"stress_{name}.toml"  # beside it: its relative paths hold
         config.write_text(scenario + '\n[activation]\nmode = "stress"\n' + f"[reserve]\n{reserve}")
         results[name] = _week(config, tmp_path / f"stress_{name}")
     capped = {}

@@ -16,6 +16,7 @@ from hvacflex.identify.greybox import ZONE_PARAMETERS
 from hvacflex.identify.model_file import load_identified_model
 from hvacflex.identify.trend import write_trend
 from hvacflex.identify.workflow import (
+    FIT_STAGES,
     identify,
     parse_days,
     parse_floor_areas,
@@ -36,6 +37,8 @@ def trend(
 
 def test_fit_writes_a_model_and_a_report_beside_it(trend: Path, tmp_path: Path) -> None:
     out = tmp_path / "fitted" / "model.toml"
+    stages: list[str] = []
+    beats: list[str] = []
     outcome = identify(
         trend,
         out,
@@ -43,7 +46,11 @@ def test_fit_writes_a_model_and_a_report_beside_it(trend: Path, tmp_path: Path) 
         train="2014-03-03..2014-03-07",
         test="2014-03-08..2014-03-08",
         floor_areas="room_b=45,Room-A=30.5",
+        progress=stages.append,
+        heartbeat=beats.append,
     )
+    assert stages == list(FIT_STAGES)  # each stage said as it starts, in order
+    assert len(beats) > 10 and beats[:2] == ["1 model evaluation", "2 model evaluations"]
     report = pd.read_csv(out.parent / "fit_report.csv")
     assert list(report["zone"]) == ["room_a", "room_b"]
     assert list(report["energyplus_zone"]) == ["Room-A", "ROOM_b"]
@@ -182,6 +189,10 @@ def test_the_cli_fit_writes_the_figure_and_the_series_and_strict_exits_2(
     assert len(series) == 48 and "predicted_24h_Room-A_degc" in series.columns
     assert (out.parent / "fit.png").stat().st_size > 10_000
     assert "rmse_24h_k" in result.output
+    # it speaks while it works: a line per stage when the output is not a terminal
+    for i, stage in enumerate(FIT_STAGES, 1):
+        assert f"identify fit: [{i}/{len(FIT_STAGES)}] {stage} (elapsed " in result.output
+    assert not (out.parent / "baseline.toml").exists()  # no IDF: no plant to run its own control
 
 
 def test_collect_and_fit_run_on_another_building_with_ideal_loads(tmp_path: Path) -> None:

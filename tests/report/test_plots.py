@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Callable
 from pathlib import Path
 
@@ -266,3 +267,32 @@ def test_plot_robustness_price_prefers_net_cost_and_keeps_extra_columns(tmp_path
     assert "max_delta_vs_half_band" in data
     with pytest.raises(DataError, match="energy_cost_sgd"):
         plots.plot_robustness_price(sweep.drop(columns="net_cost_sgd"), tmp_path / "x.png")
+
+
+MIN_LABEL_GAP_PX = 8.0
+"""Space two tick labels need between them to read as two [px at the figures' DPI]."""
+
+
+def _tick_labels_overlap(max_ticks: int | None) -> bool:
+    """Whether the date tick labels of a Fig. 5 panel (half the figure wide, two days) run
+    into each other when drawn: less than :data:`MIN_LABEL_GAP_PX` between two."""
+    from hvacflex.report.plots import format_time_axis, new_figure
+
+    figure, axes = new_figure(3, 2, sharex="row", sharey=True)
+    times = pd.date_range("2014-03-04", periods=97, freq="30min").to_numpy()
+    axes[0].plot(times, np.arange(97.0))
+    format_time_axis(axes[0], max_ticks)
+    figure.tight_layout()
+    renderer = figure.canvas.get_renderer()  # type: ignore[attr-defined]
+    boxes = sorted(
+        (t.get_window_extent(renderer) for t in axes[0].get_xticklabels() if t.get_text()),
+        key=lambda box: box.x0,
+    )
+    return any(a.x1 + MIN_LABEL_GAP_PX > b.x0 for a, b in itertools.pairwise(boxes))
+
+
+def test_fig5_tick_labels_do_not_collide() -> None:
+    from hvacflex.report.plots import HALF_WIDTH_MAX_TICKS
+
+    assert _tick_labels_overlap(None)  # matplotlib's own choice: "Mar-0406:00"
+    assert not _tick_labels_overlap(HALF_WIDTH_MAX_TICKS)

@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Any
 
 import httpx
+import pandas as pd
 import pytest
 import uvicorn
 from service_fixtures import START, Service, free_port, registration
@@ -72,7 +73,10 @@ def live_service(tmp_path: Path) -> Iterator[tuple[str, str]]:
 
 def test_dashboard_in_headless_chromium(chromium: Any, live_service: tuple[str, str]) -> None:
     url, operator_key = live_service
-    page = chromium.new_page(viewport={"width": 1280, "height": 900})
+    # a browser elsewhere, on a 12-hour clock: the page still shows the buildings' time
+    page = chromium.new_page(
+        viewport={"width": 1280, "height": 900}, timezone_id="America/New_York", locale="en-US"
+    )
     errors: list[str] = []
     requests: list[str] = []
     page.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
@@ -99,12 +103,22 @@ def test_dashboard_in_headless_chromium(chromium: Any, live_service: tuple[str, 
 
     # the page refreshes by itself: the plan, its chart and the bid appear without a reload
     page.wait_for_selector('[data-building="b1"] svg.chart', timeout=30_000)
-    assert "b1: plan of period 16" in page.inner_text("#buildings")
+    assert f"b1: plan of period 16 ({START} 08:00 Asia/Singapore)" in page.inner_text("#buildings")
     assert page.locator('[data-building="b1"] svg.temperatures path').count() == 5  # zones
     assert "feeder limit of 25.0 kW" in page.inner_text("#bid")
     assert page.locator("#bid svg.chart").count() == 1
     audit = page.inner_text("#audit")
     assert "/v1/buildings/b1/measurements" in audit and "/v1/signals/feeder-limit" in audit
+    # one clock: the buildings' zone, named, 24-hour; the audit's UTC records converted
+    text = page.inner_text("main")
+    assert "All times are the buildings' local time, Asia/Singapore (UTC+08:00)" in text
+    assert not re.search(r"\b(AM|PM)\b", text) and "(UTC)" not in text
+    assert "at (Asia/Singapore)" in audit
+    now_sgt = pd.Timestamp.now(tz="Asia/Singapore")
+    stamps = re.findall(r"\d{4}-\d\d-\d\d \d\d:\d\d", audit)
+    assert stamps and all(
+        abs((pd.Timestamp(s, tz="Asia/Singapore") - now_sgt).total_seconds()) < 600 for s in stamps
+    )  # the audit's UTC times shown in Singapore time, not 8 h off
     assert errors == []
     assert all(r.startswith(url) or r.startswith("data:") for r in requests), requests
     assert not any(operator_key in r for r in requests)

@@ -91,7 +91,7 @@ def test_without_openleadr_the_ven_names_the_extra_to_install(
     monkeypatch.setitem(sys.modules, "openleadr", None)  # import openleadr → ImportError
     with pytest.raises(ConfigError) as raised:
         openadr_client(make_ven(RecordingService(make_plan([1.0])), tmp_path))
-    assert raised.value.hint == 'pip install "hvacflex[openadr]"'
+    assert raised.value.hint == 'pip install -e ".[openadr]" (in the hvacflex clone)'
 
 
 def test_the_note_says_what_a_utility_would_still_need_and_how_far_the_adapter_is() -> None:

@@ -7,6 +7,8 @@ import pytest
 from hvacflex.config import preset
 from hvacflex.errors import ConfigError
 from hvacflex.sim.sweep import (
+    DASHBOARD_ADDRESS,
+    SweepClock,
     close_dask,
     expand_grid,
     outcomes_table,
@@ -121,7 +123,7 @@ def test_close_dask_silences_the_workers_of_a_real_cluster() -> None:
     distributed_log = logging.getLogger("distributed")
     level = distributed_log.level
     cluster = LocalCluster(
-        n_workers=1, threads_per_worker=1, processes=False, dashboard_address=None
+        n_workers=1, threads_per_worker=1, processes=False, dashboard_address=DASHBOARD_ADDRESS
     )
     try:
         close_dask(Client(cluster), cluster)  # in-process worker: its loggers are these
@@ -154,3 +156,43 @@ def test_start_local_dask_closes_its_cluster_when_the_client_fails(
     with pytest.raises(OSError, match="unreachable"):
         start_local_dask(2)
     assert closed == [True]  # no worker processes left behind
+
+
+def test_the_clock_weighs_jobs_by_cost_and_gives_no_eta_before_a_real_run(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    import hvacflex.sim.sweep as sweep
+
+    now = [100.0]
+    monkeypatch.setattr(sweep.time, "perf_counter", lambda: now[0])
+    clock = SweepClock([1.0, 1.0, 2.0])
+    now[0] = 101.0
+    assert clock.finished(1.0, cached=True) == (1.0, None)  # cached: nothing to scale by
+    now[0] = 111.0
+    elapsed, eta = clock.finished(1.0, cached=False)  # 1 cost unit ran in 11 s, 2 are left
+    assert elapsed == 11.0 and eta == pytest.approx(22.0)
+    now[0] = 131.0
+    assert clock.finished(2.0, cached=False) == (31.0, 0.0)
+
+
+def test_a_local_cluster_does_not_warn_when_port_8787_is_busy() -> None:
+    import socket
+    import warnings
+
+    from hvacflex.sim.sweep import start_local_dask
+
+    busy = socket.socket()
+    busy.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+    try:
+        busy.bind(("127.0.0.1", 8787))
+        busy.listen()
+    except OSError:
+        pass  # already busy: as good
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            cluster, client = start_local_dask(1)
+            close_dask(client, cluster)
+        assert [str(w.message) for w in caught if "8787" in str(w.message)] == []
+    finally:
+        busy.close()

@@ -237,6 +237,19 @@ def ventilation_warning(s: BuildingSummary) -> str | None:
     )
 
 
+def undersized_zone_warnings(s: BuildingSummary) -> list[str]:
+    """A warning line per zone whose design load needs more supply air than its maximum flow
+    (``design_flow_kg_s`` > ``flow_max_kg_s``): at design conditions that zone warms above
+    the design temperature whatever the controller does."""
+    return [
+        f"WARNING: zone {z.name!r} is under-sized: its design load {z.design_load_kw:.1f} kW "
+        f"needs {z.design_flow_kg_s:.2f} kg/s of supply air, its maximum flow is "
+        f"{z.flow_max_kg_s:.2f} kg/s; raise [hvac] flow_max_kg_s for it (or lower its gains)"
+        for z in s.zones
+        if z.design_flow_kg_s > z.flow_max_kg_s
+    ]
+
+
 def format_comfort_band(
     occupied_degc: tuple[float, float],
     unoccupied_degc: tuple[float, float],
@@ -255,7 +268,8 @@ def format_comfort_band(
 
 def format_summary(s: BuildingSummary) -> str:
     """Plain-text rendering of a :class:`BuildingSummary` (with :func:`ventilation_warning`
-    under the flow range when ventilation falls short)."""
+    under the flow range when ventilation falls short, and :func:`undersized_zone_warnings`
+    under the zones table; the zones table marks such a zone's "needs" with ``!``)."""
     warning = ventilation_warning(s)
     lines = [
         f"Building {s.name!r}  ({s.source})",
@@ -272,9 +286,11 @@ def format_summary(s: BuildingSummary) -> str:
             f" {z.capacitance_mj_per_k:7.2f}"
             f"  {z.flow_min_kg_s:4.2f}/{z.ventilation_flow_kg_s:4.2f}/{z.flow_max_kg_s:<4.2f}"
             f"         {z.design_load_kw:14.1f}"
-            f"  {z.design_flow_kg_s:10.2f}  {'yes' if z.reserve else 'no'}"
+            f"  {z.design_flow_kg_s:10.2f}{'!' if z.design_flow_kg_s > z.flow_max_kg_s else ' '}"
+            f" {'yes' if z.reserve else 'no'}"
         )
     lines += [
+        *undersized_zone_warnings(s),
         "",
         "Nodes: " + ", ".join(s.node_names),
         "Disturbances d: " + ", ".join(s.channel_names),

@@ -71,7 +71,7 @@ from hvacflex.config.presets import (
 )
 from hvacflex.config.schema import RENAMED_KEYS, RULE_ERROR, ScenarioSpec, to_domain
 from hvacflex.constants import MAX_HORIZON_STEPS
-from hvacflex.errors import ConfigError
+from hvacflex.errors import ConfigError, did_you_mean
 from hvacflex.opt.options import (
     DEFAULT_COMFORT_PENALTY_SGD_PER_KELVIN_HOUR,
     FeedbackStructure,
@@ -190,7 +190,7 @@ def preset(name: str, **overrides: Any) -> ScenarioConfig:
             "unknown scenario preset",
             field="scenario",
             value=name,
-            hint=f"use one of {list(PRESET_NAMES)}",
+            hint=did_you_mean(name, PRESET_NAMES, f"use one of {list(PRESET_NAMES)}"),
         )
     cfg = _validate({"name": name, **PRESETS[name]}, source="preset")
     return with_overrides(cfg, overrides) if overrides else cfg
@@ -200,7 +200,9 @@ def load_config(path: str | Path) -> ScenarioConfig:
     """Load a scenario TOML file (optionally starting from ``preset = "..."``).
 
     Relative paths in the file (``building``, ``data.weather_file``, ``data.usep_source``,
-    ``data.reserve_source``, ``activation.file``) are relative to the file's folder.
+    ``data.reserve_source``, ``activation.file``, ``plant.idf``,
+    ``uncertainty.calibrate.prediction_errors``) are relative to the file's folder
+    (:func:`paths_from_folder`).
 
     Raises
     ------
@@ -217,7 +219,7 @@ def load_config(path: str | Path) -> ScenarioConfig:
                 source=path,
                 field="preset",
                 value=base_name,
-                hint=f"use one of {list(PRESET_NAMES)}",
+                hint=did_you_mean(base_name, PRESET_NAMES, f"use one of {list(PRESET_NAMES)}"),
             )
         base = {"name": base_name, **PRESETS[base_name]}
     merged = _deep_merge(base, paths_from_folder(raw, path.parent))
@@ -241,8 +243,10 @@ def paths_from_folder(raw: Mapping[str, Any], folder: Path) -> dict[str, Any]:
     (:func:`hvacflex.fleet.schema.load_fleet`).
 
     ``building`` is a path when it has a folder or ends in ``.toml`` (else a shipped name such
-    as ``office5``); the keys of :data:`SCENARIO_PATH_KEYS` are always paths. Values that are
-    not strings are left for the schema to refuse.
+    as ``office5``), ``plant.idf`` when it has a folder or ends in ``.idf`` (else
+    ``generated`` or a shipped model such as ``5ZoneAirCooled``); the keys of
+    :data:`SCENARIO_PATH_KEYS` and ``uncertainty.calibrate.prediction_errors`` are always
+    paths. Values that are not strings are left for the schema to refuse.
     """
 
     def from_folder(value: str) -> str:
@@ -250,6 +254,23 @@ def paths_from_folder(raw: Mapping[str, Any], folder: Path) -> dict[str, Any]:
         return str(candidate if candidate.is_absolute() else folder / candidate)
 
     out = dict(raw)
+    plant = raw.get("plant")
+    if isinstance(plant, Mapping) and isinstance(plant.get("idf"), str):
+        idf = plant["idf"]
+        if idf.lower().endswith(".idf") or "/" in idf:  # else "generated" or a shipped name
+            out["plant"] = {**plant, "idf": from_folder(idf)}
+    uncertainty = raw.get("uncertainty")
+    calibrate = uncertainty.get("calibrate") if isinstance(uncertainty, Mapping) else None
+    if (
+        isinstance(uncertainty, Mapping)
+        and isinstance(calibrate, Mapping)
+        and isinstance(calibrate.get("prediction_errors"), str)
+    ):
+        errors = from_folder(calibrate["prediction_errors"])
+        out["uncertainty"] = {
+            **uncertainty,
+            "calibrate": {**calibrate, "prediction_errors": errors},
+        }
     building = raw.get("building")
     if isinstance(building, str) and (Path(building).suffix == ".toml" or "/" in building):
         out["building"] = from_folder(building)
@@ -430,7 +451,8 @@ def _unknown_key_hint(loc: tuple[str, ...]) -> str | None:
         if not (isinstance(annotation, type) and issubclass(annotation, BaseModel)):
             return None  # inside a table of disturbance kinds
         model = annotation
-    return f"valid keys here: {sorted(model.model_fields)}"
+    valid = sorted(model.model_fields)
+    return did_you_mean(loc[-1], valid, f"valid keys here: {valid}")
 
 
 def _leaf_paths(obj: Any, prefix: tuple[str, ...] = ()) -> list[tuple[str, ...]]:
@@ -473,7 +495,9 @@ def resolve_key(key: str) -> tuple[str, ...]:
     raise ConfigError(
         "unknown or ambiguous setting" if matches else "unknown setting",
         field=key,
-        hint=f"valid settings: {', '.join(valid)}",
+        hint=did_you_mean(
+            key, [*valid, *(p[-1] for p in leaves)], f"valid settings: {', '.join(valid)}"
+        ),
     )
 
 

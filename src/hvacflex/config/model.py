@@ -14,7 +14,14 @@ from typing import Any, Literal
 
 import pandas as pd
 
-from hvacflex.constants import AR1_COEFFICIENT, DEFAULT_START, HORIZON_STEPS, PERIOD_S, TIMEZONE
+from hvacflex.constants import (
+    AR1_COEFFICIENT,
+    DEFAULT_DAYS,
+    DEFAULT_START,
+    HORIZON_STEPS,
+    PERIOD_S,
+    TIMEZONE,
+)
 from hvacflex.data.market import RESERVE_PRICE_CORRELATION
 from hvacflex.data.weather_forecast import WEATHER_TRAIN_DAYS
 from hvacflex.opt.options import (
@@ -325,7 +332,7 @@ class ScenarioConfig:
     building: str = "office5"
     start: str = DEFAULT_START
     """First period [local time, ISO 8601: YYYY-MM-DD or YYYY-MM-DDTHH:MM, normalised]."""
-    days: float = 7.0
+    days: float = DEFAULT_DAYS
     dt_s: float = PERIOD_S
     seed: int = 2014
     initial_temp_degc: float = 25.0

@@ -268,7 +268,8 @@ class CalibrationSpec(Spec):
     covers 95 % of them)."""
     prediction_errors: Text | None = default(CalibrationConfig, "prediction_errors")
     """A results file (``results.parquet``) whose ``prediction_error_<zone>_k`` on the training
-    days size a per-zone model-error term; leave it out for none."""
+    days size a per-zone model-error term (a relative path is taken from the scenario file's
+    folder); leave it out for none."""
 
 
 class UncertaintySpec(Spec):
@@ -410,11 +411,12 @@ def _valid_timesteps(value: int) -> int:
 class PlantSpec(Spec):
     kind: PlantKind = default(PlantConfig, "kind")
     """What the controller is graded on: ``rc`` (hvacflex's own nonlinear RC network) or
-    ``energyplus`` (an EnergyPlus 25.2 model, needs ``hvacflex[energyplus]``;
+    ``energyplus`` (an EnergyPlus 25.2 model, needs the ``energyplus`` extra;
     docs/energyplus.md)."""
     idf: Annotated[Text, Field(min_length=1)] = default(PlantConfig, "idf")
-    """The EnergyPlus model: ``generated`` (the building's own IDF export) or the path of an
-    EnergyPlus 25.2 IDF file."""
+    """The EnergyPlus model: ``generated`` (the building's own IDF export), a shipped model's
+    name (``5ZoneAirCooled``, ``packaged_shops``) or the path of an EnergyPlus 25.2 IDF file
+    (a relative path is taken from the scenario file's folder)."""
     actuation: PlantActuation | None = default(PlantConfig, "actuation")
     """What hvacflex sets on the plant: ``setpoint`` (zone cooling setpoints, EnergyPlus's
     default) or ``flow`` (zone supply flows, the RC plant's only one); leave it out for the

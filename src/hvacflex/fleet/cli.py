@@ -48,7 +48,9 @@ def _check_optional_number(value: float | None) -> float | None:
     return value
 
 
-fleet_app = typer.Typer(help="Fleets of buildings under a feeder limit.", no_args_is_help=True)
+fleet_app = typer.Typer(
+    rich_markup_mode=None, help="Fleets of buildings under a feeder limit.", no_args_is_help=True
+)
 
 
 @fleet_app.command("generate")

@@ -19,12 +19,18 @@ Files written beside ``model.toml``:
   test days, and with an IDF the ``[plant]`` that controls the building the data came from
   (``kind = "energyplus"``, ``actuation = "setpoint"``). The estimation is the default: the
   measured zone air and boundary (plenum) temperatures, the mass nodes carried by the model
-  from their estimated start (docs/identify.md §6 measures it against the Kalman filter).
+  from their estimated start (docs/identify.md §6 measures it against the Kalman filter);
+* ``baseline.toml`` — with an IDF, the building's own control on the same plant
+  (``preset = "plant-baseline"``), what ``scenario.toml``'s runs are compared with.
+
+Both scenarios name their files relative to their folder (a shipped IDF by its name), so the
+folder can be moved or shared whole.
 """
 
 from __future__ import annotations
 
 import json
+import os
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -33,6 +39,7 @@ import pandas as pd
 
 from hvacflex.data.calibration import calibrate_box, model_error_coverage
 from hvacflex.identify.greybox import FloatArray
+from hvacflex.paths import shipped_idf_name
 from hvacflex.results import INDEX_NAME, PREDICTION_ERROR, write_results
 
 DEFAULT_QUANTILE = 0.95
@@ -40,6 +47,7 @@ DEFAULT_QUANTILE = 0.95
 ERRORS_FILE = "model_errors.parquet"
 BOX_REPORT_FILE = "box_report.csv"
 SCENARIO_FILE = "scenario.toml"
+BASELINE_FILE = "baseline.toml"
 
 
 @dataclass(frozen=True)
@@ -114,6 +122,30 @@ def write_model_errors(
     return path
 
 
+def relative_to(target: Path, folder: Path) -> str:
+    """``target`` as a POSIX path relative to ``folder`` (how a scenario file in ``folder``
+    names it, so the folder can be moved or shared as a whole)."""
+    return Path(os.path.relpath(Path(target).resolve(), Path(folder).resolve())).as_posix()
+
+
+def _plant_and_data_lines(folder: Path, idf: Path | None, weather: Path | None) -> list[str]:
+    """The ``[data]`` and ``[plant]`` tables of the scenarios beside the model: the weather
+    file and the IDF relative to ``folder``, a shipped IDF by its name."""
+    lines: list[str] = []
+    if weather is not None:
+        lines += ["", "[data]", f"weather_file = {json.dumps(relative_to(weather, folder))}"]
+    if idf is not None:
+        shipped = shipped_idf_name(idf)
+        lines += [
+            "",
+            "[plant]",
+            'kind = "energyplus"',
+            f"idf = {json.dumps(shipped or relative_to(idf, folder))}",
+            'actuation = "setpoint"',
+        ]
+    return lines
+
+
 def write_scenario(
     path: Path,
     model_path: Path,
@@ -123,27 +155,38 @@ def write_scenario(
     idf: Path | None = None,
     weather: Path | None = None,
 ) -> Path:
-    """``scenario.toml`` (module docstring); paths written absolute; ``weather``: the EPW the
-    fit took its site from (``[data] weather_file``; None: the scenario's default)."""
+    """``scenario.toml`` (module docstring); paths written relative to its folder (a shipped
+    IDF by its name); ``weather``: the EPW the fit took its site from (``[data]
+    weather_file``; None: the scenario's default)."""
+    folder = path.parent
     lines = [
         'preset = "rmpc"',
         f"name = {json.dumps(model_path.parent.name or 'identified')}",
-        f"building = {json.dumps(str(model_path.resolve()))}",
+        f"building = {json.dumps(relative_to(model_path, folder))}",
         "",
         "[uncertainty.calibrate]",
         f"train = {json.dumps(test_days)}",
         f"quantile = {quantile!r}",
-        f"prediction_errors = {json.dumps(str(errors_path.resolve()))}",
+        f"prediction_errors = {json.dumps(relative_to(errors_path, folder))}",
     ]
-    if weather is not None:
-        lines += ["", "[data]", f"weather_file = {json.dumps(str(Path(weather).resolve()))}"]
-    if idf is not None:
-        lines += [
-            "",
-            "[plant]",
-            'kind = "energyplus"',
-            f"idf = {json.dumps(str(Path(idf).resolve()))}",
-            'actuation = "setpoint"',
-        ]
+    lines += _plant_and_data_lines(folder, idf, weather)
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    return path
+
+
+def write_baseline_scenario(
+    path: Path, model_path: Path, idf: Path, weather: Path | None = None
+) -> Path:
+    """``baseline.toml``: the building's own control on the same plant (``preset =
+    "plant-baseline"``: EnergyPlus runs the IDF's schedules and thermostats, hvacflex sends
+    nothing), with the same ``building``, ``[data]`` and ``[plant]`` as ``scenario.toml``, so
+    ``hvacflex kpi`` compares the two runs."""
+    folder = path.parent
+    lines = [
+        'preset = "plant-baseline"',
+        'name = "plant-baseline"',
+        f"building = {json.dumps(relative_to(model_path, folder))}",
+    ]
+    lines += _plant_and_data_lines(folder, idf, weather)
     path.write_text("\n".join(lines) + "\n", encoding="utf-8")
     return path

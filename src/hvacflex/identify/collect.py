@@ -32,6 +32,7 @@ facility electricity as the plant meters them.
 from __future__ import annotations
 
 import warnings
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Literal
@@ -48,6 +49,7 @@ from hvacflex.energyplus.runner import Variable, expand_hvac_templates
 from hvacflex.errors import InputError
 from hvacflex.identify import trend
 from hvacflex.identify.trend import FloatArray, zone_column
+from hvacflex.paths import resolve_idf
 from hvacflex.sim.energyplus_plant import EnergyPlusPlant
 from hvacflex.sim.plant import Actuation, Disturbance
 
@@ -223,8 +225,10 @@ def collect_trend(
     zones: tuple[str, ...] | None = None,
     seed: int = 0,
     timesteps_per_hour: int = 6,
+    on_day: Callable[[], None] | None = None,
 ) -> pd.DataFrame:
-    """Run the IDF under its own control plus the excitation and return the trend frame.
+    """Run the IDF under its own control plus the excitation and return the trend frame;
+    ``on_day`` is called as each day of the run is collected (progress).
 
     Parameters
     ----------
@@ -241,7 +245,8 @@ def collect_trend(
     -------
     (days · 48, columns) the trend frame of :mod:`hvacflex.identify.trend` (period starts).
     """
-    source = str(idf_path)
+    idf_file = resolve_idf(idf_path, "--idf")
+    source = str(idf_file)
     try:
         first = pd.Timestamp(start)
     except ValueError:
@@ -250,7 +255,7 @@ def collect_trend(
         ) from None
     if days < 1:
         raise InputError("needs at least one day", field="--days", value=days)
-    text = read_idf(idf_path)
+    text = read_idf(idf_file)
     objects = parse_idf(text, source)
     if any(o.class_name.lower().startswith("hvactemplate:") for o in objects):
         objects = parse_idf(expand_hvac_templates(text, source), source)
@@ -300,6 +305,8 @@ def collect_trend(
                 for i, zone in enumerate(controlled):
                     row[zone_column("setpoint", zone)] = float(setpoints[k, i])
             rows.append(row)
+            if on_day is not None and (k + 1) % PERIODS_PER_DAY == 0:
+                on_day()
     finally:
         plant.close()
     return pd.DataFrame(rows, index=index)

@@ -24,6 +24,7 @@ state per zone, its noise levels tuned on the training days, :func:`tune_filter`
 from __future__ import annotations
 
 import warnings
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -498,6 +499,7 @@ def fit_model(
     train: tuple[int, int],
     physics: tuple[ZonePhysics, ...] | None = None,
     coupling_physics: CouplingPhysics = None,
+    on_evaluation: Callable[[], None] | None = None,
 ) -> FitResult:
     """Fit the grey-box model on the periods ``train = (first, end)`` (module docstring);
     every fitted zone may exchange heat with every boundary of ``data``; ``physics`` (m,):
@@ -505,6 +507,8 @@ def fit_model(
     which bounds its parameters and centres their priors; ``coupling_physics``: per coupling
     (``couplings``, then every zone–boundary pair) its ``(low, high, prior)`` [kW/K] or None
     (:func:`~hvacflex.identify.physics.coupling_bounds`).
+    ``on_evaluation`` is called after each evaluation of the model's residuals (the
+    optimiser's and its finite-difference Jacobian's: a heartbeat of the long fit).
 
     Raises
     ------
@@ -532,7 +536,10 @@ def fit_model(
     def residuals(x: FloatArray) -> FloatArray:
         theta = prior.copy()
         theta[free] = x
-        return _residuals(theta, pairs, edges, window, starts, prior, scale)
+        out = _residuals(theta, pairs, edges, window, starts, prior, scale)
+        if on_evaluation is not None:
+            on_evaluation()
+        return out
 
     result = scipy.optimize.least_squares(
         residuals,

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import datetime
 import itertools
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -28,12 +29,14 @@ from hvacflex.data.forecast import default_weather_file
 from hvacflex.data.weather import EpwLocation, read_epw
 from hvacflex.errors import InputError
 from hvacflex.identify.box import (
+    BASELINE_FILE,
     BOX_REPORT_FILE,
     DEFAULT_QUANTILE,
     ERRORS_FILE,
     SCENARIO_FILE,
     ModelErrorBox,
     calibrate_model_error,
+    write_baseline_scenario,
     write_model_errors,
     write_scenario,
 )
@@ -69,8 +72,17 @@ from hvacflex.identify.physics import (
     coupling_bounds,
     zone_physics,
 )
-from hvacflex.identify.trend import read_trend, zone_column
-from hvacflex.paths import check_output_file
+from hvacflex.identify.trend import TrendData, read_trend, zone_column
+from hvacflex.paths import check_output_file, resolve_idf
+
+FIT_STAGES = (
+    "reading the trend data",
+    "fitting the zones on the training days",
+    "evaluating on the test days",
+    "fitting the power model",
+    "calibrating the model error",
+)
+"""The stages :func:`identify` reports to its ``progress`` callback, in order."""
 
 DEFAULT_TEST_DAYS = 7
 """Test days at the end of the data when ``--test`` is not given."""
@@ -88,6 +100,7 @@ class IdentifyOutcome:
     (:func:`~hvacflex.identify.fit.prediction_frame`, also ``fit_predictions.csv``);
     box : the calibrated model error; scenario_path : the scenario beside the model;
     checks : the plausibility checks (:mod:`hvacflex.identify.checks`), also ``checks_path``.
+    baseline_path : the building's own control on the same plant (with an IDF; else None).
     """
 
     model_path: Path
@@ -102,6 +115,7 @@ class IdentifyOutcome:
     scenario_path: Path
     checks: pd.DataFrame
     checks_path: Path
+    baseline_path: Path | None = None
 
     @property
     def failed_checks(self) -> list[str]:
@@ -397,18 +411,22 @@ def identify(
     idf: str | Path | None = None,
     weather: str | Path | None = None,
     floor_areas: str | None = None,
+    progress: Callable[[str], None] | None = None,
+    heartbeat: Callable[[str], None] | None = None,
 ) -> IdentifyOutcome:
     """Fit, evaluate, check and write (module docstring); ``idf``: the EnergyPlus model the
-    data came from, the plant of the scenario written beside the model and where the zones'
-    floor areas and façades come from; ``weather``: an EPW of the site (where the wall
-    irradiances are computed; default the shipped Singapore file's); ``floor_areas``:
-    ``"Z1=M2,…"``, the fitted zones' floor areas (:func:`zone_floor_areas_m2`)."""
+    data came from (a path or a shipped model's name), the plant of the scenarios written
+    beside the model and where the zones' floor areas and façades come from; ``weather``: an
+    EPW of the site (where the wall irradiances are computed; default the shipped Singapore
+    file's); ``floor_areas``: ``"Z1=M2,…"``, the fitted zones' floor areas
+    (:func:`zone_floor_areas_m2`); ``progress``: called with each stage's name as it starts
+    (:data:`FIT_STAGES`, in that order); ``heartbeat``: called during the long fit with the
+    count of model evaluations so far (``"1,200 model evaluations"``)."""
+    say = progress if progress is not None else (lambda _: None)
     out = Path(out)
     check_train_test(train, test)
-    if idf is not None and not Path(idf).is_file():
-        raise InputError(
-            "no such IDF", field="--idf", value=str(idf), hint="give the EnergyPlus model's path"
-        )
+    idf_file = None if idf is None else resolve_idf(idf, "--idf")
+    say(FIT_STAGES[0])
     data = read_trend(data_path)
     names, couples = zones_and_couplings(zones, adjacency, template)
     fitted = {n.lower() for n in names}
@@ -418,8 +436,8 @@ def identify(
         if z.lower() not in fitted and not data.has(zone_column("supply_flow", z))
     )
     inputs = fit_inputs(data, names, site_of(weather), boundaries)
-    areas_m2 = zone_floor_areas_m2(inputs.zones, floor_areas, idf, template)
-    geometry = described_geometry(idf, template)
+    areas_m2 = zone_floor_areas_m2(inputs.zones, floor_areas, idf_file, template)
+    geometry = described_geometry(idf_file, template)
     physics = zone_physics_of(inputs.zones, areas_m2, geometry)
     train_range, test_range = _ranges(inputs.index, train, test)
     check_output_file(out, "--out")  # after the inputs are checked, before the fit
@@ -428,8 +446,13 @@ def identify(
         pairs, coupling_physics = geometry_couplings(
             inputs.zones, inputs.boundaries, geometry, couples
         )
-    fit = fit_model(inputs, pairs, train_range, physics, coupling_physics)
+    say(FIT_STAGES[1])
+    fit = fit_model(
+        inputs, pairs, train_range, physics, coupling_physics, on_evaluation=_counter(heartbeat)
+    )
+    say(FIT_STAGES[2])
     ids = tuple(identifier(z) for z in inputs.zones)
+    say(FIT_STAGES[3])
     power = fit_power_model(data, inputs, train_range)
     model = IdentifiedModel(
         name=f"identified from {Path(data_path).name}",
@@ -449,14 +472,64 @@ def identify(
         },
     )
     context = FitContext(ids, physics, inputs.boundaries, model.boundary_nodes, model.validity)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    written = _write_fit(fit, model, context, data, inputs, test_range, out)
+    say(FIT_STAGES[4])
+    box, scenario_path = _box_and_scenario(
+        fit, inputs, ids, (train_range, test_range), out, idf=idf_file, weather=weather
+    )
+    return IdentifyOutcome(
+        written.model_path,
+        written.report_path,
+        written.parameters_path,
+        written.power_path,
+        written.report,
+        written.power,
+        written.fit,
+        written.predictions,
+        box=box,
+        scenario_path=scenario_path,
+        checks=written.checks,
+        checks_path=out.parent / CHECKS_FILE,
+        baseline_path=_baseline(written.model_path, idf_file, weather),
+    )
+
+
+@dataclass(frozen=True)
+class _Written:
+    """The files :func:`_write_fit` wrote and what they hold (the first fields of an
+    :class:`IdentifyOutcome`)."""
+
+    model_path: Path
+    report_path: Path
+    parameters_path: Path
+    power_path: Path | None
+    report: pd.DataFrame
+    power: pd.DataFrame | None
+    fit: FitResult
+    predictions: pd.DataFrame
+    checks: pd.DataFrame
+
+
+def _write_fit(
+    fit: FitResult,
+    model: IdentifiedModel,
+    context: FitContext,
+    data: TrendData,
+    inputs: FitData,
+    test_range: tuple[int, int],
+    out: Path,
+) -> _Written:
+    """Write the model file, ``fit_report.csv``, ``fit_parameters.csv``, ``checks.csv``, the
+    power check and the test days' predictions beside ``out``."""
     checks = plausibility_checks(fit, context)
     report = _fit_report(fit, inputs, test_range, checks)
-    out.parent.mkdir(parents=True, exist_ok=True)
     model_path = write_identified_model(model, out)
     report.to_csv(out.parent / "fit_report.csv", index=False, float_format="%.4g")
     parameters_path = out.parent / "fit_parameters.csv"
     _parameters_table(fit, context).to_csv(parameters_path, index=False, float_format="%.5g")
     checks.to_csv(out.parent / CHECKS_FILE, index=False)
+    power = model.power
     power_table = None if power is None else evaluate_power(power, data, inputs, test_range)
     power_path = None
     if power_table is not None:
@@ -464,10 +537,7 @@ def identify(
         power_table.to_csv(power_path, index=False, float_format="%.4g")
     predictions = prediction_frame(fit, inputs, test_range)
     predictions.to_csv(out.parent / "fit_predictions.csv", float_format="%.4f")
-    box, scenario_path = _box_and_scenario(
-        fit, inputs, ids, (train_range, test_range), out, idf=idf, weather=weather
-    )
-    return IdentifyOutcome(
+    return _Written(
         model_path,
         out.parent / "fit_report.csv",
         parameters_path,
@@ -476,11 +546,31 @@ def identify(
         power_table,
         fit,
         predictions,
-        box,
-        scenario_path,
-        checks=checks,
-        checks_path=out.parent / CHECKS_FILE,
+        checks,
     )
+
+
+def _baseline(model_path: Path, idf: Path | None, weather: str | Path | None) -> Path | None:
+    """``baseline.toml`` beside the model (:func:`~hvacflex.identify.box.
+    write_baseline_scenario`) when the data came from an IDF, else None."""
+    if idf is None:
+        return None
+    site = None if weather is None else Path(weather)
+    return write_baseline_scenario(model_path.parent / BASELINE_FILE, model_path, idf, site)
+
+
+def _counter(heartbeat: Callable[[str], None] | None) -> Callable[[], None] | None:
+    """An ``on_evaluation`` callback that tells ``heartbeat`` the evaluations so far."""
+    if heartbeat is None:
+        return None
+    count = 0
+
+    def evaluated() -> None:
+        nonlocal count
+        count += 1
+        heartbeat(f"{count:,} model evaluation{'' if count == 1 else 's'}")
+
+    return evaluated
 
 
 def validity_range(inputs: FitData, train: tuple[int, int]) -> IdentifiedValidity:

@@ -113,11 +113,22 @@ def _step(ax: Axes, edges: np.ndarray, values: np.ndarray, **kwargs: Any) -> Non
     ax.stairs(values, edges, baseline=None, **kwargs)
 
 
-def format_time_axis(ax: Axes) -> None:
-    """Concise date ticks on a time axis of local wall-clock datetimes."""
+HALF_WIDTH_MAX_TICKS = 6
+"""Most date ticks on a panel half the figure wide (Fig. 5's two columns; at least 3):
+matplotlib's own choice put 9 on two days and their labels ran into each other
+("Mar-0406:00")."""
+
+
+def format_time_axis(ax: Axes, max_ticks: int | None = None) -> None:
+    """Concise date ticks on a time axis of local wall-clock datetimes; ``max_ticks``: at
+    most that many (None: matplotlib's choice, for a full-width panel)."""
     import matplotlib.dates as mdates
 
-    locator = mdates.AutoDateLocator()  # type: ignore[no-untyped-call]
+    locator = (
+        mdates.AutoDateLocator()  # type: ignore[no-untyped-call]
+        if max_ticks is None
+        else mdates.AutoDateLocator(minticks=3, maxticks=max_ticks)  # type: ignore[no-untyped-call]
+    )
     ax.xaxis.set_major_locator(locator)
     ax.xaxis.set_major_formatter(mdates.ConciseDateFormatter(locator))  # type: ignore[no-untyped-call]
 
@@ -378,7 +389,7 @@ def plot_temperatures(
             right.legend(fontsize="x-small", loc="upper left")
     for ax in axes:
         if isinstance(next(iter(scenarios.values())).index, pd.DatetimeIndex):
-            format_time_axis(ax)
+            format_time_axis(ax, HALF_WIDTH_MAX_TICKS)
     for ax in axes[-2:]:
         ax.set_xlabel(_TIME_LABEL)
     figure.suptitle(title)

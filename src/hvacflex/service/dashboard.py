@@ -16,6 +16,8 @@ from importlib.resources import files
 from fastapi import FastAPI
 from fastapi.responses import HTMLResponse
 
+from hvacflex.constants import TIMEZONE
+
 DASHBOARD_PAGE = "dashboard.html"
 """The operator dashboard, served at ``/``."""
 
@@ -35,9 +37,11 @@ CONTENT_SECURITY_POLICY = (
 
 @functools.cache
 def page_html(name: str) -> str:
-    """The text of a shipped page (``pages/<name>``), with ``{{REFRESH_S}}`` filled in."""
+    """The text of a shipped page (``pages/<name>``), with ``{{REFRESH_S}}`` and
+    ``{{TIME_ZONE}}`` (the buildings' time zone, in which the dashboard shows every time)
+    filled in."""
     text = (files("hvacflex.service") / "pages" / name).read_text(encoding="utf-8")
-    return text.replace("{{REFRESH_S}}", str(REFRESH_S))
+    return text.replace("{{REFRESH_S}}", str(REFRESH_S)).replace("{{TIME_ZONE}}", TIMEZONE)
 
 
 def _page(name: str) -> HTMLResponse:

@@ -598,7 +598,7 @@ def openadr_client(ven: OpenAdrVen) -> Any:
         raise ConfigError(
             "openleadr is not installed",
             field="serve openadr-ven",
-            hint='pip install "hvacflex[openadr]"',
+            hint='pip install -e ".[openadr]" (in the hvacflex clone)',
         ) from None
     config = ven.config
     client = OpenADRClient(

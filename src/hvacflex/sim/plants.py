@@ -21,7 +21,7 @@ from hvacflex.data.forecast import DEFAULT_WEATHER_FILE
 from hvacflex.energyplus.api import engine_dir
 from hvacflex.energyplus.idf import read_idf
 from hvacflex.errors import ConfigError
-from hvacflex.paths import data_dir
+from hvacflex.paths import data_dir, resolve_idf
 from hvacflex.sim.energyplus_plant import EnergyPlusPlant
 from hvacflex.sim.plant import Plant, RCPlant
 from hvacflex.sim.setup import Setup
@@ -102,7 +102,8 @@ def make_plant(
     if config.idf == "generated":
         text, source = generated_idf(building, epw), f"generated IDF of {building.name}"
     else:
-        text, source = read_idf(config.idf), config.idf
+        idf_file = resolve_idf(config.idf)
+        text, source = read_idf(idf_file), str(idf_file)
     zones = tuple(building.zone_names)
     idf_zones = tuple(z.energyplus_zone or z.name for z in building.zones)
     identified = building.identified

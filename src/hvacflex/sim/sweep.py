@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import itertools
 import logging
+import time
 import traceback
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
@@ -66,6 +67,30 @@ class JobOutcome:
     @property
     def ok(self) -> bool:
         return self.error is None
+
+
+class SweepClock:
+    """Elapsed time and ETA of a sweep, its jobs weighted by :func:`relative_cost`.
+
+    ``clock = SweepClock(costs)``; ``clock.finished(cost, cached)`` as each job ends →
+    (elapsed [s], ETA [s] or None). The ETA scales the elapsed time by the cost still to run
+    over the cost run so far; re-used (cached) runs cost nothing, so before the first job
+    that really ran there is no ETA (None).
+    """
+
+    def __init__(self, costs: Sequence[float]) -> None:
+        self.remaining = float(sum(costs))
+        self.ran = 0.0
+        self.t0 = time.perf_counter()
+
+    def finished(self, cost: float, cached: bool) -> tuple[float, float | None]:
+        self.remaining = max(self.remaining - cost, 0.0)
+        if not cached:
+            self.ran += cost
+        elapsed = time.perf_counter() - self.t0
+        if self.remaining == 0.0:
+            return elapsed, 0.0
+        return elapsed, (elapsed * self.remaining / self.ran if self.ran > 0 else None)
 
 
 def parse_param(text: str) -> tuple[str, list[Any]]:
@@ -152,15 +177,24 @@ def _silence_distributed() -> None:
     logging.getLogger("distributed").setLevel(logging.CRITICAL)
 
 
+DASHBOARD_ADDRESS = ":0"
+"""Where a local cluster's scheduler serves HTTP: any free port. (``None`` still serves on
+8787 and warns "Port 8787 is already in use" when it is.)"""
+
+
 def start_local_dask(n_workers: int) -> tuple[Any, Any]:
     """(cluster, client): a ``LocalCluster`` of ``n_workers`` single-threaded worker
-    processes on this machine and a client of it (no dashboard: nothing shows it). The
-    cluster is closed again if the client cannot connect, so no worker processes are left
-    behind."""
+    processes on this machine and a client of it. The scheduler's HTTP server (the
+    dashboard, which nothing shows) takes a free port (:data:`DASHBOARD_ADDRESS`), so a busy
+    8787 — another cluster, another user — raises no warning. The cluster is closed again if
+    the client cannot connect, so no worker processes are left behind."""
     from dask.distributed import Client, LocalCluster
 
     cluster = LocalCluster(  # type: ignore[no-untyped-call]
-        n_workers=n_workers, threads_per_worker=1, processes=True, dashboard_address=None
+        n_workers=n_workers,
+        threads_per_worker=1,
+        processes=True,
+        dashboard_address=DASHBOARD_ADDRESS,
     )
     try:
         return cluster, Client(cluster)  # type: ignore[no-untyped-call]

