@@ -14,6 +14,7 @@ import math
 import numbers
 from collections.abc import Mapping
 
+import numpy as np
 import pandas as pd
 
 from hvacflex import kpi
@@ -177,20 +178,25 @@ def table1_models(tables: Mapping[str, pd.DataFrame]) -> pd.DataFrame:
 # ----------------------------------------------------------------------------- rendering
 
 
-COUNT_NAMES = ("steps", "fallback_count")
-"""KPI names whose values are counts (printed without decimals)."""
+COUNT_NAMES = (
+    *kpi.COUNT_KPIS,
+    "buildings",
+    "feeder_infeasible_steps",
+    "coordination_iterations_max",
+)
+"""KPI names whose values are counts (printed without decimals, also when stored as float)."""
 
 
 def format_value(column: str, value: object) -> str:
     """Display text of one value by the unit in its name (a column or a KPI name).
 
-    NaN as "–"; integers and counts (:data:`COUNT_NAMES`) whole; ``_pct`` signed with one
-    decimal and ``%``; ``_share`` (a fraction) in %; durations ``…_s`` and
-    ``max_delta_vs_half_band`` to four significant digits; other numbers with two decimals;
-    anything else as ``str``.
+    NaN as "–"; booleans as "yes" / "no"; integers and counts (:data:`COUNT_NAMES`) whole;
+    ``_pct`` signed with one decimal and ``%``; ``_share`` (a fraction) in %; durations
+    ``…_s`` and ``max_delta_vs_half_band`` to four significant digits; other numbers with two
+    decimals; anything else as ``str``.
     """
-    if isinstance(value, bool):
-        return str(value)
+    if isinstance(value, bool | np.bool_):
+        return "yes" if value else "no"
     if isinstance(value, numbers.Integral):
         return f"{int(value):,d}"
     if isinstance(value, numbers.Real):
