@@ -308,18 +308,22 @@ def does_it_pay_section(
         title="Does it pay? — every controller under one tariff",
         paragraphs=[
             f"Simulated {plan.days:g} days from {plan.start}, scaled to a month. Every run is "
-            "priced with the same tariff: energy at USEP + φ × each month's billed peak "
-            f"(φ = {TARIFF_PEAK_PRICE_SGD_PER_KW:g} SGD/kW, whatever φ the controller "
-            "planned with) + IL non-delivery penalties − reserve revenue; per m² over "
-            f"{area_m2:g} m² of floor. The reference is the cheapest rule-based baseline "
-            f"that keeps comfort: {reference}. The reserve revenue rests on the SYNTHETIC "
-            "reserve price, and the plant is hvacflex's own RC model.",
-            "Cheaper than the reference without more discomfort: "
+            "priced with the same tariff on money settled against the meter: HVAC energy at "
+            f"USEP + φ × each month's billed HVAC peak (φ = {TARIFF_PEAK_PRICE_SGD_PER_KW:g} "
+            "SGD/kW, whatever φ the controller planned with) + IL non-delivery penalties − "
+            "reserve revenue of the activated periods (settled against the meter). Availability "
+            "payments for reserve no activation tested stand beside it as unsettled reserve "
+            "and do not rank (they rest on the SYNTHETIC reserve price). Comfort is graded on "
+            "the occupied periods; the unoccupied excursions stand beside it. Per m² over "
+            f"{area_m2:g} m² of floor. The reference is the cheapest rule-based baseline that "
+            f"keeps occupied comfort: {reference}. The plant is hvacflex's own RC model.",
+            "Cheaper than the reference without more occupied discomfort: "
             + (", ".join(paying) if paying else "none")
             + ".",
         ],
         tables=[table],
         table_captions=[f"Every controller under one tariff, per month ({basis_text(plan)})"],
+        table_details=[pay.DETAIL_COLUMNS],
     )
 
 
@@ -460,9 +464,21 @@ def table1_section(
         ],
         tables=[table1, comparison],
         table_captions=[
-            f"Table 1 from our runs, per month ({basis_text(plan)})",
+            f"Table 1 from our runs, HVAC energy and reserve per month ({basis_text(plan)})",
             f"Our Table 1 beside the published one (ours: {basis_text(plan)}; the paper: "
             "the year 2014)",
+        ],
+        table_details=[
+            [*tables.TABLE1_IL_COLUMNS, "months", "days"],
+            [
+                "paper_scenario",
+                *(
+                    f"{column} ({side})"
+                    for column in tables.TABLE1_COLUMNS
+                    if column.startswith("reserve") or column == "energy_cost_change_pct"
+                    for side in ("ours", "paper")
+                ),
+            ],
         ],
     )
 

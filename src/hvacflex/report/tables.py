@@ -215,6 +215,31 @@ def format_value(column: str, value: object) -> str:
     return str(value)
 
 
+LABELS: dict[str, str] = {
+    # the "does it pay?" table (hvacflex.report.does_it_pay)
+    "rank": "Rank",
+    "controller": "Controller",
+    "tariff_cost_sgd_per_month": "Tariff cost [SGD/month]",
+    "saving_vs_reference_pct": "Saving vs reference [%]",
+    "pays": "Pays",
+    "discomfort_occupied_kelvin_hours_per_month": "Occupied discomfort [K·h/month]",
+    "reserve_unsettled_sgd_per_month": "Unsettled reserve (availability) [SGD/month]",
+    "discomfort_unoccupied_kelvin_hours_per_month": "Unoccupied discomfort [K·h/month]",
+    "saving_vs_reference_sgd_per_month": "Saving vs reference [SGD/month]",
+    "energy_cost_sgd_per_month": "HVAC energy cost [SGD/month]",
+    "peak_charge_sgd_per_month": "HVAC peak charge [SGD/month]",
+    "il_penalty_sgd_per_month": "IL penalty [SGD/month]",
+    "reserve_settled_sgd_per_month": "Settled reserve [SGD/month]",
+    "peak_power_kw": "HVAC peak [kW]",
+    "tariff_cost_sgd_per_m2_month": "Tariff cost [SGD/m²/month]",
+    "saving_vs_reference_sgd_per_m2_month": "Saving vs reference [SGD/m²/month]",
+    "rule_based": "Rule-based",
+    "reference": "Reference",
+}
+"""Human headers with units of the columns the HTML reports show (:func:`to_html`); a
+column not listed keeps its name (which carries its unit)."""
+
+
 def _header_and_rows(frame: pd.DataFrame) -> tuple[list[str], list[list[str]]]:
     index_name = str(frame.index.name) if frame.index.name is not None else ""
     header = [index_name, *(str(col) for col in frame.columns)]
@@ -247,14 +272,19 @@ def to_markdown(frame: pd.DataFrame) -> str:
 
 def to_html(frame: pd.DataFrame, *, caption: str | None = None) -> str:
     """An HTML ``<table class="hvacflex">`` of ``frame`` (index as first column), cells by
-    :func:`format_value`, all text escaped; numeric cells carry ``class="num"``."""
+    :func:`format_value`, headers by :data:`LABELS` (human, with units), all text escaped;
+    numeric cells carry ``class="num"``."""
     header, rows = _header_and_rows(frame)
+    header = [LABELS.get(name, name) for name in header]
     parts = ['<table class="hvacflex">']
     if caption:
         parts.append(f"<caption>{html.escape(caption)}</caption>")
     parts.append("<thead><tr>" + "".join(f"<th>{html.escape(h)}</th>" for h in header))
     parts.append("</tr></thead><tbody>")
-    numeric = [pd.api.types.is_numeric_dtype(frame[col]) for col in frame.columns]
+    numeric = [
+        pd.api.types.is_numeric_dtype(frame[col]) and not pd.api.types.is_bool_dtype(frame[col])
+        for col in frame.columns
+    ]
     for row in rows:
         cells = [f"<th>{html.escape(row[0])}</th>"]
         cells += [
