@@ -504,3 +504,26 @@ def test_kpi_command_prints_and_writes_counts_as_integers(tmp_path: Path) -> Non
     printed = {line.split("│")[1].strip(): line for line in lines}
     assert printed["il_activated_steps"].split("│")[2].strip() == "2"
     assert printed["il_delivered_ratio"].split("│")[2].strip() == "–"
+
+
+def test_a_rule_based_run_has_no_model_error() -> None:
+    df = results_frame(3)
+    df["prediction_error_north_k"] = [0.1, -0.3, 0.2]
+    df["prediction_error_core_k"] = [0.0, 0.0, 0.0]
+    assert kpi.summary(df)["prediction_error_max_k"] == pytest.approx(0.3)
+    df["solve_status"] = "rule"
+    assert kpi.is_rule_based(df)
+    out = kpi.summary(df)
+    assert np.isnan(out["prediction_error_rms_k"]) and np.isnan(out["prediction_error_max_k"])
+
+
+def test_facility_energy_and_peak_only_where_the_plant_meters_them() -> None:
+    df = results_frame(4, power_kw=10.0)
+    assert "facility_energy_kwh" not in kpi.summary(df)
+    df["facility_power_kw"] = np.nan  # the RC plant: HVAC only
+    assert "facility_peak_power_kw" not in kpi.summary(df)
+    df["facility_power_kw"] = [30.0, 40.0, 35.0, 30.0]  # EnergyPlus meters the facility
+    out = kpi.summary(df)
+    assert out["facility_energy_kwh"] == pytest.approx(135.0 * 0.5)
+    assert out["facility_peak_power_kw"] == pytest.approx(40.0)
+    assert out["energy_kwh"] == pytest.approx(20.0)  # the HVAC's, unchanged

@@ -140,6 +140,31 @@ def energy_kwh(results: pd.DataFrame) -> float:
     return float(np.sum(_values(results, "power_kw")) * step_hours(results))
 
 
+FACILITY_POWER_COLUMN = "facility_power_kw"
+"""Whole-facility electric power [kW], metered by a plant that meters it (EnergyPlus)."""
+
+
+def facility_metered(results: pd.DataFrame) -> bool:
+    """Whether the plant metered the whole facility (``facility_power_kw`` finite in every
+    step; NaN on the RC plant, which models the HVAC only)."""
+    if FACILITY_POWER_COLUMN not in results.columns or results.empty:
+        return False
+    return bool(np.all(np.isfinite(_values(results, FACILITY_POWER_COLUMN))))
+
+
+def facility_summary(results: pd.DataFrame) -> dict[str, float]:
+    """``facility_energy_kwh`` [kWh] and ``facility_peak_power_kw`` [kW] (largest 30-min
+    average) of the whole facility where the plant meters it (:func:`facility_metered`);
+    {} otherwise. Every other energy and peak KPI is the HVAC's (``power_kw``)."""
+    if not facility_metered(results):
+        return {}
+    facility = results[[FACILITY_POWER_COLUMN]].rename(columns={FACILITY_POWER_COLUMN: "power_kw"})
+    return {
+        "facility_energy_kwh": energy_kwh(facility),
+        "facility_peak_power_kw": peak_power_kw(facility),
+    }
+
+
 def energy_cost_sgd(results: pd.DataFrame) -> float:
     """Energy cost ``Σ_k c_k P_k Δt / 1000`` [SGD].
 
@@ -789,7 +814,9 @@ def summary(results: pd.DataFrame, peak_price_sgd_per_kw: float | None = None) -
 
     Keys: ``steps``, ``days``, ``energy_kwh``, ``energy_cost_sgd``, ``reserve_revenue_sgd``,
     ``reserve_revenue_settled_sgd``, ``reserve_revenue_unsettled_sgd``, ``il_penalty_sgd``,
-    ``net_cost_sgd``, ``ppp_charge_sgd`` (prorated to the days covered),
+    ``net_cost_sgd``, ``facility_energy_kwh`` and ``facility_peak_power_kw`` (only where the
+    plant meters the facility: :func:`facility_summary`; every other energy and peak is the
+    HVAC's), ``ppp_charge_sgd`` (prorated to the days covered),
     ``ppp_charge_monthly_sgd`` (the months billed whole), ``net_cost_with_ppp_sgd``,
     ``peak_power_kw``, ``monthly_avg_energy_cost_sgd``, ``monthly_avg_reserve_revenue_sgd``,
     ``monthly_avg_net_cost_sgd``, ``discomfort_kelvin_hours`` (total),
@@ -798,9 +825,9 @@ def summary(results: pd.DataFrame, peak_price_sgd_per_kw: float | None = None) -
     ``max_violation_occupied_k``, ``max_violation_<zone>_k``, ``violation_share``, the IL
     keys of :func:`il_summary`, ``fallback_count``, ``planned_slack_share``,
     ``max_delta_vs_half_band``, ``solve_time_mean_s``, ``solve_time_p95_s``,
-    ``solve_time_max_s``, ``prediction_error_*`` (:func:`prediction_error_summary`). Monthly
-    averages are omitted when the index is not a ``DatetimeIndex``, as are the PPP charges
-    and ``net_cost_with_ppp_sgd``. The counts (:data:`COUNT_KPIS`) are ``int``.
+    ``solve_time_max_s``, ``prediction_error_*`` (:func:`prediction_error_summary`; NaN for a
+    rule). Monthly averages are omitted when the index is not a ``DatetimeIndex``, as are the
+    PPP charges and ``net_cost_with_ppp_sgd``. The counts (:data:`COUNT_KPIS`) are ``int``.
     """
     out: dict[str, float] = {
         "steps": len(results),
@@ -814,6 +841,7 @@ def summary(results: pd.DataFrame, peak_price_sgd_per_kw: float | None = None) -
         "net_cost_sgd": net_cost_sgd(results),
     }
     out["peak_power_kw"] = peak_power_kw(results)
+    out |= facility_summary(results)
     if isinstance(results.index, pd.DatetimeIndex):
         out["ppp_charge_sgd"] = ppp_charge_sgd(results, peak_price_sgd_per_kw)
         out["ppp_charge_monthly_sgd"] = ppp_charge_monthly_sgd(results, peak_price_sgd_per_kw)
@@ -866,12 +894,29 @@ def il_summary(results: pd.DataFrame) -> dict[str, float]:
     }
 
 
+RULE_STATUS = "rule"
+"""``solve_status`` of a step a rule-based controller decided (no model, no plan)."""
+
+
+def is_rule_based(results: pd.DataFrame) -> bool:
+    """Whether every step was decided by a rule (``solve_status`` ``"rule"``): a controller
+    that plans with no model."""
+    if schema.STATUS_COLUMN not in results.columns or results.empty:
+        return False
+    return bool((results[schema.STATUS_COLUMN].astype(str) == RULE_STATUS).all())
+
+
 def prediction_error_summary(results: pd.DataFrame) -> dict[str, float]:
     """``prediction_error_rms_k``, ``_max_k`` [K]: RMS and largest |e| over steps and zones of
-    the one-step prediction errors ``prediction_error_<zone>_k`` (NaN left out); or {}."""
+    the one-step prediction errors ``prediction_error_<zone>_k`` (NaN left out); or {}.
+
+    NaN for a rule-based run (:func:`is_rule_based`): the errors are those of hvacflex's model,
+    which the rule never uses, so they say nothing about the controller."""
     names = schema.PREDICTION_ERROR.names(zone_names(results))
     if not all(name in results.columns for name in names):
         return {}
+    if is_rule_based(results):
+        return {"prediction_error_rms_k": float("nan"), "prediction_error_max_k": float("nan")}
     values = np.abs(results[names].to_numpy(dtype=float)).ravel()
     values = values[np.isfinite(values)] if np.isfinite(values).any() else np.array([np.nan])
     rms = float(np.sqrt(np.mean(values**2)))
