@@ -514,7 +514,7 @@ def comfort_section(
     from hvacflex import kpi
     from hvacflex.report import plots, text
     from hvacflex.report.html import Section
-    from hvacflex.report.run_report import formatted_kpi_table
+    from hvacflex.report.run_report import PLANNED_SLACK_TEXT, formatted_kpi_table, labelled
 
     all_frames = {SCENARIO_LABELS.get(k, k): f for k, f in scenario_frames.items()}
     summary = pd.DataFrame(
@@ -555,11 +555,16 @@ def comfort_section(
             f"up to {text.COMFORT_TOLERANCE_KELVIN_HOURS:g} K·h counts as keeping "
             "the band.",
             " ".join(comfort_sentences(scenario_discomfort, corner_discomfort, plan)),
+            PLANNED_SLACK_TEXT,
         ],
         figures=figures_comfort,
         figure_captions=captions,
         tables=[
-            formatted_kpi_table(summary.loc[[k for k in SHOWN_KPIS if k in summary.index]], None)
+            labelled(
+                formatted_kpi_table(
+                    summary.loc[[k for k in SHOWN_KPIS if k in summary.index]], None
+                )
+            )
         ],
         table_captions=[
             f"KPIs of every run over the scenario period, not scaled (peak billed at φ = "
@@ -572,9 +577,9 @@ def comfort_section(
 SHOWN_KPIS = (
     *REPORT_KPIS,
     "energy_cost_sgd",
-    "reserve_revenue_sgd",
+    "reserve_revenue_settled_sgd",
+    "reserve_revenue_unsettled_sgd",
     "ppp_charge_sgd",
-    "planned_slack_share",
     "solve_time_mean_s",
 )
 """Rows of kpi_scenarios.csv shown in the report's comfort section (the CSV holds all)."""

@@ -135,3 +135,4 @@ def test_detail_columns_go_into_an_expandable_detail_with_the_row_labels(tmp_pat
     assert "<td>yes</td>" in main and "<td>no</td>" in main  # booleans as yes / no
     assert "<summary>More columns (1)</summary>" in detail
     assert "<th>energy_kwh</th>" in detail and "<th>rmpc</th>" in detail
+    assert "<th>Pays</th>" in detail  # the first column is repeated with the row label

@@ -141,12 +141,14 @@ def _shown_table(table: pd.DataFrame) -> pd.DataFrame:
 
 
 def _table_html(table: pd.DataFrame, caption: str | None, details: Sequence[str]) -> str:
-    """The table with the columns ``details`` moved into an expandable ``<details>`` below."""
+    """The table with the columns ``details`` moved into an expandable ``<details>`` below,
+    which repeats the row label and the table's first column (e.g. rank and controller)."""
     hidden = [column for column in table.columns if column in set(details)]
-    main = to_html(table.drop(columns=hidden), caption=caption)
+    shown = table.drop(columns=hidden)
+    main = to_html(shown, caption=caption)
     html_text = f'<div class="table-scroll">{main}</div>'
     if hidden:
-        rest = to_html(table[hidden])
+        rest = to_html(table[[*shown.columns[:1], *hidden]])
         html_text += (
             f'<details class="table-detail"><summary>More columns ({len(hidden)})</summary>'
             f'<div class="table-scroll">{rest}</div></details>'
