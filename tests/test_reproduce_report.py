@@ -78,7 +78,7 @@ def test_the_deciding_columns_of_does_it_pay_fit_the_window(
     """In headless Chromium the "does it pay?" table shows rank, controller, tariff cost,
     saving, pays and occupied discomfort within the window, without scrolling sideways; the
     other columns are in an expandable detail below it."""
-    from hvacflex.reproduce_plan import RULE_BASED_SCENARIOS, SCENARIO_LABELS
+    from hvacflex.reproduce_plan import RULE_BASED_SCENARIOS
 
     keys = ["a", "b", "c", "paper-a", "paper-b", "paper-c", *RULE_BASED_SCENARIOS]
     frames = {key: make_results(seed=i, power_scale=1.0 + 0.03 * i) for i, key in enumerate(keys)}
