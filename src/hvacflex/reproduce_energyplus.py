@@ -330,8 +330,8 @@ def energyplus_section(
             f"{peak_price_sgd_per_kw:g} SGD/kW × the billed HVAC peak (prorated to the days "
             "covered) + IL penalties − reserve revenue settled against the meter (activated "
             "periods), over the period; reserve_revenue_unsettled_sgd beside it is the "
-            "availability payments no activation tested (synthetic price). tracking_rmse_k: RMS of the realised minus the planned end-of-period "
-            "zone temperature.",
+            "availability payments no activation tested (synthetic price). tracking_rmse_k: "
+            "RMS of the realised minus the planned end-of-period zone temperature.",
             "The verdicts below repeat the paper's findings on the EnergyPlus runs; they are "
             "graded by EnergyPlus, not by hvacflex's model.",
         ],

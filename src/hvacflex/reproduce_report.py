@@ -11,6 +11,7 @@ or the year).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -314,8 +315,13 @@ def does_it_pay_section(
             "reserve revenue of the activated periods (settled against the meter). Availability "
             "payments for reserve no activation tested stand beside it as unsettled reserve "
             "and do not rank (they rest on the SYNTHETIC reserve price). Comfort is graded on "
-            "the occupied periods; the unoccupied excursions stand beside it. Per m² over "
-            f"{area_m2:g} m² of floor. The reference is the cheapest rule-based baseline that "
+            "the occupied periods; the unoccupied excursions stand beside it. "
+            + (
+                f"Per m² over {area_m2:g} m² of floor. "
+                if math.isfinite(area_m2) and area_m2 > 0
+                else "Per m²: not available (the building's floor area is not known). "
+            )
+            + "The reference is the cheapest rule-based baseline that "
             f"keeps occupied comfort: {reference}. The plant is hvacflex's own RC model.",
             "Cheaper than the reference without more occupied discomfort: "
             + (", ".join(paying) if paying else "none")

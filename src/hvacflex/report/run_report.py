@@ -119,9 +119,6 @@ PLANNED_SLACK_TEXT = (
 )
 """What ``planned_slack_share`` means, as the page and the reproduction report say it."""
 
-NOT_AVAILABLE = "not available"
-"""A per-m² value of a run whose floor area is unknown."""
-
 
 @dataclass(frozen=True)
 class ReportRun:
@@ -303,9 +300,7 @@ RATIO_KPIS = ("il_delivered_ratio",)
 
 
 def _kpi_text(name: str, value: float) -> str:
-    if name.endswith("_per_m2") and not np.isfinite(value):
-        return NOT_AVAILABLE
-    return format_value(name, value)
+    return format_value(name, value)  # per m² of an unknown floor area: "not available"
 
 
 def formatted_kpi_table(table: pd.DataFrame, changes: pd.DataFrame | None) -> pd.DataFrame:
@@ -396,7 +391,11 @@ def _period_text(runs: Sequence[ReportRun]) -> str:
     for run in runs:
         index = pd.DatetimeIndex(run.results.index)
         span = f"{index[0]:%Y-%m-%d %H:%M} – {index[-1]:%Y-%m-%d %H:%M}" if len(index) else "empty"
-        area = f"{run.floor_area_m2:,.0f} m²" if run.floor_area_m2 else "floor area unknown"
+        area = (
+            f"{run.floor_area_m2:,.0f} m²"
+            if run.floor_area_m2
+            else "floor area not available (per-m² figures: not available)"
+        )
         parts.append(
             f"- {run.name}: {len(index)} periods, {span}; building {run.building or '?'}, {area}"
         )

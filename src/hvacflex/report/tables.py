@@ -187,13 +187,18 @@ COUNT_NAMES = (
 """KPI names whose values are counts (printed without decimals, also when stored as float)."""
 
 
+NOT_AVAILABLE = "not available"
+"""A per-m² value of a building whose floor area is unknown."""
+
+
 def format_value(column: str, value: object) -> str:
     """Display text of one value by the unit in its name (a column or a KPI name).
 
-    NaN as "–"; booleans as "yes" / "no"; integers and counts (:data:`COUNT_NAMES`) whole;
-    ``_pct`` signed with one decimal and ``%``; ``_share`` (a fraction) in %; durations
-    ``…_s`` and ``max_delta_vs_half_band`` to four significant digits; other numbers with two
-    decimals; anything else as ``str``.
+    NaN as "–" (per m², ``_per_m2``: "not available", the floor area is unknown); booleans
+    as "yes" / "no"; integers and counts (:data:`COUNT_NAMES`) whole; ``_pct`` signed with
+    one decimal and ``%``; ``_share`` (a fraction) in %; durations ``…_s`` and
+    ``max_delta_vs_half_band`` to four significant digits; other numbers with two decimals;
+    anything else as ``str``.
     """
     if isinstance(value, bool | np.bool_):
         return "yes" if value else "no"
@@ -202,7 +207,7 @@ def format_value(column: str, value: object) -> str:
     if isinstance(value, numbers.Real):
         number = float(value)
         if math.isnan(number):
-            return "–"
+            return NOT_AVAILABLE if "_per_m2" in column else "–"
         if column in COUNT_NAMES:
             return f"{number:,.0f}"
         if "_pct" in column:
