@@ -486,6 +486,7 @@ def table1_section(
                 ),
             ],
         ],
+        table_labels=[tables.TABLE1_LABELS, tables.TABLE1_LABELS],
     )
 
 
@@ -572,6 +573,7 @@ def comfort_section(
                 )
             )
         ],
+        table_details=[[name for name in summary.columns if WHOLE_HORIZON_TEXT in str(name)]],
         table_captions=[
             f"KPIs of every run over the scenario period, not scaled (peak billed at φ = "
             f"{TARIFF_PEAK_PRICE_SGD_PER_KW:g} SGD/kW; {basis_text(plan)}; every KPI in "
@@ -579,6 +581,10 @@ def comfort_section(
         ],
     )
 
+
+WHOLE_HORIZON_TEXT = "whole-horizon"
+"""In a run's label: the paper's reserve model, whose runs the comfort table shows in its
+expandable detail (the product presets' runs and the baselines stay in view)."""
 
 SHOWN_KPIS = (
     *REPORT_KPIS,
@@ -629,6 +635,7 @@ def uncertainty_section(plan: Plan, unc: pd.DataFrame, figures: Path) -> Any:
     """The price of robustness: KPIs against the uncertainty level, per controller."""
     from hvacflex.report import plots
     from hvacflex.report.html import Section
+    from hvacflex.report.run_report import PLANNED_SLACK_TEXT
 
     unc_csv = unc[
         [
@@ -652,6 +659,7 @@ def uncertainty_section(plan: Plan, unc: pd.DataFrame, figures: Path) -> Any:
             "solar and internal gains; the realised errors are drawn in the same "
             "box), from "
             f"{plan.sweep_start} for {plan.uncertainty_days:g} days.",
+            PLANNED_SLACK_TEXT,
         ],
         figures=[fig_unc],
         figure_captions=[
@@ -663,7 +671,19 @@ def uncertainty_section(plan: Plan, unc: pd.DataFrame, figures: Path) -> Any:
             f"Per controller and level σ [%], {plan.uncertainty_days:g} days from "
             f"{plan.sweep_start} on the RC plant, totals over the period"
         ],
+        table_labels=[ROBUSTNESS_LABELS],
     )
+
+
+ROBUSTNESS_LABELS = {
+    "uncertainty_level_pct": "Level σ [%]",
+    "net_cost_sgd": "HVAC net cost [SGD]",
+    "reserve_revenue_sgd": "Reserve revenue [SGD]",
+    "discomfort_kelvin_hours": "Discomfort [K·h]",
+    "planned_slack_share": "Plans needing slack",
+    "max_delta_vs_half_band": "Largest δ / half band",
+}
+"""Headers of the price-of-robustness table."""
 
 
 def scenario_sentences(summaries: Mapping[str, Mapping[str, float]]) -> list[str]:

@@ -19,7 +19,7 @@ import base64
 import html
 import os
 import re
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -75,6 +75,8 @@ class Section:
     table_details : for ``tables``, by position: the columns shown not in the table but in an
         expandable detail under it (its row labels repeated); default none (every column in
         the table).
+    table_labels : for ``tables``, by position: column → header (human, with units), over
+        :data:`hvacflex.report.tables.LABELS`; default none.
     """
 
     title: str
@@ -86,6 +88,7 @@ class Section:
     table_captions: list[str] = field(default_factory=list)
     links: list[tuple[str, str]] = field(default_factory=list)
     table_details: list[Sequence[str]] = field(default_factory=list)
+    table_labels: list[Mapping[str, str]] = field(default_factory=list)
 
 
 def png_data_uri(path: str | Path) -> str:
@@ -140,15 +143,17 @@ def _shown_table(table: pd.DataFrame) -> pd.DataFrame:
     return table
 
 
-def _table_html(table: pd.DataFrame, caption: str | None, details: Sequence[str]) -> str:
+def _table_html(
+    table: pd.DataFrame, caption: str | None, details: Sequence[str], labels: Mapping[str, str]
+) -> str:
     """The table with the columns ``details`` moved into an expandable ``<details>`` below,
     which repeats the row label and the table's first column (e.g. rank and controller)."""
     hidden = [column for column in table.columns if column in set(details)]
     shown = table.drop(columns=hidden)
-    main = to_html(shown, caption=caption)
+    main = to_html(shown, caption=caption, labels=labels)
     html_text = f'<div class="table-scroll">{main}</div>'
     if hidden:
-        rest = to_html(table[[*shown.columns[:1], *hidden]])
+        rest = to_html(table[[*shown.columns[:1], *hidden]], labels=labels)
         html_text += (
             f'<details class="table-detail"><summary>More columns ({len(hidden)})</summary>'
             f'<div class="table-scroll">{rest}</div></details>'
@@ -175,7 +180,8 @@ def _section_html(section: Section, anchor: str, link_base: Path | None) -> str:
     for i, table in enumerate(section.tables):
         caption = section.table_captions[i] if i < len(section.table_captions) else None
         details = section.table_details[i] if i < len(section.table_details) else ()
-        parts.append(_table_html(_shown_table(table), caption, details))
+        labels = section.table_labels[i] if i < len(section.table_labels) else {}
+        parts.append(_table_html(_shown_table(table), caption, details, labels))
     if section.code is not None:
         parts.append(f"<pre><code>{html.escape(section.code)}</code></pre>")
     parts.append("</section>")

@@ -245,6 +245,36 @@ LABELS: dict[str, str] = {
 column not listed keeps its name (which carries its unit)."""
 
 
+_TABLE1_HEADS = {
+    "energy_cost_sgd": "HVAC energy cost [SGD/month]",
+    "energy_cost_change_pct": "Energy cost vs (a) [%]",
+    "reserve_revenue_sgd": "Reserve revenue [SGD/month]",
+    "reserve_revenue_change_pct": "Reserve revenue vs (a) [%]",
+    "net_cost_sgd": "Total [SGD/month]",
+    "net_cost_change_pct": "Total vs (a) [%]",
+}
+
+TABLE1_LABELS: dict[str, str] = {
+    "scenario": "Scenario",
+    "reserve_model": "Reserve model",
+    "paper_scenario": "Paper's scenario",
+    **_TABLE1_HEADS,
+    **{
+        f"{name} ({side})": f"{head}, {side}"
+        for name, head in _TABLE1_HEADS.items()
+        for side in ("ours", "paper")
+    },
+    "il_offered_kwh": "IL due [kWh/month]",
+    "il_delivered_metered_kwh": "IL delivered, metered [kWh/month]",
+    "il_shortfall_kwh": "IL shortfall [kWh/month]",
+    "il_penalty_sgd": "IL penalty [SGD/month]",
+    "il_net_revenue_sgd": "IL net revenue [SGD/month]",
+    "months": "Months",
+    "days": "Days",
+}
+"""Headers (human, with units) of :func:`table1` and :func:`side_by_side` in a report."""
+
+
 def _header_and_rows(frame: pd.DataFrame) -> tuple[list[str], list[list[str]]]:
     index_name = str(frame.index.name) if frame.index.name is not None else ""
     header = [index_name, *(str(col) for col in frame.columns)]
@@ -275,12 +305,15 @@ def to_markdown(frame: pd.DataFrame) -> str:
     return "\n".join(lines) + "\n"
 
 
-def to_html(frame: pd.DataFrame, *, caption: str | None = None) -> str:
+def to_html(
+    frame: pd.DataFrame, *, caption: str | None = None, labels: Mapping[str, str] | None = None
+) -> str:
     """An HTML ``<table class="hvacflex">`` of ``frame`` (index as first column), cells by
-    :func:`format_value`, headers by :data:`LABELS` (human, with units), all text escaped;
-    numeric cells carry ``class="num"``."""
+    :func:`format_value` (by the column's name), headers by ``labels`` over :data:`LABELS`
+    (human, with units), all text escaped; numeric cells carry ``class="num"``."""
     header, rows = _header_and_rows(frame)
-    header = [LABELS.get(name, name) for name in header]
+    heads = LABELS | dict(labels or {})
+    header = [heads.get(name, name) for name in header]
     parts = ['<table class="hvacflex">']
     if caption:
         parts.append(f"<caption>{html.escape(caption)}</caption>")
