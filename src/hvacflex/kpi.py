@@ -455,7 +455,8 @@ def month_fraction(results: pd.DataFrame) -> pd.Series:
     months = _month_index(index)
     days = pd.Series(step_hours(results) / _HOURS_PER_DAY, index=months).groupby(level=0).sum()
     days_in_month = np.asarray(pd.PeriodIndex(days.index).days_in_month, dtype=float)
-    return (days / days_in_month).rename("month_fraction")
+    fraction: pd.Series = (days / days_in_month).rename("month_fraction")
+    return fraction
 
 
 # ----------------------------------------------------------------------------- Table 1
