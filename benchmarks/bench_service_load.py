@@ -13,6 +13,15 @@ the machine's load.
     PYTHONPATH=src python benchmarks/bench_service_load.py --buildings 20 --readers 20 \
         --rounds 3 [--db postgresql+psycopg://…] [--json out.json]
 
+With ``--duration-s`` (issue 56) the test runs for that long instead of by rounds: every
+building posts one measurement per period of ``--period-s`` wall-clock seconds without
+waiting for the plans, each reader makes ``--read-rate`` requests per second (paced, the
+latency counted from the planned send time), and at the end every acknowledged
+measurement must have its plan (``lost``: acknowledged but not planned within ``--max-s``):
+
+    PYTHONPATH=src python benchmarks/bench_service_load.py --buildings 10 --readers 20 \
+        --read-rate 5 --duration-s 60
+
 Targets (issue 29): reads p99 ≤ 50 ms, acknowledgements p99 ≤ 200 ms (the solve apart).
 """
 
@@ -44,9 +53,13 @@ def _free_port() -> int:
         return port
 
 
+UNLIMITED_OPTIONS = ["--register-limit", "1000000/1", "--clock-limit", "1000000/1"]
+"""No budget per key on the costly routes: one operator key registers every building."""
+
+
 def _start(db_url: str, port: int, log: Any) -> subprocess.Popen[bytes]:
     process = subprocess.Popen(
-        [*SERVE, "--db", db_url, "--host", "127.0.0.1", "--port", str(port)],
+        [*SERVE, "--db", db_url, "--host", "127.0.0.1", "--port", str(port), *UNLIMITED_OPTIONS],
         stdout=subprocess.DEVNULL,
         stderr=log,
     )
@@ -106,8 +119,11 @@ def _warm_keys(url: str, keys: dict[str, str]) -> None:
 class Readers:
     """``count`` threads reading plans of the buildings in turn until stopped."""
 
-    def __init__(self, url: str, key: str, building_ids: list[str], count: int) -> None:
+    def __init__(
+        self, url: str, key: str, building_ids: list[str], count: int, rate_per_s: float = 0.0
+    ) -> None:
         self.url, self.key, self.ids = url, key, building_ids
+        self.interval_s = 1.0 / rate_per_s if rate_per_s > 0 else 0.0
         self.stop = threading.Event()
         self.latencies_s: list[float] = []
         self.errors = 0
@@ -117,10 +133,15 @@ class Readers:
     def _read(self, i: int) -> None:
         with httpx.Client(base_url=self.url, headers={"X-API-Key": self.key}) as client:
             j = i
+            due = time.perf_counter() + self.interval_s * i / max(len(self.threads), 1)
             while not self.stop.is_set():
                 building_id = self.ids[j % len(self.ids)]
                 j += 1
-                started = time.perf_counter()
+                if self.interval_s:  # paced: a late answer delays no later request's clock
+                    time.sleep(max(0.0, due - time.perf_counter()))
+                    started, due = due, due + self.interval_s
+                else:
+                    started = time.perf_counter()
                 response = client.get(f"/v1/buildings/{building_id}/plan", timeout=30)
                 elapsed = time.perf_counter() - started
                 with self.lock:
@@ -171,8 +192,24 @@ def _post_round(
     return acks_s, revisions
 
 
-def _wait_for_plans(url: str, key: str, k: int, revisions: dict[str, int], max_s: float) -> bool:
-    """Whether every building's plan of period k (of the promised revision) is stored."""
+def _unplanned(url: str, key: str, k: int, revisions: dict[str, int], max_s: float) -> int:
+    """How many buildings' plans of period k (of the promised revision) are not stored
+    within ``max_s``."""
+    left: dict[str, int] = {}
+    _wait_for_plans(url, key, k, revisions, max_s, left)
+    return len(left)
+
+
+def _wait_for_plans(
+    url: str,
+    key: str,
+    k: int,
+    revisions: dict[str, int],
+    max_s: float,
+    left: dict[str, int] | None = None,
+) -> bool:
+    """Whether every building's plan of period k (of the promised revision) is stored
+    (those still waiting are put in ``left``)."""
     deadline = time.monotonic() + max_s
     waiting = dict(revisions)
     with httpx.Client(base_url=url, headers={"X-API-Key": key}) as client:
@@ -185,7 +222,27 @@ def _wait_for_plans(url: str, key: str, k: int, revisions: dict[str, int], max_s
                 ):
                     del waiting[building_id]
             time.sleep(0.05)
+    if left is not None:
+        left.update(waiting)
     return not waiting
+
+
+def _timed_rounds(
+    url: str, keys: dict[str, str], nodes: int, args: argparse.Namespace
+) -> tuple[list[float], list[tuple[int, dict[str, int]]]]:
+    """One round per ``--period-s`` until ``--duration-s``: the ack times [s] and each
+    round's (period, promised revisions); plans are not waited for."""
+    acks_s: list[float] = []
+    rounds: list[tuple[int, dict[str, int]]] = []
+    begin = time.perf_counter()
+    k = 0
+    while time.perf_counter() - begin < args.duration_s:
+        round_acks, revisions = _post_round(url, keys, nodes, k)
+        acks_s += round_acks
+        rounds.append((k, revisions))
+        k += 1
+        time.sleep(max(0.0, begin + k * args.period_s - time.perf_counter()))
+    return acks_s, rounds
 
 
 def run(args: argparse.Namespace) -> dict[str, Any]:
@@ -213,13 +270,17 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
                     nodes = len(payload["payload"]["nodes"])
             _warm_keys(url, keys)
             load_before = os.getloadavg()
-            with Readers(url, operator, list(keys), args.readers) as idle:
+            with Readers(url, operator, list(keys), args.readers, args.read_rate) as idle:
                 time.sleep(args.idle_s)  # reads alone: nothing is being planned
             acks_s: list[float] = []
             plans_s: list[float] = []
-            complete = True
-            with Readers(url, operator, list(keys), args.readers) as readers:
-                for k in range(args.rounds):
+            complete, lost = True, 0
+            rounds: list[tuple[int, dict[str, int]]] = []
+            rate = args.read_rate
+            with Readers(url, operator, list(keys), args.readers, rate) as readers:
+                if args.duration_s is not None:
+                    acks_s, rounds = _timed_rounds(url, keys, nodes, args)
+                for k in range(args.rounds if args.duration_s is None else 0):
                     if time.monotonic() - started > args.max_s:
                         complete = False
                         break
@@ -230,6 +291,12 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
                     complete &= _wait_for_plans(url, operator, k, revisions, left)
                     plans_s.append(time.perf_counter() - round_start)
             load_after = os.getloadavg()
+            if args.duration_s is not None:  # every acknowledged measurement planned?
+                for k, revisions in rounds:
+                    left = max(args.max_s - (time.monotonic() - started), 1.0)
+                    waiting = _unplanned(url, operator, k, revisions, left)
+                    lost += waiting
+                complete = lost == 0
         finally:
             process.terminate()
             process.wait(timeout=60)
@@ -237,8 +304,11 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         "database": db_url.split(":", 1)[0],
         "buildings": args.buildings,
         "readers": args.readers,
-        "rounds": args.rounds,
+        "rounds": args.rounds if args.duration_s is None else len(rounds),
+        "read_rate_per_reader_per_s": rate or None,
+        "duration_s": args.duration_s,
         "complete": complete,
+        "acknowledged_not_planned": lost,
         "reads_while_idle_ms": _percentiles_ms(idle.latencies_s),
         "reads_ms": _percentiles_ms(readers.latencies_s),
         "read_errors": readers.errors,
@@ -261,6 +331,15 @@ def main() -> None:
         "--idle-s", type=float, default=10.0, help="reads alone first, for comparison [s]"
     )
     parser.add_argument("--max-s", type=float, default=300.0, help="stop after this long [s]")
+    parser.add_argument(
+        "--read-rate", type=float, default=0.0, help="requests per reader per second (0: no pause)"
+    )
+    parser.add_argument(
+        "--duration-s", type=float, default=None, help="run this long instead of --rounds [s]"
+    )
+    parser.add_argument(
+        "--period-s", type=float, default=10.0, help="wall-clock seconds per period (--duration-s)"
+    )
     parser.add_argument("--json", type=Path, default=None, help="write the figures here too")
     args = parser.parse_args()
     figures = run(args)

@@ -220,7 +220,6 @@ WITHOUT_OWN_TEST_FILE: set[str] = {
     "hvacflex.report.notes",
     "hvacflex.report.validation_plots",
     "hvacflex.service.app",
-    "hvacflex.service.db",
     "hvacflex.service.keys",
     "hvacflex.service.replay",
     "hvacflex.service.runtime",
@@ -278,3 +277,126 @@ def test_the_mirror_rule_maps_modules_to_their_test_files() -> None:
     assert _own_test_file("hvacflex.config") == TESTS / "test_config.py"  # code in __init__
     assert _own_test_file("hvacflex.opt") is None  # re-exports only
     assert _own_test_file("hvacflex") == TESTS / "test_api.py"
+
+
+MAX_CLASS_LINES = 400
+"""A class in ``control/``, ``sim/`` or ``fleet/`` does one job: past this it does several."""
+
+CLASS_SIZE_PACKAGES = ("control", "sim", "fleet")
+
+
+def _classes(path: Path) -> list[ast.ClassDef]:
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    return [node for node in ast.walk(tree) if isinstance(node, ast.ClassDef)]
+
+
+def test_classes_of_the_control_path_are_small() -> None:
+    too_long = [
+        f"{path.relative_to(SRC)}:{node.name} ({(node.end_lineno or 0) - node.lineno + 1} lines)"
+        for package in CLASS_SIZE_PACKAGES
+        for path in sorted((PACKAGE / package).rglob("*.py"))
+        for node in _classes(path)
+        if (node.end_lineno or 0) - node.lineno + 1 > MAX_CLASS_LINES
+    ]
+    assert too_long == [], f"classes over {MAX_CLASS_LINES} lines"
+
+
+def test_the_controller_protocol_is_act_and_its_state() -> None:
+    """``Controller`` is ``act(inputs) -> Action``, ``get_state``, ``set_state``: whatever a
+    period needs arrives in its ``PeriodInputs``, nothing is told by side calls
+    (no ``note_…`` method anywhere in the package)."""
+    from hvacflex.control.base import Controller
+
+    methods = {
+        name
+        for name, value in vars(Controller).items()
+        if callable(value) and not name.startswith("_")
+    }
+    assert methods == {"act", "get_state", "set_state"}
+    hints = Controller.act.__annotations__
+    assert hints == {"inputs": "PeriodInputs", "return": "Action"}
+    noted = [
+        f"{path.relative_to(SRC)}:{node.lineno} {node.name}"
+        for path in sorted(PACKAGE.rglob("*.py"))
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8")))
+        if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef)
+        and node.name.startswith("note_")
+    ]
+    assert noted == []
+
+
+def _own_private_names(tree: ast.Module) -> set[str]:
+    """The private names a module defines itself: its functions, classes and methods, and
+    the attributes its code assigns (``self._x = …``, class-level ``_x = …``)."""
+    names: set[str] = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef | ast.ClassDef):
+            names.add(node.name)
+        elif isinstance(node, ast.Attribute) and isinstance(node.ctx, ast.Store):
+            names.add(node.attr)
+        elif isinstance(node, ast.Name) and isinstance(node.ctx, ast.Store):
+            names.add(node.id)
+        elif isinstance(node, ast.AnnAssign) and isinstance(node.target, ast.Name):
+            names.add(node.target.id)
+    return {name for name in names if name.startswith("_")}
+
+
+def _outside_imports(tree: ast.Module) -> set[str]:
+    """Names a module binds to other libraries' modules (``import typer``)."""
+    return {
+        (alias.asname or alias.name).split(".")[0]
+        for node in tree.body
+        if isinstance(node, ast.Import)
+        for alias in node.names
+        if not alias.name.startswith("hvacflex")
+    }
+
+
+def _foreign_private_accesses(name: str, path: Path) -> list[str]:
+    """``x._attr`` where ``_attr`` is another module's private name and ``x`` is not
+    ``self``/``cls``/``super()``: one part reaching into another part's private state. A
+    module's own private names (its classes' attributes used on another instance) and
+    other libraries' are not this rule's."""
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    own, outside = _own_private_names(tree), _outside_imports(tree)
+    found: list[str] = []
+    for node in ast.walk(tree):
+        if not isinstance(node, ast.Attribute) or not node.attr.startswith("_"):
+            continue
+        if node.attr.endswith("__") or node.attr in own:
+            continue
+        root = node.value
+        while isinstance(root, ast.Attribute):
+            root = root.value
+        if isinstance(root, ast.Name) and root.id in ("self", "cls", *outside):
+            continue
+        if isinstance(root, ast.Call) and isinstance(root.func, ast.Name):
+            if root.func.id == "super":
+                continue
+        found.append(f"{name}:{node.lineno} .{node.attr}")
+    return found
+
+
+def test_the_private_access_rule_finds_a_reach_into_another_part(tmp_path: Path) -> None:
+    module = ast.parse("class A:\n    def f(self, b):\n        return b._solver, self._x\n")
+    assert _own_private_names(module) == set()
+    path = tmp_path / "probe.py"
+    path.write_text("def f(controller):\n    return controller._solver\n", encoding="utf-8")
+    assert _foreign_private_accesses("probe", path) == ["probe:2 ._solver"]
+
+
+PRIVATE_ACCESS_ALLOWED: set[str] = set()
+"""Modules allowed to read another object's private attributes (none)."""
+
+
+def test_no_module_reaches_into_another_objects_private_attributes() -> None:
+    """A part talks to another through its public names; ``obj._attr`` outside ``self`` is
+    a test failure (the fleet's controller composes the MPC's parts, it does not reach into
+    them)."""
+    reached = [
+        access
+        for name, path in sorted(_modules().items())
+        if name not in PRIVATE_ACCESS_ALLOWED
+        for access in _foreign_private_accesses(name, path)
+    ]
+    assert reached == []

@@ -18,6 +18,9 @@ from typer.testing import CliRunner
 from hvacflex.cli import app
 from hvacflex.config import preset
 from hvacflex.fleet.generate import generate_fleet, write_fleet
+from hvacflex.paths import resources_dir
+
+SHIPPED_IDF = resources_dir() / "energyplus" / "5ZoneAirCooled.idf"
 
 SCENARIOS = {
     "huge_horizon.toml": "days = 0.5\n[controller]\nhorizon_steps = 100000000\n",
@@ -33,6 +36,9 @@ SCENARIOS = {
 
 SIM = ["simulate", "-q", "--days", "0.5"]
 FLEET_SIM = ["fleet", "simulate", "--fleet", "{tmp}/valid_fleet.toml", "--out", "{tmp}/fr"]
+COLLECT = ["identify", "collect", "--idf", str(SHIPPED_IDF), "--start", "2014-03-03", "--days", "1"]
+REPORT = ["report", "{tmp}/none", "--out", "{tmp}/r.html"]
+FIT = ["identify", "fit", "--data", "{tmp}/none.csv", "--out", "{tmp}/m.toml"]
 
 CASES: list[tuple[str, list[str], list[str]]] = [
     # output paths: a file in the way, a folder inside a file, a virtual file system
@@ -50,6 +56,9 @@ CASES: list[tuple[str, list[str], list[str]]] = [
     ("fleet-sim-out-file", [*FLEET_SIM[:-1], "{file}", "--days", "0.5"], ["'--out'", "is a file"]),
     ("kpi-csv-under-file", ["kpi", "{tmp}/none", "--csv", "{file}/x.csv"], ["'--csv'", "inside"]),
     ("kpi-csv-folder", ["kpi", "{tmp}/none", "--csv", "{folder}"], ["'--csv'", "folder"]),
+    ("identify-collect-out-under-file", [*COLLECT, "--out", "{file}/t.csv"], ["'--out'", "inside"]),
+    ("report-out-under-file", ["report", "{tmp}/none", "--out", "{file}/r.html"],
+     ["'--out'", "inside"]),
     # sizes and numbers
     ("fleet-buildings-cap", ["fleet", "generate", "--buildings", "1000000000", "--out", "x.toml"],
      ["'--buildings'", "1000"]),
@@ -64,6 +73,17 @@ CASES: list[tuple[str, list[str], list[str]]] = [
      ["'--workers'", "1"]),
     ("reproduce-workers-zero", ["reproduce", "--workers", "0"], ["'--workers'", "1"]),
     ("kpi-peak-price-nan", ["kpi", "{tmp}/none", "--peak-price", "nan"], ["'--peak-price'"]),
+    ("kpi-peak-price-negative", ["kpi", "{tmp}/none", "--peak-price", "-1"], ["'--peak-price'"]),
+    ("report-peak-price-nan", [*REPORT, "--peak-price", "nan"], ["'--peak-price'"]),
+    ("report-peak-price-negative", [*REPORT, "--peak-price", "-1"],
+     ["'--peak-price'", "greater than or equal to 0"]),
+    ("report-peak-price-inf", [*REPORT, "--peak-price", "inf"], ["'--peak-price'", "finite"]),
+    ("identify-fit-overlap", [*FIT, "--train", "2014-03-03..2014-03-10", "--test",
+                              "2014-03-10..2014-03-12"],
+     ["overlap", "--train 2014-03-03..2014-03-10", "--test 2014-03-10..2014-03-12"]),
+    ("identify-fit-overlap-inside", [*FIT, "--train", "2014-03-03..2014-03-10", "--test",
+                                     "2014-03-05..2014-03-06"],
+     ["overlap", "2014-03-03..2014-03-10", "2014-03-05..2014-03-06"]),
     ("data-days-huge", ["data", "show", "--days", "100000"], ["'--days'"]),
     ("checkpoint-every-zero", [*SIM, "--checkpoint-every", "0"], ["'--checkpoint-every'"]),
     # the scenario file: capped, physical ranges, the field the user wrote

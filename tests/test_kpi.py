@@ -527,3 +527,37 @@ def test_facility_energy_and_peak_only_where_the_plant_meters_them() -> None:
     assert out["facility_energy_kwh"] == pytest.approx(135.0 * 0.5)
     assert out["facility_peak_power_kw"] == pytest.approx(40.0)
     assert out["energy_kwh"] == pytest.approx(20.0)  # the HVAC's, unchanged
+
+
+def test_prediction_error_rms_split_by_the_occupied_band() -> None:
+    """Four periods, two zones: the band is 23–26 °C (occupied) in periods 1–2 and 20–30 °C
+    in 0 and 3. Occupied errors 0.1, −0.3, 0.2, 0.4 → RMS √(0.30/4); unoccupied 1, −2, NaN
+    (left out), 2 → RMS √(9/3)."""
+    frame = results_frame(4, lower=[20.0, 23.0, 23.0, 20.0], upper=[30.0, 26.0, 26.0, 30.0])
+    frame["prediction_error_north_k"] = [1.0, 0.1, -0.3, -2.0]
+    frame["prediction_error_core_k"] = [np.nan, 0.2, 0.4, 2.0]
+    split = kpi.prediction_error_rms_by_occupancy_k(frame)
+    assert split["prediction_error_rms_occupied_k"] == pytest.approx(np.sqrt(0.30 / 4))
+    assert split["prediction_error_rms_unoccupied_k"] == pytest.approx(np.sqrt(9.0 / 3))
+    summary = kpi.summary(frame)
+    assert summary["prediction_error_rms_occupied_k"] == split["prediction_error_rms_occupied_k"]
+    # the overall RMS stays, over all seven finite errors
+    assert summary["prediction_error_rms_k"] == pytest.approx(np.sqrt(9.30 / 7))
+
+
+def test_prediction_error_rms_of_an_empty_class_is_nan_and_without_errors_absent() -> None:
+    frame = results_frame(3)  # one band throughout: occupied throughout
+    frame["prediction_error_north_k"] = [0.3, -0.3, 0.3]
+    frame["prediction_error_core_k"] = [0.3, 0.3, -0.3]
+    split = kpi.prediction_error_rms_by_occupancy_k(frame)
+    assert split["prediction_error_rms_occupied_k"] == pytest.approx(0.3)
+    assert np.isnan(split["prediction_error_rms_unoccupied_k"])
+    assert kpi.prediction_error_rms_by_occupancy_k(results_frame(3)) == {}
+
+
+def test_model_extrapolation_steps_counts_the_flagged_periods_by_hand() -> None:
+    from hvacflex.kpi import model_extrapolation_steps
+
+    frame = pd.DataFrame({"model_extrapolation": [False, True, True, False, True]})
+    assert model_extrapolation_steps(frame) == 3
+    assert model_extrapolation_steps(frame.drop(columns="model_extrapolation")) == 0

@@ -87,6 +87,11 @@ def _check_finite(value: float | None) -> float | None:
     return value
 
 
+def _peak_price_option(help_text: str) -> Any:
+    """``--peak-price`` [SGD/kW]: a finite number ≥ 0 (``kpi`` and ``report`` alike)."""
+    return typer.Option(None, "--peak-price", min=0.0, callback=_check_finite, help=help_text)
+
+
 DATA_SHOW_MAX_DAYS = 366
 """Longest span ``data show`` summarises [days]: the shipped prices cover one year."""
 
@@ -133,7 +138,7 @@ def data_show(
         model = linearize(b)
         exo = load_exogenous(
             model.channels,
-            [z.floor_area_m2 for z in b.zones],
+            b.gain_floor_areas_m2,
             b.gains,
             start=start,
             steps=steps,
@@ -256,13 +261,9 @@ def kpi(
         metavar="RUN",
         help="Run directories (holding results.parquet) or results Parquet files.",
     ),
-    peak_price_sgd_per_kw: float | None = typer.Option(
-        None,
-        "--peak-price",
-        min=0.0,
-        callback=_check_finite,
-        help="Price the PPP charge of every run at this φ [SGD/kW] "
-        "(default: each run's peak_price_sgd_per_kw column).",
+    peak_price_sgd_per_kw: float | None = _peak_price_option(
+        "Price the PPP charge of every run at this φ [SGD/kW] "
+        "(default: each run's peak_price_sgd_per_kw column)."
     ),
     csv: Path | None = typer.Option(None, help="Also write the table to this CSV file."),  # noqa: B008
 ) -> None:
@@ -367,7 +368,7 @@ def simulate(
 
     from hvacflex.errors import HvacflexError
     from hvacflex.paths import check_output_dir
-    from hvacflex.sim.closed_loop import run_simulation
+    from hvacflex.sim.closed_loop import RunInterrupted, run_simulation
     from hvacflex.sim.run_files import check_linearisation, check_out_dir
 
     console = Console()
@@ -377,7 +378,12 @@ def simulate(
         check_output_dir(out, "--out")
         check_out_dir(out, cfg, fresh)
         result = run_simulation(
-            cfg, out, progress=not quiet, resume=not fresh, checkpoint_every=checkpoint_every
+            cfg,
+            out,
+            progress=not quiet,
+            resume=not fresh,
+            checkpoint_every=checkpoint_every,
+            on_resume=lambda k: console.print(f"resumed from period {k}"),
         )
         if not no_report:
             from hvacflex.report.run_report import report_for_run_dir
@@ -385,10 +391,11 @@ def simulate(
             report_for_run_dir(result.out_dir)
     except HvacflexError as exc:
         raise fail(exc) from None
+    except RunInterrupted as stopped:
+        console.print(stopped.message(), soft_wrap=True, markup=False, highlight=False)
+        raise typer.Exit(130) from None
     if result.cached:
         console.print(f"re-used finished results in {result.out_dir}")
-    elif result.resumed_from_step is not None:
-        console.print(f"resumed from step {result.resumed_from_step}")
     summary = _run_summary_line(run_label(cfg), result.summary, result.results_path)
     console.print(summary, soft_wrap=True, markup=False, highlight=False)
 
@@ -414,19 +421,19 @@ def report(
     baseline: Path | None = typer.Option(  # noqa: B008
         None, help="A run to compare against (shown too; Δ columns in the KPI table)."
     ),
-    peak_price_sgd_per_kw: float | None = typer.Option(
-        None,
-        "--peak-price",
-        help="φ of the one tariff every run is billed at [SGD/kW] (default: the largest "
-        "any run recorded).",
+    peak_price_sgd_per_kw: float | None = _peak_price_option(
+        "φ of the one tariff every run is billed at [SGD/kW] (default: the largest "
+        "any run recorded)."
     ),
 ) -> None:
     """Write one self-contained HTML page for runs: temperatures, power and reserve, prices,
     the cost under one tariff and the KPIs (per run, per m², against a baseline)."""
     from hvacflex.errors import HvacflexError
+    from hvacflex.paths import check_output_file
     from hvacflex.report.run_report import write_run_report
 
     try:
+        check_output_file(out, "--out")
         path = write_run_report(
             runs, out, baseline=baseline, peak_price_sgd_per_kw=peak_price_sgd_per_kw
         )

@@ -130,7 +130,10 @@ def identify_collect(
         None, "--weather", help="EPW file (default: the shipped Singapore TMYx)."
     ),
     excitation: str = typer.Option(
-        "prbs", "--excitation", help="Setpoint excitation: prbs, steps or none."
+        "range",
+        "--excitation",
+        help="Setpoint excitation: range (the operating range: PRBS in office hours, "
+        "float-ups and pull-downs outside), prbs, steps or none.",
     ),
     zones: str | None = typer.Option(
         None, "--zones", help="IDF zones, comma-separated (default: every zone with a thermostat)."
@@ -142,11 +145,12 @@ def identify_collect(
     from hvacflex.errors import HvacflexError
     from hvacflex.identify.collect import collect_trend
     from hvacflex.identify.trend import write_trend
-    from hvacflex.paths import data_dir
+    from hvacflex.paths import check_output_file, data_dir
 
     epw = weather if weather is not None else data_dir() / "weather" / DEFAULT_WEATHER_FILE
     names = None if zones is None else tuple(z.strip() for z in zones.split(",") if z.strip())
     try:
+        check_output_file(out, "--out")  # before EnergyPlus runs
         frame = collect_trend(
             idf, start=start, days=days, epw_path=epw, excitation=excitation, zones=names, seed=seed
         )
@@ -177,6 +181,15 @@ def identify_fit(
         help="EPW of the site: where the walls' irradiance is computed, scenario.toml's "
         "weather (default: the shipped Singapore TMYx).",
     ),
+    floor_area: str | None = typer.Option(
+        None,
+        "--floor-area",
+        help="The fitted zones' floor areas, \"Z1=M2,Z2=M2\" (default: the --idf's zone "
+        "floors, else the --template's zones; without any, per-m² figures are not available).",
+    ),
+    strict: bool = typer.Option(
+        False, "--strict", help="Exit 2 when a plausibility check fails (checks.csv)."
+    ),
 ) -> None:
     """Fit a grey-box RC model to trend data; write it (a building file), fit_report.csv,
     the parameters, the calibrated model-error box and scenario.toml."""
@@ -200,10 +213,12 @@ def identify_fit(
                 test=test,
                 idf=idf,
                 weather=weather,
+                floor_areas=floor_area,
             )
     except HvacflexError as exc:
         raise exit_on_error(exc) from None
-    typer.echo(outcome.report.to_string(index=False, float_format=lambda v: f"{v:.3f}"))
+    shown = outcome.report.drop(columns=["warnings"])  # they are the checks printed below
+    typer.echo(shown.to_string(index=False, float_format=lambda v: f"{v:.3f}"))
     typer.echo(outcome.box.frame().to_string(index=False, float_format=lambda v: f"{v:.3f}"))
     if outcome.power is not None:
         typer.echo(outcome.power.to_string(index=False, float_format=lambda v: f"{v:.1f}"))
@@ -214,6 +229,7 @@ def identify_fit(
         outcome.model_path,
         outcome.report_path,
         outcome.parameters_path,
+        outcome.checks_path,
         outcome.power_path,
         outcome.model_path.parent / "fit_predictions.csv",
         outcome.model_path.parent / "box_report.csv",
@@ -222,3 +238,17 @@ def identify_fit(
     ):
         if path is not None:
             typer.echo(f"wrote {path}")
+    failed = outcome.failed_checks
+    if not failed:
+        typer.echo("plausibility checks: all ok")
+        return
+    typer.echo(f"plausibility checks: {len(failed)} failed ({outcome.checks_path}):", err=True)
+    for line in failed:
+        typer.echo(f"  {line}", err=True)
+    if strict:
+        typer.echo(
+            "error: --strict: the fitted model fails the checks above; fix the data or the "
+            "zones' description (--idf, --floor-area), or leave --strict out to keep it",
+            err=True,
+        )
+        raise typer.Exit(2)

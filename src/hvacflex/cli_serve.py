@@ -55,12 +55,29 @@ def serve(
     ssl_keyfile: Path | None = typer.Option(  # noqa: B008
         None, help="TLS: the certificate's private key, PEM."
     ),
+    ssl_min_version: str = typer.Option(
+        "1.2", "--ssl-min-version", help="TLS: the oldest TLS version accepted, 1.2 or 1.3."
+    ),
+    insecure_http: bool = typer.Option(
+        False,
+        "--insecure-http",
+        help="Allow plain HTTP on an address other than loopback (API keys travel in clear): "
+        "only behind a TLS-terminating proxy.",
+    ),
     stale_after_s: float = typer.Option(
         3600.0,
         help="A building with no measurement for this many seconds is stale: its plan "
         "is left out of the aggregate bid.",
     ),
     log_level: str = typer.Option("info", help="JSON log level: debug, info, warning, error."),
+    register_limit: str = typer.Option(
+        "10/3600",
+        "--register-limit",
+        help="Each key's budget of POST /v1/buildings: N/SECONDS (N requests per SECONDS).",
+    ),
+    clock_limit: str = typer.Option(
+        "1/10", "--clock-limit", help="Each key's budget of POST /v1/clock: N/SECONDS."
+    ),
 ) -> None:
     """Run the HTTP service (API under /v1, OpenAPI at /v1/openapi.json); prints its URL
     and logs one JSON line per request on standard error."""
@@ -69,51 +86,109 @@ def serve(
         return
     import sys
 
-    import uvicorn
-
-    from hvacflex.errors import HvacflexError, InputError
+    from hvacflex.errors import HvacflexError
     from hvacflex.service.app import create_app
+    from hvacflex.service.keys import CLOCK_ROUTE, REGISTER_ROUTE, parse_route_limit
     from hvacflex.service.operations import (
         check_listen_address,
+        check_plain_http,
         check_tls,
-        json_log_config,
         service_url,
+        tls_minimum_version,
     )
 
-    levels = ("debug", "info", "warning", "error")
     try:
-        if log_level.lower() not in levels:
-            raise InputError(
-                "unknown level",
-                field="--log-level",
-                value=log_level,
-                hint=f"use one of {', '.join(levels)}",
-            )
-        if not math.isfinite(stale_after_s) or stale_after_s <= 0:
-            raise InputError(
-                "must be a finite number of seconds > 0",
-                field="--stale-after-s",
-                value=stale_after_s,
-            )
+        _check_log_and_staleness(log_level, stale_after_s)
+        route_limits = {
+            REGISTER_ROUTE: parse_route_limit(register_limit, "--register-limit"),
+            CLOCK_ROUTE: parse_route_limit(clock_limit, "--clock-limit"),
+        }
         tls = check_tls(ssl_certfile, ssl_keyfile)
+        minimum_tls = tls_minimum_version(ssl_min_version)
         check_listen_address(host, port)
+        check_plain_http(host, tls, insecure_http)
         service = create_app(
-            _serve_db(ctx, db), wall_clock=wall_clock, stale_after_s=stale_after_s, live=live
+            _serve_db(ctx, db),
+            wall_clock=wall_clock,
+            stale_after_s=stale_after_s,
+            live=live,
+            route_limits=route_limits,
         )
     except HvacflexError as exc:
         raise exit_on_error(exc) from None
     mode = "; live mode: real dates" if live else ""
     typer.echo(f"hvacflex service on {service_url(host, port, tls)} (API under /v1){mode}")
     sys.stdout.flush()  # the URL reaches a pipe (a supervisor, a test) before the first request
-    uvicorn.run(
+    _run_server(
+        service,
+        host,
+        port,
+        (ssl_certfile, ssl_keyfile) if tls else None,
+        minimum_tls,
+        log_level,
+    )
+
+
+def _check_log_and_staleness(log_level: str, stale_after_s: float) -> None:
+    """Refuse an unknown ``--log-level`` or a ``--stale-after-s`` that is not > 0 s.
+
+    Raises
+    ------
+    InputError : naming the option.
+    """
+    from hvacflex.errors import InputError
+
+    levels = ("debug", "info", "warning", "error")
+    if log_level.lower() not in levels:
+        raise InputError(
+            "unknown level",
+            field="--log-level",
+            value=log_level,
+            hint=f"use one of {', '.join(levels)}",
+        )
+    if not math.isfinite(stale_after_s) or stale_after_s <= 0:
+        raise InputError(
+            "must be a finite number of seconds > 0",
+            field="--stale-after-s",
+            value=stale_after_s,
+        )
+
+
+def _run_server(
+    service: Any,
+    host: str,
+    port: int,
+    tls_files: tuple[Path | None, Path | None] | None,
+    minimum_tls: Any,
+    log_level: str,
+) -> None:
+    """Serve ``service`` with uvicorn until stopped; over TLS (certificate, key) no older
+    than ``minimum_tls`` (an :class:`ssl.TLSVersion`). A server that could not start exits
+    3, as ``uvicorn.run`` does."""
+    import uvicorn
+
+    from hvacflex.service.operations import json_log_config
+
+    certfile, keyfile = tls_files if tls_files is not None else (None, None)
+    config = uvicorn.Config(
         service,
         host=host,
         port=port,
-        ssl_certfile=str(ssl_certfile) if tls else None,
-        ssl_keyfile=str(ssl_keyfile) if tls else None,
+        ssl_certfile=None if certfile is None else str(certfile),
+        ssl_keyfile=None if keyfile is None else str(keyfile),
         log_config=json_log_config(log_level.upper()),
         access_log=False,
     )
+    config.load()  # builds the server's SSL context: hardened here, before it serves
+    if config.ssl is not None:
+        config.ssl.minimum_version = minimum_tls
+    server = uvicorn.Server(config)
+    try:
+        server.run()
+    except KeyboardInterrupt:
+        pass
+    if not server.started:
+        raise typer.Exit(3)
 
 
 def _key_sessions(ctx: typer.Context, db: str | None) -> Any:

@@ -740,6 +740,17 @@ def fallback_count(results: pd.DataFrame) -> int:
     return int(np.sum(_column(results, "fallback").fillna(False).astype(bool).to_numpy()))
 
 
+def model_extrapolation_steps(results: pd.DataFrame) -> int:
+    """Number of periods planned outside an identified model's validity range (column
+    ``model_extrapolation``: a zone's planned end temperature or the forecast outdoor
+    temperature beyond the training data's; docs/identify.md). 0 for results written before
+    the column existed."""
+    if "model_extrapolation" not in results.columns:
+        return 0
+    flags = results["model_extrapolation"].fillna(False).astype(bool).to_numpy()
+    return int(np.sum(flags))
+
+
 def planned_slack_share(
     results: pd.DataFrame, tolerance_k: float = PLANNED_SLACK_TOLERANCE_K
 ) -> float:
@@ -805,6 +816,7 @@ COUNT_KPIS = (
     "il_activated_steps",
     "il_beyond_model_steps",
     "fallback_count",
+    "model_extrapolation_steps",
 )
 """Keys of :func:`summary` that count things: integers (``int``) in the summary, its JSON
 and CSV, and printed as whole numbers."""
@@ -824,11 +836,12 @@ def summary(results: pd.DataFrame, peak_price_sgd_per_kw: float | None = None) -
     ``discomfort_occupied_kelvin_hours``, ``discomfort_unoccupied_kelvin_hours`` (they sum to
     the total), ``discomfort_<zone>_kelvin_hours``, ``max_violation_k`` (all zones),
     ``max_violation_occupied_k``, ``max_violation_<zone>_k``, ``violation_share``, the IL
-    keys of :func:`il_summary`, ``fallback_count``, ``planned_slack_share``,
-    ``max_delta_vs_half_band``, ``solve_time_mean_s``, ``solve_time_p95_s``,
-    ``solve_time_max_s``, ``prediction_error_*`` (:func:`prediction_error_summary`; NaN for a
-    rule). Monthly averages are omitted when the index is not a ``DatetimeIndex``, as are the
-    PPP charges and ``net_cost_with_ppp_sgd``. The counts (:data:`COUNT_KPIS`) are ``int``.
+    keys of :func:`il_summary`, ``fallback_count``, ``model_extrapolation_steps``,
+    ``planned_slack_share``, ``max_delta_vs_half_band``, ``solve_time_mean_s``,
+    ``solve_time_p95_s``, ``solve_time_max_s``, ``prediction_error_*``
+    (:func:`prediction_error_summary`; NaN for a rule). Monthly averages are omitted when the
+    index is not a ``DatetimeIndex``, as are the PPP charges and ``net_cost_with_ppp_sgd``.
+    The counts (:data:`COUNT_KPIS`) are ``int``.
     """
     out: dict[str, float] = {
         "steps": len(results),
@@ -862,6 +875,7 @@ def summary(results: pd.DataFrame, peak_price_sgd_per_kw: float | None = None) -
     out["violation_share"] = violation_share(results)
     out |= il_summary(results)
     out["fallback_count"] = fallback_count(results)
+    out["model_extrapolation_steps"] = model_extrapolation_steps(results)
     out["planned_slack_share"] = planned_slack_share(results)
     out["max_delta_vs_half_band"] = max_delta_vs_half_band(results)
     out |= {f"solve_time_{stat}_s": v for stat, v in solve_time_stats_s(results).items()}
@@ -909,7 +923,9 @@ def is_rule_based(results: pd.DataFrame) -> bool:
 
 def prediction_error_summary(results: pd.DataFrame) -> dict[str, float]:
     """``prediction_error_rms_k``, ``_max_k`` [K]: RMS and largest |e| over steps and zones of
-    the one-step prediction errors ``prediction_error_<zone>_k`` (NaN left out); or {}.
+    the one-step prediction errors ``prediction_error_<zone>_k`` (NaN left out), and
+    ``prediction_error_rms_occupied_k`` / ``_unoccupied_k``
+    (:func:`prediction_error_rms_by_occupancy_k`); or {}.
 
     NaN for a rule-based run (:func:`is_rule_based`): the errors are those of hvacflex's model,
     which the rule never uses, so they say nothing about the controller."""
@@ -917,8 +933,32 @@ def prediction_error_summary(results: pd.DataFrame) -> dict[str, float]:
     if not all(name in results.columns for name in names):
         return {}
     if is_rule_based(results):
-        return {"prediction_error_rms_k": float("nan"), "prediction_error_max_k": float("nan")}
+        keys = ("rms", "max", "rms_occupied", "rms_unoccupied")
+        return {f"prediction_error_{key}_k": float("nan") for key in keys}
     values = np.abs(results[names].to_numpy(dtype=float)).ravel()
     values = values[np.isfinite(values)] if np.isfinite(values).any() else np.array([np.nan])
     rms = float(np.sqrt(np.mean(values**2)))
-    return {"prediction_error_rms_k": rms, "prediction_error_max_k": float(np.max(values))}
+    return {
+        "prediction_error_rms_k": rms,
+        "prediction_error_max_k": float(np.max(values)),
+        **prediction_error_rms_by_occupancy_k(results),
+    }
+
+
+def prediction_error_rms_by_occupancy_k(results: pd.DataFrame) -> dict[str, float]:
+    """``prediction_error_rms_occupied_k`` and ``prediction_error_rms_unoccupied_k`` [K]: the
+    RMS of the one-step prediction errors ``prediction_error_<zone>_k`` over every zone and
+    every occupied (unoccupied) period — occupied: the zone's comfort band in force is its
+    occupied (narrowest) band of the run — NaN left out; NaN when the class has no finite
+    error; {} without the error columns."""
+    names = schema.PREDICTION_ERROR.names(zone_names(results))
+    if not all(name in results.columns for name in names):
+        return {}
+    errors = results[names].to_numpy(dtype=float)
+    occupied = occupied_mask(results).to_numpy(dtype=bool)
+    out = {}
+    for key, mask in (("occupied", occupied), ("unoccupied", ~occupied)):
+        chosen = errors[mask & np.isfinite(errors)]
+        rms = float(np.sqrt(np.mean(chosen**2))) if chosen.size else float("nan")
+        out[f"prediction_error_rms_{key}_k"] = rms
+    return out

@@ -104,6 +104,7 @@ FLAG_COLUMNS: tuple[str, ...] = (
     "il_beyond_model",
     "il_event_window",
     "fallback",
+    "model_extrapolation",
 )
 """Boolean per-step columns, in file order (after the float columns)."""
 

@@ -5,9 +5,11 @@ A state is a tree of ``dict``, ``list``, ``tuple``, ``str``, ``int``, ``float``,
 dataclasses and enums. :func:`encode` writes it as one ``.npz`` archive (numpy's zip of
 ``.npy`` arrays, read with ``allow_pickle=False``): the tree as JSON in ``manifest``, every
 array beside it. Dataclasses and enums are named by module and qualified name and rebuilt
-from their fields on :func:`decode`, which accepts only classes of the ``hvacflex`` package
-that are dataclasses or enums, so reading a state never runs code a file names (a pickle
-would run whatever it holds).
+from their fields on :func:`decode`, which builds only the types registered with
+:func:`register_stored_types` (the one list: :mod:`hvacflex.sim.stored_types`, registered
+whenever :mod:`hvacflex.sim` is imported). A name is looked up in that registry, never
+imported: reading a state imports no module and runs no code a file names (a pickle would
+run whatever it holds).
 
 Every state carries :data:`FORMAT` and :data:`VERSION`; a state of another version, or a
 pickle written by an older hvacflex, is refused with :class:`StateFormatError` saying how to
@@ -18,7 +20,6 @@ from __future__ import annotations
 
 import dataclasses
 import enum
-import importlib
 import io
 import json
 import math
@@ -40,6 +41,9 @@ _MANIFEST = "manifest"
 _PICKLE_MAGIC = b"\x80"
 _TAG = "__hvacflex__"
 
+_STORED_TYPES: dict[str, type] = {}
+"""``module:qualname`` → the dataclass or enum :func:`decode` may build (nothing else)."""
+
 
 class StateFormatError(StoredStateError):
     """A stored state that this version of hvacflex does not read (or not a state at all)."""
@@ -47,6 +51,25 @@ class StateFormatError(StoredStateError):
 
 class DamagedStateError(StateFormatError):
     """Bytes that are not a readable state at all (truncated, damaged, another file)."""
+
+
+def register_stored_types(*types: type) -> None:
+    """Allow :func:`decode` to build ``types`` (hvacflex's frozen dataclasses and enums).
+
+    Raises
+    ------
+    TypeError : a type that is not an hvacflex dataclass or enum.
+    """
+    for cls in types:
+        name = _class_name(cls)
+        if not _is_hvacflex_module(cls.__module__) or not _is_dataclass_or_enum(cls):
+            raise TypeError(f"{name}: only hvacflex dataclasses and enums are stored")
+        _STORED_TYPES[name] = cls
+
+
+def stored_types() -> dict[str, type]:
+    """The registered types by ``module:qualname`` (a copy)."""
+    return dict(_STORED_TYPES)
 
 
 def encode(state: Any) -> bytes:
@@ -78,7 +101,8 @@ def decode(data: bytes, *, source: str = "state") -> Any:
 
     Raises
     ------
-    StateFormatError : a pickle of an older hvacflex, another format version, or not a state.
+    StateFormatError : a pickle of an older hvacflex, another format version, not a state,
+        or a state naming a type that is not registered (:func:`register_stored_types`).
     """
     if data[:1] == _PICKLE_MAGIC:
         raise StateFormatError(
@@ -198,31 +222,52 @@ def _decode(tree: Any, arrays: dict[str, np.ndarray], source: str) -> Any:
     if kind == "timestamp":
         stamp = pd.Timestamp(tree["value"])
         return stamp if tree.get("tz") is None else stamp.tz_convert(tree["tz"])
-    if kind == "enum":
-        return _allowed_class(tree["cls"], source)(tree["value"])
-    if kind == "dataclass":
-        cls = _allowed_class(tree["cls"], source)
-        fields = {name: _decode(v, arrays, source) for name, v in tree["fields"].items()}
-        return cls(**fields)
+    if kind in ("enum", "dataclass"):
+        return _build(tree, arrays, source, kind)
     raise StateFormatError(f"unknown entry {kind!r}", source=source, hint="start afresh")
 
 
-def _allowed_class(name: str, source: str) -> Any:
-    """The hvacflex dataclass or enum ``module:qualname`` names; nothing else is built."""
-    module_name, _, qualname = name.partition(":")
-    if module_name != "hvacflex" and not module_name.startswith("hvacflex."):
-        raise StateFormatError(f"names a class outside hvacflex: {name}", source=source)
-    try:
-        obj: Any = importlib.import_module(module_name)
-        for part in qualname.split("."):
-            obj = getattr(obj, part)
-    except (ImportError, AttributeError):
+def _is_hvacflex_module(module_name: str) -> bool:
+    return module_name == "hvacflex" or module_name.startswith("hvacflex.")
+
+
+def _is_dataclass_or_enum(cls: type) -> bool:
+    return isinstance(cls, type) and (dataclasses.is_dataclass(cls) or issubclass(cls, enum.Enum))
+
+
+def _stored_class(name: Any, source: str, kind: str) -> Any:
+    """The registered ``kind`` ("enum" or "dataclass") that ``name`` (``module:qualname``)
+    names; a name is only looked up in the registry, never imported."""
+    cls = _STORED_TYPES.get(name) if isinstance(name, str) else None
+    if cls is None:
+        outside = not _is_hvacflex_module(str(name).partition(":")[0])
         raise StateFormatError(
-            f"names {name}, which this hvacflex does not have",
+            f"names {name!r}{', a class outside hvacflex' if outside else ''}: "
+            "not a type hvacflex stores (a state is never allowed to name code to import)",
             source=source,
-            hint="start afresh, or use the hvacflex version that wrote it",
+            hint="start afresh: delete it, or use the hvacflex version that wrote it",
+        )
+    if (kind == "enum") != issubclass(cls, enum.Enum):
+        raise StateFormatError(
+            f"names {name!r} as an {kind}, which it is not", source=source, hint="start afresh"
+        )
+    return cls
+
+
+def _build(tree: dict[str, Any], arrays: dict[str, np.ndarray], source: str, kind: str) -> Any:
+    """The registered enum member or dataclass instance ``tree`` describes."""
+    cls = _stored_class(tree.get("cls"), source, kind)
+    stored_fields = tree.get("fields")
+    fields = (
+        {str(name): _decode(v, arrays, source) for name, v in stored_fields.items()}
+        if kind == "dataclass" and isinstance(stored_fields, dict)
+        else {}
+    )
+    try:
+        return cls(tree.get("value")) if kind == "enum" else cls(**fields)
+    except (TypeError, ValueError) as err:
+        raise StateFormatError(
+            f"a {tree.get('cls')} that this hvacflex cannot rebuild ({err})",
+            source=source,
+            hint="start afresh: delete it, or use the hvacflex version that wrote it",
         ) from None
-    is_enum = isinstance(obj, type) and issubclass(obj, enum.Enum)
-    if not (is_enum or (isinstance(obj, type) and dataclasses.is_dataclass(obj))):
-        raise StateFormatError(f"{name} is not a dataclass or enum", source=source)
-    return obj

@@ -11,7 +11,9 @@ import pytest
 import hvacflex
 from hvacflex.building.discretize import linearize
 from hvacflex.building.identified import (
+    GAIN_CHANNEL_PEAK_W,
     IdentifiedPower,
+    IdentifiedValidity,
     identified_affine_power,
     identified_occupied_share,
     identified_power_kw,
@@ -196,3 +198,87 @@ def test_the_rc_plant_meters_the_occupied_terms_from_the_gain_channel(model_path
         assert obs.power_kw == pytest.approx(expected, rel=1e-9)
         powers.append(obs.power_kw)
     assert powers[1] > powers[0] + 0.7  # the occupied constant and outdoor air
+
+
+def test_real_floor_areas_leave_the_gain_channel_at_1_kw_per_zone(tmp_path: Path) -> None:
+    """The file's floor areas are the building's (per-m² KPIs) and not the gain channel's
+    scale: the scheduled internal-gain channel is the people fraction × 1 kW either way."""
+    from hvacflex.data.forecast import load_exogenous
+
+    model = IdentifiedModel(
+        name="two zones",
+        zones=("a", "b"),
+        energyplus_zones=("Zone A", "ZONE-B"),
+        parameters=PARAMETERS,
+        power=POWER,
+        provenance={},
+        air=AirSystem(SUPPLY_TEMP_DEGC, (0.0, 0.0), (0.5, 0.8), (0.0, 0.0), (24.0, 24.0)),
+        floor_areas_m2=(120.0, 45.0),
+    )
+    building = load_building(write_identified_model(model, tmp_path / "model.toml"))
+    assert building.floor_area_m2 == pytest.approx(165.0)
+    assert building.gain_floor_areas_m2 == (1.0, 1.0)
+    channels = building_channels(building)
+    exo = load_exogenous(
+        channels, building.gain_floor_areas_m2, building.gains, start="2014-03-04", steps=48
+    )
+    gains = np.asarray(exo.disturbances)[
+        :48, [i for i, c in enumerate(channels) if c.kind == "internal_gain"]
+    ]
+    # the people fraction (its peak below 1) × 1 kW, not × 120 or 45 m²
+    assert 0.5 * GAIN_CHANNEL_PEAK_W < gains.max() <= GAIN_CHANNEL_PEAK_W
+    assert gains.min() >= 0.0
+
+
+def test_an_identified_zone_refuses_a_height() -> None:
+    base = {
+        "name": "x",
+        "zones": [{"name": "a", "height_m": 3.0}],
+        "identified": {"supply_temp_degc": 13.0, "zones": {}},
+    }
+    with pytest.raises(BuildingConfigError) as caught:
+        building_from_dict(base)
+    assert caught.value.field == "zones[0].height_m"
+
+
+def test_a_period_outside_the_validity_range_is_flagged() -> None:
+    validity = IdentifiedValidity((23.0, 22.5), (27.0, 28.0), 24.0, 33.0)
+    zone = [[25.0, 25.0], [27.5, 25.0], [25.0, 25.0], [25.0, 22.0]]
+    outdoor = [30.0, 30.0, 34.0, 30.0]
+    # period 1: zone a above its 27 °C; 2: the outdoor air above 33 °C; 3: zone b below 22.5
+    assert validity.outside(zone, outdoor).tolist() == [False, True, True, True]
+
+
+def test_a_run_on_a_model_with_a_validity_range_plans_inside_it_and_counts_the_rest(
+    tmp_path: Path,
+) -> None:
+    """The MPC on an identified model trained only up to 25.5 °C does not float its zones
+    to the unoccupied 30 °C bound; periods whose forecast outdoor air lies outside the
+    trained range are counted (``model_extrapolation_steps``)."""
+    from hvacflex.config import preset, with_overrides
+    from hvacflex.sim.closed_loop import run_simulation
+
+    model = IdentifiedModel(
+        name="two zones",
+        zones=("a", "b"),
+        energyplus_zones=("Zone A", "ZONE-B"),
+        parameters=PARAMETERS,
+        power=POWER,
+        provenance={},
+        air=AirSystem(SUPPLY_TEMP_DEGC, (0.0, 0.0), (0.5, 0.8), (0.0, 0.0), (24.0, 24.0)),
+        validity=IdentifiedValidity((20.0, 20.0), (25.5, 25.5), 26.0, 29.0),
+    )
+    path = write_identified_model(model, tmp_path / "model.toml")
+    cfg = with_overrides(
+        preset("nmpc", start="2014-03-03", days=1.0),
+        {"building": str(path), "controller.reserve": False, "activation.mode": "never"},
+    )
+    frame = run_simulation(cfg, tmp_path / "run", progress=False).frame
+    served = frame[[c for c in frame.columns if c.startswith("temp_served_")]].to_numpy()
+    assert served.max() <= 25.5 + 0.05  # the LP's soft bound, to the comfort slack's pennies
+    outdoor = frame["d_outdoor_temp_degc"].to_numpy()
+    outside = (outdoor < 26.0) | (outdoor > 29.0)
+    assert outside.any()
+    from hvacflex.kpi import summary as kpi_summary
+
+    assert kpi_summary(frame)["model_extrapolation_steps"] >= outside.sum()

@@ -5,6 +5,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import replace
+from typing import Any
 
 import numpy as np
 import pytest
@@ -12,7 +13,9 @@ import pytest
 from hvacflex.config import preset, with_overrides
 from hvacflex.control.base import PeriodInputs
 from hvacflex.control.baselines import ThermostatController, unplanned_action
-from hvacflex.control.mpc import MPCController, model_error_margins
+from hvacflex.control.mpc import MPCController
+from hvacflex.control.offers import OfferSizer, seen_steps, snapped_flows_kg_s
+from hvacflex.control.problem_builder import model_error_margins
 from hvacflex.errors import ConfigError
 from hvacflex.opt import RMPCProblem, RMPCSolution, SolveStatus
 from hvacflex.opt.solution import failed_solution
@@ -68,7 +71,7 @@ class _FailingSolver:
 def test_failed_solve_without_previous_plan_falls_back_to_the_thermostat(setup: Setup) -> None:
     controller = make_controller(setup)
     assert isinstance(controller, MPCController)
-    controller._solver = _FailingSolver()  # type: ignore[assignment]
+    controller.solver_slot.solve = _FailingSolver().solve  # type: ignore[method-assign]
     k = 20  # an occupied period
     forecast = setup.forecaster.forecast(k, setup.config.controller.horizon_steps + 1)
     x = np.full(setup.model.a.shape[0], 25.5)
@@ -98,12 +101,16 @@ def test_fallback_after_held_periods_takes_the_plans_step_for_this_period(
     steps = setup.config.controller.horizon_steps + 1
     k = 18
     x = np.full(setup.model.a.shape[0], 25.0)
-    controller.act(PeriodInputs(x, setup.forecaster.forecast(k, steps), 0.0))
+    first = controller.act(PeriodInputs(x, setup.forecaster.forecast(k, steps), 0.0))
     plan = controller.last_plan
     assert plan is not None
     for held in (k + 1, k + 2):
-        controller.hold(setup.forecaster.forecast(held, steps), plan.u[held - k])
-    controller._solver = _FailingSolver()  # type: ignore[assignment]
+        locked = replace(first, flow_kg_s=plan.u[held - k], reserve_flow_kg_s=np.zeros(5))
+        forecast = setup.forecaster.forecast(held, steps)
+        assert controller.act(PeriodInputs(x, forecast, 0.0, locked=locked)).flow_kg_s is (
+            locked.flow_kg_s
+        )
+    controller.solver_slot.solve = _FailingSolver().solve  # type: ignore[method-assign]
     for j in (3, 4):
         forecast = setup.forecaster.forecast(k + j, steps)
         action = controller.act(PeriodInputs(x, forecast, 0.0))
@@ -121,7 +128,7 @@ def test_short_forecast_names_the_horizon_setting(setup: Setup) -> None:
     forecast = setup.forecaster.forecast(0, horizon - 1)
     x = np.full(setup.model.a.shape[0], 25.0)
     with pytest.raises(ConfigError, match=r"controller\.horizon_steps"):
-        controller.problem(x, forecast, peak_floor_kw=0.0)
+        controller.problem_for(PeriodInputs(x, forecast, peak_floor_kw=0.0))
 
 
 def test_the_reserve_contract_reaches_the_problem_and_the_event_plan(setup: Setup) -> None:
@@ -131,7 +138,7 @@ def test_the_reserve_contract_reaches_the_problem_and_the_event_plan(setup: Setu
     controller = make_controller(setup)
     assert isinstance(controller, MPCController)
     reserve = setup.config.reserve
-    problem = controller.problem(x, forecast, 0.0, allowance_carry_steps=2)
+    problem = controller.problem_for(PeriodInputs(x, forecast, 0.0, allowance_carry_steps=2))
     assert problem.il_event_max_steps == reserve.event_max_steps == 4
     assert problem.il_event_allowance_kelvin == reserve.event_allowance_k
     assert problem.il_event_recovery_steps == reserve.event_recovery_steps
@@ -146,7 +153,7 @@ def test_the_reserve_contract_reaches_the_problem_and_the_event_plan(setup: Setu
     paper = prepare(preset("paper-rmpc-ppp", start=START, days=1.0))
     whole = make_controller(paper)
     assert isinstance(whole, MPCController)
-    problem = whole.problem(x, forecast, 0.0, allowance_carry_steps=2)
+    problem = whole.problem_for(PeriodInputs(x, forecast, 0.0, allowance_carry_steps=2))
     assert problem.il_event_max_steps is None and problem.il_allowance_carry_steps == 0
     assert whole.act(PeriodInputs(x, forecast, 0.0)).event_plan is None
 
@@ -229,12 +236,11 @@ def test_no_reserve_is_offered_where_the_baseline_would_not_see_it() -> None:
         pytest.fail("no offer in the searched periods")
     assert isinstance(free, MPCController)
     blind = make_controller(setup)
-    blind.note_baseline_power(0.0)
-    assert blind.act(PeriodInputs(x, forecast, 0.0)).reserve_kw == 0.0
+    assert blind.act(PeriodInputs(x, forecast, 0.0, baseline_power_kw=0.0)).reserve_kw == 0.0
     high = make_controller(setup)
-    high.note_baseline_power(1e6)
-    assert high.act(PeriodInputs(x, forecast, 0.0)).reserve_kw == pytest.approx(offered.reserve_kw)
-    problem = free.problem(x, forecast, 0.0)
+    action = high.act(PeriodInputs(x, forecast, 0.0, baseline_power_kw=1e6))
+    assert action.reserve_kw == pytest.approx(offered.reserve_kw)
+    problem = free.problem_for(PeriodInputs(x, forecast, 0.0))
     assert (problem.reserve_kw_per_kg_s <= problem.power_coeff_kw_per_kg_s).all()
 
 
@@ -249,13 +255,13 @@ def test_commitments_are_fixed_in_the_plan(setup: Setup) -> None:
     controller = make_controller(setup)
     assert isinstance(controller, MPCController) and controller.commits_ahead == g
     committed = np.where(controller.reserve_mask, 0.05, 0.0)[None, :].repeat(g, axis=0)
-    controller.note_commitments(committed)
-    action = controller.act(PeriodInputs(x, forecast, 0.0))
+    inputs = PeriodInputs(x, forecast, 0.0, committed_reserve_kg_s=committed)
+    assert controller.problem_for(inputs).fixed_reserve_steps == g
+    action = controller.act(inputs)
     plan = controller.last_plan
     assert plan is not None and plan.status is SolveStatus.OPTIMAL
     np.testing.assert_allclose(plan.r[:g], committed, atol=1e-9)
     np.testing.assert_allclose(action.reserve_flow_kg_s, committed[0], atol=1e-9)
-    assert controller.problem(x, forecast, 0.0).fixed_reserve_steps == g
     assert action.offer_ahead is not None
     free = make_controller(setup)  # nothing committed: the same period plans r_0 = 0
     free.act(PeriodInputs(x, forecast, 0.0))
@@ -263,16 +269,18 @@ def test_commitments_are_fixed_in_the_plan(setup: Setup) -> None:
     np.testing.assert_allclose(free.last_plan.r[:g], 0.0, atol=1e-9)  # to the dual tolerance
 
 
-def _offer_case(setup: Setup) -> tuple[MPCController, RMPCProblem, Callable[[], RMPCProblem]]:
+def _offer_case(
+    setup: Setup,
+) -> tuple[MPCController, RMPCProblem, Callable[..., RMPCProblem]]:
     """A controller at 10:00 on the first day, its problem from 25 °C, and a function that
-    builds the problem again (after the controller was told something)."""
+    builds the problem again with other period inputs (keywords of ``PeriodInputs``)."""
     x = np.full(len(setup.model.node_names), 25.0)
     forecast = setup.forecaster.forecast(20, setup.config.controller.horizon_steps + 1)
     controller = make_controller(setup)
     assert isinstance(controller, MPCController)
 
-    def rebuild() -> RMPCProblem:
-        return controller.problem(x, forecast, 0.0)
+    def rebuild(**told: Any) -> RMPCProblem:
+        return controller.problem_for(PeriodInputs(x, forecast, 0.0, **told))
 
     return controller, rebuild(), rebuild
 
@@ -283,12 +291,16 @@ def _visible_offer_kw(
     served_kw: np.ndarray,
     j: int,
     reserve_flow_kg_s: np.ndarray,
+    baseline_kw: float | None = None,
+    ahead_kw: np.ndarray | None = None,
+    meter_ratio: float = np.nan,
 ) -> float:
-    """Step j's offer with reserve flows r_j (m,) [kg/s]: the controller's
-    ``_visible_offers_kw`` of that one step [kW]."""
+    """Step j's offer with reserve flows r_j (m,) [kg/s] under the told baselines and ρ:
+    the period's ``OfferSizer.visible_offers_kw`` of that one step [kW]."""
     flows = np.zeros((j + 1, reserve_flow_kg_s.size))
     flows[j] = reserve_flow_kg_s
-    return float(controller._visible_offers_kw(problem, served_kw, flows)[j])
+    sizer = OfferSizer(controller.contract, baseline_kw, ahead_kw, None, meter_ratio)
+    return float(sizer.visible_offers_kw(problem, served_kw, flows)[j])
 
 
 def test_offers_are_sized_to_what_every_covering_baseline_would_see(setup: Setup) -> None:
@@ -302,24 +314,24 @@ def test_offers_are_sized_to_what_every_covering_baseline_would_see(setup: Setup
     offer_kw = float(problem.reserve_kw_per_kg_s[j] @ r)
     assert 0 < offer_kw <= shed_kw
     served = np.full(problem.horizon, 30.0)
-    controller.note_baseline_power(1e6)
+    told: dict[str, Any] = {"baseline_kw": 1e6}
     # flat load: the whole shed is seen, the offer is q·r
-    assert _visible_offer_kw(controller, problem, served, j, r) == pytest.approx(offer_kw)
+    assert _visible_offer_kw(controller, problem, served, j, r, **told) == pytest.approx(offer_kw)
     # rising load: P̂_2 = 30 + shed − 1, lowest baseline P̂_0 = 30: 1 kW is seen
     rising = served.copy()
     rising[1], rising[2] = 30.5, 30.0 + shed_kw - 1.0
-    seen = _visible_offer_kw(controller, problem, rising, j, r)
+    seen = _visible_offer_kw(controller, problem, rising, j, r, **told)
     assert seen == pytest.approx(min(offer_kw, 1.0), abs=1e-5)
     # the air handler off before (baseline now 0): an activation starting now covers j
-    controller.note_baseline_power(0.0)
-    assert _visible_offer_kw(controller, problem, served, j, r) == 0.0
+    told = {"baseline_kw": 0.0}
+    assert _visible_offer_kw(controller, problem, served, j, r, **told) == 0.0
     # … but not step 4 = D (its covering starts are 1 … 4)
-    assert _visible_offer_kw(controller, problem, served, 4, r) == pytest.approx(
+    assert _visible_offer_kw(controller, problem, served, 4, r, **told) == pytest.approx(
         float(problem.reserve_kw_per_kg_s[4] @ r)
     )
     # unknown baseline now: only the plan's own baselines count
-    controller.note_baseline_power(None)
-    assert _visible_offer_kw(controller, problem, served, j, r) == pytest.approx(offer_kw)
+    told = {"baseline_kw": None}
+    assert _visible_offer_kw(controller, problem, served, j, r, **told) == pytest.approx(offer_kw)
 
 
 def test_under_similar_days_offers_are_sized_to_the_similar_days_baseline(setup: Setup) -> None:
@@ -333,23 +345,23 @@ def test_under_similar_days_offers_are_sized_to_the_similar_days_baseline(setup:
     offer_kw = float(problem.reserve_kw_per_kg_s[j] @ r)
     rising = np.full(problem.horizon, 20.0)  # the plan's earlier powers see nothing …
     rising[j] = 30.0
-    controller.note_baseline_power(0.0)
-    assert _visible_offer_kw(controller, problem, rising, j, r) == 0.0
+    told: dict[str, Any] = {"baseline_kw": 0.0}
+    assert _visible_offer_kw(controller, problem, rising, j, r, **told) == 0.0
     # … the similar days' 30.5 kW at step j show 0.5 kW + the shed below it
-    controller.note_baseline_power(0.0, np.array([np.nan, np.nan, 30.5]))
-    seen = _visible_offer_kw(controller, problem, rising, j, r)
+    told = {"baseline_kw": 0.0, "ahead_kw": np.array([np.nan, np.nan, 30.5])}
+    seen = _visible_offer_kw(controller, problem, rising, j, r, **told)
     assert seen == pytest.approx(min(offer_kw, 0.5 + shed_kw), abs=1e-5)
     # a low similar-days baseline hides an offer the plan's flat load would show
     flat = np.full(problem.horizon, 30.0)
-    controller.note_baseline_power(1e6, np.array([np.nan, np.nan, 25.0]))
-    assert _visible_offer_kw(controller, problem, flat, j, r) == 0.0
+    told = {"baseline_kw": 1e6, "ahead_kw": np.array([np.nan, np.nan, 25.0])}
+    assert _visible_offer_kw(controller, problem, flat, j, r, **told) == 0.0
     # no similar day for step j: the pre-event baselines (flat load: all of q·r is seen)
-    controller.note_baseline_power(1e6, np.array([25.0, 25.0, np.nan]))
-    assert _visible_offer_kw(controller, problem, flat, j, r) == pytest.approx(offer_kw)
+    told = {"baseline_kw": 1e6, "ahead_kw": np.array([25.0, 25.0, np.nan])}
+    assert _visible_offer_kw(controller, problem, flat, j, r, **told) == pytest.approx(offer_kw)
     # the event plan's later steps (D + R = 6) are sized to theirs too
-    controller.note_baseline_power(1e6, np.array([1e6, 1e6, 1e6, 1e6, 25.0, 1e6]))
-    assert _visible_offer_kw(controller, problem, flat, 4, r) == 0.0
-    assert _visible_offer_kw(controller, problem, flat, 5, r) > 0.0
+    told = {"baseline_kw": 1e6, "ahead_kw": np.array([1e6, 1e6, 1e6, 1e6, 25.0, 1e6])}
+    assert _visible_offer_kw(controller, problem, flat, 4, r, **told) == 0.0
+    assert _visible_offer_kw(controller, problem, flat, 5, r, **told) > 0.0
 
 
 def test_offers_are_scaled_by_the_meter_s_response(setup: Setup) -> None:
@@ -357,33 +369,43 @@ def test_offers_are_scaled_by_the_meter_s_response(setup: Setup) -> None:
     prices is halved, and so is every offer, the part the baseline sees included; ρ = 1 is
     the model's own scale, bit for bit."""
     controller, own, rebuild = _offer_case(setup)
-    controller.note_meter_response(0.5)
-    halved = rebuild()
+    halved = rebuild(meter_ratio=0.5)
     np.testing.assert_allclose(halved.reserve_kw_per_kg_s, 0.5 * own.reserve_kw_per_kg_s)
     np.testing.assert_array_equal(halved.power_coeff_kw_per_kg_s, own.power_coeff_kw_per_kg_s)
     j = 2
     r = np.where(controller.reserve_mask, 0.1, 0.0)
     shed_kw = float(own.power_coeff_kw_per_kg_s[j] @ r)
     offer_kw = float(own.reserve_kw_per_kg_s[j] @ r)
-    controller.note_baseline_power(1e6)
+    told: dict[str, Any] = {"baseline_kw": 1e6, "meter_ratio": 0.5}
     served = np.full(own.horizon, 30.0)
-    assert _visible_offer_kw(controller, halved, served, j, r) == pytest.approx(0.5 * offer_kw)
+    assert _visible_offer_kw(controller, halved, served, j, r, **told) == pytest.approx(
+        0.5 * offer_kw
+    )
     # a rising load leaves 1 kW of the plan's shed visible: 0.5 kW on the meter
     rising = served.copy()
     rising[1], rising[2] = 30.5, 30.0 + shed_kw - 1.0
-    seen = _visible_offer_kw(controller, halved, rising, j, r)
+    seen = _visible_offer_kw(controller, halved, rising, j, r, **told)
     assert seen == pytest.approx(min(0.5 * offer_kw, 0.5), abs=1e-5)
     # a metered baseline (similar days) is a level, not a change of the plan's: the meter
     # sheds ρ·p·r below the plan's served level, so B = P̂_j − 0.8·shed sees nothing …
     nan = np.nan
-    controller.note_baseline_power(1e6, np.array([nan, nan, served[j] - 0.8 * shed_kw]))
-    assert _visible_offer_kw(controller, halved, served, j, r) == 0.0
+    told = {
+        "baseline_kw": 1e6,
+        "meter_ratio": 0.5,
+        "ahead_kw": np.array([nan, nan, served[j] - 0.8 * shed_kw]),
+    }
+    assert _visible_offer_kw(controller, halved, served, j, r, **told) == 0.0
     # … and B = P̂_j − 0.3·shed sees (0.5 − 0.3)·shed
-    controller.note_baseline_power(1e6, np.array([nan, nan, served[j] - 0.3 * shed_kw]))
-    seen = _visible_offer_kw(controller, halved, served, j, r)
+    told = {
+        "baseline_kw": 1e6,
+        "meter_ratio": 0.5,
+        "ahead_kw": np.array([nan, nan, served[j] - 0.3 * shed_kw]),
+    }
+    seen = _visible_offer_kw(controller, halved, served, j, r, **told)
     assert seen == pytest.approx(min(0.5 * offer_kw, 0.2 * shed_kw), abs=1e-5)
-    controller.note_meter_response(1.0)
-    np.testing.assert_array_equal(rebuild().reserve_kw_per_kg_s, own.reserve_kw_per_kg_s)
+    np.testing.assert_array_equal(
+        rebuild(meter_ratio=1.0).reserve_kw_per_kg_s, own.reserve_kw_per_kg_s
+    )
 
 
 def test_the_plan_is_paid_for_what_the_told_baselines_see(setup: Setup) -> None:
@@ -395,9 +417,8 @@ def test_the_plan_is_paid_for_what_the_told_baselines_see(setup: Setup) -> None:
     assert problem.offer_baselines is not None
     assert np.isnan(problem.offer_baselines.fixed_baseline_kw).all()  # nothing told yet
     assert problem.offer_baselines.offer_steps.all()  # no plan yet: every step
-    controller.note_meter_response(0.7)
-    controller.note_baseline_power(12.0, np.array([np.nan, 40.0]))
-    baselines = rebuild().offer_baselines
+    told = {"meter_ratio": 0.7, "baseline_power_kw": 12.0, "baseline_ahead_kw": [np.nan, 40.0]}
+    baselines = rebuild(**told).offer_baselines
     assert baselines is not None and baselines.meter_ratio == 0.7
     max_steps = setup.config.reserve.event_max_steps
     assert max_steps == 4
@@ -405,35 +426,41 @@ def test_the_plan_is_paid_for_what_the_told_baselines_see(setup: Setup) -> None:
     assert not baselines.fixed_on_plan_scale.any()  # no plan for the period before: metered
     np.testing.assert_array_equal(baselines.planned_baselines[:3], [True, False, True])
     x = np.full(len(setup.model.node_names), 25.0)
-    controller.note_baseline_power(0.0)  # the air handler was off: the start-up is not paid
-    controller.act(PeriodInputs(x, setup.forecaster.forecast(20, 49), 0.0))
-    left_out = rebuild().offer_baselines
+    forecast = setup.forecaster.forecast(20, 49)
+    # the air handler was off: the start-up is not paid
+    controller.act(PeriodInputs(x, forecast, 0.0, baseline_power_kw=0.0))
+    left_out = rebuild(baseline_power_kw=0.0).offer_baselines
     assert left_out is not None and not left_out.offer_steps.all()
     off = replace(setup.config.reserve, plan_visible_offers=False)
     plain = make_controller(replace(setup, config=replace(setup.config, reserve=off)))
     assert isinstance(plain, MPCController)
-    assert plain.problem(x, setup.forecaster.forecast(20, 49), 0.0).offer_baselines is None
+    assert plain.problem_for(PeriodInputs(x, forecast, 0.0)).offer_baselines is None
 
 
 def test_the_paid_steps_move_with_every_period_since_the_plan(setup: Setup) -> None:
     """The steps a plan could show offers at are moved by the periods since that plan —
-    the ones held under a locked event included — its last step repeated."""
-    controller, _, _ = _offer_case(setup)
+    the ones held under a locked event included — its last step repeated; the problem of
+    the period after a plan moves them by one."""
+    controller, problem, rebuild = _offer_case(setup)  # the problem the act below solves
     x = np.full(len(setup.model.node_names), 25.0)
     forecast = setup.forecaster.forecast(20, 49)
     controller.act(PeriodInputs(x, forecast, 0.0))
-    seen = controller._plan_seen_kw
+    plan = controller.last_plan
+    assert plan is not None
+    seen = OfferSizer(controller.contract, None, None, None, np.nan).seen_kw(problem, plan)
     assert seen is not None and (seen < 0).any() and (seen >= 0).any()
     horizon = seen.size
-    steps = controller._seen_steps(horizon)
+    steps = seen_steps(seen, 0, horizon)
     assert steps is not None
     np.testing.assert_array_equal(steps, seen >= 0)  # the same period: not moved
     for held in (1, 2):
-        controller.hold(forecast, np.zeros(len(x)))
-        steps = controller._seen_steps(horizon)
+        steps = seen_steps(seen, held, horizon)
         assert steps is not None
         expected = np.concatenate([seen[held:], np.repeat(seen[-1:], held)]) >= 0
         np.testing.assert_array_equal(steps, expected)
+    paid = rebuild().offer_baselines
+    assert paid is not None
+    np.testing.assert_array_equal(paid.offer_steps, seen_steps(seen, 1, horizon))
 
 
 def test_planned_flows_within_round_off_of_a_limit_are_the_limit(setup: Setup) -> None:
@@ -442,9 +469,9 @@ def test_planned_flows_within_round_off_of_a_limit_are_the_limit(setup: Setup) -
     low = np.asarray(problem.u_min, dtype=float)
     u = np.array(low, copy=True)
     u[0] += 3.5e-13
-    u[1] = controller._flow_max - 1e-12
+    u[1] = controller.contract.flow_max_kg_s - 1e-12
     plan = replace(_timed_out(problem), u=u, r=np.zeros_like(u))  # a made-up plan
-    flow, reserve = controller._snapped_reserve_kg_s(problem, plan, 2)
+    flow, reserve = snapped_flows_kg_s(problem, plan, 2, controller.contract.flow_max_kg_s)
     np.testing.assert_array_equal(flow[0], low[0])
-    np.testing.assert_array_equal(flow[1], controller._flow_max)
+    np.testing.assert_array_equal(flow[1], controller.contract.flow_max_kg_s)
     assert (reserve == 0.0).all()

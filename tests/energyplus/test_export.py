@@ -133,6 +133,41 @@ def test_exterior_surfaces_and_windows_face_the_buildings_way(
         assert (azimuth, tilt) == pytest.approx((window.azimuth_deg, window.tilt_deg), abs=1e-6)
 
 
+def test_surfaces_stand_at_the_buildings_height_above_ground(
+    shipped: tuple[Building, list[tuple[str, list[str]]]],
+) -> None:
+    """Every surface's lowest vertex is the building's ``height_above_ground_m`` (office5: a
+    mid-rise floor at 18 m; the others on the ground), its walls reaching a zone's height
+    above it."""
+    building, objects = shipped
+    base = building.height_above_ground_m
+    heights = [vertices(f, 10)[:, 2] for f in by_class(objects, "BuildingSurface:Detailed")]
+    assert min(float(h.min()) for h in heights) == pytest.approx(base, abs=1e-9)
+    tallest = max(z.height_m for z in building.zones)
+    assert max(float(h.max()) for h in heights) <= base + max(tallest, 40.0)
+    if building.name == "office5":
+        assert base == 18.0
+
+
+def test_hvacflex_films_see_the_station_air_at_any_height() -> None:
+    """With hvacflex's films the export switches EnergyPlus's air-temperature lapse off (the
+    implementation check keeps hvacflex's station temperature on an 18-m floor); with
+    EnergyPlus's own surfaces its defaults stay."""
+    office5 = load_building(resolve_building("office5"))
+    films = by_class(parse_idf(export_idf(office5, surfaces="hvacflex")), "Site:HeightVariation")
+    assert len(films) == 1 and float(films[0][2]) == 0.0
+    assert by_class(parse_idf(export_idf(office5)), "Site:HeightVariation") == []
+
+
+def test_a_negative_height_above_ground_is_refused_naming_the_field(tmp_path: Path) -> None:
+    text = resolve_building("room1").read_text(encoding="utf-8")
+    path = tmp_path / "sunk.toml"
+    path.write_text("height_above_ground_m = -3.0\n" + text, encoding="utf-8")
+    with pytest.raises(InputError) as caught:
+        load_building(path)
+    assert caught.value.field == "height_above_ground_m"
+
+
 def test_partitions_are_surface_pairs_with_reversed_layers() -> None:
     building = load_building(resolve_building("office5"))
     objects = parse_idf(export_idf(building))

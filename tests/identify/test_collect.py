@@ -6,14 +6,18 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from hvacflex.data.forecast import DEFAULT_WEATHER_FILE
+from hvacflex.data.gains import occupied_mask
 from hvacflex.errors import InputError
 from hvacflex.identify.collect import (
     EXCITATION_AMPLITUDE_K,
     EXCITATION_CENTER_DEGC,
     PRBS_HOLD_PERIODS,
+    RANGE_FLOAT_DEGC,
+    RANGE_FLOAT_PERIODS,
     STEP_HOLD_PERIODS,
     collect_trend,
     excitation_setpoints_degc,
@@ -41,6 +45,34 @@ def test_prbs_switches_between_two_levels_every_one_to_four_hours() -> None:
     assert not np.array_equal(setpoints[:, 0], setpoints[:, 1])  # zones independent
     again = excitation_setpoints_degc("prbs", 480, 3, seed=4)
     assert again is not None and np.array_equal(setpoints, again)  # seeded
+
+
+def test_range_floats_up_outside_office_hours_and_steps_within_them() -> None:
+    """The default excitation: the PRBS in the occupied periods; outside them float-ups to the
+    unoccupied bound of 4…16 h alternating with pull-downs that start at the lower level."""
+    index = pd.date_range("2014-03-03", periods=14 * 48, freq="30min", tz="Asia/Singapore")
+    occupied = occupied_mask(index)
+    setpoints = excitation_setpoints_degc("range", len(index), 3, seed=1, occupied=occupied)
+    assert setpoints is not None
+    assert set(np.unique(setpoints[occupied])) == {LOW, HIGH}
+    night = setpoints[~occupied]
+    assert set(np.unique(night)) == {LOW, HIGH, RANGE_FLOAT_DEGC}
+    assert 0.3 < float((night == RANGE_FLOAT_DEGC).mean()) < 0.9  # both float and pull down
+    _, longest = RANGE_FLOAT_PERIODS
+    for i in range(3):
+        floating = (setpoints[:, i] == RANGE_FLOAT_DEGC).astype(int)
+        runs = [n for n, v in zip(_runs(floating), _levels(floating), strict=True) if v]
+        assert max(runs) <= longest  # a float-up is cut by office hours, never longer
+        ends = np.flatnonzero(np.diff(floating) == -1) + 1  # the period after a float-up
+        pulled = [k for k in ends if not occupied[k]]
+        assert pulled and all(setpoints[k, i] == LOW for k in pulled)
+    again = excitation_setpoints_degc("range", len(index), 3, seed=1, occupied=occupied)
+    assert again is not None and np.array_equal(setpoints, again)  # seeded
+
+
+def _levels(column: np.ndarray) -> list[int]:
+    changes = np.flatnonzero(np.diff(column)) + 1
+    return [int(column[k]) for k in np.r_[0, changes]]
 
 
 def test_steps_cycle_through_the_band_and_none_leaves_the_idf_alone() -> None:
@@ -72,6 +104,8 @@ def test_a_two_day_collect_on_5zone_air_cooled(tmp_path: Path) -> None:
     hot = (setpoint == HIGH) & (np.roll(setpoint, 1) == HIGH)
     cold = (setpoint == LOW) & (np.roll(setpoint, 1) == LOW)
     assert temp[hot].mean() - temp[cold].mean() > 1.0  # the zone follows the excitation
+    # the default excitation floats the zone up outside office hours, past the PRBS's range
+    assert temp[setpoint == RANGE_FLOAT_DEGC].max() > HIGH + 0.5
     occupied = data.column("occupied").astype(bool)
     hours = data.index.hour[occupied]
     assert occupied.any() and hours.min() >= 6 and hours.max() <= 21  # the IDF's People

@@ -2,14 +2,16 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from hvacflex.building.identified import IdentifiedValidity
 from hvacflex.building.io import load_building
 from hvacflex.building.rc import build_network
-from hvacflex.errors import ConfigError
+from hvacflex.errors import BuildingConfigError, ConfigError
 from hvacflex.identify.model_file import (
     IdentifiedModel,
     identifier,
@@ -82,3 +84,56 @@ def test_a_coupling_to_an_unknown_zone_is_refused(
     path.write_text(text, encoding="utf-8")
     with pytest.raises(ConfigError, match="unknown zone"):
         load_identified_model(path)
+
+
+def test_floor_areas_are_written_per_zone_and_read_back(
+    identified_model: IdentifiedModel, tmp_path: Path
+) -> None:
+    model = replace(identified_model, floor_areas_m2=(99.16, 42.73))
+    path = write_identified_model(model, tmp_path / "model.toml")
+    text = path.read_text(encoding="utf-8")
+    assert text.count("floor_area_m2 = ") == 2  # the zones' only: the plenum carries none
+    assert load_identified_model(path).floor_areas_m2 == (99.16, 42.73)
+    building = load_building(path)
+    assert building.floor_area_m2 == pytest.approx(99.16 + 42.73)
+    assert [z.floor_area_m2 for z in building.zones] == [99.16, 42.73]
+
+
+def test_a_model_without_floor_areas_has_a_floor_area_that_is_not_a_number(
+    identified_model: IdentifiedModel, tmp_path: Path
+) -> None:
+    path = write_identified_model(identified_model, tmp_path / "model.toml")
+    assert "floor_area_m2" not in path.read_text(encoding="utf-8")
+    assert load_identified_model(path).floor_areas_m2 is None
+    assert np.isnan(load_building(path).floor_area_m2)  # not 2 m² of nominal zones
+
+
+def test_a_floor_area_on_some_zones_only_is_refused_naming_the_zone(
+    identified_model: IdentifiedModel, tmp_path: Path
+) -> None:
+    path = write_identified_model(
+        replace(identified_model, floor_areas_m2=(99.16, 42.73)), tmp_path / "model.toml"
+    )
+    text = path.read_text(encoding="utf-8").replace("floor_area_m2 = 42.73\n", "", 1)
+    path.write_text(text, encoding="utf-8")
+    with pytest.raises(BuildingConfigError) as caught:
+        load_building(path)
+    assert caught.value.field == "zones[1].floor_area_m2"
+
+
+def test_the_validity_range_is_written_and_read_back(
+    identified_model: IdentifiedModel, tmp_path: Path
+) -> None:
+    validity = IdentifiedValidity((23.1, 22.8), (29.5, 30.2), 24.0, 33.5)
+    path = write_identified_model(replace(identified_model, validity=validity), tmp_path / "m.toml")
+    assert "[identified.validity]" in path.read_text(encoding="utf-8")
+    assert load_identified_model(path).validity == validity
+    rc = load_building(path).identified
+    assert rc is not None and rc.validity == validity
+    text = path.read_text(encoding="utf-8").replace(
+        "outdoor_temp_min_degc = 24.0", "outdoor_temp_min_degc = 40.0"
+    )
+    path.write_text(text, encoding="utf-8")
+    with pytest.raises(BuildingConfigError) as caught:
+        load_building(path)
+    assert caught.value.field == "identified.validity.outdoor_temp_min_degc"

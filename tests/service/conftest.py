@@ -13,6 +13,7 @@ import pytest
 from fastapi.testclient import TestClient
 from service_fixtures import (
     POSTGRES_ENV,
+    UNLIMITED,
     Server,
     Service,
     drop_postgres_database,
@@ -53,7 +54,7 @@ def make_db_url(
 
 def _service(db_url: str, registrations: list[dict[str, Any]]) -> Iterator[Service]:
     """An app on ``db_url`` with the buildings of ``registrations`` registered."""
-    app = create_app(db_url)
+    app = create_app(db_url, route_limits=UNLIMITED)
     with app.state.sessions() as session, session.begin():
         operator_key = create_key(session, "operator")
     client = TestClient(app)

@@ -23,6 +23,12 @@ START = "2014-03-03"
 POSTGRES_ENV = "HVACFLEX_TEST_POSTGRES_URL"
 """A PostgreSQL URL whose role may create databases: the service tests run there too."""
 SERVE = [sys.executable, "-m", "hvacflex.cli", "serve"]
+UNLIMITED: dict[str, Any] = {}
+"""``create_app(route_limits=UNLIMITED)``: no budget on the costly routes, for tests that
+register many buildings or advance the clock quickly with one key (the budgets themselves
+are tested in ``test_service_keys.py``)."""
+UNLIMITED_OPTIONS = ["--register-limit", "1000000/1", "--clock-limit", "1000000/1"]
+"""The same for ``hvacflex serve``."""
 
 
 def registration(building_id: str, days: float = 1.0, **settings: Any) -> dict[str, Any]:
@@ -72,7 +78,7 @@ class Server:
 
     def start(self, timeout_s: float = 60.0) -> None:
         cmd = [*SERVE, "--db", self.db_url]
-        cmd += ["--host", "127.0.0.1", "--port", str(self.port)]
+        cmd += ["--host", "127.0.0.1", "--port", str(self.port), *UNLIMITED_OPTIONS]
         cmd += ["--live"] if self.live else []
         # the JSON log goes to a file: a pipe nobody reads would fill and block the server
         self.log = tempfile.TemporaryFile()

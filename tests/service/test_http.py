@@ -8,7 +8,8 @@ import pytest
 from fastapi import FastAPI
 from fastapi.testclient import TestClient
 from pydantic import BaseModel
-from sqlalchemy import select
+from sqlalchemy import select, text
+from sqlalchemy.exc import DataError, IntegrityError, OperationalError
 from sqlalchemy.orm import Session, sessionmaker
 
 from hvacflex.errors import InputError
@@ -39,6 +40,9 @@ def _app(tmp_path: Path) -> tuple[TestClient, sessionmaker[Session]]:
         "missing": NotFoundError("no building 'b9'"),
         "limited": RateLimitedError(2.2),
         "bug": KeyError("secret detail"),
+        "data": DataError("INSERT …", {}, ValueError("secret value \x00")),
+        "integrity": IntegrityError("INSERT …", {}, ValueError("secret row")),
+        "operational": OperationalError("SELECT 1", {}, ConnectionError("secret host")),
     }
 
     @app.get("/raise/{kind}")
@@ -93,6 +97,33 @@ def test_every_error_is_an_envelope_with_its_status(tmp_path: Path) -> None:
     bug = client.get("/raise/bug")
     assert bug.status_code == 500 and bug.json()["message"] == "internal error (KeyError)"
     assert "secret" not in bug.text  # nothing of a server error's detail leaks
+
+
+def test_database_errors_are_enveloped_without_the_drivers_text(tmp_path: Path) -> None:
+    client, _ = _app(tmp_path)
+    answers = {k: client.get(f"/raise/{k}") for k in ("data", "integrity", "operational")}
+    assert {k: r.status_code for k, r in answers.items()} == {
+        "data": 422,
+        "integrity": 409,
+        "operational": 503,
+    }
+    kinds = {"data": "ValueError", "integrity": "ValueError", "operational": "ConnectionError"}
+    for name, answer in answers.items():
+        assert answer.json()["status"] == answer.status_code
+        assert f"({kinds[name]})" in answer.json()["message"]
+        assert "secret" not in answer.text  # the driver's text may quote stored data
+
+
+def test_an_audit_the_database_refuses_is_logged_and_the_answer_goes_out(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    client, sessions = _app(tmp_path)
+    with sessions() as session, session.begin():
+        session.execute(text("DROP TABLE audit"))
+    with caplog.at_level("ERROR", logger="hvacflex.service"):
+        answer = client.post("/echo", json={"prices": [1.0]})
+    assert answer.status_code == 200 and answer.json() == {"n": 1}
+    assert any("audit row not written" in r.getMessage() for r in caplog.records)
 
 
 def test_validation_errors_name_the_field_and_bad_json_is_400(tmp_path: Path) -> None:

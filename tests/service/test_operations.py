@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import logging
 import socket
+import ssl
 from collections.abc import Callable
 from datetime import UTC, datetime, timedelta
 from pathlib import Path
@@ -25,9 +26,12 @@ from hvacflex.service.operations import (
     LATENCY_BUCKETS_S,
     JsonFormatter,
     check_listen_address,
+    check_plain_http,
     check_tls,
+    is_loopback,
     service_url,
     stale_buildings,
+    tls_minimum_version,
 )
 
 STALE_AFTER_S = 600.0
@@ -168,6 +172,29 @@ def test_tls_needs_both_files_that_load(tmp_path: Path) -> None:
         check_tls(tmp_path / "missing.pem", tmp_path / "key.pem")
     with pytest.raises(InputError, match="not a PEM certificate"):
         check_tls(tmp_path / "cert.pem", tmp_path / "key.pem")
+
+
+def test_plain_http_only_on_loopback_unless_told() -> None:
+    for host in ("127.0.0.1", "127.0.0.2", "localhost"):
+        assert is_loopback(host), host
+        check_plain_http(host, tls=False, insecure_http=False)
+    assert is_loopback("::1") or not socket.has_ipv6
+    for host in ("0.0.0.0", "::", "192.0.2.1", "no such host.invalid"):
+        assert not is_loopback(host), host
+        with pytest.raises(InputError, match="in clear") as info:
+            check_plain_http(host, tls=False, insecure_http=False)
+        assert "--insecure-http" in str(info.value) and "--ssl-certfile" in str(info.value)
+        check_plain_http(host, tls=True, insecure_http=False)  # TLS: keys are encrypted
+        check_plain_http(host, tls=False, insecure_http=True)  # told: a TLS proxy in front
+
+
+def test_tls_minimum_versions() -> None:
+    assert tls_minimum_version("1.2") is ssl.TLSVersion.TLSv1_2
+    assert tls_minimum_version("1.3") is ssl.TLSVersion.TLSv1_3
+    for bad in ("1.1", "1.0", "tls1.3", ""):
+        with pytest.raises(InputError, match=r"1\.2, 1\.3") as info:
+            tls_minimum_version(bad)
+        assert info.value.field == "--ssl-min-version"
 
 
 def test_service_url() -> None:

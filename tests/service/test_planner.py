@@ -13,7 +13,7 @@ from typing import Any
 
 import pytest
 from fastapi.testclient import TestClient
-from service_fixtures import START, operator_key_for, registration, stored_plans
+from service_fixtures import START, UNLIMITED, operator_key_for, registration, stored_plans
 from sqlalchemy import func, select
 
 from hvacflex.service.app import create_app
@@ -51,7 +51,7 @@ def served(
 ) -> Iterator[tuple[TestClient, dict[str, str], list[str], Any, str]]:
     """A fresh app with building ``p1`` (``rmpc``, office5, one day)."""
     url = make_db_url("planner")
-    app = create_app(url)
+    app = create_app(url, route_limits=UNLIMITED)
     with app.state.sessions() as session, session.begin():
         operator = create_key(session, "operator")
     client = TestClient(app)

@@ -68,7 +68,6 @@ def test_migrations_are_packaged() -> None:
         ({"reserve_source": "x.csv"}, "scenario.settings.reserve_source"),
         ({"activation.file": "a.csv"}, "scenario.settings.activation.file"),
         ({"activation.mode": "file"}, "scenario.settings.activation.mode"),
-        ({"reserve.il_baseline": "similar-days"}, "scenario.settings.reserve.il_baseline"),
         ({"building": "/tmp/b.toml"}, "scenario.settings.building"),
         ({"plant.idf": "/etc/passwd"}, "scenario.settings.plant.idf"),
         ({"plant.kind": "energyplus"}, "scenario.settings.plant.kind"),
@@ -341,11 +340,12 @@ def test_wall_clock_runs_the_boundary_trigger() -> None:
     assert probe.times[0].minute in (0, 30) and probe.times[0].second == 0
 
 
-def test_a_building_stored_with_a_similar_days_baseline_still_loads(
+def test_a_building_with_a_similar_days_baseline_registers_and_loads(
     make_db_url: Callable[[str], str],
 ) -> None:
-    """New registrations with ``reserve.il_baseline = "similar-days"`` are refused, but a
-    building stored with it before that rule keeps loading after a restart."""
+    """``reserve.il_baseline = "similar-days"`` is a setting like any other: a building
+    stored with it loads after a restart, and a new one registers (the service builds its
+    baselines from the metered power posted, as ``simulate`` does from its plant's)."""
     import json
 
     from fastapi.testclient import TestClient
@@ -374,9 +374,8 @@ def test_a_building_stored_with_a_similar_days_baseline_still_loads(
     with TestClient(restarted) as client:
         headers = {"X-API-Key": operator_key}
         assert client.get("/v1/buildings/old", headers=headers).status_code == 200
-        refused = client.post("/v1/buildings", json={**body, "building_id": "new"}, headers=headers)
-        assert refused.status_code == 422
-        assert "reserve.il_baseline" in refused.json()["message"]
+        added = client.post("/v1/buildings", json={**body, "building_id": "new"}, headers=headers)
+        assert added.status_code == 201, added.json()
     restarted.state.planner.shutdown()
     restarted.state.engine.dispose()
 

@@ -9,6 +9,7 @@ import shutil
 import ssl
 import subprocess
 import time
+import urllib.error
 import urllib.request
 from pathlib import Path
 
@@ -40,10 +41,15 @@ def _bad_input_cases(tmp: Path) -> list[tuple[list[str], str]]:
         (["serve", "--ssl-certfile", str(tmp / "none.pem")], "needs both"),
         (["serve", "--stale-after-s", "nan"], "--stale-after-s"),
         (["serve", "--log-level", "loud"], "--log-level"),
+        (["serve", "--host", "0.0.0.0"], "--insecure-http"),
+        (["serve", "--host", "0.0.0.0", "--port", "8443"], "--ssl-certfile"),
+        (["serve", "--ssl-min-version", "1.1"], "--ssl-min-version"),
+        (["serve", "--clock-limit", "0/10"], "--clock-limit"),
+        (["serve", "--register-limit", "ten/3600"], "--register-limit"),
     ]
 
 
-@pytest.mark.parametrize("case", range(15))
+@pytest.mark.parametrize("case", range(20))
 def test_bad_input_exits_2_with_a_message(tmp_path: Path, case: int) -> None:
     args, expected = _bad_input_cases(tmp_path)[case]
     result = RUNNER.invoke(cli, args, env={"HVACFLEX_KEY": ""})
@@ -125,6 +131,8 @@ def test_serve_over_tls_prints_its_url_and_logs_json(tmp_path: Path) -> None:
             str(cert),
             "--ssl-keyfile",
             str(key),
+            "--ssl-min-version",
+            "1.3",
         ],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
@@ -145,6 +153,13 @@ def test_serve_over_tls_prints_its_url_and_logs_json(tmp_path: Path) -> None:
             except OSError:
                 time.sleep(0.3)
         assert answer is not None and answer["status"] == 200
+        tls12_only = ssl.create_default_context(cafile=str(cert))
+        tls12_only.maximum_version = ssl.TLSVersion.TLSv1_2
+        with pytest.raises(urllib.error.URLError) as refused:  # below --ssl-min-version 1.3
+            urllib.request.urlopen(
+                f"https://127.0.0.1:{port}/v1/health", context=tls12_only, timeout=5
+            )
+        assert isinstance(refused.value.reason, ssl.SSLError)  # no handshake
         with pytest.raises(OSError):  # the certificate is not trusted by default
             urllib.request.urlopen(f"https://127.0.0.1:{port}/v1/health", timeout=5)
         with pytest.raises(OSError):  # plain HTTP is not served
@@ -156,3 +171,30 @@ def test_serve_over_tls_prints_its_url_and_logs_json(tmp_path: Path) -> None:
     health = [e for e in logged if e.get("route") == "/v1/health" and e.get("status") == 200]
     assert health and health[0]["logger"] == "hvacflex.service.access"
     assert all(line.startswith("{") for line in stderr.splitlines() if line.strip()), stderr
+
+
+def test_serve_plain_http_on_all_addresses_only_when_told(tmp_path: Path) -> None:
+    """``--insecure-http`` lets plain HTTP listen beyond loopback (behind a TLS proxy)."""
+    port = free_port()
+    process = subprocess.Popen(
+        [
+            *SERVE,
+            "--db",
+            f"sqlite:///{tmp_path / 'plain.db'}",
+            "--host",
+            "0.0.0.0",
+            "--port",
+            str(port),
+            "--insecure-http",
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        assert process.stdout is not None
+        first = process.stdout.readline()
+        assert f"http://0.0.0.0:{port}/" in first, first
+    finally:
+        process.terminate()
+        process.communicate(timeout=30)

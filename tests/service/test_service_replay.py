@@ -196,7 +196,8 @@ def test_replay_equals_simulate_with_a_filter_on_a_plant_whose_air_delivers_othe
     make_db_url: Callable[[str], str],
 ) -> None:
     """The Kalman filter predicts with the delivered cooling (``ClosedLoop._delivered_input``);
-    in the service it arrives with the next measurement (``previous_delivered_flow_kg_s``)."""
+    in the service it arrives with the next measurement (``previous_delivered_flow_kg_s``),
+    both through the period's inputs (``PeriodInputs.delivered_flow_kg_s``)."""
     config = with_overrides(
         preset("nmpc", start=f"{START}T09:00", days=0.125), {"estimation.mode": "kalman"}
     )
@@ -218,7 +219,7 @@ def test_replay_equals_simulate_with_a_filter_on_a_plant_whose_air_delivers_othe
             remote.previous_power_kw = (
                 None if played.k == 0 else float(played.frame()["power_kw"].iloc[-1])
             )
-            posted.append(control.delivered_flow_kg_s)
+            posted.append(played.history.delivered_before_kg_s(played.k))
             played.step()
     finally:
         server.stop()
@@ -229,3 +230,40 @@ def test_replay_equals_simulate_with_a_filter_on_a_plant_whose_air_delivers_othe
         _comparable(played.frame()), _comparable(local.frame()), check_exact=False, rtol=1e-9,
         atol=1e-9,
     )  # fmt: skip
+
+
+def test_a_replay_with_the_similar_days_baseline_equals_simulate(
+    tmp_path: Path, make_db_url: Callable[[str], str]
+) -> None:
+    """The service builds the baselines from the metered power the building posted
+    (:class:`~hvacflex.sim.history.PeriodHistory` from its rows), as ``simulate`` does from
+    its plant: a Monday and a Tuesday morning under ``similar-days`` (Tuesday's offers are
+    sized to Monday's metered power) with stress activations plan the same."""
+    config = with_overrides(
+        preset("rmpc", start=START, days=1.5),
+        {**SETTINGS, "reserve.il_baseline": "similar-days"},
+    )
+    server = Server(make_db_url("similar"), free_port())
+    server.start()
+    try:
+        replay(
+            server.url,
+            operator_key_for(server.db_url),
+            config,
+            tmp_path / "replay",
+            building_id="sd",
+        )
+    finally:
+        server.stop()
+    simulated = run_simulation(config, tmp_path / "simulate", progress=False, resume=False)
+    replayed, _ = read_results(tmp_path / "replay" / RESULTS_FILE)
+    pd.testing.assert_frame_equal(
+        _comparable(replayed),
+        _comparable(simulated.frame),
+        check_exact=False,
+        check_freq=False,
+        rtol=1e-9,
+        atol=1e-9,
+    )
+    tuesday = simulated.frame.iloc[48:]
+    assert (tuesday["reserve_kw"] > 0).any() and tuesday["il_activated"].any()

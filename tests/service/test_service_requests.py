@@ -4,12 +4,16 @@ no server paths in messages."""
 
 from __future__ import annotations
 
+import hashlib
+import http.client
 from typing import Any
 
 import pytest
-from service_fixtures import START, Service
+from service_fixtures import START, Service, operator_key_for
+from sqlalchemy import create_engine, select
 
 from hvacflex.service.app import plannable_span
+from hvacflex.service.db import AuditEntry
 
 ENVELOPE = {"status", "message", "payload"}
 
@@ -168,9 +172,95 @@ def test_every_error_is_in_the_openapi_schema(service: Service) -> None:
     for path, operations in schema["paths"].items():
         for method, operation in operations.items():
             codes = set(operation["responses"])
-            assert {"400", "404", "405", "413", "422"} <= codes, (method, path)
+            assert {"400", "404", "405", "413", "422", "503"} <= codes, (method, path)
             if operation.get("security"):
                 assert {"401", "403", "429"} <= codes, (method, path)
             ref = operation["responses"]["422"]["content"]["application/json"]["schema"]["$ref"]
             assert ref.endswith("/ErrorEnvelope"), (method, path)
     assert "HTTPValidationError" not in schema["components"]["schemas"]
+
+
+BAD_PAYLOADS = {
+    "nul": b"\x00",
+    "nul-ff-garbage": b"\x00\xff garbage",
+    "invalid-utf8": b"\xff\xfe{}",
+    "json-nul-in-string": b'{"time": "2014-03-03T08:00:00+08:00\\u0000"}',
+    "json-lone-surrogate": b'{"time": "\\ud800"}',
+}
+"""Bodies PostgreSQL cannot store as text as they are (NUL, bytes that are not UTF-8, a
+lone surrogate), each answered and audited on every database."""
+
+
+def _latest_audit(db_url: str) -> AuditEntry:
+    engine = create_engine(db_url)
+    try:
+        with engine.connect() as connection:
+            row = connection.execute(
+                select(AuditEntry).order_by(AuditEntry.id.desc()).limit(1)
+            ).one()
+    finally:
+        engine.dispose()
+    return row  # type: ignore[return-value]
+
+
+@pytest.mark.parametrize("body", BAD_PAYLOADS.values(), ids=BAD_PAYLOADS.keys())
+@pytest.mark.parametrize("route", ["measurement", "clock"])
+def test_bad_payloads_are_refused_and_audited_on_every_database(
+    service: Service, route: str, body: bytes
+) -> None:
+    path, key = (
+        ("/v1/buildings/b1/measurements", service.keys["b1"])
+        if route == "measurement"
+        else ("/v1/clock", service.operator_key)
+    )
+    headers = {**service.headers(key), "Content-Type": "application/json"}
+    response = service.client.post(path, content=body, headers=headers)
+    assert response.status_code in (400, 422), response.text
+    assert set(response.json()) == ENVELOPE and response.json()["status"] == response.status_code
+    row = _latest_audit(service.db_url)
+    assert row.path == path and row.status_code == response.status_code
+    assert row.body_sha256 == hashlib.sha256(body).hexdigest()
+    assert "\x00" not in row.body_head
+    if body.startswith(b"\x00"):
+        assert row.body_head.startswith("\\x00"), row.body_head  # escaped, still visible
+    if b"\xff" in body:
+        assert "\\xff" in row.body_head, row.body_head
+    assert service.client.get("/v1/health").status_code == 200
+
+
+def test_a_nul_in_the_path_is_answered_on_every_database(service: Service) -> None:
+    missing = service.client.get("/v1/buildings/b%00x", headers=service.op())
+    assert missing.status_code == 404, missing.text
+    assert set(missing.json()) == ENVELOPE
+    headers = {**service.headers(service.keys["b1"]), "Content-Type": "application/json"}
+    other = service.client.post("/v1/buildings/b%00x/measurements", content=b"{}", headers=headers)
+    assert other.status_code in (403, 422), other.text
+    row = _latest_audit(service.db_url)
+    assert row.path == "/v1/buildings/b\\x00x/measurements"
+
+
+def test_a_bad_payload_keeps_the_connection_of_a_real_server(server_factory: Any) -> None:
+    server = server_factory("nul")
+    server.start()
+    operator = operator_key_for(server.db_url)
+    connection = http.client.HTTPConnection("127.0.0.1", server.port, timeout=30)
+    try:
+        connection.request(
+            "POST",
+            "/v1/clock",
+            body=BAD_PAYLOADS["nul-ff-garbage"],
+            headers={"X-API-Key": operator, "Content-Type": "application/json"},
+        )
+        refused = connection.getresponse()
+        assert refused.status == 400 and refused.getheader("content-type") == "application/json"
+        assert b'"status":400' in refused.read().replace(b" ", b"")
+        socket_before = connection.sock
+        assert socket_before is not None  # the server kept the connection open
+        connection.request("GET", "/v1/health")
+        health = connection.getresponse()
+        assert health.status == 200, health.read()
+        health.read()
+        assert connection.sock is socket_before  # answered on the same connection
+    finally:
+        connection.close()
+        server.stop()

@@ -20,7 +20,7 @@ from hvacflex import kpi
 from hvacflex.building.hvac import affine_power_model
 from hvacflex.config import preset, scaled_uncertainty, with_overrides
 from hvacflex.paths import buildings_dir
-from hvacflex.sim.closed_loop import ClosedLoop, run_simulation
+from hvacflex.sim.closed_loop import ClosedLoop, RunInterrupted, run_simulation
 from hvacflex.sim.plant import Actuation, Disturbance, Observation
 from hvacflex.sim.run_files import CHECKPOINT_FILE, read_results
 from hvacflex.sim.setup import prepare
@@ -254,6 +254,80 @@ def test_kills_at_random_steps_resume_bit_identical(tmp_path: Path) -> None:
     assert any(k > 0 for k in steps)
 
 
+class _Killed(BaseException):
+    """Stands in for SIGKILL in-process: no handler runs, the disk keeps what it had."""
+
+
+def _stop_at(period: int, error: BaseException) -> Callable[[int, int], None]:
+    def on_step(done: int, total: int) -> None:
+        if done == period:
+            raise error
+
+    return on_step
+
+
+@pytest.mark.parametrize("stop", ["sigint", "sigkill"])
+def test_ten_interruptions_at_random_periods_resume_bit_identical(
+    tmp_path: Path, stop: str
+) -> None:
+    """Ctrl-C (KeyboardInterrupt) or a kill (nothing runs after it) at 10 random periods of
+    an rmpc day with IL events: each resumed run equals the uninterrupted one in every
+    column but ``solve_time_s``, bit for bit — it resumes from the last restart point and
+    replays the periods after it."""
+    every = 5
+    cfg = with_overrides(preset("rmpc", start=START, days=1.0), {"activation.mode": "stress"})
+    whole = run_simulation(cfg, tmp_path / "whole", progress=False, checkpoint_every=every)
+    columns = [c for c in whole.frame.columns if c != "solve_time_s"]
+    rng = np.random.default_rng(17 if stop == "sigint" else 23)
+    for i, period in enumerate(rng.choice(np.arange(1, cfg.steps), size=10, replace=False)):
+        out = tmp_path / f"{stop}-{i}"
+        error: BaseException = KeyboardInterrupt() if stop == "sigint" else _Killed()
+        with pytest.raises(type(error)) as caught:
+            run_simulation(
+                cfg, out, progress=False, checkpoint_every=every, on_step=_stop_at(period, error)
+            )
+        restart = (int(period) // every) * every
+        if stop == "sigint":
+            assert isinstance(caught.value, RunInterrupted)
+            assert caught.value.period == period
+            assert caught.value.checkpoint_period == (restart or None)
+            assert "checkpoint" in caught.value.message()
+        resumed_at: list[int] = []
+        resumed = run_simulation(
+            cfg, out, progress=False, checkpoint_every=every, on_resume=resumed_at.append
+        )
+        assert resumed_at == ([restart] if restart else [])
+        pd.testing.assert_frame_equal(
+            resumed.frame[columns], whole.frame[columns], check_exact=True, check_freq=False
+        )
+
+
+def test_ctrl_c_says_where_its_checkpoint_is_and_the_resume_says_where_it_resumed(
+    tmp_path: Path,
+) -> None:
+    """``simulate`` interrupted by SIGINT prints a line naming its checkpoint and how to
+    resume (exit 130); the same command again first prints "resumed from period N"."""
+    out = tmp_path / "interrupted"
+    args = [
+        sys.executable, "-m", "hvacflex.cli", "simulate", "--scenario", "rmpc",
+        "--start", START, "--days", "1", "--out", str(out), "--quiet",
+        "--checkpoint-every", "4", "--no-report",
+    ]  # fmt: skip
+    proc = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    deadline = time.monotonic() + 120
+    while not (out / CHECKPOINT_FILE).exists() and time.monotonic() < deadline:
+        time.sleep(0.05)
+    proc.send_signal(signal.SIGINT)
+    printed, _ = proc.communicate(timeout=120)
+    if proc.returncode == 0:
+        pytest.skip("the day finished before the interruption")
+    assert proc.returncode == 130, printed
+    assert "checkpoint at period" in printed and "run the same command again" in printed
+    assert "Traceback" not in printed
+    again = subprocess.run(args, capture_output=True, text=True, timeout=300, check=True)
+    assert again.stdout.splitlines()[0].startswith("resumed from period ")
+
+
 @pytest.mark.slow
 def test_twenty_kills_resume_bit_identical(tmp_path: Path) -> None:
     rng = np.random.default_rng(29)
@@ -316,8 +390,7 @@ def test_billing_period_mode_stops_shaving_below_a_sunk_peak() -> None:
             },
         )
         loop = ClosedLoop(prepare(cfg))
-        loop.month = loop.setup.exogenous.index[0].month
-        loop.month_peak_kw = 100.0  # far above the plant's peak (≈ 30–40 kW)
+        loop.history.opening_peak_kw = 100.0  # far above the plant's peak (≈ 30–40 kW)
         while loop.k < loop.steps:
             loop.step()
         frames[mode] = loop.frame()

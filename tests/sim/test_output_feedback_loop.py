@@ -88,7 +88,7 @@ def test_output_feedback_preset_resumes_identically(tmp_path: Path) -> None:
     run_simulation(cfg, tmp_path / "split", progress=False, checkpoint_every=5, stop_after_steps=11)
     assert (tmp_path / "split" / CHECKPOINT_FILE).is_file()
     second = run_simulation(cfg, tmp_path / "split", progress=False, checkpoint_every=5)
-    assert second.resumed_from_step == 11
+    assert second.resumed_from_step == 10  # the last restart point: 11 is replayed
     assert np.isfinite(second.summary["prediction_error_rms_k"])  # summary.json and `kpi`
     assert second.summary["prediction_error_max_k"] >= second.summary["prediction_error_rms_k"]
     pd.testing.assert_frame_equal(

@@ -221,14 +221,23 @@ def test_the_filter_predicts_with_the_delivered_cooling() -> None:
     """With a Kalman filter the controller's next prediction takes the same input as the
     observer: the cooling the air delivered, not the decided flow (fan-only air: less)."""
     cfg = with_overrides(
-        preset("nmpc", start=f"{START}T10:00", days=1 / 24), {"estimation.mode": "kalman"}
+        preset("nmpc", start=f"{START}T10:00", days=1 / 12), {"estimation.mode": "kalman"}
     )
     setup = prepare(cfg)
     loop = ClosedLoop(setup, plant=FanOnlyPlant(setup.zone_names))
     loop.step()
-    estimator = loop.control.controller._estimator  # type: ignore[attr-defined]
     flow = np.asarray(loop.plant.flows[0])  # type: ignore[attr-defined]
     mean_temp = loop.plant.temps - 0.5  # type: ignore[attr-defined]
     u = delivered_flow_kg_s(setup.model, flow, mean_temp, mean_temp)
-    np.testing.assert_allclose(estimator.last.flow_kg_s, u, atol=1e-12)
+    estimator = loop.control.controller._estimator  # type: ignore[attr-defined]
+    predicted_with: list[np.ndarray] = []
+    estimate = estimator.estimate
+
+    def spy(*args: object, **kwargs: object) -> object:
+        predicted_with.append(np.array(estimator.last.flow_kg_s))
+        return estimate(*args, **kwargs)
+
+    estimator.estimate = spy
+    loop.step()  # the next decision's filter predicts period 0 with what the air delivered
+    np.testing.assert_allclose(predicted_with[0], u, atol=1e-12)
     assert np.all(u < flow - 1e-3)  # fan-only air: the decided flow would overstate it

@@ -130,12 +130,14 @@ def test_whole_horizon_model_curtails_every_activated_period_with_the_fresh_plan
 
 class StubPlanner(Controller):
     """A state-dependent planner that offers reserve, for testing the loop without an LP
-    (the protocol's defaults give it hold, the applied-flow note and no model)."""
+    (a locked event period's inputs carry the locked action, returned as it is)."""
 
     def __init__(self, flow_max: np.ndarray, steps: int) -> None:
         self.flow_max, self.steps, self.calls, self.carries = flow_max, steps, 0, []
 
     def act(self, inputs: PeriodInputs) -> Action:
+        if inputs.locked is not None:
+            return inputs.locked
         self.calls += 1
         self.carries.append(inputs.allowance_carry_steps)
         level = 0.4 + 0.02 * (float(np.mean(inputs.x_degc)) - 25.0)
@@ -362,10 +364,11 @@ class _BaselineRecorder(StubPlanner):
         super().__init__(flow_max, steps)
         self.ahead: list[np.ndarray | None] = []
 
-    def note_baseline_power(
-        self, baseline_power_kw: float | None, ahead_kw: np.ndarray | None = None
-    ) -> None:
-        self.ahead.append(None if ahead_kw is None else np.array(ahead_kw))
+    def act(self, inputs: PeriodInputs) -> Action:
+        if inputs.locked is None:
+            ahead = inputs.baseline_ahead_kw
+            self.ahead.append(None if ahead is None else np.array(ahead))
+        return super().act(inputs)
 
 
 @pytest.mark.parametrize("rule", ["pre-event", "similar-days"])

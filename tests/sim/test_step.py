@@ -13,7 +13,6 @@ import pytest
 from hvacflex import state
 from hvacflex.config import preset, with_overrides
 from hvacflex.control.base import Action, Controller, EventPlan, PeriodInputs, ReserveOffer
-from hvacflex.data.forecast import Forecast
 from hvacflex.sim.events import Role
 from hvacflex.sim.step import ConflictError, ControlStep, DecisionStatus
 
@@ -36,6 +35,11 @@ class CountingController(Controller):
         self.inputs: list[PeriodInputs] = []
 
     def act(self, inputs: PeriodInputs) -> Action:
+        if inputs.previous_flow_kg_s is not None:  # a filter's last step, as the plant ran it
+            self.applied.append(np.asarray(inputs.previous_flow_kg_s))
+        if inputs.locked is not None:  # a locked event period: nothing to decide
+            self.holds.append(inputs.locked.applied_flow_kg_s(curtailed=True))
+            return inputs.locked
         self.calls += 1
         self.inputs.append(inputs)
         flow = np.full((STEPS, ZONES), 1.0 + self.calls)
@@ -61,14 +65,6 @@ class CountingController(Controller):
             predicted_curtailed_degc=np.full(ZONES, 25.5),
             event_plan=event,
         )
-
-    def hold(
-        self, forecast: Forecast, flow_kg_s: np.ndarray, measured_zone_temp_degc: Any = None
-    ) -> None:
-        self.holds.append(np.asarray(flow_kg_s))
-
-    def note_applied_flow(self, flow_kg_s: np.ndarray) -> None:
-        self.applied.append(np.asarray(flow_kg_s))
 
     def get_state(self) -> dict[str, Any]:
         return {"calls": self.calls}
@@ -113,11 +109,14 @@ def test_an_event_locks_the_start_plan_holds_and_curtails_then_resumes() -> None
     statuses = [d.status for d in decisions]
     assert statuses[2:5] == [DecisionStatus.LOCKED] * 3
     assert statuses[0] is DecisionStatus.PLANNED
-    # curtailed periods run u − r, and the controller is told the flow that ran
+    # curtailed periods run u − r, and the controller is told the flow that ran (with the
+    # next period's inputs: every period's but the last)
     assert [d.outcome.curtailed for d in decisions[:6]] == [False, True, True, True, True, False]
     np.testing.assert_allclose(decisions[1].applied_flow_kg_s, 0.75 * 3.0)
     np.testing.assert_allclose(decisions[0].applied_flow_kg_s, 2.0)
-    assert len(controller.applied) == 8
+    assert len(controller.applied) == 7
+    for told, decision in zip(controller.applied, decisions, strict=False):
+        np.testing.assert_array_equal(told, decision.applied_flow_kg_s)
     assert decisions[1].locked is not None and decisions[1].locked[1] == 0
     assert decisions[3].locked is not None and decisions[3].locked[1] == 2
     assert decisions[1].allowance_k > 0  # the event's allowance is in force
@@ -152,7 +151,7 @@ def test_a_replannable_step_decides_a_period_again_from_before_it() -> None:
 
 
 class FilteringController(CountingController):
-    """... whose state holds the last flow it was told (a filter's last step)."""
+    """... whose state holds the flows it was told (a filter's last step)."""
 
     def get_state(self) -> dict[str, Any]:
         return {"calls": self.calls, "applied": list(self.applied)}
@@ -163,29 +162,30 @@ class FilteringController(CountingController):
 
 
 def test_a_delivered_flow_posted_with_the_next_period_reaches_the_filter_of_its_step() -> None:
-    """The service's path (the flow arrives with k's measurement) tells the controller what
-    the closed loop's (``note_delivered_flow`` after k − 1) does, and is kept for k again."""
+    """The plant's delivered input of k − 1 arrives with k's inputs (the closed loop's
+    history and the service's measurement alike), replaces the decided flow as the filter's
+    last step, and is kept for a decision of k again."""
     controller = FilteringController()
     config = preset("rmpc", start="2014-03-03", days=1.0)  # fixed linearisation
     step = ControlStep(config, controller, ZONES, replannable=True)
     delivered = np.array([0.3, 0.4])
     inputs = PeriodInputs(np.full(3, 25.0), OCCUPIED, 0.0)  # type: ignore[arg-type]
+    with_delivered = replace(inputs, delivered_flow_kg_s=delivered)
     step.decide(0, inputs, activated=lambda j: False)
-    step.decide(1, inputs, activated=lambda j: False, previous_delivered_flow_kg_s=delivered)
-    # period 0's decided flow, then the delivered one replacing it, then period 1's
-    np.testing.assert_array_equal(controller.applied[-2], delivered)
-    told = len(controller.applied)
-    step.decide(1, inputs, activated=lambda j: False)  # decided again: restored with it
-    assert len(controller.applied) == told
-    np.testing.assert_array_equal(controller.applied[-2], delivered)
+    step.decide(1, with_delivered, activated=lambda j: False)
+    np.testing.assert_array_equal(controller.applied[-1], delivered)
+    step.decide(1, inputs, activated=lambda j: False)  # decided again: kept
+    np.testing.assert_array_equal(controller.applied[-1], delivered)
     # a period skipped: the flow is not the controller's last step's, and is dropped
-    step.decide(3, inputs, activated=lambda j: False, previous_delivered_flow_kg_s=delivered + 1)
+    skipped = replace(inputs, delivered_flow_kg_s=delivered + 1)
+    step.decide(3, skipped, activated=lambda j: False)
     assert not any(np.array_equal(flow, delivered + 1) for flow in controller.applied)
     # a re-linearised controller's filter has another operating point: not told
-    trajectory = ControlStep(preset("rmpc-output-feedback"), FilteringController(), ZONES)
+    relinearised = FilteringController()
+    trajectory = ControlStep(preset("rmpc-output-feedback"), relinearised, ZONES)
     trajectory.decide(0, inputs, activated=lambda j: False)
-    trajectory.decide(1, inputs, activated=lambda j: False, previous_delivered_flow_kg_s=delivered)
-    assert not any(np.array_equal(f, delivered) for f in trajectory.controller.applied)  # type: ignore[attr-defined]
+    trajectory.decide(1, with_delivered, activated=lambda j: False)
+    assert not any(np.array_equal(f, delivered) for f in relinearised.applied)
 
 
 def test_periods_nobody_decided_advance_the_event_bookkeeping() -> None:
@@ -220,18 +220,17 @@ class CommittingController(CountingController):
 
     commit = 2
 
+    commits_ahead = commit
+
     def __init__(self) -> None:
         super().__init__()
         self.noted = np.full((0, ZONES), np.nan)
 
-    @property
-    def commits_ahead(self) -> int:
-        return self.commit
-
-    def note_commitments(self, reserve_flow_kg_s: np.ndarray) -> None:
-        self.noted = np.array(reserve_flow_kg_s, dtype=float)
-
     def act(self, inputs: PeriodInputs) -> Action:
+        if inputs.locked is not None:
+            return super().act(inputs)
+        assert inputs.committed_reserve_kg_s is not None
+        self.noted = np.array(inputs.committed_reserve_kg_s, dtype=float)
         action = super().act(inputs)
         assert action.event_plan is not None
         plan = action.event_plan
@@ -253,8 +252,9 @@ def test_reserve_is_committed_g_periods_ahead_and_every_event_period_curtails() 
     config = preset("rmpc", start="2014-03-03", days=1.0)
     step = ControlStep(config, controller, ZONES)
     assert step.commit_ahead == 2
-    # told before any decision (a fleet builds its first problem before deciding)
-    np.testing.assert_array_equal(controller.noted, np.zeros((2, ZONES)))
+    # in the inputs before any decision (a fleet builds its first problem before deciding)
+    first = step.prepared(PeriodInputs(np.full(3, 25.0), OCCUPIED, 0.0))  # type: ignore[arg-type]
+    np.testing.assert_array_equal(first.committed_reserve_kg_s, np.zeros((2, ZONES)))
     active = {4, 5, 6}  # a 3-period activation
     decisions = [_decide(step, k, active) for k in range(9)]
     kw = [d.action.reserve_kw for d in decisions]
@@ -272,10 +272,13 @@ def test_reserve_is_committed_g_periods_ahead_and_every_event_period_curtails() 
     np.testing.assert_allclose(decisions[4].applied_flow_kg_s, plan_flow - 0.1 * 3)
     np.testing.assert_allclose(decisions[5].applied_flow_kg_s, plan_flow - 0.1 * 4)
     np.testing.assert_allclose(decisions[6].applied_flow_kg_s, plan_flow - 0.1 * 5)
-    # after the event the controller plans again (calls 6, 7) with the next g periods'
-    # commitments: those its own plans offered
+    # after the event the controller plans again (calls 6, 7), the last with the next g
+    # periods' commitments: those its own plans offered (period 8's by the locked plan)
     assert controller.calls == 7
-    np.testing.assert_allclose(controller.noted[:, 0], [0.6, 0.7])
+    np.testing.assert_allclose(controller.noted[:, 0], [1.5, 0.6])
+    after = step.prepared(PeriodInputs(np.full(3, 25.0), OCCUPIED, 0.0))  # type: ignore[arg-type]
+    assert after.committed_reserve_kg_s is not None
+    np.testing.assert_allclose(after.committed_reserve_kg_s[:, 0], [0.6, 0.7])
 
 
 def test_commitments_survive_the_state_round_trip() -> None:
@@ -297,15 +300,16 @@ class MeteredController(CountingController):
     told, and whose offers (the one committed g ahead, the event plan's) say the ρ they were
     sized with."""
 
+    commits_ahead = 2
+
     def __init__(self) -> None:
         super().__init__()
         self.ratios: list[float] = []
 
-    @property
-    def commits_ahead(self) -> int:
-        return 2
-
     def act(self, inputs: PeriodInputs) -> Action:
+        if inputs.locked is not None:
+            return super().act(inputs)
+        self.ratios.append(inputs.meter_ratio)
         action = super().act(inputs)
         ratio = self.ratios[-1] if self.ratios else math.nan
         assert action.event_plan is not None
@@ -315,9 +319,6 @@ class MeteredController(CountingController):
             offer_ahead=ReserveOffer(np.zeros(ZONES), 1.0, meter_ratio=ratio),
             event_plan=replace(action.event_plan, meter_ratio=ratio),
         )
-
-    def note_meter_response(self, ratio: float) -> None:
-        self.ratios.append(ratio)
 
 
 def planned_kw(call: int) -> float:
@@ -344,13 +345,12 @@ def test_the_meter_s_response_to_the_plan_reaches_the_controller() -> None:
     for k in range(45):
         previous = meter_kw[-1] if meter_kw else None
         asked = len(controller.ratios)
-        decision = step.decide(
-            k, inputs, activated=lambda j: j in active, previous_power_kw=previous
-        )
+        metered = replace(inputs, previous_power_kw=previous)
+        decision = step.decide(k, metered, activated=lambda j: j in active)
         if len(controller.ratios) > asked:
             told[k] = controller.ratios[-1]
         if k == 40:  # decided again from before it: the same history, the same ρ
-            step.decide(k, inputs, activated=lambda j: j in active, previous_power_kw=previous)
+            step.decide(k, metered, activated=lambda j: j in active)
             assert controller.ratios[-1] == told[k]
         decisions.append(decision)
         plan = decision.action.planned_power_kw
@@ -369,5 +369,6 @@ def test_the_meter_s_response_to_the_plan_reaches_the_controller() -> None:
         ZONES,
     )
     for k in range(4):
-        action = off.decide(k, inputs, activated=lambda j: False, previous_power_kw=20.0).action
+        metered = replace(inputs, previous_power_kw=20.0)
+        action = off.decide(k, metered, activated=lambda j: False).action
         assert math.isnan(action.offer_meter_ratio)

@@ -40,11 +40,13 @@ WALL_ORIENTATIONS = (("north", 0.0), ("east", 90.0), ("south", 180.0), ("west", 
 clockwise from north [°]). A building need not face north: the fit finds each zone's share
 of each (``solar_wall_<name>_m2``)."""
 GAIN_CHANNEL_PEAK_W = 1000.0
-"""An identified zone's ``internal_gain`` channel at a people fraction of 1 [W]: the zone's
-nominal floor area (1 m²) × 1 person/m² × this sensible gain per person."""
+"""An identified zone's ``internal_gain`` channel at a people fraction of 1 [W]: the gain
+channel's nominal floor area (:data:`NOMINAL_FLOOR_AREA_M2`) × 1 person/m² × this sensible
+gain per person."""
 NOMINAL_FLOOR_AREA_M2 = 1.0
-"""The floor area an identified zone carries (trend data give none): it only scales the
-``internal_gain`` channel (:data:`GAIN_CHANNEL_PEAK_W`)."""
+"""The floor area that scales an identified zone's ``internal_gain`` channel
+(:data:`GAIN_CHANNEL_PEAK_W`; ``Building.gain_floor_areas_m2``) — not its floor area, which
+is the model file's ``floor_area_m2`` (NaN when the file gives none)."""
 NOMINAL_HEIGHT_M = 1.0
 """The height an identified zone carries (unused by its network)."""
 
@@ -134,6 +136,41 @@ class IdentifiedPower:
 
 
 @dataclass(frozen=True)
+class IdentifiedValidity:
+    """The range the training data covered — where the fitted model is an interpolation.
+
+    Attributes
+    ----------
+    zone_temp_min_degc, zone_temp_max_degc : (m,) each zone's lowest and highest measured air
+    temperature on the training days [°C] (zone order); outdoor_temp_min_degc,
+    outdoor_temp_max_degc : the outdoor air's [°C]. (The supply flows' range is each zone's
+    ``flow_min_kg_s`` … ``flow_max_kg_s``.)
+    """
+
+    zone_temp_min_degc: tuple[float, ...]
+    zone_temp_max_degc: tuple[float, ...]
+    outdoor_temp_min_degc: float
+    outdoor_temp_max_degc: float
+
+    def outside(
+        self, zone_temp_degc: npt.ArrayLike, outdoor_temp_degc: npt.ArrayLike
+    ) -> npt.NDArray[np.bool_]:
+        """(T,) whether each period lies outside the range: a zone temperature (T, m) [°C] or
+        the outdoor temperature (T,) [°C] beyond what the training data saw."""
+        temp = np.atleast_2d(np.asarray(zone_temp_degc, dtype=np.float64))
+        outdoor = np.atleast_1d(np.asarray(outdoor_temp_degc, dtype=np.float64))
+        zone = (temp < np.asarray(self.zone_temp_min_degc)) | (
+            temp > np.asarray(self.zone_temp_max_degc)
+        )
+        out: npt.NDArray[np.bool_] = (
+            zone.any(axis=1)
+            | (outdoor < self.outdoor_temp_min_degc)
+            | (outdoor > self.outdoor_temp_max_degc)
+        )
+        return out
+
+
+@dataclass(frozen=True)
 class IdentifiedRC:
     """The ``[identified]`` table of a building file.
 
@@ -142,7 +179,8 @@ class IdentifiedRC:
     zones : (m,) in the building's zone order; couplings : zone pairs; boundaries : nodes of
     unconditioned zones; supply_temp_degc : the supply air temperature of the HVAC input [°C];
     power : the HVAC electricity model, or None (no meter in the data: ideal loads);
-    provenance : where it came from (data file, train and test days).
+    provenance : where it came from (data file, train and test days);
+    validity : the training data's range, or None (files written before it was recorded).
     """
 
     zones: tuple[IdentifiedZone, ...]
@@ -151,6 +189,7 @@ class IdentifiedRC:
     supply_temp_degc: float
     power: IdentifiedPower | None
     provenance: tuple[tuple[str, str], ...] = ()
+    validity: IdentifiedValidity | None = None
 
 
 def sensible_cooling_kw(

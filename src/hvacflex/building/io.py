@@ -8,6 +8,7 @@ that names the file, the field path (``walls[3].area_m2``), the value and a hint
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, get_args, get_origin
@@ -24,6 +25,7 @@ from hvacflex.building.identified import (
     IdentifiedCoupling,
     IdentifiedPower,
     IdentifiedRC,
+    IdentifiedValidity,
     IdentifiedZone,
 )
 from hvacflex.building.model import (
@@ -230,6 +232,7 @@ def to_building(spec: BuildingSpec, *, source_path: Path | None = None) -> Build
         hvac=_hvac(spec.hvac, spec.zone_names, _design_people(spec), _floor_area_m2(spec)),
         description=spec.description,
         latitude_deg=spec.latitude_deg,
+        height_above_ground_m=spec.height_above_ground_m,
         longitude_deg=spec.longitude_deg,
         source_path=source_path,
     )
@@ -359,8 +362,10 @@ def _hvac(
 def _identified_building(
     spec: BuildingSpec, identified: IdentifiedSpec, source_path: Path | None
 ) -> Building:
-    """An identified building (:mod:`hvacflex.building.identified`): zones of nominal size,
-    gains that make each zone's ``internal_gain`` channel the people schedule × 1 kW, and an
+    """An identified building (:mod:`hvacflex.building.identified`): zones with the file's
+    floor areas (NaN where it gives none: per-m² figures are then not available) and nominal
+    height, gains that make each zone's ``internal_gain`` channel the people schedule × 1 kW
+    (over :data:`NOMINAL_FLOOR_AREA_M2`, ``Building.gain_floor_areas_m2``), and an
     air system with the fitted supply temperature and flow ranges (its COP and fan terms are
     not used: the power model is the fitted one)."""
     names = spec.zone_names
@@ -391,13 +396,23 @@ def _identified_building(
             else IdentifiedPower(**identified.power_model.model_dump())
         ),
         provenance=tuple(identified.provenance.items()),
+        validity=(
+            None
+            if identified.validity is None
+            else IdentifiedValidity(
+                zone_temp_min_degc=tuple(identified.validity.zone_temp_min_degc[n] for n in names),
+                zone_temp_max_degc=tuple(identified.validity.zone_temp_max_degc[n] for n in names),
+                outdoor_temp_min_degc=identified.validity.outdoor_temp_min_degc,
+                outdoor_temp_max_degc=identified.validity.outdoor_temp_max_degc,
+            )
+        ),
     )
     return Building(
         name=spec.name,
         zones=tuple(
             Zone(
                 name=z.name,
-                floor_area_m2=NOMINAL_FLOOR_AREA_M2,
+                floor_area_m2=math.nan if z.floor_area_m2 is None else z.floor_area_m2,
                 height_m=NOMINAL_HEIGHT_M,
                 energyplus_zone=z.energyplus_zone,
             )
@@ -426,6 +441,7 @@ def _identified_building(
         ),
         description=spec.description,
         latitude_deg=spec.latitude_deg,
+        height_above_ground_m=spec.height_above_ground_m,
         longitude_deg=spec.longitude_deg,
         source_path=source_path,
         identified=rc,

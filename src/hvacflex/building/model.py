@@ -19,7 +19,7 @@ import numpy as np
 import numpy.typing as npt
 
 from hvacflex.building.chiller import ChillerPerformance
-from hvacflex.building.identified import IdentifiedRC
+from hvacflex.building.identified import NOMINAL_FLOOR_AREA_M2, IdentifiedRC
 from hvacflex.units import CP_AIR_J_PER_KG_K, RHO_AIR_KG_PER_M3
 
 OUTSIDE = "outside"
@@ -479,6 +479,9 @@ class Building:
     source_path : the file it came from (``None`` if built in code).
     identified : the fitted grey-box network of a building identified from trend data
         (:mod:`hvacflex.building.identified`; it then has no walls or windows), else None.
+    height_above_ground_m : the floor's height above ground [m] (default 0: on the ground);
+        the IDF export places the surfaces there, so EnergyPlus's wind speed and outside
+        films are those of that height (hvacflex's own films are the constructions').
     """
 
     name: str
@@ -493,6 +496,7 @@ class Building:
     longitude_deg: float | None = None
     source_path: Path | None = field(default=None, compare=False)
     identified: IdentifiedRC | None = None
+    height_above_ground_m: float = 0.0
 
     @property
     def zone_names(self) -> tuple[str, ...]:
@@ -500,7 +504,19 @@ class Building:
 
     @property
     def floor_area_m2(self) -> float:
-        return sum(zone.floor_area_m2 for zone in self.zones)
+        """The zones' floor area [m²]; NaN when a zone's is unknown (an identified model
+        whose file gives no ``floor_area_m2``): per-m² figures are then not available."""
+        return float(sum(zone.floor_area_m2 for zone in self.zones))
+
+    @property
+    def gain_floor_areas_m2(self) -> tuple[float, ...]:
+        """(m,) the floor area [m²] that scales each zone's ``internal_gain`` channel (the
+        gains' densities × this area): the zone's floor area, or for an identified building
+        its gain channel's nominal area (``identified.NOMINAL_FLOOR_AREA_M2``), whatever its
+        real floor area."""
+        if self.identified is not None:
+            return tuple(NOMINAL_FLOOR_AREA_M2 for _ in self.zones)
+        return tuple(zone.floor_area_m2 for zone in self.zones)
 
     def zone_index(self, name: str) -> int:
         return self.zone_names.index(name)

@@ -9,7 +9,9 @@ of :mod:`hvacflex.building.model` and a ``ValidationError`` into a ``BuildingCon
 
 File layout (see ``buildings/office5.toml`` for a commented example)::
 
-    name, description, latitude_deg?, longitude_deg?
+    name, description, latitude_deg?, longitude_deg?, height_above_ground_m? (the floor's
+    height above ground [m], default 0: a floor on the ground; the IDF export places its
+    surfaces there)
     [[zones]]            name, floor_area_m2, height_m, capacitance_multiplier?,
                          infiltration_ach?, internal_gain_radiative_fraction?,
                          solar_lost_fraction?, interior_radiation_w_per_m2k?,
@@ -36,7 +38,8 @@ File layout (see ``buildings/office5.toml`` for a commented example)::
                          pump_design_kw?  (absent: constant cop)
 
 A building identified from trend data (``hvacflex identify fit``) has ``[[zones]]`` with
-``name`` and ``energyplus_zone`` only (no geometry), no walls, windows, ``[gains]`` or
+``name``, ``energyplus_zone`` and ``floor_area_m2`` (every zone's, or none: then the areas are
+unknown and ``Building.floor_area_m2`` is NaN) only, no walls, windows, ``[gains]`` or
 ``[hvac]``, and instead::
 
     [identified]         supply_temp_degc, provenance? = {data, train, test}
@@ -50,6 +53,9 @@ A building identified from trend data (``hvacflex identify fit``) has ``[[zones]
                               occupied_gain_kw, ua_zone_kw_per_k = {Z = …}, temp_degc
     [identified.power_model]  base_kw, kw_per_kw_cooling, kw_per_k_outdoor[, occupied_kw,
                               kw_per_kg_s_k_outdoor_occupied]
+    [identified.validity]     zone_temp_min_degc = {Z = …}, zone_temp_max_degc = {Z = …},
+                              outdoor_temp_min_degc, outdoor_temp_max_degc (optional: the
+                              training data's range)
 
 The optional keys added for the BESTEST validation (infiltration, radiative split of gains,
 interior solar distribution, sky long-wave exchange) all default to the original model.
@@ -333,6 +339,15 @@ class IdentifiedPowerSpec(Spec):
     kw_per_kg_s_k_outdoor_occupied: Number = 0.0
 
 
+class IdentifiedValiditySpec(Spec):
+    """The training data's range: per zone its air temperatures, and the outdoor air."""
+
+    zone_temp_min_degc: dict[str, Annotated[Number, Field(ge=-50.0, le=70.0)]]
+    zone_temp_max_degc: dict[str, Annotated[Number, Field(ge=-50.0, le=70.0)]]
+    outdoor_temp_min_degc: Annotated[Number, Field(ge=-50.0, le=70.0)]
+    outdoor_temp_max_degc: Annotated[Number, Field(ge=-50.0, le=70.0)]
+
+
 class IdentifiedSpec(Spec):
     supply_temp_degc: Annotated[Number, Field(lt=MAX_SUPPLY_TEMP_DEGC)]
     provenance: dict[str, Annotated[str, Strict()]] = {}
@@ -340,6 +355,7 @@ class IdentifiedSpec(Spec):
     couplings: list[IdentifiedCouplingSpec] = []
     boundaries: list[IdentifiedBoundarySpec] = []
     power_model: IdentifiedPowerSpec | None = None
+    validity: IdentifiedValiditySpec | None = None
 
 
 class BuildingSpec(Spec):
@@ -349,6 +365,7 @@ class BuildingSpec(Spec):
     description: Annotated[str, Strict()] = ""
     latitude_deg: Annotated[Number, Field(ge=-90.0, le=90.0)] | None = None
     longitude_deg: Annotated[Number, Field(ge=-180.0, le=180.0)] | None = None
+    height_above_ground_m: Annotated[Number, Field(ge=0.0, le=1000.0)] = 0.0
     zones: Annotated[list[ZoneSpec], Field(min_length=1)]
     constructions: dict[str, ConstructionSpec] = {}
     walls: list[WallSpec] = []
@@ -575,6 +592,57 @@ def _check_designed(spec: BuildingSpec) -> None:
             )
 
 
+def _check_identified_areas(spec: BuildingSpec) -> None:
+    """An identified building's zones carry a ``floor_area_m2`` each or none (a model whose
+    areas are unknown); never a ``height_m`` (its network has no volume)."""
+    given = [zone.floor_area_m2 is not None for zone in spec.zones]
+    if any(given) and not all(given):
+        i = given.index(False)
+        raise rule_error(
+            "missing floor area: give every zone's floor_area_m2 or none",
+            f"zones[{i}].floor_area_m2",
+            hint="add the zone's floor area [m²] (the IDF's zone floor, or the building's "
+            "plans), or remove the others' (per-m² figures are then not available)",
+        )
+    for i, zone in enumerate(spec.zones):
+        if zone.height_m is not None:
+            raise rule_error(
+                "an identified zone has no height",
+                f"zones[{i}].height_m",
+                zone.height_m,
+                hint="remove it: the fitted capacitances hold the zone's air",
+            )
+
+
+def _check_validity(spec: BuildingSpec, validity: IdentifiedValiditySpec) -> None:
+    """Every zone has its range, each range's minimum at most its maximum."""
+    for key in ("zone_temp_min_degc", "zone_temp_max_degc"):
+        table = getattr(validity, key)
+        for name in table:
+            _check_zone_ref(spec, name, f"identified.validity.{key}.{name}")
+        for name in spec.zone_names:
+            if name not in table:
+                raise rule_error(
+                    "missing required field", f"identified.validity.{key}.{name}", hint="add it"
+                )
+    for name in spec.zone_names:
+        low, high = validity.zone_temp_min_degc[name], validity.zone_temp_max_degc[name]
+        if low > high:
+            raise rule_error(
+                f"exceeds the maximum {high:g} °C",
+                f"identified.validity.zone_temp_min_degc.{name}",
+                low,
+                hint="the minimum must be ≤ the maximum",
+            )
+    if validity.outdoor_temp_min_degc > validity.outdoor_temp_max_degc:
+        raise rule_error(
+            f"exceeds the maximum {validity.outdoor_temp_max_degc:g} °C",
+            "identified.validity.outdoor_temp_min_degc",
+            validity.outdoor_temp_min_degc,
+            hint="the minimum must be ≤ the maximum",
+        )
+
+
 def _check_identified(spec: BuildingSpec, identified: IdentifiedSpec) -> None:
     """An identified building: no envelope, gains or HVAC tables; one parameter table per
     zone; couplings and boundaries naming its zones."""
@@ -586,6 +654,7 @@ def _check_identified(spec: BuildingSpec, identified: IdentifiedSpec) -> None:
                 hint="remove it: the [identified] table holds the fitted model",
             )
     names = spec.zone_names
+    _check_identified_areas(spec)
     if sorted(identified.zones) != sorted(names):
         raise rule_error(
             "the identified zones differ from [[zones]]",
@@ -599,3 +668,5 @@ def _check_identified(spec: BuildingSpec, identified: IdentifiedSpec) -> None:
     for i, boundary in enumerate(identified.boundaries):
         for zone in boundary.ua_zone_kw_per_k:
             _check_zone_ref(spec, zone, f"identified.boundaries[{i}].ua_zone_kw_per_k")
+    if identified.validity is not None:
+        _check_validity(spec, identified.validity)

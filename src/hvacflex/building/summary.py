@@ -111,8 +111,8 @@ def design_disturbance(b: Building) -> np.ndarray:
             shgc = window.shgc_normal if window.shgc_normal is not None else window.shgc
             d[j] = shgc * DESIGN_SOLAR_VERTICAL_W_PER_M2
         elif channel.kind == "internal_gain":
-            zone = b.zones[b.zone_index(str(channel.zone))]
-            d[j] = zone.floor_area_m2 * b.gains.peak_sensible_w_per_m2
+            area_m2 = b.gain_floor_areas_m2[b.zone_index(str(channel.zone))]
+            d[j] = area_m2 * b.gains.peak_sensible_w_per_m2
         elif channel.kind == "ground_temp":
             d[j] = DESIGN_ZONE_TEMP_DEGC
         elif channel.kind == "constant":

@@ -3,9 +3,8 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, Protocol
+from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 import numpy.typing as npt
@@ -102,6 +101,10 @@ class Action:
     offer_meter_ratio : ρ, the meter's response to the plan that ``reserve_kw`` was sized
         with (:mod:`hvacflex.control.meter_response`; under commitments, the ρ of the
         decision that committed it); NaN: not scaled.
+    plan : the optimal plan over the horizon this decision made (an ``RMPCSolution``);
+        None for a rule, a fallback or a locked period.
+    step_model : the model (a, b, e, g, c) the decision was planned with (its first step);
+        None: the scenario's fixed model (a rule, a stand-in).
     """
 
     flow_kg_s: FloatArray
@@ -121,6 +124,8 @@ class Action:
     released: bool = False
     offer_ahead: ReserveOffer | None = None
     offer_meter_ratio: float = math.nan
+    plan: Any = None
+    step_model: StepModel | None = None
 
     def applied_flow_kg_s(self, *, curtailed: bool) -> FloatArray:
         """(m,) the flow the plant runs [kg/s]: u₀ − r₀ when the period is curtailed (IL
@@ -131,11 +136,14 @@ class Action:
 
 @dataclass(frozen=True)
 class PeriodInputs:
-    """What a controller gets to decide the period starting now (:meth:`Controller.act`).
+    """Everything a controller gets to decide the period starting now (:meth:`Controller.act`).
 
-    Built by the driver of the period (:meth:`hvacflex.sim.step.ControlStep.decide`, which
-    sets :attr:`allowance_carry_steps` from its IL event tracker) and passed unchanged to
-    the controller.
+    The driver's part (the state, the forecast with the operator's signals, the peak so far,
+    the settlement baselines, the meter of the period before) is built once, by
+    :func:`hvacflex.sim.history.period_inputs` from the driver's
+    :class:`~hvacflex.sim.history.PeriodHistory`; the control step's part (the recovery
+    carried from an event, the commitments, ρ, the filter's input of the period before, a
+    locked event period) is laid over it by :meth:`hvacflex.sim.step.ControlStep.decide`.
 
     Attributes
     ----------
@@ -150,6 +158,27 @@ class PeriodInputs:
         (:attr:`Controller.takes_measurements`); None: not measured.
     plan : a plan of this period decided elsewhere (the fleet coordinator's
         ``RMPCSolution``) to apply instead of solving; controllers that do not plan ignore it.
+    baseline_power_kw : the metered baseline an activation starting now would be settled
+        against [kW] (:mod:`hvacflex.settlement`; NaN: none, e.g. the run's first metered
+        period; None: unknown to the driver). A controller that offers reserve offers only
+        what the baseline would see.
+    baseline_ahead_kw : (J,) the baselines of the periods k … k + J − 1 where the rule fixes
+        them whenever the activation starts (``similar-days``; NaN: no similar day yet;
+        None: the ``pre-event`` rule or unknown).
+    previous_power_kw : the metered power of period k − 1 [kW] (None: not metered), which the
+        control step's meter history reads (:mod:`hvacflex.control.meter_response`).
+    delivered_flow_kg_s : (m,) the plant's report of period k − 1: the air system's input as
+        the model takes it (the cooling the air delivered, as a flow at the model's supply
+        temperature) [kg/s]; None where the plant reports none.
+    committed_reserve_kg_s : (g, m) reserve flows committed for the coming g periods, this
+        one first, which the plan keeps [kg/s] (None: no commitments).
+    meter_ratio : ρ ∈ [0, 1], the meter's response to the plan in the building's recent
+        periods; offers are sized on the meter's scale with it (NaN: not scaled).
+    previous_flow_kg_s : (m,) the input of the filter's last step, period k − 1 (the flow the
+        plant ran: u − r when curtailed, or what the air delivered) [kg/s]; None: keep the
+        decided one.
+    locked : the action of an IL event period that runs a locked plan: the controller does
+        not decide (a filter still measures) and returns it unchanged; None: decide.
     """
 
     x_degc: FloatArray
@@ -158,90 +187,41 @@ class PeriodInputs:
     allowance_carry_steps: int = 0
     measured_zone_temp_degc: FloatArray | None = None
     plan: Any = None
+    baseline_power_kw: float | None = None
+    baseline_ahead_kw: FloatArray | None = None
+    previous_power_kw: float | None = None
+    delivered_flow_kg_s: FloatArray | None = None
+    committed_reserve_kg_s: FloatArray | None = None
+    meter_ratio: float = math.nan
+    previous_flow_kg_s: FloatArray | None = None
+    locked: Action | None = None
 
 
 class Controller(Protocol):
     """A controller the closed loop, the service and the fleet drive through one
-    :class:`hvacflex.sim.step.ControlStep`, and checkpoint.
+    :class:`hvacflex.sim.step.ControlStep`, and checkpoint: :meth:`act`, :meth:`get_state`,
+    :meth:`set_state`.
 
-    Concrete controllers subclass it explicitly to inherit the no-op defaults: a rule-based
-    controller implements :meth:`act`, :meth:`get_state` and :meth:`set_state` only; an MPC
-    also takes measurements, holds through locked IL events, and shows its model and plan.
+    Everything a period needs arrives in its :class:`PeriodInputs`; everything a decision
+    made (its plan, the model it planned with) leaves in its :class:`Action`. Two attributes
+    describe a controller to its driver: :attr:`takes_measurements` and
+    :attr:`commits_ahead`. A rule-based controller subclasses it and writes :meth:`act`
+    (its action from :func:`hvacflex.control.baselines.rule_action`) and the state pair.
     """
 
     takes_measurements: bool = False
-    """True when :meth:`act` and :meth:`hold` need ``measured_zone_temp_degc`` (a filter)."""
+    """True when :meth:`act` needs ``measured_zone_temp_degc`` (a filter)."""
+
+    commits_ahead: int = 0
+    """g: the controller offers the reserve of a period g periods ahead
+    (``Action.offer_ahead``) and plans with the commitments of the next g periods fixed
+    (``PeriodInputs.committed_reserve_kg_s``); 0: each period's offer is decided at its
+    start."""
 
     def act(self, inputs: PeriodInputs) -> Action:
-        """Decide the action for the period starting now from what the period's
-        :class:`PeriodInputs` hold."""
+        """Decide the action for the period starting now from its :class:`PeriodInputs`
+        (or, for a locked IL event period, ``inputs.locked``: measure and return it)."""
         ...
-
-    def hold(
-        self,
-        forecast: Forecast,
-        flow_kg_s: FloatArray,
-        measured_zone_temp_degc: FloatArray | None = None,
-    ) -> None:
-        """A period that runs a locked IL-event plan (flow (m,) [kg/s]) without a decision."""
-        return None
-
-    def note_applied_flow(self, flow_kg_s: FloatArray) -> None:
-        """The flow (m,) [kg/s] the plant ran this period (u − r when curtailed)."""
-        return None
-
-    def note_baseline_power(
-        self, baseline_power_kw: float | None, ahead_kw: FloatArray | None = None
-    ) -> None:
-        """The metered baseline an activation starting in the coming period would be settled
-        against [kW] (:mod:`hvacflex.settlement`; NaN: none, e.g. the run's first period;
-        None: unknown to the driver), and ``ahead_kw`` (J,) the baselines of the coming
-        periods k … k + J − 1 where the rule fixes them whenever the activation starts
-        (``similar-days``; NaN: no similar day yet; None: the ``pre-event`` rule or unknown).
-        A controller that offers reserve uses them to offer only what the baseline would
-        see."""
-        return None
-
-    def note_meter_response(self, ratio: float) -> None:
-        """ρ ∈ [0, 1]: how much the metered power has moved per kW the plan's power moved in
-        the building's recent periods (:mod:`hvacflex.control.meter_response`); a controller
-        that offers reserve scales its offers by it, so that they are sized on the meter's
-        scale, and says so in ``Action.offer_meter_ratio`` and its offers' ``meter_ratio``."""
-        return None
-
-    @property
-    def commits_ahead(self) -> int:
-        """g: the controller offers the reserve of a period g periods ahead
-        (``Action.offer_ahead``) and plans with the commitments of the next g periods fixed
-        (:meth:`note_commitments`); 0: each period's offer is decided at its start."""
-        return 0
-
-    def note_commitments(self, reserve_flow_kg_s: FloatArray) -> None:
-        """(g, m) reserve flows [kg/s] committed for the coming g periods (this one first),
-        which every plan from now on keeps (only a controller with :attr:`commits_ahead`)."""
-        return None
-
-    @property
-    def step_model(self) -> StepModel | None:
-        """The model the last decision was planned with (None: the controller has none)."""
-        return None
-
-    @property
-    def last_plan(self) -> Any:
-        """The last optimal plan over the horizon (an ``RMPCSolution``), or None."""
-        return None
-
-    def observe_problems(self, callback: Callable[[Any], None]) -> bool:
-        """Call ``callback`` with every optimisation problem built from now on; False when
-        the controller builds none."""
-        return False
-
-    def restart_warm(self) -> None:
-        """Continue as a run resumed from :meth:`get_state` would: a controller that keeps
-        live solver state beyond what :meth:`get_state` returns drops it here (the closed
-        loop calls this at every checkpoint, so a resumed run equals an uninterrupted one
-        bit for bit)."""
-        return None
 
     def get_state(self) -> dict[str, Any]:
         """State needed to resume identically, as data (:mod:`hvacflex.state`)."""
@@ -249,4 +229,16 @@ class Controller(Protocol):
 
     def set_state(self, state: dict[str, Any]) -> None:
         """Restore the state returned by :meth:`get_state`."""
+        ...
+
+
+@runtime_checkable
+class WarmRestart(Protocol):
+    """A controller that keeps live solver state beyond what :meth:`Controller.get_state`
+    returns (the MPC's HiGHS handle)."""
+
+    def restart_warm(self) -> None:
+        """Continue as a run resumed from ``get_state`` would: drop the live solver state and
+        keep what restarts it (the closed loop calls this at every checkpoint, so a resumed
+        run equals an uninterrupted one bit for bit)."""
         ...

@@ -379,7 +379,9 @@ def placed_orientations(b: Building) -> dict[str, tuple[float, float]]:
 
 def surface_objects(b: Building, *, films: bool = False) -> list[str]:
     """Walls (with their mirrors across partitions) and windows of ``b`` as placeholder
-    rectangles; with ``films`` each surface is followed by its convection coefficients
+    rectangles, their lower edges at the building's ``height_above_ground_m`` (EnergyPlus
+    takes the wind speed, hence the outside films, and the air temperature at each surface's
+    centroid height); with ``films`` each surface is followed by its convection coefficients
     (hvacflex's films, :func:`check_films`)."""
     hosts = hosted_windows(b)
     orientation = placed_orientations(b)
@@ -399,7 +401,7 @@ def surface_objects(b: Building, *, films: bool = False) -> list[str]:
         azimuth_deg, tilt_deg = orientation[wall.name]
         for name, gross_m2, window in pieces:
             corners = rectangle(gross_m2, azimuth_deg, tilt_deg, heights[wall.zone],
-                                (x_m, 0.0, 0.0))  # fmt: skip
+                                (x_m, 0.0, b.height_above_ground_m))  # fmt: skip
             x_m += max(abs(c[0] - x_m) for c in corners) + SURFACE_GAP_M
             variant = wall_variant(wall, films=films)
             objects.append(

@@ -73,11 +73,13 @@ What is mapped, and how
 What is approximated
 --------------------
 * Geometry: hvacflex has areas and orientations, no coordinates. Each surface is a rectangle
-  of the right area, azimuth and tilt (walls as tall as the zone), placed side by side;
+  of the right area, azimuth and tilt (walls as tall as the zone), placed side by side, their
+  lower edges at the building's ``height_above_ground_m`` (default 0);
   ``MinimalShadowing`` (no self-shading, as hvacflex) makes their positions irrelevant to the
   solar gains. Interior long-wave exchange then uses EnergyPlus's area-weighted view factors.
 * Surface heat transfer: EnergyPlus's own convection algorithms (TARP inside, DOE-2 outside,
-  the wind at the placeholder surfaces' 0–3.6 m above ground), explicit long-wave radiation and
+  the wind at the surfaces' centroids, ``height_above_ground_m`` plus half a wall: office5's
+  18 m, a mid-rise floor), explicit long-wave radiation and
   wet façades in the weather file's rain replace hvacflex's constant combined film
   coefficients (``inside_film_w_per_m2k``, ``outside_film_w_per_m2k``) and its optional sky
   term; ``surfaces="hvacflex"`` writes those films instead (:data:`SURFACE_MODELS`).
@@ -129,7 +131,8 @@ weather file's rain — the independent model. ``"hvacflex"``: the building's ow
 combined films as convection coefficients, no long-wave exchange where hvacflex models none
 (every face of an opaque layer at :data:`~hvacflex.energyplus.envelope.NO_LONGWAVE_ABSORPTANCE`
 unless the wall gives ``thermal_emissivity``), rain and snow ignored — EnergyPlus solving
-hvacflex's equations with its own conduction, solar and zone heat balance (a verification of
+hvacflex's equations with its own conduction, solar and zone heat balance, the station's air
+temperature at every height (:data:`STATION_AIR_HEIGHT_VARIATION`) (a verification of
 the implementation, not of the film model; what stays EnergyPlus's: the windows' angular
 solar and their long-wave to the sky, ε 0.84; a window's inside film is hvacflex's default,
 7.69 W/m²K). Only for buildings with combined films and convective gains
@@ -225,6 +228,7 @@ def export_idf(
         f"! weather for site and design days: {weather.name}",
         *_simulation_objects(hvac, rain=not films),
         *_site_objects(weather, location),
+        *_height_objects(films),
         *_schedule_objects(building, DEFAULT_OFFICE_SCHEDULE),
         *construction_objects(building, films=films),
         *zone_objects(building),
@@ -361,6 +365,19 @@ def _design_conditions_from_data(epw_path: Path) -> DesignConditions:
         heating_dry_bulb_degc=float(np.percentile(temp, 0.4)),
         source="data",
     )
+
+
+STATION_AIR_HEIGHT_VARIATION = (0.22, 370.0, 0.0)
+"""``Site:HeightVariation`` of ``surfaces="hvacflex"``: EnergyPlus's default wind profile
+(exponent 0.22, boundary layer 370 m) and **no** air-temperature lapse (its default
+0.0065 K/m), so every surface sees the weather station's air temperature at any height, as
+hvacflex's films do."""
+
+
+def _height_objects(films: bool) -> list[str]:
+    """With hvacflex's films, :data:`STATION_AIR_HEIGHT_VARIATION`; else none (EnergyPlus's
+    defaults: the air 0.0065 K/m cooler and the wind faster with the surfaces' height)."""
+    return [idf_object("Site:HeightVariation", *STATION_AIR_HEIGHT_VARIATION)] if films else []
 
 
 def _site_objects(epw_path: Path, location: EpwLocation) -> list[str]:

@@ -43,6 +43,7 @@ from hvacflex.config import (
 from hvacflex.control.base import Action, FloatArray, PeriodInputs
 from hvacflex.control.demand_limit import forecast_period_power_kw
 from hvacflex.control.mpc import MPCController
+from hvacflex.control.offers import snapped_flows_kg_s
 from hvacflex.data.gains import DEFAULT_OFFICE_SCHEDULE, OfficeSchedule
 from hvacflex.fleet.schema import Fleet, FleetBuilding, fleet_from_dict
 from hvacflex.opt import RMPCProblem, RMPCSolution, RMPCSolver, SolveStatus
@@ -113,41 +114,34 @@ class FleetController(MPCController):
         """The step's first period as the LP sees it: (P₀ [kW], p (m,) [kW per kg/s], q (m,)
         the reserve capacity per kg/s of reserve flow [kW per kg/s]); None before a step."""
 
-    def note_baseline_power(
-        self, baseline_power_kw: float | None, ahead_kw: FloatArray | None = None
-    ) -> None:
-        """Ignored: a fleet is settled on its aggregate meter, so the coordinator checks the
-        fleet's bid against the fleet's baseline
-        (:func:`hvacflex.fleet.bidding.fleet_baseline_sees`) instead of each building's offer
-        against its own (which would drop the offers of every building whose plan is not
-        below its last metered power)."""
-        super().note_baseline_power(None)
+    @staticmethod
+    def fleet_inputs(inputs: PeriodInputs) -> PeriodInputs:
+        """``inputs`` without the building's own settlement baselines: a fleet is settled on
+        its aggregate meter, so the coordinator checks the fleet's bid against the fleet's
+        baseline (:func:`hvacflex.fleet.bidding.fleet_baseline_sees`) instead of each
+        building's offer against its own (which would drop the offers of every building
+        whose plan is not below its last metered power)."""
+        return dataclasses.replace(inputs, baseline_power_kw=None, baseline_ahead_kw=None)
 
     def first_offer_kw(self, problem: RMPCProblem, plan: RMPCSolution) -> tuple[float, float]:
         """(the offer q₀·r₀ [kW], the curtailed power P₀ − p₀·r₀ [kW]) of ``plan``'s first
         period, its flows snapped onto the physical limits as :meth:`act` snaps them."""
-        reserve = self._snapped_reserve_kg_s(problem, plan, 1)[1][0]
+        reserve = snapped_flows_kg_s(problem, plan, 1, self.contract.flow_max_kg_s)[1][0]
         coeff = problem.power_coeff_kw_per_kg_s[0]
         curtailed = float(plan.power_kw[0]) - float(coeff @ reserve)
         return float(problem.reserve_kw_per_kg_s[0] @ reserve), curtailed
 
     def solver(self, problem: RMPCProblem) -> RMPCSolver:
         """The building's solver (built on first use, from a restored basis if any)."""
-        if self._solver is None:
-            self._solver = RMPCSolver(problem, time_limit_s=self._config.time_limit_s)
-            if self._pending_basis is not None:
-                self._solver.set_basis(self._pending_basis)
-                self._pending_basis = None
-        assert isinstance(self._solver, RMPCSolver)
-        return self._solver
+        return self.solver_slot.rmpc_solver(problem)
 
     def predicted_power_kw(self, inputs: PeriodInputs, flow_kg_s: FloatArray) -> float:
         """The HVAC power [kW] the flows (m,) [kg/s] draw over the period starting now, by
         the plant's power model at the period's mean zone temperatures (the linear model
         stepped from ``inputs.x_degc``) and the forecast's outdoor air and latent gain."""
         return forecast_period_power_kw(
-            self._model,
-            self._building.hvac,
+            self.model,
+            self.building.hvac,
             inputs.x_degc,
             flow_kg_s,
             inputs.forecast,
@@ -155,14 +149,16 @@ class FleetController(MPCController):
         )
 
     def act(self, inputs: PeriodInputs) -> Action:
-        action = super().act(inputs)
+        action = super().act(self.fleet_inputs(inputs))
+        if inputs.locked is not None:
+            return action
         if np.isnan(self.cap_now_kw):
             raise ValueError("the coordinator gave this building a NaN power cap")
         if self.power_now is None or self.cap_now_kw == np.inf:
             return action
         p0, p, q = self.power_now
         cap = self.cap_now_kw + CAP_TOLERANCE_KW
-        low = self._building.hvac.flow_min_at(inputs.forecast.occupied[:1])[0]
+        low = self.building.hvac.flow_min_at(inputs.forecast.occupied[:1])[0]
         high = action.flow_kg_s
 
         def predicted(theta: float) -> float:
@@ -329,13 +325,8 @@ class BuildingAgent:
         will draw that plan's curtailed power whatever it is told, so its range in the
         first period is that power alone: P_min₀ = P_max₀ = p0₀ + p₀·(u − r)ⱼ [kW], and
         the coordinator gives it exactly that as its cap."""
-        loop = self.loop
-        forecast = self.setup.forecaster.forecast(
-            loop.k, self.setup.config.controller.horizon_steps + 1
-        )
-        problem = self.controller.problem(
-            loop.x, forecast, loop.month_peak_kw, self.control.allowance_carry_steps
-        )
+        inputs = self.control.prepared(self.loop.inputs())
+        problem = self.controller.problem_for(self.controller.fleet_inputs(inputs))
         self._problem, self._last, self._last_price = problem, None, None
         p_min = power_bounds_kw(problem, problem.u_min)
         p_max = power_bounds_kw(problem)

@@ -17,7 +17,7 @@ import numpy as np
 import pandas as pd
 
 from hvacflex.config import NEMS_MAX_INTERRUPTION_STEPS
-from hvacflex.control.mpc import BASELINE_TOLERANCE_KW
+from hvacflex.control.offers import BASELINE_TOLERANCE_KW
 from hvacflex.settlement import settlement_columns
 from hvacflex.sim.activation import activation_schedule
 

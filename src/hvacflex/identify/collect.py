@@ -5,6 +5,14 @@ EnergyPlusPlant` (setpoint actuation, docs/energyplus.md) for ``days`` days and 
 BMS export would give (:mod:`hvacflex.identify.trend`). The excitation is on the zones'
 cooling setpoints (docs/identify.md):
 
+* ``range`` (default): the operating range a controller uses — in the occupied periods (the
+  office schedule's: working days 08:00–18:00) the ``prbs`` below (set-point steps, flow
+  steps); outside them each zone alternates **float-ups** (set-point
+  :data:`RANGE_FLOAT_DEGC`, the unoccupied comfort bound: the zone's unit idles and the zone
+  floats up, as a controller lets it at night and at weekends) of a random
+  :data:`RANGE_FLOAT_PERIODS` and **pull-downs** (the ``prbs`` levels, the lower one first: a
+  pre-cool from the floated state) of a random :data:`RANGE_PULL_DOWN_PERIODS`, drawn per zone
+  from ``numpy.random.default_rng(seed)``;
 * ``prbs``: each zone independently switches between :data:`EXCITATION_CENTER_DEGC` ±
   :data:`EXCITATION_AMPLITUDE_K`, holding each level for a random 1…4 h (2…8 periods, uniform)
   drawn from ``numpy.random.default_rng(seed)``, around the clock;
@@ -32,6 +40,7 @@ import numpy as np
 import pandas as pd
 
 from hvacflex.constants import TIMEZONE
+from hvacflex.data.gains import occupied_mask
 from hvacflex.energyplus.hvac import has_thermostat
 from hvacflex.energyplus.idf import IdfObject, match_zones, objects_of, parse_idf, read_idf
 from hvacflex.energyplus.idf import zone_names as idf_zone_names
@@ -42,8 +51,9 @@ from hvacflex.identify.trend import FloatArray, zone_column
 from hvacflex.sim.energyplus_plant import EnergyPlusPlant
 from hvacflex.sim.plant import Actuation, Disturbance
 
-Excitation = Literal["prbs", "steps", "none"]
-EXCITATIONS: tuple[str, ...] = ("prbs", "steps", "none")
+Excitation = Literal["range", "prbs", "steps", "none"]
+EXCITATIONS: tuple[str, ...] = ("range", "prbs", "steps", "none")
+DEFAULT_EXCITATION = "range"
 
 EXCITATION_CENTER_DEGC = 24.5
 """Middle of the excited cooling setpoints [°C] (hvacflex's default occupied band 22–26 °C)."""
@@ -53,13 +63,21 @@ PRBS_HOLD_PERIODS = (2, 8)
 """Shortest and longest hold of a PRBS level [30-min periods] (1…4 h)."""
 STEP_HOLD_PERIODS = 6
 """Hold of each ``steps`` level [30-min periods] (3 h)."""
+RANGE_FLOAT_DEGC = 30.0
+"""The ``range`` float-up set-point [°C]: hvacflex's unoccupied comfort bound (20–30 °C), the
+temperature an MPC floats the zones towards outside office hours."""
+RANGE_FLOAT_PERIODS = (8, 32)
+"""Shortest and longest float-up [30-min periods] (4…16 h)."""
+RANGE_PULL_DOWN_PERIODS = (4, 12)
+"""Shortest and longest pull-down between float-ups [30-min periods] (2…6 h)."""
 PERIODS_PER_DAY = 48
 
 
 def excitation_setpoints_degc(
-    kind: str, steps: int, zones: int, seed: int = 0
+    kind: str, steps: int, zones: int, seed: int = 0, occupied: np.ndarray | None = None
 ) -> FloatArray | None:
-    """The excited cooling setpoints (module docstring).
+    """The excited cooling setpoints (module docstring); ``occupied`` (steps,) bool: the
+    office schedule's occupied periods (``range`` only; None: none occupied).
 
     Returns
     -------
@@ -67,8 +85,14 @@ def excitation_setpoints_degc(
     """
     if kind not in EXCITATIONS:
         raise InputError(
-            "unknown excitation", field="--excitation", value=kind, hint="use prbs, steps or none"
+            "unknown excitation",
+            field="--excitation",
+            value=kind,
+            hint="use range, prbs, steps or none",
         )
+    if kind == "range":
+        mask = np.zeros(steps, dtype=bool) if occupied is None else np.asarray(occupied, bool)
+        return _range_setpoints_degc(mask, zones, seed)
     if kind == "none":
         return None
     low = EXCITATION_CENTER_DEGC - EXCITATION_AMPLITUDE_K
@@ -88,6 +112,29 @@ def excitation_setpoints_degc(
             out[k : k + hold, i] = high if level else low
             k += hold
             level = not level
+    return out
+
+
+def _range_setpoints_degc(occupied: np.ndarray, zones: int, seed: int) -> FloatArray:
+    """``range``: the PRBS (seeded with ``seed``) where ``occupied``, float-ups and pull-downs
+    outside (module docstring; their draws seeded with ``seed + 1``)."""
+    out = excitation_setpoints_degc("prbs", occupied.size, zones, seed)
+    assert out is not None
+    rng = np.random.default_rng(seed + 1)
+    low = EXCITATION_CENTER_DEGC - EXCITATION_AMPLITUDE_K
+    for i in range(zones):
+        k, floating = 0, bool(rng.integers(2))
+        while k < occupied.size:
+            bounds = RANGE_FLOAT_PERIODS if floating else RANGE_PULL_DOWN_PERIODS
+            segment = slice(k, k + int(rng.integers(bounds[0], bounds[1] + 1)))
+            free = ~occupied[segment]
+            if floating:
+                out[segment, i] = np.where(free, RANGE_FLOAT_DEGC, out[segment, i])
+            elif free.any():
+                first = k + int(np.argmax(free))  # the pull-down starts at the lower level
+                out[first : min(first + PRBS_HOLD_PERIODS[0], segment.stop), i] = low
+            k = segment.stop
+            floating = not floating
     return out
 
 
@@ -173,7 +220,7 @@ def collect_trend(
     start: str,
     days: int,
     epw_path: str | Path,
-    excitation: str = "prbs",
+    excitation: str = DEFAULT_EXCITATION,
     zones: tuple[str, ...] | None = None,
     seed: int = 0,
     timesteps_per_hour: int = 6,
@@ -186,7 +233,7 @@ def collect_trend(
     start : first day, ``YYYY-MM-DD`` (local time, :data:`TIMEZONE`).
     days : number of days.
     epw_path : the weather EnergyPlus reads.
-    excitation : ``prbs``, ``steps`` or ``none`` (module docstring).
+    excitation : ``range`` (default), ``prbs``, ``steps`` or ``none`` (module docstring).
     zones : the IDF zones to excite and record with supply air (any case); None: every zone
         with a thermostat. The IDF's other zones are recorded as temperatures only.
     seed : the PRBS's seed.
@@ -224,7 +271,9 @@ def collect_trend(
             stacklevel=2,
         )
     steps = days * PERIODS_PER_DAY
-    setpoints = excitation_setpoints_degc(excitation, steps, len(controlled), seed)
+    begin = first.tz_localize(TIMEZONE) if first.tzinfo is None else first
+    occupied = occupied_mask(pd.date_range(begin, periods=steps, freq="30min"))
+    setpoints = excitation_setpoints_degc(excitation, steps, len(controlled), seed, occupied)
     plant = EnergyPlusPlant(
         text,
         source,

@@ -47,6 +47,7 @@ from hvacflex.identify.greybox import (
     time_constants_s,
 )
 from hvacflex.identify.model_file import AirSystem, BoundaryNode, PowerModel
+from hvacflex.identify.physics import ZonePhysics, zone_bounds, zone_priors
 from hvacflex.identify.trend import (
     DHI,
     DNI,
@@ -135,6 +136,9 @@ COIL_SUPPLY_QUANTILE = 0.05
 COOLING_DIFFERENCE_K = 1.0
 """Supply air this much colder than the zone counts as cooling air [K] (a constant-volume
 fan also moves air while its coil is off)."""
+CouplingPhysics = tuple[tuple[float, float, float] | None, ...] | None
+"""Per coupling (zone pairs, then zone–boundary pairs) its (low, high, prior) [kW/K], or None:
+the generic bounds."""
 BOUNDARY_MIN_RATE = 1e-6
 """Lower bound of a boundary node's ``Δt / C`` in its fit [K per kJ]: a finite capacitance."""
 
@@ -253,15 +257,21 @@ def _to_vector(values: FloatArray, m: int, pairs: int) -> FloatArray:
 
 
 def _from_vector(
-    theta: FloatArray, couplings: np.ndarray, edges: np.ndarray | None = None, boundaries: int = 0
+    theta: FloatArray,
+    couplings: np.ndarray,
+    edges: np.ndarray | None = None,
+    boundaries: int = 0,
+    *,
+    log: bool = True,
 ) -> GreyBoxParameters:
     """Parameters of ``theta``: zone parameters, then the couplings', then the boundary
-    couplings' (``edges``: (q, 2) zone–boundary pairs) conductances."""
+    couplings' (``edges``: (q, 2) zone–boundary pairs) conductances (``log=False``: values
+    taken as they are, e.g. flags)."""
     edges = np.zeros((0, 2), dtype=np.int64) if edges is None else edges
     m = _zones_of(theta, len(couplings) + len(edges))
     names = _names(m, len(couplings) + len(edges))
     values = np.array(
-        [np.exp(t) if s == "log" else t for t, (_, s) in zip(theta, names, strict=True)]
+        [np.exp(t) if s == "log" and log else t for t, (_, s) in zip(theta, names, strict=True)]
     )
     k = len(ZONE_PARAMETERS)
     split = m * k + len(couplings)
@@ -280,17 +290,38 @@ def _zones_of(theta: FloatArray, pairs: int) -> int:
 
 
 def _initial_and_bounds(
-    m: int, pairs: int
+    m: int,
+    pairs: int,
+    physics: tuple[ZonePhysics, ...] | None = None,
+    coupling_physics: CouplingPhysics = None,
 ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """The prior (= start), lower and upper bounds (in the optimiser's log/linear space) and
+    the priors' scales of every parameter: per zone from its ``physics``
+    (:func:`~hvacflex.identify.physics.zone_bounds`, ``zone_priors``) where given, per
+    coupling (zone pairs, then zone–boundary edges) its ``(low, high, prior)`` where given,
+    else the generic :data:`INITIAL` and :data:`BOUNDS`. A parameter with equal bounds is
+    fixed."""
     names = _names(m, pairs)
-    initial = np.array([INITIAL[n] for n, _ in names])
-    low = np.array([BOUNDS[n][0] for n, _ in names])
-    high = np.array([BOUNDS[n][1] for n, _ in names])
+    zone_physics = physics if physics is not None else tuple(ZonePhysics() for _ in range(m))
+    k = len(ZONE_PARAMETERS)
+    initial, low, high = [], [], []
+    for position, (name, _) in enumerate(names):
+        if position < m * k:
+            bounds = zone_bounds(zone_physics[position // k], BOUNDS)
+            prior = zone_priors(zone_physics[position // k], INITIAL, bounds)[name]
+        else:
+            bounds, prior = BOUNDS, INITIAL[name]
+            known = None if coupling_physics is None else coupling_physics[position - m * k]
+            if known is not None:
+                bounds, prior = {name: (known[0], known[1])}, known[2]
+        initial.append(prior)
+        low.append(bounds[name][0])
+        high.append(bounds[name][1])
     scale = np.array([1.0 if s == "log" else LINEAR_PRIOR_SCALE[n] for n, s in names])
     return (
-        _to_vector(initial, m, pairs),
-        _to_vector(low, m, pairs),
-        _to_vector(high, m, pairs),
+        _to_vector(np.array(initial), m, pairs),
+        _to_vector(np.array(low), m, pairs),
+        _to_vector(np.array(high), m, pairs),
         scale,
     )
 
@@ -371,6 +402,8 @@ class FitResult:
     converged : whether ``least_squares`` reported convergence; message : its message.
     warnings : (w,) non-physical or doubtful findings (also raised as warnings).
     filter_noise : the one-step predictor's noise levels, tuned on the training days.
+    prior, lower, upper : the priors' centres and the bounds (same shapes; equal bounds: a
+        fixed parameter); at_bound : 1.0 where a free parameter ended on a bound, else 0.0.
     """
 
     zones: tuple[str, ...]
@@ -380,22 +413,30 @@ class FitResult:
     message: str
     warnings: tuple[str, ...]
     filter_noise: FilterNoise = field(default_factory=FilterNoise)
+    prior: GreyBoxParameters | None = None
+    lower: GreyBoxParameters | None = None
+    upper: GreyBoxParameters | None = None
+    at_bound: GreyBoxParameters | None = None
 
 
 def _standard_errors(
     result: scipy.optimize.OptimizeResult,
-    couplings: np.ndarray,
-    edges: np.ndarray,
-    boundaries: int,
-    residual_count: int,
+    theta: FloatArray,
+    free: np.ndarray,
+    layout: tuple[np.ndarray, np.ndarray, int],
 ) -> GreyBoxParameters:
+    """The standard errors of the parameters ``theta``: the free ones' from the covariance
+    ``σ² (JᵀJ)⁺`` at the optimum (``J`` the residuals' Jacobian, priors included, ``σ²`` the
+    residual variance), through the log transform where searched in log; 0 for a fixed one."""
+    couplings, edges, boundaries = layout
     jac = np.asarray(result.jac)
-    dof = max(residual_count - jac.shape[1], 1)
+    dof = max(int(result.fun.size) - jac.shape[1], 1)
     sigma2 = 2.0 * float(result.cost) / dof
     covariance = np.linalg.pinv(jac.T @ jac) * sigma2
-    se_theta = np.sqrt(np.clip(np.diag(covariance), 0.0, None))
-    m = _zones_of(result.x, len(couplings) + len(edges))
-    values = _from_vector(result.x, couplings, edges, boundaries)
+    se_theta = np.zeros(theta.size)
+    se_theta[free] = np.sqrt(np.clip(np.diag(covariance), 0.0, None))
+    m = _zones_of(theta, len(couplings) + len(edges))
+    values = _from_vector(theta, couplings, edges, boundaries)
     flat = np.concatenate(
         [values.zone.ravel(), values.coupling_ua_kw_per_k, values.boundary_ua_kw_per_k]
     )
@@ -434,9 +475,7 @@ def _bound_warnings(
     found = []
     span = high - low
     k = len(ZONE_PARAMETERS)
-    for index in np.flatnonzero(
-        (theta - low <= BOUND_TOLERANCE * span) | (high - theta <= BOUND_TOLERANCE * span)
-    ):
+    for index in np.flatnonzero((_at_bound(theta, low, high) > 0) & (span > 0)):
         if index >= len(zones) * k:
             continue  # a coupling at zero is a legitimate finding
         name = ZONE_PARAMETERS[index % k][0]
@@ -453,9 +492,19 @@ def _bound_warnings(
     return found
 
 
-def fit_model(data: FitData, couplings: list[tuple[int, int]], train: tuple[int, int]) -> FitResult:
+def fit_model(
+    data: FitData,
+    couplings: list[tuple[int, int]],
+    train: tuple[int, int],
+    physics: tuple[ZonePhysics, ...] | None = None,
+    coupling_physics: CouplingPhysics = None,
+) -> FitResult:
     """Fit the grey-box model on the periods ``train = (first, end)`` (module docstring);
-    every fitted zone may exchange heat with every boundary of ``data``.
+    every fitted zone may exchange heat with every boundary of ``data``; ``physics`` (m,):
+    what is known of each zone (floor area, façades: :mod:`hvacflex.identify.physics`),
+    which bounds its parameters and centres their priors; ``coupling_physics``: per coupling
+    (``couplings``, then every zone–boundary pair) its ``(low, high, prior)`` [kW/K] or None
+    (:func:`~hvacflex.identify.physics.coupling_bounds`).
 
     Raises
     ------
@@ -474,33 +523,56 @@ def fit_model(data: FitData, couplings: list[tuple[int, int]], train: tuple[int,
     pairs = np.array(couplings, dtype=np.int64).reshape(-1, 2)
     m, nb = data.y.shape[1], len(data.boundaries)
     edges = np.array([(i, b) for i in range(m) for b in range(nb)], dtype=np.int64).reshape(-1, 2)
-    prior, low, high, scale = _initial_and_bounds(m, len(pairs) + len(edges))
+    prior, low, high, scale = _initial_and_bounds(
+        m, len(pairs) + len(edges), physics, coupling_physics
+    )
+    free = high > low
     window = FitData(data.index[:end], data.zones, data.y[:end], data.u[:end], data.boundaries)
+
+    def residuals(x: FloatArray) -> FloatArray:
+        theta = prior.copy()
+        theta[free] = x
+        return _residuals(theta, pairs, edges, window, starts, prior, scale)
+
     result = scipy.optimize.least_squares(
-        _residuals,
-        prior,
-        bounds=(low, high),
-        args=(pairs, edges, window, starts, prior, scale),
+        residuals,
+        np.clip(prior[free], low[free], high[free]),
+        bounds=(low[free], high[free]),
         method="trf",
         x_scale="jac",
         max_nfev=MAX_EVALUATIONS,
     )
-    parameters = _from_vector(result.x, pairs, edges, nb)
-    found = _physical_warnings(parameters) + _bound_warnings(result.x, low, high, data.zones)
+    theta = prior.copy()
+    theta[free] = result.x
+    parameters = _from_vector(theta, pairs, edges, nb)
+    found = _physical_warnings(parameters) + _bound_warnings(theta, low, high, data.zones)
     if not result.success:
         found.append(f"the optimiser did not converge: {result.message}")
     for text in found:
         warnings.warn(text, stacklevel=2)
-    residual_count = int(result.fun.size)
     return FitResult(
         zones=data.zones,
         parameters=parameters,
-        standard_errors=_standard_errors(result, pairs, edges, nb, residual_count),
+        standard_errors=_standard_errors(result, theta, free, (pairs, edges, nb)),
         converged=bool(result.success),
         message=str(result.message),
         warnings=tuple(found),
         filter_noise=tune_filter(discretize(parameters), window, starts),
+        prior=_from_vector(prior, pairs, edges, nb),
+        lower=_from_vector(low, pairs, edges, nb),
+        upper=_from_vector(high, pairs, edges, nb),
+        at_bound=_from_vector(
+            np.where(free, _at_bound(theta, low, high), 0.0), pairs, edges, nb, log=False
+        ),
     )
+
+
+def _at_bound(theta: FloatArray, low: FloatArray, high: FloatArray) -> FloatArray:
+    """(n,) 1.0 where ``theta`` lies within :data:`BOUND_TOLERANCE` of its (log) range from a
+    bound, else 0.0."""
+    span = high - low
+    near = (theta - low <= BOUND_TOLERANCE * span) | (high - theta <= BOUND_TOLERANCE * span)
+    return near.astype(np.float64)
 
 
 def tune_filter(model: DiscreteModel, data: FitData, starts: np.ndarray) -> FilterNoise:

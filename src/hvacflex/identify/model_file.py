@@ -3,10 +3,12 @@
 The file is a building file of :func:`hvacflex.building.io.load_building` (docs/building.md,
 ``[identified]`` in :mod:`hvacflex.building.schema`): ``[[zones]]`` with lower-case identifier
 names made from the data's names (:func:`identifier`), each with its data/IDF name in
-``energyplus_zone`` (matched case-insensitively by the EnergyPlus plant), and the fitted
+``energyplus_zone`` (matched case-insensitively by the EnergyPlus plant) and, when known,
+its ``floor_area_m2`` (conditioned zones only: a boundary carries none), and the fitted
 network in ``[identified]``: per zone its parameters (:data:`hvacflex.identify.greybox.
 ZONE_PARAMETERS`, units in the names) and its supply-flow range, the couplings, the
-boundaries (unconditioned zones, as nodes), the supply temperature and the power model. So a
+boundaries (unconditioned zones, as nodes), the supply temperature, the power model and the
+training data's range (``[identified.validity]``: zone and outdoor temperatures). So a
 scenario's ``building = "model.toml"`` controls the building it came from.
 :func:`load_identified_model` reads it back into the fit's arrays.
 """
@@ -20,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from hvacflex.building.identified import IdentifiedBoundary, IdentifiedPower
+from hvacflex.building.identified import IdentifiedBoundary, IdentifiedPower, IdentifiedValidity
 from hvacflex.building.io import load_building
 from hvacflex.errors import ConfigError
 from hvacflex.identify.greybox import ZONE_PARAMETERS, GreyBoxParameters
@@ -79,7 +81,10 @@ class IdentifiedModel:
     names; parameters : the grey-box parameters; power : the power model or None (no meter in
     the data); provenance : where it came from (data file, train and test days); boundaries :
     (nb,) the data's unconditioned zones (inputs of the fit, nodes of the building);
-    air : supply temperature and flow ranges; boundary_nodes : (nb,) the boundaries' nodes.
+    air : supply temperature and flow ranges; boundary_nodes : (nb,) the boundaries' nodes;
+    floor_areas_m2 : (m,) each zone's floor area [m²], or None when unknown (the file then
+    gives none: per-m² figures are not available); validity : the training data's range
+    (``[identified.validity]``), or None.
     """
 
     name: str
@@ -91,6 +96,8 @@ class IdentifiedModel:
     air: AirSystem
     boundaries: tuple[str, ...] = ()
     boundary_nodes: tuple[BoundaryNode, ...] = ()
+    floor_areas_m2: tuple[float, ...] | None = None
+    validity: IdentifiedValidity | None = None
 
 
 def _toml_value(value: object) -> str:
@@ -113,8 +120,11 @@ def write_identified_model(model: IdentifiedModel, path: str | Path) -> Path:
     path = Path(path)
     lines = [f"name = {_toml_value(model.name)}"]
     lines.append(f"description = {_toml_value('grey-box RC model identified from trend data')}")
-    for zone, energyplus in zip(model.zones, model.energyplus_zones, strict=True):
-        _table(lines, "[[zones]]", {"name": zone, "energyplus_zone": energyplus})
+    for i, (zone, energyplus) in enumerate(zip(model.zones, model.energyplus_zones, strict=True)):
+        entry: dict[str, object] = {"name": zone, "energyplus_zone": energyplus}
+        if model.floor_areas_m2 is not None:
+            entry["floor_area_m2"] = model.floor_areas_m2[i]
+        _table(lines, "[[zones]]", entry)
     _table(lines, "[identified]", {"supply_temp_degc": model.air.supply_temp_degc})
     _table(lines, "[identified.provenance]", dict(model.provenance))
     names = [n for n, _ in ZONE_PARAMETERS]
@@ -151,6 +161,18 @@ def write_identified_model(model: IdentifiedModel, path: str | Path) -> Path:
         )
     if model.power is not None:
         _table(lines, "[identified.power_model]", dict(vars(model.power)))
+    if model.validity is not None:
+        v = model.validity
+        _table(
+            lines,
+            "[identified.validity]",
+            {
+                "zone_temp_min_degc": dict(zip(model.zones, v.zone_temp_min_degc, strict=True)),
+                "zone_temp_max_degc": dict(zip(model.zones, v.zone_temp_max_degc, strict=True)),
+                "outdoor_temp_min_degc": v.outdoor_temp_min_degc,
+                "outdoor_temp_max_degc": v.outdoor_temp_max_degc,
+            },
+        )
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text("\n".join(lines) + "\n", encoding="utf-8")
     return path
@@ -209,6 +231,12 @@ def load_identified_model(path: str | Path) -> IdentifiedModel:
         ),
         boundaries=tuple(node.name for node in rc.boundaries),
         boundary_nodes=tuple(_node(node) for node in rc.boundaries),
+        floor_areas_m2=(
+            tuple(z.floor_area_m2 for z in building.zones)
+            if np.isfinite(building.floor_area_m2)
+            else None
+        ),
+        validity=rc.validity,
     )
 
 

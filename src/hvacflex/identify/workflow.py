@@ -4,7 +4,9 @@
 Which zones and which couplings: ``--template BUILDING`` takes the building file's zones
 (their ``energyplus_zone``, else their name, is the data's zone) and couples the zones its
 walls join; ``--zones Z1,Z2`` names the data's zones, and ``--adjacency "Z1-Z2,…"`` the
-couplings (without it every pair may couple and the fit decides). The data's zones with a
+couplings (without it, with ``--idf`` the zones that share a surface in the IDF couple, each
+coupling bounded by the shared area; without either every pair may couple and the fit
+decides). The data's zones with a
 temperature only (no supply air: a plenum, an attic) are boundaries of every fitted zone.
 Days: ``--train A..B`` and ``--test C..D`` (``YYYY-MM-DD``, both ends included); by default the last
 :data:`DEFAULT_TEST_DAYS` whole days are the test and the days before them the training.
@@ -12,6 +14,7 @@ Days: ``--train A..B`` and ``--test C..D`` (``YYYY-MM-DD``, both ends included);
 
 from __future__ import annotations
 
+import datetime
 import itertools
 from dataclasses import dataclass
 from pathlib import Path
@@ -19,6 +22,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from hvacflex.building.identified import IdentifiedValidity
 from hvacflex.building.io import load_building
 from hvacflex.data.forecast import default_weather_file
 from hvacflex.data.weather import EpwLocation, read_epw
@@ -33,9 +37,17 @@ from hvacflex.identify.box import (
     write_model_errors,
     write_scenario,
 )
+from hvacflex.identify.checks import (
+    CHECKS_FILE,
+    FitContext,
+    parameter_rows,
+    plausibility_checks,
+    warning_lines,
+)
 from hvacflex.identify.fit import (
     PERIODS_PER_DAY,
     WARMUP_DAYS,
+    CouplingPhysics,
     FitData,
     FitResult,
     air_system,
@@ -49,9 +61,16 @@ from hvacflex.identify.fit import (
     one_step_errors,
     prediction_frame,
 )
-from hvacflex.identify.greybox import ZONE_PARAMETERS
+from hvacflex.identify.idf_geometry import ZoneGeometry, idf_floor_areas_m2, idf_zone_geometry
 from hvacflex.identify.model_file import IdentifiedModel, identifier, write_identified_model
+from hvacflex.identify.physics import (
+    ZonePhysics,
+    building_zone_geometry,
+    coupling_bounds,
+    zone_physics,
+)
 from hvacflex.identify.trend import read_trend, zone_column
+from hvacflex.paths import check_output_file
 
 DEFAULT_TEST_DAYS = 7
 """Test days at the end of the data when ``--test`` is not given."""
@@ -67,7 +86,8 @@ class IdentifyOutcome:
     report : the fit report (one row per zone); power : daily power check or None.
     fit : the fit; predictions : the test days' measured and predicted series
     (:func:`~hvacflex.identify.fit.prediction_frame`, also ``fit_predictions.csv``);
-    box : the calibrated model error; scenario_path : the scenario beside the model.
+    box : the calibrated model error; scenario_path : the scenario beside the model;
+    checks : the plausibility checks (:mod:`hvacflex.identify.checks`), also ``checks_path``.
     """
 
     model_path: Path
@@ -80,6 +100,13 @@ class IdentifyOutcome:
     predictions: pd.DataFrame
     box: ModelErrorBox
     scenario_path: Path
+    checks: pd.DataFrame
+    checks_path: Path
+
+    @property
+    def failed_checks(self) -> list[str]:
+        """Each failed check as a line (``check zone parameter: detail``)."""
+        return warning_lines(self.checks)
 
 
 def site_of(weather: str | Path | None) -> EpwLocation:
@@ -95,8 +122,13 @@ def site_of(weather: str | Path | None) -> EpwLocation:
     return read_epw(default_weather_file() if weather is None else weather)[1]
 
 
-def parse_days(text: str, index: pd.DatetimeIndex, option: str) -> tuple[int, int]:
-    """``"YYYY-MM-DD..YYYY-MM-DD"`` → (first, end) period positions (both days included)."""
+def day_range(text: str, option: str) -> tuple[datetime.date, datetime.date]:
+    """``"YYYY-MM-DD..YYYY-MM-DD"`` → its first and last day (both included).
+
+    Raises
+    ------
+    InputError : not two days joined by ``..``, naming ``option``.
+    """
     parts = text.split("..")
     try:
         if len(parts) != 2:
@@ -106,6 +138,35 @@ def parse_days(text: str, index: pd.DatetimeIndex, option: str) -> tuple[int, in
         raise InputError(
             "not a day range", field=option, value=text, hint="write YYYY-MM-DD..YYYY-MM-DD"
         ) from None
+    return first, last
+
+
+def check_train_test(train: str | None, test: str | None) -> None:
+    """Refuse ``--train`` without ``--test`` (or the reverse) and day ranges that share a
+    day: the test days must be days the fit never saw.
+
+    Raises
+    ------
+    InputError : naming both ranges.
+    """
+    if (train is None) != (test is None):
+        raise InputError("give both --train and --test, or neither", field="--train")
+    if train is None or test is None:
+        return
+    train_first, train_last = day_range(train, "--train")
+    test_first, test_last = day_range(test, "--test")
+    if train_first <= test_last and test_first <= train_last:
+        raise InputError(
+            f"the test days overlap the training days (--train {train}, --test {test})",
+            field="--test",
+            value=test,
+            hint="give --test days outside --train, e.g. the days after the training days",
+        )
+
+
+def parse_days(text: str, index: pd.DatetimeIndex, option: str) -> tuple[int, int]:
+    """``"YYYY-MM-DD..YYYY-MM-DD"`` → (first, end) period positions (both days included)."""
+    first, last = day_range(text, option)
     days = np.array([t.date() for t in index])
     inside = np.flatnonzero((days >= first) & (days <= last))
     if last < first or inside.size == 0:
@@ -171,6 +232,63 @@ def zones_and_couplings(
     return names, couples
 
 
+def parse_floor_areas(text: str, zones: tuple[str, ...]) -> tuple[float, ...]:
+    """``"Z1=120.5,Z2=40"`` → (m,) the floor area [m²] of each of ``zones`` (the data's
+    names, any case), every zone named once.
+
+    Raises
+    ------
+    InputError
+        naming the item that is not ``ZONE=M2`` with a positive number, a zone not fitted or
+        one left out.
+    """
+    lookup = {z.lower(): z for z in zones}
+    areas: dict[str, float] = {}
+    for item in (i.strip() for i in text.split(",") if i.strip()):
+        name, _, number = item.rpartition("=")
+        try:
+            area = float(number)
+        except ValueError:
+            area = float("nan")
+        if name.strip().lower() not in lookup or not area > 0 or not np.isfinite(area):
+            raise InputError(
+                "not a fitted zone's floor area",
+                field="--floor-area",
+                value=item,
+                hint=f"write ZONE=M2 (a positive number of m²) for each of {list(zones)}",
+            )
+        areas[name.strip().lower()] = area
+    missing = [z for z in zones if z.lower() not in areas]
+    if missing:
+        raise InputError(
+            "a fitted zone has no floor area",
+            field="--floor-area",
+            value=missing[0],
+            hint=f"give every fitted zone's area: {','.join(f'{z}=M2' for z in zones)}",
+        )
+    return tuple(areas[z.lower()] for z in zones)
+
+
+def zone_floor_areas_m2(
+    zones: tuple[str, ...],
+    floor_areas: str | None,
+    idf: str | Path | None,
+    template: str | Path | None,
+) -> tuple[float, ...] | None:
+    """(m,) the fitted zones' floor areas [m²]: ``--floor-area`` where given, else the IDF's
+    zones' floors, else the template building's zones', else None (unknown: the model file
+    gives none and per-m² figures are not available)."""
+    if floor_areas is not None:
+        return parse_floor_areas(floor_areas, zones)
+    if idf is not None:
+        return idf_floor_areas_m2(idf, zones)
+    if template is not None:
+        building = load_building(template)
+        by_data_name = {(z.energyplus_zone or z.name).lower(): z for z in building.zones}
+        return tuple(by_data_name[z.lower()].floor_area_m2 for z in zones)
+    return None
+
+
 def _pairs(zones: tuple[str, ...], couples: list[tuple[str, str]] | None) -> list[tuple[int, int]]:
     if couples is None:
         return list(itertools.combinations(range(len(zones)), 2))
@@ -179,49 +297,92 @@ def _pairs(zones: tuple[str, ...], couples: list[tuple[str, str]] | None) -> lis
     return [(int(i), int(j)) for i, j in sorted(found) if i != j]
 
 
-def _parameters_table(
-    fit: FitResult, zones: tuple[str, ...], boundaries: tuple[str, ...]
-) -> pd.DataFrame:
-    rows = []
-    for i, zone in enumerate(zones):
-        for j, (name, _) in enumerate(ZONE_PARAMETERS):
-            rows.append(
-                {
-                    "zone": zone,
-                    "parameter": name,
-                    "value": fit.parameters.zone[i, j],
-                    "std_error": fit.standard_errors.zone[i, j],
-                }
-            )
-    for (i, j), ua, se in zip(
-        fit.parameters.couplings,
-        fit.parameters.coupling_ua_kw_per_k,
-        fit.standard_errors.coupling_ua_kw_per_k,
-        strict=True,
-    ):
-        rows.append(
-            {
-                "zone": f"{zones[i]}-{zones[j]}",
-                "parameter": "ua_kw_per_k",
-                "value": ua,
-                "std_error": se,
-            }
+def _parameters_table(fit: FitResult, context: FitContext) -> pd.DataFrame:
+    """``fit_parameters.csv``: ``zone``, ``parameter``, ``value``, ``std_error``, ``at_bound``
+    (``true``/``false``: a free parameter the optimiser left on a bound) and ``prior`` (the
+    prior's centre; a parameter fixed by physics has bounds, prior and value equal and
+    standard error 0)."""
+    assert fit.at_bound is not None and fit.prior is not None
+    rows = [
+        {
+            "zone": label,
+            "parameter": name,
+            "value": value,
+            "std_error": error[3],
+            "at_bound": "true" if flag[3] > 0 else "false",
+            "prior": prior[3],
+        }
+        for (label, name, _, value), error, flag, prior in zip(
+            parameter_rows(fit.parameters, context),
+            parameter_rows(fit.standard_errors, context),
+            parameter_rows(fit.at_bound, context),
+            parameter_rows(fit.prior, context),
+            strict=True,
         )
-    for (i, b), ua, se in zip(
-        fit.parameters.boundary_couplings,
-        fit.parameters.boundary_ua_kw_per_k,
-        fit.standard_errors.boundary_ua_kw_per_k,
-        strict=True,
-    ):
-        rows.append(
-            {
-                "zone": f"{zones[i]}-{boundaries[b]}",
-                "parameter": "ua_kw_per_k",
-                "value": ua,
-                "std_error": se,
-            }
-        )
+    ]
     return pd.DataFrame(rows)
+
+
+def described_geometry(
+    idf: str | Path | None, template: str | Path | None
+) -> dict[str, ZoneGeometry] | None:
+    """The zones' geometry by lower-case data name: the IDF's where given
+    (:func:`~hvacflex.identify.idf_geometry.idf_zone_geometry`), else the template building's
+    (:func:`~hvacflex.identify.physics.building_zone_geometry`: the user's description), else
+    None (façades and shared surfaces unknown)."""
+    if idf is not None:
+        return idf_zone_geometry(idf)
+    if template is not None:
+        return building_zone_geometry(load_building(template))
+    return None
+
+
+def geometry_couplings(
+    zones: tuple[str, ...],
+    boundaries: tuple[str, ...],
+    geometry: dict[str, ZoneGeometry],
+    couples: list[tuple[str, str]] | None,
+) -> tuple[list[tuple[int, int]], CouplingPhysics]:
+    """The couplings and their physics from the zones' geometry (an IDF's or a template's):
+    without ``--adjacency`` (``couples`` None) the fitted zones that share a surface couple;
+    each coupling, and each zone's to a boundary, bounded by its shared area
+    (:func:`~hvacflex.identify.physics.coupling_bounds`; generic where they share none)."""
+    shared = {
+        zone.lower(): dict(geometry[zone.lower()].shared_m2) if zone.lower() in geometry else {}
+        for zone in zones
+    }
+    if couples is None:
+        pairs = [
+            (i, j)
+            for i, j in itertools.combinations(range(len(zones)), 2)
+            if shared[zones[i].lower()].get(zones[j].lower(), 0.0) > 0.0
+        ]
+    else:
+        pairs = _pairs(zones, couples)
+    edges = [(i, b) for i in range(len(zones)) for b in range(len(boundaries))]
+    ends = [(zones[i], zones[j]) for i, j in pairs] + [(zones[i], boundaries[b]) for i, b in edges]
+    physics = tuple(
+        coupling_bounds(area) if (area := shared[a.lower()].get(b.lower(), 0.0)) > 0 else None
+        for a, b in ends
+    )
+    return pairs, physics
+
+
+def zone_physics_of(
+    zones: tuple[str, ...],
+    areas_m2: tuple[float, ...] | None,
+    geometry: dict[str, ZoneGeometry] | None,
+) -> tuple[ZonePhysics, ...]:
+    """(m,) what is known of each fitted zone (the data's names): its floor area and its
+    façades from ``geometry`` (:func:`described_geometry`;
+    :func:`~hvacflex.identify.physics.zone_physics`)."""
+    return tuple(
+        zone_physics(
+            None if geometry is None else geometry.get(zone.lower()),
+            None if areas_m2 is None else areas_m2[i],
+        )
+        for i, zone in enumerate(zones)
+    )
 
 
 def identify(
@@ -235,11 +396,15 @@ def identify(
     test: str | None = None,
     idf: str | Path | None = None,
     weather: str | Path | None = None,
+    floor_areas: str | None = None,
 ) -> IdentifyOutcome:
-    """Fit, evaluate and write (module docstring); ``idf``: the EnergyPlus model the data
-    came from, the plant of the scenario written beside the model; ``weather``: an EPW of the
-    site (where the wall irradiances are computed; default the shipped Singapore file's)."""
+    """Fit, evaluate, check and write (module docstring); ``idf``: the EnergyPlus model the
+    data came from, the plant of the scenario written beside the model and where the zones'
+    floor areas and façades come from; ``weather``: an EPW of the site (where the wall
+    irradiances are computed; default the shipped Singapore file's); ``floor_areas``:
+    ``"Z1=M2,…"``, the fitted zones' floor areas (:func:`zone_floor_areas_m2`)."""
     out = Path(out)
+    check_train_test(train, test)
     if idf is not None and not Path(idf).is_file():
         raise InputError(
             "no such IDF", field="--idf", value=str(idf), hint="give the EnergyPlus model's path"
@@ -253,27 +418,18 @@ def identify(
         if z.lower() not in fitted and not data.has(zone_column("supply_flow", z))
     )
     inputs = fit_inputs(data, names, site_of(weather), boundaries)
-    if (train is None) != (test is None):
-        raise InputError("give both --train and --test, or neither", field="--train")
-    if train is None or test is None:
-        train_range, test_range = _default_ranges(inputs.index)
-    else:
-        train_range = parse_days(train, inputs.index, "--train")
-        test_range = parse_days(test, inputs.index, "--test")
-    fit = fit_model(inputs, _pairs(inputs.zones, couples), train_range)
-    report = evaluate(fit, inputs, test_range)
-    ids = tuple(identifier(z) for z in inputs.zones)
-    report.insert(1, "energyplus_zone", list(inputs.zones))
-    report["zone"] = list(ids)
-    report["converged"] = fit.converged
-    report["warnings"] = [
-        "; ".join(
-            w
-            for w in fit.warnings
-            if w.startswith(f"{zone}:") or not any(w.startswith(f"{z}:") for z in inputs.zones)
+    areas_m2 = zone_floor_areas_m2(inputs.zones, floor_areas, idf, template)
+    geometry = described_geometry(idf, template)
+    physics = zone_physics_of(inputs.zones, areas_m2, geometry)
+    train_range, test_range = _ranges(inputs.index, train, test)
+    check_output_file(out, "--out")  # after the inputs are checked, before the fit
+    pairs, coupling_physics = _pairs(inputs.zones, couples), None
+    if geometry is not None:
+        pairs, coupling_physics = geometry_couplings(
+            inputs.zones, inputs.boundaries, geometry, couples
         )
-        for zone in inputs.zones
-    ]
+    fit = fit_model(inputs, pairs, train_range, physics, coupling_physics)
+    ids = tuple(identifier(z) for z in inputs.zones)
     power = fit_power_model(data, inputs, train_range)
     model = IdentifiedModel(
         name=f"identified from {Path(data_path).name}",
@@ -284,20 +440,23 @@ def identify(
         boundary_nodes=fit_boundary_nodes(fit.parameters, inputs, train_range, test_range),
         air=air_system(inputs, data, train_range, mean_mass_temps_degc(fit, inputs, test_range)),
         power=power,
+        floor_areas_m2=areas_m2,
+        validity=validity_range(inputs, train_range),
         provenance={
             "data": str(data_path),
             "train": _days_text(inputs.index, train_range),
             "test": _days_text(inputs.index, test_range),
         },
     )
+    context = FitContext(ids, physics, inputs.boundaries, model.boundary_nodes, model.validity)
+    checks = plausibility_checks(fit, context)
+    report = _fit_report(fit, inputs, test_range, checks)
     out.parent.mkdir(parents=True, exist_ok=True)
     model_path = write_identified_model(model, out)
-    report_path = out.parent / "fit_report.csv"
-    report.to_csv(report_path, index=False, float_format="%.4g")
+    report.to_csv(out.parent / "fit_report.csv", index=False, float_format="%.4g")
     parameters_path = out.parent / "fit_parameters.csv"
-    _parameters_table(fit, ids, inputs.boundaries).to_csv(
-        parameters_path, index=False, float_format="%.5g"
-    )
+    _parameters_table(fit, context).to_csv(parameters_path, index=False, float_format="%.5g")
+    checks.to_csv(out.parent / CHECKS_FILE, index=False)
     power_table = None if power is None else evaluate_power(power, data, inputs, test_range)
     power_path = None
     if power_table is not None:
@@ -310,7 +469,7 @@ def identify(
     )
     return IdentifyOutcome(
         model_path,
-        report_path,
+        out.parent / "fit_report.csv",
         parameters_path,
         power_path,
         report,
@@ -319,7 +478,65 @@ def identify(
         predictions,
         box,
         scenario_path,
+        checks=checks,
+        checks_path=out.parent / CHECKS_FILE,
     )
+
+
+def validity_range(inputs: FitData, train: tuple[int, int]) -> IdentifiedValidity:
+    """The training periods' range (``[identified.validity]``): each zone's lowest and highest
+    air temperature and the outdoor air's [°C]."""
+    first, end = train
+    zone_temp, outdoor = inputs.y[first:end], inputs.u[first:end, 0]
+    return IdentifiedValidity(
+        zone_temp_min_degc=tuple(float(v) for v in zone_temp.min(axis=0)),
+        zone_temp_max_degc=tuple(float(v) for v in zone_temp.max(axis=0)),
+        outdoor_temp_min_degc=float(outdoor.min()),
+        outdoor_temp_max_degc=float(outdoor.max()),
+    )
+
+
+def _ranges(
+    index: pd.DatetimeIndex, train: str | None, test: str | None
+) -> tuple[tuple[int, int], tuple[int, int]]:
+    """The training and test periods of ``--train`` and ``--test`` (both or neither)."""
+    if (train is None) != (test is None):
+        raise InputError("give both --train and --test, or neither", field="--train")
+    if train is None or test is None:
+        return _default_ranges(index)
+    return parse_days(train, index, "--train"), parse_days(test, index, "--test")
+
+
+def _fit_report(
+    fit: FitResult, inputs: FitData, test_range: tuple[int, int], checks: pd.DataFrame
+) -> pd.DataFrame:
+    """``fit_report.csv``: :func:`~hvacflex.identify.fit.evaluate`'s rows with the zones'
+    identifiers, their data names, ``converged`` and each zone's ``warnings``: the fit's and
+    the failed plausibility checks naming the zone (or one of its couplings) or the whole fit."""
+    report = evaluate(fit, inputs, test_range)
+    report.insert(1, "energyplus_zone", list(inputs.zones))
+    ids = [identifier(z) for z in inputs.zones]
+    report["zone"] = ids
+    report["converged"] = fit.converged
+    failed = checks[checks["status"] == "warning"]
+    lines = warning_lines(failed)
+    labels = list(failed["zone"])
+    report["warnings"] = [
+        "; ".join(
+            [
+                w
+                for w in fit.warnings
+                if w.startswith(f"{zone}:") or not any(w.startswith(f"{z}:") for z in inputs.zones)
+            ]
+            + [
+                line
+                for line, label in zip(lines, labels, strict=True)
+                if label == ident or label.startswith(f"{ident}-") or not label
+            ]
+        )
+        for zone, ident in zip(inputs.zones, ids, strict=True)
+    ]
+    return report
 
 
 def _days_text(index: pd.DatetimeIndex, periods: tuple[int, int]) -> str:

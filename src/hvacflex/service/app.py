@@ -42,7 +42,14 @@ from hvacflex.service.http import (
     add_error_handlers,
     roles,
 )
-from hvacflex.service.keys import Principal, create_key
+from hvacflex.service.keys import (
+    CLOCK_ROUTE,
+    REGISTER_ROUTE,
+    KeyBudgets,
+    Principal,
+    RouteLimit,
+    create_key,
+)
 from hvacflex.service.operations import (
     DEFAULT_STALE_AFTER_S,
     PROMETHEUS_CONTENT_TYPE,
@@ -103,6 +110,7 @@ def create_app(
     stale_after_s: float = DEFAULT_STALE_AFTER_S,
     plan_workers: int = DEFAULT_PLAN_WORKERS,
     live: bool = False,
+    route_limits: dict[str, RouteLimit] | None = None,
 ) -> FastAPI:
     """The service app on the database at ``db_url`` (migrated to the newest schema).
 
@@ -113,7 +121,9 @@ def create_app(
     the request path (:mod:`.planner`); measurements acknowledged before a restart and not
     yet planned are queued at once. ``live``: the live mode — buildings registered plan on
     real dates (``data.calendar = "live"``) and times of prices, activations and the clock
-    are not held to the price data's span.
+    are not held to the price data's span. ``route_limits``: each key's budget on the
+    costly routes (default :data:`~hvacflex.service.keys.DEFAULT_ROUTE_LIMITS`: 10
+    registrations per hour, 1 clock per 10 s); over it, 429 with ``Retry-After``.
 
     Raises
     ------
@@ -142,6 +152,7 @@ def create_app(
     app.state.engine = engine
     app.state.stale_after_s = stale_after_s
     app.state.request_metrics = RequestMetrics()
+    app.state.budgets = KeyBudgets(route_limits)
     if wall_clock:
         app.state.wall_clock_stop = start_wall_clock(planner)
     add_error_handlers(app)
@@ -211,6 +222,7 @@ def _building_routes(app: FastAPI, planner: Planner, auth: Auth) -> None:
     def register(body: RegisterBuilding, who: Operator) -> Envelope[Registered]:
         """Register a building from its description and scenario settings (content only);
         the response carries the building's key, shown this once."""
+        app.state.budgets.spend(REGISTER_ROUTE, who.key_id)  # before the model is built
         with sessions() as session, session.begin():
             built = runtime.register(
                 session, body.building_id, body.building, body.scenario, who.key_id
@@ -470,11 +482,12 @@ def _signal_routes(app: FastAPI, planner: Planner, auth: Auth) -> None:
         )
 
     @app.post("/v1/clock", tags=["operator"], responses=ERRORS)
-    def post_clock(body: ClockIn, _who: Operator) -> Envelope[PlanList]:
+    def post_clock(body: ClockIn, who: Operator) -> Envelope[PlanList]:
         """Advance the service clock; each building without a plan for the period that now
         starts is planned on its latest measurement (the 30-min boundary trigger)."""
         time = to_local(body.time)
         check_plannable(time, "time", runtime.live)
+        app.state.budgets.spend(CLOCK_ROUTE, who.key_id)  # before every building re-plans
         with sessions() as session, session.begin():
             row = session.get(ServiceClock, 1)
             if row is None:

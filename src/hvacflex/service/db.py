@@ -205,14 +205,59 @@ class OpenAdrSettlement(Base):
     settled_at: Mapped[datetime] = mapped_column(DateTime(timezone=True), default=utcnow)
 
 
+def db_text(value: str) -> str:
+    """``value`` as text every database stores alike: a NUL (which PostgreSQL's text
+    refuses) as the four characters ``\\x00``, a lone surrogate (not UTF-8) as ``\\udXXX``;
+    any other text unchanged (JSON made by :func:`json.dumps` never changes)."""
+    if "\x00" in value:
+        value = value.replace("\x00", "\\x00")
+    try:
+        value.encode("utf-8")
+    except UnicodeEncodeError:
+        value = value.encode("utf-8", "backslashreplace").decode("utf-8")
+    return value
+
+
+def bytes_as_text(data: bytes) -> str:
+    """Bytes a client sent as :func:`db_text`: UTF-8 decoded, every byte that is not UTF-8
+    as ``\\xHH`` and every NUL as ``\\x00``, so the text shows what was sent."""
+    return db_text(data.decode("utf-8", "backslashreplace"))
+
+
+def _db_parameters(value: Any) -> Any:
+    """Every string in a statement's parameters (a dict, a sequence or a list of them, by
+    the driver's style) as :func:`db_text`."""
+    if isinstance(value, str):
+        return db_text(value)
+    if isinstance(value, dict):
+        return {name: _db_parameters(v) for name, v in value.items()}
+    if isinstance(value, list | tuple):
+        return type(value)(_db_parameters(v) for v in value)
+    return value
+
+
 def make_engine(url: str = DEFAULT_DB_URL) -> Engine:
     """An engine for ``url``; SQLite gets WAL, ``synchronous=FULL`` (a committed write
-    survives a crash) and a busy timeout, and may be used from the server's threads."""
+    survives a crash) and a busy timeout, and may be used from the server's threads. Every
+    string a statement carries (stored or compared) goes through :func:`db_text`, so text
+    is stored, and found again, the same way on SQLite and PostgreSQL."""
     kwargs: dict[str, Any] = {}
     is_sqlite = url.startswith("sqlite")
     if is_sqlite:
         kwargs["connect_args"] = {"check_same_thread": False, "timeout": 30}
     engine = create_engine(url, **kwargs)
+
+    @event.listens_for(engine, "before_cursor_execute", retval=True)
+    def _safe_text(
+        _connection: Any,
+        _cursor: Any,
+        statement: str,
+        parameters: Any,
+        _context: Any,
+        _executemany: bool,
+    ) -> tuple[str, Any]:
+        return statement, _db_parameters(parameters)
+
     if is_sqlite:
 
         @event.listens_for(engine, "connect")

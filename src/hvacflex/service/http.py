@@ -4,6 +4,7 @@ FastAPI dependencies. The routes are in :mod:`.app`.
 """
 
 import hashlib
+import logging
 from collections.abc import Awaitable, Callable, MutableMapping
 from pathlib import Path
 from typing import Annotated, Any
@@ -12,12 +13,13 @@ from fastapi import Depends, FastAPI, HTTPException, Request
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
 from fastapi.security import APIKeyHeader
+from sqlalchemy.exc import DataError, DBAPIError, IntegrityError, OperationalError, SQLAlchemyError
 from sqlalchemy.orm import Session, sessionmaker
 from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.routing import Match
 
 from hvacflex.errors import HvacflexError, InputError
-from hvacflex.service.db import AuditEntry
+from hvacflex.service.db import AuditEntry, bytes_as_text
 from hvacflex.service.keys import KeyVerifier, Principal, RateLimitedError
 from hvacflex.service.runtime import NotFoundError
 from hvacflex.service.schemas import ErrorEnvelope
@@ -26,8 +28,9 @@ from hvacflex.sim.step import ConflictError
 MAX_BODY_BYTES = 1 << 20
 """Largest request body accepted (1 MiB); larger ones get 413."""
 AUDIT_BODY_HEAD = 2000
-"""Characters of a mutating request's body kept in the audit table."""
+"""Bytes of a mutating request's body kept in the audit table (as text: :func:`bytes_as_text`)."""
 API_KEY_HEADER = "X-API-Key"
+LOG = logging.getLogger("hvacflex.service")
 
 Scope = MutableMapping[str, Any]
 Message = MutableMapping[str, Any]
@@ -47,6 +50,7 @@ COMMON_ERRORS = _enveloped(
     (405, "Method not allowed; the Allow header lists the route's methods"),
     (413, "Body too large"),
     (422, "Invalid input; the message names the field"),
+    (503, "The database is not available; try again"),
 )
 """Errors any route may answer (every one in the envelope)."""
 ERRORS = {
@@ -55,7 +59,7 @@ ERRORS = {
         (401, "No key, or an unknown or revoked key"),
         (403, "The key's role or building does not allow this"),
         (409, "Conflicts with what is stored"),
-        (429, "Too many attempts with unknown keys; see Retry-After"),
+        (429, "Too many failed key attempts, or the key's budget on the route; see Retry-After"),
     ),
 }
 """The errors of a route that needs a key."""
@@ -93,7 +97,7 @@ class BodyLimitAndAudit:
         mutating = scope["method"] in ("POST", "PUT", "PATCH", "DELETE")
         if length is not None and (not length.isdigit() or int(length) > MAX_BODY_BYTES):
             if mutating:  # refused unread: audited with the empty body's digest
-                self._audit(scope, b"", 413)
+                self._audit_or_log(scope, b"", 413)
             await envelope(413, f"body larger than {MAX_BODY_BYTES} bytes")(scope, receive, send)
             return
         body = bytearray()
@@ -108,10 +112,25 @@ class BodyLimitAndAudit:
 
         async def audited_send(message: Message) -> None:
             if mutating and message["type"] == "http.response.start":
-                self._audit(scope, bytes(body), int(message["status"]))
+                self._audit_or_log(scope, bytes(body), int(message["status"]))
             await send(message)
 
         await self.app(scope, limited_receive, audited_send)
+
+    def _audit_or_log(self, scope: Scope, body: bytes, status: int) -> None:
+        """:meth:`_audit`; a database that refuses the row is logged (an error line) and
+        the response still goes out: raised here, after the request's own work is done,
+        it would reach the server as an unanswered request and reset the connection."""
+        try:
+            self._audit(scope, body, status)
+        except SQLAlchemyError as exc:
+            LOG.error(
+                "audit row not written: %s (%s %s, status %d)",
+                type(getattr(exc, "orig", None) or exc).__name__,
+                scope["method"],
+                scope["path"],
+                status,
+            )
 
     def _audit(self, scope: Scope, body: bytes, status: int) -> None:
         principal = scope.get("state", {}).get("principal")
@@ -124,7 +143,7 @@ class BodyLimitAndAudit:
                     path=str(scope["path"])[:512],
                     status_code=status,
                     body_sha256=hashlib.sha256(body).hexdigest(),
-                    body_head=body[:AUDIT_BODY_HEAD].decode("utf-8", "replace"),
+                    body_head=bytes_as_text(body[:AUDIT_BODY_HEAD]),
                 )
             )
 
@@ -158,6 +177,20 @@ def public_message(exc: HvacflexError) -> str:
     if source and ("/" in source or "\\" in source):
         text = text.replace(source, Path(source).name)
     return text.replace(str(PACKAGE_DIR), "hvacflex")
+
+
+def database_error_status(exc: DBAPIError) -> tuple[int, str]:
+    """The status and message a database driver's error is answered with (the driver's
+    own text is not shown: it may quote stored data): a value the database refuses 422, a
+    constraint 409, a database that does not answer 503, anything else 500."""
+    kind = type(exc.orig).__name__ if exc.orig is not None else type(exc).__name__
+    if isinstance(exc, DataError):
+        return 422, f"the database refused a value of the request ({kind})"
+    if isinstance(exc, IntegrityError):
+        return 409, f"conflicts with what is stored ({kind})"
+    if isinstance(exc, OperationalError):
+        return 503, f"the database is not available; try again ({kind})"
+    return 500, f"internal database error ({kind})"
 
 
 def add_error_handlers(app: FastAPI) -> None:
@@ -205,6 +238,11 @@ def add_error_handlers(app: FastAPI) -> None:
         field = exc.field if isinstance(exc, InputError) else None
         message = public_message(exc)
         return envelope(status, message, [{"field": field, "message": message}] if field else None)
+
+    @app.exception_handler(DBAPIError)
+    async def _database_error(_request: Request, exc: DBAPIError) -> JSONResponse:
+        status, message = database_error_status(exc)
+        return envelope(status, message)
 
     @app.exception_handler(Exception)
     async def _server_error(_request: Request, exc: Exception) -> JSONResponse:

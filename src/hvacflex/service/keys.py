@@ -3,14 +3,18 @@
 Roles: ``operator`` (grid or aggregator) and ``building`` (one building's BEMS). Verifying a
 key costs one scrypt (~tens of ms) the first time; afterwards a request costs one read of
 the key's row (so a revocation holds from the next request). Refused keys are remembered
-(negative cache), and the app rate-limits unknown-key attempts per client
-(:class:`TokenBucket`), so a flood of unknown keys costs little and cannot starve valid ones.
+(negative cache). Failed attempts are rate-limited per client address and per key id
+claimed (:class:`TokenBucket`): only failures count, so a flood of unknown keys costs little,
+and a valid key used for the first time is refused only when both its address and its own
+key id have failed too often — never for other keys' failures alone. Authenticated callers
+have a budget per key on the costly routes (:class:`KeyBudgets`, :data:`DEFAULT_ROUTE_LIMITS`).
 """
 
 from __future__ import annotations
 
 import hashlib
 import hmac
+import math
 import os
 import re
 import secrets
@@ -37,19 +41,72 @@ KEY_ID_PATTERN = re.compile(r"[0-9a-f]{16}")
 NEGATIVE_CACHE_SIZE = 100_000
 """Refused keys remembered (by SHA-256) so that repeating one costs no scrypt."""
 UNKNOWN_KEY_BURST = 10.0
-"""Attempts at keys not verified before that one client may make at once."""
+"""Failed key attempts one client address (and, apart, one key id) may make at once."""
 UNKNOWN_KEY_PER_S = 0.2
-"""Such attempts per client per second after the burst [1/s]: each costs one scrypt
-(≈ 0.05 s on an idle core, 0.5 s on the loaded shared machine), so one client can hold at
-most a tenth of a core this way."""
+"""Such failures per address (per key id) per second after the burst [1/s]: each costs one
+scrypt (≈ 0.05 s on an idle core, 0.5 s on the loaded shared machine), so one address can
+hold at most a tenth of a core this way."""
+
+
+@dataclass(frozen=True)
+class RouteLimit:
+    """At most ``requests`` requests per key in ``window_s`` [s] on one route (a token
+    bucket: a burst of ``requests``, refilled evenly over ``window_s``)."""
+
+    requests: int
+    window_s: float
+
+    def __post_init__(self) -> None:
+        if isinstance(self.requests, bool) or not isinstance(self.requests, int):
+            raise InputError("must be a whole number of requests", value=self.requests)
+        if self.requests < 1:
+            raise InputError("must allow at least 1 request", value=self.requests)
+        if not math.isfinite(self.window_s) or self.window_s <= 0:
+            raise InputError(
+                "the window must be a finite number of seconds > 0", value=self.window_s
+            )
+
+    def __str__(self) -> str:
+        return f"{self.requests} per {self.window_s:g} s"
+
+
+REGISTER_ROUTE = "POST /v1/buildings"
+CLOCK_ROUTE = "POST /v1/clock"
+DEFAULT_ROUTE_LIMITS: dict[str, RouteLimit] = {
+    REGISTER_ROUTE: RouteLimit(10, 3600.0),  # builds a model (seconds of CPU)
+    CLOCK_ROUTE: RouteLimit(1, 10.0),  # re-plans every building
+}
+"""The budget per key of the costly routes (``serve --register-limit``, ``--clock-limit``)."""
+
+
+def parse_route_limit(text: str, option: str) -> RouteLimit:
+    """``"N/SECONDS"`` (``"10/3600"``: 10 requests per hour) as a :class:`RouteLimit`.
+
+    Raises
+    ------
+    InputError : not two positive numbers joined by ``/``, naming ``option``.
+    """
+    requests, _, window = text.partition("/")
+    try:
+        return RouteLimit(int(requests), float(window))
+    except (ValueError, InputError):
+        raise InputError(
+            "not a limit N/SECONDS with N ≥ 1 requests and SECONDS > 0",
+            field=option,
+            value=text,
+            hint=f"e.g. {option} 10/3600 (10 requests per key per hour)",
+        ) from None
 
 
 class RateLimitedError(HvacflexError):
-    """A client made too many attempts at unknown keys (HTTP 429)."""
+    """Too many requests (HTTP 429, ``Retry-After``): failed key attempts, or a key's
+    budget on a costly route."""
 
-    def __init__(self, retry_after_s: float) -> None:
+    def __init__(self, retry_after_s: float, message: str | None = None) -> None:
         self.retry_after_s = retry_after_s
-        super().__init__(f"too many attempts with unknown keys; retry in {retry_after_s:.1f} s")
+        super().__init__(
+            message or f"too many attempts with unknown keys; retry in {retry_after_s:.1f} s"
+        )
 
 
 @dataclass(frozen=True)
@@ -155,15 +212,61 @@ class TokenBucket:
 
     def take(self, client: str, now_s: float | None = None) -> float:
         """Take one token for ``client``: 0.0 when granted, else the seconds until one is."""
+        return self._update(client, now_s, take=True)
+
+    def wait_s(self, client: str, now_s: float | None = None) -> float:
+        """Seconds until ``client`` has a token (0.0: it has one now); takes none."""
+        return self._update(client, now_s, take=False)
+
+    def spend(self, client: str, now_s: float | None = None) -> None:
+        """Take one token for ``client`` if it has one (a failure counted after the fact)."""
+        self._update(client, now_s, take=True)
+
+    def _update(self, client: str, now_s: float | None, *, take: bool) -> float:
         now = time.monotonic() if now_s is None else now_s
         with self._lock:
             tokens, then = self._buckets.pop(client, (self.capacity, now))
             tokens = min(self.capacity, tokens + (now - then) * self.refill_per_s)
             wait_s = 0.0 if tokens >= 1.0 else (1.0 - tokens) / self.refill_per_s
-            self._buckets[client] = (tokens - 1.0 if wait_s == 0.0 else tokens, now)
+            self._buckets[client] = (tokens - 1.0 if take and wait_s == 0.0 else tokens, now)
             while len(self._buckets) > self.max_clients:
                 self._buckets.popitem(last=False)
         return wait_s
+
+
+class KeyBudgets:
+    """Each key's budget on the costly routes (:class:`RouteLimit` per route).
+
+    Parameters
+    ----------
+    limits : route (``"POST /v1/clock"``) → its limit; routes not named are not limited
+        (default :data:`DEFAULT_ROUTE_LIMITS`).
+    """
+
+    def __init__(self, limits: dict[str, RouteLimit] | None = None) -> None:
+        self.limits = dict(DEFAULT_ROUTE_LIMITS if limits is None else limits)
+        self._buckets = {
+            route: TokenBucket(float(limit.requests), limit.requests / limit.window_s)
+            for route, limit in self.limits.items()
+        }
+
+    def spend(self, route: str, key_id: str, now_s: float | None = None) -> None:
+        """Count one request of ``key_id`` on ``route``.
+
+        Raises
+        ------
+        RateLimitedError : the key has used its budget on the route (HTTP 429 with
+            ``Retry-After``).
+        """
+        bucket = self._buckets.get(route)
+        if bucket is None:
+            return
+        wait_s = bucket.take(key_id, now_s)
+        if wait_s > 0.0:
+            raise RateLimitedError(
+                wait_s,
+                f"this key's budget on {route} is {self.limits[route]}; retry in {wait_s:.1f} s",
+            )
 
 
 class KeyVerifier:
@@ -179,8 +282,10 @@ class KeyVerifier:
         self,
         attempts: TokenBucket | None = None,
         negative_cache_size: int = NEGATIVE_CACHE_SIZE,
+        key_attempts: TokenBucket | None = None,
     ) -> None:
         self.attempts = attempts or TokenBucket(UNKNOWN_KEY_BURST, UNKNOWN_KEY_PER_S)
+        self.key_attempts = key_attempts or TokenBucket(UNKNOWN_KEY_BURST, UNKNOWN_KEY_PER_S)
         self._verified: dict[str, str] = {}
         self._refused: OrderedDict[str, None] = OrderedDict()
         self._negative_cache_size = negative_cache_size
@@ -189,10 +294,15 @@ class KeyVerifier:
     def verify(self, session: Session, key: str, client: str = "-") -> Principal | None:
         """The key's principal, or None for a malformed, unknown, revoked or wrong key.
 
+        A key not verified before costs one scrypt. Only failures are counted, per client
+        address (``client``) and per key id claimed: an attempt is refused unverified only
+        when the address has failed too often and the key id it claims is unknown, revoked
+        or has failed too often itself — so a valid key is never refused for the failures
+        of other keys.
+
         Raises
         ------
-        RateLimitedError : ``client`` has used up its attempts at keys not verified before
-            (one scrypt each); it may try again after ``retry_after_s``.
+        RateLimitedError : as above; it may try again after ``retry_after_s``.
         """
         parts = _split(key)
         if parts is None:
@@ -203,25 +313,39 @@ class KeyVerifier:
             if digest in self._refused:
                 return None
             verified = self._verified.get(digest) == key_id
-        if not verified:
-            wait_s = self.attempts.take(client)
-            if wait_s > 0.0:
-                raise RateLimitedError(wait_s)
         row = session.get(ApiKey, key_id)
         if row is None or row.revoked:
             if not verified:
+                self._check_attempt(key_id, client, active=False)
                 _hash(secret, b"timing-equaliser")  # same work whether or not the id exists
+                self._failed(key_id, client)
             self._refuse(digest)
             return None
         if not verified:
+            self._check_attempt(key_id, client, active=True)
             expected = bytes.fromhex(row.hash_hex)
             if not hmac.compare_digest(_hash(secret, bytes.fromhex(row.salt_hex)), expected):
+                self._failed(key_id, client)
                 self._refuse(digest)
                 return None
             with self._lock:
                 self._verified[digest] = key_id
         role: Role = "operator" if row.role == "operator" else "building"
         return Principal(key_id=row.key_id, role=role, building_id=row.building_id)
+
+    def _check_attempt(self, key_id: str, client: str, *, active: bool) -> None:
+        """Refuse (429) a first attempt of ``client`` at ``key_id`` when the address has no
+        failure left and the key id is not an active key with failures left."""
+        client_wait_s = self.attempts.wait_s(client)
+        if client_wait_s == 0.0:
+            return
+        key_wait_s = self.key_attempts.wait_s(key_id) if active else math.inf
+        if key_wait_s > 0.0:
+            raise RateLimitedError(min(client_wait_s, key_wait_s))
+
+    def _failed(self, key_id: str, client: str) -> None:
+        self.attempts.spend(client)
+        self.key_attempts.spend(key_id)
 
     def _refuse(self, digest: str) -> None:
         with self._lock:

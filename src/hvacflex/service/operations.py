@@ -334,6 +334,66 @@ def check_tls(certfile: Path | None, keyfile: Path | None) -> bool:
     return True
 
 
+TLS_MINIMUM_VERSIONS: dict[str, ssl.TLSVersion] = {
+    "1.2": ssl.TLSVersion.TLSv1_2,
+    "1.3": ssl.TLSVersion.TLSv1_3,
+}
+"""``--ssl-min-version``'s choices: the oldest TLS version the service accepts."""
+DEFAULT_TLS_MINIMUM_VERSION = "1.2"
+
+
+def tls_minimum_version(text: str) -> ssl.TLSVersion:
+    """The :class:`ssl.TLSVersion` ``--ssl-min-version`` names.
+
+    Raises
+    ------
+    InputError : not one of :data:`TLS_MINIMUM_VERSIONS`.
+    """
+    version = TLS_MINIMUM_VERSIONS.get(text.strip())
+    if version is None:
+        raise InputError(
+            "not a TLS version the service offers",
+            field="--ssl-min-version",
+            value=text,
+            hint=f"use one of {', '.join(TLS_MINIMUM_VERSIONS)}",
+        )
+    return version
+
+
+def is_loopback(host: str) -> bool:
+    """Whether every address ``host`` resolves to is this machine's loopback (127.0.0.0/8,
+    ::1): only this machine can then reach the service. ``0.0.0.0``, ``::`` and names that
+    resolve elsewhere are not; a name that does not resolve is not either."""
+    try:
+        infos = socket.getaddrinfo(host, None, type=socket.SOCK_STREAM)
+    except (socket.gaierror, UnicodeError):
+        return False
+    addresses = {info[4][0] for info in infos}
+    return bool(addresses) and all(
+        ipaddress.ip_address(str(a).split("%")[0]).is_loopback for a in addresses
+    )
+
+
+def check_plain_http(host: str, tls: bool, insecure_http: bool) -> None:
+    """Refuse plain HTTP on an address other machines reach (API keys would travel in
+    clear) unless ``insecure_http`` (``--insecure-http``: e.g. behind a TLS proxy).
+
+    Raises
+    ------
+    InputError : naming ``--insecure-http`` and the TLS options.
+    """
+    if tls or insecure_http or is_loopback(host):
+        return
+    raise InputError(
+        "plain HTTP on an address other machines reach: API keys would travel in clear",
+        field="--host",
+        value=host,
+        hint="serve TLS with --ssl-certfile CERT.pem --ssl-keyfile KEY.pem "
+        "(and --ssl-min-version), listen on 127.0.0.1, or pass --insecure-http when a "
+        "TLS-terminating proxy in front of it carries the keys",
+    )
+
+
 def service_url(host: str, port: int, tls: bool) -> str:
     """``http(s)://HOST:PORT/`` (an IPv6 address in brackets)."""
     shown = f"[{host}]" if ":" in host else host

@@ -232,7 +232,6 @@ class RemoteControl:
     """The closed loop reads the zone air for the service (its sensors do so only for a
     controller with a filter, ``estimation.mode = "kalman"``); the reading is posted in the
     zone rows of the node temperatures, where the service's filter reads it."""
-    step_model = None
 
     def __init__(self, remote: RemoteController, operator: Client, zone_rows: FloatArray) -> None:
         self.remote = remote
@@ -240,23 +239,12 @@ class RemoteControl:
         self.zone_rows = np.asarray(zone_rows, dtype=int)
         """(m,) the zone nodes' positions in the state (the model's C)."""
         self.active = False
-        self.delivered_flow_kg_s: FloatArray | None = None
-        """(m,) the plant's delivered input of the period just run [kg/s], posted with the
-        next measurement (None: the plant reports none)."""
 
-    def decide(
-        self,
-        k: int,
-        inputs: PeriodInputs,
-        *,
-        activated: Callable[[int], bool],
-        baseline_power_kw: float | None = None,
-        baseline_ahead_kw: FloatArray | None = None,
-        previous_power_kw: float | None = None,
-    ) -> Decision:
-        """Post period ``k``'s activation change and measurement (``inputs.x_degc``); the
-        service's decision (its forecast, peak floor, recovery allowance, settlement
-        baselines and meter history are its own)."""
+    def decide(self, k: int, inputs: PeriodInputs, *, activated: Callable[[int], bool]) -> Decision:
+        """Post period ``k``'s activation change and measurement (``inputs.x_degc``, and the
+        plant's delivered input of k − 1 where it reports one); the service's decision (its
+        forecast, peak floor, recovery allowance, settlement baselines and meter history are
+        its own)."""
         time = inputs.forecast.index[0].isoformat()
         if activated(k) != self.active:
             self.active = activated(k)
@@ -269,8 +257,7 @@ class RemoteControl:
         x = np.array(inputs.x_degc, dtype=float)
         if inputs.measured_zone_temp_degc is not None:
             x[self.zone_rows] = inputs.measured_zone_temp_degc
-        answer = self.remote.exchange(x, time, self.delivered_flow_kg_s)
-        self.delivered_flow_kg_s = None
+        answer = self.remote.exchange(x, time, inputs.delivered_flow_kg_s)
         action = action_from_plan(answer)
         role = Role(answer["il_role"])
         outcome = PeriodOutcome(
@@ -284,21 +271,14 @@ class RemoteControl:
         status = decision_status(role, action)
         return Decision(action, status, role, outcome, applied, None, None)
 
-    def note_delivered_flow(self, flow_kg_s: FloatArray) -> None:
-        """Keep the plant's report for the next measurement: the service's control step
-        takes it there (``previous_delivered_flow_kg_s``)."""
-        self.delivered_flow_kg_s = np.asarray(flow_kg_s, dtype=float)
-
     def restart_warm(self) -> None:
         return None  # the service keeps the controller
 
     def get_state(self) -> dict[str, Any]:
-        return {"active": self.active, "delivered_flow_kg_s": self.delivered_flow_kg_s}
+        return {"active": self.active}
 
     def set_state(self, state: dict[str, Any]) -> None:
         self.active = bool(state["active"])
-        flow = state.get("delivered_flow_kg_s")
-        self.delivered_flow_kg_s = None if flow is None else np.asarray(flow, dtype=float)
 
 
 def registration(config: ScenarioConfig, building_id: str) -> dict[str, Any]:

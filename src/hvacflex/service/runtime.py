@@ -39,7 +39,7 @@ from hvacflex import state
 from hvacflex.building.io import building_from_dict
 from hvacflex.building.model import Building
 from hvacflex.config import ScenarioConfig, preset, with_overrides
-from hvacflex.control.base import Controller, PeriodInputs
+from hvacflex.control.base import Controller
 from hvacflex.data.signals import OperatorSignals, effective_peak_price
 from hvacflex.errors import InputError
 from hvacflex.paths import resolve_building
@@ -59,6 +59,7 @@ from hvacflex.service.schemas import (
     MeasurementIn,
     ScenarioSettings,
 )
+from hvacflex.sim.history import PeriodHistory, period_inputs
 from hvacflex.sim.setup import Setup, make_controller, prepare
 from hvacflex.sim.step import ConflictError, ControlStep, Decision
 
@@ -303,15 +304,6 @@ class Runtime:
         building, document = building_from_source(source, building_id)
         settings = self._with_calendar(settings)
         config = scenario_config(settings, building_id)
-        if config.reserve.il_baseline != "pre-event":
-            # refused for new buildings only: one stored before keeps loading (get)
-            raise InputError(
-                "the service sizes offers to the pre-event baseline only (the metered power a "
-                "building posts for the period before), and its VEN settles on it",
-                field="scenario.settings.reserve.il_baseline",
-                value=config.reserve.il_baseline,
-                hint='leave it out or set "pre-event"',
-            )
         if config.data.calendar == "live" and not self.live:
             raise InputError(
                 "real dates need the service's live mode",
@@ -436,34 +428,35 @@ class Runtime:
         """IL active in period k (:meth:`activity`)."""
         return self.activity(session, runtime)(k)
 
-    def _month_peak_kw(self, session: Session, runtime: BuildingRuntime, k: int) -> float:
-        index = runtime.setup.exogenous.index
-        month = index[k].month
-        peak = 0.0
+    def history(
+        self,
+        session: Session,
+        runtime: BuildingRuntime,
+        k: int,
+        delivered_flow_kg_s: np.ndarray | None = None,
+    ) -> PeriodHistory:
+        """The building's metered periods before ``k`` from its rows
+        (:class:`~hvacflex.sim.history.PeriodHistory`): period j's power is what the
+        measurement of j + 1 posted as ``previous_power_kw`` (NaN where none did), its
+        activation the activation signal's (:meth:`activity`); ``delivered_flow_kg_s``:
+        period k − 1's delivered input (m,) [kg/s] posted with k's measurement, if any."""
+        history = PeriodHistory.empty(runtime.setup.exogenous.index, runtime.steps)
         rows = session.execute(
             select(Measurement.period, Measurement.previous_power_kw).where(
                 Measurement.building_id == runtime.building_id,
                 Measurement.period <= k,
-                Measurement.previous_power_kw.is_not(None),
                 Measurement.period >= 1,
+                Measurement.previous_power_kw.is_not(None),
             )
         )
         for period, power in rows:
-            if index[period - 1].month == month and power is not None:
-                peak = max(peak, float(power))
-        return peak
-
-    def _previous_power_kw(
-        self, session: Session, runtime: BuildingRuntime, k: int
-    ) -> float | None:
-        """The metered power of period k − 1 the building posted with period k's measurement
-        (the pre-event settlement baseline of an activation starting at k), or None."""
-        power = session.execute(
-            select(Measurement.previous_power_kw).where(
-                Measurement.building_id == runtime.building_id, Measurement.period == k
-            )
-        ).scalar()
-        return None if power is None else float(power)
+            history.power_kw[period - 1] = float(power)
+        activated = self.activity(session, runtime)
+        history.activated[:k] = [activated(j) for j in range(k)]
+        if delivered_flow_kg_s is not None and k >= 1:
+            history.delivered_flow_kg_s = np.asarray(delivered_flow_kg_s, dtype=float)
+            history.delivered_period = k - 1
+        return history
 
     # -- plans --------------------------------------------------------------------------
     def plan(
@@ -487,22 +480,20 @@ class Runtime:
         ConflictError : k is before the building's latest planned period.
         """
         setup = runtime.setup
-        forecast = self.signals(session).apply(
-            setup.forecaster.forecast(k, setup.config.controller.horizon_steps + 1)
-        )
-        floor = self._month_peak_kw(session, runtime, k)
         activated = self.activity(session, runtime)
         control = runtime.control
         measured = setup.model.c @ x_degc if control.takes_measurements else None
-        previous_power_kw = self._previous_power_kw(session, runtime, k)
-        decision = control.decide(
+        inputs = period_inputs(
             k,
-            PeriodInputs(x_degc, forecast, floor, measured_zone_temp_degc=measured),
-            activated=activated,
-            baseline_power_kw=previous_power_kw,
-            previous_delivered_flow_kg_s=delivered_flow_kg_s,
-            previous_power_kw=previous_power_kw,
+            self.history(session, runtime, k, delivered_flow_kg_s),
+            setup.forecaster,
+            self.signals(session),
+            setup.config,
+            x_degc=x_degc,
+            measured_zone_temp_degc=measured,
         )
+        forecast = inputs.forecast
+        decision = control.decide(k, inputs, activated=activated)
         payload = self._payload(runtime, k, decision, decision.plan, forecast.index)
         payload["peak_price_sgd_per_kw"] = effective_peak_price(
             forecast, setup.config.controller.peak_price_sgd_per_kw

@@ -20,12 +20,14 @@ each period (served: u, curtailed: u − r) so the power with and without activa
 the applied one is chosen by the activation schedule. On one that cannot (an external
 emulator) only the applied step is run and the counterfactual columns are NaN.
 
-A run checkpoints every ``checkpoint_every`` steps and on interruption (Ctrl-C), in the
-data-only format of :mod:`hvacflex.state`: the plant state, the step index, the sampler's
-and sensors' RNG states, the control step's state (LP basis, previous plan, filter, IL
-events) and the rows so far. Started again with the same
-configuration, it resumes from the checkpoint and ends with results identical to an
-uninterrupted run.
+A run checkpoints every ``checkpoint_every`` steps (its restart points: the solver restarts
+there from its stored basis, interrupted or not), in the data-only format of
+:mod:`hvacflex.state`: the plant state, the step index, the sampler's and sensors' RNG
+states, the control step's state (LP basis, previous plan, filter, IL events, commitments,
+meter history), the period history and the rows so far. Interrupted (Ctrl-C), it keeps the
+last restart point; started again with the same configuration, it resumes from there,
+replays the periods after it, and ends with results identical to an uninterrupted run, bit
+for bit.
 """
 
 from __future__ import annotations
@@ -44,19 +46,14 @@ from hvacflex import results, state, version
 from hvacflex.building.discretize import delivered_flow_kg_s
 from hvacflex.building.identified import initial_node_temps_degc
 from hvacflex.config import ScenarioConfig
-from hvacflex.control.base import Controller, FloatArray, PeriodInputs
-from hvacflex.control.estimation import StepModel
+from hvacflex.control.base import Action, Controller, FloatArray, PeriodInputs, WarmRestart
 from hvacflex.data.forecast import Forecast
 from hvacflex.data.signals import OperatorSignals, effective_peak_price
 from hvacflex.data.uncertainty import DisturbanceSampler
 from hvacflex.errors import ConfigError, HvacflexError
 from hvacflex.paths import check_output_dir
-from hvacflex.settlement import (
-    SETTLEMENT_COLUMNS,
-    ahead_baselines_kw,
-    settlement_columns,
-    start_baseline_kw,
-)
+from hvacflex.settlement import SETTLEMENT_COLUMNS, settlement_columns
+from hvacflex.sim.history import PeriodHistory, period_inputs
 from hvacflex.sim.measurement import Sensors
 from hvacflex.sim.plant import Actuation, Disturbance, Observation, Plant
 from hvacflex.sim.plants import plant_summary, scenario_plant
@@ -156,21 +153,9 @@ class Control(Protocol):
     @property
     def takes_measurements(self) -> bool: ...
 
-    @property
-    def step_model(self) -> StepModel | None: ...
-
     def decide(
-        self,
-        k: int,
-        inputs: PeriodInputs,
-        *,
-        activated: Callable[[int], bool],
-        baseline_power_kw: float | None = None,
-        baseline_ahead_kw: FloatArray | None = None,
-        previous_power_kw: float | None = None,
+        self, k: int, inputs: PeriodInputs, *, activated: Callable[[int], bool]
     ) -> Decision: ...
-
-    def note_delivered_flow(self, flow_kg_s: FloatArray) -> None: ...
 
     def restart_warm(self) -> None: ...
 
@@ -247,8 +232,8 @@ class ClosedLoop:
         self.sampler = DisturbanceSampler(
             cfg.realisation.mode, seed=cfg.seed, ar1_coefficient=cfg.realisation.ar1_coefficient
         )
-        self.month_peak_kw = 0.0
-        self.month = -1
+        self.history = PeriodHistory.empty(setup.exogenous.index, self.steps)
+        """The metered periods so far (:mod:`hvacflex.sim.history`)."""
         channel_names = tuple(ch.name for ch in setup.model.channels)
         self.recorder = _Recorder(self.steps, setup.zone_names, channel_names)
         self._outdoor = next(
@@ -262,38 +247,41 @@ class ClosedLoop:
         """The controller the control step drives (None for a stand-in control)."""
         return self.control.controller if isinstance(self.control, ControlStep) else None
 
+    @property
+    def resumable_anywhere(self) -> bool:
+        """True when a checkpoint written at any period resumes bit for bit: the control
+        keeps no live solver state (a rule-based controller); an MPC resumes bit for bit
+        from its restart points only (:func:`run_simulation`)."""
+        controller = self.controller
+        return controller is not None and not isinstance(controller, WarmRestart)
+
     def _activated(self, j: int) -> bool:
         return bool(self.setup.activation[j])
 
     # -- one period -------------------------------------------------------------------
+    def inputs(self, plan: Any = None) -> PeriodInputs:
+        """The driver's inputs of period ``k`` (:func:`hvacflex.sim.history.period_inputs`);
+        the sensors are read here (their noise draws advance)."""
+        return period_inputs(
+            self.k,
+            self.history,
+            self.setup.forecaster,
+            self.signals,
+            self.setup.config,
+            x_degc=self.x,
+            measured_zone_temp_degc=self.sensors.read(self.x),
+            plan=plan,
+        )
+
     def step(self, plan: Any = None) -> None:
         """Simulate period ``k`` and advance; ``plan``: this period's plan decided elsewhere
         (a fleet coordinator's), applied as the controller's."""
         setup, k = self.setup, self.k
         exo = setup.exogenous
-        month = exo.index[k].month
-        if month != self.month:
-            self.month, self.month_peak_kw = month, 0.0
         t0 = time.perf_counter()
-        # one period beyond the horizon: the band at the end of the last planned period
-        forecast = self.signals.apply(
-            setup.forecaster.forecast(k, setup.config.controller.horizon_steps + 1)
-        )
-        inputs = PeriodInputs(
-            self.x,
-            forecast,
-            self.month_peak_kw,
-            measured_zone_temp_degc=self.sensors.read(self.x),
-            plan=plan,
-        )
-        decision = self.control.decide(
-            k,
-            inputs,
-            activated=self._activated,
-            baseline_power_kw=self._start_baseline_kw(k),
-            baseline_ahead_kw=self._ahead_baselines_kw(k),
-            previous_power_kw=self._previous_power_kw(k),
-        )
+        inputs = self.inputs(plan)
+        forecast = inputs.forecast
+        decision = self.control.decide(k, inputs, activated=self._activated)
         t1 = time.perf_counter()
 
         # the plant sees the data plus a draw in the sampling box; the results record the
@@ -311,10 +299,11 @@ class ClosedLoop:
             latent_gain_w=float(exo.occupant_latent_w[k]),
         )
         period = self._plant_period(decision, disturbance)
+        delivered = None
         if period.applied.supply_temp_degc is not None and period.applied.node_temp_degc is None:
             # the filter predicts with what the air delivered, as the observer does
-            self.control.note_delivered_flow(period.input_kg_s)
-        step_model = self.control.step_model
+            delivered = period.input_kg_s
+        step_model = decision.action.step_model
         # graded with the decided input, not the delivered one: the error between plan and
         # plant, which a box calibrated from it must cover (docs/estimation.md section 4)
         error_k = self.sensors.prediction_error_k(
@@ -330,47 +319,13 @@ class ClosedLoop:
         self._record(k, decision, forecast, d_hat, w, period)
         self.recorder.values[k, self.recorder.zone_index[results.PREDICTION_ERROR]] = error_k
         self._record_event(k, decision)
-        self.month_peak_kw = max(self.month_peak_kw, power)
+        self.history.record(k, power, self._activated(k), delivered)
         self.x = period.x_next_degc
         self.k += 1
         t3 = time.perf_counter()
         self.timing_s["controller"] += t1 - t0
         self.timing_s["plant"] += t2 - t1
         self.timing_s["record"] += t3 - t2
-
-    def _previous_power_kw(self, k: int) -> float | None:
-        """The metered power of period k − 1 [kW] (None at k = 0)."""
-        if k == 0:
-            return None
-        return float(self.recorder.values[k - 1, self.recorder.column_index["power_kw"]])
-
-    def _start_baseline_kw(self, k: int) -> float | None:
-        """The baseline an activation starting at ``k`` would be settled against [kW] (the
-        scenario's ``il_baseline`` rule over the metered power so far; None at k = 0, where
-        there is no metered period yet, as a building that posts no previous power)."""
-        if k == 0:
-            return None
-        power = self.recorder.values[:k, self.recorder.column_index["power_kw"]]
-        activated = self.recorder.flags["il_activated"][:k]
-        return start_baseline_kw(
-            self.setup.config.reserve.il_baseline,
-            power,
-            activated,
-            self.setup.exogenous.index[: k + 1],
-        )
-
-    def _ahead_baselines_kw(self, k: int) -> FloatArray | None:
-        """The ``similar-days`` baselines of periods k … k + J − 1 from the metered power so
-        far, J covering every step a plan sizes an offer for: the committed one g and the
-        event plan's D + R (:attr:`ReserveConfig.ahead_offer_steps`); None under
-        ``pre-event``."""
-        reserve = self.setup.config.reserve
-        if reserve.il_baseline != "similar-days":
-            return None
-        power = self.recorder.values[:k, self.recorder.column_index["power_kw"]]
-        activated = self.recorder.flags["il_activated"][:k]
-        index = self.setup.exogenous.index[: k + reserve.ahead_offer_steps]
-        return ahead_baselines_kw(reserve.il_baseline, power, activated, index)
 
     def _plant_period(self, decision: Decision, disturbance: Disturbance) -> _PlantPeriod:
         """Run the period on the plant: the served and the curtailed step where the plant can
@@ -524,7 +479,19 @@ class ClosedLoop:
         row[first_d : first_d + nd] = d_hat
         row[first_d + nd : first_d + 2 * nd] = w
         rec.flags["fallback"][k] = action.fallback
+        rec.flags["model_extrapolation"][k] = self._extrapolating(action, d_hat)
         rec.status[k] = action.status
+
+    def _extrapolating(self, action: Action, d_hat: FloatArray) -> bool:
+        """Whether the period was planned outside an identified model's validity range: a
+        zone's planned end temperature or the forecast outdoor temperature beyond what its
+        training data saw (False without a range)."""
+        identified = self.setup.building.identified
+        validity = None if identified is None else identified.validity
+        if validity is None or not np.isfinite(action.predicted_served_degc).all():
+            return False
+        outdoor = float(d_hat[self._outdoor])
+        return bool(validity.outside(action.predicted_served_degc[None, :], outdoor)[0])
 
     # -- checkpoints ------------------------------------------------------------------
     def get_state(self) -> dict[str, Any]:
@@ -536,8 +503,7 @@ class ClosedLoop:
             "k": self.k,
             "x": self.x.copy(),
             "plant": self.plant.get_state(),
-            "month": self.month,
-            "month_peak_kw": self.month_peak_kw,
+            "history": self.history.get_state(),
             "sampler": self.sampler.get_state(),
             "sensors": self.sensors.get_state(),
             "control": self.control.get_state(),
@@ -556,7 +522,7 @@ class ClosedLoop:
         k = state["k"]
         self.k, self.x = k, np.asarray(state["x"], dtype=float).copy()
         self.plant.set_state(state["plant"])  # an emulator replays its recorded actuations
-        self.month, self.month_peak_kw = state["month"], state["month_peak_kw"]
+        self.history.set_state(state["history"])
         self.sampler.set_state(state["sampler"])
         self.sensors.set_state(state["sensors"])
         self.control.set_state(state["control"])
@@ -585,6 +551,30 @@ class ClosedLoop:
         return frame
 
 
+class RunInterrupted(KeyboardInterrupt):
+    """A run stopped by Ctrl-C (or SIGTERM turned into it): where it was, and the period its
+    checkpoint resumes from (None: no restart point yet, the run starts again from its first
+    period)."""
+
+    def __init__(self, period: int, checkpoint_period: int | None, out_dir: Path) -> None:
+        super().__init__(period)
+        self.period = period
+        self.checkpoint_period = checkpoint_period
+        self.out_dir = out_dir
+
+    def message(self) -> str:
+        """What the user reads: where the run stopped, its checkpoint, how to resume."""
+        if self.checkpoint_period is None:
+            kept = "no checkpoint yet (the first is written at the first restart point)"
+        else:
+            kept = f"checkpoint at period {self.checkpoint_period} in {self.out_dir}"
+        return (
+            f"interrupted at period {self.period}: {kept}; run the same command again to "
+            "resume (the periods after the checkpoint are replayed, so the results equal an "
+            "uninterrupted run's bit for bit)"
+        )
+
+
 def run_simulation(
     config: ScenarioConfig,
     out_dir: str | Path,
@@ -594,8 +584,18 @@ def run_simulation(
     resume: bool = True,
     stop_after_steps: int | None = None,
     on_step: ProgressCallback | None = None,
+    on_resume: Callable[[int], None] | None = None,
 ) -> RunResult:
     """Run (or resume, or re-use) a closed-loop simulation and write its results.
+
+    Checkpoints are written every ``checkpoint_every`` steps: the **restart points**, where
+    the controller restarts its solver from the stored basis (:meth:`ClosedLoop.
+    save_checkpoint`) whether or not the run is ever resumed. An interrupted or stopped run
+    keeps the last restart point as its checkpoint (its periods after it are replayed on
+    resume), so a resumed run equals the uninterrupted one bit for bit: restarting the
+    solver at the interruption instead would let HiGHS settle on other optimal vertices
+    than the run that kept its factorisation. A controller without live solver state (a
+    rule) checkpoints where it stops (:attr:`ClosedLoop.resumable_anywhere`).
 
     Parameters
     ----------
@@ -603,13 +603,18 @@ def run_simulation(
     out_dir : folder for ``results.parquet``, ``summary.json``, ``config.json`` and the
         checkpoint.
     progress : show a progress bar (steps/s, ETA).
-    checkpoint_every : steps between checkpoints.
+    checkpoint_every : steps between checkpoints (restart points).
     resume : resume from a checkpoint of the same configuration, and re-use finished results
         of the same inputs (:func:`run_key`) and code (:func:`hvacflex.version.code_version`).
         A checkpoint of the same configuration written by other code is refused.
-    stop_after_steps : stop (after checkpointing) once this many steps are done, as an
-        interruption would; the run is then resumable. For tests and batch schedulers.
-    on_step : called with (steps done, total steps) after each step.
+    stop_after_steps : stop once this many steps are done, as an interruption would; the run
+        is then resumable from its last restart point. For tests and batch schedulers.
+    on_step : called with (steps done, total steps) after each step (and its checkpoint).
+    on_resume : called with the period the run resumes from, before its first step.
+
+    Raises
+    ------
+    RunInterrupted : Ctrl-C; the checkpoint is the last restart point.
     """
     from hvacflex.kpi import summary as kpi_summary
 
@@ -625,12 +630,16 @@ def run_simulation(
         if cached is not None:
             return cached
     stored_state = _matching_checkpoint(checkpoint_path, config) if resume else None
+    if not resume:
+        checkpoint_path.unlink(missing_ok=True)  # a fresh run's restart points are its own
     loop = ClosedLoop(prepare(config))
     try:
         resumed_from: int | None = None
         if stored_state is not None:
             loop.set_state(stored_state)
             resumed_from = loop.k
+            if on_resume is not None:
+                on_resume(resumed_from)
         atomic_write_text(out / CONFIG_FILE, json.dumps(config.to_dict(), indent=2))
         last = loop.steps if stop_after_steps is None else min(loop.steps, stop_after_steps)
         try:
@@ -638,22 +647,32 @@ def run_simulation(
                 while loop.k < last:
                     loop.step()
                     advance()
-                    if on_step is not None:
-                        on_step(loop.k, loop.steps)
                     if loop.k % checkpoint_every == 0 and loop.k < loop.steps:
                         loop.save_checkpoint(checkpoint_path)
-        except BaseException:
-            loop.save_checkpoint(checkpoint_path)
-            raise
+                    if on_step is not None:
+                        on_step(loop.k, loop.steps)
+        except KeyboardInterrupt as exc:
+            if loop.resumable_anywhere:
+                loop.save_checkpoint(checkpoint_path)
+            kept = _checkpoint_period(checkpoint_path)
+            raise RunInterrupted(loop.k, kept, out) from exc
     finally:
         close = getattr(loop.plant, "close", None)
         if close is not None:  # an emulator's run ends with the loop
             close()
     if loop.k < loop.steps:
-        loop.save_checkpoint(checkpoint_path)
+        if loop.resumable_anywhere:
+            loop.save_checkpoint(checkpoint_path)
         frame = loop.frame()
         return RunResult(out, frame, kpi_summary(frame), resumed_from_step=resumed_from)
     return _finish(loop, out, config, resumed_from)
+
+
+def _checkpoint_period(path: Path) -> int | None:
+    """The period the checkpoint at ``path`` resumes from (None: none)."""
+    if not path.is_file():
+        return None
+    return int(load_checkpoint(path)["k"])
 
 
 def _cached_result(out: Path, config: ScenarioConfig) -> RunResult | None:

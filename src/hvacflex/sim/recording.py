@@ -9,6 +9,7 @@ it, to be re-solved warm or cold elsewhere.
 from __future__ import annotations
 
 from hvacflex.config import ScenarioConfig
+from hvacflex.control.mpc import MPCController
 from hvacflex.errors import ConfigError
 from hvacflex.opt.problem import RMPCProblem
 from hvacflex.sim.closed_loop import ClosedLoop
@@ -37,7 +38,7 @@ def recorded_problems(config: ScenarioConfig, steps: int) -> list[RMPCProblem]:
     loop = ClosedLoop(prepare(config))
     problems: list[RMPCProblem] = []
     controller = loop.controller
-    if controller is None or not controller.observe_problems(problems.append):
+    if not isinstance(controller, MPCController):
         raise ConfigError(
             "only an MPC controller builds LPs",
             source="recorded_problems",
@@ -45,6 +46,7 @@ def recorded_problems(config: ScenarioConfig, steps: int) -> list[RMPCProblem]:
             value=type(controller).__name__,
             hint="record an rmpc or nmpc scenario",
         )
+    controller.observe_problems(problems.append)
     while loop.k < steps:
         loop.step()
     return problems

@@ -141,7 +141,7 @@ def _load_exogenous(
     scale = RESERVE_PRICE_SCALE if data.reserve_price_scale is None else data.reserve_price_scale
     return load_exogenous(
         model.channels,
-        [zone.floor_area_m2 for zone in building.zones],
+        building.gain_floor_areas_m2,
         building.gains,
         start=start,
         steps=steps,
@@ -172,7 +172,7 @@ def realised_exogenous(
         scheduled.disturbances,
         scheduled.channels,
         scheduled.index,
-        [zone.floor_area_m2 for zone in building.zones],
+        building.gain_floor_areas_m2,
         building.gains,
         seed=config.seed if seed is None else seed,
     )

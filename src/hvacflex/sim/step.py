@@ -3,29 +3,33 @@
 Every driver — the closed loop (:mod:`hvacflex.sim.closed_loop`), the live service
 (:mod:`hvacflex.service.runtime`) and a fleet's building agents (:mod:`hvacflex.fleet.agent`) —
 decides a period through :meth:`ControlStep.decide`, which owns the controller, the IL event
-tracker (:class:`hvacflex.sim.events.EventTracker`, ``docs/il_events.md``) and the hold/lock
-rules:
+tracker (:class:`hvacflex.sim.events.EventTracker`, ``docs/il_events.md``), the lock rules
+and the plan's side of the history (commitments, ρ, the filter's input):
 
 1. the period's IL role from the activation signal (served, curtail the fresh plan, an event
    starts, an event continues, beyond the model);
-2. a locked event period applies the locked plan's step without a decision (the controller
-   only :meth:`~hvacflex.control.base.Controller.hold` s, so a filter still measures); any
-   other period asks the controller (``plan``: a plan decided elsewhere, the fleet
-   coordinator's, applied as the solver's);
+2. every period asks the controller once, with the period's complete
+   :class:`~hvacflex.control.base.PeriodInputs` (the driver's part from its
+   :class:`~hvacflex.sim.history.PeriodHistory`, the step's part laid over it by
+   :meth:`ControlStep.prepared`); a locked event period hands the locked plan's step as
+   ``inputs.locked``, which the controller returns without deciding (a filter still
+   measures); ``plan``: a plan decided elsewhere, the fleet coordinator's, applied as the
+   solver's;
 3. an event start locks the plan just made;
-4. the tracker settles the period (curtailed?, allowance, reference power) and the
-   controller is told the flow the plant will run;
+4. the tracker settles the period (curtailed?, allowance, reference power); the flow the
+   plant will run (or, where the driver reports it, what the air delivered) is the input
+   of the controller's filter, handed with the next period's inputs;
 5. **market timing** (a controller with ``commits_ahead`` = g > 0, the MPC under the event
    model): the reserve of period k was committed at k − g. The step keeps the commitments
-   of the next g periods (flows and kW), tells the controller (which plans with them fixed),
-   pays the period what was committed for it (``reserve_kw``), and commits the offer for
+   of the next g periods (flows and kW), hands them to the controller (which plans with them
+   fixed), pays the period what was committed for it (``reserve_kw``), and commits the offer for
    k + g: the fresh plan's ``Action.offer_ahead``, or, in a locked event period j, the
    locked plan's step j + g (what the building will run anyway). Nothing planned (a
    fallback, a skipped period) commits nothing.
 6. **the meter's response** (the event model with reserve offered, ``[reserve]
    meter_calibrated_offers``): the step keeps the plan's and the meter's power of the recent
-   periods (:attr:`ControlStep.meter`, the meter of k − 1 arriving with k) and tells the
-   controller ρ before it decides (:mod:`hvacflex.control.meter_response`); the period's
+   periods (:attr:`ControlStep.meter`, the meter of k − 1 arriving with k) and hands the
+   controller ρ in the period's inputs (:mod:`hvacflex.control.meter_response`); the period's
    ``Action.offer_meter_ratio`` is the ρ its paid ``reserve_kw`` was sized with.
 
 A period may be decided more than once (the service: a boundary plan, then the
@@ -54,8 +58,8 @@ from hvacflex.control.base import (
     FloatArray,
     PeriodInputs,
     ReserveOffer,
+    WarmRestart,
 )
-from hvacflex.control.estimation import StepModel
 from hvacflex.control.meter_response import MeterHistory
 from hvacflex.errors import InputError
 from hvacflex.sim.events import EventTracker, PeriodOutcome, Role
@@ -168,7 +172,7 @@ class ControlStep:
         self.zones = zones
         self.replannable = replannable
         self.filter_takes_delivered = config.controller.linearisation == "fixed"
-        """Whether :meth:`note_delivered_flow` reaches the controller's filter: its input is
+        """Whether the plant's delivered input reaches the controller's filter: its input is
         the fixed model's; a re-linearised step model has another operating point."""
         self.period = -1
         """The latest period decided (−1: none)."""
@@ -194,8 +198,10 @@ class ControlStep:
         """(g,) reserve capacity committed (and paid) for the next g periods [kW]."""
         self.committed_meter_ratio = np.full(self.commit_ahead, math.nan)
         """(g,) ρ each commitment was sized with (NaN: not scaled)."""
-        if self.commit_ahead:  # a driver may build the first problem before deciding (fleet)
-            controller.note_commitments(self.committed_flow_kg_s)
+        self._filter_flow_kg_s: FloatArray | None = None
+        """(m,) the input of the controller's filter in the latest decided period: the flow
+        the plant ran, or what the air delivered (the driver's report, under the fixed
+        linearisation only: :attr:`filter_takes_delivered`); None before the first."""
 
     @property
     def takes_measurements(self) -> bool:
@@ -203,70 +209,59 @@ class ControlStep:
         return bool(self.controller.takes_measurements)
 
     @property
-    def step_model(self) -> StepModel | None:
-        """The model the controller planned the last period with (None: it has none)."""
-        return self.controller.step_model
-
-    @property
     def allowance_carry_steps(self) -> int:
         """Periods from now that still belong to the recovery of the last event."""
         return self.tracker.carry_steps
 
-    def decide(
-        self,
-        k: int,
-        inputs: PeriodInputs,
-        *,
-        activated: Callable[[int], bool],
-        baseline_power_kw: float | None = None,
-        previous_delivered_flow_kg_s: FloatArray | None = None,
-        baseline_ahead_kw: FloatArray | None = None,
-        previous_power_kw: float | None = None,
-    ) -> Decision:
+    def prepared(self, inputs: PeriodInputs) -> PeriodInputs:
+        """``inputs`` (the driver's part, :func:`hvacflex.sim.history.period_inputs`) with
+        the step's part laid over: the recovery carried from an event, the commitments of
+        the coming g periods, ρ and the filter's input of the period before. Reads the
+        step's state only (a fleet's building builds its coordination problem from it
+        before the period is decided)."""
+        ratio = math.nan
+        if self.meter_max_lag_steps:
+            ratio = self.meter.ratio(self.meter_max_lag_steps)
+        return replace(
+            inputs,
+            allowance_carry_steps=self.tracker.carry_steps,
+            committed_reserve_kg_s=self.committed_flow_kg_s if self.commit_ahead else None,
+            meter_ratio=ratio,
+            previous_flow_kg_s=self._filter_flow_kg_s,
+        )
+
+    def decide(self, k: int, inputs: PeriodInputs, *, activated: Callable[[int], bool]) -> Decision:
         """Decide period ``k``.
 
         Parameters
         ----------
         k : the period (steps from the scenario's start).
-        inputs : what the controller gets (node temperatures, the forecast from ``k`` with
-            signals applied, the peak floor, zone-air readings for a controller with a
-            filter, a plan decided elsewhere); its ``allowance_carry_steps`` is the step's
-            own (the event tracker's), whatever the caller put there.
+        inputs : the driver's inputs of the period (:func:`hvacflex.sim.history.
+            period_inputs`: the state, the forecast from ``k`` with signals applied, the
+            peak floor, zone-air readings for a controller with a filter, the settlement
+            baselines, the meter and the plant's delivered input of k − 1, a plan decided
+            elsewhere); the step lays its own part over them (:meth:`prepared`), whatever
+            the caller put there. The delivered input is taken only when k − 1 is the
+            latest decided period (a skipped period's plant input is not the filter's last
+            step), and kept for a decision of k again.
         activated : whether IL is activated in period j.
-        baseline_power_kw : the metered baseline an activation starting at ``k`` would be
-            settled against [kW] (NaN: none; None: unknown), told to the controller.
-        baseline_ahead_kw : (J,) the baselines of periods k … k + J − 1 where the rule fixes
-            them whenever an activation starts (``similar-days``,
-            :func:`hvacflex.settlement.ahead_baselines_kw`; None otherwise), told to the
-            controller.
-        previous_delivered_flow_kg_s : the plant's report of period k − 1
-            (:meth:`note_delivered_flow`), where the caller has it with k's measurement
-            rather than after k − 1 (the service); taken only when k − 1 is the latest
-            decided period (a skipped period's plant input is not the filter's last step),
-            and kept for a decision of k again.
-        previous_power_kw : the metered power of period k − 1 [kW] (None: not read), for the
-            meter's response to the plan (:attr:`meter`), which scales the controller's
-            offers under the event model.
 
         Raises
         ------
         ConflictError : ``k`` is before the latest decided period.
         """
-        self._start_period(k, activated, previous_delivered_flow_kg_s)
+        self._start_period(k, activated, inputs.delivered_flow_kg_s)
         controller, tracker = self.controller, self.tracker
         if self.meter_max_lag_steps:
-            self.meter.advance(k, previous_power_kw)
+            self.meter.advance(k, inputs.previous_power_kw)
         role = tracker.role(activated(k))
-        if role is Role.EVENT_LOCKED:
-            action = tracker.locked_action()
-            locked_flow = action.applied_flow_kg_s(curtailed=True)
-            controller.hold(inputs.forecast, locked_flow, inputs.measured_zone_temp_degc)
+        inputs = self.prepared(inputs)
+        if role is Role.EVENT_LOCKED:  # the locked plan runs, whatever the controller says
+            locked_action = tracker.locked_action()
+            held = controller.act(replace(inputs, locked=locked_action))
+            action = replace(locked_action, step_model=held.step_model)
         else:
-            controller.note_baseline_power(baseline_power_kw, baseline_ahead_kw)
-            controller.note_commitments(self.committed_flow_kg_s)
-            if self.meter_max_lag_steps:
-                controller.note_meter_response(self.meter.ratio(self.meter_max_lag_steps))
-            action = controller.act(replace(inputs, allowance_carry_steps=tracker.carry_steps))
+            action = controller.act(inputs)
         if role is Role.EVENT_START:
             tracker.lock(action.event_plan)
         action = self._commit(action, locked_period=role is Role.EVENT_LOCKED)
@@ -275,7 +270,7 @@ class ControlStep:
             locked = (tracker.locked, tracker.plan_step)
         outcome = tracker.finish(role, action)
         applied_flow = action.applied_flow_kg_s(curtailed=outcome.curtailed)
-        controller.note_applied_flow(applied_flow)
+        self._filter_flow_kg_s = applied_flow
         status = decision_status(role, action)
         if self.meter_max_lag_steps:
             usable = (  # occupied, served by a fresh plan, outside events and recoveries
@@ -285,7 +280,7 @@ class ControlStep:
                 and bool(inputs.forecast.occupied[0])
             )
             self.meter.open(k, action.planned_power_kw if usable else math.nan)
-        made = controller.last_plan if status is DecisionStatus.PLANNED else None
+        made = action.plan if status is DecisionStatus.PLANNED else None
         return Decision(action, status, role, outcome, applied_flow, made, locked)
 
     def _start_period(
@@ -304,17 +299,20 @@ class ControlStep:
             self.tracker.set_state(before["events"])
             self._set_commitments(before.get("commitments"))
             self._set_meter(before.get("meter"))
+            self._filter_flow_kg_s = before.get("filter_flow_kg_s")
         else:
             for j in range(self.period + 1, k):
                 self._skip(activated(j))
-        if delivered_flow_kg_s is not None and (before is not None or k == self.period + 1):
-            self.note_delivered_flow(delivered_flow_kg_s)
+        taken = before is not None or k == self.period + 1
+        if delivered_flow_kg_s is not None and taken and self.filter_takes_delivered:
+            self._filter_flow_kg_s = np.asarray(delivered_flow_kg_s, dtype=float)
         if self.replannable:
             self._before = {
                 "controller": self.controller.get_state(),
                 "events": self.tracker.get_state(),
                 "commitments": self._commitments(),
                 "meter": self.meter.get_state(),
+                "filter_flow_kg_s": self._filter_flow_kg_s,
             }
         self.period = k
 
@@ -352,21 +350,13 @@ class ControlStep:
         self.committed_flow_kg_s = np.vstack([self.committed_flow_kg_s[1:], new_flow[None]])
         self.committed_kw = np.append(self.committed_kw[1:], new_kw)
         self.committed_meter_ratio = np.append(self.committed_meter_ratio[1:], new_ratio)
-        self.controller.note_commitments(self.committed_flow_kg_s)
         return replace(action, reserve_kw=committed_kw, offer_meter_ratio=committed_ratio)
-
-    def note_delivered_flow(self, flow_kg_s: FloatArray) -> None:
-        """The plant's report of the period just run: the air system's input (m,) [kg/s] as
-        the model takes it (the cooling the air delivered as a flow at the model's supply
-        temperature), for the controller's filter in place of the decided flow (under the
-        fixed linearisation only: :attr:`filter_takes_delivered`)."""
-        if self.filter_takes_delivered:
-            self.controller.note_applied_flow(flow_kg_s)
 
     def restart_warm(self) -> None:
         """Continue as if resumed from :meth:`get_state` (see
-        :meth:`hvacflex.control.base.Controller.restart_warm`)."""
-        self.controller.restart_warm()
+        :class:`hvacflex.control.base.WarmRestart`)."""
+        if isinstance(self.controller, WarmRestart):
+            self.controller.restart_warm()
 
     # -- the one checkpoint format ----------------------------------------------------------
     def get_state(self) -> dict[str, Any]:
@@ -380,6 +370,7 @@ class ControlStep:
             "events": self.tracker.get_state(),
             "commitments": self._commitments(),
             "meter": self.meter.get_state(),
+            "filter_flow_kg_s": self._filter_flow_kg_s,
         }
 
     def _set_meter(self, state: dict[str, Any] | None) -> None:
@@ -407,7 +398,6 @@ class ControlStep:
                 ratio = np.asarray(state["meter_ratio"], dtype=float).reshape(g)
         self.committed_flow_kg_s, self.committed_kw = flow.copy(), kw.copy()
         self.committed_meter_ratio = ratio.copy()
-        self.controller.note_commitments(self.committed_flow_kg_s)
 
     def set_state(self, state: dict[str, Any]) -> None:
         """Restore :meth:`get_state`."""
@@ -424,6 +414,7 @@ class ControlStep:
         self.tracker.set_state(state["events"])
         self._set_commitments(state.get("commitments"))
         self._set_meter(state.get("meter"))
+        self._filter_flow_kg_s = state.get("filter_flow_kg_s")
 
 
 def decision_status(role: Role, action: Action) -> DecisionStatus:

@@ -265,7 +265,7 @@ def rc_scheduled_flow_run(
     steps = days * 24 * PERIODS_PER_HOUR
     exo = load_exogenous(
         plant.network.channels,
-        [z.floor_area_m2 for z in building.zones],
+        building.gain_floor_areas_m2,
         building.gains,
         start=start,
         steps=steps,

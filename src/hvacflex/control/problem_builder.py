@@ -1,0 +1,360 @@
+"""Building + forecast → :class:`~hvacflex.opt.RMPCProblem`: the one place that builds it.
+
+:func:`build_problem` is pure: the same model, period inputs, contract and plan context give
+the same problem (docs/model.md §3):
+
+* dynamics ``x+ = A x + B u + E d + g`` from :func:`hvacflex.building.discretize.linearize`
+  (or the step model of a re-linearisation), the filter's offset in the affine term,
+* power ``P_k = p0_k + p_kᵀ u_k`` from :func:`hvacflex.building.hvac.affine_power_model` at the
+  forecast outdoor temperature and humidity and the zone temperature T₀ (a building
+  identified from data: its fitted power model,
+  :func:`hvacflex.building.identified.identified_affine_power`),
+* comfort bounds for ``C x_{k+1}``, the temperature at the end of period k: the tighter of
+  the bands of periods k and k + 1, so that the instant occupancy starts (and ends) is
+  inside the occupied band, kept inside an identified model's validity range
+  (:func:`within_validity`) and tightened by the estimation and model-error margins,
+* σ from the scenario's uncertainty box (zero for the nominal MPC),
+* prices, the peak-power price φ and, in billing-period mode, the month's peak so far,
+* the interruptible-load contract of the scenario's ``[reserve]`` table: the event length D,
+  the allowance α, the recovery R, the recovery steps c still running from an event that
+  just ended, the reserve committed ahead and the offers' settlement baselines
+  (``RMPCProblem.il_*``, ``reserve_fixed_kg_s``, ``offer_baselines``); ``None`` for D keeps
+  the whole-horizon model.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from hvacflex.building.discretize import LinearModel
+from hvacflex.building.hvac import affine_power_model, reserve_power_coeff
+from hvacflex.building.identified import identified_affine_power
+from hvacflex.building.model import Building
+from hvacflex.config import ControllerConfig, ReserveConfig
+from hvacflex.control.base import FloatArray, PeriodInputs
+from hvacflex.control.estimation import StepModel, tightened_bounds
+from hvacflex.data.forecast import Forecast
+from hvacflex.data.signals import effective_peak_price
+from hvacflex.data.uncertainty import UncertaintyBox
+from hvacflex.errors import ConfigError
+from hvacflex.opt import FeedbackOptions, OfferBaselines, RMPCProblem, RMPCSolution
+from hvacflex.opt.robust import comfort_margins
+from hvacflex.units import SECONDS_PER_HOUR
+
+
+def comfort_bounds_at_period_ends(
+    forecast: Forecast, horizon: int
+) -> tuple[FloatArray, FloatArray]:
+    """(N, m) comfort bounds on the temperatures x_1 … x_N at the ends of periods 0 … N−1.
+
+    The end of period k is the start of period k + 1: the bound is the tighter of the two
+    periods' bands. The forecast must cover ``horizon + 1`` periods; with exactly
+    ``horizon`` the last period's band is used alone.
+    """
+    lower, upper = forecast.comfort_lower_degc, forecast.comfort_upper_degc
+    nxt = slice(1, horizon + 1)
+    lower_next = np.vstack([lower[nxt], lower[horizon - 1 : horizon]])[:horizon]
+    upper_next = np.vstack([upper[nxt], upper[horizon - 1 : horizon]])[:horizon]
+    return (
+        np.maximum(lower[:horizon], lower_next),
+        np.minimum(upper[:horizon], upper_next),
+    )
+
+
+def model_error_margins(
+    model: LinearModel, model_error_k: FloatArray, config: ControllerConfig
+) -> FloatArray:
+    """Comfort margin (N, m) [K] of a per-zone one-step model error ``|ε_z| ≤ model_error_k``
+    (m,) [K per step] entering every step's zone temperature: the box margin of
+    :func:`hvacflex.opt.robust.comfort_margins` with ``E = Cᵀ`` and σ = ε,
+    ``Σ_{j<k} |C A^{k−1−j} Cᵀ| ε`` (docs/forecast.md)."""
+    sigma = np.tile(model_error_k, (config.horizon_steps, 1))
+    return comfort_margins(model.a, model.c.T, model.c, sigma)
+
+
+def within_validity(
+    building: Building, y_min: FloatArray, y_max: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """(N, m) comfort bounds [°C] kept inside the zone temperatures an identified model's
+    training data covered (``[identified.validity]``), wherever the comfort band allows: the
+    plan does not float a zone where its model would extrapolate (a night float-up to 30 °C
+    on a model trained up to 25.6 °C). The comfort band wins where the two do not overlap;
+    a designed building, or a model file without a validity range, is unchanged."""
+    identified = building.identified
+    validity = None if identified is None else identified.validity
+    if validity is None:
+        return y_min, y_max
+    low = np.minimum(np.asarray(validity.zone_temp_min_degc, dtype=float)[None, :], y_max)
+    high = np.maximum(np.asarray(validity.zone_temp_max_degc, dtype=float)[None, :], y_min)
+    return np.maximum(y_min, low), np.minimum(y_max, high)
+
+
+@dataclass(frozen=True)
+class PlanContract:
+    """What a building's MPC plans under, fixed for a run.
+
+    Attributes
+    ----------
+    building : the building (HVAC limits, reserve zones, its power model).
+    model : its discrete linear model at the control step (the fixed one).
+    config : controller settings (robust mode, reserve, φ, billing mode, horizon).
+    reserve : the IL contract (event length, allowance, recovery, commitments).
+    box : the forecast-error box (ignored when ``config.robust == "none"``).
+    linearisation_temp_degc : T₀ of the power coefficients [°C].
+    reserve_mask : (m,) bool, zones allowed to offer reserve.
+    commit_ahead : g, periods ahead that reserve is committed (0: decided at the start).
+    """
+
+    building: Building
+    model: LinearModel
+    config: ControllerConfig
+    reserve: ReserveConfig
+    box: UncertaintyBox
+    linearisation_temp_degc: float
+    reserve_mask: np.ndarray
+    commit_ahead: int
+
+    @classmethod
+    def of(
+        cls,
+        building: Building,
+        model: LinearModel,
+        config: ControllerConfig,
+        box: UncertaintyBox,
+        linearisation_temp_degc: float,
+        reserve: ReserveConfig,
+    ) -> PlanContract:
+        """The contract of a building's MPC (mask and g from its settings)."""
+        hvac = building.hvac
+        mask = np.array(
+            [config.reserve and zone in hvac.reserve_zones for zone in building.zone_names]
+        )
+        events = reserve.event_max_steps is not None
+        commit = reserve.commit_ahead_periods if events and config.reserve else 0
+        return cls(building, model, config, reserve, box, linearisation_temp_degc, mask, commit)
+
+    @property
+    def flow_max_kg_s(self) -> FloatArray:
+        """(m,) largest supply flow per zone [kg/s]."""
+        return np.asarray(self.building.hvac.flow_max_kg_s, dtype=float)
+
+    @property
+    def events(self) -> bool:
+        """True under the event model (``[reserve] event_max_steps`` set)."""
+        return self.reserve.event_max_steps is not None
+
+    @property
+    def outdoor_index(self) -> int:
+        """The position of the outdoor temperature among the disturbance channels."""
+        return next(i for i, ch in enumerate(self.model.channels) if ch.kind == "outdoor_temp")
+
+    @property
+    def visible_offers(self) -> bool:
+        """The LP pays only offers the settlement baselines would see
+        (``[reserve] plan_visible_offers`` under the event model with reserve)."""
+        return self.events and self.config.reserve and self.reserve.plan_visible_offers
+
+
+@dataclass(frozen=True)
+class PlanContext:
+    """What a period's problem takes from the controller's own state.
+
+    Attributes
+    ----------
+    x_degc : (n,) the state the plan starts from [°C] (measured, or the filter's estimate).
+    offset_k : (m,) the filter's offset estimate, added to the zones' affine term [K per
+        step]; None: none.
+    extra_margin_k : (N, m) comfort margin on top of δ (estimation, model error) [K].
+    previous_plan : the last optimal plan (where the reserve's coil and fan terms are
+        taken), or None.
+    offer_baselines : the settlement baselines the offers are paid against, or None.
+    meter_ratio : ρ the offers are scaled by (1: not scaled).
+    """
+
+    x_degc: FloatArray
+    offset_k: FloatArray | None = None
+    extra_margin_k: FloatArray | None = None
+    previous_plan: RMPCSolution | None = None
+    offer_baselines: OfferBaselines | None = None
+    meter_ratio: float = 1.0
+
+
+def build_problem(
+    model: StepModel, inputs: PeriodInputs, contract: PlanContract, context: PlanContext
+) -> RMPCProblem:
+    """The RMPC problem of the period starting now (see the module docstring).
+
+    ``model`` gives the dynamics (a, b, e, g): the contract's fixed model, or the first
+    step of a re-linearisation; the zone map C is always the fixed model's.
+    """
+    cfg, m = contract.config, contract.model
+    affine = np.asarray(model.g, dtype=float)
+    if context.offset_k is not None:
+        affine = affine + m.c.T @ context.offset_k
+    horizon = cfg.horizon_steps
+    forecast = inputs.forecast
+    d_hat = forecast.disturbances[:horizon]
+    if d_hat.shape[0] < horizon:
+        raise ConfigError(
+            f"the forecast covers {d_hat.shape[0]} periods, fewer than the horizon",
+            field="controller.horizon_steps",
+            value=horizon,
+            hint="load the data for steps + horizon_steps periods (load_exogenous)",
+        )
+    sigma = np.zeros_like(d_hat) if cfg.robust == "none" else contract.box.sigma(d_hat, m.channels)
+    u_min = contract.building.hvac.flow_min_at(forecast.occupied[:horizon])
+    y_min, y_max = comfort_bounds_at_period_ends(forecast, horizon)
+    y_min, y_max = within_validity(contract.building, y_min, y_max)
+    if context.extra_margin_k is not None:
+        y_min, y_max = tightened_bounds(y_min, y_max, context.extra_margin_k)
+    p0, p, reserve_coeff = _power_coefficients(contract, context, forecast, d_hat, u_min, y_min)
+    reserve_price = forecast.reserve_price_sgd_per_mwh[:horizon]
+    if not cfg.reserve:
+        reserve_price = np.zeros_like(reserve_price)
+    floor = inputs.peak_floor_kw if cfg.billing_mode == "billing-period" else 0.0
+    return RMPCProblem(
+        a_matrix=model.a,
+        b_matrix=model.b,
+        e_matrix=model.e,
+        c_matrix=m.c,
+        affine_term=affine,
+        x0=np.asarray(context.x_degc, dtype=float),
+        d_forecast=d_hat,
+        d_sigma=sigma,
+        energy_price_sgd_per_mwh=forecast.energy_price_sgd_per_mwh[:horizon],
+        reserve_price_sgd_per_mwh=reserve_price,
+        peak_price_sgd_per_kw=effective_peak_price(forecast, cfg.peak_price_sgd_per_kw),
+        peak_floor_kw=floor,
+        power_offset_kw=p0,
+        power_coeff_kw_per_kg_s=p,
+        reserve_power_coeff_kw_per_kg_s=(
+            context.meter_ratio * np.minimum(reserve_coeff, p) if contract.events else None
+        ),
+        u_min=u_min,
+        u_max=contract.flow_max_kg_s,
+        y_min=y_min,
+        y_max=y_max,
+        reserve_mask=contract.reserve_mask,
+        comfort_penalty_sgd_per_kelvin_hour=cfg.comfort_penalty_sgd_per_kelvin_hour,
+        dt_h=m.dt_s / SECONDS_PER_HOUR,
+        robust=cfg.robust,
+        feedback=(
+            FeedbackOptions(
+                structure=cfg.feedback.structure, memory_steps=cfg.feedback.memory_steps
+            )
+            if cfg.robust == "feedback"
+            else None
+        ),
+        reserve_fixed_kg_s=_fixed_reserve_kg_s(contract, inputs.committed_reserve_kg_s, u_min),
+        offer_baselines=context.offer_baselines,
+        **_event_fields(contract.reserve, horizon, inputs.allowance_carry_steps),
+    )
+
+
+def _fixed_reserve_kg_s(
+    contract: PlanContract, committed_kg_s: FloatArray | None, u_min: FloatArray
+) -> FloatArray | None:
+    """(g, m) committed reserve flows of the first g steps, clipped into the room
+    [0, u_max − u_min] of each step and the reserve mask (None: no commitments)."""
+    g = contract.commit_ahead
+    if not g:
+        return None
+    zones = len(contract.building.zone_names)
+    held = np.zeros((g, zones)) if committed_kg_s is None else committed_kg_s
+    committed = np.asarray(held, dtype=float).reshape(-1, zones)[:g]
+    room = np.maximum(contract.flow_max_kg_s - u_min[: committed.shape[0]], 0.0)
+    fixed: FloatArray = np.where(contract.reserve_mask, np.clip(committed, 0.0, room), 0.0)
+    return fixed
+
+
+def _event_fields(
+    reserve: ReserveConfig, horizon: int, allowance_carry_steps: int
+) -> dict[str, Any]:
+    """The ``il_*`` fields of the problem from the IL contract (none: whole horizon)."""
+    if reserve.event_max_steps is None:
+        return {"il_event_max_steps": None}
+    return {
+        "il_event_max_steps": min(reserve.event_max_steps, horizon),
+        "il_event_allowance_kelvin": reserve.event_allowance_k,
+        "il_event_recovery_steps": reserve.event_recovery_steps,
+        "il_allowance_carry_steps": min(allowance_carry_steps, horizon),
+    }
+
+
+def _power_coefficients(
+    contract: PlanContract,
+    context: PlanContext,
+    forecast: Forecast,
+    d_hat: FloatArray,
+    u_min: FloatArray,
+    y_min: FloatArray,
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """The LP's power rows ``P_k = p0_k + p_kᵀ u_k`` ((N,), (N, m)) and the reserve's
+    power per kg/s (N, m), from the building's power model at the forecast (outdoor air,
+    its humidity, the occupants' latent gain) over the step's flow range [u_min, u_max]."""
+    horizon = d_hat.shape[0]
+    building, outdoor = contract.building, d_hat[:, contract.outdoor_index]
+    identified = building.identified
+    if identified is not None:  # the power model fitted to the building's meter
+        p0, p = identified_affine_power(
+            identified,
+            outdoor,
+            contract.linearisation_temp_degc,
+            forecast.occupied[:horizon].astype(np.float64),
+        )
+        return p0, p, p
+    latent = forecast.occupant_latent_w[:horizon]
+    humidity = forecast.outdoor_humidity_ratio_kg_per_kg[:horizon]
+    p0, p = affine_power_model(
+        building.hvac,
+        outdoor,
+        humidity,
+        contract.linearisation_temp_degc,
+        latent_gain_w=latent if latent.size == horizon else 0.0,
+        flow_min_kg_s=u_min,
+    )
+    reserve_coeff = reserve_power_coeff(
+        building.hvac,
+        outdoor,
+        humidity,
+        _return_air_estimate_degc(contract.model, context, y_min),
+        _curtailed_flow_estimate_kg_s(context.previous_plan, u_min),
+    )
+    return p0, p, reserve_coeff
+
+
+def _return_air_estimate_degc(
+    model: LinearModel, context: PlanContext, y_min: FloatArray
+) -> FloatArray:
+    """(N, m) zone (return-air) temperatures at which the coil term of the reserve's
+    power is taken [°C]: the previous plan's served zone temperatures at the start of
+    each step, one step on (now: the measured state), never below the lower comfort
+    bound. Curtailment only warms the zones, so the curtailed return air is warmer and
+    its coil power per kg/s larger: a lower bound while the plan holds."""
+    c = model.c
+    plan = context.previous_plan
+    horizon = y_min.shape[0]
+    now = c @ np.asarray(context.x_degc, dtype=float)
+    if plan is None or plan.x_served.shape[0] != horizon + 1:
+        start = np.broadcast_to(now, y_min.shape)
+    else:
+        served = plan.x_served[1:] @ c.T  # start of the new steps 0 … N − 1
+        start = np.concatenate([now[None], served[1:]])
+    estimate: FloatArray = np.maximum(start, y_min)
+    return estimate
+
+
+def _curtailed_flow_estimate_kg_s(plan: RMPCSolution | None, u_min: FloatArray) -> FloatArray:
+    """(N,) total flow after curtailment at which the fan's tangent bounds the reserve's
+    power [kg/s]: the previous plan's Σ(u − r), one step on (its last step repeated), never
+    below the step's Σ u_min; Σ u_min alone without a previous plan."""
+    low: FloatArray = np.asarray(u_min, dtype=float).sum(axis=1)
+    if plan is None or plan.u.shape[0] != low.size:
+        return low
+    curtailed = (plan.u - plan.r).sum(axis=1)
+    shifted = np.concatenate([curtailed[1:], curtailed[-1:]])
+    estimate: FloatArray = np.maximum(shifted, low)
+    return estimate

@@ -1,0 +1,49 @@
+"""The service database's text: NUL and text that is not UTF-8 stored, and found again, the
+same way on SQLite and PostgreSQL (every test on both where PostgreSQL is set up)."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable
+
+import pytest
+from sqlalchemy import select
+
+from hvacflex.service.db import Signal, bytes_as_text, db_text, open_database, session_factory
+
+
+@pytest.mark.parametrize(
+    ("text", "stored"),
+    [
+        ("plain", "plain"),
+        ("a\x00b", "a\\x00b"),
+        ("\x00\x00", "\\x00\\x00"),
+        ("lone \ud800 surrogate", "lone \\ud800 surrogate"),
+        ("é 中 ✓", "é 中 ✓"),
+        (json.dumps({"x": "\x00\ud800"}), json.dumps({"x": "\x00\ud800"})),  # JSON: unchanged
+    ],
+)
+def test_db_text_escapes_only_what_a_database_refuses(text: str, stored: str) -> None:
+    assert db_text(text) == stored
+    assert "\x00" not in db_text(text)
+    db_text(text).encode("utf-8")  # never raises
+
+
+def test_bytes_as_text_shows_every_byte_that_is_not_utf8() -> None:
+    assert bytes_as_text(b"\x00\xff garbage") == "\\x00\\xff garbage"
+    assert bytes_as_text(b"\xff\xfe{}") == "\\xff\\xfe{}"
+    assert bytes_as_text("é".encode()) == "é"
+    assert bytes_as_text("é".encode()[:1]) == "\\xc3"  # a character cut by the head's limit
+
+
+def test_text_with_nul_is_stored_and_found_alike(make_db_url: Callable[[str], str]) -> None:
+    engine = open_database(make_db_url("text"))
+    try:
+        sessions = session_factory(engine)
+        with sessions() as session, session.begin():
+            session.add(Signal(kind="k\x00", body_json="\x00\ud800"))
+        with sessions() as session:
+            found = session.scalars(select(Signal).where(Signal.kind == "k\x00")).one()
+            assert (found.kind, found.body_json) == ("k\\x00", "\\x00\\ud800")
+    finally:
+        engine.dispose()
