@@ -2,7 +2,8 @@
 
 Each φ is the same scenario with one override, ``controller={"peak_price_sgd_per_kw": φ}``,
 validated like a scenario file. A higher φ buys a lower peak with more energy cost; the PPP
-charge is φ × the month's peak (here this day's) [SGD].
+charge of the month is φ × the month's peak (here this day's) [SGD] (``ppp_charge_monthly_sgd``;
+``ppp_charge_sgd`` is the same prorated to the one day the run covers).
 
 Run from any folder: ``python peak_price.py``.
 """
@@ -19,7 +20,7 @@ PEAK_PRICES_SGD_PER_KW = (0.0, 1.5, 4.0)
 
 
 def main() -> None:
-    print(f"{'phi [SGD/kW]':>12} {'peak [kW]':>10} {'energy [SGD]':>13} {'PPP [SGD]':>10}")
+    print(f"{'phi [SGD/kW]':>12} {'peak [kW]':>10} {'energy [SGD]':>13} {'PPP month [SGD]':>16}")
     for phi in PEAK_PRICES_SGD_PER_KW:
         run = hvacflex.simulate(
             "rmpc-ppp",
@@ -32,7 +33,7 @@ def main() -> None:
         s = run.summary
         print(
             f"{phi:>12.1f} {s['peak_power_kw']:>10.1f} {s['energy_cost_sgd']:>13.2f} "
-            f"{s['ppp_charge_sgd']:>10.2f}"
+            f"{s['ppp_charge_monthly_sgd']:>16.2f}"
         )
 
 

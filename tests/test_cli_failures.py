@@ -188,6 +188,19 @@ def test_summary_line_mentions_fallbacks_only_when_there_were_any() -> None:
     assert "fallback" not in _run_summary_line("rmpc", summary, Path("r.parquet"))
     line = _run_summary_line("rmpc", {**summary, "fallback_count": 3.0}, Path("r.parquet"))
     assert "3 fallback steps of 48" in line
+    assert "HVAC energy 300 kWh" in line and "HVAC peak 35.0 kW" in line
+    assert "facility" not in line  # the RC plant meters the HVAC only
+    metered = {
+        **summary,
+        "facility_energy_kwh": 900.0,
+        "facility_peak_power_kw": 80.0,
+        "discomfort_occupied_kelvin_hours": 0.5,
+        "discomfort_kelvin_hours": 1.25,
+    }
+    line = _run_summary_line("rmpc", metered, Path("r.parquet"))
+    assert "HVAC energy 300 kWh (facility 900 kWh)" in line
+    assert "HVAC peak 35.0 kW (facility 80.0 kW)" in line
+    assert "discomfort 1.25 K·h (0.50 occupied)" in line
 
 
 def test_no_highs_banner_on_the_command_output(tmp_path: Path) -> None:

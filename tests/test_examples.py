@@ -59,7 +59,7 @@ def test_peak_price(tmp_path: Path) -> None:
     assert [row[0] for row in rows] == ["0.0", "1.5", "4.0"]
     peaks_kw = [float(row[1]) for row in rows]
     assert peaks_kw[2] < peaks_kw[0]  # pricing the peak lowers it
-    charge = _summary(tmp_path / "results/examples/phi_4")["ppp_charge_sgd"]
+    charge = _summary(tmp_path / "results/examples/phi_4")["ppp_charge_monthly_sgd"]
     assert float(rows[2][3]) == pytest.approx(charge, abs=0.005)
     assert float(rows[0][3]) == 0.0
 

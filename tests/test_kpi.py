@@ -131,16 +131,28 @@ def test_monthly_peak_and_ppp_charge_over_a_month_boundary() -> None:
     peaks = kpi.monthly_peak_power_kw(df)
     assert list(peaks.index.astype(str)) == ["2014-01", "2014-02"]
     assert peaks.to_list() == [12.0, 20.0]
-    # φ = 1.5 SGD/kW: 1.5 × 12 + 1.5 × 20 = 48 SGD
-    assert kpi.ppp_charge_sgd(df, peak_price_sgd_per_kw=1.5) == pytest.approx(48.0)
+    # φ = 1.5 SGD/kW: the months billed whole, 1.5 × 12 + 1.5 × 20 = 48 SGD
+    assert kpi.ppp_charge_monthly_sgd(df, peak_price_sgd_per_kw=1.5) == pytest.approx(48.0)
+    # prorated: one hour of January's 31 days, one hour of February's 28
+    prorated = 18.0 * (1.0 / 24.0) / 31.0 + 30.0 * (1.0 / 24.0) / 28.0
+    assert kpi.ppp_charge_sgd(df, peak_price_sgd_per_kw=1.5) == pytest.approx(prorated)
+
+
+def test_ppp_charge_of_one_day_is_a_thirtieth_of_a_june_month() -> None:
+    df = results_frame(48, start="2014-06-02 00:00", power_kw=20.0, peak_price=1.5)
+    assert kpi.ppp_charge_monthly_sgd(df) == pytest.approx(30.0)  # 1.5 × 20
+    assert kpi.ppp_charge_sgd(df) == pytest.approx(30.0 / 30.0)  # June has 30 days
+    whole_month = results_frame(48 * 30, start="2014-06-01 00:00", power_kw=20.0, peak_price=1.5)
+    assert kpi.ppp_charge_sgd(whole_month) == pytest.approx(30.0)
+    assert kpi.month_fraction(whole_month).to_list() == pytest.approx([1.0])
 
 
 def test_ppp_charge_reads_the_price_column_and_handles_a_time_varying_price() -> None:
     df = results_frame(3, power_kw=[10.0, 20.0, 15.0], peak_price=1.5)
-    assert kpi.ppp_charge_sgd(df) == pytest.approx(30.0)  # 1.5 × 20
+    assert kpi.ppp_charge_monthly_sgd(df) == pytest.approx(30.0)  # 1.5 × 20
     df = results_frame(3, power_kw=[10.0, 20.0, 15.0], peak_price=[4.0, 1.0, 2.0])
     # max(4·10, 1·20, 2·15) = 40
-    assert kpi.ppp_charge_sgd(df) == pytest.approx(40.0)
+    assert kpi.ppp_charge_monthly_sgd(df) == pytest.approx(40.0)
     assert kpi.ppp_charge_sgd(results_frame(3, peak_price=0.0)) == 0.0
 
 
@@ -274,17 +286,21 @@ def test_summary_gathers_the_kpis() -> None:
     assert out["energy_cost_sgd"] == pytest.approx(2.0)
     assert out["reserve_revenue_sgd"] == pytest.approx(0.02)
     assert out["net_cost_sgd"] == pytest.approx(1.98)
-    assert out["ppp_charge_sgd"] == pytest.approx(15.0)
-    assert out["net_cost_with_ppp_sgd"] == pytest.approx(16.98)
+    prorated_sgd = 15.0 * (2.0 / 24.0) / 31.0  # 2 h of March (31 days) of a 15 SGD month
+    assert out["ppp_charge_monthly_sgd"] == pytest.approx(15.0)
+    assert out["ppp_charge_sgd"] == pytest.approx(prorated_sgd)
+    assert out["net_cost_with_ppp_sgd"] == pytest.approx(1.98 + prorated_sgd)
     assert out["peak_power_kw"] == 10.0
     assert out["discomfort_kelvin_hours"] == pytest.approx(0.75)
     assert out["discomfort_north_kelvin_hours"] == pytest.approx(0.75)
     assert out["max_violation_north_k"] == pytest.approx(1.0)
     assert out["violation_share"] == pytest.approx(0.5)
-    assert out["steps"] == 4.0
+    assert out["steps"] == 4
     assert out["days"] == pytest.approx(2.0 / 24.0)
     assert out["solve_time_max_s"] == pytest.approx(0.01)
-    assert all(isinstance(v, float) for v in out.values())
+    counts = {name: out[name] for name in kpi.COUNT_KPIS}
+    assert all(type(v) is int for v in counts.values()), counts
+    assert all(type(v) is float for k, v in out.items() if k not in counts)
 
 
 def test_kpi_command_compares_runs(tmp_path: Path) -> None:
@@ -355,6 +371,11 @@ def test_il_settlement_on_a_hand_made_event() -> None:
     # recovery period 3: 12 kW against the plan's 11 kW for half an hour
     assert kpi.il_recovery_energy_kwh(df) == pytest.approx(0.5)
     assert kpi.il_event_count(df) == 1 and kpi.il_beyond_model_steps(df) == 1
+    assert kpi.il_curtailment_count(df) == 1
+    # of the four paid periods, 1 and 2 were activated (settled against the meter); 0 and 4
+    # were paid for availability only
+    assert kpi.reserve_revenue_settled_sgd(df) == pytest.approx(2 * 4.0 * 50.0 * 0.5 / 1000)
+    assert kpi.reserve_revenue_unsettled_sgd(df) == pytest.approx(2 * 4.0 * 50.0 * 0.5 / 1000)
     # revenue is gross (paid on every scheduled period); the penalty enters the net cost
     revenue = 4.0 * 4 * 50.0 * 0.5 / 1000
     assert kpi.reserve_revenue_sgd(df) == pytest.approx(revenue)
@@ -414,9 +435,98 @@ def test_event_discomfort_against_the_normal_band_and_within_the_allowance() -> 
 def test_results_without_il_columns_have_no_events() -> None:
     df = results_frame(4, power_kw=10.0, reserve_kw=2.0, reserve_price=50.0)
     assert kpi.il_penalty_sgd(df) == 0.0 and kpi.il_shortfall_kwh(df) == 0.0
-    assert kpi.il_delivered_ratio(df) == 1.0  # nothing was due
+    assert np.isnan(kpi.il_delivered_ratio(df))  # nothing was due: no delivery record
+    assert kpi.il_event_count(df) == 0 and kpi.il_curtailment_count(df) == 0
     assert kpi.discomfort_event_kelvin_hours(df) == 0.0
     assert kpi.il_offered_kwh(df) == 0.0 and kpi.il_delivered_counterfactual_kwh(df) == 0.0
+
+
+def test_an_activation_without_curtailment_is_an_event_with_no_delivery_ratio() -> None:
+    # a rule-based run: activated in periods 1–2 and 4, nothing offered, nothing curtailed
+    df = results_frame(6, power_kw=10.0)
+    df["il_activated"] = [False, True, True, False, True, False]
+    out = kpi.summary(df)
+    assert (out["il_events"], out["il_activated_steps"], out["il_curtailments"]) == (2, 3, 0)
+    assert np.isnan(out["il_delivered_ratio"])
+    assert out["reserve_revenue_settled_sgd"] == 0.0
+
+
+# ------------------------------------------------------------------------ occupied comfort
+
+
+def _day_frame() -> pd.DataFrame:
+    """Four periods: unoccupied (20–30 °C), occupied (23–26 °C) twice, unoccupied again."""
+    return results_frame(
+        4,
+        lower=[20.0, 23.0, 23.0, 20.0],
+        upper=[30.0, 26.0, 26.0, 30.0],
+        temp_end={"north": [30.6, 26.4, 22.0, 24.0], "core": [31.0, 25.0, 25.0, 19.5]},
+    )
+
+
+def test_discomfort_split_into_occupied_and_unoccupied_periods() -> None:
+    df = _day_frame()
+    np.testing.assert_array_equal(kpi.occupied_mask(df)["north"], [False, True, True, False])
+    # occupied: north 0.4 + 1.0 K; unoccupied: north 0.6, core 1.0 + 0.5 K; Δt = 0.5 h
+    assert kpi.discomfort_occupied_kelvin_hours(df) == pytest.approx(1.4 * 0.5)
+    assert kpi.discomfort_unoccupied_kelvin_hours(df) == pytest.approx(2.1 * 0.5)
+    assert kpi.max_violation_occupied_k(df) == pytest.approx(1.0)
+    out = kpi.summary(df)
+    assert out["discomfort_occupied_kelvin_hours"] + out[
+        "discomfort_unoccupied_kelvin_hours"
+    ] == pytest.approx(out["discomfort_kelvin_hours"])
+    assert out["max_violation_k"] == pytest.approx(1.0)  # core at 19.5 against 20 is 0.5
+    assert out["max_violation_occupied_k"] == pytest.approx(1.0)
+
+
+def test_a_run_with_one_band_is_graded_occupied_throughout() -> None:
+    df = results_frame(2, temp_end={"north": [26.5, 24.0]})
+    assert kpi.discomfort_occupied_kelvin_hours(df) == pytest.approx(0.25)
+    assert kpi.discomfort_unoccupied_kelvin_hours(df) == 0.0
+
+
+def test_kpi_command_prints_and_writes_counts_as_integers(tmp_path: Path) -> None:
+    from hvacflex.cli import app
+
+    df = results_frame(4, power_kw=10.0, peak_price=1.5)
+    df["il_activated"] = [False, True, True, False]
+    df.to_parquet(tmp_path / "run.parquet")
+    csv = tmp_path / "kpi.csv"
+    result = CliRunner().invoke(
+        app, ["kpi", str(tmp_path / "run.parquet"), "--csv", str(csv)], env={"COLUMNS": "200"}
+    )
+    assert result.exit_code == 0, result.output
+    rows = dict(line.split(",", 1) for line in csv.read_text().splitlines()[1:])
+    assert rows["steps"] == "4" and rows["il_activated_steps"] == "2" and rows["il_events"] == "1"
+    assert rows["il_delivered_ratio"] == ""  # no reserve was due: no ratio
+    assert float(rows["ppp_charge_monthly_sgd"]) == pytest.approx(15.0)
+    lines = [line for line in result.output.splitlines() if "│" in line]
+    printed = {line.split("│")[1].strip(): line for line in lines}
+    assert printed["il_activated_steps"].split("│")[2].strip() == "2"
+    assert printed["il_delivered_ratio"].split("│")[2].strip() == "–"
+
+
+def test_a_rule_based_run_has_no_model_error() -> None:
+    df = results_frame(3)
+    df["prediction_error_north_k"] = [0.1, -0.3, 0.2]
+    df["prediction_error_core_k"] = [0.0, 0.0, 0.0]
+    assert kpi.summary(df)["prediction_error_max_k"] == pytest.approx(0.3)
+    df["solve_status"] = "rule"
+    assert kpi.is_rule_based(df)
+    out = kpi.summary(df)
+    assert np.isnan(out["prediction_error_rms_k"]) and np.isnan(out["prediction_error_max_k"])
+
+
+def test_facility_energy_and_peak_only_where_the_plant_meters_them() -> None:
+    df = results_frame(4, power_kw=10.0)
+    assert "facility_energy_kwh" not in kpi.summary(df)
+    df["facility_power_kw"] = np.nan  # the RC plant: HVAC only
+    assert "facility_peak_power_kw" not in kpi.summary(df)
+    df["facility_power_kw"] = [30.0, 40.0, 35.0, 30.0]  # EnergyPlus meters the facility
+    out = kpi.summary(df)
+    assert out["facility_energy_kwh"] == pytest.approx(135.0 * 0.5)
+    assert out["facility_peak_power_kw"] == pytest.approx(40.0)
+    assert out["energy_kwh"] == pytest.approx(20.0)  # the HVAC's, unchanged
 
 
 def test_prediction_error_rms_split_by_the_occupied_band() -> None:

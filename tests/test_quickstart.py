@@ -141,7 +141,8 @@ def assert_every_kpi_in_the_glossary(summary: dict[str, float]) -> None:
     as ``<zone>``)."""
     glossary = (ROOT / "docs" / "glossary.md").read_text(encoding="utf-8")
     zones = {k.removeprefix("max_violation_").removesuffix("_k") for k in summary} - {
-        "max_violation"
+        "max_violation",
+        "occupied",
     }
     zones = {z for z in zones if f"max_violation_{z}_k" in summary}
     assert zones == {"north", "east", "south", "west", "core"}
@@ -205,6 +206,10 @@ def test_runnable_blocks_run_in_order(tmp_path: Path) -> None:
     assert my_room["comfort"]["occupied_degc"] == [23.0, 25.5]
     building = Path(my_room["building"])  # taken from the scenario file's folder
     assert (work / building).resolve() == (work / "my_room.toml").resolve()
+    # the own reserve contract earns reserve, and its weekday activation settles some of it
+    room = json.loads((work / "results" / "my_room" / "summary.json").read_text())
+    assert room["reserve_revenue_sgd"] > 0.0 and room["reserve_revenue_settled_sgd"] > 0.0
+    assert room["il_activated_steps"] > 0 and room["il_offered_kwh"] > 0.0
     assert_every_kpi_in_the_glossary(json.loads((work / "results/first/summary.json").read_text()))
     shown = next(out for out in outputs if "Building 'my_room'" in out)
     assert "WARNING" not in shown  # the page says the room's ventilation suffices

@@ -86,7 +86,7 @@ def test_does_it_pay_ranks_every_scenario_under_one_tariff(quick_report: Path) -
     assert set(table.loc[table["rule_based"], "controller"]) == baselines
     # every run's peak is charged at the one φ, whatever it planned with
     for label in ("(a) NMPC", "(c) RMPC + PPP"):
-        assert kpis.loc["ppp_charge_sgd", label] == pytest.approx(
+        assert kpis.loc["ppp_charge_monthly_sgd", label] == pytest.approx(
             TARIFF_PEAK_PRICE_SGD_PER_KW * kpis.loc["peak_power_kw", label]
         )
     text = (quick_report / "report.html").read_text()

@@ -44,8 +44,10 @@ def test_the_comparison_prices_every_run_alike(make_results: Factory) -> None:
     assert list(table["plant"]) == ["RC plant (hvacflex)", "EnergyPlus 25.2"]
     for row, frame in zip(table.itertuples(), (rc, eplus), strict=True):
         energy = kpi.energy_cost_sgd(frame)
-        peak_charge = 1.5 * frame["power_kw"].max()  # one month: φ × the month's peak
-        expected = energy + peak_charge + kpi.il_penalty_sgd(frame) - kpi.reserve_revenue_sgd(frame)
+        # one month's charge φ × the month's peak, prorated to the days the run covers
+        peak_charge = 1.5 * frame["power_kw"].max() * kpi.month_fraction(frame).sum()
+        settled = kpi.reserve_revenue_settled_sgd(frame)
+        expected = energy + peak_charge + kpi.il_penalty_sgd(frame) - settled
         assert row.tariff_cost_sgd == pytest.approx(expected)
         assert row.peak_power_kw == pytest.approx(frame["power_kw"].max())
     assert np.isnan(table.loc[0, "facility_energy_kwh"])

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import pandas as pd
 import pytest
@@ -14,7 +15,12 @@ from hvacflex import kpi
 from hvacflex.report.html import Section, render_report, section_anchor
 from hvacflex.report.verdicts import VERDICTS
 from hvacflex.reproduce_plan import Plan
-from hvacflex.reproduce_report import basis_text, validation_section, verdict_section
+from hvacflex.reproduce_report import (
+    basis_text,
+    does_it_pay_section,
+    validation_section,
+    verdict_section,
+)
 
 Factory = Callable[..., pd.DataFrame]
 
@@ -63,3 +69,52 @@ def test_validation_links_the_energyplus_section_of_the_page() -> None:
 def test_the_plan_period_enters_the_basis(quick: bool) -> None:
     plan = Plan.quick() if quick else Plan.full()
     assert f"{plan.days:g} days from {plan.start}" in basis_text(plan)
+
+
+@pytest.mark.parametrize("width_px", [1280, 1920])
+def test_the_deciding_columns_of_does_it_pay_fit_the_window(
+    chromium: Any, make_results: Factory, tmp_path: Path, width_px: int
+) -> None:
+    """In headless Chromium the "does it pay?" table shows rank, controller, tariff cost,
+    saving, pays and occupied discomfort within the window, without scrolling sideways; the
+    other columns are in an expandable detail below it."""
+    from hvacflex.reproduce_plan import RULE_BASED_SCENARIOS
+
+    keys = ["a", "b", "c", "paper-a", "paper-b", "paper-c", *RULE_BASED_SCENARIOS]
+    frames = {key: make_results(seed=i, power_scale=1.0 + 0.03 * i) for i, key in enumerate(keys)}
+    table, section = does_it_pay_section(Plan.quick(), frames, tmp_path)
+    page_file = tmp_path / "page.html"
+    page_file.write_text(render_report(title="t", sections=[section]), encoding="utf-8")
+    page = chromium.new_page(viewport={"width": width_px, "height": 900})
+    page.goto(page_file.as_uri(), wait_until="load")
+    headers = page.eval_on_selector_all(
+        "section table.hvacflex >> nth=0 >> thead th",
+        "cells => cells.map(c => [c.textContent, c.getBoundingClientRect().right])",
+    )
+    shown = [text for text, _ in headers]
+    assert shown[:6] == [
+        "Rank",
+        "Controller",
+        "Tariff cost [SGD/month]",
+        "Saving vs reference [%]",
+        "Pays",
+        "Occupied discomfort [K·h/month]",
+    ]
+    assert all(right <= width_px for _, right in headers), headers
+    box = page.eval_on_selector(
+        "div.table-scroll", "d => [d.scrollWidth, d.clientWidth, document.body.scrollWidth]"
+    )
+    assert box[0] <= box[1] and box[2] <= width_px, box  # no scroll bar, in the table or page
+    assert page.locator("details.table-detail summary").first.is_visible()
+    hidden = page.locator("details.table-detail table").first
+    assert not hidden.is_visible()  # the rest waits behind the summary
+    page.locator("details.table-detail summary").first.click()
+    assert hidden.is_visible()
+    pays = page.eval_on_selector_all(
+        "section table.hvacflex >> nth=0 >> tbody tr",
+        "rows => rows.map(r => r.cells[4].textContent)",
+    )
+    assert len(pays) == len(table) == len(keys) and set(pays) <= {"yes", "no"}
+    if width_px == 1280:
+        page.screenshot(path=str(tmp_path / "does_it_pay.png"), full_page=True)
+    page.close()

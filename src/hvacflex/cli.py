@@ -314,7 +314,8 @@ def kpi(
             where = "" if str(path) in str(exc) else f"{path}: "
             typer.echo(f"error: {where}{exc}", err=True)
             raise typer.Exit(2) from None
-    frame = pd.DataFrame(columns)
+    # object columns: the counts stay int in the CSV and on screen (kpi.COUNT_KPIS)
+    frame = pd.DataFrame({run: pd.Series(kpis_, dtype=object) for run, kpis_ in columns.items()})
     if csv is not None:
         atomic_write_text(csv, frame.to_csv(index_label="kpi"))
     table = Table(title="KPIs per run")

@@ -162,12 +162,25 @@ def scenario_config(
 
 
 def run_summary_line(name: str, s: dict[str, float], results_path: Path) -> str:
-    """The one line printed after ``simulate``; names the fallback steps when there were any."""
+    """The one line printed after ``simulate``: HVAC energy, cost, reserve, HVAC peak (the
+    facility's energy and peak beside them where the plant meters it) and discomfort (the
+    occupied part in brackets); names the fallback steps when there were any."""
+    facility = (
+        f" (facility {s['facility_energy_kwh']:.0f} kWh)" if "facility_energy_kwh" in s else ""
+    )
+    facility_peak = (
+        f" (facility {s['facility_peak_power_kw']:.1f} kW)" if "facility_peak_power_kw" in s else ""
+    )
+    occupied = (
+        f" ({s['discomfort_occupied_kelvin_hours']:.2f} occupied)"
+        if "discomfort_occupied_kelvin_hours" in s
+        else ""
+    )
     line = (
-        f"{name}: {s['days']:.1f} days, energy {s['energy_kwh']:.0f} kWh, "
+        f"{name}: {s['days']:.1f} days, HVAC energy {s['energy_kwh']:.0f} kWh{facility}, "
         f"cost {s['energy_cost_sgd']:.2f} SGD, reserve revenue {s['reserve_revenue_sgd']:.2f} "
-        f"SGD, peak {s['peak_power_kw']:.1f} kW, discomfort "
-        f"{s['discomfort_kelvin_hours']:.2f} K·h"
+        f"SGD, HVAC peak {s['peak_power_kw']:.1f} kW{facility_peak}, discomfort "
+        f"{s['discomfort_kelvin_hours']:.2f} K·h{occupied}"
     )
     fallbacks = int(s.get("fallback_count", 0.0))
     if fallbacks > 0:

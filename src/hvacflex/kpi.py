@@ -22,6 +22,13 @@ Conventions
 * Net cost is energy cost − reserve revenue + IL penalty: the paper's Table 1 "Total" (the
   paper has no penalty). The peak-power charge (PPP) is reported separately, as the paper
   does.
+  ``ppp_charge_sgd`` is the charge prorated to the days the run covers (a one-day run bears
+  1/30 of its month's charge), ``ppp_charge_monthly_sgd`` the months billed whole.
+* Reserve revenue splits into **settled** (the activated periods: delivery checked against the
+  meter) and **unsettled** availability payments (every other period: nothing metered shows
+  the capacity was there).
+* Occupied periods are the schedule's, read from the comfort columns: a zone's narrowest band
+  in the run is its occupied band (:func:`occupied_mask`).
 * IL settlement against metered power (:mod:`hvacflex.settlement`, ``docs/il_events.md``):
   in an activated period (``il_activated``) the building **delivers** ``il_delivered_kw`` =
   max(0, ``il_baseline_power_kw`` − ``power_kw``); the **shortfall** ``il_shortfall_kw`` =
@@ -133,6 +140,31 @@ def energy_kwh(results: pd.DataFrame) -> float:
     return float(np.sum(_values(results, "power_kw")) * step_hours(results))
 
 
+FACILITY_POWER_COLUMN = "facility_power_kw"
+"""Whole-facility electric power [kW], metered by a plant that meters it (EnergyPlus)."""
+
+
+def facility_metered(results: pd.DataFrame) -> bool:
+    """Whether the plant metered the whole facility (``facility_power_kw`` finite in every
+    step; NaN on the RC plant, which models the HVAC only)."""
+    if FACILITY_POWER_COLUMN not in results.columns or results.empty:
+        return False
+    return bool(np.all(np.isfinite(_values(results, FACILITY_POWER_COLUMN))))
+
+
+def facility_summary(results: pd.DataFrame) -> dict[str, float]:
+    """``facility_energy_kwh`` [kWh] and ``facility_peak_power_kw`` [kW] (largest 30-min
+    average) of the whole facility where the plant meters it (:func:`facility_metered`);
+    {} otherwise. Every other energy and peak KPI is the HVAC's (``power_kw``)."""
+    if not facility_metered(results):
+        return {}
+    facility = results[[FACILITY_POWER_COLUMN]].rename(columns={FACILITY_POWER_COLUMN: "power_kw"})
+    return {
+        "facility_energy_kwh": energy_kwh(facility),
+        "facility_peak_power_kw": peak_power_kw(facility),
+    }
+
+
 def energy_cost_sgd(results: pd.DataFrame) -> float:
     """Energy cost ``Σ_k c_k P_k Δt / 1000`` [SGD].
 
@@ -151,6 +183,23 @@ def reserve_revenue_sgd(results: pd.DataFrame) -> float:
     reserve_kw = _values(results, "reserve_kw")
     price_sgd_per_mwh = _values(results, "reserve_price_sgd_per_mwh")
     return float(np.sum(reserve_kw * price_sgd_per_mwh) * step_hours(results) / KWH_PER_MWH)
+
+
+def reserve_revenue_settled_sgd(results: pd.DataFrame) -> float:
+    """Reserve revenue of the activated periods [SGD]: ``Σ_{k activated} b_k R_k Δt / 1000``,
+    the payments whose delivery was settled against the meter (delivered or charged as a
+    shortfall, :mod:`hvacflex.settlement`). 0 without activations."""
+    reserve_kw = np.where(_activated(results), _values(results, "reserve_kw"), 0.0)
+    price_sgd_per_mwh = _values(results, "reserve_price_sgd_per_mwh")
+    return float(np.sum(reserve_kw * price_sgd_per_mwh) * step_hours(results) / KWH_PER_MWH)
+
+
+def reserve_revenue_unsettled_sgd(results: pd.DataFrame) -> float:
+    """Availability payments no meter ever settled [SGD]: the reserve revenue of the periods
+    without an activation (:func:`reserve_revenue_sgd` − :func:`reserve_revenue_settled_sgd`).
+    Nothing in the run shows that this capacity could have been delivered; with the shipped
+    (synthetic) reserve price it is hvacflex's own estimate of a market payment."""
+    return reserve_revenue_sgd(results) - reserve_revenue_settled_sgd(results)
 
 
 def net_cost_sgd(results: pd.DataFrame) -> float:
@@ -247,12 +296,12 @@ def il_penalty_sgd(results: pd.DataFrame) -> float:
 def il_delivered_ratio(results: pd.DataFrame) -> float:
     """Delivered (metered) / offered reserve energy over the activated periods.
 
-    1.0 when no reserve was due (no activation, or nothing offered in the activated
-    periods): nothing was owed, nothing fell short; and summaries stay NaN-free (comparable).
+    NaN when no reserve was due (no activation, or nothing offered in the activated
+    periods): a ratio of nothing to nothing is not a delivery record (shown as "–").
     """
     offered = il_offered_kwh(results)
     if offered <= 0.0:
-        return 1.0
+        return float("nan")
     return il_delivered_metered_kwh(results) / offered
 
 
@@ -267,10 +316,21 @@ def il_recovery_energy_kwh(results: pd.DataFrame) -> float:
     return float(np.nansum(extra[recovery]) * step_hours(results))
 
 
+def _block_count(flags: np.ndarray) -> int:
+    """Number of blocks of consecutive true periods."""
+    return int(np.sum(flags & ~np.concatenate([[False], flags[:-1]])))
+
+
 def il_event_count(results: pd.DataFrame) -> int:
-    """Number of curtailment blocks (a period curtailed after one that was not)."""
-    curtailed = _flag(results, "il_curtailed")
-    return int(np.sum(curtailed & ~np.concatenate([[False], curtailed[:-1]])))
+    """Number of IL events: blocks of activated periods (``il_activated``; a period activated
+    after one that was not), whether or not the building curtailed in them."""
+    return _block_count(_activated(results))
+
+
+def il_curtailment_count(results: pd.DataFrame) -> int:
+    """Number of curtailment blocks (``il_curtailed``; a period curtailed after one that was
+    not): the events in which the building shed load."""
+    return _block_count(_flag(results, "il_curtailed"))
 
 
 def il_beyond_model_steps(results: pd.DataFrame) -> int:
@@ -357,13 +417,46 @@ def monthly_ppp_charge_sgd(
     return (power * price).groupby(months).max().rename("ppp_charge_sgd")
 
 
-def ppp_charge_sgd(results: pd.DataFrame, peak_price_sgd_per_kw: float | None = None) -> float:
-    """Peak-power charge summed over the calendar months of the run [SGD].
+def ppp_charge_monthly_sgd(
+    results: pd.DataFrame, peak_price_sgd_per_kw: float | None = None
+) -> float:
+    """Peak-power charge of the calendar months the run touches, each billed whole [SGD]:
+    ``Σ_month`` :func:`monthly_ppp_charge_sgd` (what the utility bills for those months; a
+    one-day run is billed its month's charge in full).
 
     See :func:`monthly_ppp_charge_sgd` for the price φ (argument, else the
     ``peak_price_sgd_per_kw`` column).
     """
     return float(monthly_ppp_charge_sgd(results, peak_price_sgd_per_kw).sum())
+
+
+def ppp_charge_sgd(results: pd.DataFrame, peak_price_sgd_per_kw: float | None = None) -> float:
+    """Peak-power charge prorated to the days the run covers [SGD]:
+    ``Σ_month charge_month × days covered / days in that month`` (a whole month is billed its
+    charge, a one-day run 1/30 of it), so that it adds up with the energy cost of the same
+    days. :func:`ppp_charge_monthly_sgd` is the charge of the months billed whole.
+
+    See :func:`monthly_ppp_charge_sgd` for the price φ (argument, else the
+    ``peak_price_sgd_per_kw`` column).
+    """
+    charge = monthly_ppp_charge_sgd(results, peak_price_sgd_per_kw)
+    fraction = month_fraction(results).reindex(charge.index).fillna(0.0)
+    return float((charge * fraction).sum())
+
+
+def month_fraction(results: pd.DataFrame) -> pd.Series:
+    """Share (0–1) of each calendar month the run covers: steps × Δt / 24 / days in month.
+
+    Returns
+    -------
+    Series indexed by a monthly ``PeriodIndex`` named ``month``.
+    """
+    index = _require_datetime_index(results)
+    months = _month_index(index)
+    days = pd.Series(step_hours(results) / _HOURS_PER_DAY, index=months).groupby(level=0).sum()
+    days_in_month = np.asarray(pd.PeriodIndex(days.index).days_in_month, dtype=float)
+    fraction: pd.Series = (days / days_in_month).rename("month_fraction")
+    return fraction
 
 
 # ----------------------------------------------------------------------------- Table 1
@@ -497,6 +590,54 @@ def _comfort_deviation_k(results: pd.DataFrame, allowance_k: float = 0.0) -> pd.
         upper = _values(results, schema.COMFORT_UPPER.name(zone)) + widen
         deviations[zone] = np.maximum(lower - temp, 0.0) + np.maximum(temp - upper, 0.0)
     return pd.DataFrame(deviations, index=results.index)
+
+
+OCCUPIED_BAND_TOLERANCE_K = 1e-6
+"""Two comfort bands whose widths differ by less than this are the same band [K]."""
+
+
+def occupied_mask(results: pd.DataFrame) -> pd.DataFrame:
+    """(T, m) bool: the periods in which each zone's band in force is its **occupied** band.
+
+    "Occupied" is the schedule's occupied periods, read from the comfort columns (the band
+    the KPIs grade against), not the stochastic occupancy the plant may realise. The
+    occupied band of a zone is its narrowest band in the run (``comfort_upper`` −
+    ``comfort_lower``; the occupied band is the tight one). A zone whose band never changes
+    over the run is graded occupied throughout (a run within office hours, or a scenario
+    with one band).
+    """
+    occupied = {}
+    for zone in zone_names(results):
+        width = _values(results, schema.COMFORT_UPPER.name(zone)) - _values(
+            results, schema.COMFORT_LOWER.name(zone)
+        )
+        finite = np.isfinite(width)
+        narrowest = float(np.min(width[finite])) if finite.any() else np.nan
+        occupied[zone] = finite & (width <= narrowest + OCCUPIED_BAND_TOLERANCE_K)
+    return pd.DataFrame(occupied, index=results.index)
+
+
+def discomfort_occupied_kelvin_hours(results: pd.DataFrame) -> float:
+    """Discomfort in the occupied periods (:func:`occupied_mask`) [K·h], all zones: what the
+    occupants feel. With :func:`discomfort_unoccupied_kelvin_hours` it sums to
+    :func:`total_discomfort_kelvin_hours`."""
+    deviation = _comfort_deviation_k(results).to_numpy()
+    return float(np.sum(deviation[occupied_mask(results).to_numpy()]) * step_hours(results))
+
+
+def discomfort_unoccupied_kelvin_hours(results: pd.DataFrame) -> float:
+    """Discomfort outside the occupied periods [K·h], all zones: excursions past the night
+    and weekend band while nobody is meant to be in."""
+    deviation = _comfort_deviation_k(results).to_numpy()
+    return float(np.sum(deviation[~occupied_mask(results).to_numpy()]) * step_hours(results))
+
+
+def max_violation_occupied_k(results: pd.DataFrame) -> float:
+    """Largest deviation outside the band in an occupied period, all zones [K] (0 when never
+    outside it, or never occupied)."""
+    deviation = _comfort_deviation_k(results).to_numpy()
+    occupied = deviation[occupied_mask(results).to_numpy()]
+    return float(np.max(occupied)) if occupied.size else 0.0
 
 
 def discomfort_event_kelvin_hours(results: pd.DataFrame) -> float:
@@ -667,48 +808,74 @@ def solve_time_stats_s(results: pd.DataFrame) -> dict[str, float]:
 
 # ----------------------------------------------------------------------------- summary
 
+COUNT_KPIS = (
+    "steps",
+    "il_events",
+    "il_curtailments",
+    "il_curtailed_steps",
+    "il_activated_steps",
+    "il_beyond_model_steps",
+    "fallback_count",
+    "model_extrapolation_steps",
+)
+"""Keys of :func:`summary` that count things: integers (``int``) in the summary, its JSON
+and CSV, and printed as whole numbers."""
+
 
 def summary(results: pd.DataFrame, peak_price_sgd_per_kw: float | None = None) -> dict[str, float]:
     """All KPIs of one run as a flat ``{name: value}`` mapping, units in the names.
 
     Keys: ``steps``, ``days``, ``energy_kwh``, ``energy_cost_sgd``, ``reserve_revenue_sgd``,
-    ``il_penalty_sgd``, ``net_cost_sgd``, ``ppp_charge_sgd``, ``net_cost_with_ppp_sgd``,
+    ``reserve_revenue_settled_sgd``, ``reserve_revenue_unsettled_sgd``, ``il_penalty_sgd``,
+    ``net_cost_sgd``, ``facility_energy_kwh`` and ``facility_peak_power_kw`` (only where the
+    plant meters the facility: :func:`facility_summary`; every other energy and peak is the
+    HVAC's), ``ppp_charge_sgd`` (prorated to the days covered),
+    ``ppp_charge_monthly_sgd`` (the months billed whole), ``net_cost_with_ppp_sgd``,
     ``peak_power_kw``, ``monthly_avg_energy_cost_sgd``, ``monthly_avg_reserve_revenue_sgd``,
     ``monthly_avg_net_cost_sgd``, ``discomfort_kelvin_hours`` (total),
-    ``discomfort_<zone>_kelvin_hours``, ``max_violation_k`` (all zones),
-    ``max_violation_<zone>_k``, ``violation_share``, the IL keys of :func:`il_summary`,
-    ``fallback_count``, ``model_extrapolation_steps``, ``planned_slack_share``,
-    ``max_delta_vs_half_band``, ``solve_time_mean_s``, ``solve_time_p95_s``,
-    ``solve_time_max_s``, ``prediction_error_*`` (:func:`prediction_error_summary`). Monthly
-    averages are omitted when the index is not a ``DatetimeIndex``, as are ``ppp_charge_sgd``
-    and ``net_cost_with_ppp_sgd``.
+    ``discomfort_occupied_kelvin_hours``, ``discomfort_unoccupied_kelvin_hours`` (they sum to
+    the total), ``discomfort_<zone>_kelvin_hours``, ``max_violation_k`` (all zones),
+    ``max_violation_occupied_k``, ``max_violation_<zone>_k``, ``violation_share``, the IL
+    keys of :func:`il_summary`, ``fallback_count``, ``model_extrapolation_steps``,
+    ``planned_slack_share``, ``max_delta_vs_half_band``, ``solve_time_mean_s``,
+    ``solve_time_p95_s``, ``solve_time_max_s``, ``prediction_error_*``
+    (:func:`prediction_error_summary`; NaN for a rule). Monthly averages are omitted when the
+    index is not a ``DatetimeIndex``, as are the PPP charges and ``net_cost_with_ppp_sgd``.
+    The counts (:data:`COUNT_KPIS`) are ``int``.
     """
     out: dict[str, float] = {
-        "steps": float(len(results)),
+        "steps": len(results),
         "days": len(results) * step_hours(results) / _HOURS_PER_DAY,
         "energy_kwh": energy_kwh(results),
         "energy_cost_sgd": energy_cost_sgd(results),
         "reserve_revenue_sgd": reserve_revenue_sgd(results),
+        "reserve_revenue_settled_sgd": reserve_revenue_settled_sgd(results),
+        "reserve_revenue_unsettled_sgd": reserve_revenue_unsettled_sgd(results),
         "il_penalty_sgd": il_penalty_sgd(results),
         "net_cost_sgd": net_cost_sgd(results),
     }
     out["peak_power_kw"] = peak_power_kw(results)
+    out |= facility_summary(results)
     if isinstance(results.index, pd.DatetimeIndex):
         out["ppp_charge_sgd"] = ppp_charge_sgd(results, peak_price_sgd_per_kw)
+        out["ppp_charge_monthly_sgd"] = ppp_charge_monthly_sgd(results, peak_price_sgd_per_kw)
         out["net_cost_with_ppp_sgd"] = out["net_cost_sgd"] + out["ppp_charge_sgd"]
         average = monthly_average(monthly_table(results, peak_price_sgd_per_kw))
         for col in ("energy_cost_sgd", "reserve_revenue_sgd", "net_cost_sgd"):
             out[f"monthly_avg_{col}"] = float(average[col])
     discomfort = discomfort_kelvin_hours(results)
     out["discomfort_kelvin_hours"] = float(discomfort.sum())
+    out["discomfort_occupied_kelvin_hours"] = discomfort_occupied_kelvin_hours(results)
+    out["discomfort_unoccupied_kelvin_hours"] = discomfort_unoccupied_kelvin_hours(results)
     out |= {f"discomfort_{zone}_kelvin_hours": float(v) for zone, v in discomfort.items()}
     violation = max_violation_k(results)
     out["max_violation_k"] = float(violation.max())
+    out["max_violation_occupied_k"] = max_violation_occupied_k(results)
     out |= {f"max_violation_{zone}_k": float(v) for zone, v in violation.items()}
     out["violation_share"] = violation_share(results)
     out |= il_summary(results)
-    out["fallback_count"] = float(fallback_count(results))
-    out["model_extrapolation_steps"] = float(model_extrapolation_steps(results))
+    out["fallback_count"] = fallback_count(results)
+    out["model_extrapolation_steps"] = model_extrapolation_steps(results)
     out["planned_slack_share"] = planned_slack_share(results)
     out["max_delta_vs_half_band"] = max_delta_vs_half_band(results)
     out |= {f"solve_time_{stat}_s": v for stat, v in solve_time_stats_s(results).items()}
@@ -720,16 +887,17 @@ def il_summary(results: pd.DataFrame) -> dict[str, float]:
     return {
         "reserve_offered_mean_kw": reserve_offered_mean_kw(results),
         "reserve_period_share": reserve_period_share(results),
-        "il_events": float(il_event_count(results)),
-        "il_curtailed_steps": float(np.sum(_flag(results, "il_curtailed"))),
-        "il_activated_steps": float(np.sum(_activated(results))),
+        "il_events": il_event_count(results),
+        "il_curtailments": il_curtailment_count(results),
+        "il_curtailed_steps": int(np.sum(_flag(results, "il_curtailed"))),
+        "il_activated_steps": int(np.sum(_activated(results))),
         "il_offered_kwh": il_offered_kwh(results),
         "il_delivered_metered_kwh": il_delivered_metered_kwh(results),
         "il_delivered_counterfactual_kwh": il_delivered_counterfactual_kwh(results),
         "il_delivered_ratio": il_delivered_ratio(results),
         "il_shortfall_kwh": il_shortfall_kwh(results),
         "il_recovery_energy_kwh": il_recovery_energy_kwh(results),
-        "il_beyond_model_steps": float(il_beyond_model_steps(results)),
+        "il_beyond_model_steps": il_beyond_model_steps(results),
         "discomfort_event_kelvin_hours": discomfort_event_kelvin_hours(results),
         "discomfort_event_within_allowance_kelvin_hours": (
             discomfort_event_within_allowance_kelvin_hours(results)
@@ -741,14 +909,32 @@ def il_summary(results: pd.DataFrame) -> dict[str, float]:
     }
 
 
+RULE_STATUS = "rule"
+"""``solve_status`` of a step a rule-based controller decided (no model, no plan)."""
+
+
+def is_rule_based(results: pd.DataFrame) -> bool:
+    """Whether every step was decided by a rule (``solve_status`` ``"rule"``): a controller
+    that plans with no model."""
+    if schema.STATUS_COLUMN not in results.columns or results.empty:
+        return False
+    return bool((results[schema.STATUS_COLUMN].astype(str) == RULE_STATUS).all())
+
+
 def prediction_error_summary(results: pd.DataFrame) -> dict[str, float]:
     """``prediction_error_rms_k``, ``_max_k`` [K]: RMS and largest |e| over steps and zones of
     the one-step prediction errors ``prediction_error_<zone>_k`` (NaN left out), and
     ``prediction_error_rms_occupied_k`` / ``_unoccupied_k``
-    (:func:`prediction_error_rms_by_occupancy_k`); or {}."""
+    (:func:`prediction_error_rms_by_occupancy_k`); or {}.
+
+    NaN for a rule-based run (:func:`is_rule_based`): the errors are those of hvacflex's model,
+    which the rule never uses, so they say nothing about the controller."""
     names = schema.PREDICTION_ERROR.names(zone_names(results))
     if not all(name in results.columns for name in names):
         return {}
+    if is_rule_based(results):
+        keys = ("rms", "max", "rms_occupied", "rms_unoccupied")
+        return {f"prediction_error_{key}_k": float("nan") for key in keys}
     values = np.abs(results[names].to_numpy(dtype=float)).ravel()
     values = values[np.isfinite(values)] if np.isfinite(values).any() else np.array([np.nan])
     rms = float(np.sqrt(np.mean(values**2)))
@@ -757,25 +943,6 @@ def prediction_error_summary(results: pd.DataFrame) -> dict[str, float]:
         "prediction_error_max_k": float(np.max(values)),
         **prediction_error_rms_by_occupancy_k(results),
     }
-
-
-PREDICTION_BAND_TOLERANCE_K = 1e-6
-"""A band this much wider than a zone's narrowest of the run is still its occupied band [K]."""
-
-
-def _occupied_band_periods(results: pd.DataFrame) -> np.ndarray:
-    """(T, m) bool: the periods in which each zone's comfort band is its narrowest of the run
-    (its occupied band: the schedule's occupied periods); a band that never changes counts
-    as occupied throughout."""
-    columns = []
-    for zone in zone_names(results):
-        width = _values(results, schema.COMFORT_UPPER.name(zone)) - _values(
-            results, schema.COMFORT_LOWER.name(zone)
-        )
-        finite = np.isfinite(width)
-        narrowest = float(np.min(width[finite])) if finite.any() else np.nan
-        columns.append(finite & (width <= narrowest + PREDICTION_BAND_TOLERANCE_K))
-    return np.column_stack(columns) if columns else np.zeros((len(results), 0), dtype=bool)
 
 
 def prediction_error_rms_by_occupancy_k(results: pd.DataFrame) -> dict[str, float]:
@@ -788,7 +955,7 @@ def prediction_error_rms_by_occupancy_k(results: pd.DataFrame) -> dict[str, floa
     if not all(name in results.columns for name in names):
         return {}
     errors = results[names].to_numpy(dtype=float)
-    occupied = _occupied_band_periods(results)
+    occupied = occupied_mask(results).to_numpy(dtype=bool)
     out = {}
     for key, mask in (("occupied", occupied), ("unoccupied", ~occupied)):
         chosen = errors[mask & np.isfinite(errors)]

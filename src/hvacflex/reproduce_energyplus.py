@@ -56,10 +56,13 @@ COMPARISON_COLUMNS: tuple[str, ...] = (
     "energy_cost_sgd",
     "peak_power_kw",
     "ppp_charge_sgd",
-    "reserve_revenue_sgd",
+    "reserve_revenue_settled_sgd",
     "tariff_cost_sgd",
+    "reserve_revenue_unsettled_sgd",
     "reserve_offered_mean_kw",
     "discomfort_kelvin_hours",
+    "discomfort_occupied_kelvin_hours",
+    "discomfort_unoccupied_kelvin_hours",
     "max_violation_k",
     "tracking_rmse_k",
     "fallback_count",
@@ -123,11 +126,13 @@ def plant_comparison(
     """One row per (scenario label, plant kind) of ``runs``, columns
     :data:`COMPARISON_COLUMNS`: energy [kWh] (HVAC: ``power_kw``; the facility meter
     ``facility_power_kw`` where the plant has one, else NaN), energy cost [SGD], peak [kW]
-    and its charge at the one tariff's φ = ``peak_price_sgd_per_kw`` [SGD/kW], reserve
-    revenue [SGD], ``tariff_cost_sgd`` = energy + billed peak + IL penalty − reserve revenue
-    over the run [SGD], mean reserve offered [kW], discomfort [K·h] and the largest
-    violation [K] measured on the plant's own zone temperatures, :func:`tracking_rmse_k` [K],
-    and the number of fallback steps."""
+    and its charge at the one tariff's φ = ``peak_price_sgd_per_kw`` [SGD/kW] prorated to the
+    days the run covers, reserve revenue settled against the meter (activated periods) [SGD],
+    ``tariff_cost_sgd`` = energy + billed peak + IL penalty − settled reserve over the run
+    [SGD], the unsettled availability payments beside it [SGD], mean reserve offered [kW],
+    discomfort [K·h] (all, occupied, unoccupied) and the largest violation [K] measured on the
+    plant's own zone temperatures, :func:`tracking_rmse_k` [K], and the number of fallback
+    steps."""
     rows = []
     for (label, plant), frame in runs.items():
         summary = kpi.summary(frame, peak_price_sgd_per_kw)
@@ -140,7 +145,7 @@ def plant_comparison(
             summary["energy_cost_sgd"]
             + summary["ppp_charge_sgd"]
             + summary["il_penalty_sgd"]
-            - summary["reserve_revenue_sgd"]
+            - summary["reserve_revenue_settled_sgd"]
         )
         rows.append(
             {
@@ -321,10 +326,12 @@ def energyplus_section(
             "own loops track them. Energy, cost, peak and comfort on EnergyPlus are measured on "
             "EnergyPlus's meters and zone temperatures; the HVAC energy is Electricity:HVAC + "
             "Electricity:Plant, the facility energy ElectricityPurchased:Facility. "
-            f"tariff_cost_sgd prices every run alike: energy + φ = {peak_price_sgd_per_kw:g} "
-            "SGD/kW × the billed peak + IL penalties − reserve revenue (synthetic price), over "
-            "the period. tracking_rmse_k: RMS of the realised minus the planned end-of-period "
-            "zone temperature.",
+            f"tariff_cost_sgd prices every run alike: HVAC energy + φ = "
+            f"{peak_price_sgd_per_kw:g} SGD/kW × the billed HVAC peak (prorated to the days "
+            "covered) + IL penalties − reserve revenue settled against the meter (activated "
+            "periods), over the period; reserve_revenue_unsettled_sgd beside it is the "
+            "availability payments no activation tested (synthetic price). tracking_rmse_k: "
+            "RMS of the realised minus the planned end-of-period zone temperature.",
             "The verdicts below repeat the paper's findings on the EnergyPlus runs; they are "
             "graded by EnergyPlus, not by hvacflex's model.",
         ],

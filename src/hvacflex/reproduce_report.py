@@ -11,6 +11,7 @@ or the year).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -308,18 +309,27 @@ def does_it_pay_section(
         title="Does it pay? — every controller under one tariff",
         paragraphs=[
             f"Simulated {plan.days:g} days from {plan.start}, scaled to a month. Every run is "
-            "priced with the same tariff: energy at USEP + φ × each month's billed peak "
-            f"(φ = {TARIFF_PEAK_PRICE_SGD_PER_KW:g} SGD/kW, whatever φ the controller "
-            "planned with) + IL non-delivery penalties − reserve revenue; per m² over "
-            f"{area_m2:g} m² of floor. The reference is the cheapest rule-based baseline "
-            f"that keeps comfort: {reference}. The reserve revenue rests on the SYNTHETIC "
-            "reserve price, and the plant is hvacflex's own RC model.",
-            "Cheaper than the reference without more discomfort: "
+            "priced with the same tariff on money settled against the meter: HVAC energy at "
+            f"USEP + φ × each month's billed HVAC peak (φ = {TARIFF_PEAK_PRICE_SGD_PER_KW:g} "
+            "SGD/kW, whatever φ the controller planned with) + IL non-delivery penalties − "
+            "reserve revenue of the activated periods (settled against the meter). Availability "
+            "payments for reserve no activation tested stand beside it as unsettled reserve "
+            "and do not rank (they rest on the SYNTHETIC reserve price). Comfort is graded on "
+            "the occupied periods; the unoccupied excursions stand beside it. "
+            + (
+                f"Per m² over {area_m2:g} m² of floor. "
+                if math.isfinite(area_m2) and area_m2 > 0
+                else "Per m²: not available (the building's floor area is not known). "
+            )
+            + "The reference is the cheapest rule-based baseline that "
+            f"keeps occupied comfort: {reference}. The plant is hvacflex's own RC model.",
+            "Cheaper than the reference without more occupied discomfort: "
             + (", ".join(paying) if paying else "none")
             + ".",
         ],
         tables=[table],
         table_captions=[f"Every controller under one tariff, per month ({basis_text(plan)})"],
+        table_details=[pay.DETAIL_COLUMNS],
     )
 
 
@@ -460,10 +470,23 @@ def table1_section(
         ],
         tables=[table1, comparison],
         table_captions=[
-            f"Table 1 from our runs, per month ({basis_text(plan)})",
+            f"Table 1 from our runs, HVAC energy and reserve per month ({basis_text(plan)})",
             f"Our Table 1 beside the published one (ours: {basis_text(plan)}; the paper: "
             "the year 2014)",
         ],
+        table_details=[
+            [*tables.TABLE1_IL_COLUMNS, "months", "days"],
+            [
+                "paper_scenario",
+                *(
+                    f"{column} ({side})"
+                    for column in tables.TABLE1_COLUMNS
+                    if column.startswith("reserve") or column == "energy_cost_change_pct"
+                    for side in ("ours", "paper")
+                ),
+            ],
+        ],
+        table_labels=[tables.TABLE1_LABELS, tables.TABLE1_LABELS],
     )
 
 
@@ -498,7 +521,7 @@ def comfort_section(
     from hvacflex import kpi
     from hvacflex.report import plots, text
     from hvacflex.report.html import Section
-    from hvacflex.report.run_report import formatted_kpi_table
+    from hvacflex.report.run_report import PLANNED_SLACK_TEXT, formatted_kpi_table, labelled
 
     all_frames = {SCENARIO_LABELS.get(k, k): f for k, f in scenario_frames.items()}
     summary = pd.DataFrame(
@@ -539,12 +562,18 @@ def comfort_section(
             f"up to {text.COMFORT_TOLERANCE_KELVIN_HOURS:g} K·h counts as keeping "
             "the band.",
             " ".join(comfort_sentences(scenario_discomfort, corner_discomfort, plan)),
+            PLANNED_SLACK_TEXT,
         ],
         figures=figures_comfort,
         figure_captions=captions,
         tables=[
-            formatted_kpi_table(summary.loc[[k for k in SHOWN_KPIS if k in summary.index]], None)
+            labelled(
+                formatted_kpi_table(
+                    summary.loc[[k for k in SHOWN_KPIS if k in summary.index]], None
+                )
+            )
         ],
+        table_details=[[name for name in summary.columns if WHOLE_HORIZON_TEXT in str(name)]],
         table_captions=[
             f"KPIs of every run over the scenario period, not scaled (peak billed at φ = "
             f"{TARIFF_PEAK_PRICE_SGD_PER_KW:g} SGD/kW; {basis_text(plan)}; every KPI in "
@@ -553,12 +582,16 @@ def comfort_section(
     )
 
 
+WHOLE_HORIZON_TEXT = "whole-horizon"
+"""In a run's label: the paper's reserve model, whose runs the comfort table shows in its
+expandable detail (the product presets' runs and the baselines stay in view)."""
+
 SHOWN_KPIS = (
     *REPORT_KPIS,
     "energy_cost_sgd",
-    "reserve_revenue_sgd",
+    "reserve_revenue_settled_sgd",
+    "reserve_revenue_unsettled_sgd",
     "ppp_charge_sgd",
-    "planned_slack_share",
     "solve_time_mean_s",
 )
 """Rows of kpi_scenarios.csv shown in the report's comfort section (the CSV holds all)."""
@@ -602,6 +635,7 @@ def uncertainty_section(plan: Plan, unc: pd.DataFrame, figures: Path) -> Any:
     """The price of robustness: KPIs against the uncertainty level, per controller."""
     from hvacflex.report import plots
     from hvacflex.report.html import Section
+    from hvacflex.report.run_report import PLANNED_SLACK_TEXT
 
     unc_csv = unc[
         [
@@ -625,6 +659,7 @@ def uncertainty_section(plan: Plan, unc: pd.DataFrame, figures: Path) -> Any:
             "solar and internal gains; the realised errors are drawn in the same "
             "box), from "
             f"{plan.sweep_start} for {plan.uncertainty_days:g} days.",
+            PLANNED_SLACK_TEXT,
         ],
         figures=[fig_unc],
         figure_captions=[
@@ -636,7 +671,19 @@ def uncertainty_section(plan: Plan, unc: pd.DataFrame, figures: Path) -> Any:
             f"Per controller and level σ [%], {plan.uncertainty_days:g} days from "
             f"{plan.sweep_start} on the RC plant, totals over the period"
         ],
+        table_labels=[ROBUSTNESS_LABELS],
     )
+
+
+ROBUSTNESS_LABELS = {
+    "uncertainty_level_pct": "Level σ [%]",
+    "net_cost_sgd": "HVAC net cost [SGD]",
+    "reserve_revenue_sgd": "Reserve revenue [SGD]",
+    "discomfort_kelvin_hours": "Discomfort [K·h]",
+    "planned_slack_share": "Plans needing slack",
+    "max_delta_vs_half_band": "Largest δ / half band",
+}
+"""Headers of the price-of-robustness table."""
 
 
 def scenario_sentences(summaries: Mapping[str, Mapping[str, float]]) -> list[str]:

@@ -120,5 +120,19 @@ def test_a_default_index_is_not_shown(tmp_path: Path) -> None:
     table = pd.DataFrame({"controller": ["nmpc", "rmpc"], "rank": [1, 2]})
     path = write_report(tmp_path, title="t", sections=[Section(title="s", tables=[table])])
     text = path.read_text(encoding="utf-8")
-    assert "<th>controller</th><th>rank</th>" in text and "<th>0</th>" not in text
+    assert "<th>Controller</th><th>Rank</th>" in text and "<th>0</th>" not in text
     assert "<th>nmpc</th>" in text  # the first column became the row label
+
+
+def test_detail_columns_go_into_an_expandable_detail_with_the_row_labels(tmp_path: Path) -> None:
+    table = pd.DataFrame(
+        {"controller": ["nmpc", "rmpc"], "pays": [True, False], "energy_kwh": [1.0, 2.0]}
+    )
+    section = Section(title="s", tables=[table], table_details=[["energy_kwh"]])
+    text = write_report(tmp_path, title="t", sections=[section]).read_text(encoding="utf-8")
+    main, detail = text.split("<details", 1)
+    assert "<th>Pays</th>" in main and "energy_kwh" not in main
+    assert "<td>yes</td>" in main and "<td>no</td>" in main  # booleans as yes / no
+    assert "<summary>More columns (1)</summary>" in detail
+    assert "<th>energy_kwh</th>" in detail and "<th>rmpc</th>" in detail
+    assert "<th>Pays</th>" in detail  # the first column is repeated with the row label

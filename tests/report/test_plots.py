@@ -296,3 +296,22 @@ def test_fig5_tick_labels_do_not_collide() -> None:
 
     assert _tick_labels_overlap(None)  # matplotlib's own choice: "Mar-0406:00"
     assert not _tick_labels_overlap(HALF_WIDTH_MAX_TICKS)
+
+
+def test_the_power_panel_names_the_hvac_and_draws_the_metered_facility(
+    make_results: Factory,
+) -> None:
+    import matplotlib.pyplot as plt
+
+    frame = make_results(days=1.0)
+    figure, ax = plt.subplots()
+    plots.power_panel(ax, frame, "rc")
+    labels = ax.get_legend_handles_labels()[1]
+    assert "HVAC power drawn" in labels and "facility power (metered)" not in labels
+    assert ax.get_ylabel().startswith("HVAC power")
+    frame["facility_power_kw"] = frame["power_kw"] + 20.0
+    figure2, ax2 = plt.subplots()
+    plots.power_panel(ax2, frame, "energyplus")
+    assert "facility power (metered)" in ax2.get_legend_handles_labels()[1]
+    plt.close(figure)
+    plt.close(figure2)

@@ -68,12 +68,15 @@ def _save_run(folder: Path, frame: pd.DataFrame, building: str = "office5") -> P
 def test_cost_breakdown_by_hand() -> None:
     run = ReportRun("a", _constant_run(10.0), OFFICE5_FLOOR_AREA_M2, "office5")
     costs = cost_breakdown([run], peak_price_sgd_per_kw=2.0).loc["a"]
-    # 10 kW × 24 h = 240 kWh at 0.1 SGD/kWh; peak 10 kW × 2 SGD/kW; 2 kW × 24 h × 0.01 SGD/kWh
+    # 10 kW × 24 h = 240 kWh at 0.1 SGD/kWh; peak 10 kW × 2 SGD/kW for March, one day of its
+    # 31 billed; 2 kW × 24 h × 0.01 SGD/kWh of reserve, none of it activated: unsettled
     assert costs["energy_cost_sgd"] == pytest.approx(24.0)
-    assert costs["ppp_charge_sgd"] == pytest.approx(20.0)
-    assert costs["reserve_revenue_sgd"] == pytest.approx(0.48)
+    assert costs["ppp_charge_sgd"] == pytest.approx(20.0 / 31)
+    assert costs["reserve_revenue_settled_sgd"] == 0.0
+    assert costs["reserve_revenue_unsettled_sgd"] == pytest.approx(0.48)
     assert costs["il_penalty_sgd"] == 0.0
-    assert costs["total_cost_sgd"] == pytest.approx(24.0 + 20.0 - 0.48)
+    assert costs["total_cost_sgd"] == pytest.approx(24.0 + 20.0 / 31)
+    assert costs["total_with_unsettled_sgd"] == pytest.approx(24.0 + 20.0 / 31 - 0.48)
 
 
 def test_one_tariff_is_the_largest_peak_price_recorded() -> None:
@@ -84,8 +87,8 @@ def test_one_tariff_is_the_largest_peak_price_recorded() -> None:
     assert tariff_peak_price_sgd_per_kw(runs) == 1.5
     costs = cost_breakdown(runs, tariff_peak_price_sgd_per_kw(runs))
     # the run planned without a peak charge is billed for its peak too
-    assert costs.loc["flat", "ppp_charge_sgd"] == pytest.approx(15.0)
-    assert costs.loc["ppp", "ppp_charge_sgd"] == pytest.approx(12.0)
+    assert costs.loc["flat", "ppp_charge_sgd"] == pytest.approx(15.0 / 31)
+    assert costs.loc["ppp", "ppp_charge_sgd"] == pytest.approx(12.0 / 31)
 
 
 def test_kpis_per_m2_and_change_against_baseline() -> None:
@@ -102,13 +105,19 @@ def test_kpis_per_m2_and_change_against_baseline() -> None:
     changes = change_vs_baseline_pct(table, "base")
     assert list(changes.columns) == ["half vs base", "unknown vs base"]
     assert changes.loc["energy_kwh", "half vs base"] == pytest.approx(-50.0)
-    assert np.isnan(changes.loc["discomfort_kelvin_hours", "half vs base"])  # baseline 0
+    assert np.isnan(changes.loc["discomfort_occupied_kelvin_hours", "half vs base"])  # base 0
     with pytest.raises(InputError):
         change_vs_baseline_pct(table, "nope")
     shown = formatted_kpi_table(table, changes)
     assert shown.loc["il_events", "base"] == "0" and shown.loc["energy_kwh", "base"] == "240.00"
     assert shown.loc["violation_share", "half"] == "0.00 %"
     assert shown.loc["energy_kwh", "Δ half vs base"] == "-50.0 %"
+    # no floor area: per m² is not available, never a number or a bare dash
+    assert shown.loc["energy_kwh_per_m2", "unknown"] == "not available"
+    assert shown.loc["energy_kwh_per_m2", "half"] == f"{120.0 / 1296.0:.2f}"
+    # no events: no delivery ratio, and no Δ of one
+    assert shown.loc["il_delivered_ratio"].to_list() == ["–"] * 5
+    assert "facility_energy_kwh" not in table.index  # no run's plant meters the facility
 
 
 def test_load_runs_reads_the_building_floor_area(tmp_path: Path, make_results: Factory) -> None:
@@ -135,7 +144,16 @@ def test_page_is_self_contained(tmp_path: Path, make_results: Factory) -> None:
     assert len(images) == 3 and all(src.startswith("data:image/png;base64,") for src in images)
     assert not re.search(r"(src|href)=\"(https?:)?//", page)
     assert "<script" not in page
-    for needle in ("Cost under one tariff", "total_cost_sgd", "Δ rmpc vs thermostat", "1,296"):
+    for needle in (
+        "Cost under one tariff",
+        "Total [SGD]",
+        "Unsettled reserve (availability) [SGD]",
+        "Δ rmpc vs thermostat",
+        "1,296",
+        "HVAC energy [kWh]",
+        "Occupied discomfort [K·h]",
+        "Plans needing comfort slack (planned_slack_share)",
+    ):
         assert needle in page
 
 
@@ -188,6 +206,22 @@ def test_page_in_headless_chromium(chromium: Any, tmp_path: Path, make_results: 
     shots = os.environ.get("HVACFLEX_SCREENSHOT_DIR")
     page.screenshot(path=str(Path(shots or tmp_path) / "run_report.png"), full_page=True)
     page.close()
+
+
+def test_a_baseline_given_as_a_run_too_is_shown_once(tmp_path: Path, make_results: Factory) -> None:
+    run, base = _runs(tmp_path, make_results)
+    page = write_run_report([run, base], tmp_path / "p.html", baseline=base).read_text()
+    assert "Δ rmpc vs thermostat" in page
+    assert "vs thermostat (baseline)" not in page and "Δ thermostat vs" not in page
+    alone = write_run_report([base], tmp_path / "q.html", baseline=base).read_text()
+    assert "Δ" not in alone
+
+
+def test_a_floor_area_that_is_not_finite_is_unknown() -> None:
+    from hvacflex.report.run_report import known_floor_area_m2
+
+    assert known_floor_area_m2(float("nan")) is None and known_floor_area_m2(0.0) is None
+    assert known_floor_area_m2(None) is None and known_floor_area_m2(511.0) == 511.0
 
 
 def test_delivery_ratio_without_activations_is_no_number() -> None:

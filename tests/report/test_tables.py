@@ -176,3 +176,11 @@ def test_integers_print_as_integers() -> None:
     assert tables.format_value("energy_kwh", 336.0) == "336.00"  # a float stays a float
     table = pd.DataFrame({"rank": [1, 2], "cost_sgd": [1.5, 2.25]}, index=["a", "b"])
     assert '<td class="num">1</td>' in tables.to_html(table)
+
+
+def test_per_m2_without_a_floor_area_is_not_available_and_booleans_read_yes_no() -> None:
+    assert tables.format_value("tariff_cost_sgd_per_m2_month", float("nan")) == "not available"
+    assert tables.format_value("energy_kwh", float("nan")) == "–"
+    assert tables.format_value("pays", True) == "yes"
+    assert tables.format_value("pays", np.bool_(False)) == "no"
+    assert tables.format_value("il_events", 3.0) == "3"  # a count stored as float

@@ -82,9 +82,10 @@ def _pay_table() -> pd.DataFrame:
         {
             "controller": ["(b) RMPC", "(c) RMPC + PPP", "(b) RMPC, whole-horizon"],
             "energy_cost_sgd_per_month": [1123.29, 1212.37, 1123.29],
-            "reserve_revenue_sgd_per_month": [6.23, 3.98, 0.0],
+            "reserve_settled_sgd_per_month": [1.0, 0.0, 0.0],
+            "reserve_unsettled_sgd_per_month": [5.23, 3.98, 0.0],
             "peak_charge_sgd_per_month": [65.55, 54.0, 65.55],
-            "tariff_cost_sgd_per_month": [1182.61, 1262.39, 1188.84],
+            "tariff_cost_sgd_per_month": [1187.84, 1266.37, 1188.84],
             "peak_power_kw": [43.7, 36.0, 43.7],
             "saving_vs_reference_sgd_per_month": [100.0, 20.0, 94.0],
             "reference": ["thermostat-25.5"] * 3,
@@ -96,10 +97,17 @@ def test_answers_come_from_the_does_it_pay_table() -> None:
     table = _pay_table()
     shaving = v.peak_shaving_answer(table, "(c) RMPC + PPP", "(b) RMPC")
     assert shaving.startswith("Does peak shaving pay? No")
-    assert "1,262.39 SGD/month against 1,182.61" in shaving and "thermostat-25.5" in shaving
+    assert "1,266.37 SGD/month against 1,187.84" in shaving and "thermostat-25.5" in shaving
     reserve = v.reserve_answer(table, "(b) RMPC", "(b) RMPC, whole-horizon")
     assert reserve.startswith("Does selling reserve work? Yes, a little")
-    assert "6.23 SGD/month" in reserve and "6.23 SGD/month cheaper" in reserve
+    assert "6.23 SGD/month of reserve revenue" in reserve
+    assert "1.00 of it settled against the meter and 5.23 unsettled" in reserve
+    assert "1.00 SGD/month cheaper" in reserve and "6.23 SGD/month cheaper." in reserve
+    # nothing settled: the tariff cost ties; only the availability payments make it cheaper
+    table.loc[0, ["reserve_settled_sgd_per_month", "tariff_cost_sgd_per_month"]] = [0.0, 1188.84]
+    table.loc[0, "reserve_unsettled_sgd_per_month"] = 6.23
+    reserve = v.reserve_answer(table, "(b) RMPC", "(b) RMPC, whole-horizon")
+    assert reserve.startswith("Does selling reserve work? Only on availability payments")
     table.loc[1, "tariff_cost_sgd_per_month"] = 1100.0
     assert v.peak_shaving_answer(table, "(c) RMPC + PPP", "(b) RMPC").startswith(
         "Does peak shaving pay? Yes"

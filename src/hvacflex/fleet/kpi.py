@@ -58,10 +58,10 @@ def fleet_summary(results: pd.DataFrame, buildings: pd.DataFrame | None = None) 
     over_planned = np.where(finite, planned - limit, -np.inf)
     over_real = np.where(finite, (power - limit) / np.where(finite, limit, 1.0), -np.inf)
     out = {
-        "buildings": float(buildings[schema.BUILDING_COLUMN].nunique())
+        "buildings": int(buildings[schema.BUILDING_COLUMN].nunique())
         if buildings is not None
         else np.nan,
-        "steps": float(len(results)),
+        "steps": len(results),
         "energy_kwh": kpis.energy_kwh(fleet),
         "energy_cost_sgd": kpis.energy_cost_sgd(fleet),
         "reserve_revenue_sgd": kpis.reserve_revenue_sgd(fleet),
@@ -69,7 +69,7 @@ def fleet_summary(results: pd.DataFrame, buildings: pd.DataFrame | None = None) 
         "peak_fleet_power_kw": kpis.peak_power_kw(fleet) if len(fleet) else 0.0,
         "max_planned_over_limit_kw": float(np.max(over_planned, initial=-np.inf)),
         "max_realised_over_limit_pct": 100.0 * float(np.max(over_real, initial=-np.inf)),
-        "feeder_infeasible_steps": float(results["feeder_infeasible"].sum()),
+        "feeder_infeasible_steps": int(results["feeder_infeasible"].sum()),
         "bid_accepted_share": float(results["bid_accepted"].mean()),
         "mean_fleet_reserve_kw": float(results["fleet_reserve_kw"].mean()),
         "coordination_iterations_mean": float(results["coordination_iterations"].mean()),
@@ -80,7 +80,7 @@ def fleet_summary(results: pd.DataFrame, buildings: pd.DataFrame | None = None) 
     out.update(_unflagged(results, planned, power, limit))
     out.update(
         {
-            "il_activated_steps": float(results.get("il_activated", pd.Series(dtype=bool)).sum()),
+            "il_activated_steps": int(results.get("il_activated", pd.Series(dtype=bool)).sum()),
             "il_offered_kwh": kpis.il_offered_kwh(fleet),
             "il_delivered_kwh": kpis.il_delivered_metered_kwh(fleet),
             "il_shortfall_kwh": kpis.il_shortfall_kwh(fleet),

@@ -6,9 +6,11 @@
 escaped. The page loads nothing from elsewhere and needs no JavaScript, so it can be mailed or
 archived as one file. The CSV behind a figure (``<figure>.csv``, see
 :mod:`hvacflex.report.plots`) is linked from its caption when the page is written into a
-folder that holds it (``link_base``: the report's folder; the link is relative to it). Wide
-tables scroll sideways inside their own box; a table whose index is pandas' default 0…n shows
-no index column.
+folder that holds it (``link_base``: the report's folder; the link is relative to it). A table
+shows the columns that decide in view; the rest of a wide table (``Section.table_details``)
+goes into an expandable ``<details>`` below it, its row labels repeated; what is still wider
+than the page scrolls sideways inside its own box. A table whose index is pandas' default
+0…n shows no index column.
 """
 
 from __future__ import annotations
@@ -17,7 +19,7 @@ import base64
 import html
 import os
 import re
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -46,6 +48,8 @@ table.hvacflex thead th { background: #f0f0f0; }
 table.hvacflex tbody th { text-align: left; font-weight: normal; background: #fafafa; }
 table.hvacflex td.num { text-align: right; font-variant-numeric: tabular-nums; }
 div.table-scroll { overflow-x: auto; max-width: 100%; }
+details.table-detail { margin: -.5rem 0 1rem; }
+details.table-detail summary { cursor: pointer; color: #345; font-size: .9rem; }
 pre { background: #f6f6f6; padding: .8rem; overflow-x: auto; font-size: .85rem; }
 footer { margin-top: 3rem; font-size: .8rem; color: #777; }
 """
@@ -68,6 +72,11 @@ class Section:
     table_captions : captions for ``tables``, by position; default none.
     links : (text, target) pairs shown as a list of links after the paragraphs: an anchor of
         this page (``#…``) or a relative or absolute URL.
+    table_details : for ``tables``, by position: the columns shown not in the table but in an
+        expandable detail under it (its row labels repeated); default none (every column in
+        the table).
+    table_labels : for ``tables``, by position: column → header (human, with units), over
+        :data:`hvacflex.report.tables.LABELS`; default none.
     """
 
     title: str
@@ -78,6 +87,8 @@ class Section:
     figure_captions: list[str] = field(default_factory=list)
     table_captions: list[str] = field(default_factory=list)
     links: list[tuple[str, str]] = field(default_factory=list)
+    table_details: list[Sequence[str]] = field(default_factory=list)
+    table_labels: list[Mapping[str, str]] = field(default_factory=list)
 
 
 def png_data_uri(path: str | Path) -> str:
@@ -132,6 +143,24 @@ def _shown_table(table: pd.DataFrame) -> pd.DataFrame:
     return table
 
 
+def _table_html(
+    table: pd.DataFrame, caption: str | None, details: Sequence[str], labels: Mapping[str, str]
+) -> str:
+    """The table with the columns ``details`` moved into an expandable ``<details>`` below,
+    which repeats the row label and the table's first column (e.g. rank and controller)."""
+    hidden = [column for column in table.columns if column in set(details)]
+    shown = table.drop(columns=hidden)
+    main = to_html(shown, caption=caption, labels=labels)
+    html_text = f'<div class="table-scroll">{main}</div>'
+    if hidden:
+        rest = to_html(table[[*shown.columns[:1], *hidden]], labels=labels)
+        html_text += (
+            f'<details class="table-detail"><summary>More columns ({len(hidden)})</summary>'
+            f'<div class="table-scroll">{rest}</div></details>'
+        )
+    return html_text
+
+
 def _links_html(links: Sequence[tuple[str, str]]) -> str:
     items = "".join(
         f'<li><a href="{html.escape(target, quote=True)}">{html.escape(text)}</a></li>'
@@ -150,8 +179,9 @@ def _section_html(section: Section, anchor: str, link_base: Path | None) -> str:
         parts.append(_figure_html(Path(figure), caption, link_base))
     for i, table in enumerate(section.tables):
         caption = section.table_captions[i] if i < len(section.table_captions) else None
-        rendered = to_html(_shown_table(table), caption=caption)
-        parts.append(f'<div class="table-scroll">{rendered}</div>')
+        details = section.table_details[i] if i < len(section.table_details) else ()
+        labels = section.table_labels[i] if i < len(section.table_labels) else {}
+        parts.append(_table_html(_shown_table(table), caption, details, labels))
     if section.code is not None:
         parts.append(f"<pre><code>{html.escape(section.code)}</code></pre>")
     parts.append("</section>")

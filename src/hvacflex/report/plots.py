@@ -468,9 +468,10 @@ def offers_reserve(results: pd.DataFrame) -> bool:
 
 
 def power_panel(ax: Axes, results: pd.DataFrame, title: str, *, mark_peak: bool = True) -> None:
-    """One panel: the power drawn [kW] (steps), the reserve band it offered (served power
+    """One panel: the HVAC power drawn [kW] (steps), the reserve band it offered (served power
     down by ``reserve_kw``, filled green) and the IL activations (shaded red); the period of
-    the largest power marked and labelled."""
+    the largest power marked and labelled; the whole facility's metered power (grey) where
+    the plant meters it (``facility_power_kw`` finite: EnergyPlus)."""
     edges = period_edges(results)
     power = results["power_kw"].to_numpy(float)
     if offers_reserve(results):
@@ -485,13 +486,16 @@ def power_panel(ax: Axes, results: pd.DataFrame, title: str, *, mark_peak: bool 
             label="reserve band (served → curtailed)",
         )
     shade_activations(ax, results, color="mistyrose")
-    _step(ax, edges, power, color="C0", label="power drawn")
+    facility = results.get("facility_power_kw")
+    if facility is not None and len(facility) and np.isfinite(facility.to_numpy(float)).all():
+        _step(ax, edges, facility.to_numpy(float), color="0.55", label="facility power (metered)")
+    _step(ax, edges, power, color="C0", label="HVAC power drawn")
     if mark_peak and len(power) and np.isfinite(power).any():
         k = int(np.nanargmax(power))
         middle = edges[k] + (edges[k + 1] - edges[k]) / 2
-        ax.plot([middle], [power[k]], "v", color="C3", label=f"peak {power[k]:.1f} kW")
+        ax.plot([middle], [power[k]], "v", color="C3", label=f"HVAC peak {power[k]:.1f} kW")
     ax.set_ylim(bottom=0.0)
-    ax.set_ylabel("power\n[kW]")
+    ax.set_ylabel("HVAC power\n[kW]")
     ax.set_title(title, loc="left", fontsize="medium")
 
 

@@ -8,9 +8,11 @@ and its KPIs, per run and per m² of floor, against a baseline run. The figures 
 embedded as base64 ``data:`` URIs by :func:`hvacflex.report.html.render_report`, so the page
 requests nothing from elsewhere and runs no script.
 
-Every number comes from :mod:`hvacflex.kpi`; the floor area is that of the building named in
-the run's configuration (results metadata), and per-m² columns are NaN when that building
-cannot be loaded (a building file moved since the run).
+Every number comes from :mod:`hvacflex.kpi`; energy and peak are the HVAC's (``power_kw``),
+the whole facility's beside them where the plant meters it (EnergyPlus). The floor area is
+that of the building named in the run's configuration (results metadata); per-m² rows read
+"not available" when it is not known (a building file moved since the run, or a model file
+without floor areas). A baseline run that is also among the runs is shown once.
 """
 
 from __future__ import annotations
@@ -39,26 +41,83 @@ DPI = 110
 COST_COLUMNS = (
     "energy_cost_sgd",
     "ppp_charge_sgd",
-    "reserve_revenue_sgd",
     "il_penalty_sgd",
+    "reserve_revenue_settled_sgd",
     "total_cost_sgd",
+    "reserve_revenue_unsettled_sgd",
+    "total_with_unsettled_sgd",
 )
-"""Columns of :func:`cost_breakdown` [SGD]; total = energy + billed peak − reserve + penalty."""
+"""Columns of :func:`cost_breakdown` [SGD]; total = HVAC energy + billed HVAC peak (prorated to
+the days covered) + IL penalty − settled reserve; beside it the unsettled availability
+payments and the total with them."""
+
+COST_LABELS = {
+    "energy_cost_sgd": "HVAC energy cost [SGD]",
+    "ppp_charge_sgd": "HVAC peak charge, prorated [SGD]",
+    "il_penalty_sgd": "IL penalty [SGD]",
+    "reserve_revenue_settled_sgd": "Settled reserve [SGD]",
+    "total_cost_sgd": "Total [SGD]",
+    "reserve_revenue_unsettled_sgd": "Unsettled reserve (availability) [SGD]",
+    "total_with_unsettled_sgd": "Total with unsettled reserve [SGD]",
+}
+"""Headers of the cost table on the page."""
 
 REPORT_KPIS = (
     "days",
     "energy_kwh",
+    "facility_energy_kwh",
     "peak_power_kw",
+    "facility_peak_power_kw",
     "net_cost_with_ppp_sgd",
     "reserve_offered_mean_kw",
     "il_events",
     "il_delivered_ratio",
-    "discomfort_kelvin_hours",
-    "max_violation_k",
+    "discomfort_occupied_kelvin_hours",
+    "discomfort_unoccupied_kelvin_hours",
+    "max_violation_occupied_k",
     "violation_share",
     "fallback_count",
+    "planned_slack_share",
 )
-"""KPIs (names of :func:`hvacflex.kpi.summary`) in the page's KPI table, in this order."""
+"""KPIs (names of :func:`hvacflex.kpi.summary`) in the page's KPI table, in this order; the
+facility rows only where some run's plant meters the facility."""
+
+KPI_LABELS = {
+    "days": "Days",
+    "energy_kwh": "HVAC energy [kWh]",
+    "facility_energy_kwh": "Facility energy [kWh]",
+    "peak_power_kw": "HVAC peak, 30-min [kW]",
+    "facility_peak_power_kw": "Facility peak, 30-min [kW]",
+    "net_cost_with_ppp_sgd": "HVAC net cost with prorated peak charge [SGD]",
+    "reserve_offered_mean_kw": "Reserve offered, mean [kW]",
+    "il_events": "IL events (activations)",
+    "il_delivered_ratio": "IL delivered / due (metered)",
+    "discomfort_occupied_kelvin_hours": "Occupied discomfort [K·h]",
+    "discomfort_unoccupied_kelvin_hours": "Unoccupied discomfort [K·h]",
+    "max_violation_occupied_k": "Largest occupied violation [K]",
+    "violation_share": "Periods outside the band",
+    "fallback_count": "Fallback steps",
+    "planned_slack_share": "Plans needing comfort slack",
+    "energy_cost_sgd": "HVAC energy cost [SGD]",
+    "reserve_revenue_settled_sgd": "Settled reserve [SGD]",
+    "reserve_revenue_unsettled_sgd": "Unsettled reserve (availability) [SGD]",
+    "ppp_charge_sgd": "HVAC peak charge, prorated [SGD]",
+    "solve_time_mean_s": "Solve time, mean [s]",
+    "energy_kwh_per_m2": "HVAC energy per m² [kWh/m²]",
+    "peak_power_w_per_m2": "HVAC peak per m² [W/m²]",
+    "net_cost_with_ppp_sgd_per_m2": "HVAC net cost per m² [SGD/m²]",
+}
+"""Row labels (with units) of the page's KPI table."""
+
+PLANNED_SLACK_TEXT = (
+    "Plans needing comfort slack (planned_slack_share): the share of periods whose plan "
+    "could not keep every zone inside the comfort band tightened by the robust margin δ and "
+    "planned a paid violation instead. It grades the plan, not the room: a high share with "
+    "little discomfort means the margins were wider than the errors that came (typical in "
+    "the narrow occupied band, and where δ exceeds half the band: max_delta_vs_half_band "
+    "> 1); it stays 0 for a rule-based controller, which makes no plan."
+)
+"""What ``planned_slack_share`` means, as the page and the reproduction report say it."""
 
 
 @dataclass(frozen=True)
@@ -107,8 +166,17 @@ def _reserve_price_synthetic(config: dict[str, object]) -> bool:
     return not (isinstance(data, dict) and data.get("reserve_source"))
 
 
+def known_floor_area_m2(area_m2: float | None) -> float | None:
+    """``area_m2`` [m²] when it is a floor area (finite and > 0), else None: a model file
+    without floor areas gives NaN."""
+    if area_m2 is None or not np.isfinite(area_m2) or area_m2 <= 0.0:
+        return None
+    return float(area_m2)
+
+
 def _building_of(path: Path) -> tuple[str, float | None]:
-    """The building named in the run's configuration and its floor area [m²] (or None)."""
+    """The building named in the run's configuration and its floor area [m²] (or None when
+    the building cannot be loaded or has no known floor area)."""
     from hvacflex.building.io import load_building
     from hvacflex.paths import resolve_building
 
@@ -117,7 +185,8 @@ def _building_of(path: Path) -> tuple[str, float | None]:
         building = str(config.get("building", ""))
         if not building:
             return "", None
-        return building, float(load_building(resolve_building(building)).floor_area_m2)
+        area_m2 = float(load_building(resolve_building(building)).floor_area_m2)
+        return building, known_floor_area_m2(area_m2)
     except (HvacflexError, ValueError, OSError):
         return "", None
 
@@ -159,19 +228,23 @@ def tariff_peak_price_sgd_per_kw(runs: Sequence[ReportRun]) -> float:
 def cost_breakdown(runs: Sequence[ReportRun], peak_price_sgd_per_kw: float) -> pd.DataFrame:
     """Cost of every run under one tariff [SGD], one row per run.
 
-    Columns :data:`COST_COLUMNS`: energy cost (each run's energy prices), billed peak
-    (φ = ``peak_price_sgd_per_kw`` [SGD/kW] × each calendar month's largest 30-min power),
-    reserve revenue (capacity offered × reserve price), IL non-delivery penalty, and
-    ``total_cost_sgd`` = energy + billed peak − reserve revenue + penalty.
+    Columns :data:`COST_COLUMNS`: HVAC energy cost (each run's energy prices), billed HVAC
+    peak (φ = ``peak_price_sgd_per_kw`` [SGD/kW] × each calendar month's largest 30-min
+    power, prorated to the days the run covers: :func:`hvacflex.kpi.ppp_charge_sgd`), IL
+    non-delivery penalty, reserve revenue settled against the meter (activated periods),
+    ``total_cost_sgd`` = energy + billed peak + penalty − settled reserve; then the unsettled
+    availability payments and ``total_with_unsettled_sgd`` = total − them.
     """
     rows = {}
     for run in runs:
         frame = run.results
         energy = kpi.energy_cost_sgd(frame)
         peak = kpi.ppp_charge_sgd(frame, peak_price_sgd_per_kw)
-        reserve = kpi.reserve_revenue_sgd(frame)
         penalty = kpi.il_penalty_sgd(frame)
-        rows[run.name] = [energy, peak, reserve, penalty, energy + peak - reserve + penalty]
+        settled = kpi.reserve_revenue_settled_sgd(frame)
+        unsettled = kpi.reserve_revenue_unsettled_sgd(frame)
+        total = energy + peak + penalty - settled
+        rows[run.name] = [energy, peak, penalty, settled, total, unsettled, total - unsettled]
     return pd.DataFrame.from_dict(rows, orient="index", columns=list(COST_COLUMNS)).rename_axis(
         "run"
     )
@@ -181,12 +254,15 @@ def kpi_table(runs: Sequence[ReportRun], peak_price_sgd_per_kw: float) -> pd.Dat
     """KPIs of every run, one column per run, rows :data:`REPORT_KPIS` (names and units of
     :func:`hvacflex.kpi.summary`, the peak billed at ``peak_price_sgd_per_kw`` [SGD/kW]) then
     ``energy_kwh_per_m2``, ``peak_power_w_per_m2``, ``net_cost_with_ppp_sgd_per_m2`` (per m²
-    of floor; NaN when the floor area is unknown)."""
+    of floor; NaN when the floor area is unknown). The facility rows only where some run's
+    plant meters the facility."""
     columns: dict[str, dict[str, float]] = {}
+    metered = any(kpi.facility_metered(run.results) for run in runs)
+    names = [n for n in REPORT_KPIS if metered or not n.startswith("facility_")]
     for run in runs:
         summary = kpi.summary(run.results, peak_price_sgd_per_kw)
-        values = {name: summary.get(name, float("nan")) for name in REPORT_KPIS}
-        area_m2 = run.floor_area_m2 if run.floor_area_m2 else float("nan")
+        values = {name: summary.get(name, float("nan")) for name in names}
+        area_m2 = known_floor_area_m2(run.floor_area_m2) or float("nan")
         values["energy_kwh_per_m2"] = values["energy_kwh"] / area_m2
         values["peak_power_w_per_m2"] = values["peak_power_kw"] * W_PER_KW / area_m2
         values["net_cost_with_ppp_sgd_per_m2"] = values["net_cost_with_ppp_sgd"] / area_m2
@@ -216,28 +292,22 @@ def change_vs_baseline_pct(table: pd.DataFrame, baseline: str) -> pd.DataFrame:
     return pd.DataFrame(changes, index=table.index)
 
 
-COUNT_KPIS = (
-    "steps",
-    "il_events",
-    "il_curtailed_steps",
-    "il_activated_steps",
-    "il_beyond_model_steps",
-    "fallback_count",
-)
+COUNT_KPIS = kpi.COUNT_KPIS
 """KPIs (names of :func:`hvacflex.kpi.summary`) that count things: shown as whole numbers."""
+
+RATIO_KPIS = ("il_delivered_ratio",)
+"""KPIs that are ratios of events: "–" without events, and never a Δ."""
 
 
 def _kpi_text(name: str, value: float) -> str:
-    if name in COUNT_KPIS and np.isfinite(value):
-        return f"{value:,.0f}"
-    return format_value(name, value)
+    return format_value(name, value)  # per m² of an unknown floor area: "not available"
 
 
 def formatted_kpi_table(table: pd.DataFrame, changes: pd.DataFrame | None) -> pd.DataFrame:
     """The KPI table (one row per KPI name, one column per run) as display text: values by
     their KPI's unit (:func:`hvacflex.report.tables.format_value`; counts whole), a delivery
-    ratio without activations as "–" (nothing was delivered or missed), changes as signed
-    percentages."""
+    ratio without events (or without reserve due) as "–", per m² of an unknown floor area as
+    "not available", changes as signed percentages (none for the event ratios: "–")."""
     no_events = (
         table.loc["il_events"].fillna(0.0) == 0.0
         if "il_events" in table.index
@@ -247,7 +317,7 @@ def formatted_kpi_table(table: pd.DataFrame, changes: pd.DataFrame | None) -> pd
         {
             column: [
                 "–"
-                if name == "il_delivered_ratio" and bool(no_events[column])
+                if name in RATIO_KPIS and bool(no_events[column])
                 else _kpi_text(str(name), float(value))
                 for name, value in table[column].items()
             ]
@@ -257,8 +327,16 @@ def formatted_kpi_table(table: pd.DataFrame, changes: pd.DataFrame | None) -> pd
     )
     if changes is not None:
         for column in changes.columns:
-            shown[f"Δ {column}"] = [format_value("change_pct", v) for v in changes[column]]
+            shown[f"Δ {column}"] = [
+                "–" if name in RATIO_KPIS else format_value("change_pct", v)
+                for name, v in changes[column].items()
+            ]
     return shown
+
+
+def labelled(table: pd.DataFrame) -> pd.DataFrame:
+    """``table`` with its KPI-name index shown as :data:`KPI_LABELS` (other names kept)."""
+    return table.rename(index=lambda name: KPI_LABELS.get(str(name), str(name)))
 
 
 # ----------------------------------------------------------------------------- figures
@@ -313,7 +391,11 @@ def _period_text(runs: Sequence[ReportRun]) -> str:
     for run in runs:
         index = pd.DatetimeIndex(run.results.index)
         span = f"{index[0]:%Y-%m-%d %H:%M} – {index[-1]:%Y-%m-%d %H:%M}" if len(index) else "empty"
-        area = f"{run.floor_area_m2:,.0f} m²" if run.floor_area_m2 else "floor area unknown"
+        area = (
+            f"{run.floor_area_m2:,.0f} m²"
+            if run.floor_area_m2
+            else "floor area not available (per-m² figures: not available)"
+        )
         parts.append(
             f"- {run.name}: {len(index)} periods, {span}; building {run.building or '?'}, {area}"
         )
@@ -336,17 +418,29 @@ def run_report_sections(
     )
     costs = cost_breakdown(shown, phi)
     tariff = (
-        f"One tariff for every run: energy and reserve at the prices each run recorded, the "
-        f"peak billed at φ = {phi:g} SGD/kW per calendar month's largest 30-min power "
-        "(also for runs planned without a peak charge). Total = energy + billed peak − "
-        "reserve revenue + IL penalty. Computed from the plant model's power (the RC plant "
-        "or EnergyPlus, as each run's [plant] table says)."
+        f"One tariff for every run on the HVAC's electricity (power_kw): energy at the "
+        f"prices each run recorded, the HVAC peak billed at φ = {phi:g} SGD/kW per calendar "
+        "month's largest 30-min power (also for runs planned without a peak charge), "
+        "prorated to the days each run covers (a one-day run bears 1/30 of a month's "
+        "charge). Total = HVAC energy + billed peak + IL penalty − reserve revenue settled "
+        "against the meter (the activated periods). Availability payments for reserve that "
+        "no activation tested are shown apart (unsettled) and not in the total. Computed "
+        "from the plant model's power (the RC plant or EnergyPlus, as each run's [plant] "
+        "table says)."
     )
     kpis = kpi_table(shown, phi)
     changes = change_vs_baseline_pct(kpis, baseline.name) if baseline is not None else None
     kpi_text = (
-        f"KPIs per run (peak billed at φ = {phi:g} SGD/kW); _per_m2 rows are per m² of the "
-        "building's floor."
+        f"KPIs per run (HVAC peak billed at φ = {phi:g} SGD/kW, prorated); energy and peak "
+        "are the HVAC's"
+        + (
+            ", the facility's beside them where the plant meters it"
+            if "facility_energy_kwh" in kpis.index
+            else " (this plant does not meter the whole facility)"
+        )
+        + "; per-m² rows are per m² of the building's floor ('not available' without a "
+        "known floor area). Discomfort is split into the occupied periods (the schedule's "
+        "occupied band) and the rest."
     )
     if baseline is not None:
         kpi_text += f" Δ columns: relative change against the baseline run {baseline.name}."
@@ -382,13 +476,13 @@ def run_report_sections(
         Section(
             "Cost under one tariff",
             paragraphs=[tariff],
-            tables=[costs],
-            table_captions=["Cost breakdown [SGD]"],
+            tables=[costs.rename(columns=COST_LABELS)],
+            table_captions=["Cost breakdown, HVAC [SGD]"],
         ),
         Section(
             "KPIs",
-            paragraphs=[kpi_text],
-            tables=[formatted_kpi_table(kpis, changes)],
+            paragraphs=[kpi_text, PLANNED_SLACK_TEXT],
+            tables=[labelled(formatted_kpi_table(kpis, changes))],
             table_captions=["KPIs per run"],
         ),
     ]
@@ -421,8 +515,13 @@ def write_run_report(
     InputError, StoredStateError
         For missing, unreadable or empty runs.
     """
-    runs = load_runs(paths)
     base = load_runs([baseline])[0] if baseline is not None else None
+    if baseline is not None:  # the baseline is shown once, as the baseline
+        paths = [p for p in paths if not _same_run(Path(p), Path(baseline))]
+        if not paths:
+            paths = [baseline]
+            base = None
+    runs = load_runs(paths)
     if base is not None and base.name in {run.name for run in runs}:
         base = replace(base, name=f"{base.name} (baseline)")
     for run in [*runs, *([base] if base else [])]:
@@ -437,6 +536,15 @@ def write_run_report(
         names = ", ".join(run.name for run in runs)
         document = render_report(title=title or f"hvacflex runs: {names}", sections=sections)
     return atomic_write_text(target, document)
+
+
+def _same_run(a: Path, b: Path) -> bool:
+    """Whether two paths name the same run (a folder or its results file)."""
+
+    def file(path: Path) -> Path:
+        return (path / schema.RESULTS_FILENAME if path.is_dir() else path).resolve()
+
+    return file(a) == file(b)
 
 
 RUN_REPORT_FILENAME = "report.html"

@@ -14,6 +14,7 @@ import math
 import numbers
 from collections.abc import Mapping
 
+import numpy as np
 import pandas as pd
 
 from hvacflex import kpi
@@ -177,26 +178,36 @@ def table1_models(tables: Mapping[str, pd.DataFrame]) -> pd.DataFrame:
 # ----------------------------------------------------------------------------- rendering
 
 
-COUNT_NAMES = ("steps", "fallback_count")
-"""KPI names whose values are counts (printed without decimals)."""
+COUNT_NAMES = (
+    *kpi.COUNT_KPIS,
+    "buildings",
+    "feeder_infeasible_steps",
+    "coordination_iterations_max",
+)
+"""KPI names whose values are counts (printed without decimals, also when stored as float)."""
+
+
+NOT_AVAILABLE = "not available"
+"""A per-m² value of a building whose floor area is unknown."""
 
 
 def format_value(column: str, value: object) -> str:
     """Display text of one value by the unit in its name (a column or a KPI name).
 
-    NaN as "–"; integers and counts (:data:`COUNT_NAMES`) whole; ``_pct`` signed with one
-    decimal and ``%``; ``_share`` (a fraction) in %; durations ``…_s`` and
+    NaN as "–" (per m², ``_per_m2``: "not available", the floor area is unknown); booleans
+    as "yes" / "no"; integers and counts (:data:`COUNT_NAMES`) whole; ``_pct`` signed with
+    one decimal and ``%``; ``_share`` (a fraction) in %; durations ``…_s`` and
     ``max_delta_vs_half_band`` to four significant digits; other numbers with two decimals;
     anything else as ``str``.
     """
-    if isinstance(value, bool):
-        return str(value)
+    if isinstance(value, bool | np.bool_):
+        return "yes" if value else "no"
     if isinstance(value, numbers.Integral):
         return f"{int(value):,d}"
     if isinstance(value, numbers.Real):
         number = float(value)
         if math.isnan(number):
-            return "–"
+            return NOT_AVAILABLE if "_per_m2" in column else "–"
         if column in COUNT_NAMES:
             return f"{number:,.0f}"
         if "_pct" in column:
@@ -207,6 +218,61 @@ def format_value(column: str, value: object) -> str:
             return f"{number:.4g}"
         return f"{number:,.2f}"
     return str(value)
+
+
+LABELS: dict[str, str] = {
+    # the "does it pay?" table (hvacflex.report.does_it_pay)
+    "rank": "Rank",
+    "controller": "Controller",
+    "tariff_cost_sgd_per_month": "Tariff cost [SGD/month]",
+    "saving_vs_reference_pct": "Saving vs reference [%]",
+    "pays": "Pays",
+    "discomfort_occupied_kelvin_hours_per_month": "Occupied discomfort [K·h/month]",
+    "reserve_unsettled_sgd_per_month": "Unsettled reserve (availability) [SGD/month]",
+    "discomfort_unoccupied_kelvin_hours_per_month": "Unoccupied discomfort [K·h/month]",
+    "saving_vs_reference_sgd_per_month": "Saving vs reference [SGD/month]",
+    "energy_cost_sgd_per_month": "HVAC energy cost [SGD/month]",
+    "peak_charge_sgd_per_month": "HVAC peak charge [SGD/month]",
+    "il_penalty_sgd_per_month": "IL penalty [SGD/month]",
+    "reserve_settled_sgd_per_month": "Settled reserve [SGD/month]",
+    "peak_power_kw": "HVAC peak [kW]",
+    "tariff_cost_sgd_per_m2_month": "Tariff cost [SGD/m²/month]",
+    "saving_vs_reference_sgd_per_m2_month": "Saving vs reference [SGD/m²/month]",
+    "rule_based": "Rule-based",
+    "reference": "Reference",
+}
+"""Human headers with units of the columns the HTML reports show (:func:`to_html`); a
+column not listed keeps its name (which carries its unit)."""
+
+
+_TABLE1_HEADS = {
+    "energy_cost_sgd": "HVAC energy cost [SGD/month]",
+    "energy_cost_change_pct": "Energy cost vs (a) [%]",
+    "reserve_revenue_sgd": "Reserve revenue [SGD/month]",
+    "reserve_revenue_change_pct": "Reserve revenue vs (a) [%]",
+    "net_cost_sgd": "Total [SGD/month]",
+    "net_cost_change_pct": "Total vs (a) [%]",
+}
+
+TABLE1_LABELS: dict[str, str] = {
+    "scenario": "Scenario",
+    "reserve_model": "Reserve model",
+    "paper_scenario": "Paper's scenario",
+    **_TABLE1_HEADS,
+    **{
+        f"{name} ({side})": f"{head}, {side}"
+        for name, head in _TABLE1_HEADS.items()
+        for side in ("ours", "paper")
+    },
+    "il_offered_kwh": "IL due [kWh/month]",
+    "il_delivered_metered_kwh": "IL delivered, metered [kWh/month]",
+    "il_shortfall_kwh": "IL shortfall [kWh/month]",
+    "il_penalty_sgd": "IL penalty [SGD/month]",
+    "il_net_revenue_sgd": "IL net revenue [SGD/month]",
+    "months": "Months",
+    "days": "Days",
+}
+"""Headers (human, with units) of :func:`table1` and :func:`side_by_side` in a report."""
 
 
 def _header_and_rows(frame: pd.DataFrame) -> tuple[list[str], list[list[str]]]:
@@ -239,16 +305,24 @@ def to_markdown(frame: pd.DataFrame) -> str:
     return "\n".join(lines) + "\n"
 
 
-def to_html(frame: pd.DataFrame, *, caption: str | None = None) -> str:
+def to_html(
+    frame: pd.DataFrame, *, caption: str | None = None, labels: Mapping[str, str] | None = None
+) -> str:
     """An HTML ``<table class="hvacflex">`` of ``frame`` (index as first column), cells by
-    :func:`format_value`, all text escaped; numeric cells carry ``class="num"``."""
+    :func:`format_value` (by the column's name), headers by ``labels`` over :data:`LABELS`
+    (human, with units), all text escaped; numeric cells carry ``class="num"``."""
     header, rows = _header_and_rows(frame)
+    heads = LABELS | dict(labels or {})
+    header = [heads.get(name, name) for name in header]
     parts = ['<table class="hvacflex">']
     if caption:
         parts.append(f"<caption>{html.escape(caption)}</caption>")
     parts.append("<thead><tr>" + "".join(f"<th>{html.escape(h)}</th>" for h in header))
     parts.append("</tr></thead><tbody>")
-    numeric = [pd.api.types.is_numeric_dtype(frame[col]) for col in frame.columns]
+    numeric = [
+        pd.api.types.is_numeric_dtype(frame[col]) and not pd.api.types.is_bool_dtype(frame[col])
+        for col in frame.columns
+    ]
     for row in rows:
         cells = [f"<th>{html.escape(row[0])}</th>"]
         cells += [

@@ -356,20 +356,32 @@ def peak_shaving_answer(table: pd.DataFrame, with_ppp: str, without_ppp: str) ->
 def reserve_answer(table: pd.DataFrame, offering: str, not_offering: str) -> str:
     """Does selling reserve work? ``offering`` (a controller that plans for IL events) against
     ``not_offering`` (the same controller under a model that offers none, or no reserve), from
-    the "does it pay?" table: the revenue, and whether the tariff cost falls by more than the
-    energy it costs."""
+    the "does it pay?" table: the revenue, settled against the meter and unsettled
+    (availability payments no activation tested), and whether the tariff cost falls by more
+    than the energy it costs — on settled money, and with the availability payments."""
     sells, other = _row(table, offering), _row(table, not_offering)
-    revenue = float(sells["reserve_revenue_sgd_per_month"])
+    settled = float(sells["reserve_settled_sgd_per_month"])
+    unsettled = float(sells["reserve_unsettled_sgd_per_month"])
+    revenue = settled + unsettled
     energy_extra = float(sells["energy_cost_sgd_per_month"]) - float(
         other["energy_cost_sgd_per_month"]
     )
     net = float(other["tariff_cost_sgd_per_month"]) - float(sells["tariff_cost_sgd_per_month"])
-    works = revenue > 0 and net > 0
+    net_with_availability = net + unsettled - float(other["reserve_unsettled_sgd_per_month"])
+    if revenue > 0 and net > 0:
+        head = "Yes, a little"
+    elif revenue > 0 and net_with_availability > 0:
+        head = "Only on availability payments no activation settled"
+    else:
+        head = "No"
     share = revenue / float(sells["energy_cost_sgd_per_month"])
     return (
-        f"Does selling reserve work? {'Yes, a little' if works else 'No'}: {offering} earns "
-        f"{revenue:,.2f} SGD/month of reserve revenue ({100 * share:.2f} % of its energy cost, "
-        f"at the SYNTHETIC reserve price) for {energy_extra:+,.2f} SGD/month of energy against "
-        f"{not_offering}; under one tariff it is {abs(net):,.2f} SGD/month "
-        f"{'cheaper' if net > 0 else 'dearer'}."
+        f"Does selling reserve work? {head}: {offering} earns {revenue:,.2f} SGD/month of "
+        f"reserve revenue ({100 * share:.2f} % of its energy cost, at the SYNTHETIC reserve "
+        f"price), {settled:,.2f} of it settled against the meter and {unsettled:,.2f} "
+        f"unsettled availability payments, for {energy_extra:+,.2f} SGD/month of energy "
+        f"against {not_offering}; under one tariff (settled money) it is {abs(net):,.2f} "
+        f"SGD/month {'cheaper' if net > 0 else 'dearer'}, with the availability payments "
+        f"{abs(net_with_availability):,.2f} SGD/month "
+        f"{'cheaper' if net_with_availability > 0 else 'dearer'}."
     )
