@@ -86,7 +86,12 @@ def serve(
         return
     import sys
 
-    from hvacflex.errors import HvacflexError
+    from hvacflex.errors import HvacflexError, require_extra
+
+    try:
+        require_extra("service", "hvacflex serve")
+    except HvacflexError as exc:
+        raise exit_on_error(exc) from None
     from hvacflex.service.app import create_app
     from hvacflex.service.keys import CLOCK_ROUTE, REGISTER_ROUTE, parse_route_limit
     from hvacflex.service.operations import (
@@ -193,7 +198,12 @@ def _run_server(
 
 def _key_sessions(ctx: typer.Context, db: str | None) -> Any:
     """Sessions on the service's database (opened and migrated, errors → exit 2)."""
-    from hvacflex.errors import HvacflexError
+    from hvacflex.errors import HvacflexError, require_extra
+
+    try:
+        require_extra("service", "hvacflex serve key")
+    except HvacflexError as exc:
+        raise exit_on_error(exc) from None
     from hvacflex.service.db import open_database, session_factory
 
     try:
@@ -336,7 +346,12 @@ def serve_openadr_ven(
     import asyncio
     import logging
 
-    from hvacflex.errors import HvacflexError
+    from hvacflex.errors import HvacflexError, require_extra
+
+    try:
+        require_extra("openadr", "hvacflex serve openadr-ven")
+    except HvacflexError as exc:
+        raise exit_on_error(exc) from None
     from hvacflex.service.openadr import VenConfig, parse_clock_offset, run_ven
     from hvacflex.service.replay import read_key
 
