@@ -27,7 +27,14 @@ SRC = Path(hvacflex.__file__).resolve().parents[1]
 """The source folder of the hvacflex under test (a subprocess must import the same one)."""
 
 PUBLIC_NAMES = [
+    "Building",
+    "Controller",
+    "Forecaster",
+    "Plant",
     "RunResult",
+    "Scenario",
+    "Simulation",
+    "SimulationResult",
     "__version__",
     "kpi_summary",
     "load_building",

@@ -53,7 +53,7 @@ LAYERS: list[set[str]] = [
         "robustness",
     },
     {"fleet", "service"},
-    {"api"},
+    {"api", "simulation", "gym"},
     {"cli", "cli_config", "cli_help", "cli_model", "cli_serve"},
     {"__main__"},
 ]
