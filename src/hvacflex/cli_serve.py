@@ -198,16 +198,22 @@ def _run_server(
 
 def _key_sessions(ctx: typer.Context, db: str | None) -> Any:
     """Sessions on the service's database (opened and migrated, errors → exit 2)."""
-    from hvacflex.errors import HvacflexError, require_extra
-
-    try:
-        require_extra("service", "hvacflex serve key")
-    except HvacflexError as exc:
-        raise exit_on_error(exc) from None
+    from hvacflex.errors import HvacflexError
     from hvacflex.service.db import open_database, session_factory
 
     try:
         return session_factory(open_database(_serve_db(ctx, db)))
+    except HvacflexError as exc:
+        raise exit_on_error(exc) from None
+
+
+@serve_key_app.callback()
+def serve_key() -> None:
+    """API keys of the service (needs the service extra: its database)."""
+    from hvacflex.errors import HvacflexError, require_extra
+
+    try:
+        require_extra("service", "hvacflex serve key")
     except HvacflexError as exc:
         raise exit_on_error(exc) from None
 

@@ -48,7 +48,7 @@ from hvacflex.reproduce_plan import (
     scenario_jobs,
     uncertainty_jobs,
 )
-from hvacflex.sim.sweep import JobOutcome, run_sweep
+from hvacflex.sim.sweep import JobOutcome, backend, run_sweep
 
 __all__ = [
     "RULE_BASED_SCENARIOS",
@@ -152,13 +152,13 @@ def run_groups(
     log: Callable[[str], None] = print,
     fresh: bool = False,
 ) -> dict[str, list[JobOutcome]]:
-    """Run every group's jobs in their stable folders (:func:`prepare_run_folders`) on Dask;
+    """Run every group's jobs in their stable folders (:func:`prepare_run_folders`) on Dask or local processes (:func:`run_sweep`);
     the outcomes by group, in the order of the jobs. Finished runs of the same inputs and
     code are re-used, interrupted ones resume from their checkpoint; ``fresh`` simulates
     every run again."""
     all_jobs = [job for jobs in groups.values() for job in jobs]
     folders = prepare_run_folders(out_dir, all_jobs, log)
-    log(f"running {len(all_jobs)} closed-loop simulations on Dask ({workers} workers)…")
+    log(f"running {len(all_jobs)} closed-loop simulations on {backend(scheduler, workers)}…")
     done = 0
 
     def progress(outcome: JobOutcome) -> None:

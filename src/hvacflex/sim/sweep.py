@@ -292,6 +292,17 @@ def run_sweep(
     return [outcomes[i] for i in range(len(jobs))]
 
 
+def backend(scheduler: str | None, n_workers: int) -> str:
+    """Where :func:`run_sweep` runs its jobs, in words (for a log line)."""
+    if scheduler is not None:
+        return f"Dask at {scheduler}"
+    if has_extra("dask"):
+        return f"Dask ({n_workers} workers)"
+    if n_workers <= 1:
+        return "this process"
+    return f"{n_workers} local processes"
+
+
 _JobResult = tuple[dict[str, float], bool]
 _Finished = Iterator[tuple[int, _JobResult | None, str | None]]
 """(the job's position, its (KPIs, cached) or None, its error line or None), as jobs finish."""
