@@ -58,8 +58,16 @@ def test_replay_checks_its_days_before_it_connects() -> None:
         (["serve"], "service", "fastapi"),
         (["serve", "key", "list"], "service", "sqlalchemy"),
         (
-            ["serve", "openadr-ven", "--vtn-url", "http://127.0.0.1:8080/x", "--ven-name",
-             "v", "--url", "http://127.0.0.1:8000"],
+            [
+                "serve",
+                "openadr-ven",
+                "--vtn-url",
+                "http://127.0.0.1:8080/x",
+                "--ven-name",
+                "v",
+                "--url",
+                "http://127.0.0.1:8000",
+            ],
             "openadr",
             "openleadr",
         ),

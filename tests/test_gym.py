@@ -11,11 +11,11 @@ import pytest
 
 pytest.importorskip("gymnasium")
 
-from gymnasium.utils.env_checker import check_env  # noqa: E402
+from gymnasium.utils.env_checker import check_env
 
-import hvacflex  # noqa: E402
-from hvacflex.errors import ConfigError  # noqa: E402
-from hvacflex.gym import HvacflexEnv, make_env  # noqa: E402
+import hvacflex
+from hvacflex.errors import ConfigError
+from hvacflex.gym import HvacflexEnv, make_env
 
 SCENARIO, START = "thermostat-25.5", "2014-03-03"
 
@@ -87,7 +87,9 @@ def test_the_comfort_penalty_and_the_action_bounds(env: HvacflexEnv) -> None:
     hvac = env.simulation.setup.building.hvac
     occupied = env.simulation.setup.exogenous.occupied[: len(frame)]
     expected = np.where(
-        occupied[:, None], hvac.flow_min_at(np.array([True]))[0], hvac.flow_min_at(np.array([False]))[0]
+        occupied[:, None],
+        hvac.flow_min_at(np.array([True]))[0],
+        hvac.flow_min_at(np.array([False]))[0],
     )
     assert np.array_equal(_flows(frame, env.zone_names), expected)
     kpis = info["kpi"]

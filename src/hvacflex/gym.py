@@ -60,7 +60,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -125,7 +125,7 @@ def make_env(
 class HvacflexEnv(gymnasium.Env[np.ndarray, np.ndarray]):
     """A scenario's closed loop as a Gymnasium environment (:func:`make_env`)."""
 
-    metadata: dict[str, Any] = {"render_modes": []}
+    metadata: ClassVar[dict[str, Any]] = {"render_modes": []}
 
     def __init__(self, scenario: str | Path | ScenarioConfig, **overrides: Any) -> None:
         super().__init__()
@@ -182,9 +182,7 @@ class HvacflexEnv(gymnasium.Env[np.ndarray, np.ndarray]):
         self._start_episode()
         return self._observation(), {"period": 0}
 
-    def step(
-        self, action: np.ndarray
-    ) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+    def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         sim = self.simulation
         k = sim.k
         values = np.asarray(action, dtype=float)
@@ -194,7 +192,9 @@ class HvacflexEnv(gymnasium.Env[np.ndarray, np.ndarray]):
         row = sim.step(values)
         info = self._period_terms(k, row)
         reward = -(
-            info["energy_cost_sgd"] + info["peak_charge_increment_sgd"] + info["comfort_penalty_sgd"]
+            info["energy_cost_sgd"]
+            + info["peak_charge_increment_sgd"]
+            + info["comfort_penalty_sgd"]
         )
         terminated = sim.done
         if terminated:

@@ -152,10 +152,10 @@ def run_groups(
     log: Callable[[str], None] = print,
     fresh: bool = False,
 ) -> dict[str, list[JobOutcome]]:
-    """Run every group's jobs in their stable folders (:func:`prepare_run_folders`) on Dask or local processes (:func:`run_sweep`);
-    the outcomes by group, in the order of the jobs. Finished runs of the same inputs and
-    code are re-used, interrupted ones resume from their checkpoint; ``fresh`` simulates
-    every run again."""
+    """Run every group's jobs in their stable folders (:func:`prepare_run_folders`) on Dask
+    or on local processes (:func:`run_sweep`); the outcomes by group, in the order of the
+    jobs. Finished runs of the same inputs and code are re-used, interrupted ones resume from
+    their checkpoint; ``fresh`` simulates every run again."""
     all_jobs = [job for jobs in groups.values() for job in jobs]
     folders = prepare_run_folders(out_dir, all_jobs, log)
     log(f"running {len(all_jobs)} closed-loop simulations on {backend(scheduler, workers)}…")

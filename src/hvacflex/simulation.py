@@ -26,12 +26,12 @@ import numpy as np
 import pandas as pd
 
 from hvacflex import kpi
-from hvacflex.results import STATUS_COLUMN
 from hvacflex.config import ScenarioConfig, resolve_scenario
 from hvacflex.control.base import Action, Controller, FloatArray, PeriodInputs
 from hvacflex.control.baselines import rule_action
 from hvacflex.data.forecast import Forecast
 from hvacflex.errors import HvacflexError, InputError
+from hvacflex.results import STATUS_COLUMN
 from hvacflex.sim.closed_loop import ClosedLoop
 from hvacflex.sim.plant import Plant
 from hvacflex.sim.plants import plant_summary, scenario_plant

@@ -128,7 +128,9 @@ def simulate(
         if scheduler is not None:
             check_scheduler(scheduler)
         elif workers > 0:
-            require_extra("dask", "hvacflex fleet simulate with --workers > 0 (--workers 0 runs without Dask)")
+            require_extra(
+                "dask", "hvacflex fleet simulate with --workers > 0 (--workers 0 runs without Dask)"
+            )
         warning = minimum_power_warning(loaded, start, days)
         if warning is not None:
             typer.echo(f"warning: {warning}", err=True)
