@@ -60,7 +60,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Any, ClassVar
+from typing import Any
 
 import numpy as np
 
@@ -125,7 +125,7 @@ def make_env(
 class HvacflexEnv(gymnasium.Env[np.ndarray, np.ndarray]):
     """A scenario's closed loop as a Gymnasium environment (:func:`make_env`)."""
 
-    metadata: ClassVar[dict[str, Any]] = {"render_modes": []}
+    metadata: dict[str, Any] = {"render_modes": []}  # noqa: RUF012 (gymnasium declares it so)
 
     def __init__(self, scenario: str | Path | ScenarioConfig, **overrides: Any) -> None:
         super().__init__()
