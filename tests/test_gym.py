@@ -14,7 +14,7 @@ pytest.importorskip("gymnasium")
 from gymnasium.utils.env_checker import check_env
 
 import hvacflex
-from hvacflex.errors import ConfigError
+from hvacflex.errors import ConfigError, has_extra
 from hvacflex.gym import HvacflexEnv, make_env
 
 SCENARIO, START = "thermostat-25.5", "2014-03-03"
@@ -137,3 +137,26 @@ def test_a_bad_scenario_is_refused_before_anything_runs() -> None:
     with pytest.raises(ConfigError) as bad_days:
         make_env(SCENARIO, start=START, days=-1)
     assert bad_days.value.field == "days"
+
+
+@pytest.mark.skipif(not has_extra("energyplus"), reason="needs the energyplus extra")
+def test_on_energyplus_the_action_is_the_zones_set_points() -> None:
+    env = make_env(
+        SCENARIO, start=START, days=0.125, plant={"kind": "energyplus", "actuation": "setpoint"}
+    )
+    try:
+        assert env.simulation.actuation == "setpoint"
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            check_env(env)
+        exo = env.simulation.setup.exogenous
+        assert env.action_space.low[0] == exo.comfort_lower_degc[:6].min()
+        assert env.action_space.high[0] == exo.comfort_upper_degc[:6].max()
+        setpoints = np.full((6, len(env.zone_names)), 24.0)
+        rewards, info, steps = _play(env, setpoints)
+        assert steps == 6 and info["kpi"]["plant"] == "energyplus"  # type: ignore[index]
+        end = env.simulation.results[[f"temp_end_{z}_degc" for z in env.zone_names]]
+        assert np.allclose(end.iloc[-1], 24.0, atol=0.05)  # EnergyPlus's loop held them
+        assert all(r <= 0 for r in rewards)
+    finally:
+        env.close()

@@ -172,3 +172,13 @@ def test_bad_steps_and_scenarios_are_refused(tmp_path: Path) -> None:
     with pytest.raises(ConfigError) as bad:
         Simulation(SCENARIO, dayz=1)
     assert bad.value.field == "dayz"
+
+
+def test_a_dict_for_controller_or_plant_overrides_the_scenarios_table() -> None:
+    sim = Simulation(SCENARIO, start=START, days=0.25, controller={"peak_price_sgd_per_kw": 2.5})
+    assert sim.scenario.controller.peak_price_sgd_per_kw == 2.5
+    assert sim.controller is not None  # still the scenario's own controller
+    assert (sim.run().results["peak_price_sgd_per_kw"] == 2.5).all()
+    with pytest.raises(ConfigError) as err:
+        Simulation(SCENARIO, plant={"kind": "trnsys"})
+    assert err.value.field is not None and err.value.field.startswith("plant")

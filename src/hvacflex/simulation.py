@@ -17,7 +17,7 @@ period decided here is recorded and graded exactly as ``simulate`` records and g
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Protocol, cast, runtime_checkable
@@ -147,8 +147,11 @@ class Simulation:
         :class:`~hvacflex.config.ScenarioConfig` (``hvacflex.Scenario``).
     controller : your :class:`~hvacflex.control.base.Controller`; default: the one the
         scenario asks for. ``None`` together with ``own_controller=False``: no controller,
-        every :meth:`step` needs an action.
+        every :meth:`step` needs an action. A dict is an override of the scenario's
+        ``[controller]`` table instead (``{"peak_price_sgd_per_kw": 1.5}``), as in
+        :func:`hvacflex.simulate`.
     plant : your :class:`~hvacflex.sim.plant.Plant`; default: the scenario's (``[plant]``).
+        A dict is an override of the ``[plant]`` table (``{"kind": "energyplus"}``).
     forecaster : your :class:`Forecaster`; default: the scenario's.
     own_controller : build the scenario's controller when ``controller`` is None.
     **overrides : scenario settings, as :func:`hvacflex.simulate` takes them
@@ -163,12 +166,17 @@ class Simulation:
         self,
         scenario: str | Path | ScenarioConfig = "rmpc",
         *,
-        controller: Controller | None = None,
-        plant: Plant | None = None,
+        controller: Controller | Mapping[str, Any] | None = None,
+        plant: Plant | Mapping[str, Any] | None = None,
         forecaster: Forecaster | None = None,
         own_controller: bool = True,
         **overrides: Any,
     ) -> None:
+        # a dict is the scenario's [controller] / [plant] table, as simulate takes it
+        if isinstance(controller, Mapping):
+            overrides["controller"], controller = controller, None
+        if isinstance(plant, Mapping):
+            overrides["plant"], plant = plant, None
         self.scenario: ScenarioConfig = resolve_scenario(scenario, overrides)
         setup = prepare(self.scenario)
         if forecaster is not None:  # the loop calls forecast(k, horizon) only

@@ -77,6 +77,7 @@ def test_without_dask_jobs_run_on_local_processes(
     assert ok.ok and ok.summary is not None and ok.summary["steps"] == 12
     assert not failed.ok and "no-such-building" in (failed.error or "")
     again = run_sweep(jobs[:1], tmp_path, n_workers=workers)
+    assert sweep.backend(None, workers) == ("this process" if workers == 1 else "2 local processes")
     assert again[0].cached and again[0].summary is not None
     assert again[0].summary["energy_kwh"] == ok.summary["energy_kwh"]
 
