@@ -82,7 +82,7 @@ def test_a_missing_extra_is_one_line_with_its_pip_install(
     assert not has_extra("service")
     with pytest.raises(MissingExtraError) as err:
         require_extra("service", "hvacflex serve")
-    assert isinstance(err.value, HvacflexError)
+    assert isinstance(err.value, HvacflexError) and isinstance(err.value, ImportError)
     assert str(err.value) == (
         "hvacflex serve needs the 'service' extra of hvacflex (uvicorn is not installed): "
         "pip install 'hvacflex[service]'"

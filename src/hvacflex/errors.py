@@ -79,9 +79,10 @@ class StoredStateError(InputError):
     from other code and cannot be re-used."""
 
 
-class MissingExtraError(HvacflexError):
+class MissingExtraError(HvacflexError, ImportError):
     """A command or module needs an optional part of hvacflex (an *extra*) that is not
-    installed; the message is one line with the ``pip install`` command that adds it.
+    installed; the message is one line with the ``pip install`` command that adds it. An
+    ``ImportError`` too, so ``import hvacflex.gym`` without the extra fails as imports do.
 
     Parameters
     ----------
