@@ -6,6 +6,7 @@ import inspect
 import json
 import math
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -27,7 +28,14 @@ SRC = Path(hvacflex.__file__).resolve().parents[1]
 """The source folder of the hvacflex under test (a subprocess must import the same one)."""
 
 PUBLIC_NAMES = [
+    "Building",
+    "Controller",
+    "Forecaster",
+    "Plant",
     "RunResult",
+    "Scenario",
+    "Simulation",
+    "SimulationResult",
     "__version__",
     "kpi_summary",
     "load_building",
@@ -228,3 +236,52 @@ def test_load_building_takes_a_shipped_name_or_a_file() -> None:
     with pytest.raises(DataError, match="office5") as err:
         hvacflex.load_building("office55")
     assert err.value.field == "building"
+
+
+def test_the_types_and_protocols_are_the_packages_own() -> None:
+    from hvacflex.building.model import Building
+    from hvacflex.config import ScenarioConfig
+    from hvacflex.control.base import Controller
+    from hvacflex.sim.plant import Plant, RCPlant
+    from hvacflex.simulation import Forecaster, Simulation
+
+    assert hvacflex.Scenario is ScenarioConfig and hvacflex.Building is Building
+    assert hvacflex.Controller is Controller and hvacflex.Plant is Plant
+    assert hvacflex.Forecaster is Forecaster and hvacflex.Simulation is Simulation
+    assert isinstance(hvacflex.preset("rmpc"), hvacflex.Scenario)
+    office = hvacflex.load_building("office5")
+    assert isinstance(office, hvacflex.Building)
+    assert isinstance(RCPlant(office), hvacflex.Plant)  # the protocol is runtime-checkable
+    assert not isinstance(object(), hvacflex.Forecaster)
+
+
+API_DOC = Path(__file__).resolve().parents[1] / "docs" / "api.md"
+RUNNABLE_PYTHON = re.compile(r"<!-- runnable -->\n```python\n(.*?)\n```", re.S)
+
+
+def test_the_examples_of_docs_api_run(tmp_path: Path) -> None:
+    """docs/api.md's runnable blocks, in order, as one script in an empty folder (one
+    interpreter: the imports are paid once)."""
+    blocks = RUNNABLE_PYTHON.findall(API_DOC.read_text(encoding="utf-8"))
+    assert len(blocks) == 3  # stepping, a user's controller, the Gymnasium environment
+    script = tmp_path / "api_examples.py"
+    script.write_text("\n\n".join(blocks), encoding="utf-8")
+    env = {
+        **os.environ,
+        "PYTHONPATH": os.pathsep.join([str(SRC), os.environ.get("PYTHONPATH", "")]),
+    }
+    done = subprocess.run(
+        [sys.executable, str(script)],
+        cwd=tmp_path,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert done.returncode == 0, done.stderr[-3000:]
+    lines = done.stdout.splitlines()
+    assert lines[0].startswith("48 flow ('north'")
+    assert any(line.startswith("energy_kwh: hysteresis") for line in lines)
+    steps, _, _ = lines[-1].split()
+    assert steps == "48"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["api_examples.py"]  # no files left

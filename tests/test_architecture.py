@@ -54,7 +54,7 @@ LAYERS: list[set[str]] = [
         "robustness",
     },
     {"fleet", "service"},
-    {"api"},
+    {"api", "simulation", "gym"},
     {"cli", "cli_config", "cli_help", "cli_model", "cli_serve"},
     {"__main__"},
 ]

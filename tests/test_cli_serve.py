@@ -50,3 +50,40 @@ def test_a_key_command_takes_the_database_from_its_option_the_group_or_the_envir
 def test_replay_checks_its_days_before_it_connects() -> None:
     result = RUNNER.invoke(app, ["serve", "replay", "--url", "http://127.0.0.1:1", "--days", "0"])
     assert result.exit_code == 2 and "--days" in result.output
+
+
+@pytest.mark.parametrize(
+    ("args", "extra", "module"),
+    [
+        (["serve"], "service", "fastapi"),
+        (["serve", "key", "list"], "service", "sqlalchemy"),
+        (
+            [
+                "serve",
+                "openadr-ven",
+                "--vtn-url",
+                "http://127.0.0.1:8080/x",
+                "--ven-name",
+                "v",
+                "--url",
+                "http://127.0.0.1:8000",
+            ],
+            "openadr",
+            "openleadr",
+        ),
+    ],
+)
+def test_a_missing_extra_exits_2_with_the_line_that_installs_it(
+    monkeypatch: pytest.MonkeyPatch, args: list[str], extra: str, module: str
+) -> None:
+    import importlib.util
+
+    real = importlib.util.find_spec
+    monkeypatch.setattr(
+        importlib.util, "find_spec", lambda name, *a: None if name == module else real(name)
+    )
+    result = CliRunner().invoke(app, args)
+    assert result.exit_code == 2, result.output
+    assert f'pip install -e ".[{extra}]"' in result.output
+    assert f"({module} is not installed)" in result.output
+    assert "Traceback" not in result.output

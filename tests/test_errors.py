@@ -7,14 +7,20 @@ from pathlib import Path
 import pytest
 
 from hvacflex.errors import (
+    EXTRA_MODULES,
     BuildingConfigError,
     ConfigError,
     DataError,
     HvacflexError,
     InputError,
+    MissingExtraError,
     ProblemError,
     StoredStateError,
+    has_extra,
+    require_extra,
 )
+
+PYPROJECT = Path(__file__).resolve().parents[1] / "pyproject.toml"
 
 
 def test_the_message_names_file_line_field_value_and_hint() -> None:
@@ -71,3 +77,33 @@ def test_did_you_mean_suggests_the_closest_valid_name_only_when_close() -> None:
     assert did_you_mean("rmpc-pp", names, "use one of …") == "did you mean 'rmpc-ppp'? Use one of …"
     assert did_you_mean("thermostat25.5", names, "x") == "did you mean 'thermostat-25.5'? X"
     assert did_you_mean("zzzz", names, "use one of …") == "use one of …"
+
+
+def test_a_missing_extra_is_one_line_with_its_pip_install(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    import importlib.util
+
+    real = importlib.util.find_spec
+    monkeypatch.setattr(
+        importlib.util, "find_spec", lambda name, *a: None if name == "uvicorn" else real(name)
+    )
+    assert not has_extra("service")
+    with pytest.raises(MissingExtraError) as err:
+        require_extra("service", "hvacflex serve")
+    assert isinstance(err.value, HvacflexError) and isinstance(err.value, ImportError)
+    assert str(err.value) == (
+        "hvacflex serve needs the 'service' extra of hvacflex (uvicorn is not installed): "
+        'pip install -e ".[service]" in the hvacflex clone'
+    )
+    assert (err.value.extra, err.value.missing) == ("service", "uvicorn")
+
+
+def test_every_extra_named_here_is_an_extra_of_the_package_and_dev_holds_them() -> None:
+    import tomllib
+
+    extras = tomllib.loads(PYPROJECT.read_text())["project"]["optional-dependencies"]
+    assert set(EXTRA_MODULES) <= set(extras)
+    (in_dev,) = [r for r in extras["dev"] if r.startswith("hvacflex[")]
+    held = set(in_dev.removeprefix("hvacflex[").removesuffix("]").split(","))
+    assert held == set(extras) - {"dev"}  # the dev extra includes every other extra

@@ -111,3 +111,46 @@ def test_provenance_checksums_match_the_shipped_files() -> None:
         data = (SOURCE_RESOURCES / name).read_bytes()
         assert len(data) == int(size.replace(",", "")), name
         assert hashlib.sha256(data).hexdigest() == sha, name
+
+
+EXTRA_ONLY_MODULES = (
+    "fastapi",
+    "uvicorn",
+    "sqlalchemy",
+    "alembic",
+    "starlette",
+    "dask",
+    "distributed",
+    "gymnasium",
+    "openleadr",
+)
+"""What the core commands must not import: they belong to extras (pyproject.toml)."""
+
+
+def test_simulate_kpi_and_reproduce_import_no_extra(tmp_path: Path) -> None:
+    """The slim core (issue 59): `simulate` and `kpi` run, and `reproduce`'s modules load,
+    without importing a module of the service, Dask, gym or OpenADR extras."""
+    out = tmp_path / "run"
+    code = f"""
+import sys
+from typer.testing import CliRunner
+from hvacflex.cli import app
+args = ["simulate", "--scenario", "thermostat", "--start", "2014-03-03", "--days", "0.25"]
+done = CliRunner().invoke(app, [*args, "--out", {str(out)!r}, "-q"])
+assert done.exit_code == 0, done.output
+done = CliRunner().invoke(app, ["kpi", {str(out)!r}])
+assert done.exit_code == 0, done.output
+import hvacflex.reproduce, hvacflex.reproduce_plan, hvacflex.sensitivity, hvacflex.robustness
+import hvacflex.simulation, hvacflex.api
+print("imported:", ",".join(m for m in {EXTRA_ONLY_MODULES!r} if m in sys.modules))
+"""
+    src = str(Path(hvacflex.__file__).resolve().parents[1])
+    done = subprocess.run(
+        [sys.executable, "-c", code],
+        env={"PYTHONPATH": src, "PATH": "/usr/bin:/bin"},
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip().splitlines()[-1] == "imported:"

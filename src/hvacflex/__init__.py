@@ -13,6 +13,12 @@ The public API (:mod:`hvacflex.api`)::
     hvacflex.preset("rmpc-ppp"); hvacflex.load_config("scenario.toml")
     hvacflex.load_building("office5"); hvacflex.kpi_summary("results/rmpc")
 
+    sim = hvacflex.Simulation("thermostat-25.5", start="2014-03-03", days=1)
+    sim.step(); sim.step([0.3, 0.3, 0.3, 0.3, 0.6]); sim.run().summary
+
+``Scenario``, ``Building`` and the protocols ``Controller``, ``Plant`` and ``Forecaster``
+complete the names (docs/api.md).
+
 Its names are loaded on first use (PEP 562), so ``import hvacflex`` imports neither numpy,
 pandas nor the solver, and the command line starts as fast as without them.
 """
@@ -24,10 +30,31 @@ from typing import TYPE_CHECKING, Any
 from hvacflex.version import __version__
 
 if TYPE_CHECKING:
-    from hvacflex.api import RunResult, kpi_summary, load_building, load_config, preset, simulate
+    from hvacflex.api import (
+        Building,
+        Controller,
+        Forecaster,
+        Plant,
+        RunResult,
+        Scenario,
+        Simulation,
+        SimulationResult,
+        kpi_summary,
+        load_building,
+        load_config,
+        preset,
+        simulate,
+    )
 
 __all__ = [
+    "Building",
+    "Controller",
+    "Forecaster",
+    "Plant",
     "RunResult",
+    "Scenario",
+    "Simulation",
+    "SimulationResult",
     "__version__",
     "kpi_summary",
     "load_building",

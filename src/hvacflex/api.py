@@ -10,6 +10,17 @@ line) stays cheap; the first use of one imports this module and what it needs::
     run.results["power_kw"]              # the results table, one row per 30-min period
     hvacflex.simulate("rmpc-ppp", days=1, controller={"peak_price_sgd_per_kw": 1.5})
 
+    sim = hvacflex.Simulation("thermostat-25.5", start="2014-03-03", days=1)
+    sim.step()                           # one period by the scenario's controller
+    sim.step([0.3, 0.3, 0.3, 0.3, 0.6])  # one period with your zone flows [kg/s]
+    sim.run().summary                    # the rest; the KPIs
+
+``Scenario`` (the scenario configuration, :class:`hvacflex.config.ScenarioConfig`),
+``Building``, and the protocols a user's part implements — ``Controller``
+(:class:`hvacflex.control.base.Controller`), ``Plant`` (:class:`hvacflex.sim.plant.Plant`) and
+``Forecaster`` (:class:`hvacflex.simulation.Forecaster`) — complete the public names
+(docs/api.md).
+
 :func:`simulate` builds its scenario on the path ``hvacflex simulate`` takes
 (:func:`hvacflex.config.resolve_scenario`) and runs it with
 :func:`hvacflex.sim.closed_loop.run_simulation`, so the two give the same results.
@@ -27,12 +38,26 @@ from hvacflex.building.io import load_building as _load_building_file
 from hvacflex.building.model import Building
 from hvacflex.config import ScenarioConfig, load_config, preset, resolve_scenario
 from hvacflex.constants import RUN_DIR
+from hvacflex.control.base import Controller
 from hvacflex.paths import resolve_building
 from hvacflex.results import load_results
 from hvacflex.sim.closed_loop import DEFAULT_CHECKPOINT_EVERY, RunResult, run_simulation
+from hvacflex.sim.plant import Plant
+from hvacflex.simulation import Forecaster, Simulation, SimulationResult
+
+Scenario = ScenarioConfig
+"""A scenario: the building, the data, the controller, the plant… (``hvacflex.Scenario``;
+:func:`preset` and :func:`load_config` make one, ``Scenario.with_overrides`` changes one)."""
 
 __all__ = [
+    "Building",
+    "Controller",
+    "Forecaster",
+    "Plant",
     "RunResult",
+    "Scenario",
+    "Simulation",
+    "SimulationResult",
     "kpi_summary",
     "load_building",
     "load_config",
@@ -98,14 +123,15 @@ def load_building(name_or_path: str | Path) -> Building:
 
 
 def kpi_summary(
-    results: pd.DataFrame | RunResult | str | Path, peak_price_sgd_per_kw: float | None = None
+    results: pd.DataFrame | RunResult | SimulationResult | str | Path,
+    peak_price_sgd_per_kw: float | None = None,
 ) -> dict[str, float]:
     """The KPIs of a run, as ``hvacflex kpi`` prints them (:func:`hvacflex.kpi.summary`).
 
     Parameters
     ----------
-    results : a results DataFrame, a :class:`RunResult`, or a run folder / results Parquet
-        file (read with :func:`hvacflex.kpi.load_results`).
+    results : a results DataFrame, a :class:`RunResult` or :class:`SimulationResult`, or a
+        run folder / results Parquet file (read with :func:`hvacflex.kpi.load_results`).
     peak_price_sgd_per_kw : price the PPP charge at this φ [SGD/kW]; default: the run's
         ``peak_price_sgd_per_kw`` column.
 
@@ -115,7 +141,7 @@ def kpi_summary(
     ``RunResult.summary`` it holds no timing keys (``steps_per_s``, ``time_*``), which only a
     simulation measures.
     """
-    if isinstance(results, RunResult):
+    if isinstance(results, RunResult | SimulationResult):
         frame = results.results
     elif isinstance(results, pd.DataFrame):
         frame = results

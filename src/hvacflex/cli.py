@@ -479,14 +479,17 @@ def sweep(
     ),
     out: Path = typer.Option(Path("results/sweep"), help="Output folder."),  # noqa: B008
     scheduler: str | None = typer.Option(
-        None, help="dask.distributed scheduler address; default: a LocalCluster here."
+        None,
+        help="dask.distributed scheduler address (the dask extra); default: a LocalCluster "
+        "here, or local processes without the dask extra.",
     ),
     workers: int = typer.Option(
         2, min=1, max=MAX_WORKERS, help="Local worker processes (without --scheduler)."
     ),
     fresh: bool = typer.Option(False, help="Ignore existing results and checkpoints."),
 ) -> None:
-    """Run independent closed-loop simulations over a parameter grid on Dask.
+    """Run independent closed-loop simulations over a parameter grid (on Dask with the dask
+    extra, else on local processes).
 
     Exits 1 when any run fails (the table still lists every run, with its error).
     """
@@ -572,7 +575,9 @@ def reproduce(
         help="Output folder; every run is kept in OUT/runs/<run name> and updated in place.",
     ),
     scheduler: str | None = typer.Option(
-        None, help="dask.distributed scheduler address; default: a LocalCluster here."
+        None,
+        help="dask.distributed scheduler address (the dask extra); default: a LocalCluster "
+        "here, or local processes without the dask extra.",
     ),
     workers: int = typer.Option(
         2, min=1, max=MAX_WORKERS, help="Local worker processes (without --scheduler)."

@@ -89,7 +89,12 @@ def serve(
         return
     import sys
 
-    from hvacflex.errors import HvacflexError
+    from hvacflex.errors import HvacflexError, require_extra
+
+    try:
+        require_extra("service", "hvacflex serve")
+    except HvacflexError as exc:
+        raise exit_on_error(exc) from None
     from hvacflex.service.app import create_app
     from hvacflex.service.keys import CLOCK_ROUTE, REGISTER_ROUTE, parse_route_limit
     from hvacflex.service.operations import (
@@ -201,6 +206,17 @@ def _key_sessions(ctx: typer.Context, db: str | None) -> Any:
 
     try:
         return session_factory(open_database(_serve_db(ctx, db)))
+    except HvacflexError as exc:
+        raise exit_on_error(exc) from None
+
+
+@serve_key_app.callback()
+def serve_key() -> None:
+    """API keys of the service (needs the service extra: its database)."""
+    from hvacflex.errors import HvacflexError, require_extra
+
+    try:
+        require_extra("service", "hvacflex serve key")
     except HvacflexError as exc:
         raise exit_on_error(exc) from None
 
@@ -342,7 +358,12 @@ def serve_openadr_ven(
     import logging
     from dataclasses import replace
 
-    from hvacflex.errors import HvacflexError
+    from hvacflex.errors import HvacflexError, require_extra
+
+    try:
+        require_extra("openadr", "hvacflex serve openadr-ven")
+    except HvacflexError as exc:
+        raise exit_on_error(exc) from None
     from hvacflex.service.openadr import VenConfig, parse_clock_offset, run_ven
     from hvacflex.service.replay import read_key
 

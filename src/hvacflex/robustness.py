@@ -275,7 +275,8 @@ def run_seed_study(
     fresh: bool = False,
     log: Callable[[str], None] = print,
 ) -> SeedStudy:
-    """Run ``plan`` on Dask (progress bar with ETA) and write the tables and the figure."""
+    """Run ``plan`` on Dask or local processes (progress bar with ETA) and write the tables
+    and the figure."""
     from hvacflex.report.sensitivity_plots import plot_seed_spread
 
     started = time.perf_counter()

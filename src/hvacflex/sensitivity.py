@@ -246,7 +246,8 @@ def run_sensitivity(
     fresh: bool = False,
     log: Callable[[str], None] = print,
 ) -> SensitivityStudy:
-    """Run ``grid`` on Dask (progress bar with ETA) and write the tables and the figure."""
+    """Run ``grid`` on Dask or local processes (progress bar with ETA) and write the tables
+    and the figure."""
     from hvacflex.report.sensitivity_plots import plot_reserve_sensitivity
 
     started = time.perf_counter()

@@ -132,3 +132,25 @@ def test_simulate_prints_the_guarantee_outside_the_flagged_periods(tmp_path: Pat
     done = CliRunner().invoke(app, [*simulate, *options])
     assert done.exit_code == 0, done.output
     assert "1 periods flagged infeasible (outside them: planned over limit max" in done.output
+
+
+def test_workers_without_the_dask_extra_exit_2_with_its_install_line(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import importlib.util
+
+    real = importlib.util.find_spec
+    monkeypatch.setattr(
+        importlib.util, "find_spec", lambda name, *a: None if name == "dask" else real(name)
+    )
+    fleet = tmp_path / "fleet.toml"
+    runner = CliRunner()
+    done = runner.invoke(
+        app, ["fleet", "generate", "--buildings", "2", "--seed", "4", "--out", str(fleet)]
+    )
+    assert done.exit_code == 0, done.output
+    args = ["fleet", "simulate", "--fleet", str(fleet), "--days", "0.0625"]
+    done = runner.invoke(app, [*args, "--out", str(tmp_path / "run"), "--workers", "2"])
+    assert done.exit_code == 2, done.output
+    assert 'pip install -e ".[dask]"' in done.output and "--workers 0" in done.output
+    assert not (tmp_path / "run" / "results.parquet").exists()

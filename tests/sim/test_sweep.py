@@ -5,7 +5,7 @@ import pandas as pd
 import pytest
 
 from hvacflex.config import preset
-from hvacflex.errors import ConfigError
+from hvacflex.errors import ConfigError, MissingExtraError
 from hvacflex.sim.sweep import (
     DASHBOARD_ADDRESS,
     SweepClock,
@@ -60,6 +60,49 @@ def test_a_failing_job_does_not_lose_the_others(
     # --fresh simulates again
     fresh = run_sweep(jobs[:1], tmp_path, n_workers=1, fresh=True)
     assert fresh[0].ok and not fresh[0].cached
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_without_dask_jobs_run_on_local_processes(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, workers: int
+) -> None:
+    """Without the dask extra a sweep runs in this process (one worker) or on a
+    concurrent.futures pool; a failing job is reported, the others finish."""
+    import hvacflex.sim.sweep as sweep
+
+    monkeypatch.setattr(sweep, "has_extra", lambda extra: extra != "dask")
+    monkeypatch.setattr(sweep, "start_local_dask", None)  # any use of Dask fails
+    base = preset("thermostat", start="2014-03-03", days=0.25)
+    jobs = expand_grid(base, {"building": ["office5", "no-such-building"]})
+    done: list[str] = []
+    outcomes = run_sweep(jobs, tmp_path, n_workers=workers, on_done=lambda o: done.append(o.label))
+    assert len(done) == 2
+    ok, failed = outcomes
+    assert ok.ok and ok.summary is not None and ok.summary["steps"] == 12
+    assert not failed.ok and "no-such-building" in (failed.error or "")
+    again = run_sweep(jobs[:1], tmp_path, n_workers=workers)
+    assert sweep.backend(None, workers) == ("this process" if workers == 1 else "2 local processes")
+    assert again[0].cached and again[0].summary is not None
+    assert again[0].summary["energy_kwh"] == ok.summary["energy_kwh"]
+
+
+def test_a_scheduler_without_dask_is_refused_with_the_install_line(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import importlib.util
+
+    import hvacflex.sim.sweep as sweep
+
+    real = importlib.util.find_spec
+    monkeypatch.setattr(
+        importlib.util, "find_spec", lambda name, *a: None if name == "dask" else real(name)
+    )
+    base = preset("thermostat", start="2014-03-03", days=0.25)
+    with pytest.raises(MissingExtraError, match=r'pip install -e "\.\[dask\]"'):
+        run_sweep([({}, base)], tmp_path, scheduler="tcp://127.0.0.1:8786")
+    with pytest.raises(MissingExtraError, match="--scheduler"):
+        sweep.check_scheduler("tcp://127.0.0.1:8786")
+    assert not (tmp_path / "runs").exists()
 
 
 def test_longest_jobs_start_first(tmp_path: Path) -> None:

@@ -115,7 +115,7 @@ def simulate(
     fresh: bool = typer.Option(False, "--fresh", help="Ignore a checkpoint."),
 ) -> None:
     """Simulate a fleet under its feeder limit with coordinated RMPC (results.parquet)."""
-    from hvacflex.errors import HvacflexError
+    from hvacflex.errors import HvacflexError, require_extra
     from hvacflex.fleet.report import write_fleet_report
     from hvacflex.fleet.run import minimum_power_warning, run_fleet
     from hvacflex.fleet.schema import load_fleet_document
@@ -129,6 +129,10 @@ def simulate(
         check_output_dir(out, "--out")
         if scheduler is not None:
             check_scheduler(scheduler)
+        elif workers > 0:
+            require_extra(
+                "dask", "hvacflex fleet simulate with --workers > 0 (--workers 0 runs without Dask)"
+            )
         warning = minimum_power_warning(loaded, start, days)
         if warning is not None:
             typer.echo(f"warning: {warning}", err=True)

@@ -1,11 +1,14 @@
-"""Sweeps: many independent closed-loop runs as Dask tasks.
+"""Sweeps: many independent closed-loop runs, on Dask or on local processes.
 
 Each job is one :func:`~hvacflex.sim.closed_loop.run_simulation` in its own folder named after
 the scenario and its configuration hash, so finished runs are re-used and an interrupted
-sweep picks up where it stopped. Jobs run on a ``dask.distributed`` cluster: a
-``LocalCluster`` of single-threaded worker processes on this machine by default, or any
-scheduler given by address (``tcp://host:8786``). A job that fails is reported with its
-error; the others still finish and are gathered into one table.
+sweep picks up where it stopped. With the ``dask`` extra installed, jobs run on a
+``dask.distributed`` cluster: a ``LocalCluster`` of single-threaded worker processes on this
+machine by default, or any scheduler given by address (``tcp://host:8786``). Without it they
+run on a ``concurrent.futures`` pool of worker processes (one worker: in this process); a
+scheduler address then needs the extra (:class:`~hvacflex.errors.MissingExtraError`). A job
+that fails is reported with its error; the others still finish and are gathered into one
+table.
 """
 
 from __future__ import annotations
@@ -14,7 +17,8 @@ import itertools
 import logging
 import time
 import traceback
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from concurrent.futures import Future, ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -22,7 +26,7 @@ from typing import Any
 import pandas as pd
 
 from hvacflex.config import ScenarioConfig, with_overrides
-from hvacflex.errors import ConfigError, InputError
+from hvacflex.errors import ConfigError, InputError, has_extra, require_extra
 
 JobCallback = Callable[["JobOutcome"], None]
 
@@ -230,7 +234,7 @@ def _submit_longest_first(
     priority, so neither a worker that takes the first task early nor the scheduler's FIFO
     reorders them. The futures, and each future's key → the job's position in ``jobs``."""
     costs = [relative_cost(cfg) for _, cfg in jobs]
-    order = sorted(range(len(jobs)), key=lambda i: -costs[i])
+    order = _longest_first(jobs)
     futures = [
         client.submit(
             _run_job,
@@ -257,14 +261,16 @@ def run_sweep(
     progress: bool = False,
     out_dirs: Sequence[Path] | None = None,
 ) -> list[JobOutcome]:
-    """Run ``jobs`` (from :func:`expand_grid`) on Dask and return their outcomes in order.
+    """Run ``jobs`` (from :func:`expand_grid`) and return their outcomes in order.
 
     Parameters
     ----------
     jobs : (overrides, config) pairs.
     out_root : every run goes to ``run_dir(out_root, config)``.
-    scheduler : address of a running ``dask.distributed`` scheduler; None starts a
-        ``LocalCluster`` of ``n_workers`` single-threaded processes.
+    scheduler : address of a running ``dask.distributed`` scheduler (needs the ``dask``
+        extra); None: ``n_workers`` single-threaded processes here — a Dask ``LocalCluster``
+        with the ``dask`` extra, else a ``concurrent.futures`` process pool (one worker: this
+        process).
     on_done : called with each outcome as it finishes (progress per job).
     fresh : ignore finished results and checkpoints in the run folders (simulate again).
     progress : show a progress bar over the jobs (done/total, elapsed, ETA, failures).
@@ -272,12 +278,15 @@ def run_sweep(
         :mod:`hvacflex.reproduce`); None: ``run_dir(out_root, config)``.
 
     Jobs start longest first (:func:`relative_cost`); the outcomes keep the order of ``jobs``.
-    """
-    from dask.distributed import Client, as_completed
 
+    Raises
+    ------
+    MissingExtraError : a scheduler address without the ``dask`` extra.
+    """
     from hvacflex.sim.progress import task_progress
 
-    quiet_dask_logs()
+    if scheduler is not None:
+        require_extra("dask", "a sweep on a Dask scheduler (--scheduler)")
     root = Path(out_root)
     if out_dirs is not None and len(out_dirs) != len(jobs):
         raise InputError(
@@ -291,43 +300,112 @@ def run_sweep(
         if out_dirs is None
         else [str(folder) for folder in out_dirs]
     )
+    if scheduler is None and not has_extra("dask"):
+        finished = _run_local(jobs, dirs, fresh, n_workers)
+    else:
+        finished = _run_on_dask(jobs, dirs, fresh, scheduler, n_workers)
+    outcomes: dict[int, JobOutcome] = {}
+    failed = 0
+    with task_progress(progress, "sweep", len(jobs)) as update:
+        for i, result, error in finished:
+            overrides, cfg = jobs[i]
+            outcome = JobOutcome(
+                label=cfg.name,
+                config_hash=cfg.config_hash(),
+                params=overrides,
+                out_dir=dirs[i],
+                summary=None if result is None else result[0],
+                error=error,
+                cached=False if result is None else result[1],
+            )
+            outcomes[i] = outcome
+            failed += outcome.error is not None
+            update(info=f"{failed} failed" if failed else "")
+            if on_done is not None:
+                on_done(outcome)
+    return [outcomes[i] for i in range(len(jobs))]
+
+
+def backend(scheduler: str | None, n_workers: int) -> str:
+    """Where :func:`run_sweep` runs its jobs, in words (for a log line)."""
+    if scheduler is not None:
+        return f"Dask at {scheduler}"
+    if has_extra("dask"):
+        return f"Dask ({n_workers} workers)"
+    if n_workers <= 1:
+        return "this process"
+    return f"{n_workers} local processes"
+
+
+_JobResult = tuple[dict[str, float], bool]
+_Finished = Iterator[tuple[int, _JobResult | None, str | None]]
+"""(the job's position, its (KPIs, cached) or None, its error line or None), as jobs finish."""
+
+
+def _error_line(exc: BaseException) -> str:
+    return "".join(traceback.format_exception_only(type(exc), exc)).strip()
+
+
+def _longest_first(jobs: Sequence[tuple[dict[str, Any], ScenarioConfig]]) -> list[int]:
+    """The jobs' positions, longest first (:func:`relative_cost`)."""
+    costs = [relative_cost(cfg) for _, cfg in jobs]
+    return sorted(range(len(jobs)), key=lambda i: -costs[i])
+
+
+def _run_local(
+    jobs: Sequence[tuple[dict[str, Any], ScenarioConfig]],
+    dirs: list[str],
+    fresh: bool,
+    n_workers: int,
+) -> _Finished:
+    """The jobs without Dask: in this process (one worker) or on a ``concurrent.futures``
+    pool of ``n_workers`` processes, submitted longest first."""
+    order = _longest_first(jobs)
+    if n_workers <= 1:
+        for i in order:
+            try:
+                yield i, _run_job(jobs[i][1], dirs[i], fresh), None
+            except Exception as exc:  # a failing job must not lose the others
+                yield i, None, _error_line(exc)
+        return
+    with ProcessPoolExecutor(max_workers=n_workers) as pool:
+        position: dict[Future[_JobResult], int] = {
+            pool.submit(_run_job, jobs[i][1], dirs[i], fresh): i for i in order
+        }
+        for future in as_completed(position):
+            try:
+                yield position[future], future.result(), None
+            except Exception as exc:
+                yield position[future], None, _error_line(exc)
+
+
+def _run_on_dask(
+    jobs: Sequence[tuple[dict[str, Any], ScenarioConfig]],
+    dirs: list[str],
+    fresh: bool,
+    scheduler: str | None,
+    n_workers: int,
+) -> _Finished:
+    """The jobs on Dask: a ``LocalCluster`` of ``n_workers`` processes here, or the
+    scheduler at ``scheduler``."""
+    from dask.distributed import Client
+    from dask.distributed import as_completed as dask_completed
+
+    quiet_dask_logs()
     cluster = None
     if scheduler is None:
         cluster, client = start_local_dask(n_workers)
     else:
         client = Client(scheduler)  # type: ignore[no-untyped-call]
-    outcomes: dict[int, JobOutcome] = {}
     try:
         futures, position = _submit_longest_first(client, jobs, dirs, fresh)
-        failed = 0
-        with task_progress(progress, "sweep", len(jobs)) as update:
-            for future in as_completed(futures):  # type: ignore[no-untyped-call]
-                i = position[future.key]
-                overrides, cfg = jobs[i]
-                summary: dict[str, float] | None = None
-                cached = False
-                try:
-                    summary, cached = future.result()
-                    error = None
-                except Exception as exc:  # a failing job must not lose the others
-                    error = "".join(traceback.format_exception_only(type(exc), exc)).strip()
-                outcome = JobOutcome(
-                    label=cfg.name,
-                    config_hash=cfg.config_hash(),
-                    params=overrides,
-                    out_dir=dirs[i],
-                    summary=summary,
-                    error=error,
-                    cached=cached,
-                )
-                outcomes[i] = outcome
-                failed += outcome.error is not None
-                update(info=f"{failed} failed" if failed else "")
-                if on_done is not None:
-                    on_done(outcome)
+        for future in dask_completed(futures):  # type: ignore[no-untyped-call]
+            try:
+                yield position[future.key], future.result(), None
+            except Exception as exc:  # a failing job must not lose the others
+                yield position[future.key], None, _error_line(exc)
     finally:
         close_dask(client, cluster)
-    return [outcomes[i] for i in range(len(jobs))]
 
 
 def outcomes_table(outcomes: Sequence[JobOutcome]) -> pd.DataFrame:
@@ -360,6 +438,7 @@ def check_scheduler(address: str, field: str = "--scheduler") -> None:
     """
     import socket
 
+    require_extra("dask", f"a Dask scheduler ({field})")
     from distributed.comm.addressing import parse_address, parse_host_port
 
     hint = "give the address of a running scheduler, e.g. tcp://127.0.0.1:8786 (dask scheduler)"
