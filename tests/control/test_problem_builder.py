@@ -88,3 +88,31 @@ def test_the_plan_stays_inside_an_identified_model_s_validity_range() -> None:
     designed = SimpleNamespace(identified=None)
     same = within_validity(designed, y_min, y_max)  # type: ignore[arg-type]
     assert same[0] is y_min and same[1] is y_max
+
+
+def test_power_rows_take_outdoor_air_only_where_the_damper_is_open(setup: Setup) -> None:
+    """The LP's rows are the building's affine model with the plant's damper schedule: an
+    unoccupied step's row equals the model with the damper closed, an occupied one's open."""
+    from hvacflex.building.hvac import affine_power_model
+
+    controller = make_controller(setup)
+    assert isinstance(controller, MPCController)
+    inputs = _inputs(setup)
+    problem = build_problem(setup.model, inputs, controller.contract, PlanContext(inputs.x_degc))
+    forecast, hvac = inputs.forecast, setup.building.hvac
+    horizon = problem.power_offset_kw.shape[0]
+    occupied = forecast.occupied[:horizon]
+    assert occupied.any() and not occupied.all()
+    outdoor = forecast.disturbances[:horizon, controller.contract.outdoor_index]
+    for damper in (False, True):
+        p0, _ = affine_power_model(
+            hvac,
+            outdoor,
+            forecast.outdoor_humidity_ratio_kg_per_kg[:horizon],
+            controller.contract.linearisation_temp_degc,
+            latent_gain_w=forecast.occupant_latent_w[:horizon],
+            flow_min_kg_s=problem.u_min,
+            damper_open=damper,
+        )
+        rows = occupied == damper
+        np.testing.assert_allclose(problem.power_offset_kw[rows], p0[rows])

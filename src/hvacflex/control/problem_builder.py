@@ -6,7 +6,8 @@ the same problem (docs/model.md §3):
 * dynamics ``x+ = A x + B u + E d + g`` from :func:`hvacflex.building.discretize.linearize`
   (or the step model of a re-linearisation), the filter's offset in the affine term,
 * power ``P_k = p0_k + p_kᵀ u_k`` from :func:`hvacflex.building.hvac.affine_power_model` at the
-  forecast outdoor temperature and humidity and the zone temperature T₀ (a building
+  forecast outdoor temperature and humidity and the zone temperature T₀, outdoor air only
+  where the damper is open (occupied steps and the pre-occupancy purge, as the plant; a building
   identified from data: its fitted power model,
   :func:`hvacflex.building.identified.identified_affine_power`),
 * comfort bounds for ``C x_{k+1}``, the temperature at the end of period k: the tighter of
@@ -308,6 +309,8 @@ def _power_coefficients(
         return p0, p, p
     latent = forecast.occupant_latent_w[:horizon]
     humidity = forecast.outdoor_humidity_ratio_kg_per_kg[:horizon]
+    # the plant's damper schedule, purge included where the forecast shows the next spell
+    damper = building.hvac.outdoor_air_open_at(forecast.occupied, contract.model.dt_s)[:horizon]
     p0, p = affine_power_model(
         building.hvac,
         outdoor,
@@ -315,6 +318,7 @@ def _power_coefficients(
         contract.linearisation_temp_degc,
         latent_gain_w=latent if latent.size == horizon else 0.0,
         flow_min_kg_s=u_min,
+        damper_open=damper,
     )
     reserve_coeff = reserve_power_coeff(
         building.hvac,
@@ -322,6 +326,7 @@ def _power_coefficients(
         humidity,
         _return_air_estimate_degc(contract.model, context, y_min),
         _curtailed_flow_estimate_kg_s(context.previous_plan, u_min),
+        damper_open=damper,
     )
     return p0, p, reserve_coeff
 

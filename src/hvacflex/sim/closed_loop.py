@@ -225,6 +225,8 @@ class ClosedLoop:
             hvac.flow_min_at(np.array([True]))[0],
         )
         """(m,) lowest flow [kg/s] when unoccupied and when occupied."""
+        self._damper_open = hvac.outdoor_air_open_at(setup.exogenous.occupied, cfg.dt_s)
+        """(T,) bool: the outdoor-air damper open (occupied or purge), the plant's schedule."""
         self.x = np.full(len(setup.model.node_names), cfg.initial_temp_degc)
         if setup.building.identified is not None:  # hidden nodes at their estimated values
             self.x = initial_node_temps_degc(setup.building.identified, cfg.initial_temp_degc)
@@ -297,6 +299,7 @@ class ClosedLoop:
             float(d_real[self._outdoor]),
             float(exo.outdoor_humidity_ratio_kg_per_kg[k]),
             latent_gain_w=float(exo.occupant_latent_w[k]),
+            damper_open=bool(self._damper_open[k]),
         )
         period = self._plant_period(decision, disturbance)
         delivered = None

@@ -85,6 +85,8 @@ class Disturbance:
     outdoor_temp_degc : outdoor dry-bulb temperature [°C].
     outdoor_humidity_ratio_kg_per_kg : outdoor humidity ratio [kg/kg].
     latent_gain_w : the occupants' latent gain, all zones [W] (a coil load, not in ``d``).
+    damper_open : the outdoor-air damper is open this period (occupied, or the pre-occupancy
+        purge: ``HvacSystem.outdoor_air_open_at``); closed, the air handler recirculates.
 
     A plant with its own weather (EnergyPlus reads the EPW) may ignore these.
     """
@@ -93,6 +95,7 @@ class Disturbance:
     outdoor_temp_degc: float
     outdoor_humidity_ratio_kg_per_kg: float
     latent_gain_w: float = 0.0
+    damper_open: bool = True
 
 
 @dataclass(frozen=True)
@@ -222,6 +225,7 @@ class RCPlant:
                     disturbance.outdoor_temp_degc,
                     disturbance.outdoor_humidity_ratio_kg_per_kg,
                     latent_gain_w=disturbance.latent_gain_w,
+                    damper_open=disturbance.damper_open,
                 )
             )
         )
