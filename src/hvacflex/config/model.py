@@ -93,6 +93,12 @@ class ControllerConfig:
     optimal_start: bool = False
     """Rule-based controllers: pre-cool before occupancy with the learned lead
     (:class:`hvacflex.control.baselines.OptimalStart`)."""
+    unoccupied_margin_k: float = 1.0
+    """Rule-based controllers: the night float's set-point below the unoccupied upper comfort
+    bound [K] (never below the lower bound)."""
+    unoccupied_plan_margin_k: float = 0.5
+    """The MPC: its plan keeps the end-of-period zone temperatures this far below the upper
+    comfort bound of unoccupied periods [K] (not written into ``comfort_upper_*``)."""
     demand_limit_fraction: float = 0.9
     """``demand-limit``: the peak target's share of yesterday's unmanaged peak."""
     reserve_share: float = 0.2
