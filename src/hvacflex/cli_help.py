@@ -20,8 +20,9 @@ if TYPE_CHECKING:
 
 PRESET_HELP = (
     "Preset: nmpc, rmpc, rmpc-ppp, nmpc-no-reserve, thermostat, thermostat-25.5, "
-    "thermostat-25.5-float, trim-respond, demand-limit, gta-dr, plant-baseline, rmpc-feedback, rmpc-feedback-ppp, "
-    "rmpc-output-feedback, paper-nmpc, paper-rmpc, paper-rmpc-ppp."
+    "thermostat-25.5-float, trim-respond, demand-limit, gta-dr, plant-baseline, "
+    "rmpc-feedback, rmpc-feedback-ppp, rmpc-output-feedback, paper-nmpc, paper-rmpc, "
+    "paper-rmpc-ppp."
 )
 """The presets, spelled out so that ``--help`` need not import the configuration
 (``tests/test_cli.py`` checks it against ``hvacflex.config.PRESET_NAMES``)."""

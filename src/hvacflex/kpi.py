@@ -610,6 +610,16 @@ def model_extrapolation_steps(results: pd.DataFrame) -> int:
     return int(np.sum(flags))
 
 
+def peak_guard_steps(results: pd.DataFrame) -> int:
+    """Number of periods in which the in-period peak guard shed load to hold the committed
+    peak (column ``peak_guard_active``; docs/model.md, the committed peak). 0 for results
+    written before the column existed."""
+    if "peak_guard_active" not in results.columns:
+        return 0
+    flags = results["peak_guard_active"].fillna(False).astype(bool).to_numpy()
+    return int(np.sum(flags))
+
+
 def planned_slack_share(
     results: pd.DataFrame, tolerance_k: float = PLANNED_SLACK_TOLERANCE_K
 ) -> float:
@@ -677,7 +687,8 @@ def summary(results: pd.DataFrame, peak_price_sgd_per_kw: float | None = None) -
     ``monthly_avg_net_cost_sgd``, ``discomfort_kelvin_hours`` (total),
     ``discomfort_<zone>_kelvin_hours``, ``max_violation_k`` (all zones),
     ``max_violation_<zone>_k``, ``violation_share``, the IL keys of :func:`il_summary`,
-    ``fallback_count``, ``model_extrapolation_steps``, ``planned_slack_share``,
+    ``fallback_count``, ``model_extrapolation_steps``, ``peak_guard_steps``,
+    ``planned_slack_share``,
     ``max_delta_vs_half_band``, ``solve_time_mean_s``, ``solve_time_p95_s``,
     ``solve_time_max_s``, ``prediction_error_*`` (:func:`prediction_error_summary`). Monthly
     averages are omitted when the index is not a ``DatetimeIndex``, as are ``ppp_charge_sgd``
@@ -709,6 +720,7 @@ def summary(results: pd.DataFrame, peak_price_sgd_per_kw: float | None = None) -
     out |= il_summary(results)
     out["fallback_count"] = float(fallback_count(results))
     out["model_extrapolation_steps"] = float(model_extrapolation_steps(results))
+    out["peak_guard_steps"] = float(peak_guard_steps(results))
     out["planned_slack_share"] = planned_slack_share(results)
     out["max_delta_vs_half_band"] = max_delta_vs_half_band(results)
     out |= {f"solve_time_{stat}_s": v for stat, v in solve_time_stats_s(results).items()}

@@ -464,7 +464,7 @@ class HvacSystem:
         dt_s : step length [s]. An occupied spell beyond the series' end opens no purge.
         """
         occ = np.asarray(occupied, dtype=bool).reshape(-1)
-        purge_steps = int(math.ceil(self.outdoor_air_purge_h * SECONDS_PER_HOUR / dt_s - 1e-9))
+        purge_steps = math.ceil(self.outdoor_air_purge_h * SECONDS_PER_HOUR / dt_s - 1e-9)
         open_ = occ.copy()
         for shift in range(1, purge_steps + 1):
             open_[:-shift] |= occ[shift:]

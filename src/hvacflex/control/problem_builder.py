@@ -114,9 +114,7 @@ def below_unoccupied_bound(
     now = occupied[:horizon]
     nxt = np.concatenate([occupied[1 : horizon + 1], occupied[horizon - 1 : horizon]])[:horizon]
     night = ~(now | nxt)
-    lowered: FloatArray = np.where(
-        night[:, None], np.maximum(y_max - margin_k, y_min), y_max
-    )
+    lowered: FloatArray = np.where(night[:, None], np.maximum(y_max - margin_k, y_min), y_max)
     return lowered
 
 

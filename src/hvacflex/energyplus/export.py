@@ -500,7 +500,7 @@ def _outdoor_air_schedule(schedule: OfficeSchedule, purge_h: float) -> str:
     ``purge_h`` before the occupied hours of working days to their end, 0 otherwise — the
     rule of the RC plant and the LP (``HvacSystem.outdoor_air_open_at``)."""
     start, end = schedule.occupied_hours
-    open_min = max(int(round((start - purge_h) * 60.0)), 0)
+    open_min = max(round((start - purge_h) * 60.0), 0)
     fields: list[str] = []
     if open_min > 0:
         fields += [f"Until: {open_min // 60:02d}:{open_min % 60:02d}", "0"]
