@@ -25,6 +25,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import partial
 from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
@@ -348,9 +349,8 @@ class RCPlant:
         active = False
         for _ in range(guard.substeps):
             zones = x[self._zones]
-            applied = shed_flows_kg_s(
-                flow, guard, zones, lambda u, z=zones: self._power_kw(u, z, disturbance)
-            )
+            meter = partial(self._power_kw, zone_temp_degc=zones, disturbance=disturbance)
+            applied = shed_flows_kg_s(flow, guard, zones, meter)
             active = active or bool(np.any(applied < flow))
             x_sub = self.plant.step(x, applied, disturbance.d, h)
             mean = 0.5 * (zones + x_sub[self._zones])
