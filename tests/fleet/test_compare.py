@@ -11,13 +11,17 @@ from typer.testing import CliRunner
 
 from hvacflex.cli import app
 from hvacflex.errors import InputError
+from hvacflex.fleet.agent import BuildingGroup, FleetSettings
+from hvacflex.fleet.centralised import CentralisedSolver, solve_centralised
 from hvacflex.fleet.compare import (
     COMPARE_COLUMNS,
     COMPARE_FILE,
+    SPLIT_TERMS,
     compare_fleet,
     reference_limit_kw,
 )
 from hvacflex.fleet.generate import generate_fleet, write_fleet
+from hvacflex.fleet.schema import load_fleet_document
 
 
 @pytest.fixture(scope="module")
@@ -40,6 +44,56 @@ def test_compare_two_steps_centralised_is_a_lower_bound(tight_fleet: Path, tmp_p
     assert np.all(frame["gap"] >= -1e-6)
     assert np.all(frame["gap"] <= 0.02)
     assert np.all(frame["coordinated_max_over_limit_kw"] <= 1e-3)
+    # the parts add up to each side's objective (the centralised one carries the reserve
+    # tie-break, a few cents at most) and the gaps are the formula
+    for side in ("centralised", "coordinated"):
+        parts = sum(written[f"{side}_{term}_sgd"] for term in SPLIT_TERMS)
+        np.testing.assert_allclose(parts, written[f"{side}_sgd"], rtol=1e-6, atol=0.05)
+    for term in SPLIT_TERMS:
+        central, ours = written[f"centralised_{term}_sgd"], written[f"coordinated_{term}_sgd"]
+        expected = 100.0 * (ours - central) / central.abs()
+        np.testing.assert_allclose(
+            written[f"gap_{term}_pct"].fillna(0.0), expected.where(central != 0, 0.0)
+        )
+    assert (written["centralised_comfort_sgd"] >= 0).all()
+    assert (written["centralised_reserve_sgd"] <= 0).all()
+    # the second step's centralised LP starts from the first step's basis, rotated
+    assert written["centralised_warm"].tolist() == [False, True]
+
+
+def test_the_warm_centralised_solver_finds_the_cold_optimum(tight_fleet: Path) -> None:
+    fleet, document = load_fleet_document(tight_fleet)
+    settings = FleetSettings.of(fleet, "2014-03-03T08:00", 1.0)
+    group = BuildingGroup(document, [0, 1], settings)
+    solver = CentralisedSolver()
+    limit = np.full(settings.horizon_steps, 75.0)
+    objectives = []
+    for _ in range(3):
+        p_min, _, _ = group.begin_step()
+        problems = group.problems()
+        warm = solver.solve(problems, reference_limit_kw(limit, p_min))
+        cold = solve_centralised(problems, reference_limit_kw(limit, p_min))
+        np.testing.assert_allclose(warm.objective_sgd, cold.objective_sgd, rtol=1e-7)
+        objectives.append(warm)
+        price = np.zeros(settings.horizon_steps)
+        for agent in group.agents:  # stage each building's own optimum, then advance
+            agent.finalize(price, np.full(settings.horizon_steps, np.inf))
+            own = agent.staged_split_sgd()
+            solution = agent._staged
+            assert solution is not None
+            np.testing.assert_allclose(own.sum(), solution.objective_sgd, rtol=1e-9)
+            np.testing.assert_allclose(own[0], solution.energy_cost_sgd + solution.peak_charge_sgd)
+            np.testing.assert_allclose(own[2], solution.comfort_penalty_sgd)
+        group.advance()
+    assert [r.warm_start for r in objectives] == [False, True, True]
+    assert np.mean([r.iterations for r in objectives[1:]]) < 0.5 * objectives[0].iterations
+
+
+def test_compare_runs_on_dask_workers_like_simulate(tight_fleet: Path, tmp_path: Path) -> None:
+    in_process = compare_fleet(tight_fleet, "2014-03-03T08:00", 1, tmp_path / "a")
+    on_dask = compare_fleet(tight_fleet, "2014-03-03T08:00", 1, tmp_path / "b", workers=2)
+    for column in COMPARE_COLUMNS:
+        np.testing.assert_allclose(on_dask[column], in_process[column], rtol=1e-6, atol=1e-6)
 
 
 def test_the_reference_is_held_to_the_minimum_power_where_the_limit_is_below_it() -> None:

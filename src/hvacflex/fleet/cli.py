@@ -272,17 +272,27 @@ def compare(
     ),
     steps: int = typer.Option(1, "--steps", min=1, max=MAX_COMPARE_STEPS, help="Steps."),
     out: Path = typer.Option(..., "--out", help="Output folder (compare.csv)."),  # noqa: B008
+    scheduler: str | None = typer.Option(None, "--scheduler", help="Dask scheduler address."),
+    workers: int = typer.Option(
+        0, "--workers", min=0, max=MAX_WORKERS, help="LocalCluster workers (0 = no Dask)."
+    ),
 ) -> None:
     """Coordinated plans against the centralised LP from the same states (compare.csv)."""
     from hvacflex.errors import HvacflexError
     from hvacflex.fleet.compare import COMPARE_COLUMNS, COMPARE_FILE, compare_fleet
     from hvacflex.paths import check_output_dir
+    from hvacflex.sim.sweep import check_scheduler
 
     try:
         check_output_dir(out, "--out")
-        frame = compare_fleet(fleet, start, steps, out)
+        if scheduler is not None:
+            check_scheduler(scheduler)
+        frame = compare_fleet(fleet, start, steps, out, workers=workers, scheduler=scheduler)
     except HvacflexError as exc:
         typer.echo(f"error: {exc}", err=True)
         raise typer.Exit(2) from None
     typer.echo(frame[list(COMPARE_COLUMNS)].to_string(index=False, float_format="{:.6g}".format))
-    typer.echo(f"{out / COMPARE_FILE}: {len(frame)} steps, largest gap {frame['gap'].max():.4g}")
+    typer.echo(
+        f"{out / COMPARE_FILE}: {len(frame)} steps, largest gap {frame['gap'].max():.4g}, "
+        f"largest energy + peak gap {frame['gap_energy_peak_pct'].max():.3g} %"
+    )
