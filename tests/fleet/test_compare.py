@@ -67,8 +67,20 @@ def short_fleet(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 def test_compare_runs_on_dask_workers_like_simulate(short_fleet: Path, tmp_path: Path) -> None:
+    """The buildings as Dask actors (an in-process cluster: the actor calls, the problems
+    and the cost split travelling back, without the start-up of worker processes)."""
+    from dask.distributed import Client, LocalCluster
+
     in_process = compare_fleet(short_fleet, "2014-03-03T08:00", 2, tmp_path / "a")
-    on_dask = compare_fleet(short_fleet, "2014-03-03T08:00", 2, tmp_path / "b", workers=2)
+    with (
+        LocalCluster(
+            n_workers=2, threads_per_worker=1, processes=False, dashboard_address=None
+        ) as cluster,
+        Client(cluster),
+    ):
+        on_dask = compare_fleet(
+            short_fleet, "2014-03-03T08:00", 2, tmp_path / "b", scheduler=cluster.scheduler_address
+        )
     assert on_dask["centralised_warm"].tolist() == [False, True]
     for column in COMPARE_COLUMNS:
         np.testing.assert_allclose(on_dask[column], in_process[column], rtol=1e-6, atol=1e-6)
