@@ -208,7 +208,6 @@ WITHOUT_OWN_TEST_FILE: set[str] = {
     "hvacflex.control.mpc",
     "hvacflex.control.prediction_error",
     "hvacflex.control.trajectory",
-    "hvacflex.fleet.centralised",
     "hvacflex.fleet.cli",
     "hvacflex.fleet.coordinate",
     "hvacflex.fleet.report",

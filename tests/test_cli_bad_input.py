@@ -36,6 +36,8 @@ SCENARIOS = {
 
 SIM = ["simulate", "-q", "--days", "0.5"]
 FLEET_SIM = ["fleet", "simulate", "--fleet", "{tmp}/valid_fleet.toml", "--out", "{tmp}/fr"]
+FLEET_BOUND = ["fleet", "bound", "--fleet", "{tmp}/valid_fleet.toml", "--out", "{tmp}/fb"]
+FLEET_COMPARE = ["fleet", "compare", "--fleet", "{tmp}/valid_fleet.toml", "--out", "{tmp}/fc"]
 COLLECT = ["identify", "collect", "--idf", str(SHIPPED_IDF), "--start", "2014-03-03", "--days", "1"]
 REPORT = ["report", "{tmp}/none", "--out", "{tmp}/r.html"]
 FIT = ["identify", "fit", "--data", "{tmp}/none.csv", "--out", "{tmp}/m.toml"]
@@ -69,6 +71,9 @@ CASES: list[tuple[str, list[str], list[str]]] = [
     ("fleet-days-nan", [*FLEET_SIM, "--days", "nan"], ["'--days'", "finite"]),
     ("fleet-days-fraction", [*FLEET_SIM, "--days", "0.3"], ["'--days'", "whole number"]),
     ("fleet-workers-negative", [*FLEET_SIM, "--workers", "-1"], ["'--workers'", "0"]),
+    ("fleet-bound-days-fraction", [*FLEET_BOUND, "--days", "0.3"], ["'--days'", "whole number"]),
+    ("fleet-bound-out-file", [*FLEET_BOUND[:-1], "{file}"], ["'--out'", "is a file"]),
+    ("fleet-compare-workers-negative", [*FLEET_COMPARE, "--workers", "-1"], ["'--workers'"]),
     ("sweep-workers-zero", ["sweep", "--param", "seed=1,2", "--workers", "0"],
      ["'--workers'", "1"]),
     ("reproduce-workers-zero", ["reproduce", "--workers", "0"], ["'--workers'", "1"]),

@@ -14,6 +14,7 @@ from hvacflex.errors import InputError
 from hvacflex.fleet.compare import (
     COMPARE_COLUMNS,
     COMPARE_FILE,
+    SPLIT_TERMS,
     compare_fleet,
     reference_limit_kw,
 )
@@ -40,6 +41,49 @@ def test_compare_two_steps_centralised_is_a_lower_bound(tight_fleet: Path, tmp_p
     assert np.all(frame["gap"] >= -1e-6)
     assert np.all(frame["gap"] <= 0.02)
     assert np.all(frame["coordinated_max_over_limit_kw"] <= 1e-3)
+    # the parts add up to each side's objective (the centralised one carries the reserve
+    # tie-break, a few cents at most) and the gaps are the issue's formula
+    for side in ("centralised", "coordinated"):
+        parts = sum(written[f"{side}_{term}_sgd"] for term in SPLIT_TERMS)
+        np.testing.assert_allclose(parts, written[f"{side}_sgd"], rtol=1e-6, atol=0.05)
+    for term in SPLIT_TERMS:
+        central, ours = written[f"centralised_{term}_sgd"], written[f"coordinated_{term}_sgd"]
+        expected = 100.0 * (ours - central) / central.abs()
+        np.testing.assert_allclose(
+            written[f"gap_{term}_pct"].fillna(0.0), expected.where(central != 0, 0.0)
+        )
+    assert (written["centralised_comfort_sgd"] >= 0).all()
+    assert (written["centralised_reserve_sgd"] <= 0).all()
+    # the second step's centralised LP starts from the first step's basis, rotated
+    assert written["centralised_warm"].tolist() == [False, True]
+
+
+@pytest.fixture(scope="module")
+def short_fleet(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The tight fleet planning over 6 h (small LPs: the warm start and Dask tests)."""
+    doc = generate_fleet(2, 3, feeder_limit_kw=75.0)
+    doc["horizon_steps"] = 12
+    return write_fleet(doc, tmp_path_factory.mktemp("short") / "fleet.toml")
+
+
+def test_compare_runs_on_dask_workers_like_simulate(short_fleet: Path, tmp_path: Path) -> None:
+    """The buildings as Dask actors (an in-process cluster: the actor calls, the problems
+    and the cost split travelling back, without the start-up of worker processes)."""
+    from dask.distributed import Client, LocalCluster
+
+    in_process = compare_fleet(short_fleet, "2014-03-03T08:00", 2, tmp_path / "a")
+    with (
+        LocalCluster(
+            n_workers=2, threads_per_worker=1, processes=False, dashboard_address=None
+        ) as cluster,
+        Client(cluster),
+    ):
+        on_dask = compare_fleet(
+            short_fleet, "2014-03-03T08:00", 2, tmp_path / "b", scheduler=cluster.scheduler_address
+        )
+    assert on_dask["centralised_warm"].tolist() == [False, True]
+    for column in COMPARE_COLUMNS:
+        np.testing.assert_allclose(on_dask[column], in_process[column], rtol=1e-6, atol=1e-6)
 
 
 def test_the_reference_is_held_to_the_minimum_power_where_the_limit_is_below_it() -> None:

@@ -251,3 +251,69 @@ def test_the_run_key_follows_every_file_the_fleet_names(tmp_path: Path) -> None:
     assert edited_limit != key
     events.write_text("time,activated\n2014-03-03 11:00,1\n")
     assert fleet_key(fleet, path, "2014-03-03", 1.0) not in (key, edited_limit)
+
+
+def _windowed(tmp_path: Path, windows: list[dict[str, object]], limit: float) -> Path:
+    doc = generate_fleet(1, 1, feeder_limit_kw=limit)
+    doc["feeder_limits"] = windows
+    return write_fleet(doc, tmp_path / "f.toml")
+
+
+def test_limit_windows_set_the_limit_in_force(tmp_path: Path) -> None:
+    windows = [
+        {"start": "10:00", "end": "17:00", "limit_kw": 50.0},  # weekdays (the default)
+        {"start": "14:00", "end": "16:00", "limit_kw": 40.0, "days": "all"},
+        {"start": "2014-03-03T11:00", "end": "2014-03-03T12:00", "limit_kw": 45.0},
+        {"start": "12:00", "end": "13:00", "limit_kw": 500.0},  # looser: the base holds
+    ]
+    fleet = load_fleet(_windowed(tmp_path, windows, 60.0))
+    index = pd.date_range("2014-03-01", periods=4 * 48, freq="30min", tz="Asia/Singapore")
+    limit = pd.Series(fleet.limit_series_kw(index), index=index)
+    # Saturday 2014-03-01: only the every-day window; period starts in [14:00, 16:00)
+    saturday = limit["2014-03-01"]
+    assert set(saturday[saturday < 60].index.strftime("%H:%M")) == {
+        "14:00",
+        "14:30",
+        "15:00",
+        "15:30",
+    }
+    assert saturday.min() == 40.0
+    monday = limit["2014-03-03"]  # a weekday: 10:00–17:00 at 50, 14–16 at 40, 11–12 at 45
+    expected = np.full(48, 60.0)
+    expected[20:34] = 50.0
+    expected[28:32] = 40.0
+    expected[22:24] = 45.0
+    np.testing.assert_array_equal(monday.to_numpy(), expected)
+    assert limit["2014-03-04"].min() == 40.0  # the ISO window is one day only
+    assert limit["2014-03-04 11:00"] == 50.0
+
+
+@pytest.mark.parametrize(
+    ("window", "field", "message"),
+    [
+        ({"start": "17:00", "end": "10:00", "limit_kw": 5.0}, "feeder_limits[0]", "end after"),
+        ({"start": "10:00", "end": "2014-03-03T17:00", "limit_kw": 5.0}, "", "both"),
+        ({"start": "25:00", "end": "26:00", "limit_kw": 5.0}, "", "neither"),
+        ({"start": "10:00", "end": "17:00", "limit_kw": -5.0}, "limit_kw", "greater than 0"),
+        ({"start": "10:00", "end": "17:00", "limit_kw": 5.0, "days": "weekends"}, "days", ""),
+        ({"start": "10:00", "end": "17:00", "limit_kw": 5.0, "hours": 2}, "hours", "unknown"),
+        (
+            {
+                "start": "2014-03-03T10:00",
+                "end": "2014-03-03T17:00",
+                "limit_kw": 5.0,
+                "days": "all",
+            },
+            "",
+            "days applies to daily windows",
+        ),
+    ],
+)
+def test_bad_limit_windows_name_the_field_and_value(
+    tmp_path: Path, window: dict[str, object], field: str, message: str
+) -> None:
+    with pytest.raises(FleetConfigError) as error:
+        load_fleet(_windowed(tmp_path, [window], 60.0))
+    text = str(error.value)
+    assert "f.toml" in text and "feeder_limits[0]" in text
+    assert field in text and message in text

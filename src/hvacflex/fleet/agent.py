@@ -45,6 +45,7 @@ from hvacflex.control.demand_limit import forecast_period_power_kw
 from hvacflex.control.mpc import MPCController
 from hvacflex.control.offers import snapped_flows_kg_s
 from hvacflex.data.gains import DEFAULT_OFFICE_SCHEDULE, OfficeSchedule
+from hvacflex.fleet.centralised import objective_split
 from hvacflex.fleet.schema import Fleet, FleetBuilding, fleet_from_dict
 from hvacflex.opt import RMPCProblem, RMPCSolution, RMPCSolver, SolveStatus
 from hvacflex.sim.closed_loop import ClosedLoop
@@ -356,6 +357,15 @@ class BuildingAgent:
             return 0.0, float("nan") if staged is None else float(staged.power_kw[0])
         return self.controller.first_offer_kw(problem, staged)
 
+    def staged_split_sgd(self) -> FloatArray:
+        """(3,) the staged plan's cost [SGD]: energy + peak, reserve (−revenue) and comfort
+        penalty (:func:`hvacflex.fleet.centralised.objective_split`); NaN without an
+        optimal staged plan."""
+        staged, problem = self._staged, self._problem
+        if staged is None or problem is None or staged.status is not SolveStatus.OPTIMAL:
+            return np.full(3, np.nan)
+        return objective_split(problem, staged.u, staged.r, staged.slack, staged.peak_charge_sgd)
+
     def _solve(self, price_kw: FloatArray, cap_kw: FloatArray | None = None) -> StepSolve:
         base = self._problem
         assert base is not None, "begin_step() first"
@@ -509,6 +519,14 @@ class BuildingGroup:
         instead of two in the cap reallocation)."""
         power, cost, lagrangian = self.finalize(price_sgd_per_mwh, cap_kw)
         return power, cost, lagrangian, self.cap_values()
+
+    def problems(self) -> list[RMPCProblem]:
+        """The step's problems of this group's buildings (after :meth:`begin_step`)."""
+        return [agent.problem for agent in self.agents]
+
+    def staged_split_sgd(self) -> tuple[FloatArray]:
+        """((B, 3) the staged plans' cost split [SGD], :meth:`BuildingAgent.staged_split_sgd`,)."""
+        return (np.array([agent.staged_split_sgd() for agent in self.agents]),)
 
     def staged_offer_kw(self) -> tuple[FloatArray, FloatArray]:
         """(B,) the staged plans' first-period offers and curtailed powers [kW]."""

@@ -113,9 +113,15 @@ def simulate(
         2, "--workers", min=0, max=MAX_WORKERS, help="LocalCluster workers (0 = no Dask)."
     ),
     fresh: bool = typer.Option(False, "--fresh", help="Ignore a checkpoint."),
+    allow_infeasible_limits: bool = typer.Option(
+        False,
+        "--allow-infeasible-limits",
+        help="Run even when a limit window is below the fleet's minimum power (flagged).",
+    ),
 ) -> None:
     """Simulate a fleet under its feeder limit with coordinated RMPC (results.parquet)."""
     from hvacflex.errors import HvacflexError, require_extra
+    from hvacflex.fleet.bound import check_limit_windows
     from hvacflex.fleet.report import write_fleet_report
     from hvacflex.fleet.run import minimum_power_warning, run_fleet
     from hvacflex.fleet.schema import load_fleet_document
@@ -136,6 +142,10 @@ def simulate(
         warning = minimum_power_warning(loaded, start, days)
         if warning is not None:
             typer.echo(f"warning: {warning}", err=True)
+        for message in check_limit_windows(
+            loaded, document, start, days, allow=allow_infeasible_limits
+        ):
+            typer.echo(f"warning: {message}", err=True)
         with task_progress(True, "fleet", round(days * 48)) as update:
             watch.update = update
             result = run_fleet(
@@ -221,6 +231,42 @@ class CoordinationWatch:
         )
 
 
+@fleet_app.command("bound")
+def bound(
+    fleet: Path = typer.Option(..., "--fleet", help="Fleet TOML file."),  # noqa: B008
+    start: str = typer.Option(
+        DEFAULT_START,
+        "--start",
+        help=f"First period (Singapore local time), {ISO_START_FORMS}.",
+        callback=_check_start,
+    ),
+    days: float = typer.Option(1.0, "--days", help="Days bounded (≤ 7).", callback=_check_days),
+    out: Path = typer.Option(..., "--out", help="Output folder (bound.csv)."),  # noqa: B008
+) -> None:
+    """The least discomfort under the feeder limits on the controllers' model (bound.csv)."""
+    from hvacflex.errors import HvacflexError
+    from hvacflex.fleet.bound import BOUND_FILE, bound_fleet
+    from hvacflex.paths import check_output_dir
+
+    try:
+        check_output_dir(out, "--out")
+        result = bound_fleet(fleet, start, days, out)
+    except HvacflexError as exc:
+        typer.echo(f"error: {exc}", err=True)
+        raise typer.Exit(2) from None
+    typer.echo(result.frame().to_string(index=False, float_format="{:.3f}".format))
+    raised = (
+        ""
+        if result.feasible
+        else f" (not feasible as given: {result.raised_periods} periods raised to the "
+        "buildings' minimum power)"
+    )
+    typer.echo(
+        f"{out / BOUND_FILE}: {len(result.names)} buildings, "
+        f"{float(result.discomfort_kelvin_hours.sum()):.3f} K·h in all{raised}"
+    )
+
+
 @fleet_app.command("compare")
 def compare(
     fleet: Path = typer.Option(..., "--fleet", help="Fleet TOML file."),  # noqa: B008
@@ -232,17 +278,27 @@ def compare(
     ),
     steps: int = typer.Option(1, "--steps", min=1, max=MAX_COMPARE_STEPS, help="Steps."),
     out: Path = typer.Option(..., "--out", help="Output folder (compare.csv)."),  # noqa: B008
+    scheduler: str | None = typer.Option(None, "--scheduler", help="Dask scheduler address."),
+    workers: int = typer.Option(
+        0, "--workers", min=0, max=MAX_WORKERS, help="LocalCluster workers (0 = no Dask)."
+    ),
 ) -> None:
     """Coordinated plans against the centralised LP from the same states (compare.csv)."""
     from hvacflex.errors import HvacflexError
     from hvacflex.fleet.compare import COMPARE_COLUMNS, COMPARE_FILE, compare_fleet
     from hvacflex.paths import check_output_dir
+    from hvacflex.sim.sweep import check_scheduler
 
     try:
         check_output_dir(out, "--out")
-        frame = compare_fleet(fleet, start, steps, out)
+        if scheduler is not None:
+            check_scheduler(scheduler)
+        frame = compare_fleet(fleet, start, steps, out, workers=workers, scheduler=scheduler)
     except HvacflexError as exc:
         typer.echo(f"error: {exc}", err=True)
         raise typer.Exit(2) from None
     typer.echo(frame[list(COMPARE_COLUMNS)].to_string(index=False, float_format="{:.6g}".format))
-    typer.echo(f"{out / COMPARE_FILE}: {len(frame)} steps, largest gap {frame['gap'].max():.4g}")
+    typer.echo(
+        f"{out / COMPARE_FILE}: {len(frame)} steps, largest gap {frame['gap'].max():.4g}, "
+        f"largest energy + peak gap {frame['gap_energy_peak_pct'].max():.3g} %"
+    )

@@ -2,21 +2,29 @@
 
 From the fleet's initial states at ``start``, every step builds each building's problem
 once (:meth:`BuildingAgent.begin_step`), solves the **centralised LP** of the whole fleet
-(:func:`hvacflex.fleet.centralised.solve_centralised`, the buildings' LPs stacked with the
+(:class:`hvacflex.fleet.centralised.CentralisedSolver`: the buildings' LPs stacked with the
 feeder rows, each raised to the buildings' summed minimum power where that alone exceeds the
-limit: :func:`reference_limit_kw`) and the **coordinated** scheme of the fleet file
-(``[coordination] scheme``, :func:`hvacflex.fleet.run.coordinate_ranges`) from those same
-problems and the same planning limit, then applies the coordinated plan's first step to every
-plant, so that the next step starts from the states a fleet run would have. The buildings run
-in this process (the centralised LP needs every problem in one place; practical for ≤ 10
-buildings).
+limit, :func:`reference_limit_kw`; warm-started across steps from the previous step's basis
+rotated by one step) and the **coordinated** scheme of the fleet file (``[coordination]
+scheme``, :func:`hvacflex.fleet.run.coordinate_ranges`) from those same problems and the
+same planning limit (the limit in force, windows included), then applies the coordinated
+plan's first step to every plant, so that the next step starts from the states a fleet run
+would have. The buildings run where ``fleet simulate``'s run (in this process, or as Dask
+actors on ``workers`` local processes or a ``scheduler``); their problems travel to this
+process for the centralised LP (practical for ≤ 20 buildings).
 
-``compare.csv`` columns: ``step`` (0 = the start), ``centralised_sgd`` and
-``coordinated_sgd`` (the step's horizon objective: Σ over buildings [SGD]), ``gap``
-(coordinated / centralised − 1) and ``coordinated_max_over_limit_kw`` (largest
-Σ_b P_b,k − F_k over the horizon's periods that are not feeder-infeasible, 0 if none is over
-[kW]); plus ``time``, ``coordination_rounds``, ``coordination_time_s`` and
-``centralised_time_s`` for diagnosis.
+``compare.csv``, one row per step: ``step`` (0 = the start); for each part of the objective
+(:func:`hvacflex.fleet.centralised.objective_split`, Σ over buildings of the step's horizon
+[SGD]) — ``energy_peak`` (energy cost + peak charge), ``reserve`` (−reserve revenue, ≤ 0)
+and ``comfort`` (comfort penalty) — ``centralised_<part>_sgd``, ``coordinated_<part>_sgd``
+and ``gap_<part>_pct`` = 100 × (coordinated − centralised) / |centralised| (NaN where the
+centralised part is 0; positive: the coordination pays more on that part); then
+``centralised_sgd`` and ``coordinated_sgd`` (the whole objectives, the centralised one with
+the reserve tie-break), ``gap`` (coordinated / centralised − 1) and
+``coordinated_max_over_limit_kw`` (largest Σ_b P_b,k − F_k over the horizon's periods that
+are not feeder-infeasible, 0 if none is over [kW]); plus ``time``, ``coordination_rounds``,
+``coordination_time_s``, ``centralised_time_s``, ``centralised_iterations`` (simplex) and
+``centralised_warm`` for diagnosis.
 """
 
 from __future__ import annotations
@@ -31,26 +39,35 @@ import pandas as pd
 from hvacflex.control.base import FloatArray
 from hvacflex.errors import InputError
 from hvacflex.fleet.agent import FleetSettings
-from hvacflex.fleet.centralised import solve_centralised
+from hvacflex.fleet.centralised import CentralisedSolver
 from hvacflex.fleet.coordinate import CoordinationResult
 from hvacflex.fleet.run import (
     DT_H,
     _coordination_options,
     _feeder_timeline,
     _Groups,
+    _start_dask,
     coordinate_ranges,
 )
 from hvacflex.fleet.schema import load_fleet_document
+from hvacflex.sim.sweep import close_dask
 
 COMPARE_FILE = "compare.csv"
+SPLIT_TERMS = ("energy_peak", "reserve", "comfort")
+"""The objective's parts compared (:func:`hvacflex.fleet.centralised.objective_split`)."""
 COMPARE_COLUMNS = (
     "step",
+    *(
+        f"{kind}_{term}_{unit}"
+        for term in SPLIT_TERMS
+        for kind, unit in (("centralised", "sgd"), ("coordinated", "sgd"), ("gap", "pct"))
+    ),
     "centralised_sgd",
     "coordinated_sgd",
     "gap",
     "coordinated_max_over_limit_kw",
 )
-"""The columns the issue names, in this order (diagnostics follow them)."""
+"""The columns the issues name, in this order (diagnostics follow them)."""
 MAX_COMPARE_BUILDINGS = 20
 """Largest fleet compared: the centralised LP stacks every building's LP."""
 
@@ -83,8 +100,22 @@ def _check_size(buildings: int, path: Path) -> None:
         )
 
 
+def gap_pct(coordinated_sgd: float, centralised_sgd: float) -> float:
+    """100 × (coordinated − centralised) / |centralised| [%]; NaN when the centralised term
+    is 0 (no gap can be stated: nothing to compare against)."""
+    if centralised_sgd == 0 or not np.isfinite(centralised_sgd):
+        return float("nan")
+    return 100.0 * (coordinated_sgd - centralised_sgd) / abs(centralised_sgd)
+
+
 def compare_fleet(
-    fleet_path: str | Path, start: str, steps: int, out_dir: str | Path
+    fleet_path: str | Path,
+    start: str,
+    steps: int,
+    out_dir: str | Path,
+    *,
+    workers: int = 0,
+    scheduler: str | None = None,
 ) -> pd.DataFrame:
     """Run the comparison (see the module docstring); write and return ``compare.csv``.
 
@@ -94,6 +125,8 @@ def compare_fleet(
     start : first period (Singapore local time, ISO 8601, may carry a time).
     steps : number of steps (30-min periods) compared, ≥ 1.
     out_dir : folder for ``compare.csv`` (made).
+    workers, scheduler : where the buildings run, as for ``fleet simulate``
+        (:func:`hvacflex.fleet.run.run_fleet`): 0 and None = in this process.
     """
     path = Path(fleet_path)
     fleet, document = load_fleet_document(path)
@@ -103,37 +136,74 @@ def compare_fleet(
     horizon = settings.horizon_steps
     index, _, planning = _feeder_timeline(fleet, start, days, horizon)
     options = _coordination_options(fleet)
-    groups = _Groups(document, settings, len(fleet.buildings), None)
-    agents = groups.groups[0].agents
-    rows: list[dict[str, Any]] = []
-    price = np.zeros(horizon)
-    for k in range(steps):
-        limit = planning[k : k + horizon]
-        p_min, p_max, energy = groups.stacked("begin_step")
-        tick = time.perf_counter()
-        central = solve_centralised([a.problem for a in agents], reference_limit_kw(limit, p_min))
-        central_s = time.perf_counter() - tick
-        tick = time.perf_counter()
-        result = coordinate_ranges(groups, (p_min, p_max, energy), limit, options, price)
-        coordinated_s = time.perf_counter() - tick
-        groups.broadcast("advance")
-        coordinated = float(np.sum(result.cost_sgd))
-        rows.append(
-            {
-                "step": k,
-                "centralised_sgd": central.objective_sgd,
-                "coordinated_sgd": coordinated,
-                "gap": coordinated / central.objective_sgd - 1.0,
-                "coordinated_max_over_limit_kw": max_over_limit_kw(result, limit),
-                "time": index[k].isoformat(),
-                "coordination_rounds": result.iterations,
-                "coordination_time_s": coordinated_s,
-                "centralised_time_s": central_s,
-            }
-        )
-        price = np.append(result.price_sgd_per_mwh[1:], result.price_sgd_per_mwh[-1])
+    cluster, client, own_client = _start_dask(scheduler, workers)
+    try:
+        groups = _Groups(document, settings, len(fleet.buildings), client)
+        rows = _compare_steps(groups, planning, index, options, steps, horizon)
+    finally:
+        if own_client is not None:
+            close_dask(own_client, cluster)
     frame = pd.DataFrame(rows)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     frame.to_csv(out / COMPARE_FILE, index=False)
     return frame
+
+
+def _problems(groups: _Groups) -> list[Any]:
+    """Every building's step problem, in fleet order, from the groups (in process or actors)."""
+    parts = groups.broadcast("problems")
+    by_index: dict[int, Any] = {}
+    for idx, part in zip(groups.indices, parts, strict=True):
+        by_index.update(zip(idx, part, strict=True))
+    return [by_index[i] for i in range(groups.n)]
+
+
+def _compare_steps(
+    groups: _Groups,
+    planning: FloatArray,
+    index: pd.DatetimeIndex,
+    options: Any,
+    steps: int,
+    horizon: int,
+) -> list[dict[str, Any]]:
+    """Every step's row of ``compare.csv``; advances the buildings by the coordinated plans."""
+    rows: list[dict[str, Any]] = []
+    price = np.zeros(horizon)
+    central_solver = CentralisedSolver()
+    for k in range(steps):
+        limit = planning[k : k + horizon]
+        p_min, p_max, energy = groups.stacked("begin_step")
+        tick = time.perf_counter()
+        central = central_solver.solve(_problems(groups), reference_limit_kw(limit, p_min))
+        central_s = time.perf_counter() - tick
+        tick = time.perf_counter()
+        result = coordinate_ranges(groups, (p_min, p_max, energy), limit, options, price)
+        coordinated_s = time.perf_counter() - tick
+        (split,) = groups.stacked("staged_split_sgd")
+        groups.broadcast("advance")
+        coordinated = float(np.sum(result.cost_sgd))
+        row: dict[str, Any] = {"step": k}
+        central_split = (
+            np.full(3, np.nan) if central.split_sgd is None else central.split_sgd.sum(axis=0)
+        )
+        for j, term in enumerate(SPLIT_TERMS):
+            ours, best = float(split[:, j].sum()), float(central_split[j])
+            row[f"centralised_{term}_sgd"] = best
+            row[f"coordinated_{term}_sgd"] = ours
+            row[f"gap_{term}_pct"] = gap_pct(ours, best)
+        row |= {
+            "centralised_sgd": central.objective_sgd,
+            "coordinated_sgd": coordinated,
+            "gap": coordinated / central.objective_sgd - 1.0,
+            "coordinated_max_over_limit_kw": max_over_limit_kw(result, limit),
+            "time": index[k].isoformat(),
+            "coordination_rounds": result.iterations,
+            "coordination_time_s": coordinated_s,
+            "centralised_time_s": central_s,
+            "centralised_iterations": central.iterations,
+            "centralised_warm": central.warm_start,
+        }
+        rows.append(row)
+        price = np.append(result.price_sgd_per_mwh[1:], result.price_sgd_per_mwh[-1])
+    return rows

@@ -396,7 +396,8 @@ def minimum_power_warning(fleet: Fleet, start: str, days: float) -> str | None:
         f"{fleet.source or fleet.name}: the buildings' minimum powers on the design day sum to "
         f"{minimum:.1f} kW, above the feeder limit of {lowest:.1f} kW: periods where the "
         "minima exceed it are flagged infeasible (every building at its minimum); raise "
-        "feeder_limit_kw (hvacflex fleet generate --feeder-limit-kw) to avoid them"
+        "feeder_limit_kw (hvacflex fleet generate --feeder-limit-kw) or the [[feeder_limits]] "
+        "window's limit_kw to avoid them"
     )
 
 

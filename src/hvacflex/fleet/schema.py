@@ -13,6 +13,12 @@ building file is (:func:`hvacflex.building.io.building_from_dict`)::
     robust = "tightening"
     horizon_steps = 48
 
+    [[feeder_limits]]               # limit windows on top of it (the tighter holds)
+    start = "10:00"                 # local "HH:MM", or ISO date-times for a single window
+    end = "17:00"
+    limit_kw = 50.0
+    days = "weekdays"               # weekdays (default) | all; daily windows only
+
     [reserve]
     enabled = true
     event_max_steps = 4             # D (0 = the whole-horizon model); default: the product's
@@ -54,6 +60,7 @@ from __future__ import annotations
 
 import copy
 import math
+import re
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated, Any, Literal, Self
@@ -188,6 +195,103 @@ class CoordinationSpec(_Spec):
     plan_tolerance_kw: Annotated[Finite, Field(ge=0.0)] = 0.01
 
 
+HHMM_PATTERN = r"^([01][0-9]|2[0-3]):[0-5][0-9]$|^24:00$"
+"""A local time of day, "HH:MM" ("24:00" = the end of the day)."""
+
+
+def _minutes_of_day(text: str) -> int | None:
+    """Minutes after midnight of a "HH:MM" time, or None when ``text`` is no such time."""
+    if not re.match(HHMM_PATTERN, text):
+        return None
+    hours, minutes = text.split(":")
+    return 60 * int(hours) + int(minutes)
+
+
+def _local_time(text: str) -> pd.Timestamp:
+    """An ISO date-time as a Singapore-local timestamp (a zone given is converted)."""
+    stamp = pd.Timestamp(text)
+    return stamp.tz_localize(TIMEZONE) if stamp.tzinfo is None else stamp.tz_convert(TIMEZONE)
+
+
+class FeederLimitWindowSpec(_Spec):
+    """One ``[[feeder_limits]]`` table: a capacity limit in force over a window.
+
+    ``start`` and ``end`` are both local times of day "HH:MM" (a daily window, on the
+    ``days`` it names: ``weekdays``, the default, or ``all``) or both ISO date-times (one
+    window; ``days`` does not apply). A 30-min period is in the window when its start is at or
+    after ``start`` and before ``end``.
+    """
+
+    start: Text
+    end: Text
+    limit_kw: Annotated[Finite, Field(gt=0.0)]
+    days: Literal["weekdays", "all"] | None = None
+
+    @model_validator(mode="after")
+    def _times(self) -> Self:
+        start, end = _minutes_of_day(self.start), _minutes_of_day(self.end)
+        if (start is None) != (end is None):
+            raise ValueError(
+                f"start {self.start!r} and end {self.end!r} must both be local times "
+                '"HH:MM" or both ISO date-times'
+            )
+        if start is not None and end is not None:
+            if start >= end:
+                raise ValueError(
+                    f"a daily window must end after it starts (start {self.start!r}, end "
+                    f"{self.end!r}); split a window over midnight into two"
+                )
+            return self
+        for name in ("start", "end"):
+            try:
+                _local_time(getattr(self, name))
+            except ValueError:
+                raise ValueError(
+                    f'{name} {getattr(self, name)!r} is neither a local time "HH:MM" nor '
+                    "an ISO date-time"
+                ) from None
+        if _local_time(self.end) <= _local_time(self.start):
+            raise ValueError(f"the window must end after it starts ({self.start} → {self.end})")
+        if self.days is not None:
+            raise ValueError(
+                'days applies to daily windows (start and end as "HH:MM"), not to a window '
+                "of ISO date-times"
+            )
+        return self
+
+    @property
+    def daily(self) -> bool:
+        """A daily window ("HH:MM" times), not one of ISO date-times."""
+        return _minutes_of_day(self.start) is not None
+
+    def describe(self) -> str:
+        """The window in words, e.g. "10:00–17:00 on weekdays, 318.7 kW"."""
+        when = f"{self.start}–{self.end}"
+        if self.daily:
+            when += " on weekdays" if (self.days or "weekdays") == "weekdays" else " every day"
+        return f"{when}, {self.limit_kw:g} kW"
+
+    def mask(self, index: pd.DatetimeIndex) -> np.ndarray:
+        """(T,) whether each period start of ``index`` is in the window (in local time)."""
+        local = index.tz_convert(TIMEZONE) if index.tz is not None else index
+        if not self.daily:
+            start, end = _local_time(self.start), _local_time(self.end)
+            local = local if local.tz is not None else local.tz_localize(TIMEZONE)
+            inside: np.ndarray = np.asarray((local >= start) & (local < end))
+            return inside
+        start_min, end_min = _minutes_of_day(self.start), _minutes_of_day(self.end)
+        assert start_min is not None and end_min is not None
+        minutes = np.asarray(local.hour * 60 + local.minute)
+        inside = (minutes >= start_min) & (minutes < end_min)
+        if (self.days or "weekdays") == "weekdays":
+            inside &= np.asarray(local.day_of_week) < WEEKEND_FIRST_DAY
+        return np.asarray(inside)
+
+
+WEEKEND_FIRST_DAY = 5
+"""``DatetimeIndex.day_of_week`` of Saturday (Monday = 0)."""
+
+
 class BuildingEntrySpec(_Spec):
     name: Annotated[Text, Field(pattern=NAME_PATTERN)]
     template: str = ""
@@ -215,6 +319,9 @@ class FleetSpec(_Spec):
     seed: Annotated[int, Strict()] = 2014
     feeder_limit_kw: Annotated[Number, Field(gt=0.0)] | None = None
     feeder_limit_csv: str | None = None
+    feeder_limits: list[FeederLimitWindowSpec] = []
+    """Limit windows (``[[feeder_limits]]``), applied on top of the constant or CSV limit:
+    the tighter holds."""
     feeder_margin: Annotated[Finite, Field(ge=0.0, lt=0.5)] = 0.0
     min_bid_mw: Annotated[Finite, Field(ge=0.0)] = 0.1
     robust: Literal["tightening", "none"] = "tightening"
@@ -244,6 +351,12 @@ class FleetSpec(_Spec):
 _HINTS = {
     "feeder_limit_kw": "a number of kW > 0, or inf for no limit",
     "feeder_limit_csv": "a CSV with columns time, feeder_limit_kw (half-hourly)",
+    "feeder_limits": '[[feeder_limits]] start = "10:00", end = "17:00", limit_kw = 300.0, '
+    'days = "weekdays" (or "all"); or start and end as ISO date-times',
+    "limit_kw": "the window's limit, a number of kW > 0",
+    "days": '"weekdays" (the default) or "all"; only for "HH:MM" windows',
+    "start": 'a local time "HH:MM" or an ISO date-time such as "2014-03-03T14:00"',
+    "end": 'a local time "HH:MM" ("24:00" for midnight) or an ISO date-time',
     "min_bid_mw": "the market's minimum bid, 0.1 MW for NEMS interruptible load",
     "buildings": "add [[buildings]] tables (hvacflex fleet generate writes them)",
     "building": "a complete building description, as in a building TOML file",
@@ -350,13 +463,22 @@ class Fleet:
         return self.spec.activation.config(None if self.source is None else self.source.parent)
 
     def limit_series_kw(self, index: pd.DatetimeIndex) -> np.ndarray:
-        """(T,) feeder limit [kW] for each period start of ``index`` (inf = no limit).
+        """(T,) feeder limit [kW] in force for each period start of ``index`` (inf = no
+        limit): the constant or CSV limit, lowered to each ``[[feeder_limits]]`` window's
+        ``limit_kw`` in the window's periods (the tighter holds).
 
         Raises
         ------
         DataError
             When the CSV is unreadable or does not cover every period of ``index``.
         """
+        limit = self._base_limit_kw(index)
+        for window in self.spec.feeder_limits:
+            limit = np.where(window.mask(index), np.minimum(limit, window.limit_kw), limit)
+        return limit
+
+    def _base_limit_kw(self, index: pd.DatetimeIndex) -> np.ndarray:
+        """(T,) the constant or CSV limit [kW] before the windows."""
         if self.spec.feeder_limit_kw is not None:
             return np.full(len(index), float(self.spec.feeder_limit_kw))
         path = self.feeder_limit_path

@@ -1,0 +1,263 @@
+"""A fleet run's comfort bound and its limit windows checked on the controllers' model.
+
+``hvacflex fleet bound --fleet F --start D --days N --out DIR`` computes the least
+discomfort the fleet's buildings can have over the run under its feeder limits (windows
+included) on the controllers' own model: from the closed loop's initial state at ``start``
+(the state the first step of ``hvacflex fleet simulate`` plans from) it stacks every
+building's open-loop LP over one horizon covering the whole run (the centralised LP of
+``hvacflex fleet compare``, :func:`hvacflex.fleet.centralised.centralised_lp`) with the
+forecast of the first step taken as exact (**perfect foresight**), **no robust margin**,
+**no reserve**, energy and peak free and the comfort slack as the only cost, under the
+planning limit in force each period (:meth:`hvacflex.fleet.schema.Fleet.limit_series_kw`
+× (1 − ``feeder_margin``), raised to the buildings' summed minimum power where that alone
+exceeds it, as the coordination flags such periods). The optimum's slack ε (N, zones) [K]
+at the period ends, × 0.5 h and summed over zones, is each building's least discomfort
+[K·h], counted as ``results.parquet`` counts it (:func:`hvacflex.kpi.step_discomfort_kelvin_hours`:
+period-end violations × Δt, summed over zones). A closed loop that re-plans with forecasts
+and robust margins can only do worse on the same model; the bound is the model's, not the
+plant's (the plant's power is not the LP's affine secant).
+
+``DIR/bound.csv``: one row per building, columns ``building``, ``discomfort_kelvin_hours``
+(over the days run) and ``feasible`` (the LP had a solution under the limits as given: no
+period's limit had to be raised to the buildings' minimum power).
+
+The same run model checks the limit windows before a run (:func:`check_limit_windows`): a
+window whose limit lies below the buildings' summed minimum power (every flow at its lower
+bound, on the controllers' model of the run) in one of its periods cannot be met.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from hvacflex.constants import MAX_HORIZON_STEPS
+from hvacflex.control.base import FloatArray
+from hvacflex.errors import InputError
+from hvacflex.fleet.agent import BuildingGroup, FleetSettings
+from hvacflex.fleet.centralised import centralised_lp
+from hvacflex.fleet.compare import reference_limit_kw
+from hvacflex.fleet.run import _feeder_timeline
+from hvacflex.fleet.schema import Fleet, FleetConfigError, load_fleet_document
+from hvacflex.opt import RMPCProblem
+from hvacflex.opt.solve import solve_lp
+
+BOUND_FILE = "bound.csv"
+BOUND_COLUMNS = ("building", "discomfort_kelvin_hours", "feasible")
+MAX_BOUND_DAYS = MAX_HORIZON_STEPS // 48
+"""Longest run bounded [days]: the whole run is one horizon."""
+COMFORT_ONLY_PENALTY_SGD_PER_KELVIN_HOUR = 1.0
+"""The bound's only cost: 1 SGD per K·h of slack (any positive value gives the same plan)."""
+
+
+@dataclass(frozen=True)
+class RunModel:
+    """The controllers' model of a whole run, from the closed loop's initial state.
+
+    Attributes
+    ----------
+    names : (B,) building names.
+    problems : (B,) every building's step problem over a horizon of the run's T periods.
+    p_min_kw : (B, T) each building's power with every flow at its lower bound [kW].
+    index : (T,) the run's period starts (Singapore local time).
+    planning_kw : (T,) the planning limit in force [kW]: the limit × (1 − feeder_margin).
+    """
+
+    names: tuple[str, ...]
+    problems: tuple[RMPCProblem, ...]
+    p_min_kw: FloatArray
+    index: pd.DatetimeIndex
+    planning_kw: FloatArray
+
+
+def run_model(fleet: Fleet, document: dict[str, Any], start: str, days: float) -> RunModel:
+    """Build every building at ``start`` with a horizon of the whole run (≤ 7 days).
+
+    Raises
+    ------
+    InputError
+        When the run is longer than one horizon can be (:data:`MAX_BOUND_DAYS`).
+    """
+    steps = round(days * 48)
+    if steps > MAX_HORIZON_STEPS:
+        raise InputError(
+            f"a run of {days:g} days is longer than one horizon ({MAX_HORIZON_STEPS} periods)",
+            field="--days",
+            value=days,
+            hint=f"bound at most {MAX_BOUND_DAYS} days at a time",
+        )
+    settings = dataclasses.replace(
+        FleetSettings.of(fleet, start, days), horizon_steps=max(steps, 2)
+    )
+    group = BuildingGroup(document, list(range(len(fleet.buildings))), settings)
+    p_min, _, _ = group.begin_step()
+    index, _, planning = _feeder_timeline(fleet, start, days, 0)
+    return RunModel(
+        tuple(agent.name for agent in group.agents),
+        tuple(agent.problem for agent in group.agents),
+        p_min[:, :steps],
+        index,
+        planning[:steps],
+    )
+
+
+def comfort_only(problem: RMPCProblem) -> RMPCProblem:
+    """``problem`` with the comfort slack as its only cost: no prices, no reserve (no
+    reserve input, no IL event rows), no robust margin (the forecast taken as exact), no cap
+    on the slack, :data:`COMFORT_ONLY_PENALTY_SGD_PER_KELVIN_HOUR`."""
+    zeros = np.zeros(problem.horizon)
+    return dataclasses.replace(
+        problem,
+        energy_price_sgd_per_mwh=zeros,
+        reserve_price_sgd_per_mwh=zeros,
+        peak_price_sgd_per_kw=0.0,
+        peak_floor_kw=0.0,
+        d_sigma=np.zeros_like(problem.d_sigma),
+        robust="none",
+        comfort_penalty_sgd_per_kelvin_hour=COMFORT_ONLY_PENALTY_SGD_PER_KELVIN_HOUR,
+        reserve_mask=np.zeros(problem.u_min.shape[1], dtype=bool),
+        slack_max_kelvin=None,
+        il_event_max_steps=None,
+        il_event_allowance_kelvin=0.0,
+        il_event_recovery_steps=0,
+        il_allowance_carry_steps=0,
+        reserve_fixed_kg_s=None,
+        offer_baselines=None,
+    )
+
+
+@dataclass(frozen=True)
+class ComfortBound:
+    """The bound's answer: (B,) least discomfort per building over the run [K·h], (B, T)
+    per period [K·h], whether the LP solved under the limits as given (no period raised to
+    the minimum power), and how many periods were raised."""
+
+    names: tuple[str, ...]
+    discomfort_kelvin_hours: FloatArray
+    per_period_kelvin_hours: FloatArray
+    feasible: bool
+    raised_periods: int
+
+    def frame(self) -> pd.DataFrame:
+        """``bound.csv``'s rows."""
+        return pd.DataFrame(
+            {
+                "building": list(self.names),
+                "discomfort_kelvin_hours": self.discomfort_kelvin_hours,
+                "feasible": self.feasible,
+            }
+        )
+
+
+def comfort_bound(model: RunModel) -> ComfortBound:
+    """Solve the bound's LP on ``model`` (see the module docstring)."""
+    problems = [comfort_only(p) for p in model.problems]
+    limit = reference_limit_kw(model.planning_kw, model.p_min_kw)
+    raised = int(np.sum(limit > model.planning_kw))
+    cost, matrix, lower, upper, col_lo, col_hi, _, layouts = centralised_lp(problems, limit)
+    result = solve_lp(cost, matrix, lower, upper, col_lo, col_hi)
+    if not result.status.ok:
+        nan = np.full(len(problems), np.nan)
+        return ComfortBound(model.names, nan, np.full(model.p_min_kw.shape, np.nan), False, raised)
+    per_period = np.array(  # (B, T): the slack ε (T, ny) [K] summed over zones, × Δt
+        [
+            result.x[np.asarray(layout.plan.eps) + first].sum(axis=1) * problem.dt_h
+            for problem, (first, layout) in zip(problems, layouts, strict=True)
+        ]
+    )
+    return ComfortBound(model.names, per_period.sum(axis=1), per_period, raised == 0, raised)
+
+
+def bound_fleet(
+    fleet_path: str | Path, start: str, days: float, out_dir: str | Path
+) -> ComfortBound:
+    """``hvacflex fleet bound``: compute the bound and write ``out_dir/bound.csv``."""
+    fleet, document = load_fleet_document(fleet_path)
+    bound = comfort_bound(run_model(fleet, document, start, days))
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    bound.frame().to_csv(out / BOUND_FILE, index=False)
+    return bound
+
+
+@dataclass(frozen=True)
+class WindowShortfall:
+    """A limit window below the fleet's minimum power in one of its periods: the window's
+    position in ``[[feeder_limits]]``, its description, the worst period, the planning
+    limit there [kW] and the buildings' summed minimum power there [kW]."""
+
+    position: int
+    window: str
+    time: pd.Timestamp
+    limit_kw: float
+    minimum_kw: float
+
+
+def limit_window_shortfalls(fleet: Fleet, model: RunModel) -> list[WindowShortfall]:
+    """Every ``[[feeder_limits]]`` window whose planning limit lies below Σ_b P_min,b in
+    one of the run's periods in it; its worst period (the largest minimum − limit)."""
+    minimum = model.p_min_kw.sum(axis=0)
+    shortfalls = []
+    for position, window in enumerate(fleet.spec.feeder_limits):
+        inside = window.mask(model.index)
+        below = inside & (minimum > model.planning_kw)
+        if not below.any():
+            continue
+        worst = int(np.argmax(np.where(below, minimum - model.planning_kw, -np.inf)))
+        shortfalls.append(
+            WindowShortfall(
+                position,
+                window.describe(),
+                model.index[worst],
+                float(model.planning_kw[worst]),
+                float(minimum[worst]),
+            )
+        )
+    return shortfalls
+
+
+def check_limit_windows(
+    fleet: Fleet, document: dict[str, Any], start: str, days: float, *, allow: bool
+) -> list[str]:
+    """Check every limit window of the run against the fleet's minimum feasible power on
+    the controllers' model (:func:`limit_window_shortfalls`, at most
+    :data:`MAX_BOUND_DAYS` from ``start``).
+
+    Returns
+    -------
+    One warning per window below the minimum when ``allow`` (its periods are then flagged
+    infeasible in the run, every building at its minimum); none when every window is met.
+
+    Raises
+    ------
+    FleetConfigError
+        For the first window below the minimum unless ``allow``: naming the window, the
+        period, the limit and the minimum, and the fixes.
+    """
+    if not fleet.spec.feeder_limits:
+        return []
+    model = run_model(fleet, document, start, min(days, float(MAX_BOUND_DAYS)))
+    messages, margin = [], fleet.spec.feeder_margin
+    for short in limit_window_shortfalls(fleet, model):
+        text = (
+            f"the limit window {short.window} is below the fleet's minimum feasible power: "
+            f"at {short.time:%Y-%m-%d %H:%M} the buildings' minimum powers sum to "
+            f"{short.minimum_kw:.1f} kW against a planning limit of {short.limit_kw:.1f} kW"
+        )
+        if not allow:
+            raise FleetConfigError(
+                text,
+                source=fleet.source or fleet.name,
+                field=f"feeder_limits[{short.position}].limit_kw",
+                value=fleet.spec.feeder_limits[short.position].limit_kw,
+                hint=f"raise limit_kw to at least {short.minimum_kw / (1.0 - margin):.1f} kW, "
+                "or run with --allow-infeasible-limits (those periods are "
+                "flagged infeasible, every building at its minimum)",
+            )
+        messages.append(f"{text}; those periods are flagged infeasible")
+    return messages

@@ -1,0 +1,154 @@
+"""The comfort bound (``fleet bound``) and the limit windows checked before a run."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from typer.testing import CliRunner
+
+from hvacflex.cli import app
+from hvacflex.fleet.bound import (
+    BOUND_COLUMNS,
+    BOUND_FILE,
+    check_limit_windows,
+    comfort_bound,
+    limit_window_shortfalls,
+    run_model,
+)
+from hvacflex.fleet.generate import generate_fleet, write_fleet
+from hvacflex.fleet.schema import FleetConfigError, load_fleet_document
+
+START = "2014-03-03"  # a Monday
+
+
+def _fleet(tmp_path: Path, windows: list[dict[str, object]], name: str = "f.toml") -> Path:
+    doc = generate_fleet(2, 3, feeder_limit_kw=float("inf"), min_bid_mw=0.1)
+    doc["feeder_limits"] = windows
+    return write_fleet(doc, tmp_path / name)
+
+
+@pytest.fixture(scope="module")
+def unlimited(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, object]:
+    path = _fleet(tmp_path_factory.mktemp("bound"), [])
+    fleet, document = load_fleet_document(path)
+    return path, run_model(fleet, document, START, 1.0)
+
+
+def test_the_run_model_covers_the_run_with_the_limit_in_force(tmp_path: Path) -> None:
+    path = _fleet(tmp_path, [{"start": "10:00", "end": "17:00", "limit_kw": 500.0}])
+    fleet, document = load_fleet_document(path)
+    model = run_model(fleet, document, START, 1.0)
+    assert model.p_min_kw.shape == (2, 48) and len(model.problems) == 2
+    assert all(p.horizon == 48 for p in model.problems)
+    inside = (model.index.hour >= 10) & (model.index.hour < 17)
+    np.testing.assert_array_equal(model.planning_kw, np.where(inside, 500.0, np.inf))
+
+
+def test_a_tighter_limit_never_lowers_the_bound(unlimited: tuple[Path, object]) -> None:
+    _, model = unlimited
+    free = comfort_bound(model)  # type: ignore[arg-type]
+    assert free.feasible and free.raised_periods == 0
+    assert np.all(free.discomfort_kelvin_hours >= 0)
+    minimum = model.p_min_kw.sum(axis=0)  # type: ignore[attr-defined]
+    # a limit a little above the minimum all afternoon: feasible, never less discomfort
+    tight = np.full(48, np.inf)
+    tight[24:36] = minimum[24:36].max() + 1.0
+    limited = comfort_bound(_with_limit(model, tight))
+    assert limited.feasible
+    assert np.all(limited.discomfort_kelvin_hours >= free.discomfort_kelvin_hours - 1e-6)
+    assert limited.discomfort_kelvin_hours.sum() > free.discomfort_kelvin_hours.sum() + 1e-3
+    # per period, summed over the run, is the total
+    np.testing.assert_allclose(
+        limited.per_period_kelvin_hours.sum(axis=1), limited.discomfort_kelvin_hours
+    )
+
+
+def test_a_limit_below_the_minimum_is_raised_and_not_feasible(
+    unlimited: tuple[Path, object],
+) -> None:
+    _, model = unlimited
+    minimum = model.p_min_kw.sum(axis=0)  # type: ignore[attr-defined]
+    below = np.full(48, np.inf)
+    below[30] = minimum[30] - 5.0
+    result = comfort_bound(_with_limit(model, below))
+    assert not result.feasible and result.raised_periods == 1
+    assert np.isfinite(result.discomfort_kelvin_hours).all()
+
+
+def _with_limit(model: object, planning_kw: np.ndarray) -> object:
+    import dataclasses
+
+    return dataclasses.replace(model, planning_kw=planning_kw)  # type: ignore[type-var]
+
+
+def test_windows_below_the_minimum_are_refused_with_the_numbers(
+    unlimited: tuple[Path, object], tmp_path: Path
+) -> None:
+    _, model = unlimited
+    minimum = model.p_min_kw.sum(axis=0)  # type: ignore[attr-defined]
+    afternoon = float(minimum[28:32].max())
+    low = round(afternoon - 10.0, 1)
+    path = _fleet(
+        tmp_path,
+        [
+            {"start": "00:00", "end": "02:00", "limit_kw": 10_000.0},  # met
+            {"start": "14:00", "end": "16:00", "limit_kw": low},  # below the minimum
+        ],
+    )
+    fleet, document = load_fleet_document(path)
+    shortfalls = limit_window_shortfalls(fleet, run_model(fleet, document, START, 1.0))
+    assert [s.position for s in shortfalls] == [1]
+    assert shortfalls[0].minimum_kw == pytest.approx(afternoon)
+    assert shortfalls[0].limit_kw == low
+    with pytest.raises(FleetConfigError) as error:
+        check_limit_windows(fleet, document, START, 1.0, allow=False)
+    text = str(error.value)
+    assert "feeder_limits[1].limit_kw" in text and f"{low:.1f} kW" in text
+    assert f"{afternoon:.1f} kW" in text and "--allow-infeasible-limits" in text
+    warnings = check_limit_windows(fleet, document, START, 1.0, allow=True)
+    assert len(warnings) == 1 and "flagged infeasible" in warnings[0]
+    # a Saturday: the weekday window is not in force, nothing to refuse
+    assert check_limit_windows(fleet, document, "2014-03-08", 1.0, allow=False) == []
+
+
+def test_simulate_refuses_an_infeasible_window_and_runs_it_flagged_when_allowed(
+    unlimited: tuple[Path, object], tmp_path: Path
+) -> None:
+    _, model = unlimited
+    minimum = model.p_min_kw.sum(axis=0)  # type: ignore[attr-defined]
+    low = round(float(minimum[28:30].min()) - 5.0, 1)
+    assert low > 0
+    path = _fleet(tmp_path, [{"start": "14:00", "end": "15:00", "limit_kw": low}])
+    args = ["fleet", "simulate", "--fleet", str(path), "--start", f"{START}T14:00"]
+    args += ["--days", "0.0625"]
+    args += ["--workers", "0", "--out", str(tmp_path / "run")]
+    runner = CliRunner()
+    done = runner.invoke(app, args)
+    assert done.exit_code == 2, done.output
+    assert "feeder_limits[0].limit_kw" in done.output and "Traceback" not in done.output
+    assert "minimum feasible power" in done.output and f"{low:.1f} kW" in done.output
+    assert not (tmp_path / "run" / "results.parquet").exists()
+    done = runner.invoke(app, [*args, "--allow-infeasible-limits"])
+    assert done.exit_code == 0, done.output
+    assert "flagged infeasible" in done.output
+    frame = pd.read_parquet(tmp_path / "run" / "results.parquet")
+    # the limit in force each period: the window's over 14:00–15:00, none after it
+    np.testing.assert_array_equal(frame["feeder_limit_kw"].to_numpy(), [low, low, np.inf])
+    assert frame["feeder_infeasible"].iloc[:2].all()
+
+
+def test_bound_cli_writes_bound_csv(tmp_path: Path) -> None:
+    path = _fleet(tmp_path, [{"start": "10:00", "end": "17:00", "limit_kw": 10_000.0}])
+    out = tmp_path / "bound"
+    args = ["fleet", "bound", "--fleet", str(path), "--start", START, "--days", "1"]
+    done = CliRunner().invoke(app, [*args, "--out", str(out)])
+    assert done.exit_code == 0, done.output
+    frame = pd.read_csv(out / BOUND_FILE)
+    assert tuple(frame.columns) == BOUND_COLUMNS
+    assert list(frame["building"]) == ["b0000", "b0001"] and frame["feasible"].all()
+    assert (frame["discomfort_kelvin_hours"] >= 0).all()
+    done = CliRunner().invoke(app, [*args[:-1], "8", "--out", str(tmp_path / "b8")])
+    assert done.exit_code == 2 and "--days" in done.output and "Traceback" not in done.output
