@@ -28,6 +28,7 @@ SOLVER_BENCHMARKS: dict[str, tuple[str, ...]] = {
     "bench_zones": (),
 }
 RUN_BENCHMARKS: dict[str, tuple[str, ...]] = {
+    "bench_control_step": (),
     "bench_energyplus_plant": (),
     "bench_fleet_scale": (),
     "bench_loop_parts": (),

