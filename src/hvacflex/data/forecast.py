@@ -40,7 +40,7 @@ import pandas as pd
 from scipy.signal import lfilter
 
 from hvacflex.building.channels import DisturbanceChannel
-from hvacflex.constants import HORIZON_STEPS, TIMEZONE
+from hvacflex.constants import HORIZON_STEPS, PERIOD, PERIODS_PER_DAY, TIMEZONE
 from hvacflex.data.calendar import Calendar, live_price_index
 from hvacflex.data.gains import (
     DEFAULT_OFFICE_SCHEDULE,
@@ -52,8 +52,6 @@ from hvacflex.data.gains import (
     zone_internal_gains_w,
 )
 from hvacflex.data.market import (
-    PERIOD,
-    PERIODS_PER_DAY,
     RESERVE_PRICE_CORRELATION,
     RESERVE_PRICE_SCALE,
     FillMode,

@@ -25,6 +25,7 @@ import pandas as pd
 
 from hvacflex.building.identified import IdentifiedValidity
 from hvacflex.building.io import load_building
+from hvacflex.constants import PERIODS_PER_DAY
 from hvacflex.data.forecast import default_weather_file
 from hvacflex.data.weather import EpwLocation, read_epw
 from hvacflex.errors import InputError
@@ -48,7 +49,6 @@ from hvacflex.identify.checks import (
     warning_lines,
 )
 from hvacflex.identify.fit import (
-    PERIODS_PER_DAY,
     WARMUP_DAYS,
     CouplingPhysics,
     FitData,

@@ -58,15 +58,14 @@ from typing import Any
 
 import pandas as pd
 
+from hvacflex.constants import PERIOD, TIMEZONE
 from hvacflex.errors import ConfigError, HvacflexError, InputError
 from hvacflex.service.openadr_mapping import (
     DEMAND_SIGNALS,
     DISPATCH_SIGNALS,
     OPT_IN,
     OPT_OUT,
-    PERIOD,
     PRICE_SIGNALS,
-    TIMEZONE,
     EventRefused,
     activation_runs,
     decide_dispatch,

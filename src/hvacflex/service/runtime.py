@@ -446,7 +446,8 @@ class Runtime:
             )
         )
         for period, power in rows:
-            history.power_kw[period - 1] = float(power)
+            if power is not None:
+                history.power_kw[period - 1] = float(power)
         activated = self.activity(session, runtime)
         history.activated[:k] = [activated(j) for j in range(k)]
         if delivered_flow_kg_s is not None and k >= 1:

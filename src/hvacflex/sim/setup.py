@@ -25,6 +25,7 @@ from hvacflex.building.io import load_building
 from hvacflex.building.model import Building
 from hvacflex.building.plant import NonlinearPlant
 from hvacflex.config import LINEARISATION_MARGIN_K, ScenarioConfig
+from hvacflex.constants import PERIODS_PER_DAY
 from hvacflex.control.base import Controller
 from hvacflex.control.baselines import (
     OptimalStart,
@@ -38,7 +39,9 @@ from hvacflex.control.trim_respond import TrimRespondController
 from hvacflex.data.calibration import Calibration, calibrate_box, forecast_errors
 from hvacflex.data.forecast import Exogenous, Forecaster, default_weather_file, load_exogenous
 from hvacflex.data.gains import DEFAULT_OFFICE_SCHEDULE, ComfortBand, OfficeSchedule
-from hvacflex.data.market import PERIODS_PER_DAY, RESERVE_PRICE_SCALE
+from hvacflex.data.market import (
+    RESERVE_PRICE_SCALE,
+)
 from hvacflex.data.occupancy import stochastic_gain_disturbances
 from hvacflex.data.uncertainty import UncertaintyBox
 from hvacflex.data.weather_forecast import fit_weather_forecaster
