@@ -168,13 +168,7 @@ class MPCController(Controller):
                 self.model.c @ x_degc,
                 self.model.dt_s,
             )
-        horizon = self.contract.config.horizon_steps
-        sigma = self.contract.box.sigma(inputs.forecast.disturbances[:horizon], self.model.channels)
-        sizer = OfferSizer.of(
-            self.contract,
-            inputs,
-            float(previous.power_kw[0]) if previous is not None and fresh else None,
-        )
+        sigma, sizer = self._box_and_sizer(inputs)
         problem = self._problem(inputs, step_model, x_degc, offset, sigma, sizer)
         for observe in self._observers:
             observe(problem)
@@ -191,17 +185,19 @@ class MPCController(Controller):
     def problem_for(self, inputs: PeriodInputs) -> RMPCProblem:
         """The problem :meth:`act` would build for ``inputs`` now, without deciding (a
         fleet's building plans it with the coordinator; full state, fixed model)."""
+        sigma, sizer = self._box_and_sizer(inputs)
+        x = np.asarray(inputs.x_degc, dtype=float)
+        return self._problem(inputs, self.model, x, None, sigma, sizer, shift=1)
+
+    def _box_and_sizer(self, inputs: PeriodInputs) -> tuple[FloatArray, OfferSizer]:
+        """The box's σ (N, nd) over the horizon and the period's offer sizer (with the
+        power the last plan planned for now, where that plan is fresh)."""
         previous = self._previous_plan
         fresh = previous is not None and self._plan_age == 0 and not self._held
         horizon = self.contract.config.horizon_steps
         sigma = self.contract.box.sigma(inputs.forecast.disturbances[:horizon], self.model.channels)
-        sizer = OfferSizer.of(
-            self.contract,
-            inputs,
-            float(previous.power_kw[0]) if previous is not None and fresh else None,
-        )
-        x = np.asarray(inputs.x_degc, dtype=float)
-        return self._problem(inputs, self.model, x, None, sigma, sizer, shift=1)
+        planned_now = float(previous.power_kw[0]) if previous is not None and fresh else None
+        return sigma, OfferSizer.of(self.contract, inputs, planned_now)
 
     def _problem(
         self,

@@ -473,55 +473,27 @@ def identify(
     )
     context = FitContext(ids, physics, inputs.boundaries, model.boundary_nodes, model.validity)
     out.parent.mkdir(parents=True, exist_ok=True)
-    written = _write_fit(fit, model, context, data, inputs, test_range, out)
-    say(FIT_STAGES[4])
-    box, scenario_path = _box_and_scenario(
-        fit, inputs, ids, (train_range, test_range), out, idf=idf_file, weather=weather
+    return _write_fit(
+        fit, model, context, (data, inputs), (train_range, test_range), out, idf_file, weather, say
     )
-    return IdentifyOutcome(
-        written.model_path,
-        written.report_path,
-        written.parameters_path,
-        written.power_path,
-        written.report,
-        written.power,
-        written.fit,
-        written.predictions,
-        box=box,
-        scenario_path=scenario_path,
-        checks=written.checks,
-        checks_path=out.parent / CHECKS_FILE,
-        baseline_path=_baseline(written.model_path, idf_file, weather),
-    )
-
-
-@dataclass(frozen=True)
-class _Written:
-    """The files :func:`_write_fit` wrote and what they hold (the first fields of an
-    :class:`IdentifyOutcome`)."""
-
-    model_path: Path
-    report_path: Path
-    parameters_path: Path
-    power_path: Path | None
-    report: pd.DataFrame
-    power: pd.DataFrame | None
-    fit: FitResult
-    predictions: pd.DataFrame
-    checks: pd.DataFrame
 
 
 def _write_fit(
     fit: FitResult,
     model: IdentifiedModel,
     context: FitContext,
-    data: TrendData,
-    inputs: FitData,
-    test_range: tuple[int, int],
+    sources: tuple[TrendData, FitData],
+    ranges: tuple[tuple[int, int], tuple[int, int]],
     out: Path,
-) -> _Written:
+    idf: Path | None,
+    weather: str | Path | None,
+    say: Callable[[str], None],
+) -> IdentifyOutcome:
     """Write the model file, ``fit_report.csv``, ``fit_parameters.csv``, ``checks.csv``, the
-    power check and the test days' predictions beside ``out``."""
+    power check and the test days' predictions beside ``out``, then calibrate the model
+    error and write the scenarios (``scenario.toml``, ``baseline.toml`` with an IDF)."""
+    data, inputs = sources
+    test_range = ranges[1]
     checks = plausibility_checks(fit, context)
     report = _fit_report(fit, inputs, test_range, checks)
     model_path = write_identified_model(model, out)
@@ -537,7 +509,11 @@ def _write_fit(
         power_table.to_csv(power_path, index=False, float_format="%.4g")
     predictions = prediction_frame(fit, inputs, test_range)
     predictions.to_csv(out.parent / "fit_predictions.csv", float_format="%.4f")
-    return _Written(
+    say(FIT_STAGES[4])
+    box, scenario_path = _box_and_scenario(
+        fit, inputs, model.zones, ranges, out, idf=idf, weather=weather
+    )
+    return IdentifyOutcome(
         model_path,
         out.parent / "fit_report.csv",
         parameters_path,
@@ -546,7 +522,11 @@ def _write_fit(
         power_table,
         fit,
         predictions,
-        checks,
+        box,
+        scenario_path,
+        checks=checks,
+        checks_path=out.parent / CHECKS_FILE,
+        baseline_path=_baseline(model_path, idf, weather),
     )
 
 
