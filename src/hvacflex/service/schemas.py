@@ -42,7 +42,6 @@ PresetName = Literal[
     "nmpc-no-reserve",
     "thermostat",
     "thermostat-25.5",
-    "thermostat-25.5-float",
     "trim-respond",
     "demand-limit",
     "gta-dr",
