@@ -73,7 +73,7 @@ def test_thermostat_flows_through_the_env_give_the_kpis_of_simulate(
         assert kpis[key] == value or (math.isnan(value) and math.isnan(kpis[key])), key
     # the return is minus the bill: energy + the peak charge + the comfort penalty
     weight = env.scenario.controller.comfort_penalty_sgd_per_kelvin_hour
-    bill = kpis["energy_cost_sgd"] + kpis["ppp_charge_sgd"]
+    bill = kpis["energy_cost_sgd"] + kpis["ppp_charge_monthly_sgd"]
     bill += weight * kpis["discomfort_kelvin_hours"]
     assert sum(rewards) == pytest.approx(-bill, rel=1e-12, abs=1e-9)
 
@@ -96,21 +96,22 @@ def test_the_comfort_penalty_and_the_action_bounds(env: HvacflexEnv) -> None:
     assert isinstance(kpis, dict) and kpis["discomfort_kelvin_hours"] > 1.0
     weight = env.scenario.controller.comfort_penalty_sgd_per_kelvin_hour
     assert info["comfort_penalty_sgd"] == pytest.approx(weight * info["discomfort_kelvin_hours"])
-    total = kpis["energy_cost_sgd"] + kpis["ppp_charge_sgd"]
+    total = kpis["energy_cost_sgd"] + kpis["ppp_charge_monthly_sgd"]
     assert sum(rewards) == pytest.approx(-(total + weight * kpis["discomfort_kelvin_hours"]))
 
 
 def test_the_peak_charge_restarts_with_each_month() -> None:
     """Two days across 31 March / 1 April: two bills, so the charges of both months add up
-    in the return (kpi.ppp_charge_sgd sums the months' charges)."""
+    in the return (kpi.ppp_charge_monthly_sgd sums the months' whole charges; the reward
+    charges each increment of a month's peak, not the charge prorated to the days run)."""
     env = make_env(SCENARIO, start="2014-03-31", days=2, peak_price_sgd_per_kw=2.0)
     actions = np.tile(env.simulation.flow_max_kg_s, (env.simulation.steps, 1))
     rewards, info, steps = _play(env, actions)
     kpis = info["kpi"]
     assert isinstance(kpis, dict) and steps == 96
-    assert kpis["ppp_charge_sgd"] > 1.5 * 2.0 * kpis["peak_power_kw"]  # two bills
+    assert kpis["ppp_charge_monthly_sgd"] > 1.5 * 2.0 * kpis["peak_power_kw"]  # two bills
     weight = env.scenario.controller.comfort_penalty_sgd_per_kelvin_hour
-    bill = kpis["energy_cost_sgd"] + kpis["ppp_charge_sgd"]
+    bill = kpis["energy_cost_sgd"] + kpis["ppp_charge_monthly_sgd"]
     assert sum(rewards) == pytest.approx(-(bill + weight * kpis["discomfort_kelvin_hours"]))
 
 

@@ -52,7 +52,8 @@ def test_run_gives_the_summary_and_results_of_simulate(reference: hvacflex.RunRe
         reference.results.drop(columns=TIMING_COLUMNS),
         check_freq=False,
     )
-    assert hvacflex.kpi_summary(result) == hvacflex.kpi_summary(reference)
+    ours, theirs = hvacflex.kpi_summary(result), hvacflex.kpi_summary(reference)
+    assert pd.Series(ours).equals(pd.Series(theirs))  # NaN where a ratio has no events
 
 
 def test_steps_with_the_controllers_flows_equal_the_controllers_own(

@@ -41,10 +41,11 @@ controller sees; the data itself under perfect foresight).
 **Reward** of period k: −(energy cost + the peak charge's increment + the comfort penalty)
 [SGD]: ``P_k c_k Δt / 1000`` with the period's price c_k [SGD/MWh]; ``max(charge so far this
 month, φ_k P_k) − charge so far`` (the monthly peak-power charge of :func:`hvacflex.kpi.
-ppp_charge_sgd`, charged as it grows); ``ρ Δt Σ_zone deviation`` with ρ the scenario's
-``controller.comfort_penalty_sgd_per_kelvin_hour`` and the deviation of each zone's end
-temperature from the band [K]. So an episode's return is −(``energy_cost_sgd`` +
-``ppp_charge_sgd`` + ρ ``discomfort_kelvin_hours``) of its KPIs.
+ppp_charge_monthly_sgd`, charged as it grows); ``ρ Δt Σ_zone deviation`` with ρ the
+scenario's ``controller.comfort_penalty_sgd_per_kelvin_hour`` and the deviation of each
+zone's end temperature from the band [K]. So an episode's return is −(``energy_cost_sgd`` +
+``ppp_charge_monthly_sgd`` + ρ ``discomfort_kelvin_hours``) of its KPIs (the whole months'
+peak charges: an episode shorter than a month is charged the month's peak as a bill would).
 
 **Episode end**: ``terminated`` is True after the scenario's last period (the bill is
 complete; nothing is truncated). **info**: every step ``period``, ``power_kw``,
