@@ -106,12 +106,13 @@ def test_step_columns_of_one_zone_and_channel_written_out() -> None:
         "d_outdoor_temp_degc",
         "w_outdoor_temp_degc",
     ]
-    assert schema.step_frame_columns(["z"], ["c_w"])[-6:] == [
+    assert schema.step_frame_columns(["z"], ["c_w"])[-7:] == [
         "il_activated",
         "il_curtailed",
         "il_beyond_model",
         "il_event_window",
         "fallback",
+        "model_extrapolation",
         "solve_status",
     ]
 

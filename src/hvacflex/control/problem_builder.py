@@ -78,18 +78,19 @@ def model_error_margins(
 def within_validity(
     building: Building, y_min: FloatArray, y_max: FloatArray
 ) -> tuple[FloatArray, FloatArray]:
-    """(N, m) comfort bounds [°C] kept inside the zone temperatures an identified model's
-    training data covered (``[identified.validity]``), wherever the comfort band allows: the
-    plan does not float a zone where its model would extrapolate (a night float-up to 30 °C
-    on a model trained up to 25.6 °C). The comfort band wins where the two do not overlap;
-    a designed building, or a model file without a validity range, is unchanged."""
+    """(N, m) comfort bounds [°C] whose upper bound is kept at or below the highest zone
+    temperature an identified model's training data covered (``[identified.validity]``),
+    wherever the comfort band allows: the plan does not float a zone where its model would
+    extrapolate (a night float-up to 30 °C on a model trained up to 25.6 °C). The lower
+    bound is the band's: a pre-cool below the trained range stays possible (the comfort band
+    bounds it, and an MPC's reserve needs it). The band wins where the two do not overlap; a
+    designed building, or a model file without a validity range, is unchanged."""
     identified = building.identified
     validity = None if identified is None else identified.validity
     if validity is None:
         return y_min, y_max
-    low = np.minimum(np.asarray(validity.zone_temp_min_degc, dtype=float)[None, :], y_max)
     high = np.maximum(np.asarray(validity.zone_temp_max_degc, dtype=float)[None, :], y_min)
-    return np.maximum(y_min, low), np.minimum(y_max, high)
+    return y_min, np.minimum(y_max, high)
 
 
 @dataclass(frozen=True)
