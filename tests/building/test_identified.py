@@ -249,12 +249,12 @@ def test_a_period_outside_the_validity_range_is_flagged() -> None:
     assert validity.outside(zone, outdoor).tolist() == [False, True, True, True]
 
 
-def test_a_run_on_a_model_with_a_validity_range_plans_inside_it_and_counts_the_rest(
+def test_a_run_on_a_model_with_a_validity_range_counts_the_periods_planned_outside_it(
     tmp_path: Path,
 ) -> None:
-    """The MPC on an identified model trained only up to 25.5 °C does not float its zones
-    to the unoccupied 30 °C bound; periods whose forecast outdoor air lies outside the
-    trained range are counted (``model_extrapolation_steps``)."""
+    """The MPC on an identified model trained only up to 25.5 °C: every period whose
+    planned zone temperature or forecast outdoor air lies outside the trained range is
+    flagged (``model_extrapolation``) and counted (``model_extrapolation_steps``)."""
     from hvacflex.config import preset, with_overrides
     from hvacflex.sim.closed_loop import run_simulation
 
@@ -275,10 +275,11 @@ def test_a_run_on_a_model_with_a_validity_range_plans_inside_it_and_counts_the_r
     )
     frame = run_simulation(cfg, tmp_path / "run", progress=False).frame
     served = frame[[c for c in frame.columns if c.startswith("temp_served_")]].to_numpy()
-    assert served.max() <= 25.5 + 0.05  # the LP's soft bound, to the comfort slack's pennies
     outdoor = frame["d_outdoor_temp_degc"].to_numpy()
-    outside = (outdoor < 26.0) | (outdoor > 29.0)
+    outside = (outdoor < 26.0) | (outdoor > 29.0) | (served > 25.5).any(axis=1)
+    outside |= (served < 20.0).any(axis=1)
     assert outside.any()
+    np.testing.assert_array_equal(frame["model_extrapolation"].to_numpy(), outside)
     from hvacflex.kpi import summary as kpi_summary
 
-    assert kpi_summary(frame)["model_extrapolation_steps"] >= outside.sum()
+    assert kpi_summary(frame)["model_extrapolation_steps"] == outside.sum()

@@ -66,25 +66,3 @@ def test_commitments_are_clipped_into_the_room_and_the_reserve_zones(setup: Setu
     assert fixed is not None and fixed.shape == (g, len(setup.zone_names))
     room = contract.flow_max_kg_s - problem.u_min[:g]
     np.testing.assert_allclose(fixed, np.where(contract.reserve_mask, room, 0.0))
-
-
-def test_the_plan_stays_inside_an_identified_model_s_validity_range() -> None:
-    """The upper bound kept at the trained zone temperatures where the band allows (the
-    lower bound is the band's: a pre-cool stays possible); no range: unchanged."""
-    from types import SimpleNamespace
-
-    from hvacflex.building.identified import IdentifiedValidity
-    from hvacflex.control.problem_builder import within_validity
-
-    y_min = np.array([[23.0, 23.0], [18.0, 18.0]])
-    y_max = np.array([[25.0, 25.0], [30.0, 30.0]])  # occupied, then a night float
-    validity = IdentifiedValidity((22.0, 26.0), (25.6, 28.0), 24.0, 33.0)
-    building = SimpleNamespace(identified=SimpleNamespace(validity=validity))
-    low, high = within_validity(building, y_min, y_max)  # type: ignore[arg-type]
-    np.testing.assert_array_equal(high, [[25.0, 25.0], [25.6, 28.0]])
-    np.testing.assert_array_equal(low, y_min)
-    narrow = within_validity(building, y_min + 10.0, y_max + 10.0)  # type: ignore[arg-type]
-    np.testing.assert_array_equal(narrow[1], y_min + 10.0)  # the band wins: not below y_min
-    designed = SimpleNamespace(identified=None)
-    same = within_validity(designed, y_min, y_max)  # type: ignore[arg-type]
-    assert same[0] is y_min and same[1] is y_max

@@ -11,8 +11,7 @@ the same problem (docs/model.md §3):
   :func:`hvacflex.building.identified.identified_affine_power`),
 * comfort bounds for ``C x_{k+1}``, the temperature at the end of period k: the tighter of
   the bands of periods k and k + 1, so that the instant occupancy starts (and ends) is
-  inside the occupied band, kept inside an identified model's validity range
-  (:func:`within_validity`) and tightened by the estimation and model-error margins,
+  inside the occupied band, tightened by the estimation and model-error margins,
 * σ from the scenario's uncertainty box (zero for the nominal MPC),
 * prices, the peak-power price φ and, in billing-period mode, the month's peak so far,
 * the interruptible-load contract of the scenario's ``[reserve]`` table: the event length D,
@@ -73,24 +72,6 @@ def model_error_margins(
     ``Σ_{j<k} |C A^{k−1−j} Cᵀ| ε`` (docs/forecast.md)."""
     sigma = np.tile(model_error_k, (config.horizon_steps, 1))
     return comfort_margins(model.a, model.c.T, model.c, sigma)
-
-
-def within_validity(
-    building: Building, y_min: FloatArray, y_max: FloatArray
-) -> tuple[FloatArray, FloatArray]:
-    """(N, m) comfort bounds [°C] whose upper bound is kept at or below the highest zone
-    temperature an identified model's training data covered (``[identified.validity]``),
-    wherever the comfort band allows: the plan does not float a zone where its model would
-    extrapolate (a night float-up to 30 °C on a model trained up to 25.6 °C). The lower
-    bound is the band's: a pre-cool below the trained range stays possible (the comfort band
-    bounds it, and an MPC's reserve needs it). The band wins where the two do not overlap; a
-    designed building, or a model file without a validity range, is unchanged."""
-    identified = building.identified
-    validity = None if identified is None else identified.validity
-    if validity is None:
-        return y_min, y_max
-    high = np.maximum(np.asarray(validity.zone_temp_max_degc, dtype=float)[None, :], y_min)
-    return y_min, np.minimum(y_max, high)
 
 
 @dataclass(frozen=True)
@@ -208,7 +189,6 @@ def build_problem(
     sigma = np.zeros_like(d_hat) if cfg.robust == "none" else contract.box.sigma(d_hat, m.channels)
     u_min = contract.building.hvac.flow_min_at(forecast.occupied[:horizon])
     y_min, y_max = comfort_bounds_at_period_ends(forecast, horizon)
-    y_min, y_max = within_validity(contract.building, y_min, y_max)
     if context.extra_margin_k is not None:
         y_min, y_max = tightened_bounds(y_min, y_max, context.extra_margin_k)
     p0, p, reserve_coeff = _power_coefficients(contract, context, forecast, d_hat, u_min, y_min)
