@@ -207,7 +207,8 @@ class OpenAdrSettlement(Base):
 
 def db_text(value: str) -> str:
     """``value`` as text every database stores alike: a NUL (which PostgreSQL's text
-    refuses) as the four characters ``\\x00``, a lone surrogate (not UTF-8) as ``\\udXXX``;
+    refuses) as the four characters ``\\x00``, a lone surrogate (not UTF-8) as its escape
+    (``\\ud800`` for U+D800);
     any other text unchanged (JSON made by :func:`json.dumps` never changes)."""
     if "\x00" in value:
         value = value.replace("\x00", "\\x00")
