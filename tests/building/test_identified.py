@@ -45,9 +45,9 @@ POWER = IdentifiedPower(
 )
 
 
-@pytest.fixture
-def model_path(tmp_path: Path) -> Path:
-    model = IdentifiedModel(
+def _two_zone_model(validity: IdentifiedValidity | None = None) -> IdentifiedModel:
+    """The two-zone model of these tests (with a validity range, if given)."""
+    return IdentifiedModel(
         name="two zones",
         zones=("a", "b"),
         energyplus_zones=("Zone A", "ZONE-B"),
@@ -55,8 +55,13 @@ def model_path(tmp_path: Path) -> Path:
         power=POWER,
         provenance={},
         air=AirSystem(SUPPLY_TEMP_DEGC, (0.0, 0.0), (0.5, 0.8), (0.0, 0.0), (24.0, 24.0)),
+        validity=validity,
     )
-    return write_identified_model(model, tmp_path / "model.toml")
+
+
+@pytest.fixture
+def model_path(tmp_path: Path) -> Path:
+    return write_identified_model(_two_zone_model(), tmp_path / "model.toml")
 
 
 def test_the_linear_model_is_the_fitted_models_discretisation(model_path: Path) -> None:
@@ -258,17 +263,8 @@ def test_a_run_on_a_model_with_a_validity_range_counts_the_periods_planned_outsi
     from hvacflex.config import preset, with_overrides
     from hvacflex.sim.closed_loop import run_simulation
 
-    model = IdentifiedModel(
-        name="two zones",
-        zones=("a", "b"),
-        energyplus_zones=("Zone A", "ZONE-B"),
-        parameters=PARAMETERS,
-        power=POWER,
-        provenance={},
-        air=AirSystem(SUPPLY_TEMP_DEGC, (0.0, 0.0), (0.5, 0.8), (0.0, 0.0), (24.0, 24.0)),
-        validity=IdentifiedValidity((20.0, 20.0), (25.5, 25.5), 26.0, 29.0),
-    )
-    path = write_identified_model(model, tmp_path / "model.toml")
+    validity = IdentifiedValidity((20.0, 20.0), (25.5, 25.5), 26.0, 29.0)
+    path = write_identified_model(_two_zone_model(validity), tmp_path / "model.toml")
     cfg = with_overrides(
         preset("nmpc", start="2014-03-03", days=1.0),
         {"building": str(path), "controller.reserve": False, "activation.mode": "never"},
