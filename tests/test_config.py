@@ -42,6 +42,7 @@ def test_baseline_presets_are_rule_based_at_25_5_degc_with_optimal_start() -> No
     kinds = {name: preset(name).controller.kind for name in BASELINE_PRESETS}
     assert kinds == {
         "thermostat-25.5": "thermostat",
+        "thermostat-25.5-float": "thermostat",
         "trim-respond": "trim-respond",
         "demand-limit": "demand-limit",
         "gta-dr": "gta-dr",
@@ -51,6 +52,10 @@ def test_baseline_presets_are_rule_based_at_25_5_degc_with_optimal_start() -> No
         assert cfg.optimal_start and cfg.robust == "none"
         assert cfg.reserve == (name == "gta-dr")
     assert preset("thermostat-25.5").controller.thermostat_setpoint_degc == 25.5
+    # the night float: today's 1 K below the unoccupied bound, 0.25 K for the -float rule
+    assert preset("thermostat-25.5").controller.unoccupied_margin_k == 1.0
+    floating = preset("thermostat-25.5-float").controller
+    assert floating.unoccupied_margin_k == 0.25 and floating.thermostat_setpoint_degc == 25.5
     assert preset("gta-dr").reserve.event_max_steps == 4  # the setpoint raise is α of events
     assert not preset("thermostat").controller.optimal_start  # the old baseline is unchanged
 

@@ -561,3 +561,11 @@ def test_model_extrapolation_steps_counts_the_flagged_periods_by_hand() -> None:
     frame = pd.DataFrame({"model_extrapolation": [False, True, True, False, True]})
     assert model_extrapolation_steps(frame) == 3
     assert model_extrapolation_steps(frame.drop(columns="model_extrapolation")) == 0
+
+
+def test_peak_guard_steps_counts_the_periods_the_guard_shed_by_hand() -> None:
+    from hvacflex.kpi import peak_guard_steps
+
+    frame = pd.DataFrame({"peak_guard_active": [False, True, True, False, True, None]})
+    assert peak_guard_steps(frame) == 3
+    assert peak_guard_steps(pd.DataFrame({"power_kw": [1.0]})) == 0  # written before the column

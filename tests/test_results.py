@@ -81,6 +81,7 @@ def test_step_columns_of_one_zone_and_channel_written_out() -> None:
         "power_served_kw",
         "power_curtailed_kw",
         "planned_power_kw",
+        "committed_peak_kw",
         "reserve_kw",
         "offer_meter_ratio",
         "solve_time_s",
@@ -106,13 +107,14 @@ def test_step_columns_of_one_zone_and_channel_written_out() -> None:
         "d_outdoor_temp_degc",
         "w_outdoor_temp_degc",
     ]
-    assert schema.step_frame_columns(["z"], ["c_w"])[-7:] == [
+    assert schema.step_frame_columns(["z"], ["c_w"])[-8:] == [
         "il_activated",
         "il_curtailed",
         "il_beyond_model",
         "il_event_window",
         "fallback",
         "model_extrapolation",
+        "peak_guard_active",
         "solve_status",
     ]
 

@@ -25,6 +25,7 @@ PRESETS_LISTED: tuple[str, ...] = (
     "nmpc-no-reserve",
     "thermostat",
     "thermostat-25.5",
+    "thermostat-25.5-float",
     "trim-respond",
     "demand-limit",
     "gta-dr",

@@ -751,6 +751,16 @@ def model_extrapolation_steps(results: pd.DataFrame) -> int:
     return int(np.sum(flags))
 
 
+def peak_guard_steps(results: pd.DataFrame) -> int:
+    """Number of periods in which the in-period peak guard shed load to hold the committed
+    peak (column ``peak_guard_active``; docs/model.md, the committed peak). 0 for results
+    written before the column existed."""
+    if "peak_guard_active" not in results.columns:
+        return 0
+    flags = results["peak_guard_active"].fillna(False).astype(bool).to_numpy()
+    return int(np.sum(flags))
+
+
 def planned_slack_share(
     results: pd.DataFrame, tolerance_k: float = PLANNED_SLACK_TOLERANCE_K
 ) -> float:
@@ -817,6 +827,7 @@ COUNT_KPIS = (
     "il_beyond_model_steps",
     "fallback_count",
     "model_extrapolation_steps",
+    "peak_guard_steps",
 )
 """Keys of :func:`summary` that count things: integers (``int``) in the summary, its JSON
 and CSV, and printed as whole numbers."""
@@ -837,8 +848,8 @@ def summary(results: pd.DataFrame, peak_price_sgd_per_kw: float | None = None) -
     the total), ``discomfort_<zone>_kelvin_hours``, ``max_violation_k`` (all zones),
     ``max_violation_occupied_k``, ``max_violation_<zone>_k``, ``violation_share``, the IL
     keys of :func:`il_summary`, ``fallback_count``, ``model_extrapolation_steps``,
-    ``planned_slack_share``, ``max_delta_vs_half_band``, ``solve_time_mean_s``,
-    ``solve_time_p95_s``, ``solve_time_max_s``, ``prediction_error_*``
+    ``peak_guard_steps``, ``planned_slack_share``, ``max_delta_vs_half_band``,
+    ``solve_time_mean_s``, ``solve_time_p95_s``, ``solve_time_max_s``, ``prediction_error_*``
     (:func:`prediction_error_summary`; NaN for a rule). Monthly averages are omitted when the
     index is not a ``DatetimeIndex``, as are the PPP charges and ``net_cost_with_ppp_sgd``.
     The counts (:data:`COUNT_KPIS`) are ``int``.
@@ -876,6 +887,7 @@ def summary(results: pd.DataFrame, peak_price_sgd_per_kw: float | None = None) -
     out |= il_summary(results)
     out["fallback_count"] = fallback_count(results)
     out["model_extrapolation_steps"] = model_extrapolation_steps(results)
+    out["peak_guard_steps"] = peak_guard_steps(results)
     out["planned_slack_share"] = planned_slack_share(results)
     out["max_delta_vs_half_band"] = max_delta_vs_half_band(results)
     out |= {f"solve_time_{stat}_s": v for stat, v in solve_time_stats_s(results).items()}

@@ -83,6 +83,7 @@ STEP_SCALAR_UNITS: dict[str, str] = {
     "power_served_kw": "kW",
     "power_curtailed_kw": "kW",
     "planned_power_kw": "kW",
+    "committed_peak_kw": "kW",
     "reserve_kw": "kW",
     "offer_meter_ratio": NO_UNIT,
     "solve_time_s": "s",
@@ -105,6 +106,7 @@ FLAG_COLUMNS: tuple[str, ...] = (
     "il_event_window",
     "fallback",
     "model_extrapolation",
+    "peak_guard_active",
 )
 """Boolean per-step columns, in file order (after the float columns)."""
 

@@ -66,3 +66,30 @@ def test_outdoor_air_share_or_need() -> None:
     a, b = outdoor_air_secant(need, np.array([0.0, 3.61]))
     # from (0, 0) to (10, 1.32); at or above the need the secant is the constant need
     np.testing.assert_allclose(a, [0.0, 1.32]) and np.testing.assert_allclose(b, [0.132, 0.0])
+
+
+def test_a_closed_damper_admits_no_outdoor_air_at_a_night_flow() -> None:
+    """A small night flow is 100 % outdoor air with the damper open (need ≥ S) and 0 % closed;
+    the secant of a closed step is 0 + 0·S."""
+    need = dataclasses.replace(BASE, outdoor_air_kg_s=1.5)
+    night = np.array([0.4, 0.4])
+    np.testing.assert_allclose(outdoor_air_kg_s(need, night), [0.4, 0.4])
+    np.testing.assert_array_equal(outdoor_air_kg_s(need, night, [False, True]), [0.0, 0.4])
+    np.testing.assert_array_equal(outdoor_air_kg_s(BASE, 10.0, False), 0.0)
+    a, b = outdoor_air_secant(need, np.array([0.0, 0.0]), np.array([False, True]))
+    assert (a[0], b[0]) == (0.0, 0.0)
+    # open: min(1.5, S) over [0, 10] as a secant through (0, 0) and (10, 1.5)
+    assert (a[1], b[1]) == pytest.approx((0.0, 0.15))
+    a, b = outdoor_air_secant(BASE, np.array([0.0, 0.0]), np.array([False, True]))
+    np.testing.assert_array_equal(b, [0.0, 0.3])
+
+
+def test_damper_opens_while_occupied_and_for_the_purge_before() -> None:
+    occupied = np.array([0, 0, 0, 0, 1, 1, 0, 0, 0, 1], dtype=bool)
+    np.testing.assert_array_equal(BASE.outdoor_air_open_at(occupied), occupied)
+    purge = dataclasses.replace(BASE, outdoor_air_purge_h=1.0)  # two 30-min steps
+    expected = np.array([0, 0, 1, 1, 1, 1, 0, 1, 1, 1], dtype=bool)
+    np.testing.assert_array_equal(purge.outdoor_air_open_at(occupied), expected)
+    # 15-min steps: four
+    expected_15 = np.array([1, 1, 1, 1, 1, 1, 1, 1, 1, 1], dtype=bool)
+    np.testing.assert_array_equal(purge.outdoor_air_open_at(occupied, 900.0), expected_15)

@@ -251,3 +251,13 @@ def test_energyplus_zone_is_optional_and_read(tmp_path: Path) -> None:
     empty = MINIMAL_TOML.replace('name = "b"\n', 'name = "b"\nenergyplus_zone = ""\n', 1)
     with pytest.raises(BuildingConfigError, match=r"zones\[1\]\.energyplus_zone"):
         load_building(write_building(tmp_path, empty, "empty.toml"))
+
+
+def test_the_purge_is_read_in_whole_half_hours(tmp_path: Path) -> None:
+    purge = _replace("[hvac]\n", "[hvac]\noutdoor_air_purge_h = 1.5\n")
+    assert load_building(write_building(tmp_path, purge)).hvac.outdoor_air_purge_h == 1.5
+    assert load_building(write_building(tmp_path, MINIMAL_TOML)).hvac.outdoor_air_purge_h == 0.0
+    bad = _replace("[hvac]\n", "[hvac]\noutdoor_air_purge_h = 0.25\n")
+    with pytest.raises(BuildingConfigError, match=r"multiple of 0\.5") as info:
+        load_building(write_building(tmp_path, bad))
+    assert info.value.field == "hvac.outdoor_air_purge_h"

@@ -198,3 +198,24 @@ def test_affine_model_with_chiller_fan_curve_and_need_is_exact_at_both_ends(
                 latent_gain_w=latent if flows.sum() > 0 else 0.0,
             )  # fmt: skip
             np.testing.assert_allclose(p0 + p @ flows, exact, rtol=1e-9, atol=1e-9)
+
+
+def test_a_closed_damper_leaves_the_coil_only_the_return_air_by_hand() -> None:
+    """Unoccupied, the fan recirculates: coil sensible c_p Σṁ(T_r − T_s), no outdoor latent;
+    the affine model with the damper closed is exact at both ends of the flow range."""
+    hvac = _hvac(outdoor_air_kg_s=0.6)
+    flow, t_zone = np.array([0.2, 0.3]), np.array([27.0, 28.0])
+    closed = hvac_power(hvac, flow, t_zone, 30.0, 0.02, damper_open=False)
+    assert float(closed.coil_sensible_w) == pytest.approx(1006.0 * (0.2 * 14.0 + 0.3 * 15.0))
+    assert float(closed.coil_latent_w) == 0.0
+    opened = hvac_power(hvac, flow, t_zone, 30.0, 0.02)
+    assert float(opened.total_kw) > float(closed.total_kw)
+    t_out, w_out = np.array([30.0, 30.0]), np.array([0.02, 0.02])
+    damper = np.array([False, True])
+    p0, p = affine_power_model(hvac, t_out, w_out, 24.0, damper_open=damper)
+    for flows in (np.asarray(hvac.flow_min_kg_s), np.asarray(hvac.flow_max_kg_s)):
+        exact = hvac_power_kw(
+            hvac, np.tile(flows, (2, 1)), np.full((2, 2), 24.0), t_out, w_out, damper_open=damper
+        )
+        np.testing.assert_allclose(p0 + p @ flows, exact, rtol=1e-9)
+    assert p0[0] < p0[1]

@@ -129,3 +129,26 @@ def test_a_rule_action_offers_nothing_and_predicts_one_step_on_the_model(setup: 
     assert (action.status, action.fallback, action.reserve_kw) == ("rule", False, 0.0)
     assert (action.planned_slack_max_k, action.delta_max_k, action.solve_time_s) == (0.0,) * 3
     assert np.isnan(action.planned_power_kw)
+
+
+def test_the_night_float_rides_the_configured_margin_below_the_unoccupied_bound(
+    setup: Setup,
+) -> None:
+    """Unoccupied, the target is upper − margin (never below the lower bound): 29 °C for
+    thermostat-25.5's 1 K, 29.75 °C for the -float preset's 0.25 K, in the 20–30 °C band."""
+    model, hvac = setup.model, setup.building.hvac
+    forecast = _forecast(setup, 2)  # 01:00, unoccupied
+    assert not forecast.occupied[0]
+    upper, lower = forecast.comfort_upper_degc[0], forecast.comfort_lower_degc[0]
+    for margin in (1.0, 0.25, 50.0):
+        rule = ThermostatController(model, hvac, 25.5, unoccupied_margin_k=margin)
+        np.testing.assert_array_equal(rule.target_degc(forecast), np.maximum(upper - margin, lower))
+    default = ThermostatController(model, hvac, 25.5)
+    np.testing.assert_array_equal(default.target_degc(forecast), upper - 1.0)
+    # the preset builds its rule with the key's margin
+    from hvacflex.sim.setup import make_controller
+
+    floating = make_controller(prepare(preset("thermostat-25.5-float", start="2014-03-03", days=1)))
+    assert isinstance(floating, ThermostatController) and floating.unoccupied_margin_k == 0.25
+    with pytest.raises(ValueError, match="unoccupied margin"):
+        ThermostatController(model, hvac, 25.5, unoccupied_margin_k=-0.1)

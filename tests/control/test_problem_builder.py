@@ -12,6 +12,7 @@ from hvacflex.control.base import PeriodInputs
 from hvacflex.control.mpc import MPCController
 from hvacflex.control.problem_builder import (
     PlanContext,
+    below_unoccupied_bound,
     build_problem,
     comfort_bounds_at_period_ends,
 )
@@ -66,3 +67,57 @@ def test_commitments_are_clipped_into_the_room_and_the_reserve_zones(setup: Setu
     assert fixed is not None and fixed.shape == (g, len(setup.zone_names))
     room = contract.flow_max_kg_s - problem.u_min[:g]
     np.testing.assert_allclose(fixed, np.where(contract.reserve_mask, room, 0.0))
+
+
+def test_power_rows_take_outdoor_air_only_where_the_damper_is_open(setup: Setup) -> None:
+    """The LP's rows are the building's affine model with the plant's damper schedule: an
+    unoccupied step's row equals the model with the damper closed, an occupied one's open."""
+    from hvacflex.building.hvac import affine_power_model
+
+    controller = make_controller(setup)
+    assert isinstance(controller, MPCController)
+    inputs = _inputs(setup)
+    problem = build_problem(setup.model, inputs, controller.contract, PlanContext(inputs.x_degc))
+    forecast, hvac = inputs.forecast, setup.building.hvac
+    horizon = problem.power_offset_kw.shape[0]
+    occupied = forecast.occupied[:horizon]
+    assert occupied.any() and not occupied.all()
+    outdoor = forecast.disturbances[:horizon, controller.contract.outdoor_index]
+    for damper in (False, True):
+        p0, _ = affine_power_model(
+            hvac,
+            outdoor,
+            forecast.outdoor_humidity_ratio_kg_per_kg[:horizon],
+            controller.contract.linearisation_temp_degc,
+            latent_gain_w=forecast.occupant_latent_w[:horizon],
+            flow_min_kg_s=problem.u_min,
+            damper_open=damper,
+        )
+        rows = occupied == damper
+        np.testing.assert_allclose(problem.power_offset_kw[rows], p0[rows])
+
+
+def test_the_plan_keeps_a_margin_below_the_night_bound_only(setup: Setup) -> None:
+    """Ends of unoccupied periods: y_max = band − margin (the default 0.5 K; never below
+    y_min); ends touching occupancy keep the band; the margin 0 gives the band back."""
+
+    controller = make_controller(setup)
+    assert isinstance(controller, MPCController)
+    inputs = _inputs(setup)  # 07:00: the horizon holds the day and the night after
+    contract = controller.contract
+    assert contract.config.unoccupied_plan_margin_k == 0.5
+    problem = build_problem(setup.model, inputs, contract, PlanContext(inputs.x_degc))
+    forecast = inputs.forecast
+    horizon = problem.y_max.shape[0]
+    band_lower, band_upper = comfort_bounds_at_period_ends(forecast, horizon)
+    occupied = forecast.occupied
+    night = np.array([not occupied[k] and not occupied[k + 1] for k in range(horizon)])
+    assert night.any() and not night.all()
+    np.testing.assert_allclose(problem.y_max[night], band_upper[night] - 0.5)
+    np.testing.assert_array_equal(problem.y_max[~night], band_upper[~night])
+    np.testing.assert_array_equal(problem.y_min, band_lower)
+    # by hand: a 30 °C night bound, 20 °C lower; a margin wider than the band stops at y_min
+    y_min, y_max = np.full((horizon, 1), 20.0), np.full((horizon, 1), 30.0)
+    wide = below_unoccupied_bound(forecast, y_min, y_max, 50.0)
+    np.testing.assert_array_equal(wide[night, 0], 20.0)
+    np.testing.assert_array_equal(below_unoccupied_bound(forecast, y_min, y_max, 0.0), y_max)

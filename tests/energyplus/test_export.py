@@ -550,3 +550,19 @@ def _assert_sized_like_the_hvac_system(building: Building, eio: Path) -> None:
     flow = sum(building.hvac.flow_max_kg_s)
     expected_w = 1000 * building.hvac.fan_coeff_kw * flow**building.hvac.fan_exponent
     assert fan == [pytest.approx(expected_w, rel=1e-4)]
+
+
+def test_the_damper_opens_in_occupied_hours_and_the_purge_only() -> None:
+    building = load_building(resolve_building("office5"))
+    purge = dataclasses.replace(
+        building, hvac=dataclasses.replace(building.hvac, outdoor_air_purge_h=1.0)
+    )
+    start, end = DEFAULT_OFFICE_SCHEDULE.occupied_hours
+    for b, first in ((building, start), (purge, start - 1)):
+        objects = parse_idf(export_idf(b, hvac="vav"))
+        (system,) = by_class(objects, "HVACTemplate:System:VAV")
+        assert system[27] == "outdoor air damper"  # minimum outdoor air schedule
+        compact = {f[0]: f for f in by_class(objects, "Schedule:Compact")}
+        fields = compact["outdoor air damper"]
+        assert _evaluate_compact(fields, 0) == [float(first <= h < end) for h in range(24)]
+        assert _evaluate_compact(fields, 1) == [0.0] * 24

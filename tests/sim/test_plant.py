@@ -241,3 +241,97 @@ def test_the_filter_predicts_with_the_delivered_cooling() -> None:
     loop.step()  # the next decision's filter predicts period 0 with what the air delivered
     np.testing.assert_allclose(predicted_with[0], u, atol=1e-12)
     assert np.all(u < flow - 1e-3)  # fan-only air: the decided flow would overstate it
+
+
+# ------------------------------------------------------------------ the in-period peak guard
+
+
+def _guard(cap_kw: float, upper: list[float], floor: list[float]):  # type: ignore[no-untyped-def]
+    from hvacflex.sim.plant import PeakGuard
+
+    return PeakGuard(cap_kw, np.array(upper), np.array(floor), substeps=6)
+
+
+def test_the_guard_sheds_towards_the_floor_in_zones_below_their_bound_by_hand() -> None:
+    """P(u) = 10 kW per kg/s of total flow, u = (1, 1), floor 0.2, cap 15 kW: s solves
+    10 (0.4 + 1.6 s) = 15, s = 0.6875, u' = 0.75 each; a zone at its upper bound keeps its
+    flow: 10 (1.2 + 0.8 s) = 15, s = 0.375, the other zone 0.5; a floor above the cap: the
+    floor; under the cap: unchanged."""
+    from hvacflex.sim.plant import shed_flows_kg_s
+
+    def power(u: np.ndarray) -> float:
+        return 10.0 * float(u.sum())
+
+    flow = np.array([1.0, 1.0])
+    shed = shed_flows_kg_s(
+        flow, _guard(15.0, [26.0, 26.0], [0.2, 0.2]), np.array([25.0, 25.0]), power
+    )
+    np.testing.assert_allclose(shed, [0.75, 0.75], atol=1e-9)
+    hot = shed_flows_kg_s(
+        flow, _guard(15.0, [26.0, 26.0], [0.2, 0.2]), np.array([26.0, 25.0]), power
+    )
+    np.testing.assert_allclose(hot, [1.0, 0.5], atol=1e-9)
+    low = shed_flows_kg_s(
+        flow, _guard(3.0, [26.0, 26.0], [0.2, 0.2]), np.array([25.0, 25.0]), power
+    )
+    np.testing.assert_array_equal(low, [0.2, 0.2])
+    fits = shed_flows_kg_s(
+        flow, _guard(25.0, [26.0, 26.0], [0.2, 0.2]), np.array([25.0, 25.0]), power
+    )
+    np.testing.assert_array_equal(fits, flow)
+
+
+def test_the_rc_plant_holds_the_cap_on_a_synthetic_over_cap_period(setup) -> None:  # type: ignore[no-untyped-def]
+    """Full flow on warm zones draws P; a cap of 0.6 P sheds (flag set, metered power within
+    1 % of the cap, zones warmer than unguarded but the flows never below the floor); a cap
+    above P changes nothing, bit for bit."""
+    building = setup.building
+    m = len(building.zone_names)
+    flow = np.asarray(building.hvac.flow_max_kg_s, dtype=float)
+    d = setup.exogenous.disturbances[20]
+    disturbance = Disturbance(
+        d,
+        float(setup.exogenous.outdoor_temp_degc[20]),
+        float(setup.exogenous.outdoor_humidity_ratio_kg_per_kg[20]),
+    )
+    free = RCPlant(building)
+    free.reset(25.0)
+    unguarded = free.step(Actuation(flow_kg_s=flow), disturbance, 1800.0)
+    floor = [0.3] * m
+    capped = RCPlant(building)
+    capped.reset(25.0)
+    cap = 0.6 * unguarded.power_kw
+    guarded = capped.step(
+        Actuation(flow_kg_s=flow, peak_guard=_guard(cap, [30.0] * m, floor)), disturbance, 1800.0
+    )
+    assert guarded.peak_guard_active and not unguarded.peak_guard_active
+    assert guarded.power_kw == pytest.approx(cap, rel=0.01)
+    assert np.all(guarded.supply_flow_kg_s < flow) and np.all(guarded.supply_flow_kg_s >= 0.3)
+    assert np.all(guarded.zone_temp_degc > unguarded.zone_temp_degc)
+    loose = RCPlant(building)
+    loose.reset(25.0)
+    same = loose.step(
+        Actuation(flow_kg_s=flow, peak_guard=_guard(2 * unguarded.power_kw, [30.0] * m, floor)),
+        disturbance,
+        1800.0,
+    )
+    assert not same.peak_guard_active
+    assert same.power_kw == unguarded.power_kw
+    np.testing.assert_array_equal(same.node_temp_degc, unguarded.node_temp_degc)
+
+
+def test_a_required_guard_on_a_plant_that_cannot_read_its_meter_is_refused() -> None:
+    from hvacflex.errors import ConfigError
+    from hvacflex.sim.closed_loop import peak_guard_enabled
+
+    class OncePerPeriod:
+        reads_meter_in_period = False
+
+    on = with_overrides(preset("rmpc-ppp"), {"controller.peak_guard": "on"})
+    with pytest.raises(ConfigError, match="peak_guard") as info:
+        peak_guard_enabled(on, OncePerPeriod())  # type: ignore[arg-type]
+    assert info.value.field == "controller.peak_guard"
+    assert not peak_guard_enabled(preset("rmpc-ppp"), OncePerPeriod())  # type: ignore[arg-type]
+    assert peak_guard_enabled(preset("rmpc-ppp"), RCPlant.__new__(RCPlant))
+    off = with_overrides(preset("rmpc-ppp"), {"controller.peak_guard": "off"})
+    assert not peak_guard_enabled(off, RCPlant.__new__(RCPlant))

@@ -127,6 +127,7 @@ def test_a_missing_training_results_file_is_a_config_error() -> None:
 
 BASELINE_CONTROLLERS = {
     "thermostat-25.5": ThermostatController,
+    "thermostat-25.5-float": ThermostatController,
     "trim-respond": TrimRespondController,
     "demand-limit": DemandLimitController,
     "gta-dr": GtaDrController,

@@ -12,7 +12,10 @@ pressure is reset still draws 4 % of its design power near zero flow and ≈ 11 
 flow, where the pure power law with n = 2.5 gives 5 % — the static-pressure floor.
 
 Outdoor air [kg/s]: a fixed share f_oa of the supply (default), or the ventilation need
-V_oa (``HvacSystem.outdoor_air_kg_s``): the damper admits min(V_oa, S) whenever the fan runs.
+V_oa (``HvacSystem.outdoor_air_kg_s``): the damper admits min(V_oa, S) while it is open, as a
+building management system runs it: in the occupied periods and the pre-occupancy purge
+(``HvacSystem.outdoor_air_open_at``); closed otherwise, so a fan running at night
+recirculates return air only (outdoor air 0).
 
 For the controller both are replaced per step by their secant over [S_low, S_max], the flows
 the step can take: exact at both ends. The fan curve is convex on the operating range, so its
@@ -97,30 +100,36 @@ def fan_secant_from(
     return intercept, np.asarray(slope, dtype=np.float64)
 
 
-def outdoor_air_kg_s(hvac: HvacSystem, total_flow_kg_s: ArrayLike) -> FloatArray:
-    """Outdoor air through the damper [kg/s] at total supply S (...) [kg/s]."""
+def outdoor_air_kg_s(
+    hvac: HvacSystem, total_flow_kg_s: ArrayLike, damper_open: ArrayLike = True
+) -> FloatArray:
+    """Outdoor air through the damper [kg/s] at total supply S (...) [kg/s]; 0 where
+    ``damper_open`` (bool, broadcast with S) is False."""
     s = np.maximum(np.asarray(total_flow_kg_s, dtype=np.float64), 0.0)
+    is_open = np.asarray(damper_open, dtype=bool)
     if hvac.outdoor_air_kg_s is None:
-        share: FloatArray = hvac.outdoor_air_fraction * s
+        share: FloatArray = np.where(is_open, hvac.outdoor_air_fraction * s, 0.0)
         return share
-    need: FloatArray = np.minimum(hvac.outdoor_air_kg_s, s)
+    need: FloatArray = np.where(is_open, np.minimum(hvac.outdoor_air_kg_s, s), 0.0)
     return need
 
 
 def outdoor_air_secant(
-    hvac: HvacSystem, total_flow_min_kg_s: ArrayLike
+    hvac: HvacSystem, total_flow_min_kg_s: ArrayLike, damper_open: ArrayLike = True
 ) -> tuple[FloatArray, FloatArray]:
     """Outdoor air ≈ a + b · S over [S_min, S_max] per step: (a [kg/s], b [-]).
 
     Exact at both ends (the fixed share: a = 0, b = f_oa exactly; the ventilation need V:
-    a = V, b = 0 once S_min ≥ V).
+    a = V, b = 0 once S_min ≥ V); a = b = 0 in steps whose damper is closed
+    (``damper_open``, bool broadcast with S_min).
     """
     s_min = np.maximum(np.asarray(total_flow_min_kg_s, dtype=np.float64), 0.0)
+    is_open = np.broadcast_to(np.asarray(damper_open, dtype=bool), s_min.shape)
     if hvac.outdoor_air_kg_s is None:
-        return np.zeros_like(s_min), np.full_like(s_min, hvac.outdoor_air_fraction)
+        return np.zeros_like(s_min), np.where(is_open, hvac.outdoor_air_fraction, 0.0)
     s_max = max_total_flow_kg_s(hvac)
     width = np.maximum(s_max - s_min, 1e-12)
     low, high = outdoor_air_kg_s(hvac, s_min), outdoor_air_kg_s(hvac, s_max)
-    slope: FloatArray = np.where(s_max > s_min, (high - low) / width, 0.0)
-    intercept: FloatArray = low - slope * s_min
+    slope: FloatArray = np.where(is_open & (s_max > s_min), (high - low) / width, 0.0)
+    intercept: FloatArray = np.where(is_open, low - slope * s_min, 0.0)
     return intercept, slope

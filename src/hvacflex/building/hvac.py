@@ -2,7 +2,8 @@
 
 One VAV air-handling unit serves every zone with supply air at T_s. With S = Σṁ the total
 supply flow [kg/s], m_oa the outdoor air (a fixed share f_oa · S, or the ventilation need
-min(V_oa, S): :mod:`hvacflex.building.air_handler`) and T_ret = Σ ṁ_i T_r,i / S::
+min(V_oa, S), while the damper is open — occupied periods and the pre-occupancy purge —
+and 0 while it is closed: :mod:`hvacflex.building.air_handler`) and T_ret = Σ ṁ_i T_r,i / S::
 
     Q_sens  = c_p [Σ_i ṁ_i (T_r,i − T_s) + m_oa (T_out − T_ret)]              [W]
     Q_lat   = m_oa h_fg (W_out − W_s)⁺ + (1 − m_oa / S) L                       [W]
@@ -119,6 +120,7 @@ def hvac_power(
     outdoor_humidity_ratio_kg_per_kg: ArrayLike,
     *,
     latent_gain_w: ArrayLike = 0.0,
+    damper_open: ArrayLike = True,
 ) -> HvacPower:
     """Exact HVAC power, by component.
 
@@ -130,6 +132,8 @@ def hvac_power(
     outdoor_temp_degc : (...) outdoor dry-bulb temperature [°C].
     outdoor_humidity_ratio_kg_per_kg : (...) outdoor humidity ratio [kg/kg].
     latent_gain_w : (...) occupants' latent gain, all zones [W] (see module docstring).
+    damper_open : (...) bool, the outdoor-air damper open (default: always; the schedule is
+        :meth:`hvacflex.building.model.HvacSystem.outdoor_air_open_at`).
 
     Returns
     -------
@@ -144,7 +148,7 @@ def hvac_power(
     safe_total = np.where(running, total_flow, 1.0)
     zone_heat = (flow * t_zone).sum(axis=-1)
     return_temp = np.where(running, zone_heat / safe_total, t_zone.mean(axis=-1))
-    outdoor_air = outdoor_air_kg_s(hvac, total_flow)
+    outdoor_air = outdoor_air_kg_s(hvac, total_flow, damper_open)
     coil_sensible = CP_AIR_J_PER_KG_K * (
         zone_heat - total_flow * hvac.supply_temp_degc + outdoor_air * (t_out - return_temp)
     )
@@ -174,10 +178,12 @@ def hvac_power_kw(
     outdoor_humidity_ratio_kg_per_kg: ArrayLike,
     *,
     latent_gain_w: ArrayLike = 0.0,
+    damper_open: ArrayLike = True,
 ) -> FloatArray:
     """Exact HVAC electric power P_fan + P_cool + P_heat [kW], shape (...).
 
-    Shapes as :func:`hvac_power`: flows and zone temperatures (..., m), outdoor values (...).
+    Shapes as :func:`hvac_power`: flows and zone temperatures (..., m), outdoor values and
+    ``damper_open`` (...).
     """
     return hvac_power(
         hvac,
@@ -186,6 +192,7 @@ def hvac_power_kw(
         outdoor_temp_degc,
         outdoor_humidity_ratio_kg_per_kg,
         latent_gain_w=latent_gain_w,
+        damper_open=damper_open,
     ).total_kw
 
 
@@ -221,11 +228,14 @@ def coil_heat_model(
     zone_temp_degc: FloatArray,
     total_flow_min_kg_s: FloatArray,
     latent_gain_w: FloatArray,
+    damper_open: ArrayLike = True,
 ) -> CoilHeatModel:
     """:class:`CoilHeatModel` with return air of zone i at ``zone_temp_degc`` (N, m), outdoor
     air at (N,) ``t_out`` [°C], ``w_out`` [kg/kg], the outdoor-air secant over [S_min, S_max]
-    with (N,) S_min ``total_flow_min_kg_s`` [kg/s] and (N,) occupants' latent gain [W]."""
-    a, b = outdoor_air_secant(hvac, total_flow_min_kg_s)
+    with (N,) S_min ``total_flow_min_kg_s`` [kg/s] (none where (N,) ``damper_open`` is
+    False) and (N,) occupants' latent gain [W]."""
+    is_open = np.broadcast_to(np.asarray(damper_open, dtype=bool), t_out.shape)
+    a, b = outdoor_air_secant(hvac, total_flow_min_kg_s, is_open)
     mean_zone = zone_temp_degc.mean(axis=1)
     sensible = CP_AIR_J_PER_KG_K * (
         zone_temp_degc - hvac.supply_temp_degc + b[:, None] * (t_out[:, None] - zone_temp_degc)
@@ -234,9 +244,9 @@ def coil_heat_model(
     # occupants' latent: the recirculated share (1 − m_oa/S) L, 0 when off, as its secant
     low, high = total_flow_min_kg_s, sum(hvac.flow_max_kg_s)
     share_low = np.where(
-        low > 0.0, 1.0 - outdoor_air_kg_s(hvac, low) / np.where(low > 0, low, 1.0), 0.0
+        low > 0.0, 1.0 - outdoor_air_kg_s(hvac, low, is_open) / np.where(low > 0, low, 1.0), 0.0
     )
-    share_high = 1.0 - outdoor_air_kg_s(hvac, high) / high
+    share_high = 1.0 - outdoor_air_kg_s(hvac, high, is_open) / high
     latent_slope = np.where(
         high > low, (share_high - share_low) * latent_gain_w / np.maximum(high - low, 1e-12), 0.0
     )
@@ -266,6 +276,7 @@ def affine_power_model(
     *,
     latent_gain_w: ArrayLike = 0.0,
     flow_min_kg_s: ArrayLike | None = None,
+    damper_open: ArrayLike = True,
 ) -> tuple[FloatArray, FloatArray]:
     """Per-step affine power model P_k ≈ p0_k + p_k · u_k.
 
@@ -280,6 +291,8 @@ def affine_power_model(
     flow_min_kg_s : (N, m) lower flow bound of each step [kg/s] (e.g. ventilation while
         occupied, the minimum otherwise); the secants of step k span [flow_min_k, ṁ_max],
         the flows the step can take. ``None``: ``hvac.flow_min_kg_s`` every step.
+    damper_open : scalar or (N,) bool, the outdoor-air damper open in step k (default:
+        always); closed, the coil sees no outdoor air (the same rule as the plant's).
 
     Returns
     -------
@@ -298,7 +311,13 @@ def affine_power_model(
         low = np.broadcast_to(low, (t_out.size, m))
     latent = np.broadcast_to(np.asarray(latent_gain_w, dtype=np.float64), t_out.shape)
     coil = coil_heat_model(
-        hvac, t_out, w_out, np.broadcast_to(t_ref, (t_out.size, m)), low.sum(axis=1), latent
+        hvac,
+        t_out,
+        w_out,
+        np.broadcast_to(t_ref, (t_out.size, m)),
+        low.sum(axis=1),
+        latent,
+        damper_open,
     )
     high = np.asarray(hvac.flow_max_kg_s, dtype=np.float64)
     q_low = coil.constant_w + (coil.cooling_w_per_kg_s * low).sum(axis=1)
@@ -317,6 +336,7 @@ def reserve_power_coeff(
     outdoor_humidity_ratio_kg_per_kg: ArrayLike,
     zone_temp_degc: ArrayLike,
     total_flow_curtailed_kg_s: ArrayLike,
+    damper_open: ArrayLike = True,
 ) -> FloatArray:
     """(N, m) power reduction per kg/s of flow shed that curtailment surely achieves [kW per
     kg/s]: a lower bound of the exact reduction P(u) − P(u − r) per unit of r.
@@ -335,6 +355,7 @@ def reserve_power_coeff(
         e.g. the lower comfort bound.
     total_flow_curtailed_kg_s : (N,) total supply flow after curtailment S − Σr [kg/s] (a
         lower estimate makes the bound safer).
+    damper_open : scalar or (N,) bool, the outdoor-air damper open in step k.
     """
     t_out = np.atleast_1d(np.asarray(outdoor_temp_degc, dtype=np.float64))
     w_out = np.atleast_1d(np.asarray(outdoor_humidity_ratio_kg_per_kg, dtype=np.float64))
@@ -350,6 +371,7 @@ def reserve_power_coeff(
         zone,
         np.full(t_out.shape, sum(hvac.flow_max_kg_s)),
         np.zeros_like(t_out),
+        damper_open,
     )
     if hvac.chiller is None:
         plant_slope = np.full_like(t_out, 1.0 / hvac.cop / W_PER_KW)

@@ -356,6 +356,7 @@ def _hvac(
         fan_part_load_coefficients=(
             None if fan_curve is None else (fan_curve[0], fan_curve[1], fan_curve[2], fan_curve[3])
         ),
+        outdoor_air_purge_h=float(spec.outdoor_air_purge_h),
     )
 
 

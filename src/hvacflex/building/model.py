@@ -20,7 +20,8 @@ import numpy.typing as npt
 
 from hvacflex.building.chiller import ChillerPerformance
 from hvacflex.building.identified import NOMINAL_FLOOR_AREA_M2, IdentifiedRC
-from hvacflex.units import CP_AIR_J_PER_KG_K, RHO_AIR_KG_PER_M3
+from hvacflex.constants import PERIOD_S
+from hvacflex.units import CP_AIR_J_PER_KG_K, RHO_AIR_KG_PER_M3, SECONDS_PER_HOUR
 
 OUTSIDE = "outside"
 GROUND = "ground"
@@ -426,6 +427,10 @@ class HvacSystem:
     fan_part_load_coefficients : (c1, c2, c3, c4) of the fan's part-load curve,
         P_fan = κ_f (Σṁ_max)^n · (c1 + c2 f + c3 f² + c4 f³), f = Σṁ / Σṁ_max, 0 when the fan
         is off (Σṁ = 0); ``None``: the power law κ_f (Σṁ)^n.
+    outdoor_air_purge_h : pre-occupancy purge [h]: the outdoor-air damper opens this long
+        before each occupied spell (0: only while occupied). Outside the occupied periods and
+        the purge the damper is closed: a running fan recirculates return air only
+        (:meth:`outdoor_air_open_at`).
     """
 
     supply_temp_degc: float
@@ -442,10 +447,29 @@ class HvacSystem:
     outdoor_air_kg_s: float | None = None
     chiller: ChillerPerformance | None = None
     fan_part_load_coefficients: tuple[float, float, float, float] | None = None
+    outdoor_air_purge_h: float = 0.0
 
     def __post_init__(self) -> None:
         if not self.ventilation_flow_kg_s:
             object.__setattr__(self, "ventilation_flow_kg_s", self.flow_min_kg_s)
+
+    def outdoor_air_open_at(
+        self, occupied: npt.ArrayLike, dt_s: float = PERIOD_S
+    ) -> npt.NDArray[np.bool_]:
+        """(N,) bool: the outdoor-air damper is open in step k — the building is occupied
+        in k, or an occupied step follows within the purge (``outdoor_air_purge_h``).
+
+        Parameters
+        ----------
+        occupied : (N,) bool, the schedule's occupied steps (the occupied comfort band).
+        dt_s : step length [s]. An occupied spell beyond the series' end opens no purge.
+        """
+        occ = np.asarray(occupied, dtype=bool).reshape(-1)
+        purge_steps = math.ceil(self.outdoor_air_purge_h * SECONDS_PER_HOUR / dt_s - 1e-9)
+        open_ = occ.copy()
+        for shift in range(1, purge_steps + 1):
+            open_[:-shift] |= occ[shift:]
+        return open_
 
     def flow_min_at(self, occupied: npt.ArrayLike) -> npt.NDArray[np.float64]:
         """(N, m) lower flow bound per step: ventilation when occupied, else the minimum.

@@ -33,7 +33,8 @@ File layout (see ``buildings/office5.toml`` for a commented example)::
                          flow_max_kg_s, ventilation_flow_kg_s?, outdoor_air_fraction, cop,
                          fan_coeff_kw, fan_exponent, reserve_zones?, heating_efficiency?,
                          supply_humidity_ratio_kg_per_kg?, outdoor_air_l_s_per_person?,
-                         outdoor_air_l_s_per_m2?, fan_part_load_coefficients?
+                         outdoor_air_l_s_per_m2?, fan_part_load_coefficients?,
+                         outdoor_air_purge_h?
     [hvac.chiller]       capacity_kw, min_part_load_ratio?, condenser_fan_kw_per_kw?,
                          pump_design_kw?  (absent: constant cop)
 
@@ -269,6 +270,9 @@ class HvacSpec(Spec):
         Annotated[list[Number], Field(min_length=4, max_length=4)] | None
     ) = None
     chiller: ChillerSpec | None = None
+    outdoor_air_purge_h: Annotated[Number, Field(ge=0.0, le=12.0, multiple_of=0.5)] = 0.0
+    """Pre-occupancy purge [h] (whole half hours): the outdoor-air damper opens this long
+    before each occupied spell; otherwise it opens only while occupied."""
 
 
 FanCurve = Annotated[list[Number], Field(min_length=4, max_length=4)]

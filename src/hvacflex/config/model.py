@@ -38,6 +38,7 @@ PriceGapFill = Literal["none", "previous-day"]
 PriceCalendar = Literal["data", "live"]
 DisturbanceKind = Literal["outdoor_temp", "solar", "internal_gain", "ground_temp", "sky_longwave"]
 Linearisation = Literal["fixed", "trajectory"]
+PeakGuardMode = Literal["auto", "on", "off"]
 EstimationMode = Literal["full-state", "kalman"]
 PlantKind = Literal["rc", "energyplus"]
 PlantActuation = Literal["setpoint", "flow"]
@@ -100,6 +101,18 @@ class ControllerConfig:
     optimal_start: bool = False
     """Rule-based controllers: pre-cool before occupancy with the learned lead
     (:class:`hvacflex.control.baselines.OptimalStart`)."""
+    unoccupied_margin_k: float = 1.0
+    """Rule-based controllers: the night float's set-point below the unoccupied upper comfort
+    bound [K] (never below the lower bound)."""
+    peak_guard: PeakGuardMode = "auto"
+    """The in-period peak guard while φ > 0 (docs/model.md, the committed peak): ``"auto"`` on
+    a plant that reads its meter within a period (the RC plant), ``"on"`` required (a plant
+    that cannot: refused before the run), ``"off"`` never."""
+    peak_guard_substeps: int = 6
+    """The guard's meter readings per period (6: every 5 min of a 30-min period)."""
+    unoccupied_plan_margin_k: float = 0.5
+    """The MPC: its plan keeps the end-of-period zone temperatures this far below the upper
+    comfort bound of unoccupied periods [K] (not written into ``comfort_upper_*``)."""
     demand_limit_fraction: float = 0.9
     """``demand-limit``: the peak target's share of yesterday's unmanaged peak."""
     reserve_share: float = 0.2

@@ -23,6 +23,8 @@ per-horizon peak. The rule-based baselines are described in ``docs/baselines.md`
     nmpc-no-reserve    nominal MPC that offers no reserve
     thermostat         rule-based flow control to a set-point (24 °C), no reserve
     thermostat-25.5    the thermostat at 25.5 °C with a learned optimal start, no reserve
+    thermostat-25.5-float  thermostat-25.5 whose night float rides 0.25 K below the
+                       unoccupied upper bound (1 K: thermostat-25.5)
     trim-respond       ASHRAE Guideline 36-style zone-airflow (and supply-air) trim and
                        respond, 25 °C, optimal start, no reserve
     demand-limit       thermostat-25.5 that raises set-points to hold a peak target
@@ -40,6 +42,9 @@ from __future__ import annotations
 from typing import Any
 
 from hvacflex.config.model import NEMS_MAX_INTERRUPTION_STEPS
+
+FLOAT_UNOCCUPIED_MARGIN_K = 0.25
+"""``thermostat-25.5-float``'s night float below the unoccupied upper bound [K] (issue 55)."""
 
 DEFAULT_PEAK_PRICE_PAPER_SGD_PER_KW = 1.5
 """The paper's scenario (c) peak-power price [SGD/kW]."""
@@ -98,6 +103,13 @@ PRESETS: dict[str, dict[str, Any]] = {
     "nmpc-no-reserve": {"controller": {"robust": "none", "reserve": False, **_BILLED}},
     "thermostat": {"controller": {"kind": "thermostat", "robust": "none", "reserve": False}},
     "thermostat-25.5": {"controller": {"kind": "thermostat", **_RULE}},
+    "thermostat-25.5-float": {
+        "controller": {
+            "kind": "thermostat",
+            **_RULE,
+            "unoccupied_margin_k": FLOAT_UNOCCUPIED_MARGIN_K,
+        }
+    },
     "trim-respond": {
         "controller": {
             "kind": "trim-respond",
@@ -139,5 +151,11 @@ PAPER_MODEL_SCENARIOS: dict[str, str] = {
 PAPER_FEEDBACK_SCENARIOS: dict[str, str] = {"b": "rmpc-feedback", "c": "rmpc-feedback-ppp"}
 """The robust scenarios (b), (c) with affine disturbance feedback (whole-horizon model)."""
 
-BASELINE_PRESETS: tuple[str, ...] = ("thermostat-25.5", "trim-respond", "demand-limit", "gta-dr")
+BASELINE_PRESETS: tuple[str, ...] = (
+    "thermostat-25.5",
+    "thermostat-25.5-float",
+    "trim-respond",
+    "demand-limit",
+    "gta-dr",
+)
 """The strong rule-based baselines (docs/baselines.md), which "does it pay?" ranks against."""

@@ -13,7 +13,9 @@ File layout (every key optional)::
     [controller]   kind, robust, reserve, peak_price_sgd_per_kw, billing_mode,
                    comfort_penalty_sgd_per_kelvin_hour, horizon_steps,
                    linearisation_temp_degc, time_limit_s, thermostat_setpoint_degc,
-                   linearisation, optimal_start, demand_limit_fraction, reserve_share
+                   linearisation, optimal_start, demand_limit_fraction, reserve_share,
+                   unoccupied_margin_k, unoccupied_plan_margin_k, peak_guard,
+                   peak_guard_substeps
     [controller.feedback]  structure, memory_steps
     [reserve]      event_max_steps, event_allowance_k, event_recovery_steps,
                    non_delivery_penalty_sgd_per_mwh,
@@ -67,6 +69,7 @@ from hvacflex.config.model import (
     ILBaseline,
     Linearisation,
     OccupancyMode,
+    PeakGuardMode,
     PlantActuation,
     PlantConfig,
     PlantKind,
@@ -191,6 +194,31 @@ class ControllerSpec(Spec):
     feedback: FeedbackSpec = FeedbackSpec()
     linearisation: Linearisation = default(ControllerConfig, "linearisation")
     optimal_start: Flag = default(ControllerConfig, "optimal_start")
+    unoccupied_margin_k: Annotated[Number, Field(ge=0.0, le=10.0)] = default(
+        ControllerConfig, "unoccupied_margin_k"
+    )
+    """Rule-based controllers (``thermostat``, ``trim-respond``, ``demand-limit``,
+    ``gta-dr``): the night float's set-point below the unoccupied upper comfort bound [K], never
+    below its lower bound (``thermostat-25.5``: 1 K; ``thermostat-25.5-float``: 0.25 K)."""
+    peak_guard: PeakGuardMode = default(ControllerConfig, "peak_guard")
+    """While the peak is priced (φ > 0) the plan's peak is a commitment (``committed_peak_kw``:
+    the plan's peak, or the month's billed peak so far if higher); the in-period peak guard
+    reads the plant's meter ``peak_guard_substeps`` times a period and, while it exceeds the
+    commitment, sheds supply flow towards the period's floor in the zones below their upper
+    comfort bound, releasing as soon as the planned flows fit (docs/model.md). ``auto``: where
+    the plant reads its meter within a period (the RC plant; not EnergyPlus); ``on``: required
+    (a plant that cannot is refused before the run); ``off``: never."""
+    peak_guard_substeps: Annotated[PositiveInt, Field(le=60)] = default(
+        ControllerConfig, "peak_guard_substeps"
+    )
+    """The peak guard's meter readings per period (6: every 5 min of a 30-min period)."""
+    unoccupied_plan_margin_k: Annotated[Number, Field(ge=0.0, le=10.0)] = default(
+        ControllerConfig, "unoccupied_plan_margin_k"
+    )
+    """The MPC does not ride the unoccupied bound: the end-of-period zone temperatures it
+    plans stay this far below the upper comfort bound of unoccupied periods [K] (never below
+    the lower bound; the ``comfort_upper_*`` result columns, which the KPIs grade against,
+    keep the band)."""
     demand_limit_fraction: Annotated[Number, Field(gt=0.0, le=1.0)] = default(
         ControllerConfig, "demand_limit_fraction"
     )

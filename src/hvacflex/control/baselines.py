@@ -182,6 +182,8 @@ class ThermostatController(Controller):
     setpoint_degc : occupied set-point [°C].
     optimal_start : pre-cool to the set-point before occupancy with this learner (None: the
         set-point applies from the first occupied period).
+    unoccupied_margin_k : the night float's set-point below the unoccupied upper comfort
+        bound [K] (``[controller] unoccupied_margin_k``).
     """
 
     def __init__(
@@ -190,7 +192,12 @@ class ThermostatController(Controller):
         hvac: HvacSystem,
         setpoint_degc: float = 24.0,
         optimal_start: OptimalStart | None = None,
+        *,
+        unoccupied_margin_k: float = UNOCCUPIED_MARGIN_K,
     ) -> None:
+        if unoccupied_margin_k < 0.0:
+            raise ValueError(f"unoccupied margin must be ≥ 0 K, got {unoccupied_margin_k}")
+        self.unoccupied_margin_k = unoccupied_margin_k
         self._model = model
         self._hvac = hvac
         self._flow_max = np.asarray(hvac.flow_max_kg_s, dtype=float)
@@ -247,7 +254,7 @@ class ThermostatController(Controller):
                 np.full_like(upper, self._setpoint_degc), occupied_lower, occupied_upper
             )
         else:
-            target = np.maximum(upper - UNOCCUPIED_MARGIN_K, lower)
+            target = np.maximum(upper - self.unoccupied_margin_k, lower)
         return target
 
     def flows_now(self, x_degc: FloatArray, forecast: Forecast) -> FloatArray:

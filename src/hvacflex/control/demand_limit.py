@@ -32,7 +32,12 @@ from hvacflex.building.discretize import LinearModel
 from hvacflex.building.hvac import hvac_power_kw
 from hvacflex.building.model import HvacSystem
 from hvacflex.control.base import Action, FloatArray, PeriodInputs
-from hvacflex.control.baselines import OptimalStart, ThermostatController, rule_action
+from hvacflex.control.baselines import (
+    UNOCCUPIED_MARGIN_K,
+    OptimalStart,
+    ThermostatController,
+    rule_action,
+)
 from hvacflex.data.forecast import Forecast
 
 SETPOINT_STEP_K = 0.25
@@ -112,8 +117,12 @@ class DemandLimitController(ThermostatController):
         setpoint_degc: float,
         optimal_start: OptimalStart | None = None,
         fraction: float = DEFAULT_DEMAND_LIMIT_FRACTION,
+        *,
+        unoccupied_margin_k: float = UNOCCUPIED_MARGIN_K,
     ) -> None:
-        super().__init__(model, hvac, setpoint_degc, optimal_start)
+        super().__init__(
+            model, hvac, setpoint_degc, optimal_start, unoccupied_margin_k=unoccupied_margin_k
+        )
         if not 0.0 < fraction <= 1.0:
             raise ValueError(f"demand-limit fraction must be in (0, 1], got {fraction}")
         self.fraction = fraction

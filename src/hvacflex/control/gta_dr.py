@@ -61,8 +61,11 @@ class GtaDrController(ThermostatController):
         raise_k: float,
         event_steps: int,
         recovery_steps: int,
+        unoccupied_margin_k: float = UNOCCUPIED_MARGIN_K,
     ) -> None:
-        super().__init__(model, hvac, setpoint_degc, optimal_start)
+        super().__init__(
+            model, hvac, setpoint_degc, optimal_start, unoccupied_margin_k=unoccupied_margin_k
+        )
         if not 0.0 <= reserve_share <= 1.0:
             raise ValueError(f"reserve share must be in [0, 1], got {reserve_share}")
         self.reserve_share = reserve_share
@@ -79,7 +82,7 @@ class GtaDrController(ThermostatController):
             if bool(forecast.occupied[j]) or self.precooling:
                 targets.append(np.clip(np.full_like(upper, self.setpoint_degc), lower, upper))
             else:
-                targets.append(np.maximum(upper - UNOCCUPIED_MARGIN_K, lower))
+                targets.append(np.maximum(upper - self.unoccupied_margin_k, lower))
         return np.asarray(targets)
 
     def event_plan(self, x_degc: FloatArray, forecast: Forecast) -> EventPlan:

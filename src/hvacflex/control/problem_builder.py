@@ -6,12 +6,15 @@ the same problem (docs/model.md §3):
 * dynamics ``x+ = A x + B u + E d + g`` from :func:`hvacflex.building.discretize.linearize`
   (or the step model of a re-linearisation), the filter's offset in the affine term,
 * power ``P_k = p0_k + p_kᵀ u_k`` from :func:`hvacflex.building.hvac.affine_power_model` at the
-  forecast outdoor temperature and humidity and the zone temperature T₀ (a building
+  forecast outdoor temperature and humidity and the zone temperature T₀, outdoor air only
+  where the damper is open (occupied steps and the pre-occupancy purge, as the plant; a building
   identified from data: its fitted power model,
   :func:`hvacflex.building.identified.identified_affine_power`),
 * comfort bounds for ``C x_{k+1}``, the temperature at the end of period k: the tighter of
   the bands of periods k and k + 1, so that the instant occupancy starts (and ends) is
-  inside the occupied band, tightened by the estimation and model-error margins,
+  inside the occupied band, the upper bound of unoccupied period ends lowered by
+  ``[controller] unoccupied_plan_margin_k`` (:func:`below_unoccupied_bound`: the plan does not
+  ride the night bound) and tightened by the estimation and model-error margins,
 * σ from the scenario's uncertainty box (zero for the nominal MPC),
 * prices, the peak-power price φ and, in billing-period mode, the month's peak so far,
 * the interruptible-load contract of the scenario's ``[reserve]`` table: the event length D,
@@ -72,6 +75,29 @@ def model_error_margins(
     ``Σ_{j<k} |C A^{k−1−j} Cᵀ| ε`` (docs/forecast.md)."""
     sigma = np.tile(model_error_k, (config.horizon_steps, 1))
     return comfort_margins(model.a, model.c.T, model.c, sigma)
+
+
+def below_unoccupied_bound(
+    forecast: Forecast, y_min: FloatArray, y_max: FloatArray, margin_k: float
+) -> FloatArray:
+    """(N, m) upper bounds [°C] with ``margin_k`` [K] taken off where the end of period k
+    is unoccupied (periods k and k + 1 both unoccupied), never below ``y_min``: the MPC plans
+    below the night bound instead of riding it, so the plant's excursions past the plan stay
+    inside the band. The band itself (``comfort_upper_*``, what the KPIs grade) is unchanged.
+
+    Parameters
+    ----------
+    forecast : covers N + 1 periods (``occupied``); with exactly N the last is repeated.
+    y_min, y_max : (N, m) the bounds on the period-end temperatures [°C].
+    margin_k : ≥ 0 [K].
+    """
+    horizon = y_max.shape[0]
+    occupied = np.asarray(forecast.occupied, dtype=bool)
+    now = occupied[:horizon]
+    nxt = np.concatenate([occupied[1 : horizon + 1], occupied[horizon - 1 : horizon]])[:horizon]
+    night = ~(now | nxt)
+    lowered: FloatArray = np.where(night[:, None], np.maximum(y_max - margin_k, y_min), y_max)
+    return lowered
 
 
 @dataclass(frozen=True)
@@ -189,6 +215,7 @@ def build_problem(
     sigma = np.zeros_like(d_hat) if cfg.robust == "none" else contract.box.sigma(d_hat, m.channels)
     u_min = contract.building.hvac.flow_min_at(forecast.occupied[:horizon])
     y_min, y_max = comfort_bounds_at_period_ends(forecast, horizon)
+    y_max = below_unoccupied_bound(forecast, y_min, y_max, cfg.unoccupied_plan_margin_k)
     if context.extra_margin_k is not None:
         y_min, y_max = tightened_bounds(y_min, y_max, context.extra_margin_k)
     p0, p, reserve_coeff = _power_coefficients(contract, context, forecast, d_hat, u_min, y_min)
@@ -289,6 +316,8 @@ def _power_coefficients(
         return p0, p, p
     latent = forecast.occupant_latent_w[:horizon]
     humidity = forecast.outdoor_humidity_ratio_kg_per_kg[:horizon]
+    # the plant's damper schedule, purge included where the forecast shows the next spell
+    damper = building.hvac.outdoor_air_open_at(forecast.occupied, contract.model.dt_s)[:horizon]
     p0, p = affine_power_model(
         building.hvac,
         outdoor,
@@ -296,6 +325,7 @@ def _power_coefficients(
         contract.linearisation_temp_degc,
         latent_gain_w=latent if latent.size == horizon else 0.0,
         flow_min_kg_s=u_min,
+        damper_open=damper,
     )
     reserve_coeff = reserve_power_coeff(
         building.hvac,
@@ -303,6 +333,7 @@ def _power_coefficients(
         humidity,
         _return_air_estimate_degc(contract.model, context, y_min),
         _curtailed_flow_estimate_kg_s(context.previous_plan, u_min),
+        damper_open=damper,
     )
     return p0, p, reserve_coeff
 

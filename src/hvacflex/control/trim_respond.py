@@ -15,7 +15,7 @@ per :data:`REQUEST_STEP_K` above it (at most :data:`MAX_ZONE_REQUESTS`); each pe
 The set-point is ``[controller] thermostat_setpoint_degc`` while occupied (clipped to the
 band) and while pre-cooling before occupancy (the learned optimal start of
 :class:`hvacflex.control.baselines.OptimalStart`, Guideline 36 §5.1.9's cool-down mode);
-otherwise the unoccupied set-back ``upper − UNOCCUPIED_MARGIN_K``.
+otherwise the unoccupied set-back ``upper − unoccupied_margin_k`` (``[controller]``).
 
 **Supply-air temperature** (the air handler's T&R): a zone whose loop is above
 :data:`SAT_REQUEST_FRACTION` sends a supply-air request; each period
@@ -103,7 +103,10 @@ class TrimRespondController(Controller):
         optimal_start: OptimalStart | None = None,
         *,
         reset_supply_temp: bool = False,
+        unoccupied_margin_k: float = UNOCCUPIED_MARGIN_K,
     ) -> None:
+        self.unoccupied_margin_k = unoccupied_margin_k
+        """The night set-back below the unoccupied upper comfort bound [K]."""
         self._model = model
         self._hvac = hvac
         self._flow_max = np.asarray(hvac.flow_max_kg_s, dtype=float)
@@ -123,7 +126,7 @@ class TrimRespondController(Controller):
                 lower, upper = first_occupied_band(forecast)
             occupied: FloatArray = np.clip(np.full_like(upper, self.setpoint_degc), lower, upper)
             return occupied
-        setback: FloatArray = np.maximum(upper - UNOCCUPIED_MARGIN_K, lower)
+        setback: FloatArray = np.maximum(upper - self.unoccupied_margin_k, lower)
         return setback
 
     def update(self, zone_temp_degc: FloatArray, setpoint_degc: FloatArray) -> None:

@@ -49,7 +49,9 @@ What is mapped, and how
   as a schedule (``<zone> minimum flow fraction``: ventilation flow / max while occupied,
   ``flow_min`` / max otherwise); outdoor air the ventilation need ``outdoor_air_kg_s`` as a
   fixed minimum = maximum, or else a fixed ``outdoor_air_fraction`` of the supply
-  (proportional minimum = maximum outdoor air = f_oa · Σ max flow), no economiser; the fan's
+  (proportional minimum = maximum outdoor air = f_oa · Σ max flow), no economiser, the
+  damper open only from ``outdoor_air_purge_h`` before the occupied hours of working days to
+  their end (the ``outdoor air damper`` schedule, the rule of the RC plant and the LP); the fan's
   design pressure so that its design power equals κ_f (Σ ṁ_max)^n at 70 % total efficiency;
   chiller COP = ``cop``, and where the building has a ``chiller`` model its capacity and its
   minimum part load (also as the minimum unloading ratio: it cycles, no false loading; the
@@ -425,6 +427,7 @@ ACTIVITY = "activity level"
 COOLING_SETPOINT = "cooling setpoint"
 HEATING_SETPOINT = "heating setpoint"
 SUPPLY_AIR_TEMP = "supply air temperature"
+OUTDOOR_AIR = "outdoor air damper"
 WORKDAY_TYPES = "Weekdays SummerDesignDay"
 """Day types that take the working-day profile (design days size for a working day)."""
 
@@ -470,6 +473,7 @@ def _schedule_objects(b: Building, schedule: OfficeSchedule) -> list[str]:
         idf_object("Schedule:Constant", SUPPLY_AIR_TEMP, "temperature", b.hvac.supply_temp_degc),
         _compact(OCCUPIED, "on/off", _occupied_profile(schedule, 1, 0), [0] * 24),
         _compact(COOLING_SETPOINT, "temperature", cooling_work, [cooling_unoccupied] * 24),
+        _outdoor_air_schedule(schedule, b.hvac.outdoor_air_purge_h),
     ]
     for name in ("people", "lighting", "equipment"):
         objects.append(
@@ -489,6 +493,24 @@ def _schedule_objects(b: Building, schedule: OfficeSchedule) -> list[str]:
             )
         )  # fmt: skip
     return objects
+
+
+def _outdoor_air_schedule(schedule: OfficeSchedule, purge_h: float) -> str:
+    """The damper's schedule (the template's minimum outdoor air schedule): 1 from
+    ``purge_h`` before the occupied hours of working days to their end, 0 otherwise — the
+    rule of the RC plant and the LP (``HvacSystem.outdoor_air_open_at``)."""
+    start, end = schedule.occupied_hours
+    open_min = max(round((start - purge_h) * 60.0), 0)
+    fields: list[str] = []
+    if open_min > 0:
+        fields += [f"Until: {open_min // 60:02d}:{open_min % 60:02d}", "0"]
+    fields += [f"Until: {end:02d}:00", "1"]
+    if end < 24:
+        fields += ["Until: 24:00", "0"]
+    return idf_object(
+        "Schedule:Compact", OUTDOOR_AIR, "fraction", "Through: 12/31",
+        f"For: {WORKDAY_TYPES}", *fields, "For: AllOtherDays", "Until: 24:00", "0",
+    )  # fmt: skip
 
 
 def _minimum_flow_schedule(zone: str) -> str:
@@ -575,7 +597,7 @@ def _vav_objects(b: Building) -> list[str]:
             "ChilledWater", ALWAYS_ON, SUPPLY_AIR_TEMP, h.supply_temp_degc,
             "None", None, None, None, None, None,  # heating coil
             "None", None, None, None, None, None,  # preheat coil
-            outdoor_m3_s, outdoor_m3_s, outdoor_control, None,
+            outdoor_m3_s, outdoor_m3_s, outdoor_control, OUTDOOR_AIR,
             "NoEconomizer", "NoLockout", None, None, None, None,
             None, None, "DrawThrough", "VariableSpeedMotorPressureReset", "CycleOnAny", None,
             "None", None, None, "None", "None", "None", None, None, "None",

@@ -42,6 +42,7 @@ PresetName = Literal[
     "nmpc-no-reserve",
     "thermostat",
     "thermostat-25.5",
+    "thermostat-25.5-float",
     "trim-respond",
     "demand-limit",
     "gta-dr",

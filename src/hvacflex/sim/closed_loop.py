@@ -55,7 +55,14 @@ from hvacflex.paths import check_output_dir
 from hvacflex.settlement import SETTLEMENT_COLUMNS, settlement_columns
 from hvacflex.sim.history import PeriodHistory, period_inputs
 from hvacflex.sim.measurement import Sensors
-from hvacflex.sim.plant import Actuation, Disturbance, Observation, Plant
+from hvacflex.sim.plant import (
+    Actuation,
+    Disturbance,
+    Observation,
+    PeakGuard,
+    Plant,
+    reads_meter_in_period,
+)
 from hvacflex.sim.plants import plant_summary, scenario_plant
 from hvacflex.sim.progress import progress_bar
 from hvacflex.sim.run_files import (
@@ -177,6 +184,40 @@ class _PlantPeriod:
     (:meth:`ClosedLoop._delivered_input`)."""
 
 
+def committed_peak_kw(phi_sgd_per_kw: float, action: Action, billed_peak_kw: float) -> float:
+    """The cap in force in a period [kW] while the peak is priced (φ > 0): the larger of the
+    fresh plan's peak (``action.plan.peak_kw``, max_k P_k) and the month's billed peak so far
+    ``billed_peak_kw`` (the metered periods before it); the billed peak alone without a fresh
+    plan; NaN where φ = 0 or neither is positive."""
+    if not phi_sgd_per_kw > 0.0:
+        return float("nan")
+    planned = float(getattr(action.plan, "peak_kw", float("nan")))
+    candidates = [v for v in (planned, billed_peak_kw) if np.isfinite(v) and v > 0.0]
+    return max(candidates) if candidates else float("nan")
+
+
+def peak_guard_enabled(config: ScenarioConfig, plant: Plant) -> bool:
+    """Whether the in-period peak guard runs on ``plant`` (``[controller] peak_guard``:
+    ``auto`` where the plant reads its meter within a period, ``on`` required, ``off``).
+
+    Raises
+    ------
+    ConfigError : ``on`` with a plant that cannot read its meter within a period (exit 2,
+        before the run).
+    """
+    mode = config.controller.peak_guard
+    reads = reads_meter_in_period(plant)
+    if mode == "on" and not reads:
+        raise ConfigError(
+            f"the peak guard needs a plant that reads its meter within a period; the "
+            f"{config.plant.kind} plant reads it once a period",
+            field="controller.peak_guard",
+            value=mode,
+            hint="set peak_guard = 'auto' or 'off', or run on the RC plant ([plant] kind = 'rc')",
+        )
+    return mode != "off" and reads
+
+
 class ClosedLoop:
     """A closed-loop run that can be advanced, checkpointed and resumed.
 
@@ -225,6 +266,10 @@ class ClosedLoop:
             hvac.flow_min_at(np.array([True]))[0],
         )
         """(m,) lowest flow [kg/s] when unoccupied and when occupied."""
+        self._damper_open = hvac.outdoor_air_open_at(setup.exogenous.occupied, cfg.dt_s)
+        """(T,) bool: the outdoor-air damper open (occupied or purge), the plant's schedule."""
+        self._guard_on = peak_guard_enabled(cfg, self.plant)  # checked before the run
+        self._period_guard: PeakGuard | None = None  # the guard of the period being stepped
         self.x = np.full(len(setup.model.node_names), cfg.initial_temp_degc)
         if setup.building.identified is not None:  # hidden nodes at their estimated values
             self.x = initial_node_temps_degc(setup.building.identified, cfg.initial_temp_degc)
@@ -297,8 +342,23 @@ class ClosedLoop:
             float(d_real[self._outdoor]),
             float(exo.outdoor_humidity_ratio_kg_per_kg[k]),
             latent_gain_w=float(exo.occupant_latent_w[k]),
+            damper_open=bool(self._damper_open[k]),
         )
+        cap_kw = committed_peak_kw(
+            effective_peak_price(forecast, setup.config.controller.peak_price_sgd_per_kw),
+            decision.action,
+            self.history.peak_floor_kw(k),
+        )
+        self._period_guard = None
+        if self._guard_on and np.isfinite(cap_kw) and not decision.action.released:
+            self._period_guard = PeakGuard(
+                cap_kw,
+                exo.comfort_upper_degc[k] + decision.allowance_k,
+                self._flow_min_kg_s[int(exo.occupied[k])],
+                setup.config.controller.peak_guard_substeps,
+            )
         period = self._plant_period(decision, disturbance)
+        self._period_guard = None
         delivered = None
         if period.applied.supply_temp_degc is not None and period.applied.node_temp_degc is None:
             # the filter predicts with what the air delivered, as the observer does
@@ -317,6 +377,8 @@ class ClosedLoop:
 
         power = period.applied.power_kw
         self._record(k, decision, forecast, d_hat, w, period)
+        self.recorder.values[k, self.recorder.column_index["committed_peak_kw"]] = cap_kw
+        self.recorder.flags["peak_guard_active"][k] = period.applied.peak_guard_active
         self.recorder.values[k, self.recorder.zone_index[results.PREDICTION_ERROR]] = error_k
         self._record_event(k, decision)
         self.history.record(k, power, self._activated(k), delivered)
@@ -372,7 +434,11 @@ class ClosedLoop:
             return Actuation(setpoint_degc=np.full(action.flow_kg_s.shape, np.nan))
         flow = action.applied_flow_kg_s(curtailed=curtailed)
         if self.actuation == "flow":
-            return Actuation(flow_kg_s=flow, supply_temp_degc=action.supply_temp_degc)
+            return Actuation(
+                flow_kg_s=flow,
+                supply_temp_degc=action.supply_temp_degc,
+                peak_guard=self._period_guard,
+            )
         k, exo = self.k, self.setup.exogenous
         planned = action.predicted_curtailed_degc if curtailed else action.predicted_served_degc
         lower = exo.comfort_lower_degc[k]

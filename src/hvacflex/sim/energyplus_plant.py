@@ -125,6 +125,8 @@ class EnergyPlusPlant:
     """
 
     can_snapshot = False
+    reads_meter_in_period = False
+    """The meter is read once a period (no in-period peak guard yet)."""
 
     def __init__(
         self,

@@ -8,6 +8,12 @@ exact nonlinear RC network (:class:`hvacflex.building.plant.NonlinearPlant`) wit
 HVAC power model (:func:`hvacflex.building.hvac.hvac_power_kw`; a building identified from
 data: its fitted power model).
 
+A plant that reads its meter within a period (``reads_meter_in_period``, the RC plant) runs
+the in-period **peak guard** an :class:`Actuation` may carry (:class:`PeakGuard`): at each of
+``substeps`` instants of the period it reads the power the meter would show at the actuated
+flows and, where that exceeds the committed cap, sheds flow within the comfort band
+(:func:`shed_flows_kg_s`) for that substep; it releases at the next reading that fits.
+
 A plant that can snapshot its state (``can_snapshot``) lets the closed loop compute the
 counterfactual of an IL activation (the same period with and without curtailment) by
 ``get_state`` → ``step`` → ``set_state`` → ``step``. An external emulator that cannot (an
@@ -17,7 +23,9 @@ replaying the recorded actuations instead.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
+from functools import partial
 from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
@@ -29,6 +37,30 @@ from hvacflex.building.model import Building
 from hvacflex.building.plant import NonlinearPlant
 
 FloatArray = npt.NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class PeakGuard:
+    """The committed peak a period's meter must keep, and the room the guard may use.
+
+    Attributes
+    ----------
+    cap_kw : the committed peak [kW] (``committed_peak_kw``).
+    comfort_upper_degc : (m,) the period's upper comfort bound [°C]; a zone at or above it is
+        not shed.
+    flow_floor_kg_s : (m,) the lowest flow the guard may shed to [kg/s] (the ventilation flow
+        while occupied, the minimum otherwise).
+    substeps : meter readings per period (≥ 1).
+    """
+
+    cap_kw: float
+    comfort_upper_degc: FloatArray
+    flow_floor_kg_s: FloatArray
+    substeps: int = 6
+
+    def __post_init__(self) -> None:
+        if self.substeps < 1:
+            raise ValueError(f"the peak guard needs ≥ 1 substep, got {self.substeps}")
 
 
 @dataclass(frozen=True)
@@ -45,12 +77,15 @@ class Actuation:
     setpoint_degc : (m,) zone cooling setpoint [°C], or None.
     cooling_kw : (m,) delivered sensible cooling per zone [kW] (≥ 0), or None.
     supply_temp_degc : supply-air temperature [°C]; None: the plant's own (design) value.
+    peak_guard : the in-period peak guard of the period (flow actuation on a plant that
+        ``reads_meter_in_period``), or None.
     """
 
     flow_kg_s: FloatArray | None = None
     setpoint_degc: FloatArray | None = None
     cooling_kw: FloatArray | None = None
     supply_temp_degc: float | None = None
+    peak_guard: PeakGuard | None = None
 
     def __post_init__(self) -> None:
         given = [
@@ -85,6 +120,8 @@ class Disturbance:
     outdoor_temp_degc : outdoor dry-bulb temperature [°C].
     outdoor_humidity_ratio_kg_per_kg : outdoor humidity ratio [kg/kg].
     latent_gain_w : the occupants' latent gain, all zones [W] (a coil load, not in ``d``).
+    damper_open : the outdoor-air damper is open this period (occupied, or the pre-occupancy
+        purge: ``HvacSystem.outdoor_air_open_at``); closed, the air handler recirculates.
 
     A plant with its own weather (EnergyPlus reads the EPW) may ignore these.
     """
@@ -93,6 +130,7 @@ class Disturbance:
     outdoor_temp_degc: float
     outdoor_humidity_ratio_kg_per_kg: float
     latent_gain_w: float = 0.0
+    damper_open: bool = True
 
 
 @dataclass(frozen=True)
@@ -117,6 +155,7 @@ class Observation:
         supply air is the model's own (the RC plants); with it the observer feeds the model
         the cooling delivered, not the flow (``closed_loop``: a coil off out of hours
         delivers none).
+    peak_guard_active : True when the peak guard shed flow in some substep of the period.
     """
 
     zone_temp_degc: FloatArray
@@ -128,6 +167,56 @@ class Observation:
     outdoor_temp_degc: float
     boundary_temp_degc: FloatArray | None = None
     supply_temp_degc: FloatArray | None = None
+    peak_guard_active: bool = False
+
+
+def reads_meter_in_period(plant: object) -> bool:
+    """Whether ``plant`` reads its meter within a period (can run a :class:`PeakGuard`): its
+    ``reads_meter_in_period`` attribute, False where it has none."""
+    return bool(getattr(plant, "reads_meter_in_period", False))
+
+
+def shed_flows_kg_s(
+    flow_kg_s: FloatArray,
+    guard: PeakGuard,
+    zone_temp_degc: FloatArray,
+    power_kw: Callable[[FloatArray], float],
+    iterations: int = 40,
+) -> FloatArray:
+    """(m,) the flows [kg/s] the guard runs while the meter exceeds ``guard.cap_kw``.
+
+    Rule: the zones below their upper comfort bound are moved together towards their floor,
+    u' = u_floor + s (u − u_floor), with the largest s ∈ [0, 1] at which the metered power
+    ``power_kw(u')`` [kW] is at most the cap (bisection; power grows with flow); s = 0 where
+    even the floor exceeds it. Zones at or above their upper bound keep u; where u ≤ the cap
+    already, u is returned unchanged.
+
+    Parameters
+    ----------
+    flow_kg_s : (m,) the actuated flows [kg/s].
+    zone_temp_degc : (m,) zone temperatures now [°C].
+    power_kw : the meter's power at given flows (m,) [kg/s] → [kW], at the present state.
+    """
+    flow = np.asarray(flow_kg_s, dtype=np.float64)
+    if power_kw(flow) <= guard.cap_kw:
+        return flow
+    floor = np.minimum(np.asarray(guard.flow_floor_kg_s, dtype=np.float64), flow)
+    may_shed = np.asarray(zone_temp_degc) < np.asarray(guard.comfort_upper_degc)
+
+    def at(s: float) -> FloatArray:
+        out: FloatArray = np.where(may_shed, floor + s * (flow - floor), flow)
+        return out
+
+    if power_kw(at(0.0)) > guard.cap_kw:
+        return at(0.0)
+    low, high = 0.0, 1.0
+    for _ in range(iterations):
+        mid = 0.5 * (low + high)
+        if power_kw(at(mid)) <= guard.cap_kw:
+            low = mid
+        else:
+            high = mid
+    return at(low)
 
 
 @runtime_checkable
@@ -174,6 +263,7 @@ class RCPlant:
     """
 
     can_snapshot = True
+    reads_meter_in_period = True
     actuations: tuple[str, ...] = ("flow",)
 
     def __init__(self, building: Building, plant: NonlinearPlant | None = None) -> None:
@@ -196,35 +286,45 @@ class RCPlant:
             outdoor_temp_degc=float("nan"),
         )
 
+    def _power_kw(
+        self, flow: FloatArray, zone_temp_degc: FloatArray, disturbance: Disturbance
+    ) -> float:
+        """The meter's HVAC power [kW] at flows (m,) [kg/s] and zone (return-air)
+        temperatures (m,) [°C] under the period's disturbance."""
+        identified = self.building.identified
+        if identified is not None:
+            return identified_power_kw(
+                identified,
+                flow,
+                zone_temp_degc,
+                disturbance.outdoor_temp_degc,
+                identified_occupied_share(self.plant.network.channel_names, disturbance.d),
+            )
+        return float(
+            hvac_power_kw(
+                self.building.hvac,
+                flow,
+                zone_temp_degc,
+                disturbance.outdoor_temp_degc,
+                disturbance.outdoor_humidity_ratio_kg_per_kg,
+                latent_gain_w=disturbance.latent_gain_w,
+                damper_open=disturbance.damper_open,
+            )
+        )
+
     def step(self, actuation: Actuation, disturbance: Disturbance, dt_s: float) -> Observation:
         if actuation.flow_kg_s is None:
             raise ValueError(f"the RC plant is flow-actuated; got a {actuation.kind} actuation")
         flow = np.asarray(actuation.flow_kg_s, dtype=np.float64)
+        if actuation.peak_guard is not None:
+            guarded = self._guarded_step(flow, disturbance, dt_s, actuation.peak_guard)
+            if guarded is not None:
+                return guarded
         start = self.x[self._zones]
         x_next = self.plant.step(self.x, flow, disturbance.d, dt_s)
         end = x_next[self._zones]
         mean = 0.5 * (start + end)
-        identified = self.building.identified
-        power = (
-            identified_power_kw(
-                identified,
-                flow,
-                mean,
-                disturbance.outdoor_temp_degc,
-                identified_occupied_share(self.plant.network.channel_names, disturbance.d),
-            )
-            if identified is not None
-            else float(
-                hvac_power_kw(
-                    self.building.hvac,
-                    flow,
-                    mean,
-                    disturbance.outdoor_temp_degc,
-                    disturbance.outdoor_humidity_ratio_kg_per_kg,
-                    latent_gain_w=disturbance.latent_gain_w,
-                )
-            )
-        )
+        power = self._power_kw(flow, mean, disturbance)
         self.x = x_next
         return Observation(
             zone_temp_degc=end.copy(),
@@ -234,6 +334,43 @@ class RCPlant:
             power_kw=power,
             facility_power_kw=float("nan"),
             outdoor_temp_degc=float(disturbance.outdoor_temp_degc),
+        )
+
+    def _guarded_step(
+        self, flow: FloatArray, disturbance: Disturbance, dt_s: float, guard: PeakGuard
+    ) -> Observation | None:
+        """The period in ``guard.substeps`` exact substeps, the meter read at the start of
+        each (the actuated flows at the present zone temperatures) and flow shed by
+        :func:`shed_flows_kg_s` while it exceeds the cap; None (state untouched) when the
+        guard never sheds, so the period is stepped whole as without a guard."""
+        h = dt_s / guard.substeps
+        x = self.x
+        flows, powers, means = [], [], []
+        active = False
+        for _ in range(guard.substeps):
+            zones = x[self._zones]
+            meter = partial(self._power_kw, zone_temp_degc=zones, disturbance=disturbance)
+            applied = shed_flows_kg_s(flow, guard, zones, meter)
+            active = active or bool(np.any(applied < flow))
+            x_sub = self.plant.step(x, applied, disturbance.d, h)
+            mean = 0.5 * (zones + x_sub[self._zones])
+            flows.append(applied)
+            means.append(mean)
+            powers.append(self._power_kw(applied, mean, disturbance))
+            x = x_sub
+        if not active:
+            return None
+        self.x = x
+        end = x[self._zones]
+        return Observation(
+            zone_temp_degc=end.copy(),
+            zone_mean_temp_degc=np.mean(means, axis=0),
+            node_temp_degc=x.copy(),
+            supply_flow_kg_s=np.mean(flows, axis=0),
+            power_kw=float(np.mean(powers)),
+            facility_power_kw=float("nan"),
+            outdoor_temp_degc=float(disturbance.outdoor_temp_degc),
+            peak_guard_active=True,
         )
 
     def get_state(self) -> dict[str, Any]:

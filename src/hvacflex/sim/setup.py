@@ -327,14 +327,22 @@ def make_rule_controller(setup: Setup) -> Controller:
     cfg, model, hvac = config.controller, setup.model, setup.building.hvac
     setpoint = cfg.thermostat_setpoint_degc
     start = OptimalStart() if cfg.optimal_start else None
+    margin = cfg.unoccupied_margin_k
     if cfg.kind == "trim-respond":
         plant = config.plant
         accepts_supply_temp = plant.kind != "rc" and plant.resolved_actuation == "flow"
         return TrimRespondController(
-            model, hvac, setpoint, start, reset_supply_temp=accepts_supply_temp
+            model,
+            hvac,
+            setpoint,
+            start,
+            reset_supply_temp=accepts_supply_temp,
+            unoccupied_margin_k=margin,
         )
     if cfg.kind == "demand-limit":
-        return DemandLimitController(model, hvac, setpoint, start, cfg.demand_limit_fraction)
+        return DemandLimitController(
+            model, hvac, setpoint, start, cfg.demand_limit_fraction, unoccupied_margin_k=margin
+        )
     if cfg.kind == "plant":
         return PlantBaselineController(model)
     if cfg.kind == "gta-dr":
@@ -349,5 +357,6 @@ def make_rule_controller(setup: Setup) -> Controller:
             raise_k=reserve.event_allowance_k,
             event_steps=reserve.event_max_steps,
             recovery_steps=reserve.event_recovery_steps,
+            unoccupied_margin_k=margin,
         )
-    return ThermostatController(model, hvac, setpoint, start)
+    return ThermostatController(model, hvac, setpoint, start, unoccupied_margin_k=margin)
