@@ -51,7 +51,8 @@ class PeakGuard:
         not shed.
     flow_floor_kg_s : (m,) the lowest flow the guard may shed to [kg/s] (the ventilation flow
         while occupied, the minimum otherwise).
-    substeps : meter readings per period (≥ 1).
+    substeps : meter readings per period (≥ 1) on the RC plant (EnergyPlus reads its meter at
+        its zone time step).
     """
 
     cap_kw: float
