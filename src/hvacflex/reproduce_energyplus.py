@@ -473,18 +473,25 @@ def fig7_energyplus_verdict(
             f"{ratios[worst]:.3f} at φ = {worst[1]:g}, {worst[0]} forecast)."
         )
     for forecast in FORECASTS:
-        rows = table[table["forecast"] == forecast].set_index("peak_price_sgd_per_kw")
-        if rows.empty or 0.5 not in rows.index:
+        rows = table[table["forecast"] == forecast]
+        peak = dict(
+            zip(
+                rows["peak_price_sgd_per_kw"].astype(float),
+                rows["peak_power_kw"].astype(float),
+                strict=True,
+            )
+        )
+        if 0.5 not in peak:
             continue
-        low, bound = float(rows.loc[0.5, "peak_power_kw"]), float(rows["bound_peak_kw"].iloc[0])
+        low, bound = peak[0.5], float(rows["bound_peak_kw"].iloc[0])
         if forecast == "perfect" and low <= NEAR_BOUND * bound:
             sentences.append(
                 f"Perfect forecast: φ = 0.5's peak {low:.1f} kW is already within "
                 f"{100 * (NEAR_BOUND - 1):.0f} % of the bound {bound:.1f} kW: nothing left to "
                 "shave."
             )
-        elif forecast == "perfect" and 5.0 in rows.index:
-            high = float(rows.loc[5.0, "peak_power_kw"])
+        elif forecast == "perfect" and 5.0 in peak:
+            high = peak[5.0]
             share = (low - high) / (low - bound)
             verdict = "holds" if share >= BOUND_SHARE_TARGET else "does not hold"
             sentences.append(
@@ -493,7 +500,7 @@ def fig7_energyplus_verdict(
                 f"(target ≥ {100 * BOUND_SHARE_TARGET:.0f} %: {verdict})."
             )
         elif forecast == "realistic":
-            best = float(rows["peak_power_kw"].min())
+            best = min(peak.values())
             sentences.append(
                 f"Realistic forecast: the lowest realised peak {best:.1f} kW is "
                 f"{100 * (best / bound - 1):.0f} % above the bound {bound:.1f} kW of its days "

@@ -165,9 +165,7 @@ def minimum_peak(problem: PeakBoundProblem) -> PeakBound:
     row_upper = np.append(row_upper, least + EXCURSION_TOLERANCE_K)
     peak_cost = np.zeros(nu + nx + nu + 1)
     peak_cost[-1] = 1.0
-    second = solve_lp(
-        peak_cost, rows, row_lower, row_upper, col_lower, col_upper, method=LP_METHOD
-    )
+    second = solve_lp(peak_cost, rows, row_lower, row_upper, col_lower, col_upper, method=LP_METHOD)
     _check(second.status, "the least peak")
     flow = second.x[:nu].reshape(t_steps, m)
     power = problem.p0_kw + np.einsum("km,km->k", problem.p_kw_per_kg_s, flow)
