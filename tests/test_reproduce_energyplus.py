@@ -153,3 +153,42 @@ def test_fig7_section_writes_the_figure_and_its_csv(tmp_path: Path) -> None:
     assert list(written.columns) == list(FIG7_COLUMNS)
     np.testing.assert_allclose(written["peak_power_kw"], table["peak_power_kw"])
     assert "Fig. 7 on EnergyPlus" in section.title
+
+
+def test_fig7_part_reads_the_runs_and_bounds_each_forecast_once(
+    make_results: Factory, tmp_path: Path
+) -> None:
+    """The section from the sweep's outcomes: each run's planned peak from its results, the
+    bound asked once per forecast with that forecast's configuration, failed runs left out."""
+    from hvacflex.config import preset
+    from hvacflex.reproduce_energyplus import fig7_energyplus_part
+    from hvacflex.results import write_results
+    from hvacflex.sim.sweep import JobOutcome
+
+    outcomes = []
+    for phi, planned_kw, peak_kw in ((0.5, 48.0, 50.0), (5.0, 44.0, 46.0)):
+        folder = tmp_path / f"ppp-{phi:g}"
+        folder.mkdir()
+        frame = make_results(days=1.0)
+        frame["planned_power_kw"] = planned_kw
+        write_results(frame, folder / "results.parquet", {})
+        summary = {"net_cost_sgd": 100.0, "peak_power_kw": peak_kw, "net_cost_with_ppp_sgd": 1.0}
+        params = {"peak_price_sgd_per_kw": phi, "forecast": "perfect"}
+        outcomes.append(JobOutcome(f"ppp-{phi:g}", "h", params, str(folder), summary, None))
+    outcomes.append(JobOutcome("x", "h", {"forecast": "realistic"}, "", None, "failed"))
+    asked: list[str] = []
+    configs = {"perfect": preset("rmpc-ppp"), "realistic": preset("rmpc")}
+
+    def bound(cfg: object) -> float:
+        asked.append(getattr(cfg, "name", ""))
+        return 42.0
+
+    figures = tmp_path / "figures"
+    section = fig7_energyplus_part(configs, outcomes, figures, period="2 days", bound=bound)
+    assert asked == [configs["perfect"].name]
+    written = pd.read_csv(figures / "fig7_ppp_sweep_energyplus.csv")
+    assert list(written["bound_peak_kw"]) == [42.0, 42.0]
+    text = " ".join(section.paragraphs)
+    assert "≤ 1.05 × planned in 2 of 2 runs (holds" in text  # 50/48 and 46/44 < 1.05
+    assert "50 % of the way to the bound 42.0 kW" in text  # (50 − 46) / (50 − 42)
+    assert fig7_energyplus_part(configs, outcomes[2:], figures, period="", bound=bound) is None

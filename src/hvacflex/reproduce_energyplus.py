@@ -15,10 +15,10 @@ draws them, and :func:`energyplus_section` writes the report's section with the 
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
@@ -27,6 +27,9 @@ from hvacflex import kpi
 from hvacflex import results as schema
 from hvacflex.config import PAPER_SCENARIOS, ScenarioConfig, preset
 from hvacflex.config.model import PlantConfig
+
+if TYPE_CHECKING:
+    from hvacflex.sim.sweep import JobOutcome
 
 ENERGYPLUS_SCENARIOS: tuple[str, ...] = ("a", "b", "c", "thermostat", "thermostat-25.5")
 """Scenario keys run on EnergyPlus office5: (a), (b), (c), the 24 °C thermostat and
@@ -541,4 +544,46 @@ def fig7_energyplus_section(
         ],
         tables=[table],
         table_captions=[f"Fig. 7 on EnergyPlus, {period}, totals over the period (not scaled)"],
+    )
+
+
+def fig7_energyplus_part(
+    configs: Mapping[str, ScenarioConfig],
+    outcomes: Sequence[JobOutcome],
+    figures: Path,
+    *,
+    period: str,
+    bound: Callable[[ScenarioConfig], float] | None = None,
+) -> Any:
+    """Fig. 7 on EnergyPlus (:func:`fig7_energyplus_section`) from the sweep's outcomes, or
+    None without them. ``configs``: forecast → a run's configuration of that forecast (the
+    bound does not depend on φ); ``bound``: a configuration → its ``bound_peak_kw`` [kW]
+    (default :func:`hvacflex.sim.peak_bound.bound_peak_kw` on it: the same days, band and
+    realised disturbances as the runs of that forecast)."""
+    from hvacflex.results import load_results
+    from hvacflex.sim.sweep import outcomes_table
+
+    done = [o for o in outcomes if o.ok]
+    if not done:
+        return None
+    if bound is None:
+        from hvacflex.sim.peak_bound import bound_peak_kw
+
+        def bound(cfg: ScenarioConfig) -> float:
+            return bound_peak_kw(cfg).peak_kw
+
+    forecasts = {str(o.params["forecast"]) for o in done}
+    bounds = {f: bound(configs[f]) for f in forecasts if f in configs}
+    planned = {
+        (str(o.params["forecast"]), float(o.params["peak_price_sgd_per_kw"])): float(
+            load_results(o.out_dir)["planned_power_kw"].max()
+        )
+        for o in done
+    }
+    table = fig7_energyplus_table(outcomes_table(done), bounds)
+    return fig7_energyplus_section(
+        table,
+        planned,
+        period=period,
+        figures=figures,
     )

@@ -12,7 +12,7 @@ or the year).
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -23,12 +23,11 @@ from hvacflex.config import (
     PAPER_FEEDBACK_SCENARIOS,
     PAPER_MODEL_SCENARIOS,
     PAPER_SCENARIOS,
-    ScenarioConfig,
     preset,
 )
 from hvacflex.paths import resolve_building
 from hvacflex.report.run_report import REPORT_KPIS
-from hvacflex.reproduce_energyplus import ENERGYPLUS_SCENARIOS
+from hvacflex.reproduce_energyplus import ENERGYPLUS_SCENARIOS, fig7_energyplus_part
 from hvacflex.reproduce_plan import (
     FEEDBACK_PREFIX,
     HOT_CORNER_LEVEL,
@@ -39,6 +38,7 @@ from hvacflex.reproduce_plan import (
     WHOLE_HORIZON_PREFIX,
     Plan,
     model_names,
+    ppp_energyplus_jobs,
 )
 from hvacflex.results import load_results
 from hvacflex.sim.sweep import JobOutcome, outcomes_table
@@ -142,7 +142,12 @@ def build_sections(plan: Plan, by_group: dict[str, list[JobOutcome]], out: Path)
         sections.append(uncertainty_section(plan, unc, figures))
     if energyplus is not None:
         sections.append(energyplus)
-    fig7_energyplus = fig7_energyplus_part(plan, by_group.get("ppp_energyplus", []), figures)
+    fig7_energyplus = fig7_energyplus_part(
+        {params["forecast"]: cfg for params, cfg in ppp_energyplus_jobs(plan)},
+        by_group.get("ppp_energyplus", []),
+        figures,
+        period=f"{plan.sweep_days:g} days from {plan.sweep_start}",
+    )
     if fig7_energyplus is not None:
         sections.append(fig7_energyplus)
     sections.append(validation_section(sections, energyplus))
@@ -177,46 +182,6 @@ def energyplus_part(
         period=f"{plan.energyplus_days:g} days from {plan.energyplus_start}",
         out=out,
         figures=out / "figures",
-    )
-
-
-def fig7_energyplus_part(
-    plan: Plan,
-    outcomes: Sequence[JobOutcome],
-    figures: Path,
-    bound: Callable[[ScenarioConfig], float] | None = None,
-) -> Any:
-    """Fig. 7 on EnergyPlus (:func:`hvacflex.reproduce_energyplus.fig7_energyplus_section`),
-    or None without its runs. ``bound``: a configuration → its ``bound_peak_kw`` [kW]
-    (default :func:`hvacflex.sim.peak_bound.bound_peak_kw` on it: the same days, band and
-    realised disturbances as the runs of that forecast)."""
-    from hvacflex.reproduce_energyplus import fig7_energyplus_section, fig7_energyplus_table
-    from hvacflex.reproduce_plan import ppp_energyplus_jobs
-
-    done = [o for o in outcomes if o.ok]
-    if not done:
-        return None
-    if bound is None:
-        from hvacflex.sim.peak_bound import bound_peak_kw
-
-        def bound(cfg: ScenarioConfig) -> float:
-            return bound_peak_kw(cfg).peak_kw
-
-    configs = {params["forecast"]: cfg for params, cfg in ppp_energyplus_jobs(plan)}
-    forecasts = {str(o.params["forecast"]) for o in done}
-    bounds = {f: bound(configs[f]) for f in forecasts if f in configs}
-    planned = {
-        (str(o.params["forecast"]), float(o.params["peak_price_sgd_per_kw"])): float(
-            load_results(o.out_dir)["planned_power_kw"].max()
-        )
-        for o in done
-    }
-    table = fig7_energyplus_table(outcomes_table(done), bounds)
-    return fig7_energyplus_section(
-        table,
-        planned,
-        period=f"{plan.sweep_days:g} days from {plan.sweep_start}",
-        figures=figures,
     )
 
 
