@@ -14,10 +14,15 @@ from hvacflex import kpi
 from hvacflex.reproduce_energyplus import (
     COMPARISON_COLUMNS,
     COMPARISON_CSV,
+    FIG7_COLUMNS,
+    FIG7_ENERGYPLUS,
     PLANTS,
     TABLE1_CSV,
     display_week,
     energyplus_section,
+    fig7_energyplus_section,
+    fig7_energyplus_table,
+    fig7_energyplus_verdict,
     plant_comparison,
     tracking_rmse_k,
 )
@@ -96,3 +101,94 @@ def test_a_year_is_drawn_over_its_march_week_and_a_week_whole(make_results: Fact
     shown = display_week(long)
     assert len(shown) == 7 * 48
     assert shown.index[0] == pd.Timestamp("2014-03-03", tz=week.index.tz)
+
+
+def _sweep() -> pd.DataFrame:
+    """Three φ per forecast, the realistic rows first and out of order."""
+    return pd.DataFrame(
+        {
+            "forecast": ["realistic"] * 3 + ["perfect"] * 3,
+            "peak_price_sgd_per_kw": [5.0, 0.5, 30.0, 0.5, 5.0, 30.0],
+            "net_cost_sgd": [110.0, 100.0, 120.0, 90.0, 99.0, 108.0],
+            "peak_power_kw": [50.0, 52.0, 51.0, 50.0, 44.0, 43.0],
+            "net_cost_with_ppp_sgd": [150.0, 130.0, 200.0, 120.0, 140.0, 170.0],
+            "label": ["x"] * 6,
+        }
+    )
+
+
+def test_fig7_on_energyplus_has_fig7s_columns_plus_forecast_and_bound() -> None:
+    table = fig7_energyplus_table(_sweep(), {"perfect": 42.0, "realistic": 45.0})
+    assert list(table.columns) == list(FIG7_COLUMNS)
+    assert list(table["forecast"]) == ["perfect"] * 3 + ["realistic"] * 3
+    assert list(table["peak_price_sgd_per_kw"]) == [0.5, 5.0, 30.0] * 2
+    perfect = table[table["forecast"] == "perfect"]
+    # normalised within each forecast: 100 × value / the forecast's largest
+    np.testing.assert_allclose(perfect["normalised_peak_power_pct"], [100.0, 88.0, 86.0])
+    np.testing.assert_allclose(perfect["normalised_total_cost_pct"], [250 / 3, 91.666667, 100.0])
+    assert list(table["total_cost_sgd"][:3]) == [90.0, 99.0, 108.0]
+    assert set(table.loc[table["forecast"] == "realistic", "bound_peak_kw"]) == {45.0}
+
+
+def test_fig7_verdict_grades_the_plan_and_the_way_to_the_bound() -> None:
+    table = fig7_energyplus_table(_sweep(), {"perfect": 42.0, "realistic": 45.0})
+    planned = {(f, phi): 48.0 for f in ("perfect", "realistic") for phi in (0.5, 5.0, 30.0)}
+    text = " ".join(fig7_energyplus_verdict(table, planned))
+    # 52 and 51 kW exceed 1.05 × 48 = 50.4 kW (realistic, φ = 0.5 and 30): 4 of 6 hold it
+    assert "in 4 of 6 runs (does not hold; the largest ratio 1.083 at φ = 0.5, realistic" in text
+    # perfect: (50 − 44) / (50 − 42) = 75 % of the way < 80 %
+    assert "75 % of the way to the bound 42.0 kW (target ≥ 80 %: does not hold)" in text
+    # realistic: the lowest peak 50 kW is 11 % above 45 kW
+    assert "lowest realised peak 50.0 kW is 11 % above the bound 45.0 kW" in text
+    near = fig7_energyplus_table(_sweep(), {"perfect": 48.5, "realistic": 45.0})
+    assert "already within 5 % of the bound" in " ".join(fig7_energyplus_verdict(near, {}))
+
+
+def test_fig7_section_writes_the_figure_and_its_csv(tmp_path: Path) -> None:
+    table = fig7_energyplus_table(_sweep(), {"perfect": 42.0, "realistic": 45.0})
+    section = fig7_energyplus_section(table, {}, period="28 days", figures=tmp_path)
+    written = pd.read_csv(tmp_path / "fig7_ppp_sweep_energyplus.csv")
+    assert FIG7_ENERGYPLUS == "fig7_ppp_sweep_energyplus.png"
+    assert (tmp_path / FIG7_ENERGYPLUS).is_file()
+    assert list(written.columns) == list(FIG7_COLUMNS)
+    np.testing.assert_allclose(written["peak_power_kw"], table["peak_power_kw"])
+    assert "Fig. 7 on EnergyPlus" in section.title
+
+
+def test_fig7_part_reads_the_runs_and_bounds_each_forecast_once(
+    make_results: Factory, tmp_path: Path
+) -> None:
+    """The section from the sweep's outcomes: each run's planned peak from its results, the
+    bound asked once per forecast with that forecast's configuration, failed runs left out."""
+    from hvacflex.config import preset
+    from hvacflex.reproduce_energyplus import fig7_energyplus_part
+    from hvacflex.results import write_results
+    from hvacflex.sim.sweep import JobOutcome
+
+    outcomes = []
+    for phi, planned_kw, peak_kw in ((0.5, 48.0, 50.0), (5.0, 44.0, 46.0)):
+        folder = tmp_path / f"ppp-{phi:g}"
+        folder.mkdir()
+        frame = make_results(days=1.0)
+        frame["planned_power_kw"] = planned_kw
+        write_results(frame, folder / "results.parquet", {})
+        summary = {"net_cost_sgd": 100.0, "peak_power_kw": peak_kw, "net_cost_with_ppp_sgd": 1.0}
+        params = {"peak_price_sgd_per_kw": phi, "forecast": "perfect"}
+        outcomes.append(JobOutcome(f"ppp-{phi:g}", "h", params, str(folder), summary, None))
+    outcomes.append(JobOutcome("x", "h", {"forecast": "realistic"}, "", None, "failed"))
+    asked: list[str] = []
+    configs = {"perfect": preset("rmpc-ppp"), "realistic": preset("rmpc")}
+
+    def bound(cfg: object) -> float:
+        asked.append(getattr(cfg, "name", ""))
+        return 42.0
+
+    figures = tmp_path / "figures"
+    section = fig7_energyplus_part(configs, outcomes, figures, period="2 days", bound=bound)
+    assert asked == [configs["perfect"].name]
+    written = pd.read_csv(figures / "fig7_ppp_sweep_energyplus.csv")
+    assert list(written["bound_peak_kw"]) == [42.0, 42.0]
+    text = " ".join(section.paragraphs)
+    assert "≤ 1.05 × planned in 2 of 2 runs (holds" in text  # 50/48 and 46/44 < 1.05
+    assert "50 % of the way to the bound 42.0 kW" in text  # (50 − 46) / (50 − 42)
+    assert fig7_energyplus_part(configs, outcomes[2:], figures, period="", bound=bound) is None

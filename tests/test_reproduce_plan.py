@@ -61,6 +61,7 @@ def test_the_full_run_uses_the_realistic_forecast_where_it_measures_the_findings
     controller does not know; the robustness sweep and the hot corner keep their boxes; the
     quick run keeps the presets' defaults."""
     groups = plan_groups(Plan.full(energyplus=True))
+    del groups["ppp_energyplus"]  # both forecasts: the test below
     for group, jobs in groups.items():
         realistic = group in REALISTIC_GROUPS
         assert jobs, group
@@ -70,7 +71,29 @@ def test_the_full_run_uses_the_realistic_forecast_where_it_measures_the_findings
             if realistic:
                 assert cfg.realisation.mode == "zero"
     quick = plan_groups(Plan.quick(energyplus=True))
+    del quick["ppp_energyplus"]
     assert all(cfg.forecast.weather == "perfect" for jobs in quick.values() for _, cfg in jobs)
+
+
+def test_fig7_on_energyplus_runs_each_phi_with_both_forecasts() -> None:
+    """Issue 61 item 1: scenario (c) at every φ of the sweep on EnergyPlus office5, once with
+    the presets' perfect forecast and once with the realistic one."""
+    assert plan_groups(Plan.quick())["ppp_energyplus"] == []
+    for plan in (Plan.quick(energyplus=True), Plan.full(energyplus=True)):
+        jobs = plan_groups(plan)["ppp_energyplus"]
+        assert len(jobs) == 2 * len(plan.ppp_values)
+        for params, cfg in jobs:
+            realistic = params["forecast"] == "realistic"
+            assert params["forecast"] in ("perfect", "realistic")
+            assert cfg.controller.peak_price_sgd_per_kw == params["peak_price_sgd_per_kw"]
+            assert (cfg.plant.kind, cfg.plant.idf) == ("energyplus", "generated")
+            assert (cfg.start, cfg.days) == (plan.sweep_start, plan.sweep_days)
+            assert (cfg.forecast.weather == "statistical") is realistic
+            assert (cfg.realisation.occupancy == "stochastic") is realistic
+            assert (
+                cfg.name.startswith(ENERGYPLUS_PREFIX)
+                and cfg.name.endswith("-realistic") is realistic
+            )
 
 
 def test_no_feedback_leaves_out_the_two_affine_feedback_scenario_runs_only() -> None:

@@ -15,10 +15,10 @@ draws them, and :func:`energyplus_section` writes the report's section with the 
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
@@ -27,6 +27,9 @@ from hvacflex import kpi
 from hvacflex import results as schema
 from hvacflex.config import PAPER_SCENARIOS, ScenarioConfig, preset
 from hvacflex.config.model import PlantConfig
+
+if TYPE_CHECKING:
+    from hvacflex.sim.sweep import JobOutcome
 
 ENERGYPLUS_SCENARIOS: tuple[str, ...] = ("a", "b", "c", "thermostat", "thermostat-25.5")
 """Scenario keys run on EnergyPlus office5: (a), (b), (c), the 24 °C thermostat and
@@ -350,4 +353,237 @@ def energyplus_section(
             "shortfall, revenue, penalties, net; % against (a) on the same plant)",
             f"RC plant and EnergyPlus, {period}, totals over the period (not scaled)",
         ],
+    )
+
+
+# ---- Fig. 7 on EnergyPlus (issue 61 item 1) ---------------------------------------------
+
+FIG7_ENERGYPLUS = "fig7_ppp_sweep_energyplus.png"
+"""The figure of Fig. 7 on EnergyPlus in ``figures/``; its CSV,
+``fig7_ppp_sweep_energyplus.csv``, holds :func:`fig7_energyplus_table`."""
+
+FORECASTS: tuple[str, ...] = ("perfect", "realistic")
+"""The ``forecast`` values of Fig. 7 on EnergyPlus: the presets' perfect foresight, and the
+realistic forecast (``hvacflex.reproduce_plan.REALISTIC_FORECAST``)."""
+
+FIG7_COLUMNS: tuple[str, ...] = (
+    "peak_price_sgd_per_kw",
+    "total_cost_sgd",
+    "peak_power_kw",
+    "net_cost_with_ppp_sgd",
+    "normalised_total_cost_pct",
+    "normalised_peak_power_pct",
+    "forecast",
+    "bound_peak_kw",
+)
+"""Columns of ``fig7_ppp_sweep_energyplus.csv``: those of ``fig7_ppp_sweep.csv`` (normalised
+within each forecast) plus ``forecast`` and ``bound_peak_kw``."""
+
+PEAK_KEEPS_PLAN = 1.05
+"""Fig. 7 on EnergyPlus holds its plan when the realised peak ≤ this × the planned one."""
+
+BOUND_SHARE_TARGET = 0.8
+"""Perfect forecast: φ = 5's realised peak at least this share of the way from φ = 0.5's
+peak down to ``bound_peak_kw``."""
+
+NEAR_BOUND = 1.05
+"""φ = 0.5's peak within this factor of the bound: nothing left to shave."""
+
+
+def fig7_energyplus_table(sweep: pd.DataFrame, bound_peak_kw: Mapping[str, float]) -> pd.DataFrame:
+    """Fig. 7 on EnergyPlus, columns :data:`FIG7_COLUMNS`, sorted by forecast then φ.
+
+    Parameters
+    ----------
+    sweep : one row per run: ``forecast``, ``peak_price_sgd_per_kw`` [SGD/kW],
+        ``net_cost_sgd`` (energy − reserve revenue, Fig. 7's total cost) [SGD],
+        ``peak_power_kw`` (realised, EnergyPlus's meter) [kW], ``net_cost_with_ppp_sgd`` [SGD].
+    bound_peak_kw : forecast → the least peak reachable with perfect foresight on the same
+        days and band (:func:`hvacflex.sim.peak_bound.bound_peak_kw`) [kW].
+    """
+    from hvacflex.report.plots import normalise_ppp_sweep
+
+    parts = []
+    for forecast in [f for f in FORECASTS if f in set(sweep["forecast"])]:
+        rows = sweep[sweep["forecast"] == forecast].rename(
+            columns={"net_cost_sgd": "total_cost_sgd"}
+        )
+        data = normalise_ppp_sweep(rows)
+        data["forecast"] = forecast
+        data["bound_peak_kw"] = float(bound_peak_kw.get(forecast, np.nan))
+        parts.append(data[list(FIG7_COLUMNS)])
+    if not parts:
+        return pd.DataFrame(columns=list(FIG7_COLUMNS))
+    return pd.concat(parts, ignore_index=True)
+
+
+def plot_fig7_energyplus(table: pd.DataFrame, path: Path) -> Path:
+    """The realised peak [kW] against φ [SGD/kW], one line per forecast, each forecast's
+    ``bound_peak_kw`` dashed; writes the PNG and ``table`` as its CSV."""
+    from hvacflex.report import plots
+
+    figure, (ax,) = plots.new_figure(1)
+    for i, forecast in enumerate(FORECASTS):
+        rows = table[table["forecast"] == forecast]
+        if rows.empty:
+            continue
+        colour = f"C{i}"
+        ax.plot(
+            rows["peak_price_sgd_per_kw"],
+            rows["peak_power_kw"],
+            "o-",
+            color=colour,
+            label=f"realised peak, {forecast} forecast",
+        )
+        ax.axhline(
+            float(rows["bound_peak_kw"].iloc[0]),
+            color=colour,
+            linestyle="--",
+            label=f"bound, {forecast} forecast's days",
+        )
+    if len(table) and table["peak_price_sgd_per_kw"].min() > 0:
+        ax.set_xscale("log")
+    ax.set_xlabel("peak-power price φ [SGD/kW]")
+    ax.set_ylabel("HVAC peak [kW]")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize="x-small")
+    figure.suptitle("Fig. 7 on EnergyPlus office5: the realised peak and its bound")
+    return plots.save_figure(figure, table, path)
+
+
+def fig7_energyplus_verdict(
+    table: pd.DataFrame, planned_peak_kw: Mapping[tuple[str, float], float]
+) -> list[str]:
+    """Sentences grading Fig. 7 on EnergyPlus (issue 61's "Done when"): each run's realised
+    peak against :data:`PEAK_KEEPS_PLAN` × its planned one (``planned_peak_kw``: (forecast,
+    φ) → the largest planned first-step power of the run [kW]); with the perfect forecast,
+    φ = 5's share of the way from φ = 0.5's peak to the bound against
+    :data:`BOUND_SHARE_TARGET` (or φ = 0.5 already within :data:`NEAR_BOUND` of it); with the
+    realistic forecast, the distance to the bound."""
+    sentences = []
+    ratios = {
+        key: float(row["peak_power_kw"]) / planned_peak_kw[key]
+        for _, row in table.iterrows()
+        if (key := (str(row["forecast"]), float(row["peak_price_sgd_per_kw"]))) in planned_peak_kw
+        and planned_peak_kw[key] > 0
+    }
+    if ratios:
+        worst = max(ratios, key=lambda k: ratios[k])
+        held = sum(r <= PEAK_KEEPS_PLAN for r in ratios.values())
+        sentences.append(
+            f"Realised peak ≤ {PEAK_KEEPS_PLAN:g} × planned in {held} of {len(ratios)} runs "
+            f"({'holds' if held == len(ratios) else 'does not hold'}; the largest ratio "
+            f"{ratios[worst]:.3f} at φ = {worst[1]:g}, {worst[0]} forecast)."
+        )
+    for forecast in FORECASTS:
+        rows = table[table["forecast"] == forecast]
+        peak = dict(
+            zip(
+                rows["peak_price_sgd_per_kw"].astype(float),
+                rows["peak_power_kw"].astype(float),
+                strict=True,
+            )
+        )
+        if 0.5 not in peak:
+            continue
+        low, bound = peak[0.5], float(rows["bound_peak_kw"].iloc[0])
+        if forecast == "perfect" and low <= NEAR_BOUND * bound:
+            sentences.append(
+                f"Perfect forecast: φ = 0.5's peak {low:.1f} kW is already within "
+                f"{100 * (NEAR_BOUND - 1):.0f} % of the bound {bound:.1f} kW: nothing left to "
+                "shave."
+            )
+        elif forecast == "perfect" and 5.0 in peak:
+            high = peak[5.0]
+            share = (low - high) / (low - bound)
+            verdict = "holds" if share >= BOUND_SHARE_TARGET else "does not hold"
+            sentences.append(
+                f"Perfect forecast: φ = 5 brings the peak from {low:.1f} kW (φ = 0.5) to "
+                f"{high:.1f} kW, {100 * share:.0f} % of the way to the bound {bound:.1f} kW "
+                f"(target ≥ {100 * BOUND_SHARE_TARGET:.0f} %: {verdict})."
+            )
+        elif forecast == "realistic":
+            best = min(peak.values())
+            sentences.append(
+                f"Realistic forecast: the lowest realised peak {best:.1f} kW is "
+                f"{100 * (best / bound - 1):.0f} % above the bound {bound:.1f} kW of its days "
+                f"(φ = 0.5: {low:.1f} kW)."
+            )
+    return sentences
+
+
+def fig7_energyplus_section(
+    table: pd.DataFrame,
+    planned_peak_kw: Mapping[tuple[str, float], float],
+    *,
+    period: str,
+    figures: Path,
+) -> Any:
+    """The report's section on Fig. 7 on EnergyPlus: writes ``figures/``
+    :data:`FIG7_ENERGYPLUS` and its CSV (``table``, :func:`fig7_energyplus_table`)."""
+    from hvacflex.report.html import Section
+
+    figure = plot_fig7_energyplus(table, figures / FIG7_ENERGYPLUS)
+    return Section(
+        title="Fig. 7 on EnergyPlus — the peak graded by EnergyPlus's meter, against its bound",
+        paragraphs=[
+            f"Scenario (c) (rmpc-ppp, its peak guard on) on EnergyPlus office5 (generated IDF, "
+            f"setpoint actuation) over {period} at each φ, with the presets' perfect "
+            "forecast and with the realistic one (statistical weather forecast, stochastic "
+            "occupancy). peak_power_kw is the largest 30-min mean of EnergyPlus's HVAC meters "
+            "(Electricity:HVAC + Electricity:Plant). bound_peak_kw is the smallest peak "
+            "reachable on the same days and comfort band with perfect foresight: one LP over "
+            "the whole period on the controller's model and power rows "
+            "(hvacflex.sim.peak_bound), graded by that model, not by EnergyPlus.",
+            *fig7_energyplus_verdict(table, planned_peak_kw),
+        ],
+        figures=[figure],
+        figure_captions=[
+            "The realised HVAC peak on EnergyPlus against φ, per forecast; dashed: the bound of "
+            "each forecast's days (perfect foresight on the controller's model)."
+        ],
+        tables=[table],
+        table_captions=[f"Fig. 7 on EnergyPlus, {period}, totals over the period (not scaled)"],
+    )
+
+
+def fig7_energyplus_part(
+    configs: Mapping[str, ScenarioConfig],
+    outcomes: Sequence[JobOutcome],
+    figures: Path,
+    *,
+    period: str,
+    bound: Callable[[ScenarioConfig], float] | None = None,
+) -> Any:
+    """Fig. 7 on EnergyPlus (:func:`fig7_energyplus_section`) from the sweep's outcomes, or
+    None without them. ``configs``: forecast → a run's configuration of that forecast (the
+    bound does not depend on φ); ``bound``: a configuration → its ``bound_peak_kw`` [kW]
+    (default :func:`hvacflex.sim.peak_bound.bound_peak_kw` on it: the same days, band and
+    realised disturbances as the runs of that forecast)."""
+    from hvacflex.results import load_results
+    from hvacflex.sim.sweep import outcomes_table
+
+    done = [o for o in outcomes if o.ok]
+    if not done:
+        return None
+    if bound is None:
+        from hvacflex.sim.peak_bound import bound_peak_kw
+
+        def bound(cfg: ScenarioConfig) -> float:
+            return bound_peak_kw(cfg).peak_kw
+
+    forecasts = {str(o.params["forecast"]) for o in done}
+    bounds = {f: bound(configs[f]) for f in forecasts if f in configs}
+    planned = {
+        (str(o.params["forecast"]), float(o.params["peak_price_sgd_per_kw"])): float(
+            load_results(o.out_dir)["planned_power_kw"].max()
+        )
+        for o in done
+    }
+    table = fig7_energyplus_table(outcomes_table(done), bounds)
+    return fig7_energyplus_section(
+        table,
+        planned,
+        period=period,
+        figures=figures,
     )

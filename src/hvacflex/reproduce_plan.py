@@ -20,7 +20,7 @@ from hvacflex.config import (
     scaled_uncertainty,
     with_overrides,
 )
-from hvacflex.reproduce_energyplus import energyplus_jobs
+from hvacflex.reproduce_energyplus import energyplus_jobs, on_energyplus
 
 ScenarioLabel = str
 
@@ -217,6 +217,23 @@ def ppp_jobs(plan: Plan) -> list[tuple[dict[str, Any], ScenarioConfig]]:
     ]
 
 
+def ppp_energyplus_jobs(plan: Plan) -> list[tuple[dict[str, Any], ScenarioConfig]]:
+    """Fig. 7 on EnergyPlus (issue 61 item 1): scenario (c) at each φ of the sweep on
+    EnergyPlus office5 (``energyplus-ppp-<φ>``), with the presets' perfect forecast and with
+    :data:`REALISTIC_FORECAST` (``energyplus-ppp-<φ>-realistic``); parameters
+    ``peak_price_sgd_per_kw`` and ``forecast``."""
+    jobs: list[tuple[dict[str, Any], ScenarioConfig]] = []
+    for forecast in ("perfect", "realistic"):
+        for params, cfg in ppp_jobs(plan):
+            moved = on_energyplus(cfg)
+            if forecast == "realistic":
+                moved = replace(
+                    with_overrides(moved, REALISTIC_FORECAST), name=f"{moved.name}-realistic"
+                )
+            jobs.append((params | {"forecast": forecast}, moved))
+    return jobs
+
+
 def uncertainty_jobs(plan: Plan) -> list[tuple[dict[str, Any], ScenarioConfig]]:
     """NMPC and open-loop RMPC (and feedback RMPC) at each uncertainty level."""
     controllers = ["nmpc", "rmpc"] + (["rmpc-feedback"] if plan.robustness_feedback else [])
@@ -257,7 +274,7 @@ JobGroups = dict[str, list[tuple[dict[str, Any], ScenarioConfig]]]
 
 def plan_groups(plan: Plan) -> JobGroups:
     """The plan's jobs by report group (``scenarios``, ``ppp``, ``uncertainty``, ``corner``,
-    ``energyplus``), each a list of (parameters, configuration)."""
+    ``energyplus``, ``ppp_energyplus``), each a list of (parameters, configuration)."""
     groups: JobGroups = {
         "scenarios": scenario_jobs(plan),
         "ppp": ppp_jobs(plan),
@@ -270,6 +287,7 @@ def plan_groups(plan: Plan) -> JobGroups:
         )
         if plan.energyplus
         else [],
+        "ppp_energyplus": ppp_energyplus_jobs(plan) if plan.energyplus else [],
     }
     if plan.realistic:
         for group in REALISTIC_GROUPS:

@@ -27,7 +27,7 @@ from hvacflex.config import (
 )
 from hvacflex.paths import resolve_building
 from hvacflex.report.run_report import REPORT_KPIS
-from hvacflex.reproduce_energyplus import ENERGYPLUS_SCENARIOS
+from hvacflex.reproduce_energyplus import ENERGYPLUS_SCENARIOS, fig7_energyplus_part
 from hvacflex.reproduce_plan import (
     FEEDBACK_PREFIX,
     HOT_CORNER_LEVEL,
@@ -38,6 +38,7 @@ from hvacflex.reproduce_plan import (
     WHOLE_HORIZON_PREFIX,
     Plan,
     model_names,
+    ppp_energyplus_jobs,
 )
 from hvacflex.results import load_results
 from hvacflex.sim.sweep import JobOutcome, outcomes_table
@@ -141,6 +142,14 @@ def build_sections(plan: Plan, by_group: dict[str, list[JobOutcome]], out: Path)
         sections.append(uncertainty_section(plan, unc, figures))
     if energyplus is not None:
         sections.append(energyplus)
+    fig7_energyplus = fig7_energyplus_part(
+        {params["forecast"]: cfg for params, cfg in ppp_energyplus_jobs(plan)},
+        by_group.get("ppp_energyplus", []),
+        figures,
+        period=f"{plan.sweep_days:g} days from {plan.sweep_start}",
+    )
+    if fig7_energyplus is not None:
+        sections.append(fig7_energyplus)
     sections.append(validation_section(sections, energyplus))
     sections.append(notes.differences_section())
     sections.append(notes.configuration_section(by_group))

@@ -41,7 +41,7 @@ def _spec(text: str, **kwargs: object) -> CoSimSpec:
 
 
 def test_an_exception_in_a_callback_stops_the_run_and_is_raised(tmp_path: Path) -> None:
-    def rule(now: np.ndarray, commanded: np.ndarray) -> np.ndarray:
+    def rule(now: np.ndarray, commanded: np.ndarray, meters_j: np.ndarray) -> np.ndarray:
         raise RuntimeError("controller failed inside EnergyPlus")
 
     sim = CoSimulation(_spec(read_idf(IDF), timestep_rule=rule), tmp_path)
@@ -51,6 +51,25 @@ def test_an_exception_in_a_callback_stops_the_run_and_is_raised(tmp_path: Path) 
         sim.advance(np.array([24.0]))
     sim.close()
     assert sim._thread is not None and not sim._thread.is_alive()
+
+
+def test_the_rule_reads_each_zone_time_steps_meter_total(tmp_path: Path) -> None:
+    """The rule at the start of a zone time step sees the meters' totals of the step before
+    (NaN at the first): over a period they add up to the period's reading."""
+    seen: list[float] = []
+
+    def rule(now: np.ndarray, commanded: np.ndarray, meters_j: np.ndarray) -> np.ndarray:
+        seen.append(float(meters_j[0]))
+        return commanded
+
+    with CoSimulation(_spec(read_idf(IDF), timestep_rule=rule), tmp_path) as sim:
+        sim.start()
+        readings = [sim.advance(np.array([np.nan])) for _ in range(30)]
+    assert np.isnan(seen[0]) and len(seen) == 90
+    steps_j = np.array([*seen[1:], np.nan])  # seen[j + 1]: the total of step j
+    for k, reading in enumerate(readings[:-1]):
+        assert steps_j[3 * k : 3 * k + 3].sum() == pytest.approx(reading.meters_j[0], rel=1e-9)
+    assert max(r.meters_j[0] for r in readings) > 0.0  # the HVAC ran by 15:00
 
 
 def test_a_fatal_error_quotes_eplusout_err(tmp_path: Path) -> None:

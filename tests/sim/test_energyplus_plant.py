@@ -21,11 +21,14 @@ from hvacflex.config.model import PlantConfig
 from hvacflex.errors import ConfigError, DataError, InputError
 from hvacflex.paths import resolve_building, resources_dir
 from hvacflex.sim.energyplus_plant import (
+    GUARD_GAIN,
     SETPOINT_DEADBAND_K,
     EnergyPlusPlant,
     inlet_flow_and_temp,
+    next_shed_level,
+    shed_toward_band,
 )
-from hvacflex.sim.plant import Actuation, Disturbance, Observation, Plant, RCPlant
+from hvacflex.sim.plant import Actuation, Disturbance, Observation, PeakGuard, Plant, RCPlant
 from hvacflex.sim.plants import make_plant
 
 IDF = resources_dir() / "energyplus" / "5ZoneAirCooled.idf"
@@ -405,3 +408,89 @@ def test_inlet_flow_and_temp_weights_nodes_by_flow() -> None:
     np.testing.assert_allclose(flow, [0.4, 0.0, 0.0])
     np.testing.assert_allclose(supply[:2], [17.0, 27.0])  # flow-weighted; no flow: plain mean
     assert np.isnan(supply[2])  # a zone without an inlet has no supply air reading
+
+
+GUARD_UPPER_DEGC = 26.0
+"""The upper comfort bound the peak guard tests give (the IDF cools to 23.9 °C)."""
+
+
+def _guarded_day(cap_kw: float, periods: int = STEPS) -> tuple[EnergyPlusPlant, list[Observation]]:
+    """The baseline's setpoints under a peak guard of ``cap_kw`` in every occupied period."""
+    plant = EnergyPlusPlant.from_file(IDF, ZONES, start=START, steps=STEPS, epw_path=EPW)
+    plant.reset(25.0)
+    guard = PeakGuard(cap_kw, np.full(5, GUARD_UPPER_DEGC), np.zeros(5))
+    out = [
+        plant.step(
+            Actuation(setpoint_degc=np.full(5, s), peak_guard=guard if k in OCCUPIED else None),
+            DISTURBANCE,
+            1800.0,
+        )
+        for k, s in enumerate(_setpoints()[:periods])
+    ]
+    return plant, out
+
+
+def test_the_peak_guard_holds_the_meter_near_the_cap_within_the_band(
+    baseline: list[Observation],
+) -> None:
+    """Issue 55 item 3 (b) on EnergyPlus: a cap at 80 % of the day's metered peak. The
+    guard reads the meter at the zone time step and raises the set-points towards the band's
+    upper bound: the metered peak falls towards the cap, no zone leaves the band, and the
+    periods the meter never reached the cap run exactly as without the guard."""
+    peak_kw = _power(baseline).max()
+    cap_kw = 0.8 * peak_kw
+    plant, guarded = _guarded_day(cap_kw)
+    plant.close()
+    power = _power(guarded)
+    active = np.array([o.peak_guard_active for o in guarded])
+    assert active.any() and not active[: OCCUPIED.start].any()
+    assert power.max() < peak_kw - 0.5 * (peak_kw - cap_kw), (power.max(), cap_kw, peak_kw)
+    assert power.max() < 1.06 * cap_kw  # measured 1.048: integral action settles near it
+    assert _temps(guarded)[list(OCCUPIED)].max() < GUARD_UPPER_DEGC + 0.2
+    first = int(np.argmax(active))  # identical until the guard first sheds
+    np.testing.assert_array_equal(_temps(guarded)[:first], _temps(baseline)[:first])
+    np.testing.assert_array_equal(_power(guarded)[:first], _power(baseline)[:first])
+
+
+def test_a_guard_that_never_needs_to_shed_changes_nothing(baseline: list[Observation]) -> None:
+    plant, guarded = _guarded_day(2.0 * _power(baseline).max())
+    plant.close()
+    assert not any(o.peak_guard_active for o in guarded)
+    np.testing.assert_array_equal(_power(guarded), _power(baseline))
+
+
+def test_replay_restores_the_peak_guard(baseline: list[Observation]) -> None:
+    cap_kw = 0.8 * _power(baseline).max()
+    plant, _ = _guarded_day(cap_kw, periods=30)
+    state = plant.get_state()
+    assert np.isfinite(state["guard_cap_kw"][OCCUPIED.start])
+    assert np.isnan(state["guard_cap_kw"][0])
+    guard = PeakGuard(cap_kw, np.full(5, GUARD_UPPER_DEGC), np.zeros(5))
+    nxt = Actuation(setpoint_degc=np.full(5, 23.9), peak_guard=guard)
+    straight = plant.step(nxt, DISTURBANCE, 1800.0)
+    plant.set_state(state)
+    replayed = plant.step(nxt, DISTURBANCE, 1800.0)
+    plant.close()
+    assert straight.power_kw == replayed.power_kw
+    assert straight.peak_guard_active == replayed.peak_guard_active
+
+
+def test_shed_level_rises_while_over_the_cap_and_falls_once_it_fits() -> None:
+    assert next_shed_level(0.0, 44.0, 40.0) == pytest.approx(0.1 * GUARD_GAIN)
+    assert next_shed_level(0.9, 80.0, 40.0) == 1.0
+    assert next_shed_level(0.5, 36.0, 40.0) == pytest.approx(0.5 - 0.1 * GUARD_GAIN)
+    assert next_shed_level(0.0, 30.0, 40.0) == 0.0
+
+
+def test_shed_toward_band_moves_only_the_zones_below_their_bound() -> None:
+    guard = PeakGuard(40.0, np.array([26.0, 26.0, 26.0]), np.array([0.1, 0.1, 0.1]))
+    temps = np.array([24.0, 26.5, 24.0])  # zone 2 is already above its bound
+    setpoints = np.array([24.0, 24.0, 27.0])  # zone 3's setpoint is above it: never lowered
+    np.testing.assert_allclose(
+        shed_toward_band(setpoints, temps, guard, 0.5, setpoint=True), [25.0, 24.0, 27.0]
+    )
+    flows = np.array([0.5, 0.5, 0.05])  # zone 3 below its floor: never raised
+    np.testing.assert_allclose(
+        shed_toward_band(flows, temps, guard, 0.5, setpoint=False), [0.3, 0.5, 0.05]
+    )
+    np.testing.assert_allclose(shed_toward_band(flows, temps, guard, 0.0, setpoint=False), flows)

@@ -205,13 +205,16 @@ class ControllerSpec(Spec):
     the plan's peak, or the month's billed peak so far if higher); the in-period peak guard
     reads the plant's meter ``peak_guard_substeps`` times a period and, while it exceeds the
     commitment, sheds supply flow towards the period's floor in the zones below their upper
-    comfort bound, releasing as soon as the planned flows fit (docs/model.md). ``auto``: where
-    the plant reads its meter within a period (the RC plant; not EnergyPlus); ``on``: required
-    (a plant that cannot is refused before the run); ``off``: never."""
+    comfort bound, releasing as soon as the planned flows fit; on EnergyPlus it reads the HVAC
+    meters at the engine's zone time step and raises the cooling set-points towards the upper
+    bound by integral action on the excess, releasing step by step (docs/model.md). ``auto``:
+    where the plant reads its meter within a period (the RC and the EnergyPlus plant); ``on``:
+    required (a plant that cannot is refused before the run); ``off``: never."""
     peak_guard_substeps: Annotated[PositiveInt, Field(le=60)] = default(
         ControllerConfig, "peak_guard_substeps"
     )
-    """The peak guard's meter readings per period (6: every 5 min of a 30-min period)."""
+    """The RC plant's peak-guard meter readings per period (6: every 5 min of a 30-min period;
+    EnergyPlus reads at its zone time step)."""
     unoccupied_plan_margin_k: Annotated[Number, Field(ge=0.0, le=10.0)] = default(
         ControllerConfig, "unoccupied_plan_margin_k"
     )

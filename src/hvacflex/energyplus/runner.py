@@ -18,7 +18,8 @@ EnergyPlus shortens the system time step). Variables and meters are read at
 ``callbackEndOfZoneTimeStepAfterZoneReporting`` (meters update after zone reporting);
 actuator values are applied at the start of every zone time step
 (``callbackBeginTimeStepBeforePredictor``), after an optional per-time-step rule
-(:attr:`CoSimSpec.timestep_rule`) has adjusted them.
+(:attr:`CoSimSpec.timestep_rule`) has adjusted them from the latest variables and the meters'
+totals over the last zone time step.
 
 Errors. A Python exception inside a ctypes callback would be printed and swallowed while
 EnergyPlus ran on to "Completed Successfully": every callback body is guarded, the exception
@@ -83,9 +84,12 @@ class Actuator:
     key: str
 
 
-TimestepRule = Callable[[FloatArray, FloatArray], FloatArray]
-"""``rule(variables_now (nv,), commanded (na,)) -> applied (na,)``: run at the start of every
-zone time step with the latest variable values; NaN in ``applied`` releases the actuator."""
+TimestepRule = Callable[[FloatArray, FloatArray, FloatArray], FloatArray]
+"""``rule(variables_now (nv,), commanded (na,), meters_last_step_j (nmeter,)) -> applied
+(na,)``: run at the start of every zone time step with the latest variable values and each
+meter's total over the last zone time step [J] (NaN before the first step of the run and for
+an absent meter); NaN in ``applied`` releases the actuator. A plant's in-period peak guard
+reads its meter so (:mod:`hvacflex.sim.energyplus_plant`)."""
 
 
 @dataclass(frozen=True)
@@ -170,6 +174,7 @@ class CoSimulation:
         self._latest = np.full(len(spec.variables), np.nan)
         self._sums = np.zeros(len(spec.variables))
         self._meter_sums = np.zeros(len(spec.meters))
+        self._last_meters_j = np.full(len(spec.meters), np.nan)
         self._steps_seen = 0
         self._started = False
         self._stopping = False
@@ -376,7 +381,9 @@ class CoSimulation:
                 return
         values = self._commanded
         if self.spec.timestep_rule is not None:
-            values = self.spec.timestep_rule(self._latest.copy(), values.copy())
+            values = self.spec.timestep_rule(
+                self._latest.copy(), values.copy(), self._last_meters_j.copy()
+            )
         lib = self._api.lib
         for handle, value in zip(self._handles.actuators, values, strict=True):
             if np.isnan(value):
@@ -390,9 +397,11 @@ class CoSimulation:
         lib = self._api.lib
         self._latest = self._read_variables(state)
         self._sums += self._latest
-        self._meter_sums += [
-            lib.getMeterValue(state, h) if h >= 0 else np.nan for h in self._handles.meters
-        ]
+        self._last_meters_j = np.array(
+            [lib.getMeterValue(state, h) if h >= 0 else np.nan for h in self._handles.meters],
+            dtype=np.float64,
+        )
+        self._meter_sums += self._last_meters_j
         self._steps_seen += 1
         step_of_day = lib.hour(state) * self.spec.timesteps_per_hour + lib.zoneTimeStepNum(state)
         if step_of_day % self._steps_per_period:

@@ -213,7 +213,7 @@ def peak_guard_enabled(config: ScenarioConfig, plant: Plant) -> bool:
             f"{config.plant.kind} plant reads it once a period",
             field="controller.peak_guard",
             value=mode,
-            hint="set peak_guard = 'auto' or 'off', or run on the RC plant ([plant] kind = 'rc')",
+            hint="set peak_guard = 'auto' or 'off', or run on the RC or EnergyPlus plant",
         )
     return mode != "off" and reads
 
@@ -445,7 +445,9 @@ class ClosedLoop:
         upper = exo.comfort_upper_degc[k] + decision.allowance_k
         setpoint = np.clip(np.nan_to_num(planned, nan=upper), lower, upper)
         idle = flow <= self._flow_min_kg_s[int(exo.occupied[k])] + SETPOINT_IDLE_FLOW_KG_S
-        return Actuation(setpoint_degc=np.where(idle, upper, setpoint))
+        return Actuation(
+            setpoint_degc=np.where(idle, upper, setpoint), peak_guard=self._period_guard
+        )
 
     def _state_after(
         self,

@@ -32,9 +32,23 @@ the end of the period of each ``boundary_zone_names`` zone (an identified model'
 An IDF with ``HVACTemplate:*`` objects is expanded by EnergyPlus's ExpandObjects when the plant
 is built, so that its zones' equipment and thermostats can be found.
 
+The in-period **peak guard** (an :class:`~hvacflex.sim.plant.PeakGuard` the actuation
+carries; docs/model.md, the committed peak) reads the HVAC meters (``power_kw``'s) at
+EnergyPlus's zone time step, through the API callback: at the start of each zone time step,
+the mean power P of the step before [kW]. It holds a shed level s ∈ [0, 1], integral action
+on the meter: s ← clip(s + g (P − cap) / cap, 0, 1) with g = :data:`GUARD_GAIN` (deeper
+while the meter exceeds the cap, released step by step as it falls below; a release all at
+once would rebound above the cap, the zones having drifted up meanwhile); s carries over to
+the next period while a guard is in force and is 0 without one. It sheds, within the comfort
+band, the zones whose air is below their upper bound: under setpoint actuation the cooling
+setpoint moves the share s of the way from the actuated one up to that bound,
+T' = T_sp + s (T_upper − T_sp) (the air loop then cools less); under flow actuation the flow
+moves towards its floor, u' = u_floor + (1 − s)(u − u_floor), as on the RC plant. A period
+in which some zone was shed has ``peak_guard_active``.
+
 EnergyPlus cannot be copied mid-run (``can_snapshot = False``); :meth:`set_state` replays the
-recorded actuations of :meth:`get_state` from a fresh run, which reproduces the same
-readings (the engine is deterministic).
+recorded actuations (and peak guards) of :meth:`get_state` from a fresh run, which
+reproduces the same readings (the engine is deterministic).
 """
 
 from __future__ import annotations
@@ -72,7 +86,7 @@ from hvacflex.energyplus.runner import (
     expand_hvac_templates,
 )
 from hvacflex.errors import InputError
-from hvacflex.sim.plant import Actuation, Disturbance, FloatArray, Observation
+from hvacflex.sim.plant import Actuation, Disturbance, FloatArray, Observation, PeakGuard
 
 PlantActuation = Literal["setpoint", "flow"]
 
@@ -86,6 +100,9 @@ HVAC_METERS = ("Electricity:HVAC", "Electricity:Plant")
 """Meters whose sum is the plant's ``power_kw`` (fans, pumps, chiller)."""
 FACILITY_METER = "ElectricityPurchased:Facility"
 """The whole-facility meter (``Electricity:Facility`` has no API handle in 25.2)."""
+GUARD_GAIN = 1.0
+"""The peak guard's integral gain: change of its shed level per zone time step per unit
+relative excess of the meter over the cap (module docstring)."""
 FLOW_EPSILON_KG_S = 1e-6
 """Below this total inlet flow a zone's supply temperature is the plain mean of its inlets."""
 
@@ -125,8 +142,8 @@ class EnergyPlusPlant:
     """
 
     can_snapshot = False
-    reads_meter_in_period = False
-    """The meter is read once a period (no in-period peak guard yet)."""
+    reads_meter_in_period = True
+    """The HVAC meters are read at every zone time step: the peak guard runs here."""
 
     def __init__(
         self,
@@ -211,6 +228,10 @@ class EnergyPlusPlant:
         """(ne,) period means of ``extra_variables`` in the last period read."""
         self._sim: CoSimulation | None = None
         self._history: list[FloatArray] = []
+        self._guards: list[PeakGuard | None] = []
+        self._guard: PeakGuard | None = None
+        self._shed_level = 0.0
+        self._period_shed = False
         self.python_time_s = 0.0
         """Wall time of :meth:`step` outside the engine [s] (the plant's own overhead)."""
 
@@ -263,7 +284,7 @@ class EnergyPlusPlant:
             variables=tuple(variables),
             meters=(*HVAC_METERS, FACILITY_METER),
             actuators=tuple(actuators),
-            timestep_rule=self._setpoint_rule if self.actuation == "setpoint" else None,
+            timestep_rule=self._timestep_rule,
         )
 
     def _setpoint_actuators(
@@ -310,6 +331,36 @@ class EnergyPlusPlant:
         applied[2 * m :] = AVAILABILITY_ON if needs_cooling else np.nan
         return applied
 
+    def _timestep_rule(
+        self, now: FloatArray, commanded: FloatArray, meters_last_step_j: FloatArray
+    ) -> FloatArray:
+        """The peak guard (module docstring), then under setpoint actuation
+        :meth:`_setpoint_rule`: the actuator values of a zone time step."""
+        m = self._m
+        values = commanded.copy()
+        guard = self._guard
+        if guard is not None:
+            step_s = 3600.0 / self._spec.timesteps_per_hour
+            hvac_j = meters_last_step_j[: len(HVAC_METERS)]
+            if not np.all(np.isnan(hvac_j)):
+                power_kw = float(np.nansum(hvac_j)) / step_s / 1000.0
+                self._shed_level = next_shed_level(self._shed_level, power_kw, guard.cap_kw)
+            if self._shed_level > 0.0:
+                shed = shed_toward_band(
+                    values[:m],
+                    now[:m],
+                    guard,
+                    self._shed_level,
+                    setpoint=self.actuation == "setpoint",
+                )
+                self._period_shed = self._period_shed or not np.array_equal(
+                    shed, values[:m], equal_nan=True
+                )
+                values[:m] = shed
+        if self.actuation == "setpoint":
+            return self._setpoint_rule(now, values)
+        return values
+
     # ---- the Plant protocol ------------------------------------------------------------
 
     def reset(self, initial_temp_degc: float) -> Observation:
@@ -321,7 +372,8 @@ class EnergyPlusPlant:
         temperature as read then; ``power_kw`` and ``facility_power_kw`` NaN (no period has
         been metered), as on the RC plant."""
         self.close()
-        self._history = []
+        self._history, self._guards = [], []
+        self._guard, self._shed_level, self._period_shed = None, 0.0, False
         self._sim = CoSimulation(self._spec, self.work_dir)
         reading = self._sim.start()
         for _ in range(self._skip_periods):
@@ -341,12 +393,23 @@ class EnergyPlusPlant:
             raise RuntimeError("call reset() before step()")
         values = self._actuator_values(actuation)
         engine_before = self._sim.engine_time_s
-        reading = self._sim.advance(values)
-        self._history.append(values)
-        observation = self._observation(reading)
+        reading = self._advance(values, actuation.peak_guard)
+        observation = replace(self._observation(reading), peak_guard_active=self._period_shed)
         engine = self._sim.engine_time_s - engine_before
         self.python_time_s += time.perf_counter() - began - engine
         return observation
+
+    def _advance(self, values: FloatArray, guard: PeakGuard | None) -> PeriodReading:
+        """One period of the engine under ``values`` (na,) and ``guard``, recorded for
+        replay."""
+        assert self._sim is not None
+        self._guard, self._period_shed = guard, False
+        if guard is None:
+            self._shed_level = 0.0
+        reading = self._sim.advance(values)
+        self._history.append(values.copy())
+        self._guards.append(guard)
+        return reading
 
     def _actuator_values(self, actuation: Actuation) -> FloatArray:
         m = self._m
@@ -385,17 +448,42 @@ class EnergyPlusPlant:
         )
 
     def get_state(self) -> dict[str, Any]:
-        """The actuations applied since :meth:`reset` ((k, na) array), for replay."""
-        return {"actuator_values": np.array(self._history).reshape(len(self._history), -1)}
+        """The actuations applied since :meth:`reset` ((k, na) array) and the peak guards in
+        force (``guard_cap_kw`` (k,), NaN without one; ``guard_upper_degc`` and
+        ``guard_floor_kg_s`` (k, m)), for replay."""
+        k, m = len(self._history), self._m
+        cap, upper, floor = np.full(k, np.nan), np.full((k, m), np.nan), np.full((k, m), np.nan)
+        for j, guard in enumerate(self._guards):
+            if guard is not None:
+                cap[j], upper[j], floor[j] = (
+                    guard.cap_kw,
+                    guard.comfort_upper_degc,
+                    guard.flow_floor_kg_s,
+                )
+        return {
+            "actuator_values": np.array(self._history).reshape(k, -1),
+            "guard_cap_kw": cap,
+            "guard_upper_degc": upper,
+            "guard_floor_kg_s": floor,
+        }
 
     def set_state(self, state: dict[str, Any]) -> None:
-        """Replay :meth:`get_state`'s actuations on a fresh run (the same readings follow)."""
+        """Replay :meth:`get_state`'s actuations and peak guards on a fresh run (the same
+        readings follow). A state without guards (written before the guard ran here)
+        replays without one."""
         history = np.asarray(state["actuator_values"], dtype=np.float64)
+        k, m = len(history), self._m
+        cap = np.asarray(state.get("guard_cap_kw", np.full(k, np.nan)), dtype=np.float64)
+        upper = np.asarray(state.get("guard_upper_degc", np.full((k, m), np.nan)))
+        floor = np.asarray(state.get("guard_floor_kg_s", np.full((k, m), np.nan)))
         self.reset(float("nan"))
-        assert self._sim is not None
-        for values in history:
-            self._sim.advance(values)
-            self._history.append(values.copy())
+        for j, values in enumerate(history):
+            guard = (
+                PeakGuard(float(cap[j]), upper[j].astype(np.float64), floor[j].astype(np.float64))
+                if np.isfinite(cap[j])
+                else None
+            )
+            self._advance(values, guard)
 
     def close(self) -> None:
         """End the EnergyPlus run (also done by the next :meth:`reset`)."""
@@ -408,6 +496,45 @@ class EnergyPlusPlant:
             self.close()
         except Exception:  # pragma: no cover - interpreter shutdown
             pass
+
+
+def next_shed_level(level: float, power_kw: float, cap_kw: float) -> float:
+    """The peak guard's shed level ∈ [0, 1] for the next zone time step, integral action on
+    the meter: s' = clip(s + :data:`GUARD_GAIN` (P − cap) / cap, 0, 1), with P [kW] the
+    meter's power over the last step and ``cap_kw`` [kW] the committed cap (shed deeper while
+    over the cap, released as the meter falls below it)."""
+    return float(np.clip(level + GUARD_GAIN * (power_kw - cap_kw) / cap_kw, 0.0, 1.0))
+
+
+def shed_toward_band(
+    commanded: FloatArray,
+    zone_temp_degc: FloatArray,
+    guard: PeakGuard,
+    level: float,
+    *,
+    setpoint: bool,
+) -> FloatArray:
+    """(m,) the actuated values with the peak guard's shed at ``level`` ∈ [0, 1].
+
+    Zones whose air is below their upper comfort bound ``guard.comfort_upper_degc`` are
+    shed; the others keep their value. ``setpoint``: ``commanded`` are cooling setpoints
+    [°C], raised the share ``level`` of the way up to the bound (never lowered: a setpoint at
+    or above it stays); else flows [kg/s], moved the share ``level`` of the way down to
+    ``guard.flow_floor_kg_s`` (never raised).
+
+    Parameters
+    ----------
+    commanded : (m,) the period's actuated setpoints [°C] or flows [kg/s].
+    zone_temp_degc : (m,) zone air temperatures now [°C].
+    """
+    upper = np.asarray(guard.comfort_upper_degc, dtype=np.float64)
+    may_shed = np.asarray(zone_temp_degc, dtype=np.float64) < upper
+    if setpoint:
+        target = np.maximum(upper, commanded)
+    else:
+        target = np.minimum(np.asarray(guard.flow_floor_kg_s, dtype=np.float64), commanded)
+    shed: FloatArray = np.where(may_shed, commanded + level * (target - commanded), commanded)
+    return shed
 
 
 def inlet_flow_and_temp(

@@ -8,7 +8,8 @@ exact nonlinear RC network (:class:`hvacflex.building.plant.NonlinearPlant`) wit
 HVAC power model (:func:`hvacflex.building.hvac.hvac_power_kw`; a building identified from
 data: its fitted power model).
 
-A plant that reads its meter within a period (``reads_meter_in_period``, the RC plant) runs
+A plant that reads its meter within a period (``reads_meter_in_period``: the RC plant, as
+below; EnergyPlus at its zone time step, :mod:`hvacflex.sim.energyplus_plant`) runs
 the in-period **peak guard** an :class:`Actuation` may carry (:class:`PeakGuard`): at each of
 ``substeps`` instants of the period it reads the power the meter would show at the actuated
 flows and, where that exceeds the committed cap, sheds flow within the comfort band
@@ -50,7 +51,8 @@ class PeakGuard:
         not shed.
     flow_floor_kg_s : (m,) the lowest flow the guard may shed to [kg/s] (the ventilation flow
         while occupied, the minimum otherwise).
-    substeps : meter readings per period (≥ 1).
+    substeps : meter readings per period (≥ 1) on the RC plant (EnergyPlus reads its meter at
+        its zone time step).
     """
 
     cap_kw: float
@@ -77,7 +79,7 @@ class Actuation:
     setpoint_degc : (m,) zone cooling setpoint [°C], or None.
     cooling_kw : (m,) delivered sensible cooling per zone [kW] (≥ 0), or None.
     supply_temp_degc : supply-air temperature [°C]; None: the plant's own (design) value.
-    peak_guard : the in-period peak guard of the period (flow actuation on a plant that
+    peak_guard : the in-period peak guard of the period (on a plant that
         ``reads_meter_in_period``), or None.
     """
 
@@ -155,7 +157,8 @@ class Observation:
         supply air is the model's own (the RC plants); with it the observer feeds the model
         the cooling delivered, not the flow (``closed_loop``: a coil off out of hours
         delivers none).
-    peak_guard_active : True when the peak guard shed flow in some substep of the period.
+    peak_guard_active : True when the peak guard shed load in some substep (EnergyPlus: zone
+        time step) of the period.
     """
 
     zone_temp_degc: FloatArray

@@ -1,0 +1,64 @@
+"""The perfect-foresight peak bound (issue 61 item 1) against cases solved by hand."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from hvacflex.config import preset
+from hvacflex.sim.peak_bound import PeakBoundProblem, bound_peak_kw, minimum_peak
+
+
+def _integrator(heat_k: list[float], u_max_kg_s: float = 10.0) -> PeakBoundProblem:
+    """One zone, a pure integrator x_{k+1} = x_k − u_k + d_k [K per kg/s], from 25 °C in a
+    band of [20, 25] °C, power P_k = 1 kW per kg/s × u_k."""
+    steps = len(heat_k)
+    return PeakBoundProblem(
+        a=np.eye(1),
+        b=-np.eye(1),
+        e=np.eye(1),
+        g=np.zeros(1),
+        c=np.eye(1),
+        x0_degc=np.array([25.0]),
+        d=np.array(heat_k)[:, None],
+        u_min_kg_s=np.zeros((steps, 1)),
+        u_max_kg_s=np.array([u_max_kg_s]),
+        y_min_degc=np.full((steps, 1), 20.0),
+        y_max_degc=np.full((steps, 1), 25.0),
+        p0_kw=np.zeros(steps),
+        p_kw_per_kg_s=np.ones((steps, 1)),
+    )
+
+
+def test_pre_cooling_spreads_a_late_heat_gain_over_the_period() -> None:
+    """4 K of heat in the last period, 5 K of room below the bound: cooled 4/3 K a period
+    from the start, the peak is 4/3 kW (without storage it would be 4)."""
+    bound = minimum_peak(_integrator([0.0, 0.0, 4.0]))
+    assert bound.peak_kw == pytest.approx(4.0 / 3.0, abs=1e-6)
+    assert bound.excursion_k == pytest.approx(0.0, abs=1e-9)
+    assert bound.flow_kg_s.sum() == pytest.approx(4.0, abs=1e-5)
+
+
+def test_the_lower_bound_limits_pre_cooling() -> None:
+    """12 K in the last period: at most 5 K can be stored before it (20 °C floor), so the
+    last period cools 7: the peak is 7 kW."""
+    bound = minimum_peak(_integrator([0.0, 0.0, 12.0]))
+    assert bound.peak_kw == pytest.approx(7.0, abs=1e-6)
+    assert bound.power_kw.max() == pytest.approx(7.0, abs=1e-6)
+
+
+def test_an_unreachable_band_is_left_by_the_least_excursion_first() -> None:
+    """1 kg/s at most: 3 K cooled against 12 K of heat leaves 34 °C at the end, 9 K above the
+    band (the least excursion); keeping it needs every period at full flow: peak 1 kW."""
+    bound = minimum_peak(_integrator([0.0, 0.0, 12.0], u_max_kg_s=1.0))
+    assert bound.excursion_k == pytest.approx(9.0, abs=1e-6)
+    assert bound.peak_kw == pytest.approx(1.0, abs=1e-6)
+
+
+def test_office5_day_bound_keeps_the_band_below_the_full_load_power() -> None:
+    config = preset("rmpc-ppp", start="2014-03-04", days=1)
+    bound = bound_peak_kw(config)
+    assert bound.flow_kg_s.shape == (48, 5)
+    assert bound.excursion_k == pytest.approx(0.0, abs=1e-4)
+    assert bound.peak_kw == pytest.approx(bound.power_kw.max(), rel=1e-6)
+    assert 5.0 < bound.peak_kw < 60.0  # office5's design full load is ≈ 60 kW
