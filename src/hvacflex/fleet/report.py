@@ -100,7 +100,9 @@ def _envelope_figure(out: Path, results: pd.DataFrame, min_bid_mw: float | None)
             alpha=alpha,
             label=f"envelope, {minutes} min hold",
         )
-    top.plot(times, results["fleet_power_kw"], "k", lw=1, label="realised fleet power")
+    top.step(
+        times, results["fleet_power_kw"], "k", where="post", lw=1, label="realised fleet power"
+    )
     top.step(times, results["feeder_limit_kw"], "r:", where="post", label="limit in force")
     top.set_ylabel("kW")
     top.legend(fontsize=7, ncol=3)
