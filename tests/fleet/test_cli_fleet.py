@@ -3,6 +3,7 @@ from __future__ import annotations
 from pathlib import Path
 from types import SimpleNamespace
 
+import pandas as pd
 import pytest
 from typer.testing import CliRunner
 
@@ -41,6 +42,10 @@ def test_generate_simulate_kpi(tmp_path: Path) -> None:
     )
     assert done.exit_code == 0, done.output
     assert (out / "results.parquet").is_file() and (out / "report.html").is_file()
+    # the envelope is written and plotted in the report
+    assert len(pd.read_csv(out / "envelope.csv")) == 3 * 3
+    assert (out / "fleet_envelope.png").is_file()
+    assert "Flexibility envelope" in (out / "report.html").read_text()
     done = runner.invoke(app, ["kpi", str(out)])
     assert done.exit_code == 0, done.output
     assert "peak_fleet_power_kw" in done.output

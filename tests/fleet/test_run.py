@@ -12,6 +12,7 @@ import pandas as pd
 import pytest
 
 from hvacflex.data.market import synthetic_reserve_prices
+from hvacflex.fleet.envelope import DURATIONS_MIN, ENVELOPE_COLUMNS, ENVELOPE_FILE
 from hvacflex.fleet.generate import generate_fleet, write_fleet
 from hvacflex.fleet.kpi import fleet_summary, load_fleet_results
 from hvacflex.fleet.run import CHECKPOINT_FILE, run_fleet
@@ -91,6 +92,13 @@ def test_in_process_run_and_resume(small_fleet: Path, tmp_path: Path) -> None:
         pd.read_parquet(out / "buildings.parquet").drop(columns="solve_time_s"),
         check_exact=True,
     )
+    # the envelope: every step × 30/60/120 min, carried across the resume
+    envelope = pd.read_csv(out / ENVELOPE_FILE)
+    assert list(envelope.columns) == list(ENVELOPE_COLUMNS)
+    assert len(envelope) == 8 * len(DURATIONS_MIN)
+    assert list(envelope["duration_min"][:3]) == list(DURATIONS_MIN)
+    assert np.all(envelope["min_power_kw"] <= envelope["max_power_kw"])
+    pd.testing.assert_frame_equal(envelope, pd.read_csv(tmp_path / "fresh" / ENVELOPE_FILE))
 
 
 def test_worker_killed_mid_run_recovers(small_fleet: Path, tmp_path: Path) -> None:

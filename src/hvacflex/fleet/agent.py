@@ -41,11 +41,12 @@ from hvacflex.config import (
     ScenarioConfig,
 )
 from hvacflex.control.base import Action, FloatArray, PeriodInputs
-from hvacflex.control.demand_limit import forecast_period_power_kw
+from hvacflex.control.demand_limit import forecast_period_power_kw, predicted_power_kw
 from hvacflex.control.mpc import MPCController
 from hvacflex.control.offers import snapped_flows_kg_s
 from hvacflex.data.gains import DEFAULT_OFFICE_SCHEDULE, OfficeSchedule
 from hvacflex.fleet.centralised import objective_split
+from hvacflex.fleet.envelope import building_envelope, hold_flows
 from hvacflex.fleet.schema import Fleet, FleetBuilding, fleet_from_dict
 from hvacflex.opt import RMPCProblem, RMPCSolution, RMPCSolver, SolveStatus
 from hvacflex.sim.closed_loop import ClosedLoop
@@ -69,6 +70,12 @@ def power_bounds_kw(problem: RMPCProblem, u_max: FloatArray | None = None) -> Fl
     )
     return bound
 
+
+HOLD_LEVEL_ITERATIONS = 4
+"""Corrections of a hold's affine level by the plant's predicted power
+(:meth:`BuildingAgent.advance_held`)."""
+HOLD_LEVEL_TOLERANCE_KW = 0.01
+"""A hold's predicted power meets its level within this [kW]."""
 
 CAP_BISECTION_STEPS = 30
 """Bisection steps of the cap's flow scaling by the predicted power (θ to 1e-9)."""
@@ -114,6 +121,9 @@ class FleetController(MPCController):
         self.power_now: tuple[float, FloatArray, FloatArray] | None = None
         """The step's first period as the LP sees it: (P₀ [kW], p (m,) [kW per kg/s], q (m,)
         the reserve capacity per kg/s of reserve flow [kW per kg/s]); None before a step."""
+        self.held_flow_kg_s: FloatArray | None = None
+        """(m,) flows [kg/s] a hold of the envelope fixes for this period (applied as they
+        are, no reserve offered; :meth:`BuildingAgent.advance_held`); None: not held."""
 
     @staticmethod
     def fleet_inputs(inputs: PeriodInputs) -> PeriodInputs:
@@ -149,10 +159,34 @@ class FleetController(MPCController):
             latent=True,
         )
 
+    def hold_power_kw(self, inputs: PeriodInputs, flows_kg_s: FloatArray) -> float:
+        """The mean HVAC power [kW] the plant's power model predicts for the flows (h, m)
+        [kg/s] of the h periods from now: the linear model stepped from ``inputs.x_degc``
+        under the forecast, each period's power at its mean zone temperatures, outdoor air
+        and occupants' latent gain (:func:`predicted_power_kw`)."""
+        forecast, model = inputs.forecast, self.model
+        gain = forecast.occupant_latent_w
+        x, total = np.asarray(inputs.x_degc, dtype=float), 0.0
+        for j, flow in enumerate(flows_kg_s):
+            end = model.step(x, flow, forecast.disturbances[j])
+            total += predicted_power_kw(
+                self.building.hvac,
+                flow,
+                model.c @ x,
+                model.c @ end,
+                float(forecast.outdoor_temp_degc[j]),
+                float(forecast.outdoor_humidity_ratio_kg_per_kg[j]),
+                latent_gain_w=float(gain[j]) if gain.size else 0.0,
+            )
+            x = end
+        return total / len(flows_kg_s)
+
     def act(self, inputs: PeriodInputs) -> Action:
         action = super().act(self.fleet_inputs(inputs))
         if inputs.locked is not None:
             return action
+        if self.held_flow_kg_s is not None:
+            return self._with_hold(action)
         if np.isnan(self.cap_now_kw):
             raise ValueError("the coordinator gave this building a NaN power cap")
         if self.power_now is None or self.cap_now_kw == np.inf:
@@ -185,6 +219,20 @@ class FleetController(MPCController):
             planned_power_kw=p0 + float(p @ flow),
             fallback=True,
             status=f"{action.status}+capped",
+        )
+
+    def _with_hold(self, action: Action) -> Action:
+        """``action`` with the hold's flows (no reserve offered) and their affine power."""
+        assert self.held_flow_kg_s is not None and self.power_now is not None
+        p0, p, _ = self.power_now
+        flow = self.held_flow_kg_s
+        return dataclasses.replace(
+            action,
+            flow_kg_s=flow,
+            reserve_flow_kg_s=np.zeros_like(flow),
+            reserve_kw=0.0,
+            planned_power_kw=p0 + float(p @ flow),
+            status=f"{action.status}+held",
         )
 
 
@@ -303,6 +351,8 @@ class BuildingAgent:
         self.control = ControlStep(self.setup.config, self.controller, len(self.setup.zone_names))
         self.loop = ClosedLoop(self.setup, control=self.control)
         self._problem: RMPCProblem | None = None
+        self._inputs: PeriodInputs | None = None
+        """The current step's inputs (after :meth:`begin_step`)."""
         self._staged: RMPCSolution | None = None
         """The coordinator's plan of the step, applied by :meth:`advance`."""
         self._last: RMPCSolution | None = None
@@ -327,6 +377,7 @@ class BuildingAgent:
         first period is that power alone: P_min₀ = P_max₀ = p0₀ + p₀·(u − r)ⱼ [kW], and
         the coordinator gives it exactly that as its cap."""
         inputs = self.control.prepared(self.loop.inputs())
+        self._inputs = inputs
         problem = self.controller.problem_for(self.controller.fleet_inputs(inputs))
         self._problem, self._last, self._last_price = problem, None, None
         p_min = power_bounds_kw(problem, problem.u_min)
@@ -450,6 +501,48 @@ class BuildingAgent:
             "fallback": float(self.loop.recorder.flags["fallback"][k]),
         }
 
+    def envelope(self, steps: tuple[int, ...]) -> FloatArray:
+        """(D, 2) the least and the most power [kW] the building holds for each of ``steps``
+        periods from now without leaving comfort, on the step's problem (after
+        :meth:`begin_step`; :func:`hvacflex.fleet.envelope.building_envelope`)."""
+        inputs = self._inputs
+        assert inputs is not None, "begin_step() first"
+        return building_envelope(
+            self.problem, steps, lambda flows: self.controller.hold_power_kw(inputs, flows)
+        )
+
+    def advance_held(self, level_kw: float, steps_left: int) -> dict[str, float]:
+        """Hold ``level_kw`` [kW] this period (after :meth:`begin_step`): the flows of the
+        hold over the ``steps_left`` periods left of it, re-planned from the state now
+        (:func:`hvacflex.fleet.envelope.hold_flows`) at the affine level whose flows the
+        plant's power model (:meth:`FleetController.hold_power_kw`) predicts at
+        ``level_kw`` (the affine level corrected by the difference, up to
+        :data:`HOLD_LEVEL_ITERATIONS` times), applied to the plant as they are (no IL
+        activation); the step's row values as :meth:`advance`."""
+        problem, inputs = self.problem, self._inputs
+        assert inputs is not None
+        affine = level_kw
+        for _ in range(HOLD_LEVEL_ITERATIONS):  # the affine level the plant's model meets
+            flows = hold_flows(problem, affine, steps_left)
+            if np.any(np.isnan(flows)):
+                break
+            predicted = self.controller.hold_power_kw(inputs, flows)
+            if abs(predicted - level_kw) <= HOLD_LEVEL_TOLERANCE_KW:
+                break
+            affine += level_kw - predicted
+        flow = np.clip(np.nan_to_num(flows[0]), problem.u_min[0], problem.u_max[0])
+        self.controller.held_flow_kg_s = flow
+        self.controller.cap_now_kw = np.inf
+        self.controller.power_now = (
+            float(problem.power_offset_kw[0]),
+            problem.power_coeff_kw_per_kg_s[0].copy(),
+            problem.reserve_kw_per_kg_s[0].copy(),
+        )
+        try:
+            return self.advance(False)
+        finally:
+            self.controller.held_flow_kg_s = None
+
     # -- state -----------------------------------------------------------------------
     def get_state(self) -> dict[str, Any]:
         return self.loop.get_state()
@@ -537,6 +630,16 @@ class BuildingGroup:
         """Step every plant (curtailed where ``activated`` and a reserve is offered); (B,)
         arrays of the step's planned and realised power etc."""
         rows = [agent.advance(activated) for agent in self.agents]
+        return {key: np.array([r[key] for r in rows]) for key in rows[0]}
+
+    def envelope(self, steps: tuple[int, ...]) -> tuple[FloatArray]:
+        """((B, D, 2) every building's envelope [kW], :meth:`BuildingAgent.envelope`,)."""
+        return (np.array([agent.envelope(steps) for agent in self.agents]),)
+
+    def advance_held(self, level_kw: FloatArray, steps_left: int) -> dict[str, FloatArray]:
+        """:meth:`BuildingAgent.advance_held` at each building's level (B,) [kW]; like
+        :meth:`advance`."""
+        rows = [a.advance_held(float(level_kw[i]), steps_left) for i, a in enumerate(self.agents)]
         return {key: np.array([r[key] for r in rows]) for key in rows[0]}
 
     def get_state(self) -> list[dict[str, Any]]:

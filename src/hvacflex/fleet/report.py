@@ -1,5 +1,6 @@
 """The fleet report (``report.html`` in the run folder): fleet power against the feeder
-limit, the aggregate bid against the minimum, per-building cost and comfort distributions."""
+limit, the aggregate bid against the minimum, the flexibility envelope next to the limit
+windows and the offers, per-building cost and comfort distributions."""
 
 from __future__ import annotations
 
@@ -11,6 +12,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import pandas as pd
 
+from hvacflex.fleet.envelope import ENVELOPE_FILE
 from hvacflex.report.html import Section, write_report
 from hvacflex.results import RESULTS_FILENAME, read_results
 
@@ -44,6 +46,7 @@ def write_fleet_report(run_dir: str | Path, min_bid_mw: float | None = None) -> 
     figures.append(out / "fleet_bid.png")
     fig.savefig(figures[-1], dpi=90)
     plt.close(fig)
+    envelope_figure = _envelope_figure(out, results, min_bid_mw)
     fig, axes = plt.subplots(1, 2, figsize=(10, 3.0))
     for ax, column, label in (
         (axes[0], "net_cost_sgd", "net cost per building [SGD]"),
@@ -63,6 +66,7 @@ def write_fleet_report(run_dir: str | Path, min_bid_mw: float | None = None) -> 
             figures=figures[:2],
             figure_captions=["fleet power (planned, realised) and the limit", "aggregate bid"],
         ),
+        *envelope_figure,
         Section(
             "Buildings",
             figures=figures[2:],
@@ -71,3 +75,54 @@ def write_fleet_report(run_dir: str | Path, min_bid_mw: float | None = None) -> 
         ),
     ]
     return write_report(out, title="hvacflex fleet run", sections=sections)
+
+
+def _envelope_figure(out: Path, results: pd.DataFrame, min_bid_mw: float | None) -> list[Section]:
+    """The flexibility envelope (``envelope.csv``: the least and the most power the fleet
+    holds for 30, 60 and 120 min from each period's start) as bands around the fleet's
+    power, with the limit windows, and the fleet's offer below it; none without the file."""
+    path = out / ENVELOPE_FILE
+    if not path.is_file():
+        return []
+    envelope = pd.read_csv(path)
+    envelope["time"] = pd.to_datetime(envelope["time"])
+    fig, (top, bottom) = plt.subplots(
+        2, 1, figsize=(10, 5.0), sharex=True, gridspec_kw={"height_ratios": [3, 1.2]}
+    )
+    times = results.index
+    shades = (0.15, 0.25, 0.35)
+    for (minutes, rows), alpha in zip(envelope.groupby("duration_min"), shades, strict=False):
+        top.fill_between(
+            times[: len(rows)],
+            rows["min_power_kw"].to_numpy(float),
+            rows["max_power_kw"].to_numpy(float),
+            step="post",
+            alpha=alpha,
+            label=f"envelope, {minutes} min hold",
+        )
+    top.step(
+        times, results["fleet_power_kw"], "k", where="post", lw=1, label="realised fleet power"
+    )
+    top.step(times, results["feeder_limit_kw"], "r:", where="post", label="limit in force")
+    top.set_ylabel("kW")
+    top.legend(fontsize=7, ncol=3)
+    bottom.step(times, results["fleet_bid_kw"], where="post", label="the fleet's offer")
+    bottom.step(times, results["settled_reserve_kw"], where="post", label="settled")
+    if min_bid_mw is not None:
+        bottom.axhline(1000 * min_bid_mw, color="k", ls=":", label="minimum bid")
+    bottom.set_ylabel("kW")
+    bottom.legend(fontsize=7)
+    fig.tight_layout()
+    figure = out / "fleet_envelope.png"
+    fig.savefig(figure, dpi=90)
+    plt.close(fig)
+    return [
+        Section(
+            "Flexibility envelope",
+            figures=[figure],
+            figure_captions=[
+                "the least and the most power the fleet can hold for 30, 60 and 120 min from "
+                "each period (envelope.csv), the limit in force and the fleet's offer"
+            ],
+        )
+    ]

@@ -19,7 +19,8 @@ same fleet file, period and code, a run resumes from its checkpoint.
 Files written to ``out``: ``results.parquet`` (one row per step, fleet columns; schema in
 :mod:`hvacflex.results` and docs/fleet.md), ``buildings.parquet`` (long format: the
 single-building columns of every building plus ``building``), ``summary.json`` (fleet KPIs),
-``buildings_summary.csv`` (per-building KPIs), ``config.json``.
+``buildings_summary.csv`` (per-building KPIs), ``config.json``, ``envelope.csv`` (the
+fleet's flexibility envelope at every step's start, :mod:`hvacflex.fleet.envelope`).
 """
 
 from __future__ import annotations
@@ -51,6 +52,7 @@ from hvacflex.fleet.bidding import (
 )
 from hvacflex.fleet.bundle import coordinate_caps
 from hvacflex.fleet.coordinate import CoordinationOptions, CoordinationResult, coordinate
+from hvacflex.fleet.envelope import DURATIONS_MIN, ENVELOPE_FILE, duration_steps, envelope_frame
 from hvacflex.fleet.schema import Fleet, load_fleet_document
 from hvacflex.settlement import start_baseline_kw
 from hvacflex.sim.run_files import (
@@ -284,7 +286,7 @@ def run_fleet(
     n = len(fleet.buildings)
     try:
         groups = _Groups(doc, settings, n, client)
-        values, flags, iterations = _empty_tables(steps)
+        values, flags, iterations, envelope = _empty_tables(steps)
         col = {name: i for i, name in enumerate(FLOAT_COLUMNS)}
         checkpoint = _matching_checkpoint(checkpoint_path, key) if resume else None
         k, price = (
@@ -292,10 +294,10 @@ def run_fleet(
             if checkpoint is None
             else (_restore(checkpoint, groups, values, flags, iterations))
         )
-        resumed_from = None if checkpoint is None else k
+        resumed_from = None if checkpoint is None else _restore_envelope(checkpoint, envelope)
 
         def snapshot() -> dict[str, Any]:
-            return _snapshot(key, k, price, values, flags, iterations, groups)
+            return _snapshot(key, k, price, values, flags, iterations, groups, envelope[:k])
 
         checkpoint = checkpoint or snapshot()
         recoveries = 0
@@ -319,6 +321,7 @@ def run_fleet(
             flags[k] = _record_step(values[k], col, outcome, limit[k], min_bid_kw)
             values[k, col["step_time_s"]] = time.perf_counter() - tick
             iterations[k] = result.iterations
+            envelope[k] = outcome.envelope_kw
             price = np.append(result.price_sgd_per_mwh[1:], result.price_sgd_per_mwh[-1])
             k += 1
             _notify(progress, on_step, step_progress(k, steps, result, options), groups)
@@ -335,6 +338,7 @@ def run_fleet(
         _results_frame(values, flags, iterations, index), settings.il_events.il_baseline
     )
     summary = _write_outputs(out, frame, long, fleet, key, recoveries)
+    envelope_frame(index, envelope).to_csv(out / ENVELOPE_FILE, index=False)
     checkpoint_path.unlink(missing_ok=True)
     return FleetRunResult(out, frame, summary, recoveries, resumed_from)
 
@@ -401,12 +405,14 @@ def minimum_power_warning(fleet: Fleet, start: str, days: float) -> str | None:
     )
 
 
-def _empty_tables(steps: int) -> tuple[FloatArray, Any, Any]:
-    """(float columns (steps, FLOAT_COLUMNS), flags bid_accepted/feeder_infeasible, iterations)."""
+def _empty_tables(steps: int) -> tuple[FloatArray, Any, Any, FloatArray]:
+    """(float columns (steps, FLOAT_COLUMNS), flags bid_accepted/feeder_infeasible, iterations,
+    the envelope (steps, D, 2) [kW])."""
     return (
         np.full((steps, len(FLOAT_COLUMNS)), np.nan),
         np.zeros((steps, len(schema.FLEET_FLAG_COLUMNS)), dtype=bool),
         np.zeros(steps, dtype=np.int64),
+        np.full((steps, len(DURATIONS_MIN), 2), np.nan),
     )
 
 
@@ -440,9 +446,11 @@ def _snapshot(
     flags: Any,
     iterations: Any,
     groups: Any,
+    envelope: FloatArray,
 ) -> dict[str, Any]:
-    """The checkpoint after ``k`` steps."""
+    """The checkpoint after ``k`` steps (``envelope`` (k, D, 2): the envelope's rows)."""
     return {
+        "envelope": envelope.copy(),
         "config_hash": key,
         "code_version": code_version(),
         "k": k,
@@ -452,6 +460,13 @@ def _snapshot(
         "iterations": iterations[:k].copy(),
         "buildings": groups.checkpoint_states(),
     }
+
+
+def _restore_envelope(checkpoint: dict[str, Any], envelope: FloatArray) -> int:
+    """Restore the envelope's rows (k, D, 2) from ``checkpoint`` into ``envelope``; k."""
+    k = int(checkpoint["k"])
+    envelope[:k] = checkpoint["envelope"]
+    return k
 
 
 def _restore(
@@ -536,6 +551,9 @@ class _StepOutcome:
     bid_kw: float
     activated: bool
     coordination_s: float
+    envelope_kw: FloatArray
+    """(D, 2) the fleet's flexibility envelope at the step's start [kW]: the least and the
+    most power it holds for each of :data:`hvacflex.fleet.envelope.DURATIONS_MIN`."""
 
 
 @dataclass(frozen=True)
@@ -601,6 +619,7 @@ def _fleet_step(
     tick = time.perf_counter()
     result, p_min = _coordinate_step(groups, feeder_kw, options, price, locked)
     coordinated = time.perf_counter() - tick
+    (envelope,) = groups.stacked("envelope", duration_steps(DT_H))
     offer, curtailed = groups.stacked("staged_offer_kw")
     bid = float(np.sum(offer))
     sees = fleet_baseline_sees(
@@ -610,7 +629,9 @@ def _fleet_step(
     activated = locked if continuing else context.scheduled and accepted
     rows = groups.broadcast("advance", activated)
     merged = {key_: np.concatenate([r[key_] for r in rows]) for key_ in rows[0]}
-    return _StepOutcome(result, p_min, merged, bid if sees else 0.0, activated, coordinated)
+    return _StepOutcome(
+        result, p_min, merged, bid if sees else 0.0, activated, coordinated, envelope.sum(axis=0)
+    )
 
 
 def coordinate_ranges(

@@ -1,0 +1,94 @@
+"""Grade a windowed fleet run against issue 60's criteria (docs/fleet.md, "Issue 60").
+
+python scripts/fleet_window_grade.py --run runs/window --unlimited runs/unlimited
+    [--bound runs/bound/bound.csv]
+
+Both runs are `hvacflex fleet simulate` folders over the same days, the second with
+`feeder_limit_kw = inf` and no windows. Prints, on the RC plants' meters: whether the windows
+bind, the planned and realised over-limit in the window periods, discomfort per building-day
+against the bound (+0.5 K·h), the largest zone violation per building, the peak outside the
+windows against the unlimited peak, and the energy against the unlimited days.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from hvacflex import kpi as kpis
+from hvacflex.results import read_results
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--run", type=Path, required=True)
+    parser.add_argument("--unlimited", type=Path, required=True)
+    parser.add_argument("--bound", type=Path)
+    args = parser.parse_args()
+    run, _ = read_results(args.run / "results.parquet")
+    free, _ = read_results(args.unlimited / "results.parquet")
+    free = free.loc[run.index]
+    inside = np.isfinite(run["feeder_limit_kw"].to_numpy())
+    limit = run["feeder_limit_kw"].to_numpy()[inside]
+    days = len(run) / 48
+    print(f"{len(run)} periods ({days:g} days), {int(inside.sum())} in windows")
+    above = free["fleet_power_kw"].to_numpy()[inside] - limit
+    print(
+        f"binds: unlimited above the limit in {int((above > 0).sum())} window periods "
+        f"(by up to {above.max():.2f} kW)"
+    )
+    planned = run["planned_fleet_power_kw"].to_numpy()[inside] - limit
+    realised = 100 * (run["fleet_power_kw"].to_numpy()[inside] / limit - 1)
+    flagged = run["feeder_infeasible"].to_numpy()[inside]
+    print(
+        f"planned over-limit max {planned.max():.3g} kW; realised over-limit max "
+        f"{realised.max():+.2f} %; {int(flagged.sum())} window periods flagged infeasible"
+    )
+    outside = run["fleet_power_kw"].to_numpy()[~inside]
+    peak_free = free["fleet_power_kw"].max()
+    worst = run.index[~inside][int(np.argmax(outside))]
+    print(
+        f"peak outside the windows {outside.max():.2f} kW at {worst:%m-%d %H:%M} "
+        f"against the unlimited peak {peak_free:.2f} kW"
+    )
+    energy = 0.5 * run["fleet_power_kw"].sum()
+    energy_free = 0.5 * free["fleet_power_kw"].sum()
+    print(
+        f"energy {energy:,.0f} kWh against {energy_free:,.0f} kWh: "
+        f"{100 * (energy / energy_free - 1):+.1f} %"
+    )
+    night = run.index.hour < 7
+    print(
+        f"00:00-07:00: planned {run['planned_fleet_power_kw'][night].min():.0f}-"
+        f"{run['planned_fleet_power_kw'][night].max():.0f} kW, metered "
+        f"{run['fleet_power_kw'][night].min():.0f}-{run['fleet_power_kw'][night].max():.0f} kW "
+        f"(unlimited {free['fleet_power_kw'][night].min():.0f}-"
+        f"{free['fleet_power_kw'][night].max():.0f} kW)"
+    )
+    long = pd.read_parquet(args.run / "buildings.parquet")
+    rows = []
+    for name, frame in long.groupby("building"):
+        rows.append(
+            (
+                name,
+                kpis.total_discomfort_kelvin_hours(frame) / days,
+                float(kpis.max_violation_k(frame).max()),
+            )
+        )
+    table = pd.DataFrame(rows, columns=["building", "discomfort_per_day", "max_violation_k"])
+    if args.bound is not None:
+        bound = pd.read_csv(args.bound).set_index("building")["discomfort_kelvin_hours"]
+        table["bound_per_day"] = table["building"].map(bound) / days
+        table["within"] = table["discomfort_per_day"] <= table["bound_per_day"] + 0.5
+    print(table.round(3).to_string(index=False))
+    print(
+        f"fleet mean per building-day {table['discomfort_per_day'].mean():.3f} K·h"
+        + (f" against bound {table['bound_per_day'].mean():.3f}" if args.bound else "")
+    )
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,252 @@
+"""The fleet's flexibility envelope: the least and the most power it can hold, and for how long.
+
+Per period, from every building's current state on its controller's model (the step problem
+:meth:`hvacflex.fleet.agent.BuildingAgent.begin_step` builds: the filter's state, the
+forecast, the flow box, the comfort band and the affine power P_k = p0_k + p_k·u_k), a
+**hold** of h periods at a constant power level λ [kW] is a flow trajectory u_0 … u_{h−1}
+inside the flow box with P_k = λ in every one of the h periods. A building can hold every
+level of an interval; its ends, with the comfort band kept at every period end of the hold
+(the forecast taken as exact, no robust margin), are the building's envelope:
+
+* ``min_power_kw`` = min λ, ``max_power_kw`` = max λ over the holds that keep comfort.
+
+Where comfort cannot be kept by any hold (a zone already outside its band that no flow
+brings back in time, e.g. a 120-min hold from 06:00 across the start of occupancy) the
+holds with the least comfort slack are taken (the slack ε ≥ 0 [K] of every zone and period
+end is weighted by :data:`SLACK_WEIGHT_KW_PER_KELVIN`, so it is minimised before the
+level): the range then shrinks to (nearly) one level, the power that comes closest to
+comfort. Each building's envelope is one small LP over the
+condensed dynamics (its (h, m) flows, (h, ny) slacks and the level, for every duration and
+both ends at once: the blocks are independent, so one solve finds every block's optimum).
+The fleet's envelope is the sum over buildings: each building holding its own level, the
+fleet holds the sum; every fleet level in between is held by buildings holding levels in
+between.
+
+``envelope.csv`` (a fleet run writes it; :func:`envelope_frame`): one row per period and
+duration, columns ``time``, ``duration_min``, ``min_power_kw``, ``max_power_kw``.
+
+:func:`hold_flows` gives a building's flows (h, m) [kg/s] of a hold at a given affine level
+over the h periods left of it (the hold re-planned each period from the state then: the
+closed-loop check of the envelope, :meth:`hvacflex.fleet.agent.BuildingAgent.advance_held`,
+which finds the affine level whose flows the plant's power model puts at the envelope's
+level).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+from scipy import sparse
+
+from hvacflex.constants import PERIOD_S
+from hvacflex.control.base import FloatArray
+from hvacflex.opt import RMPCProblem
+from hvacflex.opt.solve import solve_lp
+from hvacflex.units import SECONDS_PER_HOUR
+
+ENVELOPE_FILE = "envelope.csv"
+ENVELOPE_COLUMNS = ("time", "duration_min", "min_power_kw", "max_power_kw")
+DURATIONS_MIN = (30, 60, 120)
+"""The hold durations of ``envelope.csv`` [min]."""
+SLACK_WEIGHT_KW_PER_KELVIN = 1.0e4
+"""Weight of the comfort slack against the level in a hold's objective [kW per K]: large
+enough that the least slack comes first (0.001 K outweighs 10 kW)."""
+
+
+@dataclass(frozen=True)
+class HoldModel:
+    """A building's condensed model over the first h periods of its step problem.
+
+    Attributes
+    ----------
+    gain : (h·ny, h·m) the comfort outputs' response to the flows: row j·ny + i is zone
+        output i at the end of period j, column l·m + c flow c in period l (0 for l > j)
+        [K per kg/s].
+    free : (h·ny,) the outputs with every flow at 0 (initial state, forecast, affine term)
+        [°C].
+    y_min, y_max : (h·ny,) the comfort band at the period ends [°C] (±inf allowed).
+    u_min, u_max : (h·m,) the flow box [kg/s].
+    p0 : (h,) power offsets [kW]; p : (h, m) power coefficients [kW per kg/s].
+    """
+
+    gain: FloatArray
+    free: FloatArray
+    y_min: FloatArray
+    y_max: FloatArray
+    u_min: FloatArray
+    u_max: FloatArray
+    p0: FloatArray
+    p: FloatArray
+
+    @property
+    def steps(self) -> int:
+        return int(self.p0.shape[0])
+
+    @property
+    def m(self) -> int:
+        return int(self.p.shape[1])
+
+    @property
+    def ny(self) -> int:
+        return int(self.gain.shape[0] // self.steps)
+
+
+def hold_model(problem: RMPCProblem, steps: int) -> HoldModel:
+    """The condensed model of ``problem``'s first ``steps`` periods (1 ≤ steps ≤ N)."""
+    if not 1 <= steps <= problem.horizon:
+        raise ValueError(f"a hold of {steps} periods does not fit a horizon of {problem.horizon}")
+    a, b, c = problem.a_matrix, problem.b_matrix, problem.c_matrix
+    g = np.zeros(problem.n) if problem.affine_term is None else problem.affine_term
+    m, ny = problem.m, problem.ny
+    gain = np.zeros((steps * ny, steps * m))
+    free = np.zeros(steps * ny)
+    x = np.asarray(problem.x0, dtype=float)
+    responses = [b]  # A^j B, j = 0 … steps − 1
+    for _ in range(1, steps):
+        responses.append(a @ responses[-1])
+    for j in range(steps):
+        x = a @ x + problem.e_matrix @ problem.d_forecast[j] + g
+        free[j * ny : (j + 1) * ny] = c @ x
+        for lag in range(j + 1):
+            gain[j * ny : (j + 1) * ny, (j - lag) * m : (j - lag + 1) * m] = c @ responses[lag]
+    return HoldModel(
+        gain=gain,
+        free=free,
+        y_min=problem.y_min[:steps].ravel(),
+        y_max=problem.y_max[:steps].ravel(),
+        u_min=problem.u_min[:steps].ravel(),
+        u_max=problem.u_max[:steps].ravel(),
+        p0=np.asarray(problem.power_offset_kw[:steps], dtype=float),
+        p=np.asarray(problem.power_coeff_kw_per_kg_s[:steps], dtype=float),
+    )
+
+
+@dataclass(frozen=True)
+class _Block:
+    """One hold's LP block: cost, matrix (rows × its columns), row and column bounds."""
+
+    cost: FloatArray
+    matrix: sparse.csr_matrix
+    row_lower: FloatArray
+    row_upper: FloatArray
+    col_lower: FloatArray
+    col_upper: FloatArray
+
+
+def _hold_block(model: HoldModel, sense: float, level: float | None = None) -> _Block:
+    """The hold LP on columns (u (h·m), ε (h·ny), λ): comfort rows y_min − ε ≤ free + G u ≤
+    y_max + ε, power rows p_k·u_k − λ = −p0_k; cost sense·λ + W·Σε (``sense`` +1: the
+    least level, −1: the most, 0: the least slack at ``level``, which fixes λ)."""
+    h, m, ny = model.steps, model.m, model.ny
+    eye = sparse.identity(h * ny, format="csr")
+    gain = sparse.csr_matrix(model.gain)
+    zeros = sparse.csr_matrix((h * ny, 1))
+    power = sparse.block_diag([row[None, :] for row in model.p], format="csr")
+    comfort_low = sparse.hstack([gain, eye, zeros])
+    comfort_high = sparse.hstack([gain, -eye, zeros])
+    power_rows = sparse.hstack([power, sparse.csr_matrix((h, h * ny)), -np.ones((h, 1))])
+    matrix = sparse.vstack([comfort_low, comfort_high, power_rows], format="csr")
+    inf = np.full(h * ny, np.inf)
+    row_lower = np.concatenate([model.y_min - model.free, -inf, -model.p0])
+    row_upper = np.concatenate([inf, model.y_max - model.free, -model.p0])
+    cost = np.concatenate([np.zeros(h * m), np.full(h * ny, SLACK_WEIGHT_KW_PER_KELVIN), [sense]])
+    low = -np.inf if level is None else level
+    high = np.inf if level is None else level
+    return _Block(
+        cost,
+        matrix,
+        row_lower,
+        row_upper,
+        np.concatenate([model.u_min, np.zeros(h * ny), [low]]),
+        np.concatenate([model.u_max, inf, [high]]),
+    )
+
+
+def _solve_blocks(blocks: Sequence[_Block]) -> list[FloatArray]:
+    """Solve the independent blocks as one LP; each block's optimal columns (NaN if none)."""
+    result = solve_lp(
+        np.concatenate([b.cost for b in blocks]),
+        sparse.block_diag([b.matrix for b in blocks], format="csr"),
+        np.concatenate([b.row_lower for b in blocks]),
+        np.concatenate([b.row_upper for b in blocks]),
+        np.concatenate([b.col_lower for b in blocks]),
+        np.concatenate([b.col_upper for b in blocks]),
+    )
+    lengths = [len(b.cost) for b in blocks]
+    x = result.x if result.status.ok else np.full(sum(lengths), np.nan)
+    return list(np.split(x, np.cumsum(lengths)[:-1]))
+
+
+def building_envelope(
+    problem: RMPCProblem,
+    steps: Sequence[int],
+    plant_power_kw: Callable[[FloatArray], float] | None = None,
+) -> FloatArray:
+    """(D, 2) the least and the most power [kW] the building holds for each of ``steps``
+    (D,) periods from its state now without leaving comfort (see the module docstring);
+    NaN where the LP has no solution.
+
+    ``plant_power_kw`` maps a hold's flows (h, m) [kg/s] to the mean power [kW] the plant's
+    power model predicts for them over the hold; given, each level is that power of its
+    hold's flows instead of the LP's affine power (a secant, which over-states the power of
+    large flows and under-states that of small ones)."""
+    blocks, models = [], []
+    for h in steps:
+        model = hold_model(problem, h)
+        blocks += [_hold_block(model, 1.0), _hold_block(model, -1.0)]
+        models += [model, model]
+    levels = []
+    for model, x in zip(models, _solve_blocks(blocks), strict=True):
+        flows = x[: model.steps * model.m].reshape(model.steps, model.m)
+        if plant_power_kw is None or np.isnan(x[-1]):
+            levels.append(x[-1])
+        else:
+            levels.append(plant_power_kw(flows))
+    # where no hold keeps comfort the least-slack holds leave (nearly) one level, and the
+    # plant's power of the two ends' flows may cross by a little: the range is their span
+    return np.sort(np.array(levels).reshape(len(steps), 2), axis=1)
+
+
+def hold_flows(problem: RMPCProblem, level_kw: float, steps: int) -> FloatArray:
+    """(steps, m) the flows [kg/s] of a hold at the affine power ``level_kw`` [kW] over
+    ``problem``'s first ``steps`` periods with the least comfort slack, the level clipped
+    into the flow box's power range over those periods."""
+    model = hold_model(problem, steps)
+    low = model.p0 + np.sum(
+        np.minimum(
+            model.p * model.u_min.reshape(steps, -1), model.p * model.u_max.reshape(steps, -1)
+        ),
+        axis=1,
+    )
+    high = model.p0 + np.sum(
+        np.maximum(
+            model.p * model.u_min.reshape(steps, -1), model.p * model.u_max.reshape(steps, -1)
+        ),
+        axis=1,
+    )
+    level = float(np.clip(level_kw, np.max(low), max(np.max(low), np.min(high))))
+    x = _solve_blocks([_hold_block(model, 0.0, level)])[0]
+    return x[: steps * model.m].reshape(steps, model.m)
+
+
+def envelope_frame(index: pd.DatetimeIndex, envelope_kw: FloatArray) -> pd.DataFrame:
+    """``envelope.csv``'s rows from the fleet's envelope (T, D, 2) [kW] at the periods
+    ``index`` (T,) and :data:`DURATIONS_MIN` (D,), period by period."""
+    steps, durations = envelope_kw.shape[:2]
+    return pd.DataFrame(
+        {
+            "time": np.repeat(index[:steps], durations),
+            "duration_min": np.tile(np.array(DURATIONS_MIN[:durations]), steps),
+            "min_power_kw": envelope_kw[:, :, 0].ravel(),
+            "max_power_kw": envelope_kw[:, :, 1].ravel(),
+        },
+        columns=list(ENVELOPE_COLUMNS),
+    )
+
+
+def duration_steps(dt_h: float = PERIOD_S / SECONDS_PER_HOUR) -> tuple[int, ...]:
+    """:data:`DURATIONS_MIN` in periods of ``dt_h`` [h] (default: the 30-min period)."""
+    return tuple(round(minutes / 60.0 / dt_h) for minutes in DURATIONS_MIN)
