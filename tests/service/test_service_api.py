@@ -40,6 +40,20 @@ def test_openapi_is_published_with_every_route_under_v1(service: Service) -> Non
     assert "X-API-Key" in str(schema["components"]["securitySchemes"])
 
 
+def test_the_openapi_preset_enum_is_every_preset(service: Service) -> None:
+    from hvacflex.config.presets import PRESETS
+
+    schema = service.client.get("/v1/openapi.json").json()
+    preset = schema["components"]["schemas"]["ScenarioSettings"]["properties"]["preset"]
+    assert preset["enum"] == list(PRESETS)
+    body = registration("p1")
+    body["scenario"]["preset"] = "no-such-preset"
+    response = service.client.post(
+        "/v1/buildings", json=body, headers=service.headers(service.operator_key)
+    )
+    assert response.status_code == 422 and "rmpc-ppp" in response.text
+
+
 def test_migrations_create_the_schema(make_db_url: Callable[[str], str]) -> None:
     url = make_db_url("fresh")
     app = create_app(url)

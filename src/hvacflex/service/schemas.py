@@ -9,11 +9,11 @@ number, ``0`` is not a time, ``"1"`` is not a number).
 from __future__ import annotations
 
 from datetime import datetime
-from typing import Annotated, Any, Generic, Literal, TypeVar
+from typing import TYPE_CHECKING, Annotated, Any, Generic, Literal, TypeVar
 
 from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, Field
 
-from hvacflex.config import PRESET_NAMES
+from hvacflex.constants import PRESET_NAMES
 
 T = TypeVar("T")
 
@@ -32,26 +32,12 @@ PEAK_PRICE_MAX_SGD_PER_KW = 1_000.0
 MAX_DAYS = 366.0
 """Longest scenario a building may register [days]."""
 
-PresetName = Literal[
-    "nmpc",
-    "rmpc",
-    "rmpc-ppp",
-    "paper-nmpc",
-    "paper-rmpc",
-    "paper-rmpc-ppp",
-    "nmpc-no-reserve",
-    "thermostat",
-    "thermostat-25.5",
-    "thermostat-25.5-float",
-    "trim-respond",
-    "demand-limit",
-    "gta-dr",
-    "plant-baseline",
-    "rmpc-feedback",
-    "rmpc-feedback-ppp",
-    "rmpc-output-feedback",
-]
-assert set(PresetName.__args__) == set(PRESET_NAMES)  # type: ignore[attr-defined]
+if TYPE_CHECKING:
+    PresetName = str
+else:
+    PresetName = Literal[PRESET_NAMES]
+"""A preset's name (:data:`hvacflex.constants.PRESET_NAMES`, an enum in the OpenAPI
+document)."""
 
 _STRICT = ConfigDict(extra="forbid", allow_inf_nan=False, strict=True)
 
