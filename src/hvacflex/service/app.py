@@ -60,6 +60,7 @@ from hvacflex.service.operations import (
     metrics_text,
     stale_buildings,
 )
+from hvacflex.service.plan_processes import PlanProcesses, shares_processes
 from hvacflex.service.planner import DEFAULT_PLAN_WORKERS, Planner
 from hvacflex.service.runtime import NotFoundError, Runtime, to_local
 from hvacflex.service.schemas import (
@@ -112,6 +113,7 @@ def create_app(
     wall_clock: bool = False,
     stale_after_s: float = DEFAULT_STALE_AFTER_S,
     plan_workers: int = DEFAULT_PLAN_WORKERS,
+    plan_processes: int = 0,
     live: bool = False,
     route_limits: dict[str, RouteLimit] | None = None,
 ) -> FastAPI:
@@ -120,9 +122,11 @@ def create_app(
     ``wall_clock`` runs the 30-min boundary trigger on the wall clock as well (buildings
     whose scenario covers today); otherwise the operator drives it with ``POST /v1/clock``.
     A building whose latest measurement is older than ``stale_after_s`` [s] is stale: its
-    plan is left out of the aggregate bid. Plans are made by ``plan_workers`` threads off
-    the request path (:mod:`.planner`); measurements acknowledged before a restart and not
-    yet planned are queued at once. ``live``: the live mode — buildings registered plan on
+    plan is left out of the aggregate bid. Plans are made off the request path
+    (:mod:`.planner`): in ``plan_processes`` worker processes (:mod:`.plan_processes`,
+    each building pinned to one; started before this returns), or with 0 (or an SQLite
+    database in memory) in ``plan_workers`` threads of this process; measurements
+    acknowledged before a restart and not yet planned are queued at once. ``live``: the live mode — buildings registered plan on
     real dates (``data.calendar = "live"``) and times of prices, activations and the clock
     are not held to the price data's span. ``route_limits``: each key's budget on the
     costly routes (default :data:`~hvacflex.service.keys.DEFAULT_ROUTE_LIMITS`: 10
@@ -138,7 +142,7 @@ def create_app(
     engine = open_database(db_url)
     sessions = session_factory(engine)
     runtime = Runtime(sessions, live=live)
-    planner = Planner(runtime, plan_workers)
+    planner = _planner(runtime, db_url, plan_workers, plan_processes)
     app = FastAPI(
         title="hvacflex service",
         version=__version__,
@@ -172,6 +176,28 @@ def create_app(
     app.add_middleware(ObserveRequests, metrics=app.state.request_metrics)
     planner.recover()
     return app
+
+
+PLAN_WAITERS_PER_PROCESS = 8
+"""Planner threads per planning process: they only wait for the processes (a building's
+jobs in order, many buildings' at once)."""
+
+
+def _planner(runtime: Runtime, db_url: str, plan_workers: int, plan_processes: int) -> Planner:
+    """The planner: its jobs in ``plan_processes`` processes where the database can be
+    shared (and ``plan_processes`` > 0), else in ``plan_workers`` threads."""
+    if plan_processes < 0:
+        raise InputError("must be ≥ 0", field="plan_processes", value=plan_processes)
+    if plan_processes == 0 or not shares_processes(db_url):
+        return Planner(runtime, plan_workers)
+    processes = PlanProcesses(db_url, plan_processes, live=runtime.live)
+    try:
+        processes.start()
+    except BaseException:
+        processes.shutdown()
+        raise
+    waiters = max(plan_workers, PLAN_WAITERS_PER_PROCESS * plan_processes)
+    return Planner(runtime, waiters, plans=processes)
 
 
 def _stop_on_shutdown(planner: Planner) -> Callable[[FastAPI], Any]:
