@@ -34,9 +34,7 @@ from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field
 from datetime import datetime
 from functools import partial
-from typing import Any
-
-from typing import Protocol
+from typing import Any, Protocol
 
 from sqlalchemy import func, select
 
