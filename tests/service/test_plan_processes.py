@@ -112,9 +112,7 @@ def test_plans_in_a_process_equal_plans_in_threads_and_a_dead_process_is_replace
     )
     assert response.status_code == 200, response.text
     plans = response.json()["payload"]["plans"]
-    assert [(p["building_id"], p["period"], p["trigger"]) for p in plans] == [
-        ("q1", 2, "boundary")
-    ]
+    assert [(p["building_id"], p["period"], p["trigger"]) for p in plans] == [("q1", 2, "boundary")]
     assert planner.plans.start()[0] != pid
 
 

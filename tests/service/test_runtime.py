@@ -55,9 +55,9 @@ def test_the_metered_history_reads_only_new_rows_and_equals_a_rebuild(
     _add(sessions, 4, 9.0)  # period 3's measurement never came: period 2's power stays NaN
     with sessions() as session:
         # a row read before is not read again (changed here behind its back to prove it)
-        session.execute(update(Measurement).where(Measurement.period == 1).values(
-            previous_power_kw=99.0
-        ))
+        session.execute(
+            update(Measurement).where(Measurement.period == 1).values(previous_power_kw=99.0)
+        )
         session.commit()
         history = metered.read(session, "h1")
     np.testing.assert_array_equal(history.power_kw, [12.5, 14.0, np.nan, 9.0, np.nan, np.nan])

@@ -123,14 +123,15 @@ def create_app(
     whose scenario covers today); otherwise the operator drives it with ``POST /v1/clock``.
     A building whose latest measurement is older than ``stale_after_s`` [s] is stale: its
     plan is left out of the aggregate bid. Plans are made off the request path
-    (:mod:`.planner`): in ``plan_processes`` worker processes (:mod:`.plan_processes`,
-    each building pinned to one; started before this returns), or with 0 (or an SQLite
-    database in memory) in ``plan_workers`` threads of this process; measurements
-    acknowledged before a restart and not yet planned are queued at once. ``live``: the
-    live mode — buildings registered plan on real dates (``data.calendar = "live"``) and
-    times of prices, activations and the clock are not held to the price data's span. ``route_limits``: each key's budget on the
-    costly routes (default :data:`~hvacflex.service.keys.DEFAULT_ROUTE_LIMITS`: 10
-    registrations per hour, 1 clock per 10 s); over it, 429 with ``Retry-After``.
+    (:mod:`.planner`): in ``plan_processes`` worker processes (:mod:`.plan_processes`, each
+    building pinned to one; started before this returns), or with 0 (or an SQLite database
+    in memory) in ``plan_workers`` threads of this process; measurements acknowledged before
+    a restart and not yet planned are queued at once. ``live``: the live mode — buildings
+    registered plan on real dates (``data.calendar = "live"``) and times of prices,
+    activations and the clock are not held to the price data's span. ``route_limits``: each
+    key's budget on the costly routes (default
+    :data:`~hvacflex.service.keys.DEFAULT_ROUTE_LIMITS`: 10 registrations per hour, 1 clock
+    per 10 s); over it, 429 with ``Retry-After``.
 
     Raises
     ------

@@ -196,9 +196,7 @@ class Planner:
     def activation(self, building_ids: list[str]) -> list[Plan]:
         """Re-plan the buildings whose activation state changed
         (:meth:`Runtime.activation_building`); waits for the plans."""
-        futures = [
-            self.submit(b, partial(self.plans.activation_building, b)) for b in building_ids
-        ]
+        futures = [self.submit(b, partial(self.plans.activation_building, b)) for b in building_ids]
         return _results(futures)
 
     def submit(self, building_id: str, work: Callable[[], Plan | None]) -> Future[Plan | None]:
