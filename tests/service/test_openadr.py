@@ -573,6 +573,44 @@ def test_a_cancelled_or_modified_dispatch_ends_what_it_activated(tmp_path: Path)
     assert _posted(service) == []
 
 
+def test_a_capacity_limit_event_posts_its_windows_and_a_cancel_removes_them(
+    tmp_path: Path,
+) -> None:
+    service = RecordingService(make_plan([0.0, 0.0]))  # no reserve: a limit needs none
+    ven = make_ven(service, tmp_path, clock=lambda: T0 - HALF_HOUR)
+    event = {
+        "event_descriptor": {"event_id": "c1", "event_status": "far", "modification_number": 0},
+        "event_signals": [make_signal("LOAD_DISPATCH", "setpoint", [300.0, 250.0])],
+    }
+    assert ven.handle_event(event) == OPT_IN
+    posted = [r[2] for r in service.requests if r[:2] == ("POST", "/v1/signals/feeder-limits")]
+    assert posted == [
+        {
+            "windows": [
+                {
+                    "start": "2014-03-03T09:30:00+08:00",
+                    "end": "2014-03-03T10:00:00+08:00",
+                    "limit_kw": 300.0,
+                },
+                {
+                    "start": "2014-03-03T10:00:00+08:00",
+                    "end": "2014-03-03T10:30:00+08:00",
+                    "limit_kw": 250.0,
+                },
+            ],
+            "event_id": "c1/0",
+        }
+    ]
+    assert _posted(service) == []  # not an IL dispatch: no activation
+    service.requests.clear()
+    event["event_descriptor"] = {**event["event_descriptor"], "modification_number": 1}
+    event["event_descriptor"]["event_status"] = "cancelled"
+    assert ven.handle_event(event) == OPT_IN
+    assert [r[1:] for r in service.requests if r[0] == "POST"] == [
+        ("/v1/signals/feeder-limits", {"windows": [], "event_id": "c1/0"})
+    ]
+
+
 def test_a_restarted_ven_keeps_its_answers_and_ends_a_dispatch_cancelled_later(
     tmp_path: Path,
 ) -> None:

@@ -12,11 +12,13 @@ handlers and the key checks are in :mod:`.http`.
 import contextlib
 import functools
 import json
+import math
 import re
 import threading
 from collections.abc import AsyncIterator, Callable
 from typing import Annotated, Any
 
+import numpy as np
 import pandas as pd
 from fastapi import Depends, FastAPI, HTTPException, Query
 from fastapi.responses import JSONResponse, PlainTextResponse
@@ -25,6 +27,8 @@ from sqlalchemy import select
 from hvacflex import __version__
 from hvacflex.constants import PERIOD, PERIOD_FREQ, PERIODS_PER_DAY, TIMEZONE
 from hvacflex.errors import InputError
+from hvacflex.fleet.limit_windows import limit_schedule_kw
+from hvacflex.service import feeder_limits
 from hvacflex.service.dashboard import add_page_routes
 from hvacflex.service.db import (
     DEFAULT_DB_URL,
@@ -75,6 +79,8 @@ from hvacflex.service.schemas import (
     ClockIn,
     Envelope,
     FeederLimitIn,
+    FeederLimitSchedule,
+    FeederLimitWindowsIn,
     Health,
     MeasurementIn,
     MeasurementRecord,
@@ -171,6 +177,7 @@ def create_app(
     _measurement_routes(app, runtime, auth)
     _forecast_signal_routes(app, planner, auth)
     _signal_routes(app, planner, auth)
+    _feeder_limit_routes(app, runtime, auth)
     _operator_routes(app, runtime, auth)
     add_page_routes(app)
     app.add_middleware(BodyLimitAndAudit, sessions=sessions)
@@ -477,12 +484,6 @@ def _signal_routes(app: FastAPI, planner: Planner, auth: Auth) -> None:
         stored = _store_signal(sessions, "peak_price", body.model_dump())
         return Envelope(status=200, message="stored", payload=stored)
 
-    @app.post("/v1/signals/feeder-limit", tags=["operator"], responses=ERRORS)
-    def post_feeder_limit(body: FeederLimitIn, _who: Operator) -> Envelope[Stored]:
-        """The feeder limit [kW] the aggregate bid is checked against."""
-        stored = _store_signal(sessions, "feeder_limit", body.model_dump())
-        return Envelope(status=200, message="stored", payload=stored)
-
     @app.post("/v1/activations", tags=["operator"], responses=ERRORS)
     def post_activation(body: ActivationIn, _who: Operator) -> Envelope[PlanList]:
         """IL activation start or end; the affected buildings' current plans change at once
@@ -543,6 +544,77 @@ def _signal_routes(app: FastAPI, planner: Planner, auth: Auth) -> None:
         return Envelope(status=200, message=f"{len(plans)} plans made", payload=payload)
 
 
+MAX_SCHEDULE_PERIODS = 17_568
+"""Longest feeder limit schedule one request may read: a leap year of periods."""
+
+
+def _feeder_limit_routes(app: FastAPI, runtime: Runtime, auth: Auth) -> None:
+    """The feeder limit: a constant limit, limit windows and the schedule they make."""
+    sessions = runtime.sessions
+    Operator = Annotated[Principal, Depends(roles(auth)[0])]
+
+    @app.post("/v1/signals/feeder-limit", tags=["operator"], responses=ERRORS)
+    def post_feeder_limit(body: FeederLimitIn, _who: Operator) -> Envelope[Stored]:
+        """The feeder limit [kW] the aggregate bid is checked against (the limit windows
+        lower it where they hold)."""
+        stored = _store_signal(sessions, feeder_limits.CONSTANT_KIND, body.model_dump())
+        return Envelope(status=200, message="stored", payload=stored)
+
+    @app.post("/v1/signals/feeder-limits", tags=["operator"], responses=ERRORS)
+    def post_feeder_limit_windows(body: FeederLimitWindowsIn, _who: Operator) -> Envelope[Stored]:
+        """Feeder limit windows, as a fleet file's ``[[feeder_limits]]`` tables: each lowers
+        the limit to its ``limit_kw`` in its periods (the tighter holds). Under an
+        ``event_id`` they replace the windows posted before with that id (an empty list
+        cancels them)."""
+        if not body.windows and body.event_id is None:
+            raise InputError(
+                "give at least one window (an empty list cancels an event's windows: give "
+                "its event_id)",
+                field="windows",
+                value=[],
+            )
+        stored = _store_signal(sessions, feeder_limits.WINDOWS_KIND, body.model_dump(mode="json"))
+        return Envelope(status=200, message=f"{len(body.windows)} windows stored", payload=stored)
+
+    @app.get("/v1/feeder-limits", tags=["operator"], responses=ERRORS)
+    def feeder_limit_schedule(
+        _who: Operator,
+        start: Annotated[str, Query(description="the first period start (ISO 8601)")],
+        periods: Annotated[int, Query(ge=1, le=MAX_SCHEDULE_PERIODS)] = PERIODS_PER_DAY,
+    ) -> Envelope[FeederLimitSchedule]:
+        """The feeder limit in force at each of ``periods`` period starts from ``start``
+        (null: no limit), and the windows in force."""
+        first = _period_start(start, "start")
+        index = pd.date_range(first, periods=periods, freq=PERIOD_FREQ)
+        with sessions() as session:
+            limit = feeder_limits.schedule_kw(session, index)
+            windows = feeder_limits.windows_in_force(session)
+        payload = FeederLimitSchedule(
+            time=[t.isoformat() for t in index],
+            limit_kw=feeder_limits.as_optional(limit),
+            windows=windows,
+        )
+        return Envelope(status=200, message=f"{periods} periods", payload=payload)
+
+
+def _period_start(text: str, field: str) -> pd.Timestamp:
+    """An ISO time that must be a 30-min period start, as a Singapore timestamp.
+
+    Raises
+    ------
+    InputError : not an ISO time, or not a period start.
+    """
+    from datetime import datetime
+
+    try:
+        stamp = to_local(datetime.fromisoformat(text))
+    except ValueError:
+        raise InputError("not an ISO 8601 time", field=field, value=text) from None
+    if stamp != stamp.floor(PERIOD_FREQ):
+        raise InputError("must be a 30-min period start", field=field, value=str(stamp))
+    return stamp
+
+
 def _operator_routes(app: FastAPI, runtime: Runtime, auth: Auth) -> None:
     """The aggregate bid and the audit trail."""
     sessions = runtime.sessions
@@ -557,7 +629,8 @@ def _operator_routes(app: FastAPI, runtime: Runtime, auth: Auth) -> None:
             stale = stale_buildings(session, app.state.stale_after_s)
             fresh = [b for b in runtime.building_ids(session) if b not in set(stale)]
             plans = [runtime.latest_plan(session, b) for b in fresh]
-            feeder = runtime.latest_signal(session, "feeder_limit")
+            feeder = runtime.latest_signal(session, feeder_limits.CONSTANT_KIND)
+            windows = feeder_limits.windows_in_force(session)
         reserve: dict[str, float] = {}
         power: dict[str, float] = {}
         members: list[BidBuilding] = []
@@ -584,13 +657,19 @@ def _operator_routes(app: FastAPI, runtime: Runtime, auth: Auth) -> None:
                 power[key] = power.get(key, 0.0) + (p or 0.0)
         times = sorted(reserve)
         limit = None if feeder is None else float(feeder["limit_kw"])
+        schedule = limit_schedule_kw(
+            math.inf if limit is None else limit,
+            windows,
+            pd.DatetimeIndex([pd.Timestamp(t) for t in times]),
+        )
         bid = Bid(
             time=times,
             reserve_kw=[reserve[t] for t in times],
             planned_power_kw=[power[t] for t in times],
             buildings=members,
             feeder_limit_kw=limit,
-            feeder_limit_exceeded=limit is not None and any(power[t] > limit for t in times),
+            feeder_limit_exceeded=bool((np.array([power[t] for t in times]) > schedule).any()),
+            feeder_limit_schedule_kw=feeder_limits.as_optional(schedule),
             stale_buildings=stale,
         )
         message = f"{len(members)} buildings" + (f", {len(stale)} stale left out" if stale else "")
@@ -648,6 +727,7 @@ AUDIT_ACTIONS: tuple[tuple[str, re.Pattern[str], str], ...] = tuple(
         ("POST", r"/v1/signals/weather", "weather"),
         ("POST", r"/v1/signals/peak-price", "peak_price"),
         ("POST", r"/v1/signals/feeder-limit", "feeder_limit"),
+        ("POST", r"/v1/signals/feeder-limits", "feeder_limit_windows"),
         ("POST", r"/v1/activations", "activation"),
         ("POST", r"/v1/activations/refused", "activation_refused"),
         ("POST", r"/v1/clock", "clock"),
