@@ -37,6 +37,7 @@ from hvacflex.service.db import (
     ServiceClock,
     Signal,
     open_database,
+    read_session_factory,
     session_factory,
 )
 from hvacflex.service.http import (
@@ -170,7 +171,9 @@ def create_app(
     if wall_clock:
         app.state.wall_clock_stop = start_wall_clock(planner)
     add_error_handlers(app)
-    auth = Auth(sessions)
+    read_sessions = read_session_factory(engine)
+    app.state.read_sessions = read_sessions
+    auth = Auth(sessions, read_sessions)
     _service_routes(app, runtime)
     _building_routes(app, planner, auth)
     _plan_routes(app, planner, auth)
@@ -321,7 +324,6 @@ def _plan_routes(app: FastAPI, planner: Planner, auth: Auth) -> None:
     """A building's measurements (acknowledged, planned off the request path) and its
     latest plan (read at once)."""
     runtime = planner.runtime
-    sessions = runtime.sessions
     _operator, building_reader, building_writer = roles(auth)
 
     @app.post(
@@ -368,10 +370,10 @@ def _plan_routes(app: FastAPI, planner: Planner, auth: Auth) -> None:
         is not waited for."""
         from hvacflex.service.db import BuildingRow
 
-        with sessions() as session:
-            if session.get(BuildingRow, building_id) is None:
-                raise NotFoundError("no such building", field="building_id", value=building_id)
+        with app.state.read_sessions() as session:  # one statement when there is a plan
             plan = runtime.latest_plan(session, building_id, period)
+            if plan is None and session.get(BuildingRow, building_id) is None:
+                raise NotFoundError("no such building", field="building_id", value=building_id)
         if plan is None:
             raise HTTPException(404, "no plan yet")
         return Envelope(status=200, message="ok", payload=Plan(**plan))
