@@ -12,7 +12,6 @@ handlers and the key checks are in :mod:`.http`.
 import contextlib
 import functools
 import json
-import math
 import re
 import threading
 from collections.abc import AsyncIterator, Callable
@@ -27,7 +26,6 @@ from sqlalchemy import select
 from hvacflex import __version__
 from hvacflex.constants import PERIOD, PERIOD_FREQ, PERIODS_PER_DAY, TIMEZONE
 from hvacflex.errors import InputError
-from hvacflex.fleet.limit_windows import limit_schedule_kw
 from hvacflex.service import feeder_limits
 from hvacflex.service.dashboard import add_page_routes
 from hvacflex.service.db import (
@@ -631,7 +629,7 @@ def _operator_routes(app: FastAPI, runtime: Runtime, auth: Auth) -> None:
             stale = stale_buildings(session, app.state.stale_after_s)
             fresh = [b for b in runtime.building_ids(session) if b not in set(stale)]
             plans = [runtime.latest_plan(session, b) for b in fresh]
-            feeder = runtime.latest_signal(session, feeder_limits.CONSTANT_KIND)
+            constant_kw = feeder_limits.constant_limit_kw(session)
             windows = feeder_limits.windows_in_force(session)
         reserve: dict[str, float] = {}
         power: dict[str, float] = {}
@@ -658,18 +656,13 @@ def _operator_routes(app: FastAPI, runtime: Runtime, auth: Auth) -> None:
                 reserve[key] = reserve.get(key, 0.0) + (r or 0.0)
                 power[key] = power.get(key, 0.0) + (p or 0.0)
         times = sorted(reserve)
-        limit = None if feeder is None else float(feeder["limit_kw"])
-        schedule = limit_schedule_kw(
-            math.inf if limit is None else limit,
-            windows,
-            pd.DatetimeIndex([pd.Timestamp(t) for t in times]),
-        )
+        schedule = feeder_limits.schedule_at(constant_kw, windows, times)
         bid = Bid(
             time=times,
             reserve_kw=[reserve[t] for t in times],
             planned_power_kw=[power[t] for t in times],
             buildings=members,
-            feeder_limit_kw=limit,
+            feeder_limit_kw=feeder_limits.as_optional(np.array([constant_kw]))[0],
             feeder_limit_exceeded=bool((np.array([power[t] for t in times]) > schedule).any()),
             feeder_limit_schedule_kw=feeder_limits.as_optional(schedule),
             stale_buildings=stale,

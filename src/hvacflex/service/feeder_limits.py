@@ -62,6 +62,15 @@ def schedule_kw(session: Session, index: pd.DatetimeIndex) -> np.ndarray:
     return limit_schedule_kw(constant_limit_kw(session), windows_in_force(session), index)
 
 
+def schedule_at(
+    constant_kw: float, windows: list[FeederLimitWindowSpec], times: list[str]
+) -> np.ndarray:
+    """(T,) the limit in force at each of the ISO period starts ``times`` [kW] (inf: none),
+    from the constant limit ``constant_kw`` [kW] and the ``windows``."""
+    index = pd.DatetimeIndex([pd.Timestamp(t) for t in times])
+    return limit_schedule_kw(constant_kw, windows, index)
+
+
 def as_optional(limit_kw: np.ndarray) -> list[float | None]:
     """Limits [kW] as JSON values: None where no limit holds (inf)."""
     return [float(v) if math.isfinite(v) else None for v in limit_kw]
