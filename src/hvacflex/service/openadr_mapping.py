@@ -314,8 +314,7 @@ def capacity_limit_windows(
     if not (series > 0).all():
         raise EventRefused(f"capacity limits {sorted(set(series[series <= 0]))} kW: must be > 0")
     windows: list[dict[str, Any]] = []
-    for t, limit_kw in series.items():
-        start = pd.Timestamp(t)
+    for start, limit_kw in zip(series.index, series.to_numpy(), strict=True):
         last = windows[-1] if windows else None
         if last is not None and last["end"] == start.isoformat() and last["limit_kw"] == limit_kw:
             last["end"] = (start + PERIOD).isoformat()

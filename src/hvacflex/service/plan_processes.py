@@ -33,6 +33,7 @@ import os
 import pickle
 import threading
 import time
+from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 from datetime import datetime
@@ -88,11 +89,12 @@ def _run(kind: str, building_id: str, args: tuple[Any, ...]) -> Plan | None:
     error that cannot travel back to the server is replaced by a ``RuntimeError`` with its
     text."""
     assert _RUNTIME is not None, "not a planning process"
-    method = {
+    methods: dict[str, Callable[..., Plan | None]] = {
         "measurement": _RUNTIME.plan_measurement,
         "boundary": _RUNTIME.boundary_building,
         "activation": _RUNTIME.activation_building,
-    }[kind]
+    }
+    method = methods[kind]
     try:
         plan: Plan | None = method(building_id, *args)
     except Exception as exc:
