@@ -11,7 +11,7 @@ last round (or at ``--max-s``, whichever comes first) and prints the latencies [
 the machine's load.
 
     PYTHONPATH=src python benchmarks/bench_service_load.py --buildings 20 --readers 20 \
-        --rounds 3 [--db postgresql+psycopg://…] [--json out.json]
+        --rounds 3 [--db postgresql+psycopg://…] [--plan-processes N] [--json out.json]
 
 With ``--duration-s`` (issue 56) the test runs for that long instead of by rounds: every
 building posts one measurement per period of ``--period-s`` wall-clock seconds without
@@ -57,9 +57,22 @@ UNLIMITED_OPTIONS = ["--register-limit", "1000000/1", "--clock-limit", "1000000/
 """No budget per key on the costly routes: one operator key registers every building."""
 
 
-def _start(db_url: str, port: int, log: Any) -> subprocess.Popen[bytes]:
+def _start(
+    db_url: str, port: int, log: Any, plan_processes: int | None = None
+) -> subprocess.Popen[bytes]:
+    planning = [] if plan_processes is None else ["--plan-processes", str(plan_processes)]
     process = subprocess.Popen(
-        [*SERVE, "--db", db_url, "--host", "127.0.0.1", "--port", str(port), *UNLIMITED_OPTIONS],
+        [
+            *SERVE,
+            "--db",
+            db_url,
+            "--host",
+            "127.0.0.1",
+            "--port",
+            str(port),
+            *UNLIMITED_OPTIONS,
+            *planning,
+        ],
         stdout=subprocess.DEVNULL,
         stderr=log,
     )
@@ -253,7 +266,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     port = _free_port()
     url = f"http://127.0.0.1:{port}"
     with open(folder / "server.log", "wb") as log:
-        process = _start(db_url, port, log)
+        process = _start(db_url, port, log, args.plan_processes)
         try:
             operator = _operator_key(db_url)
             keys: dict[str, str] = {}
@@ -302,6 +315,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
             process.wait(timeout=60)
     return {
         "database": db_url.split(":", 1)[0],
+        "plan_processes": args.plan_processes,
         "buildings": args.buildings,
         "readers": args.readers,
         "rounds": args.rounds if args.duration_s is None else len(rounds),
@@ -339,6 +353,13 @@ def main() -> None:
     )
     parser.add_argument(
         "--period-s", type=float, default=10.0, help="wall-clock seconds per period (--duration-s)"
+    )
+    parser.add_argument(
+        "--plan-processes",
+        type=int,
+        default=None,
+        help="the server's planning processes (serve --plan-processes; default: its "
+        "default; 0: threads of the server process, as before issue 56)",
     )
     parser.add_argument("--json", type=Path, default=None, help="write the figures here too")
     parser.add_argument(

@@ -222,7 +222,6 @@ WITHOUT_OWN_TEST_FILE: set[str] = {
     "hvacflex.service.app",
     "hvacflex.service.keys",
     "hvacflex.service.replay",
-    "hvacflex.service.runtime",
     "hvacflex.service.schemas",
     "hvacflex.sim.events",
     "hvacflex.sim.measurement",

@@ -44,3 +44,11 @@ def test_the_ar1_coefficient_has_a_correlation_time_of_about_five_hours() -> Non
 def test_the_run_folder_is_relative_to_the_working_directory() -> None:
     run_dir = Path(constants.RUN_DIR)
     assert not run_dir.is_absolute() and run_dir.parts == ("results", "run")
+
+
+def test_the_preset_names_are_the_presets_the_configuration_defines() -> None:
+    from hvacflex.config.presets import PRESETS
+    from hvacflex.constants import PRESET_NAMES
+
+    assert PRESET_NAMES == tuple(PRESETS)
+    assert len(set(PRESET_NAMES)) == len(PRESET_NAMES)

@@ -11,34 +11,12 @@ from typing import TYPE_CHECKING, Any
 import typer
 import typer.core
 
-from hvacflex.constants import DEFAULT_DAYS, DEFAULT_START
+from hvacflex.constants import DEFAULT_DAYS, DEFAULT_START, PRESET_NAMES
 from hvacflex.dates import ISO_START_FORMS, START_EXAMPLE
 
 if TYPE_CHECKING:
     from hvacflex.config import ScenarioConfig
     from hvacflex.errors import HvacflexError
-
-PRESETS_LISTED: tuple[str, ...] = (
-    "nmpc",
-    "rmpc",
-    "rmpc-ppp",
-    "nmpc-no-reserve",
-    "thermostat",
-    "thermostat-25.5",
-    "thermostat-25.5-float",
-    "trim-respond",
-    "demand-limit",
-    "gta-dr",
-    "plant-baseline",
-    "rmpc-feedback",
-    "rmpc-feedback-ppp",
-    "rmpc-output-feedback",
-    "paper-nmpc",
-    "paper-rmpc",
-    "paper-rmpc-ppp",
-)
-"""The presets, spelled out so that ``--help`` need not import the configuration
-(``tests/test_cli_help.py`` checks them against ``hvacflex.config.PRESET_NAMES``)."""
 
 PRESET_HELP = "A preset (the presets are listed below the options)."
 """Help of ``--scenario``; the names follow the options in full (:data:`PRESET_EPILOG`)."""
@@ -47,7 +25,7 @@ HELP_WIDTH = 80
 """The terminal width ``--help`` is laid out for (every line fits; click wraps the rest)."""
 
 
-def preset_epilog(names: tuple[str, ...] = PRESETS_LISTED, width: int = HELP_WIDTH) -> str:
+def preset_epilog(names: tuple[str, ...] = PRESET_NAMES, width: int = HELP_WIDTH) -> str:
     """The presets in full, in aligned columns that fit ``width`` with click's 2-space
     indent of an epilog; ``\\b`` keeps click from rewrapping (and splitting names at their
     hyphens)."""

@@ -27,6 +27,14 @@ _DB_HELP = (
     "postgresql+psycopg://USER@HOST/DB; given to `serve` or to a subcommand."
 )
 _SUB_DB_OPTION = typer.Option(None, "--db", help=_DB_HELP, show_default=False)
+_PLAN_PROCESSES_OPTION = typer.Option(
+    2,
+    "--plan-processes",
+    min=0,
+    max=64,
+    help="Worker processes that make the plans (each building pinned to one), so requests "
+    "never wait behind a solve; 0: threads of the server process.",
+)
 
 
 def _serve_db(ctx: typer.Context, db: str | None) -> str:
@@ -81,6 +89,7 @@ def serve(
     clock_limit: str = typer.Option(
         "1/10", "--clock-limit", help="Each key's budget of POST /v1/clock: N/SECONDS."
     ),
+    plan_processes: int = _PLAN_PROCESSES_OPTION,
 ) -> None:
     """Run the HTTP service (API under /v1, OpenAPI at /v1/openapi.json); prints its URL
     and logs one JSON line per request on standard error."""
@@ -121,6 +130,7 @@ def serve(
             stale_after_s=stale_after_s,
             live=live,
             route_limits=route_limits,
+            plan_processes=plan_processes,
         )
     except HvacflexError as exc:
         raise exit_on_error(exc) from None

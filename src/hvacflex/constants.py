@@ -58,3 +58,28 @@ docs/validation.md). Results stop moving between 42 and 56 days."""
 
 MAX_VALIDATION_SPINUP_DAYS = 120
 """Longest spin-up ``hvacflex validate energyplus`` accepts [d]."""
+
+
+PRESET_NAMES: tuple[str, ...] = (
+    "nmpc",
+    "rmpc",
+    "rmpc-ppp",
+    "paper-nmpc",
+    "paper-rmpc",
+    "paper-rmpc-ppp",
+    "nmpc-no-reserve",
+    "thermostat",
+    "thermostat-25.5",
+    "thermostat-25.5-float",
+    "trim-respond",
+    "demand-limit",
+    "gta-dr",
+    "plant-baseline",
+    "rmpc-feedback",
+    "rmpc-feedback-ppp",
+    "rmpc-output-feedback",
+)
+"""The scenario presets' names, in the order they are listed (the one home of the list:
+``hvacflex.config.presets.PRESETS`` defines each under these names and no other, the
+command line's ``--help`` and the service's ``scenario.preset`` read them from here, without
+importing the configuration)."""

@@ -5,11 +5,19 @@ from __future__ import annotations
 
 import json
 from collections.abc import Callable
+from typing import Any
 
 import pytest
 from sqlalchemy import select
 
-from hvacflex.service.db import Signal, bytes_as_text, db_text, open_database, session_factory
+from hvacflex.service.db import (
+    Signal,
+    bytes_as_text,
+    db_text,
+    open_database,
+    read_session_factory,
+    session_factory,
+)
 
 
 @pytest.mark.parametrize(
@@ -47,3 +55,31 @@ def test_text_with_nul_is_stored_and_found_alike(make_db_url: Callable[[str], st
             assert (found.kind, found.body_json) == ("k\\x00", "\\x00\\ud800")
     finally:
         engine.dispose()
+
+
+def _in_transaction(session: Any) -> bool:
+    """Whether the session's database connection is inside a transaction (the driver's own
+    view: sqlite3's ``in_transaction``, psycopg's transaction status)."""
+    raw = session.connection().connection.dbapi_connection
+    if hasattr(raw, "in_transaction"):
+        return bool(raw.in_transaction)
+    return int(raw.info.transaction_status) != 0  # psycopg: 0 = IDLE
+
+
+def test_a_read_session_holds_no_transaction_and_sees_each_commit(
+    make_db_url: Callable[[str], str],
+) -> None:
+    engine = open_database(make_db_url("reads"))
+    sessions, reads = session_factory(engine), read_session_factory(engine)
+    with reads() as reader:
+        with sessions() as writer, writer.begin():
+            writer.add(Signal(kind="k", body_json="{}"))
+        assert reader.scalars(select(Signal.kind)).all() == ["k"]
+        assert not _in_transaction(reader)  # no BEGIN before, nothing to roll back after
+        with sessions() as writer, writer.begin():
+            writer.add(Signal(kind="l", body_json="{}"))
+        assert reader.scalars(select(Signal.kind)).all() == ["k", "l"]  # no snapshot held
+    with sessions() as ordinary:  # the control: on PostgreSQL an ordinary session opens
+        ordinary.scalars(select(Signal.kind)).all()  # one (sqlite3 only before a write)
+        assert _in_transaction(ordinary) == (engine.dialect.name == "postgresql")
+    engine.dispose()

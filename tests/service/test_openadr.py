@@ -218,6 +218,22 @@ def _events(real0: datetime, dispatch_after: int = 1) -> list[dict[str, Any]]:
     ]
 
 
+CAPACITY_LIMITS_KW = [300.0, 300.0, 250.0]
+"""The feeder's capacity limit the VTN sends for the first three periods [kW]."""
+
+
+def _capacity_limit(real0: datetime) -> dict[str, Any]:
+    """A capacity limit from ``real0``: a load setpoint the site may not exceed [kW]."""
+    return {
+        "signal_name": "LOAD_DISPATCH",
+        "signal_type": "setpoint",
+        "intervals": [
+            {"dtstart": real0 + j * HALF_HOUR, "duration": HALF_HOUR, "signal_payload": p}
+            for j, p in enumerate(CAPACITY_LIMITS_KW)
+        ],
+    }
+
+
 def _wait(condition: Any, timeout_s: float, what: str, log: Any) -> None:
     deadline = time.monotonic() + timeout_s
     while time.monotonic() < deadline:
@@ -317,25 +333,31 @@ def test_a_vtn_drives_a_building_through_the_ven(
     real0 = _next_half_hour()
     offset = E2E_T0 - pd.Timestamp(real0)
     files = TlsFiles.make(tmp_path) if tls else None
-    vtn = LoopbackVtn(free_port(), _events(real0, dispatch_after=3), files, run_for_s=150.0)
+    events = [*_events(real0, dispatch_after=3), _capacity_limit(real0)]
+    vtn = LoopbackVtn(free_port(), events, files, run_for_s=150.0)
     vtn.start()
     ven, log = site.start_ven(vtn, offset, files, tmp_path / "ven.db")
     wanted = ("b1.metered_power_kw", "b1.planned_power_kw", "b1.reserve_offer_kw")
     try:
-        _wait(lambda: len(vtn.opts) == 4, 120, "four opt responses", log)
+        _wait(lambda: len(vtn.opts) == 5, 120, "five opt responses", log)
         _wait(lambda: all(vtn.values.get(r) for r in wanted), 60, "three reports", log)
     finally:
         ven.terminate()
         ven.wait(timeout=30)
         vtn.stop()
     assert vtn.registrations == 1
-    price_id, demand_id, dispatch_id, simple_id = vtn.event_ids
+    price_id, demand_id, dispatch_id, simple_id, limit_id = vtn.event_ids
     assert vtn.opts == {
         price_id: OPT_IN,
         demand_id: OPT_IN,
         dispatch_id: OPT_IN,
         simple_id: OPT_OUT,
+        limit_id: OPT_IN,
     }
+    # the capacity limit reached the service's limit schedule (15:00 … 17:00 service time)
+    start = (E2E_T0 - PERIOD).isoformat().replace("+", "%2B")
+    schedule = operator.call("GET", f"/v1/feeder-limits?start={start}&periods=5")
+    assert schedule["limit_kw"] == [None, *CAPACITY_LIMITS_KW, None]
 
     # the VTN's reports: metered power at the start of the period it was metered in (14:30),
     # and the planned power and reserve offer of the latest plan (still `first`)
@@ -364,6 +386,7 @@ def test_a_vtn_drives_a_building_through_the_ven(
         ("/v1/signals/peak-price", 1),
         ("/v1/activations", 2),
         ("/v1/activations/refused", 1),
+        ("/v1/signals/feeder-limits", 1),
     ):
         assert posted.count((path, 200)) == count, posted
     # the dispatch with offered reserve reached the service as activations; the one beyond
@@ -571,6 +594,44 @@ def test_a_cancelled_or_modified_dispatch_ends_what_it_activated(tmp_path: Path)
         }
     ]
     assert _posted(service) == []
+
+
+def test_a_capacity_limit_event_posts_its_windows_and_a_cancel_removes_them(
+    tmp_path: Path,
+) -> None:
+    service = RecordingService(make_plan([0.0, 0.0]))  # no reserve: a limit needs none
+    ven = make_ven(service, tmp_path, clock=lambda: T0 - HALF_HOUR)
+    event = {
+        "event_descriptor": {"event_id": "c1", "event_status": "far", "modification_number": 0},
+        "event_signals": [make_signal("LOAD_DISPATCH", "setpoint", [300.0, 250.0])],
+    }
+    assert ven.handle_event(event) == OPT_IN
+    posted = [r[2] for r in service.requests if r[:2] == ("POST", "/v1/signals/feeder-limits")]
+    assert posted == [
+        {
+            "windows": [
+                {
+                    "start": "2014-03-03T09:30:00+08:00",
+                    "end": "2014-03-03T10:00:00+08:00",
+                    "limit_kw": 300.0,
+                },
+                {
+                    "start": "2014-03-03T10:00:00+08:00",
+                    "end": "2014-03-03T10:30:00+08:00",
+                    "limit_kw": 250.0,
+                },
+            ],
+            "event_id": "c1/0",
+        }
+    ]
+    assert _posted(service) == []  # not an IL dispatch: no activation
+    service.requests.clear()
+    event["event_descriptor"] = {**event["event_descriptor"], "modification_number": 1}
+    event["event_descriptor"]["event_status"] = "cancelled"
+    assert ven.handle_event(event) == OPT_IN
+    assert [r[1:] for r in service.requests if r[0] == "POST"] == [
+        ("/v1/signals/feeder-limits", {"windows": [], "event_id": "c1/0"})
+    ]
 
 
 def test_a_restarted_ven_keeps_its_answers_and_ends_a_dispatch_cancelled_later(

@@ -14,11 +14,14 @@ from hvacflex.service.openadr_mapping import (
     OPT_OUT,
     EventRefused,
     activation_runs,
+    capacity_key,
+    capacity_limit_windows,
     decide_dispatch,
     demand_charge_sgd_per_kw,
     dispatched_periods,
     energy_prices,
     event_buildings,
+    is_capacity_limit,
     to_service_time,
     to_vtn_time,
 )
@@ -112,3 +115,35 @@ def test_an_event_targets_the_named_buildings_else_all() -> None:
     assert event_buildings({"targets": [{"resource_id": "b2"}]}, ours) == ("b2",)
     assert event_buildings({"targets": [{"ven_id": "ven-1"}]}, ours) == ours
     assert event_buildings({"targets": [{"resource_id": "elsewhere"}]}, ours) == ()
+
+
+def test_a_capacity_limit_is_a_load_setpoint_and_becomes_windows_of_equal_limits() -> None:
+    limit = make_signal("LOAD_DISPATCH", "setpoint", [300.0, 300.0, 250.0, 300.0])
+    assert is_capacity_limit(limit)
+    assert not is_capacity_limit(make_signal("LOAD_DISPATCH", "delta", [5.0]))  # a dispatch
+    assert not is_capacity_limit(make_signal("SIMPLE", "setpoint", [1.0]))
+    windows = capacity_limit_windows(limit, OFFSET)
+    start = SERVICE_T0  # 09:30 service time
+    at = [(start + j * pd.Timedelta(minutes=30)).isoformat() for j in range(5)]
+    assert windows == [
+        {"start": at[0], "end": at[2], "limit_kw": 300.0},
+        {"start": at[2], "end": at[3], "limit_kw": 250.0},
+        {"start": at[3], "end": at[4], "limit_kw": 300.0},
+    ]
+
+
+def test_a_capacity_limit_in_watts_is_scaled_to_kw_and_a_bad_one_refused() -> None:
+    in_w = make_signal(
+        "LOAD_DISPATCH", "setpoint", [0.4], measurement={"unit": "W", "scale": "M"}
+    )  # 0.4 MW
+    assert capacity_limit_windows(in_w, OFFSET)[0]["limit_kw"] == pytest.approx(400.0)
+    with pytest.raises(EventRefused, match="must be > 0"):
+        capacity_limit_windows(make_signal("LOAD_DISPATCH", "setpoint", [100.0, 0.0]), OFFSET)
+    in_a = make_signal("LOAD_DISPATCH", "setpoint", [1.0], measurement={"unit": "A"})
+    with pytest.raises(EventRefused, match="'A'"):
+        capacity_limit_windows(in_a, OFFSET)
+
+
+def test_a_capacity_signal_is_stored_under_its_event_and_signal() -> None:
+    assert capacity_key("e1", {"signal_id": "s9"}, 0) == "e1/s9"
+    assert capacity_key("e1", {}, 2) == "e1/2"

@@ -40,6 +40,20 @@ def test_openapi_is_published_with_every_route_under_v1(service: Service) -> Non
     assert "X-API-Key" in str(schema["components"]["securitySchemes"])
 
 
+def test_the_openapi_preset_enum_is_every_preset(service: Service) -> None:
+    from hvacflex.config.presets import PRESETS
+
+    schema = service.client.get("/v1/openapi.json").json()
+    preset = schema["components"]["schemas"]["ScenarioSettings"]["properties"]["preset"]
+    assert preset["enum"] == list(PRESETS)
+    body = registration("p1")
+    body["scenario"]["preset"] = "no-such-preset"
+    response = service.client.post(
+        "/v1/buildings", json=body, headers=service.headers(service.operator_key)
+    )
+    assert response.status_code == 422 and "rmpc-ppp" in response.text
+
+
 def test_migrations_create_the_schema(make_db_url: Callable[[str], str]) -> None:
     url = make_db_url("fresh")
     app = create_app(url)
@@ -270,6 +284,58 @@ def test_aggregate_bid_and_feeder_limit(service: Service) -> None:
     assert not service.client.get("/v1/bid", headers=service.op()).json()["payload"][
         "feeder_limit_exceeded"
     ]
+
+
+def test_feeder_limit_windows_make_the_schedule_the_bid_is_checked_against(
+    service: Service,
+) -> None:
+    op = service.op()
+    post = service.client.post
+    assert post("/v1/signals/feeder-limit", json={"limit_kw": 1e6}, headers=op).status_code == 200
+    daily = {"start": "12:00", "end": "13:00", "limit_kw": 500.0}
+    once = {"start": f"{START}T12:30", "end": f"{START}T14:00", "limit_kw": 2e-3}
+    response = post("/v1/signals/feeder-limits", json={"windows": [daily]}, headers=op)
+    assert response.status_code == 200, response.text
+    body = {"windows": [once], "event_id": "evt-1"}
+    assert post("/v1/signals/feeder-limits", json=body, headers=op).status_code == 200
+
+    def schedule() -> dict[str, float | None]:
+        answer = service.client.get(
+            "/v1/feeder-limits", params={"start": f"{START}T11:30", "periods": 6}, headers=op
+        ).json()["payload"]
+        return dict(zip((t[11:16] for t in answer["time"]), answer["limit_kw"], strict=True))
+
+    assert schedule() == {
+        "11:30": 1e6,
+        "12:00": 500.0,
+        "12:30": 2e-3,  # both windows: the tighter
+        "13:00": 2e-3,
+        "13:30": 2e-3,
+        "14:00": 1e6,
+    }
+    bid = service.client.get("/v1/bid", headers=op).json()["payload"]
+    by_time = dict(zip(bid["time"], bid["feeder_limit_schedule_kw"], strict=True))
+    in_window = [t for t in bid["time"] if f"{START}T12:30" <= t[:16] < f"{START}T14:00"]
+    assert in_window and all(by_time[t] == 2e-3 for t in in_window)
+    assert bid["feeder_limit_exceeded"]  # the plans draw more than 2 W there
+    # the event's windows replaced (none: cancelled); the window without an id stays
+    body = {"windows": [], "event_id": "evt-1"}
+    assert post("/v1/signals/feeder-limits", json=body, headers=op).status_code == 200
+    assert set(schedule().values()) == {1e6, 500.0}
+    assert not service.client.get("/v1/bid", headers=op).json()["payload"]["feeder_limit_exceeded"]
+    audit = service.client.get("/v1/audit", headers=op).json()["payload"]
+    assert "feeder_limit_windows" in [a["action"] for a in audit]
+    # bad windows: the field named
+    bad = post(
+        "/v1/signals/feeder-limits",
+        json={"windows": [{"start": "11:00", "end": "10:00", "limit_kw": 1.0}]},
+        headers=op,
+    )
+    assert bad.status_code == 422 and "windows" in bad.text
+    empty = post("/v1/signals/feeder-limits", json={"windows": []}, headers=op)
+    assert empty.status_code in (400, 422) and "event_id" in empty.text
+    odd = service.client.get("/v1/feeder-limits", params={"start": f"{START}T09:10"}, headers=op)
+    assert odd.status_code in (400, 422) and "period start" in odd.text
 
 
 def test_peak_price_enters_the_plan(service: Service) -> None:

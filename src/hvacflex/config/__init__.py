@@ -66,11 +66,10 @@ from hvacflex.config.presets import (
     PAPER_FEEDBACK_SCENARIOS,
     PAPER_MODEL_SCENARIOS,
     PAPER_SCENARIOS,
-    PRESET_NAMES,
     PRESETS,
 )
 from hvacflex.config.schema import RENAMED_KEYS, RULE_ERROR, ScenarioSpec, to_domain
-from hvacflex.constants import MAX_HORIZON_STEPS
+from hvacflex.constants import MAX_HORIZON_STEPS, PRESET_NAMES
 from hvacflex.errors import ConfigError, did_you_mean
 from hvacflex.opt.options import (
     DEFAULT_COMFORT_PENALTY_SGD_PER_KELVIN_HOUR,

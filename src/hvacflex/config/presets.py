@@ -42,6 +42,7 @@ from __future__ import annotations
 from typing import Any
 
 from hvacflex.config.model import NEMS_MAX_INTERRUPTION_STEPS
+from hvacflex.constants import PRESET_NAMES
 
 FLOAT_UNOCCUPIED_MARGIN_K = 0.25
 """``thermostat-25.5-float``'s night float below the unoccupied upper bound [K] (issue 55)."""
@@ -136,7 +137,12 @@ PRESETS: dict[str, dict[str, Any]] = {
 }
 """Preset name → partial scenario document."""
 
-PRESET_NAMES: tuple[str, ...] = tuple(PRESETS)
+if tuple(PRESETS) != PRESET_NAMES:  # pragma: no cover - a preset added in one place only
+    raise RuntimeError(
+        "hvacflex.config.presets.PRESETS and hvacflex.constants.PRESET_NAMES differ: "
+        f"{sorted(set(PRESETS) ^ set(PRESET_NAMES))}; define and list each preset in both, "
+        "in the same order"
+    )
 
 PAPER_SCENARIOS: dict[str, str] = {"a": "nmpc", "b": "rmpc", "c": "rmpc-ppp"}
 """The paper's scenario letters and the (product) presets that implement them."""

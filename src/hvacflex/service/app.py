@@ -17,6 +17,7 @@ import threading
 from collections.abc import AsyncIterator, Callable
 from typing import Annotated, Any
 
+import numpy as np
 import pandas as pd
 from fastapi import Depends, FastAPI, HTTPException, Query
 from fastapi.responses import JSONResponse, PlainTextResponse
@@ -25,6 +26,7 @@ from sqlalchemy import select
 from hvacflex import __version__
 from hvacflex.constants import PERIOD, PERIOD_FREQ, PERIODS_PER_DAY, TIMEZONE
 from hvacflex.errors import InputError
+from hvacflex.service import feeder_limits
 from hvacflex.service.dashboard import add_page_routes
 from hvacflex.service.db import (
     DEFAULT_DB_URL,
@@ -33,6 +35,7 @@ from hvacflex.service.db import (
     ServiceClock,
     Signal,
     open_database,
+    read_session_factory,
     session_factory,
 )
 from hvacflex.service.http import (
@@ -60,6 +63,7 @@ from hvacflex.service.operations import (
     metrics_text,
     stale_buildings,
 )
+from hvacflex.service.plan_processes import PlanProcesses, shares_processes
 from hvacflex.service.planner import DEFAULT_PLAN_WORKERS, Planner
 from hvacflex.service.runtime import NotFoundError, Runtime, to_local
 from hvacflex.service.schemas import (
@@ -74,6 +78,8 @@ from hvacflex.service.schemas import (
     ClockIn,
     Envelope,
     FeederLimitIn,
+    FeederLimitSchedule,
+    FeederLimitWindowsIn,
     Health,
     MeasurementIn,
     MeasurementRecord,
@@ -112,6 +118,7 @@ def create_app(
     wall_clock: bool = False,
     stale_after_s: float = DEFAULT_STALE_AFTER_S,
     plan_workers: int = DEFAULT_PLAN_WORKERS,
+    plan_processes: int = 0,
     live: bool = False,
     route_limits: dict[str, RouteLimit] | None = None,
 ) -> FastAPI:
@@ -120,13 +127,16 @@ def create_app(
     ``wall_clock`` runs the 30-min boundary trigger on the wall clock as well (buildings
     whose scenario covers today); otherwise the operator drives it with ``POST /v1/clock``.
     A building whose latest measurement is older than ``stale_after_s`` [s] is stale: its
-    plan is left out of the aggregate bid. Plans are made by ``plan_workers`` threads off
-    the request path (:mod:`.planner`); measurements acknowledged before a restart and not
-    yet planned are queued at once. ``live``: the live mode — buildings registered plan on
-    real dates (``data.calendar = "live"``) and times of prices, activations and the clock
-    are not held to the price data's span. ``route_limits``: each key's budget on the
-    costly routes (default :data:`~hvacflex.service.keys.DEFAULT_ROUTE_LIMITS`: 10
-    registrations per hour, 1 clock per 10 s); over it, 429 with ``Retry-After``.
+    plan is left out of the aggregate bid. Plans are made off the request path
+    (:mod:`.planner`): in ``plan_processes`` worker processes (:mod:`.plan_processes`, each
+    building pinned to one; started before this returns), or with 0 (or an SQLite database
+    in memory) in ``plan_workers`` threads of this process; measurements acknowledged before
+    a restart and not yet planned are queued at once. ``live``: the live mode — buildings
+    registered plan on real dates (``data.calendar = "live"``) and times of prices,
+    activations and the clock are not held to the price data's span. ``route_limits``: each
+    key's budget on the costly routes (default
+    :data:`~hvacflex.service.keys.DEFAULT_ROUTE_LIMITS`: 10 registrations per hour, 1 clock
+    per 10 s); over it, 429 with ``Retry-After``.
 
     Raises
     ------
@@ -138,7 +148,7 @@ def create_app(
     engine = open_database(db_url)
     sessions = session_factory(engine)
     runtime = Runtime(sessions, live=live)
-    planner = Planner(runtime, plan_workers)
+    planner = _planner(runtime, db_url, plan_workers, plan_processes)
     app = FastAPI(
         title="hvacflex service",
         version=__version__,
@@ -159,19 +169,44 @@ def create_app(
     if wall_clock:
         app.state.wall_clock_stop = start_wall_clock(planner)
     add_error_handlers(app)
-    auth = Auth(sessions)
+    read_sessions = read_session_factory(engine)
+    app.state.read_sessions = read_sessions
+    auth = Auth(sessions, read_sessions)
     _service_routes(app, runtime)
     _building_routes(app, planner, auth)
     _plan_routes(app, planner, auth)
     _measurement_routes(app, runtime, auth)
     _forecast_signal_routes(app, planner, auth)
     _signal_routes(app, planner, auth)
+    _feeder_limit_routes(app, runtime, auth)
     _operator_routes(app, runtime, auth)
     add_page_routes(app)
     app.add_middleware(BodyLimitAndAudit, sessions=sessions)
     app.add_middleware(ObserveRequests, metrics=app.state.request_metrics)
     planner.recover()
     return app
+
+
+PLAN_WAITERS_PER_PROCESS = 8
+"""Planner threads per planning process: they only wait for the processes (a building's
+jobs in order, many buildings' at once)."""
+
+
+def _planner(runtime: Runtime, db_url: str, plan_workers: int, plan_processes: int) -> Planner:
+    """The planner: its jobs in ``plan_processes`` processes where the database can be
+    shared (and ``plan_processes`` > 0), else in ``plan_workers`` threads."""
+    if plan_processes < 0:
+        raise InputError("must be ≥ 0", field="plan_processes", value=plan_processes)
+    if plan_processes == 0 or not shares_processes(db_url):
+        return Planner(runtime, plan_workers)
+    processes = PlanProcesses(db_url, plan_processes, live=runtime.live)
+    try:
+        processes.start()
+    except BaseException:
+        processes.shutdown()
+        raise
+    waiters = max(plan_workers, PLAN_WAITERS_PER_PROCESS * plan_processes)
+    return Planner(runtime, waiters, plans=processes)
 
 
 def _stop_on_shutdown(planner: Planner) -> Callable[[FastAPI], Any]:
@@ -287,7 +322,6 @@ def _plan_routes(app: FastAPI, planner: Planner, auth: Auth) -> None:
     """A building's measurements (acknowledged, planned off the request path) and its
     latest plan (read at once)."""
     runtime = planner.runtime
-    sessions = runtime.sessions
     _operator, building_reader, building_writer = roles(auth)
 
     @app.post(
@@ -334,10 +368,10 @@ def _plan_routes(app: FastAPI, planner: Planner, auth: Auth) -> None:
         is not waited for."""
         from hvacflex.service.db import BuildingRow
 
-        with sessions() as session:
-            if session.get(BuildingRow, building_id) is None:
-                raise NotFoundError("no such building", field="building_id", value=building_id)
+        with app.state.read_sessions() as session:  # one statement when there is a plan
             plan = runtime.latest_plan(session, building_id, period)
+            if plan is None and session.get(BuildingRow, building_id) is None:
+                raise NotFoundError("no such building", field="building_id", value=building_id)
         if plan is None:
             raise HTTPException(404, "no plan yet")
         return Envelope(status=200, message="ok", payload=Plan(**plan))
@@ -450,12 +484,6 @@ def _signal_routes(app: FastAPI, planner: Planner, auth: Auth) -> None:
         stored = _store_signal(sessions, "peak_price", body.model_dump())
         return Envelope(status=200, message="stored", payload=stored)
 
-    @app.post("/v1/signals/feeder-limit", tags=["operator"], responses=ERRORS)
-    def post_feeder_limit(body: FeederLimitIn, _who: Operator) -> Envelope[Stored]:
-        """The feeder limit [kW] the aggregate bid is checked against."""
-        stored = _store_signal(sessions, "feeder_limit", body.model_dump())
-        return Envelope(status=200, message="stored", payload=stored)
-
     @app.post("/v1/activations", tags=["operator"], responses=ERRORS)
     def post_activation(body: ActivationIn, _who: Operator) -> Envelope[PlanList]:
         """IL activation start or end; the affected buildings' current plans change at once
@@ -516,6 +544,77 @@ def _signal_routes(app: FastAPI, planner: Planner, auth: Auth) -> None:
         return Envelope(status=200, message=f"{len(plans)} plans made", payload=payload)
 
 
+MAX_SCHEDULE_PERIODS = 17_568
+"""Longest feeder limit schedule one request may read: a leap year of periods."""
+
+
+def _feeder_limit_routes(app: FastAPI, runtime: Runtime, auth: Auth) -> None:
+    """The feeder limit: a constant limit, limit windows and the schedule they make."""
+    sessions = runtime.sessions
+    Operator = Annotated[Principal, Depends(roles(auth)[0])]
+
+    @app.post("/v1/signals/feeder-limit", tags=["operator"], responses=ERRORS)
+    def post_feeder_limit(body: FeederLimitIn, _who: Operator) -> Envelope[Stored]:
+        """The feeder limit [kW] the aggregate bid is checked against (the limit windows
+        lower it where they hold)."""
+        stored = _store_signal(sessions, feeder_limits.CONSTANT_KIND, body.model_dump())
+        return Envelope(status=200, message="stored", payload=stored)
+
+    @app.post("/v1/signals/feeder-limits", tags=["operator"], responses=ERRORS)
+    def post_feeder_limit_windows(body: FeederLimitWindowsIn, _who: Operator) -> Envelope[Stored]:
+        """Feeder limit windows, as a fleet file's ``[[feeder_limits]]`` tables: each lowers
+        the limit to its ``limit_kw`` in its periods (the tighter holds). Under an
+        ``event_id`` they replace the windows posted before with that id (an empty list
+        cancels them)."""
+        if not body.windows and body.event_id is None:
+            raise InputError(
+                "give at least one window (an empty list cancels an event's windows: give "
+                "its event_id)",
+                field="windows",
+                value=[],
+            )
+        stored = _store_signal(sessions, feeder_limits.WINDOWS_KIND, body.model_dump(mode="json"))
+        return Envelope(status=200, message=f"{len(body.windows)} windows stored", payload=stored)
+
+    @app.get("/v1/feeder-limits", tags=["operator"], responses=ERRORS)
+    def feeder_limit_schedule(
+        _who: Operator,
+        start: Annotated[str, Query(description="the first period start (ISO 8601)")],
+        periods: Annotated[int, Query(ge=1, le=MAX_SCHEDULE_PERIODS)] = PERIODS_PER_DAY,
+    ) -> Envelope[FeederLimitSchedule]:
+        """The feeder limit in force at each of ``periods`` period starts from ``start``
+        (null: no limit), and the windows in force."""
+        first = _period_start(start, "start")
+        index = pd.date_range(first, periods=periods, freq=PERIOD_FREQ)
+        with sessions() as session:
+            limit = feeder_limits.schedule_kw(session, index)
+            windows = feeder_limits.windows_in_force(session)
+        payload = FeederLimitSchedule(
+            time=[t.isoformat() for t in index],
+            limit_kw=feeder_limits.as_optional(limit),
+            windows=windows,
+        )
+        return Envelope(status=200, message=f"{periods} periods", payload=payload)
+
+
+def _period_start(text: str, field: str) -> pd.Timestamp:
+    """An ISO time that must be a 30-min period start, as a Singapore timestamp.
+
+    Raises
+    ------
+    InputError : not an ISO time, or not a period start.
+    """
+    from datetime import datetime
+
+    try:
+        stamp = to_local(datetime.fromisoformat(text))
+    except ValueError:
+        raise InputError("not an ISO 8601 time", field=field, value=text) from None
+    if stamp != stamp.floor(PERIOD_FREQ):
+        raise InputError("must be a 30-min period start", field=field, value=str(stamp))
+    return stamp
+
+
 def _operator_routes(app: FastAPI, runtime: Runtime, auth: Auth) -> None:
     """The aggregate bid and the audit trail."""
     sessions = runtime.sessions
@@ -530,7 +629,8 @@ def _operator_routes(app: FastAPI, runtime: Runtime, auth: Auth) -> None:
             stale = stale_buildings(session, app.state.stale_after_s)
             fresh = [b for b in runtime.building_ids(session) if b not in set(stale)]
             plans = [runtime.latest_plan(session, b) for b in fresh]
-            feeder = runtime.latest_signal(session, "feeder_limit")
+            constant_kw = feeder_limits.constant_limit_kw(session)
+            windows = feeder_limits.windows_in_force(session)
         reserve: dict[str, float] = {}
         power: dict[str, float] = {}
         members: list[BidBuilding] = []
@@ -556,14 +656,15 @@ def _operator_routes(app: FastAPI, runtime: Runtime, auth: Auth) -> None:
                 reserve[key] = reserve.get(key, 0.0) + (r or 0.0)
                 power[key] = power.get(key, 0.0) + (p or 0.0)
         times = sorted(reserve)
-        limit = None if feeder is None else float(feeder["limit_kw"])
+        schedule = feeder_limits.schedule_at(constant_kw, windows, times)
         bid = Bid(
             time=times,
             reserve_kw=[reserve[t] for t in times],
             planned_power_kw=[power[t] for t in times],
             buildings=members,
-            feeder_limit_kw=limit,
-            feeder_limit_exceeded=limit is not None and any(power[t] > limit for t in times),
+            feeder_limit_kw=feeder_limits.as_optional(np.array([constant_kw]))[0],
+            feeder_limit_exceeded=bool((np.array([power[t] for t in times]) > schedule).any()),
+            feeder_limit_schedule_kw=feeder_limits.as_optional(schedule),
             stale_buildings=stale,
         )
         message = f"{len(members)} buildings" + (f", {len(stale)} stale left out" if stale else "")
@@ -621,6 +722,7 @@ AUDIT_ACTIONS: tuple[tuple[str, re.Pattern[str], str], ...] = tuple(
         ("POST", r"/v1/signals/weather", "weather"),
         ("POST", r"/v1/signals/peak-price", "peak_price"),
         ("POST", r"/v1/signals/feeder-limit", "feeder_limit"),
+        ("POST", r"/v1/signals/feeder-limits", "feeder_limit_windows"),
         ("POST", r"/v1/activations", "activation"),
         ("POST", r"/v1/activations/refused", "activation_refused"),
         ("POST", r"/v1/clock", "clock"),

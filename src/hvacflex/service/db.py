@@ -359,3 +359,12 @@ def migrate(engine: Engine) -> None:
 def session_factory(engine: Engine) -> sessionmaker[Any]:
     """Sessions bound to ``engine`` that keep loaded attributes after commit."""
     return sessionmaker(engine, expire_on_commit=False)
+
+
+def read_session_factory(engine: Engine) -> sessionmaker[Any]:
+    """Sessions for reads only, each statement in its own (autocommit) transaction: no
+    ``BEGIN`` and ``ROLLBACK`` round trips around a read (on PostgreSQL a key check and a
+    plan read are 2–3 round trips instead of 7). Never write through them."""
+    return sessionmaker(
+        engine.execution_options(isolation_level="AUTOCOMMIT"), expire_on_commit=False
+    )

@@ -255,8 +255,12 @@ _API_KEY = APIKeyHeader(name=API_KEY_HEADER, auto_error=False)
 class Auth:
     """The key checks, as FastAPI dependencies."""
 
-    def __init__(self, sessions: sessionmaker[Session]) -> None:
+    def __init__(
+        self, sessions: sessionmaker[Session], read_sessions: sessionmaker[Session] | None = None
+    ) -> None:
         self.sessions = sessions
+        self.read_sessions = read_sessions or sessions
+        """Where keys are looked up (a read: :func:`~.db.read_session_factory`)."""
         self.verifier = KeyVerifier()
 
     def principal(
@@ -265,7 +269,7 @@ class Auth:
         if not key:
             raise HTTPException(401, f"missing {API_KEY_HEADER} header")
         client = request.client.host if request.client else "-"
-        with self.sessions() as session:
+        with self.read_sessions() as session:
             who = self.verifier.verify(session, key, client)
         if who is None:
             raise HTTPException(401, "unknown or revoked key")

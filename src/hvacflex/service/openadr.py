@@ -68,11 +68,14 @@ from hvacflex.service.openadr_mapping import (
     PRICE_SIGNALS,
     EventRefused,
     activation_runs,
+    capacity_key,
+    capacity_limit_windows,
     decide_dispatch,
     demand_charge_sgd_per_kw,
     dispatched_periods,
     energy_prices,
     event_buildings,
+    is_capacity_limit,
     offered_reserve_kw,
     signals_of,
     to_service_time,
@@ -251,6 +254,7 @@ class OpenAdrVen:
             logger.warning("event %s: activations not undone (the service: %s)", event_id, exc)
             return OPT_OUT
         if status == "cancelled":
+            self._cancel_capacity_limits(event)
             logger.info("event %s cancelled (acknowledged)", event_id)
             self.store.save(replace(kept, modification_number=modification, event_status=status))
             return OPT_IN
@@ -298,9 +302,33 @@ class OpenAdrVen:
             self.service.call("POST", "/v1/signals/peak-price", {"peak_price_sgd_per_kw": phi})
             logger.info("peak-power price φ = %g SGD/kW stored", phi)
             return SignalOutcome(OPT_IN)
+        if is_capacity_limit(event_signal):
+            windows = capacity_limit_windows(event_signal, offset)
+            body = {"windows": windows, "event_id": self._capacity_key(event, event_signal)}
+            self.service.call("POST", "/v1/signals/feeder-limits", body)
+            logger.info("feeder limit windows stored: %s", windows)
+            return SignalOutcome(OPT_IN)
         if name in DISPATCH_SIGNALS:
             return self._dispatch(dispatched_periods(event_signal, offset), event)
         raise EventRefused(f"signal {name!r} has no meaning for the service")
+
+    @staticmethod
+    def _capacity_key(event: dict[str, Any], event_signal: dict[str, Any]) -> str:
+        """The id the service stores a capacity signal's windows under."""
+        event_id = str((event.get("event_descriptor") or {}).get("event_id"))
+        return capacity_key(event_id, event_signal, signals_of(event).index(event_signal))
+
+    def _cancel_capacity_limits(self, event: dict[str, Any]) -> None:
+        """Remove the feeder limit windows of a cancelled event's capacity signals (a
+        service that refuses or cannot be reached is logged; the cancel is acknowledged)."""
+        for event_signal in signals_of(event):
+            if not is_capacity_limit(event_signal):
+                continue
+            body = {"windows": [], "event_id": self._capacity_key(event, event_signal)}
+            try:
+                self.service.call("POST", "/v1/signals/feeder-limits", body)
+            except HvacflexError as exc:
+                logger.warning("feeder limit windows not removed (the service: %s)", exc)
 
     def _now(self) -> pd.Timestamp:
         """The current period start in service time (the VEN's clock + the offset)."""

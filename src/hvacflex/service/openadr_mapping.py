@@ -13,7 +13,17 @@ OpenADR 2.0b signal        service request                          unit convers
 ``SIMPLE``                 run of dispatched periods, for each      dispatched; the amount is not
                            target building that offered reserve in  used (the service curtails the
                            every one of them                        reserve it offered)
+``LOAD_DISPATCH`` of       ``POST /v1/signals/feeder-limits``: a    kW; with an item base
+signal type ``setpoint``   feeder limit window per run of periods   ``powerReal`` in W, × its SI
+(a capacity limit)         with the same limit, under the event's   scale ÷ 1000 (``k`` scale:
+                           and signal's ids (a new version          the payload is kW)
+                           replaces them, a cancel removes them)
 ========================  =======================================  ==============================
+
+A ``LOAD_DISPATCH`` signal of type ``setpoint`` tells the load not to exceed the payload in
+each interval (OpenADR 2.0b's load setpoint); the service takes it as the feeder's capacity
+limit over the interval, like a fleet file's ``[[feeder_limits]]`` window. Every other
+``LOAD_DISPATCH`` (``delta``, ``level``) is an IL dispatch.
 
 Event times are real times. A service in live mode (``hvacflex serve --live``) plans on
 real dates, so the offset is 0; a service on the calendar of its shipped data (2014) is
@@ -43,6 +53,10 @@ SERVICE_CURRENCY = "SGD"
 PRICE_SIGNALS = ("ELECTRICITY_PRICE", "ENERGY_PRICE")
 DEMAND_SIGNALS = ("DEMAND_CHARGE",)
 DISPATCH_SIGNALS = ("LOAD_DISPATCH", "SIMPLE", "simple")
+CAPACITY_SIGNALS = ("LOAD_DISPATCH",)
+CAPACITY_TYPES = ("setpoint",)
+"""A capacity limit: a load setpoint, the most the load may draw per interval."""
+W_PER_KW = 1000.0
 SI_SCALE = {
     "p": 1e-12,
     "n": 1e-9,
@@ -264,3 +278,47 @@ def signals_of(event: dict[str, Any]) -> list[dict[str, Any]]:
     if isinstance(signals, dict):
         signals = signals.get("event_signals") or []
     return list(signals)
+
+
+def is_capacity_limit(event_signal: dict[str, Any]) -> bool:
+    """Whether a signal is a capacity limit (``LOAD_DISPATCH`` of type ``setpoint``)."""
+    return (
+        event_signal.get("signal_name") in CAPACITY_SIGNALS
+        and event_signal.get("signal_type") in CAPACITY_TYPES
+    )
+
+
+def capacity_key(event_id: str, event_signal: dict[str, Any], i: int) -> str:
+    """The id a capacity signal's windows are stored under: the event's and the signal's
+    (its ``signal_id``, else its position), so a new version of the event replaces them."""
+    return f"{event_id}/{event_signal.get('signal_id') or i}"[:128]
+
+
+def capacity_limit_windows(
+    event_signal: dict[str, Any], clock_offset: pd.Timedelta
+) -> list[dict[str, Any]]:
+    """A capacity-limit signal as feeder limit windows in service time: one window
+    ``{start, end, limit_kw}`` (ISO date-times, kW) per run of consecutive periods with the
+    same limit.
+
+    Raises
+    ------
+    EventRefused : an item base that is not a power in W, a limit ≤ 0, or intervals not
+        on whole 30-min periods.
+    """
+    unit = (event_signal.get("measurement") or {}).get("unit")
+    if unit not in (None, "W"):
+        raise EventRefused(f"a capacity limit in {unit!r}: send the payload in kW or W")
+    to_kw = 1.0 if unit is None else 1.0 / W_PER_KW
+    series = period_values(signal_intervals(event_signal, clock_offset)) * to_kw
+    if not (series > 0).all():
+        raise EventRefused(f"capacity limits {sorted(set(series[series <= 0]))} kW: must be > 0")
+    windows: list[dict[str, Any]] = []
+    for start, limit_kw in zip(series.index, series.to_numpy(), strict=True):
+        last = windows[-1] if windows else None
+        if last is not None and last["end"] == start.isoformat() and last["limit_kw"] == limit_kw:
+            last["end"] = (start + PERIOD).isoformat()
+        else:
+            end = (start + PERIOD).isoformat()
+            windows.append({"start": start.isoformat(), "end": end, "limit_kw": float(limit_kw)})
+    return windows

@@ -1,15 +1,13 @@
 """Planning off the request path: a measurement is acknowledged once stored, and planned by
-a worker thread.
+a worker.
 
-Why threads and not processes: each building's controller lives in memory, warm-started
-between periods (the HiGHS session, its basis, the previous plan, the filter and the IL
-event state); a process pool would have to ship that state to a process and back for every
-plan (or pin buildings to processes), and SQLite takes one writer at a time whichever
-process writes. HiGHS releases the GIL while it solves (``Highs.run``; measured: a pure-
-Python counter thread kept 47 % of its solo rate during a 16 s solve on the 2 shared cores,
-i.e. it shared the CPUs rather than waiting), so a solve in a worker thread leaves the
-request threads running; only the LP's construction in Python competes with them for the
-GIL.
+Where a plan is made is the ``plans`` given: the :class:`~hvacflex.service.runtime.Runtime`
+itself (threads of the server process: the in-process default, and an SQLite database in
+memory), or :class:`~hvacflex.service.plan_processes.PlanProcesses` (``hvacflex serve``'s
+default): worker processes, each building pinned to one, which keep its warm controller.
+In threads, a plan's LP construction in Python competes with the request threads for the
+GIL and the cores (issue 56: reads p99 0.4–2.8 s while 10 buildings planned); in processes
+a request waits for neither. The planner's threads then only wait for the processes.
 
 The rules that keep the loop's semantics of a synchronous service:
 
@@ -36,7 +34,7 @@ from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field
 from datetime import datetime
 from functools import partial
-from typing import Any
+from typing import Any, Protocol
 
 from sqlalchemy import func, select
 
@@ -53,6 +51,18 @@ OPERATOR_WAIT_S = 300.0
 LOG = logging.getLogger("hvacflex.service.planner")
 
 Plan = dict[str, Any]
+
+
+class PlanJobs(Protocol):
+    """Where plans are made: the jobs of :class:`~hvacflex.service.runtime.Runtime` (in
+    threads of this process) or of :class:`~hvacflex.service.plan_processes.PlanProcesses`
+    (in worker processes)."""
+
+    def plan_measurement(self, building_id: str, k: int, revision: int) -> Plan: ...
+
+    def boundary_building(self, building_id: str, time: datetime) -> Plan | None: ...
+
+    def activation_building(self, building_id: str) -> Plan | None: ...
 
 
 @dataclass(frozen=True)
@@ -99,8 +109,15 @@ class _Job:
 class Planner:
     """The service's planning workers over a :class:`~hvacflex.service.runtime.Runtime`."""
 
-    def __init__(self, runtime: Runtime, workers: int = DEFAULT_PLAN_WORKERS) -> None:
+    def __init__(
+        self,
+        runtime: Runtime,
+        workers: int = DEFAULT_PLAN_WORKERS,
+        plans: PlanJobs | None = None,
+    ) -> None:
         self.runtime = runtime
+        self.plans: PlanJobs = runtime if plans is None else plans
+        """Where the jobs run (the runtime itself: threads of this process)."""
         self._pool = ThreadPoolExecutor(max(1, workers), thread_name_prefix="hvacflex-plan")
         self._lock = threading.Lock()
         self._queues: dict[str, deque[_Job]] = {}
@@ -154,7 +171,7 @@ class Planner:
         self._waiting[(building_id, k)] = revision
 
         def work() -> Plan:
-            return self.runtime.plan_measurement(building_id, k, revision)
+            return self.plans.plan_measurement(building_id, k, revision)
 
         job = _Job(work, Future(), measurement=(building_id, k))
         self._enqueue(building_id, job)
@@ -173,15 +190,13 @@ class Planner:
         building, planned by the workers; waits for the plans."""
         with self.runtime.sessions() as session:
             ids = self.runtime.building_ids(session)
-        futures = [self.submit(b, partial(self.runtime.boundary_building, b, time)) for b in ids]
+        futures = [self.submit(b, partial(self.plans.boundary_building, b, time)) for b in ids]
         return _results(futures)
 
     def activation(self, building_ids: list[str]) -> list[Plan]:
         """Re-plan the buildings whose activation state changed
         (:meth:`Runtime.activation_building`); waits for the plans."""
-        futures = [
-            self.submit(b, partial(self.runtime.activation_building, b)) for b in building_ids
-        ]
+        futures = [self.submit(b, partial(self.plans.activation_building, b)) for b in building_ids]
         return _results(futures)
 
     def submit(self, building_id: str, work: Callable[[], Plan | None]) -> Future[Plan | None]:
@@ -220,6 +235,9 @@ class Planner:
     def shutdown(self) -> None:
         """Stop taking jobs; jobs not started stay in the database and are recovered."""
         self._pool.shutdown(wait=True, cancel_futures=True)
+        stop = getattr(self.plans, "shutdown", None)
+        if self.plans is not self.runtime and stop is not None:
+            stop()
 
     # -- the queues ---------------------------------------------------------------------
     def _enqueue(self, building_id: str, job: _Job) -> None:

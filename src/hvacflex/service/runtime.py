@@ -207,6 +207,36 @@ class StoredMeasurement:
 
 
 @dataclass
+class MeteredHistory:
+    """A building's metered power by period, kept up to date from its measurement rows.
+
+    Period j's power is what the measurement of period j + 1 posted as
+    ``previous_power_kw``. Measurements are write-once and a building's are stored one at a
+    time (:attr:`BuildingRuntime.store_lock`), so its rows are committed in the order of
+    their ids: reading the rows with an id above the largest read so far finds every row
+    stored since (O(new rows) a plan, where rebuilding the history was O(k)).
+    """
+
+    history: PeriodHistory
+    last_id: int = 0
+    """The largest measurement id read so far (0: none)."""
+
+    def read(self, session: Session, building_id: str) -> PeriodHistory:
+        """The history with every measurement stored until now (its power only)."""
+        rows = session.execute(
+            select(Measurement.id, Measurement.period, Measurement.previous_power_kw)
+            .where(Measurement.building_id == building_id, Measurement.id > self.last_id)
+            .order_by(Measurement.id)
+        )
+        steps = self.history.steps
+        for row_id, period, power in rows:
+            self.last_id = max(self.last_id, int(row_id))
+            if power is not None and 1 <= period <= steps:
+                self.history.power_kw[period - 1] = float(power)
+        return self.history
+
+
+@dataclass
 class BuildingRuntime:
     """A building's setup (model, shipped data) and its controller, in memory."""
 
@@ -217,6 +247,11 @@ class BuildingRuntime:
     """Held while the controller plans (seconds)."""
     store_lock: threading.Lock = field(default_factory=threading.Lock)
     """Held while a measurement is stored (milliseconds): one write per period at a time."""
+    metered: MeteredHistory = field(init=False)
+    """The metered power posted so far, read incrementally (:meth:`Runtime.history`)."""
+
+    def __post_init__(self) -> None:
+        self.metered = MeteredHistory(PeriodHistory.empty(self.setup.exogenous.index, self.steps))
 
     @property
     def controller(self) -> Controller:
@@ -431,25 +466,20 @@ class Runtime:
         k: int,
         delivered_flow_kg_s: np.ndarray | None = None,
     ) -> PeriodHistory:
-        """The building's metered periods before ``k`` from its rows
-        (:class:`~hvacflex.sim.history.PeriodHistory`): period j's power is what the
-        measurement of j + 1 posted as ``previous_power_kw`` (NaN where none did), its
-        activation the activation signal's (:meth:`activity`); ``delivered_flow_kg_s``:
-        period k − 1's delivered input (m,) [kg/s] posted with k's measurement, if any."""
-        history = PeriodHistory.empty(runtime.setup.exogenous.index, runtime.steps)
-        rows = session.execute(
-            select(Measurement.period, Measurement.previous_power_kw).where(
-                Measurement.building_id == runtime.building_id,
-                Measurement.period <= k,
-                Measurement.period >= 1,
-                Measurement.previous_power_kw.is_not(None),
-            )
-        )
-        for period, power in rows:
-            if power is not None:
-                history.power_kw[period - 1] = float(power)
+        """The building's metered periods before ``k`` (:class:`~hvacflex.sim.history.
+        PeriodHistory`): period j's power is what the measurement of j + 1 posted as
+        ``previous_power_kw`` (NaN where none did), its activation the activation signal's
+        (:meth:`activity`); ``delivered_flow_kg_s``: period k − 1's delivered input (m,)
+        [kg/s] posted with k's measurement, if any.
+
+        Incremental: the building's history is kept in memory (:class:`MeteredHistory`)
+        and only the measurements stored since the last plan are read (a plan costs O(new
+        rows), not O(k)); a plan reads only the periods before ``k``."""
+        history = runtime.metered.read(session, runtime.building_id)
         activated = self.activity(session, runtime)
+        history.activated[:] = False
         history.activated[:k] = [activated(j) for j in range(k)]
+        history.delivered_flow_kg_s, history.delivered_period = None, -1
         if delivered_flow_kg_s is not None and k >= 1:
             history.delivered_flow_kg_s = np.asarray(delivered_flow_kg_s, dtype=float)
             history.delivered_period = k - 1

@@ -9,11 +9,12 @@ number, ``0`` is not a time, ``"1"`` is not a number).
 from __future__ import annotations
 
 from datetime import datetime
-from typing import Annotated, Any, Generic, Literal, TypeVar
+from typing import TYPE_CHECKING, Annotated, Any, Generic, Literal, TypeVar
 
 from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, Field
 
-from hvacflex.config import PRESET_NAMES
+from hvacflex.constants import PRESET_NAMES
+from hvacflex.fleet.schema import FeederLimitWindowSpec
 
 T = TypeVar("T")
 
@@ -32,26 +33,12 @@ PEAK_PRICE_MAX_SGD_PER_KW = 1_000.0
 MAX_DAYS = 366.0
 """Longest scenario a building may register [days]."""
 
-PresetName = Literal[
-    "nmpc",
-    "rmpc",
-    "rmpc-ppp",
-    "paper-nmpc",
-    "paper-rmpc",
-    "paper-rmpc-ppp",
-    "nmpc-no-reserve",
-    "thermostat",
-    "thermostat-25.5",
-    "thermostat-25.5-float",
-    "trim-respond",
-    "demand-limit",
-    "gta-dr",
-    "plant-baseline",
-    "rmpc-feedback",
-    "rmpc-feedback-ppp",
-    "rmpc-output-feedback",
-]
-assert set(PresetName.__args__) == set(PRESET_NAMES)  # type: ignore[attr-defined]
+if TYPE_CHECKING:
+    PresetName = str
+else:
+    PresetName = Literal[PRESET_NAMES]
+"""A preset's name (:data:`hvacflex.constants.PRESET_NAMES`, an enum in the OpenAPI
+document)."""
 
 _STRICT = ConfigDict(extra="forbid", allow_inf_nan=False, strict=True)
 
@@ -215,6 +202,32 @@ class FeederLimitIn(BaseModel):
     limit_kw: float = Field(gt=0.0, le=1e7)
 
 
+MAX_LIMIT_WINDOWS = 1_000
+"""Most feeder limit windows one request may carry."""
+
+
+class FeederLimitWindowsIn(BaseModel):
+    """Feeder limit windows, each as a fleet file's ``[[feeder_limits]]`` table
+    (:class:`~hvacflex.fleet.schema.FeederLimitWindowSpec`): ``start`` and ``end`` both
+    "HH:MM" (a daily window; ``days`` ``weekdays`` or ``all``) or both ISO date-times (one
+    window), and ``limit_kw`` > 0. ``event_id`` (e.g. an OpenADR event's): the windows
+    replace those posted before under the same id (none: cancel them)."""
+
+    model_config = _STRICT
+    windows: list[FeederLimitWindowSpec] = Field(max_length=MAX_LIMIT_WINDOWS)
+    event_id: str | None = Field(default=None, min_length=1, max_length=128)
+
+
+class FeederLimitSchedule(BaseModel):
+    """The feeder limit in force per period start: the latest constant limit
+    (``POST /v1/signals/feeder-limit``) lowered by every window in force, the tighter
+    holding (as a fleet's ``[[feeder_limits]]``)."""
+
+    time: list[str]
+    limit_kw: list[float | None] = Field(description="None: no limit in the period")
+    windows: list[FeederLimitWindowSpec]
+
+
 class ActivationIn(BaseModel):
     """An IL activation start or end; ``building_ids`` omitted = every building."""
 
@@ -346,6 +359,12 @@ class Bid(BaseModel):
     buildings: list[BidBuilding]
     feeder_limit_kw: float | None
     feeder_limit_exceeded: bool
+    feeder_limit_schedule_kw: list[float | None] = Field(
+        default_factory=list,
+        description="The feeder limit in force at each period of ``time`` [kW] (the constant "
+        "limit lowered by the limit windows; None: no limit); ``feeder_limit_exceeded`` "
+        "compares the planned power with it.",
+    )
     stale_buildings: list[str] = Field(
         default_factory=list,
         description="Buildings with a plan but no measurement for longer than the service's "
