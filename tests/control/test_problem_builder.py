@@ -121,3 +121,41 @@ def test_the_plan_keeps_a_margin_below_the_night_bound_only(setup: Setup) -> Non
     wide = below_unoccupied_bound(forecast, y_min, y_max, 50.0)
     np.testing.assert_array_equal(wide[night, 0], 20.0)
     np.testing.assert_array_equal(below_unoccupied_bound(forecast, y_min, y_max, 0.0), y_max)
+
+
+def test_a_designed_building_with_a_metered_power_model_plans_with_it(setup: Setup) -> None:
+    """The LP's rows are the fitted model's tangent at the step's least flow (no previous
+    plan): exact there, at T₀, whatever the design curves say."""
+    from hvacflex.building.identified import IdentifiedPower, metered_power_kw
+
+    controller = make_controller(setup)
+    assert isinstance(controller, MPCController)
+    metered = IdentifiedPower(
+        base_kw=2.0,
+        kw_per_kw_cooling=0.3,
+        kw_per_k_outdoor=0.0,
+        occupied_kw=1.0,
+        running_kw=3.0,
+        fan_kw_per_kg2_s2=0.5,
+    )
+    building = replace(setup.building, power_models={"rc": metered})
+    contract = replace(controller.contract, building=building.with_power_model_for("rc"))
+    inputs = _inputs(setup)
+    problem = build_problem(setup.model, inputs, contract, PlanContext(inputs.x_degc))
+    t0 = contract.linearisation_temp_degc
+    outdoor = problem.d_forecast[:, contract.outdoor_index]
+    occupied = inputs.forecast.occupied[:48].astype(float)
+    for k in (0, 10, 30):  # 07:00 (unoccupied), 12:00 and 22:00
+        low = problem.u_min[k]
+        exact = metered_power_kw(
+            metered,
+            setup.building.hvac.supply_temp_degc,
+            low,
+            np.full(low.size, t0),
+            outdoor[k],
+            occupied[k],
+        )
+        row = problem.power_offset_kw[k] + problem.power_coeff_kw_per_kg_s[k] @ low
+        assert row == pytest.approx(float(exact), rel=1e-9)
+    design = build_problem(setup.model, inputs, controller.contract, PlanContext(inputs.x_degc))
+    assert not np.allclose(design.power_offset_kw, problem.power_offset_kw)
