@@ -26,9 +26,9 @@ from hvacflex.building.identified import (
 from hvacflex.building.io import building_from_dict, load_building
 from hvacflex.building.rc import disturbance_channels as building_channels
 from hvacflex.errors import BuildingConfigError
-from hvacflex.paths import resources_dir
 from hvacflex.identify.greybox import GreyBoxParameters, discretize
 from hvacflex.identify.model_file import AirSystem, IdentifiedModel, write_identified_model
+from hvacflex.paths import resources_dir
 from hvacflex.sim.plant import Actuation, Disturbance, RCPlant
 from hvacflex.units import CP_AIR_J_PER_KG_K
 
