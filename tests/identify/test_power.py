@@ -18,6 +18,7 @@ from hvacflex.identify.power import (
     fit_power_model,
     metered_power_model,
     power_inputs,
+    power_inputs_from_results,
     power_kw,
 )
 from hvacflex.identify.trend import read_trend, write_trend
@@ -160,3 +161,25 @@ def test_too_few_running_periods_are_refused_naming_the_fix(metered: Path) -> No
     with pytest.raises(InputError, match="fewer than 96") as caught:
         fit_power_model(inputs, (0, MIN_RUNNING_PERIODS - 1), source="trend.csv")
     assert caught.value.field == "--train" and "more days" in str(caught.value)
+
+
+def test_a_run_s_results_are_read_as_the_period_means_of_its_plant() -> None:
+    index = pd.date_range("2014-03-03 07:30", periods=2, freq="30min", tz="Asia/Singapore")
+    results = pd.DataFrame(
+        {
+            "flow_a_kg_s": [0.0, 0.4],
+            "temp_a_degc": [27.0, 26.0],
+            "temp_end_a_degc": [26.0, 24.0],
+            "d_outdoor_temp_degc": [28.0, 29.0],
+            "power_kw": [1.0, 9.0],
+        },
+        index=index,
+    )
+    inputs = power_inputs_from_results(results, ("a",), 13.0)
+    np.testing.assert_allclose(inputs.zone_temp_degc[:, 0], [26.5, 25.0])
+    np.testing.assert_allclose(inputs.occupied, [0.0, 1.0])  # 08:00: the schedule's
+    np.testing.assert_allclose(inputs.supply_temp_degc, 13.0)
+    np.testing.assert_allclose(inputs.metered_kw, [1.0, 9.0])
+    with pytest.raises(InputError, match="lack the columns") as caught:
+        power_inputs_from_results(results.drop(columns=["power_kw"]), ("a",), 13.0)
+    assert caught.value.field == "power_kw"

@@ -46,8 +46,9 @@ from hvacflex.building.identified import (
     sensible_cooling_kw,
 )
 from hvacflex.constants import PERIODS_PER_DAY
+from hvacflex.data.gains import occupied_mask
 from hvacflex.errors import InputError
-from hvacflex.identify.trend import HVAC_POWER, OCCUPIED, OUTDOOR_TEMP, TrendData, zone_column
+from hvacflex.identify.trend import HVAC_POWER, OUTDOOR_TEMP, TrendData, zone_column
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -82,7 +83,10 @@ class PowerInputs:
     Attributes
     ----------
     index : (T,) period starts; flow_kg_s, zone_temp_degc, supply_temp_degc : (T, m) per
-    zone; outdoor_temp_degc, occupied : (T,) [°C], [–]; metered_kw : (T,) ``hvac_power_kw``.
+    zone; outdoor_temp_degc : (T,) [°C]; occupied : (T,) 1 in the office schedule's occupied
+    periods (those whose comfort band is the occupied one: where the damper opens and the LP
+    counts the outdoor air), else 0 — not the trend's people count, which an IDF's People
+    schedule may spread over the evening; metered_kw : (T,) the meter [kW].
     """
 
     index: pd.DatetimeIndex
@@ -130,8 +134,47 @@ def power_inputs(data: TrendData, zones: tuple[str, ...] | None = None) -> Power
         zone_temp_degc=temp,
         supply_temp_degc=supply,
         outdoor_temp_degc=data.column(OUTDOOR_TEMP),
-        occupied=data.column(OCCUPIED),
+        occupied=occupied_mask(pd.DatetimeIndex(data.frame.index)).astype(np.float64),
         metered_kw=data.column(HVAC_POWER),
+    )
+
+
+def power_inputs_from_results(
+    results: pd.DataFrame, zones: tuple[str, ...], supply_temp_degc: float
+) -> PowerInputs:
+    """The power model's inputs from a run's results (``results.parquet`` of ``hvacflex
+    simulate``: its plant's meter ``power_kw``, the flows ``flow_<zone>_kg_s``, the zone
+    temperatures at the period's start and end — their mean is the period's — and
+    ``d_outdoor_temp_degc``), the supply air at ``supply_temp_degc`` [°C].
+
+    Raises
+    ------
+    InputError
+        when a column is missing (a results file of another building or version).
+    """
+    columns = [f"flow_{z}_kg_s" for z in zones] + [f"temp_{z}_degc" for z in zones]
+    columns += [f"temp_end_{z}_degc" for z in zones] + ["d_outdoor_temp_degc", "power_kw"]
+    missing = [c for c in columns if c not in results.columns]
+    if missing:
+        raise InputError(
+            "the results lack the columns the power model reads",
+            source="results",
+            field=missing[0],
+            value=missing,
+            hint="give the results of a run of this building (hvacflex simulate)",
+        )
+    start = results[[f"temp_{z}_degc" for z in zones]].to_numpy(dtype=np.float64)
+    end = results[[f"temp_end_{z}_degc" for z in zones]].to_numpy(dtype=np.float64)
+    flow = results[[f"flow_{z}_kg_s" for z in zones]].to_numpy(dtype=np.float64)
+    index = pd.DatetimeIndex(results.index)
+    return PowerInputs(
+        index=index,
+        flow_kg_s=flow,
+        zone_temp_degc=0.5 * (start + end),
+        supply_temp_degc=np.full_like(flow, supply_temp_degc),
+        outdoor_temp_degc=results["d_outdoor_temp_degc"].to_numpy(dtype=np.float64),
+        occupied=occupied_mask(index).astype(np.float64),
+        metered_kw=results["power_kw"].to_numpy(dtype=np.float64),
     )
 
 
@@ -236,9 +279,9 @@ def evaluate_power(
 
     Returns
     -------
-    One row per test day and per ``hours`` (``all``, ``occupied``: the trend's ``occupied``
-    > 0, ``unoccupied``), then the same three rows with ``day`` = ``test days`` (every test
-    day): ``day``, ``hours``, ``periods``, ``measured_kwh``, ``predicted_kwh``,
+    One row per test day and per ``hours`` (``all``, ``occupied``: the office schedule's
+    occupied periods, ``unoccupied``), then the same three rows with ``day`` = ``test days``
+    (every test day): ``day``, ``hours``, ``periods``, ``measured_kwh``, ``predicted_kwh``,
     ``error_pct`` (predicted − measured, % of measured; NaN at 0), ``power_rmse_kw`` and
     ``power_bias_kw`` (RMS and mean of predicted − measured power [kW]).
     """

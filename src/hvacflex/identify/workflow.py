@@ -438,7 +438,7 @@ def identify(
     areas_m2 = zone_floor_areas_m2(inputs.zones, floor_areas, idf_file, template)
     geometry = described_geometry(idf_file, template)
     physics = zone_physics_of(inputs.zones, areas_m2, geometry)
-    train_range, test_range = _ranges(inputs.index, train, test)
+    train_range, test_range = train_test_ranges(inputs.index, train, test)
     check_output_file(out, "--out")  # after the inputs are checked, before the fit
     pairs, coupling_physics = _pairs(inputs.zones, couples), None
     if geometry is not None:
@@ -567,7 +567,7 @@ def validity_range(inputs: FitData, train: tuple[int, int]) -> IdentifiedValidit
     )
 
 
-def _ranges(
+def train_test_ranges(
     index: pd.DatetimeIndex, train: str | None, test: str | None
 ) -> tuple[tuple[int, int], tuple[int, int]]:
     """The training and test periods of ``--train`` and ``--test`` (both or neither)."""
