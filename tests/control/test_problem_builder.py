@@ -71,13 +71,16 @@ def test_commitments_are_clipped_into_the_room_and_the_reserve_zones(setup: Setu
 
 def test_power_rows_take_outdoor_air_only_where_the_damper_is_open(setup: Setup) -> None:
     """The LP's rows are the building's affine model with the plant's damper schedule: an
-    unoccupied step's row equals the model with the damper closed, an occupied one's open."""
+    unoccupied step's row equals the model with the damper closed, an occupied one's open
+    (``[controller] power_model = "design"``: office5's design curves, not its fitted model)."""
     from hvacflex.building.hvac import affine_power_model
 
-    controller = make_controller(setup)
+    design = prepare(preset("rmpc-ppp", start="2014-03-03", days=1.0, power_model="design"))
+    assert design.building.metered_power is None and setup.building.metered_power is not None
+    controller = make_controller(design)
     assert isinstance(controller, MPCController)
-    inputs = _inputs(setup)
-    problem = build_problem(setup.model, inputs, controller.contract, PlanContext(inputs.x_degc))
+    inputs = _inputs(design)
+    problem = build_problem(design.model, inputs, controller.contract, PlanContext(inputs.x_degc))
     forecast, hvac = inputs.forecast, setup.building.hvac
     horizon = problem.power_offset_kw.shape[0]
     occupied = forecast.occupied[:horizon]
