@@ -300,8 +300,7 @@ def _power_rows(
     day: str, starts: list[int], inputs: PowerInputs, predicted: FloatArray
 ) -> list[dict[str, object]]:
     """The ``all``, ``occupied`` and ``unoccupied`` rows of the days starting at ``starts``."""
-    periods = np.concatenate([np.arange(s, s + PERIODS_PER_DAY) for s in starts] or [[]])
-    periods = periods.astype(np.int64)
+    periods = (np.asarray(starts, dtype=np.int64)[:, None] + np.arange(PERIODS_PER_DAY)).ravel()
     occupied = inputs.occupied[periods] > 0.0
     masks = (("all", np.ones_like(occupied)), ("occupied", occupied), ("unoccupied", ~occupied))
     return [
