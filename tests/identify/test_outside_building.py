@@ -76,12 +76,12 @@ def test_offers_scaled_to_the_meter_are_delivered_against_it(
 ) -> None:
     """Stress activations (one every weekday) in the week from 2014-04-01, settled against
     EnergyPlus's meter: the March-fitted power model moves about twice as much as April's
-    meter, so offers on the model's scale are delivered 64 % (capped at the offer, period by
-    period), offers scaled by the meter's response (``[reserve] meter_calibrated_offers``)
-    89 % when measured, with a tenth of the shortfall — both with the plan paid q·r
-    (``plan_visible_offers`` off), to isolate the scaling. The defaults (both on): 82 %,
-    one period of EnergyPlus's scatter around the slope (docs/il_events.md), still a
-    seventh of the unscaled shortfall."""
+    meter (ρ 0.45), so offers on the model's scale are delivered 73 % (capped at the offer,
+    period by period), offers scaled by the meter's response (``[reserve]
+    meter_calibrated_offers``) 77 %, with under a third of the shortfall — both with the plan
+    paid q·r (``plan_visible_offers`` off), to isolate the scaling. The defaults (both on):
+    85 %, a fifth of the unscaled shortfall. (Measured 2026-12-06 with the power model from
+    the meter, docs/identify.md §3; with the earlier five-term model: 64 %, 89 %, 82 %.)"""
     _, model = fitted
     scenario = (model.parent / "scenario.toml").read_text()
     results = {}
@@ -102,7 +102,7 @@ def test_offers_scaled_to_the_meter_are_delivered_against_it(
     calibrated_summary, calibrated_frame = results["scaled"]
     ratio = calibrated_frame["offer_meter_ratio"].dropna()
     assert 0.3 < ratio.iloc[-1] < 0.8  # the meter moves about half as much as the plan
-    assert capped["scaled"] >= 0.85
+    assert capped["scaled"] >= 0.75
     assert capped["model"] < min(capped["scaled"], capped["default"])
     unscaled_shortfall_kwh = results["model"][0]["il_shortfall_kwh"]
     assert calibrated_summary["il_shortfall_kwh"] < 0.5 * unscaled_shortfall_kwh
