@@ -339,6 +339,43 @@ def sensible_cooling_kw(
     return out
 
 
+def metered_reserve_coeff(
+    power: IdentifiedPower,
+    supply_temp_degc: float,
+    outdoor_temp_degc: npt.ArrayLike,
+    zone_temp_degc: npt.ArrayLike,
+    total_flow_curtailed_kg_s: npt.ArrayLike,
+    total_flow_ref_kg_s: npt.ArrayLike,
+) -> FloatArray:
+    """(N, m) the power a kg/s of flow shed surely saves under a metered power model [kW per
+    kg/s] — a lower bound along the previous plan, built as the design curves'
+    (``hvac.reserve_power_coeff``): the fan's tangent at the curtailed total flow (convex:
+    the least slope of the cut), the plant's slope at the reference flow's cooling (concave:
+    the least of a cut below it; not at full flow, where the fitted curvature would be
+    extrapolated), the cooling per kg/s at the coolest return air the period may see, and no
+    outdoor air shed (the damper's air is the ventilation need, not a share of the flow).
+
+    Parameters
+    ----------
+    outdoor_temp_degc : (N,) [°C]; zone_temp_degc : (N, m) return-air estimate [°C];
+    total_flow_curtailed_kg_s : (N,) total flow after the cut [kg/s];
+    total_flow_ref_kg_s : (N,) the reference (previous plan's) total flow [kg/s].
+    """
+    outdoor = np.atleast_1d(np.asarray(outdoor_temp_degc, dtype=np.float64))
+    zone = np.asarray(zone_temp_degc, dtype=np.float64)
+    low = np.asarray(total_flow_curtailed_kg_s, dtype=np.float64)
+    p = power
+    q = sensible_cooling_kw(1.0, zone, supply_temp_degc)  # (N, m) kW per kg/s
+    q_ref = q.max(axis=1) * np.asarray(total_flow_ref_kg_s, dtype=np.float64)  # (N,) kW
+    plant = p.kw_per_kw_cooling + p.kw_per_kw_cooling_k_outdoor * (
+        outdoor - PLANT_REFERENCE_OUTDOOR_DEGC
+    )
+    plant_slope = np.maximum(plant + 2.0 * min(p.kw_per_kw2_cooling, 0.0) * q_ref, 0.0)
+    fan = p.fan_kw_per_kg_s + 2.0 * p.fan_kw_per_kg2_s2 * np.maximum(low, 0.0)
+    coeff: FloatArray = np.maximum(fan[:, None] + plant_slope[:, None] * q, 0.0)
+    return coeff
+
+
 def identified_power_kw(
     rc: IdentifiedRC,
     flow_kg_s: npt.ArrayLike,

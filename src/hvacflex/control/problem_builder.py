@@ -36,7 +36,11 @@ import numpy as np
 
 from hvacflex.building.discretize import LinearModel
 from hvacflex.building.hvac import affine_power_model, reserve_power_coeff
-from hvacflex.building.identified import identified_affine_power, metered_affine_power
+from hvacflex.building.identified import (
+    IdentifiedPower,
+    metered_affine_power,
+    metered_reserve_coeff,
+)
 from hvacflex.building.model import Building
 from hvacflex.config import ControllerConfig, ReserveConfig
 from hvacflex.control.base import FloatArray, PeriodInputs
@@ -310,16 +314,13 @@ def _power_coefficients(
     building, outdoor = contract.building, d_hat[:, contract.outdoor_index]
     occupied = forecast.occupied[:horizon].astype(np.float64)
     reference = _total_flow_reference_kg_s(context.previous_plan, u_min)
-    identified = building.identified
-    if identified is not None:  # the power model fitted to the building's meter
-        p0, p = identified_affine_power(
-            identified, outdoor, contract.linearisation_temp_degc, occupied, reference
-        )
-        return p0, p, p
-    if building.metered_power is not None:  # a designed building's model fitted to its meter
+    identified, metered = building.identified, building.metered_power
+    if identified is not None or metered is not None:  # a power model fitted to the meter
+        fitted = identified.power if identified is not None else metered
+        supply = (identified or building.hvac).supply_temp_degc
         p0, p = metered_affine_power(
-            building.metered_power,
-            building.hvac.supply_temp_degc,
+            fitted or IdentifiedPower(0.0, 0.0, 0.0),  # an identified file without a meter
+            supply,
             len(building.zone_names),
             outdoor,
             contract.linearisation_temp_degc,
@@ -327,7 +328,17 @@ def _power_coefficients(
             reference,
             float(contract.flow_max_kg_s.sum()),
         )
-        return p0, p, p
+        if fitted is None:
+            return p0, p, p
+        reserve = metered_reserve_coeff(
+            fitted,
+            supply,
+            outdoor,
+            _return_air_estimate_degc(contract.model, context, y_min),
+            _curtailed_flow_estimate_kg_s(context.previous_plan, u_min),
+            reference,
+        )
+        return p0, p, reserve
     latent = forecast.occupant_latent_w[:horizon]
     humidity = forecast.outdoor_humidity_ratio_kg_per_kg[:horizon]
     # the plant's damper schedule, purge included where the forecast shows the next spell
