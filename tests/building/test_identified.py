@@ -21,6 +21,7 @@ from hvacflex.building.identified import (
     initial_node_temps_degc,
     metered_affine_power,
     metered_power_kw,
+    metered_reserve_coeff,
     sensible_cooling_kw,
 )
 from hvacflex.building.io import building_from_dict, load_building
@@ -355,3 +356,15 @@ def test_a_power_model_fitted_on_too_few_running_periods_is_refused_at_load() ->
         base_kw=1.0, kw_per_kw_cooling=0.3, kw_per_k_outdoor=0.0, running_periods=200.0
     )
     assert building.with_power_model_for("energyplus").metered_power is None
+
+
+def test_the_reserve_coefficient_of_a_metered_model_is_its_least_saving_by_hand() -> None:
+    """Fan tangent at the curtailed flow, plant slope at the reference cooling, cooling per
+    kg/s at the return air, no outdoor air: computed by hand."""
+    zone = np.array([[24.0, 26.0]])
+    coeff = metered_reserve_coeff(METERED, 13.0, [31.0], zone, [0.5], [1.2])
+    q = CP_AIR_J_PER_KG_K * (zone - 13.0) / 1000.0
+    q_ref = q.max() * 1.2
+    plant = 0.28 + 0.006 * (31.0 - 30.0) + 2.0 * (-0.002) * q_ref
+    fan = 2.0 + 2.0 * 3.0 * 0.5
+    np.testing.assert_allclose(coeff, fan + plant * q, rtol=1e-12)
