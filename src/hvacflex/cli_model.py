@@ -267,6 +267,43 @@ def identify_fit(
         raise typer.Exit(2)
 
 
+@identify_app.command("power")
+def identify_power_command(
+    data: Path = typer.Option(  # noqa: B008
+        ...,
+        "--data",
+        help="A trend CSV with hvac_power_kw (identify collect), or a run's folder or "
+        "results.parquet (hvacflex simulate; with --building).",
+    ),
+    plant: str = typer.Option(
+        ..., "--plant", help="The plant whose meter it is: rc or energyplus."
+    ),
+    out: Path = typer.Option(  # noqa: B008
+        ..., "--out", help="The TOML to write: a [power_models.<plant>] table."
+    ),
+    building: str | None = typer.Option(
+        None, "--building", help="The building (file or shipped name) a run's results are of."
+    ),
+    train: str | None = typer.Option(None, "--train", help="YYYY-MM-DD..YYYY-MM-DD"),
+    test: str | None = typer.Option(None, "--test", help="YYYY-MM-DD..YYYY-MM-DD"),
+) -> None:
+    """Fit a power model to a plant's meter for a designed building; write its
+    [power_models.<plant>] table and power_report.csv (docs/identify.md)."""
+    from hvacflex.building.io import load_building
+    from hvacflex.errors import HvacflexError
+    from hvacflex.identify.power_file import identify_power
+    from hvacflex.paths import resolve_building
+
+    try:
+        described = None if building is None else load_building(resolve_building(building))
+        outcome = identify_power(data, plant, out, building=described, train=train, test=test)
+    except HvacflexError as exc:
+        raise exit_on_error(exc) from None
+    typer.echo(outcome.report.to_string(index=False, float_format=lambda v: f"{v:.2f}"))
+    typer.echo(f"wrote {outcome.model_path}")
+    typer.echo(f"wrote {outcome.report_path}")
+
+
 def _print_fit(outcome: Any) -> None:
     """The fit's tables (report, box, power) and the files ``identify fit`` wrote."""
     shown = outcome.report.drop(columns=["warnings"])  # they are the checks printed below

@@ -3,6 +3,7 @@ fitted one (checked against the fit's own discretisation and hand-computed value
 
 from __future__ import annotations
 
+import tomllib
 from pathlib import Path
 
 import numpy as np
@@ -18,6 +19,9 @@ from hvacflex.building.identified import (
     identified_occupied_share,
     identified_power_kw,
     initial_node_temps_degc,
+    metered_affine_power,
+    metered_power_kw,
+    metered_reserve_coeff,
     sensible_cooling_kw,
 )
 from hvacflex.building.io import building_from_dict, load_building
@@ -25,6 +29,7 @@ from hvacflex.building.rc import disturbance_channels as building_channels
 from hvacflex.errors import BuildingConfigError
 from hvacflex.identify.greybox import GreyBoxParameters, discretize
 from hvacflex.identify.model_file import AirSystem, IdentifiedModel, write_identified_model
+from hvacflex.paths import resources_dir
 from hvacflex.sim.plant import Actuation, Disturbance, RCPlant
 from hvacflex.units import CP_AIR_J_PER_KG_K
 
@@ -279,3 +284,87 @@ def test_a_run_on_a_model_with_a_validity_range_counts_the_periods_planned_outsi
     from hvacflex.kpi import summary as kpi_summary
 
     assert kpi_summary(frame)["model_extrapolation_steps"] == outside.sum()
+
+
+METERED = IdentifiedPower(
+    base_kw=0.8,
+    kw_per_kw_cooling=0.28,
+    kw_per_k_outdoor=0.03,
+    occupied_kw=0.6,
+    kw_per_kg_s_k_outdoor_occupied=0.4,
+    running_kw=1.5,
+    fan_kw_per_kg_s=2.0,
+    fan_kw_per_kg2_s2=3.0,
+    kw_per_kw_cooling_k_outdoor=0.006,
+    kw_per_kw2_cooling=-0.002,
+    kw_per_kg_s_occupied=5.0,
+)
+
+
+def test_the_lp_row_is_the_tangent_of_the_metered_model_at_the_previous_plan() -> None:
+    """Exact at the reference flow, with the model's derivative there (a central difference),
+    for steps occupied and not; the running load in full where the reference runs."""
+    t0, outdoor = 24.5, np.array([31.0, 29.0])
+    occupied, reference = np.array([1.0, 0.0]), np.array([0.9, 0.4])
+    p0, p = metered_affine_power(METERED, 13.0, 2, outdoor, t0, occupied, reference, 1.6)
+    assert p.shape == (2, 2) and np.all(p[:, 0] == p[:, 1])
+    for k in range(2):
+        split = np.array([0.25, 0.75])  # any split of the total: one temperature T0
+
+        def exact(total: float, k: int = k, split: np.ndarray = split) -> float:
+            flows = total * split
+            return float(
+                metered_power_kw(METERED, 13.0, flows, np.full(2, t0), outdoor[k], occupied[k])
+            )
+
+        s = reference[k]
+        assert p0[k] + p[k] @ (s * split) == pytest.approx(exact(s), rel=1e-12)
+        slope = (exact(s + 1e-5) - exact(s - 1e-5)) / 2e-5
+        assert p[k, 0] == pytest.approx(slope, rel=1e-6)
+
+
+def test_a_loop_the_previous_plan_kept_off_pays_its_running_load_as_a_secant() -> None:
+    t0, outdoor = 24.5, np.array([29.0])
+    p0, p = metered_affine_power(METERED, 13.0, 2, outdoor, t0, None, np.array([0.0]), 1.6)
+    off = float(metered_power_kw(METERED, 13.0, np.zeros(2), np.full(2, t0), 29.0))
+    assert p0[0] == pytest.approx(off)  # off: the base load alone
+    q = float(sensible_cooling_kw(1.0, t0, 13.0))
+    plant = METERED.kw_per_kw_cooling + METERED.kw_per_kw_cooling_k_outdoor * (29.0 - 30.0)
+    assert p[0, 0] == pytest.approx(METERED.fan_kw_per_kg_s + q * plant + 1.5 / 1.6)
+    # at full flow the row still lies below the model (a lower bound until re-linearised)
+    full = float(metered_power_kw(METERED, 13.0, np.full(2, 0.8), np.full(2, t0), 29.0))
+    assert p0[0] + p[0] @ np.full(2, 0.8) <= full
+
+
+def test_a_power_model_fitted_on_too_few_running_periods_is_refused_at_load() -> None:
+    text = (resources_dir() / "buildings" / "office5.toml").read_text()
+    base = tomllib.loads(text)
+    base["power_models"] = {
+        "rc": {
+            "base_kw": 1.0,
+            "kw_per_kw_cooling": 0.3,
+            "kw_per_k_outdoor": 0.0,
+            "running_periods": 20.0,
+        }
+    }
+    with pytest.raises(BuildingConfigError, match="running_periods") as caught:
+        building_from_dict(base)
+    assert "refit it" in str(caught.value)
+    base["power_models"]["rc"]["running_periods"] = 200.0
+    building = building_from_dict(base)
+    assert building.with_power_model_for("rc").metered_power == IdentifiedPower(
+        base_kw=1.0, kw_per_kw_cooling=0.3, kw_per_k_outdoor=0.0, running_periods=200.0
+    )
+    assert building.with_power_model_for("energyplus").metered_power is None
+
+
+def test_the_reserve_coefficient_of_a_metered_model_is_its_least_saving_by_hand() -> None:
+    """Fan tangent at the curtailed flow, plant slope at the reference cooling, cooling per
+    kg/s at the return air, no outdoor air: computed by hand."""
+    zone = np.array([[24.0, 26.0]])
+    coeff = metered_reserve_coeff(METERED, 13.0, [31.0], zone, [0.5], [1.2])
+    q = CP_AIR_J_PER_KG_K * (zone - 13.0) / 1000.0
+    q_ref = q.max() * 1.2
+    plant = 0.28 + 0.006 * (31.0 - 30.0) + 2.0 * (-0.002) * q_ref
+    fan = 2.0 + 2.0 * 3.0 * 0.5
+    np.testing.assert_allclose(coeff, fan + plant * q, rtol=1e-12)

@@ -71,13 +71,16 @@ def test_commitments_are_clipped_into_the_room_and_the_reserve_zones(setup: Setu
 
 def test_power_rows_take_outdoor_air_only_where_the_damper_is_open(setup: Setup) -> None:
     """The LP's rows are the building's affine model with the plant's damper schedule: an
-    unoccupied step's row equals the model with the damper closed, an occupied one's open."""
+    unoccupied step's row equals the model with the damper closed, an occupied one's open
+    (``[controller] power_model = "design"``: office5's design curves, not its fitted model)."""
     from hvacflex.building.hvac import affine_power_model
 
-    controller = make_controller(setup)
+    design = prepare(preset("rmpc-ppp", start="2014-03-03", days=1.0, power_model="design"))
+    assert design.building.metered_power is None and setup.building.metered_power is not None
+    controller = make_controller(design)
     assert isinstance(controller, MPCController)
-    inputs = _inputs(setup)
-    problem = build_problem(setup.model, inputs, controller.contract, PlanContext(inputs.x_degc))
+    inputs = _inputs(design)
+    problem = build_problem(design.model, inputs, controller.contract, PlanContext(inputs.x_degc))
     forecast, hvac = inputs.forecast, setup.building.hvac
     horizon = problem.power_offset_kw.shape[0]
     occupied = forecast.occupied[:horizon]
@@ -121,3 +124,41 @@ def test_the_plan_keeps_a_margin_below_the_night_bound_only(setup: Setup) -> Non
     wide = below_unoccupied_bound(forecast, y_min, y_max, 50.0)
     np.testing.assert_array_equal(wide[night, 0], 20.0)
     np.testing.assert_array_equal(below_unoccupied_bound(forecast, y_min, y_max, 0.0), y_max)
+
+
+def test_a_designed_building_with_a_metered_power_model_plans_with_it(setup: Setup) -> None:
+    """The LP's rows are the fitted model's tangent at the step's least flow (no previous
+    plan): exact there, at T₀, whatever the design curves say."""
+    from hvacflex.building.identified import IdentifiedPower, metered_power_kw
+
+    controller = make_controller(setup)
+    assert isinstance(controller, MPCController)
+    metered = IdentifiedPower(
+        base_kw=2.0,
+        kw_per_kw_cooling=0.3,
+        kw_per_k_outdoor=0.0,
+        occupied_kw=1.0,
+        running_kw=3.0,
+        fan_kw_per_kg2_s2=0.5,
+    )
+    building = replace(setup.building, power_models={"rc": metered})
+    contract = replace(controller.contract, building=building.with_power_model_for("rc"))
+    inputs = _inputs(setup)
+    problem = build_problem(setup.model, inputs, contract, PlanContext(inputs.x_degc))
+    t0 = contract.linearisation_temp_degc
+    outdoor = problem.d_forecast[:, contract.outdoor_index]
+    occupied = inputs.forecast.occupied[:48].astype(float)
+    for k in (0, 10, 30):  # 07:00 (unoccupied), 12:00 and 22:00
+        low = problem.u_min[k]
+        exact = metered_power_kw(
+            metered,
+            setup.building.hvac.supply_temp_degc,
+            low,
+            np.full(low.size, t0),
+            outdoor[k],
+            occupied[k],
+        )
+        row = problem.power_offset_kw[k] + problem.power_coeff_kw_per_kg_s[k] @ low
+        assert row == pytest.approx(float(exact), rel=1e-9)
+    design = build_problem(setup.model, inputs, controller.contract, PlanContext(inputs.x_degc))
+    assert not np.allclose(design.power_offset_kw, problem.power_offset_kw)

@@ -14,10 +14,8 @@ from hvacflex.errors import InputError
 from hvacflex.identify.fit import (
     FitData,
     evaluate,
-    evaluate_power,
     fit_inputs,
     fit_model,
-    fit_power_model,
     tune_filter,
 )
 from hvacflex.identify.greybox import (
@@ -100,20 +98,6 @@ def test_the_filter_tuned_on_data_with_a_hidden_gain_carries_a_gain_state() -> N
         return float(((one_step_predictions(model, y, u, n)[rows] - y[rows]) ** 2).mean())
 
     assert mse(noise) < 0.5 * mse(FilterNoise())
-
-
-def test_the_power_model_recovers_the_metered_relation(trend: Path) -> None:
-    data = read_trend(trend)
-    inputs = fit_inputs(data, ZONES, SITE)
-    power = fit_power_model(data, inputs, (0, 5 * 48))
-    assert power is not None
-    assert power.kw_per_kw_cooling == pytest.approx(0.3, abs=1e-3)  # temps carry 0.02 K noise
-    assert power.kw_per_k_outdoor == pytest.approx(0.05, abs=1e-3)
-    # the metered relation has no occupied terms: the fit finds none
-    assert power.occupied_kw == pytest.approx(0.0, abs=0.05)
-    assert power.kw_per_kg_s_k_outdoor_occupied == pytest.approx(0.0, abs=0.01)
-    daily = evaluate_power(power, data, inputs, (5 * 48, 6 * 48))
-    assert len(daily) == 1 and abs(daily["error_pct"].iloc[0]) < 0.5
 
 
 def test_too_few_days_are_refused(trend: Path) -> None:

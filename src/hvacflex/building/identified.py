@@ -20,8 +20,10 @@ not the horizontal's noon),
 channel. The HVAC input is the supply air flow ``ṁ`` at the supply temperature ``T_s`` fitted
 from the data, so the delivered sensible cooling is ``Q = ṁ c_p (Ta − T_s)`` — the quantity
 the fit used — and the building runs through the same linearisation, plant and controller as
-a designed one. The HVAC electricity is the fitted affine model
-``P = base + a ΣQ + b To`` [kW] (:class:`IdentifiedPower`).
+a designed one. The HVAC electricity is the power model fitted to the meter
+(:class:`IdentifiedPower`: fan with its floor, the plant's part load and outdoor-temperature
+dependence, the outdoor air while occupied, the base load while the air loop runs), which a
+designed building can carry too (its ``[power_models.<plant>]``).
 """
 
 from __future__ import annotations
@@ -119,20 +121,151 @@ class IdentifiedBoundary:
     temp_degc: float
 
 
+PLANT_REFERENCE_OUTDOOR_DEGC = 30.0
+"""The outdoor temperature [°C] at which a metered power model's ``kw_per_kw_cooling`` holds:
+its plant's outdoor-temperature term is ``kw_per_kw_cooling_k_outdoor · ΣQ (To − 30 °C)``."""
+RUNNING_FLOW_KG_S = 1e-3
+"""A period-mean total supply flow above this counts as the air loop running [kg/s]."""
+MIN_RUNNING_PERIODS = 96
+"""The fewest training periods with the air loop running a power model is fitted on (30-min
+periods: about two working days); fewer leave its fan, coil and plant terms undetermined."""
+
+
 @dataclass(frozen=True)
 class IdentifiedPower:
-    """HVAC electricity [kW] ≈ ``base_kw + kw_per_kw_cooling · ΣQ + kw_per_k_outdoor · To
-    + occupied_kw · occ + kw_per_kg_s_k_outdoor_occupied · occ · Σṁ (To − Ta)``
-    (period means; Q the delivered sensible cooling [kW], To the outdoor temperature [°C],
-    occ the occupied share [–], ṁ the zone supply flows [kg/s], Ta the zone temperatures
-    [°C]: the last term is the outdoor air the air system mixes in while the building is
-    occupied, which a weekend without it does not draw)."""
+    """A power model fitted to a building's meter: HVAC electricity [kW] per period ≈ ::
+
+        base_kw + kw_per_k_outdoor · To + occupied_kw · occ                  (base load)
+        + running_kw · run                                  (while the air loop runs)
+        + fan_kw_per_kg_s · S + fan_kw_per_kg2_s2 · S²      (fan above its floor)
+        + ΣQ · (kw_per_kw_cooling + kw_per_kw_cooling_k_outdoor · (To − 30 °C))
+        + kw_per_kw2_cooling · (ΣQ)²                        (plant: outdoor temp, part load)
+        + occ · (kw_per_kg_s_k_outdoor_occupied · Σṁ (To − Ta) + kw_per_kg_s_occupied · S)
+
+    (period means; Q = ṁ c_p (Ta − T_s) the zones' delivered sensible cooling [kW], To the
+    outdoor temperature [°C], occ the occupied share [–] (the outdoor-air damper open), ṁ the
+    zone supply flows and S = Σṁ [kg/s], Ta the zone temperatures [°C], run = 1 while
+    S > :data:`RUNNING_FLOW_KG_S`, else 0). ``running_kw`` is what the air loop draws as soon
+    as it runs (the fan's static-pressure floor, pumps, controls); the last line is the outdoor
+    air the damper lets in while occupied: its sensible heat and its moisture (the coil's
+    latent load per kg/s of supply). Every term but the first five defaults to 0 (files
+    written before them). ``running_periods`` is the number of training periods with the
+    loop running (None: not recorded)."""
 
     base_kw: float
     kw_per_kw_cooling: float
     kw_per_k_outdoor: float
     occupied_kw: float = 0.0
     kw_per_kg_s_k_outdoor_occupied: float = 0.0
+    running_kw: float = 0.0
+    fan_kw_per_kg_s: float = 0.0
+    fan_kw_per_kg2_s2: float = 0.0
+    kw_per_kw_cooling_k_outdoor: float = 0.0
+    kw_per_kw2_cooling: float = 0.0
+    kw_per_kg_s_occupied: float = 0.0
+    running_periods: float | None = None
+
+
+def metered_power_kw(
+    power: IdentifiedPower,
+    supply_temp_degc: float,
+    flow_kg_s: npt.ArrayLike,
+    zone_temp_degc: npt.ArrayLike,
+    outdoor_temp_degc: npt.ArrayLike,
+    occupied: npt.ArrayLike = 0.0,
+) -> FloatArray:
+    """(…) the power model's HVAC electricity [kW], never below 0: flows (…, m) [kg/s] into
+    zones at (…, m) [°C] supplied at ``supply_temp_degc`` [°C], outdoor temperature and
+    occupied share (…) (:class:`IdentifiedPower`)."""
+    flow = np.asarray(flow_kg_s, dtype=np.float64)
+    temp = np.asarray(zone_temp_degc, dtype=np.float64)
+    outdoor = np.asarray(outdoor_temp_degc, dtype=np.float64)
+    occ = np.asarray(occupied, dtype=np.float64)
+    total = flow.sum(axis=-1)
+    cooling = sensible_cooling_kw(flow, temp, supply_temp_degc).sum(axis=-1)
+    outdoor_air = (flow * (outdoor[..., None] - temp)).sum(axis=-1)
+    p = power
+    value = (
+        p.base_kw
+        + p.kw_per_k_outdoor * outdoor
+        + p.occupied_kw * occ
+        + p.running_kw * (total > RUNNING_FLOW_KG_S)
+        + p.fan_kw_per_kg_s * total
+        + p.fan_kw_per_kg2_s2 * total**2
+        + cooling
+        * (
+            p.kw_per_kw_cooling
+            + p.kw_per_kw_cooling_k_outdoor * (outdoor - PLANT_REFERENCE_OUTDOOR_DEGC)
+        )
+        + p.kw_per_kw2_cooling * cooling**2
+        + occ * (p.kw_per_kg_s_k_outdoor_occupied * outdoor_air + p.kw_per_kg_s_occupied * total)
+    )
+    out: FloatArray = np.maximum(value, 0.0)
+    return out
+
+
+def metered_affine_power(
+    power: IdentifiedPower,
+    supply_temp_degc: float,
+    zones: int,
+    outdoor_temp_degc: npt.ArrayLike,
+    zone_temp_ref_degc: float,
+    occupied: npt.ArrayLike | None = None,
+    total_flow_ref_kg_s: npt.ArrayLike | None = None,
+    total_flow_max_kg_s: float = 0.0,
+) -> tuple[FloatArray, FloatArray]:
+    """The LP's ``P_k = p0_k + p_kᵀ u_k`` of a metered power model, re-linearised along a
+    reference flow (the previous plan's).
+
+    At the reference temperature T₀ every zone's kg/s delivers the same cooling
+    ``q = c_p (T₀ − T_s)`` and the same outdoor air, so the model is a function of the total
+    flow S alone, ``P(S) = c + α S + β S²`` (β the fan's and the plant's part-load curvature);
+    the LP takes its tangent at the step's reference flow S̄_k, ``P(S̄) + P'(S̄)(S − S̄)``
+    (exact at S̄, slope never below 0). The running load counts in full where S̄_k runs; where
+    the reference is off (the previous plan kept the loop off and nothing forces it on) it
+    enters as its secant over [0, ``total_flow_max_kg_s``], ``running_kw · S / S_max``, so
+    the plan that starts the loop pays for it (a lower bound until the next re-linearisation).
+
+    Parameters
+    ----------
+    zones : m, the number of zone flows.
+    outdoor_temp_degc : (N,) forecast outdoor temperature [°C].
+    zone_temp_ref_degc : T₀ [°C].
+    occupied : (N,) forecast occupied share [–] (None: 0).
+    total_flow_ref_kg_s : (N,) the reference total flow S̄_k [kg/s] (None: 0 — off).
+    total_flow_max_kg_s : S_max, the largest total flow [kg/s] (0: the running load is
+        counted only where the reference runs).
+
+    Returns
+    -------
+    p0 : (N,) [kW]; p : (N, m) [kW per kg/s], the same for every zone.
+    """
+    outdoor = np.atleast_1d(np.asarray(outdoor_temp_degc, dtype=np.float64))
+    steps = outdoor.shape[0]
+    occ = np.zeros(steps) if occupied is None else np.asarray(occupied, dtype=np.float64)
+    ref = np.zeros(steps) if total_flow_ref_kg_s is None else np.asarray(total_flow_ref_kg_s)
+    ref = np.broadcast_to(np.maximum(ref.astype(np.float64), 0.0), (steps,))
+    p = power
+    q = float(sensible_cooling_kw(1.0, zone_temp_ref_degc, supply_temp_degc))  # kW per kg/s
+    plant = p.kw_per_kw_cooling + p.kw_per_kw_cooling_k_outdoor * (
+        outdoor - PLANT_REFERENCE_OUTDOOR_DEGC
+    )
+    alpha = (
+        p.fan_kw_per_kg_s
+        + q * plant
+        + occ * (p.kw_per_kg_s_k_outdoor_occupied * (outdoor - zone_temp_ref_degc))
+        + occ * p.kw_per_kg_s_occupied
+    )
+    beta = p.fan_kw_per_kg2_s2 + p.kw_per_kw2_cooling * q**2
+    constant = p.base_kw + p.kw_per_k_outdoor * outdoor + p.occupied_kw * occ
+    running = ref > RUNNING_FLOW_KG_S
+    slope = np.maximum(alpha + 2.0 * beta * ref, 0.0)
+    value_at_ref = constant + alpha * ref + beta * ref**2
+    p0: FloatArray = value_at_ref - slope * ref + np.where(running, p.running_kw, 0.0)
+    if total_flow_max_kg_s > 0.0:
+        slope = slope + np.where(running, 0.0, p.running_kw / total_flow_max_kg_s)
+    per_flow: FloatArray = np.repeat(slope[:, None], zones, axis=1)
+    return p0, per_flow
 
 
 @dataclass(frozen=True)
@@ -206,6 +339,43 @@ def sensible_cooling_kw(
     return out
 
 
+def metered_reserve_coeff(
+    power: IdentifiedPower,
+    supply_temp_degc: float,
+    outdoor_temp_degc: npt.ArrayLike,
+    zone_temp_degc: npt.ArrayLike,
+    total_flow_curtailed_kg_s: npt.ArrayLike,
+    total_flow_ref_kg_s: npt.ArrayLike,
+) -> FloatArray:
+    """(N, m) the power a kg/s of flow shed surely saves under a metered power model [kW per
+    kg/s] — a lower bound along the previous plan, built as the design curves'
+    (``hvac.reserve_power_coeff``): the fan's tangent at the curtailed total flow (convex:
+    the least slope of the cut), the plant's slope at the reference flow's cooling (concave:
+    the least of a cut below it; not at full flow, where the fitted curvature would be
+    extrapolated), the cooling per kg/s at the coolest return air the period may see, and no
+    outdoor air shed (the damper's air is the ventilation need, not a share of the flow).
+
+    Parameters
+    ----------
+    outdoor_temp_degc : (N,) [°C]; zone_temp_degc : (N, m) return-air estimate [°C];
+    total_flow_curtailed_kg_s : (N,) total flow after the cut [kg/s];
+    total_flow_ref_kg_s : (N,) the reference (previous plan's) total flow [kg/s].
+    """
+    outdoor = np.atleast_1d(np.asarray(outdoor_temp_degc, dtype=np.float64))
+    zone = np.asarray(zone_temp_degc, dtype=np.float64)
+    low = np.asarray(total_flow_curtailed_kg_s, dtype=np.float64)
+    p = power
+    q = sensible_cooling_kw(1.0, zone, supply_temp_degc)  # (N, m) kW per kg/s
+    q_ref = q.max(axis=1) * np.asarray(total_flow_ref_kg_s, dtype=np.float64)  # (N,) kW
+    plant = p.kw_per_kw_cooling + p.kw_per_kw_cooling_k_outdoor * (
+        outdoor - PLANT_REFERENCE_OUTDOOR_DEGC
+    )
+    plant_slope = np.maximum(plant + 2.0 * min(p.kw_per_kw2_cooling, 0.0) * q_ref, 0.0)
+    fan = p.fan_kw_per_kg_s + 2.0 * p.fan_kw_per_kg2_s2 * np.maximum(low, 0.0)
+    coeff: FloatArray = np.maximum(fan[:, None] + plant_slope[:, None] * q, 0.0)
+    return coeff
+
+
 def identified_power_kw(
     rc: IdentifiedRC,
     flow_kg_s: npt.ArrayLike,
@@ -217,16 +387,10 @@ def identified_power_kw(
     [°C] at an occupied share ``occupied`` [–] (0 without a power model)."""
     if rc.power is None:
         return 0.0
-    total = float(sensible_cooling_kw(flow_kg_s, zone_temp_degc, rc.supply_temp_degc).sum())
-    flow = np.asarray(flow_kg_s, dtype=np.float64)
-    outdoor_air = float((flow * (outdoor_temp_degc - np.asarray(zone_temp_degc))).sum())
-    p = rc.power
-    return max(
-        p.base_kw
-        + p.kw_per_kw_cooling * total
-        + p.kw_per_k_outdoor * outdoor_temp_degc
-        + occupied * (p.occupied_kw + p.kw_per_kg_s_k_outdoor_occupied * outdoor_air),
-        0.0,
+    return float(
+        metered_power_kw(
+            rc.power, rc.supply_temp_degc, flow_kg_s, zone_temp_degc, outdoor_temp_degc, occupied
+        )
     )
 
 
@@ -245,34 +409,31 @@ def identified_affine_power(
     outdoor_temp_degc: npt.ArrayLike,
     zone_temp_ref_degc: float,
     occupied: npt.ArrayLike | None = None,
+    total_flow_ref_kg_s: npt.ArrayLike | None = None,
 ) -> tuple[FloatArray, FloatArray]:
-    """The LP's ``P_k = p0_k + p_kᵀ u_k`` of the power model, the cooling and the outdoor
-    air taken at ``T₀``.
-
-    Parameters
-    ----------
-    outdoor_temp_degc : (N,) forecast outdoor temperature [°C].
-    zone_temp_ref_degc : T₀ [°C], where ``Q_i = ṁ_i c_p (T₀ − T_s)``.
-    occupied : (N,) forecast occupied share [–] (None: 0).
+    """The LP's ``P_k = p0_k + p_kᵀ u_k`` of the building's power model
+    (:func:`metered_affine_power` at T₀ ``zone_temp_ref_degc`` [°C], (N,) forecast outdoor
+    temperature [°C] and occupied share [–], re-linearised at the (N,) reference total flow
+    [kg/s]; its largest total flow the sum of the zones' ``flow_max_kg_s``).
 
     Returns
     -------
     p0 : (N,) [kW]; p : (N, m) [kW per kg/s] (zeros without a power model).
     """
-    outdoor = np.asarray(outdoor_temp_degc, dtype=np.float64)
+    outdoor = np.atleast_1d(np.asarray(outdoor_temp_degc, dtype=np.float64))
     m = len(rc.zones)
     if rc.power is None:
         return np.zeros(outdoor.shape[0]), np.zeros((outdoor.shape[0], m))
-    per_kg_s = rc.power.kw_per_kw_cooling * float(
-        sensible_cooling_kw(1.0, zone_temp_ref_degc, rc.supply_temp_degc)
+    return metered_affine_power(
+        rc.power,
+        rc.supply_temp_degc,
+        m,
+        outdoor,
+        zone_temp_ref_degc,
+        occupied,
+        total_flow_ref_kg_s,
+        float(sum(z.flow_max_kg_s for z in rc.zones)),
     )
-    occ = np.zeros_like(outdoor) if occupied is None else np.asarray(occupied, dtype=np.float64)
-    power = rc.power
-    p0: FloatArray = power.base_kw + power.kw_per_k_outdoor * outdoor + power.occupied_kw * occ
-    outdoor_air_k = occ * (outdoor - zone_temp_ref_degc)
-    per_flow = per_kg_s + power.kw_per_kg_s_k_outdoor_occupied * outdoor_air_k
-    p: FloatArray = np.repeat(np.maximum(per_flow, 0.0)[:, None], m, axis=1)
-    return p0, p
 
 
 def initial_node_temps_degc(rc: IdentifiedRC, zone_temp_degc: float) -> FloatArray:

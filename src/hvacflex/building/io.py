@@ -69,6 +69,9 @@ FIELD_HINTS: dict[str, str] = {
     "flow_max_kg_s": "a table keyed by zone name, or an array with one value per zone",
     "ventilation_flow_kg_s": "a table keyed by zone name, or an array with one value per zone",
     "reserve_zones": "an array of zone names",
+    "running_periods": "a power model fitted on so few periods with the air loop running is "
+    "not trusted: refit it on a trend with more HVAC operation (hvacflex identify power / "
+    "identify fit, docs/identify.md)",
 }
 """Hints added to schema errors, by field name or ``table.field`` (indices dropped)."""
 
@@ -235,6 +238,10 @@ def to_building(spec: BuildingSpec, *, source_path: Path | None = None) -> Build
         height_above_ground_m=spec.height_above_ground_m,
         longitude_deg=spec.longitude_deg,
         source_path=source_path,
+        power_models={
+            plant: IdentifiedPower(**model.model_dump())
+            for plant, model in spec.power_models.items()
+        },
     )
 
 

@@ -12,14 +12,14 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 import numpy.typing as npt
 
 from hvacflex.building.chiller import ChillerPerformance
-from hvacflex.building.identified import NOMINAL_FLOOR_AREA_M2, IdentifiedRC
+from hvacflex.building.identified import NOMINAL_FLOOR_AREA_M2, IdentifiedPower, IdentifiedRC
 from hvacflex.constants import PERIOD_S
 from hvacflex.units import CP_AIR_J_PER_KG_K, RHO_AIR_KG_PER_M3, SECONDS_PER_HOUR
 
@@ -506,6 +506,10 @@ class Building:
     height_above_ground_m : the floor's height above ground [m] (default 0: on the ground);
         the IDF export places the surfaces there, so EnergyPlus's wind speed and outside
         films are those of that height (hvacflex's own films are the constructions').
+    power_models : plant kind (``"rc"``, ``"energyplus"``) → a power model fitted to that
+        plant's meter (the file's ``[power_models.<kind>]``; empty: none).
+    metered_power : the one the controller plans with (:meth:`with_power_model_for`), or
+        None: the design curves (:func:`hvacflex.building.hvac.affine_power_model`).
     """
 
     name: str
@@ -521,6 +525,13 @@ class Building:
     source_path: Path | None = field(default=None, compare=False)
     identified: IdentifiedRC | None = None
     height_above_ground_m: float = 0.0
+    power_models: Mapping[str, IdentifiedPower] = field(default_factory=dict)
+    metered_power: IdentifiedPower | None = None
+
+    def with_power_model_for(self, plant_kind: str) -> Building:
+        """This building planning with its power model fitted to ``plant_kind``'s meter
+        (``power_models[plant_kind]``), or with none (the design curves) when it has none."""
+        return replace(self, metered_power=self.power_models.get(plant_kind))
 
     @property
     def zone_names(self) -> tuple[str, ...]:

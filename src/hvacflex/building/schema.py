@@ -37,6 +37,9 @@ File layout (see ``buildings/office5.toml`` for a commented example)::
                          outdoor_air_purge_h?
     [hvac.chiller]       capacity_kw, min_part_load_ratio?, condenser_fan_kw_per_kw?,
                          pump_design_kw?  (absent: constant cop)
+    [power_models.P]     optional, P = "rc" or "energyplus": a power model fitted to that
+                         plant's meter (the keys of [identified.power_model]); a scenario
+                         whose [plant] kind is P plans with it instead of the design curves
 
 A building identified from trend data (``hvacflex identify fit``) has ``[[zones]]`` with
 ``name``, ``energyplus_zone`` and ``floor_area_m2`` (every zone's, or none: then the areas are
@@ -53,7 +56,9 @@ unknown and ``Building.floor_area_m2`` is NaN) only, no walls, windows, ``[gains
     [[identified.boundaries]] name, c_kj_per_k, ua_out_kw_per_k, solar_m2,
                               occupied_gain_kw, ua_zone_kw_per_k = {Z = …}, temp_degc
     [identified.power_model]  base_kw, kw_per_kw_cooling, kw_per_k_outdoor[, occupied_kw,
-                              kw_per_kg_s_k_outdoor_occupied]
+                              kw_per_kg_s_k_outdoor_occupied, running_kw, fan_kw_per_kg_s,
+                              fan_kw_per_kg2_s2, kw_per_kw_cooling_k_outdoor,
+                              kw_per_kw2_cooling, kw_per_kg_s_occupied]
     [identified.validity]     zone_temp_min_degc = {Z = …}, zone_temp_max_degc = {Z = …},
                               outdoor_temp_min_degc, outdoor_temp_max_degc (optional: the
                               training data's range)
@@ -64,7 +69,7 @@ interior solar distribution, sky long-wave exchange) all default to the original
 
 from __future__ import annotations
 
-from typing import Annotated, Any, Self
+from typing import Annotated, Any, Literal, Self
 
 from pydantic import (
     AfterValidator,
@@ -77,6 +82,7 @@ from pydantic import (
 )
 from pydantic_core import PydanticCustomError
 
+from hvacflex.building.identified import MIN_RUNNING_PERIODS
 from hvacflex.building.model import (
     ADIABATIC,
     BOUNDARIES,
@@ -336,11 +342,20 @@ class IdentifiedBoundarySpec(Spec):
 
 
 class IdentifiedPowerSpec(Spec):
+    """A power model fitted to the meter (``hvacflex.building.identified.IdentifiedPower``)."""
+
     base_kw: Number
     kw_per_kw_cooling: Number
     kw_per_k_outdoor: Number
     occupied_kw: Number = 0.0
     kw_per_kg_s_k_outdoor_occupied: Number = 0.0
+    running_kw: Number = 0.0
+    fan_kw_per_kg_s: Number = 0.0
+    fan_kw_per_kg2_s2: Number = 0.0
+    kw_per_kw_cooling_k_outdoor: Number = 0.0
+    kw_per_kw2_cooling: Number = 0.0
+    kw_per_kg_s_occupied: Number = 0.0
+    running_periods: Annotated[Number, Field(ge=MIN_RUNNING_PERIODS)] | None = None
 
 
 class IdentifiedValiditySpec(Spec):
@@ -377,6 +392,7 @@ class BuildingSpec(Spec):
     gains: GainsSpec | None = None
     hvac: HvacSpec | None = None
     identified: IdentifiedSpec | None = None
+    power_models: dict[Literal["rc", "energyplus"], IdentifiedPowerSpec] = {}
 
     @model_validator(mode="before")
     @classmethod

@@ -39,6 +39,7 @@ PriceCalendar = Literal["data", "live"]
 DisturbanceKind = Literal["outdoor_temp", "solar", "internal_gain", "ground_temp", "sky_longwave"]
 Linearisation = Literal["fixed", "trajectory"]
 PeakGuardMode = Literal["auto", "on", "off"]
+PowerModelSource = Literal["metered", "design"]
 EstimationMode = Literal["full-state", "kalman"]
 PlantKind = Literal["rc", "energyplus"]
 PlantActuation = Literal["setpoint", "flow"]
@@ -113,6 +114,10 @@ class ControllerConfig:
     unoccupied_plan_margin_k: float = 0.5
     """The MPC: its plan keeps the end-of-period zone temperatures this far below the upper
     comfort bound of unoccupied periods [K] (not written into ``comfort_upper_*``)."""
+    power_model: PowerModelSource = "metered"
+    """The LP's power rows: ``"metered"`` the building file's power model fitted to the meter
+    of the scenario's plant (``[power_models.<kind>]``) where it has one, else the design
+    curves; ``"design"`` the design curves (an identified building has only its fitted one)."""
     demand_limit_fraction: float = 0.9
     """``demand-limit``: the peak target's share of yesterday's unmanaged peak."""
     reserve_share: float = 0.2

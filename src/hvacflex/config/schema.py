@@ -15,7 +15,7 @@ File layout (every key optional)::
                    linearisation_temp_degc, time_limit_s, thermostat_setpoint_degc,
                    linearisation, optimal_start, demand_limit_fraction, reserve_share,
                    unoccupied_margin_k, unoccupied_plan_margin_k, peak_guard,
-                   peak_guard_substeps
+                   peak_guard_substeps, power_model
     [controller.feedback]  structure, memory_steps
     [reserve]      event_max_steps, event_allowance_k, event_recovery_steps,
                    non_delivery_penalty_sgd_per_mwh,
@@ -73,6 +73,7 @@ from hvacflex.config.model import (
     PlantActuation,
     PlantConfig,
     PlantKind,
+    PowerModelSource,
     PriceCalendar,
     PriceGapFill,
     RealisationConfig,
@@ -222,6 +223,12 @@ class ControllerSpec(Spec):
     plans stay this far below the upper comfort bound of unoccupied periods [K] (never below
     the lower bound; the ``comfort_upper_*`` result columns, which the KPIs grade against,
     keep the band)."""
+    power_model: PowerModelSource = default(ControllerConfig, "power_model")
+    """The LP's power rows: ``metered`` plans with the building file's power model fitted to
+    the meter of the scenario's plant (``[power_models.rc]`` / ``[power_models.energyplus]``,
+    ``hvacflex identify power``; docs/model.md §1.6) where the file has one, else with the
+    design curves; ``design`` always with the design curves (an identified building has only
+    its fitted model)."""
     demand_limit_fraction: Annotated[Number, Field(gt=0.0, le=1.0)] = default(
         ControllerConfig, "demand_limit_fraction"
     )

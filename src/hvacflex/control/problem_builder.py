@@ -9,7 +9,10 @@ the same problem (docs/model.md §3):
   forecast outdoor temperature and humidity and the zone temperature T₀, outdoor air only
   where the damper is open (occupied steps and the pre-occupancy purge, as the plant; a building
   identified from data: its fitted power model,
-  :func:`hvacflex.building.identified.identified_affine_power`),
+  :func:`hvacflex.building.identified.identified_affine_power`; a designed building with a
+  power model fitted to its plant's meter (``Building.metered_power``): that one,
+  :func:`hvacflex.building.identified.metered_affine_power`; both re-linearised along the
+  previous plan's total flow),
 * comfort bounds for ``C x_{k+1}``, the temperature at the end of period k: the tighter of
   the bands of periods k and k + 1, so that the instant occupancy starts (and ends) is
   inside the occupied band, the upper bound of unoccupied period ends lowered by
@@ -33,7 +36,11 @@ import numpy as np
 
 from hvacflex.building.discretize import LinearModel
 from hvacflex.building.hvac import affine_power_model, reserve_power_coeff
-from hvacflex.building.identified import identified_affine_power
+from hvacflex.building.identified import (
+    IdentifiedPower,
+    metered_affine_power,
+    metered_reserve_coeff,
+)
 from hvacflex.building.model import Building
 from hvacflex.config import ControllerConfig, ReserveConfig
 from hvacflex.control.base import FloatArray, PeriodInputs
@@ -305,15 +312,33 @@ def _power_coefficients(
     its humidity, the occupants' latent gain) over the step's flow range [u_min, u_max]."""
     horizon = d_hat.shape[0]
     building, outdoor = contract.building, d_hat[:, contract.outdoor_index]
-    identified = building.identified
-    if identified is not None:  # the power model fitted to the building's meter
-        p0, p = identified_affine_power(
-            identified,
+    occupied = forecast.occupied[:horizon].astype(np.float64)
+    reference = _total_flow_reference_kg_s(context.previous_plan, u_min)
+    identified, metered = building.identified, building.metered_power
+    if identified is not None or metered is not None:  # a power model fitted to the meter
+        fitted = identified.power if identified is not None else metered
+        supply = (identified or building.hvac).supply_temp_degc
+        p0, p = metered_affine_power(
+            fitted or IdentifiedPower(0.0, 0.0, 0.0),  # an identified file without a meter
+            supply,
+            len(building.zone_names),
             outdoor,
             contract.linearisation_temp_degc,
-            forecast.occupied[:horizon].astype(np.float64),
+            occupied,
+            reference,
+            float(contract.flow_max_kg_s.sum()),
         )
-        return p0, p, p
+        if fitted is None:
+            return p0, p, p
+        reserve = metered_reserve_coeff(
+            fitted,
+            supply,
+            outdoor,
+            _return_air_estimate_degc(contract.model, context, y_min),
+            _curtailed_flow_estimate_kg_s(context.previous_plan, u_min),
+            reference,
+        )
+        return p0, p, reserve
     latent = forecast.occupant_latent_w[:horizon]
     humidity = forecast.outdoor_humidity_ratio_kg_per_kg[:horizon]
     # the plant's damper schedule, purge included where the forecast shows the next spell
@@ -336,6 +361,19 @@ def _power_coefficients(
         damper_open=damper,
     )
     return p0, p, reserve_coeff
+
+
+def _total_flow_reference_kg_s(plan: RMPCSolution | None, u_min: FloatArray) -> FloatArray:
+    """(N,) total supply flow [kg/s] along which a metered power model is re-linearised: the
+    previous plan's Σu one step on (its last step repeated), never below the step's Σ u_min;
+    Σ u_min alone without a previous plan."""
+    low: FloatArray = np.asarray(u_min, dtype=float).sum(axis=1)
+    if plan is None or plan.u.shape[0] != low.size:
+        return low
+    planned = plan.u.sum(axis=1)
+    shifted = np.concatenate([planned[1:], planned[-1:]])
+    reference: FloatArray = np.maximum(shifted, low)
+    return reference
 
 
 def _return_air_estimate_degc(

@@ -48,13 +48,12 @@ from hvacflex.identify.greybox import (
     simulate_windows,
     time_constants_s,
 )
-from hvacflex.identify.model_file import AirSystem, BoundaryNode, PowerModel
+from hvacflex.identify.model_file import AirSystem, BoundaryNode
 from hvacflex.identify.physics import ZonePhysics, zone_bounds, zone_priors
 from hvacflex.identify.trend import (
     DHI,
     DNI,
     GHI,
-    HVAC_POWER,
     OCCUPIED,
     OUTDOOR_TEMP,
     TrendData,
@@ -624,82 +623,6 @@ def evaluate(result: FitResult, data: FitData, test: tuple[int, int]) -> pd.Data
             "days": starts.size,
         }
     )
-
-
-def fit_power_model(data: TrendData, inputs: FitData, train: tuple[int, int]) -> PowerModel | None:
-    """Least-squares fit of HVAC electricity against delivered cooling, outdoor temperature,
-    the occupied share and the occupied outdoor-air term ``occ · Σṁ (To − Ta)`` on the
-    training periods (:class:`~hvacflex.identify.model_file.PowerModel`); None when the data
-    has no ``hvac_power_kw`` or it is 0 throughout the training."""
-    first, end = train
-    if not data.has(HVAC_POWER) or not np.any(data.column(HVAC_POWER)[first:end]):
-        return None  # no meter, or nothing on it (ideal loads are not metered)
-    regressors = _power_regressors(data, inputs)[first:end]
-    coefficients, *_ = np.linalg.lstsq(regressors, data.column(HVAC_POWER)[first:end], rcond=None)
-    base, per_cooling, per_outdoor, occupied, per_outdoor_air = (float(c) for c in coefficients)
-    return PowerModel(
-        base_kw=base,
-        kw_per_kw_cooling=per_cooling,
-        kw_per_k_outdoor=per_outdoor,
-        occupied_kw=occupied,
-        kw_per_kg_s_k_outdoor_occupied=per_outdoor_air,
-    )
-
-
-def _power_regressors(data: TrendData, inputs: FitData) -> FloatArray:
-    """(T, 5) ``[1, ΣQ [kW], To [°C], occ [–], occ · Σṁ (To − Ta) [kg/s·K]]``."""
-    flow = data.zone_series("supply_flow", inputs.zones)
-    assert flow is not None
-    outdoor, occupied = inputs.u[:, 0], inputs.u[:, 2]
-    outdoor_air = (flow * (outdoor[:, None] - inputs.y)).sum(axis=1)
-    return np.column_stack(
-        [
-            np.ones(len(inputs.y)),
-            cooling_kw(inputs).sum(axis=1),
-            outdoor,
-            occupied,
-            occupied * outdoor_air,
-        ]
-    )
-
-
-def power_kw(power: PowerModel, data: TrendData, inputs: FitData) -> FloatArray:
-    """(T,) the power model's HVAC electricity [kW]."""
-    coefficients = np.array(
-        [
-            power.base_kw,
-            power.kw_per_kw_cooling,
-            power.kw_per_k_outdoor,
-            power.occupied_kw,
-            power.kw_per_kg_s_k_outdoor_occupied,
-        ]
-    )
-    result: FloatArray = _power_regressors(data, inputs) @ coefficients
-    return result
-
-
-def evaluate_power(
-    power: PowerModel, data: TrendData, inputs: FitData, test: tuple[int, int]
-) -> pd.DataFrame:
-    """Daily HVAC electricity on the test days: ``day``, ``measured_kwh``, ``predicted_kwh``,
-    ``error_pct`` (predicted − measured, % of measured)."""
-    starts = _day_starts(inputs.index, *test)
-    hours = PERIOD_S_HOURS
-    measured = data.column(HVAC_POWER)
-    predicted = power_kw(power, data, inputs)
-    rows = []
-    for k in starts:
-        day = slice(int(k), int(k) + PERIODS_PER_DAY)
-        m_kwh, p_kwh = measured[day].sum() * hours, predicted[day].sum() * hours
-        rows.append(
-            {
-                "day": inputs.index[k].date().isoformat(),
-                "measured_kwh": m_kwh,
-                "predicted_kwh": p_kwh,
-                "error_pct": 100.0 * (p_kwh - m_kwh) / m_kwh if m_kwh > 0 else np.nan,
-            }
-        )
-    return pd.DataFrame(rows)
 
 
 def prediction_frame(result: FitResult, data: FitData, test: tuple[int, int]) -> pd.DataFrame:

@@ -160,7 +160,8 @@ def write_identified_model(model: IdentifiedModel, path: str | Path) -> Path:
             {"name": name, **vars(node), "ua_zone_kw_per_k": ua},
         )
     if model.power is not None:
-        _table(lines, "[identified.power_model]", dict(vars(model.power)))
+        power = {k: v for k, v in vars(model.power).items() if v is not None}
+        _table(lines, "[identified.power_model]", power)
     if model.validity is not None:
         v = model.validity
         _table(

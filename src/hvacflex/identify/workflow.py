@@ -55,11 +55,9 @@ from hvacflex.identify.fit import (
     FitResult,
     air_system,
     evaluate,
-    evaluate_power,
     fit_boundary_nodes,
     fit_inputs,
     fit_model,
-    fit_power_model,
     mean_mass_temps_degc,
     one_step_errors,
     prediction_frame,
@@ -72,6 +70,7 @@ from hvacflex.identify.physics import (
     coupling_bounds,
     zone_physics,
 )
+from hvacflex.identify.power import evaluate_power, metered_power_model, power_inputs
 from hvacflex.identify.trend import TrendData, read_trend, zone_column
 from hvacflex.paths import check_output_file, resolve_idf
 
@@ -439,13 +438,14 @@ def identify(
     areas_m2 = zone_floor_areas_m2(inputs.zones, floor_areas, idf_file, template)
     geometry = described_geometry(idf_file, template)
     physics = zone_physics_of(inputs.zones, areas_m2, geometry)
-    train_range, test_range = _ranges(inputs.index, train, test)
+    train_range, test_range = train_test_ranges(inputs.index, train, test)
     check_output_file(out, "--out")  # after the inputs are checked, before the fit
     pairs, coupling_physics = _pairs(inputs.zones, couples), None
     if geometry is not None:
         pairs, coupling_physics = geometry_couplings(
             inputs.zones, inputs.boundaries, geometry, couples
         )
+    power = metered_power_model(data, inputs.zones, train_range)  # refused before the fit
     say(FIT_STAGES[1])
     fit = fit_model(
         inputs, pairs, train_range, physics, coupling_physics, on_evaluation=_counter(heartbeat)
@@ -453,7 +453,6 @@ def identify(
     say(FIT_STAGES[2])
     ids = tuple(identifier(z) for z in inputs.zones)
     say(FIT_STAGES[3])
-    power = fit_power_model(data, inputs, train_range)
     model = IdentifiedModel(
         name=f"identified from {Path(data_path).name}",
         zones=ids,
@@ -502,7 +501,9 @@ def _write_fit(
     _parameters_table(fit, context).to_csv(parameters_path, index=False, float_format="%.5g")
     checks.to_csv(out.parent / CHECKS_FILE, index=False)
     power = model.power
-    power_table = None if power is None else evaluate_power(power, data, inputs, test_range)
+    power_table = None
+    if power is not None:
+        power_table = evaluate_power(power, power_inputs(data, inputs.zones), test_range)
     power_path = None
     if power_table is not None:
         power_path = out.parent / "power_report.csv"
@@ -566,7 +567,7 @@ def validity_range(inputs: FitData, train: tuple[int, int]) -> IdentifiedValidit
     )
 
 
-def _ranges(
+def train_test_ranges(
     index: pd.DatetimeIndex, train: str | None, test: str | None
 ) -> tuple[tuple[int, int], tuple[int, int]]:
     """The training and test periods of ``--train`` and ``--test`` (both or neither)."""

@@ -102,6 +102,8 @@ def prepare(
     """
     if building is None:
         building = load_building(resolve_building(config.building))
+    if config.controller.power_model == "metered":  # fitted to this plant's meter, if any
+        building = building.with_power_model_for(config.plant.kind)
     check_linearisation(config, building=building)
     temp_ref = config.controller.linearisation_temp_degc
     if temp_ref is None:
