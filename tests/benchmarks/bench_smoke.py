@@ -35,6 +35,7 @@ RUN_BENCHMARKS: dict[str, tuple[str, ...]] = {
     "bench_meter_response": (),
     "bench_service_kill": ("sqlite",),
     "bench_service_load": (),
+    "bench_startup": (),
     "bench_sweep": (),
     "bench_visible_offers": (),
 }

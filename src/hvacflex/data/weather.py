@@ -34,6 +34,7 @@ calendar (month, day, hour) onto the requested ``year`` (29 February of a leap y
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
 from dataclasses import dataclass
@@ -745,8 +746,22 @@ def _ground_temp(location: EpwLocation, hours_mid: np.ndarray, epw: pd.DataFrame
 
 @functools.lru_cache(maxsize=8)
 def _weather_year(path: str, year: int) -> tuple[pd.DataFrame, EpwLocation]:
-    epw, location = read_epw(path)
-    return weather_30min(epw, location, year), location
+    """:func:`weather_30min` of the EPW at ``path`` on ``year``, from the disk cache
+    (:mod:`hvacflex.data.cache`) when this file, year and code built it before."""
+    from hvacflex.data.cache import cache_key, cached_frame
+
+    def build() -> tuple[pd.DataFrame, dict[str, object]]:
+        epw, location = read_epw(path)
+        return weather_30min(epw, location, year), dataclasses.asdict(location)
+
+    try:
+        key = cache_key("weather_30min", [path], [year, TIMEZONE])
+    except OSError:  # unreadable: read_epw names the file and the fix
+        frame, extra = build()
+    else:
+        frame, extra = cached_frame(key, build)
+    ground = tuple(float(t) for t in extra.pop("ground_temp_monthly_degc"))
+    return frame, EpwLocation(**extra, ground_temp_monthly_degc=ground)
 
 
 def weather_on(index: pd.DatetimeIndex, path: Path) -> tuple[pd.DataFrame, EpwLocation]:
