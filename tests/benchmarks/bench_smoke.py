@@ -38,6 +38,7 @@ RUN_BENCHMARKS: dict[str, tuple[str, ...]] = {
     "bench_startup": (),
     "bench_sweep": (),
     "bench_visible_offers": (),
+    "bench_years": (),
 }
 
 
