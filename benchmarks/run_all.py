@@ -63,6 +63,7 @@ SIZES: dict[str, tuple[tuple[str, ...], str]] = {
     "bench_loop_parts": ((), "2,000 calls"),
     "bench_meter_response": ((), "2,000 calls, 96 periods"),
     "bench_open_loop": ((), "office5 rmpc, 96 steps"),
+    "bench_pricing": ((), "office5, 48 steps of the event, whole-horizon and feedback LPs"),
     "bench_rmpc": ((), "office5, 200 warm steps, 30 cold, 10 CVXPY"),
     "bench_service_kill": (("sqlite",), "SQLite, 5 kills, 4 buildings, 12 periods"),
     "bench_service_load": ((), "20 buildings, 20 readers, 3 rounds"),

@@ -24,6 +24,7 @@ SOLVER_BENCHMARKS: dict[str, tuple[str, ...]] = {
     "bench_fleet_master": (),
     "bench_il_events": (),
     "bench_open_loop": (),
+    "bench_pricing": (),
     "bench_rmpc": (),
     "bench_zones": (),
 }
