@@ -5,6 +5,8 @@ Run::
     python benchmarks/run_all.py --out bench-results            # the stated sizes (long)
     python benchmarks/run_all.py --quick --out bench-results    # every one at its --quick size
     python benchmarks/run_all.py --only bench_startup,bench_cvxpy_events --out DIR
+    python benchmarks/run_all.py --years-days 28 --out DIR    # the three years extrapolated
+    python benchmarks/run_all.py --source ../old/src --only … --out OLD  # another checkout
 
 Each ``benchmarks/bench_*.py`` runs in a fresh interpreter (this one, with this checkout's
 hvacflex) at the size :data:`SIZES` states (``--quick``: its smoke size), one after another.
@@ -107,13 +109,12 @@ def children_cpu_s() -> float:
     return usage.ru_utime + usage.ru_stime
 
 
-def run_one(name: str, arguments: tuple[str, ...], log: Path) -> dict[str, Any]:
-    """Run ``benchmarks/<name>.py *arguments``; its outcome: ok, error, CPU and wall [s],
-    the rows and summary figures of its ``RESULT`` lines. Its output goes to ``log``."""
+def run_one(name: str, arguments: tuple[str, ...], log: Path, source: Path) -> dict[str, Any]:
+    """Run ``benchmarks/<name>.py *arguments`` on the hvacflex in ``source`` (a ``src``
+    folder); its outcome: ok, error, CPU and wall [s], the rows and summary figures of its
+    ``RESULT`` lines. Its output goes to ``log``."""
     env = dict(os.environ)
-    source = str(Path(__file__).resolve().parents[1] / "src")
-    if "hvacflex" not in env.get("PYTHONPATH", "") and Path(source).is_dir():
-        env["PYTHONPATH"] = os.pathsep.join(p for p in (source, env.get("PYTHONPATH")) if p)
+    env["PYTHONPATH"] = os.pathsep.join(p for p in (str(source), env.get("PYTHONPATH")) if p)
     cpu0, tick = children_cpu_s(), time.perf_counter()
     try:
         done = subprocess.run(
@@ -180,6 +181,19 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, required=True, help="folder for table.csv etc.")
     parser.add_argument("--quick", action="store_true", help="every benchmark at its --quick size")
     parser.add_argument("--only", default="", help="comma-separated benchmark names")
+    parser.add_argument(
+        "--source",
+        type=Path,
+        default=BENCHMARKS.parent / "src",
+        help="the hvacflex to measure (a src folder; default: this checkout's), e.g. an older "
+        "checkout's, to compare side by side",
+    )
+    parser.add_argument(
+        "--years-days",
+        type=float,
+        default=None,
+        help="bench_years at this many days instead of 365 (its year then extrapolated)",
+    )
     args = parser.parse_args(argv)
     present = sorted(p.stem for p in BENCHMARKS.glob("bench_*.py"))
     unknown = [n for n in present if n not in SIZES]
@@ -197,8 +211,11 @@ def main(argv: list[str] | None = None) -> int:
     results: dict[str, dict[str, Any]] = {}
     for name in names:
         arguments = ("--quick", *QUICK_EXTRA.get(name, ())) if args.quick else SIZES[name][0]
+        if name == "bench_years" and args.years_days is not None and not args.quick:
+            arguments = ("--days", f"{args.years_days:g}")
+            sizes[name] = f"nmpc, rmpc, rmpc-ppp, {args.years_days:g} days each, 2 workers"
         print(f"{name} {' '.join(arguments)} …", flush=True)
-        results[name] = run_one(name, arguments, args.out / f"{name}.log")
+        results[name] = run_one(name, arguments, args.out / f"{name}.log", args.source)
         state = "ok" if results[name]["ok"] else f"FAILED: {results[name]['error']}"
         print(
             f"  {state} ({results[name]['wall_s']:.0f} s wall, {results[name]['cpu_s']:.0f} CPU-s)",
@@ -207,11 +224,13 @@ def main(argv: list[str] | None = None) -> int:
     summary: dict[str, Any] = {}
     for result in results.values():
         summary |= result["summary"]
-    required = REQUIRED if args.quick else REQUIRED + REQUIRED_FULL
+    full = not args.quick and args.years_days is None
+    required = REQUIRED + REQUIRED_FULL if full else REQUIRED
     absent = [k for k in required if k not in summary] if not args.only else []
     failures = {n: r["error"] for n, r in results.items() if not r["ok"]}
     summary |= {
         "quick": args.quick,
+        "source": str(args.source),
         "machine": machine(),
         "load_at_end": load_now(),
         "benchmarks": {
