@@ -88,24 +88,24 @@ def _write(path: Path, frame: pd.DataFrame, extra: dict[str, Any]) -> None:
     columns = {f"column_{i}": frame[c].to_numpy(dtype=float) for i, c in enumerate(frame)}
 
     def write(tmp: Path) -> None:
+        arrays: dict[str, np.ndarray] = {
+            "index_ticks": index.asi8,
+            "meta": np.array(
+                json.dumps(
+                    {
+                        "tz": tz,
+                        "unit": index.unit,
+                        "freq": index.freqstr,
+                        "name": index.name,
+                        "columns": list(frame),
+                        "extra": extra,
+                    }
+                )
+            ),
+            **columns,
+        }
         with tmp.open("wb") as handle:
-            np.savez(
-                handle,
-                index_ticks=index.asi8,
-                meta=np.array(
-                    json.dumps(
-                        {
-                            "tz": tz,
-                            "unit": index.unit,
-                            "freq": index.freqstr,
-                            "name": index.name,
-                            "columns": list(frame),
-                            "extra": extra,
-                        }
-                    )
-                ),
-                **columns,
-            )
+            np.savez(handle, allow_pickle=False, **arrays)
 
     atomic_write(path, write)
 

@@ -39,6 +39,7 @@ import functools
 import math
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -750,7 +751,7 @@ def _weather_year(path: str, year: int) -> tuple[pd.DataFrame, EpwLocation]:
     (:mod:`hvacflex.data.cache`) when this file, year and code built it before."""
     from hvacflex.data.cache import cache_key, cached_frame
 
-    def build() -> tuple[pd.DataFrame, dict[str, object]]:
+    def build() -> tuple[pd.DataFrame, dict[str, Any]]:
         epw, location = read_epw(path)
         return weather_30min(epw, location, year), dataclasses.asdict(location)
 
@@ -760,8 +761,15 @@ def _weather_year(path: str, year: int) -> tuple[pd.DataFrame, EpwLocation]:
         frame, extra = build()
     else:
         frame, extra = cached_frame(key, build)
-    ground = tuple(float(t) for t in extra.pop("ground_temp_monthly_degc"))
-    return frame, EpwLocation(**extra, ground_temp_monthly_degc=ground)
+    location = EpwLocation(
+        latitude_deg=float(extra["latitude_deg"]),
+        longitude_deg=float(extra["longitude_deg"]),
+        tz_offset_h=float(extra["tz_offset_h"]),
+        elevation_m=float(extra["elevation_m"]),
+        name=str(extra["name"]),
+        ground_temp_monthly_degc=tuple(float(t) for t in extra["ground_temp_monthly_degc"]),
+    )
+    return frame, location
 
 
 def weather_on(index: pd.DatetimeIndex, path: Path) -> tuple[pd.DataFrame, EpwLocation]:
