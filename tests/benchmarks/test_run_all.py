@@ -45,7 +45,7 @@ def test_quick_run_writes_the_table_and_the_summary(tmp_path: Path) -> None:
             "--out",
             str(tmp_path),
             "--only",
-            "bench_startup,bench_cvxpy_events",
+            "bench_cvxpy_events",
         ],
         capture_output=True,
         text=True,
