@@ -130,3 +130,21 @@ def test_cached_weather_prices_and_facades_equal_the_built_ones(
         pd.testing.assert_frame_equal(a, b, check_exact=True)
     assert built[1].attrs == read[1].attrs
     assert built[3] == read[3]
+
+
+def test_old_tables_of_a_kind_are_pruned(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    import os
+
+    monkeypatch.setenv(CACHE_DIR_ENV, str(tmp_path))
+    monkeypatch.setattr(cache, "MAX_ENTRIES_PER_KIND", 3)
+    frame = _frame()
+    other = cache_key("other", [], [0])
+    cached_frame(other, lambda: (frame, {}))
+    keys = [cache_key("kind", [], [i]) for i in range(5)]
+    for i, key in enumerate(keys):
+        assert key.startswith("kind-")
+        cached_frame(key, lambda: (frame, {}))
+        os.utime(tmp_path / f"{key}.npz", ns=(10**18 + i, 10**18 + i))  # strictly newer
+    kept = sorted(p.stem for p in tmp_path.glob("kind-*.npz"))
+    assert kept == sorted(keys[2:])
+    assert (tmp_path / f"{other}.npz").is_file()  # another kind is left alone

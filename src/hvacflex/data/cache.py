@@ -32,7 +32,14 @@ import pandas as pd
 
 from hvacflex.version import atomic_write, code_version
 
-__all__ = ["CACHE_DIR_ENV", "CACHE_OFF", "cache_dir", "cache_key", "cached_frame"]
+__all__ = [
+    "CACHE_DIR_ENV",
+    "CACHE_OFF",
+    "MAX_ENTRIES_PER_KIND",
+    "cache_dir",
+    "cache_key",
+    "cached_frame",
+]
 
 CACHE_DIR_ENV = "HVACFLEX_CACHE_DIR"
 """Environment variable naming the cache folder (or :data:`CACHE_OFF`)."""
@@ -42,6 +49,10 @@ CACHE_OFF = "off"
 
 _FORMAT = 1
 """Version of the file layout below; part of every key."""
+
+MAX_ENTRIES_PER_KIND = 32
+"""Tables kept per kind (weather year, price table, façade irradiance): the oldest written
+beyond these are removed when a new one is stored."""
 
 
 def cache_dir() -> Path | None:
@@ -60,9 +71,9 @@ def cache_key(
     arguments: Sequence[object],
     arrays: Sequence[np.ndarray] = (),
 ) -> str:
-    """SHA-256 (hex) of ``kind``, the bytes of each of ``files`` (in order), ``arguments``
-    (their ``repr``), the dtype, shape and bytes of each of ``arrays``, the code version and
-    the layout version.
+    """``"<kind>-<SHA-256 hex>"``: the digest of ``kind``, the bytes of each of ``files`` (in
+    order), ``arguments`` (their ``repr``), the dtype, shape and bytes of each of ``arrays``,
+    the code version and the layout version.
 
     Raises
     ------
@@ -79,7 +90,7 @@ def cache_key(
         contiguous = np.ascontiguousarray(array)
         digest.update(f"{contiguous.dtype.str}{contiguous.shape}".encode())
         digest.update(contiguous.tobytes())
-    return digest.hexdigest()
+    return f"{kind}-{digest.hexdigest()}"
 
 
 def _write(path: Path, frame: pd.DataFrame, extra: dict[str, Any]) -> None:
@@ -151,6 +162,20 @@ def cached_frame(
         try:
             path.parent.mkdir(parents=True, exist_ok=True)
             _write(path, frame, extra)
+            _prune(path)
         except OSError:
             pass  # a read-only or full disk: run without the cache
     return frame, extra
+
+
+def _prune(newest: Path) -> None:
+    """Keep the :data:`MAX_ENTRIES_PER_KIND` most recently written tables of ``newest``'s
+    kind (the part of its name before the digest), so that edited code or other run windows
+    do not fill the disk."""
+    kind = newest.name.rsplit("-", 1)[0]
+    entries = sorted(
+        newest.parent.glob(f"{kind}-*.npz"), key=lambda p: p.stat().st_mtime_ns, reverse=True
+    )
+    for old in entries[MAX_ENTRIES_PER_KIND:]:
+        if old != newest:
+            old.unlink(missing_ok=True)
