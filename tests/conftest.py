@@ -14,6 +14,23 @@ import pytest
 from hvacflex.paths import buildings_dir, data_dir
 
 
+@pytest.fixture(scope="session", autouse=True)
+def _private_data_cache(tmp_path_factory: pytest.TempPathFactory) -> Iterator[None]:
+    """The disk cache of derived data (hvacflex.data.cache) in a folder of this test session,
+    not the user's ~/.cache (subprocesses inherit it)."""
+    import os
+
+    from hvacflex.data.cache import CACHE_DIR_ENV
+
+    before = os.environ.get(CACHE_DIR_ENV)
+    os.environ[CACHE_DIR_ENV] = str(tmp_path_factory.mktemp("hvacflex-cache"))
+    yield
+    if before is None:
+        os.environ.pop(CACHE_DIR_ENV, None)
+    else:
+        os.environ[CACHE_DIR_ENV] = before
+
+
 @pytest.fixture(scope="session")
 def shared_data_dir() -> Path:
     return data_dir()

@@ -24,6 +24,7 @@ SOLVER_BENCHMARKS: dict[str, tuple[str, ...]] = {
     "bench_fleet_master": (),
     "bench_il_events": (),
     "bench_open_loop": (),
+    "bench_pricing": (),
     "bench_rmpc": (),
     "bench_zones": (),
 }
@@ -35,8 +36,10 @@ RUN_BENCHMARKS: dict[str, tuple[str, ...]] = {
     "bench_meter_response": (),
     "bench_service_kill": ("sqlite",),
     "bench_service_load": (),
+    "bench_startup": (),
     "bench_sweep": (),
     "bench_visible_offers": (),
+    "bench_years": (),
 }
 
 

@@ -191,3 +191,19 @@ def test_the_live_calendar_plans_real_dates_on_the_mapped_prices_and_the_typical
     # the same date under the data calendar is refused
     with pytest.raises(DataError, match="outside the USEP price data"):
         load_exogenous(CHANNELS, [100.0, 100.0], Gains(), start="2026-12-02", steps=48)
+
+
+@pytest.mark.parametrize("phi", [0.0, 0.3, 0.9, -0.5])
+def test_ar1_filter_is_scipys_lfilter_bit_for_bit(phi: float) -> None:
+    """The forecast error's AR(1) recursion equals scipy.signal.lfilter's (which it replaces
+    to spare start-up the import), bit for bit, and e_k = w_k + φ·e_{k−1} by hand."""
+    from scipy.signal import lfilter
+
+    from hvacflex.data.forecast import ar1_filter
+
+    w = np.random.default_rng(7).standard_normal((49, 6)) * 2.5
+    ours = ar1_filter(w, phi)
+    assert np.array_equal(ours, lfilter([1.0], [1.0, -phi], w, axis=0))
+    assert ours[0].tolist() == w[0].tolist()
+    assert ours[3, 2] == w[3, 2] + phi * (w[2, 2] + phi * (w[1, 2] + phi * w[0, 2]))
+    assert np.array_equal(ar1_filter(w[:, 0], phi), ours[:, 0])

@@ -155,6 +155,25 @@ def test_missing_periods_are_listed_and_filled_only_on_request(tmp_path: Path) -
     assert len(filled.attrs["filled_periods"]) == 2
 
 
+def test_prices_read_back_from_the_disk_cache_keep_their_filled_periods(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from hvacflex.data import market
+    from hvacflex.data.cache import CACHE_DIR_ENV
+
+    day2 = [r for i, r in enumerate(_old_rows("02 Jan 2014")) if i != 7]
+    path = _write(tmp_path, [OLD_HEADER, *_old_rows("01 Jan 2014"), *day2])
+    monkeypatch.setenv(CACHE_DIR_ENV, str(tmp_path / "cache"))
+    market._load_usep_cached.cache_clear()
+    built = load_usep(path, fill="previous-day")
+    market._load_usep_cached.cache_clear()
+    read = load_usep(path, fill="previous-day")
+    assert len(list((tmp_path / "cache").glob("*.npz"))) == 1
+    pd.testing.assert_frame_equal(read, built, check_exact=True)
+    assert read.attrs == built.attrs
+    assert read.attrs["filled_periods"] == [pd.Timestamp("2014-01-02 03:30", tz="Asia/Singapore")]
+
+
 def test_missing_file(tmp_path: Path) -> None:
     with pytest.raises(DataError, match="not found"):
         load_usep(tmp_path / "nope.csv")

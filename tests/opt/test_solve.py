@@ -521,3 +521,23 @@ def test_make_solver_builds_the_solver_of_the_robust_mode_with_its_options(robus
     assert highs.getOptionValue("primal_feasibility_tolerance")[1] == 1e-10
     with pytest.raises(ProblemError, match="time limit"):
         make_solver(problems[0], time_limit_s=0.0)
+
+
+@pytest.mark.parametrize("max_steps", [None, 2])
+def test_warm_runs_price_as_measured_for_the_lp_family(max_steps: int | None) -> None:
+    """The event model's warm runs price with Dantzig, the whole-horizon model's with Devex
+    (highs_lp.WARM_PRICING, chosen by benchmarks/bench_pricing.py); both reach the cold
+    optimum from the rotated basis."""
+    from hvacflex.opt.highs_lp import DANTZIG_PRICING, DEVEX_PRICING
+
+    problems = [
+        dataclasses.replace(p, il_event_max_steps=max_steps) for p in _shifted_problems(3, 4)
+    ]
+    solver = RMPCSolver(problems[0])
+    for index, problem in enumerate(problems):
+        warm = solver.solve(problem)
+        cold = solve_rmpc(problem)
+        assert warm.ok and cold.ok and warm.warm_start is (index > 0)
+        assert warm.objective_sgd == pytest.approx(cold.objective_sgd, abs=1e-7)
+    used = solver._session.highs.getOptionValue("simplex_dual_edge_weight_strategy")[1]
+    assert used == (DEVEX_PRICING if max_steps is None else DANTZIG_PRICING)

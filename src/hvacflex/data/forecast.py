@@ -37,7 +37,6 @@ from typing import Literal, Protocol, get_args
 
 import numpy as np
 import pandas as pd
-from scipy.signal import lfilter
 
 from hvacflex.building.channels import DisturbanceChannel
 from hvacflex.constants import HORIZON_STEPS, PERIOD, PERIODS_PER_DAY, TIMEZONE
@@ -81,6 +80,26 @@ DEFAULT_USEP_FOLDER = "nems_usep_2014"
 
 PriceMode = Literal["perfect", "persistence"]
 DisturbanceErrorMode = Literal["none", "ar1"]
+
+
+def ar1_filter(innovation: np.ndarray, phi: float) -> np.ndarray:
+    """The AR(1) process driven by ``innovation`` along axis 0: ``e_0 = w_0``,
+    ``e_k = w_k + φ·e_{k−1}`` (what ``scipy.signal.lfilter([1], [1, −φ], w, axis=0)``
+    computes, bit for bit, without importing ``scipy.signal`` — half a second of start-up).
+
+    Parameters
+    ----------
+    innovation : (T, ...) innovations w_k.
+    phi : the AR(1) coefficient φ.
+
+    Returns
+    -------
+    (T, ...) float64 array e_k.
+    """
+    error = np.array(innovation, dtype=float, copy=True)
+    for k in range(1, error.shape[0]):
+        error[k] += phi * error[k - 1]
+    return error
 
 
 class InternalGainDensities(Protocol):
@@ -390,7 +409,7 @@ class Forecaster:
         phi = self.ar1_coefficient
         innovation = rng.standard_normal(truth.shape) * sigma * np.sqrt(1.0 - phi * phi)
         innovation[0] = 0.0  # the current period is known
-        error = lfilter([1.0], [1.0, -phi], innovation, axis=0)
+        error = ar1_filter(innovation, phi)
         forecast = truth + error
         forecast[:, self._nonnegative] = np.maximum(forecast[:, self._nonnegative], 0.0)
         return _readonly(forecast)

@@ -29,7 +29,7 @@ from __future__ import annotations
 import functools
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 import pandas as pd
@@ -418,6 +418,30 @@ def _stamps(files: Sequence[str]) -> tuple[tuple[int, int], ...]:
 def _load_usep_cached(
     files: tuple[str, ...], fill: FillMode, stamps: tuple[tuple[int, int], ...]
 ) -> pd.DataFrame:
+    """:func:`_read_usep` from the disk cache (:mod:`hvacflex.data.cache`) when these files'
+    bytes, ``fill`` and this code read them before."""
+    from hvacflex.data.cache import cache_key, cached_frame
+
+    def build() -> tuple[pd.DataFrame, dict[str, Any]]:
+        frame = _read_usep(files, fill)
+        filled = [pd.Timestamp(t).isoformat() for t in frame.attrs["filled_periods"]]
+        return frame, {"filled_periods": filled, "source_files": frame.attrs["source_files"]}
+
+    try:
+        key = cache_key("usep", files, [files, fill])
+    except OSError:  # unreadable: _read_usep names the file and the fix
+        return _read_usep(files, fill)
+    out, extra = cached_frame(key, build)
+    index = pd.DatetimeIndex(out.index)
+    filled_index = pd.DatetimeIndex(extra["filled_periods"])
+    if len(filled_index):
+        filled_index = filled_index.tz_convert(index.tz).as_unit(index.unit)
+    out.attrs = {"filled_periods": list(filled_index), "source_files": extra["source_files"]}
+    return out
+
+
+def _read_usep(files: tuple[str, ...], fill: FillMode) -> pd.DataFrame:
+    """The USEP table of :func:`load_usep` read and checked from ``files``."""
     rows = pd.concat(
         [_read_period_csv(Path(f), _USEP_PRICE_COLUMNS) for f in files],
         ignore_index=True,

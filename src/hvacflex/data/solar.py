@@ -83,6 +83,10 @@ class SolarSite(Protocol):
         """Sites key the cache of sun geometry."""
 
 
+_TRANSPOSED_COLUMNS = ("dni_w_per_m2", "ghi_w_per_m2", "dhi_w_per_m2")
+"""The weather columns the transposition reads (with the index: the key of its disk cache)."""
+
+
 @dataclass(frozen=True)
 class PeriodSun:
     """The sun over each of T periods, sampled at S instants per period.
@@ -325,12 +329,28 @@ def surface_irradiance_w_per_m2(
     (T, len(surfaces)) DataFrame [W/m², ≥ 0], one column per surface named
     ``solar_az{azimuth}_tilt{tilt}_w_per_m2`` (the disturbance channel names).
     """
-    sun = _sun_of(weather.index, site)
-    out = {
-        surface_column_name(az, tilt): _transpose(sun, weather, az, tilt, albedo).total_w_per_m2
-        for az, tilt in surfaces
-    }
-    return pd.DataFrame(out, index=weather.index)
+    from hvacflex.data.cache import cache_key, cached_frame
+
+    def build() -> tuple[pd.DataFrame, dict[str, object]]:
+        sun = _sun_of(weather.index, site)
+        out = {
+            surface_column_name(az, tilt): _transpose(sun, weather, az, tilt, albedo).total_w_per_m2
+            for az, tilt in surfaces
+        }
+        return pd.DataFrame(out, index=weather.index), {}
+
+    if not isinstance(weather.index, pd.DatetimeIndex) or len(weather.index) < 2:
+        return build()[0]  # _sun_of names the problem
+    site_key = (site.latitude_deg, site.longitude_deg, site.elevation_m)
+    columns = [weather[c].to_numpy(dtype=float) for c in _TRANSPOSED_COLUMNS]
+    key = cache_key(
+        "surface_irradiance",
+        [],
+        [site_key, tuple(surfaces), albedo, SUBSAMPLES_PER_PERIOD, str(weather.index.dtype)],
+        [weather.index.asi8, *columns],
+    )
+    frame, _ = cached_frame(key, build)
+    return frame
 
 
 def decompose_ghi(

@@ -34,10 +34,12 @@ calendar (month, day, hour) onto the requested ``year`` (29 February of a leap y
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -745,8 +747,29 @@ def _ground_temp(location: EpwLocation, hours_mid: np.ndarray, epw: pd.DataFrame
 
 @functools.lru_cache(maxsize=8)
 def _weather_year(path: str, year: int) -> tuple[pd.DataFrame, EpwLocation]:
-    epw, location = read_epw(path)
-    return weather_30min(epw, location, year), location
+    """:func:`weather_30min` of the EPW at ``path`` on ``year``, from the disk cache
+    (:mod:`hvacflex.data.cache`) when this file, year and code built it before."""
+    from hvacflex.data.cache import cache_key, cached_frame
+
+    def build() -> tuple[pd.DataFrame, dict[str, Any]]:
+        epw, location = read_epw(path)
+        return weather_30min(epw, location, year), dataclasses.asdict(location)
+
+    try:
+        key = cache_key("weather_30min", [path], [year, TIMEZONE])
+    except OSError:  # unreadable: read_epw names the file and the fix
+        frame, extra = build()
+    else:
+        frame, extra = cached_frame(key, build)
+    location = EpwLocation(
+        latitude_deg=float(extra["latitude_deg"]),
+        longitude_deg=float(extra["longitude_deg"]),
+        tz_offset_h=float(extra["tz_offset_h"]),
+        elevation_m=float(extra["elevation_m"]),
+        name=str(extra["name"]),
+        ground_temp_monthly_degc=tuple(float(t) for t in extra["ground_temp_monthly_degc"]),
+    )
+    return frame, location
 
 
 def weather_on(index: pd.DatetimeIndex, path: Path) -> tuple[pd.DataFrame, EpwLocation]:

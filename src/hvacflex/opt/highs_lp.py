@@ -34,9 +34,11 @@ from hvacflex.opt.solution import SolveStatus
 __all__ = [
     "BASE_OPTIONS",
     "DANTZIG_PRICING",
+    "DEVEX_PRICING",
     "HIGHS_ERROR",
     "STATUS_MAP",
     "WARM_DUAL_FEASIBILITY_TOLERANCE",
+    "WARM_PRICING",
     "WARM_SCALE_STRATEGY",
     "HighsSession",
     "LPResult",
@@ -67,7 +69,7 @@ _QUIET_OPTIONS: Mapping[str, Any] = MappingProxyType(
 #: ≈ 20–35 % more (with fewer iterations; the cause was not isolated), which cancelled the gain
 #: within a day (docs/performance.md, "Feedback RMPC").
 BASE_OPTIONS: Mapping[str, Any] = MappingProxyType(
-    {**_QUIET_OPTIONS, "simplex_dual_edge_weight_strategy": 1}
+    {**_QUIET_OPTIONS, "simplex_dual_edge_weight_strategy": 1}  # DEVEX_PRICING
 )
 #: ``simplex_scale_strategy`` of a warm run (0: no scaling); cold runs keep HiGHS's default.
 WARM_SCALE_STRATEGY = 0
@@ -75,6 +77,17 @@ WARM_SCALE_STRATEGY = 0
 #: Dantzig pricing). On the open-loop event LP it takes ≈ 40 % fewer iterations than Devex
 #: from the rotated basis (docs/performance.md, issue 32); cold runs keep Devex.
 DANTZIG_PRICING = 0
+#: ``simplex_dual_edge_weight_strategy`` 1: Devex pricing (:data:`BASE_OPTIONS`' own).
+DEVEX_PRICING = 1
+#: Warm pricing per LP family, chosen by measurement (``benchmarks/bench_pricing.py``, both
+#: pricings side by side on the same problems; docs/performance.md, "Warm pricing per LP
+#: family", 2026-12-06): the event model (the product LP) takes Dantzig (median 64 instead of
+#: 142 iterations over 48 closed-loop steps); the whole-horizon model Devex (29 instead of 81
+#: on bench_rmpc's 200 steps, 4 instead of 2 in the closed loop at the same CPU); the feedback
+#: LP keeps Devex and one dual tolerance (None: 5 against Dantzig's 6, the same CPU).
+WARM_PRICING: Mapping[str, int | None] = MappingProxyType(
+    {"event": DANTZIG_PRICING, "whole-horizon": DEVEX_PRICING, "feedback": None}
+)
 #: HiGHS's dual feasibility tolerance on a warm Dantzig run (HiGHS's default 1e-7 let one
 #: office5 step stop 1.5e-9 relative above the optimum; 1e-9 costs no measurable time).
 WARM_DUAL_FEASIBILITY_TOLERANCE = 1e-9

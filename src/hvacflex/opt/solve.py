@@ -26,8 +26,9 @@ marks ``time_indexed``) start step k, and those of step 0 start step N − 1 (a 
 the number of basic variables, so HiGHS takes the basis as is). The basis is read after each
 optimal solve from HiGHS's basic-variable list and the primal values (every row of the LP is
 an equality or one-sided, so a nonbasic row's status follows from its bounds), which is much
-cheaper than ``getBasis``. HiGHS uses Devex dual pricing on cold runs and Dantzig on warm ones
-(:data:`~hvacflex.opt.highs_lp.DANTZIG_PRICING`). Warm solves run without scaling; cold solves
+cheaper than ``getBasis``. HiGHS uses Devex dual pricing on cold runs; warm runs price as
+:data:`~hvacflex.opt.highs_lp.WARM_PRICING` says for the LP family (Dantzig on the event model,
+Devex on the whole-horizon model). Warm solves run without scaling; cold solves
 keep HiGHS's default scaling and presolve.
 
 IL event rows (``RMPCSolver(..., event_rows="lazy")``, the default): the event model's
@@ -37,7 +38,7 @@ permutation) and those of events starting at 0; after each run the activities of
 rows are one sparse product, every absent row violated by more than 1e-7 K is added (HiGHS
 keeps its basis, new rows basic) and the LP re-solved warm until none is. The optimum is the
 full model's; bases are kept over all rows (absent rows basic), so checkpoints are
-interchangeable with ``event_rows="full"``. Warm runs of this solver use Dantzig pricing
+interchangeable with ``event_rows="full"``. Warm runs of the event model use Dantzig pricing
 (cold runs Devex).
 
 Failures are never silent: :class:`SolveStatus` says what happened, ``RMPCSolution.message``
@@ -69,8 +70,8 @@ from hvacflex.opt.basis import (
 from hvacflex.opt.events import reserve_responses, violated_rows
 from hvacflex.opt.feedback_solve import DEFAULT_LP_METHOD, FeedbackSolver
 from hvacflex.opt.highs_lp import (
-    DANTZIG_PRICING,
     HIGHS_ERROR,
+    WARM_PRICING,
     HighsSession,
     LPResult,
     SessionOptions,
@@ -149,8 +150,9 @@ class RMPCSolver:
     ) -> None:
         self._structure = problem.structure
         options = SessionOptions(time_limit_s, time_shift, feasibility_tolerance)
+        family = "whole-horizon" if problem.il_event_max_steps is None else "event"
         self._session = HighsSession(
-            "RMPCSolver", self._structure.fingerprint(), options, warm_pricing=DANTZIG_PRICING
+            "RMPCSolver", self._structure.fingerprint(), options, warm_pricing=WARM_PRICING[family]
         )
         if problem.robust == "feedback":
             raise ProblemError(
