@@ -50,13 +50,22 @@ from hvacflex.units import SECONDS_PER_HOUR
 def comfort_bounds_at_period_ends(
     forecast: Forecast, horizon: int
 ) -> tuple[FloatArray, FloatArray]:
-    """(N, m) comfort bounds on the temperatures x_1 … x_N at the ends of periods 0 … N−1.
+    """(N, m) comfort bounds on the temperatures x_1 … x_N at the ends of periods 0 … N−1:
+    :func:`band_at_period_ends` of the forecast's band."""
+    return band_at_period_ends(forecast.comfort_lower_degc, forecast.comfort_upper_degc, horizon)
+
+
+def band_at_period_ends(
+    lower_degc: FloatArray, upper_degc: FloatArray, horizon: int
+) -> tuple[FloatArray, FloatArray]:
+    """(N, m) comfort bounds [°C] on the temperatures at the ends of periods 0 … N−1 of the
+    per-period band ``lower_degc``, ``upper_degc`` ((≥ N, m) [°C], one row a period).
 
     The end of period k is the start of period k + 1: the bound is the tighter of the two
-    periods' bands. The forecast must cover ``horizon + 1`` periods; with exactly
-    ``horizon`` the last period's band is used alone.
+    periods' bands. The band must cover ``horizon + 1`` periods; with exactly ``horizon``
+    the last period's band is used alone.
     """
-    lower, upper = forecast.comfort_lower_degc, forecast.comfort_upper_degc
+    lower, upper = np.asarray(lower_degc), np.asarray(upper_degc)
     nxt = slice(1, horizon + 1)
     lower_next = np.vstack([lower[nxt], lower[horizon - 1 : horizon]])[:horizon]
     upper_next = np.vstack([upper[nxt], upper[horizon - 1 : horizon]])[:horizon]

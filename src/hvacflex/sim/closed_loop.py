@@ -47,6 +47,7 @@ from hvacflex.building.discretize import delivered_flow_kg_s
 from hvacflex.building.identified import initial_node_temps_degc
 from hvacflex.config import ScenarioConfig
 from hvacflex.control.base import Action, Controller, FloatArray, PeriodInputs, WarmRestart
+from hvacflex.control.problem_builder import band_at_period_ends
 from hvacflex.data.forecast import Forecast
 from hvacflex.data.signals import OperatorSignals, effective_peak_price
 from hvacflex.data.uncertainty import DisturbanceSampler
@@ -351,9 +352,14 @@ class ClosedLoop:
         )
         self._period_guard = None
         if self._guard_on and np.isfinite(cap_kw) and not decision.action.released:
+            # the band at the period's end, as the plan's: no shedding toward a night bound
+            # in the period before occupancy starts
+            _, upper_end = band_at_period_ends(
+                exo.comfort_lower_degc[k : k + 2], exo.comfort_upper_degc[k : k + 2], 1
+            )
             self._period_guard = PeakGuard(
                 cap_kw,
-                exo.comfort_upper_degc[k] + decision.allowance_k,
+                upper_end[0] + decision.allowance_k,
                 self._flow_min_kg_s[int(exo.occupied[k])],
                 setup.config.controller.peak_guard_substeps,
             )

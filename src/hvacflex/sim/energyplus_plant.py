@@ -40,7 +40,8 @@ on the meter: s ← clip(s + g (P − cap) / cap, 0, 1) with g = :data:`GUARD_GA
 while the meter exceeds the cap, released step by step as it falls below; a release all at
 once would rebound above the cap, the zones having drifted up meanwhile); s carries over to
 the next period while a guard is in force and is 0 without one. It sheds, within the comfort
-band, the zones whose air is below their upper bound: under setpoint actuation the cooling
+band, the zones whose air is below their upper bound (the band at the period's end, the
+tighter of this period's and the next's, as the plan's): under setpoint actuation the cooling
 setpoint moves the share s of the way from the actuated one up to that bound,
 T' = T_sp + s (T_upper − T_sp) (the air loop then cools less); under flow actuation the flow
 moves towards its floor, u' = u_floor + (1 − s)(u − u_floor), as on the RC plant. A period
