@@ -5,7 +5,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from hvacflex.building.channels import DisturbanceChannel
 from hvacflex.config import preset
+from hvacflex.errors import InputError, SolverError
+from hvacflex.opt.highs_lp import LPResult
+from hvacflex.opt.solution import SolveStatus
+from hvacflex.sim import peak_bound
 from hvacflex.sim.peak_bound import PeakBoundProblem, bound_peak_kw, minimum_peak
 
 
@@ -62,3 +67,42 @@ def test_office5_day_bound_keeps_the_band_below_the_full_load_power() -> None:
     assert bound.excursion_k == pytest.approx(0.0, abs=1e-4)
     assert bound.peak_kw == pytest.approx(bound.power_kw.max(), rel=1e-6)
     assert 5.0 < bound.peak_kw < 60.0  # office5's design full load is ≈ 60 kW
+
+
+@pytest.mark.parametrize(
+    ("status", "error"),
+    [
+        (SolveStatus.TIME_LIMIT, SolverError),
+        (SolveStatus.ERROR, SolverError),
+        (SolveStatus.INFEASIBLE, InputError),
+        (SolveStatus.UNBOUNDED, InputError),
+    ],
+)
+def test_a_solve_without_optimum_names_its_status_and_blames_the_input_only_when_it_is(
+    monkeypatch: pytest.MonkeyPatch, status: SolveStatus, error: type[Exception]
+) -> None:
+    """A solver failure (time limit, numerical trouble) is a SolverError, not bad input
+    (exit 2 "fix your input" would mislead); an infeasible or unbounded LP is the input's."""
+
+    def failing(cost: np.ndarray, *args: object, **kwargs: object) -> LPResult:
+        return LPResult(status, np.full(cost.size, np.nan), "", 0.0)
+
+    monkeypatch.setattr(peak_bound, "solve_lp", failing)
+    with pytest.raises(error, match=status.name) as info:
+        minimum_peak(_integrator([0.0, 0.0, 4.0]))
+    assert isinstance(info.value, SolverError) is (error is SolverError)
+
+
+def test_a_model_without_an_outdoor_temperature_is_refused_by_name() -> None:
+    """Not a bare StopIteration: an InputError naming the channels it has."""
+    channels = (DisturbanceChannel("ground_temp_degc", "ground_temp"),)
+    with pytest.raises(InputError, match="outdoor_temp") as info:
+        peak_bound._outdoor_index(channels, preset("rmpc-ppp"))
+    assert info.value.field == "channels"
+    assert info.value.value == ["ground_temp"]
+    assert (
+        peak_bound._outdoor_index(
+            (*channels, DisturbanceChannel("outdoor_temp_degc", "outdoor_temp")), preset("rmpc-ppp")
+        )
+        == 1
+    )

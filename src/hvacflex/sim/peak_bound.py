@@ -1,5 +1,8 @@
-"""The smallest peak reachable with perfect foresight: the bound Fig. 7's peaks are graded
-against (``bound_peak_kw`` of ``fig7_ppp_sweep_energyplus.csv``, issue 61).
+"""The perfect-foresight optimum of the controller's LP model (same comfort band, same
+days): the reference Fig. 7's peaks are graded against (``bound_peak_kw`` of
+``fig7_ppp_sweep_energyplus.csv``, issue 61). Not a proven lower bound on any plant: the
+power rows are secants of the plant's power and the start is the configuration's initial
+state, so a plant may meter a lower peak.
 
 One LP over the whole period on the controller's model (docs/model.md): the affine RC
 model x_{k+1} = A x_k + B u_k + E d_k + g with the data's disturbances d_k (perfect
@@ -23,16 +26,18 @@ in one calendar month (Fig. 7's 28 days from 2014-03-03 do).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
 import scipy.sparse as sp
 
+from hvacflex.building.channels import DisturbanceChannel
 from hvacflex.building.hvac import affine_power_model
 from hvacflex.building.identified import identified_affine_power, initial_node_temps_degc
 from hvacflex.config import ScenarioConfig
-from hvacflex.errors import InputError
+from hvacflex.errors import InputError, SolverError
 from hvacflex.opt.highs_lp import solve_lp
 from hvacflex.opt.solution import SolveStatus
 
@@ -149,7 +154,9 @@ def minimum_peak(problem: PeakBoundProblem) -> PeakBound:
     Raises
     ------
     InputError
-        When HiGHS finds no optimum (flow bounds that cross, data with NaN).
+        When the LP is infeasible or unbounded (flow bounds that cross, data with NaN).
+    SolverError
+        When HiGHS finds no optimum for another reason (its status named).
     """
     t_steps, m = problem.u_min_kg_s.shape
     nu, nx = t_steps * m, t_steps * problem.a.shape[0]
@@ -173,12 +180,34 @@ def minimum_peak(problem: PeakBoundProblem) -> PeakBound:
 
 
 def _check(status: SolveStatus, stage: str) -> None:
-    if status is not SolveStatus.OPTIMAL:
+    """Refuse a solve without an optimum: the input's fault where the LP is infeasible or
+    unbounded (the excursion slacks keep it feasible for any band: flow bounds that cross,
+    data with NaN), the solver's otherwise (a time limit, numerical trouble)."""
+    if status is SolveStatus.OPTIMAL:
+        return
+    message = f"the peak bound's LP ({stage}) has no optimum: {status.name}"
+    if status in (SolveStatus.INFEASIBLE, SolveStatus.UNBOUNDED):
         raise InputError(
-            f"the peak bound's LP ({stage}) has no optimum: {status.name}",
+            message,
             field="bound_peak_kw",
             hint="check the scenario's flow limits and data (no NaN) over the period",
         )
+    raise SolverError(f"{message} (HiGHS {LP_METHOD}; a solver failure, not the input)")
+
+
+def _outdoor_index(channels: Sequence[DisturbanceChannel], config: ScenarioConfig) -> int:
+    """The column of the outdoor temperature among the model's disturbance ``channels``."""
+    for i, channel in enumerate(channels):
+        if channel.kind == "outdoor_temp":
+            return i
+    raise InputError(
+        "the building's model has no outdoor_temp disturbance channel: the bound's power rows "
+        "need the outdoor temperature",
+        source=config.building,
+        field="channels",
+        value=[channel.kind for channel in channels],
+        hint="use a building whose model has an outdoor_temp channel",
+    )
 
 
 def bound_peak_kw(config: ScenarioConfig) -> PeakBound:
@@ -196,7 +225,7 @@ def bound_peak_kw(config: ScenarioConfig) -> PeakBound:
     y_min = np.maximum(lower[:steps], lower[nxt])
     y_max = np.minimum(upper[:steps], upper[nxt])
     d = np.asarray(exo.disturbances[:steps], dtype=np.float64)
-    outdoor = d[:, next(i for i, ch in enumerate(model.channels) if ch.kind == "outdoor_temp")]
+    outdoor = d[:, _outdoor_index(model.channels, config)]
     u_min = building.hvac.flow_min_at(occupied[:steps])
     t0 = setup.linearisation_temp_degc
     if building.identified is not None:
