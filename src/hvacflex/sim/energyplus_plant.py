@@ -133,13 +133,17 @@ class EnergyPlusPlant:
     extra_variables : (ne,) further output variables read every period; their period means
         are :attr:`extra_mean` after each :meth:`reset` / :meth:`step` (the trend collection
         of ``hvacflex identify collect`` reads supply temperatures, solar and occupancy so).
+    peak_guard_required : the run needs the peak guard (``[controller] peak_guard = "on"``):
+        :meth:`reset` refuses an IDF without any of the :data:`HVAC_METERS` the guard reads.
 
     Raises
     ------
     InputError
         for a malformed IDF or one of another version, a zone the IDF lacks (naming it and the
         IDF's zones), flow actuation without an actuatable flow, a weather file that does not
-        cover the run, or a missing ``energyplus`` extra (on :meth:`reset`).
+        cover the run, an IDF without an HVAC meter under ``peak_guard_required`` (on
+        :meth:`reset`, before the first period), or a missing ``energyplus`` extra (on
+        :meth:`reset`).
     """
 
     can_snapshot = False
@@ -163,6 +167,7 @@ class EnergyPlusPlant:
         work_dir: Path | None = None,
         boundary_zone_names: tuple[str, ...] = (),
         extra_variables: tuple[Variable, ...] = (),
+        peak_guard_required: bool = False,
     ) -> None:
         if actuation not in ("setpoint", "flow"):
             raise InputError(
@@ -178,6 +183,7 @@ class EnergyPlusPlant:
                 hint="give the building's design supply temperature (hvac.supply_temp_degc)",
             )
         self.supply_temp_degc = supply_temp_degc
+        self.peak_guard_required = peak_guard_required
         self.zone_names = tuple(zone_names)
         self.actuations: tuple[str, ...] = (actuation,)
         self.actuation = actuation
@@ -377,9 +383,25 @@ class EnergyPlusPlant:
         self._guard, self._shed_level, self._period_shed = None, 0.0, False
         self._sim = CoSimulation(self._spec, self.work_dir)
         reading = self._sim.start()
+        self._check_guard_meters(self._sim.missing_meters)
         for _ in range(self._skip_periods):
             reading = self._sim.advance(np.full(len(self._spec.actuators), np.nan))
         return replace(self._observation(reading), power_kw=np.nan, facility_power_kw=np.nan)
+
+    def _check_guard_meters(self, missing: tuple[str, ...]) -> None:
+        """Refuse a required peak guard that could never act: none of the HVAC meters it
+        reads exists in this IDF (both handles −1), so the guard would never shed."""
+        if self.peak_guard_required and all(m in missing for m in HVAC_METERS):
+            self.close()
+            raise InputError(
+                "the peak guard reads the HVAC meters, and EnergyPlus has none of them for this "
+                "IDF: a guard that could never act",
+                source=self.source,
+                field="controller.peak_guard",
+                value=" + ".join(HVAC_METERS),
+                hint="use an IDF whose HVAC draws electricity (fans, pumps, chiller), or set "
+                "peak_guard = 'auto' or 'off'",
+            )
 
     def step(self, actuation: Actuation, disturbance: Disturbance, dt_s: float) -> Observation:
         began = time.perf_counter()
