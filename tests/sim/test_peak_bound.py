@@ -106,3 +106,27 @@ def test_a_model_without_an_outdoor_temperature_is_refused_by_name() -> None:
         )
         == 1
     )
+
+
+def test_the_second_stage_gives_the_least_excursion_relative_room(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The least excursion is a sum of many slacks from an interior-point solve: the second
+    stage holds it within a relative room, not 1e-8 K absolute (9 K here: ≥ 9e-7 K)."""
+    calls: list[np.ndarray] = []
+    solve = peak_bound.solve_lp
+
+    def spy(
+        cost: np.ndarray, rows: object, lower: object, upper: np.ndarray, *a: object, **k: object
+    ) -> LPResult:
+        calls.append(np.asarray(upper))
+        return solve(cost, rows, lower, upper, *a, **k)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(peak_bound, "solve_lp", spy)
+    bound = minimum_peak(_integrator([0.0, 0.0, 12.0], u_max_kg_s=1.0))
+    room_k = calls[1][-1] - bound.excursion_k  # the second stage's last row: Σ s ≤ least + room
+    assert room_k >= 1e-7 * bound.excursion_k
+    assert room_k == pytest.approx(
+        peak_bound.excursion_room_k(bound.excursion_k) - bound.excursion_k
+    )
+    assert bound.peak_kw == pytest.approx(1.0, abs=1e-6)

@@ -47,8 +47,18 @@ LP_METHOD = "ipm"
 """HiGHS's method for the bound's LPs (interior point with crossover: about twice as fast
 as the simplex on four days of office5)."""
 
-EXCURSION_TOLERANCE_K = 1e-8
-"""Room [K, summed over zones and periods] the second stage gives the least excursion."""
+EXCURSION_REL_TOLERANCE = 1e-7
+EXCURSION_ABS_TOLERANCE_K = 1e-7
+"""Room the second stage gives the first stage's least excursion (a sum over thousands of
+slacks from an interior-point solve, accurate to its tolerances only):
+``least (1 + EXCURSION_REL_TOLERANCE) + EXCURSION_ABS_TOLERANCE_K`` [K, summed over zones
+and periods] (:func:`excursion_room_k`)."""
+
+
+def excursion_room_k(least_k: float) -> float:
+    """The most excursion [K] the second stage allows after a least excursion ``least_k``
+    [K]: relative room plus absolute room (:data:`EXCURSION_REL_TOLERANCE`)."""
+    return least_k * (1.0 + EXCURSION_REL_TOLERANCE) + EXCURSION_ABS_TOLERANCE_K
 
 
 @dataclass(frozen=True)
@@ -169,7 +179,7 @@ def minimum_peak(problem: PeakBoundProblem) -> PeakBound:
     least = float(excursion_cost @ first.x)
     rows = sp.vstack([rows, sp.csr_matrix(excursion_cost[None, :])], format="csr")
     row_lower = np.append(row_lower, -np.inf)
-    row_upper = np.append(row_upper, least + EXCURSION_TOLERANCE_K)
+    row_upper = np.append(row_upper, excursion_room_k(least))
     peak_cost = np.zeros(nu + nx + nu + 1)
     peak_cost[-1] = 1.0
     second = solve_lp(peak_cost, rows, row_lower, row_upper, col_lower, col_upper, method=LP_METHOD)
