@@ -141,9 +141,8 @@ class EnergyPlusPlant:
     InputError
         for a malformed IDF or one of another version, a zone the IDF lacks (naming it and the
         IDF's zones), flow actuation without an actuatable flow, a weather file that does not
-        cover the run, an IDF without an HVAC meter under ``peak_guard_required`` (on
-        :meth:`reset`, before the first period), or a missing ``energyplus`` extra (on
-        :meth:`reset`).
+        cover the run, or (on :meth:`reset`) a missing ``energyplus`` extra or, under
+        ``peak_guard_required``, an IDF without an HVAC meter.
     """
 
     can_snapshot = False
@@ -383,25 +382,13 @@ class EnergyPlusPlant:
         self._guard, self._shed_level, self._period_shed = None, 0.0, False
         self._sim = CoSimulation(self._spec, self.work_dir)
         reading = self._sim.start()
-        self._check_guard_meters(self._sim.missing_meters)
+        refused = guard_meter_error(self.source, self._sim.missing_meters)
+        if self.peak_guard_required and refused is not None:  # before the first period
+            self.close()
+            raise refused
         for _ in range(self._skip_periods):
             reading = self._sim.advance(np.full(len(self._spec.actuators), np.nan))
         return replace(self._observation(reading), power_kw=np.nan, facility_power_kw=np.nan)
-
-    def _check_guard_meters(self, missing: tuple[str, ...]) -> None:
-        """Refuse a required peak guard that could never act: none of the HVAC meters it
-        reads exists in this IDF (both handles −1), so the guard would never shed."""
-        if self.peak_guard_required and all(m in missing for m in HVAC_METERS):
-            self.close()
-            raise InputError(
-                "the peak guard reads the HVAC meters, and EnergyPlus has none of them for this "
-                "IDF: a guard that could never act",
-                source=self.source,
-                field="controller.peak_guard",
-                value=" + ".join(HVAC_METERS),
-                hint="use an IDF whose HVAC draws electricity (fans, pumps, chiller), or set "
-                "peak_guard = 'auto' or 'off'",
-            )
 
     def step(self, actuation: Actuation, disturbance: Disturbance, dt_s: float) -> Observation:
         began = time.perf_counter()
@@ -519,6 +506,23 @@ class EnergyPlusPlant:
             self.close()
         except Exception:  # pragma: no cover - interpreter shutdown
             pass
+
+
+def guard_meter_error(source: str, missing_meters: tuple[str, ...]) -> InputError | None:
+    """The refusal of a required peak guard that could never act, None where it can: none
+    of the :data:`HVAC_METERS` it reads exists in the IDF ``source`` (EnergyPlus's handles
+    −1: ``missing_meters``)."""
+    if all(m in missing_meters for m in HVAC_METERS):
+        return InputError(
+            "the peak guard reads the HVAC meters, and EnergyPlus has none of them for this "
+            "IDF: a guard that could never act",
+            source=source,
+            field="controller.peak_guard",
+            value=" + ".join(HVAC_METERS),
+            hint="use an IDF whose HVAC draws electricity (fans, pumps, chiller), or set "
+            "peak_guard = 'auto' or 'off'",
+        )
+    return None
 
 
 def next_shed_level(level: float, power_kw: float, cap_kw: float) -> float:
