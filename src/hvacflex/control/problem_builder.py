@@ -301,6 +301,45 @@ def _event_fields(
     }
 
 
+def lp_power_rows(
+    building: Building,
+    outdoor_degc: FloatArray,
+    humidity_kg_per_kg: FloatArray,
+    latent_gain_w: FloatArray,
+    occupied: FloatArray,
+    damper_open: FloatArray,
+    linearisation_temp_degc: float,
+    flow_min_kg_s: FloatArray,
+) -> tuple[FloatArray, FloatArray]:
+    """The LP's power rows ``P_k = p0_k + p_kᵀ u_k``: p0 (N,) [kW], p (N, m) [kW per kg/s]
+    over N periods, on arrays (the MPC's forecast, or the data of a whole period).
+
+    A building identified from data: its fitted power model at the outdoor temperature and
+    occupancy; otherwise :func:`hvacflex.building.hvac.affine_power_model` at the outdoor air
+    ``outdoor_degc`` (N,) [°C] and ``humidity_kg_per_kg`` (N,), the occupants' latent gain
+    ``latent_gain_w`` ((N,) [W], or empty: none), the damper schedule ``damper_open`` (N,)
+    over the step's flow range [``flow_min_kg_s`` (N, m), u_max] [kg/s]; both at the zone
+    temperature ``linearisation_temp_degc`` [°C]. ``occupied`` (N,) bool.
+    """
+    if building.identified is not None:
+        return identified_affine_power(
+            building.identified,
+            outdoor_degc,
+            linearisation_temp_degc,
+            np.asarray(occupied).astype(np.float64),
+        )
+    latent = np.asarray(latent_gain_w, dtype=np.float64)
+    return affine_power_model(
+        building.hvac,
+        outdoor_degc,
+        humidity_kg_per_kg,
+        linearisation_temp_degc,
+        latent_gain_w=latent if latent.size == len(outdoor_degc) else 0.0,
+        flow_min_kg_s=flow_min_kg_s,
+        damper_open=damper_open,
+    )
+
+
 def _power_coefficients(
     contract: PlanContract,
     context: PlanContext,
@@ -314,28 +353,21 @@ def _power_coefficients(
     its humidity, the occupants' latent gain) over the step's flow range [u_min, u_max]."""
     horizon = d_hat.shape[0]
     building, outdoor = contract.building, d_hat[:, contract.outdoor_index]
-    identified = building.identified
-    if identified is not None:  # the power model fitted to the building's meter
-        p0, p = identified_affine_power(
-            identified,
-            outdoor,
-            contract.linearisation_temp_degc,
-            forecast.occupied[:horizon].astype(np.float64),
-        )
-        return p0, p, p
-    latent = forecast.occupant_latent_w[:horizon]
     humidity = forecast.outdoor_humidity_ratio_kg_per_kg[:horizon]
     # the plant's damper schedule, purge included where the forecast shows the next spell
     damper = building.hvac.outdoor_air_open_at(forecast.occupied, contract.model.dt_s)[:horizon]
-    p0, p = affine_power_model(
-        building.hvac,
+    p0, p = lp_power_rows(
+        building,
         outdoor,
         humidity,
+        forecast.occupant_latent_w[:horizon],
+        forecast.occupied[:horizon],
+        damper,
         contract.linearisation_temp_degc,
-        latent_gain_w=latent if latent.size == horizon else 0.0,
-        flow_min_kg_s=u_min,
-        damper_open=damper,
+        u_min,
     )
+    if building.identified is not None:  # the power model fitted to the building's meter
+        return p0, p, p
     reserve_coeff = reserve_power_coeff(
         building.hvac,
         outdoor,

@@ -34,9 +34,9 @@ import numpy.typing as npt
 import scipy.sparse as sp
 
 from hvacflex.building.channels import DisturbanceChannel
-from hvacflex.building.hvac import affine_power_model
-from hvacflex.building.identified import identified_affine_power, initial_node_temps_degc
+from hvacflex.building.identified import initial_node_temps_degc
 from hvacflex.config import ScenarioConfig
+from hvacflex.control.problem_builder import band_at_period_ends, lp_power_rows
 from hvacflex.errors import InputError, SolverError
 from hvacflex.opt.highs_lp import solve_lp
 from hvacflex.opt.solution import SolveStatus
@@ -230,30 +230,23 @@ def bound_peak_kw(config: ScenarioConfig) -> PeakBound:
     model, exo, building = setup.model, setup.exogenous, setup.building
     steps = config.steps
     occupied = np.asarray(exo.occupied, dtype=bool)
-    lower, upper = exo.comfort_lower_degc, exo.comfort_upper_degc
-    nxt = np.minimum(np.arange(steps) + 1, len(lower) - 1)
-    y_min = np.maximum(lower[:steps], lower[nxt])
-    y_max = np.minimum(upper[:steps], upper[nxt])
+    y_min, y_max = band_at_period_ends(exo.comfort_lower_degc, exo.comfort_upper_degc, steps)
     d = np.asarray(exo.disturbances[:steps], dtype=np.float64)
     outdoor = d[:, _outdoor_index(model.channels, config)]
     u_min = building.hvac.flow_min_at(occupied[:steps])
-    t0 = setup.linearisation_temp_degc
+    p0, p = lp_power_rows(
+        building,
+        outdoor,
+        exo.outdoor_humidity_ratio_kg_per_kg[:steps],
+        np.asarray(exo.occupant_latent_w, dtype=np.float64)[:steps],
+        occupied[:steps],
+        building.hvac.outdoor_air_open_at(occupied, model.dt_s)[:steps],
+        setup.linearisation_temp_degc,
+        u_min,
+    )
     if building.identified is not None:
-        p0, p = identified_affine_power(
-            building.identified, outdoor, t0, occupied[:steps].astype(np.float64)
-        )
         x0 = initial_node_temps_degc(building.identified, config.initial_temp_degc)
     else:
-        latent = np.asarray(exo.occupant_latent_w, dtype=np.float64)
-        p0, p = affine_power_model(
-            building.hvac,
-            outdoor,
-            exo.outdoor_humidity_ratio_kg_per_kg[:steps],
-            t0,
-            latent_gain_w=latent[:steps] if latent.size >= steps else 0.0,
-            flow_min_kg_s=u_min,
-            damper_open=building.hvac.outdoor_air_open_at(occupied, model.dt_s)[:steps],
-        )
         x0 = np.full(len(model.node_names), config.initial_temp_degc)
     return minimum_peak(
         PeakBoundProblem(
