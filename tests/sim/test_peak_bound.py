@@ -130,3 +130,36 @@ def test_the_second_stage_gives_the_least_excursion_relative_room(
         peak_bound.excursion_room_k(bound.excursion_k) - bound.excursion_k
     )
     assert bound.peak_kw == pytest.approx(1.0, abs=1e-6)
+
+
+def test_the_office5_bound_is_at_most_the_peak_of_a_feasible_policy(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """On office5's model over a morning (a tiny case): the flows of the least-energy policy
+    that keeps the band (an LP on the same rows, the excursion fixed at 0) are feasible, so
+    the bound is at most their peak; and the bound's own flows, replayed through the model
+    step by step, keep the band and draw its peak."""
+    captured: list[PeakBoundProblem] = []
+    monkeypatch.setattr(peak_bound, "minimum_peak", captured.append)
+    bound_peak_kw(preset("rmpc-ppp", start="2014-03-04", days=0.25))
+    problem = captured[0]
+    monkeypatch.undo()
+    bound = minimum_peak(problem)
+    assert bound.excursion_k == pytest.approx(0.0, abs=1e-6)
+    t_steps, m = problem.u_min_kg_s.shape
+    nu, nx = t_steps * m, t_steps * problem.a.shape[0]
+    rows, row_lower, row_upper, col_lower, col_upper = peak_bound._constraints(problem)
+    col_upper[nu + nx : nu + nx + nu] = 0.0  # no excursion: the band kept throughout
+    energy = np.concatenate([problem.p_kw_per_kg_s.ravel(), np.zeros(nx + nu + 1)])
+    policy = peak_bound.solve_lp(energy, rows, row_lower, row_upper, col_lower, col_upper)
+    assert policy.status is SolveStatus.OPTIMAL
+    flows = policy.x[:nu].reshape(t_steps, m)
+    policy_peak_kw = float((problem.p0_kw + (problem.p_kw_per_kg_s * flows).sum(axis=1)).max())
+    assert bound.peak_kw <= policy_peak_kw + 1e-6
+    x = problem.x0_degc
+    for k in range(t_steps):  # replay the bound's flows
+        x = problem.a @ x + problem.b @ bound.flow_kg_s[k] + problem.e @ problem.d[k] + problem.g
+        zone = problem.c @ x
+        assert (zone >= problem.y_min_degc[k] - 1e-5).all()
+        assert (zone <= problem.y_max_degc[k] + 1e-5).all()
+    assert bound.power_kw.max() == pytest.approx(bound.peak_kw, rel=1e-6)
