@@ -30,6 +30,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
 from hvacflex.building.discretize import LinearModel
 from hvacflex.building.hvac import affine_power_model, reserve_power_coeff
@@ -306,8 +307,8 @@ def lp_power_rows(
     outdoor_degc: FloatArray,
     humidity_kg_per_kg: FloatArray,
     latent_gain_w: FloatArray,
-    occupied: FloatArray,
-    damper_open: FloatArray,
+    occupied: npt.ArrayLike,
+    damper_open: npt.ArrayLike,
     linearisation_temp_degc: float,
     flow_min_kg_s: FloatArray,
 ) -> tuple[FloatArray, FloatArray]:

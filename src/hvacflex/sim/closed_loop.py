@@ -225,7 +225,8 @@ def guard_upper_degc(exo: Exogenous, k: int) -> FloatArray:
     :func:`~hvacflex.control.problem_builder.band_at_period_ends`): no shedding toward the
     night bound in the period before occupancy starts."""
     lower, upper = exo.comfort_lower_degc[k : k + 2], exo.comfort_upper_degc[k : k + 2]
-    return band_at_period_ends(lower, upper, 1)[1][0]
+    _, upper_end = band_at_period_ends(lower, upper, 1)
+    return np.asarray(upper_end[0], dtype=np.float64)
 
 
 class ClosedLoop:
