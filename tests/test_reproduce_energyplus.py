@@ -144,6 +144,39 @@ def test_fig7_verdict_grades_the_plan_and_the_way_to_the_bound() -> None:
     assert "already within 5 % of the bound" in " ".join(fig7_energyplus_verdict(near, {}))
 
 
+def test_fig7_verdict_past_the_bound_and_below_it_says_so() -> None:
+    """The bound is the LP model's optimum, not a plant's lower bound: a share above 100 %
+    and a realised peak below the bound are named, not graded as a plain distance."""
+    table = fig7_energyplus_table(_sweep(), {"perfect": 47.0, "realistic": 55.0})
+    text = " ".join(fig7_energyplus_verdict(table, {}))
+    # perfect: (50 − 44) / (50 − 47) = 200 %
+    assert "200 % of the way to the bound 47.0 kW (target ≥ 80 %: holds; φ = 5's peak is " in text
+    assert "no lower bound on EnergyPlus" in text
+    # realistic: 50 kW is 9 % below 55 kW, not "−9 % above"
+    assert "lowest realised peak 50.0 kW is 9 % below" in text
+    assert "-9 %" not in text and "−9 %" not in text
+
+
+def test_fig7_verdict_matches_phi_with_a_tolerance_and_names_a_missing_one() -> None:
+    sweep = _sweep()
+    sweep["peak_price_sgd_per_kw"] = sweep["peak_price_sgd_per_kw"] * (1 + 1e-12)
+    table = fig7_energyplus_table(sweep, {"perfect": 42.0, "realistic": 45.0})
+    assert "75 % of the way to the bound" in " ".join(fig7_energyplus_verdict(table, {}))
+    no_five = _sweep()[lambda f: f["peak_price_sgd_per_kw"] != 5.0]
+    table = fig7_energyplus_table(no_five, {"perfect": 42.0, "realistic": 45.0})
+    text = " ".join(fig7_energyplus_verdict(table, {}))
+    assert "Perfect forecast: the sweep has no φ = 5 run: no share of the way" in text
+    no_low = _sweep()[lambda f: f["peak_price_sgd_per_kw"] != 0.5]
+    table = fig7_energyplus_table(no_low, {"perfect": 42.0, "realistic": 45.0})
+    sentences = fig7_energyplus_verdict(table, {})
+    assert "Perfect forecast: the sweep has no φ = 0.5 run: no verdict against the bound." in (
+        sentences
+    )
+    assert "Realistic forecast: the sweep has no φ = 0.5 run: no verdict against the bound." in (
+        sentences
+    )
+
+
 def test_fig7_section_writes_the_figure_and_its_csv(tmp_path: Path) -> None:
     table = fig7_energyplus_table(_sweep(), {"perfect": 42.0, "realistic": 45.0})
     section = fig7_energyplus_section(table, {}, period="28 days", figures=tmp_path)
@@ -192,3 +225,40 @@ def test_fig7_part_reads_the_runs_and_bounds_each_forecast_once(
     assert "≤ 1.05 × planned in 2 of 2 runs (holds" in text  # 50/48 and 46/44 < 1.05
     assert "50 % of the way to the bound 42.0 kW" in text  # (50 − 46) / (50 − 42)
     assert fig7_energyplus_part(configs, outcomes[2:], figures, period="", bound=bound) is None
+
+
+def test_fig7_part_writes_nan_for_a_failing_bound_and_says_why(
+    make_results: Factory, tmp_path: Path
+) -> None:
+    """A bound whose LP fails does not abort the report: NaN in bound_peak_kw, the reason in
+    the section, no verdict against it (issue 61 review)."""
+    from hvacflex.config import preset
+    from hvacflex.errors import SolverError
+    from hvacflex.reproduce_energyplus import fig7_energyplus_part
+    from hvacflex.results import write_results
+    from hvacflex.sim.sweep import JobOutcome
+
+    outcomes = []
+    for phi in (0.5, 5.0):
+        folder = tmp_path / f"ppp-{phi:g}"
+        folder.mkdir()
+        frame = make_results(days=1.0)
+        frame["planned_power_kw"] = 48.0
+        write_results(frame, folder / "results.parquet", {})
+        summary = {"net_cost_sgd": 100.0, "peak_power_kw": 50.0 - phi, "net_cost_with_ppp_sgd": 1.0}
+        params = {"peak_price_sgd_per_kw": phi, "forecast": "perfect"}
+        outcomes.append(JobOutcome(f"ppp-{phi:g}", "h", params, str(folder), summary, None))
+
+    def bound(cfg: object) -> float:
+        raise SolverError("the peak bound's LP (the least peak) found no optimum: TIME_LIMIT")
+
+    figures = tmp_path / "figures"
+    section = fig7_energyplus_part(
+        {"perfect": preset("rmpc-ppp")}, outcomes, figures, period="2 days", bound=bound
+    )
+    written = pd.read_csv(figures / "fig7_ppp_sweep_energyplus.csv")
+    assert written["bound_peak_kw"].isna().all()
+    text = " ".join(section.paragraphs)
+    assert "No bound_peak_kw for the perfect forecast (NaN): " in text
+    assert "TIME_LIMIT" in text
+    assert "Perfect forecast: no bound_peak_kw (its LP failed, see above)" in text

@@ -81,6 +81,12 @@ class StoredStateError(InputError):
     from other code and cannot be re-used."""
 
 
+class SolverError(HvacflexError, RuntimeError):
+    """An optimisation solver found no optimum for a reason that is not the user's input
+    (a time limit, numerical trouble): the message names the solve and the solver's
+    status."""
+
+
 SUGGESTION_CUTOFF = 0.6
 """How alike (difflib's ratio, 0…1) a valid name must be to a mistyped one to be suggested."""
 

@@ -27,6 +27,7 @@ from hvacflex import kpi
 from hvacflex import results as schema
 from hvacflex.config import PAPER_SCENARIOS, ScenarioConfig, preset
 from hvacflex.config.model import PlantConfig
+from hvacflex.errors import HvacflexError
 
 if TYPE_CHECKING:
     from hvacflex.sim.sweep import JobOutcome
@@ -389,6 +390,12 @@ peak down to ``bound_peak_kw``."""
 NEAR_BOUND = 1.05
 """φ = 0.5's peak within this factor of the bound: nothing left to shave."""
 
+LOW_PHI, HIGH_PHI = 0.5, 5.0
+"""The φ [SGD/kW] of Fig. 7's verdict: φ = 5's way from φ = 0.5's peak to the bound."""
+
+PHI_REL_TOLERANCE = 1e-6
+"""Relative tolerance a sweep's φ matches :data:`LOW_PHI` / :data:`HIGH_PHI` with."""
+
 
 def fig7_energyplus_table(sweep: pd.DataFrame, bound_peak_kw: Mapping[str, float]) -> pd.DataFrame:
     """Fig. 7 on EnergyPlus, columns :data:`FIG7_COLUMNS`, sorted by forecast then φ.
@@ -435,12 +442,11 @@ def plot_fig7_energyplus(table: pd.DataFrame, path: Path) -> Path:
             color=colour,
             label=f"realised peak, {forecast} forecast",
         )
-        ax.axhline(
-            float(rows["bound_peak_kw"].iloc[0]),
-            color=colour,
-            linestyle="--",
-            label=f"bound, {forecast} forecast's days",
-        )
+        bound = float(rows["bound_peak_kw"].iloc[0])
+        if np.isfinite(bound):  # NaN where the bound's LP failed (the section says why)
+            ax.axhline(
+                bound, color=colour, linestyle="--", label=f"bound, {forecast} forecast's days"
+            )
     if len(table) and table["peak_price_sgd_per_kw"].min() > 0:
         ax.set_xscale("log")
     ax.set_xlabel("peak-power price φ [SGD/kW]")
@@ -477,39 +483,57 @@ def fig7_energyplus_verdict(
         )
     for forecast in FORECASTS:
         rows = table[table["forecast"] == forecast]
-        peak = dict(
-            zip(
-                rows["peak_price_sgd_per_kw"].astype(float),
-                rows["peak_power_kw"].astype(float),
-                strict=True,
-            )
-        )
-        if 0.5 not in peak:
-            continue
-        low, bound = peak[0.5], float(rows["bound_peak_kw"].iloc[0])
-        if forecast == "perfect" and low <= NEAR_BOUND * bound:
-            sentences.append(
-                f"Perfect forecast: φ = 0.5's peak {low:.1f} kW is already within "
-                f"{100 * (NEAR_BOUND - 1):.0f} % of the bound {bound:.1f} kW: nothing left to "
-                "shave."
-            )
-        elif forecast == "perfect" and 5.0 in peak:
-            high = peak[5.0]
-            share = (low - high) / (low - bound)
-            verdict = "holds" if share >= BOUND_SHARE_TARGET else "does not hold"
-            sentences.append(
-                f"Perfect forecast: φ = 5 brings the peak from {low:.1f} kW (φ = 0.5) to "
-                f"{high:.1f} kW, {100 * share:.0f} % of the way to the bound {bound:.1f} kW "
-                f"(target ≥ {100 * BOUND_SHARE_TARGET:.0f} %: {verdict})."
-            )
-        elif forecast == "realistic":
-            best = min(peak.values())
-            sentences.append(
-                f"Realistic forecast: the lowest realised peak {best:.1f} kW is "
-                f"{100 * (best / bound - 1):.0f} % above the bound {bound:.1f} kW of its days "
-                f"(φ = 0.5: {low:.1f} kW)."
-            )
+        if not rows.empty:
+            sentences.append(_bound_verdict(forecast, rows))
     return sentences
+
+
+def _peak_at(rows: pd.DataFrame, phi: float) -> float | None:
+    """The realised peak [kW] of the run at φ = ``phi`` (matched within
+    :data:`PHI_REL_TOLERANCE`), None without one."""
+    prices = rows["peak_price_sgd_per_kw"].astype(float).to_numpy()
+    match = np.isclose(prices, phi, rtol=PHI_REL_TOLERANCE, atol=0.0)
+    return float(rows["peak_power_kw"].to_numpy()[match][0]) if match.any() else None
+
+
+def _bound_verdict(forecast: str, rows: pd.DataFrame) -> str:
+    """One forecast's sentence against ``bound_peak_kw`` (:func:`fig7_energyplus_verdict`),
+    or why there is none: no bound, no φ = 0.5 (or, perfect, φ = 5) run in the sweep."""
+    name = f"{forecast.capitalize()} forecast"
+    bound = float(rows["bound_peak_kw"].iloc[0])
+    low, high = _peak_at(rows, LOW_PHI), _peak_at(rows, HIGH_PHI)
+    if not np.isfinite(bound):
+        return f"{name}: no bound_peak_kw (its LP failed, see above): no verdict against it."
+    if low is None:
+        return f"{name}: the sweep has no φ = {LOW_PHI:g} run: no verdict against the bound."
+    if forecast == "realistic":
+        best = float(rows["peak_power_kw"].min())
+        gap = 100 * (best / bound - 1)
+        side = "above" if gap >= 0 else "below (the bound is the LP model's optimum, not a plant's)"
+        return (
+            f"{name}: the lowest realised peak {best:.1f} kW is {abs(gap):.0f} % {side} the "
+            f"bound {bound:.1f} kW of its days (φ = {LOW_PHI:g}: {low:.1f} kW)."
+        )
+    if low <= NEAR_BOUND * bound:
+        return (
+            f"{name}: φ = {LOW_PHI:g}'s peak {low:.1f} kW is already within "
+            f"{100 * (NEAR_BOUND - 1):.0f} % of the bound {bound:.1f} kW: nothing left to shave."
+        )
+    if high is None:
+        return f"{name}: the sweep has no φ = {HIGH_PHI:g} run: no share of the way to the bound."
+    share = (low - high) / (low - bound)
+    verdict = "holds" if share >= BOUND_SHARE_TARGET else "does not hold"
+    beyond = (
+        f"; φ = {HIGH_PHI:g}'s peak is below the bound, the LP model's perfect-foresight "
+        "optimum, which is no lower bound on EnergyPlus"
+        if share > 1
+        else ""
+    )
+    return (
+        f"{name}: φ = {HIGH_PHI:g} brings the peak from {low:.1f} kW (φ = {LOW_PHI:g}) to "
+        f"{high:.1f} kW, {100 * share:.0f} % of the way to the bound {bound:.1f} kW "
+        f"(target ≥ {100 * BOUND_SHARE_TARGET:.0f} %: {verdict}{beyond})."
+    )
 
 
 def fig7_energyplus_section(
@@ -518,9 +542,11 @@ def fig7_energyplus_section(
     *,
     period: str,
     figures: Path,
+    bound_failures: Mapping[str, str] | None = None,
 ) -> Any:
     """The report's section on Fig. 7 on EnergyPlus: writes ``figures/``
-    :data:`FIG7_ENERGYPLUS` and its CSV (``table``, :func:`fig7_energyplus_table`)."""
+    :data:`FIG7_ENERGYPLUS` and its CSV (``table``, :func:`fig7_energyplus_table`);
+    ``bound_failures``: forecast → why its bound could not be computed (NaN in the table)."""
     from hvacflex.report.html import Section
 
     figure = plot_fig7_energyplus(table, figures / FIG7_ENERGYPLUS)
@@ -531,10 +557,16 @@ def fig7_energyplus_section(
             f"setpoint actuation) over {period} at each φ, with the presets' perfect "
             "forecast and with the realistic one (statistical weather forecast, stochastic "
             "occupancy). peak_power_kw is the largest 30-min mean of EnergyPlus's HVAC meters "
-            "(Electricity:HVAC + Electricity:Plant). bound_peak_kw is the smallest peak "
-            "reachable on the same days and comfort band with perfect foresight: one LP over "
+            "(Electricity:HVAC + Electricity:Plant). bound_peak_kw is the perfect-foresight "
+            "optimum of the controller's LP model (same comfort band, same days): one LP over "
             "the whole period on the controller's model and power rows "
-            "(hvacflex.sim.peak_bound), graded by that model, not by EnergyPlus.",
+            "(hvacflex.sim.peak_bound), graded by that model, not by EnergyPlus; a reference, "
+            "not a proven lower bound on any plant (its power rows are secants, its start the "
+            "configuration's initial state).",
+            *(
+                f"No bound_peak_kw for the {forecast} forecast (NaN): {why}"
+                for forecast, why in sorted((bound_failures or {}).items())
+            ),
             *fig7_energyplus_verdict(table, planned_peak_kw),
         ],
         figures=[figure],
@@ -559,7 +591,9 @@ def fig7_energyplus_part(
     None without them. ``configs``: forecast → a run's configuration of that forecast (the
     bound does not depend on φ); ``bound``: a configuration → its ``bound_peak_kw`` [kW]
     (default :func:`hvacflex.sim.peak_bound.bound_peak_kw` on it: the same days, band and
-    realised disturbances as the runs of that forecast)."""
+    realised disturbances as the runs of that forecast). A bound that fails (a
+    :class:`~hvacflex.errors.HvacflexError`) is NaN in the table and the section says why;
+    the report goes on."""
     from hvacflex.results import load_results
     from hvacflex.sim.sweep import outcomes_table
 
@@ -572,8 +606,14 @@ def fig7_energyplus_part(
         def bound(cfg: ScenarioConfig) -> float:
             return bound_peak_kw(cfg).peak_kw
 
-    forecasts = {str(o.params["forecast"]) for o in done}
-    bounds = {f: bound(configs[f]) for f in forecasts if f in configs}
+    forecasts = sorted({str(o.params["forecast"]) for o in done})
+    bounds: dict[str, float] = {}
+    failures: dict[str, str] = {}
+    for forecast in (f for f in forecasts if f in configs):
+        try:
+            bounds[forecast] = bound(configs[forecast])
+        except HvacflexError as exc:  # the report goes on without this bound
+            bounds[forecast], failures[forecast] = float("nan"), str(exc)
     planned = {
         (str(o.params["forecast"]), float(o.params["peak_price_sgd_per_kw"])): float(
             load_results(o.out_dir)["planned_power_kw"].max()
@@ -586,4 +626,5 @@ def fig7_energyplus_part(
         planned,
         period=period,
         figures=figures,
+        bound_failures=failures,
     )

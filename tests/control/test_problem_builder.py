@@ -12,6 +12,7 @@ from hvacflex.control.base import PeriodInputs
 from hvacflex.control.mpc import MPCController
 from hvacflex.control.problem_builder import (
     PlanContext,
+    band_at_period_ends,
     below_unoccupied_bound,
     build_problem,
     comfort_bounds_at_period_ends,
@@ -162,3 +163,38 @@ def test_a_designed_building_with_a_metered_power_model_plans_with_it(setup: Set
         assert row == pytest.approx(float(exact), rel=1e-9)
     design = build_problem(setup.model, inputs, controller.contract, PlanContext(inputs.x_degc))
     assert not np.allclose(design.power_offset_kw, problem.power_offset_kw)
+
+
+def test_band_at_period_ends_on_arrays_uses_the_last_band_alone_at_the_end() -> None:
+    lower = np.array([[20.0], [22.0], [21.0]])
+    upper = np.array([[30.0], [25.0], [26.0]])
+    y_min, y_max = band_at_period_ends(lower, upper, 3)
+    np.testing.assert_array_equal(y_min[:, 0], [22.0, 22.0, 21.0])
+    np.testing.assert_array_equal(y_max[:, 0], [25.0, 25.0, 26.0])
+    _, first = band_at_period_ends(lower[:2], upper[:2], 1)  # one period and the next
+    np.testing.assert_array_equal(first, [[25.0]])
+
+
+def test_the_peak_bound_prices_power_with_the_plans_rows(
+    setup: Setup, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """One power-row function (lp_power_rows) for the MPC and the peak bound: with the
+    perfect forecast the bound's rows over the first horizon are the first plan's, and so is
+    its band at the period ends."""
+    from hvacflex.sim import peak_bound
+
+    captured: list[peak_bound.PeakBoundProblem] = []
+    monkeypatch.setattr(peak_bound, "minimum_peak", captured.append)
+    peak_bound.bound_peak_kw(setup.config)
+    bound = captured[0]
+    controller = make_controller(setup)
+    assert isinstance(controller, MPCController)
+    inputs = _inputs(setup, 0)
+    problem = build_problem(setup.model, inputs, controller.contract, PlanContext(inputs.x_degc))
+    horizon = problem.power_offset_kw.shape[0]
+    np.testing.assert_allclose(bound.p0_kw[:horizon], problem.power_offset_kw)
+    np.testing.assert_allclose(bound.p_kw_per_kg_s[:horizon], problem.power_coeff_kw_per_kg_s)
+    np.testing.assert_allclose(bound.u_min_kg_s[:horizon], problem.u_min)
+    y_min, y_max = comfort_bounds_at_period_ends(inputs.forecast, horizon)
+    np.testing.assert_array_equal(bound.y_min_degc[:horizon], y_min)
+    np.testing.assert_array_equal(bound.y_max_degc[:horizon], y_max)

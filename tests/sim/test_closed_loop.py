@@ -505,3 +505,34 @@ def test_results_record_the_controllers_forecast_and_its_realised_error() -> Non
     # the plant saw the data: forecast + error = the data (no extra draw with mode "zero")
     np.testing.assert_allclose(d_hat + w, loop.setup.exogenous.disturbances[:3], rtol=1e-12)
     assert np.abs(w).max() > 0.0
+
+
+def test_the_peak_guard_sheds_toward_the_band_at_the_periods_end(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The guard's upper bound is the plan's: the tighter of the bands of periods k and
+    k + 1 (control/problem_builder.band_at_period_ends), so the period before occupancy
+    does not shed toward the 30 °C night bound (issue 55 review). With period k's band
+    alone the guards of the pre-occupancy periods would carry the night bound."""
+    cfg = with_overrides(
+        preset("rmpc-ppp", start=START, days=0.5),  # to noon: occupancy starts at 08:00
+        {"activation.mode": "never", "controller.peak_guard": "on"},
+    )
+    seen: list[tuple[int, np.ndarray]] = []
+    actuation = ClosedLoop._actuation
+
+    def spy(self: ClosedLoop, decision: Any, *, curtailed: bool) -> Actuation:
+        if self._period_guard is not None:
+            seen.append((self.k, np.array(self._period_guard.comfort_upper_degc)))
+        return actuation(self, decision, curtailed=curtailed)
+
+    monkeypatch.setattr(ClosedLoop, "_actuation", spy)
+    loop = ClosedLoop(prepare(cfg))
+    upper = loop.setup.exogenous.comfort_upper_degc
+    while loop.k < loop.steps:
+        loop.step()
+    assert seen
+    for k, guard_upper in seen:
+        np.testing.assert_allclose(guard_upper, np.minimum(upper[k], upper[k + 1]))
+    # the check discriminates: some guarded period's own band is wider than its end's
+    assert any((upper[k] > upper[k + 1]).any() for k, _ in seen)

@@ -139,17 +139,35 @@ def test_gta_dr_runs_on_energyplus_settled_against_the_meter(tmp_path: Path) -> 
     activated = frame["il_activated"].to_numpy(dtype=bool)
     power = frame["power_kw"].to_numpy()
     first = int(np.argmax(activated))
-    block = np.arange(first, first + int(np.argmin(activated[first:])))
+    rest = activated[first:]
+    # the first activation's periods (to the run's end where it lasts that long: argmin 0)
+    block = np.arange(first, first + (rest.size if rest.all() else int(np.argmin(rest))))
+    assert block.size > 0 and first > 0
     expected_kw = np.maximum(0.0, power[first - 1] - power[block])  # the pre-event baseline
     np.testing.assert_allclose(frame["il_delivered_kw"].to_numpy()[block], expected_kw)
     delivered_kwh = float(frame["il_delivered_kw"].to_numpy()[activated].sum()) * 0.5
     assert summary["il_delivered_metered_kwh"] == pytest.approx(delivered_kwh)
 
 
-def test_rmpc_ppp_on_energyplus_runs_the_peak_guard(tmp_path: Path) -> None:
+def test_rmpc_ppp_on_energyplus_runs_the_peak_guard(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     """Issue 55 item 3 (b): ``peak_guard = "on"`` is accepted on EnergyPlus (it reads its
-    meter at the zone time step); every priced period has its cap, and the guard's periods
-    are counted in the summary."""
+    meter at the zone time step); every priced period has its cap, the guard reaches the
+    plant with that cap (a spy on the plant's step), and the guard's periods are counted in
+    the summary."""
+    caps: list[float] = []
+    step = EnergyPlusPlant.step
+
+    def spy(self: EnergyPlusPlant, actuation: Actuation, *args: object) -> object:
+        caps.append(np.nan if actuation.peak_guard is None else actuation.peak_guard.cap_kw)
+        return step(self, actuation, *args)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(EnergyPlusPlant, "step", spy)
     frame, summary = _office5_run(tmp_path, "rmpc-ppp", '\n[controller]\npeak_guard = "on"\n')
     assert np.isfinite(frame["committed_peak_kw"]).all()
+    assert len(caps) == len(frame)
+    guarded = np.isfinite(caps)
+    assert guarded.any()  # the guard reached the plant, with the recorded cap
+    np.testing.assert_allclose(np.array(caps)[guarded], frame["committed_peak_kw"][guarded])
     assert summary["peak_guard_steps"] == int(frame["peak_guard_active"].sum())

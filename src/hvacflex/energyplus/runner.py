@@ -189,6 +189,16 @@ class CoSimulation:
 
     # ---- caller side -------------------------------------------------------------------
 
+    @property
+    def missing_meters(self) -> tuple[str, ...]:
+        """The meters of the spec EnergyPlus has no handle for in this IDF (read as NaN);
+        known once :meth:`start` has returned, empty before."""
+        return tuple(
+            meter
+            for meter, handle in zip(self.spec.meters, self._handles.meters, strict=False)
+            if handle < 0
+        )
+
     def start(self) -> PeriodReading:
         """Launch EnergyPlus (sizing, warm-up) and return the readings just before the first
         period (``variables_end`` = ``variables_mean`` = the current values, meters 0)."""

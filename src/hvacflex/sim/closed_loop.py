@@ -47,7 +47,8 @@ from hvacflex.building.discretize import delivered_flow_kg_s
 from hvacflex.building.identified import initial_node_temps_degc
 from hvacflex.config import ScenarioConfig
 from hvacflex.control.base import Action, Controller, FloatArray, PeriodInputs, WarmRestart
-from hvacflex.data.forecast import Forecast
+from hvacflex.control.problem_builder import band_at_period_ends
+from hvacflex.data.forecast import Exogenous, Forecast
 from hvacflex.data.signals import OperatorSignals, effective_peak_price
 from hvacflex.data.uncertainty import DisturbanceSampler
 from hvacflex.errors import ConfigError, HvacflexError
@@ -218,6 +219,16 @@ def peak_guard_enabled(config: ScenarioConfig, plant: Plant) -> bool:
     return mode != "off" and reads
 
 
+def guard_upper_degc(exo: Exogenous, k: int) -> FloatArray:
+    """(m,) the peak guard's upper bound in period ``k`` [°C]: the band at the period's end,
+    the tighter of periods k and k + 1 (as the plan's,
+    :func:`~hvacflex.control.problem_builder.band_at_period_ends`): no shedding toward the
+    night bound in the period before occupancy starts."""
+    lower, upper = exo.comfort_lower_degc[k : k + 2], exo.comfort_upper_degc[k : k + 2]
+    _, upper_end = band_at_period_ends(lower, upper, 1)
+    return np.asarray(upper_end[0], dtype=np.float64)
+
+
 class ClosedLoop:
     """A closed-loop run that can be advanced, checkpointed and resumed.
 
@@ -353,7 +364,7 @@ class ClosedLoop:
         if self._guard_on and np.isfinite(cap_kw) and not decision.action.released:
             self._period_guard = PeakGuard(
                 cap_kw,
-                exo.comfort_upper_degc[k] + decision.allowance_k,
+                guard_upper_degc(exo, k) + decision.allowance_k,
                 self._flow_min_kg_s[int(exo.occupied[k])],
                 setup.config.controller.peak_guard_substeps,
             )

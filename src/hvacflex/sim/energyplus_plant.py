@@ -40,7 +40,8 @@ on the meter: s ← clip(s + g (P − cap) / cap, 0, 1) with g = :data:`GUARD_GA
 while the meter exceeds the cap, released step by step as it falls below; a release all at
 once would rebound above the cap, the zones having drifted up meanwhile); s carries over to
 the next period while a guard is in force and is 0 without one. It sheds, within the comfort
-band, the zones whose air is below their upper bound: under setpoint actuation the cooling
+band, the zones whose air is below their upper bound (the band at the period's end, the
+tighter of this period's and the next's, as the plan's): under setpoint actuation the cooling
 setpoint moves the share s of the way from the actuated one up to that bound,
 T' = T_sp + s (T_upper − T_sp) (the air loop then cools less); under flow actuation the flow
 moves towards its floor, u' = u_floor + (1 − s)(u − u_floor), as on the RC plant. A period
@@ -132,13 +133,16 @@ class EnergyPlusPlant:
     extra_variables : (ne,) further output variables read every period; their period means
         are :attr:`extra_mean` after each :meth:`reset` / :meth:`step` (the trend collection
         of ``hvacflex identify collect`` reads supply temperatures, solar and occupancy so).
+    peak_guard_required : the run needs the peak guard (``[controller] peak_guard = "on"``):
+        :meth:`reset` refuses an IDF without any of the :data:`HVAC_METERS` the guard reads.
 
     Raises
     ------
     InputError
         for a malformed IDF or one of another version, a zone the IDF lacks (naming it and the
         IDF's zones), flow actuation without an actuatable flow, a weather file that does not
-        cover the run, or a missing ``energyplus`` extra (on :meth:`reset`).
+        cover the run, or (on :meth:`reset`) a missing ``energyplus`` extra or, under
+        ``peak_guard_required``, an IDF without an HVAC meter.
     """
 
     can_snapshot = False
@@ -162,6 +166,7 @@ class EnergyPlusPlant:
         work_dir: Path | None = None,
         boundary_zone_names: tuple[str, ...] = (),
         extra_variables: tuple[Variable, ...] = (),
+        peak_guard_required: bool = False,
     ) -> None:
         if actuation not in ("setpoint", "flow"):
             raise InputError(
@@ -177,6 +182,7 @@ class EnergyPlusPlant:
                 hint="give the building's design supply temperature (hvac.supply_temp_degc)",
             )
         self.supply_temp_degc = supply_temp_degc
+        self.peak_guard_required = peak_guard_required
         self.zone_names = tuple(zone_names)
         self.actuations: tuple[str, ...] = (actuation,)
         self.actuation = actuation
@@ -376,6 +382,10 @@ class EnergyPlusPlant:
         self._guard, self._shed_level, self._period_shed = None, 0.0, False
         self._sim = CoSimulation(self._spec, self.work_dir)
         reading = self._sim.start()
+        refused = guard_meter_error(self.source, self._sim.missing_meters)
+        if self.peak_guard_required and refused is not None:  # before the first period
+            self.close()
+            raise refused
         for _ in range(self._skip_periods):
             reading = self._sim.advance(np.full(len(self._spec.actuators), np.nan))
         return replace(self._observation(reading), power_kw=np.nan, facility_power_kw=np.nan)
@@ -496,6 +506,23 @@ class EnergyPlusPlant:
             self.close()
         except Exception:  # pragma: no cover - interpreter shutdown
             pass
+
+
+def guard_meter_error(source: str, missing_meters: tuple[str, ...]) -> InputError | None:
+    """The refusal of a required peak guard that could never act, None where it can: none
+    of the :data:`HVAC_METERS` it reads exists in the IDF ``source`` (EnergyPlus's handles
+    −1: ``missing_meters``)."""
+    if all(m in missing_meters for m in HVAC_METERS):
+        return InputError(
+            "the peak guard reads the HVAC meters, and EnergyPlus has none of them for this "
+            "IDF: a guard that could never act",
+            source=source,
+            field="controller.peak_guard",
+            value=" + ".join(HVAC_METERS),
+            hint="use an IDF whose HVAC draws electricity (fans, pumps, chiller), or set "
+            "peak_guard = 'auto' or 'off'",
+        )
+    return None
 
 
 def next_shed_level(level: float, power_kw: float, cap_kw: float) -> float:

@@ -1,5 +1,8 @@
-"""The smallest peak reachable with perfect foresight: the bound Fig. 7's peaks are graded
-against (``bound_peak_kw`` of ``fig7_ppp_sweep_energyplus.csv``, issue 61).
+"""The perfect-foresight optimum of the controller's LP model (same comfort band, same
+days): the reference Fig. 7's peaks are graded against (``bound_peak_kw`` of
+``fig7_ppp_sweep_energyplus.csv``, issue 61). Not a proven lower bound on any plant: the
+power rows are secants of the plant's power and the start is the configuration's initial
+state, so a plant may meter a lower peak.
 
 One LP over the whole period on the controller's model (docs/model.md): the affine RC
 model x_{k+1} = A x_k + B u_k + E d_k + g with the data's disturbances d_k (perfect
@@ -23,16 +26,18 @@ in one calendar month (Fig. 7's 28 days from 2014-03-03 do).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
 import scipy.sparse as sp
 
-from hvacflex.building.hvac import affine_power_model
-from hvacflex.building.identified import identified_affine_power, initial_node_temps_degc
+from hvacflex.building.channels import DisturbanceChannel
+from hvacflex.building.identified import initial_node_temps_degc
 from hvacflex.config import ScenarioConfig
-from hvacflex.errors import InputError
+from hvacflex.control.problem_builder import band_at_period_ends, lp_power_rows
+from hvacflex.errors import InputError, SolverError
 from hvacflex.opt.highs_lp import solve_lp
 from hvacflex.opt.solution import SolveStatus
 
@@ -42,8 +47,18 @@ LP_METHOD = "ipm"
 """HiGHS's method for the bound's LPs (interior point with crossover: about twice as fast
 as the simplex on four days of office5)."""
 
-EXCURSION_TOLERANCE_K = 1e-8
-"""Room [K, summed over zones and periods] the second stage gives the least excursion."""
+EXCURSION_REL_TOLERANCE = 1e-7
+EXCURSION_ABS_TOLERANCE_K = 1e-7
+"""Room the second stage gives the first stage's least excursion (a sum over thousands of
+slacks from an interior-point solve, accurate to its tolerances only):
+``least (1 + EXCURSION_REL_TOLERANCE) + EXCURSION_ABS_TOLERANCE_K`` [K, summed over zones
+and periods] (:func:`excursion_room_k`)."""
+
+
+def excursion_room_k(least_k: float) -> float:
+    """The most excursion [K] the second stage allows after a least excursion ``least_k``
+    [K]: relative room plus absolute room (:data:`EXCURSION_REL_TOLERANCE`)."""
+    return least_k * (1.0 + EXCURSION_REL_TOLERANCE) + EXCURSION_ABS_TOLERANCE_K
 
 
 @dataclass(frozen=True)
@@ -149,7 +164,9 @@ def minimum_peak(problem: PeakBoundProblem) -> PeakBound:
     Raises
     ------
     InputError
-        When HiGHS finds no optimum (flow bounds that cross, data with NaN).
+        When the LP is infeasible or unbounded (flow bounds that cross, data with NaN).
+    SolverError
+        When HiGHS finds no optimum for another reason (its status named).
     """
     t_steps, m = problem.u_min_kg_s.shape
     nu, nx = t_steps * m, t_steps * problem.a.shape[0]
@@ -162,7 +179,7 @@ def minimum_peak(problem: PeakBoundProblem) -> PeakBound:
     least = float(excursion_cost @ first.x)
     rows = sp.vstack([rows, sp.csr_matrix(excursion_cost[None, :])], format="csr")
     row_lower = np.append(row_lower, -np.inf)
-    row_upper = np.append(row_upper, least + EXCURSION_TOLERANCE_K)
+    row_upper = np.append(row_upper, excursion_room_k(least))
     peak_cost = np.zeros(nu + nx + nu + 1)
     peak_cost[-1] = 1.0
     second = solve_lp(peak_cost, rows, row_lower, row_upper, col_lower, col_upper, method=LP_METHOD)
@@ -173,12 +190,34 @@ def minimum_peak(problem: PeakBoundProblem) -> PeakBound:
 
 
 def _check(status: SolveStatus, stage: str) -> None:
-    if status is not SolveStatus.OPTIMAL:
+    """Refuse a solve without an optimum: the input's fault where the LP is infeasible or
+    unbounded (the excursion slacks keep it feasible for any band: flow bounds that cross,
+    data with NaN), the solver's otherwise (a time limit, numerical trouble)."""
+    if status is SolveStatus.OPTIMAL:
+        return
+    message = f"the peak bound's LP ({stage}) has no optimum: {status.name}"
+    if status in (SolveStatus.INFEASIBLE, SolveStatus.UNBOUNDED):
         raise InputError(
-            f"the peak bound's LP ({stage}) has no optimum: {status.name}",
+            message,
             field="bound_peak_kw",
             hint="check the scenario's flow limits and data (no NaN) over the period",
         )
+    raise SolverError(f"{message} (HiGHS {LP_METHOD}; a solver failure, not the input)")
+
+
+def _outdoor_index(channels: Sequence[DisturbanceChannel], config: ScenarioConfig) -> int:
+    """The column of the outdoor temperature among the model's disturbance ``channels``."""
+    for i, channel in enumerate(channels):
+        if channel.kind == "outdoor_temp":
+            return i
+    raise InputError(
+        "the building's model has no outdoor_temp disturbance channel: the bound's power rows "
+        "need the outdoor temperature",
+        source=config.building,
+        field="channels",
+        value=[channel.kind for channel in channels],
+        hint="use a building whose model has an outdoor_temp channel",
+    )
 
 
 def bound_peak_kw(config: ScenarioConfig) -> PeakBound:
@@ -191,30 +230,24 @@ def bound_peak_kw(config: ScenarioConfig) -> PeakBound:
     model, exo, building = setup.model, setup.exogenous, setup.building
     steps = config.steps
     occupied = np.asarray(exo.occupied, dtype=bool)
-    lower, upper = exo.comfort_lower_degc, exo.comfort_upper_degc
-    nxt = np.minimum(np.arange(steps) + 1, len(lower) - 1)
-    y_min = np.maximum(lower[:steps], lower[nxt])
-    y_max = np.minimum(upper[:steps], upper[nxt])
+    y_min, y_max = band_at_period_ends(exo.comfort_lower_degc, exo.comfort_upper_degc, steps)
     d = np.asarray(exo.disturbances[:steps], dtype=np.float64)
-    outdoor = d[:, next(i for i, ch in enumerate(model.channels) if ch.kind == "outdoor_temp")]
+    outdoor = d[:, _outdoor_index(model.channels, config)]
     u_min = building.hvac.flow_min_at(occupied[:steps])
-    t0 = setup.linearisation_temp_degc
+    p0, p = lp_power_rows(
+        building,
+        outdoor,
+        exo.outdoor_humidity_ratio_kg_per_kg[:steps],
+        np.asarray(exo.occupant_latent_w, dtype=np.float64)[:steps],
+        occupied[:steps],
+        building.hvac.outdoor_air_open_at(occupied, model.dt_s)[:steps],
+        setup.linearisation_temp_degc,
+        u_min,
+        total_flow_max_kg_s=float(np.sum(building.hvac.flow_max_kg_s)),
+    )
     if building.identified is not None:
-        p0, p = identified_affine_power(
-            building.identified, outdoor, t0, occupied[:steps].astype(np.float64)
-        )
         x0 = initial_node_temps_degc(building.identified, config.initial_temp_degc)
     else:
-        latent = np.asarray(exo.occupant_latent_w, dtype=np.float64)
-        p0, p = affine_power_model(
-            building.hvac,
-            outdoor,
-            exo.outdoor_humidity_ratio_kg_per_kg[:steps],
-            t0,
-            latent_gain_w=latent[:steps] if latent.size >= steps else 0.0,
-            flow_min_kg_s=u_min,
-            damper_open=building.hvac.outdoor_air_open_at(occupied, model.dt_s)[:steps],
-        )
         x0 = np.full(len(model.node_names), config.initial_temp_degc)
     return minimum_peak(
         PeakBoundProblem(

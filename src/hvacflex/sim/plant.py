@@ -47,7 +47,8 @@ class PeakGuard:
     Attributes
     ----------
     cap_kw : the committed peak [kW] (``committed_peak_kw``).
-    comfort_upper_degc : (m,) the period's upper comfort bound [°C]; a zone at or above it is
+    comfort_upper_degc : (m,) the upper comfort bound at the period's end [°C] (the tighter of
+        the bands of this period and the next, as the plan's); a zone at or above it is
         not shed.
     flow_floor_kg_s : (m,) the lowest flow the guard may shed to [kg/s] (the ventilation flow
         while occupied, the minimum otherwise).

@@ -63,6 +63,7 @@ def make_plant(
     weather_file: str | Path | None = None,
     nonlinear_plant: NonlinearPlant | None = None,
     work_dir: Path | None = None,
+    peak_guard_required: bool = False,
 ) -> Plant:
     """The plant of a scenario.
 
@@ -75,6 +76,8 @@ def make_plant(
     weather_file : the EPW EnergyPlus reads (None: the shipped Singapore TMYx).
     nonlinear_plant : the RC plant's nonlinear model, if already built.
     work_dir : folder for EnergyPlus's files (None: a temporary folder).
+    peak_guard_required : ``[controller] peak_guard = "on"``: an EnergyPlus IDF without an
+        HVAC meter is refused when the plant starts (before the first period).
 
     Raises
     ------
@@ -121,6 +124,7 @@ def make_plant(
         supply_temp_degc=building.hvac.supply_temp_degc,
         work_dir=work_dir,
         boundary_zone_names=boundaries,
+        peak_guard_required=peak_guard_required,
     )
 
 
@@ -135,6 +139,7 @@ def scenario_plant(setup: Setup) -> Plant:
         steps=config.steps,
         weather_file=config.data.weather_file,
         nonlinear_plant=setup.plant,
+        peak_guard_required=config.controller.peak_guard == "on",
     )
 
 
