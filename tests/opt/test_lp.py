@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hvacflex.opt import SolveStatus
+from hvacflex.opt import ILEventModel, ReserveCommitment, SolveStatus
 from hvacflex.opt.lp import LPBuilder, build_lp, sparse_matrix
 from hvacflex.opt.testing import random_problem
 
@@ -61,14 +61,16 @@ def test_layout_sizes() -> None:
 
 
 def test_committed_reserve_is_fixed_by_bounds_and_a_warm_solver_follows_it() -> None:
-    """``reserve_fixed_kg_s`` (g, m) fixes r_0 … r_{g−1} (column bounds: no new rows); a warm
-    solver re-solving with other commitments returns them too, with the cold optimum."""
+    """A commitment ``ReserveCommitment(reserve_kg_s=...)`` (g, m) fixes r_0 … r_{g−1}
+    (column bounds: no new rows); a warm solver re-solving with other commitments returns
+    them too, with the cold optimum."""
     from hvacflex.opt import make_solver, solve_rmpc
 
-    events = dict(il_event_max_steps=2, il_event_allowance_kelvin=1.0, il_event_recovery_steps=1)
-    free = random_problem(3, horizon=8, **events)
+    events = ILEventModel(max_steps=2, allowance_kelvin=1.0, recovery_steps=1)
+    free = random_problem(3, horizon=8, events=events)
     fixed = np.array([[0.2, 0.0], [0.05, 0.3]])
-    problem = random_problem(3, horizon=8, reserve_fixed_kg_s=fixed, **events)
+    commitment = ReserveCommitment(reserve_kg_s=fixed)
+    problem = random_problem(3, horizon=8, commitment=commitment, events=events)
     assert problem.fixed_reserve_steps == 2 and free.fixed_reserve_steps == 0
     margin = np.zeros((free.horizon, free.ny))
     lp_free, _ = build_lp(free, margin)

@@ -122,11 +122,8 @@ def comfort_only(problem: RMPCProblem) -> RMPCProblem:
         comfort_penalty_sgd_per_kelvin_hour=COMFORT_ONLY_PENALTY_SGD_PER_KELVIN_HOUR,
         reserve_mask=np.zeros(problem.u_min.shape[1], dtype=bool),
         slack_max_kelvin=None,
-        il_event_max_steps=None,
-        il_event_allowance_kelvin=0.0,
-        il_event_recovery_steps=0,
-        il_allowance_carry_steps=0,
-        reserve_fixed_kg_s=None,
+        events=None,
+        commitment=None,
         offer_baselines=None,
     )
 

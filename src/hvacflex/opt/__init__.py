@@ -8,7 +8,11 @@ Modules, each importing only those above it:
 - :mod:`~hvacflex.opt.options`: robust modes, feedback options, ρ default, tie-break;
 - :mod:`~hvacflex.opt.robust`: the robust margins δ (pure numpy; the one home of δ);
 - :mod:`~hvacflex.opt.events`: the IL event rows, their rotation and worst output (numpy);
-- :mod:`~hvacflex.opt.problem`: :class:`RMPCProblem` and its validation;
+- :mod:`~hvacflex.opt.checks`: checks of plain arrays and numbers (shapes, NaN, signs);
+- :mod:`~hvacflex.opt.blocks`: the problem's feature blocks (IL events, reserve commitment,
+  offer baselines, power cap), each with its own validation and ``add_…`` LP family;
+- :mod:`~hvacflex.opt.problem`: :class:`RMPCProblem` (core + feature blocks) and its
+  validation;
 - :mod:`~hvacflex.opt.lp`: the index allocator and the open-loop LP, one ``add_…`` function
   per constraint family;
 - :mod:`~hvacflex.opt.solution`: :class:`RMPCSolution` and how it is built from a plan;
@@ -25,18 +29,22 @@ Modules, each importing only those above it:
 """
 
 from hvacflex.opt.basis import SolverBasis
+from hvacflex.opt.blocks import ILEventModel, OfferBaselines, PowerCap, ReserveCommitment
 from hvacflex.opt.options import FeedbackOptions
-from hvacflex.opt.problem import OfferBaselines, RMPCProblem
+from hvacflex.opt.problem import RMPCProblem
 from hvacflex.opt.solution import RMPCSolution, SolveStatus
 from hvacflex.opt.solve import FeedbackSolver, RMPCSolver, WarmSolver, make_solver, solve_rmpc
 
 __all__ = [
     "FeedbackOptions",
     "FeedbackSolver",
+    "ILEventModel",
     "OfferBaselines",
+    "PowerCap",
     "RMPCProblem",
     "RMPCSolution",
     "RMPCSolver",
+    "ReserveCommitment",
     "SolveStatus",
     "SolverBasis",
     "WarmSolver",

@@ -93,6 +93,7 @@ from hvacflex.opt.lp import (
     LPBuilder,
     PlanColumns,
     add_comfort_with_margins,
+    add_committed_reserve,
     add_curtailed_dynamics,
     add_plan_variables,
     add_served_dynamics,
@@ -575,6 +576,7 @@ def build_feedback_lp(
     sigma = p.d_sigma * maps.scale  # σ̃ of w̃
     lp = LPBuilder(constants=constants)
     v = add_plan_variables(lp, p, power_column=False)
+    add_committed_reserve(lp, p, v)
     f = add_feedback_variables(lp, p, maps)
     add_served_dynamics(lp, p, v)
     add_curtailed_dynamics(lp, p, v)

@@ -5,7 +5,8 @@ coefficients; every ``add_…`` function below adds one family of variables or c
 (PyPSA/linopy manner) and says in its docstring which rows it adds. :func:`build_lp` calls
 them in order; the affine-feedback LP (:mod:`hvacflex.opt.feedback`) reuses the shared ones
 (plan variables, dynamics, comfort, plan costs) over the same builder. A new constraint family
-is one more ``add_…`` function, called from :func:`build_lp`, plus a test.
+is one more ``add_…`` function, called from :func:`build_lp`, plus a test; a new feature is one
+more block of :mod:`hvacflex.opt.blocks` and its family in :data:`FEATURE_FAMILIES`.
 
 Sparse LP (state-space form)
 ----------------------------
@@ -16,7 +17,7 @@ and prices enter only right-hand sides, bounds and costs. Columns, in order:
 dual λ's. Rows: served and curtailed dynamics (N·n each, equalities), comfort upper/lower
 rows per trajectory (N·ny each), ``u − r ≥ u_min`` (N·m_r), power definition (N,
 coefficients ``−p_k`` change every step), peak rows ``φ_k P_k − β ≤ 0`` (N), in the IL event
-model (``il_event_max_steps`` set; no z columns or rows then) the event rows of
+model (``p.events`` set; no z columns or rows then) the event rows of
 :func:`add_il_event_comfort` (≈ N²·ny/2), and in the dual form one equality
 ``λ₁ − λ₂ = ±h`` per (robust row, disturbance entry).
 
@@ -55,24 +56,27 @@ from hvacflex.opt.robust import dual_row_entries, impulse_responses
 from hvacflex.units import KWH_PER_MWH
 
 __all__ = [
+    "FEATURE_FAMILIES",
     "LPBuilder",
     "LPLayout",
     "LinearProgram",
     "PlanColumns",
     "Triplets",
     "add_comfort_with_margins",
+    "add_committed_reserve",
     "add_curtailed_dynamics",
     "add_dual_robust_rows",
     "add_flow_and_reserve_bounds",
     "add_il_event_comfort",
     "add_peak_epigraph",
     "add_plan_variables",
+    "add_power_cap",
     "add_power_definition",
     "add_served_dynamics",
     "add_visible_offers",
     "build_lp",
     "dynamics_rhs",
-    "reserve_bounds",
+    "event_numbers",
     "set_objective",
     "set_plan_costs",
     "sparse_matrix",
@@ -217,6 +221,12 @@ class LPBuilder:
             self._permuted_rows.append((index.ravel(), time_permutation))
         return index
 
+    def set_column_bounds(
+        self, cols: IntArray, *, lower: FloatArray | float, upper: FloatArray | float
+    ) -> None:
+        """New bounds of existing columns ``cols`` (broadcast; later calls win)."""
+        self._cols.append((cols, lower, upper))
+
     def set_cost(self, cols: IntArray, cost: FloatArray | float) -> None:
         """Objective coefficients of ``cols`` (broadcast; later calls win)."""
         self._costs.append((cols, cost))
@@ -318,44 +328,60 @@ class PlanColumns:
         return self.has_reserve and not self.event_model
 
 
-def reserve_bounds(p: RMPCProblem, reserve_inputs: IntArray) -> tuple[FloatArray, FloatArray]:
-    """(N, m_r) bounds of r [kg/s]: [0, u_max − u_min], except the committed steps k < g,
-    where r_k is fixed at ``reserve_fixed_kg_s`` (clipped into the room; a bound, not a row,
-    so committing changes no structure)."""
-    upper = np.array((p.u_max - p.u_min)[:, reserve_inputs], dtype=float)
-    lower = np.zeros_like(upper)
-    fixed = np.asarray(p.reserve_fixed_kg_s, dtype=float)[:, reserve_inputs]
-    g = fixed.shape[0]
-    lower[:g] = np.minimum(fixed, upper[:g])
-    upper[:g] = lower[:g]
-    return lower, upper
-
-
 def add_plan_variables(lp: LPBuilder, p: RMPCProblem, *, power_column: bool) -> PlanColumns:
-    """States x, z [°C], flows u ∈ [u_min, u_max], reserve r ∈ [0, u_max − u_min] (fixed at
-    the commitment on the first g steps, :func:`reserve_bounds`) [kg/s], slack 0 ≤ ε ≤ ε_max
-    [K], power P [kW] (if ``power_column``), peak charge β ≥ φ·floor."""
+    """States x, z [°C], flows u ∈ [u_min, u_max], reserve r ∈ [0, u_max − u_min] [kg/s],
+    slack 0 ≤ ε ≤ ε_max [K], power P [kW] (if ``power_column``), peak charge β ≥ φ·floor.
+    (The feature blocks narrow these bounds: :func:`add_committed_reserve`,
+    :func:`add_power_cap`.)"""
     horizon = p.horizon
     reserve_inputs = np.flatnonzero(np.asarray(p.reserve_mask, dtype=bool)).astype(np.int64)
-    event_model = p.il_event_max_steps is not None
+    event_model = p.events is not None
     x = lp.add_columns((horizon, p.n), time_indexed=True)
     z = x
     if reserve_inputs.size and not event_model:
         z = lp.add_columns((horizon, p.n), time_indexed=True)
     u = lp.add_columns((horizon, p.m), lower=p.u_min, upper=p.u_max, time_indexed=True)
-    r_lower, r_upper = reserve_bounds(p, reserve_inputs)
+    r_upper = np.array((p.u_max - p.u_min)[:, reserve_inputs], dtype=float)
     r = lp.add_columns(
-        (horizon, reserve_inputs.size), lower=r_lower, upper=r_upper, time_indexed=True
+        (horizon, reserve_inputs.size),
+        lower=np.zeros_like(r_upper),
+        upper=r_upper,
+        time_indexed=True,
     )
     slack_max = np.inf if p.slack_max_kelvin is None else p.slack_max_kelvin
     eps = lp.add_columns((horizon, p.ny), lower=0.0, upper=slack_max, time_indexed=True)
-    power = lp.add_columns(
-        (horizon if power_column else 0,),
-        upper=p.power_max_kw if power_column else np.inf,
-        time_indexed=True,
-    )
+    power = lp.add_columns((horizon if power_column else 0,), time_indexed=True)
     beta = int(lp.add_columns((1,), lower=float(p.phi[0]) * p.peak_floor_kw)[0])
     return PlanColumns(x, z, u, r, eps, power, beta, reserve_inputs, event_model)
+
+
+def add_committed_reserve(lp: LPBuilder, p: RMPCProblem, v: PlanColumns) -> None:
+    """r_k fixed at the commitment (``p.commitment``,
+    :class:`~hvacflex.opt.blocks.ReserveCommitment`) on the committed steps k < g, clipped
+    into the room u_max − u_min [kg/s]: column bounds, not rows, so committing changes no
+    structure (nothing without a commitment)."""
+    if p.commitment is None or p.commitment.steps == 0:
+        return
+    steps = p.commitment.steps
+    room = np.array((p.u_max - p.u_min)[:steps, v.reserve_inputs], dtype=float)
+    fixed = np.minimum(p.commitment.reserve_kg_s[:, v.reserve_inputs], room)
+    lp.set_column_bounds(v.r[:steps], lower=fixed, upper=fixed)
+
+
+def add_power_cap(lp: LPBuilder, p: RMPCProblem, v: PlanColumns) -> None:
+    """P_k ≤ the cap (``p.power_cap``, :class:`~hvacflex.opt.blocks.PowerCap`) [kW]: column
+    bounds of the power columns (nothing without a cap, or in the feedback LP, which has no
+    P columns)."""
+    if p.power_cap is None or v.power.size == 0:
+        return
+    lp.set_column_bounds(v.power, lower=-np.inf, upper=p.power_cap.kw)
+
+
+def event_numbers(p: RMPCProblem) -> tuple[float, int, int]:
+    """(α [K], c, R) of ``p.events``; (0, 0, 0) in the whole-horizon model."""
+    if p.events is None:
+        return 0.0, 0, 0
+    return p.events.allowance_kelvin, p.events.carry_steps, p.events.recovery_steps
 
 
 def dynamics_rhs(p: RMPCProblem) -> FloatArray:
@@ -403,19 +429,13 @@ def add_comfort_with_margins(
     ``margin_k`` (N, ny) are constant margins δ [K]; ``margin_cols`` (N, ny), if given, are
     margin *variables* added as ``+δ`` on the upper and ``−δ`` on the lower rows. Returns the
     row blocks (N, ny) with their sign (+1 upper, −1 lower). In the IL event model the upper
-    bound of outputs 1..c (``il_allowance_carry_steps``, the recovery from a real curtailment)
+    bound of outputs 1..c (``p.events.carry_steps``, the recovery from a real curtailment)
     is widened by the decaying allowance of :func:`~hvacflex.opt.events.carry_allowance`;
     never otherwise (α belongs to the event rows).
     """
     trajectories = [v.x, v.z] if v.has_curtailed else [v.x]
     shape = (p.horizon, p.ny)
-    carry = carry_allowance(
-        p.horizon,
-        p.ny,
-        p.il_event_allowance_kelvin,
-        p.il_allowance_carry_steps,
-        p.il_event_recovery_steps,
-    )
+    carry = carry_allowance(p.horizon, p.ny, *event_numbers(p))
     blocks: list[tuple[IntArray, float]] = []
     for state in trajectories:
         upper = lp.add_rows(shape, upper=p.y_max - margin_k + carry, time_indexed=True)
@@ -503,24 +523,19 @@ def add_il_event_comfort(
 ) -> tuple[IntArray, EventRows]:
     """The IL event rows (:mod:`hvacflex.opt.events`): for each output t, start s and zone,
     ``C_i x_t + Σ_j H_{t−1−j,i} r_j − ε_{t,i} ≤ y^hi_t − δ_t (+ α)`` (≈ N²·ny/2 rows; none in
-    the whole-horizon model, ``il_event_max_steps`` None).
+    the whole-horizon model, ``p.events`` None).
 
     The coefficients are constant (they depend on A, B, C, N, D, R only); α, the carry c and
     the margins ``margin_k`` (N, ny) [K] enter the row bounds. The block is not rectangular
     in the step, so its warm-start rotation is :func:`~hvacflex.opt.events.event_rotation`.
     Returns the row indices (num_event_rows,) and what each row is.
     """
-    rows = event_rows(p.horizon, p.ny, p.il_event_max_steps, p.il_event_recovery_steps)
+    max_steps = None if p.events is None else p.events.max_steps
+    alpha, carry_steps, recovery = event_numbers(p)
+    rows = event_rows(p.horizon, p.ny, max_steps, recovery)
     if rows.num_rows == 0:
         return np.zeros(0, dtype=np.int64), rows
-    lower, upper = event_row_bounds(
-        rows,
-        p.y_max,
-        margin_k,
-        p.il_event_allowance_kelvin,
-        p.il_allowance_carry_steps,
-        p.il_event_recovery_steps,
-    )
+    lower, upper = event_row_bounds(rows, p.y_max, margin_k, alpha, carry_steps, recovery)
     index = lp.add_rows(
         (rows.num_rows,),
         lower=lower,
@@ -567,8 +582,8 @@ def add_visible_offers(lp: LPBuilder, p: RMPCProblem, v: PlanColumns) -> tuple[I
     horizon = p.horizon
     if baselines is None or not v.has_reserve or not v.event_model:
         return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
-    assert p.il_event_max_steps is not None  # checked by RMPCProblem
-    max_steps = p.il_event_max_steps
+    assert p.events is not None  # checked by RMPCProblem
+    max_steps = p.events.max_steps
     rho = baselines.meter_ratio
     tolerance = baselines.tolerance_kw
     fixed = baselines.fixed_baseline_kw
@@ -664,6 +679,8 @@ def build_lp(
     """
     lp = LPBuilder(constants=constants)
     v = add_plan_variables(lp, p, power_column=True)
+    add_committed_reserve(lp, p, v)
+    add_power_cap(lp, p, v)
     add_served_dynamics(lp, p, v)
     add_curtailed_dynamics(lp, p, v)
     comfort_rows = add_comfort_with_margins(lp, p, v, margin_k)
@@ -680,3 +697,13 @@ def build_lp(
     program = lp.finish()
     layout = LPLayout(v, program.num_cols, program.num_rows, event_index, events, offered, unseen)
     return program, layout
+
+
+FEATURE_FAMILIES = {
+    "events": add_il_event_comfort,
+    "commitment": add_committed_reserve,
+    "offer_baselines": add_visible_offers,
+    "power_cap": add_power_cap,
+}
+"""The ``add_…`` family of each open-loop feature block of :mod:`hvacflex.opt.blocks` (the
+``feedback`` block has its own LP, :func:`hvacflex.opt.feedback.build_feedback_lp`)."""

@@ -526,7 +526,7 @@ class RMPCSolver:
         """(N,) marginal value of the power caps at the last optimum [SGD per kW of cap].
 
         Entry k is how much the optimal objective falls per kW added to
-        ``RMPCProblem.power_max_kw`` in period k: minus the reduced cost (column dual) of the
+        the cap (``RMPCProblem.power_cap``) in period k: minus the reduced cost (column dual) of the
         plan's power column k, ≥ 0, and 0 where the cap is slack (or +inf). With lazy event
         rows it is the dual of the final LP, which has the same optimum as the full one.
 
@@ -539,7 +539,7 @@ class RMPCSolver:
             raise ProblemError(
                 "no optimal solution to take the cap values from",
                 source="RMPCSolver",
-                field="power_max_kw",
+                field="power_cap",
                 hint="call solve() first and check that its status is OPTIMAL",
             )
         duals = np.asarray(self._highs.getSolution().col_dual, dtype=float)
