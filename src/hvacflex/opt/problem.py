@@ -65,6 +65,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
+from hvacflex.constants import PERIOD_S
 from hvacflex.errors import ProblemError
 from hvacflex.opt.blocks import (
     FEATURE_BLOCKS,
@@ -80,6 +81,7 @@ from hvacflex.opt.options import (
     FeedbackOptions,
     RobustMode,
 )
+from hvacflex.units import SECONDS_PER_HOUR
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -162,7 +164,7 @@ class RMPCProblem:
     peak_floor_kw: float = 0.0
     reserve_mask: BoolArray | None = None
     comfort_penalty_sgd_per_kelvin_hour: float = DEFAULT_COMFORT_PENALTY_SGD_PER_KELVIN_HOUR
-    dt_h: float = 0.5
+    dt_h: float = PERIOD_S / SECONDS_PER_HOUR
     robust: RobustMode = "tightening"
     slack_max_kelvin: float | None = None
     reserve_power_coeff_kw_per_kg_s: FloatArray | None = None
