@@ -85,7 +85,7 @@ def test_a_power_cap_changes_only_the_power_columns_upper_bounds() -> None:
 def test_a_commitment_fixes_only_the_committed_reserve_columns() -> None:
     problem = random_problem(1)
     fixed = np.array([[0.3, 0.0], [0.1, 1.4 + 5e-10]])  # round-off: clipped into the room 1.4
-    committed = dataclasses.replace(problem, commitment=ReserveCommitment(reserve_kg_s=fixed))
+    committed = dataclasses.replace(problem, commitments=ReserveCommitment(reserve_kg_s=fixed))
     assert committed.fixed_reserve_steps == 2 and problem.fixed_reserve_steps == 0
     (free, layout), (bounded, _) = _lp(problem), _lp(committed)
     r = layout.plan.r
@@ -114,7 +114,7 @@ def test_power_cap_is_validated() -> None:
 def test_reserve_commitment_is_validated() -> None:
     with pytest.raises(ProblemError, match="committed reserve flows must be ≥ 0") as info:
         ReserveCommitment(reserve_kg_s=np.array([[0.1, -0.2]]))
-    assert info.value.field == "commitment.reserve_kg_s"
+    assert info.value.field == "commitments.reserve_kg_s"
     with pytest.raises(ProblemError, match=r"\(g, m\)"):
         ReserveCommitment(reserve_kg_s=np.array([0.1, 0.2]))
     block = ReserveCommitment(reserve_kg_s=np.zeros((0, 2)))

@@ -104,8 +104,8 @@ def _brute_force(prob: RMPCProblem) -> float:
     reserve = _paid_reserve(prob, r, power)
     cons: list[Any] = [r >= 0, eps >= 0, u <= prob.u_max, u - r >= prob.u_min]
     cons += [r[:, i] == 0 for i in range(m) if not mask[i]]
-    if prob.commitment is not None and prob.commitment.steps:
-        cons.append(r[: prob.commitment.steps] == prob.commitment.reserve_kg_s)
+    if prob.commitments is not None and prob.commitments.steps:
+        cons.append(r[: prob.commitments.steps] == prob.commitments.reserve_kg_s)
     cons += [beta >= prob.phi[k] * power[k] for k in range(horizon)]
     cons.append(beta >= prob.phi[0] * prob.peak_floor_kw)
     if prob.slack_max_kelvin is not None:
@@ -590,7 +590,7 @@ def _baseline_problem(seed: int) -> RMPCProblem:
     return dataclasses.replace(
         base,
         offer_baselines=_random_baselines(rng, base.horizon),
-        commitment=ReserveCommitment(
+        commitments=ReserveCommitment(
             reserve_kg_s=np.full((min(fixed_steps, base.horizon - 1), base.m), 0.05)
         ),
     )

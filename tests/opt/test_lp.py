@@ -48,7 +48,7 @@ def test_committed_reserve_is_fixed_by_bounds_and_a_warm_solver_follows_it() -> 
     free = random_problem(3, horizon=8, events=events)
     fixed = np.array([[0.2, 0.0], [0.05, 0.3]])
     commitment = ReserveCommitment(reserve_kg_s=fixed)
-    problem = random_problem(3, horizon=8, commitment=commitment, events=events)
+    problem = random_problem(3, horizon=8, commitments=commitment, events=events)
     assert problem.fixed_reserve_steps == 2 and free.fixed_reserve_steps == 0
     margin = np.zeros((free.horizon, free.ny))
     lp_free, _ = build_lp(free, margin)

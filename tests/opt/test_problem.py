@@ -118,11 +118,11 @@ def _commitment(reserve_kg_s: object) -> ReserveCommitment:
 
 def test_committed_reserve_that_cannot_be_shed_is_refused() -> None:
     with pytest.raises(ProblemError, match="cannot be shed") as info:
-        random_problem(3, commitment=_commitment([[2.0, 0.0]]))  # room 1.4 kg/s
-    assert info.value.field == "commitment.reserve_kg_s"
+        random_problem(3, commitments=_commitment([[2.0, 0.0]]))  # room 1.4 kg/s
+    assert info.value.field == "commitments.reserve_kg_s"
     with pytest.raises(ProblemError, match="reserve allowed: False"):
         random_problem(
-            3, reserve_mask=np.array([True, False]), commitment=_commitment([[0.1, 0.1]])
+            3, reserve_mask=np.array([True, False]), commitments=_commitment([[0.1, 0.1]])
         )
     with pytest.raises(ProblemError, match="wrong shape"):
-        random_problem(3, horizon=4, commitment=_commitment(np.zeros((4, 2))))  # g < N
+        random_problem(3, horizon=4, commitments=_commitment(np.zeros((4, 2))))  # g < N

@@ -179,7 +179,7 @@ def test_whole_horizon_modes_equal_cvxpy(seed: int, robust: str) -> None:
         peak_floor_kw=2.0,
         power_cap=PowerCap(power_max_kw=float(free.power_kw.max()) * 0.95),
         reserve_power_coeff_kw_per_kg_s=base.power_coeff_kw_per_kg_s * 0.7,
-        commitment=ReserveCommitment(reserve_kg_s=np.full((2, base.m), 0.01)),
+        commitments=ReserveCommitment(reserve_kg_s=np.full((2, base.m), 0.01)),
     )
     solver = RMPCSolver(problem)
     assert solver.solve(problem).ok

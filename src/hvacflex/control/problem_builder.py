@@ -20,7 +20,7 @@ the same problem (docs/model.md §3):
 * the interruptible-load contract of the scenario's ``[reserve]`` table: the event length D,
   the allowance α, the recovery R, the recovery steps c still running from an event that
   just ended, the reserve committed ahead and the offers' settlement baselines
-  (``RMPCProblem.events``, ``commitment``, ``offer_baselines``); ``None`` for D keeps
+  (``RMPCProblem.events``, ``commitments``, ``offer_baselines``); ``None`` for D keeps
   the whole-horizon model.
 """
 
@@ -262,7 +262,7 @@ def build_problem(
             if cfg.robust == "feedback"
             else None
         ),
-        commitment=_commitment(contract, inputs.committed_reserve_kg_s, u_min),
+        commitments=_commitment(contract, inputs.committed_reserve_kg_s, u_min),
         offer_baselines=context.offer_baselines,
         events=_event_model(contract.reserve, horizon, inputs.allowance_carry_steps),
     )

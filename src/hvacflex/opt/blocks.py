@@ -6,16 +6,12 @@ have is one frozen dataclass here, a field of the problem that is ``None`` when 
 off, validated on its own in ``__post_init__`` and against the core in ``check`` (the problem
 calls it), and built into the LP by its own ``add_…`` family (:data:`FEATURE_BLOCKS` names it):
 
-====================  ========================  ===============================================
-problem field         block                     LP family
-====================  ========================  ===============================================
-``events``            :class:`ILEventModel`     :func:`hvacflex.opt.lp.add_il_event_comfort`
-``commitment``        :class:`ReserveCommitment` :func:`hvacflex.opt.lp.add_committed_reserve`
-``offer_baselines``   :class:`OfferBaselines`   :func:`hvacflex.opt.lp.add_visible_offers`
-``power_cap``         :class:`PowerCap`         :func:`hvacflex.opt.lp.add_power_cap`
-``feedback``          :class:`~hvacflex.opt.options.FeedbackOptions`
-                                                :func:`hvacflex.opt.feedback.build_feedback_lp`
-====================  ========================  ===============================================
+* ``events``: :class:`ILEventModel` → :func:`hvacflex.opt.lp.add_il_event_comfort`;
+* ``commitments``: :class:`ReserveCommitment` → :func:`hvacflex.opt.lp.add_committed_reserve`;
+* ``offer_baselines``: :class:`OfferBaselines` → :func:`hvacflex.opt.lp.add_visible_offers`;
+* ``power_cap``: :class:`PowerCap` → :func:`hvacflex.opt.lp.add_power_cap`;
+* ``feedback``: :class:`~hvacflex.opt.options.FeedbackOptions` →
+  :func:`hvacflex.opt.feedback.build_feedback_lp` (its own LP).
 
 A new feature is one more block here, one more ``add_…`` family, one more entry in
 :data:`FEATURE_BLOCKS` — never a field on the core.
@@ -166,11 +162,11 @@ class ReserveCommitment:
             raise ProblemError(
                 f"wrong shape: expected (g, m), got {value.shape}",
                 source=_SOURCE,
-                field="commitment.reserve_kg_s",
+                field="commitments.reserve_kg_s",
                 hint="one row of committed reserve flows per committed step",
             )
-        array = float_array("commitment.reserve_kg_s", value, (value.shape,))
-        check_nonnegative("commitment.reserve_kg_s", array, "committed reserve flows")
+        array = float_array("commitments.reserve_kg_s", value, (value.shape,))
+        check_nonnegative("commitments.reserve_kg_s", array, "committed reserve flows")
         object.__setattr__(self, "reserve_kg_s", array)
 
     @property
@@ -185,7 +181,7 @@ class ReserveCommitment:
         ``u_max`` (N, m) [kg/s], ``reserve_mask`` (m,) bool)."""
         m = reserve_mask.size
         float_array(
-            "commitment.reserve_kg_s", self.reserve_kg_s, tuple((g, m) for g in range(horizon))
+            "commitments.reserve_kg_s", self.reserve_kg_s, tuple((g, m) for g in range(horizon))
         )
         array = self.reserve_kg_s
         room = (u_max - u_min)[: array.shape[0]]
@@ -197,7 +193,7 @@ class ReserveCommitment:
                 f"{index} cannot be shed (room {float(room[index])!r} kg/s, reserve allowed: "
                 f"{bool(reserve_mask[index[1]])})",
                 source=_SOURCE,
-                field="commitment.reserve_kg_s",
+                field="commitments.reserve_kg_s",
                 hint="commit only reserve the zone can shed: 0 ≤ r ≤ u_max − u_min, 0 where masked",
             )
 
@@ -379,7 +375,7 @@ class OfferBaselines:
 
 FEATURE_BLOCKS: dict[str, type] = {
     "events": ILEventModel,
-    "commitment": ReserveCommitment,
+    "commitments": ReserveCommitment,
     "offer_baselines": OfferBaselines,
     "power_cap": PowerCap,
     "feedback": FeedbackOptions,

@@ -139,15 +139,15 @@ def add_plan_variables(lp: LPBuilder, p: RMPCProblem, *, power_column: bool) -> 
 
 
 def add_committed_reserve(lp: LPBuilder, p: RMPCProblem, v: PlanColumns) -> None:
-    """r_k fixed at the commitment (``p.commitment``,
+    """r_k fixed at the commitment (``p.commitments``,
     :class:`~hvacflex.opt.blocks.ReserveCommitment`) on the committed steps k < g, clipped
     into the room u_max − u_min [kg/s]: column bounds, not rows, so committing changes no
     structure (nothing without a commitment)."""
-    if p.commitment is None or p.commitment.steps == 0:
+    if p.commitments is None or p.commitments.steps == 0:
         return
-    steps = p.commitment.steps
+    steps = p.commitments.steps
     room = np.array((p.u_max - p.u_min)[:steps, v.reserve_inputs], dtype=float)
-    fixed = np.minimum(p.commitment.reserve_kg_s[:, v.reserve_inputs], room)
+    fixed = np.minimum(p.commitments.reserve_kg_s[:, v.reserve_inputs], room)
     lp.set_column_bounds(v.r[:steps], lower=fixed, upper=fixed)
 
 
@@ -484,7 +484,7 @@ def build_lp(
 
 FEATURE_FAMILIES = {
     "events": add_il_event_comfort,
-    "commitment": add_committed_reserve,
+    "commitments": add_committed_reserve,
     "offer_baselines": add_visible_offers,
     "power_cap": add_power_cap,
 }

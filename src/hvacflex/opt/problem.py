@@ -51,7 +51,7 @@ towards zero reserve.
 It is *excluded* from the reported objective (reported separately as ``tie_break_sgd``).
 
 The problem is a core (the fields every robust mode reads) plus feature blocks
-(:mod:`hvacflex.opt.blocks`: events, commitment, offer baselines, power cap, feedback), each
+(:mod:`hvacflex.opt.blocks`: events, commitments, offer baselines, power cap, feedback), each
 None when off. The LP itself is built by :mod:`hvacflex.opt.lp` (open loop) and
 :mod:`hvacflex.opt.feedback`.
 """
@@ -128,7 +128,7 @@ class RMPCProblem:
 
     events : :class:`~hvacflex.opt.blocks.ILEventModel`, the IL event model (D, α, R, c);
         None = the paper's whole-horizon model. Not with robust="dual" or "feedback"
-    commitment : :class:`~hvacflex.opt.blocks.ReserveCommitment`, the reserve flows
+    commitments : :class:`~hvacflex.opt.blocks.ReserveCommitment`, the reserve flows
         r_0 … r_{g−1} already committed to the market; None = every r_k free
     offer_baselines : :class:`~hvacflex.opt.blocks.OfferBaselines`, the settlement baselines
         each step's offer is measured against (event model, open loop only); None = the
@@ -170,7 +170,7 @@ class RMPCProblem:
     reserve_power_coeff_kw_per_kg_s: FloatArray | None = None
     # feature blocks (hvacflex.opt.blocks.FEATURE_BLOCKS)
     events: ILEventModel | None = None
-    commitment: ReserveCommitment | None = None
+    commitments: ReserveCommitment | None = None
     offer_baselines: OfferBaselines | None = None
     power_cap: PowerCap | None = None
     feedback: FeedbackOptions | None = None
@@ -370,7 +370,7 @@ class RMPCProblem:
         mask = np.asarray(self.reserve_mask, dtype=bool)
         for name, block in (
             ("events", self.events),
-            ("commitment", self.commitment),
+            ("commitments", self.commitments),
             ("offer_baselines", self.offer_baselines),
             ("power_cap", self.power_cap),
         ):
@@ -387,8 +387,8 @@ class RMPCProblem:
             self.events.check(
                 horizon=self.horizon, robust=self.robust, b_reserve=self.b_matrix[:, mask]
             )
-        if self.commitment is not None:
-            self.commitment.check(
+        if self.commitments is not None:
+            self.commitments.check(
                 horizon=self.horizon, u_min=self.u_min, u_max=self.u_max, reserve_mask=mask
             )
         if self.offer_baselines is not None:
@@ -398,7 +398,7 @@ class RMPCProblem:
     @property
     def fixed_reserve_steps(self) -> int:
         """g, the number of leading steps whose reserve is committed (0 without a commitment)."""
-        return 0 if self.commitment is None else self.commitment.steps
+        return 0 if self.commitments is None else self.commitments.steps
 
     @property
     def power_max_kw(self) -> FloatArray:

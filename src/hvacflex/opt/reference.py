@@ -21,7 +21,7 @@ Families (chosen by the problem, as :class:`~hvacflex.opt.solve.RMPCSolver` does
   hypograph), 0 on the steps that may not be paid, and a price b + 1e-6 SGD/kWh on the part
   below zero (docs/il_events.md, "The plan is paid for what the baselines see").
 
-Both carry the committed reserve ``r_k`` = ``commitment.reserve_kg_s`` (k < g), the power
+Both carry the committed reserve ``r_k`` = ``commitments.reserve_kg_s`` (k < g), the power
 cap P ≤ ``power_cap.power_max_kw``, the reserve coefficient q
 (``reserve_power_coeff_kw_per_kg_s``), the slack cap, the peak floor and both tie-breaks; the
 objective is HiGHS's (tie-breaks included,
@@ -250,8 +250,8 @@ def _plan(prob: RMPCProblem) -> tuple[dict[str, Any], list[Any]]:
     if not _has_reserve(prob):
         cons.append(r == 0.0)  # a placeholder column (CVXPY has no empty variables)
     committed = prob.fixed_reserve_steps
-    if prob.commitment is not None and committed:
-        fixed = prob.commitment.reserve_kg_s[:, inputs]
+    if prob.commitments is not None and committed:
+        fixed = prob.commitments.reserve_kg_s[:, inputs]
         cons.append(r[:committed] == np.minimum(fixed, room[:committed]))
     if prob.slack_max_kelvin is not None:
         cons.append(eps <= prob.slack_max_kelvin)
