@@ -123,7 +123,7 @@ def comfort_only(problem: RMPCProblem) -> RMPCProblem:
         reserve_mask=np.zeros(problem.u_min.shape[1], dtype=bool),
         slack_max_kelvin=None,
         events=None,
-        commitment=None,
+        commitments=None,
         offer_baselines=None,
     )
 
