@@ -103,7 +103,7 @@ def main() -> None:
     problems = recorded_problems(
         preset(args.scenario, start=args.start, days=args.steps // 48 + 2), args.steps
     )
-    assert problems[0].il_event_max_steps is not None, "the product LP has the event model"
+    assert problems[0].events is not None, "the product LP has the event model"
     print(f"office5, {args.scenario} from {args.start}, {len(problems)} steps; {machine()}")
     clock = RunClock()
     solver = RMPCSolver(problems[0])

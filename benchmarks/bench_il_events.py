@@ -26,6 +26,7 @@ from typing import Any
 import numpy as np
 
 from hvacflex.config import preset
+from hvacflex.opt import ILEventModel
 from hvacflex.opt.problem import RMPCProblem
 from hvacflex.opt.solve import RMPCSolver
 from hvacflex.sim import recording
@@ -46,9 +47,7 @@ def with_events(problem: RMPCProblem, max_steps: int | None, price: float) -> RM
     return dataclasses.replace(
         problem,
         reserve_price_sgd_per_mwh=prices,
-        il_event_max_steps=max_steps,
-        il_event_allowance_kelvin=1.0,
-        il_event_recovery_steps=2,
+        events=ILEventModel(max_steps=max_steps, allowance_kelvin=1.0, recovery_steps=2),
     )
 
 

@@ -89,8 +89,10 @@ def lp_sizes(problem: RMPCProblem) -> Sizes:
         + (problem.horizon - 1) * np.count_nonzero(kept_a)
         + problem.horizon * np.count_nonzero(problem.b_matrix)
     )
+    event_model = problem.events
+    assert event_model is not None, "the product LP has the event model"
     rows_of_events = event_rows(
-        problem.horizon, problem.ny, problem.il_event_max_steps, problem.il_event_recovery_steps
+        problem.horizon, problem.ny, event_model.max_steps, event_model.recovery_steps
     )
     plan = layout.plan
     thresholded_events = event_matrix(

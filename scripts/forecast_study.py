@@ -33,7 +33,7 @@ from hvacflex.config import ScenarioConfig, preset
 from hvacflex.data.calibration import coverage, forecast_errors, model_error_coverage
 from hvacflex.data.uncertainty import DEFAULT_UNCERTAINTY
 from hvacflex.results import PREDICTION_ERROR
-from hvacflex.sim.closed_loop import run_simulation
+from hvacflex.sim.run import run_simulation
 from hvacflex.sim.setup import prepare
 
 REALISTIC: dict[str, Any] = {

@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from hvacflex.config import preset
-from hvacflex.opt import RMPCProblem, RMPCSolver, solve_rmpc
+from hvacflex.opt import ILEventModel, RMPCProblem, RMPCSolver, solve_rmpc
 from hvacflex.sim.recording import recorded_problems
 
 STEPS_PER_HOUR = 2
@@ -39,9 +39,7 @@ def with_events(
         return dataclasses.replace(problem, **extra)
     return dataclasses.replace(
         problem,
-        il_event_max_steps=max_steps,
-        il_event_allowance_kelvin=alpha_k,
-        il_event_recovery_steps=recovery,
+        events=ILEventModel(max_steps=max_steps, allowance_kelvin=alpha_k, recovery_steps=recovery),
         **extra,
     )
 

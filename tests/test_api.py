@@ -69,7 +69,7 @@ def test_all_is_pinned_and_every_name_resolves() -> None:
     for name in PUBLIC_NAMES:
         assert name in dir(hvacflex)
     assert hvacflex.simulate is api.simulate and hvacflex.preset is api.preset
-    assert hvacflex.RunResult.__module__ == "hvacflex.sim.closed_loop"  # one RunResult only
+    assert hvacflex.RunResult.__module__ == "hvacflex.sim.run"  # one RunResult only
     with pytest.raises(AttributeError, match="no attribute 'simulte'"):
         _ = hvacflex.simulte
 

@@ -20,6 +20,10 @@ MAX_MODULE_LINES = 1000
 """A module holds one concept: past this it is more than one (the test fails)."""
 WARN_MODULE_LINES = 800
 """Past this a module is getting large: the test warns, so the split is planned, not forced."""
+MAX_CONTROL_PATH_MODULE_LINES = 600
+"""The control path (``control/``, ``opt/``, ``sim/``) is read most: its modules stay below
+this (issue 58; split by concept, not by line count)."""
+CONTROL_PATH_PACKAGES = ("control", "opt", "sim")
 
 LAYERS: list[set[str]] = [
     {
@@ -166,6 +170,16 @@ def test_dependencies_point_down_the_layers() -> None:
 
 def test_cycle_finder_finds_a_cycle() -> None:
     assert _cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]
+
+
+@pytest.mark.parametrize(
+    "path",
+    sorted(path for package in CONTROL_PATH_PACKAGES for path in (PACKAGE / package).rglob("*.py")),
+    ids=lambda p: str(p.relative_to(PACKAGE)),
+)
+def test_modules_of_the_control_path_are_short(path: Path) -> None:
+    lines = len(path.read_text(encoding="utf-8").splitlines())
+    assert lines <= MAX_CONTROL_PATH_MODULE_LINES, f"{lines} lines: split it by concept"
 
 
 @pytest.mark.parametrize(
@@ -422,6 +436,39 @@ def test_the_period_and_the_time_zone_have_one_home() -> None:
         if TIME_LITERALS.search(line)
     ]
     assert found == []
+
+
+PERIOD_NUMBERS = re.compile(
+    r"(?<![\w.])(48|1800)(?![\d.])|\bminutes\s*=\s*30\b|\bdt_h\s*(:\s*float)?\s*=\s*0\.5\b"
+)
+"""A period used as a bare number in code: 48 a day, 1800 s, 30 minutes, Δt = 0.5 h."""
+
+STRING_LITERAL = re.compile(r"\"[^\"]*\"|'[^']*'")
+"""A one-line string literal (messages may say "48 periods a day")."""
+
+
+def test_the_period_is_read_not_repeated_as_a_number() -> None:
+    """Code reads the period (and the periods in a day) from :mod:`hvacflex.constants`, not
+    as a bare 48, 1800, ``minutes=30`` or a 0.5-hour Δt (prose and messages aside)."""
+    found = [
+        f"{path.relative_to(SRC)}:{number}: {line.strip()}"
+        for path in sorted(PACKAGE.rglob("*.py"))
+        if path != TIME_HOME
+        for number, line in _code_lines(path)
+        if PERIOD_NUMBERS.search(STRING_LITERAL.sub('""', line))
+    ]
+    assert found == []
+
+
+def test_the_period_number_search_finds_each_form() -> None:
+    for line in (
+        "steps = round(days * 48)",
+        "SAMPLING = timedelta(minutes=30)",
+        "dt_h: float = 0.5",
+    ):
+        assert PERIOD_NUMBERS.search(STRING_LITERAL.sub('""', line)), line
+    for line in ('hint="expected 48 rows per day"', "RESERVE_PRICE_SCALE = 48.5", "x = 1480"):
+        assert not PERIOD_NUMBERS.search(STRING_LITERAL.sub('""', line)), line
 
 
 def _code_lines(path: Path) -> list[tuple[int, str]]:

@@ -14,7 +14,7 @@ from typer.testing import CliRunner
 
 from hvacflex.cli import _run_summary_line, app
 from hvacflex.config import ScenarioConfig
-from hvacflex.sim.closed_loop import run_simulation
+from hvacflex.sim.run import run_simulation
 from hvacflex.sim.run_files import CHECKPOINT_FILE, RESULTS_FILE
 from hvacflex.sim.sweep import JobOutcome, run_dir
 

@@ -30,7 +30,7 @@ from hvacflex.reproduce import (
     verdict_lines,
 )
 from hvacflex.results import load_results
-from hvacflex.sim.closed_loop import run_simulation
+from hvacflex.sim.run import run_simulation
 
 
 @pytest.fixture(scope="module")

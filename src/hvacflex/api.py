@@ -23,7 +23,7 @@ line) stays cheap; the first use of one imports this module and what it needs::
 
 :func:`simulate` builds its scenario on the path ``hvacflex simulate`` takes
 (:func:`hvacflex.config.resolve_scenario`) and runs it with
-:func:`hvacflex.sim.closed_loop.run_simulation`, so the two give the same results.
+:func:`hvacflex.sim.run.run_simulation`, so the two give the same results.
 """
 
 from __future__ import annotations
@@ -41,8 +41,8 @@ from hvacflex.constants import RUN_DIR
 from hvacflex.control.base import Controller
 from hvacflex.paths import resolve_building
 from hvacflex.results import load_results
-from hvacflex.sim.closed_loop import DEFAULT_CHECKPOINT_EVERY, RunResult, run_simulation
 from hvacflex.sim.plant import Plant
+from hvacflex.sim.run import DEFAULT_CHECKPOINT_EVERY, RunResult, run_simulation
 from hvacflex.simulation import Forecaster, Simulation, SimulationResult
 
 Scenario = ScenarioConfig

@@ -371,7 +371,7 @@ def simulate(
 
     from hvacflex.errors import HvacflexError
     from hvacflex.paths import check_output_dir
-    from hvacflex.sim.closed_loop import RunInterrupted, run_simulation
+    from hvacflex.sim.run import RunInterrupted, run_simulation
     from hvacflex.sim.run_files import check_linearisation, check_out_dir
 
     console = Console()

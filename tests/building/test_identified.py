@@ -266,7 +266,7 @@ def test_a_run_on_a_model_with_a_validity_range_counts_the_periods_planned_outsi
     planned zone temperature or forecast outdoor air lies outside the trained range is
     flagged (``model_extrapolation``) and counted (``model_extrapolation_steps``)."""
     from hvacflex.config import preset, with_overrides
-    from hvacflex.sim.closed_loop import run_simulation
+    from hvacflex.sim.run import run_simulation
 
     validity = IdentifiedValidity((20.0, 20.0), (25.5, 25.5), 26.0, 29.0)
     path = write_identified_model(_two_zone_model(validity), tmp_path / "model.toml")

@@ -139,10 +139,12 @@ def test_the_reserve_contract_reaches_the_problem_and_the_event_plan(setup: Setu
     assert isinstance(controller, MPCController)
     reserve = setup.config.reserve
     problem = controller.problem_for(PeriodInputs(x, forecast, 0.0, allowance_carry_steps=2))
-    assert problem.il_event_max_steps == reserve.event_max_steps == 4
-    assert problem.il_event_allowance_kelvin == reserve.event_allowance_k
-    assert problem.il_event_recovery_steps == reserve.event_recovery_steps
-    assert problem.il_allowance_carry_steps == 2
+    events = problem.events
+    assert events is not None
+    assert events.max_steps == reserve.event_max_steps == 4
+    assert events.allowance_kelvin == reserve.event_allowance_k
+    assert events.recovery_steps == reserve.event_recovery_steps
+    assert events.carry_steps == 2
     action = controller.act(PeriodInputs(x, forecast, 0.0))
     plan = action.event_plan
     assert plan is not None and plan.steps == 4 + reserve.event_recovery_steps
@@ -154,7 +156,7 @@ def test_the_reserve_contract_reaches_the_problem_and_the_event_plan(setup: Setu
     whole = make_controller(paper)
     assert isinstance(whole, MPCController)
     problem = whole.problem_for(PeriodInputs(x, forecast, 0.0, allowance_carry_steps=2))
-    assert problem.il_event_max_steps is None and problem.il_allowance_carry_steps == 0
+    assert problem.events is None  # nor, then, any carry
     assert whole.act(PeriodInputs(x, forecast, 0.0)).event_plan is None
 
 

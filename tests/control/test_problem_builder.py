@@ -64,8 +64,9 @@ def test_commitments_are_clipped_into_the_room_and_the_reserve_zones(setup: Setu
     committed = np.full((g, len(setup.zone_names)), 100.0)  # far more than any room
     inputs = replace(_inputs(setup, 20), committed_reserve_kg_s=committed)
     problem = build_problem(setup.model, inputs, contract, PlanContext(inputs.x_degc))
-    fixed = problem.reserve_fixed_kg_s
-    assert fixed is not None and fixed.shape == (g, len(setup.zone_names))
+    assert problem.commitments is not None
+    fixed = problem.commitments.reserve_kg_s
+    assert fixed.shape == (g, len(setup.zone_names))
     room = contract.flow_max_kg_s - problem.u_min[:g]
     np.testing.assert_allclose(fixed, np.where(contract.reserve_mask, room, 0.0))
 

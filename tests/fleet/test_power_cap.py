@@ -1,4 +1,5 @@
-"""RMPCProblem.power_max_kw: a bound on the plan's power (the fleet's per-building cap)."""
+"""RMPCProblem.power_cap (PowerCap): a bound on the plan's power (the fleet's per-building
+cap)."""
 
 from __future__ import annotations
 
@@ -8,7 +9,7 @@ import numpy as np
 import pytest
 
 from hvacflex.errors import ProblemError
-from hvacflex.opt import RMPCSolver, solve_rmpc
+from hvacflex.opt import PowerCap, RMPCSolver, solve_rmpc
 from hvacflex.opt.testing import random_problem
 
 
@@ -18,7 +19,7 @@ def test_cap_bounds_the_plan_and_warm_start_agrees() -> None:
     assert free.ok
     floor = problem.power_offset_kw + np.sum(problem.power_coeff_kw_per_kg_s * problem.u_min, 1)
     cap = np.maximum(floor + 1e-3, 0.8 * free.power_kw)
-    capped = dataclasses.replace(problem, power_max_kw=cap)
+    capped = dataclasses.replace(problem, power_cap=PowerCap(power_max_kw=cap))
     cold = solve_rmpc(capped)
     assert cold.ok and np.all(cold.power_kw <= cap + 1e-7)
     assert cold.objective_sgd >= free.objective_sgd - 1e-7
@@ -30,8 +31,8 @@ def test_cap_bounds_the_plan_and_warm_start_agrees() -> None:
 
 def test_cap_refused_for_feedback() -> None:
     problem = random_problem(np.random.default_rng(4))
-    with pytest.raises(ProblemError, match="power_max_kw"):
-        dataclasses.replace(problem, robust="feedback", power_max_kw=1.0)
+    with pytest.raises(ProblemError, match="power_cap"):
+        dataclasses.replace(problem, robust="feedback", power_cap=PowerCap(power_max_kw=1.0))
 
 
 def _highs_objective(problem: object) -> float:
@@ -49,7 +50,7 @@ def test_cap_values_match_finite_differences_of_the_optimal_objective() -> None:
     floor = problem.power_offset_kw + np.sum(problem.power_coeff_kw_per_kg_s * problem.u_min, 1)
     cap = np.maximum(floor + 1e-3, 0.8 * free.power_kw)
     cap[1::2] = free.power_kw[1::2] + 5.0  # slack in the odd periods
-    capped = dataclasses.replace(problem, power_max_kw=cap)
+    capped = dataclasses.replace(problem, power_cap=PowerCap(power_max_kw=cap))
     solver = RMPCSolver(capped, time_shift=False)
     assert solver.solve(capped).ok
     values = solver.power_cap_values_sgd_per_kw()
@@ -61,10 +62,14 @@ def test_cap_values_match_finite_differences_of_the_optimal_objective() -> None:
         looser[k] += step_kw
         tighter[k] -= step_kw
         gain = (
-            base - _highs_objective(dataclasses.replace(problem, power_max_kw=looser))
+            base
+            - _highs_objective(
+                dataclasses.replace(problem, power_cap=PowerCap(power_max_kw=looser))
+            )
         ) / step_kw
         loss = (
-            _highs_objective(dataclasses.replace(problem, power_max_kw=tighter)) - base
+            _highs_objective(dataclasses.replace(problem, power_cap=PowerCap(power_max_kw=tighter)))
+            - base
         ) / step_kw
         assert gain - 1e-3 <= values[k] <= loss + 1e-3, (k, gain, values[k], loss)
         if k % 2:
@@ -88,9 +93,12 @@ def test_with_price_and_cap_equals_replace_and_checks_its_fields() -> None:
     price = problem.energy_price_sgd_per_mwh + np.linspace(0.0, 40.0, problem.horizon)
     cap = np.full(problem.horizon, 1e3)
     variant = problem.with_price_and_cap(price, cap)
-    replaced = dataclasses.replace(problem, energy_price_sgd_per_mwh=price, power_max_kw=cap)
+    replaced = dataclasses.replace(
+        problem, energy_price_sgd_per_mwh=price, power_cap=PowerCap(power_max_kw=cap)
+    )
+    np.testing.assert_array_equal(variant.power_max_kw, replaced.power_max_kw)
     for f in dataclasses.fields(problem):
-        if f.init:
+        if f.init and f.name != "power_cap":
             np.testing.assert_array_equal(
                 np.asarray(getattr(variant, f.name), dtype=object),
                 np.asarray(getattr(replaced, f.name), dtype=object),
@@ -109,5 +117,5 @@ def test_with_price_and_cap_equals_replace_and_checks_its_fields() -> None:
     with pytest.raises(ProblemError, match="power_max_kw"):
         problem.with_price_and_cap(price, -np.inf)
     feedback = dataclasses.replace(problem, robust="feedback")
-    with pytest.raises(ProblemError, match="power_max_kw"):
+    with pytest.raises(ProblemError, match="power_cap"):
         feedback.with_price_and_cap(price, cap)

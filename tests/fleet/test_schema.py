@@ -86,12 +86,14 @@ def test_reserve_defaults_to_the_product_event_model(tmp_path: Path) -> None:
     # every building's controller builds event-model problems with these settings
     agent = BuildingAgent(fleet.buildings[0], 0, settings)
     agent.begin_step()
-    assert agent.problem.il_event_max_steps == config.event_max_steps
-    assert agent.problem.il_event_allowance_kelvin == config.event_allowance_k
+    events = agent.problem.events
+    assert events is not None
+    assert events.max_steps == config.event_max_steps
+    assert events.allowance_kelvin == config.event_allowance_k
     # … on each building's own power model: the fleet's bid is checked on the fleet's meter
     assert not config.meter_calibrated_offers and not config.plan_visible_offers
     assert agent.problem.offer_baselines is None
-    assert agent.problem.il_event_recovery_steps == config.event_recovery_steps
+    assert events.recovery_steps == config.event_recovery_steps
     assert agent.control.allowance_carry_steps == 0
 
 

@@ -12,7 +12,15 @@ import numpy as np
 import pytest
 
 from hvacflex.errors import ProblemError
-from hvacflex.opt import OfferBaselines, RMPCProblem, RMPCSolver, SolveStatus, solve_rmpc
+from hvacflex.opt import (
+    ILEventModel,
+    OfferBaselines,
+    ReserveCommitment,
+    RMPCProblem,
+    RMPCSolver,
+    SolveStatus,
+    solve_rmpc,
+)
 from hvacflex.opt.events import carry_allowance, event_rotation, event_rows, violated_rows
 from hvacflex.opt.lp import build_lp
 from hvacflex.opt.options import (
@@ -23,6 +31,22 @@ from hvacflex.opt.testing import random_problem
 
 REL_TOL = 1e-6
 CONSTRAINT_TOL_K = 1e-6
+
+
+def _model(prob: RMPCProblem) -> ILEventModel:
+    """The problem's event model (these problems all have one)."""
+    assert prob.events is not None
+    return prob.events
+
+
+def _with_events(prob: RMPCProblem, **changes: Any) -> RMPCProblem:
+    """``prob`` with its event model changed (``ILEventModel`` fields)."""
+    return dataclasses.replace(prob, events=dataclasses.replace(_model(prob), **changes))
+
+
+def _max_steps(prob: RMPCProblem) -> int:
+    """D of the problem's event model, N in the whole-horizon model."""
+    return prob.horizon if prob.events is None else prob.events.max_steps
 
 
 def _events(horizon: int, max_steps: int) -> list[tuple[int, int]]:
@@ -47,15 +71,16 @@ def _margins(prob: RMPCProblem) -> np.ndarray:
 
 def _upper_widening(prob: RMPCProblem, event: tuple[int, int] | None) -> np.ndarray:
     """(N,) α where output t = k+1 may use the allowance under ``event`` (None: served)."""
-    alpha = prob.il_event_allowance_kelvin
+    model = _model(prob)
+    alpha = model.allowance_kelvin
     widen = np.zeros(prob.horizon)
-    carry, recovery = prob.il_allowance_carry_steps, prob.il_event_recovery_steps
+    carry, recovery = model.carry_steps, model.recovery_steps
     for t in range(1, carry + 1):  # the recovery's decaying allowance
         widen[t - 1] = alpha * min(1.0, (carry - t + 1) / (recovery + 1))
     if event is not None:
         s, length = event
         for k in range(prob.horizon):
-            if s + 1 <= k + 1 <= s + length + prob.il_event_recovery_steps:
+            if s + 1 <= k + 1 <= s + length + recovery:
                 widen[k] = alpha  # the event's own allowance (≥ the recovery's)
     return widen
 
@@ -79,16 +104,15 @@ def _brute_force(prob: RMPCProblem) -> float:
     reserve = _paid_reserve(prob, r, power)
     cons: list[Any] = [r >= 0, eps >= 0, u <= prob.u_max, u - r >= prob.u_min]
     cons += [r[:, i] == 0 for i in range(m) if not mask[i]]
-    committed = prob.fixed_reserve_steps
-    if committed:
-        cons.append(r[:committed] == prob.reserve_fixed_kg_s)
+    if prob.commitments is not None and prob.commitments.steps:
+        cons.append(r[: prob.commitments.steps] == prob.commitments.reserve_kg_s)
     cons += [beta >= prob.phi[k] * power[k] for k in range(horizon)]
     cons.append(beta >= prob.phi[0] * prob.peak_floor_kw)
     if prob.slack_max_kelvin is not None:
         cons.append(eps <= prob.slack_max_kelvin)
     patterns: list[tuple[int, int] | None] = [
         None,
-        *_events(horizon, prob.il_event_max_steps or horizon),
+        *_events(horizon, _max_steps(prob)),
     ]
     for event in patterns:
         curtailed = np.zeros(horizon)
@@ -139,8 +163,7 @@ def _paid_reserve(prob: RMPCProblem, r: Any, power: list[Any]) -> list[Any]:
             level = rho if baselines.fixed_on_plan_scale[k] else 1.0
             terms.append(level * (fixed - power[k]) + shed + tol)
         if baselines.planned_baselines[k]:
-            assert prob.il_event_max_steps is not None
-            for lag in range(1, min(prob.il_event_max_steps, k) + 1):
+            for lag in range(1, min(_max_steps(prob), k) + 1):
                 terms.append(rho * (power[k - lag] - power[k]) + shed + tol)
         paid.append(cp.minimum(*terms) if len(terms) > 1 else terms[0])
     return paid
@@ -167,7 +190,8 @@ def _outputs(
 
 
 def _event_problem(seed: int, **overrides: Any) -> RMPCProblem:
-    """A random small problem with reserve prices high enough that reserve is offered."""
+    """A random small problem with reserve prices high enough that reserve is offered;
+    ``overrides`` change its event model."""
     rng = np.random.default_rng(1000 + seed)
     n = int(rng.integers(3, 7))
     m = int(rng.integers(1, min(3, n) + 1))
@@ -178,13 +202,15 @@ def _event_problem(seed: int, **overrides: Any) -> RMPCProblem:
         horizon=horizon,
         reserve_price_sgd_per_mwh=rng.uniform(20.0, 400.0, horizon),
         y_max=np.full((horizon, m), float(rng.uniform(25.0, 26.0))),
-        il_event_max_steps=int(rng.integers(1, horizon + 1)),
-        il_event_recovery_steps=int(rng.integers(0, 3)),
-        il_event_allowance_kelvin=float(rng.choice([0.0, 0.5, 1.0])),
-        il_allowance_carry_steps=int(rng.integers(0, 3)),
+        events=ILEventModel(
+            max_steps=int(rng.integers(1, horizon + 1)),
+            recovery_steps=int(rng.integers(0, 3)),
+            allowance_kelvin=float(rng.choice([0.0, 0.5, 1.0])),
+            carry_steps=int(rng.integers(0, 3)),
+        ),
     )
-    fields.update(overrides)
-    return random_problem(seed, **fields)
+    prob = random_problem(seed, **fields)
+    return _with_events(prob, **overrides) if overrides else prob
 
 
 @pytest.mark.parametrize("seed", range(12))
@@ -198,7 +224,7 @@ def test_event_model_equals_brute_force_enumeration(seed: int) -> None:
     # the plan itself is feasible in the brute-force model (checked by simulation)
     delta = _margins(prob)
     zero = np.zeros_like(prob.d_forecast)
-    for event in [None, *_events(prob.horizon, prob.il_event_max_steps or prob.horizon)]:
+    for event in [None, *_events(prob.horizon, _max_steps(prob))]:
         y = _outputs(prob, sol.u, sol.r, event, zero)
         widen = _upper_widening(prob, event)[:, None]
         assert (y + delta <= prob.y_max + widen + sol.slack + CONSTRAINT_TOL_K).all()
@@ -213,7 +239,7 @@ def test_brute_force_cases_offer_reserve() -> None:
 
 @pytest.mark.parametrize("seed", range(6))
 def test_plan_keeps_comfort_for_every_event_and_box_corner(seed: int) -> None:
-    prob = _event_problem(seed, il_event_allowance_kelvin=1.0, il_event_recovery_steps=1)
+    prob = _event_problem(seed, allowance_kelvin=1.0, recovery_steps=1)
     sol = solve_rmpc(prob)
     assert sol.ok and sol.reserve_kw.sum() > 0
     rng = np.random.default_rng(seed)
@@ -228,7 +254,7 @@ def test_plan_keeps_comfort_for_every_event_and_box_corner(seed: int) -> None:
                 w[j] = np.sign(h) * sigma[j]
             corners.append(w)
     worst_seen = np.full((prob.horizon, prob.ny), -np.inf)
-    for event in [None, *_events(prob.horizon, prob.il_event_max_steps or prob.horizon)]:
+    for event in [None, *_events(prob.horizon, _max_steps(prob))]:
         widen = _upper_widening(prob, event)[:, None]
         for w in corners:
             y = _outputs(prob, sol.u, sol.r, event, w)
@@ -244,7 +270,7 @@ def test_plan_keeps_comfort_for_every_event_and_box_corner(seed: int) -> None:
 def test_full_length_events_without_allowance_equal_the_whole_horizon_model(seed: int) -> None:
     base = random_problem(seed, reserve_price_sgd_per_mwh=np.full(8, 3000.0))
     whole = solve_rmpc(base)
-    event = solve_rmpc(dataclasses.replace(base, il_event_max_steps=8))
+    event = solve_rmpc(dataclasses.replace(base, events=ILEventModel(max_steps=8)))
     assert whole.ok and event.ok
     assert whole.reserve_kw.sum() > 0
     assert event.objective_sgd == pytest.approx(whole.objective_sgd, rel=1e-7)
@@ -259,10 +285,7 @@ def test_shorter_events_and_allowance_relax_the_problem() -> None:
     sols = {
         (d, alpha): solve_rmpc(
             dataclasses.replace(
-                base,
-                il_event_max_steps=d,
-                il_event_allowance_kelvin=alpha,
-                il_event_recovery_steps=1,
+                base, events=ILEventModel(max_steps=d, allowance_kelvin=alpha, recovery_steps=1)
             )
         )
         for d in (1, 4, 8)
@@ -286,11 +309,10 @@ def test_carry_widens_the_served_band() -> None:
         reserve_mask=np.zeros(2, dtype=bool),
         x0=np.full(4, 25.8),
         y_max=np.full((8, 2), 25.0),
-        il_event_max_steps=2,
-        il_event_allowance_kelvin=1.0,
+        events=ILEventModel(max_steps=2, allowance_kelvin=1.0),
     )
     strict = solve_rmpc(base)
-    carried = solve_rmpc(dataclasses.replace(base, il_allowance_carry_steps=3))
+    carried = solve_rmpc(_with_events(base, carry_steps=3))
     assert strict.ok and carried.ok
     assert carried.objective_sgd < strict.objective_sgd - 1e-6
     assert (strict.y_event_worst <= base.y_max + strict.slack + CONSTRAINT_TOL_K).all()
@@ -313,7 +335,9 @@ def test_event_rows_count_and_rotation_is_a_permutation() -> None:
         assert np.array_equal(rows.start[shifted], rows.start[kept] + 1)
 
 
-def _shifted_problems(steps: int, horizon: int = 8, **events: Any) -> list[RMPCProblem]:
+def _shifted_problems(steps: int, events: ILEventModel, horizon: int = 8) -> list[RMPCProblem]:
+    """``steps`` problems of a receding horizon over one long random problem, with
+    ``events`` (its carry c cycling 0, 1, 2)."""
     long = random_problem(7, horizon=horizon + steps)
     rng = np.random.default_rng(7)
     problems = []
@@ -331,8 +355,7 @@ def _shifted_problems(steps: int, horizon: int = 8, **events: Any) -> list[RMPCP
                 reserve_price_sgd_per_mwh=30.0 * long.reserve_price_sgd_per_mwh[window],
                 power_offset_kw=long.power_offset_kw[window],
                 power_coeff_kw_per_kg_s=long.power_coeff_kw_per_kg_s[window],
-                il_allowance_carry_steps=step % 3,
-                **events,
+                events=dataclasses.replace(events, carry_steps=step % 3),
             )
         )
         x0 = x0 + rng.normal(0.0, 0.2, x0.shape)
@@ -343,7 +366,7 @@ def _shifted_problems(steps: int, horizon: int = 8, **events: Any) -> list[RMPCP
 @pytest.mark.parametrize("time_shift", [True, False])
 def test_warm_started_event_solver_equals_cold_solves(time_shift: bool, mode: str) -> None:
     problems = _shifted_problems(
-        10, il_event_max_steps=2, il_event_recovery_steps=1, il_event_allowance_kelvin=0.5
+        10, ILEventModel(max_steps=2, recovery_steps=1, allowance_kelvin=0.5)
     )
     solver = RMPCSolver(problems[0], time_shift=time_shift, event_rows=mode)  # type: ignore[arg-type]
     zero = np.zeros((problems[0].horizon, problems[0].ny))
@@ -358,19 +381,17 @@ def test_warm_started_event_solver_equals_cold_solves(time_shift: bool, mode: st
 
 
 def test_structure_holds_d_and_r_but_not_alpha_or_carry() -> None:
-    prob = random_problem(1, il_event_max_steps=2, il_event_recovery_steps=1)
+    prob = random_problem(1, events=ILEventModel(max_steps=2, recovery_steps=1))
     solver = RMPCSolver(prob)
-    solver.solve(
-        dataclasses.replace(prob, il_event_allowance_kelvin=1.0, il_allowance_carry_steps=2)
-    )
-    for change in (
-        {"il_event_max_steps": 3},
-        {"il_event_recovery_steps": 0},
-        {"il_event_max_steps": None, "il_event_recovery_steps": 0},
+    solver.solve(_with_events(prob, allowance_kelvin=1.0, carry_steps=2))
+    for changed in (
+        _with_events(prob, max_steps=3),
+        _with_events(prob, recovery_steps=0),
+        dataclasses.replace(prob, events=None),
     ):
         with pytest.raises(ProblemError, match="structure differs"):
-            solver.solve(dataclasses.replace(prob, **change))
-    other = dataclasses.replace(prob, il_event_max_steps=3)
+            solver.solve(changed)
+    other = _with_events(prob, max_steps=3)
     assert other.structure.fingerprint() != prob.structure.fingerprint()
 
 
@@ -380,7 +401,7 @@ def test_failed_solve_has_nan_worst_output() -> None:
         slack_max_kelvin=0.0,
         y_max=np.full((8, 2), 10.0),
         y_min=np.full((8, 2), 9.0),
-        il_event_max_steps=1,
+        events=ILEventModel(max_steps=1),
     )
     sol = solve_rmpc(prob)
     assert not sol.ok
@@ -388,49 +409,47 @@ def test_failed_solve_has_nan_worst_output() -> None:
 
 
 @pytest.mark.parametrize(
-    ("overrides", "field", "match"),
+    ("fields", "field", "match"),
     [
-        ({"il_event_max_steps": 0}, "il_event_max_steps", "1 ≤ value ≤ 8"),
-        ({"il_event_max_steps": 9}, "il_event_max_steps", "1 ≤ value ≤ 8"),
-        ({"il_event_max_steps": 2.0}, "il_event_max_steps", "integer"),
-        ({"il_event_max_steps": True}, "il_event_max_steps", "integer"),
-        (
-            {"il_event_max_steps": 2, "il_event_allowance_kelvin": -0.5},
-            "il_event_allowance_kelvin",
-            "≥ 0",
-        ),
-        (
-            {"il_event_max_steps": 2, "il_event_allowance_kelvin": float("nan")},
-            "il_event_allowance_kelvin",
-            "finite",
-        ),
-        (
-            {"il_event_max_steps": 2, "il_event_recovery_steps": -1},
-            "il_event_recovery_steps",
-            "value ≥ 0",
-        ),
-        (
-            {"il_event_max_steps": 2, "il_allowance_carry_steps": 9},
-            "il_allowance_carry_steps",
-            "≤ 8",
-        ),
-        ({"il_event_allowance_kelvin": 1.0}, "il_event_allowance_kelvin", "event model"),
-        ({"il_event_recovery_steps": 1}, "il_event_recovery_steps", "event model"),
-        ({"il_allowance_carry_steps": 1}, "il_allowance_carry_steps", "event model"),
-        ({"il_event_max_steps": 2, "robust": "dual"}, "robust", "too large"),
-        ({"il_event_max_steps": 2, "robust": "feedback"}, "robust", "not supported"),
+        ({"max_steps": 0}, "events.max_steps", "value ≥ 1"),
+        ({"max_steps": 2.0}, "events.max_steps", "integer"),
+        ({"max_steps": True}, "events.max_steps", "integer"),
+        ({"max_steps": 2, "allowance_kelvin": -0.5}, "events.allowance_kelvin", "≥ 0"),
+        ({"max_steps": 2, "allowance_kelvin": float("nan")}, "events.allowance_kelvin", "finite"),
+        ({"max_steps": 2, "recovery_steps": -1}, "events.recovery_steps", "value ≥ 0"),
+        ({"max_steps": 2, "carry_steps": -1}, "events.carry_steps", "value ≥ 0"),
     ],
 )
-def test_event_fields_are_validated(overrides: dict[str, Any], field: str, match: str) -> None:
+def test_event_model_is_validated_on_its_own(
+    fields: dict[str, Any], field: str, match: str
+) -> None:
     with pytest.raises(ProblemError, match=match) as info:
-        random_problem(0, **overrides)
+        ILEventModel(**fields)
+    assert info.value.field == field
+
+
+@pytest.mark.parametrize(
+    ("events", "overrides", "field", "match"),
+    [
+        (ILEventModel(max_steps=9), {}, "events.max_steps", "1 ≤ value ≤ 8"),
+        (ILEventModel(max_steps=2, carry_steps=9), {}, "events.carry_steps", "≤ 8"),
+        (ILEventModel(max_steps=2), {"robust": "dual"}, "robust", "too large"),
+        (ILEventModel(max_steps=2), {"robust": "feedback"}, "robust", "not supported"),
+        ({"max_steps": 2}, {}, "events", "expected ILEventModel or None"),
+    ],
+)
+def test_event_model_is_checked_against_the_problem(
+    events: Any, overrides: dict[str, Any], field: str, match: str
+) -> None:
+    with pytest.raises(ProblemError, match=match) as info:
+        random_problem(0, events=events, **overrides)
     assert info.value.field == field
 
 
 def test_heating_reserve_is_refused_in_the_event_model() -> None:
     prob = random_problem(0)
     with pytest.raises(ProblemError, match="cooling reserve only") as info:
-        dataclasses.replace(prob, b_matrix=-prob.b_matrix, il_event_max_steps=2)
+        dataclasses.replace(prob, b_matrix=-prob.b_matrix, events=ILEventModel(max_steps=2))
     assert info.value.field == "b_matrix"
 
 
@@ -442,10 +461,8 @@ def test_lazy_event_rows_equal_the_full_model(max_steps: int, recovery: int, alp
     as all event rows (1e-9 relative) with fewer rows in HiGHS, and the plan keeps every row."""
     problems = _shifted_problems(
         24,
+        ILEventModel(max_steps=max_steps, recovery_steps=recovery, allowance_kelvin=alpha),
         horizon=12,
-        il_event_max_steps=max_steps,
-        il_event_recovery_steps=recovery,
-        il_event_allowance_kelvin=alpha,
     )
     full = RMPCSolver(problems[0], event_rows="full")
     lazy = RMPCSolver(problems[0], event_rows="lazy")
@@ -473,7 +490,7 @@ def test_violated_rows_are_every_absent_row_over_the_tolerance() -> None:
 
 
 def test_lazy_basis_covers_every_row_and_resumes_a_full_solver() -> None:
-    problems = _shifted_problems(6, il_event_max_steps=2, il_event_recovery_steps=1)
+    problems = _shifted_problems(6, ILEventModel(max_steps=2, recovery_steps=1))
     lazy = RMPCSolver(problems[0], event_rows="lazy")
     for prob in problems[:3]:
         lazy.solve(prob)
@@ -547,7 +564,7 @@ def test_offer_baselines_need_the_event_model_and_the_horizon() -> None:
     with pytest.raises(ProblemError, match="event model"):
         random_problem(0, horizon=8, offer_baselines=baselines)
     with pytest.raises(ProblemError, match="cover 8 steps"):
-        random_problem(0, horizon=6, il_event_max_steps=2, offer_baselines=baselines)
+        random_problem(0, horizon=6, events=ILEventModel(max_steps=2), offer_baselines=baselines)
 
 
 def _random_baselines(rng: np.random.Generator, horizon: int) -> OfferBaselines:
@@ -573,7 +590,9 @@ def _baseline_problem(seed: int) -> RMPCProblem:
     return dataclasses.replace(
         base,
         offer_baselines=_random_baselines(rng, base.horizon),
-        reserve_fixed_kg_s=np.full((min(fixed_steps, base.horizon - 1), base.m), 0.05),
+        commitments=ReserveCommitment(
+            reserve_kg_s=np.full((min(fixed_steps, base.horizon - 1), base.m), 0.05)
+        ),
     )
 
 
@@ -601,12 +620,12 @@ def test_offers_paid_for_what_the_baselines_see_equal_the_brute_force(seed: int)
     assert sol.status is SolveStatus.OPTIMAL, sol.message
     assert solver.highs_objective_sgd() == pytest.approx(_brute_force(prob), rel=REL_TOL, abs=1e-7)
     baselines = prob.offer_baselines
-    assert baselines is not None and prob.il_event_max_steps is not None
+    assert baselines is not None
     seen = baselines.seen_kw(
         sol.power_kw,
         np.einsum("km,km->k", prob.power_coeff_kw_per_kg_s, sol.r),
         np.einsum("km,km->k", prob.reserve_kw_per_kg_s, sol.r),
-        prob.il_event_max_steps,
+        _model(prob).max_steps,
     )
     q_r = np.einsum("km,km->k", prob.reserve_kw_per_kg_s, sol.r)
     paid = baselines.offer_steps & ~np.isneginf(baselines.fixed_baseline_kw)
@@ -644,7 +663,7 @@ def test_warm_started_solver_with_offer_baselines_equals_cold_solves(mode: str) 
     problems = [
         dataclasses.replace(prob, offer_baselines=_random_baselines(rng, prob.horizon))
         for prob in _shifted_problems(
-            8, il_event_max_steps=2, il_event_recovery_steps=1, il_event_allowance_kelvin=0.5
+            8, ILEventModel(max_steps=2, recovery_steps=1, allowance_kelvin=0.5)
         )
     ]
     solver = RMPCSolver(problems[0], event_rows=mode)  # type: ignore[arg-type]

@@ -10,7 +10,6 @@ import pytest
 
 from hvacflex.errors import ProblemError
 from hvacflex.opt import FeedbackOptions, FeedbackSolver, RMPCSolution, SolveStatus, solve_rmpc
-from hvacflex.opt.feedback import innovation_basis
 from hvacflex.opt.options import FEEDBACK_STRUCTURES
 from hvacflex.opt.testing import random_problem
 
@@ -117,21 +116,6 @@ def test_sampled_robustness(seed: int, structure: str) -> None:
         assert (applied >= prob.u_min - FLOW_TOL_KG_S).all()
         power = prob.power_offset_kw + np.einsum("km,km->k", prob.power_coeff_kw_per_kg_s, u)
         assert (prob.phi * power <= sol.peak_charge_sgd + 1e-6).all()
-
-
-def test_innovation_recovers_what_the_state_reveals() -> None:
-    rng = np.random.default_rng(7)
-    e = rng.uniform(0.0, 1.0, (6, 3))
-    e = np.hstack([e, e[:, :1] * 2.0 + e[:, 1:2]])  # a dependent fourth channel
-    recover, k_matrix, selected = innovation_basis(e)
-    assert selected.tolist() == [0, 1, 2] or len(selected) == 3
-    np.testing.assert_allclose(e[:, selected] @ k_matrix, e, atol=1e-12)
-    w = rng.normal(size=4)
-    np.testing.assert_allclose(recover @ (e @ w), k_matrix @ w, atol=1e-10)
-    full_rank = rng.uniform(0.0, 1.0, (6, 3))
-    recover, k_matrix, _ = innovation_basis(full_rank)
-    np.testing.assert_allclose(k_matrix, np.eye(3))
-    np.testing.assert_allclose(recover @ full_rank, np.eye(3), atol=1e-10)
 
 
 def test_validation() -> None:

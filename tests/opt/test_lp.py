@@ -1,35 +1,13 @@
-"""The LP builder: index allocation, constant vs varying coefficients, layout sizes."""
+"""The open-loop LP's families: constant vs varying coefficients, layout sizes, commitments."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from hvacflex.opt import SolveStatus
-from hvacflex.opt.lp import LPBuilder, build_lp, sparse_matrix
+from hvacflex.opt import ILEventModel, ReserveCommitment, SolveStatus
+from hvacflex.opt.lp import build_lp
 from hvacflex.opt.testing import random_problem
-
-
-def test_builder_hands_out_consecutive_ranges_and_bounds() -> None:
-    lp = LPBuilder()
-    x = lp.add_columns((3, 2), lower=0.0, upper=np.array([1.0, 2.0]), time_indexed=True)
-    y = lp.add_columns((1,))
-    rows = lp.add_rows((2,), lower=np.array([-1.0, 0.0]), upper=5.0)
-    lp.add_coefficients(rows[:, None], x[:2], 1.0)
-    lp.add_varying_coefficients(rows, y, np.array([0.0, 3.0]))
-    lp.set_cost(x, 2.0)
-    program = lp.finish()
-    assert x.tolist() == [[0, 1], [2, 3], [4, 5]] and y.tolist() == [6]
-    assert (program.num_cols, program.num_rows) == (7, 2)
-    np.testing.assert_array_equal(program.col_upper, [1, 2, 1, 2, 1, 2, np.inf])
-    np.testing.assert_array_equal(program.row_lower, [-1.0, 0.0])
-    np.testing.assert_array_equal(program.cost, [2, 2, 2, 2, 2, 2, 0])
-    assert [block.tolist() for block in program.time_cols] == [x.tolist()]
-    assert program.constant is not None
-    kept = sparse_matrix(program, program.constant, keep_varying_zeros=True, csc=True)
-    dropped = sparse_matrix(program, program.constant, keep_varying_zeros=False, csc=False)
-    assert kept.nnz == 4 + 2 and dropped.nnz == 4 + 1
-    np.testing.assert_array_equal(kept.toarray(), dropped.toarray())
 
 
 def test_rebuild_without_constants_gives_the_same_vectors() -> None:
@@ -61,14 +39,16 @@ def test_layout_sizes() -> None:
 
 
 def test_committed_reserve_is_fixed_by_bounds_and_a_warm_solver_follows_it() -> None:
-    """``reserve_fixed_kg_s`` (g, m) fixes r_0 … r_{g−1} (column bounds: no new rows); a warm
-    solver re-solving with other commitments returns them too, with the cold optimum."""
+    """A commitment ``ReserveCommitment(reserve_kg_s=...)`` (g, m) fixes r_0 … r_{g−1}
+    (column bounds: no new rows); a warm solver re-solving with other commitments returns
+    them too, with the cold optimum."""
     from hvacflex.opt import make_solver, solve_rmpc
 
-    events = dict(il_event_max_steps=2, il_event_allowance_kelvin=1.0, il_event_recovery_steps=1)
-    free = random_problem(3, horizon=8, **events)
+    events = ILEventModel(max_steps=2, allowance_kelvin=1.0, recovery_steps=1)
+    free = random_problem(3, horizon=8, events=events)
     fixed = np.array([[0.2, 0.0], [0.05, 0.3]])
-    problem = random_problem(3, horizon=8, reserve_fixed_kg_s=fixed, **events)
+    commitment = ReserveCommitment(reserve_kg_s=fixed)
+    problem = random_problem(3, horizon=8, commitments=commitment, events=events)
     assert problem.fixed_reserve_steps == 2 and free.fixed_reserve_steps == 0
     margin = np.zeros((free.horizon, free.ny))
     lp_free, _ = build_lp(free, margin)

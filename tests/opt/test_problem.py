@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from hvacflex.errors import ProblemError
-from hvacflex.opt import RMPCProblem
+from hvacflex.opt import ReserveCommitment, RMPCProblem
 from hvacflex.opt.testing import random_problem
 
 
@@ -112,13 +112,17 @@ def test_problem_is_frozen() -> None:
     assert isinstance(prob, RMPCProblem)
 
 
+def _commitment(reserve_kg_s: object) -> ReserveCommitment:
+    return ReserveCommitment(reserve_kg_s=np.asarray(reserve_kg_s, dtype=float))
+
+
 def test_committed_reserve_that_cannot_be_shed_is_refused() -> None:
     with pytest.raises(ProblemError, match="cannot be shed") as info:
-        random_problem(3, reserve_fixed_kg_s=np.array([[2.0, 0.0]]))  # room 1.4 kg/s
-    assert info.value.field == "reserve_fixed_kg_s"
+        random_problem(3, commitments=_commitment([[2.0, 0.0]]))  # room 1.4 kg/s
+    assert info.value.field == "commitments.reserve_kg_s"
     with pytest.raises(ProblemError, match="reserve allowed: False"):
         random_problem(
-            3, reserve_mask=np.array([True, False]), reserve_fixed_kg_s=np.array([[0.1, 0.1]])
+            3, reserve_mask=np.array([True, False]), commitments=_commitment([[0.1, 0.1]])
         )
     with pytest.raises(ProblemError, match="wrong shape"):
-        random_problem(3, horizon=4, reserve_fixed_kg_s=np.zeros((4, 2)))  # g < N
+        random_problem(3, horizon=4, commitments=_commitment(np.zeros((4, 2))))  # g < N

@@ -15,7 +15,16 @@ import numpy as np
 import pytest
 
 from hvacflex.config import preset
-from hvacflex.opt import FeedbackOptions, RMPCProblem, RMPCSolver, SolveStatus, solve_rmpc
+from hvacflex.opt import (
+    FeedbackOptions,
+    ILEventModel,
+    PowerCap,
+    ReserveCommitment,
+    RMPCProblem,
+    RMPCSolver,
+    SolveStatus,
+    solve_rmpc,
+)
 from hvacflex.opt.options import FEEDBACK_STRUCTURES
 from hvacflex.opt.reference import margins, reference_event_rows, solve_reference
 from hvacflex.opt.robust import comfort_margins
@@ -54,9 +63,11 @@ def _window(prob: RMPCProblem, first: int, horizon: int) -> RMPCProblem:
         "y_min",
         "y_max",
         "peak_price_sgd_per_kw",
-        "power_max_kw",
     ]
-    return dataclasses.replace(prob, **{name: getattr(prob, name)[steps] for name in names})
+    fields = {name: getattr(prob, name)[steps] for name in names}
+    if prob.power_cap is not None:
+        fields["power_cap"] = PowerCap(power_max_kw=prob.power_cap.kw[steps])
+    return dataclasses.replace(prob, **fields)
 
 
 def test_office5_event_lp_with_visible_offers_equals_cvxpy() -> None:
@@ -166,9 +177,9 @@ def test_whole_horizon_modes_equal_cvxpy(seed: int, robust: str) -> None:
     problem = dataclasses.replace(
         base,
         peak_floor_kw=2.0,
-        power_max_kw=float(free.power_kw.max()) * 0.95,
+        power_cap=PowerCap(power_max_kw=float(free.power_kw.max()) * 0.95),
         reserve_power_coeff_kw_per_kg_s=base.power_coeff_kw_per_kg_s * 0.7,
-        reserve_fixed_kg_s=np.full((2, base.m), 0.01),
+        commitments=ReserveCommitment(reserve_kg_s=np.full((2, base.m), 0.01)),
     )
     solver = RMPCSolver(problem)
     assert solver.solve(problem).ok
@@ -190,7 +201,7 @@ def test_problems_without_reserve_equal_cvxpy(robust: str) -> None:
 
 def test_reference_margins_and_event_rows_by_hand() -> None:
     """δ equals hvacflex's robust margins; the rows of D = 2, R = 1, N = 4 listed by hand."""
-    problem = random_problem(0, horizon=4, il_event_max_steps=2, il_event_recovery_steps=1)
+    problem = random_problem(0, horizon=4, events=ILEventModel(max_steps=2, recovery_steps=1))
     expected = comfort_margins(
         problem.a_matrix, problem.e_matrix, problem.c_matrix, problem.d_sigma
     )

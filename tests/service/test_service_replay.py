@@ -27,8 +27,9 @@ from hvacflex.service.replay import (
     registration,
     replay,
 )
-from hvacflex.sim.closed_loop import ClosedLoop, run_simulation
+from hvacflex.sim.closed_loop import ClosedLoop
 from hvacflex.sim.plant import Actuation, Disturbance, Observation, RCPlant
+from hvacflex.sim.run import run_simulation
 from hvacflex.sim.run_files import read_results
 from hvacflex.sim.setup import prepare
 

@@ -20,8 +20,9 @@ from hvacflex import kpi
 from hvacflex.building.hvac import affine_power_model
 from hvacflex.config import preset, scaled_uncertainty, with_overrides
 from hvacflex.paths import buildings_dir
-from hvacflex.sim.closed_loop import ClosedLoop, RunInterrupted, run_simulation
+from hvacflex.sim.closed_loop import ClosedLoop
 from hvacflex.sim.plant import Actuation, Disturbance, Observation
+from hvacflex.sim.run import RunInterrupted, run_simulation
 from hvacflex.sim.run_files import CHECKPOINT_FILE, read_results
 from hvacflex.sim.setup import prepare
 

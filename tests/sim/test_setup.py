@@ -19,7 +19,7 @@ from hvacflex.control.mpc import MPCController
 from hvacflex.control.trim_respond import TrimRespondController
 from hvacflex.errors import ConfigError
 from hvacflex.paths import resolve_building
-from hvacflex.sim.closed_loop import run_simulation
+from hvacflex.sim.run import run_simulation
 from hvacflex.sim.run_files import run_key
 from hvacflex.sim.setup import Setup, make_controller, prepare
 

@@ -12,8 +12,9 @@ import pytest
 from hvacflex import state as hvacflex_state
 from hvacflex.config import preset, with_overrides
 from hvacflex.control.base import Action, Controller, EventPlan, PeriodInputs
-from hvacflex.sim.closed_loop import ClosedLoop, run_simulation
+from hvacflex.sim.closed_loop import ClosedLoop
 from hvacflex.sim.events import EventTracker, Role
+from hvacflex.sim.run import run_simulation
 from hvacflex.sim.run_files import CONFIG_FILE
 from hvacflex.sim.setup import prepare
 

@@ -22,14 +22,13 @@ the same problem (docs/model.md §3):
 * the interruptible-load contract of the scenario's ``[reserve]`` table: the event length D,
   the allowance α, the recovery R, the recovery steps c still running from an event that
   just ended, the reserve committed ahead and the offers' settlement baselines
-  (``RMPCProblem.il_*``, ``reserve_fixed_kg_s``, ``offer_baselines``); ``None`` for D keeps
+  (``RMPCProblem.events``, ``commitments``, ``offer_baselines``); ``None`` for D keeps
   the whole-horizon model.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -49,7 +48,14 @@ from hvacflex.data.forecast import Forecast
 from hvacflex.data.signals import effective_peak_price
 from hvacflex.data.uncertainty import UncertaintyBox
 from hvacflex.errors import ConfigError
-from hvacflex.opt import FeedbackOptions, OfferBaselines, RMPCProblem, RMPCSolution
+from hvacflex.opt import (
+    FeedbackOptions,
+    ILEventModel,
+    OfferBaselines,
+    ReserveCommitment,
+    RMPCProblem,
+    RMPCSolution,
+)
 from hvacflex.opt.robust import comfort_margins
 from hvacflex.units import SECONDS_PER_HOUR
 
@@ -272,16 +278,16 @@ def build_problem(
             if cfg.robust == "feedback"
             else None
         ),
-        reserve_fixed_kg_s=_fixed_reserve_kg_s(contract, inputs.committed_reserve_kg_s, u_min),
+        commitments=_commitment(contract, inputs.committed_reserve_kg_s, u_min),
         offer_baselines=context.offer_baselines,
-        **_event_fields(contract.reserve, horizon, inputs.allowance_carry_steps),
+        events=_event_model(contract.reserve, horizon, inputs.allowance_carry_steps),
     )
 
 
-def _fixed_reserve_kg_s(
+def _commitment(
     contract: PlanContract, committed_kg_s: FloatArray | None, u_min: FloatArray
-) -> FloatArray | None:
-    """(g, m) committed reserve flows of the first g steps, clipped into the room
+) -> ReserveCommitment | None:
+    """The (g, m) committed reserve flows of the first g steps, clipped into the room
     [0, u_max − u_min] of each step and the reserve mask (None: no commitments)."""
     g = contract.commit_ahead
     if not g:
@@ -291,21 +297,21 @@ def _fixed_reserve_kg_s(
     committed = np.asarray(held, dtype=float).reshape(-1, zones)[:g]
     room = np.maximum(contract.flow_max_kg_s - u_min[: committed.shape[0]], 0.0)
     fixed: FloatArray = np.where(contract.reserve_mask, np.clip(committed, 0.0, room), 0.0)
-    return fixed
+    return ReserveCommitment(reserve_kg_s=fixed)
 
 
-def _event_fields(
+def _event_model(
     reserve: ReserveConfig, horizon: int, allowance_carry_steps: int
-) -> dict[str, Any]:
-    """The ``il_*`` fields of the problem from the IL contract (none: whole horizon)."""
+) -> ILEventModel | None:
+    """The problem's IL event model from the IL contract (None: whole horizon)."""
     if reserve.event_max_steps is None:
-        return {"il_event_max_steps": None}
-    return {
-        "il_event_max_steps": min(reserve.event_max_steps, horizon),
-        "il_event_allowance_kelvin": reserve.event_allowance_k,
-        "il_event_recovery_steps": reserve.event_recovery_steps,
-        "il_allowance_carry_steps": min(allowance_carry_steps, horizon),
-    }
+        return None
+    return ILEventModel(
+        max_steps=min(reserve.event_max_steps, horizon),
+        allowance_kelvin=reserve.event_allowance_k,
+        recovery_steps=reserve.event_recovery_steps,
+        carry_steps=min(allowance_carry_steps, horizon),
+    )
 
 
 def lp_power_rows(

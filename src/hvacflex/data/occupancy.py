@@ -93,8 +93,8 @@ def stochastic_zone_gains_w(
         for s in range(-MAX_SHIFT_STEPS, MAX_SHIFT_STEPS + 1)
     }
     head_count = max(round(floor_area_m2 / occupancy_m2_per_person), 0)
-    day_gains = np.empty((len(days_index) // 48, 48))
-    for d, midnight in enumerate(days_index[::48]):
+    day_gains = np.empty((len(days_index) // PERIODS_PER_DAY, PERIODS_PER_DAY))
+    for d, midnight in enumerate(days_index[::PERIODS_PER_DAY]):
         day_number = int((midnight.tz_localize(None) - pd.Timestamp(0)).days)
         rng = np.random.default_rng([seed, zone_position, day_number])
         shift = int(rng.integers(-MAX_SHIFT_STEPS, MAX_SHIFT_STEPS + 1))

@@ -36,7 +36,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from hvacflex.constants import MAX_HORIZON_STEPS
+from hvacflex.constants import MAX_HORIZON_STEPS, PERIODS_PER_DAY
 from hvacflex.control.base import FloatArray
 from hvacflex.errors import InputError
 from hvacflex.fleet.agent import BuildingGroup, FleetSettings
@@ -49,7 +49,7 @@ from hvacflex.opt.solve import solve_lp
 
 BOUND_FILE = "bound.csv"
 BOUND_COLUMNS = ("building", "discomfort_kelvin_hours", "feasible")
-MAX_BOUND_DAYS = MAX_HORIZON_STEPS // 48
+MAX_BOUND_DAYS = MAX_HORIZON_STEPS // PERIODS_PER_DAY
 """Longest run bounded [days]: the whole run is one horizon."""
 COMFORT_ONLY_PENALTY_SGD_PER_KELVIN_HOUR = 1.0
 """The bound's only cost: 1 SGD per K·h of slack (any positive value gives the same plan)."""
@@ -83,7 +83,7 @@ def run_model(fleet: Fleet, document: dict[str, Any], start: str, days: float) -
     InputError
         When the run is longer than one horizon can be (:data:`MAX_BOUND_DAYS`).
     """
-    steps = round(days * 48)
+    steps = round(days * PERIODS_PER_DAY)
     if steps > MAX_HORIZON_STEPS:
         raise InputError(
             f"a run of {days:g} days is longer than one horizon ({MAX_HORIZON_STEPS} periods)",
@@ -122,11 +122,8 @@ def comfort_only(problem: RMPCProblem) -> RMPCProblem:
         comfort_penalty_sgd_per_kelvin_hour=COMFORT_ONLY_PENALTY_SGD_PER_KELVIN_HOUR,
         reserve_mask=np.zeros(problem.u_min.shape[1], dtype=bool),
         slack_max_kelvin=None,
-        il_event_max_steps=None,
-        il_event_allowance_kelvin=0.0,
-        il_event_recovery_steps=0,
-        il_allowance_carry_steps=0,
-        reserve_fixed_kg_s=None,
+        events=None,
+        commitments=None,
         offer_baselines=None,
     )
 

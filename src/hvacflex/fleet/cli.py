@@ -146,7 +146,7 @@ def simulate(
             loaded, document, start, days, allow=allow_infeasible_limits
         ):
             typer.echo(f"warning: {message}", err=True)
-        with task_progress(True, "fleet", round(days * 48)) as update:
+        with task_progress(True, "fleet", round(days * PERIODS_PER_DAY)) as update:
             watch.update = update
             result = run_fleet(
                 fleet,

@@ -21,6 +21,7 @@ from hvacflex.building.hvac import hvac_power_kw
 from hvacflex.building.io import building_from_dict
 from hvacflex.building.model import Building
 from hvacflex.config.presets import PRODUCT_RESERVE
+from hvacflex.constants import HORIZON_STEPS
 from hvacflex.errors import ConfigError
 from hvacflex.fleet.schema import fleet_from_dict
 from hvacflex.paths import resolve_building
@@ -184,7 +185,7 @@ def generate_fleet(
         "feeder_margin": 0.0,
         "min_bid_mw": float(min_bid_mw),
         "robust": "tightening",
-        "horizon_steps": 48,
+        "horizon_steps": HORIZON_STEPS,
         "reserve": {"enabled": True, **PRODUCT_RESERVE},
         "ppp": {"peak_price_sgd_per_kw": 0.0, "billing_mode": "horizon"},
         "coordination": {

@@ -30,7 +30,7 @@ margin δ_t of :mod:`hvacflex.opt.robust` applies unchanged. For cooling reserve
   A row with a smaller L is implied by the one with the largest L (the extra terms are ≥ 0),
   so these at most two rows per (t, s, zone) are the exact robust counterpart.
 
-Outputs ``t ≤ c`` (``il_allowance_carry_steps``) belong to the recovery from an event that
+Outputs ``t ≤ c`` (``ILEventModel.carry_steps``) belong to the recovery from an event that
 ended before the horizon (the zone is still warm from a real curtailment): the served plan and
 the strict rows get a decaying allowance ``α · min(1, (c − t + 1)/(R + 1))``
 (:func:`carry_allowance`); outside such a recovery (c = 0) the served plan never gets α, only
@@ -52,8 +52,9 @@ a permutation, so the rotated basis keeps its number of basic variables
 (:func:`event_rotation`).
 
 Everything here is plain numpy/scipy (no solver, no other hvacflex.opt module):
-:mod:`hvacflex.opt.problem` validates with it, :func:`hvacflex.opt.lp.add_il_event_comfort`
-adds the rows, :mod:`hvacflex.opt.solution` reports the worst event output.
+:class:`hvacflex.opt.blocks.ILEventModel` holds D, α, R and c,
+:func:`hvacflex.opt.lp.add_il_event_comfort` adds the rows, :mod:`hvacflex.opt.solution`
+reports the worst event output.
 """
 
 from __future__ import annotations
@@ -65,18 +66,14 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import sparse
 
-from hvacflex.errors import ProblemError
-
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 BoolArray = NDArray[np.bool_]
 
-_SOURCE = "RMPCProblem"
 
 __all__ = [
     "EventRows",
     "carry_allowance",
-    "check_event_fields",
     "event_matrix",
     "event_rotation",
     "event_row_bounds",
@@ -350,107 +347,3 @@ def event_trajectory(
             shift = shift - b_reserve @ r_reserve[k]
         curtailed[k + 1] = x_served[k + 1] + shift
     return curtailed
-
-
-def _integer(name: str, value: object, low: int, high: int | None, hint: str) -> int:
-    number = (
-        int(value) if isinstance(value, int | np.integer) and not isinstance(value, bool) else None
-    )
-    if number is None or number < low or (high is not None and number > high):
-        bound = f"{low} ≤ value ≤ {high}" if high is not None else f"value ≥ {low}"
-        raise ProblemError(
-            f"must be an integer with {bound}", source=_SOURCE, field=name, value=value, hint=hint
-        )
-    return number
-
-
-def check_event_fields(
-    *,
-    horizon: int,
-    robust: str,
-    b_reserve: FloatArray,
-    max_steps: object,
-    allowance_kelvin: object,
-    recovery_steps: object,
-    carry_steps: object,
-) -> None:
-    """Validate the IL event fields of an :class:`~hvacflex.opt.problem.RMPCProblem` with
-    horizon N, robust mode ``robust`` and reserve-carrying columns ``b_reserve`` (n, m_r) of B
-    (raises :class:`ProblemError`)."""
-    d = max_steps
-    alpha = allowance_kelvin
-    if not isinstance(alpha, int | float) or isinstance(alpha, bool) or not np.isfinite(alpha):
-        raise ProblemError(
-            "must be a finite number of kelvin",
-            source=_SOURCE,
-            field="il_event_allowance_kelvin",
-            value=alpha,
-        )
-    if alpha < 0:
-        raise ProblemError(
-            "the event allowance α must be ≥ 0 K",
-            source=_SOURCE,
-            field="il_event_allowance_kelvin",
-            value=alpha,
-            hint="α widens the upper comfort bound during an event and its recovery",
-        )
-    recovery = _integer(
-        "il_event_recovery_steps",
-        recovery_steps,
-        0,
-        None,
-        "R steps after an event keep the allowance α",
-    )
-    carry = _integer(
-        "il_allowance_carry_steps",
-        carry_steps,
-        0,
-        horizon,
-        "outputs 1..c keep α under every pattern (recovery of an event that just ended)",
-    )
-    if d is None:
-        for name, value in (
-            ("il_event_allowance_kelvin", alpha),
-            ("il_event_recovery_steps", recovery),
-            ("il_allowance_carry_steps", carry),
-        ):
-            if value != 0:
-                raise ProblemError(
-                    "applies only to the event model; the whole-horizon model has no allowance",
-                    source=_SOURCE,
-                    field=name,
-                    value=value,
-                    hint="set il_event_max_steps (D) or leave this field 0",
-                )
-        return
-    _integer(
-        "il_event_max_steps",
-        d,
-        1,
-        horizon,
-        f"D is the longest event in steps, 1 ≤ D ≤ N = {horizon}; None = whole-horizon model",
-    )
-    if robust == "dual":
-        raise ProblemError(
-            "the event model is not offered in the dual form (≈ N² event rows, each with "
-            "its own λ's: too large)",
-            source=_SOURCE,
-            field="robust",
-            value=robust,
-            hint="use robust='tightening' (same optimum)",
-        )
-    if robust == "feedback":
-        raise ProblemError(
-            "the event model is not supported with affine disturbance feedback yet",
-            source=_SOURCE,
-            field="robust",
-            value=robust,
-            hint="use robust='tightening', or il_event_max_steps=None for feedback",
-        )
-    if (b_reserve > 0).any():
-        raise ProblemError(
-            "the event model covers cooling reserve only (reserve-carrying columns of B ≤ 0)",
-            source=_SOURCE,
-            field="b_matrix",
-            hint="offer reserve on cooling inputs, or use il_event_max_steps=None",
-        )

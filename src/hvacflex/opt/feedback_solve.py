@@ -3,7 +3,7 @@
 Builds the affine-feedback LP of :mod:`hvacflex.opt.feedback` and keeps it in one
 :class:`~hvacflex.opt.highs_lp.HighsSession` between steps (the session runs HiGHS, keeps the
 basis and retries; this module builds the LP and maps the basis onto it);
-:func:`hvacflex.opt.solve.make_solver` and :func:`~hvacflex.opt.solve.solve_rmpc` dispatch
+:func:`hvacflex.opt.factory.make_solver` and :func:`~hvacflex.opt.factory.solve_rmpc` dispatch
 here.
 
 Warm start (measurements in ``docs/performance.md``, section "Feedback RMPC"). A cold solve

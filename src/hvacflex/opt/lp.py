@@ -5,7 +5,8 @@ coefficients; every ``add_…`` function below adds one family of variables or c
 (PyPSA/linopy manner) and says in its docstring which rows it adds. :func:`build_lp` calls
 them in order; the affine-feedback LP (:mod:`hvacflex.opt.feedback`) reuses the shared ones
 (plan variables, dynamics, comfort, plan costs) over the same builder. A new constraint family
-is one more ``add_…`` function, called from :func:`build_lp`, plus a test.
+is one more ``add_…`` function, called from :func:`build_lp`, plus a test; a new feature is one
+more block of :mod:`hvacflex.opt.blocks` and its family in :data:`FEATURE_FAMILIES`.
 
 Sparse LP (state-space form)
 ----------------------------
@@ -16,26 +17,20 @@ and prices enter only right-hand sides, bounds and costs. Columns, in order:
 dual λ's. Rows: served and curtailed dynamics (N·n each, equalities), comfort upper/lower
 rows per trajectory (N·ny each), ``u − r ≥ u_min`` (N·m_r), power definition (N,
 coefficients ``−p_k`` change every step), peak rows ``φ_k P_k − β ≤ 0`` (N), in the IL event
-model (``il_event_max_steps`` set; no z columns or rows then) the event rows of
+model (``p.events`` set; no z columns or rows then) the event rows of
 :func:`add_il_event_comfort` (≈ N²·ny/2), and in the dual form one equality
 ``λ₁ − λ₂ = ±h`` per (robust row, disturbance entry).
 
-Constant and varying coefficients
----------------------------------
-Coefficients that depend only on the problem's structure (A, B, E, C, N, mask) are
-*constant*: a builder made with ``constants=False`` skips them, so a receding-horizon solver
-rebuilds costs, bounds and the few step-varying coefficients (``p_k``, ``φ_k``, σ in the dual
-form) every step without re-assembling the matrix. Varying coefficients are kept even when
-zero, so that their positions in the matrix are known and can be updated in place.
+The index allocator and the LP container (:class:`LPBuilder`, :class:`LinearProgram`) are
+:mod:`hvacflex.opt.lp_builder`'s (re-exported here); constant and varying coefficients are
+explained there.
 """
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import sparse
 
 from hvacflex.opt.events import (
     EventRows,
@@ -46,6 +41,7 @@ from hvacflex.opt.events import (
     event_rows,
     reserve_responses,
 )
+from hvacflex.opt.lp_builder import LinearProgram, LPBuilder, Triplets, sparse_matrix
 from hvacflex.opt.options import (
     RESERVE_TIE_BREAK_SGD_PER_KG_S_HOUR,
     UNSEEN_TIE_BREAK_SGD_PER_KW_HOUR,
@@ -55,234 +51,31 @@ from hvacflex.opt.robust import dual_row_entries, impulse_responses
 from hvacflex.units import KWH_PER_MWH
 
 __all__ = [
+    "FEATURE_FAMILIES",
     "LPBuilder",
     "LPLayout",
     "LinearProgram",
     "PlanColumns",
     "Triplets",
     "add_comfort_with_margins",
+    "add_committed_reserve",
     "add_curtailed_dynamics",
     "add_dual_robust_rows",
     "add_flow_and_reserve_bounds",
     "add_il_event_comfort",
     "add_peak_epigraph",
     "add_plan_variables",
+    "add_power_cap",
     "add_power_definition",
     "add_served_dynamics",
     "add_visible_offers",
     "build_lp",
     "dynamics_rhs",
-    "reserve_bounds",
+    "event_numbers",
     "set_objective",
     "set_plan_costs",
     "sparse_matrix",
 ]
-
-
-@dataclass(frozen=True, eq=False)
-class Triplets:
-    """Coefficients ``A[rows[i], cols[i]] = values[i]`` (flat arrays of equal length)."""
-
-    rows: IntArray
-    cols: IntArray
-    values: FloatArray
-
-    @staticmethod
-    def join(parts: list[tuple[IntArray, IntArray, FloatArray]]) -> Triplets:
-        """Concatenate (rows, cols, values) blocks."""
-        if not parts:
-            empty = np.zeros(0, dtype=np.int64)
-            return Triplets(empty, empty, np.zeros(0))
-        return Triplets(
-            np.concatenate([p[0] for p in parts]),
-            np.concatenate([p[1] for p in parts]),
-            np.concatenate([p[2] for p in parts]),
-        )
-
-
-@dataclass(frozen=True, eq=False)
-class LinearProgram:
-    """``min costᵀx  s.t.  row_lower ≤ A x ≤ row_upper,  col_lower ≤ x ≤ col_upper``.
-
-    ``constant`` holds the structural coefficients (None if the builder skipped them),
-    ``varying`` the step-varying ones in a fixed order (zeros kept). ``time_cols`` and
-    ``time_rows`` are the blocks whose first axis is the step k (for the warm start's
-    time shift); ``permuted_rows`` are (block, permutation) pairs of row blocks that are not
-    rectangular in k: one step later row ``block[e]`` starts from ``block[permutation[e]]``.
-    """
-
-    num_cols: int
-    num_rows: int
-    cost: FloatArray
-    col_lower: FloatArray
-    col_upper: FloatArray
-    row_lower: FloatArray
-    row_upper: FloatArray
-    constant: Triplets | None
-    varying: Triplets
-    time_cols: tuple[IntArray, ...]
-    time_rows: tuple[IntArray, ...]
-    permuted_rows: tuple[tuple[IntArray, IntArray], ...] = ()
-
-
-def sparse_matrix(
-    lp: LinearProgram, constant: Triplets, *, keep_varying_zeros: bool, csc: bool
-) -> sparse.csc_matrix | sparse.csr_matrix:
-    """The constraint matrix (num_rows × num_cols) from ``constant`` and ``lp.varying``.
-
-    Explicit zeros are dropped, except varying ones if ``keep_varying_zeros`` (so that an
-    in-place update finds them). CSC with sorted indices if ``csc``, else CSR.
-    """
-    keep = constant.values != 0.0
-    rows, cols, values = constant.rows[keep], constant.cols[keep], constant.values[keep]
-    varying = lp.varying
-    keep_v = np.ones(varying.values.size, dtype=bool)
-    if not keep_varying_zeros:
-        keep_v = varying.values != 0.0
-    rows = np.concatenate([rows, varying.rows[keep_v]])
-    cols = np.concatenate([cols, varying.cols[keep_v]])
-    values = np.concatenate([values, varying.values[keep_v]])
-    shape = (lp.num_rows, lp.num_cols)
-    if csc:
-        matrix = sparse.csc_matrix((values, (rows, cols)), shape=shape, dtype=np.float64)
-        matrix.sort_indices()
-        return matrix
-    return sparse.csr_matrix((values, (rows, cols)), shape=shape)
-
-
-_Assignment = tuple[IntArray, FloatArray | float, FloatArray | float]
-
-
-class LPBuilder:
-    """Hands out column and row index ranges; collects bounds, costs and coefficients.
-
-    Parameters
-    ----------
-    constants : record the constant (structural) coefficients; False for a rebuild that
-        only needs costs, bounds and the varying coefficients
-    """
-
-    def __init__(self, *, constants: bool = True) -> None:
-        self.records_constants = constants
-        self.num_cols = 0
-        self.num_rows = 0
-        self._cols: list[_Assignment] = []
-        self._rows: list[_Assignment] = []
-        self._costs: list[tuple[IntArray, FloatArray | float]] = []
-        self._constant: list[tuple[IntArray, IntArray, FloatArray]] = []
-        self._varying: list[tuple[IntArray, IntArray, FloatArray]] = []
-        self._time_cols: list[IntArray] = []
-        self._time_rows: list[IntArray] = []
-        self._permuted_rows: list[tuple[IntArray, IntArray]] = []
-
-    @staticmethod
-    def _take(start: int, shape: tuple[int, ...]) -> IntArray:
-        size = math.prod(shape)
-        return np.arange(start, start + size, dtype=np.int64).reshape(shape)
-
-    def add_columns(
-        self,
-        shape: tuple[int, ...],
-        *,
-        lower: FloatArray | float = -np.inf,
-        upper: FloatArray | float = np.inf,
-        time_indexed: bool = False,
-    ) -> IntArray:
-        """A new block of variables shaped ``shape`` with bounds (broadcast); its indices."""
-        index = self._take(self.num_cols, shape)
-        self.num_cols += index.size
-        return _record(index, lower, upper, self._cols, self._time_cols if time_indexed else None)
-
-    def add_rows(
-        self,
-        shape: tuple[int, ...],
-        *,
-        lower: FloatArray | float = -np.inf,
-        upper: FloatArray | float = np.inf,
-        time_indexed: bool = False,
-        time_permutation: IntArray | None = None,
-    ) -> IntArray:
-        """A new block of constraints ``lower ≤ row ≤ upper`` shaped ``shape``; its indices.
-
-        ``time_indexed``: the first axis is the step k (the warm start rolls it by one);
-        ``time_permutation`` (flat block size): instead, one step later row ``index[e]``
-        starts from row ``index[time_permutation[e]]`` (for blocks not rectangular in k).
-        """
-        index = self._take(self.num_rows, shape)
-        self.num_rows += index.size
-        self._rows.append((index, lower, upper))
-        if time_indexed:
-            self._time_rows.append(index)
-        if time_permutation is not None:
-            self._permuted_rows.append((index.ravel(), time_permutation))
-        return index
-
-    def set_cost(self, cols: IntArray, cost: FloatArray | float) -> None:
-        """Objective coefficients of ``cols`` (broadcast; later calls win)."""
-        self._costs.append((cols, cost))
-
-    def add_coefficients(self, rows: object, cols: object, values: object) -> None:
-        """Constant coefficients (broadcast together); skipped if not ``records_constants``."""
-        if self.records_constants:
-            self._constant.append(_broadcast(rows, cols, values))
-
-    def add_varying_coefficients(self, rows: object, cols: object, values: object) -> None:
-        """Coefficients that change from step to step (broadcast together; zeros kept)."""
-        self._varying.append(_broadcast(rows, cols, values))
-
-    def finish(self) -> LinearProgram:
-        """The LP collected so far."""
-        cost = np.zeros(self.num_cols)
-        col_lower = np.full(self.num_cols, -np.inf)
-        col_upper = np.full(self.num_cols, np.inf)
-        row_lower = np.full(self.num_rows, -np.inf)
-        row_upper = np.full(self.num_rows, np.inf)
-        for index, lower, upper in self._cols:
-            col_lower[index] = lower
-            col_upper[index] = upper
-        for index, lower, upper in self._rows:
-            row_lower[index] = lower
-            row_upper[index] = upper
-        for index, value in self._costs:
-            cost[index] = value
-        return LinearProgram(
-            num_cols=self.num_cols,
-            num_rows=self.num_rows,
-            cost=cost,
-            col_lower=col_lower,
-            col_upper=col_upper,
-            row_lower=row_lower,
-            row_upper=row_upper,
-            constant=Triplets.join(self._constant) if self.records_constants else None,
-            varying=Triplets.join(self._varying),
-            time_cols=tuple(self._time_cols),
-            time_rows=tuple(self._time_rows),
-            permuted_rows=tuple(self._permuted_rows),
-        )
-
-
-def _record(
-    index: IntArray,
-    lower: FloatArray | float,
-    upper: FloatArray | float,
-    blocks: list[_Assignment],
-    time_blocks: list[IntArray] | None,
-) -> IntArray:
-    """Note a new block of columns or rows with its bounds (and, if ``time_blocks`` is given,
-    as time-indexed); return its indices."""
-    blocks.append((index, lower, upper))
-    if time_blocks is not None:
-        time_blocks.append(index)
-    return index
-
-
-def _broadcast(rows: object, cols: object, values: object) -> tuple[IntArray, IntArray, FloatArray]:
-    r, c, v = np.broadcast_arrays(np.asarray(rows), np.asarray(cols), np.asarray(values))
-    return (
-        r.ravel().astype(np.int64),
-        c.ravel().astype(np.int64),
-        v.ravel().astype(np.float64),
-    )
 
 
 # ---------------------------------------------------------------------- shared families
@@ -318,44 +111,60 @@ class PlanColumns:
         return self.has_reserve and not self.event_model
 
 
-def reserve_bounds(p: RMPCProblem, reserve_inputs: IntArray) -> tuple[FloatArray, FloatArray]:
-    """(N, m_r) bounds of r [kg/s]: [0, u_max − u_min], except the committed steps k < g,
-    where r_k is fixed at ``reserve_fixed_kg_s`` (clipped into the room; a bound, not a row,
-    so committing changes no structure)."""
-    upper = np.array((p.u_max - p.u_min)[:, reserve_inputs], dtype=float)
-    lower = np.zeros_like(upper)
-    fixed = np.asarray(p.reserve_fixed_kg_s, dtype=float)[:, reserve_inputs]
-    g = fixed.shape[0]
-    lower[:g] = np.minimum(fixed, upper[:g])
-    upper[:g] = lower[:g]
-    return lower, upper
-
-
 def add_plan_variables(lp: LPBuilder, p: RMPCProblem, *, power_column: bool) -> PlanColumns:
-    """States x, z [°C], flows u ∈ [u_min, u_max], reserve r ∈ [0, u_max − u_min] (fixed at
-    the commitment on the first g steps, :func:`reserve_bounds`) [kg/s], slack 0 ≤ ε ≤ ε_max
-    [K], power P [kW] (if ``power_column``), peak charge β ≥ φ·floor."""
+    """States x, z [°C], flows u ∈ [u_min, u_max], reserve r ∈ [0, u_max − u_min] [kg/s],
+    slack 0 ≤ ε ≤ ε_max [K], power P [kW] (if ``power_column``), peak charge β ≥ φ·floor.
+    (The feature blocks narrow these bounds: :func:`add_committed_reserve`,
+    :func:`add_power_cap`.)"""
     horizon = p.horizon
     reserve_inputs = np.flatnonzero(np.asarray(p.reserve_mask, dtype=bool)).astype(np.int64)
-    event_model = p.il_event_max_steps is not None
+    event_model = p.events is not None
     x = lp.add_columns((horizon, p.n), time_indexed=True)
     z = x
     if reserve_inputs.size and not event_model:
         z = lp.add_columns((horizon, p.n), time_indexed=True)
     u = lp.add_columns((horizon, p.m), lower=p.u_min, upper=p.u_max, time_indexed=True)
-    r_lower, r_upper = reserve_bounds(p, reserve_inputs)
+    r_upper = np.array((p.u_max - p.u_min)[:, reserve_inputs], dtype=float)
     r = lp.add_columns(
-        (horizon, reserve_inputs.size), lower=r_lower, upper=r_upper, time_indexed=True
+        (horizon, reserve_inputs.size),
+        lower=np.zeros_like(r_upper),
+        upper=r_upper,
+        time_indexed=True,
     )
     slack_max = np.inf if p.slack_max_kelvin is None else p.slack_max_kelvin
     eps = lp.add_columns((horizon, p.ny), lower=0.0, upper=slack_max, time_indexed=True)
-    power = lp.add_columns(
-        (horizon if power_column else 0,),
-        upper=p.power_max_kw if power_column else np.inf,
-        time_indexed=True,
-    )
+    power = lp.add_columns((horizon if power_column else 0,), time_indexed=True)
     beta = int(lp.add_columns((1,), lower=float(p.phi[0]) * p.peak_floor_kw)[0])
     return PlanColumns(x, z, u, r, eps, power, beta, reserve_inputs, event_model)
+
+
+def add_committed_reserve(lp: LPBuilder, p: RMPCProblem, v: PlanColumns) -> None:
+    """r_k fixed at the commitment (``p.commitments``,
+    :class:`~hvacflex.opt.blocks.ReserveCommitment`) on the committed steps k < g, clipped
+    into the room u_max − u_min [kg/s]: column bounds, not rows, so committing changes no
+    structure (nothing without a commitment)."""
+    if p.commitments is None or p.commitments.steps == 0:
+        return
+    steps = p.commitments.steps
+    room = np.array((p.u_max - p.u_min)[:steps, v.reserve_inputs], dtype=float)
+    fixed = np.minimum(p.commitments.reserve_kg_s[:, v.reserve_inputs], room)
+    lp.set_column_bounds(v.r[:steps], lower=fixed, upper=fixed)
+
+
+def add_power_cap(lp: LPBuilder, p: RMPCProblem, v: PlanColumns) -> None:
+    """P_k ≤ the cap (``p.power_cap``, :class:`~hvacflex.opt.blocks.PowerCap`) [kW]: column
+    bounds of the power columns (nothing without a cap, or in the feedback LP, which has no
+    P columns)."""
+    if p.power_cap is None or v.power.size == 0:
+        return
+    lp.set_column_bounds(v.power, lower=-np.inf, upper=p.power_cap.kw)
+
+
+def event_numbers(p: RMPCProblem) -> tuple[float, int, int]:
+    """(α [K], c, R) of ``p.events``; (0, 0, 0) in the whole-horizon model."""
+    if p.events is None:
+        return 0.0, 0, 0
+    return p.events.allowance_kelvin, p.events.carry_steps, p.events.recovery_steps
 
 
 def dynamics_rhs(p: RMPCProblem) -> FloatArray:
@@ -403,19 +212,13 @@ def add_comfort_with_margins(
     ``margin_k`` (N, ny) are constant margins δ [K]; ``margin_cols`` (N, ny), if given, are
     margin *variables* added as ``+δ`` on the upper and ``−δ`` on the lower rows. Returns the
     row blocks (N, ny) with their sign (+1 upper, −1 lower). In the IL event model the upper
-    bound of outputs 1..c (``il_allowance_carry_steps``, the recovery from a real curtailment)
+    bound of outputs 1..c (``p.events.carry_steps``, the recovery from a real curtailment)
     is widened by the decaying allowance of :func:`~hvacflex.opt.events.carry_allowance`;
     never otherwise (α belongs to the event rows).
     """
     trajectories = [v.x, v.z] if v.has_curtailed else [v.x]
     shape = (p.horizon, p.ny)
-    carry = carry_allowance(
-        p.horizon,
-        p.ny,
-        p.il_event_allowance_kelvin,
-        p.il_allowance_carry_steps,
-        p.il_event_recovery_steps,
-    )
+    carry = carry_allowance(p.horizon, p.ny, *event_numbers(p))
     blocks: list[tuple[IntArray, float]] = []
     for state in trajectories:
         upper = lp.add_rows(shape, upper=p.y_max - margin_k + carry, time_indexed=True)
@@ -503,24 +306,19 @@ def add_il_event_comfort(
 ) -> tuple[IntArray, EventRows]:
     """The IL event rows (:mod:`hvacflex.opt.events`): for each output t, start s and zone,
     ``C_i x_t + Σ_j H_{t−1−j,i} r_j − ε_{t,i} ≤ y^hi_t − δ_t (+ α)`` (≈ N²·ny/2 rows; none in
-    the whole-horizon model, ``il_event_max_steps`` None).
+    the whole-horizon model, ``p.events`` None).
 
     The coefficients are constant (they depend on A, B, C, N, D, R only); α, the carry c and
     the margins ``margin_k`` (N, ny) [K] enter the row bounds. The block is not rectangular
     in the step, so its warm-start rotation is :func:`~hvacflex.opt.events.event_rotation`.
     Returns the row indices (num_event_rows,) and what each row is.
     """
-    rows = event_rows(p.horizon, p.ny, p.il_event_max_steps, p.il_event_recovery_steps)
+    max_steps = None if p.events is None else p.events.max_steps
+    alpha, carry_steps, recovery = event_numbers(p)
+    rows = event_rows(p.horizon, p.ny, max_steps, recovery)
     if rows.num_rows == 0:
         return np.zeros(0, dtype=np.int64), rows
-    lower, upper = event_row_bounds(
-        rows,
-        p.y_max,
-        margin_k,
-        p.il_event_allowance_kelvin,
-        p.il_allowance_carry_steps,
-        p.il_event_recovery_steps,
-    )
+    lower, upper = event_row_bounds(rows, p.y_max, margin_k, alpha, carry_steps, recovery)
     index = lp.add_rows(
         (rows.num_rows,),
         lower=lower,
@@ -567,8 +365,8 @@ def add_visible_offers(lp: LPBuilder, p: RMPCProblem, v: PlanColumns) -> tuple[I
     horizon = p.horizon
     if baselines is None or not v.has_reserve or not v.event_model:
         return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
-    assert p.il_event_max_steps is not None  # checked by RMPCProblem
-    max_steps = p.il_event_max_steps
+    assert p.events is not None  # checked by RMPCProblem
+    max_steps = p.events.max_steps
     rho = baselines.meter_ratio
     tolerance = baselines.tolerance_kw
     fixed = baselines.fixed_baseline_kw
@@ -664,6 +462,8 @@ def build_lp(
     """
     lp = LPBuilder(constants=constants)
     v = add_plan_variables(lp, p, power_column=True)
+    add_committed_reserve(lp, p, v)
+    add_power_cap(lp, p, v)
     add_served_dynamics(lp, p, v)
     add_curtailed_dynamics(lp, p, v)
     comfort_rows = add_comfort_with_margins(lp, p, v, margin_k)
@@ -680,3 +480,13 @@ def build_lp(
     program = lp.finish()
     layout = LPLayout(v, program.num_cols, program.num_rows, event_index, events, offered, unseen)
     return program, layout
+
+
+FEATURE_FAMILIES = {
+    "events": add_il_event_comfort,
+    "commitments": add_committed_reserve,
+    "offer_baselines": add_visible_offers,
+    "power_cap": add_power_cap,
+}
+"""The ``add_…`` family of each open-loop feature block of :mod:`hvacflex.opt.blocks` (the
+``feedback`` block has its own LP, :func:`hvacflex.opt.feedback.build_feedback_lp`)."""

@@ -73,3 +73,14 @@ class FeedbackOptions:
                 field="memory_steps",
                 value=self.memory_steps,
             )
+
+    def check(self, *, ny: int, m: int) -> None:
+        """Zone-local feedback pairs input i with comfort output i: it needs ny = m."""
+        if self.structure == "zone-local" and ny != m:
+            raise ProblemError(
+                f"zone-local feedback pairs input i with comfort output i, but ny = {ny} ≠ m = {m}",
+                source=_FEEDBACK_SOURCE,
+                field="structure",
+                value=self.structure,
+                hint="use structure 'time-invariant', 'memory' or 'full'",
+            )

@@ -37,7 +37,8 @@ activated output lies between the served ``C x_k`` and the curtailed ``C z_k``; 
 (tightened by the same δ) then holds for all patterns. :class:`RMPCProblem` refuses problems
 that violate these conditions.
 
-IL event model (``il_event_max_steps`` = D set): instead of z, the event set holds at most one
+IL event model (``events`` set, :class:`~hvacflex.opt.blocks.ILEventModel`, D = its
+``max_steps``): instead of z, the event set holds at most one
 event of ≤ D curtailed steps, with an allowance α on the upper bound during the event and R
 steps after it; its exact robust counterpart is a block of ≈ N²·ny/2 rows over (x, r, ε)
 (:mod:`hvacflex.opt.events`, added by :func:`hvacflex.opt.lp.add_il_event_comfort`; z is
@@ -49,215 +50,47 @@ per kg/s·h, orders of magnitude below any reserve price that matters), which br
 towards zero reserve.
 It is *excluded* from the reported objective (reported separately as ``tie_break_sgd``).
 
-The LP itself is built by :mod:`hvacflex.opt.lp` (open loop) and :mod:`hvacflex.opt.feedback`.
+The problem is a core (the fields every robust mode reads) plus feature blocks
+(:mod:`hvacflex.opt.blocks`: events, commitments, offer baselines, power cap, feedback), each
+None when off. The LP itself is built by :mod:`hvacflex.opt.lp` (open loop) and
+:mod:`hvacflex.opt.feedback`.
 """
 
 from __future__ import annotations
 
 import copy
 import hashlib
-from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
 
+from hvacflex.constants import PERIOD_S
 from hvacflex.errors import ProblemError
-from hvacflex.opt.events import check_event_fields
+from hvacflex.opt.blocks import (
+    FEATURE_BLOCKS,
+    ILEventModel,
+    OfferBaselines,
+    PowerCap,
+    ReserveCommitment,
+)
+from hvacflex.opt.checks import check_bounds, check_nonnegative, float_array, matrix_shape
 from hvacflex.opt.options import (
     DEFAULT_COMFORT_PENALTY_SGD_PER_KELVIN_HOUR,
     ROBUST_MODES,
     FeedbackOptions,
     RobustMode,
 )
+from hvacflex.units import SECONDS_PER_HOUR
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 BoolArray = NDArray[np.bool_]
 
-#: A committed reserve flow may exceed the room u_max − u_min by this much (round-off) [kg/s].
-FIXED_RESERVE_TOLERANCE_KG_S = 1e-9
-
 #: Elementwise tolerance for A ≥ 0 (the discretised RC network is Metzler up to round-off).
 SIGN_TOLERANCE = 1e-12
 
 _SOURCE = "RMPCProblem"
-
-
-def _shape_text(shapes: tuple[tuple[int, ...], ...]) -> str:
-    return " or ".join(str(s) for s in shapes)
-
-
-def _float_array(
-    name: str,
-    value: object,
-    shapes: tuple[tuple[int, ...], ...],
-    *,
-    target: tuple[int, ...] | None = None,
-    allow_neg_inf: bool = False,
-    allow_pos_inf: bool = False,
-) -> FloatArray:
-    """Copy ``value`` to a read-only float array of one of ``shapes``, broadcast to ``target``."""
-    try:
-        array = np.array(value, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise ProblemError(
-            "must be a numeric array",
-            source=_SOURCE,
-            field=name,
-            value=type(value).__name__,
-            hint=f"pass an array of shape {_shape_text(shapes)}",
-        ) from exc
-    if array.shape not in shapes:
-        raise ProblemError(
-            f"wrong shape: expected {_shape_text(shapes)}, got {array.shape}",
-            source=_SOURCE,
-            field=name,
-            hint="N is the number of rows of d_forecast; n, m, nd, ny come from the matrices",
-        )
-    if np.isnan(array).any():
-        raise ProblemError(
-            f"contains NaN at index {tuple(int(i) for i in np.argwhere(np.isnan(array))[0])}",
-            source=_SOURCE,
-            field=name,
-            hint="fill missing values before building the problem",
-        )
-    bad = np.isinf(array)
-    if allow_neg_inf:
-        bad &= array > 0
-    if allow_pos_inf:
-        bad &= array < 0
-    if bad.any():
-        index = tuple(int(i) for i in np.argwhere(bad)[0])
-        raise ProblemError(
-            f"contains an infinite value at index {index}",
-            source=_SOURCE,
-            field=name,
-            value=float(array[index]),
-            hint="only y_min may be -inf and y_max +inf (no bound)",
-        )
-    if target is not None and array.shape != target:
-        array = np.broadcast_to(array, target).copy()
-    array.setflags(write=False)
-    return array
-
-
-def _matrix_shape(
-    name: str, value: object, expected: str, fits: Callable[[int, int], bool]
-) -> tuple[int, int]:
-    """The (rows, columns) of ``value`` if it is 2-D and ``fits(rows, columns)``; else raise."""
-    shape = np.asarray(value).shape
-    if len(shape) != 2 or not fits(shape[0], shape[1]):
-        raise ProblemError(
-            f"wrong shape: expected {expected}, got {shape}", source=_SOURCE, field=name
-        )
-    return int(shape[0]), int(shape[1])
-
-
-@dataclass(frozen=True, eq=False, kw_only=True)
-class OfferBaselines:
-    """The settlement baselines that each step's reserve offer is measured against.
-
-    An activation covering step k starts at some s ∈ [k − D + 1, k] and is settled against
-    the power of the period before s (docs/il_events.md, "Offers that can be delivered").
-    For s ≥ 1 that is the plan's own power P_{s−1}, which the LP decides; for s = 0, or
-    under a similar-days rule, a baseline the plan does not decide. The LP pays the reserve
-    of step k for ``R_k = min(q_k·r_k, what every such baseline sees)`` only
-    (:func:`hvacflex.opt.lp.add_visible_offers`), so the plan may shape its load to be
-    seen, at the cost of the energy that takes.
-
-    Parameters
-    ----------
-    meter_ratio : ρ ∈ [0, 1], the meter's change per kW of the plan's change
-        (:mod:`hvacflex.control.meter_response`; 1 = the plan's own scale)
-    fixed_baseline_kw : (N,) the baseline of step k that the plan does not decide [kW]: on
-        the plan's scale (``fixed_on_plan_scale``: the plan made for the period before,
-        compared as a change, ρ·(B − P_k + p_k·r_k)) or metered (a level against the plan's
-        level, B − P_k + ρ·p_k·r_k); NaN = none, −inf = nothing can be seen (R_k = 0)
-    fixed_on_plan_scale : (N,) bool, see ``fixed_baseline_kw``
-    planned_baselines : (N,) bool, whether the plan's powers P_{s−1} of the starts
-        s ∈ [max(1, k − D + 1), k] are baselines of step k (False where a similar-days
-        baseline replaces them)
-    offer_steps : (N,) bool, the steps that may be paid at all: elsewhere R_k = 0 and the
-        baselines do not enter the LP (the controller leaves out the steps whose load the
-        previous plan could not show, e.g. the morning start-up; default every step)
-    tolerance_kw : added to every baseline [kW] (round-off)
-    """
-
-    meter_ratio: float
-    fixed_baseline_kw: FloatArray
-    fixed_on_plan_scale: BoolArray
-    planned_baselines: BoolArray
-    offer_steps: BoolArray | None = None
-    tolerance_kw: float = 0.0
-
-    def __post_init__(self) -> None:
-        ratio = float(self.meter_ratio)
-        if not 0.0 <= ratio <= 1.0:
-            raise ProblemError(
-                "the meter ratio ρ must lie in [0, 1]",
-                source=_SOURCE,
-                field="offer_baselines.meter_ratio",
-                value=ratio,
-                hint="pass the clipped slope of hvacflex.control.meter_response",
-            )
-        fixed = np.array(self.fixed_baseline_kw, dtype=float)
-        horizon = fixed.size
-        shapes = ((horizon,),)
-        if fixed.ndim != 1 or np.isposinf(fixed).any():
-            raise ProblemError(
-                "fixed baselines must be a 1-D series of finite values, NaN or −inf",
-                source=_SOURCE,
-                field="offer_baselines.fixed_baseline_kw",
-                hint="NaN where step k has no such baseline, −inf where nothing is seen",
-            )
-        if self.offer_steps is None:
-            object.__setattr__(self, "offer_steps", np.ones(horizon, dtype=bool))
-        for name in ("fixed_on_plan_scale", "planned_baselines", "offer_steps"):
-            flags = np.array(getattr(self, name), dtype=bool)
-            if flags.shape not in shapes:
-                raise ProblemError(
-                    f"{name} has shape {flags.shape}, expected {(horizon,)}",
-                    source=_SOURCE,
-                    field=f"offer_baselines.{name}",
-                    hint="one flag per step",
-                )
-            flags.setflags(write=False)
-            object.__setattr__(self, name, flags)
-        fixed.setflags(write=False)
-        object.__setattr__(self, "fixed_baseline_kw", fixed)
-        object.__setattr__(self, "meter_ratio", ratio)
-
-    @property
-    def horizon(self) -> int:
-        """N, the number of steps."""
-        return int(self.fixed_baseline_kw.size)
-
-    def seen_kw(
-        self, power_kw: FloatArray, shed_kw: FloatArray, offer_kw: FloatArray, max_steps: int
-    ) -> FloatArray:
-        """(N,) what the baselines see of each step's offer, ``min(offer, every baseline's
-        gap + ρ·shed)`` [kW] — negative where even the shed does not reach the lowest
-        baseline (the rows of :func:`hvacflex.opt.lp.add_visible_offers` at a plan).
-
-        ``power_kw`` (N,) the plan's served power P̂, ``shed_kw`` (N,) its p_k·r_k, ``offer_kw``
-        (N,) q_k·r_k (already on the meter's scale), D = ``max_steps``.
-        """
-        rho = self.meter_ratio
-        power = np.asarray(power_kw, dtype=float)
-        shed = rho * np.asarray(shed_kw, dtype=float)  # what the meter shows of the shed
-        gaps = np.full(power.shape, np.inf)
-        fixed = self.fixed_baseline_kw
-        known = ~np.isnan(fixed)
-        level = np.where(self.fixed_on_plan_scale, rho, 1.0)
-        with np.errstate(invalid="ignore"):  # −inf baselines: nothing is seen
-            gaps[known] = (level * (fixed - power) + shed)[known]
-        for lag in range(1, max_steps + 1):
-            steps = np.flatnonzero(self.planned_baselines[lag:]) + lag
-            own = rho * (power[steps - lag] - power[steps]) + shed[steps]
-            gaps[steps] = np.minimum(gaps[steps], own)
-        seen: FloatArray = np.minimum(np.asarray(offer_kw, dtype=float), gaps + self.tolerance_kw)
-        return seen
 
 
 @dataclass(frozen=True, eq=False, kw_only=True)
@@ -287,34 +120,28 @@ class RMPCProblem:
     robust : "tightening" (δ in the bounds), "dual" (explicit λ, verification), "none" (δ = 0),
         "feedback" (affine disturbance-feedback policies, :mod:`hvacflex.opt.feedback`)
     slack_max_kelvin : cap on ε [K]; None = unbounded (soft comfort), 0 = hard comfort
-    feedback : policy structure for ``robust="feedback"`` (default ``FeedbackOptions()``);
-        must be None for the other modes
-    power_max_kw : scalar or (N,) cap on the plan's power P_k [kW] (a column bound; +inf =
-        none, the default); e.g. a feeder's share (:mod:`hvacflex.fleet`). Open loop only.
-    il_event_max_steps : D, the longest IL event [steps], 1 ≤ D ≤ N; None = the paper's
-        whole-horizon model (curtailed trajectory for all N steps, strict band). See
-        :mod:`hvacflex.opt.events`; not with robust="dual" or "feedback"
-    il_event_allowance_kelvin : α ≥ 0 [K] added to the upper comfort bound during an event and
-        R steps after it (event model only)
-    il_event_recovery_steps : R ≥ 0 [steps] (event model only)
     reserve_power_coeff_kw_per_kg_s : (N,m) q_k, the reserve capacity offered R_k = q_k·r_k
         [kW per kg/s] — a lower bound of the real power reduction per kg/s shed (fan tangent
         at the low flow, coil at the curtailed mixed-air state); None = p_k (the paper's)
-    il_allowance_carry_steps : c, 0 ≤ c ≤ N: outputs 1..c are the recovery from a real
-        curtailment and get the decaying allowance α·min(1, (c − t + 1)/(R + 1)) under every
-        pattern, the served plan included (event model only)
-    reserve_fixed_kg_s : (g, m), 0 ≤ g < N: the reserve flows r_0 … r_{g−1} already
-        committed to the market (offers are firm g periods ahead, docs/il_events.md) [kg/s];
-        the LP takes them as fixed (column bounds r_k = value); ≥ 0, 0 outside
-        ``reserve_mask``, ≤ u_max − u_min. None (or g = 0) = every r_k free
-    offer_baselines : :class:`OfferBaselines`, the settlement baselines each step's offer is
-        measured against (event model, open loop only): the LP then pays the reserve only
-        for what those baselines would see of it (:func:`hvacflex.opt.lp.add_visible_offers`).
-        None = the reserve is paid at q_k·r_k
+
+    Feature blocks (:mod:`hvacflex.opt.blocks`; None = the feature is off):
+
+    events : :class:`~hvacflex.opt.blocks.ILEventModel`, the IL event model (D, α, R, c);
+        None = the paper's whole-horizon model. Not with robust="dual" or "feedback"
+    commitments : :class:`~hvacflex.opt.blocks.ReserveCommitment`, the reserve flows
+        r_0 … r_{g−1} already committed to the market; None = every r_k free
+    offer_baselines : :class:`~hvacflex.opt.blocks.OfferBaselines`, the settlement baselines
+        each step's offer is measured against (event model, open loop only); None = the
+        reserve is paid at q_k·r_k
+    power_cap : :class:`~hvacflex.opt.blocks.PowerCap`, a cap on the plan's power P_k (open
+        loop only); None = no cap
+    feedback : :class:`~hvacflex.opt.options.FeedbackOptions`, the policy structure of
+        ``robust="feedback"`` (default ``FeedbackOptions()`` there); must be None otherwise
 
     After construction every array field is a read-only float array of its full shape
     (``d_sigma`` (N,nd), ``u_min``/``u_max`` (N,m), ``y_min``/``y_max`` (N,ny),
-    ``peak_price_sgd_per_kw`` (N,), ``affine_term`` (n,), ``reserve_mask`` (m,) bool).
+    ``peak_price_sgd_per_kw`` (N,), ``affine_term`` (n,), ``reserve_mask`` (m,) bool;
+    ``power_cap``'s cap (N,)).
     """
 
     a_matrix: FloatArray
@@ -337,18 +164,16 @@ class RMPCProblem:
     peak_floor_kw: float = 0.0
     reserve_mask: BoolArray | None = None
     comfort_penalty_sgd_per_kelvin_hour: float = DEFAULT_COMFORT_PENALTY_SGD_PER_KELVIN_HOUR
-    dt_h: float = 0.5
+    dt_h: float = PERIOD_S / SECONDS_PER_HOUR
     robust: RobustMode = "tightening"
     slack_max_kelvin: float | None = None
-    feedback: FeedbackOptions | None = None
-    power_max_kw: float | FloatArray = np.inf
-    il_event_max_steps: int | None = None
-    il_event_allowance_kelvin: float = 0.0
-    il_event_recovery_steps: int = 0
-    il_allowance_carry_steps: int = 0
     reserve_power_coeff_kw_per_kg_s: FloatArray | None = None
-    reserve_fixed_kg_s: FloatArray | None = None
+    # feature blocks (hvacflex.opt.blocks.FEATURE_BLOCKS)
+    events: ILEventModel | None = None
+    commitments: ReserveCommitment | None = None
     offer_baselines: OfferBaselines | None = None
+    power_cap: PowerCap | None = None
+    feedback: FeedbackOptions | None = None
     _structure: RMPCStructure = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -367,8 +192,8 @@ class RMPCProblem:
                 horizon=horizon,
                 reserve_mask=np.asarray(self.reserve_mask, dtype=bool),
                 robust=self.robust,
-                il_event_max_steps=self.il_event_max_steps,
-                il_event_recovery_steps=self.il_event_recovery_steps,
+                il_event_max_steps=None if self.events is None else self.events.max_steps,
+                il_event_recovery_steps=0 if self.events is None else self.events.recovery_steps,
                 visible_offers=self.offer_baselines is not None,
             ),
         )
@@ -387,25 +212,23 @@ class RMPCProblem:
     def _normalise_matrices(self) -> tuple[int, int, int]:
         """Check and copy A, B, E, C, d̂ and x0; return (N, m, ny)."""
         put = self._put
-        n, _ = _matrix_shape(
-            "a_matrix", self.a_matrix, "(n, n) with n ≥ 1", lambda r, c: r == c > 0
-        )
-        put("a_matrix", _float_array("a_matrix", self.a_matrix, ((n, n),)))
-        _, m = _matrix_shape(
+        n, _ = matrix_shape("a_matrix", self.a_matrix, "(n, n) with n ≥ 1", lambda r, c: r == c > 0)
+        put("a_matrix", float_array("a_matrix", self.a_matrix, ((n, n),)))
+        _, m = matrix_shape(
             "b_matrix", self.b_matrix, f"({n}, m) with m ≥ 1", lambda r, c: r == n and c > 0
         )
-        put("b_matrix", _float_array("b_matrix", self.b_matrix, ((n, m),)))
-        _, nd = _matrix_shape("e_matrix", self.e_matrix, f"({n}, nd)", lambda r, c: r == n)
-        put("e_matrix", _float_array("e_matrix", self.e_matrix, ((n, nd),)))
-        ny, _ = _matrix_shape(
+        put("b_matrix", float_array("b_matrix", self.b_matrix, ((n, m),)))
+        _, nd = matrix_shape("e_matrix", self.e_matrix, f"({n}, nd)", lambda r, c: r == n)
+        put("e_matrix", float_array("e_matrix", self.e_matrix, ((n, nd),)))
+        ny, _ = matrix_shape(
             "c_matrix", self.c_matrix, f"(ny, {n}) with ny ≥ 1", lambda r, c: c == n and r > 0
         )
-        put("c_matrix", _float_array("c_matrix", self.c_matrix, ((ny, n),)))
-        horizon, _ = _matrix_shape(
+        put("c_matrix", float_array("c_matrix", self.c_matrix, ((ny, n),)))
+        horizon, _ = matrix_shape(
             "d_forecast", self.d_forecast, f"(N, {nd}) with N ≥ 1", lambda r, c: c == nd and r > 0
         )
-        put("d_forecast", _float_array("d_forecast", self.d_forecast, ((horizon, nd),)))
-        put("x0", _float_array("x0", self.x0, ((n,),)))
+        put("d_forecast", float_array("d_forecast", self.d_forecast, ((horizon, nd),)))
+        put("x0", float_array("x0", self.x0, ((n,),)))
         return horizon, m, ny
 
     def _normalise_series(self, horizon: int, m: int, ny: int) -> None:
@@ -414,58 +237,50 @@ class RMPCProblem:
         nd = self.nd
         put(
             "d_sigma",
-            _float_array("d_sigma", self.d_sigma, ((horizon, nd), (nd,)), target=(horizon, nd)),
+            float_array("d_sigma", self.d_sigma, ((horizon, nd), (nd,)), target=(horizon, nd)),
         )
         for name in (
             "energy_price_sgd_per_mwh",
             "reserve_price_sgd_per_mwh",
             "power_offset_kw",
         ):
-            put(name, _float_array(name, getattr(self, name), ((horizon,),)))
+            put(name, float_array(name, getattr(self, name), ((horizon,),)))
         put(
             "power_coeff_kw_per_kg_s",
-            _float_array("power_coeff_kw_per_kg_s", self.power_coeff_kw_per_kg_s, ((horizon, m),)),
+            float_array("power_coeff_kw_per_kg_s", self.power_coeff_kw_per_kg_s, ((horizon, m),)),
         )
         reserve_coeff = self.reserve_power_coeff_kw_per_kg_s
         put(
             "reserve_power_coeff_kw_per_kg_s",
             self.power_coeff_kw_per_kg_s
             if reserve_coeff is None
-            else _float_array("reserve_power_coeff_kw_per_kg_s", reserve_coeff, ((horizon, m),)),
+            else float_array("reserve_power_coeff_kw_per_kg_s", reserve_coeff, ((horizon, m),)),
         )
         for name in ("u_min", "u_max"):
             put(
                 name,
-                _float_array(name, getattr(self, name), ((m,), (horizon, m)), target=(horizon, m)),
+                float_array(name, getattr(self, name), ((m,), (horizon, m)), target=(horizon, m)),
             )
         bands = ((ny,), (horizon, ny))
         put(
             "y_min",
-            _float_array("y_min", self.y_min, bands, target=(horizon, ny), allow_neg_inf=True),
+            float_array("y_min", self.y_min, bands, target=(horizon, ny), allow_neg_inf=True),
         )
         put(
             "y_max",
-            _float_array("y_max", self.y_max, bands, target=(horizon, ny), allow_pos_inf=True),
+            float_array("y_max", self.y_max, bands, target=(horizon, ny), allow_pos_inf=True),
         )
         put(
             "peak_price_sgd_per_kw",
-            _float_array(
+            float_array(
                 "peak_price_sgd_per_kw",
                 self.peak_price_sgd_per_kw,
                 ((), (horizon,)),
                 target=(horizon,),
             ),
         )
-        put(
-            "power_max_kw",
-            _float_array(
-                "power_max_kw",
-                self.power_max_kw,
-                ((), (horizon,)),
-                target=(horizon,),
-                allow_pos_inf=True,
-            ),
-        )
+        if self.power_cap is not None:
+            put("power_cap", self.power_cap.over(horizon))
 
     def _normalise_options(self, m: int) -> None:
         """Default and check the affine term g and the reserve mask."""
@@ -473,7 +288,7 @@ class RMPCProblem:
             affine = np.zeros(self.n)
             affine.setflags(write=False)
         else:
-            affine = _float_array("affine_term", self.affine_term, ((self.n,),))
+            affine = float_array("affine_term", self.affine_term, ((self.n,),))
         self._put("affine_term", affine)
         if self.reserve_mask is None:
             mask = np.ones(m, dtype=bool)
@@ -534,10 +349,10 @@ class RMPCProblem:
                 field="robust",
                 value=self.robust,
             )
-        self._check_nonnegative("d_sigma", self.d_sigma, "box half-widths σ")
-        self._check_nonnegative("peak_price_sgd_per_kw", self.phi, "peak price φ")
-        self._check_bounds("u_min", self.u_min, "u_max", self.u_max)
-        self._check_bounds("y_min", self.y_min, "y_max", self.y_max)
+        check_nonnegative("d_sigma", self.d_sigma, "box half-widths σ")
+        check_nonnegative("peak_price_sgd_per_kw", self.phi, "peak price φ")
+        check_bounds("u_min", self.u_min, "u_max", self.u_max)
+        check_bounds("y_min", self.y_min, "y_max", self.y_max)
         phi = self.peak_price_sgd_per_kw
         if self.peak_floor_kw > 0 and np.ptp(phi) > 0:
             raise ProblemError(
@@ -548,80 +363,53 @@ class RMPCProblem:
                 hint="pass a scalar peak_price_sgd_per_kw in billing-period mode",
             )
         self._check_sign_conditions()
-        check_event_fields(
-            horizon=self.horizon,
-            robust=self.robust,
-            b_reserve=self.b_matrix[:, np.asarray(self.reserve_mask, dtype=bool)],
-            max_steps=self.il_event_max_steps,
-            allowance_kelvin=self.il_event_allowance_kelvin,
-            recovery_steps=self.il_event_recovery_steps,
-            carry_steps=self.il_allowance_carry_steps,
-        )
-        self._check_feedback()
-        self._check_fixed_reserve()
-        self._check_offer_baselines()
+        self._check_blocks()
 
-    def _check_offer_baselines(self) -> None:
-        """Offer baselines need the open-loop event model and one entry per step."""
-        baselines = self.offer_baselines
-        if baselines is None:
-            return
-        if self.il_event_max_steps is None or self.robust == "feedback":
-            raise ProblemError(
-                "offer baselines need the IL event model and the open-loop LP",
-                source=_SOURCE,
-                field="offer_baselines",
-                hint="set il_event_max_steps (and not robust='feedback'), or pass None",
-            )
-        if baselines.horizon != self.horizon:
-            raise ProblemError(
-                f"offer baselines cover {baselines.horizon} steps, the horizon is {self.horizon}",
-                source=_SOURCE,
-                field="offer_baselines",
-                hint="one fixed baseline and one planned-baseline flag per step",
-            )
-
-    def _check_fixed_reserve(self) -> None:
-        """Normalise ``reserve_fixed_kg_s`` to a read-only (g, m) array (g = 0 for None) and
-        check that the LP can take it as r's bounds."""
-        horizon, m = self.horizon, self.m
-        fixed = self.reserve_fixed_kg_s
-        if fixed is None:
-            fixed = np.zeros((0, m))
-        shapes = tuple((g, m) for g in range(horizon))
-        array = _float_array("reserve_fixed_kg_s", fixed, shapes)
-        self._put("reserve_fixed_kg_s", array)
-        hint = "commit only reserve the zone can shed: 0 ≤ r ≤ u_max − u_min, 0 where masked"
-        self._check_nonnegative("reserve_fixed_kg_s", array, "committed reserve flows")
-        room = (self.u_max - self.u_min)[: array.shape[0]]
+    def _check_blocks(self) -> None:
+        """Check each feature block against the core (and the blocks it needs)."""
         mask = np.asarray(self.reserve_mask, dtype=bool)
-        bad = (array > room + FIXED_RESERVE_TOLERANCE_KG_S) | ((array > 0) & ~mask)
-        if bad.any():
-            index = tuple(int(i) for i in np.argwhere(bad)[0])
-            raise ProblemError(
-                f"committed reserve flow {float(array[index])!r} kg/s at (step, input) "
-                f"{index} cannot be shed (room {float(room[index])!r} kg/s, reserve allowed: "
-                f"{bool(mask[index[1]])})",
-                source=_SOURCE,
-                field="reserve_fixed_kg_s",
-                hint=hint,
+        for name, block in (
+            ("events", self.events),
+            ("commitments", self.commitments),
+            ("offer_baselines", self.offer_baselines),
+            ("power_cap", self.power_cap),
+        ):
+            wanted = FEATURE_BLOCKS[name]
+            if block is not None and not isinstance(block, wanted):
+                raise ProblemError(
+                    f"expected {wanted.__name__} or None",
+                    source=_SOURCE,
+                    field=name,
+                    value=type(block).__name__,
+                    hint=f"build it with hvacflex.opt.{wanted.__name__}(...)",
+                )
+        if self.events is not None:
+            self.events.check(
+                horizon=self.horizon, robust=self.robust, b_reserve=self.b_matrix[:, mask]
             )
+        if self.commitments is not None:
+            self.commitments.check(
+                horizon=self.horizon, u_min=self.u_min, u_max=self.u_max, reserve_mask=mask
+            )
+        if self.offer_baselines is not None:
+            self.offer_baselines.check(horizon=self.horizon, events=self.events, robust=self.robust)
+        self._check_feedback()
 
     @property
     def fixed_reserve_steps(self) -> int:
-        """g, the number of leading steps whose reserve is committed (fixed)."""
-        fixed = self.reserve_fixed_kg_s
-        assert fixed is not None  # set by __post_init__
-        return int(fixed.shape[0])
+        """g, the number of leading steps whose reserve is committed (0 without a commitment)."""
+        return 0 if self.commitments is None else self.commitments.steps
+
+    @property
+    def power_max_kw(self) -> FloatArray:
+        """(N,) the cap on the plan's power P_k [kW]; +inf where none (no ``power_cap``)."""
+        if self.power_cap is None:
+            return np.full(self.horizon, np.inf)
+        return self.power_cap.kw
 
     def _check_feedback(self) -> None:
-        if self.robust == "feedback" and np.isfinite(self.power_max_kw).any():
-            raise ProblemError(
-                "a power cap applies only to the open-loop problem",
-                source=_SOURCE,
-                field="power_max_kw",
-                hint="leave power_max_kw at +inf with robust='feedback'",
-            )
+        if self.power_cap is not None:
+            self.power_cap.check(robust=self.robust)
         if self.robust != "feedback":
             if self.feedback is not None:
                 raise ProblemError(
@@ -641,41 +429,8 @@ class RMPCProblem:
                 field="feedback",
                 value=type(self.feedback).__name__,
             )
-        options = self.feedback
-        if options is not None and options.structure == "zone-local" and self.ny != self.m:
-            raise ProblemError(
-                f"zone-local feedback pairs input i with comfort output i, but ny = {self.ny} "
-                f"≠ m = {self.m}",
-                source="RMPCProblem.feedback",
-                field="structure",
-                value=options.structure,
-                hint="use structure 'time-invariant', 'memory' or 'full'",
-            )
-
-    @staticmethod
-    def _check_nonnegative(name: str, values: FloatArray, what: str) -> None:
-        if (values < 0).any():
-            index = tuple(int(i) for i in np.argwhere(values < 0)[0])
-            raise ProblemError(
-                f"{what} must be ≥ 0, but at index {index} it is {float(values[index])!r}",
-                source=_SOURCE,
-                field=name,
-            )
-
-    @staticmethod
-    def _check_bounds(
-        lower_name: str, lower: FloatArray, upper_name: str, upper: FloatArray
-    ) -> None:
-        if (lower > upper).any():
-            index = tuple(int(i) for i in np.argwhere(lower > upper)[0])
-            raise ProblemError(
-                f"{lower_name} must not exceed {upper_name}, but at index {index} "
-                f"{lower_name} = {float(lower[index])!r} > {upper_name} = "
-                f"{float(upper[index])!r}",
-                source=_SOURCE,
-                field=lower_name,
-                hint="index is (step, input) or (step, output)",
-            )
+        assert self.feedback is not None
+        self.feedback.check(ny=self.ny, m=self.m)
 
     def _check_sign_conditions(self) -> None:
         """Refuse problems where served + curtailed do not cover every IL activation pattern."""
@@ -755,8 +510,9 @@ class RMPCProblem:
     ) -> RMPCProblem:
         """This problem with another energy price (N,) [SGD/MWh] and power cap (scalar or
         (N,)) [kW] — equal to ``dataclasses.replace(self, energy_price_sgd_per_mwh=...,
-        power_max_kw=...)``, but only the two new fields are checked (the rest was) and the
-        :attr:`structure` object is shared, so a warm :class:`~hvacflex.opt.RMPCSolver`
+        power_cap=PowerCap(power_max_kw=...))``, but only the two new fields are checked (the
+        rest was) and the :attr:`structure` object is shared (the cap becomes ``power_cap``;
+        None if +inf everywhere), so a warm :class:`~hvacflex.opt.RMPCSolver`
         needs no structure comparison (fleet coordination re-solves one step at many prices).
 
         Raises
@@ -765,13 +521,11 @@ class RMPCProblem:
             as the constructor does for these two fields.
         """
         horizon = self.horizon
-        price = _float_array("energy_price_sgd_per_mwh", energy_price_sgd_per_mwh, ((horizon,),))
-        cap = _float_array(
-            "power_max_kw", power_max_kw, ((), (horizon,)), target=(horizon,), allow_pos_inf=True
-        )
+        price = float_array("energy_price_sgd_per_mwh", energy_price_sgd_per_mwh, ((horizon,),))
+        cap = PowerCap(power_max_kw=power_max_kw).over(horizon)
         variant = copy.copy(self)
         variant._put("energy_price_sgd_per_mwh", price)
-        variant._put("power_max_kw", cap)
+        variant._put("power_cap", cap if np.isfinite(cap.kw).any() else None)
         variant._check_feedback()
         return variant
 

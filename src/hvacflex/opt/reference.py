@@ -10,9 +10,9 @@ Needs ``cvxpy`` (the ``dev`` extra); imported on first use.
 
 Families (chosen by the problem, as :class:`~hvacflex.opt.solve.RMPCSolver` does):
 
-* **whole-horizon** (``il_event_max_steps`` None): the served x and the curtailed z
+* **whole-horizon** (``events`` None): the served x and the curtailed z
   (u − r for all N steps), both inside the δ-tightened band (the paper's eq. 11–13);
-* **event model** (``il_event_max_steps`` = D): the served plan plus, per output t, start
+* **event model** (``events`` set, D = its ``max_steps``): the served plan plus, per output t, start
   s < t and zone, the allowance row of the longest event (L = D, bound + α while
   t − s ≤ D + R) and the strict row (L = min(D, t − s − R − 1), while t − s ≥ R + 2); the
   recovery's decaying allowance on outputs t ≤ c on the served and strict rows;
@@ -21,9 +21,10 @@ Families (chosen by the problem, as :class:`~hvacflex.opt.solve.RMPCSolver` does
   hypograph), 0 on the steps that may not be paid, and a price b + 1e-6 SGD/kWh on the part
   below zero (docs/il_events.md, "The plan is paid for what the baselines see").
 
-Both carry the committed reserve ``r_k = reserve_fixed_kg_s`` (k < g), the power cap
-P ≤ ``power_max_kw``, the reserve coefficient q (``reserve_power_coeff_kw_per_kg_s``), the slack
-cap, the peak floor and both tie-breaks; the objective is HiGHS's (tie-breaks included,
+Both carry the committed reserve ``r_k`` = ``commitments.reserve_kg_s`` (k < g), the power
+cap P ≤ ``power_cap.power_max_kw``, the reserve coefficient q
+(``reserve_power_coeff_kw_per_kg_s``), the slack cap, the peak floor and both tie-breaks; the
+objective is HiGHS's (tie-breaks included,
 :meth:`~hvacflex.opt.solve.RMPCSolver.highs_objective_sgd`). ``robust="dual"`` has the
 tightening form's optimum and is modelled as it; ``"none"`` has δ = 0.
 """
@@ -87,8 +88,8 @@ def reference_event_rows(prob: RMPCProblem) -> tuple[IntArray, IntArray, IntArra
     """Per event row (zones apart): output step k = t − 1, first curtailed input s, number of
     curtailed inputs L and whether it is an allowance row (True) or a strict row (False), for
     every (t, s < t) of the event model (docs/il_events.md)."""
-    d, r = prob.il_event_max_steps, prob.il_event_recovery_steps
-    assert d is not None
+    assert prob.events is not None
+    d, r = prob.events.max_steps, prob.events.recovery_steps
     steps, starts, lengths, allowance = [], [], [], []
     for t in range(1, prob.horizon + 1):
         for s in range(t):
@@ -114,9 +115,10 @@ def reference_event_rows(prob: RMPCProblem) -> tuple[IntArray, IntArray, IntArra
 def _carry(prob: RMPCProblem) -> FloatArray:
     """(N, ny) the recovery's decaying allowance α·min(1, (c − t + 1)/(R + 1)) on t ≤ c [K]."""
     t = np.arange(1, prob.horizon + 1)
-    carry_steps, recovery = prob.il_allowance_carry_steps, prob.il_event_recovery_steps
+    assert prob.events is not None
+    carry_steps, recovery = prob.events.carry_steps, prob.events.recovery_steps
     share = np.clip((carry_steps - t + 1) / (recovery + 1), 0.0, 1.0) * (t <= carry_steps)
-    return prob.il_event_allowance_kelvin * share[:, None] * np.ones(prob.ny)
+    return prob.events.allowance_kelvin * share[:, None] * np.ones(prob.ny)
 
 
 def _event_constraint(prob: RMPCProblem, y: Any, r: Any, eps: Any, delta: FloatArray) -> Any:
@@ -148,7 +150,8 @@ def _event_constraint(prob: RMPCProblem, y: Any, r: Any, eps: Any, delta: FloatA
         shape=(step.size * ny, horizon * m_r),
     )
     out_index = (step[:, None] * ny + np.arange(ny)).ravel()
-    alpha = prob.il_event_allowance_kelvin
+    assert prob.events is not None
+    alpha = prob.events.allowance_kelvin
     widen = np.where(allowance[:, None], alpha, _carry(prob)[step]).ravel()
     upper = (prob.y_max - delta)[step].ravel() + widen
     lhs = (
@@ -177,7 +180,7 @@ def _seen_offers(prob: RMPCProblem, r: Any, power: Any) -> tuple[Any, list[Any]]
     cp = _cvxpy()
 
     baselines = prob.offer_baselines
-    assert baselines is not None and prob.il_event_max_steps is not None
+    assert baselines is not None and prob.events is not None
     inputs = np.flatnonzero(np.asarray(prob.reserve_mask, dtype=bool))
     horizon, rho, tol = prob.horizon, baselines.meter_ratio, baselines.tolerance_kw
     paid = _paid_steps(prob, inputs)
@@ -194,7 +197,7 @@ def _seen_offers(prob: RMPCProblem, r: Any, power: Any) -> tuple[Any, list[Any]]
         gap = cp.multiply(level, fixed[usable] - power[usable])
         cons.append(seen[usable] <= gap + shed[usable] + tol)
     planned = paid & baselines.planned_baselines
-    for lag in range(1, prob.il_event_max_steps + 1):
+    for lag in range(1, prob.events.max_steps + 1):
         steps = np.flatnonzero(planned[lag:]) + lag
         if steps.size:
             gap = rho * (power[steps - lag] - power[steps])
@@ -247,8 +250,8 @@ def _plan(prob: RMPCProblem) -> tuple[dict[str, Any], list[Any]]:
     if not _has_reserve(prob):
         cons.append(r == 0.0)  # a placeholder column (CVXPY has no empty variables)
     committed = prob.fixed_reserve_steps
-    if committed:
-        fixed = np.asarray(prob.reserve_fixed_kg_s)[:, inputs]
+    if prob.commitments is not None and committed:
+        fixed = prob.commitments.reserve_kg_s[:, inputs]
         cons.append(r[:committed] == np.minimum(fixed, room[:committed]))
     if prob.slack_max_kelvin is not None:
         cons.append(eps <= prob.slack_max_kelvin)
@@ -265,7 +268,7 @@ def _comfort(prob: RMPCProblem, v: dict[str, Any], delta: FloatArray) -> list[An
 
     y = v["x"] @ prob.c_matrix.T
     eps = v["eps"]
-    if prob.il_event_max_steps is not None:
+    if prob.events is not None:
         cons = [y - eps <= prob.y_max - delta + _carry(prob), y + eps >= prob.y_min + delta]
         if _has_reserve(prob):
             cons.append(_event_constraint(prob, y, v["r"], eps, delta))
@@ -310,7 +313,7 @@ def solve_reference(prob: RMPCProblem, *, solver: str = "HIGHS") -> ReferenceRes
     else:
         paid = cp.sum(cp.multiply(prob.reserve_kw_per_kg_s[:, inputs], r), axis=1)
         unseen = 0.0
-        family = "whole-horizon" if prob.il_event_max_steps is None else "event model"
+        family = "whole-horizon" if prob.events is None else "event model"
     objective = (
         dt * (prob.energy_price_sgd_per_mwh @ v["power"]) / KWH_PER_MWH
         - dt * (prob.reserve_price_sgd_per_mwh @ paid) / KWH_PER_MWH

@@ -60,8 +60,8 @@ class RMPCSolution:
     slack : (N, ny) ε_k for outputs at steps 1..N [K];  delta : (N, ny) robust margins δ_k [K]
         (zero for robust="none"; for robust="dual" the equivalent tightening, for reference)
     x_served, x_curtailed : (N+1, n) nominal (w = 0) trajectories from x0 [°C]; in the IL
-        event model (``il_event_max_steps`` = D) ``x_curtailed`` is the trajectory under the
-        event (s = 0, L = D), otherwise under curtailment for the whole horizon
+        event model (``events`` set, D = its ``max_steps``) ``x_curtailed`` is the trajectory
+        under the event (s = 0, L = D), otherwise under curtailment for the whole horizon
     energy_cost_sgd, reserve_revenue_sgd, comfort_penalty_sgd : objective terms [SGD]
     tie_break_sgd : the reserve tie-break cost included in the LP but not in objective_sgd
     solve_time_s : wall time of the whole solve call (updates + HiGHS + extraction) [s]
@@ -189,7 +189,7 @@ def plan_from_values(
             problem.b_matrix[:, plan.reserve_inputs],
             x_served,
             r[:, plan.reserve_inputs],
-            problem.il_event_max_steps,
+            None if problem.events is None else problem.events.max_steps,
         )
     else:
         x_curtailed = x_served
@@ -250,7 +250,7 @@ def plan_solution(
         plan.x_served[1:] @ problem.c_matrix.T,
         plan.r[:, ridx],
         delta,
-        problem.il_event_max_steps,
+        None if problem.events is None else problem.events.max_steps,
     )
     dt = problem.dt_h
     p = problem.power_coeff_kw_per_kg_s

@@ -1,9 +1,9 @@
 """Solve :class:`~hvacflex.opt.problem.RMPCProblem` with HiGHS (through
 :mod:`hvacflex.opt.highs_lp`, the only highspy importer).
 
-:func:`make_solver` gives the warm-started solver of a problem's robust mode, with the same
-keywords for both: :class:`RMPCSolver` (open loop, here) or :class:`FeedbackSolver`
-(:mod:`hvacflex.opt.feedback_solve`). Both are strategies on one
+:func:`~hvacflex.opt.factory.make_solver` gives the warm-started solver of a problem's robust
+mode, with the same keywords for both: :class:`RMPCSolver` (open loop, here) or
+:class:`FeedbackSolver` (:mod:`hvacflex.opt.feedback_solve`). Both are strategies on one
 :class:`~hvacflex.opt.highs_lp.HighsSession` (handle, options, runs, time limit, status,
 basis, retries); what stays here is the open-loop LP and how a basis maps onto it.
 
@@ -16,7 +16,7 @@ form, via ``changeCoeff``) — and re-solves with the dual simplex (warm start).
 :class:`FeedbackSolver` solves the affine-feedback LP of :mod:`hvacflex.opt.feedback` (warm,
 :mod:`hvacflex.opt.feedback_solve`). HiGHS runs single-threaded with its output silenced, so
 results are reproducible.
-:func:`solve_rmpc` is the one-shot wrapper for both.
+:func:`~hvacflex.opt.factory.solve_rmpc` is the one-shot wrapper for both.
 
 Warm start (measurements in ``docs/performance.md``). Successive problems of a receding
 horizon are shifted by one step, so the previous optimal basis is a poor start *position by
@@ -97,10 +97,7 @@ __all__ = [
     "RMPCSolver",
     "SolveStatus",
     "SolverBasis",
-    "WarmSolver",
-    "make_solver",
     "solve_lp",
-    "solve_rmpc",
 ]
 
 #: Lazy event rows: an absent event row violated by more than this is added [K].
@@ -528,7 +525,7 @@ class RMPCSolver:
         """(N,) marginal value of the power caps at the last optimum [SGD per kW of cap].
 
         Entry k is how much the optimal objective falls per kW added to
-        ``RMPCProblem.power_max_kw`` in period k: minus the reduced cost (column dual) of the
+        the cap (``RMPCProblem.power_cap``) in period k: minus the reduced cost (column dual) of the
         plan's power column k, ≥ 0, and 0 where the cap is slack (or +inf). With lazy event
         rows it is the dual of the final LP, which has the same optimum as the full one.
 
@@ -541,7 +538,7 @@ class RMPCSolver:
             raise ProblemError(
                 "no optimal solution to take the cap values from",
                 source="RMPCSolver",
-                field="power_max_kw",
+                field="power_cap",
                 hint="call solve() first and check that its status is OPTIMAL",
             )
         duals = np.asarray(self._highs.getSolution().col_dual, dtype=float)
@@ -566,57 +563,3 @@ class RMPCSolver:
             if the basis belongs to another structure or HiGHS rejects it.
         """
         self._session.set_basis(basis, self.num_cols, self.num_rows)
-
-
-WarmSolver = RMPCSolver | FeedbackSolver
-"""A warm-started solver of either kind (what :func:`make_solver` returns)."""
-
-
-def make_solver(
-    problem: RMPCProblem,
-    *,
-    time_limit_s: float | None = None,
-    time_shift: bool = True,
-    feasibility_tolerance: float | None = None,
-) -> WarmSolver:
-    """The warm-started solver for problems of ``problem``'s structure and robust mode.
-
-    :class:`FeedbackSolver` for ``robust="feedback"``, else :class:`RMPCSolver` (lazy IL
-    event rows), each with its defaults for what only it has.
-
-    Parameters
-    ----------
-    problem : the first problem; fixes the structure
-    time_limit_s : wall-clock limit per solve [s]; None = no limit
-    time_shift : each problem is the previous one a step later (receding horizon): start from
-        the previous basis rotated by one step; False: as is
-    feasibility_tolerance : HiGHS's primal and dual feasibility tolerances; None keeps 1e-7
-
-    Raises
-    ------
-    ProblemError
-        if ``time_limit_s`` is not a positive number of seconds.
-    """
-    solver_class = FeedbackSolver if problem.robust == "feedback" else RMPCSolver
-    return solver_class(
-        problem,
-        time_limit_s=time_limit_s,
-        time_shift=time_shift,
-        feasibility_tolerance=feasibility_tolerance,
-    )
-
-
-def solve_rmpc(problem: RMPCProblem, *, time_limit_s: float | None = None) -> RMPCSolution:
-    """Solve one problem from scratch (see :class:`RMPCSolver` for sequences).
-
-    Parameters
-    ----------
-    problem : the validated problem
-    time_limit_s : wall-clock limit [s]; None = no limit
-
-    Returns
-    -------
-    :class:`RMPCSolution`; check ``sol.status`` (arrays are NaN unless OPTIMAL).
-    ``robust="feedback"`` problems go to :class:`FeedbackSolver`.
-    """
-    return make_solver(problem, time_limit_s=time_limit_s).solve(problem)

@@ -13,7 +13,9 @@ from typing import Any
 import numpy as np
 from scipy.linalg import expm
 
+from hvacflex.constants import PERIOD_S
 from hvacflex.opt.problem import RMPCProblem
+from hvacflex.units import SECONDS_PER_HOUR
 
 
 def random_model(
@@ -73,7 +75,7 @@ def random_problem(
     m: int = 2,
     nd: int = 3,
     horizon: int = 8,
-    dt_h: float = 0.5,
+    dt_h: float = PERIOD_S / SECONDS_PER_HOUR,
     **overrides: Any,
 ) -> RMPCProblem:
     """A seeded random problem with nonzero g, reserve on every input; override any field."""

@@ -102,7 +102,7 @@ TELEMETRY_REPORT = "hvacflex-telemetry"
 FORECAST_REPORT = "hvacflex-forecast"
 REPORT_DURATION = timedelta(hours=24)
 """The data a report can cover (openleadr's report ``duration``)."""
-SAMPLING_MIN, SAMPLING_MAX = timedelta(seconds=1), timedelta(minutes=30)
+SAMPLING_MIN, SAMPLING_MAX = timedelta(seconds=1), PERIOD.to_pytimedelta()
 """Sampling intervals the VEN accepts from the VTN's report requests."""
 REFUSAL_REASON_MAX_CHARS = 1000
 """The longest reason the service records for a refused dispatch."""

@@ -1,6 +1,6 @@
 """Sweeps: many independent closed-loop runs, on Dask or on local processes.
 
-Each job is one :func:`~hvacflex.sim.closed_loop.run_simulation` in its own folder named after
+Each job is one :func:`~hvacflex.sim.run.run_simulation` in its own folder named after
 the scenario and its configuration hash, so finished runs are re-used and an interrupted
 sweep picks up where it stopped. With the ``dask`` extra installed, jobs run on a
 ``dask.distributed`` cluster: a ``LocalCluster`` of single-threaded worker processes on this
@@ -148,7 +148,7 @@ def _run_job(
     config: ScenarioConfig, out_dir: str, fresh: bool = False
 ) -> tuple[dict[str, float], bool]:
     """Worker side of a job (module-level so it pickles): its KPIs and whether it was cached."""
-    from hvacflex.sim.closed_loop import run_simulation
+    from hvacflex.sim.run import run_simulation
 
     result = run_simulation(config, out_dir, progress=False, resume=not fresh)
     return result.summary, result.cached

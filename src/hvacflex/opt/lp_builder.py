@@ -1,0 +1,241 @@
+"""The LP container and its index allocator, for every LP hvacflex builds.
+
+:class:`LPBuilder` hands out column and row index ranges and collects bounds, costs and
+coefficients (each ``add_…`` family of :mod:`hvacflex.opt.lp` and :mod:`hvacflex.opt.feedback`
+adds through it); :meth:`LPBuilder.finish` returns the :class:`LinearProgram`, and
+:func:`sparse_matrix` its constraint matrix.
+
+Constant and varying coefficients
+---------------------------------
+Coefficients that depend only on the problem's structure (A, B, E, C, N, mask) are
+*constant*: a builder made with ``constants=False`` skips them, so a receding-horizon solver
+rebuilds costs, bounds and the few step-varying coefficients (``p_k``, ``φ_k``, σ in the dual
+form) every step without re-assembling the matrix. Varying coefficients are kept even when
+zero, so that their positions in the matrix are known and can be updated in place.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy import sparse
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+
+__all__ = ["LPBuilder", "LinearProgram", "Triplets", "sparse_matrix"]
+
+
+@dataclass(frozen=True, eq=False)
+class Triplets:
+    """Coefficients ``A[rows[i], cols[i]] = values[i]`` (flat arrays of equal length)."""
+
+    rows: IntArray
+    cols: IntArray
+    values: FloatArray
+
+    @staticmethod
+    def join(parts: list[tuple[IntArray, IntArray, FloatArray]]) -> Triplets:
+        """Concatenate (rows, cols, values) blocks."""
+        if not parts:
+            empty = np.zeros(0, dtype=np.int64)
+            return Triplets(empty, empty, np.zeros(0))
+        return Triplets(
+            np.concatenate([p[0] for p in parts]),
+            np.concatenate([p[1] for p in parts]),
+            np.concatenate([p[2] for p in parts]),
+        )
+
+
+@dataclass(frozen=True, eq=False)
+class LinearProgram:
+    """``min costᵀx  s.t.  row_lower ≤ A x ≤ row_upper,  col_lower ≤ x ≤ col_upper``.
+
+    ``constant`` holds the structural coefficients (None if the builder skipped them),
+    ``varying`` the step-varying ones in a fixed order (zeros kept). ``time_cols`` and
+    ``time_rows`` are the blocks whose first axis is the step k (for the warm start's
+    time shift); ``permuted_rows`` are (block, permutation) pairs of row blocks that are not
+    rectangular in k: one step later row ``block[e]`` starts from ``block[permutation[e]]``.
+    """
+
+    num_cols: int
+    num_rows: int
+    cost: FloatArray
+    col_lower: FloatArray
+    col_upper: FloatArray
+    row_lower: FloatArray
+    row_upper: FloatArray
+    constant: Triplets | None
+    varying: Triplets
+    time_cols: tuple[IntArray, ...]
+    time_rows: tuple[IntArray, ...]
+    permuted_rows: tuple[tuple[IntArray, IntArray], ...] = ()
+
+
+def sparse_matrix(
+    lp: LinearProgram, constant: Triplets, *, keep_varying_zeros: bool, csc: bool
+) -> sparse.csc_matrix | sparse.csr_matrix:
+    """The constraint matrix (num_rows × num_cols) from ``constant`` and ``lp.varying``.
+
+    Explicit zeros are dropped, except varying ones if ``keep_varying_zeros`` (so that an
+    in-place update finds them). CSC with sorted indices if ``csc``, else CSR.
+    """
+    keep = constant.values != 0.0
+    rows, cols, values = constant.rows[keep], constant.cols[keep], constant.values[keep]
+    varying = lp.varying
+    keep_v = np.ones(varying.values.size, dtype=bool)
+    if not keep_varying_zeros:
+        keep_v = varying.values != 0.0
+    rows = np.concatenate([rows, varying.rows[keep_v]])
+    cols = np.concatenate([cols, varying.cols[keep_v]])
+    values = np.concatenate([values, varying.values[keep_v]])
+    shape = (lp.num_rows, lp.num_cols)
+    if csc:
+        matrix = sparse.csc_matrix((values, (rows, cols)), shape=shape, dtype=np.float64)
+        matrix.sort_indices()
+        return matrix
+    return sparse.csr_matrix((values, (rows, cols)), shape=shape)
+
+
+_Assignment = tuple[IntArray, FloatArray | float, FloatArray | float]
+
+
+class LPBuilder:
+    """Hands out column and row index ranges; collects bounds, costs and coefficients.
+
+    Parameters
+    ----------
+    constants : record the constant (structural) coefficients; False for a rebuild that
+        only needs costs, bounds and the varying coefficients
+    """
+
+    def __init__(self, *, constants: bool = True) -> None:
+        self.records_constants = constants
+        self.num_cols = 0
+        self.num_rows = 0
+        self._cols: list[_Assignment] = []
+        self._rows: list[_Assignment] = []
+        self._costs: list[tuple[IntArray, FloatArray | float]] = []
+        self._constant: list[tuple[IntArray, IntArray, FloatArray]] = []
+        self._varying: list[tuple[IntArray, IntArray, FloatArray]] = []
+        self._time_cols: list[IntArray] = []
+        self._time_rows: list[IntArray] = []
+        self._permuted_rows: list[tuple[IntArray, IntArray]] = []
+
+    @staticmethod
+    def _take(start: int, shape: tuple[int, ...]) -> IntArray:
+        size = math.prod(shape)
+        return np.arange(start, start + size, dtype=np.int64).reshape(shape)
+
+    def add_columns(
+        self,
+        shape: tuple[int, ...],
+        *,
+        lower: FloatArray | float = -np.inf,
+        upper: FloatArray | float = np.inf,
+        time_indexed: bool = False,
+    ) -> IntArray:
+        """A new block of variables shaped ``shape`` with bounds (broadcast); its indices."""
+        index = self._take(self.num_cols, shape)
+        self.num_cols += index.size
+        return _record(index, lower, upper, self._cols, self._time_cols if time_indexed else None)
+
+    def add_rows(
+        self,
+        shape: tuple[int, ...],
+        *,
+        lower: FloatArray | float = -np.inf,
+        upper: FloatArray | float = np.inf,
+        time_indexed: bool = False,
+        time_permutation: IntArray | None = None,
+    ) -> IntArray:
+        """A new block of constraints ``lower ≤ row ≤ upper`` shaped ``shape``; its indices.
+
+        ``time_indexed``: the first axis is the step k (the warm start rolls it by one);
+        ``time_permutation`` (flat block size): instead, one step later row ``index[e]``
+        starts from row ``index[time_permutation[e]]`` (for blocks not rectangular in k).
+        """
+        index = self._take(self.num_rows, shape)
+        self.num_rows += index.size
+        self._rows.append((index, lower, upper))
+        if time_indexed:
+            self._time_rows.append(index)
+        if time_permutation is not None:
+            self._permuted_rows.append((index.ravel(), time_permutation))
+        return index
+
+    def set_column_bounds(
+        self, cols: IntArray, *, lower: FloatArray | float, upper: FloatArray | float
+    ) -> None:
+        """New bounds of existing columns ``cols`` (broadcast; later calls win)."""
+        self._cols.append((cols, lower, upper))
+
+    def set_cost(self, cols: IntArray, cost: FloatArray | float) -> None:
+        """Objective coefficients of ``cols`` (broadcast; later calls win)."""
+        self._costs.append((cols, cost))
+
+    def add_coefficients(self, rows: object, cols: object, values: object) -> None:
+        """Constant coefficients (broadcast together); skipped if not ``records_constants``."""
+        if self.records_constants:
+            self._constant.append(_broadcast(rows, cols, values))
+
+    def add_varying_coefficients(self, rows: object, cols: object, values: object) -> None:
+        """Coefficients that change from step to step (broadcast together; zeros kept)."""
+        self._varying.append(_broadcast(rows, cols, values))
+
+    def finish(self) -> LinearProgram:
+        """The LP collected so far."""
+        cost = np.zeros(self.num_cols)
+        col_lower = np.full(self.num_cols, -np.inf)
+        col_upper = np.full(self.num_cols, np.inf)
+        row_lower = np.full(self.num_rows, -np.inf)
+        row_upper = np.full(self.num_rows, np.inf)
+        for index, lower, upper in self._cols:
+            col_lower[index] = lower
+            col_upper[index] = upper
+        for index, lower, upper in self._rows:
+            row_lower[index] = lower
+            row_upper[index] = upper
+        for index, value in self._costs:
+            cost[index] = value
+        return LinearProgram(
+            num_cols=self.num_cols,
+            num_rows=self.num_rows,
+            cost=cost,
+            col_lower=col_lower,
+            col_upper=col_upper,
+            row_lower=row_lower,
+            row_upper=row_upper,
+            constant=Triplets.join(self._constant) if self.records_constants else None,
+            varying=Triplets.join(self._varying),
+            time_cols=tuple(self._time_cols),
+            time_rows=tuple(self._time_rows),
+            permuted_rows=tuple(self._permuted_rows),
+        )
+
+
+def _record(
+    index: IntArray,
+    lower: FloatArray | float,
+    upper: FloatArray | float,
+    blocks: list[_Assignment],
+    time_blocks: list[IntArray] | None,
+) -> IntArray:
+    """Note a new block of columns or rows with its bounds (and, if ``time_blocks`` is given,
+    as time-indexed); return its indices."""
+    blocks.append((index, lower, upper))
+    if time_blocks is not None:
+        time_blocks.append(index)
+    return index
+
+
+def _broadcast(rows: object, cols: object, values: object) -> tuple[IntArray, IntArray, FloatArray]:
+    r, c, v = np.broadcast_arrays(np.asarray(rows), np.asarray(cols), np.asarray(values))
+    return (
+        r.ravel().astype(np.int64),
+        c.ravel().astype(np.int64),
+        v.ravel().astype(np.float64),
+    )
