@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from hvacflex.errors import ProblemError
-from hvacflex.opt import RMPCProblem, RMPCSolver, SolveStatus, solve_rmpc
+from hvacflex.opt import ILEventModel, RMPCProblem, RMPCSolver, SolveStatus, solve_rmpc
 from hvacflex.opt.options import RESERVE_TIE_BREAK_SGD_PER_KG_S_HOUR
 from hvacflex.opt.testing import random_problem
 
@@ -531,7 +531,10 @@ def test_warm_runs_price_as_measured_for_the_lp_family(max_steps: int | None) ->
     from hvacflex.opt.highs_lp import DANTZIG_PRICING, DEVEX_PRICING
 
     problems = [
-        dataclasses.replace(p, il_event_max_steps=max_steps) for p in _shifted_problems(3, 4)
+        dataclasses.replace(
+            p, events=None if max_steps is None else ILEventModel(max_steps=max_steps)
+        )
+        for p in _shifted_problems(3, 4)
     ]
     solver = RMPCSolver(problems[0])
     for index, problem in enumerate(problems):

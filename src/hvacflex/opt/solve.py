@@ -147,7 +147,7 @@ class RMPCSolver:
     ) -> None:
         self._structure = problem.structure
         options = SessionOptions(time_limit_s, time_shift, feasibility_tolerance)
-        family = "whole-horizon" if problem.il_event_max_steps is None else "event"
+        family = "whole-horizon" if problem.events is None else "event"
         self._session = HighsSession(
             "RMPCSolver", self._structure.fingerprint(), options, warm_pricing=WARM_PRICING[family]
         )
