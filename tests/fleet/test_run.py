@@ -173,11 +173,38 @@ def test_activation_is_settled_against_metered_fleet_power(
     assert per_building.tolist() == frame["il_activated"].tolist()
     assert "il_delivered_kw" in buildings
     assert result.summary["il_activated_steps"] == 2.0
+    _check_building_settlement(tmp_path, frame, buildings, result.summary)
     # the fleet file's [data] reserve_price_scale prices the reserve of the one market
     synthetic = synthetic_reserve_prices(
         frame["energy_price_sgd_per_mwh"], seed=3, scale_sgd_per_mwh=200.0
     )
     np.testing.assert_allclose(frame["reserve_price_sgd_per_mwh"], synthetic.to_numpy())
+
+
+def _check_building_settlement(
+    out: Path, frame: pd.DataFrame, buildings: pd.DataFrame, summary: dict[str, float]
+) -> None:
+    """The fleet's offer is Σ of the buildings' visible offers; an accepted, activated bid
+    is dispatched by those shares and each building is settled on its own meter against
+    its own pre-event baseline (the metered power of 11:30), capped at its share."""
+    offers = pd.read_csv(out / "offers.csv")
+    assert offers["building"].nunique() == 3 and len(offers) == 3 * len(frame)
+    table = offers.pivot(index="time", columns="building")
+    np.testing.assert_allclose(table["offer_kw"].sum(axis=1), frame["fleet_offer_kw"], atol=1e-9)
+    assert frame["fleet_bid_kw"].iloc[4] == frame["fleet_offer_kw"].iloc[4] > 0
+    share = table["dispatched_kw"].to_numpy()
+    accepted = frame["bid_accepted"].to_numpy() & frame["il_activated"].to_numpy()
+    np.testing.assert_allclose(share, np.where(accepted[:, None], table["offer_kw"], 0.0))
+    np.testing.assert_allclose(share.sum(axis=1), frame["il_dispatched_kw"])
+    power = buildings.pivot(columns="building", values="power_kw")[table["offer_kw"].columns]
+    metered = power.to_numpy()
+    expected = np.where(
+        accepted[:, None], np.minimum(np.maximum(metered[3] - metered, 0.0), share), 0.0
+    )
+    np.testing.assert_allclose(table["delivered_kw"].to_numpy(), expected, atol=1e-9)
+    np.testing.assert_allclose(frame["il_delivered_buildings_kw"], expected.sum(axis=1))
+    assert summary["delivery_ratio"] == pytest.approx(expected.sum() / share.sum())
+    assert summary["office_periods"] == 6 and summary["min_bid_kw"] == 0.0
 
 
 def test_a_fleet_read_by_the_caller_is_not_read_again(
