@@ -4,6 +4,10 @@ from __future__ import annotations
 
 import os
 import signal
+import socket
+import subprocess
+import sys
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -11,6 +15,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+import hvacflex
 from hvacflex.data.market import synthetic_reserve_prices
 from hvacflex.fleet.generate import generate_fleet, write_fleet
 from hvacflex.fleet.kpi import fleet_summary, load_fleet_results
@@ -122,6 +127,91 @@ def test_worker_killed_mid_run_recovers(small_fleet: Path, tmp_path: Path) -> No
         )
     assert killed and result.recoveries >= 1
     _check(tmp_path / "run")
+
+
+SCHEDULER_WORKERS = 2
+
+
+@pytest.fixture
+def tcp_scheduler() -> Iterator[str]:
+    """A Dask scheduler and two single-threaded workers started apart from the test, as a
+    cluster's are (``dask scheduler`` / ``dask worker`` processes on loopback); its
+    ``tcp://`` address."""
+    from dask.distributed import Client
+
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    address = f"tcp://127.0.0.1:{port}"
+    env = dict(os.environ)
+    source = str(Path(hvacflex.__file__).resolve().parents[1])
+    env["PYTHONPATH"] = os.pathsep.join(p for p in (source, env.get("PYTHONPATH", "")) if p)
+    module = [sys.executable, "-m"]
+    quiet = {"env": env, "stdout": subprocess.DEVNULL, "stderr": subprocess.DEVNULL}
+    processes = [
+        subprocess.Popen(
+            [
+                *module,
+                "distributed.cli.dask_scheduler",
+                "--host",
+                "127.0.0.1",
+                "--port",
+                str(port),
+                "--no-dashboard",
+            ],
+            **quiet,
+        )
+    ]
+    try:
+        processes += [
+            subprocess.Popen(
+                [
+                    *module,
+                    "distributed.cli.dask_worker",
+                    address,
+                    "--nthreads",
+                    "1",
+                    "--no-dashboard",
+                    "--no-nanny",
+                ],
+                **quiet,
+            )
+            for _ in range(SCHEDULER_WORKERS)
+        ]
+        with Client(address, timeout=60) as client:
+            client.wait_for_workers(SCHEDULER_WORKERS, timeout=120)
+        yield address
+    finally:
+        for process in reversed(processes):
+            process.terminate()
+        for process in processes:
+            process.wait(timeout=30)
+
+
+def test_a_fleet_runs_on_a_tcp_scheduler_started_apart(
+    small_fleet: Path, tmp_path: Path, tcp_scheduler: str
+) -> None:
+    """``fleet simulate --scheduler tcp://…``: the buildings are split over the cluster's
+    two workers (one group each), the run ends, and the cluster it did not start is left
+    running with its workers."""
+    from dask.distributed import Client
+
+    placed: list[list[str]] = []
+
+    def where(k: int, groups: Any) -> None:
+        placed.append(list(groups.workers))
+
+    result = run_fleet(
+        small_fleet, tmp_path, start=START, days=2 / 48, scheduler=tcp_scheduler, on_step=where
+    )
+    assert len(result.frame) == 2 and result.recoveries == 0
+    assert all(len(set(w)) == SCHEDULER_WORKERS for w in placed)
+    assert all(w.startswith("tcp://127.0.0.1:") for w in placed[0])
+    frame = result.frame
+    assert np.all(frame["planned_fleet_power_kw"] <= frame["feeder_limit_kw"] + 1e-6)
+    assert np.all(np.isfinite(frame["fleet_power_kw"]))
+    with Client(tcp_scheduler, timeout=30) as client:
+        assert len(client.scheduler_info()["workers"]) == SCHEDULER_WORKERS
 
 
 @pytest.fixture(scope="module")
