@@ -20,8 +20,8 @@ runs ``--steps`` steps from ``--start`` on a ``LocalCluster`` of W single-thread
     python benchmarks/bench_fleet_scale.py --buildings 10 100 --workers 1 2 --steps 3
 
 The aggregator's product (issue 62): ``--limit inf`` (no feeder limit) and ``--activations``
-(the grid operator activates IL for 2 h from 09:00, 11:30, 14:00 and 16:00 every day, a
-file schedule) add the fleet's offer in office hours (mean kW per building, the periods
+(the grid operator activates IL for 30 min at every full hour from 08:00 to 17:00, a file
+schedule) add the fleet's offer in office hours (mean kW per building, the periods
 bid at the 0.1 MW minimum of those run), the delivery ratio on the buildings' meters, the
 coordinator's share of the CPU and the workers' memory per building:
 
@@ -69,13 +69,16 @@ def _group_timings(groups: Any) -> np.ndarray:
     return np.array(groups.broadcast("timings"), dtype=float)
 
 
-ACTIVATION_STARTS_H = (9.0, 11.5, 14.0, 16.0)
-"""``--activations``: the grid operator's 2-h IL activations start at these hours each day."""
-ACTIVATION_HOURS = 2.0
+ACTIVATION_STARTS_H = tuple(float(h) for h in range(8, 18))
+"""``--activations``: the grid operator's IL activations start at these hours each day (every
+full office hour: ten events a day, each its own first period, so each is bid apart)."""
+ACTIVATION_HOURS = 0.5
+"""Each ``--activations`` event lasts one 30-min period."""
 
 
 def _write_activations(folder: Path, start: str, steps: int) -> str:
-    """``activations.csv`` beside the fleet file: :data:`ACTIVATION_STARTS_H`, 2 h each."""
+    """``activations.csv`` beside the fleet file: :data:`ACTIVATION_STARTS_H`, each
+    :data:`ACTIVATION_HOURS` long."""
     index = pd.date_range(start, periods=steps, freq="30min", tz=TIMEZONE)
     hours = index.hour + index.minute / 60.0
     on = np.zeros(steps, dtype=bool)
@@ -120,7 +123,7 @@ def measure(
         t0 = time.perf_counter()
         result = run_fleet(
             path,
-            Path(tmp) / "out",
+            Path(tmp) / "out" if options.out is None else options.out / f"b{buildings}w{workers}",
             start=start,
             days=steps / 48,
             workers=workers,
@@ -208,6 +211,7 @@ def main() -> None:
     )
     parser.add_argument("--activations", action="store_true", help="2-h IL activations (above)")
     parser.add_argument("--scheduler", default=None, help="a Dask scheduler address (tcp://…)")
+    parser.add_argument("--out", type=Path, default=None, help="keep each run's folder here")
     parser.add_argument(
         "--quick", action="store_true", help="smoke run at the smallest size (the test suite's)"
     )

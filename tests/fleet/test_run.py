@@ -314,3 +314,50 @@ def test_a_fleet_read_by_the_caller_is_not_read_again(
         small_fleet, tmp_path, start=START, days=1 / 48, workers=0, resume=False, loaded=loaded
     )
     assert len(result.frame) == 1
+
+
+class _SlowFuture:
+    """An actor future that times out ``waits`` times before it answers."""
+
+    def __init__(self, waits: int) -> None:
+        self.waits = waits
+
+    def result(self, timeout: float) -> str:
+        if self.waits:
+            self.waits -= 1
+            raise TimeoutError
+        return "done"
+
+
+class _SlowGroup:
+    def __init__(self, waits: int) -> None:
+        self.waits = waits
+
+    def ping(self) -> _SlowFuture:
+        return _SlowFuture(self.waits)
+
+
+class _Cluster:
+    def __init__(self, workers: list[str]) -> None:
+        self.workers = workers
+
+    def scheduler_info(self) -> dict[str, Any]:
+        return {"workers": {w: {} for w in self.workers}}
+
+
+def test_a_slow_group_call_is_waited_for_while_its_worker_is_there() -> None:
+    """A call slower than its timeout (a cold step of many buildings on a loaded machine)
+    is waited for while the worker is still in the cluster; a lost worker fails the step
+    at once; a call that never answers fails after ``ACTOR_MAX_WAITS`` timeouts."""
+    from hvacflex.fleet import run as fleet_run
+
+    groups = object.__new__(fleet_run._Groups)
+    groups.client, groups.workers, groups.indices = _Cluster(["w0"]), ["w0"], [[0, 1]]
+    groups.groups = [_SlowGroup(3)]
+    assert groups.call("ping") == ["done"]
+    groups.groups = [_SlowGroup(fleet_run.ACTOR_MAX_WAITS)]
+    with pytest.raises(TimeoutError):
+        groups.call("ping")
+    groups.groups, groups.client = [_SlowGroup(1)], _Cluster([])
+    with pytest.raises(fleet_run.WorkerLostError):
+        groups.call("ping")

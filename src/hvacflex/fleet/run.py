@@ -80,9 +80,12 @@ BUILD_ATTEMPTS = 3
 ``ACTOR_TIMEOUT_S`` for the actors)."""
 ACTOR_TIMEOUT_S = 60.0
 ACTOR_TIMEOUT_PER_BUILDING_S = 2.0
-"""An actor call times out after max(ACTOR_TIMEOUT_S, this × the group's buildings) [s]:
-a group's call solves each of its buildings once (≈ 0.05–0.5 s each at D = 4)."""
-"""A group call that takes longer than this is checked for a lost worker (then retried)."""
+"""A group call is checked for a lost worker every max(ACTOR_TIMEOUT_S, this × the group's
+buildings) [s]: a group's call solves each of its buildings once (≈ 0.05–0.5 s each at
+D = 4; a cold first step of 100 buildings on a loaded machine took longer than 200 s)."""
+ACTOR_MAX_WAITS = 20
+"""A group call whose workers are all still there is waited for this many such periods
+before the step fails (and is retried from the last checkpoint)."""
 
 
 class WorkerLostError(RuntimeError):
@@ -181,11 +184,15 @@ class _Groups:
         largest = max(len(idx) for idx in self.indices)
         timeout_s = max(ACTOR_TIMEOUT_S, ACTOR_TIMEOUT_PER_BUILDING_S * largest)
         for c in calls:
-            try:
-                results.append(c.result(timeout=timeout_s))
-            except TimeoutError:
-                self.check_alive()
-                raise
+            for wait in range(1, ACTOR_MAX_WAITS + 1):
+                try:
+                    results.append(c.result(timeout=timeout_s))
+                    break
+                except TimeoutError:
+                    self.check_alive()  # a lost worker: the step fails, recovered
+                    if wait == ACTOR_MAX_WAITS:
+                        raise
+                    log.info("%s: still waiting on a group after %.0f s", method, wait * timeout_s)
         return results
 
     def broadcast(self, method: str, *args: Any) -> list[Any]:
@@ -741,7 +748,8 @@ def _settle_buildings(
     buildings) and returns the long :data:`OFFERS_FILE` table."""
     names = [b.name for b in fleet.buildings]
     power = (
-        long.pivot_table(index=long.index, columns=schema.BUILDING_COLUMN, values="power_kw")
+        long.set_index(schema.BUILDING_COLUMN, append=True)["power_kw"]
+        .unstack(schema.BUILDING_COLUMN)
         .reindex(index=frame.index, columns=names)
         .to_numpy(float)
     )
