@@ -41,6 +41,10 @@ def test_generate_simulate_kpi(tmp_path: Path) -> None:
     )
     assert done.exit_code == 0, done.output
     assert (out / "results.parquet").is_file() and (out / "report.html").is_file()
+    # the aggregator's offer: the closing line, offers.csv and the report's section
+    assert "office-hour periods at or above the minimum bid (100 kW)" in done.output
+    assert (out / "offers.csv").is_file() and (out / "fleet_offer.png").is_file()
+    assert "The aggregator&#x27;s offer" in (out / "report.html").read_text()
     done = runner.invoke(app, ["kpi", str(out)])
     assert done.exit_code == 0, done.output
     assert "peak_fleet_power_kw" in done.output
