@@ -130,6 +130,8 @@ def test_worker_killed_mid_run_recovers(small_fleet: Path, tmp_path: Path) -> No
 
 
 SCHEDULER_WORKERS = 2
+SCHEDULER_START_S = 180
+"""How long the scheduler and its workers may take to start on a loaded machine [s]."""
 
 
 @pytest.fixture
@@ -178,8 +180,8 @@ def tcp_scheduler() -> Iterator[str]:
             )
             for _ in range(SCHEDULER_WORKERS)
         ]
-        with Client(address, timeout=60) as client:
-            client.wait_for_workers(SCHEDULER_WORKERS, timeout=120)
+        with Client(address, timeout=SCHEDULER_START_S) as client:
+            client.wait_for_workers(SCHEDULER_WORKERS, timeout=SCHEDULER_START_S)
         yield address
     finally:
         for process in reversed(processes):
