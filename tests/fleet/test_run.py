@@ -187,7 +187,11 @@ def tcp_scheduler() -> Iterator[str]:
         for process in reversed(processes):
             process.terminate()
         for process in processes:
-            process.wait(timeout=30)
+            try:  # a worker may still be closing its connections to the scheduler
+                process.wait(timeout=30)
+            except subprocess.TimeoutExpired:
+                process.kill()
+                process.wait()
 
 
 def test_a_fleet_runs_on_a_tcp_scheduler_started_apart(
