@@ -238,6 +238,9 @@ FLEET_FLOAT_UNITS: dict[str, str] = {
     "il_baseline_power_kw": "kW",
     "il_delivered_kw": "kW",
     "il_shortfall_kw": "kW",
+    "fleet_offer_kw": "kW",
+    "il_dispatched_kw": "kW",
+    "il_delivered_buildings_kw": "kW",
 }
 """A fleet run's per-step float columns, in file order → unit (``docs/fleet.md``)."""
 

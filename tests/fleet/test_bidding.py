@@ -1,4 +1,4 @@
-"""The fleet's bid, the check of its meter's baseline, and its settlement."""
+"""The fleet's bid against the minimum, and its settlement on the fleet's meter."""
 
 from __future__ import annotations
 
@@ -6,17 +6,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from hvacflex.fleet.bidding import MIN_BID_FLOOR_KW, bid_accepted, fleet_baseline_sees, settle_fleet
+from hvacflex.fleet.bidding import MIN_BID_FLOOR_KW, bid_accepted, settle_fleet
 
 
-def test_fleet_baseline_check_by_hand() -> None:
-    # curtailed 90 kW, bid 10 kW: seen below a 100 kW baseline, not below 99 kW, unless the
-    # model runs 1 kW above the meter (then 89 + 10 ≤ 99)
-    assert fleet_baseline_sees(10.0, 90.0, 100.0, 0.0)
-    assert not fleet_baseline_sees(10.0, 90.0, 99.0, 0.0)
-    assert fleet_baseline_sees(10.0, 90.0, 99.0, 1.0)
-    assert not fleet_baseline_sees(10.0, 90.0, float("nan"), 0.0)  # no baseline: not seen
-    assert fleet_baseline_sees(10.0, 90.0, None, 0.0)  # unknown (first period): not checked
+def test_the_minimum_bid_by_hand() -> None:
     assert bid_accepted(10.0, 10.0) and not bid_accepted(9.99, 10.0)
     assert not bid_accepted(1e-4, 0.0)  # round-off is no bid
     assert bid_accepted(MIN_BID_FLOOR_KW, 0.0)

@@ -46,6 +46,10 @@ def test_generate_simulate_kpi(tmp_path: Path) -> None:
     assert len(pd.read_csv(out / "envelope.csv")) == 3 * 3
     assert (out / "fleet_envelope.png").is_file()
     assert "Flexibility envelope" in (out / "report.html").read_text()
+    # the aggregator's offer: the closing line, offers.csv and the report's section
+    assert "office-hour periods at or above the minimum bid (100 kW)" in done.output
+    assert (out / "offers.csv").is_file() and (out / "fleet_offer.png").is_file()
+    assert "The aggregator&#x27;s offer" in (out / "report.html").read_text()
     done = runner.invoke(app, ["kpi", str(out)])
     assert done.exit_code == 0, done.output
     assert "peak_fleet_power_kw" in done.output

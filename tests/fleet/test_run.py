@@ -4,6 +4,10 @@ from __future__ import annotations
 
 import os
 import signal
+import socket
+import subprocess
+import sys
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -11,6 +15,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+import hvacflex
 from hvacflex.data.market import synthetic_reserve_prices
 from hvacflex.fleet.envelope import DURATIONS_MIN, ENVELOPE_COLUMNS, ENVELOPE_FILE
 from hvacflex.fleet.generate import generate_fleet, write_fleet
@@ -132,6 +137,97 @@ def test_worker_killed_mid_run_recovers(small_fleet: Path, tmp_path: Path) -> No
     _check(tmp_path / "run")
 
 
+SCHEDULER_WORKERS = 2
+SCHEDULER_START_S = 180
+"""How long the scheduler and its workers may take to start on a loaded machine [s]."""
+
+
+@pytest.fixture
+def tcp_scheduler() -> Iterator[str]:
+    """A Dask scheduler and two single-threaded workers started apart from the test, as a
+    cluster's are (``dask scheduler`` / ``dask worker`` processes on loopback); its
+    ``tcp://`` address."""
+    from dask.distributed import Client
+
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    address = f"tcp://127.0.0.1:{port}"
+    env = dict(os.environ)
+    source = str(Path(hvacflex.__file__).resolve().parents[1])
+    env["PYTHONPATH"] = os.pathsep.join(p for p in (source, env.get("PYTHONPATH", "")) if p)
+    module = [sys.executable, "-m"]
+    quiet = {"env": env, "stdout": subprocess.DEVNULL, "stderr": subprocess.DEVNULL}
+    processes = [
+        subprocess.Popen(
+            [
+                *module,
+                "distributed.cli.dask_scheduler",
+                "--host",
+                "127.0.0.1",
+                "--port",
+                str(port),
+                "--no-dashboard",
+            ],
+            **quiet,
+        )
+    ]
+    try:
+        processes += [
+            subprocess.Popen(
+                [
+                    *module,
+                    "distributed.cli.dask_worker",
+                    address,
+                    "--nthreads",
+                    "1",
+                    "--no-dashboard",
+                    "--no-nanny",
+                ],
+                **quiet,
+            )
+            for _ in range(SCHEDULER_WORKERS)
+        ]
+        with Client(address, timeout=SCHEDULER_START_S) as client:
+            client.wait_for_workers(SCHEDULER_WORKERS, timeout=SCHEDULER_START_S)
+        yield address
+    finally:
+        for process in reversed(processes):
+            process.terminate()
+        for process in processes:
+            try:  # a worker may still be closing its connections to the scheduler
+                process.wait(timeout=30)
+            except subprocess.TimeoutExpired:
+                process.kill()
+                process.wait()
+
+
+def test_a_fleet_runs_on_a_tcp_scheduler_started_apart(
+    small_fleet: Path, tmp_path: Path, tcp_scheduler: str
+) -> None:
+    """``fleet simulate --scheduler tcp://…``: the buildings are split over the cluster's
+    two workers (one group each), the run ends, and the cluster it did not start is left
+    running with its workers."""
+    from dask.distributed import Client
+
+    placed: list[list[str]] = []
+
+    def where(k: int, groups: Any) -> None:
+        placed.append(list(groups.workers))
+
+    result = run_fleet(
+        small_fleet, tmp_path, start=START, days=2 / 48, scheduler=tcp_scheduler, on_step=where
+    )
+    assert len(result.frame) == 2 and result.recoveries == 0
+    assert all(len(set(w)) == SCHEDULER_WORKERS for w in placed)
+    assert all(w.startswith("tcp://127.0.0.1:") for w in placed[0])
+    frame = result.frame
+    assert np.all(frame["planned_fleet_power_kw"] <= frame["feeder_limit_kw"] + 1e-6)
+    assert np.all(np.isfinite(frame["fleet_power_kw"]))
+    with Client(tcp_scheduler, timeout=30) as client:
+        assert len(client.scheduler_info()["workers"]) == SCHEDULER_WORKERS
+
+
 @pytest.fixture(scope="module")
 def activated_fleet(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """Three buildings under a limit that does not bind (a fleet at a binding limit has no
@@ -181,11 +277,38 @@ def test_activation_is_settled_against_metered_fleet_power(
     assert per_building.tolist() == frame["il_activated"].tolist()
     assert "il_delivered_kw" in buildings
     assert result.summary["il_activated_steps"] == 2.0
+    _check_building_settlement(tmp_path, frame, buildings, result.summary)
     # the fleet file's [data] reserve_price_scale prices the reserve of the one market
     synthetic = synthetic_reserve_prices(
         frame["energy_price_sgd_per_mwh"], seed=3, scale_sgd_per_mwh=200.0
     )
     np.testing.assert_allclose(frame["reserve_price_sgd_per_mwh"], synthetic.to_numpy())
+
+
+def _check_building_settlement(
+    out: Path, frame: pd.DataFrame, buildings: pd.DataFrame, summary: dict[str, float]
+) -> None:
+    """The fleet's offer is Σ of the buildings' visible offers; an accepted, activated bid
+    is dispatched by those shares and each building is settled on its own meter against
+    its own pre-event baseline (the metered power of 11:30), capped at its share."""
+    offers = pd.read_csv(out / "offers.csv")
+    assert offers["building"].nunique() == 3 and len(offers) == 3 * len(frame)
+    table = offers.pivot(index="time", columns="building")
+    np.testing.assert_allclose(table["offer_kw"].sum(axis=1), frame["fleet_offer_kw"], atol=1e-9)
+    assert frame["fleet_bid_kw"].iloc[4] == frame["fleet_offer_kw"].iloc[4] > 0
+    share = table["dispatched_kw"].to_numpy()
+    accepted = frame["bid_accepted"].to_numpy() & frame["il_activated"].to_numpy()
+    np.testing.assert_allclose(share, np.where(accepted[:, None], table["offer_kw"], 0.0))
+    np.testing.assert_allclose(share.sum(axis=1), frame["il_dispatched_kw"])
+    power = buildings.pivot(columns="building", values="power_kw")[table["offer_kw"].columns]
+    metered = power.to_numpy()
+    expected = np.where(
+        accepted[:, None], np.minimum(np.maximum(metered[3] - metered, 0.0), share), 0.0
+    )
+    np.testing.assert_allclose(table["delivered_kw"].to_numpy(), expected, atol=1e-9)
+    np.testing.assert_allclose(frame["il_delivered_buildings_kw"], expected.sum(axis=1))
+    assert summary["delivery_ratio"] == pytest.approx(expected.sum() / share.sum())
+    assert summary["office_periods"] == 6 and summary["min_bid_kw"] == 0.0
 
 
 def test_a_fleet_read_by_the_caller_is_not_read_again(
@@ -205,3 +328,50 @@ def test_a_fleet_read_by_the_caller_is_not_read_again(
         small_fleet, tmp_path, start=START, days=1 / 48, workers=0, resume=False, loaded=loaded
     )
     assert len(result.frame) == 1
+
+
+class _SlowFuture:
+    """An actor future that times out ``waits`` times before it answers."""
+
+    def __init__(self, waits: int) -> None:
+        self.waits = waits
+
+    def result(self, timeout: float) -> str:
+        if self.waits:
+            self.waits -= 1
+            raise TimeoutError
+        return "done"
+
+
+class _SlowGroup:
+    def __init__(self, waits: int) -> None:
+        self.waits = waits
+
+    def ping(self) -> _SlowFuture:
+        return _SlowFuture(self.waits)
+
+
+class _Cluster:
+    def __init__(self, workers: list[str]) -> None:
+        self.workers = workers
+
+    def scheduler_info(self) -> dict[str, Any]:
+        return {"workers": {w: {} for w in self.workers}}
+
+
+def test_a_slow_group_call_is_waited_for_while_its_worker_is_there() -> None:
+    """A call slower than its timeout (a cold step of many buildings on a loaded machine)
+    is waited for while the worker is still in the cluster; a lost worker fails the step
+    at once; a call that never answers fails after ``ACTOR_MAX_WAITS`` timeouts."""
+    from hvacflex.fleet import run as fleet_run
+
+    groups = object.__new__(fleet_run._Groups)
+    groups.client, groups.workers, groups.indices = _Cluster(["w0"]), ["w0"], [[0, 1]]
+    groups.groups = [_SlowGroup(3)]
+    assert groups.call("ping") == ["done"]
+    groups.groups = [_SlowGroup(fleet_run.ACTOR_MAX_WAITS)]
+    with pytest.raises(TimeoutError):
+        groups.call("ping")
+    groups.groups, groups.client = [_SlowGroup(1)], _Cluster([])
+    with pytest.raises(fleet_run.WorkerLostError):
+        groups.call("ping")

@@ -127,11 +127,11 @@ class FleetController(MPCController):
 
     @staticmethod
     def fleet_inputs(inputs: PeriodInputs) -> PeriodInputs:
-        """``inputs`` without the building's own settlement baselines: a fleet is settled on
-        its aggregate meter, so the coordinator checks the fleet's bid against the fleet's
-        baseline (:func:`hvacflex.fleet.bidding.fleet_baseline_sees`) instead of each
-        building's offer against its own (which would drop the offers of every building
-        whose plan is not below its last metered power)."""
+        """``inputs`` without the building's own settlement baselines: the controller's
+        all-or-nothing check (which drops the offer of every building whose plan is not
+        below its last metered power) is replaced by the coordinator's, which cuts each
+        staged offer to the part the building's meter would show, its model's excess over
+        the meter allowed for (:func:`hvacflex.fleet.aggregation.visible_offers_kw`)."""
         return dataclasses.replace(inputs, baseline_power_kw=None, baseline_ahead_kw=None)
 
     def first_offer_kw(self, problem: RMPCProblem, plan: RMPCSolution) -> tuple[float, float]:
@@ -360,6 +360,9 @@ class BuildingAgent:
         self._last_cap: FloatArray | float = np.inf
         self.locked_power_kw: float | None = None
         """This period's power fixed by a locked event plan [kW] (None: not locked)."""
+        self._baseline_kw: float | None = None
+        """The building's own settlement baseline of an activation starting this period
+        [kW] (NaN: none; None: unknown, the first period); set by :meth:`begin_step`."""
 
     @property
     def problem(self) -> RMPCProblem:
@@ -378,6 +381,7 @@ class BuildingAgent:
         the coordinator gives it exactly that as its cap."""
         inputs = self.control.prepared(self.loop.inputs())
         self._inputs = inputs
+        self._baseline_kw = inputs.baseline_power_kw
         problem = self.controller.problem_for(self.controller.fleet_inputs(inputs))
         self._problem, self._last, self._last_price = problem, None, None
         p_min = power_bounds_kw(problem, problem.u_min)
@@ -407,6 +411,21 @@ class BuildingAgent:
         if staged is None or problem is None or staged.status is not SolveStatus.OPTIMAL:
             return 0.0, float("nan") if staged is None else float(staged.power_kw[0])
         return self.controller.first_offer_kw(problem, staged)
+
+    def meter_view_kw(self) -> tuple[float, float]:
+        """(the building's settlement baseline of an activation starting now [kW], its
+        model's excess over its meter last period, max(0, planned − metered) [kW]): what
+        its meter would show an offer against
+        (:func:`hvacflex.fleet.aggregation.visible_offers_kw`); (NaN, 0) where nothing is
+        metered yet (the run's first period)."""
+        k = self.loop.k
+        baseline = self._baseline_kw
+        if k == 0 or baseline is None:
+            return float("nan"), 0.0
+        col = self.loop.recorder.column_index
+        row = self.loop.recorder.values[k - 1]
+        excess = float(row[col["planned_power_kw"]] - row[col["power_kw"]])
+        return float(baseline), max(excess, 0.0) if np.isfinite(excess) else 0.0
 
     def staged_split_sgd(self) -> FloatArray:
         """(3,) the staged plan's cost [SGD]: energy + peak, reserve (−revenue) and comfort
@@ -624,6 +643,12 @@ class BuildingGroup:
     def staged_offer_kw(self) -> tuple[FloatArray, FloatArray]:
         """(B,) the staged plans' first-period offers and curtailed powers [kW]."""
         parts = [agent.staged_offer_kw() for agent in self.agents]
+        return np.array([p[0] for p in parts]), np.array([p[1] for p in parts])
+
+    def meter_view_kw(self) -> tuple[FloatArray, FloatArray]:
+        """(B,) each building's settlement baseline now and its model's excess [kW]
+        (:meth:`BuildingAgent.meter_view_kw`)."""
+        parts = [agent.meter_view_kw() for agent in self.agents]
         return np.array([p[0] for p in parts]), np.array([p[1] for p in parts])
 
     def advance(self, activated: bool = False) -> dict[str, FloatArray]:

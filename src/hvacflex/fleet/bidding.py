@@ -1,9 +1,8 @@
 """The fleet's side of the IL market: its bid, whether its meter would show it, when the
 grid activates it, and how it is settled.
 
-The fleet sells one aggregate offer (Σ of its buildings' staged first-period offers), checked
-against the fleet's metered baseline as a single building's offer is against its own
-(:func:`fleet_baseline_sees`), accepted at or above the market's minimum bid
+The fleet sells one aggregate offer (Σ of its buildings' metered-visible offers,
+:mod:`hvacflex.fleet.aggregation`), accepted at or above the market's minimum bid
 (:func:`bid_accepted`), activated by the fleet file's ``[activation]`` schedule
 (:func:`fleet_activation_schedule`) and settled on the fleet's metered power
 (:func:`settle_fleet`, :mod:`hvacflex.settlement`). Used by :mod:`hvacflex.fleet.run`.
@@ -13,31 +12,14 @@ from __future__ import annotations
 
 from typing import Any
 
-import numpy as np
 import pandas as pd
 
 from hvacflex.config import NEMS_MAX_INTERRUPTION_STEPS
-from hvacflex.control.offers import BASELINE_TOLERANCE_KW
 from hvacflex.settlement import settlement_columns
 from hvacflex.sim.activation import activation_schedule
 
 MIN_BID_FLOOR_KW = 1e-3
 """Smallest aggregate offer that is a bid at all [kW] (below it: solver round-off)."""
-
-
-def fleet_baseline_sees(
-    bid_kw: float, curtailed_kw: float, baseline_kw: float | None, excess_kw: float
-) -> bool:
-    """Whether the fleet's meter would show its bid [kW] if an activation started now: the
-    fleet's curtailed power [kW] (less the model's excess over the metered power [kW]) plus
-    the bid stays at or below the fleet's baseline [kW] — the single building's rule
-    (``MPCController``) applied to the aggregate that is settled. No baseline (NaN):
-    nothing would be seen; unknown (None, the first period): not checked."""
-    if baseline_kw is None or bid_kw <= 0:
-        return True
-    if not np.isfinite(baseline_kw):
-        return False
-    return curtailed_kw - excess_kw + bid_kw <= baseline_kw + BASELINE_TOLERANCE_KW
 
 
 def bid_accepted(bid_kw: float, min_bid_kw: float) -> bool:

@@ -186,6 +186,16 @@ def simulate(
         f"{s['step_time_s_mean']:.2f} s/step, "
         f"{flagged} periods flagged infeasible{outside}"
     )
+    if "office_periods" in s:
+        typer.echo(
+            f"offer: {int(s['office_periods_bid'])} of {int(s['office_periods'])} office-hour "
+            f"periods at or above the minimum bid ({s['min_bid_kw']:.0f} kW), "
+            f"{s['offer_per_building_office_kw_mean']:.2f} kW per building on average "
+            f"(max {s['fleet_offer_office_kw_max']:.1f} kW for the fleet), "
+            f"delivery ratio {s['delivery_ratio']:.3f} "
+            f"({s['il_delivered_buildings_kwh']:.1f} of {s['il_dispatched_kwh']:.1f} kWh, "
+            "on the buildings' meters)"
+        )
 
 
 class CoordinationWatch:

@@ -15,6 +15,7 @@ import pandas as pd
 from hvacflex import kpi as kpis
 from hvacflex import results as schema
 from hvacflex.errors import StoredStateError
+from hvacflex.fleet.aggregation import offer_kpis
 
 FLEET_MARKER_COLUMN = "fleet_power_kw"
 
@@ -48,8 +49,14 @@ def as_kpi_frame(results: pd.DataFrame) -> pd.DataFrame:
     return results[[*KPI_COLUMNS, *settled]].rename(columns=KPI_COLUMNS)
 
 
-def fleet_summary(results: pd.DataFrame, buildings: pd.DataFrame | None = None) -> dict[str, float]:
-    """Fleet KPIs: energy, cost, settled reserve revenue, the feeder limit and the bid."""
+def fleet_summary(
+    results: pd.DataFrame,
+    buildings: pd.DataFrame | None = None,
+    min_bid_kw: float | None = None,
+) -> dict[str, float]:
+    """Fleet KPIs: energy, cost, settled reserve revenue, the feeder limit, the bid and the
+    aggregator's offer, dispatch and delivery (:func:`hvacflex.fleet.aggregation.offer_kpis`;
+    ``min_bid_kw`` [kW] sizes the fleet a bid needs)."""
     fleet = as_kpi_frame(results)
     power = results["fleet_power_kw"].to_numpy(float)
     planned = results["planned_fleet_power_kw"].to_numpy(float)
@@ -86,6 +93,10 @@ def fleet_summary(results: pd.DataFrame, buildings: pd.DataFrame | None = None) 
             "il_shortfall_kwh": kpis.il_shortfall_kwh(fleet),
         }
     )
+    count = out["buildings"]
+    out.update(offer_kpis(results, int(count) if np.isfinite(count) else None, min_bid_kw))
+    if min_bid_kw is not None:
+        out["min_bid_kw"] = float(min_bid_kw)
     if "step_time_s" in results:
         out["step_time_s_mean"] = float(results["step_time_s"].mean())
     return out

@@ -1,6 +1,7 @@
 """The fleet report (``report.html`` in the run folder): fleet power against the feeder
 limit, the aggregate bid against the minimum, the flexibility envelope next to the limit
-windows and the offers, per-building cost and comfort distributions."""
+windows and the offers, the aggregator's offer per building and its delivery
+(:mod:`hvacflex.fleet.aggregation`), per-building cost and comfort distributions."""
 
 from __future__ import annotations
 
@@ -10,8 +11,10 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
+import numpy as np
 import pandas as pd
 
+from hvacflex.fleet.aggregation import office_hours
 from hvacflex.fleet.envelope import ENVELOPE_FILE
 from hvacflex.report.html import Section, write_report
 from hvacflex.results import RESULTS_FILENAME, read_results
@@ -67,6 +70,7 @@ def write_fleet_report(run_dir: str | Path, min_bid_mw: float | None = None) -> 
             figure_captions=["fleet power (planned, realised) and the limit", "aggregate bid"],
         ),
         *envelope_figure,
+        *_offer_section(out, results, summary, min_bid_mw),
         Section(
             "Buildings",
             figures=figures[2:],
@@ -124,5 +128,79 @@ def _envelope_figure(out: Path, results: pd.DataFrame, min_bid_mw: float | None)
                 "the least and the most power the fleet can hold for 30, 60 and 120 min from "
                 "each period (envelope.csv), the limit in force and the fleet's offer"
             ],
+        )
+    ]
+
+
+OFFER_KPIS = (
+    "office_periods",
+    "office_periods_bid",
+    "fleet_offer_office_kw_mean",
+    "fleet_offer_office_kw_max",
+    "offer_per_building_office_kw_mean",
+    "offer_per_building_office_kw_min",
+    "offer_per_building_office_kw_max",
+    "buildings_for_min_bid",
+    "il_dispatched_kwh",
+    "il_delivered_buildings_kwh",
+    "delivery_ratio",
+)
+"""The summary keys of the aggregator's section (:func:`hvacflex.fleet.aggregation.offer_kpis`)."""
+
+
+def _offer_section(
+    out: Path, results: pd.DataFrame, summary: pd.Series, min_bid_mw: float | None
+) -> list[Section]:
+    """The aggregator's offer: the fleet's offer (Σ of the buildings' metered-visible offers)
+    against the minimum bid, the offer per building in office hours (what sizes a fleet),
+    and the dispatched and delivered reserve; none for a run without offers (older runs)."""
+    if "fleet_offer_kw" not in results.columns:
+        return []
+    buildings = float(summary.get("buildings", np.nan))
+    per_building = results["fleet_offer_kw"] / buildings if buildings > 0 else None
+    office = office_hours(pd.DatetimeIndex(results.index))
+    fig, axes = plt.subplots(2, 1, figsize=(10, 5.0), sharex=True)
+    axes[0].step(results.index, results["fleet_offer_kw"], where="post", label="the fleet's offer")
+    axes[0].step(results.index, results["il_dispatched_kw"], where="post", label="dispatched")
+    axes[0].step(
+        results.index,
+        results["il_delivered_buildings_kw"],
+        where="post",
+        label="delivered (buildings' meters, capped)",
+    )
+    if min_bid_mw is not None:
+        axes[0].axhline(1000 * min_bid_mw, color="k", ls=":", label="minimum bid")
+    axes[0].set_ylabel("kW")
+    axes[0].legend()
+    if per_building is not None:
+        axes[1].step(results.index, per_building, where="post", label="offer per building")
+        axes[1].fill_between(
+            results.index,
+            0,
+            per_building.max(),
+            where=office,
+            step="post",
+            alpha=0.15,
+            label="office hours",
+        )
+        axes[1].set_ylabel("kW per building")
+        axes[1].legend()
+    fig.tight_layout()
+    figure = out / "fleet_offer.png"
+    fig.savefig(figure, dpi=90)
+    plt.close(fig)
+    kpis = summary.reindex([k for k in OFFER_KPIS if k in summary.index]).to_frame("value")
+    return [
+        Section(
+            "The aggregator's offer, dispatch and delivery",
+            paragraphs=[
+                "The fleet offers the sum of its buildings' metered-visible offers (each cut "
+                "to what its own meter would show) and bids it at or above the minimum bid; "
+                "an activated bid is dispatched to the buildings by their offers and settled "
+                "on each building's meter, its delivery capped at its share (offers.csv)."
+            ],
+            figures=[figure],
+            figure_captions=["the fleet's offer, dispatch and delivery; offer per building"],
+            tables=[kpis],
         )
     ]

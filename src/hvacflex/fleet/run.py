@@ -44,17 +44,20 @@ from hvacflex.constants import PERIOD, PERIOD_S, TIMEZONE
 from hvacflex.control.base import FloatArray
 from hvacflex.errors import HvacflexError
 from hvacflex.fleet.agent import BuildingGroup, FleetSettings
-from hvacflex.fleet.bidding import (
-    bid_accepted,
-    fleet_activation_schedule,
-    fleet_baseline_sees,
-    settle_fleet,
+from hvacflex.fleet.aggregation import (
+    OFFERS_FILE,
+    FleetOffer,
+    aggregate_offer,
+    building_delivery_kw,
+    dispatched_kw,
+    offers_table,
+    visible_offers_kw,
 )
+from hvacflex.fleet.bidding import fleet_activation_schedule, settle_fleet
 from hvacflex.fleet.bundle import coordinate_caps
 from hvacflex.fleet.coordinate import CoordinationOptions, CoordinationResult, coordinate
 from hvacflex.fleet.envelope import DURATIONS_MIN, ENVELOPE_FILE, duration_steps, envelope_frame
 from hvacflex.fleet.schema import Fleet, load_fleet_document
-from hvacflex.settlement import start_baseline_kw
 from hvacflex.sim.run_files import (
     check_checkpoint_code,
     input_files,
@@ -79,9 +82,12 @@ BUILD_ATTEMPTS = 3
 ``ACTOR_TIMEOUT_S`` for the actors)."""
 ACTOR_TIMEOUT_S = 60.0
 ACTOR_TIMEOUT_PER_BUILDING_S = 2.0
-"""An actor call times out after max(ACTOR_TIMEOUT_S, this × the group's buildings) [s]:
-a group's call solves each of its buildings once (≈ 0.05–0.5 s each at D = 4)."""
-"""A group call that takes longer than this is checked for a lost worker (then retried)."""
+"""A group call is checked for a lost worker every max(ACTOR_TIMEOUT_S, this × the group's
+buildings) [s]: a group's call solves each of its buildings once (≈ 0.05–0.5 s each at
+D = 4; a cold first step of 100 buildings on a loaded machine took longer than 200 s)."""
+ACTOR_MAX_WAITS = 20
+"""A group call whose workers are all still there is waited for this many such periods
+before the step fails (and is retried from the last checkpoint)."""
 
 
 class WorkerLostError(RuntimeError):
@@ -180,11 +186,15 @@ class _Groups:
         largest = max(len(idx) for idx in self.indices)
         timeout_s = max(ACTOR_TIMEOUT_S, ACTOR_TIMEOUT_PER_BUILDING_S * largest)
         for c in calls:
-            try:
-                results.append(c.result(timeout=timeout_s))
-            except TimeoutError:
-                self.check_alive()
-                raise
+            for wait in range(1, ACTOR_MAX_WAITS + 1):
+                try:
+                    results.append(c.result(timeout=timeout_s))
+                    break
+                except TimeoutError:
+                    self.check_alive()  # a lost worker: the step fails, recovered
+                    if wait == ACTOR_MAX_WAITS:
+                        raise
+                    log.info("%s: still waiting on a group after %.0f s", method, wait * timeout_s)
         return results
 
     def broadcast(self, method: str, *args: Any) -> list[Any]:
@@ -287,17 +297,20 @@ def run_fleet(
     try:
         groups = _Groups(doc, settings, n, client)
         values, flags, iterations, envelope = _empty_tables(steps)
+        offers = np.zeros((steps, n))  # every building's metered-visible offer [kW]
         col = {name: i for i, name in enumerate(FLOAT_COLUMNS)}
         checkpoint = _matching_checkpoint(checkpoint_path, key) if resume else None
         k, price = (
             (0, np.zeros(horizon))
             if checkpoint is None
-            else (_restore(checkpoint, groups, values, flags, iterations))
+            else (_restore(checkpoint, groups, values, flags, iterations, offers))
         )
         resumed_from = None if checkpoint is None else _restore_envelope(checkpoint, envelope)
 
         def snapshot() -> dict[str, Any]:
-            return _snapshot(key, k, price, values, flags, iterations, groups, envelope[:k])
+            return _snapshot(
+                key, k, price, (values, flags, iterations, offers), groups, envelope[:k]
+            )
 
         checkpoint = checkpoint or snapshot()
         recoveries = 0
@@ -306,7 +319,7 @@ def run_fleet(
         while k < steps:
             try:
                 tick = time.perf_counter()
-                context = _context(k, schedule, flags, values, col, index, settings, min_bid_kw)
+                context = _context(k, schedule, flags, min_bid_kw)
                 feeder_kw = planning_limit[k : k + horizon]
                 outcome = _fleet_step(groups, feeder_kw, options, price, context)
             except HvacflexError:
@@ -318,7 +331,8 @@ def run_fleet(
                 k, price = _recover(exc, k, client, groups, checkpoint)
                 continue
             result = outcome.result
-            flags[k] = _record_step(values[k], col, outcome, limit[k], min_bid_kw)
+            flags[k] = _record_step(values[k], col, outcome, limit[k])
+            offers[k] = outcome.visible_kw
             values[k, col["step_time_s"]] = time.perf_counter() - tick
             iterations[k] = result.iterations
             envelope[k] = outcome.envelope_kw
@@ -334,10 +348,10 @@ def run_fleet(
         if own_client is not None:
             close_dask(own_client, cluster)
 
-    frame = settle_fleet(
-        _results_frame(values, flags, iterations, index), settings.il_events.il_baseline
-    )
-    summary = _write_outputs(out, frame, long, fleet, key, recoveries)
+    rule = settings.il_events.il_baseline
+    frame = settle_fleet(_results_frame(values, flags, iterations, index), rule)
+    table = _settle_buildings(frame, long, fleet, offers, rule)
+    summary = _write_outputs(out, (frame, long, table), fleet, key, recoveries)
     envelope_frame(index, envelope).to_csv(out / ENVELOPE_FILE, index=False)
     checkpoint_path.unlink(missing_ok=True)
     return FleetRunResult(out, frame, summary, recoveries, resumed_from)
@@ -442,13 +456,14 @@ def _snapshot(
     key: str,
     k: int,
     price: FloatArray,
-    values: FloatArray,
-    flags: Any,
-    iterations: Any,
+    tables: tuple[FloatArray, Any, Any, FloatArray],
     groups: Any,
     envelope: FloatArray,
 ) -> dict[str, Any]:
-    """The checkpoint after ``k`` steps (``envelope`` (k, D, 2): the envelope's rows)."""
+    """The checkpoint after ``k`` steps (``tables``: the fleet's float columns, flags,
+    iterations and the buildings' visible offers (steps, B); ``envelope`` (k, D, 2): the
+    envelope's rows)."""
+    values, flags, iterations, offers = tables
     return {
         "envelope": envelope.copy(),
         "config_hash": key,
@@ -458,6 +473,7 @@ def _snapshot(
         "values": values[:k].copy(),
         "flags": flags[:k].copy(),
         "iterations": iterations[:k].copy(),
+        "offers": offers[:k].copy(),
         "buildings": groups.checkpoint_states(),
     }
 
@@ -470,11 +486,17 @@ def _restore_envelope(checkpoint: dict[str, Any], envelope: FloatArray) -> int:
 
 
 def _restore(
-    checkpoint: dict[str, Any], groups: Any, values: FloatArray, flags: Any, iterations: Any
+    checkpoint: dict[str, Any],
+    groups: Any,
+    values: FloatArray,
+    flags: Any,
+    iterations: Any,
+    offers: FloatArray,
 ) -> tuple[int, FloatArray]:
     """Restore the buildings and the tables from ``checkpoint``; (step, feeder price)."""
     groups.set_states(checkpoint["buildings"])
     k = int(checkpoint["k"])
+    offers[:k] = checkpoint["offers"]
     values[:k], flags[:k], iterations[:k] = (
         checkpoint["values"],
         checkpoint["flags"],
@@ -542,13 +564,14 @@ def _coordinate_step(
 @dataclass(frozen=True)
 class _StepOutcome:
     """One fleet step: the coordination, the minimum powers (B, N) [kW], the buildings'
-    rows ((B,) arrays), the fleet's bid [kW], whether IL was activated, and the
-    coordination's wall time [s]."""
+    rows ((B,) arrays), the fleet's offer and bid, every building's metered-visible offer
+    (B,) [kW], whether IL was activated, and the coordination's wall time [s]."""
 
     result: CoordinationResult
     p_min: FloatArray
     merged: dict[str, FloatArray]
-    bid_kw: float
+    offer: FleetOffer
+    visible_kw: FloatArray
     activated: bool
     coordination_s: float
     envelope_kw: FloatArray
@@ -564,39 +587,20 @@ class _StepContext:
     ----------
     scheduled : the grid operator activates IL in this period.
     before : (it did in the last period, the fleet was activated then); None at the start.
-    baseline_kw : the fleet's settlement baseline for an activation starting now [kW]
-        (NaN: none; None: unknown, not checked).
-    excess_kw : the fleet's planned power above its metered power last period (≥ 0) [kW].
     min_bid_kw : the market's minimum bid [kW].
     """
 
     scheduled: bool
     before: tuple[bool, bool] | None
-    baseline_kw: float | None
-    excess_kw: float
     min_bid_kw: float
 
 
-def _context(
-    k: int,
-    schedule: Any,
-    flags: Any,
-    values: FloatArray,
-    col: dict[str, int],
-    index: pd.DatetimeIndex,
-    settings: FleetSettings,
-    min_bid_kw: float,
-) -> _StepContext:
-    """The :class:`_StepContext` of step ``k`` from the tables of the steps before."""
+def _context(k: int, schedule: Any, flags: Any, min_bid_kw: float) -> _StepContext:
+    """The :class:`_StepContext` of step ``k`` from the flags of the steps before."""
     if k == 0:
-        return _StepContext(bool(schedule[0]), None, None, 0.0, min_bid_kw)
-    metered = values[:k, col["fleet_power_kw"]]
-    baseline = start_baseline_kw(
-        settings.il_events.il_baseline, metered, flags[:k, ACTIVATED], index[: k + 1]
-    )
-    excess = max(float(values[k - 1, col["planned_fleet_power_kw"]] - metered[-1]), 0.0)
+        return _StepContext(bool(schedule[0]), None, min_bid_kw)
     before = (bool(schedule[k - 1]), bool(flags[k - 1, ACTIVATED]))
-    return _StepContext(bool(schedule[k]), before, baseline, excess, min_bid_kw)
+    return _StepContext(bool(schedule[k]), before, min_bid_kw)
 
 
 def _fleet_step(
@@ -608,11 +612,12 @@ def _fleet_step(
 ) -> _StepOutcome:
     """Coordinate, bid, activate and advance one step.
 
-    The fleet bids Σ of the staged first-period offers when its meter would show them
-    (:func:`fleet_baseline_sees`); the bid is accepted at or above the minimum. An
-    activation that starts in this period reaches the fleet only if its bid is accepted;
-    one going on keeps the fleet activated as it was at its start (locked buildings keep
-    their locked power, :meth:`BuildingAgent.begin_step`)."""
+    The fleet offers Σ of its buildings' metered-visible offers (each staged first-period
+    offer cut to what the building's own meter would show,
+    :func:`hvacflex.fleet.aggregation.visible_offers_kw`) and bids it when it clears the
+    minimum bid. An activation that starts in this period reaches the fleet only if its
+    bid is accepted; one going on keeps the fleet activated as it was at its start (locked
+    buildings keep their locked power, :meth:`BuildingAgent.begin_step`)."""
     before = context.before
     continuing = context.scheduled and before is not None and before[0]
     locked = continuing and before is not None and before[1]
@@ -621,16 +626,14 @@ def _fleet_step(
     coordinated = time.perf_counter() - tick
     (envelope,) = groups.stacked("envelope", duration_steps(DT_H))
     offer, curtailed = groups.stacked("staged_offer_kw")
-    bid = float(np.sum(offer))
-    sees = fleet_baseline_sees(
-        bid, float(np.nansum(curtailed)), context.baseline_kw, context.excess_kw
-    )
-    accepted = sees and bid_accepted(bid, context.min_bid_kw)
-    activated = locked if continuing else context.scheduled and accepted
+    baseline, excess = groups.stacked("meter_view_kw")
+    visible = visible_offers_kw(offer, curtailed, baseline, excess)
+    fleet_offer = aggregate_offer(visible, context.min_bid_kw)
+    activated = locked if continuing else context.scheduled and fleet_offer.accepted
     rows = groups.broadcast("advance", activated)
     merged = {key_: np.concatenate([r[key_] for r in rows]) for key_ in rows[0]}
     return _StepOutcome(
-        result, p_min, merged, bid if sees else 0.0, activated, coordinated, envelope.sum(axis=0)
+        result, p_min, merged, fleet_offer, visible, activated, coordinated, envelope.sum(axis=0)
     )
 
 
@@ -738,23 +741,20 @@ def _start_dask(scheduler: str | None, workers: int | None) -> tuple[Any, Any, A
 
 
 def _record_step(
-    row: FloatArray,
-    col: dict[str, int],
-    outcome: _StepOutcome,
-    limit_kw: float,
-    min_bid_kw: float,
+    row: FloatArray, col: dict[str, int], outcome: _StepOutcome, limit_kw: float
 ) -> tuple[bool, bool, bool]:
     """Fill one results row from the buildings' rows; the flags (bid accepted, feeder
     infeasible, IL activated)."""
     merged, result = outcome.merged, outcome.result
     reserve = float(np.sum(merged["reserve_kw"]))
-    accepted = bid_accepted(outcome.bid_kw, min_bid_kw)
+    accepted = outcome.offer.accepted
     row[col["planned_fleet_power_kw"]] = float(np.sum(merged["planned_power_kw"]))
     row[col["fleet_power_kw"]] = float(np.sum(merged["power_kw"]))
     row[col["feeder_limit_kw"]] = limit_kw
     row[col["fleet_reserve_kw"]] = reserve
-    row[col["fleet_bid_kw"]] = outcome.bid_kw
-    row[col["settled_reserve_kw"]] = outcome.bid_kw if accepted else 0.0
+    row[col["fleet_offer_kw"]] = outcome.offer.offer_kw
+    row[col["fleet_bid_kw"]] = outcome.offer.bid_kw
+    row[col["settled_reserve_kw"]] = outcome.offer.bid_kw if accepted else 0.0
     row[col["fleet_min_power_kw"]] = float(outcome.p_min[:, 0].sum())
     row[col["feeder_excess_kw"]] = float(result.excess_kw[0])
     row[col["feeder_price_sgd_per_mwh"]] = float(result.price_sgd_per_mwh[0])
@@ -763,11 +763,42 @@ def _record_step(
     return accepted, bool(result.infeasible[0]), outcome.activated
 
 
+def _settle_buildings(
+    frame: pd.DataFrame, long: pd.DataFrame, fleet: Any, offers: FloatArray, rule: str
+) -> pd.DataFrame:
+    """Dispatch the accepted, activated bids to the buildings by their visible offers
+    (steps, B) [kW] and settle each on its own meter (:mod:`hvacflex.fleet.aggregation`);
+    fills ``frame``'s ``il_dispatched_kw`` and ``il_delivered_buildings_kw`` (Σ over the
+    buildings) and returns the long :data:`OFFERS_FILE` table."""
+    names = [b.name for b in fleet.buildings]
+    power = (
+        long.set_index(schema.BUILDING_COLUMN, append=True)["power_kw"]
+        .unstack(schema.BUILDING_COLUMN)
+        .reindex(index=frame.index, columns=names)
+        .to_numpy(float)
+    )
+    activated = frame["il_activated"].to_numpy(bool)
+    dispatched = dispatched_kw(offers, frame["bid_accepted"].to_numpy(bool), activated)
+    delivered = building_delivery_kw(
+        power, dispatched, activated, pd.DatetimeIndex(frame.index), rule
+    )
+    frame["il_dispatched_kw"] = dispatched.sum(axis=1)
+    frame["il_delivered_buildings_kw"] = delivered.sum(axis=1)
+    return offers_table(pd.DatetimeIndex(frame.index), names, offers, dispatched, delivered)
+
+
 def _write_outputs(
-    out: Path, frame: pd.DataFrame, long: pd.DataFrame, fleet: Any, key: str, recoveries: int
+    out: Path,
+    tables: tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame],
+    fleet: Any,
+    key: str,
+    recoveries: int,
 ) -> dict[str, float]:
-    """Results, per-building results, summary and per-building table; the summary."""
+    """Results, per-building results, offers, summary and per-building table (``tables``:
+    the fleet's results, the buildings' in long format, the offers'); the summary."""
     from hvacflex.fleet.kpi import building_table, fleet_summary
+
+    frame, long, offers = tables
 
     metadata = {
         schema.META_FLEET: fleet.name,
@@ -777,7 +808,8 @@ def _write_outputs(
     schema.write_results(frame, out / schema.RESULTS_FILENAME, metadata)
     long.index.name = schema.INDEX_NAME
     schema.write_results(long, out / schema.BUILDINGS_FILENAME, metadata)
-    summary = fleet_summary(frame, long)
+    offers.to_csv(out / OFFERS_FILE, index=False)
+    summary = fleet_summary(frame, long, min_bid_kw=1000.0 * fleet.spec.min_bid_mw)
     summary["recoveries"] = float(recoveries)
     atomic_write_text(out / SUMMARY_FILE, json.dumps(summary, indent=2))
     building_table(long).to_csv(out / "buildings_summary.csv", index_label="building")

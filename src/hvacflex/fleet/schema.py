@@ -137,8 +137,8 @@ class ReserveSpec(_Spec):
     def config(self) -> ReserveConfig:
         """The single-building :class:`ReserveConfig` of these settings. Offers stay on each
         building's power model (``meter_calibrated_offers`` and ``plan_visible_offers`` off):
-        a fleet is settled on its aggregate meter, and the coordinator checks the fleet's bid
-        against the fleet's baseline (:func:`hvacflex.fleet.bidding.fleet_baseline_sees`)."""
+        the coordinator cuts each building's offer to what its own meter would show
+        (:func:`hvacflex.fleet.aggregation.visible_offers_kw`) before the fleet bids them."""
         events = self.event_max_steps > 0
         return ReserveConfig(
             event_max_steps=self.event_max_steps if events else None,
