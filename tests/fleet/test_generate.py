@@ -82,3 +82,12 @@ def test_default_limit_covers_the_planned_minima_of_a_hot_day() -> None:
         design_power_kw(e["building"]) for e in doc["buildings"]
     )
     assert peak_minimum < doc["feeder_limit_kw"]
+
+
+def test_a_variant_does_not_carry_the_template_s_metered_power_models() -> None:
+    """office5's power models were fitted to office5's meters; a variant (another area, COP,
+    construction) has no meter of its own, so it plans with its design curves."""
+    doc = generate_fleet(2, 3)
+    template = building_from_dict(doc["buildings"][0]["building"], source="b0000")
+    assert template.power_models == {}
+    assert template.with_power_model_for("rc").metered_power is None

@@ -88,6 +88,9 @@ def _variant(template: dict[str, Any], rng: np.random.Generator, name: str) -> d
     heavy = bool(rng.random() < 0.5)
     cop = float(np.round(rng.uniform(3.2, 5.2), 2))
     raw["name"] = name
+    # the template's power models were fitted to the template's meter, not this variant's:
+    # a generated building plans with its own design curves
+    raw.pop("power_models", None)
     raw["description"] = (
         f"{template.get('name', 'template')} variant: area ×{scale:.2f}, rotated "
         f"{rotation_deg:.0f}°, window share {window_share:.2f}, "
