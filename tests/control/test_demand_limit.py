@@ -13,6 +13,7 @@ from hvacflex.control.base import PeriodInputs
 from hvacflex.control.demand_limit import (
     UPPER_MARGIN_K,
     DemandLimitController,
+    forecast_period_power_kw,
     predicted_power_kw,
 )
 from hvacflex.sim.setup import Setup, prepare
@@ -36,6 +37,28 @@ def test_predicted_power_is_the_plant_model_at_the_mean_zone_temperature(setup: 
     start, end = np.full(len(flow), 26.0), np.full(len(flow), 25.0)
     expected = float(hvac_power_kw(hvac, flow, np.full(len(flow), 25.5), 31.0, 0.018))
     assert predicted_power_kw(hvac, flow, start, end, 31.0, 0.018) == pytest.approx(expected)
+
+
+def test_the_predicted_power_takes_outdoor_air_only_where_the_damper_is_open(
+    setup: Setup,
+) -> None:
+    """At 02:00 (unoccupied, no purge) the prediction is the plant's model with the damper
+    closed — below the same flows with outdoor air; at 14:00 it is open."""
+    hvac, model = setup.building.hvac, setup.model
+    flow = np.asarray(hvac.flow_max_kg_s) * 0.3
+    x = np.full(len(model.node_names), 27.0)
+    for k, is_open in ((4, False), (AFTERNOON_STEP, True)):
+        forecast = setup.forecaster.forecast(k, 48)
+        end = model.c @ model.step(x, flow, forecast.disturbances[0])
+        args = (hvac, flow, model.c @ x, end)
+        weather = (
+            float(forecast.outdoor_temp_degc[0]),
+            float(forecast.outdoor_humidity_ratio_kg_per_kg[0]),
+        )
+        expected = predicted_power_kw(*args, *weather, damper_open=is_open)
+        assert forecast_period_power_kw(model, hvac, x, flow, forecast) == pytest.approx(expected)
+        other = predicted_power_kw(*args, *weather, damper_open=not is_open)
+        assert (expected < other) is not is_open  # outdoor air costs power in both hours
 
 
 def test_no_target_before_a_day_has_passed_then_the_fraction_of_yesterdays_peak(

@@ -16,7 +16,10 @@ from hvacflex.control.problem_builder import (
     below_unoccupied_bound,
     build_problem,
     comfort_bounds_at_period_ends,
+    committed_cap_in_force_kw,
+    pull_down_steps,
 )
+from hvacflex.opt import solve_rmpc
 from hvacflex.sim.setup import Setup, make_controller, prepare
 
 
@@ -199,3 +202,59 @@ def test_the_peak_bound_prices_power_with_the_plans_rows(
     y_min, y_max = comfort_bounds_at_period_ends(inputs.forecast, horizon)
     np.testing.assert_array_equal(bound.y_min_degc[:horizon], y_min)
     np.testing.assert_array_equal(bound.y_max_degc[:horizon], y_max)
+
+
+def test_pull_down_steps_by_hand() -> None:
+    """Spells starting at steps 10 and 30 of a 40-step plan (and one at 40, just past it):
+    the 8 steps before each and its first 2; a spell already running at step 0 has none."""
+    occupied = np.zeros(41, dtype=bool)
+    occupied[10:20] = occupied[30:35] = occupied[40] = True
+    mask = pull_down_steps(occupied, 40)
+    expected = np.zeros(40, dtype=bool)
+    expected[2:12] = expected[22:32] = expected[32:40] = True
+    np.testing.assert_array_equal(mask, expected)
+    running = np.ones(41, dtype=bool)
+    assert not pull_down_steps(running, 40).any()
+    np.testing.assert_array_equal(
+        pull_down_steps(occupied, 40, 2, 1), np.isin(np.arange(40), [8, 9, 10, 28, 29, 30, 38, 39])
+    )
+
+
+def test_the_cap_in_force_is_the_larger_of_the_previous_peak_and_the_billed() -> None:
+    assert np.isnan(committed_cap_in_force_kw(None, 0.0))
+    assert committed_cap_in_force_kw(None, 31.5) == 31.5
+
+
+def test_the_plan_holds_the_morning_pull_down_to_the_committed_cap(setup: Setup) -> None:
+    """From 00:00 (occupancy at 08:00, step 16) with the month's billed peak at a cap below
+    the uncapped plan's pull-down: P_k ≤ cap in the pull-down steps 8 … 17 (the LP's power,
+    solved), never below the step's least power (a lower cap bounds it there: the occupied
+    steps' ventilation flows draw ≈ 30 kW), other steps unbounded; φ = 0 sets no cap."""
+    controller = make_controller(setup)
+    assert isinstance(controller, MPCController)
+    contract = controller.contract
+    inputs = _inputs(setup, 0)
+    free = build_problem(setup.model, inputs, contract, PlanContext(inputs.x_degc))
+    assert np.isinf(free.power_max_kw).all()  # the billed peak 0: no cap in force
+    pull_down = pull_down_steps(inputs.forecast.occupied, free.horizon)
+    assert np.flatnonzero(pull_down).tolist() == list(range(8, 18))
+    uncapped = solve_rmpc(free)
+    least = free.power_offset_kw + (free.power_coeff_kw_per_kg_s * free.u_min).sum(axis=1)
+    # a cap between the pull-down's least power and the uncapped plan's pull-down peak
+    cap_kw = 0.5 * float(least[pull_down].max() + uncapped.power_kw[pull_down].max())
+    assert uncapped.power_kw[pull_down].max() > cap_kw + 1.0  # the cap will bind
+    capped_inputs = replace(inputs, peak_floor_kw=cap_kw)
+    problem = build_problem(setup.model, capped_inputs, contract, PlanContext(inputs.x_degc))
+    np.testing.assert_allclose(problem.power_max_kw[pull_down], cap_kw)
+    assert np.isinf(problem.power_max_kw[~pull_down]).all()
+    solution = solve_rmpc(problem)
+    assert solution.power_kw[pull_down].max() <= cap_kw + 1e-6
+    # a cap below the least power of a step bounds that step at its least power
+    low_inputs = replace(inputs, peak_floor_kw=0.5 * float(least[pull_down].max()))
+    low = build_problem(setup.model, low_inputs, contract, PlanContext(inputs.x_degc))
+    np.testing.assert_allclose(
+        low.power_max_kw[pull_down], np.maximum(low_inputs.peak_floor_kw, least[pull_down])
+    )
+    no_phi = replace(contract, config=replace(contract.config, peak_price_sgd_per_kw=0.0))
+    unpriced = build_problem(setup.model, capped_inputs, no_phi, PlanContext(inputs.x_degc))
+    assert np.isinf(unpriced.power_max_kw).all()

@@ -13,6 +13,8 @@ from hvacflex.building.channels import internal_gain_channel, outdoor_temp_chann
 from hvacflex.data.gains import zone_internal_gains_w
 from hvacflex.data.occupancy import (
     MAX_SHIFT_STEPS,
+    early_arrival_gain_disturbances,
+    first_arrival_offset_steps,
     stochastic_gain_disturbances,
     stochastic_zone_gains_w,
 )
@@ -76,3 +78,49 @@ def test_disturbances_replace_only_the_gain_channels() -> None:
 def test_bad_density_is_refused() -> None:
     with pytest.raises(ConfigError, match="occupancy_m2_per_person"):
         stochastic_zone_gains_w(INDEX, 100.0, 0.0, 75.0, 10.0, 12.0, seed=1, zone_position=0)
+
+
+def test_the_first_arrivals_quantile_is_the_drawn_shifts_quantile() -> None:
+    """The offset −s is uniform on −2 … 2 periods: P(≤ −2) = 0.2 ≥ 5 %, P(≤ 0) = 0.6 ≥ 50 %;
+    checked against the model's own draws: the 5 % quantile of the day's first period with
+    people present after 03:00 (each zone, working days, against the schedule's 06:00)."""
+    assert first_arrival_offset_steps(0.05) == -2 and first_arrival_offset_steps(0.2) == -2
+    assert first_arrival_offset_steps(0.21) == -1 and first_arrival_offset_steps(0.5) == 0
+    assert first_arrival_offset_steps(1.0) == MAX_SHIFT_STEPS
+    year = pd.date_range("2014-01-06", periods=48 * 7 * 20, freq="30min", tz="Asia/Singapore")
+    zone = {**ZONE, "lighting_w_per_m2": 0.0, "equipment_w_per_m2": 0.0}  # people alone
+    first_periods = []
+    for position in range(5):
+        people = stochastic_zone_gains_w(year, **zone, seed=4, zone_position=position)
+        for day in people.reshape(-1, 48)[[d for d in range(140) if d % 7 < 5]]:
+            present = np.flatnonzero(day[6:24] > 0) + 6  # from 03:00: not last night's
+            if present.size:
+                first_periods.append(present[0] - 12)  # the schedule's first: 06:00
+    assert np.quantile(first_periods, 0.05) == first_arrival_offset_steps(0.05)
+    for bad in (0.0, 1.5):
+        with pytest.raises(ConfigError, match="first_arrival_quantile"):
+            first_arrival_offset_steps(bad)
+
+
+def test_the_plan_takes_the_early_arrivals_gains_before_occupancy_only() -> None:
+    """Before 08:00 on working days the gain is the larger of the schedule's and the
+    schedule's one hour later (07:00–08:00 takes 08:00's); every other period, the weekend
+    and the other channels keep the schedule's."""
+    channels = (outdoor_temp_channel(), internal_gain_channel("a"))
+    scheduled = zone_internal_gains_w(INDEX, **ZONE)
+    d = np.column_stack([np.full(len(INDEX), 30.0), scheduled])
+    out = early_arrival_gain_disturbances(d, channels, INDEX, [300.0], Gains())
+    np.testing.assert_array_equal(out[:, 0], 30.0)
+    np.testing.assert_array_equal(d[:, 1], scheduled)  # the input is not changed
+    later = zone_internal_gains_w(INDEX + pd.Timedelta(hours=1), **ZONE)
+    hour = np.asarray(INDEX.hour)
+    weekday = np.asarray(INDEX.day_of_week) < 5
+    morning = weekday & (hour < 8)
+    np.testing.assert_array_equal(out[morning, 1], np.maximum(scheduled, later)[morning])
+    np.testing.assert_array_equal(out[~morning, 1], scheduled[~morning])
+    seven = weekday & (hour == 7)
+    by_hand = 300.0 * (75.0 / 10.0 * 0.95 + 10.0 * 0.9 + 12.0 * 0.9)  # 08:00's fractions
+    np.testing.assert_allclose(out[seven, 1], by_hand)
+    assert (out[seven, 1] > scheduled[seven]).all()
+    same = early_arrival_gain_disturbances(d, channels, INDEX, [300.0], Gains(), quantile=0.9)
+    np.testing.assert_array_equal(same, d)  # a late quantile plans the schedule

@@ -34,6 +34,11 @@ OBJECTIVE_REL_TOL = 1e-9
 #: different such vertices, up to 1.1e-8 apart (step 21). At 1e-10 both reach the same
 #: optimum to 3e-13 over that day (docs/performance.md, "Feedback RMPC").
 EXACT_FEASIBILITY_TOL = 1e-10
+#: Objective agreement at HiGHS's default tolerances: the ≈ 1e-8 relative the vertex is
+#: determined to (above). The recorded office5 steps met 1e-9 until issue 55's damper rule
+#: changed the LP's power rows; then step 0 (both paths cold) stopped 1.8e-9 apart
+#: (39.24189324 against 39.24189331 SGD, measured 2026-12-06), within that determinacy.
+DEFAULT_TOL_OBJECTIVE_REL_TOL = 1e-8
 HORIZON = 8
 STEPS = 6
 
@@ -260,7 +265,10 @@ def test_warm_equals_cold_on_recorded_office5_steps(tolerance: float | None) -> 
     """Three closed-loop steps of office5 (a cold solve takes ≈ 2 s each), with HiGHS's
     default tolerances (the product path) and with the tight ones of the week below."""
     iterations = _assert_same_optima(
-        list(_recorded(3)), feasibility_tolerance=tolerance, cold_tolerance=tolerance
+        list(_recorded(3)),
+        feasibility_tolerance=tolerance,
+        cold_tolerance=tolerance,
+        rel_tol=OBJECTIVE_REL_TOL if tolerance is not None else DEFAULT_TOL_OBJECTIVE_REL_TOL,
     )
     assert max(iterations[1:]) < iterations[0] / 20  # the warm start pays off
 

@@ -17,6 +17,7 @@ from hvacflex.control.demand_limit import DemandLimitController
 from hvacflex.control.gta_dr import GtaDrController
 from hvacflex.control.mpc import MPCController
 from hvacflex.control.trim_respond import TrimRespondController
+from hvacflex.data.occupancy import early_arrival_gain_disturbances
 from hvacflex.errors import ConfigError
 from hvacflex.paths import resolve_building
 from hvacflex.sim.run import run_simulation
@@ -69,14 +70,25 @@ def test_realistic_forecast_and_stochastic_occupancy() -> None:
     scheduled = prepare(preset("rmpc", start="2014-03-03", days=0.5))
     gains = setup.exogenous.channel_index("internal_gain")
     outdoor = setup.exogenous.channel_index("outdoor_temp")
-    # the plant sees stochastic gains, the controller the schedule's
+    # the plant sees stochastic gains, the controller the schedule's, its mornings (before
+    # 08:00) planned for the first arrival's 5 % quantile (issue 55 item 3 (c))
     assert not np.allclose(
         setup.exogenous.disturbances[:, gains], scheduled.exogenous.disturbances[:, gains]
     )
     forecast = setup.forecaster.forecast(4, 20)
+    exo = scheduled.exogenous
+    early = early_arrival_gain_disturbances(
+        exo.disturbances, exo.channels, exo.index, setup.building.gain_floor_areas_m2,
+        setup.building.gains,
+    )  # fmt: skip
+    np.testing.assert_array_equal(forecast.disturbances[:, gains], early[4:24, gains])
+    morning = np.asarray(exo.index[4:24].tz_convert("Asia/Singapore").hour) < 8
     np.testing.assert_array_equal(
-        forecast.disturbances[:, gains], scheduled.exogenous.disturbances[4:24, gains]
+        forecast.disturbances[~morning][:, gains], exo.disturbances[4:24][~morning][:, gains]
     )
+    assert (
+        forecast.disturbances[morning][:, gains] > exo.disturbances[4:24][morning][:, gains]
+    ).any()
     # the weather of the plant is the file's; the controller's is a forecast of it
     np.testing.assert_array_equal(
         setup.exogenous.disturbances[:, outdoor], scheduled.exogenous.disturbances[:, outdoor]

@@ -346,7 +346,14 @@ def test_stress_week_meets_issue_25s_done_when(tmp_path: Path) -> None:
     plan paid q·r and the offers cut afterwards (``plan_visible_offers`` off) 25.5 kWh and
     90 %. Planned with the design curves, the RC plant's own equations (``power_model =
     "design"``); with office5's power model fitted to the RC plant's meter (the default) the
-    delivery was 93 % of 5.49 kWh offered when measured (2026-12-06)."""
+    delivery was 93 % of 5.49 kWh offered when measured (2026-12-06).
+
+    Office-hours offers are graded against issue 25's 36 kWh (70 % of the 51.5 kWh the
+    controller of then offered on the plant of then). Issue 55's damper rule (outdoor air
+    only while occupied: a cheaper night for the plant and the LP) moved them to 35.67 kWh
+    (measured 2026-12-06 on 1067dca; 35.63 with the night plan margin at 0, so the margin
+    is not what moved them): 1 % short of 36 on another plant, so the bound here is 35 kWh,
+    the same 2 % margin below the measurement as before."""
     cfg = with_overrides(
         preset("rmpc", start=START, days=5.0),
         {"activation.mode": "stress", "power_model": "design"},
@@ -360,7 +367,7 @@ def test_stress_week_meets_issue_25s_done_when(tmp_path: Path) -> None:
     capped = np.minimum(frame["il_delivered_kw"], frame["reserve_kw"]).to_numpy()[activated]
     assert capped.sum() * 0.5 >= 0.95 * summary["il_offered_kwh"]
     assert summary["il_delivered_counterfactual_kwh"] >= 0.98 * summary["il_offered_kwh"]
-    assert _office_offered_kwh(frame) >= 36.0
+    assert _office_offered_kwh(frame) >= 35.0  # see the docstring: was 36 before the damper
 
 
 class _BaselineRecorder(StubPlanner):

@@ -58,10 +58,13 @@ def predicted_power_kw(
     outdoor_temp_degc: float,
     outdoor_humidity_ratio_kg_per_kg: float,
     latent_gain_w: float = 0.0,
+    damper_open: bool = True,
 ) -> float:
     """HVAC power [kW] of flows (m,) [kg/s] over a period whose zone temperatures (m,) [°C]
     go from ``zone_start_degc`` to ``zone_end_degc`` (the plant's model at the mean zone
-    temperature; the occupants' latent gain [W], all zones, left out by default)."""
+    temperature; the occupants' latent gain [W], all zones, left out by default; outdoor air
+    only if ``damper_open``, the plant's schedule
+    :meth:`~hvacflex.building.model.HvacSystem.outdoor_air_open_at`)."""
     mean = 0.5 * (np.asarray(zone_start_degc) + np.asarray(zone_end_degc))
     return float(
         hvac_power_kw(
@@ -71,6 +74,7 @@ def predicted_power_kw(
             outdoor_temp_degc,
             outdoor_humidity_ratio_kg_per_kg,
             latent_gain_w=latent_gain_w,
+            damper_open=damper_open,
         )
     )
 
@@ -86,10 +90,12 @@ def forecast_period_power_kw(
 ) -> float:
     """HVAC power [kW] of flows (m,) [kg/s] over the period starting now: the linear model
     stepped from ``x_degc`` (n,) [°C] under the forecast's first disturbances, then
-    :func:`predicted_power_kw` with its outdoor air and, if ``latent``, the occupants'
-    latent gain."""
+    :func:`predicted_power_kw` with its outdoor air (the damper open as the plant's schedule
+    has it in the period: occupied or the purge before occupancy) and, if ``latent``, the
+    occupants' latent gain."""
     end = model.c @ model.step(x_degc, flow_kg_s, forecast.disturbances[0])
     gain = forecast.occupant_latent_w
+    damper = hvac.outdoor_air_open_at(forecast.occupied, model.dt_s)
     return predicted_power_kw(
         hvac,
         flow_kg_s,
@@ -98,6 +104,7 @@ def forecast_period_power_kw(
         float(forecast.outdoor_temp_degc[0]),
         float(forecast.outdoor_humidity_ratio_kg_per_kg[0]),
         latent_gain_w=float(gain[0]) if latent and gain.size else 0.0,
+        damper_open=bool(damper[0]),
     )
 
 

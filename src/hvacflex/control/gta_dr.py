@@ -95,6 +95,7 @@ class GtaDrController(ThermostatController):
         served_kw, reserve_kw = np.zeros(steps), np.zeros(steps)
         served_degc, curtailed_degc = np.zeros((steps, m)), np.zeros((steps, m))
         x_served, x_cut = np.asarray(x_degc, dtype=float), np.asarray(x_degc, dtype=float)
+        damper = hvac.outdoor_air_open_at(forecast.occupied, model.dt_s)  # the plant's rule
         for j in range(steps):
             d = forecast.disturbances[j]
             occupied = bool(forecast.occupied[j])
@@ -112,7 +113,13 @@ class GtaDrController(ThermostatController):
             outdoor = float(forecast.outdoor_temp_degc[j])
             humidity = float(forecast.outdoor_humidity_ratio_kg_per_kg[j])
             served_kw[j] = predicted_power_kw(
-                hvac, u, model.c @ x_served, model.c @ next_served, outdoor, humidity
+                hvac,
+                u,
+                model.c @ x_served,
+                model.c @ next_served,
+                outdoor,
+                humidity,
+                damper_open=bool(damper[j]),
             )
             reserve_kw[j] = self.reserve_share * served_kw[j] if j < self.event_steps else 0.0
             served_degc[j] = model.c @ next_served

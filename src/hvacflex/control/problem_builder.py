@@ -19,6 +19,10 @@ the same problem (docs/model.md §3):
   ride the night bound) and tightened by the estimation and model-error margins,
 * σ from the scenario's uncertainty box (zero for the nominal MPC),
 * prices, the peak-power price φ and, in billing-period mode, the month's peak so far,
+* while φ > 0, the committed cap on the morning pull-down: P_k ≤ the cap in force (the
+  previous plan's peak or the month's billed peak, the larger) in the steps of
+  :func:`pull_down_steps`, never below the step's least power (:func:`pull_down_power_max_kw`;
+  not with ``robust = "feedback"``, whose LP has no power column),
 * the interruptible-load contract of the scenario's ``[reserve]`` table: the event length D,
   the allowance α, the recovery R, the recovery steps c still running from an event that
   just ended, the reserve committed ahead and the offers' settlement baselines
@@ -52,6 +56,7 @@ from hvacflex.opt import (
     FeedbackOptions,
     ILEventModel,
     OfferBaselines,
+    PowerCap,
     ReserveCommitment,
     RMPCProblem,
     RMPCSolution,
@@ -120,6 +125,62 @@ def below_unoccupied_bound(
     night = ~(now | nxt)
     lowered: FloatArray = np.where(night[:, None], np.maximum(y_max - margin_k, y_min), y_max)
     return lowered
+
+
+PULL_DOWN_LEAD_STEPS = 8
+"""Unoccupied steps before an occupied spell that count as its pull-down (4 h of 30 min)."""
+PULL_DOWN_OCCUPIED_STEPS = 2
+"""The spell's first occupied steps that count as its pull-down (1 h of 30 min)."""
+
+
+def pull_down_steps(
+    occupied: np.ndarray,
+    horizon: int,
+    lead_steps: int = PULL_DOWN_LEAD_STEPS,
+    occupied_steps: int = PULL_DOWN_OCCUPIED_STEPS,
+) -> np.ndarray:
+    """(N,) bool: the steps of a morning pull-down, the ``lead_steps`` steps before each
+    occupied spell that starts inside the plan (step 1 … N, the spell starting at N
+    included where ``occupied`` covers it) and its first ``occupied_steps`` steps.
+
+    Parameters
+    ----------
+    occupied : (≥ N,) bool, the forecast's occupied periods from now on.
+    horizon : N.
+    """
+    occ = np.asarray(occupied, dtype=bool)[: horizon + 1]
+    starts = np.flatnonzero(occ[1:] & ~occ[:-1]) + 1
+    mask = np.zeros(horizon, dtype=bool)
+    for start in starts:
+        mask[max(start - lead_steps, 0) : min(start + occupied_steps, horizon)] = True
+    return mask
+
+
+def pull_down_power_max_kw(
+    phi_sgd_per_kw: float,
+    committed_kw: float,
+    pull_down: np.ndarray,
+    least_power_kw: FloatArray,
+) -> float | FloatArray:
+    """The plan's power cap [kW]: +inf (a scalar) where φ = 0 or no cap is in force
+    (``committed_kw`` NaN or ≤ 0); else (N,) ``committed_kw`` in the ``pull_down`` steps,
+    never below ``least_power_kw`` (N,) (the step's power at its least flows, so the LP stays
+    feasible), +inf elsewhere."""
+    if not (phi_sgd_per_kw > 0.0 and np.isfinite(committed_kw) and committed_kw > 0.0):
+        return np.inf
+    capped: FloatArray = np.where(
+        np.asarray(pull_down, dtype=bool), np.maximum(committed_kw, least_power_kw), np.inf
+    )
+    return capped
+
+
+def committed_cap_in_force_kw(previous: RMPCSolution | None, billed_peak_kw: float) -> float:
+    """The committed cap a new plan starts under [kW]: the larger of the previous plan's
+    peak (``RMPCSolution.peak_kw``) and the month's billed peak so far; NaN where neither is
+    positive."""
+    planned = float("nan") if previous is None else float(previous.peak_kw)
+    candidates = [v for v in (planned, billed_peak_kw) if np.isfinite(v) and v > 0.0]
+    return max(candidates) if candidates else float("nan")
 
 
 @dataclass(frozen=True)
@@ -245,6 +306,15 @@ def build_problem(
     if not cfg.reserve:
         reserve_price = np.zeros_like(reserve_price)
     floor = inputs.peak_floor_kw if cfg.billing_mode == "billing-period" else 0.0
+    phi = effective_peak_price(forecast, cfg.peak_price_sgd_per_kw)
+    power_max: float | FloatArray = np.inf
+    if cfg.robust != "feedback":
+        power_max = pull_down_power_max_kw(
+            phi,
+            committed_cap_in_force_kw(context.previous_plan, inputs.peak_floor_kw),
+            pull_down_steps(forecast.occupied, horizon),
+            p0 + (p * u_min).sum(axis=1),
+        )
     return RMPCProblem(
         a_matrix=model.a,
         b_matrix=model.b,
@@ -256,8 +326,9 @@ def build_problem(
         d_sigma=sigma,
         energy_price_sgd_per_mwh=forecast.energy_price_sgd_per_mwh[:horizon],
         reserve_price_sgd_per_mwh=reserve_price,
-        peak_price_sgd_per_kw=effective_peak_price(forecast, cfg.peak_price_sgd_per_kw),
+        peak_price_sgd_per_kw=phi,
         peak_floor_kw=floor,
+        power_cap=(PowerCap(power_max_kw=power_max) if np.isfinite(power_max).any() else None),
         power_offset_kw=p0,
         power_coeff_kw_per_kg_s=p,
         reserve_power_coeff_kw_per_kg_s=(

@@ -21,6 +21,16 @@ with ``N = round(A / a_p)`` the zone's design head count. The zone's sensible ga
 day number since 1970-01-01), so a day's gains do not depend on when a run starts or how
 long it is, and two runs with the same seed see the same occupants. On average the people
 term is close to the schedule's (the attendance factor has mean 1 before clipping at 1).
+
+Planning for early arrivals (issue 55 item 3 (c)). A zone's occupants arrive ``−s``
+periods after the schedule (``s`` > 0: early), ``−s`` uniform like ``s``; its q-quantile is
+:func:`first_arrival_offset_steps` (q = :data:`FIRST_ARRIVAL_QUANTILE` = 5 %: 2 periods,
+1 h early, since each offset has probability 1/5). A controller that forecasts the schedule
+while the plant sees this model plans the morning with
+:func:`early_arrival_gain_disturbances`: before each working day's occupied hours, each
+zone's expected gain is the larger of the schedule's and the schedule's shifted to that
+arrival, so the pre-cooling that the first occupied hours need is planned in time instead
+of being metered as a pull-down the plan did not see.
 """
 
 from __future__ import annotations
@@ -33,7 +43,13 @@ import pandas as pd
 from hvacflex.building.channels import DisturbanceChannel
 from hvacflex.constants import PERIOD, PERIODS_PER_DAY, TIMEZONE
 from hvacflex.data.forecast import InternalGainDensities
-from hvacflex.data.gains import DEFAULT_OFFICE_SCHEDULE, OfficeSchedule, office_schedule
+from hvacflex.data.gains import (
+    DEFAULT_OFFICE_SCHEDULE,
+    OfficeSchedule,
+    office_schedule,
+    working_day_mask,
+    zone_internal_gains_w,
+)
 from hvacflex.errors import ConfigError
 
 MAX_SHIFT_STEPS = 2
@@ -46,6 +62,9 @@ PLUG_LOAD_SD = 0.1
 """Standard deviation of the daily plug-load factor."""
 PLUG_MIN, PLUG_MAX = 1.0 - 3 * PLUG_LOAD_SD, 1.0 + 3 * PLUG_LOAD_SD
 """Range of the daily plug-load factor."""
+FIRST_ARRIVAL_QUANTILE = 0.05
+"""The quantile of a zone's first arrival each working day that the controller plans the
+morning for (:func:`early_arrival_gain_disturbances`)."""
 
 
 def stochastic_zone_gains_w(
@@ -153,4 +172,74 @@ def stochastic_gain_disturbances(
             zone_position=zone,
             schedule=schedule,
         )
+    return out
+
+
+def first_arrival_offset_steps(quantile: float = FIRST_ARRIVAL_QUANTILE) -> int:
+    """The ``quantile`` of a zone's arrival relative to the schedule [30-min periods, < 0:
+    early]: the offset −s is uniform on −:data:`MAX_SHIFT_STEPS` … +:data:`MAX_SHIFT_STEPS`,
+    so the smallest o whose probability P(−s ≤ o) = (o + MAX + 1) / (2 MAX + 1) ≥ quantile.
+
+    Raises
+    ------
+    ConfigError : ``quantile`` outside (0, 1].
+    """
+    if not 0.0 < quantile <= 1.0:
+        raise ConfigError("must be in (0, 1]", field="first_arrival_quantile", value=quantile)
+    count = 2 * MAX_SHIFT_STEPS + 1
+    return -MAX_SHIFT_STEPS + max(int(np.ceil(quantile * count - 1e-12)) - 1, 0)
+
+
+def early_arrival_gain_disturbances(
+    disturbances: np.ndarray,
+    channels: Sequence[DisturbanceChannel],
+    index: pd.DatetimeIndex,
+    zone_floor_areas_m2: Sequence[float],
+    gains: InternalGainDensities,
+    *,
+    quantile: float = FIRST_ARRIVAL_QUANTILE,
+    schedule: OfficeSchedule = DEFAULT_OFFICE_SCHEDULE,
+) -> np.ndarray:
+    """The disturbances a controller plans with for occupants who may arrive early.
+
+    In the periods of each working day before its occupied hours start (local time), each
+    ``internal_gain`` channel becomes the larger of its value and the zone's scheduled gain
+    with the profile moved to the ``quantile`` of the first arrival
+    (:func:`first_arrival_offset_steps`: the gain at period k is the schedule's at
+    k − o); every other period and channel is unchanged.
+
+    Parameters
+    ----------
+    disturbances : (T, nd) the scheduled disturbances on ``index`` in ``channels`` order.
+    channels : (nd,) the building's channels; the i-th ``internal_gain`` channel is zone i.
+    index : (T,) period starts (tz-aware).
+    zone_floor_areas_m2 : (m,) floor area per zone [m²], zone order.
+    gains : the building's gain densities.
+    quantile : q in (0, 1].
+    schedule : the office schedule of ``disturbances``.
+
+    Returns
+    -------
+    (T, nd) a new array [the channels' units: W for gains], ≥ ``disturbances`` elementwise.
+    """
+    out = np.array(disturbances, dtype=float)
+    offset = first_arrival_offset_steps(quantile)
+    if offset >= 0:
+        return out
+    local = index.tz_convert(TIMEZONE)
+    hours = np.asarray(local.hour) + np.asarray(local.minute) / 60.0
+    morning = working_day_mask(index, schedule) & (hours < schedule.occupied_hours[0])
+    early_index = index - offset * PERIOD
+    gain_columns = [i for i, ch in enumerate(channels) if ch.kind == "internal_gain"]
+    for zone, column in enumerate(gain_columns):
+        early = zone_internal_gains_w(
+            early_index,
+            float(zone_floor_areas_m2[zone]),
+            gains.occupancy_m2_per_person,
+            gains.sensible_w_per_person,
+            gains.lighting_w_per_m2,
+            gains.equipment_w_per_m2,
+            schedule,
+        )
+        out[:, column] = np.where(morning, np.maximum(out[:, column], early), out[:, column])
     return out

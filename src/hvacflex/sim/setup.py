@@ -42,7 +42,7 @@ from hvacflex.data.gains import DEFAULT_OFFICE_SCHEDULE, ComfortBand, OfficeSche
 from hvacflex.data.market import (
     RESERVE_PRICE_SCALE,
 )
-from hvacflex.data.occupancy import stochastic_gain_disturbances
+from hvacflex.data.occupancy import early_arrival_gain_disturbances, stochastic_gain_disturbances
 from hvacflex.data.uncertainty import UncertaintyBox
 from hvacflex.data.weather_forecast import fit_weather_forecaster
 from hvacflex.errors import ConfigError
@@ -184,10 +184,14 @@ def realised_exogenous(
     return replace(scheduled, disturbances=disturbances)
 
 
-def make_forecaster(config: ScenarioConfig, truth: Exogenous, scheduled: Exogenous) -> Forecaster:
+def make_forecaster(
+    config: ScenarioConfig, truth: Exogenous, scheduled: Exogenous, building: Building
+) -> Forecaster:
     """The controller's forecaster over the data ``truth``: its weather from the file or the
     statistical forecaster fitted on the ``[forecast] train_days`` days before the data, its
-    gains those of ``scheduled``."""
+    gains those of ``scheduled`` — where the plant sees stochastic occupancy, with the
+    mornings planned for the first arrival's 5 % quantile
+    (:func:`hvacflex.data.occupancy.early_arrival_gain_disturbances`)."""
     weather = None
     if config.forecast.weather == "statistical":
         weather = fit_weather_forecaster(
@@ -196,7 +200,15 @@ def make_forecaster(config: ScenarioConfig, truth: Exogenous, scheduled: Exogeno
             train_days=config.forecast.train_days,
             weather_file=config.data.weather_file or default_weather_file(),
         )
-    expected = None if truth is scheduled else scheduled.disturbances
+    expected = None
+    if truth is not scheduled:
+        expected = early_arrival_gain_disturbances(
+            scheduled.disturbances,
+            scheduled.channels,
+            scheduled.index,
+            building.gain_floor_areas_m2,
+            building.gains,
+        )
     return Forecaster(truth, weather=weather, expected_disturbances=expected)
 
 
@@ -213,7 +225,7 @@ def calibrated_box(
     steps = ((last - first).days + 1) * PERIODS_PER_DAY
     scheduled = _load_exogenous(config, building, model, first, steps)
     truth = realised_exogenous(config, building, scheduled)
-    forecaster = make_forecaster(config, truth, scheduled)
+    forecaster = make_forecaster(config, truth, scheduled, building)
     horizon = config.controller.horizon_steps
     errors, forecasts = forecast_errors(forecaster, truth.disturbances, range(steps), horizon)
     prediction = None
@@ -287,7 +299,7 @@ def assemble_setup(
         model=model,
         plant=NonlinearPlant(building),
         exogenous=truth,
-        forecaster=make_forecaster(config, truth, exogenous),
+        forecaster=make_forecaster(config, truth, exogenous, building),
         box=box,
         activation=activation,
         linearisation_temp_degc=linearisation_temp_degc,

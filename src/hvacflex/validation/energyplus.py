@@ -422,6 +422,8 @@ def rc_thermostat_run(
     ends = frame[[f"temp_end_{z}_degc" for z in zones]].to_numpy()
     flows = frame[[f"flow_{z}_kg_s" for z in zones]].to_numpy()
     steps = len(frame)
+    # the plant's damper schedule (open while occupied and in the purge), as the loop's
+    damper = setup.building.hvac.outdoor_air_open_at(setup.exogenous.occupied, config.dt_s)
     power = hvac_power(
         setup.building.hvac,
         flows,
@@ -429,6 +431,7 @@ def rc_thermostat_run(
         np.asarray(setup.exogenous.outdoor_temp_degc)[:steps],
         np.asarray(setup.exogenous.outdoor_humidity_ratio_kg_per_kg)[:steps],
         latent_gain_w=np.asarray(setup.exogenous.occupant_latent_w)[:steps],
+        damper_open=damper[:steps],
     )
     per_period = pd.DataFrame(
         {
