@@ -5,15 +5,20 @@ from __future__ import annotations
 
 import json
 from collections.abc import Callable
+from contextlib import ExitStack
+from pathlib import Path
 from typing import Any
 
 import pytest
 from sqlalchemy import select
 
 from hvacflex.service.db import (
+    POOL_MAX_OVERFLOW,
+    POOL_SIZE,
     Signal,
     bytes_as_text,
     db_text,
+    make_engine,
     open_database,
     read_session_factory,
     session_factory,
@@ -83,3 +88,20 @@ def test_a_read_session_holds_no_transaction_and_sees_each_commit(
         ordinary.scalars(select(Signal.kind)).all()  # one (sqlite3 only before a write)
         assert _in_transaction(ordinary) == (engine.dialect.name == "postgresql")
     engine.dispose()
+
+
+ANYIO_THREADS = 40
+"""anyio's default threadpool: at most this many requests use the database at once."""
+
+
+def test_the_pool_holds_a_connection_for_every_server_thread(tmp_path: Path) -> None:
+    """SQLAlchemy's default pool (5 + 10) made twenty readers and ten writers queue for a
+    connection (``pool_timeout``) on PostgreSQL: the pool now outnumbers the threads."""
+    assert POOL_SIZE + POOL_MAX_OVERFLOW > ANYIO_THREADS
+    postgres = make_engine("postgresql+psycopg://u:p@127.0.0.1:1/none")  # never connects
+    assert postgres.pool.size() == POOL_SIZE  # type: ignore[attr-defined]
+    engine = make_engine(f"sqlite:///{tmp_path / 'pool.db'}")
+    with ExitStack() as stack:
+        held = [stack.enter_context(engine.connect()) for _ in range(ANYIO_THREADS + 1)]
+        assert engine.pool.checkedout() == len(held)  # type: ignore[attr-defined]
+    assert make_engine("sqlite://").pool.__class__.__name__ != "QueuePool"  # in memory

@@ -2,7 +2,9 @@
 limit and the audit (the routes' own behaviour is tested through the whole service in
 ``test_service_api.py``)."""
 
+import threading
 from pathlib import Path
+from typing import Any
 
 import pytest
 from fastapi import FastAPI
@@ -163,3 +165,32 @@ def test_bodies_over_the_limit_are_refused_and_mutations_audited(tmp_path: Path)
     ]
     assert rows[0].body_head == "" and rows[0].key_id is None
     assert rows[1].body_head == '{"prices":[1.0,2.0]}'
+
+
+def test_the_audit_row_is_written_off_the_event_loop(tmp_path: Path) -> None:
+    """A blocking commit (or a wait for a pooled connection) on the event loop would stall
+    every request at once: the audit is written in the threadpool, before the answer."""
+    app = FastAPI()
+    threads: dict[str, int] = {}
+
+    @app.post("/loop")
+    async def on_loop() -> dict[str, bool]:
+        threads["loop"] = threading.get_ident()
+        return {"ok": True}
+
+    sessions = session_factory(open_database(f"sqlite:///{tmp_path / 'loop.db'}"))
+
+    class _Recording(BodyLimitAndAudit):
+        def _audit(self, scope: Any, body: bytes, status: int) -> None:
+            threads["audit"] = threading.get_ident()
+            super()._audit(scope, body, status)
+
+    app.add_middleware(_Recording, sessions=sessions)
+    with TestClient(app) as client:
+        assert client.post("/loop", json={}).status_code == 200
+        too_big = client.post("/loop", content=b" " * (MAX_BODY_BYTES + 1))
+    assert too_big.status_code == 413
+    assert threads["audit"] != threads["loop"]
+    with sessions() as session:
+        statuses = [r.status_code for r in session.scalars(select(AuditEntry)).all()]
+    assert sorted(statuses) == [200, 413]

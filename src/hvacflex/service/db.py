@@ -39,6 +39,16 @@ PRIVATE_FILE_MODE = 0o600
 
 MIGRATIONS_DIR = Path(__file__).resolve().parent / "migrations"
 
+POOL_SIZE = 10
+"""Connections an engine keeps open (SQLite files and PostgreSQL)."""
+POOL_MAX_OVERFLOW = 50
+"""Connections opened beyond :data:`POOL_SIZE` when all are in use. The server's requests
+run in anyio's threadpool (40 threads by default) and the planner has its own threads, so
+the pool must hold at least that many at once: with SQLAlchemy's default (5 + 10) twenty
+readers and ten writers queued for a connection (``pool_timeout``, up to 30 s) and reads
+fell behind on PostgreSQL. 60 in all stays under PostgreSQL's default ``max_connections``
+(100)."""
+
 
 def utcnow() -> datetime:
     """Now, timezone-aware UTC."""
@@ -241,11 +251,14 @@ def make_engine(url: str = DEFAULT_DB_URL) -> Engine:
     """An engine for ``url``; SQLite gets WAL, ``synchronous=FULL`` (a committed write
     survives a crash) and a busy timeout, and may be used from the server's threads. Every
     string a statement carries (stored or compared) goes through :func:`db_text`, so text
-    is stored, and found again, the same way on SQLite and PostgreSQL."""
+    is stored, and found again, the same way on SQLite and PostgreSQL. The pool holds
+    :data:`POOL_SIZE` + :data:`POOL_MAX_OVERFLOW` connections (one per server thread)."""
     kwargs: dict[str, Any] = {}
     is_sqlite = url.startswith("sqlite")
     if is_sqlite:
         kwargs["connect_args"] = {"check_same_thread": False, "timeout": 30}
+    if not is_sqlite or sqlite_file(url) is not None:  # in-memory SQLite has its own pool
+        kwargs.update(pool_size=POOL_SIZE, max_overflow=POOL_MAX_OVERFLOW)
     engine = create_engine(url, **kwargs)
 
     @event.listens_for(engine, "before_cursor_execute", retval=True)

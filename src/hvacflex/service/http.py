@@ -15,6 +15,7 @@ from fastapi.responses import JSONResponse
 from fastapi.security import APIKeyHeader
 from sqlalchemy.exc import DataError, DBAPIError, IntegrityError, OperationalError, SQLAlchemyError
 from sqlalchemy.orm import Session, sessionmaker
+from starlette.concurrency import run_in_threadpool
 from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.routing import Match
 
@@ -82,7 +83,9 @@ def envelope(status: int, message: str, payload: Any = None) -> JSONResponse:
 class BodyLimitAndAudit:
     """ASGI middleware: refuse bodies over ``MAX_BODY_BYTES`` (413) and write an audit row
     for every mutating request before its response starts (a body refused by its
-    ``Content-Length`` is not read: its row has no key, and the empty body's digest)."""
+    ``Content-Length`` is not read: its row has no key, and the empty body's digest). The
+    row is written in the threadpool, never on the event loop: a blocking database call
+    there (a commit, a wait for a pooled connection) would stall every request at once."""
 
     def __init__(self, app: ASGIApp, sessions: sessionmaker[Session]) -> None:
         self.app = app
@@ -97,7 +100,7 @@ class BodyLimitAndAudit:
         mutating = scope["method"] in ("POST", "PUT", "PATCH", "DELETE")
         if length is not None and (not length.isdigit() or int(length) > MAX_BODY_BYTES):
             if mutating:  # refused unread: audited with the empty body's digest
-                self._audit_or_log(scope, b"", 413)
+                await run_in_threadpool(self._audit_or_log, scope, b"", 413)
             await envelope(413, f"body larger than {MAX_BODY_BYTES} bytes")(scope, receive, send)
             return
         body = bytearray()
@@ -112,7 +115,9 @@ class BodyLimitAndAudit:
 
         async def audited_send(message: Message) -> None:
             if mutating and message["type"] == "http.response.start":
-                self._audit_or_log(scope, bytes(body), int(message["status"]))
+                await run_in_threadpool(
+                    self._audit_or_log, scope, bytes(body), int(message["status"])
+                )
             await send(message)
 
         await self.app(scope, limited_receive, audited_send)
