@@ -162,3 +162,45 @@ def test_a_designed_building_with_a_metered_power_model_plans_with_it(setup: Set
         assert row == pytest.approx(float(exact), rel=1e-9)
     design = build_problem(setup.model, inputs, controller.contract, PlanContext(inputs.x_degc))
     assert not np.allclose(design.power_offset_kw, problem.power_offset_kw)
+
+
+def test_a_metered_power_models_coil_term_follows_the_previous_plans_zones(setup: Setup) -> None:
+    """Re-linearised along the previous plan: each step's rows are the fitted model's tangent
+    at the plan's total flow one step on, split evenly, and at its zone temperatures one step
+    on (now: the measured state) — exact there; zones planned at different temperatures pay
+    different kW per kg/s."""
+    from hvacflex.building.identified import IdentifiedPower, metered_power_kw
+    from hvacflex.opt import SolveStatus, solve_rmpc
+
+    controller = make_controller(setup)
+    assert isinstance(controller, MPCController)
+    metered = IdentifiedPower(
+        base_kw=2.0, kw_per_kw_cooling=0.3, kw_per_k_outdoor=0.0, running_kw=3.0
+    )
+    building = replace(setup.building, power_models={"rc": metered})
+    contract = replace(controller.contract, building=building.with_power_model_for("rc"))
+    inputs = _inputs(setup)
+    first = build_problem(setup.model, inputs, contract, PlanContext(inputs.x_degc))
+    plan = solve_rmpc(first)
+    assert plan.status == SolveStatus.OPTIMAL
+    problem = build_problem(
+        setup.model, inputs, contract, PlanContext(inputs.x_degc, previous_plan=plan)
+    )
+    c = setup.model.c
+    zones = np.vstack([c @ inputs.x_degc, plan.x_served[2:] @ c.T])  # one step on
+    zones = np.maximum(zones, problem.y_min)
+    total = np.maximum(np.append(plan.u.sum(axis=1)[1:], plan.u[-1].sum()), problem.u_min.sum(1))
+    outdoor = problem.d_forecast[:, contract.outdoor_index]
+    running = np.flatnonzero(total > 0.05)
+    assert running.size > 0
+    for k in running[:: max(1, running.size // 5)]:
+        even = np.full(len(setup.zone_names), total[k] / len(setup.zone_names))
+        exact = metered_power_kw(
+            metered, setup.building.hvac.supply_temp_degc, even, zones[k], outdoor[k]
+        )
+        row = problem.power_offset_kw[k] + problem.power_coeff_kw_per_kg_s[k] @ even
+        assert row == pytest.approx(float(exact), rel=1e-9)
+    spread = np.ptp(zones, axis=1) > 0.1
+    assert spread.any()
+    coeff = problem.power_coeff_kw_per_kg_s
+    assert (np.ptp(coeff[spread], axis=1) > 0.0).all()
