@@ -323,40 +323,6 @@ def test_the_lp_row_is_the_tangent_of_the_metered_model_at_the_previous_plan() -
         assert p[k, 0] == pytest.approx(slope, rel=1e-6)
 
 
-def test_the_coil_term_is_taken_at_each_zones_reference_temperature() -> None:
-    """Re-linearised along the previous plan's zone temperatures: by hand, a plant of 0.3 kW
-    per kW of cooling and nothing else charges a kg/s into a 23 °C zone c_p·(23 − 13)·0.3
-    and into a 25 °C zone c_p·(25 − 13)·0.3; with the full model the row is exact at the
-    evenly split reference flow and its slopes are the model's partial derivatives there."""
-    coil = IdentifiedPower(base_kw=0.0, kw_per_kw_cooling=0.3, kw_per_k_outdoor=0.0)
-    temps = np.array([[23.0, 25.0]])
-    p0, p = metered_affine_power(coil, 13.0, 2, np.array([30.0]), temps, None, np.array([0.6]))
-    cp_kw = 1.006  # kJ/(kg K), c_p of air
-    assert p[0] == pytest.approx([cp_kw * 10.0 * 0.3, cp_kw * 12.0 * 0.3], rel=1e-12)
-    assert p0[0] == pytest.approx(0.0, abs=1e-12)  # linear and nothing else: no offset
-    temps = np.array([[23.0, 25.5], [26.0, 24.0]])
-    outdoor, occupied, reference = np.array([31.0, 29.0]), np.array([1.0, 0.0]), [0.9, 0.4]
-    p0, p = metered_affine_power(METERED, 13.0, 2, outdoor, temps, occupied, reference, 1.6)
-    for k in range(2):
-
-        def exact(flows: np.ndarray, k: int = k) -> float:
-            return float(metered_power_kw(METERED, 13.0, flows, temps[k], outdoor[k], occupied[k]))
-
-        even = np.full(2, reference[k] / 2)
-        assert p0[k] + p[k] @ even == pytest.approx(exact(even), rel=1e-12)
-        for i, step in enumerate(np.eye(2) * 1e-5):
-            slope = (exact(even + step) - exact(even - step)) / 2e-5
-            assert p[k, i] == pytest.approx(slope, rel=1e-6)
-        assert p[k, 1] != pytest.approx(p[k, 0])  # the zones' temperatures differ
-    # one temperature for every zone: the same rows as the scalar T0
-    same = metered_affine_power(
-        METERED, 13.0, 2, outdoor, np.full((2, 2), 24.5), occupied, reference
-    )
-    scalar = metered_affine_power(METERED, 13.0, 2, outdoor, 24.5, occupied, reference)
-    np.testing.assert_allclose(same[0], scalar[0], rtol=1e-12)
-    np.testing.assert_allclose(same[1], scalar[1], rtol=1e-12)
-
-
 def test_a_loop_the_previous_plan_kept_off_pays_its_running_load_as_a_secant() -> None:
     t0, outdoor = 24.5, np.array([29.0])
     p0, p = metered_affine_power(METERED, 13.0, 2, outdoor, t0, None, np.array([0.0]), 1.6)

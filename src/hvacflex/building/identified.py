@@ -209,7 +209,7 @@ def metered_affine_power(
     supply_temp_degc: float,
     zones: int,
     outdoor_temp_degc: npt.ArrayLike,
-    zone_temp_ref_degc: npt.ArrayLike,
+    zone_temp_ref_degc: float,
     occupied: npt.ArrayLike | None = None,
     total_flow_ref_kg_s: npt.ArrayLike | None = None,
     total_flow_max_kg_s: float = 0.0,
@@ -217,24 +217,20 @@ def metered_affine_power(
     """The LP's ``P_k = p0_k + p_kᵀ u_k`` of a metered power model, re-linearised along a
     reference flow (the previous plan's).
 
-    Zone i's kg/s at step k delivers the cooling ``q_ki = c_p (T_ki − T_s)`` at the zone's
-    reference (return-air) temperature T_ki (the previous plan's, one step on) and its outdoor
-    air; the fan sees the total flow S = Σ u_i and the plant the cooling Q = Σ q_i u_i. The LP
-    takes the model's tangent at the step's reference, the total flow S̄_k split evenly over
-    the zones (Q̄ = S̄ · mean q), ``P(ū) + ∇P(ū)ᵀ(u − ū)`` (exact there, slopes never below
-    0). At one temperature T₀ for every zone the rows are the same for every zone and the
-    model a function of S alone, ``P(S) = c + α S + β S²``. The running load counts in full
-    where S̄_k runs; where the reference is off (the previous plan kept the loop off and
-    nothing forces it on) it enters as its secant over [0, ``total_flow_max_kg_s``],
-    ``running_kw · S / S_max``, so the plan that starts the loop pays for it (a lower bound
-    until the next re-linearisation).
+    At the reference temperature T₀ every zone's kg/s delivers the same cooling
+    ``q = c_p (T₀ − T_s)`` and the same outdoor air, so the model is a function of the total
+    flow S alone, ``P(S) = c + α S + β S²`` (β the fan's and the plant's part-load curvature);
+    the LP takes its tangent at the step's reference flow S̄_k, ``P(S̄) + P'(S̄)(S − S̄)``
+    (exact at S̄, slope never below 0). The running load counts in full where S̄_k runs; where
+    the reference is off (the previous plan kept the loop off and nothing forces it on) it
+    enters as its secant over [0, ``total_flow_max_kg_s``], ``running_kw · S / S_max``, so
+    the plan that starts the loop pays for it (a lower bound until the next re-linearisation).
 
     Parameters
     ----------
     zones : m, the number of zone flows.
     outdoor_temp_degc : (N,) forecast outdoor temperature [°C].
-    zone_temp_ref_degc : the zones' reference temperatures T [°C]: (N, m), or a scalar T₀
-        for every step and zone.
+    zone_temp_ref_degc : T₀ [°C].
     occupied : (N,) forecast occupied share [–] (None: 0).
     total_flow_ref_kg_s : (N,) the reference total flow S̄_k [kg/s] (None: 0 — off).
     total_flow_max_kg_s : S_max, the largest total flow [kg/s] (0: the running load is
@@ -250,33 +246,25 @@ def metered_affine_power(
     ref = np.zeros(steps) if total_flow_ref_kg_s is None else np.asarray(total_flow_ref_kg_s)
     ref = np.broadcast_to(np.maximum(ref.astype(np.float64), 0.0), (steps,))
     p = power
-    temp = np.broadcast_to(np.asarray(zone_temp_ref_degc, dtype=np.float64), (steps, zones))
-    q = sensible_cooling_kw(1.0, temp, supply_temp_degc)  # (N, m) kW per kg/s
-    cooling_ref = ref * q.mean(axis=1)  # (N,) Q̄ [kW], the reference flow split evenly
+    q = float(sensible_cooling_kw(1.0, zone_temp_ref_degc, supply_temp_degc))  # kW per kg/s
     plant = p.kw_per_kw_cooling + p.kw_per_kw_cooling_k_outdoor * (
         outdoor - PLANT_REFERENCE_OUTDOOR_DEGC
     )
-    plant_slope = plant + 2.0 * p.kw_per_kw2_cooling * cooling_ref  # (N,) kW per kW cooling
-    fan_slope = p.fan_kw_per_kg_s + 2.0 * p.fan_kw_per_kg2_s2 * ref  # (N,)
-    outdoor_air = occ[:, None] * (
-        p.kw_per_kg_s_k_outdoor_occupied * (outdoor[:, None] - temp) + p.kw_per_kg_s_occupied
-    )  # (N, m) kW per kg/s
-    slope = np.maximum(fan_slope[:, None] + plant_slope[:, None] * q + outdoor_air, 0.0)
-    value_at_ref = (
-        p.base_kw
-        + p.kw_per_k_outdoor * outdoor
-        + p.occupied_kw * occ
-        + p.fan_kw_per_kg_s * ref
-        + p.fan_kw_per_kg2_s2 * ref**2
-        + plant * cooling_ref
-        + p.kw_per_kw2_cooling * cooling_ref**2
-        + ref * outdoor_air.mean(axis=1)
+    alpha = (
+        p.fan_kw_per_kg_s
+        + q * plant
+        + occ * (p.kw_per_kg_s_k_outdoor_occupied * (outdoor - zone_temp_ref_degc))
+        + occ * p.kw_per_kg_s_occupied
     )
+    beta = p.fan_kw_per_kg2_s2 + p.kw_per_kw2_cooling * q**2
+    constant = p.base_kw + p.kw_per_k_outdoor * outdoor + p.occupied_kw * occ
     running = ref > RUNNING_FLOW_KG_S
-    p0: FloatArray = value_at_ref - slope.mean(axis=1) * ref + np.where(running, p.running_kw, 0.0)
+    slope = np.maximum(alpha + 2.0 * beta * ref, 0.0)
+    value_at_ref = constant + alpha * ref + beta * ref**2
+    p0: FloatArray = value_at_ref - slope * ref + np.where(running, p.running_kw, 0.0)
     if total_flow_max_kg_s > 0.0:
-        slope = slope + np.where(running, 0.0, p.running_kw / total_flow_max_kg_s)[:, None]
-    per_flow: FloatArray = slope
+        slope = slope + np.where(running, 0.0, p.running_kw / total_flow_max_kg_s)
+    per_flow: FloatArray = np.repeat(slope[:, None], zones, axis=1)
     return p0, per_flow
 
 

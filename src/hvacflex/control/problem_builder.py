@@ -12,8 +12,7 @@ the same problem (docs/model.md §3):
   :func:`hvacflex.building.identified.identified_affine_power`; a designed building with a
   power model fitted to its plant's meter (``Building.metered_power``): that one,
   :func:`hvacflex.building.identified.metered_affine_power`; both re-linearised along the
-  previous plan: its total flow and, for the coil's cooling, its zone (return-air)
-  temperatures one step on),
+  previous plan's total flow),
 * comfort bounds for ``C x_{k+1}``, the temperature at the end of period k: the tighter of
   the bands of periods k and k + 1, so that the instant occupancy starts (and ends) is
   inside the occupied band, the upper bound of unoccupied period ends lowered by
@@ -319,13 +318,12 @@ def _power_coefficients(
     if identified is not None or metered is not None:  # a power model fitted to the meter
         fitted = identified.power if identified is not None else metered
         supply = (identified or building.hvac).supply_temp_degc
-        return_air = _return_air_estimate_degc(contract.model, context, y_min)
         p0, p = metered_affine_power(
             fitted or IdentifiedPower(0.0, 0.0, 0.0),  # an identified file without a meter
             supply,
             len(building.zone_names),
             outdoor,
-            return_air,  # the coil's term along the previous plan's zone temperatures
+            contract.linearisation_temp_degc,
             occupied,
             reference,
             float(contract.flow_max_kg_s.sum()),
@@ -336,7 +334,7 @@ def _power_coefficients(
             fitted,
             supply,
             outdoor,
-            return_air,
+            _return_air_estimate_degc(contract.model, context, y_min),
             _curtailed_flow_estimate_kg_s(context.previous_plan, u_min),
             reference,
         )
@@ -381,12 +379,11 @@ def _total_flow_reference_kg_s(plan: RMPCSolution | None, u_min: FloatArray) -> 
 def _return_air_estimate_degc(
     model: LinearModel, context: PlanContext, y_min: FloatArray
 ) -> FloatArray:
-    """(N, m) zone (return-air) temperatures at which the coil term of a metered power
-    model's rows and of the reserve's power is taken [°C]: the previous plan's served zone
-    temperatures at the start of each step, one step on (now: the measured state; without a
-    previous plan the measured state for every step), never below the lower comfort bound.
-    Curtailment only warms the zones, so the curtailed return air is warmer and its coil
-    power per kg/s larger: a lower bound while the plan holds."""
+    """(N, m) zone (return-air) temperatures at which the coil term of the reserve's
+    power is taken [°C]: the previous plan's served zone temperatures at the start of
+    each step, one step on (now: the measured state), never below the lower comfort
+    bound. Curtailment only warms the zones, so the curtailed return air is warmer and
+    its coil power per kg/s larger: a lower bound while the plan holds."""
     c = model.c
     plan = context.previous_plan
     horizon = y_min.shape[0]
