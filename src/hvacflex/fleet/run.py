@@ -52,7 +52,13 @@ from hvacflex.fleet.bidding import (
 )
 from hvacflex.fleet.bundle import coordinate_caps
 from hvacflex.fleet.coordinate import CoordinationOptions, CoordinationResult, coordinate
-from hvacflex.fleet.envelope import DURATIONS_MIN, ENVELOPE_FILE, duration_steps, envelope_frame
+from hvacflex.fleet.envelope import (
+    DURATIONS_MIN,
+    ENVELOPE_FILE,
+    duration_steps,
+    envelope_frame,
+    fleet_envelope,
+)
 from hvacflex.fleet.schema import Fleet, load_fleet_document
 from hvacflex.settlement import start_baseline_kw
 from hvacflex.sim.run_files import (
@@ -407,12 +413,12 @@ def minimum_power_warning(fleet: Fleet, start: str, days: float) -> str | None:
 
 def _empty_tables(steps: int) -> tuple[FloatArray, Any, Any, FloatArray]:
     """(float columns (steps, FLOAT_COLUMNS), flags bid_accepted/feeder_infeasible, iterations,
-    the envelope (steps, D, 2) [kW])."""
+    the envelope (steps, D, 3): least, most power [kW], buildings summed)."""
     return (
         np.full((steps, len(FLOAT_COLUMNS)), np.nan),
         np.zeros((steps, len(schema.FLEET_FLAG_COLUMNS)), dtype=bool),
         np.zeros(steps, dtype=np.int64),
-        np.full((steps, len(DURATIONS_MIN), 2), np.nan),
+        np.full((steps, len(DURATIONS_MIN), 3), np.nan),
     )
 
 
@@ -448,7 +454,7 @@ def _snapshot(
     groups: Any,
     envelope: FloatArray,
 ) -> dict[str, Any]:
-    """The checkpoint after ``k`` steps (``envelope`` (k, D, 2): the envelope's rows)."""
+    """The checkpoint after ``k`` steps (``envelope`` (k, D, 3): the envelope's rows)."""
     return {
         "envelope": envelope.copy(),
         "config_hash": key,
@@ -463,7 +469,7 @@ def _snapshot(
 
 
 def _restore_envelope(checkpoint: dict[str, Any], envelope: FloatArray) -> int:
-    """Restore the envelope's rows (k, D, 2) from ``checkpoint`` into ``envelope``; k."""
+    """Restore the envelope's rows (k, D, 3) from ``checkpoint`` into ``envelope``; k."""
     k = int(checkpoint["k"])
     envelope[:k] = checkpoint["envelope"]
     return k
@@ -552,8 +558,10 @@ class _StepOutcome:
     activated: bool
     coordination_s: float
     envelope_kw: FloatArray
-    """(D, 2) the fleet's flexibility envelope at the step's start [kW]: the least and the
-    most power it holds for each of :data:`hvacflex.fleet.envelope.DURATIONS_MIN`."""
+    """(D, 3) the fleet's flexibility envelope at the step's start: the least and the most
+    power [kW] its comfort-keeping buildings hold for each of
+    :data:`hvacflex.fleet.envelope.DURATIONS_MIN`, and how many they are
+    (:func:`hvacflex.fleet.envelope.fleet_envelope`)."""
 
 
 @dataclass(frozen=True)
@@ -630,7 +638,13 @@ def _fleet_step(
     rows = groups.broadcast("advance", activated)
     merged = {key_: np.concatenate([r[key_] for r in rows]) for key_ in rows[0]}
     return _StepOutcome(
-        result, p_min, merged, bid if sees else 0.0, activated, coordinated, envelope.sum(axis=0)
+        result,
+        p_min,
+        merged,
+        bid if sees else 0.0,
+        activated,
+        coordinated,
+        fleet_envelope(envelope),
     )
 
 
