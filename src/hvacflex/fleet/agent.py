@@ -506,7 +506,8 @@ class BuildingAgent:
     def envelope(self, steps: tuple[int, ...]) -> FloatArray:
         """(D, 2) the least and the most power [kW] the building holds for each of ``steps``
         periods from now without leaving comfort, on the step's problem (after
-        :meth:`begin_step`; :func:`hvacflex.fleet.envelope.building_envelope`)."""
+        :meth:`begin_step`; :func:`hvacflex.fleet.envelope.building_envelope`): NaN for a
+        duration no hold of which keeps comfort."""
         inputs = self._inputs
         assert inputs is not None, "begin_step() first"
         return building_envelope(
