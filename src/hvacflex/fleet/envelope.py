@@ -268,7 +268,7 @@ def fleet_envelope(buildings_kw: FloatArray) -> FloatArray:
     """(D, 3) the fleet's envelope from its buildings' (B, D, 2) [kW]: per duration the
     least and the most power [kW] summed over the buildings whose range is not NaN (the
     comfort-keeping ones), and how many they are (NaN power where none is)."""
-    keeps = ~np.isnan(buildings_kw).any(axis=2)  # (B, D)
+    keeps = np.logical_not(np.isnan(buildings_kw).any(axis=2))  # (B, D)
     count = keeps.sum(axis=0).astype(float)
     total = np.where(keeps[:, :, None], buildings_kw, 0.0).sum(axis=0)
     total[count == 0] = np.nan
