@@ -90,3 +90,44 @@ def test_a_capped_offer_is_priced_at_the_reserve_coefficient(
     assert np.all(q <= p + 1e-12)  # q is the lower bound: p would overstate the offer
     controller.cap_now_kw = np.inf
     assert controller.act(inputs) is decided  # no cap: the action as decided
+
+
+def _held_agent(start: str) -> BuildingAgent:
+    """One building (seed 3) with its first step begun."""
+    fleet = fleet_from_dict(generate_fleet(1, 3, feeder_limit_kw=float("inf")))
+    agent = BuildingAgent(fleet.buildings[0], 0, FleetSettings.of(fleet, start, 1 / 24))
+    agent.begin_step()
+    return agent
+
+
+def test_a_failed_hold_lp_raises_instead_of_holding_zero_flows(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    agent = _held_agent("2014-03-03T10:00")
+    m = agent.problem.m
+    monkeypatch.setattr(
+        "hvacflex.fleet.agent.hold_flows", lambda problem, level, steps: np.full((steps, m), np.nan)
+    )
+    with pytest.raises(RuntimeError, match=r"hold LP .* failed"):
+        agent.advance_held(50.0, 2)
+    assert agent.loop.k == 0  # nothing was applied to the plant
+
+
+def test_a_hold_in_a_locked_event_period_says_it_is_ignored(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    @dataclasses.dataclass(frozen=True)
+    class _Locked:
+        status: str
+
+    agent = _held_agent("2014-03-03T10:00")
+    inputs = agent._inputs
+    assert inputs is not None
+    monkeypatch.setattr(MPCController, "act", lambda self, inputs: _Locked("locked"))
+    controller = agent.controller
+    controller.held_flow_kg_s = np.zeros(agent.problem.m)
+    held = controller.act(dataclasses.replace(inputs, locked=_Locked("locked")))  # type: ignore[arg-type]
+    assert held.status == "locked+hold-ignored"
+    controller.held_flow_kg_s = None
+    free = controller.act(dataclasses.replace(inputs, locked=_Locked("locked")))  # type: ignore[arg-type]
+    assert free.status == "locked"

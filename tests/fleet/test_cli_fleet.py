@@ -11,6 +11,7 @@ from hvacflex.cli import app
 from hvacflex.fleet.cli import CoordinationWatch
 from hvacflex.fleet.coordinate import CoordinationOptions
 from hvacflex.fleet.generate import generate_fleet, write_fleet
+from hvacflex.fleet.report import whole_fleet_rows
 from hvacflex.fleet.run import FleetStepProgress, step_progress
 from hvacflex.sim.progress import task_progress
 
@@ -50,9 +51,24 @@ def test_generate_simulate_kpi(tmp_path: Path) -> None:
     assert "office-hour periods at or above the minimum bid (100 kW)" in done.output
     assert (out / "offers.csv").is_file() and (out / "fleet_offer.png").is_file()
     assert "The aggregator&#x27;s offer" in (out / "report.html").read_text()
+    assert "blank where some building has no comfort-keeping" in (out / "report.html").read_text()
     done = runner.invoke(app, ["kpi", str(out)])
     assert done.exit_code == 0, done.output
     assert "peak_fleet_power_kw" in done.output
+
+
+def test_the_report_blanks_envelope_rows_that_omit_buildings() -> None:
+    rows = pd.DataFrame(
+        {
+            "min_power_kw": [1.0, 2.0, float("nan")],
+            "max_power_kw": [3.0, 4.0, float("nan")],
+            "buildings": [2, 1, 0],
+        }
+    )
+    whole = whole_fleet_rows(rows, 2)
+    assert whole["min_power_kw"].tolist()[0] == 1.0 and whole["max_power_kw"][0] == 3.0
+    assert whole.loc[1:, ["min_power_kw", "max_power_kw"]].isna().all().all()
+    assert rows["min_power_kw"][1] == 2.0  # the file's frame is left as it was
 
 
 def test_bad_fleet_file_exit_2(tmp_path: Path) -> None:

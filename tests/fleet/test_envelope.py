@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import logging
 from pathlib import Path
 
 import numpy as np
@@ -10,11 +11,15 @@ import pytest
 
 from hvacflex.fleet.agent import BuildingGroup, FleetSettings
 from hvacflex.fleet.envelope import (
+    COMFORT_TOLERANCE_K,
     DURATIONS_MIN,
     ENVELOPE_COLUMNS,
+    _hold_block,
+    _solve_blocks,
     building_envelope,
     duration_steps,
     envelope_frame,
+    fleet_envelope,
     hold_flows,
     hold_model,
 )
@@ -88,13 +93,61 @@ def test_the_plant_power_replaces_the_affine_level(problems: list[RMPCProblem]) 
 
 def test_envelope_frame_rows() -> None:
     index = pd.date_range("2014-03-03", periods=2, freq="30min", tz="Asia/Singapore")
-    envelope = np.arange(12, dtype=float).reshape(2, 3, 2)
+    envelope = np.arange(18, dtype=float).reshape(2, 3, 3)
     frame = envelope_frame(index, envelope)
     assert list(frame.columns) == list(ENVELOPE_COLUMNS)
     assert list(frame["duration_min"]) == list(DURATIONS_MIN) * 2
     assert list(frame["time"]) == [index[0]] * 3 + [index[1]] * 3
-    assert list(frame["min_power_kw"]) == [0, 2, 4, 6, 8, 10]
-    assert list(frame["max_power_kw"]) == [1, 3, 5, 7, 9, 11]
+    assert list(frame["min_power_kw"]) == [0, 3, 6, 9, 12, 15]
+    assert list(frame["max_power_kw"]) == [1, 4, 7, 10, 13, 16]
+    assert list(frame["buildings"]) == [2, 5, 8, 11, 14, 17]
+
+
+def test_the_fleet_sums_only_its_comfort_keeping_buildings() -> None:
+    buildings = np.array(
+        [
+            [[10.0, 20.0], [np.nan, np.nan]],
+            [[1.0, 2.0], [3.0, 4.0]],
+        ]
+    )
+    fleet = fleet_envelope(buildings)
+    np.testing.assert_array_equal(fleet, [[11.0, 22.0, 2.0], [3.0, 4.0, 1.0]])
+    none = fleet_envelope(np.full((2, 1, 2), np.nan))
+    assert np.isnan(none[0, :2]).all() and none[0, 2] == 0.0
+
+
+def test_no_hold_that_leaves_comfort_enters_the_envelope(small_fleet: Path) -> None:
+    """From 06:00 the first building cannot hold any level for 120 min in comfort (occupancy
+    starts in the hold): its range is NaN there, not the least-slack level, and the fleet's
+    120-min row sums the other building only."""
+    fleet, doc = load_fleet_document(small_fleet)
+    group = BuildingGroup(doc, [0, 1], FleetSettings.of(fleet, "2014-03-03T06:00", 0.25))
+    group.begin_step()
+    problems = group.problems()
+    steps = duration_steps()
+    envelopes = np.array([building_envelope(p, steps) for p in problems])
+    # the least-slack 120-min hold of building 0 does leave comfort
+    model = hold_model(problems[0], steps[-1])
+    slack = [s.max_slack_k for s in _solve_blocks([_hold_block(model, 1.0)])]
+    assert slack[0] > COMFORT_TOLERANCE_K
+    assert np.isnan(envelopes[0, -1]).all()
+    assert np.isfinite(envelopes[0, 0]).all()  # its 30-min hold keeps comfort
+    assert np.isfinite(envelopes[1]).all()
+    fleet_rows = fleet_envelope(envelopes)
+    assert list(fleet_rows[:, 2]) == [2.0, 2.0, 1.0]
+    np.testing.assert_allclose(fleet_rows[-1, :2], envelopes[1, -1])
+
+
+def test_a_failed_block_leaves_the_others_and_is_logged(
+    problems: list[RMPCProblem], caplog: pytest.LogCaptureFixture
+) -> None:
+    model = hold_model(problems[0], 2)
+    impossible = _hold_block(model, 0.0, 1.0e6)  # a level no flow reaches: infeasible
+    with caplog.at_level(logging.WARNING, logger="hvacflex.fleet.envelope"):
+        good, bad = _solve_blocks([_hold_block(model, 1.0), impossible])
+    assert good.ok and np.isfinite(good.x).all()
+    assert not bad.ok and np.isnan(bad.x).all()
+    assert "block 1 of 2 failed" in caplog.text
 
 
 def test_a_hold_longer_than_the_horizon_is_refused(problems: list[RMPCProblem]) -> None:

@@ -102,7 +102,10 @@ def test_in_process_run_and_resume(small_fleet: Path, tmp_path: Path) -> None:
     assert list(envelope.columns) == list(ENVELOPE_COLUMNS)
     assert len(envelope) == 8 * len(DURATIONS_MIN)
     assert list(envelope["duration_min"][:3]) == list(DURATIONS_MIN)
-    assert np.all(envelope["min_power_kw"] <= envelope["max_power_kw"])
+    kept = envelope["buildings"] > 0  # rows summing at least one comfort-keeping building
+    assert envelope["buildings"].between(0, 3).all()
+    assert np.all(envelope["min_power_kw"][kept] <= envelope["max_power_kw"][kept])
+    assert envelope.loc[~kept, ["min_power_kw", "max_power_kw"]].isna().all().all()
     pd.testing.assert_frame_equal(envelope, pd.read_csv(tmp_path / "fresh" / ENVELOPE_FILE))
 
 

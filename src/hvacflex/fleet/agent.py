@@ -184,6 +184,8 @@ class FleetController(MPCController):
     def act(self, inputs: PeriodInputs) -> Action:
         action = super().act(self.fleet_inputs(inputs))
         if inputs.locked is not None:
+            if self.held_flow_kg_s is not None:  # the event plan wins: say so
+                return dataclasses.replace(action, status=f"{action.status}+hold-ignored")
             return action
         if self.held_flow_kg_s is not None:
             return self._with_hold(action)
@@ -523,7 +525,8 @@ class BuildingAgent:
     def envelope(self, steps: tuple[int, ...]) -> FloatArray:
         """(D, 2) the least and the most power [kW] the building holds for each of ``steps``
         periods from now without leaving comfort, on the step's problem (after
-        :meth:`begin_step`; :func:`hvacflex.fleet.envelope.building_envelope`)."""
+        :meth:`begin_step`; :func:`hvacflex.fleet.envelope.building_envelope`): NaN for a
+        duration no hold of which keeps comfort."""
         inputs = self._inputs
         assert inputs is not None, "begin_step() first"
         return building_envelope(
@@ -537,7 +540,11 @@ class BuildingAgent:
         plant's power model (:meth:`FleetController.hold_power_kw`) predicts at
         ``level_kw`` (the affine level corrected by the difference, up to
         :data:`HOLD_LEVEL_ITERATIONS` times), applied to the plant as they are (no IL
-        activation); the step's row values as :meth:`advance`."""
+        activation); the step's row values as :meth:`advance`.
+
+        Raises RuntimeError when the hold's LP fails (no flows to hold); in a period an
+        event plan locks, the plan is applied and the step's status reads ``+hold-ignored``
+        instead of ``+held``."""
         problem, inputs = self.problem, self._inputs
         assert inputs is not None
         affine = level_kw
@@ -549,7 +556,12 @@ class BuildingAgent:
             if abs(predicted - level_kw) <= HOLD_LEVEL_TOLERANCE_KW:
                 break
             affine += level_kw - predicted
-        flow = np.clip(np.nan_to_num(flows[0]), problem.u_min[0], problem.u_max[0])
+        if np.any(np.isnan(flows)):
+            raise RuntimeError(
+                f"building {self.name}: the hold LP at {level_kw:.2f} kW over {steps_left} "
+                f"period(s) from step {self.loop.k} failed; no flows to hold"
+            )
+        flow = np.clip(flows[0], problem.u_min[0], problem.u_max[0])
         self.controller.held_flow_kg_s = flow
         self.controller.cap_now_kw = np.inf
         self.controller.power_now = (

@@ -1,7 +1,7 @@
 """The fleet's flexibility envelope: the least and the most power it can hold, and for how long.
 
 Per period, from every building's current state on its controller's model (the step problem
-:meth:`hvacflex.fleet.agent.BuildingAgent.begin_step` builds: the filter's state, the
+:meth:`hvacflex.fleet.agent.BuildingAgent.begin_step` builds: the state now, the
 forecast, the flow box, the comfort band and the affine power P_k = p0_k + p_k·u_k), a
 **hold** of h periods at a constant power level λ [kW] is a flow trajectory u_0 … u_{h−1}
 inside the flow box with P_k = λ in every one of the h periods. A building can hold every
@@ -10,20 +10,27 @@ level of an interval; its ends, with the comfort band kept at every period end o
 
 * ``min_power_kw`` = min λ, ``max_power_kw`` = max λ over the holds that keep comfort.
 
-Where comfort cannot be kept by any hold (a zone already outside its band that no flow
-brings back in time, e.g. a 120-min hold from 06:00 across the start of occupancy) the
-holds with the least comfort slack are taken (the slack ε ≥ 0 [K] of every zone and period
-end is weighted by :data:`SLACK_WEIGHT_KW_PER_KELVIN`, so it is minimised before the
-level): the range then shrinks to (nearly) one level, the power that comes closest to
-comfort. Each building's envelope is one small LP over the
-condensed dynamics (its (h, m) flows, (h, ny) slacks and the level, for every duration and
-both ends at once: the blocks are independent, so one solve finds every block's optimum).
-The fleet's envelope is the sum over buildings: each building holding its own level, the
-fleet holds the sum; every fleet level in between is held by buildings holding levels in
-between.
+The state is the plant's true state as the building's model holds it (the fleet path runs
+no Kalman filter). Each building's envelope is one small LP over the condensed dynamics (its
+(h, m) flows, (h, ny) comfort slacks ε ≥ 0 [K] and the level, for every duration and both
+ends at once: the blocks are independent, so one solve finds every block's optimum). The
+slack is weighted by :data:`SLACK_WEIGHT_KW_PER_KELVIN`, so it is minimised before the
+level; where even the least-slack hold needs more than :data:`COMFORT_TOLERANCE_K` (a zone
+already outside its band that no flow brings back in time, e.g. a 120-min hold from 06:00
+across the start of occupancy), no hold of that duration keeps comfort and the building's
+range for it is NaN: **not comfort-keeping**. A block whose LP fails (it is solved again
+alone when the joint solve fails) is NaN too, and logged.
+
+The fleet's envelope (:func:`fleet_envelope`) is the **sum** of the comfort-keeping
+buildings' ranges, each building holding its own constant level: a conservative
+approximation of what the fleet can hold, which only needs the *sum* to be constant (the
+buildings may trade power between them during the hold; on 8 buildings at 14:00 the summed
+120-min minimum read 346.53 kW against 343.07 kW for the coupled LP). The row's
+``buildings`` column says how many buildings it sums; the others cannot hold that
+duration in comfort and are left out (their power is not in the row).
 
 ``envelope.csv`` (a fleet run writes it; :func:`envelope_frame`): one row per period and
-duration, columns ``time``, ``duration_min``, ``min_power_kw``, ``max_power_kw``.
+duration, columns ``time``, ``duration_min``, ``min_power_kw``, ``max_power_kw``, ``buildings``.
 
 :func:`hold_flows` gives a building's flows (h, m) [kg/s] of a hold at a given affine level
 over the h periods left of it (the hold re-planned each period from the state then: the
@@ -34,6 +41,7 @@ level).
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
@@ -47,13 +55,17 @@ from hvacflex.opt import RMPCProblem
 from hvacflex.opt.solve import solve_lp
 from hvacflex.units import SECONDS_PER_HOUR
 
+_LOG = logging.getLogger(__name__)
+
 ENVELOPE_FILE = "envelope.csv"
-ENVELOPE_COLUMNS = ("time", "duration_min", "min_power_kw", "max_power_kw")
+ENVELOPE_COLUMNS = ("time", "duration_min", "min_power_kw", "max_power_kw", "buildings")
 DURATIONS_MIN = (30, 60, 120)
 """The hold durations of ``envelope.csv`` [min]."""
 SLACK_WEIGHT_KW_PER_KELVIN = 1.0e4
 """Weight of the comfort slack against the level in a hold's objective [kW per K]: large
 enough that the least slack comes first (0.001 K outweighs 10 kW)."""
+COMFORT_TOLERANCE_K = 1.0e-6
+"""The largest comfort slack [K] of a hold that still counts as keeping comfort."""
 
 
 @dataclass(frozen=True)
@@ -134,6 +146,21 @@ class _Block:
     row_upper: FloatArray
     col_lower: FloatArray
     col_upper: FloatArray
+    slack: slice
+    """The block's slack columns ε."""
+
+
+@dataclass(frozen=True)
+class _Solved:
+    """A block's optimum: its columns (NaN if its LP failed) and largest slack [K] (NaN
+    if failed)."""
+
+    x: FloatArray
+    max_slack_k: float
+
+    @property
+    def ok(self) -> bool:
+        return not np.isnan(self.max_slack_k)
 
 
 def _hold_block(model: HoldModel, sense: float, level: float | None = None) -> _Block:
@@ -162,11 +189,12 @@ def _hold_block(model: HoldModel, sense: float, level: float | None = None) -> _
         row_upper,
         np.concatenate([model.u_min, np.zeros(h * ny), [low]]),
         np.concatenate([model.u_max, inf, [high]]),
+        slice(h * m, h * m + h * ny),
     )
 
 
-def _solve_blocks(blocks: Sequence[_Block]) -> list[FloatArray]:
-    """Solve the independent blocks as one LP; each block's optimal columns (NaN if none)."""
+def _solve_joint(blocks: Sequence[_Block]) -> FloatArray | None:
+    """The blocks' columns solved as one LP (None if it fails)."""
     result = solve_lp(
         np.concatenate([b.cost for b in blocks]),
         sparse.block_diag([b.matrix for b in blocks], format="csr"),
@@ -175,9 +203,29 @@ def _solve_blocks(blocks: Sequence[_Block]) -> list[FloatArray]:
         np.concatenate([b.col_lower for b in blocks]),
         np.concatenate([b.col_upper for b in blocks]),
     )
+    return np.asarray(result.x, dtype=float) if result.status.ok else None
+
+
+def _solve_blocks(blocks: Sequence[_Block]) -> list[_Solved]:
+    """Solve the independent blocks as one LP; each block's optimum and largest slack.
+    If the joint LP fails, every block is solved alone, so one failed block (NaN, logged)
+    leaves the others theirs."""
     lengths = [len(b.cost) for b in blocks]
-    x = result.x if result.status.ok else np.full(sum(lengths), np.nan)
-    return list(np.split(x, np.cumsum(lengths)[:-1]))
+    x = _solve_joint(blocks)
+    if x is not None:
+        parts = list(np.split(x, np.cumsum(lengths)[:-1]))
+    else:
+        parts = []
+        for i, block in enumerate(blocks):
+            alone = _solve_joint([block])
+            if alone is None:
+                _LOG.warning("hold LP block %d of %d failed: no hold for it", i, len(blocks))
+                alone = np.full(len(block.cost), np.nan)
+            parts.append(alone)
+    return [
+        _Solved(part, float(np.max(part[block.slack], initial=0.0)))
+        for block, part in zip(blocks, parts, strict=True)
+    ]
 
 
 def building_envelope(
@@ -187,27 +235,44 @@ def building_envelope(
 ) -> FloatArray:
     """(D, 2) the least and the most power [kW] the building holds for each of ``steps``
     (D,) periods from its state now without leaving comfort (see the module docstring);
-    NaN where the LP has no solution.
+    both NaN for a duration where no hold keeps comfort (the least slack above
+    :data:`COMFORT_TOLERANCE_K`) or either end's LP failed (logged).
 
     ``plant_power_kw`` maps a hold's flows (h, m) [kg/s] to the mean power [kW] the plant's
-    power model predicts for them over the hold; given, each level is that power of its
-    hold's flows instead of the LP's affine power (a secant, which over-states the power of
-    large flows and under-states that of small ones)."""
+    power model predicts for them over the hold; given, each end is that mean power of the
+    flows of the affine-extreme hold (the LP's least or most affine level) instead of the
+    LP's affine power (a secant, which over-states the power of large flows and
+    under-states that of small ones). It is neither constant over the hold (only the
+    affine power is) nor the plant model's own extreme."""
     blocks, models = [], []
     for h in steps:
         model = hold_model(problem, h)
         blocks += [_hold_block(model, 1.0), _hold_block(model, -1.0)]
         models += [model, model]
-    levels = []
-    for model, x in zip(models, _solve_blocks(blocks), strict=True):
+    levels, keeps = [], []
+    for model, solved in zip(models, _solve_blocks(blocks), strict=True):
+        x = solved.x
         flows = x[: model.steps * model.m].reshape(model.steps, model.m)
-        if plant_power_kw is None or np.isnan(x[-1]):
+        keeps.append(solved.ok and solved.max_slack_k <= COMFORT_TOLERANCE_K)
+        if plant_power_kw is None or not solved.ok:
             levels.append(x[-1])
         else:
             levels.append(plant_power_kw(flows))
-    # where no hold keeps comfort the least-slack holds leave (nearly) one level, and the
-    # plant's power of the two ends' flows may cross by a little: the range is their span
-    return np.sort(np.array(levels).reshape(len(steps), 2), axis=1)
+    # the plant's power of the two ends' flows may cross by a little: the range is their span
+    envelope = np.sort(np.array(levels, dtype=float).reshape(len(steps), 2), axis=1)
+    envelope[~np.array(keeps).reshape(len(steps), 2).all(axis=1)] = np.nan
+    return envelope
+
+
+def fleet_envelope(buildings_kw: FloatArray) -> FloatArray:
+    """(D, 3) the fleet's envelope from its buildings' (B, D, 2) [kW]: per duration the
+    least and the most power [kW] summed over the buildings whose range is not NaN (the
+    comfort-keeping ones), and how many they are (NaN power where none is)."""
+    keeps = np.logical_not(np.isnan(buildings_kw).any(axis=2))  # (B, D)
+    count = keeps.sum(axis=0).astype(float)
+    total = np.where(keeps[:, :, None], buildings_kw, 0.0).sum(axis=0)
+    total[count == 0] = np.nan
+    return np.column_stack([total, count])
 
 
 def hold_flows(problem: RMPCProblem, level_kw: float, steps: int) -> FloatArray:
@@ -228,13 +293,14 @@ def hold_flows(problem: RMPCProblem, level_kw: float, steps: int) -> FloatArray:
         axis=1,
     )
     level = float(np.clip(level_kw, np.max(low), max(np.max(low), np.min(high))))
-    x = _solve_blocks([_hold_block(model, 0.0, level)])[0]
+    x = _solve_blocks([_hold_block(model, 0.0, level)])[0].x
     return x[: steps * model.m].reshape(steps, model.m)
 
 
 def envelope_frame(index: pd.DatetimeIndex, envelope_kw: FloatArray) -> pd.DataFrame:
-    """``envelope.csv``'s rows from the fleet's envelope (T, D, 2) [kW] at the periods
-    ``index`` (T,) and :data:`DURATIONS_MIN` (D,), period by period."""
+    """``envelope.csv``'s rows from the fleet's envelope (T, D, 3) (:func:`fleet_envelope`:
+    least and most power [kW], buildings summed) at the periods ``index`` (T,) and
+    :data:`DURATIONS_MIN` (D,), period by period."""
     steps, durations = envelope_kw.shape[:2]
     return pd.DataFrame(
         {
@@ -242,6 +308,7 @@ def envelope_frame(index: pd.DatetimeIndex, envelope_kw: FloatArray) -> pd.DataF
             "duration_min": np.tile(np.array(DURATIONS_MIN[:durations]), steps),
             "min_power_kw": envelope_kw[:, :, 0].ravel(),
             "max_power_kw": envelope_kw[:, :, 1].ravel(),
+            "buildings": envelope_kw[:, :, 2].ravel().astype(int),
         },
         columns=list(ENVELOPE_COLUMNS),
     )

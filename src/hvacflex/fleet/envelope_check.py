@@ -5,10 +5,14 @@ building planning alone (no feeder price, no cap: the unlimited fleet); at each 
 periods it takes the fleet's envelope (:mod:`hvacflex.fleet.envelope`) for a duration, and
 from a copy of the state then runs the fleet **holding** the envelope's least and, from the
 same state again, its most power for that duration: every building holds its own level, its
-flows re-planned every period from the filter's state over the periods left of the hold
+flows re-planned every period from the plant's state over the periods left of the hold
 (:meth:`hvacflex.fleet.agent.BuildingAgent.advance_held`) and applied to its RC plant. The
 plants' metered power and period-end zone temperatures grade the envelope: the fleet's
 metered power against the envelope's level, and the zones against their comfort band.
+
+The state is the plant's own (perfect state information: the fleet path runs no Kalman
+filter), so the check grades the hold and the power model, not an estimator. A start where
+some building has no comfort-keeping hold of the duration is refused (ValueError).
 """
 
 from __future__ import annotations
@@ -21,7 +25,7 @@ import numpy as np
 import pandas as pd
 
 from hvacflex import kpi as kpis
-from hvacflex.constants import PERIOD
+from hvacflex.constants import PERIOD, PERIODS_PER_DAY
 from hvacflex.control.base import FloatArray
 from hvacflex.fleet.agent import BuildingGroup, FleetSettings
 from hvacflex.fleet.envelope import DURATIONS_MIN, duration_steps
@@ -40,8 +44,9 @@ HOLD_COLUMNS = (
 )
 """One row per hold: its start, ``min`` or ``max``, the duration, the fleet's envelope level
 [kW], the fleet's metered power over the hold (least, largest) [kW], the largest |metered −
-envelope| / envelope over the hold's periods [%], the fleet's discomfort over the hold
-[K·h] and the largest period-end zone violation of any building over the hold [K]."""
+envelope| / envelope over the hold's periods [%] (NaN for a 0-kW envelope, where a
+percentage means nothing: the metered power says how far it is), the fleet's discomfort
+over the hold [K·h] and the largest period-end zone violation of any building over the hold [K]."""
 
 
 @dataclass(frozen=True)
@@ -88,10 +93,15 @@ def check_holds(
     """Hold the envelope's least and most power for ``duration_min`` (one of
     :data:`hvacflex.fleet.envelope.DURATIONS_MIN`) from each of the periods ``hold_starts``
     (steps after ``start``, increasing); one row per hold (:data:`HOLD_COLUMNS`)."""
+    if duration_min not in DURATIONS_MIN:
+        raise ValueError(
+            f"duration_min {duration_min!r} is not a hold duration of the envelope; "
+            f"use one of {', '.join(str(d) for d in DURATIONS_MIN)} [min]"
+        )
     steps_all = duration_steps()
     which = DURATIONS_MIN.index(duration_min)
     steps = steps_all[which]
-    days = (max(hold_starts) + steps + 1) / 48.0
+    days = (max(hold_starts) + steps + 1) / PERIODS_PER_DAY
     settings = FleetSettings.of(fleet, start, days)
     group = BuildingGroup(document, list(range(len(fleet.buildings))), settings)
     rows = []
@@ -103,11 +113,12 @@ def check_holds(
         group.begin_step()
         (envelope,) = group.envelope(steps_all)
         time = settings_index(settings, k)
+        _refuse_uncomfortable(envelope[:, which], time, duration_min)
         for end, column in (("min", 0), ("max", 1)):
             group.set_state(saved)
             group.begin_step()
             held = _hold(group, envelope[:, which, column], steps)
-            error = np.abs(held.metered_kw - held.level_kw) / abs(held.level_kw)
+            error = _error_fraction(held.metered_kw, held.level_kw)
             rows.append(
                 (
                     time,
@@ -124,6 +135,25 @@ def check_holds(
         group.set_state(saved)
         _plan_alone(group)
     return pd.DataFrame(rows, columns=list(HOLD_COLUMNS))
+
+
+def _error_fraction(metered_kw: FloatArray, level_kw: float) -> FloatArray:
+    """|metered − level| / level per period (h,); NaN for a 0-kW level."""
+    if level_kw == 0.0:
+        return np.full(metered_kw.shape, np.nan)
+    return np.abs(metered_kw - level_kw) / abs(level_kw)
+
+
+def _refuse_uncomfortable(ranges_kw: FloatArray, time: pd.Timestamp, duration_min: int) -> None:
+    """Refuse a hold start where a building's range (B, 2) [kW] is NaN (no hold keeps
+    comfort, :func:`hvacflex.fleet.envelope.building_envelope`)."""
+    missing = np.flatnonzero(np.isnan(ranges_kw).any(axis=1))
+    if missing.size:
+        raise ValueError(
+            f"from {time:%Y-%m-%d %H:%M} building(s) {', '.join(str(i) for i in missing)} "
+            f"cannot hold any level for {duration_min} min in comfort; choose another "
+            "hold start or a shorter duration"
+        )
 
 
 def settings_index(settings: FleetSettings, k: int) -> pd.Timestamp:

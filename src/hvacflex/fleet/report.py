@@ -49,7 +49,7 @@ def write_fleet_report(run_dir: str | Path, min_bid_mw: float | None = None) -> 
     figures.append(out / "fleet_bid.png")
     fig.savefig(figures[-1], dpi=90)
     plt.close(fig)
-    envelope_figure = _envelope_figure(out, results, min_bid_mw)
+    envelope_figure = _envelope_figure(out, results, min_bid_mw, len(table))
     fig, axes = plt.subplots(1, 2, figsize=(10, 3.0))
     for ax, column, label in (
         (axes[0], "net_cost_sgd", "net cost per building [SGD]"),
@@ -81,14 +81,26 @@ def write_fleet_report(run_dir: str | Path, min_bid_mw: float | None = None) -> 
     return write_report(out, title="hvacflex fleet run", sections=sections)
 
 
-def _envelope_figure(out: Path, results: pd.DataFrame, min_bid_mw: float | None) -> list[Section]:
+def whole_fleet_rows(envelope: pd.DataFrame, fleet_size: int) -> pd.DataFrame:
+    """``envelope.csv``'s rows with the power of those summing fewer than ``fleet_size``
+    buildings blanked (NaN): their sum omits the buildings without a comfort-keeping hold."""
+    whole = envelope.copy()
+    whole.loc[whole["buildings"] < fleet_size, ["min_power_kw", "max_power_kw"]] = np.nan
+    return whole
+
+
+def _envelope_figure(
+    out: Path, results: pd.DataFrame, min_bid_mw: float | None, fleet_size: int
+) -> list[Section]:
     """The flexibility envelope (``envelope.csv``: the least and the most power the fleet
     holds for 30, 60 and 120 min from each period's start) as bands around the fleet's
-    power, with the limit windows, and the fleet's offer below it; none without the file."""
+    power, with the limit windows, and the fleet's offer below it; none without the file.
+    Rows summing fewer than ``fleet_size`` buildings (some building has no comfort-keeping
+    hold) are left blank: their power omits those buildings'."""
     path = out / ENVELOPE_FILE
     if not path.is_file():
         return []
-    envelope = pd.read_csv(path)
+    envelope = whole_fleet_rows(pd.read_csv(path), fleet_size)
     envelope["time"] = pd.to_datetime(envelope["time"])
     fig, (top, bottom) = plt.subplots(
         2, 1, figsize=(10, 5.0), sharex=True, gridspec_kw={"height_ratios": [3, 1.2]}
@@ -126,7 +138,8 @@ def _envelope_figure(out: Path, results: pd.DataFrame, min_bid_mw: float | None)
             figures=[figure],
             figure_captions=[
                 "the least and the most power the fleet can hold for 30, 60 and 120 min from "
-                "each period (envelope.csv), the limit in force and the fleet's offer"
+                "each period (envelope.csv; blank where some building has no comfort-keeping "
+                "hold), the limit in force and the fleet's offer"
             ],
         )
     ]

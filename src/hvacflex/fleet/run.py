@@ -56,7 +56,13 @@ from hvacflex.fleet.aggregation import (
 from hvacflex.fleet.bidding import fleet_activation_schedule, settle_fleet
 from hvacflex.fleet.bundle import coordinate_caps
 from hvacflex.fleet.coordinate import CoordinationOptions, CoordinationResult, coordinate
-from hvacflex.fleet.envelope import DURATIONS_MIN, ENVELOPE_FILE, duration_steps, envelope_frame
+from hvacflex.fleet.envelope import (
+    DURATIONS_MIN,
+    ENVELOPE_FILE,
+    duration_steps,
+    envelope_frame,
+    fleet_envelope,
+)
 from hvacflex.fleet.schema import Fleet, load_fleet_document
 from hvacflex.sim.run_files import (
     check_checkpoint_code,
@@ -296,8 +302,7 @@ def run_fleet(
     n = len(fleet.buildings)
     try:
         groups = _Groups(doc, settings, n, client)
-        values, flags, iterations, envelope = _empty_tables(steps)
-        offers = np.zeros((steps, n))  # every building's metered-visible offer [kW]
+        values, flags, iterations, envelope, offers = _empty_tables(steps, n)
         col = {name: i for i, name in enumerate(FLOAT_COLUMNS)}
         checkpoint = _matching_checkpoint(checkpoint_path, key) if resume else None
         k, price = (
@@ -313,15 +318,14 @@ def run_fleet(
             )
 
         checkpoint = checkpoint or snapshot()
-        recoveries = 0
-        min_bid_kw = 1000.0 * fleet.spec.min_bid_mw
-        schedule = fleet_activation_schedule(fleet, index)
+        recoveries, schedule = 0, fleet_activation_schedule(fleet, index)
         while k < steps:
             try:
                 tick = time.perf_counter()
-                context = _context(k, schedule, flags, min_bid_kw)
-                feeder_kw = planning_limit[k : k + horizon]
-                outcome = _fleet_step(groups, feeder_kw, options, price, context)
+                context = _context(k, schedule, flags, 1000.0 * fleet.spec.min_bid_mw)
+                outcome = _fleet_step(
+                    groups, planning_limit[k : k + horizon], options, price, context
+                )
             except HvacflexError:
                 raise
             except Exception as exc:  # a lost worker surfaces as comm/actor errors
@@ -332,10 +336,8 @@ def run_fleet(
                 continue
             result = outcome.result
             flags[k] = _record_step(values[k], col, outcome, limit[k])
-            offers[k] = outcome.visible_kw
             values[k, col["step_time_s"]] = time.perf_counter() - tick
-            iterations[k] = result.iterations
-            envelope[k] = outcome.envelope_kw
+            iterations[k], offers[k], envelope[k] = _step_rows(outcome)
             price = np.append(result.price_sgd_per_mwh[1:], result.price_sgd_per_mwh[-1])
             k += 1
             _notify(progress, on_step, step_progress(k, steps, result, options), groups)
@@ -419,15 +421,25 @@ def minimum_power_warning(fleet: Fleet, start: str, days: float) -> str | None:
     )
 
 
-def _empty_tables(steps: int) -> tuple[FloatArray, Any, Any, FloatArray]:
+def _empty_tables(
+    steps: int, buildings: int
+) -> tuple[FloatArray, Any, Any, FloatArray, FloatArray]:
     """(float columns (steps, FLOAT_COLUMNS), flags bid_accepted/feeder_infeasible, iterations,
-    the envelope (steps, D, 2) [kW])."""
+    the envelope (steps, D, 3): least, most power [kW], buildings summed, and every building's
+    metered-visible offer (steps, B) [kW])."""
     return (
         np.full((steps, len(FLOAT_COLUMNS)), np.nan),
         np.zeros((steps, len(schema.FLEET_FLAG_COLUMNS)), dtype=bool),
         np.zeros(steps, dtype=np.int64),
-        np.full((steps, len(DURATIONS_MIN), 2), np.nan),
+        np.full((steps, len(DURATIONS_MIN), 3), np.nan),
+        np.zeros((steps, buildings)),
     )
+
+
+def _step_rows(outcome: _StepOutcome) -> tuple[int, FloatArray, FloatArray]:
+    """A step's coordination iterations, the buildings' visible offers (B,) [kW] and the
+    fleet's envelope (D, 3)."""
+    return outcome.result.iterations, outcome.visible_kw, outcome.envelope_kw
 
 
 def _coordination_options(fleet: Any) -> CoordinationOptions:
@@ -462,6 +474,7 @@ def _snapshot(
 ) -> dict[str, Any]:
     """The checkpoint after ``k`` steps (``tables``: the fleet's float columns, flags,
     iterations and the buildings' visible offers (steps, B); ``envelope`` (k, D, 2): the
+    iterations and the buildings' visible offers (steps, B); ``envelope`` (k, D, 3): the
     envelope's rows)."""
     values, flags, iterations, offers = tables
     return {
@@ -479,7 +492,7 @@ def _snapshot(
 
 
 def _restore_envelope(checkpoint: dict[str, Any], envelope: FloatArray) -> int:
-    """Restore the envelope's rows (k, D, 2) from ``checkpoint`` into ``envelope``; k."""
+    """Restore the envelope's rows (k, D, 3) from ``checkpoint`` into ``envelope``; k."""
     k = int(checkpoint["k"])
     envelope[:k] = checkpoint["envelope"]
     return k
@@ -575,8 +588,10 @@ class _StepOutcome:
     activated: bool
     coordination_s: float
     envelope_kw: FloatArray
-    """(D, 2) the fleet's flexibility envelope at the step's start [kW]: the least and the
-    most power it holds for each of :data:`hvacflex.fleet.envelope.DURATIONS_MIN`."""
+    """(D, 3) the fleet's flexibility envelope at the step's start: the least and the most
+    power [kW] its comfort-keeping buildings hold for each of
+    :data:`hvacflex.fleet.envelope.DURATIONS_MIN`, and how many they are
+    (:func:`hvacflex.fleet.envelope.fleet_envelope`)."""
 
 
 @dataclass(frozen=True)
@@ -633,7 +648,14 @@ def _fleet_step(
     rows = groups.broadcast("advance", activated)
     merged = {key_: np.concatenate([r[key_] for r in rows]) for key_ in rows[0]}
     return _StepOutcome(
-        result, p_min, merged, fleet_offer, visible, activated, coordinated, envelope.sum(axis=0)
+        result,
+        p_min,
+        merged,
+        fleet_offer,
+        visible,
+        activated,
+        coordinated,
+        fleet_envelope(envelope),
     )
 
 
