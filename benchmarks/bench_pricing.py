@@ -32,7 +32,7 @@ from bench_rmpc import HORIZON, building_model, exogenous_series, problem_at
 
 from hvacflex.config import preset
 from hvacflex.opt import highs_lp
-from hvacflex.opt.solve import make_solver
+from hvacflex.opt.factory import make_solver
 from hvacflex.paths import resolve_building
 from hvacflex.sim.recording import recorded_problems
 
