@@ -1,6 +1,6 @@
 """The identified model (``model.toml``) that ``hvacflex identify fit`` writes: a building file.
 
-The file is a building file of :func:`hvacflex.building.io.load_building` (docs/building.md,
+The file is a building file of :func:`hvacflex.building.io.load_building` (docs/buildings.md,
 ``[identified]`` in :mod:`hvacflex.building.schema`): ``[[zones]]`` with lower-case identifier
 names made from the data's names (:func:`identifier`), each with its data/IDF name in
 ``energyplus_zone`` (matched case-insensitively by the EnergyPlus plant) and, when known,
