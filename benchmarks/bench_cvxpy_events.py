@@ -12,8 +12,8 @@ controller takes: time-shifted basis, lazy event rows), and every ``--every``-th
 after its warm solve, the same LP written in CVXPY from the problem's arrays (vectorised,
 every event row, HiGHS backend), built and solved from scratch as a CVXPY user would each
 period. The CVXPY model is :func:`hvacflex.opt.reference.solve_reference`, written from the
-event model's definition (docs/il_events.md: an allowance row per (t, s ≥ t − D − R) with the
-longest event, a strict row per (t, s ≤ t − R − 2), the offers paid for what the settlement
+event model's definition (docs/explanation/il_events.md: an allowance row per (t, s ≥ t − D − R)
+with the longest event, a strict row per (t, s ≤ t − R − 2), the offers paid for what the settlement
 baselines see, the committed reserve), not from hvacflex's LP builder; its objective must
 equal HiGHS's (tie-breaks included) to 1e-6 relative, or the script fails (exit 1). The same
 reference is checked against every LP family in the default suite

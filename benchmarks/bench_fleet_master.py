@@ -8,7 +8,7 @@ round, so their sum over a step's rounds is the serial part of a fleet dispatch.
 
 Measured 2026-12-02 on the shared 2-core machine (load 21.7–22.4): master / dual model CPU
 0.05 / 0.03 s (100 buildings, 5 plans), 0.22 / 0.10 s (100, 20), 1.00 / 0.26 s (1,000, 5),
-5.55 / 1.04 s (1,000, 20); docs/fleet.md, "Scale".
+5.55 / 1.04 s (1,000, 20); docs/guide/fleet.md, "Scale".
 """
 
 from __future__ import annotations

@@ -30,12 +30,12 @@ coordinator's share of the CPU and the workers' memory per building:
 
 Measured 2026-12-03 (``--buildings 10 40 100 1000 --workers 0 --steps 3``, idle machine):
 0.082 / 0.047 / 0.046 / 0.046 CPU-s per building and warm dispatch, 1,000 buildings 46.4
-CPU-s per warm dispatch at a largest gap of 0.06 %; docs/fleet.md, "Scale".
+CPU-s per warm dispatch at a largest gap of 0.06 %; docs/guide/fleet.md, "Scale".
 
 Measured 2026-12-02 (issue 31, bundle scheme, ``--workers 0 --steps 4 --start "2014-03-03
 08:00"``, shared 2-core machine, load 16–23): warm step CPU 7.30 s for 10 buildings (20
 rounds per step), 19.61 s for 40 (15.5 rounds) → 0.73 and 0.49 CPU-s per building and warm
-dispatch; docs/fleet.md, "Scale".
+dispatch; docs/guide/fleet.md, "Scale".
 """
 
 from __future__ import annotations

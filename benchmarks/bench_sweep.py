@@ -3,7 +3,7 @@
     python benchmarks/bench_sweep.py [--days 2] [--values 0.5,1.5,5,30] [--workers 1 2]
 
 Each configuration runs in a fresh temporary folder, so nothing is re-used from a cache.
-Prints a table; record it in docs/performance.md with the machine it ran on.
+Prints a table; record it in docs/reference/performance.md with the machine it ran on.
 """
 
 from __future__ import annotations

@@ -20,7 +20,7 @@ prints one table with the two buildings side by side and their ratio:
 * how sparse an *approximation* could make the model: the share of entries of A above
   1e-6 and of the reserve responses H_l above 1e-3 of their row's largest entry, and the
   nonzeros of the dynamics and event rows if the entries below were dropped (counted, not
-  solved: such an LP is another model, docs/performance.md "Zones").
+  solved: such an LP is another model, docs/reference/performance.md "Zones").
 
 Growth ≤ linear in zones means ratios ≤ 3 here. This is a script, not a timed test; quote the
 load it prints with any figure.

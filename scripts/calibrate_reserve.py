@@ -3,7 +3,7 @@
 Finds the scale of :func:`hvacflex.data.market.synthetic_reserve_prices` at which the nominal
 MPC's reserve revenue is ``--target`` (default 1 %) of its energy cost over the chosen
 period, by bisection on a log scale. The result is frozen by hand in
-``hvacflex.data.market.RESERVE_PRICE_SCALE`` and recorded in ``docs/data.md``.
+``hvacflex.data.market.RESERVE_PRICE_SCALE`` and recorded in ``docs/reference/data.md``.
 
     python scripts/calibrate_reserve.py --start 2014-01-01 --days 365
     python scripts/calibrate_reserve.py --start 2014-01-13 --start 2014-04-14 \

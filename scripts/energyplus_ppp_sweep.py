@@ -1,4 +1,5 @@
-"""Fig. 7's peak-price sweep on EnergyPlus office5 (docs/reproduction.md, the findings table).
+"""Fig. 7's peak-price sweep on EnergyPlus office5 (docs/explanation/reproduction.md, the findings
+table).
 
 Scenario (c) (``rmpc-ppp``, billed per month, the full plan's realistic forecast) over Fig. 7's
 28 days from 2014-03-03 at each φ, on EnergyPlus office5 (the generated IDF, setpoint

@@ -1,4 +1,5 @@
-"""The affine-feedback rows of Table 1 on the four representative weeks (docs/reproduction.md).
+"""The affine-feedback rows of Table 1 on the four representative weeks
+(docs/explanation/reproduction.md).
 
 (b) and (c) with affine disturbance feedback (``rmpc-feedback``, ``rmpc-feedback-ppp``) beside
 the same scenarios open loop under the same whole-horizon reserve model (``paper-rmpc``,

@@ -1,4 +1,4 @@
-"""Coordination gap of one fleet step against the centralised LP (issue 17, docs/fleet.md).
+"""Coordination gap of one fleet step against the centralised LP (issue 17, docs/guide/fleet.md).
 
 For each case, ``B`` generated buildings (seed 3) run with no feeder limit up to the case's
 hour on 2014-03-03; the step is then coordinated under a limit of 0.9 × the uncoordinated

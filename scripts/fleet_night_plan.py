@@ -6,7 +6,7 @@ Builds every building's step problem at ``--start`` from the closed loop's initi
 stacks them (`hvacflex.fleet.centralised`) under the fleet's planning limit (its windows)
 and without a limit, each with the controllers' robust margins and with `robust = "none"`,
 solves each cold and prints the energy it plans over 00:00–07:00, 07:00–10:00 and the
-horizon, and the peak before 10:00 (docs/fleet.md, "Issue 60 re-measured").
+horizon, and the peak before 10:00 (docs/guide/fleet.md, "Issue 60 re-measured").
 """
 
 from __future__ import annotations

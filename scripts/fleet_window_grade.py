@@ -1,4 +1,4 @@
-"""Grade a windowed fleet run against issue 60's criteria (docs/fleet.md, "Issue 60").
+"""Grade a windowed fleet run against issue 60's criteria (docs/guide/fleet.md, "Issue 60").
 
 python scripts/fleet_window_grade.py --run runs/window --unlimited runs/unlimited
     [--bound runs/bound/bound.csv]

@@ -1,4 +1,5 @@
-"""NMPC vs RMPC under forecast errors the controller does not know (issue 26, docs/forecast.md).
+"""NMPC vs RMPC under forecast errors the controller does not know (issue 26,
+docs/explanation/forecast.md).
 
 The plant sees the weather file and stochastic occupancy (seeded); the controller sees the
 statistical weather forecast fitted on the 28 days before the run and the schedule's gains.
@@ -13,7 +14,7 @@ statistical weather forecast fitted on the 28 days before the run and the schedu
    first run): in sample (training days), out of sample (test days), and the default box's
    out of sample; the model-error term's on the calibrated RMPC's test runs (all seeds).
 
-Markdown tables go to stdout (copied into ``docs/forecast.md``)::
+Markdown tables go to stdout (copied into ``docs/explanation/forecast.md``)::
 
     python scripts/forecast_study.py --out results/forecast_study
 """

@@ -9,7 +9,7 @@ controller builds, then
 2. re-solves the problems at 10:00 and 13:00 with flat reserve prices 10, 40, 80 SGD/MWh for
    α ∈ {0, 0.5, 1} K and D ∈ {1, 2, 4} (R = 2) and prints the offered reserve.
 
-The markdown tables go to stdout (they are copied into ``docs/il_events.md``):
+The markdown tables go to stdout (they are copied into ``docs/explanation/il_events.md``):
 
     python scripts/il_event_table.py
 """

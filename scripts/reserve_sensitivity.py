@@ -3,7 +3,7 @@
 Runs scenario (a) (the product preset ``nmpc``, event model) in closed loop, varying one
 setting at a time around the product defaults: the synthetic reserve-price scale, the
 event length D (``reserve.event_max_steps``) and the allowance α (``reserve.event_allowance_k``).
-Prints a Markdown table (one row per run) for ``docs/il_events.md``.
+Prints a Markdown table (one row per run) for ``docs/explanation/il_events.md``.
 
     python scripts/reserve_sensitivity.py --start 2014-03-03 --days 3
     python scripts/reserve_sensitivity.py --prices 2.5 40 --events 1 2 4 --allowances 0 0.5 1

@@ -7,7 +7,7 @@ flows, the forecast disturbances and their box, then replays the filter of
 ±``--noise`` K for every pair of process-noise standard deviations (nodes q_x, offsets
 q_s) on a grid, and prints the RMS estimation error (all nodes, and zone air) after a
 6-hour burn-in. The best pair (lowest all-node RMS) is frozen by hand in
-``hvacflex.control.estimation`` and recorded in ``docs/estimation.md``.
+``hvacflex.control.estimation`` and recorded in ``docs/explanation/estimation.md``.
 
     python scripts/tune_kalman.py --start 2014-05-05 --days 2
 """

@@ -3,7 +3,7 @@
 Runs the full plan's jobs on Dask into ``OUT/runs/<run name>`` (the folders the command uses,
 so a later ``hvacflex reproduce --out OUT`` on the same code re-uses them) and builds the same
 report from them; the runs left out are missing from its tables. This is how a year too long
-for one sitting is made in parts (docs/reproduction.md).
+for one sitting is made in parts (docs/explanation/reproduction.md).
 
     python scripts/year_runs.py OUT [--energyplus] [--skip RUN ...] [--workers N]
 

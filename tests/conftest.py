@@ -1,5 +1,5 @@
 """Shared fixtures: paths to the shipped data and building files, a headless Chromium, and a
-fabricated closed-loop results frame following docs/architecture.md (Results)."""
+fabricated closed-loop results frame following docs/reference/results.md."""
 
 from __future__ import annotations
 

@@ -255,12 +255,12 @@ def test_the_types_and_protocols_are_the_packages_own() -> None:
     assert not isinstance(object(), hvacflex.Forecaster)
 
 
-API_DOC = Path(__file__).resolve().parents[1] / "docs" / "api.md"
+API_DOC = Path(__file__).resolve().parents[1] / "docs" / "reference" / "api.md"
 RUNNABLE_PYTHON = re.compile(r"<!-- runnable -->\n```python\n(.*?)\n```", re.S)
 
 
 def test_the_examples_of_docs_api_run(tmp_path: Path) -> None:
-    """docs/api.md's runnable blocks, in order, as one script in an empty folder (one
+    """docs/reference/api.md's runnable blocks, in order, as one script in an empty folder (one
     interpreter: the imports are paid once)."""
     blocks = RUNNABLE_PYTHON.findall(API_DOC.read_text(encoding="utf-8"))
     assert len(blocks) == 3  # stepping, a user's controller, the Gymnasium environment

@@ -17,7 +17,7 @@ def test_reference_prints_the_markdown() -> None:
 
 
 def test_reference_writes_the_file_and_check_accepts_it(tmp_path: Path) -> None:
-    out = tmp_path / "docs" / "scenario_reference.md"
+    out = tmp_path / "docs" / "reference" / "scenario_reference.md"
     written = CliRunner().invoke(app, ["config", "reference", "--out", str(out)])
     assert written.exit_code == 0, written.output
     assert out.read_text(encoding="utf-8") == reference_markdown()

@@ -1,5 +1,5 @@
-"""The pages a newcomer follows after the quick start stay true: docs/identify.md's commands
-and docs/energyplus.md's Python run in an empty folder, their other commands parse, and no
+"""The pages a newcomer follows after the quick start stay true: docs/guide/identify.md's commands
+and docs/guide/energyplus.md's Python run in an empty folder, their other commands parse, and no
 page tells a user an install line that fails.
 
 The blocks carry the quick start's markers (``<!-- runnable -->``, ``<!-- checked -->``;
@@ -21,8 +21,8 @@ import pytest
 from test_quickstart import ROOT, Block, _run, _wrappers, blocks, commands, parse_command
 
 DOCS = ROOT / "docs"
-IDENTIFY = DOCS / "identify.md"
-ENERGYPLUS = DOCS / "energyplus.md"
+IDENTIFY = DOCS / "guide" / "identify.md"
+ENERGYPLUS = DOCS / "guide" / "energyplus.md"
 
 COLLECT_SMALL = ("--days 22", "--days 1")
 """identify.md's collect at a small size (the default suite's run of the page's first
@@ -37,7 +37,7 @@ def _first_command(block: Block) -> Block:
     """The block's first command (``identify collect``) at the small size."""
     first = block.text[: block.text.index("hvacflex identify fit")]
     size, small = COLLECT_SMALL
-    assert first.count(size) == 1, f"docs/identify.md no longer says {size!r}"
+    assert first.count(size) == 1, f"docs/guide/identify.md no longer says {size!r}"
     return Block(block.marker, block.language, first.replace(size, small))
 
 

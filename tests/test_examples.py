@@ -99,8 +99,8 @@ def test_openadr_vtn_runs_bounded_and_prints_the_clock_offset(tmp_path: Path) ->
 
 
 def test_the_validation_variant_of_office5_is_office5_with_the_sky_and_angular_windows() -> None:
-    """``examples/office5_sky_angular.toml`` (docs/validation.md) differs from office5 only in
-    the façades' and windows' emissivity and the windows' SHGC, so EnergyPlus sees office5
+    """``examples/office5_sky_angular.toml`` (docs/explanation/validation.md) differs from office5
+    only in the façades' and windows' emissivity and the windows' SHGC, so EnergyPlus sees office5
     (and in the power models fitted to office5's meters, which a validation of the thermal
     model does not read)."""
     from dataclasses import replace

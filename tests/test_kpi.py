@@ -29,7 +29,8 @@ def results_frame(
     lower: float | list[float] = 23.0,
     upper: float | list[float] = 26.0,
 ) -> pd.DataFrame:
-    """A results frame following docs/architecture.md (Results) with the given columns."""
+    """A results frame following docs/reference/results.md with the given
+    columns."""
     index = pd.date_range(start, periods=n, freq=freq, tz=TZ, name="time")
     temp_end = temp_end or {"north": [24.0] * n, "core": [24.5] * n}
     columns: dict[str, object] = {

@@ -1,4 +1,4 @@
-"""docs/quickstart.md stays true: its runnable blocks run, its other commands parse.
+"""docs/guide/quickstart.md stays true: its runnable blocks run, its other commands parse.
 
 Every fenced ``bash`` block of the quick start carries a marker on the line before it:
 ``<!-- runnable -->`` (run as it stands, in order, in one empty folder, with ``hvacflex`` and
@@ -27,7 +27,7 @@ import hvacflex
 from hvacflex.cli import app
 
 ROOT = Path(__file__).resolve().parents[1]
-QUICKSTART = ROOT / "docs" / "quickstart.md"
+QUICKSTART = ROOT / "docs" / "guide" / "quickstart.md"
 SRC = Path(hvacflex.__file__).resolve().parents[1]
 """The source folder of the hvacflex under test (the blocks must run the same one)."""
 
@@ -137,9 +137,9 @@ def test_checked_commands_parse() -> None:
 
 
 def assert_every_kpi_in_the_glossary(summary: dict[str, float]) -> None:
-    """Every KPI of a run's summary is explained in docs/glossary.md (a zone's name written
-    as ``<zone>``)."""
-    glossary = (ROOT / "docs" / "glossary.md").read_text(encoding="utf-8")
+    """Every KPI of a run's summary is explained in docs/reference/glossary.md (a zone's name
+    written as ``<zone>``)."""
+    glossary = (ROOT / "docs" / "reference" / "glossary.md").read_text(encoding="utf-8")
     zones = {k.removeprefix("max_violation_").removesuffix("_k") for k in summary} - {
         "max_violation",
         "occupied",
@@ -153,7 +153,7 @@ def assert_every_kpi_in_the_glossary(summary: dict[str, float]) -> None:
             generic = generic.replace(f"_{zone}_", "_<zone>_")
         if f"`{generic}`" not in glossary:
             missing.append(generic)
-    assert missing == [], "explain these KPIs in docs/glossary.md"
+    assert missing == [], "explain these KPIs in docs/reference/glossary.md"
 
 
 def _wrappers(folder: Path) -> dict[str, str]:

@@ -153,7 +153,7 @@ def test_fleet_columns_are_the_documented_ones_in_file_order() -> None:
     assert columns[:2] == ["planned_fleet_power_kw", "fleet_power_kw"]
     assert columns[-3:] == ["feeder_infeasible", "il_activated", "coordination_iterations"]
     assert len(columns) == len(set(columns)) == 25
-    fleet_doc = (Path(__file__).resolve().parents[1] / "docs" / "fleet.md").read_text()
+    fleet_doc = (Path(__file__).resolve().parents[1] / "docs" / "guide" / "fleet.md").read_text()
     assert all(f"`{c}`" in fleet_doc for c in columns)
 
 

@@ -2,7 +2,8 @@
 
 A building's air-conditioning buys energy at real-time prices (Singapore NEMS USEP), offers
 interruptible-load reserve, keeps a utility peak-power price in check, and keeps room comfort
-for every forecast error inside a box. See ``docs/model.md`` for the model and the problem.
+for every forecast error inside a box. See ``docs/explanation/model.md`` for the model and the
+problem.
 
 The public API (:mod:`hvacflex.api`)::
 
@@ -17,7 +18,7 @@ The public API (:mod:`hvacflex.api`)::
     sim.step(); sim.step([0.3, 0.3, 0.3, 0.3, 0.6]); sim.run().summary
 
 ``Scenario``, ``Building`` and the protocols ``Controller``, ``Plant`` and ``Forecaster``
-complete the names (docs/api.md).
+complete the names (docs/reference/api.md).
 
 Its names are loaded on first use (PEP 562), so ``import hvacflex`` imports neither numpy,
 pandas nor the solver, and the command line starts as fast as without them.

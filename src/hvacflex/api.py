@@ -19,7 +19,7 @@ line) stays cheap; the first use of one imports this module and what it needs::
 ``Building``, and the protocols a user's part implements — ``Controller``
 (:class:`hvacflex.control.base.Controller`), ``Plant`` (:class:`hvacflex.sim.plant.Plant`) and
 ``Forecaster`` (:class:`hvacflex.simulation.Forecaster`) — complete the public names
-(docs/api.md).
+(docs/reference/api.md).
 
 :func:`simulate` builds its scenario on the path ``hvacflex simulate`` takes
 (:func:`hvacflex.config.resolve_scenario`) and runs it with

@@ -217,7 +217,7 @@ def building_export_idf(
     surfaces: str = typer.Option(
         "energyplus",
         help="Surface heat transfer: energyplus (its own convection, long-wave and rain) or "
-        "hvacflex (the building's constant films; docs/validation.md).",
+        "hvacflex (the building's constant films; docs/explanation/validation.md).",
     ),
 ) -> None:
     """Write an EnergyPlus 25.2 model (IDF) of a building; run it with `energyplus -x`."""
@@ -598,8 +598,9 @@ def reproduce(
 ) -> None:
     """Regenerate the paper's Fig. 2, 5, 6, 7 and Table 1 (+ comfort and robustness) as HTML.
 
-    With --sensitivity and/or --seeds, run only those studies (CSV + PNG; docs/reproduction.md).
-    Exits 1 when any run fails; the report is still written, marked incomplete at its top.
+    With --sensitivity and/or --seeds, run only those studies (CSV + PNG;
+    docs/explanation/reproduction.md). Exits 1 when any run fails; the report is still written,
+    marked incomplete at its top.
     """
     from hvacflex.errors import HvacflexError
     from hvacflex.paths import check_output_dir

@@ -14,7 +14,7 @@ config_app = typer.Typer(
     rich_markup_mode=None, help="The scenario file's tables and keys.", no_args_is_help=True
 )
 
-REFERENCE_FILE = "docs/scenario_reference.md"
+REFERENCE_FILE = "docs/reference/scenario_reference.md"
 """Where the repository keeps the reference (``tests/config/test_reference.py`` checks it)."""
 
 

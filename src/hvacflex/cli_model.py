@@ -119,7 +119,7 @@ def validate_energyplus(
 
 identify_app = typer.Typer(
     rich_markup_mode=None,
-    help="Identify a controller model from measured trend data (docs/identify.md).",
+    help="Identify a controller model from measured trend data (docs/guide/identify.md).",
     no_args_is_help=True,
 )
 
@@ -288,7 +288,7 @@ def identify_power_command(
     test: str | None = typer.Option(None, "--test", help="YYYY-MM-DD..YYYY-MM-DD"),
 ) -> None:
     """Fit a power model to a plant's meter for a designed building; write its
-    [power_models.<plant>] table and power_report.csv (docs/identify.md)."""
+    [power_models.<plant>] table and power_report.csv (docs/guide/identify.md)."""
     from hvacflex.building.io import load_building
     from hvacflex.errors import HvacflexError
     from hvacflex.identify.power_file import identify_power

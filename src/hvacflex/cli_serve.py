@@ -363,7 +363,7 @@ def serve_openadr_ven(
 ) -> None:
     """OpenADR 2.0b VEN: VTN events become the service's prices, φ and IL activations; it
     reports metered power, planned power and the reserve offer, and settles the dispatches
-    it accepted on metered power (docs/service.md)."""
+    it accepted on metered power (docs/guide/service.md)."""
     import asyncio
     import logging
     from dataclasses import replace

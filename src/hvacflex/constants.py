@@ -54,7 +54,7 @@ VALIDATION_SPINUP_DAYS = 42
 days (the core: 225 MJ/K of slab against 531 W/K of partitions), so 42 days leave ≈ 1 % of
 any start error; with 7 days 25–47 % of it was still in the compared week (the core's
 +2.7 K March bias was +3.5 K of hvacflex's warm start less 1.1 K of EnergyPlus's;
-docs/validation.md). Results stop moving between 42 and 56 days."""
+docs/explanation/validation.md). Results stop moving between 42 and 56 days."""
 
 MAX_VALIDATION_SPINUP_DAYS = 120
 """Longest spin-up ``hvacflex validate energyplus`` accepts [d]."""

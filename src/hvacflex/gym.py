@@ -10,7 +10,7 @@
 
 An episode is the scenario's periods (a 1-day scenario is 48 steps of 30 min), run on a
 :class:`hvacflex.Simulation` with your agent as the controller: what the loop records and
-grades is what ``simulate`` records and grades (docs/api.md, "Gymnasium environment").
+grades is what ``simulate`` records and grades (docs/reference/api.md, "Gymnasium environment").
 
 **Action** (``Box``, float32, shape (m,), zone order of ``env.zone_names``): the plant's
 actuation — the zones' supply-air flows [kg/s] on a flow-actuated plant (the RC network;

@@ -1,9 +1,9 @@
 """Key performance indicators of a closed-loop run.
 
 Every function takes the results DataFrame of one run (one row per control step; the column
-schema is the *Results* table of ``docs/architecture.md``) and returns a number, a Series or a
-small DataFrame whose unit is in its name. The functions are pure: they never modify their
-input and never read files (:func:`hvacflex.results.load_results` reads one). Column names
+schema is the columns of ``docs/reference/results.md``) and returns a number, a
+Series or a small DataFrame whose unit is in its name. The functions are pure: they never modify
+their input and never read files (:func:`hvacflex.results.load_results` reads one). Column names
 come from the schema in :mod:`hvacflex.results`; they work on any frame with those columns
 (a fleet's totals too: :mod:`hvacflex.fleet.kpi`).
 
@@ -29,7 +29,8 @@ Conventions
   the capacity was there).
 * Occupied periods are the schedule's, read from the comfort columns: a zone's narrowest band
   in the run is its occupied band (:func:`occupied_mask`).
-* IL settlement against metered power (:mod:`hvacflex.settlement`, ``docs/il_events.md``):
+* IL settlement against metered power (:mod:`hvacflex.settlement`,
+``docs/explanation/il_events.md``):
   in an activated period (``il_activated``) the building **delivers** ``il_delivered_kw`` =
   max(0, ``il_baseline_power_kw`` − ``power_kw``); the **shortfall** ``il_shortfall_kw`` =
   max(0, ``reserve_kw`` − delivered) is charged at ``il_penalty_price_sgd_per_mwh`` plus the
@@ -77,7 +78,7 @@ def _column(results: pd.DataFrame, name: str) -> pd.Series:
             "results frame lacks a required column",
             source="results",
             field=name,
-            hint="see the Results table of docs/architecture.md for the column schema",
+            hint="see the columns in docs/reference/results.md for the column schema",
         )
     return results[name]
 
@@ -403,8 +404,8 @@ def monthly_ppp_charge_sgd(
 
     With a constant price φ [SGD/kW]: φ × the month's largest 30-min average power. With
     ``peak_price_sgd_per_kw=None`` the column of that name is used; when it varies in time the
-    charge is ``max_k φ_k P_k`` over the month (docs/model.md §2), which equals φ × peak when
-    constant.
+    charge is ``max_k φ_k P_k`` over the month (docs/explanation/model.md §2), which equals φ × peak
+    when constant.
 
     Returns
     -------
@@ -743,7 +744,7 @@ def fallback_count(results: pd.DataFrame) -> int:
 def model_extrapolation_steps(results: pd.DataFrame) -> int:
     """Number of periods planned outside an identified model's validity range (column
     ``model_extrapolation``: a zone's planned end temperature or the forecast outdoor
-    temperature beyond the training data's; docs/identify.md). 0 for results written before
+    temperature beyond the training data's; docs/guide/identify.md). 0 for results written before
     the column existed."""
     if "model_extrapolation" not in results.columns:
         return 0
@@ -753,8 +754,8 @@ def model_extrapolation_steps(results: pd.DataFrame) -> int:
 
 def peak_guard_steps(results: pd.DataFrame) -> int:
     """Number of periods in which the in-period peak guard shed load to hold the committed
-    peak (column ``peak_guard_active``; docs/model.md, the committed peak). 0 for results
-    written before the column existed."""
+    peak (column ``peak_guard_active``; docs/explanation/model.md, the committed peak). 0 for
+    results written before the column existed."""
     if "peak_guard_active" not in results.columns:
         return 0
     flags = results["peak_guard_active"].fillna(False).astype(bool).to_numpy()

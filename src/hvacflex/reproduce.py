@@ -7,7 +7,7 @@ One call runs, as Dask jobs (see :mod:`hvacflex.sim.sweep`; the plan is
   model, the same three under the paper's whole-horizon reserve model, (b) and (c) with
   affine disturbance feedback (whole-horizon model), the 24 °C thermostat and the strong
   rule-based baselines (``thermostat-25.5``, ``trim-respond``, ``demand-limit``, ``gta-dr``;
-  docs/baselines.md), over the whole of 2014 (``--quick``: one week);
+  docs/explanation/baselines.md), over the whole of 2014 (``--quick``: one week);
 * the PPP sweep 0.5–30 SGD/kW on scenario (c) — Fig. 7;
 * the uncertainty sweep 0–50 % of the heat gains for open-loop RMPC (and the affine-feedback
   RMPC) next to NMPC — the price of robustness — and the hot-corner runs;
@@ -103,7 +103,7 @@ def run_folder(out_dir: str | Path, config: ScenarioConfig) -> Path:
 
     The run name says what the run is (``rmpc``, ``paper-rmpc``, ``thermostat-25.5``,
     ``ppp-1.5``, ``rmpc-unc25``, ``nmpc-hot-corner``, ``energyplus-rmpc``, ``week-rmpc``;
-    docs/reproduction.md lists them) and is unique within a plan, so ``hvacflex kpi
+    docs/explanation/reproduction.md lists them) and is unique within a plan, so ``hvacflex kpi
     results/reproduce/runs/rmpc`` works and a second reproduction updates each folder in
     place.
     """

@@ -7,7 +7,7 @@ hvacflex's RC plant.
 
 EnergyPlus is the judge here: the controllers plan with hvacflex's RC model and never see
 EnergyPlus's, so cost, peak and comfort on that plant are graded by an engine the controller
-does not assume (docs/energyplus.md). :func:`energyplus_jobs` makes the runs;
+does not assume (docs/guide/energyplus.md). :func:`energyplus_jobs` makes the runs;
 :func:`plant_comparison` tabulates them (``energyplus_vs_rc.csv``), :func:`plot_plant_week`
 draws them, and :func:`energyplus_section` writes the report's section with the verdicts of
 :mod:`hvacflex.report.verdicts` computed on EnergyPlus.
@@ -326,10 +326,11 @@ def energyplus_section(
             "office5's own IDF export (VAV air loop with a chiller; hvacflex building "
             "export-idf office5), beside the same runs on hvacflex's RC plant. The controllers "
             "plan with hvacflex's RC model and send zone cooling setpoints (the planned "
-            "end-of-period temperature clipped to the band, docs/energyplus.md); EnergyPlus's "
-            "own loops track them. Energy, cost, peak and comfort on EnergyPlus are measured on "
-            "EnergyPlus's meters and zone temperatures; the HVAC energy is Electricity:HVAC + "
-            "Electricity:Plant, the facility energy ElectricityPurchased:Facility. "
+            "end-of-period temperature clipped to the band, docs/guide/energyplus.md); "
+            "EnergyPlus's own loops track them. Energy, cost, peak and comfort on EnergyPlus are "
+            "measured on EnergyPlus's meters and zone temperatures; the HVAC energy is "
+            "Electricity:HVAC + Electricity:Plant, the facility energy "
+            "ElectricityPurchased:Facility. "
             f"tariff_cost_sgd prices every run alike: HVAC energy + φ = "
             f"{peak_price_sgd_per_kw:g} SGD/kW × the billed HVAC peak (prorated to the days "
             "covered) + IL penalties − reserve revenue settled against the meter (activated "

@@ -75,7 +75,7 @@ REALISTIC_FORECAST: dict[str, Any] = {
 }
 """Overrides of the full run's scenario, Fig. 7 and EnergyPlus jobs (issue 33 item 1): the
 statistical weather forecaster and stochastic occupancy, the plant seeing the data —
-docs/forecast.md's "realistic" case, errors the controller does not know. The robustness
+docs/explanation/forecast.md's "realistic" case, errors the controller does not know. The robustness
 sweep and the hot corner keep drawing errors in their boxes: that is what they measure."""
 
 REALISTIC_GROUPS: tuple[str, ...] = ("scenarios", "ppp", "energyplus")

@@ -207,11 +207,12 @@ def validation_section(sections: Sequence[Any], energyplus: Any) -> Any:
         paragraphs=[
             "Every number above outside the EnergyPlus section is measured on hvacflex's own RC "
             "plant. The envelope model is checked against ASHRAE Standard 140 (BESTEST: "
-            "hvacflex validate bestest; the table in docs/validation.md of the hvacflex source) "
+            "hvacflex validate bestest; the table in docs/explanation/validation.md of the "
+            "hvacflex source) "
             "and against EnergyPlus 25.2 on office5's own IDF export (hvacflex validate "
             "energyplus office5: zone-air RMSE, cooling energy and HVAC electricity per case; "
-            "docs/validation.md and docs/energyplus.md). Run hvacflex reproduce --energyplus "
-            "for the controllers graded by EnergyPlus.",
+            "docs/explanation/validation.md and docs/guide/energyplus.md). Run hvacflex "
+            "reproduce --energyplus for the controllers graded by EnergyPlus.",
         ],
         links=links,
     )

@@ -2,8 +2,8 @@
 writer/reader pair of results files.
 
 A closed-loop run writes one Parquet file (:data:`RESULTS_FILENAME`), one row per control
-step, index :data:`INDEX_NAME` (period starts, tz-aware). Its columns (the *Results* table of
-``docs/architecture.md``) are, in this order (:func:`step_frame_columns`):
+step, index :data:`INDEX_NAME` (period starts, tz-aware). Its columns
+(``docs/reference/results.md``) are, in this order (:func:`step_frame_columns`):
 
 * the per-step floats of :data:`STEP_SCALAR_UNITS`;
 * per zone, the :class:`ZoneColumn` kinds of :data:`ZONE_COLUMNS` (``temp_<zone>_degc``, …);
@@ -13,7 +13,7 @@ step, index :data:`INDEX_NAME` (period starts, tz-aware). Its columns (the *Resu
 * the flags :data:`FLAG_COLUMNS` and the text column :data:`STATUS_COLUMN`.
 
 A fleet run writes its own per-step table under the same file name (:data:`FLEET_FLOAT_UNITS`,
-:data:`FLEET_FLAG_COLUMNS`, :data:`FLEET_ITERATIONS_COLUMN`; ``docs/fleet.md``) and every
+:data:`FLEET_FLAG_COLUMNS`, :data:`FLEET_ITERATIONS_COLUMN`; ``docs/guide/fleet.md``) and every
 building's rows in long format (:data:`BUILDINGS_FILENAME`, column :data:`BUILDING_COLUMN`).
 
 Units are spelled as :data:`hvacflex.building.channels.CHANNEL_UNITS` spells them (``degC``,
@@ -242,7 +242,7 @@ FLEET_FLOAT_UNITS: dict[str, str] = {
     "il_dispatched_kw": "kW",
     "il_delivered_buildings_kw": "kW",
 }
-"""A fleet run's per-step float columns, in file order → unit (``docs/fleet.md``)."""
+"""A fleet run's per-step float columns, in file order → unit (``docs/guide/fleet.md``)."""
 
 FLEET_FLAG_COLUMNS: tuple[str, ...] = ("bid_accepted", "feeder_infeasible", "il_activated")
 """A fleet run's boolean per-step columns, in file order (after the floats)."""
@@ -412,7 +412,7 @@ def column_unit(column: str, zones: Collection[str] | None = None) -> str:
         "not a results column",
         source="results",
         field=column,
-        hint="see the Results table of docs/architecture.md (fleet runs: docs/fleet.md)",
+        hint="see the columns in docs/reference/results.md (fleet runs: docs/guide/fleet.md)",
     )
 
 
@@ -554,7 +554,7 @@ def load_results(path: str | Path) -> pd.DataFrame:
             "not a results file: required columns are missing",
             source=file,
             field=", ".join(missing),
-            hint=hint + "; see the Results table of docs/architecture.md",
+            hint=hint + "; see the columns in docs/reference/results.md",
         )
     if not isinstance(results.index, pd.DatetimeIndex) and INDEX_NAME in results.columns:
         results = results.set_index(INDEX_NAME)

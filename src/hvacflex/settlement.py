@@ -25,8 +25,8 @@ activated period k (column ``il_activated``):
   it (f = 1: ``il_forfeited_price_sgd_per_mwh`` = b_k; f = 0: that column is 0).
 
 Outside activated periods the baseline is NaN and delivered and shortfall are 0. Everything
-here is a pure function of the per-period series (``docs/il_events.md``): the closed loop
-fills the columns with :func:`settlement_columns`, and :mod:`hvacflex.kpi` sums them.
+here is a pure function of the per-period series (``docs/explanation/il_events.md``): the closed
+loop fills the columns with :func:`settlement_columns`, and :mod:`hvacflex.kpi` sums them.
 """
 
 from __future__ import annotations

@@ -84,7 +84,7 @@ class SimulationResult:
 
     Attributes
     ----------
-    results : one row per period (the results table of ``docs/architecture.md``).
+    results : one row per period (the results table of ``docs/explanation/architecture.md``).
     summary : the KPIs (:func:`hvacflex.kpi.summary`) and the plant keys (``plant``,
         ``plant_idf``, ``plant_actuation``), as in ``summary.json`` but for the timings.
     """

@@ -136,8 +136,9 @@ def test_linear_model_conservative_above_minimum_flow(shipped: Building) -> None
         assert error.min() >= -1e-9
         errors.append(error.max())
     assert min(errors) > 0.05  # the model–plant mismatch above the reference flow is real
-    # size of the full-flow error over one 30-min step from 28 °C (see docs/buildings.md);
-    # office5 is linearised at zero flow (its air handler may stop when unoccupied)
+    # size of the full-flow error over one 30-min step from 28 °C (see
+    # docs/explanation/buildings.md); office5 is linearised at zero flow (its air handler may stop
+    # when unoccupied)
     expected_full_flow_error_k = {"office5": 1.90, "room1": 1.38}[shipped.name]
     assert errors[-1] == pytest.approx(expected_full_flow_error_k, abs=0.05)
 

@@ -1,7 +1,8 @@
-"""office15, the shipped 3-storey 15-zone office: hand checks as for office5 (docs/buildings.md).
+"""office15, the shipped 3-storey 15-zone office: hand checks as for office5
+(docs/explanation/buildings.md).
 
-It is a resource, not a module; these tests check the numbers docs/buildings.md gives for it:
-envelope UA by hand, the steady-state energy balance across the slabs, the design load per
+It is a resource, not a module; these tests check the numbers docs/explanation/buildings.md gives
+for it: envelope UA by hand, the steady-state energy balance across the slabs, the design load per
 m² and flows against office5's, the discrete model's sign conditions and the plant against an
 ODE solver.
 """
@@ -45,7 +46,7 @@ def test_geometry_three_office5_floors(office15: Building, office5: Building) ->
         names = [f"{z.name}_{storey}" for z in office5.zones]
         areas = {z.name: z.floor_area_m2 for z in office15.zones}
         assert [areas[n] for n in names] == [z.floor_area_m2 for z in office5.zones]
-    assert 1 / R_ROOF <= 0.5  # docs/model.md §1: roof U ≤ 0.5 W/m²K
+    assert 1 / R_ROOF <= 0.5  # docs/explanation/model.md §1: roof U ≤ 0.5 W/m²K
 
 
 def test_envelope_ua_by_hand(office15: Building) -> None:
@@ -115,17 +116,18 @@ def test_plant_step_matches_ode_solver(office15: Building) -> None:
     np.testing.assert_allclose(plant.step(x0, flow, d), sol.y[:, -1], atol=1e-7)
 
 
-DOCS_BUILDINGS = Path(__file__).parents[2] / "docs" / "buildings.md"
+DOCS_BUILDINGS = Path(__file__).parents[2] / "docs" / "explanation" / "buildings.md"
 
 
 def test_docs_figures_match_building_show(office15: Building) -> None:
-    """The numbers docs/buildings.md quotes for office15 are the ones `building show` prints."""
+    """The numbers docs/explanation/buildings.md quotes for office15 are the ones `building show`
+    prints."""
     text = DOCS_BUILDINGS.read_text(encoding="utf-8").split("## `office15`")[1]
     s = summarize(office15)
 
     def number(pattern: str) -> float:
         match = re.search(pattern, text)
-        assert match is not None, f"docs/buildings.md no longer says {pattern!r}"
+        assert match is not None, f"docs/explanation/buildings.md no longer says {pattern!r}"
         return float(match.group(1).replace(",", ""))
 
     assert number(r"zone sensible \*\*([\d.]+) kW") == round(s.design_zone_load_kw, 1)

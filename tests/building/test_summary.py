@@ -49,18 +49,20 @@ def test_cli_building_show() -> None:
 KW_PER_TON_REFRIGERATION = 3.51685
 """1 refrigeration ton (12,000 BTU/h) [kW] (ASHRAE Handbook, Fundamentals: units)."""
 
-DOCS_BUILDINGS = Path(__file__).parents[2] / "docs" / "buildings.md"
+DOCS_BUILDINGS = Path(__file__).parents[2] / "docs" / "explanation" / "buildings.md"
 
 
 def _doc_number(pattern: str) -> float:
-    """The number captured by ``pattern`` in docs/buildings.md (thousands commas dropped)."""
+    """The number captured by ``pattern`` in docs/explanation/buildings.md (thousands commas
+    dropped)."""
     match = re.search(pattern, DOCS_BUILDINGS.read_text(encoding="utf-8"))
-    assert match is not None, f"docs/buildings.md no longer says {pattern!r}"
+    assert match is not None, f"docs/explanation/buildings.md no longer says {pattern!r}"
     return float(match.group(1).replace(",", ""))
 
 
 def test_docs_figures_match_building_show(office5: Building) -> None:
-    """The numbers docs/buildings.md quotes for office5 are the ones `building show` prints."""
+    """The numbers docs/explanation/buildings.md quotes for office5 are the ones `building show`
+    prints."""
     s = summarize(office5)
     assert _doc_number(r"electric \*\*([\d.]+) kW\*\*") == round(s.design_power_kw, 1)
     assert _doc_number(r"zone sensible ([\d.]+) kW") == round(s.design_zone_load_kw, 1)

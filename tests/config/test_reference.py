@@ -19,14 +19,14 @@ from hvacflex.config.reference import (
     unit_of,
 )
 
-REFERENCE = Path(__file__).resolve().parents[2] / "docs" / "scenario_reference.md"
+REFERENCE = Path(__file__).resolve().parents[2] / "docs" / "reference" / "scenario_reference.md"
 
 
 def test_the_committed_reference_is_up_to_date() -> None:
     committed = REFERENCE.read_text(encoding="utf-8")
     assert committed == reference_markdown(), (
-        "docs/scenario_reference.md is out of date with the scenario schema: regenerate it "
-        "with `hvacflex config reference --out docs/scenario_reference.md`"
+        "docs/reference/scenario_reference.md is out of date with the scenario schema: "
+        "regenerate it with `hvacflex config reference --out docs/reference/scenario_reference.md`"
     )
 
 

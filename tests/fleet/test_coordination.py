@@ -21,7 +21,7 @@ from hvacflex.fleet.schema import fleet_from_dict
 COORDINATION_GAP = 2.0
 """Stated gap bound for this hard case (08:00, occupancy pull-down, limit 90 % of the
 uncoordinated peak): measured 84-155 % above the centralised optimum depending on the
-iteration count (docs/fleet.md); at midday steps it is ~4 %. The price iterations are the
+iteration count (docs/guide/fleet.md); at midday steps it is ~4 %. The price iterations are the
 weak part; the cap machinery itself is exact (next assertion)."""
 
 

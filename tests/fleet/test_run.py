@@ -234,7 +234,7 @@ def test_a_fleet_runs_on_a_tcp_scheduler_started_apart(
 @pytest.fixture(scope="module")
 def activated_fleet(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """Three buildings under a limit that does not bind (a fleet at a binding limit has no
-    room to curtail, docs/fleet.md), the synthetic reserve price at the fleet file's
+    room to curtail, docs/guide/fleet.md), the synthetic reserve price at the fleet file's
     ``[data] reserve_price_scale = 200`` SGD/MWh (the calibrated 48.5 also sells at 12:00
     today; the scale is checked in the prices the run records), any bid accepted, IL
     activated by the grid operator at 12:00 and 12:30 (a file schedule)."""

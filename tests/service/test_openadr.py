@@ -95,7 +95,7 @@ def test_without_openleadr_the_ven_names_the_extra_to_install(
 
 
 def test_the_note_says_what_a_utility_would_still_need_and_how_far_the_adapter_is() -> None:
-    text = (Path(__file__).resolve().parents[2] / "docs" / "service.md").read_text()
+    text = (Path(__file__).resolve().parents[2] / "docs" / "guide" / "service.md").read_text()
     note = text.split("### What a utility would still need", 1)[1].split("\n## ", 1)[0]
     for needed in ("**Certification.**", "**EiOpt.**", "**OpenADR 3.0**", "**How far the adapter"):
         assert needed in note, needed

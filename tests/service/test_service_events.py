@@ -1,5 +1,5 @@
-"""IL events in the service follow the closed loop's event model (docs/il_events.md): a start
-locks the plan, locked periods run it without the solver, the end starts the recovery; the
+"""IL events in the service follow the closed loop's event model (docs/explanation/il_events.md): a
+start locks the plan, locked periods run it without the solver, the end starts the recovery; the
 event state survives a restart (it is stored with the controller's state)."""
 
 from __future__ import annotations

@@ -29,7 +29,7 @@ def _relative_differences(problems: list[RMPCProblem]) -> list[float]:
     """Per step |warm − cold| / max(1, |cold|) of HiGHS's objective [-].
 
     Also checks that the solver's path is the warm one: at most 1 step in 10 may fall back
-    to a cold solve (a warm start HiGHS cannot use, see docs/performance.md)."""
+    to a cold solve (a warm start HiGHS cannot use, see docs/reference/performance.md)."""
     warm_solver = RMPCSolver(problems[0])
     differences = []
     warm_steps = 0

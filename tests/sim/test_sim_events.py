@@ -304,7 +304,7 @@ def _office_offered_kwh(frame: pd.DataFrame) -> float:
 
 
 def _check_stress_settlement(frame: pd.DataFrame, summary: dict[str, Any]) -> None:
-    """Issue 25's done-when figures that hold on any window (see docs/il_events.md)."""
+    """Issue 25's done-when figures that hold on any window (see docs/explanation/il_events.md)."""
     for column in ("il_baseline_power_kw", "il_delivered_kw", "il_shortfall_kw"):
         assert column in frame.columns
     activated = frame["il_activated"].to_numpy(bool)
@@ -317,7 +317,7 @@ def _check_stress_settlement(frame: pd.DataFrame, summary: dict[str, Any]) -> No
     assert summary["il_offered_kwh"] == pytest.approx(offered)
     assert summary["il_delivered_metered_kwh"] >= 0.95 * summary["il_offered_kwh"]
     # delivery capped at the offer, period by period, is the offer less the shortfall (the
-    # stress week at 48.5 SGD/MWh: 89 % of the offer, docs/il_events.md)
+    # stress week at 48.5 SGD/MWh: 89 % of the offer, docs/explanation/il_events.md)
     capped = np.minimum(frame["il_delivered_kw"], frame["reserve_kw"]).to_numpy()[activated]
     assert capped.sum() * 0.5 == pytest.approx(
         summary["il_offered_kwh"] - summary["il_shortfall_kwh"], abs=1e-9
@@ -340,8 +340,8 @@ def test_two_stress_days_are_settled_against_metered_power(tmp_path: Path) -> No
 
 def test_stress_week_meets_issue_25s_done_when(tmp_path: Path) -> None:
     """Issue 25's done-when case: ``rmpc``, 5 days from 2014-03-03, stress activations, on
-    the RC plant. Measured (docs/il_events.md, 2026-12-05): 13 activated periods, offered in
-    them 4.44 kWh, delivered capped at the offer 98 % (0.07 kWh short in one period), the
+    the RC plant. Measured (docs/explanation/il_events.md, 2026-12-05): 13 activated periods,
+    offered in them 4.44 kWh, delivered capped at the offer 98 % (0.07 kWh short in one period), the
     plant's counterfactual 138 %, offered in weekday office hours 36.8 kWh (≥ 36); with the
     plan paid q·r and the offers cut afterwards (``plan_visible_offers`` off) 25.5 kWh and
     90 %. Planned with the design curves, the RC plant's own equations (``power_model =

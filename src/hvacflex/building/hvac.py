@@ -22,7 +22,7 @@ leaves with the relief air. L is an optional argument (default 0: return air at 
 humidity ratio, i.e. only the outdoor air's moisture is removed); the controller's affine
 model takes the term's secant over the step's flow range (it vanishes when the fan is off).
 
-Affine model for the controller (docs/model.md §1): the coil heat is linear in ṁ at
+Affine model for the controller (docs/explanation/model.md §1): the coil heat is linear in ṁ at
 T_r = T_ref with the outdoor air replaced by its secant a + b S over the step's flow range
 [S_min, S_max] (a = 0, b = f_oa for the fixed share); the plant's power by its secant over
 the coil heat of that range (the chiller's power is concave: the secant lies below it); the

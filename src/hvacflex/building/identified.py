@@ -1,6 +1,6 @@
 """An identified grey-box model as a building: its parameters and its power model.
 
-A building identified from trend data (``hvacflex identify fit``, docs/identify.md) has no
+A building identified from trend data (``hvacflex identify fit``, docs/guide/identify.md) has no
 walls or windows; its ``[identified]`` table holds the fitted RC network instead. Per zone
 ``i`` an air node and one mass node, and per unconditioned zone of the data (a plenum) a
 boundary node (all temperatures [°C])::

@@ -71,7 +71,7 @@ FIELD_HINTS: dict[str, str] = {
     "reserve_zones": "an array of zone names",
     "running_periods": "a power model fitted on so few periods with the air loop running is "
     "not trusted: refit it on a trend with more HVAC operation (hvacflex identify power / "
-    "identify fit, docs/identify.md)",
+    "identify fit, docs/guide/identify.md)",
 }
 """Hints added to schema errors, by field name or ``table.field`` (indices dropped)."""
 

@@ -41,10 +41,10 @@ DESIGN_SOLAR_HORIZONTAL_W_PER_M2 = 950.0
 DESIGN_ZONE_TEMP_DEGC = 24.0
 """Zone temperature held for the design load [°C]."""
 A_TOLERANCE = -1e-12
-"""Elementwise tolerance of the discrete A ≥ 0 check (docs/model.md §1)."""
+"""Elementwise tolerance of the discrete A ≥ 0 check (docs/explanation/model.md §1)."""
 VENTILATION_L_S_PER_PERSON = 5.5
 VENTILATION_L_S_PER_M2 = 0.3
-"""Outdoor-air requirement (docs/model.md §1) [L/s per person, L/s per m²]."""
+"""Outdoor-air requirement (docs/explanation/model.md §1) [L/s per person, L/s per m²]."""
 
 
 @dataclass(frozen=True)

@@ -124,16 +124,16 @@ __all__ = [
 LINEARISATION_MARGIN_K = 1.0
 """Default T₀ sits this far below the occupied upper bound [K].
 
-docs/model.md §1 recommends T₀ = the occupied lower bound (23 °C), which never over-predicts the
-cooling of the supply air while T_r ≥ T₀. But the MPC spends its occupied hours near the
-upper bound, where that choice under-predicts the cooling by (26 − 23)/(26 − 13) ≈ 23 %: the
-plant then runs colder than planned, the nominal MPC buys that margin on every step, and the
+docs/explanation/model.md §1 recommends T₀ = the occupied lower bound (23 °C), which never
+over-predicts the cooling of the supply air while T_r ≥ T₀. But the MPC spends its occupied hours
+near the upper bound, where that choice under-predicts the cooling by (26 − 23)/(26 − 13) ≈ 23 %:
+the plant then runs colder than planned, the nominal MPC buys that margin on every step, and the
 margin hides the forecast errors the robust MPC is there to handle (measured: nominal MPC
 cost +5 % and no comfort violation at any box size up to 10 %). One kelvin below the upper
 bound keeps the linearisation conservative where it matters (T_r ≥ 25 °C, near the upper
 bound) and its non-conservative side self-limiting (below 25 °C the zone is at least 1 K
 from the upper bound and the error is ≤ about 0.4 K per kelvin at full flow). See the note
-in ``docs/reproduction.md``."""
+in ``docs/explanation/reproduction.md``."""
 
 _MESSAGES: dict[str, str] = {
     "extra_forbidden": "unknown key",

@@ -54,8 +54,9 @@ provider may resume consumption. The product presets plan for events of up to th
 DEFAULT_EVENTS_PER_YEAR = 4.0
 """Rate of random IL activations [events per year]. NEMS activates interruptible load only
 after a contingency (the loss of a large generating unit drives the frequency down), which
-happens a few times a year; 4 a year is our assumption within that "rare" (docs/il_events.md),
-not a published statistic — a setting (``[activation] events_per_year``)."""
+happens a few times a year; 4 a year is our assumption within that "rare"
+(docs/explanation/il_events.md), not a published statistic — a setting (``[activation]
+events_per_year``)."""
 
 DEFAULT_COMMIT_AHEAD_PERIODS = 2
 """g: reserve for period k is committed at the start of period k − g [30-min periods]. NEMS
@@ -106,9 +107,9 @@ class ControllerConfig:
     """Rule-based controllers: the night float's set-point below the unoccupied upper comfort
     bound [K] (never below the lower bound)."""
     peak_guard: PeakGuardMode = "auto"
-    """The in-period peak guard while φ > 0 (docs/model.md, the committed peak): ``"auto"`` on
-    a plant that reads its meter within a period (the RC plant), ``"on"`` required (a plant
-    that cannot: refused before the run), ``"off"`` never."""
+    """The in-period peak guard while φ > 0 (docs/explanation/model.md, the committed peak):
+    ``"auto"`` on a plant that reads its meter within a period (the RC plant), ``"on"``
+    required (a plant that cannot: refused before the run), ``"off"`` never."""
     peak_guard_substeps: int = 6
     """The guard's meter readings per period (6: every 5 min of a 30-min period)."""
     unoccupied_plan_margin_k: float = 0.5
@@ -125,12 +126,12 @@ class ControllerConfig:
     feedback: FeedbackConfig = field(default_factory=FeedbackConfig)
     linearisation: Linearisation = "fixed"
     """``"fixed"``: the model linearised once at (ṁ_min, T₀); ``"trajectory"``: re-linearised
-    each step about the previous plan shifted by one step (docs/estimation.md §3)."""
+    each step about the previous plan shifted by one step (docs/explanation/estimation.md §3)."""
 
 
 @dataclass(frozen=True)
 class EstimationConfig:
-    """What the controller measures (``[estimation]``, docs/estimation.md).
+    """What the controller measures (``[estimation]``, docs/explanation/estimation.md).
 
     ``"full-state"``: every node temperature of the plant; ``"kalman"``: only the zone air
     temperatures, with uniform sensor error in ±``measurement_noise_k`` [K], and a Kalman
@@ -150,7 +151,7 @@ class ReserveConfig:
     u − r must keep the strict comfort band for the whole horizon. An integer D is the event
     model: at most one activation of up to D consecutive 30-min periods in the horizon, during
     which and ``event_recovery_steps`` periods after which the upper comfort bound widens by
-    ``event_allowance_k``. See ``docs/il_events.md``.
+    ``event_allowance_k``. See ``docs/explanation/il_events.md``.
     """
 
     event_max_steps: int | None = None
@@ -192,7 +193,7 @@ class ReserveConfig:
 @dataclass(frozen=True)
 class CalibrationConfig:
     """Size the box from a training period's errors (``[uncertainty] calibrate``,
-    docs/forecast.md, :func:`hvacflex.data.calibration.calibrate_box`).
+    docs/explanation/forecast.md, :func:`hvacflex.data.calibration.calibrate_box`).
 
     ``train`` is ``"YYYY-MM-DD..YYYY-MM-DD"`` (both days included; it must not overlap the
     run); the box's half-widths per channel are the ``quantile`` of the errors of the
@@ -220,7 +221,7 @@ class UncertaintyConfig:
     ``relative`` is a fraction of the forecast value (solar, internal gains); ``absolute`` is
     in the channel's unit (K for temperatures, W/m² for solar, W for gains). Both add up.
     The default (±5 % of heat gains, ±0.5 K outdoor) is the largest level the default
-    building satisfies with margin; see ``docs/data.md`` and docs/model.md §3.
+    building satisfies with margin; see ``docs/reference/data.md`` and docs/explanation/model.md §3.
     """
 
     relative: Mapping[str, float] = field(
@@ -255,7 +256,7 @@ class RealisationConfig:
 
 @dataclass(frozen=True)
 class ForecastConfig:
-    """What the controller is told about the future (``[forecast]``, docs/forecast.md).
+    """What the controller is told about the future (``[forecast]``, docs/explanation/forecast.md).
 
     ``weather = "perfect"``: the weather file itself; ``"statistical"``: diurnal climatology
     plus a decaying AR(1) anomaly fitted on the ``train_days`` days before the run
@@ -298,7 +299,7 @@ class DataConfig:
     reserve_price_scale: float | None = None
     """Scale of the synthetic reserve price [SGD/MWh] (its level where USEP is the 2014 mean,
     before noise); ``None`` = the calibrated default, 48.5 SGD/MWh
-    (:data:`hvacflex.data.market.RESERVE_PRICE_SCALE`, docs/data.md)."""
+    (:data:`hvacflex.data.market.RESERVE_PRICE_SCALE`, docs/reference/data.md)."""
     reserve_price_correlation: float = RESERVE_PRICE_CORRELATION
     """Weight ρ of the USEP-driven part of the synthetic reserve price (1 = the calibrated
     series, 0 = independent of USEP; :func:`hvacflex.data.market.synthetic_reserve_prices`)."""
@@ -320,7 +321,7 @@ class ComfortConfig:
 
 @dataclass(frozen=True)
 class PlantConfig:
-    """What the closed loop drives (``[plant]``, docs/energyplus.md).
+    """What the closed loop drives (``[plant]``, docs/guide/energyplus.md).
 
     ``kind = "rc"`` is hvacflex's own RC network (flow-actuated); ``"energyplus"`` an
     EnergyPlus 25.2 model: ``idf`` is ``"generated"`` (the building's own export, ``--hvac

@@ -5,14 +5,14 @@ A preset is a partial scenario document (the same tables as a scenario TOML file
 load **events** (at most one activation of up to D = 4 periods in the horizon, the NEMS
 120-min rule, with a comfort allowance α during the event and R recovery periods after
 it); the ``paper-*`` presets keep the paper's whole-horizon model (the curtailed trajectory
-inside the strict band for the whole horizon). See ``docs/il_events.md``.
+inside the strict band for the whole horizon). See ``docs/explanation/il_events.md``.
 
 Product presets are activated at random (``[activation] mode = "random"``, a few events a
 year, seeded) and commit their reserve ``commit_ahead_periods`` = 2 periods ahead.
 
 Product presets bill the peak per billing period (``billing_mode = "billing-period"``: the
 MPC knows the month's peak so far); the ``paper-*`` and feedback presets keep the paper's
-per-horizon peak. The rule-based baselines are described in ``docs/baselines.md``.
+per-horizon peak. The rule-based baselines are described in ``docs/explanation/baselines.md``.
 
     nmpc               (a) nominal MPC, reserve offered under the event model, φ = 0
     rmpc               (b) robust MPC (σ from the box), event model, φ = 0
@@ -34,7 +34,7 @@ per-horizon peak. The rule-based baselines are described in ``docs/baselines.md`
                        model (the feedback LP does not support events)
     rmpc-feedback-ppp  the same with φ = 1.5 SGD/kW
     rmpc-output-feedback  rmpc from zone-air measurements (Kalman filter, estimation margin)
-                       with trajectory linearisation, event model (docs/estimation.md)
+                       with trajectory linearisation, event model (docs/explanation/estimation.md)
 """
 
 from __future__ import annotations
@@ -52,7 +52,7 @@ DEFAULT_PEAK_PRICE_PAPER_SGD_PER_KW = 1.5
 
 PRODUCT_EVENT_ALLOWANCE_K = 1.0
 """α of the product presets [K]: at D = 4 only α ≈ 1 K lets the office offer reserve at
-all (measured in ``docs/il_events.md``); 1 K above a 26 °C upper bound stays within the
+all (measured in ``docs/explanation/il_events.md``); 1 K above a 26 °C upper bound stays within the
 ASHRAE 55 80 %-acceptability band for a short excursion."""
 
 PRODUCT_EVENT_RECOVERY_STEPS = 2
@@ -164,4 +164,5 @@ BASELINE_PRESETS: tuple[str, ...] = (
     "demand-limit",
     "gta-dr",
 )
-"""The strong rule-based baselines (docs/baselines.md), which "does it pay?" ranks against."""
+"""The strong rule-based baselines (docs/explanation/baselines.md), which "does it pay?" ranks
+against."""

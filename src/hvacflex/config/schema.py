@@ -152,7 +152,7 @@ class FeedbackSpec(Spec):
     """Which gains the affine disturbance-feedback policy has: ``full`` (every gain),
     ``memory`` (innovations of the last ``memory_steps`` only), ``time-invariant`` (one gain
     per lag up to ``memory_steps``) or ``zone-local`` (each zone's input reacts to its own
-    zone's innovations, time-invariant; docs/closed_loop.md)."""
+    zone's innovations, time-invariant; docs/explanation/closed_loop.md)."""
     memory_steps: PositiveInt = default(FeedbackConfig, "memory_steps")
 
 
@@ -160,12 +160,12 @@ class ControllerSpec(Spec):
     kind: ControllerKind = default(ControllerConfig, "kind")
     """The controller: ``mpc`` (the model-predictive controller; ``robust`` says which) or a
     rule-based baseline: ``thermostat``, ``trim-respond``, ``demand-limit``, ``gta-dr``
-    (docs/baselines.md)."""
+    (docs/explanation/baselines.md)."""
     robust: RobustMode = default(ControllerConfig, "robust")
     """How the MPC treats forecast errors: ``none`` the nominal MPC (NMPC), ``tightening`` the
     robust MPC (RMPC, comfort bounds tightened by the worst case over the box), ``dual`` the
     same robust LP in explicit dual form, ``feedback`` affine disturbance-feedback policies
-    (docs/closed_loop.md)."""
+    (docs/explanation/closed_loop.md)."""
     reserve: Flag = default(ControllerConfig, "reserve")
     """Whether interruptible-load (IL) reserve is offered and paid the reserve price."""
     peak_price_sgd_per_kw: NonNegative = default(ControllerConfig, "peak_price_sgd_per_kw")
@@ -208,9 +208,9 @@ class ControllerSpec(Spec):
     commitment, sheds supply flow towards the period's floor in the zones below their upper
     comfort bound, releasing as soon as the planned flows fit; on EnergyPlus it reads the HVAC
     meters at the engine's zone time step and raises the cooling set-points towards the upper
-    bound by integral action on the excess, releasing step by step (docs/model.md). ``auto``:
-    where the plant reads its meter within a period (the RC and the EnergyPlus plant); ``on``:
-    required (a plant that cannot is refused before the run); ``off``: never."""
+    bound by integral action on the excess, releasing step by step (docs/explanation/model.md).
+    ``auto``: where the plant reads its meter within a period (the RC and the EnergyPlus plant);
+    ``on``: required (a plant that cannot is refused before the run); ``off``: never."""
     peak_guard_substeps: Annotated[PositiveInt, Field(le=60)] = default(
         ControllerConfig, "peak_guard_substeps"
     )
@@ -226,8 +226,8 @@ class ControllerSpec(Spec):
     power_model: PowerModelSource = default(ControllerConfig, "power_model")
     """The LP's power rows: ``metered`` plans with the building file's power model fitted to
     the meter of the scenario's plant (``[power_models.rc]`` / ``[power_models.energyplus]``,
-    ``hvacflex identify power``; docs/model.md §1.6) where the file has one, else with the
-    design curves; ``design`` always with the design curves (an identified building has only
+    ``hvacflex identify power``; docs/explanation/model.md §1.6) where the file has one, else with
+    the design curves; ``design`` always with the design curves (an identified building has only
     its fitted model)."""
     demand_limit_fraction: Annotated[Number, Field(gt=0.0, le=1.0)] = default(
         ControllerConfig, "demand_limit_fraction"
@@ -354,7 +354,7 @@ class RealisationSpec(Spec):
 class ForecastSpec(Spec):
     weather: WeatherForecastMode = default(ForecastConfig, "weather")
     """The weather forecast the controller is told: ``perfect`` (the weather file itself) or
-    ``statistical`` (fitted on the days before the run, docs/forecast.md)."""
+    ``statistical`` (fitted on the days before the run, docs/explanation/forecast.md)."""
     train_days: PositiveInt = default(ForecastConfig, "train_days")
     """The days before the run the statistical weather forecast is fitted on [days]."""
 
@@ -383,10 +383,10 @@ class DataSpec(Spec):
     shipped Singapore Changi TMYx."""
     usep_source: Text | None = default(DataConfig, "usep_source")
     """USEP energy-price CSV file(s) or a folder of them; leave it out for the shipped NEMS USEP
-    2014 (docs/data.md)."""
+    2014 (docs/reference/data.md)."""
     reserve_source: Text | None = default(DataConfig, "reserve_source")
     """A reserve-price CSV; leave it out for the seeded synthetic reserve prices
-    (docs/data.md)."""
+    (docs/reference/data.md)."""
     reserve_price_scale: Positive | None = default(DataConfig, "reserve_price_scale")
     reserve_price_correlation: Annotated[Number, Field(ge=0.0, le=1.0)] = default(
         DataConfig, "reserve_price_correlation"
@@ -450,7 +450,7 @@ class PlantSpec(Spec):
     kind: PlantKind = default(PlantConfig, "kind")
     """What the controller is graded on: ``rc`` (hvacflex's own nonlinear RC network) or
     ``energyplus`` (an EnergyPlus 25.2 model, needs the ``energyplus`` extra;
-    docs/energyplus.md)."""
+    docs/guide/energyplus.md)."""
     idf: Annotated[Text, Field(min_length=1)] = default(PlantConfig, "idf")
     """The EnergyPlus model: ``generated`` (the building's own IDF export), a shipped model's
     name (``5ZoneAirCooled``, ``packaged_shops``) or the path of an EnergyPlus 25.2 IDF file
@@ -532,7 +532,7 @@ class ScenarioSpec(Spec):
     """The run's name (in reports and tables); a scenario file's default is its file name."""
     building: Text = default(ScenarioConfig, "building")
     """The building: a shipped name (``office5``, ``room1``, ``bestest600``, ``bestest900``) or
-    the path of a building TOML file (docs/buildings.md)."""
+    the path of a building TOML file (docs/explanation/buildings.md)."""
     start: Annotated[Text, AfterValidator(_period_start)] = default(ScenarioConfig, "start")
     days: Annotated[Number, AfterValidator(_whole_periods)] = default(ScenarioConfig, "days")
     """The run's length [days]: a whole number of 30-min periods."""

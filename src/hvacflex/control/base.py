@@ -17,7 +17,8 @@ FloatArray = npt.NDArray[np.float64]
 
 @dataclass(frozen=True)
 class ReserveOffer:
-    """Reserve offered for one future period (committed g periods ahead, docs/il_events.md).
+    """Reserve offered for one future period (committed g periods ahead,
+    docs/explanation/il_events.md).
 
     Attributes
     ----------

@@ -1,7 +1,7 @@
 r"""Output feedback: a Kalman filter on the MPC's own affine model, with offset-free states.
 
 A building measures its zone air temperatures, not its wall and slab nodes. This module
-estimates every node from the zone air temperatures (docs/estimation.md).
+estimates every node from the zone air temperatures (docs/explanation/estimation.md).
 
 Model
 -----
@@ -17,7 +17,7 @@ with ``u`` the applied flow, ``d̂`` the forecast disturbance (known inputs toge
 affine term ``g``), ``w`` the forecast error in the box ``|w| ≤ σ`` (variance σ²/3 for a
 uniform draw), ``q`` and ``q^s`` white process noise of standard deviations
 ``process_noise_node_k`` and ``process_noise_offset_k`` (the tuned covariances; see
-``scripts/tune_kalman.py`` and docs/estimation.md). With the augmented state
+``scripts/tune_kalman.py`` and docs/explanation/estimation.md). With the augmented state
 ``z = (x, s)``, ``F_k = [[A_k, Cᵀ], [0, I]]`` and ``H = [C, 0]`` the filter is the textbook
 time-varying Kalman filter (predict with ``F_k``, update with ``H``); the MPC then plans
 from ``x̂`` and adds ``Cᵀ ŝ`` to its affine term (offset-free MPC).
@@ -55,11 +55,12 @@ DEFAULT_MEASUREMENT_NOISE_K = 0.1
 """Half-width a of the uniform zone-air sensor error [K] (BEMS sensors: ~0.1–0.2 K)."""
 
 DEFAULT_PROCESS_NOISE_NODE_K = 0.2
-"""Standard deviation of the per-step node process noise [K] (tuned: docs/estimation.md)."""
+"""Standard deviation of the per-step node process noise [K] (tuned:
+docs/explanation/estimation.md)."""
 
 DEFAULT_PROCESS_NOISE_OFFSET_K = 0.1
 """Standard deviation of the per-step random walk of the zone offset states [K]
-(tuned: docs/estimation.md)."""
+(tuned: docs/explanation/estimation.md)."""
 
 DEFAULT_INITIAL_STD_K = 1.0
 """Prior standard deviation of every node and offset at the first measurement [K]."""

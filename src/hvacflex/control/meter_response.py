@@ -1,10 +1,10 @@
 """How the meter answers the plan: the ratio that puts reserve offers on the metered scale.
 
-An offer is sized on the controller's power model (docs/il_events.md, "Offers that can be
-delivered"): the plan's curtailed power must lie below every baseline an activation could be
+An offer is sized on the controller's power model (docs/explanation/il_events.md, "Offers that can
+be delivered"): the plan's curtailed power must lie below every baseline an activation could be
 settled against by the offer. The market settles against the meter, and a power model whose
 power moves more than the meter's sheds on the meter only part of what its plan says — an
-identified model fitted on other weeks (docs/identify.md §6.1: in April the 5ZoneAirCooled
+identified model fitted on other weeks (docs/guide/identify.md §6.1: in April the 5ZoneAirCooled
 meter moves 0.5–0.6 kW for each kW the March-fitted plan moves), or a setpoint-actuated
 plant whose own loops track part of a planned change.
 

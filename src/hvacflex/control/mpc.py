@@ -63,9 +63,9 @@ class MPCController(Controller):
     estimation : Kalman filter settings for output feedback (``[estimation] mode =
         "kalman"``): :meth:`act` then needs the measured zone temperatures and plans from the
         estimate, with the offset estimate in the affine term and the estimation margin
-        (docs/estimation.md) added to δ when the MPC is robust; None = full state.
+        (docs/explanation/estimation.md) added to δ when the MPC is robust; None = full state.
     linearisation : ``"fixed"`` (``model`` throughout) or ``"trajectory"`` (re-linearised
-        each step about the previous plan shifted by one step, docs/estimation.md §3).
+        each step about the previous plan shifted by one step, docs/explanation/estimation.md §3).
     model_error_k : (m,) calibrated one-step model error per zone [K per step]
         (:func:`hvacflex.data.calibration.calibrate_box`); its margin
         (:func:`~hvacflex.control.problem_builder.model_error_margins`) tightens the comfort

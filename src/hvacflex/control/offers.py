@@ -1,4 +1,4 @@
-"""Reserve offers sized to what the settlement would see (docs/il_events.md).
+"""Reserve offers sized to what the settlement would see (docs/explanation/il_events.md).
 
 An MPC plan's reserve flows r_j become offers here: the plan's flows snapped onto the
 physical limits, each step's capacity q_j·r_j cut to what the settlement baselines would

@@ -1,7 +1,7 @@
 """Building + forecast → :class:`~hvacflex.opt.RMPCProblem`: the one place that builds it.
 
 :func:`build_problem` is pure: the same model, period inputs, contract and plan context give
-the same problem (docs/model.md §3):
+the same problem (docs/explanation/model.md §3):
 
 * dynamics ``x+ = A x + B u + E d + g`` from :func:`hvacflex.building.discretize.linearize`
   (or the step model of a re-linearisation), the filter's offset in the affine term,
@@ -99,7 +99,7 @@ def model_error_margins(
     """Comfort margin (N, m) [K] of a per-zone one-step model error ``|ε_z| ≤ model_error_k``
     (m,) [K per step] entering every step's zone temperature: the box margin of
     :func:`hvacflex.opt.robust.comfort_margins` with ``E = Cᵀ`` and σ = ε,
-    ``Σ_{j<k} |C A^{k−1−j} Cᵀ| ε`` (docs/forecast.md)."""
+    ``Σ_{j<k} |C A^{k−1−j} Cᵀ| ε`` (docs/explanation/forecast.md)."""
     sigma = np.tile(model_error_k, (config.horizon_steps, 1))
     return comfort_margins(model.a, model.c.T, model.c, sigma)
 

@@ -2,8 +2,8 @@ r"""Linearisation of the VAV term along the previous plan (``[controller] linear
 
 The fixed model linearises the bilinear supply-air term once, about (ṁ_min, T₀)
 (:func:`hvacflex.building.discretize.linearize`). Its one-step error against the plant grows
-with |ṁ − ṁ₀|·|T_r − T₀| (docs/estimation.md). Here each step k of the horizon is linearised
-about the previous plan shifted by one step, (ṁ_k, T_k) = (u_{k+1}, mean zone temperature
+with |ṁ − ṁ₀|·|T_r − T₀| (docs/explanation/estimation.md). Here each step k of the horizon is
+linearised about the previous plan shifted by one step, (ṁ_k, T_k) = (u_{k+1}, mean zone temperature
 of period k+1) of the last plan, which gives the time-varying model
 
     x_{k+1} = A_k x_k + B_k u_k + E_k d_k + g_k       (:func:`linearize_along`)
@@ -14,7 +14,8 @@ box error through the products of the A_k (:func:`time_varying_margins`)::
     δ_k = Σ_{j<k} |C Φ(k, j+1) E_j| σ_j,    Φ(k, j+1) = A_{k−1} ⋯ A_{j+1}  (Φ(j+1, j+1) = I).
 
 The MPC uses the first step's operating point for the whole horizon
-(:func:`first_step_operating_point`; see ``MPCController`` and docs/estimation.md for why).
+(:func:`first_step_operating_point`; see ``MPCController`` and docs/explanation/estimation.md for
+why).
 """
 
 from __future__ import annotations

@@ -20,8 +20,8 @@ period, at a stated quantile q (e.g. 0.95):
 * **model error** (one term per zone): ``ε_z = Q_q(|ε_z,k|)`` [K per step] of the one-step
   prediction error ``prediction_error_<zone>_k`` of the results (the error of the
   controller's linear model with the true state, the applied input and the realised
-  disturbance, docs/estimation.md §4). The MPC tightens the comfort band by its
-  accumulated effect ``Σ_{j<k} |C A^{k−1−j} Cᵀ| ε`` (docs/forecast.md).
+  disturbance, docs/explanation/estimation.md §4). The MPC tightens the comfort band by its
+  accumulated effect ``Σ_{j<k} |C A^{k−1−j} Cᵀ| ε`` (docs/explanation/forecast.md).
 
 ``Q_q`` is the empirical quantile taking the next-higher sample (``numpy.quantile``,
 ``method="higher"``), so at least a fraction q of the training samples lies inside.

@@ -25,7 +25,7 @@ forecast error that grows with lead time (as BOPTEST's forecast-uncertainty emul
 forecaster that does not know the future: the weather from a statistical model fitted on the
 days before the run (:mod:`hvacflex.data.weather_forecast`)
 and the internal gains from the schedule while the plant sees stochastic occupancy
-(:mod:`hvacflex.data.occupancy`); docs/forecast.md.
+(:mod:`hvacflex.data.occupancy`); docs/explanation/forecast.md.
 """
 
 from __future__ import annotations

@@ -115,7 +115,8 @@ DEFAULT_OFFICE_SCHEDULE = OfficeSchedule(
 
 @dataclass(frozen=True)
 class ComfortBand:
-    """Comfort bounds [°C] while occupied and unoccupied (docs/model.md §3: 23–26 and 20–30 °C)."""
+    """Comfort bounds [°C] while occupied and unoccupied (docs/explanation/model.md §3: 23–26 and
+    20–30 °C)."""
 
     occupied_degc: tuple[float, float] = (23.0, 26.0)
     unoccupied_degc: tuple[float, float] = (20.0, 30.0)

@@ -77,14 +77,14 @@ RESERVE_PRICE_SCALE = 48.5
 """Scale of the synthetic reserve price [SGD/MWh]: the reserve price when USEP equals
 :data:`RESERVE_PRICE_REFERENCE_SGD_PER_MWH`, before noise (median ≈ 0.9 × scale, mean ≈ scale).
 
-Calibrated once per model and frozen (docs/model.md §2): at this scale the product's scenario
-(a) (nominal MPC, IL event model D = 4, α = 1 K, R = 2, reserve committed g = 2 periods
+Calibrated once per model and frozen (docs/explanation/model.md §2): at this scale the product's
+scenario (a) (nominal MPC, IL event model D = 4, α = 1 K, R = 2, reserve committed g = 2 periods
 ahead, the EnergyPlus-following power model) earns reserve revenue ≈ 1 % of its energy cost
 (the paper's Table 1) over four two-day periods, one per quarter of 2014 (run and numbers in
-``docs/data.md``; 2026-12-02). The previous 15 SGD/MWh was calibrated on the old power model,
-under which a kg/s of curtailment saved ≈ 2.5× more power. It is about twenty times
-docs/model.md §2's guess of 2–3 SGD/MWh: a kW of reserve held for a two-hour event needs some
-pre-cooling bought at USEP, so reserve pays only where its price is a sizeable fraction of
+``docs/reference/data.md``; 2026-12-02). The previous 15 SGD/MWh was calibrated on the old power
+model, under which a kg/s of curtailment saved ≈ 2.5× more power. It is about twenty times
+docs/explanation/model.md §2's guess of 2–3 SGD/MWh: a kW of reserve held for a two-hour event needs
+some pre-cooling bought at USEP, so reserve pays only where its price is a sizeable fraction of
 the energy price.
 """
 
@@ -528,7 +528,8 @@ def synthetic_reserve_prices(
 ) -> pd.Series:
     """Seeded **synthetic** reserve (IL) prices correlated with the energy price.
 
-    No public NEMS reserve-price history exists, so hvacflex generates one (docs/model.md §2)::
+    No public NEMS reserve-price history exists, so hvacflex generates one
+    (docs/explanation/model.md §2)::
 
         b_k = scale · n_k · (ρ · f_k + (1 − ρ)),
         f_k = (max(c_k, 0) / c_ref) · (1 + g · max(0, c_k / c_spike − 1))

@@ -37,7 +37,7 @@ class OperatorSignals:
     reserve_price_sgd_per_mwh : reserve price [SGD/MWh] by period start (tz-aware).
     outdoor_temp_degc : a posted outdoor-temperature forecast [°C] by period start
         (tz-aware), replacing every ``outdoor_temp`` channel of the forecast there (the
-        typical-year weather of a live building, docs/service.md).
+        typical-year weather of a live building, docs/guide/service.md).
     peak_price_sgd_per_kw : φ [SGD/kW]; None keeps the scenario's.
     feeder_limit_kw : the feeder's power limit [kW] (None: none); read by a fleet coordinator.
     """

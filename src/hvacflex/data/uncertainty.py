@@ -3,7 +3,7 @@
 Box
 ---
 The realised disturbance is ``d_k = d̂_k + w_k`` with ``|w_k| ≤ σ_k`` elementwise
-(paper eq. 4, docs/model.md §3). :class:`UncertaintyBox` sets ``σ`` per channel *kind*
+(paper eq. 4, docs/explanation/model.md §3). :class:`UncertaintyBox` sets ``σ`` per channel *kind*
 (``outdoor_temp``, ``solar``, ``internal_gain``, ``ground_temp``) as a fraction of the
 forecast and/or an absolute value in the channel's unit::
 
@@ -12,7 +12,7 @@ forecast and/or an absolute value in the channel's unit::
 Worst-case margin
 -----------------
 For ``x_{k+1} = A x_k + … + E (d̂_k + w_k)`` and outputs ``y = C x``, the largest effect of the
-box on ``y_k`` (k = 1…N steps ahead) is (docs/model.md §3)::
+box on ``y_k`` (k = 1…N steps ahead) is (docs/explanation/model.md §3)::
 
     δ_k = Σ_{j<k} |C A^{k−1−j} E| σ_j        (elementwise absolute value)
 
@@ -24,9 +24,10 @@ Default level
 -------------
 :data:`DEFAULT_UNCERTAINTY` (±5 % of solar and internal gains, ±0.5 K outdoor temperature) is
 the largest level whose worst-case margin ``max_k δ_k`` stays well inside the occupied
-half-band of the default building (0.87 K of 1.5 K; basis and table in ``docs/data.md``).
+half-band of the default building (0.87 K of 1.5 K; basis and table in ``docs/reference/data.md``).
 :func:`paper_uncertainty` gives the paper's ±50 % of heat gains, which can make the
-open-loop robust problem infeasible for a perimeter zone (docs/model.md §3 "Uncertainty level").
+open-loop robust problem infeasible for a perimeter zone (docs/explanation/model.md §3 "Uncertainty
+level").
 """
 
 from __future__ import annotations
@@ -177,7 +178,7 @@ DEFAULT_UNCERTAINTY = UncertaintyBox(
     relative={"solar": 0.05, "internal_gain": 0.05}, absolute={"outdoor_temp": 0.5}
 )
 """Default box: ±5 % of solar and internal gains, ±0.5 K outdoor temperature — on office5
-its open-loop ``max_k δ_k`` is 0.87 K, 58 % of the occupied half-band (docs/data.md)."""
+its open-loop ``max_k δ_k`` is 0.87 K, 58 % of the occupied half-band (docs/reference/data.md)."""
 
 
 def paper_uncertainty(level: float = 0.5) -> UncertaintyBox:

@@ -359,7 +359,7 @@ class CoSimulation:
                     "the IDF offers no such actuator",
                     source=self.spec.source,
                     field=f"{actuator.component} / {actuator.control} [{actuator.key}]",
-                    hint="see docs/energyplus.md for what each actuation needs",
+                    hint="see docs/guide/energyplus.md for what each actuation needs",
                 )
             self._handles.actuators.append(handle)
 

@@ -26,7 +26,7 @@ building inside its caps (``RMPCProblem.power_max_kw``), so the applied plans ar
    μ_b ≥ 0 [SGD/kW] of each solve as subgradients (``RMPCSolver.power_cap_values_sgd_per_kw``),
    Kelley cuts ``V_b(c) ≥ V_b(cʲ) − μʲ·(c − cʲ)`` and a trust region |c − ĉ| ≤ Δ_k
    (:func:`solve_master`). Kept for comparison: B × P cap dimensions against P prices make
-   it converge much more slowly (docs/fleet.md).
+   it converge much more slowly (docs/guide/fleet.md).
 
 Stop (bundle) when (a) ``(master − bound) / |master|`` ≤ ``gap_tolerance`` with the bound
 the best Lagrangian value (a lower bound of the fleet optimum), (b) the model predicts less

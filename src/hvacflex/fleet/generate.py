@@ -258,7 +258,7 @@ def _table(lines: list[str], prefix: str, table: dict[str, Any]) -> None:
 
 def to_toml(doc: dict[str, Any]) -> str:
     """TOML text of a document of tables, arrays of tables and plain values."""
-    lines = ["# hvacflex fleet file (hvacflex fleet generate); format: docs/fleet.md"]
+    lines = ["# hvacflex fleet file (hvacflex fleet generate); format: docs/guide/fleet.md"]
     _table(lines, "", doc)
     return "\n".join(lines) + "\n"
 

@@ -17,7 +17,7 @@ on from there (the run is deterministic, so the result is the same). Started aga
 same fleet file, period and code, a run resumes from its checkpoint.
 
 Files written to ``out``: ``results.parquet`` (one row per step, fleet columns; schema in
-:mod:`hvacflex.results` and docs/fleet.md), ``buildings.parquet`` (long format: the
+:mod:`hvacflex.results` and docs/guide/fleet.md), ``buildings.parquet`` (long format: the
 single-building columns of every building plus ``building``), ``summary.json`` (fleet KPIs),
 ``buildings_summary.csv`` (per-building KPIs), ``config.json``, ``envelope.csv`` (the
 fleet's flexibility envelope at every step's start, :mod:`hvacflex.fleet.envelope`).

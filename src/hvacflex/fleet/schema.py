@@ -34,7 +34,7 @@ building file is (:func:`hvacflex.building.io.building_from_dict`)::
     feasibility_tolerance = 0.005
     step_sgd_per_mwh = 0.0          # 0 = automatic (mean energy price)
     cap_rounds = 4                  # prices scheme: cap reallocation rounds
-    scheme = "bundle"               # bundle | envelope | prices (docs/fleet.md)
+    scheme = "bundle"               # bundle | envelope | prices (docs/guide/fleet.md)
     plan_tolerance_kw = 0.01        # bundle: stop when plans move less than this
 
     [activation]                    # when the grid operator activates IL (default never)
@@ -51,7 +51,7 @@ building file is (:func:`hvacflex.building.io.building_from_dict`)::
     comfort_occupied_degc = [23.0, 26.0]
     comfort_unoccupied_degc = [20.0, 30.0]
     [buildings.building]
-    ...                             # a building description (docs/buildings.md)
+    ...                             # a building description (docs/explanation/buildings.md)
 
 Unknown keys are errors; every error names the file, the field, the value and a hint.
 """
@@ -110,7 +110,7 @@ class _Spec(BaseModel):
 class ReserveSpec(_Spec):
     """The IL contract every building plans for (defaults: the product's, PRODUCT_RESERVE).
 
-    ``event_max_steps`` = D ≥ 1 is the event model (docs/il_events.md); 0 selects the
+    ``event_max_steps`` = D ≥ 1 is the event model (docs/explanation/il_events.md); 0 selects the
     paper's whole-horizon model (then α and R must be 0).
     """
 
@@ -390,7 +390,7 @@ def _fleet_error(exc: ValidationError, source: Path | str) -> FleetConfigError:
             field=str(loc[0]),
             value=error["input"],
             hint=f"write it in the fleet file's [{table}] table: [{table}] {key} = "
-            f"{error['input']!r} (docs/fleet.md)",
+            f"{error['input']!r} (docs/guide/fleet.md)",
         )
     field = ""
     for part in loc:
@@ -399,7 +399,7 @@ def _fleet_error(exc: ValidationError, source: Path | str) -> FleetConfigError:
     hint = _HINTS.get(named[-1]) if named else None
     if error["type"] == "extra_forbidden":
         message, value = "unknown key", loc[-1] if loc else None
-        hint = hint or "see the keys `hvacflex fleet generate` writes (docs/fleet.md)"
+        hint = hint or "see the keys `hvacflex fleet generate` writes (docs/guide/fleet.md)"
     elif error["type"] == "missing":
         message, value, hint = "missing required field", None, hint or "add it to the file"
     else:

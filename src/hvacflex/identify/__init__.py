@@ -1,1 +1,1 @@
-"""Identify a controller model (grey-box RC) from measured trend data (docs/identify.md)."""
+"""Identify a controller model (grey-box RC) from measured trend data (docs/guide/identify.md)."""

@@ -19,7 +19,7 @@ Files written beside ``model.toml``:
   test days, and with an IDF the ``[plant]`` that controls the building the data came from
   (``kind = "energyplus"``, ``actuation = "setpoint"``). The estimation is the default: the
   measured zone air and boundary (plenum) temperatures, the mass nodes carried by the model
-  from their estimated start (docs/identify.md §6 measures it against the Kalman filter);
+  from their estimated start (docs/guide/identify.md §6 measures it against the Kalman filter);
 * ``baseline.toml`` — with an IDF, the building's own control on the same plant
   (``preset = "plant-baseline"``), what ``scenario.toml``'s runs are compared with.
 

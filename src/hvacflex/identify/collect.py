@@ -1,9 +1,9 @@
 """Trend data from an EnergyPlus model: the building under its own control plus an excitation.
 
 ``hvacflex identify collect`` runs an IDF as the :class:`~hvacflex.sim.energyplus_plant.
-EnergyPlusPlant` (setpoint actuation, docs/energyplus.md) for ``days`` days and writes what a
+EnergyPlusPlant` (setpoint actuation, docs/guide/energyplus.md) for ``days`` days and writes what a
 BMS export would give (:mod:`hvacflex.identify.trend`). The excitation is on the zones'
-cooling setpoints (docs/identify.md):
+cooling setpoints (docs/guide/identify.md):
 
 * ``range`` (default): the operating range a controller uses — in the occupied periods (the
   office schedule's: working days 08:00–18:00) the ``prbs`` below (set-point steps, flow

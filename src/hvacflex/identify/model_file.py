@@ -1,10 +1,10 @@
 """The identified model (``model.toml``) that ``hvacflex identify fit`` writes: a building file.
 
-The file is a building file of :func:`hvacflex.building.io.load_building` (docs/buildings.md,
-``[identified]`` in :mod:`hvacflex.building.schema`): ``[[zones]]`` with lower-case identifier
-names made from the data's names (:func:`identifier`), each with its data/IDF name in
-``energyplus_zone`` (matched case-insensitively by the EnergyPlus plant) and, when known,
-its ``floor_area_m2`` (conditioned zones only: a boundary carries none), and the fitted
+The file is a building file of :func:`hvacflex.building.io.load_building`
+(docs/explanation/buildings.md, ``[identified]`` in :mod:`hvacflex.building.schema`): ``[[zones]]``
+with lower-case identifier names made from the data's names (:func:`identifier`), each with its
+data/IDF name in ``energyplus_zone`` (matched case-insensitively by the EnergyPlus plant) and, when
+known, its ``floor_area_m2`` (conditioned zones only: a boundary carries none), and the fitted
 network in ``[identified]``: per zone its parameters (:data:`hvacflex.identify.greybox.
 ZONE_PARAMETERS`, units in the names) and its supply-flow range, the couplings, the
 boundaries (unconditioned zones, as nodes), the supply temperature, the power model and the

@@ -1,6 +1,6 @@
 """A power model from the meter: HVAC electricity fitted to a trend's ``hvac_power_kw``.
 
-The model (:class:`~hvacflex.building.identified.IdentifiedPower`, docs/identify.md §3) is
+The model (:class:`~hvacflex.building.identified.IdentifiedPower`, docs/guide/identify.md §3) is
 linear in its coefficients, so it is a bounded least-squares fit on the training periods of
 the regressors :func:`power_regressors` builds from the trend's zone flows, zone and supply
 temperatures, the outdoor temperature and the occupied share:

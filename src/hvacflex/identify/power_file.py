@@ -1,5 +1,5 @@
 """``hvacflex identify power``: a power model fitted to a plant's meter, for a designed
-building (docs/identify.md §3, docs/model.md §1).
+building (docs/guide/identify.md §3, docs/explanation/model.md §1).
 
 A designed building (office5) plans with its design curves unless its file carries a power
 model fitted to the meter of the plant it runs on, ``[power_models.rc]`` or

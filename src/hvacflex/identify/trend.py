@@ -1,6 +1,6 @@
 """The trend-data format: what a BMS export (or ``hvacflex identify collect``) gives the fit.
 
-One CSV file, one row per sample on a regular time index, the columns of docs/identify.md:
+One CSV file, one row per sample on a regular time index, the columns of docs/guide/identify.md:
 
 * ``time`` — the start of the sample's interval, ISO 8601 (with a UTC offset, or local time of
   the site, taken as :data:`hvacflex.constants.TIMEZONE`);
@@ -129,7 +129,7 @@ def _classify(column: str, source: str) -> tuple[str, str | None]:
         hint="columns are time, temp_<zone>_degc, supply_flow_<zone>_kg_s, "
         "supply_temp_<zone>_degc, setpoint_<zone>_degc, "
         + ", ".join((*REQUIRED_COLUMNS, *OPTIONAL_COLUMNS))
-        + " (docs/identify.md)",
+        + " (docs/guide/identify.md)",
     )
 
 
@@ -270,7 +270,7 @@ def _resample(frame: pd.DataFrame, step: pd.Timedelta, source: str) -> pd.DataFr
 
 
 def read_trend(path: str | Path) -> TrendData:
-    """Read and validate a trend CSV (module docstring, docs/identify.md).
+    """Read and validate a trend CSV (module docstring, docs/guide/identify.md).
 
     Returns
     -------
@@ -299,7 +299,7 @@ def read_trend(path: str | Path) -> TrendData:
                 source=source,
                 line=1,
                 field=column,
-                hint="see docs/identify.md for the trend format",
+                hint="see docs/guide/identify.md for the trend format",
             )
     kinds: dict[str, str] = {}
     zones: dict[str, set[str]] = {}

@@ -1,4 +1,5 @@
-r"""The feature blocks of an :class:`~hvacflex.opt.problem.RMPCProblem` (docs/model.md §3).
+r"""The feature blocks of an :class:`~hvacflex.opt.problem.RMPCProblem` (docs/explanation/model.md
+§3).
 
 The problem's core holds what every robust mode reads (model, forecast, prices, power model,
 bounds, peak term, slack, reserve mask and coefficient). Each feature that only some problems
@@ -146,7 +147,7 @@ class ILEventModel:
 @dataclass(frozen=True, eq=False, kw_only=True)
 class ReserveCommitment:
     """The reserve flows already committed to the market (offers are firm g periods ahead,
-    docs/il_events.md); the LP takes r_0 … r_{g−1} as fixed (column bounds r_k = value).
+    docs/explanation/il_events.md); the LP takes r_0 … r_{g−1} as fixed (column bounds r_k = value).
 
     Parameters
     ----------
@@ -255,8 +256,8 @@ class OfferBaselines:
     """The settlement baselines that each step's reserve offer is measured against.
 
     An activation covering step k starts at some s ∈ [k − D + 1, k] and is settled against
-    the power of the period before s (docs/il_events.md, "Offers that can be delivered").
-    For s ≥ 1 that is the plan's own power P_{s−1}, which the LP decides; for s = 0, or
+    the power of the period before s (docs/explanation/il_events.md, "Offers that can be
+    delivered"). For s ≥ 1 that is the plan's own power P_{s−1}, which the LP decides; for s = 0, or
     under a similar-days rule, a baseline the plan does not decide. The LP pays the reserve
     of step k for ``R_k = min(q_k·r_k, what every such baseline sees)`` only
     (:func:`hvacflex.opt.lp.add_visible_offers`), so the plan may shape its load to be

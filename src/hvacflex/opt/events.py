@@ -1,4 +1,5 @@
-r"""Interruptible-load (IL) events: the exact robust counterpart as LP rows (docs/il_events.md).
+r"""Interruptible-load (IL) events: the exact robust counterpart as LP rows
+(docs/explanation/il_events.md).
 
 Model
 -----
@@ -276,7 +277,7 @@ def violated_rows(violation: FloatArray, candidate: BoolArray, tolerance_k: floa
 
     Adding every violated row rather than the most violated one per (output, zone, kind)
     takes fewer re-solves (each re-solve re-factorises the basis): on office5's ``rmpc-ppp``
-    1.62 instead of 1.79 runs per step for 1 % more rows (docs/performance.md, issue 32).
+    1.62 instead of 1.79 runs per step for 1 % more rows (docs/reference/performance.md, issue 32).
     """
     chosen: IntArray = np.flatnonzero(candidate & (violation > tolerance_k)).astype(np.int64)
     return chosen

@@ -41,7 +41,7 @@ with ``G_l = C A^l E`` and ``H_l = C A^l B``. Each row is robust when its nomina
 
 Two trajectories still cover every partial IL activation pattern (same argument as the open
 loop: the activation terms have one sign and do not depend on w). The objective is the
-nominal (w = 0) cost, exactly docs/model.md §3.
+nominal (w = 0) cost, exactly docs/explanation/model.md §3.
 
 LP layout
 ---------

@@ -6,8 +6,8 @@ basis and retries; this module builds the LP and maps the basis onto it);
 :func:`hvacflex.opt.factory.make_solver` and :func:`~hvacflex.opt.factory.solve_rmpc` dispatch
 here.
 
-Warm start (measurements in ``docs/performance.md``, section "Feedback RMPC"). A cold solve
-of the zone-local LP on office5 (7,421 rows, 9,224 columns, ≈ 180k nonzeros) takes ≈ 8,000
+Warm start (measurements in ``docs/reference/performance.md``, section "Feedback RMPC"). A cold
+solve of the zone-local LP on office5 (7,421 rows, 9,224 columns, ≈ 180k nonzeros) takes ≈ 8,000
 dual simplex iterations (≈ 2 s); building it takes ≈ 3 ms. So the time is in the simplex,
 and the cure is a good starting basis. The LP's sparsity is fixed (the σ- and p-dependent
 coefficients are kept even when zero; the Q block of the robust peak exists for a fixed φ

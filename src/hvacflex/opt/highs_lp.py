@@ -67,7 +67,7 @@ _QUIET_OPTIONS: Mapping[str, Any] = MappingProxyType(
 #: with max-value scaling (``simplex_scale_strategy`` 4) a cold office5 step took ≈ 20–40 %
 #: less CPU (≈ 7,300 instead of ≈ 8,100 iterations), but every warm step after it took
 #: ≈ 20–35 % more (with fewer iterations; the cause was not isolated), which cancelled the gain
-#: within a day (docs/performance.md, "Feedback RMPC").
+#: within a day (docs/reference/performance.md, "Feedback RMPC").
 BASE_OPTIONS: Mapping[str, Any] = MappingProxyType(
     {**_QUIET_OPTIONS, "simplex_dual_edge_weight_strategy": 1}  # DEVEX_PRICING
 )
@@ -75,12 +75,12 @@ BASE_OPTIONS: Mapping[str, Any] = MappingProxyType(
 WARM_SCALE_STRATEGY = 0
 #: ``simplex_dual_edge_weight_strategy`` of a warm run of a session that asks for it (0:
 #: Dantzig pricing). On the open-loop event LP it takes ≈ 40 % fewer iterations than Devex
-#: from the rotated basis (docs/performance.md, issue 32); cold runs keep Devex.
+#: from the rotated basis (docs/reference/performance.md, issue 32); cold runs keep Devex.
 DANTZIG_PRICING = 0
 #: ``simplex_dual_edge_weight_strategy`` 1: Devex pricing (:data:`BASE_OPTIONS`' own).
 DEVEX_PRICING = 1
 #: Warm pricing per LP family, chosen by measurement (``benchmarks/bench_pricing.py``, both
-#: pricings side by side on the same problems; docs/performance.md, "Warm pricing per LP
+#: pricings side by side on the same problems; docs/reference/performance.md, "Warm pricing per LP
 #: family", 2026-12-06): the event model (the product LP) takes Dantzig (median 64 instead of
 #: 142 iterations over 48 closed-loop steps); the whole-horizon model Devex (29 instead of 81
 #: on bench_rmpc's 200 steps, 4 instead of 2 in the closed loop at the same CPU); the feedback

@@ -1,4 +1,5 @@
-r"""The robust MPC problem on plain arrays (docs/model.md §3, paper eq. 11–13) and its validation.
+r"""The robust MPC problem on plain arrays (docs/explanation/model.md §3, paper eq. 11–13) and its
+validation.
 
 Problem
 -------
@@ -95,7 +96,8 @@ _SOURCE = "RMPCProblem"
 
 @dataclass(frozen=True, eq=False, kw_only=True)
 class RMPCProblem:
-    """One robust MPC problem on plain arrays (docs/model.md §3); validated on construction.
+    """One robust MPC problem on plain arrays (docs/explanation/model.md §3); validated on
+    construction.
 
     Parameters
     ----------
@@ -322,7 +324,7 @@ class RMPCProblem:
                 source=_SOURCE,
                 field="comfort_penalty_sgd_per_kelvin_hour",
                 value=self.comfort_penalty_sgd_per_kelvin_hour,
-                hint="docs/model.md §3 uses ρ ≈ 100 SGD per K·h",
+                hint="docs/explanation/model.md §3 uses ρ ≈ 100 SGD per K·h",
             )
         if self.peak_floor_kw < 0:
             raise ProblemError(

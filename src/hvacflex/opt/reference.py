@@ -3,10 +3,10 @@ r"""CVXPY references of the open-loop LP families, written from their definition
 Tests and benchmarks compare :class:`~hvacflex.opt.solve.RMPCSolver`'s optimum with these
 models (``tests/opt/test_reference.py`` on recorded office5 steps and random problems,
 ``benchmarks/bench_cvxpy_events.py`` and ``benchmarks/bench_rmpc.py`` for the timing). They are
-written from docs/model.md §3 and docs/il_events.md, vectorised, with explicit impulse
-responses (matrix products, not :mod:`hvacflex.opt.robust`) and never from hvacflex's LP
-builder, so a change of the LP that the definitions do not share shows as a different optimum.
-Needs ``cvxpy`` (the ``dev`` extra); imported on first use.
+written from docs/explanation/model.md §3 and docs/explanation/il_events.md, vectorised, with
+explicit impulse responses (matrix products, not :mod:`hvacflex.opt.robust`) and never from
+hvacflex's LP builder, so a change of the LP that the definitions do not share shows as a different
+optimum. Needs ``cvxpy`` (the ``dev`` extra); imported on first use.
 
 Families (chosen by the problem, as :class:`~hvacflex.opt.solve.RMPCSolver` does):
 
@@ -19,7 +19,7 @@ Families (chosen by the problem, as :class:`~hvacflex.opt.solve.RMPCSolver` does
 * **visible offers** (``offer_baselines`` set, event model): the reserve of step k is paid
   for ``min(q_k·r_k, every baseline's gap + ρ p_k·r_k)`` (a concave minimum, written as its
   hypograph), 0 on the steps that may not be paid, and a price b + 1e-6 SGD/kWh on the part
-  below zero (docs/il_events.md, "The plan is paid for what the baselines see").
+  below zero (docs/explanation/il_events.md, "The plan is paid for what the baselines see").
 
 Both carry the committed reserve ``r_k`` = ``commitments.reserve_kg_s`` (k < g), the power
 cap P ≤ ``power_cap.power_max_kw``, the reserve coefficient q
@@ -87,7 +87,7 @@ def margins(prob: RMPCProblem) -> FloatArray:
 def reference_event_rows(prob: RMPCProblem) -> tuple[IntArray, IntArray, IntArray, BoolArray]:
     """Per event row (zones apart): output step k = t − 1, first curtailed input s, number of
     curtailed inputs L and whether it is an allowance row (True) or a strict row (False), for
-    every (t, s < t) of the event model (docs/il_events.md)."""
+    every (t, s < t) of the event model (docs/explanation/il_events.md)."""
     assert prob.events is not None
     d, r = prob.events.max_steps, prob.events.recovery_steps
     steps, starts, lengths, allowance = [], [], [], []
@@ -376,7 +376,7 @@ def _policy_gains(prob: RMPCProblem) -> dict[tuple[int, int], Any]:
 
 
 def _solve_feedback(prob: RMPCProblem, solver: str) -> ReferenceResult:
-    """The affine disturbance-feedback LP (docs/model.md, :mod:`hvacflex.opt.feedback`'s
+    """The affine disturbance-feedback LP (docs/explanation/model.md, :mod:`hvacflex.opt.feedback`'s
     definition): u_k(w) = v_k + Σ_{j<k} U_{k,j} w_j, r fixed; every row robust for the box
     |w_j| ≤ σ_j (|coefficient|·σ summed); served x and curtailed z share the response to w;
     nominal cost."""

@@ -17,7 +17,7 @@ output row ``i`` is
     \max_{|w_j| \le \sigma_j} \sum_{j<k} (G_{k-1-j})_{i,:} w_j
     = \sum_{j<k} |G_{k-1-j}|_{i,:}\, \sigma_j \;=:\; \delta_{k,i},
 
-which is the optimum of the paper's per-row dual (eq. 12–13; docs/model.md §3): minimise
+which is the optimum of the paper's per-row dual (eq. 12–13; docs/explanation/model.md §3): minimise
 ``σᵀ(λ₁ + λ₂)`` subject to ``λ₁ − λ₂ = h``, ``λ₁, λ₂ ≥ 0`` with ``h`` that row of the
 disturbance-to-output map. Tightening each comfort row by ``δ`` ("tightening" form) therefore
 gives the same LP optimum as carrying the λ's explicitly ("dual" form, offered for

@@ -18,7 +18,7 @@ form, via ``changeCoeff``) — and re-solves with the dual simplex (warm start).
 results are reproducible.
 :func:`~hvacflex.opt.factory.solve_rmpc` is the one-shot wrapper for both.
 
-Warm start (measurements in ``docs/performance.md``). Successive problems of a receding
+Warm start (measurements in ``docs/reference/performance.md``). Successive problems of a receding
 horizon are shifted by one step, so the previous optimal basis is a poor start *position by
 position*, but a good one once rotated: by default (``time_shift=True``) the statuses of step
 k + 1 of every time-indexed block (x, z, u, r, ε, P and their rows: the blocks the builder

@@ -118,7 +118,9 @@ def exogenous_summary_text(
         else f"occupied periods 0 of {n}"
     )
     out.append("")
-    out.append(f"worst-case margin δ over a {HORIZON_STEPS}-step horizon (docs/model.md §3):")
+    out.append(
+        f"worst-case margin δ over a {HORIZON_STEPS}-step horizon (docs/explanation/model.md §3):"
+    )
     out += margin_lines(exo, n, model, boxes)
     return "\n".join(out)
 
@@ -151,7 +153,7 @@ def write_fig2(exo: Exogenous, path: Path, steps: int) -> None:
 
 def exogenous_frame(exo: Exogenous, steps: int, zone_names: Sequence[str]) -> pd.DataFrame:
     """The first ``steps`` periods of the exogenous data, one column per series, named as in
-    the results file (docs/architecture.md, Results).
+    the results file (docs/explanation/architecture.md, Results).
 
     Parameters
     ----------

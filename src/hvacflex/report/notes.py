@@ -35,11 +35,11 @@ def differences_section() -> Any:
             "Reserve is planned for under two models: the product's IL event model (at most "
             "one activation of up to D periods in the horizon, the NEMS 120-min rule, with a "
             "comfort allowance α during the event and R recovery periods after it; "
-            "docs/il_events.md) and the paper's, where the curtailed trajectory must stay "
-            "inside the strict band for the whole horizon (presets paper-*). Gate "
+            "docs/explanation/il_events.md) and the paper's, where the curtailed trajectory "
+            "must stay inside the strict band for the whole horizon (presets paper-*). Gate "
             "closure and the aggregator needed for loads below the IL threshold are out of "
             "scope. The plant is the exact nonlinear (bilinear) model; the controller uses "
-            "the linearisation of docs/model.md §1, so there is model–plant mismatch.",
+            "the linearisation of docs/explanation/model.md §1, so there is model–plant mismatch.",
         ],
     )
 

@@ -6,7 +6,7 @@ numbers), and returns the PNG path. Figures are drawn on :class:`matplotlib.figu
 with the Agg canvas directly: nothing here touches pyplot or the global backend.
 
 Time axes show local wall-clock time of the results index (Asia/Singapore). Results frames
-follow the *Results* table of ``docs/architecture.md``: row ``k`` is the period
+follow the columns of ``docs/reference/results.md``: row ``k`` is the period
 ``[t_k, t_k + Δt)``; ``temp_end_<zone>_degc`` is measured at ``t_k + Δt`` and is drawn there.
 """
 
@@ -150,7 +150,8 @@ def plot_prices(
     prices : (T, ≥2) frame on the period-start index with ``energy_price_sgd_per_mwh`` and
         ``reserve_price_sgd_per_mwh`` [SGD/MWh] (a results frame will do; select the days).
     path : PNG file to write; the CSV goes next to it.
-    reserve_synthetic : label the reserve series "synthetic" (docs/model.md §2: no public history).
+    reserve_synthetic : label the reserve series "synthetic" (docs/explanation/model.md §2: no
+    public history).
     title : figure title; a default names the two series.
 
     Returns

@@ -1,8 +1,8 @@
 """Verdicts on the paper's findings, computed from the runs: holds, does not hold, or not
 comparable — each with the paper's number and ours.
 
-The findings are those of Hanif et al. (2016) that the reproduction can test (docs/model.md
-§5: "expected shape, not numbers"):
+The findings are those of Hanif et al. (2016) that the reproduction can test
+(docs/explanation/model.md §5: "expected shape, not numbers"):
 
 * robustness costs a few per cent: (b) RMPC costs more than (a) NMPC, by at most
   :data:`FEW_PERCENT_MAX_PCT` (paper: +4.0 %);

@@ -9,5 +9,5 @@ middleware, error handlers, key checks), :mod:`.app` (the FastAPI routes under `
 buildings), :mod:`.openadr` with :mod:`.openadr_mapping` and :mod:`.openadr_store` (the
 OpenADR 2.0b VEN) and :mod:`.replay` (a client that plays the nonlinear plant as a building
 over HTTP).
-See ``docs/service.md``.
+See ``docs/guide/service.md``.
 """

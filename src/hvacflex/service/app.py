@@ -152,7 +152,9 @@ def create_app(
     app = FastAPI(
         title="hvacflex service",
         version=__version__,
-        description="Prices and activations in, plans and reserve bids out. See docs/service.md.",
+        description=(
+            "Prices and activations in, plans and reserve bids out. See docs/guide/service.md."
+        ),
         openapi_url="/v1/openapi.json",
         docs_url=None,  # /v1/docs is the self-hosted page of hvacflex.service.dashboard
         redoc_url=None,
@@ -243,7 +245,7 @@ def _service_routes(app: FastAPI, runtime: Runtime) -> None:
     )
     def metrics() -> PlainTextResponse:
         """Prometheus text format (no key needed; no building ids): requests, latencies,
-        plans, solver failures, buildings and stale buildings (docs/service.md)."""
+        plans, solver failures, buildings and stale buildings (docs/guide/service.md)."""
         with sessions() as session:
             text = metrics_text(session, app.state.request_metrics, app.state.stale_after_s)
         return PlainTextResponse(text, media_type=PROMETHEUS_CONTENT_TYPE)

@@ -317,7 +317,7 @@ def check_tls(certfile: Path | None, keyfile: Path | None) -> bool:
         raise InputError(
             "TLS needs both --ssl-certfile and --ssl-keyfile",
             field="--ssl-keyfile" if keyfile is None else "--ssl-certfile",
-            hint="see docs/service.md, 'TLS', for a local CA recipe",
+            hint="see docs/guide/service.md, 'TLS', for a local CA recipe",
         )
     for name, path in (("--ssl-certfile", certfile), ("--ssl-keyfile", keyfile)):
         if not path.is_file():
@@ -329,7 +329,7 @@ def check_tls(certfile: Path | None, keyfile: Path | None) -> bool:
             f"not a PEM certificate and its private key ({exc})",
             field="--ssl-certfile",
             value=str(certfile),
-            hint="see docs/service.md, 'TLS', for a local CA recipe",
+            hint="see docs/guide/service.md, 'TLS', for a local CA recipe",
         ) from None
     return True
 

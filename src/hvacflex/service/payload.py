@@ -1,8 +1,9 @@
 """The plan a building receives: the decision of a period as the service's JSON payload.
 
 Periods are decided by :class:`hvacflex.sim.step.ControlStep` (the rules of ``hvacflex
-simulate``, ``docs/il_events.md``); this module only turns its :class:`~hvacflex.sim.step.
-Decision` into the horizon and IL columns of the plan (those of ``results.parquet``).
+simulate``, ``docs/explanation/il_events.md``); this module only turns its
+:class:`~hvacflex.sim.step. Decision` into the horizon and IL columns of the plan (those of
+``results.parquet``).
 """
 
 from __future__ import annotations

@@ -291,7 +291,7 @@ class Plan(BaseModel):
         default=None,
         description="ρ ∈ [0, 1]: the meter's response to the plan's power that this period's "
         "reserve_kw was sized with (under commitments, by the decision that committed it; "
-        "None: not scaled; docs/il_events.md).",
+        "None: not scaled; docs/explanation/il_events.md).",
     )
     planned_power_kw: float | None
     solve_time_s: float
@@ -398,7 +398,7 @@ class AuditRecord(BaseModel):
     action: str | None = Field(
         default=None,
         description="What the request did (activation, activation_refused, prices, "
-        "measurement, …; see docs/service.md), None for a path the service does not know.",
+        "measurement, …; see docs/guide/service.md), None for a path the service does not know.",
     )
     body_head: str = Field(
         default="", description="The request body's first characters, as stored."

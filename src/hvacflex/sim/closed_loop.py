@@ -1,11 +1,11 @@
 """Receding-horizon closed-loop simulation against a building plant.
 
-Every 30 minutes (docs/model.md §4): forecast → :class:`hvacflex.sim.step.ControlStep`
+Every 30 minutes (docs/explanation/model.md §4): forecast → :class:`hvacflex.sim.step.ControlStep`
 (controller, IL events) → the decision is applied to the plant (:class:`hvacflex.sim.plant.
 Plant`; by default hvacflex's exact nonlinear RC network) under the realised disturbance
 d + w (the data, :attr:`Setup.exogenous`, plus w drawn in the uncertainty box or the
 realisation's own) → measure → repeat. The forecast the controller sees may differ from the
-data (docs/forecast.md); the results' ``d_<channel>`` is that forecast of the period and
+data (docs/explanation/forecast.md); the results' ``d_<channel>`` is that forecast of the period and
 ``w_<channel>`` its realised error. When interruptible load is
 activated the plant runs u − r: under the event model the locked plan of the event's first
 period for at most D periods, under the whole-horizon model each period's fresh plan
@@ -14,10 +14,10 @@ The reserve capacity scheduled is paid whether activated or not; delivery is set
 metered power (:mod:`hvacflex.settlement`, the ``il_baseline_power_kw``, ``il_delivered_kw``
 and ``il_shortfall_kw`` columns of :meth:`ClosedLoop.frame`) and summed in :mod:`hvacflex.kpi`.
 
-Each row of the output (``results.parquet``, schema in ``docs/architecture.md``) describes one
-period. On a plant that can snapshot its state both counterfactual plant steps are computed
-each period (served: u, curtailed: u − r) so the power with and without activation is known;
-the applied one is chosen by the activation schedule. On one that cannot (an external
+Each row of the output (``results.parquet``, schema in ``docs/reference/results.md``)
+describes one period. On a plant that can snapshot its state both counterfactual plant steps are
+computed each period (served: u, curtailed: u − r) so the power with and without activation is
+known; the applied one is chosen by the activation schedule. On one that cannot (an external
 emulator) only the applied step is run and the counterfactual columns are NaN.
 
 A loop's state (:meth:`ClosedLoop.get_state`) is what a run's checkpoint holds;
@@ -322,7 +322,8 @@ class ClosedLoop:
             delivered = period.input_kg_s
         step_model = decision.action.step_model
         # graded with the decided input, not the delivered one: the error between plan and
-        # plant, which a box calibrated from it must cover (docs/estimation.md section 4)
+        # plant, which a box calibrated from it must cover (docs/explanation/estimation.md section
+        # 4)
         error_k = self.sensors.prediction_error_k(
             setup.model if step_model is None else step_model,
             self.x,
@@ -385,7 +386,7 @@ class ClosedLoop:
         clipped to the period's comfort band (its upper bound raised by the allowance α in
         force), as a supervisory MPC hands setpoints to a BMS; a zone the plan leaves at its
         minimum flow gets the band's upper bound, so the plant's loop does not cool it
-        towards a temperature the plan expects it to drift to (docs/energyplus.md)."""
+        towards a temperature the plan expects it to drift to (docs/guide/energyplus.md)."""
         action = decision.action
         if action.released:  # the plant's own control: no setpoint from hvacflex
             return Actuation(setpoint_degc=np.full(action.flow_kg_s.shape, np.nan))

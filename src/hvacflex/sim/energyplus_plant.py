@@ -6,7 +6,7 @@ time step, and Singapore's site (:func:`hvacflex.energyplus.idf.prepare_idf`); E
 reads its own weather from the EPW, so the step's :class:`~hvacflex.sim.plant.Disturbance`
 is not used (the internal gains are the IDF's schedules).
 
-Actuation (docs/energyplus.md):
+Actuation (docs/guide/energyplus.md):
 
 * ``"setpoint"`` (supervisory, as MPCs are deployed on a BMS): each zone's cooling setpoint
   is the actuated value ("Zone Temperature Control" / "Cooling Setpoint"); its heating
@@ -33,7 +33,7 @@ An IDF with ``HVACTemplate:*`` objects is expanded by EnergyPlus's ExpandObjects
 is built, so that its zones' equipment and thermostats can be found.
 
 The in-period **peak guard** (an :class:`~hvacflex.sim.plant.PeakGuard` the actuation
-carries; docs/model.md, the committed peak) reads the HVAC meters (``power_kw``'s) at
+carries; docs/explanation/model.md, the committed peak) reads the HVAC meters (``power_kw``'s) at
 EnergyPlus's zone time step, through the API callback: at the start of each zone time step,
 the mean power P of the step before [kW]. It holds a shed level s ∈ [0, 1], integral action
 on the meter: s ← clip(s + g (P − cap) / cap, 0, 1) with g = :data:`GUARD_GAIN` (deeper

@@ -1,6 +1,6 @@
 """Interruptible-load events in the closed loop: what the building does while activated.
 
-Event model (``[reserve] event_max_steps`` = D set; ``docs/il_events.md``): when an
+Event model (``[reserve] event_max_steps`` = D set; ``docs/explanation/il_events.md``): when an
 activation starts at step s, the building locks the plan made at s and applies its
 curtailed flows u_j − r_j while the activation lasts, for at most D periods, without
 re-optimising. After D periods it resumes consumption (the NEMS 120-min rule); activated

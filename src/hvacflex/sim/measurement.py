@@ -1,10 +1,11 @@
 """What the controller of the closed loop sees, and how well its model predicts the plant.
 
-Under output feedback (``[estimation] mode = "kalman"``, docs/estimation.md) the MPC gets only
-the zone-air temperatures, read as ``C x`` plus uniform sensor error in ±``measurement_noise_k``
-drawn from the scenario seed's own stream (:data:`MEASUREMENT_RNG_STREAM`), so the realised
-forecast errors do not change with the estimation mode. The one-step prediction error of the
-controller's model (:mod:`hvacflex.control.prediction_error`) is recorded in every mode.
+Under output feedback (``[estimation] mode = "kalman"``, docs/explanation/estimation.md) the MPC
+gets only the zone-air temperatures, read as ``C x`` plus uniform sensor error in
+±``measurement_noise_k`` drawn from the scenario seed's own stream (:data:`MEASUREMENT_RNG_STREAM`),
+so the realised forecast errors do not change with the estimation mode. The one-step prediction
+error of the controller's model (:mod:`hvacflex.control.prediction_error`) is recorded in every
+mode.
 """
 
 from __future__ import annotations

@@ -4,7 +4,7 @@ days): the reference Fig. 7's peaks are graded against (``bound_peak_kw`` of
 power rows are secants of the plant's power and the start is the configuration's initial
 state, so a plant may meter a lower peak.
 
-One LP over the whole period on the controller's model (docs/model.md): the affine RC
+One LP over the whole period on the controller's model (docs/explanation/model.md): the affine RC
 model x_{k+1} = A x_k + B u_k + E d_k + g with the data's disturbances d_k (perfect
 foresight), the flows in [u_min,k, u_max], the LP's affine power rows P_k = p0_k + p_kᵀ u_k
 (the building's power model at the data's outdoor air, as the MPC's), and the comfort band

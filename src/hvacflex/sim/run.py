@@ -58,7 +58,7 @@ class RunResult:
     Attributes
     ----------
     out_dir : the run's folder (results, summary, config).
-    frame : one row per period (schema in ``docs/architecture.md``).
+    frame : one row per period (schema in ``docs/reference/results.md``).
     summary : KPIs (see :mod:`hvacflex.kpi`).
     resumed_from_step : the checkpoint step the run resumed from, or None.
     cached : True when the results were already there and nothing was simulated.
@@ -76,7 +76,8 @@ class RunResult:
 
     @property
     def results(self) -> pd.DataFrame:
-        """The results table, ``frame`` (one row per period; ``docs/architecture.md``)."""
+        """The results table, ``frame`` (one row per period;
+        ``docs/explanation/architecture.md``)."""
         return self.frame
 
 

@@ -4,8 +4,8 @@
 (a building received as content) and each building agent of a fleet — so every driver of
 :class:`hvacflex.sim.step.ControlStep` plans from the same parts.
 
-What the plant sees and what the controller is told are built here (docs/forecast.md): the
-data (``Setup.exogenous``: the weather file, and the gains of the schedule or, with
+What the plant sees and what the controller is told are built here (docs/explanation/forecast.md):
+the data (``Setup.exogenous``: the weather file, and the gains of the schedule or, with
 ``[realisation] occupancy = "stochastic"``, of the stochastic occupancy model), and the
 ``Forecaster`` (the data, or with ``[forecast] weather = "statistical"`` a weather forecast
 fitted on the days before the run, and always the schedule's gains). With ``[uncertainty]
@@ -310,7 +310,7 @@ def assemble_setup(
 
 def make_controller(setup: Setup) -> Controller:
     """The controller the configuration asks for (``[controller] kind``; the rule-based
-    baselines are described in docs/baselines.md)."""
+    baselines are described in docs/explanation/baselines.md)."""
     cfg = setup.config.controller
     if cfg.kind != "mpc":
         return make_rule_controller(setup)

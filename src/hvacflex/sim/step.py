@@ -3,8 +3,8 @@
 Every driver — the closed loop (:mod:`hvacflex.sim.closed_loop`), the live service
 (:mod:`hvacflex.service.runtime`) and a fleet's building agents (:mod:`hvacflex.fleet.agent`) —
 decides a period through :meth:`ControlStep.decide`, which owns the controller, the IL event
-tracker (:class:`hvacflex.sim.events.EventTracker`, ``docs/il_events.md``), the lock rules
-and the plan's side of the history (commitments, ρ, the filter's input):
+tracker (:class:`hvacflex.sim.events.EventTracker`, ``docs/explanation/il_events.md``), the lock
+rules and the plan's side of the history (commitments, ρ, the filter's input):
 
 1. the period's IL role from the activation signal (served, curtail the fresh plan, an event
    starts, an event continues, beyond the model);
