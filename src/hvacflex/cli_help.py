@@ -36,7 +36,7 @@ def preset_epilog(names: tuple[str, ...] = PRESET_NAMES, width: int = HELP_WIDTH
         for i in range(0, len(names), per_row)
     ]
     return (
-        "\b\nPresets (--scenario NAME; docs/explanation/baselines.md, docs/guide/quickstart.md):\n"
+        "\b\nPresets (--scenario NAME; docs/explanation/baselines.md):\n"
         + "\n".join(rows)
     )
 
