@@ -35,10 +35,7 @@ def preset_epilog(names: tuple[str, ...] = PRESET_NAMES, width: int = HELP_WIDTH
         "  " + "".join(n.ljust(cell) for n in names[i : i + per_row]).rstrip()
         for i in range(0, len(names), per_row)
     ]
-    return (
-        "\b\nPresets (--scenario NAME; docs/explanation/baselines.md):\n"
-        + "\n".join(rows)
-    )
+    return "\b\nPresets (--scenario NAME; docs/explanation/baselines.md):\n" + "\n".join(rows)
 
 
 PRESET_EPILOG = preset_epilog()
