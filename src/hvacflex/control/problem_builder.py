@@ -411,13 +411,13 @@ def lp_power_rows(
     over the step's flow range [``flow_min_kg_s`` (N, m), u_max] [kg/s]; both at the zone
     temperature ``linearisation_temp_degc`` [°C]. ``occupied`` (N,) bool.
     """
-    identified, metered = building.identified, building.metered_power
-    if identified is not None or metered is not None:  # a power model fitted to the meter
-        fitted = identified.power if identified is not None else metered
+    meter_fit = _meter_fit(building)
+    if meter_fit is not None:
+        fitted, supply_temp_degc = meter_fit
         low = np.asarray(flow_min_kg_s, dtype=np.float64).sum(axis=1)
         return metered_affine_power(
             fitted or IdentifiedPower(0.0, 0.0, 0.0),  # an identified file without a meter
-            (identified or building.hvac).supply_temp_degc,
+            supply_temp_degc,
             len(building.zone_names),
             outdoor_degc,
             linearisation_temp_degc,
@@ -466,14 +466,14 @@ def _power_coefficients(
         reference_flow_kg_s=reference,
         total_flow_max_kg_s=float(contract.flow_max_kg_s.sum()),
     )
-    identified, metered = building.identified, building.metered_power
-    if identified is not None or metered is not None:  # a power model fitted to the meter
-        fitted = identified.power if identified is not None else metered
+    meter_fit = _meter_fit(building)
+    if meter_fit is not None:
+        fitted, supply_temp_degc = meter_fit
         if fitted is None:  # an identified file without a meter
             return p0, p, p
         reserve = metered_reserve_coeff(
             fitted,
-            (identified or building.hvac).supply_temp_degc,
+            supply_temp_degc,
             outdoor,
             _return_air_estimate_degc(contract.model, context, y_min),
             _curtailed_flow_estimate_kg_s(context.previous_plan, u_min),
@@ -489,6 +489,17 @@ def _power_coefficients(
         damper_open=damper,
     )
     return p0, p, reserve_coeff
+
+
+def _meter_fit(building: Building) -> tuple[IdentifiedPower | None, float] | None:
+    """The power model fitted to the building's meter and the supply temperature [°C] it
+    goes with: an identified building's (None for a file without a meter), or a designed
+    building's ``metered_power``; None for a building planned on its design curves."""
+    if building.identified is not None:
+        return building.identified.power, building.identified.supply_temp_degc
+    if building.metered_power is not None:
+        return building.metered_power, building.hvac.supply_temp_degc
+    return None
 
 
 def _total_flow_reference_kg_s(plan: RMPCSolution | None, u_min: FloatArray) -> FloatArray:
