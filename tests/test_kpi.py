@@ -478,6 +478,10 @@ def test_discomfort_split_into_occupied_and_unoccupied_periods() -> None:
     ] == pytest.approx(out["discomfort_kelvin_hours"])
     assert out["max_violation_k"] == pytest.approx(1.0)  # core at 19.5 against 20 is 0.5
     assert out["max_violation_occupied_k"] == pytest.approx(1.0)
+    # unoccupied: north 30.6 against 30, core 31.0 against 30 and 19.5 against 20
+    assert out["max_violation_unoccupied_k"] == pytest.approx(1.0)
+    assert kpi.max_violation_unoccupied_k(df.iloc[[0, 1, 2]]) == pytest.approx(1.0)
+    assert kpi.max_violation_unoccupied_k(df.iloc[[1, 2, 3]]) == pytest.approx(0.5)
 
 
 def test_a_run_with_one_band_is_graded_occupied_throughout() -> None:
@@ -570,3 +574,12 @@ def test_peak_guard_steps_counts_the_periods_the_guard_shed_by_hand() -> None:
     frame = pd.DataFrame({"peak_guard_active": [False, True, True, False, True, None]})
     assert peak_guard_steps(frame) == 3
     assert peak_guard_steps(pd.DataFrame({"power_kw": [1.0]})) == 0  # written before the column
+
+
+def test_summary_grades_the_plan_by_the_meter_only_for_a_planning_controller() -> None:
+    df = results_frame(2, start="2014-03-03 07:00", power_kw=[10.0, 20.0])
+    assert "planned_over_metered_occupied" not in kpi.summary(df)
+    df["planned_power_kw"] = [12.0, 18.0]
+    out = kpi.summary(df)
+    assert out["planned_over_metered_occupied"] == pytest.approx(1.0)  # 30 kW·h / 30
+    assert out["planned_occupied_kwh"] == pytest.approx(15.0)

@@ -51,8 +51,8 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+from hvacflex import meter_grade, settlement
 from hvacflex import results as schema
-from hvacflex import settlement
 from hvacflex.errors import DataError
 from hvacflex.units import KWH_PER_MWH
 
@@ -636,9 +636,20 @@ def discomfort_unoccupied_kelvin_hours(results: pd.DataFrame) -> float:
 def max_violation_occupied_k(results: pd.DataFrame) -> float:
     """Largest deviation outside the band in an occupied period, all zones [K] (0 when never
     outside it, or never occupied)."""
+    return _max_violation_k(results, occupied=True)
+
+
+def max_violation_unoccupied_k(results: pd.DataFrame) -> float:
+    """Largest deviation outside the band in an unoccupied period, all zones [K]: the night
+    and weekend excursions (0 when never outside it, or never unoccupied)."""
+    return _max_violation_k(results, occupied=False)
+
+
+def _max_violation_k(results: pd.DataFrame, *, occupied: bool) -> float:
     deviation = _comfort_deviation_k(results).to_numpy()
-    occupied = deviation[occupied_mask(results).to_numpy()]
-    return float(np.max(occupied)) if occupied.size else 0.0
+    mask = occupied_mask(results).to_numpy()
+    chosen = deviation[mask if occupied else ~mask]
+    return float(np.max(chosen)) if chosen.size else 0.0
 
 
 def discomfort_event_kelvin_hours(results: pd.DataFrame) -> float:
@@ -847,13 +858,15 @@ def summary(results: pd.DataFrame, peak_price_sgd_per_kw: float | None = None) -
     ``monthly_avg_net_cost_sgd``, ``discomfort_kelvin_hours`` (total),
     ``discomfort_occupied_kelvin_hours``, ``discomfort_unoccupied_kelvin_hours`` (they sum to
     the total), ``discomfort_<zone>_kelvin_hours``, ``max_violation_k`` (all zones),
-    ``max_violation_occupied_k``, ``max_violation_<zone>_k``, ``violation_share``, the IL
-    keys of :func:`il_summary`, ``fallback_count``, ``model_extrapolation_steps``,
-    ``peak_guard_steps``, ``planned_slack_share``, ``max_delta_vs_half_band``,
-    ``solve_time_mean_s``, ``solve_time_p95_s``, ``solve_time_max_s``, ``prediction_error_*``
-    (:func:`prediction_error_summary`; NaN for a rule). Monthly averages are omitted when the
-    index is not a ``DatetimeIndex``, as are the PPP charges and ``net_cost_with_ppp_sgd``.
-    The counts (:data:`COUNT_KPIS`) are ``int``.
+    ``max_violation_occupied_k``, ``max_violation_unoccupied_k``, ``max_violation_<zone>_k``,
+    ``violation_share``, the IL keys of :func:`il_summary`, ``fallback_count``,
+    ``model_extrapolation_steps``, ``peak_guard_steps``, the plan graded by the meter
+    (:func:`hvacflex.meter_grade.summary`; only with a ``planned_power_kw`` column),
+    ``planned_slack_share``, ``max_delta_vs_half_band``, ``solve_time_mean_s``,
+    ``solve_time_p95_s``, ``solve_time_max_s``, ``prediction_error_*``
+    (:func:`prediction_error_summary`; NaN for a rule). Monthly averages are omitted when the index
+    is not a ``DatetimeIndex``, as are the PPP charges and ``net_cost_with_ppp_sgd``. The counts
+    (:data:`COUNT_KPIS`) are ``int``.
     """
     out: dict[str, float] = {
         "steps": len(results),
@@ -883,12 +896,16 @@ def summary(results: pd.DataFrame, peak_price_sgd_per_kw: float | None = None) -
     violation = max_violation_k(results)
     out["max_violation_k"] = float(violation.max())
     out["max_violation_occupied_k"] = max_violation_occupied_k(results)
+    out["max_violation_unoccupied_k"] = max_violation_unoccupied_k(results)
     out |= {f"max_violation_{zone}_k": float(v) for zone, v in violation.items()}
     out["violation_share"] = violation_share(results)
     out |= il_summary(results)
     out["fallback_count"] = fallback_count(results)
     out["model_extrapolation_steps"] = model_extrapolation_steps(results)
     out["peak_guard_steps"] = peak_guard_steps(results)
+    if "planned_power_kw" in results:
+        occupied = occupied_mask(results).to_numpy().any(axis=1)
+        out |= meter_grade.summary(results, occupied, step_hours(results))
     out["planned_slack_share"] = planned_slack_share(results)
     out["max_delta_vs_half_band"] = max_delta_vs_half_band(results)
     out |= {f"solve_time_{stat}_s": v for stat, v in solve_time_stats_s(results).items()}
