@@ -299,7 +299,8 @@ def test_summary_gathers_the_kpis() -> None:
     assert out["steps"] == 4
     assert out["days"] == pytest.approx(2.0 / 24.0)
     assert out["solve_time_max_s"] == pytest.approx(0.01)
-    counts = {name: out[name] for name in kpi.COUNT_KPIS}
+    counts = {name: out[name] for name in kpi.COUNT_KPIS if name in out}
+    assert set(kpi.COUNT_KPIS) - set(counts) == {"unplanned_periods"}  # no plan in the frame
     assert all(type(v) is int for v in counts.values()), counts
     assert all(type(v) is float for k, v in out.items() if k not in counts)
 

@@ -42,7 +42,8 @@ def test_a_rule_without_a_plan_grades_nan() -> None:
     df = frame("2014-03-03 07:00", [10.0, 40.0], [nan, nan])
     out = meter_grade.planned_metered_kwh(df, np.array([False, True]), step_h=0.5)
     assert math.isnan(out["planned_over_metered_occupied"])
-    assert out["metered_occupied_kwh"] == pytest.approx(20.0)
+    assert math.isnan(out["metered_occupied_kwh"])  # graded only where there is a plan
+    assert out["unplanned_periods"] == 2
     assert meter_grade.monthly_peaks(df).empty
 
 
@@ -77,3 +78,11 @@ def test_without_a_committed_peak_the_peak_keys_are_nan() -> None:
     out = meter_grade.summary(df, np.ones(2, dtype=bool), step_h=0.5)
     assert math.isnan(out["weekday_peak_over_committed_max"])
     assert math.isnan(out["weekday_peak_within_commitment_share"])
+
+
+def test_a_period_without_a_plan_is_graded_by_neither_sum() -> None:
+    df = frame("2014-03-03 08:00", [40.0, 40.0, 44.0], [44.0, math.nan, 44.0])
+    out = meter_grade.planned_metered_kwh(df, np.ones(3, dtype=bool), step_h=0.5)
+    assert out["planned_occupied_kwh"] == pytest.approx(44.0)
+    assert out["metered_occupied_kwh"] == pytest.approx(42.0)
+    assert out["unplanned_periods"] == 1

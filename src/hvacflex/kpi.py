@@ -840,6 +840,7 @@ COUNT_KPIS = (
     "fallback_count",
     "model_extrapolation_steps",
     "peak_guard_steps",
+    "unplanned_periods",
 )
 """Keys of :func:`summary` that count things: integers (``int``) in the summary, its JSON
 and CSV, and printed as whole numbers."""

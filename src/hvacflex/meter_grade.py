@@ -34,6 +34,10 @@ def planned_metered_kwh(
     """Planned and metered HVAC energy [kWh] in the occupied and unoccupied periods, and
     their ratios (planned / metered; NaN without a plan or without metered energy).
 
+    Both sums are over the periods that have a plan (a finite ``planned_power_kw``): a period
+    without one (a fallback to the rule, a locked IL event period that the plan's first step
+    does not describe) is graded by neither; ``unplanned_periods`` counts them.
+
     Parameters
     ----------
     results : one run's results (``power_kw``, ``planned_power_kw``).
@@ -43,11 +47,12 @@ def planned_metered_kwh(
     metered = results["power_kw"].to_numpy(dtype=np.float64)
     planned = results["planned_power_kw"].to_numpy(dtype=np.float64)
     occupied = np.asarray(occupied, dtype=bool)
-    out: dict[str, float] = {}
+    planned_ok = np.isfinite(planned)
+    out: dict[str, float] = {"unplanned_periods": int(np.sum(~planned_ok))}
     for name, mask in (("occupied", occupied), ("unoccupied", ~occupied)):
-        plan = planned[mask]
-        planned_kwh = float(np.sum(plan) * step_h) if np.all(np.isfinite(plan)) else math.nan
-        metered_kwh = float(np.sum(metered[mask]) * step_h)
+        graded = mask & planned_ok
+        planned_kwh = float(np.sum(planned[graded]) * step_h) if graded.any() else math.nan
+        metered_kwh = float(np.sum(metered[graded]) * step_h) if graded.any() else math.nan
         out[f"planned_{name}_kwh"] = planned_kwh
         out[f"metered_{name}_kwh"] = metered_kwh
         out[f"planned_over_metered_{name}"] = (
@@ -95,7 +100,7 @@ def monthly_peaks(results: pd.DataFrame) -> pd.DataFrame:
 def summary(results: pd.DataFrame, occupied: np.ndarray, step_h: float) -> dict[str, float]:
     """The meter's grade of the plan as flat KPIs (:func:`hvacflex.kpi.summary` merges them):
 
-    * :func:`planned_metered_kwh`'s six keys;
+    * :func:`planned_metered_kwh`'s seven keys;
     * ``weekday_peak_over_committed_max``: the largest weekday ratio of :func:`weekday_peaks`,
       and ``weekday_peak_within_commitment_share``: the share of those weekdays whose ratio is
       ≤ :data:`PEAK_TOLERANCE` (NaN without a committed cap);

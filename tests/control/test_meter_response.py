@@ -13,6 +13,7 @@ from hvacflex.control.meter_response import (
     MIN_PAIRS,
     WINDOW_PERIODS,
     MeterHistory,
+    meter_offset_kw,
     meter_response_ratio,
 )
 from hvacflex.state import decode, encode
@@ -123,3 +124,12 @@ def test_a_history_resumes_identically_from_its_state() -> None:
     np.testing.assert_array_equal(resumed.planned_kw, history.planned_kw)
     np.testing.assert_array_equal(resumed.metered_kw, history.metered_kw)
     assert resumed.ratio(4) == history.ratio(4) == pytest.approx(0.6)
+
+
+def test_the_meter_offset_is_the_mean_residual_of_the_last_usable_periods() -> None:
+    planned = np.array([40.0, np.nan, 42.0, 44.0, 41.0, 50.0])
+    metered = np.array([30.0, 10.0, 38.0, 40.0, 38.0, np.nan])
+    # usable: 30 − 40, 38 − 42, 40 − 44, 38 − 41 → the last three: −4, −4, −3
+    assert meter_offset_kw(planned, metered, periods=3, min_periods=2) == pytest.approx(-11 / 3)
+    assert meter_offset_kw(planned, metered, periods=10, min_periods=2) == pytest.approx(-5.25)
+    assert meter_offset_kw(planned, metered, periods=10, min_periods=5) == 0.0  # 4 usable

@@ -258,3 +258,20 @@ def test_the_plan_holds_the_morning_pull_down_to_the_committed_cap(setup: Setup)
     no_phi = replace(contract, config=replace(contract.config, peak_price_sgd_per_kw=0.0))
     unpriced = build_problem(setup.model, capped_inputs, no_phi, PlanContext(inputs.x_degc))
     assert np.isinf(unpriced.power_max_kw).all()
+
+
+def test_the_meter_s_offset_levels_the_power_rows_in_occupied_periods_only(setup: Setup) -> None:
+    controller = make_controller(setup)
+    assert isinstance(controller, MPCController)
+    inputs = _inputs(setup)
+    context = PlanContext(inputs.x_degc.copy())
+    plain = build_problem(setup.model, inputs, controller.contract, context)
+    levelled = build_problem(
+        setup.model, replace(inputs, meter_offset_kw=-6.0), controller.contract, context
+    )
+    occupied = np.asarray(inputs.forecast.occupied[: len(plain.power_offset_kw)], dtype=bool)
+    assert occupied.any() and not occupied.all()
+    shift = levelled.power_offset_kw - plain.power_offset_kw
+    np.testing.assert_allclose(shift[occupied], -6.0)
+    np.testing.assert_array_equal(shift[~occupied], 0.0)
+    np.testing.assert_array_equal(levelled.power_coeff_kw_per_kg_s, plain.power_coeff_kw_per_kg_s)

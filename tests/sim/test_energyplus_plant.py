@@ -22,6 +22,7 @@ from hvacflex.errors import ConfigError, DataError, InputError
 from hvacflex.paths import resolve_building, resources_dir
 from hvacflex.sim.energyplus_plant import (
     GUARD_GAIN,
+    GUARD_RELEASE_GAIN,
     SETPOINT_DEADBAND_K,
     EnergyPlusPlant,
     inlet_flow_and_temp,
@@ -445,7 +446,7 @@ def test_the_peak_guard_holds_the_meter_near_the_cap_within_the_band(
     active = np.array([o.peak_guard_active for o in guarded])
     assert active.any() and not active[: OCCUPIED.start].any()
     assert power.max() < peak_kw - 0.5 * (peak_kw - cap_kw), (power.max(), cap_kw, peak_kw)
-    assert power.max() < 1.06 * cap_kw  # measured 1.048: integral action settles near it
+    assert power.max() < 1.03 * cap_kw  # measured 1.018 (1.048 with the release's gain)
     assert _temps(guarded)[list(OCCUPIED)].max() < GUARD_UPPER_DEGC + 0.2
     first = int(np.argmax(active))  # identical until the guard first sheds
     np.testing.assert_array_equal(_temps(guarded)[:first], _temps(baseline)[:first])
@@ -478,7 +479,8 @@ def test_replay_restores_the_peak_guard(baseline: list[Observation]) -> None:
 def test_shed_level_rises_while_over_the_cap_and_falls_once_it_fits() -> None:
     assert next_shed_level(0.0, 44.0, 40.0) == pytest.approx(0.1 * GUARD_GAIN)
     assert next_shed_level(0.9, 80.0, 40.0) == 1.0
-    assert next_shed_level(0.5, 36.0, 40.0) == pytest.approx(0.5 - 0.1 * GUARD_GAIN)
+    assert next_shed_level(0.5, 36.0, 40.0) == pytest.approx(0.5 - 0.1 * GUARD_RELEASE_GAIN)
+    assert GUARD_RELEASE_GAIN < GUARD_GAIN  # released more slowly than taken
     assert next_shed_level(0.0, 30.0, 40.0) == 0.0
 
 

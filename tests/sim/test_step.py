@@ -13,6 +13,7 @@ import pytest
 from hvacflex import state
 from hvacflex.config import preset, with_overrides
 from hvacflex.control.base import Action, Controller, EventPlan, PeriodInputs, ReserveOffer
+from hvacflex.control.meter_response import MIN_OFFSET_PERIODS
 from hvacflex.sim.events import Role
 from hvacflex.sim.step import ConflictError, ControlStep, DecisionStatus
 
@@ -372,3 +373,50 @@ def test_the_meter_s_response_to_the_plan_reaches_the_controller() -> None:
         metered = replace(inputs, previous_power_kw=20.0)
         action = off.decide(k, metered, activated=lambda j: False).action
         assert math.isnan(action.offer_meter_ratio)
+
+
+class LevelledController(CountingController):
+    """... whose model plans 30 kW a period and adds the meter's offset it is told, as the
+    MPC's LP does under ``power_level = "meter"``."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.offsets: list[float] = []
+
+    def act(self, inputs: PeriodInputs) -> Action:
+        self.offsets.append(inputs.meter_offset_kw)
+        action = super().act(inputs)
+        return replace(action, planned_power_kw=30.0 + inputs.meter_offset_kw)
+
+
+def test_the_meter_s_offset_reaches_a_levelled_controller_and_stays_put() -> None:
+    """The meter reads 6 kW below the model (EnergyPlus's loops delivering less air than the
+    plan): after MIN_OFFSET_PERIODS served periods the controller is told −6 kW, and it stays
+    −6 (the history keeps the model's own power, not the levelled plan's, so the offset does
+    not feed back on itself). Without ``power_level = "meter"`` it is never told one."""
+    config = with_overrides(
+        preset("rmpc", start="2014-03-03", days=1.0),
+        {"controller.power_level": "meter", "reserve.meter_calibrated_offers": False},
+    )
+    controller = LevelledController()
+    step = ControlStep(config, controller, ZONES)
+    assert step.tracks_meter
+    inputs = PeriodInputs(np.full(3, 25.0), OCCUPIED, 0.0)  # type: ignore[arg-type]
+    meter_kw: list[float] = []
+    for k in range(30):
+        previous = meter_kw[-1] if meter_kw else None
+        decision = step.decide(
+            k, replace(inputs, previous_power_kw=previous), activated=set().__contains__
+        )
+        meter_kw.append(decision.action.planned_power_kw - controller.offsets[-1] - 6.0)
+    assert controller.offsets[0] == 0.0  # no history yet
+    assert controller.offsets[MIN_OFFSET_PERIODS + 1] == pytest.approx(-6.0)
+    assert controller.offsets[-1] == pytest.approx(-6.0)
+    plain = ControlStep(
+        with_overrides(config, {"controller.power_level": "model"}), LevelledController(), ZONES
+    )
+    for k in range(12):
+        action = plain.decide(
+            k, replace(inputs, previous_power_kw=20.0), activated=set().__contains__
+        ).action
+        assert action.planned_power_kw == 30.0

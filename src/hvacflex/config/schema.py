@@ -15,7 +15,7 @@ File layout (every key optional)::
                    linearisation_temp_degc, time_limit_s, thermostat_setpoint_degc,
                    linearisation, optimal_start, demand_limit_fraction, reserve_share,
                    unoccupied_margin_k, unoccupied_plan_margin_k, peak_guard,
-                   peak_guard_substeps, power_model
+                   peak_guard_substeps, power_model, power_level
     [controller.feedback]  structure, memory_steps
     [reserve]      event_max_steps, event_allowance_k, event_recovery_steps,
                    non_delivery_penalty_sgd_per_mwh,
@@ -73,6 +73,7 @@ from hvacflex.config.model import (
     PlantActuation,
     PlantConfig,
     PlantKind,
+    PowerLevel,
     PowerModelSource,
     PriceCalendar,
     PriceGapFill,
@@ -229,6 +230,14 @@ class ControllerSpec(Spec):
     ``hvacflex identify power``; docs/explanation/model.md §1.6) where the file has one, else with
     the design curves; ``design`` always with the design curves (an identified building has only
     its fitted model)."""
+    power_level: PowerLevel = default(ControllerConfig, "power_level")
+    """The MPC's planned power in occupied periods: ``model`` as the power model gives it;
+    ``meter`` levelled to the meter: plus the mean of the metered minus the model's power over
+    the building's last 20 occupied periods that a fresh plan served (an offset-free output,
+    like the Kalman filter's offsets for the zones; docs/explanation/model.md §1.6). It moves
+    the planned power, the committed peak and the pull-down cap onto the meter's scale where
+    the plant's own loops deliver other flows than the plan's (EnergyPlus under setpoint
+    actuation); the flows' costs per kW are unchanged."""
     demand_limit_fraction: Annotated[Number, Field(gt=0.0, le=1.0)] = default(
         ControllerConfig, "demand_limit_fraction"
     )

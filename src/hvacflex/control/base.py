@@ -175,6 +175,9 @@ class PeriodInputs:
         one first, which the plan keeps [kg/s] (None: no commitments).
     meter_ratio : ρ ∈ [0, 1], the meter's response to the plan in the building's recent
         periods; offers are sized on the meter's scale with it (NaN: not scaled).
+    meter_offset_kw : the meter's offset from the power model over the building's recent
+        occupied periods [kW], added to the LP's power rows in occupied periods under
+        ``[controller] power_level = "meter"`` (0: none).
     previous_flow_kg_s : (m,) the input of the filter's last step, period k − 1 (the flow the
         plant ran: u − r when curtailed, or what the air delivered) [kg/s]; None: keep the
         decided one.
@@ -194,6 +197,7 @@ class PeriodInputs:
     delivered_flow_kg_s: FloatArray | None = None
     committed_reserve_kg_s: FloatArray | None = None
     meter_ratio: float = math.nan
+    meter_offset_kw: float = 0.0
     previous_flow_kg_s: FloatArray | None = None
     locked: Action | None = None
 

@@ -40,6 +40,11 @@ MIN_PAIRS = 16
 """Fewest pairs of usable periods before the ratio departs from 1."""
 MIN_RMS_CHANGE_KW = 0.1
 """Smallest root-mean-square change of the plan's power over the pairs [kW]."""
+OFFSET_PERIODS = 20
+"""Usable periods the meter's offset from the model is averaged over (about a day's office
+hours) [periods]."""
+MIN_OFFSET_PERIODS = 8
+"""Fewest usable periods before the offset departs from 0."""
 
 
 def meter_response_ratio(
@@ -69,6 +74,32 @@ def meter_response_ratio(
     if pairs < min_pairs or square < pairs * min_rms_change_kw**2:
         return 1.0
     return float(np.clip(cross / square, 0.0, 1.0))
+
+
+def meter_offset_kw(
+    planned_kw: FloatArray,
+    metered_kw: FloatArray,
+    *,
+    periods: int = OFFSET_PERIODS,
+    min_periods: int = MIN_OFFSET_PERIODS,
+) -> float:
+    """The meter's offset from the power model [kW]: the mean of metered − planned power over
+    the last ``periods`` usable periods (both finite) of the history (T,) each [kW]; 0 while
+    fewer than ``min_periods`` exist.
+
+    ``[controller] power_level = "meter"`` adds it to the LP's power rows in occupied
+    periods: the power model's output made offset-free against the meter, as the Kalman
+    filter's offsets make the zones' (docs/explanation/estimation.md). ``planned_kw`` must be
+    the model's own power (without an offset added before), so that the mean is the whole
+    offset, not its change.
+    """
+    planned = np.asarray(planned_kw, dtype=float)
+    metered = np.asarray(metered_kw, dtype=float)
+    residual = metered - planned
+    usable = residual[np.isfinite(residual)][-max(periods, 1) :]
+    if usable.size < min_periods:
+        return 0.0
+    return float(np.mean(usable))
 
 
 class MeterHistory:
@@ -119,6 +150,10 @@ class MeterHistory:
     def ratio(self, max_lag_steps: int) -> float:
         """:func:`meter_response_ratio` of the history."""
         return meter_response_ratio(self.planned_kw, self.metered_kw, max_lag_steps)
+
+    def offset_kw(self) -> float:
+        """:func:`meter_offset_kw` of the history."""
+        return meter_offset_kw(self.planned_kw, self.metered_kw)
 
     def get_state(self) -> dict[str, Any]:
         return {

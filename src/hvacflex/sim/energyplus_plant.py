@@ -36,9 +36,10 @@ The in-period **peak guard** (an :class:`~hvacflex.sim.plant.PeakGuard` the actu
 carries; docs/explanation/model.md, the committed peak) reads the HVAC meters (``power_kw``'s) at
 EnergyPlus's zone time step, through the API callback: at the start of each zone time step,
 the mean power P of the step before [kW]. It holds a shed level s ∈ [0, 1], integral action
-on the meter: s ← clip(s + g (P − cap) / cap, 0, 1) with g = :data:`GUARD_GAIN` (deeper
-while the meter exceeds the cap, released step by step as it falls below; a release all at
-once would rebound above the cap, the zones having drifted up meanwhile); s carries over to
+on the meter: s ← clip(s + g (P − cap) / cap, 0, 1) with g = :data:`GUARD_GAIN` while the
+meter exceeds the cap (deeper) and :data:`GUARD_RELEASE_GAIN` below it (released step by
+step, more slowly than it was taken: a release all at once would rebound above the cap, the
+zones having drifted up meanwhile); s carries over to
 the next period while a guard is in force and is 0 without one. It sheds, within the comfort
 band, the zones whose air is below their upper bound (the band at the period's end, the
 tighter of this period's and the next's, as the plan's): under setpoint actuation the cooling
@@ -101,9 +102,14 @@ HVAC_METERS = ("Electricity:HVAC", "Electricity:Plant")
 """Meters whose sum is the plant's ``power_kw`` (fans, pumps, chiller)."""
 FACILITY_METER = "ElectricityPurchased:Facility"
 """The whole-facility meter (``Electricity:Facility`` has no API handle in 25.2)."""
-GUARD_GAIN = 1.0
-"""The peak guard's integral gain: change of its shed level per zone time step per unit
-relative excess of the meter over the cap (module docstring)."""
+GUARD_GAIN = 4.0
+"""The peak guard's integral gain while the meter exceeds the cap: change of its shed level
+per zone time step per unit relative excess of the meter over the cap (module docstring).
+A 5 % excess sheds a fifth of the way to the band's upper bound in one zone time step."""
+GUARD_RELEASE_GAIN = 1.0
+"""The gain while the meter is below the cap: a quarter of :data:`GUARD_GAIN`, so that the
+shed is released more slowly than it was taken (a fast release rebounds above the cap, the
+zones having drifted up meanwhile)."""
 FLOW_EPSILON_KG_S = 1e-6
 """Below this total inlet flow a zone's supply temperature is the plain mean of its inlets."""
 
@@ -527,10 +533,13 @@ def guard_meter_error(source: str, missing_meters: tuple[str, ...]) -> InputErro
 
 def next_shed_level(level: float, power_kw: float, cap_kw: float) -> float:
     """The peak guard's shed level ∈ [0, 1] for the next zone time step, integral action on
-    the meter: s' = clip(s + :data:`GUARD_GAIN` (P − cap) / cap, 0, 1), with P [kW] the
+    the meter: s' = clip(s + g (P − cap) / cap, 0, 1), g = :data:`GUARD_GAIN` over the cap and
+    :data:`GUARD_RELEASE_GAIN` below it, with P [kW] the
     meter's power over the last step and ``cap_kw`` [kW] the committed cap (shed deeper while
     over the cap, released as the meter falls below it)."""
-    return float(np.clip(level + GUARD_GAIN * (power_kw - cap_kw) / cap_kw, 0.0, 1.0))
+    excess = (power_kw - cap_kw) / cap_kw
+    gain = GUARD_GAIN if excess > 0.0 else GUARD_RELEASE_GAIN
+    return float(np.clip(level + gain * excess, 0.0, 1.0))
 
 
 def shed_toward_band(

@@ -186,9 +186,14 @@ class ControlStep:
         """D: the meter's response is measured over lags 1 … D [periods] (the event model's
         longest event); 0: offers are not scaled (no reserve offered, the whole-horizon
         model, or ``meter_calibrated_offers`` off)."""
+        self.meter_levelled = config.controller.power_level == "meter"
+        """Whether the plan's power is levelled to the meter (``[controller] power_level``)."""
+        self.tracks_meter = bool(self.meter_max_lag_steps) or self.meter_levelled
+        """Whether the meter history is kept (for ρ, or for the meter's offset)."""
         self.meter = MeterHistory()
         """The plan's and the meter's power of the recent periods
-        (:mod:`hvacflex.control.meter_response`)."""
+        (:mod:`hvacflex.control.meter_response`): the model's own power, without the meter's
+        offset."""
         self._before: dict[str, Any] | None = None
         self.commit_ahead = int(controller.commits_ahead)
         """g: periods ahead that reserve is committed (0: decided at each period's start)."""
@@ -227,6 +232,7 @@ class ControlStep:
             allowance_carry_steps=self.tracker.carry_steps,
             committed_reserve_kg_s=self.committed_flow_kg_s if self.commit_ahead else None,
             meter_ratio=ratio,
+            meter_offset_kw=self.meter.offset_kw() if self.meter_levelled else 0.0,
             previous_flow_kg_s=self._filter_flow_kg_s,
         )
 
@@ -252,7 +258,7 @@ class ControlStep:
         """
         self._start_period(k, activated, inputs.delivered_flow_kg_s)
         controller, tracker = self.controller, self.tracker
-        if self.meter_max_lag_steps:
+        if self.tracks_meter:
             self.meter.advance(k, inputs.previous_power_kw)
         role = tracker.role(activated(k))
         inputs = self.prepared(inputs)
@@ -272,14 +278,15 @@ class ControlStep:
         applied_flow = action.applied_flow_kg_s(curtailed=outcome.curtailed)
         self._filter_flow_kg_s = applied_flow
         status = decision_status(role, action)
-        if self.meter_max_lag_steps:
+        if self.tracks_meter:
             usable = (  # occupied, served by a fresh plan, outside events and recoveries
                 status is DecisionStatus.PLANNED
                 and not outcome.curtailed
                 and not outcome.event_window
                 and bool(inputs.forecast.occupied[0])
             )
-            self.meter.open(k, action.planned_power_kw if usable else math.nan)
+            model_kw = action.planned_power_kw - inputs.meter_offset_kw  # the model's own
+            self.meter.open(k, model_kw if usable else math.nan)
         made = action.plan if status is DecisionStatus.PLANNED else None
         return Decision(action, status, role, outcome, applied_flow, made, locked)
 
