@@ -32,7 +32,9 @@ from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
+import pandas as pd
 
+from hvacflex.constants import PERIOD_S, PERIODS_PER_DAY
 from hvacflex.units import CP_AIR_J_PER_KG_K, W_PER_KW
 
 FloatArray = npt.NDArray[np.float64]
@@ -306,8 +308,17 @@ class IdentifiedValidity:
 WEEKDAYS = ("monday", "tuesday", "wednesday", "thursday", "friday", "saturday", "sunday")
 """The keys of ``[identified.idle_air] fan_only_hours``, Monday first (pandas' ``day_of_week``
 0 … 6)."""
-PERIODS_PER_DAY = 48
-"""30-min periods in a day: the resolution of the idle air's hours."""
+PERIOD_MIN = round(PERIOD_S / 60)
+"""The period [min]: the resolution of the idle air's hours."""
+
+
+def period_of_day(starts: npt.ArrayLike) -> npt.NDArray[np.int64]:
+    """(T,) the period of the day (0 … PERIODS_PER_DAY − 1) of each tz-aware period start
+    (a ``pandas.DatetimeIndex``, local time)."""
+    index = pd.DatetimeIndex(starts)
+    seconds = np.asarray(index.hour * 3600 + index.minute * 60 + index.second, dtype=np.int64)
+    out: npt.NDArray[np.int64] = seconds // round(PERIOD_S)
+    return out
 
 
 def hours_text(periods: npt.ArrayLike) -> list[str]:
@@ -325,7 +336,7 @@ def hours_text(periods: npt.ArrayLike) -> list[str]:
 
 
 def _clock(period: int) -> str:
-    minutes = period * 30
+    minutes = period * PERIOD_MIN
     return f"{minutes // 60:02d}:{minutes % 60:02d}"
 
 
@@ -354,9 +365,12 @@ def _span_periods(span: str) -> tuple[int, int]:
 
 def _period_of(clock: str) -> int | None:
     hours, _, minutes = clock.strip().partition(":")
-    if not (hours.isdigit() and minutes in ("00", "30")):
+    if not (hours.isdigit() and minutes.isdigit() and len(minutes) == 2):
         return None
-    period = int(hours) * 2 + (minutes == "30")
+    total = int(hours) * 60 + int(minutes)
+    if total % PERIOD_MIN:
+        return None
+    period = total // PERIOD_MIN
     return period if period <= PERIODS_PER_DAY else None
 
 

@@ -21,6 +21,7 @@ import numpy as np
 import pandas as pd
 
 from hvacflex.building.discretize import LinearModel, delivered_flow_kg_s
+from hvacflex.building.identified import period_of_day
 from hvacflex.building.model import Building
 from hvacflex.control.base import FloatArray
 
@@ -69,7 +70,7 @@ def idle_flow_min_kg_s(
         return u_min
     idle = rc.idle_air
     starts = pd.DatetimeIndex(index)
-    fan_only = idle.fan_only_at(starts.day_of_week, starts.hour * 2 + starts.minute // 30)
+    fan_only = idle.fan_only_at(starts.day_of_week, period_of_day(starts))
     if not fan_only.any():
         return u_min
     flow_min = np.asarray(building.hvac.flow_min_kg_s, dtype=float)

@@ -19,11 +19,10 @@ import datetime
 import numpy as np
 import numpy.typing as npt
 
+from hvacflex.constants import PERIOD_S, PERIODS_PER_DAY
 from hvacflex.energyplus.hvac import COOLING_COIL_CLASSES
 from hvacflex.energyplus.idf import IdfObject, objects_of
 
-PERIODS_PER_DAY = 48
-"""30-min periods in a day: the resolution of a day's profile."""
 DAY_NAMES = ("monday", "tuesday", "wednesday", "thursday", "friday", "saturday", "sunday")
 
 
@@ -110,7 +109,8 @@ def day_profile(
         pairs = _compact_day(compact.fields, day)
         if pairs is None:
             return None
-        middles = np.arange(PERIODS_PER_DAY) * 30 + 15
+        period_min = PERIOD_S / 60
+        middles = (np.arange(PERIODS_PER_DAY) + 0.5) * period_min
         ends = np.array([minute for minute, _ in pairs])
         values = np.array([value for _, value in pairs])
         position = np.searchsorted(ends, middles, side="right")

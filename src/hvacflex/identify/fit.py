@@ -35,6 +35,7 @@ import scipy.optimize
 from hvacflex.building.identified import (
     WALL_ORIENTATIONS,
     IdentifiedIdleAir,
+    period_of_day,
     sensible_cooling_kw,
 )
 from hvacflex.constants import PERIODS_PER_DAY
@@ -747,7 +748,7 @@ def idle_air(
     idle = (flow > FLOWING_KG_S) & (flow <= low + IDLE_FLOW_SHARE * (high - low))
     fan_only = idle & (zone_temp - supply <= COOLING_DIFFERENCE_K)
     starts = inputs.index[first:end]
-    period = np.asarray(starts.hour * 2 + starts.minute // 30)
+    period = period_of_day(starts)
     if coil_available is None:
         table = _fan_only_hours_from_air(idle, fan_only, starts, period)
     else:

@@ -33,6 +33,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from hvacflex.building.identified import period_of_day
 from hvacflex.energyplus.idf import IdfObject, objects_of, parse_idf, read_idf
 from hvacflex.energyplus.schedules import cooling_coil_available
 from hvacflex.errors import InputError
@@ -339,7 +340,5 @@ def idf_cooling_available(path: str | Path, starts: pd.DatetimeIndex) -> np.ndar
     if table is None:
         return None
     row = {day: i for i, day in enumerate(days)}
-    out: np.ndarray = table[
-        [row[stamp.date()] for stamp in starts], np.asarray(starts.hour * 2 + starts.minute // 30)
-    ]
+    out: np.ndarray = table[[row[stamp.date()] for stamp in starts], period_of_day(starts)]
     return out
