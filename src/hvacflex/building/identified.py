@@ -32,7 +32,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
-import pandas as pd
 
 from hvacflex.constants import PERIOD_S, PERIODS_PER_DAY
 from hvacflex.units import CP_AIR_J_PER_KG_K, W_PER_KW
@@ -310,15 +309,6 @@ WEEKDAYS = ("monday", "tuesday", "wednesday", "thursday", "friday", "saturday", 
 0 … 6)."""
 PERIOD_MIN = round(PERIOD_S / 60)
 """The period [min]: the resolution of the idle air's hours."""
-
-
-def period_of_day(starts: npt.ArrayLike) -> npt.NDArray[np.int64]:
-    """(T,) the period of the day (0 … PERIODS_PER_DAY − 1) of each tz-aware period start
-    (a ``pandas.DatetimeIndex``, local time)."""
-    index = pd.DatetimeIndex(starts)
-    seconds = np.asarray(index.hour * 3600 + index.minute * 60 + index.second, dtype=np.int64)
-    out: npt.NDArray[np.int64] = seconds // round(PERIOD_S)
-    return out
 
 
 def hours_text(periods: npt.ArrayLike) -> list[str]:

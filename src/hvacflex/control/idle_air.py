@@ -21,9 +21,9 @@ import numpy as np
 import pandas as pd
 
 from hvacflex.building.discretize import LinearModel, delivered_flow_kg_s
-from hvacflex.building.identified import period_of_day
 from hvacflex.building.model import Building
 from hvacflex.control.base import FloatArray
+from hvacflex.data.weather_forecast import period_of_day
 
 CALLING_FLOW_KG_S = 1e-3
 """A zone planned more than this above its minimum flow calls for cooling [kg/s] (the

@@ -35,11 +35,11 @@ import scipy.optimize
 from hvacflex.building.identified import (
     WALL_ORIENTATIONS,
     IdentifiedIdleAir,
-    period_of_day,
     sensible_cooling_kw,
 )
 from hvacflex.constants import PERIODS_PER_DAY
 from hvacflex.data.solar import SolarSite, decompose_ghi, surface_irradiance_w_per_m2
+from hvacflex.data.weather_forecast import period_of_day
 from hvacflex.errors import InputError
 from hvacflex.identify.greybox import (
     EXOGENOUS_INPUTS,

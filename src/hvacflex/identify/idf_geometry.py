@@ -33,7 +33,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from hvacflex.building.identified import period_of_day
+from hvacflex.data.weather_forecast import period_of_day
 from hvacflex.energyplus.idf import IdfObject, objects_of, parse_idf, read_idf
 from hvacflex.energyplus.schedules import cooling_coil_available
 from hvacflex.errors import InputError
