@@ -284,8 +284,9 @@ class MPCController(Controller):
         flows, reserves = snapped_flows_kg_s(problem, solution, steps, self.contract.flow_max_kg_s)
         visible_kw = sizer.visible_offers_kw(problem, solution.power_kw, reserves)
         flow, reserve = flows[0], reserves[0]
-        flow_min = self.building.hvac.flow_min_at(inputs.forecast.occupied[:1])[0]
-        flow = coil_started_flows_kg_s(flow, problem.u_min[0], flow_min)
+        if self.contract.config.fan_only_air:
+            flow_min = self.building.hvac.flow_min_at(inputs.forecast.occupied[:1])[0]
+            flow = coil_started_flows_kg_s(flow, problem.u_min[0], flow_min)
         offer_kw = float(problem.reserve_kw_per_kg_s[0] @ reserve)
         if not self.commits_ahead:  # decided now: offer only what the baseline sees
             offer_kw = float(visible_kw[0])

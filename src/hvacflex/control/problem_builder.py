@@ -302,13 +302,11 @@ def build_problem(
             hint="load the data for steps + horizon_steps periods (load_exogenous)",
         )
     sigma = np.zeros_like(d_hat) if cfg.robust == "none" else contract.box.sigma(d_hat, m.channels)
-    u_min = idle_flow_min_kg_s(
-        contract.building.hvac.flow_min_at(forecast.occupied[:horizon]),
-        contract.building,
-        contract.model,
-        forecast.index[:horizon],
-        m.c @ np.asarray(context.x_degc, dtype=float),
-    )
+    u_min = contract.building.hvac.flow_min_at(forecast.occupied[:horizon])
+    if cfg.fan_only_air:  # an idle zone's fan-only input where the coil is scheduled off
+        zone_temp = m.c @ np.asarray(context.x_degc, dtype=float)
+        index = forecast.index[:horizon]
+        u_min = idle_flow_min_kg_s(u_min, contract.building, contract.model, index, zone_temp)
     y_min, y_max = comfort_bounds_at_period_ends(forecast, horizon)
     y_max = below_unoccupied_bound(forecast, y_min, y_max, cfg.unoccupied_plan_margin_k)
     if context.extra_margin_k is not None:
