@@ -4,6 +4,7 @@ coil's off hours; a calling zone starts the coil for the idle ones."""
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -11,11 +12,16 @@ import pandas as pd
 import pytest
 
 from hvacflex.building.discretize import linearize
-from hvacflex.building.identified import IdentifiedIdleAir
+from hvacflex.building.identified import IdentifiedIdleAir, IdentifiedPower
 from hvacflex.building.io import load_building
+from hvacflex.config import preset
+from hvacflex.control.base import PeriodInputs
 from hvacflex.control.idle_air import coil_started_flows_kg_s, idle_flow_min_kg_s
+from hvacflex.control.mpc import MPCController
+from hvacflex.control.problem_builder import PlanContext, build_problem
 from hvacflex.identify.greybox import GreyBoxParameters
 from hvacflex.identify.model_file import AirSystem, IdentifiedModel, write_identified_model
+from hvacflex.sim.setup import make_controller, prepare
 from hvacflex.units import CP_AIR_J_PER_KG_K
 
 ZONES = np.array(
@@ -29,13 +35,15 @@ NIGHT = tuple(p < 12 or p >= 40 for p in range(48))  # 20:00–06:00
 DIFFERENCE_K = (-0.8, 1.5)
 
 
-def _model(tmp_path: Path, idle: IdentifiedIdleAir | None) -> Path:
+def _model(tmp_path: Path, idle: IdentifiedIdleAir | None, power: bool = False) -> Path:
     model = IdentifiedModel(
         name="two zones",
         zones=("a", "b"),
         energyplus_zones=("A", "B"),
         parameters=GreyBoxParameters(ZONES, np.array([[0, 1]], dtype=np.int64), np.array([0.3])),
-        power=None,
+        power=IdentifiedPower(base_kw=1.0, kw_per_kw_cooling=0.3, kw_per_k_outdoor=0.02)
+        if power
+        else None,
         provenance={},
         air=AirSystem(16.0, tuple(FLOW_MIN_KG_S), (0.5, 0.8), tuple(FLOW_MIN_KG_S), (24.0, 24.0)),
         idle_air=idle,
@@ -83,3 +91,27 @@ def test_a_calling_zone_starts_the_coil_for_the_idle_ones() -> None:
     np.testing.assert_array_equal(calling, [0.14, 0.3, 0.2])  # zone 1 calls: the coil runs
     coil_hours = coil_started_flows_kg_s(np.array([0.14, 0.3, 0.2]), flow_min, flow_min)
     np.testing.assert_array_equal(coil_hours, [0.14, 0.3, 0.2])
+
+
+def test_the_mpc_plans_with_the_fan_only_bound_unless_switched_off(tmp_path: Path) -> None:
+    """``[controller] fan_only_air``: a night step's lower bound is the fan-only input (on, the
+    default) or the minimum flow (off); a working day's office step keeps the minimum."""
+    idle = IdentifiedIdleAir(
+        fan_only=(NIGHT,) * 5 + ((True,) * 48,) * 2, fan_only_difference_k=DIFFERENCE_K
+    )
+    path = _model(tmp_path, idle, power=True)
+    bounds = {}
+    for flag in (True, False):
+        config = preset("rmpc", building=str(path), start="2014-03-03", days=1.0)
+        config = replace(config, controller=replace(config.controller, fan_only_air=flag))
+        setup = prepare(config)
+        controller = make_controller(setup)
+        assert isinstance(controller, MPCController)
+        x = np.full(len(setup.model.node_names), 27.0)
+        inputs = PeriodInputs(x, setup.forecaster.forecast(0, 48), 0.0)  # Monday 00:00
+        problem = build_problem(setup.model, inputs, controller.contract, PlanContext(x))
+        bounds[flag] = np.asarray(problem.u_min)
+    np.testing.assert_array_equal(bounds[False][0], FLOW_MIN_KG_S)
+    assert (bounds[True][0] < FLOW_MIN_KG_S).all()  # 00:00: the coil is off
+    office = 20  # 10:00: the coil's hours
+    np.testing.assert_array_equal(bounds[True][office], bounds[False][office])
