@@ -130,7 +130,7 @@ def identify_collect(
         ...,
         "--idf",
         help="The EnergyPlus 25.2 model: a path, or a shipped model's name (5ZoneAirCooled, "
-        "packaged_shops).",
+        "RefBldgSmallOfficeNew2004_Chicago, packaged_shops).",
     ),
     start: str = typer.Option(..., "--start", help="First day, YYYY-MM-DD."),
     days: int = typer.Option(..., "--days", min=1, max=366, help="Number of days."),

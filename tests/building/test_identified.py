@@ -13,8 +13,10 @@ import hvacflex
 from hvacflex.building.discretize import linearize
 from hvacflex.building.identified import (
     GAIN_CHANNEL_PEAK_W,
+    IdentifiedIdleAir,
     IdentifiedPower,
     IdentifiedValidity,
+    hours_text,
     identified_affine_power,
     identified_occupied_share,
     identified_power_kw,
@@ -22,6 +24,7 @@ from hvacflex.building.identified import (
     metered_affine_power,
     metered_power_kw,
     metered_reserve_coeff,
+    parse_hours,
     sensible_cooling_kw,
 )
 from hvacflex.building.io import building_from_dict, load_building
@@ -368,3 +371,23 @@ def test_the_reserve_coefficient_of_a_metered_model_is_its_least_saving_by_hand(
     plant = 0.28 + 0.006 * (31.0 - 30.0) + 2.0 * (-0.002) * q_ref
     fan = 2.0 + 2.0 * 3.0 * 0.5
     np.testing.assert_allclose(coeff, fan + plant * q, rtol=1e-12)
+
+
+def test_hours_are_written_as_spans_and_read_back() -> None:
+    flags = tuple(p < 12 or 30 <= p < 31 or p >= 40 for p in range(48))
+    spans = hours_text(flags)
+    assert spans == ["00:00-06:00", "15:00-15:30", "20:00-24:00"]
+    assert parse_hours(spans) == flags
+    assert hours_text([False] * 48) == [] and parse_hours([]) == (False,) * 48
+    for bad in ("06:00-06:00", "6-7", "00:15-01:00", "00:00-24:30"):
+        with pytest.raises(ValueError, match="HH:MM-HH:MM"):
+            parse_hours([bad])
+
+
+def test_fan_only_periods_are_looked_up_by_weekday_and_period() -> None:
+    night = tuple(p < 12 or p >= 40 for p in range(48))
+    idle = IdentifiedIdleAir(
+        fan_only=(night,) * 5 + ((True,) * 48,) * 2, fan_only_difference_k=(-0.8,)
+    )
+    found = idle.fan_only_at([1, 1, 1, 5], [11, 12, 40, 20])
+    np.testing.assert_array_equal(found, [True, False, True, True])

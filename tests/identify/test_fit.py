@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -13,9 +14,11 @@ from hvacflex.data.weather import EpwLocation
 from hvacflex.errors import InputError
 from hvacflex.identify.fit import (
     FitData,
+    air_system,
     evaluate,
     fit_inputs,
     fit_model,
+    idle_air,
     tune_filter,
 )
 from hvacflex.identify.greybox import (
@@ -171,3 +174,59 @@ def test_a_boundary_node_is_recovered_from_its_own_balance() -> None:
     assert node.solar_m2 == pytest.approx(solar, rel=1e-6)
     assert node.occupied_gain_kw == pytest.approx(gain, rel=1e-6)
     assert node.temp_degc == pytest.approx(plenum[300:].mean())
+
+
+def _fan_only_trend(frame: pd.DataFrame) -> pd.DataFrame:
+    """The synthetic trend with its coil scheduled off on working days 20:00–06:00 and all
+    weekend: there the zones idle at the least flow on air 0.8 K warmer than the zone."""
+    out = frame.copy()
+    hour = out.index.hour
+    off = (hour < 6) | (hour >= 20) | (out.index.day_of_week >= 5)
+    for zone in ZONES:
+        out.loc[off, f"supply_flow_{zone}_kg_s"] = 0.05
+        out.loc[off, f"supply_temp_{zone}_degc"] = out.loc[off, f"temp_{zone}_degc"] + 0.8
+    return out
+
+
+def test_the_fan_only_hours_and_air_are_learned_from_the_air_or_the_coil_schedule(
+    tmp_path: Path, synthetic_trend: Callable[..., pd.DataFrame]
+) -> None:
+    path = tmp_path / "trend.csv"
+    write_trend(_fan_only_trend(synthetic_trend(days=7, seed=3)), path)
+    data = read_trend(path)
+    inputs = fit_inputs(data, ZONES, SITE)
+    train = (0, 7 * 48)
+    air = air_system(inputs, data, train, np.zeros(2))
+    idle = idle_air(inputs, data, train, air)
+    assert idle is not None
+    table = np.array(idle.fan_only)
+    period = np.arange(48)
+    night = (period < 12) | (period >= 40)
+    # idle air was seen at every period of the day; fan-only exactly where the coil was off
+    assert (table[:5] == night).all()
+    assert table[5:].all()
+    assert idle.fan_only_difference_k == pytest.approx([-0.8, -0.8], abs=1e-6)
+    # with the IDF's coil schedule (here: off 22:00–06:00 only) the hours are the schedule's
+    starts = inputs.index
+    coil = ~np.asarray((starts.hour < 6) | (starts.hour >= 22))
+    scheduled = idle_air(inputs, data, train, air, coil)
+    assert scheduled is not None
+    expected = (period < 12) | (period >= 44)
+    assert (np.array(scheduled.fan_only) == expected).all()
+
+
+def test_no_fan_only_hours_without_fan_only_air_or_with_equivalent_flows(
+    tmp_path: Path, synthetic_trend: Callable[..., pd.DataFrame]
+) -> None:
+    path = tmp_path / "trend.csv"
+    frame = synthetic_trend(days=4, seed=4)
+    write_trend(frame, path)
+    data = read_trend(path)
+    inputs = fit_inputs(data, ZONES, SITE)
+    air = air_system(inputs, data, (0, 4 * 48), np.zeros(2))
+    assert idle_air(inputs, data, (0, 4 * 48), air) is None  # the supply always cools
+    cycling = replace(air, supply_temp_degc=19.5)  # a cycling unit's equivalent flows
+    fan = tmp_path / "fan.csv"
+    write_trend(_fan_only_trend(frame), fan)
+    fan_data = read_trend(fan)
+    assert idle_air(fit_inputs(fan_data, ZONES, SITE), fan_data, (0, 4 * 48), cycling) is None

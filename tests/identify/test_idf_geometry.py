@@ -115,7 +115,9 @@ def _eio_floor_areas_m2(eio: Path) -> dict[str, float]:
     }
 
 
-@pytest.mark.parametrize("name", ["5ZoneAirCooled", "packaged_shops"])
+@pytest.mark.parametrize(
+    "name", ["5ZoneAirCooled", "packaged_shops", "RefBldgSmallOfficeNew2004_Chicago"]
+)
 def test_the_floor_areas_are_energyplus_s_own_zone_summary_s(name: str, tmp_path: Path) -> None:
     """The floor areas the fit writes (``floor_area_m2``, from the IDF's geometry) against
     what EnergyPlus itself reports for the zones (its eio zone summary, one day's run): the

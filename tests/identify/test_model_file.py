@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hvacflex.building.identified import IdentifiedValidity
+from hvacflex.building.identified import IdentifiedIdleAir, IdentifiedValidity
 from hvacflex.building.io import load_building
 from hvacflex.building.rc import build_network
 from hvacflex.errors import BuildingConfigError, ConfigError
@@ -137,3 +137,28 @@ def test_the_validity_range_is_written_and_read_back(
     with pytest.raises(BuildingConfigError) as caught:
         load_building(path)
     assert caught.value.field == "identified.validity.outdoor_temp_min_degc"
+
+
+def test_the_idle_air_is_written_and_read_back_and_bad_hours_are_refused(
+    identified_model: IdentifiedModel, tmp_path: Path
+) -> None:
+    night = tuple(p < 12 or p >= 40 for p in range(48))
+    fan_only = (night,) * 5 + ((True,) * 48,) * 2
+    idle = IdentifiedIdleAir(fan_only=fan_only, fan_only_difference_k=(-0.8, -0.9))
+    path = write_identified_model(replace(identified_model, idle_air=idle), tmp_path / "m.toml")
+    text = path.read_text(encoding="utf-8")
+    assert '"monday" = ["00:00-06:00", "20:00-24:00"]' in text
+    assert '"sunday" = ["00:00-24:00"]' in text
+    assert load_identified_model(path).idle_air == idle
+    rc = load_building(path).identified
+    assert rc is not None and rc.idle_air == idle
+    for old, new, field in (
+        ('"monday" = ', '"mondays" = ', "identified.idle_air.fan_only_hours.mondays"),
+        ('"00:00-06:00"', '"06:00-00:00"', "identified.idle_air.fan_only_hours.monday"),
+        ('"00:00-06:00"', '"00:00-06:15"', "identified.idle_air.fan_only_hours.monday"),
+        ('"space2_1" = -0.9', '"space3_1" = -0.9', "identified.idle_air.fan_only_difference_k"),
+    ):
+        path.write_text(text.replace(old, new, 1), encoding="utf-8")
+        with pytest.raises(BuildingConfigError) as caught:
+            load_building(path)
+        assert caught.value.field.startswith(field), caught.value.field

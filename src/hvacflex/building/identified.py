@@ -33,6 +33,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
+from hvacflex.constants import PERIOD_S, PERIODS_PER_DAY
 from hvacflex.units import CP_AIR_J_PER_KG_K, W_PER_KW
 
 FloatArray = npt.NDArray[np.float64]
@@ -303,6 +304,100 @@ class IdentifiedValidity:
         return out
 
 
+WEEKDAYS = ("monday", "tuesday", "wednesday", "thursday", "friday", "saturday", "sunday")
+"""The keys of ``[identified.idle_air] fan_only_hours``, Monday first (pandas' ``day_of_week``
+0 … 6)."""
+PERIOD_MIN = round(PERIOD_S / 60)
+"""The period [min]: the resolution of the idle air's hours."""
+
+
+def hours_text(periods: npt.ArrayLike) -> list[str]:
+    """The (48,) bool periods of a day as ``"HH:MM-HH:MM"`` spans (end exclusive, ``24:00``
+    the day's end): ``[True] * 12 + [False] * 36`` → ``["00:00-06:00"]``."""
+    flags = np.asarray(periods, dtype=bool).reshape(PERIODS_PER_DAY)
+    spans, start = [], None
+    for k, flag in enumerate([*flags.tolist(), False]):
+        if flag and start is None:
+            start = k
+        elif not flag and start is not None:
+            spans.append(f"{_clock(start)}-{_clock(k)}")
+            start = None
+    return spans
+
+
+def _clock(period: int) -> str:
+    minutes = period * PERIOD_MIN
+    return f"{minutes // 60:02d}:{minutes % 60:02d}"
+
+
+def parse_hours(spans: list[str]) -> tuple[bool, ...]:
+    """The inverse of :func:`hours_text`: (48,) bool periods of a day.
+
+    Raises
+    ------
+    ValueError
+        naming the span that is not ``"HH:MM-HH:MM"`` on the half hour with start < end.
+    """
+    flags = [False] * PERIODS_PER_DAY
+    for span in spans:
+        start, end = _span_periods(span)
+        flags[start:end] = [True] * (end - start)
+    return tuple(flags)
+
+
+def _span_periods(span: str) -> tuple[int, int]:
+    parts = span.split("-")
+    periods = [_period_of(part) for part in parts] if len(parts) == 2 else []
+    if len(periods) != 2 or None in periods or periods[0] >= periods[1]:  # type: ignore[operator]
+        raise ValueError(f"{span!r} is not a span 'HH:MM-HH:MM' on the half hour with start < end")
+    return int(periods[0]), int(periods[1])  # type: ignore[arg-type]
+
+
+def _period_of(clock: str) -> int | None:
+    hours, _, minutes = clock.strip().partition(":")
+    if not (hours.isdigit() and minutes.isdigit() and len(minutes) == 2):
+        return None
+    total = int(hours) * 60 + int(minutes)
+    if total % PERIOD_MIN:
+        return None
+    period = total // PERIOD_MIN
+    return period if period <= PERIODS_PER_DAY else None
+
+
+@dataclass(frozen=True)
+class IdentifiedIdleAir:
+    """What an idle zone's supply air delivers when the air system's coil is scheduled off.
+
+    An air system may run its fans while its cooling coil is scheduled off (5ZoneAirCooled:
+    out of the IDF's weekday 06:00–20:00 and all weekend): a zone at its minimum flow then
+    receives fan-only air — return and outdoor air, a few kelvin below the zone, not the
+    coil's ``T_s``. The training data show it (``hvacflex.identify.idle_air``); the
+    controller plans such a zone's idle input as that air (``control.problem_builder``), so
+    a night's minimum flow is not counted as the coil's cooling.
+
+    Attributes
+    ----------
+    fan_only : (7, 48) per weekday (Monday first) and 30-min period of the day, True where
+        an idle zone's air was fan-only in the training data.
+    fan_only_difference_k : (m,) each zone's median zone − supply temperature of its fan-only
+        air [K] (zone order).
+    """
+
+    fan_only: tuple[tuple[bool, ...], ...]
+    fan_only_difference_k: tuple[float, ...]
+
+    def fan_only_at(
+        self, weekday: npt.ArrayLike, period_of_day: npt.ArrayLike
+    ) -> npt.NDArray[np.bool_]:
+        """(T,) whether each period is a fan-only one: ``weekday`` (T,) 0 = Monday … 6,
+        ``period_of_day`` (T,) 0 … 47."""
+        table = np.asarray(self.fan_only, dtype=bool)
+        out: npt.NDArray[np.bool_] = table[
+            np.asarray(weekday, dtype=np.int64), np.asarray(period_of_day, dtype=np.int64)
+        ]
+        return out
+
+
 @dataclass(frozen=True)
 class IdentifiedRC:
     """The ``[identified]`` table of a building file.
@@ -314,6 +409,8 @@ class IdentifiedRC:
     power : the HVAC electricity model, or None (no meter in the data: ideal loads);
     provenance : where it came from (data file, train and test days);
     validity : the training data's range, or None (files written before it was recorded).
+    idle_air : the idle zones' fan-only air out of the coil's hours, or None (not learned:
+        the minimum flow is the coil's air at every hour).
     """
 
     zones: tuple[IdentifiedZone, ...]
@@ -323,6 +420,7 @@ class IdentifiedRC:
     power: IdentifiedPower | None
     provenance: tuple[tuple[str, str], ...] = ()
     validity: IdentifiedValidity | None = None
+    idle_air: IdentifiedIdleAir | None = None
 
 
 def sensible_cooling_kw(

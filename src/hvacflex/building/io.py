@@ -21,12 +21,15 @@ from hvacflex.building.identified import (
     GAIN_CHANNEL_PEAK_W,
     NOMINAL_FLOOR_AREA_M2,
     NOMINAL_HEIGHT_M,
+    WEEKDAYS,
     IdentifiedBoundary,
     IdentifiedCoupling,
+    IdentifiedIdleAir,
     IdentifiedPower,
     IdentifiedRC,
     IdentifiedValidity,
     IdentifiedZone,
+    parse_hours,
 )
 from hvacflex.building.model import (
     OUTSIDE,
@@ -367,6 +370,17 @@ def _hvac(
     )
 
 
+def _idle_air(identified: IdentifiedSpec, names: tuple[str, ...]) -> IdentifiedIdleAir | None:
+    """The ``[identified.idle_air]`` table in zone order (a weekday not named: none fan-only)."""
+    idle = identified.idle_air
+    if idle is None:
+        return None
+    return IdentifiedIdleAir(
+        fan_only=tuple(parse_hours(idle.fan_only_hours.get(day, [])) for day in WEEKDAYS),
+        fan_only_difference_k=tuple(idle.fan_only_difference_k[n] for n in names),
+    )
+
+
 def _identified_building(
     spec: BuildingSpec, identified: IdentifiedSpec, source_path: Path | None
 ) -> Building:
@@ -414,6 +428,7 @@ def _identified_building(
                 outdoor_temp_max_degc=identified.validity.outdoor_temp_max_degc,
             )
         ),
+        idle_air=_idle_air(identified, names),
     )
     return Building(
         name=spec.name,

@@ -62,6 +62,9 @@ unknown and ``Building.floor_area_m2`` is NaN) only, no walls, windows, ``[gains
     [identified.validity]     zone_temp_min_degc = {Z = …}, zone_temp_max_degc = {Z = …},
                               outdoor_temp_min_degc, outdoor_temp_max_degc (optional: the
                               training data's range)
+    [identified.idle_air]     fan_only_hours = {monday = ["00:00-06:00", …], …},
+                              fan_only_difference_k = {Z = …} (optional: an idle zone's
+                              fan-only air while the coil is scheduled off)
 
 The optional keys added for the BESTEST validation (infiltration, radiative split of gains,
 interior solar distribution, sky long-wave exchange) all default to the original model.
@@ -82,7 +85,7 @@ from pydantic import (
 )
 from pydantic_core import PydanticCustomError
 
-from hvacflex.building.identified import MIN_RUNNING_PERIODS
+from hvacflex.building.identified import MIN_RUNNING_PERIODS, WEEKDAYS, parse_hours
 from hvacflex.building.model import (
     ADIABATIC,
     BOUNDARIES,
@@ -367,6 +370,13 @@ class IdentifiedValiditySpec(Spec):
     outdoor_temp_max_degc: Annotated[Number, Field(ge=-50.0, le=70.0)]
 
 
+class IdentifiedIdleAirSpec(Spec):
+    """An idle zone's fan-only air: the hours per weekday, each zone's temperature drop."""
+
+    fan_only_hours: dict[str, list[Annotated[str, Strict()]]]
+    fan_only_difference_k: dict[str, Annotated[Number, Field(ge=-20.0, le=50.0)]]
+
+
 class IdentifiedSpec(Spec):
     supply_temp_degc: Annotated[Number, Field(lt=MAX_SUPPLY_TEMP_DEGC)]
     provenance: dict[str, Annotated[str, Strict()]] = {}
@@ -375,6 +385,7 @@ class IdentifiedSpec(Spec):
     boundaries: list[IdentifiedBoundarySpec] = []
     power_model: IdentifiedPowerSpec | None = None
     validity: IdentifiedValiditySpec | None = None
+    idle_air: IdentifiedIdleAirSpec | None = None
 
 
 class BuildingSpec(Spec):
@@ -663,6 +674,27 @@ def _check_validity(spec: BuildingSpec, validity: IdentifiedValiditySpec) -> Non
         )
 
 
+def _check_idle_air(spec: BuildingSpec, idle: IdentifiedIdleAirSpec) -> None:
+    """Weekdays by name, spans ``HH:MM-HH:MM``, every zone's temperature drop."""
+    for day, spans in idle.fan_only_hours.items():
+        field = f"identified.idle_air.fan_only_hours.{day}"
+        if day not in WEEKDAYS:
+            raise rule_error("unknown weekday", field, day, hint=f"one of {list(WEEKDAYS)}")
+        try:
+            parse_hours(spans)
+        except ValueError as error:
+            raise rule_error(str(error), field, spans, hint='e.g. ["00:00-06:00"]') from None
+    for name in idle.fan_only_difference_k:
+        _check_zone_ref(spec, name, f"identified.idle_air.fan_only_difference_k.{name}")
+    for name in spec.zone_names:
+        if name not in idle.fan_only_difference_k:
+            raise rule_error(
+                "missing required field",
+                f"identified.idle_air.fan_only_difference_k.{name}",
+                hint="add it",
+            )
+
+
 def _check_identified(spec: BuildingSpec, identified: IdentifiedSpec) -> None:
     """An identified building: no envelope, gains or HVAC tables; one parameter table per
     zone; couplings and boundaries naming its zones."""
@@ -690,3 +722,5 @@ def _check_identified(spec: BuildingSpec, identified: IdentifiedSpec) -> None:
             _check_zone_ref(spec, zone, f"identified.boundaries[{i}].ua_zone_kw_per_k")
     if identified.validity is not None:
         _check_validity(spec, identified.validity)
+    if identified.idle_air is not None:
+        _check_idle_air(spec, identified.idle_air)

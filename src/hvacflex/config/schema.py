@@ -15,7 +15,7 @@ File layout (every key optional)::
                    linearisation_temp_degc, time_limit_s, thermostat_setpoint_degc,
                    linearisation, optimal_start, demand_limit_fraction, reserve_share,
                    unoccupied_margin_k, unoccupied_plan_margin_k, peak_guard,
-                   peak_guard_substeps, power_model, power_level
+                   peak_guard_substeps, power_model, power_level, fan_only_air
     [controller.feedback]  structure, memory_steps
     [reserve]      event_max_steps, event_allowance_k, event_recovery_steps,
                    non_delivery_penalty_sgd_per_mwh,
@@ -224,6 +224,11 @@ class ControllerSpec(Spec):
     plans stay this far below the upper comfort bound of unoccupied periods [K] (never below
     the lower bound; the ``comfort_upper_*`` result columns, which the KPIs grade against,
     keep the band)."""
+    fan_only_air: Flag = default(ControllerConfig, "fan_only_air")
+    """An identified building that records its coil's hours (``[identified.idle_air]``): the
+    MPC plans an idle zone's input in the coil's off hours as its fan-only air and counts the
+    coil's air for the idle zones when another zone's call starts the coil; ``false``: the
+    minimum flow is the coil's air at every hour (docs/guide/identify.md §3)."""
     power_model: PowerModelSource = default(ControllerConfig, "power_model")
     """The LP's power rows: ``metered`` plans with the building file's power model fitted to
     the meter of the scenario's plant (``[power_models.rc]`` / ``[power_models.energyplus]``,

@@ -17,6 +17,11 @@ the same problem (docs/explanation/model.md §3):
   inside the occupied band, the upper bound of unoccupied period ends lowered by
   ``[controller] unoccupied_plan_margin_k`` (:func:`below_unoccupied_bound`: the plan does not
   ride the night bound) and tightened by the estimation and model-error margins,
+* flow bounds from the building's air system (occupied: ventilation, else the minimum); where
+  an identified building's coil is scheduled off (``[identified.idle_air]``), an idle zone's
+  lower bound is the input its fan-only air delivers
+  (:func:`hvacflex.control.idle_air.idle_flow_min_kg_s`), not its
+  minimum flow at the coil's temperature,
 * σ from the scenario's uncertainty box (zero for the nominal MPC),
 * prices, the peak-power price φ and, in billing-period mode, the month's peak so far,
 * while φ > 0, the committed cap on the morning pull-down: P_k ≤ the cap in force (the
@@ -48,6 +53,7 @@ from hvacflex.building.model import Building
 from hvacflex.config import ControllerConfig, ReserveConfig
 from hvacflex.control.base import FloatArray, PeriodInputs
 from hvacflex.control.estimation import StepModel, tightened_bounds
+from hvacflex.control.idle_air import idle_flow_min_kg_s
 from hvacflex.data.forecast import Forecast
 from hvacflex.data.signals import effective_peak_price
 from hvacflex.data.uncertainty import UncertaintyBox
@@ -297,6 +303,10 @@ def build_problem(
         )
     sigma = np.zeros_like(d_hat) if cfg.robust == "none" else contract.box.sigma(d_hat, m.channels)
     u_min = contract.building.hvac.flow_min_at(forecast.occupied[:horizon])
+    if cfg.fan_only_air:  # an idle zone's fan-only input where the coil is scheduled off
+        zone_temp = m.c @ np.asarray(context.x_degc, dtype=float)
+        index = forecast.index[:horizon]
+        u_min = idle_flow_min_kg_s(u_min, contract.building, contract.model, index, zone_temp)
     y_min, y_max = comfort_bounds_at_period_ends(forecast, horizon)
     y_max = below_unoccupied_bound(forecast, y_min, y_max, cfg.unoccupied_plan_margin_k)
     if context.extra_margin_k is not None:

@@ -28,12 +28,18 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
+import numpy.typing as npt
 import pandas as pd
 import scipy.optimize
 
-from hvacflex.building.identified import WALL_ORIENTATIONS, sensible_cooling_kw
+from hvacflex.building.identified import (
+    WALL_ORIENTATIONS,
+    IdentifiedIdleAir,
+    sensible_cooling_kw,
+)
 from hvacflex.constants import PERIODS_PER_DAY
 from hvacflex.data.solar import SolarSite, decompose_ghi, surface_irradiance_w_per_m2
+from hvacflex.data.weather_forecast import period_of_day
 from hvacflex.errors import InputError
 from hvacflex.identify.greybox import (
     EXOGENOUS_INPUTS,
@@ -136,6 +142,14 @@ COIL_SUPPLY_QUANTILE = 0.05
 COOLING_DIFFERENCE_K = 1.0
 """Supply air this much colder than the zone counts as cooling air [K] (a constant-volume
 fan also moves air while its coil is off)."""
+IDLE_FLOW_SHARE = 0.05
+"""A zone whose flow lies within this share of its flow range above its minimum is idle [–]."""
+FAN_ONLY_SHARE = 0.1
+"""A period of the day is fan-only when at least this share of the idle zones' periods there
+were (a pull-down that starts the coil at night makes the others coil air) [–]."""
+WORKING_DAYS_PER_WEEK = 5
+"""Monday … Friday: the days an air system's schedule treats alike (pooled in
+:func:`idle_air`), Saturday and Sunday the others."""
 CouplingPhysics = tuple[tuple[float, float, float] | None, ...] | None
 """Per coupling (zone pairs, then zone–boundary pairs) its (low, high, prior) [kW/K], or None:
 the generic bounds."""
@@ -692,6 +706,87 @@ def air_system(
         ventilation_flow_kg_s=tuple(float(v) for v in np.clip(vent, low, high)),
         mass_temp_degc=tuple(float(v) for v in mass_temp_degc),
     )
+
+
+def idle_air(
+    inputs: FitData,
+    data: TrendData,
+    train: tuple[int, int],
+    air: AirSystem,
+    coil_available: npt.NDArray[np.bool_] | None = None,
+) -> IdentifiedIdleAir | None:
+    """When an idle zone's air is fan-only (``[identified.idle_air]``), from the training data.
+
+    A zone is idle in a period when air flows at most :data:`IDLE_FLOW_SHARE` of its flow
+    range above its minimum, and its air is fan-only when it is no cooling air (at most
+    :data:`COOLING_DIFFERENCE_K` below the zone: the coil off — return and outdoor air,
+    about 1 K warmer than the zone in 5ZoneAirCooled's nights).
+
+    The hours: with ``coil_available`` (T,) — the IDF's cooling-coil schedule on the
+    training periods (``identify fit --idf``, :func:`hvacflex.energyplus.schedules.
+    cooling_coil_available`) — a weekday's 30-min period is fan-only where the coil is
+    scheduled off on most of the training days of that weekday. Without it, from the air
+    itself: a period of the day is fan-only on the working days (Monday … Friday, pooled) or
+    on the weekend (pooled) when at least :data:`FAN_ONLY_SHARE` of the idle zones' periods
+    there were (a zone that calls for cooling starts the coil for every zone: 5ZoneAirCooled's
+    `range` data leave no zone idle alone from 18:00 to 21:00, so the data cannot tell those
+    hours).
+
+    Each zone's ``fan_only_difference_k`` is the median zone − supply temperature of its
+    fan-only periods in those hours [K] (of every zone's where it has none; 0 where no zone
+    has any). None when no period is fan-only, or for a cycling constant-volume unit
+    (``T_s`` ≥ :data:`MAX_COIL_SUPPLY_TEMP_DEGC`: its flows are equivalent flows already).
+    """
+    if air.supply_temp_degc >= MAX_COIL_SUPPLY_TEMP_DEGC:
+        return None
+    first, end = train
+    flow = data.zone_series("supply_flow", inputs.zones)
+    supply = data.zone_series("supply_temp", inputs.zones)
+    assert flow is not None and supply is not None
+    flow, supply, zone_temp = flow[first:end], supply[first:end], inputs.y[first:end]
+    low, high = np.asarray(air.flow_min_kg_s), np.asarray(air.flow_max_kg_s)
+    idle = (flow > FLOWING_KG_S) & (flow <= low + IDLE_FLOW_SHARE * (high - low))
+    fan_only = idle & (zone_temp - supply <= COOLING_DIFFERENCE_K)
+    starts = inputs.index[first:end]
+    period = period_of_day(starts)
+    if coil_available is None:
+        table = _fan_only_hours_from_air(idle, fan_only, starts, period)
+    else:
+        slot = np.asarray(starts.day_of_week) * PERIODS_PER_DAY + period
+        days = np.bincount(slot, minlength=7 * PERIODS_PER_DAY)
+        off = np.bincount(slot, weights=~coil_available, minlength=7 * PERIODS_PER_DAY)
+        table = ((days > 0) & (2.0 * off > days)).reshape(7, PERIODS_PER_DAY)
+        fan_only &= ~coil_available[:, None]
+    if not table.any():
+        return None
+    difference = zone_temp - supply
+    overall = float(np.median(difference[fan_only])) if fan_only.any() else 0.0
+    per_zone = [
+        float(np.median(difference[fan_only[:, i], i])) if fan_only[:, i].any() else overall
+        for i in range(len(inputs.zones))
+    ]
+    return IdentifiedIdleAir(
+        fan_only=tuple(tuple(bool(v) for v in row) for row in table),
+        fan_only_difference_k=tuple(per_zone),
+    )
+
+
+def _fan_only_hours_from_air(
+    idle: npt.NDArray[np.bool_],
+    fan_only: npt.NDArray[np.bool_],
+    starts: pd.DatetimeIndex,
+    period: npt.NDArray[np.int64],
+) -> npt.NDArray[np.bool_]:
+    """(7, 48) the fan-only hours the air shows (:func:`idle_air`, without the IDF)."""
+    weekend = np.asarray(starts.day_of_week >= WORKING_DAYS_PER_WEEK, dtype=np.int64)
+    slot = weekend * PERIODS_PER_DAY + period
+    idle_count = np.bincount(slot, weights=idle.sum(axis=1), minlength=2 * PERIODS_PER_DAY)
+    fan_count = np.bincount(slot, weights=fan_only.sum(axis=1), minlength=2 * PERIODS_PER_DAY)
+    by_class = ((idle_count > 0) & (fan_count >= FAN_ONLY_SHARE * idle_count)).reshape(2, -1)
+    table: npt.NDArray[np.bool_] = by_class[
+        [0] * WORKING_DAYS_PER_WEEK + [1] * (7 - WORKING_DAYS_PER_WEEK)
+    ]
+    return table
 
 
 def fit_boundary_nodes(

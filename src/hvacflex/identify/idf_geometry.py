@@ -14,7 +14,9 @@
   (``FenestrationSurface:Detailed`` and ``Window`` on a base surface with ``Outdoors`` as its
   outside boundary; the base surfaces ``BuildingSurface:Detailed`` of type Wall,
   ``Wall:Detailed`` and ``Wall:Exterior``). The fit bounds each zone's wall solar apertures
-  by them (:mod:`hvacflex.identify.physics`).
+  by them (:mod:`hvacflex.identify.physics`);
+* when its **cooling coils** are scheduled available (:func:`idf_cooling_available`): where an
+  idle zone's air is fan-only (``hvacflex.identify.fit.idle_air``).
 
 The outward normal of a polygon is Newell's normal of its vertices in the
 ``GlobalGeometryRules`` entry direction (counter-clockwise seen from outside by default);
@@ -29,8 +31,11 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 
+from hvacflex.data.weather_forecast import period_of_day
 from hvacflex.energyplus.idf import IdfObject, objects_of, parse_idf, read_idf
+from hvacflex.energyplus.schedules import cooling_coil_available
 from hvacflex.errors import InputError
 
 HORIZONTAL_TILT_DEG = 60.0
@@ -323,3 +328,17 @@ def idf_floor_areas_m2(path: str | Path, zones: tuple[str, ...]) -> tuple[float,
             )
         areas.append(found.floor_area_m2)
     return tuple(areas)
+
+
+def idf_cooling_available(path: str | Path, starts: pd.DatetimeIndex) -> np.ndarray | None:
+    """(T,) bool: whether the IDF at ``path`` schedules some cooling coil available in each
+    30-min period starting at ``starts`` (local times), or None where its coils' schedules
+    cannot be read (:func:`hvacflex.energyplus.schedules.cooling_coil_available`)."""
+    objects = parse_idf(read_idf(path), path)
+    days = sorted({stamp.date() for stamp in starts})
+    table = cooling_coil_available(objects, days)
+    if table is None:
+        return None
+    row = {day: i for i, day in enumerate(days)}
+    out: np.ndarray = table[[row[stamp.date()] for stamp in starts], period_of_day(starts)]
+    return out

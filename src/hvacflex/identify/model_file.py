@@ -22,7 +22,14 @@ from pathlib import Path
 
 import numpy as np
 
-from hvacflex.building.identified import IdentifiedBoundary, IdentifiedPower, IdentifiedValidity
+from hvacflex.building.identified import (
+    WEEKDAYS,
+    IdentifiedBoundary,
+    IdentifiedIdleAir,
+    IdentifiedPower,
+    IdentifiedValidity,
+    hours_text,
+)
 from hvacflex.building.io import load_building
 from hvacflex.errors import ConfigError
 from hvacflex.identify.greybox import ZONE_PARAMETERS, GreyBoxParameters
@@ -84,7 +91,8 @@ class IdentifiedModel:
     air : supply temperature and flow ranges; boundary_nodes : (nb,) the boundaries' nodes;
     floor_areas_m2 : (m,) each zone's floor area [m²], or None when unknown (the file then
     gives none: per-m² figures are not available); validity : the training data's range
-    (``[identified.validity]``), or None.
+    (``[identified.validity]``), or None; idle_air : the idle zones' fan-only air while the
+    coil is scheduled off (``[identified.idle_air]``), or None (not learned).
     """
 
     name: str
@@ -98,6 +106,7 @@ class IdentifiedModel:
     boundary_nodes: tuple[BoundaryNode, ...] = ()
     floor_areas_m2: tuple[float, ...] | None = None
     validity: IdentifiedValidity | None = None
+    idle_air: IdentifiedIdleAir | None = None
 
 
 def _toml_value(value: object) -> str:
@@ -174,6 +183,15 @@ def write_identified_model(model: IdentifiedModel, path: str | Path) -> Path:
                 "outdoor_temp_max_degc": v.outdoor_temp_max_degc,
             },
         )
+    if model.idle_air is not None:
+        idle = model.idle_air
+        hours = {day: hours_text(idle.fan_only[i]) for i, day in enumerate(WEEKDAYS)}
+        differences = dict(zip(model.zones, idle.fan_only_difference_k, strict=True))
+        _table(
+            lines,
+            "[identified.idle_air]",
+            {"fan_only_hours": hours, "fan_only_difference_k": differences},
+        )
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text("\n".join(lines) + "\n", encoding="utf-8")
     return path
@@ -238,6 +256,7 @@ def load_identified_model(path: str | Path) -> IdentifiedModel:
             else None
         ),
         validity=rc.validity,
+        idle_air=rc.idle_air,
     )
 
 

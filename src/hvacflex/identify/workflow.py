@@ -58,11 +58,17 @@ from hvacflex.identify.fit import (
     fit_boundary_nodes,
     fit_inputs,
     fit_model,
+    idle_air,
     mean_mass_temps_degc,
     one_step_errors,
     prediction_frame,
 )
-from hvacflex.identify.idf_geometry import ZoneGeometry, idf_floor_areas_m2, idf_zone_geometry
+from hvacflex.identify.idf_geometry import (
+    ZoneGeometry,
+    idf_cooling_available,
+    idf_floor_areas_m2,
+    idf_zone_geometry,
+)
 from hvacflex.identify.model_file import IdentifiedModel, identifier, write_identified_model
 from hvacflex.identify.physics import (
     ZonePhysics,
@@ -453,6 +459,10 @@ def identify(
     say(FIT_STAGES[2])
     ids = tuple(identifier(z) for z in inputs.zones)
     say(FIT_STAGES[3])
+    air = air_system(inputs, data, train_range, mean_mass_temps_degc(fit, inputs, test_range))
+    coil_schedule = None
+    if idf_file is not None:
+        coil_schedule = idf_cooling_available(idf_file, inputs.index[slice(*train_range)])
     model = IdentifiedModel(
         name=f"identified from {Path(data_path).name}",
         zones=ids,
@@ -460,10 +470,11 @@ def identify(
         parameters=fit.parameters,
         boundaries=inputs.boundaries,
         boundary_nodes=fit_boundary_nodes(fit.parameters, inputs, train_range, test_range),
-        air=air_system(inputs, data, train_range, mean_mass_temps_degc(fit, inputs, test_range)),
+        air=air,
         power=power,
         floor_areas_m2=areas_m2,
         validity=validity_range(inputs, train_range),
+        idle_air=idle_air(inputs, data, train_range, air, coil_schedule),
         provenance={
             "data": str(data_path),
             "train": _days_text(inputs.index, train_range),

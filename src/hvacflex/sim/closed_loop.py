@@ -393,7 +393,7 @@ class ClosedLoop:
         flow = action.applied_flow_kg_s(curtailed=curtailed)
         if self.actuation == "flow":
             return Actuation(
-                flow_kg_s=flow,
+                flow_kg_s=np.maximum(flow, 0.0),  # a fan-only idle input is below 0 (no air)
                 supply_temp_degc=action.supply_temp_degc,
                 peak_guard=self._period_guard,
             )

@@ -1,0 +1,80 @@
+"""An identified building's fan-only air in the plan: the coil scheduled off.
+
+An air system may run its fans while its cooling coil is scheduled off (5ZoneAirCooled: out
+of its weekday 06:00–20:00 and all weekend). ``hvacflex identify fit`` learns those hours and
+the fan-only air's temperature (``[identified.idle_air]``,
+:class:`hvacflex.building.identified.IdentifiedIdleAir`); the MPC then
+
+* plans an idle zone's input in those hours as what its fan-only air delivers
+  (:func:`idle_flow_min_kg_s`: the step's lower flow bound), not as its minimum flow at the
+  coil's temperature — without it the plan counted every night's minimum flow as the coil's
+  cooling and predicted the zones 1.2–1.8 K colder than EnergyPlus;
+* knows that one zone calling for cooling starts the coil for all (one air system: the
+  setpoint actuation forces the coil's availability on), so the period's idle zones then
+  receive the coil's air at their minimum flow (:func:`coil_started_flows_kg_s`: the flows
+  the controller reports it applies; the plan itself is not re-solved).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from hvacflex.building.discretize import LinearModel, delivered_flow_kg_s
+from hvacflex.building.model import Building
+from hvacflex.control.base import FloatArray
+from hvacflex.data.weather_forecast import period_of_day
+
+CALLING_FLOW_KG_S = 1e-3
+"""A zone planned more than this above its minimum flow calls for cooling [kg/s] (the
+setpoint actuation sends it a setpoint below its temperature, which starts the coil)."""
+
+
+def coil_started_flows_kg_s(
+    flow_kg_s: FloatArray, u_min: FloatArray, flow_min_kg_s: FloatArray
+) -> FloatArray:
+    """(m,) a fan-only period's flows [kg/s] as the air system runs them: where the plan
+    leaves some zones at their fan-only bound (``u_min`` (m,) below the minimum flow
+    ``flow_min_kg_s`` (m,), :func:`idle_flow_min_kg_s`) and another zone calls for cooling,
+    the coil starts for every zone (one air system), so each idle zone receives the coil's
+    air at its minimum flow; ``flow_kg_s`` (m,) itself otherwise."""
+    fan_only = u_min < flow_min_kg_s - CALLING_FLOW_KG_S
+    calling = flow_kg_s > flow_min_kg_s + CALLING_FLOW_KG_S
+    if not fan_only.any() or not calling.any():
+        return flow_kg_s
+    out: FloatArray = np.where(fan_only & ~calling, np.maximum(flow_kg_s, flow_min_kg_s), flow_kg_s)
+    return out
+
+
+def idle_flow_min_kg_s(
+    u_min: FloatArray,
+    building: Building,
+    model: LinearModel,
+    index: pd.DatetimeIndex,
+    zone_temp_degc: FloatArray,
+) -> FloatArray:
+    """(N, m) the steps' lower flow bounds [kg/s] with an identified building's fan-only air.
+
+    Where ``[identified.idle_air]`` says the coil is scheduled off (the step's weekday and
+    period of the day, ``index`` (N,) its starts), a zone at its minimum flow receives air
+    only ``fan_only_difference_k`` below the zone, not the coil's: its bound is the model
+    input that delivers ``ṁ_min c_p ΔT`` at the zone's present temperature
+    (:func:`~hvacflex.building.discretize.delivered_flow_kg_s`, as the observer takes the
+    plant's report), never above ``u_min``. So the plan does not count an idle night's
+    minimum flow as the coil's cooling; more than the bound is the coil's air (the
+    setpoint actuation then starts the coil). ``u_min`` (N, m), ``building`` and its linear
+    ``model`` (ṁ₀, T₀, T_s), ``zone_temp_degc`` (m,) [°C]; ``u_min`` itself without the
+    table."""
+    rc = building.identified
+    if rc is None or rc.idle_air is None:
+        return u_min
+    idle = rc.idle_air
+    starts = pd.DatetimeIndex(index)
+    fan_only = idle.fan_only_at(starts.day_of_week, period_of_day(starts))
+    if not fan_only.any():
+        return u_min
+    flow_min = np.asarray(building.hvac.flow_min_kg_s, dtype=float)
+    inlet = zone_temp_degc - np.asarray(idle.fan_only_difference_k, dtype=float)
+    fan_input = delivered_flow_kg_s(model, flow_min, zone_temp_degc, inlet)
+    out: FloatArray = np.where(fan_only[:, None], np.minimum(u_min, fan_input[None, :]), u_min)
+    return out
