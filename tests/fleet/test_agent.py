@@ -11,6 +11,7 @@ from hvacflex.control.base import PeriodInputs
 from hvacflex.control.baselines import rule_action
 from hvacflex.control.mpc import MPCController
 from hvacflex.fleet.agent import BuildingAgent, FleetSettings, _largest_within
+from hvacflex.fleet.aggregation import visible_offers_kw
 from hvacflex.fleet.generate import generate_fleet
 from hvacflex.fleet.schema import fleet_from_dict
 
@@ -131,3 +132,42 @@ def test_a_hold_in_a_locked_event_period_says_it_is_ignored(
     controller.held_flow_kg_s = None
     free = controller.act(dataclasses.replace(inputs, locked=_Locked("locked")))  # type: ignore[arg-type]
     assert free.status == "locked"
+
+
+def test_the_offer_is_sized_on_the_power_the_plant_draws_curtailed() -> None:
+    """The offer's curtailed power is the plant's power model at u₀ − r₀, not the LP's affine
+    P₀ − p₀·r₀: the secant over-states what shedding r₀ takes off the meter. One building
+    (seed 17) from 14:30 on 2014-03-03 offers at 15:30; activated then, its RC plant's meter
+    reads within 1.5 % of the predicted curtailed power, the shed on the meter is well below
+    the affine p₀·r₀, and the meter shows all of its visible offer against its pre-event
+    baseline (the period before)."""
+    fleet = fleet_from_dict(generate_fleet(1, 17, feeder_limit_kw=float("inf")))
+    agent = BuildingAgent(fleet.buildings[0], 0, FleetSettings.of(fleet, "2014-03-03T14:30", 1))
+    horizon = fleet.spec.horizon_steps
+    for _ in range(2):
+        agent.begin_step()
+        agent.finalize(np.zeros(horizon), np.full(horizon, np.inf))
+        agent.advance(False)
+    agent.begin_step()
+    agent.finalize(np.zeros(horizon), np.full(horizon, np.inf))
+    offer_kw, curtailed_kw, baseline_kw = agent.staged_offer_kw()
+    assert offer_kw > 1.0  # an offer worth checking
+    assert baseline_kw == agent.frame()["power_kw"].iloc[1]  # pre-event: the period before
+    staged, problem = agent._staged, agent.problem
+    assert staged is not None
+    reserve = staged.r[0]
+    affine_shed_kw = float(problem.power_coeff_kw_per_kg_s[0] @ reserve)
+    visible_kw = float(visible_offers_kw([offer_kw], [curtailed_kw], [baseline_kw])[0])
+    row = agent.advance(True)
+    period = agent.frame().iloc[2]
+    assert row["power_kw"] == pytest.approx(curtailed_kw, rel=0.015)
+    plant_shed_kw = period["power_served_kw"] - row["power_kw"]
+    assert 0.0 < plant_shed_kw < 0.9 * affine_shed_kw  # the secant over-states the shed
+    delivered_kw = baseline_kw - row["power_kw"]
+    assert delivered_kw >= visible_kw > 0.0  # delivered all it offered
+    # the affine rule (P₀ − p₀·r₀ read on the meter's scale less last period's excess of
+    # the plan over the meter) would have offered more than the meter showed
+    before = agent.frame().iloc[1]
+    excess_kw = max(before["planned_power_kw"] - before["power_kw"], 0.0)
+    affine_curtailed_kw = float(staged.power_kw[0]) - affine_shed_kw - excess_kw
+    assert min(offer_kw, baseline_kw - affine_curtailed_kw) > delivered_kw

@@ -21,14 +21,13 @@ from hvacflex.fleet.aggregation import (
 
 
 def test_each_building_offers_what_its_own_meter_would_show() -> None:
-    offer = np.array([10.0, 10.0, 10.0, 10.0, 5.0])
-    curtailed = np.array([90.0, 95.0, 95.0, 120.0, 50.0])
-    baseline = np.array([100.0, 100.0, 100.0, 100.0, np.nan])
-    excess = np.array([0.0, 0.0, 2.0, 0.0, 0.0])
-    visible = visible_offers_kw(offer, curtailed, baseline, excess)
-    # 90 + 10 ≤ 100: all; 95 + 5 = 100: 5 seen; the model's 2 kW above the meter: 7;
-    # curtailed above the baseline: nothing; no baseline (nothing metered): nothing
-    np.testing.assert_allclose(visible, [10.0, 5.0, 7.0, 0.0, 0.0], atol=1e-5)
+    offer = np.array([10.0, 10.0, 10.0, 5.0])
+    curtailed = np.array([90.0, 95.0, 120.0, 50.0])  # the meter's power with the offer shed
+    baseline = np.array([100.0, 100.0, 100.0, np.nan])
+    visible = visible_offers_kw(offer, curtailed, baseline)
+    # 100 − 90 ≥ 10: all; 100 − 95 = 5 seen; curtailed above the baseline: nothing;
+    # no baseline (nothing metered): nothing
+    np.testing.assert_allclose(visible, [10.0, 5.0, 0.0, 0.0], atol=1e-5)
 
 
 def test_the_aggregate_is_bid_only_at_or_above_the_minimum() -> None:

@@ -130,16 +130,23 @@ class FleetController(MPCController):
         """``inputs`` without the building's own settlement baselines: the controller's
         all-or-nothing check (which drops the offer of every building whose plan is not
         below its last metered power) is replaced by the coordinator's, which cuts each
-        staged offer to the part the building's meter would show, its model's excess over
-        the meter allowed for (:func:`hvacflex.fleet.aggregation.visible_offers_kw`)."""
+        staged offer to the part the building's meter would show, the curtailed power read
+        by the plant's power model (:func:`hvacflex.fleet.aggregation.visible_offers_kw`)."""
         return dataclasses.replace(inputs, baseline_power_kw=None, baseline_ahead_kw=None)
 
-    def first_offer_kw(self, problem: RMPCProblem, plan: RMPCSolution) -> tuple[float, float]:
-        """(the offer q₀·r₀ [kW], the curtailed power P₀ − p₀·r₀ [kW]) of ``plan``'s first
-        period, its flows snapped onto the physical limits as :meth:`act` snaps them."""
-        reserve = snapped_flows_kg_s(problem, plan, 1, self.contract.flow_max_kg_s)[1][0]
-        coeff = problem.power_coeff_kw_per_kg_s[0]
-        curtailed = float(plan.power_kw[0]) - float(coeff @ reserve)
+    def first_offer_kw(
+        self, problem: RMPCProblem, plan: RMPCSolution, inputs: PeriodInputs
+    ) -> tuple[float, float]:
+        """(the offer q₀·r₀ [kW], the curtailed power [kW]) of ``plan``'s first period, its
+        flows snapped onto the physical limits as :meth:`act` snaps them. The curtailed
+        power is what the plant's power model predicts for the curtailed flows u₀ − r₀
+        (:meth:`predicted_power_kw`, from ``inputs``), the meter's scale: the LP's affine
+        p₀·r₀ is a secant and over-states what shedding r₀ takes off the meter (the RC
+        plants shed 0.81 × p₀·r₀ over 50 buildings' office hours, the power model's
+        prediction 1.01 ×; docs/guide/fleet.md, "The aggregator's offer")."""
+        flows, reserves = snapped_flows_kg_s(problem, plan, 1, self.contract.flow_max_kg_s)
+        reserve = reserves[0]
+        curtailed = self.predicted_power_kw(inputs, flows[0] - reserve)
         return float(problem.reserve_kw_per_kg_s[0] @ reserve), curtailed
 
     def solver(self, problem: RMPCProblem) -> RMPCSolver:
@@ -405,29 +412,26 @@ class BuildingAgent:
         action = probe.locked_action()
         return action.applied_flow_kg_s(curtailed=True)
 
-    def staged_offer_kw(self) -> tuple[float, float]:
-        """(the staged plan's first-period offer [kW], its curtailed power [kW]): the
-        building's part of the fleet's bid (:meth:`FleetController.first_offer_kw`); (0,
-        the planned power) without an optimal plan."""
-        staged, problem = self._staged, self._problem
-        if staged is None or problem is None or staged.status is not SolveStatus.OPTIMAL:
-            return 0.0, float("nan") if staged is None else float(staged.power_kw[0])
-        return self.controller.first_offer_kw(problem, staged)
-
-    def meter_view_kw(self) -> tuple[float, float]:
-        """(the building's settlement baseline of an activation starting now [kW], its
-        model's excess over its meter last period, max(0, planned − metered) [kW]): what
-        its meter would show an offer against
-        (:func:`hvacflex.fleet.aggregation.visible_offers_kw`); (NaN, 0) where nothing is
-        metered yet (the run's first period)."""
-        k = self.loop.k
+    def staged_offer_kw(self) -> tuple[float, float, float]:
+        """What the building's meter would show of its staged offer: (the staged plan's
+        first-period offer [kW], its curtailed power by the plant's power model [kW]
+        (:meth:`FleetController.first_offer_kw`), its settlement baseline of an activation
+        starting now [kW]) — the building's part of the fleet's bid
+        (:func:`hvacflex.fleet.aggregation.visible_offers_kw`). The offer is 0 without an
+        optimal plan; the baseline NaN where nothing is metered yet (the run's first
+        period)."""
+        staged, problem, inputs = self._staged, self._problem, self._inputs
         baseline = self._baseline_kw
-        if k == 0 or baseline is None:
-            return float("nan"), 0.0
-        col = self.loop.recorder.column_index
-        row = self.loop.recorder.values[k - 1]
-        excess = float(row[col["planned_power_kw"]] - row[col["power_kw"]])
-        return float(baseline), max(excess, 0.0) if np.isfinite(excess) else 0.0
+        seen = float("nan") if self.loop.k == 0 or baseline is None else float(baseline)
+        if (
+            staged is None
+            or problem is None
+            or inputs is None
+            or staged.status is not SolveStatus.OPTIMAL
+        ):
+            return 0.0, float("nan") if staged is None else float(staged.power_kw[0]), seen
+        offer, curtailed = self.controller.first_offer_kw(problem, staged, inputs)
+        return offer, curtailed, seen
 
     def staged_split_sgd(self) -> FloatArray:
         """(3,) the staged plan's cost [SGD]: energy + peak, reserve (−revenue) and comfort
@@ -652,16 +656,13 @@ class BuildingGroup:
         """((B, 3) the staged plans' cost split [SGD], :meth:`BuildingAgent.staged_split_sgd`,)."""
         return (np.array([agent.staged_split_sgd() for agent in self.agents]),)
 
-    def staged_offer_kw(self) -> tuple[FloatArray, FloatArray]:
-        """(B,) the staged plans' first-period offers and curtailed powers [kW]."""
-        parts = [agent.staged_offer_kw() for agent in self.agents]
-        return np.array([p[0] for p in parts]), np.array([p[1] for p in parts])
-
-    def meter_view_kw(self) -> tuple[FloatArray, FloatArray]:
-        """(B,) each building's settlement baseline now and its model's excess [kW]
-        (:meth:`BuildingAgent.meter_view_kw`)."""
-        parts = [agent.meter_view_kw() for agent in self.agents]
-        return np.array([p[0] for p in parts]), np.array([p[1] for p in parts])
+    def staged_offer_kw(self) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """(B,) the staged plans' first-period offers, their curtailed powers by the plant's
+        power model and the buildings' settlement baselines now [kW]
+        (:meth:`BuildingAgent.staged_offer_kw`)."""
+        parts = np.array([agent.staged_offer_kw() for agent in self.agents], dtype=float)
+        parts = parts.reshape(len(self.agents), 3)
+        return parts[:, 0].copy(), parts[:, 1].copy(), parts[:, 2].copy()
 
     def advance(self, activated: bool = False) -> dict[str, FloatArray]:
         """Step every plant (curtailed where ``activated`` and a reserve is offered); (B,)

@@ -3,9 +3,9 @@ the minimum bid, the dispatch of activations to the buildings and their settleme
 building's meter (issue 62).
 
 Each period every building's staged plan offers q₀·r₀ [kW] for the period; the part of it
-its **own meter** would show (:func:`visible_offers_kw`: its curtailed power, less its
-model's excess over its meter, plus the offer stays at or below its settlement baseline) is
-its share of the fleet's offer. The fleet offers Σ_b of the shares
+its **own meter** would show (:func:`visible_offers_kw`: the baseline less the power the
+plant's power model predicts at the curtailed flows, when that is smaller) is its share of
+the fleet's offer. The fleet offers Σ_b of the shares
 (:func:`aggregate_offer`); below the market's minimum bid (the fleet file's ``min_bid_mw``,
 0.1 MW for Singapore's IL by default) nothing is bid. An accepted bid that the grid
 operator activates is dispatched to the buildings by their shares (:func:`dispatched_kw`)
@@ -60,32 +60,29 @@ class FleetOffer:
 
 
 def visible_offers_kw(
-    offer_kw: FloatArray,
-    curtailed_kw: FloatArray,
-    baseline_kw: FloatArray,
-    excess_kw: FloatArray,
+    offer_kw: FloatArray, curtailed_kw: FloatArray, baseline_kw: FloatArray
 ) -> FloatArray:
     """(B,) the part of each building's offer its own meter would show [kW].
 
     Parameters
     ----------
     offer_kw : (B,) the staged plans' first-period offers q₀·r₀ [kW].
-    curtailed_kw : (B,) the plans' curtailed first-period power P₀ − p₀·r₀ [kW].
+    curtailed_kw : (B,) the power the building's meter would read in the period with the
+        offer shed: the plant's power model at the curtailed flows u₀ − r₀ [kW]
+        (:meth:`hvacflex.fleet.agent.FleetController.first_offer_kw`; not the LP's affine
+        P₀ − p₀·r₀, whose secant over-states the shed).
     baseline_kw : (B,) each building's settlement baseline of an activation starting now
         [kW] (NaN: none, e.g. the run's first period: nothing is seen).
-    excess_kw : (B,) each building's planned power above its metered power last period,
-        ≥ 0 [kW] (the affine model runs above the meter: its curtailed power is read on the
-        meter's scale by subtracting it).
 
     Returns
     -------
-    (B,) min(offer, baseline − (curtailed − excess)), at least 0; 0 where anything is NaN.
+    (B,) min(offer, baseline − curtailed), at least 0; 0 where anything is NaN.
     """
     offer = np.asarray(offer_kw, dtype=float)
     seen = (
         np.asarray(baseline_kw, dtype=float)
         + BASELINE_TOLERANCE_KW
-        - (np.asarray(curtailed_kw, dtype=float) - np.asarray(excess_kw, dtype=float))
+        - np.asarray(curtailed_kw, dtype=float)
     )
     visible = np.clip(np.minimum(offer, seen), 0.0, None)
     return np.where(np.isfinite(visible), visible, 0.0)

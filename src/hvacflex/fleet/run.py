@@ -640,9 +640,8 @@ def _fleet_step(
     result, p_min = _coordinate_step(groups, feeder_kw, options, price, locked)
     coordinated = time.perf_counter() - tick
     (envelope,) = groups.stacked("envelope", duration_steps(DT_H))
-    offer, curtailed = groups.stacked("staged_offer_kw")
-    baseline, excess = groups.stacked("meter_view_kw")
-    visible = visible_offers_kw(offer, curtailed, baseline, excess)
+    offer, curtailed, baseline = groups.stacked("staged_offer_kw")
+    visible = visible_offers_kw(offer, curtailed, baseline)
     fleet_offer = aggregate_offer(visible, context.min_bid_kw)
     activated = locked if continuing else context.scheduled and fleet_offer.accepted
     rows = groups.broadcast("advance", activated)
