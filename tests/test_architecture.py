@@ -42,7 +42,7 @@ LAYERS: list[set[str]] = [
     {"data"},
     {"energyplus"},
     {"opt"},
-    {"kpi", "settlement"},
+    {"kpi", "meter_grade", "settlement"},
     {"config"},
     {"control"},
     {"sim"},

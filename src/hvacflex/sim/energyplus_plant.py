@@ -37,13 +37,11 @@ carries; docs/explanation/model.md, the committed peak) reads the HVAC meters (`
 EnergyPlus's zone time step, through the API callback: at the start of each zone time step,
 the mean power P of the step before [kW]. It holds a shed level s ∈ [0, 1], integral action
 on the meter: s ← clip(s + g (P − cap) / cap, 0, 1) with g = :data:`GUARD_GAIN` while the
-meter exceeds the cap (deeper) and :data:`GUARD_RELEASE_GAIN` below it (released step by
-step, more slowly than it was taken: a release all at once would rebound above the cap, the
-zones having drifted up meanwhile); s carries over to
-the next period while a guard is in force and is 0 without one. It sheds, within the comfort
-band, the zones whose air is below their upper bound (the band at the period's end, the
-tighter of this period's and the next's, as the plan's): under setpoint actuation the cooling
-setpoint moves the share s of the way from the actuated one up to that bound,
+meter exceeds the cap (deeper) and :data:`GUARD_RELEASE_GAIN` below it (released more
+slowly); s carries over to the next period while a guard is in force, 0 without one. It sheds,
+within the comfort band, the zones whose air is below their upper bound (the band at the period's
+end, the tighter of this period's and the next's, as the plan's): under setpoint actuation the
+cooling setpoint moves the share s of the way from the actuated one up to that bound,
 T' = T_sp + s (T_upper − T_sp) (the air loop then cools less); under flow actuation the flow
 moves towards its floor, u' = u_floor + (1 − s)(u − u_floor), as on the RC plant. A period
 in which some zone was shed has ``peak_guard_active``.
@@ -104,12 +102,10 @@ FACILITY_METER = "ElectricityPurchased:Facility"
 """The whole-facility meter (``Electricity:Facility`` has no API handle in 25.2)."""
 GUARD_GAIN = 4.0
 """The peak guard's integral gain while the meter exceeds the cap: change of its shed level
-per zone time step per unit relative excess of the meter over the cap (module docstring).
-A 5 % excess sheds a fifth of the way to the band's upper bound in one zone time step."""
+per zone time step per unit relative excess (a 5 % excess sheds a fifth of the way)."""
 GUARD_RELEASE_GAIN = 1.0
-"""The gain while the meter is below the cap: a quarter of :data:`GUARD_GAIN`, so that the
-shed is released more slowly than it was taken (a fast release rebounds above the cap, the
-zones having drifted up meanwhile)."""
+"""The gain below the cap: the shed is released more slowly than it was taken (a fast
+release rebounds above the cap, the zones having drifted up meanwhile)."""
 FLOW_EPSILON_KG_S = 1e-6
 """Below this total inlet flow a zone's supply temperature is the plain mean of its inlets."""
 
