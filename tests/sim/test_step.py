@@ -420,3 +420,13 @@ def test_the_meter_s_offset_reaches_a_levelled_controller_and_stays_put() -> Non
             k, replace(inputs, previous_power_kw=20.0), activated=set().__contains__
         ).action
         assert action.planned_power_kw == 30.0
+
+
+def test_auto_levels_the_power_to_the_meter_on_an_energyplus_plant_only() -> None:
+    config = preset("rmpc", start="2014-03-03", days=1.0)
+    assert config.controller.power_level == "auto"
+    assert not ControlStep(config, LevelledController(), ZONES).meter_levelled
+    on_energyplus = with_overrides(config, {"plant.kind": "energyplus", "plant.idf": "generated"})
+    assert ControlStep(on_energyplus, LevelledController(), ZONES).meter_levelled
+    model = with_overrides(on_energyplus, {"controller.power_level": "model"})
+    assert not ControlStep(model, LevelledController(), ZONES).meter_levelled

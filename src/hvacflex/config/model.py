@@ -40,7 +40,7 @@ DisturbanceKind = Literal["outdoor_temp", "solar", "internal_gain", "ground_temp
 Linearisation = Literal["fixed", "trajectory"]
 PeakGuardMode = Literal["auto", "on", "off"]
 PowerModelSource = Literal["metered", "design"]
-PowerLevel = Literal["model", "meter"]
+PowerLevel = Literal["auto", "model", "meter"]
 EstimationMode = Literal["full-state", "kalman"]
 PlantKind = Literal["rc", "energyplus"]
 PlantActuation = Literal["setpoint", "flow"]
@@ -125,11 +125,13 @@ class ControllerConfig:
     """The LP's power rows: ``"metered"`` the building file's power model fitted to the meter
     of the scenario's plant (``[power_models.<kind>]``) where it has one, else the design
     curves; ``"design"`` the design curves (an identified building has only its fitted one)."""
-    power_level: PowerLevel = "model"
+    power_level: PowerLevel = "auto"
     """The MPC: the level of the LP's power rows in occupied periods. ``"model"``: the power
     model's own; ``"meter"``: levelled to the meter, the model's power plus the mean of the
     metered minus the model's power over the building's last occupied, served periods
-    (:func:`hvacflex.control.meter_response.meter_offset_kw`)."""
+    (:func:`hvacflex.control.meter_response.meter_offset_kw`); ``"auto"``: ``"meter"`` on an
+    EnergyPlus plant, ``"model"`` on hvacflex's RC plant (whose meter is the power model's
+    own curves, or what the model was fitted to)."""
     demand_limit_fraction: float = 0.9
     """``demand-limit``: the peak target's share of yesterday's unmanaged peak."""
     reserve_share: float = 0.2

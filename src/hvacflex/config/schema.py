@@ -237,6 +237,7 @@ class ControllerSpec(Spec):
     its fitted model)."""
     power_level: PowerLevel = default(ControllerConfig, "power_level")
     """The MPC's planned power in occupied periods: ``model`` as the power model gives it;
+    ``auto`` (default) ``meter`` on an EnergyPlus plant and ``model`` on the RC plant;
     ``meter`` levelled to the meter: plus the mean of the metered minus the model's power over
     the building's last 20 occupied periods that a fresh plan served (an offset-free output,
     like the Kalman filter's offsets for the zones; docs/explanation/model.md §1.6). It moves

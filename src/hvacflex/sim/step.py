@@ -186,8 +186,12 @@ class ControlStep:
         """D: the meter's response is measured over lags 1 … D [periods] (the event model's
         longest event); 0: offers are not scaled (no reserve offered, the whole-horizon
         model, or ``meter_calibrated_offers`` off)."""
-        self.meter_levelled = config.controller.power_level == "meter"
-        """Whether the plan's power is levelled to the meter (``[controller] power_level``)."""
+        level = config.controller.power_level
+        self.meter_levelled = level == "meter" or (
+            level == "auto" and config.plant.kind == "energyplus"
+        )
+        """Whether the plan's power is levelled to the meter (``[controller] power_level``:
+        ``"auto"`` levels it on an EnergyPlus plant)."""
         self.tracks_meter = bool(self.meter_max_lag_steps) or self.meter_levelled
         """Whether the meter history is kept (for ρ, or for the meter's offset)."""
         self.meter = MeterHistory()
