@@ -56,6 +56,8 @@ import time
 from typing import Any, Literal
 
 import numpy as np
+from numpy.typing import NDArray
+from scipy import sparse
 
 from hvacflex.errors import ProblemError
 from hvacflex.opt.basis import (
@@ -104,8 +106,66 @@ __all__ = [
 LAZY_VIOLATION_TOLERANCE_K = 1e-7
 #: Lazy event rows: rows with a slack up to this at the optimum stay in the next step's LP [K].
 LAZY_NEAR_ACTIVE_K = 1e-3
+#: Moving rows: the rows from the first one with a step-varying coefficient to the last core
+#: row are deleted and re-added in one block each step (two HiGHS calls instead of one
+#: ``changeCoeff`` per moved coefficient) when they hold at most this many nonzeros per
+#: varying coefficient; else the moved coefficients are changed one by one.
+MOVING_ROWS_MAX_NONZEROS_PER_VARYING = 4.0
 #: How the IL event rows enter the LP: all of them, or generated lazily.
 EventRowMode = Literal["full", "lazy"]
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class MovingRows:
+    """The LP rows whose coefficients move from step to step, as one CSR block to re-add.
+
+    ``rows`` (num_moving,) are consecutive LP rows (the first row with a varying coefficient
+    to the last core row); ``starts`` (num_moving,), ``indices`` (nnz,) int32 their CSR
+    pattern; ``base`` (nnz,) the constant coefficients with 0 where a varying one sits, and
+    ``positions`` (num_varying,) where each varying coefficient of
+    :attr:`LinearProgram.varying` goes in it.
+    """
+
+    rows: IntArray
+    starts: NDArray[np.int32]
+    indices: NDArray[np.int32]
+    base: FloatArray
+    positions: IntArray
+
+
+def _moving_rows(lp: LinearProgram, matrix: sparse.csc_matrix, num_core: int) -> MovingRows | None:
+    """The moving rows of ``lp`` (whose full constraint matrix, varying zeros kept, is
+    ``matrix``), or None where re-adding them would not pay: no varying coefficient, one
+    outside the core rows (< ``num_core``), or more than
+    :data:`MOVING_ROWS_MAX_NONZEROS_PER_VARYING` nonzeros per varying coefficient."""
+    varying = lp.varying
+    if varying.rows.size == 0 or int(varying.rows.max()) >= num_core:
+        return None
+    first = int(varying.rows.min())
+    block = matrix[first:num_core].tocsr()
+    block.sort_indices()
+    if block.nnz > MOVING_ROWS_MAX_NONZEROS_PER_VARYING * varying.rows.size:
+        return None
+    row_of_entry = np.repeat(np.arange(block.shape[0]), np.diff(block.indptr))
+    keys = row_of_entry * lp.num_cols + block.indices
+    wanted = (varying.rows - first) * lp.num_cols + varying.cols
+    positions = np.minimum(np.searchsorted(keys, wanted), keys.size - 1)
+    constant = lp.constant
+    assert constant is not None
+    shared = np.isin(wanted, (constant.rows - first) * lp.num_cols + constant.cols)
+    if np.any(keys[positions] != wanted) or np.unique(positions).size != positions.size:
+        return None  # a varying coefficient twice, or where a constant one sits: one by one
+    if shared.any():
+        return None
+    base = np.array(block.data, dtype=np.float64)
+    base[positions] = 0.0
+    return MovingRows(
+        rows=np.arange(first, num_core, dtype=np.int64),
+        starts=block.indptr[:-1].astype(np.int32),
+        indices=block.indices.astype(np.int32),
+        base=base,
+        positions=positions.astype(np.int64),
+    )
 
 
 class RMPCSolver:
@@ -233,6 +293,7 @@ class RMPCSolver:
         self._present = np.zeros(events.size, dtype=bool)  # lazy: event rows in HiGHS
         self._near = np.zeros(events.size, dtype=bool)  # near-active at the last optimum
         self._seed = self._layout.events.start == 0
+        self._moving = _moving_rows(lp, matrix, self._num_core)
         model = highs_lp(
             lp.cost,
             matrix[:num_model],
@@ -257,14 +318,41 @@ class RMPCSolver:
         """Lazy mode: make HiGHS hold exactly the event rows ``wanted`` (num_event_rows,)."""
         if np.array_equal(wanted, self._present):
             return
-        held = self._model_rows[self._num_core :] - self._num_core  # event ids, HiGHS order
+        positions = np.flatnonzero(self._model_rows >= self._num_core)  # event rows in HiGHS
+        held = self._model_rows[positions] - self._num_core  # event ids, HiGHS order
         drop = ~wanted[held]
         if drop.any():  # HiGHS keeps the order of the rows that stay
-            gone = (self._num_core + np.flatnonzero(drop)).astype(np.int32)
-            self._highs.deleteRows(gone.size, gone)
-            self._model_rows = np.delete(self._model_rows, gone)
+            self._delete_rows(positions[drop])
             self._present[held[drop]] = False
         self._add_event_rows(np.flatnonzero(wanted & ~self._present))
+
+    def _delete_rows(self, positions: IntArray) -> None:
+        """Delete the rows at HiGHS positions ``positions`` (sorted) from HiGHS's LP."""
+        gone = positions.astype(np.int32)
+        self._highs.deleteRows(gone.size, gone)
+        self._model_rows = np.delete(self._model_rows, gone)
+
+    def _push_moving_rows(self, lp: LinearProgram) -> None:
+        """Replace the moving rows in HiGHS by ``lp``'s: one deletion and one addition (the
+        rows go to the end of HiGHS's order; HiGHS's basis must be set again after this)."""
+        moving = self._moving
+        assert moving is not None
+        rows = moving.rows
+        held = self._model_rows
+        self._delete_rows(np.flatnonzero((held >= rows[0]) & (held <= rows[-1])))
+        data = moving.base + np.bincount(
+            moving.positions, weights=lp.varying.values, minlength=moving.base.size
+        )
+        self._highs.addRows(
+            rows.size,
+            lp.row_lower[rows],
+            lp.row_upper[rows],
+            data.size,
+            moving.starts,
+            moving.indices,
+            data,
+        )
+        self._model_rows = np.concatenate([self._model_rows, rows])
 
     def _add_event_rows(self, ids: IntArray) -> None:
         """Lazy mode: append the event rows ``ids`` to HiGHS's LP (HiGHS makes them basic)."""
@@ -327,8 +415,9 @@ class RMPCSolver:
     def _tightening(problem: RMPCProblem, delta: FloatArray) -> FloatArray:
         return np.zeros_like(delta) if problem.robust == "dual" else delta
 
-    def _update(self, problem: RMPCProblem, delta: FloatArray) -> None:
-        """Push the costs, bounds and varying coefficients that differ from the last LP."""
+    def _update(self, problem: RMPCProblem, delta: FloatArray) -> bool:
+        """Push the costs, bounds and varying coefficients that differ from the last LP;
+        whether the moving rows were replaced (then HiGHS's basis must be set again)."""
         highs = self._highs
         tightening = self._tightening(problem, delta)
         lp, _ = build_lp(problem, tightening, responses=self._responses, constants=False)
@@ -336,31 +425,44 @@ class RMPCSolver:
         changed = np.flatnonzero(lp.cost != old.cost).astype(np.int32)
         if changed.size:
             highs.changeColsCost(changed.size, changed, lp.cost[changed])
-        rows = self._model_rows  # the rows HiGHS holds, in its order
-        for change_bounds, lower, upper, old_lower, old_upper in (
-            (highs.changeColsBounds, lp.col_lower, lp.col_upper, old.col_lower, old.col_upper),
+        varying = lp.varying
+        moved = np.flatnonzero(varying.values != old.varying.values)
+        replace_rows = self._moving is not None and moved.size > 0
+        held = self._model_rows  # the rows HiGHS holds, in its order
+        positions = np.arange(held.size)
+        if replace_rows:  # the moving rows come with their new bounds
+            assert self._moving is not None
+            first, last = self._moving.rows[0], self._moving.rows[-1]
+            positions = np.flatnonzero((held < first) | (held > last))
+        rows = held[positions]
+        for change_bounds, lower, upper, old_lower, old_upper, where in (
+            (highs.changeColsBounds, lp.col_lower, lp.col_upper, old.col_lower, old.col_upper, None),
             (
                 highs.changeRowsBounds,
                 lp.row_lower[rows],
                 lp.row_upper[rows],
                 old.row_lower[rows],
                 old.row_upper[rows],
+                positions,
             ),
         ):
-            changed = np.flatnonzero((lower != old_lower) | (upper != old_upper)).astype(np.int32)
+            changed = np.flatnonzero((lower != old_lower) | (upper != old_upper))
             if changed.size:
-                change_bounds(changed.size, changed, lower[changed], upper[changed])
-        varying = lp.varying
-        moved = np.flatnonzero(varying.values != old.varying.values)
-        for row, col, value in zip(
-            varying.rows[moved].tolist(),
-            varying.cols[moved].tolist(),
-            varying.values[moved].tolist(),
-            strict=True,
-        ):
-            highs.changeCoeff(row, col, value)
+                index = (changed if where is None else where[changed]).astype(np.int32)
+                change_bounds(index.size, index, lower[changed], upper[changed])
+        if replace_rows:
+            self._push_moving_rows(lp)
+        else:
+            for row, col, value in zip(
+                varying.rows[moved].tolist(),
+                varying.cols[moved].tolist(),
+                varying.values[moved].tolist(),
+                strict=True,
+            ):
+                highs.changeCoeff(row, col, value)
         self._lp = lp
         self._bounds_changed()
+        return replace_rows
 
     # ------------------------------------------------------------------ solve
     def solve(self, problem: RMPCProblem, *, same_step: bool = False) -> RMPCSolution:
@@ -382,13 +484,19 @@ class RMPCSolver:
             self._session.check_same_structure(self._structure.differences(problem.structure))
             self._structure = problem.structure  # equal: its variants skip the comparison
         delta = self._delta(problem)
+        replaced = False
         if problem is not self._last_problem:
-            self._update(problem, delta)
+            replaced = self._update(problem, delta)
             self._last_problem = problem
         session = self._session
         shift = not same_step
-        if session.basis is not None and ((session.time_shift and shift) or session.basis_given):
+        if session.basis is not None and (
+            (session.time_shift and shift) or session.basis_given or replaced
+        ):
             self._start_from(shift=shift)
+        elif replaced:  # HiGHS's basis lost the moving rows' statuses
+            self._highs.clearSolver()
+            session.has_basis = False
         status, highs_time, iterations, warm = session.run_with_retries(
             session.has_basis, lambda: self._start_from(shift=False)
         )
@@ -434,9 +542,8 @@ class RMPCSolver:
     def _optimal_basis(self, values: FloatArray) -> tuple[StatusArray, StatusArray]:
         """Statuses of HiGHS's current (optimal) basis (see :func:`optimal_statuses`)."""
         basic = self._session.basic_variables()
-        if self._lazy:  # HiGHS row i is LP row model_rows[i]
-            rows = basic < 0
-            basic[rows] = -1 - self._model_rows[-1 - basic[rows]]
+        rows = basic < 0  # HiGHS row i is LP row model_rows[i]
+        basic[rows] = -1 - self._model_rows[-1 - basic[rows]]
         col_status, row_status = optimal_statuses(
             values,
             self._col_lower,
@@ -548,8 +655,11 @@ class RMPCSolver:
     # ------------------------------------------------------------------ basis
     def get_basis(self) -> SolverBasis | None:
         """The basis of the last solve (picklable; as solved, not rotated), or None if none yet."""
-        # lazy event rows: HiGHS's own basis covers some rows only
-        return self._session.get_basis(or_highs=not self._lazy)
+        # lazy event rows or moved rows: HiGHS's own basis is not in the LP's row order
+        in_lp_order = self._model_rows.size == self.num_rows and bool(
+            np.all(self._model_rows[1:] > self._model_rows[:-1])
+        )
+        return self._session.get_basis(or_highs=in_lp_order)
 
     def set_basis(self, basis: SolverBasis) -> None:
         """Start the next solve from ``basis`` (from :meth:`get_basis` of a same-structure solver).
