@@ -293,7 +293,11 @@ class RMPCSolver:
         self._present = np.zeros(events.size, dtype=bool)  # lazy: event rows in HiGHS
         self._near = np.zeros(events.size, dtype=bool)  # near-active at the last optimum
         self._seed = self._layout.events.start == 0
-        self._moving = _moving_rows(lp, matrix, self._num_core)
+        # in full mode the event rows would travel with the moving rows: one by one there
+        self._moving = (
+            _moving_rows(lp, matrix, self._num_core) if self._lazy or events.size == 0 else None
+        )
+        self._rows_stale = False  # HiGHS lacks the current moving rows (_push_rows)
         model = highs_lp(
             lp.cost,
             matrix[:num_model],
@@ -316,6 +320,9 @@ class RMPCSolver:
 
     def _set_event_rows(self, wanted: BoolArray) -> None:
         """Lazy mode: make HiGHS hold exactly the event rows ``wanted`` (num_event_rows,)."""
+        if self._rows_stale:
+            self._push_rows(wanted)
+            return
         if np.array_equal(wanted, self._present):
             return
         positions = np.flatnonzero(self._model_rows >= self._num_core)  # event rows in HiGHS
@@ -332,46 +339,67 @@ class RMPCSolver:
         self._highs.deleteRows(gone.size, gone)
         self._model_rows = np.delete(self._model_rows, gone)
 
-    def _push_moving_rows(self, lp: LinearProgram) -> None:
-        """Replace the moving rows in HiGHS by ``lp``'s: one deletion and one addition (the
-        rows go to the end of HiGHS's order; HiGHS's basis must be set again after this)."""
+    def _push_rows(self, wanted: BoolArray | None) -> None:
+        """Give HiGHS the moving rows of the current LP and, in lazy mode, exactly the event
+        rows ``wanted`` (num_event_rows,; None: those it holds), keeping HiGHS's row order:
+        the rows from the first moving row on (the moving rows, then the event rows) are
+        deleted and the moving rows, the event rows kept and the new ones added in one call
+        each. HiGHS's basis must be set again after this."""
         moving = self._moving
         assert moving is not None
-        rows = moving.rows
-        held = self._model_rows
-        self._delete_rows(np.flatnonzero((held >= rows[0]) & (held <= rows[-1])))
+        lp, held = self._lp, self._model_rows
+        first = int(moving.rows[0])  # HiGHS holds the core rows first, in the LP's order
+        end = first + moving.rows.size
+        assert np.array_equal(held[first:end], moving.rows)
+        events = held[end:] - self._num_core  # event ids held, in HiGHS's order
+        if wanted is not None:
+            self._present[events[~wanted[events]]] = False
+            new = np.flatnonzero(wanted & ~self._present)
+            events = np.concatenate([events[wanted[events]], new])
+            self._present[new] = True
+        self._highs.deleteRows(held.size - first, np.arange(first, held.size, dtype=np.int32))
         data = moving.base + np.bincount(
             moving.positions, weights=lp.varying.values, minlength=moving.base.size
         )
+        starts, indices, values = self._event_block(events)
+        rows = np.concatenate([moving.rows, self._num_core + events])
         self._highs.addRows(
             rows.size,
             lp.row_lower[rows],
             lp.row_upper[rows],
-            data.size,
-            moving.starts,
-            moving.indices,
-            data,
+            data.size + values.size,
+            np.concatenate([moving.starts, starts + data.size]),
+            np.concatenate([moving.indices, indices]),
+            np.concatenate([data, values]),
         )
-        self._model_rows = np.concatenate([self._model_rows, rows])
+        self._model_rows = np.concatenate([held[:first], rows])
+        self._rows_stale = False
 
-    def _add_event_rows(self, ids: IntArray) -> None:
-        """Lazy mode: append the event rows ``ids`` to HiGHS's LP (HiGHS makes them basic)."""
-        if ids.size == 0:
-            return
+    def _event_block(
+        self, ids: IntArray
+    ) -> tuple[NDArray[np.int32], NDArray[np.int32], FloatArray]:
+        """CSR row starts (ids.size,), column indices and values of the event rows ``ids``."""
         indptr = self._event_matrix.indptr
         first, lengths = indptr[ids], indptr[ids + 1] - indptr[ids]
         starts = np.zeros(ids.size, dtype=np.int32)
         np.cumsum(lengths[:-1], out=starts[1:])
         entries = np.repeat(first - starts, lengths) + np.arange(int(lengths.sum()))
+        return starts, self._event_indices[entries], self._event_matrix.data[entries]
+
+    def _add_event_rows(self, ids: IntArray) -> None:
+        """Lazy mode: append the event rows ``ids`` to HiGHS's LP (HiGHS makes them basic)."""
+        if ids.size == 0:
+            return
+        starts, indices, values = self._event_block(ids)
         rows = self._num_core + ids
         self._highs.addRows(
             ids.size,
             self._lp.row_lower[rows],
             self._lp.row_upper[rows],
-            entries.size,
+            values.size,
             starts,
-            self._event_indices[entries],
-            self._event_matrix.data[entries],
+            indices,
+            values,
         )
         self._model_rows = np.concatenate([self._model_rows, rows])
         self._present[ids] = True
@@ -417,7 +445,8 @@ class RMPCSolver:
 
     def _update(self, problem: RMPCProblem, delta: FloatArray) -> bool:
         """Push the costs, bounds and varying coefficients that differ from the last LP;
-        whether the moving rows were replaced (then HiGHS's basis must be set again)."""
+        whether the moving rows are to be replaced (:meth:`_push_rows`, before the next run;
+        then HiGHS's basis must be set again)."""
         highs = self._highs
         tightening = self._tightening(problem, delta)
         lp, _ = build_lp(problem, tightening, responses=self._responses, constants=False)
@@ -428,30 +457,25 @@ class RMPCSolver:
         varying = lp.varying
         moved = np.flatnonzero(varying.values != old.varying.values)
         replace_rows = self._moving is not None and moved.size > 0
-        held = self._model_rows  # the rows HiGHS holds, in its order
-        positions = np.arange(held.size)
-        if replace_rows:  # the moving rows come with their new bounds
+        rows = self._model_rows  # the rows HiGHS holds, in its order
+        if replace_rows:  # the rows from the first moving one on come with their new bounds
             assert self._moving is not None
-            first, last = self._moving.rows[0], self._moving.rows[-1]
-            positions = np.flatnonzero((held < first) | (held > last))
-        rows = held[positions]
-        for change_bounds, lower, upper, old_lower, old_upper, where in (
-            (highs.changeColsBounds, lp.col_lower, lp.col_upper, old.col_lower, old.col_upper, None),
+            rows = rows[: self._moving.rows[0]]
+        for change_bounds, lower, upper, old_lower, old_upper in (
+            (highs.changeColsBounds, lp.col_lower, lp.col_upper, old.col_lower, old.col_upper),
             (
                 highs.changeRowsBounds,
                 lp.row_lower[rows],
                 lp.row_upper[rows],
                 old.row_lower[rows],
                 old.row_upper[rows],
-                positions,
             ),
         ):
-            changed = np.flatnonzero((lower != old_lower) | (upper != old_upper))
+            changed = np.flatnonzero((lower != old_lower) | (upper != old_upper)).astype(np.int32)
             if changed.size:
-                index = (changed if where is None else where[changed]).astype(np.int32)
-                change_bounds(index.size, index, lower[changed], upper[changed])
+                change_bounds(changed.size, changed, lower[changed], upper[changed])
         if replace_rows:
-            self._push_moving_rows(lp)
+            self._rows_stale = True  # pushed with the event rows, before the next run
         else:
             for row, col, value in zip(
                 varying.rows[moved].tolist(),
@@ -494,7 +518,8 @@ class RMPCSolver:
             (session.time_shift and shift) or session.basis_given or replaced
         ):
             self._start_from(shift=shift)
-        elif replaced:  # HiGHS's basis lost the moving rows' statuses
+        elif replaced:  # HiGHS's basis would lose the moving rows' statuses
+            self._push_rows(self._present.copy() if self._lazy else None)
             self._highs.clearSolver()
             session.has_basis = False
         status, highs_time, iterations, warm = session.run_with_retries(
@@ -528,6 +553,8 @@ class RMPCSolver:
             if session.rotates(shift):
                 near = near[self._row_rotation[self._num_core :] - self._num_core]
             self._set_event_rows((row_status[self._num_core :] != BASIC) | near | self._seed)
+        elif self._rows_stale:
+            self._push_rows(None)
         rows = self._model_rows
         start = bounded_start(
             col_status,
