@@ -580,13 +580,14 @@ def test_moving_rows_leave_highs_the_lp_built_from_scratch() -> None:
     """After each warm solve (a same-step re-solve among them), HiGHS holds, row for row in
     its order, the rows of the LP built from scratch for that problem: the moving rows
     re-added in one block carry the step's coefficients and bounds."""
+    import highspy
     from scipy import sparse
 
     from hvacflex.opt.lp import build_lp, sparse_matrix
 
     problems = _offer_problems(6)
     solver = RMPCSolver(problems[0])
-    assert solver._moving is not None  # the product LP's family replaces its moving rows
+    assert solver._held.moving is not None  # the product LP's family replaces its moving rows
     for index, prob in enumerate(problems):
         assert solver.solve(prob).ok
         if index == 3:
@@ -596,8 +597,9 @@ def test_moving_rows_leave_highs_the_lp_built_from_scratch() -> None:
         lp, _ = build_lp(prob, solver._tightening(prob, solver._delta(prob)))
         assert lp.constant is not None
         expected = sparse_matrix(lp, lp.constant, keep_varying_zeros=False, csc=False)
-        rows = solver._model_rows
+        rows = solver._held.model_rows
         held = solver._highs.getLp()
+        assert held.a_matrix_.format_ == highspy.MatrixFormat.kColwise
         matrix = sparse.csc_matrix(
             (
                 np.asarray(held.a_matrix_.value_),
@@ -616,13 +618,13 @@ def test_moving_rows_take_the_path_of_per_coefficient_changes(
 ) -> None:
     """The same sequence with the moving coefficients changed one by one (``changeCoeff``):
     the same iterations and optima, since HiGHS holds the same LP in the same row order."""
-    import hvacflex.opt.solve as solve_module
+    import hvacflex.opt.held_rows as held_rows
 
     problems = _offer_problems(8)
     replaced = RMPCSolver(problems[0])
-    monkeypatch.setattr(solve_module, "MOVING_ROWS_MAX_NONZEROS_PER_VARYING", 0.0)
+    monkeypatch.setattr(held_rows, "MOVING_ROWS_MAX_NONZEROS_PER_VARYING", 0.0)
     one_by_one = RMPCSolver(problems[0])
-    assert replaced._moving is not None and one_by_one._moving is None
+    assert replaced._held.moving is not None and one_by_one._held.moving is None
     for prob in problems:
         a, b = replaced.solve(prob), one_by_one.solve(prob)
         assert a.ok and b.ok

@@ -13,12 +13,10 @@ costs and bounds without its constant coefficients, pushes only what changed sin
 previous solve — costs, column bounds, row bounds (x0, d̂, g, δ, bounds, p0) and the
 step-varying coefficients (``p_k`` on the power rows, ``φ_k`` on the peak rows, ρ·p_k and q_k
 on the visible-offer rows, σ in the dual form) — and re-solves with the dual simplex (warm
-start). The step-varying coefficients sit in the last core rows (the *moving rows*,
-:class:`MovingRows`): where they are not too sparse among them, the moving rows are replaced
-as one block (one ``deleteRows`` and one ``addRows``, together with the lazy event rows'
-change, keeping HiGHS's row order, so HiGHS holds exactly the LP that per-entry updates would
-give), instead of one ``changeCoeff`` per moved coefficient (≈ 1,600 a step on the product LP,
-0.8 µs each); elsewhere (the dual form, full event rows) they are changed one by one.
+start). The step-varying coefficients sit in the last core rows, the *moving rows*: where
+they are not too sparse among them, they are replaced as one block with the lazy event rows'
+change, in HiGHS's row order, instead of one ``changeCoeff`` per moved coefficient
+(:mod:`hvacflex.opt.held_rows`, which keeps the rows HiGHS holds).
 :class:`FeedbackSolver` solves the affine-feedback LP of :mod:`hvacflex.opt.feedback` (warm,
 :mod:`hvacflex.opt.feedback_solve`). HiGHS runs single-threaded with its output silenced, so
 results are reproducible.
@@ -62,8 +60,6 @@ import time
 from typing import Any, Literal
 
 import numpy as np
-from numpy.typing import NDArray
-from scipy import sparse
 
 from hvacflex.errors import ProblemError
 from hvacflex.opt.basis import (
@@ -77,6 +73,7 @@ from hvacflex.opt.basis import (
 )
 from hvacflex.opt.events import reserve_responses, violated_rows
 from hvacflex.opt.feedback_solve import DEFAULT_LP_METHOD, FeedbackSolver
+from hvacflex.opt.held_rows import HeldRows
 from hvacflex.opt.highs_lp import (
     HIGHS_ERROR,
     WARM_PRICING,
@@ -87,7 +84,7 @@ from hvacflex.opt.highs_lp import (
     solve_lp,
 )
 from hvacflex.opt.lp import LinearProgram, LPLayout, build_lp, sparse_matrix
-from hvacflex.opt.problem import BoolArray, FloatArray, IntArray, RMPCProblem
+from hvacflex.opt.problem import FloatArray, RMPCProblem
 from hvacflex.opt.robust import impulse_responses, margin_operator, robust_margins
 from hvacflex.opt.solution import (
     RMPCSolution,
@@ -112,66 +109,8 @@ __all__ = [
 LAZY_VIOLATION_TOLERANCE_K = 1e-7
 #: Lazy event rows: rows with a slack up to this at the optimum stay in the next step's LP [K].
 LAZY_NEAR_ACTIVE_K = 1e-3
-#: Moving rows: the rows from the first one with a step-varying coefficient to the last core
-#: row are deleted and re-added in one block each step (two HiGHS calls instead of one
-#: ``changeCoeff`` per moved coefficient) when they hold at most this many nonzeros per
-#: varying coefficient; else the moved coefficients are changed one by one.
-MOVING_ROWS_MAX_NONZEROS_PER_VARYING = 4.0
 #: How the IL event rows enter the LP: all of them, or generated lazily.
 EventRowMode = Literal["full", "lazy"]
-
-
-@dataclasses.dataclass(frozen=True, eq=False)
-class MovingRows:
-    """The LP rows whose coefficients move from step to step, as one CSR block to re-add.
-
-    ``rows`` (num_moving,) are consecutive LP rows (the first row with a varying coefficient
-    to the last core row); ``starts`` (num_moving,), ``indices`` (nnz,) int32 their CSR
-    pattern; ``base`` (nnz,) the constant coefficients with 0 where a varying one sits, and
-    ``positions`` (num_varying,) where each varying coefficient of
-    :attr:`LinearProgram.varying` goes in it.
-    """
-
-    rows: IntArray
-    starts: NDArray[np.int32]
-    indices: NDArray[np.int32]
-    base: FloatArray
-    positions: IntArray
-
-
-def _moving_rows(lp: LinearProgram, matrix: sparse.csc_matrix, num_core: int) -> MovingRows | None:
-    """The moving rows of ``lp`` (whose full constraint matrix, varying zeros kept, is
-    ``matrix``), or None where re-adding them would not pay: no varying coefficient, one
-    outside the core rows (< ``num_core``), or more than
-    :data:`MOVING_ROWS_MAX_NONZEROS_PER_VARYING` nonzeros per varying coefficient."""
-    varying = lp.varying
-    if varying.rows.size == 0 or int(varying.rows.max()) >= num_core:
-        return None
-    first = int(varying.rows.min())
-    block = matrix[first:num_core].tocsr()
-    block.sort_indices()
-    if block.nnz > MOVING_ROWS_MAX_NONZEROS_PER_VARYING * varying.rows.size:
-        return None
-    row_of_entry = np.repeat(np.arange(block.shape[0]), np.diff(block.indptr))
-    keys = row_of_entry * lp.num_cols + block.indices
-    wanted = (varying.rows - first) * lp.num_cols + varying.cols
-    positions = np.minimum(np.searchsorted(keys, wanted), keys.size - 1)
-    constant = lp.constant
-    assert constant is not None
-    shared = np.isin(wanted, (constant.rows - first) * lp.num_cols + constant.cols)
-    if np.any(keys[positions] != wanted) or np.unique(positions).size != positions.size:
-        return None  # a varying coefficient twice, or where a constant one sits: one by one
-    if shared.any():
-        return None
-    base = np.array(block.data, dtype=np.float64)
-    base[positions] = 0.0
-    return MovingRows(
-        rows=np.arange(first, num_core, dtype=np.int64),
-        starts=block.indptr[:-1].astype(np.int32),
-        indices=block.indices.astype(np.int32),
-        base=base,
-        positions=positions.astype(np.int64),
-    )
 
 
 class RMPCSolver:
@@ -273,7 +212,7 @@ class RMPCSolver:
     @property
     def num_model_rows(self) -> int:
         """Number of constraints HiGHS holds (lazy event rows: core rows + rows present)."""
-        return int(self._model_rows.size)
+        return int(self._held.model_rows.size)
 
     @property
     def num_nonzeros(self) -> int:
@@ -290,20 +229,12 @@ class RMPCSolver:
         matrix = sparse_matrix(lp, lp.constant, keep_varying_zeros=True, csc=True)
         events = self._layout.event_rows
         self._lazy = self._event_mode == "lazy" and events.size > 0
-        self._num_core = int(events[0]) if events.size else lp.num_rows
+        num_core = int(events[0]) if events.size else lp.num_rows
         assert events.size == 0 or int(events[-1]) == lp.num_rows - 1  # event rows come last
-        self._event_matrix = matrix[self._num_core :].tocsr()
-        self._event_indices = np.asarray(self._event_matrix.indices, dtype=np.int32)  # no copy
-        num_model = self._num_core if self._lazy else lp.num_rows
-        self._model_rows = np.arange(num_model, dtype=np.int64)  # HiGHS row -> LP row
-        self._present = np.zeros(events.size, dtype=bool)  # lazy: event rows in HiGHS
+        self._held = HeldRows(self._highs, lp, matrix, num_core, lazy=self._lazy)
+        num_model = self._held.model_rows.size
         self._near = np.zeros(events.size, dtype=bool)  # near-active at the last optimum
         self._seed = self._layout.events.start == 0
-        # in full mode the event rows would travel with the moving rows: one by one there
-        self._moving = (
-            _moving_rows(lp, matrix, self._num_core) if self._lazy or events.size == 0 else None
-        )
-        self._rows_stale = False  # HiGHS lacks the current moving rows (_push_rows)
         model = highs_lp(
             lp.cost,
             matrix[:num_model],
@@ -322,93 +253,7 @@ class RMPCSolver:
         self._lp: LinearProgram = dataclasses.replace(lp, constant=None)
         self._bounds_changed()
         if self._lazy:
-            self._set_event_rows(self._seed)
-
-    def _set_event_rows(self, wanted: BoolArray) -> None:
-        """Lazy mode: make HiGHS hold exactly the event rows ``wanted`` (num_event_rows,)."""
-        if self._rows_stale:
-            self._push_rows(wanted)
-            return
-        if np.array_equal(wanted, self._present):
-            return
-        positions = np.flatnonzero(self._model_rows >= self._num_core)  # event rows in HiGHS
-        held = self._model_rows[positions] - self._num_core  # event ids, HiGHS order
-        drop = ~wanted[held]
-        if drop.any():  # HiGHS keeps the order of the rows that stay
-            self._delete_rows(positions[drop])
-            self._present[held[drop]] = False
-        self._add_event_rows(np.flatnonzero(wanted & ~self._present))
-
-    def _delete_rows(self, positions: IntArray) -> None:
-        """Delete the rows at HiGHS positions ``positions`` (sorted) from HiGHS's LP."""
-        gone = positions.astype(np.int32)
-        self._highs.deleteRows(gone.size, gone)
-        self._model_rows = np.delete(self._model_rows, gone)
-
-    def _push_rows(self, wanted: BoolArray | None) -> None:
-        """Give HiGHS the moving rows of the current LP and, in lazy mode, exactly the event
-        rows ``wanted`` (num_event_rows,; None: those it holds), keeping HiGHS's row order:
-        the rows from the first moving row on (the moving rows, then the event rows) are
-        deleted and the moving rows, the event rows kept and the new ones added in one call
-        each. HiGHS's basis must be set again after this."""
-        moving = self._moving
-        assert moving is not None
-        lp, held = self._lp, self._model_rows
-        first = int(moving.rows[0])  # HiGHS holds the core rows first, in the LP's order
-        end = first + moving.rows.size
-        assert np.array_equal(held[first:end], moving.rows)
-        events = held[end:] - self._num_core  # event ids held, in HiGHS's order
-        if wanted is not None:
-            self._present[events[~wanted[events]]] = False
-            new = np.flatnonzero(wanted & ~self._present)
-            events = np.concatenate([events[wanted[events]], new])
-            self._present[new] = True
-        self._highs.deleteRows(held.size - first, np.arange(first, held.size, dtype=np.int32))
-        data = moving.base + np.bincount(
-            moving.positions, weights=lp.varying.values, minlength=moving.base.size
-        )
-        starts, indices, values = self._event_block(events)
-        rows = np.concatenate([moving.rows, self._num_core + events])
-        self._highs.addRows(
-            rows.size,
-            lp.row_lower[rows],
-            lp.row_upper[rows],
-            data.size + values.size,
-            np.concatenate([moving.starts, starts + data.size]),
-            np.concatenate([moving.indices, indices]),
-            np.concatenate([data, values]),
-        )
-        self._model_rows = np.concatenate([held[:first], rows])
-        self._rows_stale = False
-
-    def _event_block(
-        self, ids: IntArray
-    ) -> tuple[NDArray[np.int32], NDArray[np.int32], FloatArray]:
-        """CSR row starts (ids.size,), column indices and values of the event rows ``ids``."""
-        indptr = self._event_matrix.indptr
-        first, lengths = indptr[ids], indptr[ids + 1] - indptr[ids]
-        starts = np.zeros(ids.size, dtype=np.int32)
-        np.cumsum(lengths[:-1], out=starts[1:])
-        entries = np.repeat(first - starts, lengths) + np.arange(int(lengths.sum()))
-        return starts, self._event_indices[entries], self._event_matrix.data[entries]
-
-    def _add_event_rows(self, ids: IntArray) -> None:
-        """Lazy mode: append the event rows ``ids`` to HiGHS's LP (HiGHS makes them basic)."""
-        if ids.size == 0:
-            return
-        starts, indices, values = self._event_block(ids)
-        rows = self._num_core + ids
-        self._highs.addRows(
-            ids.size,
-            self._lp.row_lower[rows],
-            self._lp.row_upper[rows],
-            values.size,
-            starts,
-            indices,
-            values,
-        )
-        self._model_rows = np.concatenate([self._model_rows, rows])
-        self._present[ids] = True
+            self._held.set_event_rows(self._seed, self._lp)
 
     def _generate_rows(self, values: FloatArray) -> tuple[float, int, SolveStatus, FloatArray]:
         """Lazy mode: add violated event rows and re-solve warm until none is violated.
@@ -418,14 +263,14 @@ class RMPCSolver:
         step.
         """
         highs_time, iterations, status = 0.0, 0, SolveStatus.OPTIMAL
-        upper = self._lp.row_upper[self._num_core :]
+        upper = self._lp.row_upper[self._held.num_core :]
         while True:
-            violation = self._event_matrix @ values - upper
-            add = violated_rows(violation, ~self._present, LAZY_VIOLATION_TOLERANCE_K)
+            violation = self._held.event_matrix @ values - upper
+            add = violated_rows(violation, ~self._held.present, LAZY_VIOLATION_TOLERANCE_K)
             if add.size == 0:
                 self._near = violation >= -LAZY_NEAR_ACTIVE_K
                 return highs_time, iterations, status, values
-            self._add_event_rows(add)
+            self._held.add_event_rows(add, self._lp)
             elapsed, status = self._session.run(True)
             highs_time += elapsed
             iterations += self._session.iterations()
@@ -451,7 +296,7 @@ class RMPCSolver:
 
     def _update(self, problem: RMPCProblem, delta: FloatArray) -> bool:
         """Push the costs, bounds and varying coefficients that differ from the last LP;
-        whether the moving rows are to be replaced (:meth:`_push_rows`, before the next run;
+        whether the moving rows are to be replaced (:meth:`HeldRows.push`, before the next run;
         then HiGHS's basis must be set again)."""
         highs = self._highs
         tightening = self._tightening(problem, delta)
@@ -462,11 +307,11 @@ class RMPCSolver:
             highs.changeColsCost(changed.size, changed, lp.cost[changed])
         varying = lp.varying
         moved = np.flatnonzero(varying.values != old.varying.values)
-        replace_rows = self._moving is not None and moved.size > 0
-        rows = self._model_rows  # the rows HiGHS holds, in its order
+        replace_rows = self._held.moving is not None and moved.size > 0
+        rows = self._held.model_rows  # the rows HiGHS holds, in its order
         if replace_rows:  # the rows from the first moving one on come with their new bounds
-            assert self._moving is not None
-            rows = rows[: self._moving.rows[0]]
+            assert self._held.moving is not None
+            rows = rows[: self._held.moving.rows[0]]
         for change_bounds, lower, upper, old_lower, old_upper in (
             (highs.changeColsBounds, lp.col_lower, lp.col_upper, old.col_lower, old.col_upper),
             (
@@ -481,7 +326,7 @@ class RMPCSolver:
             if changed.size:
                 change_bounds(changed.size, changed, lower[changed], upper[changed])
         if replace_rows:
-            self._rows_stale = True  # pushed with the event rows, before the next run
+            self._held.stale = True  # pushed with the event rows, before the next run
         else:
             for row, col, value in zip(
                 varying.rows[moved].tolist(),
@@ -525,7 +370,7 @@ class RMPCSolver:
         ):
             self._start_from(shift=shift)
         elif replaced:  # HiGHS's basis would lose the moving rows' statuses
-            self._push_rows(self._present.copy() if self._lazy else None)
+            self._held.push(self._held.present.copy() if self._lazy else None, self._lp)
             self._highs.clearSolver()
             session.has_basis = False
         status, highs_time, iterations, warm = session.run_with_retries(
@@ -557,11 +402,13 @@ class RMPCSolver:
         if self._lazy:  # nonbasic and near-active rows (rotated) and the seed
             near = self._near
             if session.rotates(shift):
-                near = near[self._row_rotation[self._num_core :] - self._num_core]
-            self._set_event_rows((row_status[self._num_core :] != BASIC) | near | self._seed)
-        elif self._rows_stale:
-            self._push_rows(None)
-        rows = self._model_rows
+                near = near[self._row_rotation[self._held.num_core :] - self._held.num_core]
+            self._held.set_event_rows(
+                (row_status[self._held.num_core :] != BASIC) | near | self._seed, self._lp
+            )
+        elif self._held.stale:
+            self._held.push(None, self._lp)
+        rows = self._held.model_rows
         start = bounded_start(
             col_status,
             row_status[rows],
@@ -576,7 +423,7 @@ class RMPCSolver:
         """Statuses of HiGHS's current (optimal) basis (see :func:`optimal_statuses`)."""
         basic = self._session.basic_variables()
         rows = basic < 0  # HiGHS row i is LP row model_rows[i]
-        basic[rows] = -1 - self._model_rows[-1 - basic[rows]]
+        basic[rows] = -1 - self._held.model_rows[-1 - basic[rows]]
         col_status, row_status = optimal_statuses(
             values,
             self._col_lower,
@@ -586,7 +433,7 @@ class RMPCSolver:
             basic,
         )
         if self._lazy:  # absent event rows count as basic
-            row_status[self._num_core :][~self._present] = BASIC
+            row_status[self._held.num_core :][~self._held.present] = BASIC
         return col_status, row_status
 
     def _message(
@@ -689,8 +536,8 @@ class RMPCSolver:
     def get_basis(self) -> SolverBasis | None:
         """The basis of the last solve (picklable; as solved, not rotated), or None if none yet."""
         # lazy event rows or moved rows: HiGHS's own basis is not in the LP's row order
-        in_lp_order = self._model_rows.size == self.num_rows and bool(
-            np.all(self._model_rows[1:] > self._model_rows[:-1])
+        in_lp_order = self._held.model_rows.size == self.num_rows and bool(
+            np.all(self._held.model_rows[1:] > self._held.model_rows[:-1])
         )
         return self._session.get_basis(or_highs=in_lp_order)
 
