@@ -535,11 +535,8 @@ class RMPCSolver:
     # ------------------------------------------------------------------ basis
     def get_basis(self) -> SolverBasis | None:
         """The basis of the last solve (picklable; as solved, not rotated), or None if none yet."""
-        # lazy event rows or moved rows: HiGHS's own basis is not in the LP's row order
-        in_lp_order = self._held.model_rows.size == self.num_rows and bool(
-            np.all(self._held.model_rows[1:] > self._held.model_rows[:-1])
-        )
-        return self._session.get_basis(or_highs=in_lp_order)
+        # lazy event rows: HiGHS's own basis covers some rows only (moved rows keep the order)
+        return self._session.get_basis(or_highs=not self._lazy)
 
     def set_basis(self, basis: SolverBasis) -> None:
         """Start the next solve from ``basis`` (from :meth:`get_basis` of a same-structure solver).
