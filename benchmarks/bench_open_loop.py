@@ -12,8 +12,10 @@ timers, and prints one markdown table of the per-step split (median / p90 / mean
 
 * coefficients: δ (robust margins) and the LP's costs, bounds and varying coefficients
   rebuilt from the problem (``build_lp(constants=False)``);
-* push: the diff against the previous LP and the highspy calls (costs, bounds, ``changeCoeff``);
-* basis: rotating the previous basis, choosing the lazy event rows, ``setBasis``;
+* push: the diff against the previous LP and the highspy calls (costs, bounds; ``changeCoeff``
+  only where the moving rows are not replaced as a block);
+* basis: rotating the previous basis, choosing the lazy event rows, replacing the moving rows
+  with them (one ``deleteRows`` and one ``addRows``), ``setBasis``;
 * ``run()``: HiGHS itself, every run of the step (lazy rounds included);
 * lazy rounds: the event-row activities, the most violated rows and ``addRows`` (no run);
 * read: ``getSolution``, the optimal basis from ``getBasicVariables``;

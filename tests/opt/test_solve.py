@@ -544,3 +544,91 @@ def test_warm_runs_price_as_measured_for_the_lp_family(max_steps: int | None) ->
         assert warm.objective_sgd == pytest.approx(cold.objective_sgd, abs=1e-7)
     used = solver._session.highs.getOptionValue("simplex_dual_edge_weight_strategy")[1]
     assert used == (DEVEX_PRICING if max_steps is None else DANTZIG_PRICING)
+
+
+# ---------------------------------------------------------------- moving rows
+
+
+def _offer_problems(steps: int) -> list[RMPCProblem]:
+    """Shifted event-model problems (D = 2, R = 1) whose offers are paid for what the
+    baselines see, with a meter ratio that changes every step: every kind of step-varying
+    coefficient (p_k, φ_k, q_k, ρ·p_k, ρ) moves."""
+    from hvacflex.opt import OfferBaselines
+
+    rng = np.random.default_rng(63)
+    problems = []
+    for step, prob in enumerate(_shifted_problems(11, steps, horizon=10)):
+        fixed = rng.uniform(0.0, 6.0, prob.horizon)
+        fixed[rng.random(prob.horizon) < 0.3] = np.nan
+        problems.append(
+            dataclasses.replace(
+                prob,
+                events=ILEventModel(max_steps=2, recovery_steps=1, allowance_kelvin=0.5),
+                peak_price_sgd_per_kw=np.linspace(1.0, 0.5 + 0.1 * (step % 3), prob.horizon),
+                offer_baselines=OfferBaselines(
+                    meter_ratio=0.6 + 0.05 * (step % 4),
+                    fixed_baseline_kw=fixed,
+                    fixed_on_plan_scale=rng.random(prob.horizon) < 0.5,
+                    planned_baselines=rng.random(prob.horizon) < 0.8,
+                ),
+            )
+        )
+    return problems
+
+
+def test_moving_rows_leave_highs_the_lp_built_from_scratch() -> None:
+    """After each warm solve (a same-step re-solve among them), HiGHS holds, row for row in
+    its order, the rows of the LP built from scratch for that problem: the moving rows
+    re-added in one block carry the step's coefficients and bounds."""
+    import highspy
+    from scipy import sparse
+
+    from hvacflex.opt.lp import build_lp, sparse_matrix
+
+    problems = _offer_problems(6)
+    solver = RMPCSolver(problems[0])
+    assert solver._held.moving is not None  # the product LP's family replaces its moving rows
+    for index, prob in enumerate(problems):
+        assert solver.solve(prob).ok
+        if index == 3:
+            priced = dataclasses.replace(prob, peak_price_sgd_per_kw=prob.phi * 0.9)
+            assert solver.solve(priced, same_step=True).ok
+            prob = priced
+        lp, _ = build_lp(prob, solver._tightening(prob, solver._delta(prob)))
+        assert lp.constant is not None
+        expected = sparse_matrix(lp, lp.constant, keep_varying_zeros=False, csc=False)
+        rows = solver._held.model_rows
+        held = solver._highs.getLp()
+        assert held.a_matrix_.format_ == highspy.MatrixFormat.kColwise
+        matrix = sparse.csc_matrix(
+            (
+                np.asarray(held.a_matrix_.value_),
+                np.asarray(held.a_matrix_.index_),
+                np.asarray(held.a_matrix_.start_),
+            ),
+            shape=(held.num_row_, held.num_col_),
+        )
+        assert (abs(matrix - expected[rows]) > 1e-12).nnz == 0
+        np.testing.assert_array_equal(np.asarray(held.row_lower_), lp.row_lower[rows])
+        np.testing.assert_array_equal(np.asarray(held.row_upper_), lp.row_upper[rows])
+
+
+def test_moving_rows_take_the_path_of_per_coefficient_changes(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The same sequence with the moving coefficients changed one by one (``changeCoeff``):
+    the same iterations and optima, since HiGHS holds the same LP in the same row order."""
+    import hvacflex.opt.held_rows as held_rows
+
+    problems = _offer_problems(8)
+    replaced = RMPCSolver(problems[0])
+    monkeypatch.setattr(held_rows, "MOVING_ROWS_MAX_NONZEROS_PER_VARYING", 0.0)
+    one_by_one = RMPCSolver(problems[0])
+    assert replaced._held.moving is not None and one_by_one._held.moving is None
+    for prob in problems:
+        a, b = replaced.solve(prob), one_by_one.solve(prob)
+        assert a.ok and b.ok
+        assert a.simplex_iterations == b.simplex_iterations
+        assert a.objective_sgd == pytest.approx(b.objective_sgd, rel=1e-12, abs=1e-12)
+        np.testing.assert_allclose(a.u, b.u, atol=1e-9)
+        assert a.objective_sgd == pytest.approx(solve_rmpc(prob).objective_sgd, abs=1e-7)

@@ -283,6 +283,15 @@ def violated_rows(violation: FloatArray, candidate: BoolArray, tolerance_k: floa
     return chosen
 
 
+@functools.lru_cache(maxsize=8)
+def _lower_triangle(horizon: int) -> tuple[IntArray, IntArray]:
+    """``np.tril_indices(horizon)`` (row, column ≤ row), cached (read-only arrays)."""
+    rows, cols = np.tril_indices(horizon)
+    rows.setflags(write=False)
+    cols.setflags(write=False)
+    return rows, cols
+
+
 def worst_event_output(
     responses: FloatArray,
     served_outputs: FloatArray,
@@ -308,7 +317,7 @@ def worst_event_output(
         # clip removes round-off and the heating case.
         # every H_l r_j as one product, [l, :, j]; then contrib[k, j] = H_{k-j} r_j
         products = (responses.reshape(horizon * ny, -1) @ r_reserve.T).reshape(horizon, ny, -1)
-        output, source = np.tril_indices(horizon)
+        output, source = _lower_triangle(horizon)
         contrib = np.zeros((horizon, horizon, ny))
         contrib[output, source] = np.maximum(products[output - source, :, source], 0.0)
         prefix = np.concatenate(

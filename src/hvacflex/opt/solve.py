@@ -11,8 +11,12 @@ basis, retries); what stays here is the open-loop LP and how a basis maps onto i
 (A, B, E, C, N, reserve mask, robust mode). Each :meth:`RMPCSolver.solve` rebuilds the LP's
 costs and bounds without its constant coefficients, pushes only what changed since the
 previous solve — costs, column bounds, row bounds (x0, d̂, g, δ, bounds, p0) and the
-step-varying coefficients (``p_k`` on the power rows, ``φ_k`` on the peak rows, σ in the dual
-form, via ``changeCoeff``) — and re-solves with the dual simplex (warm start).
+step-varying coefficients (``p_k`` on the power rows, ``φ_k`` on the peak rows, ρ·p_k and q_k
+on the visible-offer rows, σ in the dual form) — and re-solves with the dual simplex (warm
+start). The step-varying coefficients sit in the last core rows, the *moving rows*: where
+they are not too sparse among them, they are replaced as one block with the lazy event rows'
+change, in HiGHS's row order, instead of one ``changeCoeff`` per moved coefficient
+(:mod:`hvacflex.opt.held_rows`, which keeps the rows HiGHS holds).
 :class:`FeedbackSolver` solves the affine-feedback LP of :mod:`hvacflex.opt.feedback` (warm,
 :mod:`hvacflex.opt.feedback_solve`). HiGHS runs single-threaded with its output silenced, so
 results are reproducible.
@@ -69,6 +73,7 @@ from hvacflex.opt.basis import (
 )
 from hvacflex.opt.events import reserve_responses, violated_rows
 from hvacflex.opt.feedback_solve import DEFAULT_LP_METHOD, FeedbackSolver
+from hvacflex.opt.held_rows import HeldRows
 from hvacflex.opt.highs_lp import (
     HIGHS_ERROR,
     WARM_PRICING,
@@ -79,7 +84,7 @@ from hvacflex.opt.highs_lp import (
     solve_lp,
 )
 from hvacflex.opt.lp import LinearProgram, LPLayout, build_lp, sparse_matrix
-from hvacflex.opt.problem import BoolArray, FloatArray, IntArray, RMPCProblem
+from hvacflex.opt.problem import FloatArray, RMPCProblem
 from hvacflex.opt.robust import impulse_responses, margin_operator, robust_margins
 from hvacflex.opt.solution import (
     RMPCSolution,
@@ -207,7 +212,7 @@ class RMPCSolver:
     @property
     def num_model_rows(self) -> int:
         """Number of constraints HiGHS holds (lazy event rows: core rows + rows present)."""
-        return int(self._model_rows.size)
+        return int(self._held.model_rows.size)
 
     @property
     def num_nonzeros(self) -> int:
@@ -224,13 +229,10 @@ class RMPCSolver:
         matrix = sparse_matrix(lp, lp.constant, keep_varying_zeros=True, csc=True)
         events = self._layout.event_rows
         self._lazy = self._event_mode == "lazy" and events.size > 0
-        self._num_core = int(events[0]) if events.size else lp.num_rows
+        num_core = int(events[0]) if events.size else lp.num_rows
         assert events.size == 0 or int(events[-1]) == lp.num_rows - 1  # event rows come last
-        self._event_matrix = matrix[self._num_core :].tocsr()
-        self._event_indices = np.asarray(self._event_matrix.indices, dtype=np.int32)  # no copy
-        num_model = self._num_core if self._lazy else lp.num_rows
-        self._model_rows = np.arange(num_model, dtype=np.int64)  # HiGHS row -> LP row
-        self._present = np.zeros(events.size, dtype=bool)  # lazy: event rows in HiGHS
+        self._held = HeldRows(self._highs, lp, matrix, num_core, lazy=self._lazy)
+        num_model = self._held.model_rows.size
         self._near = np.zeros(events.size, dtype=bool)  # near-active at the last optimum
         self._seed = self._layout.events.start == 0
         model = highs_lp(
@@ -251,42 +253,7 @@ class RMPCSolver:
         self._lp: LinearProgram = dataclasses.replace(lp, constant=None)
         self._bounds_changed()
         if self._lazy:
-            self._set_event_rows(self._seed)
-
-    def _set_event_rows(self, wanted: BoolArray) -> None:
-        """Lazy mode: make HiGHS hold exactly the event rows ``wanted`` (num_event_rows,)."""
-        if np.array_equal(wanted, self._present):
-            return
-        held = self._model_rows[self._num_core :] - self._num_core  # event ids, HiGHS order
-        drop = ~wanted[held]
-        if drop.any():  # HiGHS keeps the order of the rows that stay
-            gone = (self._num_core + np.flatnonzero(drop)).astype(np.int32)
-            self._highs.deleteRows(gone.size, gone)
-            self._model_rows = np.delete(self._model_rows, gone)
-            self._present[held[drop]] = False
-        self._add_event_rows(np.flatnonzero(wanted & ~self._present))
-
-    def _add_event_rows(self, ids: IntArray) -> None:
-        """Lazy mode: append the event rows ``ids`` to HiGHS's LP (HiGHS makes them basic)."""
-        if ids.size == 0:
-            return
-        indptr = self._event_matrix.indptr
-        first, lengths = indptr[ids], indptr[ids + 1] - indptr[ids]
-        starts = np.zeros(ids.size, dtype=np.int32)
-        np.cumsum(lengths[:-1], out=starts[1:])
-        entries = np.repeat(first - starts, lengths) + np.arange(int(lengths.sum()))
-        rows = self._num_core + ids
-        self._highs.addRows(
-            ids.size,
-            self._lp.row_lower[rows],
-            self._lp.row_upper[rows],
-            entries.size,
-            starts,
-            self._event_indices[entries],
-            self._event_matrix.data[entries],
-        )
-        self._model_rows = np.concatenate([self._model_rows, rows])
-        self._present[ids] = True
+            self._held.set_event_rows(self._seed, self._lp)
 
     def _generate_rows(self, values: FloatArray) -> tuple[float, int, SolveStatus, FloatArray]:
         """Lazy mode: add violated event rows and re-solve warm until none is violated.
@@ -296,14 +263,14 @@ class RMPCSolver:
         step.
         """
         highs_time, iterations, status = 0.0, 0, SolveStatus.OPTIMAL
-        upper = self._lp.row_upper[self._num_core :]
+        upper = self._lp.row_upper[self._held.num_core :]
         while True:
-            violation = self._event_matrix @ values - upper
-            add = violated_rows(violation, ~self._present, LAZY_VIOLATION_TOLERANCE_K)
+            violation = self._held.event_matrix @ values - upper
+            add = violated_rows(violation, ~self._held.present, LAZY_VIOLATION_TOLERANCE_K)
             if add.size == 0:
                 self._near = violation >= -LAZY_NEAR_ACTIVE_K
                 return highs_time, iterations, status, values
-            self._add_event_rows(add)
+            self._held.add_event_rows(add, self._lp)
             elapsed, status = self._session.run(True)
             highs_time += elapsed
             iterations += self._session.iterations()
@@ -327,8 +294,10 @@ class RMPCSolver:
     def _tightening(problem: RMPCProblem, delta: FloatArray) -> FloatArray:
         return np.zeros_like(delta) if problem.robust == "dual" else delta
 
-    def _update(self, problem: RMPCProblem, delta: FloatArray) -> None:
-        """Push the costs, bounds and varying coefficients that differ from the last LP."""
+    def _update(self, problem: RMPCProblem, delta: FloatArray) -> bool:
+        """Push the costs, bounds and varying coefficients that differ from the last LP;
+        whether the moving rows are to be replaced (:meth:`HeldRows.push`, before the next run;
+        then HiGHS's basis must be set again)."""
         highs = self._highs
         tightening = self._tightening(problem, delta)
         lp, _ = build_lp(problem, tightening, responses=self._responses, constants=False)
@@ -336,7 +305,13 @@ class RMPCSolver:
         changed = np.flatnonzero(lp.cost != old.cost).astype(np.int32)
         if changed.size:
             highs.changeColsCost(changed.size, changed, lp.cost[changed])
-        rows = self._model_rows  # the rows HiGHS holds, in its order
+        varying = lp.varying
+        moved = np.flatnonzero(varying.values != old.varying.values)
+        replace_rows = self._held.moving is not None and moved.size > 0
+        rows = self._held.model_rows  # the rows HiGHS holds, in its order
+        if replace_rows:  # the rows from the first moving one on come with their new bounds
+            assert self._held.moving is not None
+            rows = rows[: self._held.moving.rows[0]]
         for change_bounds, lower, upper, old_lower, old_upper in (
             (highs.changeColsBounds, lp.col_lower, lp.col_upper, old.col_lower, old.col_upper),
             (
@@ -350,17 +325,19 @@ class RMPCSolver:
             changed = np.flatnonzero((lower != old_lower) | (upper != old_upper)).astype(np.int32)
             if changed.size:
                 change_bounds(changed.size, changed, lower[changed], upper[changed])
-        varying = lp.varying
-        moved = np.flatnonzero(varying.values != old.varying.values)
-        for row, col, value in zip(
-            varying.rows[moved].tolist(),
-            varying.cols[moved].tolist(),
-            varying.values[moved].tolist(),
-            strict=True,
-        ):
-            highs.changeCoeff(row, col, value)
+        if replace_rows:
+            self._held.stale = True  # pushed with the event rows, before the next run
+        else:
+            for row, col, value in zip(
+                varying.rows[moved].tolist(),
+                varying.cols[moved].tolist(),
+                varying.values[moved].tolist(),
+                strict=True,
+            ):
+                highs.changeCoeff(row, col, value)
         self._lp = lp
         self._bounds_changed()
+        return replace_rows
 
     # ------------------------------------------------------------------ solve
     def solve(self, problem: RMPCProblem, *, same_step: bool = False) -> RMPCSolution:
@@ -382,13 +359,20 @@ class RMPCSolver:
             self._session.check_same_structure(self._structure.differences(problem.structure))
             self._structure = problem.structure  # equal: its variants skip the comparison
         delta = self._delta(problem)
+        replaced = False
         if problem is not self._last_problem:
-            self._update(problem, delta)
+            replaced = self._update(problem, delta)
             self._last_problem = problem
         session = self._session
         shift = not same_step
-        if session.basis is not None and ((session.time_shift and shift) or session.basis_given):
+        if session.basis is not None and (
+            (session.time_shift and shift) or session.basis_given or replaced
+        ):
             self._start_from(shift=shift)
+        elif replaced:  # HiGHS's basis would lose the moving rows' statuses
+            self._held.push(self._held.present.copy() if self._lazy else None, self._lp)
+            self._highs.clearSolver()
+            session.has_basis = False
         status, highs_time, iterations, warm = session.run_with_retries(
             session.has_basis, lambda: self._start_from(shift=False)
         )
@@ -418,9 +402,13 @@ class RMPCSolver:
         if self._lazy:  # nonbasic and near-active rows (rotated) and the seed
             near = self._near
             if session.rotates(shift):
-                near = near[self._row_rotation[self._num_core :] - self._num_core]
-            self._set_event_rows((row_status[self._num_core :] != BASIC) | near | self._seed)
-        rows = self._model_rows
+                near = near[self._row_rotation[self._held.num_core :] - self._held.num_core]
+            self._held.set_event_rows(
+                (row_status[self._held.num_core :] != BASIC) | near | self._seed, self._lp
+            )
+        elif self._held.stale:
+            self._held.push(None, self._lp)
+        rows = self._held.model_rows
         start = bounded_start(
             col_status,
             row_status[rows],
@@ -434,9 +422,8 @@ class RMPCSolver:
     def _optimal_basis(self, values: FloatArray) -> tuple[StatusArray, StatusArray]:
         """Statuses of HiGHS's current (optimal) basis (see :func:`optimal_statuses`)."""
         basic = self._session.basic_variables()
-        if self._lazy:  # HiGHS row i is LP row model_rows[i]
-            rows = basic < 0
-            basic[rows] = -1 - self._model_rows[-1 - basic[rows]]
+        rows = basic < 0  # HiGHS row i is LP row model_rows[i]
+        basic[rows] = -1 - self._held.model_rows[-1 - basic[rows]]
         col_status, row_status = optimal_statuses(
             values,
             self._col_lower,
@@ -446,7 +433,7 @@ class RMPCSolver:
             basic,
         )
         if self._lazy:  # absent event rows count as basic
-            row_status[self._num_core :][~self._present] = BASIC
+            row_status[self._held.num_core :][~self._held.present] = BASIC
         return col_status, row_status
 
     def _message(
@@ -548,7 +535,7 @@ class RMPCSolver:
     # ------------------------------------------------------------------ basis
     def get_basis(self) -> SolverBasis | None:
         """The basis of the last solve (picklable; as solved, not rotated), or None if none yet."""
-        # lazy event rows: HiGHS's own basis covers some rows only
+        # lazy event rows: HiGHS's own basis covers some rows only (moved rows keep the order)
         return self._session.get_basis(or_highs=not self._lazy)
 
     def set_basis(self, basis: SolverBasis) -> None:
