@@ -70,6 +70,7 @@ from hvacflex.sim.run_files import (
     load_checkpoint,
     refuse_old_checkpoint,
     update_with_files,
+    write_summary,
 )
 from hvacflex.sim.sweep import close_dask
 from hvacflex.units import SECONDS_PER_HOUR
@@ -833,7 +834,7 @@ def _write_outputs(
     offers.to_csv(out / OFFERS_FILE, index=False)
     summary = fleet_summary(frame, long, min_bid_kw=1000.0 * fleet.spec.min_bid_mw)
     summary["recoveries"] = float(recoveries)
-    atomic_write_text(out / SUMMARY_FILE, json.dumps(summary, indent=2))
+    write_summary(out / SUMMARY_FILE, summary)
     building_table(long).to_csv(out / "buildings_summary.csv", index_label="building")
     return summary
 
