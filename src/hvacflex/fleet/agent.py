@@ -652,10 +652,20 @@ class BuildingGroup:
         """((B, 3) the staged plans' cost split [SGD], :meth:`BuildingAgent.staged_split_sgd`,)."""
         return (np.array([agent.staged_split_sgd() for agent in self.agents]),)
 
-    def staged_offer_kw(self) -> tuple[FloatArray, FloatArray]:
-        """(B,) the staged plans' first-period offers and curtailed powers [kW]."""
+    def staged_offer_kw(
+        self, envelope_steps: tuple[int, ...] = ()
+    ) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """(B,) the staged plans' first-period offers and curtailed powers [kW], and (B, D, 2)
+        every building's envelope [kW] for the D holds of ``envelope_steps`` periods
+        (:meth:`BuildingAgent.envelope`; D = 0, none computed, for an empty tuple): the
+        step's offers and envelope in one round trip."""
+        envelope = (
+            np.array([agent.envelope(envelope_steps) for agent in self.agents])
+            if envelope_steps
+            else np.empty((len(self.agents), 0, 2))
+        )
         parts = [agent.staged_offer_kw() for agent in self.agents]
-        return np.array([p[0] for p in parts]), np.array([p[1] for p in parts])
+        return np.array([p[0] for p in parts]), np.array([p[1] for p in parts]), envelope
 
     def meter_view_kw(self) -> tuple[FloatArray, FloatArray]:
         """(B,) each building's settlement baseline now and its model's excess [kW]
