@@ -189,7 +189,8 @@ def setpoint_actuation_degc(
     ``lower_degc`` … ``upper_degc`` (m,) [°C]; a zone ``idle`` (m,) (left at its minimum flow)
     gets the upper bound, so the plant's loop does not cool it towards a temperature the plan
     expects it to drift to."""
-    setpoint = np.clip(np.nan_to_num(planned_degc, nan=upper_degc), lower_degc, upper_degc)
+    planned = np.where(np.isnan(planned_degc), upper_degc, planned_degc)  # NaN: none planned
+    setpoint = np.clip(planned, lower_degc, upper_degc)
     return np.asarray(np.where(idle, upper_degc, setpoint), dtype=np.float64)
 
 
