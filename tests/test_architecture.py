@@ -215,7 +215,6 @@ WITHOUT_OWN_TEST_FILE: set[str] = {
     "hvacflex.building.io",
     "hvacflex.building.model",
     "hvacflex.building.plant",
-    "hvacflex.building.schema",
     "hvacflex.config.model",
     "hvacflex.config.presets",
     "hvacflex.config.schema",

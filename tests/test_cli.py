@@ -167,3 +167,26 @@ def test_reproduce_prints_its_run_lines_and_ends_with_the_verdict(
     lines = result.output.splitlines()
     assert lines[0] == "  [1/1] rmpc ok · elapsed 0:01 · ETA 0:00"
     assert lines[-1] == "verdict: of the paper's findings tested here, 1 holds."
+
+
+def test_sweep_and_reproduce_share_their_dask_options() -> None:
+    """--scheduler, --workers and --fresh are declared once for both commands: same help,
+    bounds and defaults."""
+    import typer.main
+
+    group = typer.main.get_command(app)
+    options = {
+        command: {p.name: p for p in group.commands[command].params}  # type: ignore[attr-defined]
+        for command in ("sweep", "reproduce")
+    }
+    for name in ("scheduler", "workers", "fresh"):
+        sweep, reproduce = options["sweep"][name], options["reproduce"][name]
+        assert sweep.help == reproduce.help and sweep.help
+        assert sweep.default == reproduce.default
+    workers = options["sweep"]["workers"]
+    assert workers.default == 2
+    for argv in (["sweep", "--param", "x=1"], ["reproduce"]):  # the bounds travel with it
+        done = CliRunner().invoke(app, [*argv, "--workers", "0"])
+        assert done.exit_code == 2 and "--workers" in done.output, done.output
+    assert options["reproduce"]["fresh"].default is False
+    assert options["sweep"]["scheduler"].default is None

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import datetime as dt
 import math
+from pathlib import Path
 
 import pandas as pd
 import pytest
@@ -20,6 +21,7 @@ from hvacflex.robustness import (
     seed_jobs,
     spread_table,
     verdict_counts,
+    write_tables,
 )
 
 
@@ -143,3 +145,12 @@ def test_findings_and_verdict_counts() -> None:
     assert (counts["of"] == 3).all()
     incomplete = _runs().iloc[:-1]  # the last week-seed lacks (c): not judged
     assert len(findings_table(incomplete, ("week_start", "occupancy_seed"))) == 2
+
+
+def test_the_study_tables_are_written_as_named_csv_files(tmp_path: Path) -> None:
+    runs = pd.DataFrame({"scenario": ["A", "B"], "net_cost_sgd": [1.5, 2.25]})
+    empty = pd.DataFrame(columns=["finding"])
+    write_tables(tmp_path, {"runs.csv": runs, "findings.csv": empty})
+    pd.testing.assert_frame_equal(pd.read_csv(tmp_path / "runs.csv"), runs)
+    assert (tmp_path / "findings.csv").read_text().strip() == "finding"  # no index column
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["findings.csv", "runs.csv"]

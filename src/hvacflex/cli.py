@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 import typer.core
@@ -337,6 +337,22 @@ PRICE_GAP_FILL_HELP = (
 MAX_WORKERS = 256
 """Most local worker processes ``sweep`` and ``reproduce`` start."""
 
+SweepSchedulerOption = Annotated[
+    str | None,
+    typer.Option(
+        help="dask.distributed scheduler address (the dask extra); default: a LocalCluster "
+        "here, or local processes without the dask extra."
+    ),
+]
+"""``--scheduler`` of ``sweep`` and ``reproduce``."""
+SweepWorkersOption = Annotated[
+    int,
+    typer.Option(min=1, max=MAX_WORKERS, help="Local worker processes (without --scheduler)."),
+]
+"""``--workers`` of ``sweep`` and ``reproduce``."""
+SweepFreshOption = Annotated[bool, typer.Option(help="Ignore existing results and checkpoints.")]
+"""``--fresh`` of ``sweep`` and ``reproduce``."""
+
 
 @app.command(epilog=PRESET_EPILOG)
 def simulate(
@@ -478,15 +494,9 @@ def sweep(
         help=PRICE_GAP_FILL_HELP,
     ),
     out: Path = typer.Option(Path("results/sweep"), help="Output folder."),  # noqa: B008
-    scheduler: str | None = typer.Option(
-        None,
-        help="dask.distributed scheduler address (the dask extra); default: a LocalCluster "
-        "here, or local processes without the dask extra.",
-    ),
-    workers: int = typer.Option(
-        2, min=1, max=MAX_WORKERS, help="Local worker processes (without --scheduler)."
-    ),
-    fresh: bool = typer.Option(False, help="Ignore existing results and checkpoints."),
+    scheduler: SweepSchedulerOption = None,
+    workers: SweepWorkersOption = 2,
+    fresh: SweepFreshOption = False,
 ) -> None:
     """Run independent closed-loop simulations over a parameter grid (on Dask with the dask
     extra, else on local processes).
@@ -574,15 +584,9 @@ def reproduce(
         Path("results/reproduce"),
         help="Output folder; every run is kept in OUT/runs/<run name> and updated in place.",
     ),
-    scheduler: str | None = typer.Option(
-        None,
-        help="dask.distributed scheduler address (the dask extra); default: a LocalCluster "
-        "here, or local processes without the dask extra.",
-    ),
-    workers: int = typer.Option(
-        2, min=1, max=MAX_WORKERS, help="Local worker processes (without --scheduler)."
-    ),
-    fresh: bool = typer.Option(False, help="Ignore existing results and checkpoints."),
+    scheduler: SweepSchedulerOption = None,
+    workers: SweepWorkersOption = 2,
+    fresh: SweepFreshOption = False,
     sensitivity: bool = typer.Option(
         False,
         "--sensitivity",

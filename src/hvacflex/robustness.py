@@ -190,6 +190,30 @@ def runs_table(outcomes: Sequence[JobOutcome], keys: Sequence[str]) -> pd.DataFr
     return pd.DataFrame(rows)
 
 
+def run_study_jobs(
+    out_dir: str | Path,
+    jobs: Sequence[tuple[dict[str, Any], ScenarioConfig]],
+    *,
+    scheduler: str | None,
+    workers: int,
+    fresh: bool,
+) -> tuple[Path, list[JobOutcome]]:
+    """The study's folder (made) and the outcomes of its ``jobs`` run there on Dask or local
+    processes with a progress bar (:func:`hvacflex.sim.sweep.run_sweep`)."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    outcomes = run_sweep(
+        jobs, out, scheduler=scheduler, n_workers=workers, fresh=fresh, progress=True
+    )
+    return out, outcomes
+
+
+def write_tables(out: Path, tables: Mapping[str, pd.DataFrame]) -> None:
+    """Each table as the CSV file ``out``/name (written atomically, no index)."""
+    for name, table in tables.items():
+        atomic_write_text(out / name, table.to_csv(index=False))
+
+
 def spread_table(runs: pd.DataFrame, kpis: Sequence[str] = SPREAD_KPIS) -> pd.DataFrame:
     """Per scenario and KPI: ``n``, ``mean``, ``min``, ``max``, ``std`` (sample, ddof 1) over
     the rows of ``runs`` (:func:`runs_table`)."""
@@ -280,16 +304,12 @@ def run_seed_study(
     from hvacflex.report.sensitivity_plots import plot_seed_spread
 
     started = time.perf_counter()
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
     jobs = seed_jobs(plan)
     log(
         f"seed study: {len(plan.weeks)} weeks × {len(plan.seeds)} occupancy seeds × "
         f"{len(PAPER_SCENARIOS)} scenarios = {len(jobs)} runs of {plan.days:g} days"
     )
-    outcomes = run_sweep(
-        jobs, out, scheduler=scheduler, n_workers=workers, fresh=fresh, progress=True
-    )
+    out, outcomes = run_study_jobs(out_dir, jobs, scheduler=scheduler, workers=workers, fresh=fresh)
     runs = runs_table(outcomes, SPREAD_KPIS)
     spread = spread_table(runs) if len(runs) else pd.DataFrame()
     findings = (
@@ -298,13 +318,15 @@ def run_seed_study(
         else pd.DataFrame(columns=["week_start", "occupancy_seed", *FINDINGS])
     )
     verdicts = verdict_counts(findings)
-    for name, table in (
-        ("seeds_runs.csv", runs),
-        ("seeds_spread.csv", spread),
-        ("seeds_findings.csv", findings),
-        ("seeds_verdicts.csv", verdicts),
-    ):
-        atomic_write_text(out / name, table.to_csv(index=False))
+    write_tables(
+        out,
+        {
+            "seeds_runs.csv": runs,
+            "seeds_spread.csv": spread,
+            "seeds_findings.csv": findings,
+            "seeds_verdicts.csv": verdicts,
+        },
+    )
     if len(runs):
         plot_seed_spread(runs, out / "seeds_spread_figure.png")
     for _, row in verdicts.iterrows():

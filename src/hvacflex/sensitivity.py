@@ -40,9 +40,15 @@ from hvacflex.config import PAPER_SCENARIOS, ScenarioConfig, preset
 from hvacflex.data.market import RESERVE_PRICE_CORRELATION, RESERVE_PRICE_SCALE
 from hvacflex.report.text import rises
 from hvacflex.results import load_results
-from hvacflex.robustness import QUICK_DAYS, REPRESENTATIVE_WEEKS, WEEK_DAYS, runs_table
-from hvacflex.sim.sweep import JobOutcome, run_sweep
-from hvacflex.version import atomic_write_text
+from hvacflex.robustness import (
+    QUICK_DAYS,
+    REPRESENTATIVE_WEEKS,
+    WEEK_DAYS,
+    run_study_jobs,
+    runs_table,
+    write_tables,
+)
+from hvacflex.sim.sweep import JobOutcome
 
 SCALE_FACTORS: tuple[float, ...] = (0.25, 0.5, 1.0, 2.0, 4.0)
 """Scales of the full grid, as multiples of the calibrated :data:`RESERVE_PRICE_SCALE`."""
@@ -251,27 +257,25 @@ def run_sensitivity(
     from hvacflex.report.sensitivity_plots import plot_reserve_sensitivity
 
     started = time.perf_counter()
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
     jobs = sensitivity_jobs(grid)
     log(
         f"reserve-price sensitivity: {len(grid.scales_sgd_per_mwh)} scales × "
         f"{len(grid.correlations)} correlations × {len(grid.weeks)} weeks × "
         f"{len(PAPER_SCENARIOS)} scenarios = {len(jobs)} runs of {grid.days:g} days"
     )
-    outcomes = run_sweep(
-        jobs, out, scheduler=scheduler, n_workers=workers, fresh=fresh, progress=True
-    )
+    out, outcomes = run_study_jobs(out_dir, jobs, scheduler=scheduler, workers=workers, fresh=fresh)
     runs = _runs_with_prices(outcomes)
     points = points_table(runs) if len(runs) else pd.DataFrame()
     findings = revenue_findings(points) if len(points) else pd.DataFrame()
     sentence = findings_sentence(findings)
-    for name, table in (
-        ("sensitivity_runs.csv", runs),
-        ("sensitivity.csv", points),
-        ("sensitivity_findings.csv", findings),
-    ):
-        atomic_write_text(out / name, table.to_csv(index=False))
+    write_tables(
+        out,
+        {
+            "sensitivity_runs.csv": runs,
+            "sensitivity.csv": points,
+            "sensitivity_findings.csv": findings,
+        },
+    )
     if len(points):
         plot_reserve_sensitivity(points, out / "sensitivity_figure.png")
     log(f"  {sentence}")

@@ -126,7 +126,7 @@ class _GivenOrOwn:
         if self._actuation == "flow":
             return rule_action(self._model, inputs.x_degc, values, d_now)
         # set-points: flows at their maximum (never idle), the set-points as the plan's end
-        # temperatures, which the loop clips to the period's comfort band
+        # temperatures, which the loop clips to the comfort band at the period's end
         action = rule_action(self._model, inputs.x_degc, self._flow_max_kg_s.copy(), d_now)
         return replace(action, predicted_served_degc=values, predicted_curtailed_degc=values)
 
@@ -271,7 +271,7 @@ class Simulation:
         ----------
         action : None: the controller decides; an :class:`Action`; or an array (m,) of the
             zones' flows [kg/s] (:attr:`actuation` ``"flow"``) or set-points [°C]
-            (``"setpoint"``; clipped to the period's comfort band, as the MPC's are).
+            (``"setpoint"``; clipped to the comfort band at the period's end, as the MPC's are).
 
         Returns
         -------

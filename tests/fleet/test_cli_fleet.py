@@ -2,6 +2,7 @@ from __future__ import annotations
 
 from pathlib import Path
 from types import SimpleNamespace
+from typing import Any
 
 import pandas as pd
 import pytest
@@ -179,3 +180,31 @@ def test_workers_without_the_dask_extra_exit_2_with_its_install_line(
     assert done.exit_code == 2, done.output
     assert 'pip install -e ".[dask]"' in done.output and "--workers 0" in done.output
     assert not (tmp_path / "run" / "results.parquet").exists()
+
+
+def _fleet_options(command: str) -> dict[str, Any]:
+    """``hvacflex fleet <command>``'s click options by their flag."""
+    import typer.main
+
+    group = typer.main.get_command(app)
+    fleet = group.commands["fleet"]  # type: ignore[attr-defined]
+    return {p.opts[0]: p for p in fleet.commands[command].params}
+
+
+def test_the_shared_options_are_declared_once_with_each_command_s_default() -> None:
+    simulate, bound, compare = (_fleet_options(c) for c in ("simulate", "bound", "compare"))
+    for flag in ("--fleet", "--start", "--days", "--out"):
+        assert flag in simulate and flag in bound
+    for flag in ("--fleet", "--start", "--out", "--scheduler", "--workers"):
+        assert flag in compare
+    assert simulate["--fleet"].help == bound["--fleet"].help == compare["--fleet"].help
+    assert simulate["--fleet"].required and simulate["--out"].required
+    assert bound["--start"].help == compare["--start"].help != simulate["--start"].help
+    assert simulate["--workers"].help == compare["--workers"].help
+    assert (simulate["--workers"].default, compare["--workers"].default) == (2, 0)
+    assert (simulate["--days"].default, bound["--days"].default) == (7.0, 1.0)
+    # the callbacks travel with the shared declarations: a start off the period grid is refused
+    done = CliRunner().invoke(
+        app, ["fleet", "bound", "--fleet", "f.toml", "--start", "2014-03-03T08:10", "--out", "o"]
+    )
+    assert done.exit_code == 2 and "--start" in done.output

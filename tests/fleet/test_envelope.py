@@ -8,13 +8,16 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from scipy import sparse
 
 from hvacflex.fleet.agent import BuildingGroup, FleetSettings
 from hvacflex.fleet.envelope import (
     COMFORT_TOLERANCE_K,
     DURATIONS_MIN,
     ENVELOPE_COLUMNS,
+    HoldModel,
     _hold_block,
+    _hold_matrix,
     _solve_blocks,
     building_envelope,
     duration_steps,
@@ -153,3 +156,60 @@ def test_a_failed_block_leaves_the_others_and_is_logged(
 def test_a_hold_longer_than_the_horizon_is_refused(problems: list[RMPCProblem]) -> None:
     with pytest.raises(ValueError, match="does not fit"):
         hold_model(problems[0], problems[0].horizon + 1)
+
+
+def _stacked_hold_matrix(model: HoldModel) -> sparse.csr_matrix:
+    """The hold LP's rows assembled block by block from sparse parts (an independent
+    construction of :func:`_hold_matrix`'s matrix)."""
+    h, ny = model.steps, model.ny
+    eye = sparse.identity(h * ny, format="csr")
+    gain = sparse.csr_matrix(model.gain)
+    zeros = sparse.csr_matrix((h * ny, 1))
+    power = sparse.block_diag([row[None, :] for row in model.p], format="csr")
+    return sparse.vstack(
+        [
+            sparse.hstack([gain, eye, zeros]),
+            sparse.hstack([gain, -eye, zeros]),
+            sparse.hstack([power, sparse.csr_matrix((h, h * ny)), -np.ones((h, 1))]),
+        ],
+        format="csr",
+    )
+
+
+def test_the_longest_hold_s_model_serves_the_shorter_ones(problems: list[RMPCProblem]) -> None:
+    """One model built at the longest hold, cut to a shorter one, is the shorter hold's model
+    bit for bit, and its LP rows are those assembled from sparse parts (so envelope.csv does
+    not change with the way they are built)."""
+    steps = duration_steps()
+    for problem in problems:
+        longest = hold_model(problem, max(steps))
+        for h in steps:
+            cut, built = longest.first(h), hold_model(problem, h)
+            for name in ("gain", "free", "y_min", "y_max", "u_min", "u_max", "p0", "p"):
+                np.testing.assert_array_equal(getattr(cut, name), getattr(built, name), name)
+            fast, stacked = _hold_matrix(cut), _stacked_hold_matrix(built)
+            fast.sort_indices()
+            stacked.sort_indices()
+            np.testing.assert_array_equal(fast.indptr, stacked.indptr)
+            np.testing.assert_array_equal(fast.indices, stacked.indices)
+            np.testing.assert_array_equal(fast.data, stacked.data)
+    with pytest.raises(ValueError, match="does not fit"):
+        hold_model(problems[0], 2).first(3)
+
+
+def test_the_offers_call_carries_the_envelope_or_none(small_fleet: Path) -> None:
+    """The step's offers and envelope come in one group call: the envelope equals the
+    group's own, and none is computed for no durations."""
+    fleet, doc = load_fleet_document(small_fleet)
+    group = BuildingGroup(doc, [0, 1], FleetSettings.of(fleet, "2014-03-03T10:00", 0.25))
+    group.begin_step()
+    steps = duration_steps()
+    offer, curtailed, baseline, envelope = group.staged_offer_kw(steps)
+    (alone,) = group.envelope(steps)
+    np.testing.assert_array_equal(envelope, alone)
+    assert envelope.shape == (2, len(steps), 2) and np.isfinite(envelope).any()
+    offer_off, curtailed_off, baseline_off, none = group.staged_offer_kw()
+    assert none.shape == (2, 0, 2)
+    np.testing.assert_array_equal(offer, offer_off)
+    np.testing.assert_array_equal(curtailed, curtailed_off)
+    np.testing.assert_array_equal(baseline, baseline_off)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -10,6 +11,7 @@ import pytest
 
 from hvacflex import results as schema
 from hvacflex.fleet.kpi import as_kpi_frame, fleet_summary, load_fleet_results
+from hvacflex.sim.run_files import summary_text
 
 TZ = "Asia/Singapore"
 
@@ -69,6 +71,26 @@ def test_fleet_summary_by_hand() -> None:
     assert out["il_shortfall_kwh"] == pytest.approx(0.0)
     assert out["step_time_s_mean"] == pytest.approx(2.5)
     assert out["buildings"] == 2.0 and out["steps"] == 4.0
+
+
+def test_a_summary_without_a_feeder_limit_is_strict_json() -> None:
+    frame = fleet_frame()
+    frame["feeder_limit_kw"] = np.inf  # no limit: nothing is over it
+    out = fleet_summary(frame)
+    assert out["max_planned_over_limit_kw"] == -np.inf  # in memory: the max of nothing
+
+    def refuse(constant: str) -> object:
+        raise AssertionError(f"not JSON: {constant}")
+
+    written = json.loads(summary_text(out), parse_constant=refuse)
+    for key in (
+        "max_planned_over_limit_kw",
+        "max_realised_over_limit_pct",
+        "max_planned_over_limit_unflagged_kw",
+        "max_realised_over_limit_unflagged_pct",
+    ):
+        assert written[key] is None
+    assert written["energy_kwh"] == pytest.approx(200.0)
 
 
 def test_fleet_energy_takes_the_step_from_the_index() -> None:

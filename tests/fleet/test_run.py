@@ -378,3 +378,27 @@ def test_a_slow_group_call_is_waited_for_while_its_worker_is_there() -> None:
     groups.groups, groups.client = [_SlowGroup(1)], _Cluster([])
     with pytest.raises(fleet_run.WorkerLostError):
         groups.call("ping")
+
+
+SHORT: dict[str, Any] = {"start": "2014-03-03 10:00", "days": 2 / 48, "workers": 0}
+"""Two steps in process: enough to compare two runs."""
+
+
+def test_the_envelope_switched_off_leaves_the_run_as_it_was(tmp_path: Path) -> None:
+    """``envelope = false`` skips the envelope's LPs: no envelope.csv, every other result as
+    with it on (the envelope only reports)."""
+    doc = generate_fleet(2, 5, feeder_limit_kw=80.0, min_bid_mw=0.1)
+    on = run_fleet(write_fleet(doc, tmp_path / "on.toml"), tmp_path / "on", **SHORT)
+    doc["envelope"] = False
+    off = run_fleet(write_fleet(doc, tmp_path / "off.toml"), tmp_path / "off", **SHORT)
+    assert (tmp_path / "on" / ENVELOPE_FILE).is_file()
+    assert not (tmp_path / "off" / ENVELOPE_FILE).exists()
+    timings = ["coordination_time_s", "step_time_s"]
+    pd.testing.assert_frame_equal(
+        off.frame.drop(columns=timings), on.frame.drop(columns=timings), check_exact=True
+    )
+    pd.testing.assert_frame_equal(
+        pd.read_parquet(tmp_path / "off" / "buildings.parquet").drop(columns="solve_time_s"),
+        pd.read_parquet(tmp_path / "on" / "buildings.parquet").drop(columns="solve_time_s"),
+        check_exact=True,
+    )

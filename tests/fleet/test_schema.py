@@ -45,6 +45,16 @@ def test_infinite_limit_round_trips(tmp_path: Path) -> None:
     assert fleet.spec.feeder_limit_kw == float("inf")
 
 
+def test_the_envelope_is_on_unless_the_file_says_false(tmp_path: Path) -> None:
+    doc = generate_fleet(1, 1)
+    assert load_fleet(write_fleet(doc, tmp_path / "f.toml")).spec.envelope is True
+    doc["envelope"] = False
+    assert load_fleet(write_fleet(doc, tmp_path / "f.toml")).spec.envelope is False
+    doc["envelope"] = "no"
+    with pytest.raises(FleetConfigError, match=r"f\.toml.*envelope"):
+        load_fleet(write_fleet(doc, tmp_path / "f.toml"))
+
+
 def test_example_fleet_ships() -> None:
     fleet = load_fleet(resources_dir() / "fleets" / "example.toml")
     assert len(fleet.buildings) == 3 and fleet.spec.min_bid_mw == 0.1

@@ -90,6 +90,17 @@ def test_a_parameter_at_a_bound_has_a_warning_row_naming_it() -> None:
     assert "lower bound 0" in bound["detail"].iloc[0]
 
 
+def test_each_check_says_ok_for_the_zones_it_does_not_flag() -> None:
+    fit = _fit(_params([_zone(), _zone(occupied_gain_kw=0.0)], 0.05), {(1, "occupied_gain_kw"): 1})
+    rows = plausibility_checks(fit, _context())
+    for check in ("bound", "identifiability"):
+        ok = rows[(rows["check"] == check) & (rows["status"] == "ok")]
+        flagged = set(rows[(rows["check"] == check) & (rows["status"] != "ok")]["zone"])
+        assert set(ok["zone"]) == {"a", "b"} - flagged, check
+        assert (ok["parameter"] == "").all()
+    assert set(rows[(rows["check"] == "bound") & (rows["status"] == "ok")]["zone"]) == {"a"}
+
+
 def test_a_negative_constant_gain_and_an_implausible_size_are_warnings() -> None:
     fit = _fit(_params([_zone(base_gain_kw=-1.5), _zone(c_air_kj_per_k=50.0)], 0.05), {})
     rows = failed(plausibility_checks(fit, _context()))

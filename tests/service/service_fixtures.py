@@ -54,11 +54,27 @@ class Service:
         return self.headers(self.operator_key)
 
 
+_RESERVED_PORTS: list[socket.socket] = []
+"""The sockets that hold the ports :func:`free_port` gave out, for the life of the process."""
+
+
 def free_port() -> int:
-    with socket.socket() as sock:
-        sock.bind(("127.0.0.1", 0))
-        port: int = sock.getsockname()[1]
-        return port
+    """A port on 127.0.0.1 that nobody listens on, held for this test process until it ends.
+
+    A port that is only probed (bound to port 0, closed, its number returned) is free for
+    anyone until the test's server binds it: another pytest-xdist worker's probe may be given
+    the same number, or an outgoing connection (the VEN's polls, a database client) its
+    ephemeral port, and the test then fails or talks to the other worker's server, depending
+    on which test files run beside it. So the probing socket stays bound (not listening): no
+    other probe and no outgoing connection gets the port, while the test's servers, which set
+    ``SO_REUSEADDR`` as uvicorn and aiohttp do, may bind and listen on it, one after another.
+    """
+    sock = socket.socket()
+    sock.bind(("127.0.0.1", 0))  # without SO_REUSEADDR: never a port some socket holds
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)  # the server's bind may share it
+    _RESERVED_PORTS.append(sock)
+    port: int = sock.getsockname()[1]
+    return port
 
 
 @dataclass

@@ -831,6 +831,33 @@ def test_a_refusal_the_service_cannot_take_leaves_the_opt(tmp_path: Path) -> Non
     assert make_ven(service, tmp_path).handle_event(_dispatch("d1", 0)) == OPT_OUT
 
 
+def test_a_port_given_out_stays_ours_until_the_test_s_server_takes_it() -> None:
+    """The shared state between test files running side by side: the ports. A port
+    :func:`free_port` gave out is not given to anyone else (a plain bind or a probe of
+    another worker fails to get it), yet a server that sets SO_REUSEADDR (uvicorn, aiohttp)
+    binds it, and another after it; nobody listening, a connection is refused."""
+    import socket
+
+    port = free_port()
+    with socket.socket() as other, pytest.raises(OSError):
+        other.bind(("127.0.0.1", port))
+    for _ in range(200):  # other probes are given other ports
+        with socket.socket() as probe:
+            probe.bind(("127.0.0.1", 0))
+            assert probe.getsockname()[1] != port
+    with pytest.raises(ConnectionRefusedError):
+        socket.create_connection(("127.0.0.1", port), timeout=5).close()
+    for _ in range(2):  # a server, stopped, and another on the same port
+        with socket.socket() as server:
+            server.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+            server.bind(("127.0.0.1", port))
+            server.listen()
+            with socket.create_connection(("127.0.0.1", port), timeout=5):
+                accepted, _ = server.accept()
+                accepted.close()
+    assert free_port() != port
+
+
 def test_the_record_defaults_to_the_user_data_folder(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:

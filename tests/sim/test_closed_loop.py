@@ -20,7 +20,11 @@ from hvacflex import kpi
 from hvacflex.building.hvac import affine_power_model
 from hvacflex.config import preset, scaled_uncertainty, with_overrides
 from hvacflex.paths import buildings_dir
-from hvacflex.sim.closed_loop import ClosedLoop
+from hvacflex.sim.closed_loop import (
+    ClosedLoop,
+    band_at_period_end_degc,
+    setpoint_actuation_degc,
+)
 from hvacflex.sim.plant import Actuation, Disturbance, Observation
 from hvacflex.sim.run import RunInterrupted, run_simulation
 from hvacflex.sim.run_files import CHECKPOINT_FILE, read_results
@@ -549,3 +553,39 @@ def test_the_peak_guard_sheds_toward_the_band_at_the_periods_end(
         np.testing.assert_allclose(guard_upper, np.minimum(upper[k], upper[k + 1]))
     # the check discriminates: some guarded period's own band is wider than its end's
     assert any((upper[k] > upper[k + 1]).any() for k, _ in seen)
+
+
+def test_the_setpoint_actuation_clips_to_the_band_at_the_periods_end() -> None:
+    """The setpoints are clipped to the band the peak guard sheds toward and the plan keeps:
+    the tighter of periods k and k + 1. Where the band tightens (occupancy starts) it is the
+    next period's; where it widens (occupancy ends) it stays period k's. With period k's band
+    alone, a pre-occupancy zone would be handed the night bound."""
+    exo = prepare(preset("rmpc", start=START, days=1)).exogenous
+    occupied = exo.occupied.astype(bool)
+    opens = int(np.flatnonzero(~occupied[:-1] & occupied[1:])[0])  # last period before
+    closes = int(np.flatnonzero(occupied[:-1] & ~occupied[1:])[0])  # last occupied period
+    lower, upper = exo.comfort_lower_degc, exo.comfort_upper_degc
+    assert (upper[opens] > upper[opens + 1]).all() and (lower[opens] < lower[opens + 1]).all()
+    end_lower, end_upper = band_at_period_end_degc(exo, opens)
+    np.testing.assert_array_equal(end_lower, lower[opens + 1])
+    np.testing.assert_array_equal(end_upper, upper[opens + 1])
+    end_lower, end_upper = band_at_period_end_degc(exo, closes)
+    np.testing.assert_array_equal(end_lower, lower[closes])
+    np.testing.assert_array_equal(end_upper, upper[closes])
+    # the last period of the data: its own band
+    last = len(exo.index) - 1
+    np.testing.assert_array_equal(band_at_period_end_degc(exo, last)[1], upper[last])
+
+    m = upper.shape[1]
+    planned = np.linspace(lower[opens].min() - 1.0, upper[opens].max() + 1.0, m)
+    planned[0] = np.nan  # no plan: the upper bound
+    idle = np.zeros(m, dtype=bool)
+    idle[-1] = True
+    end_lower, end_upper = band_at_period_end_degc(exo, opens)
+    setpoint = setpoint_actuation_degc(planned, idle, end_lower, end_upper)
+    expected = np.clip(planned, end_lower, end_upper)
+    expected[0] = end_upper[0]
+    expected[-1] = end_upper[-1]  # idle: the occupied upper bound, not the night one
+    np.testing.assert_array_equal(setpoint, expected)
+    own_band = setpoint_actuation_degc(planned, idle, lower[opens], upper[opens])
+    assert own_band[-1] == upper[opens][-1] > setpoint[-1]  # the difference the helper makes

@@ -1,9 +1,11 @@
-"""A run folder is refused to another configuration, and a scenario whose linearisation
-temperature is impossible is refused naming the field the user wrote."""
+"""A run folder is refused to another configuration, a scenario whose linearisation
+temperature is impossible is refused naming the field the user wrote, and a summary is
+written as strictly valid JSON."""
 
 from __future__ import annotations
 
 import json
+import math
 from dataclasses import replace
 from pathlib import Path
 
@@ -18,6 +20,9 @@ from hvacflex.sim.run_files import (
     SUMMARY_FILE,
     check_linearisation,
     check_out_dir,
+    read_summary,
+    summary_text,
+    write_summary,
 )
 
 
@@ -87,3 +92,24 @@ def test_a_written_linearisation_temperature_is_reported_as_written() -> None:
         check_linearisation(cfg)
     assert err.value.field == "controller.linearisation_temp_degc" and err.value.value == 12.0
     check_linearisation(preset("rmpc"))  # 25 °C > 13 °C
+
+
+def _strict_json(text: str) -> object:
+    """``text`` parsed by a parser that refuses ``NaN`` / ``Infinity`` (RFC 8259)."""
+
+    def refuse(constant: str) -> object:
+        raise ValueError(f"not JSON: {constant}")
+
+    return json.loads(text, parse_constant=refuse)
+
+
+def test_a_summary_is_strict_json_with_null_for_what_is_not_finite(tmp_path: Path) -> None:
+    summary = {"energy_kwh": 388.5, "over_kw": -float("inf"), "ratio": float("nan"), "steps": 48}
+    with pytest.raises(ValueError, match="Infinity"):
+        _strict_json(json.dumps(summary))  # what json.dumps alone would write
+    parsed = _strict_json(summary_text(summary))
+    assert parsed == {"energy_kwh": 388.5, "over_kw": None, "ratio": None, "steps": 48}
+    path = write_summary(tmp_path / SUMMARY_FILE, summary)
+    back = read_summary(path)  # null is read as NaN: the in-memory summary keeps its type
+    assert back["energy_kwh"] == 388.5 and back["steps"] == 48
+    assert math.isnan(back["over_kw"]) and math.isnan(back["ratio"])

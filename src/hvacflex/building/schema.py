@@ -72,7 +72,8 @@ interior solar distribution, sky long-wave exchange) all default to the original
 
 from __future__ import annotations
 
-from typing import Annotated, Any, Literal, Self
+import dataclasses
+from typing import TYPE_CHECKING, Annotated, Any, Literal, Self, get_type_hints
 
 from pydantic import (
     AfterValidator,
@@ -81,11 +82,17 @@ from pydantic import (
     ConfigDict,
     Field,
     Strict,
+    create_model,
     model_validator,
 )
 from pydantic_core import PydanticCustomError
 
-from hvacflex.building.identified import MIN_RUNNING_PERIODS, WEEKDAYS, parse_hours
+from hvacflex.building.identified import (
+    MIN_RUNNING_PERIODS,
+    WEEKDAYS,
+    IdentifiedPower,
+    parse_hours,
+)
 from hvacflex.building.model import (
     ADIABATIC,
     BOUNDARIES,
@@ -344,21 +351,47 @@ class IdentifiedBoundarySpec(Spec):
     temp_degc: Annotated[Number, Field(ge=-50.0, le=70.0)]
 
 
-class IdentifiedPowerSpec(Spec):
-    """A power model fitted to the meter (``hvacflex.building.identified.IdentifiedPower``)."""
+POWER_FIELD_RANGES: dict[str, Any] = {"running_periods": Field(ge=MIN_RUNNING_PERIODS)}
+"""The ranges of :class:`IdentifiedPower`'s fields that have one (the others: any finite
+number)."""
 
-    base_kw: Number
-    kw_per_kw_cooling: Number
-    kw_per_k_outdoor: Number
-    occupied_kw: Number = 0.0
-    kw_per_kg_s_k_outdoor_occupied: Number = 0.0
-    running_kw: Number = 0.0
-    fan_kw_per_kg_s: Number = 0.0
-    fan_kw_per_kg2_s2: Number = 0.0
-    kw_per_kw_cooling_k_outdoor: Number = 0.0
-    kw_per_kw2_cooling: Number = 0.0
-    kw_per_kg_s_occupied: Number = 0.0
-    running_periods: Annotated[Number, Field(ge=MIN_RUNNING_PERIODS)] | None = None
+
+def identified_power_fields() -> dict[str, Any]:
+    """:class:`~hvacflex.building.identified.IdentifiedPower`'s fields as the schema's, the
+    dataclass being their one home: each a finite :data:`Number` in its
+    :data:`POWER_FIELD_RANGES` range, optional (absent: None) where the dataclass allows None,
+    defaulted as the dataclass defaults it, required where it has no default.
+
+    Raises
+    ------
+    TypeError
+        When the dataclass has a field that is not a float or an optional float (a new field
+        the file format would need a rule for).
+    """
+    hints = get_type_hints(IdentifiedPower)
+    fields: dict[str, Any] = {}
+    for field in dataclasses.fields(IdentifiedPower):
+        number: Any = Annotated[Number, POWER_FIELD_RANGES.get(field.name, Field())]
+        if hints[field.name] == float | None:
+            number = number | None
+        elif hints[field.name] is not float:
+            raise TypeError(f"IdentifiedPower.{field.name}: a float or float | None expected")
+        default = ... if field.default is dataclasses.MISSING else field.default
+        fields[field.name] = (number, default)
+    return fields
+
+
+if TYPE_CHECKING:
+    IdentifiedPowerSpec = Spec
+else:
+    IdentifiedPowerSpec = create_model(
+        "IdentifiedPowerSpec",
+        __base__=Spec,
+        __module__=__name__,
+        __doc__="A power model fitted to the meter (:class:`hvacflex.building.identified."
+        "IdentifiedPower`; its fields: :func:`identified_power_fields`).",
+        **identified_power_fields(),
+    )
 
 
 class IdentifiedValiditySpec(Spec):

@@ -656,13 +656,23 @@ class BuildingGroup:
         """((B, 3) the staged plans' cost split [SGD], :meth:`BuildingAgent.staged_split_sgd`,)."""
         return (np.array([agent.staged_split_sgd() for agent in self.agents]),)
 
-    def staged_offer_kw(self) -> tuple[FloatArray, FloatArray, FloatArray]:
+    def staged_offer_kw(
+        self, envelope_steps: tuple[int, ...] = ()
+    ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
         """(B,) the staged plans' first-period offers, their curtailed powers by the plant's
         power model and the buildings' settlement baselines now [kW]
-        (:meth:`BuildingAgent.staged_offer_kw`)."""
+        (:meth:`BuildingAgent.staged_offer_kw`), and (B, D, 2) every building's envelope
+        [kW] for the D holds of ``envelope_steps`` periods (:meth:`BuildingAgent.envelope`;
+        D = 0, none computed, for an empty tuple): the step's offers and envelope in one
+        round trip."""
+        envelope = (
+            np.array([agent.envelope(envelope_steps) for agent in self.agents])
+            if envelope_steps
+            else np.empty((len(self.agents), 0, 2))
+        )
         parts = np.array([agent.staged_offer_kw() for agent in self.agents], dtype=float)
         parts = parts.reshape(len(self.agents), 3)
-        return parts[:, 0].copy(), parts[:, 1].copy(), parts[:, 2].copy()
+        return parts[:, 0].copy(), parts[:, 1].copy(), parts[:, 2].copy(), envelope
 
     def advance(self, activated: bool = False) -> dict[str, FloatArray]:
         """Step every plant (curtailed where ``activated`` and a reserve is offered); (B,)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
@@ -17,9 +17,9 @@ if TYPE_CHECKING:
     from hvacflex.fleet.run import FleetStepProgress
 
 MAX_WORKERS = 256
+"""Most LocalCluster workers ``fleet simulate`` and ``fleet compare`` start."""
 MAX_COMPARE_STEPS = 7 * PERIODS_PER_DAY
 """Most steps ``fleet compare`` runs (a week)."""
-"""Most LocalCluster workers ``fleet simulate`` starts."""
 
 
 def _check_start(value: str) -> str:
@@ -46,6 +46,31 @@ def _check_optional_number(value: float | None) -> float | None:
     if value is not None and math.isnan(value):
         raise typer.BadParameter("must be a number (got nan)")
     return value
+
+
+def _start_option(first: str) -> Any:
+    """``--start``: ``first`` (what the date starts: a day, a period), checked and normalised."""
+    return typer.Option(
+        "--start", help=f"{first} (Singapore local time), {ISO_START_FORMS}.", callback=_check_start
+    )
+
+
+def _out_option(help_text: str) -> Any:
+    """``--out`` with the command's own help (what it writes there)."""
+    return typer.Option("--out", help=help_text)
+
+
+FleetFileOption = Annotated[Path, typer.Option("--fleet", help="Fleet TOML file.")]
+"""``--fleet`` of ``simulate``, ``bound`` and ``compare``."""
+PeriodStartOption = Annotated[str, _start_option("First period")]
+"""``--start`` of ``bound`` and ``compare``."""
+SchedulerOption = Annotated[str | None, typer.Option("--scheduler", help="Dask scheduler address.")]
+"""``--scheduler`` of ``simulate`` and ``compare``."""
+WorkersOption = Annotated[
+    int,
+    typer.Option("--workers", min=0, max=MAX_WORKERS, help="LocalCluster workers (0 = no Dask)."),
+]
+"""``--workers`` of ``simulate`` and ``compare`` (each command its own default)."""
 
 
 fleet_app = typer.Typer(
@@ -99,19 +124,15 @@ def generate(
 
 @fleet_app.command("simulate")
 def simulate(
-    fleet: Path = typer.Option(..., "--fleet", help="Fleet TOML file."),  # noqa: B008
-    start: str = typer.Option(
-        DEFAULT_START,
-        "--start",
-        help=f"First day (Singapore local time), {ISO_START_FORMS}.",
-        callback=_check_start,
-    ),
-    days: float = typer.Option(7.0, "--days", help="Days to simulate.", callback=_check_days),
-    out: Path = typer.Option(..., "--out", help="Output folder."),  # noqa: B008
-    scheduler: str | None = typer.Option(None, "--scheduler", help="Dask scheduler address."),
-    workers: int = typer.Option(
-        2, "--workers", min=0, max=MAX_WORKERS, help="LocalCluster workers (0 = no Dask)."
-    ),
+    fleet: FleetFileOption,
+    start: Annotated[str, _start_option("First day")] = DEFAULT_START,
+    days: Annotated[
+        float, typer.Option("--days", help="Days to simulate.", callback=_check_days)
+    ] = 7.0,
+    *,  # --out has no default: keyword-only, so --help keeps the options in this order
+    out: Annotated[Path, _out_option("Output folder.")],
+    scheduler: SchedulerOption = None,
+    workers: WorkersOption = 2,
     fresh: bool = typer.Option(False, "--fresh", help="Ignore a checkpoint."),
     allow_infeasible_limits: bool = typer.Option(
         False,
@@ -243,15 +264,13 @@ class CoordinationWatch:
 
 @fleet_app.command("bound")
 def bound(
-    fleet: Path = typer.Option(..., "--fleet", help="Fleet TOML file."),  # noqa: B008
-    start: str = typer.Option(
-        DEFAULT_START,
-        "--start",
-        help=f"First period (Singapore local time), {ISO_START_FORMS}.",
-        callback=_check_start,
-    ),
-    days: float = typer.Option(1.0, "--days", help="Days bounded (≤ 7).", callback=_check_days),
-    out: Path = typer.Option(..., "--out", help="Output folder (bound.csv)."),  # noqa: B008
+    fleet: FleetFileOption,
+    start: PeriodStartOption = DEFAULT_START,
+    days: Annotated[
+        float, typer.Option("--days", help="Days bounded (≤ 7).", callback=_check_days)
+    ] = 1.0,
+    *,  # --out has no default: keyword-only, so --help keeps the options in this order
+    out: Annotated[Path, _out_option("Output folder (bound.csv).")],
 ) -> None:
     """The least discomfort under the feeder limits on the controllers' model (bound.csv)."""
     from hvacflex.errors import HvacflexError
@@ -279,19 +298,13 @@ def bound(
 
 @fleet_app.command("compare")
 def compare(
-    fleet: Path = typer.Option(..., "--fleet", help="Fleet TOML file."),  # noqa: B008
-    start: str = typer.Option(
-        DEFAULT_START,
-        "--start",
-        help=f"First period (Singapore local time), {ISO_START_FORMS}.",
-        callback=_check_start,
-    ),
-    steps: int = typer.Option(1, "--steps", min=1, max=MAX_COMPARE_STEPS, help="Steps."),
-    out: Path = typer.Option(..., "--out", help="Output folder (compare.csv)."),  # noqa: B008
-    scheduler: str | None = typer.Option(None, "--scheduler", help="Dask scheduler address."),
-    workers: int = typer.Option(
-        0, "--workers", min=0, max=MAX_WORKERS, help="LocalCluster workers (0 = no Dask)."
-    ),
+    fleet: FleetFileOption,
+    start: PeriodStartOption = DEFAULT_START,
+    steps: Annotated[int, typer.Option("--steps", min=1, max=MAX_COMPARE_STEPS, help="Steps.")] = 1,
+    *,  # --out has no default: keyword-only, so --help keeps the options in this order
+    out: Annotated[Path, _out_option("Output folder (compare.csv).")],
+    scheduler: SchedulerOption = None,
+    workers: WorkersOption = 0,
 ) -> None:
     """Coordinated plans against the centralised LP from the same states (compare.csv)."""
     from hvacflex.errors import HvacflexError

@@ -105,6 +105,25 @@ class HoldModel:
     def ny(self) -> int:
         return int(self.gain.shape[0] // self.steps)
 
+    def first(self, steps: int) -> HoldModel:
+        """The model of the first ``steps`` periods (1 ≤ steps ≤ :attr:`steps`): the leading
+        blocks, equal to :func:`hold_model` of that many periods (the response of period j
+        depends only on the periods up to j), so one model built at the longest hold serves
+        every shorter one."""
+        if not 1 <= steps <= self.steps:
+            raise ValueError(f"a hold of {steps} periods does not fit a model of {self.steps}")
+        rows, columns = steps * self.ny, steps * self.m
+        return HoldModel(
+            gain=self.gain[:rows, :columns],
+            free=self.free[:rows],
+            y_min=self.y_min[:rows],
+            y_max=self.y_max[:rows],
+            u_min=self.u_min[:columns],
+            u_max=self.u_max[:columns],
+            p0=self.p0[:steps],
+            p=self.p[:steps],
+        )
+
 
 def hold_model(problem: RMPCProblem, steps: int) -> HoldModel:
     """The condensed model of ``problem``'s first ``steps`` periods (1 ≤ steps ≤ N)."""
@@ -163,19 +182,34 @@ class _Solved:
         return not np.isnan(self.max_slack_k)
 
 
-def _hold_block(model: HoldModel, sense: float, level: float | None = None) -> _Block:
+def _hold_matrix(model: HoldModel) -> sparse.csr_matrix:
+    """The hold LP's rows on columns (u (h·m), ε (h·ny), λ): comfort low [G I 0], comfort
+    high [G −I 0], power [diag(p_k) 0 −1] (the same for every objective of the model: built
+    once, dense then compressed, as the model is small)."""
+    h, m, ny = model.steps, model.m, model.ny
+    outputs, flows = h * ny, h * m
+    dense = np.zeros((2 * outputs + h, flows + outputs + 1))
+    dense[:outputs, :flows] = model.gain
+    dense[outputs : 2 * outputs, :flows] = model.gain
+    dense[:outputs, flows : flows + outputs] = np.eye(outputs)
+    dense[outputs : 2 * outputs, flows : flows + outputs] = -np.eye(outputs)
+    for k in range(h):
+        dense[2 * outputs + k, k * m : (k + 1) * m] = model.p[k]
+    dense[2 * outputs :, -1] = -1.0
+    return sparse.csr_matrix(dense)
+
+
+def _hold_block(
+    model: HoldModel,
+    sense: float,
+    level: float | None = None,
+    matrix: sparse.csr_matrix | None = None,
+) -> _Block:
     """The hold LP on columns (u (h·m), ε (h·ny), λ): comfort rows y_min − ε ≤ free + G u ≤
     y_max + ε, power rows p_k·u_k − λ = −p0_k; cost sense·λ + W·Σε (``sense`` +1: the
-    least level, −1: the most, 0: the least slack at ``level``, which fixes λ)."""
+    least level, −1: the most, 0: the least slack at ``level``, which fixes λ); ``matrix``:
+    the model's :func:`_hold_matrix` where the caller has it already."""
     h, m, ny = model.steps, model.m, model.ny
-    eye = sparse.identity(h * ny, format="csr")
-    gain = sparse.csr_matrix(model.gain)
-    zeros = sparse.csr_matrix((h * ny, 1))
-    power = sparse.block_diag([row[None, :] for row in model.p], format="csr")
-    comfort_low = sparse.hstack([gain, eye, zeros])
-    comfort_high = sparse.hstack([gain, -eye, zeros])
-    power_rows = sparse.hstack([power, sparse.csr_matrix((h, h * ny)), -np.ones((h, 1))])
-    matrix = sparse.vstack([comfort_low, comfort_high, power_rows], format="csr")
     inf = np.full(h * ny, np.inf)
     row_lower = np.concatenate([model.y_min - model.free, -inf, -model.p0])
     row_upper = np.concatenate([inf, model.y_max - model.free, -model.p0])
@@ -184,7 +218,7 @@ def _hold_block(model: HoldModel, sense: float, level: float | None = None) -> _
     high = np.inf if level is None else level
     return _Block(
         cost,
-        matrix,
+        _hold_matrix(model) if matrix is None else matrix,
         row_lower,
         row_upper,
         np.concatenate([model.u_min, np.zeros(h * ny), [low]]),
@@ -234,7 +268,8 @@ def building_envelope(
     plant_power_kw: Callable[[FloatArray], float] | None = None,
 ) -> FloatArray:
     """(D, 2) the least and the most power [kW] the building holds for each of ``steps``
-    (D,) periods from its state now without leaving comfort (see the module docstring);
+    (D,) periods from its state now without leaving comfort (see the module docstring; the
+    condensed model is built once, at the longest hold, :meth:`HoldModel.first`);
     both NaN for a duration where no hold keeps comfort (the least slack above
     :data:`COMFORT_TOLERANCE_K`) or either end's LP failed (logged).
 
@@ -244,10 +279,14 @@ def building_envelope(
     LP's affine power (a secant, which over-states the power of large flows and
     under-states that of small ones). It is neither constant over the hold (only the
     affine power is) nor the plant model's own extreme."""
+    if not steps:
+        return np.empty((0, 2))
+    longest = hold_model(problem, max(steps))  # built once, sliced for the shorter holds
     blocks, models = [], []
     for h in steps:
-        model = hold_model(problem, h)
-        blocks += [_hold_block(model, 1.0), _hold_block(model, -1.0)]
+        model = longest.first(h)
+        matrix = _hold_matrix(model)  # both ends share the rows
+        blocks += [_hold_block(model, 1.0, matrix=matrix), _hold_block(model, -1.0, matrix=matrix)]
         models += [model, model]
     levels, keeps = [], []
     for model, solved in zip(models, _solve_blocks(blocks), strict=True):

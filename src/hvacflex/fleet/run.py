@@ -70,6 +70,7 @@ from hvacflex.sim.run_files import (
     load_checkpoint,
     refuse_old_checkpoint,
     update_with_files,
+    write_summary,
 )
 from hvacflex.sim.sweep import close_dask
 from hvacflex.units import SECONDS_PER_HOUR
@@ -299,10 +300,10 @@ def run_fleet(
     _write_config(out, path, start, days, key)
 
     cluster, client, own_client = _start_dask(scheduler, workers)
-    n = len(fleet.buildings)
     try:
-        groups = _Groups(doc, settings, n, client)
-        values, flags, iterations, envelope, offers = _empty_tables(steps, n)
+        groups = _Groups(doc, settings, n := len(fleet.buildings), client)
+        holds = envelope_steps(fleet)  # () when the envelope is off
+        values, flags, iterations, envelope, offers = _empty_tables(steps, n, len(holds))
         col = {name: i for i, name in enumerate(FLOAT_COLUMNS)}
         checkpoint = _matching_checkpoint(checkpoint_path, key) if resume else None
         k, price = (
@@ -322,7 +323,7 @@ def run_fleet(
         while k < steps:
             try:
                 tick = time.perf_counter()
-                context = _context(k, schedule, flags, 1000.0 * fleet.spec.min_bid_mw)
+                context = _context(k, schedule, flags, 1000.0 * fleet.spec.min_bid_mw, holds)
                 outcome = _fleet_step(
                     groups, planning_limit[k : k + horizon], options, price, context
                 )
@@ -354,7 +355,7 @@ def run_fleet(
     frame = settle_fleet(_results_frame(values, flags, iterations, index), rule)
     table = _settle_buildings(frame, long, fleet, offers, rule)
     summary = _write_outputs(out, (frame, long, table), fleet, key, recoveries)
-    envelope_frame(index, envelope).to_csv(out / ENVELOPE_FILE, index=False)
+    _write_envelope(out, index, envelope)
     checkpoint_path.unlink(missing_ok=True)
     return FleetRunResult(out, frame, summary, recoveries, resumed_from)
 
@@ -421,17 +422,26 @@ def minimum_power_warning(fleet: Fleet, start: str, days: float) -> str | None:
     )
 
 
+def _write_envelope(out: Path, index: pd.DatetimeIndex, envelope: FloatArray) -> None:
+    """``envelope.csv`` of the fleet's envelope (steps, D, 3); with no durations (D = 0, the
+    envelope switched off) none, and none left of an earlier run in the folder."""
+    if envelope.shape[1]:
+        envelope_frame(index, envelope).to_csv(out / ENVELOPE_FILE, index=False)
+    else:
+        (out / ENVELOPE_FILE).unlink(missing_ok=True)
+
+
 def _empty_tables(
-    steps: int, buildings: int
+    steps: int, buildings: int, holds: int = len(DURATIONS_MIN)
 ) -> tuple[FloatArray, Any, Any, FloatArray, FloatArray]:
     """(float columns (steps, FLOAT_COLUMNS), flags bid_accepted/feeder_infeasible, iterations,
-    the envelope (steps, D, 3): least, most power [kW], buildings summed, and every building's
-    metered-visible offer (steps, B) [kW])."""
+    the envelope (steps, D, 3) of D = ``holds`` durations: least, most power [kW], buildings
+    summed, and every building's metered-visible offer (steps, B) [kW])."""
     return (
         np.full((steps, len(FLOAT_COLUMNS)), np.nan),
         np.zeros((steps, len(schema.FLEET_FLAG_COLUMNS)), dtype=bool),
         np.zeros(steps, dtype=np.int64),
-        np.full((steps, len(DURATIONS_MIN), 3), np.nan),
+        np.full((steps, holds, 3), np.nan),
         np.zeros((steps, buildings)),
     )
 
@@ -603,19 +613,31 @@ class _StepContext:
     scheduled : the grid operator activates IL in this period.
     before : (it did in the last period, the fleet was activated then); None at the start.
     min_bid_kw : the market's minimum bid [kW].
+    envelope_steps : the holds of the flexibility envelope [periods] (:func:`envelope_steps`;
+        empty: the envelope is off).
     """
 
     scheduled: bool
     before: tuple[bool, bool] | None
     min_bid_kw: float
+    envelope_steps: tuple[int, ...] = ()
 
 
-def _context(k: int, schedule: Any, flags: Any, min_bid_kw: float) -> _StepContext:
-    """The :class:`_StepContext` of step ``k`` from the flags of the steps before."""
+def envelope_steps(fleet: Fleet) -> tuple[int, ...]:
+    """The holds of the fleet's flexibility envelope [periods] (:data:`DURATIONS_MIN`), none
+    where the fleet file switches it off (``envelope = false``: no ``envelope.csv``)."""
+    return duration_steps(DT_H) if fleet.spec.envelope else ()
+
+
+def _context(
+    k: int, schedule: Any, flags: Any, min_bid_kw: float, holds: tuple[int, ...] = ()
+) -> _StepContext:
+    """The :class:`_StepContext` of step ``k`` from the flags of the steps before (``holds``:
+    the envelope's, :func:`envelope_steps`)."""
     if k == 0:
-        return _StepContext(bool(schedule[0]), None, min_bid_kw)
+        return _StepContext(bool(schedule[0]), None, min_bid_kw, holds)
     before = (bool(schedule[k - 1]), bool(flags[k - 1, ACTIVATED]))
-    return _StepContext(bool(schedule[k]), before, min_bid_kw)
+    return _StepContext(bool(schedule[k]), before, min_bid_kw, holds)
 
 
 def _fleet_step(
@@ -639,8 +661,9 @@ def _fleet_step(
     tick = time.perf_counter()
     result, p_min = _coordinate_step(groups, feeder_kw, options, price, locked)
     coordinated = time.perf_counter() - tick
-    (envelope,) = groups.stacked("envelope", duration_steps(DT_H))
-    offer, curtailed, baseline = groups.stacked("staged_offer_kw")
+    offer, curtailed, baseline, envelope = groups.stacked(
+        "staged_offer_kw", context.envelope_steps
+    )
     visible = visible_offers_kw(offer, curtailed, baseline)
     fleet_offer = aggregate_offer(visible, context.min_bid_kw)
     activated = locked if continuing else context.scheduled and fleet_offer.accepted
@@ -832,7 +855,7 @@ def _write_outputs(
     offers.to_csv(out / OFFERS_FILE, index=False)
     summary = fleet_summary(frame, long, min_bid_kw=1000.0 * fleet.spec.min_bid_mw)
     summary["recoveries"] = float(recoveries)
-    atomic_write_text(out / SUMMARY_FILE, json.dumps(summary, indent=2))
+    write_summary(out / SUMMARY_FILE, summary)
     building_table(long).to_csv(out / "buildings_summary.csv", index_label="building")
     return summary
 

@@ -12,6 +12,7 @@ building file is (:func:`hvacflex.building.io.building_from_dict`)::
     feeder_margin = 0.02            # plan against (1 − margin) × limit
     robust = "tightening"
     horizon_steps = 48
+    envelope = true                 # the flexibility envelope, envelope.csv (false: skipped)
 
     [[feeder_limits]]               # limit windows on top of it (the tighter holds)
     start = "10:00"                 # local "HH:MM", or ISO date-times for a single window
@@ -326,6 +327,9 @@ class FleetSpec(_Spec):
     min_bid_mw: Annotated[Finite, Field(ge=0.0)] = 0.1
     robust: Literal["tightening", "none"] = "tightening"
     horizon_steps: Annotated[int, Strict(), Field(ge=2, le=MAX_HORIZON_STEPS)] = HORIZON_STEPS
+    envelope: Annotated[bool, Strict()] = True
+    """Compute the flexibility envelope every step and write ``envelope.csv``
+    (:mod:`hvacflex.fleet.envelope`); false saves its LPs (a run without the file)."""
     reserve: ReserveSpec = ReserveSpec()
     ppp: PPPSpec = PPPSpec()
     coordination: CoordinationSpec = CoordinationSpec()

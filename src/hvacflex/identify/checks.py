@@ -29,6 +29,7 @@ A fit with a warning row says so on the console and in ``fit_report.csv``'s ``wa
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -72,6 +73,15 @@ class FitContext:
 
 def _row(check: str, zone: str, parameter: str, status: str, detail: str) -> dict[str, str]:
     return dict(zip(CHECK_COLUMNS, (check, zone, parameter, status, detail), strict=True))
+
+
+def _with_ok_rows(
+    rows: list[dict[str, str]], check: str, zones: Sequence[str], detail: str
+) -> list[dict[str, str]]:
+    """``rows`` of one check followed by an OK row saying ``detail`` for every zone of
+    ``zones`` that none of them flags."""
+    flagged = {row["zone"] for row in rows}
+    return rows + [_row(check, zone, "", OK, detail) for zone in zones if zone not in flagged]
 
 
 def parameter_rows(p: GreyBoxParameters, context: FitContext) -> list[tuple[str, str, str, float]]:
@@ -131,13 +141,7 @@ def bound_checks(fit: FitResult, context: FitContext) -> list[dict[str, str]]:
                     "exchanges no heat with the outdoors (its roof and walls do)",
                 )
             )
-    flagged = {row["zone"] for row in rows}
-    rows += [
-        _row("bound", zone, "", OK, "no parameter at a bound")
-        for zone in context.zones
-        if zone not in flagged
-    ]
-    return rows
+    return _with_ok_rows(rows, "bound", context.zones, "no parameter at a bound")
 
 
 def sign_checks(fit: FitResult, context: FitContext) -> list[dict[str, str]]:
@@ -271,13 +275,7 @@ def identifiability_checks(fit: FitResult, context: FitContext) -> list[dict[str
                     "it); excite the zone more (identify collect) or fix it from the design",
                 )
             )
-    flagged = {row["zone"] for row in rows}
-    rows += [
-        _row("identifiability", zone, "", OK, "every free parameter determined")
-        for zone in context.zones
-        if zone not in flagged
-    ]
-    return rows
+    return _with_ok_rows(rows, "identifiability", context.zones, "every free parameter determined")
 
 
 def validity_checks(context: FitContext) -> list[dict[str, str]]:

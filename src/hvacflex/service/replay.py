@@ -36,7 +36,7 @@ from hvacflex.results import RESULTS_FILENAME
 from hvacflex.service.schemas import MAX_WAIT_S
 from hvacflex.sim.closed_loop import ClosedLoop
 from hvacflex.sim.events import PeriodOutcome, Role
-from hvacflex.sim.run_files import CONFIG_FILE, SUMMARY_FILE, write_results
+from hvacflex.sim.run_files import CONFIG_FILE, SUMMARY_FILE, write_results, write_summary
 from hvacflex.sim.setup import prepare
 from hvacflex.sim.step import Decision, decision_status
 from hvacflex.version import atomic_write_text
@@ -374,6 +374,6 @@ def replay(
     summary = kpi_summary(frame)
     if loop.k == loop.steps:
         write_results(frame, out / RESULTS_FILENAME, config)
-        atomic_write_text(out / SUMMARY_FILE, json.dumps(summary, indent=2))
+        write_summary(out / SUMMARY_FILE, summary)
         atomic_write_text(out / CONFIG_FILE, json.dumps(config.to_dict(), indent=2))
     return ReplayResult(out, summary, remote.plans)

@@ -34,6 +34,7 @@ from pathlib import Path
 from typing import Any, Protocol
 
 import numpy as np
+import numpy.typing as npt
 import pandas as pd
 
 from hvacflex import results, state, version
@@ -165,14 +166,32 @@ def peak_guard_enabled(config: ScenarioConfig, plant: Plant) -> bool:
     return mode != "off" and reads
 
 
-def guard_upper_degc(exo: Exogenous, k: int) -> FloatArray:
-    """(m,) the peak guard's upper bound in period ``k`` [°C]: the band at the period's end,
-    the tighter of periods k and k + 1 (as the plan's,
-    :func:`~hvacflex.control.problem_builder.band_at_period_ends`): no shedding toward the
-    night bound in the period before occupancy starts."""
+def band_at_period_end_degc(exo: Exogenous, k: int) -> tuple[FloatArray, FloatArray]:
+    """(m,) lower and (m,) upper comfort bound [°C] at the end of period ``k``: the tighter of
+    the bands of periods k and k + 1, as the plan's
+    (:func:`~hvacflex.control.problem_builder.band_at_period_ends`). The peak guard sheds
+    toward its upper bound and the setpoint actuation clips to it
+    (:func:`setpoint_actuation_degc`): in the period before occupancy starts, neither works
+    toward the night band the plan has already left."""
     lower, upper = exo.comfort_lower_degc[k : k + 2], exo.comfort_upper_degc[k : k + 2]
-    _, upper_end = band_at_period_ends(lower, upper, 1)
-    return np.asarray(upper_end[0], dtype=np.float64)
+    lower_end, upper_end = band_at_period_ends(lower, upper, 1)
+    return np.asarray(lower_end[0], dtype=np.float64), np.asarray(upper_end[0], dtype=np.float64)
+
+
+def setpoint_actuation_degc(
+    planned_degc: FloatArray,
+    idle: npt.NDArray[np.bool_],
+    lower_degc: FloatArray,
+    upper_degc: FloatArray,
+) -> FloatArray:
+    """(m,) the zones' setpoints [°C] under setpoint actuation: the planned end-of-period
+    temperatures (m,) [°C] (NaN: none planned, the upper bound) clipped to the band
+    ``lower_degc`` … ``upper_degc`` (m,) [°C]; a zone ``idle`` (m,) (left at its minimum flow)
+    gets the upper bound, so the plant's loop does not cool it towards a temperature the plan
+    expects it to drift to."""
+    planned = np.where(np.isnan(planned_degc), upper_degc, planned_degc)  # NaN: none planned
+    setpoint = np.clip(planned, lower_degc, upper_degc)
+    return np.asarray(np.where(idle, upper_degc, setpoint), dtype=np.float64)
 
 
 class ClosedLoop:
@@ -310,7 +329,7 @@ class ClosedLoop:
         if self._guard_on and np.isfinite(cap_kw) and not decision.action.released:
             self._period_guard = PeakGuard(
                 cap_kw,
-                guard_upper_degc(exo, k) + decision.allowance_k,
+                band_at_period_end_degc(exo, k)[1] + decision.allowance_k,
                 self._flow_min_kg_s[int(exo.occupied[k])],
                 setup.config.controller.peak_guard_substeps,
             )
@@ -383,10 +402,9 @@ class ClosedLoop:
         """What the plant is told: the flows (u, or u − r when curtailed) with the action's
         supply-air temperature (None: the plant's own), or under setpoint
         actuation each zone's planned end-of-period temperature (served, or curtailed)
-        clipped to the period's comfort band (its upper bound raised by the allowance α in
-        force), as a supervisory MPC hands setpoints to a BMS; a zone the plan leaves at its
-        minimum flow gets the band's upper bound, so the plant's loop does not cool it
-        towards a temperature the plan expects it to drift to (docs/guide/energyplus.md)."""
+        clipped to the comfort band at the period's end (:func:`band_at_period_end_degc`, its
+        upper bound raised by the allowance α in force), as a supervisory MPC hands setpoints
+        to a BMS (:func:`setpoint_actuation_degc`; docs/guide/energyplus.md)."""
         action = decision.action
         if action.released:  # the plant's own control: no setpoint from hvacflex
             return Actuation(setpoint_degc=np.full(action.flow_kg_s.shape, np.nan))
@@ -399,12 +417,13 @@ class ClosedLoop:
             )
         k, exo = self.k, self.setup.exogenous
         planned = action.predicted_curtailed_degc if curtailed else action.predicted_served_degc
-        lower = exo.comfort_lower_degc[k]
-        upper = exo.comfort_upper_degc[k] + decision.allowance_k
-        setpoint = np.clip(np.nan_to_num(planned, nan=upper), lower, upper)
+        lower, upper = band_at_period_end_degc(exo, k)
         idle = flow <= self._flow_min_kg_s[int(exo.occupied[k])] + SETPOINT_IDLE_FLOW_KG_S
         return Actuation(
-            setpoint_degc=np.where(idle, upper, setpoint), peak_guard=self._period_guard
+            setpoint_degc=setpoint_actuation_degc(
+                planned, idle, lower, upper + decision.allowance_k
+            ),
+            peak_guard=self._period_guard,
         )
 
     def _state_after(

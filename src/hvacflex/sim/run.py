@@ -41,6 +41,7 @@ from hvacflex.sim.run_files import (
     refuse_old_checkpoint,
     run_key,
     write_results,
+    write_summary,
 )
 from hvacflex.sim.setup import prepare
 from hvacflex.version import atomic_write_text
@@ -243,7 +244,7 @@ def _finish(
     summary["steps_per_s"] = _steps_per_second(loop, steps_timed)
     for part, seconds in loop.timing_s.items():
         summary[f"time_{part}_ms_per_step"] = 1e3 * seconds / max(steps_timed, 1)
-    atomic_write_text(out / SUMMARY_FILE, json.dumps(summary, indent=2))
+    write_summary(out / SUMMARY_FILE, summary)
     (out / CHECKPOINT_FILE).unlink(missing_ok=True)
     return RunResult(out, frame, summary, resumed_from_step=resumed_from)
 

@@ -10,7 +10,8 @@ from __future__ import annotations
 
 import hashlib
 import json
-from collections.abc import Iterable
+import math
+from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -121,8 +122,30 @@ def read_results(path: Path) -> tuple[pd.DataFrame, dict[str, Any]]:
     return frame, {results.META_CONFIG: config} | {key: meta.get(key, "") for key in keys}
 
 
+def summary_text(summary: Mapping[str, Any]) -> str:
+    """A summary as strictly valid JSON (RFC 8259, no ``NaN`` or ``Infinity``): a value that
+    is not a finite number (a KPI without a feeder limit, a ratio of nothing) is ``null``.
+
+    Raises
+    ------
+    ValueError
+        When a value is neither a number, a string, a bool nor None (a bug of the caller).
+    """
+    plain = {
+        key: None if isinstance(value, float) and not math.isfinite(value) else value
+        for key, value in summary.items()
+    }
+    return json.dumps(plain, indent=2, allow_nan=False)
+
+
+def write_summary(path: Path, summary: Mapping[str, Any]) -> Path:
+    """Write ``summary.json`` atomically (:func:`summary_text`)."""
+    return version.atomic_write_text(path, summary_text(summary))
+
+
 def read_summary(path: Path) -> dict[str, float]:
-    """A run's ``summary.json``.
+    """A run's ``summary.json`` (``null`` read as NaN: :func:`summary_text` wrote a
+    non-finite value).
 
     Raises
     ------
@@ -141,7 +164,7 @@ def read_summary(path: Path) -> dict[str, float]:
         raise StoredStateError(
             "not a summary file (expected a JSON object)", source=path, hint=_FRESH_HINT
         )
-    return summary
+    return {key: math.nan if value is None else value for key, value in summary.items()}
 
 
 def load_checkpoint(path: Path) -> dict[str, Any]:
