@@ -905,7 +905,7 @@ def summary(results: pd.DataFrame, peak_price_sgd_per_kw: float | None = None) -
     out["model_extrapolation_steps"] = model_extrapolation_steps(results)
     out["peak_guard_steps"] = peak_guard_steps(results)
     if "planned_power_kw" in results:
-        occupied = occupied_mask(results).to_numpy().any(axis=1)
+        occupied = np.asarray(occupied_mask(results).to_numpy().any(axis=1), dtype=bool)
         out |= meter_grade.summary(results, occupied, step_hours(results))
     out["planned_slack_share"] = planned_slack_share(results)
     out["max_delta_vs_half_band"] = max_delta_vs_half_band(results)

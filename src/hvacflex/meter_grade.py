@@ -71,12 +71,14 @@ def weekday_peaks(results: pd.DataFrame) -> pd.DataFrame:
     frame = pd.DataFrame(
         {"metered_peak_kw": results["power_kw"], "committed_peak_kw": results["committed_peak_kw"]}
     )
-    frame = frame[results.index.day_of_week < 5]
-    days = frame.groupby(frame.index.normalize()).max()
+    index = results.index
+    frame = frame[index.day_of_week < 5]
+    days = frame.groupby(index[index.day_of_week < 5].normalize()).max()
     days = days[np.isfinite(days["committed_peak_kw"]) & (days["committed_peak_kw"] > 0)]
     days["ratio"] = days["metered_peak_kw"] / days["committed_peak_kw"]
     days.index.name = "date"
-    return days[columns]
+    out: pd.DataFrame = days[columns]
+    return out
 
 
 def monthly_peaks(results: pd.DataFrame) -> pd.DataFrame:
@@ -94,7 +96,8 @@ def monthly_peaks(results: pd.DataFrame) -> pd.DataFrame:
     months = months[np.isfinite(months["planned_peak_kw"]) & (months["planned_peak_kw"] > 0)]
     months["ratio"] = months["metered_peak_kw"] / months["planned_peak_kw"]
     months.index.name = "month"
-    return months[columns]
+    out: pd.DataFrame = months[columns]
+    return out
 
 
 def summary(results: pd.DataFrame, occupied: np.ndarray, step_h: float) -> dict[str, float]:

@@ -661,9 +661,7 @@ def _fleet_step(
     tick = time.perf_counter()
     result, p_min = _coordinate_step(groups, feeder_kw, options, price, locked)
     coordinated = time.perf_counter() - tick
-    offer, curtailed, baseline, envelope = groups.stacked(
-        "staged_offer_kw", context.envelope_steps
-    )
+    offer, curtailed, baseline, envelope = groups.stacked("staged_offer_kw", context.envelope_steps)
     visible = visible_offers_kw(offer, curtailed, baseline)
     fleet_offer = aggregate_offer(visible, context.min_bid_kw)
     activated = locked if continuing else context.scheduled and fleet_offer.accepted
