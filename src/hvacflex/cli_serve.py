@@ -35,6 +35,14 @@ _PLAN_PROCESSES_OPTION = typer.Option(
     help="Worker processes that make the plans (each building pinned to one), so requests "
     "never wait behind a solve; 0: threads of the server process.",
 )
+_PLAN_NICENESS_OPTION = typer.Option(
+    19,
+    "--plan-niceness",
+    min=0,
+    max=19,
+    help="How much lower the planning processes' CPU priority is than the server's (nice "
+    "0-19), so that requests get the cores first.",
+)
 
 
 def _serve_db(ctx: typer.Context, db: str | None) -> str:
@@ -90,6 +98,7 @@ def serve(
         "1/10", "--clock-limit", help="Each key's budget of POST /v1/clock: N/SECONDS."
     ),
     plan_processes: int = _PLAN_PROCESSES_OPTION,
+    plan_niceness: int = _PLAN_NICENESS_OPTION,
 ) -> None:
     """Run the HTTP service (API under /v1, OpenAPI at /v1/openapi.json); prints its URL
     and logs one JSON line per request on standard error."""
@@ -131,6 +140,8 @@ def serve(
             live=live,
             route_limits=route_limits,
             plan_processes=plan_processes,
+            plan_niceness=plan_niceness,
+            freeze_heap=True,
         )
     except HvacflexError as exc:
         raise exit_on_error(exc) from None
