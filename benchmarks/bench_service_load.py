@@ -23,11 +23,19 @@ measurement must have its plan (``lost``: acknowledged but not planned within ``
         --read-rate 5 --duration-s 60
 
 Targets (issue 29): reads p99 ≤ 50 ms, acknowledgements p99 ≤ 200 ms (the solve apart).
+
+Where a read's time goes: ``reads_in_server_ms`` are the same reads' times inside the
+server (its access log's ``duration_s``: from the request reaching the app to the response
+sent); the rest of ``reads_ms`` is spent outside it — the request waiting in the client and
+in the server's event loop for a core, and the client reading the answer. The server's
+process, its planning processes and this client share the machine's cores (on Linux, with
+autogroup scheduling, one session's share of them).
 """
 
 from __future__ import annotations
 
 import argparse
+import datetime
 import json
 import os
 import socket
@@ -110,6 +118,25 @@ def _percentiles_ms(samples_s: list[float]) -> dict[str, float]:
         "p99": float(np.percentile(values, 99)),
         "max": float(values.max()),
     }
+
+
+PLAN_ROUTE = "/v1/buildings/{building_id}/plan"
+
+
+def _reads_in_server_s(log: Path, begin: datetime.datetime, end: datetime.datetime) -> list[float]:
+    """The plan reads' durations inside the server [s] between ``begin`` and ``end`` (UTC),
+    from its access log (one JSON line per request)."""
+    durations: list[float] = []
+    for line in log.read_text(errors="replace").splitlines():
+        try:
+            record = json.loads(line)
+        except json.JSONDecodeError:
+            continue
+        if record.get("route") != PLAN_ROUTE or record.get("method") != "GET":
+            continue
+        if begin <= datetime.datetime.fromisoformat(record["time"]) <= end:
+            durations.append(float(record["duration_s"]))
+    return durations
 
 
 def _building_client(url: str, keys: dict[str, str], building_id: str) -> httpx.Client:
@@ -290,6 +317,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
             complete, lost = True, 0
             rounds: list[tuple[int, dict[str, int]]] = []
             rate = args.read_rate
+            loaded_from = datetime.datetime.now(datetime.UTC)
             with Readers(url, operator, list(keys), args.readers, rate) as readers:
                 if args.duration_s is not None:
                     acks_s, rounds = _timed_rounds(url, keys, nodes, args)
@@ -304,6 +332,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
                     complete &= _wait_for_plans(url, operator, k, revisions, left)
                     plans_s.append(time.perf_counter() - round_start)
             load_after = os.getloadavg()
+            loaded_until = datetime.datetime.now(datetime.UTC)
             if args.duration_s is not None:  # every acknowledged measurement planned?
                 for k, revisions in rounds:
                     left = max(args.max_s - (time.monotonic() - started), 1.0)
@@ -313,6 +342,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         finally:
             process.terminate()
             process.wait(timeout=60)
+    in_server_s = _reads_in_server_s(folder / "server.log", loaded_from, loaded_until)
     return {
         "database": db_url.split(":", 1)[0],
         "plan_processes": args.plan_processes,
@@ -325,6 +355,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         "acknowledged_not_planned": lost,
         "reads_while_idle_ms": _percentiles_ms(idle.latencies_s),
         "reads_ms": _percentiles_ms(readers.latencies_s),
+        "reads_in_server_ms": _percentiles_ms(in_server_s),
         "read_errors": readers.errors,
         "acks_ms": _percentiles_ms(acks_s),
         "round_until_all_planned_s": [round(s, 2) for s in plans_s],

@@ -135,6 +135,19 @@ def test_each_building_stays_in_its_process_the_least_loaded_first() -> None:
 def test_a_niceness_outside_0_to_19_is_refused(niceness: int) -> None:
     with pytest.raises(ValueError, match=f"niceness must be in \\[0, 19\\], got {niceness}"):
         PlanProcesses("sqlite:///unused.db", 1, niceness=niceness)
+    with pytest.raises(InputError, match="plan_niceness") as caught:
+        create_app("sqlite://", plan_niceness=niceness)
+    assert caught.value.field == "plan_niceness"
+
+
+def test_serve_refuses_a_plan_niceness_outside_0_to_19() -> None:
+    from typer.testing import CliRunner
+
+    from hvacflex.cli import app as cli
+
+    result = CliRunner().invoke(cli, ["serve", "--plan-niceness", "20"])
+    assert result.exit_code == 2 and isinstance(result.exception, SystemExit)
+    assert "--plan-niceness" in result.output and "Traceback" not in result.output
 
 
 def test_an_error_that_cannot_travel_back_becomes_its_text(monkeypatch: Any) -> None:

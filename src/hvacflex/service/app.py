@@ -20,9 +20,10 @@ from typing import Annotated, Any
 
 import numpy as np
 import pandas as pd
-from fastapi import Depends, FastAPI, HTTPException, Query
+from fastapi import Depends, FastAPI, HTTPException, Query, Request
 from fastapi.responses import JSONResponse, PlainTextResponse, Response
 from sqlalchemy import select
+from starlette.concurrency import run_in_threadpool
 
 from hvacflex import __version__
 from hvacflex.constants import PERIOD, PERIOD_FREQ, PERIODS_PER_DAY, TIMEZONE
@@ -40,12 +41,14 @@ from hvacflex.service.db import (
     session_factory,
 )
 from hvacflex.service.http import (
+    API_KEY,
     COMMON_ERRORS,
     ERRORS,
     JSON_ERRORS,
     Auth,
     BodyLimitAndAudit,
     add_error_handlers,
+    check_building_reader,
     json_response,
     roles,
 )
@@ -391,16 +394,25 @@ def _plan_routes(app: FastAPI, planner: Planner, auth: Auth) -> None:
         responses=ERRORS,
         response_model=Envelope[Plan],
     )
-    def get_plan(
+    async def get_plan(
         building_id: str,
-        _who: Annotated[Principal, Depends(building_reader)],
+        request: Request,
+        key: Annotated[str | None, Depends(API_KEY)],
         period: Annotated[int | None, Query(ge=0, le=1_000_000)] = None,
     ) -> Response:
         """The latest finished plan (of ``period`` if given), at once: a plan being made
-        is not waited for."""
+        is not waited for (operator, or the building itself)."""
+        return await run_in_threadpool(read_plan, request, key, building_id, period)
+
+    def read_plan(
+        request: Request, key: str | None, building_id: str, period: int | None
+    ) -> Response:
+        """The key checked and the plan read on one connection, in one trip through the
+        threadpool (the read the buildings' systems and dashboards poll)."""
         from hvacflex.service.db import BuildingRow
 
-        with app.state.read_sessions() as session:  # one statement when there is a plan
+        with app.state.read_sessions() as session:  # one statement each when there is a plan
+            check_building_reader(auth.check(session, request, key), building_id)
             plan = runtime.latest_plan(session, building_id, period)
             if plan is None and session.get(BuildingRow, building_id) is None:
                 raise NotFoundError("no such building", field="building_id", value=building_id)

@@ -263,7 +263,8 @@ def add_error_handlers(app: FastAPI) -> None:
         return envelope(500, f"internal error ({type(exc).__name__})")
 
 
-_API_KEY = APIKeyHeader(name=API_KEY_HEADER, auto_error=False)
+API_KEY = APIKeyHeader(name=API_KEY_HEADER, auto_error=False)
+"""The key header as a dependency (the key itself, or None; documented in OpenAPI)."""
 
 
 class Auth:
@@ -278,17 +279,41 @@ class Auth:
         self.verifier = KeyVerifier()
 
     def principal(
-        self, request: Request, key: Annotated[str | None, Depends(_API_KEY)]
+        self, request: Request, key: Annotated[str | None, Depends(API_KEY)]
     ) -> Principal:
+        """The caller (a dependency: run in the threadpool, one read of the key's row)."""
+        with self.read_sessions() as session:
+            return self.check(session, request, key)
+
+    def check(self, session: Session, request: Request, key: str | None) -> Principal:
+        """The caller of ``request`` with ``key``, its row read through ``session`` (a
+        route that reads anyway checks its key on the same connection, in the same trip
+        through the threadpool).
+
+        Raises
+        ------
+        HTTPException : 401, no key or an unknown, revoked or wrong one.
+        RateLimitedError : too many failed attempts (429).
+        """
         if not key:
             raise HTTPException(401, f"missing {API_KEY_HEADER} header")
         client = request.client.host if request.client else "-"
-        with self.read_sessions() as session:
-            who = self.verifier.verify(session, key, client)
+        who = self.verifier.verify(session, key, client)
         if who is None:
             raise HTTPException(401, "unknown or revoked key")
         request.state.principal = who
         return who
+
+
+def check_building_reader(who: Principal, building_id: str) -> None:
+    """Refuse (403) a building key reading another building (an operator reads all).
+
+    Raises
+    ------
+    HTTPException : 403.
+    """
+    if who.role == "building" and who.building_id != building_id:
+        raise HTTPException(403, "a building key reads only its own building")
 
 
 def roles(auth: Auth) -> tuple[Any, Any, Any]:
@@ -304,8 +329,7 @@ def roles(auth: Auth) -> tuple[Any, Any, Any]:
     async def building_reader(
         building_id: str, who: Annotated[Principal, Depends(auth.principal)]
     ) -> Principal:
-        if who.role == "building" and who.building_id != building_id:
-            raise HTTPException(403, "a building key reads only its own building")
+        check_building_reader(who, building_id)
         return who
 
     async def building_writer(
