@@ -149,9 +149,9 @@ def create_app(
     choice; it acts on the whole process): the objects loaded at start and each building's
     objects once built leave the garbage collector's full passes
     (:func:`~hvacflex.service.runtime.freeze_heap`), which otherwise stall every request.
-    ``live``: the live mode — buildings
-    registered plan on real dates (``data.calendar = "live"``) and times of prices,
-    activations and the clock are not held to the price data's span. ``route_limits``: each
+    ``live``: the live mode — buildings registered plan on real dates (``data.calendar =
+    "live"``) and times of prices, activations and the clock are not held to the price
+    data's span. ``route_limits``: each
     key's budget on the costly routes (default
     :data:`~hvacflex.service.keys.DEFAULT_ROUTE_LIMITS`: 10 registrations per hour, 1 clock
     per 10 s); over it, 429 with ``Retry-After``.
@@ -163,6 +163,10 @@ def create_app(
     """
     if not stale_after_s > 0:
         raise InputError("must be > 0 s", field="stale_after_s", value=stale_after_s)
+    if not 0 <= plan_niceness <= MAX_NICENESS:
+        raise InputError(
+            f"must be in [0, {MAX_NICENESS}]", field="plan_niceness", value=plan_niceness
+        )
     engine = open_database(db_url)
     sessions = session_factory(engine)
     runtime = Runtime(sessions, live=live, freeze_heap=freeze_heap)
@@ -223,10 +227,6 @@ def _planner(
     ``plan_workers`` threads."""
     if plan_processes < 0:
         raise InputError("must be ≥ 0", field="plan_processes", value=plan_processes)
-    if not 0 <= plan_niceness <= MAX_NICENESS:
-        raise InputError(
-            f"must be in [0, {MAX_NICENESS}]", field="plan_niceness", value=plan_niceness
-        )
     if plan_processes == 0 or not shares_processes(db_url):
         return Planner(runtime, plan_workers)
     processes = PlanProcesses(db_url, plan_processes, live=runtime.live, niceness=plan_niceness)
