@@ -114,7 +114,6 @@ def serve(
     except HvacflexError as exc:
         raise exit_on_error(exc) from None
     from hvacflex.service.app import create_app
-    from hvacflex.service.keys import CLOCK_ROUTE, REGISTER_ROUTE, parse_route_limit
     from hvacflex.service.operations import (
         check_listen_address,
         check_plain_http,
@@ -125,10 +124,7 @@ def serve(
 
     try:
         _check_log_and_staleness(log_level, stale_after_s)
-        route_limits = {
-            REGISTER_ROUTE: parse_route_limit(register_limit, "--register-limit"),
-            CLOCK_ROUTE: parse_route_limit(clock_limit, "--clock-limit"),
-        }
+        route_limits = _route_limits(register_limit, clock_limit)
         tls = check_tls(ssl_certfile, ssl_keyfile)
         minimum_tls = tls_minimum_version(ssl_min_version)
         check_listen_address(host, port)
@@ -156,6 +152,22 @@ def serve(
         minimum_tls,
         log_level,
     )
+
+
+def _route_limits(register_limit: str, clock_limit: str) -> dict[str, Any]:
+    """Each key's budgets on the costly routes, from ``--register-limit`` and
+    ``--clock-limit``.
+
+    Raises
+    ------
+    InputError : either is not two positive numbers joined by ``/`` (naming the option).
+    """
+    from hvacflex.service.keys import CLOCK_ROUTE, REGISTER_ROUTE, parse_route_limit
+
+    return {
+        REGISTER_ROUTE: parse_route_limit(register_limit, "--register-limit"),
+        CLOCK_ROUTE: parse_route_limit(clock_limit, "--clock-limit"),
+    }
 
 
 def _check_log_and_staleness(log_level: str, stale_after_s: float) -> None:
