@@ -23,11 +23,21 @@ measurement must have its plan (``lost``: acknowledged but not planned within ``
         --read-rate 5 --duration-s 60
 
 Targets (issue 29): reads p99 ≤ 50 ms, acknowledgements p99 ≤ 200 ms (the solve apart).
+
+Where a read's time goes: ``reads_in_server_ms`` are the same reads' times inside the
+server (its access log's ``duration_s``: from the request reaching the app to the response
+sent); the rest of ``reads_ms`` is spent outside it — the request waiting in the client and
+in the server's event loop for a core, and the client reading the answer.
+``server_cpu_share_of_a_core``: the CPU the server process (not its planning processes)
+used while planning, per second — what it needs of a core to keep pace. The server's
+process, its planning processes and this client share the machine's cores (on Linux, with
+autogroup scheduling, one session's share of them).
 """
 
 from __future__ import annotations
 
 import argparse
+import datetime
 import json
 import os
 import socket
@@ -110,6 +120,35 @@ def _percentiles_ms(samples_s: list[float]) -> dict[str, float]:
         "p99": float(np.percentile(values, 99)),
         "max": float(values.max()),
     }
+
+
+PLAN_ROUTE = "/v1/buildings/{building_id}/plan"
+
+
+def _reads_in_server_s(log: Path, begin: datetime.datetime, end: datetime.datetime) -> list[float]:
+    """The plan reads' durations inside the server [s] between ``begin`` and ``end`` (UTC),
+    from its access log (one JSON line per request)."""
+    durations: list[float] = []
+    for line in log.read_text(errors="replace").splitlines():
+        try:
+            record = json.loads(line)
+        except json.JSONDecodeError:
+            continue
+        if record.get("route") != PLAN_ROUTE or record.get("method") != "GET":
+            continue
+        if begin <= datetime.datetime.fromisoformat(record["time"]) <= end:
+            durations.append(float(record["duration_s"]))
+    return durations
+
+
+def _cpu_s(pid: int) -> float | None:
+    """CPU seconds (user + system) the process ``pid`` has used so far (None where
+    ``/proc`` does not tell)."""
+    try:
+        fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    except OSError:
+        return None
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
 def _building_client(url: str, keys: dict[str, str], building_id: str) -> httpx.Client:
@@ -290,6 +329,8 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
             complete, lost = True, 0
             rounds: list[tuple[int, dict[str, int]]] = []
             rate = args.read_rate
+            loaded_from = datetime.datetime.now(datetime.UTC)
+            server_cpu_before_s = _cpu_s(process.pid)
             with Readers(url, operator, list(keys), args.readers, rate) as readers:
                 if args.duration_s is not None:
                     acks_s, rounds = _timed_rounds(url, keys, nodes, args)
@@ -304,6 +345,8 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
                     complete &= _wait_for_plans(url, operator, k, revisions, left)
                     plans_s.append(time.perf_counter() - round_start)
             load_after = os.getloadavg()
+            loaded_until = datetime.datetime.now(datetime.UTC)
+            server_cpu_after_s = _cpu_s(process.pid)
             if args.duration_s is not None:  # every acknowledged measurement planned?
                 for k, revisions in rounds:
                     left = max(args.max_s - (time.monotonic() - started), 1.0)
@@ -313,6 +356,13 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         finally:
             process.terminate()
             process.wait(timeout=60)
+    in_server_s = _reads_in_server_s(folder / "server.log", loaded_from, loaded_until)
+    loaded_s = (loaded_until - loaded_from).total_seconds()
+    server_cpu_s = (
+        None
+        if server_cpu_before_s is None or server_cpu_after_s is None
+        else server_cpu_after_s - server_cpu_before_s
+    )
     return {
         "database": db_url.split(":", 1)[0],
         "plan_processes": args.plan_processes,
@@ -325,6 +375,11 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         "acknowledged_not_planned": lost,
         "reads_while_idle_ms": _percentiles_ms(idle.latencies_s),
         "reads_ms": _percentiles_ms(readers.latencies_s),
+        "reads_in_server_ms": _percentiles_ms(in_server_s),
+        "server_cpu_s_while_planning": None if server_cpu_s is None else round(server_cpu_s, 1),
+        "server_cpu_share_of_a_core": None
+        if server_cpu_s is None
+        else round(server_cpu_s / loaded_s, 2),
         "read_errors": readers.errors,
         "acks_ms": _percentiles_ms(acks_s),
         "round_until_all_planned_s": [round(s, 2) for s in plans_s],

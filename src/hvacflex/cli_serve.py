@@ -35,6 +35,14 @@ _PLAN_PROCESSES_OPTION = typer.Option(
     help="Worker processes that make the plans (each building pinned to one), so requests "
     "never wait behind a solve; 0: threads of the server process.",
 )
+_PLAN_NICENESS_OPTION = typer.Option(
+    19,
+    "--plan-niceness",
+    min=0,
+    max=19,
+    help="How much lower the planning processes' CPU priority is than the server's (nice "
+    "0-19), so that requests get the cores first.",
+)
 
 
 def _serve_db(ctx: typer.Context, db: str | None) -> str:
@@ -90,6 +98,7 @@ def serve(
         "1/10", "--clock-limit", help="Each key's budget of POST /v1/clock: N/SECONDS."
     ),
     plan_processes: int = _PLAN_PROCESSES_OPTION,
+    plan_niceness: int = _PLAN_NICENESS_OPTION,
 ) -> None:
     """Run the HTTP service (API under /v1, OpenAPI at /v1/openapi.json); prints its URL
     and logs one JSON line per request on standard error."""
@@ -105,7 +114,6 @@ def serve(
     except HvacflexError as exc:
         raise exit_on_error(exc) from None
     from hvacflex.service.app import create_app
-    from hvacflex.service.keys import CLOCK_ROUTE, REGISTER_ROUTE, parse_route_limit
     from hvacflex.service.operations import (
         check_listen_address,
         check_plain_http,
@@ -116,10 +124,7 @@ def serve(
 
     try:
         _check_log_and_staleness(log_level, stale_after_s)
-        route_limits = {
-            REGISTER_ROUTE: parse_route_limit(register_limit, "--register-limit"),
-            CLOCK_ROUTE: parse_route_limit(clock_limit, "--clock-limit"),
-        }
+        route_limits = _route_limits(register_limit, clock_limit)
         tls = check_tls(ssl_certfile, ssl_keyfile)
         minimum_tls = tls_minimum_version(ssl_min_version)
         check_listen_address(host, port)
@@ -131,6 +136,8 @@ def serve(
             live=live,
             route_limits=route_limits,
             plan_processes=plan_processes,
+            plan_niceness=plan_niceness,
+            freeze_heap=True,
         )
     except HvacflexError as exc:
         raise exit_on_error(exc) from None
@@ -145,6 +152,22 @@ def serve(
         minimum_tls,
         log_level,
     )
+
+
+def _route_limits(register_limit: str, clock_limit: str) -> dict[str, Any]:
+    """Each key's budgets on the costly routes, from ``--register-limit`` and
+    ``--clock-limit``.
+
+    Raises
+    ------
+    InputError : either is not two positive numbers joined by ``/`` (naming the option).
+    """
+    from hvacflex.service.keys import CLOCK_ROUTE, REGISTER_ROUTE, parse_route_limit
+
+    return {
+        REGISTER_ROUTE: parse_route_limit(register_limit, "--register-limit"),
+        CLOCK_ROUTE: parse_route_limit(clock_limit, "--clock-limit"),
+    }
 
 
 def _check_log_and_staleness(log_level: str, stale_after_s: float) -> None:

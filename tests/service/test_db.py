@@ -96,7 +96,8 @@ ANYIO_THREADS = 40
 
 def test_the_pool_holds_a_connection_for_every_server_thread(tmp_path: Path) -> None:
     """SQLAlchemy's default pool (5 + 10) made twenty readers and ten writers queue for a
-    connection (``pool_timeout``) on PostgreSQL: the pool now outnumbers the threads."""
+    connection (``pool_timeout``) on PostgreSQL: the pool now outnumbers the threads, and
+    keeps a connection for each of them once opened."""
     assert POOL_SIZE + POOL_MAX_OVERFLOW > ANYIO_THREADS
     postgres = make_engine("postgresql+psycopg://u:p@127.0.0.1:1/none")  # never connects
     assert postgres.pool.size() == POOL_SIZE  # type: ignore[attr-defined]
@@ -104,4 +105,6 @@ def test_the_pool_holds_a_connection_for_every_server_thread(tmp_path: Path) -> 
     with ExitStack() as stack:
         held = [stack.enter_context(engine.connect()) for _ in range(ANYIO_THREADS + 1)]
         assert engine.pool.checkedout() == len(held)  # type: ignore[attr-defined]
+    # every thread's connection is kept for the next request (none closed and opened anew)
+    assert engine.pool.checkedin() >= ANYIO_THREADS  # type: ignore[attr-defined]
     assert make_engine("sqlite://").pool.__class__.__name__ != "QueuePool"  # in memory

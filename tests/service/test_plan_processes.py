@@ -18,7 +18,13 @@ from service_fixtures import START, UNLIMITED, registration
 from hvacflex.errors import InputError
 from hvacflex.service.app import create_app
 from hvacflex.service.keys import create_key
-from hvacflex.service.plan_processes import PlanProcesses, _run, shares_processes
+from hvacflex.service.plan_processes import (
+    MAX_NICENESS,
+    PLAN_NICENESS,
+    PlanProcesses,
+    _run,
+    shares_processes,
+)
 
 PERIODS = ("00:00", "00:30")
 BUILDINGS = ("q1",)
@@ -103,8 +109,9 @@ def test_plans_in_a_process_equal_plans_in_threads_and_a_dead_process_is_replace
         assert a["objective_sgd"] == pytest.approx(b["objective_sgd"], rel=1e-6, abs=1e-6)
         assert a["flow_kg_s"] == pytest.approx(b["flow_kg_s"], rel=1e-5, abs=1e-6)
     # kill the planning process: the next plan is made by a new one, from the stored state
-    pid = planner.plans.start()[0]
+    ((pid, niceness),) = planner.plans.start()
     assert pid != os.getpid()
+    assert niceness == min(os.nice(0) + PLAN_NICENESS, MAX_NICENESS)  # below the server
     os.kill(pid, signal.SIGKILL)
     time.sleep(0.5)
     response = client.post(
@@ -113,7 +120,7 @@ def test_plans_in_a_process_equal_plans_in_threads_and_a_dead_process_is_replace
     assert response.status_code == 200, response.text
     plans = response.json()["payload"]["plans"]
     assert [(p["building_id"], p["period"], p["trigger"]) for p in plans] == [("q1", 2, "boundary")]
-    assert planner.plans.start()[0] != pid
+    assert planner.plans.start()[0][0] != pid
 
 
 def test_each_building_stays_in_its_process_the_least_loaded_first() -> None:
@@ -122,6 +129,25 @@ def test_each_building_stays_in_its_process_the_least_loaded_first() -> None:
         assert [processes.process_of(b) for b in ("a", "b", "c", "a", "b")] == [0, 1, 0, 0, 1]
     finally:
         processes.shutdown()  # no process was started
+
+
+@pytest.mark.parametrize("niceness", [-1, 20])
+def test_a_niceness_outside_0_to_19_is_refused(niceness: int) -> None:
+    with pytest.raises(ValueError, match=f"niceness must be in \\[0, 19\\], got {niceness}"):
+        PlanProcesses("sqlite:///unused.db", 1, niceness=niceness)
+    with pytest.raises(InputError, match="plan_niceness") as caught:
+        create_app("sqlite://", plan_niceness=niceness)
+    assert caught.value.field == "plan_niceness"
+
+
+def test_serve_refuses_a_plan_niceness_outside_0_to_19() -> None:
+    from typer.testing import CliRunner
+
+    from hvacflex.cli import app as cli
+
+    result = CliRunner().invoke(cli, ["serve", "--plan-niceness", "20"])
+    assert result.exit_code == 2 and isinstance(result.exception, SystemExit)
+    assert "--plan-niceness" in result.output and "Traceback" not in result.output
 
 
 def test_an_error_that_cannot_travel_back_becomes_its_text(monkeypatch: Any) -> None:

@@ -1,17 +1,22 @@
 """The service's runtime (``hvacflex.service.runtime``): the metered history a plan sees is
-kept in memory and read incrementally, and equals the history rebuilt from every row."""
+kept in memory and read incrementally, and equals the history rebuilt from every row; with
+``freeze_heap`` a building's objects leave the garbage collector's full passes once built."""
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import gc
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
+import pytest
+from service_fixtures import registration
 from sqlalchemy import update
 
 from hvacflex.service.db import BuildingRow, Measurement, open_database, session_factory
-from hvacflex.service.runtime import MeteredHistory
+from hvacflex.service.runtime import MeteredHistory, Runtime
+from hvacflex.service.schemas import RegisterBuilding
 from hvacflex.sim.history import PeriodHistory
 
 STEPS = 6
@@ -66,3 +71,32 @@ def test_the_metered_history_reads_only_new_rows_and_equals_a_rebuild(
     with sessions() as session:
         fresh = rebuilt.read(session, "h1").power_kw
     np.testing.assert_array_equal(fresh, [99.0, 14.0, np.nan, 9.0, np.nan, np.nan])
+
+
+@pytest.fixture
+def unfrozen() -> Iterator[None]:
+    """Whatever a test froze is handed back to the garbage collector after it."""
+    gc.unfreeze()
+    yield
+    gc.unfreeze()
+
+
+@pytest.mark.usefixtures("unfrozen")
+@pytest.mark.parametrize("freeze", [False, True])
+def test_a_building_built_is_frozen_out_of_full_collections_only_when_asked(
+    tmp_path: Path, freeze: bool
+) -> None:
+    sessions = session_factory(open_database(f"sqlite:///{tmp_path / 'f.db'}"))
+    runtime = Runtime(sessions, freeze_heap=freeze)
+    body = RegisterBuilding.model_validate(registration("f1"))
+    with sessions() as session, session.begin():
+        built = runtime.register(session, "f1", body.building, body.scenario, "operator")
+    frozen_after_register = gc.get_freeze_count()
+    assert (frozen_after_register > 0) == freeze
+    if freeze:  # the building's own objects are among the frozen: no full pass visits them
+        assert all(o is not built for o in gc.get_objects(generation=2))
+    runtime.evict("f1")
+    gc.unfreeze()
+    with sessions() as session:
+        runtime.get(session, "f1")  # rebuilt from the database, as after a restart
+    assert (gc.get_freeze_count() > 0) == freeze

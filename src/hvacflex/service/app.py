@@ -11,6 +11,7 @@ handlers and the key checks are in :mod:`.http`.
 
 import contextlib
 import functools
+import gc
 import json
 import re
 import threading
@@ -19,9 +20,10 @@ from typing import Annotated, Any
 
 import numpy as np
 import pandas as pd
-from fastapi import Depends, FastAPI, HTTPException, Query
-from fastapi.responses import JSONResponse, PlainTextResponse
+from fastapi import Depends, FastAPI, HTTPException, Query, Request
+from fastapi.responses import JSONResponse, PlainTextResponse, Response
 from sqlalchemy import select
+from starlette.concurrency import run_in_threadpool
 
 from hvacflex import __version__
 from hvacflex.constants import PERIOD, PERIOD_FREQ, PERIODS_PER_DAY, TIMEZONE
@@ -39,12 +41,15 @@ from hvacflex.service.db import (
     session_factory,
 )
 from hvacflex.service.http import (
+    API_KEY,
     COMMON_ERRORS,
     ERRORS,
     JSON_ERRORS,
     Auth,
     BodyLimitAndAudit,
     add_error_handlers,
+    check_building_reader,
+    json_response,
     roles,
 )
 from hvacflex.service.keys import (
@@ -63,9 +68,15 @@ from hvacflex.service.operations import (
     metrics_text,
     stale_buildings,
 )
-from hvacflex.service.plan_processes import PlanProcesses, shares_processes
+from hvacflex.service.plan_processes import (
+    MAX_NICENESS,
+    PLAN_NICENESS,
+    PlanProcesses,
+    shares_processes,
+)
 from hvacflex.service.planner import DEFAULT_PLAN_WORKERS, Planner
 from hvacflex.service.runtime import NotFoundError, Runtime, to_local
+from hvacflex.service.runtime import freeze_heap as runtime_freeze_heap
 from hvacflex.service.schemas import (
     MAX_WAIT_S,
     ActivationIn,
@@ -119,6 +130,8 @@ def create_app(
     stale_after_s: float = DEFAULT_STALE_AFTER_S,
     plan_workers: int = DEFAULT_PLAN_WORKERS,
     plan_processes: int = 0,
+    plan_niceness: int = PLAN_NICENESS,
+    freeze_heap: bool = False,
     live: bool = False,
     route_limits: dict[str, RouteLimit] | None = None,
 ) -> FastAPI:
@@ -131,9 +144,14 @@ def create_app(
     (:mod:`.planner`): in ``plan_processes`` worker processes (:mod:`.plan_processes`, each
     building pinned to one; started before this returns), or with 0 (or an SQLite database
     in memory) in ``plan_workers`` threads of this process; measurements acknowledged before
-    a restart and not yet planned are queued at once. ``live``: the live mode — buildings
-    registered plan on real dates (``data.calendar = "live"``) and times of prices,
-    activations and the clock are not held to the price data's span. ``route_limits``: each
+    a restart and not yet planned are queued at once; the processes run ``plan_niceness``
+    (0–19) lower in CPU priority than this one. ``freeze_heap`` (the server process's
+    choice; it acts on the whole process): the objects loaded at start and each building's
+    objects once built leave the garbage collector's full passes
+    (:func:`~hvacflex.service.runtime.freeze_heap`), which otherwise stall every request.
+    ``live``: the live mode — buildings registered plan on real dates (``data.calendar =
+    "live"``) and times of prices, activations and the clock are not held to the price
+    data's span. ``route_limits``: each
     key's budget on the costly routes (default
     :data:`~hvacflex.service.keys.DEFAULT_ROUTE_LIMITS`: 10 registrations per hour, 1 clock
     per 10 s); over it, 429 with ``Retry-After``.
@@ -141,14 +159,18 @@ def create_app(
     Raises
     ------
     InputError : the database cannot be opened (:func:`~hvacflex.service.db.open_database`),
-        or ``stale_after_s`` is not positive.
+        ``stale_after_s`` is not positive, or ``plan_niceness`` is not in 0–19.
     """
     if not stale_after_s > 0:
         raise InputError("must be > 0 s", field="stale_after_s", value=stale_after_s)
+    if not 0 <= plan_niceness <= MAX_NICENESS:
+        raise InputError(
+            f"must be in [0, {MAX_NICENESS}]", field="plan_niceness", value=plan_niceness
+        )
     engine = open_database(db_url)
     sessions = session_factory(engine)
-    runtime = Runtime(sessions, live=live)
-    planner = _planner(runtime, db_url, plan_workers, plan_processes)
+    runtime = Runtime(sessions, live=live, freeze_heap=freeze_heap)
+    planner = _planner(runtime, db_url, plan_workers, plan_processes, plan_niceness)
     app = FastAPI(
         title="hvacflex service",
         version=__version__,
@@ -186,6 +208,9 @@ def create_app(
     app.add_middleware(BodyLimitAndAudit, sessions=sessions)
     app.add_middleware(ObserveRequests, metrics=app.state.request_metrics)
     planner.recover()
+    if freeze_heap:
+        gc.collect()  # once, before serving: what is garbage now is not frozen
+        runtime_freeze_heap()
     return app
 
 
@@ -194,14 +219,17 @@ PLAN_WAITERS_PER_PROCESS = 8
 jobs in order, many buildings' at once)."""
 
 
-def _planner(runtime: Runtime, db_url: str, plan_workers: int, plan_processes: int) -> Planner:
-    """The planner: its jobs in ``plan_processes`` processes where the database can be
-    shared (and ``plan_processes`` > 0), else in ``plan_workers`` threads."""
+def _planner(
+    runtime: Runtime, db_url: str, plan_workers: int, plan_processes: int, plan_niceness: int
+) -> Planner:
+    """The planner: its jobs in ``plan_processes`` processes (``plan_niceness`` lower in
+    priority) where the database can be shared (and ``plan_processes`` > 0), else in
+    ``plan_workers`` threads."""
     if plan_processes < 0:
         raise InputError("must be ≥ 0", field="plan_processes", value=plan_processes)
     if plan_processes == 0 or not shares_processes(db_url):
         return Planner(runtime, plan_workers)
-    processes = PlanProcesses(db_url, plan_processes, live=runtime.live)
+    processes = PlanProcesses(db_url, plan_processes, live=runtime.live, niceness=plan_niceness)
     try:
         processes.start()
     except BaseException:
@@ -324,7 +352,7 @@ def _plan_routes(app: FastAPI, planner: Planner, auth: Auth) -> None:
     """A building's measurements (acknowledged, planned off the request path) and its
     latest plan (read at once)."""
     runtime = planner.runtime
-    _operator, building_reader, building_writer = roles(auth)
+    building_writer = roles(auth)[2]
 
     @app.post(
         "/v1/buildings/{building_id}/measurements",
@@ -360,23 +388,37 @@ def _plan_routes(app: FastAPI, planner: Planner, auth: Auth) -> None:
         message = "planned" if ack.new else "measurement already stored; stored plan"
         return Envelope(status=200, message=message, payload=Plan(**plan))
 
-    @app.get("/v1/buildings/{building_id}/plan", tags=["building"], responses=ERRORS)
-    def get_plan(
+    @app.get(
+        "/v1/buildings/{building_id}/plan",
+        tags=["building"],
+        responses=ERRORS,
+        response_model=Envelope[Plan],
+    )
+    async def get_plan(
         building_id: str,
-        _who: Annotated[Principal, Depends(building_reader)],
+        request: Request,
+        key: Annotated[str | None, Depends(API_KEY)],
         period: Annotated[int | None, Query(ge=0, le=1_000_000)] = None,
-    ) -> Envelope[Plan]:
+    ) -> Response:
         """The latest finished plan (of ``period`` if given), at once: a plan being made
-        is not waited for."""
+        is not waited for (operator, or the building itself)."""
+        return await run_in_threadpool(read_plan, request, key, building_id, period)
+
+    def read_plan(
+        request: Request, key: str | None, building_id: str, period: int | None
+    ) -> Response:
+        """The key checked and the plan read on one connection, in one trip through the
+        threadpool (the read the buildings' systems and dashboards poll)."""
         from hvacflex.service.db import BuildingRow
 
-        with app.state.read_sessions() as session:  # one statement when there is a plan
+        with app.state.read_sessions() as session:  # one statement each when there is a plan
+            check_building_reader(auth.check(session, request, key), building_id)
             plan = runtime.latest_plan(session, building_id, period)
             if plan is None and session.get(BuildingRow, building_id) is None:
                 raise NotFoundError("no such building", field="building_id", value=building_id)
         if plan is None:
             raise HTTPException(404, "no plan yet")
-        return Envelope(status=200, message="ok", payload=Plan(**plan))
+        return json_response(Envelope(status=200, message="ok", payload=Plan(**plan)))
 
 
 def _measurement_routes(app: FastAPI, runtime: Runtime, auth: Auth) -> None:

@@ -39,15 +39,16 @@ PRIVATE_FILE_MODE = 0o600
 
 MIGRATIONS_DIR = Path(__file__).resolve().parent / "migrations"
 
-POOL_SIZE = 10
-"""Connections an engine keeps open (SQLite files and PostgreSQL)."""
-POOL_MAX_OVERFLOW = 50
-"""Connections opened beyond :data:`POOL_SIZE` when all are in use. The server's requests
-run in anyio's threadpool (40 threads by default) and the planner has its own threads, so
-the pool must hold at least that many at once: with SQLAlchemy's default (5 + 10) twenty
-readers and ten writers queued for a connection (``pool_timeout``, up to 30 s) and reads
-fell behind on PostgreSQL. 60 in all stays under PostgreSQL's default ``max_connections``
-(100)."""
+POOL_SIZE = 40
+"""Connections an engine keeps open once opened (SQLite files and PostgreSQL): one for each
+of the server's request threads (anyio's threadpool: 40 by default). A connection used
+beyond the pool is closed when returned; with 10 kept, a loaded server opened and closed
+six connections a second (each a new PostgreSQL backend and its password exchange) while
+reads waited for it."""
+POOL_MAX_OVERFLOW = 20
+"""Connections opened beyond :data:`POOL_SIZE` when all are in use (the planner's threads
+wait for their own). 60 in all stays under PostgreSQL's default ``max_connections`` (100);
+a planning process opens only the few it uses."""
 
 
 def utcnow() -> datetime:

@@ -16,8 +16,10 @@ jobs in order).
 * **The database is the one channel of data**: a job names the building and the period; the
   process reads the measurement, plans, and commits the plan and the controller state in one
   transaction, as the server did; only the plan (a JSON-able dict) comes back.
-* **Planning yields to requests**: the processes run at a lower priority
-  (:data:`PLAN_NICENESS`), so on a busy machine the server's requests get the cores first.
+* **Planning yields to requests**: the processes run at a lower priority (``niceness``,
+  default :data:`PLAN_NICENESS`), so on a busy machine the server's requests get the cores
+  first. Under Linux's autogroup scheduling a niceness counts only against the processes of
+  the same session — the server's own threads — which is the competition that matters.
 * A process exits when the server process does (even after ``kill -9``: it watches its
   parent), so nothing plans behind a restarted server.
 
@@ -42,8 +44,12 @@ from typing import Any
 from hvacflex.service.db import make_engine, session_factory, sqlite_file
 from hvacflex.service.runtime import Runtime
 
-PLAN_NICENESS = 5
-"""How much lower the planning processes' CPU priority is than the server's (``nice``)."""
+PLAN_NICENESS = 19
+"""How much lower the planning processes' CPU priority is than the server's (``nice``, by
+default the lowest): a read waits for no solve. Measured (docs/reference/performance.md):
+with 5, reads p99 was several times the 50 ms target while 10 buildings planned."""
+MAX_NICENESS = 19
+"""The lowest priority a process can take (``nice`` 19)."""
 PARENT_POLL_S = 0.2
 """How often a planning process checks that the server process still runs [s]."""
 START_TIMEOUT_S = 120.0
@@ -62,11 +68,12 @@ def shares_processes(db_url: str) -> bool:
     return not db_url.startswith("sqlite") or sqlite_file(db_url) is not None
 
 
-def _start_process(db_url: str, live: bool, parent_pid: int) -> None:
-    """A planning process's start: lower priority, its own engine, the parent watched."""
+def _start_process(db_url: str, live: bool, parent_pid: int, niceness: int) -> None:
+    """A planning process's start: ``niceness`` lower priority, its own engine, the parent
+    watched."""
     global _RUNTIME
     try:
-        os.nice(PLAN_NICENESS)
+        os.nice(niceness)
     except OSError:  # pragma: no cover - not permitted here: plan at the same priority
         pass
     _RUNTIME = Runtime(session_factory(make_engine(db_url)), live=live)
@@ -79,9 +86,9 @@ def _start_process(db_url: str, live: bool, parent_pid: int) -> None:
     threading.Thread(target=watch, name="hvacflex-parent-watch", daemon=True).start()
 
 
-def _ready() -> int:
-    """The planning process's id (it has started)."""
-    return os.getpid()
+def _ready() -> tuple[int, int]:
+    """The planning process's id and its niceness (it has started)."""
+    return os.getpid(), os.nice(0)
 
 
 def _run(kind: str, building_id: str, args: tuple[Any, ...]) -> Plan | None:
@@ -108,12 +115,17 @@ def _run(kind: str, building_id: str, args: tuple[Any, ...]) -> Plan | None:
 
 class PlanProcesses:
     """Runs the planner's jobs in ``processes`` worker processes (the same three methods
-    as :class:`~hvacflex.service.runtime.Runtime`: the :class:`Planner`'s ``plans``)."""
+    as :class:`~hvacflex.service.runtime.Runtime`: the :class:`Planner`'s ``plans``), each
+    ``niceness`` (0–19) lower in CPU priority than the server."""
 
-    def __init__(self, db_url: str, processes: int, *, live: bool = False) -> None:
+    def __init__(
+        self, db_url: str, processes: int, *, live: bool = False, niceness: int = PLAN_NICENESS
+    ) -> None:
         if processes < 1:
             raise ValueError(f"processes must be ≥ 1, got {processes}")
-        self.db_url, self.live = db_url, live
+        if not 0 <= niceness <= MAX_NICENESS:
+            raise ValueError(f"niceness must be in [0, {MAX_NICENESS}], got {niceness}")
+        self.db_url, self.live, self.niceness = db_url, live, niceness
         self._context = multiprocessing.get_context("spawn")
         self._lock = threading.Lock()
         self._pools = [self._new_pool() for _ in range(processes)]
@@ -124,12 +136,12 @@ class PlanProcesses:
             1,
             mp_context=self._context,
             initializer=_start_process,
-            initargs=(self.db_url, self.live, os.getpid()),
+            initargs=(self.db_url, self.live, os.getpid(), self.niceness),
         )
 
-    def start(self) -> list[int]:
+    def start(self) -> list[tuple[int, int]]:
         """Start every process now (not at the first plan) and wait until each is ready;
-        their process ids."""
+        their process ids and niceness values."""
         futures = [pool.submit(_ready) for pool in self._pools]
         return [f.result(timeout=START_TIMEOUT_S) for f in futures]
 
