@@ -126,7 +126,7 @@ def test_a_fleet_over_its_limit_is_brought_to_it_on_the_meter() -> None:
     """At 11:00, the limit 5 % below the buildings' predicted sum: the guard cuts, the
     fleet's meter reads within 1 % of the limit, and no building is cut below its minimum
     flows' power."""
-    group, power = _group("2014-03-03T11:00")
+    group, _ = _group("2014-03-03T11:00")
     predicted, free, minimum, room = group.guard_view()
     assert np.all(minimum <= free) and np.all(free <= predicted + 1e-9)
     limit = 0.95 * float(predicted.sum())
