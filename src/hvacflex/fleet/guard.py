@@ -73,7 +73,8 @@ def comfort_floor_flow_kg_s(
     room = np.asarray(upper_degc, dtype=float) - np.asarray(end_temp_degc, dtype=float)
     cut = np.where(gain < 0.0, room / np.where(gain < 0.0, -gain, 1.0), 0.0)
     floor = np.asarray(flow_kg_s, dtype=float) - np.maximum(cut, 0.0)
-    return np.clip(floor, low_kg_s, flow_kg_s)
+    clipped: FloatArray = np.clip(floor, low_kg_s, flow_kg_s)
+    return clipped
 
 
 def path_flow_kg_s(
@@ -128,4 +129,5 @@ def guard_caps_kw(
         total = float(rest.sum())
         if total > 0.0:
             shed += min(1.0, left / total) * rest
-    return power - shed
+    caps: FloatArray = power - shed
+    return caps

@@ -667,10 +667,12 @@ def guarded_advance(groups: Any, limit_kw: float, activated: bool) -> list[Any]:
     gets a cap, the excess over the limit shed where comfort allows first); the groups'
     rows."""
     if not np.isfinite(limit_kw):
-        return groups.broadcast("advance", activated)
+        rows: list[Any] = groups.broadcast("advance", activated)
+        return rows
     power, free, minimum, room = groups.stacked("guard_view")
     caps = guard_caps_kw(power, free, minimum, room, limit_kw)
-    return groups.call("advance", [activated] * len(groups.groups), groups.split(caps))
+    rows = groups.call("advance", [activated] * len(groups.groups), groups.split(caps))
+    return rows
 
 
 def coordinate_ranges(
