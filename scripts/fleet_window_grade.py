@@ -1,13 +1,16 @@
 """Grade a windowed fleet run against issue 60's criteria (docs/guide/fleet.md, "Issue 60").
 
 python scripts/fleet_window_grade.py --run runs/window --unlimited runs/unlimited
-    [--bound runs/bound/bound.csv]
+    [--bound runs/bound/bound.csv] [--by-hour]
 
 Both runs are `hvacflex fleet simulate` folders over the same days, the second with
 `feeder_limit_kw = inf` and no windows. Prints, on the RC plants' meters: whether the windows
 bind, the planned and realised over-limit in the window periods, discomfort per building-day
 against the bound (+0.5 K·h), the largest zone violation per building, the peak outside the
-windows against the unlimited peak, and the energy against the unlimited days.
+windows against the unlimited peak, and the energy against the unlimited days, split by
+block of the day (00:00–07:00, 07:00–10:00, 10:00–17:00, 17:00–24:00; `--by-hour`: by hour),
+planned and metered; and the building-periods whose applied action the fleet's guard cut
+(`solve_status` ending in "+capped") with their share of the discomfort.
 """
 
 from __future__ import annotations
@@ -27,6 +30,7 @@ def main() -> None:
     parser.add_argument("--run", type=Path, required=True)
     parser.add_argument("--unlimited", type=Path, required=True)
     parser.add_argument("--bound", type=Path)
+    parser.add_argument("--by-hour", action="store_true")
     args = parser.parse_args()
     run, _ = read_results(args.run / "results.parquet")
     free, _ = read_results(args.unlimited / "results.parquet")
@@ -68,7 +72,17 @@ def main() -> None:
         f"(unlimited {free['fleet_power_kw'][night].min():.0f}-"
         f"{free['fleet_power_kw'][night].max():.0f} kW)"
     )
+    print(energy_table(run, free, args.by_hour).round(1).to_string())
     long = pd.read_parquet(args.run / "buildings.parquet")
+    cut, in_cut, total = 0, 0.0, 0.0
+    for _, frame in long.groupby("building"):
+        step = kpis.step_discomfort_kelvin_hours(frame).to_numpy()
+        capped = frame["solve_status"].astype(str).str.endswith("+capped").to_numpy()
+        cut += int(capped.sum())
+        in_cut, total = in_cut + step[capped].sum(), total + step.sum()
+    print(
+        f"guard-cut building-periods: {cut}, holding {in_cut:.2f} of {total:.2f} K·h of discomfort"
+    )
     rows = []
     for name, frame in long.groupby("building"):
         rows.append(
@@ -88,6 +102,28 @@ def main() -> None:
         f"fleet mean per building-day {table['discomfort_per_day'].mean():.3f} K·h"
         + (f" against bound {table['bound_per_day'].mean():.3f}" if args.bound else "")
     )
+
+
+BLOCKS = ((0, 7), (7, 10), (10, 17), (17, 24))
+"""The day's blocks [hours]: night, morning, the office window, evening."""
+
+
+def energy_table(run: pd.DataFrame, free: pd.DataFrame, by_hour: bool) -> pd.DataFrame:
+    """Energy [kWh] by block of the day (or by hour), summed over the days: the run's
+    planned and metered, the unlimited run's metered, and the difference."""
+    hours = run.index.hour
+    edges = [(h, h + 1) for h in range(24)] if by_hour else BLOCKS
+    rows = {}
+    for a, b in edges:
+        inside = (hours >= a) & (hours < b)
+        rows[f"{a:02d}-{b:02d}"] = {
+            "planned_kwh": 0.5 * run["planned_fleet_power_kw"][inside].sum(),
+            "metered_kwh": 0.5 * run["fleet_power_kw"][inside].sum(),
+            "unlimited_kwh": 0.5 * free["fleet_power_kw"][inside].sum(),
+        }
+    table = pd.DataFrame(rows).T
+    table["extra_kwh"] = table["metered_kwh"] - table["unlimited_kwh"]
+    return table
 
 
 if __name__ == "__main__":

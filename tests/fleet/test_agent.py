@@ -171,3 +171,35 @@ def test_the_offer_is_sized_on_the_power_the_plant_draws_curtailed() -> None:
     excess_kw = max(before["planned_power_kw"] - before["power_kw"], 0.0)
     affine_curtailed_kw = float(staged.power_kw[0]) - affine_shed_kw - excess_kw
     assert min(offer_kw, baseline_kw - affine_curtailed_kw) > delivered_kw
+def test_a_cut_takes_flow_first_from_the_zones_below_their_band(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Zone 0 ends the period 1 K below its upper band, the others at it: a cut that zone 0's
+    comfort-free flow covers is taken from zone 0 alone (uniform scaling took it from every
+    zone)."""
+    fleet = fleet_from_dict(generate_fleet(1, 3, feeder_limit_kw=float("inf")))
+    agent = BuildingAgent(fleet.buildings[0], 0, FleetSettings.of(fleet, "2014-03-03T11:00", 1))
+    agent.begin_step()
+    horizon = fleet.spec.horizon_steps
+    agent.finalize(np.zeros(horizon), np.full(horizon, np.inf))
+    controller, model = agent.controller, agent.setup.model
+    p0, p, _ = controller.power_now  # type: ignore[misc]
+    low = agent.setup.building.hvac.flow_min_at(np.array([True]))[0]
+    flow = low + 0.6 * (np.asarray(agent.setup.building.hvac.flow_max_kg_s) - low)
+    inputs = PeriodInputs(
+        x_degc=agent.loop.x.copy(),
+        forecast=agent.setup.forecaster.forecast(0, horizon + 1),
+        peak_floor_kw=0.0,
+    )
+    end = model.c @ model.step(inputs.x_degc, flow, inputs.forecast.disturbances[0])
+    controller.upper_now_degc = end + np.eye(len(end))[0]  # zone 0: 1 K of room
+    free_kg_s = 1.0 / -np.diag(model.c @ model.b)[0]  # zone 0's flow that 1 K allows
+    assert free_kg_s < flow[0] - low[0]
+    decided = rule_action(model, inputs.x_degc, flow, inputs.forecast.disturbances[0])
+    monkeypatch.setattr(MPCController, "act", lambda self, inputs: decided)
+    controller.guard_cap_kw = np.inf  # the affine cap alone
+    controller.cap_now_kw = p0 + float(p @ flow) - 0.5 * p[0] * free_kg_s
+    capped = controller.act(inputs)
+    assert capped.fallback
+    np.testing.assert_allclose(capped.flow_kg_s[1:], flow[1:], rtol=1e-12)
+    assert capped.flow_kg_s[0] == pytest.approx(flow[0] - 0.5 * free_kg_s, rel=1e-6)

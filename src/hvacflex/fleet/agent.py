@@ -47,6 +47,7 @@ from hvacflex.control.offers import snapped_flows_kg_s
 from hvacflex.data.gains import DEFAULT_OFFICE_SCHEDULE, OfficeSchedule
 from hvacflex.fleet.centralised import objective_split
 from hvacflex.fleet.envelope import building_envelope, hold_flows
+from hvacflex.fleet.guard import PATH_END, comfort_floor_flow_kg_s, path_flow_kg_s
 from hvacflex.fleet.schema import Fleet, FleetBuilding, fleet_from_dict
 from hvacflex.opt import RMPCProblem, RMPCSolution, RMPCSolver, SolveStatus
 from hvacflex.sim.closed_loop import ClosedLoop
@@ -121,6 +122,13 @@ class FleetController(MPCController):
         self.power_now: tuple[float, FloatArray, FloatArray] | None = None
         """The step's first period as the LP sees it: (P₀ [kW], p (m,) [kW per kg/s], q (m,)
         the reserve capacity per kg/s of reserve flow [kW per kg/s]); None before a step."""
+        self.guard_cap_kw: float | None = None
+        """The fleet guard's cap on the period's predicted power [kW]
+        (:func:`hvacflex.fleet.guard.guard_caps_kw`; inf: none); None: no fleet guard this
+        period, the predicted power is held to the building's own cap ``cap_now_kw``."""
+        self.upper_now_degc: FloatArray | None = None
+        """(m,) the upper band at the end of the step's first period [°C]; None before a
+        step is finalised."""
         self.held_flow_kg_s: FloatArray | None = None
         """(m,) flows [kg/s] a hold of the envelope fixes for this period (applied as they
         are, no reserve offered; :meth:`BuildingAgent.advance_held`); None: not held."""
@@ -188,6 +196,28 @@ class FleetController(MPCController):
             x = end
         return total / len(flows_kg_s)
 
+    def flow_floor_kg_s(self, inputs: PeriodInputs) -> FloatArray:
+        """(m,) the flows' lower bounds in the period starting now [kg/s]."""
+        floor: FloatArray = self.building.hvac.flow_min_at(inputs.forecast.occupied[:1])[0]
+        return floor
+
+    def comfort_floor(
+        self, inputs: PeriodInputs, flow_kg_s: FloatArray, low_kg_s: FloatArray
+    ) -> tuple[FloatArray, float]:
+        """(the comfort floor (m,) [kg/s] of the flows ``flow_kg_s`` (m,): each zone's flow
+        cut only as far as it still ends the period at or below its upper band on the
+        linear model, :func:`hvacflex.fleet.guard.comfort_floor_flow_kg_s`; the room [K]
+        of the warmest zone below its band at ``flow_kg_s``). Without a band (no step
+        finalised yet) the floor is ``low_kg_s`` and the room inf."""
+        upper = self.upper_now_degc
+        if upper is None:
+            return np.asarray(low_kg_s, dtype=float), np.inf
+        model = self.model
+        end = model.c @ model.step(inputs.x_degc, flow_kg_s, inputs.forecast.disturbances[0])
+        gain = np.diag(model.c @ model.b)
+        floor = comfort_floor_flow_kg_s(end, gain, upper, flow_kg_s, low_kg_s)
+        return floor, float(np.min(upper - end))
+
     def act(self, inputs: PeriodInputs) -> Action:
         action = super().act(self.fleet_inputs(inputs))
         if inputs.locked is not None:
@@ -198,27 +228,29 @@ class FleetController(MPCController):
             return self._with_hold(action)
         if np.isnan(self.cap_now_kw):
             raise ValueError("the coordinator gave this building a NaN power cap")
-        if self.power_now is None or self.cap_now_kw == np.inf:
+        guard = self.cap_now_kw if self.guard_cap_kw is None else self.guard_cap_kw
+        if self.power_now is None or (self.cap_now_kw == np.inf and guard == np.inf):
             return action
         p0, p, q = self.power_now
-        cap = self.cap_now_kw + CAP_TOLERANCE_KW
-        low = self.building.hvac.flow_min_at(inputs.forecast.occupied[:1])[0]
+        low = self.flow_floor_kg_s(inputs)
         high = action.flow_kg_s
+        floor, _ = self.comfort_floor(inputs, high, low)
 
-        def predicted(theta: float) -> float:
-            return self.predicted_power_kw(inputs, low + theta * (high - low))
+        def flows(s: float) -> FloatArray:
+            return path_flow_kg_s(s, low, floor, high)
 
-        theta = 1.0  # the affine power's largest θ, then the predicted power's within it
-        if p0 + float(p @ high) > cap:
-            span = float(p @ (high - low))
-            theta = (
-                0.0 if span <= 0 else float(np.clip((self.cap_now_kw - p0 - p @ low) / span, 0, 1))
-            )
-        if predicted(theta) > cap:
-            theta = _largest_within(predicted, cap, theta)
-        elif theta == 1.0:  # both within the cap: the action as decided
+        def predicted(s: float) -> float:
+            return self.predicted_power_kw(inputs, flows(s))
+
+        s = PATH_END  # the affine power's least cut on the path, then the predicted power's
+        if p0 + float(p @ high) > self.cap_now_kw + CAP_TOLERANCE_KW:
+            cap = self.cap_now_kw + CAP_TOLERANCE_KW
+            s = _largest_within(lambda t: p0 + float(p @ flows(t)), cap, PATH_END)
+        if predicted(s) > guard + CAP_TOLERANCE_KW:
+            s = _largest_within(predicted, guard + CAP_TOLERANCE_KW, s)
+        elif s == PATH_END:  # both within their caps: the action as decided
             return action
-        flow = low + theta * (high - low)
+        flow = flows(s)
         reserve = np.clip(action.reserve_flow_kg_s, 0.0, flow - low)
         return dataclasses.replace(
             action,
@@ -493,6 +525,7 @@ class BuildingAgent:
             result = self._solve(price, np.maximum(cap, floor + CAP_TOLERANCE_KW))
         self._staged = self._last
         self.controller.cap_now_kw = float(cap[0])
+        self.controller.upper_now_degc = np.array(base.y_max[0], dtype=float)
         self.controller.power_now = (
             float(base.power_offset_kw[0]),
             base.power_coeff_kw_per_kg_s[0].copy(),
@@ -510,13 +543,50 @@ class BuildingAgent:
             return np.zeros(base.horizon)
         return self.controller.solver(base).power_cap_values_sgd_per_kw()
 
-    def advance(self, activated: bool = False) -> dict[str, float]:
+    def guard_view(self) -> tuple[float, float, float, float]:
+        """The period about to be applied as the fleet's guard sees it (after
+        :meth:`finalize`; :mod:`hvacflex.fleet.guard`): (P, the predicted power of the
+        staged plan's first-period flows [kW]; P^free, of their comfort floor [kW];
+        P^min, of the lower bounds [kW]; ρ, the warmest zone's room below its upper band
+        at the period's end [K]). A building locked to its event plan reports its locked
+        flows' power three times and ρ = −inf (it cannot shed); one without an optimal
+        staged plan (it will fall back) its largest flows'."""
+        inputs, problem, controller = self._inputs, self.problem, self.controller
+        assert inputs is not None, "begin_step() first"
+        low = controller.flow_floor_kg_s(inputs)
+        if self.locked_power_kw is not None:
+            locked = self._locked_flow_kg_s()
+            if locked is not None:
+                power = controller.predicted_power_kw(inputs, locked)
+                return power, power, power, -np.inf
+        staged = self._staged
+        if staged is not None and staged.status is SolveStatus.OPTIMAL:
+            flows = snapped_flows_kg_s(problem, staged, 1, controller.contract.flow_max_kg_s)
+            flow = flows[0][0]
+        else:
+            flow = np.broadcast_to(controller.contract.flow_max_kg_s, low.shape).astype(float)
+        floor, room = controller.comfort_floor(inputs, flow, low)
+        return (
+            controller.predicted_power_kw(inputs, flow),
+            controller.predicted_power_kw(inputs, floor),
+            controller.predicted_power_kw(inputs, low),
+            room,
+        )
+
+    def advance(
+        self, activated: bool = False, guard_cap_kw: float | None = None
+    ) -> dict[str, float]:
         """Apply the staged plan's first step to the plant (curtailed when the fleet's IL
-        is ``activated`` in this period); the step's row values."""
+        is ``activated`` in this period), its predicted power held to the fleet guard's
+        ``guard_cap_kw`` [kW] (None: to the building's own cap); the step's row values."""
         k = self.loop.k
         self.setup.activation[k] = activated
         plan, self._staged = self._staged, None
-        self.loop.step(plan=plan)
+        self.controller.guard_cap_kw = guard_cap_kw
+        try:
+            self.loop.step(plan=plan)
+        finally:
+            self.controller.guard_cap_kw = None
         col = self.loop.recorder.column_index
         row = self.loop.recorder.values[k]
         return {
@@ -674,10 +744,21 @@ class BuildingGroup:
         parts = parts.reshape(len(self.agents), 3)
         return parts[:, 0].copy(), parts[:, 1].copy(), parts[:, 2].copy(), envelope
 
-    def advance(self, activated: bool = False) -> dict[str, FloatArray]:
-        """Step every plant (curtailed where ``activated`` and a reserve is offered); (B,)
-        arrays of the step's planned and realised power etc."""
-        rows = [agent.advance(activated) for agent in self.agents]
+    def guard_view(self) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+        """(B,) each of :meth:`BuildingAgent.guard_view`'s four values."""
+        parts = np.array([agent.guard_view() for agent in self.agents]).reshape(-1, 4)
+        return parts[:, 0], parts[:, 1], parts[:, 2], parts[:, 3]
+
+    def advance(
+        self, activated: bool = False, guard_cap_kw: FloatArray | None = None
+    ) -> dict[str, FloatArray]:
+        """Step every plant (curtailed where ``activated`` and a reserve is offered), each
+        held to its fleet guard's cap (B,) [kW] (None: its own cap); (B,) arrays of the
+        step's planned and realised power etc."""
+        caps: list[float | None] = [None] * len(self.agents)
+        if guard_cap_kw is not None:
+            caps = [float(c) for c in guard_cap_kw]
+        rows = [agent.advance(activated, cap) for agent, cap in zip(self.agents, caps, strict=True)]
         return {key: np.array([r[key] for r in rows]) for key in rows[0]}
 
     def envelope(self, steps: tuple[int, ...]) -> tuple[FloatArray]:

@@ -48,6 +48,7 @@ from hvacflex.fleet.run import (
     _Groups,
     _start_dask,
     coordinate_ranges,
+    guarded_advance,
 )
 from hvacflex.fleet.schema import load_fleet_document
 from hvacflex.sim.sweep import close_dask
@@ -181,7 +182,7 @@ def _compare_steps(
         result = coordinate_ranges(groups, (p_min, p_max, energy), limit, options, price)
         coordinated_s = time.perf_counter() - tick
         (split,) = groups.stacked("staged_split_sgd")
-        groups.broadcast("advance")
+        guarded_advance(groups, float(limit[0]), False)
         coordinated = float(np.sum(result.cost_sgd))
         row: dict[str, Any] = {"step": k}
         central_split = (

@@ -63,6 +63,7 @@ from hvacflex.fleet.envelope import (
     envelope_frame,
     fleet_envelope,
 )
+from hvacflex.fleet.guard import guard_caps_kw
 from hvacflex.fleet.schema import Fleet, load_fleet_document
 from hvacflex.sim.run_files import (
     check_checkpoint_code,
@@ -665,7 +666,7 @@ def _fleet_step(
     visible = visible_offers_kw(offer, curtailed, baseline)
     fleet_offer = aggregate_offer(visible, context.min_bid_kw)
     activated = locked if continuing else context.scheduled and fleet_offer.accepted
-    rows = groups.broadcast("advance", activated)
+    rows = guarded_advance(groups, float(feeder_kw[0]), activated)
     merged = {key_: np.concatenate([r[key_] for r in rows]) for key_ in rows[0]}
     return _StepOutcome(
         result,
@@ -677,6 +678,21 @@ def _fleet_step(
         coordinated,
         fleet_envelope(envelope),
     )
+
+
+def guarded_advance(groups: Any, limit_kw: float, activated: bool) -> list[Any]:
+    """Advance every group's buildings by their staged plans, the fleet's predicted power in
+    the period held to ``limit_kw`` [kW] (the planning limit; inf: no guard) by the fleet's
+    guard (:mod:`hvacflex.fleet.guard`: the buildings report their predicted powers, each
+    gets a cap, the excess over the limit shed where comfort allows first); the groups'
+    rows."""
+    if not np.isfinite(limit_kw):
+        rows: list[Any] = groups.broadcast("advance", activated)
+        return rows
+    power, free, minimum, room = groups.stacked("guard_view")
+    caps = guard_caps_kw(power, free, minimum, room, limit_kw)
+    rows = groups.call("advance", [activated] * len(groups.groups), groups.split(caps))
+    return rows
 
 
 def coordinate_ranges(
