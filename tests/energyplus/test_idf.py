@@ -112,7 +112,8 @@ def test_hvac_discovery_on_the_five_zone_model() -> None:
     assert zone_inlet_nodes(objects, "space3-1", IDF) == ("SPACE3-1 In Node",)
     assert heating_setpoint_schedule(objects, "SPACE1-1") == "Htg-SetP-Sch"
     schedules = {name.lower() for _, name in availability_schedules(objects)}
-    assert {"fanavailsched", "coolingcoilavailsched"} <= schedules
+    # the VAV boxes' schedule too: off at night and at weekends from April
+    assert {"fanavailsched", "coolingcoilavailsched", "reheatcoilavailsched"} <= schedules
     with pytest.raises(InputError, match="AirTerminal:SingleDuct:VAV:Reheat has no flow"):
         ideal_loads_name(objects, "SPACE1-1", IDF)
 

@@ -53,8 +53,13 @@ def _week(config: Path, out: Path) -> tuple[dict[str, Any], pd.DataFrame]:
 def test_rmpc_on_the_identified_model_beats_the_idf_s_own_control(
     fitted: tuple[Path, Path], tmp_path: Path
 ) -> None:
-    """rmpc costs ≥ 5 % less than plant-baseline in the week from 2014-04-01 (7.4 % when
-    measured), within the baseline's discomfort + 0.5 K·h per zone, without a fallback."""
+    """rmpc costs ≥ 3 % less energy than plant-baseline in the week from 2014-04-01, within
+    the baseline's discomfort + 0.5 K·h per zone, without a fallback. Measured: 121.74
+    against 126.41 SGD (−3.7 %; net of reserve −7.2 %), discomfort 0.33 against 14.20 K·h —
+    the IDF's own control lets the zones float up to 1.7 K past the night band, and from
+    April its VAV boxes are scheduled off at night and at weekends. Until the plant forced
+    the boxes' availability with the air loop's (a zone warmer than its set-point), the MPC
+    could not cool then either, and saved 7.4 %."""
     idf, model = fitted
     baseline = model.parent / "baseline.toml"  # written by fit: the IDF's own control
     assert 'idf = "../5ZoneAirCooled.idf"' in baseline.read_text()  # relative to its folder
@@ -63,7 +68,8 @@ def test_rmpc_on_the_identified_model_beats_the_idf_s_own_control(
     for name, config in (("rmpc", model.parent / "scenario.toml"), ("plant", baseline)):
         summaries[name], _ = _week(config, tmp_path / "runs" / name)
     rmpc, plant = summaries["rmpc"], summaries["plant"]
-    assert rmpc["energy_cost_sgd"] <= 0.95 * plant["energy_cost_sgd"]
+    assert rmpc["energy_cost_sgd"] <= 0.97 * plant["energy_cost_sgd"]
+    assert rmpc["discomfort_kelvin_hours"] < plant["discomfort_kelvin_hours"]
     zones = [k for k in plant if k.startswith("discomfort_space") and k.endswith("kelvin_hours")]
     assert len(zones) == 5
     for key in zones:

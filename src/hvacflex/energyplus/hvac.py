@@ -36,6 +36,15 @@ COOLING_COIL_CLASSES = (
     "Coil:Cooling:DX:TwoSpeed",
 )
 """Components whose second field is an availability schedule (forced on for pre-cooling)."""
+AIR_TERMINAL_CLASSES = (
+    "AirTerminal:SingleDuct:VAV:Reheat",
+    "AirTerminal:SingleDuct:VAV:NoReheat",
+    "AirTerminal:SingleDuct:ConstantVolume:Reheat",
+    "AirTerminal:SingleDuct:ConstantVolume:NoReheat",
+)
+"""Zone air terminals whose second field is an availability schedule: a terminal that is
+unavailable sends no air to its zone even while the air loop runs (5ZoneAirCooled's VAV boxes
+are off at night and at weekends from April), so they are forced on with the loop."""
 
 IDEAL_LOADS_CLASS = "ZoneHVAC:IdealLoadsAirSystem"
 
@@ -107,8 +116,8 @@ def schedule_class(objects: tuple[IdfObject, ...], name: str) -> str | None:
 
 def availability_schedules(objects: tuple[IdfObject, ...]) -> tuple[tuple[str, str], ...]:
     """(schedule class, schedule name) of every air-side availability schedule: the
-    scheduled availability managers of the air loops and the fans' and cooling coils'
-    availability schedules (deduplicated, file order)."""
+    scheduled availability managers of the air loops and the fans', cooling coils' and zone
+    air terminals' availability schedules (deduplicated, file order)."""
     names: list[str] = []
     lists = _by_name(objects, "AvailabilityManagerAssignmentList")
     managers = {
@@ -122,7 +131,7 @@ def availability_schedules(objects: tuple[IdfObject, ...]) -> tuple[tuple[str, s
         for manager in assignment.fields[2::2]:
             if manager.lower() in managers:
                 names.append(managers[manager.lower()].field(1))
-    for class_name in (*FAN_CLASSES, *COOLING_COIL_CLASSES):
+    for class_name in (*FAN_CLASSES, *COOLING_COIL_CLASSES, *AIR_TERMINAL_CLASSES):
         names += [obj.field(1) for obj in objects_of(objects, class_name)]
     found: dict[str, tuple[str, str]] = {}
     for name in names:

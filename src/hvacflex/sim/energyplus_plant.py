@@ -12,7 +12,7 @@ Actuation (docs/guide/energyplus.md):
   is the actuated value ("Zone Temperature Control" / "Cooling Setpoint"); its heating
   setpoint is min(the IDF's heating schedule, cooling − :data:`SETPOINT_DEADBAND_K`); at every
   zone time step in which some zone is warmer than its actuated cooling setpoint, the air
-  loop's availability schedules (availability managers, fans, cooling coils) are forced on,
+  loop's availability schedules (availability managers, fans, coils, terminals) are forced on,
   so pre-cooling works outside the IDF's hours; otherwise the IDF's schedules decide.
   An all-NaN setpoint actuation releases every zone to the IDF's own schedules for the
   period (the building's own control, e.g. ``hvacflex identify collect --excitation none``).
