@@ -171,6 +171,8 @@ def test_the_offer_is_sized_on_the_power_the_plant_draws_curtailed() -> None:
     excess_kw = max(before["planned_power_kw"] - before["power_kw"], 0.0)
     affine_curtailed_kw = float(staged.power_kw[0]) - affine_shed_kw - excess_kw
     assert min(offer_kw, baseline_kw - affine_curtailed_kw) > delivered_kw
+
+
 def test_a_cut_takes_flow_first_from_the_zones_below_their_band(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
