@@ -133,3 +133,18 @@ def test_the_meter_offset_is_the_mean_residual_of_the_last_usable_periods() -> N
     assert meter_offset_kw(planned, metered, periods=3, min_periods=2) == pytest.approx(-11 / 3)
     assert meter_offset_kw(planned, metered, periods=10, min_periods=2) == pytest.approx(-5.25)
     assert meter_offset_kw(planned, metered, periods=10, min_periods=5) == 0.0  # 4 usable
+
+
+def test_the_offsets_follow_the_time_of_day_where_two_days_show_it() -> None:
+    """Four days of 4 periods: the model is 6 kW above the meter in period 1 of each day and
+    2 kW above it in period 2; periods 0 and 3 are not usable. The offsets of the next day's
+    periods are those of their own time of day, the others the overall mean."""
+    history = MeterHistory(window_periods=40)
+    residual = {1: -6.0, 2: -2.0}
+    for k in range(16):
+        history.advance(k, None if k == 0 else 30.0 + residual.get((k - 1) % 4, 0.0))
+        history.open(k, 30.0 if k % 4 in residual else math.nan)
+    history.advance(16, 30.0 + residual.get(15 % 4, 0.0))
+    offsets = history.offsets_kw(4, periods_per_day=4)
+    assert offsets[1] == pytest.approx(-6.0) and offsets[2] == pytest.approx(-2.0)
+    assert offsets[0] == pytest.approx(-4.0) and offsets[3] == pytest.approx(-4.0)

@@ -266,8 +266,12 @@ def test_the_meter_s_offset_levels_the_power_rows_in_occupied_periods_only(setup
     inputs = _inputs(setup)
     context = PlanContext(inputs.x_degc.copy())
     plain = build_problem(setup.model, inputs, controller.contract, context)
+    horizon = len(inputs.forecast.occupied)
     levelled = build_problem(
-        setup.model, replace(inputs, meter_offset_kw=-6.0), controller.contract, context
+        setup.model,
+        replace(inputs, meter_offset_kw=np.full(horizon, -6.0)),
+        controller.contract,
+        context,
     )
     occupied = np.asarray(inputs.forecast.occupied[: len(plain.power_offset_kw)], dtype=bool)
     assert occupied.any() and not occupied.all()

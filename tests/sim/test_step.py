@@ -384,9 +384,10 @@ class LevelledController(CountingController):
         self.offsets: list[float] = []
 
     def act(self, inputs: PeriodInputs) -> Action:
-        self.offsets.append(inputs.meter_offset_kw)
+        offset = inputs.meter_offset_kw
+        self.offsets.append(0.0 if offset is None else float(offset[0]))
         action = super().act(inputs)
-        return replace(action, planned_power_kw=30.0 + inputs.meter_offset_kw)
+        return replace(action, planned_power_kw=30.0 + self.offsets[-1])
 
 
 def test_the_meter_s_offset_reaches_a_levelled_controller_and_stays_put() -> None:

@@ -175,9 +175,10 @@ class PeriodInputs:
         one first, which the plan keeps [kg/s] (None: no commitments).
     meter_ratio : ρ ∈ [0, 1], the meter's response to the plan in the building's recent
         periods; offers are sized on the meter's scale with it (NaN: not scaled).
-    meter_offset_kw : the meter's offset from the power model over the building's recent
-        occupied periods [kW], added to the LP's power rows in occupied periods under
-        ``[controller] power_level = "meter"`` (0: none).
+    meter_offset_kw : (N,) the meter's offset from the power model for the periods of the
+        horizon [kW] (at the same time of day over the building's recent occupied periods),
+        added to the LP's power rows in occupied periods under ``[controller] power_level =
+        "meter"``; None: none.
     previous_flow_kg_s : (m,) the input of the filter's last step, period k − 1 (the flow the
         plant ran: u − r when curtailed, or what the air delivered) [kg/s]; None: keep the
         decided one.
@@ -197,7 +198,7 @@ class PeriodInputs:
     delivered_flow_kg_s: FloatArray | None = None
     committed_reserve_kg_s: FloatArray | None = None
     meter_ratio: float = math.nan
-    meter_offset_kw: float = 0.0
+    meter_offset_kw: FloatArray | None = None
     previous_flow_kg_s: FloatArray | None = None
     locked: Action | None = None
 

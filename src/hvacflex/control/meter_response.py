@@ -45,6 +45,8 @@ OFFSET_PERIODS = 20
 hours) [periods]."""
 MIN_OFFSET_PERIODS = 8
 """Fewest usable periods before the offset departs from 0."""
+MIN_SAME_PERIOD_DAYS = 2
+"""Fewest usable periods at the same time of day before that time's own offset is used."""
 
 
 def meter_response_ratio(
@@ -154,6 +156,26 @@ class MeterHistory:
     def offset_kw(self) -> float:
         """:func:`meter_offset_kw` of the history."""
         return meter_offset_kw(self.planned_kw, self.metered_kw)
+
+    def offsets_kw(self, horizon: int, periods_per_day: int) -> FloatArray:
+        """(horizon,) the meter's offset from the model for the periods from
+        :attr:`next_period` on [kW]: for each, the mean residual (metered − planned) of the
+        usable periods at the same time of day in the history (the model's error follows the
+        day: the morning's pull-down, the hot afternoon), where at least
+        :data:`MIN_SAME_PERIOD_DAYS` exist; else :meth:`offset_kw`."""
+        fallback = self.offset_kw()
+        out = np.full(horizon, fallback)
+        if fallback == 0.0 or self.next_period < 0:
+            return out
+        residual = self.metered_kw - self.planned_kw
+        rows = residual.size
+        time_of_day = (self.next_period - rows + np.arange(rows)) % periods_per_day
+        for j in range(horizon):
+            same = residual[(time_of_day == (self.next_period + j) % periods_per_day)]
+            same = same[np.isfinite(same)]
+            if same.size >= MIN_SAME_PERIOD_DAYS:
+                out[j] = float(np.mean(same))
+        return out
 
     def get_state(self) -> dict[str, Any]:
         return {

@@ -51,6 +51,7 @@ from typing import Any
 import numpy as np
 
 from hvacflex.config import ScenarioConfig
+from hvacflex.constants import PERIODS_PER_DAY
 from hvacflex.control.base import (
     Action,
     Controller,
@@ -236,7 +237,11 @@ class ControlStep:
             allowance_carry_steps=self.tracker.carry_steps,
             committed_reserve_kg_s=self.committed_flow_kg_s if self.commit_ahead else None,
             meter_ratio=ratio,
-            meter_offset_kw=self.meter.offset_kw() if self.meter_levelled else 0.0,
+            meter_offset_kw=(
+                self.meter.offsets_kw(len(inputs.forecast.occupied), PERIODS_PER_DAY)
+                if self.meter_levelled
+                else None
+            ),
             previous_flow_kg_s=self._filter_flow_kg_s,
         )
 
@@ -289,7 +294,8 @@ class ControlStep:
                 and not outcome.event_window
                 and bool(inputs.forecast.occupied[0])
             )
-            model_kw = action.planned_power_kw - inputs.meter_offset_kw  # the model's own
+            offset = 0.0 if inputs.meter_offset_kw is None else float(inputs.meter_offset_kw[0])
+            model_kw = action.planned_power_kw - offset  # the model's own
             self.meter.open(k, model_kw if usable else math.nan)
         made = action.plan if status is DecisionStatus.PLANNED else None
         return Decision(action, status, role, outcome, applied_flow, made, locked)
