@@ -239,7 +239,8 @@ class ControllerSpec(Spec):
     """The MPC's planned power in occupied periods: ``model`` as the power model gives it;
     ``auto`` (default) ``meter`` on an EnergyPlus plant and ``model`` on the RC plant;
     ``meter`` levelled to the meter: plus the mean of the metered minus the model's power over
-    the building's last 20 occupied periods that a fresh plan served (an offset-free output,
+    the periods a fresh plan served at the same time of day in the last five days (over the
+    last 20 occupied ones while fewer than two exist) (an offset-free output,
     like the Kalman filter's offsets for the zones; docs/explanation/model.md §1.6). It moves
     the planned power, the committed peak and the pull-down cap onto the meter's scale where
     the plant's own loops deliver other flows than the plan's (EnergyPlus under setpoint
