@@ -24,18 +24,25 @@ from hvacflex.fleet.run import _feeder_timeline
 from hvacflex.fleet.schema import load_fleet_document
 
 
+def first_step(fleet_path: str, start: str) -> tuple[BuildingGroup, int, np.ndarray]:
+    """Every building of the fleet file set up for its first step at ``start`` (its problems
+    built from the closed loop's initial state), the horizon N and the fleet's planning limit
+    over it (N,) [kW] (its windows; inf outside them)."""
+    fleet, doc = load_fleet_document(fleet_path)
+    settings = FleetSettings.of(fleet, start, 1)
+    group = BuildingGroup(doc, list(range(len(fleet.buildings))), settings)
+    p_min, _, _ = group.begin_step()
+    horizon = p_min.shape[1]
+    _, _, planning = _feeder_timeline(fleet, start, 1, horizon)
+    return group, horizon, reference_limit_kw(planning[:horizon], p_min)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--fleet", required=True)
     parser.add_argument("--start", default="2014-03-03")
     args = parser.parse_args()
-    fleet, doc = load_fleet_document(args.fleet)
-    settings = FleetSettings.of(fleet, args.start, 1)
-    group = BuildingGroup(doc, list(range(len(fleet.buildings))), settings)
-    p_min, _, _ = group.begin_step()
-    horizon = p_min.shape[1]
-    _, _, planning = _feeder_timeline(fleet, args.start, 1, horizon)
-    window = reference_limit_kw(planning[:horizon], p_min)
+    group, horizon, window = first_step(args.fleet, args.start)
     margins = group.problems()
     exact = [dataclasses.replace(p, robust="none") for p in margins]
     for label, problems in (("robust margins", margins), ("no margins", exact)):

@@ -22,12 +22,9 @@ import dataclasses
 import time
 
 import numpy as np
+from fleet_night_plan import first_step  # scripts/ is the script's own folder on sys.path
 
-from hvacflex.fleet.agent import BuildingGroup, FleetSettings
 from hvacflex.fleet.centralised import CentralisedSolver
-from hvacflex.fleet.compare import reference_limit_kw
-from hvacflex.fleet.run import _feeder_timeline
-from hvacflex.fleet.schema import load_fleet_document
 
 BLOCKS = (("00-07", 0, 14), ("07-10", 14, 20), ("10-17", 20, 34), ("17-24", 34, 48))
 """(label, first period, end period) of the day's blocks [30-min periods from 00:00]."""
@@ -40,13 +37,7 @@ def main() -> None:
     parser.add_argument("--penalties", type=float, nargs="+", default=[100.0, 30.0, 10.0])
     parser.add_argument("--robust", choices=["none", "tightening"], default="none")
     args = parser.parse_args()
-    fleet, doc = load_fleet_document(args.fleet)
-    settings = FleetSettings.of(fleet, args.start, 1)
-    group = BuildingGroup(doc, list(range(len(fleet.buildings))), settings)
-    p_min, _, _ = group.begin_step()
-    horizon = p_min.shape[1]
-    _, _, planning = _feeder_timeline(fleet, args.start, 1, horizon)
-    window = reference_limit_kw(planning[:horizon], p_min)
+    group, horizon, window = first_step(args.fleet, args.start)
     base = [dataclasses.replace(p, robust=args.robust) for p in group.problems()]
     buildings = len(base)
     free_energy = float("nan")
