@@ -10,11 +10,15 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from hvacflex.control.meter_response import (
+    IDLE,
     MIN_PAIRS,
+    OCCUPIED,
+    PULL_DOWN,
     WINDOW_PERIODS,
     MeterHistory,
     meter_offset_kw,
     meter_response_ratio,
+    period_classes,
 )
 from hvacflex.state import decode, encode
 
@@ -148,3 +152,42 @@ def test_the_offsets_follow_the_time_of_day_where_two_days_show_it() -> None:
     offsets = history.offsets_kw(4, periods_per_day=4)
     assert offsets[1] == pytest.approx(-6.0) and offsets[2] == pytest.approx(-2.0)
     assert offsets[0] == pytest.approx(-4.0) and offsets[3] == pytest.approx(-4.0)
+
+
+def test_periods_are_classed_occupied_pull_down_or_idle() -> None:
+    """The pull-down's unoccupied steps (8 before an occupied spell) are their own class."""
+    occupied = np.zeros(30, dtype=bool)
+    occupied[12:20] = True
+    classes = period_classes(occupied, 24)
+    assert classes.shape == (24,)
+    np.testing.assert_array_equal(classes[12:20], OCCUPIED)
+    np.testing.assert_array_equal(classes[4:12], PULL_DOWN)
+    np.testing.assert_array_equal(classes[:4], IDLE)
+    np.testing.assert_array_equal(classes[20:], IDLE)
+
+
+def test_unoccupied_offsets_are_their_own_class_s_over_the_longer_window() -> None:
+    """24 days of 4 periods: period 0 is occupied (the model 5 kW above the meter), period
+    1 a pull-down (8 kW above), periods 2 and 3 idle (the meter 3 kW above the model). Each
+    class's offsets come from its own rows; the occupied ones are those they were before."""
+    classes_of_day = [OCCUPIED, PULL_DOWN, IDLE, IDLE]
+    residual = [-5.0, -8.0, 3.0, 3.0]
+    history = MeterHistory(window_periods=40, idle_window_periods=96)
+    for k in range(96):
+        history.advance(k, None if k == 0 else 20.0 + residual[(k - 1) % 4])
+        history.open(k, 20.0, classes_of_day[k % 4])
+    history.advance(96, 20.0 + residual[3])
+    classes = np.array(classes_of_day * 2)
+    offsets = history.offsets_kw(8, periods_per_day=4, period_class=classes)
+    np.testing.assert_allclose(offsets, residual * 2)
+    # without classes every period is occupied: the occupied rows' offsets, as before
+    occupied_only = history.offsets_kw(4, periods_per_day=4)
+    np.testing.assert_allclose(occupied_only, -5.0)
+    assert history.planned_kw.size == 40 and np.isfinite(history.planned_kw).sum() == 10
+    # ρ reads the occupied rows only
+    assert np.isnan(history.planned_kw[1::4]).all()
+    resumed = MeterHistory(window_periods=40, idle_window_periods=96)
+    resumed.set_state(decode(encode(history.get_state())))
+    np.testing.assert_array_equal(
+        resumed.offsets_kw(8, periods_per_day=4, period_class=classes), offsets
+    )

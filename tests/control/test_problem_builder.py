@@ -260,22 +260,22 @@ def test_the_plan_holds_the_morning_pull_down_to_the_committed_cap(setup: Setup)
     assert np.isinf(unpriced.power_max_kw).all()
 
 
-def test_the_meter_s_offset_levels_the_power_rows_in_occupied_periods_only(setup: Setup) -> None:
+def test_the_meter_s_offsets_level_the_power_rows_period_by_period(setup: Setup) -> None:
+    """Each period's row is moved by its own offset (occupied or not: the step gives the
+    unoccupied periods their own class's), its flow coefficients untouched."""
     controller = make_controller(setup)
     assert isinstance(controller, MPCController)
     inputs = _inputs(setup)
     context = PlanContext(inputs.x_degc.copy())
     plain = build_problem(setup.model, inputs, controller.contract, context)
     horizon = len(inputs.forecast.occupied)
+    offsets = np.where(np.asarray(inputs.forecast.occupied, dtype=bool), -6.0, 2.5)
     levelled = build_problem(
-        setup.model,
-        replace(inputs, meter_offset_kw=np.full(horizon, -6.0)),
-        controller.contract,
-        context,
+        setup.model, replace(inputs, meter_offset_kw=offsets), controller.contract, context
     )
     occupied = np.asarray(inputs.forecast.occupied[: len(plain.power_offset_kw)], dtype=bool)
-    assert occupied.any() and not occupied.all()
+    assert occupied.any() and not occupied.all() and horizon >= occupied.size
     shift = levelled.power_offset_kw - plain.power_offset_kw
     np.testing.assert_allclose(shift[occupied], -6.0)
-    np.testing.assert_array_equal(shift[~occupied], 0.0)
+    np.testing.assert_allclose(shift[~occupied], 2.5)
     np.testing.assert_array_equal(levelled.power_coeff_kw_per_kg_s, plain.power_coeff_kw_per_kg_s)

@@ -33,6 +33,7 @@ from typing import Any
 import numpy as np
 
 from hvacflex.control.base import FloatArray
+from hvacflex.control.problem_builder import pull_down_steps
 
 WINDOW_PERIODS = 240
 """Periods of history the ratio is taken over (5 days of 30-min periods) [periods]."""
@@ -104,29 +105,73 @@ def meter_offset_kw(
     return float(np.mean(usable))
 
 
+OCCUPIED, PULL_DOWN, IDLE = 0, 1, 2
+"""A period's class for the meter's offsets: occupied (the schedule's), the unoccupied steps of
+a morning pull-down (:func:`hvacflex.control.problem_builder.pull_down_steps`), the other
+unoccupied ones (nights, weekends, holidays). −1: no usable row."""
+IDLE_WINDOW_PERIODS = 384
+"""Periods of history the unoccupied offsets are taken over (8 days: a weekend's hours reach
+the next weekend's) [periods]."""
+
+
+def period_classes(occupied: np.ndarray, horizon: int) -> np.ndarray:
+    """(horizon,) int: each period's class for the meter's offsets — :data:`OCCUPIED` where
+    ``occupied`` (≥ horizon,) bool, the schedule's occupied periods from now on, is true;
+    :data:`PULL_DOWN` in the unoccupied steps of a morning pull-down; :data:`IDLE` else."""
+    occ = np.asarray(occupied, dtype=bool)[:horizon]
+    classes = np.where(pull_down_steps(occupied, horizon)[: occ.size], PULL_DOWN, IDLE)
+    return np.where(occ, OCCUPIED, classes)
+
+
 class MeterHistory:
     """The plan's and the meter's power of a building's recent periods, one row a period.
 
     A period's planned power is known when it is decided (:meth:`open`), its metered power
     when the next period is (:meth:`advance`, with the power the building posts); periods
     nobody decided, or whose meter was not read, are NaN rows, so lags stay lags in time.
+    Each row carries its period's class (:data:`OCCUPIED`, :data:`PULL_DOWN`, :data:`IDLE`):
+    ρ and the occupied offsets read the occupied rows of the last ``window_periods``, the
+    unoccupied offsets their own class's rows of the last ``idle_window_periods``.
     """
 
-    def __init__(self, window_periods: int = WINDOW_PERIODS) -> None:
+    def __init__(
+        self, window_periods: int = WINDOW_PERIODS, idle_window_periods: int = IDLE_WINDOW_PERIODS
+    ) -> None:
         self.window_periods = window_periods
-        self.planned_kw = np.zeros(0)
-        self.metered_kw = np.zeros(0)
+        self.kept_periods = max(window_periods, idle_window_periods)
+        self.model_kw = np.zeros(0)
+        """(≤ kept,) the plan's own power of each row [kW] (NaN: not usable)."""
+        self.meter_kw = np.zeros(0)
+        """(≤ kept,) the metered power of each row [kW] (NaN: not read)."""
+        self.period_class = np.zeros(0, dtype=np.int8)
+        """(≤ kept,) each row's class (−1 where the row is not usable)."""
         self.next_period = -1
         """The first period without a row (−1: none started yet)."""
         self.open_period = -1
         """The latest period decided, whose meter is not read yet (−1: none)."""
         self.open_planned_kw = math.nan
         """Its planned power [kW] (NaN: not usable)."""
+        self.open_class = OCCUPIED
+        """Its class."""
 
-    def open(self, period: int, planned_kw: float) -> None:
+    @property
+    def planned_kw(self) -> FloatArray:
+        """(≤ window,) the occupied rows' planned power of the last ``window_periods`` [kW],
+        NaN in the others."""
+        occupied = self.period_class[-self.window_periods :] == OCCUPIED
+        return np.where(occupied, self.model_kw[-self.window_periods :], math.nan)
+
+    @property
+    def metered_kw(self) -> FloatArray:
+        """(≤ window,) the metered power of the last ``window_periods`` rows [kW]."""
+        return self.meter_kw[-self.window_periods :]
+
+    def open(self, period: int, planned_kw: float, period_class: int = OCCUPIED) -> None:
         """Period ``period`` was decided; ``planned_kw``: the plan's power for it [kW], NaN
-        where the period does not count (unoccupied, curtailed, no fresh plan)."""
+        where the period does not count (curtailed, no fresh plan); ``period_class``: its
+        class."""
         self.open_period, self.open_planned_kw = period, float(planned_kw)
+        self.open_class = period_class
 
     def advance(self, period: int, previous_power_kw: float | None) -> None:
         """Period ``period`` starts: every period from :attr:`next_period` to period − 1 gets
@@ -134,40 +179,65 @@ class MeterHistory:
         power of period − 1 [kW] (None or NaN: not read), where it is period − 1; NaN rows
         for the others (nobody decided them, or their meter was not read)."""
         first = period if self.next_period < 0 else self.next_period
-        count = min(period - first, self.window_periods)
+        count = min(period - first, self.kept_periods)
         if count <= 0:  # the first period, or one that has its rows already
             self.next_period = max(self.next_period, period)
             return
         planned = np.full(count, math.nan)
         metered = np.full(count, math.nan)
+        period_class = np.full(count, -1, dtype=np.int8)
         if self.open_period == period - 1:
             planned[-1] = self.open_planned_kw
             metered[-1] = math.nan if previous_power_kw is None else float(previous_power_kw)
-        keep = self.window_periods
-        self.planned_kw = np.concatenate([self.planned_kw, planned])[-keep:]
-        self.metered_kw = np.concatenate([self.metered_kw, metered])[-keep:]
+            period_class[-1] = self.open_class if math.isfinite(self.open_planned_kw) else -1
+        keep = self.kept_periods
+        self.model_kw = np.concatenate([self.model_kw, planned])[-keep:]
+        self.meter_kw = np.concatenate([self.meter_kw, metered])[-keep:]
+        self.period_class = np.concatenate([self.period_class, period_class])[-keep:]
         self.next_period = period
-        self.open_period, self.open_planned_kw = -1, math.nan
+        self.open_period, self.open_planned_kw, self.open_class = -1, math.nan, OCCUPIED
 
     def ratio(self, max_lag_steps: int) -> float:
-        """:func:`meter_response_ratio` of the history."""
+        """:func:`meter_response_ratio` of the occupied rows."""
         return meter_response_ratio(self.planned_kw, self.metered_kw, max_lag_steps)
 
     def offset_kw(self) -> float:
-        """:func:`meter_offset_kw` of the history."""
+        """:func:`meter_offset_kw` of the occupied rows."""
         return meter_offset_kw(self.planned_kw, self.metered_kw)
 
-    def offsets_kw(self, horizon: int, periods_per_day: int) -> FloatArray:
+    def offsets_kw(
+        self, horizon: int, periods_per_day: int, period_class: np.ndarray | None = None
+    ) -> FloatArray:
         """(horizon,) the meter's offset from the model for the periods from
         :attr:`next_period` on [kW]: for each, the mean residual (metered − planned) of the
-        usable periods at the same time of day in the history (the model's error follows the
-        day: the morning's pull-down, the hot afternoon), where at least
-        :data:`MIN_SAME_PERIOD_DAYS` exist; else :meth:`offset_kw`."""
-        fallback = self.offset_kw()
+        usable rows of its class at the same time of day (the model's error follows the day:
+        the morning's pull-down, the hot afternoon, the night's fans), where at least
+        :data:`MIN_SAME_PERIOD_DAYS` exist; else the mean of the class's last
+        :data:`OFFSET_PERIODS` usable rows (:func:`meter_offset_kw`; 0 while fewer than
+        :data:`MIN_OFFSET_PERIODS`). Occupied rows are read over the last ``window_periods``,
+        unoccupied ones over the whole history. ``period_class``: (horizon,) each period's
+        class (default: all :data:`OCCUPIED`)."""
+        classes = np.full(horizon, OCCUPIED) if period_class is None else period_class
+        out = np.zeros(horizon)
+        for cls in np.unique(classes):
+            rows = slice(-self.window_periods, None) if cls == OCCUPIED else slice(None)
+            mine = self.period_class[rows] == cls
+            planned = np.where(mine, self.model_kw[rows], math.nan)
+            at = classes == cls
+            offsets = self._class_offsets(planned, self.meter_kw[rows], horizon, periods_per_day)
+            out[at] = offsets[at]
+        return out
+
+    def _class_offsets(
+        self, planned_kw: FloatArray, metered_kw: FloatArray, horizon: int, periods_per_day: int
+    ) -> FloatArray:
+        """(horizon,) :meth:`offsets_kw` over the rows ``planned_kw``, ``metered_kw`` (the
+        history's last rows, NaN where not of the class)."""
+        fallback = meter_offset_kw(planned_kw, metered_kw)
         out = np.full(horizon, fallback)
         if fallback == 0.0 or self.next_period < 0:
             return out
-        residual = self.metered_kw - self.planned_kw
+        residual = metered_kw - planned_kw
         rows = residual.size
         time_of_day = (self.next_period - rows + np.arange(rows)) % periods_per_day
         for j in range(horizon):
@@ -179,16 +249,20 @@ class MeterHistory:
 
     def get_state(self) -> dict[str, Any]:
         return {
-            "planned_kw": self.planned_kw.copy(),
-            "metered_kw": self.metered_kw.copy(),
+            "model_kw": self.model_kw.copy(),
+            "meter_kw": self.meter_kw.copy(),
+            "period_class": self.period_class.copy(),
             "next_period": self.next_period,
             "open_period": self.open_period,
             "open_planned_kw": self.open_planned_kw,
+            "open_class": self.open_class,
         }
 
     def set_state(self, state: dict[str, Any]) -> None:
-        self.planned_kw = np.asarray(state["planned_kw"], dtype=float).copy()
-        self.metered_kw = np.asarray(state["metered_kw"], dtype=float).copy()
+        self.model_kw = np.asarray(state["model_kw"], dtype=float).copy()
+        self.meter_kw = np.asarray(state["meter_kw"], dtype=float).copy()
+        self.period_class = np.asarray(state["period_class"], dtype=np.int8).copy()
         self.next_period = int(state["next_period"])
         self.open_period = int(state["open_period"])
         self.open_planned_kw = float(state["open_planned_kw"])
+        self.open_class = int(state["open_class"])

@@ -312,9 +312,8 @@ def build_problem(
     if context.extra_margin_k is not None:
         y_min, y_max = tightened_bounds(y_min, y_max, context.extra_margin_k)
     p0, p, reserve_coeff = _power_coefficients(contract, context, forecast, d_hat, u_min, y_min)
-    if inputs.meter_offset_kw is not None:  # levelled to the meter in occupied periods
-        offset = np.asarray(inputs.meter_offset_kw, dtype=float)[:horizon]
-        p0 = p0 + offset * np.asarray(forecast.occupied[:horizon], dtype=float)
+    if inputs.meter_offset_kw is not None:  # levelled to the meter
+        p0 = p0 + np.asarray(inputs.meter_offset_kw, dtype=float)[:horizon]
     reserve_price = forecast.reserve_price_sgd_per_mwh[:horizon]
     if not cfg.reserve:
         reserve_price = np.zeros_like(reserve_price)

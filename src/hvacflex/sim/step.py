@@ -61,7 +61,7 @@ from hvacflex.control.base import (
     ReserveOffer,
     WarmRestart,
 )
-from hvacflex.control.meter_response import MeterHistory
+from hvacflex.control.meter_response import MeterHistory, period_classes
 from hvacflex.errors import InputError
 from hvacflex.sim.events import EventTracker, PeriodOutcome, Role
 
@@ -128,6 +128,13 @@ def event_tracker(config: ScenarioConfig) -> EventTracker:
         reserve.event_recovery_steps if events else 0,
         reserve.event_allowance_k if events else 0.0,
     )
+
+
+def _classes(inputs: PeriodInputs) -> np.ndarray:
+    """(N,) the forecast's periods' classes for the meter's offsets (occupied, pull-down,
+    idle: :func:`hvacflex.control.meter_response.period_classes`)."""
+    occupied = inputs.forecast.occupied
+    return period_classes(occupied, len(occupied))
 
 
 def _unplanned(zones: int) -> Action:
@@ -238,7 +245,9 @@ class ControlStep:
             committed_reserve_kg_s=self.committed_flow_kg_s if self.commit_ahead else None,
             meter_ratio=ratio,
             meter_offset_kw=(
-                self.meter.offsets_kw(len(inputs.forecast.occupied), PERIODS_PER_DAY)
+                self.meter.offsets_kw(
+                    len(inputs.forecast.occupied), PERIODS_PER_DAY, _classes(inputs)
+                )
                 if self.meter_levelled
                 else None
             ),
@@ -288,15 +297,14 @@ class ControlStep:
         self._filter_flow_kg_s = applied_flow
         status = decision_status(role, action)
         if self.tracks_meter:
-            usable = (  # occupied, served by a fresh plan, outside events and recoveries
+            usable = (  # served by a fresh plan, outside events and recoveries
                 status is DecisionStatus.PLANNED
                 and not outcome.curtailed
                 and not outcome.event_window
-                and bool(inputs.forecast.occupied[0])
             )
             offset = 0.0 if inputs.meter_offset_kw is None else float(inputs.meter_offset_kw[0])
             model_kw = action.planned_power_kw - offset  # the model's own
-            self.meter.open(k, model_kw if usable else math.nan)
+            self.meter.open(k, model_kw if usable else math.nan, int(_classes(inputs)[0]))
         made = action.plan if status is DecisionStatus.PLANNED else None
         return Decision(action, status, role, outcome, applied_flow, made, locked)
 
