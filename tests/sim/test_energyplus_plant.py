@@ -229,6 +229,11 @@ def test_heating_setpoint_stays_a_deadband_below_and_availability_follows_need()
     assert np.all(applied[2 * m :] == 1.0)  # zone 1 at 25 °C > 22.5 °C: loop forced on
     commanded[:m] = 26.0
     assert np.all(np.isnan(plant._setpoint_rule(now, commanded)[2 * m :]))  # the IDF decides
+    # a zone rising fast enough to pass its setpoint within the next zone time step: forced
+    # on a step ahead (0.6 K a step from 25.0 → 25.6, below 26 now, above it next)
+    now[0] = 25.6
+    assert np.all(plant._setpoint_rule(now, commanded)[2 * m :] == 1.0)
+    assert np.all(np.isnan(plant._setpoint_rule(now, commanded)[2 * m :]))  # steady again
 
 
 def test_unknown_zone_names_it_and_the_idf_zones() -> None:

@@ -11,9 +11,11 @@ Actuation (docs/guide/energyplus.md):
 * ``"setpoint"`` (supervisory, as MPCs are deployed on a BMS): each zone's cooling setpoint
   is the actuated value ("Zone Temperature Control" / "Cooling Setpoint"); its heating
   setpoint is min(the IDF's heating schedule, cooling − :data:`SETPOINT_DEADBAND_K`); at every
-  zone time step in which some zone is warmer than its actuated cooling setpoint, the air
-  loop's availability schedules (availability managers, fans, coils, terminals) are forced on,
-  so pre-cooling works outside the IDF's hours; otherwise the IDF's schedules decide.
+  zone time step in which some zone is warmer than its actuated cooling setpoint, or will be
+  at the next one if it keeps rising as it rose over the last (a sunny afternoon can lift an
+  unconditioned zone by more than 1 K in a 15-min step), the air loop's availability
+  schedules (availability managers, fans, coils, terminals) are forced on, so pre-cooling
+  works outside the IDF's hours; otherwise the IDF's schedules decide.
   An all-NaN setpoint actuation releases every zone to the IDF's own schedules for the
   period (the building's own control, e.g. ``hvacflex identify collect --excitation none``).
 * ``"flow"``: each zone's ``ZoneHVAC:IdealLoadsAirSystem`` supply mass flow and supply
@@ -240,6 +242,8 @@ class EnergyPlusPlant:
         self._guard: PeakGuard | None = None
         self._shed_level = 0.0
         self._period_shed = False
+        self._previous_zone_degc: FloatArray | None = None
+        """(m,) the zones' air temperatures at the last zone time step's start [°C]."""
         self.python_time_s = 0.0
         """Wall time of :meth:`step` outside the engine [s] (the plant's own overhead)."""
 
@@ -325,8 +329,9 @@ class EnergyPlusPlant:
         return actuators
 
     def _setpoint_rule(self, now: FloatArray, commanded: FloatArray) -> FloatArray:
-        """Heating setpoints below the cooling ones; availability forced on when a zone is
-        warmer than its actuated cooling setpoint (see the module docstring)."""
+        """Heating setpoints below the cooling ones; availability forced on when a zone is,
+        or at its last step's rise will be by the next step, warmer than its actuated
+        cooling setpoint (see the module docstring)."""
         m = self._m
         cooling = commanded[:m]
         applied = commanded.copy()
@@ -335,7 +340,10 @@ class EnergyPlusPlant:
             applied[m + i] = limit if index is None else min(now[index], limit)
         if np.isnan(cooling).any():
             applied[: 2 * m] = np.nan
-        needs_cooling = bool(np.any(now[:m] > cooling))
+        zone_degc = now[:m]
+        rise = 0.0 if self._previous_zone_degc is None else zone_degc - self._previous_zone_degc
+        self._previous_zone_degc = zone_degc.copy()
+        needs_cooling = bool(np.any(zone_degc + np.maximum(rise, 0.0) > cooling))
         applied[2 * m :] = AVAILABILITY_ON if needs_cooling else np.nan
         return applied
 
@@ -382,6 +390,7 @@ class EnergyPlusPlant:
         self.close()
         self._history, self._guards = [], []
         self._guard, self._shed_level, self._period_shed = None, 0.0, False
+        self._previous_zone_degc = None
         self._sim = CoSimulation(self._spec, self.work_dir)
         reading = self._sim.start()
         refused = guard_meter_error(self.source, self._sim.missing_meters)
