@@ -213,6 +213,29 @@ def test_replaying_the_recorded_actuations_resumes_the_run(
     np.testing.assert_array_equal(nxt.zone_mean_temp_degc, baseline[20].zone_mean_temp_degc)
 
 
+def test_comfort_limits_are_replayed_with_the_actuations() -> None:
+    """A run whose comfort limits start the loop early resumes from its state to the same
+    readings as without the interruption."""
+
+    def run(resume_at: int | None, limit: np.ndarray | None) -> list[Observation]:
+        plant = EnergyPlusPlant.from_file(IDF, ZONES, start=START, steps=STEPS, epw_path=EPW)
+        plant.reset(25.0)
+        out = []
+        for j, s in enumerate(_setpoints()[:24]):
+            if j == resume_at:
+                plant.set_state(plant.get_state())
+            actuation = Actuation(setpoint_degc=np.full(5, max(s, 26.0)), limit_degc=limit)
+            out.append(plant.step(actuation, DISTURBANCE, 1800.0))
+        plant.close()
+        return out
+
+    limit = np.full(5, 24.0)
+    straight, resumed = run(None, limit), run(20, limit)
+    assert not np.array_equal(_power(straight), _power(run(None, None)))  # the limits act
+    np.testing.assert_array_equal(_temps(resumed), _temps(straight))
+    np.testing.assert_array_equal(_power(resumed), _power(straight))
+
+
 def test_heating_setpoint_stays_a_deadband_below_and_availability_follows_need() -> None:
     plant = EnergyPlusPlant.from_file(IDF, ZONES, start=START, steps=STEPS, epw_path=EPW)
     m = 5
@@ -229,8 +252,13 @@ def test_heating_setpoint_stays_a_deadband_below_and_availability_follows_need()
     assert np.all(applied[2 * m :] == 1.0)  # zone 1 at 25 °C > 22.5 °C: loop forced on
     commanded[:m] = 26.0
     assert np.all(np.isnan(plant._setpoint_rule(now, commanded)[2 * m :]))  # the IDF decides
-    # a zone rising fast enough to pass its setpoint within the next zone time step: forced
-    # on a step ahead (0.6 K a step from 25.0 → 25.6, below 26 now, above it next)
+    # a zone rising fast enough to pass its comfort limit within the next zone time step:
+    # forced on a step ahead (0.6 K a step from 25.0 → 25.6, below 26 now, above it next)
+    now[0] = 25.6
+    assert np.all(np.isnan(plant._setpoint_rule(now, commanded)[2 * m :]))  # no limit given
+    now[0] = 25.0
+    plant._setpoint_rule(now, commanded)
+    plant._limit_degc = np.full(m, 26.0)
     now[0] = 25.6
     assert np.all(plant._setpoint_rule(now, commanded)[2 * m :] == 1.0)
     assert np.all(np.isnan(plant._setpoint_rule(now, commanded)[2 * m :]))  # steady again

@@ -126,12 +126,13 @@ class ControllerConfig:
     of the scenario's plant (``[power_models.<kind>]``) where it has one, else the design
     curves; ``"design"`` the design curves (an identified building has only its fitted one)."""
     power_level: PowerLevel = "auto"
-    """The MPC: the level of the LP's power rows in occupied periods. ``"model"``: the power
-    model's own; ``"meter"``: levelled to the meter, the model's power plus the mean of the
-    metered minus the model's power over the building's last occupied, served periods
-    (:func:`hvacflex.control.meter_response.meter_offset_kw`); ``"auto"``: ``"meter"`` on an
-    EnergyPlus plant, ``"model"`` on hvacflex's RC plant (whose meter is the power model's
-    own curves, or what the model was fitted to)."""
+    """The MPC: the level of the LP's power rows. ``"model"``: the power model's own;
+    ``"meter"``: levelled to the meter, each period's power the model's plus the mean of the
+    metered minus the model's power over the building's recent served periods of the same
+    class (occupied, the morning pull-down's unoccupied steps, the other unoccupied ones) at
+    the same time of day (:meth:`hvacflex.control.meter_response.MeterHistory.offsets_kw`);
+    ``"auto"``: ``"meter"`` on an EnergyPlus plant, ``"model"`` on hvacflex's RC plant (whose
+    meter is the power model's own curves, or what the model was fitted to)."""
     demand_limit_fraction: float = 0.9
     """``demand-limit``: the peak target's share of yesterday's unmanaged peak."""
     reserve_share: float = 0.2

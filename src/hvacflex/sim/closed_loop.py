@@ -419,11 +419,11 @@ class ClosedLoop:
         planned = action.predicted_curtailed_degc if curtailed else action.predicted_served_degc
         lower, upper = band_at_period_end_degc(exo, k)
         idle = flow <= self._flow_min_kg_s[int(exo.occupied[k])] + SETPOINT_IDLE_FLOW_KG_S
+        limit = upper + decision.allowance_k
         return Actuation(
-            setpoint_degc=setpoint_actuation_degc(
-                planned, idle, lower, upper + decision.allowance_k
-            ),
+            setpoint_degc=setpoint_actuation_degc(planned, idle, lower, limit),
             peak_guard=self._period_guard,
+            limit_degc=np.asarray(limit, dtype=np.float64),
         )
 
     def _state_after(

@@ -12,8 +12,9 @@ Actuation (docs/guide/energyplus.md):
   is the actuated value ("Zone Temperature Control" / "Cooling Setpoint"); its heating
   setpoint is min(the IDF's heating schedule, cooling − :data:`SETPOINT_DEADBAND_K`); at every
   zone time step in which some zone is warmer than its actuated cooling setpoint, or will be
-  at the next one if it keeps rising as it rose over the last (a sunny afternoon can lift an
-  unconditioned zone by more than 1 K in a 15-min step), the air loop's availability
+  warmer than its comfort limit (``Actuation.limit_degc``) at the next one if it keeps rising
+  as it rose over the last (a sunny afternoon can lift a zone left to float by more than 1 K
+  in a 15-min step), the air loop's availability
   schedules (availability managers, fans, coils, terminals) are forced on, so pre-cooling
   works outside the IDF's hours; otherwise the IDF's schedules decide.
   An all-NaN setpoint actuation releases every zone to the IDF's own schedules for the
@@ -244,6 +245,9 @@ class EnergyPlusPlant:
         self._period_shed = False
         self._previous_zone_degc: FloatArray | None = None
         """(m,) the zones' air temperatures at the last zone time step's start [°C]."""
+        self._limit_degc: FloatArray | None = None
+        """(m,) the period's comfort limits (``Actuation.limit_degc``) [°C], or None."""
+        self._limits: list[FloatArray | None] = []
         self.python_time_s = 0.0
         """Wall time of :meth:`step` outside the engine [s] (the plant's own overhead)."""
 
@@ -329,9 +333,9 @@ class EnergyPlusPlant:
         return actuators
 
     def _setpoint_rule(self, now: FloatArray, commanded: FloatArray) -> FloatArray:
-        """Heating setpoints below the cooling ones; availability forced on when a zone is,
-        or at its last step's rise will be by the next step, warmer than its actuated
-        cooling setpoint (see the module docstring)."""
+        """Heating setpoints below the cooling ones; availability forced on when a zone is
+        warmer than its actuated cooling setpoint, or at its last step's rise will be warmer
+        than its comfort limit by the next step (see the module docstring)."""
         m = self._m
         cooling = commanded[:m]
         applied = commanded.copy()
@@ -341,9 +345,11 @@ class EnergyPlusPlant:
         if np.isnan(cooling).any():
             applied[: 2 * m] = np.nan
         zone_degc = now[:m]
-        rise = 0.0 if self._previous_zone_degc is None else zone_degc - self._previous_zone_degc
+        needs_cooling = bool(np.any(zone_degc > cooling))
+        if self._previous_zone_degc is not None and self._limit_degc is not None:
+            rise = np.maximum(zone_degc - self._previous_zone_degc, 0.0)
+            needs_cooling = needs_cooling or bool(np.any(zone_degc + rise > self._limit_degc))
         self._previous_zone_degc = zone_degc.copy()
-        needs_cooling = bool(np.any(zone_degc + np.maximum(rise, 0.0) > cooling))
         applied[2 * m :] = AVAILABILITY_ON if needs_cooling else np.nan
         return applied
 
@@ -388,9 +394,9 @@ class EnergyPlusPlant:
         temperature as read then; ``power_kw`` and ``facility_power_kw`` NaN (no period has
         been metered), as on the RC plant."""
         self.close()
-        self._history, self._guards = [], []
+        self._history, self._guards, self._limits = [], [], []
         self._guard, self._shed_level, self._period_shed = None, 0.0, False
-        self._previous_zone_degc = None
+        self._previous_zone_degc, self._limit_degc = None, None
         self._sim = CoSimulation(self._spec, self.work_dir)
         reading = self._sim.start()
         refused = guard_meter_error(self.source, self._sim.missing_meters)
@@ -414,22 +420,26 @@ class EnergyPlusPlant:
             raise RuntimeError("call reset() before step()")
         values = self._actuator_values(actuation)
         engine_before = self._sim.engine_time_s
-        reading = self._advance(values, actuation.peak_guard)
+        reading = self._advance(values, actuation.peak_guard, actuation.limit_degc)
         observation = replace(self._observation(reading), peak_guard_active=self._period_shed)
         engine = self._sim.engine_time_s - engine_before
         self.python_time_s += time.perf_counter() - began - engine
         return observation
 
-    def _advance(self, values: FloatArray, guard: PeakGuard | None) -> PeriodReading:
-        """One period of the engine under ``values`` (na,) and ``guard``, recorded for
-        replay."""
+    def _advance(
+        self, values: FloatArray, guard: PeakGuard | None, limit_degc: FloatArray | None = None
+    ) -> PeriodReading:
+        """One period of the engine under ``values`` (na,), ``guard`` and the comfort limits
+        ``limit_degc`` (m,) [°C], recorded for replay."""
         assert self._sim is not None
         self._guard, self._period_shed = guard, False
+        self._limit_degc = None if limit_degc is None else np.asarray(limit_degc, np.float64)
         if guard is None:
             self._shed_level = 0.0
         reading = self._sim.advance(values)
         self._history.append(values.copy())
         self._guards.append(guard)
+        self._limits.append(self._limit_degc)
         return reading
 
     def _actuator_values(self, actuation: Actuation) -> FloatArray:
@@ -469,9 +479,10 @@ class EnergyPlusPlant:
         )
 
     def get_state(self) -> dict[str, Any]:
-        """The actuations applied since :meth:`reset` ((k, na) array) and the peak guards in
+        """The actuations applied since :meth:`reset` ((k, na) array), the peak guards in
         force (``guard_cap_kw`` (k,), NaN without one; ``guard_upper_degc`` and
-        ``guard_floor_kg_s`` (k, m)), for replay."""
+        ``guard_floor_kg_s`` (k, m)) and the comfort limits (``limit_degc`` (k, m), NaN
+        without), for replay."""
         k, m = len(self._history), self._m
         cap, upper, floor = np.full(k, np.nan), np.full((k, m), np.nan), np.full((k, m), np.nan)
         for j, guard in enumerate(self._guards):
@@ -481,11 +492,16 @@ class EnergyPlusPlant:
                     guard.comfort_upper_degc,
                     guard.flow_floor_kg_s,
                 )
+        limits = np.full((k, m), np.nan)
+        for j, limit in enumerate(self._limits):
+            if limit is not None:
+                limits[j] = limit
         return {
             "actuator_values": np.array(self._history).reshape(k, -1),
             "guard_cap_kw": cap,
             "guard_upper_degc": upper,
             "guard_floor_kg_s": floor,
+            "limit_degc": limits,
         }
 
     def set_state(self, state: dict[str, Any]) -> None:
@@ -497,6 +513,7 @@ class EnergyPlusPlant:
         cap = np.asarray(state.get("guard_cap_kw", np.full(k, np.nan)), dtype=np.float64)
         upper = np.asarray(state.get("guard_upper_degc", np.full((k, m), np.nan)))
         floor = np.asarray(state.get("guard_floor_kg_s", np.full((k, m), np.nan)))
+        limits = np.asarray(state.get("limit_degc", np.full((k, m), np.nan)), dtype=np.float64)
         self.reset(float("nan"))
         for j, values in enumerate(history):
             guard = (
@@ -504,7 +521,8 @@ class EnergyPlusPlant:
                 if np.isfinite(cap[j])
                 else None
             )
-            self._advance(values, guard)
+            limit = limits[j] if np.isfinite(limits[j]).all() else None
+            self._advance(values, guard, limit)
 
     def close(self) -> None:
         """End the EnergyPlus run (also done by the next :meth:`reset`)."""

@@ -82,6 +82,10 @@ class Actuation:
     supply_temp_degc : supply-air temperature [°C]; None: the plant's own (design) value.
     peak_guard : the in-period peak guard of the period (on a plant that
         ``reads_meter_in_period``), or None.
+    limit_degc : (m,) with ``setpoint_degc``, each zone's comfort limit for the period [°C]
+        (the band's upper bound at its end): a plant that starts its own loop (EnergyPlus)
+        starts it a time step early when a zone rising at its last step's rate would pass
+        it; None: no such anticipation.
     """
 
     flow_kg_s: FloatArray | None = None
@@ -89,6 +93,7 @@ class Actuation:
     cooling_kw: FloatArray | None = None
     supply_temp_degc: float | None = None
     peak_guard: PeakGuard | None = None
+    limit_degc: FloatArray | None = None
 
     def __post_init__(self) -> None:
         given = [
