@@ -32,9 +32,18 @@ from hvacflex.errors import HvacflexError
 if TYPE_CHECKING:
     from hvacflex.sim.sweep import JobOutcome
 
-ENERGYPLUS_SCENARIOS: tuple[str, ...] = ("a", "b", "c", "thermostat", "thermostat-25.5")
-"""Scenario keys run on EnergyPlus office5: (a), (b), (c), the 24 °C thermostat and
-``thermostat-25.5`` (25.5 °C with optimal start)."""
+ENERGYPLUS_SCENARIOS: tuple[str, ...] = (
+    "a",
+    "b",
+    "c",
+    "thermostat",
+    "thermostat-25.5",
+    "thermostat-25.5-float",
+    "gta-dr",
+)
+"""Scenario keys run on EnergyPlus office5: (a), (b), (c), the 24 °C thermostat,
+``thermostat-25.5`` (25.5 °C with optimal start), the same with a 0.25 K night float
+(``thermostat-25.5-float``) and ``gta-dr`` (the grid operator's demand-response rule)."""
 
 ENERGYPLUS_PREFIX = "energyplus-"
 """Run-name prefix of the runs on EnergyPlus (``energyplus-rmpc``, …)."""

@@ -95,6 +95,9 @@ PlantActuation = Literal["setpoint", "flow"]
 
 SETPOINT_DEADBAND_K = 1.0
 """The heating setpoint is kept at least this far below the actuated cooling setpoint [K]."""
+ANTICIPATION_TOLERANCE_K = 0.1
+"""The loop is started a zone time step early only when a zone, rising at its last step's
+rate, would pass its comfort limit by more than this [K]."""
 
 AVAILABILITY_ON = 1.0
 """Value of a forced-on availability schedule."""
@@ -348,7 +351,9 @@ class EnergyPlusPlant:
         needs_cooling = bool(np.any(zone_degc > cooling))
         if self._previous_zone_degc is not None and self._limit_degc is not None:
             rise = np.maximum(zone_degc - self._previous_zone_degc, 0.0)
-            needs_cooling = needs_cooling or bool(np.any(zone_degc + rise > self._limit_degc))
+            needs_cooling = needs_cooling or bool(
+                np.any(zone_degc + rise > self._limit_degc + ANTICIPATION_TOLERANCE_K)
+            )
         self._previous_zone_degc = zone_degc.copy()
         applied[2 * m :] = AVAILABILITY_ON if needs_cooling else np.nan
         return applied
