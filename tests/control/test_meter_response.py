@@ -191,3 +191,18 @@ def test_unoccupied_offsets_are_their_own_class_s_over_the_longer_window() -> No
     np.testing.assert_array_equal(
         resumed.offsets_kw(8, periods_per_day=4, period_class=classes), offsets
     )
+
+
+def test_a_state_stored_before_the_classes_resumes_with_its_rows_occupied() -> None:
+    old = {
+        "planned_kw": np.array([10.0, math.nan, 12.0]),
+        "metered_kw": np.array([9.0, 8.0, 11.0]),
+        "next_period": 3,
+        "open_period": -1,
+        "open_planned_kw": math.nan,
+    }
+    history = MeterHistory()
+    history.set_state(old)
+    np.testing.assert_array_equal(history.planned_kw, old["planned_kw"])
+    np.testing.assert_array_equal(history.metered_kw, old["metered_kw"])
+    np.testing.assert_array_equal(history.period_class, [OCCUPIED, -1, OCCUPIED])

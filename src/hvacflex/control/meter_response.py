@@ -259,6 +259,16 @@ class MeterHistory:
         }
 
     def set_state(self, state: dict[str, Any]) -> None:
+        """Restore :meth:`get_state`'s state; a state stored before the rows had classes (a
+        service's stored controller) has its usable rows read as occupied ones."""
+        if "model_kw" not in state:
+            planned = np.asarray(state["planned_kw"], dtype=float)
+            state = state | {
+                "model_kw": planned,
+                "meter_kw": state["metered_kw"],
+                "period_class": np.where(np.isfinite(planned), OCCUPIED, -1),
+                "open_class": OCCUPIED,
+            }
         self.model_kw = np.asarray(state["model_kw"], dtype=float).copy()
         self.meter_kw = np.asarray(state["meter_kw"], dtype=float).copy()
         self.period_class = np.asarray(state["period_class"], dtype=np.int8).copy()
