@@ -11,7 +11,10 @@ Coefficients that depend only on the problem's structure (A, B, E, C, N, mask) a
 *constant*: a builder made with ``constants=False`` skips them, so a receding-horizon solver
 rebuilds costs, bounds and the few step-varying coefficients (``p_k``, ``φ_k``, σ in the dual
 form) every step without re-assembling the matrix. Varying coefficients are kept even when
-zero, so that their positions in the matrix are known and can be updated in place.
+zero, so that their positions in the matrix are known and can be updated in place. A rebuild
+that is given the structure's varying pattern (``LPBuilder(varying_pattern=...)``, the
+:attr:`LinearProgram.varying` of the LP built with its constants) computes only their values:
+the positions are the structure's, in the same order, and are not broadcast again.
 """
 
 from __future__ import annotations
@@ -110,10 +113,14 @@ class LPBuilder:
     ----------
     constants : record the constant (structural) coefficients; False for a rebuild that
         only needs costs, bounds and the varying coefficients
+    varying_pattern : the varying coefficients of an LP of the same structure built by the
+        same calls (its rows and columns are reused; only the values are computed), or None
     """
 
-    def __init__(self, *, constants: bool = True) -> None:
+    def __init__(self, *, constants: bool = True, varying_pattern: Triplets | None = None) -> None:
         self.records_constants = constants
+        self._pattern = varying_pattern
+        self._varying_values: list[FloatArray] = []
         self.num_cols = 0
         self.num_rows = 0
         self._cols: list[_Assignment] = []
@@ -183,8 +190,16 @@ class LPBuilder:
             self._constant.append(_broadcast(rows, cols, values))
 
     def add_varying_coefficients(self, rows: object, cols: object, values: object) -> None:
-        """Coefficients that change from step to step (broadcast together; zeros kept)."""
-        self._varying.append(_broadcast(rows, cols, values))
+        """Coefficients that change from step to step (broadcast together; zeros kept).
+
+        With a ``varying_pattern`` only the values are kept (broadcast to the common shape).
+        """
+        if self._pattern is None:
+            self._varying.append(_broadcast(rows, cols, values))
+            return
+        shape = np.broadcast(rows, cols, values).shape  # type: ignore[call-overload]
+        flat = np.broadcast_to(np.asarray(values, dtype=np.float64), shape).ravel()
+        self._varying_values.append(flat)
 
     def finish(self) -> LinearProgram:
         """The LP collected so far."""
@@ -210,11 +225,25 @@ class LPBuilder:
             row_lower=row_lower,
             row_upper=row_upper,
             constant=Triplets.join(self._constant) if self.records_constants else None,
-            varying=Triplets.join(self._varying),
+            varying=self._varying_triplets(),
             time_cols=tuple(self._time_cols),
             time_rows=tuple(self._time_rows),
             permuted_rows=tuple(self._permuted_rows),
         )
+
+    def _varying_triplets(self) -> Triplets:
+        """The varying coefficients collected: triplets, or the pattern's positions with the
+        values computed now."""
+        pattern = self._pattern
+        if pattern is None:
+            return Triplets.join(self._varying)
+        values = np.concatenate(self._varying_values) if self._varying_values else np.zeros(0)
+        if values.size != pattern.values.size:
+            raise ValueError(
+                f"{values.size} varying coefficients for a pattern of {pattern.values.size}: "
+                "the pattern belongs to another LP structure"
+            )
+        return Triplets(pattern.rows, pattern.cols, values)
 
 
 def _record(
