@@ -23,8 +23,8 @@ from hvacflex.opt import (
 )
 from hvacflex.opt.events import (
     carry_allowance,
-    event_row_bounds,
     event_rotation,
+    event_row_bounds,
     event_rows,
     violated_rows,
     worst_event_output,

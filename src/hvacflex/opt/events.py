@@ -391,11 +391,13 @@ def event_trajectory(
     """
     horizon = r_reserve.shape[0]
     d = max_steps or horizon
-    curtailed = x_served.copy()
+    shifts = np.empty((horizon, a_matrix.shape[0]))  # the event's effect on x_1 … x_N
     shift = np.zeros(a_matrix.shape[0])
     for k in range(horizon):
         shift = a_matrix @ shift
         if k < d:
             shift = shift - b_reserve @ r_reserve[k]
-        curtailed[k + 1] = x_served[k + 1] + shift
+        shifts[k] = shift
+    curtailed = x_served.copy()
+    curtailed[1 : horizon + 1] += shifts
     return curtailed
