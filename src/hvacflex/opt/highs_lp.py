@@ -463,10 +463,7 @@ class HighsSession:
 
     def iterations(self) -> int:
         """Simplex iterations of the last run (0 where HiGHS reports none)."""
-        status, count = self.highs.getInfoValue("simplex_iteration_count")
-        if status != highspy.HighsStatus.kOk:  # no valid info: the whole record says why
-            count = self.highs.getInfo().simplex_iteration_count
-        return max(0, int(count))
+        return max(0, int(self.highs.getInfo().simplex_iteration_count))
 
     def values(self) -> FloatArray:
         """(num_cols,) primal values of the last run."""
