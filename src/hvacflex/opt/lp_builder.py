@@ -103,7 +103,9 @@ def sparse_matrix(
     return sparse.csr_matrix((values, (rows, cols)), shape=shape)
 
 
-_Assignment = tuple[IntArray, FloatArray | float, FloatArray | float]
+_Block = tuple[slice, tuple[int, ...]]
+"""A block the builder handed out: its consecutive indices and its shape."""
+_Assignment = tuple[_Block, FloatArray | float, FloatArray | float]
 
 
 class LPBuilder:
@@ -125,6 +127,7 @@ class LPBuilder:
         self.num_rows = 0
         self._cols: list[_Assignment] = []
         self._rows: list[_Assignment] = []
+        self._cols_narrowed: list[tuple[IntArray, FloatArray | float, FloatArray | float]] = []
         self._costs: list[tuple[IntArray, FloatArray | float]] = []
         self._constant: list[tuple[IntArray, IntArray, FloatArray]] = []
         self._varying: list[tuple[IntArray, IntArray, FloatArray]] = []
@@ -147,8 +150,11 @@ class LPBuilder:
     ) -> IntArray:
         """A new block of variables shaped ``shape`` with bounds (broadcast); its indices."""
         index = self._take(self.num_cols, shape)
+        self._cols.append(((slice(self.num_cols, self.num_cols + index.size), shape), lower, upper))
         self.num_cols += index.size
-        return _record(index, lower, upper, self._cols, self._time_cols if time_indexed else None)
+        if time_indexed:
+            self._time_cols.append(index)
+        return index
 
     def add_rows(
         self,
@@ -166,8 +172,8 @@ class LPBuilder:
         starts from row ``index[time_permutation[e]]`` (for blocks not rectangular in k).
         """
         index = self._take(self.num_rows, shape)
+        self._rows.append(((slice(self.num_rows, self.num_rows + index.size), shape), lower, upper))
         self.num_rows += index.size
-        self._rows.append((index, lower, upper))
         if time_indexed:
             self._time_rows.append(index)
         if time_permutation is not None:
@@ -178,7 +184,7 @@ class LPBuilder:
         self, cols: IntArray, *, lower: FloatArray | float, upper: FloatArray | float
     ) -> None:
         """New bounds of existing columns ``cols`` (broadcast; later calls win)."""
-        self._cols.append((cols, lower, upper))
+        self._cols_narrowed.append((cols, lower, upper))
 
     def set_cost(self, cols: IntArray, cost: FloatArray | float) -> None:
         """Objective coefficients of ``cols`` (broadcast; later calls win)."""
@@ -208,12 +214,16 @@ class LPBuilder:
         col_upper = np.full(self.num_cols, np.inf)
         row_lower = np.full(self.num_rows, -np.inf)
         row_upper = np.full(self.num_rows, np.inf)
-        for index, lower, upper in self._cols:
+        for bounds, assignments in (
+            ((col_lower, col_upper), self._cols),
+            ((row_lower, row_upper), self._rows),
+        ):
+            for (block, shape), lower, upper in assignments:  # views of consecutive entries
+                bounds[0][block].reshape(shape)[...] = lower
+                bounds[1][block].reshape(shape)[...] = upper
+        for index, lower, upper in self._cols_narrowed:  # after the blocks' own bounds
             col_lower[index] = lower
             col_upper[index] = upper
-        for index, lower, upper in self._rows:
-            row_lower[index] = lower
-            row_upper[index] = upper
         for index, value in self._costs:
             cost[index] = value
         return LinearProgram(
@@ -244,21 +254,6 @@ class LPBuilder:
                 "the pattern belongs to another LP structure"
             )
         return Triplets(pattern.rows, pattern.cols, values)
-
-
-def _record(
-    index: IntArray,
-    lower: FloatArray | float,
-    upper: FloatArray | float,
-    blocks: list[_Assignment],
-    time_blocks: list[IntArray] | None,
-) -> IntArray:
-    """Note a new block of columns or rows with its bounds (and, if ``time_blocks`` is given,
-    as time-indexed); return its indices."""
-    blocks.append((index, lower, upper))
-    if time_blocks is not None:
-        time_blocks.append(index)
-    return index
 
 
 def _broadcast(rows: object, cols: object, values: object) -> tuple[IntArray, IntArray, FloatArray]:
