@@ -204,8 +204,9 @@ class LPBuilder:
             self._varying.append(_broadcast(rows, cols, values))
             return
         shape = np.broadcast(rows, cols, values).shape  # type: ignore[call-overload]
-        flat = np.broadcast_to(np.asarray(values, dtype=np.float64), shape).ravel()
-        self._varying_values.append(flat)
+        flat = np.empty(shape)
+        flat[...] = values  # broadcast, as float64
+        self._varying_values.append(flat.ravel())
 
     def finish(self) -> LinearProgram:
         """The LP collected so far."""
