@@ -203,9 +203,10 @@ class LPBuilder:
         if self._pattern is None:
             self._varying.append(_broadcast(rows, cols, values))
             return
-        shape = np.broadcast(rows, cols, values).shape  # type: ignore[call-overload]
+        value = np.asarray(values, dtype=np.float64)
+        shape = np.broadcast(np.asarray(rows), np.asarray(cols), value).shape
         flat = np.empty(shape)
-        flat[...] = values  # broadcast, as float64
+        flat[...] = value  # broadcast
         self._varying_values.append(flat.ravel())
 
     def finish(self) -> LinearProgram:
