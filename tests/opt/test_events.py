@@ -21,7 +21,14 @@ from hvacflex.opt import (
     SolveStatus,
     solve_rmpc,
 )
-from hvacflex.opt.events import carry_allowance, event_rotation, event_rows, violated_rows
+from hvacflex.opt.events import (
+    carry_allowance,
+    event_rotation,
+    event_row_bounds,
+    event_rows,
+    violated_rows,
+    worst_event_output,
+)
 from hvacflex.opt.lp import build_lp
 from hvacflex.opt.options import (
     RESERVE_TIE_BREAK_SGD_PER_KG_S_HOUR,
@@ -676,3 +683,41 @@ def test_warm_started_solver_with_offer_baselines_equals_cold_solves(mode: str) 
         problems[0].structure.fingerprint()
         != dataclasses.replace(problems[0], offer_baselines=None).structure.fingerprint()
     )
+
+
+@pytest.mark.parametrize(("horizon", "max_steps"), [(6, 1), (6, 3), (6, 6), (7, None), (1, 1)])
+def test_worst_event_output_equals_every_event_enumerated(
+    horizon: int, max_steps: int | None
+) -> None:
+    """The worst output over every event (s, L ≤ D), summed by hand, with the served plan."""
+    rng = np.random.default_rng(horizon * 10 + (max_steps or 0))
+    ny, m_r = 2, 3
+    responses = rng.uniform(0.0, 1.0, (horizon, ny, m_r))
+    served = rng.normal(24.0, 1.0, (horizon, ny))
+    reserve = rng.uniform(0.0, 2.0, (horizon, m_r))
+    delta = rng.uniform(0.0, 0.3, (horizon, ny))
+    d = max_steps or horizon
+    expected = served.copy()
+    for start in range(horizon):
+        for length in range(1, d + 1):
+            for k in range(horizon):  # output k + 1 sees the inputs j ≤ k
+                inputs = range(start, min(start + length, k + 1))
+                rise = sum((responses[k - j] @ reserve[j] for j in inputs), np.zeros(ny))
+                expected[k] = np.maximum(expected[k], served[k] + rise)
+    got = worst_event_output(responses, served, reserve, delta, max_steps)
+    np.testing.assert_allclose(got, expected + delta, rtol=1e-12, atol=1e-12)
+
+
+def test_event_row_bounds_by_hand_and_cached_arrays_are_read_only() -> None:
+    rows = event_rows(3, 2, 2, 1)
+    y_max = np.array([[25.0, 26.0], [25.5, 26.5], [24.0, 27.0]])
+    delta = np.full((3, 2), 0.25)
+    lower, upper = event_row_bounds(rows, y_max, delta, 1.5, 2, 1)
+    carry = carry_allowance(3, 2, 1.5, 2, 1)
+    for e in range(rows.num_rows):
+        k, i = rows.step[e], rows.output[e]
+        widening = 1.5 if rows.allowance[e] else carry[k, i]
+        assert upper[e] == y_max[k, i] - 0.25 + widening
+    assert np.isneginf(lower).all()
+    np.testing.assert_array_equal(rows.flat_index, rows.step * 2 + rows.output)
+    assert not carry.flags.writeable and not rows.flat_index.flags.writeable

@@ -16,6 +16,7 @@ from hvacflex.opt.basis import BASIC, UPPER, SolverBasis
 from hvacflex.opt.highs_lp import (
     BASE_OPTIONS,
     DANTZIG_PRICING,
+    HIGHS_ERROR,
     WARM_DUAL_FEASIBILITY_TOLERANCE,
     WARM_SCALE_STRATEGY,
     HighsSession,
@@ -224,6 +225,9 @@ def test_iterations_are_never_negative_after_a_solver_error() -> None:
     class AfterFailure:
         def getInfo(self) -> FailedInfo:
             return FailedInfo()
+
+        def getInfoValue(self, name: str) -> tuple[object, int]:
+            return HIGHS_ERROR, 123456  # no valid record: the value means nothing
 
     session = _session()
     session.run(False)

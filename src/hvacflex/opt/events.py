@@ -107,6 +107,15 @@ class EventRows:
         """Number of event rows."""
         return int(self.step.size)
 
+    @functools.cached_property
+    def flat_index(self) -> IntArray:
+        """(num_rows,) each row's (step, output) as a flat index into a C-ordered (N, ny)
+        array (computed once; read-only)."""
+        ny = int(self.output.max(initial=-1)) + 1
+        flat: IntArray = self.step * ny + self.output
+        flat.setflags(write=False)
+        return flat
+
 
 @functools.lru_cache(maxsize=16)
 def event_rows(horizon: int, ny: int, max_steps: int | None, recovery_steps: int) -> EventRows:
@@ -211,12 +220,14 @@ def event_matrix(
     return matrix
 
 
+@functools.lru_cache(maxsize=64)
 def carry_allowance(
     horizon: int, ny: int, allowance_kelvin: float, carry_steps: int, recovery_steps: int = 0
 ) -> FloatArray:
     """(N, ny) widening of the upper bound during the recovery from an event that ended
     before the horizon [K]: a decaying allowance ``α · min(1, (c − t + 1) / (R + 1))`` on
-    outputs t = 1 … c, 0 elsewhere.
+    outputs t = 1 … c, 0 elsewhere. Cached (a read-only array: a controller asks for the same
+    few every step).
 
     With c = R (the plan made as the curtailment ends) the widening falls from α·R/(R+1) at
     t = 1 to α/(R+1) at t = R; one step later (c = R − 1) the same instants get the same
@@ -227,6 +238,7 @@ def carry_allowance(
     steps = np.arange(1, min(carry_steps, horizon) + 1)
     share = np.minimum(1.0, (carry_steps - steps + 1) / (recovery_steps + 1))
     widening[: steps.size] = allowance_kelvin * share[:, None]
+    widening.setflags(write=False)
     return widening
 
 
@@ -245,10 +257,28 @@ def event_row_bounds(
     (N, ny).
     """
     horizon, ny = y_max.shape
-    carry = carry_allowance(horizon, ny, allowance_kelvin, carry_steps, recovery_steps)
-    upper = y_max[rows.step, rows.output] - delta[rows.step, rows.output]
-    widening = np.where(rows.allowance, allowance_kelvin, carry[rows.step, rows.output])
+    widening = _row_widening(rows, horizon, ny, allowance_kelvin, carry_steps, recovery_steps)
+    upper = np.subtract(y_max, delta).ravel()[rows.flat_index]
     return np.full(rows.num_rows, -np.inf), upper + widening
+
+
+@functools.lru_cache(maxsize=64)
+def _row_widening(
+    rows: EventRows,
+    horizon: int,
+    ny: int,
+    allowance_kelvin: float,
+    carry_steps: int,
+    recovery_steps: int,
+) -> FloatArray:
+    """(num_rows,) α on allowance rows, the recovery's decaying allowance on strict rows [K]
+    (:func:`event_row_bounds`; cached, read-only)."""
+    carry = carry_allowance(horizon, ny, allowance_kelvin, carry_steps, recovery_steps)
+    widening: FloatArray = np.where(
+        rows.allowance, allowance_kelvin, carry.ravel()[rows.flat_index]
+    )
+    widening.setflags(write=False)
+    return widening
 
 
 def event_rotation(rows: EventRows) -> IntArray:
@@ -284,12 +314,26 @@ def violated_rows(violation: FloatArray, candidate: BoolArray, tolerance_k: floa
 
 
 @functools.lru_cache(maxsize=8)
-def _lower_triangle(horizon: int) -> tuple[IntArray, IntArray]:
-    """``np.tril_indices(horizon)`` (row, column ≤ row), cached (read-only arrays)."""
+def _lower_triangle(horizon: int) -> tuple[IntArray, IntArray, IntArray]:
+    """``np.tril_indices(horizon)`` (row, column ≤ row) and their difference, cached
+    (read-only arrays)."""
     rows, cols = np.tril_indices(horizon)
-    rows.setflags(write=False)
-    cols.setflags(write=False)
-    return rows, cols
+    lags = rows - cols
+    for array in (rows, cols, lags):
+        array.setflags(write=False)
+    return rows, cols, lags
+
+
+@functools.lru_cache(maxsize=8)
+def _full_windows(horizon: int, max_steps: int) -> BoolArray:
+    """(N − D, N + 1 − D) whether the window a … a + D − 1 (column a) lies within the inputs
+    0 … k of output k = D + i (row i), cached (read-only)."""
+    steps = np.arange(horizon)
+    inside: BoolArray = (
+        steps[None, : horizon + 1 - max_steps] + max_steps <= steps[max_steps:, None] + 1
+    )
+    inside.setflags(write=False)
+    return inside
 
 
 def worst_event_output(
@@ -311,26 +355,24 @@ def worst_event_output(
     extra = np.zeros_like(served_outputs)
     if r_reserve.shape[1]:
         d = max_steps or horizon
-        steps = np.arange(horizon)
         # contrib[k, j] = H_{k-j} r_j (ny) for j ≤ k, else 0. Under the sign conditions it is
         # ≥ 0 (cooling) or ≤ 0 (heating: then the served plan is the upper-side worst); the
         # clip removes round-off and the heating case.
         # every H_l r_j as one product, [l, :, j]; then contrib[k, j] = H_{k-j} r_j
         products = (responses.reshape(horizon * ny, -1) @ r_reserve.T).reshape(horizon, ny, -1)
-        output, source = _lower_triangle(horizon)
+        output, source, lag = _lower_triangle(horizon)
         contrib = np.zeros((horizon, horizon, ny))
-        contrib[output, source] = np.maximum(products[output - source, :, source], 0.0)
-        prefix = np.concatenate(
-            [np.zeros((horizon, 1, ny)), np.cumsum(contrib, axis=1)], axis=1
-        )  # [k, b] = Σ_{j<b} contrib[k, j]
+        contrib[output, source] = np.maximum(products[lag, :, source], 0.0)
+        prefix = np.zeros((horizon, horizon + 1, ny))  # [k, b] = Σ_{j<b} contrib[k, j]
+        np.cumsum(contrib, axis=1, out=prefix[:, 1:])
         # contributions ≥ 0: the worst window for output k+1 has length min(D, k+1)
-        short = steps + 1 <= d
-        extra[short] = prefix[short, steps[short] + 1]  # the window 0..k
-        if (~short).any():
-            sums = prefix[:, d:] - prefix[:, :-d]  # [k, a]: window a..a+d-1
-            inside = (steps[None, :] + d <= steps[:, None] + 1)[:horizon, : horizon + 1 - d]
-            masked = np.where(inside[..., None], sums, -np.inf)
-            extra[~short] = masked[~short].max(axis=1)
+        short = min(d, horizon)  # outputs k < D: the window 0..k
+        steps = np.arange(short)
+        extra[:short] = prefix[steps, steps + 1]
+        if short < horizon:  # outputs k ≥ D: the largest window a..a+D−1 within 0..k
+            sums = prefix[short:, d:] - prefix[short:, :-d]
+            masked = np.where(_full_windows(horizon, d)[..., None], sums, -np.inf)
+            extra[short:] = masked.max(axis=1)
     worst: FloatArray = served_outputs + extra + delta
     return worst
 
@@ -349,11 +391,13 @@ def event_trajectory(
     """
     horizon = r_reserve.shape[0]
     d = max_steps or horizon
-    curtailed = x_served.copy()
+    shifts = np.empty((horizon, a_matrix.shape[0]))  # the event's effect on x_1 … x_N
     shift = np.zeros(a_matrix.shape[0])
     for k in range(horizon):
         shift = a_matrix @ shift
         if k < d:
             shift = shift - b_reserve @ r_reserve[k]
-        curtailed[k + 1] = x_served[k + 1] + shift
+        shifts[k] = shift
+    curtailed = x_served.copy()
+    curtailed[1 : horizon + 1] += shifts
     return curtailed

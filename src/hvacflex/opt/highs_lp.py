@@ -463,7 +463,10 @@ class HighsSession:
 
     def iterations(self) -> int:
         """Simplex iterations of the last run (0 where HiGHS reports none)."""
-        return max(0, int(self.highs.getInfo().simplex_iteration_count))
+        status, count = self.highs.getInfoValue("simplex_iteration_count")
+        if status != highspy.HighsStatus.kOk:  # no valid record (a failed run): HiGHS's own
+            count = self.highs.getInfo().simplex_iteration_count
+        return max(0, int(count))
 
     def values(self) -> FloatArray:
         """(num_cols,) primal values of the last run."""

@@ -453,14 +453,17 @@ def build_lp(
     *,
     responses: FloatArray | None = None,
     constants: bool = True,
+    varying_pattern: Triplets | None = None,
 ) -> tuple[LinearProgram, LPLayout]:
     """The open-loop LP of ``p`` with comfort margins ``margin_k`` (N, ny) [K].
 
     In the dual form (``p.robust == "dual"``) pass ``margin_k = 0`` and the impulse
     ``responses`` (N, ny, nd): the λ's carry the robustness. ``constants=False`` skips the
-    constant coefficients (see the module docstring).
+    constant coefficients (see the module docstring); ``varying_pattern``, the ``varying``
+    of an LP of the same structure, skips the varying coefficients' positions
+    (:class:`LPBuilder`).
     """
-    lp = LPBuilder(constants=constants)
+    lp = LPBuilder(constants=constants, varying_pattern=varying_pattern)
     v = add_plan_variables(lp, p, power_column=True)
     add_committed_reserve(lp, p, v)
     add_power_cap(lp, p, v)

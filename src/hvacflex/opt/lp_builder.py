@@ -11,7 +11,10 @@ Coefficients that depend only on the problem's structure (A, B, E, C, N, mask) a
 *constant*: a builder made with ``constants=False`` skips them, so a receding-horizon solver
 rebuilds costs, bounds and the few step-varying coefficients (``p_k``, ``φ_k``, σ in the dual
 form) every step without re-assembling the matrix. Varying coefficients are kept even when
-zero, so that their positions in the matrix are known and can be updated in place.
+zero, so that their positions in the matrix are known and can be updated in place. A rebuild
+that is given the structure's varying pattern (``LPBuilder(varying_pattern=...)``, the
+:attr:`LinearProgram.varying` of the LP built with its constants) computes only their values:
+the positions are the structure's, in the same order, and are not broadcast again.
 """
 
 from __future__ import annotations
@@ -100,7 +103,9 @@ def sparse_matrix(
     return sparse.csr_matrix((values, (rows, cols)), shape=shape)
 
 
-_Assignment = tuple[IntArray, FloatArray | float, FloatArray | float]
+_Block = tuple[slice, tuple[int, ...]]
+"""A block the builder handed out: its consecutive indices and its shape."""
+_Assignment = tuple[_Block, FloatArray | float, FloatArray | float]
 
 
 class LPBuilder:
@@ -110,14 +115,19 @@ class LPBuilder:
     ----------
     constants : record the constant (structural) coefficients; False for a rebuild that
         only needs costs, bounds and the varying coefficients
+    varying_pattern : the varying coefficients of an LP of the same structure built by the
+        same calls (its rows and columns are reused; only the values are computed), or None
     """
 
-    def __init__(self, *, constants: bool = True) -> None:
+    def __init__(self, *, constants: bool = True, varying_pattern: Triplets | None = None) -> None:
         self.records_constants = constants
+        self._pattern = varying_pattern
+        self._varying_values: list[FloatArray] = []
         self.num_cols = 0
         self.num_rows = 0
         self._cols: list[_Assignment] = []
         self._rows: list[_Assignment] = []
+        self._cols_narrowed: list[tuple[IntArray, FloatArray | float, FloatArray | float]] = []
         self._costs: list[tuple[IntArray, FloatArray | float]] = []
         self._constant: list[tuple[IntArray, IntArray, FloatArray]] = []
         self._varying: list[tuple[IntArray, IntArray, FloatArray]] = []
@@ -140,8 +150,11 @@ class LPBuilder:
     ) -> IntArray:
         """A new block of variables shaped ``shape`` with bounds (broadcast); its indices."""
         index = self._take(self.num_cols, shape)
+        self._cols.append(((slice(self.num_cols, self.num_cols + index.size), shape), lower, upper))
         self.num_cols += index.size
-        return _record(index, lower, upper, self._cols, self._time_cols if time_indexed else None)
+        if time_indexed:
+            self._time_cols.append(index)
+        return index
 
     def add_rows(
         self,
@@ -159,8 +172,8 @@ class LPBuilder:
         starts from row ``index[time_permutation[e]]`` (for blocks not rectangular in k).
         """
         index = self._take(self.num_rows, shape)
+        self._rows.append(((slice(self.num_rows, self.num_rows + index.size), shape), lower, upper))
         self.num_rows += index.size
-        self._rows.append((index, lower, upper))
         if time_indexed:
             self._time_rows.append(index)
         if time_permutation is not None:
@@ -171,7 +184,7 @@ class LPBuilder:
         self, cols: IntArray, *, lower: FloatArray | float, upper: FloatArray | float
     ) -> None:
         """New bounds of existing columns ``cols`` (broadcast; later calls win)."""
-        self._cols.append((cols, lower, upper))
+        self._cols_narrowed.append((cols, lower, upper))
 
     def set_cost(self, cols: IntArray, cost: FloatArray | float) -> None:
         """Objective coefficients of ``cols`` (broadcast; later calls win)."""
@@ -183,8 +196,18 @@ class LPBuilder:
             self._constant.append(_broadcast(rows, cols, values))
 
     def add_varying_coefficients(self, rows: object, cols: object, values: object) -> None:
-        """Coefficients that change from step to step (broadcast together; zeros kept)."""
-        self._varying.append(_broadcast(rows, cols, values))
+        """Coefficients that change from step to step (broadcast together; zeros kept).
+
+        With a ``varying_pattern`` only the values are kept (broadcast to the common shape).
+        """
+        if self._pattern is None:
+            self._varying.append(_broadcast(rows, cols, values))
+            return
+        value = np.asarray(values, dtype=np.float64)
+        shape = np.broadcast(np.asarray(rows), np.asarray(cols), value).shape
+        flat = np.empty(shape)
+        flat[...] = value  # broadcast
+        self._varying_values.append(flat.ravel())
 
     def finish(self) -> LinearProgram:
         """The LP collected so far."""
@@ -193,12 +216,16 @@ class LPBuilder:
         col_upper = np.full(self.num_cols, np.inf)
         row_lower = np.full(self.num_rows, -np.inf)
         row_upper = np.full(self.num_rows, np.inf)
-        for index, lower, upper in self._cols:
+        for bounds, assignments in (
+            ((col_lower, col_upper), self._cols),
+            ((row_lower, row_upper), self._rows),
+        ):
+            for (block, shape), lower, upper in assignments:  # views of consecutive entries
+                bounds[0][block].reshape(shape)[...] = lower
+                bounds[1][block].reshape(shape)[...] = upper
+        for index, lower, upper in self._cols_narrowed:  # after the blocks' own bounds
             col_lower[index] = lower
             col_upper[index] = upper
-        for index, lower, upper in self._rows:
-            row_lower[index] = lower
-            row_upper[index] = upper
         for index, value in self._costs:
             cost[index] = value
         return LinearProgram(
@@ -210,26 +237,25 @@ class LPBuilder:
             row_lower=row_lower,
             row_upper=row_upper,
             constant=Triplets.join(self._constant) if self.records_constants else None,
-            varying=Triplets.join(self._varying),
+            varying=self._varying_triplets(),
             time_cols=tuple(self._time_cols),
             time_rows=tuple(self._time_rows),
             permuted_rows=tuple(self._permuted_rows),
         )
 
-
-def _record(
-    index: IntArray,
-    lower: FloatArray | float,
-    upper: FloatArray | float,
-    blocks: list[_Assignment],
-    time_blocks: list[IntArray] | None,
-) -> IntArray:
-    """Note a new block of columns or rows with its bounds (and, if ``time_blocks`` is given,
-    as time-indexed); return its indices."""
-    blocks.append((index, lower, upper))
-    if time_blocks is not None:
-        time_blocks.append(index)
-    return index
+    def _varying_triplets(self) -> Triplets:
+        """The varying coefficients collected: triplets, or the pattern's positions with the
+        values computed now."""
+        pattern = self._pattern
+        if pattern is None:
+            return Triplets.join(self._varying)
+        values = np.concatenate(self._varying_values) if self._varying_values else np.zeros(0)
+        if values.size != pattern.values.size:
+            raise ValueError(
+                f"{values.size} varying coefficients for a pattern of {pattern.values.size}: "
+                "the pattern belongs to another LP structure"
+            )
+        return Triplets(pattern.rows, pattern.cols, values)
 
 
 def _broadcast(rows: object, cols: object, values: object) -> tuple[IntArray, IntArray, FloatArray]:

@@ -300,8 +300,14 @@ class RMPCSolver:
         then HiGHS's basis must be set again)."""
         highs = self._highs
         tightening = self._tightening(problem, delta)
-        lp, _ = build_lp(problem, tightening, responses=self._responses, constants=False)
         old = self._lp
+        lp, _ = build_lp(
+            problem,
+            tightening,
+            responses=self._responses,
+            constants=False,
+            varying_pattern=old.varying,
+        )
         changed = np.flatnonzero(lp.cost != old.cost).astype(np.int32)
         if changed.size:
             highs.changeColsCost(changed.size, changed, lp.cost[changed])
