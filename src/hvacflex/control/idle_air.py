@@ -1,18 +1,22 @@
 """An identified building's fan-only air in the plan: the coil scheduled off.
 
 An air system may run its fans while its cooling coil is scheduled off (5ZoneAirCooled: out
-of its weekday 06:00–20:00 and all weekend). ``hvacflex identify fit`` learns those hours and
-the fan-only air's temperature (``[identified.idle_air]``,
+of its weekday 06:00–20:00 and all weekend), or while a zone's own cycling coil idles (the
+reference small office's packaged units: the fans run on ``HVACOperationSchd``, working days
+06:00–22:00). ``hvacflex identify fit`` learns those hours, the fan-only air's temperature
+and, for units per zone, its flow (``[identified.idle_air]``,
 :class:`hvacflex.building.identified.IdentifiedIdleAir`); the MPC then
 
 * plans an idle zone's input in those hours as what its fan-only air delivers
   (:func:`idle_flow_min_kg_s`: the step's lower flow bound), not as its minimum flow at the
   coil's temperature — without it the plan counted every night's minimum flow as the coil's
   cooling and predicted the zones 1.2–1.8 K colder than EnergyPlus;
-* knows that one zone calling for cooling starts the coil for all (one air system: the
-  setpoint actuation forces the coil's availability on), so the period's idle zones then
-  receive the coil's air at their minimum flow (:func:`coil_started_flows_kg_s`: the flows
-  the controller reports it applies; the plan itself is not re-solved).
+* knows that, with one air system, one zone calling for cooling starts the coil for all
+  (the setpoint actuation forces the coil's availability on), so the period's idle zones
+  then receive the coil's air at their minimum flow (:func:`coil_started_flows_kg_s`: the
+  flows the controller reports it applies; the plan itself is not re-solved). With a unit
+  per zone (``fan_only_flow_kg_s`` recorded, :func:`shares_one_coil` False) an idle zone
+  keeps its fan-only air whatever the others do.
 """
 
 from __future__ import annotations
@@ -46,6 +50,14 @@ def coil_started_flows_kg_s(
     return out
 
 
+def shares_one_coil(building: Building) -> bool:
+    """Whether a zone's call starts the coil for every zone of ``building`` (one air system,
+    :func:`coil_started_flows_kg_s`): an identified building whose ``[identified.idle_air]``
+    has no per-zone fan-only flow; False without the table (nothing is fan-only)."""
+    rc = building.identified
+    return rc is not None and rc.idle_air is not None and rc.idle_air.fan_only_flow_kg_s is None
+
+
 def idle_flow_min_kg_s(
     u_min: FloatArray,
     building: Building,
@@ -56,9 +68,10 @@ def idle_flow_min_kg_s(
     """(N, m) the steps' lower flow bounds [kg/s] with an identified building's fan-only air.
 
     Where ``[identified.idle_air]`` says the coil is scheduled off (the step's weekday and
-    period of the day, ``index`` (N,) its starts), a zone at its minimum flow receives air
-    only ``fan_only_difference_k`` below the zone, not the coil's: its bound is the model
-    input that delivers ``ṁ_min c_p ΔT`` at the zone's present temperature
+    period of the day, ``index`` (N,) its starts), an idle zone receives air only
+    ``fan_only_difference_k`` below the zone, not the coil's, at its minimum flow ``ṁ_min``
+    (or at its ``fan_only_flow_kg_s``, a unit per zone): its bound is the model input that
+    delivers ``ṁ_min c_p ΔT`` at the zone's present temperature
     (:func:`~hvacflex.building.discretize.delivered_flow_kg_s`, as the observer takes the
     plant's report), never above ``u_min``. So the plan does not count an idle night's
     minimum flow as the coil's cooling; more than the bound is the coil's air (the
@@ -73,7 +86,10 @@ def idle_flow_min_kg_s(
     fan_only = idle.fan_only_at(starts.day_of_week, period_of_day(starts))
     if not fan_only.any():
         return u_min
-    flow_min = np.asarray(building.hvac.flow_min_kg_s, dtype=float)
+    flow_min = np.asarray(
+        building.hvac.flow_min_kg_s if idle.fan_only_flow_kg_s is None else idle.fan_only_flow_kg_s,
+        dtype=float,
+    )
     inlet = zone_temp_degc - np.asarray(idle.fan_only_difference_k, dtype=float)
     fan_input = delivered_flow_kg_s(model, flow_min, zone_temp_degc, inlet)
     out: FloatArray = np.where(fan_only[:, None], np.minimum(u_min, fan_input[None, :]), u_min)

@@ -34,7 +34,7 @@ from hvacflex.config import ControllerConfig, Linearisation, ReserveConfig
 from hvacflex.control.base import Action, Controller, FloatArray, PeriodInputs
 from hvacflex.control.baselines import ThermostatController, unplanned_action
 from hvacflex.control.estimation import AppliedStep, KalmanConfig, KalmanEstimator, StepModel
-from hvacflex.control.idle_air import coil_started_flows_kg_s
+from hvacflex.control.idle_air import coil_started_flows_kg_s, shares_one_coil
 from hvacflex.control.offers import OfferSizer, offer_steps, seen_steps, snapped_flows_kg_s
 from hvacflex.control.problem_builder import (
     PlanContext,
@@ -284,7 +284,7 @@ class MPCController(Controller):
         flows, reserves = snapped_flows_kg_s(problem, solution, steps, self.contract.flow_max_kg_s)
         visible_kw = sizer.visible_offers_kw(problem, solution.power_kw, reserves)
         flow, reserve = flows[0], reserves[0]
-        if self.contract.config.fan_only_air:
+        if self.contract.config.fan_only_air and shares_one_coil(self.building):
             flow_min = self.building.hvac.flow_min_at(inputs.forecast.occupied[:1])[0]
             flow = coil_started_flows_kg_s(flow, problem.u_min[0], flow_min)
         offer_kw = float(problem.reserve_kw_per_kg_s[0] @ reserve)
