@@ -99,5 +99,6 @@ def test_fans_without_a_readable_schedule_or_no_fan_give_none() -> None:
     text = COMPACT + "Fan:ConstantVolume, Fan A, Yearly;"
     assert fan_available(_objects(text), [datetime.date(2014, 4, 7)]) is None
     assert fan_available(_objects(), [datetime.date(2014, 4, 7)]) is None  # no fan
-    unscheduled = fan_available(_objects(COMPACT + "Fan:OnOff, Fan B, ;"), [datetime.date(2014, 4, 7)])
+    day = [datetime.date(2014, 4, 7)]
+    unscheduled = fan_available(_objects(COMPACT + "Fan:OnOff, Fan B, ;"), day)
     assert unscheduled is not None and unscheduled.all()

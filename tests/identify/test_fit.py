@@ -264,7 +264,8 @@ def test_units_per_zone_get_their_fans_flow_of_fan_only_air_in_the_fans_hours(
     from_air = idle_air(inputs, data, train, air)
     assert from_air is not None and from_air.fan_only_flow_kg_s == pytest.approx([0.4, 0.4])
     table = np.array(from_air.fan_only)
-    assert (table[:5] == (((period >= 12) & (period < 16)) | ((period >= 36) & (period < 44)))).all()
+    fan_only_hours = ((period >= 12) & (period < 16)) | ((period >= 36) & (period < 44))
+    assert (table[:5] == fan_only_hours).all()
     assert not table[5:].any()  # the fans never ran at the weekend
     assert from_air.fan_only_difference_k == pytest.approx([-0.8, -0.8], abs=1e-6)
     hour = inputs.index.hour

@@ -372,9 +372,10 @@ class IdentifiedIdleAir:
     out of the IDF's weekday 06:00–20:00 and all weekend), or while a zone's own cycling
     coil is idle (the reference small office's packaged units, on ``HVACOperationSchd``): a
     zone at its minimum flow then receives fan-only air — return and outdoor air, about a
-    kelvin warmer than the zone, not the coil's ``T_s``. The training data show it (``hvacflex.identify.idle_air``); the
-    controller plans such a zone's idle input as that air (``control.problem_builder``), so
-    a night's minimum flow is not counted as the coil's cooling.
+    kelvin warmer than the zone, not the coil's ``T_s``. The training data show it
+    (``hvacflex.identify.idle_air``); the controller plans such a zone's idle input as that
+    air (``control.problem_builder``), so a night's minimum flow is not counted as the coil's
+    cooling.
 
     Attributes
     ----------

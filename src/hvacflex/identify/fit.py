@@ -782,9 +782,7 @@ def idle_air(
     )
 
 
-def _units_per_zone(
-    flow: FloatArray, no_cooling: npt.NDArray[np.bool_], air: AirSystem
-) -> bool:
+def _units_per_zone(flow: FloatArray, no_cooling: npt.NDArray[np.bool_], air: AirSystem) -> bool:
     """Whether the air that does not cool (``no_cooling`` (T, m) periods of ``flow`` (T, m)
     [kg/s]) comes at a fan's flow, above :data:`IDLE_FLOW_SHARE` of the zones' flow ranges
     (pooled median): constant-volume units per zone, whose coils cycle on their own

@@ -186,10 +186,8 @@ def write_identified_model(model: IdentifiedModel, path: str | Path) -> Path:
     if model.idle_air is not None:
         idle = model.idle_air
         hours = {day: hours_text(idle.fan_only[i]) for i, day in enumerate(WEEKDAYS)}
-        table: dict[str, object] = {
-            "fan_only_hours": hours,
-            "fan_only_difference_k": dict(zip(model.zones, idle.fan_only_difference_k, strict=True)),
-        }
+        differences = dict(zip(model.zones, idle.fan_only_difference_k, strict=True))
+        table: dict[str, object] = {"fan_only_hours": hours, "fan_only_difference_k": differences}
         if idle.fan_only_flow_kg_s is not None:
             flows = dict(zip(model.zones, idle.fan_only_flow_kg_s, strict=True))
             table["fan_only_flow_kg_s"] = flows
