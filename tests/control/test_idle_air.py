@@ -19,6 +19,8 @@ from hvacflex.config import preset
 from hvacflex.control.base import PeriodInputs
 from hvacflex.control.idle_air import (
     coil_started_flows_kg_s,
+    fan_only_input_kg_s,
+    fans_started_flows_kg_s,
     idle_flow_min_kg_s,
     shares_one_coil,
 )
@@ -96,6 +98,9 @@ def test_units_per_zone_deliver_the_fan_only_air_at_their_fans_flow(tmp_path: Pa
     heat_w = CP_AIR_J_PER_KG_K * ((ts - t0) * bound[0] - FLOW_MIN_KG_S * (zone_temp - t0))
     fan_w = -np.array(fan_kg_s) * CP_AIR_J_PER_KG_K * np.array(DIFFERENCE_K)
     assert heat_w[0] == pytest.approx(fan_w[0], rel=1e-9)  # 0.5 kg/s of air 0.8 K warmer
+    fan_input = fan_only_input_kg_s(building, model, zone_temp)
+    assert fan_input is not None
+    np.testing.assert_array_equal(bound[0], np.minimum(u_min[0], fan_input))
     one_coil = replace(idle, fan_only_flow_kg_s=None)
     assert shares_one_coil(load_building(_model(tmp_path, one_coil)))
     assert not shares_one_coil(load_building(_model(tmp_path, None)))
@@ -119,6 +124,19 @@ def test_a_calling_zone_starts_the_coil_for_the_idle_ones() -> None:
     np.testing.assert_array_equal(calling, [0.14, 0.3, 0.2])  # zone 1 calls: the coil runs
     coil_hours = coil_started_flows_kg_s(np.array([0.14, 0.3, 0.2]), flow_min, flow_min)
     np.testing.assert_array_equal(coil_hours, [0.14, 0.3, 0.2])
+
+
+def test_a_calling_zone_starts_every_units_fan_for_the_idle_ones() -> None:
+    """Units per zone: the setpoint actuation forces every unit on when one zone calls, so
+    the zones that do not call receive their fan-only air (below their minimum flow)."""
+    flow_min = np.zeros(3)
+    fan_input = np.array([-0.04, -0.03, -0.05])
+    quiet = fans_started_flows_kg_s(np.zeros(3), fan_input, flow_min)
+    np.testing.assert_array_equal(quiet, [0.0, 0.0, 0.0])  # nobody calls: the fans stay off
+    calling = fans_started_flows_kg_s(np.array([0.0, 0.3, 0.0]), fan_input, flow_min)
+    np.testing.assert_array_equal(calling, [-0.04, 0.3, -0.05])
+    in_hours = fans_started_flows_kg_s(np.array([-0.04, 0.3, -0.05]), fan_input, flow_min)
+    np.testing.assert_array_equal(in_hours, [-0.04, 0.3, -0.05])  # already the fans' air
 
 
 def test_the_mpc_plans_with_the_fan_only_bound_unless_switched_off(tmp_path: Path) -> None:
