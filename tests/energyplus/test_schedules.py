@@ -1,5 +1,6 @@
 """IDF schedules evaluated on days: hand-written Schedule:Compact texts, and the shipped
-5ZoneAirCooled's cooling-coil schedule as its IDF states it (weekdays 06:00–20:00)."""
+5ZoneAirCooled's cooling-coil schedule as its IDF states it (weekdays 06:00–20:00), and the
+shipped reference small office's fans (``HVACOperationSchd``)."""
 
 from __future__ import annotations
 
@@ -8,7 +9,7 @@ import datetime
 import numpy as np
 
 from hvacflex.energyplus.idf import parse_idf
-from hvacflex.energyplus.schedules import cooling_coil_available, day_profile
+from hvacflex.energyplus.schedules import cooling_coil_available, day_profile, fan_available
 from hvacflex.paths import resolve_idf
 
 COMPACT = """
@@ -76,3 +77,28 @@ def test_the_shipped_5zone_coils_run_on_weekdays_from_6_to_20() -> None:
     period = np.arange(48)
     np.testing.assert_array_equal(table[0], (period >= 12) & (period < 40))
     assert not table[1:].any()
+
+
+def test_the_shipped_small_office_fans_run_on_working_days_6_to_22_and_saturday_6_to_18() -> None:
+    """``HVACOperationSchd`` of its five PSZ-AC fans (``Fan:ConstantVolume`` and one
+    ``Fan:SystemModel``); its DX coils are always available."""
+    path = resolve_idf("RefBldgSmallOfficeNew2004_Chicago")
+    objects = parse_idf(path.read_text(encoding="utf-8"), path)
+    days = [datetime.date(2014, 3, 25), datetime.date(2014, 3, 29), datetime.date(2014, 3, 30)]
+    table = fan_available(objects, days)
+    assert table is not None and table.shape == (3, 48)
+    period = np.arange(48)
+    np.testing.assert_array_equal(table[0], (period >= 12) & (period < 44))
+    np.testing.assert_array_equal(table[1], (period >= 12) & (period < 36))
+    assert not table[2].any()
+    coils = cooling_coil_available(objects, days)
+    assert coils is not None and coils.all()
+
+
+def test_fans_without_a_readable_schedule_or_no_fan_give_none() -> None:
+    text = COMPACT + "Fan:ConstantVolume, Fan A, Yearly;"
+    assert fan_available(_objects(text), [datetime.date(2014, 4, 7)]) is None
+    assert fan_available(_objects(), [datetime.date(2014, 4, 7)]) is None  # no fan
+    day = [datetime.date(2014, 4, 7)]
+    unscheduled = fan_available(_objects(COMPACT + "Fan:OnOff, Fan B, ;"), day)
+    assert unscheduled is not None and unscheduled.all()

@@ -230,3 +230,49 @@ def test_no_fan_only_hours_without_fan_only_air_or_with_equivalent_flows(
     write_trend(_fan_only_trend(frame), fan)
     fan_data = read_trend(fan)
     assert idle_air(fit_inputs(fan_data, ZONES, SITE), fan_data, (0, 4 * 48), cycling) is None
+
+
+def _unit_trend(frame: pd.DataFrame) -> pd.DataFrame:
+    """The synthetic trend as a packaged unit per zone: the fans run at 0.4 kg/s on working
+    days 06:00–22:00 and not otherwise; the coils cool only 08:00–18:00, so from 06:00 to
+    08:00 and 18:00 to 22:00 the zones get fan-only air 0.8 K warmer than the zone."""
+    out = frame.copy()
+    hour, weekday = out.index.hour, out.index.day_of_week
+    fan = (weekday < 5) & (hour >= 6) & (hour < 22)
+    fan_only = fan & ((hour < 8) | (hour >= 18))
+    for zone in ZONES:
+        out[f"supply_flow_{zone}_kg_s"] = np.where(fan, 0.4, 0.0)
+        out.loc[fan_only, f"supply_temp_{zone}_degc"] = out.loc[fan_only, f"temp_{zone}_degc"] + 0.8
+    return out
+
+
+def test_units_per_zone_get_their_fans_flow_of_fan_only_air_in_the_fans_hours(
+    tmp_path: Path, synthetic_trend: Callable[..., pd.DataFrame]
+) -> None:
+    """Fan-only air at the fan's flow (above the idle share of the flow range): a unit per
+    zone. With the IDF's fan schedule (here on 06:00–22:00 on every day, the coils always
+    available) the hours are the schedule's on the weekdays whose training days it covers;
+    from the air alone they are where the air was fan-only."""
+    path = tmp_path / "trend.csv"
+    write_trend(_unit_trend(synthetic_trend(days=7, seed=5)), path)
+    data = read_trend(path)
+    inputs = fit_inputs(data, ZONES, SITE)
+    train = (0, 7 * 48)
+    air = air_system(inputs, data, train, np.zeros(2))
+    assert air.supply_temp_degc < 18.0  # the coil's air, not equivalent flows
+    period = np.arange(48)
+    from_air = idle_air(inputs, data, train, air)
+    assert from_air is not None and from_air.fan_only_flow_kg_s == pytest.approx([0.4, 0.4])
+    table = np.array(from_air.fan_only)
+    fan_only_hours = ((period >= 12) & (period < 16)) | ((period >= 36) & (period < 44))
+    assert (table[:5] == fan_only_hours).all()
+    assert not table[5:].any()  # the fans never ran at the weekend
+    assert from_air.fan_only_difference_k == pytest.approx([-0.8, -0.8], abs=1e-6)
+    hour = inputs.index.hour
+    fans = np.asarray((hour >= 6) & (hour < 22))
+    coils = np.ones(len(fans), dtype=bool)
+    scheduled = idle_air(inputs, data, train, air, coils, fans)
+    assert scheduled is not None and scheduled.fan_only_flow_kg_s == pytest.approx([0.4, 0.4])
+    assert (np.array(scheduled.fan_only) == ((period >= 12) & (period < 44))).all()
+    # units per zone: the coils' schedule alone does not decide (the air does, as above)
+    assert idle_air(inputs, data, train, air, coils) == from_air

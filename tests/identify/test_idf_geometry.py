@@ -7,11 +7,14 @@ import re
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from hvacflex.errors import InputError
 from hvacflex.identify.idf_geometry import (
     aperture_of,
+    idf_cooling_available,
+    idf_fan_available,
     idf_floor_areas_m2,
     idf_zone_geometry,
     newell_normal,
@@ -153,3 +156,19 @@ def test_the_floor_areas_are_energyplus_s_own_zone_summary_s(name: str, tmp_path
     assert sum(ours.values()) == pytest.approx(sum(theirs.values()), rel=0.01)
     for zone in zones:
         assert ours[zone] == pytest.approx(theirs[zone], rel=0.01), zone
+
+
+def test_the_schedules_are_read_on_the_trends_periods() -> None:
+    """The shipped reference small office on Friday 2014-03-28 21:00 … Saturday 19:00: its
+    fans (``HVACOperationSchd``) run until 22:00 on Friday and 06:00–18:00 on Saturday, its
+    coils are always available."""
+    office = resources_dir() / "energyplus" / "RefBldgSmallOfficeNew2004_Chicago.idf"
+    starts = pd.date_range("2014-03-28 21:00", periods=45, freq="30min")
+    fans = idf_fan_available(office, starts)
+    assert fans is not None
+    hours = starts.hour
+    day = starts.day
+    expected = ((day == 28) & (hours < 22)) | ((day == 29) & (hours >= 6) & (hours < 18))
+    np.testing.assert_array_equal(fans, expected)
+    coils = idf_cooling_available(office, starts)
+    assert coils is not None and coils.all()

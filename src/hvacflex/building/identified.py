@@ -369,11 +369,13 @@ class IdentifiedIdleAir:
     """What an idle zone's supply air delivers when the air system's coil is scheduled off.
 
     An air system may run its fans while its cooling coil is scheduled off (5ZoneAirCooled:
-    out of the IDF's weekday 06:00–20:00 and all weekend): a zone at its minimum flow then
-    receives fan-only air — return and outdoor air, a few kelvin below the zone, not the
-    coil's ``T_s``. The training data show it (``hvacflex.identify.idle_air``); the
-    controller plans such a zone's idle input as that air (``control.problem_builder``), so
-    a night's minimum flow is not counted as the coil's cooling.
+    out of the IDF's weekday 06:00–20:00 and all weekend), or while a zone's own cycling
+    coil is idle (the reference small office's packaged units, on ``HVACOperationSchd``): a
+    zone at its minimum flow then receives fan-only air — return and outdoor air, about a
+    kelvin warmer than the zone, not the coil's ``T_s``. The training data show it
+    (``hvacflex.identify.idle_air``); the controller plans such a zone's idle input as that
+    air (``control.problem_builder``), so a night's minimum flow is not counted as the coil's
+    cooling.
 
     Attributes
     ----------
@@ -381,10 +383,16 @@ class IdentifiedIdleAir:
         an idle zone's air was fan-only in the training data.
     fan_only_difference_k : (m,) each zone's median zone − supply temperature of its fan-only
         air [K] (zone order).
+    fan_only_flow_kg_s : (m,) each zone's fan-only flow [kg/s] where every zone has a unit
+        whose coil cycles on the zone's own thermostat (the reference small office's PSZ-AC:
+        the constant-volume fan runs on its schedule, a zone that does not call receives its
+        flow of fan-only air whatever the others do); None: one air system whose coil, once
+        a zone's call starts it, cools every zone, the fan-only flow its minimum flow.
     """
 
     fan_only: tuple[tuple[bool, ...], ...]
     fan_only_difference_k: tuple[float, ...]
+    fan_only_flow_kg_s: tuple[float, ...] | None = None
 
     def fan_only_at(
         self, weekday: npt.ArrayLike, period_of_day: npt.ArrayLike

@@ -378,6 +378,11 @@ def _idle_air(identified: IdentifiedSpec, names: tuple[str, ...]) -> IdentifiedI
     return IdentifiedIdleAir(
         fan_only=tuple(parse_hours(idle.fan_only_hours.get(day, [])) for day in WEEKDAYS),
         fan_only_difference_k=tuple(idle.fan_only_difference_k[n] for n in names),
+        fan_only_flow_kg_s=(
+            None
+            if idle.fan_only_flow_kg_s is None
+            else tuple(idle.fan_only_flow_kg_s[n] for n in names)
+        ),
     )
 
 

@@ -63,8 +63,10 @@ unknown and ``Building.floor_area_m2`` is NaN) only, no walls, windows, ``[gains
                               outdoor_temp_min_degc, outdoor_temp_max_degc (optional: the
                               training data's range)
     [identified.idle_air]     fan_only_hours = {monday = ["00:00-06:00", …], …},
-                              fan_only_difference_k = {Z = …} (optional: an idle zone's
-                              fan-only air while the coil is scheduled off)
+                              fan_only_difference_k = {Z = …},
+                              fan_only_flow_kg_s = {Z = …} (optional: an idle zone's
+                              fan-only air while the coil is scheduled off or, with
+                              fan_only_flow_kg_s, while a zone's own cycling unit idles)
 
 The optional keys added for the BESTEST validation (infiltration, radiative split of gains,
 interior solar distribution, sky long-wave exchange) all default to the original model.
@@ -408,6 +410,7 @@ class IdentifiedIdleAirSpec(Spec):
 
     fan_only_hours: dict[str, list[Annotated[str, Strict()]]]
     fan_only_difference_k: dict[str, Annotated[Number, Field(ge=-20.0, le=50.0)]]
+    fan_only_flow_kg_s: dict[str, Annotated[Number, Field(ge=0.0, le=1e3)]] | None = None
 
 
 class IdentifiedSpec(Spec):
@@ -717,15 +720,19 @@ def _check_idle_air(spec: BuildingSpec, idle: IdentifiedIdleAirSpec) -> None:
             parse_hours(spans)
         except ValueError as error:
             raise rule_error(str(error), field, spans, hint='e.g. ["00:00-06:00"]') from None
-    for name in idle.fan_only_difference_k:
-        _check_zone_ref(spec, name, f"identified.idle_air.fan_only_difference_k.{name}")
-    for name in spec.zone_names:
-        if name not in idle.fan_only_difference_k:
-            raise rule_error(
-                "missing required field",
-                f"identified.idle_air.fan_only_difference_k.{name}",
-                hint="add it",
-            )
+    for key, table in (
+        ("fan_only_difference_k", idle.fan_only_difference_k),
+        ("fan_only_flow_kg_s", idle.fan_only_flow_kg_s),
+    ):
+        if table is None:
+            continue
+        for name in table:
+            _check_zone_ref(spec, name, f"identified.idle_air.{key}.{name}")
+        for name in spec.zone_names:
+            if name not in table:
+                raise rule_error(
+                    "missing required field", f"identified.idle_air.{key}.{name}", hint="add it"
+                )
 
 
 def _check_identified(spec: BuildingSpec, identified: IdentifiedSpec) -> None:

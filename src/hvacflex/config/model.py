@@ -118,9 +118,10 @@ class ControllerConfig:
     comfort bound of unoccupied periods [K] (not written into ``comfort_upper_*``)."""
     fan_only_air: bool = True
     """The MPC on an identified building with ``[identified.idle_air]``: plan an idle zone's
-    input in the coil's off hours as its fan-only air, and count the coil's air for the idle
-    zones when another zone's call starts it (:mod:`hvacflex.control.idle_air`); ``False``:
-    the minimum flow is the coil's air at every hour."""
+    input in the coil's off hours (a unit per zone: its fan's hours) as its fan-only air, and
+    count the coil's air (a unit per zone: the fan-only air) for the idle zones when another
+    zone's call starts the coil (the fans) (:mod:`hvacflex.control.idle_air`); ``False``: the
+    minimum flow is the coil's air at every hour."""
     power_model: PowerModelSource = "metered"
     """The LP's power rows: ``"metered"`` the building file's power model fitted to the meter
     of the scenario's plant (``[power_models.<kind>]``) where it has one, else the design

@@ -226,8 +226,9 @@ class ControllerSpec(Spec):
     keep the band)."""
     fan_only_air: Flag = default(ControllerConfig, "fan_only_air")
     """An identified building that records its coil's hours (``[identified.idle_air]``): the
-    MPC plans an idle zone's input in the coil's off hours as its fan-only air and counts the
-    coil's air for the idle zones when another zone's call starts the coil; ``false``: the
+    MPC plans an idle zone's input in the coil's off hours (a unit per zone: its fan's
+    hours) as its fan-only air and counts the coil's air (a unit per zone: the fan-only air)
+    for the idle zones when another zone's call starts the coil (the fans); ``false``: the
     minimum flow is the coil's air at every hour (docs/guide/identify.md §3)."""
     power_model: PowerModelSource = default(ControllerConfig, "power_model")
     """The LP's power rows: ``metered`` plans with the building file's power model fitted to

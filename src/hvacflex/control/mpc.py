@@ -34,7 +34,12 @@ from hvacflex.config import ControllerConfig, Linearisation, ReserveConfig
 from hvacflex.control.base import Action, Controller, FloatArray, PeriodInputs
 from hvacflex.control.baselines import ThermostatController, unplanned_action
 from hvacflex.control.estimation import AppliedStep, KalmanConfig, KalmanEstimator, StepModel
-from hvacflex.control.idle_air import coil_started_flows_kg_s
+from hvacflex.control.idle_air import (
+    coil_started_flows_kg_s,
+    fan_only_input_kg_s,
+    fans_started_flows_kg_s,
+    shares_one_coil,
+)
 from hvacflex.control.offers import OfferSizer, offer_steps, seen_steps, snapped_flows_kg_s
 from hvacflex.control.problem_builder import (
     PlanContext,
@@ -267,6 +272,24 @@ class MPCController(Controller):
             self._estimator.applied(step)
         return replace(locked, step_model=self.model)
 
+    def _air_system_flows(
+        self,
+        flow: FloatArray,
+        problem: RMPCProblem,
+        zone_temp_degc: FloatArray,
+        inputs: PeriodInputs,
+    ) -> FloatArray:
+        """(m,) the period's planned flows as the identified building's air system runs them
+        (:mod:`hvacflex.control.idle_air`): one coil started by a call for every zone, or
+        every unit's fan forced on by a call; ``flow`` (m,) itself without fan-only air."""
+        flow_min = self.building.hvac.flow_min_at(inputs.forecast.occupied[:1])[0]
+        if shares_one_coil(self.building):
+            return coil_started_flows_kg_s(flow, problem.u_min[0], flow_min)
+        fan_input = fan_only_input_kg_s(self.building, self.contract.model, zone_temp_degc)
+        if fan_input is None:
+            return flow
+        return fans_started_flows_kg_s(flow, fan_input, flow_min)
+
     def _decide(
         self, problem: RMPCProblem, x_degc: FloatArray, inputs: PeriodInputs, sizer: OfferSizer
     ) -> Action:
@@ -285,8 +308,7 @@ class MPCController(Controller):
         visible_kw = sizer.visible_offers_kw(problem, solution.power_kw, reserves)
         flow, reserve = flows[0], reserves[0]
         if self.contract.config.fan_only_air:
-            flow_min = self.building.hvac.flow_min_at(inputs.forecast.occupied[:1])[0]
-            flow = coil_started_flows_kg_s(flow, problem.u_min[0], flow_min)
+            flow = self._air_system_flows(flow, problem, c @ x_degc, inputs)
         offer_kw = float(problem.reserve_kw_per_kg_s[0] @ reserve)
         if not self.commits_ahead:  # decided now: offer only what the baseline sees
             offer_kw = float(visible_kw[0])

@@ -7,9 +7,10 @@ day types ``AllDays``, ``Weekdays``, ``Weekends``, ``Monday`` … ``Sunday`` and
 reads no holidays from an IDF). ``Interpolate:`` is ignored (the values step). Other
 schedule classes (``Schedule:Year``, ``Schedule:File``) are not evaluated: None.
 
-:func:`cooling_coil_available` tells, per day and 30-min period, whether some cooling coil of
-the IDF is scheduled available — where ``hvacflex identify fit --idf`` learns when an idle
-zone's air is fan-only (``hvacflex.identify.fit.idle_air``).
+:func:`cooling_coil_available` and :func:`fan_available` tell, per day and 30-min period,
+whether some cooling coil / some fan of the IDF is scheduled available — where ``hvacflex
+identify fit --idf`` learns when an idle zone's air is fan-only (``hvacflex.identify.fit.
+idle_air``: the fans run, the coil does not cool it).
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ import numpy as np
 import numpy.typing as npt
 
 from hvacflex.constants import PERIOD_S, PERIODS_PER_DAY
-from hvacflex.energyplus.hvac import COOLING_COIL_CLASSES
+from hvacflex.energyplus.hvac import COOLING_COIL_CLASSES, FAN_CLASSES
 from hvacflex.energyplus.idf import IdfObject, objects_of
 
 DAY_NAMES = ("monday", "tuesday", "wednesday", "thursday", "friday", "saturday", "sunday")
@@ -126,7 +127,27 @@ def cooling_coil_available(
     of ``days``; a coil without a schedule is always available. None when the IDF has no such
     coil (ideal loads, ``HVACTemplate`` units not yet expanded) or a coil's schedule is not
     readable here."""
-    names = [obj.field(1) for cls in COOLING_COIL_CLASSES for obj in objects_of(objects, cls)]
+    return _some_available(objects, days, COOLING_COIL_CLASSES)
+
+
+def fan_available(
+    objects: tuple[IdfObject, ...], days: list[datetime.date]
+) -> npt.NDArray[np.bool_] | None:
+    """(D, 48) whether some supply fan of the IDF (:data:`~hvacflex.energyplus.hvac.
+    FAN_CLASSES`) is scheduled available (value > 0) in each 30-min period of each of
+    ``days`` (the reference small office's ``HVACOperationSchd``: working days 06:00–22:00,
+    Saturday 06:00–18:00); a fan without a schedule is always available. None when the IDF
+    has no such fan or a fan's schedule is not readable here. A night-cycle manager may run
+    a fan outside its schedule, but then for a zone that calls: its air is the coil's."""
+    return _some_available(objects, days, FAN_CLASSES)
+
+
+def _some_available(
+    objects: tuple[IdfObject, ...], days: list[datetime.date], classes: tuple[str, ...]
+) -> npt.NDArray[np.bool_] | None:
+    """(D, 48) whether some object of ``classes`` (availability schedule in field 1) is
+    scheduled available; None: no such object, or an unreadable schedule."""
+    names = [obj.field(1) for cls in classes for obj in objects_of(objects, cls)]
     if not names:
         return None
     out = np.zeros((len(days), PERIODS_PER_DAY), dtype=bool)

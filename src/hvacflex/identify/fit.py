@@ -714,28 +714,40 @@ def idle_air(
     train: tuple[int, int],
     air: AirSystem,
     coil_available: npt.NDArray[np.bool_] | None = None,
+    fan_available: npt.NDArray[np.bool_] | None = None,
 ) -> IdentifiedIdleAir | None:
     """When an idle zone's air is fan-only (``[identified.idle_air]``), from the training data.
 
-    A zone is idle in a period when air flows at most :data:`IDLE_FLOW_SHARE` of its flow
-    range above its minimum, and its air is fan-only when it is no cooling air (at most
-    :data:`COOLING_DIFFERENCE_K` below the zone: the coil off — return and outdoor air,
-    about 1 K warmer than the zone in 5ZoneAirCooled's nights).
+    Fan-only air is supply air that is no cooling air (at most :data:`COOLING_DIFFERENCE_K`
+    below the zone: return and outdoor air, with the fan's heat — about 1 K *warmer* than
+    the zone in 5ZoneAirCooled's nights and the reference small office's mornings) in a
+    period the fan runs and the coil does not cool the zone. Two kinds of air system, told
+    apart by the flow of that air (:func:`_units_per_zone`):
 
-    The hours: with ``coil_available`` (T,) — the IDF's cooling-coil schedule on the
-    training periods (``identify fit --idf``, :func:`hvacflex.energyplus.schedules.
-    cooling_coil_available`) — a weekday's 30-min period is fan-only where the coil is
-    scheduled off on most of the training days of that weekday. Without it, from the air
-    itself: a period of the day is fan-only on the working days (Monday … Friday, pooled) or
-    on the weekend (pooled) when at least :data:`FAN_ONLY_SHARE` of the idle zones' periods
-    there were (a zone that calls for cooling starts the coil for every zone: 5ZoneAirCooled's
-    `range` data leave no zone idle alone from 18:00 to 21:00, so the data cannot tell those
-    hours).
+    * **one coil for every zone** (5ZoneAirCooled's VAV system): fan-only air comes at the
+      zones' minimum flows. A zone is idle in a period when air flows at most
+      :data:`IDLE_FLOW_SHARE` of its flow range above its minimum; its air is fan-only where
+      the coil is scheduled off (a call starts the coil for every zone);
+    * **a unit per zone whose coil cycles on the zone's thermostat** (the reference small
+      office's PSZ-AC): fan-only air comes at the fan's constant flow, above the idle share.
+      While the fan runs on its schedule a zone that does not call receives it whatever the
+      other zones do; a zone is idle when its fan runs, and each zone's
+      ``fan_only_flow_kg_s`` is the median flow of its fan-only periods.
+
+    The hours, per weekday and 30-min period: with the IDF's schedules on the training
+    periods (``identify fit --idf``; ``coil_available``, ``fan_available`` (T,), or None
+    where not readable — :mod:`hvacflex.energyplus.schedules`), where on most of the training
+    days of that weekday the fans are scheduled on (a fan left unread: on) and — one coil —
+    the coils off. Without them, from the air itself: a period of the day is fan-only on the
+    working days (Monday … Friday, pooled) or on the weekend (pooled) when at least
+    :data:`FAN_ONLY_SHARE` of the idle zones' periods there were (a zone that calls for
+    cooling starts one coil for every zone: 5ZoneAirCooled's `range` data leave no zone idle
+    alone from 18:00 to 21:00, so the data cannot tell those hours).
 
     Each zone's ``fan_only_difference_k`` is the median zone − supply temperature of its
     fan-only periods in those hours [K] (of every zone's where it has none; 0 where no zone
-    has any). None when no period is fan-only, or for a cycling constant-volume unit
-    (``T_s`` ≥ :data:`MAX_COIL_SUPPLY_TEMP_DEGC`: its flows are equivalent flows already).
+    has any). None when no period is fan-only, or for equivalent flows (``T_s`` ≥
+    :data:`MAX_COIL_SUPPLY_TEMP_DEGC`: a flow that is not the fan's).
     """
     if air.supply_temp_degc >= MAX_COIL_SUPPLY_TEMP_DEGC:
         return None
@@ -744,30 +756,68 @@ def idle_air(
     supply = data.zone_series("supply_temp", inputs.zones)
     assert flow is not None and supply is not None
     flow, supply, zone_temp = flow[first:end], supply[first:end], inputs.y[first:end]
-    low, high = np.asarray(air.flow_min_kg_s), np.asarray(air.flow_max_kg_s)
-    idle = (flow > FLOWING_KG_S) & (flow <= low + IDLE_FLOW_SHARE * (high - low))
-    fan_only = idle & (zone_temp - supply <= COOLING_DIFFERENCE_K)
+    no_cooling = (flow > FLOWING_KG_S) & (zone_temp - supply <= COOLING_DIFFERENCE_K)
+    cycling = _units_per_zone(flow, no_cooling, air)
+    idle = flow > FLOWING_KG_S
+    if not cycling:
+        low, high = np.asarray(air.flow_min_kg_s), np.asarray(air.flow_max_kg_s)
+        idle &= flow <= low + IDLE_FLOW_SHARE * (high - low)
+    fan_only = idle & no_cooling
     starts = inputs.index[first:end]
-    period = period_of_day(starts)
-    if coil_available is None:
-        table = _fan_only_hours_from_air(idle, fan_only, starts, period)
+    scheduled = _scheduled_fan_only(coil_available, fan_available, cycling)
+    if scheduled is None:
+        table = _fan_only_hours_from_air(idle, fan_only, starts, period_of_day(starts))
     else:
-        slot = np.asarray(starts.day_of_week) * PERIODS_PER_DAY + period
+        slot = np.asarray(starts.day_of_week) * PERIODS_PER_DAY + period_of_day(starts)
         days = np.bincount(slot, minlength=7 * PERIODS_PER_DAY)
-        off = np.bincount(slot, weights=~coil_available, minlength=7 * PERIODS_PER_DAY)
-        table = ((days > 0) & (2.0 * off > days)).reshape(7, PERIODS_PER_DAY)
-        fan_only &= ~coil_available[:, None]
+        on = np.bincount(slot, weights=scheduled, minlength=7 * PERIODS_PER_DAY)
+        table = ((days > 0) & (2.0 * on > days)).reshape(7, PERIODS_PER_DAY)
+        fan_only &= scheduled[:, None]
     if not table.any():
         return None
-    difference = zone_temp - supply
-    overall = float(np.median(difference[fan_only])) if fan_only.any() else 0.0
-    per_zone = [
-        float(np.median(difference[fan_only[:, i], i])) if fan_only[:, i].any() else overall
-        for i in range(len(inputs.zones))
-    ]
     return IdentifiedIdleAir(
         fan_only=tuple(tuple(bool(v) for v in row) for row in table),
-        fan_only_difference_k=tuple(per_zone),
+        fan_only_difference_k=_zone_medians(zone_temp - supply, fan_only),
+        fan_only_flow_kg_s=_zone_medians(flow, fan_only) if cycling else None,
+    )
+
+
+def _units_per_zone(flow: FloatArray, no_cooling: npt.NDArray[np.bool_], air: AirSystem) -> bool:
+    """Whether the air that does not cool (``no_cooling`` (T, m) periods of ``flow`` (T, m)
+    [kg/s]) comes at a fan's flow, above :data:`IDLE_FLOW_SHARE` of the zones' flow ranges
+    (pooled median): constant-volume units per zone, whose coils cycle on their own
+    thermostats (:func:`idle_air`); False where it comes at the minimum flows (one VAV
+    system) or no air is fan-only."""
+    if not no_cooling.any():
+        return False
+    low, high = np.asarray(air.flow_min_kg_s), np.asarray(air.flow_max_kg_s)
+    share = (flow - low) / (high - low)
+    return bool(np.median(share[no_cooling]) > IDLE_FLOW_SHARE)
+
+
+def _scheduled_fan_only(
+    coil_available: npt.NDArray[np.bool_] | None,
+    fan_available: npt.NDArray[np.bool_] | None,
+    cycling: bool,
+) -> npt.NDArray[np.bool_] | None:
+    """(T,) the periods the IDF's schedules make fan-only (:func:`idle_air`), or None: the
+    schedule that decides is not known (then the air decides)."""
+    if cycling:  # the zone's own coil cycles: the fan's schedule decides
+        return fan_available
+    if coil_available is None:
+        return None
+    fans = np.ones_like(coil_available) if fan_available is None else fan_available
+    out: npt.NDArray[np.bool_] = fans & ~coil_available
+    return out
+
+
+def _zone_medians(values: FloatArray, where: npt.NDArray[np.bool_]) -> tuple[float, ...]:
+    """(m,) each zone's median of ``values`` (T, m) over its ``where`` (T, m) periods; the
+    median over every zone's where a zone has none (0 where no zone has any)."""
+    overall = float(np.median(values[where])) if where.any() else 0.0
+    return tuple(
+        float(np.median(values[where[:, i], i])) if where[:, i].any() else overall
+        for i in range(values.shape[1])
     )
 
 

@@ -15,8 +15,9 @@
   outside boundary; the base surfaces ``BuildingSurface:Detailed`` of type Wall,
   ``Wall:Detailed`` and ``Wall:Exterior``). The fit bounds each zone's wall solar apertures
   by them (:mod:`hvacflex.identify.physics`);
-* when its **cooling coils** are scheduled available (:func:`idf_cooling_available`): where an
-  idle zone's air is fan-only (``hvacflex.identify.fit.idle_air``).
+* when its **cooling coils** and its **supply fans** are scheduled available
+  (:func:`idf_cooling_available`, :func:`idf_fan_available`): where an idle zone's air is
+  fan-only (``hvacflex.identify.fit.idle_air``).
 
 The outward normal of a polygon is Newell's normal of its vertices in the
 ``GlobalGeometryRules`` entry direction (counter-clockwise seen from outside by default);
@@ -26,7 +27,9 @@ zone's Direction of Relative North.
 
 from __future__ import annotations
 
+import datetime
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -35,7 +38,7 @@ import pandas as pd
 
 from hvacflex.data.weather_forecast import period_of_day
 from hvacflex.energyplus.idf import IdfObject, objects_of, parse_idf, read_idf
-from hvacflex.energyplus.schedules import cooling_coil_available
+from hvacflex.energyplus.schedules import cooling_coil_available, fan_available
 from hvacflex.errors import InputError
 
 HORIZONTAL_TILT_DEG = 60.0
@@ -334,9 +337,24 @@ def idf_cooling_available(path: str | Path, starts: pd.DatetimeIndex) -> np.ndar
     """(T,) bool: whether the IDF at ``path`` schedules some cooling coil available in each
     30-min period starting at ``starts`` (local times), or None where its coils' schedules
     cannot be read (:func:`hvacflex.energyplus.schedules.cooling_coil_available`)."""
+    return _scheduled(path, starts, cooling_coil_available)
+
+
+def idf_fan_available(path: str | Path, starts: pd.DatetimeIndex) -> np.ndarray | None:
+    """(T,) bool: whether the IDF at ``path`` schedules some supply fan available in each
+    30-min period starting at ``starts`` (local times), or None where its fans' schedules
+    cannot be read (:func:`hvacflex.energyplus.schedules.fan_available`)."""
+    return _scheduled(path, starts, fan_available)
+
+
+def _scheduled(
+    path: str | Path,
+    starts: pd.DatetimeIndex,
+    table_of: Callable[[tuple[IdfObject, ...], list[datetime.date]], np.ndarray | None],
+) -> np.ndarray | None:
     objects = parse_idf(read_idf(path), path)
     days = sorted({stamp.date() for stamp in starts})
-    table = cooling_coil_available(objects, days)
+    table = table_of(objects, days)
     if table is None:
         return None
     row = {day: i for i, day in enumerate(days)}

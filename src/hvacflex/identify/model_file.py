@@ -187,11 +187,11 @@ def write_identified_model(model: IdentifiedModel, path: str | Path) -> Path:
         idle = model.idle_air
         hours = {day: hours_text(idle.fan_only[i]) for i, day in enumerate(WEEKDAYS)}
         differences = dict(zip(model.zones, idle.fan_only_difference_k, strict=True))
-        _table(
-            lines,
-            "[identified.idle_air]",
-            {"fan_only_hours": hours, "fan_only_difference_k": differences},
-        )
+        table: dict[str, object] = {"fan_only_hours": hours, "fan_only_difference_k": differences}
+        if idle.fan_only_flow_kg_s is not None:
+            flows = dict(zip(model.zones, idle.fan_only_flow_kg_s, strict=True))
+            table["fan_only_flow_kg_s"] = flows
+        _table(lines, "[identified.idle_air]", table)
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text("\n".join(lines) + "\n", encoding="utf-8")
     return path

@@ -66,6 +66,7 @@ from hvacflex.identify.fit import (
 from hvacflex.identify.idf_geometry import (
     ZoneGeometry,
     idf_cooling_available,
+    idf_fan_available,
     idf_floor_areas_m2,
     idf_zone_geometry,
 )
@@ -460,9 +461,10 @@ def identify(
     ids = tuple(identifier(z) for z in inputs.zones)
     say(FIT_STAGES[3])
     air = air_system(inputs, data, train_range, mean_mass_temps_degc(fit, inputs, test_range))
-    coil_schedule = None
+    coil_schedule = fan_schedule = None
     if idf_file is not None:
         coil_schedule = idf_cooling_available(idf_file, inputs.index[slice(*train_range)])
+        fan_schedule = idf_fan_available(idf_file, inputs.index[slice(*train_range)])
     model = IdentifiedModel(
         name=f"identified from {Path(data_path).name}",
         zones=ids,
@@ -474,7 +476,7 @@ def identify(
         power=power,
         floor_areas_m2=areas_m2,
         validity=validity_range(inputs, train_range),
-        idle_air=idle_air(inputs, data, train_range, air, coil_schedule),
+        idle_air=idle_air(inputs, data, train_range, air, coil_schedule, fan_schedule),
         provenance={
             "data": str(data_path),
             "train": _days_text(inputs.index, train_range),
