@@ -20,17 +20,10 @@ from hvacflex.building.io import load_building
 from hvacflex.config.model import PlantConfig
 from hvacflex.errors import ConfigError, DataError, InputError
 from hvacflex.paths import resolve_building, resources_dir
-from hvacflex.sim.energyplus_plant import (
-    GUARD_GAIN,
-    GUARD_RELEASE_GAIN,
-    SETPOINT_DEADBAND_K,
-    EnergyPlusPlant,
-    inlet_flow_and_temp,
-    next_shed_level,
-    shed_toward_band,
-)
+from hvacflex.sim.energyplus_plant import EnergyPlusPlant, inlet_flow_and_temp
 from hvacflex.sim.plant import Actuation, Disturbance, Observation, PeakGuard, Plant, RCPlant
 from hvacflex.sim.plants import make_plant
+from hvacflex.sim.zone_step_rules import SETPOINT_DEADBAND_K
 
 IDF = resources_dir() / "energyplus" / "5ZoneAirCooled.idf"
 EPW = resources_dir() / "weather" / "SGP_SG_Singapore-Changi.Intl.AP.486980_TMYx.2009-2023.epw"
@@ -236,32 +229,25 @@ def test_comfort_limits_are_replayed_with_the_actuations() -> None:
     np.testing.assert_array_equal(_power(resumed), _power(straight))
 
 
-def test_heating_setpoint_stays_a_deadband_below_and_availability_follows_need() -> None:
+def test_the_plant_s_rule_reads_the_idf_s_heating_setpoints_and_forces_its_loop() -> None:
+    """The plant's :class:`SetpointRule` knows where 5ZoneAirCooled's heating schedules are
+    read and how many availability schedules it forces (the rule itself:
+    tests/sim/test_zone_step_rules.py)."""
     plant = EnergyPlusPlant.from_file(IDF, ZONES, start=START, steps=STEPS, epw_path=EPW)
     m = 5
     n_avail = len(plant._spec.actuators) - 2 * m
+    assert n_avail > 0
     now = np.full(len(plant._spec.variables), 25.0)
-    heating = [i for i in plant._heating_vars if i is not None]
+    heating = [i for i in plant._rule.heating_vars if i is not None]
+    assert heating
     now[heating] = 22.2  # the IDF's occupied heating setpoint
     commanded = np.full(2 * m + n_avail, np.nan)
     commanded[:m] = [22.5, 26.0, 26.0, 26.0, 26.0]
-    applied = plant._setpoint_rule(now, commanded)
+    applied = plant._rule.apply(now, commanded)
     np.testing.assert_allclose(
         applied[m : 2 * m], [22.5 - SETPOINT_DEADBAND_K, 22.2, 22.2, 22.2, 22.2]
     )
     assert np.all(applied[2 * m :] == 1.0)  # zone 1 at 25 °C > 22.5 °C: loop forced on
-    commanded[:m] = 26.0
-    assert np.all(np.isnan(plant._setpoint_rule(now, commanded)[2 * m :]))  # the IDF decides
-    # a zone rising fast enough to pass its comfort limit within the next zone time step:
-    # forced on a step ahead (0.6 K a step from 25.0 → 25.6, below 26 now, above it next)
-    now[0] = 25.6
-    assert np.all(np.isnan(plant._setpoint_rule(now, commanded)[2 * m :]))  # no limit given
-    now[0] = 25.0
-    plant._setpoint_rule(now, commanded)
-    plant._limit_degc = np.full(m, 26.0)
-    now[0] = 25.6
-    assert np.all(plant._setpoint_rule(now, commanded)[2 * m :] == 1.0)
-    assert np.all(np.isnan(plant._setpoint_rule(now, commanded)[2 * m :]))  # steady again
 
 
 def test_unknown_zone_names_it_and_the_idf_zones() -> None:
@@ -507,28 +493,6 @@ def test_replay_restores_the_peak_guard(baseline: list[Observation]) -> None:
     plant.close()
     assert straight.power_kw == replayed.power_kw
     assert straight.peak_guard_active == replayed.peak_guard_active
-
-
-def test_shed_level_rises_while_over_the_cap_and_falls_once_it_fits() -> None:
-    assert next_shed_level(0.0, 44.0, 40.0) == pytest.approx(0.1 * GUARD_GAIN)
-    assert next_shed_level(0.9, 80.0, 40.0) == 1.0
-    assert next_shed_level(0.5, 36.0, 40.0) == pytest.approx(0.5 - 0.1 * GUARD_RELEASE_GAIN)
-    assert GUARD_RELEASE_GAIN < GUARD_GAIN  # released more slowly than taken
-    assert next_shed_level(0.0, 30.0, 40.0) == 0.0
-
-
-def test_shed_toward_band_moves_only_the_zones_below_their_bound() -> None:
-    guard = PeakGuard(40.0, np.array([26.0, 26.0, 26.0]), np.array([0.1, 0.1, 0.1]))
-    temps = np.array([24.0, 26.5, 24.0])  # zone 2 is already above its bound
-    setpoints = np.array([24.0, 24.0, 27.0])  # zone 3's setpoint is above it: never lowered
-    np.testing.assert_allclose(
-        shed_toward_band(setpoints, temps, guard, 0.5, setpoint=True), [25.0, 24.0, 27.0]
-    )
-    flows = np.array([0.5, 0.5, 0.05])  # zone 3 below its floor: never raised
-    np.testing.assert_allclose(
-        shed_toward_band(flows, temps, guard, 0.5, setpoint=False), [0.3, 0.5, 0.05]
-    )
-    np.testing.assert_allclose(shed_toward_band(flows, temps, guard, 0.0, setpoint=False), flows)
 
 
 def test_a_required_peak_guard_without_an_hvac_meter_is_refused_before_the_run(

@@ -10,13 +10,11 @@ Actuation (docs/guide/energyplus.md):
 
 * ``"setpoint"`` (supervisory, as MPCs are deployed on a BMS): each zone's cooling setpoint
   is the actuated value ("Zone Temperature Control" / "Cooling Setpoint"); its heating
-  setpoint is min(the IDF's heating schedule, cooling − :data:`SETPOINT_DEADBAND_K`); at every
-  zone time step in which some zone is warmer than its actuated cooling setpoint, or will be
-  warmer than its comfort limit (``Actuation.limit_degc``) at the next one if it keeps rising
-  as it rose over the last (a sunny afternoon can lift a zone left to float by more than 1 K
-  in a 15-min step), the air loop's availability
-  schedules (availability managers, fans, coils, terminals) are forced on, so pre-cooling
-  works outside the IDF's hours; otherwise the IDF's schedules decide.
+  setpoint and the air loop's availability schedules (availability managers, fans, coils,
+  terminals) follow :class:`~hvacflex.sim.zone_step_rules.SetpointRule` at every zone time
+  step: the loop forced on while a zone is warmer than its setpoint (or, rising, about to
+  pass its comfort limit), so pre-cooling works outside the IDF's hours; otherwise the IDF's
+  schedules decide.
   An all-NaN setpoint actuation releases every zone to the IDF's own schedules for the
   period (the building's own control, e.g. ``hvacflex identify collect --excitation none``).
 * ``"flow"``: each zone's ``ZoneHVAC:IdealLoadsAirSystem`` supply mass flow and supply
@@ -39,19 +37,18 @@ The in-period **peak guard** (an :class:`~hvacflex.sim.plant.PeakGuard` the actu
 carries; docs/explanation/model.md, the committed peak) reads the HVAC meters (``power_kw``'s) at
 EnergyPlus's zone time step, through the API callback: at the start of each zone time step,
 the mean power P of the step before [kW]. It holds a shed level s ∈ [0, 1], integral action
-on the meter: s ← clip(s + g (P − cap) / cap, 0, 1) with g = :data:`GUARD_GAIN` while the
-meter exceeds the cap (deeper) and :data:`GUARD_RELEASE_GAIN` below it (released more
-slowly); s carries over to the next period while a guard is in force, 0 without one. It sheds,
-within the comfort band, the zones whose air is below their upper bound (the band at the period's
-end, the tighter of this period's and the next's, as the plan's): under setpoint actuation the
-cooling setpoint moves the share s of the way from the actuated one up to that bound,
-T' = T_sp + s (T_upper − T_sp) (the air loop then cools less); under flow actuation the flow
-moves towards its floor, u' = u_floor + (1 − s)(u − u_floor), as on the RC plant. A period
-in which some zone was shed has ``peak_guard_active``.
+on the meter (:func:`~hvacflex.sim.zone_step_rules.next_shed_level`: deeper while the meter
+exceeds the cap, released more slowly below it); s carries over to the next period while a
+guard is in force, 0 without one. It sheds, within the comfort band, the zones whose air is below
+their upper bound (the band at the period's end, the tighter of this period's and the next's, as the
+plan's): under setpoint actuation the cooling setpoint moves the share s of the way from the
+actuated one up to that bound, T' = T_sp + s (T_upper − T_sp) (the air loop then cools less); under
+flow actuation the flow moves towards its floor, u' = u_floor + (1 − s)(u − u_floor), as on the RC
+plant. A period in which some zone was shed has ``peak_guard_active``.
 
 EnergyPlus cannot be copied mid-run (``can_snapshot = False``); :meth:`set_state` replays the
-recorded actuations (and peak guards) of :meth:`get_state` from a fresh run, which
-reproduces the same readings (the engine is deterministic).
+recorded actuations (with their peak guards and comfort limits) of :meth:`get_state` from a fresh
+run, which reproduces the same readings (the engine is deterministic).
 """
 
 from __future__ import annotations
@@ -90,28 +87,14 @@ from hvacflex.energyplus.runner import (
 )
 from hvacflex.errors import InputError
 from hvacflex.sim.plant import Actuation, Disturbance, FloatArray, Observation, PeakGuard
+from hvacflex.sim.zone_step_rules import SetpointRule, next_shed_level, shed_toward_band
 
 PlantActuation = Literal["setpoint", "flow"]
-
-SETPOINT_DEADBAND_K = 1.0
-"""The heating setpoint is kept at least this far below the actuated cooling setpoint [K]."""
-ANTICIPATION_TOLERANCE_K = 0.1
-"""The loop is started a zone time step early only when a zone, rising at its last step's
-rate, would pass its comfort limit by more than this [K]."""
-
-AVAILABILITY_ON = 1.0
-"""Value of a forced-on availability schedule."""
 
 HVAC_METERS = ("Electricity:HVAC", "Electricity:Plant")
 """Meters whose sum is the plant's ``power_kw`` (fans, pumps, chiller)."""
 FACILITY_METER = "ElectricityPurchased:Facility"
 """The whole-facility meter (``Electricity:Facility`` has no API handle in 25.2)."""
-GUARD_GAIN = 4.0
-"""The peak guard's integral gain while the meter exceeds the cap: change of its shed level
-per zone time step per unit relative excess (a 5 % excess sheds a fifth of the way)."""
-GUARD_RELEASE_GAIN = 1.0
-"""The gain below the cap: the shed is released more slowly than it was taken (a fast
-release rebounds above the cap, the zones having drifted up meanwhile)."""
 FLOW_EPSILON_KG_S = 1e-6
 """Below this total inlet flow a zone's supply temperature is the plain mean of its inlets."""
 
@@ -246,10 +229,6 @@ class EnergyPlusPlant:
         self._guard: PeakGuard | None = None
         self._shed_level = 0.0
         self._period_shed = False
-        self._previous_zone_degc: FloatArray | None = None
-        """(m,) the zones' air temperatures at the last zone time step's start [°C]."""
-        self._limit_degc: FloatArray | None = None
-        """(m,) the period's comfort limits (``Actuation.limit_degc``) [°C], or None."""
         self._limits: list[FloatArray | None] = []
         self.python_time_s = 0.0
         """Wall time of :meth:`step` outside the engine [s] (the plant's own overhead)."""
@@ -283,7 +262,7 @@ class EnergyPlusPlant:
         self._outdoor = len(variables)
         variables.append(Variable("Site Outdoor Air Drybulb Temperature", "Environment"))
         actuators: list[Actuator] = []
-        self._heating_vars: list[int | None] = []
+        self._rule = SetpointRule(m)
         if self.actuation == "setpoint":
             actuators = self._setpoint_actuators(objects, variables)
         else:
@@ -327,36 +306,13 @@ class EnergyPlusPlant:
         for zone in self.idf_zone_names:
             schedule = heating_setpoint_schedule(objects, zone)
             if schedule is None:
-                self._heating_vars.append(None)
+                self._rule.heating_vars.append(None)
             else:
-                self._heating_vars.append(len(variables))
+                self._rule.heating_vars.append(len(variables))
                 variables.append(Variable("Schedule Value", schedule))
         self._availability = availability_schedules(objects)
         actuators += [Actuator(kind, "Schedule Value", name) for kind, name in self._availability]
         return actuators
-
-    def _setpoint_rule(self, now: FloatArray, commanded: FloatArray) -> FloatArray:
-        """Heating setpoints below the cooling ones; availability forced on when a zone is
-        warmer than its actuated cooling setpoint, or at its last step's rise will be warmer
-        than its comfort limit by the next step (see the module docstring)."""
-        m = self._m
-        cooling = commanded[:m]
-        applied = commanded.copy()
-        for i, index in enumerate(self._heating_vars):
-            limit = cooling[i] - SETPOINT_DEADBAND_K
-            applied[m + i] = limit if index is None else min(now[index], limit)
-        if np.isnan(cooling).any():
-            applied[: 2 * m] = np.nan
-        zone_degc = now[:m]
-        needs_cooling = bool(np.any(zone_degc > cooling))
-        if self._previous_zone_degc is not None and self._limit_degc is not None:
-            rise = np.maximum(zone_degc - self._previous_zone_degc, 0.0)
-            needs_cooling = needs_cooling or bool(
-                np.any(zone_degc + rise > self._limit_degc + ANTICIPATION_TOLERANCE_K)
-            )
-        self._previous_zone_degc = zone_degc.copy()
-        applied[2 * m :] = AVAILABILITY_ON if needs_cooling else np.nan
-        return applied
 
     def _timestep_rule(
         self, now: FloatArray, commanded: FloatArray, meters_last_step_j: FloatArray
@@ -385,7 +341,7 @@ class EnergyPlusPlant:
                 )
                 values[:m] = shed
         if self.actuation == "setpoint":
-            return self._setpoint_rule(now, values)
+            return self._rule.apply(now, values)
         return values
 
     # ---- the Plant protocol ------------------------------------------------------------
@@ -401,7 +357,7 @@ class EnergyPlusPlant:
         self.close()
         self._history, self._guards, self._limits = [], [], []
         self._guard, self._shed_level, self._period_shed = None, 0.0, False
-        self._previous_zone_degc, self._limit_degc = None, None
+        self._rule.reset()
         self._sim = CoSimulation(self._spec, self.work_dir)
         reading = self._sim.start()
         refused = guard_meter_error(self.source, self._sim.missing_meters)
@@ -438,13 +394,13 @@ class EnergyPlusPlant:
         ``limit_degc`` (m,) [°C], recorded for replay."""
         assert self._sim is not None
         self._guard, self._period_shed = guard, False
-        self._limit_degc = None if limit_degc is None else np.asarray(limit_degc, np.float64)
+        self._rule.limit_degc = None if limit_degc is None else np.asarray(limit_degc, np.float64)
         if guard is None:
             self._shed_level = 0.0
         reading = self._sim.advance(values)
         self._history.append(values.copy())
         self._guards.append(guard)
-        self._limits.append(self._limit_degc)
+        self._limits.append(self._rule.limit_degc)
         return reading
 
     def _actuator_values(self, actuation: Actuation) -> FloatArray:
@@ -557,48 +513,6 @@ def guard_meter_error(source: str, missing_meters: tuple[str, ...]) -> InputErro
             "peak_guard = 'auto' or 'off'",
         )
     return None
-
-
-def next_shed_level(level: float, power_kw: float, cap_kw: float) -> float:
-    """The peak guard's shed level ∈ [0, 1] for the next zone time step, integral action on
-    the meter: s' = clip(s + g (P − cap) / cap, 0, 1), g = :data:`GUARD_GAIN` over the cap and
-    :data:`GUARD_RELEASE_GAIN` below it, with P [kW] the
-    meter's power over the last step and ``cap_kw`` [kW] the committed cap (shed deeper while
-    over the cap, released as the meter falls below it)."""
-    excess = (power_kw - cap_kw) / cap_kw
-    gain = GUARD_GAIN if excess > 0.0 else GUARD_RELEASE_GAIN
-    return float(np.clip(level + gain * excess, 0.0, 1.0))
-
-
-def shed_toward_band(
-    commanded: FloatArray,
-    zone_temp_degc: FloatArray,
-    guard: PeakGuard,
-    level: float,
-    *,
-    setpoint: bool,
-) -> FloatArray:
-    """(m,) the actuated values with the peak guard's shed at ``level`` ∈ [0, 1].
-
-    Zones whose air is below their upper comfort bound ``guard.comfort_upper_degc`` are
-    shed; the others keep their value. ``setpoint``: ``commanded`` are cooling setpoints
-    [°C], raised the share ``level`` of the way up to the bound (never lowered: a setpoint at
-    or above it stays); else flows [kg/s], moved the share ``level`` of the way down to
-    ``guard.flow_floor_kg_s`` (never raised).
-
-    Parameters
-    ----------
-    commanded : (m,) the period's actuated setpoints [°C] or flows [kg/s].
-    zone_temp_degc : (m,) zone air temperatures now [°C].
-    """
-    upper = np.asarray(guard.comfort_upper_degc, dtype=np.float64)
-    may_shed = np.asarray(zone_temp_degc, dtype=np.float64) < upper
-    if setpoint:
-        target = np.maximum(upper, commanded)
-    else:
-        target = np.minimum(np.asarray(guard.flow_floor_kg_s, dtype=np.float64), commanded)
-    shed: FloatArray = np.where(may_shed, commanded + level * (target - commanded), commanded)
-    return shed
 
 
 def inlet_flow_and_temp(
