@@ -197,6 +197,7 @@ def create_app(
     read_sessions = read_session_factory(engine)
     app.state.read_sessions = read_sessions
     auth = Auth(sessions, read_sessions)
+    app.state.auth = auth
     _service_routes(app, runtime)
     _building_routes(app, planner, auth)
     _plan_routes(app, planner, auth)
