@@ -31,7 +31,10 @@ in the server's event loop for a core, and the client reading the answer.
 ``server_cpu_share_of_a_core``: the CPU the server process (not its planning processes)
 used while planning, per second — what it needs of a core to keep pace. The server's
 process, its planning processes and this client share the machine's cores (on Linux, with
-autogroup scheduling, one session's share of them).
+autogroup scheduling, one session's share of them). ``server_cpu_ms_per_read``: at the
+end, ``--cpu-reads`` plan reads one after the other (one client, nothing planning) and the
+server process's CPU time per read [ms] — a figure the other sessions on a shared machine
+barely move, unlike the latencies.
 """
 
 from __future__ import annotations
@@ -149,6 +152,27 @@ def _cpu_s(pid: int) -> float | None:
     except OSError:
         return None
     return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def _cpu_ms_per_read(
+    url: str, key: str, building_ids: list[str], reads: int, pid: int
+) -> float | None:
+    """The server process's CPU time per plan read [ms]: ``reads`` reads one after the
+    other (one client, the buildings in turn, nothing planning), its CPU time before and
+    after (less noisy than a latency on a shared machine: it counts no wait)."""
+    if reads <= 0:
+        return None
+    with httpx.Client(base_url=url, headers={"X-API-Key": key}, timeout=30) as client:
+        for building_id in building_ids:  # the first read of each: not counted
+            client.get(f"/v1/buildings/{building_id}/plan")
+        before_s = _cpu_s(pid)
+        for i in range(reads):
+            building_id = building_ids[i % len(building_ids)]
+            client.get(f"/v1/buildings/{building_id}/plan").raise_for_status()
+        after_s = _cpu_s(pid)
+    if before_s is None or after_s is None:
+        return None
+    return (after_s - before_s) / reads * 1e3
 
 
 def _building_client(url: str, keys: dict[str, str], building_id: str) -> httpx.Client:
@@ -353,6 +377,9 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
                     waiting = _unplanned(url, operator, k, revisions, left)
                     lost += waiting
                 complete = lost == 0
+            cpu_ms_per_read = _cpu_ms_per_read(
+                url, operator, list(keys), args.cpu_reads, process.pid
+            )
         finally:
             process.terminate()
             process.wait(timeout=60)
@@ -380,6 +407,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         "server_cpu_share_of_a_core": None
         if server_cpu_s is None
         else round(server_cpu_s / loaded_s, 2),
+        "server_cpu_ms_per_read": None if cpu_ms_per_read is None else round(cpu_ms_per_read, 3),
         "read_errors": readers.errors,
         "acks_ms": _percentiles_ms(acks_s),
         "round_until_all_planned_s": [round(s, 2) for s in plans_s],
@@ -416,6 +444,12 @@ def main() -> None:
         help="the server's planning processes (serve --plan-processes; default: its "
         "default; 0: threads of the server process, as before issue 56)",
     )
+    parser.add_argument(
+        "--cpu-reads",
+        type=int,
+        default=3000,
+        help="plan reads one after the other at the end, for the server's CPU per read (0: none)",
+    )
     parser.add_argument("--json", type=Path, default=None, help="write the figures here too")
     parser.add_argument(
         "--quick", action="store_true", help="smoke run at the smallest size (the test suite's)"
@@ -423,6 +457,7 @@ def main() -> None:
     args = parser.parse_args()
     if args.quick:
         args.buildings, args.readers, args.rounds, args.idle_s = 1, 2, 1, 0.5
+        args.cpu_reads = min(args.cpu_reads, 100)
     figures = run(args)
     text = json.dumps(figures, indent=2)
     print(text)

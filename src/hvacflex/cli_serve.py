@@ -302,7 +302,8 @@ def serve_key_revoke(
     key_id: str = typer.Argument(..., help="The key's id (the 16 hex digits after hvf_)."),
     db: str | None = _SUB_DB_OPTION,
 ) -> None:
-    """Revoke a key: a running service refuses it (401) from its next request on."""
+    """Revoke a key: a running service refuses it (401) from its next request on
+    (plan reads, which check keys in memory: within 0.5 s)."""
     from hvacflex.errors import HvacflexError
     from hvacflex.service.keys import revoke_key
 

@@ -11,6 +11,7 @@ import stat
 import time
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import pytest
 from fastapi.testclient import TestClient
@@ -19,19 +20,24 @@ from typer.testing import CliRunner
 from hvacflex.cli import app as cli
 from hvacflex.errors import InputError
 from hvacflex.service.app import create_app
+from hvacflex.service.db import ApiKey
 from hvacflex.service.keys import (
     CLOCK_ROUTE,
     DEFAULT_ROUTE_LIMITS,
+    KEY_CACHE_MAX_AGE_S,
     REGISTER_ROUTE,
     UNKNOWN_KEY_BURST,
     UNKNOWN_KEY_PER_S,
     KeyBudgets,
     KeyVerifier,
+    Principal,
     RateLimitedError,
     RouteLimit,
     TokenBucket,
+    VerifiedKeys,
     create_key,
     parse_route_limit,
+    revoke_key,
 )
 
 RUNNER = CliRunner()
@@ -276,3 +282,102 @@ def test_token_bucket_refills_at_its_rate() -> None:
     assert bucket.take("a", now_s=1.0) == pytest.approx(1.0)
     assert bucket.take("a", now_s=2.0) == 0.0
     assert bucket.take("b", now_s=2.0) == 0.0  # another client has its own bucket
+
+
+class _Clock:
+    def __init__(self) -> None:
+        self.now_s = 100.0
+
+    def __call__(self) -> float:
+        return self.now_s
+
+
+def test_verified_keys_answer_only_while_the_revocations_are_fresh_and_unchanged(
+    tmp_path: Path,
+) -> None:
+    """In memory only after a poll, within max_age_s of its start, and never across a
+    revocation (seen by a poll, or made in this process), nor a key put on a row read
+    before the keys were forgotten."""
+    app = create_app(f"sqlite:///{tmp_path / 'verified.db'}")
+    with app.state.sessions() as session, session.begin():
+        key = create_key(session, "operator")
+        other = create_key(session, "operator")
+    clock = _Clock()
+    keys = VerifiedKeys(poll_s=0.05, max_age_s=0.5, clock=clock)
+    who = Principal(key.split("_")[1], "operator", None)
+    keys.put(key, who, keys.token())
+    assert keys.get(key) is None  # no poll yet: the revocations are not known
+    assert keys.poll_due() and not keys.poll_due()  # one poll at a time
+    with app.state.read_sessions() as session:
+        keys.poll(session)
+    assert keys.get(key) is None  # the first poll forgets what was put before it
+    keys.put(key, who, keys.token())
+    assert keys.get(key) == who and keys.get(other) is None
+    clock.now_s += 0.51
+    assert keys.get(key) is None  # the last poll is too old: ask the database
+    assert keys.poll_due()
+    token = keys.token()  # a row read starts …
+    with app.state.sessions() as session, session.begin():  # … another process revokes …
+        session.execute(
+            ApiKey.__table__.update()
+            .where(ApiKey.key_id == other.split("_")[1])
+            .values(revoked=True)
+        )
+    with app.state.read_sessions() as session:
+        keys.poll(session)  # … the poll sees it …
+    keys.put(other, Principal(other.split("_")[1], "operator", None), token)  # … dropped
+    assert keys.get(other) is None and keys.get(key) is None
+    keys.put(key, who, keys.token())
+    assert keys.get(key) == who
+    with app.state.sessions() as session, session.begin():
+        revoke_key(session, key.split("_")[1])  # in this process: forgotten at once
+    assert keys.get(key) is None
+    app.state.engine.dispose()
+
+
+def test_a_revoked_key_reads_no_plan_from_memory(make_db_url: Callable[[str], str]) -> None:
+    """The plan read checks keys in memory: a key revoked by `serve key revoke` (this
+    process) is refused at its next read; one revoked by another connection (as by another
+    process) within KEY_CACHE_MAX_AGE_S; the other keys still read."""
+    db = make_db_url("revoke-read")
+    app = create_app(db, route_limits={})
+    with app.state.sessions() as session, session.begin():
+        operator = create_key(session, "operator")
+        first = create_key(session, "operator")
+        second = create_key(session, "operator")
+    client = TestClient(app)
+    body = {
+        "building_id": "r1",
+        "building": {"name": "office5"},
+        "scenario": {"preset": "rmpc", "start": "2014-03-03", "days": 1},
+    }
+    assert client.post("/v1/buildings", json=body, headers={"X-API-Key": operator}).is_success
+
+    def read(key: str) -> Any:
+        return client.get("/v1/buildings/r1/plan", headers={"X-API-Key": key})
+
+    verified = app.state.auth.verified_keys
+    deadline = time.monotonic() + 30
+    while not all(verified.get(k) for k in (operator, first, second)):
+        assert time.monotonic() < deadline, "the keys are not answered from memory"
+        for key in (operator, first, second):
+            assert read(key).json()["message"] == "no plan yet"
+        time.sleep(0.01)
+    code, _ = _cli("serve", "key", "revoke", first.split("_")[1], "--db", db)
+    assert code == 0
+    assert read(first).status_code == 401
+    with app.state.sessions() as session, session.begin():  # not through revoke_key
+        session.execute(
+            ApiKey.__table__.update()
+            .where(ApiKey.key_id == second.split("_")[1])
+            .values(revoked=True)
+        )
+    revoked_at = time.monotonic()
+    while read(second).status_code != 401:
+        time.sleep(0.005)
+    assert time.monotonic() - revoked_at <= KEY_CACHE_MAX_AGE_S + 0.5  # + one read's time
+    assert read(second).json()["message"] == "unknown or revoked key"
+    assert read(operator).status_code == 404  # still reads (no plan yet)
+    client.close()
+    app.state.planner.shutdown()
+    app.state.engine.dispose()

@@ -9,6 +9,7 @@ gets 403 on any other building. Every mutating request is written to the ``audit
 handlers and the key checks are in :mod:`.http`.
 """
 
+import asyncio
 import contextlib
 import functools
 import gc
@@ -49,7 +50,6 @@ from hvacflex.service.http import (
     BodyLimitAndAudit,
     add_error_handlers,
     check_building_reader,
-    json_response,
     roles,
 )
 from hvacflex.service.keys import (
@@ -68,6 +68,7 @@ from hvacflex.service.operations import (
     metrics_text,
     stale_buildings,
 )
+from hvacflex.service.plan_cache import NO_PLAN, CachedPlan, plan_answer
 from hvacflex.service.plan_processes import (
     MAX_NICENESS,
     PLAN_NICENESS,
@@ -196,6 +197,7 @@ def create_app(
     read_sessions = read_session_factory(engine)
     app.state.read_sessions = read_sessions
     auth = Auth(sessions, read_sessions)
+    app.state.auth = auth
     _service_routes(app, runtime)
     _building_routes(app, planner, auth)
     _plan_routes(app, planner, auth)
@@ -352,6 +354,7 @@ def _plan_routes(app: FastAPI, planner: Planner, auth: Auth) -> None:
     """A building's measurements (acknowledged, planned off the request path) and its
     latest plan (read at once)."""
     runtime = planner.runtime
+    latest = planner.latest_plans
     building_writer = roles(auth)[2]
 
     @app.post(
@@ -402,23 +405,49 @@ def _plan_routes(app: FastAPI, planner: Planner, auth: Auth) -> None:
     ) -> Response:
         """The latest finished plan (of ``period`` if given), at once: a plan being made
         is not waited for (operator, or the building itself)."""
+        if auth.verified_keys.poll_due():  # the revocations, read off the event loop
+            asyncio.get_running_loop().run_in_executor(None, auth.poll_keys)
+        answer = plan_from_memory(request, key, building_id, period)
+        if answer is not None:
+            return answer
         return await run_in_threadpool(read_plan, request, key, building_id, period)
+
+    def plan_from_memory(
+        request: Request, key: str | None, building_id: str, period: int | None
+    ) -> Response | None:
+        """The answer from memory, on the event loop: the key verified recently and the
+        building's latest plan as the planner handed it back (:mod:`.plan_cache`); None
+        where either is not known here (the database answers)."""
+        who = auth.cached(request, key)
+        if who is None:
+            return None
+        check_building_reader(who, building_id)
+        entry = latest.get(building_id)
+        if entry is NO_PLAN:
+            raise HTTPException(404, "no plan yet")
+        if not isinstance(entry, CachedPlan) or period not in (None, entry.period):
+            return None
+        return Response(entry.body, media_type="application/json")
 
     def read_plan(
         request: Request, key: str | None, building_id: str, period: int | None
     ) -> Response:
         """The key checked and the plan read on one connection, in one trip through the
-        threadpool (the read the buildings' systems and dashboards poll)."""
+        threadpool; the latest plan is kept for the next reads (:meth:`LatestPlans.fill`)."""
         from hvacflex.service.db import BuildingRow
 
+        token = latest.token(building_id)  # before the plan is read
         with app.state.read_sessions() as session:  # one statement each when there is a plan
             check_building_reader(auth.check(session, request, key), building_id)
             plan = runtime.latest_plan(session, building_id, period)
             if plan is None and session.get(BuildingRow, building_id) is None:
                 raise NotFoundError("no such building", field="building_id", value=building_id)
-        if plan is None:
+        answer = NO_PLAN if plan is None else plan_answer(plan)
+        if period is None:
+            latest.fill(building_id, answer, token)
+        if not isinstance(answer, CachedPlan):
             raise HTTPException(404, "no plan yet")
-        return json_response(Envelope(status=200, message="ok", payload=Plan(**plan)))
+        return Response(answer.body, media_type="application/json")
 
 
 def _measurement_routes(app: FastAPI, runtime: Runtime, auth: Auth) -> None:

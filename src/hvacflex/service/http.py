@@ -11,9 +11,8 @@ from typing import Annotated, Any
 
 from fastapi import Depends, FastAPI, HTTPException, Request
 from fastapi.exceptions import RequestValidationError
-from fastapi.responses import JSONResponse, Response
+from fastapi.responses import JSONResponse
 from fastapi.security import APIKeyHeader
-from pydantic import BaseModel
 from sqlalchemy.exc import DataError, DBAPIError, IntegrityError, OperationalError, SQLAlchemyError
 from sqlalchemy.orm import Session, sessionmaker
 from starlette.concurrency import run_in_threadpool
@@ -22,7 +21,7 @@ from starlette.routing import Match
 
 from hvacflex.errors import HvacflexError, InputError
 from hvacflex.service.db import AuditEntry, bytes_as_text
-from hvacflex.service.keys import KeyVerifier, Principal, RateLimitedError
+from hvacflex.service.keys import KeyVerifier, Principal, RateLimitedError, VerifiedKeys
 from hvacflex.service.runtime import NotFoundError
 from hvacflex.service.schemas import ErrorEnvelope
 from hvacflex.sim.step import ConflictError
@@ -79,14 +78,6 @@ PACKAGE_DIR = Path(__file__).resolve().parents[1]
 
 def envelope(status: int, message: str, payload: Any = None) -> JSONResponse:
     return JSONResponse({"status": status, "message": message, "payload": payload}, status)
-
-
-def json_response(body: BaseModel, status: int = 200) -> Response:
-    """``body`` (validated when it was made) as the response itself: FastAPI sends a
-    returned response as it is, without validating the value against the route's model
-    once more in the threadpool — a second trip through the threadpool per request, the
-    part of a read that waited longest on a loaded machine."""
-    return Response(body.model_dump_json(), status, media_type="application/json")
 
 
 class BodyLimitAndAudit:
@@ -277,6 +268,26 @@ class Auth:
         self.read_sessions = read_sessions or sessions
         """Where keys are looked up (a read: :func:`~.db.read_session_factory`)."""
         self.verifier = KeyVerifier()
+        self.verified_keys = VerifiedKeys()
+        """Keys verified here, for the plan read's check in memory (:meth:`cached`)."""
+
+    def cached(self, request: Request, key: str | None) -> Principal | None:
+        """The caller from the keys verified recently (:class:`~.keys.VerifiedKeys`, no
+        database; on the event loop), or None: check it with :meth:`check`."""
+        who = self.verified_keys.get(key) if key else None
+        if who is not None:
+            request.state.principal = who
+        return who
+
+    def poll_keys(self) -> None:
+        """Read the stored keys' revocations for :meth:`cached` (off the event loop; a
+        database error is logged: the keys stay unanswered from memory until a poll
+        succeeds)."""
+        try:
+            with self.read_sessions() as session:
+                self.verified_keys.poll(session)
+        except Exception:
+            LOG.exception("the keys' revocations could not be read")
 
     def principal(
         self, request: Request, key: Annotated[str | None, Depends(API_KEY)]
@@ -298,9 +309,11 @@ class Auth:
         if not key:
             raise HTTPException(401, f"missing {API_KEY_HEADER} header")
         client = request.client.host if request.client else "-"
+        token = self.verified_keys.token()  # before the key's row is read
         who = self.verifier.verify(session, key, client)
         if who is None:
             raise HTTPException(401, "unknown or revoked key")
+        self.verified_keys.put(key, who, token)
         request.state.principal = who
         return who
 

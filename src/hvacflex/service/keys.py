@@ -8,6 +8,12 @@ claimed (:class:`TokenBucket`): only failures count, so a flood of unknown keys 
 and a valid key used for the first time is refused only when both its address and its own
 key id have failed too often — never for other keys' failures alone. Authenticated callers
 have a budget per key on the costly routes (:class:`KeyBudgets`, :data:`DEFAULT_ROUTE_LIMITS`).
+
+The plan read (the route buildings poll) checks its key in memory instead
+(:class:`VerifiedKeys`): keys verified recently, forgotten whenever the stored keys'
+revocations change — at once for a revocation made in this process, and within
+:data:`KEY_CACHE_MAX_AGE_S` (typically :data:`KEY_POLL_S`) for one made by another process
+(``hvacflex serve key revoke`` on the same database).
 """
 
 from __future__ import annotations
@@ -21,12 +27,13 @@ import secrets
 import threading
 import time
 from collections import OrderedDict
+from collections.abc import Callable
 from dataclasses import dataclass
 from datetime import datetime
 from pathlib import Path
 from typing import Literal
 
-from sqlalchemy import select
+from sqlalchemy import case, func, select
 from sqlalchemy.orm import Session
 
 from hvacflex.errors import HvacflexError, InputError
@@ -46,6 +53,15 @@ UNKNOWN_KEY_PER_S = 0.2
 """Such failures per address (per key id) per second after the burst [1/s]: each costs one
 scrypt (≈ 0.05 s on an idle core, 0.5 s on the loaded shared machine), so one address can
 hold at most a tenth of a core this way."""
+
+
+KEY_POLL_S = 0.05
+"""How often, while plan reads come, the stored keys' revocations are read for
+:class:`VerifiedKeys` [s] (one small aggregate statement each time)."""
+KEY_CACHE_MAX_AGE_S = 0.5
+"""The longest a key revoked by another process may still read plans [s]: a key is
+answered from memory only if the revocations were read within this long (else the
+database is asked, as on every other route)."""
 
 
 @dataclass(frozen=True)
@@ -190,7 +206,118 @@ def revoke_key(session: Session, key_id: str) -> bool:
         raise InputError("no such key", field="KEY_ID", value=key_id, hint="see `serve key list`")
     was = bool(row.revoked)
     row.revoked = True
+    global _REVOCATIONS_HERE
+    _REVOCATIONS_HERE += 1  # every VerifiedKeys of this process forgets its keys
     return was
+
+
+_REVOCATIONS_HERE = 0
+"""Keys revoked by this process (:func:`revoke_key`), for :class:`VerifiedKeys`."""
+
+
+def revocations_fingerprint(session: Session) -> tuple[int, int]:
+    """(stored keys, revoked keys): changes whenever a key is revoked (keys are never
+    deleted or restored), whoever revoked it."""
+    total, revoked = session.execute(
+        select(func.count(), func.coalesce(func.sum(case((ApiKey.revoked, 1), else_=0)), 0))
+    ).one()
+    return int(total), int(revoked)
+
+
+class VerifiedKeys:
+    """Principals of keys verified recently, by the key's SHA-256, answered without the
+    database while the stored keys' revocations are known to be unchanged.
+
+    * :meth:`poll` reads :func:`revocations_fingerprint` (the caller runs it off the event
+      loop, every ``poll_s`` while reads come: :meth:`poll_due`); a change, or the first
+      poll, forgets every key.
+    * :meth:`get` answers a key only if the last poll started less than ``max_age_s`` ago
+      and no key was revoked in this process since: a key revoked (by anyone) before that
+      poll started is not answered, so a revocation holds within ``max_age_s``.
+    * :meth:`put` keeps a key just verified against its stored row, with the
+      :meth:`token` taken before that row was read: a key forgotten meanwhile is not put.
+    """
+
+    def __init__(
+        self,
+        poll_s: float = KEY_POLL_S,
+        max_age_s: float = KEY_CACHE_MAX_AGE_S,
+        clock: Callable[[], float] = time.monotonic,
+    ) -> None:
+        self.poll_s, self.max_age_s, self.clock = poll_s, max_age_s, clock
+        self._principals: dict[str, Principal] = {}
+        self._generation = 0
+        self._fingerprint: tuple[int, int] | None = None
+        self._polled_from: float | None = None
+        """When the last finished poll started (None: none finished)."""
+        self._poll_started: float | None = None
+        self._polling = False
+        self._revocations_here = _REVOCATIONS_HERE
+        self._lock = threading.Lock()
+
+    def get(self, key: str) -> Principal | None:
+        """The key's principal if it is known here and fresh, else None (ask the
+        database)."""
+        polled_from = self._polled_from
+        if polled_from is None or self.clock() - polled_from > self.max_age_s:
+            return None
+        if self._revocations_here != _REVOCATIONS_HERE:
+            with self._lock:
+                self._check_here()
+            return None
+        return self._principals.get(_digest(key))
+
+    def token(self) -> int:
+        """Take before reading a key's row (for :meth:`put`)."""
+        with self._lock:
+            self._check_here()
+            return self._generation
+
+    def put(self, key: str, principal: Principal, token: int) -> None:
+        """Keep ``key``, verified on a row read after :meth:`token` returned ``token``."""
+        with self._lock:
+            self._check_here()
+            if token == self._generation:
+                self._principals[_digest(key)] = principal
+
+    def poll_due(self) -> bool:
+        """Whether a poll should start now (none running, the last started ``poll_s``
+        ago); if so, it counts as started."""
+        now = self.clock()
+        with self._lock:
+            if self._polling or (
+                self._poll_started is not None and now - self._poll_started < self.poll_s
+            ):
+                return False
+            self._polling, self._poll_started = True, now
+            return True
+
+    def poll(self, session: Session) -> None:
+        """Read the revocations (after :meth:`poll_due` said so); forget every key if they
+        changed or were never read."""
+        started = self._poll_started if self._poll_started is not None else self.clock()
+        try:
+            fingerprint = revocations_fingerprint(session)
+        except BaseException:
+            with self._lock:
+                self._polling = False
+            raise
+        with self._lock:
+            self._polling = False
+            if fingerprint != self._fingerprint:
+                self._forget_locked()
+                self._fingerprint = fingerprint
+            self._polled_from = started
+
+    def _check_here(self) -> None:
+        """Forget every key if this process revoked one since (the caller holds the lock)."""
+        if self._revocations_here != _REVOCATIONS_HERE:
+            self._forget_locked()
+
+    def _forget_locked(self) -> None:
+        self._principals = {}
+        self._generation += 1
+        self._revocations_here = _REVOCATIONS_HERE
 
 
 class TokenBucket:

@@ -19,6 +19,10 @@ The rules that keep the loop's semantics of a synchronous service:
   building while one of its measurements waits: a boundary or activation job that meets a
   waiting measurement goes back to the end of the queue, behind it — as it was when the
   measurement was planned on its request.
+* **The server keeps each building's latest plan in memory**
+  (:class:`~hvacflex.service.plan_cache.LatestPlans`, ``Planner.latest_plans``): a plan is
+  offered there when it comes back, before its waiters get it, so reads are answered
+  without the database and never show a plan older than one already handed out.
 * **Restart safety**: the measurement is committed before it is acknowledged; a measurement
   without its plan (trigger ``measurement``) is queued again when the service starts
   (:meth:`Planner.recover`), so an acknowledged measurement is planned after a crash.
@@ -39,6 +43,7 @@ from typing import Any, Protocol
 from sqlalchemy import func, select
 
 from hvacflex.service.db import Measurement, PlanRow
+from hvacflex.service.plan_cache import LatestPlans
 from hvacflex.service.runtime import Runtime
 from hvacflex.service.schemas import MeasurementIn
 
@@ -128,6 +133,8 @@ class Planner:
         """Buildings running a boundary or activation job now (it may store one plan)."""
         self._running_futures: dict[tuple[str, int], Future[Plan]] = {}
         """The futures of the measurements being planned now."""
+        self.latest_plans = LatestPlans()
+        """Each building's latest plan, as every job's plan comes back (the reads' copy)."""
 
     # -- measurements -------------------------------------------------------------------
     def acknowledge(self, building_id: str, body: MeasurementIn) -> Ack:
@@ -271,11 +278,23 @@ class Planner:
         except BaseException as exc:  # the waiter gets the error; the queue goes on
             if job.measurement is not None:
                 LOG.exception("planning %s failed", job.measurement)
+            self.latest_plans.forget(building_id)  # its plan may be stored or not
             self._finish(building_id, job)
             job.future.set_exception(exc)
             return
+        if result is not None:  # committed: the reads' copy before any waiter has it
+            self._offer(building_id, result)
         self._finish(building_id, job)
         job.future.set_result(result)
+
+    def _offer(self, building_id: str, plan: Plan) -> None:
+        """Keep ``plan`` as the building's latest; a plan the reads' copy cannot take (it
+        is stored: the database answers) drops the building's copy instead."""
+        try:
+            self.latest_plans.offer(building_id, plan)
+        except Exception:
+            LOG.exception("the plan of %s not kept in memory: reads use the database", building_id)
+            self.latest_plans.forget(building_id)
 
     def _finish(self, building_id: str, job: _Job) -> None:
         with self._lock:
