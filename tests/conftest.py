@@ -45,7 +45,7 @@ CHROMIUM_PATHS = ("/usr/bin/chromium", "/usr/bin/chromium-browser")
 """Debian's chromium (.ci/run installs it); Playwright drives it, no browser download."""
 
 
-@pytest.fixture(scope="session")
+@pytest.fixture(scope="module")
 def chromium() -> Iterator[Any]:
     """A headless Chromium (Playwright ``Browser``) on Debian's binary; the test is skipped
     where neither the binary nor the ``playwright`` package is installed."""
