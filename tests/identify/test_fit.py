@@ -5,6 +5,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -188,15 +189,23 @@ def _fan_only_trend(frame: pd.DataFrame) -> pd.DataFrame:
     return out
 
 
-def test_the_fan_only_hours_and_air_are_learned_from_the_air_or_the_coil_schedule(
-    tmp_path: Path, synthetic_trend: Callable[..., pd.DataFrame]
-) -> None:
+def _week_fitted(tmp_path: Path, trend: pd.DataFrame) -> tuple[Any, Any, tuple[int, int], Any]:
+    """A week's trend written and read back: the data, the fit's inputs, the week as the
+    training range and the air system seen in it."""
     path = tmp_path / "trend.csv"
-    write_trend(_fan_only_trend(synthetic_trend(days=7, seed=3)), path)
+    write_trend(trend, path)
     data = read_trend(path)
     inputs = fit_inputs(data, ZONES, SITE)
     train = (0, 7 * 48)
-    air = air_system(inputs, data, train, np.zeros(2))
+    return data, inputs, train, air_system(inputs, data, train, np.zeros(2))
+
+
+def test_the_fan_only_hours_and_air_are_learned_from_the_air_or_the_coil_schedule(
+    tmp_path: Path, synthetic_trend: Callable[..., pd.DataFrame]
+) -> None:
+    data, inputs, train, air = _week_fitted(
+        tmp_path, _fan_only_trend(synthetic_trend(days=7, seed=3))
+    )
     idle = idle_air(inputs, data, train, air)
     assert idle is not None
     table = np.array(idle.fan_only)
@@ -253,12 +262,8 @@ def test_units_per_zone_get_their_fans_flow_of_fan_only_air_in_the_fans_hours(
     zone. With the IDF's fan schedule (here on 06:00–22:00 on every day, the coils always
     available) the hours are the schedule's on the weekdays whose training days it covers;
     from the air alone they are where the air was fan-only."""
-    path = tmp_path / "trend.csv"
-    write_trend(_unit_trend(synthetic_trend(days=7, seed=5)), path)
-    data = read_trend(path)
-    inputs = fit_inputs(data, ZONES, SITE)
-    train = (0, 7 * 48)
-    air = air_system(inputs, data, train, np.zeros(2))
+    trend = _unit_trend(synthetic_trend(days=7, seed=5))
+    data, inputs, train, air = _week_fitted(tmp_path, trend)
     assert air.supply_temp_degc < 18.0  # the coil's air, not equivalent flows
     period = np.arange(48)
     from_air = idle_air(inputs, data, train, air)

@@ -63,6 +63,26 @@ _RESERVED_PORTS: list[socket.socket] = []
 """The sockets that hold the ports :func:`free_port` gave out, for the life of the process."""
 
 
+def app_with_building(url: str, building_id: str) -> tuple[TestClient, dict[str, str], Any, Any]:
+    """A fresh app on ``url`` (no route budget) with building ``building_id`` registered
+    (``rmpc``, office5, one day): its client, the keys by name (``operator`` and the
+    building's), the registration's payload and the app. The caller closes the client and
+    shuts the app's planner down."""
+    from hvacflex.service.app import create_app
+    from hvacflex.service.keys import create_key
+
+    app = create_app(url, route_limits=UNLIMITED)
+    with app.state.sessions() as session, session.begin():
+        operator = create_key(session, "operator")
+    client = TestClient(app)
+    response = client.post(
+        "/v1/buildings", json=registration(building_id), headers={"X-API-Key": operator}
+    )
+    assert response.status_code == 201, response.text
+    payload = response.json()["payload"]
+    return client, {"operator": operator, building_id: payload["key"]}, payload, app
+
+
 def free_port() -> int:
     """A port on 127.0.0.1 that nobody listens on, held for this test process until it ends.
 

@@ -13,11 +13,9 @@ from typing import Any
 
 import pytest
 from fastapi.testclient import TestClient
-from service_fixtures import START, UNLIMITED, registration
+from service_fixtures import START, app_with_building
 from sqlalchemy import event
 
-from hvacflex.service.app import create_app
-from hvacflex.service.keys import create_key
 from hvacflex.service.plan_cache import NO_PLAN, CachedPlan, LatestPlans, plan_answer
 from hvacflex.service.schemas import Envelope, Plan
 
@@ -106,15 +104,7 @@ def test_a_fill_keeps_no_older_plan_and_none_after_a_failed_job() -> None:
 @pytest.fixture
 def served(make_db_url: Callable[[str], str]) -> Iterator[tuple[TestClient, dict[str, str], Any]]:
     """A fresh app with building ``b1`` (``rmpc``, office5, one day); the keys by name."""
-    app = create_app(make_db_url("cache"), route_limits=UNLIMITED)
-    with app.state.sessions() as session, session.begin():
-        operator = create_key(session, "operator")
-    client = TestClient(app)
-    response = client.post(
-        "/v1/buildings", json=registration("b1"), headers={"X-API-Key": operator}
-    )
-    assert response.status_code == 201, response.text
-    keys = {"operator": operator, "b1": response.json()["payload"]["key"]}
+    client, keys, _, app = app_with_building(make_db_url("cache"), "b1")
     yield client, keys, app
     client.close()
     app.state.planner.shutdown()

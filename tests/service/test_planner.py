@@ -13,12 +13,17 @@ from typing import Any
 
 import pytest
 from fastapi.testclient import TestClient
-from service_fixtures import START, UNLIMITED, operator_key_for, registration, stored_plans
+from service_fixtures import (
+    START,
+    app_with_building,
+    operator_key_for,
+    registration,
+    stored_plans,
+)
 from sqlalchemy import func, select
 
 from hvacflex.service.app import create_app
 from hvacflex.service.db import Measurement
-from hvacflex.service.keys import create_key
 from hvacflex.service.replay import Client
 
 READ_WAIT_LIMIT_S = 2.0
@@ -51,16 +56,8 @@ def served(
 ) -> Iterator[tuple[TestClient, dict[str, str], list[str], Any, str]]:
     """A fresh app with building ``p1`` (``rmpc``, office5, one day)."""
     url = make_db_url("planner")
-    app = create_app(url, route_limits=UNLIMITED)
-    with app.state.sessions() as session, session.begin():
-        operator = create_key(session, "operator")
-    client = TestClient(app)
-    response = client.post(
-        "/v1/buildings", json=registration("p1"), headers={"X-API-Key": operator}
-    )
-    assert response.status_code == 201, response.text
-    keys = {"operator": operator, "p1": response.json()["payload"]["key"]}
-    yield client, keys, response.json()["payload"]["nodes"], app, url
+    client, keys, payload, app = app_with_building(url, "p1")
+    yield client, keys, payload["nodes"], app, url
     client.close()
     app.state.planner.shutdown()
     app.state.engine.dispose()

@@ -604,21 +604,21 @@ def _check_solar_distribution(spec: BuildingSpec) -> None:
             )
 
 
-def _check_per_zone_keys(spec: BuildingSpec, key: str, table: dict[str, float]) -> None:
+def _check_per_zone_keys(spec: BuildingSpec, field: str, table: dict[str, float]) -> None:
+    """Every key of ``table`` (at ``field``, e.g. ``hvac.flow_min_kg_s``) names a zone, and
+    every zone has one."""
     for name in table:
-        _check_zone_ref(spec, name, f"hvac.{key}.{name}")
+        _check_zone_ref(spec, name, f"{field}.{name}")
     for name in spec.zone_names:
         if name not in table:
-            raise rule_error(
-                "missing required field", f"hvac.{key}.{name}", hint="add it to the file"
-            )
+            raise rule_error("missing required field", f"{field}.{name}", hint="add it to the file")
 
 
 def _check_hvac(spec: BuildingSpec) -> None:
     hvac = spec.hvac
     assert hvac is not None  # _check_designed ran first
-    _check_per_zone_keys(spec, "flow_min_kg_s", hvac.flow_min_kg_s)
-    _check_per_zone_keys(spec, "flow_max_kg_s", hvac.flow_max_kg_s)
+    _check_per_zone_keys(spec, "hvac.flow_min_kg_s", hvac.flow_min_kg_s)
+    _check_per_zone_keys(spec, "hvac.flow_max_kg_s", hvac.flow_max_kg_s)
     for name in spec.zone_names:
         low, high = hvac.flow_min_kg_s[name], hvac.flow_max_kg_s[name]
         if low > high:
@@ -629,7 +629,7 @@ def _check_hvac(spec: BuildingSpec) -> None:
                 hint="flow_min_kg_s must be ≤ flow_max_kg_s",
             )
     if hvac.ventilation_flow_kg_s is not None:
-        _check_per_zone_keys(spec, "ventilation_flow_kg_s", hvac.ventilation_flow_kg_s)
+        _check_per_zone_keys(spec, "hvac.ventilation_flow_kg_s", hvac.ventilation_flow_kg_s)
         for name in spec.zone_names:
             low, high = hvac.flow_min_kg_s[name], hvac.flow_max_kg_s[name]
             vent = hvac.ventilation_flow_kg_s[name]
@@ -724,15 +724,8 @@ def _check_idle_air(spec: BuildingSpec, idle: IdentifiedIdleAirSpec) -> None:
         ("fan_only_difference_k", idle.fan_only_difference_k),
         ("fan_only_flow_kg_s", idle.fan_only_flow_kg_s),
     ):
-        if table is None:
-            continue
-        for name in table:
-            _check_zone_ref(spec, name, f"identified.idle_air.{key}.{name}")
-        for name in spec.zone_names:
-            if name not in table:
-                raise rule_error(
-                    "missing required field", f"identified.idle_air.{key}.{name}", hint="add it"
-                )
+        if table is not None:
+            _check_per_zone_keys(spec, f"identified.idle_air.{key}", table)
 
 
 def _check_identified(spec: BuildingSpec, identified: IdentifiedSpec) -> None:
