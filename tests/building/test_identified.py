@@ -4,6 +4,7 @@ fitted one (checked against the fit's own discretisation and hand-computed value
 from __future__ import annotations
 
 import tomllib
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -122,6 +123,33 @@ def test_the_occupied_outdoor_air_term_is_in_the_lp_and_the_plant(model_path: Pa
     assert plant == pytest.approx(occupied)
     channels = ("outdoor_temp_degc", "internal_gain_a_w", "internal_gain_b_w")
     assert identified_occupied_share(channels, np.array([30.0, 500.0, 500.0])) == 0.5
+
+
+def test_the_outdoor_air_moisture_is_in_the_lp_and_the_plant_while_occupied(
+    model_path: Path,
+) -> None:
+    rc = load_building(model_path).identified
+    assert rc is not None
+    moist = replace(POWER, kw_per_humidity_ratio_occupied=1000.0)
+    flow, t0, outdoor = np.array([0.3, 0.5]), 24.5, 31.0
+    humidity = np.array([0.024, 0.024, 0.018])  # humid vacant, humid occupied, the reference
+    occupied = np.array([0.0, 1.0, 1.0])
+    p0, p = metered_affine_power(
+        moist,
+        SUPPLY_TEMP_DEGC,
+        2,
+        np.full(3, outdoor),
+        t0,
+        occupied,
+        outdoor_humidity_ratio_kg_per_kg=humidity,
+    )
+    dry_p0, dry_p = metered_affine_power(
+        POWER, SUPPLY_TEMP_DEGC, 2, np.full(3, outdoor), t0, occupied
+    )
+    np.testing.assert_allclose(p, dry_p)  # a constant of the period: the flows' slope is unchanged
+    np.testing.assert_allclose(p0 - dry_p0, [0.0, 1000.0 * 0.006, 0.0], atol=1e-12)
+    plant = metered_power_kw(moist, SUPPLY_TEMP_DEGC, flow, np.full(2, t0), outdoor, 1.0, 0.024)
+    assert plant == pytest.approx(p0[1] + p[1] @ flow, rel=1e-12)
 
 
 def test_an_identified_building_refuses_walls_and_mismatched_zones() -> None:

@@ -38,6 +38,7 @@ TRUE = {
     "kw_per_kw_cooling_k_outdoor": 0.006,
     "kw_per_kw2_cooling": -0.002,
     "kw_per_kg_s_occupied": 5.0,
+    "kw_per_humidity_ratio_occupied": 900.0,
 }
 """A meter of every term the model has (a concave plant: its power per kW falls with load)."""
 
@@ -58,6 +59,7 @@ def _metered_trend(days: int, seed: int = 0) -> pd.DataFrame:
     total = flow.sum(axis=1)
     cooling = (flow * CP_AIR_J_PER_KG_K / 1000.0 * (temps - SUPPLY_TEMP_DEGC)).sum(axis=1)
     outdoor_air = (flow * (outdoor[:, None] - temps)).sum(axis=1)
+    humidity = rng.uniform(0.014, 0.024, steps)
     t = TRUE
     power = (
         t["base_kw"]
@@ -70,6 +72,7 @@ def _metered_trend(days: int, seed: int = 0) -> pd.DataFrame:
         + t["kw_per_kw2_cooling"] * cooling**2
         + occupied * (t["kw_per_kg_s_k_outdoor_occupied"] * outdoor_air)
         + occupied * t["kw_per_kg_s_occupied"] * total
+        + occupied * t["kw_per_humidity_ratio_occupied"] * (humidity - 0.018)
     )
     frame = pd.DataFrame(index=index)
     for i, zone in enumerate(ZONES):
@@ -78,6 +81,7 @@ def _metered_trend(days: int, seed: int = 0) -> pd.DataFrame:
         frame[f"supply_temp_{zone}_degc"] = SUPPLY_TEMP_DEGC
     frame["outdoor_temp_degc"] = outdoor
     frame["ghi_w_per_m2"] = 0.0
+    frame["outdoor_humidity_ratio_kg_per_kg"] = humidity
     frame["occupied"] = occupied
     frame["hvac_power_kw"] = power
     return frame
@@ -105,9 +109,24 @@ def test_every_term_of_a_metered_relation_is_recovered(metered: Path) -> None:
         inputs.zone_temp_degc,
         inputs.outdoor_temp_degc,
         inputs.occupied,
+        inputs.outdoor_humidity_ratio_kg_per_kg,
     )
     np.testing.assert_allclose(formula, fitted, atol=1e-9)
     np.testing.assert_allclose(fitted, inputs.metered_kw, atol=1e-3)
+
+
+def test_a_trend_without_outdoor_humidity_leaves_the_moisture_term_out(
+    tmp_path: Path,
+) -> None:
+    frame = _metered_trend(days=8)
+    dry = frame.drop(columns="outdoor_humidity_ratio_kg_per_kg")
+    inputs = power_inputs(read_trend(write_trend(dry, tmp_path / "dry.csv")))
+    assert inputs.outdoor_humidity_ratio_kg_per_kg is None
+    power = fit_power_model(inputs, (0, 7 * 48))
+    assert power.kw_per_humidity_ratio_occupied == 0.0
+    # the moisture it cannot see is left in the residual: the fit is worse than with it
+    residual = power_kw(power, inputs) - inputs.metered_kw
+    assert np.sqrt(np.mean(residual**2)) > 0.5
 
 
 def test_the_report_grades_occupied_and_unoccupied_hours_apart(metered: Path) -> None:

@@ -125,6 +125,10 @@ class IdentifiedBoundary:
 PLANT_REFERENCE_OUTDOOR_DEGC = 30.0
 """The outdoor temperature [°C] at which a metered power model's ``kw_per_kw_cooling`` holds:
 its plant's outdoor-temperature term is ``kw_per_kw_cooling_k_outdoor · ΣQ (To − 30 °C)``."""
+REFERENCE_HUMIDITY_KG_PER_KG = 0.018
+"""The outdoor humidity ratio [kg/kg] at which a metered power model's ``occupied_kw`` holds
+(a 23.5 °C dew point at sea level): its outdoor air's moisture term is
+``kw_per_humidity_ratio_occupied · occ · (Wo − 0.018)``."""
 RUNNING_FLOW_KG_S = 1e-3
 """A period-mean total supply flow above this counts as the air loop running [kg/s]."""
 MIN_RUNNING_PERIODS = 96
@@ -142,16 +146,20 @@ class IdentifiedPower:
         + ΣQ · (kw_per_kw_cooling + kw_per_kw_cooling_k_outdoor · (To − 30 °C))
         + kw_per_kw2_cooling · (ΣQ)²                        (plant: outdoor temp, part load)
         + occ · (kw_per_kg_s_k_outdoor_occupied · Σṁ (To − Ta) + kw_per_kg_s_occupied · S)
+        + occ · kw_per_humidity_ratio_occupied · (Wo − 0.018)      (outdoor air's moisture)
 
     (period means; Q = ṁ c_p (Ta − T_s) the zones' delivered sensible cooling [kW], To the
-    outdoor temperature [°C], occ the occupied share [–] (the outdoor-air damper open), ṁ the
+    outdoor temperature [°C], Wo its humidity ratio [kg/kg] (:data:`REFERENCE_HUMIDITY_KG_PER_KG`),
+    occ the occupied share [–] (the outdoor-air damper open), ṁ the
     zone supply flows and S = Σṁ [kg/s], Ta the zone temperatures [°C], run = 1 while
     S > :data:`RUNNING_FLOW_KG_S`, else 0). ``running_kw`` is what the air loop draws as soon
     as it runs (the fan's static-pressure floor, pumps, controls); the last line is the outdoor
     air the damper lets in while occupied: its sensible heat and its moisture (the coil's
-    latent load per kg/s of supply). Every term but the first five defaults to 0 (files
-    written before them). ``running_periods`` is the number of training periods with the
-    loop running (None: not recorded)."""
+    latent load per kg/s of supply); the moisture line is that air's latent load as the
+    outdoor humidity moves it (the ventilation air is about constant while occupied: a
+    humid afternoon loads the coil at the same supply flow). Every term but the first five
+    defaults to 0 (files written before them). ``running_periods`` is the number of
+    training periods with the loop running (None: not recorded)."""
 
     base_kw: float
     kw_per_kw_cooling: float
@@ -164,6 +172,7 @@ class IdentifiedPower:
     kw_per_kw_cooling_k_outdoor: float = 0.0
     kw_per_kw2_cooling: float = 0.0
     kw_per_kg_s_occupied: float = 0.0
+    kw_per_humidity_ratio_occupied: float = 0.0
     running_periods: float | None = None
 
 
@@ -174,10 +183,11 @@ def metered_power_kw(
     zone_temp_degc: npt.ArrayLike,
     outdoor_temp_degc: npt.ArrayLike,
     occupied: npt.ArrayLike = 0.0,
+    outdoor_humidity_ratio_kg_per_kg: npt.ArrayLike = REFERENCE_HUMIDITY_KG_PER_KG,
 ) -> FloatArray:
     """(…) the power model's HVAC electricity [kW], never below 0: flows (…, m) [kg/s] into
-    zones at (…, m) [°C] supplied at ``supply_temp_degc`` [°C], outdoor temperature and
-    occupied share (…) (:class:`IdentifiedPower`)."""
+    zones at (…, m) [°C] supplied at ``supply_temp_degc`` [°C], outdoor temperature [°C],
+    occupied share [–] and outdoor humidity ratio [kg/kg] (…) (:class:`IdentifiedPower`)."""
     flow = np.asarray(flow_kg_s, dtype=np.float64)
     temp = np.asarray(zone_temp_degc, dtype=np.float64)
     outdoor = np.asarray(outdoor_temp_degc, dtype=np.float64)
@@ -200,9 +210,23 @@ def metered_power_kw(
         )
         + p.kw_per_kw2_cooling * cooling**2
         + occ * (p.kw_per_kg_s_k_outdoor_occupied * outdoor_air + p.kw_per_kg_s_occupied * total)
+        + occ * humidity_term_kw(p, outdoor_humidity_ratio_kg_per_kg)
     )
     out: FloatArray = np.maximum(value, 0.0)
     return out
+
+
+def humidity_term_kw(
+    power: IdentifiedPower, outdoor_humidity_ratio_kg_per_kg: npt.ArrayLike
+) -> FloatArray:
+    """(…) the occupied outdoor air's moisture term [kW] at an occupied share of 1:
+    ``kw_per_humidity_ratio_occupied · (Wo − 0.018)`` at the outdoor humidity ratio (…)
+    [kg/kg]."""
+    humidity = np.asarray(outdoor_humidity_ratio_kg_per_kg, dtype=np.float64)
+    term: FloatArray = power.kw_per_humidity_ratio_occupied * (
+        humidity - REFERENCE_HUMIDITY_KG_PER_KG
+    )
+    return term
 
 
 def metered_affine_power(
@@ -214,6 +238,7 @@ def metered_affine_power(
     occupied: npt.ArrayLike | None = None,
     total_flow_ref_kg_s: npt.ArrayLike | None = None,
     total_flow_max_kg_s: float = 0.0,
+    outdoor_humidity_ratio_kg_per_kg: npt.ArrayLike | None = None,
 ) -> tuple[FloatArray, FloatArray]:
     """The LP's ``P_k = p0_k + p_kᵀ u_k`` of a metered power model, re-linearised along a
     reference flow (the previous plan's).
@@ -236,6 +261,8 @@ def metered_affine_power(
     total_flow_ref_kg_s : (N,) the reference total flow S̄_k [kg/s] (None: 0 — off).
     total_flow_max_kg_s : S_max, the largest total flow [kg/s] (0: the running load is
         counted only where the reference runs).
+    outdoor_humidity_ratio_kg_per_kg : (N,) forecast outdoor humidity ratio [kg/kg] (None: the
+        reference 0.018, where the moisture term is 0).
 
     Returns
     -------
@@ -259,6 +286,8 @@ def metered_affine_power(
     )
     beta = p.fan_kw_per_kg2_s2 + p.kw_per_kw2_cooling * q**2
     constant = p.base_kw + p.kw_per_k_outdoor * outdoor + p.occupied_kw * occ
+    if outdoor_humidity_ratio_kg_per_kg is not None:
+        constant = constant + occ * humidity_term_kw(p, outdoor_humidity_ratio_kg_per_kg)
     running = ref > RUNNING_FLOW_KG_S
     slope = np.maximum(alpha + 2.0 * beta * ref, 0.0)
     value_at_ref = constant + alpha * ref + beta * ref**2
@@ -488,14 +517,22 @@ def identified_power_kw(
     zone_temp_degc: npt.ArrayLike,
     outdoor_temp_degc: float,
     occupied: float = 0.0,
+    outdoor_humidity_ratio_kg_per_kg: float = REFERENCE_HUMIDITY_KG_PER_KG,
 ) -> float:
     """The power model's HVAC electricity [kW] for (m,) flows [kg/s] and zone temperatures
-    [°C] at an occupied share ``occupied`` [–] (0 without a power model)."""
+    [°C] at an occupied share ``occupied`` [–] and an outdoor humidity ratio [kg/kg] (0
+    without a power model)."""
     if rc.power is None:
         return 0.0
     return float(
         metered_power_kw(
-            rc.power, rc.supply_temp_degc, flow_kg_s, zone_temp_degc, outdoor_temp_degc, occupied
+            rc.power,
+            rc.supply_temp_degc,
+            flow_kg_s,
+            zone_temp_degc,
+            outdoor_temp_degc,
+            occupied,
+            outdoor_humidity_ratio_kg_per_kg,
         )
     )
 

@@ -416,7 +416,8 @@ def lp_power_rows(
     A power model fitted to the meter (an identified building's, or a designed building's
     ``metered_power``): :func:`hvacflex.building.identified.metered_affine_power`, its tangent
     along ``reference_flow_kg_s`` ((N,) total flow [kg/s]; None: Σ ``flow_min_kg_s``) with the
-    running load's secant over [0, ``total_flow_max_kg_s``] where the reference is off;
+    running load's secant over [0, ``total_flow_max_kg_s``] where the reference is off, at the
+    outdoor humidity ``humidity_kg_per_kg`` (its occupied outdoor air's moisture term);
     otherwise :func:`hvacflex.building.hvac.affine_power_model` at the outdoor air
     ``outdoor_degc`` (N,) [°C] and ``humidity_kg_per_kg`` (N,), the occupants' latent gain
     ``latent_gain_w`` ((N,) [W], or empty: none), the damper schedule ``damper_open`` (N,)
@@ -436,6 +437,7 @@ def lp_power_rows(
             np.asarray(occupied).astype(np.float64),
             low if reference_flow_kg_s is None else reference_flow_kg_s,
             total_flow_max_kg_s,
+            humidity_kg_per_kg,
         )
     latent = np.asarray(latent_gain_w, dtype=np.float64)
     return affine_power_model(

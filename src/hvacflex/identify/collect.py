@@ -22,11 +22,11 @@ cooling setpoints (docs/guide/identify.md):
 
 Readings per 30-min period: each zone's mean air temperature; a controlled zone's supply flow
 (inlet nodes, summed) and supply temperature (inlet node temperatures, flow-weighted; the
-plain mean when no air flows); the site's outdoor dry bulb, direct normal and diffuse
-horizontal irradiance and GHI = DHI + DNI · sin(solar altitude); ``occupied`` = 1 when the
-IDF's ``People`` objects count anyone in the collected zones (``Zone People Occupant Count``,
-period mean > 0), else 0 (0 throughout, with a warning, for an IDF without People); HVAC and
-facility electricity as the plant meters them.
+plain mean when no air flows); the site's outdoor dry bulb and humidity ratio, direct normal
+and diffuse horizontal irradiance and GHI = DHI + DNI · sin(solar altitude); ``occupied`` = 1
+when the IDF's ``People`` objects count anyone in the collected zones (``Zone People Occupant
+Count``, period mean > 0), else 0 (0 throughout, with a warning, for an IDF without People);
+HVAC and facility electricity as the plant meters them.
 """
 
 from __future__ import annotations
@@ -176,6 +176,7 @@ def _layout(objects: tuple[IdfObject, ...], controlled: tuple[str, ...]) -> _Lay
         Variable("Site Direct Solar Radiation Rate per Area", "Environment"),
         Variable("Site Diffuse Solar Radiation Rate per Area", "Environment"),
         Variable("Site Solar Altitude Angle", "Environment"),
+        Variable("Site Outdoor Air Humidity Ratio", "Environment"),
     ]
     people = _people_zones(objects, controlled)
     people_start = len(variables)
@@ -203,11 +204,12 @@ def _trend_row(plant_obs: object, extra: FloatArray, layout: _Layout) -> dict[st
         row[zone_column("supply_temp", zone)] = float(plant_obs.supply_temp_degc[i])
     for j, zone in enumerate(layout.boundary):
         row[zone_column("temp", zone)] = float(extra[layout.boundary_start + j])
-    dni, dhi, altitude_deg = extra[layout.solar_start : layout.solar_start + 3]
+    dni, dhi, altitude_deg, humidity = extra[layout.solar_start : layout.solar_start + 4]
     row[trend.OUTDOOR_TEMP] = float(plant_obs.outdoor_temp_degc)
     row[trend.DNI] = max(float(dni), 0.0)
     row[trend.DHI] = max(float(dhi), 0.0)
     row[trend.GHI] = max(float(dhi + dni * np.sin(np.radians(max(altitude_deg, 0.0)))), 0.0)
+    row[trend.OUTDOOR_HUMIDITY] = max(float(humidity), 0.0)
     people = extra[layout.people_start : layout.people_start + layout.people_count]
     row[trend.OCCUPIED] = float(people.sum() > 0.0)
     row[trend.HVAC_POWER] = float(plant_obs.power_kw)

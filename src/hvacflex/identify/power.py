@@ -19,9 +19,12 @@ coefficient                             regressor                               
 ``kw_per_kw_cooling_k_outdoor``         ΣQ (To − 30 °C) [kW·K]                     ≥ 0
 ``kw_per_kw2_cooling``                  (ΣQ)² [kW²]                                ≤ 0
 ``kw_per_kg_s_occupied``                occ · S [kg/s]                             ≥ 0
+``kw_per_humidity_ratio_occupied``      occ · (Wo − 0.018) [kg/kg]                 ≥ 0
 ======================================  =========================================  ==========
 
-(Q = ṁ c_p (Ta − T_s) per zone with its measured supply temperature, S = Σṁ.) A regressor
+(Q = ṁ c_p (Ta − T_s) per zone with its measured supply temperature, S = Σṁ, Wo the outdoor
+humidity ratio, a trend's optional ``outdoor_humidity_ratio_kg_per_kg``: without it, as
+from a run's results, the term is left out.) A regressor
 that does not vary in the training periods (no unoccupied period, a loop that never stops)
 is left out: its coefficient is 0 and the intercept carries it.
 
@@ -45,10 +48,19 @@ from hvacflex.building.identified import (
     IdentifiedPower,
     sensible_cooling_kw,
 )
+from hvacflex.building.identified import (
+    REFERENCE_HUMIDITY_KG_PER_KG as REFERENCE_HUMIDITY,
+)
 from hvacflex.constants import PERIODS_PER_DAY
 from hvacflex.data.gains import occupied_mask
 from hvacflex.errors import InputError
-from hvacflex.identify.trend import HVAC_POWER, OUTDOOR_TEMP, TrendData, zone_column
+from hvacflex.identify.trend import (
+    HVAC_POWER,
+    OUTDOOR_HUMIDITY,
+    OUTDOOR_TEMP,
+    TrendData,
+    zone_column,
+)
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -65,6 +77,7 @@ POWER_TERMS: tuple[tuple[str, tuple[float, float]], ...] = (
     ("kw_per_kw_cooling_k_outdoor", POSITIVE),
     ("kw_per_kw2_cooling", NEGATIVE),
     ("kw_per_kg_s_occupied", POSITIVE),
+    ("kw_per_humidity_ratio_occupied", POSITIVE),
 )
 """The fitted coefficients in regressor order, each with its (lower, upper) bound: the signs
 physics gives (a plant's power per kW grows with the outdoor temperature and falls with its
@@ -86,7 +99,9 @@ class PowerInputs:
     zone; outdoor_temp_degc : (T,) [°C]; occupied : (T,) 1 in the office schedule's occupied
     periods (those whose comfort band is the occupied one: where the damper opens and the LP
     counts the outdoor air), else 0 — not the trend's people count, which an IDF's People
-    schedule may spread over the evening; metered_kw : (T,) the meter [kW].
+    schedule may spread over the evening; metered_kw : (T,) the meter [kW];
+    outdoor_humidity_ratio_kg_per_kg : (T,) [kg/kg], or None when the data has none (the
+    moisture term is then left out of the fit).
     """
 
     index: pd.DatetimeIndex
@@ -96,6 +111,7 @@ class PowerInputs:
     outdoor_temp_degc: FloatArray
     occupied: FloatArray
     metered_kw: FloatArray
+    outdoor_humidity_ratio_kg_per_kg: FloatArray | None = None
 
 
 def power_inputs(data: TrendData, zones: tuple[str, ...] | None = None) -> PowerInputs:
@@ -136,6 +152,9 @@ def power_inputs(data: TrendData, zones: tuple[str, ...] | None = None) -> Power
         outdoor_temp_degc=data.column(OUTDOOR_TEMP),
         occupied=occupied_mask(pd.DatetimeIndex(data.frame.index)).astype(np.float64),
         metered_kw=data.column(HVAC_POWER),
+        outdoor_humidity_ratio_kg_per_kg=(
+            data.column(OUTDOOR_HUMIDITY) if data.has(OUTDOOR_HUMIDITY) else None
+        ),
     )
 
 
@@ -145,7 +164,8 @@ def power_inputs_from_results(
     """The power model's inputs from a run's results (``results.parquet`` of ``hvacflex
     simulate``: its plant's meter ``power_kw``, the flows ``flow_<zone>_kg_s``, the zone
     temperatures at the period's start and end — their mean is the period's — and
-    ``d_outdoor_temp_degc``), the supply air at ``supply_temp_degc`` [°C].
+    ``d_outdoor_temp_degc``), the supply air at ``supply_temp_degc`` [°C]. A run's results
+    carry no outdoor humidity: the moisture term is left out of such a fit.
 
     Raises
     ------
@@ -179,8 +199,10 @@ def power_inputs_from_results(
 
 
 def power_regressors(inputs: PowerInputs) -> FloatArray:
-    """(T, 11) the regressors of :data:`POWER_TERMS` (module docstring's table)."""
+    """(T, 12) the regressors of :data:`POWER_TERMS` (module docstring's table; the moisture
+    column 0 without the outdoor humidity)."""
     flow, outdoor, occ = inputs.flow_kg_s, inputs.outdoor_temp_degc, inputs.occupied
+    humidity = inputs.outdoor_humidity_ratio_kg_per_kg
     total = flow.sum(axis=1)
     cooling = sensible_cooling_kw(flow, inputs.zone_temp_degc, inputs.supply_temp_degc).sum(axis=1)
     outdoor_air = (flow * (outdoor[:, None] - inputs.zone_temp_degc)).sum(axis=1)
@@ -197,6 +219,7 @@ def power_regressors(inputs: PowerInputs) -> FloatArray:
             cooling * (outdoor - PLANT_REFERENCE_OUTDOOR_DEGC),
             cooling**2,
             occ * total,
+            np.zeros_like(total) if humidity is None else occ * (humidity - REFERENCE_HUMIDITY),
         ]
     )
 

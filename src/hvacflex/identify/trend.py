@@ -7,7 +7,8 @@ One CSV file, one row per sample on a regular time index, the columns of docs/gu
 * per zone ``<zone>`` (the BMS / IDF name, any case): ``temp_<zone>_degc`` (required),
   ``supply_flow_<zone>_kg_s`` and ``supply_temp_<zone>_degc`` (both or neither),
   ``setpoint_<zone>_degc`` (optional);
-* ``outdoor_temp_degc`` and ``ghi_w_per_m2`` (required), ``dni_w_per_m2``, ``dhi_w_per_m2``;
+* ``outdoor_temp_degc`` and ``ghi_w_per_m2`` (required), ``dni_w_per_m2``, ``dhi_w_per_m2``,
+  ``outdoor_humidity_ratio_kg_per_kg`` (optional: the power model's moisture term);
 * ``occupied`` (0…1: the occupancy flag, or the occupied share of the interval);
 * ``hvac_power_kw`` and ``facility_power_kw`` (optional, metered electricity).
 
@@ -39,11 +40,12 @@ OUTDOOR_TEMP = "outdoor_temp_degc"
 GHI = "ghi_w_per_m2"
 DNI = "dni_w_per_m2"
 DHI = "dhi_w_per_m2"
+OUTDOOR_HUMIDITY = "outdoor_humidity_ratio_kg_per_kg"
 OCCUPIED = "occupied"
 HVAC_POWER = "hvac_power_kw"
 FACILITY_POWER = "facility_power_kw"
 REQUIRED_COLUMNS = (OUTDOOR_TEMP, GHI, OCCUPIED)
-OPTIONAL_COLUMNS = (DNI, DHI, HVAC_POWER, FACILITY_POWER)
+OPTIONAL_COLUMNS = (DNI, DHI, OUTDOOR_HUMIDITY, HVAC_POWER, FACILITY_POWER)
 
 ZONE_COLUMN_PATTERNS = {
     "temp": re.compile(r"^temp_(.+)_degc$"),
@@ -64,6 +66,7 @@ RANGES: dict[str, tuple[float, float]] = {
     GHI: (0.0, 1500.0),
     DNI: (0.0, 1500.0),
     DHI: (0.0, 1500.0),
+    OUTDOOR_HUMIDITY: (0.0, 0.05),
     OCCUPIED: (0.0, 1.0),
     HVAC_POWER: (0.0, 1.0e6),
     FACILITY_POWER: (0.0, 1.0e6),

@@ -308,6 +308,7 @@ class RCPlant:
                 zone_temp_degc,
                 disturbance.outdoor_temp_degc,
                 identified_occupied_share(self.plant.network.channel_names, disturbance.d),
+                disturbance.outdoor_humidity_ratio_kg_per_kg,
             )
         return float(
             hvac_power_kw(
