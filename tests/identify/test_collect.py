@@ -114,8 +114,8 @@ def test_a_two_day_collect_on_5zone_air_cooled(tmp_path: Path) -> None:
     assert occupied.any() and hours.min() >= 6 and hours.max() <= 21  # the IDF's People
     ghi = data.column("ghi_w_per_m2")
     assert ghi[data.index.hour == 2].max() == 0.0 and ghi.max() > 300.0
-    humidity = data.column("outdoor_humidity_ratio_kg_per_kg")  # Singapore: 17–27 °C dew point
-    assert 0.012 < humidity.min() and humidity.max() < 0.023 and humidity.std() > 1e-4
+    humidity = data.column("outdoor_humidity_ratio_kg_per_kg")  # Singapore: 17–31 °C dew point
+    assert 0.012 < humidity.min() and humidity.max() < 0.03 and humidity.std() > 1e-4
     flow = data.column("supply_flow_SPACE5-1_kg_s")
     supply = data.column("supply_temp_SPACE5-1_degc")
     assert flow.max() > 0.1 and np.median(supply) < np.median(temp) - 3.0

@@ -82,21 +82,19 @@ def test_offers_scaled_to_the_meter_are_delivered_against_it(
     fitted: tuple[Path, Path], tmp_path: Path
 ) -> None:
     """Stress activations (one every weekday) in the week from 2014-04-01, settled against
-    EnergyPlus's meter: the March-fitted power model still moves about twice as much as
-    April's meter (ρ 0.45–0.49), but with the power model from the meter and its reserve
-    coefficient a lower bound of the saving (docs/guide/identify.md §3) offers on the model's scale
-    are delivered 90 % (capped at the offer, period by period), offers scaled by ρ
-    (``[reserve] meter_calibrated_offers``) 100 % and the defaults (both on) 86 %, each with
-    under 0.2 kWh short — the first two with the plan paid q·r (``plan_visible_offers`` off).
-    Measured 2026-12-06; with the earlier five-term model and the tangent as the reserve's
-    coefficient: 64 %, 89 %, 82 %, the unscaled shortfall 1.12 kWh. Measured with the coil's
-    hours off (``[controller] fan_only_air = false``, as when these figures were taken): with
-    them (the default since 2026-12-06) the same week offered 3.2, 6.0 and 4.4 kWh, delivered
-    80 %, 62 % and 76 % capped, 0.65, 2.29 and 1.04 kWh short — not analysed (see
-    docs/guide/identify.md §8). Measured with the plan's power on the model's level
-    (``power_level = "model"``): levelled to the meter (the default on EnergyPlus) the offers
-    are sized against a plan on the meter's level, and the first variant fell 1.24 kWh short
-    (one run, not analysed; stress delivery on EnergyPlus: docs/guide/energyplus.md (c))."""
+    EnergyPlus's meter: the March-fitted power model moves about twice as much as April's
+    meter (ρ ≈ 0.5). Offers on the model's scale (``meter_calibrated_offers`` off) are
+    delivered 81 % (capped at the offer, period by period), 0.64 kWh short of 3.4 offered;
+    offers scaled by ρ (``[reserve] meter_calibrated_offers``) deliver everything once ρ is
+    measured — their one shortfall (0.26 kWh) is the first day's event, offered on the
+    model's scale before 16 occupied pairs exist (``control/meter_response.MIN_PAIRS``) — and
+    so do the defaults (both on). Measured 2026-12-06 with the power model's moisture term
+    (docs/guide/identify.md §3): without it the fitted plant's part-load curvature was
+    steeper, the reserve coefficient lower, the offers 0.5 / 1.8 / 1.2 kWh and the capped
+    delivery 100 / 92 / 86 %. With the coil's hours off (``[controller] fan_only_air =
+    false``) and the plan's power on the model's level (``power_level = "model"``), as when
+    the first of these figures were taken (stress delivery on EnergyPlus with the defaults:
+    docs/guide/energyplus.md (c))."""
     _, model = fitted
     scenario = (model.parent / "scenario.toml").read_text()
     results = {}
@@ -110,18 +108,22 @@ def test_offers_scaled_to_the_meter_are_delivered_against_it(
         stress += 'power_level = "model"\n'
         config.write_text(scenario + stress + f"[reserve]\n{reserve}")
         results[name] = _week(config, tmp_path / f"stress_{name}")
-    capped = {}
     for name, (summary, frame) in results.items():
         activated = frame["il_activated"].to_numpy()
-        delivered = np.minimum(frame["il_delivered_kw"], frame["reserve_kw"]).to_numpy()
-        capped[name] = delivered[activated].sum() * 0.5 / summary["il_offered_kwh"]
-        assert summary["il_offered_kwh"] > 0.2  # offers made and activated
-        assert summary["il_shortfall_kwh"] < 0.25
-    _, calibrated_frame = results["scaled"]
-    ratio = calibrated_frame["offer_meter_ratio"].dropna()
-    assert 0.3 < ratio.iloc[-1] < 0.8  # the meter moves about half as much as the plan
-    assert min(capped.values()) >= 0.8
-    assert capped["scaled"] >= max(capped["model"], capped["default"])
+        offered = frame["reserve_kw"].to_numpy()
+        delivered = np.minimum(frame["il_delivered_kw"].to_numpy(), offered)
+        assert summary["il_offered_kwh"] > 0.2, name  # offers made and activated
+        assert delivered[activated].sum() * 0.5 >= 0.75 * summary["il_offered_kwh"], name
+        if name == "model":
+            continue
+        # scaled by the meter's response: once ρ is measured, every offer is delivered
+        ratio = frame["offer_meter_ratio"].to_numpy()
+        assert 0.3 < ratio[-1] < 0.8, name  # the meter moves about half as much as the plan
+        measured = activated & (ratio < 1.0)
+        assert measured.sum() >= 6, name
+        assert np.all(delivered[measured] >= offered[measured] - 1e-6), name
+    _, unscaled = results["model"]
+    assert unscaled["reserve_kw"].sum() > 2.0 * results["scaled"][1]["reserve_kw"].sum()
 
 
 OFFICE_ZONES = "Core_ZN,Perimeter_ZN_1,Perimeter_ZN_2,Perimeter_ZN_3,Perimeter_ZN_4"
