@@ -2,24 +2,22 @@
 
 An :class:`~hvacflex.opt.solve.RMPCSolver`'s LP has *core rows* (dynamics, comfort, flows,
 power, peak, visible offers) and, in the IL event model, *event rows* after them
-(:mod:`hvacflex.opt.events`). HiGHS starts with the core rows in the LP's order, then the
-event rows: all of them (``event_rows="full"``) or those the lazy generation chose, in the
-order they were added. :class:`HeldRows` keeps the map HiGHS row → LP row (the LP's row
-order need not be HiGHS's) and makes the changes in as few HiGHS calls as it can:
+(:mod:`hvacflex.opt.events`). HiGHS holds every core row, first and in the LP's order, then
+the event rows: all of them (``event_rows="full"``) or those the lazy generation chose, in
+the order they were added. :class:`HeldRows` keeps the map HiGHS row → LP row and makes the
+changes in as few HiGHS calls as it can:
 
 * **moving rows** (:class:`MovingRows`): the step-varying coefficients (p_k on the power rows,
   φ_k on the peak rows, ρ·p_k and q_k on the visible-offer rows) all sit in the last core
   rows. Instead of one ``changeCoeff`` per moved coefficient (≈ 1,600 a step on office5's
-  product LP, 0.8 µs each), :meth:`HeldRows.push` deletes the moving rows (and, lazy, the
-  event rows no longer wanted) and appends the new event rows, then the moving rows with the
-  step's coefficients and bounds, in one ``deleteRows`` and one ``addRows``. The event rows
-  that stay stay where they are (re-adding them each step cost ≈ 0.2–0.4 ms on office5), so
-  after the first push the moving rows follow the event rows held: HiGHS holds the LP's rows
-  in another order than a fresh build would (the same optimum; the simplex path differs).
-  Where the varying coefficients are sparse among their rows
-  (:data:`MOVING_ROWS_MAX_NONZEROS_PER_VARYING`; the dual form's σ) or the event rows are
-  all held (full event rows), there are no moving rows and the solver changes the
-  coefficients one by one;
+  product LP, 0.8 µs each), :meth:`HeldRows.push` deletes the rows from the first moving row
+  on (they, then the event rows held) and adds the moving rows with the step's coefficients
+  and bounds, the event rows kept and the new ones, in one ``deleteRows`` and one ``addRows``.
+  HiGHS's row order stays what per-entry changes would leave, so it holds the same LP row for
+  row (the same simplex path, the same optimum). Where the varying coefficients are sparse
+  among their rows (:data:`MOVING_ROWS_MAX_NONZEROS_PER_VARYING`; the dual form's σ) or the
+  event rows would travel with them (full event rows), there are no moving rows and the
+  solver changes the coefficients one by one;
 * **lazy event rows**: :meth:`HeldRows.set_event_rows` deletes the rows no longer wanted and
   appends the new ones (HiGHS keeps the order of those that stay; new rows are basic),
   :meth:`HeldRows.add_event_rows` appends violated rows between runs.
@@ -165,38 +163,36 @@ class HeldRows:
 
     def push(self, wanted: BoolArray | None, lp: LinearProgram) -> None:
         """Give HiGHS the moving rows of ``lp`` and, in lazy mode, exactly the event rows
-        ``wanted`` (num_event_rows,; None: those it holds): one ``deleteRows`` of the moving
-        rows and the event rows no longer wanted (HiGHS keeps the order of the rows that
-        stay), one ``addRows`` of the new event rows, then the moving rows with the step's
-        coefficients and bounds, last. HiGHS's basis must be set again after this."""
+        ``wanted`` (num_event_rows,; None: those it holds), keeping HiGHS's row order: one
+        ``deleteRows`` of the rows from the first moving row on, one ``addRows`` of the
+        moving rows, the event rows kept and the new ones. HiGHS's basis must be set again
+        after this."""
         moving = self.moving
         assert moving is not None
         held = self.model_rows
-        first = int(moving.rows[0])
-        gone = (held >= first) & (held < self.num_core)  # the moving rows, wherever held
-        new = np.zeros(0, dtype=np.int64)
+        first = int(moving.rows[0])  # HiGHS holds the core rows first, in the LP's order
+        end = first + moving.rows.size
+        assert np.array_equal(held[first:end], moving.rows)
+        events = held[end:] - self.num_core  # event ids held, in HiGHS's order
         if wanted is not None:
-            events = held >= self.num_core
-            dropped = events & ~wanted[np.where(events, held - self.num_core, 0)]
-            self.present[held[dropped] - self.num_core] = False
-            gone |= dropped
+            self.present[events[~wanted[events]]] = False
             new = np.flatnonzero(wanted & ~self.present)
+            events = np.concatenate([events[wanted[events]], new])
             self.present[new] = True
-        positions = np.flatnonzero(gone).astype(np.int32)
-        self.highs.deleteRows(positions.size, positions)
+        self.highs.deleteRows(held.size - first, np.arange(first, held.size, dtype=np.int32))
         data = moving.values(lp.varying.values)
-        starts, indices, values = self.event_block(new)
-        rows = np.concatenate([self.num_core + new, moving.rows])
+        starts, indices, values = self.event_block(events)
+        rows = np.concatenate([moving.rows, self.num_core + events])
         self.highs.addRows(
             rows.size,
             lp.row_lower[rows],
             lp.row_upper[rows],
-            values.size + data.size,
-            np.concatenate([starts, moving.starts + values.size]),
-            np.concatenate([indices, moving.indices]),
-            np.concatenate([values, data]),
+            data.size + values.size,
+            np.concatenate([moving.starts, starts + data.size]),
+            np.concatenate([moving.indices, indices]),
+            np.concatenate([data, values]),
         )
-        self.model_rows = np.concatenate([held[~gone], rows])
+        self.model_rows = np.concatenate([held[:first], rows])
         self.stale = False
 
     def event_block(self, ids: IntArray) -> tuple[Int32Array, Int32Array, FloatArray]:

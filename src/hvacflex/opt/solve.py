@@ -15,9 +15,8 @@ step-varying coefficients (``p_k`` on the power rows, ``φ_k`` on the peak rows,
 on the visible-offer rows, σ in the dual form) — and re-solves with the dual simplex (warm
 start). The step-varying coefficients sit in the last core rows, the *moving rows*: where
 they are not too sparse among them, they are replaced as one block with the lazy event rows'
-change (deleted, then appended after the event rows HiGHS keeps), instead of one
-``changeCoeff`` per moved coefficient (:mod:`hvacflex.opt.held_rows`, which keeps the rows
-HiGHS holds and their order).
+change, in HiGHS's row order, instead of one ``changeCoeff`` per moved coefficient
+(:mod:`hvacflex.opt.held_rows`, which keeps the rows HiGHS holds).
 :class:`FeedbackSolver` solves the affine-feedback LP of :mod:`hvacflex.opt.feedback` (warm,
 :mod:`hvacflex.opt.feedback_solve`). HiGHS runs single-threaded with its output silenced, so
 results are reproducible.
@@ -315,8 +314,10 @@ class RMPCSolver:
         varying = lp.varying
         moved = np.flatnonzero(varying.values != old.varying.values)
         replace_rows = self._held.moving is not None and moved.size > 0
-        # every row HiGHS holds, in its order (the moving rows' bounds come again with them)
-        rows = self._held.model_rows
+        rows = self._held.model_rows  # the rows HiGHS holds, in its order
+        if replace_rows:  # the rows from the first moving one on come with their new bounds
+            assert self._held.moving is not None
+            rows = rows[: self._held.moving.rows[0]]
         for change_bounds, lower, upper, old_lower, old_upper in (
             (highs.changeColsBounds, lp.col_lower, lp.col_upper, old.col_lower, old.col_upper),
             (
