@@ -277,7 +277,8 @@ def filter_states(model: DiscreteModel, y: FloatArray, u: FloatArray) -> FloatAr
 
     Returns
     -------
-    (T, n) ``x̂_k`` from ``y_0 … y_{k−1}`` (``x̂_0``: every node at ``y_0``'s zone value).
+    (T, n) ``x̂_k`` from ``y_0 … y_{k−1}`` (``x̂_0``: every node at ``y_0``'s zone value); the
+    cooling's change (:func:`cooling_change_kw`) enters through ``b_change`` and ``d_change``.
     """
     steps, n = y.shape[0], model.a.shape[0]
     closed = model.a - model.gain @ model.c_mean
@@ -358,7 +359,8 @@ def one_step_predictions(
 
     Returns
     -------
-    (T, m) ``ŷ_k`` from ``y_0 … y_{k−1}`` and ``u_k`` [°C] (``ŷ_0``: every node at ``y_0``).
+    (T, m) ``ŷ_k`` from ``y_0 … y_{k−1}`` and ``u_k`` [°C] (``ŷ_0``: every node at ``y_0``),
+    the cooling's change ``u_k − u_{k−1}`` entering as in :func:`filter_states`.
     """
     m, n = y.shape[1], model.a.shape[0]
     cooling = slice(len(EXOGENOUS_INPUTS), len(EXOGENOUS_INPUTS) + m)
