@@ -21,12 +21,14 @@ from hvacflex.identify.fit import (
     fit_model,
     idle_air,
     tune_filter,
+    tune_predictor,
 )
 from hvacflex.identify.greybox import (
     EXOGENOUS_INPUTS,
     ZONE_PARAMETERS,
     FilterNoise,
     GreyBoxParameters,
+    cooling_change_kw,
     discretize,
     one_step_predictions,
 )
@@ -102,6 +104,45 @@ def test_the_filter_tuned_on_data_with_a_hidden_gain_carries_a_gain_state() -> N
         return float(((one_step_predictions(model, y, u, n)[rows] - y[rows]) ** 2).mean())
 
     assert mse(noise) < 0.5 * mse(FilterNoise())
+
+
+@pytest.mark.parametrize("share", [0.0, 0.3])
+def test_the_predictor_finds_how_much_of_the_cooling_change_comes_early(share: float) -> None:
+    """Data from the model whose cooling's change comes early by ``share`` (a setpoint step
+    answered at once by the plant's coil): tuned on them, the predictor takes that share."""
+    params = GreyBoxParameters(
+        np.array(
+            [
+                [300.0, 3.0e4, 0.02, 0.5, 0.03, 0.0, 0.0, 0.0, 2.0, 0.0, 0.0, 1.0, 0.4],
+                [400.0, 6.0e4, 0.03, 0.6, 0.05, 0.0, 0.0, 0.0, 0.0, 0.0, 2.0, 1.5, 0.2],
+            ]
+        ),
+        np.array([[0, 1]]),
+        np.array([0.05]),
+    )
+    truth = discretize(params, cooling_change_share=share)
+    rng = np.random.default_rng(8)
+    steps = 6 * 48
+    levels = np.repeat(rng.choice([0.0, 1.0, 3.0], size=(steps // 4, 2)), 4, axis=0)
+    u = np.column_stack(
+        [
+            28 + rng.normal(0, 0.5, steps),
+            rng.uniform(0, 0.8, steps),
+            rng.integers(0, 2, steps),
+            np.ones(steps),
+            rng.uniform(0, 0.5, (steps, 4)),  # the walls
+            levels,  # the cooling, stepping every 2 h
+        ]
+    )
+    change = cooling_change_kw(u, 2)
+    x, y = np.full(4, 25.0), np.empty((steps, 2))
+    for k in range(steps):
+        y[k] = truth.c_mean @ x + truth.d_mean @ u[k] + truth.d_change @ change[k]
+        x = truth.a @ x + truth.b @ u[k] + truth.b_change @ change[k]
+    y += rng.normal(0, 0.02, y.shape)
+    index = pd.date_range("2014-03-03", periods=steps, freq="30min", tz="Asia/Singapore")
+    found, _ = tune_predictor(params, FitData(index, ZONES, y, u), np.arange(1, 6) * 48)
+    assert found == pytest.approx(share)
 
 
 def test_too_few_days_are_refused(trend: Path) -> None:

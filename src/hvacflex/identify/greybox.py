@@ -18,6 +18,16 @@ temperature of period ``k`` is the mean over the period, so the output is that m
 ``x_{k+1} = A x_k + B u_k`` (zero-order hold). A steady-state Kalman filter (noise levels
 :data:`PROCESS_STD_AIR_K`, :data:`PROCESS_STD_MASS_K`, :data:`MEASUREMENT_STD_K`) estimates the
 state from the measured temperatures; the mass nodes are never measured.
+
+**Where in the period the cooling comes** (``cooling_change_share`` γ of :func:`discretize`,
+0 by default): a plant's local loop acts on a setpoint change at once — a packaged DX coil
+pulls its zone to a lowered setpoint within minutes, then cycles — so a change of the
+delivered cooling from one period to the next comes early in the period, not spread over it.
+With γ > 0 the cooling within period ``k`` is ``Q_k + γ ΔQ_k (1/β − 1)`` over its first share
+β (:data:`CHANGE_HOLD_SHARE`) and ``Q_k − γ ΔQ_k`` over the rest (``ΔQ_k = Q_k − Q_{k−1}``;
+the period's energy is ``Q_k Δt`` either way), still linear in the inputs:
+
+    x_{k+1} = A x_k + B u_k + B_Δ ΔQ_k,    y_k = C̄ x_k + D̄ u_k + D_Δ ΔQ_k.
 """
 
 from __future__ import annotations
@@ -60,6 +70,10 @@ ZONE_PARAMETERS = (
 )
 """Each zone's parameters and how the optimiser sees them (log: positive, searched in log)."""
 COUPLING_PARAMETER = "ua_kw_per_k"
+CHANGE_HOLD_SHARE = 1.0 / 3.0
+"""β: the share of the period at its start in which a change of the cooling comes (module
+docstring) [–]: the first 10 min, one time step of EnergyPlus's zone heat balance (the plant
+``identify collect`` runs), within which its coil meets a new setpoint."""
 RICCATI_MAX_ITERATIONS = 60
 RICCATI_TOLERANCE = 1e-12
 """The doubling algorithm stops when ``P`` changes by less than this, relatively."""
@@ -155,6 +169,8 @@ class DiscreteModel:
     a : (n, n), b : (n, nu): ``x_{k+1} = a x_k + b u_k``.
     c_mean : (m, n), d_mean : (m, nu): the period-mean zone temperature ``y_k``.
     gain : (n, m) the steady-state Kalman predictor gain.
+    b_change : (n, m), d_change : (m, m): ``B_Δ`` and ``D_Δ``, the effect of the cooling's
+        change ``ΔQ_k`` [kW] coming early in the period (module docstring; zero for γ = 0).
     """
 
     a: FloatArray
@@ -162,6 +178,8 @@ class DiscreteModel:
     c_mean: FloatArray
     d_mean: FloatArray
     gain: FloatArray
+    b_change: FloatArray
+    d_change: FloatArray
 
 
 def _filter_gain(
@@ -185,8 +203,12 @@ def _filter_gain(
     return model_a @ cov @ c.T @ np.linalg.inv(c @ cov @ c.T + r)
 
 
-def discretize(p: GreyBoxParameters, dt_s: float = PERIOD_S) -> DiscreteModel:
-    """Zero-order-hold discretisation, the period-mean output and the Kalman gain.
+def discretize(
+    p: GreyBoxParameters, dt_s: float = PERIOD_S, cooling_change_share: float = 0.0
+) -> DiscreteModel:
+    """Zero-order-hold discretisation, the period-mean output and the Kalman gain;
+    ``cooling_change_share`` γ [–], 0…1: how much of the cooling's change comes in the
+    period's first share β (module docstring; 0: the plain zero-order hold).
 
     ``a = diag(1/C) k`` is similar to the symmetric ``C^(-1/2) k C^(-1/2)``, so every function
     of it comes from one symmetric eigendecomposition (real, negative eigenvalues λ):
@@ -210,7 +232,40 @@ def discretize(p: GreyBoxParameters, dt_s: float = PERIOD_S) -> DiscreteModel:
     noise = np.diag(np.r_[np.full(m, PROCESS_STD_AIR_K), np.full(n - m, PROCESS_STD_MASS_K)] ** 2)
     r = np.eye(m) * MEASUREMENT_STD_K**2
     gain = _filter_gain(a, c_mean, noise, r)
-    return DiscreteModel(a=a, b=b, c_mean=c_mean, d_mean=d_mean, gain=gain)
+    early_end, early_mean = _early_input(eigenvalues, dt_s, CHANGE_HOLD_SHARE)
+    b_cooling = b_c[:, len(EXOGENOUS_INPUTS) : len(EXOGENOUS_INPUTS) + m]
+    share = cooling_change_share
+    return DiscreteModel(
+        a=a,
+        b=b,
+        c_mean=c_mean,
+        d_mean=d_mean,
+        gain=gain,
+        b_change=share * (v * (early_end / CHANGE_HOLD_SHARE - phi1)) @ v_inv @ b_cooling,
+        d_change=share * ((v * (early_mean / CHANGE_HOLD_SHARE - phi2)) @ v_inv @ b_cooling)[:m],
+    )
+
+
+def _early_input(
+    eigenvalues: FloatArray, dt_s: float, share: float
+) -> tuple[FloatArray, FloatArray]:
+    """Per eigenvalue λ, the period-end state and the period-mean state [s] from a unit input
+    held over the period's first ``share`` only, from zero: ``e^(λ(1−β)dt) (e^(λβdt) − 1)/λ``
+    and ``[(e^(λβdt) − 1 − λβdt)/λ² + (e^(λβdt) − 1)/λ · (e^(λ(1−β)dt) − 1)/λ] / dt``."""
+    early, late = eigenvalues * share * dt_s, eigenvalues * (1.0 - share) * dt_s
+    held = np.expm1(early) / eigenvalues
+    end = np.exp(late) * held
+    mean = ((np.expm1(early) - early) / eigenvalues**2 + held * np.expm1(late) / eigenvalues) / dt_s
+    return end, mean
+
+
+def cooling_change_kw(u: FloatArray, zones: int) -> FloatArray:
+    """(T, m) ``ΔQ_k = Q_k − Q_{k−1}`` [kW], the cooling's change from the period before
+    (0 in the first period), from the inputs ``u`` (T, nu) of ``zones`` zones."""
+    cooling = u[:, len(EXOGENOUS_INPUTS) : len(EXOGENOUS_INPUTS) + zones]
+    change: FloatArray = np.zeros_like(cooling)
+    change[1:] = np.diff(cooling, axis=0)
+    return change
 
 
 def filter_states(model: DiscreteModel, y: FloatArray, u: FloatArray) -> FloatArray:
@@ -222,11 +277,13 @@ def filter_states(model: DiscreteModel, y: FloatArray, u: FloatArray) -> FloatAr
 
     Returns
     -------
-    (T, n) ``x̂_k`` from ``y_0 … y_{k−1}`` (``x̂_0``: every node at ``y_0``'s zone value).
+    (T, n) ``x̂_k`` from ``y_0 … y_{k−1}`` (``x̂_0``: every node at ``y_0``'s zone value); the
+    cooling's change (:func:`cooling_change_kw`) enters through ``b_change`` and ``d_change``.
     """
     steps, n = y.shape[0], model.a.shape[0]
     closed = model.a - model.gain @ model.c_mean
     drive = u @ (model.b - model.gain @ model.d_mean).T + y @ model.gain.T
+    drive += cooling_change_kw(u, y.shape[1]) @ (model.b_change - model.gain @ model.d_change).T
     states = np.empty((steps, n))
     x = np.concatenate([y[0], y[0]])
     for k in range(steps):
@@ -236,13 +293,19 @@ def filter_states(model: DiscreteModel, y: FloatArray, u: FloatArray) -> FloatAr
 
 
 def simulate_windows(
-    model: DiscreteModel, x0: FloatArray, u: FloatArray, window: int
+    model: DiscreteModel,
+    x0: FloatArray,
+    u: FloatArray,
+    window: int,
+    change: FloatArray | None = None,
 ) -> FloatArray:
     """Open-loop period-mean predictions of windows started from estimated states.
 
     Parameters
     ----------
-    x0 : (W, n) the state at each window's start; u : (W, window, nu) the measured inputs.
+    x0 : (W, n) the state at each window's start; u : (W, window, nu) the measured inputs;
+    change : (W, window, m) the cooling's change ``ΔQ`` [kW] (:func:`cooling_change_kw`),
+        default none.
 
     Returns
     -------
@@ -250,9 +313,10 @@ def simulate_windows(
     """
     x = x0.copy()
     out = np.empty((x0.shape[0], window, model.c_mean.shape[0]))
+    delta = np.zeros((*u.shape[:2], model.d_change.shape[1])) if change is None else change
     for k in range(window):
-        out[:, k] = x @ model.c_mean.T + u[:, k] @ model.d_mean.T
-        x = x @ model.a.T + u[:, k] @ model.b.T
+        out[:, k] = x @ model.c_mean.T + u[:, k] @ model.d_mean.T + delta[:, k] @ model.d_change.T
+        x = x @ model.a.T + u[:, k] @ model.b.T + delta[:, k] @ model.b_change.T
     return out
 
 
@@ -295,7 +359,8 @@ def one_step_predictions(
 
     Returns
     -------
-    (T, m) ``ŷ_k`` from ``y_0 … y_{k−1}`` and ``u_k`` [°C] (``ŷ_0``: every node at ``y_0``).
+    (T, m) ``ŷ_k`` from ``y_0 … y_{k−1}`` and ``u_k`` [°C] (``ŷ_0``: every node at ``y_0``),
+    the cooling's change ``u_k − u_{k−1}`` entering as in :func:`filter_states`.
     """
     m, n = y.shape[1], model.a.shape[0]
     cooling = slice(len(EXOGENOUS_INPUTS), len(EXOGENOUS_INPUTS) + m)
@@ -309,12 +374,15 @@ def one_step_predictions(
     q = np.r_[np.full(m, noise.air_k), np.full(n - m, noise.mass_k), np.full(m, noise.gain_kw)]
     gain = _filter_gain(a, c, np.diag(q**2), np.eye(m) * noise.measurement_k**2)
     b = np.vstack([model.b, np.zeros((m, u.shape[1]))])
+    b_change = np.vstack([model.b_change, np.zeros((m, m))])
+    change = cooling_change_kw(u, m)
     closed = a - gain @ c
     feed = u @ (b - gain @ model.d_mean).T + y @ gain.T
+    feed += change @ (b_change - gain @ model.d_change).T
     out = np.empty_like(y)
     x = np.concatenate([y[0], y[0], np.zeros(m)])
     for k in range(y.shape[0]):
         out[k] = c @ x
         x = closed @ x + feed[k]
-    result: FloatArray = out + u @ model.d_mean.T
+    result: FloatArray = out + u @ model.d_mean.T + change @ model.d_change.T
     return result
