@@ -131,6 +131,12 @@ def test_the_outdoor_air_moisture_is_in_the_lp_and_the_plant_while_occupied(
     rc = load_building(model_path).identified
     assert rc is not None
     moist = replace(POWER, kw_per_humidity_ratio_occupied=1000.0)
+    wet = replace(rc, power=moist)
+    lp0, lp = identified_affine_power(wet, [31.0], 24.5, [1.0], None, [0.025])
+    dry0, _ = identified_affine_power(wet, [31.0], 24.5, [1.0], None, [0.018])
+    assert lp0[0] - dry0[0] == pytest.approx(1000.0 * 0.007)
+    plant_wet = identified_power_kw(wet, [0.3, 0.5], [24.5, 24.5], 31.0, 1.0, 0.025)
+    assert plant_wet == pytest.approx(lp0[0] + lp[0] @ [0.3, 0.5], rel=1e-12)
     flow, t0, outdoor = np.array([0.3, 0.5]), 24.5, 31.0
     humidity = np.array([0.024, 0.024, 0.018])  # humid vacant, humid occupied, the reference
     occupied = np.array([0.0, 1.0, 1.0])

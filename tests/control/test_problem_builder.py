@@ -145,6 +145,7 @@ def test_a_designed_building_with_a_metered_power_model_plans_with_it(setup: Set
         occupied_kw=1.0,
         running_kw=3.0,
         fan_kw_per_kg2_s2=0.5,
+        kw_per_humidity_ratio_occupied=800.0,
     )
     building = replace(setup.building, power_models={"rc": metered})
     contract = replace(controller.contract, building=building.with_power_model_for("rc"))
@@ -153,6 +154,8 @@ def test_a_designed_building_with_a_metered_power_model_plans_with_it(setup: Set
     t0 = contract.linearisation_temp_degc
     outdoor = problem.d_forecast[:, contract.outdoor_index]
     occupied = inputs.forecast.occupied[:48].astype(float)
+    humidity = inputs.forecast.outdoor_humidity_ratio_kg_per_kg[:48]
+    assert np.ptp(humidity[occupied > 0]) > 1e-4  # the forecast's humidity varies
     for k in (0, 10, 30):  # 07:00 (unoccupied), 12:00 and 22:00
         low = problem.u_min[k]
         exact = metered_power_kw(
@@ -162,6 +165,7 @@ def test_a_designed_building_with_a_metered_power_model_plans_with_it(setup: Set
             np.full(low.size, t0),
             outdoor[k],
             occupied[k],
+            humidity[k],
         )
         row = problem.power_offset_kw[k] + problem.power_coeff_kw_per_kg_s[k] @ low
         assert row == pytest.approx(float(exact), rel=1e-9)

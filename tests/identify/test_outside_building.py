@@ -118,10 +118,12 @@ def test_offers_scaled_to_the_meter_are_delivered_against_it(
             continue
         # scaled by the meter's response: once ρ is measured, every offer is delivered
         ratio = frame["offer_meter_ratio"].to_numpy()
-        assert 0.3 < ratio[-1] < 0.8, name  # the meter moves about half as much as the plan
+        last = ratio[~np.isnan(ratio)][-1]
+        assert 0.3 < last < 0.8, name  # the meter moves about half as much as the plan
+        assert summary["il_shortfall_kwh"] < 0.3, name  # the first day's unscaled offer
         measured = activated & (ratio < 1.0)
         assert measured.sum() >= 6, name
-        assert np.all(delivered[measured] >= offered[measured] - 1e-6), name
+        assert np.all(delivered[measured] >= offered[measured] - 1e-3), name
     _, unscaled = results["model"]
     assert unscaled["reserve_kw"].sum() > 2.0 * results["scaled"][1]["reserve_kw"].sum()
 

@@ -94,6 +94,23 @@ def test_a_value_out_of_range_is_refused(tmp_path: Path) -> None:
     assert error.line == 3 and error.value == "3" and "[0, 1]" in str(error)
 
 
+def test_the_outdoor_humidity_is_read_as_a_ratio_and_a_slip_to_g_per_kg_refused(
+    tmp_path: Path,
+) -> None:
+    frame = _frame(periods=12, freq="15min").assign(
+        outdoor_humidity_ratio_kg_per_kg=np.linspace(0.017, 0.0225, 12)
+    )
+    data = read_trend(_write(tmp_path, frame))  # 15-min readings: their 30-min means
+    np.testing.assert_allclose(
+        data.column("outdoor_humidity_ratio_kg_per_kg"),
+        frame["outdoor_humidity_ratio_kg_per_kg"].to_numpy().reshape(6, 2).mean(axis=1),
+    )
+    frame = _frame().assign(outdoor_humidity_ratio_kg_per_kg=0.018)
+    frame.iloc[2, frame.columns.get_loc("outdoor_humidity_ratio_kg_per_kg")] = 18.5  # g/kg
+    error = _refusal(tmp_path, frame)
+    assert error.field == "outdoor_humidity_ratio_kg_per_kg" and error.line == 4
+
+
 def test_unknown_and_incomplete_columns_are_refused(tmp_path: Path) -> None:
     frame = _frame().rename(columns={"ghi_w_per_m2": "ghi"})
     assert _refusal(tmp_path, frame).field == "ghi_w_per_m2"  # the required one is missing

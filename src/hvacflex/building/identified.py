@@ -553,11 +553,13 @@ def identified_affine_power(
     zone_temp_ref_degc: float,
     occupied: npt.ArrayLike | None = None,
     total_flow_ref_kg_s: npt.ArrayLike | None = None,
+    outdoor_humidity_ratio_kg_per_kg: npt.ArrayLike | None = None,
 ) -> tuple[FloatArray, FloatArray]:
     """The LP's ``P_k = p0_k + p_kᵀ u_k`` of the building's power model
     (:func:`metered_affine_power` at T₀ ``zone_temp_ref_degc`` [°C], (N,) forecast outdoor
-    temperature [°C] and occupied share [–], re-linearised at the (N,) reference total flow
-    [kg/s]; its largest total flow the sum of the zones' ``flow_max_kg_s``).
+    temperature [°C], occupied share [–] and outdoor humidity ratio [kg/kg] (None: the
+    reference), re-linearised at the (N,) reference total flow [kg/s]; its largest total
+    flow the sum of the zones' ``flow_max_kg_s``).
 
     Returns
     -------
@@ -576,6 +578,7 @@ def identified_affine_power(
         occupied,
         total_flow_ref_kg_s,
         float(sum(z.flow_max_kg_s for z in rc.zones)),
+        outdoor_humidity_ratio_kg_per_kg,
     )
 
 

@@ -58,7 +58,8 @@ unknown and ``Building.floor_area_m2`` is NaN) only, no walls, windows, ``[gains
     [identified.power_model]  base_kw, kw_per_kw_cooling, kw_per_k_outdoor[, occupied_kw,
                               kw_per_kg_s_k_outdoor_occupied, running_kw, fan_kw_per_kg_s,
                               fan_kw_per_kg2_s2, kw_per_kw_cooling_k_outdoor,
-                              kw_per_kw2_cooling, kw_per_kg_s_occupied]
+                              kw_per_kw2_cooling, kw_per_kg_s_occupied,
+                              kw_per_humidity_ratio_occupied, running_periods]
     [identified.validity]     zone_temp_min_degc = {Z = …}, zone_temp_max_degc = {Z = …},
                               outdoor_temp_min_degc, outdoor_temp_max_degc (optional: the
                               training data's range)
