@@ -56,6 +56,16 @@ def test_a_posted_outdoor_temperature_replaces_the_outdoor_channel_there(forecas
     np.testing.assert_array_equal(out.energy_price_sgd_per_mwh, forecast.energy_price_sgd_per_mwh)
 
 
+def test_a_posted_outdoor_humidity_replaces_the_forecast_s_there(forecast) -> None:  # type: ignore[no-untyped-def]
+    stamp = forecast.index[3].tz_convert("UTC")  # any zone of time names the period
+    out = OperatorSignals(outdoor_humidity_ratio_kg_per_kg={stamp: 0.0265}).apply(forecast)
+    expected = np.array(forecast.outdoor_humidity_ratio_kg_per_kg, dtype=float)
+    assert expected[3] != 0.0265
+    expected[3] = 0.0265
+    np.testing.assert_array_equal(out.outdoor_humidity_ratio_kg_per_kg, expected)
+    np.testing.assert_array_equal(out.disturbances, forecast.disturbances)
+
+
 @pytest.mark.parametrize("phi", [-1.0, float("nan"), float("inf")])
 def test_an_impossible_peak_price_is_refused(phi: float) -> None:
     with pytest.raises(InputError, match="peak_price_sgd_per_kw"):

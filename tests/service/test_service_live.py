@@ -11,6 +11,7 @@ import pandas as pd
 import pytest
 from fastapi.testclient import TestClient
 
+from hvacflex.constants import PERIOD
 from hvacflex.data.calendar import live_price_index
 from hvacflex.data.market import load_usep
 from hvacflex.paths import data_dir
@@ -135,3 +136,23 @@ def test_a_posted_outdoor_temperature_forecast_replaces_the_typical_year(
     bad = {"start": now.isoformat(), "outdoor_temp_degc": [70.0]}
     response = client.post("/v1/signals/weather", json=bad, headers=op)
     assert response.status_code == 422 and "outdoor_temp_degc[0]" in response.text
+    # the humidity beside it: stored and in force for its periods, the later post winning
+    humid = {
+        **hot,
+        "outdoor_temp_degc": [31.0] * 2,
+        "outdoor_humidity_ratio_kg_per_kg": [0.026] * 2,
+    }
+    assert client.post("/v1/signals/weather", json=humid, headers=op).status_code == 200
+    app = client.app
+    with app.state.sessions() as session:  # type: ignore[attr-defined]
+        signals = app.state.runtime.signals(session)  # type: ignore[attr-defined]
+    utc = now.tz_convert("UTC")
+    assert signals.outdoor_humidity_ratio_kg_per_kg == {utc: 0.026, utc + PERIOD: 0.026}
+    assert (
+        signals.outdoor_temp_degc[utc] == 31.0
+        and signals.outdoor_temp_degc[utc + 2 * PERIOD] == 40.0
+    )
+    # a humidity in g/kg instead of kg/kg is refused naming the entry
+    slip = {**humid, "outdoor_humidity_ratio_kg_per_kg": [18.0]}
+    response = client.post("/v1/signals/weather", json=slip, headers=op)
+    assert response.status_code == 422 and "outdoor_humidity_ratio_kg_per_kg[0]" in response.text

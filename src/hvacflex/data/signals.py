@@ -38,6 +38,9 @@ class OperatorSignals:
     outdoor_temp_degc : a posted outdoor-temperature forecast [°C] by period start
         (tz-aware), replacing every ``outdoor_temp`` channel of the forecast there (the
         typical-year weather of a live building, docs/guide/service.md).
+    outdoor_humidity_ratio_kg_per_kg : a posted outdoor humidity-ratio forecast [kg/kg] by
+        period start (tz-aware), replacing the forecast's there (the coil's latent load and
+        a metered power model's moisture term read it).
     peak_price_sgd_per_kw : φ [SGD/kW]; None keeps the scenario's.
     feeder_limit_kw : the feeder's power limit [kW] (None: none); read by a fleet coordinator.
     """
@@ -45,6 +48,9 @@ class OperatorSignals:
     energy_price_sgd_per_mwh: Mapping[pd.Timestamp, float] = field(default_factory=_no_prices)
     reserve_price_sgd_per_mwh: Mapping[pd.Timestamp, float] = field(default_factory=_no_prices)
     outdoor_temp_degc: Mapping[pd.Timestamp, float] = field(default_factory=_no_prices)
+    outdoor_humidity_ratio_kg_per_kg: Mapping[pd.Timestamp, float] = field(
+        default_factory=_no_prices
+    )
     peak_price_sgd_per_kw: float | None = None
     feeder_limit_kw: float | None = None
 
@@ -61,6 +67,7 @@ class OperatorSignals:
         for name, prices in (
             ("energy_price_sgd_per_mwh", self.energy_price_sgd_per_mwh),
             ("reserve_price_sgd_per_mwh", self.reserve_price_sgd_per_mwh),
+            ("outdoor_humidity_ratio_kg_per_kg", self.outdoor_humidity_ratio_kg_per_kg),
         ):
             if not prices:
                 continue

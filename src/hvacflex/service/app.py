@@ -528,8 +528,9 @@ def _forecast_signal_routes(app: FastAPI, planner: Planner, auth: Auth) -> None:
 
     @app.post("/v1/signals/weather", tags=["operator"], responses=ERRORS)
     def post_weather(body: WeatherIn, _who: Operator) -> Envelope[Stored]:
-        """An outdoor-temperature forecast [°C] of consecutive periods from ``start``; it
-        replaces the typical-year outdoor temperature in every building's forecast there."""
+        """An outdoor-temperature forecast [°C] (and, optionally, humidity ratio [kg/kg]) of
+        consecutive periods from ``start``; it replaces the typical year's in every
+        building's forecast there."""
         start = to_local(body.start)
         if start != start.floor(PERIOD_FREQ):
             raise InputError("must be a 30-min period start", field="start", value=str(start))
@@ -540,6 +541,7 @@ def _forecast_signal_routes(app: FastAPI, planner: Planner, auth: Auth) -> None:
             {
                 "start_utc": start.tz_convert("UTC").isoformat(),
                 "outdoor_temp_degc": body.outdoor_temp_degc,
+                "outdoor_humidity_ratio_kg_per_kg": body.outdoor_humidity_ratio_kg_per_kg,
             },
         )
         return Envelope(status=200, message="stored", payload=stored)

@@ -417,20 +417,27 @@ class Runtime:
 
     # -- signals ------------------------------------------------------------------------
     def signals(self, session: Session) -> OperatorSignals:
-        """The operator's signals in force: posted prices and outdoor temperatures by
-        period (the latest posted for a period wins), the latest φ."""
+        """The operator's signals in force: posted prices, outdoor temperatures and
+        humidities by period (the latest posted for a period wins), the latest φ."""
         energy, reserve = self._price_overrides(session)
         peak = self.latest_signal(session, "peak_price")
         phi = None if peak is None else float(peak["peak_price_sgd_per_kw"])
         weather: dict[pd.Timestamp, float] = {}
+        humidity: dict[pd.Timestamp, float] = {}
         rows = session.scalars(select(Signal).where(Signal.kind == "weather").order_by(Signal.id))
         for row in rows:
             body = json.loads(row.body_json)
             start = pd.Timestamp(body["start_utc"])
             for i, value in enumerate(body["outdoor_temp_degc"]):
                 weather[start + i * PERIOD] = float(value)
+            for i, value in enumerate(body.get("outdoor_humidity_ratio_kg_per_kg") or []):
+                humidity[start + i * PERIOD] = float(value)
         return OperatorSignals(
-            energy, reserve, outdoor_temp_degc=weather, peak_price_sgd_per_kw=phi
+            energy,
+            reserve,
+            outdoor_temp_degc=weather,
+            outdoor_humidity_ratio_kg_per_kg=humidity,
+            peak_price_sgd_per_kw=phi,
         )
 
     def _price_overrides(

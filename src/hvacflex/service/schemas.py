@@ -74,6 +74,9 @@ ReservePrice = Annotated[float, Field(ge=0.0, le=ENERGY_PRICE_LIMIT_SGD_PER_MWH)
 OUTDOOR_TEMP_MIN_DEGC, OUTDOOR_TEMP_MAX_DEGC = -50.0, 60.0
 """Range of a posted outdoor-temperature forecast [°C]."""
 OutdoorTemp = Annotated[float, Field(ge=OUTDOOR_TEMP_MIN_DEGC, le=OUTDOOR_TEMP_MAX_DEGC)]
+HUMIDITY_RATIO_MAX_KG_PER_KG = 0.05
+"""The largest outdoor humidity ratio a forecast may post [kg/kg] (a 40 °C dew point)."""
+HumidityRatio = Annotated[float, Field(ge=0.0, le=HUMIDITY_RATIO_MAX_KG_PER_KG)]
 FLOW_LIMIT_KG_S = 10_000.0
 """|delivered air flow| a measurement may report per zone [kg/s]."""
 DeliveredFlow = Annotated[float, Field(ge=-FLOW_LIMIT_KG_S, le=FLOW_LIMIT_KG_S)]
@@ -185,11 +188,15 @@ class PricesIn(BaseModel):
 
 
 class WeatherIn(BaseModel):
-    """An outdoor-temperature forecast [°C] for consecutive periods from ``start``."""
+    """An outdoor-temperature forecast [°C] (and optionally the outdoor humidity ratio
+    [kg/kg]) for consecutive periods from ``start``."""
 
     model_config = _STRICT
     start: IsoTime
     outdoor_temp_degc: list[OutdoorTemp] = Field(min_length=1, max_length=MAX_PRICE_PERIODS)
+    outdoor_humidity_ratio_kg_per_kg: list[HumidityRatio] | None = Field(
+        default=None, min_length=1, max_length=MAX_PRICE_PERIODS
+    )
 
 
 class PeakPriceIn(BaseModel):
