@@ -1,0 +1,69 @@
+"""The fleet's least discomfort against its energy, on the controllers' model: the
+trade-off curve behind issue 60's "discomfort ≤ bound + 0.5 K·h and energy ≤ +10 %".
+
+python scripts/fleet_tradeoff.py --fleet F [--start 2014-03-03] [--days 1]
+    [--budgets 0 5 10 15 20 30] [--max-excursion 1.0]
+
+Builds the run model of `fleet bound` (`hvacflex.fleet.bound.run_model`: every building
+from the closed loop's initial state, one horizon over the run, perfect foresight, no
+margins, the limits in force), measures the unlimited plan's energy E₀ (the centralised LP
+of the controllers' objective without any limit, `unlimited_energy_kwh`), then for each
+budget x [% over E₀] solves the bound's LP with the fleet's energy ≤ (1 + x/100)·E₀
+(`budgeted_bound`), without and with every zone's slack capped at ``--max-excursion`` [K];
+last the bound itself (no budget). Prints per case: the plan's energy [kWh, % over E₀],
+split 00–07 / 07–10 / 10–17 / 17–24 (of the run's days together), the discomfort per
+building-day (fleet mean and the largest building) and the largest zone slack [K].
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+
+from hvacflex.fleet.bound import budgeted_bound, run_model, unlimited_energy_kwh
+from hvacflex.fleet.schema import load_fleet_document
+
+BLOCKS = (("00-07", 0, 14), ("07-10", 14, 20), ("10-17", 20, 34), ("17-24", 34, 48))
+"""(label, first period, end period) of the day's blocks [30-min periods from 00:00]."""
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--fleet", required=True)
+    parser.add_argument("--start", default="2014-03-03")
+    parser.add_argument("--days", type=float, default=1.0)
+    parser.add_argument("--budgets", type=float, nargs="+", default=[0, 5, 10, 15, 20, 30])
+    parser.add_argument("--max-excursion", type=float, default=None)
+    args = parser.parse_args()
+    fleet, document = load_fleet_document(args.fleet)
+    model = run_model(fleet, document, args.start, args.days)
+    tick = time.perf_counter()
+    free = unlimited_energy_kwh(model)
+    print(f"unlimited plan: {free:.0f} kWh ({time.perf_counter() - tick:.0f} s)", flush=True)
+    caps = [None] if args.max_excursion is None else [None, args.max_excursion]
+    days = model.p_min_kw.shape[1] / 48
+    for cap in caps:
+        for pct in [*args.budgets, np.inf]:
+            tick = time.perf_counter()
+            point = budgeted_bound(model, (1 + pct / 100) * free, max_excursion_k=cap)
+            label = f"budget +{pct:g} %, slack cap {cap if cap is not None else 'none'} K"
+            if not point.solved:
+                print(f"{label}: no solution ({time.perf_counter() - tick:.0f} s)", flush=True)
+                continue
+            daily = point.power_kw.reshape(-1, 48)
+            blocks = " / ".join(f"{0.5 * daily[:, a:b].sum():.0f}" for _, a, b in BLOCKS)
+            per_day = point.bound.discomfort_kelvin_hours / days
+            print(
+                f"{label}: energy {point.energy_kwh:.0f} kWh "
+                f"({100 * (point.energy_kwh / free - 1):+.1f} %; {blocks} kWh), discomfort "
+                f"{per_day.mean():.2f} K·h per building-day (largest {per_day.max():.2f}), "
+                f"largest slack {point.largest_slack_k:.2f} K "
+                f"({time.perf_counter() - tick:.0f} s)",
+                flush=True,
+            )
+
+
+if __name__ == "__main__":
+    main()
