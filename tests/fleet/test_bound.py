@@ -16,6 +16,7 @@ from hvacflex.fleet.bound import (
     budgeted_bound,
     check_limit_windows,
     comfort_bound,
+    least_energy_for_comfort,
     limit_window_shortfalls,
     run_model,
     unlimited_energy_kwh,
@@ -92,6 +93,25 @@ def test_an_energy_budget_trades_discomfort_for_energy(unlimited: tuple[Path, ob
     assert bound.discomfort_kelvin_hours.sum() - 1e-5 <= totals[0] < totals[1] - 1e-3
     # below the buildings' minimum energy no plan exists
     assert not budgeted_bound(limited, 0.5 * 0.5 * minimum.sum()).solved  # type: ignore[arg-type]
+
+
+def test_the_least_energy_meeting_a_comfort_target(unlimited: tuple[Path, object]) -> None:
+    _, model = unlimited
+    minimum = model.p_min_kw.sum(axis=0)  # type: ignore[attr-defined]
+    tight = np.full(48, np.inf)
+    tight[24:36] = minimum[24:36].max() + 1.0
+    limited = _with_limit(model, tight)
+    bound = comfort_bound(limited).discomfort_kelvin_hours  # type: ignore[arg-type]
+    allowed = bound + 0.5
+    point = least_energy_for_comfort(limited, allowed)  # type: ignore[arg-type]
+    assert point.solved and np.isinf(point.budget_kwh)
+    assert np.all(point.bound.discomfort_kelvin_hours <= allowed + 1e-6)
+    # no plan within less energy meets the target: a budget 1 % below it costs comfort
+    below = budgeted_bound(limited, 0.99 * point.energy_kwh)  # type: ignore[arg-type]
+    assert below.bound.discomfort_kelvin_hours.sum() > allowed.sum() + 1e-4
+    # a target whose sum is below the bound's has no plan (the bound minimises the sum)
+    assert bound.min() > 0.1
+    assert not least_energy_for_comfort(limited, bound - 0.05).solved  # type: ignore[arg-type]
 
 
 def test_an_excursion_cap_bounds_every_zone_slack(unlimited: tuple[Path, object]) -> None:

@@ -240,30 +240,43 @@ def unlimited_energy_kwh(model: RunModel) -> float:
     return float(problems[0].dt_h * result.power_kw.sum())
 
 
-def budgeted_bound(
-    model: RunModel, budget_kwh: float, *, max_excursion_k: float | None = None
-) -> BudgetedBound:
-    """The bound's LP (:func:`comfort_bound`) with the fleet's energy over the run at most
-    ``budget_kwh`` [kWh] (one row Σ_b Σ_k P_b,k Δt ≤ budget on the LP's affine power) and,
-    if ``max_excursion_k`` [K] is given, every zone's slack ε ≤ it: the least discomfort
-    the fleet can have within an energy budget and an excursion cap, on the controllers'
-    model with perfect foresight. Swept over budgets, it is the trade-off curve of
-    discomfort against energy (``scripts/fleet_tradeoff.py``)."""
+def _comfort_lp(model: RunModel, max_excursion_k: float | None) -> tuple[Any, ...]:
+    """The bound's problems with every zone's slack ≤ ``max_excursion_k``, their stacked LP,
+    how many periods' limits were raised to the minimum power, and the (1, cols) energy row
+    Σ_b Σ_k P_b,k Δt [kWh] and (B, cols) discomfort rows Σ_k Σ_zones ε Δt [K·h]."""
     problems = [
         dataclasses.replace(comfort_only(p), slack_max_kelvin=max_excursion_k)
         for p in model.problems
     ]
     limit = reference_limit_kw(model.planning_kw, model.p_min_kw)
-    raised = int(np.sum(limit > model.planning_kw))
     stacked = stacked_lp(problems, limit)
-    row = sparse.lil_matrix((1, stacked.cost.size))
-    for problem, cols in zip(problems, stacked.power_cols, strict=True):
-        row[0, cols] = problem.dt_h
+    energy = sparse.lil_matrix((1, stacked.cost.size))
+    discomfort = sparse.lil_matrix((len(problems), stacked.cost.size))
+    for b, (problem, cols, (first, layout)) in enumerate(
+        zip(problems, stacked.power_cols, stacked.layouts, strict=True)
+    ):
+        energy[0, cols] = problem.dt_h
+        discomfort[b, np.asarray(layout.plan.eps).ravel() + first] = problem.dt_h
+    raised = int(np.sum(limit > model.planning_kw))
+    return problems, stacked, raised, energy.tocsr(), discomfort.tocsr()
+
+
+def _solve_budgeted(
+    model: RunModel,
+    parts: tuple[Any, ...],
+    cost: FloatArray,
+    rows: Any,
+    rows_upper: FloatArray,
+    budget: tuple[float, float | None],
+) -> BudgetedBound:
+    """Solve the stacked LP of ``parts`` (:func:`_comfort_lp`) with ``cost`` and the extra
+    ``rows`` ≤ ``rows_upper``; ``budget`` = (budget [kWh], excursion cap [K]) as recorded."""
+    problems, stacked, raised, _, _ = parts
     result = solve_lp(
-        stacked.cost,
-        sparse.vstack([stacked.matrix, row.tocsr()]).tocsr(),
-        np.append(stacked.row_lower, -np.inf),
-        np.append(stacked.row_upper, budget_kwh),
+        cost,
+        sparse.vstack([stacked.matrix, rows]).tocsr(),
+        np.append(stacked.row_lower, np.full(rows.shape[0], -np.inf)),
+        np.append(stacked.row_upper, rows_upper),
         stacked.col_lower,
         stacked.col_upper,
     )
@@ -277,7 +290,7 @@ def budgeted_bound(
             False,
             raised,
         )
-        return BudgetedBound(bound, budget_kwh, max_excursion_k, nan, nan, np.full(periods, nan))
+        return BudgetedBound(bound, *budget, nan, nan, np.full(periods, nan))
     slack = [result.x[np.asarray(layout.plan.eps) + first] for first, layout in stacked.layouts]
     per_period = np.array(
         [eps.sum(axis=1) * p.dt_h for eps, p in zip(slack, problems, strict=True)]
@@ -286,12 +299,51 @@ def budgeted_bound(
     bound = ComfortBound(model.names, per_period.sum(axis=1), per_period, raised == 0, raised)
     return BudgetedBound(
         bound,
-        budget_kwh,
-        max_excursion_k,
+        *budget,
         float(problems[0].dt_h * power.sum()),
         float(max(eps.max() for eps in slack)),
         power,
     )
+
+
+def budgeted_bound(
+    model: RunModel, budget_kwh: float, *, max_excursion_k: float | None = None
+) -> BudgetedBound:
+    """The bound's LP (:func:`comfort_bound`) with the fleet's energy over the run at most
+    ``budget_kwh`` [kWh] (one row Σ_b Σ_k P_b,k Δt ≤ budget on the LP's affine power) and,
+    if ``max_excursion_k`` [K] is given, every zone's slack ε ≤ it: the least discomfort
+    the fleet can have within an energy budget and an excursion cap, on the controllers'
+    model with perfect foresight. Swept over budgets, it is the trade-off curve of
+    discomfort against energy (``scripts/fleet_tradeoff.py``)."""
+    parts = _comfort_lp(model, max_excursion_k)
+    return _solve_budgeted(
+        model,
+        parts,
+        parts[1].cost,
+        parts[3],
+        np.array([budget_kwh]),
+        (budget_kwh, max_excursion_k),
+    )
+
+
+LEAST_ENERGY_TIE_BREAK = 1e-4
+"""Weight of the comfort slack [relative to 1 kWh per K·h] in :func:`least_energy_for_comfort`:
+among the plans of least energy, the least discomfort."""
+
+
+def least_energy_for_comfort(
+    model: RunModel, allowed_kelvin_hours: FloatArray, *, max_excursion_k: float | None = None
+) -> BudgetedBound:
+    """The least fleet energy over the run [kWh] of a plan in which each building's
+    discomfort is at most ``allowed_kelvin_hours`` (B,) [K·h over the run] and, if
+    ``max_excursion_k`` [K] is given, every zone's slack ε ≤ it (same model and limits as
+    :func:`comfort_bound`): what meeting a comfort target costs in energy, at best.
+    ``budget_kwh`` of the answer is inf (no budget; the energy is the objective)."""
+    parts = _comfort_lp(model, max_excursion_k)
+    _, stacked, _, energy, discomfort = parts
+    cost = np.asarray(energy.toarray()).ravel() + LEAST_ENERGY_TIE_BREAK * stacked.cost
+    allowed = np.asarray(allowed_kelvin_hours, dtype=float)
+    return _solve_budgeted(model, parts, cost, discomfort, allowed, (np.inf, max_excursion_k))
 
 
 def budgeted_fleet_bound(
