@@ -2,7 +2,7 @@
 trade-off curve behind issue 60's "discomfort ≤ bound + 0.5 K·h and energy ≤ +10 %".
 
 python scripts/fleet_tradeoff.py --fleet F [--start 2014-03-03] [--days 1]
-    [--budgets 0 5 10 15 20 30] [--max-excursion 1.0]
+    [--budgets 0 5 10 15 20 30] [--max-excursion 1.0] [--unlimited-kwh E]
 
 Builds the run model of `fleet bound` (`hvacflex.fleet.bound.run_model`: every building
 from the closed loop's initial state, one horizon over the run, perfect foresight, no
@@ -10,7 +10,8 @@ margins, the limits in force), measures the unlimited plan's energy E₀ (the ce
 of the controllers' objective without any limit, `unlimited_energy_kwh`), then for each
 budget x [% over E₀] solves the bound's LP with the fleet's energy ≤ (1 + x/100)·E₀
 (`budgeted_bound`), without and with every zone's slack capped at ``--max-excursion`` [K];
-last the bound itself (no budget); and the least energy of a plan meeting issue 60's
+last the bound itself (no budget; ``--unlimited-kwh`` gives E₀ instead of solving for it:
+it does not depend on the limits); and the least energy of a plan meeting issue 60's
 comfort criteria (`least_energy_for_comfort`: each building's discomfort ≤ its bound +
 0.5 K·h per day, without and with the slack cap). Prints per case: the plan's energy [kWh,
 % over E₀], split 00–07 / 07–10 / 10–17 / 17–24 (of the run's days together), the
@@ -43,22 +44,26 @@ def main() -> None:
     parser.add_argument("--fleet", required=True)
     parser.add_argument("--start", default="2014-03-03")
     parser.add_argument("--days", type=float, default=1.0)
-    parser.add_argument("--budgets", type=float, nargs="+", default=[0, 5, 10, 15, 20, 30])
+    parser.add_argument("--budgets", type=float, nargs="*", default=[0, 5, 10, 15, 20, 30])
     parser.add_argument("--max-excursion", type=float, default=None)
+    parser.add_argument("--unlimited-kwh", type=float, default=None)
     args = parser.parse_args()
     fleet, document = load_fleet_document(args.fleet)
     model = run_model(fleet, document, args.start, args.days)
     tick = time.perf_counter()
-    free = unlimited_energy_kwh(model)
+    free = args.unlimited_kwh if args.unlimited_kwh else unlimited_energy_kwh(model)
     print(f"unlimited plan: {free:.0f} kWh ({time.perf_counter() - tick:.0f} s)", flush=True)
     caps = [None] if args.max_excursion is None else [None, args.max_excursion]
     days = model.p_min_kw.shape[1] / 48
+    bound = None
     for cap in caps:
         for pct in [*args.budgets, np.inf]:
             tick = time.perf_counter()
             point = budgeted_bound(model, (1 + pct / 100) * free, max_excursion_k=cap)
             _show(f"budget +{pct:g} %, slack cap {cap} K", point, free, days, tick)
-    bound = budgeted_bound(model, np.inf).bound.discomfort_kelvin_hours
+            if cap is None and np.isinf(pct):
+                bound = point.bound.discomfort_kelvin_hours
+    assert bound is not None
     for cap in caps:
         tick = time.perf_counter()
         point = least_energy_for_comfort(model, bound + 0.5 * days, max_excursion_k=cap)
