@@ -15,8 +15,8 @@ it does not depend on the limits); and the least energy of a plan meeting issue 
 comfort criteria (`least_energy_for_comfort`: each building's discomfort ≤ its bound +
 0.5 K·h per day, without and with the slack cap). Prints per case: the plan's energy [kWh,
 % over E₀], split 00–07 / 07–10 / 10–17 / 17–24 (of the run's days together), the
-discomfort per building-day (fleet mean and the largest building) and the largest zone
-slack [K].
+discomfort per building-day (fleet mean and the largest building; on runs of several days
+also by day) and the largest zone slack [K].
 """
 
 from __future__ import annotations
@@ -86,6 +86,9 @@ def _show(label: str, point: BudgetedBound, free: float, days: float, tick: floa
         f"largest slack {point.largest_slack_k:.2f} K ({time.perf_counter() - tick:.0f} s)",
         flush=True,
     )
+    if days > 1:
+        by_day = point.bound.per_period_kelvin_hours.reshape(len(per_day), -1, 48).sum(axis=2)
+        print("  by day [K·h per building]:", np.round(by_day.mean(axis=0), 2).tolist())
 
 
 if __name__ == "__main__":
