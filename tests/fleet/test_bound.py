@@ -13,10 +13,13 @@ from hvacflex.cli import app
 from hvacflex.fleet.bound import (
     BOUND_COLUMNS,
     BOUND_FILE,
+    budgeted_bound,
     check_limit_windows,
     comfort_bound,
+    least_energy_for_comfort,
     limit_window_shortfalls,
     run_model,
+    unlimited_energy_kwh,
 )
 from hvacflex.fleet.generate import generate_fleet, write_fleet
 from hvacflex.fleet.schema import FleetConfigError, load_fleet_document
@@ -64,6 +67,63 @@ def test_a_tighter_limit_never_lowers_the_bound(unlimited: tuple[Path, object]) 
     np.testing.assert_allclose(
         limited.per_period_kelvin_hours.sum(axis=1), limited.discomfort_kelvin_hours
     )
+
+
+def test_an_energy_budget_trades_discomfort_for_energy(unlimited: tuple[Path, object]) -> None:
+    _, model = unlimited
+    minimum = model.p_min_kw.sum(axis=0)  # type: ignore[attr-defined]
+    tight = np.full(48, np.inf)
+    tight[24:36] = minimum[24:36].max() + 1.0
+    limited = _with_limit(model, tight)
+    free_kwh = unlimited_energy_kwh(model)  # type: ignore[arg-type]
+    assert free_kwh > 0.5 * minimum.sum()
+    bound = comfort_bound(limited)  # type: ignore[arg-type]
+    no_budget = budgeted_bound(limited, np.inf)  # type: ignore[arg-type]
+    assert no_budget.solved and no_budget.max_excursion_k is None
+    np.testing.assert_allclose(
+        no_budget.bound.discomfort_kelvin_hours, bound.discomfort_kelvin_hours, atol=1e-5
+    )
+    totals = []
+    for budget_kwh in (1.0 * free_kwh, 0.9 * free_kwh):
+        point = budgeted_bound(limited, budget_kwh)  # type: ignore[arg-type]
+        assert point.solved and point.energy_kwh <= budget_kwh + 1e-3
+        assert point.energy_kwh == pytest.approx(0.5 * point.power_kw.sum())
+        totals.append(point.bound.discomfort_kelvin_hours.sum())
+    # less energy never buys less discomfort, and the tighter budget binds
+    assert bound.discomfort_kelvin_hours.sum() - 1e-5 <= totals[0] < totals[1] - 1e-3
+    # below the buildings' minimum energy no plan exists
+    assert not budgeted_bound(limited, 0.5 * 0.5 * minimum.sum()).solved  # type: ignore[arg-type]
+
+
+def test_the_least_energy_meeting_a_comfort_target(unlimited: tuple[Path, object]) -> None:
+    _, model = unlimited
+    minimum = model.p_min_kw.sum(axis=0)  # type: ignore[attr-defined]
+    tight = np.full(48, np.inf)
+    tight[24:36] = minimum[24:36].max() + 1.0
+    limited = _with_limit(model, tight)
+    bound = comfort_bound(limited).discomfort_kelvin_hours  # type: ignore[arg-type]
+    allowed = bound + 0.5
+    point = least_energy_for_comfort(limited, allowed)  # type: ignore[arg-type]
+    assert point.solved and np.isinf(point.budget_kwh)
+    assert np.all(point.bound.discomfort_kelvin_hours <= allowed + 1e-6)
+    # no plan within less energy meets the target: a budget 1 % below it costs comfort
+    below = budgeted_bound(limited, 0.99 * point.energy_kwh)  # type: ignore[arg-type]
+    assert below.bound.discomfort_kelvin_hours.sum() > allowed.sum() + 1e-4
+    # a target whose sum is below the bound's has no plan (the bound minimises the sum)
+    assert bound.min() > 0.1
+    assert not least_energy_for_comfort(limited, bound - 0.05).solved  # type: ignore[arg-type]
+
+
+def test_an_excursion_cap_bounds_every_zone_slack(unlimited: tuple[Path, object]) -> None:
+    _, model = unlimited
+    free_kwh = unlimited_energy_kwh(model)  # type: ignore[arg-type]
+    loose = budgeted_bound(model, 0.9 * free_kwh)  # type: ignore[arg-type]
+    cap = 0.5 * loose.largest_slack_k
+    capped = budgeted_bound(model, 0.9 * free_kwh, max_excursion_k=cap)  # type: ignore[arg-type]
+    assert loose.largest_slack_k > 0.1
+    assert capped.solved and capped.largest_slack_k <= cap + 1e-6
+    total = capped.bound.discomfort_kelvin_hours.sum()
+    assert total >= loose.bound.discomfort_kelvin_hours.sum() - 1e-5
 
 
 def test_a_limit_below_the_minimum_is_raised_and_not_feasible(
@@ -152,3 +212,20 @@ def test_bound_cli_writes_bound_csv(tmp_path: Path) -> None:
     assert (frame["discomfort_kelvin_hours"] >= 0).all()
     done = CliRunner().invoke(app, [*args[:-1], "8", "--out", str(tmp_path / "b8")])
     assert done.exit_code == 2 and "--days" in done.output and "Traceback" not in done.output
+
+
+def test_bound_cli_within_an_energy_budget_and_an_excursion_cap(tmp_path: Path) -> None:
+    path = _fleet(tmp_path, [{"start": "10:00", "end": "17:00", "limit_kw": 10_000.0}])
+    args = ["fleet", "bound", "--fleet", str(path), "--start", START, "--days", "1"]
+    free = CliRunner().invoke(app, [*args, "--out", str(tmp_path / "free")])
+    capped = [*args, "--out", str(tmp_path / "capped"), "--energy-budget-pct", "0"]
+    done = CliRunner().invoke(app, [*capped, "--max-excursion-k", "0.5"])
+    assert free.exit_code == 0 and done.exit_code == 0, done.output
+    assert "the plan's energy" in done.output and "largest zone slack" in done.output
+    loose = pd.read_csv(tmp_path / "free" / BOUND_FILE)["discomfort_kelvin_hours"]
+    tight = pd.read_csv(tmp_path / "capped" / BOUND_FILE)
+    assert tuple(tight.columns) == BOUND_COLUMNS and tight["feasible"].all()
+    assert (tight["discomfort_kelvin_hours"] >= loose - 1e-6).all()
+    for bad in (["--energy-budget-pct", "-5"], ["--max-excursion-k", "nan"]):
+        done = CliRunner().invoke(app, [*args, "--out", str(tmp_path / "bad"), *bad])
+        assert done.exit_code == 2 and "Traceback" not in done.output

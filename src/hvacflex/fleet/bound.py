@@ -35,12 +35,13 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
+from scipy import sparse
 
 from hvacflex.constants import MAX_HORIZON_STEPS, PERIODS_PER_DAY
 from hvacflex.control.base import FloatArray
 from hvacflex.errors import InputError
 from hvacflex.fleet.agent import BuildingGroup, FleetSettings
-from hvacflex.fleet.centralised import centralised_lp
+from hvacflex.fleet.centralised import centralised_lp, solve_centralised, stacked_lp
 from hvacflex.fleet.compare import reference_limit_kw
 from hvacflex.fleet.run import _feeder_timeline
 from hvacflex.fleet.schema import Fleet, FleetConfigError, load_fleet_document
@@ -180,6 +181,194 @@ def bound_fleet(
     out.mkdir(parents=True, exist_ok=True)
     bound.frame().to_csv(out / BOUND_FILE, index=False)
     return bound
+
+
+@dataclass(frozen=True)
+class BudgetedBound:
+    """The least discomfort within an energy budget and an excursion cap
+    (:func:`budgeted_bound`).
+
+    Attributes
+    ----------
+    bound : the buildings' least discomfort (:class:`ComfortBound`; NaN and not feasible
+        when no plan meets the budget and the cap).
+    budget_kwh : the fleet's energy budget over the run [kWh] (inf = none).
+    max_excursion_k : the cap on every zone's slack ε [K] (None = none).
+    energy_kwh : the plan's fleet energy over the run [kWh] (the LP's affine power; NaN
+        unless solved).
+    largest_slack_k : the plan's largest ε over buildings, zones and periods [K].
+    power_kw : (T,) the plan's fleet power per period [kW].
+    """
+
+    bound: ComfortBound
+    budget_kwh: float
+    max_excursion_k: float | None
+    energy_kwh: float
+    largest_slack_k: float
+    power_kw: FloatArray
+
+    @property
+    def solved(self) -> bool:
+        """Whether some plan met the limits, the budget and the cap."""
+        return bool(np.isfinite(self.energy_kwh))
+
+
+def priced_only(problem: RMPCProblem) -> RMPCProblem:
+    """``problem`` with its own prices and comfort penalty but no reserve (no reserve input,
+    no IL event rows) and no robust margin: the controllers' objective with perfect
+    foresight, for the unlimited plan :func:`unlimited_energy_kwh` measures."""
+    return dataclasses.replace(
+        problem,
+        d_sigma=np.zeros_like(problem.d_sigma),
+        robust="none",
+        reserve_price_sgd_per_mwh=np.zeros(problem.horizon),
+        reserve_mask=np.zeros(problem.u_min.shape[1], dtype=bool),
+        events=None,
+        commitments=None,
+        offer_baselines=None,
+    )
+
+
+def unlimited_energy_kwh(model: RunModel) -> float:
+    """The fleet's energy over the run [kWh] in the centralised plan of :func:`priced_only`
+    problems without any limit (nan if it has no solution): "the unlimited days" of the
+    energy criterion, on the controllers' model."""
+    problems = [priced_only(p) for p in model.problems]
+    result = solve_centralised(problems, np.full(model.p_min_kw.shape[1], np.inf))
+    if not result.status.ok:
+        return float("nan")
+    return float(problems[0].dt_h * result.power_kw.sum())
+
+
+def _comfort_lp(model: RunModel, max_excursion_k: float | None) -> tuple[Any, ...]:
+    """The bound's problems with every zone's slack ≤ ``max_excursion_k``, their stacked LP,
+    how many periods' limits were raised to the minimum power, and the (1, cols) energy row
+    Σ_b Σ_k P_b,k Δt [kWh] and (B, cols) discomfort rows Σ_k Σ_zones ε Δt [K·h]."""
+    problems = [
+        dataclasses.replace(comfort_only(p), slack_max_kelvin=max_excursion_k)
+        for p in model.problems
+    ]
+    limit = reference_limit_kw(model.planning_kw, model.p_min_kw)
+    stacked = stacked_lp(problems, limit)
+    energy = sparse.lil_matrix((1, stacked.cost.size))
+    discomfort = sparse.lil_matrix((len(problems), stacked.cost.size))
+    for b, (problem, cols, (first, layout)) in enumerate(
+        zip(problems, stacked.power_cols, stacked.layouts, strict=True)
+    ):
+        energy[0, cols] = problem.dt_h
+        discomfort[b, np.asarray(layout.plan.eps).ravel() + first] = problem.dt_h
+    raised = int(np.sum(limit > model.planning_kw))
+    return problems, stacked, raised, energy.tocsr(), discomfort.tocsr()
+
+
+def _solve_budgeted(
+    model: RunModel,
+    parts: tuple[Any, ...],
+    cost: FloatArray,
+    rows: Any,
+    rows_upper: FloatArray,
+    budget: tuple[float, float | None],
+) -> BudgetedBound:
+    """Solve the stacked LP of ``parts`` (:func:`_comfort_lp`) with ``cost`` and the extra
+    ``rows`` ≤ ``rows_upper``; ``budget`` = (budget [kWh], excursion cap [K]) as recorded."""
+    problems, stacked, raised, _, _ = parts
+    result = solve_lp(
+        cost,
+        sparse.vstack([stacked.matrix, rows]).tocsr(),
+        np.append(stacked.row_lower, np.full(rows.shape[0], -np.inf)),
+        np.append(stacked.row_upper, rows_upper),
+        stacked.col_lower,
+        stacked.col_upper,
+    )
+    buildings, periods = model.p_min_kw.shape
+    if not result.status.ok:
+        nan = float("nan")
+        bound = ComfortBound(
+            model.names,
+            np.full(buildings, nan),
+            np.full((buildings, periods), nan),
+            False,
+            raised,
+        )
+        return BudgetedBound(bound, *budget, nan, nan, np.full(periods, nan))
+    slack = [result.x[np.asarray(layout.plan.eps) + first] for first, layout in stacked.layouts]
+    per_period = np.array(
+        [eps.sum(axis=1) * p.dt_h for eps, p in zip(slack, problems, strict=True)]
+    )
+    power = np.sum([result.x[cols] for cols in stacked.power_cols], axis=0)
+    bound = ComfortBound(model.names, per_period.sum(axis=1), per_period, raised == 0, raised)
+    return BudgetedBound(
+        bound,
+        *budget,
+        float(problems[0].dt_h * power.sum()),
+        float(max(eps.max() for eps in slack)),
+        power,
+    )
+
+
+def budgeted_bound(
+    model: RunModel, budget_kwh: float, *, max_excursion_k: float | None = None
+) -> BudgetedBound:
+    """The bound's LP (:func:`comfort_bound`) with the fleet's energy over the run at most
+    ``budget_kwh`` [kWh] (one row Σ_b Σ_k P_b,k Δt ≤ budget on the LP's affine power) and,
+    if ``max_excursion_k`` [K] is given, every zone's slack ε ≤ it: the least discomfort
+    the fleet can have within an energy budget and an excursion cap, on the controllers'
+    model with perfect foresight. Swept over budgets, it is the trade-off curve of
+    discomfort against energy (``scripts/fleet_tradeoff.py``)."""
+    parts = _comfort_lp(model, max_excursion_k)
+    return _solve_budgeted(
+        model,
+        parts,
+        parts[1].cost,
+        parts[3],
+        np.array([budget_kwh]),
+        (budget_kwh, max_excursion_k),
+    )
+
+
+LEAST_ENERGY_TIE_BREAK = 1e-4
+"""Weight of the comfort slack [relative to 1 kWh per K·h] in :func:`least_energy_for_comfort`:
+among the plans of least energy, the least discomfort."""
+
+
+def least_energy_for_comfort(
+    model: RunModel, allowed_kelvin_hours: FloatArray, *, max_excursion_k: float | None = None
+) -> BudgetedBound:
+    """The least fleet energy over the run [kWh] of a plan in which each building's
+    discomfort is at most ``allowed_kelvin_hours`` (B,) [K·h over the run] and, if
+    ``max_excursion_k`` [K] is given, every zone's slack ε ≤ it (same model and limits as
+    :func:`comfort_bound`): what meeting a comfort target costs in energy, at best.
+    ``budget_kwh`` of the answer is inf (no budget; the energy is the objective)."""
+    parts = _comfort_lp(model, max_excursion_k)
+    _, stacked, _, energy, discomfort = parts
+    cost = np.asarray(energy.toarray()).ravel() + LEAST_ENERGY_TIE_BREAK * stacked.cost
+    allowed = np.asarray(allowed_kelvin_hours, dtype=float)
+    return _solve_budgeted(model, parts, cost, discomfort, allowed, (np.inf, max_excursion_k))
+
+
+def budgeted_fleet_bound(
+    fleet_path: str | Path,
+    start: str,
+    days: float,
+    out_dir: str | Path,
+    *,
+    energy_budget_pct: float | None,
+    max_excursion_k: float | None,
+) -> BudgetedBound:
+    """``hvacflex fleet bound --energy-budget-pct X --max-excursion-k Y``: the bound within
+    an energy budget of (1 + X/100) × :func:`unlimited_energy_kwh` (none when X is None)
+    and every zone's slack ≤ Y [K] (none when None); writes ``out_dir/bound.csv`` (NaN
+    discomfort and ``feasible`` false when no plan meets them)."""
+    fleet, document = load_fleet_document(fleet_path)
+    model = run_model(fleet, document, start, days)
+    budget_kwh = np.inf
+    if energy_budget_pct is not None:
+        budget_kwh = (1.0 + energy_budget_pct / 100.0) * unlimited_energy_kwh(model)
+    result = budgeted_bound(model, budget_kwh, max_excursion_k=max_excursion_k)
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    result.bound.frame().to_csv(out / BOUND_FILE, index=False)
+    return result
 
 
 @dataclass(frozen=True)

@@ -271,18 +271,55 @@ def bound(
     ] = 1.0,
     *,  # --out has no default: keyword-only, so --help keeps the options in this order
     out: Annotated[Path, _out_option("Output folder (bound.csv).")],
+    energy_budget_pct: Annotated[
+        float | None,
+        typer.Option(
+            "--energy-budget-pct",
+            min=0.0,
+            callback=_check_optional_number,
+            help="Energy at most this % over the unlimited plan's.",
+        ),
+    ] = None,
+    max_excursion_k: Annotated[
+        float | None,
+        typer.Option(
+            "--max-excursion-k",
+            min=0.0,
+            callback=_check_optional_number,
+            help="No zone more than this [K] outside its band.",
+        ),
+    ] = None,
 ) -> None:
     """The least discomfort under the feeder limits on the controllers' model (bound.csv)."""
     from hvacflex.errors import HvacflexError
-    from hvacflex.fleet.bound import BOUND_FILE, bound_fleet
+    from hvacflex.fleet.bound import BOUND_FILE, bound_fleet, budgeted_fleet_bound
     from hvacflex.paths import check_output_dir
 
+    budget = None
     try:
         check_output_dir(out, "--out")
-        result = bound_fleet(fleet, start, days, out)
+        if energy_budget_pct is None and max_excursion_k is None:
+            result = bound_fleet(fleet, start, days, out)
+        else:
+            budget = budgeted_fleet_bound(
+                fleet,
+                start,
+                days,
+                out,
+                energy_budget_pct=energy_budget_pct,
+                max_excursion_k=max_excursion_k,
+            )
+            result = budget.bound
     except HvacflexError as exc:
         typer.echo(f"error: {exc}", err=True)
         raise typer.Exit(2) from None
+    if budget is not None and not budget.solved:
+        typer.echo(
+            f"{out / BOUND_FILE}: no plan meets the limits within an energy budget of "
+            f"{budget.budget_kwh:.1f} kWh and a zone excursion of at most "
+            f"{budget.max_excursion_k if budget.max_excursion_k is not None else 'any'} K"
+        )
+        return
     typer.echo(result.frame().to_string(index=False, float_format="{:.3f}".format))
     raised = (
         ""
@@ -294,6 +331,11 @@ def bound(
         f"{out / BOUND_FILE}: {len(result.names)} buildings, "
         f"{float(result.discomfort_kelvin_hours.sum()):.3f} K·h in all{raised}"
     )
+    if budget is not None:
+        typer.echo(
+            f"the plan's energy {budget.energy_kwh:.1f} kWh (budget {budget.budget_kwh:.1f} "
+            f"kWh), largest zone slack {budget.largest_slack_k:.2f} K"
+        )
 
 
 @fleet_app.command("compare")
