@@ -229,3 +229,18 @@ def test_bound_cli_within_an_energy_budget_and_an_excursion_cap(tmp_path: Path) 
     for bad in (["--energy-budget-pct", "-5"], ["--max-excursion-k", "nan"]):
         done = CliRunner().invoke(app, [*args, "--out", str(tmp_path / "bad"), *bad])
         assert done.exit_code == 2 and "Traceback" not in done.output
+
+
+def test_a_budget_without_an_unlimited_plan_to_measure_it_by_is_a_solver_error(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import hvacflex.fleet.bound as bound_module
+    from hvacflex.errors import SolverError
+
+    path = _fleet(tmp_path, [{"start": "10:00", "end": "17:00", "limit_kw": 10_000.0}])
+    monkeypatch.setattr(bound_module, "unlimited_energy_kwh", lambda model: float("nan"))
+    with pytest.raises(SolverError, match="unlimited plan"):
+        bound_module.budgeted_fleet_bound(
+            path, START, 1, tmp_path / "out", energy_budget_pct=5.0, max_excursion_k=None
+        )
+    assert not (tmp_path / "out" / BOUND_FILE).exists()  # nothing written

@@ -39,7 +39,7 @@ from scipy import sparse
 
 from hvacflex.constants import MAX_HORIZON_STEPS, PERIODS_PER_DAY
 from hvacflex.control.base import FloatArray
-from hvacflex.errors import InputError
+from hvacflex.errors import InputError, SolverError
 from hvacflex.fleet.agent import BuildingGroup, FleetSettings
 from hvacflex.fleet.centralised import centralised_lp, solve_centralised, stacked_lp
 from hvacflex.fleet.compare import reference_limit_kw
@@ -363,7 +363,13 @@ def budgeted_fleet_bound(
     model = run_model(fleet, document, start, days)
     budget_kwh = np.inf
     if energy_budget_pct is not None:
-        budget_kwh = (1.0 + energy_budget_pct / 100.0) * unlimited_energy_kwh(model)
+        unlimited_kwh = unlimited_energy_kwh(model)
+        if not np.isfinite(unlimited_kwh):
+            raise SolverError(
+                "the fleet's unlimited plan (no limit, the energy budget's reference) has no "
+                f"optimum over {days:g} days from {start}: no energy budget can be set from it"
+            )
+        budget_kwh = (1.0 + energy_budget_pct / 100.0) * unlimited_kwh
     result = budgeted_bound(model, budget_kwh, max_excursion_k=max_excursion_k)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
