@@ -422,16 +422,9 @@ class Runtime:
         energy, reserve = self._price_overrides(session)
         peak = self.latest_signal(session, "peak_price")
         phi = None if peak is None else float(peak["peak_price_sgd_per_kw"])
-        weather: dict[pd.Timestamp, float] = {}
-        humidity: dict[pd.Timestamp, float] = {}
-        rows = session.scalars(select(Signal).where(Signal.kind == "weather").order_by(Signal.id))
-        for row in rows:
-            body = json.loads(row.body_json)
-            start = pd.Timestamp(body["start_utc"])
-            for i, value in enumerate(body["outdoor_temp_degc"]):
-                weather[start + i * PERIOD] = float(value)
-            for i, value in enumerate(body.get("outdoor_humidity_ratio_kg_per_kg") or []):
-                humidity[start + i * PERIOD] = float(value)
+        weather, humidity = _posted_series(
+            session, "weather", ("outdoor_temp_degc", "outdoor_humidity_ratio_kg_per_kg")
+        )
         return OperatorSignals(
             energy,
             reserve,
@@ -443,16 +436,9 @@ class Runtime:
     def _price_overrides(
         self, session: Session
     ) -> tuple[dict[pd.Timestamp, float], dict[pd.Timestamp, float]]:
-        energy: dict[pd.Timestamp, float] = {}
-        reserve: dict[pd.Timestamp, float] = {}
-        rows = session.scalars(select(Signal).where(Signal.kind == "prices").order_by(Signal.id))
-        for row in rows:
-            body = json.loads(row.body_json)
-            start = pd.Timestamp(body["start_utc"])
-            for i, value in enumerate(body["energy_price_sgd_per_mwh"]):
-                energy[start + i * PERIOD] = float(value)
-            for i, value in enumerate(body.get("reserve_price_sgd_per_mwh") or []):
-                reserve[start + i * PERIOD] = float(value)
+        energy, reserve = _posted_series(
+            session, "prices", ("energy_price_sgd_per_mwh", "reserve_price_sgd_per_mwh")
+        )
         return energy, reserve
 
     def latest_signal(self, session: Session, kind: str) -> dict[str, Any] | None:
@@ -826,3 +812,20 @@ def _building_runtime(building_id: str, setup: Setup) -> BuildingRuntime:
         setup.config, make_controller(setup), len(setup.zone_names), replannable=True
     )
     return BuildingRuntime(building_id, setup, control, threading.Lock())
+
+
+def _posted_series(
+    session: Session, kind: str, columns: tuple[str, ...]
+) -> tuple[dict[pd.Timestamp, float], ...]:
+    """The stored signals of ``kind`` as one series per body key of ``columns`` (lists of
+    consecutive periods from the body's ``start_utc``): period start (UTC) → value, the
+    latest posted winning; a key a body lacks adds nothing."""
+    series: tuple[dict[pd.Timestamp, float], ...] = tuple({} for _ in columns)
+    rows = session.scalars(select(Signal).where(Signal.kind == kind).order_by(Signal.id))
+    for row in rows:
+        body = json.loads(row.body_json)
+        start = pd.Timestamp(body["start_utc"])
+        for values, column in zip(series, columns, strict=True):
+            for i, value in enumerate(body.get(column) or []):
+                values[start + i * PERIOD] = float(value)
+    return series
