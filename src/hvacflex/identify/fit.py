@@ -377,7 +377,7 @@ def predictions(
         one_step_all = np.einsum("ij,tj->ti", model.c_mean, states) + data.u @ model.d_mean.T
     else:
         one_step_all = one_step_predictions(model, data.y, data.u, noise)
-    rows = starts[:, None] + np.arange(PERIODS_PER_DAY)[None, :]
+    rows = _day_rows(starts)
     change = cooling_change_kw(data.u, data.y.shape[1])[rows]
     simulated = simulate_windows(model, states[starts], data.u[rows], PERIODS_PER_DAY, change)
     return one_step_all[rows], simulated, data.y[rows]
@@ -399,7 +399,7 @@ def _residuals(
         one_step, simulated, measured = predictions(model, data, starts, states)
     except (np.linalg.LinAlgError, ValueError):
         return np.full(3 * starts.size * PERIODS_PER_DAY * m + theta.size, 1e3)
-    rows = (starts[:, None] + np.arange(PERIODS_PER_DAY)[None, :]).ravel()
+    rows = _day_rows(starts).ravel()
     mass = states[rows, m : 2 * m]
     low, high = data.y.min() - MASS_BAND_K, data.y.max() + MASS_BAND_K
     outside = np.maximum(mass - high, 0.0) + np.maximum(low - mass, 0.0)
@@ -585,7 +585,7 @@ def fit_model(
     for text in found:
         warnings.warn(text, stacklevel=2)
     plain_noise = tune_filter(discretize(parameters), window, starts)
-    share, change_noise = tune_predictor(parameters, window, starts)
+    share, change_noise = tune_predictor(parameters, window, starts, plain_noise)
     return FitResult(
         zones=data.zones,
         parameters=parameters,
@@ -617,7 +617,7 @@ def tune_filter(model: DiscreteModel, data: FitData, starts: np.ndarray) -> Filt
     """The noise levels (grid of :data:`FILTER_AIR_K` … :data:`FILTER_GAIN_PERSISTENCE`) whose
     one-step predictor has the least mean squared error over the zones on the days starting at
     ``starts`` (the training days): the filter's covariances estimated from the data."""
-    rows = (starts[:, None] + np.arange(PERIODS_PER_DAY)[None, :]).ravel()
+    rows = _day_rows(starts).ravel()
     best, best_mse = FilterNoise(), np.inf
     for air_k in FILTER_AIR_K:
         for mass_k in FILTER_MASS_K:
@@ -630,6 +630,12 @@ def tune_filter(model: DiscreteModel, data: FitData, starts: np.ndarray) -> Filt
     return best
 
 
+def _day_rows(starts: np.ndarray) -> np.ndarray:
+    """(D, 48) the periods of the whole days starting at ``starts`` (D,)."""
+    rows: np.ndarray = starts[:, None] + np.arange(PERIODS_PER_DAY)[None, :]
+    return rows
+
+
 def _training_mse(
     model: DiscreteModel, data: FitData, rows: np.ndarray, noise: FilterNoise
 ) -> float:
@@ -638,17 +644,24 @@ def _training_mse(
 
 
 def tune_predictor(
-    parameters: GreyBoxParameters, data: FitData, starts: np.ndarray
+    parameters: GreyBoxParameters,
+    data: FitData,
+    starts: np.ndarray,
+    plain_noise: FilterNoise | None = None,
 ) -> tuple[float, FilterNoise]:
     """The share of the cooling's change that comes early in the period (of
     :data:`COOLING_CHANGE_SHARES`) and the filter's noise levels (:func:`tune_filter`) whose
     one-step predictor has the least mean squared error over the zones on the days starting at
-    ``starts`` (the training days)."""
-    rows = (starts[:, None] + np.arange(PERIODS_PER_DAY)[None, :]).ravel()
+    ``starts`` (the training days); ``plain_noise``: the plain hold's (γ = 0) levels, when
+    already tuned."""
+    rows = _day_rows(starts).ravel()
     best, best_mse = (0.0, FilterNoise()), np.inf
     for share in COOLING_CHANGE_SHARES:
         model = discretize(parameters, cooling_change_share=share)
-        noise = tune_filter(model, data, starts)
+        if share == 0.0 and plain_noise is not None:
+            noise = plain_noise
+        else:
+            noise = tune_filter(model, data, starts)
         mse = _training_mse(model, data, rows, noise)
         if mse < best_mse:
             best, best_mse = (share, noise), mse
@@ -695,7 +708,7 @@ def prediction_frame(result: FitResult, data: FitData, test: tuple[int, int]) ->
     starts = _day_starts(data.index, *test)
     model, noise = graded_predictor(result)
     one_step, simulated, measured = predictions(model, data, starts, noise=noise)
-    rows = (starts[:, None] + np.arange(PERIODS_PER_DAY)[None, :]).ravel()
+    rows = _day_rows(starts).ravel()
     columns: dict[str, FloatArray] = {}
     for i, zone in enumerate(result.zones):
         columns[f"measured_{zone}_degc"] = measured[:, :, i].ravel()
@@ -942,7 +955,7 @@ def one_step_errors(
     model = discretize(result.parameters)
     predicted = one_step_predictions(model, data.y, data.u, result.filter_noise)
     starts = _day_starts(data.index, *periods)
-    rows = (starts[:, None] + np.arange(PERIODS_PER_DAY)[None, :]).ravel()
+    rows = _day_rows(starts).ravel()
     return data.index[rows], predicted[rows] - data.y[rows]
 
 

@@ -232,18 +232,22 @@ def discretize(
     noise = np.diag(np.r_[np.full(m, PROCESS_STD_AIR_K), np.full(n - m, PROCESS_STD_MASS_K)] ** 2)
     r = np.eye(m) * MEASUREMENT_STD_K**2
     gain = _filter_gain(a, c_mean, noise, r)
-    early_end, early_mean = _early_input(eigenvalues, dt_s, CHANGE_HOLD_SHARE)
-    b_cooling = b_c[:, len(EXOGENOUS_INPUTS) : len(EXOGENOUS_INPUTS) + m]
+    b_change, d_change = np.zeros((n, m)), np.zeros((m, m))
     share = cooling_change_share
+    if share != 0.0:  # the parameter fit's plain hold skips it
+        early_end, early_mean = _early_input(eigenvalues, dt_s, CHANGE_HOLD_SHARE)
+        b_cooling = b_c[:, cooling_columns(m)]
+        b_change = share * (v * (early_end / CHANGE_HOLD_SHARE - phi1)) @ v_inv @ b_cooling
+        d_change = share * ((v * (early_mean / CHANGE_HOLD_SHARE - phi2)) @ v_inv @ b_cooling)[:m]
     return DiscreteModel(
-        a=a,
-        b=b,
-        c_mean=c_mean,
-        d_mean=d_mean,
-        gain=gain,
-        b_change=share * (v * (early_end / CHANGE_HOLD_SHARE - phi1)) @ v_inv @ b_cooling,
-        d_change=share * ((v * (early_mean / CHANGE_HOLD_SHARE - phi2)) @ v_inv @ b_cooling)[:m],
+        a=a, b=b, c_mean=c_mean, d_mean=d_mean, gain=gain, b_change=b_change, d_change=d_change
     )
+
+
+def cooling_columns(zones: int) -> slice:
+    """The columns of the zones' cooling Q [kW] in the fit's inputs ``u`` (after
+    :data:`EXOGENOUS_INPUTS`, one per zone)."""
+    return slice(len(EXOGENOUS_INPUTS), len(EXOGENOUS_INPUTS) + zones)
 
 
 def _early_input(
@@ -262,7 +266,7 @@ def _early_input(
 def cooling_change_kw(u: FloatArray, zones: int) -> FloatArray:
     """(T, m) ``ΔQ_k = Q_k − Q_{k−1}`` [kW], the cooling's change from the period before
     (0 in the first period), from the inputs ``u`` (T, nu) of ``zones`` zones."""
-    cooling = u[:, len(EXOGENOUS_INPUTS) : len(EXOGENOUS_INPUTS) + zones]
+    cooling = u[:, cooling_columns(zones)]
     change: FloatArray = np.zeros_like(cooling)
     change[1:] = np.diff(cooling, axis=0)
     return change
@@ -363,7 +367,7 @@ def one_step_predictions(
     the cooling's change ``u_k − u_{k−1}`` entering as in :func:`filter_states`.
     """
     m, n = y.shape[1], model.a.shape[0]
-    cooling = slice(len(EXOGENOUS_INPUTS), len(EXOGENOUS_INPUTS) + m)
+    cooling = cooling_columns(m)
     a = np.block(
         [
             [model.a, -model.b[:, cooling]],
