@@ -96,8 +96,12 @@ STEP_SCALAR_UNITS: dict[str, str] = {
     "il_baseline_power_kw": "kW",
     "il_delivered_kw": "kW",
     "il_shortfall_kw": "kW",
+    "outdoor_humidity_ratio_kg_per_kg": "kg/kg",
 }
-"""The per-step float columns that are not per zone or channel, in file order → unit."""
+"""The per-step float columns that are not per zone or channel, in file order → unit.
+``outdoor_humidity_ratio_kg_per_kg`` is the period's realised outdoor humidity ratio (the
+weather file's), the moisture term's input when a power model is fitted to a run's meter
+(``hvacflex identify power --data RUN``)."""
 
 FLAG_COLUMNS: tuple[str, ...] = (
     "il_activated",

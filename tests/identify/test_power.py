@@ -199,6 +199,11 @@ def test_a_run_s_results_are_read_as_the_period_means_of_its_plant() -> None:
     np.testing.assert_allclose(inputs.occupied, [0.0, 1.0])  # 08:00: the schedule's
     np.testing.assert_allclose(inputs.supply_temp_degc, 13.0)
     np.testing.assert_allclose(inputs.metered_kw, [1.0, 9.0])
+    assert inputs.outdoor_humidity_ratio_kg_per_kg is None  # an older run's: no moisture term
+    humid = results.assign(outdoor_humidity_ratio_kg_per_kg=[0.016, 0.021])
+    with_humidity = power_inputs_from_results(humid, ("a",), 13.0)
+    assert with_humidity.outdoor_humidity_ratio_kg_per_kg is not None
+    np.testing.assert_allclose(with_humidity.outdoor_humidity_ratio_kg_per_kg, [0.016, 0.021])
     with pytest.raises(InputError, match="lack the columns") as caught:
         power_inputs_from_results(results.drop(columns=["power_kw"]), ("a",), 13.0)
     assert caught.value.field == "power_kw"

@@ -522,6 +522,12 @@ def test_results_record_the_controllers_forecast_and_its_realised_error() -> Non
     # the plant saw the data: forecast + error = the data (no extra draw with mode "zero")
     np.testing.assert_allclose(d_hat + w, loop.setup.exogenous.disturbances[:3], rtol=1e-12)
     assert np.abs(w).max() > 0.0
+    # the weather's outdoor humidity, the moisture term's input for a power fit on the meter
+    np.testing.assert_array_equal(
+        frame["outdoor_humidity_ratio_kg_per_kg"].to_numpy(),
+        loop.setup.exogenous.outdoor_humidity_ratio_kg_per_kg[:3],
+    )
+    assert (frame["outdoor_humidity_ratio_kg_per_kg"] > 0.005).all()
 
 
 def test_the_peak_guard_sheds_toward_the_band_at_the_periods_end(

@@ -23,8 +23,8 @@ coefficient                             regressor                               
 ======================================  =========================================  ==========
 
 (Q = ṁ c_p (Ta − T_s) per zone with its measured supply temperature, S = Σṁ, Wo the outdoor
-humidity ratio, a trend's optional ``outdoor_humidity_ratio_kg_per_kg``: without it, as
-from a run's results, the term is left out.) A regressor
+humidity ratio, a trend's or a run's results' optional ``outdoor_humidity_ratio_kg_per_kg``:
+without it the term is left out.) A regressor
 that does not vary in the training periods (no unoccupied period, a loop that never stops)
 is left out: its coefficient is 0 and the intercept carries it.
 
@@ -164,8 +164,14 @@ def power_inputs_from_results(
     """The power model's inputs from a run's results (``results.parquet`` of ``hvacflex
     simulate``: its plant's meter ``power_kw``, the flows ``flow_<zone>_kg_s``, the zone
     temperatures at the period's start and end — their mean is the period's — and
-    ``d_outdoor_temp_degc``), the supply air at ``supply_temp_degc`` [°C]. A run's results
-    carry no outdoor humidity: the moisture term is left out of such a fit.
+    ``d_outdoor_temp_degc``, and ``outdoor_humidity_ratio_kg_per_kg`` where the results have
+    it — older ones do not, and their fit leaves the moisture term out), the supply air at
+    ``supply_temp_degc`` [°C].
+
+    The flows are the ones the controller applied, in its own model's units: a power model
+    fitted to them maps the plan to the meter, which a trend's flows (the plant's delivered
+    air) do not where the controller's thermal model needs other flows than the plant for
+    the same temperatures (docs/guide/identify.md §3.2).
 
     Raises
     ------
@@ -195,6 +201,11 @@ def power_inputs_from_results(
         outdoor_temp_degc=results["d_outdoor_temp_degc"].to_numpy(dtype=np.float64),
         occupied=occupied_mask(index).astype(np.float64),
         metered_kw=results["power_kw"].to_numpy(dtype=np.float64),
+        outdoor_humidity_ratio_kg_per_kg=(
+            results[OUTDOOR_HUMIDITY].to_numpy(dtype=np.float64)
+            if OUTDOOR_HUMIDITY in results.columns
+            else None
+        ),
     )
 
 

@@ -508,6 +508,7 @@ class ClosedLoop:
         row[col["solve_time_s"]] = action.solve_time_s
         row[col["planned_slack_max_k"]] = action.planned_slack_max_k
         row[col["delta_max_k"]] = action.delta_max_k
+        row[col["outdoor_humidity_ratio_kg_per_kg"]] = exo.outdoor_humidity_ratio_kg_per_kg[k]
         zone = rec.zone_index
         row[zone[results.FLOW]] = action.flow_kg_s
         row[zone[results.RESERVE_FLOW]] = action.reserve_flow_kg_s
