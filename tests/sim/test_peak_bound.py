@@ -93,6 +93,30 @@ def test_a_solve_without_optimum_names_its_status_and_blames_the_input_only_when
     assert isinstance(info.value, SolverError) is (error is SolverError)
 
 
+def test_an_interior_point_stopping_in_numerical_trouble_is_solved_again_with_the_simplex(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """HiGHS's interior point ended in ``ERROR`` on a 28-day office5 bound: the simplex
+    solves the same LP, and the bound is the one an interior point that succeeds gives."""
+    problem = _integrator([0.0, 0.0, 12.0], u_max_kg_s=1.0)
+    expected = minimum_peak(problem)
+    solve = peak_bound.solve_lp
+    methods: list[str] = []
+
+    def ipm_failing(cost: np.ndarray, *args: object, **kwargs: object) -> LPResult:
+        method = str(kwargs["method"])
+        methods.append(method)
+        if method == peak_bound.LP_METHOD:
+            return LPResult(SolveStatus.ERROR, np.full(cost.size, np.nan), "", 0.0)
+        return solve(cost, *args, **kwargs)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(peak_bound, "solve_lp", ipm_failing)
+    bound = minimum_peak(problem)
+    assert methods == ["ipm", "simplex", "ipm", "simplex"]
+    assert bound.peak_kw == pytest.approx(expected.peak_kw, abs=1e-6)
+    assert bound.excursion_k == pytest.approx(expected.excursion_k, abs=1e-6)
+
+
 def test_a_model_without_an_outdoor_temperature_is_refused_by_name() -> None:
     """Not a bare StopIteration: an InputError naming the channels it has."""
     channels = (DisturbanceChannel("ground_temp_degc", "ground_temp"),)

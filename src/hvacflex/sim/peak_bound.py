@@ -38,7 +38,7 @@ from hvacflex.building.identified import initial_node_temps_degc
 from hvacflex.config import ScenarioConfig
 from hvacflex.control.problem_builder import band_at_period_ends, lp_power_rows
 from hvacflex.errors import InputError, SolverError
-from hvacflex.opt.highs_lp import solve_lp
+from hvacflex.opt.highs_lp import LPResult, solve_lp
 from hvacflex.opt.solution import SolveStatus
 
 FloatArray = npt.NDArray[np.float64]
@@ -46,6 +46,11 @@ FloatArray = npt.NDArray[np.float64]
 LP_METHOD = "ipm"
 """HiGHS's method for the bound's LPs (interior point with crossover: about twice as fast
 as the simplex on four days of office5)."""
+FALLBACK_LP_METHOD = "simplex"
+"""The method an LP is solved again with where :data:`LP_METHOD` stops without an optimum
+for a reason of its own (numerical trouble: the 28-day bound on office5's closed-loop power
+table ended in HiGHS's ``ERROR`` status under the interior point), not where the LP is
+infeasible or unbounded."""
 
 EXCURSION_REL_TOLERANCE = 1e-7
 EXCURSION_ABS_TOLERANCE_K = 1e-7
@@ -172,9 +177,7 @@ def minimum_peak(problem: PeakBoundProblem) -> PeakBound:
     nu, nx = t_steps * m, t_steps * problem.a.shape[0]
     rows, row_lower, row_upper, col_lower, col_upper = _constraints(problem)
     excursion_cost = np.concatenate([np.zeros(nu + nx), np.ones(nu), [0.0]])
-    first = solve_lp(
-        excursion_cost, rows, row_lower, row_upper, col_lower, col_upper, method=LP_METHOD
-    )
+    first = _solve(excursion_cost, rows, row_lower, row_upper, col_lower, col_upper)
     _check(first.status, "the least excursion")
     least = float(excursion_cost @ first.x)
     rows = sp.vstack([rows, sp.csr_matrix(excursion_cost[None, :])], format="csr")
@@ -182,11 +185,30 @@ def minimum_peak(problem: PeakBoundProblem) -> PeakBound:
     row_upper = np.append(row_upper, excursion_room_k(least))
     peak_cost = np.zeros(nu + nx + nu + 1)
     peak_cost[-1] = 1.0
-    second = solve_lp(peak_cost, rows, row_lower, row_upper, col_lower, col_upper, method=LP_METHOD)
+    second = _solve(peak_cost, rows, row_lower, row_upper, col_lower, col_upper)
     _check(second.status, "the least peak")
     flow = second.x[:nu].reshape(t_steps, m)
     power = problem.p0_kw + np.einsum("km,km->k", problem.p_kw_per_kg_s, flow)
     return PeakBound(peak_kw=float(second.x[-1]), excursion_k=least, flow_kg_s=flow, power_kw=power)
+
+
+def _solve(
+    cost: FloatArray,
+    rows: sp.csr_matrix,
+    row_lower: FloatArray,
+    row_upper: FloatArray,
+    col_lower: FloatArray,
+    col_upper: FloatArray,
+) -> LPResult:
+    """One of the bound's LPs with :data:`LP_METHOD`, again with :data:`FALLBACK_LP_METHOD`
+    where the first stops without an optimum for a reason other than the LP's own
+    (infeasible, unbounded)."""
+    result = solve_lp(cost, rows, row_lower, row_upper, col_lower, col_upper, method=LP_METHOD)
+    if result.status in (SolveStatus.OPTIMAL, SolveStatus.INFEASIBLE, SolveStatus.UNBOUNDED):
+        return result
+    return solve_lp(
+        cost, rows, row_lower, row_upper, col_lower, col_upper, method=FALLBACK_LP_METHOD
+    )
 
 
 def _check(status: SolveStatus, stage: str) -> None:
@@ -202,7 +224,9 @@ def _check(status: SolveStatus, stage: str) -> None:
             field="bound_peak_kw",
             hint="check the scenario's flow limits and data (no NaN) over the period",
         )
-    raise SolverError(f"{message} (HiGHS {LP_METHOD}; a solver failure, not the input)")
+    raise SolverError(
+        f"{message} (HiGHS {LP_METHOD}, then {FALLBACK_LP_METHOD}; a solver failure, not the input)"
+    )
 
 
 def _outdoor_index(channels: Sequence[DisturbanceChannel], config: ScenarioConfig) -> int:
