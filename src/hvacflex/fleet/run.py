@@ -326,13 +326,8 @@ def run_fleet(
             try:
                 tick = time.perf_counter()
                 context = _context(k, schedule, flags, 1000.0 * fleet.spec.min_bid_mw, holds)
-                outcome = _fleet_step(
-                    groups,
-                    step_planning_kw(fleet, planning_limit, index, k, horizon),
-                    options,
-                    price,
-                    context,
-                )
+                seen = step_planning_kw(fleet, planning_limit, index, k, horizon)
+                outcome = _fleet_step(groups, seen, options, price, context)
             except HvacflexError:
                 raise
             except Exception as exc:  # a lost worker surfaces as comm/actor errors
