@@ -358,8 +358,9 @@ class FleetSpec(_Spec):
         DEFAULT_COMFORT_PENALTY_SGD_PER_KELVIN_HOUR
     )
     """ρ: every building's price of a planned comfort violation [SGD per K·h], the scenario
-    file's ``[controller]`` key (default the product's 100). Under limit windows it sets how
-    much cold the buildings store for a window (docs/guide/fleet.md)."""
+    file's ``[controller]`` key (default the product's 100). Under limit windows 10 … 100
+    changed the cold the buildings store, and their comfort, very little (measured in
+    docs/guide/fleet.md, "Measured figures")."""
     envelope: Annotated[bool, Strict()] = True
     """Compute the flexibility envelope every step and write ``envelope.csv``
     (:mod:`hvacflex.fleet.envelope`); false saves its LPs (a run without the file)."""
