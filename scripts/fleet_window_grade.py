@@ -64,6 +64,13 @@ def main() -> None:
         f"energy {energy:,.0f} kWh against {energy_free:,.0f} kWh: "
         f"{100 * (energy / energy_free - 1):+.1f} %"
     )
+    if days > 1:
+        for day, metered in run["fleet_power_kw"].groupby(run.index.date):
+            unlimited = 0.5 * free["fleet_power_kw"][free.index.date == day].sum()
+            print(
+                f"  {day}: {0.5 * metered.sum():,.0f} kWh against {unlimited:,.0f} kWh: "
+                f"{100 * (0.5 * metered.sum() / unlimited - 1):+.1f} %"
+            )
     night = run.index.hour < 7
     print(
         f"00:00-07:00: planned {run['planned_fleet_power_kw'][night].min():.0f}-"
@@ -98,6 +105,13 @@ def main() -> None:
         table["bound_per_day"] = table["building"].map(bound) / days
         table["within"] = table["discomfort_per_day"] <= table["bound_per_day"] + 0.5
     print(table.round(3).to_string(index=False))
+    if days > 1:
+        by_day = long.assign(day=pd.DatetimeIndex(long.index).date)
+        for day, frame in by_day.groupby("day"):
+            per_building = [
+                kpis.total_discomfort_kelvin_hours(f) for _, f in frame.groupby("building")
+            ]
+            print(f"  {day}: {np.mean(per_building):.3f} K·h per building")
     print(
         f"fleet mean per building-day {table['discomfort_per_day'].mean():.3f} K·h"
         + (f" against bound {table['bound_per_day'].mean():.3f}" if args.bound else "")

@@ -402,3 +402,28 @@ def test_the_envelope_switched_off_leaves_the_run_as_it_was(tmp_path: Path) -> N
         pd.read_parquet(tmp_path / "on" / "buildings.parquet").drop(columns="solve_time_s"),
         check_exact=True,
     )
+
+
+def test_each_step_plans_against_the_windows_it_sees(tmp_path: Path) -> None:
+    from hvacflex.fleet.run import _feeder_timeline, step_planning_kw
+    from hvacflex.fleet.schema import load_fleet
+
+    doc = generate_fleet(1, 1, feeder_limit_kw=float("inf"))
+    doc["feeder_limits"] = [{"start": "10:00", "end": "17:00", "limit_kw": 50.0}]
+    doc["feeder_margin"] = 0.1
+    fleet = load_fleet(write_fleet(doc, tmp_path / "f.toml"))
+    index, _, planning = _feeder_timeline(fleet, "2014-03-03", 2, 48)
+    evening = 34  # 17:00 on Monday: the 24-h horizon reaches Tuesday's window
+    np.testing.assert_array_equal(
+        step_planning_kw(fleet, planning, index, evening, 48), planning[evening : evening + 48]
+    )
+    assert np.isfinite(planning[evening : evening + 48]).sum() == 14
+    doc["window_lookahead_h"] = 10.0
+    fleet = load_fleet(write_fleet(doc, tmp_path / "f.toml"))
+    assert np.isinf(step_planning_kw(fleet, planning, index, evening, 48)).all()
+    for k in (0, 20, 48):  # from midnight on the window's day: all of it, at 0.9 × 50 kW
+        seen = step_planning_kw(fleet, planning, index, k, 48)
+        np.testing.assert_allclose(seen, planning[k : k + 48])
+        assert np.min(seen) == pytest.approx(45.0)
+    seen = step_planning_kw(fleet, planning, index, 33, 48)  # 16:30: today's last period only
+    assert seen[0] == pytest.approx(45.0) and np.isinf(seen[1:]).all()

@@ -55,6 +55,25 @@ def test_the_envelope_is_on_unless_the_file_says_false(tmp_path: Path) -> None:
         load_fleet(write_fleet(doc, tmp_path / "f.toml"))
 
 
+def test_the_comfort_penalty_reaches_every_building_and_is_validated(tmp_path: Path) -> None:
+    doc = generate_fleet(2, 1)
+    default = load_fleet(write_fleet(doc, tmp_path / "f.toml"))
+    assert default.spec.comfort_penalty_sgd_per_kelvin_hour == 100.0
+    doc["comfort_penalty_sgd_per_kelvin_hour"] = 12.5
+    fleet = load_fleet(write_fleet(doc, tmp_path / "f.toml"))
+    settings = FleetSettings.of(fleet, "2014-03-03", 1 / 24)
+    for index, entry in enumerate(fleet.buildings):
+        controller = building_setup(entry, index, settings).config.controller
+        assert controller.comfort_penalty_sgd_per_kelvin_hour == 12.5
+    agent = BuildingAgent(fleet.buildings[1], 1, settings)
+    agent.begin_step()
+    assert agent.problem.comfort_penalty_sgd_per_kelvin_hour == 12.5
+    for bad in (0.0, -1.0, float("inf")):
+        doc["comfort_penalty_sgd_per_kelvin_hour"] = bad
+        with pytest.raises(FleetConfigError, match=r"f\.toml.*comfort_penalty_sgd_per_kelvin_hour"):
+            load_fleet(write_fleet(doc, tmp_path / "f.toml"))
+
+
 def test_example_fleet_ships() -> None:
     fleet = load_fleet(resources_dir() / "fleets" / "example.toml")
     assert len(fleet.buildings) == 3 and fleet.spec.min_bid_mw == 0.1
@@ -298,6 +317,36 @@ def test_limit_windows_set_the_limit_in_force(tmp_path: Path) -> None:
     np.testing.assert_array_equal(monday.to_numpy(), expected)
     assert limit["2014-03-04"].min() == 40.0  # the ISO window is one day only
     assert limit["2014-03-04 11:00"] == 50.0
+
+
+def test_a_window_is_planned_for_from_its_lookahead_before_it(tmp_path: Path) -> None:
+    windows = [
+        {"start": "10:00", "end": "17:00", "limit_kw": 50.0},
+        {"start": "2014-03-04T14:00", "end": "2014-03-04T16:00", "limit_kw": 40.0},
+    ]
+    doc = generate_fleet(1, 1, feeder_limit_kw=float("inf"))
+    doc["feeder_limits"] = windows
+    assert load_fleet(write_fleet(doc, tmp_path / "f.toml")).spec.window_lookahead_h == np.inf
+    doc["window_lookahead_h"] = 10.0
+    fleet = load_fleet(write_fleet(doc, tmp_path / "f.toml"))
+    index = pd.date_range("2014-03-03", periods=2 * 48, freq="30min", tz="Asia/Singapore")
+    full = fleet.limit_series_kw(index)
+
+    def seen(at: str) -> pd.Series:
+        now = pd.Timestamp(at, tz="Asia/Singapore")
+        return pd.Series(fleet.limit_series_kw(index, seen_at=now), index=index)
+
+    # from Monday 17:00 neither Tuesday's daily window (10 h ahead from 00:00) nor the ISO one
+    evening = seen("2014-03-03 17:00")
+    assert np.isinf(evening["2014-03-04"]).all()
+    assert (evening["2014-03-03 10:00":"2014-03-03 16:30"] == 50.0).all()  # today's: seen
+    midnight = seen("2014-03-04 00:00")  # Tuesday's daily window now, not yet the ISO one
+    assert (midnight["2014-03-04 10:00":"2014-03-04 16:30"] == 50.0).all()
+    assert seen("2014-03-04 04:00")["2014-03-04 14:00"] == 40.0  # 10 h before 14:00
+    np.testing.assert_array_equal(seen("2014-03-04 04:00").to_numpy(), full)
+    doc["window_lookahead_h"] = -1.0
+    with pytest.raises(FleetConfigError, match=r"f\.toml.*window_lookahead_h"):
+        load_fleet(write_fleet(doc, tmp_path / "f.toml"))
 
 
 @pytest.mark.parametrize(

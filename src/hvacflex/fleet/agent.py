@@ -34,6 +34,7 @@ import numpy as np
 import pandas as pd
 
 from hvacflex.config import (
+    DEFAULT_COMFORT_PENALTY_SGD_PER_KELVIN_HOUR,
     ComfortConfig,
     ControllerConfig,
     DataConfig,
@@ -289,6 +290,8 @@ class FleetSettings:
     reserve: bool
     peak_price_sgd_per_kw: float
     billing_mode: str
+    comfort_penalty_sgd_per_kelvin_hour: float = DEFAULT_COMFORT_PENALTY_SGD_PER_KELVIN_HOUR
+    """ρ of every building's MPC [SGD per K·h] (the fleet file's key)."""
     il_events: ReserveConfig = field(default_factory=ReserveConfig)
     """The IL contract (event model D, α, R) every building plans for."""
     data: DataConfig = field(default_factory=DataConfig)
@@ -307,6 +310,7 @@ class FleetSettings:
             reserve=s.reserve.enabled,
             peak_price_sgd_per_kw=s.ppp.peak_price_sgd_per_kw,
             billing_mode=s.ppp.billing_mode,
+            comfort_penalty_sgd_per_kelvin_hour=s.comfort_penalty_sgd_per_kelvin_hour,
             il_events=s.reserve.config(),
             data=fleet.data,
         )
@@ -340,6 +344,7 @@ def building_setup(entry: FleetBuilding, index: int, settings: FleetSettings) ->
         peak_price_sgd_per_kw=settings.peak_price_sgd_per_kw,
         billing_mode=settings.billing_mode,  # type: ignore[arg-type]
         horizon_steps=settings.horizon_steps,
+        comfort_penalty_sgd_per_kelvin_hour=settings.comfort_penalty_sgd_per_kelvin_hour,
     )
     comfort = ComfortConfig(
         occupied_degc=entry.comfort_occupied_degc, unoccupied_degc=entry.comfort_unoccupied_degc

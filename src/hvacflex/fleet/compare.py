@@ -49,8 +49,9 @@ from hvacflex.fleet.run import (
     _start_dask,
     coordinate_ranges,
     guarded_advance,
+    step_planning_kw,
 )
-from hvacflex.fleet.schema import load_fleet_document
+from hvacflex.fleet.schema import Fleet, load_fleet_document
 from hvacflex.sim.sweep import close_dask
 
 COMPARE_FILE = "compare.csv"
@@ -140,7 +141,7 @@ def compare_fleet(
     cluster, client, own_client = _start_dask(scheduler, workers)
     try:
         groups = _Groups(document, settings, len(fleet.buildings), client)
-        rows = _compare_steps(groups, planning, index, options, steps, horizon)
+        rows = _compare_steps(groups, (fleet, planning), index, options, steps, horizon)
     finally:
         if own_client is not None:
             close_dask(own_client, cluster)
@@ -162,18 +163,20 @@ def _problems(groups: _Groups) -> list[Any]:
 
 def _compare_steps(
     groups: _Groups,
-    planning: FloatArray,
+    planning: tuple[Fleet, FloatArray],
     index: pd.DatetimeIndex,
     options: Any,
     steps: int,
     horizon: int,
 ) -> list[dict[str, Any]]:
-    """Every step's row of ``compare.csv``; advances the buildings by the coordinated plans."""
+    """Every step's row of ``compare.csv``; advances the buildings by the coordinated plans.
+    ``planning``: (the fleet, its planning limit over the run plus one horizon [kW]), each
+    step's limit as the closed loop sees it (:func:`hvacflex.fleet.run.step_planning_kw`)."""
     rows: list[dict[str, Any]] = []
     price = np.zeros(horizon)
     central_solver = CentralisedSolver()
     for k in range(steps):
-        limit = planning[k : k + horizon]
+        limit = step_planning_kw(*planning, index, k, horizon)  # the closed loop's
         p_min, p_max, energy = groups.stacked("begin_step")
         tick = time.perf_counter()
         central = central_solver.solve(_problems(groups), reference_limit_kw(limit, p_min))

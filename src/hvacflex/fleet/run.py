@@ -28,6 +28,7 @@ from __future__ import annotations
 import hashlib
 import json
 import logging
+import math
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -325,9 +326,8 @@ def run_fleet(
             try:
                 tick = time.perf_counter()
                 context = _context(k, schedule, flags, 1000.0 * fleet.spec.min_bid_mw, holds)
-                outcome = _fleet_step(
-                    groups, planning_limit[k : k + horizon], options, price, context
-                )
+                seen = step_planning_kw(fleet, planning_limit, index, k, horizon)
+                outcome = _fleet_step(groups, seen, options, price, context)
             except HvacflexError:
                 raise
             except Exception as exc:  # a lost worker surfaces as comm/actor errors
@@ -401,6 +401,21 @@ def _feeder_timeline(
     full_index = pd.date_range(index[0], periods=steps + horizon, freq=STEP)
     limit = fleet.limit_series_kw(full_index)
     return index, limit, limit * (1.0 - fleet.spec.feeder_margin)
+
+
+def step_planning_kw(
+    fleet: Fleet, planning_kw: FloatArray, index: pd.DatetimeIndex, k: int, horizon: int
+) -> FloatArray:
+    """(horizon,) the planning limit [kW] step ``k`` plans against: ``planning_kw`` (the run's
+    planning limit plus one horizon, :func:`_feeder_timeline`) over the step's horizon, less
+    the limit windows not yet seen at the step's start (``window_lookahead_h``,
+    :meth:`hvacflex.fleet.schema.Fleet.limit_series_kw`); the limit in force at the step's
+    own period is always seen."""
+    if math.isinf(fleet.spec.window_lookahead_h):
+        return planning_kw[k : k + horizon]
+    periods = pd.date_range(index[k], periods=horizon, freq=STEP)
+    seen: FloatArray = fleet.limit_series_kw(periods, seen_at=index[k])
+    return seen * (1.0 - fleet.spec.feeder_margin)
 
 
 def minimum_power_warning(fleet: Fleet, start: str, days: float) -> str | None:

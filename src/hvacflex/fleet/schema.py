@@ -12,6 +12,8 @@ building file is (:func:`hvacflex.building.io.building_from_dict`)::
     feeder_margin = 0.02            # plan against (1 − margin) × limit
     robust = "tightening"
     horizon_steps = 48
+    comfort_penalty_sgd_per_kelvin_hour = 100.0  # ρ of every building's MPC
+    window_lookahead_h = inf        # plan for a window from this long before it [h]
     envelope = true                 # the flexibility envelope, envelope.csv (false: skipped)
 
     [[feeder_limits]]               # limit windows on top of it (the tighter holds)
@@ -73,6 +75,7 @@ from pydantic import BaseModel, ConfigDict, Field, Strict, ValidationError, mode
 from hvacflex.building.io import building_from_dict
 from hvacflex.building.model import Building
 from hvacflex.config import (
+    DEFAULT_COMFORT_PENALTY_SGD_PER_KELVIN_HOUR,
     ActivationConfig,
     DataConfig,
     ReserveConfig,
@@ -272,6 +275,25 @@ class FeederLimitWindowSpec(_Spec):
             when += " on weekdays" if (self.days or "weekdays") == "weekdays" else " every day"
         return f"{when}, {self.limit_kw:g} kW"
 
+    def seen_mask(
+        self, index: pd.DatetimeIndex, seen_at: pd.Timestamp, lookahead_h: float
+    ) -> np.ndarray:
+        """(T,) :meth:`mask`, less the periods of the window's days (occurrences) that start
+        more than ``lookahead_h`` [h] after ``seen_at`` (tz-aware): the periods a plan made at
+        ``seen_at`` holds to the window's limit. inf: the whole mask."""
+        inside = self.mask(index)
+        if math.isinf(lookahead_h):
+            return inside
+        latest = seen_at + pd.Timedelta(hours=lookahead_h)
+        if not self.daily:
+            return inside & bool(_local_time(self.start) <= latest)
+        local = index.tz_convert(TIMEZONE) if index.tz is not None else index
+        local = local if local.tz is not None else local.tz_localize(TIMEZONE)
+        start_min = _minutes_of_day(self.start)
+        assert start_min is not None
+        starts = local.normalize() + pd.Timedelta(minutes=start_min)
+        return inside & np.asarray(starts <= latest)
+
     def mask(self, index: pd.DatetimeIndex) -> np.ndarray:
         """(T,) whether each period start of ``index`` is in the window (in local time)."""
         local = index.tz_convert(TIMEZONE) if index.tz is not None else index
@@ -327,6 +349,18 @@ class FleetSpec(_Spec):
     min_bid_mw: Annotated[Finite, Field(ge=0.0)] = 0.1
     robust: Literal["tightening", "none"] = "tightening"
     horizon_steps: Annotated[int, Strict(), Field(ge=2, le=MAX_HORIZON_STEPS)] = HORIZON_STEPS
+    window_lookahead_h: Annotated[Number, Field(ge=0.0)] = math.inf
+    """How long before a limit window's start [h] the buildings plan for it (for a daily
+    window: from that long before its start on each of its days); inf (the default): as soon
+    as their horizon reaches it. 10 for a 10:00 window: from the midnight before it, so no
+    evening cools the building for the next day's window (docs/guide/fleet.md)."""
+    comfort_penalty_sgd_per_kelvin_hour: Annotated[Finite, Field(gt=0.0)] = (
+        DEFAULT_COMFORT_PENALTY_SGD_PER_KELVIN_HOUR
+    )
+    """ρ: every building's price of a planned comfort violation [SGD per K·h], the scenario
+    file's ``[controller]`` key (default the product's 100). Under limit windows 10 … 100
+    changed the cold the buildings store, and their comfort, very little (measured in
+    docs/guide/fleet.md, "Measured figures")."""
     envelope: Annotated[bool, Strict()] = True
     """Compute the flexibility envelope every step and write ``envelope.csv``
     (:mod:`hvacflex.fleet.envelope`); false saves its LPs (a run without the file)."""
@@ -361,6 +395,8 @@ _HINTS = {
     "days": '"weekdays" (the default) or "all"; only for "HH:MM" windows',
     "start": 'a local time "HH:MM" or an ISO date-time such as "2014-03-03T14:00"',
     "end": 'a local time "HH:MM" ("24:00" for midnight) or an ISO date-time',
+    "window_lookahead_h": "hours ≥ 0 before a window's start the plans see it, or inf",
+    "comfort_penalty_sgd_per_kelvin_hour": "ρ [SGD per K·h] > 0, e.g. 100 (the product's)",
     "min_bid_mw": "the market's minimum bid, 0.1 MW for NEMS interruptible load",
     "buildings": "add [[buildings]] tables (hvacflex fleet generate writes them)",
     "building": "a complete building description, as in a building TOML file",
@@ -466,10 +502,15 @@ class Fleet:
         ``file`` from the fleet file's folder)."""
         return self.spec.activation.config(None if self.source is None else self.source.parent)
 
-    def limit_series_kw(self, index: pd.DatetimeIndex) -> np.ndarray:
+    def limit_series_kw(
+        self, index: pd.DatetimeIndex, seen_at: pd.Timestamp | None = None
+    ) -> np.ndarray:
         """(T,) feeder limit [kW] in force for each period start of ``index`` (inf = no
         limit): the constant or CSV limit, lowered to each ``[[feeder_limits]]`` window's
-        ``limit_kw`` in the window's periods (the tighter holds).
+        ``limit_kw`` in the window's periods (the tighter holds). ``seen_at`` (tz-aware):
+        the limit a plan made then holds to — a window's day counts only from
+        ``window_lookahead_h`` before its start (:meth:`FeederLimitWindowSpec.seen_mask`);
+        None: every window.
 
         Raises
         ------
@@ -477,8 +518,14 @@ class Fleet:
             When the CSV is unreadable or does not cover every period of ``index``.
         """
         limit = self._base_limit_kw(index)
+        lookahead = self.spec.window_lookahead_h
         for window in self.spec.feeder_limits:
-            limit = np.where(window.mask(index), np.minimum(limit, window.limit_kw), limit)
+            inside = (
+                window.mask(index)
+                if seen_at is None
+                else window.seen_mask(index, seen_at, lookahead)
+            )
+            limit = np.where(inside, np.minimum(limit, window.limit_kw), limit)
         return limit
 
     def _base_limit_kw(self, index: pd.DatetimeIndex) -> np.ndarray:
