@@ -319,3 +319,14 @@ def test_load_results_refuses_what_is_not_a_results_file(tmp_path: Path) -> None
     with pytest.raises(DataError, match="required columns are missing") as info:
         schema.load_results(other)
     assert info.value.field == "power_kw, energy_price_sgd_per_mwh"
+
+
+def test_the_exogenous_columns_are_float_columns_named_as_the_exogenous_series() -> None:
+    from dataclasses import fields
+
+    from hvacflex.data.forecast import Exogenous
+
+    names = {f.name for f in fields(Exogenous)}
+    for column in schema.EXOGENOUS_COLUMNS:
+        assert column in schema.STEP_SCALAR_UNITS
+        assert column in names

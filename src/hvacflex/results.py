@@ -103,6 +103,14 @@ STEP_SCALAR_UNITS: dict[str, str] = {
 weather file's), the moisture term's input when a power model is fitted to a run's meter
 (``hvacflex identify power --data RUN``)."""
 
+EXOGENOUS_COLUMNS: tuple[str, ...] = (
+    "energy_price_sgd_per_mwh",
+    "reserve_price_sgd_per_mwh",
+    "outdoor_humidity_ratio_kg_per_kg",
+)
+"""The per-step float columns copied from the run's exogenous series of the same name
+(``hvacflex.data.forecast.Exogenous``: the data, not the controller's forecast of it)."""
+
 FLAG_COLUMNS: tuple[str, ...] = (
     "il_activated",
     "il_curtailed",

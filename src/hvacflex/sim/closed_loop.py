@@ -495,8 +495,8 @@ class ClosedLoop:
         exo = self.setup.exogenous
         action = decision.action
         phi = effective_peak_price(forecast, self.setup.config.controller.peak_price_sgd_per_kw)
-        row[col["energy_price_sgd_per_mwh"]] = exo.energy_price_sgd_per_mwh[k]
-        row[col["reserve_price_sgd_per_mwh"]] = exo.reserve_price_sgd_per_mwh[k]
+        for name in results.EXOGENOUS_COLUMNS:
+            row[col[name]] = getattr(exo, name)[k]
         row[col["peak_price_sgd_per_kw"]] = phi
         row[col["power_kw"]] = period.applied.power_kw
         row[col["facility_power_kw"]] = period.applied.facility_power_kw
@@ -508,7 +508,6 @@ class ClosedLoop:
         row[col["solve_time_s"]] = action.solve_time_s
         row[col["planned_slack_max_k"]] = action.planned_slack_max_k
         row[col["delta_max_k"]] = action.delta_max_k
-        row[col["outdoor_humidity_ratio_kg_per_kg"]] = exo.outdoor_humidity_ratio_kg_per_kg[k]
         zone = rec.zone_index
         row[zone[results.FLOW]] = action.flow_kg_s
         row[zone[results.RESERVE_FLOW]] = action.reserve_flow_kg_s
