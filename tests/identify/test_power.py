@@ -204,6 +204,11 @@ def test_a_run_s_results_are_read_as_the_period_means_of_its_plant() -> None:
     with_humidity = power_inputs_from_results(humid, ("a",), 13.0)
     assert with_humidity.outdoor_humidity_ratio_kg_per_kg is not None
     np.testing.assert_allclose(with_humidity.outdoor_humidity_ratio_kg_per_kg, [0.016, 0.021])
+    for slip in (16.0, float("nan")):  # g/kg, an unset period
+        bad = results.assign(outdoor_humidity_ratio_kg_per_kg=[0.016, slip])
+        with pytest.raises(InputError, match="outdoor humidity ratio") as refused:
+            power_inputs_from_results(bad, ("a",), 13.0)
+        assert refused.value.field == "outdoor_humidity_ratio_kg_per_kg"
     with pytest.raises(InputError, match="lack the columns") as caught:
         power_inputs_from_results(results.drop(columns=["power_kw"]), ("a",), 13.0)
     assert caught.value.field == "power_kw"

@@ -58,6 +58,7 @@ from hvacflex.identify.trend import (
     HVAC_POWER,
     OUTDOOR_HUMIDITY,
     OUTDOOR_TEMP,
+    RANGES,
     TrendData,
     zone_column,
 )
@@ -189,6 +190,7 @@ def power_inputs_from_results(
             value=missing,
             hint="give the results of a run of this building (hvacflex simulate)",
         )
+    humidity = _results_humidity(results)
     start = results[[f"temp_{z}_degc" for z in zones]].to_numpy(dtype=np.float64)
     end = results[[f"temp_end_{z}_degc" for z in zones]].to_numpy(dtype=np.float64)
     flow = results[[f"flow_{z}_kg_s" for z in zones]].to_numpy(dtype=np.float64)
@@ -201,12 +203,35 @@ def power_inputs_from_results(
         outdoor_temp_degc=results["d_outdoor_temp_degc"].to_numpy(dtype=np.float64),
         occupied=occupied_mask(index).astype(np.float64),
         metered_kw=results["power_kw"].to_numpy(dtype=np.float64),
-        outdoor_humidity_ratio_kg_per_kg=(
-            results[OUTDOOR_HUMIDITY].to_numpy(dtype=np.float64)
-            if OUTDOOR_HUMIDITY in results.columns
-            else None
-        ),
+        outdoor_humidity_ratio_kg_per_kg=humidity,
     )
+
+
+def _results_humidity(results: pd.DataFrame) -> FloatArray | None:
+    """(T,) a run's outdoor humidity ratio [kg/kg], or None where its results have none (an
+    older run's).
+
+    Raises
+    ------
+    InputError
+        when a value is not finite or outside the trend's range (:data:`RANGES`): a g/kg slip.
+    """
+    if OUTDOOR_HUMIDITY not in results.columns:
+        return None
+    humidity = results[OUTDOOR_HUMIDITY].to_numpy(dtype=np.float64)
+    low, high = RANGES[OUTDOOR_HUMIDITY]
+    bad = ~np.isfinite(humidity) | (humidity < low) | (humidity > high)
+    if bad.any():
+        first = int(np.flatnonzero(bad)[0])
+        raise InputError(
+            f"the results' outdoor humidity ratio is {humidity[first]!r} at "
+            f"{results.index[first]}, outside {low:g} … {high:g} kg/kg",
+            source="results",
+            field=OUTDOOR_HUMIDITY,
+            value=float(humidity[first]),
+            hint="the column is in kg of water per kg of dry air (not g/kg), every period set",
+        )
+    return humidity
 
 
 def power_regressors(inputs: PowerInputs) -> FloatArray:

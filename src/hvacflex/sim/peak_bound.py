@@ -48,9 +48,10 @@ LP_METHOD = "ipm"
 as the simplex on four days of office5)."""
 FALLBACK_LP_METHOD = "simplex"
 """The method an LP is solved again with where :data:`LP_METHOD` stops without an optimum
-for a reason of its own (numerical trouble: the 28-day bound on office5's closed-loop power
-table ended in HiGHS's ``ERROR`` status under the interior point), not where the LP is
-infeasible or unbounded."""
+(numerical trouble: the 28-day bound on office5's closed-loop power table ended in HiGHS's
+``ERROR`` status under the interior point; an interior point's "infeasible or unbounded" is
+checked the same way, as the excursion slacks make the LP feasible for any band). The
+second method's status is the one reported."""
 
 EXCURSION_REL_TOLERANCE = 1e-7
 EXCURSION_ABS_TOLERANCE_K = 1e-7
@@ -201,10 +202,9 @@ def _solve(
     col_upper: FloatArray,
 ) -> LPResult:
     """One of the bound's LPs with :data:`LP_METHOD`, again with :data:`FALLBACK_LP_METHOD`
-    where the first stops without an optimum for a reason other than the LP's own
-    (infeasible, unbounded)."""
+    where the first stops without an optimum (whose status then decides)."""
     result = solve_lp(cost, rows, row_lower, row_upper, col_lower, col_upper, method=LP_METHOD)
-    if result.status in (SolveStatus.OPTIMAL, SolveStatus.INFEASIBLE, SolveStatus.UNBOUNDED):
+    if result.status is SolveStatus.OPTIMAL:
         return result
     return solve_lp(
         cost, rows, row_lower, row_upper, col_lower, col_upper, method=FALLBACK_LP_METHOD
