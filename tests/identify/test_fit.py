@@ -66,6 +66,27 @@ def test_the_fit_predicts_a_model_of_its_own_structure(trend: Path) -> None:
     assert np.isfinite(result.standard_errors.zone[:, 0]).all()
 
 
+def _random_inputs(
+    rng: np.random.Generator,
+    steps: int,
+    *,
+    outdoor_sd_k: float,
+    cooling_kw: np.ndarray | None = None,
+) -> np.ndarray:
+    """(steps, 10) inputs of a two-zone grey box: outdoor air about 28 °C (± ``outdoor_sd_k``
+    [K]), the sun, occupancy, the constant, the four walls' sun, and the two zones' cooling
+    [kW] (``cooling_kw`` (steps, 2), or drawn uniform 0 … 3 after the rest)."""
+    exogenous = [
+        28 + rng.normal(0, outdoor_sd_k, steps),
+        rng.uniform(0, 0.8, steps),
+        rng.integers(0, 2, steps),
+        np.ones(steps),
+        rng.uniform(0, 0.5, (steps, 4)),  # the walls
+    ]
+    cooling = rng.uniform(0, 3, (steps, 2)) if cooling_kw is None else cooling_kw
+    return np.column_stack([*exogenous, cooling])
+
+
 def test_the_filter_tuned_on_data_with_a_hidden_gain_carries_a_gain_state() -> None:
     zone = np.array(
         [
@@ -77,16 +98,7 @@ def test_the_filter_tuned_on_data_with_a_hidden_gain_carries_a_gain_state() -> N
     rng = np.random.default_rng(4)
     steps = 6 * 48
     index = pd.date_range("2014-03-03", periods=steps, freq="30min", tz="Asia/Singapore")
-    u = np.column_stack(
-        [
-            28 + rng.normal(0, 1, steps),
-            rng.uniform(0, 0.8, steps),
-            rng.integers(0, 2, steps),
-            np.ones(steps),
-            rng.uniform(0, 0.5, (steps, 4)),  # the walls
-            rng.uniform(0, 3, (steps, 2)),
-        ]
-    )
+    u = _random_inputs(rng, steps, outdoor_sd_k=1.0)
     hidden_kw = np.where((np.arange(steps) // 40) % 2 == 0, 1.0, -0.5)  # both zones
     x, y = np.full(4, 25.0), np.empty((steps, 2))
     for k in range(steps):
@@ -124,16 +136,7 @@ def test_the_predictor_finds_how_much_of_the_cooling_change_comes_early(share: f
     rng = np.random.default_rng(8)
     steps = 6 * 48
     levels = np.repeat(rng.choice([0.0, 1.0, 3.0], size=(steps // 4, 2)), 4, axis=0)
-    u = np.column_stack(
-        [
-            28 + rng.normal(0, 0.5, steps),
-            rng.uniform(0, 0.8, steps),
-            rng.integers(0, 2, steps),
-            np.ones(steps),
-            rng.uniform(0, 0.5, (steps, 4)),  # the walls
-            levels,  # the cooling, stepping every 2 h
-        ]
-    )
+    u = _random_inputs(rng, steps, outdoor_sd_k=0.5, cooling_kw=levels)  # stepping every 2 h
     change = cooling_change_kw(u, 2)
     x, y = np.full(4, 25.0), np.empty((steps, 2))
     for k in range(steps):

@@ -120,18 +120,8 @@ def test_steady_state_balances_heat_in_and_out() -> None:
 def test_the_filter_converges_to_the_true_state_of_its_own_model() -> None:
     p = _random_parameters(2, seed=11)
     model = discretize(p, DT_S)
-    rng = np.random.default_rng(0)
     steps = 400
-    u = np.column_stack(
-        [
-            30 + rng.normal(0, 1, steps),
-            rng.uniform(0, 0.8, steps),
-            rng.integers(0, 2, steps),
-            np.ones(steps),
-            rng.uniform(0, 0.5, (steps, 4)),  # the walls
-            rng.uniform(0, 3, (steps, 2)),
-        ]
-    )
+    u = _driven_inputs(steps, seed=0)
     x = np.array([24.0, 25.0, 27.0, 28.0])
     truth, y = np.empty((steps, 4)), np.empty((steps, 2))
     for k in range(steps):
