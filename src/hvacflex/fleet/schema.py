@@ -65,6 +65,7 @@ import copy
 import math
 import re
 from dataclasses import dataclass
+from functools import cached_property
 from pathlib import Path
 from typing import Annotated, Any, Literal, Self
 
@@ -534,6 +535,26 @@ class Fleet:
             return np.full(len(index), float(self.spec.feeder_limit_kw))
         path = self.feeder_limit_path
         assert path is not None
+        series = self._limit_csv_series_kw
+        tz = pd.DatetimeIndex(series.index).tz
+        values = series.reindex(index.tz_convert(tz)).to_numpy(float)
+        if np.isnan(values).any() or (values <= 0).any():
+            first = index[int(np.flatnonzero(np.isnan(values) | (values <= 0))[0])]
+            raise DataError(
+                "the feeder limit is missing or ≤ 0 for a simulated period",
+                source=path,
+                field="feeder_limit_kw",
+                value=str(first),
+                hint="give a positive limit for every half hour of the run and horizon",
+            )
+        return values
+
+    @cached_property
+    def _limit_csv_series_kw(self) -> pd.Series:
+        """The ``feeder_limit_csv`` series [kW] by period start, read once (a run with a
+        window lookahead asks for the limit every step)."""
+        path = self.feeder_limit_path
+        assert path is not None
         try:
             frame = pd.read_csv(path)
             times = pd.DatetimeIndex(pd.to_datetime(frame["time"]))
@@ -547,18 +568,7 @@ class Fleet:
                 field="feeder_limit_csv",
                 hint="a CSV with columns time, feeder_limit_kw",
             ) from None
-        tz = pd.DatetimeIndex(series.index).tz
-        values = series.reindex(index.tz_convert(tz)).to_numpy(float)
-        if np.isnan(values).any() or (values <= 0).any():
-            first = index[int(np.flatnonzero(np.isnan(values) | (values <= 0))[0])]
-            raise DataError(
-                "the feeder limit is missing or ≤ 0 for a simulated period",
-                source=path,
-                field="feeder_limit_kw",
-                value=str(first),
-                hint="give a positive limit for every half hour of the run and horizon",
-            )
-        return values
+        return series
 
 
 def fleet_from_dict(data: dict[str, Any], *, source: Path | str = "<dict>") -> Fleet:
