@@ -327,7 +327,10 @@ def test_plant_table_defaults_to_rc_and_keeps_the_run_key(tmp_path: Path) -> Non
     assert config.plant.idf == str(tmp_path / "model.idf")
     assert config.plant.timesteps_per_hour == 6
     assert config.plant.resolved_actuation == "setpoint"
+    assert config.plant.curtailed_setpoint == "plan"
     assert config.config_hash() != default.config_hash()
+    path.write_text('[plant]\nkind = "energyplus"\ncurtailed_setpoint = "limit"\n')
+    assert load_config(path).plant.curtailed_setpoint == "limit"
 
 
 @pytest.mark.parametrize(
@@ -338,6 +341,12 @@ def test_plant_table_defaults_to_rc_and_keeps_the_run_key(tmp_path: Path) -> Non
         ('[plant]\nkind = "energyplus"\ntimesteps_per_hour = 5\n', "plant.timesteps_per_hour"),
         ('[plant]\nactuation = "setpoint"\n', "plant.actuation"),
         ('[plant]\nkind = "energyplus"\nactuation = "valve"\n', "plant.actuation"),
+        ('[plant]\ncurtailed_setpoint = "limit"\n', "plant.curtailed_setpoint"),
+        (
+            '[plant]\nkind = "energyplus"\nactuation = "flow"\ncurtailed_setpoint = "limit"\n',
+            "plant.curtailed_setpoint",
+        ),
+        ('[plant]\nkind = "energyplus"\ncurtailed_setpoint = "max"\n', "plant.curtailed_setpoint"),
     ],
 )
 def test_bad_plant_tables_name_the_field(tmp_path: Path, text: str, field: str) -> None:

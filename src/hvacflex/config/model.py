@@ -44,6 +44,7 @@ PowerLevel = Literal["auto", "model", "meter"]
 EstimationMode = Literal["full-state", "kalman"]
 PlantKind = Literal["rc", "energyplus"]
 PlantActuation = Literal["setpoint", "flow"]
+CurtailedSetpoint = Literal["plan", "limit"]
 WeatherForecastMode = Literal["perfect", "statistical"]
 OccupancyMode = Literal["schedule", "stochastic"]
 ILBaseline = Literal["pre-event", "similar-days"]
@@ -343,12 +344,17 @@ class PlantConfig:
     vav``) or the path of an IDF file; ``actuation`` is ``"setpoint"`` (zone cooling
     setpoints, the EnergyPlus default) or ``"flow"`` (zone supply flows; the RC plant's only
     one); ``None`` = the plant's default. ``timesteps_per_hour`` is EnergyPlus's zone time step.
+    ``curtailed_setpoint`` is what a setpoint-actuated plant is told in a curtailed period
+    (IL activated, reserve offered): ``"plan"``, each zone's planned curtailed temperature,
+    or ``"limit"``, the upper comfort bound plus the event allowance α in force — the deepest
+    shed the contract allows (docs/explanation/il_events.md, "Shedding to the limit").
     """
 
     kind: PlantKind = "rc"
     idf: str = "generated"
     actuation: PlantActuation | None = None
     timesteps_per_hour: int = 6
+    curtailed_setpoint: CurtailedSetpoint = "plan"
 
     @property
     def resolved_actuation(self) -> PlantActuation:

@@ -31,7 +31,7 @@ File layout (every key optional)::
     [data]         weather_file, usep_source, reserve_source, reserve_price_scale,
                    reserve_price_correlation, price_gap_fill, calendar
     [comfort]      occupied_degc = [lower, upper], unoccupied_degc = [lower, upper]
-    [plant]        kind, idf, actuation, timesteps_per_hour
+    [plant]        kind, idf, actuation, timesteps_per_hour, curtailed_setpoint
 """
 
 from __future__ import annotations
@@ -60,6 +60,7 @@ from hvacflex.config.model import (
     ComfortConfig,
     ControllerConfig,
     ControllerKind,
+    CurtailedSetpoint,
     DataConfig,
     DisturbanceKind,
     EstimationConfig,
@@ -480,6 +481,11 @@ class PlantSpec(Spec):
         PlantConfig, "timesteps_per_hour"
     )
     """EnergyPlus's zone time steps per hour."""
+    curtailed_setpoint: CurtailedSetpoint = default(PlantConfig, "curtailed_setpoint")
+    """What a setpoint-actuated plant is told while IL curtails it (activated, reserve
+    offered): ``plan`` (each zone's planned curtailed temperature) or ``limit`` (the upper
+    comfort bound plus the event allowance α: the deepest shed the contract allows, more
+    delivered against the meter for warmer zones)."""
 
     @model_validator(mode="after")
     def _rc_is_flow_actuated(self) -> Self:
@@ -489,6 +495,15 @@ class PlantSpec(Spec):
                 "actuation",
                 "setpoint",
                 hint="use actuation = 'flow' (or leave it out), or kind = 'energyplus'",
+            )
+        flow = self.kind == "rc" or self.actuation == "flow"
+        if self.curtailed_setpoint == "limit" and flow:
+            raise rule_error(
+                "a curtailed setpoint needs setpoint actuation (the plant is flow-actuated)",
+                "curtailed_setpoint",
+                "limit",
+                hint="use kind = 'energyplus' with actuation = 'setpoint' (or left out), "
+                "or leave curtailed_setpoint out",
             )
         return self
 

@@ -404,7 +404,9 @@ class ClosedLoop:
         actuation each zone's planned end-of-period temperature (served, or curtailed)
         clipped to the comfort band at the period's end (:func:`band_at_period_end_degc`, its
         upper bound raised by the allowance α in force), as a supervisory MPC hands setpoints
-        to a BMS (:func:`setpoint_actuation_degc`; docs/guide/energyplus.md)."""
+        to a BMS (:func:`setpoint_actuation_degc`; docs/guide/energyplus.md). With ``[plant]
+        curtailed_setpoint = "limit"`` a curtailed period's setpoints are that raised upper
+        bound itself."""
         action = decision.action
         if action.released:  # the plant's own control: no setpoint from hvacflex
             return Actuation(setpoint_degc=np.full(action.flow_kg_s.shape, np.nan))
@@ -420,6 +422,8 @@ class ClosedLoop:
         lower, upper = band_at_period_end_degc(exo, k)
         idle = flow <= self._flow_min_kg_s[int(exo.occupied[k])] + SETPOINT_IDLE_FLOW_KG_S
         limit = upper + decision.allowance_k
+        if curtailed and self.setup.config.plant.curtailed_setpoint == "limit":
+            planned = np.asarray(limit, dtype=np.float64)  # the deepest shed the contract allows
         return Actuation(
             setpoint_degc=setpoint_actuation_degc(planned, idle, lower, limit),
             peak_guard=self._period_guard,
