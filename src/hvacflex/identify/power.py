@@ -60,6 +60,7 @@ from hvacflex.identify.trend import (
     OUTDOOR_TEMP,
     RANGES,
     TrendData,
+    first_out_of_range,
     zone_column,
 )
 
@@ -219,10 +220,9 @@ def _results_humidity(results: pd.DataFrame) -> FloatArray | None:
     if OUTDOOR_HUMIDITY not in results.columns:
         return None
     humidity = results[OUTDOOR_HUMIDITY].to_numpy(dtype=np.float64)
-    low, high = RANGES[OUTDOOR_HUMIDITY]
-    bad = ~np.isfinite(humidity) | (humidity < low) | (humidity > high)
-    if bad.any():
-        first = int(np.flatnonzero(bad)[0])
+    first = first_out_of_range(humidity, OUTDOOR_HUMIDITY)
+    if first is not None:
+        low, high = RANGES[OUTDOOR_HUMIDITY]
         raise InputError(
             f"the results' outdoor humidity ratio is {humidity[first]!r} at "
             f"{results.index[first]}, outside {low:g} … {high:g} kg/kg",

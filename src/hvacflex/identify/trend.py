@@ -206,14 +206,21 @@ def _check_time_order(index: pd.DatetimeIndex, source: str) -> pd.Timedelta:
     return step
 
 
+def first_out_of_range(values: npt.NDArray[np.float64], kind: str) -> int | None:
+    """The index of the first of ``values`` that is not finite or lies outside ``kind``'s
+    range (:data:`RANGES`, the kind's unit); None when every value is in range."""
+    low, high = RANGES[kind]
+    bad = ~np.isfinite(values) | (values < low) | (values > high)
+    return int(np.flatnonzero(bad)[0]) if bad.any() else None
+
+
 def _check_values(frame: pd.DataFrame, kinds: dict[str, str], source: str) -> pd.DataFrame:
     numeric = frame.apply(pd.to_numeric, errors="coerce")
     for column in frame.columns:
         values = numeric[column].to_numpy(dtype=np.float64)
         low, high = RANGES[kinds[column]]
-        bad = ~np.isfinite(values) | (values < low) | (values > high)
-        if bad.any():
-            i = int(np.flatnonzero(bad)[0])
+        i = first_out_of_range(values, kinds[column])
+        if i is not None:
             raw = frame[column].iloc[i]
             empty = raw is None or (isinstance(raw, float) and np.isnan(raw)) or raw == ""
             hint = (
