@@ -116,6 +116,8 @@ def main() -> None:
     frame.to_parquet(args.out / "results.parquet")
     metered = frame["power_kw"].to_numpy()
     occupied = kpi.occupied_mask(frame).any(axis=1).to_numpy()
+    if not occupied.any():
+        parser.error("the days run have no occupied period: run more days (or weekdays)")
     top, top_occupied = int(np.argmax(metered)), int(np.argmax(np.where(occupied, metered, -1.0)))
     report = {
         "forecast": args.forecast,

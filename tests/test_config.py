@@ -19,6 +19,7 @@ from hvacflex.config import (
     scaled_uncertainty,
     with_overrides,
 )
+from hvacflex.config.model import ForecastConfig
 from hvacflex.errors import ConfigError
 
 
@@ -377,6 +378,23 @@ def test_forecast_occupancy_and_calibration_tables(tmp_path: Path) -> None:
     assert config.config_hash() != default.config_hash()
     again = with_overrides(config, {"days": 2})  # the tables survive a round trip
     assert again.uncertainty.calibrate == config.uncertainty.calibrate
+
+
+def test_the_default_curtailed_setpoint_keeps_the_run_keys_of_energyplus_runs() -> None:
+    cfg = with_overrides(preset("rmpc-ppp"), {"plant.kind": "energyplus"})
+    earlier = cfg.to_dict()  # the payload before [plant] curtailed_setpoint existed
+    earlier.pop("name")
+    earlier["plant"].pop("curtailed_setpoint")
+    for key in ("occupancy", "occupancy_seed", "box_relative", "box_absolute"):
+        earlier["realisation"].pop(key, None)
+    earlier["uncertainty"].pop("calibrate")
+    earlier["data"].pop("reserve_price_correlation")
+    if cfg.forecast == ForecastConfig():
+        earlier.pop("forecast")
+    digest = hashlib.sha256(json.dumps(earlier, sort_keys=True).encode()).hexdigest()[:12]
+    assert cfg.config_hash() == digest
+    limit = with_overrides(cfg, {"plant.curtailed_setpoint": "limit"})
+    assert limit.config_hash() != cfg.config_hash()
 
 
 def test_default_forecast_settings_keep_the_run_keys_of_earlier_versions() -> None:

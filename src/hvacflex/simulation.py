@@ -86,7 +86,8 @@ class SimulationResult:
     ----------
     results : one row per period (the results table of ``docs/explanation/architecture.md``).
     summary : the KPIs (:func:`hvacflex.kpi.summary`) and the plant keys (``plant``,
-        ``plant_idf``, ``plant_actuation``), as in ``summary.json`` but for the timings.
+        ``plant_idf``, ``plant_actuation``, ``plant_curtailed_setpoint``), as in
+        ``summary.json`` but for the timings.
     """
 
     results: pd.DataFrame

@@ -27,6 +27,7 @@ def test_the_default_plant_is_the_rc_network(office5) -> None:  # type: ignore[n
         "plant": "rc",
         "plant_idf": "",
         "plant_actuation": "flow",
+        "plant_curtailed_setpoint": "plan",
     }
 
 

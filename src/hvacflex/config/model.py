@@ -417,6 +417,8 @@ class ScenarioConfig:
         payload.pop("name")
         if self.plant == PlantConfig():
             payload.pop("plant")  # the default plant keeps the run keys of earlier versions
+        elif self.plant.curtailed_setpoint == "plan":
+            payload["plant"].pop("curtailed_setpoint")  # so does a plant told the plan
         if self.forecast == ForecastConfig():
             payload.pop("forecast")  # so do the default forecast, occupancy and box
         for table, key, empty in (

@@ -203,7 +203,8 @@ class ClosedLoop:
     ----------
     setup : the run's parts (:func:`hvacflex.sim.setup.prepare`).
     controller : the controller (default: the one the configuration asks for).
-    plant : the plant (default: hvacflex's RC network, :class:`hvacflex.sim.plant.RCPlant`).
+    plant : the plant (default: the scenario's ``[plant]``, :func:`hvacflex.sim.plants.
+        scenario_plant`: hvacflex's RC network or EnergyPlus).
     control : what decides each period (default: a :class:`ControlStep` of ``controller``).
     signals : operator signals laid over every forecast (prices, φ).
     """

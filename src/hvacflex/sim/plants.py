@@ -145,10 +145,11 @@ def scenario_plant(setup: Setup) -> Plant:
 
 def plant_summary(config: PlantConfig) -> dict[str, str]:
     """The summary keys that say what the run was graded on: ``plant`` (``"rc"`` or
-    ``"energyplus"``), ``plant_idf`` (the IDF, ``""`` on the RC plant) and
-    ``plant_actuation``."""
+    ``"energyplus"``), ``plant_idf`` (the IDF, ``""`` on the RC plant),
+    ``plant_actuation`` and ``plant_curtailed_setpoint``."""
     return {
         "plant": config.kind,
         "plant_idf": config.idf if config.kind == "energyplus" else "",
         "plant_actuation": config.resolved_actuation,
+        "plant_curtailed_setpoint": config.curtailed_setpoint,
     }
