@@ -203,8 +203,7 @@ class ClosedLoop:
     ----------
     setup : the run's parts (:func:`hvacflex.sim.setup.prepare`).
     controller : the controller (default: the one the configuration asks for).
-    plant : the plant (default: the scenario's ``[plant]``, :func:`hvacflex.sim.plants.
-        scenario_plant`: hvacflex's RC network or EnergyPlus).
+    plant : the plant (default: the scenario's, :func:`hvacflex.sim.plants.scenario_plant`).
     control : what decides each period (default: a :class:`ControlStep` of ``controller``).
     signals : operator signals laid over every forecast (prices, φ).
     """
@@ -238,10 +237,8 @@ class ClosedLoop:
         )
         """(nb,) the model's boundary nodes (an identified model's plenums), node order."""
         hvac = setup.building.hvac
-        self._flow_min_kg_s = (
-            hvac.flow_min_at(np.array([False]))[0],
-            hvac.flow_min_at(np.array([True]))[0],
-        )
+        occupancy = (np.array([False]), np.array([True]))
+        self._flow_min_kg_s = tuple(hvac.flow_min_at(occupied)[0] for occupied in occupancy)
         """(m,) lowest flow [kg/s] when unoccupied and when occupied."""
         self._damper_open = hvac.outdoor_air_open_at(setup.exogenous.occupied, cfg.dt_s)
         """(T,) bool: the outdoor-air damper open (occupied or purge), the plant's schedule."""
@@ -401,13 +398,11 @@ class ClosedLoop:
 
     def _actuation(self, decision: Decision, *, curtailed: bool) -> Actuation:
         """What the plant is told: the flows (u, or u − r when curtailed) with the action's
-        supply-air temperature (None: the plant's own), or under setpoint
-        actuation each zone's planned end-of-period temperature (served, or curtailed)
-        clipped to the comfort band at the period's end (:func:`band_at_period_end_degc`, its
-        upper bound raised by the allowance α in force), as a supervisory MPC hands setpoints
-        to a BMS (:func:`setpoint_actuation_degc`; docs/guide/energyplus.md). With ``[plant]
-        curtailed_setpoint = "limit"`` a curtailed period's setpoints are that raised upper
-        bound itself."""
+        supply-air temperature (None: the plant's own), or under setpoint actuation each zone's
+        planned end-of-period temperature (served, or curtailed; the limit itself with ``[plant]
+        curtailed_setpoint = "limit"``) clipped to the band at the period's end, its upper bound
+        raised by the allowance α in force to the limit, as a supervisory MPC hands setpoints to
+        a BMS (:func:`band_at_period_end_degc`, :func:`setpoint_actuation_degc`)."""
         action = decision.action
         if action.released:  # the plant's own control: no setpoint from hvacflex
             return Actuation(setpoint_degc=np.full(action.flow_kg_s.shape, np.nan))
