@@ -33,7 +33,6 @@ from typing import Any
 import numpy as np
 
 from hvacflex import kpi
-from hvacflex.building.identified import initial_node_temps_degc
 from hvacflex.control.base import Action, FloatArray, PeriodInputs
 from hvacflex.reproduce_plan import Plan, ppp_energyplus_jobs
 from hvacflex.sim.closed_loop import ClosedLoop
@@ -96,19 +95,9 @@ def main() -> None:
     if args.days is not None:
         config = replace(config, days=args.days)
     bound = bound_peak_kw(config)
-    setup = prepare(config)
-    model, exo, building = setup.model, setup.exogenous, setup.building
     steps = config.steps
-    if building.identified is not None:
-        x = initial_node_temps_degc(building.identified, config.initial_temp_degc)
-    else:
-        x = np.full(len(model.node_names), config.initial_temp_degc)
-    d = np.asarray(exo.disturbances[:steps], dtype=float)
-    temps = np.empty_like(bound.flow_kg_s)
-    for k in range(steps):  # the zone temperatures the bound's flows give on the model
-        x = model.a @ x + model.b @ bound.flow_kg_s[k] + model.e @ d[k] + model.g
-        temps[k] = model.c @ x
-    loop = ClosedLoop(setup, PlanReplay(bound.flow_kg_s, temps, bound.power_kw))
+    replay = PlanReplay(bound.flow_kg_s, bound.zone_temp_degc, bound.power_kw)
+    loop = ClosedLoop(prepare(config), replay)
     while loop.k < steps:
         loop.step()
     frame = loop.frame()

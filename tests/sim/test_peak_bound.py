@@ -44,6 +44,17 @@ def test_pre_cooling_spreads_a_late_heat_gain_over_the_period() -> None:
     assert bound.flow_kg_s.sum() == pytest.approx(4.0, abs=1e-5)
 
 
+def test_the_zone_temperatures_are_the_flows_run_on_the_model() -> None:
+    problem = _integrator([1.0, 0.0, 4.0, 2.0])
+    bound = minimum_peak(problem)
+    x, temps = problem.x0_degc, []
+    for flow, d in zip(bound.flow_kg_s, problem.d, strict=True):
+        x = problem.a @ x + problem.b @ flow + problem.e @ d + problem.g
+        temps.append(problem.c @ x)
+    np.testing.assert_allclose(bound.zone_temp_degc, np.array(temps), atol=1e-6)
+    assert np.all(bound.zone_temp_degc <= 25.0 + 1e-6)
+
+
 def test_the_lower_bound_limits_pre_cooling() -> None:
     """12 K in the last period: at most 5 K can be stored before it (20 °C floor), so the
     last period cools 7: the peak is 7 kW."""

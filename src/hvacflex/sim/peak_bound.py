@@ -109,12 +109,15 @@ class PeakBound:
         periods]; 0 where the band can be kept throughout.
     flow_kg_s : (T, m) the flows that reach it [kg/s].
     power_kw : (T,) their power P_k [kW].
+    zone_temp_degc : (T, m) the zone temperatures they give at the end of each period on the
+        model [°C].
     """
 
     peak_kw: float
     excursion_k: float
     flow_kg_s: FloatArray
     power_kw: FloatArray
+    zone_temp_degc: FloatArray
 
 
 def _constraints(
@@ -190,7 +193,14 @@ def minimum_peak(problem: PeakBoundProblem) -> PeakBound:
     _check(second.status, "the least peak")
     flow = second.x[:nu].reshape(t_steps, m)
     power = problem.p0_kw + np.einsum("km,km->k", problem.p_kw_per_kg_s, flow)
-    return PeakBound(peak_kw=float(second.x[-1]), excursion_k=least, flow_kg_s=flow, power_kw=power)
+    states = second.x[nu : nu + nx].reshape(t_steps, -1)
+    return PeakBound(
+        peak_kw=float(second.x[-1]),
+        excursion_k=least,
+        flow_kg_s=flow,
+        power_kw=power,
+        zone_temp_degc=states @ problem.c.T,
+    )
 
 
 def _solve(
