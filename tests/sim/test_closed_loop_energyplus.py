@@ -119,11 +119,13 @@ def test_plant_baseline_runs_the_idfs_own_control_in_the_same_schema(day, tmp_pa
     np.testing.assert_allclose(frame["power_kw"].to_numpy(), [o.power_kw for o in own], rtol=1e-9)
 
 
-def _office5_run(folder: Path, preset: str, extra: str = "") -> tuple[pd.DataFrame, dict]:  # type: ignore[type-arg]
-    """``preset`` on office5's generated IDF, 2014-03-04 08:00-14:00."""
+def _office5_run(
+    folder: Path, preset: str, extra: str = "", start: str = "2014-03-04T08:00", days: float = 0.25
+) -> tuple[pd.DataFrame, dict]:  # type: ignore[type-arg]
+    """``preset`` on office5's generated IDF, by default 2014-03-04 08:00-14:00."""
     path = folder / f"{preset}.toml"
     path.write_text(
-        f'preset = "{preset}"\nstart = "2014-03-04T08:00"\ndays = 0.25\n\n'
+        f'preset = "{preset}"\nstart = "{start}"\ndays = {days}\n\n'
         f'[plant]\nkind = "energyplus"\nidf = "generated"\n{extra}',
         encoding="utf-8",
     )
@@ -191,19 +193,13 @@ def test_curtailed_setpoint_limit_sheds_to_the_allowance(
 
     monkeypatch.setattr(EnergyPlusPlant, "step", spy)
     (tmp_path / "events.csv").write_text("time,activated\n2014-03-03T11:00,1\n2014-03-03T11:30,1\n")
-    path = tmp_path / "limit.toml"
-    path.write_text(
-        'preset = "rmpc-ppp"\nstart = "2014-03-03"\ndays = 0.5\n\n'
-        '[controller]\npower_level = "auto"\n\n'
-        '[plant]\nkind = "energyplus"\nidf = "generated"\ncurtailed_setpoint = "limit"\n\n'
+    extra = (
+        'curtailed_setpoint = "limit"\n\n[controller]\npower_level = "auto"\n\n'
         '[forecast]\nweather = "statistical"\n\n[realisation]\noccupancy = "stochastic"\n\n'
-        '[activation]\nmode = "file"\nfile = "events.csv"\n',
-        encoding="utf-8",
+        '[activation]\nmode = "file"\nfile = "events.csv"\n'
     )
-    config = load_config(path)
-    run_simulation(config, tmp_path / "out", progress=False)
-    frame, _ = read_results(tmp_path / "out" / "results.parquet")
-    exo = prepare(config).exogenous
+    frame, _ = _office5_run(tmp_path, "rmpc-ppp", extra, start="2014-03-03", days=0.5)
+    exo = prepare(load_config(tmp_path / "rmpc-ppp.toml")).exogenous
     curtailed = frame["il_curtailed"].to_numpy(dtype=bool)
     allowance = frame["il_allowance_k"].to_numpy()
     assert curtailed.sum() == 2 and (frame["reserve_kw"][curtailed] > 0).all()

@@ -417,8 +417,6 @@ class ScenarioConfig:
         payload.pop("name")
         if self.plant == PlantConfig():
             payload.pop("plant")  # the default plant keeps the run keys of earlier versions
-        elif self.plant.curtailed_setpoint == "plan":
-            payload["plant"].pop("curtailed_setpoint")  # so does a plant told the plan
         if self.forecast == ForecastConfig():
             payload.pop("forecast")  # so do the default forecast, occupancy and box
         for table, key, empty in (
@@ -428,8 +426,9 @@ class ScenarioConfig:
             ("realisation", "box_relative", None),
             ("realisation", "box_absolute", None),
             ("uncertainty", "calibrate", None),
+            ("plant", "curtailed_setpoint", "plan"),
         ):
-            if payload[table][key] == empty:
+            if table in payload and payload[table][key] == empty:
                 payload[table].pop(key)
         text = json.dumps(payload, sort_keys=True)
         return hashlib.sha256(text.encode()).hexdigest()[:12]
