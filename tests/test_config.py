@@ -21,6 +21,7 @@ from hvacflex.config import (
 )
 from hvacflex.config.model import ForecastConfig
 from hvacflex.errors import ConfigError
+from hvacflex.sim.recording import recorded_problems
 
 
 def test_paper_presets_match_the_paper_scenarios() -> None:
@@ -389,6 +390,8 @@ def test_the_default_curtailed_setpoint_keeps_the_run_keys_of_energyplus_runs() 
         earlier["realisation"].pop(key, None)
     earlier["uncertainty"].pop("calibrate")
     earlier["data"].pop("reserve_price_correlation")
+    for key in ("comfort_knee_k", "comfort_penalty_beyond_knee_sgd_per_kelvin_hour"):
+        earlier["controller"].pop(key)
     if cfg.forecast == ForecastConfig():
         earlier.pop("forecast")
     digest = hashlib.sha256(json.dumps(earlier, sort_keys=True).encode()).hexdigest()[:12]
@@ -406,6 +409,8 @@ def test_default_forecast_settings_keep_the_run_keys_of_earlier_versions() -> No
         earlier["realisation"].pop(key)
     earlier["uncertainty"].pop("calibrate")
     earlier["data"].pop("reserve_price_correlation")
+    for key in ("comfort_knee_k", "comfort_penalty_beyond_knee_sgd_per_kelvin_hour"):
+        earlier["controller"].pop(key)
     digest = hashlib.sha256(json.dumps(earlier, sort_keys=True).encode()).hexdigest()[:12]
     assert cfg.config_hash() == digest
 
@@ -581,3 +586,40 @@ def test_an_unknown_preset_name_gets_a_did_you_mean_on_the_command_line() -> Non
     assert "Traceback" not in result.output
     with pytest.raises(ConfigError, match="Did you mean 'peak_price_sgd_per_kw'"):
         resolve_key("peak_price_sgd_per_k")
+
+
+def test_a_comfort_knee_reaches_the_problem_and_changes_the_run_key(tmp_path: Path) -> None:
+    """``[controller] comfort_knee_k`` (issue 60): the MPC's problem gets a ComfortKnee with
+    the file's δ and ρ₂; left out, no knee and the run key of before."""
+    path = tmp_path / "knee.toml"
+    path.write_text(
+        'preset = "rmpc"\ndays = 0.5\n[controller]\ncomfort_penalty_sgd_per_kelvin_hour = 5\n'
+        "comfort_knee_k = 0.5\ncomfort_penalty_beyond_knee_sgd_per_kelvin_hour = 100\n"
+    )
+    config = load_config(path)
+    assert config.controller.comfort_knee_k == 0.5
+    plain = with_overrides(config, {"controller.comfort_knee_k": None})
+    assert config.config_hash() != plain.config_hash()
+    (problem,) = recorded_problems(config, 1)
+    assert problem.comfort_knee is not None
+    assert problem.comfort_knee.knee_kelvin == 0.5
+    assert problem.comfort_knee.penalty_beyond_sgd_per_kelvin_hour == 100.0
+    (linear,) = recorded_problems(plain, 1)
+    assert linear.comfort_knee is None
+
+
+@pytest.mark.parametrize(
+    ("text", "field"),
+    [
+        ("comfort_knee_k = -0.5\n", "controller.comfort_knee_k"),
+        (
+            "comfort_knee_k = 0.5\ncomfort_penalty_beyond_knee_sgd_per_kelvin_hour = 50\n",
+            "controller.comfort_penalty_beyond_knee_sgd_per_kelvin_hour",
+        ),
+    ],
+)
+def test_bad_comfort_knees_name_the_field(tmp_path: Path, text: str, field: str) -> None:
+    path = tmp_path / "bad.toml"
+    path.write_text("[controller]\n" + text)
+    with pytest.raises(ConfigError, match=re.escape(field)):
+        load_config(path)

@@ -74,6 +74,29 @@ def test_the_comfort_penalty_reaches_every_building_and_is_validated(tmp_path: P
             load_fleet(write_fleet(doc, tmp_path / "f.toml"))
 
 
+def test_the_comfort_knee_reaches_every_building_and_is_validated(tmp_path: Path) -> None:
+    doc = generate_fleet(2, 1)
+    assert load_fleet(write_fleet(doc, tmp_path / "f.toml")).spec.comfort_knee_k is None
+    doc.update(
+        comfort_penalty_sgd_per_kelvin_hour=3.0,
+        comfort_knee_k=1.0,
+        comfort_penalty_beyond_knee_sgd_per_kelvin_hour=100.0,
+    )
+    fleet = load_fleet(write_fleet(doc, tmp_path / "f.toml"))
+    settings = FleetSettings.of(fleet, "2014-03-03", 1 / 24)
+    agent = BuildingAgent(fleet.buildings[0], 0, settings)
+    agent.begin_step()
+    knee = agent.problem.comfort_knee
+    assert knee is not None
+    assert (knee.knee_kelvin, knee.penalty_beyond_sgd_per_kelvin_hour) == (1.0, 100.0)
+    doc["comfort_penalty_beyond_knee_sgd_per_kelvin_hour"] = 2.0  # below ρ: not convex
+    with pytest.raises(FleetConfigError, match=r"f\.toml.*at least"):
+        load_fleet(write_fleet(doc, tmp_path / "f.toml"))
+    doc["comfort_knee_k"] = -1.0
+    with pytest.raises(FleetConfigError, match=r"f\.toml.*comfort_knee_k"):
+        load_fleet(write_fleet(doc, tmp_path / "f.toml"))
+
+
 def test_example_fleet_ships() -> None:
     fleet = load_fleet(resources_dir() / "fleets" / "example.toml")
     assert len(fleet.buildings) == 3 and fleet.spec.min_bid_mw == 0.1

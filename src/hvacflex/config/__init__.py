@@ -72,6 +72,7 @@ from hvacflex.config.schema import RENAMED_KEYS, RULE_ERROR, ScenarioSpec, to_do
 from hvacflex.constants import MAX_HORIZON_STEPS, PRESET_NAMES
 from hvacflex.errors import ConfigError, did_you_mean
 from hvacflex.opt.options import (
+    DEFAULT_COMFORT_PENALTY_BEYOND_KNEE_SGD_PER_KELVIN_HOUR,
     DEFAULT_COMFORT_PENALTY_SGD_PER_KELVIN_HOUR,
     FeedbackStructure,
     RobustMode,
@@ -80,6 +81,7 @@ from hvacflex.tomlio import read_toml
 
 __all__ = [
     "BASELINE_PRESETS",
+    "DEFAULT_COMFORT_PENALTY_BEYOND_KNEE_SGD_PER_KELVIN_HOUR",
     "DEFAULT_COMFORT_PENALTY_SGD_PER_KELVIN_HOUR",
     "DEFAULT_PEAK_PRICE_PAPER_SGD_PER_KW",
     "LINEARISATION_MARGIN_K",

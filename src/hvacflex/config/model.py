@@ -25,6 +25,7 @@ from hvacflex.constants import (
 from hvacflex.data.market import RESERVE_PRICE_CORRELATION
 from hvacflex.data.weather_forecast import WEATHER_TRAIN_DAYS
 from hvacflex.opt.options import (
+    DEFAULT_COMFORT_PENALTY_BEYOND_KNEE_SGD_PER_KELVIN_HOUR,
     DEFAULT_COMFORT_PENALTY_SGD_PER_KELVIN_HOUR,
     FeedbackStructure,
     RobustMode,
@@ -95,6 +96,12 @@ class ControllerConfig:
     peak_price_sgd_per_kw: float = 0.0
     billing_mode: BillingMode = "horizon"
     comfort_penalty_sgd_per_kelvin_hour: float = DEFAULT_COMFORT_PENALTY_SGD_PER_KELVIN_HOUR
+    comfort_knee_k: float | None = None
+    """The MPC: each zone's slack is priced at ρ up to this excursion [K] and at
+    ``comfort_penalty_beyond_knee_sgd_per_kelvin_hour`` beyond it (None: ρ on all of it)."""
+    comfort_penalty_beyond_knee_sgd_per_kelvin_hour: float = (
+        DEFAULT_COMFORT_PENALTY_BEYOND_KNEE_SGD_PER_KELVIN_HOUR
+    )
     horizon_steps: int = HORIZON_STEPS
     linearisation_temp_degc: float | None = None
     """T₀ of the VAV linearisation [°C]; ``None`` = the occupied upper comfort bound less
@@ -427,6 +434,12 @@ class ScenarioConfig:
             ("realisation", "box_absolute", None),
             ("uncertainty", "calibrate", None),
             ("plant", "curtailed_setpoint", "plan"),
+            ("controller", "comfort_knee_k", None),
+            (
+                "controller",
+                "comfort_penalty_beyond_knee_sgd_per_kelvin_hour",
+                DEFAULT_COMFORT_PENALTY_BEYOND_KNEE_SGD_PER_KELVIN_HOUR,
+            ),
         ):
             if table in payload and payload[table][key] == empty:
                 payload[table].pop(key)

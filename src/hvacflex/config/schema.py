@@ -11,7 +11,8 @@ File layout (every key optional)::
 
     preset?, name, building, start, days, dt_s, seed, initial_temp_degc
     [controller]   kind, robust, reserve, peak_price_sgd_per_kw, billing_mode,
-                   comfort_penalty_sgd_per_kelvin_hour, horizon_steps,
+                   comfort_penalty_sgd_per_kelvin_hour, comfort_knee_k,
+                   comfort_penalty_beyond_knee_sgd_per_kelvin_hour, horizon_steps,
                    linearisation_temp_degc, time_limit_s, thermostat_setpoint_degc,
                    linearisation, optimal_start, demand_limit_fraction, reserve_share,
                    unoccupied_margin_k, unoccupied_plan_margin_k, peak_guard,
@@ -182,6 +183,15 @@ class ControllerSpec(Spec):
     )
     """ρ: the price of a planned comfort violation [SGD per K·h] (an exact penalty: large enough
     that the plan violates only when the band cannot be kept)."""
+    comfort_knee_k: NonNegative | None = default(ControllerConfig, "comfort_knee_k")
+    """A comfort penalty that grows with the excursion: each zone's planned slack costs ρ up to
+    this many kelvin and ``comfort_penalty_beyond_knee_sgd_per_kelvin_hour`` beyond, so a
+    violation the plan cannot avoid is spread over zones and periods instead of put where a kW
+    buys least (docs/explanation/model.md §3); leave it out for ρ on all of it. The MPC only."""
+    comfort_penalty_beyond_knee_sgd_per_kelvin_hour: Positive = default(
+        ControllerConfig, "comfort_penalty_beyond_knee_sgd_per_kelvin_hour"
+    )
+    """ρ₂ [SGD per K·h] ≥ ρ: the price of the slack beyond ``comfort_knee_k``."""
     horizon_steps: Annotated[PositiveInt, Field(le=MAX_HORIZON_STEPS)] = default(
         ControllerConfig, "horizon_steps"
     )
@@ -253,6 +263,19 @@ class ControllerSpec(Spec):
     reserve_share: Annotated[Number, Field(ge=0.0, le=1.0)] = default(
         ControllerConfig, "reserve_share"
     )
+
+    @model_validator(mode="after")
+    def _convex_knee(self) -> Self:
+        beyond = self.comfort_penalty_beyond_knee_sgd_per_kelvin_hour
+        if self.comfort_knee_k is not None and beyond < self.comfort_penalty_sgd_per_kelvin_hour:
+            raise rule_error(
+                f"the penalty beyond the comfort knee must be at least comfort_penalty_"
+                f"sgd_per_kelvin_hour ({self.comfort_penalty_sgd_per_kelvin_hour:g})",
+                "comfort_penalty_beyond_knee_sgd_per_kelvin_hour",
+                beyond,
+                hint="raise it, or lower comfort_penalty_sgd_per_kelvin_hour",
+            )
+        return self
 
     @model_validator(mode="after")
     def _thermostat_offers_no_reserve(self) -> Self:

@@ -59,6 +59,7 @@ from hvacflex.data.signals import effective_peak_price
 from hvacflex.data.uncertainty import UncertaintyBox
 from hvacflex.errors import ConfigError
 from hvacflex.opt import (
+    ComfortKnee,
     FeedbackOptions,
     ILEventModel,
     OfferBaselines,
@@ -352,6 +353,14 @@ def build_problem(
         y_max=y_max,
         reserve_mask=contract.reserve_mask,
         comfort_penalty_sgd_per_kelvin_hour=cfg.comfort_penalty_sgd_per_kelvin_hour,
+        comfort_knee=(
+            None
+            if cfg.comfort_knee_k is None
+            else ComfortKnee(
+                knee_kelvin=cfg.comfort_knee_k,
+                penalty_beyond_sgd_per_kelvin_hour=cfg.comfort_penalty_beyond_knee_sgd_per_kelvin_hour,
+            )
+        ),
         dt_h=m.dt_s / SECONDS_PER_HOUR,
         robust=cfg.robust,
         feedback=(

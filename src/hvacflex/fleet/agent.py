@@ -34,6 +34,7 @@ import numpy as np
 import pandas as pd
 
 from hvacflex.config import (
+    DEFAULT_COMFORT_PENALTY_BEYOND_KNEE_SGD_PER_KELVIN_HOUR,
     DEFAULT_COMFORT_PENALTY_SGD_PER_KELVIN_HOUR,
     ComfortConfig,
     ControllerConfig,
@@ -292,6 +293,11 @@ class FleetSettings:
     billing_mode: str
     comfort_penalty_sgd_per_kelvin_hour: float = DEFAULT_COMFORT_PENALTY_SGD_PER_KELVIN_HOUR
     """ρ of every building's MPC [SGD per K·h] (the fleet file's key)."""
+    comfort_knee_k: float | None = None
+    """δ [K] and ρ₂ [SGD per K·h] of every building's comfort knee (the fleet file's keys)."""
+    comfort_penalty_beyond_knee_sgd_per_kelvin_hour: float = (
+        DEFAULT_COMFORT_PENALTY_BEYOND_KNEE_SGD_PER_KELVIN_HOUR
+    )
     il_events: ReserveConfig = field(default_factory=ReserveConfig)
     """The IL contract (event model D, α, R) every building plans for."""
     data: DataConfig = field(default_factory=DataConfig)
@@ -311,6 +317,10 @@ class FleetSettings:
             peak_price_sgd_per_kw=s.ppp.peak_price_sgd_per_kw,
             billing_mode=s.ppp.billing_mode,
             comfort_penalty_sgd_per_kelvin_hour=s.comfort_penalty_sgd_per_kelvin_hour,
+            comfort_knee_k=s.comfort_knee_k,
+            comfort_penalty_beyond_knee_sgd_per_kelvin_hour=(
+                s.comfort_penalty_beyond_knee_sgd_per_kelvin_hour
+            ),
             il_events=s.reserve.config(),
             data=fleet.data,
         )
@@ -345,6 +355,10 @@ def building_setup(entry: FleetBuilding, index: int, settings: FleetSettings) ->
         billing_mode=settings.billing_mode,  # type: ignore[arg-type]
         horizon_steps=settings.horizon_steps,
         comfort_penalty_sgd_per_kelvin_hour=settings.comfort_penalty_sgd_per_kelvin_hour,
+        comfort_knee_k=settings.comfort_knee_k,
+        comfort_penalty_beyond_knee_sgd_per_kelvin_hour=(
+            settings.comfort_penalty_beyond_knee_sgd_per_kelvin_hour
+        ),
     )
     comfort = ComfortConfig(
         occupied_degc=entry.comfort_occupied_degc, unoccupied_degc=entry.comfort_unoccupied_degc

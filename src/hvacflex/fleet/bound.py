@@ -123,6 +123,7 @@ def comfort_only(problem: RMPCProblem) -> RMPCProblem:
         comfort_penalty_sgd_per_kelvin_hour=COMFORT_ONLY_PENALTY_SGD_PER_KELVIN_HOUR,
         reserve_mask=np.zeros(problem.u_min.shape[1], dtype=bool),
         slack_max_kelvin=None,
+        comfort_knee=None,
         events=None,
         commitments=None,
         offer_baselines=None,

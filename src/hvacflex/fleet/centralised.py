@@ -28,6 +28,7 @@ from hvacflex.opt import robust as robust_mod
 from hvacflex.opt.basis import bounded_start, nonbasic_status, rotation
 from hvacflex.opt.highs_lp import HighsSession, SessionOptions, pass_csc_model
 from hvacflex.opt.lp import LinearProgram, LPLayout, build_lp, sparse_matrix
+from hvacflex.opt.solution import comfort_penalty_sgd
 from hvacflex.opt.solve import solve_lp
 from hvacflex.units import KWH_PER_MWH
 
@@ -63,7 +64,7 @@ def objective_split(
     reserve = np.einsum("km,km->k", problem.reserve_kw_per_kg_s, r)
     energy = float(dt * problem.energy_price_sgd_per_mwh @ power / KWH_PER_MWH)
     revenue = float(dt * problem.reserve_price_sgd_per_mwh @ reserve / KWH_PER_MWH)
-    comfort = float(problem.comfort_penalty_sgd_per_kelvin_hour * dt * slack.sum())
+    comfort = comfort_penalty_sgd(problem, slack)
     return np.array([energy + peak_sgd, -revenue, comfort])
 
 

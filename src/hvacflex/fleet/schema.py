@@ -76,6 +76,7 @@ from pydantic import BaseModel, ConfigDict, Field, Strict, ValidationError, mode
 from hvacflex.building.io import building_from_dict
 from hvacflex.building.model import Building
 from hvacflex.config import (
+    DEFAULT_COMFORT_PENALTY_BEYOND_KNEE_SGD_PER_KELVIN_HOUR,
     DEFAULT_COMFORT_PENALTY_SGD_PER_KELVIN_HOUR,
     ActivationConfig,
     DataConfig,
@@ -362,6 +363,15 @@ class FleetSpec(_Spec):
     file's ``[controller]`` key (default the product's 100). Under limit windows 10 … 100
     changed the cold the buildings store, and their comfort, very little (measured in
     docs/guide/fleet.md, "Measured figures")."""
+    comfort_knee_k: Annotated[Finite, Field(ge=0.0)] | None = None
+    """Every building's slack priced at ρ up to this excursion [K] and at
+    ``comfort_penalty_beyond_knee_sgd_per_kelvin_hour`` beyond (the scenario file's
+    ``[controller]`` key): a window's violation spread over buildings and zones instead of put
+    where a kW buys least. None (the default): ρ on all of it."""
+    comfort_penalty_beyond_knee_sgd_per_kelvin_hour: Annotated[Finite, Field(gt=0.0)] = (
+        DEFAULT_COMFORT_PENALTY_BEYOND_KNEE_SGD_PER_KELVIN_HOUR
+    )
+    """ρ₂ ≥ ρ [SGD per K·h], the price of the slack beyond ``comfort_knee_k``."""
     envelope: Annotated[bool, Strict()] = True
     """Compute the flexibility envelope every step and write ``envelope.csv``
     (:mod:`hvacflex.fleet.envelope`); false saves its LPs (a run without the file)."""
@@ -380,6 +390,15 @@ class FleetSpec(_Spec):
             raise ValueError("give exactly one of feeder_limit_kw and feeder_limit_csv")
         if self.feeder_limit_kw is not None and math.isnan(self.feeder_limit_kw):
             raise ValueError("feeder_limit_kw must be a number > 0 or inf")
+        rho, beyond = (
+            self.comfort_penalty_sgd_per_kelvin_hour,
+            self.comfort_penalty_beyond_knee_sgd_per_kelvin_hour,
+        )
+        if self.comfort_knee_k is not None and beyond < rho:
+            raise ValueError(
+                "comfort_penalty_beyond_knee_sgd_per_kelvin_hour must be at least "
+                f"comfort_penalty_sgd_per_kelvin_hour ({rho:g})"
+            )
         names = [b.name for b in self.buildings]
         if len(set(names)) != len(names):
             dup = next(n for n in names if names.count(n) > 1)
@@ -398,6 +417,8 @@ _HINTS = {
     "end": 'a local time "HH:MM" ("24:00" for midnight) or an ISO date-time',
     "window_lookahead_h": "hours ≥ 0 before a window's start the plans see it, or inf",
     "comfort_penalty_sgd_per_kelvin_hour": "ρ [SGD per K·h] > 0, e.g. 100 (the product's)",
+    "comfort_knee_k": "the excursion [K] ≥ 0 priced at ρ, e.g. 0.5; leave out for none",
+    "comfort_penalty_beyond_knee_sgd_per_kelvin_hour": "ρ₂ [SGD per K·h] ≥ ρ, e.g. 100",
     "min_bid_mw": "the market's minimum bid, 0.1 MW for NEMS interruptible load",
     "buildings": "add [[buildings]] tables (hvacflex fleet generate writes them)",
     "building": "a complete building description, as in a building TOML file",

@@ -32,7 +32,13 @@ Modules, each importing only those above it:
 """
 
 from hvacflex.opt.basis import SolverBasis
-from hvacflex.opt.blocks import ILEventModel, OfferBaselines, PowerCap, ReserveCommitment
+from hvacflex.opt.blocks import (
+    ComfortKnee,
+    ILEventModel,
+    OfferBaselines,
+    PowerCap,
+    ReserveCommitment,
+)
 from hvacflex.opt.factory import WarmSolver, make_solver, solve_rmpc
 from hvacflex.opt.feedback_solve import FeedbackSolver
 from hvacflex.opt.options import FeedbackOptions
@@ -41,6 +47,7 @@ from hvacflex.opt.solution import RMPCSolution, SolveStatus
 from hvacflex.opt.solve import RMPCSolver
 
 __all__ = [
+    "ComfortKnee",
     "FeedbackOptions",
     "FeedbackSolver",
     "ILEventModel",

@@ -11,6 +11,7 @@ calls it), and built into the LP by its own ``add_…`` family (:data:`FEATURE_B
 * ``commitments``: :class:`ReserveCommitment` → :func:`hvacflex.opt.lp.add_committed_reserve`;
 * ``offer_baselines``: :class:`OfferBaselines` → :func:`hvacflex.opt.lp.add_visible_offers`;
 * ``power_cap``: :class:`PowerCap` → :func:`hvacflex.opt.lp.add_power_cap`;
+* ``comfort_knee``: :class:`ComfortKnee` → :func:`hvacflex.opt.lp.add_comfort_knee`;
 * ``feedback``: :class:`~hvacflex.opt.options.FeedbackOptions` →
   :func:`hvacflex.opt.feedback.build_feedback_lp` (its own LP).
 
@@ -251,6 +252,63 @@ class PowerCap:
         return np.asarray(self.power_max_kw, dtype=np.float64)
 
 
+@dataclass(frozen=True, kw_only=True)
+class ComfortKnee:
+    """A comfort penalty that grows with the excursion: each zone's slack ε_k [K] costs the
+    problem's ρ up to ``knee_kelvin`` and ``penalty_beyond_sgd_per_kelvin_hour`` beyond it
+    (piecewise linear and convex, so the plan spreads a violation over zones and periods
+    rather than putting it all where a kW buys least). None on the problem: ρ on all of ε.
+
+    Parameters
+    ----------
+    knee_kelvin : δ ≥ 0 [K], the excursion priced at ρ
+    penalty_beyond_sgd_per_kelvin_hour : ρ₂ ≥ ρ [SGD per K·h], the price of ε beyond δ
+    """
+
+    knee_kelvin: float
+    penalty_beyond_sgd_per_kelvin_hour: float
+
+    def __post_init__(self) -> None:
+        for name, hint in (
+            ("knee_kelvin", "the excursion [K] priced at ρ, e.g. 0.5"),
+            ("penalty_beyond_sgd_per_kelvin_hour", "ρ₂ [SGD per K·h] ≥ ρ, e.g. 100"),
+        ):
+            value = getattr(self, name)
+            if (
+                not isinstance(value, int | float)
+                or isinstance(value, bool)
+                or not np.isfinite(value)
+                or value < 0
+            ):
+                raise ProblemError(
+                    "must be a finite number ≥ 0",
+                    source=_SOURCE,
+                    field=f"comfort_knee.{name}",
+                    value=value,
+                    hint=hint,
+                )
+
+    def check(self, *, rho: float) -> None:
+        """ρ₂ ≥ ρ (the problem's comfort penalty [SGD per K·h]): a cheaper price beyond the
+        knee would not be convex (the LP would fill the slack beyond it first)."""
+        if self.penalty_beyond_sgd_per_kelvin_hour < rho:
+            raise ProblemError(
+                f"must be ≥ the comfort penalty ρ = {rho:g} SGD per K·h (convex)",
+                source=_SOURCE,
+                field="comfort_knee.penalty_beyond_sgd_per_kelvin_hour",
+                value=self.penalty_beyond_sgd_per_kelvin_hour,
+                hint="raise it to at least ρ, or lower the comfort penalty",
+            )
+
+    def penalty_sgd(self, slack_kelvin: FloatArray, dt_h: float, rho: float) -> float:
+        """The comfort penalty of a plan's slack ``slack_kelvin`` (N, ny) [K] at ρ [SGD per
+        K·h] and Δt [h]: ρ·Δt·Σε + (ρ₂ − ρ)·Δt·Σ max(ε − δ, 0) [SGD]."""
+        slack = np.asarray(slack_kelvin, dtype=float)
+        beyond = np.maximum(slack - self.knee_kelvin, 0.0).sum()
+        extra = self.penalty_beyond_sgd_per_kelvin_hour - rho
+        return float(dt_h * (rho * slack.sum() + extra * beyond))
+
+
 @dataclass(frozen=True, eq=False, kw_only=True)
 class OfferBaselines:
     """The settlement baselines that each step's reserve offer is measured against.
@@ -379,6 +437,7 @@ FEATURE_BLOCKS: dict[str, type] = {
     "commitments": ReserveCommitment,
     "offer_baselines": OfferBaselines,
     "power_cap": PowerCap,
+    "comfort_knee": ComfortKnee,
     "feedback": FeedbackOptions,
 }
 """The problem's feature fields and their blocks (each ``None`` = the feature is off)."""

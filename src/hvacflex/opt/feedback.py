@@ -79,6 +79,7 @@ from hvacflex.opt.lp import (
     LinearProgram,
     LPBuilder,
     PlanColumns,
+    add_comfort_knee,
     add_comfort_with_margins,
     add_committed_reserve,
     add_curtailed_dynamics,
@@ -312,6 +313,7 @@ def build_feedback_lp(
     add_served_dynamics(lp, p, v)
     add_curtailed_dynamics(lp, p, v)
     add_comfort_with_margins(lp, p, v, np.zeros((p.horizon, p.ny)), margin_cols=f.delta)
+    add_comfort_knee(lp, p, v)
     add_robust_flow_bounds(lp, p, v, f)
     peak_rows = add_robust_peak(lp, p, v)
     add_comfort_margin_definition(lp, f, maps, sigma)

@@ -57,6 +57,7 @@ __all__ = [
     "LinearProgram",
     "PlanColumns",
     "Triplets",
+    "add_comfort_knee",
     "add_comfort_with_margins",
     "add_committed_reserve",
     "add_curtailed_dynamics",
@@ -230,6 +231,23 @@ def add_comfort_with_margins(
                 lp.add_coefficients(rows, margin_cols, sign)
             blocks.append((rows, sign))
     return blocks
+
+
+def add_comfort_knee(lp: LPBuilder, p: RMPCProblem, v: PlanColumns) -> IntArray:
+    """The slack beyond the knee δ (``p.comfort_knee``, :class:`~hvacflex.opt.blocks.ComfortKnee`):
+    columns ε⁺ ≥ 0 (N, ny) costing (ρ₂ − ρ)·Δt and rows ``ε_k − ε⁺_k ≤ δ`` (N·ny, constant), so
+    ε costs ρ up to δ and ρ₂ beyond. Returns the ε⁺ columns ((0, ny) without a knee)."""
+    knee = p.comfort_knee
+    if knee is None:
+        return np.zeros((0, p.ny), dtype=np.int64)
+    shape = (p.horizon, p.ny)
+    beyond = lp.add_columns(shape, lower=0.0, time_indexed=True)
+    rows = lp.add_rows(shape, upper=knee.knee_kelvin, time_indexed=True)
+    lp.add_coefficients(rows, v.eps, 1.0)
+    lp.add_coefficients(rows, beyond, -1.0)
+    extra = knee.penalty_beyond_sgd_per_kelvin_hour - p.comfort_penalty_sgd_per_kelvin_hour
+    lp.set_cost(beyond, extra * p.dt_h)
+    return beyond
 
 
 def set_plan_costs(lp: LPBuilder, p: RMPCProblem, v: PlanColumns) -> None:
@@ -471,6 +489,7 @@ def build_lp(
     add_curtailed_dynamics(lp, p, v)
     comfort_rows = add_comfort_with_margins(lp, p, v, margin_k)
     add_flow_and_reserve_bounds(lp, p, v)
+    add_comfort_knee(lp, p, v)
     add_power_definition(lp, p, v)
     add_peak_epigraph(lp, p, v)
     set_objective(lp, p, v)
@@ -490,6 +509,7 @@ FEATURE_FAMILIES = {
     "commitments": add_committed_reserve,
     "offer_baselines": add_visible_offers,
     "power_cap": add_power_cap,
+    "comfort_knee": add_comfort_knee,
 }
 """The ``add_…`` family of each open-loop feature block of :mod:`hvacflex.opt.blocks` (the
 ``feedback`` block has its own LP, :func:`hvacflex.opt.feedback.build_feedback_lp`)."""

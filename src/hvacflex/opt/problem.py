@@ -61,7 +61,7 @@ from __future__ import annotations
 
 import copy
 import hashlib
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 
 import numpy as np
 from numpy.typing import NDArray
@@ -70,6 +70,7 @@ from hvacflex.constants import PERIOD_S
 from hvacflex.errors import ProblemError
 from hvacflex.opt.blocks import (
     FEATURE_BLOCKS,
+    ComfortKnee,
     ILEventModel,
     OfferBaselines,
     PowerCap,
@@ -137,6 +138,8 @@ class RMPCProblem:
         reserve is paid at q_k·r_k
     power_cap : :class:`~hvacflex.opt.blocks.PowerCap`, a cap on the plan's power P_k (open
         loop only); None = no cap
+    comfort_knee : :class:`~hvacflex.opt.blocks.ComfortKnee`, ε priced at ρ₂ ≥ ρ beyond a
+        knee δ [K]; None = ρ on all of ε
     feedback : :class:`~hvacflex.opt.options.FeedbackOptions`, the policy structure of
         ``robust="feedback"`` (default ``FeedbackOptions()`` there); must be None otherwise
 
@@ -175,6 +178,7 @@ class RMPCProblem:
     commitments: ReserveCommitment | None = None
     offer_baselines: OfferBaselines | None = None
     power_cap: PowerCap | None = None
+    comfort_knee: ComfortKnee | None = None
     feedback: FeedbackOptions | None = None
     _structure: RMPCStructure = field(init=False, repr=False)
 
@@ -197,6 +201,7 @@ class RMPCProblem:
                 il_event_max_steps=None if self.events is None else self.events.max_steps,
                 il_event_recovery_steps=0 if self.events is None else self.events.recovery_steps,
                 visible_offers=self.offer_baselines is not None,
+                comfort_knee=self.comfort_knee is not None,
             ),
         )
 
@@ -375,6 +380,7 @@ class RMPCProblem:
             ("commitments", self.commitments),
             ("offer_baselines", self.offer_baselines),
             ("power_cap", self.power_cap),
+            ("comfort_knee", self.comfort_knee),
         ):
             wanted = FEATURE_BLOCKS[name]
             if block is not None and not isinstance(block, wanted):
@@ -395,6 +401,8 @@ class RMPCProblem:
             )
         if self.offer_baselines is not None:
             self.offer_baselines.check(horizon=self.horizon, events=self.events, robust=self.robust)
+        if self.comfort_knee is not None:
+            self.comfort_knee.check(rho=self.comfort_penalty_sgd_per_kelvin_hour)
         self._check_feedback()
 
     @property
@@ -556,19 +564,17 @@ class RMPCStructure:
     il_event_max_steps: int | None = None  # D; None = whole-horizon model
     il_event_recovery_steps: int = 0  # R (α and c enter row bounds only)
     visible_offers: bool = False  # offer columns and rows (add_visible_offers)
+    comfort_knee: bool = False  # ε beyond the knee: columns and rows (add_comfort_knee)
 
     def differences(self, other: RMPCStructure) -> list[str]:
         """Names of the fields in which ``other`` differs from this structure."""
-        names = []
-        for name in ("a_matrix", "b_matrix", "e_matrix", "c_matrix", "reserve_mask"):
-            if not np.array_equal(getattr(self, name), getattr(other, name)):
-                names.append(name)
-        if self.horizon != other.horizon:
-            names.append("horizon")
-        for name in ("robust", "il_event_max_steps", "il_event_recovery_steps", "visible_offers"):
-            if getattr(self, name) != getattr(other, name):
-                names.append(name)
-        return names
+        arrays = ("a_matrix", "b_matrix", "e_matrix", "c_matrix", "reserve_mask")
+        names = [n for n in arrays if not np.array_equal(getattr(self, n), getattr(other, n))]
+        return names + [
+            f.name
+            for f in fields(self)
+            if f.name not in arrays and getattr(self, f.name) != getattr(other, f.name)
+        ]
 
     def fingerprint(self) -> str:
         """A hex digest identifying this structure (used to match saved solver bases)."""
@@ -582,4 +588,6 @@ class RMPCStructure:
             digest.update(f"|D={self.il_event_max_steps}|R={self.il_event_recovery_steps}".encode())
         if self.visible_offers:
             digest.update(b"|visible-offers")
+        if self.comfort_knee:
+            digest.update(b"|comfort-knee")
         return digest.hexdigest()

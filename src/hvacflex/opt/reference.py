@@ -289,6 +289,17 @@ def _comfort(prob: RMPCProblem, v: dict[str, Any], delta: FloatArray) -> list[An
     return cons
 
 
+def _comfort_cost(prob: RMPCProblem, eps: Any) -> Any:
+    """ρ·Δt·Σε, plus (ρ₂ − ρ)·Δt·Σ max(ε − δ, 0) with a comfort knee [SGD] (CVXPY)."""
+    cp = _cvxpy()
+    cost = prob.comfort_penalty_sgd_per_kelvin_hour * prob.dt_h * cp.sum(eps)
+    knee = prob.comfort_knee
+    if knee is None:
+        return cost
+    extra = knee.penalty_beyond_sgd_per_kelvin_hour - prob.comfort_penalty_sgd_per_kelvin_hour
+    return cost + extra * prob.dt_h * cp.sum(cp.pos(eps - knee.knee_kelvin))
+
+
 def solve_reference(prob: RMPCProblem, *, solver: str = "HIGHS") -> ReferenceResult:
     """Build ``prob``'s open-loop LP (whole-horizon or event model, with or without visible
     offers) in CVXPY from its definition and solve it with ``solver`` (a CVXPY solver name).
@@ -319,7 +330,7 @@ def solve_reference(prob: RMPCProblem, *, solver: str = "HIGHS") -> ReferenceRes
         - dt * (prob.reserve_price_sgd_per_mwh @ paid) / KWH_PER_MWH
         + unseen
         + dt * RESERVE_TIE_BREAK_SGD_PER_KG_S_HOUR * cp.sum(r)
-        + prob.comfort_penalty_sgd_per_kelvin_hour * dt * cp.sum(v["eps"])
+        + _comfort_cost(prob, v["eps"])
         + v["beta"]
     )
     model = cp.Problem(cp.Minimize(objective), cons)
@@ -425,7 +436,7 @@ def _solve_feedback(prob: RMPCProblem, solver: str) -> ReferenceResult:
         dt * (prob.energy_price_sgd_per_mwh @ v["power"]) / KWH_PER_MWH
         - dt * (prob.reserve_price_sgd_per_mwh @ paid) / KWH_PER_MWH
         + dt * RESERVE_TIE_BREAK_SGD_PER_KG_S_HOUR * cp.sum(r)
-        + prob.comfort_penalty_sgd_per_kelvin_hour * dt * cp.sum(eps)
+        + _comfort_cost(prob, eps)
         + v["beta"]
     )
     model = cp.Problem(cp.Minimize(objective), cons)

@@ -23,6 +23,7 @@ __all__ = [
     "Plan",
     "RMPCSolution",
     "SolveStatus",
+    "comfort_penalty_sgd",
     "failed_solution",
     "plan_from_values",
     "plan_solution",
@@ -105,6 +106,15 @@ class RMPCSolution:
     def ok(self) -> bool:
         """True when the plan is optimal (and its arrays are finite)."""
         return self.status.ok
+
+
+def comfort_penalty_sgd(problem: RMPCProblem, slack_kelvin: FloatArray) -> float:
+    """The comfort penalty of a plan's slack ε (N, ny) [K] in ``problem`` [SGD]: ρ·Δt·Σε, plus
+    (ρ₂ − ρ)·Δt·Σ max(ε − δ, 0) with a :class:`~hvacflex.opt.blocks.ComfortKnee`."""
+    rho = problem.comfort_penalty_sgd_per_kelvin_hour
+    if problem.comfort_knee is None:
+        return float(rho * problem.dt_h * np.asarray(slack_kelvin).sum())
+    return problem.comfort_knee.penalty_sgd(slack_kelvin, problem.dt_h, rho)
 
 
 def _nan(shape: tuple[int, ...]) -> FloatArray:
@@ -263,7 +273,7 @@ def plan_solution(
     )
     energy = float(dt * problem.energy_price_sgd_per_mwh @ power / KWH_PER_MWH)
     revenue = float(dt * problem.reserve_price_sgd_per_mwh @ reserve / KWH_PER_MWH)
-    comfort = float(problem.comfort_penalty_sgd_per_kelvin_hour * dt * slack.sum())
+    comfort = comfort_penalty_sgd(problem, slack)
     return RMPCSolution(
         status=status,
         message=message,
