@@ -25,7 +25,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -54,19 +53,13 @@ class PlanReplay:
     def act(self, inputs: PeriodInputs) -> Action:
         k = self.k
         self.k += 1
-        nan = math.nan
-        return Action(
-            flow_kg_s=self.flow_kg_s[k],
-            reserve_flow_kg_s=np.zeros(self.flow_kg_s.shape[1]),
-            reserve_kw=0.0,
-            planned_power_kw=float(self.power_kw[k]),
+        return Action.unoptimised(
+            self.flow_kg_s[k],
+            np.zeros(self.flow_kg_s.shape[1]),
+            float(self.power_kw[k]),
+            self.temps_degc[k],
+            self.temps_degc[k],
             status="optimal",
-            fallback=False,
-            solve_time_s=0.0,
-            planned_slack_max_k=nan,
-            delta_max_k=nan,
-            predicted_served_degc=self.temps_degc[k],
-            predicted_curtailed_degc=self.temps_degc[k],
         )
 
     def get_state(self) -> dict[str, Any]:

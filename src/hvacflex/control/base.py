@@ -128,6 +128,37 @@ class Action:
     plan: Any = None
     step_model: StepModel | None = None
 
+    @classmethod
+    def unoptimised(
+        cls,
+        flow_kg_s: FloatArray,
+        reserve_flow_kg_s: FloatArray,
+        planned_power_kw: float,
+        predicted_served_degc: FloatArray,
+        predicted_curtailed_degc: FloatArray,
+        *,
+        status: str,
+        reserve_kw: float = 0.0,
+        fallback: bool = False,
+        offer_meter_ratio: float = math.nan,
+    ) -> Action:
+        """An action nobody optimised this period (a locked or replayed plan, or none): no
+        solve time, no plan's slack or margin (NaN)."""
+        return cls(
+            flow_kg_s=flow_kg_s,
+            reserve_flow_kg_s=reserve_flow_kg_s,
+            reserve_kw=reserve_kw,
+            planned_power_kw=planned_power_kw,
+            status=status,
+            fallback=fallback,
+            solve_time_s=0.0,
+            planned_slack_max_k=math.nan,
+            delta_max_k=math.nan,
+            predicted_served_degc=predicted_served_degc,
+            predicted_curtailed_degc=predicted_curtailed_degc,
+            offer_meter_ratio=offer_meter_ratio,
+        )
+
     def applied_flow_kg_s(self, *, curtailed: bool) -> FloatArray:
         """(m,) the flow the plant runs [kg/s]: u₀ − r₀ when the period is curtailed (IL
         activated), else u₀."""

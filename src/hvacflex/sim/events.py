@@ -125,19 +125,14 @@ class EventTracker:
         """The action of the current period taken from the locked plan (no optimisation)."""
         plan, j = self.locked, self.plan_step
         assert plan is not None and 0 <= j < plan.steps
-        nan = float("nan")
-        return Action(
-            flow_kg_s=plan.flow_kg_s[j],
-            reserve_flow_kg_s=plan.reserve_flow_kg_s[j],
-            reserve_kw=float(plan.reserve_kw[j]),
-            planned_power_kw=float(plan.served_power_kw[j]),
+        return Action.unoptimised(
+            plan.flow_kg_s[j],
+            plan.reserve_flow_kg_s[j],
+            float(plan.served_power_kw[j]),
+            plan.predicted_served_degc[j],
+            plan.predicted_curtailed_degc[j],
             status="event-plan",
-            fallback=False,
-            solve_time_s=0.0,
-            planned_slack_max_k=nan,
-            delta_max_k=nan,
-            predicted_served_degc=plan.predicted_served_degc[j],
-            predicted_curtailed_degc=plan.predicted_curtailed_degc[j],
+            reserve_kw=float(plan.reserve_kw[j]),
             offer_meter_ratio=plan.meter_ratio,
         )
 

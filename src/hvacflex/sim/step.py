@@ -140,19 +140,8 @@ def _classes(inputs: PeriodInputs) -> np.ndarray:
 def _unplanned(zones: int) -> Action:
     """The action of a period nobody planned (only its IL bookkeeping is advanced)."""
     nan = np.full(zones, math.nan)
-    return Action(
-        flow_kg_s=nan,
-        reserve_flow_kg_s=np.zeros(zones),
-        reserve_kw=0.0,
-        planned_power_kw=math.nan,
-        status="not-planned",
-        fallback=True,
-        solve_time_s=0.0,
-        planned_slack_max_k=math.nan,
-        delta_max_k=math.nan,
-        predicted_served_degc=nan,
-        predicted_curtailed_degc=nan,
-    )
+    zero = np.zeros(zones)
+    return Action.unoptimised(nan, zero, math.nan, nan, nan, status="not-planned", fallback=True)
 
 
 class ControlStep:
