@@ -360,9 +360,9 @@ class FleetSpec(_Spec):
         DEFAULT_COMFORT_PENALTY_SGD_PER_KELVIN_HOUR
     )
     """ρ: every building's price of a planned comfort violation [SGD per K·h], the scenario
-    file's ``[controller]`` key (default the product's 100). Under limit windows 10 … 100
-    changed the cold the buildings store, and their comfort, very little (measured in
-    docs/guide/fleet.md, "Measured figures")."""
+    file's ``[controller]`` key (default the product's 100). Under limit windows a low ρ
+    (1 … 10) with a comfort knee stores much less cold for a little more discomfort
+    (docs/guide/fleet.md, "Five weekdays")."""
     comfort_knee_k: Annotated[Finite, Field(ge=0.0)] | None = None
     """Every building's slack priced at ρ up to this excursion [K] and at
     ``comfort_penalty_beyond_knee_sgd_per_kelvin_hour`` beyond (the scenario file's
