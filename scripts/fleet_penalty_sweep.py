@@ -50,7 +50,10 @@ def main() -> None:
     cases = [("no window", base[0].comfort_penalty_sgd_per_kelvin_hour, np.full(horizon, np.inf))]
     cases += [("window", rho, window) for rho in args.penalties]
     for label, rho, limit in cases:
-        problems = [dataclasses.replace(p, comfort_penalty_sgd_per_kelvin_hour=rho) for p in base]
+        problems = [  # the linear penalty alone (fleet_convex_penalty.py sweeps the knee)
+            dataclasses.replace(p, comfort_penalty_sgd_per_kelvin_hour=rho, comfort_knee=None)
+            for p in base
+        ]
         tick = time.perf_counter()
         result = CentralisedSolver().solve(problems, limit)
         power = result.power_kw.sum(axis=0)

@@ -606,6 +606,11 @@ def test_a_comfort_knee_reaches_the_problem_and_changes_the_run_key(tmp_path: Pa
     assert problem.comfort_knee.penalty_beyond_sgd_per_kelvin_hour == 100.0
     (linear,) = recorded_problems(plain, 1)
     assert linear.comfort_knee is None
+    # ρ₂ acts only beyond a knee: without one it leaves the run key alone
+    beyond = with_overrides(
+        plain, {"controller.comfort_penalty_beyond_knee_sgd_per_kelvin_hour": 7}
+    )
+    assert beyond.config_hash() == plain.config_hash()
 
 
 @pytest.mark.parametrize(

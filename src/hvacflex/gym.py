@@ -46,6 +46,7 @@ scenario's ``controller.comfort_penalty_sgd_per_kelvin_hour`` and the deviation 
 zone's end temperature from the band [K]. So an episode's return is −(``energy_cost_sgd`` +
 ``ppp_charge_monthly_sgd`` + ρ ``discomfort_kelvin_hours``) of its KPIs (the whole months'
 peak charges: an episode shorter than a month is charged the month's peak as a bill would).
+The MPC's comfort knee (``controller.comfort_knee_k``) is not part of the reward: ρ alone.
 
 **Episode end**: ``terminated`` is True after the scenario's last period (the bill is
 complete; nothing is truncated). **info**: every step ``period``, ``power_kw``,

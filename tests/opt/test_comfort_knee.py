@@ -105,6 +105,20 @@ def test_the_knee_adds_its_columns_and_rows_and_changes_the_structure() -> None:
     assert layout.num_cols == more.num_cols
 
 
+def test_a_warm_solver_follows_a_knee_that_changes_between_steps() -> None:
+    """δ and ρ₂ enter only row bounds and costs: the warm solver of the receding office5 steps
+    agrees with a cold solve when they change from one step to the next."""
+    problems = _squeezed_office5()
+    knees = (_knee(0.1, 1000.0), _knee(0.3, 300.0))
+    steps = [dataclasses.replace(p, comfort_knee=k) for p, k in zip(problems, knees, strict=True)]
+    solver = RMPCSolver(steps[0])
+    for problem in steps:
+        warm = solver.solve(problem)
+        cold = solve_rmpc(problem)
+        assert warm.ok and cold.ok
+        assert _relative(warm.objective_sgd, cold.objective_sgd) < REL_TOL
+
+
 def test_the_knee_is_validated() -> None:
     with pytest.raises(ProblemError, match="≥ 0") as info:
         _knee(-0.5)
@@ -114,3 +128,4 @@ def test_the_knee_is_validated() -> None:
     with pytest.raises(ProblemError, match="convex") as info:
         random_problem(0, comfort_knee=_knee(0.5, 50.0))  # ρ = 100
     assert info.value.field == "comfort_knee.penalty_beyond_sgd_per_kelvin_hour"
+    assert _knee(np.float32(0.5), np.int64(200)).knee_kelvin == 0.5  # numpy scalars are numbers

@@ -435,13 +435,10 @@ class ScenarioConfig:
             ("uncertainty", "calibrate", None),
             ("plant", "curtailed_setpoint", "plan"),
             ("controller", "comfort_knee_k", None),
-            (
-                "controller",
-                "comfort_penalty_beyond_knee_sgd_per_kelvin_hour",
-                DEFAULT_COMFORT_PENALTY_BEYOND_KNEE_SGD_PER_KELVIN_HOUR,
-            ),
         ):
             if table in payload and payload[table][key] == empty:
                 payload[table].pop(key)
+        if self.controller.comfort_knee_k is None:  # ρ₂ acts only beyond a knee
+            payload["controller"].pop("comfort_penalty_beyond_knee_sgd_per_kelvin_hour")
         text = json.dumps(payload, sort_keys=True)
         return hashlib.sha256(text.encode()).hexdigest()[:12]

@@ -418,7 +418,7 @@ _HINTS = {
     "window_lookahead_h": "hours ≥ 0 before a window's start the plans see it, or inf",
     "comfort_penalty_sgd_per_kelvin_hour": "ρ [SGD per K·h] > 0, e.g. 100 (the product's)",
     "comfort_knee_k": "the excursion [K] ≥ 0 priced at ρ, e.g. 0.5; leave out for none",
-    "comfort_penalty_beyond_knee_sgd_per_kelvin_hour": "ρ₂ [SGD per K·h] ≥ ρ, e.g. 100",
+    "comfort_penalty_beyond_knee_sgd_per_kelvin_hour": "ρ₂ [SGD per K·h] ≥ ρ, e.g. 1000",
     "min_bid_mw": "the market's minimum bid, 0.1 MW for NEMS interruptible load",
     "buildings": "add [[buildings]] tables (hvacflex fleet generate writes them)",
     "building": "a complete building description, as in a building TOML file",

@@ -21,6 +21,8 @@ A new feature is one more block here, one more ``add_…`` family, one more entr
 
 from __future__ import annotations
 
+import math
+import numbers
 from dataclasses import dataclass
 
 import numpy as np
@@ -271,15 +273,11 @@ class ComfortKnee:
     def __post_init__(self) -> None:
         for name, hint in (
             ("knee_kelvin", "the excursion [K] priced at ρ, e.g. 0.5"),
-            ("penalty_beyond_sgd_per_kelvin_hour", "ρ₂ [SGD per K·h] ≥ ρ, e.g. 100"),
+            ("penalty_beyond_sgd_per_kelvin_hour", "ρ₂ [SGD per K·h] ≥ ρ, e.g. 1000"),
         ):
             value = getattr(self, name)
-            if (
-                not isinstance(value, int | float)
-                or isinstance(value, bool)
-                or not np.isfinite(value)
-                or value < 0
-            ):
+            number = float(value) if isinstance(value, numbers.Real) else math.nan
+            if isinstance(value, bool) or not math.isfinite(number) or number < 0:
                 raise ProblemError(
                     "must be a finite number ≥ 0",
                     source=_SOURCE,
@@ -287,6 +285,7 @@ class ComfortKnee:
                     value=value,
                     hint=hint,
                 )
+            object.__setattr__(self, name, number)
 
     def check(self, *, rho: float) -> None:
         """ρ₂ ≥ ρ (the problem's comfort penalty [SGD per K·h]): a cheaper price beyond the

@@ -1,7 +1,7 @@
 """The rows of the open-loop LP that HiGHS holds, in HiGHS's order, and how they change.
 
 An :class:`~hvacflex.opt.solve.RMPCSolver`'s LP has *core rows* (dynamics, comfort, flows,
-power, peak, visible offers) and, in the IL event model, *event rows* after them
+the comfort knee's, power, peak, visible offers) and, in the IL event model, *event rows* after them
 (:mod:`hvacflex.opt.events`). HiGHS holds every core row, first and in the LP's order, then
 the event rows: all of them (``event_rows="full"``) or those the lazy generation chose, in
 the order they were added. :class:`HeldRows` keeps the map HiGHS row → LP row and makes the

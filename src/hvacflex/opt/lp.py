@@ -13,9 +13,11 @@ Sparse LP (state-space form)
 States stay variables, so the constraint matrix is banded and ``x_0``, ``d̂``, ``g``, bounds
 and prices enter only right-hand sides, bounds and costs. Columns, in order:
 ``x_1..x_N`` (N·n), ``z_1..z_N`` (N·n, only if some input carries reserve), ``u`` (N·m),
-``r`` (N·m_r, reserve-carrying inputs only), ``ε`` (N·ny), ``P`` (N), ``β`` (1), then the
+``r`` (N·m_r, reserve-carrying inputs only), ``ε`` (N·ny), ``P`` (N), ``β`` (1), the slack
+beyond a comfort knee ``ε⁺`` (N·ny, only with one), the visible offers' R and σ, then the
 dual λ's. Rows: served and curtailed dynamics (N·n each, equalities), comfort upper/lower
-rows per trajectory (N·ny each), ``u − r ≥ u_min`` (N·m_r), power definition (N,
+rows per trajectory (N·ny each), ``u − r ≥ u_min`` (N·m_r), ``ε − ε⁺ ≤ δ`` (N·ny, only with
+a comfort knee), power definition (N,
 coefficients ``−p_k`` change every step), peak rows ``φ_k P_k − β ≤ 0`` (N), in the IL event
 model (``p.events`` set; no z columns or rows then) the event rows of
 :func:`add_il_event_comfort` (≈ N²·ny/2), and in the dual form one equality

@@ -23,9 +23,10 @@ FeedbackStructure = Literal["full", "memory", "zone-local", "time-invariant"]
 FEEDBACK_STRUCTURES: tuple[str, ...] = get_args(FeedbackStructure)
 
 DEFAULT_COMFORT_PENALTY_SGD_PER_KELVIN_HOUR = 100.0
-#: ρ₂, the price of a zone's slack beyond a comfort knee [SGD per K·h] (where none is given).
-DEFAULT_COMFORT_PENALTY_BEYOND_KNEE_SGD_PER_KELVIN_HOUR = 1000.0
 """Default comfort penalty ρ [SGD per K·h] (an exact penalty at the paper's scale)."""
+
+DEFAULT_COMFORT_PENALTY_BEYOND_KNEE_SGD_PER_KELVIN_HOUR = 1000.0
+"""Default ρ₂, the price of a zone's slack beyond a comfort knee [SGD per K·h]."""
 
 RESERVE_TIE_BREAK_SGD_PER_KG_S_HOUR = 1e-5
 """Cost per kg/s of reserve flow per hour that breaks the b = 0 tie towards r = 0
