@@ -299,13 +299,9 @@ class ComfortKnee:
                 hint="raise it to at least ρ, or lower the comfort penalty",
             )
 
-    def penalty_sgd(self, slack_kelvin: FloatArray, dt_h: float, rho: float) -> float:
-        """The comfort penalty of a plan's slack ``slack_kelvin`` (N, ny) [K] at ρ [SGD per
-        K·h] and Δt [h]: ρ·Δt·Σε + (ρ₂ − ρ)·Δt·Σ max(ε − δ, 0) [SGD]."""
-        slack = np.asarray(slack_kelvin, dtype=float)
-        beyond = np.maximum(slack - self.knee_kelvin, 0.0).sum()
-        extra = self.penalty_beyond_sgd_per_kelvin_hour - rho
-        return float(dt_h * (rho * slack.sum() + extra * beyond))
+    def surcharge_sgd_per_kelvin_hour(self, rho: float) -> float:
+        """ρ₂ − ρ: what a kelvin-hour of slack beyond the knee costs on top of ρ."""
+        return self.penalty_beyond_sgd_per_kelvin_hour - rho
 
 
 @dataclass(frozen=True, eq=False, kw_only=True)

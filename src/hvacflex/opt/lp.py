@@ -247,8 +247,8 @@ def add_comfort_knee(lp: LPBuilder, p: RMPCProblem, v: PlanColumns) -> IntArray:
     rows = lp.add_rows(shape, upper=knee.knee_kelvin, time_indexed=True)
     lp.add_coefficients(rows, v.eps, 1.0)
     lp.add_coefficients(rows, beyond, -1.0)
-    extra = knee.penalty_beyond_sgd_per_kelvin_hour - p.comfort_penalty_sgd_per_kelvin_hour
-    lp.set_cost(beyond, extra * p.dt_h)
+    surcharge = knee.surcharge_sgd_per_kelvin_hour(p.comfort_penalty_sgd_per_kelvin_hour)
+    lp.set_cost(beyond, surcharge * p.dt_h)
     return beyond
 
 

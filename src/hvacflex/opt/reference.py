@@ -296,8 +296,8 @@ def _comfort_cost(prob: RMPCProblem, eps: Any) -> Any:
     knee = prob.comfort_knee
     if knee is None:
         return cost
-    extra = knee.penalty_beyond_sgd_per_kelvin_hour - prob.comfort_penalty_sgd_per_kelvin_hour
-    return cost + extra * prob.dt_h * cp.sum(cp.pos(eps - knee.knee_kelvin))
+    surcharge = knee.surcharge_sgd_per_kelvin_hour(prob.comfort_penalty_sgd_per_kelvin_hour)
+    return cost + surcharge * prob.dt_h * cp.sum(cp.pos(eps - knee.knee_kelvin))
 
 
 def solve_reference(prob: RMPCProblem, *, solver: str = "HIGHS") -> ReferenceResult:

@@ -111,10 +111,13 @@ class RMPCSolution:
 def comfort_penalty_sgd(problem: RMPCProblem, slack_kelvin: FloatArray) -> float:
     """The comfort penalty of a plan's slack ε (N, ny) [K] in ``problem`` [SGD]: ρ·Δt·Σε, plus
     (ρ₂ − ρ)·Δt·Σ max(ε − δ, 0) with a :class:`~hvacflex.opt.blocks.ComfortKnee`."""
-    rho = problem.comfort_penalty_sgd_per_kelvin_hour
-    if problem.comfort_knee is None:
-        return float(rho * problem.dt_h * np.asarray(slack_kelvin).sum())
-    return problem.comfort_knee.penalty_sgd(slack_kelvin, problem.dt_h, rho)
+    rho, knee = problem.comfort_penalty_sgd_per_kelvin_hour, problem.comfort_knee
+    slack = np.asarray(slack_kelvin, dtype=float)
+    cost = rho * slack.sum()
+    if knee is not None:
+        beyond = np.maximum(slack - knee.knee_kelvin, 0.0).sum()
+        cost += knee.surcharge_sgd_per_kelvin_hour(rho) * beyond
+    return float(problem.dt_h * cost)
 
 
 def _nan(shape: tuple[int, ...]) -> FloatArray:
