@@ -109,6 +109,10 @@ def test_longest_jobs_start_first(tmp_path: Path) -> None:
     week = preset("rmpc", days=7.0)
     assert relative_cost(preset("rmpc-feedback", days=7.0)) > relative_cost(week)
     assert relative_cost(preset("rmpc", days=365.0)) > relative_cost(week)
+    assert relative_cost(preset("rmpc-ppp", days=7.0)) > relative_cost(week)  # the peak priced
+    assert relative_cost(preset("thermostat-25.5", days=7.0)) == relative_cost(
+        preset("thermostat", days=7.0)
+    )
     assert relative_cost(preset("thermostat", days=28.0)) < relative_cost(week)
     short = preset("thermostat", start="2014-03-03", days=0.25)
     jobs = [({"days": 0.25}, short), ({"days": 0.5}, replace(short, days=0.5))]
@@ -117,6 +121,7 @@ def test_longest_jobs_start_first(tmp_path: Path) -> None:
     assert done == [{"days": 0.5}, {"days": 0.25}]  # one worker: the longer one ran first
     assert [o.params for o in outcomes] == [{"days": 0.25}, {"days": 0.5}]  # order of jobs
     assert [o.summary["steps"] for o in outcomes if o.summary] == [12, 24]
+    assert all(o.cpu_s is not None and o.cpu_s > 0 for o in outcomes)  # each job's own CPU
 
 
 def test_quiet_dask_logs_here_and_for_the_workers() -> None:

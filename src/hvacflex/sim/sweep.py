@@ -29,6 +29,8 @@ from hvacflex.config import ScenarioConfig, with_overrides
 from hvacflex.errors import ConfigError, InputError, has_extra, require_extra
 
 JobCallback = Callable[["JobOutcome"], None]
+_JobResult = tuple[dict[str, float], bool, float]
+"""A finished job's KPIs, whether it was cached, and its CPU time [s]."""
 
 _FEEDBACK_COST = 4.0
 """Cost of an affine-feedback MPC day relative to an open-loop one (the 2014 year: 63
@@ -39,6 +41,10 @@ year: five rule-based years in 184 CPU-s against ≈ 15 CPU-min for one MPC year
 _ENERGYPLUS_COST = 2.0
 """Cost of a day on EnergyPlus office5 relative to the RC plant (the 2014 year: 26–36
 against 15–18 min wall for the same MPC)."""
+_PEAK_PRICE_COST = 1.3
+"""Cost of a day of an MPC that prices its peak (``peak_price_sgd_per_kw`` > 0) relative to
+one that does not (the 2014 year on the RC plant, 2026-12-07: ``rmpc-ppp`` 80 against
+``rmpc``'s 63 ms wall per period; 28 days from 2014-01-01: 65 against 43 ms CPU)."""
 
 
 def relative_cost(config: ScenarioConfig) -> float:
@@ -50,6 +56,8 @@ def relative_cost(config: ScenarioConfig) -> float:
         cost *= _RULE_BASED_COST
     elif config.controller.robust == "feedback":
         cost *= _FEEDBACK_COST
+    if config.controller.kind == "mpc" and config.controller.peak_price_sgd_per_kw > 0:
+        cost *= _PEAK_PRICE_COST
     if config.plant.kind == "energyplus":
         cost *= _ENERGYPLUS_COST
     return cost
@@ -67,6 +75,8 @@ class JobOutcome:
     error: str | None
     cached: bool = False
     """True when the job re-used finished results of the same inputs and code."""
+    cpu_s: float | None = None
+    """CPU time of the process that ran the job, over the job [s]; None for a failed job."""
 
     @property
     def ok(self) -> bool:
@@ -144,14 +154,14 @@ def run_dir(out_root: Path, config: ScenarioConfig) -> Path:
     return out_root / "runs" / f"{config.name}-{config.config_hash()}"
 
 
-def _run_job(
-    config: ScenarioConfig, out_dir: str, fresh: bool = False
-) -> tuple[dict[str, float], bool]:
-    """Worker side of a job (module-level so it pickles): its KPIs and whether it was cached."""
+def _run_job(config: ScenarioConfig, out_dir: str, fresh: bool = False) -> _JobResult:
+    """Worker side of a job (module-level so it pickles): its KPIs, whether it was cached
+    and the CPU time it took [s]."""
     from hvacflex.sim.run import run_simulation
 
+    tick = time.process_time()
     result = run_simulation(config, out_dir, progress=False, resume=not fresh)
-    return result.summary, result.cached
+    return result.summary, result.cached, time.process_time() - tick
 
 
 DASK_LOG_LEVEL = "error"
@@ -317,6 +327,7 @@ def run_sweep(
                 summary=None if result is None else result[0],
                 error=error,
                 cached=False if result is None else result[1],
+                cpu_s=None if result is None else result[2],
             )
             outcomes[i] = outcome
             failed += outcome.error is not None
@@ -337,7 +348,6 @@ def backend(scheduler: str | None, n_workers: int) -> str:
     return f"{n_workers} local processes"
 
 
-_JobResult = tuple[dict[str, float], bool]
 _Finished = Iterator[tuple[int, _JobResult | None, str | None]]
 """(the job's position, its (KPIs, cached) or None, its error line or None), as jobs finish."""
 
