@@ -8,8 +8,10 @@ Each repeat starts a fresh interpreter that runs ``hvacflex simulate --scenario 
 2014-03-03 --days 1`` into a temporary folder and stops at the first call of
 ``ClosedLoop.step``: what it spent until then (interpreter, imports, configuration, data
 loading, the controller and plant built) is the start-up. The first repeat fills the data cache
-(:mod:`hvacflex.data.cache`, in a temporary cache folder); the others find it, as every run
-after a user's first does. Prints the process CPU and wall time of each repeat and the median of
+(:mod:`hvacflex.data.cache`, in a temporary cache folder) and writes hvacflex's bytecode
+(``__pycache__``: the probe runs without ``PYTHONDONTWRITEBYTECODE``, which would compile every
+module of hvacflex again in each start, ≈ 0.5 CPU-s); the others find both, as every run after a
+user's first does. Prints the process CPU and wall time of each repeat and the median of
 the warm ones (goal: < 1.5 s on an idle core). ``--quick``: two repeats (the smoke run).
 """
 
@@ -44,6 +46,7 @@ app(sys.argv[1:])
 def one_start(days: float, out: Path, cache: Path) -> dict[str, float]:
     """CPU and wall [s] of one fresh process until its first period."""
     env = dict(os.environ, HVACFLEX_CACHE_DIR=str(cache))
+    env.pop("PYTHONDONTWRITEBYTECODE", None)  # a user's Python caches bytecode
     command = [sys.executable, "-c", PROBE, "simulate", "--scenario", "rmpc"]
     command += ["--start", "2014-03-03", "--days", f"{days:g}", "--out", str(out), "--fresh"]
     done = subprocess.run([*command, "-q"], capture_output=True, text=True, env=env, check=False)

@@ -43,8 +43,8 @@ _ENERGYPLUS_COST = 2.0
 against 15–18 min wall for the same MPC)."""
 _PEAK_PRICE_COST = 1.3
 """Cost of a day of an MPC that prices its peak (``peak_price_sgd_per_kw`` > 0) relative to
-one that does not (the 2014 year on the RC plant, 2026-12-07: ``rmpc-ppp`` 80 against
-``rmpc``'s 63 ms wall per period; 28 days from 2014-01-01: 65 against 43 ms CPU)."""
+one that does not (the 2014 year on the RC plant, 2026-12-07: ``rmpc-ppp`` 75.3 against
+``rmpc``'s 59.8 ms CPU per period)."""
 
 
 def relative_cost(config: ScenarioConfig) -> float:
