@@ -9,9 +9,10 @@ Each repeat starts a fresh interpreter that runs ``hvacflex simulate --scenario 
 ``ClosedLoop.step``: what it spent until then (interpreter, imports, configuration, data
 loading, the controller and plant built) is the start-up. The first repeat fills the data cache
 (:mod:`hvacflex.data.cache`, in a temporary cache folder) and writes hvacflex's bytecode
-(``__pycache__``: the probe runs without ``PYTHONDONTWRITEBYTECODE``, which would compile every
-module of hvacflex again in each start, ≈ 0.5 CPU-s); the others find both, as every run after a
-user's first does. Prints the process CPU and wall time of each repeat and the median of
+(``__pycache__`` beside the sources, also under a test run or CI that sets
+``PYTHONDONTWRITEBYTECODE``: the probe runs without it, which would compile every module of
+hvacflex again in each start, 0.2–0.5 CPU-s); the others find both, as every run after a user's
+first does. Prints the process CPU and wall time of each repeat and the median of
 the warm ones (goal: < 1.5 s on an idle core). ``--quick``: two repeats (the smoke run).
 """
 

@@ -4,7 +4,7 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from hvacflex.config import preset
+from hvacflex.config import preset, with_overrides
 from hvacflex.errors import ConfigError, MissingExtraError
 from hvacflex.sim.sweep import (
     DASHBOARD_ADDRESS,
@@ -110,9 +110,11 @@ def test_longest_jobs_start_first(tmp_path: Path) -> None:
     assert relative_cost(preset("rmpc-feedback", days=7.0)) > relative_cost(week)
     assert relative_cost(preset("rmpc", days=365.0)) > relative_cost(week)
     assert relative_cost(preset("rmpc-ppp", days=7.0)) > relative_cost(week)  # the peak priced
-    assert relative_cost(preset("thermostat-25.5", days=7.0)) == relative_cost(
-        preset("thermostat", days=7.0)
-    )
+    thermostat = preset("thermostat", days=7.0)  # no LP: a peak price costs it nothing more
+    priced = with_overrides(thermostat, {"controller.peak_price_sgd_per_kw": 1.5})
+    assert relative_cost(priced) == relative_cost(thermostat)
+    feedback = preset("rmpc-feedback", days=7.0)  # its peak-priced year was the cheaper one
+    assert relative_cost(preset("rmpc-feedback-ppp", days=7.0)) == relative_cost(feedback)
     assert relative_cost(preset("thermostat", days=28.0)) < relative_cost(week)
     short = preset("thermostat", start="2014-03-03", days=0.25)
     jobs = [({"days": 0.25}, short), ({"days": 0.5}, replace(short, days=0.5))]

@@ -42,9 +42,10 @@ _ENERGYPLUS_COST = 2.0
 """Cost of a day on EnergyPlus office5 relative to the RC plant (the 2014 year: 26–36
 against 15–18 min wall for the same MPC)."""
 _PEAK_PRICE_COST = 1.3
-"""Cost of a day of an MPC that prices its peak (``peak_price_sgd_per_kw`` > 0) relative to
-one that does not (the 2014 year on the RC plant, 2026-12-07: ``rmpc-ppp`` 75.3 against
-``rmpc``'s 59.8 ms CPU per period)."""
+"""Cost of a day of an open-loop MPC that prices its peak (``peak_price_sgd_per_kw`` > 0)
+relative to one that does not (the 2014 year on the RC plant, 2026-12-07: ``rmpc-ppp`` 75.3
+against ``rmpc``'s 59.8 ms CPU per period). Not applied to affine feedback, whose peak-priced
+year was the cheaper one (40 against 63 CPU-min, docs/explanation/reproduction.md)."""
 
 
 def relative_cost(config: ScenarioConfig) -> float:
@@ -55,8 +56,8 @@ def relative_cost(config: ScenarioConfig) -> float:
     if config.controller.kind != "mpc":
         cost *= _RULE_BASED_COST
     elif config.controller.robust == "feedback":
-        cost *= _FEEDBACK_COST
-    if config.controller.kind == "mpc" and config.controller.peak_price_sgd_per_kw > 0:
+        cost *= _FEEDBACK_COST  # measured with and without a peak price alike
+    elif config.controller.peak_price_sgd_per_kw > 0:
         cost *= _PEAK_PRICE_COST
     if config.plant.kind == "energyplus":
         cost *= _ENERGYPLUS_COST
@@ -76,7 +77,9 @@ class JobOutcome:
     cached: bool = False
     """True when the job re-used finished results of the same inputs and code."""
     cpu_s: float | None = None
-    """CPU time of the process that ran the job, over the job [s]; None for a failed job."""
+    """CPU time of the process that ran the job, over the job [s]; None for a failed job.
+    Every thread of that process counts: on a Dask scheduler whose workers run several
+    threads, jobs running beside it in the same worker are counted too."""
 
     @property
     def ok(self) -> bool:
@@ -349,7 +352,8 @@ def backend(scheduler: str | None, n_workers: int) -> str:
 
 
 _Finished = Iterator[tuple[int, _JobResult | None, str | None]]
-"""(the job's position, its (KPIs, cached) or None, its error line or None), as jobs finish."""
+"""(the job's position, its (KPIs, cached, CPU [s]) or None, its error line or None), as jobs
+finish."""
 
 
 def _error_line(exc: BaseException) -> str:
