@@ -31,6 +31,20 @@ def _private_data_cache(tmp_path_factory: pytest.TempPathFactory) -> Iterator[No
         os.environ[CACHE_DIR_ENV] = before
 
 
+@pytest.fixture(autouse=True)
+def _environment_restored() -> Iterator[None]:
+    """Each test's changes to ``os.environ`` undone after it: Dask's ``LocalCluster`` sets
+    ``OMP_NUM_THREADS``, ``PYTHONHASHSEED`` and others in the calling process, which the
+    subprocesses of later tests would inherit."""
+    import os
+
+    before = dict(os.environ)
+    yield
+    if os.environ != before:
+        os.environ.clear()
+        os.environ.update(before)
+
+
 @pytest.fixture(scope="session")
 def shared_data_dir() -> Path:
     return data_dir()

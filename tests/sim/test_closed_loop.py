@@ -197,6 +197,13 @@ def test_resume_from_checkpoint_gives_identical_results(tmp_path: Path) -> None:
     assert not (tmp_path / "split" / CHECKPOINT_FILE).exists()
 
 
+def _one_blas_thread() -> dict[str, str]:
+    """The killed run's environment: this one with one BLAS thread, as in a Dask worker,
+    while this process resumes it with as many as it has (the model must not round
+    differently)."""
+    return {**os.environ, "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
+
+
 def test_killed_run_resumes_from_its_last_checkpoint(tmp_path: Path) -> None:
     out = tmp_path / "killed"
     args = [
@@ -204,7 +211,9 @@ def test_killed_run_resumes_from_its_last_checkpoint(tmp_path: Path) -> None:
         "--start", START, "--days", "2", "--out", str(out), "--quiet",
         "--checkpoint-every", "10",
     ]  # fmt: skip
-    proc = subprocess.Popen(args, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    proc = subprocess.Popen(
+        args, env=_one_blas_thread(), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL
+    )
     deadline = time.monotonic() + 120
     while not (out / CHECKPOINT_FILE).exists() and time.monotonic() < deadline:
         time.sleep(0.1)
@@ -234,7 +243,9 @@ def _kill_and_resume(tmp_path: Path, rng: np.random.Generator, every: int) -> in
         "--start", START, "--days", "1", "--out", str(out), "--quiet",
         "--checkpoint-every", str(every),
     ]  # fmt: skip
-    proc = subprocess.Popen(args, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    proc = subprocess.Popen(
+        args, env=_one_blas_thread(), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL
+    )
     deadline = time.monotonic() + 120
     while not (out / CHECKPOINT_FILE).exists() and time.monotonic() < deadline:
         time.sleep(0.05)
