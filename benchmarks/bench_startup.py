@@ -31,6 +31,7 @@ from pathlib import Path
 PROBE = """
 import json, os, sys, time
 wall0 = time.perf_counter()
+from hvacflex.cli import app  # first, as the ``hvacflex`` script imports it
 from hvacflex.sim import closed_loop
 
 def first_period(self, *args, **kwargs):
@@ -39,7 +40,6 @@ def first_period(self, *args, **kwargs):
     os._exit(0)
 
 closed_loop.ClosedLoop.step = first_period
-from hvacflex.cli import app
 app(sys.argv[1:])
 """
 

@@ -59,7 +59,7 @@ LAYERS: list[set[str]] = [
     },
     {"fleet", "service"},
     {"api", "simulation", "gym"},
-    {"cli", "cli_config", "cli_help", "cli_model", "cli_serve"},
+    {"cli", "cli_config", "cli_help", "cli_model", "cli_serve", "cli_threads"},
     {"__main__"},
 ]
 """Bottom to top: a part may import its own layer's modules and the layers below it only."""

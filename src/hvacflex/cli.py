@@ -14,6 +14,9 @@ from typing import TYPE_CHECKING, Annotated, Any
 import typer
 import typer.core
 
+import hvacflex.cli_threads  # noqa: F401  (first: the BLAS thread count, before numpy loads)
+
+# isort: split
 from hvacflex.cli_config import config_app
 from hvacflex.cli_help import (
     DAYS_HELP,

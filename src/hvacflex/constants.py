@@ -83,3 +83,10 @@ PRESET_NAMES: tuple[str, ...] = (
 ``hvacflex.config.presets.PRESETS`` defines each under these names and no other, the
 command line's ``--help`` and the service's ``scenario.preset`` read them from here, without
 importing the configuration)."""
+
+MAX_FLEET_BUILDINGS = 1000
+"""Most buildings a generated fleet holds: a fleet simulation solves one RMPC per building and
+coordination iteration, so beyond this a run takes days."""
+
+VALID_TIMESTEPS_PER_HOUR = (2, 4, 6, 10, 12, 20, 30, 60)
+"""Zone time steps per hour that EnergyPlus accepts and that tile a 30-min period."""

@@ -180,8 +180,8 @@ def test_impossible_temperatures_are_refused(
 
 
 def test_generate_caps_the_number_of_buildings() -> None:
+    from hvacflex.constants import MAX_FLEET_BUILDINGS
     from hvacflex.errors import ConfigError
-    from hvacflex.fleet.generate import MAX_FLEET_BUILDINGS
 
     with pytest.raises(ConfigError, match=r"field 'buildings'.*1 … 1000"):
         generate_fleet(MAX_FLEET_BUILDINGS + 1, 1)

@@ -11,9 +11,10 @@ here. Per key:
   written as TOML;
 * **unit** from the key's name (``_degc`` → °C, ``_sgd_per_kw`` → SGD/kW, …,
   :data:`UNIT_SUFFIXES`), or :data:`UNIT_OF_KEY` where the name does not carry it;
-* **description**: the field's description (the attribute docstring in the schema, which
-  pydantic reads with ``use_attribute_docstrings``), else the attribute docstring of the
-  domain dataclass in :mod:`hvacflex.config.model`.
+* **description**: the field's ``description``, else its attribute docstring in the schema
+  (read from the source here, not by pydantic at every import: ``use_attribute_docstrings``
+  cost ≈ 40 ms of each start), else the attribute docstring of the domain dataclass in
+  :mod:`hvacflex.config.model`.
 
 ``hvacflex config reference --out docs/reference/scenario_reference.md`` writes the file;
 ``tests/config/test_reference.py`` fails when the committed file differs from
@@ -288,11 +289,11 @@ def _path_keys() -> set[str]:
 
 
 def _key_doc(
-    path: str, name: str, field: FieldInfo, domain_docs: dict[str, str], path_keys: set[str]
+    path: str, name: str, field: FieldInfo, docs: dict[str, str], path_keys: set[str]
 ) -> KeyDoc:
     info = describe_type(field.annotation, field.metadata)
     dotted = f"{path}.{name}" if path else name
-    description = plain_text(field.description or domain_docs.get(name, ""))
+    description = plain_text(field.description or docs.get(name, ""))
     if dotted in path_keys:
         description = f"{description} {PATH_NOTE}".strip()
     default = "required" if field.is_required() else _toml(_plain_default(field.default))
@@ -319,7 +320,10 @@ def table_docs(spec: type[BaseModel] = schema.ScenarioSpec, path: str = "") -> l
     keys in schema order. A nested table (a field whose type is a model) is listed as a table
     of its own, not as a key."""
     domain = schema.TABLES.get(spec)
-    domain_docs = dataclass_attribute_docs(domain) if domain is not None else {}
+    docs = dataclass_attribute_docs(domain) if domain is not None else {}
+    for cls in reversed(spec.__mro__):  # a subclass's docstring replaces its base's
+        if issubclass(cls, BaseModel) and cls is not BaseModel:
+            docs |= dataclass_attribute_docs(cls)
     path_keys = _path_keys()
     keys: list[KeyDoc] = []
     nested: list[TableDoc] = []
@@ -328,7 +332,7 @@ def table_docs(spec: type[BaseModel] = schema.ScenarioSpec, path: str = "") -> l
         if info.table is not None:
             nested += table_docs(info.table, f"{path}.{name}" if path else name)
         else:
-            keys.append(_key_doc(path, name, field, domain_docs, path_keys))
+            keys.append(_key_doc(path, name, field, docs, path_keys))
     own_doc = spec.__doc__ if spec.__doc__ != schema.Spec.__doc__ else None
     description = plain_text(inspect.cleandoc(own_doc or (domain.__doc__ if domain else "") or ""))
     return [TableDoc(path, description, tuple(keys)), *nested]

@@ -86,9 +86,13 @@ from hvacflex.config.model import (
     UncertaintyConfig,
     WeatherForecastMode,
 )
-from hvacflex.constants import MAX_HORIZON_STEPS, PERIOD_S, PERIODS_PER_DAY
+from hvacflex.constants import (
+    MAX_HORIZON_STEPS,
+    PERIOD_S,
+    PERIODS_PER_DAY,
+    VALID_TIMESTEPS_PER_HOUR,
+)
 from hvacflex.dates import START_EXAMPLE, StartDateError, normalise_start
-from hvacflex.energyplus.idf import VALID_TIMESTEPS_PER_HOUR
 from hvacflex.opt.options import FeedbackStructure, RobustMode
 
 Number = Annotated[float, Strict(), AllowInfNan(False)]
@@ -147,7 +151,7 @@ def default(cls: type, name: str) -> Any:
 class Spec(BaseModel):
     """Base of every table: frozen, unknown keys refused."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True, use_attribute_docstrings=True)
+    model_config = ConfigDict(extra="forbid", frozen=True)
 
 
 class FeedbackSpec(Spec):

@@ -136,10 +136,22 @@ class ComfortBand:
 
 @functools.lru_cache(maxsize=16)
 def _holiday_dates(country: str, years: tuple[int, ...]) -> frozenset[np.datetime64]:
-    import holidays
+    """The public holidays of ``country`` in ``years``, from the ``holidays`` package, kept in
+    the disk cache (:mod:`hvacflex.data.cache`, keyed by the package's version): importing
+    ``holidays`` and its country calendars takes ≈ 0.1 s of every start."""
+    from importlib import metadata
 
-    calendar = holidays.country_holidays(country, years=list(years))
-    return frozenset(np.datetime64(day, "D") for day in calendar)
+    from hvacflex.data.cache import cache_key, cached_frame
+
+    def build() -> tuple[pd.DataFrame, dict[str, object]]:
+        import holidays
+
+        calendar = holidays.country_holidays(country, years=list(years))
+        return pd.DataFrame(index=pd.DatetimeIndex(sorted(calendar), name="date")), {}
+
+    version = metadata.version("holidays")
+    frame, _ = cached_frame(cache_key("holidays", [], [country, years, version]), build)
+    return frozenset(frame.index.to_numpy().astype("datetime64[D]"))
 
 
 def _local_index(index: pd.DatetimeIndex) -> pd.DatetimeIndex:

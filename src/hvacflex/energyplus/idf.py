@@ -27,12 +27,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from hvacflex.constants import VALID_TIMESTEPS_PER_HOUR
 from hvacflex.energyplus.api import ENERGYPLUS_VERSION
 from hvacflex.errors import DataError, InputError
 from hvacflex.paths import resolve_idf
-
-VALID_TIMESTEPS_PER_HOUR = (2, 4, 6, 10, 12, 20, 30, 60)
-"""Zone time steps per hour that EnergyPlus accepts and that tile a 30-min period."""
 
 SINGAPORE_LOCATION = "Singapore Changi Intl AP (hvacflex)", 1.37, 103.98, 8.0, 15.0
 """Name, latitude [°N], longitude [°E], time zone [h from UTC], elevation [m]."""

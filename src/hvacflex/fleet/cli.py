@@ -8,9 +8,8 @@ from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
-from hvacflex.constants import DEFAULT_START, PERIODS_PER_DAY
+from hvacflex.constants import DEFAULT_START, MAX_FLEET_BUILDINGS, PERIODS_PER_DAY
 from hvacflex.dates import ISO_START_FORMS, START_EXAMPLE, StartDateError, normalise_start
-from hvacflex.fleet.generate import MAX_FLEET_BUILDINGS
 from hvacflex.sim.progress import task_progress
 
 if TYPE_CHECKING:

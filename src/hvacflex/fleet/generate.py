@@ -21,16 +21,12 @@ from hvacflex.building.hvac import hvac_power_kw
 from hvacflex.building.io import building_from_dict
 from hvacflex.building.model import Building
 from hvacflex.config.presets import PRODUCT_RESERVE
-from hvacflex.constants import HORIZON_STEPS
+from hvacflex.constants import HORIZON_STEPS, MAX_FLEET_BUILDINGS
 from hvacflex.errors import ConfigError
 from hvacflex.fleet.schema import fleet_from_dict
 from hvacflex.paths import resolve_building
 from hvacflex.tomlio import read_toml
 from hvacflex.version import atomic_write_text
-
-MAX_FLEET_BUILDINGS = 1000
-"""Most buildings a generated fleet holds: a fleet simulation solves one RMPC per building and
-coordination iteration, so beyond this a run takes days."""
 
 TEMPLATES = ("office5",)
 COMFORT_VARIANTS: tuple[tuple[float, float], ...] = ((23.0, 26.0), (22.5, 25.5), (23.5, 26.5))

@@ -18,11 +18,8 @@ from hvacflex.building.model import Building
 from hvacflex.building.plant import NonlinearPlant
 from hvacflex.config.model import PlantConfig
 from hvacflex.data.forecast import DEFAULT_WEATHER_FILE
-from hvacflex.energyplus.api import engine_dir
-from hvacflex.energyplus.idf import read_idf
 from hvacflex.errors import ConfigError
 from hvacflex.paths import data_dir, resolve_idf
-from hvacflex.sim.energyplus_plant import EnergyPlusPlant
 from hvacflex.sim.plant import Plant, RCPlant
 from hvacflex.sim.setup import Setup
 
@@ -96,6 +93,10 @@ def make_plant(
                 hint="use actuation = 'flow' or kind = 'energyplus'",
             )
         return RCPlant(building, nonlinear_plant)
+    from hvacflex.energyplus.api import engine_dir  # not imported by an RC run's start
+    from hvacflex.energyplus.idf import read_idf
+    from hvacflex.sim.energyplus_plant import EnergyPlusPlant
+
     engine_dir()  # a missing extra is the first thing to say
     epw = (
         Path(weather_file)
