@@ -28,6 +28,7 @@ CONTROL_PATH_PACKAGES = ("control", "opt", "sim")
 LAYERS: list[set[str]] = [
     {
         "errors",
+        "blas",
         "units",
         "constants",
         "dates",

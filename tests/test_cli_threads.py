@@ -1,5 +1,6 @@
-"""The command line computes on one BLAS thread unless the user set a count
-(hvacflex.cli_threads): OpenBLAS reads the variable when numpy and scipy load it."""
+"""The command line computes on one BLAS thread unless the user chose a count
+(hvacflex.cli_threads, hvacflex.blas): OpenBLAS reads the variables when numpy and scipy load
+it. Each probe is a fresh interpreter without any of the variables but those it is given."""
 
 from __future__ import annotations
 
@@ -10,7 +11,7 @@ import sys
 
 import pytest
 
-from hvacflex.cli_threads import BLAS_THREADS_ENV
+from hvacflex.blas import THREAD_COUNT_ENVS
 
 PROBE = """
 import json
@@ -19,28 +20,29 @@ from threadpoolctl import threadpool_info
 print(json.dumps([i["num_threads"] for i in threadpool_info() if i["internal_api"] == "openblas"]))
 """
 
+pytestmark = pytest.mark.skipif(
+    (os.cpu_count() or 1) < 2, reason="one core: OpenBLAS runs one thread whatever is set"
+)
+
 
 def _openblas_threads(**env: str) -> list[int]:
-    environment = {
-        k: v for k, v in os.environ.items() if k not in ("OMP_NUM_THREADS", BLAS_THREADS_ENV)
-    }
+    inherited = {k: v for k, v in os.environ.items() if k not in THREAD_COUNT_ENVS}
     done = subprocess.run(
         [sys.executable, "-c", PROBE],
-        env={**environment, **env},
+        env={**inherited, **env},
         capture_output=True,
         text=True,
         check=True,
     )
     counts: list[int] = json.loads(done.stdout)
+    assert counts, "no OpenBLAS loaded"
     return counts
 
 
 def test_the_command_line_loads_openblas_with_one_thread() -> None:
-    counts = _openblas_threads()
-    assert counts and counts == [1] * len(counts)
+    assert _openblas_threads() == [1, 1]  # numpy's and scipy's
 
 
-@pytest.mark.skipif((os.cpu_count() or 1) < 2, reason="OpenBLAS caps its threads at the cores")
-def test_a_thread_count_the_user_set_is_kept() -> None:
-    counts = _openblas_threads(**{BLAS_THREADS_ENV: "2"})
-    assert counts and counts == [2] * len(counts)
+@pytest.mark.parametrize("name", THREAD_COUNT_ENVS)
+def test_a_thread_count_the_user_set_is_kept(name: str) -> None:
+    assert _openblas_threads(**{name: "2"}) == [2, 2]

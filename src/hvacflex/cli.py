@@ -7,6 +7,9 @@ or field, the value and a fix, and is checked before any long work starts.
 
 from __future__ import annotations
 
+import hvacflex.cli_threads  # noqa: F401  (first: the BLAS thread count, before numpy loads)
+
+# isort: split
 import math
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
@@ -14,9 +17,6 @@ from typing import TYPE_CHECKING, Annotated, Any
 import typer
 import typer.core
 
-import hvacflex.cli_threads  # noqa: F401  (first: the BLAS thread count, before numpy loads)
-
-# isort: split
 from hvacflex.cli_config import config_app
 from hvacflex.cli_help import (
     DAYS_HELP,

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
 import pytest
 
@@ -269,3 +271,26 @@ def test_shifted_operating_points_clip_solver_round_off() -> None:
     flows = np.array([[0.5, 0.5], [-1e-12, 0.3]])
     flow_ref, _ = shifted_operating_points(flows, np.full((3, 2), 25.0), np.full(2, 25.0), 1)
     assert np.all(flow_ref >= 0.0) and flow_ref[0, 1] == 0.3
+
+
+@pytest.mark.skipif((os.cpu_count() or 1) < 2, reason="one core: OpenBLAS runs one thread")
+def test_the_model_and_steady_gain_do_not_depend_on_blas_threads() -> None:
+    """office15's model (its matrix exponential) and its filter's steady gain (a Riccati
+    equation of 74 states) are the same bits whether the process runs BLAS on one thread or
+    two: both rounded differently before they ran on one (hvacflex.blas)."""
+    from threadpoolctl import threadpool_limits
+
+    office15 = load_building(resolve_building("office15"))
+    cfg = est.KalmanConfig()
+
+    def computed() -> tuple[np.ndarray, ...]:
+        lm = linearize(office15, 1800.0, 25.0)
+        gain = est.steady_state_gain(lm, _sigma(lm, _typical_d(lm)), cfg)
+        return lm.a, lm.b, lm.e, gain
+
+    with threadpool_limits(limits=1, user_api="blas"):
+        one = computed()
+    with threadpool_limits(limits=2, user_api="blas"):
+        two = computed()
+    for a, b in zip(one, two, strict=True):
+        assert np.array_equal(a, b)

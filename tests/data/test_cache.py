@@ -148,29 +148,3 @@ def test_old_tables_of_a_kind_are_pruned(tmp_path: Path, monkeypatch: pytest.Mon
     kept = sorted(p.stem for p in tmp_path.glob("kind-*.npz"))
     assert kept == sorted(keys[2:])
     assert (tmp_path / f"{other}.npz").is_file()  # another kind is left alone
-
-
-def test_holidays_are_read_back_without_the_holidays_package(
-    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
-) -> None:
-    """The public holidays of a run's start-up come from the cache once stored: the same
-    dates as the ``holidays`` package's, and ``holidays`` is not asked again."""
-    import holidays
-
-    from hvacflex.data import gains
-
-    monkeypatch.setenv(CACHE_DIR_ENV, str(tmp_path))
-    gains._holiday_dates.cache_clear()
-    stored = gains._holiday_dates("SG", (2014, 2015))
-    expected = {
-        np.datetime64(day, "D") for day in holidays.country_holidays("SG", years=[2014, 2015])
-    }
-    assert stored == expected and np.datetime64("2014-08-09") in stored  # National Day
-
-    def asked(*args: Any, **kwargs: Any) -> Any:
-        raise AssertionError("the holidays package was asked again")
-
-    monkeypatch.setattr(holidays, "country_holidays", asked)
-    gains._holiday_dates.cache_clear()
-    assert gains._holiday_dates("SG", (2014, 2015)) == stored
-    gains._holiday_dates.cache_clear()

@@ -2,10 +2,15 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+from typing import Any
+
 import numpy as np
 import pandas as pd
 import pytest
 
+from hvacflex.data import gains
+from hvacflex.data.cache import CACHE_DIR_ENV
 from hvacflex.data.gains import (
     DEFAULT_OFFICE_SCHEDULE,
     ComfortBand,
@@ -83,3 +88,27 @@ def test_schedule_validation() -> None:
     with pytest.raises(ConfigError, match="occupancy_m2_per_person"):
         zone_internal_gains_w(_day("2014-01-02"), 100.0, 0.0, 75.0, 10.0, 12.0)
     assert np.isclose(sum(DEFAULT_OFFICE_SCHEDULE.people_workday), 9.2)
+
+
+def test_holidays_are_read_back_without_the_holidays_package(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The public holidays of a run's start-up come from the cache once stored: the same
+    dates as the ``holidays`` package's, and ``holidays`` is not asked again."""
+    import holidays
+
+    monkeypatch.setenv(CACHE_DIR_ENV, str(tmp_path))
+    gains._holiday_dates.cache_clear()
+    stored = gains._holiday_dates("SG", (2014, 2015))
+    expected = {
+        np.datetime64(day, "D") for day in holidays.country_holidays("SG", years=[2014, 2015])
+    }
+    assert stored == expected and np.datetime64("2014-08-09") in stored  # National Day
+
+    def asked(*args: Any, **kwargs: Any) -> Any:
+        raise AssertionError("the holidays package was asked again")
+
+    monkeypatch.setattr(holidays, "country_holidays", asked)
+    gains._holiday_dates.cache_clear()
+    assert gains._holiday_dates("SG", (2014, 2015)) == stored
+    gains._holiday_dates.cache_clear()

@@ -18,15 +18,14 @@ the augmented matrix [[A_c, B_c, E_c, g_c], [0, 0, 0, 0]]·Δt (inputs held over
 
 from __future__ import annotations
 
-import functools
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
-from threadpoolctl import ThreadpoolController
 
+from hvacflex.blas import one_blas_thread
 from hvacflex.building.channels import DisturbanceChannel
 from hvacflex.building.identified import sensible_cooling_kw
 from hvacflex.building.model import Building
@@ -123,20 +122,12 @@ def delivered_flow_kg_s(
     return out
 
 
-@functools.cache
-def _blas() -> ThreadpoolController:
-    """The BLAS/LAPACK libraries numpy and scipy loaded (found once: ≈ 1 ms)."""
-    return ThreadpoolController()
-
-
 def zoh(a_cont: ArrayLike, inputs_cont: ArrayLike, dt_s: float) -> tuple[FloatArray, FloatArray]:
     """Zero-order-hold discretisation through one matrix exponential.
 
-    The exponential runs on one BLAS thread: OpenBLAS's threaded LU (in scipy's Padé
-    solve) rounds differently with 1 and 2 threads (``OMP_NUM_THREADS``, which Dask's
-    workers set to 1), and a model differing in its last bits gives an LP whose optimal
-    basis differs, so a run resumed under another thread count would not end bit for bit
-    as it began. A 30×30 exponential gains nothing from threads.
+    The exponential runs on one BLAS thread (:func:`hvacflex.blas.one_blas_thread`): its
+    Padé solve rounds differently with one and two, and the model must not depend on the
+    machine's threads.
 
     Parameters
     ----------
@@ -154,7 +145,7 @@ def zoh(a_cont: ArrayLike, inputs_cont: ArrayLike, dt_s: float) -> tuple[FloatAr
     augmented = np.zeros((n + p, n + p))
     augmented[:n, :n] = a_c
     augmented[:n, n:] = b_c
-    with _blas().limit(limits=1, user_api="blas"):
+    with one_blas_thread():
         phi = scipy.linalg.expm(augmented * dt_s)
     return phi[:n, :n].copy(), phi[:n, n:].copy()
 

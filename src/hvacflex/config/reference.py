@@ -261,9 +261,9 @@ def _lower_first(text: str) -> str:
     return text
 
 
-def dataclass_attribute_docs(cls: type) -> dict[str, str]:
-    """The attribute docstrings of a class (a string right after ``name: type = …``), read
-    from its source; ``{}`` when the source cannot be read."""
+def attribute_docs(cls: type) -> dict[str, str]:
+    """The attribute docstrings of a class, a dataclass or a pydantic model (a string right
+    after ``name: type = …``), read from its source; ``{}`` when the source cannot be read."""
     try:
         tree = ast.parse(inspect.getsource(cls))
     except (OSError, TypeError):
@@ -320,10 +320,10 @@ def table_docs(spec: type[BaseModel] = schema.ScenarioSpec, path: str = "") -> l
     keys in schema order. A nested table (a field whose type is a model) is listed as a table
     of its own, not as a key."""
     domain = schema.TABLES.get(spec)
-    docs = dataclass_attribute_docs(domain) if domain is not None else {}
+    docs = attribute_docs(domain) if domain is not None else {}
     for cls in reversed(spec.__mro__):  # a subclass's docstring replaces its base's
         if issubclass(cls, BaseModel) and cls is not BaseModel:
-            docs |= dataclass_attribute_docs(cls)
+            docs |= attribute_docs(cls)
     path_keys = _path_keys()
     keys: list[KeyDoc] = []
     nested: list[TableDoc] = []

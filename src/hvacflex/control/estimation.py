@@ -47,6 +47,7 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
+from hvacflex.blas import one_blas_thread
 from hvacflex.errors import ConfigError
 
 FloatArray = NDArray[np.float64]
@@ -266,11 +267,14 @@ def kalman_step(
 
 def steady_state_gain(model: StepModel, d_sigma: ArrayLike, config: KalmanConfig) -> FloatArray:
     """The gain L∞ (n+m, m) the filter converges to on a time-invariant model with a
-    constant σ (nd,): from the discrete algebraic Riccati equation of (F, H, Q, R)."""
+    constant σ (nd,): from the discrete algebraic Riccati equation of (F, H, Q, R), solved on
+    one BLAS thread (:func:`hvacflex.blas.one_blas_thread`: on office15 it rounds differently
+    with two)."""
     f, h = augmented_matrices(model)
     q = process_covariance(model, d_sigma, config)
     r = np.eye(h.shape[0]) * config.measurement_variance_k2
-    p_prior = scipy.linalg.solve_discrete_are(f.T, h.T, q, r)
+    with one_blas_thread():
+        p_prior = scipy.linalg.solve_discrete_are(f.T, h.T, q, r)
     return kalman_gain(p_prior, h, config)
 
 

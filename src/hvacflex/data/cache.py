@@ -51,7 +51,7 @@ _FORMAT = 1
 """Version of the file layout below; part of every key."""
 
 MAX_ENTRIES_PER_KIND = 32
-"""Tables kept per kind (weather year, price table, façade irradiance): the oldest written
+"""Tables kept per kind (weather year, price table, façade irradiance, holidays): the oldest written
 beyond these are removed when a new one is stored."""
 
 
