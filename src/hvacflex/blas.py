@@ -45,7 +45,8 @@ def prefer_one_thread() -> None:
 @functools.cache
 def _controller() -> Any:
     """The BLAS/LAPACK libraries loaded now (found once, ≈ 1 ms): the callers of
-    :func:`one_blas_thread` import ``scipy.linalg``, so numpy's and scipy's are both loaded."""
+    :func:`one_blas_thread` import ``scipy.linalg``, so numpy's and scipy's are both loaded; one
+    loaded later (cvxpy's solvers bring their own) is not limited, and needs not be."""
     from threadpoolctl import ThreadpoolController
 
     return ThreadpoolController()
