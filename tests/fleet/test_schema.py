@@ -97,6 +97,51 @@ def test_the_comfort_knee_reaches_every_building_and_is_validated(tmp_path: Path
         load_fleet(write_fleet(doc, tmp_path / "f.toml"))
 
 
+def test_the_linearisation_margin_sets_every_buildings_t0_and_is_validated(
+    tmp_path: Path,
+) -> None:
+    """``linearisation_margin_k``: T₀ = each building's occupied upper bound − the margin
+    (the default 1 K gives the scenario's own T₀); the model and the power rows follow it;
+    a margin wider than a building's band is refused, naming the building."""
+    doc = generate_fleet(2, 1)
+    doc["buildings"][0]["comfort_occupied_degc"] = [23.0, 26.0]
+    doc["buildings"][1]["comfort_occupied_degc"] = [22.5, 25.5]
+    fleet = load_fleet(write_fleet(doc, tmp_path / "f.toml"))
+    assert fleet.spec.linearisation_margin_k == 1.0
+    settings = FleetSettings.of(fleet, "2014-03-03", 1 / 24)
+    default = [building_setup(e, i, settings) for i, e in enumerate(fleet.buildings)]
+    assert [s.linearisation_temp_degc for s in default] == [25.0, 24.5]
+    doc["linearisation_margin_k"] = 2.0
+    fleet = load_fleet(write_fleet(doc, tmp_path / "f.toml"))
+    settings = FleetSettings.of(fleet, "2014-03-03", 1 / 24)
+    lowered = [building_setup(e, i, settings) for i, e in enumerate(fleet.buildings)]
+    assert [s.linearisation_temp_degc for s in lowered] == [24.0, 23.5]
+    # a zone linearised 1 K cooler: its supply air cools it less per kg/s (B closer to 0)
+    assert np.all(np.abs(lowered[0].model.b) <= np.abs(default[0].model.b) + 1e-12)
+    assert not np.allclose(lowered[0].model.b, default[0].model.b)
+    # the LP's power rows: the coil's heat per kg/s, and so its power, taken 1 K cooler
+    cool = BuildingAgent(fleet.buildings[0], 0, settings)
+    warm = BuildingAgent(
+        fleet.buildings[0],
+        0,
+        FleetSettings.of(
+            load_fleet(write_fleet({**doc, "linearisation_margin_k": 1.0}, tmp_path / "g.toml")),
+            "2014-03-03",
+            1 / 24,
+        ),
+    )
+    for agent in (cool, warm):
+        agent.begin_step()
+    p_cool, p_warm = cool.problem.power_coeff_kw_per_kg_s, warm.problem.power_coeff_kw_per_kg_s
+    assert np.all(p_cool < p_warm)
+    doc["linearisation_margin_k"] = 3.5  # both bands are 3 K wide
+    with pytest.raises(FleetConfigError, match=r"f\.toml.*linearisation_margin_k.*'b0000'"):
+        load_fleet(write_fleet(doc, tmp_path / "f.toml"))
+    doc["linearisation_margin_k"] = -1.0
+    with pytest.raises(FleetConfigError, match=r"f\.toml.*linearisation_margin_k"):
+        load_fleet(write_fleet(doc, tmp_path / "f.toml"))
+
+
 def test_example_fleet_ships() -> None:
     fleet = load_fleet(resources_dir() / "fleets" / "example.toml")
     assert len(fleet.buildings) == 3 and fleet.spec.min_bid_mw == 0.1

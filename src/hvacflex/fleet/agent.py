@@ -36,6 +36,7 @@ import pandas as pd
 from hvacflex.config import (
     DEFAULT_COMFORT_PENALTY_BEYOND_KNEE_SGD_PER_KELVIN_HOUR,
     DEFAULT_COMFORT_PENALTY_SGD_PER_KELVIN_HOUR,
+    LINEARISATION_MARGIN_K,
     ComfortConfig,
     ControllerConfig,
     DataConfig,
@@ -298,6 +299,9 @@ class FleetSettings:
     comfort_penalty_beyond_knee_sgd_per_kelvin_hour: float = (
         DEFAULT_COMFORT_PENALTY_BEYOND_KNEE_SGD_PER_KELVIN_HOUR
     )
+    linearisation_margin_k: float = LINEARISATION_MARGIN_K
+    """T₀ of every building's model is its occupied upper comfort bound less this [K] (the
+    fleet file's key)."""
     il_events: ReserveConfig = field(default_factory=ReserveConfig)
     """The IL contract (event model D, α, R) every building plans for."""
     data: DataConfig = field(default_factory=DataConfig)
@@ -321,6 +325,7 @@ class FleetSettings:
             comfort_penalty_beyond_knee_sgd_per_kelvin_hour=(
                 s.comfort_penalty_beyond_knee_sgd_per_kelvin_hour
             ),
+            linearisation_margin_k=s.linearisation_margin_k,
             il_events=s.reserve.config(),
             data=fleet.data,
         )
@@ -354,6 +359,7 @@ def building_setup(entry: FleetBuilding, index: int, settings: FleetSettings) ->
         peak_price_sgd_per_kw=settings.peak_price_sgd_per_kw,
         billing_mode=settings.billing_mode,  # type: ignore[arg-type]
         horizon_steps=settings.horizon_steps,
+        linearisation_temp_degc=entry.comfort_occupied_degc[1] - settings.linearisation_margin_k,
         comfort_penalty_sgd_per_kelvin_hour=settings.comfort_penalty_sgd_per_kelvin_hour,
         comfort_knee_k=settings.comfort_knee_k,
         comfort_penalty_beyond_knee_sgd_per_kelvin_hour=(

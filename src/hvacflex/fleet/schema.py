@@ -14,6 +14,7 @@ building file is (:func:`hvacflex.building.io.building_from_dict`)::
     horizon_steps = 48
     comfort_penalty_sgd_per_kelvin_hour = 100.0  # ρ of every building's MPC
     window_lookahead_h = inf        # plan for a window from this long before it [h]
+    linearisation_margin_k = 1.0    # T₀ = each building's occupied upper bound − this [K]
     envelope = true                 # the flexibility envelope, envelope.csv (false: skipped)
 
     [[feeder_limits]]               # limit windows on top of it (the tighter holds)
@@ -78,6 +79,7 @@ from hvacflex.building.model import Building
 from hvacflex.config import (
     DEFAULT_COMFORT_PENALTY_BEYOND_KNEE_SGD_PER_KELVIN_HOUR,
     DEFAULT_COMFORT_PENALTY_SGD_PER_KELVIN_HOUR,
+    LINEARISATION_MARGIN_K,
     ActivationConfig,
     DataConfig,
     ReserveConfig,
@@ -363,6 +365,13 @@ class FleetSpec(_Spec):
     file's ``[controller]`` key (default the product's 100). Under limit windows a low ρ
     (1 … 10) with a comfort knee stores much less cold for a little more discomfort
     (docs/guide/fleet.md, "Five weekdays")."""
+    linearisation_margin_k: Annotated[Finite, Field(ge=0.0)] = LINEARISATION_MARGIN_K
+    """Every building's model is linearised at T₀ = its occupied upper comfort bound less this
+    [K] (the scenario's default T₀, 1 K). Under limit windows the buildings pre-cool and run
+    their zones near the lower bound at high flows, where a T₀ near the upper bound
+    over-states both the coil's cooling per kg/s and its power: 2 (the lower bound + 1 K for
+    a 3-K band) plans those hours more truly (docs/guide/fleet.md, "Five weekdays"). At most
+    the band's width (T₀ inside the occupied band)."""
     comfort_knee_k: Annotated[Finite, Field(ge=0.0)] | None = None
     """Every building's slack priced at ρ up to this excursion [K] and at
     ``comfort_penalty_beyond_knee_sgd_per_kelvin_hour`` beyond (the scenario file's
@@ -399,6 +408,14 @@ class FleetSpec(_Spec):
                 "comfort_penalty_beyond_knee_sgd_per_kelvin_hour must be at least "
                 f"comfort_penalty_sgd_per_kelvin_hour ({rho:g})"
             )
+        for entry in self.buildings:
+            lower, upper = entry.comfort_occupied_degc
+            if self.linearisation_margin_k > upper - lower:
+                raise ValueError(
+                    f"linearisation_margin_k ({self.linearisation_margin_k:g} K) puts T₀ below "
+                    f"the occupied band {lower:g}–{upper:g} °C of building {entry.name!r}: "
+                    f"at most {upper - lower:g} K"
+                )
         names = [b.name for b in self.buildings]
         if len(set(names)) != len(names):
             dup = next(n for n in names if names.count(n) > 1)
@@ -417,6 +434,8 @@ _HINTS = {
     "end": 'a local time "HH:MM" ("24:00" for midnight) or an ISO date-time',
     "window_lookahead_h": "hours ≥ 0 before a window's start the plans see it, or inf",
     "comfort_penalty_sgd_per_kelvin_hour": "ρ [SGD per K·h] > 0, e.g. 100 (the product's)",
+    "linearisation_margin_k": "kelvin ≥ 0 below each occupied upper bound, e.g. 1 (the "
+    "default) or 2 under limit windows",
     "comfort_knee_k": "the excursion [K] ≥ 0 priced at ρ, e.g. 0.5; leave out for none",
     "comfort_penalty_beyond_knee_sgd_per_kelvin_hour": "ρ₂ [SGD per K·h] ≥ ρ, e.g. 1000",
     "min_bid_mw": "the market's minimum bid, 0.1 MW for NEMS interruptible load",
