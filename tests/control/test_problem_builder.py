@@ -283,3 +283,62 @@ def test_the_meter_s_offsets_level_the_power_rows_period_by_period(setup: Setup)
     np.testing.assert_allclose(shift[occupied], -6.0)
     np.testing.assert_allclose(shift[~occupied], 2.5)
     np.testing.assert_array_equal(levelled.power_coeff_kw_per_kg_s, plain.power_coeff_kw_per_kg_s)
+
+
+def test_trajectory_power_rows_take_the_coil_at_the_previous_plans_zone_temperatures() -> None:
+    """``power_linearisation = "trajectory"`` (design curves): without a plan the rows are
+    T₀'s; with one, each step's row is the design curves at the plan's zone temperatures
+    over that step, one step on (by hand: the mean of its start and end, the first from the
+    state now), and a cooler plan gives a smaller coil power per kg/s than T₀ = 25 °C."""
+    from hvacflex.building.hvac import affine_power_model
+
+    def contract_of(power_linearisation: str) -> tuple[Setup, MPCController]:
+        setup = prepare(
+            preset(
+                "rmpc",
+                start="2014-03-03",
+                days=1.0,
+                power_model="design",
+                power_linearisation=power_linearisation,
+            )
+        )
+        controller = make_controller(setup)
+        assert isinstance(controller, MPCController)
+        return setup, controller
+
+    design, fixed = contract_of("fixed")
+    _, moving = contract_of("trajectory")
+    inputs = _inputs(design)
+    cold = PlanContext(inputs.x_degc)
+    plain = build_problem(design.model, inputs, fixed.contract, cold)
+    first = build_problem(design.model, inputs, moving.contract, cold)
+    np.testing.assert_array_equal(first.power_coeff_kw_per_kg_s, plain.power_coeff_kw_per_kg_s)
+    plan = solve_rmpc(plain)
+    assert plan.ok
+    x_now = np.full_like(inputs.x_degc, 23.5)
+    context = PlanContext(x_now, previous_plan=plan)
+    problem = build_problem(design.model, inputs, moving.contract, context)
+    c = design.model.c
+    served = plan.x_served @ c.T
+    horizon = served.shape[0] - 1
+    by_hand = np.empty((horizon, c.shape[0]))
+    by_hand[0] = 0.5 * (c @ x_now + served[2])
+    for k in range(1, horizon):
+        by_hand[k] = 0.5 * (served[k + 1] + served[min(k + 2, horizon)])
+    forecast = inputs.forecast
+    outdoor = forecast.disturbances[:horizon, moving.contract.outdoor_index]
+    damper = design.building.hvac.outdoor_air_open_at(forecast.occupied, design.model.dt_s)
+    p0, p = affine_power_model(
+        design.building.hvac,
+        outdoor,
+        forecast.outdoor_humidity_ratio_kg_per_kg[:horizon],
+        by_hand,
+        latent_gain_w=forecast.occupant_latent_w[:horizon],
+        flow_min_kg_s=problem.u_min,
+        damper_open=damper[:horizon],
+    )
+    np.testing.assert_allclose(problem.power_coeff_kw_per_kg_s, p, rtol=1e-12)
+    np.testing.assert_allclose(problem.power_offset_kw, p0, rtol=1e-12)
+    cooler = by_hand < moving.contract.linearisation_temp_degc - 0.5
+    assert cooler.any()
+    assert np.all(problem.power_coeff_kw_per_kg_s[cooler] < plain.power_coeff_kw_per_kg_s[cooler])
