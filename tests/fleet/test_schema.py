@@ -74,6 +74,13 @@ def test_the_comfort_penalty_reaches_every_building_and_is_validated(tmp_path: P
             load_fleet(write_fleet(doc, tmp_path / "f.toml"))
 
 
+def _refused(doc: dict[str, object], tmp_path: Path, key: str, value: object, match: str) -> None:
+    """The fleet file with ``key = value`` is refused with a message matching ``match``."""
+    doc[key] = value
+    with pytest.raises(FleetConfigError, match=match):
+        load_fleet(write_fleet(doc, tmp_path / "f.toml"))
+
+
 def test_the_comfort_knee_reaches_every_building_and_is_validated(tmp_path: Path) -> None:
     doc = generate_fleet(2, 1)
     assert load_fleet(write_fleet(doc, tmp_path / "f.toml")).spec.comfort_knee_k is None
@@ -89,12 +96,11 @@ def test_the_comfort_knee_reaches_every_building_and_is_validated(tmp_path: Path
     knee = agent.problem.comfort_knee
     assert knee is not None
     assert (knee.knee_kelvin, knee.penalty_beyond_sgd_per_kelvin_hour) == (1.0, 100.0)
-    doc["comfort_penalty_beyond_knee_sgd_per_kelvin_hour"] = 2.0  # below ρ: not convex
-    with pytest.raises(FleetConfigError, match=r"f\.toml.*at least"):
-        load_fleet(write_fleet(doc, tmp_path / "f.toml"))
-    doc["comfort_knee_k"] = -1.0
-    with pytest.raises(FleetConfigError, match=r"f\.toml.*comfort_knee_k"):
-        load_fleet(write_fleet(doc, tmp_path / "f.toml"))
+    # ρ₂ below ρ: not convex
+    _refused(
+        doc, tmp_path, "comfort_penalty_beyond_knee_sgd_per_kelvin_hour", 2.0, r"f\.toml.*at least"
+    )
+    _refused(doc, tmp_path, "comfort_knee_k", -1.0, r"f\.toml.*comfort_knee_k")
 
 
 def test_the_linearisation_margin_sets_every_buildings_t0_and_is_validated(
@@ -134,12 +140,9 @@ def test_the_linearisation_margin_sets_every_buildings_t0_and_is_validated(
         agent.begin_step()
     p_cool, p_warm = cool.problem.power_coeff_kw_per_kg_s, warm.problem.power_coeff_kw_per_kg_s
     assert np.all(p_cool < p_warm)
-    doc["linearisation_margin_k"] = 3.5  # both bands are 3 K wide
-    with pytest.raises(FleetConfigError, match=r"f\.toml.*linearisation_margin_k.*'b0000'"):
-        load_fleet(write_fleet(doc, tmp_path / "f.toml"))
-    doc["linearisation_margin_k"] = -1.0
-    with pytest.raises(FleetConfigError, match=r"f\.toml.*linearisation_margin_k"):
-        load_fleet(write_fleet(doc, tmp_path / "f.toml"))
+    margin = r"f\.toml.*linearisation_margin_k"
+    _refused(doc, tmp_path, "linearisation_margin_k", 3.5, margin + ".*'b0000'")  # 3-K bands
+    _refused(doc, tmp_path, "linearisation_margin_k", -1.0, margin)
 
 
 def test_the_power_linearisation_reaches_every_building_and_is_validated(
@@ -153,9 +156,7 @@ def test_the_power_linearisation_reaches_every_building_and_is_validated(
     for index, entry in enumerate(fleet.buildings):
         controller = building_setup(entry, index, settings).config.controller
         assert controller.power_linearisation == "trajectory"
-    doc["power_linearisation"] = "plan"
-    with pytest.raises(FleetConfigError, match=r"f\.toml.*power_linearisation"):
-        load_fleet(write_fleet(doc, tmp_path / "f.toml"))
+    _refused(doc, tmp_path, "power_linearisation", "plan", r"f\.toml.*power_linearisation")
 
 
 def test_example_fleet_ships() -> None:
