@@ -145,20 +145,6 @@ def test_the_linearisation_margin_sets_every_buildings_t0_and_is_validated(
     _refused(doc, tmp_path, "linearisation_margin_k", -1.0, margin)
 
 
-def test_the_power_linearisation_reaches_every_building_and_is_validated(
-    tmp_path: Path,
-) -> None:
-    doc = generate_fleet(2, 1)
-    assert load_fleet(write_fleet(doc, tmp_path / "f.toml")).spec.power_linearisation == "fixed"
-    doc["power_linearisation"] = "trajectory"
-    fleet = load_fleet(write_fleet(doc, tmp_path / "f.toml"))
-    settings = FleetSettings.of(fleet, "2014-03-03", 1 / 24)
-    for index, entry in enumerate(fleet.buildings):
-        controller = building_setup(entry, index, settings).config.controller
-        assert controller.power_linearisation == "trajectory"
-    _refused(doc, tmp_path, "power_linearisation", "plan", r"f\.toml.*power_linearisation")
-
-
 def test_example_fleet_ships() -> None:
     fleet = load_fleet(resources_dir() / "fleets" / "example.toml")
     assert len(fleet.buildings) == 3 and fleet.spec.min_bid_mw == 0.1

@@ -150,12 +150,6 @@ class ControllerConfig:
     linearisation: Linearisation = "fixed"
     """``"fixed"``: the model linearised once at (ṁ_min, T₀); ``"trajectory"``: re-linearised
     each step about the previous plan shifted by one step (docs/explanation/estimation.md §3)."""
-    power_linearisation: Linearisation = "fixed"
-    """The MPC's power rows on the design curves: ``"fixed"``: the coil's heat per kg/s (and
-    so its power) taken at T₀; ``"trajectory"``: at the previous plan's zone temperatures
-    over each step, one step on (T₀ for the first plan). A building whose zones run far from
-    T₀ (pre-cooled near the lower bound, or warm late in a limit window) is then planned at
-    the power its plant draws. A power model fitted to the meter keeps T₀."""
 
 
 @dataclass(frozen=True)

@@ -14,8 +14,7 @@ File layout (every key optional)::
                    comfort_penalty_sgd_per_kelvin_hour, comfort_knee_k,
                    comfort_penalty_beyond_knee_sgd_per_kelvin_hour, horizon_steps,
                    linearisation_temp_degc, time_limit_s, thermostat_setpoint_degc,
-                   linearisation, power_linearisation, optimal_start,
-                   demand_limit_fraction, reserve_share,
+                   linearisation, optimal_start, demand_limit_fraction, reserve_share,
                    unoccupied_margin_k, unoccupied_plan_margin_k, peak_guard,
                    peak_guard_substeps, power_model, power_level, fan_only_air
     [controller.feedback]  structure, memory_steps
@@ -211,10 +210,6 @@ class ControllerSpec(Spec):
     thermostat_setpoint_degc: IndoorTemp = default(ControllerConfig, "thermostat_setpoint_degc")
     feedback: FeedbackSpec = FeedbackSpec()
     linearisation: Linearisation = default(ControllerConfig, "linearisation")
-    power_linearisation: Linearisation = default(ControllerConfig, "power_linearisation")
-    """The MPC's power rows on the design curves: ``fixed`` takes the coil's power at T₀
-    (``linearisation_temp_degc``); ``trajectory`` at the previous plan's zone temperatures,
-    one step on (a power model fitted to the meter keeps T₀)."""
     optimal_start: Flag = default(ControllerConfig, "optimal_start")
     unoccupied_margin_k: Annotated[Number, Field(ge=0.0, le=10.0)] = default(
         ControllerConfig, "unoccupied_margin_k"

@@ -416,7 +416,6 @@ def lp_power_rows(
     linearisation_temp_degc: float,
     flow_min_kg_s: FloatArray,
     *,
-    zone_temp_degc: FloatArray | None = None,
     reference_flow_kg_s: FloatArray | None = None,
     total_flow_max_kg_s: float = 0.0,
 ) -> tuple[FloatArray, FloatArray]:
@@ -432,8 +431,7 @@ def lp_power_rows(
     ``outdoor_degc`` (N,) [°C] and ``humidity_kg_per_kg`` (N,), the occupants' latent gain
     ``latent_gain_w`` ((N,) [W], or empty: none), the damper schedule ``damper_open`` (N,)
     over the step's flow range [``flow_min_kg_s`` (N, m), u_max] [kg/s]; both at the zone
-    temperature ``linearisation_temp_degc`` [°C], the design curves at each step's own
-    ``zone_temp_degc`` ((N, m) [°C]) where it is given. ``occupied`` (N,) bool.
+    temperature ``linearisation_temp_degc`` [°C]. ``occupied`` (N,) bool.
     """
     meter_fit = _meter_fit(building)
     if meter_fit is not None:
@@ -455,7 +453,7 @@ def lp_power_rows(
         building.hvac,
         outdoor_degc,
         humidity_kg_per_kg,
-        linearisation_temp_degc if zone_temp_degc is None else zone_temp_degc,
+        linearisation_temp_degc,
         latent_gain_w=latent if latent.size == len(outdoor_degc) else 0.0,
         flow_min_kg_s=flow_min_kg_s,
         damper_open=damper_open,
@@ -479,9 +477,6 @@ def _power_coefficients(
     # the plant's damper schedule, purge included where the forecast shows the next spell
     damper = building.hvac.outdoor_air_open_at(forecast.occupied, contract.model.dt_s)[:horizon]
     reference = _total_flow_reference_kg_s(context.previous_plan, u_min)
-    zone_temps = None
-    if contract.config.power_linearisation == "trajectory":
-        zone_temps = _plan_zone_temps_degc(contract.model, context, horizon)
     p0, p = lp_power_rows(
         building,
         outdoor,
@@ -491,7 +486,6 @@ def _power_coefficients(
         damper,
         contract.linearisation_temp_degc,
         u_min,
-        zone_temp_degc=zone_temps,
         reference_flow_kg_s=reference,
         total_flow_max_kg_s=float(contract.flow_max_kg_s.sum()),
     )
@@ -542,25 +536,6 @@ def _total_flow_reference_kg_s(plan: RMPCSolution | None, u_min: FloatArray) -> 
     shifted = np.concatenate([planned[1:], planned[-1:]])
     reference: FloatArray = np.maximum(shifted, low)
     return reference
-
-
-def _plan_zone_temps_degc(
-    model: LinearModel, context: PlanContext, horizon: int
-) -> FloatArray | None:
-    """(N, m) zone temperatures the design curves' coil power is taken at under
-    ``power_linearisation = "trajectory"`` [°C]: the previous plan's served zone
-    temperatures over each step (the mean of its start and end), one step on — the first
-    step from the state now, the last step's end repeated; None without a plan of this
-    horizon (T₀ then)."""
-    plan = context.previous_plan
-    if plan is None or plan.x_served.shape[0] != horizon + 1:
-        return None
-    served = plan.x_served @ model.c.T  # (N + 1, m): the old steps' ends 0 … N
-    now = model.c @ np.asarray(context.x_degc, dtype=float)
-    starts = np.concatenate([now[None], served[2:]])
-    ends = np.concatenate([served[2:], served[-1:]])
-    temps: FloatArray = 0.5 * (starts + ends)
-    return temps
 
 
 def _return_air_estimate_degc(

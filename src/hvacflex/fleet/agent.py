@@ -302,8 +302,6 @@ class FleetSettings:
     linearisation_margin_k: float = LINEARISATION_MARGIN_K
     """T₀ of every building's model is its occupied upper comfort bound less this [K] (the
     fleet file's key)."""
-    power_linearisation: str = "fixed"
-    """Every building's power rows at T₀ or along its previous plan (the fleet file's key)."""
     il_events: ReserveConfig = field(default_factory=ReserveConfig)
     """The IL contract (event model D, α, R) every building plans for."""
     data: DataConfig = field(default_factory=DataConfig)
@@ -328,7 +326,6 @@ class FleetSettings:
                 s.comfort_penalty_beyond_knee_sgd_per_kelvin_hour
             ),
             linearisation_margin_k=s.linearisation_margin_k,
-            power_linearisation=s.power_linearisation,
             il_events=s.reserve.config(),
             data=fleet.data,
         )
@@ -363,7 +360,6 @@ def building_setup(entry: FleetBuilding, index: int, settings: FleetSettings) ->
         billing_mode=settings.billing_mode,  # type: ignore[arg-type]
         horizon_steps=settings.horizon_steps,
         linearisation_temp_degc=entry.comfort_occupied_degc[1] - settings.linearisation_margin_k,
-        power_linearisation=settings.power_linearisation,  # type: ignore[arg-type]
         comfort_penalty_sgd_per_kelvin_hour=settings.comfort_penalty_sgd_per_kelvin_hour,
         comfort_knee_k=settings.comfort_knee_k,
         comfort_penalty_beyond_knee_sgd_per_kelvin_hour=(

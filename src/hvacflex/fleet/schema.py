@@ -15,7 +15,6 @@ building file is (:func:`hvacflex.building.io.building_from_dict`)::
     comfort_penalty_sgd_per_kelvin_hour = 100.0  # ρ of every building's MPC
     window_lookahead_h = inf        # plan for a window from this long before it [h]
     linearisation_margin_k = 1.0    # T₀ = each building's occupied upper bound − this [K]
-    power_linearisation = "fixed"   # the power rows at T₀ | "trajectory": at the plan's temps
     envelope = true                 # the flexibility envelope, envelope.csv (false: skipped)
 
     [[feeder_limits]]               # limit windows on top of it (the tighter holds)
@@ -373,11 +372,6 @@ class FleetSpec(_Spec):
     over-states both the coil's cooling per kg/s and its power: 2 (the lower bound + 1 K for
     a 3-K band) plans those hours more truly (docs/guide/fleet.md, "Five weekdays"). At most
     the band's width (T₀ inside the occupied band)."""
-    power_linearisation: Literal["fixed", "trajectory"] = "fixed"
-    """Every building's LP power rows: the coil's power at T₀ (``fixed``, the default) or at
-    the previous plan's zone temperatures over each step (``trajectory``; the scenario
-    file's ``[controller]`` key): right where the zones run far from T₀, as under limit
-    windows, where the power rows at one T₀ are wrong for part of the day."""
     comfort_knee_k: Annotated[Finite, Field(ge=0.0)] | None = None
     """Every building's slack priced at ρ up to this excursion [K] and at
     ``comfort_penalty_beyond_knee_sgd_per_kelvin_hour`` beyond (the scenario file's
@@ -442,7 +436,6 @@ _HINTS = {
     "comfort_penalty_sgd_per_kelvin_hour": "ρ [SGD per K·h] > 0, e.g. 100 (the product's)",
     "linearisation_margin_k": "kelvin ≥ 0 below each occupied upper bound, e.g. 1 (the "
     "default) or 2 under limit windows",
-    "power_linearisation": '"fixed" (the default) or "trajectory"',
     "comfort_knee_k": "the excursion [K] ≥ 0 priced at ρ, e.g. 0.5; leave out for none",
     "comfort_penalty_beyond_knee_sgd_per_kelvin_hour": "ρ₂ [SGD per K·h] ≥ ρ, e.g. 1000",
     "min_bid_mw": "the market's minimum bid, 0.1 MW for NEMS interruptible load",
