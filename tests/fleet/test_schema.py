@@ -141,8 +141,17 @@ def test_the_linearisation_margin_sets_every_buildings_t0_and_is_validated(
     p_cool, p_warm = cool.problem.power_coeff_kw_per_kg_s, warm.problem.power_coeff_kw_per_kg_s
     assert np.all(p_cool < p_warm)
     margin = r"f\.toml.*linearisation_margin_k"
-    _refused(doc, tmp_path, "linearisation_margin_k", 3.5, margin + ".*'b0000'")  # 3-K bands
+    _refused(doc, tmp_path, "linearisation_margin_k", 3.5, margin + r".*buildings\[0\].*'b0000'")
     _refused(doc, tmp_path, "linearisation_margin_k", -1.0, margin)
+    # the band's whole width is allowed, however its ends round: T₀ is the lower bound
+    doc["buildings"][0]["comfort_occupied_degc"] = [22.0, 24.3]
+    doc["linearisation_margin_k"] = 2.3
+    edge = load_fleet(write_fleet(doc, tmp_path / "f.toml"))
+    setup = building_setup(edge.buildings[0], 0, FleetSettings.of(edge, "2014-03-03", 1 / 24))
+    assert setup.linearisation_temp_degc == 22.0
+    # a T₀ at the supply air: refused with the building named (supply air 13 °C)
+    doc["buildings"][0]["comfort_occupied_degc"] = [13.0, 14.0]
+    _refused(doc, tmp_path, "linearisation_margin_k", 1.0, margin + r".*'b0000'.*supply air")
 
 
 def test_example_fleet_ships() -> None:

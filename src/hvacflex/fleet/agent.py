@@ -359,7 +359,10 @@ def building_setup(entry: FleetBuilding, index: int, settings: FleetSettings) ->
         peak_price_sgd_per_kw=settings.peak_price_sgd_per_kw,
         billing_mode=settings.billing_mode,  # type: ignore[arg-type]
         horizon_steps=settings.horizon_steps,
-        linearisation_temp_degc=entry.comfort_occupied_degc[1] - settings.linearisation_margin_k,
+        linearisation_temp_degc=max(  # inside the band (a margin of its width, rounded)
+            entry.comfort_occupied_degc[1] - settings.linearisation_margin_k,
+            entry.comfort_occupied_degc[0],
+        ),
         comfort_penalty_sgd_per_kelvin_hour=settings.comfort_penalty_sgd_per_kelvin_hour,
         comfort_knee_k=settings.comfort_knee_k,
         comfort_penalty_beyond_knee_sgd_per_kelvin_hour=(

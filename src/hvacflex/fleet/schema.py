@@ -408,14 +408,6 @@ class FleetSpec(_Spec):
                 "comfort_penalty_beyond_knee_sgd_per_kelvin_hour must be at least "
                 f"comfort_penalty_sgd_per_kelvin_hour ({rho:g})"
             )
-        for entry in self.buildings:
-            lower, upper = entry.comfort_occupied_degc
-            if self.linearisation_margin_k > upper - lower:
-                raise ValueError(
-                    f"linearisation_margin_k ({self.linearisation_margin_k:g} K) puts T₀ below "
-                    f"the occupied band {lower:g}–{upper:g} °C of building {entry.name!r}: "
-                    f"at most {upper - lower:g} K"
-                )
         names = [b.name for b in self.buildings]
         if len(set(names)) != len(names):
             dup = next(n for n in names if names.count(n) > 1)
@@ -611,6 +603,35 @@ class Fleet:
         return series
 
 
+LINEARISATION_TOLERANCE_K = 1e-9
+"""A margin equal to a band's width (up to the rounding of the band's ends) is allowed [K]."""
+
+
+def _check_linearisation(
+    margin_k: float, entry: BuildingEntrySpec, building: Building, index: int, source: Path | str
+) -> None:
+    """Refuse a ``linearisation_margin_k`` that puts a building's T₀ (its occupied upper
+    bound less the margin) below its occupied band or at or below its supply-air
+    temperature, naming the file, the key, the building and the largest margin."""
+    lower, upper = entry.comfort_occupied_degc
+    supply = building.hvac.supply_temp_degc
+    widest = min(upper - lower, upper - supply - LINEARISATION_TOLERANCE_K)
+    if margin_k <= widest + LINEARISATION_TOLERANCE_K and upper - margin_k > supply:
+        return
+    t0 = upper - margin_k
+    why = (
+        f"at or below its supply air ({supply:g} °C)" if t0 <= supply else "below its occupied band"
+    )
+    raise FleetConfigError(
+        f"puts T₀ = {t0:g} °C of buildings[{index}] ({entry.name!r}, occupied band "
+        f"{lower:g}–{upper:g} °C) {why}",
+        source=source,
+        field="linearisation_margin_k",
+        value=margin_k,
+        hint=f"at most {max(widest, 0.0):.3g} K, or widen that building's comfort_occupied_degc",
+    )
+
+
 def fleet_from_dict(data: dict[str, Any], *, source: Path | str = "<dict>") -> Fleet:
     """Validate a parsed fleet document; each building through the building schema.
 
@@ -622,6 +643,7 @@ def fleet_from_dict(data: dict[str, Any], *, source: Path | str = "<dict>") -> F
     buildings = []
     for i, entry in enumerate(spec.buildings):
         building = building_from_dict(entry.building, source=f"{source}: buildings[{i}].building")
+        _check_linearisation(spec.linearisation_margin_k, entry, building, i, source)
         buildings.append(
             FleetBuilding(
                 name=entry.name,
