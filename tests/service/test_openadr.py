@@ -969,3 +969,33 @@ def test_reports_only_with_data_once_per_agreed_interval_and_a_plan_once() -> No
         asyncio.run(sender.update_report(request))
     assert client.sent() == [("rq-t2", [("b1.metered_power_kw", 42.0)])]
     assert [r["report_request_id"] for r in client.report_requests] == ["rq-f", "rq-t2"]
+
+
+def test_a_job_cancelled_as_the_ven_stops_is_not_logged_as_an_error() -> None:
+    """SIGTERM while a poll or report is in flight: the event loop's end cancels the job and
+    apscheduler logs it with a traceback; the VEN's stopping filter drops exactly those
+    records (a job's other errors still reach the log). A test of this file failed in CI
+    when the VEN was terminated mid-report (2026-12-07)."""
+    import logging
+
+    from hvacflex.service.openadr import _StoppingCancellations
+
+    def record(error: BaseException) -> logging.LogRecord:
+        try:
+            raise error
+        except BaseException:
+            return logging.LogRecord(
+                "apscheduler.executors.default",
+                logging.ERROR,
+                __file__,
+                1,
+                'Job "poll" raised an exception',
+                None,
+                sys.exc_info(),
+            )
+
+    stopping = _StoppingCancellations()
+    assert not stopping.filter(record(asyncio.CancelledError()))
+    assert stopping.filter(record(RuntimeError("the VTN answered 500")))
+    plain = logging.LogRecord("x", logging.INFO, __file__, 1, "Job executed", None, None)
+    assert stopping.filter(plain)

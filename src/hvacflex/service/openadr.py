@@ -730,8 +730,23 @@ async def run_ven(config: VenConfig, *, stop_after_s: float | None = None) -> No
     finally:
         stop.set()
         await settling
+        logging.getLogger(SCHEDULER_LOGGER).addFilter(_StoppingCancellations())
         await client.stop()
         store.engine.dispose()
+
+
+SCHEDULER_LOGGER = "apscheduler.executors.default"
+"""The logger of openleadr's scheduler's jobs (polls, reports)."""
+
+
+class _StoppingCancellations(logging.Filter):
+    """Drops the scheduler's report of a job cancelled because the VEN is stopping: a poll or
+    report in flight when SIGTERM came is cancelled when the event loop closes, which is
+    expected, not an error (openleadr's ``stop`` does not wait for running jobs)."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        error = record.exc_info[1] if record.exc_info else None
+        return not isinstance(error, asyncio.CancelledError)
 
 
 async def _settle_periodically(ven: OpenAdrVen, stop: asyncio.Event) -> None:
