@@ -615,9 +615,9 @@ def _check_linearisation(
     temperature, naming the file, the key, the building and the largest margin."""
     lower, upper = entry.comfort_occupied_degc
     supply = building.hvac.supply_temp_degc
-    widest = min(upper - lower, upper - supply - LINEARISATION_TOLERANCE_K)
-    if margin_k <= widest + LINEARISATION_TOLERANCE_K and upper - margin_k > supply:
+    if margin_k <= upper - lower + LINEARISATION_TOLERANCE_K and upper - margin_k > supply:
         return
+    widest = min(upper - lower, upper - supply - LINEARISATION_TOLERANCE_K)
     t0 = upper - margin_k
     why = (
         f"at or below its supply air ({supply:g} °C)" if t0 <= supply else "below its occupied band"

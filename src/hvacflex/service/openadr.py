@@ -730,7 +730,7 @@ async def run_ven(config: VenConfig, *, stop_after_s: float | None = None) -> No
     finally:
         stop.set()
         await settling
-        logging.getLogger(SCHEDULER_LOGGER).addFilter(_StoppingCancellations())
+        logging.getLogger(SCHEDULER_LOGGER).addFilter(_STOPPING)  # once: the same object
         await client.stop()
         store.engine.dispose()
 
@@ -747,6 +747,9 @@ class _StoppingCancellations(logging.Filter):
     def filter(self, record: logging.LogRecord) -> bool:
         error = record.exc_info[1] if record.exc_info else None
         return not isinstance(error, asyncio.CancelledError)
+
+
+_STOPPING = _StoppingCancellations()
 
 
 async def _settle_periodically(ven: OpenAdrVen, stop: asyncio.Event) -> None:
