@@ -142,6 +142,19 @@ class FleetRunResult:
     resumed_from_step: int | None
 
 
+def live_workers(client: Any) -> set[str]:
+    """The addresses of the workers the scheduler holds now, asked of the scheduler itself
+    (``client.nthreads()``: an error if it cannot answer, never a stale answer).
+
+    Not ``client.scheduler_info()["workers"]``: the client refreshes that cache every 2 s
+    with the cluster's totals only (an empty ``workers``), and ``scheduler_info`` returns
+    the cache when its own fetch fails (it logs the ``OSError`` at debug level: a comm
+    timeout on a loaded machine) — every worker then seems to have left at once. That is
+    the likely cause of the one such "loss" seen, both workers of a 5-day fleet run at
+    load 3, after which the run restored from its checkpoint for nothing."""
+    return set(client.nthreads())
+
+
 class _Groups:
     """The building groups: in-process objects, or Dask actors on a cluster."""
 
@@ -160,7 +173,7 @@ class _Groups:
             self.indices = [list(range(self.n))]
             self.groups = [BuildingGroup(self.doc, self.indices[0], self.settings)]
             return
-        workers = sorted(self.client.scheduler_info()["workers"])
+        workers = sorted(live_workers(self.client))
         count = max(1, min(len(workers), self.n))
         self.indices = [list(range(self.n))[i::count] for i in range(count)]
         futures = [
@@ -180,7 +193,7 @@ class _Groups:
         """Raise ``WorkerLostError`` when a worker holding a group has left the cluster."""
         if self.client is None:
             return
-        present = set(self.client.scheduler_info()["workers"])
+        present = live_workers(self.client)
         lost = [w for w in self.workers if w not in present]
         if lost:
             raise WorkerLostError(f"worker(s) {lost} left the cluster")
