@@ -219,3 +219,18 @@ def test_a_closed_damper_leaves_the_coil_only_the_return_air_by_hand() -> None:
         )
         np.testing.assert_allclose(p0 + p @ flows, exact, rtol=1e-9)
     assert p0[0] < p0[1]
+
+
+def test_affine_power_model_takes_each_steps_own_zone_temperatures(office5: Building) -> None:
+    """A (N, m) reference gives, row by row, the model of that row's (m,) temperatures."""
+    hvac = office5.hvac
+    m = len(hvac.flow_min_kg_s)
+    outdoor = np.array([27.0, 30.0, 33.0])
+    humidity = np.array([0.016, 0.018, 0.019])
+    temps = np.array([np.linspace(23.0, 25.0, m), np.full(m, 24.0), np.linspace(26.0, 24.5, m)])
+    p0, p = affine_power_model(hvac, outdoor, humidity, temps)
+    for k in range(3):
+        p0_k, p_k = affine_power_model(hvac, outdoor[k : k + 1], humidity[k : k + 1], temps[k])
+        np.testing.assert_allclose(p0[k], p0_k[0], rtol=1e-13)
+        np.testing.assert_allclose(p[k], p_k[0], rtol=1e-13)
+    assert not np.allclose(p[0], p[1])

@@ -283,3 +283,111 @@ def test_the_meter_s_offsets_level_the_power_rows_period_by_period(setup: Setup)
     np.testing.assert_allclose(shift[occupied], -6.0)
     np.testing.assert_allclose(shift[~occupied], 2.5)
     np.testing.assert_array_equal(levelled.power_coeff_kw_per_kg_s, plain.power_coeff_kw_per_kg_s)
+
+
+def test_plan_linearisation_takes_each_step_at_the_previous_plans_zone_temperatures() -> None:
+    """``linearisation = "plan"`` (design curves): without a plan the problem is the fixed
+    model's; with one, each step's zone temperature is the plan's over that step, one step
+    on (by hand: the mean of its start and end, the first from the state now), and at it
+
+    * the power row is the design curves' (a cooler step draws less coil power per kg/s than
+      T₀ = 25 °C),
+    * B diag(s_k) and g_k are the model linearised at (ṁ_ref, T_k) and discretised, computed
+      apart by :func:`hvacflex.control.trajectory.linearize_along`, and the first step's
+      model is what the prediction error steps with."""
+    from hvacflex.building.hvac import affine_power_model
+    from hvacflex.building.rc import build_network
+    from hvacflex.control.problem_builder import planned_first_step
+    from hvacflex.control.trajectory import linearize_along
+
+    def contract_of(linearisation: str) -> tuple[Setup, MPCController]:
+        setup = prepare(
+            preset(
+                "rmpc",
+                start="2014-03-03",
+                days=1.0,
+                power_model="design",
+                linearisation=linearisation,
+            )
+        )
+        controller = make_controller(setup)
+        assert isinstance(controller, MPCController)
+        return setup, controller
+
+    design, fixed = contract_of("fixed")
+    _, moving = contract_of("plan")
+    inputs = _inputs(design)
+    cold = PlanContext(inputs.x_degc)
+    plain = build_problem(design.model, inputs, fixed.contract, cold)
+    first = build_problem(design.model, inputs, moving.contract, cold)
+    np.testing.assert_array_equal(first.power_coeff_kw_per_kg_s, plain.power_coeff_kw_per_kg_s)
+    assert first.input_scale is None and plain.input_scale is None
+    plan = solve_rmpc(plain)
+    assert plan.ok
+    x_now = np.full_like(inputs.x_degc, 23.5)
+    context = PlanContext(x_now, previous_plan=plan)
+    problem = build_problem(design.model, inputs, moving.contract, context)
+    model = design.model
+    c = model.c
+    served = plan.x_served @ c.T
+    horizon = served.shape[0] - 1
+    by_hand = np.empty((horizon, c.shape[0]))
+    by_hand[0] = 0.5 * (c @ x_now + served[2])
+    for k in range(1, horizon):
+        by_hand[k] = 0.5 * (served[k + 1] + served[min(k + 2, horizon)])
+    forecast = inputs.forecast
+    outdoor = forecast.disturbances[:horizon, moving.contract.outdoor_index]
+    damper = design.building.hvac.outdoor_air_open_at(forecast.occupied, model.dt_s)
+    p0, p = affine_power_model(
+        design.building.hvac,
+        outdoor,
+        forecast.outdoor_humidity_ratio_kg_per_kg[:horizon],
+        by_hand,
+        latent_gain_w=forecast.occupant_latent_w[:horizon],
+        flow_min_kg_s=problem.u_min,
+        damper_open=damper[:horizon],
+    )
+    np.testing.assert_allclose(problem.power_coeff_kw_per_kg_s, p, rtol=1e-12)
+    np.testing.assert_allclose(problem.power_offset_kw, p0, rtol=1e-12)
+    cooler = by_hand < moving.contract.linearisation_temp_degc - 0.5
+    assert cooler.any()
+    assert np.all(problem.power_coeff_kw_per_kg_s[cooler] < plain.power_coeff_kw_per_kg_s[cooler])
+    # the dynamics: each step linearised at (ṁ_ref, T_k), apart
+    flow_ref = np.broadcast_to(model.flow_ref_kg_s, by_hand.shape)
+    network = build_network(design.building)
+    exact = linearize_along(design.building, network, c, flow_ref, by_hand, model.dt_s)
+    np.testing.assert_allclose(problem.step_b_matrix, exact.b, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(problem.a_matrix, exact.a[0], rtol=1e-9, atol=1e-12)
+    g_steps = np.broadcast_to(problem.g, exact.g.shape)
+    np.testing.assert_allclose(g_steps, exact.g, rtol=1e-9, atol=1e-12)
+    assert np.abs(problem.input_scale - 1.0).max() > 0.05  # not T₀'s model
+    step = planned_first_step(problem, model)
+    np.testing.assert_allclose(step.b, exact.b[0], rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(step.g, exact.g[0], rtol=1e-9, atol=1e-12)
+
+
+def test_plan_linearisation_with_a_minimum_flow_is_the_model_at_each_steps_temperature() -> None:
+    """With ṁ_ref ≠ 0 the affine term moves too: A, B diag(s_k) and g + shift_k are office5
+    (a minimum flow in every zone) linearised at (ṁ_ref, T_k) and discretised, computed apart
+    by :func:`hvacflex.control.trajectory.linearize_along`."""
+    from hvacflex.api import load_building
+    from hvacflex.building.discretize import linearize
+    from hvacflex.building.rc import build_network
+    from hvacflex.control.problem_builder import plan_affine_shift, plan_input_scale
+    from hvacflex.control.trajectory import linearize_along
+
+    office5 = load_building("office5")
+    m = len(office5.zones)
+    hvac = replace(office5.hvac, flow_min_kg_s=np.linspace(0.1, 0.5, m))
+    building = replace(office5, hvac=hvac)
+    model = linearize(building, linearisation_temp_degc=25.0)
+    temps = np.array([np.linspace(21.0, 23.0, m), np.full(m, 25.0), np.linspace(27.0, 24.0, m)])
+    scale = plan_input_scale(model, temps)
+    shift = plan_affine_shift(model, scale)
+    flows = np.broadcast_to(model.flow_ref_kg_s, temps.shape)
+    exact = linearize_along(building, build_network(building), model.c, flows, temps, model.dt_s)
+    np.testing.assert_allclose(model.b[None] * scale[:, None, :], exact.b, rtol=1e-9, atol=1e-13)
+    np.testing.assert_allclose(model.g + shift, exact.g, rtol=1e-9, atol=1e-13)
+    np.testing.assert_allclose(np.broadcast_to(model.a, exact.a.shape), exact.a, atol=1e-13)
+    np.testing.assert_allclose(scale[1], 1.0)  # at T₀: the fixed model
+    assert np.abs(shift[0]).max() > 1e-3  # the shift is not vacuous

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from hvacflex.errors import ProblemError
-from hvacflex.opt import ReserveCommitment, RMPCProblem
+from hvacflex.opt import ReserveCommitment, RMPCProblem, StepLinearisation
 from hvacflex.opt.testing import random_problem
 
 
@@ -49,6 +49,7 @@ def test_input_arrays_are_copied() -> None:
         ("peak_price_sgd_per_kw", -1.0, "φ must be ≥ 0"),
         ("reserve_mask", np.ones(2), "bool array"),
         ("comfort_penalty_sgd_per_kelvin_hour", -1.0, "penalty must be ≥ 0"),
+        ("affine_term", np.ones((7, 4)), "expected (4,) or (8, 4), got (7, 4)"),
     ],
 )
 def test_invalid_values_are_refused(field: str, value: object, fragment: str) -> None:
@@ -126,3 +127,22 @@ def test_committed_reserve_that_cannot_be_shed_is_refused() -> None:
         )
     with pytest.raises(ProblemError, match="wrong shape"):
         random_problem(3, horizon=4, commitments=_commitment(np.zeros((4, 2))))  # g < N
+
+
+def test_a_step_linearisation_is_validated_refused_by_feedback_and_changes_the_structure() -> None:
+    with pytest.raises(ProblemError, match="must be > 0") as info:
+        StepLinearisation(input_scale=np.r_[np.ones((7, 2)), [[1.0, 0.0]]])
+    assert info.value.field == "step_linearisation.input_scale"
+    with pytest.raises(ProblemError, match=r"expected \(8, 2\), got \(8, 3\)"):
+        random_problem(0, step_linearisation=StepLinearisation(input_scale=np.ones((8, 3))))
+    with pytest.raises(ProblemError, match="not supported by the affine-feedback LP"):
+        random_problem(
+            0, robust="feedback", step_linearisation=StepLinearisation(input_scale=np.ones((8, 2)))
+        )
+    plain = random_problem(0)
+    block = StepLinearisation(input_scale=np.full((8, 2), 0.9))
+    scaled = random_problem(0, step_linearisation=block)
+    assert plain.structure.differences(scaled.structure) == ["input_scale"]
+    assert plain.structure.fingerprint() != scaled.structure.fingerprint()
+    np.testing.assert_allclose(scaled.step_b_matrix, 0.9 * plain.step_b_matrix)
+    assert not scaled.input_scale.flags.writeable

@@ -285,8 +285,8 @@ def affine_power_model(
     hvac : the air-handling system.
     outdoor_temp_degc : (N,) forecast outdoor temperature [°C].
     outdoor_humidity_ratio_kg_per_kg : (N,) forecast outdoor humidity ratio [kg/kg].
-    zone_temp_ref_degc : scalar or (m,) zone temperature the coil term is evaluated at [°C]
-        (the linearisation temperature T₀).
+    zone_temp_ref_degc : scalar, (m,) or (N, m) zone temperature the coil term is evaluated
+        at [°C] (the linearisation temperature T₀, or each step's own).
     latent_gain_w : scalar or (N,) occupants' latent gain [W] (its recirculated share).
     flow_min_kg_s : (N, m) lower flow bound of each step [kg/s] (e.g. ventilation while
         occupied, the minimum otherwise); the secants of step k span [flow_min_k, ṁ_max],
@@ -303,7 +303,7 @@ def affine_power_model(
     t_out = np.atleast_1d(np.asarray(outdoor_temp_degc, dtype=np.float64))
     w_out = np.atleast_1d(np.asarray(outdoor_humidity_ratio_kg_per_kg, dtype=np.float64))
     m = len(hvac.flow_min_kg_s)
-    t_ref = np.broadcast_to(np.asarray(zone_temp_ref_degc, dtype=np.float64), (m,))
+    t_ref = np.broadcast_to(np.asarray(zone_temp_ref_degc, dtype=np.float64), (t_out.size, m))
     if flow_min_kg_s is None:
         low: FloatArray = np.broadcast_to(np.asarray(hvac.flow_min_kg_s), (t_out.size, m))
     else:
@@ -314,7 +314,7 @@ def affine_power_model(
         hvac,
         t_out,
         w_out,
-        np.broadcast_to(t_ref, (t_out.size, m)),
+        t_ref,
         low.sum(axis=1),
         latent,
         damper_open,

@@ -38,7 +38,7 @@ ActivationMode = Literal["never", "always", "random", "stress", "file"]
 PriceGapFill = Literal["none", "previous-day"]
 PriceCalendar = Literal["data", "live"]
 DisturbanceKind = Literal["outdoor_temp", "solar", "internal_gain", "ground_temp", "sky_longwave"]
-Linearisation = Literal["fixed", "trajectory"]
+Linearisation = Literal["fixed", "trajectory", "plan"]
 PeakGuardMode = Literal["auto", "on", "off"]
 PowerModelSource = Literal["metered", "design"]
 PowerLevel = Literal["auto", "model", "meter"]
@@ -149,7 +149,10 @@ class ControllerConfig:
     feedback: FeedbackConfig = field(default_factory=FeedbackConfig)
     linearisation: Linearisation = "fixed"
     """``"fixed"``: the model linearised once at (ṁ_min, T₀); ``"trajectory"``: re-linearised
-    each step about the previous plan shifted by one step (docs/explanation/estimation.md §3)."""
+    each step about the previous plan shifted by one step (docs/explanation/estimation.md §3);
+    ``"plan"``: every step of the horizon at the previous plan's zone temperatures over that
+    step, one step on — the supply air's cooling per kg/s (B diag(s_k), A kept) and the
+    design curves' coil power (docs/explanation/estimation.md §3)."""
 
 
 @dataclass(frozen=True)

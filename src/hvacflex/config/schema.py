@@ -282,6 +282,19 @@ class ControllerSpec(Spec):
         return self
 
     @model_validator(mode="after")
+    def _plan_linearisation_needs_an_open_loop_policy(self) -> Self:
+        if self.linearisation == "plan" and self.robust == "feedback":
+            raise rule_error(
+                "linearisation = 'plan' (B diag(s_k) at each step) is not available with "
+                "robust = 'feedback'",
+                "linearisation",
+                self.linearisation,
+                hint="use linearisation = 'fixed' or 'trajectory' with feedback, or robust = "
+                "'tightening' or 'none'",
+            )
+        return self
+
+    @model_validator(mode="after")
     def _thermostat_offers_no_reserve(self) -> Self:
         if self.kind in ("thermostat", "trim-respond", "demand-limit", "plant") and self.reserve:
             raise rule_error(

@@ -46,6 +46,7 @@ from hvacflex.control.problem_builder import (
     PlanContract,
     build_problem,
     model_error_margins,
+    planned_first_step,
 )
 from hvacflex.control.trajectory import relinearised_first_step
 from hvacflex.control.warm_solver import SolverSlot
@@ -103,7 +104,7 @@ class MPCController(Controller):
         )
         self._network = build_network(building) if linearisation == "trajectory" else None
         self.solver_slot = SolverSlot(
-            config.time_limit_s, rebuilt_each_model=self._network is not None
+            config.time_limit_s, rebuilt_each_model=linearisation != "fixed"
         )
         """The warm solver and its basis (:mod:`hvacflex.control.warm_solver`)."""
         self._estimator = KalmanEstimator(estimation) if estimation is not None else None
@@ -182,6 +183,7 @@ class MPCController(Controller):
             self.solver_slot.new_model(problem)
         self._solver_model = step_model
         action = self._decide(problem, x_degc, inputs, sizer)
+        step_model = planned_first_step(problem, step_model)
         self._step_model, self._held = step_model, False
         if self._estimator is not None:
             flow, d0 = action.flow_kg_s, inputs.forecast.disturbances[0]

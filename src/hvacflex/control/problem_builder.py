@@ -54,6 +54,7 @@ from hvacflex.config import ControllerConfig, ReserveConfig
 from hvacflex.control.base import FloatArray, PeriodInputs
 from hvacflex.control.estimation import StepModel, tightened_bounds
 from hvacflex.control.idle_air import idle_flow_min_kg_s
+from hvacflex.control.trajectory import MIN_SUPPLY_DIFFERENCE_K, StepMatrices
 from hvacflex.data.forecast import Forecast
 from hvacflex.data.signals import effective_peak_price
 from hvacflex.data.uncertainty import UncertaintyBox
@@ -67,6 +68,7 @@ from hvacflex.opt import (
     ReserveCommitment,
     RMPCProblem,
     RMPCSolution,
+    StepLinearisation,
 )
 from hvacflex.opt.robust import comfort_margins
 from hvacflex.units import SECONDS_PER_HOUR
@@ -312,7 +314,13 @@ def build_problem(
     y_max = below_unoccupied_bound(forecast, y_min, y_max, cfg.unoccupied_plan_margin_k)
     if context.extra_margin_k is not None:
         y_min, y_max = tightened_bounds(y_min, y_max, context.extra_margin_k)
-    p0, p, reserve_coeff = _power_coefficients(contract, context, forecast, d_hat, u_min, y_min)
+    zone_temps = plan_zone_temps_degc(m, context, horizon) if cfg.linearisation == "plan" else None
+    scale = None if zone_temps is None else plan_input_scale(m, zone_temps)
+    if scale is not None and np.any(m.flow_ref_kg_s):
+        affine = affine + plan_affine_shift(m, scale)
+    p0, p, reserve_coeff = _power_coefficients(
+        contract, context, forecast, d_hat, u_min, y_min, zone_temps
+    )
     if inputs.meter_offset_kw is not None:  # levelled to the meter
         p0 = p0 + np.asarray(inputs.meter_offset_kw, dtype=float)[:horizon]
     reserve_price = forecast.reserve_price_sgd_per_mwh[:horizon]
@@ -344,6 +352,7 @@ def build_problem(
         power_cap=(PowerCap(power_max_kw=power_max) if np.isfinite(power_max).any() else None),
         power_offset_kw=p0,
         power_coeff_kw_per_kg_s=p,
+        step_linearisation=None if scale is None else StepLinearisation(input_scale=scale),
         reserve_power_coeff_kw_per_kg_s=(
             context.meter_ratio * np.minimum(reserve_coeff, p) if contract.events else None
         ),
@@ -416,6 +425,7 @@ def lp_power_rows(
     linearisation_temp_degc: float,
     flow_min_kg_s: FloatArray,
     *,
+    zone_temp_degc: FloatArray | None = None,
     reference_flow_kg_s: FloatArray | None = None,
     total_flow_max_kg_s: float = 0.0,
 ) -> tuple[FloatArray, FloatArray]:
@@ -431,7 +441,8 @@ def lp_power_rows(
     ``outdoor_degc`` (N,) [°C] and ``humidity_kg_per_kg`` (N,), the occupants' latent gain
     ``latent_gain_w`` ((N,) [W], or empty: none), the damper schedule ``damper_open`` (N,)
     over the step's flow range [``flow_min_kg_s`` (N, m), u_max] [kg/s]; both at the zone
-    temperature ``linearisation_temp_degc`` [°C]. ``occupied`` (N,) bool.
+    temperature ``linearisation_temp_degc`` [°C], the design curves at each step's own
+    ``zone_temp_degc`` ((N, m) [°C]) where it is given. ``occupied`` (N,) bool.
     """
     meter_fit = _meter_fit(building)
     if meter_fit is not None:
@@ -453,7 +464,7 @@ def lp_power_rows(
         building.hvac,
         outdoor_degc,
         humidity_kg_per_kg,
-        linearisation_temp_degc,
+        linearisation_temp_degc if zone_temp_degc is None else zone_temp_degc,
         latent_gain_w=latent if latent.size == len(outdoor_degc) else 0.0,
         flow_min_kg_s=flow_min_kg_s,
         damper_open=damper_open,
@@ -467,10 +478,13 @@ def _power_coefficients(
     d_hat: FloatArray,
     u_min: FloatArray,
     y_min: FloatArray,
+    zone_temps: FloatArray | None = None,
 ) -> tuple[FloatArray, FloatArray, FloatArray]:
     """The LP's power rows ``P_k = p0_k + p_kᵀ u_k`` ((N,), (N, m)) and the reserve's
     power per kg/s (N, m), from the building's power model at the forecast (outdoor air,
-    its humidity, the occupants' latent gain) over the step's flow range [u_min, u_max]."""
+    its humidity, the occupants' latent gain) over the step's flow range [u_min, u_max];
+    the design curves' coil at ``zone_temps`` ((N, m) [°C], ``linearisation = "plan"``)
+    where given, else at T₀."""
     horizon = d_hat.shape[0]
     building, outdoor = contract.building, d_hat[:, contract.outdoor_index]
     humidity = forecast.outdoor_humidity_ratio_kg_per_kg[:horizon]
@@ -486,6 +500,7 @@ def _power_coefficients(
         damper,
         contract.linearisation_temp_degc,
         u_min,
+        zone_temp_degc=zone_temps,
         reference_flow_kg_s=reference,
         total_flow_max_kg_s=float(contract.flow_max_kg_s.sum()),
     )
@@ -536,6 +551,63 @@ def _total_flow_reference_kg_s(plan: RMPCSolution | None, u_min: FloatArray) -> 
     shifted = np.concatenate([planned[1:], planned[-1:]])
     reference: FloatArray = np.maximum(shifted, low)
     return reference
+
+
+def plan_zone_temps_degc(
+    model: LinearModel, context: PlanContext, horizon: int
+) -> FloatArray | None:
+    """(N, m) zone temperatures each step is linearised at under ``linearisation = "plan"``
+    [°C]: the previous plan's served zone temperatures over each step (the mean of its
+    start and end), one step on — the first step from the state now, the last step's end
+    repeated; None without a plan of this horizon (T₀ then)."""
+    plan = context.previous_plan
+    if plan is None or plan.x_served.shape[0] != horizon + 1:
+        return None
+    served = plan.x_served @ model.c.T  # (N + 1, m): the old steps' ends 0 … N
+    now = model.c @ np.asarray(context.x_degc, dtype=float)
+    starts = np.concatenate([now[None], served[2:]])
+    ends = np.concatenate([served[2:], served[-1:]])
+    temps: FloatArray = 0.5 * (starts + ends)
+    return temps
+
+
+def plan_input_scale(model: LinearModel, zone_temps_degc: FloatArray) -> FloatArray:
+    """(N, m) s_k = (T_k − T_s) / (T₀ − T_s): the supply air's cooling per kg/s at each
+    step's zone temperature ``zone_temps_degc`` (N, m) [°C] relative to the model's at its
+    T₀ (:attr:`hvacflex.opt.RMPCProblem.input_scale`). The model's bilinear term
+    ṁ c_p (T_s − T_r) linearised about (ṁ_ref, T_k) instead of (ṁ_ref, T₀) keeps A and
+    turns B into B diag(s_k) (B's zone column is c_p (T_s − T₀) / C through the same ZOH
+    integral) and g into g − B diag(s_k − 1) ṁ_ref. Zone temperatures are raised to
+    :data:`~hvacflex.control.trajectory.MIN_SUPPLY_DIFFERENCE_K` above the supply air."""
+    supply = model.supply_temp_degc
+    temps = np.maximum(zone_temps_degc, supply + MIN_SUPPLY_DIFFERENCE_K)
+    scale: FloatArray = (temps - supply) / (model.linearisation_temp_degc - supply)
+    return scale
+
+
+def plan_affine_shift(model: LinearModel, scale: FloatArray) -> FloatArray:
+    """(N, n) g_k − g [K] of the model linearised at each step's T_k (``scale`` (N, m), s_k
+    of :func:`plan_input_scale`): −B diag(s_k − 1) ṁ_ref, so that x_{k+1} = A x_k +
+    B ṁ_ref + B diag(s_k) (u_k − ṁ_ref) + E d_k + g (zero where ṁ_ref = 0)."""
+    shift: FloatArray = -((scale - 1.0) * model.flow_ref_kg_s) @ model.b.T
+    return shift
+
+
+def planned_first_step(problem: RMPCProblem, model: StepModel) -> StepModel:
+    """The one-step model ``problem``'s plan makes its first step with: ``model`` (the fixed
+    model or a re-linearisation), with B diag(s_0) and g − B diag(s_0 − 1) ṁ_ref where the
+    problem has an input scale (``linearisation = "plan"``; ``model`` then the fixed
+    :class:`LinearModel`): what the prediction error and the filter step with."""
+    if problem.input_scale is None or not isinstance(model, LinearModel):
+        return model
+    scale = problem.input_scale[0]
+    return StepMatrices(
+        a=model.a,
+        b=model.b * scale,
+        e=model.e,
+        g=model.g + plan_affine_shift(model, scale[None])[0],
+        c=model.c,
+    )
 
 
 def _return_air_estimate_degc(

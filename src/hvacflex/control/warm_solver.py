@@ -14,6 +14,7 @@ from dataclasses import replace
 
 from hvacflex.errors import ProblemError
 from hvacflex.opt import RMPCProblem, RMPCSolution, RMPCSolver, SolverBasis, WarmSolver, make_solver
+from hvacflex.opt.problem import RMPCStructure
 
 
 class SolverSlot:
@@ -23,7 +24,8 @@ class SolverSlot:
     ----------
     time_limit_s : wall-clock limit per solve [s]; None = no limit.
     rebuilt_each_model : every model is a new structure of the same layout (trajectory
-        linearisation): a stored basis is taken over by each new solver.
+        and plan linearisation): a stored basis is taken over by each new solver, and a
+        problem of another structure than the solver's rebuilds it from its basis.
     """
 
     def __init__(self, time_limit_s: float | None, *, rebuilt_each_model: bool = False) -> None:
@@ -31,15 +33,31 @@ class SolverSlot:
         self.rebuilt_each_model = rebuilt_each_model
         self._solver: WarmSolver | None = None
         self._pending: SolverBasis | None = None
+        self._structure: RMPCStructure | None = None
+        """The structure the live solver was built for."""
 
     def solve(self, problem: RMPCProblem) -> RMPCSolution:
         """Solve ``problem`` warm (the solver is built on first use)."""
         return self.solver(problem).solve(problem)
 
+    def _follow(self, problem: RMPCProblem) -> None:
+        """A problem of a new structure (``rebuilt_each_model``): the next solver is built
+        from the live one's basis (:meth:`new_model`)."""
+        built = self._structure
+        if (
+            self.rebuilt_each_model
+            and built is not None
+            and problem.structure is not built
+            and built.differences(problem.structure)
+        ):
+            self.new_model(problem)
+
     def solver(self, problem: RMPCProblem) -> WarmSolver:
         """The solver of ``problem``'s structure (built on first use, from a stored basis
         if any; a basis of another row count starts it cold)."""
+        self._follow(problem)
         if self._solver is None:
+            self._structure = problem.structure
             self._solver = make_solver(problem, time_limit_s=self.time_limit_s)
             pending = self._pending
             if pending is not None and self.rebuilt_each_model:
@@ -55,10 +73,15 @@ class SolverSlot:
     def rmpc_solver(self, problem: RMPCProblem) -> RMPCSolver:
         """The open-loop solver of ``problem`` (a fleet's building re-solves it at the
         coordinator's prices and caps); a stored basis must fit it."""
+        self._follow(problem)
         if self._solver is None:
+            self._structure = problem.structure
             self._solver = RMPCSolver(problem, time_limit_s=self.time_limit_s)
-            if self._pending is not None:
-                self._solver.set_basis(self._pending)
+            pending = self._pending
+            if pending is not None and self.rebuilt_each_model:
+                pending = replace(pending, fingerprint=problem.structure.fingerprint())
+            if pending is not None:
+                self._solver.set_basis(pending)
                 self._pending = None
         assert isinstance(self._solver, RMPCSolver)
         return self._solver
@@ -69,7 +92,7 @@ class SolverSlot:
         if self._solver is None:
             return
         basis = self._solver.get_basis()
-        self._solver = None
+        self._solver, self._structure = None, None
         self._pending = (
             None if basis is None else replace(basis, fingerprint=problem.structure.fingerprint())
         )
@@ -81,15 +104,15 @@ class SolverSlot:
     def restore(self, basis: SolverBasis | None) -> None:
         """Start from ``basis`` (:meth:`basis` of a checkpoint): handed to the live solver,
         or kept for the next one."""
-        if self._solver is not None and basis is not None:
+        if self._solver is not None and basis is not None and not self.rebuilt_each_model:
             self._solver.set_basis(basis)
-        else:
-            self._pending = basis
+        else:  # a rebuilt solver takes the basis over whatever structure it was stored for
+            self._solver, self._structure, self._pending = None, None, basis
 
     def restart(self) -> None:
         """Drop the solver (HiGHS's factorisation and internal state) and keep its basis to
         warm-start a new one at the next solve, as a restored controller starts."""
         if self._solver is not None:
             basis = self._solver.get_basis()
-            self._solver = None
+            self._solver, self._structure = None, None
             self._pending = basis

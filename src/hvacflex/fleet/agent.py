@@ -302,6 +302,9 @@ class FleetSettings:
     linearisation_margin_k: float = LINEARISATION_MARGIN_K
     """T₀ of every building's model is its occupied upper comfort bound less this [K] (the
     fleet file's key)."""
+    linearisation: str = "fixed"
+    """Every building's model at T₀ or each step at its previous plan's zone temperatures
+    (the fleet file's key)."""
     il_events: ReserveConfig = field(default_factory=ReserveConfig)
     """The IL contract (event model D, α, R) every building plans for."""
     data: DataConfig = field(default_factory=DataConfig)
@@ -326,6 +329,7 @@ class FleetSettings:
                 s.comfort_penalty_beyond_knee_sgd_per_kelvin_hour
             ),
             linearisation_margin_k=s.linearisation_margin_k,
+            linearisation=s.linearisation,
             il_events=s.reserve.config(),
             data=fleet.data,
         )
@@ -363,6 +367,7 @@ def building_setup(entry: FleetBuilding, index: int, settings: FleetSettings) ->
             entry.comfort_occupied_degc[1] - settings.linearisation_margin_k,
             entry.comfort_occupied_degc[0],
         ),
+        linearisation=settings.linearisation,  # type: ignore[arg-type]
         comfort_penalty_sgd_per_kelvin_hour=settings.comfort_penalty_sgd_per_kelvin_hour,
         comfort_knee_k=settings.comfort_knee_k,
         comfort_penalty_beyond_knee_sgd_per_kelvin_hour=(
@@ -416,6 +421,7 @@ class BuildingAgent:
             self.setup.box,
             self.setup.linearisation_temp_degc,
             reserve=self.setup.config.reserve,
+            linearisation=cfg.linearisation,
         )
         self.control = ControlStep(self.setup.config, self.controller, len(self.setup.zone_names))
         self.loop = ClosedLoop(self.setup, control=self.control)

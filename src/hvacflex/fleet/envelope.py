@@ -130,7 +130,10 @@ def hold_model(problem: RMPCProblem, steps: int) -> HoldModel:
     if not 1 <= steps <= problem.horizon:
         raise ValueError(f"a hold of {steps} periods does not fit a horizon of {problem.horizon}")
     a, b, c = problem.a_matrix, problem.b_matrix, problem.c_matrix
-    g = np.zeros(problem.n) if problem.affine_term is None else problem.affine_term
+    g = np.broadcast_to(problem.g, (problem.horizon, problem.n))  # g, or g_k of each step
+    scale = problem.input_scale
+    if scale is None:
+        scale = np.ones((problem.horizon, problem.m))
     m, ny = problem.m, problem.ny
     gain = np.zeros((steps * ny, steps * m))
     free = np.zeros(steps * ny)
@@ -139,10 +142,11 @@ def hold_model(problem: RMPCProblem, steps: int) -> HoldModel:
     for _ in range(1, steps):
         responses.append(a @ responses[-1])
     for j in range(steps):
-        x = a @ x + problem.e_matrix @ problem.d_forecast[j] + g
+        x = a @ x + problem.e_matrix @ problem.d_forecast[j] + g[j]
         free[j * ny : (j + 1) * ny] = c @ x
-        for lag in range(j + 1):
-            gain[j * ny : (j + 1) * ny, (j - lag) * m : (j - lag + 1) * m] = c @ responses[lag]
+        for lag in range(j + 1):  # the flows of step j − lag through B diag(s_{j−lag})
+            block = (c @ responses[lag]) * scale[j - lag]
+            gain[j * ny : (j + 1) * ny, (j - lag) * m : (j - lag + 1) * m] = block
     return HoldModel(
         gain=gain,
         free=free,

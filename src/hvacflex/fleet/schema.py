@@ -15,6 +15,7 @@ building file is (:func:`hvacflex.building.io.building_from_dict`)::
     comfort_penalty_sgd_per_kelvin_hour = 100.0  # ρ of every building's MPC
     window_lookahead_h = inf        # plan for a window from this long before it [h]
     linearisation_margin_k = 1.0    # T₀ = each building's occupied upper bound − this [K]
+    linearisation = "fixed"         # the model at T₀ | "plan": each step at the plan's temps
     envelope = true                 # the flexibility envelope, envelope.csv (false: skipped)
 
     [[feeder_limits]]               # limit windows on top of it (the tighter holds)
@@ -372,6 +373,11 @@ class FleetSpec(_Spec):
     over-states both the coil's cooling per kg/s and its power: 2 (the lower bound + 1 K for
     a 3-K band) plans those hours more truly (docs/guide/fleet.md, "Five weekdays"). At most
     the band's width (T₀ inside the occupied band)."""
+    linearisation: Literal["fixed", "plan"] = "fixed"
+    """Every building's model (the scenario file's ``[controller]`` key): linearised once at
+    T₀ (``fixed``, the default) or each step of the horizon at the previous plan's zone
+    temperatures over it (``plan``): the supply air's cooling per kg/s and the coil's power
+    right where the zones run far from T₀ — pre-cooled at night, warm late in a window."""
     comfort_knee_k: Annotated[Finite, Field(ge=0.0)] | None = None
     """Every building's slack priced at ρ up to this excursion [K] and at
     ``comfort_penalty_beyond_knee_sgd_per_kelvin_hour`` beyond (the scenario file's
@@ -426,6 +432,7 @@ _HINTS = {
     "end": 'a local time "HH:MM" ("24:00" for midnight) or an ISO date-time',
     "window_lookahead_h": "hours ≥ 0 before a window's start the plans see it, or inf",
     "comfort_penalty_sgd_per_kelvin_hour": "ρ [SGD per K·h] > 0, e.g. 100 (the product's)",
+    "linearisation": '"fixed" (the default) or "plan"',
     "linearisation_margin_k": "kelvin ≥ 0 below each occupied upper bound, e.g. 1 (the "
     "default) or 2 under limit windows",
     "comfort_knee_k": "the excursion [K] ≥ 0 priced at ρ, e.g. 0.5; leave out for none",

@@ -38,6 +38,7 @@ from hvacflex.opt.blocks import (
     OfferBaselines,
     PowerCap,
     ReserveCommitment,
+    StepLinearisation,
 )
 from hvacflex.opt.factory import WarmSolver, make_solver, solve_rmpc
 from hvacflex.opt.feedback_solve import FeedbackSolver
@@ -59,6 +60,7 @@ __all__ = [
     "ReserveCommitment",
     "SolveStatus",
     "SolverBasis",
+    "StepLinearisation",
     "WarmSolver",
     "make_solver",
     "solve_rmpc",

@@ -12,6 +12,8 @@ calls it), and built into the LP by its own ``add_…`` family (:data:`FEATURE_B
 * ``offer_baselines``: :class:`OfferBaselines` → :func:`hvacflex.opt.lp.add_visible_offers`;
 * ``power_cap``: :class:`PowerCap` → :func:`hvacflex.opt.lp.add_power_cap`;
 * ``comfort_knee``: :class:`ComfortKnee` → :func:`hvacflex.opt.lp.add_comfort_knee`;
+* ``step_linearisation``: :class:`StepLinearisation` →
+  :func:`hvacflex.opt.lp.add_input_coefficients`;
 * ``feedback``: :class:`~hvacflex.opt.options.FeedbackOptions` →
   :func:`hvacflex.opt.feedback.build_feedback_lp` (its own LP).
 
@@ -39,6 +41,20 @@ BoolArray = NDArray[np.bool_]
 FIXED_RESERVE_TOLERANCE_KG_S = 1e-9
 
 _SOURCE = "RMPCProblem"
+
+
+def _matrix(field: str, value: object, shape: str, hint: str) -> FloatArray:
+    """``value`` as a float array of two dimensions (``shape`` names them in the error),
+    finite (:func:`~hvacflex.opt.checks.float_array`)."""
+    array = np.asarray(value)
+    if array.ndim != 2:
+        raise ProblemError(
+            f"wrong shape: expected {shape}, got {array.shape}",
+            source=_SOURCE,
+            field=field,
+            hint=hint,
+        )
+    return float_array(field, array, (array.shape,))
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -161,15 +177,12 @@ class ReserveCommitment:
     reserve_kg_s: FloatArray
 
     def __post_init__(self) -> None:
-        value = np.asarray(self.reserve_kg_s)
-        if value.ndim != 2:
-            raise ProblemError(
-                f"wrong shape: expected (g, m), got {value.shape}",
-                source=_SOURCE,
-                field="commitments.reserve_kg_s",
-                hint="one row of committed reserve flows per committed step",
-            )
-        array = float_array("commitments.reserve_kg_s", value, (value.shape,))
+        array = _matrix(
+            "commitments.reserve_kg_s",
+            self.reserve_kg_s,
+            "(g, m)",
+            "one row of committed reserve flows per committed step",
+        )
         check_nonnegative("commitments.reserve_kg_s", array, "committed reserve flows")
         object.__setattr__(self, "reserve_kg_s", array)
 
@@ -427,12 +440,63 @@ class OfferBaselines:
         return seen
 
 
+@dataclass(frozen=True, eq=False, kw_only=True)
+class StepLinearisation:
+    """Each step's supply-air term linearised at its own zone temperature T_k
+    (``[controller] linearisation = "plan"``): the dynamics' input matrix of step k is
+    B diag(s_k), for u_k in the served and u_k − r_k in the curtailed trajectory and the IL
+    events, with s_k = (T_k − T_s) / (T₀ − T_s) the supply air's cooling per kg/s at T_k
+    relative to B's at T₀ (:func:`hvacflex.control.problem_builder.plan_input_scale`). A is
+    unchanged (the same ṁ_ref), so the margins are the problem's. Open loop only: the
+    feedback LP's responses assume one B. Its LP family is the input coefficients of the
+    dynamics (:func:`hvacflex.opt.lp.add_input_coefficients`).
+
+    Parameters
+    ----------
+    input_scale : (N, m) s_k > 0 [-]
+    """
+
+    input_scale: FloatArray
+
+    def __post_init__(self) -> None:
+        scale = _matrix(
+            "step_linearisation.input_scale", self.input_scale, "(N, m)", "one per step and input"
+        )
+        if not np.all(scale > 0.0):
+            raise ProblemError(
+                "must be > 0 (the supply air cools at every step)",
+                source=_SOURCE,
+                field="step_linearisation.input_scale",
+                value=float(scale.min()),
+                hint="(T_k − T_s) / (T₀ − T_s) with each T_k above the supply air",
+            )
+        object.__setattr__(self, "input_scale", scale)
+
+    def check(self, *, horizon: int, m: int, robust: str) -> None:
+        """One scale per step and input of the problem; not with robust="feedback"."""
+        if self.input_scale.shape != (horizon, m):
+            raise ProblemError(
+                f"wrong shape: expected ({horizon}, {m}), got {self.input_scale.shape}",
+                source=_SOURCE,
+                field="step_linearisation.input_scale",
+                hint="one scale per step of the horizon and input",
+            )
+        if robust == "feedback":
+            raise ProblemError(
+                "a step-varying input scale is not supported by the affine-feedback LP",
+                source=_SOURCE,
+                field="step_linearisation",
+                hint="leave step_linearisation None with robust='feedback' (one B)",
+            )
+
+
 FEATURE_BLOCKS: dict[str, type] = {
     "events": ILEventModel,
     "commitments": ReserveCommitment,
     "offer_baselines": OfferBaselines,
     "power_cap": PowerCap,
     "comfort_knee": ComfortKnee,
+    "step_linearisation": StepLinearisation,
     "feedback": FeedbackOptions,
 }
 """The problem's feature fields and their blocks (each ``None`` = the feature is off)."""

@@ -183,23 +183,38 @@ def _add_dynamics(lp: LPBuilder, p: RMPCProblem, state: IntArray, v: PlanColumns
     rows = lp.add_rows((p.horizon, p.n), lower=rhs, upper=rhs, time_indexed=True)
     lp.add_coefficients(rows[:, :, None], state[:, None, :], np.eye(p.n)[None])
     lp.add_coefficients(rows[1:, :, None], state[:-1, None, :], -p.a_matrix[None])
-    lp.add_coefficients(rows[:, :, None], v.u[:, None, :], -p.b_matrix[None])
+    add_input_coefficients(lp, p, rows, v.u, -1.0)
     return rows
 
 
+def add_input_coefficients(
+    lp: LPBuilder,
+    p: RMPCProblem,
+    rows: IntArray,
+    flows: IntArray,
+    sign: float,
+    inputs: IntArray | None = None,
+) -> None:
+    """``sign`` · B_k on the flow columns ``flows`` (N, k) of the inputs ``inputs`` (all m
+    when None) in the dynamics rows ``rows`` (N, n): B_k = B diag(s_k) with
+    ``p.step_linearisation`` (:class:`~hvacflex.opt.blocks.StepLinearisation`), else B."""
+    matrices = p.step_b_matrix if inputs is None else p.step_b_matrix[:, :, inputs]
+    lp.add_coefficients(rows[:, :, None], flows[:, None, :], sign * matrices)
+
+
 def add_served_dynamics(lp: LPBuilder, p: RMPCProblem, v: PlanColumns) -> None:
-    """x_{k+1} = A x_k + B u_k + E d̂_k + g, k = 0..N-1 (N·n equality rows)."""
+    """x_{k+1} = A x_k + B_k u_k + E d̂_k + g, k = 0..N-1 (N·n equality rows; B_k = B diag(s_k)
+    with ``p.input_scale``, else B)."""
     _add_dynamics(lp, p, v.x, v)
 
 
 def add_curtailed_dynamics(lp: LPBuilder, p: RMPCProblem, v: PlanColumns) -> None:
-    """z_{k+1} = A z_k + B (u_k − r_k) + E d̂_k + g, z_0 = x_0 (N·n equality rows; none
+    """z_{k+1} = A z_k + B_k (u_k − r_k) + E d̂_k + g, z_0 = x_0 (N·n equality rows; none
     when no input carries reserve)."""
     if not v.has_curtailed:
         return
     rows = _add_dynamics(lp, p, v.z, v)
-    b_reserve = p.b_matrix[:, v.reserve_inputs]
-    lp.add_coefficients(rows[:, :, None], v.r[:, None, :], b_reserve[None])
+    add_input_coefficients(lp, p, rows, v.r, 1.0, v.reserve_inputs)
 
 
 def add_comfort_with_margins(
@@ -328,7 +343,7 @@ def add_il_event_comfort(
     ``C_i x_t + Σ_j H_{t−1−j,i} r_j − ε_{t,i} ≤ y^hi_t − δ_t (+ α)`` (≈ N²·ny/2 rows; none in
     the whole-horizon model, ``p.events`` None).
 
-    The coefficients are constant (they depend on A, B, C, N, D, R only); α, the carry c and
+    The coefficients are constant (they depend on A, B, C, N, D, R and s only); α, the carry c and
     the margins ``margin_k`` (N, ny) [K] enter the row bounds. The block is not rectangular
     in the step, so its warm-start rotation is :func:`~hvacflex.opt.events.event_rotation`.
     Returns the row indices (num_event_rows,) and what each row is.
@@ -356,7 +371,12 @@ def add_il_event_comfort(
             col_eps=v.eps,
             num_cols=lp.num_cols,
         ).tocoo()
-        lp.add_coefficients(index[block.row], block.col, block.data)
+        data = block.data
+        if p.input_scale is not None:  # H_l r_j becomes H_l diag(s_j) r_j: r's columns scale
+            column_scale = np.ones(lp.num_cols)
+            column_scale[v.r] = p.input_scale[:, v.reserve_inputs]
+            data = data * column_scale[block.col]
+        lp.add_coefficients(index[block.row], block.col, data)
     return index, rows
 
 
@@ -512,6 +532,7 @@ FEATURE_FAMILIES = {
     "offer_baselines": add_visible_offers,
     "power_cap": add_power_cap,
     "comfort_knee": add_comfort_knee,
+    "step_linearisation": add_input_coefficients,
 }
 """The ``add_…`` family of each open-loop feature block of :mod:`hvacflex.opt.blocks` (the
 ``feedback`` block has its own LP, :func:`hvacflex.opt.feedback.build_feedback_lp`)."""

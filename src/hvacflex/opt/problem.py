@@ -75,6 +75,7 @@ from hvacflex.opt.blocks import (
     OfferBaselines,
     PowerCap,
     ReserveCommitment,
+    StepLinearisation,
 )
 from hvacflex.opt.checks import check_bounds, check_nonnegative, float_array, matrix_shape
 from hvacflex.opt.options import (
@@ -114,7 +115,7 @@ class RMPCProblem:
     u_min, u_max : (m,) or (N,m) flow bounds [kg/s]; u_min ≤ u − r, u ≤ u_max
     y_min, y_max : (N,ny) or (ny,) comfort bounds on C x_1..C x_N [°C]; y_min may be −inf,
         y_max +inf
-    affine_term : (n,) g [K]; default zeros
+    affine_term : (n,) g [K], or (N,n) g_k of each step; default zeros
     peak_price_sgd_per_kw : scalar or (N,) φ ≥ 0 [SGD/kW]; 0 disables the peak term
     peak_floor_kw : billing-period peak already incurred [kW]: β ≥ φ·floor (needs a constant φ)
     reserve_mask : (m,) bool, inputs that may offer reserve; default all
@@ -140,6 +141,9 @@ class RMPCProblem:
         loop only); None = no cap
     comfort_knee : :class:`~hvacflex.opt.blocks.ComfortKnee`, ε priced at ρ₂ ≥ ρ beyond a
         knee δ [K]; None = ρ on all of ε
+    step_linearisation : :class:`~hvacflex.opt.blocks.StepLinearisation`, each step's input
+        matrix B diag(s_k) (the supply air linearised at each step's zone temperature); None =
+        B at every step. Not with robust="feedback"
     feedback : :class:`~hvacflex.opt.options.FeedbackOptions`, the policy structure of
         ``robust="feedback"`` (default ``FeedbackOptions()`` there); must be None otherwise
 
@@ -179,6 +183,7 @@ class RMPCProblem:
     offer_baselines: OfferBaselines | None = None
     power_cap: PowerCap | None = None
     comfort_knee: ComfortKnee | None = None
+    step_linearisation: StepLinearisation | None = None
     feedback: FeedbackOptions | None = None
     _structure: RMPCStructure = field(init=False, repr=False)
 
@@ -202,6 +207,7 @@ class RMPCProblem:
                 il_event_recovery_steps=0 if self.events is None else self.events.recovery_steps,
                 visible_offers=self.offer_baselines is not None,
                 comfort_knee=self.comfort_knee is not None,
+                input_scale=self.input_scale,
             ),
         )
 
@@ -295,7 +301,8 @@ class RMPCProblem:
             affine = np.zeros(self.n)
             affine.setflags(write=False)
         else:
-            affine = float_array("affine_term", self.affine_term, ((self.n,),))
+            shapes = ((self.n,), (self.horizon, self.n))
+            affine = float_array("affine_term", self.affine_term, shapes)
         self._put("affine_term", affine)
         if self.reserve_mask is None:
             mask = np.ones(m, dtype=bool)
@@ -403,6 +410,8 @@ class RMPCProblem:
             self.offer_baselines.check(horizon=self.horizon, events=self.events, robust=self.robust)
         if self.comfort_knee is not None:
             self.comfort_knee.check(rho=self.comfort_penalty_sgd_per_kelvin_hour)
+        if self.step_linearisation is not None:
+            self.step_linearisation.check(horizon=self.horizon, m=self.m, robust=self.robust)
         self._check_feedback()
 
     @property
@@ -540,8 +549,28 @@ class RMPCProblem:
         return variant
 
     @property
+    def input_scale(self) -> FloatArray | None:
+        """(N, m) s_k of ``step_linearisation`` (None without it: B at every step)."""
+        block = self.step_linearisation
+        return None if block is None else block.input_scale
+
+    @property
+    def step_b_matrix(self) -> FloatArray:
+        """(N, n, m) B diag(s_k) of each step (B at every step without ``input_scale``)."""
+        return self.structure.step_b_matrix
+
+    def scaled_flows(self, flows_kg_s: FloatArray, inputs: IntArray | None = None) -> FloatArray:
+        """(N, k) flows [kg/s] of the inputs ``inputs`` (all m when None) as B's columns
+        see them: s_k ⊙ flows (the flows themselves without ``input_scale``)."""
+        if self.input_scale is None:
+            return flows_kg_s
+        scale = self.input_scale if inputs is None else self.input_scale[:, inputs]
+        scaled: FloatArray = flows_kg_s * scale
+        return scaled
+
+    @property
     def g(self) -> FloatArray:
-        """(n,) affine term of the dynamics [K]."""
+        """(n,) affine term of the dynamics [K], or (N, n) one per step."""
         return np.asarray(self.affine_term, dtype=np.float64)
 
     @property
@@ -565,15 +594,33 @@ class RMPCStructure:
     il_event_recovery_steps: int = 0  # R (α and c enter row bounds only)
     visible_offers: bool = False  # offer columns and rows (add_visible_offers)
     comfort_knee: bool = False  # ε beyond the knee: columns and rows (add_comfort_knee)
+    input_scale: FloatArray | None = None  # (N, m) s_k of B diag(s_k); None = ones
+
+    @property
+    def step_b_matrix(self) -> FloatArray:
+        """(N, n, m) B diag(s_k) of each step (read-only)."""
+        b = self.b_matrix[None]
+        if self.input_scale is None:
+            steps: FloatArray = np.broadcast_to(b, (self.horizon, *self.b_matrix.shape))
+            return steps
+        scaled: FloatArray = b * self.input_scale[:, None, :]
+        scaled.setflags(write=False)
+        return scaled
 
     def differences(self, other: RMPCStructure) -> list[str]:
         """Names of the fields in which ``other`` differs from this structure."""
         arrays = ("a_matrix", "b_matrix", "e_matrix", "c_matrix", "reserve_mask")
         names = [n for n in arrays if not np.array_equal(getattr(self, n), getattr(other, n))]
+        mine, theirs = self.input_scale, other.input_scale
+        if (mine is None) != (theirs is None) or (
+            mine is not None and theirs is not None and not np.array_equal(mine, theirs)
+        ):
+            names.append("input_scale")
         return names + [
             f.name
             for f in fields(self)
-            if f.name not in arrays and getattr(self, f.name) != getattr(other, f.name)
+            if f.name not in (*arrays, "input_scale")
+            and getattr(self, f.name) != getattr(other, f.name)
         ]
 
     def fingerprint(self) -> str:
@@ -590,4 +637,7 @@ class RMPCStructure:
             digest.update(b"|visible-offers")
         if self.comfort_knee:
             digest.update(b"|comfort-knee")
+        if self.input_scale is not None:
+            digest.update(b"|input-scale")
+            digest.update(np.ascontiguousarray(self.input_scale).tobytes())
         return digest.hexdigest()

@@ -156,10 +156,19 @@ def _event_constraint(prob: RMPCProblem, y: Any, r: Any, eps: Any, delta: FloatA
     upper = (prob.y_max - delta)[step].ravel() + widen
     lhs = (
         cp.vec(y, order="C")[out_index]
-        + warming_rows @ cp.vec(r, order="C")
+        + warming_rows @ cp.vec(_scaled(prob, r, inputs), order="C")
         - cp.vec(eps, order="C")[out_index]
     )
     return lhs <= upper
+
+
+def _scaled(prob: RMPCProblem, flows: Any, inputs: IntArray | None = None) -> Any:
+    """The flow variables (N, k) of ``inputs`` (all when None) as B's columns see them,
+    s_k ⊙ flows with ``prob.input_scale`` (B_k = B diag(s_k)), else the flows."""
+    if prob.input_scale is None:
+        return flows
+    scale = prob.input_scale if inputs is None else prob.input_scale[:, inputs]
+    return _cvxpy().multiply(scale, flows)
 
 
 def _paid_steps(prob: RMPCProblem, inputs: IntArray) -> BoolArray:
@@ -237,7 +246,7 @@ def _plan(prob: RMPCProblem) -> tuple[dict[str, Any], list[Any]]:
     x_prev = cp.vstack([prob.x0[None, :], x[:-1]])
     room = (prob.u_max - prob.u_min)[:, inputs]
     cons = [
-        x == x_prev @ prob.a_matrix.T + u @ prob.b_matrix.T + v["drift"],
+        x == x_prev @ prob.a_matrix.T + _scaled(prob, u) @ prob.b_matrix.T + v["drift"],
         u >= prob.u_min,
         u <= prob.u_max,
         r >= 0,
@@ -279,7 +288,9 @@ def _comfort(prob: RMPCProblem, v: dict[str, Any], delta: FloatArray) -> list[An
         z = cp.Variable((prob.horizon, prob.n))
         z_prev = cp.vstack([prob.x0[None, :], z[:-1]])
         b_reserve = prob.b_matrix[:, inputs]
-        flows = v["u"] @ prob.b_matrix.T - v["r"] @ b_reserve.T
+        flows = (
+            _scaled(prob, v["u"]) @ prob.b_matrix.T - _scaled(prob, v["r"], inputs) @ b_reserve.T
+        )
         y_z = z @ prob.c_matrix.T
         cons += [
             z == z_prev @ prob.a_matrix.T + flows + v["drift"],

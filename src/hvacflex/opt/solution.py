@@ -201,7 +201,7 @@ def plan_from_values(
             problem.a_matrix,
             problem.b_matrix[:, plan.reserve_inputs],
             x_served,
-            r[:, plan.reserve_inputs],
+            problem.scaled_flows(r[:, plan.reserve_inputs], plan.reserve_inputs),
             None if problem.events is None else problem.events.max_steps,
         )
     else:
@@ -261,7 +261,7 @@ def plan_solution(
     y_event_worst = worst_event_output(
         event_responses,
         plan.x_served[1:] @ problem.c_matrix.T,
-        plan.r[:, ridx],
+        problem.scaled_flows(plan.r[:, ridx], ridx),
         delta,
         None if problem.events is None else problem.events.max_steps,
     )
