@@ -628,3 +628,14 @@ def test_bad_comfort_knees_name_the_field(tmp_path: Path, text: str, field: str)
     path.write_text("[controller]\n" + text)
     with pytest.raises(ConfigError, match=re.escape(field)):
         load_config(path)
+
+
+def test_plan_linearisation_is_refused_with_affine_feedback(tmp_path: Path) -> None:
+    """The feedback LP's responses assume one B: ``linearisation = "plan"`` with it is
+    refused when the file is read, naming the field and the alternatives."""
+    path = tmp_path / "bad.toml"
+    path.write_text('[controller]\nrobust = "feedback"\nlinearisation = "plan"\n')
+    with pytest.raises(ConfigError, match=r"controller\.linearisation.*'fixed' or 'trajectory'"):
+        load_config(path)
+    path.write_text('[controller]\nrobust = "tightening"\nlinearisation = "plan"\n')
+    assert load_config(path).controller.linearisation == "plan"

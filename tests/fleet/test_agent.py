@@ -205,3 +205,45 @@ def test_a_cut_takes_flow_first_from_the_zones_below_their_band(
     assert capped.fallback
     np.testing.assert_allclose(capped.flow_kg_s[1:], flow[1:], rtol=1e-12)
     assert capped.flow_kg_s[0] == pytest.approx(flow[0] - 0.5 * free_kg_s, rel=1e-6)
+
+
+def test_plan_linearisation_moves_each_step_to_the_previous_plans_temperatures() -> None:
+    """``linearisation = "plan"`` in a fleet file: the first step is the fixed model's, the
+    next carries the previous plan's zone temperatures (B diag(s_k) and the power rows at
+    them), its solver is rebuilt from the last basis (a warm start), the period's prediction
+    error is taken with the plan's first-step model, and the envelope's hold model steps as
+    those dynamics."""
+    from hvacflex.fleet.envelope import hold_model
+
+    doc = generate_fleet(1, 3, feeder_limit_kw=float("inf"))
+    doc["linearisation"] = "plan"
+    fleet = fleet_from_dict(doc)
+    agent = BuildingAgent(fleet.buildings[0], 0, FleetSettings.of(fleet, "2014-03-03T02:00", 0.1))
+    assert agent.controller.contract.config.linearisation == "plan"
+    horizon = fleet.spec.horizon_steps
+    agent.begin_step()
+    assert agent.problem.step_linearisation is None  # no plan yet: T₀'s model
+    agent.finalize(np.zeros(horizon), np.full(horizon, np.inf))
+    agent.advance()
+    agent.begin_step()
+    problem = agent.problem
+    assert problem.input_scale is not None
+    assert np.abs(problem.input_scale - 1.0).max() > 0.02
+    second = agent.finalize(np.zeros(horizon), np.full(horizon, np.inf))
+    assert second.ok
+    staged = agent._staged
+    assert staged is not None and staged.warm_start  # the rebuilt solver started warm
+    row = agent.advance()
+    assert row["fallback"] == 0.0
+    frame = agent.frame()
+    assert np.isfinite(frame.filter(like="prediction_error_").iloc[-1]).all()
+    steps = 3
+    model = hold_model(problem, steps)
+    flows = np.random.default_rng(0).uniform(problem.u_min[:steps], problem.u_max[:steps])
+    g = np.broadcast_to(problem.g, (problem.horizon, problem.n))
+    x, outputs = problem.x0.copy(), []
+    for j in range(steps):
+        x = problem.a_matrix @ x + problem.step_b_matrix[j] @ flows[j]
+        x = x + problem.e_matrix @ problem.d_forecast[j] + g[j]
+        outputs.append(problem.c_matrix @ x)
+    np.testing.assert_allclose(model.free + model.gain @ flows.ravel(), np.concatenate(outputs))
