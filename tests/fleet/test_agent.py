@@ -235,8 +235,10 @@ def test_plan_linearisation_moves_each_step_to_the_previous_plans_temperatures()
     assert staged is not None and staged.warm_start  # the rebuilt solver started warm
     row = agent.advance()
     assert row["fallback"] == 0.0
-    frame = agent.frame()
-    assert np.isfinite(frame.filter(like="prediction_error_").iloc[-1]).all()
+    # the period's prediction error and filter step with the plan's first-step model
+    step_model = agent.controller.get_state()["step_model"]
+    np.testing.assert_allclose(step_model.b, problem.step_b_matrix[0], rtol=1e-12)
+    np.testing.assert_allclose(agent.controller.model_now.b, step_model.b, rtol=1e-12)
     steps = 3
     model = hold_model(problem, steps)
     flows = np.random.default_rng(0).uniform(problem.u_min[:steps], problem.u_max[:steps])

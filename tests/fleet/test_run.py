@@ -368,6 +368,13 @@ class _Cluster:
         return {"n_workers": len(self.workers), "workers": {}}
 
 
+class _Silent:
+    """A client whose scheduler does not answer (a comm timeout on a loaded machine)."""
+
+    def nthreads(self) -> dict[str, int]:
+        raise OSError("Timed out trying to connect")
+
+
 def test_a_slow_group_call_is_waited_for_while_its_worker_is_there() -> None:
     """A call slower than its timeout (a cold step of many buildings on a loaded machine)
     is waited for while the worker is still in the cluster; a lost worker fails the step
@@ -384,6 +391,9 @@ def test_a_slow_group_call_is_waited_for_while_its_worker_is_there() -> None:
     groups.groups, groups.client = [_SlowGroup(1)], _Cluster([])
     with pytest.raises(fleet_run.WorkerLostError):
         groups.call("ping")
+    # a scheduler that does not answer proves no loss: the call is waited for
+    groups.groups, groups.client = [_SlowGroup(2)], _Silent()
+    assert groups.call("ping") == ["done"]
 
 
 SHORT: dict[str, Any] = {"start": "2014-03-03 10:00", "days": 2 / 48, "workers": 0}

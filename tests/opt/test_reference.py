@@ -249,6 +249,14 @@ def test_office5_event_lp_with_an_input_scale_equals_cvxpy() -> None:
     assert (reference.status, reference.family) == ("optimal", "event model, visible offers")
     assert _relative(solver.highs_objective_sgd(), reference.objective_sgd) < REL_TOL
     assert _relative(solve_reference(problem).objective_sgd, reference.objective_sgd) > 1e-4
+    # the plan's event trajectory (s = 0, L = D) steps through B diag(s_k) too
+    assert scaled.events is not None and solution.r.any()
+    x, g = scaled.x0.copy(), np.broadcast_to(scaled.g, (scaled.horizon, scaled.n))
+    for k in range(scaled.horizon):
+        flow = solution.u[k] - (solution.r[k] if k < scaled.events.max_steps else 0.0)
+        x = scaled.a_matrix @ x + scaled.step_b_matrix[k] @ flow
+        x = x + scaled.e_matrix @ scaled.d_forecast[k] + g[k]
+        np.testing.assert_allclose(solution.x_curtailed[k + 1], x, atol=1e-6)
 
 
 @pytest.mark.parametrize("robust", ["tightening", "none"])

@@ -71,8 +71,10 @@ class MPCController(Controller):
         "kalman"``): :meth:`act` then needs the measured zone temperatures and plans from the
         estimate, with the offset estimate in the affine term and the estimation margin
         (docs/explanation/estimation.md) added to δ when the MPC is robust; None = full state.
-    linearisation : ``"fixed"`` (``model`` throughout) or ``"trajectory"`` (re-linearised
-        each step about the previous plan shifted by one step, docs/explanation/estimation.md §3).
+    linearisation : ``"fixed"`` (``model`` throughout), ``"trajectory"`` (re-linearised
+        each step about the previous plan shifted by one step) or ``"plan"`` (every step of
+        the horizon at the previous plan's zone temperature over it; the config's, which
+        builds the problem), docs/explanation/estimation.md §3.
     model_error_k : (m,) calibrated one-step model error per zone [K per step]
         (:func:`hvacflex.data.calibration.calibrate_box`); its margin
         (:func:`~hvacflex.control.problem_builder.model_error_margins`) tightens the comfort
@@ -93,6 +95,13 @@ class MPCController(Controller):
         model_error_k: FloatArray | None = None,
     ) -> None:
         reserve = reserve if reserve is not None else ReserveConfig()
+        if config.linearisation == "plan" and config.robust == "feedback":
+            raise ConfigError(
+                "linearisation = 'plan' is not available with robust = 'feedback'",
+                field="controller.linearisation",
+                value=config.linearisation,
+                hint="use linearisation = 'fixed' or 'trajectory' with feedback",
+            )
         self.contract = PlanContract.of(
             building, model, config, box, linearisation_temp_degc, reserve
         )
@@ -231,7 +240,10 @@ class MPCController(Controller):
         if contract.visible_offers:
             paid = seen_steps(self._plan_seen_kw, self._periods_since_plan + shift, horizon)
             baselines = sizer.baselines(horizon, paid)
-        context = PlanContext(x_degc, offset_k, extra, self._previous_plan, baselines, sizer.scale)
+        fresh = self._periods_since_plan + shift == 1 and self._plan_age == 0 and not self._held
+        context = PlanContext(
+            x_degc, offset_k, extra, self._previous_plan, baselines, sizer.scale, fresh
+        )
         return build_problem(step_model, inputs, contract, context)
 
     def _take_previous_flow(self, flow_kg_s: FloatArray | None) -> None:

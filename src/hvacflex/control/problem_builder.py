@@ -54,7 +54,11 @@ from hvacflex.config import ControllerConfig, ReserveConfig
 from hvacflex.control.base import FloatArray, PeriodInputs
 from hvacflex.control.estimation import StepModel, tightened_bounds
 from hvacflex.control.idle_air import idle_flow_min_kg_s
-from hvacflex.control.trajectory import MIN_SUPPLY_DIFFERENCE_K, StepMatrices
+from hvacflex.control.trajectory import (
+    MIN_SUPPLY_DIFFERENCE_K,
+    StepMatrices,
+    shifted_operating_points,
+)
 from hvacflex.data.forecast import Forecast
 from hvacflex.data.signals import effective_peak_price
 from hvacflex.data.uncertainty import UncertaintyBox
@@ -272,6 +276,9 @@ class PlanContext:
         taken), or None.
     offer_baselines : the settlement baselines the offers are paid against, or None.
     meter_ratio : ρ the offers are scaled by (1: not scaled).
+    plan_is_fresh : ``previous_plan`` was made for the period just begun before this one and
+        the plant ran it (no fallback, no locked IL period since): ``linearisation = "plan"``
+        takes its temperatures one step on; a stale plan is not linearised about (T₀ then).
     """
 
     x_degc: FloatArray
@@ -280,6 +287,7 @@ class PlanContext:
     previous_plan: RMPCSolution | None = None
     offer_baselines: OfferBaselines | None = None
     meter_ratio: float = 1.0
+    plan_is_fresh: bool = True
 
 
 def build_problem(
@@ -314,12 +322,14 @@ def build_problem(
     y_max = below_unoccupied_bound(forecast, y_min, y_max, cfg.unoccupied_plan_margin_k)
     if context.extra_margin_k is not None:
         y_min, y_max = tightened_bounds(y_min, y_max, context.extra_margin_k)
-    zone_temps = plan_zone_temps_degc(m, context, horizon) if cfg.linearisation == "plan" else None
-    scale = None if zone_temps is None else plan_input_scale(m, zone_temps)
+    zone_temps_degc = (
+        plan_zone_temps_degc(m, context, horizon) if cfg.linearisation == "plan" else None
+    )
+    scale = None if zone_temps_degc is None else plan_input_scale(m, zone_temps_degc)
     if scale is not None and np.any(m.flow_ref_kg_s):
         affine = affine + plan_affine_shift(m, scale)
     p0, p, reserve_coeff = _power_coefficients(
-        contract, context, forecast, d_hat, u_min, y_min, zone_temps
+        contract, context, forecast, d_hat, u_min, y_min, zone_temps_degc
     )
     if inputs.meter_offset_kw is not None:  # levelled to the meter
         p0 = p0 + np.asarray(inputs.meter_offset_kw, dtype=float)[:horizon]
@@ -478,12 +488,12 @@ def _power_coefficients(
     d_hat: FloatArray,
     u_min: FloatArray,
     y_min: FloatArray,
-    zone_temps: FloatArray | None = None,
+    zone_temps_degc: FloatArray | None = None,
 ) -> tuple[FloatArray, FloatArray, FloatArray]:
     """The LP's power rows ``P_k = p0_k + p_kᵀ u_k`` ((N,), (N, m)) and the reserve's
     power per kg/s (N, m), from the building's power model at the forecast (outdoor air,
     its humidity, the occupants' latent gain) over the step's flow range [u_min, u_max];
-    the design curves' coil at ``zone_temps`` ((N, m) [°C], ``linearisation = "plan"``)
+    the design curves' coil at ``zone_temps_degc`` ((N, m) [°C], ``linearisation = "plan"``)
     where given, else at T₀."""
     horizon = d_hat.shape[0]
     building, outdoor = contract.building, d_hat[:, contract.outdoor_index]
@@ -500,7 +510,7 @@ def _power_coefficients(
         damper,
         contract.linearisation_temp_degc,
         u_min,
-        zone_temp_degc=zone_temps,
+        zone_temp_degc=zone_temps_degc,
         reference_flow_kg_s=reference,
         total_flow_max_kg_s=float(contract.flow_max_kg_s.sum()),
     )
@@ -559,16 +569,15 @@ def plan_zone_temps_degc(
     """(N, m) zone temperatures each step is linearised at under ``linearisation = "plan"``
     [°C]: the previous plan's served zone temperatures over each step (the mean of its
     start and end), one step on — the first step from the state now, the last step's end
-    repeated; None without a plan of this horizon (T₀ then)."""
+    repeated (:func:`~hvacflex.control.trajectory.shifted_operating_points`); None without a
+    fresh plan of this horizon (T₀ then)."""
     plan = context.previous_plan
-    if plan is None or plan.x_served.shape[0] != horizon + 1:
+    if plan is None or not context.plan_is_fresh or plan.x_served.shape[0] != horizon + 1:
         return None
-    served = plan.x_served @ model.c.T  # (N + 1, m): the old steps' ends 0 … N
-    now = model.c @ np.asarray(context.x_degc, dtype=float)
-    starts = np.concatenate([now[None], served[2:]])
-    ends = np.concatenate([served[2:], served[-1:]])
-    temps: FloatArray = 0.5 * (starts + ends)
-    return temps
+    served_degc = plan.x_served @ model.c.T  # (N + 1, m): the start, then each step's end
+    now_degc = model.c @ np.asarray(context.x_degc, dtype=float)
+    _, temps_degc = shifted_operating_points(plan.u, served_degc, now_degc, horizon)
+    return temps_degc
 
 
 def plan_input_scale(model: LinearModel, zone_temps_degc: FloatArray) -> FloatArray:

@@ -81,7 +81,10 @@ class SolverSlot:
             if pending is not None and self.rebuilt_each_model:
                 pending = replace(pending, fingerprint=problem.structure.fingerprint())
             if pending is not None:
-                self._solver.set_basis(pending)
+                try:
+                    self._solver.set_basis(pending)
+                except ProblemError:  # another row count (e.g. lazy event rows): cold start
+                    pass
                 self._pending = None
         assert isinstance(self._solver, RMPCSolver)
         return self._solver
@@ -104,10 +107,13 @@ class SolverSlot:
     def restore(self, basis: SolverBasis | None) -> None:
         """Start from ``basis`` (:meth:`basis` of a checkpoint): handed to the live solver,
         or kept for the next one."""
-        if self._solver is not None and basis is not None and not self.rebuilt_each_model:
-            self._solver.set_basis(basis)
-        else:  # a rebuilt solver takes the basis over whatever structure it was stored for
-            self._solver, self._structure, self._pending = None, None, basis
+        if self._solver is not None and basis is not None:
+            if self.rebuilt_each_model:  # the next solver takes it over, re-fingerprinted
+                self._solver, self._structure, self._pending = None, None, basis
+            else:
+                self._solver.set_basis(basis)
+        else:
+            self._pending = basis
 
     def restart(self) -> None:
         """Drop the solver (HiGHS's factorisation and internal state) and keep its basis to

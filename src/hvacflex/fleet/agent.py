@@ -40,13 +40,16 @@ from hvacflex.config import (
     ComfortConfig,
     ControllerConfig,
     DataConfig,
+    Linearisation,
     ReserveConfig,
     ScenarioConfig,
 )
 from hvacflex.control.base import Action, FloatArray, PeriodInputs
 from hvacflex.control.demand_limit import forecast_period_power_kw, predicted_power_kw
+from hvacflex.control.estimation import StepModel
 from hvacflex.control.mpc import MPCController
 from hvacflex.control.offers import snapped_flows_kg_s
+from hvacflex.control.problem_builder import planned_first_step
 from hvacflex.data.gains import DEFAULT_OFFICE_SCHEDULE, OfficeSchedule
 from hvacflex.fleet.centralised import objective_split
 from hvacflex.fleet.envelope import building_envelope, hold_flows
@@ -132,6 +135,10 @@ class FleetController(MPCController):
         self.upper_now_degc: FloatArray | None = None
         """(m,) the upper band at the end of the step's first period [°C]; None before a
         step is finalised."""
+        self.model_now: StepModel = self.model
+        """The model the step's first period is planned with (the fixed model; under
+        ``linearisation = "plan"`` B diag(s_0), :func:`planned_first_step`), set when the
+        step is finalised: what the comfort floor steps with."""
         self.held_flow_kg_s: FloatArray | None = None
         """(m,) flows [kg/s] a hold of the envelope fixes for this period (applied as they
         are, no reserve offered; :meth:`BuildingAgent.advance_held`); None: not held."""
@@ -215,8 +222,9 @@ class FleetController(MPCController):
         upper = self.upper_now_degc
         if upper is None:
             return np.asarray(low_kg_s, dtype=float), np.inf
-        model = self.model
-        end = model.c @ model.step(inputs.x_degc, flow_kg_s, inputs.forecast.disturbances[0])
+        model, x = self.model_now, np.asarray(inputs.x_degc, dtype=float)
+        d0 = inputs.forecast.disturbances[0]
+        end = model.c @ (model.a @ x + model.b @ flow_kg_s + model.e @ d0 + model.g)
         gain = np.diag(model.c @ model.b)
         floor = comfort_floor_flow_kg_s(end, gain, upper, flow_kg_s, low_kg_s)
         return floor, float(np.min(upper - end))
@@ -302,7 +310,7 @@ class FleetSettings:
     linearisation_margin_k: float = LINEARISATION_MARGIN_K
     """T₀ of every building's model is its occupied upper comfort bound less this [K] (the
     fleet file's key)."""
-    linearisation: str = "fixed"
+    linearisation: Linearisation = "fixed"
     """Every building's model at T₀ or each step at its previous plan's zone temperatures
     (the fleet file's key)."""
     il_events: ReserveConfig = field(default_factory=ReserveConfig)
@@ -367,7 +375,7 @@ def building_setup(entry: FleetBuilding, index: int, settings: FleetSettings) ->
             entry.comfort_occupied_degc[1] - settings.linearisation_margin_k,
             entry.comfort_occupied_degc[0],
         ),
-        linearisation=settings.linearisation,  # type: ignore[arg-type]
+        linearisation=settings.linearisation,
         comfort_penalty_sgd_per_kelvin_hour=settings.comfort_penalty_sgd_per_kelvin_hour,
         comfort_knee_k=settings.comfort_knee_k,
         comfort_penalty_beyond_knee_sgd_per_kelvin_hour=(
@@ -560,6 +568,7 @@ class BuildingAgent:
         self._staged = self._last
         self.controller.cap_now_kw = float(cap[0])
         self.controller.upper_now_degc = np.array(base.y_max[0], dtype=float)
+        self.controller.model_now = planned_first_step(base, self.controller.model)
         self.controller.power_now = (
             float(base.power_offset_kw[0]),
             base.power_coeff_kw_per_kg_s[0].copy(),

@@ -195,9 +195,11 @@ def add_input_coefficients(
     sign: float,
     inputs: IntArray | None = None,
 ) -> None:
-    """``sign`` · B_k on the flow columns ``flows`` (N, k) of the inputs ``inputs`` (all m
+    """``sign`` · B_k on the flow columns ``flows`` (N, j) of the inputs ``inputs`` (all m
     when None) in the dynamics rows ``rows`` (N, n): B_k = B diag(s_k) with
-    ``p.step_linearisation`` (:class:`~hvacflex.opt.blocks.StepLinearisation`), else B."""
+    ``p.step_linearisation`` (:class:`~hvacflex.opt.blocks.StepLinearisation`), else B.
+    The block's family: it adds no rows of its own but moves these coefficients of the
+    core's dynamics (the event rows scale r's columns in :func:`add_il_event_comfort`)."""
     matrices = p.step_b_matrix if inputs is None else p.step_b_matrix[:, :, inputs]
     lp.add_coefficients(rows[:, :, None], flows[:, None, :], sign * matrices)
 

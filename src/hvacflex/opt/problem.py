@@ -149,7 +149,8 @@ class RMPCProblem:
 
     After construction every array field is a read-only float array of its full shape
     (``d_sigma`` (N,nd), ``u_min``/``u_max`` (N,m), ``y_min``/``y_max`` (N,ny),
-    ``peak_price_sgd_per_kw`` (N,), ``affine_term`` (n,), ``reserve_mask`` (m,) bool;
+    ``peak_price_sgd_per_kw`` (N,), ``affine_term`` (n,) or (N,n) as given, ``reserve_mask``
+    (m,) bool;
     ``power_cap``'s cap (N,)).
     """
 

@@ -118,7 +118,8 @@ class RMPCSolver:
 
     Parameters
     ----------
-    problem : the first problem; fixes the structure (A, B, E, C, N, reserve mask, robust)
+    problem : the first problem; fixes the structure (A, B, E, C, N, reserve mask, robust,
+        the step linearisation's scale)
     time_limit_s : wall-clock limit per solve [s] (each :meth:`solve`, not cumulative);
         None = no limit
     time_shift : each problem is the previous one a step later (receding horizon): start
@@ -358,7 +359,7 @@ class RMPCSolver:
         ------
         ProblemError
             if ``problem`` has a different structure (A, B, E, C, N, reserve mask, robust
-            mode); build a new :class:`RMPCSolver` for it.
+            mode, step linearisation); build a new :class:`RMPCSolver` for it.
         """
         start = time.perf_counter()
         if problem.structure is not self._structure:

@@ -168,9 +168,10 @@ class ControlStep:
         self.tracker = event_tracker(config)
         self.zones = zones
         self.replannable = replannable
-        self.filter_takes_delivered = config.controller.linearisation == "fixed"
+        self.filter_takes_delivered = config.controller.linearisation in ("fixed", "plan")
         """Whether the plant's delivered input reaches the controller's filter: its input is
-        the fixed model's; a re-linearised step model has another operating point."""
+        the fixed model's (or, under ``"plan"``, the same ṁ_ref's with B scaled); a model
+        re-linearised about the plan's flow has another operating point."""
         self.period = -1
         """The latest period decided (−1: none)."""
         reserve = config.reserve
