@@ -41,12 +41,12 @@ from hvacflex.control.idle_air import (
     shares_one_coil,
 )
 from hvacflex.control.offers import OfferSizer, offer_steps, seen_steps, snapped_flows_kg_s
+from hvacflex.control.plan_linearisation import planned_first_step
 from hvacflex.control.problem_builder import (
     PlanContext,
     PlanContract,
     build_problem,
     model_error_margins,
-    planned_first_step,
 )
 from hvacflex.control.trajectory import relinearised_first_step
 from hvacflex.control.warm_solver import SolverSlot

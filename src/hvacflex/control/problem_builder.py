@@ -54,11 +54,7 @@ from hvacflex.config import ControllerConfig, ReserveConfig
 from hvacflex.control.base import FloatArray, PeriodInputs
 from hvacflex.control.estimation import StepModel, tightened_bounds
 from hvacflex.control.idle_air import idle_flow_min_kg_s
-from hvacflex.control.trajectory import (
-    MIN_SUPPLY_DIFFERENCE_K,
-    StepMatrices,
-    shifted_operating_points,
-)
+from hvacflex.control.plan_linearisation import plan_linearisation
 from hvacflex.data.forecast import Forecast
 from hvacflex.data.signals import effective_peak_price
 from hvacflex.data.uncertainty import UncertaintyBox
@@ -72,7 +68,6 @@ from hvacflex.opt import (
     ReserveCommitment,
     RMPCProblem,
     RMPCSolution,
-    StepLinearisation,
 )
 from hvacflex.opt.robust import comfort_margins
 from hvacflex.units import SECONDS_PER_HOUR
@@ -276,9 +271,8 @@ class PlanContext:
         taken), or None.
     offer_baselines : the settlement baselines the offers are paid against, or None.
     meter_ratio : ρ the offers are scaled by (1: not scaled).
-    plan_is_fresh : ``previous_plan`` was made for the period just begun before this one and
-        the plant ran it (no fallback, no locked IL period since): ``linearisation = "plan"``
-        takes its temperatures one step on; a stale plan is not linearised about (T₀ then).
+    plan_is_fresh : ``previous_plan`` was made one period ago and run (no fallback or locked
+        IL period since): ``linearisation = "plan"`` linearises along it, else at T₀.
     """
 
     x_degc: FloatArray
@@ -322,14 +316,19 @@ def build_problem(
     y_max = below_unoccupied_bound(forecast, y_min, y_max, cfg.unoccupied_plan_margin_k)
     if context.extra_margin_k is not None:
         y_min, y_max = tightened_bounds(y_min, y_max, context.extra_margin_k)
-    zone_temps_degc = (
-        plan_zone_temps_degc(m, context, horizon) if cfg.linearisation == "plan" else None
-    )
-    scale = None if zone_temps_degc is None else plan_input_scale(m, zone_temps_degc)
-    if scale is not None and np.any(m.flow_ref_kg_s):
-        affine = affine + plan_affine_shift(m, scale)
+    along = None
+    if cfg.linearisation == "plan" and context.plan_is_fresh:
+        along = plan_linearisation(m, context.previous_plan, context.x_degc, horizon)
+    if along is not None and along.affine_shift is not None:
+        affine = affine + along.affine_shift
     p0, p, reserve_coeff = _power_coefficients(
-        contract, context, forecast, d_hat, u_min, y_min, zone_temps_degc
+        contract,
+        context,
+        forecast,
+        d_hat,
+        u_min,
+        y_min,
+        None if along is None else along.zone_temps_degc,
     )
     if inputs.meter_offset_kw is not None:  # levelled to the meter
         p0 = p0 + np.asarray(inputs.meter_offset_kw, dtype=float)[:horizon]
@@ -362,7 +361,7 @@ def build_problem(
         power_cap=(PowerCap(power_max_kw=power_max) if np.isfinite(power_max).any() else None),
         power_offset_kw=p0,
         power_coeff_kw_per_kg_s=p,
-        step_linearisation=None if scale is None else StepLinearisation(input_scale=scale),
+        step_linearisation=None if along is None else along.block,
         reserve_power_coeff_kw_per_kg_s=(
             context.meter_ratio * np.minimum(reserve_coeff, p) if contract.events else None
         ),
@@ -372,27 +371,31 @@ def build_problem(
         y_max=y_max,
         reserve_mask=contract.reserve_mask,
         comfort_penalty_sgd_per_kelvin_hour=cfg.comfort_penalty_sgd_per_kelvin_hour,
-        comfort_knee=(
-            None
-            if cfg.comfort_knee_k is None
-            else ComfortKnee(
-                knee_kelvin=cfg.comfort_knee_k,
-                penalty_beyond_sgd_per_kelvin_hour=cfg.comfort_penalty_beyond_knee_sgd_per_kelvin_hour,
-            )
-        ),
+        comfort_knee=_comfort_knee(cfg),
         dt_h=m.dt_s / SECONDS_PER_HOUR,
         robust=cfg.robust,
-        feedback=(
-            FeedbackOptions(
-                structure=cfg.feedback.structure, memory_steps=cfg.feedback.memory_steps
-            )
-            if cfg.robust == "feedback"
-            else None
-        ),
+        feedback=_feedback_options(cfg),
         commitments=_commitment(contract, inputs.committed_reserve_kg_s, u_min),
         offer_baselines=context.offer_baselines,
         events=_event_model(contract.reserve, horizon, inputs.allowance_carry_steps),
     )
+
+
+def _comfort_knee(cfg: ControllerConfig) -> ComfortKnee | None:
+    """The comfort knee block of the controller's δ and ρ₂ (None without a knee)."""
+    if cfg.comfort_knee_k is None:
+        return None
+    return ComfortKnee(
+        knee_kelvin=cfg.comfort_knee_k,
+        penalty_beyond_sgd_per_kelvin_hour=cfg.comfort_penalty_beyond_knee_sgd_per_kelvin_hour,
+    )
+
+
+def _feedback_options(cfg: ControllerConfig) -> FeedbackOptions | None:
+    """The affine-feedback policy's structure (None unless ``robust = "feedback"``)."""
+    if cfg.robust != "feedback":
+        return None
+    return FeedbackOptions(structure=cfg.feedback.structure, memory_steps=cfg.feedback.memory_steps)
 
 
 def _commitment(
@@ -561,62 +564,6 @@ def _total_flow_reference_kg_s(plan: RMPCSolution | None, u_min: FloatArray) -> 
     shifted = np.concatenate([planned[1:], planned[-1:]])
     reference: FloatArray = np.maximum(shifted, low)
     return reference
-
-
-def plan_zone_temps_degc(
-    model: LinearModel, context: PlanContext, horizon: int
-) -> FloatArray | None:
-    """(N, m) zone temperatures each step is linearised at under ``linearisation = "plan"``
-    [°C]: the previous plan's served zone temperatures over each step (the mean of its
-    start and end), one step on — the first step from the state now, the last step's end
-    repeated (:func:`~hvacflex.control.trajectory.shifted_operating_points`); None without a
-    fresh plan of this horizon (T₀ then)."""
-    plan = context.previous_plan
-    if plan is None or not context.plan_is_fresh or plan.x_served.shape[0] != horizon + 1:
-        return None
-    served_degc = plan.x_served @ model.c.T  # (N + 1, m): the start, then each step's end
-    now_degc = model.c @ np.asarray(context.x_degc, dtype=float)
-    _, temps_degc = shifted_operating_points(plan.u, served_degc, now_degc, horizon)
-    return temps_degc
-
-
-def plan_input_scale(model: LinearModel, zone_temps_degc: FloatArray) -> FloatArray:
-    """(N, m) s_k = (T_k − T_s) / (T₀ − T_s): the supply air's cooling per kg/s at each
-    step's zone temperature ``zone_temps_degc`` (N, m) [°C] relative to the model's at its
-    T₀ (:attr:`hvacflex.opt.RMPCProblem.input_scale`). The model's bilinear term
-    ṁ c_p (T_s − T_r) linearised about (ṁ_ref, T_k) instead of (ṁ_ref, T₀) keeps A and
-    turns B into B diag(s_k) (B's zone column is c_p (T_s − T₀) / C through the same ZOH
-    integral) and g into g − B diag(s_k − 1) ṁ_ref. Zone temperatures are raised to
-    :data:`~hvacflex.control.trajectory.MIN_SUPPLY_DIFFERENCE_K` above the supply air."""
-    supply = model.supply_temp_degc
-    temps = np.maximum(zone_temps_degc, supply + MIN_SUPPLY_DIFFERENCE_K)
-    scale: FloatArray = (temps - supply) / (model.linearisation_temp_degc - supply)
-    return scale
-
-
-def plan_affine_shift(model: LinearModel, scale: FloatArray) -> FloatArray:
-    """(N, n) g_k − g [K] of the model linearised at each step's T_k (``scale`` (N, m), s_k
-    of :func:`plan_input_scale`): −B diag(s_k − 1) ṁ_ref, so that x_{k+1} = A x_k +
-    B ṁ_ref + B diag(s_k) (u_k − ṁ_ref) + E d_k + g (zero where ṁ_ref = 0)."""
-    shift: FloatArray = -((scale - 1.0) * model.flow_ref_kg_s) @ model.b.T
-    return shift
-
-
-def planned_first_step(problem: RMPCProblem, model: StepModel) -> StepModel:
-    """The one-step model ``problem``'s plan makes its first step with: ``model`` (the fixed
-    model or a re-linearisation), with B diag(s_0) and g − B diag(s_0 − 1) ṁ_ref where the
-    problem has an input scale (``linearisation = "plan"``; ``model`` then the fixed
-    :class:`LinearModel`): what the prediction error and the filter step with."""
-    if problem.input_scale is None or not isinstance(model, LinearModel):
-        return model
-    scale = problem.input_scale[0]
-    return StepMatrices(
-        a=model.a,
-        b=model.b * scale,
-        e=model.e,
-        g=model.g + plan_affine_shift(model, scale[None])[0],
-        c=model.c,
-    )
 
 
 def _return_air_estimate_degc(

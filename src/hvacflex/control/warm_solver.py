@@ -14,7 +14,7 @@ from dataclasses import replace
 
 from hvacflex.errors import ProblemError
 from hvacflex.opt import RMPCProblem, RMPCSolution, RMPCSolver, SolverBasis, WarmSolver, make_solver
-from hvacflex.opt.problem import RMPCStructure
+from hvacflex.opt.structure import RMPCStructure
 
 
 class SolverSlot:

@@ -49,7 +49,7 @@ from hvacflex.control.demand_limit import forecast_period_power_kw, predicted_po
 from hvacflex.control.estimation import StepModel
 from hvacflex.control.mpc import MPCController
 from hvacflex.control.offers import snapped_flows_kg_s
-from hvacflex.control.problem_builder import planned_first_step
+from hvacflex.control.plan_linearisation import planned_first_step
 from hvacflex.data.gains import DEFAULT_OFFICE_SCHEDULE, OfficeSchedule
 from hvacflex.fleet.centralised import objective_split
 from hvacflex.fleet.envelope import building_envelope, hold_flows
