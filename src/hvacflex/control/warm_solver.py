@@ -10,6 +10,7 @@ from a checkpoint starts.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import replace
 
 from hvacflex.errors import ProblemError
@@ -55,28 +56,23 @@ class SolverSlot:
     def solver(self, problem: RMPCProblem) -> WarmSolver:
         """The solver of ``problem``'s structure (built on first use, from a stored basis
         if any; a basis of another row count starts it cold)."""
-        self._follow(problem)
-        if self._solver is None:
-            self._structure = problem.structure
-            self._solver = make_solver(problem, time_limit_s=self.time_limit_s)
-            pending = self._pending
-            if pending is not None and self.rebuilt_each_model:
-                pending = replace(pending, fingerprint=problem.structure.fingerprint())
-            if pending is not None:
-                try:
-                    self._solver.set_basis(pending)
-                except ProblemError:  # another row count (e.g. lazy event rows): cold start
-                    pass
-                self._pending = None
-        return self._solver
+        return self._built(problem, lambda: make_solver(problem, time_limit_s=self.time_limit_s))
 
     def rmpc_solver(self, problem: RMPCProblem) -> RMPCSolver:
         """The open-loop solver of ``problem`` (a fleet's building re-solves it at the
-        coordinator's prices and caps); a stored basis must fit it."""
+        coordinator's prices and caps); as :meth:`solver`."""
+        solver = self._built(problem, lambda: RMPCSolver(problem, time_limit_s=self.time_limit_s))
+        assert isinstance(solver, RMPCSolver)
+        return solver
+
+    def _built(self, problem: RMPCProblem, build: Callable[[], WarmSolver]) -> WarmSolver:
+        """The live solver of ``problem``'s structure, else a new one from ``build`` taking
+        the stored basis (re-fingerprinted when rebuilt each model; another row count:
+        cold)."""
         self._follow(problem)
         if self._solver is None:
             self._structure = problem.structure
-            self._solver = RMPCSolver(problem, time_limit_s=self.time_limit_s)
+            self._solver = build()
             pending = self._pending
             if pending is not None and self.rebuilt_each_model:
                 pending = replace(pending, fingerprint=problem.structure.fingerprint())
@@ -86,7 +82,6 @@ class SolverSlot:
                 except ProblemError:  # another row count (e.g. lazy event rows): cold start
                     pass
                 self._pending = None
-        assert isinstance(self._solver, RMPCSolver)
         return self._solver
 
     def new_model(self, problem: RMPCProblem) -> None:
