@@ -172,9 +172,8 @@ class MPCController(Controller):
             return self._hold(inputs)
         x_degc, offset = self._estimate(inputs)
         previous = self._previous_plan
-        fresh = previous is not None and self._plan_age == 0 and not self._held
         step_model: StepModel = self.model
-        if self._network is not None and previous is not None and fresh:
+        if self._network is not None and previous is not None and self._plan_fresh:
             step_model = relinearised_first_step(
                 self.building,
                 self._network,
@@ -206,11 +205,16 @@ class MPCController(Controller):
         x = np.asarray(inputs.x_degc, dtype=float)
         return self._problem(inputs, self.model, x, None, sigma, sizer, shift=1)
 
+    @property
+    def _plan_fresh(self) -> bool:
+        """The last optimal plan is this period's predecessor's own, and the plant ran it
+        (no fallback, no locked IL period since)."""
+        return self._previous_plan is not None and self._plan_age == 0 and not self._held
+
     def _box_and_sizer(self, inputs: PeriodInputs) -> tuple[FloatArray, OfferSizer]:
         """The box's σ (N, nd) over the horizon and the period's offer sizer (with the
         power the last plan planned for now, where that plan is fresh)."""
-        previous = self._previous_plan
-        fresh = previous is not None and self._plan_age == 0 and not self._held
+        previous, fresh = self._previous_plan, self._plan_fresh
         horizon = self.contract.config.horizon_steps
         sigma = self.contract.box.sigma(inputs.forecast.disturbances[:horizon], self.model.channels)
         planned_now = float(previous.power_kw[0]) if previous is not None and fresh else None
@@ -240,7 +244,7 @@ class MPCController(Controller):
         if contract.visible_offers:
             paid = seen_steps(self._plan_seen_kw, self._periods_since_plan + shift, horizon)
             baselines = sizer.baselines(horizon, paid)
-        fresh = self._periods_since_plan + shift == 1 and self._plan_age == 0 and not self._held
+        fresh = self._periods_since_plan + shift == 1 and self._plan_fresh
         context = PlanContext(
             x_degc, offset_k, extra, self._previous_plan, baselines, sizer.scale, fresh
         )

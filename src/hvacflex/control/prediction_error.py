@@ -19,6 +19,20 @@ from hvacflex.control.estimation import StepModel
 FloatArray = NDArray[np.float64]
 
 
+def predicted_state_degc(
+    model: StepModel, x_degc: ArrayLike, flow_kg_s: ArrayLike, d: ArrayLike
+) -> FloatArray:
+    """x_{k+1} = A x_k + B u_k + E d_k + g (n,) [°C] of the one-step ``model`` from the state
+    (n,) [°C], the flow (m,) [kg/s] and the disturbance (nd,)."""
+    predicted: FloatArray = (
+        model.a @ np.asarray(x_degc, dtype=np.float64)
+        + model.b @ np.asarray(flow_kg_s, dtype=np.float64)
+        + model.e @ np.asarray(d, dtype=np.float64)
+        + model.g
+    )
+    return predicted
+
+
 def one_step_prediction_error(
     model: StepModel,
     x_degc: ArrayLike,
@@ -28,12 +42,7 @@ def one_step_prediction_error(
 ) -> FloatArray:
     """e_{k+1} (m,) [K] from the true state x_k (n,), the applied flow (m,) [kg/s], the
     realised disturbance (nd,) and the true next state x_{k+1} (n,)."""
-    predicted = (
-        model.a @ np.asarray(x_degc, dtype=np.float64)
-        + model.b @ np.asarray(flow_kg_s, dtype=np.float64)
-        + model.e @ np.asarray(d_realised, dtype=np.float64)
-        + model.g
-    )
+    predicted = predicted_state_degc(model, x_degc, flow_kg_s, d_realised)
     out: FloatArray = model.c @ (predicted - np.asarray(x_next_degc, dtype=np.float64))
     return out
 

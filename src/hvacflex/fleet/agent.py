@@ -50,6 +50,7 @@ from hvacflex.control.estimation import StepModel
 from hvacflex.control.mpc import MPCController
 from hvacflex.control.offers import snapped_flows_kg_s
 from hvacflex.control.plan_linearisation import planned_first_step
+from hvacflex.control.prediction_error import predicted_state_degc
 from hvacflex.data.gains import DEFAULT_OFFICE_SCHEDULE, OfficeSchedule
 from hvacflex.fleet.centralised import objective_split
 from hvacflex.fleet.envelope import building_envelope, hold_flows
@@ -222,9 +223,9 @@ class FleetController(MPCController):
         upper = self.upper_now_degc
         if upper is None:
             return np.asarray(low_kg_s, dtype=float), np.inf
-        model, x = self.model_now, np.asarray(inputs.x_degc, dtype=float)
+        model = self.model_now
         d0 = inputs.forecast.disturbances[0]
-        end = model.c @ (model.a @ x + model.b @ flow_kg_s + model.e @ d0 + model.g)
+        end = model.c @ predicted_state_degc(model, inputs.x_degc, flow_kg_s, d0)
         gain = np.diag(model.c @ model.b)
         floor = comfort_floor_flow_kg_s(end, gain, upper, flow_kg_s, low_kg_s)
         return floor, float(np.min(upper - end))
