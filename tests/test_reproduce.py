@@ -1,4 +1,8 @@
-"""The quick reproduction produces every artefact, and the figures show what they claim."""
+"""The reproduction produces every artefact, and the figures show what they claim.
+
+The report's tests run :data:`TEST_PLAN`: the quick plan (what ``hvacflex reproduce --quick``
+runs, every job of it) over three days instead of seven, so the suite stays within its
+time; ``reproduce --quick`` itself is the README's first command."""
 
 from __future__ import annotations
 
@@ -23,7 +27,7 @@ from hvacflex.reproduce import (
     TARIFF_PEAK_PRICE_SGD_PER_KW,
     Plan,
     plan_groups,
-    reproduce,
+    run_and_report,
     run_folder,
     run_groups,
     scenario_jobs,
@@ -32,11 +36,14 @@ from hvacflex.reproduce import (
 from hvacflex.results import load_results
 from hvacflex.sim.run import run_simulation
 
+TEST_PLAN = replace(Plan.quick(), days=3.0, sweep_days=3.0, uncertainty_days=1.0)
+"""The quick plan's every job over 3 days (the hot corner and the uncertainty sweep 1)."""
+
 
 @pytest.fixture(scope="module")
 def quick_report(tmp_path_factory: pytest.TempPathFactory) -> Path:
     out = tmp_path_factory.mktemp("reproduce")
-    reproduce(out, quick=True, workers=2, log=lambda _: None)
+    run_and_report(TEST_PLAN, plan_groups(TEST_PLAN), out, workers=2, log=lambda _: None)
     return out
 
 
@@ -277,7 +284,9 @@ def test_second_run_reuses_cached_simulations(quick_report: Path) -> None:
     results = sorted((quick_report / "runs").glob("*/results.parquet"))
     mtimes = {path: path.stat().st_mtime_ns for path in results}
     logs: list[str] = []
-    again = reproduce(quick_report, quick=True, workers=1, log=logs.append)
+    again = run_and_report(
+        TEST_PLAN, plan_groups(TEST_PLAN), quick_report, workers=1, log=logs.append
+    )
     # 21 + the five strong baselines (BASELINE_PRESETS) + (b) under stress activations
     assert again.complete and len(again.outcomes) == 27
     assert all(o.cached for o in again.outcomes)

@@ -23,9 +23,9 @@ from hvacflex.sensitivity import (
 )
 
 TINY_GRID = SensitivityGrid(
-    (RESERVE_PRICE_SCALE, 4 * RESERVE_PRICE_SCALE), (0.0, 1.0), ("2014-04-21",), 1.0
+    (RESERVE_PRICE_SCALE, 4 * RESERVE_PRICE_SCALE), (0.0, 1.0), ("2014-04-21",), 0.5
 )
-TINY_SEEDS = SeedPlan(("2014-04-21",), 1.0, (1, 2))
+TINY_SEEDS = SeedPlan(("2014-04-21",), 0.5, (1, 2))
 
 
 def test_jobs_cover_the_grid_with_distinct_runs() -> None:
@@ -89,7 +89,7 @@ def test_revenue_finding_holds_only_where_both_rise() -> None:
 
 @pytest.fixture(scope="module")
 def tiny_studies(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """``hvacflex reproduce --sensitivity --seeds --quick`` with the tiny one-day grids."""
+    """``hvacflex reproduce --sensitivity --seeds --quick`` with the tiny half-day grids."""
     out = tmp_path_factory.mktemp("studies")
     with pytest.MonkeyPatch.context() as patch:
         patch.setattr(SensitivityGrid, "quick", classmethod(lambda cls: TINY_GRID))
