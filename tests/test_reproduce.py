@@ -1,8 +1,10 @@
 """The reproduction produces every artefact, and the figures show what they claim.
 
-The report's tests run :data:`TEST_PLAN`: the quick plan (what ``hvacflex reproduce --quick``
-runs, every job of it) over three days instead of seven, so the suite stays within its
-time; ``reproduce --quick`` itself is the README's first command."""
+The report's tests run :data:`TEST_PLAN`: every job of the quick plan (what ``hvacflex
+reproduce --quick`` runs), the scenarios and the PPP sweep over three days instead of seven,
+the uncertainty sweep and the hot corner over one instead of two, so the suite stays within
+its time. The quick plan itself is built and checked here and in ``test_reproduce_plan.py``,
+and ``reproduce --quick`` through the command line in ``test_cli_failures.py``."""
 
 from __future__ import annotations
 

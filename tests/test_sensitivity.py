@@ -1,5 +1,5 @@
 """The reserve-price sensitivity sweep: its jobs, its tables, and a tiny grid end to end
-(``hvacflex reproduce --sensitivity --seeds --quick`` with one-day grids, on Dask)."""
+(``hvacflex reproduce --sensitivity --seeds --quick`` with half-day grids, on Dask)."""
 
 from __future__ import annotations
 

@@ -2,12 +2,13 @@
 
 from __future__ import annotations
 
+import contextlib
 import os
 import signal
 import subprocess
 import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -257,6 +258,7 @@ def _kill_and_resume(tmp_path: Path, rng: np.random.Generator, every: int) -> in
         return -1
     resumed = run_simulation(cfg, out, progress=False, checkpoint_every=every)
     whole = run_simulation(cfg, tmp_path / "whole", progress=False, checkpoint_every=every)
+    assert whole.frame["il_activated"].any()  # the half-day holds its activation
     columns = [c for c in whole.frame.columns if c != "solve_time_s"]
     pd.testing.assert_frame_equal(
         resumed.frame[columns], whole.frame[columns], check_exact=True, check_freq=False
@@ -285,6 +287,18 @@ def _stop_at(period: int, error: BaseException) -> Callable[[int, int], None]:
     return on_step
 
 
+@contextlib.contextmanager
+def _stopped_at_exit(proc: subprocess.Popen[str]) -> Iterator[subprocess.Popen[str]]:
+    """``proc``, killed on the way out if it still runs (a failed or timed-out step must
+    not leave a week's simulation running on CI's cores)."""
+    try:
+        yield proc
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+
+
 @pytest.mark.parametrize("stop", ["sigint", "sigkill"])
 def test_ten_interruptions_at_random_periods_resume_bit_identical(
     tmp_path: Path, stop: str
@@ -299,6 +313,7 @@ def test_ten_interruptions_at_random_periods_resume_bit_identical(
         preset("rmpc", start=f"{START}T08:00", days=0.5), {"activation.mode": "stress"}
     )
     whole = run_simulation(cfg, tmp_path / "whole", progress=False, checkpoint_every=every)
+    assert whole.frame["il_activated"].any()  # the half-day holds its activation
     columns = [c for c in whole.frame.columns if c != "solve_time_s"]
     rng = np.random.default_rng(17 if stop == "sigint" else 23)
     for i, period in enumerate(rng.choice(np.arange(1, cfg.steps), size=10, replace=False)):
@@ -338,21 +353,29 @@ def test_ctrl_c_says_where_its_checkpoint_is_and_the_resume_says_where_it_resume
         "--start", START, "--days", "7", "--out", str(out), "--quiet",
         "--checkpoint-every", "4", "--no-report",
     ]  # fmt: skip
-    proc = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    deadline = time.monotonic() + 120
-    while not (out / CHECKPOINT_FILE).exists() and time.monotonic() < deadline:
-        time.sleep(0.05)
-    proc.send_signal(signal.SIGINT)
-    printed, _ = proc.communicate(timeout=120)
+    with _stopped_at_exit(
+        subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    ) as proc:
+        deadline = time.monotonic() + 120
+        while not (out / CHECKPOINT_FILE).exists() and time.monotonic() < deadline:
+            time.sleep(0.05)
+        proc.send_signal(signal.SIGINT)
+        printed, _ = proc.communicate(timeout=120)
     assert proc.returncode == 130, printed
     assert "checkpoint at period" in printed and "run the same command again" in printed
     assert "Traceback" not in printed
-    again = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
-    assert again.stdout is not None
-    first = again.stdout.readline()
-    again.send_signal(signal.SIGINT)
-    again.communicate(timeout=120)
-    assert first.startswith("resumed from period "), first
+    errors = tmp_path / "resumed.err"
+    with (
+        errors.open("w") as stderr,
+        _stopped_at_exit(
+            subprocess.Popen(args, stdout=subprocess.PIPE, stderr=stderr, text=True)
+        ) as again,
+    ):
+        assert again.stdout is not None
+        first = again.stdout.readline()  # rich flushes each line
+        again.send_signal(signal.SIGINT)
+        again.communicate(timeout=120)
+    assert first.startswith("resumed from period "), (first, errors.read_text())
 
 
 @pytest.mark.slow
