@@ -287,6 +287,13 @@ def _stop_at(period: int, error: BaseException) -> Callable[[int, int], None]:
     return on_step
 
 
+def _sigint_as_at_a_terminal() -> None:
+    """In the child, before exec: SIGINT's default action, as at a terminal. A shell that
+    runs the tests in the background ignores SIGINT, and an ignored signal stays ignored
+    across exec (Python then installs no KeyboardInterrupt handler)."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 @contextlib.contextmanager
 def _stopped_at_exit(proc: subprocess.Popen[str]) -> Iterator[subprocess.Popen[str]]:
     """``proc``, killed on the way out if it still runs (a failed or timed-out step must
@@ -354,7 +361,13 @@ def test_ctrl_c_says_where_its_checkpoint_is_and_the_resume_says_where_it_resume
         "--checkpoint-every", "4", "--no-report",
     ]  # fmt: skip
     with _stopped_at_exit(
-        subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        subprocess.Popen(
+            args,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.STDOUT,
+            text=True,
+            preexec_fn=_sigint_as_at_a_terminal,
+        )
     ) as proc:
         deadline = time.monotonic() + 120
         while not (out / CHECKPOINT_FILE).exists() and time.monotonic() < deadline:
@@ -368,7 +381,13 @@ def test_ctrl_c_says_where_its_checkpoint_is_and_the_resume_says_where_it_resume
     with (
         errors.open("w") as stderr,
         _stopped_at_exit(
-            subprocess.Popen(args, stdout=subprocess.PIPE, stderr=stderr, text=True)
+            subprocess.Popen(
+                args,
+                stdout=subprocess.PIPE,
+                stderr=stderr,
+                text=True,
+                preexec_fn=_sigint_as_at_a_terminal,
+            )
         ) as again,
     ):
         assert again.stdout is not None
