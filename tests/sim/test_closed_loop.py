@@ -258,7 +258,6 @@ def _kill_and_resume(tmp_path: Path, rng: np.random.Generator, every: int) -> in
         return -1
     resumed = run_simulation(cfg, out, progress=False, checkpoint_every=every)
     whole = run_simulation(cfg, tmp_path / "whole", progress=False, checkpoint_every=every)
-    assert whole.frame["il_activated"].any()  # the half-day holds its activation
     columns = [c for c in whole.frame.columns if c != "solve_time_s"]
     pd.testing.assert_frame_equal(
         resumed.frame[columns], whole.frame[columns], check_exact=True, check_freq=False
