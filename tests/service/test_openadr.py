@@ -1,6 +1,11 @@
 """``serve openadr-ven``: the VEN's answers and its record (no VTN), and, end to end, an
 openleadr VTN on 127.0.0.1 driving a registered building through the VEN, with and without
-mutual TLS, on the 2014 calendar by a clock offset and on a live service at real times."""
+mutual TLS, on the 2014 calendar by a clock offset and on a live service at real times.
+
+The VEN talks to the service over HTTP only, so what it does does not depend on the
+service's database: each end-to-end test runs on one of them (:data:`ON_SQLITE`,
+:data:`ON_POSTGRESQL`), and between them they cover both; the service's storage is tested on
+both databases by the service's own tests (``make_db_url``)."""
 
 from __future__ import annotations
 
@@ -32,6 +37,11 @@ from hvacflex.errors import InputError
 from hvacflex.service.openadr import OPT_IN, OPT_OUT, VenConfig
 from hvacflex.service.openadr_mapping import PERIOD, RESERVE_OFFER_MIN_KW
 from hvacflex.service.replay import Client
+
+ON_SQLITE = pytest.mark.parametrize("make_db_url", ["sqlite"], indirect=True)
+"""An end-to-end test run on the service's SQLite database only (see the module's note)."""
+ON_POSTGRESQL = pytest.mark.parametrize("make_db_url", ["postgresql"], indirect=True)
+"""An end-to-end test run on the service's PostgreSQL database only (skipped without one)."""
 
 
 def test_an_event_with_a_signal_the_service_cannot_carry_out_is_opted_out(tmp_path: Path) -> None:
@@ -318,7 +328,12 @@ def _next_half_hour() -> datetime:
     return start
 
 
-@pytest.mark.parametrize("tls", [False, True], ids=["http", "mutual-tls"])
+@pytest.mark.parametrize(
+    ("make_db_url", "tls"),
+    [("sqlite", False), ("postgresql", True)],
+    ids=["sqlite-http", "postgresql-mutual-tls"],
+    indirect=["make_db_url"],
+)
 def test_a_vtn_drives_a_building_through_the_ven(
     server_factory: Any, tmp_path: Path, tls: bool
 ) -> None:
@@ -436,6 +451,7 @@ class _TimedVtn(LoopbackVtn):
         return [(t, n) for t, r, n in list(self.arrivals) if r == r_id and t >= since]
 
 
+@ON_SQLITE
 def test_reports_wait_for_data_and_come_at_the_agreed_interval(
     server_factory: Any, tmp_path: Path
 ) -> None:
@@ -496,6 +512,7 @@ def test_reports_wait_for_data_and_come_at_the_agreed_interval(
     assert "Traceback" not in _logged(log)
 
 
+@ON_SQLITE
 def test_a_vtn_that_goes_away_and_comes_back_re_registers_the_ven(
     server_factory: Any, tmp_path: Path
 ) -> None:
@@ -738,6 +755,7 @@ def _offered_pair(plan: dict[str, Any]) -> pd.Timestamp:
     raise AssertionError(f"the plan offers no two consecutive periods: {reserve}")
 
 
+@ON_POSTGRESQL
 def test_a_live_service_at_real_times_and_a_restarted_ven_that_keeps_its_dispatch(
     server_factory: Any, tmp_path: Path
 ) -> None:

@@ -1,5 +1,9 @@
 """A real server (``hvacflex serve`` on 127.0.0.1): replay equals simulate; kill -9 and
-restart loses no acknowledged write and plans with the same objectives."""
+restart loses no acknowledged write and plans with the same objectives.
+
+Both run on SQLite and PostgreSQL (``make_db_url``). The replays of one more feature each (a
+filter, the similar-days baseline) read and write the database as the first does, so they run
+on SQLite only (:data:`ON_SQLITE`)."""
 
 from __future__ import annotations
 
@@ -33,6 +37,8 @@ from hvacflex.sim.run import run_simulation
 from hvacflex.sim.run_files import read_results
 from hvacflex.sim.setup import prepare
 
+ON_SQLITE = pytest.mark.parametrize("make_db_url", ["sqlite"], indirect=True)
+"""A replay test run on the service's SQLite database only (see the module's note)."""
 DAYS = 1.0
 KILL_AFTER_PLANS = 34
 """Plans acknowledged before the kill: the scenario's IL event runs over periods 33–38, so
@@ -50,8 +56,17 @@ def _config() -> Any:
 
 
 @pytest.fixture(scope="module")
+def simulated_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """``simulate`` of the replayed scenario (once for both databases)."""
+    root = tmp_path_factory.mktemp("simulate")
+    return run_simulation(_config(), root, progress=False, resume=False).out_dir
+
+
+@pytest.fixture(scope="module")
 def reference(
-    tmp_path_factory: pytest.TempPathFactory, make_db_url: Callable[[str], str]
+    tmp_path_factory: pytest.TempPathFactory,
+    make_db_url: Callable[[str], str],
+    simulated_dir: Path,
 ) -> Iterator[dict[str, Any]]:
     """An uninterrupted replay of one day and ``simulate`` of the same scenario."""
     root = tmp_path_factory.mktemp("replay")
@@ -64,11 +79,10 @@ def reference(
         replay_s = time.perf_counter() - started
     finally:
         server.stop()
-    simulated = run_simulation(_config(), root / "simulate", progress=False, resume=False)
     yield {
         "replay": result,
         "replay_s": replay_s,
-        "simulate_dir": simulated.out_dir,
+        "simulate_dir": simulated_dir,
         "replay_dir": root / "replay",
     }
 
@@ -193,6 +207,7 @@ class CoilAtLimitPlant(RCPlant):
         return replace(observed, node_temp_degc=None, supply_temp_degc=supply)
 
 
+@ON_SQLITE
 def test_replay_equals_simulate_with_a_filter_on_a_plant_whose_air_delivers_otherwise(
     make_db_url: Callable[[str], str],
 ) -> None:
@@ -233,6 +248,7 @@ def test_replay_equals_simulate_with_a_filter_on_a_plant_whose_air_delivers_othe
     )  # fmt: skip
 
 
+@ON_SQLITE
 def test_a_replay_with_the_similar_days_baseline_equals_simulate(
     tmp_path: Path, make_db_url: Callable[[str], str]
 ) -> None:
