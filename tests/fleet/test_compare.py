@@ -132,3 +132,26 @@ def test_compare_refuses_a_fleet_too_large(tmp_path: Path) -> None:
         app, ["fleet", "compare", "--fleet", str(path), "--out", str(tmp_path / "o")]
     )
     assert done.exit_code == 2 and "at most 20 buildings" in done.output
+
+
+def test_compare_guards_at_the_limit_in_force_as_simulate_does(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``fleet compare`` advances its buildings as ``fleet simulate`` does: the plans at
+    (1 − ``feeder_margin``) × the limit, the guard at the limit itself."""
+    import hvacflex.fleet.compare as compare
+
+    doc = generate_fleet(2, 3, feeder_limit_kw=75.0)
+    doc["horizon_steps"] = 12
+    doc["feeder_margin"] = 0.2
+    guarded_at: list[float] = []
+    advance = compare.guarded_advance
+
+    def recording(groups: object, limit_kw: float, activated: bool) -> list[object]:
+        guarded_at.append(limit_kw)
+        return advance(groups, limit_kw, activated)
+
+    monkeypatch.setattr(compare, "guarded_advance", recording)
+    path = write_fleet(doc, tmp_path / "fleet.toml")
+    compare_fleet(path, "2014-03-03T08:00", 1, tmp_path / "out")
+    assert guarded_at == [75.0]

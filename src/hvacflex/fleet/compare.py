@@ -136,12 +136,12 @@ def compare_fleet(
     days = steps * DT_H / 24.0
     settings = FleetSettings.of(fleet, start, days)
     horizon = settings.horizon_steps
-    index, _, planning = _feeder_timeline(fleet, start, days, horizon)
+    index, in_force, planning = _feeder_timeline(fleet, start, days, horizon)
     options = _coordination_options(fleet)
     cluster, client, own_client = _start_dask(scheduler, workers)
     try:
         groups = _Groups(document, settings, len(fleet.buildings), client)
-        rows = _compare_steps(groups, (fleet, planning), index, options, steps, horizon)
+        rows = _compare_steps(groups, (fleet, planning, in_force), index, options, steps, horizon)
     finally:
         if own_client is not None:
             close_dask(own_client, cluster)
@@ -163,20 +163,22 @@ def _problems(groups: _Groups) -> list[Any]:
 
 def _compare_steps(
     groups: _Groups,
-    planning: tuple[Fleet, FloatArray],
+    planning: tuple[Fleet, FloatArray, FloatArray],
     index: pd.DatetimeIndex,
     options: Any,
     steps: int,
     horizon: int,
 ) -> list[dict[str, Any]]:
     """Every step's row of ``compare.csv``; advances the buildings by the coordinated plans.
-    ``planning``: (the fleet, its planning limit over the run plus one horizon [kW]), each
-    step's limit as the closed loop sees it (:func:`hvacflex.fleet.run.step_planning_kw`)."""
+    ``planning``: (the fleet, its planning limit and the limit in force over the run plus one
+    horizon [kW]); each step plans against its limit as the closed loop sees it
+    (:func:`hvacflex.fleet.run.step_planning_kw`) and is guarded at the limit in force."""
+    fleet, planning_kw, in_force_kw = planning
     rows: list[dict[str, Any]] = []
     price = np.zeros(horizon)
     central_solver = CentralisedSolver()
     for k in range(steps):
-        limit = step_planning_kw(*planning, index, k, horizon)  # the closed loop's
+        limit = step_planning_kw(fleet, planning_kw, index, k, horizon)  # the closed loop's
         p_min, p_max, energy = groups.stacked("begin_step")
         tick = time.perf_counter()
         central = central_solver.solve(_problems(groups), reference_limit_kw(limit, p_min))
@@ -185,7 +187,7 @@ def _compare_steps(
         result = coordinate_ranges(groups, (p_min, p_max, energy), limit, options, price)
         coordinated_s = time.perf_counter() - tick
         (split,) = groups.stacked("staged_split_sgd")
-        guarded_advance(groups, float(limit[0]), False)
+        guarded_advance(groups, float(in_force_kw[k]), False)
         coordinated = float(np.sum(result.cost_sgd))
         row: dict[str, Any] = {"step": k}
         central_split = (

@@ -106,7 +106,8 @@ def guard_caps_kw(
     min_power_kw : (B,) P_b^min, every flow at its lower bound [kW] (≤ P_b^free).
     room_k : (B,) ρ_b, the warmest zone's distance below its upper band at the period's
         end [K] (−inf: a building whose power is fixed, e.g. locked to an event plan).
-    limit_kw : the fleet's planning limit in the period [kW]; inf: no cap (all inf).
+    limit_kw : the feeder limit in force in the period [kW] (not lowered by
+        ``feeder_margin``: that is the plans' headroom); inf: no cap (all inf).
     """
     power = np.asarray(power_kw, dtype=float)
     if not np.isfinite(limit_kw) or power.size == 0:

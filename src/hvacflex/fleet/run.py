@@ -344,7 +344,9 @@ def run_fleet(
         while k < steps:
             try:
                 tick = time.perf_counter()
-                context = _context(k, schedule, flags, 1000.0 * fleet.spec.min_bid_mw, holds)
+                context = _context(
+                    k, schedule, flags, 1000.0 * fleet.spec.min_bid_mw, holds, float(limit[k])
+                )
                 seen = step_planning_kw(fleet, planning_limit, index, k, horizon)
                 outcome = _fleet_step(groups, seen, options, price, context)
             except HvacflexError:
@@ -650,12 +652,16 @@ class _StepContext:
     min_bid_kw : the market's minimum bid [kW].
     envelope_steps : the holds of the flexibility envelope [periods] (:func:`envelope_steps`;
         empty: the envelope is off).
+    limit_kw : the feeder limit in force in the period [kW] (inf: none), which the fleet's
+        guard holds the predicted power to; the plans hold to it × (1 − ``feeder_margin``),
+        so the margin is headroom for the power model's error, not a lower limit.
     """
 
     scheduled: bool
     before: tuple[bool, bool] | None
     min_bid_kw: float
     envelope_steps: tuple[int, ...] = ()
+    limit_kw: float = math.inf
 
 
 def envelope_steps(fleet: Fleet) -> tuple[int, ...]:
@@ -665,14 +671,17 @@ def envelope_steps(fleet: Fleet) -> tuple[int, ...]:
 
 
 def _context(
-    k: int, schedule: Any, flags: Any, min_bid_kw: float, holds: tuple[int, ...] = ()
+    k: int,
+    schedule: Any,
+    flags: Any,
+    min_bid_kw: float,
+    holds: tuple[int, ...] = (),
+    limit_kw: float = math.inf,
 ) -> _StepContext:
     """The :class:`_StepContext` of step ``k`` from the flags of the steps before (``holds``:
-    the envelope's, :func:`envelope_steps`)."""
-    if k == 0:
-        return _StepContext(bool(schedule[0]), None, min_bid_kw, holds)
-    before = (bool(schedule[k - 1]), bool(flags[k - 1, ACTIVATED]))
-    return _StepContext(bool(schedule[k]), before, min_bid_kw, holds)
+    the envelope's, :func:`envelope_steps`; ``limit_kw``: the limit in force in period k)."""
+    before = None if k == 0 else (bool(schedule[k - 1]), bool(flags[k - 1, ACTIVATED]))
+    return _StepContext(bool(schedule[k]), before, min_bid_kw, holds, limit_kw)
 
 
 def _fleet_step(
@@ -700,7 +709,7 @@ def _fleet_step(
     visible = visible_offers_kw(offer, curtailed, baseline)
     fleet_offer = aggregate_offer(visible, context.min_bid_kw)
     activated = locked if continuing else context.scheduled and fleet_offer.accepted
-    rows = guarded_advance(groups, float(feeder_kw[0]), activated)
+    rows = guarded_advance(groups, context.limit_kw, activated)
     merged = {key_: np.concatenate([r[key_] for r in rows]) for key_ in rows[0]}
     return _StepOutcome(
         result,
@@ -716,7 +725,7 @@ def _fleet_step(
 
 def guarded_advance(groups: Any, limit_kw: float, activated: bool) -> list[Any]:
     """Advance every group's buildings by their staged plans, the fleet's predicted power in
-    the period held to ``limit_kw`` [kW] (the planning limit; inf: no guard) by the fleet's
+    the period held to ``limit_kw`` [kW] (the limit in force; inf: no guard) by the fleet's
     guard (:mod:`hvacflex.fleet.guard`: the buildings report their predicted powers, each
     gets a cap, the excess over the limit shed where comfort allows first); the groups'
     rows."""

@@ -351,6 +351,8 @@ class FleetSpec(_Spec):
     """Limit windows (``[[feeder_limits]]``), applied on top of the constant or CSV limit:
     the tighter holds."""
     feeder_margin: Annotated[Finite, Field(ge=0.0, lt=0.5)] = 0.0
+    """The plans hold to (1 − margin) × the limit in force, the fleet's guard to the limit
+    itself: headroom for the power model's error."""
     min_bid_mw: Annotated[Finite, Field(ge=0.0)] = 0.1
     robust: Literal["tightening", "none"] = "tightening"
     horizon_steps: Annotated[int, Strict(), Field(ge=2, le=MAX_HORIZON_STEPS)] = HORIZON_STEPS
