@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -135,7 +136,7 @@ def test_compare_refuses_a_fleet_too_large(tmp_path: Path) -> None:
 
 
 def test_compare_guards_at_the_limit_in_force_as_simulate_does(
-    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+    tmp_path: Path, guard_limits: Any
 ) -> None:
     """``fleet compare`` advances its buildings as ``fleet simulate`` does: the plans at
     (1 − ``feeder_margin``) × the limit, the guard at the limit itself."""
@@ -144,14 +145,6 @@ def test_compare_guards_at_the_limit_in_force_as_simulate_does(
     doc = generate_fleet(2, 3, feeder_limit_kw=75.0)
     doc["horizon_steps"] = 12
     doc["feeder_margin"] = 0.2
-    guarded_at: list[float] = []
-    advance = compare.guarded_advance
-
-    def recording(groups: object, limit_kw: float, activated: bool) -> list[object]:
-        guarded_at.append(limit_kw)
-        return advance(groups, limit_kw, activated)
-
-    monkeypatch.setattr(compare, "guarded_advance", recording)
-    path = write_fleet(doc, tmp_path / "fleet.toml")
-    compare_fleet(path, "2014-03-03T08:00", 1, tmp_path / "out")
+    guarded_at = guard_limits(compare)
+    compare_fleet(write_fleet(doc, tmp_path / "fleet.toml"), "2014-03-03T08:00", 1, tmp_path / "o")
     assert guarded_at == [75.0]

@@ -446,7 +446,7 @@ def test_each_step_plans_against_the_windows_it_sees(tmp_path: Path) -> None:
 
 
 def test_the_guard_holds_the_limit_in_force_and_the_plans_its_margin(
-    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+    tmp_path: Path, guard_limits: Any
 ) -> None:
     """With ``feeder_margin`` m the plans hold to (1 − m) × the limit and the guard to the
     limit itself: the margin is headroom for the power model's error, which the guard does
@@ -456,14 +456,7 @@ def test_the_guard_holds_the_limit_in_force_and_the_plans_its_margin(
     doc = generate_fleet(3, 3, feeder_limit_kw=110.0, min_bid_mw=0.1)
     doc["coordination"]["max_iterations"] = 6
     doc["feeder_margin"] = 0.1
-    guarded_at: list[float] = []
-    advance = fleet_run.guarded_advance
-
-    def recording(groups: Any, limit_kw: float, activated: bool) -> list[Any]:
-        guarded_at.append(limit_kw)
-        return advance(groups, limit_kw, activated)
-
-    monkeypatch.setattr(fleet_run, "guarded_advance", recording)
+    guarded_at = guard_limits(fleet_run)
     path = write_fleet(doc, tmp_path / "fleet.toml")
     result = run_fleet(path, tmp_path / "run", start="2014-03-03 08:00", days=2 / 48, workers=0)
     assert guarded_at == [110.0, 110.0]
