@@ -76,7 +76,8 @@ def main() -> None:
     parser.add_argument("--families", default=",".join([*FAMILIES, "synthetic"]))
     parser.add_argument("--quick", action="store_true", help="4 steps (the smoke run)")
     args = parser.parse_args()
-    wanted = [SYNTHETIC if name == "synthetic" else name for name in args.families.split(",")]
+    names = args.families.split(",")
+    wanted = list(dict.fromkeys(SYNTHETIC if name == "synthetic" else name for name in names))
     unknown = sorted(set(wanted) - {*FAMILIES, SYNTHETIC})
     if unknown:
         parser.error(f"--families: unknown {unknown}; choose from {[*FAMILIES, 'synthetic']}")

@@ -138,8 +138,8 @@ def test_compare_refuses_a_fleet_too_large(tmp_path: Path) -> None:
 def test_compare_guards_at_the_limit_in_force_as_simulate_does(
     tmp_path: Path, guard_limits: Any
 ) -> None:
-    """``fleet compare`` advances its buildings as ``fleet simulate`` does: the plans at
-    (1 − ``feeder_margin``) × the limit, the guard at the limit itself."""
+    """``fleet compare`` advances its buildings as ``fleet simulate`` does, through the guard
+    at the limit in force, not at the planning limit (1 − ``feeder_margin``) × it."""
     import hvacflex.fleet.compare as compare
 
     doc = generate_fleet(2, 3, feeder_limit_kw=75.0)

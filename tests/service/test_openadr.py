@@ -330,8 +330,8 @@ def _next_half_hour() -> datetime:
 
 @pytest.mark.parametrize(
     ("make_db_url", "tls"),
-    [("sqlite", False), ("postgresql", True)],
-    ids=["sqlite-http", "postgresql-mutual-tls"],
+    [("sqlite", True), ("postgresql", False)],
+    ids=["sqlite-mutual-tls", "postgresql-http"],
     indirect=["make_db_url"],
 )
 def test_a_vtn_drives_a_building_through_the_ven(
@@ -451,7 +451,7 @@ class _TimedVtn(LoopbackVtn):
         return [(t, n) for t, r, n in list(self.arrivals) if r == r_id and t >= since]
 
 
-@ON_SQLITE
+@ON_POSTGRESQL
 def test_reports_wait_for_data_and_come_at_the_agreed_interval(
     server_factory: Any, tmp_path: Path
 ) -> None:
@@ -755,7 +755,7 @@ def _offered_pair(plan: dict[str, Any]) -> pd.Timestamp:
     raise AssertionError(f"the plan offers no two consecutive periods: {reserve}")
 
 
-@ON_POSTGRESQL
+@ON_SQLITE
 def test_a_live_service_at_real_times_and_a_restarted_ven_that_keeps_its_dispatch(
     server_factory: Any, tmp_path: Path
 ) -> None:

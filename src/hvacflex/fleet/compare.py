@@ -7,11 +7,12 @@ feeder rows, each raised to the buildings' summed minimum power where that alone
 limit, :func:`reference_limit_kw`; warm-started across steps from the previous step's basis
 rotated by one step) and the **coordinated** scheme of the fleet file (``[coordination]
 scheme``, :func:`hvacflex.fleet.run.coordinate_ranges`) from those same problems and the
-same planning limit (the limit in force, windows included), then applies the coordinated
-plan's first step to every plant, so that the next step starts from the states a fleet run
-would have. The buildings run where ``fleet simulate``'s run (in this process, or as Dask
-actors on ``workers`` local processes or a ``scheduler``); their problems travel to this
-process for the centralised LP (practical for ≤ 20 buildings).
+same planning limit (the limit in force, windows included, × (1 − ``feeder_margin``)), then
+applies the coordinated plan's first step to every plant through the fleet's guard at the
+limit in force, so that the next step starts from the states a fleet run would have. The
+buildings run where ``fleet simulate``'s run (in this process, or as Dask actors on
+``workers`` local processes or a ``scheduler``); their problems travel to this process for
+the centralised LP (practical for ≤ 20 buildings).
 
 ``compare.csv``, one row per step: ``step`` (0 = the start); for each part of the objective
 (:func:`hvacflex.fleet.centralised.objective_split`, Σ over buildings of the step's horizon

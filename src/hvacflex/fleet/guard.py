@@ -1,11 +1,12 @@
 """The fleet's guard on the metered power of the period about to be applied.
 
-The feeder limit F [kW] is on the fleet's meter, not on each building's: a building may
-draw more than its share of F when others draw less than theirs. The coordination's plans
-meet F on the LP's affine power (a secant); what the plants draw is closer to the power the
-plant's power model predicts for the plans' first-period flows
-(:meth:`hvacflex.fleet.agent.FleetController.predicted_power_kw`), which may lie above or
-below it. Before the period is applied, every building therefore reports (its
+The feeder limit in force F [kW] is on the fleet's meter, not on each building's: a building
+may draw more than its share of F when others draw less than theirs. The coordination's
+plans meet (1 − ``feeder_margin``) × F on the LP's affine power (a secant; the margin is
+headroom for the power model's error, which the guard leaves to the plants); what the
+plants draw is closer to the power the plant's power model predicts for the plans'
+first-period flows (:meth:`hvacflex.fleet.agent.FleetController.predicted_power_kw`), which
+may lie above or below it. Before the period is applied, every building therefore reports (its
 :meth:`~hvacflex.fleet.agent.BuildingAgent.guard_view`)
 
 * P_b, the predicted power of the flows its plan applies,

@@ -344,9 +344,8 @@ def run_fleet(
         while k < steps:
             try:
                 tick = time.perf_counter()
-                context = _context(
-                    k, schedule, flags, 1000.0 * fleet.spec.min_bid_mw, holds, float(limit[k])
-                )
+                min_bid_kw = 1000.0 * fleet.spec.min_bid_mw
+                context = _context(k, schedule, flags, min_bid_kw, float(limit[k]), holds)
                 seen = step_planning_kw(fleet, planning_limit, index, k, horizon)
                 outcome = _fleet_step(groups, seen, options, price, context)
             except HvacflexError:
@@ -650,18 +649,18 @@ class _StepContext:
     scheduled : the grid operator activates IL in this period.
     before : (it did in the last period, the fleet was activated then); None at the start.
     min_bid_kw : the market's minimum bid [kW].
-    envelope_steps : the holds of the flexibility envelope [periods] (:func:`envelope_steps`;
-        empty: the envelope is off).
     limit_kw : the feeder limit in force in the period [kW] (inf: none), which the fleet's
         guard holds the predicted power to; the plans hold to it × (1 − ``feeder_margin``),
         so the margin is headroom for the power model's error, not a lower limit.
+    envelope_steps : the holds of the flexibility envelope [periods] (:func:`envelope_steps`;
+        empty: the envelope is off).
     """
 
     scheduled: bool
     before: tuple[bool, bool] | None
     min_bid_kw: float
+    limit_kw: float
     envelope_steps: tuple[int, ...] = ()
-    limit_kw: float = math.inf
 
 
 def envelope_steps(fleet: Fleet) -> tuple[int, ...]:
@@ -675,13 +674,14 @@ def _context(
     schedule: Any,
     flags: Any,
     min_bid_kw: float,
+    limit_kw: float,
     holds: tuple[int, ...] = (),
-    limit_kw: float = math.inf,
 ) -> _StepContext:
-    """The :class:`_StepContext` of step ``k`` from the flags of the steps before (``holds``:
-    the envelope's, :func:`envelope_steps`; ``limit_kw``: the limit in force in period k)."""
+    """The :class:`_StepContext` of step ``k`` from the flags of the steps before
+    (``limit_kw``: the limit in force in period k [kW]; ``holds``: the envelope's,
+    :func:`envelope_steps`)."""
     before = None if k == 0 else (bool(schedule[k - 1]), bool(flags[k - 1, ACTIVATED]))
-    return _StepContext(bool(schedule[k]), before, min_bid_kw, holds, limit_kw)
+    return _StepContext(bool(schedule[k]), before, min_bid_kw, limit_kw, holds)
 
 
 def _fleet_step(
