@@ -17,6 +17,7 @@ import json
 import re
 import threading
 from collections.abc import AsyncIterator, Callable
+from datetime import datetime
 from typing import Annotated, Any
 
 import numpy as np
@@ -504,10 +505,7 @@ def _forecast_signal_routes(app: FastAPI, planner: Planner, auth: Auth) -> None:
     def post_prices(body: PricesIn, _who: Operator) -> Envelope[Stored]:
         """Energy (and reserve) prices of consecutive periods from ``start``; they replace
         the shipped prices in every building's forecast from the next plan on."""
-        start = to_local(body.start)
-        if start != start.floor(PERIOD_FREQ):
-            raise InputError("must be a 30-min period start", field="start", value=str(start))
-        check_plannable(start, "start", runtime.live)
+        start = _signal_start(body.start, runtime.live)
         last = len(body.energy_price_sgd_per_mwh) - 1
         check_plannable(
             start + last * PERIOD,
@@ -531,10 +529,7 @@ def _forecast_signal_routes(app: FastAPI, planner: Planner, auth: Auth) -> None:
         """An outdoor-temperature forecast [°C] (and, optionally, humidity ratio [kg/kg]) of
         consecutive periods from ``start``; it replaces the typical year's in every
         building's forecast there."""
-        start = to_local(body.start)
-        if start != start.floor(PERIOD_FREQ):
-            raise InputError("must be a 30-min period start", field="start", value=str(start))
-        check_plannable(start, "start", runtime.live)
+        start = _signal_start(body.start, runtime.live)
         stored = _store_signal(
             sessions,
             "weather",
@@ -679,14 +674,35 @@ def _period_start(text: str, field: str) -> pd.Timestamp:
     ------
     InputError : not an ISO time, or not a period start.
     """
-    from datetime import datetime
-
     try:
         stamp = to_local(datetime.fromisoformat(text))
     except ValueError:
         raise InputError("not an ISO 8601 time", field=field, value=text) from None
+    return _on_period_start(stamp, field)
+
+
+def _on_period_start(stamp: pd.Timestamp, field: str) -> pd.Timestamp:
+    """``stamp`` if it starts a 30-min period.
+
+    Raises
+    ------
+    InputError : naming ``field``, where it does not.
+    """
     if stamp != stamp.floor(PERIOD_FREQ):
         raise InputError("must be a 30-min period start", field=field, value=str(stamp))
+    return stamp
+
+
+def _signal_start(start: datetime, live: bool) -> pd.Timestamp:
+    """A signal's first period (its ``start``, a datetime) as a Singapore timestamp: a 30-min
+    period start that can still be planned (:func:`check_plannable`).
+
+    Raises
+    ------
+    InputError : naming the field ``start``, where it is neither.
+    """
+    stamp = _on_period_start(to_local(start), "start")
+    check_plannable(stamp, "start", live)
     return stamp
 
 
@@ -847,8 +863,6 @@ def check_plannable(stamp: pd.Timestamp, field: str, live: bool = False) -> None
 
 def to_local_iso(text: str) -> str:
     """An ISO time as Singapore-time ISO (so plans of different buildings line up)."""
-    from datetime import datetime
-
     return str(to_local(datetime.fromisoformat(text)).isoformat())
 
 
