@@ -40,6 +40,24 @@ DEFAULT_LINEARISATION_TEMP_DEGC = 23.0
 """T₀: the occupied lower comfort bound [°C]."""
 
 
+def affine_step(
+    matrices: tuple[FloatArray, FloatArray, FloatArray, FloatArray],
+    x: ArrayLike,
+    u: ArrayLike,
+    d: ArrayLike,
+) -> FloatArray:
+    """x+ = A x + B u + E d + g (n,) [°C] of the one-step ``matrices`` (A, B, E, g) from the
+    state (n,) [°C], the input (m,) [kg/s] and the disturbance (nd,)."""
+    a, b, e, g = matrices
+    out: FloatArray = (
+        a @ np.asarray(x, dtype=np.float64)
+        + b @ np.asarray(u, dtype=np.float64)
+        + e @ np.asarray(d, dtype=np.float64)
+        + g
+    )
+    return out
+
+
 @dataclass(frozen=True)
 class LinearModel:
     """Affine discrete-time model ``x+ = a x + b u + e d + g`` over one step of ``dt_s``.
@@ -74,13 +92,7 @@ class LinearModel:
 
     def step(self, x: ArrayLike, u: ArrayLike, d: ArrayLike) -> FloatArray:
         """One step: (n,), (m,), (nd,) → (n,) [°C]."""
-        out: FloatArray = (
-            self.a @ np.asarray(x, dtype=np.float64)
-            + self.b @ np.asarray(u, dtype=np.float64)
-            + self.e @ np.asarray(d, dtype=np.float64)
-            + self.g
-        )
-        return out
+        return affine_step((self.a, self.b, self.e, self.g), x, u, d)
 
     def steady_state(self, u: ArrayLike, d: ArrayLike) -> FloatArray:
         """Fixed point x = (I − a)⁻¹ (b u + e d + g) for constant (m,) u and (nd,) d → (n,)."""

@@ -14,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from hvacflex.building.discretize import affine_step
 from hvacflex.control.estimation import StepModel
 
 FloatArray = NDArray[np.float64]
@@ -24,13 +25,7 @@ def predicted_state_degc(
 ) -> FloatArray:
     """x_{k+1} = A x_k + B u_k + E d_k + g (n,) [°C] of the one-step ``model`` from the state
     (n,) [°C], the flow (m,) [kg/s] and the disturbance (nd,)."""
-    predicted: FloatArray = (
-        model.a @ np.asarray(x_degc, dtype=np.float64)
-        + model.b @ np.asarray(flow_kg_s, dtype=np.float64)
-        + model.e @ np.asarray(d, dtype=np.float64)
-        + model.g
-    )
-    return predicted
+    return affine_step((model.a, model.b, model.e, model.g), x_degc, flow_kg_s, d)
 
 
 def one_step_prediction_error(
