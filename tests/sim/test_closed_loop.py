@@ -205,6 +205,13 @@ def _one_blas_thread() -> dict[str, str]:
     return {**os.environ, "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
 
 
+def _wait_for_checkpoint(out: Path, poll_s: float, timeout_s: float = 120.0) -> None:
+    """Until the run writing to ``out`` has written its first checkpoint, or ``timeout_s``."""
+    deadline = time.monotonic() + timeout_s
+    while not (out / CHECKPOINT_FILE).exists() and time.monotonic() < deadline:
+        time.sleep(poll_s)
+
+
 def test_killed_run_resumes_from_its_last_checkpoint(tmp_path: Path) -> None:
     out = tmp_path / "killed"
     args = [
@@ -215,9 +222,7 @@ def test_killed_run_resumes_from_its_last_checkpoint(tmp_path: Path) -> None:
     proc = subprocess.Popen(
         args, env=_one_blas_thread(), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL
     )
-    deadline = time.monotonic() + 120
-    while not (out / CHECKPOINT_FILE).exists() and time.monotonic() < deadline:
-        time.sleep(0.1)
+    _wait_for_checkpoint(out, poll_s=0.1)
     os.kill(proc.pid, signal.SIGKILL)
     proc.wait()
     assert (out / CHECKPOINT_FILE).exists(), "no checkpoint was written before the kill"
@@ -247,9 +252,7 @@ def _kill_and_resume(tmp_path: Path, rng: np.random.Generator, every: int) -> in
     proc = subprocess.Popen(
         args, env=_one_blas_thread(), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL
     )
-    deadline = time.monotonic() + 120
-    while not (out / CHECKPOINT_FILE).exists() and time.monotonic() < deadline:
-        time.sleep(0.05)
+    _wait_for_checkpoint(out, poll_s=0.05)
     time.sleep(float(rng.uniform(0.0, 0.4)))  # the day runs ≈ 50 steps/s on an idle core
     os.kill(proc.pid, signal.SIGKILL)
     proc.wait()
@@ -294,9 +297,17 @@ def _sigint_as_at_a_terminal() -> None:
 
 
 @contextlib.contextmanager
-def _stopped_at_exit(proc: subprocess.Popen[str]) -> Iterator[subprocess.Popen[str]]:
-    """``proc``, killed on the way out if it still runs (a failed or timed-out step must
-    not leave a week's simulation running on CI's cores)."""
+def _interruptible_child(args: list[str], stderr: Any) -> Iterator[subprocess.Popen[str]]:
+    """``args`` run as a child that takes SIGINT as at a terminal, its stdout a text pipe,
+    killed on the way out if it still runs (a failed or timed-out step must not leave a
+    week's simulation running on CI's cores)."""
+    proc = subprocess.Popen(
+        args,
+        stdout=subprocess.PIPE,
+        stderr=stderr,
+        text=True,
+        preexec_fn=_sigint_as_at_a_terminal,
+    )
     try:
         yield proc
     finally:
@@ -359,18 +370,8 @@ def test_ctrl_c_says_where_its_checkpoint_is_and_the_resume_says_where_it_resume
         "--start", START, "--days", "7", "--out", str(out), "--quiet",
         "--checkpoint-every", "4", "--no-report",
     ]  # fmt: skip
-    with _stopped_at_exit(
-        subprocess.Popen(
-            args,
-            stdout=subprocess.PIPE,
-            stderr=subprocess.STDOUT,
-            text=True,
-            preexec_fn=_sigint_as_at_a_terminal,
-        )
-    ) as proc:
-        deadline = time.monotonic() + 120
-        while not (out / CHECKPOINT_FILE).exists() and time.monotonic() < deadline:
-            time.sleep(0.05)
+    with _interruptible_child(args, stderr=subprocess.STDOUT) as proc:
+        _wait_for_checkpoint(out, poll_s=0.05)
         proc.send_signal(signal.SIGINT)
         printed, _ = proc.communicate(timeout=120)
     assert proc.returncode == 130, printed
@@ -379,15 +380,7 @@ def test_ctrl_c_says_where_its_checkpoint_is_and_the_resume_says_where_it_resume
     errors = tmp_path / "resumed.err"
     with (
         errors.open("w") as stderr,
-        _stopped_at_exit(
-            subprocess.Popen(
-                args,
-                stdout=subprocess.PIPE,
-                stderr=stderr,
-                text=True,
-                preexec_fn=_sigint_as_at_a_terminal,
-            )
-        ) as again,
+        _interruptible_child(args, stderr=stderr) as again,
     ):
         assert again.stdout is not None
         first = again.stdout.readline()  # rich flushes each line

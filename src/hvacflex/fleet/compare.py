@@ -142,7 +142,7 @@ def compare_fleet(
     cluster, client, own_client = _start_dask(scheduler, workers)
     try:
         groups = _Groups(document, settings, len(fleet.buildings), client)
-        rows = _compare_steps(groups, (fleet, planning, in_force), index, options, steps, horizon)
+        rows = _compare_steps(groups, (fleet, planning), in_force, index, options, steps, horizon)
     finally:
         if own_client is not None:
             close_dask(own_client, cluster)
@@ -164,22 +164,23 @@ def _problems(groups: _Groups) -> list[Any]:
 
 def _compare_steps(
     groups: _Groups,
-    planning: tuple[Fleet, FloatArray, FloatArray],
+    planning: tuple[Fleet, FloatArray],
+    in_force_kw: FloatArray,
     index: pd.DatetimeIndex,
     options: Any,
     steps: int,
     horizon: int,
 ) -> list[dict[str, Any]]:
     """Every step's row of ``compare.csv``; advances the buildings by the coordinated plans.
-    ``planning``: (the fleet, its planning limit and the limit in force over the run plus one
-    horizon [kW]); each step plans against its limit as the closed loop sees it
-    (:func:`hvacflex.fleet.run.step_planning_kw`) and is guarded at the limit in force."""
-    fleet, planning_kw, in_force_kw = planning
+    ``planning``: (the fleet, its planning limit over the run plus one horizon [kW]), each
+    step's limit as the closed loop sees it (:func:`hvacflex.fleet.run.step_planning_kw`);
+    ``in_force_kw``: the limit in force over the same periods [kW], which the fleet's guard
+    holds each step's first period to."""
     rows: list[dict[str, Any]] = []
     price = np.zeros(horizon)
     central_solver = CentralisedSolver()
     for k in range(steps):
-        limit = step_planning_kw(fleet, planning_kw, index, k, horizon)  # the closed loop's
+        limit = step_planning_kw(*planning, index, k, horizon)  # the closed loop's
         p_min, p_max, energy = groups.stacked("begin_step")
         tick = time.perf_counter()
         central = central_solver.solve(_problems(groups), reference_limit_kw(limit, p_min))

@@ -341,10 +341,10 @@ def run_fleet(
 
         checkpoint = checkpoint or snapshot()
         recoveries, schedule = 0, fleet_activation_schedule(fleet, index)
+        min_bid_kw = 1000.0 * fleet.spec.min_bid_mw
         while k < steps:
             try:
                 tick = time.perf_counter()
-                min_bid_kw = 1000.0 * fleet.spec.min_bid_mw
                 context = _context(k, schedule, flags, min_bid_kw, float(limit[k]), holds)
                 seen = step_planning_kw(fleet, planning_limit, index, k, horizon)
                 outcome = _fleet_step(groups, seen, options, price, context)
