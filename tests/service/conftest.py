@@ -13,6 +13,7 @@ import pytest
 from fastapi.testclient import TestClient
 from service_fixtures import (
     POSTGRES_ENV,
+    START,
     UNLIMITED,
     Server,
     Service,
@@ -75,6 +76,24 @@ def _service(db_url: str, registrations: list[dict[str, Any]]) -> Iterator[Servi
 def service(make_db_url: Callable[[str], str]) -> Iterator[Service]:
     """An app with two registered buildings, ``b1`` and ``b2`` (one day each)."""
     yield from _service(make_db_url("service"), [registration("b1"), registration("b2")])
+
+
+@pytest.fixture
+def planned_service(make_db_url: Callable[[str], str]) -> Iterator[Service]:
+    """A fresh app with ``b1`` and ``b2`` registered, each planned on a measurement at
+    12:00: plans to aggregate whatever the module's other tests did before."""
+    services = _service(make_db_url("planned"), [registration("b1"), registration("b2")])
+    service = next(services)
+    body = {"time": f"{START}T12:00", "node_temperatures_degc": [25.0] * len(service.nodes)}
+    for building, key in service.keys.items():
+        measured = service.client.post(
+            f"/v1/buildings/{building}/measurements?wait_s=10",
+            json=body,
+            headers=service.headers(key),
+        )
+        assert measured.status_code == 200, measured.text
+    yield service
+    next(services, None)  # closes the client and the app
 
 
 @pytest.fixture(scope="module")

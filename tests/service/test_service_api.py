@@ -272,7 +272,8 @@ def test_clock_boundary_plans_on_the_latest_measurement(service: Service) -> Non
     assert again.json()["payload"]["plans"] == []  # period 24 is planned already
 
 
-def test_aggregate_bid_and_feeder_limit(service: Service) -> None:
+def test_aggregate_bid_and_feeder_limit(planned_service: Service) -> None:
+    service = planned_service
     service.client.post("/v1/signals/feeder-limit", json={"limit_kw": 1e-3}, headers=service.op())
     bid = service.client.get("/v1/bid", headers=service.op()).json()["payload"]
     plans = service.client.get("/v1/plans", headers=service.op()).json()["payload"]["plans"]
@@ -287,8 +288,9 @@ def test_aggregate_bid_and_feeder_limit(service: Service) -> None:
 
 
 def test_feeder_limit_windows_make_the_schedule_the_bid_is_checked_against(
-    service: Service,
+    planned_service: Service,
 ) -> None:
+    service = planned_service
     op = service.op()
     post = service.client.post
     assert post("/v1/signals/feeder-limit", json={"limit_kw": 1e6}, headers=op).status_code == 200
