@@ -390,7 +390,11 @@ def test_the_default_curtailed_setpoint_keeps_the_run_keys_of_energyplus_runs() 
         earlier["realisation"].pop(key, None)
     earlier["uncertainty"].pop("calibrate")
     earlier["data"].pop("reserve_price_correlation")
-    for key in ("comfort_knee_k", "comfort_penalty_beyond_knee_sgd_per_kelvin_hour"):
+    for key in (
+        "comfort_knee_k",
+        "comfort_penalty_beyond_knee_sgd_per_kelvin_hour",
+        "lower_plan_margin_k",
+    ):
         earlier["controller"].pop(key)
     if cfg.forecast == ForecastConfig():
         earlier.pop("forecast")
@@ -398,6 +402,8 @@ def test_the_default_curtailed_setpoint_keeps_the_run_keys_of_energyplus_runs() 
     assert cfg.config_hash() == digest
     limit = with_overrides(cfg, {"plant.curtailed_setpoint": "limit"})
     assert limit.config_hash() != cfg.config_hash()
+    margin = with_overrides(cfg, {"controller.lower_plan_margin_k": 0.3})  # a margin: new key
+    assert margin.config_hash() != cfg.config_hash()
 
 
 def test_default_forecast_settings_keep_the_run_keys_of_earlier_versions() -> None:
@@ -409,7 +415,11 @@ def test_default_forecast_settings_keep_the_run_keys_of_earlier_versions() -> No
         earlier["realisation"].pop(key)
     earlier["uncertainty"].pop("calibrate")
     earlier["data"].pop("reserve_price_correlation")
-    for key in ("comfort_knee_k", "comfort_penalty_beyond_knee_sgd_per_kelvin_hour"):
+    for key in (
+        "comfort_knee_k",
+        "comfort_penalty_beyond_knee_sgd_per_kelvin_hour",
+        "lower_plan_margin_k",
+    ):
         earlier["controller"].pop(key)
     digest = hashlib.sha256(json.dumps(earlier, sort_keys=True).encode()).hexdigest()[:12]
     assert cfg.config_hash() == digest

@@ -7,15 +7,13 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from hvacflex.config import preset
+from hvacflex.config import preset, with_overrides
 from hvacflex.control.base import PeriodInputs
 from hvacflex.control.mpc import MPCController
+from hvacflex.control.plan_band import band_at_period_ends, comfort_bounds_at_period_ends
 from hvacflex.control.problem_builder import (
     PlanContext,
-    band_at_period_ends,
-    below_unoccupied_bound,
     build_problem,
-    comfort_bounds_at_period_ends,
     committed_cap_in_force_kw,
     pull_down_steps,
 )
@@ -47,16 +45,6 @@ def test_the_problem_is_a_pure_function_of_its_arguments(setup: Setup) -> None:
         setup.model, inputs, controller.contract, replace(context, x_degc=inputs.x_degc + 1.0)
     )
     np.testing.assert_array_equal(warmer.x0, first.x0 + 1.0)
-
-
-def test_bounds_at_period_ends_are_the_tighter_of_two_periods_by_hand(setup: Setup) -> None:
-    forecast = setup.forecaster.forecast(14, 49)  # 07:00: occupancy starts at 08:00
-    lower, upper = comfort_bounds_at_period_ends(forecast, 48)
-    band_lower, band_upper = forecast.comfort_lower_degc, forecast.comfort_upper_degc
-    for k in range(47):
-        np.testing.assert_array_equal(lower[k], np.maximum(band_lower[k], band_lower[k + 1]))
-        np.testing.assert_array_equal(upper[k], np.minimum(band_upper[k], band_upper[k + 1]))
-    assert (upper[1] < band_upper[1]).all()  # the end of 07:30 is 08:00: occupied band
 
 
 def test_commitments_are_clipped_into_the_room_and_the_reserve_zones(setup: Setup) -> None:
@@ -124,11 +112,29 @@ def test_the_plan_keeps_a_margin_below_the_night_bound_only(setup: Setup) -> Non
     np.testing.assert_allclose(problem.y_max[night], band_upper[night] - 0.5)
     np.testing.assert_array_equal(problem.y_max[~night], band_upper[~night])
     np.testing.assert_array_equal(problem.y_min, band_lower)
-    # by hand: a 30 °C night bound, 20 °C lower; a margin wider than the band stops at y_min
-    y_min, y_max = np.full((horizon, 1), 20.0), np.full((horizon, 1), 30.0)
-    wide = below_unoccupied_bound(forecast, y_min, y_max, 50.0)
-    np.testing.assert_array_equal(wide[night, 0], 20.0)
-    np.testing.assert_array_equal(below_unoccupied_bound(forecast, y_min, y_max, 0.0), y_max)
+
+
+def test_the_plan_stays_above_the_lower_bound_by_its_margin() -> None:
+    """``lower_plan_margin_k`` raises every period end's lower bound (not above the plan's
+    upper bound), and the optimal plan keeps its zones there; the band the KPIs grade is
+    the band."""
+    setup = prepare(
+        with_overrides(
+            preset("rmpc-ppp", start="2014-03-03", days=1.0),
+            {"controller.lower_plan_margin_k": 0.3},
+        )
+    )
+    controller = make_controller(setup)
+    assert isinstance(controller, MPCController)
+    inputs = _inputs(setup)
+    problem = build_problem(setup.model, inputs, controller.contract, PlanContext(inputs.x_degc))
+    band_lower, _ = comfort_bounds_at_period_ends(inputs.forecast, problem.y_max.shape[0])
+    np.testing.assert_allclose(problem.y_min, np.minimum(band_lower + 0.3, problem.y_max))
+    assert (problem.y_min > band_lower).all()
+    solution = solve_rmpc(problem)
+    assert solution.ok
+    zones = solution.x_served[1:] @ setup.model.c.T  # the robust δ on top, less the slack
+    assert (zones >= problem.y_min + solution.delta - solution.slack - 1e-6).all()
 
 
 def test_a_designed_building_with_a_metered_power_model_plans_with_it(setup: Setup) -> None:

@@ -166,6 +166,18 @@ def test_the_linearisation_reaches_every_building_and_is_validated(tmp_path: Pat
     _refused(doc, tmp_path, "linearisation", "trajectory", r"f\.toml.*linearisation.*'plan'")
 
 
+def test_the_lower_plan_margin_reaches_every_building_and_is_validated(tmp_path: Path) -> None:
+    doc = generate_fleet(2, 1)
+    fleet = load_fleet(write_fleet(doc, tmp_path / "f.toml"))
+    assert fleet.spec.lower_plan_margin_k == 0.0
+    doc["lower_plan_margin_k"] = 0.4
+    fleet = load_fleet(write_fleet(doc, tmp_path / "f.toml"))
+    settings = FleetSettings.of(fleet, "2014-03-03", 1 / 24)
+    setups = [building_setup(e, i, settings) for i, e in enumerate(fleet.buildings)]
+    assert all(s.config.controller.lower_plan_margin_k == 0.4 for s in setups)
+    _refused(doc, tmp_path, "lower_plan_margin_k", -0.1, r"f\.toml.*lower_plan_margin_k")
+
+
 def test_example_fleet_ships() -> None:
     fleet = load_fleet(resources_dir() / "fleets" / "example.toml")
     assert len(fleet.buildings) == 3 and fleet.spec.min_bid_mw == 0.1

@@ -124,6 +124,10 @@ class ControllerConfig:
     unoccupied_plan_margin_k: float = 0.5
     """The MPC: its plan keeps the end-of-period zone temperatures this far below the upper
     comfort bound of unoccupied periods [K] (not written into ``comfort_upper_*``)."""
+    lower_plan_margin_k: float = 0.0
+    """The MPC: its plan keeps the end-of-period zone temperatures this far above the lower
+    comfort bound [K], occupied or not (never above the plan's upper bound; not written into
+    ``comfort_lower_*``)."""
     fan_only_air: bool = True
     """The MPC on an identified building with ``[identified.idle_air]``: plan an idle zone's
     input in the coil's off hours (a unit per zone: its fan's hours) as its fan-only air, and
@@ -438,6 +442,7 @@ class ScenarioConfig:
             ("uncertainty", "calibrate", None),
             ("plant", "curtailed_setpoint", "plan"),
             ("controller", "comfort_knee_k", None),
+            ("controller", "lower_plan_margin_k", 0.0),
         ):
             if table in payload and payload[table][key] == empty:
                 payload[table].pop(key)

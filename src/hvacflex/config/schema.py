@@ -15,8 +15,8 @@ File layout (every key optional)::
                    comfort_penalty_beyond_knee_sgd_per_kelvin_hour, horizon_steps,
                    linearisation_temp_degc, time_limit_s, thermostat_setpoint_degc,
                    linearisation, optimal_start, demand_limit_fraction, reserve_share,
-                   unoccupied_margin_k, unoccupied_plan_margin_k, peak_guard,
-                   peak_guard_substeps, power_model, power_level, fan_only_air
+                   unoccupied_margin_k, unoccupied_plan_margin_k, lower_plan_margin_k,
+                   peak_guard, peak_guard_substeps, power_model, power_level, fan_only_air
     [controller.feedback]  structure, memory_steps
     [reserve]      event_max_steps, event_allowance_k, event_recovery_steps,
                    non_delivery_penalty_sgd_per_mwh,
@@ -239,6 +239,13 @@ class ControllerSpec(Spec):
     plans stay this far below the upper comfort bound of unoccupied periods [K] (never below
     the lower bound; the ``comfort_upper_*`` result columns, which the KPIs grade against,
     keep the band)."""
+    lower_plan_margin_k: Annotated[Number, Field(ge=0.0, le=10.0)] = default(
+        ControllerConfig, "lower_plan_margin_k"
+    )
+    """The MPC does not ride the lower bound: the end-of-period zone temperatures it plans
+    stay this far above the lower comfort bound [K], occupied or not (never above the plan's
+    upper bound; the ``comfort_lower_*`` columns keep the band). 0 (the default): a plan may
+    pre-cool to the bound itself, where a nominal plan's realised errors then cross it."""
     fan_only_air: Flag = default(ControllerConfig, "fan_only_air")
     """An identified building that records its coil's hours (``[identified.idle_air]``): the
     MPC plans an idle zone's input in the coil's off hours (a unit per zone: its fan's

@@ -15,8 +15,9 @@ the same problem (docs/explanation/model.md §3):
 * comfort bounds for ``C x_{k+1}``, the temperature at the end of period k: the tighter of
   the bands of periods k and k + 1, so that the instant occupancy starts (and ends) is
   inside the occupied band, the upper bound of unoccupied period ends lowered by
-  ``[controller] unoccupied_plan_margin_k`` (:func:`below_unoccupied_bound`: the plan does not
-  ride the night bound) and tightened by the estimation and model-error margins,
+  ``[controller] unoccupied_plan_margin_k`` and the lower bound raised by
+  ``lower_plan_margin_k`` (:func:`plan_band`: the plan rides neither the night bound nor the
+  lower bound) and tightened by the estimation and model-error margins,
 * flow bounds from the building's air system (occupied: ventilation, else the minimum); where
   an identified building's coil is scheduled off (``[identified.idle_air]``), an idle zone's
   lower bound is the input its fan-only air delivers
@@ -54,6 +55,7 @@ from hvacflex.config import ControllerConfig, ReserveConfig
 from hvacflex.control.base import FloatArray, PeriodInputs
 from hvacflex.control.estimation import StepModel, tightened_bounds
 from hvacflex.control.idle_air import idle_flow_min_kg_s
+from hvacflex.control.plan_band import comfort_bounds_at_period_ends, plan_band
 from hvacflex.control.plan_linearisation import plan_linearisation
 from hvacflex.data.forecast import Forecast
 from hvacflex.data.signals import effective_peak_price
@@ -73,34 +75,6 @@ from hvacflex.opt.robust import comfort_margins
 from hvacflex.units import SECONDS_PER_HOUR
 
 
-def comfort_bounds_at_period_ends(
-    forecast: Forecast, horizon: int
-) -> tuple[FloatArray, FloatArray]:
-    """(N, m) comfort bounds on the temperatures x_1 … x_N at the ends of periods 0 … N−1:
-    :func:`band_at_period_ends` of the forecast's band."""
-    return band_at_period_ends(forecast.comfort_lower_degc, forecast.comfort_upper_degc, horizon)
-
-
-def band_at_period_ends(
-    lower_degc: FloatArray, upper_degc: FloatArray, horizon: int
-) -> tuple[FloatArray, FloatArray]:
-    """(N, m) comfort bounds [°C] on the temperatures at the ends of periods 0 … N−1 of the
-    per-period band ``lower_degc``, ``upper_degc`` ((≥ N, m) [°C], one row a period).
-
-    The end of period k is the start of period k + 1: the bound is the tighter of the two
-    periods' bands. The band must cover ``horizon + 1`` periods; with exactly ``horizon``
-    the last period's band is used alone.
-    """
-    lower, upper = np.asarray(lower_degc), np.asarray(upper_degc)
-    nxt = slice(1, horizon + 1)
-    lower_next = np.vstack([lower[nxt], lower[horizon - 1 : horizon]])[:horizon]
-    upper_next = np.vstack([upper[nxt], upper[horizon - 1 : horizon]])[:horizon]
-    return (
-        np.maximum(lower[:horizon], lower_next),
-        np.minimum(upper[:horizon], upper_next),
-    )
-
-
 def model_error_margins(
     model: LinearModel, model_error_k: FloatArray, config: ControllerConfig
 ) -> FloatArray:
@@ -110,29 +84,6 @@ def model_error_margins(
     ``Σ_{j<k} |C A^{k−1−j} Cᵀ| ε`` (docs/explanation/forecast.md)."""
     sigma = np.tile(model_error_k, (config.horizon_steps, 1))
     return comfort_margins(model.a, model.c.T, model.c, sigma)
-
-
-def below_unoccupied_bound(
-    forecast: Forecast, y_min: FloatArray, y_max: FloatArray, margin_k: float
-) -> FloatArray:
-    """(N, m) upper bounds [°C] with ``margin_k`` [K] taken off where the end of period k
-    is unoccupied (periods k and k + 1 both unoccupied), never below ``y_min``: the MPC plans
-    below the night bound instead of riding it, so the plant's excursions past the plan stay
-    inside the band. The band itself (``comfort_upper_*``, what the KPIs grade) is unchanged.
-
-    Parameters
-    ----------
-    forecast : covers N + 1 periods (``occupied``); with exactly N the last is repeated.
-    y_min, y_max : (N, m) the bounds on the period-end temperatures [°C].
-    margin_k : ≥ 0 [K].
-    """
-    horizon = y_max.shape[0]
-    occupied = np.asarray(forecast.occupied, dtype=bool)
-    now = occupied[:horizon]
-    nxt = np.concatenate([occupied[1 : horizon + 1], occupied[horizon - 1 : horizon]])[:horizon]
-    night = ~(now | nxt)
-    lowered: FloatArray = np.where(night[:, None], np.maximum(y_max - margin_k, y_min), y_max)
-    return lowered
 
 
 PULL_DOWN_LEAD_STEPS = 8
@@ -313,7 +264,9 @@ def build_problem(
         index = forecast.index[:horizon]
         u_min = idle_flow_min_kg_s(u_min, contract.building, contract.model, index, zone_temp)
     y_min, y_max = comfort_bounds_at_period_ends(forecast, horizon)
-    y_max = below_unoccupied_bound(forecast, y_min, y_max, cfg.unoccupied_plan_margin_k)
+    y_min, y_max = plan_band(
+        forecast, y_min, y_max, cfg.unoccupied_plan_margin_k, cfg.lower_plan_margin_k
+    )
     if context.extra_margin_k is not None:
         y_min, y_max = tightened_bounds(y_min, y_max, context.extra_margin_k)
     along = None

@@ -314,6 +314,9 @@ class FleetSettings:
     linearisation: Linearisation = "fixed"
     """Every building's model at T₀ or each step at its previous plan's zone temperatures
     (the fleet file's key)."""
+    lower_plan_margin_k: float = 0.0
+    """Every building's plan stays this far above its lower comfort bound [K] (the fleet
+    file's key)."""
     il_events: ReserveConfig = field(default_factory=ReserveConfig)
     """The IL contract (event model D, α, R) every building plans for."""
     data: DataConfig = field(default_factory=DataConfig)
@@ -339,6 +342,7 @@ class FleetSettings:
             ),
             linearisation_margin_k=s.linearisation_margin_k,
             linearisation=s.linearisation,
+            lower_plan_margin_k=s.lower_plan_margin_k,
             il_events=s.reserve.config(),
             data=fleet.data,
         )
@@ -377,6 +381,7 @@ def building_setup(entry: FleetBuilding, index: int, settings: FleetSettings) ->
             entry.comfort_occupied_degc[0],
         ),
         linearisation=settings.linearisation,
+        lower_plan_margin_k=settings.lower_plan_margin_k,
         comfort_penalty_sgd_per_kelvin_hour=settings.comfort_penalty_sgd_per_kelvin_hour,
         comfort_knee_k=settings.comfort_knee_k,
         comfort_penalty_beyond_knee_sgd_per_kelvin_hour=(

@@ -16,6 +16,7 @@ building file is (:func:`hvacflex.building.io.building_from_dict`)::
     window_lookahead_h = inf        # plan for a window from this long before it [h]
     linearisation_margin_k = 1.0    # T₀ = each building's occupied upper bound − this [K]
     linearisation = "fixed"         # the model at T₀ | "plan": each step at the plan's temps
+    lower_plan_margin_k = 0.0       # the plans stay this far above each lower bound [K]
     envelope = true                 # the flexibility envelope, envelope.csv (false: skipped)
 
     [[feeder_limits]]               # limit windows on top of it (the tighter holds)
@@ -375,6 +376,12 @@ class FleetSpec(_Spec):
     over-states both the coil's cooling per kg/s and its power: 2 (the lower bound + 1 K for
     a 3-K band) plans those hours more truly (docs/guide/fleet.md, "Five weekdays"). At most
     the band's width (T₀ inside the occupied band)."""
+    lower_plan_margin_k: Annotated[Finite, Field(ge=0.0, le=10.0)] = 0.0
+    """Every building's plan keeps its zones this far above their lower comfort bound [K]
+    (the scenario file's ``[controller]`` key; default 0). Under limit windows the plans store
+    cold down to the lower bound, where the errors a nominal plan (``robust = "none"``) does
+    not see push the zones across it: a margin keeps the stored cold inside the band
+    (docs/guide/fleet.md, "Five weekdays")."""
     linearisation: Literal["fixed", "plan"] = "fixed"
     """Every building's model (the scenario file's ``[controller]`` key): linearised once at
     T₀ (``fixed``, the default) or each step of the horizon at the previous plan's zone
@@ -435,6 +442,7 @@ _HINTS = {
     "window_lookahead_h": "hours ≥ 0 before a window's start the plans see it, or inf",
     "comfort_penalty_sgd_per_kelvin_hour": "ρ [SGD per K·h] > 0, e.g. 100 (the product's)",
     "linearisation": '"fixed" (the default) or "plan"',
+    "lower_plan_margin_k": "kelvin ≥ 0 above each lower comfort bound, e.g. 0.3; 0 for none",
     "linearisation_margin_k": "kelvin ≥ 0 below each occupied upper bound, e.g. 1 (the "
     "default) or 2 under limit windows",
     "comfort_knee_k": "the excursion [K] ≥ 0 priced at ρ, e.g. 0.5; leave out for none",

@@ -42,7 +42,7 @@ from hvacflex.building.discretize import delivered_flow_kg_s
 from hvacflex.building.identified import initial_node_temps_degc
 from hvacflex.config import ScenarioConfig
 from hvacflex.control.base import Action, Controller, FloatArray, PeriodInputs, WarmRestart
-from hvacflex.control.problem_builder import band_at_period_ends
+from hvacflex.control.plan_band import band_at_period_ends
 from hvacflex.data.forecast import Exogenous, Forecast
 from hvacflex.data.signals import OperatorSignals, effective_peak_price
 from hvacflex.data.uncertainty import DisturbanceSampler

@@ -36,7 +36,8 @@ import scipy.sparse as sp
 from hvacflex.building.channels import DisturbanceChannel
 from hvacflex.building.identified import initial_node_temps_degc
 from hvacflex.config import ScenarioConfig
-from hvacflex.control.problem_builder import band_at_period_ends, lp_power_rows
+from hvacflex.control.plan_band import band_at_period_ends
+from hvacflex.control.problem_builder import lp_power_rows
 from hvacflex.errors import InputError, SolverError
 from hvacflex.opt.highs_lp import LPResult, solve_lp
 from hvacflex.opt.solution import SolveStatus

@@ -1,0 +1,47 @@
+"""The band a plan keeps: the bounds at period ends, the night and lower margins, by hand."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from hvacflex.config import preset
+from hvacflex.control.plan_band import comfort_bounds_at_period_ends, plan_band
+from hvacflex.data.forecast import Forecast
+from hvacflex.sim.setup import prepare
+
+
+@pytest.fixture(scope="module")
+def forecast() -> Forecast:
+    """07:00 of a weekday: occupancy starts at 08:00, the horizon holds the night after."""
+    return prepare(preset("rmpc-ppp", start="2014-03-03", days=1.0)).forecaster.forecast(14, 49)
+
+
+def test_bounds_at_period_ends_are_the_tighter_of_two_periods_by_hand(forecast: Forecast) -> None:
+    lower, upper = comfort_bounds_at_period_ends(forecast, 48)
+    band_lower, band_upper = forecast.comfort_lower_degc, forecast.comfort_upper_degc
+    for k in range(47):
+        np.testing.assert_array_equal(lower[k], np.maximum(band_lower[k], band_lower[k + 1]))
+        np.testing.assert_array_equal(upper[k], np.minimum(band_upper[k], band_upper[k + 1]))
+    assert (upper[1] < band_upper[1]).all()  # the end of 07:30 is 08:00: occupied band
+
+
+def test_the_plan_band_takes_its_margins_inside_the_band_by_hand(forecast: Forecast) -> None:
+    """A 20 … 30 °C band: the night ends' upper bound 0.5 K lower, every lower bound 0.3 K
+    higher; margins wider than the band stop at the other bound; zero margins give the band."""
+    horizon = 48
+    occupied = forecast.occupied
+    night = np.array([not occupied[k] and not occupied[k + 1] for k in range(horizon)])
+    assert night.any() and not night.all()
+    y_min, y_max = np.full((horizon, 2), 20.0), np.full((horizon, 2), 30.0)
+    lower, upper = plan_band(forecast, y_min, y_max, 0.5, 0.3)
+    np.testing.assert_array_equal(upper[night], 29.5)
+    np.testing.assert_array_equal(upper[~night], 30.0)
+    np.testing.assert_array_equal(lower, 20.3)
+    lower, upper = plan_band(forecast, y_min, y_max, 50.0, 0.0)  # the night stops at y_min
+    np.testing.assert_array_equal(upper[night], 20.0)
+    lower, upper = plan_band(forecast, y_min, y_max, 0.5, 50.0)  # the lower stops at upper
+    np.testing.assert_array_equal(lower, upper)
+    lower, upper = plan_band(forecast, y_min, y_max, 0.0, 0.0)
+    np.testing.assert_array_equal(lower, y_min)
+    np.testing.assert_array_equal(upper, y_max)
