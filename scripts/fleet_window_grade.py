@@ -9,8 +9,9 @@ bind, the planned and realised over-limit in the window periods, discomfort per 
 against the bound (+0.5 K·h), the largest zone violation per building, the peak outside the
 windows against the unlimited peak, and the energy against the unlimited days, split by
 block of the day (00:00–07:00, 07:00–10:00, 10:00–17:00, 17:00–24:00; `--by-hour`: by hour),
-planned and metered; and the building-periods whose applied action the fleet's guard cut
-(`solve_status` ending in "+capped") with their share of the discomfort.
+planned and metered; the building-periods whose applied action the fleet's guard cut
+(`solve_status` ending in "+capped") with their share of the discomfort; and the discomfort
+below and above the band.
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ import numpy as np
 import pandas as pd
 
 from hvacflex import kpi as kpis
+from hvacflex import results as schema
 from hvacflex.results import read_results
 
 
@@ -90,6 +92,8 @@ def main() -> None:
     print(
         f"guard-cut building-periods: {cut}, holding {in_cut:.2f} of {total:.2f} K·h of discomfort"
     )
+    below, above = band_sides_kelvin_hours(long)
+    print(f"of which below the band {below:.2f} K·h, above it {above:.2f} K·h")
     rows = []
     for name, frame in long.groupby("building"):
         rows.append(
@@ -116,6 +120,22 @@ def main() -> None:
         f"fleet mean per building-day {table['discomfort_per_day'].mean():.3f} K·h"
         + (f" against bound {table['bound_per_day'].mean():.3f}" if args.bound else "")
     )
+
+
+def band_sides_kelvin_hours(long: pd.DataFrame) -> tuple[float, float]:
+    """Discomfort [K·h] below and above the band, summed over buildings and zones: the
+    period-end temperature against the band the KPIs grade (``temp_end_*`` against
+    ``comfort_lower_*`` and ``comfort_upper_*``), × the period's hours; their sum is the
+    guard line's total."""
+    hours = kpis.step_hours(long)
+    below = above = 0.0
+    for zone in kpis.zone_names(long):
+        end = long[schema.TEMP_END.name(zone)].to_numpy()
+        lower = long[schema.COMFORT_LOWER.name(zone)].to_numpy()
+        upper = long[schema.COMFORT_UPPER.name(zone)].to_numpy()
+        below += hours * float(np.nansum(np.maximum(lower - end, 0.0)))
+        above += hours * float(np.nansum(np.maximum(end - upper, 0.0)))
+    return below, above
 
 
 BLOCKS = ((0, 7), (7, 10), (10, 17), (17, 24))
