@@ -143,6 +143,7 @@ def main() -> None:
                     "method": f"{family} LP, warm step, {name} pricing",
                     "median": statistics.median(cpu[name]),
                     "p90": p90(cpu[name]),
+                    "mean": statistics.fmean(cpu[name]),
                     "iterations": median_it,
                     "unit": "ms CPU",
                 }

@@ -16,7 +16,9 @@ checks: CVXPY = hvacflex, warm = cold, …); the figures it reports for the tabl
 row: its whole run's CPU [s].
 
 Writes ``DIR/table.csv`` (columns :data:`TABLE_COLUMNS`: ``method``, ``median``, ``p90``,
-``ratio``, ``iterations``, ``machine``, ``load``, plus the ``unit`` of median and p90 and the
+``ratio``, ``iterations``, ``machine``, ``load``, plus the ``mean`` where a benchmark samples
+per step (what a long run's time follows: a few steps of thousands of iterations weigh in the
+mean, not in the median), the ``unit`` of median, p90 and mean and the
 ``benchmark`` and ``size`` it came from), ``DIR/summary.json`` (the benchmarks' summary figures,
 among them ``warm_overhead_ms_median``, ``office5_event_cvxpy_ratio``, ``startup_s`` — CPU
 figures — and, without ``--quick``, ``years_x3_wall_s``; the machine, the load, each
@@ -48,6 +50,7 @@ TABLE_COLUMNS = (
     "iterations",
     "machine",
     "load",
+    "mean",
     "unit",
     "benchmark",
     "size",

@@ -67,6 +67,7 @@ def test_quick_run_writes_the_table_and_the_summary(tmp_path: Path) -> None:
     ]
     assert {r["benchmark"] for r in rows} == {"bench_cvxpy_events"}
     assert all(float(r["median"]) > 0 and r["machine"] and r["load"] for r in rows)
+    assert all(float(r["mean"]) > 0 for r in rows)  # per-step samples: their mean too
     summary = json.loads((tmp_path / "summary.json").read_text())
     for key in ("warm_overhead_ms_median", "office5_event_cvxpy_ratio"):  # startup_s: below
         assert summary[key] > 0, key
