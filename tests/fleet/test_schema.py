@@ -154,28 +154,25 @@ def test_the_linearisation_margin_sets_every_buildings_t0_and_is_validated(
     _refused(doc, tmp_path, "linearisation_margin_k", 1.0, margin + r".*'b0000'.*supply air")
 
 
-def test_the_linearisation_reaches_every_building_and_is_validated(tmp_path: Path) -> None:
+@pytest.mark.parametrize(
+    ("key", "default", "value", "bad", "match"),
+    [
+        ("linearisation", "fixed", "plan", "trajectory", r"f\.toml.*linearisation.*'plan'"),
+        ("lower_plan_margin_k", 0.0, 0.4, -0.1, r"f\.toml.*lower_plan_margin_k"),
+    ],
+)
+def test_a_controller_key_reaches_every_building_and_is_validated(
+    tmp_path: Path, key: str, default: object, value: object, bad: object, match: str
+) -> None:
     doc = generate_fleet(2, 1)
     fleet = load_fleet(write_fleet(doc, tmp_path / "f.toml"))
-    assert fleet.spec.linearisation == "fixed"
-    doc["linearisation"] = "plan"
+    assert getattr(fleet.spec, key) == default
+    doc[key] = value
     fleet = load_fleet(write_fleet(doc, tmp_path / "f.toml"))
     settings = FleetSettings.of(fleet, "2014-03-03", 1 / 24)
     setups = [building_setup(e, i, settings) for i, e in enumerate(fleet.buildings)]
-    assert all(s.config.controller.linearisation == "plan" for s in setups)
-    _refused(doc, tmp_path, "linearisation", "trajectory", r"f\.toml.*linearisation.*'plan'")
-
-
-def test_the_lower_plan_margin_reaches_every_building_and_is_validated(tmp_path: Path) -> None:
-    doc = generate_fleet(2, 1)
-    fleet = load_fleet(write_fleet(doc, tmp_path / "f.toml"))
-    assert fleet.spec.lower_plan_margin_k == 0.0
-    doc["lower_plan_margin_k"] = 0.4
-    fleet = load_fleet(write_fleet(doc, tmp_path / "f.toml"))
-    settings = FleetSettings.of(fleet, "2014-03-03", 1 / 24)
-    setups = [building_setup(e, i, settings) for i, e in enumerate(fleet.buildings)]
-    assert all(s.config.controller.lower_plan_margin_k == 0.4 for s in setups)
-    _refused(doc, tmp_path, "lower_plan_margin_k", -0.1, r"f\.toml.*lower_plan_margin_k")
+    assert all(getattr(s.config.controller, key) == value for s in setups)
+    _refused(doc, tmp_path, key, bad, match)
 
 
 def test_example_fleet_ships() -> None:
