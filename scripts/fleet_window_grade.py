@@ -123,18 +123,19 @@ def main() -> None:
 
 
 def band_sides_kelvin_hours(long: pd.DataFrame) -> tuple[float, float]:
-    """Discomfort [K·h] below and above the band, summed over buildings and zones: the
-    period-end temperature against the band the KPIs grade (``temp_end_*`` against
-    ``comfort_lower_*`` and ``comfort_upper_*``), × the period's hours; their sum is the
-    guard line's total."""
-    hours = kpis.step_hours(long)
+    """Discomfort [K·h] below and above the band, summed over buildings and zones: each
+    building's period-end temperatures against the band the KPIs grade (``temp_end_*``
+    against ``comfort_lower_*`` and ``comfort_upper_*``), × its periods' hours; their sum
+    is the guard line's total."""
     below = above = 0.0
-    for zone in kpis.zone_names(long):
-        end = long[schema.TEMP_END.name(zone)].to_numpy()
-        lower = long[schema.COMFORT_LOWER.name(zone)].to_numpy()
-        upper = long[schema.COMFORT_UPPER.name(zone)].to_numpy()
-        below += hours * float(np.nansum(np.maximum(lower - end, 0.0)))
-        above += hours * float(np.nansum(np.maximum(end - upper, 0.0)))
+    for _, frame in long.groupby("building"):
+        hours = kpis.step_hours(frame)
+        for zone in kpis.zone_names(frame):
+            end = frame[schema.TEMP_END.name(zone)].to_numpy()
+            lower = frame[schema.COMFORT_LOWER.name(zone)].to_numpy()
+            upper = frame[schema.COMFORT_UPPER.name(zone)].to_numpy()
+            below += hours * float(np.maximum(lower - end, 0.0).sum())
+            above += hours * float(np.maximum(end - upper, 0.0).sum())
     return below, above
 
 

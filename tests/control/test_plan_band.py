@@ -28,20 +28,34 @@ def test_bounds_at_period_ends_are_the_tighter_of_two_periods_by_hand(forecast: 
 
 def test_the_plan_band_takes_its_margins_inside_the_band_by_hand(forecast: Forecast) -> None:
     """A 20 … 30 °C band: the night ends' upper bound 0.5 K lower, every lower bound 0.3 K
-    higher; margins wider than the band stop at the other bound; zero margins give the band."""
+    higher; a night margin wider than the band stops at the lower bound, a lower margin
+    that would pass the upper bound stops at the middle; zero margins give the band back,
+    a crossed band stays crossed (for the problem to refuse)."""
     horizon = 48
     occupied = forecast.occupied
     night = np.array([not occupied[k] and not occupied[k + 1] for k in range(horizon)])
     assert night.any() and not night.all()
     y_min, y_max = np.full((horizon, 2), 20.0), np.full((horizon, 2), 30.0)
-    lower, upper = plan_band(forecast, y_min, y_max, 0.5, 0.3)
+
+    def band(unoccupied_k: float, lower_k: float, top: np.ndarray = y_max) -> tuple:
+        return plan_band(
+            forecast, y_min, top, unoccupied_plan_margin_k=unoccupied_k, lower_plan_margin_k=lower_k
+        )
+
+    lower, upper = band(0.5, 0.3)
     np.testing.assert_array_equal(upper[night], 29.5)
     np.testing.assert_array_equal(upper[~night], 30.0)
     np.testing.assert_array_equal(lower, 20.3)
-    lower, upper = plan_band(forecast, y_min, y_max, 50.0, 0.0)  # the night stops at y_min
+    lower, upper = band(50.0, 0.0)  # the night stops at y_min
     np.testing.assert_array_equal(upper[night], 20.0)
-    lower, upper = plan_band(forecast, y_min, y_max, 0.5, 50.0)  # the lower stops at upper
-    np.testing.assert_array_equal(lower, upper)
-    lower, upper = plan_band(forecast, y_min, y_max, 0.0, 0.0)
+    lower, upper = band(0.5, 50.0)  # the lower bound stops half-way to the upper
+    np.testing.assert_array_equal(lower[night], 24.75)
+    np.testing.assert_array_equal(lower[~night], 25.0)
+    lower, upper = band(0.0, 0.0)
     np.testing.assert_array_equal(lower, y_min)
     np.testing.assert_array_equal(upper, y_max)
+    crossed = np.full((horizon, 2), 19.0)  # y_max below y_min: left for the problem to refuse
+    for lower_k in (0.0, 0.3):
+        lower, upper = band(0.0, lower_k, crossed)
+        np.testing.assert_array_equal(lower, y_min)
+        np.testing.assert_array_equal(upper[~night], 19.0)

@@ -115,26 +115,36 @@ def test_the_plan_keeps_a_margin_below_the_night_bound_only(setup: Setup) -> Non
 
 
 def test_the_plan_stays_above_the_lower_bound_by_its_margin() -> None:
-    """``lower_plan_margin_k`` raises every period end's lower bound (not above the plan's
-    upper bound), and the optimal plan keeps its zones there; the band the KPIs grade is
-    the band."""
-    setup = prepare(
-        with_overrides(
-            preset("rmpc-ppp", start="2014-03-03", days=1.0),
-            {"controller.lower_plan_margin_k": 0.3},
+    """``lower_plan_margin_k`` raises every period end's lower bound and nothing else of the
+    problem; a plan that pre-cools to the band's lower bound without it stays 0.3 K above it
+    with it."""
+    plans = {}
+    for margin in (0.0, 0.3):
+        setup = prepare(
+            with_overrides(
+                preset("nmpc", start="2014-03-03", days=1.0),
+                {"controller.lower_plan_margin_k": margin},
+            )
         )
-    )
-    controller = make_controller(setup)
-    assert isinstance(controller, MPCController)
-    inputs = _inputs(setup)
-    problem = build_problem(setup.model, inputs, controller.contract, PlanContext(inputs.x_degc))
-    band_lower, _ = comfort_bounds_at_period_ends(inputs.forecast, problem.y_max.shape[0])
-    np.testing.assert_allclose(problem.y_min, np.minimum(band_lower + 0.3, problem.y_max))
-    assert (problem.y_min > band_lower).all()
-    solution = solve_rmpc(problem)
-    assert solution.ok
-    zones = solution.x_served[1:] @ setup.model.c.T  # the robust δ on top, less the slack
-    assert (zones >= problem.y_min + solution.delta - solution.slack - 1e-6).all()
+        controller = make_controller(setup)
+        assert isinstance(controller, MPCController)
+        inputs = _inputs(setup, k=2)  # 01:00: the night's cheap hours, a cool building
+        context = PlanContext(inputs.x_degc)
+        plans[margin] = build_problem(setup.model, inputs, controller.contract, context)
+    plain, margined = plans[0.0], plans[0.3]
+    band_lower, _ = comfort_bounds_at_period_ends(inputs.forecast, plain.y_max.shape[0])
+    np.testing.assert_array_equal(plain.y_min, band_lower)
+    np.testing.assert_allclose(margined.y_min, band_lower + 0.3)
+    for name in ("y_max", "power_offset_kw", "power_coeff_kw_per_kg_s", "d_sigma"):
+        np.testing.assert_array_equal(getattr(margined, name), getattr(plain, name))
+    above, slack = {}, {}
+    for margin, problem in plans.items():
+        solution = solve_rmpc(problem)
+        assert solution.ok
+        above[margin] = solution.x_served[1:] @ setup.model.c.T - band_lower
+        slack[margin] = solution.slack
+    assert above[0.0].min() < 0.3 - 1e-3  # it rides the lower bound somewhere
+    assert (above[0.3] >= 0.3 - slack[0.3] - 1e-6).all()
 
 
 def test_a_designed_building_with_a_metered_power_model_plans_with_it(setup: Setup) -> None:

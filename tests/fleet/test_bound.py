@@ -50,6 +50,20 @@ def test_the_run_model_covers_the_run_with_the_limit_in_force(tmp_path: Path) ->
     np.testing.assert_array_equal(model.planning_kw, np.where(inside, 500.0, np.inf))
 
 
+def test_the_bound_counts_the_band_itself_whatever_the_plans_lower_margin(
+    tmp_path: Path, unlimited: tuple[Path, object]
+) -> None:
+    """``lower_plan_margin_k`` moves the plans, not the band the bound grades against."""
+    doc = generate_fleet(2, 3, feeder_limit_kw=float("inf"), min_bid_mw=0.1)
+    doc["lower_plan_margin_k"] = 0.4
+    fleet, document = load_fleet_document(write_fleet(doc, tmp_path / "margin.toml"))
+    assert fleet.spec.lower_plan_margin_k == 0.4
+    margin = run_model(fleet, document, START, 1.0)
+    _, plain = unlimited
+    for with_margin, without in zip(margin.problems, plain.problems, strict=True):  # type: ignore[attr-defined]
+        np.testing.assert_array_equal(with_margin.y_min, without.y_min)
+
+
 def test_a_tighter_limit_never_lowers_the_bound(unlimited: tuple[Path, object]) -> None:
     _, model = unlimited
     free = comfort_bound(model)  # type: ignore[arg-type]

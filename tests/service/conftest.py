@@ -84,16 +84,18 @@ def planned_service(make_db_url: Callable[[str], str]) -> Iterator[Service]:
     12:00: plans to aggregate whatever the module's other tests did before."""
     services = _service(make_db_url("planned"), [registration("b1"), registration("b2")])
     service = next(services)
-    body = {"time": f"{START}T12:00", "node_temperatures_degc": [25.0] * len(service.nodes)}
-    for building, key in service.keys.items():
-        measured = service.client.post(
-            f"/v1/buildings/{building}/measurements?wait_s=10",
-            json=body,
-            headers=service.headers(key),
-        )
-        assert measured.status_code == 200, measured.text
-    yield service
-    next(services, None)  # closes the client and the app
+    try:
+        body = {"time": f"{START}T12:00", "node_temperatures_degc": [25.0] * len(service.nodes)}
+        for building, key in service.keys.items():
+            measured = service.client.post(
+                f"/v1/buildings/{building}/measurements?wait_s=10",
+                json=body,
+                headers=service.headers(key),
+            )
+            assert measured.status_code == 200, measured.text
+        yield service
+    finally:
+        next(services, None)  # closes the client and the app
 
 
 @pytest.fixture(scope="module")

@@ -587,7 +587,7 @@ def test_the_peak_guard_sheds_toward_the_band_at_the_periods_end(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     """The guard's upper bound is the plan's: the tighter of the bands of periods k and
-    k + 1 (control/problem_builder.band_at_period_ends), so the period before occupancy
+    k + 1 (control/plan_band.band_at_period_ends), so the period before occupancy
     does not shed toward the 30 °C night bound (issue 55 review). With period k's band
     alone the guards of the pre-occupancy periods would carry the night bound."""
     cfg = with_overrides(

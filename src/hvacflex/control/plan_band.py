@@ -44,22 +44,29 @@ def plan_band(
     forecast: Forecast,
     y_min: FloatArray,
     y_max: FloatArray,
-    unoccupied_margin_k: float,
-    lower_margin_k: float = 0.0,
+    *,
+    unoccupied_plan_margin_k: float,
+    lower_plan_margin_k: float,
 ) -> tuple[FloatArray, FloatArray]:
     """(N, m) lower and upper bounds [°C] the plan keeps inside the band ``y_min … y_max``:
-    the upper bound with ``unoccupied_margin_k`` [K] taken off where the end of period k is
-    unoccupied (periods k and k + 1 both unoccupied), never below ``y_min``, so the MPC plans
-    below the night bound instead of riding it; the lower bound raised by ``lower_margin_k``
-    [K] everywhere, never above that upper bound, so a plan that pre-cools stops short of the
-    lower bound. Either way the plant's excursions past the plan stay inside the band, which
-    itself (``comfort_*`` columns, what the KPIs grade) is unchanged.
+
+    * the upper bound with ``unoccupied_plan_margin_k`` [K] taken off where the end of
+      period k is unoccupied (periods k and k + 1 both unoccupied), never below ``y_min``:
+      the MPC plans below the night bound instead of riding it;
+    * the lower bound raised by ``lower_plan_margin_k`` [K] everywhere; where that would
+      pass the upper bound, the middle of the two (as :func:`tightened_bounds
+      <hvacflex.control.estimation.tightened_bounds>` does): a plan that pre-cools stops
+      short of the lower bound.
+
+    Either way the plant's excursions past the plan stay inside the band, which itself
+    (``comfort_*`` columns, what the KPIs grade) is unchanged. A band whose ``y_min`` lies
+    above ``y_max`` stays so (the problem refuses it).
 
     Parameters
     ----------
     forecast : covers N + 1 periods (``occupied``); with exactly N the last is repeated.
     y_min, y_max : (N, m) the bounds on the period-end temperatures [°C].
-    unoccupied_margin_k, lower_margin_k : ≥ 0 [K].
+    unoccupied_plan_margin_k, lower_plan_margin_k : ≥ 0 [K].
     """
     horizon = y_max.shape[0]
     occupied = np.asarray(forecast.occupied, dtype=bool)
@@ -67,7 +74,8 @@ def plan_band(
     nxt = np.concatenate([occupied[1 : horizon + 1], occupied[horizon - 1 : horizon]])[:horizon]
     night = ~(now | nxt)
     upper: FloatArray = np.where(
-        night[:, None], np.maximum(y_max - unoccupied_margin_k, y_min), y_max
+        night[:, None], np.maximum(y_max - unoccupied_plan_margin_k, y_min), y_max
     )
-    lower: FloatArray = np.minimum(y_min + lower_margin_k, upper)
+    raised = y_min + lower_plan_margin_k
+    lower: FloatArray = np.where(raised <= upper, raised, np.maximum(0.5 * (y_min + upper), y_min))
     return lower, upper

@@ -263,10 +263,8 @@ def build_problem(
         zone_temp = m.c @ np.asarray(context.x_degc, dtype=float)
         index = forecast.index[:horizon]
         u_min = idle_flow_min_kg_s(u_min, contract.building, contract.model, index, zone_temp)
-    y_min, y_max = comfort_bounds_at_period_ends(forecast, horizon)
-    y_min, y_max = plan_band(
-        forecast, y_min, y_max, cfg.unoccupied_plan_margin_k, cfg.lower_plan_margin_k
-    )
+    margins = {k: getattr(cfg, k) for k in ("unoccupied_plan_margin_k", "lower_plan_margin_k")}
+    y_min, y_max = plan_band(forecast, *comfort_bounds_at_period_ends(forecast, horizon), **margins)
     if context.extra_margin_k is not None:
         y_min, y_max = tightened_bounds(y_min, y_max, context.extra_margin_k)
     along = None
@@ -524,9 +522,10 @@ def _return_air_estimate_degc(
 ) -> FloatArray:
     """(N, m) zone (return-air) temperatures at which the coil term of the reserve's
     power is taken [°C]: the previous plan's served zone temperatures at the start of
-    each step, one step on (now: the measured state), never below the lower comfort
-    bound. Curtailment only warms the zones, so the curtailed return air is warmer and
-    its coil power per kg/s larger: a lower bound while the plan holds."""
+    each step, one step on (now: the measured state), never below the plan's lower bound
+    ``y_min`` (its margins included: the plan holds them). Curtailment only warms the zones,
+    so the curtailed return air is warmer and its coil power per kg/s larger: a lower bound
+    while the plan holds."""
     c = model.c
     plan = context.previous_plan
     horizon = y_min.shape[0]

@@ -314,7 +314,7 @@ class FleetSettings:
     linearisation: Linearisation = "fixed"
     """Every building's model at T₀ or each step at its previous plan's zone temperatures
     (the fleet file's key)."""
-    lower_plan_margin_k: float = 0.0
+    lower_plan_margin_k: float = ControllerConfig.lower_plan_margin_k
     """Every building's plan stays this far above its lower comfort bound [K] (the fleet
     file's key)."""
     il_events: ReserveConfig = field(default_factory=ReserveConfig)

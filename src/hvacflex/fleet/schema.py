@@ -83,6 +83,7 @@ from hvacflex.config import (
     DEFAULT_COMFORT_PENALTY_SGD_PER_KELVIN_HOUR,
     LINEARISATION_MARGIN_K,
     ActivationConfig,
+    ControllerConfig,
     DataConfig,
     ReserveConfig,
     paths_from_folder,
@@ -376,12 +377,14 @@ class FleetSpec(_Spec):
     over-states both the coil's cooling per kg/s and its power: 2 (the lower bound + 1 K for
     a 3-K band) plans those hours more truly (docs/guide/fleet.md, "Five weekdays"). At most
     the band's width (T₀ inside the occupied band)."""
-    lower_plan_margin_k: Annotated[Finite, Field(ge=0.0, le=10.0)] = 0.0
+    lower_plan_margin_k: Annotated[Finite, Field(ge=0.0, le=10.0)] = (
+        ControllerConfig.lower_plan_margin_k
+    )
     """Every building's plan keeps its zones this far above their lower comfort bound [K]
     (the scenario file's ``[controller]`` key; default 0). Under limit windows the plans store
     cold down to the lower bound, where the errors a nominal plan (``robust = "none"``) does
     not see push the zones across it: a margin keeps the stored cold inside the band
-    (docs/guide/fleet.md, "Five weekdays")."""
+    (docs/guide/fleet.md, "Feeder limits: windows"). ``fleet bound`` counts the band itself."""
     linearisation: Literal["fixed", "plan"] = "fixed"
     """Every building's model (the scenario file's ``[controller]`` key): linearised once at
     T₀ (``fixed``, the default) or each step of the horizon at the previous plan's zone
@@ -442,7 +445,7 @@ _HINTS = {
     "window_lookahead_h": "hours ≥ 0 before a window's start the plans see it, or inf",
     "comfort_penalty_sgd_per_kelvin_hour": "ρ [SGD per K·h] > 0, e.g. 100 (the product's)",
     "linearisation": '"fixed" (the default) or "plan"',
-    "lower_plan_margin_k": "kelvin ≥ 0 above each lower comfort bound, e.g. 0.3; 0 for none",
+    "lower_plan_margin_k": "kelvin in [0, 10] above each lower comfort bound, e.g. 0.5; 0 for none",
     "linearisation_margin_k": "kelvin ≥ 0 below each occupied upper bound, e.g. 1 (the "
     "default) or 2 under limit windows",
     "comfort_knee_k": "the excursion [K] ≥ 0 priced at ρ, e.g. 0.5; leave out for none",

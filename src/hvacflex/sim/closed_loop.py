@@ -169,7 +169,7 @@ def peak_guard_enabled(config: ScenarioConfig, plant: Plant) -> bool:
 def band_at_period_end_degc(exo: Exogenous, k: int) -> tuple[FloatArray, FloatArray]:
     """(m,) lower and (m,) upper comfort bound [°C] at the end of period ``k``: the tighter of
     the bands of periods k and k + 1, as the plan's
-    (:func:`~hvacflex.control.problem_builder.band_at_period_ends`). The peak guard sheds
+    (:func:`~hvacflex.control.plan_band.band_at_period_ends`). The peak guard sheds
     toward its upper bound and the setpoint actuation clips to it
     (:func:`setpoint_actuation_degc`): in the period before occupancy starts, neither works
     toward the night band the plan has already left."""
