@@ -64,6 +64,19 @@ def test_the_bound_counts_the_band_itself_whatever_the_plans_lower_margin(
         np.testing.assert_array_equal(with_margin.y_min, without.y_min)
 
 
+def test_the_bound_grades_the_nights_against_the_band_not_the_plans_margin(
+    unlimited: tuple[Path, object],
+) -> None:
+    """The plans keep ``unoccupied_plan_margin_k`` (0.5 K) below the unoccupied upper bound;
+    the bound's LP takes the band itself, as ``results.parquet`` counts discomfort."""
+    _, model = unlimited
+    doc = generate_fleet(2, 3, feeder_limit_kw=float("inf"), min_bid_mw=0.1)
+    for problem, entry in zip(model.problems, doc["buildings"], strict=True):  # type: ignore[attr-defined]
+        lower_degc, upper_degc = entry["comfort_unoccupied_degc"]
+        assert np.max(problem.y_max) == upper_degc
+        assert np.min(problem.y_min) == lower_degc
+
+
 def test_a_tighter_limit_never_lowers_the_bound(unlimited: tuple[Path, object]) -> None:
     _, model = unlimited
     free = comfort_bound(model)  # type: ignore[arg-type]

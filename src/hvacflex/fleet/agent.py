@@ -317,6 +317,9 @@ class FleetSettings:
     lower_plan_margin_k: float = ControllerConfig.lower_plan_margin_k
     """Every building's plan stays this far above its lower comfort bound [K] (the fleet
     file's key)."""
+    unoccupied_plan_margin_k: float = ControllerConfig.unoccupied_plan_margin_k
+    """Every building's plan stays this far below its unoccupied upper bound [K] (the
+    scenario's default; not a fleet-file key: ``fleet bound`` sets it to 0)."""
     il_events: ReserveConfig = field(default_factory=ReserveConfig)
     """The IL contract (event model D, α, R) every building plans for."""
     data: DataConfig = field(default_factory=DataConfig)
@@ -382,6 +385,7 @@ def building_setup(entry: FleetBuilding, index: int, settings: FleetSettings) ->
         ),
         linearisation=settings.linearisation,
         lower_plan_margin_k=settings.lower_plan_margin_k,
+        unoccupied_plan_margin_k=settings.unoccupied_plan_margin_k,
         comfort_penalty_sgd_per_kelvin_hour=settings.comfort_penalty_sgd_per_kelvin_hour,
         comfort_knee_k=settings.comfort_knee_k,
         comfort_penalty_beyond_knee_sgd_per_kelvin_hour=(

@@ -93,7 +93,10 @@ def run_model(fleet: Fleet, document: dict[str, Any], start: str, days: float) -
             hint=f"bound at most {MAX_BOUND_DAYS} days at a time",
         )
     settings = dataclasses.replace(  # the band itself, as results.parquet counts it
-        FleetSettings.of(fleet, start, days), horizon_steps=max(steps, 2), lower_plan_margin_k=0.0
+        FleetSettings.of(fleet, start, days),
+        horizon_steps=max(steps, 2),
+        lower_plan_margin_k=0.0,
+        unoccupied_plan_margin_k=0.0,
     )
     group = BuildingGroup(document, list(range(len(fleet.buildings))), settings)
     p_min, _, _ = group.begin_step()
