@@ -13,6 +13,7 @@ from hvacflex.cli import app
 from hvacflex.fleet.bound import (
     BOUND_COLUMNS,
     BOUND_FILE,
+    bound_fleet,
     budgeted_bound,
     check_limit_windows,
     comfort_bound,
@@ -274,3 +275,35 @@ def test_a_budget_without_an_unlimited_plan_to_measure_it_by_is_a_solver_error(
             path, START, 1, tmp_path / "out", energy_budget_pct=5.0, max_excursion_k=None
         )
     assert not (tmp_path / "out" / BOUND_FILE).exists()  # nothing written
+
+
+def test_the_plan_replay_script_meters_both_plans_along_their_own_temperatures(
+    tmp_path: Path,
+) -> None:
+    """``scripts/fleet_plan_replay.py`` (docs/history/2026-12-08-fleet-plan-replay.md): the
+    unlimited and least-energy plans, fixed T₀ and re-linearised along themselves, each
+    metered on the buildings' RC plants; the least-energy plan meets the comfort allowance,
+    so on the same model it needs no more energy than the unlimited plan."""
+    import re
+    import subprocess
+    import sys
+
+    path = _fleet(tmp_path, [{"start": "14:00", "end": "16:00", "limit_kw": 250.0}])
+    bound = bound_fleet(path, START, 1.0, tmp_path / "bound")
+    assert bound.feasible
+    script = Path(__file__).parents[2] / "scripts" / "fleet_plan_replay.py"
+    done = subprocess.run(
+        [sys.executable, str(script), "--fleet", str(path), "--days", "1", "--rounds", "1",
+         "--bound", str(tmp_path / "bound" / "bound.csv"), "--max-excursion", "3"],
+        capture_output=True, text=True, check=True,
+    )  # fmt: skip
+    pattern = r"^(unlimited|least energy), round (\d): planned ([\d,.]+) kWh, metered ([\d,.]+)"
+    metered = {
+        (m[1], int(m[2])): (float(m[3].replace(",", "")), float(m[4].replace(",", "")))
+        for m in re.finditer(pattern, done.stdout, flags=re.MULTILINE)
+    }
+    assert set(metered) == {(c, r) for c in ("unlimited", "least energy") for r in (0, 1)}
+    for planned_kwh, metered_kwh in metered.values():
+        assert metered_kwh == pytest.approx(planned_kwh, rel=0.1)  # the plants' meters
+    # on the same (fixed T₀) model the priced plan meets the allowance: least energy ≤ it
+    assert metered[("least energy", 0)][0] <= metered[("unlimited", 0)][0] + 1e-6
