@@ -11,14 +11,19 @@ limits in force; `hvacflex.fleet.bound.run_model`):
 * **unlimited**: the controllers' objective without any limit (`priced_only`), the
   reference of "energy ≤ +10 % over the unlimited days";
 * **least energy**: the least fleet energy with each building's discomfort ≤ its bound
-  (``--bound``, from `fleet bound` on the same file) + 0.5 K·h per day and every zone's
-  slack ≤ ``--max-excursion`` [K] (`least_energy_for_comfort`'s LP).
+  (``--bound``, from `fleet bound` on the same file: the fixed T₀ model's, as issue 60
+  defines it) + 0.5 K·h per day and every zone's slack ≤ ``--max-excursion`` [K]
+  (`least_energy_for_comfort`'s LP).
 
 Round 0 is the fleet file's fixed T₀ model (what `fleet bound` and `fleet_tradeoff.py`
 solve). Each further round takes every building's model and power rows along the previous
 round's zone temperatures (each step at the mean of its start and end), as
 ``linearisation = "plan"`` does step by step in the closed loop
-(`hvacflex.control.plan_linearisation`), and solves again. Round 0's and the last round's
+(`hvacflex.control.plan_linearisation`), and solves again: a sequential LP, an estimate
+for the nonlinear plants, not a bound; the rounds need not settle (the unoccupied hours'
+wide band leaves the zones' temperatures free there). Buildings on a power model fitted to
+a meter are refused (their power rows follow the flows, not the temperatures); the
+limits' raise to the minimum power stays the fixed model's. Round 0's and the last round's
 plans are then applied open loop to each building's RC plant (its flows, no activations),
 and the meters read: planned and metered energy [kWh] by block of the day (00–07 / 07–10 /
 10–17 / 17–24), and the discomfort per building-day on the plant. Open loop over days, the
@@ -39,9 +44,9 @@ from peak_bound_replay import PlanReplay
 from scipy import sparse
 
 from hvacflex.control.plan_linearisation import plan_affine_shift, plan_input_scale
-from hvacflex.control.problem_builder import PlanContext, _power_coefficients
+from hvacflex.control.problem_builder import PlanContext, _meter_fit, _power_coefficients
 from hvacflex.fleet import bound as fleet_bound
-from hvacflex.fleet.agent import BuildingAgent, BuildingGroup, FleetSettings
+from hvacflex.fleet.agent import BuildingAgent, BuildingGroup
 from hvacflex.fleet.centralised import StackedLP, stacked_lp
 from hvacflex.fleet.schema import load_fleet_document
 from hvacflex.opt import RMPCProblem, StepLinearisation
@@ -107,15 +112,17 @@ def main() -> None:
     allowed = pd.read_csv(args.bound)["discomfort_kelvin_hours"].to_numpy() + 0.5 * args.days
     model = fleet_bound.run_model(fleet, document, args.start, args.days)
     steps = model.p_min_kw.shape[1]
-    settings = dataclasses.replace(  # run_model's settings: one horizon, the band itself
-        FleetSettings.of(fleet, args.start, args.days),
-        horizon_steps=steps,
-        lower_plan_margin_k=0.0,
-        unoccupied_plan_margin_k=0.0,
-    )
+    settings = fleet_bound.run_settings(fleet, args.start, args.days)
     indices = list(range(len(fleet.buildings)))
     group = BuildingGroup(document, indices, settings)
     group.begin_step()
+    metered = [a.name for a in group.agents if _meter_fit(a.controller.contract.building)]
+    if metered:
+        parser.error(
+            f"{', '.join(metered)} plan on a power model fitted to a meter, whose power rows "
+            "follow the plan's flows, not its temperatures: this script re-linearises the "
+            "design curves only"
+        )
     fixed = [agent.problem for agent in group.agents]
 
     def unlimited(problems: list[RMPCProblem]) -> list[Plan] | None:

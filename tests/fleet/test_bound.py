@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -10,6 +11,8 @@ import pytest
 from typer.testing import CliRunner
 
 from hvacflex.cli import app
+from hvacflex.control.plan_linearisation import plan_affine_shift, plan_input_scale
+from hvacflex.fleet.agent import BuildingGroup
 from hvacflex.fleet.bound import (
     BOUND_COLUMNS,
     BOUND_FILE,
@@ -20,6 +23,7 @@ from hvacflex.fleet.bound import (
     least_energy_for_comfort,
     limit_window_shortfalls,
     run_model,
+    run_settings,
     unlimited_energy_kwh,
 )
 from hvacflex.fleet.generate import generate_fleet, write_fleet
@@ -277,18 +281,69 @@ def test_a_budget_without_an_unlimited_plan_to_measure_it_by_is_a_solver_error(
     assert not (tmp_path / "out" / BOUND_FILE).exists()  # nothing written
 
 
+def _replay_script(monkeypatch: pytest.MonkeyPatch) -> Any:
+    """``scripts/fleet_plan_replay.py`` as a module (it imports ``peak_bound_replay`` beside it)."""
+    import importlib.util
+
+    scripts = Path(__file__).parents[2] / "scripts"
+    monkeypatch.syspath_prepend(str(scripts))
+    spec = importlib.util.spec_from_file_location(
+        "fleet_plan_replay", scripts / "fleet_plan_replay.py"
+    )
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_the_replay_s_relinearisation_is_the_closed_loop_s(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``along`` at every step's T₀ gives the fixed problem back; elsewhere its input scale
+    and affine shift are :mod:`hvacflex.control.plan_linearisation`'s and its power rows the
+    design curves' at those temperatures."""
+    script = _replay_script(monkeypatch)
+    fleet, document = load_fleet_document(_fleet(tmp_path, []))
+    group = BuildingGroup(document, [0], run_settings(fleet, START, 1.0))
+    group.begin_step()
+    agent = group.agents[0]
+    problem, model = agent.problem, agent.controller.contract.model
+    at_t0 = np.full((problem.horizon, problem.ny), model.linearisation_temp_degc)
+    same = script.along(problem, agent, at_t0)
+    np.testing.assert_allclose(same.step_linearisation.input_scale, 1.0)
+    np.testing.assert_allclose(
+        np.broadcast_to(same.affine_term, (problem.horizon, problem.a_matrix.shape[0])),
+        np.broadcast_to(problem.affine_term, (problem.horizon, problem.a_matrix.shape[0])),
+        atol=1e-12,
+    )
+    np.testing.assert_allclose(same.power_offset_kw, problem.power_offset_kw, rtol=1e-12)
+    np.testing.assert_allclose(same.power_coeff_kw_per_kg_s, problem.power_coeff_kw_per_kg_s)
+    warmer = at_t0 + 1.5
+    moved = script.along(problem, agent, warmer)
+    scale = plan_input_scale(model, warmer)
+    np.testing.assert_array_equal(moved.step_linearisation.input_scale, scale)
+    shift = plan_affine_shift(model, scale)  # zero where the model has no ṁ_ref
+    np.testing.assert_allclose(
+        np.broadcast_to(moved.affine_term - problem.affine_term, shift.shape), shift, atol=1e-12
+    )
+    # a warmer zone: each kg/s cools more, and the coil's power per kg/s grows with it
+    assert np.all(scale > 1.0)
+    assert np.all(moved.power_coeff_kw_per_kg_s >= problem.power_coeff_kw_per_kg_s - 1e-9)
+    assert np.any(moved.power_coeff_kw_per_kg_s > problem.power_coeff_kw_per_kg_s + 1e-6)
+
+
 def test_the_plan_replay_script_meters_both_plans_along_their_own_temperatures(
     tmp_path: Path,
 ) -> None:
     """``scripts/fleet_plan_replay.py`` (docs/history/2026-12-08-fleet-plan-replay.md): the
-    unlimited and least-energy plans, fixed T₀ and re-linearised along themselves, each
-    metered on the buildings' RC plants; the least-energy plan meets the comfort allowance,
-    so on the same model it needs no more energy than the unlimited plan."""
+    unlimited and least-energy plans, at the fixed T₀ and re-linearised, each metered on the
+    buildings' RC plants. Without a limit the priced plan meets the comfort allowance, so on
+    the same (fixed) model the least-energy plan needs no more energy."""
     import re
     import subprocess
     import sys
 
-    path = _fleet(tmp_path, [{"start": "14:00", "end": "16:00", "limit_kw": 250.0}])
+    path = _fleet(tmp_path, [])
     bound = bound_fleet(path, START, 1.0, tmp_path / "bound")
     assert bound.feasible
     script = Path(__file__).parents[2] / "scripts" / "fleet_plan_replay.py"
@@ -304,6 +359,7 @@ def test_the_plan_replay_script_meters_both_plans_along_their_own_temperatures(
     }
     assert set(metered) == {(c, r) for c in ("unlimited", "least energy") for r in (0, 1)}
     for planned_kwh, metered_kwh in metered.values():
-        assert metered_kwh == pytest.approx(planned_kwh, rel=0.1)  # the plants' meters
-    # on the same (fixed T₀) model the priced plan meets the allowance: least energy ≤ it
+        assert metered_kwh == pytest.approx(planned_kwh, rel=0.02)  # the plants' meters
+    for case in ("unlimited", "least energy"):  # the second round's model is another
+        assert abs(metered[(case, 1)][0] - metered[(case, 0)][0]) > 1e-3
     assert metered[("least energy", 0)][0] <= metered[("unlimited", 0)][0] + 1e-6

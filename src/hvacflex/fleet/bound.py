@@ -76,8 +76,10 @@ class RunModel:
     planning_kw: FloatArray
 
 
-def run_model(fleet: Fleet, document: dict[str, Any], start: str, days: float) -> RunModel:
-    """Build every building at ``start`` with a horizon of the whole run (≤ 7 days).
+def run_settings(fleet: Fleet, start: str, days: float) -> FleetSettings:
+    """The settings every building of :func:`run_model` is built with: the fleet's, one
+    horizon over the run (≤ 7 days), and the comfort band itself (no plan margins), as
+    ``results.parquet`` counts discomfort.
 
     Raises
     ------
@@ -92,12 +94,25 @@ def run_model(fleet: Fleet, document: dict[str, Any], start: str, days: float) -
             value=days,
             hint=f"bound at most {MAX_BOUND_DAYS} days at a time",
         )
-    settings = dataclasses.replace(  # the band itself, as results.parquet counts it
+    return dataclasses.replace(
         FleetSettings.of(fleet, start, days),
         horizon_steps=max(steps, 2),
         lower_plan_margin_k=0.0,
         unoccupied_plan_margin_k=0.0,
     )
+
+
+def run_model(fleet: Fleet, document: dict[str, Any], start: str, days: float) -> RunModel:
+    """Build every building at ``start`` with a horizon of the whole run (≤ 7 days;
+    :func:`run_settings`).
+
+    Raises
+    ------
+    InputError
+        When the run is longer than one horizon can be (:data:`MAX_BOUND_DAYS`).
+    """
+    steps = round(days * PERIODS_PER_DAY)
+    settings = run_settings(fleet, start, days)
     group = BuildingGroup(document, list(range(len(fleet.buildings))), settings)
     p_min, _, _ = group.begin_step()
     index, _, planning = _feeder_timeline(fleet, start, days, 0)
