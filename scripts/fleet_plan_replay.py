@@ -2,7 +2,7 @@
 RC plants: what issue 60's energy target costs on a model that is right where the plans go.
 
 python scripts/fleet_plan_replay.py --fleet F --bound B/bound.csv [--start 2014-03-03]
-    [--days 5] [--rounds 3] [--max-excursion 1.0]
+    [--days 5] [--rounds 3] [--damping 0.0] [--max-excursion 1.0]
 
 Two centralised plans over the run, on `fleet bound`'s run model (every building from the
 closed loop's initial state, one horizon over the run, perfect foresight, no margins, the
@@ -21,7 +21,8 @@ round's zone temperatures (each step at the mean of its start and end), as
 ``linearisation = "plan"`` does step by step in the closed loop
 (`hvacflex.control.plan_linearisation`), and solves again: a sequential LP, an estimate
 for the nonlinear plants, not a bound; the rounds need not settle (the unoccupied hours'
-wide band leaves the zones' temperatures free there). Buildings on a power model fitted to
+wide band leaves the zones' temperatures free there; ``--damping`` w takes each round at
+w × the previous round's temperatures + (1 − w) × its plan's). Buildings on a power model fitted to
 a meter are refused (their power rows follow the flows, not the temperatures); the
 limits' raise to the minimum power stays the fixed model's. Round 0's and the last round's
 plans are then applied open loop to each building's RC plant (its flows, no activations),
@@ -106,8 +107,16 @@ def main() -> None:
     parser.add_argument("--start", default="2014-03-03")
     parser.add_argument("--days", type=float, default=5.0)
     parser.add_argument("--rounds", type=int, default=3)
+    parser.add_argument(
+        "--damping",
+        type=float,
+        default=0.0,
+        help="weight in [0, 1) of the temperatures a round was taken at in the next one's",
+    )
     parser.add_argument("--max-excursion", type=float, default=1.0)
     args = parser.parse_args()
+    if not 0.0 <= args.damping < 1.0:
+        parser.error(f"--damping {args.damping} is outside [0, 1)")
     fleet, document = load_fleet_document(args.fleet)
     allowed = pd.read_csv(args.bound)["discomfort_kelvin_hours"].to_numpy() + 0.5 * args.days
     model = fleet_bound.run_model(fleet, document, args.start, args.days)
@@ -198,7 +207,7 @@ def main() -> None:
         ("least energy", least_energy),
     )
     for name, solve in cases:
-        problems = list(fixed)
+        problems, taken_at = list(fixed), None
         for round_ in range(args.rounds + 1):
             plans = solve(problems)
             if plans is None:
@@ -209,9 +218,18 @@ def main() -> None:
             print(f"{name}, round {round_}: planned {energy:,.1f} kWh", flush=True)
             if round_ in (0, args.rounds):
                 meter(plans, f"{name}, round {round_}")
+            temps = [0.5 * (zone[:-1] + zone[1:]) for _, zone, _ in plans]  # each step's mean
+            if taken_at is not None:
+                temps = [
+                    args.damping * old + (1.0 - args.damping) * new
+                    for old, new in zip(taken_at, temps, strict=True)
+                ]
+                pairs = zip(taken_at, temps, strict=True)
+                moved = max(float(np.abs(new - old).max()) for old, new in pairs)
+                print(f"  the next round's temperatures move by up to {moved:.2f} K", flush=True)
+            taken_at = temps
             problems = [
-                along(p, agent, 0.5 * (zone[:-1] + zone[1:]))
-                for p, agent, (_, zone, _) in zip(fixed, group.agents, plans, strict=True)
+                along(p, agent, t) for p, agent, t in zip(fixed, group.agents, temps, strict=True)
             ]
 
 
