@@ -29,7 +29,6 @@ from hvacflex.fleet.centralised import stacked_lp
 from hvacflex.fleet.compare import reference_limit_kw
 from hvacflex.fleet.schema import load_fleet_document
 from hvacflex.opt import ComfortKnee
-from hvacflex.opt.solve import solve_lp
 
 BLOCKS = (("00-07", 0, 14), ("07-10", 14, 20), ("10-17", 20, 34), ("17-24", 34, 48))
 
@@ -60,14 +59,7 @@ def main() -> None:
         ]
         stacked = stacked_lp(problems, limit)
         dt = problems[0].dt_h
-        result = solve_lp(
-            stacked.cost,
-            stacked.matrix,
-            stacked.row_lower,
-            stacked.row_upper,
-            stacked.col_lower,
-            stacked.col_upper,
-        )
+        result = stacked.solve()
         if not result.status.ok:
             print(f"{case}: no solution ({result.status})", flush=True)
             continue

@@ -137,14 +137,7 @@ def main() -> None:
     def unlimited(problems: list[RMPCProblem]) -> list[Plan] | None:
         priced = [fleet_bound.priced_only(p) for p in problems]
         stacked = stacked_lp(priced, np.full(steps, np.inf))
-        result = solve_lp(
-            stacked.cost,
-            stacked.matrix,
-            stacked.row_lower,
-            stacked.row_upper,
-            stacked.col_lower,
-            stacked.col_upper,
-        )
+        result = stacked.solve()
         return plans_of(stacked, result.x, priced) if result.status.ok else None
 
     def least_energy(problems: list[RMPCProblem]) -> list[Plan] | None:

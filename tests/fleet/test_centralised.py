@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from hvacflex.fleet.agent import BuildingGroup, FleetSettings
-from hvacflex.fleet.centralised import CentralisedSolver, solve_centralised
+from hvacflex.fleet.centralised import CentralisedSolver, solve_centralised, stacked_lp
 from hvacflex.fleet.compare import reference_limit_kw
 from hvacflex.fleet.generate import generate_fleet, write_fleet
 from hvacflex.fleet.schema import load_fleet_document
@@ -48,3 +48,19 @@ def test_the_warm_centralised_solver_finds_the_cold_optimum(short_fleet: Path) -
         group.advance()
     assert [r.warm_start for r in objectives] == [False, True, True]
     assert np.mean([r.iterations for r in objectives[1:]]) < 0.5 * objectives[0].iterations
+
+
+def test_a_stacked_lp_solves_to_the_centralised_optimum(short_fleet: Path) -> None:
+    fleet, document = load_fleet_document(short_fleet)
+    settings = FleetSettings.of(fleet, "2014-03-03T08:00", 1.0)
+    group = BuildingGroup(document, [0, 1], settings)
+    p_min, _, _ = group.begin_step()
+    problems = group.problems()
+    limit = reference_limit_kw(np.full(settings.horizon_steps, 75.0), p_min)
+    stacked = stacked_lp(problems, limit)
+    result = stacked.solve()
+    reference = solve_centralised(problems, limit)
+    assert result.status.ok and reference.status.ok
+    np.testing.assert_allclose(stacked.cost @ result.x, reference.objective_sgd, rtol=1e-9)
+    power = np.sum([result.x[cols] for cols in stacked.power_cols], axis=0)
+    assert np.all(power <= limit + 1e-6)  # the feeder rows hold

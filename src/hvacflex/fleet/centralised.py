@@ -114,6 +114,12 @@ class StackedLP:
             self.layouts,
         )
 
+    def solve(self) -> Any:
+        """This LP solved cold (:func:`hvacflex.opt.solve.solve_lp`; an ``LPResult``)."""
+        return solve_lp(
+            self.cost, self.matrix, self.row_lower, self.row_upper, self.col_lower, self.col_upper
+        )
+
     def rotation(self) -> tuple[Any, Any]:
         """Column and row maps (``new = old[map]``) rotating a basis of this LP by a step."""
         col_map, row_map = [], []
