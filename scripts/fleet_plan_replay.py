@@ -44,6 +44,7 @@ import pandas as pd
 from peak_bound_replay import PlanReplay
 from scipy import sparse
 
+from hvacflex import kpi
 from hvacflex.control.plan_linearisation import plan_affine_shift, plan_input_scale
 from hvacflex.control.problem_builder import PlanContext, _meter_fit, _power_coefficients
 from hvacflex.fleet import bound as fleet_bound
@@ -58,6 +59,8 @@ Plan = tuple[np.ndarray, np.ndarray, np.ndarray]
 """One building's plan: flows (T, m) [kg/s], zone temperatures (T + 1, m) from now [°C],
 power (T,) [kW]."""
 BLOCKS = ((0, 7), (7, 10), (10, 17), (17, 24))
+ALLOWANCE_KELVIN_HOURS_PER_DAY = 0.5
+"""Issue 60's allowance over each building's bound [K·h per building-day]."""
 
 
 def along(problem: RMPCProblem, agent: BuildingAgent, temps_degc: np.ndarray) -> RMPCProblem:
@@ -118,9 +121,11 @@ def main() -> None:
     if not 0.0 <= args.damping < 1.0:
         parser.error(f"--damping {args.damping} is outside [0, 1)")
     fleet, document = load_fleet_document(args.fleet)
-    allowed = pd.read_csv(args.bound)["discomfort_kelvin_hours"].to_numpy() + 0.5 * args.days
+    bound_kelvin_hours = pd.read_csv(args.bound)["discomfort_kelvin_hours"].to_numpy()
+    allowed = bound_kelvin_hours + ALLOWANCE_KELVIN_HOURS_PER_DAY * args.days
     model = fleet_bound.run_model(fleet, document, args.start, args.days)
     steps = model.p_min_kw.shape[1]
+    dt_h = model.problems[0].dt_h
     settings = fleet_bound.run_settings(fleet, args.start, args.days)
     indices = list(range(len(fleet.buildings)))
     group = BuildingGroup(document, indices, settings)
@@ -164,21 +169,9 @@ def main() -> None:
             while loop.k < steps:
                 loop.step()
             frame = loop.frame()
-            names = [c[9:-5] for c in frame.columns if c.startswith("temp_end_")]
-            out = [
-                np.clip(
-                    np.maximum(
-                        frame[f"temp_end_{z}_degc"] - frame[f"comfort_upper_{z}_degc"],
-                        frame[f"comfort_lower_{z}_degc"] - frame[f"temp_end_{z}_degc"],
-                    ),
-                    0.0,
-                    None,
-                )
-                for z in names
-            ]
             rows.append(
-                (agent.name, power.sum() * 0.5, frame["power_kw"].sum() * 0.5,
-                 sum(v.sum() for v in out) * 0.5 / args.days)
+                (agent.name, power.sum() * dt_h, kpi.energy_kwh(frame),
+                 kpi.total_discomfort_kelvin_hours(frame) / args.days)
             )  # fmt: skip
             powers.append(frame["power_kw"])
         table = pd.DataFrame(
@@ -186,7 +179,9 @@ def main() -> None:
         )
         fleet_kw = pd.concat(powers, axis=1).sum(axis=1)
         hours = pd.DatetimeIndex(fleet_kw.index).hour
-        blocks = [round(float(fleet_kw[(hours >= a) & (hours < z)].sum() * 0.5)) for a, z in BLOCKS]
+        blocks = [
+            round(float(fleet_kw[(hours >= a) & (hours < z)].sum() * dt_h)) for a, z in BLOCKS
+        ]
         by_block = " / ".join(f"{b:,}" for b in blocks)
         print(
             f"{tag}: planned {table.planned_kwh.sum():,.0f} kWh, metered "
@@ -207,7 +202,7 @@ def main() -> None:
                 print(f"{name}, round {round_}: no plan (the LP has no optimum: the bound file "
                       "of other days, or the excursion cap too tight)", flush=True)  # fmt: skip
                 break
-            energy = sum(power.sum() * 0.5 for _, _, power in plans)
+            energy = sum(power.sum() * dt_h for _, _, power in plans)
             print(f"{name}, round {round_}: planned {energy:,.1f} kWh", flush=True)
             if round_ in (0, args.rounds):
                 meter(plans, f"{name}, round {round_}")

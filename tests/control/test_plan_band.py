@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hvacflex.config import preset
-from hvacflex.control.plan_band import comfort_bounds_at_period_ends, plan_band
+from hvacflex.config import ControllerConfig, preset
+from hvacflex.control.plan_band import comfort_bounds_at_period_ends, controller_band, plan_band
 from hvacflex.data.forecast import Forecast
 from hvacflex.sim.setup import prepare
 
@@ -59,3 +59,18 @@ def test_the_plan_band_takes_its_margins_inside_the_band_by_hand(forecast: Forec
         lower, upper = band(0.0, lower_k, crossed)
         np.testing.assert_array_equal(lower, y_min)
         np.testing.assert_array_equal(upper[~night], 19.0)
+
+
+def test_a_controller_s_band_takes_its_configured_margins(forecast: Forecast) -> None:
+    config = ControllerConfig(unoccupied_plan_margin_k=0.7, lower_plan_margin_k=0.3)
+    got = controller_band(forecast, 48, config)
+    want = plan_band(
+        forecast,
+        *comfort_bounds_at_period_ends(forecast, 48),
+        unoccupied_plan_margin_k=0.7,
+        lower_plan_margin_k=0.3,
+    )
+    for a, b in zip(got, want, strict=True):
+        np.testing.assert_array_equal(a, b)
+    band = comfort_bounds_at_period_ends(forecast, 48)
+    assert np.any(got[0] > band[0]) and np.any(got[1] < band[1])  # both margins taken

@@ -6,10 +6,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from hvacflex.config import ControllerConfig
 from hvacflex.control.base import FloatArray
 from hvacflex.data.forecast import Forecast
 
-__all__ = ["band_at_period_ends", "comfort_bounds_at_period_ends", "plan_band"]
+__all__ = ["band_at_period_ends", "comfort_bounds_at_period_ends", "controller_band", "plan_band"]
 
 
 def comfort_bounds_at_period_ends(
@@ -79,3 +80,16 @@ def plan_band(
     raised = y_min + lower_plan_margin_k
     lower: FloatArray = np.where(raised <= upper, raised, np.maximum(0.5 * (y_min + upper), y_min))
     return lower, upper
+
+
+def controller_band(
+    forecast: Forecast, horizon: int, config: ControllerConfig
+) -> tuple[FloatArray, FloatArray]:
+    """(N, m) lower and upper bounds [°C] a controller's plan keeps: :func:`plan_band` of the
+    forecast's comfort bounds at the period ends with ``config``'s margins."""
+    return plan_band(
+        forecast,
+        *comfort_bounds_at_period_ends(forecast, horizon),
+        unoccupied_plan_margin_k=config.unoccupied_plan_margin_k,
+        lower_plan_margin_k=config.lower_plan_margin_k,
+    )

@@ -16,8 +16,9 @@ the same problem (docs/explanation/model.md §3):
   the bands of periods k and k + 1, so that the instant occupancy starts (and ends) is
   inside the occupied band, the upper bound of unoccupied period ends lowered by
   ``[controller] unoccupied_plan_margin_k`` and the lower bound raised by
-  ``lower_plan_margin_k`` (:func:`plan_band`: the plan rides neither the night bound nor the
-  lower bound) and tightened by the estimation and model-error margins,
+  ``lower_plan_margin_k`` (:func:`~hvacflex.control.plan_band.controller_band`: the plan
+  rides neither the night bound nor the lower bound) and tightened by the estimation and
+  model-error margins,
 * flow bounds from the building's air system (occupied: ventilation, else the minimum); where
   an identified building's coil is scheduled off (``[identified.idle_air]``), an idle zone's
   lower bound is the input its fan-only air delivers
@@ -55,7 +56,7 @@ from hvacflex.config import ControllerConfig, ReserveConfig
 from hvacflex.control.base import FloatArray, PeriodInputs
 from hvacflex.control.estimation import StepModel, tightened_bounds
 from hvacflex.control.idle_air import idle_flow_min_kg_s
-from hvacflex.control.plan_band import comfort_bounds_at_period_ends, plan_band
+from hvacflex.control.plan_band import controller_band
 from hvacflex.control.plan_linearisation import plan_linearisation
 from hvacflex.data.forecast import Forecast
 from hvacflex.data.signals import effective_peak_price
@@ -263,8 +264,7 @@ def build_problem(
         zone_temp = m.c @ np.asarray(context.x_degc, dtype=float)
         index = forecast.index[:horizon]
         u_min = idle_flow_min_kg_s(u_min, contract.building, contract.model, index, zone_temp)
-    margins = {k: getattr(cfg, k) for k in ("unoccupied_plan_margin_k", "lower_plan_margin_k")}
-    y_min, y_max = plan_band(forecast, *comfort_bounds_at_period_ends(forecast, horizon), **margins)
+    y_min, y_max = controller_band(forecast, horizon, cfg)
     if context.extra_margin_k is not None:
         y_min, y_max = tightened_bounds(y_min, y_max, context.extra_margin_k)
     along = None

@@ -29,7 +29,7 @@ from hvacflex.opt.basis import bounded_start, nonbasic_status, rotation
 from hvacflex.opt.highs_lp import HighsSession, SessionOptions, pass_csc_model
 from hvacflex.opt.lp import LinearProgram, LPLayout, build_lp, sparse_matrix
 from hvacflex.opt.solution import comfort_penalty_sgd
-from hvacflex.opt.solve import solve_lp
+from hvacflex.opt.solve import LPResult, solve_lp
 from hvacflex.units import KWH_PER_MWH
 
 
@@ -114,8 +114,8 @@ class StackedLP:
             self.layouts,
         )
 
-    def solve(self) -> Any:
-        """This LP solved cold (:func:`hvacflex.opt.solve.solve_lp`; an ``LPResult``)."""
+    def solve(self) -> LPResult:
+        """This LP solved cold (:func:`hvacflex.opt.solve.solve_lp`)."""
         return solve_lp(
             self.cost, self.matrix, self.row_lower, self.row_upper, self.col_lower, self.col_upper
         )
